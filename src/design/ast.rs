@@ -1,0 +1,199 @@
+//! The owned syntax tree of a `.design` file. Every node keeps the byte span
+//! it came from, so the validator can point at it; no pest type escapes the
+//! `design` module.
+
+use std::ops::Range;
+
+/// A byte range in the design source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Span {
+    pub start: usize,
+    pub end: usize,
+}
+
+impl Span {
+    pub fn range(self) -> Range<usize> {
+        self.start..self.end
+    }
+}
+
+/// A value and the span it was written at.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spanned<T> {
+    pub node: T,
+    pub span: Span,
+}
+
+impl<T> Spanned<T> {
+    pub fn new(node: T, span: Span) -> Self {
+        Spanned { node, span }
+    }
+}
+
+pub type Ident = Spanned<String>;
+pub type Int = Spanned<i64>;
+pub type Number = Spanned<f64>;
+
+/// A parsed design: its statements in source order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ast {
+    pub statements: Vec<Spanned<Statement>>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Statement {
+    Study(Spanned<String>),
+    Data(DataBlock),
+    FactorRecording(Vec<Spanned<RecordingItem>>),
+    FactorSeed(SeedSpec),
+    Validation { windows: Int, recordings: Int, seed: Int },
+    Arm { name: Ident, body: ArmBody },
+    Model { name: Ident, kind: ModelKind },
+    Train(Vec<Spanned<TrainItem>>),
+    Endpoint(EndpointStmt),
+    Contrast { treated: Ident, reference: Ident },
+    Estimate { kind: Ident, items: Vec<Spanned<EstimateItem>> },
+    Sensitivity(Vec<Spanned<SensitivityItem>>),
+    Interaction { left: Ident, right: Ident },
+    Decide { name: Ident, conditions: Vec<Spanned<ConditionAst>> },
+}
+
+impl Statement {
+    /// The keyword that starts the statement, used in "declared twice" messages.
+    pub fn keyword(&self) -> &'static str {
+        match self {
+            Statement::Study(_) => "study",
+            Statement::Data(_) => "data",
+            Statement::FactorRecording(_) => "factor recording",
+            Statement::FactorSeed(_) => "factor seed",
+            Statement::Validation { .. } => "validation",
+            Statement::Arm { .. } => "arm",
+            Statement::Model { .. } => "model",
+            Statement::Train(_) => "train",
+            Statement::Endpoint(_) => "endpoint",
+            Statement::Contrast { .. } => "contrast",
+            Statement::Estimate { .. } => "estimate",
+            Statement::Sensitivity(_) => "sensitivity",
+            Statement::Interaction { .. } => "interaction",
+            Statement::Decide { .. } => "decide",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DataBlock {
+    pub source: Ident,
+    pub items: Vec<Spanned<DataItem>>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum DataItem {
+    Path(Spanned<String>),
+    Rate(Number),
+    IncludeActive { column: Ident, cmp: Spanned<Cmp>, threshold: Number, min_samples: Int },
+    ExcludeImplausible,
+    Duplicates(Spanned<String>),
+    Strict,
+    State(Vec<Ident>),
+    Action(Vec<Ident>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum RecordingItem {
+    Evaluation(Int),
+    SplitSeed(Int),
+    Starts(Int),
+    Horizon(Int),
+    Conditions(Vec<Ident>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum SeedSpec {
+    Range { first: Int, last: Int },
+    List(Vec<Int>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ArmBody {
+    Fit { windows: Int, seed: Option<Int> },
+    Derived { from: Ident, percent: Number, exclude_starts: bool, seed: Int },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ModelKind {
+    Mlp { widths: Vec<Int>, inputs: Spanned<String> },
+    Baseline(Spanned<String>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum TrainItem {
+    Optimizer { kind: Ident, lr: Number },
+    Batch(Int),
+    Epochs(Int),
+    Schedule(Ident),
+    Patience(Int),
+    ActionNoise(Number),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct EndpointStmt {
+    pub role: Ident,
+    pub metric: Ident,
+    pub horizons: Vec<Number>,
+    pub cap: Option<Number>,
+    pub models: Vec<Ident>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum EstimateItem {
+    Level(Number),
+    DfFactorMinus { factor: Ident, minus: Int },
+    DfNamed(Ident),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum SensitivityItem {
+    Bootstrap { kind: Ident, replicates: Int, seed: Int },
+    Grouped,
+    LeaveOneOut(Vec<Ident>),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Cmp {
+    #[serde(rename = ">=")]
+    Ge,
+    #[serde(rename = "<=")]
+    Le,
+    #[serde(rename = ">")]
+    Gt,
+    #[serde(rename = "<")]
+    Lt,
+}
+
+impl Cmp {
+    pub fn holds(self, lhs: f64, rhs: f64) -> bool {
+        match self {
+            Cmp::Ge => lhs >= rhs,
+            Cmp::Le => lhs <= rhs,
+            Cmp::Gt => lhs > rhs,
+            Cmp::Lt => lhs < rhs,
+        }
+    }
+
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Cmp::Ge => ">=",
+            Cmp::Le => "<=",
+            Cmp::Gt => ">",
+            Cmp::Lt => "<",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConditionAst {
+    pub quantity: Ident,
+    pub cmp: Spanned<Cmp>,
+    pub value: Number,
+    pub percent: bool,
+}

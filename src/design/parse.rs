@@ -1,0 +1,382 @@
+//! pest parse of a `.design` source into the owned [`Ast`]. The conversion
+//! happens here, once; nothing outside this file sees a `Pair<Rule>`.
+
+use pest::iterators::Pair;
+use pest::Parser;
+
+use super::ast::*;
+use super::diagnostic::Diagnostic;
+
+#[derive(pest_derive::Parser)]
+#[grammar = "../grammar/design.pest"]
+struct DesignParser;
+
+/// Parses design text into an [`Ast`]; the error is a located diagnostic.
+pub fn parse(source: &str) -> Result<Ast, Vec<Diagnostic>> {
+    let mut pairs = DesignParser::parse(Rule::design, source).map_err(|e| vec![syntax(e)])?;
+    let design = pairs.next().expect("the design rule always yields one pair");
+    let mut statements = Vec::new();
+    let mut errors = Vec::new();
+    for pair in design.into_inner() {
+        if pair.as_rule() == Rule::EOI {
+            continue;
+        }
+        let span = span_of(&pair);
+        match statement(pair) {
+            Ok(node) => statements.push(Spanned::new(node, span)),
+            Err(d) => errors.push(d),
+        }
+    }
+    if errors.is_empty() {
+        Ok(Ast { statements })
+    } else {
+        Err(errors)
+    }
+}
+
+/// Names users read in "expected ..." messages instead of rule names.
+fn rule_name(rule: &Rule) -> String {
+    let name = match rule {
+        Rule::EOI => "end of file",
+        Rule::statement | Rule::design => {
+            "a statement (study, data, factor, validation, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide)"
+        }
+        Rule::ident | Rule::ident_list => "a name",
+        Rule::string | Rule::string_inner => "a quoted string",
+        Rule::int | Rule::int_list => "an integer",
+        Rule::number => "a number",
+        Rule::seconds => "a duration in seconds (e.g. `1.0 s`)",
+        Rule::cap => "`cap <metres> m`",
+        Rule::ep_models => "`model <name>` or `models <names>`",
+        Rule::rec_evaluation
+        | Rule::rec_split_seed
+        | Rule::rec_starts
+        | Rule::rec_horizon
+        | Rule::rec_conditions => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions)",
+        Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
+        Rule::batch | Rule::epochs | Rule::schedule | Rule::patience | Rule::action_noise => {
+            "a training clause (adam, batch, epochs, cosine, constant, patience, action_noise)"
+        }
+        Rule::data_path
+        | Rule::data_rate
+        | Rule::include_active
+        | Rule::exclude_implausible
+        | Rule::duplicates
+        | Rule::strict
+        | Rule::state_cols
+        | Rule::action_cols => {
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action)"
+        }
+        Rule::dup_policy => "a duplicates policy (group, first, keep)",
+        Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
+        Rule::mlp | Rule::baseline => "a model kind (mlp(...), persistence, constant_velocity)",
+        Rule::input_kind => "an input map (world, relative)",
+        Rule::role => "an endpoint role (primary, secondary)",
+        Rule::est_level | Rule::est_df => "an estimator clause (level, df)",
+        Rule::df_factor_minus | Rule::df_named => "a df rule (seed - 1, recording - 1, satterthwaite, z)",
+        Rule::bootstrap | Rule::grouped | Rule::leave_one_out => {
+            "a sensitivity (bootstrap, grouped, leave_one_out)"
+        }
+        Rule::condition => "a condition (e.g. `optimism >= 10%`)",
+        Rule::cmp => "a comparison (>=, <=, >, <)",
+        Rule::seed_range | Rule::seed_list => "seeds (`100..119` or `1, 2, 3`)",
+        other => return format!("{other:?}"),
+    };
+    name.to_string()
+}
+
+fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
+    let span = match e.location {
+        pest::error::InputLocation::Pos(p) => Span { start: p, end: p },
+        pest::error::InputLocation::Span((s, e)) => Span { start: s, end: e },
+    };
+    let e = e.renamed_rules(rule_name);
+    let mut message = e.variant.message().to_string();
+    // pest lists several alternatives that often repeat once renamed.
+    message = dedup_alternatives(&message);
+    Diagnostic::new("syntax error", span, message)
+}
+
+/// pest renders "expected a, b, or c"; renamed rules can repeat. Keep the
+/// first occurrence of each alternative.
+fn dedup_alternatives(message: &str) -> String {
+    let Some(rest) = message.strip_prefix("expected ") else {
+        return message.to_string();
+    };
+    let mut seen: Vec<&str> = Vec::new();
+    for part in rest.split(", ").flat_map(|p| p.split(" or ")) {
+        let part = part.trim();
+        if !part.is_empty() && !seen.contains(&part) {
+            seen.push(part);
+        }
+    }
+    match seen.len() {
+        0 => message.to_string(),
+        1 => format!("expected {}", seen[0]),
+        n => format!("expected {}, or {}", seen[..n - 1].join(", "), seen[n - 1]),
+    }
+}
+
+fn span_of(pair: &Pair<Rule>) -> Span {
+    let s = pair.as_span();
+    Span { start: s.start(), end: s.end() }
+}
+
+fn ident(pair: Pair<Rule>) -> Ident {
+    Spanned::new(pair.as_str().to_string(), span_of(&pair))
+}
+
+fn idents(pair: Pair<Rule>) -> Vec<Ident> {
+    pair.into_inner().map(ident).collect()
+}
+
+fn int(pair: Pair<Rule>) -> Result<Int, Diagnostic> {
+    let span = span_of(&pair);
+    let text: String = pair.as_str().chars().filter(|c| *c != '_').collect();
+    text.parse::<i64>()
+        .map(|v| Spanned::new(v, span))
+        .map_err(|_| Diagnostic::new("integer out of range", span, "does not fit in a 64-bit integer"))
+}
+
+fn number(pair: Pair<Rule>) -> Result<Number, Diagnostic> {
+    let span = span_of(&pair);
+    match pair.as_str().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(Spanned::new(v, span)),
+        _ => Err(Diagnostic::new("number out of range", span, "is not a finite number")),
+    }
+}
+
+fn string(pair: Pair<Rule>) -> Spanned<String> {
+    let span = span_of(&pair);
+    let inner = pair.into_inner().next().map(|p| p.as_str()).unwrap_or("");
+    Spanned::new(inner.to_string(), span)
+}
+
+fn cmp(pair: Pair<Rule>) -> Spanned<Cmp> {
+    let c = match pair.as_str() {
+        ">=" => Cmp::Ge,
+        "<=" => Cmp::Le,
+        ">" => Cmp::Gt,
+        _ => Cmp::Lt,
+    };
+    Spanned::new(c, span_of(&pair))
+}
+
+/// Children of a pair, in order.
+struct Kids<'i>(pest::iterators::Pairs<'i, Rule>);
+
+impl<'i> Kids<'i> {
+    fn next(&mut self) -> Pair<'i, Rule> {
+        self.0.next().expect("grammar guarantees this child")
+    }
+    fn peek_rule(&self) -> Option<Rule> {
+        self.0.peek().map(|p| p.as_rule())
+    }
+}
+
+fn kids(pair: Pair<'_, Rule>) -> Kids<'_> {
+    Kids(pair.into_inner())
+}
+
+fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
+    let rule = pair.as_rule();
+    let mut k = kids(pair.clone());
+    Ok(match rule {
+        Rule::study => Statement::Study(string(k.next())),
+        Rule::data => {
+            let source = ident(k.next());
+            let mut items = Vec::new();
+            for p in k.0 {
+                let span = span_of(&p);
+                items.push(Spanned::new(data_item(p)?, span));
+            }
+            Statement::Data(DataBlock { source, items })
+        }
+        Rule::factor_recording => {
+            let mut items = Vec::new();
+            for p in k.0 {
+                let span = span_of(&p);
+                let rule = p.as_rule();
+                let mut c = kids(p);
+                let item = match rule {
+                    Rule::rec_evaluation => RecordingItem::Evaluation(int(c.next())?),
+                    Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
+                    Rule::rec_starts => RecordingItem::Starts(int(c.next())?),
+                    Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),
+                    _ => RecordingItem::Conditions(idents(c.next())),
+                };
+                items.push(Spanned::new(item, span));
+            }
+            Statement::FactorRecording(items)
+        }
+        Rule::factor_seed => {
+            let spec = k.next();
+            let rule = spec.as_rule();
+            let mut c = kids(spec);
+            if rule == Rule::seed_range {
+                let first = int(c.next())?;
+                let last = int(c.next())?;
+                Statement::FactorSeed(SeedSpec::Range { first, last })
+            } else {
+                Statement::FactorSeed(SeedSpec::List(c.0.map(int).collect::<Result<_, _>>()?))
+            }
+        }
+        Rule::validation => Statement::Validation {
+            windows: int(k.next())?,
+            recordings: int(k.next())?,
+            seed: int(k.next())?,
+        },
+        Rule::arm => {
+            let name = ident(k.next());
+            let body = k.next();
+            let rule = body.as_rule();
+            let mut c = kids(body);
+            let body = if rule == Rule::arm_fit {
+                let windows = int(c.next())?;
+                let seed = c.0.next().map(int).transpose()?;
+                ArmBody::Fit { windows, seed }
+            } else {
+                let from = ident(c.next());
+                let percent = number(c.next())?;
+                let exclude_starts = c.peek_rule() == Some(Rule::exclude_starts);
+                if exclude_starts {
+                    c.next();
+                }
+                let seed = int(c.next())?;
+                ArmBody::Derived { from, percent, exclude_starts, seed }
+            };
+            Statement::Arm { name, body }
+        }
+        Rule::model => {
+            let name = ident(k.next());
+            let kind = k.next();
+            let kind = if kind.as_rule() == Rule::mlp {
+                let mut c = kids(kind);
+                let widths = c.next().into_inner().map(int).collect::<Result<_, _>>()?;
+                let inputs = c.next();
+                ModelKind::Mlp { widths, inputs: Spanned::new(inputs.as_str().to_string(), span_of(&inputs)) }
+            } else {
+                ModelKind::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind)))
+            };
+            Statement::Model { name, kind }
+        }
+        Rule::train => {
+            let mut items = Vec::new();
+            for p in k.0 {
+                let span = span_of(&p);
+                let rule = p.as_rule();
+                let text = p.as_str().to_string();
+                let mut c = kids(p);
+                let item = match rule {
+                    Rule::optimizer => TrainItem::Optimizer { kind: ident(c.next()), lr: number(c.next())? },
+                    Rule::batch => TrainItem::Batch(int(c.next())?),
+                    Rule::epochs => TrainItem::Epochs(int(c.next())?),
+                    Rule::patience => TrainItem::Patience(int(c.next())?),
+                    Rule::action_noise => TrainItem::ActionNoise(number(c.next())?),
+                    _ => TrainItem::Schedule(Spanned::new(text, span)),
+                };
+                items.push(Spanned::new(item, span));
+            }
+            Statement::Train(items)
+        }
+        Rule::endpoint => {
+            let role = ident(k.next());
+            let metric = ident(k.next());
+            let horizons = k
+                .next()
+                .into_inner()
+                .map(|s| number(s.into_inner().next().expect("seconds has a number")))
+                .collect::<Result<_, _>>()?;
+            let cap = if k.peek_rule() == Some(Rule::cap) {
+                Some(number(k.next().into_inner().next().expect("cap has a number"))?)
+            } else {
+                None
+            };
+            let models = idents(k.next().into_inner().next().expect("models has a list"));
+            Statement::Endpoint(EndpointStmt { role, metric, horizons, cap, models })
+        }
+        Rule::contrast => Statement::Contrast { treated: ident(k.next()), reference: ident(k.next()) },
+        Rule::interaction => Statement::Interaction { left: ident(k.next()), right: ident(k.next()) },
+        Rule::estimate => {
+            let kind = ident(k.next());
+            let mut items = Vec::new();
+            for p in k.0 {
+                let span = span_of(&p);
+                let item = if p.as_rule() == Rule::est_level {
+                    EstimateItem::Level(number(kids(p).next())?)
+                } else {
+                    let rule_pair = kids(p).next();
+                    if rule_pair.as_rule() == Rule::df_factor_minus {
+                        let mut c = kids(rule_pair);
+                        EstimateItem::DfFactorMinus { factor: ident(c.next()), minus: int(c.next())? }
+                    } else {
+                        EstimateItem::DfNamed(ident(rule_pair))
+                    }
+                };
+                items.push(Spanned::new(item, span));
+            }
+            Statement::Estimate { kind, items }
+        }
+        Rule::sensitivity => {
+            let mut items = Vec::new();
+            for p in k.0 {
+                let span = span_of(&p);
+                let rule = p.as_rule();
+                let mut c = kids(p);
+                let item = match rule {
+                    Rule::bootstrap => SensitivityItem::Bootstrap {
+                        kind: ident(c.next()),
+                        replicates: int(c.next())?,
+                        seed: int(c.next())?,
+                    },
+                    Rule::grouped => SensitivityItem::Grouped,
+                    _ => SensitivityItem::LeaveOneOut(idents(c.next())),
+                };
+                items.push(Spanned::new(item, span));
+            }
+            Statement::Sensitivity(items)
+        }
+        Rule::decide => {
+            let name = ident(k.next());
+            let mut conditions = Vec::new();
+            for p in k.0 {
+                let span = span_of(&p);
+                let mut c = kids(p);
+                let quantity = ident(c.next());
+                let op = cmp(c.next());
+                let value = number(c.next())?;
+                let percent = c.0.next().is_some();
+                conditions.push(Spanned::new(ConditionAst { quantity, cmp: op, value, percent }, span));
+            }
+            Statement::Decide { name, conditions }
+        }
+        other => unreachable!("statement rule {other:?} is not a statement"),
+    })
+}
+
+fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
+    let rule = p.as_rule();
+    let text_span = span_of(&p);
+    let mut c = kids(p);
+    Ok(match rule {
+        Rule::data_path => DataItem::Path(string(c.next())),
+        Rule::data_rate => DataItem::Rate(number(c.next())?),
+        Rule::include_active => DataItem::IncludeActive {
+            column: ident(c.next()),
+            cmp: cmp(c.next()),
+            threshold: number(c.next())?,
+            min_samples: int(c.next())?,
+        },
+        Rule::exclude_implausible => DataItem::ExcludeImplausible,
+        Rule::duplicates => {
+            let p = c.next();
+            DataItem::Duplicates(Spanned::new(p.as_str().to_string(), span_of(&p)))
+        }
+        Rule::strict => DataItem::Strict,
+        Rule::state_cols => DataItem::State(idents(c.next())),
+        Rule::action_cols => DataItem::Action(idents(c.next())),
+        other => {
+            return Err(Diagnostic::new("internal", text_span, format!("unexpected data rule {other:?}")))
+        }
+    })
+}

@@ -1,0 +1,154 @@
+//! The two-way crossed random-effects model d_ij = mu + a_i + b_j + e_ij,
+//! estimated by the method of moments (ANOVA mean squares), one observation
+//! per cell.
+
+use serde::Serialize;
+
+use super::{critical_value, CrossedMatrix, StatsError};
+
+/// Degrees of freedom for the interval's quantile.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DfRule {
+    /// J - 1 (seeds minus one): the paper's rule.
+    SeedsMinusOne,
+    /// I - 1 (recordings minus one).
+    RecordingsMinusOne,
+    /// Satterthwaite's approximation for the linear combination of mean
+    /// squares that makes SE^2.
+    Satterthwaite,
+    /// The normal quantile (z).
+    Normal,
+}
+
+/// Sums of squares and mean squares of the two-way layout without replication.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MeanSquares {
+    pub grand_mean: f64,
+    pub ss_rows: f64,
+    pub ss_cols: f64,
+    pub ss_error: f64,
+    pub df_rows: f64,
+    pub df_cols: f64,
+    pub df_error: f64,
+    pub ms_rows: f64,
+    pub ms_cols: f64,
+    pub ms_error: f64,
+}
+
+/// Variance components, truncated at zero as the MoM estimator does.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct VarianceComponents {
+    /// sigma_a^2 = max(0, (MS_rows - MS_e) / J): between recordings.
+    pub recording: f64,
+    /// sigma_b^2 = max(0, (MS_cols - MS_e) / I): between seeds.
+    pub seed: f64,
+    /// sigma_e^2 = MS_e.
+    pub residual: f64,
+}
+
+/// The crossed MoM estimate of the grand mean and its interval.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CrossedEstimate {
+    pub rows: usize,
+    pub cols: usize,
+    pub mean: f64,
+    /// sqrt(sa/I + sb/J + se/(IJ)).
+    pub se: f64,
+    /// Degrees of freedom of the quantile; infinite for the normal.
+    pub df: f64,
+    pub level: f64,
+    pub critical: f64,
+    pub lower: f64,
+    pub upper: f64,
+    pub mean_squares: MeanSquares,
+    pub components: VarianceComponents,
+    /// Shares of SE^2 from recordings, seeds and residual (sum to 1 when SE > 0).
+    pub share_recording: f64,
+    pub share_seed: f64,
+    pub share_residual: f64,
+}
+
+pub fn mean_squares(m: &CrossedMatrix) -> MeanSquares {
+    let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
+    let mu = m.mean();
+    let rm = m.row_means();
+    let cm = m.col_means();
+    let ss_rows = j_n * rm.iter().map(|r| (r - mu).powi(2)).sum::<f64>();
+    let ss_cols = i_n * cm.iter().map(|c| (c - mu).powi(2)).sum::<f64>();
+    let mut ss_error = 0.0;
+    for (i, r) in rm.iter().enumerate() {
+        for (j, c) in cm.iter().enumerate() {
+            ss_error += (m.get(i, j) - r - c + mu).powi(2);
+        }
+    }
+    let df_rows = i_n - 1.0;
+    let df_cols = j_n - 1.0;
+    let df_error = df_rows * df_cols;
+    MeanSquares {
+        grand_mean: mu,
+        ss_rows,
+        ss_cols,
+        ss_error,
+        df_rows,
+        df_cols,
+        df_error,
+        ms_rows: ss_rows / df_rows,
+        ms_cols: ss_cols / df_cols,
+        ms_error: ss_error / df_error,
+    }
+}
+
+/// Crossed method-of-moments estimate of the grand mean with a two-sided
+/// interval at `level`.
+pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<CrossedEstimate, StatsError> {
+    let ms = mean_squares(m);
+    let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
+    let sa = ((ms.ms_rows - ms.ms_error) / j_n).max(0.0);
+    let sb = ((ms.ms_cols - ms.ms_error) / i_n).max(0.0);
+    let se2_parts = [sa / i_n, sb / j_n, ms.ms_error / (i_n * j_n)];
+    let se2: f64 = se2_parts.iter().sum();
+    let se = se2.sqrt();
+    let df = match df_rule {
+        DfRule::SeedsMinusOne => j_n - 1.0,
+        DfRule::RecordingsMinusOne => i_n - 1.0,
+        DfRule::Normal => f64::INFINITY,
+        DfRule::Satterthwaite => satterthwaite(&ms, sa > 0.0, sb > 0.0, i_n, j_n),
+    };
+    let critical = critical_value(level, df)?;
+    let share = |x: f64| if se2 > 0.0 { x / se2 } else { 0.0 };
+    Ok(CrossedEstimate {
+        rows: m.rows(),
+        cols: m.cols(),
+        mean: ms.grand_mean,
+        se,
+        df,
+        level,
+        critical,
+        lower: ms.grand_mean - critical * se,
+        upper: ms.grand_mean + critical * se,
+        mean_squares: ms,
+        components: VarianceComponents { recording: sa, seed: sb, residual: ms.ms_error },
+        share_recording: share(se2_parts[0]),
+        share_seed: share(se2_parts[1]),
+        share_residual: share(se2_parts[2]),
+    })
+}
+
+/// Satterthwaite (1946) df for SE^2 written as sum_k c_k MS_k. With both
+/// components kept, SE^2 = (MS_r + MS_c - MS_e)/(IJ); a component truncated
+/// at zero drops its MS_k and gives MS_e back its share.
+fn satterthwaite(ms: &MeanSquares, keep_rows: bool, keep_cols: bool, i_n: f64, j_n: f64) -> f64 {
+    let ij = i_n * j_n;
+    let c_r = if keep_rows { 1.0 / ij } else { 0.0 };
+    let c_c = if keep_cols { 1.0 / ij } else { 0.0 };
+    let c_e = (1.0 - f64::from(u8::from(keep_rows)) - f64::from(u8::from(keep_cols))) / ij;
+    let terms = [(c_r * ms.ms_rows, ms.df_rows), (c_c * ms.ms_cols, ms.df_cols), (c_e * ms.ms_error, ms.df_error)];
+    let num: f64 = terms.iter().map(|(v, _)| v).sum::<f64>().powi(2);
+    let den: f64 = terms.iter().map(|(v, df)| v * v / df).sum();
+    if den > 0.0 {
+        num / den
+    } else {
+        f64::INFINITY
+    }
+}

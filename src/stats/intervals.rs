@@ -1,0 +1,104 @@
+//! Interval estimators for the grand mean of a crossed array, side by side.
+//! Only the crossed MoM accounts for both random factors; the others are
+//! here because published work uses them, so a reader can see what each
+//! would have said.
+
+use serde::Serialize;
+
+use super::{critical_value, crossed_mom, pigeonhole_bootstrap, CrossedMatrix, DfRule, StatsError};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IntervalMethod {
+    /// Crossed MoM with t(J - 1).
+    MomT,
+    /// Crossed MoM with Satterthwaite df.
+    MomSatterthwaite,
+    /// Crossed MoM with the normal quantile.
+    MomZ,
+    /// Pigeonhole bootstrap percentile interval.
+    PigeonholePercentile,
+    /// All I x J cells treated as independent: t(IJ - 1).
+    NaiveIid,
+    /// One-way clustered by recording: the I row means, t(I - 1).
+    ClusterRecording,
+    /// One-way clustered by seed: the J column means, t(J - 1).
+    ClusterSeed,
+}
+
+impl IntervalMethod {
+    pub fn label(self) -> &'static str {
+        match self {
+            IntervalMethod::MomT => "crossed MoM, t(J-1)",
+            IntervalMethod::MomSatterthwaite => "crossed MoM, Satterthwaite df",
+            IntervalMethod::MomZ => "crossed MoM, z",
+            IntervalMethod::PigeonholePercentile => "pigeonhole bootstrap, percentile",
+            IntervalMethod::NaiveIid => "naive iid over cells, t(IJ-1)",
+            IntervalMethod::ClusterRecording => "clustered by recording, t(I-1)",
+            IntervalMethod::ClusterSeed => "clustered by seed, t(J-1)",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct IntervalEstimate {
+    pub method: IntervalMethod,
+    pub estimate: f64,
+    pub se: f64,
+    /// Infinite for the normal; NaN where no df applies (bootstrap).
+    pub df: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+/// Mean, SE = sd / sqrt(n) and the t(n - 1) interval of independent values.
+pub fn one_sample_interval(values: &[f64], level: f64) -> Result<(f64, f64, f64, f64, f64), StatsError> {
+    let n = values.len();
+    if n < 2 {
+        return Err(StatsError::TooFew { what: "values", found: n });
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let se = (var / n as f64).sqrt();
+    let df = (n - 1) as f64;
+    let q = critical_value(level, df)?;
+    Ok((mean, se, df, mean - q * se, mean + q * se))
+}
+
+/// Every interval of [`IntervalMethod`] for one array. The bootstrap uses
+/// (`b`, `seed`, `stream`).
+pub fn compare_intervals(
+    m: &CrossedMatrix,
+    level: f64,
+    b: usize,
+    seed: u64,
+    stream: u64,
+) -> Result<Vec<IntervalEstimate>, StatsError> {
+    let mut out = Vec::new();
+    for (method, rule) in [
+        (IntervalMethod::MomT, DfRule::SeedsMinusOne),
+        (IntervalMethod::MomSatterthwaite, DfRule::Satterthwaite),
+        (IntervalMethod::MomZ, DfRule::Normal),
+    ] {
+        let e = crossed_mom(m, level, rule)?;
+        out.push(IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper });
+    }
+    let boot = pigeonhole_bootstrap(m, b, level, seed, stream)?;
+    out.push(IntervalEstimate {
+        method: IntervalMethod::PigeonholePercentile,
+        estimate: m.mean(),
+        se: boot.se,
+        df: f64::NAN,
+        lower: boot.lower,
+        upper: boot.upper,
+    });
+    for (method, values) in [
+        (IntervalMethod::NaiveIid, m.values().to_vec()),
+        (IntervalMethod::ClusterRecording, m.row_means()),
+        (IntervalMethod::ClusterSeed, m.col_means()),
+    ] {
+        let (estimate, se, df, lower, upper) = one_sample_interval(&values, level)?;
+        out.push(IntervalEstimate { method, estimate, se, df, lower, upper });
+    }
+    Ok(out)
+}
