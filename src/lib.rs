@@ -1,4 +1,45 @@
 #![doc = include_str!("../ARCHITECTURE.md")]
 
+pub mod analysis;
+pub mod cells;
 pub mod design;
+pub mod pipeline;
+pub mod report;
 pub mod stats;
+
+use std::path::Path;
+
+pub use analysis::{analyze, AnalyzeOptions, Analysis};
+pub use design::Design;
+pub use pipeline::{compile, Plan};
+
+/// Any error of the convenience calls, with the file it concerns.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Design(#[from] design::LoadError),
+    #[error(transparent)]
+    Lock(#[from] design::lock::LockError),
+    #[error(transparent)]
+    Cells(#[from] cells::CellsError),
+    #[error("{path}: {source}")]
+    Analysis { path: String, source: analysis::AnalysisError },
+    #[error(transparent)]
+    Write(#[from] report::WriteError),
+}
+
+/// Loads a design and per-cell CSV and runs the preregistered analysis. A
+/// design whose lock no longer matches is analysed but marked exploratory.
+pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOptions) -> Result<Analysis, Error> {
+    let file = design::load(design_path)?;
+    let status = design::lock::status(design_path, &file.sha256)?;
+    let cells = cells::read_cells(cells_path)?;
+    let mut a = analysis::analyze(&file.design, &cells, options)
+        .map_err(|source| Error::Analysis { path: cells_path.display().to_string(), source })?;
+    a.design_sha256 = Some(file.sha256);
+    if let design::LockStatus::LockedChanged { .. } = status {
+        a.exploratory = true;
+        a.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+    }
+    Ok(a)
+}

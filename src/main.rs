@@ -1,1 +1,113 @@
-fn main(){}
+//! The `crossaudit` command line: argument parsing, one library call per
+//! subcommand, error rendering and exit codes. No logic lives here.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use crossaudit::design::{self, lock, LoadError};
+use crossaudit::{AnalyzeOptions, Error};
+
+#[derive(Parser)]
+#[command(name = "crossaudit", version, about = "Preregistered, leakage-aware evaluation of learned dynamics models")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Validate a design and print its compiled plan.
+    Check {
+        design: PathBuf,
+        /// Print the plan (and the validated design) as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Record the design's SHA-256, tool version and UTC time in FILE.design.lock.
+    Lock { design: PathBuf },
+    /// Run the design's analysis on a per-cell CSV.
+    Analyze {
+        design: PathBuf,
+        /// The per-cell CSV (header: see README).
+        #[arg(long)]
+        cells: PathBuf,
+        /// Output directory for report.md, results.json and results.tex
+        /// [default: report/ next to the cells file].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Add every interval estimator side by side for each contrast.
+        #[arg(long)]
+        compare_intervals: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
+    let result = match cli.command {
+        Command::Check { design, json } => check(&design, json),
+        Command::Lock { design } => lock_design(&design),
+        Command::Analyze { design, cells, out, compare_intervals } => {
+            analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprint!("{}", render(&e, color));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn render(e: &Error, color: bool) -> String {
+    match e {
+        Error::Design(LoadError::Design(d)) => d.render(color),
+        other => format!("error: {other}\n"),
+    }
+}
+
+fn check(path: &std::path::Path, json: bool) -> Result<(), Error> {
+    let file = design::load(path)?;
+    let status = lock::status(path, &file.sha256)?;
+    let plan = crossaudit::compile(&file.design);
+    if json {
+        let value = serde_json::json!({
+            "design": path.display().to_string(),
+            "sha256": file.sha256,
+            "lock": status,
+            "plan": plan,
+            "validated": file.design,
+        });
+        println!("{}", serde_json::to_string_pretty(&value).expect("JSON values serialize"));
+    } else {
+        println!("{}: valid", path.display());
+        println!("sha256: {}", file.sha256);
+        println!("lock: {}", status.label());
+        print!("{}", plan.render_text(&file.design));
+    }
+    Ok(())
+}
+
+fn lock_design(path: &std::path::Path) -> Result<(), Error> {
+    let file = design::load(path)?;
+    let lock = lock::write_lock(path, &file.sha256, std::time::SystemTime::now())?;
+    println!("{}: locked sha256 {} at {} ({} {})", lock::lock_path(path).display(), lock.sha256, lock.locked_at_utc, lock.tool, lock.tool_version);
+    Ok(())
+}
+
+fn analyze(design: &std::path::Path, cells: &std::path::Path, out: Option<PathBuf>, options: AnalyzeOptions) -> Result<(), Error> {
+    let analysis = crossaudit::analyze_files(design, cells, options)?;
+    let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(std::path::Path::new(".")).join("report"));
+    let written = crossaudit::report::write_all(&analysis, &dir)?;
+    for w in &analysis.warnings {
+        eprintln!("warning: {w}");
+    }
+    for p in written {
+        eprintln!("wrote {}", p.display());
+    }
+    println!("{}", analysis.decision.summary());
+    Ok(())
+}
