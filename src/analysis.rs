@@ -28,8 +28,17 @@ pub enum AnalysisError {
     #[error("line {line}: duplicate cell (model={model} arm={arm} seed={seed} recording={recording} horizon={horizon} s), first seen on line {first_line}")]
     Duplicate { line: u64, first_line: u64, model: String, arm: String, seed: u64, recording: String, horizon: f64 },
     #[error("line {line}, field `{field}`: recording {recording} is labelled {value:?} here but {first:?} on line {first_line}")]
-    InconsistentLabel { line: u64, field: &'static str, recording: String, value: String, first: String, first_line: u64 },
-    #[error("{count} missing cell(s); the crossed design needs every model x arm x seed x recording x horizon:\n{list}")]
+    InconsistentLabel {
+        line: u64,
+        field: &'static str,
+        recording: String,
+        value: String,
+        first: String,
+        first_line: u64,
+    },
+    #[error(
+        "{count} missing cell(s); the crossed design needs every model x arm x seed x recording x horizon:\n{list}"
+    )]
     Missing { count: usize, list: String },
     #[error("the per-cell data has {found} recording(s); the design declares `evaluation {declared}`")]
     RecordingCount { found: usize, declared: usize },
@@ -171,7 +180,15 @@ impl Decision {
         let parts: Vec<String> = self
             .conditions
             .iter()
-            .map(|c| format!("{} ({} = {}: {})", c.condition, c.quantity.name(), fmt_num(c.value), if c.holds { "met" } else { "NOT met" }))
+            .map(|c| {
+                format!(
+                    "{} ({} = {}: {})",
+                    c.condition,
+                    c.quantity.name(),
+                    fmt_num(c.value),
+                    if c.holds { "met" } else { "NOT met" }
+                )
+            })
             .collect();
         let verdict = if self.holds { self.name.to_uppercase() } else { format!("NOT {}", self.name.to_uppercase()) };
         format!("decision: {verdict} on {}: {}", self.unit, parts.join("; "))
@@ -255,7 +272,12 @@ fn index<'a>(design: &Design, plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<
     horizons.dedup();
     let mut out = Indexed { cells: BTreeMap::new(), labels: BTreeMap::new() };
     for c in cells {
-        let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign { line: c.line, field, value, known };
+        let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign {
+            line: c.line,
+            field,
+            value,
+            known,
+        };
         if !models.contains(&c.model.as_str()) {
             return Err(not_in("model", c.model.clone(), format!("models: {}", models.join(", "))));
         }
@@ -307,7 +329,12 @@ fn index<'a>(design: &Design, plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<
     Ok(out)
 }
 
-fn check_complete(design: &Design, plan: &Plan, data: &Indexed, recordings: &[RecordingLabels]) -> Result<(), AnalysisError> {
+fn check_complete(
+    design: &Design,
+    plan: &Plan,
+    data: &Indexed,
+    recordings: &[RecordingLabels],
+) -> Result<(), AnalysisError> {
     let mut missing = Vec::new();
     let mut seen = Vec::new();
     for u in &plan.units {
@@ -402,7 +429,10 @@ impl Ctx<'_> {
         let a = self.arrays(&u.model, u.metric, u.horizon_s, &label)?;
         let (mean_t, mean_r) = (a.treated.mean(), a.reference.mean());
         if mean_r == 0.0 {
-            return Err(AnalysisError::ZeroReferenceMean { unit: label.clone(), arm: self.design.contrast.reference.clone() });
+            return Err(AnalysisError::ZeroReferenceMean {
+                unit: label.clone(),
+                arm: self.design.contrast.reference.clone(),
+            });
         }
         let est = &self.design.estimator;
         let estimate = crossed_mom(&a.diff, est.level, est.df).map_err(stats)?;
@@ -458,7 +488,12 @@ impl Ctx<'_> {
 
     /// Average d within condition groups (e.g. trajectory x speed), then the
     /// same crossed estimator on the groups x seeds array.
-    fn grouped(&self, diff: &CrossedMatrix, label: &str, warnings: &mut Vec<String>) -> Result<Option<GroupedResult>, AnalysisError> {
+    fn grouped(
+        &self,
+        diff: &CrossedMatrix,
+        label: &str,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<GroupedResult>, AnalysisError> {
         let name = |r: &RecordingLabels| -> String {
             self.design
                 .recording
@@ -481,8 +516,11 @@ impl Ctx<'_> {
             ));
             return Ok(None);
         }
-        let index: Vec<usize> =
-            self.recordings.iter().map(|r| groups.iter().position(|g| *g == name(r)).expect("group was collected")).collect();
+        let index: Vec<usize> = self
+            .recordings
+            .iter()
+            .map(|r| groups.iter().position(|g| *g == name(r)).expect("group was collected"))
+            .collect();
         let per_group = (0..groups.len()).map(|g| index.iter().filter(|&&x| x == g).count()).collect();
         let stats = |source| AnalysisError::Stats { unit: label.to_string(), source };
         let m = diff.group_rows(&index, groups.len()).map_err(stats)?;
@@ -529,7 +567,11 @@ impl Ctx<'_> {
             e.1 += diff.row(i).iter().sum::<f64>() / diff.cols() as f64;
         }
         acc.into_iter()
-            .map(|(t, (n, s))| TrajectoryMean { trajectory: t.to_string(), recordings: n, mean_difference: s / n as f64 })
+            .map(|(t, (n, s))| TrajectoryMean {
+                trajectory: t.to_string(),
+                recordings: n,
+                mean_difference: s / n as f64,
+            })
             .collect()
     }
 

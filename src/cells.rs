@@ -74,10 +74,8 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
 /// As [`read_cells`], from any reader; `name` is used in messages.
 pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cell>, CellsError> {
     let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(reader);
-    let header = rdr
-        .headers()
-        .map_err(|e| CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })?
-        .clone();
+    let header =
+        rdr.headers().map_err(|e| CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })?.clone();
     let found: Vec<&str> = header.iter().collect();
     if found != HEADER {
         return Err(CellsError::Header { path: name.to_string(), expected: HEADER.join(","), found: found.join(",") });

@@ -9,7 +9,7 @@ pub mod stats;
 
 use std::path::Path;
 
-pub use analysis::{analyze, AnalyzeOptions, Analysis};
+pub use analysis::{analyze, Analysis, AnalyzeOptions};
 pub use design::Design;
 pub use pipeline::{compile, Plan};
 
@@ -23,7 +23,7 @@ pub enum Error {
     #[error(transparent)]
     Cells(#[from] cells::CellsError),
     #[error("{path}: {source}")]
-    Analysis { path: String, source: analysis::AnalysisError },
+    Analysis { path: String, source: Box<analysis::AnalysisError> },
     #[error(transparent)]
     Write(#[from] report::WriteError),
 }
@@ -35,7 +35,7 @@ pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOpti
     let status = design::lock::status(design_path, &file.sha256)?;
     let cells = cells::read_cells(cells_path)?;
     let mut a = analysis::analyze(&file.design, &cells, options)
-        .map_err(|source| Error::Analysis { path: cells_path.display().to_string(), source })?;
+        .map_err(|source| Error::Analysis { path: cells_path.display().to_string(), source: Box::new(source) })?;
     a.design_sha256 = Some(file.sha256);
     if let design::LockStatus::LockedChanged { .. } = status {
         a.exploratory = true;

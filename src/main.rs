@@ -94,11 +94,23 @@ fn check(path: &std::path::Path, json: bool) -> Result<(), Error> {
 fn lock_design(path: &std::path::Path) -> Result<(), Error> {
     let file = design::load(path)?;
     let lock = lock::write_lock(path, &file.sha256, std::time::SystemTime::now())?;
-    println!("{}: locked sha256 {} at {} ({} {})", lock::lock_path(path).display(), lock.sha256, lock.locked_at_utc, lock.tool, lock.tool_version);
+    println!(
+        "{}: locked sha256 {} at {} ({} {})",
+        lock::lock_path(path).display(),
+        lock.sha256,
+        lock.locked_at_utc,
+        lock.tool,
+        lock.tool_version
+    );
     Ok(())
 }
 
-fn analyze(design: &std::path::Path, cells: &std::path::Path, out: Option<PathBuf>, options: AnalyzeOptions) -> Result<(), Error> {
+fn analyze(
+    design: &std::path::Path,
+    cells: &std::path::Path,
+    out: Option<PathBuf>,
+    options: AnalyzeOptions,
+) -> Result<(), Error> {
     let analysis = crossaudit::analyze_files(design, cells, options)?;
     let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(std::path::Path::new(".")).join("report"));
     let written = crossaudit::report::write_all(&analysis, &dir)?;

@@ -79,7 +79,8 @@ pub fn compile(design: &Design) -> Plan {
         Some(ix) => {
             let mut out: Vec<InteractionUnit> = Vec::new();
             for u in units.iter().filter(|u| u.model == ix.left) {
-                let partner = units.iter().any(|v| v.model == ix.right && v.metric == u.metric && v.horizon_s == u.horizon_s);
+                let partner =
+                    units.iter().any(|v| v.model == ix.right && v.metric == u.metric && v.horizon_s == u.horizon_s);
                 let seen = out.iter().any(|x| x.metric == u.metric && x.horizon_s == u.horizon_s);
                 if partner && !seen {
                     out.push(InteractionUnit {
@@ -182,7 +183,9 @@ impl Plan {
         }
         for a in &design.arms {
             let what = match &a.kind {
-                crate::design::ArmKind::Fit { windows, seed } => format!("fit {windows} windows (seed {seed})"),
+                crate::design::ArmKind::Fit { windows, seed } => {
+                    format!("fit {windows} windows (seed {seed})")
+                }
                 crate::design::ArmKind::Derived { from, percent, starts, seed } => format!(
                     "{from} with {percent}% replaced by evaluation windows{} (seed {seed})",
                     if *starts == crate::design::StartsPolicy::Exclude { ", registered starts excluded" } else { "" }
@@ -209,7 +212,8 @@ impl Plan {
             let _ = writeln!(s, "  {role} {} at {} s, model {}", u.metric.name(), u.horizon_s, u.model);
         }
         for ix in &self.interactions {
-            let _ = writeln!(s, "interaction: {} - {} on {} at {} s", ix.left, ix.right, ix.metric.name(), ix.horizon_s);
+            let _ =
+                writeln!(s, "interaction: {} - {} on {} at {} s", ix.left, ix.right, ix.metric.name(), ix.horizon_s);
         }
         let est = &design.estimator;
         let _ = writeln!(s, "estimator: crossed MoM, level {}, df {:?}", est.level, est.df);

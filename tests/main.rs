@@ -1,1 +1,11 @@
+//! One integration-test binary. Snapshots live in the top-level
+//! `snapshots/` folder.
 
+mod common;
+
+mod analyze;
+mod design_errors;
+mod designs;
+mod golden;
+mod stats_props;
+mod stats_reference;

@@ -1,9 +1,11 @@
-//! Located design errors, rendered once at the boundary with the source line
-//! and a caret (ariadne, ASCII, no colour unless asked).
+//! Located design errors, rendered once at the boundary in the rustc
+//! layout: headline, `--> file:line:column`, the source line and a caret
+//! under the offending span. Plain text unless colour is asked for.
+//!
+//! Hand-written rather than ariadne: ariadne draws no caret under
+//! one-character spans, and most of our spans are single digits.
 
 use std::fmt;
-
-use ariadne::{CharSet, Config, IndexType, Label, Report, ReportKind, Source};
 
 use super::ast::Span;
 
@@ -42,38 +44,68 @@ impl DesignError {
     /// Renders all diagnostics as plain text (`color = false`) or with ANSI
     /// colours for a terminal.
     pub fn render(&self, color: bool) -> String {
-        let mut out = Vec::new();
+        let mut out = String::new();
         for d in &self.diagnostics {
-            let span = clamp(d.span, self.source_text.len());
-            let config = Config::default()
-                .with_color(color)
-                .with_char_set(if color { CharSet::Unicode } else { CharSet::Ascii })
-                .with_index_type(IndexType::Byte);
-            let id = self.file.as_str();
-            let mut report = Report::build(ReportKind::Error, id, span.start)
-                .with_config(config)
-                .with_message(&d.title)
-                .with_label(Label::new((id, span.range())).with_message(&d.label));
-            if let Some(help) = &d.help {
-                report = report.with_help(help);
-            }
-            // Writing into a Vec cannot fail.
-            let _ = report.finish().write((id, Source::from(self.source_text.as_str())), &mut out);
+            render_one(&mut out, &self.file, &self.source_text, d, color);
         }
-        // ariadne pads label lines with spaces; trim them so the text is
-        // stable to compare and copy.
-        let text = String::from_utf8_lossy(&out);
-        let mut trimmed: String = text.lines().map(|l| l.trim_end()).collect::<Vec<_>>().join("\n");
-        trimmed.push('\n');
-        trimmed
+        out
     }
 }
 
-/// Keeps a span inside the source so that a caret at end of file still renders.
-fn clamp(span: Span, len: usize) -> Span {
-    let start = span.start.min(len);
-    let end = span.end.clamp(start, len);
-    Span { start, end }
+/// 1-based line and column (in characters) of a byte offset, the line's
+/// text, and the column where the span stops on that line.
+struct Location<'a> {
+    line: usize,
+    col: usize,
+    text: &'a str,
+    end_col: usize,
+}
+
+fn locate(source: &str, span: Span) -> Location<'_> {
+    let start = floor_char_boundary(source, span.start.min(source.len()));
+    let end = floor_char_boundary(source, span.end.clamp(start, source.len()));
+    let line_start = source[..start].rfind('\n').map(|k| k + 1).unwrap_or(0);
+    let line_end = source[start..].find('\n').map(|k| start + k).unwrap_or(source.len());
+    let text = source[line_start..line_end].trim_end_matches('\r');
+    let line = source[..start].matches('\n').count() + 1;
+    let col = source[line_start..start].chars().count() + 1;
+    let end_on_line = end.min(line_start + text.len()).max(start);
+    let width = source[start..end_on_line].chars().count().max(1);
+    Location { line, col, text, end_col: col + width }
+}
+
+fn floor_char_boundary(s: &str, mut k: usize) -> usize {
+    while k > 0 && !s.is_char_boundary(k) {
+        k -= 1;
+    }
+    k
+}
+
+fn render_one(out: &mut String, file: &str, source: &str, d: &Diagnostic, color: bool) {
+    use fmt::Write as _;
+    let paint = |code: &str, text: &str| {
+        if color {
+            format!("\x1b[{code}m{text}\x1b[0m")
+        } else {
+            text.to_string()
+        }
+    };
+    let loc = locate(source, d.span);
+    let gutter = " ".repeat(loc.line.to_string().len());
+    let bar = paint("1;34", "|");
+    let _ = writeln!(out, "{}: {}", paint("1;31", "error"), paint("1", &d.title));
+    let _ = writeln!(out, "{gutter}{} {file}:{}:{}", paint("1;34", "-->"), loc.line, loc.col);
+    let _ = writeln!(out, "{gutter} {bar}");
+    let _ = writeln!(out, "{} {bar} {}", paint("1;34", &loc.line.to_string()), loc.text);
+    // Keep tabs under tabs so the caret lines up however tabs are shown.
+    let pad: String = loc.text.chars().take(loc.col - 1).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
+    let carets = "^".repeat(loc.end_col - loc.col);
+    let _ = writeln!(out, "{gutter} {bar} {pad}{} {}", paint("1;31", &carets), paint("1;31", &d.label));
+    if let Some(help) = &d.help {
+        let _ = writeln!(out, "{gutter} {bar}");
+        let _ = writeln!(out, "{gutter} = help: {help}");
+    }
+    out.push('\n');
 }
 
 impl fmt::Display for DesignError {

@@ -46,7 +46,9 @@ pub enum LockError {
     Parse { path: String, source: serde_json::Error },
     #[error("cannot write lock file {path}: {source}")]
     Write { path: String, source: std::io::Error },
-    #[error("{path} is already locked (sha256 {sha256}, {locked_at_utc}); delete the lock to re-lock a changed design")]
+    #[error(
+        "{path} is already locked (sha256 {sha256}, {locked_at_utc}); delete the lock to re-lock a changed design"
+    )]
     AlreadyLocked { path: String, sha256: String, locked_at_utc: String },
 }
 
@@ -69,13 +71,17 @@ pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(source) => return Err(LockError::Read { path: path.display().to_string(), source }),
     };
-    serde_json::from_str(&text).map(Some).map_err(|source| LockError::Parse { path: path.display().to_string(), source })
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|source| LockError::Parse { path: path.display().to_string(), source })
 }
 
 pub fn status(design: &Path, current_sha256: &str) -> Result<LockStatus, LockError> {
     Ok(match read_lock(design)? {
         None => LockStatus::Unlocked,
-        Some(lock) if lock.sha256 == current_sha256 => LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc },
+        Some(lock) if lock.sha256 == current_sha256 => {
+            LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc }
+        }
         Some(lock) => LockStatus::LockedChanged {
             locked_sha256: lock.sha256,
             current_sha256: current_sha256.to_string(),

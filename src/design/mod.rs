@@ -120,8 +120,7 @@ pub const DEFAULT_STATE_COLUMNS: [&str; 14] = [
 ];
 
 /// NanoBench task-2 action convention: motor PWM / 65535, clipped to [0, 1].
-pub const DEFAULT_ACTION_COLUMNS: [&str; 4] =
-    ["motor_motor_m1", "motor_motor_m2", "motor_motor_m3", "motor_motor_m4"];
+pub const DEFAULT_ACTION_COLUMNS: [&str; 4] = ["motor_motor_m1", "motor_motor_m2", "motor_motor_m3", "motor_motor_m4"];
 
 /// Condition labels a recording carries.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]

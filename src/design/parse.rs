@@ -38,7 +38,22 @@ pub fn parse(source: &str) -> Result<Ast, Vec<Diagnostic>> {
 fn rule_name(rule: &Rule) -> String {
     let name = match rule {
         Rule::EOI => "end of file",
-        Rule::statement | Rule::design => {
+        Rule::statement
+        | Rule::design
+        | Rule::study
+        | Rule::data
+        | Rule::factor_recording
+        | Rule::factor_seed
+        | Rule::validation
+        | Rule::arm
+        | Rule::model
+        | Rule::train
+        | Rule::endpoint
+        | Rule::contrast
+        | Rule::estimate
+        | Rule::sensitivity
+        | Rule::interaction
+        | Rule::decide => {
             "a statement (study, data, factor, validation, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide)"
         }
         Rule::ident | Rule::ident_list => "a name",
@@ -90,36 +105,49 @@ fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
         pest::error::InputLocation::Pos(p) => Span { start: p, end: p },
         pest::error::InputLocation::Span((s, e)) => Span { start: s, end: e },
     };
-    let e = e.renamed_rules(rule_name);
-    let mut message = e.variant.message().to_string();
-    // pest lists several alternatives that often repeat once renamed.
-    message = dedup_alternatives(&message);
+    let message = match &e.variant {
+        pest::error::ErrorVariant::ParsingError { positives, negatives } => {
+            // Several rules often share one reader-facing name; say each once.
+            let mut names: Vec<String> = Vec::new();
+            for r in positives {
+                let n = rule_name(r);
+                if !names.contains(&n) {
+                    names.push(n);
+                }
+            }
+            let mut text = match names.len() {
+                0 => "unexpected input".to_string(),
+                1 => format!("expected {}", names[0]),
+                n => format!("expected {}, or {}", names[..n - 1].join(", "), names[n - 1]),
+            };
+            if !negatives.is_empty() {
+                let unexpected: Vec<String> = negatives.iter().map(rule_name).collect();
+                text.push_str(&format!("; unexpected {}", unexpected.join(", ")));
+            }
+            text
+        }
+        pest::error::ErrorVariant::CustomError { message } => message.clone(),
+    };
     Diagnostic::new("syntax error", span, message)
 }
 
-/// pest renders "expected a, b, or c"; renamed rules can repeat. Keep the
-/// first occurrence of each alternative.
-fn dedup_alternatives(message: &str) -> String {
-    let Some(rest) = message.strip_prefix("expected ") else {
-        return message.to_string();
-    };
-    let mut seen: Vec<&str> = Vec::new();
-    for part in rest.split(", ").flat_map(|p| p.split(" or ")) {
-        let part = part.trim();
-        if !part.is_empty() && !seen.contains(&part) {
-            seen.push(part);
-        }
-    }
-    match seen.len() {
-        0 => message.to_string(),
-        1 => format!("expected {}", seen[0]),
-        n => format!("expected {}, or {}", seen[..n - 1].join(", "), seen[n - 1]),
-    }
-}
-
+/// The pair's span without trailing whitespace or comments, which pest
+/// may include when a repetition at the end of a rule fails.
 fn span_of(pair: &Pair<Rule>) -> Span {
     let s = pair.as_span();
-    Span { start: s.start(), end: s.end() }
+    let mut text = s.as_str();
+    loop {
+        let trimmed = text.trim_end();
+        // A trailing comment line: drop it and trim again.
+        match trimmed.rfind('\n') {
+            Some(k) if trimmed[k + 1..].trim_start().starts_with('#') => text = &trimmed[..k],
+            _ => {
+                text = trimmed;
+                break;
+            }
+        }
+    }
+    Span { start: s.start(), end: s.start() + text.len() }
 }
 
 fn ident(pair: Pair<Rule>) -> Ident {
@@ -221,11 +249,9 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
                 Statement::FactorSeed(SeedSpec::List(c.0.map(int).collect::<Result<_, _>>()?))
             }
         }
-        Rule::validation => Statement::Validation {
-            windows: int(k.next())?,
-            recordings: int(k.next())?,
-            seed: int(k.next())?,
-        },
+        Rule::validation => {
+            Statement::Validation { windows: int(k.next())?, recordings: int(k.next())?, seed: int(k.next())? }
+        }
         Rule::arm => {
             let name = ident(k.next());
             let body = k.next();
@@ -375,8 +401,6 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         Rule::strict => DataItem::Strict,
         Rule::state_cols => DataItem::State(idents(c.next())),
         Rule::action_cols => DataItem::Action(idents(c.next())),
-        other => {
-            return Err(Diagnostic::new("internal", text_span, format!("unexpected data rule {other:?}")))
-        }
+        other => return Err(Diagnostic::new("internal", text_span, format!("unexpected data rule {other:?}"))),
     })
 }

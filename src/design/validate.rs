@@ -301,11 +301,7 @@ impl Validator {
 
     fn columns(&mut self, cols: &[Ident], want: usize, what: &str, span: Span) -> Vec<String> {
         if cols.len() != want {
-            self.err(
-                "wrong number of columns",
-                span,
-                format!("the {what} has {want} columns, {} given", cols.len()),
-            );
+            self.err("wrong number of columns", span, format!("the {what} has {want} columns, {} given", cols.len()));
         }
         self.no_duplicate_names(cols, "column");
         cols.iter().map(|c| c.node.clone()).collect()
@@ -427,7 +423,9 @@ impl Validator {
         let mut out: Vec<(Arm, Span)> = Vec::new();
         let mut names: Vec<&Ident> = Vec::new();
         for s in stmts {
-            let Statement::Arm { name, body } = &s.node else { continue };
+            let Statement::Arm { name, body } = &s.node else {
+                continue;
+            };
             if names.iter().any(|n| n.node == name.node) {
                 self.err("duplicate name", name.span, format!("arm `{}` is declared twice", name.node));
                 continue;
@@ -459,7 +457,9 @@ impl Validator {
         }
         // Resolve `from` after all arms are known, so order does not matter.
         for s in stmts {
-            let Statement::Arm { name, body: ArmBody::Derived { from, percent, .. } } = &s.node else { continue };
+            let Statement::Arm { name, body: ArmBody::Derived { from, percent, .. } } = &s.node else {
+                continue;
+            };
             match out.iter().find(|(a, _)| a.name == from.node) {
                 None => self.err_help(
                     "unknown arm",
@@ -467,9 +467,11 @@ impl Validator {
                     format!("no arm named `{}`", from.node),
                     known("arms", out.iter().map(|a| a.0.name.as_str())),
                 ),
-                Some((a, _)) if a.name == name.node => {
-                    self.err("arm derived from itself", from.span, format!("arm `{}` cannot replace its own windows", a.name))
-                }
+                Some((a, _)) if a.name == name.node => self.err(
+                    "arm derived from itself",
+                    from.span,
+                    format!("arm `{}` cannot replace its own windows", a.name),
+                ),
                 Some((Arm { kind: ArmKind::Derived { .. }, name: base }, _)) => self.err_help(
                     "derived from a derived arm",
                     from.span,
@@ -495,7 +497,9 @@ impl Validator {
     fn models(&mut self, stmts: &[&Spanned<Statement>]) -> Vec<(Model, Span)> {
         let mut out: Vec<(Model, Span)> = Vec::new();
         for s in stmts {
-            let Statement::Model { name, kind } = &s.node else { continue };
+            let Statement::Model { name, kind } = &s.node else {
+                continue;
+            };
             if out.iter().any(|m| m.0.name == name.node) {
                 self.err("duplicate name", name.span, format!("model `{}` is declared twice", name.node));
                 continue;
@@ -521,7 +525,8 @@ impl Validator {
 
     fn training(&mut self, items: &[Spanned<TrainItem>], span: Span) -> Option<Training> {
         let mut seen = BTreeMap::new();
-        let (mut lr, mut batch, mut epochs, mut schedule, mut patience, mut noise) = (None, None, None, None, None, None);
+        let (mut lr, mut batch, mut epochs, mut schedule, mut patience, mut noise) =
+            (None, None, None, None, None, None);
         for item in items {
             match &item.node {
                 TrainItem::Optimizer { lr: rate, .. } => {
@@ -606,7 +611,9 @@ impl Validator {
             }
         }
         for s in stmts {
-            let Statement::Endpoint(e) = &s.node else { continue };
+            let Statement::Endpoint(e) = &s.node else {
+                continue;
+            };
             let role = match e.role.node.as_str() {
                 "primary" => Role::Primary,
                 _ => Role::Secondary,
@@ -652,7 +659,11 @@ impl Validator {
             }
             if let Some(c) = &e.cap {
                 if c.node <= 0.0 {
-                    self.err("non-positive cap", c.span, format!("the divergence cap must be > 0 m, found {} m", c.node));
+                    self.err(
+                        "non-positive cap",
+                        c.span,
+                        format!("the divergence cap must be > 0 m, found {} m", c.node),
+                    );
                 } else if let Some(p) = primary_cap {
                     if role == Role::Secondary && c.node != p {
                         self.err_help(
@@ -688,7 +699,11 @@ impl Validator {
                     );
                 }
                 if e.cap.is_none() {
-                    self.err("primary endpoint without a cap", e.metric.span, "the primary endpoint must state `cap <metres> m`");
+                    self.err(
+                        "primary endpoint without a cap",
+                        e.metric.span,
+                        "the primary endpoint must state `cap <metres> m`",
+                    );
                 }
                 if e.horizons.len() != 1 || e.models.len() != 1 {
                     self.err_help(
@@ -749,7 +764,12 @@ impl Validator {
         ok.then(|| Contrast { treated: treated.node.clone(), reference: reference.node.clone() })
     }
 
-    fn estimator(&mut self, kind: &Ident, items: &[Spanned<EstimateItem>], n_seeds: Option<usize>) -> Option<Estimator> {
+    fn estimator(
+        &mut self,
+        kind: &Ident,
+        items: &[Spanned<EstimateItem>],
+        n_seeds: Option<usize>,
+    ) -> Option<Estimator> {
         if kind.node != "crossed_mom" {
             self.err_help(
                 "unknown estimator",
@@ -904,16 +924,17 @@ impl Validator {
         }
         if ok {
             let covers = |name: &str| {
-                endpoints.iter().flat_map(|(e, _)| e.horizons.iter().map(move |h| (e.metric, h.0, e.models.clone()))).any(
-                    |(metric, h, ms)| {
+                endpoints
+                    .iter()
+                    .flat_map(|(e, _)| e.horizons.iter().map(move |h| (e.metric, h.0, e.models.clone())))
+                    .any(|(metric, h, ms)| {
                         ms.iter().any(|m| m == name)
                             && endpoints.iter().any(|(f, _)| {
                                 f.metric == metric
                                     && f.horizons.iter().any(|g| g.0 == h)
-                                    && f.models.iter().any(|m| *m == right.node)
+                                    && f.models.contains(&right.node)
                             })
-                    },
-                )
+                    })
             };
             if !covers(&left.node) {
                 self.err_help(

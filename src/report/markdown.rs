@@ -24,7 +24,11 @@ fn unit_name(u: &UnitResult) -> String {
 pub fn render_markdown(a: &Analysis) -> String {
     let mut s = String::new();
     let level = format!("{}%", f(a.level * 100.0, 0));
-    let verdict = if a.decision.holds { a.decision.name.to_uppercase() } else { format!("NOT {}", a.decision.name.to_uppercase()) };
+    let verdict = if a.decision.holds {
+        a.decision.name.to_uppercase()
+    } else {
+        format!("NOT {}", a.decision.name.to_uppercase())
+    };
     let _ = writeln!(s, "# {}: {}{}", a.study, verdict, if a.exploratory { " (EXPLORATORY)" } else { "" });
     let _ = writeln!(s);
     let _ = writeln!(s, "{}", a.decision.summary());
@@ -103,11 +107,13 @@ pub fn render_markdown(a: &Analysis) -> String {
         let _ = writeln!(s);
         let _ = writeln!(s, "delta_ij = d_left,ij - d_right,ij, same estimator.");
         let _ = writeln!(s);
-        let _ = writeln!(s, "| contrast | metric | horizon | delta mean | SE | df | {level} CI | bootstrap {level} CI |");
+        let _ =
+            writeln!(s, "| contrast | metric | horizon | delta mean | SE | df | {level} CI | bootstrap {level} CI |");
         let _ = writeln!(s, "|---|---|---|---:|---:|---:|---|---|");
         for ix in &a.interactions {
             let e = &ix.estimate;
-            let boot = ix.bootstrap.map(|b| format!("[{}, {}]", f(b.lower, 4), f(b.upper, 4))).unwrap_or_else(|| "-".into());
+            let boot =
+                ix.bootstrap.map(|b| format!("[{}, {}]", f(b.lower, 4), f(b.upper, 4))).unwrap_or_else(|| "-".into());
             let _ = writeln!(
                 s,
                 "| {} - {} | {} | {} s | {} | {} | {} | {} | {} |",
@@ -135,7 +141,16 @@ pub fn render_markdown(a: &Analysis) -> String {
         for u in &a.units {
             if let Some(g) = &u.grouped {
                 let e = &g.estimate;
-                let _ = writeln!(s, "| {} | {} | {} | {} | {} | {} |", unit_name(u), g.groups.len(), f(e.mean, 4), f(e.se, 4), df(e), ci(e));
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} |",
+                    unit_name(u),
+                    g.groups.len(),
+                    f(e.mean, 4),
+                    f(e.se, 4),
+                    df(e),
+                    ci(e)
+                );
             }
         }
         let _ = writeln!(s);
@@ -179,7 +194,14 @@ pub fn render_markdown(a: &Analysis) -> String {
         let v: Vec<f64> = u.per_seed_optimism.iter().map(|p| p.optimism_pct).collect();
         let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
         let max = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        let _ = writeln!(s, "| {} | {} | {} | {} |", unit_name(u), f(min, 1), f(max, 1), v.iter().filter(|x| **x < 0.0).count());
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            unit_name(u),
+            f(min, 1),
+            f(max, 1),
+            v.iter().filter(|x| **x < 0.0).count()
+        );
     }
     let _ = writeln!(s);
 
@@ -189,7 +211,8 @@ pub fn render_markdown(a: &Analysis) -> String {
     let _ = writeln!(s, "|---|---|---|---|---:|---:|");
     for u in &a.units {
         for t in &u.per_trajectory {
-            let _ = writeln!(s, "| {} | {} | {} | {} |", unit_name(u), t.trajectory, t.recordings, f(t.mean_difference, 4));
+            let _ =
+                writeln!(s, "| {} | {} | {} | {} |", unit_name(u), t.trajectory, t.recordings, f(t.mean_difference, 4));
         }
     }
     let _ = writeln!(s);
@@ -233,7 +256,13 @@ pub fn render_markdown(a: &Analysis) -> String {
         let _ = writeln!(s, "|---|---|---|---|---:|---:|---:|---|---|");
         for u in &a.units {
             for iv in u.intervals.iter().flatten() {
-                let dfs = if iv.df.is_nan() { "-".into() } else if iv.df.is_infinite() { "z".into() } else { f(iv.df, 1) };
+                let dfs = if iv.df.is_nan() {
+                    "-".into()
+                } else if iv.df.is_infinite() {
+                    "z".into()
+                } else {
+                    f(iv.df, 1)
+                };
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {} | [{}, {}] | {} |",

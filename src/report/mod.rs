@@ -30,11 +30,9 @@ pub fn render_json(a: &Analysis) -> String {
 pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, WriteError> {
     std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.display().to_string(), source })?;
     let mut out = Vec::new();
-    for (name, text) in [
-        ("report.md", render_markdown(a)),
-        ("results.json", render_json(a)),
-        ("results.tex", render_tex(a)),
-    ] {
+    for (name, text) in
+        [("report.md", render_markdown(a)), ("results.json", render_json(a)), ("results.tex", render_tex(a))]
+    {
         let path = dir.join(name);
         write_atomic(&path, text.as_bytes())?;
         out.push(path);

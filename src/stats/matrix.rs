@@ -137,7 +137,15 @@ impl CrossedMatrix {
 
     /// Rows and columns reordered: row `i` of the result is row `row_perm[i]`.
     pub fn permuted(&self, row_perm: &[usize], col_perm: &[usize]) -> Result<CrossedMatrix, StatsError> {
-        let data = row_perm.iter().flat_map(|&r| col_perm.iter().map(move |&c| (r, c))).map(|(r, c)| self.get(r, c)).collect();
+        for (perm, n, what) in [(row_perm, self.rows, "row"), (col_perm, self.cols, "column")] {
+            let mut sorted = perm.to_vec();
+            sorted.sort_unstable();
+            if sorted != (0..n).collect::<Vec<_>>() {
+                return Err(StatsError::Invalid(format!("{what} order {perm:?} is not a permutation of 0..{n}")));
+            }
+        }
+        let data =
+            row_perm.iter().flat_map(|&r| col_perm.iter().map(move |&c| (r, c))).map(|(r, c)| self.get(r, c)).collect();
         CrossedMatrix::new(row_perm.len(), col_perm.len(), data)
     }
 }

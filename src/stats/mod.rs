@@ -28,6 +28,8 @@ pub enum StatsError {
     NoReplicates,
     #[error("group labels: {0}")]
     Groups(String),
+    #[error("{0}")]
+    Invalid(String),
 }
 
 /// Two-sided quantile for `level`: t with `df` degrees of freedom, or the
@@ -42,7 +44,7 @@ pub fn critical_value(level: f64, df: f64) -> Result<f64, StatsError> {
         let n = Normal::new(0.0, 1.0).expect("standard normal parameters are valid");
         return Ok(n.inverse_cdf(p));
     }
-    if !(df > 0.0) {
+    if df.is_nan() || df <= 0.0 {
         return Err(StatsError::TooFew { what: "degrees of freedom", found: 0 });
     }
     let t = StudentsT::new(0.0, 1.0, df).map_err(|_| StatsError::TooFew { what: "degrees of freedom", found: 0 })?;

@@ -1,0 +1,307 @@
+//! `analyze` on per-cell data: snapshot-locked outputs of the committed
+//! example, and a clear error for every kind of bad per-cell input.
+
+use std::fmt::Write as _;
+
+use crate::common::{
+    confirmatory_design, example_cells, minimal_cells, minimal_design, minimal_design_path, write_temp_cells,
+};
+use crate::snapshots;
+use crossaudit::analysis::{analyze, Analysis, AnalysisError};
+use crossaudit::cells::{read_cells, read_cells_from, Cell, CellsError};
+use crossaudit::stats::CrossedEstimate;
+
+fn est(e: &CrossedEstimate) -> String {
+    format!(
+        "mean {:.6} se {:.6} df {:.1} ci [{:.6}, {:.6}] s2 rec {:.6e} seed {:.6e} res {:.6e} shares {:.4}/{:.4}/{:.4}",
+        e.mean,
+        e.se,
+        e.df,
+        e.lower,
+        e.upper,
+        e.components.recording,
+        e.components.seed,
+        e.components.residual,
+        e.share_recording,
+        e.share_seed,
+        e.share_residual
+    )
+}
+
+fn example() -> Analysis {
+    crossaudit::analyze_files(&confirmatory_design(), &example_cells(), Default::default()).unwrap()
+}
+
+#[test]
+fn primary_output_of_the_example_is_locked() {
+    let a = example();
+    let u = &a.units[0];
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", a.decision.summary());
+    let _ = writeln!(s, "unit: {} {} at {} s ({:?})", u.model, u.metric.name(), u.horizon_s, u.role);
+    let _ = writeln!(
+        s,
+        "means: contaminated {:.6} disjoint {:.6} optimism {:.4}%",
+        u.mean_treated, u.mean_reference, u.optimism_pct
+    );
+    let _ = writeln!(s, "crossed: {}", est(&u.estimate));
+    let b = u.bootstrap.unwrap();
+    let _ = writeln!(
+        s,
+        "bootstrap: B {} seed {} stream {} se {:.6} ci [{:.6}, {:.6}]",
+        b.replicates, b.seed, b.stream, b.se, b.lower, b.upper
+    );
+    for l in &u.leave_one_out {
+        let _ = writeln!(
+            s,
+            "leave one {:?} out: mean [{:.6}, {:.6}] upper [{:.6}, {:.6}] optimism [{:.3}, {:.3}] holds {}/{}",
+            l.factor,
+            l.mean_min,
+            l.mean_max,
+            l.upper_min,
+            l.upper_max,
+            l.optimism_min,
+            l.optimism_max,
+            l.rule_holds,
+            l.fits
+        );
+    }
+    for t in &u.per_trajectory {
+        let _ =
+            writeln!(s, "trajectory {}: {} recordings, mean d {:.6}", t.trajectory, t.recordings, t.mean_difference);
+    }
+    let c = &u.conditional;
+    let _ = writeln!(
+        s,
+        "divergent: contaminated {}/{} disjoint {}/{}",
+        c.divergent_treated, c.starts_treated, c.divergent_reference, c.starts_reference
+    );
+    snapshots!({ insta::assert_snapshot!(s) });
+}
+
+#[test]
+fn interaction_output_of_the_example_is_locked() {
+    let a = example();
+    let mut s = String::new();
+    for ix in &a.interactions {
+        let b = ix.bootstrap.unwrap();
+        let _ =
+            writeln!(s, "{} - {} {} at {} s: {}", ix.left, ix.right, ix.metric.name(), ix.horizon_s, est(&ix.estimate));
+        let _ = writeln!(s, "  bootstrap ci [{:.6}, {:.6}]", b.lower, b.upper);
+    }
+    snapshots!({ insta::assert_snapshot!(s) });
+}
+
+#[test]
+fn grouped_sensitivity_output_of_the_example_is_locked() {
+    let a = example();
+    let mut s = String::new();
+    for u in &a.units {
+        let g = u.grouped.as_ref().unwrap();
+        let _ = writeln!(s, "{} at {} s: {} groups: {}", u.model, u.horizon_s, g.groups.len(), est(&g.estimate));
+    }
+    let g = a.units[0].grouped.as_ref().unwrap();
+    for (name, n) in g.groups.iter().zip(&g.recordings_per_group) {
+        let _ = writeln!(s, "  group {name}: {n} recordings");
+    }
+    snapshots!({ insta::assert_snapshot!(s) });
+}
+
+#[test]
+fn compare_intervals_lists_every_estimator() {
+    let a = crossaudit::analyze_files(
+        &confirmatory_design(),
+        &example_cells(),
+        crossaudit::AnalyzeOptions { compare_intervals: true },
+    )
+    .unwrap();
+    let iv = a.units[0].intervals.as_ref().unwrap();
+    assert_eq!(iv.len(), 7);
+    // The MoM t(J-1) row is the primary estimate itself.
+    assert_eq!(iv[0].lower, a.units[0].estimate.lower);
+    assert_eq!(iv[0].upper, a.units[0].estimate.upper);
+}
+
+#[test]
+fn analysis_is_deterministic() {
+    let a = crossaudit::report::render_json(&example());
+    let b = crossaudit::report::render_json(&example());
+    assert_eq!(a, b);
+}
+
+#[test]
+fn hand_built_cells_give_the_hand_computed_mean() {
+    // minimal_cells: d_ij = -0.06 + 0.005 * ((3i + 7j) mod 5) for every
+    // model and horizon, so mean d = -0.06 + 0.005 * mean((3i+7j) mod 5)
+    // over i < 4, j < 3: residues (j = 0) 0,3,1,4 | (j = 1) 2,0,3,1 |
+    // (j = 2) 4,2,0,3 sum to 23.
+    let d = minimal_design();
+    let a = analyze(&d, &minimal_cells(&d), Default::default()).unwrap();
+    let expected = -0.06 + 0.005 * 23.0 / 12.0;
+    assert!((a.units[0].estimate.mean - expected).abs() < 1e-12, "{}", a.units[0].estimate.mean);
+}
+
+fn err_of(cells: &[Cell]) -> String {
+    let d = minimal_design();
+    match analyze(&d, cells, Default::default()) {
+        Ok(_) => panic!("bad cells were accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn lined(mut cells: Vec<Cell>) -> Vec<Cell> {
+    for (k, c) in cells.iter_mut().enumerate() {
+        c.line = k as u64 + 2;
+    }
+    cells
+}
+
+#[test]
+fn a_missing_cell_is_named() {
+    let d = minimal_design();
+    let mut cells = lined(minimal_cells(&d));
+    let gone = cells.remove(5);
+    let e = err_of(&cells);
+    assert!(e.contains("1 missing cell"), "{e}");
+    assert!(
+        e.contains(&format!(
+            "model={} arm={} seed={} recording={} horizon={} s",
+            gone.model, gone.arm, gone.seed, gone.recording, gone.horizon_s
+        )),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_duplicate_cell_names_both_lines() {
+    let d = minimal_design();
+    let mut cells = lined(minimal_cells(&d));
+    let mut dup = cells[3].clone();
+    dup.line = 999;
+    cells.push(dup);
+    let e = err_of(&cells);
+    assert!(e.contains("line 999: duplicate cell") && e.contains("first seen on line 5"), "{e}");
+}
+
+#[test]
+fn models_arms_seeds_and_horizons_outside_the_design_are_rejected() {
+    let d = minimal_design();
+    for (field, edit) in [
+        ("model", Box::new(|c: &mut Cell| c.model = "transformer".into()) as Box<dyn Fn(&mut Cell)>),
+        ("arm", Box::new(|c: &mut Cell| c.arm = "leaky".into())),
+        ("seed", Box::new(|c: &mut Cell| c.seed = 77)),
+        ("horizon_s", Box::new(|c: &mut Cell| c.horizon_s = 3.0)),
+    ] {
+        let mut cells = lined(minimal_cells(&d));
+        edit(&mut cells[7]);
+        let e = err_of(&cells);
+        assert!(
+            e.starts_with(&format!("line 9, field `{field}`")) && e.contains("is not in the design"),
+            "{field}: {e}"
+        );
+    }
+}
+
+#[test]
+fn a_zero_reference_mean_is_an_error_not_an_infinite_optimism() {
+    let d = minimal_design();
+    let mut cells = lined(minimal_cells(&d));
+    for c in cells.iter_mut().filter(|c| c.arm == "disjoint" && c.model == "world" && c.horizon_s == 1.0) {
+        c.fa_position_rmse_m = 0.0;
+    }
+    let e = err_of(&cells);
+    assert!(e.contains("disjoint arm's mean is zero"), "{e}");
+}
+
+#[test]
+fn too_few_recordings_for_the_design_is_an_error() {
+    let d = minimal_design();
+    let cells: Vec<Cell> = lined(minimal_cells(&d)).into_iter().filter(|c| c.recording.starts_with("R1")).collect();
+    let e = err_of(&cells);
+    assert!(e.contains("1 recording(s); the design declares `evaluation 4`"), "{e}");
+}
+
+#[test]
+fn inconsistent_condition_labels_are_an_error() {
+    let d = minimal_design();
+    let mut cells = lined(minimal_cells(&d));
+    cells[10].trajectory = "oval".into();
+    let e = err_of(&cells);
+    assert!(e.contains("line 12, field `trajectory`") && e.contains("oval"), "{e}");
+}
+
+#[test]
+fn grouped_sensitivity_with_one_group_is_skipped_with_a_warning() {
+    let d = minimal_design();
+    let mut cells = minimal_cells(&d);
+    for c in cells.iter_mut() {
+        c.trajectory = "circle".into();
+    }
+    let a = analyze(&d, &cells, Default::default()).unwrap();
+    assert!(a.units.iter().all(|u| u.grouped.is_none()));
+    assert!(a.warnings.iter().any(|w| w.contains("grouped sensitivity skipped")), "{:?}", a.warnings);
+}
+
+fn csv_err(body: &str) -> String {
+    let header = crossaudit::cells::HEADER.join(",");
+    match read_cells_from("cells.csv", format!("{header}\n{body}").as_bytes()) {
+        Ok(_) => panic!("bad row accepted: {body}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_rows_name_the_line_and_field() {
+    let good = "world,disjoint,1,R1,circle,fast,1,5,0,0.3,0.3,0,0.1,2";
+    assert!(read_cells_from("cells.csv", format!("{}\n{good}", crossaudit::cells::HEADER.join(",")).as_bytes()).is_ok());
+    for (row, field, problem) in [
+        ("world,disjoint,one,R1,circle,fast,1,5,0,0.3,0.3,0,0.1,2", "seed", "not a non-negative integer"),
+        ("world,disjoint,1,R1,circle,fast,1,5,0,abc,0.3,0,0.1,2", "fa_position_rmse_m", "not a number"),
+        ("world,disjoint,1,R1,circle,fast,1,5,0,NaN,0.3,0,0.1,2", "fa_position_rmse_m", "not finite"),
+        ("world,disjoint,1,R1,circle,fast,1,5,0,inf,0.3,0,0.1,2", "fa_position_rmse_m", "not finite"),
+        (
+            "world,disjoint,1,R1,circle,fast,1,5,0,0.3,,0,0.1,2",
+            "conditional_position_rmse_m",
+            "not every start diverged",
+        ),
+        ("world,disjoint,1,R1,circle,fast,1,5,6,0.3,0.3,1.2,0.1,2", "n_divergent", "exceeds n_starts"),
+        ("world,disjoint,1,R1,circle,fast,1,5,1,0.3,0.3,0.5,0.1,2", "divergence_rate", "disagrees"),
+        ("world,disjoint,1,R1,circle,fast,0,5,0,0.3,0.3,0,0.1,2", "horizon_s", "must be > 0"),
+        (",disjoint,1,R1,circle,fast,1,5,0,0.3,0.3,0,0.1,2", "model", "is empty"),
+    ] {
+        let e = csv_err(&format!("{good}\n{row}"));
+        assert!(e.starts_with(&format!("cells.csv: line 3, field `{field}`")) && e.contains(problem), "{row}: {e}");
+    }
+    let e = csv_err(&format!("{good}\nworld,disjoint,1"));
+    assert!(e.contains("line 3") && e.contains("3 fields, the header has 14"), "{e}");
+}
+
+#[test]
+fn all_diverged_cells_may_leave_finite_only_metrics_empty() {
+    let header = crossaudit::cells::HEADER.join(",");
+    let row = "world,disjoint,1,R1,circle,fast,1,5,5,2,,1,,";
+    let cells = read_cells_from("cells.csv", format!("{header}\n{row}").as_bytes()).unwrap();
+    assert_eq!(cells[0].conditional_position_rmse_m, None);
+}
+
+#[test]
+fn a_wrong_header_is_reported() {
+    let e = read_cells_from("cells.csv", "model,arm\nworld,disjoint\n".as_bytes()).unwrap_err();
+    assert!(matches!(e, CellsError::Header { .. }));
+    assert!(e.to_string().contains("line 1: wrong header"));
+}
+
+#[test]
+fn cells_round_trip_through_csv() {
+    let d = minimal_design();
+    let dir = tempfile::tempdir().unwrap();
+    let cells = minimal_cells(&d);
+    let p = write_temp_cells(dir.path(), &cells);
+    let back = read_cells(&p).unwrap();
+    assert_eq!(back.len(), cells.len());
+    for (a, b) in back.iter().zip(&cells) {
+        assert_eq!((a.fa_position_rmse_m, &a.recording, a.seed), (b.fa_position_rmse_m, &b.recording, b.seed));
+    }
+    let _ = minimal_design_path();
+    let _: Option<AnalysisError> = None;
+}

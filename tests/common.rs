@@ -1,0 +1,102 @@
+use std::path::{Path, PathBuf};
+
+use crossaudit::cells::Cell;
+use crossaudit::design::Design;
+
+/// Tolerances, kept in one place (statrs keeps them in `prec.rs`).
+pub mod tol {
+    /// Same arithmetic in a different order: relative.
+    pub const EXACT: f64 = 1e-9;
+    /// Numerically inverted quantiles against R / scipy (relative).
+    pub const QUANTILE: f64 = 1e-8;
+}
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn rel_close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol * b.abs().max(1e-300)
+}
+
+#[track_caller]
+pub fn assert_rel(actual: f64, expected: f64, tol: f64, what: &str) {
+    assert!(
+        rel_close(actual, expected, tol),
+        "{what}: got {actual:?}, expected {expected:?} (relative tolerance {tol})"
+    );
+}
+
+/// Insta settings shared by every snapshot: all files under `snapshots/`.
+#[macro_export]
+macro_rules! snapshots {
+    ($body:block) => {
+        insta::with_settings!({ snapshot_path => "../snapshots", prepend_module_to_snapshot => true }, $body)
+    };
+}
+
+pub fn minimal_design_path() -> PathBuf {
+    root().join("tests/designs/minimal.design")
+}
+
+pub fn minimal_design() -> Design {
+    crossaudit::design::load(&minimal_design_path()).expect("minimal design is valid").design
+}
+
+pub fn example_cells() -> PathBuf {
+    root().join("examples/cells/nanobench_synthetic.csv")
+}
+
+pub fn confirmatory_design() -> PathBuf {
+    root().join("designs/nanobench_confirmatory.design")
+}
+
+/// A complete, deterministic set of cells for the minimal design: every
+/// model x arm x seed x recording x horizon, with d_ij = -0.02 + a_i + b_j +
+/// e_ij built from fixed small integers, so values are exact decimals.
+pub fn minimal_cells(design: &Design) -> Vec<Cell> {
+    let recs = [
+        ("R1_circle_fast_rep1", "circle", "fast"),
+        ("R2_circle_slow_rep1", "circle", "slow"),
+        ("R3_star_fast_rep1", "star", "fast"),
+        ("R4_star_slow_rep1", "star", "slow"),
+    ];
+    let mut out = Vec::new();
+    for model in ["world", "relative"] {
+        for h in [0.5, 1.0] {
+            for arm in ["contaminated", "disjoint"] {
+                for (j, s) in design.seeds.iter().enumerate() {
+                    for (i, (r, t, sp)) in recs.iter().enumerate() {
+                        let base = 0.3 + 0.05 * i as f64 + 0.01 * j as f64;
+                        let d = if arm == "contaminated" { -0.06 + 0.005 * ((i * 3 + j * 7) % 5) as f64 } else { 0.0 };
+                        let v = base * h + d;
+                        out.push(Cell {
+                            model: model.into(),
+                            arm: arm.into(),
+                            seed: s.0,
+                            recording: r.to_string(),
+                            trajectory: t.to_string(),
+                            speed: sp.to_string(),
+                            horizon_s: h,
+                            n_starts: 5,
+                            n_divergent: 0,
+                            fa_position_rmse_m: v,
+                            conditional_position_rmse_m: Some(v),
+                            divergence_rate: 0.0,
+                            velocity_rmse_mps: Some(0.1),
+                            attitude_rmse_deg: Some(2.0),
+                            line: 0,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+pub fn write_temp_cells(dir: &Path, cells: &[Cell]) -> PathBuf {
+    let p = dir.join("cells.csv");
+    crossaudit::cells::write_cells(&p, cells).expect("write cells");
+    p
+}

@@ -1,0 +1,75 @@
+//! Every semantic and syntax error a design can have gets a located, plain
+//! text message; each case is a file under tests/designs/errors/ and its
+//! exact message is a snapshot.
+
+use std::collections::BTreeSet;
+
+use crate::common::root;
+use crate::snapshots;
+
+fn render(path: &std::path::Path) -> (String, crossaudit::design::DesignError) {
+    let src = std::fs::read_to_string(path).unwrap();
+    let name = format!("errors/{}", path.file_name().unwrap().to_string_lossy());
+    let err = crossaudit::design::from_str(&name, &src).expect_err("an error case must not validate");
+    (err.render(false), err)
+}
+
+#[test]
+fn every_error_case_is_rejected_with_a_located_message() {
+    snapshots!({
+        insta::glob!("designs/errors/*.design", |path| {
+            let (text, err) = render(path);
+            let name = format!("errors/{}", path.file_name().unwrap().to_string_lossy());
+            // file:line:column header, the source line and a caret.
+            assert!(text.contains(&format!("--> {name}:")), "no file:line:col in\n{text}");
+            assert!(text.contains('^'), "no caret in\n{text}");
+            assert!(!text.contains('\u{1b}'), "plain text must carry no ANSI escapes");
+            assert!(!err.diagnostics.is_empty());
+            insta::assert_snapshot!(text);
+        });
+    });
+}
+
+#[test]
+fn error_cases_cover_at_least_fifteen_distinct_problems() {
+    let mut titles = BTreeSet::new();
+    for entry in std::fs::read_dir(root().join("tests/designs/errors")).unwrap() {
+        let (_, err) = render(&entry.unwrap().path());
+        titles.insert(err.diagnostics[0].title.clone());
+    }
+    assert!(titles.len() >= 15, "only {} distinct errors: {titles:?}", titles.len());
+}
+
+#[test]
+fn the_base_of_the_error_cases_is_valid() {
+    let d = crate::common::minimal_design();
+    assert_eq!(d.seeds.len(), 3);
+    assert_eq!(d.recording.evaluation, 4);
+}
+
+#[test]
+fn colour_is_only_added_when_asked() {
+    let (_, err) = render(&root().join("tests/designs/errors/unknown_arm_in_contrast.design"));
+    assert!(err.render(true).contains('\u{1b}'));
+    assert!(!err.render(false).contains('\u{1b}'));
+}
+
+#[test]
+fn all_problems_are_reported_not_only_the_first() {
+    let src = std::fs::read_to_string(crate::common::minimal_design_path()).unwrap();
+    let src = src
+        .replace("contrast contaminated - disjoint", "contrast contaminated - nope")
+        .replace("replace 25%", "replace 0%");
+    let err = crossaudit::design::from_str("two.design", &src).unwrap_err();
+    let titles: Vec<&str> = err.diagnostics.iter().map(|d| d.title.as_str()).collect();
+    assert!(titles.contains(&"unknown arm") && titles.contains(&"percentage out of range"), "{titles:?}");
+}
+
+#[test]
+fn inputs_found_by_fuzzing_do_not_panic() {
+    // Regression corpus for the parser fuzz target (fuzz/): each must give
+    // a diagnostic, not a panic.
+    for src in ["", "study", "factor seed = 99999999999999999999..1", "data x {", "decide x when a >= 1e999", "\u{0}"] {
+        let _ = crossaudit::design::from_str("fuzz.design", src).map(|_| ()).map_err(|e| e.render(false));
+    }
+}
