@@ -216,7 +216,13 @@ impl Plan {
                 writeln!(s, "interaction: {} - {} on {} at {} s", ix.left, ix.right, ix.metric.name(), ix.horizon_s);
         }
         let est = &design.estimator;
-        let _ = writeln!(s, "estimator: crossed MoM, level {}, df {:?}", est.level, est.df);
+        let df = match est.df {
+            crate::stats::DfRule::SeedsMinusOne => format!("t with J - 1 = {} df", self.matrix.1 - 1),
+            crate::stats::DfRule::RecordingsMinusOne => format!("t with I - 1 = {} df", self.matrix.0 - 1),
+            crate::stats::DfRule::Satterthwaite => "t with Satterthwaite df".to_string(),
+            crate::stats::DfRule::Normal => "normal (z)".to_string(),
+        };
+        let _ = writeln!(s, "estimator: crossed MoM, level {}, {df}", est.level);
         if let Some(b) = design.sensitivity.bootstrap {
             let _ = writeln!(s, "bootstrap: pigeonhole, B = {}, seed {}", b.replicates, b.seed);
         }
