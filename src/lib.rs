@@ -26,6 +26,24 @@ pub enum Error {
     Analysis { path: String, source: Box<analysis::AnalysisError> },
     #[error(transparent)]
     Write(#[from] report::WriteError),
+    #[error(transparent)]
+    Audit(#[from] data::AuditError),
+    #[error("{0}")]
+    Usage(String),
+}
+
+/// The data directory: `--data` if given, else the design's `path`
+/// (relative to the current directory).
+pub fn data_dir(design: &Design, data: Option<std::path::PathBuf>) -> Result<std::path::PathBuf, Error> {
+    let dir = match (data, &design.data.path) {
+        (Some(d), _) => d,
+        (None, Some(p)) => std::path::PathBuf::from(p),
+        (None, None) => return Err(Error::Usage("the design's data block has no `path`; pass --data DIR".into())),
+    };
+    if !dir.is_dir() {
+        return Err(Error::Usage(format!("data directory {} does not exist", dir.display())));
+    }
+    Ok(dir)
 }
 
 /// Loads a design and per-cell CSV and runs the preregistered analysis. A
@@ -43,3 +61,4 @@ pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOpti
     }
     Ok(a)
 }
+pub mod data;

@@ -27,6 +27,11 @@ enum Command {
     },
     /// Record the design's SHA-256, tool version and UTC time in FILE.design.lock.
     Lock { design: PathBuf },
+    /// Flight-log data commands.
+    Data {
+        #[command(subcommand)]
+        command: DataCommand,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -43,12 +48,28 @@ enum Command {
     },
 }
 
+#[derive(Subcommand)]
+enum DataCommand {
+    /// Load every recording, apply the design's inclusion rules in order,
+    /// write recordings.csv and print a summary.
+    Audit {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`, relative to the current directory].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory for recordings.csv.
+        #[arg(long, default_value = "audit")]
+        out: PathBuf,
+    },
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
     let result = match cli.command {
         Command::Check { design, json } => check(&design, json),
         Command::Lock { design } => lock_design(&design),
+        Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -60,6 +81,16 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn data_audit(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::Path) -> Result<(), Error> {
+    let file = design::load(design)?;
+    let dir = crossaudit::data_dir(&file.design, data)?;
+    let audit = crossaudit::data::audit(&file.design.data, &dir)?;
+    let path = audit.write(out)?;
+    print!("{}", audit.summary());
+    eprintln!("wrote {}", path.display());
+    Ok(())
 }
 
 fn render(e: &Error, color: bool) -> String {

@@ -1,0 +1,432 @@
+//! The inclusion audit: every file gets a row saying what it is and which
+//! declared rule kept or dropped it. A corrupt or unreadable file never
+//! stops the audit (unless the design says `strict`).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::metadata::{parse_name, read_metadata, Metadata};
+use super::{load_recording, natural_key, recording_name, Layout, Recording};
+use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Strictness};
+use crate::stats::quantile_type7;
+
+/// Upstream NanoBench plausibility bounds over active rows, each checked at
+/// the 0.5th and 99.5th percentiles.
+pub const BATTERY_BOUNDS_V: (f64, f64) = (2.5, 4.5);
+pub const SETPOINT_Z_BOUNDS_M: (f64, f64) = (-0.2, 3.0);
+pub const PWM_BOUNDS: (f64, f64) = (0.0, 65535.0);
+pub const PERCENTILES: (f64, f64) = (0.005, 0.995);
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    Included,
+    Excluded,
+    /// Listed by a metadata file, but no CSV is present.
+    Missing,
+}
+
+/// A rule's verdict on one file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Verdict {
+    pub rule: String,
+    pub pass: bool,
+    pub detail: String,
+}
+
+/// One row of recordings.csv.
+#[derive(Debug, Clone, Serialize)]
+pub struct FileRow {
+    pub name: String,
+    pub file: String,
+    pub rows: usize,
+    pub active_rows: usize,
+    pub duration_s: f64,
+    pub trajectory: String,
+    pub speed: String,
+    pub controller: String,
+    pub repetition: Option<u32>,
+    pub start_utc: Option<String>,
+    pub battery_start_v: Option<f64>,
+    pub battery_end_v: Option<f64>,
+    pub duplicate_group: Option<String>,
+    pub content_sha256: String,
+    pub verdicts: Vec<Verdict>,
+    pub status: Status,
+    pub reason: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Audit {
+    pub data_dir: String,
+    pub rules: Vec<String>,
+    pub duplicates: DuplicatePolicy,
+    pub files: Vec<FileRow>,
+    /// Groups of identical recordings (two or more names each).
+    pub duplicate_groups: BTreeMap<String, Vec<String>>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum AuditError {
+    #[error("cannot list data directory {dir}: {message}")]
+    Dir { dir: String, message: String },
+    #[error("{0}")]
+    Layout(String),
+    #[error("strict data rules: {count} file(s) could not be used for reasons other than the declared rules:\n{list}")]
+    Strict { count: usize, list: String },
+    #[error("cannot write {path}: {message}")]
+    Write { path: String, message: String },
+}
+
+fn rule_label(rule: &InclusionRule) -> String {
+    match rule {
+        InclusionRule::Active { column, cmp, threshold, min_samples } => {
+            format!("active({column} {} {threshold}) >= {min_samples} samples", cmp.symbol())
+        }
+        InclusionRule::Implausible => "plausible (upstream percentile bounds)".to_string(),
+    }
+}
+
+/// The CSV files and metadata-only names in `dir`.
+fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
+    let err = |e: std::io::Error| AuditError::Dir { dir: dir.display().to_string(), message: e.to_string() };
+    let mut csvs = Vec::new();
+    let mut metas = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(err)? {
+        let path = entry.map_err(err)?.path();
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        if name.ends_with(".csv") || name.ends_with(".csv.gz") {
+            csvs.push(path);
+        } else if let Some(stem) = name.strip_suffix("_metadata.yaml") {
+            metas.push(stem.to_string());
+        }
+    }
+    csvs.sort_by_key(|p| natural_key(&recording_name(p)));
+    let names: Vec<String> = csvs.iter().map(|p| recording_name(p)).collect();
+    let mut missing: Vec<String> = metas.into_iter().filter(|m| !names.contains(m)).collect();
+    missing.sort_by_key(|n| natural_key(n));
+    Ok((csvs, missing))
+}
+
+/// Loads every recording in `dir` and applies the declared rules in order.
+pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
+    let layout = Layout::new(spec).map_err(AuditError::Layout)?;
+    if spec.rules.contains(&InclusionRule::Implausible) {
+        for needed in ["pwr_pm_vbat", "sp_ctrltarget_z"] {
+            if !spec.state_columns.iter().any(|c| c == needed) {
+                return Err(AuditError::Layout(format!("`exclude implausible` needs `{needed}` in the state columns")));
+            }
+        }
+    }
+    let (csvs, missing) = list(dir)?;
+    let mut files: Vec<FileRow> = csvs
+        .par_iter()
+        .map(|path| {
+            let meta = read_metadata(&meta_path(path));
+            match load_recording(path, &layout) {
+                Ok(rec) => judged(spec, &rec, meta),
+                Err(e) => unreadable(path, meta, e.to_string()),
+            }
+        })
+        .collect();
+    let groups = duplicates(&mut files, spec.duplicates);
+    for name in missing {
+        let meta = read_metadata(&dir.join(format!("{name}_metadata.yaml"))).ok();
+        let mut row = blank(&name, "", meta.as_ref());
+        row.status = Status::Missing;
+        row.reason = "listed by its metadata file, but no CSV is present".into();
+        files.push(row);
+    }
+    if spec.strictness == Strictness::Strict {
+        let bad: Vec<String> = files
+            .iter()
+            .filter(|f| f.status == Status::Excluded && f.verdicts.is_empty())
+            .map(|f| format!("  {}", f.reason))
+            .collect();
+        if !bad.is_empty() {
+            return Err(AuditError::Strict { count: bad.len(), list: bad.join("\n") });
+        }
+    }
+    Ok(Audit {
+        data_dir: dir.display().to_string(),
+        rules: spec.rules.iter().map(rule_label).collect(),
+        duplicates: spec.duplicates,
+        files,
+        duplicate_groups: groups,
+    })
+}
+
+fn meta_path(csv: &Path) -> PathBuf {
+    csv.with_file_name(format!("{}_metadata.yaml", recording_name(csv)))
+}
+
+fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
+    let parts = parse_name(name);
+    FileRow {
+        name: name.to_string(),
+        file: file.to_string(),
+        rows: 0,
+        active_rows: 0,
+        duration_s: 0.0,
+        trajectory: meta.and_then(|m| m.trajectory_type.clone()).unwrap_or_else(|| parts.shape.clone()),
+        speed: parts.speed.clone(),
+        controller: parts.controller.name().to_string(),
+        repetition: meta.and_then(|m| m.repetition).or(parts.repetition),
+        start_utc: meta.and_then(|m| m.recording_start_utc.clone()),
+        battery_start_v: meta.and_then(|m| m.battery_voltage_start),
+        battery_end_v: meta.and_then(|m| m.battery_voltage_end),
+        duplicate_group: None,
+        content_sha256: String::new(),
+        verdicts: Vec::new(),
+        status: Status::Included,
+        reason: String::new(),
+    }
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+fn unreadable(path: &Path, meta: Result<Metadata, String>, why: String) -> FileRow {
+    let mut row = blank(&recording_name(path), &file_name(path), meta.as_ref().ok());
+    row.status = Status::Excluded;
+    row.reason = why;
+    row
+}
+
+fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> FileRow {
+    let mut row = blank(&rec.name, &file_name(&rec.path), meta.as_ref().ok());
+    row.rows = rec.rows;
+    row.active_rows = rec.active_rows();
+    row.duration_s = rec.duration_s();
+    row.content_sha256 = rec.content_sha256.clone();
+    for rule in &spec.rules {
+        let label = rule_label(rule);
+        let (pass, detail) = match rule {
+            InclusionRule::Active { min_samples, .. } => {
+                let n = rec.active_rows() as u64;
+                (n >= *min_samples, format!("{n} active rows"))
+            }
+            InclusionRule::Implausible => plausible(spec, rec),
+        };
+        if !pass && row.status == Status::Included {
+            row.status = Status::Excluded;
+            row.reason = format!("{label}: {detail}");
+        }
+        row.verdicts.push(Verdict { rule: label, pass, detail });
+    }
+    if let Err(e) = meta {
+        row.reason = if row.reason.is_empty() { format!("note: {e}") } else { format!("{}; note: {e}", row.reason) };
+    }
+    row
+}
+
+/// The upstream rules: over active rows, the 0.5th and 99.5th percentiles
+/// (linear interpolation, numpy's default) of battery voltage, setpoint z
+/// and each motor's PWM must lie inside fixed bounds.
+fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
+    let active: Vec<usize> = (0..rec.rows).filter(|&k| rec.active[k]).collect();
+    if active.is_empty() {
+        return (false, "no active rows".into());
+    }
+    let col = |name: &str| spec.state_columns.iter().position(|c| c == name).expect("checked before loading");
+    let (vbat, spz) = (col("pwr_pm_vbat"), col("sp_ctrltarget_z"));
+    let mut checks: Vec<(String, Vec<f64>, (f64, f64))> = vec![
+        ("battery".into(), active.iter().map(|&k| rec.state[k][vbat]).collect(), BATTERY_BOUNDS_V),
+        ("setpoint z".into(), active.iter().map(|&k| rec.state[k][spz]).collect(), SETPOINT_Z_BOUNDS_M),
+    ];
+    for m in 0..4 {
+        checks.push((format!("PWM m{}", m + 1), active.iter().map(|&k| rec.pwm[k][m]).collect(), PWM_BOUNDS));
+    }
+    let mut failures = Vec::new();
+    for (what, mut v, (lo, hi)) in checks {
+        v.sort_by(f64::total_cmp);
+        let (p_lo, p_hi) = (quantile_type7(&v, PERCENTILES.0), quantile_type7(&v, PERCENTILES.1));
+        if p_lo < lo || p_hi > hi {
+            failures.push(format!("{what} p0.5..p99.5 = [{p_lo:.3}, {p_hi:.3}] outside [{lo}, {hi}]"));
+        }
+    }
+    if failures.is_empty() {
+        (true, "within bounds".into())
+    } else {
+        (false, failures.join("; "))
+    }
+}
+
+/// Groups identical content and applies the policy. Groups are named
+/// `dup1`, `dup2`, ... in the order of their first member.
+fn duplicates(files: &mut [FileRow], policy: DuplicatePolicy) -> BTreeMap<String, Vec<String>> {
+    let mut by_hash: Vec<(String, Vec<usize>)> = Vec::new();
+    for (k, f) in files.iter().enumerate() {
+        if f.content_sha256.is_empty() {
+            continue;
+        }
+        match by_hash.iter_mut().find(|(h, _)| *h == f.content_sha256) {
+            Some((_, members)) => members.push(k),
+            None => by_hash.push((f.content_sha256.clone(), vec![k])),
+        }
+    }
+    let mut groups = BTreeMap::new();
+    let mut n = 0;
+    for (_, members) in by_hash.into_iter().filter(|(_, m)| m.len() > 1) {
+        n += 1;
+        let id = format!("dup{n:02}");
+        for &k in &members {
+            files[k].duplicate_group = Some(id.clone());
+        }
+        if policy == DuplicatePolicy::First {
+            let keeper = members.iter().copied().find(|&k| files[k].status == Status::Included);
+            for &k in &members {
+                if Some(k) != keeper && files[k].status == Status::Included {
+                    let first = keeper.map(|j| files[j].name.clone()).unwrap_or_default();
+                    files[k].status = Status::Excluded;
+                    files[k].reason = format!("duplicates first: identical content to {first}");
+                }
+            }
+        }
+        groups.insert(id, members.iter().map(|&k| files[k].name.clone()).collect());
+    }
+    groups
+}
+
+impl Audit {
+    pub fn included(&self) -> impl Iterator<Item = &FileRow> {
+        self.files.iter().filter(|f| f.status == Status::Included)
+    }
+
+    /// recordings.csv: one row per file.
+    pub fn to_csv(&self) -> String {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        let mut header: Vec<String> = [
+            "name",
+            "file",
+            "rows",
+            "active_rows",
+            "duration_s",
+            "trajectory",
+            "speed",
+            "controller",
+            "repetition",
+            "start_utc",
+            "battery_start_v",
+            "battery_end_v",
+            "duplicate_group",
+            "content_sha256",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        for (k, r) in self.rules.iter().enumerate() {
+            header.push(format!("rule{}: {r}", k + 1));
+        }
+        header.extend(["status".to_string(), "reason".to_string()]);
+        let _ = w.write_record(&header);
+        for f in &self.files {
+            let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+            let mut rec = vec![
+                f.name.clone(),
+                f.file.clone(),
+                f.rows.to_string(),
+                f.active_rows.to_string(),
+                format!("{:.2}", f.duration_s),
+                f.trajectory.clone(),
+                f.speed.clone(),
+                f.controller.clone(),
+                f.repetition.map(|r| r.to_string()).unwrap_or_default(),
+                f.start_utc.clone().unwrap_or_default(),
+                opt(f.battery_start_v),
+                opt(f.battery_end_v),
+                f.duplicate_group.clone().unwrap_or_default(),
+                f.content_sha256.clone(),
+            ];
+            for k in 0..self.rules.len() {
+                rec.push(match f.verdicts.get(k) {
+                    Some(v) => format!("{}: {}", if v.pass { "pass" } else { "fail" }, v.detail),
+                    None => "not evaluated".into(),
+                });
+            }
+            rec.push(format!("{:?}", f.status).to_lowercase());
+            rec.push(f.reason.clone());
+            let _ = w.write_record(&rec);
+        }
+        String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+    }
+
+    /// The printed summary: counts by trajectory x speed, exclusions,
+    /// duplicate groups.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let count = |st: Status| self.files.iter().filter(|f| f.status == st).count();
+        let _ = writeln!(
+            s,
+            "{}: {} CSV files, {} included, {} excluded, {} listed in metadata but missing",
+            self.data_dir,
+            self.files.len() - count(Status::Missing),
+            count(Status::Included),
+            count(Status::Excluded),
+            count(Status::Missing)
+        );
+        for (k, r) in self.rules.iter().enumerate() {
+            let failed = self.files.iter().filter(|f| f.verdicts.get(k).is_some_and(|v| !v.pass)).count();
+            let _ = writeln!(s, "rule {}: {r}: {failed} file(s) fail", k + 1);
+        }
+        let _ = writeln!(s, "\nincluded recordings by trajectory x speed:");
+        let mut table: BTreeMap<(String, String), usize> = BTreeMap::new();
+        for f in self.included() {
+            *table.entry((f.trajectory.clone(), f.speed.clone())).or_default() += 1;
+        }
+        let speeds = ["slow", "medium", "fast", "unknown"];
+        let _ = writeln!(
+            s,
+            "  {:<20} {:>6} {:>6} {:>6} {:>8} {:>6}",
+            "trajectory", "slow", "medium", "fast", "unknown", "total"
+        );
+        let mut trajectories: Vec<&String> = table.keys().map(|(t, _)| t).collect();
+        trajectories.dedup();
+        for t in trajectories {
+            let counts: Vec<usize> =
+                speeds.iter().map(|sp| table.get(&(t.clone(), sp.to_string())).copied().unwrap_or(0)).collect();
+            let _ = writeln!(
+                s,
+                "  {:<20} {:>6} {:>6} {:>6} {:>8} {:>6}",
+                t,
+                counts[0],
+                counts[1],
+                counts[2],
+                counts[3],
+                counts.iter().sum::<usize>()
+            );
+        }
+        let excluded: Vec<&FileRow> = self.files.iter().filter(|f| f.status != Status::Included).collect();
+        if !excluded.is_empty() {
+            let _ = writeln!(s, "\nexcluded or missing:");
+            for f in excluded {
+                let _ = writeln!(s, "  {}: {}", f.name, f.reason);
+            }
+        }
+        if !self.duplicate_groups.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nduplicate groups (identical content; policy `{}`):",
+                format!("{:?}", self.duplicates).to_lowercase()
+            );
+            for (id, names) in &self.duplicate_groups {
+                let _ = writeln!(s, "  {id}: {}", names.join(", "));
+            }
+        }
+        s
+    }
+
+    /// Writes recordings.csv (atomically) into `dir`.
+    pub fn write(&self, dir: &Path) -> Result<PathBuf, AuditError> {
+        let err = |p: &Path, e: String| AuditError::Write { path: p.display().to_string(), message: e };
+        std::fs::create_dir_all(dir).map_err(|e| err(dir, e.to_string()))?;
+        let path = dir.join("recordings.csv");
+        crate::report::write_atomic(&path, self.to_csv().as_bytes()).map_err(|e| err(&path, e.to_string()))?;
+        Ok(path)
+    }
+}

@@ -1,0 +1,246 @@
+//! One NanoBench flight log: `.csv` or `.csv.gz` (the same bytes after
+//! decompression), 52 numeric columns, one header row.
+//!
+//! The files are plain numeric CSV without quoting, so rows are split by
+//! hand (the csv crate's general quoting machinery costs more than the
+//! whole parse here) and floats are read with fast-float2. Every field is
+//! checked; only the requested columns are kept.
+
+use std::io::Read;
+use std::path::Path;
+
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+/// The NanoBench CSV schema, in file order (shared/nanobench/README.md).
+pub const NANOBENCH_COLUMNS: [&str; 52] = [
+    "t",
+    "px",
+    "py",
+    "pz",
+    "qx",
+    "qy",
+    "qz",
+    "qw",
+    "roll",
+    "pitch",
+    "yaw",
+    "vx",
+    "vy",
+    "vz",
+    "wx_vicon",
+    "wy_vicon",
+    "wz_vicon",
+    "imu_acc_x",
+    "imu_acc_y",
+    "imu_acc_z",
+    "imu_gyro_x",
+    "imu_gyro_y",
+    "imu_gyro_z",
+    "motor_motor_m1",
+    "motor_motor_m2",
+    "motor_motor_m3",
+    "motor_motor_m4",
+    "est_stateEstimate_x",
+    "est_stateEstimate_y",
+    "est_stateEstimate_z",
+    "est_stateEstimate_vx",
+    "est_stateEstimate_vy",
+    "est_stateEstimate_vz",
+    "est_stateEstimate_ax",
+    "est_stateEstimate_ay",
+    "est_stateEstimate_az",
+    "att_stateEstimate_roll",
+    "att_stateEstimate_pitch",
+    "att_stateEstimate_yaw",
+    "att_stateEstimate_qx",
+    "att_stateEstimate_qy",
+    "att_stateEstimate_qz",
+    "att_stateEstimate_qw",
+    "sp_ctrltarget_x",
+    "sp_ctrltarget_y",
+    "sp_ctrltarget_z",
+    "sp_ctrltarget_yaw",
+    "pid_controller_roll",
+    "pid_controller_pitch",
+    "pid_controller_yaw",
+    "pid_controller_cmd_thrust",
+    "pwr_pm_vbat",
+];
+
+/// Why a log could not be read. Each names the file and, where there is
+/// one, the line (1 = header) and column.
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum LogError {
+    #[error("{file}: cannot read: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}: gzip stream truncated or corrupt after {bytes} decompressed bytes (near line {line}): {message}")]
+    Gzip { file: String, bytes: usize, line: usize, message: String },
+    #[error("{file}: empty file")]
+    Empty { file: String },
+    #[error("{file}: line 1, column {index}: expected header `{expected}`, found `{found}`")]
+    Header { file: String, index: usize, expected: String, found: String },
+    #[error("{file}: header only, no data rows")]
+    NoRows { file: String },
+    #[error("{file}: line {line}: {found} fields, the header has {expected}")]
+    Ragged { file: String, line: usize, found: usize, expected: usize },
+    #[error("{file}: line {line}, column `{column}`: {value:?} is not a number")]
+    NonNumeric { file: String, line: usize, column: String, value: String },
+    #[error("{file}: line {line}, column `{column}`: non-finite value {value:?}")]
+    NonFinite { file: String, line: usize, column: String, value: String },
+    #[error("{file}: line {line}, column `t`: time {t} is before the previous row's {previous}")]
+    NonMonotonicTime { file: String, line: usize, t: f64, previous: f64 },
+}
+
+impl LogError {
+    /// Short machine-readable kind for audit tables.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            LogError::Io { .. } => "unreadable",
+            LogError::Gzip { .. } => "truncated_gzip",
+            LogError::Empty { .. } => "empty_file",
+            LogError::Header { .. } => "bad_header",
+            LogError::NoRows { .. } => "empty_file",
+            LogError::Ragged { .. } => "ragged_row",
+            LogError::NonNumeric { .. } => "non_numeric",
+            LogError::NonFinite { .. } => "non_finite",
+            LogError::NonMonotonicTime { .. } => "non_monotonic_time",
+        }
+    }
+}
+
+/// A parsed log: the requested columns, row count and content hash.
+#[derive(Debug, Clone)]
+pub struct Log {
+    pub rows: usize,
+    /// Requested columns, in the order requested.
+    pub columns: Vec<Vec<f64>>,
+    /// SHA-256 of the data rows as written (everything after the header):
+    /// the numeric content, independent of file name and compression.
+    pub content_sha256: String,
+}
+
+/// Reads the file's bytes, decompressing `.gz`.
+pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
+    let file = path.display().to_string();
+    let raw = std::fs::read(path).map_err(|e| LogError::Io { file: file.clone(), message: e.to_string() })?;
+    if path.extension().is_some_and(|e| e == "gz") {
+        let mut out = Vec::with_capacity(raw.len() * 3);
+        let mut dec = flate2::read::MultiGzDecoder::new(&raw[..]);
+        if let Err(e) = dec.read_to_end(&mut out) {
+            let line = out.iter().filter(|&&b| b == b'\n').count() + 1;
+            return Err(LogError::Gzip { file, bytes: out.len(), line, message: e.to_string() });
+        }
+        Ok(out)
+    } else {
+        Ok(raw)
+    }
+}
+
+/// Index of each requested column in the NanoBench schema.
+pub fn column_indices(names: &[String]) -> Result<Vec<usize>, String> {
+    names
+        .iter()
+        .map(|n| {
+            NANOBENCH_COLUMNS.iter().position(|c| c == n).ok_or_else(|| format!("`{n}` is not a NanoBench column"))
+        })
+        .collect()
+}
+
+/// Parses and checks a whole log held in memory.
+pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> {
+    if bytes.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(LogError::Empty { file: file.to_string() });
+    }
+    let header_end = bytes.iter().position(|&b| b == b'\n').unwrap_or(bytes.len());
+    let header = std::str::from_utf8(&bytes[..header_end]).unwrap_or("").trim_end_matches('\r');
+    let names: Vec<&str> = header.split(',').collect();
+    for (index, expected) in NANOBENCH_COLUMNS.iter().enumerate() {
+        let found = names.get(index).copied().unwrap_or("");
+        if found != *expected {
+            return Err(LogError::Header {
+                file: file.to_string(),
+                index: index + 1,
+                expected: expected.to_string(),
+                found: if found.is_empty() { "(nothing)".into() } else { found.to_string() },
+            });
+        }
+    }
+    if names.len() > NANOBENCH_COLUMNS.len() {
+        return Err(LogError::Header {
+            file: file.to_string(),
+            index: NANOBENCH_COLUMNS.len() + 1,
+            expected: "(end of header)".into(),
+            found: names[NANOBENCH_COLUMNS.len()].to_string(),
+        });
+    }
+    let body = bytes.get(header_end + 1..).unwrap_or(&[]);
+    let n = NANOBENCH_COLUMNS.len();
+    // Position of each schema column in `keep`, if kept.
+    let mut slot = vec![usize::MAX; n];
+    for (k, &c) in keep.iter().enumerate() {
+        slot[c] = k;
+    }
+    let estimate = body.len() / 500 + 1;
+    let mut columns: Vec<Vec<f64>> = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
+    let mut rows = 0;
+    let mut previous_t = f64::NEG_INFINITY;
+    for (k, raw_line) in body.split(|&b| b == b'\n').enumerate() {
+        let line_no = k + 2;
+        let line = raw_line.strip_suffix(b"\r").unwrap_or(raw_line);
+        if line.is_empty() {
+            continue;
+        }
+        let mut fields = 0;
+        for (c, field) in line.split(|&b| b == b',').enumerate() {
+            fields += 1;
+            if c >= n {
+                continue;
+            }
+            let v = number(file, line_no, c, field)?;
+            if c == 0 {
+                if v < previous_t {
+                    return Err(LogError::NonMonotonicTime {
+                        file: file.to_string(),
+                        line: line_no,
+                        t: v,
+                        previous: previous_t,
+                    });
+                }
+                previous_t = v;
+            }
+            if slot[c] != usize::MAX {
+                columns[slot[c]].push(v);
+            }
+        }
+        if fields != n {
+            return Err(LogError::Ragged { file: file.to_string(), line: line_no, found: fields, expected: n });
+        }
+        rows += 1;
+    }
+    if rows == 0 {
+        return Err(LogError::NoRows { file: file.to_string() });
+    }
+    let content_sha256 = Sha256::digest(body).iter().map(|b| format!("{b:02x}")).collect();
+    Ok(Log { rows, columns, content_sha256 })
+}
+
+fn number(file: &str, line: usize, c: usize, field: &[u8]) -> Result<f64, LogError> {
+    let text = || String::from_utf8_lossy(field).into_owned();
+    match fast_float2::parse::<f64, _>(field) {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(LogError::NonFinite {
+            file: file.to_string(),
+            line,
+            column: NANOBENCH_COLUMNS[c].into(),
+            value: text(),
+        }),
+        Err(_) => Err(LogError::NonNumeric {
+            file: file.to_string(),
+            line,
+            column: NANOBENCH_COLUMNS[c].into(),
+            value: text(),
+        }),
+    }
+}

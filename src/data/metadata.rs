@@ -1,0 +1,88 @@
+//! Recording metadata: the `<name>_metadata.yaml` file (the authority for
+//! trajectory type) and the file name
+//! `<ID>_<shape>[_<speed>][_mell]_rep<N>` (speed, controller, repetition).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// What the file name says.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct NameParts {
+    pub id: String,
+    pub shape: String,
+    /// slow, medium, fast, or `unknown` when the name has no speed token.
+    pub speed: String,
+    pub controller: Controller,
+    pub repetition: Option<u32>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Controller {
+    /// The default cascaded PID.
+    Pid,
+    /// `_mell`: the Mellinger controller.
+    Mellinger,
+}
+
+impl Controller {
+    pub fn name(self) -> &'static str {
+        match self {
+            Controller::Pid => "pid",
+            Controller::Mellinger => "mellinger",
+        }
+    }
+}
+
+/// Splits a recording name. Shapes may contain underscores
+/// (`linear_ramp`); the speed token, `mell` and `repN` are read from the end.
+pub fn parse_name(name: &str) -> NameParts {
+    let mut parts: Vec<&str> = name.split('_').collect();
+    let id = if parts.len() > 1 { parts.remove(0).to_string() } else { String::new() };
+    let mut repetition = None;
+    if let Some(last) = parts.last() {
+        if let Some(n) = last.strip_prefix("rep").and_then(|d| d.parse().ok()) {
+            repetition = Some(n);
+            parts.pop();
+        }
+    }
+    let mut controller = Controller::Pid;
+    if parts.last() == Some(&"mell") {
+        controller = Controller::Mellinger;
+        parts.pop();
+    }
+    let mut speed = "unknown".to_string();
+    if let Some(last) = parts.last() {
+        if matches!(*last, "slow" | "medium" | "fast") {
+            speed = last.to_string();
+            parts.pop();
+        }
+    }
+    NameParts { id, shape: parts.join("_"), speed, controller, repetition }
+}
+
+/// The fields of `_metadata.yaml` the audit uses; unknown fields are kept
+/// out of the way, missing ones are `None`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+pub struct Metadata {
+    pub trajectory_type: Option<String>,
+    pub trajectory_id: Option<String>,
+    pub category: Option<String>,
+    pub repetition: Option<u32>,
+    pub battery_voltage_start: Option<f64>,
+    pub battery_voltage_end: Option<f64>,
+    pub recording_start_utc: Option<String>,
+    pub recording_end_utc: Option<String>,
+    #[serde(default)]
+    pub row_counts: BTreeMap<String, u64>,
+}
+
+pub fn read_metadata(path: &Path) -> Result<Metadata, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    serde_yaml::from_str(&text).map_err(|e| {
+        let at = e.location().map(|l| format!(" (line {}, column {})", l.line(), l.column())).unwrap_or_default();
+        format!("{}: invalid metadata{at}: {e}", path.display())
+    })
+}
