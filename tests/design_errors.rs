@@ -69,7 +69,19 @@ fn all_problems_are_reported_not_only_the_first() {
 fn inputs_found_by_fuzzing_do_not_panic() {
     // Regression corpus for the parser fuzz target (fuzz/): each must give
     // a diagnostic, not a panic.
-    for src in ["", "study", "factor seed = 99999999999999999999..1", "data x {", "decide x when a >= 1e999", "\u{0}"] {
+    for src in [
+        "",
+        "study",
+        "factor seed = 99999999999999999999..1",
+        "data x {",
+        "decide x when a >= 1e999",
+        "\u{0}",
+        // fuzz/artifacts crash-8be4e0ee: a 44-billion-seed range ran out of memory.
+        "#\nfactor seed = 1..44444444444# A 1m\u{0}k 5 motns tor4444444444444444444444444\u{4}44444440\n",
+    ] {
         let _ = crossaudit::design::from_str("fuzz.design", src).map(|_| ()).map_err(|e| e.render(false));
     }
+    let big = "factor seed = 1..44444444444";
+    let e = crossaudit::design::from_str("big.design", big).unwrap_err();
+    assert!(e.diagnostics.iter().any(|d| d.title == "seed range too large"), "{}", e.render(false));
 }

@@ -177,10 +177,11 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
     }
     let body = bytes.get(header_end + 1..).unwrap_or(&[]);
     let n = NANOBENCH_COLUMNS.len();
-    // Position of each schema column in `keep`, if kept.
-    let mut slot = vec![usize::MAX; n];
+    // Positions of each schema column in `keep` (a column may be kept
+    // twice, e.g. motor 1 as an action and as the active-rule column).
+    let mut slots: Vec<Vec<usize>> = vec![Vec::new(); n];
     for (k, &c) in keep.iter().enumerate() {
-        slot[c] = k;
+        slots[c].push(k);
     }
     let estimate = body.len() / 500 + 1;
     let mut columns: Vec<Vec<f64>> = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
@@ -210,8 +211,8 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
                 }
                 previous_t = v;
             }
-            if slot[c] != usize::MAX {
-                columns[slot[c]].push(v);
+            for &k in &slots[c] {
+                columns[k].push(v);
             }
         }
         if fields != n {

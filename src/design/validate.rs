@@ -8,6 +8,10 @@ use super::ast::{self, *};
 use super::diagnostic::Diagnostic;
 use super::*;
 
+/// More training seeds than anyone will train; bounds the memory a seed
+/// range can ask for (found by fuzzing: `factor seed = 1..44444444444`).
+const MAX_SEEDS: u64 = 100_000;
+
 /// Tolerance for "this many seconds is a whole number of samples".
 const SAMPLE_EPS: f64 = 1e-9;
 
@@ -392,6 +396,16 @@ impl Validator {
                         range,
                         format!("{}..{} contains no seed", first.node, last.node),
                         "ranges are inclusive and ascending, e.g. 100..119",
+                    );
+                    return None;
+                }
+                if b - a >= MAX_SEEDS {
+                    let range = Span { start: first.span.start, end: last.span.end };
+                    self.err_help(
+                        "seed range too large",
+                        range,
+                        format!("{}..{} holds {} seeds", first.node, last.node, (b - a).saturating_add(1)),
+                        format!("a design may declare at most {MAX_SEEDS} seeds"),
                     );
                     return None;
                 }

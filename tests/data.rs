@@ -1,0 +1,225 @@
+//! The flight-log loader and inclusion audit: small committed fixtures for
+//! every corruption kind, and the real NanoBench logs when present.
+
+use std::path::{Path, PathBuf};
+
+use crate::common::root;
+use crossaudit::data::{self, audit, load_recording, Layout, LogError, Status};
+use crossaudit::design::{self, DataSpec, DuplicatePolicy, InclusionRule, Strictness};
+
+fn fixture_spec() -> DataSpec {
+    design::load(&root().join("tests/designs/fixture_data.design")).unwrap().design.data
+}
+
+fn paper_spec() -> DataSpec {
+    design::load(&root().join("designs/nanobench_confirmatory.design")).unwrap().design.data
+}
+
+fn fixtures() -> PathBuf {
+    root().join("tests/fixtures/nanobench")
+}
+
+fn corrupt() -> PathBuf {
+    root().join("tests/fixtures/nanobench_corrupt")
+}
+
+/// The shared NanoBench logs, or None with a message saying why the test
+/// is skipped.
+fn real_logs() -> Option<PathBuf> {
+    let dir = root().join("../shared/nanobench/recordings");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("SKIPPED: {} is absent; real-log tests need the shared NanoBench recordings", dir.display());
+        None
+    }
+}
+
+#[test]
+fn recording_names_are_split_into_their_parts() {
+    let p = data::parse_name("B5_helix_fast_mell_rep1");
+    assert_eq!((p.id.as_str(), p.shape.as_str(), p.speed.as_str()), ("B5", "helix", "fast"));
+    assert_eq!((p.controller, p.repetition), (data::Controller::Mellinger, Some(1)));
+    let p = data::parse_name("B6_linear_ramp_rep12");
+    assert_eq!((p.shape.as_str(), p.speed.as_str(), p.repetition), ("linear_ramp", "unknown", Some(12)));
+    let p = data::parse_name("B9_trefoil_medium_rep3");
+    assert_eq!((p.shape.as_str(), p.speed.as_str(), p.controller), ("trefoil", "medium", data::Controller::Pid));
+}
+
+#[test]
+fn actions_are_scaled_and_battery_zeros_filled() {
+    let layout = Layout::new(&fixture_spec()).unwrap();
+    let rec = load_recording(&fixtures().join("F1_circle_slow_rep1.csv"), &layout).unwrap();
+    assert_eq!(rec.rows, 260);
+    assert_eq!(rec.active_rows(), 250, "10 pre-flight rows have motors at 0");
+    // PWM 40100 / 65535 (motor 1 in flight), 0 before.
+    assert!((rec.action[20][0] - 40100.0 / 65535.0).abs() < 1e-12, "{:?} {:?}", rec.action[20], rec.pwm[20]);
+    assert_eq!(rec.action[0], [0.0; 4]);
+    // Battery (state index 13): rows 0..5 logged 0, back-filled with row 5's 3.995.
+    assert_eq!(rec.state[0][13], rec.state[5][13]);
+    assert!((rec.state[5][13] - 3.995).abs() < 1e-12);
+    // Unix times near 1.77e9 s carry about 2.4e-7 s of float spacing.
+    assert!((rec.duration_s() - 2.59).abs() < 1e-6);
+}
+
+#[test]
+fn gzip_and_plain_csv_give_identical_recordings() {
+    let layout = Layout::new(&fixture_spec()).unwrap();
+    let plain = load_recording(&fixtures().join("F1_circle_slow_rep1.csv"), &layout).unwrap();
+    let gz = load_recording(&fixtures().join("F1_circle_slow_rep2.csv.gz"), &layout).unwrap();
+    assert_eq!(plain.content_sha256, gz.content_sha256);
+    assert_eq!((plain.t, plain.state, plain.action, plain.active), (gz.t, gz.state, gz.action, gz.active));
+}
+
+#[test]
+fn the_fixture_audit_applies_every_rule_and_reports_groups() {
+    let a = audit(&fixture_spec(), &fixtures()).unwrap();
+    let by = |n: &str| a.files.iter().find(|f| f.name == n).unwrap_or_else(|| panic!("{n} not audited"));
+    assert_eq!(by("F1_circle_slow_rep1").status, Status::Included);
+    assert_eq!(by("F1_circle_slow_rep1").duplicate_group, by("F1_circle_slow_rep2").duplicate_group);
+    assert_eq!(a.duplicate_groups.len(), 1);
+    assert_eq!(by("F1_circle_slow_rep2").status, Status::Included, "`duplicates group` keeps both, as one unit");
+    let inactive = by("F3_oval_medium_rep1");
+    assert_eq!(inactive.status, Status::Excluded);
+    assert!(
+        inactive.reason.starts_with("active(motor_motor_m1 > 1000) >= 200 samples: 0 active rows"),
+        "{}",
+        inactive.reason
+    );
+    let hot = by("F4_linear_ramp_rep1");
+    assert_eq!(hot.status, Status::Excluded);
+    assert!(hot.reason.contains("battery p0.5..p99.5") && hot.reason.contains("outside [2.5, 4.5]"), "{}", hot.reason);
+    assert!(hot.verdicts[0].pass && !hot.verdicts[1].pass, "rules are reported in order, each with a verdict");
+    let missing = by("F5_helix_rep1");
+    assert_eq!(missing.status, Status::Missing);
+    let mell = by("F2_star_fast_mell_rep1");
+    assert_eq!(
+        (mell.trajectory.as_str(), mell.speed.as_str(), mell.controller.as_str()),
+        ("star", "fast", "mellinger")
+    );
+    assert_eq!(mell.battery_start_v, Some(4.0));
+    let csv = a.to_csv();
+    assert!(csv.lines().next().unwrap().contains("rule2: plausible"), "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 5 + 1, "header, five CSVs, one missing");
+}
+
+#[test]
+fn duplicates_first_keeps_only_the_first_of_a_group() {
+    let spec = DataSpec { duplicates: DuplicatePolicy::First, ..fixture_spec() };
+    let a = audit(&spec, &fixtures()).unwrap();
+    let rep2 = a.files.iter().find(|f| f.name == "F1_circle_slow_rep2").unwrap();
+    assert_eq!(rep2.status, Status::Excluded);
+    assert_eq!(rep2.reason, "duplicates first: identical content to F1_circle_slow_rep1");
+}
+
+fn error_of(name: &str) -> LogError {
+    let layout = Layout::new(&fixture_spec()).unwrap();
+    load_recording(&corrupt().join(name), &layout).expect_err("corrupt fixture must fail")
+}
+
+#[test]
+fn every_corruption_kind_names_the_file_row_and_column() {
+    let cases: [(&str, &str, &str); 9] = [
+        ("C1_truncated_gzip_rep1.csv.gz", "truncated_gzip", "gzip stream truncated or corrupt"),
+        ("C2_wrong_header_rep1.csv", "bad_header", "line 1, column 52: expected header `pwr_pm_vbat`, found `battery`"),
+        (
+            "C3_missing_column_rep1.csv",
+            "bad_header",
+            "line 1, column 46: expected header `sp_ctrltarget_z`, found `sp_ctrltarget_yaw`",
+        ),
+        ("C4_non_numeric_rep1.csv", "non_numeric", "line 13, column `pz`: \"1.0O\" is not a number"),
+        ("C5_non_finite_rep1.csv", "non_finite", "line 21, column `pwr_pm_vbat`: non-finite value \"inf\""),
+        ("C6_non_monotonic_time_rep1.csv", "non_monotonic_time", "line 32, column `t`: time"),
+        ("C7_empty_rep1.csv", "empty_file", "empty file"),
+        ("C8_header_only_rep1.csv", "empty_file", "header only, no data rows"),
+        ("C9_short_row_rep1.csv", "ragged_row", "line 9: 30 fields, the header has 52"),
+    ];
+    for (file, kind, text) in cases {
+        let e = error_of(file);
+        let msg = e.to_string();
+        assert_eq!(e.kind(), kind, "{file}: {msg}");
+        assert!(msg.contains(file), "{file}: message does not name the file: {msg}");
+        assert!(msg.contains(text), "{file}: {msg}");
+    }
+}
+
+#[test]
+fn corrupt_files_never_stop_the_audit() {
+    let spec = fixture_spec();
+    let a = audit(&spec, &corrupt()).unwrap();
+    assert_eq!(a.files.len(), 10);
+    let good = a.files.iter().find(|f| f.name == "C10_good_rep1").unwrap();
+    assert_eq!(good.status, Status::Included);
+    assert_eq!(a.files.iter().filter(|f| f.status == Status::Excluded).count(), 9);
+    for f in a.files.iter().filter(|f| f.status == Status::Excluded) {
+        assert!(f.reason.contains(&f.file), "{}: {}", f.name, f.reason);
+    }
+}
+
+#[test]
+fn strict_turns_corruption_into_an_error() {
+    let spec = DataSpec { strictness: Strictness::Strict, ..fixture_spec() };
+    let e = audit(&spec, &corrupt()).unwrap_err().to_string();
+    assert!(e.starts_with("strict data rules: 9 file(s)"), "{e}");
+    // Declared rules still only exclude, even when strict.
+    assert!(audit(&spec, &fixtures()).is_ok());
+}
+
+#[test]
+fn the_cli_writes_recordings_csv_and_a_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(root())
+        .args(["data", "audit", "tests/designs/fixture_data.design", "--out", dir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("5 CSV files, 3 included, 2 excluded, 1 listed in metadata but missing"), "{stdout}");
+    assert!(stdout.contains("dup01: F1_circle_slow_rep1, F1_circle_slow_rep2"), "{stdout}");
+    assert!(dir.path().join("recordings.csv").exists());
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(root())
+        .args(["data", "audit", "tests/designs/fixture_data.design", "--data", "no/such/dir"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("data directory no/such/dir does not exist"));
+}
+
+#[test]
+fn real_logs_under_the_papers_rule() {
+    let Some(dir) = real_logs() else { return };
+    let a = audit(&paper_spec(), &dir).unwrap();
+    let count = |s: Status| a.files.iter().filter(|f| f.status == s).count();
+    assert_eq!(count(Status::Missing), 7, "seven recordings have metadata but no CSV (shared/nanobench/README.md)");
+    assert_eq!(a.files.len() - count(Status::Missing), 100);
+    // Every CSV parses; exclusions come from the declared rule only.
+    assert!(a.files.iter().filter(|f| f.status == Status::Excluded).all(|f| !f.verdicts.is_empty()));
+    assert!(a.duplicate_groups.values().all(|g| g.len() >= 2));
+    assert!(!a.duplicate_groups.is_empty(), "the shared snapshot holds byte-identical trefoil logs");
+}
+
+#[test]
+fn real_logs_under_the_audited_rules() {
+    let Some(dir) = real_logs() else { return };
+    let spec = design::load(&root().join("designs/nanobench_audited.design")).unwrap().design.data;
+    assert!(spec.rules.contains(&InclusionRule::Implausible));
+    let a = audit(&spec, &dir).unwrap();
+    let paper = audit(&paper_spec(), &dir).unwrap();
+    assert!(a.included().count() < paper.included().count(), "plausibility rules exclude more");
+}
+
+#[test]
+fn real_gzip_equals_its_decompressed_csv() {
+    let Some(dir) = real_logs() else { return };
+    let src = dir.join("B9_trefoil_slow_rep3.csv.gz");
+    let tmp = tempfile::tempdir().unwrap();
+    let plain = tmp.path().join("B9_trefoil_slow_rep3.csv");
+    std::fs::write(&plain, data::log::read_bytes(&src).unwrap()).unwrap();
+    let layout = Layout::new(&paper_spec()).unwrap();
+    let (a, b) = (load_recording(&src, &layout).unwrap(), load_recording(&plain, &layout).unwrap());
+    assert_eq!(a.content_sha256, b.content_sha256);
+    assert_eq!(a.state, b.state);
+    let _: &Path = &plain;
+}
