@@ -175,7 +175,9 @@ fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
         trajectory: meta.and_then(|m| m.trajectory_type.clone()).unwrap_or_else(|| parts.shape.clone()),
         speed: parts.speed.clone(),
         controller: parts.controller.name().to_string(),
-        repetition: meta.and_then(|m| m.repetition).or(parts.repetition),
+        // The file name's `repN` is the recording's identity; the metadata's
+        // `repetition` sometimes disagrees (noted in `judged`).
+        repetition: parts.repetition.or(meta.and_then(|m| m.repetition)),
         start_utc: meta.and_then(|m| m.recording_start_utc.clone()),
         battery_start_v: meta.and_then(|m| m.battery_voltage_start),
         battery_end_v: meta.and_then(|m| m.battery_voltage_end),
@@ -219,8 +221,15 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
         }
         row.verdicts.push(Verdict { rule: label, pass, detail });
     }
-    if let Err(e) = meta {
-        row.reason = if row.reason.is_empty() { format!("note: {e}") } else { format!("{}; note: {e}", row.reason) };
+    let note = match &meta {
+        Err(e) => Some(e.clone()),
+        Ok(m) => match (m.repetition, parse_name(&rec.name).repetition) {
+            (Some(a), Some(b)) if a != b => Some(format!("metadata says repetition {a}, the file name rep{b}")),
+            _ => None,
+        },
+    };
+    if let Some(note) = note {
+        row.reason = if row.reason.is_empty() { format!("note: {note}") } else { format!("{}; note: {note}", row.reason) };
     }
     row
 }
@@ -400,6 +409,10 @@ impl Audit {
                 counts[3],
                 counts.iter().sum::<usize>()
             );
+        }
+        let noted = self.files.iter().filter(|f| f.reason.contains("note: ")).count();
+        if noted > 0 {
+            let _ = writeln!(s, "\n{noted} file(s) carry a note in recordings.csv (metadata disagreeing with the file name, unreadable metadata)");
         }
         let excluded: Vec<&FileRow> = self.files.iter().filter(|f| f.status != Status::Included).collect();
         if !excluded.is_empty() {
