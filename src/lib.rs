@@ -30,6 +30,54 @@ pub enum Error {
     Audit(#[from] data::AuditError),
     #[error("{0}")]
     Usage(String),
+    #[error(transparent)]
+    Split(#[from] split::SplitError),
+    #[error("invariant check failed, nothing will train (see {path}):\n{list}")]
+    Invariants { path: String, list: String },
+}
+
+/// What `split` produced.
+#[derive(Debug, Clone)]
+pub struct SplitOutcome {
+    pub audit: data::Audit,
+    pub split: split::Split,
+    pub manifests: split::Manifests,
+    pub invariants: split::InvariantReport,
+    pub treatment: split::TreatmentAudit,
+}
+
+/// Audit the data, build the split, write manifests, invariants and the
+/// treatment audit under `out`. A failed invariant is an error, returned
+/// after `audit/invariants.json` is written so the reason can be read.
+pub fn split_stage(
+    file: &design::DesignFile,
+    dir: &std::path::Path,
+    out: &std::path::Path,
+) -> Result<SplitOutcome, Error> {
+    let design = &file.design;
+    let (audit, recordings) = data::audit_and_load(&design.data, dir)?;
+    audit.write(&out.join("audit"))?;
+    let split = split::build(design, &audit, &recordings)?;
+    let manifests = split::Manifests::new(design, Some(file.sha256.clone()), &split);
+    split::write_split(out, &manifests)?;
+    let plan = pipeline::compile(design);
+    let cells = split::CellManifests::for_plan(&plan, &manifests);
+    let invariants = split::check_invariants(design, &split, &cells);
+    let treatment = split::treatment_audit(&split);
+    let audit_dir = out.join("audit");
+    let inv_path = audit_dir.join("invariants.json");
+    report::write_atomic(&inv_path, invariants.to_json().as_bytes())?;
+    report::write_atomic(&audit_dir.join("treatment.json"), treatment.to_json().as_bytes())?;
+    if !invariants.all_pass {
+        let list = invariants
+            .failures()
+            .iter()
+            .map(|i| format!("  ({}) {}: {}", i.id, i.name, i.detail))
+            .collect::<Vec<_>>()
+            .join("\n");
+        return Err(Error::Invariants { path: inv_path.display().to_string(), list });
+    }
+    Ok(SplitOutcome { audit, split, manifests, invariants, treatment })
 }
 
 /// The data directory: `--data` if given, else the design's `path`
@@ -62,3 +110,4 @@ pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOpti
     Ok(a)
 }
 pub mod data;
+pub mod split;

@@ -32,6 +32,16 @@ enum Command {
         #[command(subcommand)]
         command: DataCommand,
     },
+    /// Build the shared experiment: manifests, invariants, treatment audit.
+    Split {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory (manifests/, audit/).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -70,6 +80,7 @@ fn main() -> ExitCode {
         Command::Check { design, json } => check(&design, json),
         Command::Lock { design } => lock_design(&design),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
+        Command::Split { design, data, out } => split(&design, data, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -90,6 +101,21 @@ fn data_audit(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::
     let path = audit.write(out)?;
     print!("{}", audit.summary());
     eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
+fn split(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::Path) -> Result<(), Error> {
+    let file = design::load(design)?;
+    let dir = crossaudit::data_dir(&file.design, data)?;
+    let outcome = crossaudit::split_stage(&file, &dir, out)?;
+    print!("{}", outcome.treatment.render_text());
+    for i in &outcome.invariants.invariants {
+        println!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
+    }
+    for (name, m) in &outcome.manifests.files {
+        println!("manifest {name}: {} rows, sha256 {}", m.rows, m.sha256);
+    }
+    eprintln!("wrote {}", out.display());
     Ok(())
 }
 

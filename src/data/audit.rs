@@ -114,6 +114,16 @@ fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
 
 /// Loads every recording in `dir` and applies the declared rules in order.
 pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
+    audit_with(spec, dir, false).map(|(a, _)| a)
+}
+
+/// As [`audit`], and also returns the included recordings (in audit row
+/// order), loaded once.
+pub fn audit_and_load(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Recording>), AuditError> {
+    audit_with(spec, dir, true)
+}
+
+fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Recording>), AuditError> {
     let layout = Layout::new(spec).map_err(AuditError::Layout)?;
     if spec.rules.contains(&InclusionRule::Implausible) {
         for needed in ["pwr_pm_vbat", "sp_ctrltarget_z"] {
@@ -123,17 +133,26 @@ pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
         }
     }
     let (csvs, missing) = list(dir)?;
-    let mut files: Vec<FileRow> = csvs
+    let loaded: Vec<(FileRow, Option<Recording>)> = csvs
         .par_iter()
         .map(|path| {
             let meta = read_metadata(&meta_path(path));
             match load_recording(path, &layout) {
-                Ok(rec) => judged(spec, &rec, meta),
-                Err(e) => unreadable(path, meta, e.to_string()),
+                Ok(rec) => {
+                    let row = judged(spec, &rec, meta);
+                    (row, keep.then_some(rec))
+                }
+                Err(e) => (unreadable(path, meta, e.to_string()), None),
             }
         })
         .collect();
+    let (mut files, mut recordings): (Vec<FileRow>, Vec<Option<Recording>>) = loaded.into_iter().unzip();
     let groups = duplicates(&mut files, spec.duplicates);
+    for (f, r) in files.iter().zip(recordings.iter_mut()) {
+        if f.status != Status::Included {
+            *r = None;
+        }
+    }
     for name in missing {
         let meta = read_metadata(&dir.join(format!("{name}_metadata.yaml"))).ok();
         let mut row = blank(&name, "", meta.as_ref());
@@ -151,13 +170,14 @@ pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
             return Err(AuditError::Strict { count: bad.len(), list: bad.join("\n") });
         }
     }
-    Ok(Audit {
+    let audit = Audit {
         data_dir: dir.display().to_string(),
         rules: spec.rules.iter().map(rule_label).collect(),
         duplicates: spec.duplicates,
         files,
         duplicate_groups: groups,
-    })
+    };
+    Ok((audit, recordings.into_iter().flatten().collect()))
 }
 
 fn meta_path(csv: &Path) -> PathBuf {
@@ -229,7 +249,8 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
         },
     };
     if let Some(note) = note {
-        row.reason = if row.reason.is_empty() { format!("note: {note}") } else { format!("{}; note: {note}", row.reason) };
+        row.reason =
+            if row.reason.is_empty() { format!("note: {note}") } else { format!("{}; note: {note}", row.reason) };
     }
     row
 }

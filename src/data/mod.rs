@@ -8,7 +8,7 @@ pub mod metadata;
 use std::path::{Path, PathBuf};
 
 use crate::design::{Cmp, DataSpec, InclusionRule};
-pub use audit::{audit, Audit, AuditError, FileRow, Status};
+pub use audit::{audit, audit_and_load, Audit, AuditError, FileRow, Status};
 pub use log::{LogError, NANOBENCH_COLUMNS};
 pub use metadata::{parse_name, Controller, Metadata, NameParts};
 

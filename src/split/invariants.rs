@@ -1,0 +1,284 @@
+//! The nine audit invariants as typed checks, run before any training.
+//! Each reports pass / fail (or warn, or deferred to the stage that can
+//! check it) with the numbers behind it.
+
+use std::collections::BTreeSet;
+
+use serde::Serialize;
+use serde_json::{json, Value};
+
+use super::{Manifests, Split};
+use crate::design::{ArmKind, Design, DuplicatePolicy, Seed};
+use crate::pipeline::Plan;
+
+/// The manifests one training cell uses, by hash.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CellManifests {
+    pub model: String,
+    pub arm: String,
+    pub seed: Seed,
+    pub evaluation_sha256: String,
+    pub starts_sha256: String,
+    pub validation_sha256: String,
+    pub fit_sha256: String,
+}
+
+impl CellManifests {
+    /// The cells of a plan, each pointing at the split's manifests.
+    pub fn for_plan(plan: &Plan, m: &Manifests) -> Vec<CellManifests> {
+        plan.training_cells
+            .iter()
+            .map(|c| CellManifests {
+                model: c.model.clone(),
+                arm: c.arm.clone(),
+                seed: c.seed,
+                evaluation_sha256: m.sha256("evaluation_recordings.csv").to_string(),
+                starts_sha256: m.sha256("evaluation_starts.csv").to_string(),
+                validation_sha256: m.sha256("validation_windows.csv").to_string(),
+                fit_sha256: m.sha256(&format!("fit_{}.csv", c.arm)).to_string(),
+            })
+            .collect()
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InvariantStatus {
+    Pass,
+    Fail,
+    /// Holds only because the design chose so (e.g. `duplicates keep`).
+    Warn,
+    /// Checked by a later stage, named in the detail.
+    Deferred,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Invariant {
+    pub id: u8,
+    pub name: &'static str,
+    pub status: InvariantStatus,
+    pub detail: String,
+    pub numbers: Value,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct InvariantReport {
+    pub all_pass: bool,
+    pub invariants: Vec<Invariant>,
+}
+
+impl InvariantReport {
+    pub fn failures(&self) -> Vec<&Invariant> {
+        self.invariants.iter().filter(|i| i.status == InvariantStatus::Fail).collect()
+    }
+
+    pub fn to_json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("invariants serialize");
+        s.push('\n');
+        s
+    }
+}
+
+fn inv(id: u8, name: &'static str, ok: bool, detail: String, numbers: Value) -> Invariant {
+    Invariant { id, name, status: if ok { InvariantStatus::Pass } else { InvariantStatus::Fail }, detail, numbers }
+}
+
+fn distinct<'a>(v: impl Iterator<Item = &'a String>) -> usize {
+    v.collect::<BTreeSet<_>>().len()
+}
+
+/// Leakage of evaluation content: from the evaluation recordings
+/// themselves always fails; from byte-identical duplicates it fails unless
+/// the design declared `duplicates keep`, where it is a warning.
+fn leak_status(own: usize, dup: usize, policy: DuplicatePolicy) -> InvariantStatus {
+    if own > 0 || (dup > 0 && policy != DuplicatePolicy::Keep) {
+        InvariantStatus::Fail
+    } else if dup > 0 {
+        InvariantStatus::Warn
+    } else {
+        InvariantStatus::Pass
+    }
+}
+
+fn keep_note(names: &BTreeSet<String>) -> String {
+    format!(
+        " ({}); allowed only because the design declares `duplicates keep`",
+        names.iter().cloned().collect::<Vec<_>>().join(", ")
+    )
+}
+
+/// Runs invariants 1-8 on a split and its cells; 6, 8 and 9 are deferred
+/// to the stage that can check them.
+pub fn check_invariants(design: &Design, split: &Split, cells: &[CellManifests]) -> InvariantReport {
+    let mut out = Vec::new();
+    let e: BTreeSet<usize> = split.evaluation_side.iter().copied().collect();
+    let e_hashes: BTreeSet<&str> =
+        split.evaluation_side.iter().map(|&r| split.recordings[r].content_sha256.as_str()).collect();
+
+    // 1. Evaluation recordings and starts identical across arms, models, seeds.
+    let (ne, ns) =
+        (distinct(cells.iter().map(|c| &c.evaluation_sha256)), distinct(cells.iter().map(|c| &c.starts_sha256)));
+    out.push(inv(
+        1,
+        "evaluation recordings and starts identical across arms, models and seeds",
+        ne <= 1 && ns <= 1,
+        format!("{} cells reference {ne} evaluation manifest(s) and {ns} start manifest(s)", cells.len()),
+        json!({"cells": cells.len(), "evaluation_manifests": ne, "start_manifests": ns}),
+    ));
+
+    // 2. No duplicate registered start.
+    let unique: BTreeSet<_> = split.starts.iter().collect();
+    let dups = split.starts.len() - unique.len();
+    out.push(inv(
+        2,
+        "no duplicate registered start",
+        dups == 0,
+        format!("{} starts, {dups} duplicated", split.starts.len()),
+        json!({"starts": split.starts.len(), "duplicates": dups}),
+    ));
+
+    // 3. Validation has no evaluation recording (nor a duplicate of one) and
+    //    is identical across arms.
+    let v_own = split.validation.iter().filter(|w| e.contains(&w.recording)).count();
+    let mut v_dup_names = BTreeSet::new();
+    let v_dup = split
+        .validation
+        .iter()
+        .filter(|w| {
+            !e.contains(&w.recording) && e_hashes.contains(split.recordings[w.recording].content_sha256.as_str())
+        })
+        .inspect(|w| {
+            v_dup_names.insert(split.recordings[w.recording].name.clone());
+        })
+        .count();
+    let nv = distinct(cells.iter().map(|c| &c.validation_sha256));
+    let status = leak_status(v_own + usize::from(nv > 1), v_dup, design.data.duplicates);
+    let mut detail = format!(
+        "{v_own} validation windows from evaluation recordings, {v_dup} from duplicates of them; {nv} validation manifest(s) across cells"
+    );
+    if status == InvariantStatus::Warn {
+        detail.push_str(&keep_note(&v_dup_names));
+    }
+    out.push(Invariant {
+        id: 3,
+        name: "validation disjoint from evaluation (and its duplicates), identical across arms",
+        status,
+        detail,
+        numbers: json!({"validation_windows": split.validation.len(), "from_evaluation": v_own, "from_duplicates": v_dup, "duplicate_recordings": v_dup_names, "validation_manifests": nv}),
+    });
+
+    // 4. Fit sets of the declared size; derived arms hold exactly the
+    //    declared number of evaluation windows, none a registered start.
+    let starts: BTreeSet<_> = split.starts.iter().copied().collect();
+    let mut ok = true;
+    let mut numbers = serde_json::Map::new();
+    let mut details = Vec::new();
+    for arm in &design.arms {
+        let fit = split.fit(&arm.name).unwrap_or(&[]);
+        let in_e = fit.iter().filter(|w| e.contains(&w.recording)).count();
+        let (declared, declared_e, starts_ok) = match &arm.kind {
+            ArmKind::Fit { windows, .. } => (*windows, 0, true),
+            ArmKind::Derived { from, percent, .. } => {
+                let base = design.arms.iter().find(|a| a.name == *from);
+                let n = match base.map(|b| &b.kind) {
+                    Some(ArmKind::Fit { windows, .. }) => *windows,
+                    _ => 0,
+                };
+                let hits = fit.iter().filter(|w| starts.contains(w)).count();
+                (n, (percent / 100.0 * n as f64).round() as usize, hits == 0)
+            }
+        };
+        let arm_ok = fit.len() == declared && in_e == declared_e && starts_ok;
+        ok &= arm_ok;
+        details.push(format!(
+            "{}: {} windows (declared {declared}), {in_e} from evaluation (declared {declared_e})",
+            arm.name,
+            fit.len()
+        ));
+        numbers.insert(arm.name.clone(), json!({"windows": fit.len(), "declared": declared, "evaluation_windows": in_e, "declared_evaluation_windows": declared_e, "registered_starts_used": !starts_ok}));
+    }
+    out.push(inv(
+        4,
+        "fit sets of the declared size with the declared number of evaluation windows",
+        ok,
+        details.join("; "),
+        Value::Object(numbers),
+    ));
+
+    // 5. The reference (fit) arms hold no evaluation recording nor a duplicate of one.
+    let mut own = 0;
+    let mut dup = 0;
+    let mut dup_names = BTreeSet::new();
+    for (arm, fit) in &split.fits {
+        if !design.arms.iter().any(|a| a.name == *arm && matches!(a.kind, ArmKind::Fit { .. })) {
+            continue;
+        }
+        for w in fit {
+            let r = &split.recordings[w.recording];
+            if e.contains(&w.recording) {
+                own += 1;
+            } else if e_hashes.contains(r.content_sha256.as_str()) {
+                dup += 1;
+                dup_names.insert(r.name.clone());
+            }
+        }
+    }
+    let status = leak_status(own, dup, design.data.duplicates);
+    let mut detail = format!("{own} disjoint-fit windows from evaluation recordings, {dup} from duplicates of them");
+    if status == InvariantStatus::Warn {
+        detail.push_str(&keep_note(&dup_names));
+    }
+    out.push(Invariant {
+        id: 5,
+        name: "disjoint fit holds no evaluation recording nor a duplicate of one",
+        status,
+        detail,
+        numbers: json!({"from_evaluation": own, "from_duplicates": dup, "duplicate_recordings": dup_names}),
+    });
+
+    out.push(Invariant {
+        id: 6,
+        name: "standardizers fitted on their own arm's fit set",
+        status: InvariantStatus::Deferred,
+        detail: "checked when models are fitted".into(),
+        numbers: Value::Null,
+    });
+
+    // 7. All seeds present for both models and arms.
+    let mut missing = Vec::new();
+    for m in &design.models {
+        for a in &design.arms {
+            for s in &design.seeds {
+                if !cells.iter().any(|c| c.model == m.name && c.arm == a.name && c.seed == *s) {
+                    missing.push(format!("{}/{}/{}", m.name, a.name, s.0));
+                }
+            }
+        }
+    }
+    out.push(inv(
+        7,
+        "all seeds present for every model and arm",
+        missing.is_empty(),
+        if missing.is_empty() {
+            format!("{} cells", cells.len())
+        } else {
+            format!("missing cells: {}", missing.join(", "))
+        },
+        json!({"cells": cells.len(), "missing": missing}),
+    ));
+    out.push(Invariant {
+        id: 8,
+        name: "recording x seed matrices balanced with no missing cell",
+        status: InvariantStatus::Deferred,
+        detail: "checked on per-cell data by analyze (missing or duplicate cells are errors)".into(),
+        numbers: Value::Null,
+    });
+    out.push(Invariant {
+        id: 9,
+        name: "quaternion and divergence metric unit tests pass",
+        status: InvariantStatus::Deferred,
+        detail: "checked in the test suite".into(),
+        numbers: Value::Null,
+    });
+    InvariantReport { all_pass: out.iter().all(|i| i.status != InvariantStatus::Fail), invariants: out }
+}

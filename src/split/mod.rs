@@ -1,0 +1,279 @@
+//! Stage: the experiment both arms share, as immutable manifests.
+//!
+//! From the included recordings and the design: evaluation recordings E
+//! (split seed; a duplicate group is one unit), rollout starts in E,
+//! validation recordings V from R\E (validation seed) and their windows,
+//! the disjoint fit set from R\E\V, and the contaminated fit set (the
+//! disjoint set with a declared fraction replaced by E windows that are not
+//! registered starts). Every draw is a ChaCha8 stream seeded from the design.
+
+mod invariants;
+mod manifest;
+mod treatment;
+
+use std::collections::BTreeSet;
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use crate::data::{Audit, Recording};
+use crate::design::{ArmKind, Design, DuplicatePolicy, StartsPolicy};
+
+pub use invariants::{check_invariants, CellManifests, Invariant, InvariantReport, InvariantStatus};
+pub use manifest::{write_split, ManifestSummary, Manifests};
+pub use treatment::{treatment_audit, Composition, TreatmentAudit};
+
+/// A one-step window or a rollout start: (recording index, row index).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+pub struct Window {
+    pub recording: usize,
+    pub t: usize,
+}
+
+/// A deployment unit: one recording, or a group of identical recordings.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Unit {
+    /// Recording indices, representative first.
+    pub members: Vec<usize>,
+    pub group: Option<String>,
+}
+
+/// The shared experiment.
+#[derive(Debug, Clone, Serialize)]
+pub struct Split {
+    /// Included recordings, natural name order; every index refers here.
+    pub recordings: Vec<RecordingInfo>,
+    pub units: Vec<Unit>,
+    /// Evaluation recordings (unit representatives), sorted.
+    pub evaluation: Vec<usize>,
+    /// Every recording on the evaluation side (all members of E's units).
+    pub evaluation_side: Vec<usize>,
+    pub starts: Vec<Window>,
+    pub validation_recordings: Vec<usize>,
+    pub validation: Vec<Window>,
+    /// Fit sets per arm, in design order.
+    pub fits: Vec<(String, Vec<Window>)>,
+    /// The E windows each derived arm received.
+    pub contaminating: Vec<(String, Vec<Window>)>,
+    pub horizon: usize,
+    pub rate_hz: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RecordingInfo {
+    pub name: String,
+    pub trajectory: String,
+    pub speed: String,
+    pub duplicate_group: Option<String>,
+    pub content_sha256: String,
+}
+
+/// Why the data cannot support the design.
+#[derive(Debug, thiserror::Error)]
+pub enum SplitError {
+    #[error("the design needs {needed} recordings ({evaluation} evaluation + {validation} validation + at least 1 for fitting), but only {available} usable deployment units remain")]
+    TooFewRecordings { needed: usize, evaluation: usize, validation: usize, available: usize },
+    #[error("evaluation recording {recording} has {valid} valid rollout starts (>= {horizon} active samples after the start), the design needs {needed}")]
+    TooFewStarts { recording: String, valid: usize, needed: usize, horizon: usize },
+    #[error("{what}: the design needs {needed} windows, only {available} are available")]
+    TooFewWindows { what: String, needed: usize, available: usize },
+    #[error("arm {arm}: {percent}% of {windows} windows replaces {replaced} windows; nothing would be replaced")]
+    NothingToReplace { arm: String, percent: f64, windows: usize, replaced: usize },
+}
+
+/// A window at row t needs rows t and t + 1 both active.
+fn windows_of(rec: &Recording, index: usize) -> Vec<Window> {
+    (0..rec.rows.saturating_sub(1))
+        .filter(|&t| rec.active[t] && rec.active[t + 1])
+        .map(|t| Window { recording: index, t })
+        .collect()
+}
+
+/// A start at row t needs t and the `horizon` rows after it all active.
+fn valid_starts(rec: &Recording, horizon: usize) -> Vec<usize> {
+    let n = rec.rows;
+    let mut run_after = vec![0usize; n + 1];
+    // run_after[t] = consecutive active rows from t onward.
+    for t in (0..n).rev() {
+        run_after[t] = if rec.active[t] { run_after[t + 1] + 1 } else { 0 };
+    }
+    (0..n).filter(|&t| run_after[t] > horizon).collect()
+}
+
+fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(stream);
+    r
+}
+
+/// `k` of `pool`, uniformly without replacement, returned sorted.
+fn draw(pool: &[Window], k: usize, rng: &mut ChaCha8Rng) -> Vec<Window> {
+    let mut picked: Vec<Window> = rand::seq::index::sample(rng, pool.len(), k).into_iter().map(|i| pool[i]).collect();
+    picked.sort();
+    picked
+}
+
+/// Builds the split. `recordings` are the audit's included recordings.
+pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
+    let info: Vec<RecordingInfo> = recordings
+        .iter()
+        .map(|r| {
+            let row = audit.files.iter().find(|f| f.name == r.name);
+            RecordingInfo {
+                name: r.name.clone(),
+                trajectory: row.map(|f| f.trajectory.clone()).unwrap_or_default(),
+                speed: row.map(|f| f.speed.clone()).unwrap_or_default(),
+                duplicate_group: row.and_then(|f| f.duplicate_group.clone()),
+                content_sha256: r.content_sha256.clone(),
+            }
+        })
+        .collect();
+    let units = units(&info, design.data.duplicates);
+    let rf = &design.recording;
+    let val = &design.validation;
+    let needed = rf.evaluation + val.recordings + 1;
+    if units.len() < needed {
+        return Err(SplitError::TooFewRecordings {
+            needed,
+            evaluation: rf.evaluation,
+            validation: val.recordings,
+            available: units.len(),
+        });
+    }
+    // E: shuffle units with the split seed, take the first I.
+    let mut order: Vec<usize> = (0..units.len()).collect();
+    order.shuffle(&mut rng(rf.split_seed, 0));
+    let (e_units, rest) = order.split_at(rf.evaluation);
+    let mut evaluation: Vec<usize> = e_units.iter().map(|&u| units[u].members[0]).collect();
+    evaluation.sort();
+    let mut evaluation_side: Vec<usize> = e_units.iter().flat_map(|&u| units[u].members.clone()).collect();
+    evaluation_side.sort();
+
+    let mut starts = Vec::new();
+    for (k, &r) in evaluation.iter().enumerate() {
+        let valid = valid_starts(&recordings[r], rf.horizon);
+        if valid.len() < rf.starts {
+            return Err(SplitError::TooFewStarts {
+                recording: info[r].name.clone(),
+                valid: valid.len(),
+                needed: rf.starts,
+                horizon: rf.horizon,
+            });
+        }
+        let pool: Vec<Window> = valid.into_iter().map(|t| Window { recording: r, t }).collect();
+        starts.extend(draw(&pool, rf.starts, &mut rng(rf.split_seed, 1 + k as u64)));
+    }
+
+    // V: from the remaining units, with the validation seed.
+    let mut rest: Vec<usize> = rest.to_vec();
+    rest.sort();
+    rest.shuffle(&mut rng(val.seed, 0));
+    let (v_units, fit_units) = rest.split_at(val.recordings);
+    let mut validation_recordings: Vec<usize> = v_units.iter().map(|&u| units[u].members[0]).collect();
+    validation_recordings.sort();
+    let v_pool: Vec<Window> = validation_recordings.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect();
+    if v_pool.len() < val.windows {
+        return Err(SplitError::TooFewWindows {
+            what: format!("validation ({} recordings)", val.recordings),
+            needed: val.windows,
+            available: v_pool.len(),
+        });
+    }
+    let validation = draw(&v_pool, val.windows, &mut rng(val.seed, 1));
+
+    // R \ E \ V: every member of the remaining units (with `duplicates keep`
+    // each identical file is its own unit, as in the paper).
+    let mut fit_recordings: Vec<usize> = fit_units.iter().flat_map(|&u| units[u].members.clone()).collect();
+    fit_recordings.sort();
+    let fit_pool: Vec<Window> = fit_recordings.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect();
+    let start_set: BTreeSet<Window> = starts.iter().copied().collect();
+    let e_pool: Vec<Window> = evaluation.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect();
+
+    let mut fits: Vec<(String, Vec<Window>)> = Vec::new();
+    let mut contaminating = Vec::new();
+    for arm in design.arms.iter().filter(|a| matches!(a.kind, ArmKind::Fit { .. })) {
+        let ArmKind::Fit { windows, seed } = arm.kind else { continue };
+        if fit_pool.len() < windows {
+            return Err(SplitError::TooFewWindows {
+                what: format!("arm {} (from {} fit recordings)", arm.name, fit_recordings.len()),
+                needed: windows,
+                available: fit_pool.len(),
+            });
+        }
+        fits.push((arm.name.clone(), draw(&fit_pool, windows, &mut rng(seed, 0))));
+    }
+    for arm in &design.arms {
+        let ArmKind::Derived { from, percent, starts: policy, seed } = &arm.kind else { continue };
+        let Some(base) = fits.iter().find(|(n, _)| n == from).map(|(_, w)| w.clone()) else { continue };
+        let replaced = (percent / 100.0 * base.len() as f64).round() as usize;
+        if replaced == 0 {
+            return Err(SplitError::NothingToReplace {
+                arm: arm.name.clone(),
+                percent: *percent,
+                windows: base.len(),
+                replaced,
+            });
+        }
+        let pool: Vec<Window> = match policy {
+            StartsPolicy::Exclude => e_pool.iter().copied().filter(|w| !start_set.contains(w)).collect(),
+            StartsPolicy::Allow => e_pool.clone(),
+        };
+        if pool.len() < replaced {
+            return Err(SplitError::TooFewWindows {
+                what: format!("arm {} (evaluation windows that are not registered starts)", arm.name),
+                needed: replaced,
+                available: pool.len(),
+            });
+        }
+        let positions = rand::seq::index::sample(&mut rng(*seed, 0), base.len(), replaced).into_vec();
+        let incoming = draw(&pool, replaced, &mut rng(*seed, 1));
+        let mut fit = base.clone();
+        for (&p, w) in positions.iter().zip(&incoming) {
+            fit[p] = *w;
+        }
+        fit.sort();
+        fits.push((arm.name.clone(), fit));
+        contaminating.push((arm.name.clone(), incoming));
+    }
+    Ok(Split {
+        recordings: info,
+        units,
+        evaluation,
+        evaluation_side,
+        starts,
+        validation_recordings,
+        validation,
+        fits,
+        contaminating,
+        horizon: rf.horizon,
+        rate_hz: design.data.rate_hz,
+    })
+}
+
+/// Deployment units. With `duplicates group`, identical recordings form one
+/// unit; otherwise each recording is its own.
+fn units(info: &[RecordingInfo], policy: DuplicatePolicy) -> Vec<Unit> {
+    let mut out: Vec<Unit> = Vec::new();
+    for (k, r) in info.iter().enumerate() {
+        if policy == DuplicatePolicy::Group {
+            if let Some(g) = &r.duplicate_group {
+                if let Some(u) = out.iter_mut().find(|u| u.group.as_ref() == Some(g)) {
+                    u.members.push(k);
+                    continue;
+                }
+            }
+            out.push(Unit { members: vec![k], group: r.duplicate_group.clone() });
+        } else {
+            out.push(Unit { members: vec![k], group: None });
+        }
+    }
+    out
+}
+
+impl Split {
+    pub fn fit(&self, arm: &str) -> Option<&[Window]> {
+        self.fits.iter().find(|(n, _)| n == arm).map(|(_, w)| w.as_slice())
+    }
+}
