@@ -8,5 +8,6 @@ mod data;
 mod design_errors;
 mod designs;
 mod golden;
+mod split;
 mod stats_props;
 mod stats_reference;
