@@ -67,7 +67,7 @@ fn gzip_and_plain_csv_give_identical_recordings() {
     let layout = Layout::new(&fixture_spec()).unwrap();
     let plain = load_recording(&fixtures().join("F1_circle_slow_rep1.csv"), &layout).unwrap();
     let gz = load_recording(&fixtures().join("F1_circle_slow_rep2.csv.gz"), &layout).unwrap();
-    assert_eq!(plain.content_sha256, gz.content_sha256);
+    assert_eq!(plain.content_hash, gz.content_hash);
     assert_eq!((plain.t, plain.state, plain.action, plain.active), (gz.t, gz.state, gz.action, gz.active));
 }
 
@@ -219,7 +219,39 @@ fn real_gzip_equals_its_decompressed_csv() {
     std::fs::write(&plain, data::log::read_bytes(&src).unwrap()).unwrap();
     let layout = Layout::new(&paper_spec()).unwrap();
     let (a, b) = (load_recording(&src, &layout).unwrap(), load_recording(&plain, &layout).unwrap());
-    assert_eq!(a.content_sha256, b.content_sha256);
+    assert_eq!(a.content_hash, b.content_hash);
     assert_eq!(a.state, b.state);
     let _: &Path = &plain;
+}
+
+#[test]
+fn crlf_line_endings_read_the_same_as_lf() {
+    let layout = Layout::new(&fixture_spec()).unwrap();
+    let src = fixtures().join("F1_circle_slow_rep1.csv");
+    let tmp = tempfile::tempdir().unwrap();
+    let crlf = tmp.path().join("F1_circle_slow_rep1.csv");
+    std::fs::write(&crlf, std::fs::read_to_string(&src).unwrap().replace('\n', "\r\n")).unwrap();
+    let (a, b) = (load_recording(&src, &layout).unwrap(), load_recording(&crlf, &layout).unwrap());
+    assert_eq!((a.rows, a.t, a.state, a.action), (b.rows, b.t, b.state, b.action));
+}
+
+#[test]
+fn exponent_and_signed_fields_parse_and_junk_in_unkept_columns_is_caught() {
+    use crossaudit::data::log::{parse, NANOBENCH_COLUMNS};
+    let header = NANOBENCH_COLUMNS.join(",");
+    let mut row: Vec<String> = (0..52).map(|k| format!("{k}.5")).collect();
+    row[1] = "-1.5e-3".into(); // px, kept in the state
+    row[8] = "+2".into(); // roll, not kept
+    let text = format!("{header}\n{}\n", row.join(","));
+    let log = parse("x.csv", text.as_bytes(), &[0, 1, 8]).unwrap();
+    assert_eq!(log.columns[1], vec![-1.5e-3]);
+    assert_eq!(log.columns[2], vec![2.0]);
+    row[20] = "1.2.3".into(); // imu_gyro_x, not kept
+    let text = format!("{header}\n{}\n", row.join(","));
+    let e = parse("x.csv", text.as_bytes(), &[0, 1]).unwrap_err().to_string();
+    assert_eq!(e, "x.csv: line 2, column `imu_gyro_x`: \"1.2.3\" is not a number");
+    row[20] = "nan".into();
+    let text = format!("{header}\n{}\n", row.join(","));
+    let e = parse("x.csv", text.as_bytes(), &[0, 1]).unwrap_err().to_string();
+    assert_eq!(e, "x.csv: line 2, column `imu_gyro_x`: non-finite value \"nan\"");
 }

@@ -26,7 +26,7 @@ fn recordings(n: usize, dup: &[usize]) -> Vec<Recording> {
                 action: vec![[0.5; 4]; rows],
                 pwm: vec![[30000.0; 4]; rows],
                 active: (0..rows).map(|i| i >= 10).collect(),
-                content_sha256: hash,
+                content_hash: hash,
             }
         })
         .collect()
@@ -50,7 +50,7 @@ fn audit_of(recs: &[Recording], dup: &[usize]) -> Audit {
             battery_start_v: None,
             battery_end_v: None,
             duplicate_group: (k == 0 && !dup.is_empty() || dup.contains(&k)).then(|| "dup01".to_string()),
-            content_sha256: r.content_sha256.clone(),
+            content_hash: r.content_hash.clone(),
             verdicts: Vec::new(),
             status: Status::Included,
             reason: String::new(),
@@ -211,7 +211,7 @@ fn duplicates_of_evaluation_content_fail_unless_the_design_keeps_them() {
         d.data.duplicates = policy;
         let e = s.evaluation[0];
         let f = s.fits[0].1[0].recording;
-        s.recordings[f].content_sha256 = s.recordings[e].content_sha256.clone();
+        s.recordings[f].content_hash = s.recordings[e].content_hash.clone();
         let (st, detail) = status(&d, &s, &cells(&d, &s), 5);
         assert_eq!(st, expected, "{policy:?}: {detail}");
         if policy == DuplicatePolicy::Keep {

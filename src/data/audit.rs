@@ -54,7 +54,7 @@ pub struct FileRow {
     pub battery_start_v: Option<f64>,
     pub battery_end_v: Option<f64>,
     pub duplicate_group: Option<String>,
-    pub content_sha256: String,
+    pub content_hash: String,
     pub verdicts: Vec<Verdict>,
     pub status: Status,
     pub reason: String,
@@ -202,7 +202,7 @@ fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
         battery_start_v: meta.and_then(|m| m.battery_voltage_start),
         battery_end_v: meta.and_then(|m| m.battery_voltage_end),
         duplicate_group: None,
-        content_sha256: String::new(),
+        content_hash: String::new(),
         verdicts: Vec::new(),
         status: Status::Included,
         reason: String::new(),
@@ -225,7 +225,7 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
     row.rows = rec.rows;
     row.active_rows = rec.active_rows();
     row.duration_s = rec.duration_s();
-    row.content_sha256 = rec.content_sha256.clone();
+    row.content_hash = rec.content_hash.clone();
     for rule in &spec.rules {
         let label = rule_label(rule);
         let (pass, detail) = match rule {
@@ -292,12 +292,12 @@ fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
 fn duplicates(files: &mut [FileRow], policy: DuplicatePolicy) -> BTreeMap<String, Vec<String>> {
     let mut by_hash: Vec<(String, Vec<usize>)> = Vec::new();
     for (k, f) in files.iter().enumerate() {
-        if f.content_sha256.is_empty() {
+        if f.content_hash.is_empty() {
             continue;
         }
-        match by_hash.iter_mut().find(|(h, _)| *h == f.content_sha256) {
+        match by_hash.iter_mut().find(|(h, _)| *h == f.content_hash) {
             Some((_, members)) => members.push(k),
-            None => by_hash.push((f.content_sha256.clone(), vec![k])),
+            None => by_hash.push((f.content_hash.clone(), vec![k])),
         }
     }
     let mut groups = BTreeMap::new();
@@ -345,7 +345,7 @@ impl Audit {
             "battery_start_v",
             "battery_end_v",
             "duplicate_group",
-            "content_sha256",
+            "content_hash",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -371,7 +371,7 @@ impl Audit {
                 opt(f.battery_start_v),
                 opt(f.battery_end_v),
                 f.duplicate_group.clone().unwrap_or_default(),
-                f.content_sha256.clone(),
+                f.content_hash.clone(),
             ];
             for k in 0..self.rules.len() {
                 rec.push(match f.verdicts.get(k) {

@@ -33,7 +33,7 @@ pub struct Recording {
     pub pwm: Vec<[f64; 4]>,
     /// Rows meeting the active rule (default: motor_motor_m1 > 1000).
     pub active: Vec<bool>,
-    pub content_sha256: String,
+    pub content_hash: String,
 }
 
 impl Recording {
@@ -118,7 +118,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         action,
         pwm,
         active,
-        content_sha256: parsed.content_sha256,
+        content_hash: parsed.content_hash,
     })
 }
 

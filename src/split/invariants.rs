@@ -113,7 +113,7 @@ pub fn check_invariants(design: &Design, split: &Split, cells: &[CellManifests])
     let mut out = Vec::new();
     let e: BTreeSet<usize> = split.evaluation_side.iter().copied().collect();
     let e_hashes: BTreeSet<&str> =
-        split.evaluation_side.iter().map(|&r| split.recordings[r].content_sha256.as_str()).collect();
+        split.evaluation_side.iter().map(|&r| split.recordings[r].content_hash.as_str()).collect();
 
     // 1. Evaluation recordings and starts identical across arms, models, seeds.
     let (ne, ns) =
@@ -144,9 +144,7 @@ pub fn check_invariants(design: &Design, split: &Split, cells: &[CellManifests])
     let v_dup = split
         .validation
         .iter()
-        .filter(|w| {
-            !e.contains(&w.recording) && e_hashes.contains(split.recordings[w.recording].content_sha256.as_str())
-        })
+        .filter(|w| !e.contains(&w.recording) && e_hashes.contains(split.recordings[w.recording].content_hash.as_str()))
         .inspect(|w| {
             v_dup_names.insert(split.recordings[w.recording].name.clone());
         })
@@ -217,7 +215,7 @@ pub fn check_invariants(design: &Design, split: &Split, cells: &[CellManifests])
             let r = &split.recordings[w.recording];
             if e.contains(&w.recording) {
                 own += 1;
-            } else if e_hashes.contains(r.content_sha256.as_str()) {
+            } else if e_hashes.contains(r.content_hash.as_str()) {
                 dup += 1;
                 dup_names.insert(r.name.clone());
             }

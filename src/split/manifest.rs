@@ -43,7 +43,7 @@ fn windows_csv(split: &Split, windows: &[Window]) -> ManifestSummary {
 }
 
 fn recordings_csv(split: &Split, which: &[usize]) -> ManifestSummary {
-    let mut s = String::from("recording,trajectory,speed,duplicate_group,content_sha256\n");
+    let mut s = String::from("recording,trajectory,speed,duplicate_group,content_hash\n");
     for &r in which {
         let i = &split.recordings[r];
         let _ = writeln!(
@@ -53,7 +53,7 @@ fn recordings_csv(split: &Split, which: &[usize]) -> ManifestSummary {
             i.trajectory,
             i.speed,
             i.duplicate_group.clone().unwrap_or_default(),
-            i.content_sha256
+            i.content_hash
         );
     }
     summary(s, which.len())

@@ -67,7 +67,7 @@ pub struct RecordingInfo {
     pub trajectory: String,
     pub speed: String,
     pub duplicate_group: Option<String>,
-    pub content_sha256: String,
+    pub content_hash: String,
 }
 
 /// Why the data cannot support the design.
@@ -126,7 +126,7 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
                 trajectory: row.map(|f| f.trajectory.clone()).unwrap_or_default(),
                 speed: row.map(|f| f.speed.clone()).unwrap_or_default(),
                 duplicate_group: row.and_then(|f| f.duplicate_group.clone()),
-                content_sha256: r.content_sha256.clone(),
+                content_hash: r.content_hash.clone(),
             }
         })
         .collect();
