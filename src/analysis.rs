@@ -232,14 +232,31 @@ pub fn analyze(design: &Design, cells: &[Cell], options: AnalyzeOptions) -> Resu
     check_complete(design, &plan, &data, &recordings)?;
 
     let ctx = Ctx { design, data: &data, recordings: &recordings, options };
+    // Units are independent (each has its own bootstrap stream), so they
+    // run in parallel; results and warnings are collected in plan order, so
+    // the output does not depend on the thread count.
+    use rayon::prelude::*;
+    let per_unit: Vec<Result<(UnitResult, Vec<String>), AnalysisError>> = plan
+        .units
+        .par_iter()
+        .enumerate()
+        .map(|(k, unit)| {
+            let mut w = Vec::new();
+            ctx.unit(unit, k as u64, &mut w).map(|u| (u, w))
+        })
+        .collect();
     let mut units = Vec::new();
-    for (k, unit) in plan.units.iter().enumerate() {
-        units.push(ctx.unit(unit, k as u64, &mut warnings)?);
+    for r in per_unit {
+        let (u, w) = r?;
+        units.push(u);
+        warnings.extend(w);
     }
-    let mut interactions = Vec::new();
-    for (k, ix) in plan.interactions.iter().enumerate() {
-        interactions.push(ctx.interaction(ix, (plan.units.len() + k) as u64)?);
-    }
+    let interactions = plan
+        .interactions
+        .par_iter()
+        .enumerate()
+        .map(|(k, ix)| ctx.interaction(ix, (plan.units.len() + k) as u64))
+        .collect::<Result<Vec<_>, _>>()?;
     let primary = units.iter().find(|u| u.role == Role::Primary).expect("a validated design has one primary endpoint");
     let decision = decide(design, primary);
     Ok(Analysis {

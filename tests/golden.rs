@@ -120,3 +120,21 @@ fn analyze_of_bad_cells_names_the_line_and_fails() {
     );
     assert!(!dir.path().join("report").exists(), "no report from bad data");
 }
+
+#[test]
+fn analyze_output_does_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let out_dir = dir.path().join(threads);
+        let status = bin()
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["analyze", confirmatory_design().to_str().unwrap(), "--cells", example_cells().to_str().unwrap()])
+            .args(["--out", out_dir.to_str().unwrap(), "--compare-intervals"])
+            .output()
+            .unwrap();
+        assert!(status.status.success());
+        outputs.push(std::fs::read(out_dir.join("results.json")).unwrap());
+    }
+    assert_eq!(outputs[0], outputs[1]);
+}
