@@ -32,6 +32,10 @@ pub enum Error {
     Usage(String),
     #[error(transparent)]
     Split(#[from] split::SplitError),
+    #[error(transparent)]
+    Net(#[from] model::NetError),
+    #[error("{0}")]
+    Cell(String),
     #[error("invariant check failed, nothing will train (see {path}):\n{list}")]
     Invariants { path: String, list: String },
 }
@@ -39,6 +43,8 @@ pub enum Error {
 /// What `split` produced.
 #[derive(Debug, Clone)]
 pub struct SplitOutcome {
+    /// The included recordings the split indexes into.
+    pub recordings: Vec<data::Recording>,
     pub audit: data::Audit,
     pub split: split::Split,
     pub manifests: split::Manifests,
@@ -77,7 +83,7 @@ pub fn split_stage(
             .join("\n");
         return Err(Error::Invariants { path: inv_path.display().to_string(), list });
     }
-    Ok(SplitOutcome { audit, split, manifests, invariants, treatment })
+    Ok(SplitOutcome { recordings, audit, split, manifests, invariants, treatment })
 }
 
 /// The data directory: `--data` if given, else the design's `path`
@@ -109,5 +115,8 @@ pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOpti
     }
     Ok(a)
 }
+pub mod cell;
 pub mod data;
+pub mod model;
+pub mod rollout;
 pub mod split;

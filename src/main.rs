@@ -42,6 +42,22 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Run one training cell end to end: split, fit, rollouts, per-cell rows.
+    Train {
+        design: PathBuf,
+        #[arg(long)]
+        model: String,
+        #[arg(long)]
+        arm: String,
+        #[arg(long)]
+        seed: u64,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory (manifests/, audit/, models/, cells/, curves/).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -81,6 +97,7 @@ fn main() -> ExitCode {
         Command::Lock { design } => lock_design(&design),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Split { design, data, out } => split(&design, data, &out),
+        Command::Train { design, model, arm, seed, data, out } => train(&design, &model, &arm, seed, data, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -116,6 +133,46 @@ fn split(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::Path)
         println!("manifest {name}: {} rows, sha256 {}", m.rows, m.sha256);
     }
     eprintln!("wrote {}", out.display());
+    Ok(())
+}
+
+fn train(
+    design: &std::path::Path,
+    model: &str,
+    arm: &str,
+    seed: u64,
+    data: Option<PathBuf>,
+    out: &std::path::Path,
+) -> Result<(), Error> {
+    let file = design::load(design)?;
+    let dir = crossaudit::data_dir(&file.design, data)?;
+    let split = crossaudit::split_stage(&file, &dir, out)?;
+    let epochs = file.design.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
+    let bar = indicatif::ProgressBar::new(epochs);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{prefix} [{bar:30}] epoch {pos}/{len} {msg} (eta {eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(format!("{model}/{arm}/{seed}"));
+    let result = crossaudit::cell::run_cell(&file, &split, model, arm, seed, out, &mut |e| {
+        bar.set_position(e.epoch as u64);
+        bar.set_message(format!("train {:.4} val {:.4}", e.train_loss, e.val_loss));
+    });
+    bar.finish_and_clear();
+    let cell = result?;
+    if let (Some(best), Some(last)) = (cell.best_val_loss, cell.epochs.last()) {
+        println!("{model}/{arm}/{seed}: {} epochs, best validation loss {best:.5}", last.epoch);
+    }
+    for (who, e) in &cell.one_step {
+        println!("one-step validation error (standardized, world units of this arm): {who:<18} {e:.5}");
+    }
+    for (who, h, fa) in &cell.mean_fa_rmse {
+        println!("mean failure-aware position RMSE at {h} s over evaluation recordings: {who:<18} {fa:.4} m");
+    }
+    for f in &cell.files {
+        eprintln!("wrote {f}");
+    }
     Ok(())
 }
 

@@ -185,7 +185,7 @@ impl Validator {
         let n_seeds = seeds.as_ref().map(|s: &Vec<Seed>| s.len());
         let estimator = match singles.get("estimate") {
             Some(s) => match &s.node {
-                Statement::Estimate { kind, items } => self.estimator(kind, items, n_seeds),
+                Statement::Estimate { kind, items } => self.estimator(kind, items),
                 _ => None,
             },
             None => Some(Estimator { kind: EstimatorKind::CrossedMom, level: 0.95, df: DfRule::SeedsMinusOne }),
@@ -778,12 +778,7 @@ impl Validator {
         ok.then(|| Contrast { treated: treated.node.clone(), reference: reference.node.clone() })
     }
 
-    fn estimator(
-        &mut self,
-        kind: &Ident,
-        items: &[Spanned<EstimateItem>],
-        n_seeds: Option<usize>,
-    ) -> Option<Estimator> {
+    fn estimator(&mut self, kind: &Ident, items: &[Spanned<EstimateItem>]) -> Option<Estimator> {
         if kind.node != "crossed_mom" {
             self.err_help(
                 "unknown estimator",
@@ -831,7 +826,6 @@ impl Validator {
                 }
             }
         }
-        let _ = n_seeds;
         Some(Estimator { kind: EstimatorKind::CrossedMom, level, df })
     }
 

@@ -1,0 +1,305 @@
+//! The MLP and its training, in dfdx 0.13 (CPU).
+//!
+//! Layer widths are types in dfdx 0.13, so the supported architectures are
+//! three hidden ReLU layers of one width from [`SUPPORTED_WIDTHS`]: 18 -> W
+//! -> W -> W -> 14. The paper's is W = 256.
+
+use std::path::Path;
+use std::time::Instant;
+
+use dfdx::nn::{LoadFromSafetensors, SaveToSafetensors};
+use dfdx::optim::{Adam, AdamConfig};
+use dfdx::prelude::*;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::features::{Action, FeatureMap, State, ACTION, INPUT, STATE};
+use crate::design::{Schedule, Training};
+use crate::rollout::Dynamics;
+
+/// Hidden widths that are compiled in (three hidden layers of this width).
+pub const SUPPORTED_WIDTHS: [usize; 3] = [32, 64, 256];
+
+type Mlp<const W: usize> = ((Linear<INPUT, W>, ReLU), (Linear<W, W>, ReLU), (Linear<W, W>, ReLU), Linear<W, STATE>);
+type Built<const W: usize> = <Mlp<W> as BuildOnDevice<Cpu, f32>>::Built;
+
+/// A trained network of one of the supported widths.
+#[derive(Clone)]
+pub enum Net {
+    W32(Built<32>),
+    W64(Built<64>),
+    W256(Built<256>),
+}
+
+/// Whether `widths` is a supported architecture.
+pub fn supported(widths: &[usize]) -> bool {
+    widths.len() == 3 && widths.iter().all(|w| *w == widths[0]) && SUPPORTED_WIDTHS.contains(&widths[0])
+}
+
+/// One epoch of training.
+#[derive(Debug, Clone, Serialize)]
+pub struct EpochLog {
+    pub epoch: usize,
+    pub lr: f64,
+    /// Mean standardized MSE over the epoch's batches (with action noise).
+    pub train_loss: f64,
+    /// Standardized MSE on the shared validation windows (clean actions).
+    pub val_loss: f64,
+    pub seconds: f64,
+}
+
+/// Windows as (x_t, u_t, x_{t+1}).
+pub type Windows = [(State, Action, State)];
+
+#[derive(Debug, thiserror::Error)]
+pub enum NetError {
+    #[error("mlp widths {0:?} are not compiled in; supported: three equal hidden widths from {SUPPORTED_WIDTHS:?}")]
+    Unsupported(Vec<usize>),
+    #[error("cannot save or load model weights at {path}: {message}")]
+    Io { path: String, message: String },
+    #[error("training needs at least one fit and one validation window")]
+    NoData,
+}
+
+/// Learning rate at `epoch` (0-based) of `epochs`: cosine from lr to 0, or
+/// constant.
+pub fn learning_rate(t: &Training, epoch: usize) -> f64 {
+    match t.schedule {
+        Schedule::Constant => t.lr,
+        Schedule::Cosine => t.lr * 0.5 * (1.0 + (std::f64::consts::PI * epoch as f64 / t.epochs as f64).cos()),
+    }
+}
+
+/// Gaussian noise by Box-Muller from the training RNG.
+fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+    let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
+    let u2: f64 = rng.gen();
+    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+}
+
+fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option<(f64, &mut ChaCha8Rng)>) -> Vec<f32> {
+    let mut x = vec![0f32; idx.len() * INPUT];
+    let mut noise = noise;
+    for (row, &k) in x.chunks_exact_mut(INPUT).zip(idx) {
+        let (s, u, _) = &windows[k];
+        let mut u = *u;
+        if let Some((sd, rng)) = noise.as_mut() {
+            for a in u.iter_mut() {
+                *a = (*a + *sd * gaussian(rng)).clamp(0.0, 1.0);
+            }
+        }
+        features.input(s, &u, row);
+    }
+    x
+}
+
+fn targets(features: &FeatureMap, windows: &Windows, idx: &[usize]) -> Vec<f32> {
+    let mut y = vec![0f32; idx.len() * STATE];
+    for (row, &k) in y.chunks_exact_mut(STATE).zip(idx) {
+        let (s, _, n) = &windows[k];
+        features.target(s, n, row);
+    }
+    y
+}
+
+/// Trains a network exactly as the design says. The seed fixes the
+/// initialisation (dfdx's device RNG), the shuffling (ChaCha8 stream 1)
+/// and the action noise (stream 2). `on_epoch` sees every epoch.
+pub fn train(
+    widths: &[usize],
+    features: &FeatureMap,
+    fit: &Windows,
+    validation: &Windows,
+    t: &Training,
+    seed: u64,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> Result<(Net, Vec<EpochLog>), NetError> {
+    if fit.is_empty() || validation.is_empty() {
+        return Err(NetError::NoData);
+    }
+    if !supported(widths) {
+        return Err(NetError::Unsupported(widths.to_vec()));
+    }
+    Ok(match widths[0] {
+        32 => {
+            let (m, l) = train_w::<32>(features, fit, validation, t, seed, on_epoch);
+            (Net::W32(m), l)
+        }
+        64 => {
+            let (m, l) = train_w::<64>(features, fit, validation, t, seed, on_epoch);
+            (Net::W64(m), l)
+        }
+        _ => {
+            let (m, l) = train_w::<256>(features, fit, validation, t, seed, on_epoch);
+            (Net::W256(m), l)
+        }
+    })
+}
+
+fn train_w<const W: usize>(
+    features: &FeatureMap,
+    fit: &Windows,
+    validation: &Windows,
+    t: &Training,
+    seed: u64,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> (Built<W>, Vec<EpochLog>) {
+    let dev = Cpu::seed_from_u64(seed);
+    let mut model = dev.build_module::<Mlp<W>, f32>();
+    let mut grads = model.alloc_grads();
+    let mut opt = Adam::new(&model, AdamConfig { lr: t.lr, ..Default::default() });
+    let mut shuffle = ChaCha8Rng::seed_from_u64(seed);
+    shuffle.set_stream(1);
+    let mut noise = ChaCha8Rng::seed_from_u64(seed);
+    noise.set_stream(2);
+    let all_val: Vec<usize> = (0..validation.len()).collect();
+    let val_x = inputs(features, validation, &all_val, None);
+    let val_y = targets(features, validation, &all_val);
+    let mut best = model.clone();
+    let mut best_val = f64::INFINITY;
+    let mut since_best = 0;
+    let mut logs = Vec::new();
+    let mut order: Vec<usize> = (0..fit.len()).collect();
+    for epoch in 0..t.epochs {
+        let started = Instant::now();
+        let lr = learning_rate(t, epoch);
+        opt.cfg.lr = lr;
+        order.shuffle(&mut shuffle);
+        let mut loss_sum = 0.0;
+        for batch in order.chunks(t.batch) {
+            let x = inputs(features, fit, batch, Some((t.action_noise, &mut noise)));
+            let y = targets(features, fit, batch);
+            let n = batch.len();
+            let x = dev.tensor_from_vec(x, (n, Const::<INPUT>));
+            let y = dev.tensor_from_vec(y, (n, Const::<STATE>));
+            let out = model.forward_mut(x.traced(grads));
+            let loss = mse_loss(out, y);
+            loss_sum += f64::from(loss.array()) * n as f64;
+            grads = loss.backward();
+            opt.update(&mut model, &grads).expect("every parameter of the model receives a gradient");
+            model.zero_grads(&mut grads);
+        }
+        let val_loss = mse(&model, &dev, &val_x, &val_y);
+        let log = EpochLog {
+            epoch: epoch + 1,
+            lr,
+            train_loss: loss_sum / fit.len() as f64,
+            val_loss,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        on_epoch(&log);
+        logs.push(log);
+        if val_loss < best_val {
+            best_val = val_loss;
+            best = model.clone();
+            since_best = 0;
+        } else {
+            since_best += 1;
+            if since_best >= t.patience {
+                break;
+            }
+        }
+    }
+    (best, logs)
+}
+
+fn forward<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32]) -> Vec<f32> {
+    let n = x.len() / INPUT;
+    let x = dev.tensor_from_vec(x.to_vec(), (n, Const::<INPUT>));
+    model.forward(x).as_vec()
+}
+
+fn mse<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32], y: &[f32]) -> f64 {
+    let out = forward(model, dev, x);
+    out.iter().zip(y).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>() / y.len() as f64
+}
+
+impl Net {
+    /// Standardized predictions for standardized inputs (n x 18 -> n x 14).
+    pub fn predict(&self, x: &[f32]) -> Vec<f32> {
+        let dev = Cpu::default();
+        match self {
+            Net::W32(m) => forward(m, &dev, x),
+            Net::W64(m) => forward(m, &dev, x),
+            Net::W256(m) => forward(m, &dev, x),
+        }
+    }
+
+    /// All weights, flattened in a fixed order (for bit-identity checks).
+    pub fn flat_weights(&self) -> Vec<f32> {
+        fn flat<const W: usize>(m: &Built<W>) -> Vec<f32> {
+            let ((a, _), (b, _), (c, _), d) = m;
+            let mut v = Vec::new();
+            for (w, bias) in [
+                (a.weight.as_vec(), a.bias.as_vec()),
+                (b.weight.as_vec(), b.bias.as_vec()),
+                (c.weight.as_vec(), c.bias.as_vec()),
+                (d.weight.as_vec(), d.bias.as_vec()),
+            ] {
+                v.extend(w);
+                v.extend(bias);
+            }
+            v
+        }
+        match self {
+            Net::W32(m) => flat(m),
+            Net::W64(m) => flat(m),
+            Net::W256(m) => flat(m),
+        }
+    }
+
+    pub fn save(&self, path: &Path) -> Result<(), NetError> {
+        let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
+        match self {
+            Net::W32(m) => m.save_safetensors(path).map_err(|e| err(format!("{e:?}"))),
+            Net::W64(m) => m.save_safetensors(path).map_err(|e| err(format!("{e:?}"))),
+            Net::W256(m) => m.save_safetensors(path).map_err(|e| err(format!("{e:?}"))),
+        }
+    }
+
+    pub fn load(widths: &[usize], path: &Path) -> Result<Net, NetError> {
+        if !supported(widths) {
+            return Err(NetError::Unsupported(widths.to_vec()));
+        }
+        let dev = Cpu::default();
+        let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
+        Ok(match widths[0] {
+            32 => {
+                let mut m = dev.build_module::<Mlp<32>, f32>();
+                m.load_safetensors(path).map_err(|e| err(format!("{e:?}")))?;
+                Net::W32(m)
+            }
+            64 => {
+                let mut m = dev.build_module::<Mlp<64>, f32>();
+                m.load_safetensors(path).map_err(|e| err(format!("{e:?}")))?;
+                Net::W64(m)
+            }
+            _ => {
+                let mut m = dev.build_module::<Mlp<256>, f32>();
+                m.load_safetensors(path).map_err(|e| err(format!("{e:?}")))?;
+                Net::W256(m)
+            }
+        })
+    }
+}
+
+/// A trained network and its standardizers as a rollout [`Dynamics`].
+pub struct Learned<'a> {
+    pub net: &'a Net,
+    pub features: &'a FeatureMap,
+}
+
+impl Dynamics for Learned<'_> {
+    fn step(&mut self, states: &[State], actions: &[Action]) -> Vec<State> {
+        let mut x = vec![0f32; states.len() * INPUT];
+        for ((row, s), u) in x.chunks_exact_mut(INPUT).zip(states).zip(actions) {
+            self.features.input(s, u, row);
+        }
+        let z = self.net.predict(&x);
+        states.iter().zip(z.chunks_exact(STATE)).map(|(s, z)| self.features.next_state(s, z)).collect()
+    }
+}
+
+const _: () = assert!(ACTION == 4);

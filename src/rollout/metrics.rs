@@ -1,0 +1,71 @@
+//! Failure-aware metrics of open-loop rollouts.
+
+use super::Trace;
+use crate::model::features::State;
+
+/// Shortest rotation angle between two unit quaternions (w, x, y, z), in
+/// degrees: 2 acos(|<q1, q2>|). q and -q are the same rotation.
+pub fn attitude_error_deg(a: &[f64], b: &[f64]) -> f64 {
+    let dot: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>().abs().min(1.0);
+    (2.0 * dot.acos()).to_degrees()
+}
+
+/// One start at one horizon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartOutcome {
+    /// Position error above the cap, or non-finite, at or before the horizon.
+    pub divergent: bool,
+    /// Position error at the horizon (m).
+    pub position_error: f64,
+    pub velocity_error: f64,
+    pub attitude_error_deg: f64,
+}
+
+impl StartOutcome {
+    pub fn of(t: &Trace, step: usize, cap: f64) -> StartOutcome {
+        let divergent = t.position_error[..step].iter().any(|e| !e.is_finite() || *e > cap);
+        let (pred, truth): (State, State) =
+            t.at.iter()
+                .find(|(k, _, _)| *k == step)
+                .map(|(_, p, m)| (*p, *m))
+                .unwrap_or(([f64::NAN; 14], [f64::NAN; 14]));
+        let norm3 = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
+        StartOutcome {
+            divergent,
+            position_error: t.position_error[step - 1],
+            velocity_error: norm3(&pred[3..6], &truth[3..6]),
+            attitude_error_deg: attitude_error_deg(&pred[6..10], &truth[6..10]),
+        }
+    }
+}
+
+/// Metrics of one recording at one horizon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HorizonMetrics {
+    pub n_divergent: usize,
+    /// sqrt(mean over starts of min(err, cap)^2), cap for divergent starts.
+    pub fa_position_rmse: f64,
+    /// RMSE over non-divergent starts; None when every start diverged.
+    pub conditional_position_rmse: Option<f64>,
+    pub velocity_rmse: Option<f64>,
+    pub attitude_rmse_deg: Option<f64>,
+}
+
+pub fn failure_aware(outcomes: &[StartOutcome], cap: f64) -> HorizonMetrics {
+    let n = outcomes.len().max(1) as f64;
+    let fa =
+        (outcomes.iter().map(|o| if o.divergent { cap * cap } else { o.position_error.min(cap).powi(2) }).sum::<f64>()
+            / n)
+            .sqrt();
+    let finite: Vec<&StartOutcome> = outcomes.iter().filter(|o| !o.divergent).collect();
+    let rms = |f: &dyn Fn(&StartOutcome) -> f64| {
+        (!finite.is_empty()).then(|| (finite.iter().map(|o| f(o).powi(2)).sum::<f64>() / finite.len() as f64).sqrt())
+    };
+    HorizonMetrics {
+        n_divergent: outcomes.len() - finite.len(),
+        fa_position_rmse: fa,
+        conditional_position_rmse: rms(&|o| o.position_error),
+        velocity_rmse: rms(&|o| o.velocity_error),
+        attitude_rmse_deg: rms(&|o| o.attitude_error_deg),
+    }
+}
