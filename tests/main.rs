@@ -8,6 +8,7 @@ mod data;
 mod design_errors;
 mod designs;
 mod golden;
+mod model;
 mod split;
 mod stats_props;
 mod stats_reference;

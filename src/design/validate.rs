@@ -519,8 +519,26 @@ impl Validator {
                 continue;
             }
             let kind = match kind {
-                ast::ModelKind::Mlp { widths, inputs } => {
-                    let widths = widths.iter().map(|w| self.count(w, "a layer width", 1)).collect();
+                ast::ModelKind::Mlp { widths: spans, inputs } => {
+                    let widths: Vec<usize> = spans.iter().map(|w| self.count(w, "a layer width", 1)).collect();
+                    if !crate::model::net::supported(&widths) && widths.iter().all(|w| *w >= 1) {
+                        let span = Span {
+                            start: spans.first().map(|w| w.span.start).unwrap_or(name.span.start),
+                            end: spans.last().map(|w| w.span.end).unwrap_or(name.span.end),
+                        };
+                        self.err_help(
+                            "unsupported architecture",
+                            span,
+                            format!(
+                                "mlp({}) is not compiled in",
+                                widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", ")
+                            ),
+                            format!(
+                                "supported: three hidden layers of one width from {:?}, e.g. mlp(256, 256, 256)",
+                                crate::model::SUPPORTED_WIDTHS
+                            ),
+                        );
+                    }
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
                     super::ModelKind::Mlp { widths, inputs }
                 }

@@ -1,0 +1,179 @@
+//! Models, rollouts and metrics: invariances, known rotations, hand-built
+//! failure-aware cases, own-arm standardizers and thread-count determinism.
+
+use crate::common::root;
+use crossaudit::design::InputMap;
+use crossaudit::model::features::{raw_input, Action, State};
+use crossaudit::model::{FeatureMap, Learned};
+use crossaudit::rollout::{attitude_error_deg, failure_aware, Dynamics, StartOutcome, Trace};
+use crossaudit::split::Window;
+
+fn state(p: [f64; 3], r: [f64; 3]) -> State {
+    let mut x = [0.0; 14];
+    x[..3].copy_from_slice(&p);
+    x[3..6].copy_from_slice(&[0.3, -0.1, 0.05]);
+    x[6..10].copy_from_slice(&[0.99, 0.05, -0.08, 0.1]);
+    x[10..13].copy_from_slice(&r);
+    x[13] = 3.9;
+    x
+}
+
+/// Windows with some spread, enough to fit standardizers and a tiny net.
+fn windows(offset: f64, n: usize) -> Vec<(State, Action, State)> {
+    (0..n)
+        .map(|k| {
+            let a = k as f64 * 0.05 + offset;
+            let x = state([a.cos(), a.sin(), 1.0 + 0.1 * a.sin()], [a.cos() + 0.1, a.sin(), 1.0]);
+            let mut next = x;
+            next[0] += 0.01 * x[3];
+            next[1] += 0.01 * x[4];
+            let u = [0.5 + 0.1 * a.sin(), 0.5, 0.52, 0.49];
+            (x, u, next)
+        })
+        .collect()
+}
+
+fn tiny_training() -> crossaudit::design::Training {
+    crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap().design.training.unwrap()
+}
+
+#[test]
+fn relative_inputs_ignore_a_joint_translation_and_predictions_translate_with_it() {
+    // Binary fractions, so that the shifted differences are exact.
+    let x = state([0.25, -0.5, 1.125], [0.5, -0.25, 1.0]);
+    let shift = [3.0, -7.5, 0.25];
+    let mut y = x;
+    for k in 0..3 {
+        y[k] += shift[k];
+        y[10 + k] += shift[k];
+    }
+    let u = [0.5, 0.6, 0.55, 0.5];
+    assert_eq!(raw_input(InputMap::Relative, &x, &u), raw_input(InputMap::Relative, &y, &u));
+    assert_ne!(raw_input(InputMap::World, &x, &u), raw_input(InputMap::World, &y, &u));
+    // Any weights will do: train a tiny relative net for one epoch.
+    let w = windows(0.0, 300);
+    let features = FeatureMap::fit(InputMap::Relative, &w, "manifest");
+    let mut t = tiny_training();
+    t.epochs = 1;
+    let (net, _) = crossaudit::model::train(&[32, 32, 32], &features, &w, &w[..50], &t, 3, &mut |_| {}).unwrap();
+    let mut model = Learned { net: &net, features: &features };
+    let next = model.step(&[x, y], &[u, u]);
+    for k in 0..3 {
+        let moved = next[1][k] - next[0][k];
+        assert!((moved - shift[k]).abs() < 1e-9, "predicted position moved by {moved}, origin by {}", shift[k]);
+    }
+    for k in 3..10 {
+        assert!((next[1][k] - next[0][k]).abs() < 1e-12, "component {k} changed under translation");
+    }
+}
+
+#[test]
+fn shortest_rotation_angle_on_known_rotations() {
+    let id = [1.0, 0.0, 0.0, 0.0];
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let close = |a: f64, b: f64| assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+    close(attitude_error_deg(&id, &id), 0.0);
+    close(attitude_error_deg(&id, &[h, 0.0, 0.0, h]), 90.0); // 90 degrees about z
+    close(attitude_error_deg(&id, &[0.0, 1.0, 0.0, 0.0]), 180.0); // 180 degrees about x
+    close(attitude_error_deg(&[h, 0.0, h, 0.0], &[-h, 0.0, -h, 0.0]), 0.0); // q and -q
+    close(attitude_error_deg(&[h, h, 0.0, 0.0], &[h, -h, 0.0, 0.0]), 180.0); // +90 vs -90 about x
+}
+
+fn trace(errors: &[f64]) -> Trace {
+    Trace {
+        start: Window { recording: 0, t: 0 },
+        position_error: errors.to_vec(),
+        at: vec![(errors.len(), [0.0; 14], [0.0; 14])],
+    }
+}
+
+#[test]
+fn failure_aware_metric_on_hand_built_rollouts() {
+    let cap = 2.0;
+    let cases = [
+        trace(&[0.05, 0.1]),          // fine: 0.1 at the horizon
+        trace(&[0.1, 0.2]),           // fine: 0.2
+        trace(&[2.5, 1.0]),           // above the cap before the horizon: divergent
+        trace(&[0.1, f64::INFINITY]), // non-finite at the horizon: divergent
+    ];
+    let outcomes: Vec<StartOutcome> = cases.iter().map(|t| StartOutcome::of(t, 2, cap)).collect();
+    assert_eq!(outcomes.iter().map(|o| o.divergent).collect::<Vec<_>>(), [false, false, true, true]);
+    let m = failure_aware(&outcomes, cap);
+    // sqrt((0.1^2 + 0.2^2 + 2^2 + 2^2) / 4) and sqrt((0.1^2 + 0.2^2) / 2).
+    assert!((m.fa_position_rmse - (8.05f64 / 4.0).sqrt()).abs() < 1e-12, "{}", m.fa_position_rmse);
+    assert!((m.conditional_position_rmse.unwrap() - (0.05f64 / 2.0).sqrt()).abs() < 1e-12);
+    assert_eq!(m.n_divergent, 2);
+    // At the first step nothing has diverged yet.
+    let early: Vec<StartOutcome> = cases.iter().map(|t| StartOutcome::of(t, 1, cap)).collect();
+    assert_eq!(early.iter().filter(|o| o.divergent).count(), 1);
+    // Everything divergent: the conditional RMSE is empty, not zero.
+    let all = failure_aware(&outcomes[2..], cap);
+    assert_eq!((all.fa_position_rmse, all.conditional_position_rmse), (2.0, None));
+}
+
+#[test]
+fn standardizers_use_their_own_arm_only() {
+    let a = windows(0.0, 400);
+    let b = windows(10.0, 400);
+    let fa = FeatureMap::fit(InputMap::World, &a, "fit_a");
+    let fb = FeatureMap::fit(InputMap::World, &b, "fit_b");
+    let joint: Vec<_> = a.iter().chain(&b).copied().collect();
+    let fj = FeatureMap::fit(InputMap::World, &joint, "joint");
+    assert_ne!(fa.input.mean, fb.input.mean);
+    assert_ne!(fa.input.mean, fj.input.mean, "fitting on both arms would change arm A's standardizer");
+    assert_eq!(fa, FeatureMap::fit(InputMap::World, &a, "fit_a"));
+    // Constant dimensions (quaternion components here) get SD 1, not 0.
+    assert!(fa.input.std.iter().all(|s| *s > 0.0 && s.is_finite()));
+}
+
+/// Runs the same training cell inside rayon pools of 1 and 2 threads.
+#[test]
+fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
+    let dir = root().join("../shared/nanobench/recordings");
+    if !dir.is_dir() {
+        eprintln!("SKIPPED: {} is absent", dir.display());
+        return;
+    }
+    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let split = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let mut results = Vec::new();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let o = out.path().join(format!("t{threads}"));
+        let cell = pool
+            .install(|| crossaudit::cell::run_cell(&file, &split, "world", "contaminated", 1, &o, &mut |_| {}))
+            .unwrap();
+        let weights = std::fs::read(o.join("models/world__contaminated__1.safetensors")).unwrap();
+        let cells = std::fs::read(o.join("cells/world__contaminated__1.csv")).unwrap();
+        results.push((weights, cells, cell.epochs.iter().map(|e| e.val_loss).collect::<Vec<_>>()));
+    }
+    assert_eq!(results[0].0, results[1].0, "weights differ between 1 and 2 threads");
+    assert_eq!(results[0].1, results[1].1, "per-cell rows differ between 1 and 2 threads");
+    assert_eq!(results[0].2, results[1].2);
+}
+
+#[test]
+fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
+    let dir = root().join("../shared/nanobench/recordings");
+    if !dir.is_dir() {
+        eprintln!("SKIPPED: {} is absent", dir.display());
+        return;
+    }
+    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let split = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let mut baseline_fa = Vec::new();
+    for arm in ["disjoint", "contaminated"] {
+        let cell = crossaudit::cell::run_cell(&file, &split, "relative", arm, 2, out.path(), &mut |_| {}).unwrap();
+        let meta: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.path().join(format!("models/relative__{arm}__2.json"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(meta["fit_manifest_sha256"], split.manifests.sha256(&format!("fit_{arm}.csv")), "invariant 6");
+        assert_eq!(meta["design_sha256"], file.sha256);
+        assert_eq!(cell.cells.len(), 4 * 1, "4 evaluation recordings x 1 horizon for the relative model");
+        baseline_fa.push(cell.mean_fa_rmse.iter().filter(|(who, _, _)| who != "relative").cloned().collect::<Vec<_>>());
+    }
+    assert_eq!(baseline_fa[0], baseline_fa[1], "parameter-free baselines must score the same on both arms");
+}
