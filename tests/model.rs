@@ -62,8 +62,8 @@ fn relative_inputs_ignore_a_joint_translation_and_predictions_translate_with_it(
         let moved = next[1][k] - next[0][k];
         assert!((moved - shift[k]).abs() < 1e-9, "predicted position moved by {moved}, origin by {}", shift[k]);
     }
-    for k in 3..10 {
-        assert!((next[1][k] - next[0][k]).abs() < 1e-12, "component {k} changed under translation");
+    for (k, (a, b)) in next[0].iter().zip(&next[1]).enumerate().take(10).skip(3) {
+        assert!((b - a).abs() < 1e-12, "component {k} changed under translation");
     }
 }
 
@@ -172,7 +172,7 @@ fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
         .unwrap();
         assert_eq!(meta["fit_manifest_sha256"], split.manifests.sha256(&format!("fit_{arm}.csv")), "invariant 6");
         assert_eq!(meta["design_sha256"], file.sha256);
-        assert_eq!(cell.cells.len(), 4 * 1, "4 evaluation recordings x 1 horizon for the relative model");
+        assert_eq!(cell.cells.len(), 4, "4 evaluation recordings x 1 horizon (0.5 s) for the relative model");
         baseline_fa.push(cell.mean_fa_rmse.iter().filter(|(who, _, _)| who != "relative").cloned().collect::<Vec<_>>());
     }
     assert_eq!(baseline_fa[0], baseline_fa[1], "parameter-free baselines must score the same on both arms");
