@@ -65,6 +65,9 @@ pub struct Analysis {
     pub interactions: Vec<InteractionResult>,
     pub decision: Decision,
     pub warnings: Vec<String>,
+    /// Figure files (relative to the report), when a run drew them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub figures: Vec<String>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -272,6 +275,7 @@ pub fn analyze(design: &Design, cells: &[Cell], options: AnalyzeOptions) -> Resu
         interactions,
         decision,
         warnings,
+        figures: Vec::new(),
     })
 }
 

@@ -193,13 +193,6 @@ pub fn run_cell(
             mean_fa_rmse.push((name.clone(), *h, mean_fa(&bc, *h)));
         }
     }
-    let cells_dir = out.join("cells");
-    std::fs::create_dir_all(&cells_dir).map_err(|e| io(&cells_dir, e))?;
-    let cells_path = cells_dir.join(format!("{stem}.csv"));
-    let tmp = cells_dir.join(format!("{stem}.csv.tmp"));
-    write_cells(&tmp, &cells)?;
-    std::fs::rename(&tmp, &cells_path).map_err(|e| io(&cells_path, e))?;
-    files.push(cells_path.display().to_string());
     if !epochs.is_empty() {
         let curve: PathBuf = out.join("curves").join(format!("{stem}.csv"));
         std::fs::create_dir_all(curve.parent().unwrap_or(out)).map_err(|e| io(&curve, e))?;
@@ -210,6 +203,15 @@ pub fn run_cell(
         crate::report::write_atomic(&curve, text.as_bytes())?;
         files.push(curve.display().to_string());
     }
+    // The per-cell CSV is written last, atomically: its presence marks the
+    // cell as finished for a resumed run.
+    let cells_dir = out.join("cells");
+    std::fs::create_dir_all(&cells_dir).map_err(|e| io(&cells_dir, e))?;
+    let cells_path = cells_dir.join(format!("{stem}.csv"));
+    let tmp = cells_dir.join(format!("{stem}.csv.tmp"));
+    write_cells(&tmp, &cells)?;
+    std::fs::rename(&tmp, &cells_path).map_err(|e| io(&cells_path, e))?;
+    files.push(cells_path.display().to_string());
     Ok(CellOutcome {
         model: model_name.to_string(),
         arm: arm.to_string(),

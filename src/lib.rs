@@ -119,4 +119,5 @@ pub mod cell;
 pub mod data;
 pub mod model;
 pub mod rollout;
+pub mod run;
 pub mod split;

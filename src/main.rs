@@ -58,6 +58,22 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Run a locked design end to end: audit, manifests, invariants, every
+    /// training cell, cells.csv and the report. Resumes a partial run.
+    Run {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        #[arg(long)]
+        out: PathBuf,
+        /// Parallel training workers, one thread each [default: one per core].
+        #[arg(long)]
+        workers: Option<usize>,
+        /// Allow a design changed after locking; every output is labelled EXPLORATORY.
+        #[arg(long)]
+        exploratory: bool,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -98,6 +114,7 @@ fn main() -> ExitCode {
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Split { design, data, out } => split(&design, data, &out),
         Command::Train { design, model, arm, seed, data, out } => train(&design, &model, &arm, seed, data, &out),
+        Command::Run { design, data, out, workers, exploratory } => run(&design, data, &out, workers, exploratory),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -173,6 +190,111 @@ fn train(
     for f in &cell.files {
         eprintln!("wrote {f}");
     }
+    Ok(())
+}
+
+/// Progress for `run`: one overall bar and one status line per worker on a
+/// terminal; one summary line per finished cell either way.
+struct RunProgress {
+    bars: indicatif::MultiProgress,
+    overall: indicatif::ProgressBar,
+    workers: Vec<indicatif::ProgressBar>,
+    epochs: usize,
+}
+
+impl crossaudit::run::RunObserver for RunProgress {
+    fn start(&self, total: usize, done: usize) {
+        self.overall.set_length(total as u64);
+        self.overall.set_position(done as u64);
+        if done > 0 {
+            let _ = self.bars.println(format!("resuming: {done} of {total} cells already finished"));
+        }
+    }
+    fn cell_started(&self, w: usize, c: &crossaudit::pipeline::TrainingCell) {
+        self.workers[w].set_message(format!("{}/{}/{}", c.model, c.arm, c.seed.0));
+    }
+    fn epoch(&self, w: usize, c: &crossaudit::pipeline::TrainingCell, e: &crossaudit::model::EpochLog) {
+        self.workers[w].set_message(format!(
+            "{}/{}/{} epoch {}/{} train {:.4} val {:.4}",
+            c.model, c.arm, c.seed.0, e.epoch, self.epochs, e.train_loss, e.val_loss
+        ));
+    }
+    fn cell_finished(
+        &self,
+        w: usize,
+        c: &crossaudit::pipeline::TrainingCell,
+        o: &crossaudit::cell::CellOutcome,
+        secs: f64,
+    ) {
+        self.overall.inc(1);
+        self.workers[w].set_message("idle");
+        let val = o.best_val_loss.map(|v| format!("best val {v:.5}, ")).unwrap_or_default();
+        let fa: Vec<String> = o
+            .mean_fa_rmse
+            .iter()
+            .filter(|(who, _, _)| *who == c.model)
+            .map(|(_, h, v)| format!("{h} s {v:.4} m"))
+            .collect();
+        let _ = self.bars.println(format!(
+            "done {}/{}/{} in {secs:.1} s: {} epochs, {val}mean FA RMSE {}",
+            c.model,
+            c.arm,
+            c.seed.0,
+            o.epochs.len(),
+            fa.join(", ")
+        ));
+    }
+}
+
+fn run(
+    design: &std::path::Path,
+    data: Option<PathBuf>,
+    out: &std::path::Path,
+    workers: Option<usize>,
+    exploratory: bool,
+) -> Result<(), Error> {
+    let file = design::load(design)?;
+    let dir = crossaudit::data_dir(&file.design, data)?;
+    let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)).max(1);
+    let bars = indicatif::MultiProgress::new();
+    if !std::io::stderr().is_terminal() {
+        bars.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let overall = bars.add(indicatif::ProgressBar::new(0));
+    overall.set_style(
+        indicatif::ProgressStyle::with_template("cells [{bar:30}] {pos}/{len} (eta {eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let worker_bars = (0..workers)
+        .map(|w| {
+            let b = bars.add(indicatif::ProgressBar::new_spinner());
+            b.set_style(
+                indicatif::ProgressStyle::with_template(&format!("worker {w}: {{msg}}"))
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            b.set_message("idle");
+            b
+        })
+        .collect();
+    let epochs = file.design.training.as_ref().map(|t| t.epochs).unwrap_or(0);
+    let progress = RunProgress { bars, overall, workers: worker_bars, epochs };
+    let options = crossaudit::run::RunOptions { workers, exploratory };
+    let result = crossaudit::run::run(&file, &dir, out, options, &progress);
+    progress.overall.finish_and_clear();
+    for w in &progress.workers {
+        w.finish_and_clear();
+    }
+    let o = result?;
+    eprintln!(
+        "{} cells trained, {} resumed, {:.1} s; wrote {} and {}",
+        o.trained,
+        o.skipped,
+        o.seconds,
+        o.cells_csv.display(),
+        o.report_dir.display()
+    );
+    println!("{}", o.analysis.decision.summary());
     Ok(())
 }
 

@@ -47,6 +47,15 @@ pub fn render_markdown(a: &Analysis) -> String {
     }
     let _ = writeln!(s);
 
+    if !a.figures.is_empty() {
+        let _ = writeln!(s, "## Figures");
+        let _ = writeln!(s);
+        for f in &a.figures {
+            let _ = writeln!(s, "![{f}]({f})");
+            let _ = writeln!(s);
+        }
+    }
+
     let _ = writeln!(s, "## Endpoints");
     let _ = writeln!(s);
     let _ = writeln!(

@@ -2,6 +2,7 @@
 //! `report.md` (tables like the paper's Table 2), `results.json` and
 //! `results.tex` (one LaTeX macro per reported number).
 
+pub mod figures;
 mod markdown;
 mod tex;
 
