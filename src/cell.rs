@@ -31,6 +31,10 @@ pub struct CellOutcome {
     /// Mean over evaluation recordings of the failure-aware position RMSE at
     /// each horizon, for this model and the baselines.
     pub mean_fa_rmse: Vec<(String, f64, f64)>,
+    /// Wall seconds spent fitting (0 for parameter-free models).
+    pub train_seconds: f64,
+    /// Wall seconds of this model's batched rollouts from every start.
+    pub rollout_seconds: f64,
     #[serde(skip)]
     pub cells: Vec<Cell>,
     pub files: Vec<String>,
@@ -131,6 +135,8 @@ pub fn run_cell(
         ("persistence".into(), Box::new(Persistence)),
         ("constant_velocity".into(), Box::new(ConstantVelocity { dt: 1.0 / rate })),
     ];
+    let mut train_seconds = 0.0;
+    let rollout_seconds;
     let (cells, epochs, best_val_loss) = match &model.kind {
         ModelKind::Mlp { widths, inputs } => {
             let features = FeatureMap::fit(*inputs, &fit, &fit_sha);
@@ -140,6 +146,7 @@ pub fn run_cell(
                     "invariant 6 failed: standardizers were not fitted on this arm's fit set".into(),
                 ));
             }
+            let t0 = std::time::Instant::now();
             let (net, epochs) = net::train(
                 widths,
                 &features,
@@ -164,10 +171,13 @@ pub fn run_cell(
             )?;
             files.push(weights.display().to_string());
             files.push(meta_path.display().to_string());
+            train_seconds = t0.elapsed().as_secs_f64();
             let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
             let mut learned = Learned { net: &net, features: &features };
             one_step.push((model_name.to_string(), one_step_error(&mut learned, &yardstick, &validation)));
+            let t1 = std::time::Instant::now();
             let traces = rollout::rollout(&mut learned, recs, &split.starts, max_steps, &steps);
+            rollout_seconds = t1.elapsed().as_secs_f64();
             let cells = rollout::cells(model_name, arm, seed, split, &traces, &horizons, rate, cap);
             (cells, epochs, Some(best))
         }
@@ -178,7 +188,9 @@ pub fn run_cell(
                 Box::new(ConstantVelocity { dt: 1.0 / rate })
             };
             one_step.push((model_name.to_string(), one_step_error(d.as_mut(), &yardstick, &validation)));
+            let t1 = std::time::Instant::now();
             let traces = rollout::rollout(d.as_mut(), recs, &split.starts, max_steps, &steps);
+            rollout_seconds = t1.elapsed().as_secs_f64();
             (rollout::cells(model_name, arm, seed, split, &traces, &horizons, rate, cap), Vec::new(), None)
         }
     };
@@ -220,6 +232,8 @@ pub fn run_cell(
         best_val_loss,
         one_step,
         mean_fa_rmse,
+        train_seconds,
+        rollout_seconds,
         cells,
         files,
     })

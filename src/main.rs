@@ -181,6 +181,15 @@ fn train(
     if let (Some(best), Some(last)) = (cell.best_val_loss, cell.epochs.last()) {
         println!("{model}/{arm}/{seed}: {} epochs, best validation loss {best:.5}", last.epoch);
     }
+    if !cell.epochs.is_empty() {
+        println!(
+            "timing: training {:.2} s ({} epochs, {:.3} s per epoch), rollouts {:.2} s",
+            cell.train_seconds,
+            cell.epochs.len(),
+            cell.train_seconds / cell.epochs.len() as f64,
+            cell.rollout_seconds
+        );
+    }
     for (who, e) in &cell.one_step {
         println!("one-step validation error (standardized, world units of this arm): {who:<18} {e:.5}");
     }

@@ -136,6 +136,12 @@ pub fn run(
 
     let mut analysis = crate::analyze_files(&file.path, &cells_csv, Default::default())?;
     analysis.exploratory |= exploratory;
+    if status == LockStatus::Unlocked {
+        analysis.warnings.push(format!(
+            "{} was not locked before this run: lock a design (`crossaudit lock`) to preregister it",
+            file.path.display()
+        ));
+    }
     let report_dir = out.join("report");
     std::fs::create_dir_all(&report_dir)
         .map_err(|e| Error::Cell(format!("cannot create {}: {e}", report_dir.display())))?;

@@ -305,3 +305,47 @@ fn cells_round_trip_through_csv() {
     let _ = minimal_design_path();
     let _: Option<AnalysisError> = None;
 }
+
+/// The analysis of a committed real run's cells.csv, locked: primary,
+/// interaction and grouped-sensitivity outputs.
+fn locked_real_run(design: &str, cells: &str) -> String {
+    let root = crate::common::root();
+    let a = crossaudit::analyze_files(&root.join(design), &root.join(cells), Default::default()).unwrap();
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", a.decision.summary());
+    for u in &a.units {
+        let _ = writeln!(
+            s,
+            "{} {} at {} s: contaminated {:.6} disjoint {:.6} optimism {:.3}%",
+            u.model,
+            u.metric.name(),
+            u.horizon_s,
+            u.mean_treated,
+            u.mean_reference,
+            u.optimism_pct
+        );
+        let _ = writeln!(s, "  crossed: {}", est(&u.estimate));
+        if let Some(b) = u.bootstrap {
+            let _ = writeln!(s, "  bootstrap ci [{:.6}, {:.6}]", b.lower, b.upper);
+        }
+        if let Some(g) = &u.grouped {
+            let _ = writeln!(s, "  grouped ({} groups): {}", g.groups.len(), est(&g.estimate));
+        }
+    }
+    for ix in &a.interactions {
+        let _ = writeln!(s, "interaction {} - {} at {} s: {}", ix.left, ix.right, ix.horizon_s, est(&ix.estimate));
+    }
+    s
+}
+
+#[test]
+fn the_committed_confirmatory_run_analysis_is_locked() {
+    let s = locked_real_run("designs/nanobench_confirmatory.design", "results/nanobench_confirmatory/cells.csv");
+    snapshots!({ insta::assert_snapshot!(s) });
+}
+
+#[test]
+fn the_committed_audited_run_analysis_is_locked() {
+    let s = locked_real_run("designs/nanobench_audited.design", "results/nanobench_audited/cells.csv");
+    snapshots!({ insta::assert_snapshot!(s) });
+}

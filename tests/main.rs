@@ -9,6 +9,7 @@ mod design_errors;
 mod designs;
 mod golden;
 mod model;
+mod run;
 mod split;
 mod stats_props;
 mod stats_reference;
