@@ -6,6 +6,7 @@ pub mod design;
 pub mod pipeline;
 pub mod report;
 pub mod stats;
+pub mod workbench;
 
 use std::path::Path;
 

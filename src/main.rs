@@ -74,6 +74,17 @@ enum Command {
         #[arg(long)]
         exploratory: bool,
     },
+    /// Monte Carlo coverage of the interval estimators over a grid of crossed
+    /// settings (JSON spec).
+    Coverage {
+        spec: PathBuf,
+        /// Override the spec's replications per setting.
+        #[arg(long)]
+        reps: Option<usize>,
+        /// Output directory for coverage.csv, coverage.md, coverage.svg.
+        #[arg(long, default_value = "coverage")]
+        out: PathBuf,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -115,6 +126,7 @@ fn main() -> ExitCode {
         Command::Split { design, data, out } => split(&design, data, &out),
         Command::Train { design, model, arm, seed, data, out } => train(&design, &model, &arm, seed, data, &out),
         Command::Run { design, data, out, workers, exploratory } => run(&design, data, &out, workers, exploratory),
+        Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -304,6 +316,21 @@ fn run(
         o.report_dir.display()
     );
     println!("{}", o.analysis.decision.summary());
+    Ok(())
+}
+
+fn coverage(spec: &std::path::Path, reps: Option<usize>, out: &std::path::Path) -> Result<(), Error> {
+    let mut spec = crossaudit::workbench::CoverageSpec::load(spec)?;
+    if let Some(r) = reps {
+        spec.reps = r.max(2);
+    }
+    let started = std::time::Instant::now();
+    let rows = crossaudit::workbench::run_coverage(&spec, &mut |k, n, s| {
+        eprintln!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
+    })?;
+    for p in crossaudit::workbench::write(out, &spec, &rows)? {
+        eprintln!("wrote {}", p.display());
+    }
     Ok(())
 }
 

@@ -4,6 +4,7 @@
 //! here panics on user data.
 
 mod bootstrap;
+pub mod coverage;
 mod crossed;
 mod intervals;
 mod matrix;

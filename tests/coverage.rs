@@ -1,0 +1,151 @@
+//! The coverage workbench against known results.
+
+use crate::common::assert_rel;
+use crate::snapshots;
+use crossaudit::stats::coverage::{draw_array, simulate, Distribution, Performance, Setting};
+use crossaudit::stats::{pigeonhole_variance, IntervalMethod};
+use rand::SeedableRng;
+
+fn find(rows: &[Performance], m: IntervalMethod) -> &Performance {
+    rows.iter().find(|r| r.method == m).unwrap()
+}
+
+#[test]
+fn naive_iid_coverage_collapses_when_the_recording_component_dominates() {
+    // The paper's shares of SE^2: 95.9% recording, 1.1% seed, 3.0% residual.
+    let s = Setting { rows: 26, cols: 20, shares: [0.959, 0.011, 0.030], distribution: Distribution::Normal };
+    let rows = simulate(&s, 400, 0.95, 19, 7).unwrap();
+    let naive = find(&rows, IntervalMethod::NaiveIid);
+    let mom = find(&rows, IntervalMethod::MomT);
+    assert!(naive.coverage < 0.6, "naive iid coverage {}", naive.coverage);
+    assert!(
+        (mom.coverage - 0.95).abs() <= 3.0 * mom.coverage_mcse.max(0.011),
+        "MoM coverage {} ({})",
+        mom.coverage,
+        mom.coverage_mcse
+    );
+}
+
+#[test]
+fn crossed_mom_t_reaches_nominal_coverage_in_the_normal_balanced_case() {
+    let s =
+        Setting { rows: 26, cols: 20, shares: [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0], distribution: Distribution::Normal };
+    let rows = simulate(&s, 2000, 0.95, 9, 11).unwrap();
+    let mom = find(&rows, IntervalMethod::MomT);
+    assert!(
+        (mom.coverage - 0.95).abs() <= 3.0 * mom.coverage_mcse,
+        "coverage {} +- {}",
+        mom.coverage,
+        mom.coverage_mcse
+    );
+    // The true SE is 1 by construction: EmpSE within 3 MCSE of it.
+    assert!((mom.emp_se - 1.0).abs() <= 3.0 * mom.emp_se_mcse, "EmpSE {} +- {}", mom.emp_se, mom.emp_se_mcse);
+}
+
+/// E[Var*] under the model, from E[MS_r] = J sa + se, E[MS_c] = I sb + se,
+/// E[MS_e] = se and the closed form in stats::pigeonhole_variance.
+fn expected_pigeonhole_variance(s: &Setting) -> f64 {
+    let (sa, sb, se) = s.components();
+    let (i, j) = (s.rows as f64, s.cols as f64);
+    (i - 1.0) * (j * sa + se) / (i * i * j)
+        + (j - 1.0) * (i * sb + se) / (i * j * j)
+        + (i - 1.0) * (j - 1.0) * se / (i * j).powi(2)
+}
+
+#[test]
+fn pigeonhole_variance_matches_its_expectation_and_is_anti_conservative_with_few_seeds() {
+    for s in [
+        Setting { rows: 26, cols: 20, shares: [0.959, 0.011, 0.030], distribution: Distribution::Normal },
+        Setting { rows: 26, cols: 3, shares: [0.05, 0.90, 0.05], distribution: Distribution::Normal },
+    ] {
+        let n = 4000;
+        let v: Vec<f64> = (0..n)
+            .map(|r| {
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+                rng.set_stream(r);
+                pigeonhole_variance(&draw_array(&s, &mut rng).unwrap())
+            })
+            .collect();
+        let mean = v.iter().sum::<f64>() / n as f64;
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n as f64 - 1.0)).sqrt();
+        let expected = expected_pigeonhole_variance(&s);
+        assert!(
+            (mean - expected).abs() <= 3.0 * sd / (n as f64).sqrt(),
+            "{}: mean Var* {mean} vs E {expected}",
+            s.label()
+        );
+    }
+    // Seed-dominated, J = 3: sa = 1.3, sb = 2.7, se = 3.9, so
+    // E[Var*] = 25*7.8/2028 + 2*74.1/234 + 50*3.9/6084 = 0.7615, well below the
+    // true SE^2 = 1 (the seed term is shrunk by (J-1)/J = 2/3), and the
+    // percentile interval under-covers.
+    let s = Setting { rows: 26, cols: 3, shares: [0.05, 0.90, 0.05], distribution: Distribution::Normal };
+    assert_rel(
+        expected_pigeonhole_variance(&s),
+        25.0 * 7.8 / 2028.0 + 2.0 * 74.1 / 234.0 + 50.0 * 3.9 / 6084.0,
+        1e-12,
+        "E[Var*]",
+    );
+    assert!(expected_pigeonhole_variance(&s) < 0.77);
+    let rows = simulate(&s, 800, 0.95, 199, 3).unwrap();
+    let boot = find(&rows, IntervalMethod::PigeonholePercentile);
+    assert!(
+        boot.coverage < 0.95 - 3.0 * boot.coverage_mcse,
+        "pigeonhole coverage {} +- {}",
+        boot.coverage,
+        boot.coverage_mcse
+    );
+}
+
+#[test]
+fn replications_do_not_depend_on_the_thread_count() {
+    let s = Setting { rows: 8, cols: 5, shares: [0.5, 0.3, 0.2], distribution: Distribution::HeavyTailed };
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| simulate(&s, 60, 0.95, 49, 17).unwrap())
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(crossaudit::workbench::to_csv(&a), crossaudit::workbench::to_csv(&b));
+}
+
+#[test]
+fn performance_measures_follow_the_published_formulas() {
+    // Four replications by hand (Morris, White & Crowther 2019, Table 6):
+    // estimates 0.1, -0.2, 0.3, 0.0; SEs 0.2, 0.2, 0.3, 0.1; intervals
+    // covering 0 in 3 of 4.
+    let est = [(0.1, 0.2, -0.3, 0.5), (-0.2, 0.2, -0.6, 0.2), (0.3, 0.3, 0.1, 0.9), (0.0, 0.1, -0.2, 0.2)];
+    let p = crossaudit::stats::coverage::performance("hand", IntervalMethod::MomT, &est, 0.0);
+    assert_rel(p.coverage, 0.75, 1e-12, "coverage");
+    assert_rel(p.coverage_mcse, (0.75f64 * 0.25 / 4.0).sqrt(), 1e-12, "coverage MCSE");
+    assert_rel(p.bias, 0.05, 1e-12, "bias = mean estimate");
+    // Sample SD of (0.1, -0.2, 0.3, 0): mean 0.05, squared deviations
+    // 0.0025 + 0.0625 + 0.0625 + 0.0025 = 0.13, so sqrt(0.13 / 3).
+    assert_rel(p.emp_se, (0.13f64 / 3.0).sqrt(), 1e-12, "EmpSE");
+    assert_rel(p.emp_se_mcse, (0.13f64 / 3.0).sqrt() / 6f64.sqrt(), 1e-12, "EmpSE MCSE");
+    // ModSE = sqrt(mean(SE^2)) = sqrt((0.04 + 0.04 + 0.09 + 0.01) / 4).
+    assert_rel(p.mod_se, (0.18f64 / 4.0).sqrt(), 1e-12, "ModSE");
+    assert_rel(p.mean_width, (0.8 + 0.8 + 0.8 + 0.4) / 4.0, 1e-12, "mean width");
+}
+
+#[test]
+fn a_small_fixed_seed_study_is_locked() {
+    let spec: crossaudit::workbench::CoverageSpec = serde_json::from_str(
+        r#"{"seed": 42, "reps": 100, "bootstrap": 99, "rows": [10], "cols": [4],
+            "shares": [[0.6, 0.2, 0.2]], "distributions": ["normal", "skewed"]}"#,
+    )
+    .unwrap();
+    let rows = crossaudit::workbench::run_coverage(&spec, &mut |_, _, _| {}).unwrap();
+    snapshots!({ insta::assert_snapshot!(crossaudit::workbench::to_markdown(&spec, &rows)) });
+}
+
+#[test]
+fn a_bad_spec_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("spec.json");
+    std::fs::write(&p, "{\n  \"seed\": 1,\n  \"reps\": \"many\"\n}").unwrap();
+    let e = crossaudit::workbench::CoverageSpec::load(&p).unwrap_err().to_string();
+    assert!(e.contains("spec.json: line 3, column"), "{e}");
+    std::fs::write(&p, r#"{"seed": 1, "reps": 10, "rows": [1], "cols": [3], "shares": [[0.5, 0.5, 0.0]], "distributions": ["normal"]}"#).unwrap();
+    let e = crossaudit::workbench::CoverageSpec::load(&p).unwrap_err().to_string();
+    assert!(e.contains("`rows` and `cols` must be at least 2, found 1"), "{e}");
+}
