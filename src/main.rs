@@ -85,6 +85,23 @@ enum Command {
         #[arg(long, default_value = "coverage")]
         out: PathBuf,
     },
+    /// Predict SE, interval width and the probability the decision rule holds
+    /// for other numbers of recordings and seeds, from pilot per-cell data.
+    Plan {
+        design: PathBuf,
+        /// Pilot per-cell CSV analysable under the design.
+        #[arg(long)]
+        cells: PathBuf,
+        /// Numbers of recordings to consider.
+        #[arg(long, value_delimiter = ',', default_value = "13,26,52")]
+        recordings: Vec<usize>,
+        /// Numbers of seeds to consider.
+        #[arg(long, value_delimiter = ',', default_value = "3,5,10,20,40")]
+        seeds: Vec<usize>,
+        /// Output directory for plan.md, plan.json, plan.svg.
+        #[arg(long, default_value = "plan")]
+        out: PathBuf,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -127,6 +144,7 @@ fn main() -> ExitCode {
         Command::Train { design, model, arm, seed, data, out } => train(&design, &model, &arm, seed, data, &out),
         Command::Run { design, data, out, workers, exploratory } => run(&design, data, &out, workers, exploratory),
         Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
+        Command::Plan { design, cells, recordings, seeds, out } => plan(&design, &cells, &recordings, &seeds, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -331,6 +349,28 @@ fn coverage(spec: &std::path::Path, reps: Option<usize>, out: &std::path::Path) 
     for p in crossaudit::workbench::write(out, &spec, &rows)? {
         eprintln!("wrote {}", p.display());
     }
+    Ok(())
+}
+
+fn plan(
+    design: &std::path::Path,
+    cells: &std::path::Path,
+    recordings: &[usize],
+    seeds: &[usize],
+    out: &std::path::Path,
+) -> Result<(), Error> {
+    if let Some(n) = recordings.iter().chain(seeds).find(|n| **n < 2) {
+        return Err(Error::Usage(format!("--recordings and --seeds need values of at least 2, found {n}")));
+    }
+    let file = design::load(design)?;
+    let analysis = crossaudit::analyze_files(design, cells, AnalyzeOptions::default())?;
+    let report = crossaudit::workbench::plan(&analysis, &file.design, recordings, seeds)?;
+    std::fs::create_dir_all(out).map_err(|e| Error::Usage(format!("cannot create {}: {e}", out.display())))?;
+    crossaudit::report::write_atomic(&out.join("plan.md"), report.to_markdown().as_bytes())?;
+    let json = serde_json::to_string_pretty(&report).expect("a plan serializes");
+    crossaudit::report::write_atomic(&out.join("plan.json"), json.as_bytes())?;
+    report.draw(&out.join("plan.svg"))?;
+    print!("{}", report.to_markdown());
     Ok(())
 }
 

@@ -268,3 +268,157 @@ pub fn write(out: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<Ve
     draw(&svg, spec, rows)?;
     Ok(vec![csv, md, svg])
 }
+
+/// One row of the design planner.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanRow {
+    pub recordings: usize,
+    pub seeds: usize,
+    pub se: f64,
+    pub width: f64,
+    /// P(the decision rule holds), normal approximation.
+    pub power: f64,
+}
+
+/// The planner's answer for one design and pilot.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanReport {
+    pub unit: String,
+    pub pilot_recordings: usize,
+    pub pilot_seeds: usize,
+    /// Pilot estimates: mean d, reference-arm mean, variance components.
+    pub mean_d: f64,
+    pub mean_reference: f64,
+    pub sigma2_recording: f64,
+    pub sigma2_seed: f64,
+    pub sigma2_residual: f64,
+    pub rows: Vec<PlanRow>,
+    pub advice: String,
+}
+
+/// Predicts SE, interval width and the probability that the decision rule
+/// holds for other numbers of recordings I and seeds J, from the pilot's
+/// primary-endpoint variance components:
+/// SE^2 = sa/I + sb/J + se/(IJ) (closed form), width = 2 t(J-1) SE, and,
+/// with d_hat ~ N(mu, SE^2), the rule "optimism >= c% and upper < 0" holds
+/// when d_hat <= min(-t SE, -c m_ref / 100), so
+/// P = Phi((min(-t SE, -c m_ref/100) - mu) / SE). The pilot's mean is taken
+/// as the true effect.
+pub fn plan(
+    analysis: &crate::Analysis,
+    design: &crate::Design,
+    recordings: &[usize],
+    seeds: &[usize],
+) -> Result<PlanReport, Error> {
+    use statrs::distribution::{ContinuousCDF, Normal};
+    let u = analysis.units.first().ok_or_else(|| Error::Usage("the analysis has no primary endpoint".into()))?;
+    let c = &u.estimate.components;
+    let level = design.estimator.level;
+    let threshold =
+        design.decision.conditions.iter().find(|k| k.quantity == crate::design::Quantity::Optimism).map(|k| k.value);
+    let normal = Normal::new(0.0, 1.0).map_err(|e| Error::Usage(e.to_string()))?;
+    let mut rows = Vec::new();
+    for &i in recordings {
+        for &j in seeds {
+            let (fi, fj) = (i as f64, j as f64);
+            let se = (c.recording / fi + c.seed / fj + c.residual / (fi * fj)).sqrt();
+            let df = match design.estimator.df {
+                crate::stats::DfRule::SeedsMinusOne => fj - 1.0,
+                crate::stats::DfRule::RecordingsMinusOne => fi - 1.0,
+                _ => f64::INFINITY,
+            };
+            let t = crate::stats::critical_value(level, df).map_err(|e| Error::Usage(e.to_string()))?;
+            let mut bound = -t * se;
+            if let Some(thr) = threshold {
+                bound = bound.min(-thr * u.mean_reference / 100.0);
+            }
+            let power = if se > 0.0 {
+                normal.cdf((bound - u.estimate.mean) / se)
+            } else {
+                f64::from(u8::from(u.estimate.mean <= bound))
+            };
+            rows.push(PlanRow { recordings: i, seeds: j, se, width: 2.0 * t * se, power });
+        }
+    }
+    let (i0, j0) = (analysis.recordings.len() as f64, analysis.seeds.len() as f64);
+    let se_at = |i: f64, j: f64| (c.recording / i + c.seed / j + c.residual / (i * j)).sqrt();
+    let (base, more_rec, more_seed) = (se_at(i0, j0), se_at(2.0 * i0, j0), se_at(i0, 2.0 * j0));
+    let advice = format!(
+        "From the pilot's {i0} recordings x {j0} seeds (SE {base:.4}): doubling the recordings gives SE {more_rec:.4}, doubling the seeds gives SE {more_seed:.4}; {} reduce the SE more.",
+        if more_rec < more_seed { "more recordings" } else { "more seeds" }
+    );
+    Ok(PlanReport {
+        unit: format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s),
+        pilot_recordings: analysis.recordings.len(),
+        pilot_seeds: analysis.seeds.len(),
+        mean_d: u.estimate.mean,
+        mean_reference: u.mean_reference,
+        sigma2_recording: c.recording,
+        sigma2_seed: c.seed,
+        sigma2_residual: c.residual,
+        rows,
+        advice,
+    })
+}
+
+impl PlanReport {
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Design planner: {}\n", self.unit);
+        let _ = writeln!(
+            s,
+            "Pilot: {} recordings x {} seeds; mean d {:.5}, reference mean {:.5}; sigma^2 recording {:.3e}, seed {:.3e}, residual {:.3e}.\n",
+            self.pilot_recordings,
+            self.pilot_seeds,
+            self.mean_d,
+            self.mean_reference,
+            self.sigma2_recording,
+            self.sigma2_seed,
+            self.sigma2_residual
+        );
+        let _ = writeln!(s, "{}\n", self.advice);
+        let _ = writeln!(s, "| recordings I | seeds J | predicted SE | interval width | P(decision rule holds) |");
+        let _ = writeln!(s, "|---:|---:|---:|---:|---:|");
+        for r in &self.rows {
+            let _ = writeln!(s, "| {} | {} | {:.5} | {:.5} | {:.3} |", r.recordings, r.seeds, r.se, r.width, r.power);
+        }
+        s
+    }
+
+    /// Power against seeds, one line per number of recordings.
+    pub fn draw(&self, path: &Path) -> Result<(), Error> {
+        use plotters::prelude::*;
+        let e = |x: String| Error::Usage(format!("cannot draw {}: {x}", path.display()));
+        let root = SVGBackend::new(path, (900, 480)).into_drawing_area();
+        root.fill(&WHITE).map_err(|x| e(format!("{x:?}")))?;
+        let max_j = self.rows.iter().map(|r| r.seeds).max().unwrap_or(2) as f64;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("P(decision rule holds) for {}", self.unit), ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..max_j, 0.0..1.0)
+            .map_err(|x| e(format!("{x:?}")))?;
+        chart.configure_mesh().x_desc("seeds J").y_desc("probability").draw().map_err(|x| e(format!("{x:?}")))?;
+        let mut recs: Vec<usize> = self.rows.iter().map(|r| r.recordings).collect();
+        recs.dedup();
+        let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+        for (k, i) in recs.iter().enumerate() {
+            let color = palette[k % palette.len()];
+            let pts: Vec<(f64, f64)> =
+                self.rows.iter().filter(|r| r.recordings == *i).map(|r| (r.seeds as f64, r.power)).collect();
+            chart
+                .draw_series(LineSeries::new(pts, color))
+                .map_err(|x| e(format!("{x:?}")))?
+                .label(format!("I = {i}"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|x| e(format!("{x:?}")))?;
+        root.present().map_err(|x| e(format!("{x:?}")))
+    }
+}

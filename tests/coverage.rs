@@ -149,3 +149,29 @@ fn a_bad_spec_is_a_clear_error() {
     let e = crossaudit::workbench::CoverageSpec::load(&p).unwrap_err().to_string();
     assert!(e.contains("`rows` and `cols` must be at least 2, found 1"), "{e}");
 }
+
+#[test]
+fn the_planner_reproduces_the_pilot_se_and_the_closed_form_power() {
+    let root = crate::common::root();
+    let design = crossaudit::design::load(&root.join("designs/nanobench_confirmatory.design")).unwrap().design;
+    let a = crossaudit::analyze_files(
+        &root.join("designs/nanobench_confirmatory.design"),
+        &crate::common::example_cells(),
+        Default::default(),
+    )
+    .unwrap();
+    let p = crossaudit::workbench::plan(&a, &design, &[26, 52], &[20, 5]).unwrap();
+    let at_pilot = p.rows.iter().find(|r| r.recordings == 26 && r.seeds == 20).unwrap();
+    assert_rel(at_pilot.se, a.units[0].estimate.se, 1e-12, "planner SE at the pilot size = the pilot's crossed SE");
+    assert_rel(at_pilot.width, a.units[0].estimate.upper - a.units[0].estimate.lower, 1e-12, "width");
+    // Power by hand: bound = min(-t(19) SE, -10% of the reference mean),
+    // P = Phi((bound - mean) / SE), Phi from statrs' standard normal.
+    use statrs::distribution::{ContinuousCDF, Normal};
+    let u = &a.units[0];
+    let bound = (-u.estimate.critical * u.estimate.se).min(-0.10 * u.mean_reference);
+    let expected = Normal::new(0.0, 1.0).unwrap().cdf((bound - u.estimate.mean) / u.estimate.se);
+    assert_rel(at_pilot.power, expected, 1e-12, "power");
+    // More of either factor never increases the SE.
+    let se = |i, j| p.rows.iter().find(|r| r.recordings == i && r.seeds == j).unwrap().se;
+    assert!(se(52, 20) <= se(26, 20) && se(26, 20) <= se(26, 5));
+}
