@@ -177,3 +177,44 @@ fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
     }
     assert_eq!(baseline_fa[0], baseline_fa[1], "parameter-free baselines must score the same on both arms");
 }
+
+#[test]
+fn a_saved_cell_is_re_evaluated_without_retraining() {
+    let dir = root().join("../shared/nanobench/recordings");
+    if !dir.is_dir() {
+        eprintln!("SKIPPED: {} is absent", dir.display());
+        return;
+    }
+    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let split = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let cell = crossaudit::cell::run_cell(&file, &split, "world", "disjoint", 1, out.path(), &mut |_| {}).unwrap();
+    // Reload weights and standardizers from disk and roll out again.
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("models/world__disjoint__1.json")).unwrap())
+            .unwrap();
+    let features: FeatureMap = serde_json::from_value(meta["features"].clone()).unwrap();
+    let widths: Vec<usize> = serde_json::from_value(meta["widths"].clone()).unwrap();
+    let net = crossaudit::model::Net::load(&widths, &out.path().join("models/world__disjoint__1.safetensors")).unwrap();
+    let horizons = crossaudit::cell::horizons_for(&file.design, "world");
+    let steps = crossaudit::rollout::horizon_steps(&horizons, file.design.data.rate_hz);
+    let mut model = Learned { net: &net, features: &features };
+    let traces = crossaudit::rollout::rollout(
+        &mut model,
+        &split.recordings,
+        &split.split.starts,
+        *steps.iter().max().unwrap(),
+        &steps,
+    );
+    let again = crossaudit::rollout::cells(
+        "world",
+        "disjoint",
+        1,
+        &split.split,
+        &traces,
+        &horizons,
+        file.design.data.rate_hz,
+        2.0,
+    );
+    assert_eq!(again, cell.cells, "re-evaluating the saved model must reproduce the cell's rows");
+}
