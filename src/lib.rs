@@ -87,13 +87,31 @@ pub fn split_stage(
     Ok(SplitOutcome { recordings, audit, split, manifests, invariants, treatment })
 }
 
-/// The data directory: `--data` if given, else the design's `path`
-/// (relative to the current directory).
-pub fn data_dir(design: &Design, data: Option<std::path::PathBuf>) -> Result<std::path::PathBuf, Error> {
-    let dir = match (data, &design.data.path) {
-        (Some(d), _) => d,
-        (None, Some(p)) => std::path::PathBuf::from(p),
-        (None, None) => return Err(Error::Usage("the design's data block has no `path`; pass --data DIR".into())),
+/// The data directory: `--data` if given; for `data simulated`, the
+/// simulator's recordings, generated once into `out/simulated_data`; else
+/// the design's `path` (relative to the current directory).
+pub fn data_dir(
+    design: &Design,
+    data: Option<std::path::PathBuf>,
+    out: &std::path::Path,
+) -> Result<std::path::PathBuf, Error> {
+    let dir = match (data, &design.data.path, &design.data.simulated) {
+        (Some(d), _, _) => d,
+        (None, _, Some(sim)) => {
+            let dir = out.join("simulated_data");
+            let expected = data::simulate::catalogue(sim.recordings);
+            let complete = expected.iter().all(|(name, ..)| dir.join(format!("{name}.csv")).exists());
+            if !complete {
+                data::simulate::simulate(sim, &dir).map_err(|e| {
+                    Error::Usage(format!("cannot write simulated recordings to {}: {e}", dir.display()))
+                })?;
+            }
+            dir
+        }
+        (None, Some(p), None) => std::path::PathBuf::from(p),
+        (None, None, None) => {
+            return Err(Error::Usage("the design's data block has no `path`; pass --data DIR".into()))
+        }
     };
     if !dir.is_dir() {
         return Err(Error::Usage(format!("data directory {} does not exist", dir.display())));

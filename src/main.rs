@@ -102,6 +102,12 @@ enum Command {
         #[arg(long, default_value = "plan")]
         out: PathBuf,
     },
+    /// Generate the recordings of a `data simulated` design (NanoBench schema).
+    Simulate {
+        design: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         design: PathBuf,
@@ -145,6 +151,7 @@ fn main() -> ExitCode {
         Command::Run { design, data, out, workers, exploratory } => run(&design, data, &out, workers, exploratory),
         Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
         Command::Plan { design, cells, recordings, seeds, out } => plan(&design, &cells, &recordings, &seeds, &out),
+        Command::Simulate { design, out } => simulate(&design, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -160,7 +167,7 @@ fn main() -> ExitCode {
 
 fn data_audit(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::Path) -> Result<(), Error> {
     let file = design::load(design)?;
-    let dir = crossaudit::data_dir(&file.design, data)?;
+    let dir = crossaudit::data_dir(&file.design, data, out)?;
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
     print!("{}", audit.summary());
@@ -170,7 +177,7 @@ fn data_audit(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::
 
 fn split(design: &std::path::Path, data: Option<PathBuf>, out: &std::path::Path) -> Result<(), Error> {
     let file = design::load(design)?;
-    let dir = crossaudit::data_dir(&file.design, data)?;
+    let dir = crossaudit::data_dir(&file.design, data, out)?;
     let outcome = crossaudit::split_stage(&file, &dir, out)?;
     print!("{}", outcome.treatment.render_text());
     for i in &outcome.invariants.invariants {
@@ -192,7 +199,7 @@ fn train(
     out: &std::path::Path,
 ) -> Result<(), Error> {
     let file = design::load(design)?;
-    let dir = crossaudit::data_dir(&file.design, data)?;
+    let dir = crossaudit::data_dir(&file.design, data, out)?;
     let split = crossaudit::split_stage(&file, &dir, out)?;
     let epochs = file.design.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
     let bar = indicatif::ProgressBar::new(epochs);
@@ -293,7 +300,7 @@ fn run(
     exploratory: bool,
 ) -> Result<(), Error> {
     let file = design::load(design)?;
-    let dir = crossaudit::data_dir(&file.design, data)?;
+    let dir = crossaudit::data_dir(&file.design, data, out)?;
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)).max(1);
     let bars = indicatif::MultiProgress::new();
     if !std::io::stderr().is_terminal() {
@@ -371,6 +378,17 @@ fn plan(
     crossaudit::report::write_atomic(&out.join("plan.json"), json.as_bytes())?;
     report.draw(&out.join("plan.svg"))?;
     print!("{}", report.to_markdown());
+    Ok(())
+}
+
+fn simulate(design: &std::path::Path, out: &std::path::Path) -> Result<(), Error> {
+    let file = design::load(design)?;
+    let Some(sim) = file.design.data.simulated else {
+        return Err(Error::Usage(format!("{}: the data source is not `simulated`", design.display())));
+    };
+    let files = crossaudit::data::simulate::simulate(&sim, out)
+        .map_err(|e| Error::Usage(format!("cannot write simulated recordings to {}: {e}", out.display())))?;
+    eprintln!("wrote {} simulated recordings (CSV + metadata) to {}", files.len(), out.display());
     Ok(())
 }
 

@@ -11,6 +11,7 @@ mod designs;
 mod golden;
 mod model;
 mod run;
+mod simulate;
 mod split;
 mod stats_props;
 mod stats_reference;

@@ -4,6 +4,7 @@
 pub mod audit;
 pub mod log;
 pub mod metadata;
+pub mod simulate;
 
 use std::path::{Path, PathBuf};
 

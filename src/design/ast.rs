@@ -96,6 +96,10 @@ pub enum DataItem {
     Strict,
     State(Vec<Ident>),
     Action(Vec<Ident>),
+    SimRecordings(Int),
+    SimSeed(Int),
+    SimStrength(Number),
+    SimDuration(Number),
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -79,8 +79,12 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::duplicates
         | Rule::strict
         | Rule::state_cols
-        | Rule::action_cols => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action)"
+        | Rule::action_cols
+        | Rule::sim_recordings
+        | Rule::sim_seed
+        | Rule::sim_strength
+        | Rule::sim_duration => {
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
@@ -401,6 +405,10 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         Rule::strict => DataItem::Strict,
         Rule::state_cols => DataItem::State(idents(c.next())),
         Rule::action_cols => DataItem::Action(idents(c.next())),
+        Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),
+        Rule::sim_seed => DataItem::SimSeed(int(c.next())?),
+        Rule::sim_strength => DataItem::SimStrength(number(c.next())?),
+        Rule::sim_duration => DataItem::SimDuration(number(c.next())?),
         other => return Err(Diagnostic::new("internal", text_span, format!("unexpected data rule {other:?}"))),
     })
 }
