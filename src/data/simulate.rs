@@ -118,10 +118,12 @@ fn reference(kind: &str, tau: f64, v: f64, waypoints: &[Vector3<f64>]) -> Vector
             vertex(k) * (1.0 - f) + vertex(k + 1) * f
         }
         "trefoil" => {
-            let a = 0.6 * w * tau / 2.0;
+            // About 2 m across, as NanoBench's trefoils.
+            let k = 0.35;
+            let a = 0.6 * w * tau / 2.0 * (0.15 / k);
             Vector3::new(
-                0.15 * (a.sin() + 2.0 * (2.0 * a).sin()),
-                0.15 * (a.cos() - 2.0 * (2.0 * a).cos()) + 0.15,
+                k * (a.sin() + 2.0 * (2.0 * a).sin()),
+                k * (a.cos() - 2.0 * (2.0 * a).cos()) + k,
                 z0 - 0.1 * (3.0 * a).sin(),
             )
         }
@@ -227,6 +229,8 @@ pub fn fly(
     text.push('\n');
     let n_log = (total * LOG_HZ) as usize;
     let mut v_start = 0.0;
+    // The onboard estimator's velocity error is smooth (a filter), not white.
+    let mut est_v_err: Vector3<f64> = Vector3::zeros();
     for k in 0..n_log {
         let t = k as f64 / LOG_HZ;
         // Reference: idle on the ground, climb to the trajectory's start,
@@ -332,7 +336,8 @@ pub fn fly(
         let acc = specific + Vector3::new(noisy(0.01), noisy(0.01), noisy(0.01));
         let gyro = omega + tr.gyro_bias + Vector3::new(noisy(0.005), noisy(0.005), noisy(0.005));
         let est_p = p + Vector3::new(noisy(2e-3), noisy(2e-3), noisy(2e-3));
-        let est_v = vel + Vector3::new(noisy(0.02), noisy(0.02), noisy(0.02));
+        est_v_err = est_v_err * 0.95 + Vector3::new(noisy(0.004), noisy(0.004), noisy(0.004));
+        let est_v = vel + est_v_err;
         let est_q = q * UnitQuaternion::from_scaled_axis(Vector3::new(noisy(5e-3), noisy(5e-3), noisy(5e-3)));
         let (er, ep, ey) = est_q.euler_angles();
         let sp = if flying { r } else { Vector3::zeros() };
