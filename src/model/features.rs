@@ -1,7 +1,7 @@
 //! The two input maps and the prediction target.
 //!
-//! State layout (the NanoBench task-2 order): p = x[0..3], v = x[3..6],
-//! q = x[6..10] (w, x, y, z), r = x[10..13] (position setpoint), b = x[13]
+//! State layout (the NanoBench task-2 order): p = `x[0..3]`, v = `x[3..6]`,
+//! q = `x[6..10]` (w, x, y, z), r = `x[10..13]` (position setpoint), b = `x[13]`
 //! (battery). Action u: 4 motor commands in [0, 1].
 //!
 //! - world: standardized [x, u] (18 inputs);
