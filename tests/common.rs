@@ -35,6 +35,26 @@ macro_rules! snapshots {
     };
 }
 
+/// The shared NanoBench logs, or None with a message saying why the
+/// calling test is skipped.
+pub fn shared_logs() -> Option<PathBuf> {
+    let dir = root().join("../shared/nanobench/recordings");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("SKIPPED: {} is absent; this test needs the shared NanoBench recordings", dir.display());
+        None
+    }
+}
+
+/// The tiny training design and its split on the shared logs, or None.
+pub fn tiny_split(out: &Path) -> Option<(crossaudit::design::DesignFile, crossaudit::SplitOutcome)> {
+    let dir = shared_logs()?;
+    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
+    let split = crossaudit::split_stage(&file, &dir, out).unwrap();
+    Some((file, split))
+}
+
 pub fn minimal_design_path() -> PathBuf {
     root().join("tests/designs/minimal.design")
 }

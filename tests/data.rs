@@ -23,17 +23,7 @@ fn corrupt() -> PathBuf {
     root().join("tests/fixtures/nanobench_corrupt")
 }
 
-/// The shared NanoBench logs, or None with a message saying why the test
-/// is skipped.
-fn real_logs() -> Option<PathBuf> {
-    let dir = root().join("../shared/nanobench/recordings");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("SKIPPED: {} is absent; real-log tests need the shared NanoBench recordings", dir.display());
-        None
-    }
-}
+use crate::common::shared_logs as real_logs;
 
 #[test]
 fn recording_names_are_split_into_their_parts() {

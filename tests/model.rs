@@ -129,14 +129,8 @@ fn standardizers_use_their_own_arm_only() {
 /// Runs the same training cell inside rayon pools of 1 and 2 threads.
 #[test]
 fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
-    let dir = root().join("../shared/nanobench/recordings");
-    if !dir.is_dir() {
-        eprintln!("SKIPPED: {} is absent", dir.display());
-        return;
-    }
-    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
     let out = tempfile::tempdir().unwrap();
-    let split = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let Some((file, split)) = crate::common::tiny_split(out.path()) else { return };
     let mut results = Vec::new();
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
@@ -155,14 +149,8 @@ fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
 
 #[test]
 fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
-    let dir = root().join("../shared/nanobench/recordings");
-    if !dir.is_dir() {
-        eprintln!("SKIPPED: {} is absent", dir.display());
-        return;
-    }
-    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
     let out = tempfile::tempdir().unwrap();
-    let split = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let Some((file, split)) = crate::common::tiny_split(out.path()) else { return };
     let mut baseline_fa = Vec::new();
     for arm in ["disjoint", "contaminated"] {
         let cell = crossaudit::cell::run_cell(&file, &split, "relative", arm, 2, out.path(), &mut |_| {}).unwrap();
@@ -180,14 +168,8 @@ fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
 
 #[test]
 fn a_saved_cell_is_re_evaluated_without_retraining() {
-    let dir = root().join("../shared/nanobench/recordings");
-    if !dir.is_dir() {
-        eprintln!("SKIPPED: {} is absent", dir.display());
-        return;
-    }
-    let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
     let out = tempfile::tempdir().unwrap();
-    let split = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let Some((file, split)) = crate::common::tiny_split(out.path()) else { return };
     let cell = crossaudit::cell::run_cell(&file, &split, "world", "disjoint", 1, out.path(), &mut |_| {}).unwrap();
     // Reload weights and standardizers from disk and roll out again.
     let meta: serde_json::Value =

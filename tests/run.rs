@@ -2,21 +2,11 @@
 //! Killed part-way and restarted, it must give byte-identical per-cell
 //! results; 1 and 2 workers must give byte-identical cells.csv.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use crate::common::root;
-
-fn shared_logs() -> Option<PathBuf> {
-    let dir = root().join("../shared/nanobench/recordings");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("SKIPPED: {} is absent", dir.display());
-        None
-    }
-}
+use crate::common::{root, shared_logs};
 
 fn run(design: &str, out: &Path, workers: &str) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_crossaudit"))

@@ -287,11 +287,7 @@ fn treatment_audit_counts_windows_inside_evaluated_segments() {
 
 #[test]
 fn the_papers_split_on_the_shared_logs_is_locked() {
-    let dir = root().join("../shared/nanobench/recordings");
-    if !dir.is_dir() {
-        eprintln!("SKIPPED: {} is absent", dir.display());
-        return;
-    }
+    let Some(dir) = crate::common::shared_logs() else { return };
     let file = crossaudit::design::load(&root().join("designs/nanobench_confirmatory.design")).unwrap();
     let out = tempfile::tempdir().unwrap();
     let o = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
