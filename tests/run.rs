@@ -19,7 +19,9 @@ fn run(design: &str, out: &Path, workers: &str) -> std::process::Output {
 fn cell_files(out: &Path) -> Vec<(String, Vec<u8>)> {
     let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(out.join("cells"))
         .map(|d| {
+            // Finished cells only: a killed run may leave a `.csv.tmp` behind.
             d.filter_map(|e| e.ok())
+                .filter(|e| e.path().extension().is_some_and(|x| x == "csv"))
                 .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap()))
                 .collect()
         })
