@@ -188,6 +188,7 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
             methods.push(r.method);
         }
     }
+    let labels: Vec<String> = (1..=settings.len()).map(|k| format!("setting {k}")).collect();
     let root = SVGBackend::new(path, (1000, 520)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(format!("{x:?}")))?;
     let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(spec.level, f64::min).max(0.0);
@@ -204,14 +205,7 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
         .configure_mesh()
         .disable_x_mesh()
         .x_labels(n)
-        .x_label_formatter(&|x| {
-            let k = x.round();
-            if (x - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < n {
-                format!("setting {}", k as usize + 1)
-            } else {
-                String::new()
-            }
-        })
+        .x_label_formatter(&|x| crate::report::figures::category_label(*x, &labels))
         .y_desc("coverage")
         .draw()
         .map_err(|x| e(format!("{x:?}")))?;

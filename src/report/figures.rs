@@ -54,14 +54,7 @@ fn intervals(
         .configure_mesh()
         .disable_x_mesh()
         .x_labels(n)
-        .x_label_formatter(&|x| {
-            let k = x.round();
-            if (x - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < labels.len() {
-                labels[k as usize].clone()
-            } else {
-                String::new()
-            }
-        })
+        .x_label_formatter(&|x| category_label(*x, &labels))
         .y_desc(y_desc)
         .draw()
         .map_err(err)?;
@@ -79,6 +72,17 @@ fn intervals(
         .draw_series(rows.iter().enumerate().map(|(k, r)| Circle::new((k as f64, r.1), 5, BLUE.filled())))
         .map_err(err)?;
     root.present().map_err(err)
+}
+
+/// The label of category k at x = k on a categorical axis; empty between
+/// categories.
+pub(crate) fn category_label(x: f64, labels: &[String]) -> String {
+    let k = x.round();
+    if (x - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < labels.len() {
+        labels[k as usize].clone()
+    } else {
+        String::new()
+    }
 }
 
 fn threshold(a: &Analysis) -> Option<f64> {
