@@ -16,13 +16,14 @@ fn bench(c: &mut Criterion) {
     let design = root.join("designs/nanobench_confirmatory.design");
     let cells_path = root.join("examples/cells/nanobench_synthetic.csv");
     let file = crossaudit::design::load(&design).expect("design");
+    let plan = crossaudit::compile(&file.design);
     let cells = crossaudit::cells::read_cells(&cells_path).expect("cells");
     assert_eq!(cells.len(), 6240);
     let mut g = c.benchmark_group("analyze");
     g.sample_size(20);
     g.bench_function("read_cells_6240_rows", |b| b.iter(|| crossaudit::cells::read_cells(&cells_path).unwrap()));
     g.bench_function("analyze_6240_rows_b9999", |b| {
-        b.iter(|| crossaudit::analyze(&file.design, &cells, Default::default()).unwrap())
+        b.iter(|| crossaudit::analyze(&plan, &cells, Default::default()).unwrap())
     });
     g.bench_function("analyze_files_plus_reports", |b| {
         let dir = std::env::temp_dir().join("crossaudit-bench-report");

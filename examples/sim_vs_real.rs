@@ -9,8 +9,8 @@
 
 use std::path::Path;
 
-use crossaudit::data::simulate::{simulate, SimSpec};
 use crossaudit::data::{load_recording, Layout, Recording};
+use crossaudit::sim::{simulate, SimSpec};
 use plotters::prelude::*;
 
 fn quantile(mut v: Vec<f64>, p: f64) -> f64 {

@@ -78,7 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed_gain: Vec<f64> = d.seeds.iter().map(|_| 1.0 + normal(&mut rng, 0.3)).collect();
     let starts = d.recording.starts as u64;
     let cap = d.endpoints[0].cap.0;
-    let mut keys: Vec<(String, f64)> = plan.units.iter().map(|u| (u.model.clone(), u.horizon_s)).collect();
+    let mut keys: Vec<(String, f64)> = plan.units().map(|u| (u.model.clone(), u.horizon_s)).collect();
     keys.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
     keys.dedup();
     let mut cells = Vec::new();

@@ -37,7 +37,7 @@ fn primary_output_of_the_example_is_locked() {
     let a = example();
     let u = &a.units[0];
     let mut s = String::new();
-    let _ = writeln!(s, "{}", a.decision.summary());
+    let _ = writeln!(s, "{}", crossaudit::report::decision_summary(&a.decision));
     let _ = writeln!(s, "unit: {} {} at {} s ({:?})", u.model, u.metric.name(), u.horizon_s, u.role);
     let _ = writeln!(
         s,
@@ -136,14 +136,14 @@ fn hand_built_cells_give_the_hand_computed_mean() {
     // over i < 4, j < 3: residues (j = 0) 0,3,1,4 | (j = 1) 2,0,3,1 |
     // (j = 2) 4,2,0,3 sum to 23.
     let d = minimal_design();
-    let a = analyze(&d, &minimal_cells(&d), Default::default()).unwrap();
+    let a = analyze(&crossaudit::compile(&d), &minimal_cells(&d), Default::default()).unwrap();
     let expected = -0.06 + 0.005 * 23.0 / 12.0;
     assert!((a.units[0].estimate.mean - expected).abs() < 1e-12, "{}", a.units[0].estimate.mean);
 }
 
 fn err_of(cells: &[Cell]) -> String {
     let d = minimal_design();
-    match analyze(&d, cells, Default::default()) {
+    match analyze(&crossaudit::compile(&d), cells, Default::default()) {
         Ok(_) => panic!("bad cells were accepted"),
         Err(e) => e.to_string(),
     }
@@ -237,7 +237,7 @@ fn grouped_sensitivity_with_one_group_is_skipped_with_a_warning() {
     for c in cells.iter_mut() {
         c.trajectory = "circle".into();
     }
-    let a = analyze(&d, &cells, Default::default()).unwrap();
+    let a = analyze(&crossaudit::compile(&d), &cells, Default::default()).unwrap();
     assert!(a.units.iter().all(|u| u.grouped.is_none()));
     assert!(a.warnings.iter().any(|w| w.contains("grouped sensitivity skipped")), "{:?}", a.warnings);
 }
@@ -312,7 +312,7 @@ fn locked_real_run(design: &str, cells: &str) -> String {
     let root = crate::common::root();
     let a = crossaudit::analyze_files(&root.join(design), &root.join(cells), Default::default()).unwrap();
     let mut s = String::new();
-    let _ = writeln!(s, "{}", a.decision.summary());
+    let _ = writeln!(s, "{}", crossaudit::report::decision_summary(&a.decision));
     for u in &a.units {
         let _ = writeln!(
             s,

@@ -48,11 +48,24 @@ pub fn shared_logs() -> Option<PathBuf> {
 }
 
 /// The tiny training design and its split on the shared logs, or None.
-pub fn tiny_split(out: &Path) -> Option<(crossaudit::design::DesignFile, crossaudit::SplitOutcome)> {
+pub fn tiny_split(out: &Path) -> Option<(crossaudit::DesignFile, crossaudit::Plan, crossaudit::split::Prepared)> {
     let dir = shared_logs()?;
     let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
-    let split = crossaudit::split_stage(&file, &dir, out).unwrap();
-    Some((file, split))
+    let plan = crossaudit::compile(&file.design);
+    let split = crossaudit::split::prepare(&file, &plan, &dir, out).unwrap();
+    Some((file, plan, split))
+}
+
+/// Runs the plan's job (model, arm, seed) on a prepared split into `out`.
+pub fn run_job(
+    file: &crossaudit::DesignFile,
+    plan: &crossaudit::Plan,
+    split: &crossaudit::split::Prepared,
+    (model, arm, seed): (&str, &str, u64),
+    out: &Path,
+) -> crossaudit::run::JobOutcome {
+    let job = plan.jobs.iter().find(|j| j.model == model && j.arm == arm && j.seed.0 == seed).expect("job in plan");
+    crossaudit::run::run_job(&file.sha256, plan, job, split, out, &mut |_| {}).unwrap()
 }
 
 pub fn minimal_design_path() -> PathBuf {

@@ -105,7 +105,7 @@ fn replications_do_not_depend_on_the_thread_count() {
         pool.install(|| simulate(&s, 60, 0.95, 49, 17).unwrap())
     };
     let (a, b) = (run(1), run(2));
-    assert_eq!(crossaudit::workbench::to_csv(&a), crossaudit::workbench::to_csv(&b));
+    assert_eq!(crossaudit::methods::coverage::to_csv(&a).unwrap(), crossaudit::methods::coverage::to_csv(&b).unwrap());
 }
 
 #[test]
@@ -129,13 +129,13 @@ fn performance_measures_follow_the_published_formulas() {
 
 #[test]
 fn a_small_fixed_seed_study_is_locked() {
-    let spec: crossaudit::workbench::CoverageSpec = serde_json::from_str(
+    let spec: crossaudit::methods::CoverageSpec = serde_json::from_str(
         r#"{"seed": 42, "reps": 100, "bootstrap": 99, "rows": [10], "cols": [4],
             "shares": [[0.6, 0.2, 0.2]], "distributions": ["normal", "skewed"]}"#,
     )
     .unwrap();
-    let rows = crossaudit::workbench::run_coverage(&spec, &mut |_, _, _| {}).unwrap();
-    snapshots!({ insta::assert_snapshot!(crossaudit::workbench::to_markdown(&spec, &rows)) });
+    let rows = crossaudit::methods::run_coverage(&spec, &mut |_, _, _| {}).unwrap();
+    snapshots!({ insta::assert_snapshot!(crossaudit::methods::coverage::to_markdown(&spec, &rows)) });
 }
 
 #[test]
@@ -143,10 +143,10 @@ fn a_bad_spec_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("spec.json");
     std::fs::write(&p, "{\n  \"seed\": 1,\n  \"reps\": \"many\"\n}").unwrap();
-    let e = crossaudit::workbench::CoverageSpec::load(&p).unwrap_err().to_string();
+    let e = crossaudit::methods::CoverageSpec::load(&p).unwrap_err().to_string();
     assert!(e.contains("spec.json: line 3, column"), "{e}");
     std::fs::write(&p, r#"{"seed": 1, "reps": 10, "rows": [1], "cols": [3], "shares": [[0.5, 0.5, 0.0]], "distributions": ["normal"]}"#).unwrap();
-    let e = crossaudit::workbench::CoverageSpec::load(&p).unwrap_err().to_string();
+    let e = crossaudit::methods::CoverageSpec::load(&p).unwrap_err().to_string();
     assert!(e.contains("`rows` and `cols` must be at least 2, found 1"), "{e}");
 }
 
@@ -160,7 +160,7 @@ fn the_planner_reproduces_the_pilot_se_and_the_closed_form_power() {
         Default::default(),
     )
     .unwrap();
-    let p = crossaudit::workbench::plan(&a, &design, &[26, 52], &[20, 5]).unwrap();
+    let p = crossaudit::methods::power_plan(&crossaudit::compile(&design), &a, &[26, 52], &[20, 5]).unwrap();
     let at_pilot = p.rows.iter().find(|r| r.recordings == 26 && r.seeds == 20).unwrap();
     assert_rel(at_pilot.se, a.units[0].estimate.se, 1e-12, "planner SE at the pilot size = the pilot's crossed SE");
     assert_rel(at_pilot.width, a.units[0].estimate.upper - a.units[0].estimate.lower, 1e-12, "width");

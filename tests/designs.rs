@@ -10,7 +10,7 @@ fn shipped_designs_validate_and_compile_to_the_locked_plan() {
         insta::glob!("../designs", "*.design", |path| {
             let file = design::load(path).expect("shipped designs are valid");
             let plan = crossaudit::compile(&file.design);
-            insta::assert_snapshot!(plan.render_text(&file.design));
+            insta::assert_snapshot!(plan.render_text());
         });
     });
 }
@@ -26,7 +26,7 @@ fn the_confirmatory_design_is_the_papers_protocol() {
     assert_eq!(d.seeds.len(), 20);
     assert_eq!((d.validation.windows, d.validation.recordings, d.validation.seed), (2000, 8, 143));
     let plan = crossaudit::compile(&d);
-    assert_eq!(plan.training_cells.len(), 80);
+    assert_eq!(plan.jobs.len(), 80);
     assert_eq!(plan.required_rows, 26 * 20 * 2 * 2 * 3);
     let t = d.training.unwrap();
     assert_eq!((t.lr, t.batch, t.epochs, t.patience, t.action_noise), (1e-3, 1024, 100, 15, 0.02));

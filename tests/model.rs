@@ -1,11 +1,11 @@
 //! Models, rollouts and metrics: invariances, known rotations, hand-built
 //! failure-aware cases, own-arm standardizers and thread-count determinism.
 
-use crate::common::root;
+use crate::common::{root, run_job};
 use crossaudit::design::InputMap;
 use crossaudit::model::features::{raw_input, Action, State};
-use crossaudit::model::{FeatureMap, Learned};
-use crossaudit::rollout::{attitude_error_deg, failure_aware, Dynamics, StartOutcome, Trace};
+use crossaudit::model::{Dynamics, FeatureMap, Learned};
+use crossaudit::rollout::{attitude_error_deg, failure_aware, StartOutcome, Trace};
 use crossaudit::split::Window;
 
 fn state(p: [f64; 3], r: [f64; 3]) -> State {
@@ -130,14 +130,12 @@ fn standardizers_use_their_own_arm_only() {
 #[test]
 fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
     let out = tempfile::tempdir().unwrap();
-    let Some((file, split)) = crate::common::tiny_split(out.path()) else { return };
+    let Some((file, plan, split)) = crate::common::tiny_split(out.path()) else { return };
     let mut results = Vec::new();
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         let o = out.path().join(format!("t{threads}"));
-        let cell = pool
-            .install(|| crossaudit::cell::run_cell(&file, &split, "world", "contaminated", 1, &o, &mut |_| {}))
-            .unwrap();
+        let cell = pool.install(|| run_job(&file, &plan, &split, ("world", "contaminated", 1), &o));
         let weights = std::fs::read(o.join("models/world__contaminated__1.safetensors")).unwrap();
         let cells = std::fs::read(o.join("cells/world__contaminated__1.csv")).unwrap();
         results.push((weights, cells, cell.epochs.iter().map(|e| e.val_loss).collect::<Vec<_>>()));
@@ -150,10 +148,10 @@ fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
 #[test]
 fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
     let out = tempfile::tempdir().unwrap();
-    let Some((file, split)) = crate::common::tiny_split(out.path()) else { return };
+    let Some((file, plan, split)) = crate::common::tiny_split(out.path()) else { return };
     let mut baseline_fa = Vec::new();
     for arm in ["disjoint", "contaminated"] {
-        let cell = crossaudit::cell::run_cell(&file, &split, "relative", arm, 2, out.path(), &mut |_| {}).unwrap();
+        let cell = run_job(&file, &plan, &split, ("relative", arm, 2), out.path());
         let meta: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(out.path().join(format!("models/relative__{arm}__2.json"))).unwrap(),
         )
@@ -169,8 +167,8 @@ fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
 #[test]
 fn a_saved_cell_is_re_evaluated_without_retraining() {
     let out = tempfile::tempdir().unwrap();
-    let Some((file, split)) = crate::common::tiny_split(out.path()) else { return };
-    let cell = crossaudit::cell::run_cell(&file, &split, "world", "disjoint", 1, out.path(), &mut |_| {}).unwrap();
+    let Some((file, plan, split)) = crate::common::tiny_split(out.path()) else { return };
+    let cell = run_job(&file, &plan, &split, ("world", "disjoint", 1), out.path());
     // Reload weights and standardizers from disk and roll out again.
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.path().join("models/world__disjoint__1.json")).unwrap())
@@ -178,7 +176,7 @@ fn a_saved_cell_is_re_evaluated_without_retraining() {
     let features: FeatureMap = serde_json::from_value(meta["features"].clone()).unwrap();
     let widths: Vec<usize> = serde_json::from_value(meta["widths"].clone()).unwrap();
     let net = crossaudit::model::Net::load(&widths, &out.path().join("models/world__disjoint__1.safetensors")).unwrap();
-    let horizons = crossaudit::cell::horizons_for(&file.design, "world");
+    let horizons = plan.jobs.iter().find(|j| j.model == "world").unwrap().horizons_s.clone();
     let steps = crossaudit::rollout::horizon_steps(&horizons, file.design.data.rate_hz);
     let mut model = Learned { net: &net, features: &features };
     let traces = crossaudit::rollout::rollout(

@@ -2,8 +2,8 @@
 //! logs, and compatibility with the loader's audit.
 
 use crate::common::root;
-use crossaudit::data::simulate::{simulate, SimSpec};
 use crossaudit::data::Status;
+use crossaudit::sim::{simulate, SimSpec};
 
 fn spec(strength: f64) -> SimSpec {
     SimSpec { recordings: 6, seed: 3, strength, duration_s: 8.0 }

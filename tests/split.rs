@@ -7,7 +7,7 @@ use crate::common::{minimal_design, root};
 use crate::snapshots;
 use crossaudit::data::{Audit, FileRow, Recording, Status};
 use crossaudit::design::{ArmKind, Design, DuplicatePolicy};
-use crossaudit::split::{self, check_invariants, CellManifests, InvariantStatus, Manifests, Split, SplitError, Window};
+use crossaudit::split::{self, check_invariants, InvariantStatus, JobManifests, Manifests, Split, SplitError, Window};
 
 /// `n` synthetic recordings of 300 rows; rows 0..10 inactive. Recording k
 /// has content hash `h{k}`, except those listed in `dup` which copy the
@@ -73,11 +73,11 @@ fn setup(policy: DuplicatePolicy, dup: &[usize]) -> (Design, Split) {
     (d, s)
 }
 
-fn cells(d: &Design, s: &Split) -> Vec<CellManifests> {
-    CellManifests::for_plan(&crossaudit::compile(d), &Manifests::new(d, None, s))
+fn cells(d: &Design, s: &Split) -> Vec<JobManifests> {
+    JobManifests::for_plan(&crossaudit::compile(d), &Manifests::new(d, None, s))
 }
 
-fn status(d: &Design, s: &Split, c: &[CellManifests], id: u8) -> (InvariantStatus, String) {
+fn status(d: &Design, s: &Split, c: &[JobManifests], id: u8) -> (InvariantStatus, String) {
     let r = check_invariants(d, s, c);
     let i = r.invariants.iter().find(|i| i.id == id).unwrap();
     (i.status, i.detail.clone())
@@ -290,7 +290,8 @@ fn the_papers_split_on_the_shared_logs_is_locked() {
     let Some(dir) = crate::common::shared_logs() else { return };
     let file = crossaudit::design::load(&root().join("designs/nanobench_confirmatory.design")).unwrap();
     let out = tempfile::tempdir().unwrap();
-    let o = crossaudit::split_stage(&file, &dir, out.path()).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let o = crossaudit::split::prepare(&file, &plan, &dir, out.path()).unwrap();
     assert_eq!(o.split.evaluation.len(), 26);
     assert_eq!(o.split.fit("disjoint").unwrap().len(), 16_000);
     assert_eq!(o.split.contaminating[0].1.len(), 4_000);
@@ -299,7 +300,7 @@ fn the_papers_split_on_the_shared_logs_is_locked() {
     json["design_sha256"] = serde_json::Value::String("[design hash]".into());
     snapshots!({ insta::assert_json_snapshot!(json) });
     let again = tempfile::tempdir().unwrap();
-    let o2 = crossaudit::split_stage(&file, &dir, again.path()).unwrap();
+    let o2 = crossaudit::split::prepare(&file, &plan, &dir, again.path()).unwrap();
     for name in o.manifests.files.keys() {
         let a = std::fs::read(out.path().join("manifests").join(name)).unwrap();
         let b = std::fs::read(again.path().join("manifests").join(name)).unwrap();

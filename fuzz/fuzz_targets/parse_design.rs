@@ -9,7 +9,7 @@ fuzz_target!(|data: &[u8]| {
         match crossaudit::design::from_str("fuzz.design", text) {
             Ok(design) => {
                 let plan = crossaudit::compile(&design);
-                let _ = plan.render_text(&design);
+                let _ = plan.render_text();
             }
             Err(e) => {
                 let _ = e.render(false);

@@ -460,7 +460,7 @@ impl Audit {
         let err = |p: &Path, e: String| AuditError::Write { path: p.display().to_string(), message: e };
         std::fs::create_dir_all(dir).map_err(|e| err(dir, e.to_string()))?;
         let path = dir.join("recordings.csv");
-        crate::report::write_atomic(&path, self.to_csv().as_bytes()).map_err(|e| err(&path, e.to_string()))?;
+        crate::io::write_atomic(&path, self.to_csv().as_bytes()).map_err(|e| err(&path, e.to_string()))?;
         Ok(path)
     }
 }

@@ -4,7 +4,6 @@
 pub mod audit;
 pub mod log;
 pub mod metadata;
-pub mod simulate;
 
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 //!
 //! The [`Design`] is the whole preregistered study in typed form: the parts
 //! run by later stages (data, split, training) and the analysis compiled by
-//! [`crate::pipeline::compile`].
+//! [`crate::plan::compile`].
 
 pub mod ast;
 mod diagnostic;
@@ -65,7 +65,20 @@ pub struct DataSpec {
     pub state_columns: Vec<String>,
     pub action_columns: Vec<String>,
     /// For `data simulated`: what to generate.
-    pub simulated: Option<crate::data::simulate::SimSpec>,
+    pub simulated: Option<SimSpec>,
+}
+
+/// What to simulate (the design's `data simulated { ... }`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SimSpec {
+    /// Number of recordings to generate.
+    pub recordings: usize,
+    /// Seed of the simulator's ChaCha8 streams (one stream per recording).
+    pub seed: u64,
+    /// Recording-specific structure: 0 = exchangeable recordings.
+    pub strength: f64,
+    /// Seconds of trajectory per recording (plus take-off and landing).
+    pub duration_s: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -197,6 +210,16 @@ pub enum ModelKind {
     Mlp { widths: Vec<usize>, inputs: InputMap },
     Persistence,
     ConstantVelocity,
+}
+
+/// Hidden-layer widths the language accepts: an `mlp(w, w, w)` of three
+/// equal widths from this list. Part of the language so that validation
+/// needs no model code; `model::net` has one network type per entry.
+pub const MLP_WIDTHS: [usize; 3] = [32, 64, 256];
+
+/// Whether `widths` is an architecture the language accepts.
+pub fn mlp_supported(widths: &[usize]) -> bool {
+    widths.len() == 3 && widths.iter().all(|w| *w == widths[0]) && MLP_WIDTHS.contains(&widths[0])
 }
 
 impl ModelKind {
@@ -373,6 +396,47 @@ pub struct DecisionCondition {
     pub quantity: Quantity,
     pub cmp: Cmp,
     pub value: f64,
+}
+
+impl DecisionCondition {
+    /// Whether an observed `value` of this condition's quantity meets it.
+    pub fn holds(&self, value: f64) -> bool {
+        self.cmp.holds(value, self.value)
+    }
+}
+
+/// The condition as written in a design: `optimism >= 10%`, `upper < 0`.
+impl std::fmt::Display for DecisionCondition {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let pct = if self.quantity == Quantity::Optimism { "%" } else { "" };
+        write!(f, "{} {} {}{}", self.quantity.name(), self.cmp.symbol(), self.value, pct)
+    }
+}
+
+impl DecisionRule {
+    /// The threshold of the rule's `optimism` condition, if it has one.
+    pub fn optimism_threshold(&self) -> Option<f64> {
+        self.conditions.iter().find(|c| c.quantity == Quantity::Optimism).map(|c| c.value)
+    }
+}
+
+/// The rule as written in a design: `confirmed when optimism >= 10% and upper < 0`.
+///
+/// ```
+/// let d = crossaudit::design::from_str("t", include_str!("../../tests/designs/minimal.design")).unwrap();
+/// assert!(d.decision.to_string().contains(" when "));
+/// ```
+impl std::fmt::Display for DecisionRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} when ", self.name)?;
+        for (k, c) in self.conditions.iter().enumerate() {
+            if k > 0 {
+                f.write_str(" and ")?;
+            }
+            write!(f, "{c}")?;
+        }
+        Ok(())
+    }
 }
 
 /// Quantities of the primary endpoint a decision rule may name.

@@ -326,7 +326,7 @@ impl Validator {
         match source {
             Some(DataSource::Simulated) => match (sim_n, sim_seed, sim_strength, sim_duration) {
                 (Some(recordings), Some(seed), Some(strength), Some(duration_s)) => {
-                    spec.simulated = Some(crate::data::simulate::SimSpec { recordings, seed, strength, duration_s });
+                    spec.simulated = Some(SimSpec { recordings, seed, strength, duration_s });
                 }
                 _ => self.err_help(
                     "incomplete simulated data",
@@ -564,7 +564,7 @@ impl Validator {
             let kind = match kind {
                 ast::ModelKind::Mlp { widths: spans, inputs } => {
                     let widths: Vec<usize> = spans.iter().map(|w| self.count(w, "a layer width", 1)).collect();
-                    if !crate::model::net::supported(&widths) && widths.iter().all(|w| *w >= 1) {
+                    if !mlp_supported(&widths) && widths.iter().all(|w| *w >= 1) {
                         let span = Span {
                             start: spans.first().map(|w| w.span.start).unwrap_or(name.span.start),
                             end: spans.last().map(|w| w.span.end).unwrap_or(name.span.end),
@@ -578,7 +578,7 @@ impl Validator {
                             ),
                             format!(
                                 "supported: three hidden layers of one width from {:?}, e.g. mlp(256, 256, 256)",
-                                crate::model::SUPPORTED_WIDTHS
+                                MLP_WIDTHS
                             ),
                         );
                     }

@@ -1,7 +1,7 @@
 //! Parameter-free predictors, through the same rollout and metric code.
 
 use super::features::{Action, State};
-use crate::rollout::Dynamics;
+use super::Dynamics;
 
 /// x_{t+1} = x_t.
 pub struct Persistence;

@@ -1,11 +1,22 @@
 //! Stage: dynamics models. Standardizers and the world / relative input
-//! maps, the dfdx MLP and its training, and parameter-free baselines.
+//! maps, the dfdx MLP and its training, and parameter-free baselines, all
+//! behind one [`Dynamics`] trait that the rollout stage drives.
+//!
+//! Architecture Invariant: `model` imports only `design`, `stats` and `io`;
+//! it knows nothing of recordings, splits or rollouts.
 
 pub mod baseline;
 pub mod features;
 pub mod net;
 mod standardize;
 
-pub use features::FeatureMap;
-pub use net::{train, EpochLog, Learned, Net, NetError, SUPPORTED_WIDTHS};
+pub use features::{Action, FeatureMap, State, ACTION, EXOGENOUS, INPUT, STATE};
+pub use net::{train, EpochLog, Learned, Net, NetError};
 pub use standardize::Standardizer;
+
+/// One step of a dynamics model for a batch of states: the next states
+/// (exogenous components are overwritten by the rollout afterwards).
+pub trait Dynamics {
+    /// Predicts x_{t+1} for every (x_t, u_t) of the batch.
+    fn step(&mut self, states: &[State], actions: &[Action]) -> Vec<State>;
+}

@@ -1,7 +1,7 @@
 //! The MLP and its training, in dfdx 0.13 (CPU).
 //!
 //! Layer widths are types in dfdx 0.13, so the supported architectures are
-//! three hidden ReLU layers of one width from [`SUPPORTED_WIDTHS`]: 18 -> W
+//! three hidden ReLU layers of one width from [`crate::design::MLP_WIDTHS`]: 18 -> W
 //! -> W -> W -> 14. The paper's is W = 256.
 
 use std::path::Path;
@@ -11,16 +11,14 @@ use dfdx::nn::{LoadFromSafetensors, SaveToSafetensors};
 use dfdx::optim::{Adam, AdamConfig};
 use dfdx::prelude::*;
 use rand::seq::SliceRandom;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::features::{Action, FeatureMap, State, ACTION, INPUT, STATE};
-use crate::design::{Schedule, Training};
-use crate::rollout::Dynamics;
-
-/// Hidden widths that are compiled in (three hidden layers of this width).
-pub const SUPPORTED_WIDTHS: [usize; 3] = [32, 64, 256];
+use super::Dynamics;
+use crate::design::{mlp_supported, Schedule, Training, MLP_WIDTHS};
+use crate::stats::standard_normal;
 
 type Mlp<const W: usize> = ((Linear<INPUT, W>, ReLU), (Linear<W, W>, ReLU), (Linear<W, W>, ReLU), Linear<W, STATE>);
 type Built<const W: usize> = <Mlp<W> as BuildOnDevice<Cpu, f32>>::Built;
@@ -31,11 +29,6 @@ pub enum Net {
     W32(Built<32>),
     W64(Built<64>),
     W256(Built<256>),
-}
-
-/// Whether `widths` is a supported architecture.
-pub fn supported(widths: &[usize]) -> bool {
-    widths.len() == 3 && widths.iter().all(|w| *w == widths[0]) && SUPPORTED_WIDTHS.contains(&widths[0])
 }
 
 /// One epoch of training.
@@ -55,7 +48,7 @@ pub type Windows = [(State, Action, State)];
 
 #[derive(Debug, thiserror::Error)]
 pub enum NetError {
-    #[error("mlp widths {0:?} are not compiled in; supported: three equal hidden widths from {SUPPORTED_WIDTHS:?}")]
+    #[error("mlp widths {0:?} are not compiled in; supported: three equal hidden widths from {MLP_WIDTHS:?}")]
     Unsupported(Vec<usize>),
     #[error("cannot save or load model weights at {path}: {message}")]
     Io { path: String, message: String },
@@ -72,13 +65,6 @@ pub fn learning_rate(t: &Training, epoch: usize) -> f64 {
     }
 }
 
-/// Gaussian noise by Box-Muller from the training RNG.
-fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
-    let u2: f64 = rng.gen();
-    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-}
-
 fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option<(f64, &mut ChaCha8Rng)>) -> Vec<f32> {
     let mut x = vec![0f32; idx.len() * INPUT];
     let mut noise = noise;
@@ -87,7 +73,7 @@ fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option
         let mut u = *u;
         if let Some((sd, rng)) = noise.as_mut() {
             for a in u.iter_mut() {
-                *a = (*a + *sd * gaussian(rng)).clamp(0.0, 1.0);
+                *a = (*a + *sd * standard_normal(rng)).clamp(0.0, 1.0);
             }
         }
         features.input(s, &u, row);
@@ -119,7 +105,7 @@ pub fn train(
     if fit.is_empty() || validation.is_empty() {
         return Err(NetError::NoData);
     }
-    if !supported(widths) {
+    if !mlp_supported(widths) {
         return Err(NetError::Unsupported(widths.to_vec()));
     }
     Ok(match widths[0] {
@@ -260,7 +246,7 @@ impl Net {
     }
 
     pub fn load(widths: &[usize], path: &Path) -> Result<Net, NetError> {
-        if !supported(widths) {
+        if !mlp_supported(widths) {
             return Err(NetError::Unsupported(widths.to_vec()));
         }
         let dev = Cpu::default();

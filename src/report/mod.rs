@@ -1,35 +1,48 @@
 //! Stage 5: an [`Analysis`] rendered for people and for other tools:
-//! `report.md` (tables like the paper's Table 2), `results.json` and
-//! `results.tex` (one LaTeX macro per reported number).
+//! `report.md` (tables like the paper's Table 2), `results.json`,
+//! `results.tex` (one LaTeX macro per reported number) and SVG figures.
+//!
+//! Architecture Invariant: `report` renders what it is given; it reads no
+//! file and imports no stage above `analysis`.
 
+pub mod charts;
 pub mod figures;
+mod format;
 mod markdown;
+mod table;
 mod tex;
 
 use std::path::{Path, PathBuf};
 
 use crate::analysis::Analysis;
+use crate::io::{create_dir_all, pretty_json, write_atomic, WriteError};
 
+pub use charts::DrawError;
+pub use format::{decision_summary, f, level_pct};
 pub use markdown::render_markdown;
+pub use table::Table;
 pub use tex::render_tex;
 
+/// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot write {path}: {source}")]
-pub struct WriteError {
-    pub path: String,
-    pub source: std::io::Error,
+pub enum ReportError {
+    /// A file could not be written.
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Draw(#[from] DrawError),
 }
 
+/// results.json: the analysis as pretty JSON.
 pub fn render_json(a: &Analysis) -> String {
-    let mut s = serde_json::to_string_pretty(a).expect("an Analysis always serializes");
-    s.push('\n');
-    s
+    pretty_json(a)
 }
 
 /// Writes report.md, results.json and results.tex into `dir` (created if
 /// needed), each atomically (temporary file + rename). Returns the paths.
-pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, WriteError> {
-    std::fs::create_dir_all(dir).map_err(|source| WriteError { path: dir.display().to_string(), source })?;
+pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    create_dir_all(dir)?;
     let mut out = Vec::new();
     for (name, text) in
         [("report.md", render_markdown(a)), ("results.json", render_json(a)), ("results.tex", render_tex(a))]
@@ -39,32 +52,4 @@ pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, WriteError> {
         out.push(path);
     }
     Ok(out)
-}
-
-/// Temporary file in the same directory, then rename, so a reader never sees
-/// half a file and an interrupted write never replaces a finished one.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
-    let err = |source| WriteError { path: path.display().to_string(), source };
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, bytes).map_err(err)?;
-    std::fs::rename(&tmp, path).map_err(err)
-}
-
-/// Fixed-point formatting used in every table; NaN prints as "NA".
-pub(crate) fn f(v: f64, decimals: usize) -> String {
-    if v.is_nan() {
-        "NA".to_string()
-    } else if v.is_infinite() {
-        if v > 0.0 { "inf" } else { "-inf" }.to_string()
-    } else {
-        let s = format!("{v:.decimals$}");
-        // "-0.0000" reads as a sign error; print zero plainly.
-        if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
-            s.trim_start_matches('-').to_string()
-        } else {
-            s
-        }
-    }
 }

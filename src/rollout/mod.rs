@@ -8,16 +8,10 @@ pub mod metrics;
 
 use crate::cells::Cell;
 use crate::data::Recording;
-use crate::model::features::{Action, State};
+use crate::model::{Action, Dynamics, State};
 use crate::split::{Split, Window};
 
 pub use metrics::{attitude_error_deg, failure_aware, HorizonMetrics, StartOutcome};
-
-/// One step of a dynamics model for a batch of states: the next states
-/// (exogenous components are overwritten by the rollout afterwards).
-pub trait Dynamics {
-    fn step(&mut self, states: &[State], actions: &[Action]) -> Vec<State>;
-}
 
 /// Unit quaternion (w, x, y, z) at state[6..10]; returned to unit length
 /// after every step. A zero or non-finite quaternion is left as is, and

@@ -9,11 +9,11 @@ use serde_json::{json, Value};
 
 use super::{Manifests, Split};
 use crate::design::{ArmKind, Design, DuplicatePolicy, Seed};
-use crate::pipeline::Plan;
+use crate::plan::Plan;
 
-/// The manifests one training cell uses, by hash.
+/// The manifests one training job uses, by hash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct CellManifests {
+pub struct JobManifests {
     pub model: String,
     pub arm: String,
     pub seed: Seed,
@@ -23,12 +23,12 @@ pub struct CellManifests {
     pub fit_sha256: String,
 }
 
-impl CellManifests {
-    /// The cells of a plan, each pointing at the split's manifests.
-    pub fn for_plan(plan: &Plan, m: &Manifests) -> Vec<CellManifests> {
-        plan.training_cells
+impl JobManifests {
+    /// The jobs of a plan, each pointing at the split's manifests.
+    pub fn for_plan(plan: &Plan, m: &Manifests) -> Vec<JobManifests> {
+        plan.jobs
             .iter()
-            .map(|c| CellManifests {
+            .map(|c| JobManifests {
                 model: c.model.clone(),
                 arm: c.arm.clone(),
                 seed: c.seed,
@@ -109,7 +109,7 @@ fn keep_note(names: &BTreeSet<String>) -> String {
 
 /// Runs invariants 1-8 on a split and its cells; 6, 8 and 9 are deferred
 /// to the stage that can check them.
-pub fn check_invariants(design: &Design, split: &Split, cells: &[CellManifests]) -> InvariantReport {
+pub fn check_invariants(design: &Design, split: &Split, cells: &[JobManifests]) -> InvariantReport {
     let mut out = Vec::new();
     let e: BTreeSet<usize> = split.evaluation_side.iter().copied().collect();
     let e_hashes: BTreeSet<&str> =

@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::{Split, Window};
 use crate::design::{ArmKind, Design};
-use crate::report::{write_atomic, WriteError};
+use crate::io::{write_atomic, WriteError};
 
 /// One manifest's text and hash.
 #[derive(Debug, Clone, Serialize)]
@@ -31,7 +31,7 @@ pub struct Manifests {
 }
 
 fn summary(text: String, rows: usize) -> ManifestSummary {
-    ManifestSummary { sha256: crate::design::lock::sha256_hex(text.as_bytes()), rows, text }
+    ManifestSummary { sha256: crate::io::sha256_hex(text.as_bytes()), rows, text }
 }
 
 fn windows_csv(split: &Split, windows: &[Window]) -> ManifestSummary {

@@ -9,6 +9,7 @@
 
 mod invariants;
 mod manifest;
+mod prepare;
 mod treatment;
 
 use std::collections::BTreeSet;
@@ -21,8 +22,9 @@ use serde::Serialize;
 use crate::data::{Audit, Recording};
 use crate::design::{ArmKind, Design, DuplicatePolicy, StartsPolicy};
 
-pub use invariants::{check_invariants, CellManifests, Invariant, InvariantReport, InvariantStatus};
+pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
+pub use prepare::{prepare, Prepared};
 pub use treatment::{treatment_audit, Composition, TreatmentAudit};
 
 /// A one-step window or a rollout start: (recording index, row index).
@@ -34,7 +36,7 @@ pub struct Window {
 
 /// A deployment unit: one recording, or a group of identical recordings.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Unit {
+pub struct DeploymentUnit {
     /// Recording indices, representative first.
     pub members: Vec<usize>,
     pub group: Option<String>,
@@ -45,7 +47,7 @@ pub struct Unit {
 pub struct Split {
     /// Included recordings, natural name order; every index refers here.
     pub recordings: Vec<RecordingInfo>,
-    pub units: Vec<Unit>,
+    pub units: Vec<DeploymentUnit>,
     /// Evaluation recordings (unit representatives), sorted.
     pub evaluation: Vec<usize>,
     /// Every recording on the evaluation side (all members of E's units).
@@ -81,6 +83,20 @@ pub enum SplitError {
     TooFewWindows { what: String, needed: usize, available: usize },
     #[error("arm {arm}: {percent}% of {windows} windows replaces {replaced} windows; nothing would be replaced")]
     NothingToReplace { arm: String, percent: f64, windows: usize, replaced: usize },
+    /// The data directory could not be audited.
+    #[error(transparent)]
+    Audit(#[from] crate::data::AuditError),
+    /// A manifest or audit file could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::WriteError),
+    /// An invariant failed; nothing may train.
+    #[error("invariant check failed, nothing will train (see {path}):\n{list}")]
+    Invariants {
+        /// `audit/invariants.json`, which holds the details.
+        path: String,
+        /// The failed invariants, one per line.
+        list: String,
+    },
 }
 
 /// A window at row t needs rows t and t + 1 both active.
@@ -254,8 +270,8 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
 
 /// Deployment units. With `duplicates group`, identical recordings form one
 /// unit; otherwise each recording is its own.
-fn units(info: &[RecordingInfo], policy: DuplicatePolicy) -> Vec<Unit> {
-    let mut out: Vec<Unit> = Vec::new();
+fn units(info: &[RecordingInfo], policy: DuplicatePolicy) -> Vec<DeploymentUnit> {
+    let mut out: Vec<DeploymentUnit> = Vec::new();
     for (k, r) in info.iter().enumerate() {
         if policy == DuplicatePolicy::Group {
             if let Some(g) = &r.duplicate_group {
@@ -264,9 +280,9 @@ fn units(info: &[RecordingInfo], policy: DuplicatePolicy) -> Vec<Unit> {
                     continue;
                 }
             }
-            out.push(Unit { members: vec![k], group: r.duplicate_group.clone() });
+            out.push(DeploymentUnit { members: vec![k], group: r.duplicate_group.clone() });
         } else {
-            out.push(Unit { members: vec![k], group: None });
+            out.push(DeploymentUnit { members: vec![k], group: None });
         }
     }
     out

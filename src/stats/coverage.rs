@@ -64,11 +64,7 @@ impl Setting {
 }
 
 fn standard_draw(d: Distribution, rng: &mut ChaCha8Rng) -> f64 {
-    let normal = |rng: &mut ChaCha8Rng| {
-        let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
-        let u2: f64 = rng.gen();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    };
+    let normal = |rng: &mut ChaCha8Rng| super::standard_normal(rng);
     match d {
         Distribution::Normal | Distribution::HeteroscedasticRows | Distribution::OutlyingRow => normal(rng),
         Distribution::HeavyTailed => {

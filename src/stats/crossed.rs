@@ -21,6 +21,27 @@ pub enum DfRule {
     Normal,
 }
 
+impl DfRule {
+    /// The degrees of freedom for an I x J array (`rows` x `cols`) when the
+    /// rule fixes them: J - 1, I - 1 or infinite (the normal). `None` for
+    /// Satterthwaite, whose df depend on the data's mean squares.
+    ///
+    /// ```
+    /// use crossaudit::stats::DfRule;
+    /// assert_eq!(DfRule::SeedsMinusOne.df(26, 20), Some(19.0));
+    /// assert_eq!(DfRule::Normal.df(26, 20), Some(f64::INFINITY));
+    /// assert_eq!(DfRule::Satterthwaite.df(26, 20), None);
+    /// ```
+    pub fn df(self, rows: usize, cols: usize) -> Option<f64> {
+        match self {
+            DfRule::SeedsMinusOne => Some(cols as f64 - 1.0),
+            DfRule::RecordingsMinusOne => Some(rows as f64 - 1.0),
+            DfRule::Normal => Some(f64::INFINITY),
+            DfRule::Satterthwaite => None,
+        }
+    }
+}
+
 /// Sums of squares and mean squares of the two-way layout without replication.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct MeanSquares {
@@ -45,6 +66,25 @@ pub struct VarianceComponents {
     pub seed: f64,
     /// sigma_e^2 = MS_e.
     pub residual: f64,
+}
+
+impl VarianceComponents {
+    /// The three parts of SE^2 for an I x J array: sa/I, sb/J and se/(IJ).
+    pub fn se2_parts(&self, rows: f64, cols: f64) -> [f64; 3] {
+        [self.recording / rows, self.seed / cols, self.residual / (rows * cols)]
+    }
+
+    /// SE of the grand mean of an I x J array with these components:
+    /// sqrt(sa/I + sb/J + se/(IJ)) (the crossed design's closed form).
+    ///
+    /// ```
+    /// use crossaudit::stats::VarianceComponents;
+    /// let c = VarianceComponents { recording: 4.0, seed: 2.0, residual: 8.0 };
+    /// assert_eq!(c.se_at(4.0, 2.0), (1.0f64 + 1.0 + 1.0).sqrt());
+    /// ```
+    pub fn se_at(&self, rows: f64, cols: f64) -> f64 {
+        self.se2_parts(rows, cols).iter().sum::<f64>().sqrt()
+    }
 }
 
 /// The crossed MoM estimate of the grand mean and its interval.
@@ -106,15 +146,11 @@ pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<Cro
     let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
     let sa = ((ms.ms_rows - ms.ms_error) / j_n).max(0.0);
     let sb = ((ms.ms_cols - ms.ms_error) / i_n).max(0.0);
-    let se2_parts = [sa / i_n, sb / j_n, ms.ms_error / (i_n * j_n)];
+    let components = VarianceComponents { recording: sa, seed: sb, residual: ms.ms_error };
+    let se2_parts = components.se2_parts(i_n, j_n);
     let se2: f64 = se2_parts.iter().sum();
     let se = se2.sqrt();
-    let df = match df_rule {
-        DfRule::SeedsMinusOne => j_n - 1.0,
-        DfRule::RecordingsMinusOne => i_n - 1.0,
-        DfRule::Normal => f64::INFINITY,
-        DfRule::Satterthwaite => satterthwaite(&ms, sa > 0.0, sb > 0.0, i_n, j_n),
-    };
+    let df = df_rule.df(m.rows(), m.cols()).unwrap_or_else(|| satterthwaite(&ms, sa > 0.0, sb > 0.0, i_n, j_n));
     let critical = critical_value(level, df)?;
     let share = |x: f64| if se2 > 0.0 { x / se2 } else { 0.0 };
     Ok(CrossedEstimate {
@@ -128,7 +164,7 @@ pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<Cro
         lower: ms.grand_mean - critical * se,
         upper: ms.grand_mean + critical * se,
         mean_squares: ms,
-        components: VarianceComponents { recording: sa, seed: sb, residual: ms.ms_error },
+        components,
         share_recording: share(se2_parts[0]),
         share_seed: share(se2_parts[1]),
         share_residual: share(se2_parts[2]),

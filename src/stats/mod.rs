@@ -8,11 +8,13 @@ pub mod coverage;
 mod crossed;
 mod intervals;
 mod matrix;
+mod rng;
 
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
 pub use crossed::{crossed_mom, mean_squares, CrossedEstimate, DfRule, MeanSquares, VarianceComponents};
 pub use intervals::{compare_intervals, one_sample_interval, IntervalEstimate, IntervalMethod};
 pub use matrix::CrossedMatrix;
+pub use rng::standard_normal;
 
 /// Errors from the statistics on user data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

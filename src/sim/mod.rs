@@ -26,7 +26,8 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::log::NANOBENCH_COLUMNS;
+use crate::data::NANOBENCH_COLUMNS;
+use crate::stats::standard_normal as normal;
 
 const G: f64 = 9.81;
 const MASS: f64 = 0.034;
@@ -40,16 +41,7 @@ const DRAG: f64 = 0.012;
 const SIM_HZ: f64 = 500.0;
 const LOG_HZ: f64 = 100.0;
 
-/// What to simulate (the design's `data simulated { ... }`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct SimSpec {
-    pub recordings: usize,
-    pub seed: u64,
-    /// Recording-specific structure: 0 = exchangeable recordings.
-    pub strength: f64,
-    /// Seconds of trajectory per recording (plus take-off and landing).
-    pub duration_s: f64,
-}
+pub use crate::design::SimSpec;
 
 /// The trajectories NanoBench flies; `None` speed for those without one.
 pub const TRAJECTORIES: [(&str, bool); 10] = [
@@ -144,12 +136,6 @@ fn reference(kind: &str, tau: f64, v: f64, waypoints: &[Vector3<f64>]) -> Vector
             a * (1.0 - f) + b * f
         }
     }
-}
-
-fn normal(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
-    let u2: f64 = rng.gen();
-    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
 /// Per-recording physical and sensor parameters.
@@ -409,33 +395,82 @@ pub fn fly(
     (text, tr.v0, vbat, n_log)
 }
 
+/// The simulator's recordings could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write simulated recordings to {dir}: {source}")]
+pub struct SimulateError {
+    /// The output directory.
+    pub dir: String,
+    /// Why.
+    pub source: std::io::Error,
+}
+
+/// `params` of the simulated metadata.
+#[derive(Serialize)]
+struct Params {
+    duration_s: f64,
+    speed_mps: f64,
+}
+
+/// `row_counts` of the simulated metadata.
+#[derive(Serialize)]
+struct RowCounts {
+    vicon: usize,
+}
+
+/// `simulated` of the metadata: what reproduces the recording.
+#[derive(Serialize)]
+struct Provenance {
+    seed: u64,
+    stream: u64,
+    strength: f64,
+}
+
+/// A simulated recording's metadata, in the NanoBench `*_metadata.yaml`
+/// form (keys sorted as NanoBench writes them).
+#[derive(Serialize)]
+struct SimMetadata {
+    battery_voltage_end: f64,
+    battery_voltage_start: f64,
+    category: &'static str,
+    crazyflie_id: &'static str,
+    params: Params,
+    repetition: usize,
+    row_counts: RowCounts,
+    simulated: Provenance,
+    trajectory_id: String,
+    trajectory_type: &'static str,
+}
+
 /// Writes `spec.recordings` recordings (CSV + metadata YAML) into `dir`.
 /// Deterministic for the spec; recording k uses ChaCha8 stream k.
-pub fn simulate(spec: &SimSpec, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+pub fn simulate(spec: &SimSpec, dir: &Path) -> Result<Vec<PathBuf>, SimulateError> {
+    let err = |source| SimulateError { dir: dir.display().to_string(), source };
+    std::fs::create_dir_all(dir).map_err(err)?;
     catalogue(spec.recordings)
         .into_par_iter()
         .enumerate()
-        .map(|(k, (name, kind, speed, v, rep))| {
+        .map(|(k, (name, kind, _speed, v, rep))| {
             let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
             rng.set_stream(k as u64);
             let t0 = 1_780_000_000.0 + 1000.0 * k as f64;
             let (text, v_start, v_end, rows) = fly(kind, v, spec.duration_s, spec.strength, &mut rng, t0);
             let csv = dir.join(format!("{name}.csv"));
-            std::fs::write(&csv, text)?;
-            let mut meta = String::new();
-            let _ = writeln!(meta, "battery_voltage_end: {v_end}");
-            let _ = writeln!(meta, "battery_voltage_start: {v_start}");
-            let _ = writeln!(meta, "category: tracking");
-            let _ = writeln!(meta, "crazyflie_id: SIM");
-            let _ = writeln!(meta, "params:\n  duration_s: {}\n  speed_mps: {v}", spec.duration_s);
-            let _ = writeln!(meta, "repetition: {rep}");
-            let _ = writeln!(meta, "row_counts:\n  vicon: {rows}");
-            let _ = writeln!(meta, "simulated:\n  seed: {}\n  stream: {k}\n  strength: {}", spec.seed, spec.strength);
-            let _ = writeln!(meta, "trajectory_id: {}", name.trim_end_matches(&format!("_rep{rep}")));
-            let _ = writeln!(meta, "trajectory_type: {kind}");
-            let _ = speed;
-            std::fs::write(dir.join(format!("{name}_metadata.yaml")), meta)?;
+            std::fs::write(&csv, text).map_err(err)?;
+            let meta = SimMetadata {
+                battery_voltage_end: v_end,
+                battery_voltage_start: v_start,
+                category: "tracking",
+                crazyflie_id: "SIM",
+                params: Params { duration_s: spec.duration_s, speed_mps: v },
+                repetition: rep,
+                row_counts: RowCounts { vicon: rows },
+                simulated: Provenance { seed: spec.seed, stream: k as u64, strength: spec.strength },
+                trajectory_id: name.trim_end_matches(&format!("_rep{rep}")).to_string(),
+                trajectory_type: kind,
+            };
+            let yaml = serde_yaml::to_string(&meta).map_err(|e| err(std::io::Error::other(e)))?;
+            std::fs::write(dir.join(format!("{name}_metadata.yaml")), yaml).map_err(err)?;
             Ok(csv)
         })
         .collect()

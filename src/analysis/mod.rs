@@ -1,0 +1,184 @@
+//! Stage 4: per-cell data -> [`Analysis`]. Everything in DESIGN.md's
+//! Analysis paragraph, for every analysis unit of the [`Plan`], plus the
+//! decision on the primary unit.
+//!
+//! Architecture Invariant: `analysis` reads only the plan and per-cell rows
+//! (`plan`, `cells`, `design` types, `stats`); it knows nothing of flight
+//! logs, splits, models or files, so any per-cell CSV can be reanalysed.
+
+mod decision;
+mod index;
+mod types;
+mod unit;
+
+use rayon::prelude::*;
+
+use crate::cells::Cell;
+use crate::plan::Plan;
+use crate::stats::StatsError;
+
+pub use types::*;
+
+/// Why per-cell data cannot be analysed under a plan.
+#[derive(Debug, thiserror::Error)]
+pub enum AnalysisError {
+    /// A row names a model, arm, seed or horizon the design does not declare.
+    #[error("line {line}, field `{field}`: {value:?} is not in the design ({known})")]
+    NotInDesign {
+        /// 1-based line of the row.
+        line: u64,
+        /// The column.
+        field: &'static str,
+        /// The value found.
+        value: String,
+        /// What the design declares.
+        known: String,
+    },
+    /// Two rows for the same cell.
+    #[error("line {line}: duplicate cell (model={model} arm={arm} seed={seed} recording={recording} horizon={horizon} s), first seen on line {first_line}")]
+    Duplicate {
+        /// 1-based line of the second row.
+        line: u64,
+        /// 1-based line of the first row.
+        first_line: u64,
+        /// The cell's model.
+        model: String,
+        /// The cell's arm.
+        arm: String,
+        /// The cell's seed.
+        seed: u64,
+        /// The cell's recording.
+        recording: String,
+        /// The cell's horizon (s).
+        horizon: f64,
+    },
+    /// A recording labelled with two trajectories or speeds.
+    #[error("line {line}, field `{field}`: recording {recording} is labelled {value:?} here but {first:?} on line {first_line}")]
+    InconsistentLabel {
+        /// 1-based line of the disagreeing row.
+        line: u64,
+        /// `trajectory` or `speed`.
+        field: &'static str,
+        /// The recording.
+        recording: String,
+        /// The label here.
+        value: String,
+        /// The label first seen.
+        first: String,
+        /// Where it was first seen.
+        first_line: u64,
+    },
+    /// Cells of the crossed matrix are missing.
+    #[error(
+        "{count} missing cell(s); the crossed design needs every model x arm x seed x recording x horizon:\n{list}"
+    )]
+    Missing {
+        /// How many.
+        count: usize,
+        /// The first ten, one per line.
+        list: String,
+    },
+    /// The data has a different number of evaluation recordings than declared.
+    #[error("the per-cell data has {found} recording(s); the design declares `evaluation {declared}`")]
+    RecordingCount {
+        /// Recordings in the data.
+        found: usize,
+        /// Recordings the design declares.
+        declared: usize,
+    },
+    /// A metric an analysis unit needs is empty.
+    #[error("line {line}, field `{field}`: empty, but {unit} needs a value here")]
+    EmptyMetric {
+        /// 1-based line of the row.
+        line: u64,
+        /// The metric column.
+        field: &'static str,
+        /// The unit needing it.
+        unit: String,
+    },
+    /// Optimism is a percentage of a zero mean.
+    #[error("{unit}: the {arm} arm's mean is zero, so optimism (a percentage of it) is undefined")]
+    ZeroReferenceMean {
+        /// The unit.
+        unit: String,
+        /// The reference arm.
+        arm: String,
+    },
+    /// The statistics refused the unit's matrix.
+    #[error("{unit}: {source}")]
+    Stats {
+        /// The unit.
+        unit: String,
+        /// Why.
+        source: StatsError,
+    },
+}
+
+/// Runs the analysis the plan preregistered on per-cell data.
+///
+/// ```
+/// use std::path::Path;
+/// let file = crossaudit::design::load(Path::new("designs/nanobench_confirmatory.design")).unwrap();
+/// let plan = crossaudit::plan::compile(&file.design);
+/// let cells = crossaudit::cells::read_cells(Path::new("examples/cells/nanobench_synthetic.csv")).unwrap();
+/// let a = crossaudit::analysis::analyze(&plan, &cells, Default::default()).unwrap();
+/// assert_eq!(a.units.len(), plan.units().count());
+/// assert_eq!(a.decision.rule.to_string(), "confirmed when optimism >= 10% and upper < 0");
+/// ```
+pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<Analysis, AnalysisError> {
+    let data = index::index(plan, cells)?;
+    let recordings: Vec<RecordingLabels> = data
+        .labels
+        .iter()
+        .map(|(r, (t, s, _))| RecordingLabels { recording: r.clone(), trajectory: t.clone(), speed: s.clone() })
+        .collect();
+    if recordings.len() != plan.recordings {
+        return Err(AnalysisError::RecordingCount { found: recordings.len(), declared: plan.recordings });
+    }
+    let names: Vec<String> = recordings.iter().map(|r| r.recording.clone()).collect();
+    index::check_complete(plan, &data, &names)?;
+
+    let ctx = unit::Ctx { plan, data: &data, recordings: &recordings, options };
+    // Units are independent (each has its own bootstrap stream), so they
+    // run in parallel; results and warnings are collected in plan order, so
+    // the output does not depend on the thread count.
+    let all: Vec<_> = plan.units().collect();
+    let per_unit: Vec<Result<(UnitResult, Vec<String>), AnalysisError>> = all
+        .par_iter()
+        .enumerate()
+        .map(|(k, unit)| {
+            let mut w = Vec::new();
+            ctx.unit(unit, k as u64, &mut w).map(|u| (u, w))
+        })
+        .collect();
+    let mut units = Vec::new();
+    let mut warnings = Vec::new();
+    for r in per_unit {
+        let (u, w) = r?;
+        units.push(u);
+        warnings.extend(w);
+    }
+    let interactions = plan
+        .interactions
+        .par_iter()
+        .enumerate()
+        .map(|(k, ix)| ctx.interaction(ix, (all.len() + k) as u64))
+        .collect::<Result<Vec<_>, _>>()?;
+    // The plan's primary unit is the first.
+    let decision = decision::decide(&plan.decision, &units[0]);
+    Ok(Analysis {
+        study: plan.study.clone(),
+        design_sha256: None,
+        exploratory: false,
+        treated: plan.contrast.treated.clone(),
+        reference: plan.contrast.reference.clone(),
+        level: plan.estimator.level,
+        recordings,
+        seeds: plan.seeds.iter().map(|s| s.0).collect(),
+        units,
+        interactions,
+        decision,
+        warnings,
+        figures: Vec::new(),
+    })
+}

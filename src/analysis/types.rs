@@ -1,0 +1,234 @@
+//! What an analysis produces: the schema of `results.json`.
+
+use serde::{Serialize, Serializer};
+
+use crate::design::{DecisionCondition, DecisionRule, Factor, Metric, Quantity, Role};
+use crate::stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate};
+
+/// Options of [`crate::analysis::analyze`] that are not part of the design.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AnalyzeOptions {
+    /// Add every interval estimator side by side for each contrast.
+    pub compare_intervals: bool,
+}
+
+/// The whole analysis, serialized as results.json.
+#[derive(Debug, Clone, Serialize)]
+pub struct Analysis {
+    /// The study's name.
+    pub study: String,
+    /// SHA-256 of the design file, when the analysis came from one.
+    pub design_sha256: Option<String>,
+    /// True when the design changed after locking (or the run was labelled so).
+    pub exploratory: bool,
+    /// The treated arm of the contrast.
+    pub treated: String,
+    /// The reference arm of the contrast.
+    pub reference: String,
+    /// Confidence level of every interval.
+    pub level: f64,
+    /// The evaluation recordings and their condition labels, sorted by name.
+    pub recordings: Vec<RecordingLabels>,
+    /// The seeds, in design order.
+    pub seeds: Vec<u64>,
+    /// Every analysis unit, the primary first.
+    pub units: Vec<UnitResult>,
+    /// Model interactions of the contrast.
+    pub interactions: Vec<InteractionResult>,
+    /// The preregistered decision on the primary unit.
+    pub decision: Decision,
+    /// Analyses skipped or caveats, in plan order.
+    pub warnings: Vec<String>,
+    /// Figure files (relative to the report), when a run drew them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub figures: Vec<String>,
+}
+
+impl Analysis {
+    /// The primary unit's result (the analysis always has one).
+    pub fn primary(&self) -> Option<&UnitResult> {
+        self.units.iter().find(|u| u.role == Role::Primary)
+    }
+
+    /// Labels the analysis EXPLORATORY because its design changed after it
+    /// was locked.
+    pub fn mark_design_changed(&mut self) {
+        self.exploratory = true;
+        self.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+    }
+}
+
+/// A recording's condition labels.
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordingLabels {
+    /// The recording's name.
+    pub recording: String,
+    /// Its trajectory family.
+    pub trajectory: String,
+    /// Its speed label.
+    pub speed: String,
+}
+
+/// The contrast of one analysis unit and its sensitivity analyses.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnitResult {
+    /// Primary or secondary.
+    pub role: Role,
+    /// The model.
+    pub model: String,
+    /// The metric.
+    pub metric: Metric,
+    /// The horizon in seconds.
+    pub horizon_s: f64,
+    /// Mean of the treated arm over the I x J matrix.
+    pub mean_treated: f64,
+    /// Mean of the reference arm over the I x J matrix.
+    pub mean_reference: f64,
+    /// 100 (mean_reference - mean_treated) / mean_reference.
+    pub optimism_pct: f64,
+    /// The crossed estimate of the mean difference treated - reference.
+    pub estimate: CrossedEstimate,
+    /// The pigeonhole bootstrap interval, when preregistered.
+    pub bootstrap: Option<BootstrapInterval>,
+    /// The estimate over condition groups, when preregistered and possible.
+    pub grouped: Option<GroupedResult>,
+    /// Leave-one-level-out ranges, one per preregistered factor.
+    pub leave_one_out: Vec<LeaveOneOut>,
+    /// Optimism within each seed.
+    pub per_seed_optimism: Vec<SeedOptimism>,
+    /// Mean difference within each trajectory family.
+    pub per_trajectory: Vec<TrajectoryMean>,
+    /// Divergence counts and the conditional-RMSE contrast.
+    pub conditional: ConditionalSummary,
+    /// Whether this unit alone would meet the decision rule.
+    pub rule_holds: bool,
+    /// Every interval estimator side by side (`--compare-intervals`).
+    pub intervals: Option<Vec<IntervalEstimate>>,
+}
+
+/// The crossed estimate after averaging recordings within condition groups.
+#[derive(Debug, Clone, Serialize)]
+pub struct GroupedResult {
+    /// Group labels, in row order of the grouped matrix.
+    pub groups: Vec<String>,
+    /// Recordings in each group.
+    pub recordings_per_group: Vec<usize>,
+    /// The estimate on the groups x seeds matrix.
+    pub estimate: CrossedEstimate,
+}
+
+/// Ranges over the fits that each leave one level of a factor out.
+#[derive(Debug, Clone, Serialize)]
+pub struct LeaveOneOut {
+    /// The factor whose levels are left out.
+    pub factor: Factor,
+    /// How many fits (one per level left out).
+    pub fits: usize,
+    /// Smallest mean difference.
+    pub mean_min: f64,
+    /// Largest mean difference.
+    pub mean_max: f64,
+    /// Smallest upper bound.
+    pub upper_min: f64,
+    /// Largest upper bound.
+    pub upper_max: f64,
+    /// Smallest optimism (%).
+    pub optimism_min: f64,
+    /// Largest optimism (%).
+    pub optimism_max: f64,
+    /// Fits in which the decision rule still holds.
+    pub rule_holds: usize,
+}
+
+/// Optimism within one seed.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeedOptimism {
+    /// The seed.
+    pub seed: u64,
+    /// Its optimism (%), from the seed's column means.
+    pub optimism_pct: f64,
+}
+
+/// Mean difference within one trajectory family.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrajectoryMean {
+    /// The family.
+    pub trajectory: String,
+    /// Its evaluation recordings.
+    pub recordings: usize,
+    /// Mean of d over its recordings and every seed.
+    pub mean_difference: f64,
+}
+
+/// Divergence and the conditional-on-finite RMSE of both arms.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConditionalSummary {
+    /// Mean conditional-on-finite position RMSE over cells that have one.
+    pub mean_conditional_treated: Option<f64>,
+    /// As above, reference arm.
+    pub mean_conditional_reference: Option<f64>,
+    /// Diverged starts, treated arm.
+    pub divergent_treated: u64,
+    /// All starts, treated arm.
+    pub starts_treated: u64,
+    /// Diverged starts, reference arm.
+    pub divergent_reference: u64,
+    /// All starts, reference arm.
+    pub starts_reference: u64,
+    /// Crossed interval of the conditional RMSE difference; absent when a
+    /// cell has no finite rollout.
+    pub difference: Option<CrossedEstimate>,
+    /// Cells in which every start diverged.
+    pub cells_without_finite_rollout: usize,
+}
+
+/// The crossed estimate of an interaction of two models' contrasts.
+#[derive(Debug, Clone, Serialize)]
+pub struct InteractionResult {
+    /// The metric.
+    pub metric: Metric,
+    /// The horizon in seconds.
+    pub horizon_s: f64,
+    /// `left - right`.
+    pub left: String,
+    /// `left - right`.
+    pub right: String,
+    /// Estimate of d(left) - d(right).
+    pub estimate: CrossedEstimate,
+    /// The pigeonhole bootstrap interval, when preregistered.
+    pub bootstrap: Option<BootstrapInterval>,
+}
+
+/// The decision rule applied to the primary unit.
+#[derive(Debug, Clone, Serialize)]
+pub struct Decision {
+    /// The rule's name (e.g. `confirmed`).
+    pub name: String,
+    /// The rule as data; written in the design's own syntax.
+    #[serde(serialize_with = "as_text")]
+    pub rule: DecisionRule,
+    /// The primary unit's label.
+    pub unit: String,
+    /// Whether every condition holds.
+    pub holds: bool,
+    /// Each condition with the observed value.
+    pub conditions: Vec<ConditionOutcome>,
+}
+
+/// One condition of the rule and what was observed.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConditionOutcome {
+    /// The condition as data; written in the design's own syntax.
+    #[serde(serialize_with = "as_text")]
+    pub condition: DecisionCondition,
+    /// The quantity it names.
+    pub quantity: Quantity,
+    /// The observed value of that quantity.
+    pub value: f64,
+    /// Whether the condition holds.
+    pub holds: bool,
+}
+
+fn as_text<T: std::fmt::Display, S: Serializer>(value: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(value)
+}

@@ -1,0 +1,51 @@
+//! The crate's error: one variant per stage, each wrapping that stage's
+//! typed error, so a caller can match on where a failure happened and a
+//! person reads the stage's own located message.
+
+use crate::analysis::AnalysisError;
+
+/// Any error of the convenience calls and the command line.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The design file could not be read, parsed or validated.
+    #[error(transparent)]
+    Design(#[from] crate::design::LoadError),
+    /// The lock file could not be read or written.
+    #[error(transparent)]
+    Lock(#[from] crate::design::lock::LockError),
+    /// The data directory could not be audited.
+    #[error(transparent)]
+    Audit(#[from] crate::data::AuditError),
+    /// The split could not be built or an invariant failed.
+    #[error(transparent)]
+    Split(#[from] crate::split::SplitError),
+    /// A per-cell file is malformed.
+    #[error(transparent)]
+    Cells(#[from] crate::cells::CellsError),
+    /// Per-cell data does not fit the plan.
+    #[error("{path}: {source}")]
+    Analysis {
+        /// The per-cell file.
+        path: String,
+        /// Why.
+        source: Box<AnalysisError>,
+    },
+    /// The report could not be written.
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    /// A run or one of its jobs failed.
+    #[error(transparent)]
+    Run(#[from] crate::run::RunError),
+    /// A coverage study failed.
+    #[error(transparent)]
+    Coverage(#[from] crate::methods::CoverageError),
+    /// The power planner failed.
+    #[error(transparent)]
+    Power(#[from] crate::methods::PowerError),
+    /// The simulator's recordings could not be written.
+    #[error(transparent)]
+    Simulate(#[from] crate::sim::SimulateError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::WriteError),
+}

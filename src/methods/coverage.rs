@@ -1,0 +1,350 @@
+//! `crossaudit coverage SPEC`: a grid of simulation settings from a small
+//! JSON spec, every interval estimator, performance measures with Monte
+//! Carlo SEs, as CSV, Markdown and SVG.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
+use crate::report::charts::{category_label, draw_err, DrawError};
+use crate::report::Table;
+use crate::stats::coverage::{simulate, Distribution, Performance, Setting};
+use crate::stats::StatsError;
+
+/// Why a coverage study could not run or be written.
+#[derive(Debug, thiserror::Error)]
+pub enum CoverageError {
+    /// The spec file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Read {
+        /// The spec file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The spec is not valid JSON for a [`CoverageSpec`].
+    #[error("{path}: line {line}, column {column}: {source}")]
+    Parse {
+        /// The spec file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// serde's reason.
+        source: serde_json::Error,
+    },
+    /// A value of the spec is out of range.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// The spec file.
+        path: String,
+        /// Which value and why.
+        message: String,
+    },
+    /// The statistics refused a setting.
+    #[error("{setting}: {source}")]
+    Stats {
+        /// The setting's label.
+        setting: String,
+        /// Why.
+        source: StatsError,
+    },
+    /// An output could not be written.
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    /// coverage.csv could not be serialized.
+    #[error("coverage.csv: {0}")]
+    Csv(#[from] csv::Error),
+    /// coverage.svg could not be drawn.
+    #[error(transparent)]
+    Draw(#[from] DrawError),
+}
+
+/// A coverage study: the grid is rows x cols x shares x distributions.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoverageSpec {
+    pub seed: u64,
+    pub reps: usize,
+    #[serde(default = "default_level")]
+    pub level: f64,
+    #[serde(default = "default_b")]
+    pub bootstrap: usize,
+    pub rows: Vec<usize>,
+    pub cols: Vec<usize>,
+    /// Shares of the true SE^2 (recording, seed, residual).
+    pub shares: Vec<[f64; 3]>,
+    pub distributions: Vec<Distribution>,
+}
+
+fn default_level() -> f64 {
+    0.95
+}
+
+fn default_b() -> usize {
+    999
+}
+
+impl CoverageSpec {
+    /// Reads and validates a spec file.
+    pub fn load(path: &Path) -> Result<CoverageSpec, CoverageError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CoverageError::Read { path: p.clone(), source })?;
+        let spec: CoverageSpec = serde_json::from_str(&text).map_err(|source| CoverageError::Parse {
+            path: p.clone(),
+            line: source.line(),
+            column: source.column(),
+            source,
+        })?;
+        spec.validate(path)?;
+        Ok(spec)
+    }
+
+    fn validate(&self, path: &Path) -> Result<(), CoverageError> {
+        let bad = |message: String| Err(CoverageError::Invalid { path: path.display().to_string(), message });
+        if self.reps < 2 {
+            return bad(format!("`reps` must be at least 2, found {}", self.reps));
+        }
+        if !(self.level > 0.0 && self.level < 1.0) {
+            return bad(format!("`level` must be in (0, 1), found {}", self.level));
+        }
+        if self.bootstrap == 0 {
+            return bad("`bootstrap` must be at least 1".into());
+        }
+        if let Some(r) = self.rows.iter().chain(&self.cols).find(|n| **n < 2) {
+            return bad(format!("`rows` and `cols` must be at least 2, found {r}"));
+        }
+        for s in &self.shares {
+            if s.iter().any(|x| *x < 0.0 || !x.is_finite()) || (s.iter().sum::<f64>() - 1.0).abs() > 1e-6 {
+                return bad(format!("each `shares` entry is three non-negative shares summing to 1, found {s:?}"));
+            }
+        }
+        if self.rows.is_empty() || self.cols.is_empty() || self.shares.is_empty() || self.distributions.is_empty() {
+            return bad("`rows`, `cols`, `shares` and `distributions` each need at least one entry".into());
+        }
+        Ok(())
+    }
+
+    /// Every setting of the grid, rows x cols x shares x distributions.
+    pub fn settings(&self) -> Vec<Setting> {
+        let mut out = Vec::new();
+        for &rows in &self.rows {
+            for &cols in &self.cols {
+                for &shares in &self.shares {
+                    for &distribution in &self.distributions {
+                        out.push(Setting { rows, cols, shares, distribution });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Runs every setting; `on_setting` sees each as it finishes.
+pub fn run_coverage(
+    spec: &CoverageSpec,
+    on_setting: &mut dyn FnMut(usize, usize, &Setting),
+) -> Result<Vec<Performance>, CoverageError> {
+    let settings = spec.settings();
+    let mut out = Vec::new();
+    for (k, s) in settings.iter().enumerate() {
+        // Each setting gets its own seed so adding settings leaves the others unchanged.
+        let seed = spec.seed.wrapping_add(k as u64);
+        out.extend(
+            simulate(s, spec.reps, spec.level, spec.bootstrap, seed)
+                .map_err(|source| CoverageError::Stats { setting: s.label(), source })?,
+        );
+        on_setting(k + 1, settings.len(), s);
+    }
+    Ok(out)
+}
+
+/// One row of coverage.csv.
+#[derive(Serialize)]
+struct CsvRow<'a> {
+    setting: &'a str,
+    method: String,
+    reps: usize,
+    #[serde(serialize_with = "f64_text")]
+    coverage: f64,
+    #[serde(serialize_with = "f64_text")]
+    coverage_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    mean_width: f64,
+    #[serde(serialize_with = "f64_text")]
+    mean_width_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    median_width: f64,
+    #[serde(serialize_with = "f64_text")]
+    bias: f64,
+    #[serde(serialize_with = "f64_text")]
+    bias_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    emp_se: f64,
+    #[serde(serialize_with = "f64_text")]
+    emp_se_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    mod_se: f64,
+    #[serde(serialize_with = "f64_text")]
+    mod_se_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    rel_error_mod_se_pct: f64,
+    #[serde(serialize_with = "f64_text")]
+    rel_error_mod_se_mcse: f64,
+}
+
+/// coverage.csv: one row per setting and estimator.
+pub fn to_csv(rows: &[Performance]) -> Result<String, csv::Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(CsvRow {
+            setting: &r.setting,
+            method: format!("{:?}", r.method),
+            reps: r.reps,
+            coverage: r.coverage,
+            coverage_mcse: r.coverage_mcse,
+            mean_width: r.mean_width,
+            mean_width_mcse: r.mean_width_mcse,
+            median_width: r.median_width,
+            bias: r.bias,
+            bias_mcse: r.bias_mcse,
+            emp_se: r.emp_se,
+            emp_se_mcse: r.emp_se_mcse,
+            mod_se: r.mod_se,
+            mod_se_mcse: r.mod_se_mcse,
+            rel_error_mod_se_pct: r.rel_error_mod_se,
+            rel_error_mod_se_mcse: r.rel_error_mod_se_mcse,
+        })?;
+    }
+    let bytes = w.into_inner().map_err(|e| csv::Error::from(e.into_error()))?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// coverage.md: one table per setting.
+pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Coverage of interval estimators for crossed designs\n");
+    let _ = writeln!(
+        s,
+        "{} replications per setting, nominal level {}, pigeonhole bootstrap B = {}, seed {}. True SE = 1 in every setting; MCSE in parentheses (Morris, White & Crowther 2019).\n",
+        spec.reps, spec.level, spec.bootstrap, spec.seed
+    );
+    let mut settings: Vec<&str> = Vec::new();
+    for r in rows {
+        if !settings.contains(&r.setting.as_str()) {
+            settings.push(&r.setting);
+        }
+    }
+    let cols = ["estimator", "coverage", "mean width", "median width", "bias", "EmpSE", "ModSE", "rel. error ModSE %"];
+    for setting in settings {
+        let mut table = Table::new(&cols, "lrrrrrrr");
+        for r in rows.iter().filter(|r| r.setting == setting) {
+            let pm = |v: f64, m: f64, d: usize| format!("{v:.d$} ({m:.d$})");
+            table.row([
+                r.method.label().to_string(),
+                pm(r.coverage, r.coverage_mcse, 3),
+                pm(r.mean_width, r.mean_width_mcse, 3),
+                format!("{:.3}", r.median_width),
+                pm(r.bias, r.bias_mcse, 3),
+                pm(r.emp_se, r.emp_se_mcse, 3),
+                pm(r.mod_se, r.mod_se_mcse, 3),
+                pm(r.rel_error_mod_se, r.rel_error_mod_se_mcse, 1),
+            ]);
+        }
+        let _ = write!(s, "\n## {setting}\n\n{}", table.render());
+    }
+    s
+}
+
+/// Coverage per setting and estimator with 2-MCSE bars and the nominal line.
+pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<(), DrawError> {
+    use plotters::prelude::*;
+    let e = draw_err(path);
+    let mut settings: Vec<&str> = Vec::new();
+    for r in rows {
+        if !settings.contains(&r.setting.as_str()) {
+            settings.push(&r.setting);
+        }
+    }
+    let mut methods: Vec<_> = Vec::new();
+    for r in rows {
+        if !methods.contains(&r.method) {
+            methods.push(r.method);
+        }
+    }
+    let labels: Vec<String> = (1..=settings.len()).map(|k| format!("setting {k}")).collect();
+    let root = SVGBackend::new(path, (1000, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(&e)?;
+    let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(spec.level, f64::min).max(0.0);
+    let n = settings.len();
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("Coverage (nominal {}), 2-MCSE bars, {} reps", spec.level, spec.reps), ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .right_y_label_area_size(10)
+        .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
+        .map_err(&e)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n)
+        .x_label_formatter(&|x| category_label(*x, &labels))
+        .y_desc("coverage")
+        .draw()
+        .map_err(&e)?;
+    chart.draw_series(LineSeries::new(vec![(-0.5, spec.level), (n as f64 - 0.5, spec.level)], BLACK)).map_err(&e)?;
+    let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, RGBColor(230, 120, 20), RGBColor(90, 90, 90)];
+    for (k, m) in methods.iter().enumerate() {
+        let color = palette[k % palette.len()];
+        let dx = (k as f64 - (methods.len() as f64 - 1.0) / 2.0) * 0.08;
+        let pts: Vec<(f64, f64, f64)> = rows
+            .iter()
+            .filter(|r| r.method == *m)
+            .map(|r| {
+                let x = settings.iter().position(|s| *s == r.setting).unwrap_or(0) as f64 + dx;
+                (x, r.coverage, r.coverage_mcse)
+            })
+            .collect();
+        chart
+            .draw_series(
+                pts.iter().map(|(x, c, m)| PathElement::new(vec![(*x, c - 2.0 * m), (*x, c + 2.0 * m)], color)),
+            )
+            .map_err(&e)?;
+        chart
+            .draw_series(pts.iter().map(|(x, c, _)| Circle::new((*x, *c), 4, color.filled())))
+            .map_err(&e)?
+            .label(m.label())
+            .legend(move |(x, y)| Circle::new((x, y), 4, color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()
+        .map_err(&e)?;
+    root.present().map_err(&e)
+}
+
+/// Writes coverage.csv, coverage.md (with the numbered settings) and
+/// coverage.svg into `out`.
+pub fn write(out: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<Vec<PathBuf>, CoverageError> {
+    create_dir_all(out)?;
+    let csv = out.join("coverage.csv");
+    write_atomic(&csv, to_csv(rows)?.as_bytes())?;
+    let md = out.join("coverage.md");
+    let mut text = to_markdown(spec, rows);
+    text.push_str("\n## Settings in coverage.svg\n\n");
+    for (k, s) in spec.settings().iter().enumerate() {
+        let _ = writeln!(text, "{}. {}", k + 1, s.label());
+    }
+    write_atomic(&md, text.as_bytes())?;
+    let svg = out.join("coverage.svg");
+    draw(&svg, spec, rows)?;
+    Ok(vec![csv, md, svg])
+}

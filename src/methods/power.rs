@@ -1,0 +1,212 @@
+//! The design planner: from a pilot's variance components, the SE,
+//! interval width and probability that the decision rule holds for other
+//! numbers of recordings I and seeds J.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, Normal};
+
+use crate::analysis::Analysis;
+use crate::io::{create_dir_all, write_atomic, WriteError};
+use crate::plan::Plan;
+use crate::report::charts::{draw_err, DrawError};
+use crate::report::Table;
+use crate::stats::{critical_value, StatsError};
+
+/// Why a power plan could not be made or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PowerError {
+    /// Fewer than 2 recordings or seeds were asked for.
+    #[error("--recordings and --seeds need values of at least 2, found {0}")]
+    TooFew(usize),
+    /// The pilot analysis has no primary unit.
+    #[error("the analysis has no primary endpoint")]
+    NoPrimary,
+    /// A quantile could not be computed.
+    #[error(transparent)]
+    Stats(#[from] StatsError),
+    /// An output could not be written.
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    /// plan.svg could not be drawn.
+    #[error(transparent)]
+    Draw(#[from] DrawError),
+}
+
+/// One row of the design planner.
+#[derive(Debug, Clone, Serialize)]
+pub struct PowerRow {
+    /// Recordings I.
+    pub recordings: usize,
+    /// Seeds J.
+    pub seeds: usize,
+    /// Predicted SE.
+    pub se: f64,
+    /// Predicted interval width, 2 t SE.
+    pub width: f64,
+    /// P(the decision rule holds), normal approximation.
+    pub power: f64,
+}
+
+/// The planner's answer for one design and pilot.
+#[derive(Debug, Clone, Serialize)]
+pub struct PowerPlan {
+    /// The primary unit's label.
+    pub unit: String,
+    /// Recordings in the pilot.
+    pub pilot_recordings: usize,
+    /// Seeds in the pilot.
+    pub pilot_seeds: usize,
+    /// Pilot mean d.
+    pub mean_d: f64,
+    /// Pilot reference-arm mean.
+    pub mean_reference: f64,
+    /// Pilot between-recording component.
+    pub sigma2_recording: f64,
+    /// Pilot between-seed component.
+    pub sigma2_seed: f64,
+    /// Pilot residual component.
+    pub sigma2_residual: f64,
+    /// One row per (I, J) asked for.
+    pub rows: Vec<PowerRow>,
+    /// Whether more recordings or more seeds reduce the SE more.
+    pub advice: String,
+}
+
+/// Predicts SE, interval width and the probability that the decision rule
+/// holds for other numbers of recordings I and seeds J, from the pilot's
+/// primary-endpoint variance components:
+/// SE^2 = sa/I + sb/J + se/(IJ) (closed form), width = 2 t(J-1) SE, and,
+/// with d_hat ~ N(mu, SE^2), the rule "optimism >= c% and upper < 0" holds
+/// when d_hat <= min(-t SE, -c m_ref / 100), so
+/// P = Phi((min(-t SE, -c m_ref/100) - mu) / SE). The pilot's mean is taken
+/// as the true effect.
+pub fn power_plan(
+    plan: &Plan,
+    analysis: &Analysis,
+    recordings: &[usize],
+    seeds: &[usize],
+) -> Result<PowerPlan, PowerError> {
+    if let Some(n) = recordings.iter().chain(seeds).find(|n| **n < 2) {
+        return Err(PowerError::TooFew(*n));
+    }
+    let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
+    let c = &u.estimate.components;
+    let threshold = plan.decision.optimism_threshold();
+    let normal = Normal::new(0.0, 1.0).map_err(|e| StatsError::Invalid(e.to_string()))?;
+    let mut rows = Vec::new();
+    for &i in recordings {
+        for &j in seeds {
+            let se = c.se_at(i as f64, j as f64);
+            // Satterthwaite's df need data; the planner uses the normal there.
+            let df = plan.df(i, j).unwrap_or(f64::INFINITY);
+            let t = critical_value(plan.estimator.level, df)?;
+            let mut bound = -t * se;
+            if let Some(thr) = threshold {
+                bound = bound.min(-thr * u.mean_reference / 100.0);
+            }
+            let power = if se > 0.0 {
+                normal.cdf((bound - u.estimate.mean) / se)
+            } else {
+                f64::from(u8::from(u.estimate.mean <= bound))
+            };
+            rows.push(PowerRow { recordings: i, seeds: j, se, width: 2.0 * t * se, power });
+        }
+    }
+    let (i0, j0) = (analysis.recordings.len() as f64, analysis.seeds.len() as f64);
+    let (base, more_rec, more_seed) = (c.se_at(i0, j0), c.se_at(2.0 * i0, j0), c.se_at(i0, 2.0 * j0));
+    let advice = format!(
+        "From the pilot's {i0} recordings x {j0} seeds (SE {base:.4}): doubling the recordings gives SE {more_rec:.4}, doubling the seeds gives SE {more_seed:.4}; {} reduce the SE more.",
+        if more_rec < more_seed { "more recordings" } else { "more seeds" }
+    );
+    Ok(PowerPlan {
+        unit: format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s),
+        pilot_recordings: analysis.recordings.len(),
+        pilot_seeds: analysis.seeds.len(),
+        mean_d: u.estimate.mean,
+        mean_reference: u.mean_reference,
+        sigma2_recording: c.recording,
+        sigma2_seed: c.seed,
+        sigma2_residual: c.residual,
+        rows,
+        advice,
+    })
+}
+
+impl PowerPlan {
+    /// plan.md.
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Design planner: {}\n", self.unit);
+        let _ = writeln!(
+            s,
+            "Pilot: {} recordings x {} seeds; mean d {:.5}, reference mean {:.5}; sigma^2 recording {:.3e}, seed {:.3e}, residual {:.3e}.\n",
+            self.pilot_recordings,
+            self.pilot_seeds,
+            self.mean_d,
+            self.mean_reference,
+            self.sigma2_recording,
+            self.sigma2_seed,
+            self.sigma2_residual
+        );
+        let _ = writeln!(s, "{}\n", self.advice);
+        let cols = ["recordings I", "seeds J", "predicted SE", "interval width", "P(decision rule holds)"];
+        let mut table = Table::new(&cols, "rrrrr");
+        for r in &self.rows {
+            table.row([
+                r.recordings.to_string(),
+                r.seeds.to_string(),
+                format!("{:.5}", r.se),
+                format!("{:.5}", r.width),
+                format!("{:.3}", r.power),
+            ]);
+        }
+        s.push_str(&table.render());
+        s
+    }
+
+    /// Writes plan.md, plan.json and plan.svg into `out`.
+    pub fn write(&self, out: &Path) -> Result<(), PowerError> {
+        create_dir_all(out)?;
+        write_atomic(&out.join("plan.md"), self.to_markdown().as_bytes())?;
+        // No final newline: the form plan.json has always had.
+        let json = serde_json::to_string_pretty(self).unwrap_or_default();
+        write_atomic(&out.join("plan.json"), json.as_bytes())?;
+        self.draw(&out.join("plan.svg"))?;
+        Ok(())
+    }
+
+    /// Power against seeds, one line per number of recordings.
+    pub fn draw(&self, path: &Path) -> Result<(), DrawError> {
+        use plotters::prelude::*;
+        let e = draw_err(path);
+        let root = SVGBackend::new(path, (900, 480)).into_drawing_area();
+        root.fill(&WHITE).map_err(&e)?;
+        let max_j = self.rows.iter().map(|r| r.seeds).max().unwrap_or(2) as f64;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("P(decision rule holds) for {}", self.unit), ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..max_j, 0.0..1.0)
+            .map_err(&e)?;
+        chart.configure_mesh().x_desc("seeds J").y_desc("probability").draw().map_err(&e)?;
+        let mut recs: Vec<usize> = self.rows.iter().map(|r| r.recordings).collect();
+        recs.dedup();
+        let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+        for (k, i) in recs.iter().enumerate() {
+            let color = palette[k % palette.len()];
+            let pts: Vec<(f64, f64)> =
+                self.rows.iter().filter(|r| r.recordings == *i).map(|r| (r.seeds as f64, r.power)).collect();
+            chart
+                .draw_series(LineSeries::new(pts, color))
+                .map_err(&e)?
+                .label(format!("I = {i}"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&e)?;
+        root.present().map_err(&e)
+    }
+}

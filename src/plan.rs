@@ -1,0 +1,354 @@
+//! Stage 2: a validated [`Design`] compiled once into a [`Plan`], the
+//! contract every later stage consumes: the training jobs to run, the
+//! analysis units over the recording x seed matrix (the primary one by
+//! construction), and the typed contrast, estimator, sensitivity analyses
+//! and decision rule. No later stage looks at the design's text or
+//! re-derives any of this.
+//!
+//! Architecture Invariant: `plan` imports only `design` and `stats`.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::design::{
+    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric, ModelKind, Role,
+    Seed, Sensitivity, StartsPolicy, Training,
+};
+use crate::stats::DfRule;
+
+/// One training job: a model fitted on one arm with one seed (or, for a
+/// parameter-free baseline, evaluated on it).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrainingJob {
+    /// The model's name in the design.
+    pub model: String,
+    /// What kind of model it is, and its architecture.
+    pub kind: ModelKind,
+    /// The arm whose fit set it is trained on.
+    pub arm: String,
+    /// The training seed.
+    pub seed: Seed,
+    /// Horizons (s) at which it is evaluated: every endpoint naming the model.
+    pub horizons_s: Vec<f64>,
+}
+
+impl TrainingJob {
+    /// False for parameter-free baselines, which are evaluated, not fitted.
+    pub fn trains(&self) -> bool {
+        self.kind.trains()
+    }
+
+    /// `model__arm__seed`: the stem of every file the job writes.
+    pub fn stem(&self) -> String {
+        format!("{}__{}__{}", self.model, self.arm, self.seed.0)
+    }
+}
+
+/// One analysis unit: a metric at a horizon for a model, contrasted over the
+/// I x J recording x seed matrix.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AnalysisUnit {
+    /// Primary or secondary endpoint.
+    pub role: Role,
+    /// The per-cell metric analysed.
+    pub metric: Metric,
+    /// The rollout horizon in seconds.
+    pub horizon_s: f64,
+    /// The model whose contrast this is.
+    pub model: String,
+}
+
+impl AnalysisUnit {
+    /// `model metric at h s`, as used in messages.
+    pub fn label(&self) -> String {
+        format!("{} {} at {} s", self.model, self.metric.name(), self.horizon_s)
+    }
+}
+
+/// The interaction of two models' contrasts at one metric and horizon.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InteractionUnit {
+    /// The metric compared.
+    pub metric: Metric,
+    /// The rollout horizon in seconds.
+    pub horizon_s: f64,
+    /// `left - right`.
+    pub left: String,
+    /// `left - right`.
+    pub right: String,
+}
+
+/// A model of the plan: its name and kind.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlannedModel {
+    /// The name used in the per-cell data.
+    pub name: String,
+    /// Its kind and architecture.
+    pub kind: ModelKind,
+}
+
+/// The compiled study.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Plan {
+    /// The study's name.
+    pub study: String,
+    /// Every training job, models x arms x seeds in design order.
+    #[serde(rename = "training_cells")]
+    pub jobs: Vec<TrainingJob>,
+    /// The models, in design order.
+    pub models: Vec<PlannedModel>,
+    /// The arms, in design order.
+    pub arms: Vec<Arm>,
+    /// The seeds J, in design order.
+    pub seeds: Vec<Seed>,
+    /// Number of evaluation recordings I.
+    pub recordings: usize,
+    /// Condition labels the grouped sensitivity groups recordings by.
+    pub conditions: Vec<Condition>,
+    /// treated - reference arm.
+    pub contrast: Contrast,
+    /// The primary endpoint's unit (the decision is taken on it).
+    pub primary: AnalysisUnit,
+    /// Secondary units: by model (design order), metric and horizon.
+    pub secondary: Vec<AnalysisUnit>,
+    /// Model interactions of the contrast.
+    pub interactions: Vec<InteractionUnit>,
+    /// Divergence cap of the endpoints (validation makes it one for all).
+    pub cap: Meters,
+    /// The crossed estimator's kind, level and df rule.
+    pub estimator: Estimator,
+    /// Bootstrap, grouped and leave-one-out sensitivity analyses.
+    pub sensitivity: Sensitivity,
+    /// The preregistered decision rule, on the primary unit.
+    pub decision: DecisionRule,
+    /// Training hyperparameters, when a model is fitted.
+    pub training: Option<Training>,
+    /// Log rate (Hz), which turns horizons in seconds into steps.
+    pub rate_hz: f64,
+    /// Rows the per-cell CSV must hold for the analysis: units x arms x I x J.
+    pub required_rows: usize,
+}
+
+/// Compiles the design's training jobs and analysis units.
+///
+/// ```
+/// let d = crossaudit::design::from_str("t", include_str!("../tests/designs/minimal.design")).unwrap();
+/// let plan = crossaudit::plan::compile(&d);
+/// assert_eq!(plan.primary.role, crossaudit::design::Role::Primary);
+/// assert_eq!(plan.jobs.len(), d.models.len() * d.arms.len() * d.seeds.len());
+/// ```
+pub fn compile(design: &Design) -> Plan {
+    let jobs = design
+        .models
+        .iter()
+        .flat_map(|m| {
+            design.arms.iter().flat_map(move |a| {
+                design.seeds.iter().map(move |&seed| TrainingJob {
+                    model: m.name.clone(),
+                    kind: m.kind.clone(),
+                    arm: a.name.clone(),
+                    seed,
+                    horizons_s: horizons_for(design, &m.name),
+                })
+            })
+        })
+        .collect();
+    let mut units = units(design).into_iter();
+    let primary = units.next().expect("a validated design has exactly one primary endpoint");
+    let secondary: Vec<AnalysisUnit> = units.collect();
+    let interactions = interactions(design, std::iter::once(&primary).chain(&secondary));
+    let required_rows = distinct_rows(std::iter::once(&primary).chain(&secondary))
+        * 2
+        * design.recording.evaluation
+        * design.seeds.len();
+    Plan {
+        study: design.study.clone(),
+        jobs,
+        models: design.models.iter().map(|m| PlannedModel { name: m.name.clone(), kind: m.kind.clone() }).collect(),
+        arms: design.arms.clone(),
+        seeds: design.seeds.clone(),
+        recordings: design.recording.evaluation,
+        conditions: design.recording.conditions.clone(),
+        contrast: design.contrast.clone(),
+        primary,
+        secondary,
+        interactions,
+        // Validation refuses conflicting caps; 2 m is the language default.
+        cap: Meters(design.endpoints.iter().map(|e| e.cap.0).find(|c| c.is_finite()).unwrap_or(2.0)),
+        estimator: design.estimator.clone(),
+        sensitivity: design.sensitivity.clone(),
+        decision: design.decision.clone(),
+        training: design.training.clone(),
+        rate_hz: design.data.rate_hz,
+        required_rows,
+    }
+}
+
+/// Horizons (s) at which `model` is evaluated: every endpoint naming it.
+fn horizons_for(design: &Design, model: &str) -> Vec<f64> {
+    let mut h: Vec<f64> = design
+        .endpoints
+        .iter()
+        .filter(|e| e.models.iter().any(|m| m == model))
+        .flat_map(|e| e.horizons.iter().map(|s| s.0))
+        .collect();
+    h.sort_by(f64::total_cmp);
+    h.dedup();
+    h
+}
+
+/// Units in a stable order: the primary first, then by model (design
+/// order), metric and horizon.
+fn units(design: &Design) -> Vec<AnalysisUnit> {
+    let mut out: Vec<AnalysisUnit> = Vec::new();
+    for e in &design.endpoints {
+        for h in &e.horizons {
+            for m in &e.models {
+                out.push(AnalysisUnit { role: e.role, metric: e.metric, horizon_s: h.0, model: m.clone() });
+            }
+        }
+    }
+    let model_rank = |name: &str| design.models.iter().position(|m| m.name == name).unwrap_or(usize::MAX);
+    out.sort_by(|a, b| {
+        (a.role, model_rank(&a.model), a.metric)
+            .cmp(&(b.role, model_rank(&b.model), b.metric))
+            .then(a.horizon_s.total_cmp(&b.horizon_s))
+    });
+    out
+}
+
+/// One interaction per (metric, horizon) that both models of the design's
+/// `interaction` are evaluated at.
+fn interactions<'a>(design: &Design, units: impl Iterator<Item = &'a AnalysisUnit> + Clone) -> Vec<InteractionUnit> {
+    let Some(ix) = &design.interaction else { return Vec::new() };
+    let mut out: Vec<InteractionUnit> = Vec::new();
+    for u in units.clone().filter(|u| u.model == ix.left) {
+        let partner = units.clone().any(|v| v.model == ix.right && v.metric == u.metric && v.horizon_s == u.horizon_s);
+        let seen = out.iter().any(|x| x.metric == u.metric && x.horizon_s == u.horizon_s);
+        if partner && !seen {
+            out.push(InteractionUnit {
+                metric: u.metric,
+                horizon_s: u.horizon_s,
+                left: ix.left.clone(),
+                right: ix.right.clone(),
+            });
+        }
+    }
+    out.sort_by(|a, b| a.metric.cmp(&b.metric).then(a.horizon_s.total_cmp(&b.horizon_s)));
+    out
+}
+
+/// Per-cell rows are keyed by (model, horizon): metrics share a row.
+fn distinct_rows<'a>(units: impl Iterator<Item = &'a AnalysisUnit>) -> usize {
+    let mut keys: Vec<(&str, u64)> = units.map(|u| (u.model.as_str(), u.horizon_s.to_bits())).collect();
+    keys.sort();
+    keys.dedup();
+    keys.len()
+}
+
+impl Plan {
+    /// Every analysis unit: the primary first, then the secondary ones.
+    pub fn units(&self) -> impl Iterator<Item = &AnalysisUnit> {
+        std::iter::once(&self.primary).chain(&self.secondary)
+    }
+
+    /// The (model, horizon) pairs the per-cell data must hold, in unit order.
+    pub fn row_keys(&self) -> Vec<(&str, f64)> {
+        let mut out: Vec<(&str, f64)> = Vec::new();
+        for u in self.units() {
+            if !out.iter().any(|(m, h)| *m == u.model && h.to_bits() == u.horizon_s.to_bits()) {
+                out.push((&u.model, u.horizon_s));
+            }
+        }
+        out
+    }
+
+    /// The fixed df of the interval for an I x J matrix, when the rule
+    /// fixes them (see [`DfRule::df`]).
+    pub fn df(&self, rows: usize, cols: usize) -> Option<f64> {
+        self.estimator.df.df(rows, cols)
+    }
+
+    /// The plan as the text `crossaudit check` prints.
+    pub fn render_text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "study: {}", self.study);
+        let trains = self.jobs.iter().filter(|c| c.trains()).count();
+        let _ = writeln!(
+            s,
+            "training cells: {} = {} models x {} arms x {} seeds ({} fitted, {} parameter-free)",
+            self.jobs.len(),
+            self.models.len(),
+            self.arms.len(),
+            self.seeds.len(),
+            trains,
+            self.jobs.len() - trains
+        );
+        for m in &self.models {
+            let _ = writeln!(s, "  model {}: {}", m.name, model_text(&m.kind));
+        }
+        for a in &self.arms {
+            let _ = writeln!(s, "  arm {}: {}", a.name, arm_text(&a.kind));
+        }
+        let seeds = &self.seeds;
+        let (first, last) = (seeds.first().map(|x| x.0).unwrap_or(0), seeds.last().map(|x| x.0).unwrap_or(0));
+        let _ = writeln!(s, "seeds: {} ({first}..{last})", seeds.len());
+        let _ = writeln!(
+            s,
+            "contrast: {} - {}, each over a {} recording x {} seed matrix",
+            self.contrast.treated,
+            self.contrast.reference,
+            self.recordings,
+            self.seeds.len()
+        );
+        let _ = writeln!(s, "endpoints:");
+        for u in self.units() {
+            let role = if u.role == Role::Primary { "primary  " } else { "secondary" };
+            let _ = writeln!(s, "  {role} {} at {} s, model {}", u.metric.name(), u.horizon_s, u.model);
+        }
+        for ix in &self.interactions {
+            let _ =
+                writeln!(s, "interaction: {} - {} on {} at {} s", ix.left, ix.right, ix.metric.name(), ix.horizon_s);
+        }
+        let df = self.df(self.recordings, self.seeds.len());
+        let df = match (self.estimator.df, df) {
+            (DfRule::SeedsMinusOne, Some(v)) => format!("t with J - 1 = {v} df"),
+            (DfRule::RecordingsMinusOne, Some(v)) => format!("t with I - 1 = {v} df"),
+            (DfRule::Normal, _) => "normal (z)".to_string(),
+            _ => "t with Satterthwaite df".to_string(),
+        };
+        let _ = writeln!(s, "estimator: crossed MoM, level {}, {df}", self.estimator.level);
+        if let Some(b) = self.sensitivity.bootstrap {
+            let _ = writeln!(s, "bootstrap: pigeonhole, B = {}, seed {}", b.replicates, b.seed);
+        }
+        let _ = writeln!(s, "per-cell rows required: {}", self.required_rows);
+        let _ = writeln!(s, "decision: {}", self.decision);
+        s
+    }
+}
+
+fn model_text(kind: &ModelKind) -> String {
+    match kind {
+        ModelKind::Mlp { widths, inputs } => format!(
+            "mlp({}) inputs {}",
+            widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", "),
+            match inputs {
+                InputMap::World => "world",
+                InputMap::Relative => "relative",
+            }
+        ),
+        ModelKind::Persistence => "persistence".to_string(),
+        ModelKind::ConstantVelocity => "constant_velocity".to_string(),
+    }
+}
+
+fn arm_text(kind: &ArmKind) -> String {
+    match kind {
+        ArmKind::Fit { windows, seed } => format!("fit {windows} windows (seed {seed})"),
+        ArmKind::Derived { from, percent, starts, seed } => format!(
+            "{from} with {percent}% replaced by evaluation windows{} (seed {seed})",
+            if *starts == StartsPolicy::Exclude { ", registered starts excluded" } else { "" }
+        ),
+    }
+}

@@ -1,0 +1,81 @@
+//! The grid of training jobs on N workers, each a single-threaded rayon
+//! pool pulling jobs from one queue. The first error stops every worker
+//! after its current job; finished jobs stay finished.
+
+use std::collections::VecDeque;
+use std::path::Path;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use super::job::{run_job, JobOutcome};
+use super::RunError;
+use crate::model::EpochLog;
+use crate::plan::{Plan, TrainingJob};
+use crate::split::Prepared;
+
+/// What a run reports while it works. Called from worker threads.
+pub trait RunObserver: Sync {
+    /// The grid starts: `total` jobs, `already_done` of them finished before.
+    fn start(&self, _total: usize, _already_done: usize) {}
+    /// `worker` took `job`.
+    fn job_started(&self, _worker: usize, _job: &TrainingJob) {}
+    /// An epoch of `job` finished.
+    fn epoch(&self, _worker: usize, _job: &TrainingJob, _log: &EpochLog) {}
+    /// `job` finished after `seconds`.
+    fn job_finished(&self, _worker: usize, _job: &TrainingJob, _outcome: &JobOutcome, _seconds: f64) {}
+}
+
+/// An observer that reports nothing.
+pub struct Quiet;
+impl RunObserver for Quiet {}
+
+/// Runs every job of `todo` on `workers` workers.
+pub(crate) fn run_grid(
+    design_sha256: &str,
+    plan: &Plan,
+    prepared: &Prepared,
+    out: &Path,
+    todo: VecDeque<TrainingJob>,
+    workers: usize,
+    observer: &dyn RunObserver,
+) -> Result<(), RunError> {
+    let queue = Mutex::new(todo);
+    let first_error: Mutex<Option<RunError>> = Mutex::new(None);
+    let fail = |e: RunError| {
+        if let Ok(mut slot) = first_error.lock() {
+            slot.get_or_insert(e);
+        }
+    };
+    std::thread::scope(|scope| {
+        for worker in 0..workers {
+            let (queue, first_error, fail) = (&queue, &first_error, &fail);
+            scope.spawn(move || {
+                // One thread per worker: dfdx's matmuls run on the current
+                // rayon pool.
+                let pool = match rayon::ThreadPoolBuilder::new().num_threads(1).build() {
+                    Ok(p) => p,
+                    Err(e) => return fail(RunError::WorkerPool(e)),
+                };
+                loop {
+                    if first_error.lock().map(|e| e.is_some()).unwrap_or(true) {
+                        return;
+                    }
+                    let Some(job) = queue.lock().ok().and_then(|mut q| q.pop_front()) else { return };
+                    observer.job_started(worker, &job);
+                    let t0 = Instant::now();
+                    let result = pool.install(|| {
+                        run_job(design_sha256, plan, &job, prepared, out, &mut |log| observer.epoch(worker, &job, log))
+                    });
+                    match result {
+                        Ok(o) => observer.job_finished(worker, &job, &o, t0.elapsed().as_secs_f64()),
+                        Err(e) => return fail(e),
+                    }
+                }
+            });
+        }
+    });
+    match first_error.into_inner().unwrap_or(None) {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}

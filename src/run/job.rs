@@ -1,0 +1,261 @@
+//! One training job end to end: the shared split, the model fitted on its
+//! arm's fit windows with its seed, rollouts from the registered starts,
+//! and that job's per-cell rows. A job is the unit a run schedules.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::RunError;
+use crate::cells::{write_cells, Cell};
+use crate::data::Recording;
+use crate::design::{InputMap, ModelKind};
+use crate::io::{create_dir_all, f64_text, pretty_json, write_atomic};
+use crate::model::baseline::{ConstantVelocity, Persistence};
+use crate::model::{net, Action, Dynamics, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
+use crate::plan::{Plan, TrainingJob};
+use crate::rollout;
+use crate::split::{Prepared, Window};
+
+/// Everything one job produced.
+#[derive(Debug, Clone, Serialize)]
+pub struct JobOutcome {
+    /// The model's name.
+    pub model: String,
+    /// The arm it was fitted on.
+    pub arm: String,
+    /// The training seed.
+    pub seed: u64,
+    /// Every epoch's losses (empty for parameter-free models).
+    pub epochs: Vec<EpochLog>,
+    /// Best (restored) validation loss; None for parameter-free models.
+    pub best_val_loss: Option<f64>,
+    /// One-step validation error of this model and the baselines, in this
+    /// model's standardized target units over the 10 predicted components.
+    pub one_step: Vec<(String, f64)>,
+    /// Mean over evaluation recordings of the failure-aware position RMSE at
+    /// each horizon, for this model and the baselines.
+    pub mean_fa_rmse: Vec<(String, f64, f64)>,
+    /// Wall seconds spent fitting (0 for parameter-free models).
+    pub train_seconds: f64,
+    /// Wall seconds of this model's batched rollouts from every start.
+    pub rollout_seconds: f64,
+    /// The job's per-cell rows.
+    #[serde(skip)]
+    pub cells: Vec<Cell>,
+    /// Files written, in order.
+    pub files: Vec<String>,
+}
+
+fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)> {
+    windows
+        .iter()
+        .map(|w| {
+            let r = &recs[w.recording];
+            (r.state[w.t], r.action[w.t], r.state[w.t + 1])
+        })
+        .collect()
+}
+
+/// Mean standardized one-step squared error over the non-exogenous
+/// components: how well `dynamics` predicts x_{t+1} from (x_t, u_t).
+pub fn one_step_error(dynamics: &mut dyn Dynamics, features: &FeatureMap, windows: &[(State, Action, State)]) -> f64 {
+    let states: Vec<State> = windows.iter().map(|w| w.0).collect();
+    let actions: Vec<Action> = windows.iter().map(|w| w.1).collect();
+    let next = dynamics.step(&states, &actions);
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    let (mut zp, mut zt) = ([0f32; STATE], [0f32; STATE]);
+    for ((x, _, truth), pred) in windows.iter().zip(&next) {
+        features.target(x, pred, &mut zp);
+        features.target(x, truth, &mut zt);
+        for k in (0..STATE).filter(|k| !EXOGENOUS.contains(k)) {
+            sum += f64::from(zp[k] - zt[k]).powi(2);
+            n += 1;
+        }
+    }
+    sum / n.max(1) as f64
+}
+
+fn mean_fa(cells: &[Cell], h: f64) -> f64 {
+    let v: Vec<f64> = cells.iter().filter(|c| c.horizon_s == h).map(|c| c.fa_position_rmse_m).collect();
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// What every model of a job is scored with: the fit and validation
+/// windows, the rollout steps, and the world standardizers of the arm as
+/// the yardstick for one-step errors.
+struct Bench<'a> {
+    plan: &'a Plan,
+    job: &'a TrainingJob,
+    prepared: &'a Prepared,
+    fit: Vec<(State, Action, State)>,
+    fit_sha: String,
+    validation: Vec<(State, Action, State)>,
+    steps: Vec<usize>,
+    yardstick: FeatureMap,
+}
+
+impl Bench<'_> {
+    /// Rolls `d` out from every start and scores it: (one-step error, cells).
+    fn score(&self, name: &str, d: &mut dyn Dynamics) -> (f64, Vec<Cell>, f64) {
+        let one_step = one_step_error(d, &self.yardstick, &self.validation);
+        let max_steps = self.steps.iter().copied().max().unwrap_or(0);
+        let t0 = std::time::Instant::now();
+        let p = self.prepared;
+        let traces = rollout::rollout(d, &p.recordings, &p.split.starts, max_steps, &self.steps);
+        let seconds = t0.elapsed().as_secs_f64();
+        let (job, plan) = (self.job, self.plan);
+        let cells =
+            rollout::cells(name, &job.arm, job.seed.0, &p.split, &traces, &job.horizons_s, plan.rate_hz, plan.cap.0);
+        (one_step, cells, seconds)
+    }
+}
+
+/// Runs one job of `plan` on the prepared split; files go under `out`.
+/// The per-cell CSV is written last, atomically: its presence marks the
+/// job as finished for a resumed run.
+pub fn run_job(
+    design_sha256: &str,
+    plan: &Plan,
+    job: &TrainingJob,
+    prepared: &Prepared,
+    out: &Path,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> Result<JobOutcome, RunError> {
+    let bench = bench(plan, job, prepared)?;
+    let stem = job.stem();
+    let mut files = Vec::new();
+    let mut one_step = Vec::new();
+    let (cells, epochs, best_val_loss, train_seconds, rollout_seconds) = match &job.kind {
+        ModelKind::Mlp { widths, inputs } => {
+            let features = FeatureMap::fit(*inputs, &bench.fit, &bench.fit_sha);
+            // Invariant 6: standardizers fitted on this arm's own fit set.
+            if features.fitted_on != bench.fit_sha {
+                return Err(RunError::Invariant6 { job: stem });
+            }
+            let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
+            let t0 = std::time::Instant::now();
+            let (net, epochs) =
+                net::train(widths, &features, &bench.fit, &bench.validation, training, job.seed.0, on_epoch)?;
+            let meta = serde_json::json!({
+                "model": job.model, "arm": job.arm, "seed": job.seed.0, "widths": widths,
+                "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "features": features,
+            });
+            files.extend(save_model(out, &stem, &net, &meta)?);
+            let train_seconds = t0.elapsed().as_secs_f64();
+            let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
+            let (e, cells, secs) = bench.score(&job.model, &mut Learned { net: &net, features: &features });
+            one_step.push((job.model.clone(), e));
+            (cells, epochs, Some(best), train_seconds, secs)
+        }
+        ModelKind::Persistence | ModelKind::ConstantVelocity => {
+            let mut d = baseline(&job.kind, plan.rate_hz);
+            let (e, cells, secs) = bench.score(&job.model, d.as_mut());
+            one_step.push((job.model.clone(), e));
+            (cells, Vec::new(), None, 0.0, secs)
+        }
+    };
+    let mut mean_fa_rmse: Vec<(String, f64, f64)> =
+        job.horizons_s.iter().map(|h| (job.model.clone(), *h, mean_fa(&cells, *h))).collect();
+    for (name, kind) in [("persistence", ModelKind::Persistence), ("constant_velocity", ModelKind::ConstantVelocity)] {
+        let (e, bc, _) = bench.score(name, baseline(&kind, plan.rate_hz).as_mut());
+        one_step.push((name.to_string(), e));
+        mean_fa_rmse.extend(job.horizons_s.iter().map(|h| (name.to_string(), *h, mean_fa(&bc, *h))));
+    }
+    if !epochs.is_empty() {
+        files.push(write_curve(out, &stem, &epochs)?);
+    }
+    let cells_dir = out.join("cells");
+    create_dir_all(&cells_dir)?;
+    let cells_path = cells_dir.join(format!("{stem}.csv"));
+    let tmp = crate::io::tmp_path(&cells_path);
+    write_cells(&tmp, &cells)?;
+    std::fs::rename(&tmp, &cells_path).map_err(|e| crate::io::WriteError::new(&cells_path, e))?;
+    files.push(cells_path.display().to_string());
+    Ok(JobOutcome {
+        model: job.model.clone(),
+        arm: job.arm.clone(),
+        seed: job.seed.0,
+        epochs,
+        best_val_loss,
+        one_step,
+        mean_fa_rmse,
+        train_seconds,
+        rollout_seconds,
+        cells,
+        files,
+    })
+}
+
+fn bench<'a>(plan: &'a Plan, job: &'a TrainingJob, prepared: &'a Prepared) -> Result<Bench<'a>, RunError> {
+    let split = &prepared.split;
+    let recs = &prepared.recordings;
+    let fit_windows = split.fit(&job.arm).ok_or_else(|| RunError::NoFitSet { arm: job.arm.clone() })?;
+    let fit_sha = prepared.manifests.sha256(&format!("fit_{}.csv", job.arm)).to_string();
+    let fit = triples(recs, fit_windows);
+    // The world standardizers of this arm: the yardstick for one-step
+    // errors, whatever the model.
+    let yardstick = FeatureMap::fit(InputMap::World, &fit, &fit_sha);
+    Ok(Bench {
+        plan,
+        job,
+        prepared,
+        validation: triples(recs, &split.validation),
+        fit,
+        fit_sha,
+        steps: rollout::horizon_steps(&job.horizons_s, plan.rate_hz),
+        yardstick,
+    })
+}
+
+fn baseline(kind: &ModelKind, rate_hz: f64) -> Box<dyn Dynamics> {
+    if *kind == ModelKind::Persistence {
+        Box::new(Persistence)
+    } else {
+        Box::new(ConstantVelocity { dt: 1.0 / rate_hz })
+    }
+}
+
+/// `models/STEM.safetensors` and `models/STEM.json` (what produced them).
+fn save_model(out: &Path, stem: &str, net: &net::Net, meta: &serde_json::Value) -> Result<[String; 2], RunError> {
+    let models_dir = out.join("models");
+    create_dir_all(&models_dir)?;
+    let weights = models_dir.join(format!("{stem}.safetensors"));
+    net.save(&weights)?;
+    let meta_path = models_dir.join(format!("{stem}.json"));
+    // No final newline: the form these files have always had.
+    write_atomic(&meta_path, pretty_json(meta).trim_end().as_bytes())?;
+    Ok([weights.display().to_string(), meta_path.display().to_string()])
+}
+
+/// One row of `curves/STEM.csv`.
+#[derive(Serialize)]
+struct CurveRow {
+    epoch: usize,
+    #[serde(serialize_with = "f64_text")]
+    lr: f64,
+    #[serde(serialize_with = "f64_text")]
+    train_loss: f64,
+    #[serde(serialize_with = "f64_text")]
+    val_loss: f64,
+    #[serde(serialize_with = "f64_text")]
+    seconds: f64,
+}
+
+/// `curves/STEM.csv`: the losses of every epoch.
+fn write_curve(out: &Path, stem: &str, epochs: &[EpochLog]) -> Result<String, RunError> {
+    let path = out.join("curves").join(format!("{stem}.csv"));
+    create_dir_all(path.parent().unwrap_or(out))?;
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for e in epochs {
+        let row =
+            CurveRow { epoch: e.epoch, lr: e.lr, train_loss: e.train_loss, val_loss: e.val_loss, seconds: e.seconds };
+        w.serialize(row).map_err(|e| RunError::Csv { path: path.display().to_string(), source: e })?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| RunError::Csv { path: path.display().to_string(), source: e.into_error().into() })?;
+    write_atomic(&path, &bytes)?;
+    Ok(path.display().to_string())
+}

@@ -1,0 +1,327 @@
+//! Stage: a locked design from raw logs to decision. Audit, manifests and
+//! invariants, then the grid of training jobs on N workers (each a
+//! single-threaded rayon pool), then cells.csv, the analysis and the report.
+//!
+//! A job's per-cell CSV is written atomically when it finishes and marks it
+//! done; a rerun on the same directory verifies the design hash and the
+//! manifests and skips finished jobs. Each job depends only on the design,
+//! the data and its seed, so results do not depend on the number of workers
+//! or on interruptions.
+//!
+//! Architecture Invariant: `run` is the only stage that calls the stages
+//! below it in sequence; nothing below imports `run`.
+
+mod grid;
+pub mod job;
+mod record;
+mod source;
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Deserialize;
+
+use crate::analysis::{self, Analysis, AnalysisError};
+use crate::cells::{read_cells, write_cells, Cell, CellsError};
+use crate::design::{lock, DesignFile, LockStatus};
+use crate::io::{create_dir_all, WriteError};
+use crate::plan::{Plan, TrainingJob};
+use crate::report::figures::Curve;
+
+pub use grid::{Quiet, RunObserver};
+pub use job::{run_job, JobOutcome};
+pub use record::RunRecord;
+pub use source::data_dir;
+
+/// Options of a run that are not part of the design.
+#[derive(Debug, Clone, Copy)]
+pub struct RunOptions {
+    /// Parallel training workers, one thread each.
+    pub workers: usize,
+    /// Run a design that changed after locking, labelling every output.
+    pub exploratory: bool,
+}
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The design changed after it was locked and the run was not labelled exploratory.
+    #[error("{path} changed after it was locked; rerun with --exploratory to label every output EXPLORATORY, or lock an amended design")]
+    LockChanged {
+        /// The design file.
+        path: String,
+    },
+    /// The output directory holds a run of another design.
+    #[error("{dir} holds a run of a different design (sha256 {sha256}); use a new output directory")]
+    OtherDesign {
+        /// The output directory.
+        dir: String,
+        /// The other design's hash.
+        sha256: String,
+    },
+    /// The manifests differ from those of the run being resumed.
+    #[error("the manifests differ from those of the run in {dir} (the data changed?); use a new output directory")]
+    ManifestsChanged {
+        /// The output directory.
+        dir: String,
+    },
+    /// A worker's thread pool could not start.
+    #[error("worker pool: {0}")]
+    WorkerPool(#[from] rayon::ThreadPoolBuildError),
+    /// A parameter-free model scored differently on two arms.
+    #[error("parameter-free model `{model}` scored differently on arms `{left}` and `{right}`: its rollouts depend on the arm, which they must not")]
+    BaselineDependsOnArm {
+        /// The model.
+        model: String,
+        /// One arm.
+        left: String,
+        /// The other.
+        right: String,
+    },
+    /// A fitted model with no `train` block (validation prevents this).
+    #[error("the design has no train block")]
+    NoTraining,
+    /// An arm without a fit set (validation prevents this).
+    #[error("arm `{arm}` has no fit set")]
+    NoFitSet {
+        /// The arm.
+        arm: String,
+    },
+    /// Standardizers were not fitted on the job's own fit set.
+    #[error("invariant 6 failed for {job}: standardizers were not fitted on this arm's fit set")]
+    Invariant6 {
+        /// The job's stem.
+        job: String,
+    },
+    /// A job named on the command line is not in the plan.
+    #[error("no training job {job} in the design ({known})")]
+    UnknownJob {
+        /// `model/arm/seed` as asked for.
+        job: String,
+        /// The design's models, arms and seeds.
+        known: String,
+    },
+    /// `simulate` on a design whose data are not simulated.
+    #[error("{path}: the data source is not `simulated`")]
+    NotSimulated {
+        /// The design file.
+        path: String,
+    },
+    /// The design has no data path and none was given.
+    #[error("the design's data block has no `path`; pass --data DIR")]
+    NoDataPath,
+    /// The data directory does not exist.
+    #[error("data directory {dir} does not exist")]
+    NoDataDir {
+        /// The directory.
+        dir: String,
+    },
+    /// Simulated recordings could not be written.
+    #[error(transparent)]
+    Simulate(#[from] crate::sim::SimulateError),
+    /// A training curve could not be written or read.
+    #[error("{path}: {source}")]
+    Csv {
+        /// The curve file.
+        path: String,
+        /// Why.
+        source: csv::Error,
+    },
+    /// The lock file could not be read.
+    #[error(transparent)]
+    Lock(#[from] lock::LockError),
+    /// The split could not be prepared or an invariant failed.
+    #[error(transparent)]
+    Split(#[from] crate::split::SplitError),
+    /// Training or saving a network failed.
+    #[error(transparent)]
+    Net(#[from] crate::model::NetError),
+    /// A per-cell file could not be written or read back.
+    #[error(transparent)]
+    Cells(#[from] CellsError),
+    /// The finished cells could not be analysed.
+    #[error("{path}: {source}")]
+    Analysis {
+        /// cells.csv.
+        path: String,
+        /// Why.
+        source: Box<AnalysisError>,
+    },
+    /// The report or its figures could not be written.
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Write(#[from] WriteError),
+}
+
+/// What a finished run produced.
+#[derive(Debug, Clone)]
+pub struct RunOutcome {
+    /// `out/cells.csv`.
+    pub cells_csv: PathBuf,
+    /// `out/report`.
+    pub report_dir: PathBuf,
+    /// The analysis written to the report.
+    pub analysis: Analysis,
+    /// Jobs run now.
+    pub trained: usize,
+    /// Jobs finished by an earlier run.
+    pub skipped: usize,
+    /// Wall seconds.
+    pub seconds: f64,
+}
+
+/// Runs (or resumes) the whole study into `out`.
+pub fn run(
+    file: &DesignFile,
+    plan: &Plan,
+    data_dir: &Path,
+    out: &Path,
+    options: RunOptions,
+    observer: &dyn RunObserver,
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let status = lock::status(&file.path, &file.sha256)?;
+    let exploratory = match status {
+        LockStatus::LockedChanged { .. } if !options.exploratory => {
+            return Err(RunError::LockChanged { path: file.path.display().to_string() })
+        }
+        LockStatus::LockedChanged { .. } => true,
+        _ => options.exploratory,
+    };
+    create_dir_all(out)?;
+    let previous = RunRecord::read(out);
+    if let Some(p) = &previous {
+        p.check_design(out, &file.sha256)?;
+    }
+    let prepared = crate::split::prepare(file, plan, data_dir, out)?;
+    let manifests_sha256 = crate::io::sha256_hex(prepared.manifests.to_json().as_bytes());
+    if let Some(p) = &previous {
+        p.check_manifests(out, &manifests_sha256)?;
+    }
+    let record =
+        RunRecord { study: plan.study.clone(), design_sha256: file.sha256.clone(), manifests_sha256, exploratory };
+    record.write(out)?;
+
+    let done = |j: &TrainingJob| job_cells(out, j).exists();
+    let todo: VecDeque<TrainingJob> = plan.jobs.iter().filter(|j| !done(j)).cloned().collect();
+    let skipped = plan.jobs.len() - todo.len();
+    observer.start(plan.jobs.len(), skipped);
+    let trained = todo.len();
+    grid::run_grid(&file.sha256, plan, &prepared, out, todo, options.workers.max(1), observer)?;
+
+    let cells_csv = gather(plan, out)?;
+    let mut analysis = analyze_run(file, plan, &cells_csv, &status, exploratory)?;
+    let report_dir = out.join("report");
+    create_dir_all(&report_dir)?;
+    let curves = read_curves(plan, out)?;
+    let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
+        .map_err(crate::report::ReportError::from)?;
+    analysis.figures = figures.iter().filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned())).collect();
+    crate::report::write_all(&analysis, &report_dir)?;
+    Ok(RunOutcome { cells_csv, report_dir, analysis, trained, skipped, seconds: started.elapsed().as_secs_f64() })
+}
+
+/// `out/cells/STEM.csv`: the per-cell rows of one job, present once it finished.
+pub fn job_cells(out: &Path, job: &TrainingJob) -> PathBuf {
+    out.join("cells").join(format!("{}.csv", job.stem()))
+}
+
+/// cells.csv: every job's rows in plan order, written atomically.
+fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
+    let mut all: Vec<Cell> = Vec::new();
+    for j in &plan.jobs {
+        all.extend(read_cells(&job_cells(out, j))?);
+    }
+    check_baselines(plan, &all)?;
+    let cells_csv = out.join("cells.csv");
+    let tmp = crate::io::tmp_path(&cells_csv);
+    write_cells(&tmp, &all)?;
+    std::fs::rename(&tmp, &cells_csv).map_err(|e| WriteError::new(&cells_csv, e))?;
+    Ok(cells_csv)
+}
+
+/// The preregistered analysis of the gathered cells, labelled with the
+/// design's hash and lock state.
+fn analyze_run(
+    file: &DesignFile,
+    plan: &Plan,
+    cells_csv: &Path,
+    status: &LockStatus,
+    exploratory: bool,
+) -> Result<Analysis, RunError> {
+    let cells = read_cells(cells_csv)?;
+    let mut analysis = analysis::analyze(plan, &cells, Default::default())
+        .map_err(|source| RunError::Analysis { path: cells_csv.display().to_string(), source: Box::new(source) })?;
+    analysis.design_sha256 = Some(file.sha256.clone());
+    if let LockStatus::LockedChanged { .. } = status {
+        analysis.mark_design_changed();
+    }
+    analysis.exploratory |= exploratory;
+    if *status == LockStatus::Unlocked {
+        analysis.warnings.push(format!(
+            "{} was not locked before this run: lock a design (`crossaudit lock`) to preregister it",
+            file.path.display()
+        ));
+    }
+    Ok(analysis)
+}
+
+/// The columns of a training curve the figures need.
+#[derive(Deserialize)]
+struct CurvePoint {
+    epoch: f64,
+    val_loss: f64,
+}
+
+/// The validation-loss curve of every fitted job, in file-name order.
+fn read_curves(plan: &Plan, out: &Path) -> Result<Vec<Curve>, RunError> {
+    let mut jobs: Vec<&TrainingJob> = plan.jobs.iter().filter(|j| j.trains()).collect();
+    jobs.sort_by_key(|j| j.stem());
+    let mut curves = Vec::new();
+    for j in jobs {
+        let path = out.join("curves").join(format!("{}.csv", j.stem()));
+        let csv_err = |source: csv::Error| RunError::Csv { path: path.display().to_string(), source };
+        let mut rdr = csv::Reader::from_path(&path).map_err(csv_err)?;
+        let points = rdr
+            .deserialize::<CurvePoint>()
+            .map(|p| p.map(|p| (p.epoch, p.val_loss)))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(csv_err)?;
+        curves.push(Curve { arm: j.arm.clone(), points });
+    }
+    Ok(curves)
+}
+
+/// Parameter-free models fit nothing split-dependent: their rows must be
+/// identical across arms.
+fn check_baselines(plan: &Plan, cells: &[Cell]) -> Result<(), RunError> {
+    for m in plan.models.iter().filter(|m| !m.kind.trains()) {
+        let rows = |arm: &str| -> Vec<(u64, String, u64, String)> {
+            cells
+                .iter()
+                .filter(|c| c.model == m.name && c.arm == arm)
+                .map(|c| {
+                    (
+                        c.seed,
+                        c.recording.clone(),
+                        c.horizon_s.to_bits(),
+                        format!("{:?}", (c.fa_position_rmse_m, c.conditional_position_rmse_m, c.n_divergent)),
+                    )
+                })
+                .collect()
+        };
+        for w in plan.arms.windows(2) {
+            if rows(&w[0].name) != rows(&w[1].name) {
+                return Err(RunError::BaselineDependsOnArm {
+                    model: m.name.clone(),
+                    left: w[0].name.clone(),
+                    right: w[1].name.clone(),
+                });
+            }
+        }
+    }
+    Ok(())
+}

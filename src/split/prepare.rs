@@ -1,0 +1,59 @@
+//! The shared experiment prepared on disk before anything trains: the
+//! inclusion audit, the split, its manifests, the invariants and the
+//! treatment-strength audit, each written under the output directory.
+
+use std::path::Path;
+
+use super::{check_invariants, treatment_audit, write_split, JobManifests, Manifests, Split, SplitError};
+use super::{InvariantReport, TreatmentAudit};
+use crate::data::{self, Audit, Recording};
+use crate::design::DesignFile;
+use crate::io::write_atomic;
+use crate::plan::Plan;
+
+/// What [`prepare`] produced: everything a training job reads.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// The included recordings the split indexes into.
+    pub recordings: Vec<Recording>,
+    /// The inclusion audit of the data directory.
+    pub audit: Audit,
+    /// Evaluation recordings, starts, validation and fit sets.
+    pub split: Split,
+    /// The manifests, with their hashes.
+    pub manifests: Manifests,
+    /// The invariants checked before training.
+    pub invariants: InvariantReport,
+    /// How strong the treatment is.
+    pub treatment: TreatmentAudit,
+}
+
+/// Audits the data, builds the split, and writes `audit/`, `manifests/`,
+/// `audit/invariants.json` and `audit/treatment.json` under `out`. A failed
+/// invariant is an error, returned after `audit/invariants.json` is written
+/// so the reason can be read.
+pub fn prepare(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result<Prepared, SplitError> {
+    let design = &file.design;
+    let (audit, recordings) = data::audit_and_load(&design.data, dir)?;
+    audit.write(&out.join("audit"))?;
+    let split = super::build(design, &audit, &recordings)?;
+    let manifests = Manifests::new(design, Some(file.sha256.clone()), &split);
+    write_split(out, &manifests)?;
+    let jobs = JobManifests::for_plan(plan, &manifests);
+    let invariants = check_invariants(design, &split, &jobs);
+    let treatment = treatment_audit(&split);
+    let audit_dir = out.join("audit");
+    let inv_path = audit_dir.join("invariants.json");
+    write_atomic(&inv_path, invariants.to_json().as_bytes())?;
+    write_atomic(&audit_dir.join("treatment.json"), treatment.to_json().as_bytes())?;
+    if !invariants.all_pass {
+        let list = invariants
+            .failures()
+            .iter()
+            .map(|i| format!("  ({}) {}: {}", i.id, i.name, i.detail))
+            .collect::<Vec<_>>()
+            .join("\n");
+        return Err(SplitError::Invariants { path: inv_path.display().to_string(), list });
+    }
+    Ok(Prepared { recordings, audit, split, manifests, invariants, treatment })
+}
