@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+
+use crate::io::{f64_text, opt_f64_text};
 
 /// The exact header, in order.
 pub const HEADER: [&str; 14] = [
@@ -23,24 +25,42 @@ pub const HEADER: [&str; 14] = [
     "attitude_rmse_deg",
 ];
 
-/// One cell's metrics.
+/// One cell's metrics: a row of the per-cell CSV.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Cell {
+    /// The model's name.
     pub model: String,
+    /// The arm it was fitted on.
     pub arm: String,
+    /// The training seed.
     pub seed: u64,
+    /// The evaluation recording.
     pub recording: String,
+    /// The recording's trajectory family.
     pub trajectory: String,
+    /// The recording's speed label.
     pub speed: String,
+    /// The rollout horizon in seconds.
+    #[serde(serialize_with = "f64_text")]
     pub horizon_s: f64,
+    /// Rollout starts in the recording.
     pub n_starts: u64,
+    /// Starts whose rollout diverged (left the cap or became non-finite).
     pub n_divergent: u64,
+    /// Failure-aware position RMSE (m): a diverged rollout counts at the cap.
+    #[serde(serialize_with = "f64_text")]
     pub fa_position_rmse_m: f64,
-    /// Empty when every start diverged.
+    /// Position RMSE over finite rollouts; empty when every start diverged.
+    #[serde(serialize_with = "opt_f64_text")]
     pub conditional_position_rmse_m: Option<f64>,
+    /// n_divergent / n_starts.
+    #[serde(serialize_with = "f64_text")]
     pub divergence_rate: f64,
     /// Over finite rollouts; empty when every start diverged.
+    #[serde(serialize_with = "opt_f64_text")]
     pub velocity_rmse_mps: Option<f64>,
+    /// Over finite rollouts; empty when every start diverged.
+    #[serde(serialize_with = "opt_f64_text")]
     pub attitude_rmse_deg: Option<f64>,
     /// 1-based line in the file it was read from (0 when built in memory).
     #[serde(skip)]
@@ -87,7 +107,12 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
             CellsError::Csv { path: name.to_string(), line, message: csv_message(&e) }
         })?;
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        cells.push(parse_row(name, line, &rec)?);
+        // Every field is read as text by its header name, then checked here,
+        // so that an error names the field and shows the value.
+        let raw: RawRow = rec
+            .deserialize(Some(&header))
+            .map_err(|e| CellsError::Csv { path: name.to_string(), line, message: e.to_string() })?;
+        cells.push(parse_row(name, line, &raw)?);
     }
     if cells.is_empty() {
         return Err(CellsError::Empty { path: name.to_string() });
@@ -104,103 +129,123 @@ fn csv_message(e: &csv::Error) -> String {
     }
 }
 
+/// A row as text, by column name.
+#[derive(Deserialize)]
+struct RawRow {
+    model: String,
+    arm: String,
+    seed: String,
+    recording: String,
+    trajectory: String,
+    speed: String,
+    horizon_s: String,
+    n_starts: String,
+    n_divergent: String,
+    fa_position_rmse_m: String,
+    conditional_position_rmse_m: String,
+    divergence_rate: String,
+    velocity_rmse_mps: String,
+    attitude_rmse_deg: String,
+}
+
+/// Checks fields of one row, naming the file, line and field on error.
 struct Row<'a> {
     name: &'a str,
     line: u64,
-    rec: &'a csv::StringRecord,
 }
 
 impl Row<'_> {
-    fn text(&self, k: usize) -> &str {
-        self.rec.get(k).unwrap_or("")
-    }
-
-    fn fail(&self, k: usize, problem: impl Into<String>) -> CellsError {
+    fn fail(&self, field: &'static str, value: &str, problem: impl Into<String>) -> CellsError {
         CellsError::Field {
             path: self.name.to_string(),
             line: self.line,
-            field: HEADER[k],
-            value: self.text(k).to_string(),
+            field,
+            value: value.to_string(),
             problem: problem.into(),
         }
     }
 
-    fn label(&self, k: usize) -> Result<String, CellsError> {
-        let t = self.text(k).trim();
+    fn label(&self, field: &'static str, v: &str) -> Result<String, CellsError> {
+        let t = v.trim();
         if t.is_empty() {
-            return Err(self.fail(k, "is empty"));
+            return Err(self.fail(field, v, "is empty"));
         }
         Ok(t.to_string())
     }
 
-    fn uint(&self, k: usize) -> Result<u64, CellsError> {
-        self.text(k).trim().parse::<u64>().map_err(|_| self.fail(k, "is not a non-negative integer"))
+    fn uint(&self, field: &'static str, v: &str) -> Result<u64, CellsError> {
+        v.trim().parse::<u64>().map_err(|_| self.fail(field, v, "is not a non-negative integer"))
     }
 
-    fn float(&self, k: usize) -> Result<f64, CellsError> {
-        let t = self.text(k).trim();
+    fn float(&self, field: &'static str, v: &str) -> Result<f64, CellsError> {
+        let t = v.trim();
         if t.is_empty() {
-            return Err(self.fail(k, "is empty"));
+            return Err(self.fail(field, v, "is empty"));
         }
-        let v: f64 = t.parse().map_err(|_| self.fail(k, "is not a number"))?;
-        if !v.is_finite() {
-            return Err(self.fail(k, "is not finite"));
+        let x: f64 = t.parse().map_err(|_| self.fail(field, v, "is not a number"))?;
+        if !x.is_finite() {
+            return Err(self.fail(field, v, "is not finite"));
         }
-        if v < 0.0 {
-            return Err(self.fail(k, "is negative"));
+        if x < 0.0 {
+            return Err(self.fail(field, v, "is negative"));
         }
-        Ok(v)
+        Ok(x)
     }
 
     /// A metric that is empty exactly when every start diverged.
-    fn finite_only(&self, k: usize, all_diverged: bool) -> Result<Option<f64>, CellsError> {
-        if self.text(k).trim().is_empty() {
+    fn finite_only(&self, field: &'static str, v: &str, all_diverged: bool) -> Result<Option<f64>, CellsError> {
+        if v.trim().is_empty() {
             if all_diverged {
                 Ok(None)
             } else {
-                Err(self.fail(k, "is empty, but not every start diverged"))
+                Err(self.fail(field, v, "is empty, but not every start diverged"))
             }
         } else {
-            self.float(k).map(Some)
+            self.float(field, v).map(Some)
         }
     }
 }
 
-fn parse_row(name: &str, line: u64, rec: &csv::StringRecord) -> Result<Cell, CellsError> {
-    let r = Row { name, line, rec };
-    let n_starts = r.uint(7)?;
+fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
+    let r = Row { name, line };
+    let n_starts = r.uint("n_starts", &raw.n_starts)?;
     if n_starts == 0 {
-        return Err(r.fail(7, "must be at least 1"));
+        return Err(r.fail("n_starts", &raw.n_starts, "must be at least 1"));
     }
-    let n_divergent = r.uint(8)?;
+    let n_divergent = r.uint("n_divergent", &raw.n_divergent)?;
     if n_divergent > n_starts {
-        return Err(r.fail(8, format!("exceeds n_starts ({n_starts})")));
+        return Err(r.fail("n_divergent", &raw.n_divergent, format!("exceeds n_starts ({n_starts})")));
     }
     let all_diverged = n_divergent == n_starts;
-    let horizon_s = r.float(6)?;
+    let horizon_s = r.float("horizon_s", &raw.horizon_s)?;
     if horizon_s <= 0.0 {
-        return Err(r.fail(6, "must be > 0"));
+        return Err(r.fail("horizon_s", &raw.horizon_s, "must be > 0"));
     }
-    let divergence_rate = r.float(11)?;
+    let divergence_rate = r.float("divergence_rate", &raw.divergence_rate)?;
     let expected = n_divergent as f64 / n_starts as f64;
     if (divergence_rate - expected).abs() > 1e-6 {
-        return Err(r.fail(11, format!("disagrees with n_divergent / n_starts = {expected}")));
+        let problem = format!("disagrees with n_divergent / n_starts = {expected}");
+        return Err(r.fail("divergence_rate", &raw.divergence_rate, problem));
     }
     Ok(Cell {
-        model: r.label(0)?,
-        arm: r.label(1)?,
-        seed: r.uint(2)?,
-        recording: r.label(3)?,
-        trajectory: r.label(4)?,
-        speed: r.label(5)?,
+        model: r.label("model", &raw.model)?,
+        arm: r.label("arm", &raw.arm)?,
+        seed: r.uint("seed", &raw.seed)?,
+        recording: r.label("recording", &raw.recording)?,
+        trajectory: r.label("trajectory", &raw.trajectory)?,
+        speed: r.label("speed", &raw.speed)?,
         horizon_s,
         n_starts,
         n_divergent,
-        fa_position_rmse_m: r.float(9)?,
-        conditional_position_rmse_m: r.finite_only(10, all_diverged)?,
+        fa_position_rmse_m: r.float("fa_position_rmse_m", &raw.fa_position_rmse_m)?,
+        conditional_position_rmse_m: r.finite_only(
+            "conditional_position_rmse_m",
+            &raw.conditional_position_rmse_m,
+            all_diverged,
+        )?,
         divergence_rate,
-        velocity_rmse_mps: r.finite_only(12, all_diverged)?,
-        attitude_rmse_deg: r.finite_only(13, all_diverged)?,
+        velocity_rmse_mps: r.finite_only("velocity_rmse_mps", &raw.velocity_rmse_mps, all_diverged)?,
+        attitude_rmse_deg: r.finite_only("attitude_rmse_deg", &raw.attitude_rmse_deg, all_diverged)?,
         line,
     })
 }
@@ -211,26 +256,11 @@ pub fn write_cells(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
     let p = path.display().to_string();
     let io = |source: std::io::Error| CellsError::Io { path: p.clone(), source };
     let mut w = csv::Writer::from_path(path).map_err(|e| io(e.into()))?;
-    w.write_record(HEADER).map_err(|e| io(e.into()))?;
-    let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
     for c in cells {
-        w.write_record([
-            c.model.clone(),
-            c.arm.clone(),
-            c.seed.to_string(),
-            c.recording.clone(),
-            c.trajectory.clone(),
-            c.speed.clone(),
-            c.horizon_s.to_string(),
-            c.n_starts.to_string(),
-            c.n_divergent.to_string(),
-            c.fa_position_rmse_m.to_string(),
-            opt(c.conditional_position_rmse_m),
-            c.divergence_rate.to_string(),
-            opt(c.velocity_rmse_mps),
-            opt(c.attitude_rmse_deg),
-        ])
-        .map_err(|e| io(e.into()))?;
+        w.serialize(c).map_err(|e| io(e.into()))?;
+    }
+    if cells.is_empty() {
+        w.write_record(HEADER).map_err(|e| io(e.into()))?;
     }
     w.flush().map_err(io)
 }

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LockFile {
@@ -52,10 +51,6 @@ pub enum LockError {
     AlreadyLocked { path: String, sha256: String, locked_at_utc: String },
 }
 
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    let digest = Sha256::digest(bytes);
-    digest.iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// `FILE.design` -> `FILE.design.lock`.
 pub fn lock_path(design: &Path) -> PathBuf {
@@ -112,8 +107,7 @@ pub fn write_lock(design: &Path, sha256: &str, now: SystemTime) -> Result<LockFi
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         locked_at_utc: humantime::format_rfc3339_seconds(now).to_string(),
     };
-    let mut text = serde_json::to_string_pretty(&lock).expect("a LockFile always serializes");
-    text.push('\n');
+    let text = crate::io::pretty_json(&lock);
     std::fs::write(&path, text).map_err(|source| LockError::Write { path: path.display().to_string(), source })?;
     Ok(lock)
 }

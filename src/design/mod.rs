@@ -507,7 +507,7 @@ pub enum LoadError {
 /// Reads, parses and validates a design file.
 pub fn load(path: &Path) -> Result<DesignFile, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.display().to_string(), source })?;
-    let sha256 = lock::sha256_hex(&bytes);
+    let sha256 = crate::io::sha256_hex(&bytes);
     let source = String::from_utf8(bytes).map_err(|e| LoadError::Io {
         path: path.display().to_string(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8: {e}")),

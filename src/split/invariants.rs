@@ -73,9 +73,7 @@ impl InvariantReport {
     }
 
     pub fn to_json(&self) -> String {
-        let mut s = serde_json::to_string_pretty(self).expect("invariants serialize");
-        s.push('\n');
-        s
+        crate::io::pretty_json(self)
     }
 }
 

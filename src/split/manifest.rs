@@ -3,7 +3,6 @@
 //! The same design and data give byte-identical files.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
@@ -34,29 +33,56 @@ fn summary(text: String, rows: usize) -> ManifestSummary {
     ManifestSummary { sha256: crate::io::sha256_hex(text.as_bytes()), rows, text }
 }
 
-fn windows_csv(split: &Split, windows: &[Window]) -> ManifestSummary {
-    let mut s = String::from("recording,sample_index\n");
-    for w in windows {
-        let _ = writeln!(s, "{},{}", split.recordings[w.recording].name, w.t);
+/// Serializes rows to CSV text (header from the row type's field names).
+fn to_csv<T: Serialize>(rows: impl Iterator<Item = T>, header: &[&str]) -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut n = 0;
+    for r in rows {
+        // Writing plain records into memory cannot fail.
+        let _ = w.serialize(r);
+        n += 1;
     }
-    summary(s, windows.len())
+    if n == 0 {
+        let _ = w.write_record(header);
+    }
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+}
+
+/// A row of a window or start manifest.
+#[derive(Serialize)]
+struct WindowRow<'a> {
+    recording: &'a str,
+    sample_index: usize,
+}
+
+/// A row of a recording manifest.
+#[derive(Serialize)]
+struct RecordingRow<'a> {
+    recording: &'a str,
+    trajectory: &'a str,
+    speed: &'a str,
+    duplicate_group: &'a str,
+    content_hash: &'a str,
+}
+
+fn windows_csv(split: &Split, windows: &[Window]) -> ManifestSummary {
+    let rows = windows.iter().map(|w| WindowRow { recording: &split.recordings[w.recording].name, sample_index: w.t });
+    summary(to_csv(rows, &["recording", "sample_index"]), windows.len())
 }
 
 fn recordings_csv(split: &Split, which: &[usize]) -> ManifestSummary {
-    let mut s = String::from("recording,trajectory,speed,duplicate_group,content_hash\n");
-    for &r in which {
+    let rows = which.iter().map(|&r| {
         let i = &split.recordings[r];
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{}",
-            i.name,
-            i.trajectory,
-            i.speed,
-            i.duplicate_group.clone().unwrap_or_default(),
-            i.content_hash
-        );
-    }
-    summary(s, which.len())
+        RecordingRow {
+            recording: &i.name,
+            trajectory: &i.trajectory,
+            speed: &i.speed,
+            duplicate_group: i.duplicate_group.as_deref().unwrap_or(""),
+            content_hash: &i.content_hash,
+        }
+    });
+    let header = ["recording", "trajectory", "speed", "duplicate_group", "content_hash"];
+    summary(to_csv(rows, &header), which.len())
 }
 
 impl Manifests {
@@ -89,16 +115,14 @@ impl Manifests {
     }
 
     pub fn to_json(&self) -> String {
-        let mut s = serde_json::to_string_pretty(self).expect("manifests serialize");
-        s.push('\n');
-        s
+        crate::io::pretty_json(self)
     }
 }
 
 /// Writes `manifests/*.csv` and `manifests/manifests.json` under `out`.
 pub fn write_split(out: &Path, manifests: &Manifests) -> Result<PathBuf, WriteError> {
     let dir = out.join("manifests");
-    std::fs::create_dir_all(&dir).map_err(|source| WriteError { path: dir.display().to_string(), source })?;
+    crate::io::create_dir_all(&dir)?;
     for (name, m) in &manifests.files {
         write_atomic(&dir.join(name), m.text.as_bytes())?;
     }

@@ -89,9 +89,7 @@ pub fn treatment_audit(split: &Split) -> TreatmentAudit {
 
 impl TreatmentAudit {
     pub fn to_json(&self) -> String {
-        let mut s = serde_json::to_string_pretty(self).expect("treatment audit serializes");
-        s.push('\n');
-        s
+        crate::io::pretty_json(self)
     }
 
     pub fn render_text(&self) -> String {
