@@ -109,9 +109,11 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
         // Every field is read as text by its header name, then checked here,
         // so that an error names the field and shows the value.
-        let raw: RawRow = rec
-            .deserialize(Some(&header))
-            .map_err(|e| CellsError::Csv { path: name.to_string(), line, message: e.to_string() })?;
+        let raw: RawRow = rec.deserialize(Some(&header)).map_err(|e| CellsError::Csv {
+            path: name.to_string(),
+            line,
+            message: e.to_string(),
+        })?;
         cells.push(parse_row(name, line, &raw)?);
     }
     if cells.is_empty() {

@@ -51,7 +51,6 @@ pub enum LockError {
     AlreadyLocked { path: String, sha256: String, locked_at_utc: String },
 }
 
-
 /// `FILE.design` -> `FILE.design.lock`.
 pub fn lock_path(design: &Path) -> PathBuf {
     let mut name = design.as_os_str().to_owned();

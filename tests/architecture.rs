@@ -1,0 +1,157 @@
+//! The dependency order of ARCHITECTURE.md, checked against the source:
+//! every `crate::` import of every module must be one its row allows, the
+//! table itself must be acyclic, and the invariants that are a matter of
+//! grep (pest only in `design`, no file reads in `report`) hold.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use crate::common::root;
+
+/// `module -> modules it may import`, read from ARCHITECTURE.md.
+fn allowed() -> BTreeMap<String, BTreeSet<String>> {
+    let text = std::fs::read_to_string(root().join("ARCHITECTURE.md")).unwrap();
+    let section = text.split("## Dependency order").nth(1).expect("a Dependency order section");
+    let mut out = BTreeMap::new();
+    for line in section.lines().take_while(|l| !l.starts_with("## ")) {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() < 4 || !cells[1].starts_with('`') {
+            continue;
+        }
+        let names = |s: &str| -> BTreeSet<String> {
+            s.split(',').map(|x| x.trim().trim_matches('`').to_string()).filter(|x| !x.is_empty()).collect()
+        };
+        out.insert(cells[1].trim_matches('`').to_string(), names(cells[2]));
+    }
+    assert!(out.len() >= 10, "the dependency table was not found: {out:?}");
+    out
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// The stage a source file belongs to: its top-level folder or file under src/.
+fn module_of(path: &Path) -> String {
+    let rel = path.strip_prefix(root().join("src")).unwrap();
+    let first = rel.components().next().unwrap().as_os_str().to_string_lossy().into_owned();
+    first.trim_end_matches(".rs").to_string()
+}
+
+/// Source lines without comments (doc links may name any module).
+fn code_lines(path: &Path) -> Vec<(usize, String)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim_start().starts_with("//"))
+        .map(|(k, l)| (k + 1, l.split("//").next().unwrap_or("").to_string()))
+        .collect()
+}
+
+/// Every `crate::name` referenced on a line (including `use crate::{a, b}`).
+fn crate_refs(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = line;
+    while let Some(k) = rest.find("crate::") {
+        rest = &rest[k + "crate::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let inner = group.split('}').next().unwrap_or("");
+            out.extend(inner.split(',').map(|s| s.trim().split("::").next().unwrap_or("").to_string()));
+        } else {
+            let name: String = rest.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+            out.push(name);
+        }
+    }
+    out.into_iter().filter(|n| !n.is_empty()).collect()
+}
+
+fn all_sources() -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    rust_files(&root().join("src"), &mut files);
+    files.sort();
+    files
+}
+
+#[test]
+fn every_import_follows_the_declared_dependency_order() {
+    let allowed = allowed();
+    let stages: BTreeSet<&String> = allowed.keys().collect();
+    let mut violations = Vec::new();
+    for path in all_sources() {
+        let module = module_of(&path);
+        // The crate root, its error type and the binary sit above every stage.
+        if ["lib", "error", "bin"].contains(&module.as_str()) {
+            continue;
+        }
+        let Some(may) = allowed.get(&module) else {
+            violations.push(format!("{}: module `{module}` is not in ARCHITECTURE.md's table", path.display()));
+            continue;
+        };
+        for (line, code) in code_lines(&path) {
+            for name in crate_refs(&code) {
+                let is_stage = stages.contains(&name);
+                if (is_stage && name != module && !may.contains(&name)) || name == "Error" {
+                    violations.push(format!("{}:{line}: `{module}` imports `crate::{name}`", path.display()));
+                }
+            }
+            // In a single-file module, `super::` is the crate root: a way around the table.
+            let single_file = path.parent() == Some(root().join("src").as_path());
+            if single_file && code.contains("super::") && !code.contains("use super::*") {
+                violations.push(format!("{}:{line}: `super::` from a top-level module", path.display()));
+            }
+        }
+    }
+    assert!(violations.is_empty(), "imports against ARCHITECTURE.md's dependency order:\n{}", violations.join("\n"));
+}
+
+#[test]
+fn the_declared_dependency_order_has_no_cycle() {
+    let allowed = allowed();
+    // Kahn's algorithm: repeatedly remove modules whose allowed imports are all removed.
+    let mut left: BTreeMap<&String, &BTreeSet<String>> = allowed.iter().collect();
+    while !left.is_empty() {
+        let ready: Vec<&String> =
+            left.iter().filter(|(_, deps)| deps.iter().all(|d| !left.contains_key(d))).map(|(m, _)| *m).collect();
+        assert!(!ready.is_empty(), "cycle among {:?}", left.keys().collect::<Vec<_>>());
+        for m in ready {
+            left.remove(m);
+        }
+    }
+    for (m, deps) in &allowed {
+        for d in deps {
+            assert!(allowed.contains_key(d), "`{m}` may import `{d}`, which is not a module of the table");
+        }
+    }
+}
+
+#[test]
+fn pest_stays_inside_design_and_report_reads_no_file() {
+    for path in all_sources() {
+        let module = module_of(&path);
+        for (line, code) in code_lines(&path) {
+            if module != "design" {
+                assert!(!code.contains("pest"), "{}:{line}: pest outside design", path.display());
+            }
+            if module == "report" || module == "analysis" {
+                for read in ["fs::read", "File::open", "read_dir", "read_to_string"] {
+                    assert!(!code.contains(read), "{}:{line}: `{module}` reads a file", path.display());
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn lib_rs_declares_modules_and_conveniences_only() {
+    let lib: Vec<String> = code_lines(&root().join("src/lib.rs")).into_iter().map(|(_, l)| l).collect();
+    let fns: Vec<&String> = lib.iter().filter(|l| l.contains("fn ")).collect();
+    assert!(fns.len() <= 2, "lib.rs holds functions beyond the analyze conveniences: {fns:?}");
+    assert!(!lib.iter().any(|l| l.contains("std::fs")), "lib.rs touches files");
+}
