@@ -2,8 +2,6 @@
 //! typed error, so a caller can match on where a failure happened and a
 //! person reads the stage's own located message.
 
-use crate::analysis::AnalysisError;
-
 /// Any error of the convenience calls and the command line.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -23,13 +21,8 @@ pub enum Error {
     #[error(transparent)]
     Cells(#[from] crate::cells::CellsError),
     /// Per-cell data does not fit the plan.
-    #[error("{path}: {source}")]
-    Analysis {
-        /// The per-cell file.
-        path: String,
-        /// Why.
-        source: Box<AnalysisError>,
-    },
+    #[error(transparent)]
+    Analysis(#[from] crate::analysis::FileAnalysisError),
     /// The report could not be written.
     #[error(transparent)]
     Report(#[from] crate::report::ReportError),

@@ -54,8 +54,8 @@ pub fn analyze_with(
 ) -> Result<Analysis, Error> {
     let status = design::lock::status(&file.path, &file.sha256)?;
     let cells = cells::read_cells(cells_path)?;
-    let mut a = analysis::analyze(plan, &cells, options)
-        .map_err(|source| Error::Analysis { path: cells_path.display().to_string(), source: Box::new(source) })?;
+    let mut a =
+        analysis::analyze(plan, &cells, options).map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
     a.design_sha256 = Some(file.sha256.clone());
     if let design::LockStatus::LockedChanged { .. } = status {
         a.mark_design_changed();

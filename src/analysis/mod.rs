@@ -114,6 +114,23 @@ pub enum AnalysisError {
     },
 }
 
+/// An [`AnalysisError`] with the per-cell file it concerns.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {source}")]
+pub struct FileAnalysisError {
+    /// The per-cell file.
+    pub path: String,
+    /// Why it cannot be analysed.
+    pub source: Box<AnalysisError>,
+}
+
+impl FileAnalysisError {
+    /// `source`, located in the file at `path`.
+    pub fn new(path: &std::path::Path, source: AnalysisError) -> FileAnalysisError {
+        FileAnalysisError { path: path.display().to_string(), source: Box::new(source) }
+    }
+}
+
 /// Runs the analysis the plan preregistered on per-cell data.
 ///
 /// ```

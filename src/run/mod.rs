@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use serde::Deserialize;
 
-use crate::analysis::{self, Analysis, AnalysisError};
+use crate::analysis::{self, Analysis, FileAnalysisError};
 use crate::cells::{read_cells, write_cells, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::{create_dir_all, WriteError};
@@ -141,13 +141,8 @@ pub enum RunError {
     #[error(transparent)]
     Cells(#[from] CellsError),
     /// The finished cells could not be analysed.
-    #[error("{path}: {source}")]
-    Analysis {
-        /// cells.csv.
-        path: String,
-        /// Why.
-        source: Box<AnalysisError>,
-    },
+    #[error(transparent)]
+    Analysis(#[from] FileAnalysisError),
     /// The report or its figures could not be written.
     #[error(transparent)]
     Report(#[from] crate::report::ReportError),
@@ -253,8 +248,8 @@ fn analyze_run(
     exploratory: bool,
 ) -> Result<Analysis, RunError> {
     let cells = read_cells(cells_csv)?;
-    let mut analysis = analysis::analyze(plan, &cells, Default::default())
-        .map_err(|source| RunError::Analysis { path: cells_csv.display().to_string(), source: Box::new(source) })?;
+    let mut analysis =
+        analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
     analysis.design_sha256 = Some(file.sha256.clone());
     if let LockStatus::LockedChanged { .. } = status {
         analysis.mark_design_changed();
