@@ -1,0 +1,221 @@
+//! The analysis statements: estimator, sensitivity analyses, the model
+//! interaction and the decision rule.
+
+use std::collections::BTreeMap;
+
+use super::{known, Validator};
+use crate::design::ast::*;
+use crate::design::*;
+
+impl Validator {
+    pub(super) fn estimator(&mut self, kind: &Ident, items: &[Spanned<EstimateItem>]) -> Option<Estimator> {
+        if kind.node != "crossed_mom" {
+            self.err_help(
+                "unknown estimator",
+                kind.span,
+                format!("`{}` is not an estimator", kind.node),
+                "known estimators: crossed_mom",
+            );
+        }
+        let mut seen = BTreeMap::new();
+        let mut level = 0.95;
+        let mut df = DfRule::SeedsMinusOne;
+        for item in items {
+            match &item.node {
+                EstimateItem::Level(l) => {
+                    self.once(&mut seen, "level", item.span);
+                    if !(l.node > 0.0 && l.node < 1.0) {
+                        self.err_help(
+                            "level out of range",
+                            l.span,
+                            format!("{} is outside (0, 1)", l.node),
+                            "write the confidence level as a fraction, e.g. 0.95",
+                        );
+                    }
+                    level = l.node;
+                }
+                EstimateItem::DfFactorMinus { factor, minus } => {
+                    self.once(&mut seen, "df", item.span);
+                    match factor.node.as_str() {
+                        "seed" => df = DfRule::SeedsMinusOne,
+                        "recording" => df = DfRule::RecordingsMinusOne,
+                        other => self.err_help(
+                            "unknown factor",
+                            factor.span,
+                            format!("`{other}` is not a factor"),
+                            "df rules: seed - 1, recording - 1, satterthwaite, z",
+                        ),
+                    }
+                    if minus.node != 1 {
+                        self.err("unsupported df rule", minus.span, format!("only `{} - 1` is supported", factor.node));
+                    }
+                }
+                EstimateItem::DfNamed(n) => {
+                    self.once(&mut seen, "df", item.span);
+                    df = if n.node == "z" { DfRule::Normal } else { DfRule::Satterthwaite };
+                }
+            }
+        }
+        Some(Estimator { kind: EstimatorKind::CrossedMom, level, df })
+    }
+
+    pub(super) fn sensitivity(
+        &mut self,
+        items: &[Spanned<SensitivityItem>],
+        conditions: &[Condition],
+        n_seeds: Option<usize>,
+        recording: Option<&RecordingFactor>,
+    ) -> Option<Sensitivity> {
+        let mut seen = BTreeMap::new();
+        let mut out = Sensitivity { bootstrap: None, grouped: Grouped::Off, leave_one_out: Vec::new() };
+        for item in items {
+            match &item.node {
+                SensitivityItem::Bootstrap { kind, replicates, seed } => {
+                    self.once(&mut seen, "bootstrap", item.span);
+                    if kind.node != "pigeonhole" {
+                        self.err_help(
+                            "unknown bootstrap",
+                            kind.span,
+                            format!("`{}` is not a bootstrap scheme", kind.node),
+                            "known schemes: pigeonhole (rows and columns resampled independently)",
+                        );
+                    }
+                    out.bootstrap = Some(BootstrapSpec {
+                        replicates: self.count(replicates, "bootstrap replicates", 1),
+                        seed: self.nonneg(seed, "the bootstrap seed"),
+                    });
+                }
+                SensitivityItem::Grouped => {
+                    self.once(&mut seen, "grouped", item.span);
+                    if conditions.is_empty() && recording.is_some() {
+                        self.err_help(
+                            "grouped sensitivity without conditions",
+                            item.span,
+                            "there are no condition labels to group by",
+                            "declare `conditions trajectory, speed` in `factor recording`",
+                        );
+                    }
+                    out.grouped = Grouped::ByConditions;
+                }
+                SensitivityItem::LeaveOneOut(factors) => {
+                    self.once(&mut seen, "leave_one_out", item.span);
+                    self.no_duplicate_names(factors, "factor");
+                    for f in factors {
+                        let factor = match f.node.as_str() {
+                            "seed" => Factor::Seed,
+                            "recording" => Factor::Recording,
+                            other => {
+                                self.err_help(
+                                    "unknown factor",
+                                    f.span,
+                                    format!("`{other}` is not a factor"),
+                                    "leave_one_out takes: seed, recording",
+                                );
+                                continue;
+                            }
+                        };
+                        let n = match factor {
+                            Factor::Seed => n_seeds,
+                            Factor::Recording => recording.map(|r| r.evaluation),
+                        };
+                        if let Some(n) = n {
+                            if n < 3 {
+                                self.err(
+                                    "too few levels to leave one out",
+                                    f.span,
+                                    format!("leaving one of {n} {}s out leaves fewer than 2", f.node),
+                                );
+                            }
+                        }
+                        if !out.leave_one_out.contains(&factor) {
+                            out.leave_one_out.push(factor);
+                        }
+                    }
+                }
+            }
+        }
+        Some(out)
+    }
+
+    pub(super) fn interaction(
+        &mut self,
+        left: &Ident,
+        right: &Ident,
+        models: &[(Model, Span)],
+        endpoints: &[(Endpoint, Span)],
+    ) -> Option<Interaction> {
+        let mut ok = true;
+        for m in [left, right] {
+            if !models.iter().any(|(x, _)| x.name == m.node) {
+                self.err_help(
+                    "unknown model",
+                    m.span,
+                    format!("no model named `{}`", m.node),
+                    known("models", models.iter().map(|x| x.0.name.as_str())),
+                );
+                ok = false;
+            }
+        }
+        if left.node == right.node {
+            self.err("model contrasted with itself", right.span, "the interaction needs two different models");
+            ok = false;
+        }
+        if ok {
+            let covers = |name: &str| {
+                endpoints
+                    .iter()
+                    .flat_map(|(e, _)| e.horizons.iter().map(move |h| (e.metric, h.0, e.models.clone())))
+                    .any(|(metric, h, ms)| {
+                        ms.iter().any(|m| m == name)
+                            && endpoints.iter().any(|(f, _)| {
+                                f.metric == metric
+                                    && f.horizons.iter().any(|g| g.0 == h)
+                                    && f.models.contains(&right.node)
+                            })
+                    })
+            };
+            if !covers(&left.node) {
+                self.err_help(
+                    "interaction without a shared endpoint",
+                    Span { start: left.span.start, end: right.span.end },
+                    format!("no endpoint measures both `{}` and `{}` at the same horizon", left.node, right.node),
+                    "add both models to an endpoint, e.g. `model world, relative`",
+                );
+                ok = false;
+            }
+        }
+        ok.then(|| Interaction { left: left.node.clone(), right: right.node.clone() })
+    }
+
+    pub(super) fn decision(&mut self, name: &Ident, conditions: &[Spanned<ConditionAst>]) -> Option<DecisionRule> {
+        let mut out = Vec::new();
+        for c in conditions {
+            let c = &c.node;
+            let quantity = match c.quantity.node.as_str() {
+                "optimism" => Quantity::Optimism,
+                "mean" => Quantity::Mean,
+                "lower" => Quantity::Lower,
+                "upper" => Quantity::Upper,
+                other => {
+                    self.err_help(
+                        "unknown quantity",
+                        c.quantity.span,
+                        format!("`{other}` is not a quantity of the primary endpoint"),
+                        "a decision rule may use: optimism (%), mean, lower, upper",
+                    );
+                    continue;
+                }
+            };
+            if c.percent && quantity != Quantity::Optimism {
+                self.err_help(
+                    "percent on a non-percentage",
+                    c.value.span,
+                    format!("`{}` is a difference in the metric's unit, not a percentage", quantity.name()),
+                    "only optimism is a percentage",
+                );
+            }
+            out.push(DecisionCondition { quantity, cmp: c.cmp.node, value: c.value.node });
+        }
+        Some(DecisionRule { name: name.node.clone(), conditions: out })
+    }
+}

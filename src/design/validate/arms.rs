@@ -1,0 +1,199 @@
+//! Arms (fit sets and derived, contaminated arms), models and the
+//! `train` block.
+
+use std::collections::BTreeMap;
+
+use super::{known, Validator};
+use crate::design::ast::{self, *};
+use crate::design::*;
+
+impl Validator {
+    pub(super) fn arms(&mut self, stmts: &[&Spanned<Statement>]) -> Vec<(Arm, Span)> {
+        let mut out: Vec<(Arm, Span)> = Vec::new();
+        let mut names: Vec<&Ident> = Vec::new();
+        for s in stmts {
+            let Statement::Arm { name, body } = &s.node else {
+                continue;
+            };
+            if names.iter().any(|n| n.node == name.node) {
+                self.err("duplicate name", name.span, format!("arm `{}` is declared twice", name.node));
+                continue;
+            }
+            names.push(name);
+            let kind = match body {
+                ArmBody::Fit { windows, seed } => ArmKind::Fit {
+                    windows: self.count(windows, "fit windows", 1),
+                    seed: seed.as_ref().map(|s| self.nonneg(s, "the fit seed")).unwrap_or(0),
+                },
+                ArmBody::Derived { from, percent, exclude_starts, seed } => {
+                    if !(percent.node > 0.0 && percent.node <= 100.0) {
+                        self.err_help(
+                            "percentage out of range",
+                            percent.span,
+                            format!("{}% is outside (0, 100]", percent.node),
+                            "the replaced share must be more than 0% and at most 100%",
+                        );
+                    }
+                    ArmKind::Derived {
+                        from: from.node.clone(),
+                        percent: percent.node,
+                        starts: if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow },
+                        seed: self.nonneg(seed, "the contamination seed"),
+                    }
+                }
+            };
+            out.push((Arm { name: name.node.clone(), kind }, s.span));
+        }
+        // Resolve `from` after all arms are known, so order does not matter.
+        for s in stmts {
+            let Statement::Arm { name, body: ArmBody::Derived { from, percent, .. } } = &s.node else {
+                continue;
+            };
+            match out.iter().find(|(a, _)| a.name == from.node) {
+                None => self.err_help(
+                    "unknown arm",
+                    from.span,
+                    format!("no arm named `{}`", from.node),
+                    known("arms", out.iter().map(|a| a.0.name.as_str())),
+                ),
+                Some((a, _)) if a.name == name.node => self.err(
+                    "arm derived from itself",
+                    from.span,
+                    format!("arm `{}` cannot replace its own windows", a.name),
+                ),
+                Some((Arm { kind: ArmKind::Derived { .. }, name: base }, _)) => self.err_help(
+                    "derived from a derived arm",
+                    from.span,
+                    format!("`{base}` is itself derived"),
+                    "derive contaminated arms from an arm with `fit N windows`",
+                ),
+                Some((Arm { kind: ArmKind::Fit { windows, .. }, .. }, _)) => {
+                    let replaced = percent.node / 100.0 * *windows as f64;
+                    if percent.node > 0.0 && percent.node <= 100.0 && (replaced - replaced.round()).abs() > 1e-9 {
+                        self.err_help(
+                            "fraction of windows is not whole",
+                            percent.span,
+                            format!("{}% of {} windows is {} windows", percent.node, windows, replaced),
+                            "choose a percentage that replaces a whole number of windows",
+                        );
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    pub(super) fn models(&mut self, stmts: &[&Spanned<Statement>]) -> Vec<(Model, Span)> {
+        let mut out: Vec<(Model, Span)> = Vec::new();
+        for s in stmts {
+            let Statement::Model { name, kind } = &s.node else {
+                continue;
+            };
+            if out.iter().any(|m| m.0.name == name.node) {
+                self.err("duplicate name", name.span, format!("model `{}` is declared twice", name.node));
+                continue;
+            }
+            let kind = match kind {
+                ast::ModelKind::Mlp { widths: spans, inputs } => {
+                    let widths: Vec<usize> = spans.iter().map(|w| self.count(w, "a layer width", 1)).collect();
+                    if !mlp_supported(&widths) && widths.iter().all(|w| *w >= 1) {
+                        let span = Span {
+                            start: spans.first().map(|w| w.span.start).unwrap_or(name.span.start),
+                            end: spans.last().map(|w| w.span.end).unwrap_or(name.span.end),
+                        };
+                        self.err_help(
+                            "unsupported architecture",
+                            span,
+                            format!(
+                                "mlp({}) is not compiled in",
+                                widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", ")
+                            ),
+                            format!(
+                                "supported: three hidden layers of one width from {:?}, e.g. mlp(256, 256, 256)",
+                                MLP_WIDTHS
+                            ),
+                        );
+                    }
+                    let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
+                    crate::design::ModelKind::Mlp { widths, inputs }
+                }
+                ast::ModelKind::Baseline(b) => {
+                    if b.node == "persistence" {
+                        crate::design::ModelKind::Persistence
+                    } else {
+                        crate::design::ModelKind::ConstantVelocity
+                    }
+                }
+            };
+            out.push((Model { name: name.node.clone(), kind }, name.span));
+        }
+        out
+    }
+
+    pub(super) fn training(&mut self, items: &[Spanned<TrainItem>], span: Span) -> Option<Training> {
+        let mut seen = BTreeMap::new();
+        let (mut lr, mut batch, mut epochs, mut schedule, mut patience, mut noise) =
+            (None, None, None, None, None, None);
+        for item in items {
+            match &item.node {
+                TrainItem::Optimizer { lr: rate, .. } => {
+                    self.once(&mut seen, "optimizer", item.span);
+                    lr = Some(self.positive(rate, "the learning rate"));
+                }
+                TrainItem::Batch(n) => {
+                    self.once(&mut seen, "batch", item.span);
+                    batch = Some(self.count(n, "the batch size", 1));
+                }
+                TrainItem::Epochs(n) => {
+                    self.once(&mut seen, "epochs", item.span);
+                    epochs = Some(self.count(n, "the epoch cap", 1));
+                }
+                TrainItem::Schedule(s) => {
+                    self.once(&mut seen, "schedule", item.span);
+                    schedule = Some(if s.node == "cosine" { Schedule::Cosine } else { Schedule::Constant });
+                }
+                TrainItem::Patience(n) => {
+                    self.once(&mut seen, "patience", item.span);
+                    patience = Some(self.count(n, "the early-stopping patience", 1));
+                }
+                TrainItem::ActionNoise(x) => {
+                    self.once(&mut seen, "action_noise", item.span);
+                    if x.node < 0.0 {
+                        self.err("negative value", x.span, format!("action noise sd must be >= 0, found {}", x.node));
+                    }
+                    noise = Some(x.node);
+                }
+            }
+        }
+        let missing: Vec<&str> = [
+            ("adam lr", lr.is_none()),
+            ("batch", batch.is_none()),
+            ("epochs", epochs.is_none()),
+            ("cosine|constant", schedule.is_none()),
+            ("patience", patience.is_none()),
+            ("action_noise", noise.is_none()),
+        ]
+        .into_iter()
+        .filter(|(_, m)| *m)
+        .map(|(n, _)| n)
+        .collect();
+        if !missing.is_empty() {
+            self.err_help(
+                "incomplete training block",
+                span,
+                format!("missing: {}", missing.join(", ")),
+                "a preregistered training protocol states every setting",
+            );
+            return None;
+        }
+        Some(Training {
+            optimizer: Optimizer::Adam,
+            lr: lr?,
+            batch: batch?,
+            epochs: epochs?,
+            schedule: schedule?,
+            patience: patience?,
+            action_noise: noise?,
+        })
+    }
+}

@@ -1,0 +1,181 @@
+//! Endpoints (metrics, horizons, caps, models) and the contrast.
+
+use super::{known, Validator, SAMPLE_EPS};
+use crate::design::ast::*;
+use crate::design::*;
+
+impl Validator {
+    pub(super) fn endpoints(
+        &mut self,
+        stmts: &[&Spanned<Statement>],
+        models: &[(Model, Span)],
+        rate: f64,
+        horizon_samples: Option<usize>,
+        end: Span,
+    ) -> Vec<(Endpoint, Span)> {
+        let mut out: Vec<(Endpoint, Span)> = Vec::new();
+        let mut primary_cap: Option<f64> = None;
+        let mut primaries: Vec<Span> = Vec::new();
+        let mut seen_cells: Vec<(Metric, u64, String)> = Vec::new();
+        // The primary's cap is the study's divergence cap; read it first.
+        for s in stmts {
+            if let Statement::Endpoint(e) = &s.node {
+                if e.role.node == "primary" {
+                    primary_cap = primary_cap.or(e.cap.as_ref().map(|c| c.node));
+                }
+            }
+        }
+        for s in stmts {
+            let Statement::Endpoint(e) = &s.node else {
+                continue;
+            };
+            let role = match e.role.node.as_str() {
+                "primary" => Role::Primary,
+                _ => Role::Secondary,
+            };
+            let metric = Metric::ALL.into_iter().find(|m| m.name() == e.metric.node);
+            if metric.is_none() {
+                self.err_help(
+                    "unknown metric",
+                    e.metric.span,
+                    format!("`{}` is not a metric", e.metric.node),
+                    known("metrics", Metric::ALL.iter().map(|m| m.name())),
+                );
+            }
+            let mut horizons = Vec::new();
+            for (i, h) in e.horizons.iter().enumerate() {
+                if h.node <= 0.0 {
+                    self.err("non-positive horizon", h.span, format!("the horizon must be > 0 s, found {} s", h.node));
+                    continue;
+                }
+                if e.horizons[..i].iter().any(|g| g.node == h.node) {
+                    self.err("duplicate horizon", h.span, format!("{} s is listed twice", h.node));
+                    continue;
+                }
+                let samples = h.node * rate;
+                if (samples - samples.round()).abs() > SAMPLE_EPS {
+                    self.err(
+                        "horizon between samples",
+                        h.span,
+                        format!("{} s at {} Hz is {} samples, not a whole number", h.node, rate, samples),
+                    );
+                }
+                if let Some(max) = horizon_samples {
+                    if samples.round() > max as f64 {
+                        self.err_help(
+                            "horizon beyond the rollout",
+                            h.span,
+                            format!("{} s is {} samples, but rollouts last {} samples", h.node, samples.round(), max),
+                            "raise `horizon` in `factor recording` or shorten the endpoint",
+                        );
+                    }
+                }
+                horizons.push(Seconds(h.node));
+            }
+            if let Some(c) = &e.cap {
+                if c.node <= 0.0 {
+                    self.err(
+                        "non-positive cap",
+                        c.span,
+                        format!("the divergence cap must be > 0 m, found {} m", c.node),
+                    );
+                } else if let Some(p) = primary_cap {
+                    if role == Role::Secondary && c.node != p {
+                        self.err_help(
+                            "conflicting caps",
+                            c.span,
+                            format!("cap {} m differs from the primary endpoint's {} m", c.node, p),
+                            "rollouts diverge at one cap; give every endpoint the same cap or leave it out",
+                        );
+                    }
+                }
+            }
+            let mut names = Vec::new();
+            self.no_duplicate_names(&e.models, "model");
+            for m in &e.models {
+                if !models.iter().any(|(x, _)| x.name == m.node) {
+                    self.err_help(
+                        "unknown model",
+                        m.span,
+                        format!("no model named `{}`", m.node),
+                        known("models", models.iter().map(|x| x.0.name.as_str())),
+                    );
+                }
+                names.push(m.node.clone());
+            }
+            if role == Role::Primary {
+                primaries.push(s.span);
+                if primaries.len() == 2 {
+                    self.err_help(
+                        "two primary endpoints",
+                        s.span,
+                        "a second primary endpoint",
+                        "a preregistration has exactly one primary endpoint; make this one `secondary`",
+                    );
+                }
+                if e.cap.is_none() {
+                    self.err(
+                        "primary endpoint without a cap",
+                        e.metric.span,
+                        "the primary endpoint must state `cap <metres> m`",
+                    );
+                }
+                if e.horizons.len() != 1 || e.models.len() != 1 {
+                    self.err_help(
+                        "ambiguous primary endpoint",
+                        s.span,
+                        format!("{} horizons x {} models", e.horizons.len(), e.models.len()),
+                        "the primary endpoint names exactly one horizon and one model",
+                    );
+                }
+            }
+            if let Some(metric) = metric {
+                for h in &horizons {
+                    for m in &names {
+                        let key = (metric, (h.0 * 1e9).round() as u64, m.clone());
+                        if seen_cells.contains(&key) {
+                            self.err(
+                                "duplicate endpoint",
+                                s.span,
+                                format!("{} at {} s for model `{}` is already an endpoint", metric.name(), h.0, m),
+                            );
+                        } else {
+                            seen_cells.push(key);
+                        }
+                    }
+                }
+                let cap = Meters(e.cap.as_ref().map(|c| c.node).or(primary_cap).unwrap_or(f64::NAN));
+                out.push((Endpoint { role, metric, horizons, cap, models: names }, s.span));
+            }
+        }
+        if primaries.is_empty() && !stmts.is_empty() {
+            self.err_help(
+                "no primary endpoint",
+                end,
+                "the design ends here without a primary endpoint",
+                "mark exactly one endpoint `endpoint primary ...`",
+            );
+        }
+        out
+    }
+
+    pub(super) fn contrast(&mut self, treated: &Ident, reference: &Ident, arms: &[(Arm, Span)]) -> Option<Contrast> {
+        let mut ok = true;
+        for a in [treated, reference] {
+            if !arms.iter().any(|(x, _)| x.name == a.node) {
+                self.err_help(
+                    "unknown arm",
+                    a.span,
+                    format!("no arm named `{}`", a.node),
+                    known("arms", arms.iter().map(|x| x.0.name.as_str())),
+                );
+                ok = false;
+            }
+        }
+        if treated.node == reference.node {
+            self.err("arm contrasted with itself", reference.span, "the contrast needs two different arms");
+            ok = false;
+        }
+        ok.then(|| Contrast { treated: treated.node.clone(), reference: reference.node.clone() })
+    }
+}

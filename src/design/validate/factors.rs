@@ -1,0 +1,124 @@
+//! The crossed factors: the recording factor (evaluation recordings,
+//! starts, horizon, conditions) and the training seeds.
+
+use std::collections::BTreeMap;
+
+use super::{Validator, MAX_SEEDS};
+use crate::design::ast::*;
+use crate::design::*;
+
+impl Validator {
+    pub(super) fn recording(&mut self, items: &[Spanned<RecordingItem>], span: Span) -> Option<RecordingFactor> {
+        let mut seen = BTreeMap::new();
+        let (mut evaluation, mut split_seed, mut starts, mut horizon) = (None, None, None, None);
+        let mut conditions = Vec::new();
+        for item in items {
+            match &item.node {
+                RecordingItem::Evaluation(n) => {
+                    self.once(&mut seen, "evaluation", item.span);
+                    evaluation = Some(self.count(n, "the number of evaluation recordings", 2));
+                }
+                RecordingItem::SplitSeed(n) => {
+                    self.once(&mut seen, "split_seed", item.span);
+                    split_seed = Some(self.nonneg(n, "the split seed"));
+                }
+                RecordingItem::Starts(n) => {
+                    self.once(&mut seen, "starts", item.span);
+                    starts = Some(self.count(n, "rollout starts per recording", 1));
+                }
+                RecordingItem::Horizon(n) => {
+                    self.once(&mut seen, "horizon", item.span);
+                    horizon = Some(self.count(n, "the rollout horizon (samples)", 1));
+                }
+                RecordingItem::Conditions(names) => {
+                    self.once(&mut seen, "conditions", item.span);
+                    self.no_duplicate_names(names, "condition");
+                    for n in names {
+                        match n.node.as_str() {
+                            "trajectory" => conditions.push(Condition::Trajectory),
+                            "speed" => conditions.push(Condition::Speed),
+                            other => self.err_help(
+                                "unknown condition",
+                                n.span,
+                                format!("`{other}` is not a condition label"),
+                                "recordings carry the conditions: trajectory, speed",
+                            ),
+                        }
+                    }
+                }
+            }
+        }
+        let mut missing = Vec::new();
+        for (name, present) in [
+            ("evaluation", evaluation.is_some()),
+            ("split_seed", split_seed.is_some()),
+            ("starts", starts.is_some()),
+            ("horizon", horizon.is_some()),
+        ] {
+            if !present {
+                missing.push(name);
+            }
+        }
+        if !missing.is_empty() {
+            self.err("incomplete recording factor", span, format!("missing: {}", missing.join(", ")));
+            return None;
+        }
+        conditions.dedup();
+        Some(RecordingFactor {
+            evaluation: evaluation?,
+            split_seed: split_seed?,
+            starts: starts?,
+            horizon: horizon?,
+            conditions,
+        })
+    }
+
+    pub(super) fn seeds(&mut self, spec: &SeedSpec, span: Span) -> Option<Vec<Seed>> {
+        let seeds: Vec<Seed> = match spec {
+            SeedSpec::Range { first, last } => {
+                let a = self.nonneg(first, "a seed");
+                let b = self.nonneg(last, "a seed");
+                if first.node > last.node {
+                    let range = Span { start: first.span.start, end: last.span.end };
+                    self.err_help(
+                        "empty seed range",
+                        range,
+                        format!("{}..{} contains no seed", first.node, last.node),
+                        "ranges are inclusive and ascending, e.g. 100..119",
+                    );
+                    return None;
+                }
+                if b - a >= MAX_SEEDS {
+                    let range = Span { start: first.span.start, end: last.span.end };
+                    self.err_help(
+                        "seed range too large",
+                        range,
+                        format!("{}..{} holds {} seeds", first.node, last.node, (b - a).saturating_add(1)),
+                        format!("a design may declare at most {MAX_SEEDS} seeds"),
+                    );
+                    return None;
+                }
+                (a..=b).map(Seed).collect()
+            }
+            SeedSpec::List(list) => {
+                let mut out = Vec::new();
+                for (i, s) in list.iter().enumerate() {
+                    if list[..i].iter().any(|t| t.node == s.node) {
+                        self.err("duplicate seed", s.span, format!("seed {} is listed twice", s.node));
+                    }
+                    out.push(Seed(self.nonneg(s, "a seed")));
+                }
+                out
+            }
+        };
+        if seeds.len() < 2 {
+            self.err_help(
+                "too few seeds",
+                span,
+                format!("{} seed declared; the crossed design needs at least 2", seeds.len()),
+                "the seed factor is a random effect: its variance needs J >= 2",
+            );
+        }
+        Some(seeds)
+    }
+}

@@ -1,0 +1,253 @@
+//! [`Ast`] -> [`Design`]: names resolve, counts and ranges make sense, and
+//! every problem is reported at the span that caused it. All problems are
+//! collected, not just the first.
+
+mod analysis;
+mod arms;
+mod data;
+mod endpoints;
+mod factors;
+
+use std::collections::BTreeMap;
+
+use super::ast::*;
+use super::diagnostic::Diagnostic;
+use super::*;
+
+/// More training seeds than anyone will train; bounds the memory a seed
+/// range can ask for (found by fuzzing: `factor seed = 1..44444444444`).
+const MAX_SEEDS: u64 = 100_000;
+
+/// Tolerance for "this many seconds is a whole number of samples".
+const SAMPLE_EPS: f64 = 1e-9;
+
+pub fn validate(ast: &Ast) -> Result<Design, Vec<Diagnostic>> {
+    let mut v = Validator::default();
+    let design = v.design(ast);
+    match design {
+        Some(d) if v.diags.is_empty() => Ok(d),
+        _ => Err(v.diags),
+    }
+}
+
+#[derive(Default)]
+struct Validator {
+    diags: Vec<Diagnostic>,
+}
+
+impl Validator {
+    fn err(&mut self, title: &str, span: Span, label: impl Into<String>) {
+        self.diags.push(Diagnostic::new(title, span, label));
+    }
+
+    fn err_help(&mut self, title: &str, span: Span, label: impl Into<String>, help: impl Into<String>) {
+        self.diags.push(Diagnostic::new(title, span, label).with_help(help));
+    }
+
+    /// A non-negative integer (seeds).
+    fn nonneg(&mut self, i: &Int, what: &str) -> u64 {
+        if i.node < 0 {
+            self.err("negative value", i.span, format!("{what} must be >= 0, found {}", i.node));
+            0
+        } else {
+            i.node as u64
+        }
+    }
+
+    /// A count that must be at least `min`.
+    fn count(&mut self, i: &Int, what: &str, min: i64) -> usize {
+        if i.node < min {
+            let title = if min == 1 { "non-positive value" } else { "value too small" };
+            self.err(title, i.span, format!("{what} must be >= {min}, found {}", i.node));
+            min.max(0) as usize
+        } else {
+            i.node as usize
+        }
+    }
+
+    fn positive(&mut self, n: &Number, what: &str) -> f64 {
+        if n.node <= 0.0 {
+            self.err("non-positive value", n.span, format!("{what} must be > 0, found {}", n.node));
+        }
+        n.node
+    }
+
+    /// Remembers the first span of a clause and reports a second one.
+    fn once(&mut self, seen: &mut BTreeMap<&'static str, Span>, key: &'static str, span: Span) {
+        if let Some(first) = seen.get(key) {
+            let _ = first;
+            self.err_help(
+                "declared twice",
+                span,
+                format!("a second `{key}`"),
+                format!("`{key}` was already given earlier in this block; keep one"),
+            );
+        } else {
+            seen.insert(key, span);
+        }
+    }
+
+    fn design(&mut self, ast: &Ast) -> Option<Design> {
+        let end = ast.statements.last().map(|s| Span { start: s.span.end, end: s.span.end }).unwrap_or_default();
+        let mut singles: BTreeMap<&'static str, &Spanned<Statement>> = BTreeMap::new();
+        let mut arms = Vec::new();
+        let mut models = Vec::new();
+        let mut endpoints = Vec::new();
+        for s in &ast.statements {
+            match &s.node {
+                Statement::Arm { .. } => arms.push(s),
+                Statement::Model { .. } => models.push(s),
+                Statement::Endpoint(_) => endpoints.push(s),
+                other => {
+                    let key = other.keyword();
+                    if singles.contains_key(key) {
+                        self.err_help(
+                            "declared twice",
+                            s.span,
+                            format!("a second `{key}` statement"),
+                            format!("a design has one `{key}` statement"),
+                        );
+                    } else {
+                        singles.insert(key, s);
+                    }
+                }
+            }
+        }
+        for key in ["study", "data", "factor recording", "factor seed", "validation", "contrast", "decide"] {
+            if !singles.contains_key(key) {
+                self.err_help(
+                    "missing statement",
+                    end,
+                    format!("the design ends here without a `{key}` statement"),
+                    format!("every design declares `{key}`"),
+                );
+            }
+        }
+        if arms.is_empty() {
+            self.err("missing statement", end, "the design ends here without any `arm`");
+        }
+        if models.is_empty() {
+            self.err("missing statement", end, "the design ends here without any `model`");
+        }
+        if endpoints.is_empty() {
+            self.err("missing statement", end, "the design ends here without any `endpoint`");
+        }
+
+        let study = singles.get("study").and_then(|s| match &s.node {
+            Statement::Study(name) => {
+                if name.node.trim().is_empty() {
+                    self.err("empty study name", name.span, "the study needs a name");
+                }
+                Some(name.node.clone())
+            }
+            _ => None,
+        });
+        let data = singles.get("data").and_then(|s| match &s.node {
+            Statement::Data(block) => self.data(block),
+            _ => None,
+        });
+        let recording = singles.get("factor recording").and_then(|s| match &s.node {
+            Statement::FactorRecording(items) => self.recording(items, s.span),
+            _ => None,
+        });
+        let seeds = singles.get("factor seed").and_then(|s| match &s.node {
+            Statement::FactorSeed(spec) => self.seeds(spec, s.span),
+            _ => None,
+        });
+        let validation = singles.get("validation").and_then(|s| match &s.node {
+            Statement::Validation { windows, recordings, seed } => Some(ValidationSpec {
+                windows: self.count(windows, "validation windows", 1),
+                recordings: self.count(recordings, "validation recordings", 1),
+                seed: self.nonneg(seed, "validation seed"),
+            }),
+            _ => None,
+        });
+        let arms = self.arms(&arms);
+        let models = self.models(&models);
+        let training = match singles.get("train") {
+            Some(s) => match &s.node {
+                Statement::Train(items) => self.training(items, s.span),
+                _ => None,
+            },
+            None => {
+                if let Some(m) = models.iter().find(|m| m.0.kind.trains()) {
+                    self.err_help(
+                        "missing statement",
+                        m.1,
+                        format!("model `{}` has parameters to fit, but the design has no `train` block", m.0.name),
+                        "add `train { adam lr ... batch ... epochs ... cosine patience ... action_noise ... }`",
+                    );
+                }
+                None
+            }
+        };
+        let rate = data.as_ref().map(|d: &DataSpec| d.rate_hz).unwrap_or(100.0);
+        let horizon = recording.as_ref().map(|r: &RecordingFactor| r.horizon);
+        let endpoints = self.endpoints(&endpoints, &models, rate, horizon, end);
+        let contrast = singles.get("contrast").and_then(|s| match &s.node {
+            Statement::Contrast { treated, reference } => self.contrast(treated, reference, &arms),
+            _ => None,
+        });
+        let n_seeds = seeds.as_ref().map(|s: &Vec<Seed>| s.len());
+        let estimator = match singles.get("estimate") {
+            Some(s) => match &s.node {
+                Statement::Estimate { kind, items } => self.estimator(kind, items),
+                _ => None,
+            },
+            None => Some(Estimator { kind: EstimatorKind::CrossedMom, level: 0.95, df: DfRule::SeedsMinusOne }),
+        };
+        let conditions = recording.as_ref().map(|r| r.conditions.clone()).unwrap_or_default();
+        let sensitivity = match singles.get("sensitivity") {
+            Some(s) => match &s.node {
+                Statement::Sensitivity(items) => self.sensitivity(items, &conditions, n_seeds, recording.as_ref()),
+                _ => None,
+            },
+            None => Some(Sensitivity { bootstrap: None, grouped: Grouped::Off, leave_one_out: Vec::new() }),
+        };
+        let interaction = match singles.get("interaction") {
+            Some(s) => match &s.node {
+                Statement::Interaction { left, right } => self.interaction(left, right, &models, &endpoints),
+                _ => None,
+            },
+            None => None,
+        };
+        let decision = singles.get("decide").and_then(|s| match &s.node {
+            Statement::Decide { name, conditions } => self.decision(name, conditions),
+            _ => None,
+        });
+
+        Some(Design {
+            study: study?,
+            data: data?,
+            recording: recording?,
+            seeds: seeds?,
+            validation: validation?,
+            arms: arms.into_iter().map(|a| a.0).collect(),
+            models: models.into_iter().map(|m| m.0).collect(),
+            training,
+            endpoints: endpoints.into_iter().map(|e| e.0).collect(),
+            contrast: contrast?,
+            estimator: estimator?,
+            sensitivity: sensitivity?,
+            interaction,
+            decision: decision?,
+        })
+    }
+
+    fn no_duplicate_names(&mut self, names: &[Ident], what: &str) {
+        for (i, n) in names.iter().enumerate() {
+            if names[..i].iter().any(|m| m.node == n.node) {
+                self.err("duplicate name", n.span, format!("{what} `{}` is listed twice", n.node));
+            }
+        }
+    }
+}
+
+fn known<'a>(what: &str, names: impl Iterator<Item = &'a str>) -> String {
+    let names: Vec<&str> = names.collect();
+    if names.is_empty() {
+        format!("no {what} are declared")
+    } else {
+        format!("declared {what}: {}", names.join(", "))
+    }
+}
