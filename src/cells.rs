@@ -70,16 +70,54 @@ pub struct Cell {
 /// A problem in a per-cell file, located by file, line and field.
 #[derive(Debug, thiserror::Error)]
 pub enum CellsError {
+    /// The file could not be read or written.
     #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The header is not the per-cell header.
     #[error("{path}: line 1: wrong header\n  expected: {expected}\n  found:    {found}")]
-    Header { path: String, expected: String, found: String },
+    Header {
+        /// The file.
+        path: String,
+        /// The header required.
+        expected: String,
+        /// The header found.
+        found: String,
+    },
+    /// A row is not valid CSV or has the wrong number of fields.
     #[error("{path}: line {line}: {message}")]
-    Csv { path: String, line: u64, message: String },
+    Csv {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// A field's value is impossible.
     #[error("{path}: line {line}, field `{field}`: {problem} (value: {value:?})")]
-    Field { path: String, line: u64, field: &'static str, value: String, problem: String },
+    Field {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: u64,
+        /// The column.
+        field: &'static str,
+        /// The value found.
+        value: String,
+        /// Why it is refused.
+        problem: String,
+    },
+    /// The file has a header and no rows.
     #[error("{path}: no data rows")]
-    Empty { path: String },
+    Empty {
+        /// The file.
+        path: String,
+    },
 }
 
 /// Reads and checks every row of a per-cell CSV. Checks here are the ones a

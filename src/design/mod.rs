@@ -4,7 +4,7 @@
 //! run by later stages (data, split, training) and the analysis compiled by
 //! [`crate::plan::compile`].
 
-pub mod ast;
+mod ast;
 mod diagnostic;
 pub mod lock;
 mod parse;
@@ -463,7 +463,7 @@ impl Quantity {
 }
 
 /// Parses design text; `file` names it in diagnostics.
-pub fn parse(file: &str, source: &str) -> Result<Ast, DesignError> {
+pub(crate) fn parse(file: &str, source: &str) -> Result<Ast, DesignError> {
     parse::parse(source).map_err(|diagnostics| DesignError {
         file: file.to_string(),
         source_text: source.to_string(),
@@ -472,7 +472,7 @@ pub fn parse(file: &str, source: &str) -> Result<Ast, DesignError> {
 }
 
 /// Validates a parsed design.
-pub fn validate(file: &str, source: &str, ast: &Ast) -> Result<Design, DesignError> {
+pub(crate) fn validate(file: &str, source: &str, ast: &Ast) -> Result<Design, DesignError> {
     validate::validate(ast).map_err(|diagnostics| DesignError {
         file: file.to_string(),
         source_text: source.to_string(),

@@ -67,16 +67,23 @@ pub enum CoverageError {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoverageSpec {
+    /// Seed of the first setting (setting k uses seed + k).
     pub seed: u64,
+    /// Replications per setting.
     pub reps: usize,
+    /// Nominal level of every interval (default 0.95).
     #[serde(default = "default_level")]
     pub level: f64,
+    /// Bootstrap replicates B (default 999).
     #[serde(default = "default_b")]
     pub bootstrap: usize,
+    /// Numbers of recordings I.
     pub rows: Vec<usize>,
+    /// Numbers of seeds J.
     pub cols: Vec<usize>,
     /// Shares of the true SE^2 (recording, seed, residual).
     pub shares: Vec<[f64; 3]>,
+    /// Error distributions.
     pub distributions: Vec<Distribution>,
 }
 

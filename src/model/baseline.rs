@@ -14,6 +14,7 @@ impl Dynamics for Persistence {
 
 /// Position advances with the current velocity; velocity and attitude hold.
 pub struct ConstantVelocity {
+    /// Seconds per step (1 / log rate).
     pub dt: f64,
 }
 

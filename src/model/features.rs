@@ -18,13 +18,18 @@ use serde::{Deserialize, Serialize};
 use super::Standardizer;
 use crate::design::InputMap;
 
+/// State dimensions: position, velocity, quaternion, reference, battery.
 pub const STATE: usize = 14;
+/// Action dimensions: the four motor commands in [0, 1].
 pub const ACTION: usize = 4;
+/// Network input dimensions: state and action.
 pub const INPUT: usize = STATE + ACTION;
 /// Exogenous state components: reference (10..13) and battery (13).
 pub const EXOGENOUS: std::ops::Range<usize> = 10..14;
 
+/// One state x_t.
 pub type State = [f64; STATE];
+/// One action u_t.
 pub type Action = [f64; ACTION];
 
 /// Unstandardized network input of one (state, action).
@@ -60,10 +65,12 @@ pub fn raw_target(x: &State, next: &State) -> State {
 /// Standardizers of one fitted model, fitted on its own arm's fit windows.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FeatureMap {
+    /// World or relative inputs.
     pub map: InputMap,
     /// On all 18 inputs for world; on the first 14 for relative (u passes
     /// through unchanged: the last 4 dimensions are the identity).
     pub input: Standardizer,
+    /// On the 14-dimensional target.
     pub target: Standardizer,
     /// SHA-256 of the fit manifest these were fitted on (invariant 6).
     pub fitted_on: String,

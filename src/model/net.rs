@@ -26,33 +26,48 @@ type Built<const W: usize> = <Mlp<W> as BuildOnDevice<Cpu, f32>>::Built;
 /// A trained network of one of the supported widths.
 #[derive(Clone)]
 pub enum Net {
+    /// Three hidden layers of 32.
     W32(Built<32>),
+    /// Three hidden layers of 64.
     W64(Built<64>),
+    /// Three hidden layers of 256.
     W256(Built<256>),
 }
 
 /// One epoch of training.
 #[derive(Debug, Clone, Serialize)]
 pub struct EpochLog {
+    /// 1-based epoch.
     pub epoch: usize,
+    /// Learning rate of the epoch.
     pub lr: f64,
     /// Mean standardized MSE over the epoch's batches (with action noise).
     pub train_loss: f64,
     /// Standardized MSE on the shared validation windows (clean actions).
     pub val_loss: f64,
+    /// Wall seconds of the epoch.
     pub seconds: f64,
 }
 
 /// Windows as (x_t, u_t, x_{t+1}).
 pub type Windows = [(State, Action, State)];
 
+/// Why a network could not be trained, saved or loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum NetError {
     #[error("mlp widths {0:?} are not compiled in; supported: three equal hidden widths from {MLP_WIDTHS:?}")]
+    /// Widths that have no network type.
     Unsupported(Vec<usize>),
     #[error("cannot save or load model weights at {path}: {message}")]
-    Io { path: String, message: String },
+    /// Weights could not be saved or loaded.
+    Io {
+        /// The weights file.
+        path: String,
+        /// Why.
+        message: String,
+    },
     #[error("training needs at least one fit and one validation window")]
+    /// No fit or no validation windows.
     NoData,
 }
 
@@ -236,6 +251,7 @@ impl Net {
         }
     }
 
+    /// Writes the weights as safetensors.
     pub fn save(&self, path: &Path) -> Result<(), NetError> {
         let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
         match self {
@@ -245,6 +261,7 @@ impl Net {
         }
     }
 
+    /// Reads weights written by [`Net::save`] for an architecture of `widths`.
     pub fn load(widths: &[usize], path: &Path) -> Result<Net, NetError> {
         if !mlp_supported(widths) {
             return Err(NetError::Unsupported(widths.to_vec()));
@@ -273,7 +290,9 @@ impl Net {
 
 /// A trained network and its standardizers as a rollout [`Dynamics`].
 pub struct Learned<'a> {
+    /// The trained network.
     pub net: &'a Net,
+    /// Its standardizers.
     pub features: &'a FeatureMap,
 }
 

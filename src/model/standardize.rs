@@ -6,7 +6,9 @@ use serde::{Deserialize, Serialize};
 /// A constant dimension gets SD 1, so it maps to a constant, not to NaN.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Standardizer {
+    /// Per-dimension mean.
     pub mean: Vec<f64>,
+    /// Per-dimension standard deviation (never zero).
     pub std: Vec<f64>,
 }
 
@@ -42,16 +44,19 @@ impl Standardizer {
         Standardizer { mean: vec![0.0; dim], std: vec![1.0; dim] }
     }
 
+    /// Number of dimensions.
     pub fn dim(&self) -> usize {
         self.mean.len()
     }
 
+    /// (x - mean) / std, into `out`.
     pub fn apply(&self, x: &[f64], out: &mut [f32]) {
         for (((o, v), m), s) in out.iter_mut().zip(x).zip(&self.mean).zip(&self.std) {
             *o = ((v - m) / s) as f32;
         }
     }
 
+    /// z std + mean, into `out`.
     pub fn invert(&self, z: &[f32], out: &mut [f64]) {
         for (((o, v), m), s) in out.iter_mut().zip(z).zip(&self.mean).zip(&self.std) {
             *o = f64::from(*v) * s + m;

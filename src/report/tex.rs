@@ -75,6 +75,7 @@ fn with<'a>(prefix: &[&'a str], q: &'a str) -> Vec<&'a str> {
     v
 }
 
+/// results.tex: one LaTeX macro per reported number.
 pub fn render_tex(a: &Analysis) -> String {
     let mut m = Macros { text: String::new(), names: Vec::new() };
     let _ = writeln!(m.text, "% crossaudit results for study \"{}\"; \\input this file.", a.study);

@@ -17,11 +17,15 @@ pub struct StartOutcome {
     pub divergent: bool,
     /// Position error at the horizon (m).
     pub position_error: f64,
+    /// Velocity error at the horizon (m/s).
     pub velocity_error: f64,
+    /// Attitude error at the horizon (degrees).
     pub attitude_error_deg: f64,
 }
 
 impl StartOutcome {
+    /// The outcome of trace `t` at horizon `step`: divergent if any position
+    /// error up to it is non-finite or above `cap`.
     pub fn of(t: &Trace, step: usize, cap: f64) -> StartOutcome {
         let divergent = t.position_error[..step].iter().any(|e| !e.is_finite() || *e > cap);
         let (pred, truth): (State, State) =
@@ -42,15 +46,19 @@ impl StartOutcome {
 /// Metrics of one recording at one horizon.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HorizonMetrics {
+    /// Starts that diverged.
     pub n_divergent: usize,
     /// sqrt(mean over starts of min(err, cap)^2), cap for divergent starts.
     pub fa_position_rmse: f64,
     /// RMSE over non-divergent starts; None when every start diverged.
     pub conditional_position_rmse: Option<f64>,
+    /// Velocity RMSE over non-divergent starts.
     pub velocity_rmse: Option<f64>,
+    /// Attitude RMSE (degrees) over non-divergent starts.
     pub attitude_rmse_deg: Option<f64>,
 }
 
+/// Failure-aware metrics of one recording's starts at one horizon.
 pub fn failure_aware(outcomes: &[StartOutcome], cap: f64) -> HorizonMetrics {
     let n = outcomes.len().max(1) as f64;
     let fa =

@@ -27,6 +27,7 @@ pub fn renormalize(x: &mut State) {
 /// measured states at each requested horizon step.
 #[derive(Debug, Clone)]
 pub struct Trace {
+    /// The registered start.
     pub start: Window,
     /// |p_pred - p_true| at steps 1..=steps (index k-1).
     pub position_error: Vec<f64>,
