@@ -290,6 +290,14 @@ fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
     })
 }
 
+/// [`write_cells`] to a temporary file, then renamed over `path`: a reader
+/// (or a resumed run) never sees half a file.
+pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
+    let tmp = crate::io::tmp_path(path);
+    write_cells(&tmp, cells)?;
+    std::fs::rename(&tmp, path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
+}
+
 /// Writes cells with the exact header. Floats use Rust's shortest
 /// round-trip form, so the same values give the same bytes.
 pub fn write_cells(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {

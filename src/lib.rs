@@ -62,9 +62,6 @@ pub fn analyze_with(
     let cells = cells::read_cells(cells_path)?;
     let mut a =
         analysis::analyze(plan, &cells, options).map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
-    a.design_sha256 = Some(file.sha256.clone());
-    if let design::LockStatus::LockedChanged { .. } = status {
-        a.mark_design_changed();
-    }
+    a.record_design(&file.sha256, &status);
     Ok(a)
 }

@@ -139,21 +139,17 @@ pub struct Plan {
 /// assert_eq!(plan.jobs.len(), d.models.len() * d.arms.len() * d.seeds.len());
 /// ```
 pub fn compile(design: &Design) -> Plan {
-    let jobs = design
-        .models
-        .iter()
-        .flat_map(|m| {
-            design.arms.iter().flat_map(move |a| {
-                design.seeds.iter().map(move |&seed| TrainingJob {
-                    model: m.name.clone(),
-                    kind: m.kind.clone(),
-                    arm: a.name.clone(),
-                    seed,
-                    horizons_s: horizons_for(design, &m.name),
-                })
-            })
-        })
-        .collect();
+    let mut jobs = Vec::new();
+    for m in &design.models {
+        let horizons_s = horizons_for(design, &m.name);
+        for a in &design.arms {
+            for &seed in &design.seeds {
+                let (model, kind, arm, horizons_s) =
+                    (m.name.clone(), m.kind.clone(), a.name.clone(), horizons_s.clone());
+                jobs.push(TrainingJob { model, kind, arm, seed, horizons_s });
+            }
+        }
+    }
     let mut units = units(design).into_iter();
     let primary = units.next().expect("a validated design has exactly one primary endpoint");
     let secondary: Vec<AnalysisUnit> = units.collect();

@@ -2,7 +2,7 @@
 
 use serde::{Serialize, Serializer};
 
-use crate::design::{DecisionCondition, DecisionRule, Factor, Metric, Quantity, Role};
+use crate::design::{DecisionCondition, DecisionRule, Factor, LockStatus, Metric, Quantity, Role};
 use crate::stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate};
 
 /// Options of [`crate::analysis::analyze`] that are not part of the design.
@@ -45,16 +45,14 @@ pub struct Analysis {
 }
 
 impl Analysis {
-    /// The primary unit's result (the analysis always has one).
-    pub fn primary(&self) -> Option<&UnitResult> {
-        self.units.iter().find(|u| u.role == Role::Primary)
-    }
-
-    /// Labels the analysis EXPLORATORY because its design changed after it
-    /// was locked.
-    pub fn mark_design_changed(&mut self) {
-        self.exploratory = true;
-        self.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+    /// Records the design the analysis ran under: its hash, and, when it
+    /// changed after it was locked, an EXPLORATORY label and warning.
+    pub fn record_design(&mut self, sha256: &str, status: &LockStatus) {
+        self.design_sha256 = Some(sha256.to_string());
+        if let LockStatus::LockedChanged { .. } = status {
+            self.exploratory = true;
+            self.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+        }
     }
 }
 

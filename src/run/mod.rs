@@ -23,7 +23,7 @@ use std::time::Instant;
 use serde::Deserialize;
 
 use crate::analysis::{self, Analysis, FileAnalysisError};
-use crate::cells::{read_cells, write_cells, Cell, CellsError};
+use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::{create_dir_all, WriteError};
 use crate::plan::{Plan, TrainingJob};
@@ -232,9 +232,7 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
     }
     check_baselines(plan, &all)?;
     let cells_csv = out.join("cells.csv");
-    let tmp = crate::io::tmp_path(&cells_csv);
-    write_cells(&tmp, &all)?;
-    std::fs::rename(&tmp, &cells_csv).map_err(|e| WriteError::new(&cells_csv, e))?;
+    write_cells_atomic(&cells_csv, &all)?;
     Ok(cells_csv)
 }
 
@@ -250,10 +248,7 @@ fn analyze_run(
     let cells = read_cells(cells_csv)?;
     let mut analysis =
         analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
-    analysis.design_sha256 = Some(file.sha256.clone());
-    if let LockStatus::LockedChanged { .. } = status {
-        analysis.mark_design_changed();
-    }
+    analysis.record_design(&file.sha256, status);
     analysis.exploratory |= exploratory;
     if *status == LockStatus::Unlocked {
         analysis.warnings.push(format!(

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{known, Validator};
+use super::Validator;
 use crate::design::ast::*;
 use crate::design::*;
 
@@ -144,22 +144,8 @@ impl Validator {
         models: &[(Model, Span)],
         endpoints: &[(Endpoint, Span)],
     ) -> Option<Interaction> {
-        let mut ok = true;
-        for m in [left, right] {
-            if !models.iter().any(|(x, _)| x.name == m.node) {
-                self.err_help(
-                    "unknown model",
-                    m.span,
-                    format!("no model named `{}`", m.node),
-                    known("models", models.iter().map(|x| x.0.name.as_str())),
-                );
-                ok = false;
-            }
-        }
-        if left.node == right.node {
-            self.err("model contrasted with itself", right.span, "the interaction needs two different models");
-            ok = false;
-        }
+        let declared: Vec<&str> = models.iter().map(|x| x.0.name.as_str()).collect();
+        let mut ok = self.two_declared(("model", "models", "interaction"), left, right, &declared);
         if ok {
             let covers = |name: &str| {
                 endpoints

@@ -160,22 +160,8 @@ impl Validator {
     }
 
     pub(super) fn contrast(&mut self, treated: &Ident, reference: &Ident, arms: &[(Arm, Span)]) -> Option<Contrast> {
-        let mut ok = true;
-        for a in [treated, reference] {
-            if !arms.iter().any(|(x, _)| x.name == a.node) {
-                self.err_help(
-                    "unknown arm",
-                    a.span,
-                    format!("no arm named `{}`", a.node),
-                    known("arms", arms.iter().map(|x| x.0.name.as_str())),
-                );
-                ok = false;
-            }
-        }
-        if treated.node == reference.node {
-            self.err("arm contrasted with itself", reference.span, "the contrast needs two different arms");
-            ok = false;
-        }
+        let declared: Vec<&str> = arms.iter().map(|x| x.0.name.as_str()).collect();
+        let ok = self.two_declared(("arm", "arms", "contrast"), treated, reference, &declared);
         ok.then(|| Contrast { treated: treated.node.clone(), reference: reference.node.clone() })
     }
 }

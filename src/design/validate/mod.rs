@@ -243,6 +243,34 @@ impl Validator {
     }
 }
 
+impl Validator {
+    /// `left - right` of a contrast or an interaction: both names declared
+    /// (`noun`s, `plural` in the help) and different. False after reporting
+    /// every problem.
+    fn two_declared(
+        &mut self,
+        (noun, plural, what): (&str, &str, &str),
+        left: &Ident,
+        right: &Ident,
+        declared: &[&str],
+    ) -> bool {
+        let mut ok = true;
+        for n in [left, right] {
+            if !declared.contains(&n.node.as_str()) {
+                let help = known(plural, declared.iter().copied());
+                self.err_help(&format!("unknown {noun}"), n.span, format!("no {noun} named `{}`", n.node), help);
+                ok = false;
+            }
+        }
+        if left.node == right.node {
+            let label = format!("the {what} needs two different {plural}");
+            self.err(&format!("{noun} contrasted with itself"), right.span, label);
+            ok = false;
+        }
+        ok
+    }
+}
+
 fn known<'a>(what: &str, names: impl Iterator<Item = &'a str>) -> String {
     let names: Vec<&str> = names.collect();
     if names.is_empty() {
