@@ -17,14 +17,20 @@ use crate::stats::quantile_type7;
 /// Upstream NanoBench plausibility bounds over active rows, each checked at
 /// the 0.5th and 99.5th percentiles.
 pub const BATTERY_BOUNDS_V: (f64, f64) = (2.5, 4.5);
+/// Setpoint z bounds, metres.
 pub const SETPOINT_Z_BOUNDS_M: (f64, f64) = (-0.2, 3.0);
+/// Motor PWM bounds.
 pub const PWM_BOUNDS: (f64, f64) = (0.0, 65535.0);
+/// The lower and upper percentiles at which every bound is checked.
 pub const PERCENTILES: (f64, f64) = (0.005, 0.995);
 
+/// What the audit decided for one file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Status {
+    /// Passed every rule: usable by the split.
     Included,
+    /// Failed a rule or could not be read; `reason` says which.
     Excluded,
     /// Listed by a metadata file, but no CSV is present.
     Missing,
@@ -33,53 +39,98 @@ pub enum Status {
 /// A rule's verdict on one file.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Verdict {
+    /// The rule's label, e.g. `active motor_motor_m1 > 1000 >= 200`.
     pub rule: String,
+    /// Whether the file passed it.
     pub pass: bool,
+    /// What was measured, in words.
     pub detail: String,
 }
 
 /// One row of recordings.csv.
 #[derive(Debug, Clone, Serialize)]
 pub struct FileRow {
+    /// Recording name (file stem).
     pub name: String,
+    /// File name within the data directory.
     pub file: String,
+    /// Data rows (0 when unreadable).
     pub rows: usize,
+    /// Rows meeting the active rule.
     pub active_rows: usize,
+    /// First to last timestamp, seconds.
     pub duration_s: f64,
+    /// Trajectory shape from the file name.
     pub trajectory: String,
+    /// Speed token from the file name, or `unknown`.
     pub speed: String,
+    /// Controller from the file name (`pid` or `mellinger`).
     pub controller: String,
+    /// Repetition number from the file name, if any.
     pub repetition: Option<u32>,
+    /// Recording start time from the metadata, if any.
     pub start_utc: Option<String>,
+    /// Battery voltage at the start, from the metadata.
     pub battery_start_v: Option<f64>,
+    /// Battery voltage at the end, from the metadata.
     pub battery_end_v: Option<f64>,
+    /// Identity group shared with byte-identical recordings, if any.
     pub duplicate_group: Option<String>,
+    /// XXH3-128 of the data rows, hex.
     pub content_hash: String,
+    /// Each declared rule's verdict, in declaration order.
     pub verdicts: Vec<Verdict>,
+    /// Included, excluded or missing.
     pub status: Status,
+    /// Why it was excluded; empty when included.
     pub reason: String,
 }
 
+/// The inclusion audit of one data directory under a design's data declaration.
 #[derive(Debug, Clone, Serialize)]
 pub struct Audit {
+    /// The audited directory, as given.
     pub data_dir: String,
+    /// The declared rules' labels, in order.
     pub rules: Vec<String>,
+    /// How identical recordings are treated.
     pub duplicates: DuplicatePolicy,
+    /// Every file seen, in natural name order.
     pub files: Vec<FileRow>,
     /// Groups of identical recordings (two or more names each).
     pub duplicate_groups: BTreeMap<String, Vec<String>>,
 }
 
+/// Why a data directory could not be audited.
 #[derive(Debug, thiserror::Error)]
 pub enum AuditError {
+    /// The directory could not be listed.
     #[error("cannot list data directory {dir}: {message}")]
-    Dir { dir: String, message: String },
+    Dir {
+        /// The directory.
+        dir: String,
+        /// The underlying error.
+        message: String,
+    },
+    /// The declared columns are not in the NanoBench schema.
     #[error("{0}")]
     Layout(String),
+    /// `strict` data: files were excluded for reasons other than the declared rules.
     #[error("strict data rules: {count} file(s) could not be used for reasons other than the declared rules:\n{list}")]
-    Strict { count: usize, list: String },
+    Strict {
+        /// How many files.
+        count: usize,
+        /// One line per file and reason.
+        list: String,
+    },
+    /// An audit file could not be written.
     #[error("cannot write {path}: {message}")]
-    Write { path: String, message: String },
+    Write {
+        /// The path.
+        path: String,
+        /// The underlying error.
+        message: String,
+    },
 }
 
 fn rule_label(rule: &InclusionRule) -> String {
@@ -119,6 +170,15 @@ pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
 
 /// As [`audit`], and also returns the included recordings (in audit row
 /// order), loaded once.
+///
+/// ```
+/// use std::path::Path;
+/// let file = crossaudit::design::load(Path::new("tests/designs/fixture_data.design")).unwrap();
+/// let (audit, recordings) =
+///     crossaudit::data::audit_and_load(&file.design.data, Path::new("tests/fixtures/nanobench")).unwrap();
+/// assert_eq!(audit.included().count(), recordings.len());
+/// assert!(audit.files.len() > recordings.len()); // the implausible fixture is excluded
+/// ```
 pub fn audit_and_load(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Recording>), AuditError> {
     audit_with(spec, dir, true)
 }
@@ -324,6 +384,7 @@ fn duplicates(files: &mut [FileRow], policy: DuplicatePolicy) -> BTreeMap<String
 }
 
 impl Audit {
+    /// The included files, in order.
     pub fn included(&self) -> impl Iterator<Item = &FileRow> {
         self.files.iter().filter(|f| f.status == Status::Included)
     }

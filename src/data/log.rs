@@ -72,24 +72,98 @@ pub const NANOBENCH_COLUMNS: [&str; 52] = [
 #[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum LogError {
+    /// The file could not be opened or read.
     #[error("{file}: cannot read: {message}")]
-    Io { file: String, message: String },
+    Io {
+        /// The file, as given.
+        file: String,
+        /// The underlying error.
+        message: String,
+    },
+    /// The gzip stream ended early or is corrupt.
     #[error("{file}: gzip stream truncated or corrupt after {bytes} decompressed bytes (near line {line}): {message}")]
-    Gzip { file: String, bytes: usize, line: usize, message: String },
+    Gzip {
+        /// The file, as given.
+        file: String,
+        /// Bytes decompressed before the failure.
+        bytes: usize,
+        /// Line number (1 = header).
+        line: usize,
+        /// The underlying error.
+        message: String,
+    },
+    /// The file has no bytes (or no header).
     #[error("{file}: empty file")]
-    Empty { file: String },
+    Empty {
+        /// The file, as given.
+        file: String,
+    },
+    /// A header field differs from the NanoBench schema.
     #[error("{file}: line 1, column {index}: expected header `{expected}`, found `{found}`")]
-    Header { file: String, index: usize, expected: String, found: String },
+    Header {
+        /// The file, as given.
+        file: String,
+        /// Column index (1-based).
+        index: usize,
+        /// The schema column expected there.
+        expected: String,
+        /// The header field found.
+        found: String,
+    },
+    /// A header but no data rows.
     #[error("{file}: header only, no data rows")]
-    NoRows { file: String },
+    NoRows {
+        /// The file, as given.
+        file: String,
+    },
+    /// A row with a different number of fields than the header.
     #[error("{file}: line {line}: {found} fields, the header has {expected}")]
-    Ragged { file: String, line: usize, found: usize, expected: usize },
+    Ragged {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Fields in the row.
+        found: usize,
+        /// Fields in the header.
+        expected: usize,
+    },
+    /// A field that does not parse as a number.
     #[error("{file}: line {line}, column `{column}`: {value:?} is not a number")]
-    NonNumeric { file: String, line: usize, column: String, value: String },
+    NonNumeric {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The value as found.
+        value: String,
+    },
+    /// A NaN or infinite field.
     #[error("{file}: line {line}, column `{column}`: non-finite value {value:?}")]
-    NonFinite { file: String, line: usize, column: String, value: String },
+    NonFinite {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The value as found.
+        value: String,
+    },
+    /// A timestamp earlier than the previous row's.
     #[error("{file}: line {line}, column `t`: time {t} is before the previous row's {previous}")]
-    NonMonotonicTime { file: String, line: usize, t: f64, previous: f64 },
+    NonMonotonicTime {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// This row's time, seconds.
+        t: f64,
+        /// The previous row's time, seconds.
+        previous: f64,
+    },
 }
 
 impl LogError {
@@ -112,6 +186,7 @@ impl LogError {
 /// A parsed log: the requested columns, row count and content hash.
 #[derive(Debug, Clone)]
 pub struct Log {
+    /// Number of data rows.
     pub rows: usize,
     /// Requested columns, in the order requested.
     pub columns: Vec<Vec<f64>>,

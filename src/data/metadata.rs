@@ -10,14 +10,19 @@ use serde::{Deserialize, Serialize};
 /// What the file name says.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct NameParts {
+    /// Recording id prefix, e.g. `B9`.
     pub id: String,
+    /// Trajectory shape, e.g. `trefoil` or `linear_ramp`.
     pub shape: String,
     /// slow, medium, fast, or `unknown` when the name has no speed token.
     pub speed: String,
+    /// Controller (`_mell` suffix or the default PID).
     pub controller: Controller,
+    /// `repN` suffix, if present.
     pub repetition: Option<u32>,
 }
 
+/// The flight controller a recording was flown with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Controller {
@@ -28,6 +33,7 @@ pub enum Controller {
 }
 
 impl Controller {
+    /// Lowercase name used in audit tables.
     pub fn name(self) -> &'static str {
         match self {
             Controller::Pid => "pid",
@@ -67,21 +73,31 @@ pub fn parse_name(name: &str) -> NameParts {
 /// out of the way, missing ones are `None`.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
 pub struct Metadata {
+    /// Trajectory type, e.g. `trefoil`.
     pub trajectory_type: Option<String>,
+    /// Trajectory identifier.
     pub trajectory_id: Option<String>,
+    /// Upstream category label.
     pub category: Option<String>,
+    /// Repetition number.
     pub repetition: Option<u32>,
+    /// Battery voltage at take-off, volts.
     pub battery_voltage_start: Option<f64>,
+    /// Battery voltage at landing, volts.
     pub battery_voltage_end: Option<f64>,
+    /// Recording start, UTC.
     pub recording_start_utc: Option<String>,
+    /// Recording end, UTC.
     pub recording_end_utc: Option<String>,
+    /// Row counts per logged table, as upstream recorded them.
     #[serde(default)]
     pub row_counts: BTreeMap<String, u64>,
 }
 
+/// Reads a `_metadata.yaml` file; the error names the file, line and column.
 pub fn read_metadata(path: &Path) -> Result<Metadata, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    serde_yaml::from_str(&text).map_err(|e| {
+    serde_yaml_ng::from_str(&text).map_err(|e| {
         let at = e.location().map(|l| format!(" (line {}, column {})", l.line(), l.column())).unwrap_or_default();
         format!("{}: invalid metadata{at}: {e}", path.display())
     })

@@ -20,7 +20,9 @@ pub const PWM_FULL_SCALE: f64 = 65535.0;
 pub struct Recording {
     /// File stem without `.csv[.gz]`, e.g. `B9_trefoil_slow_rep3`.
     pub name: String,
+    /// The file it was read from.
     pub path: PathBuf,
+    /// Number of data rows.
     pub rows: usize,
     /// Time, seconds.
     pub t: Vec<f64>,
@@ -33,14 +35,17 @@ pub struct Recording {
     pub pwm: Vec<[f64; 4]>,
     /// Rows meeting the active rule (default: motor_motor_m1 > 1000).
     pub active: Vec<bool>,
+    /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
     pub content_hash: String,
 }
 
 impl Recording {
+    /// Rows meeting the active rule.
     pub fn active_rows(&self) -> usize {
         self.active.iter().filter(|a| **a).count()
     }
 
+    /// Time from the first to the last row, seconds.
     pub fn duration_s(&self) -> f64 {
         match (self.t.first(), self.t.last()) {
             (Some(a), Some(b)) => b - a,
@@ -73,6 +78,7 @@ pub struct Layout {
 }
 
 impl Layout {
+    /// The layout of `spec`, or why its columns cannot be loaded.
     pub fn new(spec: &DataSpec) -> Result<Layout, String> {
         let (column, cmp, threshold) = active_rule(spec);
         let mut names = vec!["t".to_string()];

@@ -7,11 +7,14 @@ use std::ops::Range;
 /// A byte range in the design source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Span {
+    /// First byte.
     pub start: usize,
+    /// One past the last byte.
     pub end: usize,
 }
 
 impl Span {
+    /// As a `Range` for slicing the source.
     pub fn range(self) -> Range<usize> {
         self.start..self.end
     }
@@ -37,6 +40,7 @@ pub type Number = Spanned<f64>;
 /// A parsed design: its statements in source order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ast {
+    /// Statements in source order.
     pub statements: Vec<Spanned<Statement>>,
 }
 
@@ -162,19 +166,25 @@ pub enum SensitivityItem {
     LeaveOneOut(Vec<Ident>),
 }
 
+/// A comparison operator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum Cmp {
+    /// `>=`
     #[serde(rename = ">=")]
     Ge,
+    /// `<=`
     #[serde(rename = "<=")]
     Le,
+    /// `>`
     #[serde(rename = ">")]
     Gt,
+    /// `<`
     #[serde(rename = "<")]
     Lt,
 }
 
 impl Cmp {
+    /// Whether `lhs <op> rhs`.
     pub fn holds(self, lhs: f64, rhs: f64) -> bool {
         match self {
             Cmp::Ge => lhs >= rhs,
@@ -184,6 +194,7 @@ impl Cmp {
         }
     }
 
+    /// The operator as written.
     pub fn symbol(self) -> &'static str {
         match self {
             Cmp::Ge => ">=",

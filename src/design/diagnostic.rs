@@ -14,6 +14,7 @@ use super::ast::Span;
 pub struct Diagnostic {
     /// Short headline, e.g. "unknown arm".
     pub title: String,
+    /// Where in the source it points.
     pub span: Span,
     /// What is wrong at the span.
     pub label: String,
@@ -22,10 +23,12 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
+    /// A diagnostic with no help text.
     pub fn new(title: impl Into<String>, span: Span, label: impl Into<String>) -> Self {
         Diagnostic { title: title.into(), span, label: label.into(), help: None }
     }
 
+    /// Adds a help line.
     pub fn with_help(mut self, help: impl Into<String>) -> Self {
         self.help = Some(help.into());
         self
@@ -35,8 +38,11 @@ impl Diagnostic {
 /// Every problem found in one design file, with the text needed to show them.
 #[derive(Debug, Clone)]
 pub struct DesignError {
+    /// The design file's name as shown.
     pub file: String,
+    /// The design text, for quoting source lines.
     pub source_text: String,
+    /// Every problem, in source order.
     pub diagnostics: Vec<Diagnostic>,
 }
 

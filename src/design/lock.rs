@@ -6,13 +6,16 @@ use std::time::SystemTime;
 
 use serde::{Deserialize, Serialize};
 
+/// The contents of `FILE.design.lock`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LockFile {
     /// File name of the locked design.
     pub design: String,
     /// SHA-256 of the design file's bytes, lowercase hex.
     pub sha256: String,
+    /// Tool name (`crossaudit`).
     pub tool: String,
+    /// Tool version that locked it.
     pub tool_version: String,
     /// RFC 3339, UTC, whole seconds.
     pub locked_at_utc: String,
@@ -22,12 +25,26 @@ pub struct LockFile {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "status")]
 pub enum LockStatus {
+    /// No lock file.
     Unlocked,
-    LockedUnchanged { locked_at_utc: String },
-    LockedChanged { locked_sha256: String, current_sha256: String, locked_at_utc: String },
+    /// Locked, and the file still has the locked hash.
+    LockedUnchanged {
+        /// When it was locked (RFC 3339, UTC).
+        locked_at_utc: String,
+    },
+    /// Locked, but the file changed since: analyses are exploratory.
+    LockedChanged {
+        /// Hash recorded in the lock.
+        locked_sha256: String,
+        /// Hash of the file now.
+        current_sha256: String,
+        /// When it was locked (RFC 3339, UTC).
+        locked_at_utc: String,
+    },
 }
 
 impl LockStatus {
+    /// Short label for reports.
     pub fn label(&self) -> &'static str {
         match self {
             LockStatus::Unlocked => "unlocked",
@@ -37,18 +54,45 @@ impl LockStatus {
     }
 }
 
+/// Why a lock could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum LockError {
+    /// The lock file exists but could not be read.
     #[error("cannot read lock file {path}: {source}")]
-    Read { path: String, source: std::io::Error },
+    Read {
+        /// The path.
+        path: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The lock file is not valid JSON of the expected shape.
     #[error("lock file {path} is not valid: {source}")]
-    Parse { path: String, source: serde_json::Error },
+    Parse {
+        /// The path.
+        path: String,
+        /// The underlying error.
+        source: serde_json::Error,
+    },
+    /// The lock file could not be written.
     #[error("cannot write lock file {path}: {source}")]
-    Write { path: String, source: std::io::Error },
+    Write {
+        /// The path.
+        path: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
     #[error(
         "{path} is already locked (sha256 {sha256}, {locked_at_utc}); delete the lock to re-lock a changed design"
     )]
-    AlreadyLocked { path: String, sha256: String, locked_at_utc: String },
+    /// The design is locked already.
+    AlreadyLocked {
+        /// The path.
+        path: String,
+        /// Hash recorded in the lock.
+        sha256: String,
+        /// When it was locked (RFC 3339, UTC).
+        locked_at_utc: String,
+    },
 }
 
 /// `FILE.design` -> `FILE.design.lock`.
@@ -58,6 +102,7 @@ pub fn lock_path(design: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
+/// The lock of `design`, or `None` when it has none.
 pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
     let path = lock_path(design);
     let text = match std::fs::read_to_string(&path) {
@@ -70,6 +115,7 @@ pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
         .map_err(|source| LockError::Parse { path: path.display().to_string(), source })
 }
 
+/// Whether `design`, whose bytes hash to `current_sha256`, matches its lock.
 pub fn status(design: &Path, current_sha256: &str) -> Result<LockStatus, LockError> {
     Ok(match read_lock(design)? {
         None => LockStatus::Unlocked,

@@ -169,6 +169,19 @@ pub struct RunOutcome {
 }
 
 /// Runs (or resumes) the whole study into `out`.
+///
+/// ```
+/// use std::path::Path;
+/// use crossaudit::run::{run, Quiet, RunOptions};
+/// // The shared NanoBench logs beside the repository, a small version of the paper's design.
+/// let file = crossaudit::design::load(Path::new("tests/designs/tiny_train.design")).unwrap();
+/// let plan = crossaudit::compile(&file.design);
+/// let out = tempfile::tempdir().unwrap();
+/// let data = Path::new("../shared/nanobench/recordings");
+/// let done = run(&file, &plan, data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+/// assert_eq!(done.trained, plan.jobs.iter().filter(|j| j.trains()).count());
+/// assert!(done.cells_csv.exists() && done.report_dir.join("report.md").exists());
+/// ```
 pub fn run(
     file: &DesignFile,
     plan: &Plan,

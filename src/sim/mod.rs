@@ -469,7 +469,7 @@ pub fn simulate(spec: &SimSpec, dir: &Path) -> Result<Vec<PathBuf>, SimulateErro
                 trajectory_id: name.trim_end_matches(&format!("_rep{rep}")).to_string(),
                 trajectory_type: kind,
             };
-            let yaml = serde_yaml::to_string(&meta).map_err(|e| err(std::io::Error::other(e)))?;
+            let yaml = serde_yaml_ng::to_string(&meta).map_err(|e| err(std::io::Error::other(e)))?;
             std::fs::write(dir.join(format!("{name}_metadata.yaml")), yaml).map_err(err)?;
             Ok(csv)
         })

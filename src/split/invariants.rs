@@ -14,12 +14,19 @@ use crate::plan::Plan;
 /// The manifests one training job uses, by hash.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct JobManifests {
+    /// Model name.
     pub model: String,
+    /// Arm name.
     pub arm: String,
+    /// Training seed.
     pub seed: Seed,
+    /// SHA-256 of `evaluation_recordings.csv`.
     pub evaluation_sha256: String,
+    /// SHA-256 of `evaluation_starts.csv`.
     pub starts_sha256: String,
+    /// SHA-256 of `validation_windows.csv`.
     pub validation_sha256: String,
+    /// SHA-256 of the arm's `fit_ARM.csv`.
     pub fit_sha256: String,
 }
 
@@ -41,10 +48,13 @@ impl JobManifests {
     }
 }
 
+/// The outcome of one invariant check.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum InvariantStatus {
+    /// Holds.
     Pass,
+    /// Broken: the run stops.
     Fail,
     /// Holds only because the design chose so (e.g. `duplicates keep`).
     Warn,
@@ -52,26 +62,37 @@ pub enum InvariantStatus {
     Deferred,
 }
 
+/// One numbered invariant of the protocol and its outcome.
 #[derive(Debug, Clone, Serialize)]
 pub struct Invariant {
+    /// Number in the protocol (DESIGN.md).
     pub id: u8,
+    /// Short name.
     pub name: &'static str,
+    /// Its outcome.
     pub status: InvariantStatus,
+    /// What was checked, in words.
     pub detail: String,
+    /// The counts behind the outcome, as JSON.
     pub numbers: Value,
 }
 
+/// Every invariant of a split.
 #[derive(Debug, Clone, Serialize)]
 pub struct InvariantReport {
+    /// Whether none failed.
     pub all_pass: bool,
+    /// In protocol order.
     pub invariants: Vec<Invariant>,
 }
 
 impl InvariantReport {
+    /// The invariants that failed.
     pub fn failures(&self) -> Vec<&Invariant> {
         self.invariants.iter().filter(|i| i.status == InvariantStatus::Fail).collect()
     }
 
+    /// Pretty JSON, for `invariants.json`.
     pub fn to_json(&self) -> String {
         crate::io::pretty_json(self)
     }

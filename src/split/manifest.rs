@@ -14,8 +14,11 @@ use crate::io::{write_atomic, WriteError};
 /// One manifest's text and hash.
 #[derive(Debug, Clone, Serialize)]
 pub struct ManifestSummary {
+    /// SHA-256 of the text, lowercase hex.
     pub sha256: String,
+    /// Data rows (without the header).
     pub rows: usize,
+    /// The CSV text as written.
     #[serde(skip)]
     pub text: String,
 }
@@ -23,9 +26,13 @@ pub struct ManifestSummary {
 /// All manifests of a split, keyed by file name.
 #[derive(Debug, Clone, Serialize)]
 pub struct Manifests {
+    /// Study name.
     pub study: String,
+    /// SHA-256 of the design file, when known.
     pub design_sha256: Option<String>,
+    /// Every seed that drew part of the split, by name.
     pub seeds: BTreeMap<String, u64>,
+    /// Manifest files by name.
     pub files: BTreeMap<String, ManifestSummary>,
 }
 
@@ -86,6 +93,7 @@ fn recordings_csv(split: &Split, which: &[usize]) -> ManifestSummary {
 }
 
 impl Manifests {
+    /// The manifests of `split` under `design`.
     pub fn new(design: &Design, design_sha256: Option<String>, split: &Split) -> Manifests {
         let mut files = BTreeMap::new();
         files.insert("evaluation_recordings.csv".to_string(), recordings_csv(split, &split.evaluation));
@@ -110,10 +118,12 @@ impl Manifests {
         Manifests { study: design.study.clone(), design_sha256, seeds, files }
     }
 
+    /// The hash of one manifest file; empty if there is none of that name.
     pub fn sha256(&self, file: &str) -> &str {
         self.files.get(file).map(|m| m.sha256.as_str()).unwrap_or("")
     }
 
+    /// Pretty JSON, for `manifests.json`.
     pub fn to_json(&self) -> String {
         crate::io::pretty_json(self)
     }

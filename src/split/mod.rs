@@ -30,7 +30,9 @@ pub use treatment::{treatment_audit, Composition, TreatmentAudit};
 /// A one-step window or a rollout start: (recording index, row index).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 pub struct Window {
+    /// Index into [`Split::recordings`].
     pub recording: usize,
+    /// Row index within the recording.
     pub t: usize,
 }
 
@@ -39,6 +41,7 @@ pub struct Window {
 pub struct DeploymentUnit {
     /// Recording indices, representative first.
     pub members: Vec<usize>,
+    /// Identity group name, when the unit groups identical recordings.
     pub group: Option<String>,
 }
 
@@ -47,42 +50,92 @@ pub struct DeploymentUnit {
 pub struct Split {
     /// Included recordings, natural name order; every index refers here.
     pub recordings: Vec<RecordingInfo>,
+    /// Deployment units, in recording order.
     pub units: Vec<DeploymentUnit>,
     /// Evaluation recordings (unit representatives), sorted.
     pub evaluation: Vec<usize>,
     /// Every recording on the evaluation side (all members of E's units).
     pub evaluation_side: Vec<usize>,
+    /// Rollout starts, by evaluation recording.
     pub starts: Vec<Window>,
+    /// Recordings the validation windows come from.
     pub validation_recordings: Vec<usize>,
+    /// The shared validation windows.
     pub validation: Vec<Window>,
     /// Fit sets per arm, in design order.
     pub fits: Vec<(String, Vec<Window>)>,
     /// The E windows each derived arm received.
     pub contaminating: Vec<(String, Vec<Window>)>,
+    /// Rollout horizon, samples.
     pub horizon: usize,
+    /// Sample rate, Hz.
     pub rate_hz: f64,
 }
 
+/// What the split needs to know of an included recording.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RecordingInfo {
+    /// Recording name.
     pub name: String,
+    /// Trajectory shape.
     pub trajectory: String,
+    /// Speed token.
     pub speed: String,
+    /// Identity group, if it has byte-identical copies.
     pub duplicate_group: Option<String>,
+    /// XXH3-128 of its data rows, hex.
     pub content_hash: String,
 }
 
 /// Why the data cannot support the design.
 #[derive(Debug, thiserror::Error)]
 pub enum SplitError {
+    /// Not enough deployment units for evaluation, validation and fitting.
     #[error("the design needs {needed} recordings ({evaluation} evaluation + {validation} validation + at least 1 for fitting), but only {available} usable deployment units remain")]
-    TooFewRecordings { needed: usize, evaluation: usize, validation: usize, available: usize },
+    TooFewRecordings {
+        /// How many the design needs.
+        needed: usize,
+        /// Evaluation recordings declared.
+        evaluation: usize,
+        /// Validation recordings declared.
+        validation: usize,
+        /// How many are available.
+        available: usize,
+    },
+    /// An evaluation recording has too few valid rollout starts.
     #[error("evaluation recording {recording} has {valid} valid rollout starts (>= {horizon} active samples after the start), the design needs {needed}")]
-    TooFewStarts { recording: String, valid: usize, needed: usize, horizon: usize },
+    TooFewStarts {
+        /// Recording name.
+        recording: String,
+        /// Valid rollout starts it has.
+        valid: usize,
+        /// How many the design needs.
+        needed: usize,
+        /// Rollout horizon, samples.
+        horizon: usize,
+    },
+    /// A window set cannot be drawn at the declared size.
     #[error("{what}: the design needs {needed} windows, only {available} are available")]
-    TooFewWindows { what: String, needed: usize, available: usize },
+    TooFewWindows {
+        /// Which set.
+        what: String,
+        /// How many the design needs.
+        needed: usize,
+        /// How many are available.
+        available: usize,
+    },
+    /// A derived arm's percentage replaces no window.
     #[error("arm {arm}: {percent}% of {windows} windows replaces {replaced} windows; nothing would be replaced")]
-    NothingToReplace { arm: String, percent: f64, windows: usize, replaced: usize },
+    NothingToReplace {
+        /// Arm name.
+        arm: String,
+        /// Percentage of windows replaced.
+        percent: f64,
+        /// Number of windows.
+        windows: usize,
+        /// Windows that would be replaced.
+        replaced: usize,
+    },
     /// The data directory could not be audited.
     #[error(transparent)]
     Audit(#[from] crate::data::AuditError),
@@ -289,6 +342,7 @@ fn units(info: &[RecordingInfo], policy: DuplicatePolicy) -> Vec<DeploymentUnit>
 }
 
 impl Split {
+    /// The fit set of `arm`, if the design declares it.
     pub fn fit(&self, arm: &str) -> Option<&[Window]> {
         self.fits.iter().find(|(n, _)| n == arm).map(|(_, w)| w.as_slice())
     }

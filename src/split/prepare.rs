@@ -32,6 +32,18 @@ pub struct Prepared {
 /// `audit/invariants.json` and `audit/treatment.json` under `out`. A failed
 /// invariant is an error, returned after `audit/invariants.json` is written
 /// so the reason can be read.
+///
+/// ```
+/// use std::path::Path;
+/// // The shared NanoBench logs beside the repository, a small version of the paper's design.
+/// let file = crossaudit::design::load(Path::new("tests/designs/tiny_train.design")).unwrap();
+/// let plan = crossaudit::compile(&file.design);
+/// let out = tempfile::tempdir().unwrap();
+/// let p = crossaudit::split::prepare(&file, &plan, Path::new("../shared/nanobench/recordings"), out.path()).unwrap();
+/// assert!(p.invariants.all_pass);
+/// assert_eq!(p.split.evaluation.len(), 4);
+/// assert!(out.path().join("manifests/manifests.json").exists());
+/// ```
 pub fn prepare(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result<Prepared, SplitError> {
     let design = &file.design;
     let (audit, recordings) = data::audit_and_load(&design.data, dir)?;

@@ -23,14 +23,20 @@ pub struct ArmTreatment {
 /// Evaluation recordings by trajectory x speed.
 #[derive(Debug, Clone, Serialize)]
 pub struct Composition {
+    /// Counts by trajectory, then speed.
     pub counts: BTreeMap<String, BTreeMap<String, usize>>,
+    /// Evaluation recordings in all.
     pub total: usize,
 }
 
+/// What each arm's treatment is: how close its windows lie to the rollout starts.
 #[derive(Debug, Clone, Serialize)]
 pub struct TreatmentAudit {
+    /// Rollout horizon, samples.
     pub horizon_samples: usize,
+    /// One summary per arm, in design order.
     pub arms: Vec<ArmTreatment>,
+    /// The evaluation set's trajectory x speed composition.
     pub composition: Composition,
 }
 
@@ -47,6 +53,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
+/// Summarises the treatment of every arm of `split`.
 pub fn treatment_audit(split: &Split) -> TreatmentAudit {
     let mut starts_by_rec: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for s in &split.starts {
@@ -88,10 +95,12 @@ pub fn treatment_audit(split: &Split) -> TreatmentAudit {
 }
 
 impl TreatmentAudit {
+    /// Pretty JSON.
     pub fn to_json(&self) -> String {
         crate::io::pretty_json(self)
     }
 
+    /// Plain-text summary for the terminal.
     pub fn render_text(&self) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();

@@ -8,18 +8,23 @@ use serde::Serialize;
 
 use super::{quantile_type7, CrossedMatrix, StatsError};
 
+/// A pigeonhole bootstrap percentile interval for the grand mean.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct BootstrapInterval {
+    /// Number of replicates B.
     pub replicates: usize,
+    /// ChaCha8 seed.
     pub seed: u64,
     /// ChaCha8 stream, so that each contrast of one analysis gets its own
     /// reproducible sequence from the one design seed.
     pub stream: u64,
+    /// Confidence level.
     pub level: f64,
     /// Standard deviation of the replicate means (divisor B - 1).
     pub se: f64,
     /// Percentile interval (type-7 quantiles of the replicate means).
     pub lower: f64,
+    /// Upper percentile bound.
     pub upper: f64,
 }
 

@@ -20,6 +20,7 @@ use super::{compare_intervals, CrossedMatrix, IntervalMethod, StatsError};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Distribution {
+    /// Normal effects and errors.
     Normal,
     /// Student t with 3 df, scaled to unit variance.
     HeavyTailed,
@@ -35,10 +36,13 @@ pub enum Distribution {
 /// One simulation setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Setting {
+    /// Number of recordings I.
     pub rows: usize,
+    /// Number of seeds J.
     pub cols: usize,
     /// Shares of the true SE^2 from rows, columns and residual (sum to 1).
     pub shares: [f64; 3],
+    /// Distribution of effects and errors.
     pub distribution: Distribution,
 }
 
@@ -50,6 +54,7 @@ impl Setting {
         (self.shares[0] * i, self.shares[1] * j, self.shares[2] * i * j)
     }
 
+    /// A one-line label for tables.
     pub fn label(&self) -> String {
         format!(
             "I={} J={} shares {:.1}/{:.1}/{:.1} {:?}",
@@ -109,22 +114,37 @@ pub fn draw_array(s: &Setting, rng: &mut ChaCha8Rng) -> Result<CrossedMatrix, St
 /// Performance of one estimator in one setting, with Monte Carlo SEs.
 #[derive(Debug, Clone, Serialize)]
 pub struct Performance {
+    /// The setting's label.
     pub setting: String,
+    /// The interval method.
     pub method: IntervalMethod,
+    /// Replications.
     pub reps: usize,
+    /// Fraction of intervals covering the true mean.
     pub coverage: f64,
+    /// Monte Carlo SE of the coverage.
     pub coverage_mcse: f64,
+    /// Mean interval width.
     pub mean_width: f64,
+    /// Monte Carlo SE of the mean width.
     pub mean_width_mcse: f64,
+    /// Median interval width.
     pub median_width: f64,
+    /// Mean estimate minus the truth.
     pub bias: f64,
+    /// Monte Carlo SE of the bias.
     pub bias_mcse: f64,
+    /// Empirical SE: SD of the estimates.
     pub emp_se: f64,
+    /// Monte Carlo SE of the empirical SE.
     pub emp_se_mcse: f64,
+    /// Model SE: root mean of the estimated SE^2.
     pub mod_se: f64,
+    /// Monte Carlo SE of the model SE.
     pub mod_se_mcse: f64,
     /// 100 (ModSE / EmpSE - 1).
     pub rel_error_mod_se: f64,
+    /// Monte Carlo SE of the relative error.
     pub rel_error_mod_se_mcse: f64,
 }
 

@@ -45,15 +45,25 @@ impl DfRule {
 /// Sums of squares and mean squares of the two-way layout without replication.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct MeanSquares {
+    /// Mean of all cells.
     pub grand_mean: f64,
+    /// Sum of squares between rows (recordings).
     pub ss_rows: f64,
+    /// Sum of squares between columns (seeds).
     pub ss_cols: f64,
+    /// Residual sum of squares.
     pub ss_error: f64,
+    /// I - 1.
     pub df_rows: f64,
+    /// J - 1.
     pub df_cols: f64,
+    /// (I - 1)(J - 1).
     pub df_error: f64,
+    /// SS_rows / df_rows.
     pub ms_rows: f64,
+    /// SS_cols / df_cols.
     pub ms_cols: f64,
+    /// SS_error / df_error.
     pub ms_error: f64,
 }
 
@@ -90,25 +100,37 @@ impl VarianceComponents {
 /// The crossed MoM estimate of the grand mean and its interval.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CrossedEstimate {
+    /// Number of recordings I.
     pub rows: usize,
+    /// Number of seeds J.
     pub cols: usize,
+    /// Grand mean.
     pub mean: f64,
     /// sqrt(sa/I + sb/J + se/(IJ)).
     pub se: f64,
     /// Degrees of freedom of the quantile; infinite for the normal.
     pub df: f64,
+    /// Confidence level.
     pub level: f64,
+    /// The quantile multiplying the SE.
     pub critical: f64,
+    /// Lower interval bound.
     pub lower: f64,
+    /// Upper interval bound.
     pub upper: f64,
+    /// The two-way ANOVA table.
     pub mean_squares: MeanSquares,
+    /// The variance components.
     pub components: VarianceComponents,
     /// Shares of SE^2 from recordings, seeds and residual (sum to 1 when SE > 0).
     pub share_recording: f64,
+    /// Share of SE^2 from seeds.
     pub share_seed: f64,
+    /// Share of SE^2 from the residual.
     pub share_residual: f64,
 }
 
+/// The two-way ANOVA of an I x J array without replication.
 pub fn mean_squares(m: &CrossedMatrix) -> MeanSquares {
     let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
     let mu = m.mean();

@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use super::{critical_value, crossed_mom, pigeonhole_bootstrap, CrossedMatrix, DfRule, StatsError};
 
+/// Interval methods compared by the coverage study and `--compare-intervals`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum IntervalMethod {
@@ -27,6 +28,7 @@ pub enum IntervalMethod {
 }
 
 impl IntervalMethod {
+    /// A readable label naming the quantile used.
     pub fn label(self) -> &'static str {
         match self {
             IntervalMethod::MomT => "crossed MoM, t(J-1)",
@@ -40,14 +42,20 @@ impl IntervalMethod {
     }
 }
 
+/// One interval for the grand mean.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct IntervalEstimate {
+    /// How it was computed.
     pub method: IntervalMethod,
+    /// Point estimate.
     pub estimate: f64,
+    /// Standard error.
     pub se: f64,
     /// Infinite for the normal; NaN where no df applies (bootstrap).
     pub df: f64,
+    /// Lower bound.
     pub lower: f64,
+    /// Upper bound.
     pub upper: f64,
 }
 

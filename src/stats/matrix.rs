@@ -36,34 +36,42 @@ impl CrossedMatrix {
         Self::new(rows.len(), cols, rows.concat())
     }
 
+    /// Number of rows I.
     pub fn rows(&self) -> usize {
         self.rows
     }
 
+    /// Number of columns J.
     pub fn cols(&self) -> usize {
         self.cols
     }
 
+    /// The value at row `i`, column `j`.
     pub fn get(&self, i: usize, j: usize) -> f64 {
         self.data[i * self.cols + j]
     }
 
+    /// Row `i`.
     pub fn row(&self, i: usize) -> &[f64] {
         &self.data[i * self.cols..(i + 1) * self.cols]
     }
 
+    /// All values, row-major.
     pub fn values(&self) -> &[f64] {
         &self.data
     }
 
+    /// Grand mean.
     pub fn mean(&self) -> f64 {
         self.data.iter().sum::<f64>() / self.data.len() as f64
     }
 
+    /// Mean of each row.
     pub fn row_means(&self) -> Vec<f64> {
         (0..self.rows).map(|i| self.row(i).iter().sum::<f64>() / self.cols as f64).collect()
     }
 
+    /// Mean of each column.
     pub fn col_means(&self) -> Vec<f64> {
         let mut m = vec![0.0; self.cols];
         for i in 0..self.rows {

@@ -19,18 +19,46 @@ pub use rng::standard_normal;
 /// Errors from the statistics on user data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StatsError {
+    /// Fewer than two levels of a factor.
     #[error("a crossed design needs at least 2 {what}, found {found}")]
-    TooFew { what: &'static str, found: usize },
+    TooFew {
+        /// What there are too few of.
+        what: &'static str,
+        /// How many there are.
+        found: usize,
+    },
+    /// Values do not fill the declared shape.
     #[error("expected {expected} values for a {rows} x {cols} array, found {found}")]
-    Shape { rows: usize, cols: usize, expected: usize, found: usize },
+    Shape {
+        /// Declared rows.
+        rows: usize,
+        /// Declared columns.
+        cols: usize,
+        /// What was expected.
+        expected: usize,
+        /// How many there are.
+        found: usize,
+    },
+    /// A NaN or infinite value.
     #[error("value at row {row}, column {col} is not finite ({value})")]
-    NonFinite { row: usize, col: usize, value: f64 },
+    NonFinite {
+        /// Row index.
+        row: usize,
+        /// Column index.
+        col: usize,
+        /// The value as found.
+        value: f64,
+    },
+    /// A confidence level outside (0, 1).
     #[error("confidence level {0} is outside (0, 1)")]
     Level(f64),
+    /// A bootstrap with no replicates.
     #[error("the bootstrap needs at least 1 replicate")]
     NoReplicates,
+    /// Group labels that do not fit the rows.
     #[error("group labels: {0}")]
     Groups(String),
+    /// Any other invalid argument.
     #[error("{0}")]
     Invalid(String),
 }
