@@ -124,13 +124,8 @@ pub enum AuditError {
         list: String,
     },
     /// An audit file could not be written.
-    #[error("cannot write {path}: {message}")]
-    Write {
-        /// The path.
-        path: String,
-        /// The underlying error.
-        message: String,
-    },
+    #[error(transparent)]
+    Write(#[from] crate::io::WriteError),
 }
 
 fn rule_label(rule: &InclusionRule) -> String {
@@ -518,10 +513,9 @@ impl Audit {
 
     /// Writes recordings.csv (atomically) into `dir`.
     pub fn write(&self, dir: &Path) -> Result<PathBuf, AuditError> {
-        let err = |p: &Path, e: String| AuditError::Write { path: p.display().to_string(), message: e };
-        std::fs::create_dir_all(dir).map_err(|e| err(dir, e.to_string()))?;
+        crate::io::create_dir_all(dir)?;
         let path = dir.join("recordings.csv");
-        crate::io::write_atomic(&path, self.to_csv().as_bytes()).map_err(|e| err(&path, e.to_string()))?;
+        crate::io::write_atomic(&path, self.to_csv().as_bytes())?;
         Ok(path)
     }
 }

@@ -244,6 +244,41 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }
+    let header_end = check_header(file, bytes)?;
+    let body = bytes.get(header_end + 1..).unwrap_or(&[]);
+    let n = NANOBENCH_COLUMNS.len();
+    // Positions of each schema column in `keep` (a column may be kept
+    // twice, e.g. motor 1 as an action and as the active-rule column).
+    let mut slots: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (k, &c) in keep.iter().enumerate() {
+        slots[c].push(k);
+    }
+    let estimate = body.len() / 500 + 1;
+    let columns = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
+    let mut t = Tokenizer { file, body, slots, columns, previous_t: f64::NEG_INFINITY, line: 1, i: 0 };
+    let mut rows = 0;
+    while t.i < body.len() {
+        t.line += 1;
+        // Blank line (`\n` or `\r\n`).
+        if body[t.i] == b'\n' || (body[t.i] == b'\r' && body.get(t.i + 1) == Some(&b'\n')) {
+            t.i += if body[t.i] == b'\r' { 2 } else { 1 };
+            continue;
+        }
+        let fields = t.row()?;
+        if fields != n {
+            return Err(LogError::Ragged { file: file.to_string(), line: t.line, found: fields, expected: n });
+        }
+        rows += 1;
+    }
+    if rows == 0 {
+        return Err(LogError::NoRows { file: file.to_string() });
+    }
+    let content_hash = format!("{:032x}", xxhash_rust::xxh3::xxh3_128(body));
+    Ok(Log { rows, columns: t.columns, content_hash })
+}
+
+/// Checks the header against the NanoBench schema; returns where it ends.
+fn check_header(file: &str, bytes: &[u8]) -> Result<usize, LogError> {
     let header_end = bytes.iter().position(|&b| b == b'\n').unwrap_or(bytes.len());
     let header = std::str::from_utf8(&bytes[..header_end]).unwrap_or("").trim_end_matches('\r');
     let names: Vec<&str> = header.split(',').collect();
@@ -266,75 +301,51 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
             found: names[NANOBENCH_COLUMNS.len()].to_string(),
         });
     }
-    let body = bytes.get(header_end + 1..).unwrap_or(&[]);
-    let n = NANOBENCH_COLUMNS.len();
-    // Positions of each schema column in `keep` (a column may be kept
-    // twice, e.g. motor 1 as an action and as the active-rule column).
-    let mut slots: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for (k, &c) in keep.iter().enumerate() {
-        slots[c].push(k);
+    Ok(header_end)
+}
+
+fn is_delim(b: u8) -> bool {
+    b == b',' || b == b'\n' || b == b'\r'
+}
+
+/// A hand-rolled tokenizer over the data rows: each field is validated
+/// (and, if kept, converted) in the same pass that finds its end.
+struct Tokenizer<'a> {
+    file: &'a str,
+    body: &'a [u8],
+    /// For each schema column, its positions in `columns`.
+    slots: Vec<Vec<usize>>,
+    columns: Vec<Vec<f64>>,
+    previous_t: f64,
+    /// Line number of the current row (1 = header).
+    line: usize,
+    /// Byte offset into `body`.
+    i: usize,
+}
+
+impl Tokenizer<'_> {
+    /// The end of the field starting at `from`.
+    fn field_end(&self, from: usize) -> usize {
+        from + self.body[from..].iter().position(|&b| is_delim(b)).unwrap_or(self.body.len() - from)
     }
-    let estimate = body.len() / 500 + 1;
-    let mut columns: Vec<Vec<f64>> = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
-    let mut rows = 0;
-    let mut previous_t = f64::NEG_INFINITY;
-    let mut line_no = 1;
-    let mut i = 0;
-    let len = body.len();
-    let is_delim = |b: u8| b == b',' || b == b'\n' || b == b'\r';
-    // A hand-rolled tokenizer: each field is validated (and, if kept,
-    // converted) in the same pass that finds its end.
-    while i < len {
-        line_no += 1;
-        // Blank line (`\n` or `\r\n`).
-        if body[i] == b'\n' || (body[i] == b'\r' && body.get(i + 1) == Some(&b'\n')) {
-            i += if body[i] == b'\r' { 2 } else { 1 };
-            continue;
-        }
+
+    /// Reads one row; returns the number of fields it had.
+    fn row(&mut self) -> Result<usize, LogError> {
+        let n = NANOBENCH_COLUMNS.len();
+        let body = self.body;
         let mut col = 0;
+        // The cursor stays in a local until the row ends.
+        let mut i = self.i;
         loop {
             let start = i;
-            let field_end = |from: usize| from + body[from..].iter().position(|&b| is_delim(b)).unwrap_or(len - from);
-            if col < n && !slots[col].is_empty() {
-                let (v, used) = match fast_float2::parse_partial::<f64, _>(&body[i..]) {
-                    Ok((v, used)) if used > 0 && (i + used == len || is_delim(body[i + used])) => (v, used),
-                    _ => {
-                        let end = field_end(i);
-                        number(file, line_no, col, &body[start..end])?;
-                        // `number` accepted what parse_partial refused: unreachable
-                        // in practice; report it as non-numeric all the same.
-                        return Err(LogError::NonNumeric {
-                            file: file.to_string(),
-                            line: line_no,
-                            column: NANOBENCH_COLUMNS[col].into(),
-                            value: String::from_utf8_lossy(&body[start..end]).into_owned(),
-                        });
-                    }
-                };
-                if !v.is_finite() {
-                    number(file, line_no, col, &body[i..i + used])?;
-                }
-                i += used;
-                if col == 0 {
-                    if v < previous_t {
-                        return Err(LogError::NonMonotonicTime {
-                            file: file.to_string(),
-                            line: line_no,
-                            t: v,
-                            previous: previous_t,
-                        });
-                    }
-                    previous_t = v;
-                }
-                for &k in &slots[col] {
-                    columns[k].push(v);
-                }
+            if col < n && !self.slots[col].is_empty() {
+                i = self.kept(col, i)?;
             } else {
                 // Not kept: check it is a plain finite number without
                 // converting it; anything unusual goes to the full parser.
                 let (end, plain) = scan_plain(body, i);
                 if col < n && !plain {
-                    number(file, line_no, col, &body[start..end])?;
+                    number(self.file, self.line, col, &body[start..end])?;
                 }
                 i = end;
             }
@@ -342,36 +353,70 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
             match body.get(i) {
                 Some(b',') => i += 1,
                 Some(b'\r') if body.get(i + 1) == Some(&b'\n') => {
-                    i += 2;
-                    break;
+                    self.i = i + 2;
+                    return Ok(col);
                 }
                 Some(b'\n') => {
-                    i += 1;
-                    break;
+                    self.i = i + 1;
+                    return Ok(col);
                 }
-                None => break,
+                None => {
+                    self.i = i;
+                    return Ok(col);
+                }
                 Some(_) => {
                     // A lone `\r` inside a line.
-                    let end = field_end(i + 1);
+                    let end = self.field_end(i + 1);
                     return Err(LogError::NonNumeric {
-                        file: file.to_string(),
-                        line: line_no,
+                        file: self.file.to_string(),
+                        line: self.line,
                         column: NANOBENCH_COLUMNS[(col - 1).min(n - 1)].into(),
                         value: String::from_utf8_lossy(&body[start..end]).into_owned(),
                     });
                 }
             }
         }
-        if col != n {
-            return Err(LogError::Ragged { file: file.to_string(), line: line_no, found: col, expected: n });
+    }
+
+    /// Converts the kept field at byte `i` in column `col` and stores it;
+    /// returns where the field ends.
+    #[inline(always)]
+    fn kept(&mut self, col: usize, i: usize) -> Result<usize, LogError> {
+        let body = self.body;
+        let (v, used) = match fast_float2::parse_partial::<f64, _>(&body[i..]) {
+            Ok((v, used)) if used > 0 && (i + used == body.len() || is_delim(body[i + used])) => (v, used),
+            _ => {
+                let end = self.field_end(i);
+                number(self.file, self.line, col, &body[i..end])?;
+                // `number` accepted what parse_partial refused: unreachable
+                // in practice; report it as non-numeric all the same.
+                return Err(LogError::NonNumeric {
+                    file: self.file.to_string(),
+                    line: self.line,
+                    column: NANOBENCH_COLUMNS[col].into(),
+                    value: String::from_utf8_lossy(&body[i..end]).into_owned(),
+                });
+            }
+        };
+        if !v.is_finite() {
+            number(self.file, self.line, col, &body[i..i + used])?;
         }
-        rows += 1;
+        if col == 0 {
+            if v < self.previous_t {
+                return Err(LogError::NonMonotonicTime {
+                    file: self.file.to_string(),
+                    line: self.line,
+                    t: v,
+                    previous: self.previous_t,
+                });
+            }
+            self.previous_t = v;
+        }
+        for &k in &self.slots[col] {
+            self.columns[k].push(v);
+        }
+        Ok(i + used)
     }
-    if rows == 0 {
-        return Err(LogError::NoRows { file: file.to_string() });
-    }
-    let content_hash = format!("{:032x}", xxhash_rust::xxh3::xxh3_128(body));
-    Ok(Log { rows, columns, content_hash })
 }
 
 /// Finds the end of the field starting at `i` and, in the same pass,

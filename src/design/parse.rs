@@ -217,171 +217,161 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::study => Statement::Study(string(k.next())),
         Rule::data => {
             let source = ident(k.next());
-            let mut items = Vec::new();
-            for p in k.0 {
-                let span = span_of(&p);
-                items.push(Spanned::new(data_item(p)?, span));
-            }
-            Statement::Data(DataBlock { source, items })
+            Statement::Data(DataBlock { source, items: spanned_items(k, data_item)? })
         }
-        Rule::factor_recording => {
-            let mut items = Vec::new();
-            for p in k.0 {
-                let span = span_of(&p);
-                let rule = p.as_rule();
-                let mut c = kids(p);
-                let item = match rule {
-                    Rule::rec_evaluation => RecordingItem::Evaluation(int(c.next())?),
-                    Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
-                    Rule::rec_starts => RecordingItem::Starts(int(c.next())?),
-                    Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),
-                    _ => RecordingItem::Conditions(idents(c.next())),
-                };
-                items.push(Spanned::new(item, span));
-            }
-            Statement::FactorRecording(items)
-        }
-        Rule::factor_seed => {
-            let spec = k.next();
-            let rule = spec.as_rule();
-            let mut c = kids(spec);
-            if rule == Rule::seed_range {
-                let first = int(c.next())?;
-                let last = int(c.next())?;
-                Statement::FactorSeed(SeedSpec::Range { first, last })
-            } else {
-                Statement::FactorSeed(SeedSpec::List(c.0.map(int).collect::<Result<_, _>>()?))
-            }
-        }
+        Rule::factor_recording => Statement::FactorRecording(spanned_items(k, recording_item)?),
+        Rule::factor_seed => Statement::FactorSeed(seed_spec(k.next())?),
         Rule::validation => {
             Statement::Validation { windows: int(k.next())?, recordings: int(k.next())?, seed: int(k.next())? }
         }
-        Rule::arm => {
-            let name = ident(k.next());
-            let body = k.next();
-            let rule = body.as_rule();
-            let mut c = kids(body);
-            let body = if rule == Rule::arm_fit {
-                let windows = int(c.next())?;
-                let seed = c.0.next().map(int).transpose()?;
-                ArmBody::Fit { windows, seed }
-            } else {
-                let from = ident(c.next());
-                let percent = number(c.next())?;
-                let exclude_starts = c.peek_rule() == Some(Rule::exclude_starts);
-                if exclude_starts {
-                    c.next();
-                }
-                let seed = int(c.next())?;
-                ArmBody::Derived { from, percent, exclude_starts, seed }
-            };
-            Statement::Arm { name, body }
-        }
-        Rule::model => {
-            let name = ident(k.next());
-            let kind = k.next();
-            let kind = if kind.as_rule() == Rule::mlp {
-                let mut c = kids(kind);
-                let widths = c.next().into_inner().map(int).collect::<Result<_, _>>()?;
-                let inputs = c.next();
-                ModelKind::Mlp { widths, inputs: Spanned::new(inputs.as_str().to_string(), span_of(&inputs)) }
-            } else {
-                ModelKind::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind)))
-            };
-            Statement::Model { name, kind }
-        }
-        Rule::train => {
-            let mut items = Vec::new();
-            for p in k.0 {
-                let span = span_of(&p);
-                let rule = p.as_rule();
-                let text = p.as_str().to_string();
-                let mut c = kids(p);
-                let item = match rule {
-                    Rule::optimizer => TrainItem::Optimizer { kind: ident(c.next()), lr: number(c.next())? },
-                    Rule::batch => TrainItem::Batch(int(c.next())?),
-                    Rule::epochs => TrainItem::Epochs(int(c.next())?),
-                    Rule::patience => TrainItem::Patience(int(c.next())?),
-                    Rule::action_noise => TrainItem::ActionNoise(number(c.next())?),
-                    _ => TrainItem::Schedule(Spanned::new(text, span)),
-                };
-                items.push(Spanned::new(item, span));
-            }
-            Statement::Train(items)
-        }
-        Rule::endpoint => {
-            let role = ident(k.next());
-            let metric = ident(k.next());
-            let horizons = k
-                .next()
-                .into_inner()
-                .map(|s| number(s.into_inner().next().expect("seconds has a number")))
-                .collect::<Result<_, _>>()?;
-            let cap = if k.peek_rule() == Some(Rule::cap) {
-                Some(number(k.next().into_inner().next().expect("cap has a number"))?)
-            } else {
-                None
-            };
-            let models = idents(k.next().into_inner().next().expect("models has a list"));
-            Statement::Endpoint(EndpointStmt { role, metric, horizons, cap, models })
-        }
+        Rule::arm => Statement::Arm { name: ident(k.next()), body: arm_body(k.next())? },
+        Rule::model => Statement::Model { name: ident(k.next()), kind: model_kind(k.next())? },
+        Rule::train => Statement::Train(spanned_items(k, train_item)?),
+        Rule::endpoint => Statement::Endpoint(endpoint(k)?),
         Rule::contrast => Statement::Contrast { treated: ident(k.next()), reference: ident(k.next()) },
         Rule::interaction => Statement::Interaction { left: ident(k.next()), right: ident(k.next()) },
         Rule::estimate => {
             let kind = ident(k.next());
-            let mut items = Vec::new();
-            for p in k.0 {
-                let span = span_of(&p);
-                let item = if p.as_rule() == Rule::est_level {
-                    EstimateItem::Level(number(kids(p).next())?)
-                } else {
-                    let rule_pair = kids(p).next();
-                    if rule_pair.as_rule() == Rule::df_factor_minus {
-                        let mut c = kids(rule_pair);
-                        EstimateItem::DfFactorMinus { factor: ident(c.next()), minus: int(c.next())? }
-                    } else {
-                        EstimateItem::DfNamed(ident(rule_pair))
-                    }
-                };
-                items.push(Spanned::new(item, span));
-            }
-            Statement::Estimate { kind, items }
+            Statement::Estimate { kind, items: spanned_items(k, estimate_item)? }
         }
-        Rule::sensitivity => {
-            let mut items = Vec::new();
-            for p in k.0 {
-                let span = span_of(&p);
-                let rule = p.as_rule();
-                let mut c = kids(p);
-                let item = match rule {
-                    Rule::bootstrap => SensitivityItem::Bootstrap {
-                        kind: ident(c.next()),
-                        replicates: int(c.next())?,
-                        seed: int(c.next())?,
-                    },
-                    Rule::grouped => SensitivityItem::Grouped,
-                    _ => SensitivityItem::LeaveOneOut(idents(c.next())),
-                };
-                items.push(Spanned::new(item, span));
-            }
-            Statement::Sensitivity(items)
-        }
+        Rule::sensitivity => Statement::Sensitivity(spanned_items(k, sensitivity_item)?),
         Rule::decide => {
             let name = ident(k.next());
-            let mut conditions = Vec::new();
-            for p in k.0 {
-                let span = span_of(&p);
-                let mut c = kids(p);
-                let quantity = ident(c.next());
-                let op = cmp(c.next());
-                let value = number(c.next())?;
-                let percent = c.0.next().is_some();
-                conditions.push(Spanned::new(ConditionAst { quantity, cmp: op, value, percent }, span));
-            }
-            Statement::Decide { name, conditions }
+            Statement::Decide { name, conditions: spanned_items(k, condition)? }
         }
         other => unreachable!("statement rule {other:?} is not a statement"),
     })
+}
+
+/// The remaining children of a block, each converted by `item` and kept
+/// with its span.
+fn spanned_items<T>(
+    k: Kids<'_>,
+    item: impl Fn(Pair<Rule>) -> Result<T, Diagnostic>,
+) -> Result<Vec<Spanned<T>>, Diagnostic> {
+    k.0.map(|p| {
+        let span = span_of(&p);
+        item(p).map(|node| Spanned::new(node, span))
+    })
+    .collect()
+}
+
+fn recording_item(p: Pair<Rule>) -> Result<RecordingItem, Diagnostic> {
+    let rule = p.as_rule();
+    let mut c = kids(p);
+    Ok(match rule {
+        Rule::rec_evaluation => RecordingItem::Evaluation(int(c.next())?),
+        Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
+        Rule::rec_starts => RecordingItem::Starts(int(c.next())?),
+        Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),
+        _ => RecordingItem::Conditions(idents(c.next())),
+    })
+}
+
+fn seed_spec(spec: Pair<Rule>) -> Result<SeedSpec, Diagnostic> {
+    let rule = spec.as_rule();
+    let mut c = kids(spec);
+    if rule == Rule::seed_range {
+        let first = int(c.next())?;
+        let last = int(c.next())?;
+        Ok(SeedSpec::Range { first, last })
+    } else {
+        Ok(SeedSpec::List(c.0.map(int).collect::<Result<_, _>>()?))
+    }
+}
+
+fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
+    let rule = body.as_rule();
+    let mut c = kids(body);
+    if rule == Rule::arm_fit {
+        let windows = int(c.next())?;
+        let seed = c.0.next().map(int).transpose()?;
+        return Ok(ArmBody::Fit { windows, seed });
+    }
+    let from = ident(c.next());
+    let percent = number(c.next())?;
+    let exclude_starts = c.peek_rule() == Some(Rule::exclude_starts);
+    if exclude_starts {
+        c.next();
+    }
+    let seed = int(c.next())?;
+    Ok(ArmBody::Derived { from, percent, exclude_starts, seed })
+}
+
+fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
+    if kind.as_rule() != Rule::mlp {
+        return Ok(ModelKind::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind))));
+    }
+    let mut c = kids(kind);
+    let widths = c.next().into_inner().map(int).collect::<Result<_, _>>()?;
+    let inputs = c.next();
+    Ok(ModelKind::Mlp { widths, inputs: Spanned::new(inputs.as_str().to_string(), span_of(&inputs)) })
+}
+
+fn train_item(p: Pair<Rule>) -> Result<TrainItem, Diagnostic> {
+    let span = span_of(&p);
+    let rule = p.as_rule();
+    let text = p.as_str().to_string();
+    let mut c = kids(p);
+    Ok(match rule {
+        Rule::optimizer => TrainItem::Optimizer { kind: ident(c.next()), lr: number(c.next())? },
+        Rule::batch => TrainItem::Batch(int(c.next())?),
+        Rule::epochs => TrainItem::Epochs(int(c.next())?),
+        Rule::patience => TrainItem::Patience(int(c.next())?),
+        Rule::action_noise => TrainItem::ActionNoise(number(c.next())?),
+        _ => TrainItem::Schedule(Spanned::new(text, span)),
+    })
+}
+
+fn endpoint(mut k: Kids<'_>) -> Result<EndpointStmt, Diagnostic> {
+    let role = ident(k.next());
+    let metric = ident(k.next());
+    let horizons = k
+        .next()
+        .into_inner()
+        .map(|s| number(s.into_inner().next().expect("seconds has a number")))
+        .collect::<Result<_, _>>()?;
+    let cap = if k.peek_rule() == Some(Rule::cap) {
+        Some(number(k.next().into_inner().next().expect("cap has a number"))?)
+    } else {
+        None
+    };
+    let models = idents(k.next().into_inner().next().expect("models has a list"));
+    Ok(EndpointStmt { role, metric, horizons, cap, models })
+}
+
+fn estimate_item(p: Pair<Rule>) -> Result<EstimateItem, Diagnostic> {
+    if p.as_rule() == Rule::est_level {
+        return Ok(EstimateItem::Level(number(kids(p).next())?));
+    }
+    let rule_pair = kids(p).next();
+    if rule_pair.as_rule() == Rule::df_factor_minus {
+        let mut c = kids(rule_pair);
+        Ok(EstimateItem::DfFactorMinus { factor: ident(c.next()), minus: int(c.next())? })
+    } else {
+        Ok(EstimateItem::DfNamed(ident(rule_pair)))
+    }
+}
+
+fn sensitivity_item(p: Pair<Rule>) -> Result<SensitivityItem, Diagnostic> {
+    let rule = p.as_rule();
+    let mut c = kids(p);
+    Ok(match rule {
+        Rule::bootstrap => {
+            SensitivityItem::Bootstrap { kind: ident(c.next()), replicates: int(c.next())?, seed: int(c.next())? }
+        }
+        Rule::grouped => SensitivityItem::Grouped,
+        _ => SensitivityItem::LeaveOneOut(idents(c.next())),
+    })
+}
+
+fn condition(p: Pair<Rule>) -> Result<ConditionAst, Diagnostic> {
+    let mut c = kids(p);
+    let quantity = ident(c.next());
+    let op = cmp(c.next());
+    let value = number(c.next())?;
+    let percent = c.0.next().is_some();
+    Ok(ConditionAst { quantity, cmp: op, value, percent })
 }
 
 fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {

@@ -129,173 +129,204 @@ fn keep_note(names: &BTreeSet<String>) -> String {
 /// Runs invariants 1-8 on a split and its cells; 6, 8 and 9 are deferred
 /// to the stage that can check them.
 pub fn check_invariants(design: &Design, split: &Split, cells: &[JobManifests]) -> InvariantReport {
-    let mut out = Vec::new();
-    let e: BTreeSet<usize> = split.evaluation_side.iter().copied().collect();
-    let e_hashes: BTreeSet<&str> =
-        split.evaluation_side.iter().map(|&r| split.recordings[r].content_hash.as_str()).collect();
+    let c = Context::new(design, split, cells);
+    let out = vec![
+        c.same_evaluation(),
+        c.unique_starts(),
+        c.validation_disjoint(),
+        c.fit_sizes(),
+        c.reference_disjoint(),
+        deferred(6, "standardizers fitted on their own arm's fit set", "checked when models are fitted"),
+        c.all_seeds(),
+        deferred(
+            8,
+            "recording x seed matrices balanced with no missing cell",
+            "checked on per-cell data by analyze (missing or duplicate cells are errors)",
+        ),
+        deferred(9, "quaternion and divergence metric unit tests pass", "checked in the test suite"),
+    ];
+    InvariantReport { all_pass: out.iter().all(|i| i.status != InvariantStatus::Fail), invariants: out }
+}
 
-    // 1. Evaluation recordings and starts identical across arms, models, seeds.
-    let (ne, ns) =
-        (distinct(cells.iter().map(|c| &c.evaluation_sha256)), distinct(cells.iter().map(|c| &c.starts_sha256)));
-    out.push(inv(
-        1,
-        "evaluation recordings and starts identical across arms, models and seeds",
-        ne <= 1 && ns <= 1,
-        format!("{} cells reference {ne} evaluation manifest(s) and {ns} start manifest(s)", cells.len()),
-        json!({"cells": cells.len(), "evaluation_manifests": ne, "start_manifests": ns}),
-    ));
+fn deferred(id: u8, name: &'static str, detail: &str) -> Invariant {
+    Invariant { id, name, status: InvariantStatus::Deferred, detail: detail.into(), numbers: Value::Null }
+}
 
-    // 2. No duplicate registered start.
-    let unique: BTreeSet<_> = split.starts.iter().collect();
-    let dups = split.starts.len() - unique.len();
-    out.push(inv(
-        2,
-        "no duplicate registered start",
-        dups == 0,
-        format!("{} starts, {dups} duplicated", split.starts.len()),
-        json!({"starts": split.starts.len(), "duplicates": dups}),
-    ));
+/// What every invariant reads: the split, the cells, and the evaluation
+/// side by recording index and by content hash.
+struct Context<'a> {
+    design: &'a Design,
+    split: &'a Split,
+    cells: &'a [JobManifests],
+    e: BTreeSet<usize>,
+    e_hashes: BTreeSet<&'a str>,
+}
 
-    // 3. Validation has no evaluation recording (nor a duplicate of one) and
-    //    is identical across arms.
-    let v_own = split.validation.iter().filter(|w| e.contains(&w.recording)).count();
-    let mut v_dup_names = BTreeSet::new();
-    let v_dup = split
-        .validation
-        .iter()
-        .filter(|w| !e.contains(&w.recording) && e_hashes.contains(split.recordings[w.recording].content_hash.as_str()))
-        .inspect(|w| {
-            v_dup_names.insert(split.recordings[w.recording].name.clone());
-        })
-        .count();
-    let nv = distinct(cells.iter().map(|c| &c.validation_sha256));
-    let status = leak_status(v_own + usize::from(nv > 1), v_dup, design.data.duplicates);
-    let mut detail = format!(
-        "{v_own} validation windows from evaluation recordings, {v_dup} from duplicates of them; {nv} validation manifest(s) across cells"
-    );
-    if status == InvariantStatus::Warn {
-        detail.push_str(&keep_note(&v_dup_names));
+impl<'a> Context<'a> {
+    fn new(design: &'a Design, split: &'a Split, cells: &'a [JobManifests]) -> Self {
+        let e = split.evaluation_side.iter().copied().collect();
+        let e_hashes = split.evaluation_side.iter().map(|&r| split.recordings[r].content_hash.as_str()).collect();
+        Context { design, split, cells, e, e_hashes }
     }
-    out.push(Invariant {
-        id: 3,
-        name: "validation disjoint from evaluation (and its duplicates), identical across arms",
-        status,
-        detail,
-        numbers: json!({"validation_windows": split.validation.len(), "from_evaluation": v_own, "from_duplicates": v_dup, "duplicate_recordings": v_dup_names, "validation_manifests": nv}),
-    });
 
-    // 4. Fit sets of the declared size; derived arms hold exactly the
-    //    declared number of evaluation windows, none a registered start.
-    let starts: BTreeSet<_> = split.starts.iter().copied().collect();
-    let mut ok = true;
-    let mut numbers = serde_json::Map::new();
-    let mut details = Vec::new();
-    for arm in &design.arms {
-        let fit = split.fit(&arm.name).unwrap_or(&[]);
-        let in_e = fit.iter().filter(|w| e.contains(&w.recording)).count();
-        let (declared, declared_e, starts_ok) = match &arm.kind {
-            ArmKind::Fit { windows, .. } => (*windows, 0, true),
-            ArmKind::Derived { from, percent, .. } => {
-                let base = design.arms.iter().find(|a| a.name == *from);
-                let n = match base.map(|b| &b.kind) {
-                    Some(ArmKind::Fit { windows, .. }) => *windows,
-                    _ => 0,
-                };
-                let hits = fit.iter().filter(|w| starts.contains(w)).count();
-                (n, (percent / 100.0 * n as f64).round() as usize, hits == 0)
-            }
-        };
-        let arm_ok = fit.len() == declared && in_e == declared_e && starts_ok;
-        ok &= arm_ok;
-        details.push(format!(
-            "{}: {} windows (declared {declared}), {in_e} from evaluation (declared {declared_e})",
-            arm.name,
-            fit.len()
-        ));
-        numbers.insert(arm.name.clone(), json!({"windows": fit.len(), "declared": declared, "evaluation_windows": in_e, "declared_evaluation_windows": declared_e, "registered_starts_used": !starts_ok}));
+    /// Whether recording `r` is a byte-identical copy of an evaluation
+    /// recording without being one.
+    fn is_duplicate(&self, r: usize) -> bool {
+        !self.e.contains(&r) && self.e_hashes.contains(self.split.recordings[r].content_hash.as_str())
     }
-    out.push(inv(
-        4,
-        "fit sets of the declared size with the declared number of evaluation windows",
-        ok,
-        details.join("; "),
-        Value::Object(numbers),
-    ));
 
-    // 5. The reference (fit) arms hold no evaluation recording nor a duplicate of one.
-    let mut own = 0;
-    let mut dup = 0;
-    let mut dup_names = BTreeSet::new();
-    for (arm, fit) in &split.fits {
-        if !design.arms.iter().any(|a| a.name == *arm && matches!(a.kind, ArmKind::Fit { .. })) {
-            continue;
+    /// 1. Evaluation recordings and starts identical across arms, models, seeds.
+    fn same_evaluation(&self) -> Invariant {
+        let cells = self.cells;
+        let (ne, ns) =
+            (distinct(cells.iter().map(|c| &c.evaluation_sha256)), distinct(cells.iter().map(|c| &c.starts_sha256)));
+        inv(
+            1,
+            "evaluation recordings and starts identical across arms, models and seeds",
+            ne <= 1 && ns <= 1,
+            format!("{} cells reference {ne} evaluation manifest(s) and {ns} start manifest(s)", cells.len()),
+            json!({"cells": cells.len(), "evaluation_manifests": ne, "start_manifests": ns}),
+        )
+    }
+
+    /// 2. No duplicate registered start.
+    fn unique_starts(&self) -> Invariant {
+        let starts = &self.split.starts;
+        let unique: BTreeSet<_> = starts.iter().collect();
+        let dups = starts.len() - unique.len();
+        inv(
+            2,
+            "no duplicate registered start",
+            dups == 0,
+            format!("{} starts, {dups} duplicated", starts.len()),
+            json!({"starts": starts.len(), "duplicates": dups}),
+        )
+    }
+
+    /// 3. Validation has no evaluation recording (nor a duplicate of one)
+    ///    and is identical across arms.
+    fn validation_disjoint(&self) -> Invariant {
+        let split = self.split;
+        let v_own = split.validation.iter().filter(|w| self.e.contains(&w.recording)).count();
+        let v_dup_names: BTreeSet<String> = split
+            .validation
+            .iter()
+            .filter(|w| self.is_duplicate(w.recording))
+            .map(|w| split.recordings[w.recording].name.clone())
+            .collect();
+        let v_dup = split.validation.iter().filter(|w| self.is_duplicate(w.recording)).count();
+        let nv = distinct(self.cells.iter().map(|c| &c.validation_sha256));
+        let status = leak_status(v_own + usize::from(nv > 1), v_dup, self.design.data.duplicates);
+        let mut detail = format!(
+            "{v_own} validation windows from evaluation recordings, {v_dup} from duplicates of them; {nv} validation manifest(s) across cells"
+        );
+        if status == InvariantStatus::Warn {
+            detail.push_str(&keep_note(&v_dup_names));
         }
-        for w in fit {
-            let r = &split.recordings[w.recording];
-            if e.contains(&w.recording) {
-                own += 1;
-            } else if e_hashes.contains(r.content_hash.as_str()) {
-                dup += 1;
-                dup_names.insert(r.name.clone());
-            }
+        Invariant {
+            id: 3,
+            name: "validation disjoint from evaluation (and its duplicates), identical across arms",
+            status,
+            detail,
+            numbers: json!({"validation_windows": split.validation.len(), "from_evaluation": v_own, "from_duplicates": v_dup, "duplicate_recordings": v_dup_names, "validation_manifests": nv}),
         }
     }
-    let status = leak_status(own, dup, design.data.duplicates);
-    let mut detail = format!("{own} disjoint-fit windows from evaluation recordings, {dup} from duplicates of them");
-    if status == InvariantStatus::Warn {
-        detail.push_str(&keep_note(&dup_names));
+
+    /// 4. Fit sets of the declared size; derived arms hold exactly the
+    ///    declared number of evaluation windows, none a registered start.
+    fn fit_sizes(&self) -> Invariant {
+        let design = self.design;
+        let starts: BTreeSet<_> = self.split.starts.iter().copied().collect();
+        let mut ok = true;
+        let mut numbers = serde_json::Map::new();
+        let mut details = Vec::new();
+        for arm in &design.arms {
+            let fit = self.split.fit(&arm.name).unwrap_or(&[]);
+            let in_e = fit.iter().filter(|w| self.e.contains(&w.recording)).count();
+            let (declared, declared_e, starts_ok) = match &arm.kind {
+                ArmKind::Fit { windows, .. } => (*windows, 0, true),
+                ArmKind::Derived { from, percent, .. } => {
+                    let base = design.arms.iter().find(|a| a.name == *from);
+                    let n = match base.map(|b| &b.kind) {
+                        Some(ArmKind::Fit { windows, .. }) => *windows,
+                        _ => 0,
+                    };
+                    let hits = fit.iter().filter(|w| starts.contains(w)).count();
+                    (n, (percent / 100.0 * n as f64).round() as usize, hits == 0)
+                }
+            };
+            ok &= fit.len() == declared && in_e == declared_e && starts_ok;
+            details.push(format!(
+                "{}: {} windows (declared {declared}), {in_e} from evaluation (declared {declared_e})",
+                arm.name,
+                fit.len()
+            ));
+            numbers.insert(arm.name.clone(), json!({"windows": fit.len(), "declared": declared, "evaluation_windows": in_e, "declared_evaluation_windows": declared_e, "registered_starts_used": !starts_ok}));
+        }
+        inv(
+            4,
+            "fit sets of the declared size with the declared number of evaluation windows",
+            ok,
+            details.join("; "),
+            Value::Object(numbers),
+        )
     }
-    out.push(Invariant {
-        id: 5,
-        name: "disjoint fit holds no evaluation recording nor a duplicate of one",
-        status,
-        detail,
-        numbers: json!({"from_evaluation": own, "from_duplicates": dup, "duplicate_recordings": dup_names}),
-    });
 
-    out.push(Invariant {
-        id: 6,
-        name: "standardizers fitted on their own arm's fit set",
-        status: InvariantStatus::Deferred,
-        detail: "checked when models are fitted".into(),
-        numbers: Value::Null,
-    });
-
-    // 7. All seeds present for both models and arms.
-    let mut missing = Vec::new();
-    for m in &design.models {
-        for a in &design.arms {
-            for s in &design.seeds {
-                if !cells.iter().any(|c| c.model == m.name && c.arm == a.name && c.seed == *s) {
-                    missing.push(format!("{}/{}/{}", m.name, a.name, s.0));
+    /// 5. The reference (fit) arms hold no evaluation recording nor a
+    ///    duplicate of one.
+    fn reference_disjoint(&self) -> Invariant {
+        let (mut own, mut dup) = (0, 0);
+        let mut dup_names = BTreeSet::new();
+        let is_reference =
+            |arm: &str| self.design.arms.iter().any(|a| a.name == arm && matches!(a.kind, ArmKind::Fit { .. }));
+        for (_, fit) in self.split.fits.iter().filter(|(arm, _)| is_reference(arm)) {
+            for w in fit {
+                if self.e.contains(&w.recording) {
+                    own += 1;
+                } else if self.is_duplicate(w.recording) {
+                    dup += 1;
+                    dup_names.insert(self.split.recordings[w.recording].name.clone());
                 }
             }
         }
+        let status = leak_status(own, dup, self.design.data.duplicates);
+        let mut detail =
+            format!("{own} disjoint-fit windows from evaluation recordings, {dup} from duplicates of them");
+        if status == InvariantStatus::Warn {
+            detail.push_str(&keep_note(&dup_names));
+        }
+        Invariant {
+            id: 5,
+            name: "disjoint fit holds no evaluation recording nor a duplicate of one",
+            status,
+            detail,
+            numbers: json!({"from_evaluation": own, "from_duplicates": dup, "duplicate_recordings": dup_names}),
+        }
     }
-    out.push(inv(
-        7,
-        "all seeds present for every model and arm",
-        missing.is_empty(),
-        if missing.is_empty() {
-            format!("{} cells", cells.len())
-        } else {
-            format!("missing cells: {}", missing.join(", "))
-        },
-        json!({"cells": cells.len(), "missing": missing}),
-    ));
-    out.push(Invariant {
-        id: 8,
-        name: "recording x seed matrices balanced with no missing cell",
-        status: InvariantStatus::Deferred,
-        detail: "checked on per-cell data by analyze (missing or duplicate cells are errors)".into(),
-        numbers: Value::Null,
-    });
-    out.push(Invariant {
-        id: 9,
-        name: "quaternion and divergence metric unit tests pass",
-        status: InvariantStatus::Deferred,
-        detail: "checked in the test suite".into(),
-        numbers: Value::Null,
-    });
-    InvariantReport { all_pass: out.iter().all(|i| i.status != InvariantStatus::Fail), invariants: out }
+
+    /// 7. All seeds present for both models and arms.
+    fn all_seeds(&self) -> Invariant {
+        let (design, cells) = (self.design, self.cells);
+        let mut missing = Vec::new();
+        for m in &design.models {
+            for a in &design.arms {
+                for s in &design.seeds {
+                    if !cells.iter().any(|c| c.model == m.name && c.arm == a.name && c.seed == *s) {
+                        missing.push(format!("{}/{}/{}", m.name, a.name, s.0));
+                    }
+                }
+            }
+        }
+        inv(
+            7,
+            "all seeds present for every model and arm",
+            missing.is_empty(),
+            if missing.is_empty() {
+                format!("{} cells", cells.len())
+            } else {
+                format!("missing cells: {}", missing.join(", "))
+            },
+            json!({"cells": cells.len(), "missing": missing}),
+        )
+    }
 }

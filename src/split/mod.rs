@@ -20,7 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::data::{Audit, Recording};
-use crate::design::{ArmKind, Design, DuplicatePolicy, StartsPolicy};
+use crate::design::{ArmKind, Design, DuplicatePolicy, RecordingFactor, StartsPolicy};
 
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
@@ -186,19 +186,7 @@ fn draw(pool: &[Window], k: usize, rng: &mut ChaCha8Rng) -> Vec<Window> {
 
 /// Builds the split. `recordings` are the audit's included recordings.
 pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
-    let info: Vec<RecordingInfo> = recordings
-        .iter()
-        .map(|r| {
-            let row = audit.files.iter().find(|f| f.name == r.name);
-            RecordingInfo {
-                name: r.name.clone(),
-                trajectory: row.map(|f| f.trajectory.clone()).unwrap_or_default(),
-                speed: row.map(|f| f.speed.clone()).unwrap_or_default(),
-                duplicate_group: row.and_then(|f| f.duplicate_group.clone()),
-                content_hash: r.content_hash.clone(),
-            }
-        })
-        .collect();
+    let info = recording_info(audit, recordings);
     let units = units(&info, design.data.duplicates);
     let rf = &design.recording;
     let val = &design.validation;
@@ -215,34 +203,17 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     let mut order: Vec<usize> = (0..units.len()).collect();
     order.shuffle(&mut rng(rf.split_seed, 0));
     let (e_units, rest) = order.split_at(rf.evaluation);
-    let mut evaluation: Vec<usize> = e_units.iter().map(|&u| units[u].members[0]).collect();
-    evaluation.sort();
-    let mut evaluation_side: Vec<usize> = e_units.iter().flat_map(|&u| units[u].members.clone()).collect();
-    evaluation_side.sort();
-
-    let mut starts = Vec::new();
-    for (k, &r) in evaluation.iter().enumerate() {
-        let valid = valid_starts(&recordings[r], rf.horizon);
-        if valid.len() < rf.starts {
-            return Err(SplitError::TooFewStarts {
-                recording: info[r].name.clone(),
-                valid: valid.len(),
-                needed: rf.starts,
-                horizon: rf.horizon,
-            });
-        }
-        let pool: Vec<Window> = valid.into_iter().map(|t| Window { recording: r, t }).collect();
-        starts.extend(draw(&pool, rf.starts, &mut rng(rf.split_seed, 1 + k as u64)));
-    }
+    let evaluation = sorted(e_units.iter().map(|&u| units[u].members[0]));
+    let evaluation_side = sorted(e_units.iter().flat_map(|&u| units[u].members.clone()));
+    let starts = draw_starts(rf, &info, recordings, &evaluation)?;
 
     // V: from the remaining units, with the validation seed.
     let mut rest: Vec<usize> = rest.to_vec();
     rest.sort();
     rest.shuffle(&mut rng(val.seed, 0));
     let (v_units, fit_units) = rest.split_at(val.recordings);
-    let mut validation_recordings: Vec<usize> = v_units.iter().map(|&u| units[u].members[0]).collect();
-    validation_recordings.sort();
-    let v_pool: Vec<Window> = validation_recordings.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect();
+    let validation_recordings = sorted(v_units.iter().map(|&u| units[u].members[0]));
+    let v_pool = pool_of(&validation_recordings, recordings);
     if v_pool.len() < val.windows {
         return Err(SplitError::TooFewWindows {
             what: format!("validation ({} recordings)", val.recordings),
@@ -254,55 +225,21 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
 
     // R \ E \ V: every member of the remaining units (with `duplicates keep`
     // each identical file is its own unit, as in the paper).
-    let mut fit_recordings: Vec<usize> = fit_units.iter().flat_map(|&u| units[u].members.clone()).collect();
-    fit_recordings.sort();
-    let fit_pool: Vec<Window> = fit_recordings.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect();
-    let start_set: BTreeSet<Window> = starts.iter().copied().collect();
-    let e_pool: Vec<Window> = evaluation.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect();
-
-    let mut fits: Vec<(String, Vec<Window>)> = Vec::new();
+    let fit_recordings = sorted(fit_units.iter().flat_map(|&u| units[u].members.clone()));
+    let mut fits = draw_fit_arms(design, &fit_recordings, recordings)?;
+    let e_pool = pool_of(&evaluation, recordings);
     let mut contaminating = Vec::new();
-    for arm in design.arms.iter().filter(|a| matches!(a.kind, ArmKind::Fit { .. })) {
-        let ArmKind::Fit { windows, seed } = arm.kind else { continue };
-        if fit_pool.len() < windows {
-            return Err(SplitError::TooFewWindows {
-                what: format!("arm {} (from {} fit recordings)", arm.name, fit_recordings.len()),
-                needed: windows,
-                available: fit_pool.len(),
-            });
-        }
-        fits.push((arm.name.clone(), draw(&fit_pool, windows, &mut rng(seed, 0))));
-    }
     for arm in &design.arms {
         let ArmKind::Derived { from, percent, starts: policy, seed } = &arm.kind else { continue };
         let Some(base) = fits.iter().find(|(n, _)| n == from).map(|(_, w)| w.clone()) else { continue };
-        let replaced = (percent / 100.0 * base.len() as f64).round() as usize;
-        if replaced == 0 {
-            return Err(SplitError::NothingToReplace {
-                arm: arm.name.clone(),
-                percent: *percent,
-                windows: base.len(),
-                replaced,
-            });
-        }
         let pool: Vec<Window> = match policy {
-            StartsPolicy::Exclude => e_pool.iter().copied().filter(|w| !start_set.contains(w)).collect(),
+            StartsPolicy::Exclude => {
+                let start_set: BTreeSet<Window> = starts.iter().copied().collect();
+                e_pool.iter().copied().filter(|w| !start_set.contains(w)).collect()
+            }
             StartsPolicy::Allow => e_pool.clone(),
         };
-        if pool.len() < replaced {
-            return Err(SplitError::TooFewWindows {
-                what: format!("arm {} (evaluation windows that are not registered starts)", arm.name),
-                needed: replaced,
-                available: pool.len(),
-            });
-        }
-        let positions = rand::seq::index::sample(&mut rng(*seed, 0), base.len(), replaced).into_vec();
-        let incoming = draw(&pool, replaced, &mut rng(*seed, 1));
-        let mut fit = base.clone();
-        for (&p, w) in positions.iter().zip(&incoming) {
-            fit[p] = *w;
-        }
-        fit.sort();
+        let (fit, incoming) = contaminate(&arm.name, &base, *percent, &pool, *seed)?;
         fits.push((arm.name.clone(), fit));
         contaminating.push((arm.name.clone(), incoming));
     }
@@ -319,6 +256,112 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         horizon: rf.horizon,
         rate_hz: design.data.rate_hz,
     })
+}
+
+fn sorted(v: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut v: Vec<usize> = v.collect();
+    v.sort();
+    v
+}
+
+/// Every one-step window of the recordings `rs`, in order.
+fn pool_of(rs: &[usize], recordings: &[Recording]) -> Vec<Window> {
+    rs.iter().flat_map(|&r| windows_of(&recordings[r], r)).collect()
+}
+
+/// What the split keeps of each included recording, with the audit's labels.
+fn recording_info(audit: &Audit, recordings: &[Recording]) -> Vec<RecordingInfo> {
+    recordings
+        .iter()
+        .map(|r| {
+            let row = audit.files.iter().find(|f| f.name == r.name);
+            RecordingInfo {
+                name: r.name.clone(),
+                trajectory: row.map(|f| f.trajectory.clone()).unwrap_or_default(),
+                speed: row.map(|f| f.speed.clone()).unwrap_or_default(),
+                duplicate_group: row.and_then(|f| f.duplicate_group.clone()),
+                content_hash: r.content_hash.clone(),
+            }
+        })
+        .collect()
+}
+
+/// The registered rollout starts: `starts` valid starts per evaluation
+/// recording, each recording on its own stream of the split seed.
+fn draw_starts(
+    rf: &RecordingFactor,
+    info: &[RecordingInfo],
+    recordings: &[Recording],
+    evaluation: &[usize],
+) -> Result<Vec<Window>, SplitError> {
+    let mut starts = Vec::new();
+    for (k, &r) in evaluation.iter().enumerate() {
+        let valid = valid_starts(&recordings[r], rf.horizon);
+        if valid.len() < rf.starts {
+            return Err(SplitError::TooFewStarts {
+                recording: info[r].name.clone(),
+                valid: valid.len(),
+                needed: rf.starts,
+                horizon: rf.horizon,
+            });
+        }
+        let pool: Vec<Window> = valid.into_iter().map(|t| Window { recording: r, t }).collect();
+        starts.extend(draw(&pool, rf.starts, &mut rng(rf.split_seed, 1 + k as u64)));
+    }
+    Ok(starts)
+}
+
+/// The fit sets of the `fit` arms, drawn from the fitting recordings.
+fn draw_fit_arms(
+    design: &Design,
+    fit_recordings: &[usize],
+    recordings: &[Recording],
+) -> Result<Vec<(String, Vec<Window>)>, SplitError> {
+    let fit_pool = pool_of(fit_recordings, recordings);
+    let mut fits = Vec::new();
+    for arm in &design.arms {
+        let ArmKind::Fit { windows, seed } = arm.kind else { continue };
+        if fit_pool.len() < windows {
+            return Err(SplitError::TooFewWindows {
+                what: format!("arm {} (from {} fit recordings)", arm.name, fit_recordings.len()),
+                needed: windows,
+                available: fit_pool.len(),
+            });
+        }
+        fits.push((arm.name.clone(), draw(&fit_pool, windows, &mut rng(seed, 0))));
+    }
+    Ok(fits)
+}
+
+/// A derived arm: `percent`% of `base`'s positions (stream 0 of `seed`)
+/// replaced by windows drawn from `pool` (stream 1). Returns the sorted fit
+/// set and the incoming evaluation windows.
+fn contaminate(
+    arm: &str,
+    base: &[Window],
+    percent: f64,
+    pool: &[Window],
+    seed: u64,
+) -> Result<(Vec<Window>, Vec<Window>), SplitError> {
+    let replaced = (percent / 100.0 * base.len() as f64).round() as usize;
+    if replaced == 0 {
+        return Err(SplitError::NothingToReplace { arm: arm.to_string(), percent, windows: base.len(), replaced });
+    }
+    if pool.len() < replaced {
+        return Err(SplitError::TooFewWindows {
+            what: format!("arm {arm} (evaluation windows that are not registered starts)"),
+            needed: replaced,
+            available: pool.len(),
+        });
+    }
+    let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), replaced).into_vec();
+    let incoming = draw(pool, replaced, &mut rng(seed, 1));
+    let mut fit = base.to_vec();
+    for (&p, w) in positions.iter().zip(&incoming) {
+        fit[p] = *w;
+    }
+    fit.sort();
+    Ok((fit, incoming))
 }
 
 /// Deployment units. With `duplicates group`, identical recordings form one

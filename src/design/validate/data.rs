@@ -9,20 +9,8 @@ use crate::design::*;
 
 impl Validator {
     pub(super) fn data(&mut self, block: &DataBlock) -> Option<DataSpec> {
-        let source = match block.source.node.as_str() {
-            "nanobench" => Some(DataSource::Nanobench),
-            "simulated" => Some(DataSource::Simulated),
-            other => {
-                self.err_help(
-                    "unknown data source",
-                    block.source.span,
-                    format!("`{other}` is not a data source"),
-                    "known sources: nanobench, simulated",
-                );
-                None
-            }
-        };
-        let (mut sim_n, mut sim_seed, mut sim_strength, mut sim_duration) = (None, None, None, None);
+        let source = self.data_source(&block.source);
+        let mut sim = SimParts::default();
         let mut seen = BTreeMap::new();
         let mut spec = DataSpec {
             source: DataSource::Nanobench,
@@ -36,75 +24,12 @@ impl Validator {
             simulated: None,
         };
         for item in &block.items {
-            match &item.node {
-                DataItem::Path(p) => {
-                    self.once(&mut seen, "path", item.span);
-                    if p.node.is_empty() {
-                        self.err("empty path", p.span, "the data path is empty");
-                    }
-                    spec.path = Some(p.node.clone());
-                }
-                DataItem::Rate(r) => {
-                    self.once(&mut seen, "rate", item.span);
-                    spec.rate_hz = self.positive(r, "the sample rate");
-                }
-                DataItem::IncludeActive { column, cmp, threshold, min_samples } => {
-                    self.once(&mut seen, "include", item.span);
-                    spec.rules.push(InclusionRule::Active {
-                        column: column.node.clone(),
-                        cmp: cmp.node,
-                        threshold: threshold.node,
-                        min_samples: self.count(min_samples, "the active-sample minimum", 1) as u64,
-                    });
-                }
-                DataItem::ExcludeImplausible => {
-                    self.once(&mut seen, "exclude", item.span);
-                    spec.rules.push(InclusionRule::Implausible);
-                }
-                DataItem::Duplicates(p) => {
-                    self.once(&mut seen, "duplicates", item.span);
-                    spec.duplicates = match p.node.as_str() {
-                        "group" => DuplicatePolicy::Group,
-                        "first" => DuplicatePolicy::First,
-                        _ => DuplicatePolicy::Keep,
-                    };
-                }
-                DataItem::Strict => {
-                    self.once(&mut seen, "strict", item.span);
-                    spec.strictness = Strictness::Strict;
-                }
-                DataItem::State(cols) => {
-                    self.once(&mut seen, "state", item.span);
-                    spec.state_columns = self.columns(cols, 14, "state", item.span);
-                }
-                DataItem::Action(cols) => {
-                    self.once(&mut seen, "action", item.span);
-                    spec.action_columns = self.columns(cols, 4, "action", item.span);
-                }
-                DataItem::SimRecordings(n) => {
-                    self.once(&mut seen, "recordings", item.span);
-                    sim_n = Some(self.count(n, "the number of simulated recordings", 2));
-                }
-                DataItem::SimSeed(n) => {
-                    self.once(&mut seen, "seed", item.span);
-                    sim_seed = Some(self.nonneg(n, "the simulation seed"));
-                }
-                DataItem::SimStrength(x) => {
-                    self.once(&mut seen, "strength", item.span);
-                    if x.node < 0.0 {
-                        self.err("negative value", x.span, format!("strength must be >= 0, found {}", x.node));
-                    }
-                    sim_strength = Some(x.node);
-                }
-                DataItem::SimDuration(x) => {
-                    self.once(&mut seen, "duration", item.span);
-                    sim_duration = Some(self.positive(x, "the simulated duration"));
-                }
-            }
+            self.data_item(item, &mut seen, &mut spec, &mut sim);
         }
-        let sim_given = sim_n.is_some() || sim_seed.is_some() || sim_strength.is_some() || sim_duration.is_some();
+        let sim_given =
+            sim.recordings.is_some() || sim.seed.is_some() || sim.strength.is_some() || sim.duration.is_some();
         match source {
-            Some(DataSource::Simulated) => match (sim_n, sim_seed, sim_strength, sim_duration) {
+            Some(DataSource::Simulated) => match (sim.recordings, sim.seed, sim.strength, sim.duration) {
                 (Some(recordings), Some(seed), Some(strength), Some(duration_s)) => {
                     spec.simulated = Some(SimSpec { recordings, seed, strength, duration_s });
                 }
@@ -126,6 +51,98 @@ impl Validator {
         source.map(|source| DataSpec { source, ..spec })
     }
 
+    fn data_source(&mut self, source: &Ident) -> Option<DataSource> {
+        match source.node.as_str() {
+            "nanobench" => Some(DataSource::Nanobench),
+            "simulated" => Some(DataSource::Simulated),
+            other => {
+                self.err_help(
+                    "unknown data source",
+                    source.span,
+                    format!("`{other}` is not a data source"),
+                    "known sources: nanobench, simulated",
+                );
+                None
+            }
+        }
+    }
+
+    /// One item of the data block, recorded in `spec` (or `sim` for the
+    /// simulator's settings).
+    fn data_item(
+        &mut self,
+        item: &Spanned<DataItem>,
+        seen: &mut BTreeMap<&'static str, Span>,
+        spec: &mut DataSpec,
+        sim: &mut SimParts,
+    ) {
+        match &item.node {
+            DataItem::Path(p) => {
+                self.once(seen, "path", item.span);
+                if p.node.is_empty() {
+                    self.err("empty path", p.span, "the data path is empty");
+                }
+                spec.path = Some(p.node.clone());
+            }
+            DataItem::Rate(r) => {
+                self.once(seen, "rate", item.span);
+                spec.rate_hz = self.positive(r, "the sample rate");
+            }
+            DataItem::IncludeActive { column, cmp, threshold, min_samples } => {
+                self.once(seen, "include", item.span);
+                spec.rules.push(InclusionRule::Active {
+                    column: column.node.clone(),
+                    cmp: cmp.node,
+                    threshold: threshold.node,
+                    min_samples: self.count(min_samples, "the active-sample minimum", 1) as u64,
+                });
+            }
+            DataItem::ExcludeImplausible => {
+                self.once(seen, "exclude", item.span);
+                spec.rules.push(InclusionRule::Implausible);
+            }
+            DataItem::Duplicates(p) => {
+                self.once(seen, "duplicates", item.span);
+                spec.duplicates = match p.node.as_str() {
+                    "group" => DuplicatePolicy::Group,
+                    "first" => DuplicatePolicy::First,
+                    _ => DuplicatePolicy::Keep,
+                };
+            }
+            DataItem::Strict => {
+                self.once(seen, "strict", item.span);
+                spec.strictness = Strictness::Strict;
+            }
+            DataItem::State(cols) => {
+                self.once(seen, "state", item.span);
+                spec.state_columns = self.columns(cols, 14, "state", item.span);
+            }
+            DataItem::Action(cols) => {
+                self.once(seen, "action", item.span);
+                spec.action_columns = self.columns(cols, 4, "action", item.span);
+            }
+            DataItem::SimRecordings(n) => {
+                self.once(seen, "recordings", item.span);
+                sim.recordings = Some(self.count(n, "the number of simulated recordings", 2));
+            }
+            DataItem::SimSeed(n) => {
+                self.once(seen, "seed", item.span);
+                sim.seed = Some(self.nonneg(n, "the simulation seed"));
+            }
+            DataItem::SimStrength(x) => {
+                self.once(seen, "strength", item.span);
+                if x.node < 0.0 {
+                    self.err("negative value", x.span, format!("strength must be >= 0, found {}", x.node));
+                }
+                sim.strength = Some(x.node);
+            }
+            DataItem::SimDuration(x) => {
+                self.once(seen, "duration", item.span);
+                sim.duration = Some(self.positive(x, "the simulated duration"));
+            }
+        }
+    }
+
     pub(super) fn columns(&mut self, cols: &[Ident], want: usize, what: &str, span: Span) -> Vec<String> {
         if cols.len() != want {
             self.err("wrong number of columns", span, format!("the {what} has {want} columns, {} given", cols.len()));
@@ -133,4 +150,13 @@ impl Validator {
         self.no_duplicate_names(cols, "column");
         cols.iter().map(|c| c.node.clone()).collect()
     }
+}
+
+/// The simulator's settings as declared so far.
+#[derive(Default)]
+struct SimParts {
+    recordings: Option<usize>,
+    seed: Option<u64>,
+    strength: Option<f64>,
+    duration: Option<f64>,
 }

@@ -42,92 +42,11 @@ impl Validator {
                     known("metrics", Metric::ALL.iter().map(|m| m.name())),
                 );
             }
-            let mut horizons = Vec::new();
-            for (i, h) in e.horizons.iter().enumerate() {
-                if h.node <= 0.0 {
-                    self.err("non-positive horizon", h.span, format!("the horizon must be > 0 s, found {} s", h.node));
-                    continue;
-                }
-                if e.horizons[..i].iter().any(|g| g.node == h.node) {
-                    self.err("duplicate horizon", h.span, format!("{} s is listed twice", h.node));
-                    continue;
-                }
-                let samples = h.node * rate;
-                if (samples - samples.round()).abs() > SAMPLE_EPS {
-                    self.err(
-                        "horizon between samples",
-                        h.span,
-                        format!("{} s at {} Hz is {} samples, not a whole number", h.node, rate, samples),
-                    );
-                }
-                if let Some(max) = horizon_samples {
-                    if samples.round() > max as f64 {
-                        self.err_help(
-                            "horizon beyond the rollout",
-                            h.span,
-                            format!("{} s is {} samples, but rollouts last {} samples", h.node, samples.round(), max),
-                            "raise `horizon` in `factor recording` or shorten the endpoint",
-                        );
-                    }
-                }
-                horizons.push(Seconds(h.node));
-            }
-            if let Some(c) = &e.cap {
-                if c.node <= 0.0 {
-                    self.err(
-                        "non-positive cap",
-                        c.span,
-                        format!("the divergence cap must be > 0 m, found {} m", c.node),
-                    );
-                } else if let Some(p) = primary_cap {
-                    if role == Role::Secondary && c.node != p {
-                        self.err_help(
-                            "conflicting caps",
-                            c.span,
-                            format!("cap {} m differs from the primary endpoint's {} m", c.node, p),
-                            "rollouts diverge at one cap; give every endpoint the same cap or leave it out",
-                        );
-                    }
-                }
-            }
-            let mut names = Vec::new();
-            self.no_duplicate_names(&e.models, "model");
-            for m in &e.models {
-                if !models.iter().any(|(x, _)| x.name == m.node) {
-                    self.err_help(
-                        "unknown model",
-                        m.span,
-                        format!("no model named `{}`", m.node),
-                        known("models", models.iter().map(|x| x.0.name.as_str())),
-                    );
-                }
-                names.push(m.node.clone());
-            }
+            let horizons = self.horizons(&e.horizons, rate, horizon_samples);
+            self.cap(e.cap.as_ref(), role, primary_cap);
+            let names = self.endpoint_models(&e.models, models);
             if role == Role::Primary {
-                primaries.push(s.span);
-                if primaries.len() == 2 {
-                    self.err_help(
-                        "two primary endpoints",
-                        s.span,
-                        "a second primary endpoint",
-                        "a preregistration has exactly one primary endpoint; make this one `secondary`",
-                    );
-                }
-                if e.cap.is_none() {
-                    self.err(
-                        "primary endpoint without a cap",
-                        e.metric.span,
-                        "the primary endpoint must state `cap <metres> m`",
-                    );
-                }
-                if e.horizons.len() != 1 || e.models.len() != 1 {
-                    self.err_help(
-                        "ambiguous primary endpoint",
-                        s.span,
-                        format!("{} horizons x {} models", e.horizons.len(), e.models.len()),
-                        "the primary endpoint names exactly one horizon and one model",
-                    );
-                }
+                self.primary(e, s.span, &mut primaries);
             }
             if let Some(metric) = metric {
                 for h in &horizons {
@@ -157,6 +76,105 @@ impl Validator {
             );
         }
         out
+    }
+
+    /// The horizons of one endpoint, each checked against the rate and the rollout.
+    fn horizons(&mut self, horizons: &[Number], rate: f64, horizon_samples: Option<usize>) -> Vec<Seconds> {
+        let mut out = Vec::new();
+        for (i, h) in horizons.iter().enumerate() {
+            if h.node <= 0.0 {
+                self.err("non-positive horizon", h.span, format!("the horizon must be > 0 s, found {} s", h.node));
+                continue;
+            }
+            if horizons[..i].iter().any(|g| g.node == h.node) {
+                self.err("duplicate horizon", h.span, format!("{} s is listed twice", h.node));
+                continue;
+            }
+            let samples = h.node * rate;
+            if (samples - samples.round()).abs() > SAMPLE_EPS {
+                self.err(
+                    "horizon between samples",
+                    h.span,
+                    format!("{} s at {} Hz is {} samples, not a whole number", h.node, rate, samples),
+                );
+            }
+            if let Some(max) = horizon_samples {
+                if samples.round() > max as f64 {
+                    self.err_help(
+                        "horizon beyond the rollout",
+                        h.span,
+                        format!("{} s is {} samples, but rollouts last {} samples", h.node, samples.round(), max),
+                        "raise `horizon` in `factor recording` or shorten the endpoint",
+                    );
+                }
+            }
+            out.push(Seconds(h.node));
+        }
+        out
+    }
+
+    /// A cap must be positive and, on a secondary endpoint, equal the primary's.
+    fn cap(&mut self, cap: Option<&Number>, role: Role, primary_cap: Option<f64>) {
+        if let Some(c) = cap {
+            if c.node <= 0.0 {
+                self.err("non-positive cap", c.span, format!("the divergence cap must be > 0 m, found {} m", c.node));
+            } else if let Some(p) = primary_cap {
+                if role == Role::Secondary && c.node != p {
+                    self.err_help(
+                        "conflicting caps",
+                        c.span,
+                        format!("cap {} m differs from the primary endpoint's {} m", c.node, p),
+                        "rollouts diverge at one cap; give every endpoint the same cap or leave it out",
+                    );
+                }
+            }
+        }
+    }
+
+    /// The models an endpoint names, each declared and listed once.
+    fn endpoint_models(&mut self, listed: &[Ident], models: &[(Model, Span)]) -> Vec<String> {
+        let mut names = Vec::new();
+        self.no_duplicate_names(listed, "model");
+        for m in listed {
+            if !models.iter().any(|(x, _)| x.name == m.node) {
+                self.err_help(
+                    "unknown model",
+                    m.span,
+                    format!("no model named `{}`", m.node),
+                    known("models", models.iter().map(|x| x.0.name.as_str())),
+                );
+            }
+            names.push(m.node.clone());
+        }
+        names
+    }
+
+    /// The primary endpoint is unique, capped, and names one horizon and one model.
+    fn primary(&mut self, e: &EndpointStmt, span: Span, primaries: &mut Vec<Span>) {
+        primaries.push(span);
+        if primaries.len() == 2 {
+            self.err_help(
+                "two primary endpoints",
+                span,
+                "a second primary endpoint",
+                "a preregistration has exactly one primary endpoint; make this one `secondary`",
+            );
+        }
+        if e.cap.is_none() {
+            self.err(
+                "primary endpoint without a cap",
+                e.metric.span,
+                "the primary endpoint must state `cap <metres> m`",
+            );
+        }
+        if e.horizons.len() != 1 || e.models.len() != 1 {
+            self.err_help(
+                "ambiguous primary endpoint",
+                span,
+                format!("{} horizons x {} models", e.horizons.len(), e.models.len()),
+                "the primary endpoint names exactly one horizon and one model",
+            );
+        }
     }
 
     pub(super) fn contrast(&mut self, treated: &Ident, reference: &Ident, arms: &[(Arm, Span)]) -> Option<Contrast> {

@@ -89,57 +89,9 @@ impl Validator {
 
     fn design(&mut self, ast: &Ast) -> Option<Design> {
         let end = ast.statements.last().map(|s| Span { start: s.span.end, end: s.span.end }).unwrap_or_default();
-        let mut singles: BTreeMap<&'static str, &Spanned<Statement>> = BTreeMap::new();
-        let mut arms = Vec::new();
-        let mut models = Vec::new();
-        let mut endpoints = Vec::new();
-        for s in &ast.statements {
-            match &s.node {
-                Statement::Arm { .. } => arms.push(s),
-                Statement::Model { .. } => models.push(s),
-                Statement::Endpoint(_) => endpoints.push(s),
-                other => {
-                    let key = other.keyword();
-                    if singles.contains_key(key) {
-                        self.err_help(
-                            "declared twice",
-                            s.span,
-                            format!("a second `{key}` statement"),
-                            format!("a design has one `{key}` statement"),
-                        );
-                    } else {
-                        singles.insert(key, s);
-                    }
-                }
-            }
-        }
-        for key in ["study", "data", "factor recording", "factor seed", "validation", "contrast", "decide"] {
-            if !singles.contains_key(key) {
-                self.err_help(
-                    "missing statement",
-                    end,
-                    format!("the design ends here without a `{key}` statement"),
-                    format!("every design declares `{key}`"),
-                );
-            }
-        }
-        if arms.is_empty() {
-            self.err("missing statement", end, "the design ends here without any `arm`");
-        }
-        if models.is_empty() {
-            self.err("missing statement", end, "the design ends here without any `model`");
-        }
-        if endpoints.is_empty() {
-            self.err("missing statement", end, "the design ends here without any `endpoint`");
-        }
-
+        let Statements { singles, arms, models, endpoints } = self.statements(ast, end);
         let study = singles.get("study").and_then(|s| match &s.node {
-            Statement::Study(name) => {
-                if name.node.trim().is_empty() {
-                    self.err("empty study name", name.span, "the study needs a name");
-                }
-                Some(name.node.clone())
-            }
+            Statement::Study(name) => self.study(name),
             _ => None,
         });
         let data = singles.get("data").and_then(|s| match &s.node {
@@ -164,23 +116,7 @@ impl Validator {
         });
         let arms = self.arms(&arms);
         let models = self.models(&models);
-        let training = match singles.get("train") {
-            Some(s) => match &s.node {
-                Statement::Train(items) => self.training(items, s.span),
-                _ => None,
-            },
-            None => {
-                if let Some(m) = models.iter().find(|m| m.0.kind.trains()) {
-                    self.err_help(
-                        "missing statement",
-                        m.1,
-                        format!("model `{}` has parameters to fit, but the design has no `train` block", m.0.name),
-                        "add `train { adam lr ... batch ... epochs ... cosine patience ... action_noise ... }`",
-                    );
-                }
-                None
-            }
-        };
+        let training = self.train_block(singles.get("train").copied(), &models);
         let rate = data.as_ref().map(|d: &DataSpec| d.rate_hz).unwrap_or(100.0);
         let horizon = recording.as_ref().map(|r: &RecordingFactor| r.horizon);
         let endpoints = self.endpoints(&endpoints, &models, rate, horizon, end);
@@ -234,6 +170,77 @@ impl Validator {
         })
     }
 
+    /// Sorts the statements into single ones (by keyword) and the repeated
+    /// arms, models and endpoints, reporting duplicates and missing ones.
+    fn statements<'a>(&mut self, ast: &'a Ast, end: Span) -> Statements<'a> {
+        let mut st =
+            Statements { singles: BTreeMap::new(), arms: Vec::new(), models: Vec::new(), endpoints: Vec::new() };
+        for s in &ast.statements {
+            match &s.node {
+                Statement::Arm { .. } => st.arms.push(s),
+                Statement::Model { .. } => st.models.push(s),
+                Statement::Endpoint(_) => st.endpoints.push(s),
+                other => {
+                    let key = other.keyword();
+                    if st.singles.contains_key(key) {
+                        self.err_help(
+                            "declared twice",
+                            s.span,
+                            format!("a second `{key}` statement"),
+                            format!("a design has one `{key}` statement"),
+                        );
+                    } else {
+                        st.singles.insert(key, s);
+                    }
+                }
+            }
+        }
+        for key in ["study", "data", "factor recording", "factor seed", "validation", "contrast", "decide"] {
+            if !st.singles.contains_key(key) {
+                self.err_help(
+                    "missing statement",
+                    end,
+                    format!("the design ends here without a `{key}` statement"),
+                    format!("every design declares `{key}`"),
+                );
+            }
+        }
+        for (list, what) in [(&st.arms, "arm"), (&st.models, "model"), (&st.endpoints, "endpoint")] {
+            if list.is_empty() {
+                self.err("missing statement", end, format!("the design ends here without any `{what}`"));
+            }
+        }
+        st
+    }
+
+    fn study(&mut self, name: &Spanned<String>) -> Option<String> {
+        if name.node.trim().is_empty() {
+            self.err("empty study name", name.span, "the study needs a name");
+        }
+        Some(name.node.clone())
+    }
+
+    /// The `train` block; a design with a trained model must have one.
+    fn train_block(&mut self, stmt: Option<&Spanned<Statement>>, models: &[(Model, Span)]) -> Option<Training> {
+        match stmt {
+            Some(s) => match &s.node {
+                Statement::Train(items) => self.training(items, s.span),
+                _ => None,
+            },
+            None => {
+                if let Some(m) = models.iter().find(|m| m.0.kind.trains()) {
+                    self.err_help(
+                        "missing statement",
+                        m.1,
+                        format!("model `{}` has parameters to fit, but the design has no `train` block", m.0.name),
+                        "add `train { adam lr ... batch ... epochs ... cosine patience ... action_noise ... }`",
+                    );
+                }
+                None
+            }
+        }
+    }
+
     fn no_duplicate_names(&mut self, names: &[Ident], what: &str) {
         for (i, n) in names.iter().enumerate() {
             if names[..i].iter().any(|m| m.node == n.node) {
@@ -278,4 +285,12 @@ fn known<'a>(what: &str, names: impl Iterator<Item = &'a str>) -> String {
     } else {
         format!("declared {what}: {}", names.join(", "))
     }
+}
+
+/// A design's statements sorted by kind.
+struct Statements<'a> {
+    singles: BTreeMap<&'static str, &'a Spanned<Statement>>,
+    arms: Vec<&'a Spanned<Statement>>,
+    models: Vec<&'a Spanned<Statement>>,
+    endpoints: Vec<&'a Spanned<Statement>>,
 }
