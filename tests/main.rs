@@ -8,6 +8,7 @@ mod architecture;
 mod coverage;
 mod data;
 mod design_errors;
+mod fused;
 mod designs;
 mod golden;
 mod model;

@@ -56,7 +56,7 @@ fn relative_inputs_ignore_a_joint_translation_and_predictions_translate_with_it(
     let mut t = tiny_training();
     t.epochs = 1;
     let (net, _) = crossaudit::model::train(&[32, 32, 32], &features, &w, &w[..50], &t, 3, &mut |_| {}).unwrap();
-    let mut model = Learned { net: &net, features: &features };
+    let mut model = Learned::new(&net, &features);
     let next = model.step(&[x, y], &[u, u]);
     for k in 0..3 {
         let moved = next[1][k] - next[0][k];
@@ -178,7 +178,7 @@ fn a_saved_cell_is_re_evaluated_without_retraining() {
     let net = crossaudit::model::Net::load(&widths, &out.path().join("models/world__disjoint__1.safetensors")).unwrap();
     let horizons = plan.jobs.iter().find(|j| j.model == "world").unwrap().horizons_s.clone();
     let steps = crossaudit::rollout::horizon_steps(&horizons, file.design.data.rate_hz);
-    let mut model = Learned { net: &net, features: &features };
+    let mut model = Learned::new(&net, &features);
     let traces = crossaudit::rollout::rollout(
         &mut model,
         &split.recordings,

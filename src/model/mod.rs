@@ -7,11 +7,13 @@
 
 pub mod baseline;
 pub mod features;
+pub mod fused;
+mod kernel;
 pub mod net;
 mod standardize;
 
 pub use features::{Action, FeatureMap, State, ACTION, EXOGENOUS, INPUT, STATE};
-pub use net::{train, EpochLog, Learned, Net, NetError};
+pub use net::{train, train_with, Engine, EpochLog, Learned, Net, NetError};
 pub use standardize::Standardizer;
 
 /// One step of a dynamics model for a batch of states: the next states

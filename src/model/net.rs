@@ -1,4 +1,9 @@
-//! The MLP and its training, in dfdx 0.13 (CPU).
+//! The MLP and its training. dfdx 0.13 (CPU) defines the model: its module
+//! type, initialisation and safetensors format, and its trainer is kept as
+//! the reference ([`Engine::Reference`]). Runs train with the fused f32
+//! trainer of [`super::fused`] ([`Engine::Fused`]), which is bit-identical
+//! to it and about twice as fast; rollouts predict through the same fused
+//! forward pass.
 //!
 //! Layer widths are types in dfdx 0.13, so the supported architectures are
 //! three hidden ReLU layers of one width from [`crate::design::MLP_WIDTHS`]: 18 -> W
@@ -16,6 +21,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::features::{Action, FeatureMap, State, ACTION, INPUT, STATE};
+use super::fused::{Activations, FusedMlp, Trainer};
 use super::Dynamics;
 use crate::design::{mlp_supported, Schedule, Training, MLP_WIDTHS};
 use crate::stats::standard_normal;
@@ -80,10 +86,17 @@ pub fn learning_rate(t: &Training, epoch: usize) -> f64 {
     }
 }
 
-fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option<(f64, &mut ChaCha8Rng)>) -> Vec<f32> {
-    let mut x = vec![0f32; idx.len() * INPUT];
+/// Writes the standardized inputs of windows `idx` into `out` (one row of
+/// 18 per window), adding clipped Gaussian action noise when asked.
+fn fill_inputs(
+    features: &FeatureMap,
+    windows: &Windows,
+    idx: &[usize],
+    noise: Option<(f64, &mut ChaCha8Rng)>,
+    out: &mut [f32],
+) {
     let mut noise = noise;
-    for (row, &k) in x.chunks_exact_mut(INPUT).zip(idx) {
+    for (row, &k) in out.chunks_exact_mut(INPUT).zip(idx) {
         let (s, u, _) = &windows[k];
         let mut u = *u;
         if let Some((sd, rng)) = noise.as_mut() {
@@ -93,22 +106,58 @@ fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option
         }
         features.input(s, &u, row);
     }
+}
+
+/// Writes the standardized targets of windows `idx` into `out`.
+fn fill_targets(features: &FeatureMap, windows: &Windows, idx: &[usize], out: &mut [f32]) {
+    for (row, &k) in out.chunks_exact_mut(STATE).zip(idx) {
+        let (s, _, n) = &windows[k];
+        features.target(s, n, row);
+    }
+}
+
+fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option<(f64, &mut ChaCha8Rng)>) -> Vec<f32> {
+    let mut x = vec![0f32; idx.len() * INPUT];
+    fill_inputs(features, windows, idx, noise, &mut x);
     x
 }
 
 fn targets(features: &FeatureMap, windows: &Windows, idx: &[usize]) -> Vec<f32> {
     let mut y = vec![0f32; idx.len() * STATE];
-    for (row, &k) in y.chunks_exact_mut(STATE).zip(idx) {
-        let (s, _, n) = &windows[k];
-        features.target(s, n, row);
-    }
+    fill_targets(features, windows, idx, &mut y);
     y
 }
 
-/// Trains a network exactly as the design says. The seed fixes the
-/// initialisation (dfdx's device RNG), the shuffling (ChaCha8 stream 1)
-/// and the action noise (stream 2). `on_epoch` sees every epoch.
+/// Which trainer runs: both give bit-identical weights and curves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Engine {
+    /// The fused f32 trainer on AVX-512 `gemm` kernels (what runs use).
+    #[default]
+    Fused,
+    /// dfdx's own tape-based trainer, kept as the reference.
+    Reference,
+}
+
+/// Trains a network exactly as the design says, with the fused trainer.
+/// The seed fixes the initialisation (dfdx's device RNG), the shuffling
+/// (ChaCha8 stream 1) and the action noise (stream 2). `on_epoch` sees
+/// every epoch.
 pub fn train(
+    widths: &[usize],
+    features: &FeatureMap,
+    fit: &Windows,
+    validation: &Windows,
+    t: &Training,
+    seed: u64,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> Result<(Net, Vec<EpochLog>), NetError> {
+    train_with(Engine::Fused, widths, features, fit, validation, t, seed, on_epoch)
+}
+
+/// As [`train`], with the trainer chosen.
+#[allow(clippy::too_many_arguments)]
+pub fn train_with(
+    engine: Engine,
     widths: &[usize],
     features: &FeatureMap,
     fit: &Windows,
@@ -122,6 +171,9 @@ pub fn train(
     }
     if !mlp_supported(widths) {
         return Err(NetError::Unsupported(widths.to_vec()));
+    }
+    if engine == Engine::Fused {
+        return Ok(train_fused(widths[0], features, fit, validation, t, seed, on_epoch));
     }
     Ok(match widths[0] {
         32 => {
@@ -137,6 +189,74 @@ pub fn train(
             (Net::W256(m), l)
         }
     })
+}
+
+/// Mean squared error of predictions against targets, in f64.
+fn mse_of(out: &[f32], y: &[f32]) -> f64 {
+    out.iter().zip(y).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>() / y.len() as f64
+}
+
+/// The fused trainer, step for step the loop of [`train_w`].
+fn train_fused(
+    width: usize,
+    features: &FeatureMap,
+    fit: &Windows,
+    validation: &Windows,
+    t: &Training,
+    seed: u64,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> (Net, Vec<EpochLog>) {
+    let init = Net::init(width, seed).fused();
+    let mut trainer = Trainer::new(init, t.batch);
+    let mut shuffle = ChaCha8Rng::seed_from_u64(seed);
+    shuffle.set_stream(1);
+    let mut noise = ChaCha8Rng::seed_from_u64(seed);
+    noise.set_stream(2);
+    let all_val: Vec<usize> = (0..validation.len()).collect();
+    let val_x = inputs(features, validation, &all_val, None);
+    let val_y = targets(features, validation, &all_val);
+    let mut val_act = Activations::new(&trainer.net, validation.len());
+    let mut x = vec![0f32; t.batch * INPUT];
+    let mut y = vec![0f32; t.batch * STATE];
+    let mut best = trainer.net.clone();
+    let mut best_val = f64::INFINITY;
+    let mut since_best = 0;
+    let mut logs = Vec::new();
+    let mut order: Vec<usize> = (0..fit.len()).collect();
+    for epoch in 0..t.epochs {
+        let started = Instant::now();
+        let lr = learning_rate(t, epoch);
+        order.shuffle(&mut shuffle);
+        let mut loss_sum = 0.0;
+        for batch in order.chunks(t.batch) {
+            let n = batch.len();
+            fill_inputs(features, fit, batch, Some((t.action_noise, &mut noise)), &mut x[..n * INPUT]);
+            fill_targets(features, fit, batch, &mut y[..n * STATE]);
+            let loss = trainer.step(&x, &y, n, lr);
+            loss_sum += f64::from(loss) * n as f64;
+        }
+        let val_loss = mse_of(trainer.net.forward(&val_x, validation.len(), &mut val_act), &val_y);
+        let log = EpochLog {
+            epoch: epoch + 1,
+            lr,
+            train_loss: loss_sum / fit.len() as f64,
+            val_loss,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        on_epoch(&log);
+        logs.push(log);
+        if val_loss < best_val {
+            best_val = val_loss;
+            best.clone_from(&trainer.net);
+            since_best = 0;
+        } else {
+            since_best += 1;
+            if since_best >= t.patience {
+                break;
+            }
+        }
+    }
+    (Net::from_fused(width, &best), logs)
 }
 
 fn train_w<const W: usize>(
@@ -213,12 +333,67 @@ fn forward<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32]) -> Vec<f32> {
 }
 
 fn mse<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32], y: &[f32]) -> f64 {
-    let out = forward(model, dev, x);
-    out.iter().zip(y).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>() / y.len() as f64
+    mse_of(&forward(model, dev, x), y)
+}
+
+/// Each layer's (weight, bias), weight row-major (out x in) as dfdx stores it.
+fn parts<const W: usize>(m: &Built<W>) -> Vec<(Vec<f32>, Vec<f32>)> {
+    let ((a, _), (b, _), (c, _), d) = m;
+    vec![
+        (a.weight.as_vec(), a.bias.as_vec()),
+        (b.weight.as_vec(), b.bias.as_vec()),
+        (c.weight.as_vec(), c.bias.as_vec()),
+        (d.weight.as_vec(), d.bias.as_vec()),
+    ]
+}
+
+/// A dfdx module holding the fused network's parameters.
+fn module_from<const W: usize>(f: &FusedMlp) -> Built<W> {
+    let mut m = Cpu::default().build_module::<Mlp<W>, f32>();
+    let ((a, _), (b, _), (c, _), d) = &mut m;
+    a.weight.copy_from(&f.layers[0].weight);
+    a.bias.copy_from(&f.layers[0].bias);
+    b.weight.copy_from(&f.layers[1].weight);
+    b.bias.copy_from(&f.layers[1].bias);
+    c.weight.copy_from(&f.layers[2].weight);
+    c.bias.copy_from(&f.layers[2].bias);
+    d.weight.copy_from(&f.layers[3].weight);
+    d.bias.copy_from(&f.layers[3].bias);
+    m
 }
 
 impl Net {
-    /// Standardized predictions for standardized inputs (n x 18 -> n x 14).
+    /// dfdx's initialisation for `seed` (the device RNG seeded with it).
+    fn init(width: usize, seed: u64) -> Net {
+        let dev = Cpu::seed_from_u64(seed);
+        match width {
+            32 => Net::W32(dev.build_module::<Mlp<32>, f32>()),
+            64 => Net::W64(dev.build_module::<Mlp<64>, f32>()),
+            _ => Net::W256(dev.build_module::<Mlp<256>, f32>()),
+        }
+    }
+
+    /// The same parameters for the fused forward pass and trainer.
+    pub fn fused(&self) -> FusedMlp {
+        match self {
+            Net::W32(m) => FusedMlp::from_parts(32, &parts(m)),
+            Net::W64(m) => FusedMlp::from_parts(64, &parts(m)),
+            Net::W256(m) => FusedMlp::from_parts(256, &parts(m)),
+        }
+    }
+
+    /// The dfdx module of a width holding the fused network's parameters.
+    fn from_fused(width: usize, f: &FusedMlp) -> Net {
+        match width {
+            32 => Net::W32(module_from::<32>(f)),
+            64 => Net::W64(module_from::<64>(f)),
+            _ => Net::W256(module_from::<256>(f)),
+        }
+    }
+
+    /// Standardized predictions for standardized inputs (n x 18 -> n x 14)
+    /// through dfdx's forward pass (the reference; rollouts use
+    /// [`Learned`], which runs the fused one).
     pub fn predict(&self, x: &[f32]) -> Vec<f32> {
         let dev = Cpu::default();
         match self {
@@ -230,25 +405,7 @@ impl Net {
 
     /// All weights, flattened in a fixed order (for bit-identity checks).
     pub fn flat_weights(&self) -> Vec<f32> {
-        fn flat<const W: usize>(m: &Built<W>) -> Vec<f32> {
-            let ((a, _), (b, _), (c, _), d) = m;
-            let mut v = Vec::new();
-            for (w, bias) in [
-                (a.weight.as_vec(), a.bias.as_vec()),
-                (b.weight.as_vec(), b.bias.as_vec()),
-                (c.weight.as_vec(), c.bias.as_vec()),
-                (d.weight.as_vec(), d.bias.as_vec()),
-            ] {
-                v.extend(w);
-                v.extend(bias);
-            }
-            v
-        }
-        match self {
-            Net::W32(m) => flat(m),
-            Net::W64(m) => flat(m),
-            Net::W256(m) => flat(m),
-        }
+        self.fused().layers.into_iter().flat_map(|l| l.weight.into_iter().chain(l.bias)).collect()
     }
 
     /// Writes the weights as safetensors.
@@ -288,12 +445,33 @@ impl Net {
     }
 }
 
-/// A trained network and its standardizers as a rollout [`Dynamics`].
+/// A trained network and its standardizers as a rollout [`Dynamics`],
+/// predicting through the fused forward pass.
 pub struct Learned<'a> {
-    /// The trained network.
-    pub net: &'a Net,
-    /// Its standardizers.
-    pub features: &'a FeatureMap,
+    forward: Forward<'a>,
+    features: &'a FeatureMap,
+}
+
+/// Which forward pass a [`Learned`] runs.
+enum Forward<'a> {
+    Fused(FusedMlp),
+    Reference(&'a Net),
+}
+
+impl<'a> Learned<'a> {
+    /// The rollout model of `net` under `features` (fused forward pass).
+    pub fn new(net: &'a Net, features: &'a FeatureMap) -> Self {
+        Self::with(Engine::Fused, net, features)
+    }
+
+    /// As [`Learned::new`], with the forward pass of `engine`.
+    pub fn with(engine: Engine, net: &'a Net, features: &'a FeatureMap) -> Self {
+        let forward = match engine {
+            Engine::Fused => Forward::Fused(net.fused()),
+            Engine::Reference => Forward::Reference(net),
+        };
+        Learned { forward, features }
+    }
 }
 
 impl Dynamics for Learned<'_> {
@@ -302,7 +480,10 @@ impl Dynamics for Learned<'_> {
         for ((row, s), u) in x.chunks_exact_mut(INPUT).zip(states).zip(actions) {
             self.features.input(s, u, row);
         }
-        let z = self.net.predict(&x);
+        let z = match &self.forward {
+            Forward::Fused(f) => f.predict(&x),
+            Forward::Reference(net) => net.predict(&x),
+        };
         states.iter().zip(z.chunks_exact(STATE)).map(|(s, z)| self.features.next_state(s, z)).collect()
     }
 }

@@ -12,7 +12,7 @@ use crate::data::Recording;
 use crate::design::{InputMap, ModelKind};
 use crate::io::{create_dir_all, f64_text, write_atomic};
 use crate::model::baseline::{ConstantVelocity, Persistence};
-use crate::model::{net, Action, Dynamics, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
+use crate::model::{net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
 use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
 use crate::split::{Prepared, Window};
@@ -124,6 +124,20 @@ pub fn run_job(
     out: &Path,
     on_epoch: &mut dyn FnMut(&EpochLog),
 ) -> Result<JobOutcome, RunError> {
+    run_job_with(Engine::Fused, design_sha256, plan, job, prepared, out, on_epoch)
+}
+
+/// As [`run_job`], training and rolling out with `engine` (the dfdx
+/// reference gives bit-identical files, about twice as slowly).
+pub fn run_job_with(
+    engine: Engine,
+    design_sha256: &str,
+    plan: &Plan,
+    job: &TrainingJob,
+    prepared: &Prepared,
+    out: &Path,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> Result<JobOutcome, RunError> {
     let bench = bench(plan, job, prepared)?;
     let stem = job.stem();
     let mut files = Vec::new();
@@ -137,8 +151,16 @@ pub fn run_job(
             }
             let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
             let t0 = std::time::Instant::now();
-            let (net, epochs) =
-                net::train(widths, &features, &bench.fit, &bench.validation, training, job.seed.0, on_epoch)?;
+            let (net, epochs) = net::train_with(
+                engine,
+                widths,
+                &features,
+                &bench.fit,
+                &bench.validation,
+                training,
+                job.seed.0,
+                on_epoch,
+            )?;
             let meta = serde_json::json!({
                 "model": job.model, "arm": job.arm, "seed": job.seed.0, "widths": widths,
                 "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "features": features,
@@ -146,7 +168,7 @@ pub fn run_job(
             files.extend(save_model(out, &stem, &net, &meta)?);
             let train_seconds = t0.elapsed().as_secs_f64();
             let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
-            let (e, cells, secs) = bench.score(&job.model, &mut Learned { net: &net, features: &features });
+            let (e, cells, secs) = bench.score(&job.model, &mut Learned::with(engine, &net, &features));
             one_step.push((job.model.clone(), e));
             (cells, epochs, Some(best), train_seconds, secs)
         }

@@ -30,7 +30,7 @@ use crate::plan::{Plan, TrainingJob};
 use crate::report::figures::Curve;
 
 pub use grid::{Quiet, RunObserver};
-pub use job::{run_job, JobOutcome};
+pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::RunRecord;
 pub use source::data_dir;
 

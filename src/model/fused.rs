@@ -1,0 +1,271 @@
+//! The fused f32 trainer: the design's MLP (18 -> W -> W -> W -> 14, ReLU)
+//! trained with MSE and Adam on preallocated buffers, with no per-step
+//! allocation and no autodiff tape.
+//!
+//! It is bit-identical to the dfdx reference trainer in [`super::net`]
+//! because it performs the same floating-point operations in the same
+//! order: every matrix product goes to `gemm` with the arguments dfdx 0.13
+//! passes (see [`super::kernel`]); the bias add, ReLU and its derivative,
+//! the loss and its gradient, the bias gradient (a sum over rows in row
+//! order) and Adam are written as dfdx's CPU kernels compute them,
+//! including dfdx's accumulation of each gradient into a zeroed buffer
+//! (`0.0 + g`, which turns a negative zero into a positive one). The
+//! initial weights come from dfdx ([`super::net`] builds the module and
+//! hands its tensors over).
+
+use super::features::{INPUT, STATE};
+use super::kernel::{gemm, Strided};
+
+/// One dense layer: `out x inp` weights, row-major as dfdx stores them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dense {
+    /// Input width.
+    pub inp: usize,
+    /// Output width.
+    pub out: usize,
+    /// `out x inp`, row-major.
+    pub weight: Vec<f32>,
+    /// `out`.
+    pub bias: Vec<f32>,
+}
+
+/// The MLP's parameters: three hidden ReLU layers and a linear output.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FusedMlp {
+    /// Input to output.
+    pub layers: Vec<Dense>,
+}
+
+/// Activations of one batch, preallocated for `capacity` rows.
+#[derive(Debug, Clone)]
+pub struct Activations {
+    capacity: usize,
+    /// Pre-activation (matrix product plus bias) of every layer.
+    z: Vec<Vec<f32>>,
+    /// ReLU output of every hidden layer.
+    h: Vec<Vec<f32>>,
+}
+
+impl Activations {
+    /// Buffers for batches of up to `capacity` rows of `net`.
+    pub fn new(net: &FusedMlp, capacity: usize) -> Self {
+        let z = net.layers.iter().map(|l| vec![0.0; capacity * l.out]).collect();
+        let h = net.layers[..net.layers.len() - 1].iter().map(|l| vec![0.0; capacity * l.out]).collect();
+        Activations { capacity, z, h }
+    }
+}
+
+impl FusedMlp {
+    /// The widths of an `18 -> w -> w -> w -> 14` network from its
+    /// parameters in dfdx's order (weight, bias per layer).
+    pub fn from_parts(width: usize, parts: &[(Vec<f32>, Vec<f32>)]) -> FusedMlp {
+        let dims = [(INPUT, width), (width, width), (width, width), (width, STATE)];
+        let layers = dims
+            .iter()
+            .zip(parts)
+            .map(|(&(inp, out), (w, b))| {
+                assert_eq!((w.len(), b.len()), (inp * out, out), "layer shape");
+                Dense { inp, out, weight: w.clone(), bias: b.clone() }
+            })
+            .collect();
+        FusedMlp { layers }
+    }
+
+    /// Forward pass of `n` rows of `x` (n x 18) into `act`; returns the
+    /// output (n x 14).
+    pub fn forward<'a>(&self, x: &[f32], n: usize, act: &'a mut Activations) -> &'a [f32] {
+        debug_assert!(n <= act.capacity);
+        let last = self.layers.len() - 1;
+        for (l, layer) in self.layers.iter().enumerate() {
+            let (inp, out) = (layer.inp, layer.out);
+            let (below, rest) = act.h.split_at_mut(l.min(last));
+            let a: &[f32] = if l == 0 { &x[..n * inp] } else { &below[l - 1][..n * inp] };
+            let z = &mut act.z[l][..n * out];
+            // dfdx: x.matmul(weight.permute()), into a fresh zeroed tensor.
+            gemm(
+                (n, out, inp),
+                z,
+                (out, 1),
+                false,
+                Strided { data: a, rs: inp, cs: 1 },
+                Strided { data: &layer.weight, rs: 1, cs: inp },
+                0.0,
+                1.0,
+            );
+            for row in z.chunks_exact_mut(out) {
+                for (v, b) in row.iter_mut().zip(&layer.bias) {
+                    *v += *b;
+                }
+            }
+            if l < last {
+                for (h, v) in rest[0][..n * out].iter_mut().zip(z.iter()) {
+                    *h = v.max(0.0);
+                }
+            }
+        }
+        &act.z[last][..n * STATE]
+    }
+
+    /// Predictions for `x` (n x 18, n = x.len() / 18), all rows in one
+    /// pass (as dfdx's forward on the whole batch).
+    pub fn predict(&self, x: &[f32]) -> Vec<f32> {
+        let n = x.len() / INPUT;
+        let mut act = Activations::new(self, n.max(1));
+        self.forward(x, n, &mut act).to_vec()
+    }
+}
+
+/// Adam's state for one parameter tensor.
+#[derive(Debug, Clone)]
+struct Moments {
+    m: Vec<f32>,
+    v: Vec<f32>,
+}
+
+/// Gradients and Adam moments of one layer.
+#[derive(Debug, Clone)]
+struct LayerState {
+    grad_w: Vec<f32>,
+    grad_b: Vec<f32>,
+    adam_w: Moments,
+    adam_b: Moments,
+}
+
+/// Trains a [`FusedMlp`] one minibatch at a time.
+#[derive(Debug, Clone)]
+pub struct Trainer {
+    /// The parameters being trained.
+    pub net: FusedMlp,
+    state: Vec<LayerState>,
+    act: Activations,
+    /// Gradient of the loss with respect to each layer's pre-activation.
+    grad_z: Vec<Vec<f32>>,
+    /// Gradient with respect to each hidden layer's ReLU output.
+    grad_h: Vec<Vec<f32>>,
+    /// Adam's step counter (dfdx's `t`, starting at 1 on the first update).
+    t: i32,
+}
+
+impl Trainer {
+    /// A trainer for minibatches of at most `batch` rows.
+    pub fn new(net: FusedMlp, batch: usize) -> Trainer {
+        let zeros = |n: usize| vec![0.0f32; n];
+        let state = net
+            .layers
+            .iter()
+            .map(|l| LayerState {
+                grad_w: zeros(l.weight.len()),
+                grad_b: zeros(l.out),
+                adam_w: Moments { m: zeros(l.weight.len()), v: zeros(l.weight.len()) },
+                adam_b: Moments { m: zeros(l.out), v: zeros(l.out) },
+            })
+            .collect();
+        let act = Activations::new(&net, batch.max(1));
+        let grad_z = net.layers.iter().map(|l| zeros(batch.max(1) * l.out)).collect();
+        let grad_h = net.layers[..net.layers.len() - 1].iter().map(|l| zeros(batch.max(1) * l.out)).collect();
+        Trainer { net, state, act, grad_z, grad_h, t: 0 }
+    }
+
+    /// One Adam step on `n` rows (x: n x 18, y: n x 14) at learning rate
+    /// `lr`; returns the batch's mean squared error before the step.
+    pub fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32 {
+        assert!(n > 0 && n <= self.act.capacity, "batch of {n} rows for a trainer of {}", self.act.capacity);
+        let len = self.net.forward(x, n, &mut self.act).len();
+        let loss = self.loss_and_gradient(len, y, n);
+        self.backward(x, n);
+        self.adam(lr);
+        loss
+    }
+
+    /// dfdx's `(pred - targ).square().mean()`: the forward sum runs over
+    /// the elements in order; the gradient of each prediction is
+    /// `0 + (d + d) * (1 / N)`.
+    fn loss_and_gradient(&mut self, len: usize, y: &[f32], n: usize) -> f32 {
+        let last = self.net.layers.len() - 1;
+        let pred = &self.act.z[last][..len];
+        let inv_n = (1.0 / (n * STATE) as f64) as f32;
+        let mut sum = 0.0f32;
+        let grad = &mut self.grad_z[last][..len];
+        for ((g, p), t) in grad.iter_mut().zip(pred).zip(&y[..len]) {
+            let d = p - t;
+            sum += d.powi(2);
+            *g = 0.0 + (d + d) * inv_n;
+        }
+        (sum * 1.0) * inv_n
+    }
+
+    /// Backpropagation through the layers, last to first.
+    fn backward(&mut self, x: &[f32], n: usize) {
+        for l in (0..self.net.layers.len()).rev() {
+            let layer = &self.net.layers[l];
+            let (inp, out) = (layer.inp, layer.out);
+            let g = &self.grad_z[l][..n * out];
+            let st = &mut self.state[l];
+            // Bias: the broadcast add's gradient, summed over rows in order.
+            st.grad_b.fill(0.0);
+            for row in g.chunks_exact(out) {
+                for (gb, v) in st.grad_b.iter_mut().zip(row) {
+                    *gb += *v;
+                }
+            }
+            // Weights: lhs^T * grad_out into the zeroed (out x inp) gradient,
+            // addressed through the permuted view as dfdx does.
+            let a: &[f32] = if l == 0 { &x[..n * inp] } else { &self.act.h[l - 1][..n * inp] };
+            st.grad_w.fill(0.0);
+            gemm(
+                (inp, out, n),
+                &mut st.grad_w,
+                (1, inp),
+                true,
+                Strided { data: a, rs: 1, cs: inp },
+                Strided { data: g, rs: out, cs: 1 },
+                1.0,
+                1.0,
+            );
+            if l == 0 {
+                break; // the input needs no gradient
+            }
+            // Input of this layer: grad_out * weight, then through the ReLU below.
+            let gh = &mut self.grad_h[l - 1][..n * inp];
+            gh.fill(0.0);
+            gemm(
+                (n, inp, out),
+                gh,
+                (inp, 1),
+                true,
+                Strided { data: g, rs: out, cs: 1 },
+                Strided { data: &layer.weight, rs: inp, cs: 1 },
+                1.0,
+                1.0,
+            );
+            let (below, _) = self.grad_z.split_at_mut(l);
+            let z = &self.act.z[l - 1][..n * inp];
+            for ((gz, zv), ghv) in below[l - 1][..n * inp].iter_mut().zip(z).zip(gh.iter()) {
+                let df = if *zv > 0.0 { 1.0f32 } else { 0.0 };
+                *gz = 0.0 + df * ghv;
+            }
+        }
+    }
+
+    /// dfdx's Adam kernel (f32, default betas and epsilon, no weight decay).
+    fn adam(&mut self, lr: f64) {
+        self.t = self.t.checked_add(1).expect("fewer than 2^31 Adam steps");
+        let t = self.t;
+        let step = |p: &mut [f32], grad: &[f32], mo: &mut Moments| {
+            let (b1, b2) = (0.9f64 as f32, 0.999f64 as f32);
+            let (eps, lr) = (1e-8f64 as f32, lr as f32);
+            for (((p, &g), m), v) in p.iter_mut().zip(grad).zip(mo.m.iter_mut()).zip(mo.v.iter_mut()) {
+                *m = *m * b1 + g * (1.0 - b1);
+                *v = *v * b2 + g.powi(2) * (1.0 - b2);
+                let m_hat = *m * (1.0 - b1.powi(t)).recip();
+                let v_hat = *v * (1.0 - b2.powi(t)).recip();
+                let g = lr * m_hat / (v_hat.sqrt() + eps);
+                *p -= g;
+            }
+        };
+        for (layer, st) in self.net.layers.iter_mut().zip(self.state.iter_mut()) {
+            step(&mut layer.weight, &st.grad_w, &mut st.adam_w);
+            step(&mut layer.bias, &st.grad_b, &mut st.adam_b);
+        }
+    }
+}
