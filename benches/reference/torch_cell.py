@@ -13,6 +13,7 @@ same size (starts x steps forward passes). Prints one JSON line.
 import copy
 import json
 import math
+import os
 import sys
 import time
 
@@ -22,6 +23,8 @@ import torch
 d, threads = sys.argv[1], int(sys.argv[2])
 torch.set_num_threads(threads)
 meta = json.load(open(f"{d}/cell.json"))
+# torch_protocol.py runs one exported (model, arm) for many seeds.
+meta["seed"] = int(os.environ.get("TORCH_CELL_SEED", meta["seed"]))
 torch.manual_seed(meta["seed"])
 rng = np.random.default_rng(meta["seed"])
 

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use crossaudit::design::{self, lock, LoadError};
+use crossaudit::model::Engine;
 use crossaudit::report::decision_summary;
 use crossaudit::{AnalyzeOptions, Error};
 
@@ -60,6 +61,10 @@ enum Command {
         /// Output directory (manifests/, audit/, models/, cells/, curves/).
         #[arg(long)]
         out: PathBuf,
+        /// Trainer: `fused` (default) or `reference` (dfdx's own; bit-identical
+        /// results, about half the speed).
+        #[arg(long, default_value = "fused", value_parser = ["fused", "reference"])]
+        engine: String,
     },
     /// Run a locked design end to end: audit, manifests, invariants, every
     /// training cell, cells.csv and the report. Resumes a partial run.
@@ -150,7 +155,10 @@ fn main() -> ExitCode {
         Command::Lock { design } => lock_design(&design),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Split { design, data, out } => split(&design, data, &out),
-        Command::Train { design, model, arm, seed, data, out } => train(&design, &model, &arm, seed, data, &out),
+        Command::Train { design, model, arm, seed, data, out, engine } => {
+            let engine = if engine == "reference" { Engine::Reference } else { Engine::Fused };
+            train(&design, (&model, &arm, seed), data, &out, engine)
+        }
         Command::Run { design, data, out, workers, exploratory } => run(&design, data, &out, workers, exploratory),
         Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
         Command::Plan { design, cells, recordings, seeds, out } => power(&design, &cells, &recordings, &seeds, &out),
@@ -194,7 +202,13 @@ fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> 
     Ok(())
 }
 
-fn train(design: &Path, model: &str, arm: &str, seed: u64, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
+fn train(
+    design: &Path,
+    (model, arm, seed): (&str, &str, u64),
+    data: Option<PathBuf>,
+    out: &Path,
+    engine: Engine,
+) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
     let job = plan
@@ -206,7 +220,7 @@ fn train(design: &Path, model: &str, arm: &str, seed: u64, data: Option<PathBuf>
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
     let bar = progress::epoch_bar(epochs, &job.stem().replace("__", "/"));
-    let result = crossaudit::run::run_job(&file.sha256, &plan, job, &prepared, out, &mut |e| {
+    let result = crossaudit::run::run_job_with(engine, &file.sha256, &plan, job, &prepared, out, &mut |e| {
         bar.set_position(e.epoch as u64);
         bar.set_message(format!("train {:.4} val {:.4}", e.train_loss, e.val_loss));
     });
