@@ -135,7 +135,7 @@ fn naive_iid_interval_collapses_where_the_recording_component_dominates() {
     // sd(a)/sqrt(I); naive iid divides by sqrt(IJ) and is too narrow by
     // about sqrt(J).
     let a = [0.5, -1.0, 2.0, 0.0, -0.7];
-    let vals: Vec<f64> = a.iter().flat_map(|x| std::iter::repeat(*x).take(10)).collect();
+    let vals: Vec<f64> = a.iter().flat_map(|x| std::iter::repeat_n(*x, 10)).collect();
     let m = CrossedMatrix::new(5, 10, vals).unwrap();
     let iv = crossaudit::stats::compare_intervals(&m, 0.95, 199, 1, 0).unwrap();
     let se = |method| iv.iter().find(|e| e.method == method).unwrap().se;

@@ -207,7 +207,7 @@ pub struct Log {
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
     let file = path.display().to_string();
     let raw = std::fs::read(path).map_err(|e| LogError::Io { file: file.clone(), message: e.to_string() })?;
-    if !path.extension().is_some_and(|e| e == "gz") {
+    if path.extension().is_none_or(|e| e != "gz") {
         return Ok(raw);
     }
     // ISIZE: the decompressed size mod 2^32, little-endian in the last 4 bytes.
