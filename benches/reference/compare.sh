@@ -15,6 +15,7 @@ if [ ! -x .venv-torch/bin/python ]; then
   python3 -m venv .venv-torch
   .venv-torch/bin/pip install -q torch numpy
 fi
+cargo build --release -q
 cargo build --release -q --example export_cell
 export_dir=target/reference-export
 cargo run --release -q --example export_cell -- "$design" world disjoint 100 "$export_dir"

@@ -56,8 +56,8 @@ impl Activations {
 }
 
 impl FusedMlp {
-    /// The widths of an `18 -> w -> w -> w -> 14` network from its
-    /// parameters in dfdx's order (weight, bias per layer).
+    /// An `18 -> width -> width -> width -> 14` network from its parameters
+    /// in dfdx's order (weight, bias per layer).
     pub fn from_parts(width: usize, parts: &[(Vec<f32>, Vec<f32>)]) -> FusedMlp {
         let dims = [(INPUT, width), (width, width), (width, width), (width, STATE)];
         let layers = dims

@@ -2,7 +2,8 @@
 //! type, initialisation and safetensors format, and its trainer is kept as
 //! the reference ([`Engine::Reference`]). Runs train with the fused f32
 //! trainer of [`super::fused`] ([`Engine::Fused`]), which is bit-identical
-//! to it and about twice as fast; rollouts predict through the same fused
+//! to it and takes about half its time per epoch
+//! (`results/benchmarks/torch_reference.txt`); rollouts predict through the same fused
 //! forward pass.
 //!
 //! Layer widths are types in dfdx 0.13, so the supported architectures are
@@ -172,22 +173,16 @@ pub fn train_with(
     if !mlp_supported(widths) {
         return Err(NetError::Unsupported(widths.to_vec()));
     }
+    let width = widths[0];
     if engine == Engine::Fused {
-        return Ok(train_fused(widths[0], features, fit, validation, t, seed, on_epoch));
+        let mut run = FusedRun::new(Net::init(width, seed).fused(), t.batch, validation.len());
+        let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
+        return Ok((Net::from_fused(width, &run.best), logs));
     }
-    Ok(match widths[0] {
-        32 => {
-            let (m, l) = train_w::<32>(features, fit, validation, t, seed, on_epoch);
-            (Net::W32(m), l)
-        }
-        64 => {
-            let (m, l) = train_w::<64>(features, fit, validation, t, seed, on_epoch);
-            (Net::W64(m), l)
-        }
-        _ => {
-            let (m, l) = train_w::<256>(features, fit, validation, t, seed, on_epoch);
-            (Net::W256(m), l)
-        }
+    Ok(match width {
+        32 => reference::<32>(features, fit, validation, t, seed, on_epoch, Net::W32),
+        64 => reference::<64>(features, fit, validation, t, seed, on_epoch, Net::W64),
+        _ => reference::<256>(features, fit, validation, t, seed, on_epoch, Net::W256),
     })
 }
 
@@ -196,18 +191,29 @@ fn mse_of(out: &[f32], y: &[f32]) -> f64 {
     out.iter().zip(y).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>() / y.len() as f64
 }
 
-/// The fused trainer, step for step the loop of [`train_w`].
-fn train_fused(
-    width: usize,
+/// What the two trainers do differently; [`early_stopped`] does the rest.
+trait Minibatches {
+    /// One optimizer step on `n` rows (x: n x 18, y: n x 14) at `lr`;
+    /// returns the batch loss before the step.
+    fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32;
+    /// Mean squared error of the current parameters on the validation set.
+    fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64;
+    /// Keeps the current parameters as the best so far.
+    fn keep_best(&mut self);
+}
+
+/// The training loop shared by both trainers: per-epoch learning rate,
+/// ChaCha8 shuffling (stream 1) and action noise (stream 2) from `seed`,
+/// early stopping with patience, the best parameters kept by the trainer.
+fn early_stopped(
+    trainer: &mut dyn Minibatches,
     features: &FeatureMap,
     fit: &Windows,
     validation: &Windows,
     t: &Training,
     seed: u64,
     on_epoch: &mut dyn FnMut(&EpochLog),
-) -> (Net, Vec<EpochLog>) {
-    let init = Net::init(width, seed).fused();
-    let mut trainer = Trainer::new(init, t.batch);
+) -> Vec<EpochLog> {
     let mut shuffle = ChaCha8Rng::seed_from_u64(seed);
     shuffle.set_stream(1);
     let mut noise = ChaCha8Rng::seed_from_u64(seed);
@@ -215,10 +221,8 @@ fn train_fused(
     let all_val: Vec<usize> = (0..validation.len()).collect();
     let val_x = inputs(features, validation, &all_val, None);
     let val_y = targets(features, validation, &all_val);
-    let mut val_act = Activations::new(&trainer.net, validation.len());
     let mut x = vec![0f32; t.batch * INPUT];
     let mut y = vec![0f32; t.batch * STATE];
-    let mut best = trainer.net.clone();
     let mut best_val = f64::INFINITY;
     let mut since_best = 0;
     let mut logs = Vec::new();
@@ -232,10 +236,9 @@ fn train_fused(
             let n = batch.len();
             fill_inputs(features, fit, batch, Some((t.action_noise, &mut noise)), &mut x[..n * INPUT]);
             fill_targets(features, fit, batch, &mut y[..n * STATE]);
-            let loss = trainer.step(&x, &y, n, lr);
-            loss_sum += f64::from(loss) * n as f64;
+            loss_sum += f64::from(trainer.step(&x[..n * INPUT], &y[..n * STATE], n, lr)) * n as f64;
         }
-        let val_loss = mse_of(trainer.net.forward(&val_x, validation.len(), &mut val_act), &val_y);
+        let val_loss = trainer.val_loss(&val_x, &val_y);
         let log = EpochLog {
             epoch: epoch + 1,
             lr,
@@ -247,7 +250,7 @@ fn train_fused(
         logs.push(log);
         if val_loss < best_val {
             best_val = val_loss;
-            best.clone_from(&trainer.net);
+            trainer.keep_best();
             since_best = 0;
         } else {
             since_best += 1;
@@ -256,84 +259,90 @@ fn train_fused(
             }
         }
     }
-    (Net::from_fused(width, &best), logs)
+    logs
 }
 
-fn train_w<const W: usize>(
+/// The fused trainer with its validation buffers and best parameters.
+struct FusedRun {
+    trainer: Trainer,
+    val_act: Activations,
+    best: FusedMlp,
+}
+
+impl FusedRun {
+    fn new(init: FusedMlp, batch: usize, n_val: usize) -> Self {
+        let val_act = Activations::new(&init, n_val);
+        FusedRun { best: init.clone(), trainer: Trainer::new(init, batch), val_act }
+    }
+}
+
+impl Minibatches for FusedRun {
+    fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32 {
+        self.trainer.step(x, y, n, lr)
+    }
+    fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64 {
+        mse_of(self.trainer.net.forward(x, x.len() / INPUT, &mut self.val_act), y)
+    }
+    fn keep_best(&mut self) {
+        self.best.clone_from(&self.trainer.net);
+    }
+}
+
+/// dfdx's own tape-based training of a module of width `W`.
+struct ReferenceRun<const W: usize> {
+    dev: Cpu,
+    model: Built<W>,
+    grads: Option<Gradients<f32, Cpu>>,
+    opt: Adam<Built<W>, f32, Cpu>,
+    best: Built<W>,
+}
+
+impl<const W: usize> Minibatches for ReferenceRun<W> {
+    fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32 {
+        self.opt.cfg.lr = lr;
+        let x = self.dev.tensor_from_vec(x.to_vec(), (n, Const::<INPUT>));
+        let y = self.dev.tensor_from_vec(y.to_vec(), (n, Const::<STATE>));
+        let grads = self.grads.take().expect("gradients are returned after every step");
+        let loss = mse_loss(self.model.forward_mut(x.traced(grads)), y);
+        let value = loss.array();
+        let mut grads = loss.backward();
+        self.opt.update(&mut self.model, &grads).expect("every parameter of the model receives a gradient");
+        self.model.zero_grads(&mut grads);
+        self.grads = Some(grads);
+        value
+    }
+    fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64 {
+        mse_of(&forward(&self.model, &self.dev, x), y)
+    }
+    fn keep_best(&mut self) {
+        self.best = self.model.clone();
+    }
+}
+
+/// Trains with dfdx's own trainer (the reference) and wraps the best module.
+fn reference<const W: usize>(
     features: &FeatureMap,
     fit: &Windows,
     validation: &Windows,
     t: &Training,
     seed: u64,
     on_epoch: &mut dyn FnMut(&EpochLog),
-) -> (Built<W>, Vec<EpochLog>) {
+    wrap: fn(Built<W>) -> Net,
+) -> (Net, Vec<EpochLog>) {
     let dev = Cpu::seed_from_u64(seed);
-    let mut model = dev.build_module::<Mlp<W>, f32>();
-    let mut grads = model.alloc_grads();
-    let mut opt = Adam::new(&model, AdamConfig { lr: t.lr, ..Default::default() });
-    let mut shuffle = ChaCha8Rng::seed_from_u64(seed);
-    shuffle.set_stream(1);
-    let mut noise = ChaCha8Rng::seed_from_u64(seed);
-    noise.set_stream(2);
-    let all_val: Vec<usize> = (0..validation.len()).collect();
-    let val_x = inputs(features, validation, &all_val, None);
-    let val_y = targets(features, validation, &all_val);
-    let mut best = model.clone();
-    let mut best_val = f64::INFINITY;
-    let mut since_best = 0;
-    let mut logs = Vec::new();
-    let mut order: Vec<usize> = (0..fit.len()).collect();
-    for epoch in 0..t.epochs {
-        let started = Instant::now();
-        let lr = learning_rate(t, epoch);
-        opt.cfg.lr = lr;
-        order.shuffle(&mut shuffle);
-        let mut loss_sum = 0.0;
-        for batch in order.chunks(t.batch) {
-            let x = inputs(features, fit, batch, Some((t.action_noise, &mut noise)));
-            let y = targets(features, fit, batch);
-            let n = batch.len();
-            let x = dev.tensor_from_vec(x, (n, Const::<INPUT>));
-            let y = dev.tensor_from_vec(y, (n, Const::<STATE>));
-            let out = model.forward_mut(x.traced(grads));
-            let loss = mse_loss(out, y);
-            loss_sum += f64::from(loss.array()) * n as f64;
-            grads = loss.backward();
-            opt.update(&mut model, &grads).expect("every parameter of the model receives a gradient");
-            model.zero_grads(&mut grads);
-        }
-        let val_loss = mse(&model, &dev, &val_x, &val_y);
-        let log = EpochLog {
-            epoch: epoch + 1,
-            lr,
-            train_loss: loss_sum / fit.len() as f64,
-            val_loss,
-            seconds: started.elapsed().as_secs_f64(),
-        };
-        on_epoch(&log);
-        logs.push(log);
-        if val_loss < best_val {
-            best_val = val_loss;
-            best = model.clone();
-            since_best = 0;
-        } else {
-            since_best += 1;
-            if since_best >= t.patience {
-                break;
-            }
-        }
-    }
-    (best, logs)
+    let model = dev.build_module::<Mlp<W>, f32>();
+    let grads = Some(model.alloc_grads());
+    let opt = Adam::new(&model, AdamConfig { lr: t.lr, ..Default::default() });
+    let best = model.clone();
+    let mut run = ReferenceRun { dev, model, grads, opt, best };
+    let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
+    (wrap(run.best), logs)
 }
 
 fn forward<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32]) -> Vec<f32> {
     let n = x.len() / INPUT;
     let x = dev.tensor_from_vec(x.to_vec(), (n, Const::<INPUT>));
     model.forward(x).as_vec()
-}
-
-fn mse<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32], y: &[f32]) -> f64 {
-    mse_of(&forward(model, dev, x), y)
 }
 
 /// Each layer's (weight, bias), weight row-major (out x in) as dfdx stores it.
