@@ -17,7 +17,7 @@ if [ ! -x .venv-torch/bin/python ]; then
   .venv-torch/bin/pip install -q torch numpy
 fi
 cargo build --release -q
-cargo build --release -q --example export_cell
+cargo build --release -q --example export_cell --example fma_peak
 root=target/reference-export/protocol
 rm -rf "$root"
 seeds=$(target/release/crossaudit check "$design" --json | python3 -c 'import json,sys; print(",".join(str(s) for s in json.load(sys.stdin)["plan"]["seeds"]))')
@@ -27,15 +27,19 @@ for model in world relative; do
     target/release/examples/export_cell "$design" $model $arm "$first_seed" "$root/${model}__${arm}" 2>/dev/null
   done
 done
+peak=$(target/release/examples/fma_peak)
+echo "$peak"
 out=$(mktemp -d)
-echo "design: $design; seeds: $seeds; CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
+echo "commit $(git rev-parse --short HEAD)$(git diff --quiet || echo " (with uncommitted changes)"); design: $design; seeds: $seeds; CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
 t0=$(date +%s.%N)
 target/release/crossaudit run "$design" --out "$out" --workers 2 > "$out/stdout.txt" 2>&1
 t1=$(date +%s.%N)
 torch_json=$(.venv-torch/bin/python benches/reference/torch_protocol.py "$root" "$seeds" 2)
-python3 - "$out" "$t0" "$t1" "$torch_json" "$root" <<'PY'
-import csv, glob, json, sys
+python3 - "$out" "$t0" "$t1" "$torch_json" "$root" "$peak" <<'PY'
+import csv, glob, json, re, sys
 out, t0, t1, torch, root = sys.argv[1], float(sys.argv[2]), float(sys.argv[3]), json.loads(sys.argv[4]), sys.argv[5]
+found = re.search(r"avx512 f32 fma peak, one core: ([0-9.]+)", sys.argv[6])
+peak = float(found.group(1)) if found else None
 epochs, seconds = [], 0.0
 for f in glob.glob(f"{out}/curves/*.csv"):
     rows = list(csv.DictReader(open(f)))
@@ -56,5 +60,7 @@ for key, label, fmt in [("wall_seconds", "whole protocol, wall s", "{:.0f}"),
                         ("train_gflops", "training GFLOP/s per worker", "{:.1f}")]:
     a, b = ours[key], torch[key]
     print(f"| {label} | {fmt.format(a)} | {fmt.format(b)} | {a / b:.2f} |")
+if peak:
+    print(f"| training GFLOP/s as a share of the AVX-512 FMA peak ({peak:.0f}) | {ours['train_gflops'] / peak:.0%} | {torch['train_gflops'] / peak:.0%} | |")
 PY
 rm -rf "$out"
