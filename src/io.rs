@@ -82,3 +82,17 @@ pub fn opt_f64_text<S: serde::Serializer>(value: &Option<f64>, s: S) -> Result<S
         None => s.serialize_none(),
     }
 }
+
+/// Degrees of freedom in JSON: a number when finite, `"infinite"` for the
+/// normal quantile (z) and `"undefined"` where no df applies (a bootstrap
+/// interval), which plain JSON numbers cannot tell apart (both would be
+/// `null`).
+pub fn df_json<S: serde::Serializer>(value: &f64, s: S) -> Result<S::Ok, S::Error> {
+    if value.is_finite() {
+        s.serialize_f64(*value)
+    } else if value.is_infinite() {
+        s.serialize_str("infinite")
+    } else {
+        s.serialize_str("undefined")
+    }
+}

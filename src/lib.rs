@@ -19,6 +19,11 @@ pub mod stats;
 
 use std::path::Path;
 
+/// This build: the package version and the git commit it was built from
+/// (`-dirty` when tracked files differed from it, `unknown` outside a git
+/// checkout). Recorded in run.json, every job record and every report.
+pub const BUILD: &str = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("CROSSAUDIT_GIT_COMMIT"), ")");
+
 pub use analysis::{analyze, Analysis, AnalyzeOptions};
 pub use design::{Design, DesignFile};
 pub use error::Error;
@@ -57,5 +62,6 @@ pub fn analyze_with(
     let mut a =
         analysis::analyze(plan, &cells, options).map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
     a.record_design(&file.sha256, &status);
+    a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
     Ok(a)
 }

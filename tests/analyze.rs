@@ -207,7 +207,9 @@ fn a_zero_reference_mean_is_an_error_not_an_infinite_optimism() {
     let d = minimal_design();
     let mut cells = lined(minimal_cells(&d));
     for c in cells.iter_mut().filter(|c| c.arm == "disjoint" && c.model == "world" && c.horizon_s == 1.0) {
+        // Zero error everywhere (consistent: FA = conditional when nothing diverged).
         c.fa_position_rmse_m = 0.0;
+        c.conditional_position_rmse_m = Some(0.0);
     }
     let e = err_of(&cells);
     assert!(e.contains("disjoint arm's mean is zero"), "{e}");

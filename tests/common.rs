@@ -35,25 +35,25 @@ macro_rules! snapshots {
     };
 }
 
-/// The shared NanoBench logs, or None with a message saying why the
-/// calling test is skipped.
-pub fn shared_logs() -> Option<PathBuf> {
+/// The shared NanoBench logs. Tests that need them are marked
+/// `#[ignore = "needs ../shared/nanobench"]` and run with
+/// `cargo test -- --include-ignored` (the README's and CI's command); when
+/// the folder is absent they fail, so a missing folder is never green.
+#[track_caller]
+pub fn shared_logs() -> PathBuf {
     let dir = root().join("../shared/nanobench/recordings");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("SKIPPED: {} is absent; this test needs the shared NanoBench recordings", dir.display());
-        None
-    }
+    assert!(dir.is_dir(), "{} is absent; this test needs the shared NanoBench recordings", dir.display());
+    dir
 }
 
-/// The tiny training design and its split on the shared logs, or None.
-pub fn tiny_split(out: &Path) -> Option<(crossaudit::DesignFile, crossaudit::Plan, crossaudit::split::Prepared)> {
-    let dir = shared_logs()?;
+/// The tiny training design and its split on the shared logs.
+#[track_caller]
+pub fn tiny_split(out: &Path) -> (crossaudit::DesignFile, crossaudit::Plan, crossaudit::split::Prepared) {
+    let dir = shared_logs();
     let file = crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap();
     let plan = crossaudit::compile(&file.design);
     let split = crossaudit::split::prepare(&file, &plan, &dir, out).unwrap();
-    Some((file, plan, split))
+    (file, plan, split)
 }
 
 /// Runs the plan's job (model, arm, seed) on a prepared split into `out`.

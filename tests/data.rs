@@ -178,8 +178,9 @@ fn the_cli_writes_recordings_csv_and_a_summary() {
 }
 
 #[test]
+#[ignore = "needs ../shared/nanobench"]
 fn real_logs_under_the_papers_rule() {
-    let Some(dir) = real_logs() else { return };
+    let dir = real_logs();
     let a = audit(&paper_spec(), &dir).unwrap();
     let count = |s: Status| a.files.iter().filter(|f| f.status == s).count();
     assert_eq!(count(Status::Missing), 7, "seven recordings have metadata but no CSV (shared/nanobench/README.md)");
@@ -191,8 +192,9 @@ fn real_logs_under_the_papers_rule() {
 }
 
 #[test]
+#[ignore = "needs ../shared/nanobench"]
 fn real_logs_under_the_audited_rules() {
-    let Some(dir) = real_logs() else { return };
+    let dir = real_logs();
     let spec = design::load(&root().join("designs/nanobench_audited.design")).unwrap().design.data;
     assert!(spec.rules.contains(&InclusionRule::Implausible));
     let a = audit(&spec, &dir).unwrap();
@@ -201,8 +203,9 @@ fn real_logs_under_the_audited_rules() {
 }
 
 #[test]
+#[ignore = "needs ../shared/nanobench"]
 fn real_gzip_equals_its_decompressed_csv() {
-    let Some(dir) = real_logs() else { return };
+    let dir = real_logs();
     let src = dir.join("B9_trefoil_slow_rep3.csv.gz");
     let tmp = tempfile::tempdir().unwrap();
     let plain = tmp.path().join("B9_trefoil_slow_rep3.csv");

@@ -5,6 +5,7 @@ mod common;
 
 mod analyze;
 mod architecture;
+mod bad_inputs;
 mod coverage;
 mod data;
 mod design_errors;
@@ -17,3 +18,4 @@ mod simulate;
 mod split;
 mod stats_props;
 mod stats_reference;
+mod trust;

@@ -31,10 +31,9 @@ fn cell_files(out: &Path) -> Vec<(String, Vec<u8>)> {
 }
 
 #[test]
+#[ignore = "needs ../shared/nanobench"]
 fn one_and_two_workers_give_byte_identical_cells() {
-    if shared_logs().is_none() {
-        return;
-    }
+    shared_logs();
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("w1"), dir.path().join("w2"));
     let (ra, rb) = (run("tests/designs/tiny_train.design", &a, "1"), run("tests/designs/tiny_train.design", &b, "2"));
@@ -63,10 +62,9 @@ fn one_and_two_workers_give_byte_identical_cells() {
 }
 
 #[test]
+#[ignore = "needs ../shared/nanobench"]
 fn a_killed_run_resumes_to_byte_identical_results() {
-    if shared_logs().is_none() {
-        return;
-    }
+    shared_logs();
     let dir = tempfile::tempdir().unwrap();
     let design = "tests/designs/kill_restart.design";
     let reference = dir.path().join("reference");
@@ -102,10 +100,9 @@ fn a_killed_run_resumes_to_byte_identical_results() {
 }
 
 #[test]
+#[ignore = "needs ../shared/nanobench"]
 fn a_changed_locked_design_is_refused_unless_exploratory() {
-    if shared_logs().is_none() {
-        return;
-    }
+    shared_logs();
     let dir = tempfile::tempdir().unwrap();
     let design = dir.path().join("tiny.design");
     let text = std::fs::read_to_string(root().join("tests/designs/tiny_train.design")).unwrap();

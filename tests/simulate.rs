@@ -13,14 +13,17 @@ fn spec(strength: f64) -> SimSpec {
 fn same_seed_gives_byte_identical_csv() {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    let fa = simulate(&spec(1.0), &a).unwrap();
-    let fb = simulate(&spec(1.0), &b).unwrap();
+    let csvs = |dir: &std::path::Path, r: crossaudit::sim::SimRecord| -> Vec<std::path::PathBuf> {
+        r.files.keys().filter(|n| n.ends_with(".csv")).map(|n| dir.join(n)).collect()
+    };
+    let fa = csvs(&a, simulate(&spec(1.0), &a).unwrap());
+    let fb = csvs(&b, simulate(&spec(1.0), &b).unwrap());
     assert_eq!(fa.len(), 6);
     for (x, y) in fa.iter().zip(&fb) {
         assert_eq!(std::fs::read(x).unwrap(), std::fs::read(y).unwrap(), "{}", x.display());
     }
     let other = dir.path().join("c");
-    let fc = simulate(&SimSpec { seed: 4, ..spec(1.0) }, &other).unwrap();
+    let fc = csvs(&other, simulate(&SimSpec { seed: 4, ..spec(1.0) }, &other).unwrap());
     assert_ne!(std::fs::read(&fa[0]).unwrap(), std::fs::read(&fc[0]).unwrap(), "another seed, another flight");
 }
 

@@ -86,6 +86,18 @@ pub enum AnalysisError {
         /// Recordings the design declares.
         declared: usize,
     },
+    /// A value the metric cannot take under the design.
+    #[error("line {line}, field `{field}`: {} is impossible: {problem}", show(*.value))]
+    Impossible {
+        /// 1-based line of the row.
+        line: u64,
+        /// The metric column.
+        field: &'static str,
+        /// The value found.
+        value: f64,
+        /// Why it cannot be.
+        problem: String,
+    },
     /// A metric an analysis unit needs is empty.
     #[error("line {line}, field `{field}`: empty, but {unit} needs a value here")]
     EmptyMetric {
@@ -112,6 +124,63 @@ pub enum AnalysisError {
         /// Why.
         source: StatsError,
     },
+}
+
+/// A value as a reader would write it: scientific notation when very large.
+fn show(v: f64) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
+/// Tolerance of the failure-aware identity, in metres: absolute plus
+/// relative, wide enough for per-cell files written with 3 decimals.
+const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
+
+/// Refuses values no rollout under the plan can produce (the row reader
+/// has already refused negative, non-finite and inconsistent counts):
+/// position errors above the divergence cap, attitude errors above 180
+/// degrees, and a failure-aware RMSE that is not the one its conditional
+/// RMSE, divergence count and cap imply. Every non-divergent start's error
+/// is at most the cap, so with n starts, d of them divergent,
+/// FA^2 n = COND^2 (n - d) + CAP^2 d exactly (rollout/metrics.rs); a file
+/// with one arm in millimetres, or from another cap, breaks it.
+fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
+    let cap = plan.cap.0;
+    let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line, field, value, problem };
+    if c.fa_position_rmse_m > cap {
+        return Err(impossible(
+            "fa_position_rmse_m",
+            c.fa_position_rmse_m,
+            format!("above the design's divergence cap of {cap} m"),
+        ));
+    }
+    if let Some(v) = c.conditional_position_rmse_m.filter(|v| *v > cap) {
+        return Err(impossible(
+            "conditional_position_rmse_m",
+            v,
+            format!("above the design's divergence cap of {cap} m, which no non-divergent rollout exceeds"),
+        ));
+    }
+    if let Some(v) = c.attitude_rmse_deg.filter(|v| *v > 180.0) {
+        return Err(impossible("attitude_rmse_deg", v, "an attitude error is at most 180 degrees".to_string()));
+    }
+    let (n, d) = (c.n_starts as f64, c.n_divergent as f64);
+    let cond = c.conditional_position_rmse_m.unwrap_or(0.0);
+    let implied = ((cond * cond * (n - d) + cap * cap * d) / n).sqrt();
+    if (c.fa_position_rmse_m - implied).abs() > FA_TOLERANCE.0 + FA_TOLERANCE.1 * implied {
+        return Err(impossible(
+            "fa_position_rmse_m",
+            c.fa_position_rmse_m,
+            format!(
+                "with conditional_position_rmse_m {cond}, {} of {} starts divergent and the design's cap of {cap} m it must be {implied:.6} (within {} m + {}%)",
+                c.n_divergent, c.n_starts, FA_TOLERANCE.0, FA_TOLERANCE.1 * 100.0
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// An [`AnalysisError`] with the per-cell file it concerns.
@@ -143,6 +212,9 @@ impl FileAnalysisError {
 /// assert_eq!(a.decision.rule.to_string(), "confirmed when optimism >= 10% and upper < 0");
 /// ```
 pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<Analysis, AnalysisError> {
+    for c in cells {
+        check_values(plan, c)?;
+    }
     let data = index::index(plan, cells)?;
     let recordings: Vec<RecordingLabels> = data
         .labels
@@ -197,5 +269,6 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         decision,
         warnings,
         figures: Vec::new(),
+        provenance: Provenance::default(),
     })
 }

@@ -42,9 +42,41 @@ pub struct Analysis {
     /// Figure files (relative to the report), when a run drew them.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<String>,
+    /// Which data, which cells and which build produced this analysis.
+    pub provenance: Provenance,
+}
+
+/// Where an analysis came from: reports print it beside the design hash.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Provenance {
+    /// The flight logs the cells were computed from, when a run produced them.
+    pub data: Option<String>,
+    /// SHA-256 of the run's inclusion audit (`audit/recordings.csv`).
+    pub audit_sha256: Option<String>,
+    /// The per-cell CSV analysed and its SHA-256.
+    pub cells: Option<(String, String)>,
+    /// The crossaudit build that wrote the analysis ([`crate::BUILD`]).
+    pub crossaudit: String,
+}
+
+impl Default for Provenance {
+    fn default() -> Self {
+        Provenance { data: None, audit_sha256: None, cells: None, crossaudit: crate::BUILD.to_string() }
+    }
 }
 
 impl Analysis {
+    /// Records the data a run computed the cells from.
+    pub fn record_provenance(&mut self, data: &str, audit_sha256: &str) {
+        self.provenance.data = Some(data.to_string());
+        self.provenance.audit_sha256 = Some(audit_sha256.to_string());
+    }
+
+    /// Records the per-cell file analysed and its SHA-256.
+    pub fn record_cells(&mut self, path: &std::path::Path, sha256: &str) {
+        self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));
+    }
+
     /// Records the design the analysis ran under: its hash, and, when it
     /// changed after it was locked, an EXPLORATORY label and warning.
     pub fn record_design(&mut self, sha256: &str, status: &LockStatus) {

@@ -84,6 +84,10 @@ pub struct FileRow {
     pub status: Status,
     /// Why it was excluded; empty when included.
     pub reason: String,
+    /// A metadata file that exists but cannot be used (empty, unreadable,
+    /// invalid): a note in lenient data, an error under `strict`.
+    #[serde(skip)]
+    pub broken_metadata: Option<String>,
 }
 
 /// The inclusion audit of one data directory under a design's data declaration.
@@ -111,6 +115,18 @@ pub enum AuditError {
         dir: String,
         /// The underlying error.
         message: String,
+    },
+    /// Two files load as recordings of the same name.
+    #[error("{dir}: {first} and {second} would both load as recording {name}; keep one of them")]
+    SameName {
+        /// The directory.
+        dir: String,
+        /// The recording name.
+        name: String,
+        /// One file.
+        first: String,
+        /// The other.
+        second: String,
     },
     /// The declared columns are not in the NanoBench schema.
     #[error("{0}")]
@@ -151,8 +167,17 @@ fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
             metas.push(stem.to_string());
         }
     }
-    csvs.sort_by_key(|p| natural_key(&recording_name(p)));
+    csvs.sort_by_key(|p| (natural_key(&recording_name(p)), p.clone()));
     let names: Vec<String> = csvs.iter().map(|p| recording_name(p)).collect();
+    if let Some(k) = (1..names.len()).find(|&k| names[k] == names[k - 1]) {
+        let file = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        return Err(AuditError::SameName {
+            dir: dir.display().to_string(),
+            name: names[k].clone(),
+            first: file(&csvs[k - 1]),
+            second: file(&csvs[k]),
+        });
+    }
     let mut missing: Vec<String> = metas.into_iter().filter(|m| !names.contains(m)).collect();
     missing.sort_by_key(|n| natural_key(n));
     Ok((csvs, missing))
@@ -192,13 +217,13 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
         .par_iter()
         .map(|path| {
             let meta = read_metadata(&meta_path(path));
-            match load_recording(path, &layout) {
-                Ok(rec) => {
-                    let row = judged(spec, &rec, meta);
-                    (row, keep.then_some(rec))
-                }
+            let broken = meta.as_ref().err().filter(|_| meta_path(path).exists()).cloned();
+            let (mut row, rec) = match load_recording(path, &layout) {
+                Ok(rec) => (judged(spec, &rec, meta), keep.then_some(rec)),
                 Err(e) => (unreadable(path, meta, e.to_string()), None),
-            }
+            };
+            row.broken_metadata = broken;
+            (row, rec)
         })
         .collect();
     let (mut files, mut recordings): (Vec<FileRow>, Vec<Option<Recording>>) = loaded.into_iter().unzip();
@@ -216,11 +241,12 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
         files.push(row);
     }
     if spec.strictness == Strictness::Strict {
-        let bad: Vec<String> = files
+        let mut bad: Vec<String> = files
             .iter()
             .filter(|f| f.status == Status::Excluded && f.verdicts.is_empty())
             .map(|f| format!("  {}", f.reason))
             .collect();
+        bad.extend(files.iter().filter_map(|f| f.broken_metadata.as_ref()).map(|m| format!("  {m}")));
         if !bad.is_empty() {
             return Err(AuditError::Strict { count: bad.len(), list: bad.join("\n") });
         }
@@ -259,6 +285,7 @@ fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
         duplicate_group: None,
         content_hash: String::new(),
         verdicts: Vec::new(),
+        broken_metadata: None,
         status: Status::Included,
         reason: String::new(),
     }

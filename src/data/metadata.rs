@@ -97,6 +97,12 @@ pub struct Metadata {
 /// Reads a `_metadata.yaml` file; the error names the file, line and column.
 pub fn read_metadata(path: &Path) -> Result<Metadata, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    if text.trim().is_empty() {
+        return Err(format!(
+            "{}: the metadata file is empty (delete it if the recording has no metadata)",
+            path.display()
+        ));
+    }
     serde_yaml_ng::from_str(&text).map_err(|e| {
         let at = e.location().map(|l| format!(" (line {}, column {})", l.line(), l.column())).unwrap_or_default();
         format!("{}: invalid metadata{at}: {e}", path.display())

@@ -12,14 +12,14 @@ mod validate;
 
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub use ast::{Ast, Cmp, Span};
 pub use diagnostic::{DesignError, Diagnostic};
 pub use lock::{LockFile, LockStatus};
 
 /// A training seed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct Seed(pub u64);
 
@@ -90,7 +90,7 @@ pub struct DataSpec {
 }
 
 /// What to simulate (the design's `data simulated { ... }`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SimSpec {
     /// Number of recordings to generate.
     pub recordings: usize,
@@ -666,6 +666,12 @@ pub fn load(path: &Path) -> Result<DesignFile, LoadError> {
         path: path.display().to_string(),
         source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8: {e}")),
     })?;
+    // Editors that save a UTF-8 byte-order mark hide it; columns are
+    // counted as the editor shows them, after it. The hash covers the bytes.
+    let source = match source.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => source,
+    };
     let design = from_str(&path.display().to_string(), &source)?;
     Ok(DesignFile { path: path.to_path_buf(), source, design, sha256 })
 }

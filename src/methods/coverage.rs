@@ -87,6 +87,14 @@ pub struct CoverageSpec {
     pub distributions: Vec<Distribution>,
 }
 
+/// The largest number of recordings or seeds of one setting.
+const MAX_SIDE: usize = 10_000;
+/// The most settings a grid may have.
+const MAX_SETTINGS: usize = 10_000;
+/// The most cell visits (reps x (B + 1) x recordings x seeds, summed over
+/// the grid) a study may need.
+const MAX_WORK: f64 = 1e12;
+
 fn default_level() -> f64 {
     0.95
 }
@@ -110,7 +118,9 @@ impl CoverageSpec {
         Ok(spec)
     }
 
-    fn validate(&self, path: &Path) -> Result<(), CoverageError> {
+    /// Checks the spec (after any command-line override), refusing sizes
+    /// that cannot fit in memory or finish in reasonable time.
+    pub fn validate(&self, path: &Path) -> Result<(), CoverageError> {
         let bad = |message: String| Err(CoverageError::Invalid { path: path.display().to_string(), message });
         if self.reps < 2 {
             return bad(format!("`reps` must be at least 2, found {}", self.reps));
@@ -131,6 +141,23 @@ impl CoverageSpec {
         }
         if self.rows.is_empty() || self.cols.is_empty() || self.shares.is_empty() || self.distributions.is_empty() {
             return bad("`rows`, `cols`, `shares` and `distributions` each need at least one entry".into());
+        }
+        if let Some(n) = self.rows.iter().chain(&self.cols).find(|n| **n > MAX_SIDE) {
+            return bad(format!("`rows` and `cols` may be at most {MAX_SIDE}, found {n}"));
+        }
+        let settings = self.rows.len() * self.cols.len() * self.shares.len() * self.distributions.len();
+        if settings > MAX_SETTINGS {
+            return bad(format!("the grid has {settings} settings; at most {MAX_SETTINGS} are allowed"));
+        }
+        let cells: f64 = self.rows.iter().map(|&i| self.cols.iter().map(|&j| (i * j) as f64).sum::<f64>()).sum();
+        let work = cells
+            * (self.shares.len() * self.distributions.len()) as f64
+            * self.reps as f64
+            * (self.bootstrap as f64 + 1.0);
+        if work > MAX_WORK {
+            return bad(format!(
+                "reps x bootstrap x cells over the grid is {work:.3e} cell visits, more than the {MAX_WORK:.0e} allowed (hours of computing); lower `reps`, `bootstrap` or the grid"
+            ));
         }
         Ok(())
     }

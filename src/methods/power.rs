@@ -15,12 +15,19 @@ use crate::report::charts::{draw_err, DrawError};
 use crate::report::Table;
 use crate::stats::{critical_value, StatsError};
 
+/// The most recordings or seeds the planner considers (a design declares
+/// at most 100,000 seeds).
+pub const MAX_PLANNED: usize = 100_000;
+
 /// Why a power plan could not be made or written.
 #[derive(Debug, thiserror::Error)]
 pub enum PowerError {
     /// Fewer than 2 recordings or seeds were asked for.
     #[error("--recordings and --seeds need values of at least 2, found {0}")]
     TooFew(usize),
+    /// More recordings or seeds than a design may declare.
+    #[error("--recordings and --seeds take values of at most {MAX_PLANNED}, found {0}")]
+    TooMany(usize),
     /// The pilot analysis has no primary unit.
     #[error("the analysis has no primary endpoint")]
     NoPrimary,
@@ -91,6 +98,9 @@ pub fn power_plan(
 ) -> Result<PowerPlan, PowerError> {
     if let Some(n) = recordings.iter().chain(seeds).find(|n| **n < 2) {
         return Err(PowerError::TooFew(*n));
+    }
+    if let Some(n) = recordings.iter().chain(seeds).find(|n| **n > MAX_PLANNED) {
+        return Err(PowerError::TooMany(*n));
     }
     let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
     let c = &u.estimate.components;

@@ -420,11 +420,14 @@ impl Net {
     /// Writes the weights as safetensors.
     pub fn save(&self, path: &Path) -> Result<(), NetError> {
         let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
+        // Staged and renamed, so that an interrupted save never leaves half a file.
+        let tmp = crate::io::tmp_path(path);
         match self {
-            Net::W32(m) => m.save_safetensors(path).map_err(|e| err(format!("{e:?}"))),
-            Net::W64(m) => m.save_safetensors(path).map_err(|e| err(format!("{e:?}"))),
-            Net::W256(m) => m.save_safetensors(path).map_err(|e| err(format!("{e:?}"))),
+            Net::W32(m) => m.save_safetensors(&tmp).map_err(|e| err(format!("{e:?}")))?,
+            Net::W64(m) => m.save_safetensors(&tmp).map_err(|e| err(format!("{e:?}")))?,
+            Net::W256(m) => m.save_safetensors(&tmp).map_err(|e| err(format!("{e:?}")))?,
         }
+        std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))
     }
 
     /// Reads weights written by [`Net::save`] for an architecture of `widths`.

@@ -42,7 +42,7 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
         .collect();
     let p = report_dir.join("optimism.svg");
     let title = format!("Apparent optimism ({contrast}), {} crossed intervals", level_pct(a.level));
-    intervals(&p, &title, "optimism (%)", &rows, &lines)?;
+    intervals(&p, &label(a, &title), "optimism (%)", &rows, &lines)?;
     written.push(p);
 
     if let Some(first) = a.interactions.first() {
@@ -53,7 +53,7 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             .collect();
         let p = report_dir.join("interaction.svg");
         let title = format!("Interaction: d({}) - d({})", first.left, first.right);
-        intervals(&p, &title, "difference in d (m)", &rows, &[(0.0, BLACK)])?;
+        intervals(&p, &label(a, &title), "difference in d (m)", &rows, &[(0.0, BLACK)])?;
         written.push(p);
     }
 
@@ -65,7 +65,7 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             .collect();
         let p = report_dir.join("per_seed_optimism.svg");
         let title = format!("Per-seed optimism, {} at {} s (red: threshold)", primary.model, primary.horizon_s);
-        intervals(&p, &title, "optimism (%)", &rows, &lines)?;
+        intervals(&p, &label(a, &title), "optimism (%)", &rows, &lines)?;
         written.push(p);
 
         let rows: Vec<IntervalRow> = primary
@@ -84,7 +84,7 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             primary.model,
             primary.horizon_s
         );
-        intervals(&p, &title, "mean d (m)", &rows, &[(0.0, BLACK)])?;
+        intervals(&p, &label(a, &title), "mean d (m)", &rows, &[(0.0, BLACK)])?;
         written.push(p);
     }
 
@@ -94,6 +94,16 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
         written.push(p);
     }
     Ok(written)
+}
+
+/// A figure title, prefixed `EXPLORATORY:` when the analysis is not the
+/// preregistered one.
+fn label(a: &Analysis, title: &str) -> String {
+    if a.exploratory {
+        format!("EXPLORATORY: {title}")
+    } else {
+        title.to_string()
+    }
 }
 
 fn capitalize(s: &str) -> String {
@@ -111,7 +121,7 @@ fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<(), DrawEr
     let title =
         format!("Validation loss per epoch, every training cell (blue: {}, orange: {})", a.treated, a.reference);
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
+        .caption(label(a, &title), ("sans-serif", 18))
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(70)

@@ -2,12 +2,15 @@
 
 use crate::analysis::Decision;
 
-/// Fixed-point formatting used in every table; NaN prints as "NA".
+/// Fixed-point formatting used in every table; NaN prints as "NA". A
+/// negative number that rounds to zero keeps its sign (a rule such as
+/// `upper < 0` turns on it); only zero itself prints unsigned.
 ///
 /// ```
 /// use crossaudit::report::f;
 /// assert_eq!(f(0.12345, 4), "0.1235");
-/// assert_eq!(f(-0.00001, 4), "0.0000");
+/// assert_eq!(f(-0.00001, 4), "-0.0000");
+/// assert_eq!(f(-0.0, 4), "0.0000");
 /// assert_eq!(f(f64::NAN, 2), "NA");
 /// ```
 pub fn f(v: f64, decimals: usize) -> String {
@@ -16,13 +19,9 @@ pub fn f(v: f64, decimals: usize) -> String {
     } else if v.is_infinite() {
         if v > 0.0 { "inf" } else { "-inf" }.to_string()
     } else {
-        let s = format!("{v:.decimals$}");
-        // "-0.0000" reads as a sign error; print zero plainly.
-        if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
-            s.trim_start_matches('-').to_string()
-        } else {
-            s
-        }
+        // Negative zero prints as zero; any other negative value keeps its sign.
+        let v = if v == 0.0 { 0.0 } else { v };
+        format!("{v:.decimals$}")
     }
 }
 
@@ -43,6 +42,17 @@ pub fn decision_summary(d: &Decision) -> String {
         .collect();
     let verdict = if d.holds { d.name.to_uppercase() } else { format!("NOT {}", d.name.to_uppercase()) };
     format!("decision: {verdict} on {}: {}", d.unit, parts.join("; "))
+}
+
+/// The decision line as the console prints it: [`decision_summary`],
+/// prefixed `EXPLORATORY` when the analysis is not the preregistered one.
+pub fn decision_line(a: &crate::analysis::Analysis) -> String {
+    let line = decision_summary(&a.decision);
+    if a.exploratory {
+        format!("EXPLORATORY {line}")
+    } else {
+        line
+    }
 }
 
 /// Confidence level as a percentage label: 0.95 -> "95%".

@@ -92,6 +92,12 @@ fn header(a: &Analysis) -> String {
     let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
     let _ = writeln!(
         s,
+        "The decision uses the {} crossed-estimator interval (the `{} CI` column); bootstrap intervals are shown for comparison and decide nothing. Secondary endpoints are descriptive: no rule applies to them.",
+        level_pct(a.level),
+        level_pct(a.level)
+    );
+    let _ = writeln!(
+        s,
         "Contrast `{} - {}` over {} recordings x {} seeds; crossed method-of-moments estimator, {} intervals.",
         a.treated,
         a.reference,
@@ -102,6 +108,19 @@ fn header(a: &Analysis) -> String {
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`.");
     }
+    let p = &a.provenance;
+    if let Some(d) = &p.data {
+        let _ = writeln!(s, "Data: {d}; inclusion audit SHA-256 `{}`.", p.audit_sha256.as_deref().unwrap_or("unknown"));
+    }
+    if let Some((path, sha)) = &p.cells {
+        let _ = writeln!(s, "Per-cell data: `{path}` (SHA-256 `{sha}`).");
+    }
+    let _ = writeln!(
+        s,
+        "Analysed by crossaudit {}{}.",
+        p.crossaudit,
+        if a.exploratory { "; EXPLORATORY: not the preregistered analysis" } else { "" }
+    );
     let _ = writeln!(s);
     if !a.figures.is_empty() {
         let _ = writeln!(s, "## Figures\n");
@@ -131,7 +150,12 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
             df(e.df),
             ci(e),
             boot(&u.bootstrap),
-            if u.rule_holds { "holds" } else { "fails" }.to_string(),
+            match (u.role, u.rule_holds) {
+                (Role::Primary, true) => "holds",
+                (Role::Primary, false) => "fails",
+                _ => "descriptive",
+            }
+            .to_string(),
         ]);
     }
     table

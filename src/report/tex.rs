@@ -82,6 +82,19 @@ pub fn render_tex(a: &Analysis) -> String {
     if a.exploratory {
         let _ = writeln!(m.text, "% EXPLORATORY: the design changed after it was locked.");
     }
+    if let Some(h) = &a.design_sha256 {
+        let _ = writeln!(m.text, "% design sha256 {h}");
+    }
+    let p = &a.provenance;
+    if let Some(d) = &p.data {
+        let _ =
+            writeln!(m.text, "% data: {d}; inclusion audit sha256 {}", p.audit_sha256.as_deref().unwrap_or("unknown"));
+    }
+    if let Some((path, sha)) = &p.cells {
+        let _ = writeln!(m.text, "% per-cell data: {path} (sha256 {sha})");
+    }
+    let _ = writeln!(m.text, "% crossaudit {}", p.crossaudit);
+    m.add(&["exploratory"], if a.exploratory { "yes".to_string() } else { "no".to_string() });
     m.add(&["decision"], if a.decision.holds { a.decision.name.clone() } else { format!("not {}", a.decision.name) });
     m.add(&["recordings"], a.recordings.len().to_string());
     m.add(&["seeds"], a.seeds.len().to_string());

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::record::JobRecord;
 use super::RunError;
 use crate::cells::{write_cells_atomic, Cell};
 use crate::data::Recording;
@@ -15,7 +16,7 @@ use crate::model::baseline::{ConstantVelocity, Persistence};
 use crate::model::{net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
 use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
-use crate::split::{Prepared, Window};
+use crate::split::{JobManifests, Prepared, Window};
 
 /// Everything one job produced.
 #[derive(Debug, Clone, Serialize)]
@@ -43,7 +44,7 @@ pub struct JobOutcome {
     /// The job's per-cell rows.
     #[serde(skip)]
     pub cells: Vec<Cell>,
-    /// Files written, in order.
+    /// Files written, in order, relative to the run directory.
     pub files: Vec<String>,
 }
 
@@ -97,6 +98,20 @@ struct Bench<'a> {
 }
 
 impl Bench<'_> {
+    /// The manifests this job reads, by hash.
+    fn manifests(&self) -> JobManifests {
+        let m = &self.prepared.manifests;
+        JobManifests {
+            model: self.job.model.clone(),
+            arm: self.job.arm.clone(),
+            seed: self.job.seed,
+            evaluation_sha256: m.sha256("evaluation_recordings.csv").to_string(),
+            starts_sha256: m.sha256("evaluation_starts.csv").to_string(),
+            validation_sha256: m.sha256("validation_windows.csv").to_string(),
+            fit_sha256: self.fit_sha.clone(),
+        }
+    }
+
     /// Rolls `d` out from every start and scores it: (one-step validation
     /// error, per-cell rows, seconds spent rolling out).
     fn score(&self, name: &str, d: &mut dyn Dynamics) -> (f64, Vec<Cell>, f64) {
@@ -114,8 +129,9 @@ impl Bench<'_> {
 }
 
 /// Runs one job of `plan` on the prepared split; files go under `out`.
-/// The per-cell CSV is written last, atomically: its presence marks the
-/// job as finished for a resumed run.
+/// Its record (`jobs/STEM.json`: manifests, standardizers, seed, and the
+/// SHA-256 of every file written) is written last, atomically: its
+/// presence marks the job as finished for a resumed run.
 pub fn run_job(
     design_sha256: &str,
     plan: &Plan,
@@ -142,13 +158,12 @@ pub fn run_job_with(
     let stem = job.stem();
     let mut files = Vec::new();
     let mut one_step = Vec::new();
+    let mut standardizers = None;
     let (cells, epochs, best_val_loss, train_seconds, rollout_seconds) = match &job.kind {
         ModelKind::Mlp { widths, inputs } => {
+            // Invariant 6 is checked after training on what the job record
+            // says these were fitted on (run/trained_invariants.rs).
             let features = FeatureMap::fit(*inputs, &bench.fit, &bench.fit_sha);
-            // Invariant 6: standardizers fitted on this arm's own fit set.
-            if features.fitted_on != bench.fit_sha {
-                return Err(RunError::Invariant6 { job: stem });
-            }
             let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
             let t0 = std::time::Instant::now();
             let (net, epochs) = net::train_with(
@@ -170,6 +185,7 @@ pub fn run_job_with(
             let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
             let (e, cells, secs) = bench.score(&job.model, &mut Learned::with(engine, &net, &features));
             one_step.push((job.model.clone(), e));
+            standardizers = Some(features);
             (cells, epochs, Some(best), train_seconds, secs)
         }
         ModelKind::Persistence | ModelKind::ConstantVelocity => {
@@ -189,11 +205,21 @@ pub fn run_job_with(
     if !epochs.is_empty() {
         files.push(write_curve(out, &stem, &epochs)?);
     }
-    let cells_dir = out.join("cells");
-    create_dir_all(&cells_dir)?;
-    let cells_path = cells_dir.join(format!("{stem}.csv"));
-    write_cells_atomic(&cells_path, &cells)?;
-    files.push(cells_path.display().to_string());
+    let cells_name = format!("cells/{stem}.csv");
+    create_dir_all(&out.join("cells"))?;
+    write_cells_atomic(&out.join(&cells_name), &cells)?;
+    files.push(cells_name);
+    let record = JobRecord {
+        model: job.model.clone(),
+        arm: job.arm.clone(),
+        seed: job.seed.0,
+        design_sha256: design_sha256.to_string(),
+        manifests: bench.manifests(),
+        standardizers,
+        files: JobRecord::hash_files(out, &files)?,
+        crossaudit: crate::BUILD.to_string(),
+    };
+    record.write(out, job)?;
     Ok(JobOutcome {
         model: job.model.clone(),
         arm: job.arm.clone(),
@@ -240,14 +266,12 @@ fn baseline(kind: &ModelKind, rate_hz: f64) -> Box<dyn Dynamics> {
 
 /// `models/STEM.safetensors` and `models/STEM.json` (what produced them).
 fn save_model(out: &Path, stem: &str, net: &net::Net, meta: &serde_json::Value) -> Result<[String; 2], RunError> {
-    let models_dir = out.join("models");
-    create_dir_all(&models_dir)?;
-    let weights = models_dir.join(format!("{stem}.safetensors"));
-    net.save(&weights)?;
-    let meta_path = models_dir.join(format!("{stem}.json"));
+    create_dir_all(&out.join("models"))?;
+    let (weights, meta_name) = (format!("models/{stem}.safetensors"), format!("models/{stem}.json"));
+    net.save(&out.join(&weights))?;
     // No final newline: the form these files have always had.
-    write_atomic(&meta_path, serde_json::to_string_pretty(meta).unwrap_or_default().as_bytes())?;
-    Ok([weights.display().to_string(), meta_path.display().to_string()])
+    write_atomic(&out.join(&meta_name), serde_json::to_string_pretty(meta).unwrap_or_default().as_bytes())?;
+    Ok([weights, meta_name])
 }
 
 /// One row of `curves/STEM.csv`.
@@ -266,7 +290,8 @@ struct CurveRow {
 
 /// `curves/STEM.csv`: the losses of every epoch.
 fn write_curve(out: &Path, stem: &str, epochs: &[EpochLog]) -> Result<String, RunError> {
-    let path = out.join("curves").join(format!("{stem}.csv"));
+    let name = format!("curves/{stem}.csv");
+    let path = out.join(&name);
     create_dir_all(path.parent().unwrap_or(out))?;
     let mut w = csv::Writer::from_writer(Vec::new());
     for e in epochs {
@@ -278,5 +303,5 @@ fn write_curve(out: &Path, stem: &str, epochs: &[EpochLog]) -> Result<String, Ru
         .into_inner()
         .map_err(|e| RunError::Csv { path: path.display().to_string(), source: e.into_error().into() })?;
     write_atomic(&path, &bytes)?;
-    Ok(path.display().to_string())
+    Ok(name)
 }

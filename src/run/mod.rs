@@ -15,6 +15,7 @@ mod grid;
 pub mod job;
 mod record;
 mod source;
+mod trained_invariants;
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
@@ -31,8 +32,9 @@ use crate::report::figures::Curve;
 
 pub use grid::{Quiet, RunObserver};
 pub use job::{run_job, run_job_with, JobOutcome};
-pub use record::RunRecord;
-pub use source::data_dir;
+pub use record::{job_record_path, JobRecord, RunRecord};
+pub use source::{data_dir, Data, DataOrigin};
+pub use trained_invariants::check as check_trained_invariants;
 
 /// Options of a run that are not part of the design.
 #[derive(Debug, Clone, Copy)]
@@ -60,12 +62,63 @@ pub enum RunError {
         /// The other design's hash.
         sha256: String,
     },
+    /// run.json cannot be read, or is missing beside a run's outputs.
+    #[error("{path} cannot be read as the record of a run ({reason}), so nothing in {dir} can be verified for reuse; use a new output directory")]
+    BadRunRecord {
+        /// run.json.
+        path: String,
+        /// The output directory.
+        dir: String,
+        /// Why.
+        reason: String,
+    },
+    /// The run being resumed used other data.
+    #[error("{dir} holds a run on other data: its {what} was {was}, now {is}; use a new output directory")]
+    OtherData {
+        /// The output directory.
+        dir: String,
+        /// What differs.
+        what: String,
+        /// As recorded.
+        was: String,
+        /// Now.
+        is: String,
+    },
+    /// A job record cannot be read.
+    #[error("{path} cannot be read as a job record ({reason}); delete it to train that job again")]
+    BadJobRecord {
+        /// The record.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+    /// A finished job's file changed after the job wrote it.
+    #[error("{path} is not the file its job wrote ({reason}, see {record}); delete both to train that job again")]
+    JobFileChanged {
+        /// The file.
+        path: String,
+        /// The job record that lists it.
+        record: String,
+        /// Missing, or its SHA-256 against the recorded one.
+        reason: String,
+    },
+    /// The job records contradict an invariant.
+    #[error("invariants failed on what the jobs recorded (see {path}):\n{list}")]
+    TrainedInvariants {
+        /// `audit/invariants_trained.json`.
+        path: String,
+        /// The failures, one per line.
+        list: String,
+    },
     /// The manifests differ from those of the run being resumed.
     #[error("the manifests differ from those of the run in {dir} (the data changed?); use a new output directory")]
     ManifestsChanged {
         /// The output directory.
         dir: String,
     },
+    /// `--workers 0`.
+    #[error("--workers must be at least 1")]
+    NoWorkers,
     /// A worker's thread pool could not start.
     #[error("worker pool: {0}")]
     WorkerPool(#[from] rayon::ThreadPoolBuildError),
@@ -88,12 +141,6 @@ pub enum RunError {
         /// The arm.
         arm: String,
     },
-    /// Standardizers were not fitted on the job's own fit set.
-    #[error("invariant 6 failed for {job}: standardizers were not fitted on this arm's fit set")]
-    Invariant6 {
-        /// The job's stem.
-        job: String,
-    },
     /// A job named on the command line is not in the plan.
     #[error("no training job {job} in the design ({known})")]
     UnknownJob {
@@ -108,6 +155,9 @@ pub enum RunError {
         /// The design file.
         path: String,
     },
+    /// `--data` on a design whose data are simulated.
+    #[error("the design's data are `simulated`: --data would train on other logs under the simulated study's name; remove --data, or write a design whose data block names a `path`")]
+    DataOverride,
     /// The design has no data path and none was given.
     #[error("the design's data block has no `path`; pass --data DIR")]
     NoDataPath,
@@ -172,25 +222,28 @@ pub struct RunOutcome {
 ///
 /// ```
 /// use std::path::Path;
-/// use crossaudit::run::{run, Quiet, RunOptions};
+/// use crossaudit::run::{run, Data, Quiet, RunOptions};
 /// // The shared NanoBench logs beside the repository, a small version of the paper's design.
 /// let file = crossaudit::design::load(Path::new("tests/designs/tiny_train.design")).unwrap();
 /// let plan = crossaudit::compile(&file.design);
 /// let out = tempfile::tempdir().unwrap();
-/// let data = Path::new("../shared/nanobench/recordings");
-/// let done = run(&file, &plan, data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+/// let data = Data::directory(Path::new("../shared/nanobench/recordings"));
+/// let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
 /// assert_eq!(done.trained, plan.jobs.iter().filter(|j| j.trains()).count());
 /// assert!(done.cells_csv.exists() && done.report_dir.join("report.md").exists());
 /// ```
 pub fn run(
     file: &DesignFile,
     plan: &Plan,
-    data_dir: &Path,
+    data: &Data,
     out: &Path,
     options: RunOptions,
     observer: &dyn RunObserver,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
+    if options.workers == 0 {
+        return Err(RunError::NoWorkers);
+    }
     let status = lock::status(&file.path, &file.sha256)?;
     let exploratory = match status {
         LockStatus::LockedChanged { .. } if !options.exploratory => {
@@ -200,28 +253,54 @@ pub fn run(
         _ => options.exploratory,
     };
     create_dir_all(out)?;
-    let previous = RunRecord::read(out);
+    let previous = RunRecord::read(out)?;
     if let Some(p) = &previous {
-        p.check_design(out, &file.sha256)?;
+        if p.design_sha256 != file.sha256 {
+            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: p.design_sha256.clone() });
+        }
     }
-    let prepared = crate::split::prepare(file, plan, data_dir, out)?;
-    let manifests_sha256 = crate::io::sha256_hex(prepared.manifests.to_json().as_bytes());
+    let prepared = crate::split::prepare(file, plan, &data.dir, out)?;
+    let record = RunRecord {
+        study: plan.study.clone(),
+        design_sha256: file.sha256.clone(),
+        data: data.origin.clone(),
+        audit_sha256: crate::io::sha256_hex(prepared.audit.to_csv().as_bytes()),
+        manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
+        exploratory,
+        crossaudit: crate::BUILD.to_string(),
+    };
     if let Some(p) = &previous {
-        p.check_manifests(out, &manifests_sha256)?;
+        p.check_resume(out, &record)?;
     }
-    let record =
-        RunRecord { study: plan.study.clone(), design_sha256: file.sha256.clone(), manifests_sha256, exploratory };
     record.write(out)?;
 
-    let done = |j: &TrainingJob| job_cells(out, j).exists();
-    let todo: VecDeque<TrainingJob> = plan.jobs.iter().filter(|j| !done(j)).cloned().collect();
+    let mut todo = VecDeque::new();
+    let mut builds = std::collections::BTreeSet::new();
+    for j in &plan.jobs {
+        match JobRecord::read(out, j)? {
+            Some(r) => {
+                r.verify_files(out, j)?;
+                builds.insert(r.crossaudit);
+            }
+            None => todo.push_back(j.clone()),
+        }
+    }
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);
     let trained = todo.len();
-    grid::run_grid(&file.sha256, plan, &prepared, out, todo, options.workers.max(1), observer)?;
+    grid::run_grid(&file.sha256, plan, &prepared, out, todo, options.workers, observer)?;
+    trained_invariants::check(plan, &prepared, out)?;
 
     let cells_csv = gather(plan, out)?;
     let mut analysis = analyze_run(file, plan, &cells_csv, &status, exploratory)?;
+    analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
+    builds.remove(crate::BUILD);
+    for b in builds {
+        analysis.warnings.push(format!(
+            "some cells were trained by crossaudit {b}; this run, which resumed them, is {}",
+            crate::BUILD
+        ));
+    }
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = read_curves(plan, out)?;
@@ -263,6 +342,7 @@ fn analyze_run(
         analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
     analysis.record_design(&file.sha256, status);
     analysis.exploratory |= exploratory;
+    analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
     if *status == LockStatus::Unlocked {
         analysis.warnings.push(format!(
             "{} was not locked before this run: lock a design (`crossaudit lock`) to preregister it",

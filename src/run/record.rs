@@ -1,12 +1,19 @@
-//! `run.json`: what a run directory holds, checked before a run resumes so
-//! that finished jobs are only ever reused for the same design and data.
+//! What a run directory holds, recorded so that a resume reuses only what
+//! it can verify: `run.json` (design, data, audit, manifests, build) and
+//! one `jobs/STEM.json` per finished job (the manifests it trained on, its
+//! standardizers and seed, and the SHA-256 of every file it wrote). A job
+//! record is written last, atomically: it is what marks a job finished.
 
-use std::path::Path;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::RunError;
-use crate::io::write_atomic;
+use super::{DataOrigin, RunError};
+use crate::io::{pretty_json, sha256_hex, write_atomic};
+use crate::model::FeatureMap;
+use crate::plan::TrainingJob;
+use crate::split::JobManifests;
 
 /// run.json: what a run directory holds, checked on resume.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -15,31 +22,64 @@ pub struct RunRecord {
     pub study: String,
     /// SHA-256 of the design file.
     pub design_sha256: String,
+    /// Where the flight logs came from.
+    pub data: DataOrigin,
+    /// SHA-256 of the inclusion audit (`audit/recordings.csv`).
+    pub audit_sha256: String,
     /// SHA-256 of manifests.json.
     pub manifests_sha256: String,
     /// Whether the run's outputs are labelled EXPLORATORY.
     pub exploratory: bool,
+    /// The crossaudit build that last wrote the directory ([`crate::BUILD`]).
+    pub crossaudit: String,
 }
 
+/// Output entries that only a run writes: their presence without a
+/// readable run.json means the record was lost or the folder is not a run.
+const RUN_OUTPUTS: [&str; 5] = ["jobs", "cells", "models", "curves", "cells.csv"];
+
 impl RunRecord {
-    /// The record of the run in `out`, if one was written and is readable.
-    pub fn read(out: &Path) -> Option<RunRecord> {
-        let text = std::fs::read_to_string(out.join("run.json")).ok()?;
-        serde_json::from_str(&text).ok()
-    }
-
-    /// Refuses a directory that holds a run of another design.
-    pub fn check_design(&self, out: &Path, design_sha256: &str) -> Result<(), RunError> {
-        if self.design_sha256 != design_sha256 {
-            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: self.design_sha256.clone() });
+    /// The record of the run in `out`: `None` for a directory no run has
+    /// written into, an error when run.json is unreadable or missing beside
+    /// a run's outputs (nothing there can be verified, so nothing is reused).
+    pub fn read(out: &Path) -> Result<Option<RunRecord>, RunError> {
+        let path = out.join("run.json");
+        let unreadable = |reason: String| RunError::BadRunRecord {
+            path: path.display().to_string(),
+            dir: out.display().to_string(),
+            reason,
+        };
+        match std::fs::read(&path) {
+            Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| unreadable(e.to_string())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                match RUN_OUTPUTS.iter().find(|name| out.join(name).exists()) {
+                    Some(name) => Err(unreadable(format!("it is missing, but {name} is there"))),
+                    None => Ok(None),
+                }
+            }
+            Err(e) => Err(unreadable(e.to_string())),
         }
-        Ok(())
     }
 
-    /// Refuses a directory whose manifests (so whose data) differ.
-    pub fn check_manifests(&self, out: &Path, manifests_sha256: &str) -> Result<(), RunError> {
-        if self.manifests_sha256 != manifests_sha256 {
-            return Err(RunError::ManifestsChanged { dir: out.display().to_string() });
+    /// Refuses a resume of another design, other data or other manifests,
+    /// naming what differs.
+    pub fn check_resume(&self, out: &Path, now: &RunRecord) -> Result<(), RunError> {
+        let dir = out.display().to_string();
+        if self.design_sha256 != now.design_sha256 {
+            return Err(RunError::OtherDesign { dir, sha256: self.design_sha256.clone() });
+        }
+        let differs =
+            |what: &str, was: String, is: String| RunError::OtherData { dir: dir.clone(), what: what.into(), was, is };
+        if std::mem::discriminant(&self.data) != std::mem::discriminant(&now.data)
+            || matches!((&self.data, &now.data), (DataOrigin::Simulated { .. }, DataOrigin::Simulated { .. }) if self.data != now.data)
+        {
+            return Err(differs("data", self.data.describe(), now.data.describe()));
+        }
+        if self.audit_sha256 != now.audit_sha256 {
+            return Err(differs("inclusion audit (sha256)", self.audit_sha256.clone(), now.audit_sha256.clone()));
+        }
+        if self.manifests_sha256 != now.manifests_sha256 {
+            return Err(RunError::ManifestsChanged { dir });
         }
         Ok(())
     }
@@ -49,5 +89,90 @@ impl RunRecord {
         // No final newline: the form run.json has always had.
         let text = serde_json::to_string_pretty(self).unwrap_or_default();
         Ok(write_atomic(&out.join("run.json"), text.as_bytes())?)
+    }
+}
+
+/// `jobs/STEM.json`: what one finished job trained on and wrote.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JobRecord {
+    /// The model.
+    pub model: String,
+    /// The arm it was fitted on.
+    pub arm: String,
+    /// The training seed it used.
+    pub seed: u64,
+    /// SHA-256 of the design it ran under.
+    pub design_sha256: String,
+    /// SHA-256 of each manifest it read, as it read them.
+    pub manifests: JobManifests,
+    /// The standardizers it fitted (fitted models only).
+    pub standardizers: Option<FeatureMap>,
+    /// Every file it wrote (path relative to the run directory) and its SHA-256.
+    pub files: BTreeMap<String, String>,
+    /// The crossaudit build that ran it ([`crate::BUILD`]).
+    pub crossaudit: String,
+}
+
+/// `out/jobs/STEM.json`.
+pub fn job_record_path(out: &Path, job: &TrainingJob) -> PathBuf {
+    out.join("jobs").join(format!("{}.json", job.stem()))
+}
+
+impl JobRecord {
+    /// The SHA-256 of each of `files` (paths relative to `out`).
+    pub fn hash_files(out: &Path, files: &[String]) -> Result<BTreeMap<String, String>, RunError> {
+        files
+            .iter()
+            .map(|f| {
+                let path = out.join(f);
+                let bytes = std::fs::read(&path).map_err(|e| RunError::Write(crate::io::WriteError::new(&path, e)))?;
+                Ok((f.clone(), sha256_hex(&bytes)))
+            })
+            .collect()
+    }
+
+    /// Writes the record atomically: from now on the job counts as finished.
+    pub fn write(&self, out: &Path, job: &TrainingJob) -> Result<(), RunError> {
+        let path = job_record_path(out, job);
+        crate::io::create_dir_all(path.parent().unwrap_or(out))?;
+        Ok(write_atomic(&path, pretty_json(self).as_bytes())?)
+    }
+
+    /// The record of `job` in `out`, if it finished: `None` when there is
+    /// no record, an error when the record cannot be read or describes
+    /// another job.
+    pub fn read(out: &Path, job: &TrainingJob) -> Result<Option<JobRecord>, RunError> {
+        let path = job_record_path(out, job);
+        let bad = |reason: String| RunError::BadJobRecord { path: path.display().to_string(), reason };
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(bad(e.to_string())),
+        };
+        let record: JobRecord = serde_json::from_slice(&bytes).map_err(|e| bad(e.to_string()))?;
+        if (record.model.as_str(), record.arm.as_str(), record.seed)
+            != (job.model.as_str(), job.arm.as_str(), job.seed.0)
+        {
+            return Err(bad(format!("it records {}/{}/{}", record.model, record.arm, record.seed)));
+        }
+        Ok(Some(record))
+    }
+
+    /// Refuses a finished job whose files changed since it wrote them.
+    pub fn verify_files(&self, out: &Path, job: &TrainingJob) -> Result<(), RunError> {
+        for (file, sha) in &self.files {
+            let path = out.join(file);
+            let changed = |reason: String| RunError::JobFileChanged {
+                path: path.display().to_string(),
+                record: job_record_path(out, job).display().to_string(),
+                reason,
+            };
+            let bytes = std::fs::read(&path).map_err(|e| changed(e.to_string()))?;
+            let now = sha256_hex(&bytes);
+            if now != *sha {
+                return Err(changed(format!("sha256 {now}, recorded {sha}")));
+            }
+        }
+        Ok(())
     }
 }

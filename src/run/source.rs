@@ -1,32 +1,82 @@
 //! Where a study's flight logs come from: `--data`, the simulator's
-//! recordings generated once into the output directory, or the design's
-//! `path`.
+//! recordings generated once into the output directory (and verified
+//! against their record whenever they are reused), or the design's `path`.
 
 use std::path::{Path, PathBuf};
 
-use super::RunError;
-use crate::design::Design;
+use serde::{Deserialize, Serialize};
 
-/// The data directory: `--data` if given; for `data simulated`, the
-/// simulator's recordings, generated once into `out/simulated_data`; else
-/// the design's `path` (relative to the current directory).
-pub fn data_dir(design: &Design, data: Option<PathBuf>, out: &Path) -> Result<PathBuf, RunError> {
-    let dir = match (data, &design.data.path, &design.data.simulated) {
-        (Some(d), _, _) => d,
+use super::RunError;
+use crate::design::{Design, SimSpec};
+
+/// Where a run's flight logs came from, as run.json and the report say.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum DataOrigin {
+    /// Logs in a directory: the design's `path` or `--data`.
+    Directory {
+        /// The directory as given.
+        path: String,
+    },
+    /// The built-in simulator's recordings of the design's spec.
+    Simulated {
+        /// What was simulated.
+        spec: SimSpec,
+        /// SHA-256 of the simulated data's record (`simulation.json`), which
+        /// lists every file's SHA-256.
+        record_sha256: String,
+    },
+}
+
+impl DataOrigin {
+    /// One line for reports.
+    pub fn describe(&self) -> String {
+        match self {
+            DataOrigin::Directory { path } => format!("flight logs in `{path}`"),
+            DataOrigin::Simulated { spec, record_sha256 } => format!(
+                "simulated recordings (recordings {}, seed {}, strength {}, duration {} s; record sha256 {record_sha256})",
+                spec.recordings, spec.seed, spec.strength, spec.duration_s
+            ),
+        }
+    }
+}
+
+/// A data directory and where its logs came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Data {
+    /// The directory the loader reads.
+    pub dir: PathBuf,
+    /// What it holds.
+    pub origin: DataOrigin,
+}
+
+impl Data {
+    /// Flight logs in `dir`.
+    pub fn directory(dir: &Path) -> Data {
+        Data { dir: dir.to_path_buf(), origin: DataOrigin::Directory { path: dir.display().to_string() } }
+    }
+}
+
+/// The data of a design: `--data` if given (refused for a `data simulated`
+/// design, whose report would describe the simulation); for `data
+/// simulated`, the simulator's recordings in `out/simulated_data`,
+/// generated there once and verified on every reuse; else the design's
+/// `path` (relative to the current directory).
+pub fn data_dir(design: &Design, data: Option<PathBuf>, out: &Path) -> Result<Data, RunError> {
+    let data = match (data, &design.data.path, &design.data.simulated) {
+        (Some(_), _, Some(_)) => return Err(RunError::DataOverride),
+        (Some(d), _, None) => Data::directory(&d),
         (None, _, Some(sim)) => {
             let dir = out.join("simulated_data");
-            let expected = crate::sim::catalogue(sim.recordings);
-            let complete = expected.iter().all(|(name, ..)| dir.join(format!("{name}.csv")).exists());
-            if !complete {
-                crate::sim::simulate(sim, &dir)?;
-            }
-            dir
+            let ensured = crate::sim::ensure(sim, &dir)?;
+            let record_sha256 = ensured.record().sha256();
+            Data { dir, origin: DataOrigin::Simulated { spec: *sim, record_sha256 } }
         }
-        (None, Some(p), None) => PathBuf::from(p),
+        (None, Some(p), None) => Data::directory(Path::new(p)),
         (None, None, None) => return Err(RunError::NoDataPath),
     };
-    if !dir.is_dir() {
-        return Err(RunError::NoDataDir { dir: dir.display().to_string() });
+    if !data.dir.is_dir() {
+        return Err(RunError::NoDataDir { dir: data.dir.display().to_string() });
     }
-    Ok(dir)
+    Ok(data)
 }

@@ -108,7 +108,9 @@ pub struct CrossedEstimate {
     pub mean: f64,
     /// sqrt(sa/I + sb/J + se/(IJ)).
     pub se: f64,
-    /// Degrees of freedom of the quantile; infinite for the normal.
+    /// Degrees of freedom of the quantile; infinite for the normal (JSON:
+    /// a number or `"infinite"`).
+    #[serde(serialize_with = "crate::io::df_json")]
     pub df: f64,
     /// Confidence level.
     pub level: f64,

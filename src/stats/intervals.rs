@@ -51,7 +51,9 @@ pub struct IntervalEstimate {
     pub estimate: f64,
     /// Standard error.
     pub se: f64,
-    /// Infinite for the normal; NaN where no df applies (bootstrap).
+    /// Infinite for the normal; NaN where no df applies (bootstrap). JSON:
+    /// a number, `"infinite"` or `"undefined"`.
+    #[serde(serialize_with = "crate::io::df_json")]
     pub df: f64,
     /// Lower bound.
     pub lower: f64,

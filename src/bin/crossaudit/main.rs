@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use crossaudit::design::{self, lock, LoadError};
 use crossaudit::model::Engine;
-use crossaudit::report::decision_summary;
+use crossaudit::report::decision_line;
 use crossaudit::{AnalyzeOptions, Error};
 
 mod progress;
@@ -178,7 +178,7 @@ fn main() -> ExitCode {
 
 fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?;
+    let dir = crossaudit::run::data_dir(&file.design, data, out)?.dir;
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
     print!("{}", audit.summary());
@@ -189,7 +189,7 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?;
+    let dir = crossaudit::run::data_dir(&file.design, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     print!("{}", prepared.treatment.render_text());
     for i in &prepared.invariants.invariants {
@@ -216,7 +216,7 @@ fn train(
         .iter()
         .find(|j| j.model == model && j.arm == arm && j.seed.0 == seed)
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?;
+    let dir = crossaudit::run::data_dir(&file.design, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
     let bar = progress::epoch_bar(epochs, &job.stem().replace("__", "/"));
@@ -252,12 +252,15 @@ fn run(
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?;
-    let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)).max(1);
+    let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    if workers == 0 {
+        return Err(crossaudit::run::RunError::NoWorkers.into());
+    }
+    let data = crossaudit::run::data_dir(&file.design, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
     let options = crossaudit::run::RunOptions { workers, exploratory };
-    let result = crossaudit::run::run(&file, &plan, &dir, out, options, &progress);
+    let result = crossaudit::run::run(&file, &plan, &data, out, options, &progress);
     progress.finish();
     let o = result?;
     eprintln!(
@@ -268,14 +271,15 @@ fn run(
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", decision_summary(&o.analysis.decision));
+    println!("{}", decision_line(&o.analysis));
     Ok(())
 }
 
-fn coverage(spec: &Path, reps: Option<usize>, out: &Path) -> Result<(), Error> {
-    let mut spec = crossaudit::methods::CoverageSpec::load(spec)?;
+fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Error> {
+    let mut spec = crossaudit::methods::CoverageSpec::load(spec_path)?;
     if let Some(r) = reps {
-        spec.reps = r.max(2);
+        spec.reps = r;
+        spec.validate(spec_path)?;
     }
     let started = std::time::Instant::now();
     let rows = crossaudit::methods::run_coverage(&spec, &mut |k, n, s| {
@@ -302,8 +306,13 @@ fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
     let Some(sim) = file.design.data.simulated else {
         return Err(crossaudit::run::RunError::NotSimulated { path: design.display().to_string() }.into());
     };
-    let files = crossaudit::sim::simulate(&sim, out)?;
-    eprintln!("wrote {} simulated recordings (CSV + metadata) to {}", files.len(), out.display());
+    let record = crossaudit::sim::simulate(&sim, out)?;
+    eprintln!(
+        "wrote {} simulated recordings (CSV + metadata) and {} to {}",
+        record.files.len() / 2,
+        crossaudit::sim::RECORD,
+        out.display()
+    );
     Ok(())
 }
 
@@ -360,6 +369,6 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     for p in written {
         eprintln!("wrote {}", p.display());
     }
-    println!("{}", decision_summary(&analysis.decision));
+    println!("{}", decision_line(&analysis));
     Ok(())
 }

@@ -31,6 +31,16 @@ impl Validator {
         match source {
             Some(DataSource::Simulated) => match (sim.recordings, sim.seed, sim.strength, sim.duration) {
                 (Some(recordings), Some(seed), Some(strength), Some(duration_s)) => {
+                    let seconds = recordings as f64 * duration_s;
+                    let each_ok = recordings <= MAX_SIM_RECORDINGS && duration_s <= MAX_SIM_DURATION_S;
+                    if each_ok && seconds > MAX_SIM_SECONDS {
+                        self.err_help(
+                            "simulated data too large",
+                            block.source.span,
+                            format!("{recordings} recordings x {duration_s} s is {seconds} s of flight; at most {MAX_SIM_SECONDS} s can be simulated (about 1 GB of logs)"),
+                            "simulate fewer or shorter recordings",
+                        );
+                    }
                     spec.simulated = Some(SimSpec { recordings, seed, strength, duration_s });
                 }
                 _ => self.err_help(
@@ -123,7 +133,12 @@ impl Validator {
             }
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
-                sim.recordings = Some(self.count(n, "the number of simulated recordings", 2));
+                let count = self.count(n, "the number of simulated recordings", 2);
+                if count > MAX_SIM_RECORDINGS {
+                    let message = format!("at most {MAX_SIM_RECORDINGS} recordings can be simulated, found {count}");
+                    self.err("too many recordings", n.span, message);
+                }
+                sim.recordings = Some(count);
             }
             DataItem::SimSeed(n) => {
                 self.once(seen, "seed", item.span);
@@ -138,7 +153,13 @@ impl Validator {
             }
             DataItem::SimDuration(x) => {
                 self.once(seen, "duration", item.span);
-                sim.duration = Some(self.positive(x, "the simulated duration"));
+                let duration = self.positive(x, "the simulated duration");
+                if duration > MAX_SIM_DURATION_S {
+                    let message =
+                        format!("a simulated recording lasts at most {MAX_SIM_DURATION_S} s, found {duration}");
+                    self.err("duration too long", x.span, message);
+                }
+                sim.duration = Some(duration);
             }
         }
     }
@@ -151,6 +172,14 @@ impl Validator {
         cols.iter().map(|c| c.node.clone()).collect()
     }
 }
+
+/// The most recordings a design may simulate.
+const MAX_SIM_RECORDINGS: usize = 2_000;
+/// The longest simulated recording, in seconds.
+const MAX_SIM_DURATION_S: f64 = 3_600.0;
+/// The most seconds of flight (recordings x duration) a design may
+/// simulate: about 1 GB of logs at 100 Hz.
+const MAX_SIM_SECONDS: f64 = 20_000.0;
 
 /// The simulator's settings as declared so far.
 #[derive(Default)]

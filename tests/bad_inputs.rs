@@ -1,0 +1,63 @@
+//! The bad-input corpus (`tests/bad_inputs/`, written by its
+//! `make_cases.py`): designs, per-cell CSVs, flight logs, metadata,
+//! coverage specs and command-line arguments, each run with the real
+//! binary. Every case must exit non-zero with a message and never panic,
+//! abort or hang; its exact exit code and message are snapshotted.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use crate::common::root;
+
+/// Runs one case: its `args` with `{dir}` and `{out}` filled in; returns
+/// the exit code and stderr with the paths put back as placeholders.
+fn run_case(dir: &Path, out: &Path) -> (Option<i32>, String) {
+    let args = std::fs::read_to_string(dir.join("args")).unwrap();
+    let (d, o) = (dir.display().to_string(), out.display().to_string());
+    let args: Vec<String> = args.split_whitespace().map(|a| a.replace("{dir}", &d).replace("{out}", &o)).collect();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(root())
+        .args(&args)
+        .env("NO_COLOR", "1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    // A case that runs for a minute is a hang.
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > Duration::from_secs(60) {
+            child.kill().unwrap();
+            panic!("{}: still running after 60 s", dir.display());
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).replace(&d, "{dir}").replace(&o, "{out}");
+    (output.status.code(), stderr)
+}
+
+#[test]
+fn every_bad_input_is_refused_with_a_located_message() {
+    let corpus = root().join("tests/bad_inputs");
+    let mut cases: Vec<_> = std::fs::read_dir(&corpus)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.join("args").exists())
+        .collect();
+    cases.sort();
+    assert!(cases.len() >= 40, "the corpus holds {} cases", cases.len());
+    let tmp = tempfile::tempdir().unwrap();
+    for case in &cases {
+        let name = case.file_name().unwrap().to_string_lossy().into_owned();
+        let (code, stderr) = run_case(case, &tmp.path().join(&name));
+        assert!(!stderr.contains("panicked"), "{name} panicked:\n{stderr}");
+        assert!(matches!(code, Some(1) | Some(2)), "{name}: exit {code:?} (an abort or a success):\n{stderr}");
+        assert!(!stderr.trim().is_empty(), "{name}: no message");
+        crate::snapshots!({
+            insta::assert_snapshot!(format!("bad_input_{name}"), format!("exit {}\n{stderr}", code.unwrap_or(-1)));
+        });
+    }
+}

@@ -1,0 +1,153 @@
+"""Writes the bad-input corpus: one directory per case with an `args` file
+(the crossaudit arguments; {dir} is the case directory, {out} a fresh
+output directory) and the inputs it names. tests/bad_inputs.rs runs every
+case with the real binary and snapshots its exit code and message.
+Rerun after editing: python3 tests/bad_inputs/make_cases.py"""
+import gzip, json, os, shutil
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+GOOD_LOG = open(os.path.join(ROOT, "tests/fixtures/nanobench_corrupt/C10_good_rep1.csv"), "rb").read()
+MINIMAL = open(os.path.join(ROOT, "tests/designs/minimal.design")).read()
+SMALL = open(os.path.join(ROOT, "tests/designs/sim_small.design")).read()
+META = "category: tracking\ncrazyflie_id: CF1\ntrajectory_id: circle_slow\ntrajectory_type: circle\nrepetition: 1\n"
+STRICT = MINIMAL.replace('data nanobench { path "recordings" }', 'data nanobench { path "recordings" strict }')
+
+
+def case(name, args, files=None):
+    d = os.path.join(HERE, name)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    with open(os.path.join(d, "args"), "w") as f:
+        f.write(args + "\n")
+    for rel, content in (files or {}).items():
+        p = os.path.join(d, rel)
+        os.makedirs(os.path.dirname(p), exist_ok=True)
+        with open(p, "wb") as f:
+            f.write(content if isinstance(content, bytes) else content.encode())
+
+
+# ---- designs (check) --------------------------------------------------------
+def design(name, text):
+    case(name, "check {dir}/study.design", {"study.design": text})
+
+design("design_empty", "")
+design("design_binary", b"\x00\xff\xfe garbage \x01")
+design("design_not_utf8", MINIMAL.replace("minimal", "min\udcffimal", 1).encode("utf-8", "surrogateescape"))
+design("design_unknown_statement", MINIMAL + "frobnicate 3\n")
+design("design_seed_range_huge", MINIMAL.replace("factor seed = 1..3", "factor seed = 1..44444444444"))
+design("design_width_not_compiled", MINIMAL.replace("mlp(32, 32, 32) inputs world", "mlp(33, 33, 33) inputs world"))
+design("design_negative_lr", MINIMAL.replace("lr 1e-3", "lr -1e-3"))
+design("design_sim_too_many", SMALL.replace("recordings 16 seed 5", "recordings 1000000000 seed 5"))
+design("design_sim_too_long", SMALL.replace("duration 15 s", "duration 100000 s"))
+design("design_sim_too_large", SMALL.replace("recordings 16 seed 5", "recordings 1500 seed 5").replace("duration 15 s", "duration 600 s"))
+design("design_sim_negative_strength", SMALL.replace("strength 1.0", "strength -1.0"))
+design("design_sim_incomplete", SMALL.replace("strength 1.0 ", ""))
+design("design_missing_decision", MINIMAL.replace("decide confirmed when optimism >= 10% and upper < 0\n", ""))
+design("design_conflicting_caps", MINIMAL.replace("at 0.5 s models", "at 0.5 s cap 3 m models"))
+case("design_file_missing", "check {dir}/nothing_here.design")
+
+# ---- per-cell CSVs (analyze under the minimal design) -----------------------
+HEADER = "model,arm,seed,recording,trajectory,speed,horizon_s,n_starts,n_divergent,fa_position_rmse_m,conditional_position_rmse_m,divergence_rate,velocity_rmse_mps,attitude_rmse_deg"
+GOOD_CELLS = open(os.path.join(ROOT, "fuzz/seeds_cells/minimal_complete.csv")).read().splitlines()
+
+
+def cells(name, edit):
+    rows = [r.split(",") for r in GOOD_CELLS[1:]]
+    lines = edit([HEADER] + [",".join(r) for r in rows])
+    case(name, "analyze tests/designs/minimal.design --cells {dir}/cells.csv --out {out}",
+         {"cells.csv": "\n".join(lines) + "\n"})
+
+
+def field(row, k, value):
+    def edit(lines):
+        f = lines[row].split(",")
+        f[k] = value
+        lines[row] = ",".join(f)
+        return lines
+    return edit
+
+
+def contaminated(k, fn):
+    def edit(lines):
+        out = [lines[0]]
+        for l in lines[1:]:
+            f = l.split(",")
+            if f[1] == "contaminated":
+                f[k] = fn(f[k])
+            out.append(",".join(f))
+        return out
+    return edit
+
+cells("cells_empty_file", lambda l: [])
+cells("cells_header_only", lambda l: l[:1])
+cells("cells_wrong_header", lambda l: [l[0].replace("horizon_s", "horizon")] + l[1:])
+cells("cells_short_row", lambda l: l[:5] + [",".join(l[5].split(",")[:10])] + l[6:])
+cells("cells_seed_not_integer", field(3, 2, "one"))
+cells("cells_negative_rmse", field(3, 9, "-0.1"))
+cells("cells_nan", field(3, 9, "NaN"))
+cells("cells_inf", field(3, 10, "inf"))
+cells("cells_divergent_exceeds_starts", field(3, 8, "9"))
+cells("cells_rate_disagrees", field(3, 11, "0.5"))
+cells("cells_fa_above_cap", field(3, 9, "2.5"))
+cells("cells_1e308", field(3, 9, "1e308"))
+cells("cells_fa_inconsistent", field(3, 9, "0.9"))
+cells("cells_attitude_over_180", field(3, 13, "270"))
+cells("cells_empty_conditional", field(3, 10, ""))
+cells("cells_one_arm_in_millimetres", contaminated(9, lambda v: str(float(v) * 1000)))
+cells("cells_unknown_model", field(3, 0, "transformer"))
+cells("cells_unknown_arm", field(3, 1, "leaky"))
+cells("cells_duplicate_row", lambda l: l + [l[3]])
+cells("cells_missing_row", lambda l: l[:3] + l[4:])
+cells("cells_inconsistent_label", field(3, 4, "helix"))
+case("cells_file_missing", "analyze tests/designs/minimal.design --cells {dir}/none.csv --out {out}")
+
+# ---- flight logs and metadata (data audit, strict) --------------------------
+def logs(name, files, design=STRICT):
+    files = {f"logs/{k}": v for k, v in files.items()}
+    files["study.design"] = design
+    case(name, "data audit {dir}/study.design --data {dir}/logs --out {out}", files)
+
+lines = GOOD_LOG.decode().splitlines()
+logs("log_wrong_header", {"A1_circle_slow_rep1.csv": "\n".join([lines[0].replace(",px,", ",pos_x,")] + lines[1:]) + "\n"})
+def with_field(k, value):
+    f = lines[10].split(",")
+    f[k] = value
+    return "\n".join(lines[:10] + [",".join(f)] + lines[11:]) + "\n"
+
+logs("log_non_numeric", {"A1_circle_slow_rep1.csv": with_field(1, "abc")})
+logs("log_non_finite", {"A1_circle_slow_rep1.csv": with_field(1, "inf")})
+logs("log_time_goes_back", {"A1_circle_slow_rep1.csv": "\n".join(lines[:10] + [lines[5]] + lines[11:]) + "\n"})
+logs("log_empty", {"A1_circle_slow_rep1.csv": ""})
+logs("log_truncated_gzip", {"A1_circle_slow_rep1.csv.gz": gzip.compress(GOOD_LOG)[:700]})
+logs("log_csv_beside_gz", {"A1_circle_slow_rep1.csv": GOOD_LOG, "A1_circle_slow_rep1.csv.gz": gzip.compress(GOOD_LOG)})
+logs("metadata_empty", {"A1_circle_slow_rep1.csv": GOOD_LOG, "A1_circle_slow_rep1_metadata.yaml": ""})
+logs("metadata_invalid_yaml", {"A1_circle_slow_rep1.csv": GOOD_LOG, "A1_circle_slow_rep1_metadata.yaml": "category: [tracking\n"})
+case("data_directory_missing", "data audit tests/designs/minimal.design --data {dir}/nowhere --out {out}")
+
+# ---- coverage specs ---------------------------------------------------------
+SPEC = json.load(open(os.path.join(ROOT, "specs/coverage_paper.json")))
+
+
+def spec(name, edit, extra=""):
+    s = dict(SPEC)
+    edit(s)
+    case(name, "coverage {dir}/spec.json --out {out}" + extra, {"spec.json": json.dumps(s, indent=1)})
+
+spec("coverage_reps_one", lambda s: s.update(reps=1))
+spec("coverage_rows_huge", lambda s: s.update(rows=[1000000000]))
+spec("coverage_work_huge", lambda s: s.update(reps=1000000, bootstrap=99999))
+spec("coverage_shares_not_one", lambda s: s.update(shares=[[0.5, 0.5, 0.5]]))
+spec("coverage_level_above_one", lambda s: s.update(level=1.5))
+spec("coverage_unknown_field", lambda s: s.update(replications=10))
+case("coverage_invalid_json", "coverage {dir}/spec.json --out {out}", {"spec.json": '{"seed": 1, "reps": '})
+spec("coverage_reps_zero_flag", lambda s: None, " --reps 0")
+
+# ---- command-line arguments --------------------------------------------------
+case("cli_workers_zero", "run tests/designs/sim_small.design --out {out} --workers 0")
+case("cli_data_on_simulated", "run tests/designs/sim_small.design --out {out} --data {dir}")
+case("cli_plan_seeds_huge", "plan designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --seeds 1000000000 --out {out}")
+case("cli_plan_recordings_one", "plan designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --recordings 1 --out {out}")
+case("cli_train_unknown_model", "train tests/designs/sim_small.design --model transformer --arm disjoint --seed 1 --out {out}")
+case("cli_unknown_subcommand", "frobnicate")
+case("cli_engine_unknown", "train tests/designs/sim_small.design --model world --arm disjoint --seed 1 --out {out} --engine gpu")
