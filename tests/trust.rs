@@ -403,3 +403,141 @@ fn two_files_of_one_recording_are_refused() {
     let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
     assert_refused(&o, "would both load as recording S01_circle_slow_rep1");
 }
+
+/// A change made to a job record on purpose.
+type RecordEdit = Box<dyn Fn(&mut serde_json::Value)>;
+
+/// Edits one job record of a finished copy of the reference run.
+fn edit_record(out: &Path, stem: &str, edit: impl Fn(&mut serde_json::Value)) {
+    let path = out.join("jobs").join(format!("{stem}.json"));
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    edit(&mut v);
+    std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+}
+
+#[test]
+fn each_trained_invariant_catches_a_broken_job_record() {
+    // Issue 12, case 7: invariants 1, 3, 6 and 7 read what each job
+    // recorded; a record broken on purpose is caught on the next run.
+    const OTHER: &str = "0000000000000000000000000000000000000000000000000000000000000000";
+    let cases: Vec<(&str, RecordEdit)> = vec![
+        ("(1) evaluation recordings and starts", Box::new(|v| v["manifests"]["evaluation_sha256"] = OTHER.into())),
+        ("(1) evaluation recordings and starts", Box::new(|v| v["manifests"]["starts_sha256"] = OTHER.into())),
+        ("(3) validation windows", Box::new(|v| v["manifests"]["validation_sha256"] = OTHER.into())),
+        ("(6) standardizers", Box::new(|v| v["manifests"]["fit_sha256"] = OTHER.into())),
+        ("(6) standardizers", Box::new(|v| v["standardizers"]["fitted_on"] = OTHER.into())),
+        (
+            "(6) standardizers",
+            Box::new(|v| {
+                let m = v["standardizers"]["input"]["mean"][0].as_f64().unwrap();
+                v["standardizers"]["input"]["mean"][0] = (m + 1e-9).into();
+            }),
+        ),
+    ];
+    for (k, (needle, edit)) in cases.iter().enumerate() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = copy_of_reference(dir.path());
+        edit_record(&out, "world__contaminated__2", edit);
+        let o = run(&out, &[]);
+        assert_refused(&o, needle);
+        assert!(stderr(&o).contains("world/contaminated/2"), "case {k}: {}", stderr(&o));
+    }
+    // Invariant 7: a record that vanished after the grid. (A missing record
+    // before the grid makes the job train again, so this is checked on the
+    // library call that runs after the grid.)
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let file = crossaudit::design::load(&root().join(DESIGN)).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let prepared = crossaudit::split::prepare(&file, &plan, &out.join("simulated_data"), &out).unwrap();
+    assert!(crossaudit::run::check_trained_invariants(&plan, &prepared, &out).is_ok());
+    std::fs::remove_file(out.join("jobs/relative__disjoint__1.json")).unwrap();
+    let e = crossaudit::run::check_trained_invariants(&plan, &prepared, &out).unwrap_err().to_string();
+    assert!(e.contains("(7) all seeds present") && e.contains("relative__disjoint__1"), "{e}");
+}
+
+/// Normalizes the crossaudit build (version and commit), which changes
+/// with every commit, so committed reports compare with fresh ones.
+fn without_build(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes)
+        .lines()
+        .map(|l| if l.contains("(commit ") { "<build>" } else { l })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn the_readme_main_command_reproduces_the_committed_quickstart() {
+    // Issue 12, case 9: the README's main command writes to out/, and a
+    // fresh run reproduces the committed reference output byte for byte
+    // (the build line aside).
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    assert!(readme.contains("run designs/quickstart.design --out out/quickstart"));
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("quickstart");
+    assert_ok(&crossaudit(&["run", "designs/quickstart.design", "--out", out.to_str().unwrap()]));
+    let committed = root().join("results/quickstart");
+    let mut compared = 0;
+    for (name, bytes) in tree(&committed) {
+        if name == "COMMAND"
+            || name.starts_with("curves/")
+            || name.ends_with("time.txt")
+            || name.ends_with("stdout.txt")
+        {
+            continue;
+        }
+        let fresh = std::fs::read(out.join(&name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let (a, b) = (without_build(&fresh), without_build(&bytes));
+        if let Some((k, (x, y))) = a.lines().zip(b.lines()).enumerate().find(|(_, (x, y))| x != y) {
+            panic!("{name} differs from the committed one at line {}:\n  fresh:     {x}\n  committed: {y}", k + 1);
+        }
+        assert_eq!(a.lines().count(), b.lines().count(), "{name}: line counts differ");
+        compared += 1;
+    }
+    assert!(compared > 30, "{compared} files compared");
+    let md = std::fs::read_to_string(out.join("report/report.md")).unwrap();
+    assert!(md.contains("Data: simulated recordings (recordings 40, seed 7"), "the report says which data");
+}
+
+#[test]
+fn reports_say_what_decides_and_keep_infinite_and_undefined_df_apart() {
+    // Issue 12, case 8.
+    let dir = tempfile::tempdir().unwrap();
+    let cells = reference().join("cells.csv");
+    let report = dir.path().join("r");
+    let o = crossaudit(&[
+        "analyze",
+        DESIGN,
+        "--cells",
+        cells.to_str().unwrap(),
+        "--out",
+        report.to_str().unwrap(),
+        "--compare-intervals",
+    ]);
+    assert_ok(&o);
+    let json = std::fs::read_to_string(report.join("results.json")).unwrap();
+    assert!(json.contains("\"df\": \"infinite\""), "the normal interval's df");
+    assert!(json.contains("\"df\": \"undefined\""), "the bootstrap interval's df");
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(md.contains("The decision uses the 95% crossed-estimator interval"));
+    assert!(md.contains("| descriptive |"), "secondary endpoints are labelled descriptive");
+    // A locked design changed afterwards: the console line says EXPLORATORY.
+    let design = dir.path().join("locked.design");
+    std::fs::copy(root().join(DESIGN), &design).unwrap();
+    assert_ok(&crossaudit(&["lock", design.to_str().unwrap()]));
+    std::fs::write(&design, std::fs::read_to_string(&design).unwrap() + "# amended\n").unwrap();
+    let o = crossaudit(&[
+        "analyze",
+        design.to_str().unwrap(),
+        "--cells",
+        cells.to_str().unwrap(),
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert_ok(&o);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).starts_with("EXPLORATORY decision:"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+}

@@ -311,7 +311,8 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
         }
     }
     let labels: Vec<String> = (1..=settings.len()).map(|k| format!("setting {k}")).collect();
-    let root = SVGBackend::new(path, (1000, 520)).into_drawing_area();
+    let staged = crate::io::tmp_path(path);
+    let root = SVGBackend::new(&staged, (1000, 520)).into_drawing_area();
     root.fill(&WHITE).map_err(&e)?;
     let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(spec.level, f64::min).max(0.0);
     let n = settings.len();
@@ -362,7 +363,8 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
         .position(SeriesLabelPosition::LowerRight)
         .draw()
         .map_err(&e)?;
-    root.present().map_err(&e)
+    root.present().map_err(&e)?;
+    crate::report::finish_svg(path)
 }
 
 /// Writes coverage.csv, coverage.md (with the numbered settings) and

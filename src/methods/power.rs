@@ -192,7 +192,8 @@ impl PowerPlan {
     pub fn draw(&self, path: &Path) -> Result<(), DrawError> {
         use plotters::prelude::*;
         let e = draw_err(path);
-        let root = SVGBackend::new(path, (900, 480)).into_drawing_area();
+        let staged = crate::io::tmp_path(path);
+        let root = SVGBackend::new(&staged, (900, 480)).into_drawing_area();
         root.fill(&WHITE).map_err(&e)?;
         let max_j = self.rows.iter().map(|r| r.seeds).max().unwrap_or(2) as f64;
         let mut chart = ChartBuilder::on(&root)
@@ -217,6 +218,7 @@ impl PowerPlan {
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
         }
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&e)?;
-        root.present().map_err(&e)
+        root.present().map_err(&e)?;
+        crate::report::finish_svg(path)
     }
 }

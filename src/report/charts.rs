@@ -15,6 +15,14 @@ pub struct DrawError {
     pub message: String,
 }
 
+/// Moves a finished SVG from its staging file ([`crate::io::tmp_path`]) to
+/// `path`: figures are drawn into the staging file and renamed, so that an
+/// interrupted run never leaves half a figure.
+pub fn finish_svg(path: &Path) -> Result<(), DrawError> {
+    std::fs::rename(crate::io::tmp_path(path), path)
+        .map_err(|e| DrawError { path: path.display().to_string(), message: e.to_string() })
+}
+
 /// Maps any plotters error to a [`DrawError`] for `path`.
 pub fn draw_err<E: std::fmt::Debug>(path: &Path) -> impl Fn(E) -> DrawError + '_ {
     move |e| DrawError { path: path.display().to_string(), message: format!("{e:?}") }
@@ -58,7 +66,8 @@ pub fn intervals(
     lines: &[(f64, RGBColor)],
 ) -> Result<(), DrawError> {
     let err = draw_err(path);
-    let root = SVGBackend::new(path, (900, 480)).into_drawing_area();
+    let staged = crate::io::tmp_path(path);
+    let root = SVGBackend::new(&staged, (900, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(&err)?;
     let (lo, hi) = span(rows.iter().flat_map(|r| [r.1, r.2, r.3]).chain(lines.iter().map(|l| l.0)));
     let n = rows.len().max(1);
@@ -91,5 +100,6 @@ pub fn intervals(
     chart
         .draw_series(rows.iter().enumerate().map(|(k, r)| Circle::new((k as f64, r.1), 5, BLUE.filled())))
         .map_err(&err)?;
-    root.present().map_err(&err)
+    root.present().map_err(&err)?;
+    finish_svg(path)
 }

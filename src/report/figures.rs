@@ -114,7 +114,8 @@ fn capitalize(s: &str) -> String {
 /// Every curve, the treated arm's in blue and the others in orange.
 fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<(), DrawError> {
     let err = draw_err(path);
-    let root = SVGBackend::new(path, (900, 480)).into_drawing_area();
+    let staged = crate::io::tmp_path(path);
+    let root = SVGBackend::new(&staged, (900, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(&err)?;
     let max_epoch = curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)).fold(1.0, f64::max);
     let (lo, hi) = span(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
@@ -132,5 +133,6 @@ fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<(), DrawEr
         let color = if c.arm == a.treated { BLUE.mix(0.5) } else { RGBColor(230, 120, 20).mix(0.5) };
         chart.draw_series(LineSeries::new(c.points.iter().copied(), color)).map_err(&err)?;
     }
-    root.present().map_err(&err)
+    root.present().map_err(&err)?;
+    super::charts::finish_svg(path)
 }

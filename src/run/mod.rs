@@ -294,6 +294,9 @@ pub fn run(
     let cells_csv = gather(plan, out)?;
     let mut analysis = analyze_run(file, plan, &cells_csv, &status, exploratory)?;
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
+    for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
+        analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
+    }
     builds.remove(crate::BUILD);
     for b in builds {
         analysis.warnings.push(format!(

@@ -193,18 +193,42 @@ impl<'a> Context<'a> {
         )
     }
 
-    /// 2. No duplicate registered start.
+    /// 2. No duplicate registered start. Two byte-identical copies of one
+    ///    flight among the evaluation recordings (possible under
+    ///    `duplicates keep`) count that flight's starts twice: a warning
+    ///    naming them.
     fn unique_starts(&self) -> Invariant {
-        let starts = &self.split.starts;
+        let split = self.split;
+        let starts = &split.starts;
         let unique: BTreeSet<_> = starts.iter().collect();
         let dups = starts.len() - unique.len();
-        inv(
-            2,
-            "no duplicate registered start",
-            dups == 0,
-            format!("{} starts, {dups} duplicated", starts.len()),
-            json!({"starts": starts.len(), "duplicates": dups}),
-        )
+        let mut by_content: std::collections::BTreeMap<&str, Vec<&str>> = Default::default();
+        for &r in &split.evaluation {
+            let rec = &split.recordings[r];
+            by_content.entry(rec.content_hash.as_str()).or_default().push(rec.name.as_str());
+        }
+        let copies: Vec<String> = by_content.values().filter(|v| v.len() > 1).map(|v| v.join(" = ")).collect();
+        let status = if dups > 0 {
+            InvariantStatus::Fail
+        } else if !copies.is_empty() {
+            InvariantStatus::Warn
+        } else {
+            InvariantStatus::Pass
+        };
+        let mut detail = format!("{} starts, {dups} duplicated", starts.len());
+        if !copies.is_empty() {
+            detail.push_str(&format!(
+                "; byte-identical copies among the evaluation recordings ({}): their starts are the same flight counted twice",
+                copies.join("; ")
+            ));
+        }
+        Invariant {
+            id: 2,
+            name: "no duplicate registered start",
+            status,
+            detail,
+            numbers: json!({"starts": starts.len(), "duplicates": dups, "identical_evaluation_recordings": copies}),
+        }
     }
 
     /// 3. Validation has no evaluation recording (nor a duplicate of one)
