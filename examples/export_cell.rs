@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let file = crossaudit::design::load(Path::new(&a[1]))?;
     let (model, arm, seed, out) = (&a[2], &a[3], a[4].parse::<u64>()?, PathBuf::from(&a[5]));
     std::fs::create_dir_all(&out)?;
-    let dir = crossaudit::run::data_dir(&file.design, None, &out)?.dir;
+    let dir = crossaudit::run::data_dir(&file.design, &file.path, None, &out)?.dir;
     let split_dir = out.join("split");
     let o = crossaudit::split::prepare(&file, &crossaudit::compile(&file.design), &dir, &split_dir)?;
     let m = file.design.models.iter().find(|m| m.name == *model).ok_or("no such model")?;

@@ -541,3 +541,31 @@ fn reports_say_what_decides_and_keep_infinite_and_undefined_df_apart() {
         String::from_utf8_lossy(&o.stdout)
     );
 }
+
+#[test]
+fn a_relative_data_path_resolves_from_the_design_files_directory() {
+    // Issue 12, case 4: run from the repository root, a design elsewhere
+    // with `path "logs"` reads the logs beside it.
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&crossaudit(&["simulate", DESIGN, "--out", dir.path().join("logs").to_str().unwrap()]));
+    let text = std::fs::read_to_string(root().join(DESIGN)).unwrap();
+    let real = text.replace(
+        "data simulated {\n  recordings 16 seed 5 strength 1.0 duration 15 s\n",
+        "data nanobench {\n  path \"logs\"\n",
+    );
+    let design = dir.path().join("study.design");
+    std::fs::write(&design, &real).unwrap();
+    let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("16 CSV files, 16 included"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    // A relative path naming one directory from the design's folder and
+    // another from the current directory is ambiguous.
+    std::fs::create_dir_all(dir.path().join("tests/fixtures/nanobench")).unwrap();
+    std::fs::write(&design, real.replace("path \"logs\"", "path \"tests/fixtures/nanobench\"")).unwrap();
+    let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("b").to_str().unwrap()]);
+    assert_refused(&o, "names two different directories");
+}

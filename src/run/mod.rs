@@ -33,7 +33,7 @@ use crate::report::figures::Curve;
 pub use grid::{Quiet, RunObserver};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
-pub use source::{data_dir, Data, DataOrigin};
+pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;
 
 /// Options of a run that are not part of the design.
@@ -158,6 +158,14 @@ pub enum RunError {
     /// `--data` on a design whose data are simulated.
     #[error("the design's data are `simulated`: --data would train on other logs under the simulated study's name; remove --data, or write a design whose data block names a `path`")]
     DataOverride,
+    /// A relative data path that names two different directories.
+    #[error("the design's data path {path} names two different directories: {beside} (from the design's directory) and {path} (from the current directory); make it absolute or run from the design's directory")]
+    AmbiguousDataPath {
+        /// The path as written.
+        path: String,
+        /// Resolved from the design file's directory.
+        beside: String,
+    },
     /// The design has no data path and none was given.
     #[error("the design's data block has no `path`; pass --data DIR")]
     NoDataPath,

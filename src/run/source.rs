@@ -61,8 +61,8 @@ impl Data {
 /// design, whose report would describe the simulation); for `data
 /// simulated`, the simulator's recordings in `out/simulated_data`,
 /// generated there once and verified on every reuse; else the design's
-/// `path` (relative to the current directory).
-pub fn data_dir(design: &Design, data: Option<PathBuf>, out: &Path) -> Result<Data, RunError> {
+/// `path` (see [`design_data_path`]).
+pub fn data_dir(design: &Design, design_file: &Path, data: Option<PathBuf>, out: &Path) -> Result<Data, RunError> {
     let data = match (data, &design.data.path, &design.data.simulated) {
         (Some(_), _, Some(_)) => return Err(RunError::DataOverride),
         (Some(d), _, None) => Data::directory(&d),
@@ -72,11 +72,45 @@ pub fn data_dir(design: &Design, data: Option<PathBuf>, out: &Path) -> Result<Da
             let record_sha256 = ensured.record().sha256();
             Data { dir, origin: DataOrigin::Simulated { spec: *sim, record_sha256 } }
         }
-        (None, Some(p), None) => Data::directory(Path::new(p)),
+        (None, Some(p), None) => Data::directory(&design_data_path(design_file, p)?),
         (None, None, None) => return Err(RunError::NoDataPath),
     };
     if !data.dir.is_dir() {
         return Err(RunError::NoDataDir { dir: data.dir.display().to_string() });
     }
     Ok(data)
+}
+
+/// A design's data `path`: absolute as written; relative, from the design
+/// file's directory. A relative path that exists only from the current
+/// directory (designs written when paths resolved from there, such as the
+/// shipped ones, run from the repository root) is used from there; one
+/// that exists from both and names two different directories is refused
+/// as ambiguous, and one that exists from neither is named with both
+/// places looked in.
+pub fn design_data_path(design_file: &Path, path: &str) -> Result<PathBuf, RunError> {
+    let p = Path::new(path);
+    if p.is_absolute() {
+        return Ok(p.to_path_buf());
+    }
+    let beside = design_file.parent().unwrap_or(Path::new("")).join(p);
+    let (a, b) = (beside.is_dir(), p.is_dir());
+    match (a, b) {
+        (true, true) => {
+            let same = match (beside.canonicalize(), p.canonicalize()) {
+                (Ok(x), Ok(y)) => x == y,
+                _ => false,
+            };
+            if same {
+                Ok(p.to_path_buf())
+            } else {
+                Err(RunError::AmbiguousDataPath { path: path.to_string(), beside: beside.display().to_string() })
+            }
+        }
+        (true, false) => Ok(beside),
+        (false, true) => Ok(p.to_path_buf()),
+        (false, false) => Err(RunError::NoDataDir {
+            dir: format!("{} (from the design's directory) or {path} (from the current directory)", beside.display()),
+        }),
+    }
 }

@@ -178,7 +178,7 @@ fn main() -> ExitCode {
 
 fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?.dir;
+    let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
     print!("{}", audit.summary());
@@ -189,7 +189,7 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?.dir;
+    let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     print!("{}", prepared.treatment.render_text());
     for i in &prepared.invariants.invariants {
@@ -216,7 +216,7 @@ fn train(
         .iter()
         .find(|j| j.model == model && j.arm == arm && j.seed.0 == seed)
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
-    let dir = crossaudit::run::data_dir(&file.design, data, out)?.dir;
+    let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
     let bar = progress::epoch_bar(epochs, &job.stem().replace("__", "/"));
@@ -256,7 +256,7 @@ fn run(
     if workers == 0 {
         return Err(crossaudit::run::RunError::NoWorkers.into());
     }
-    let data = crossaudit::run::data_dir(&file.design, data, out)?;
+    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
     let options = crossaudit::run::RunOptions { workers, exploratory };
