@@ -153,6 +153,7 @@ pub fn write_lock(design: &Path, sha256: &str, now: SystemTime) -> Result<LockFi
         locked_at_utc: humantime::format_rfc3339_seconds(now).to_string(),
     };
     let text = crate::io::pretty_json(&lock);
-    std::fs::write(&path, text).map_err(|source| LockError::Write { path: path.display().to_string(), source })?;
+    crate::io::write_atomic(&path, text.as_bytes())
+        .map_err(|e| LockError::Write { path: path.display().to_string(), source: e.source })?;
     Ok(lock)
 }

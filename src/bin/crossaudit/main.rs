@@ -226,7 +226,7 @@ fn train(
     });
     bar.finish_and_clear();
     let outcome = result?;
-    progress::print_job(model, arm, seed, &outcome);
+    progress::print_job(model, arm, seed, &outcome, out);
     Ok(())
 }
 

@@ -21,7 +21,7 @@ pub fn epoch_bar(epochs: u64, prefix: &str) -> ProgressBar {
 }
 
 /// What `train` prints about its job.
-pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome) {
+pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome, out: &std::path::Path) {
     if let (Some(best), Some(last)) = (job.best_val_loss, job.epochs.last()) {
         println!("{model}/{arm}/{seed}: {} epochs, best validation loss {best:.5}", last.epoch);
     }
@@ -41,7 +41,7 @@ pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome) {
         println!("mean failure-aware position RMSE at {h} s over evaluation recordings: {who:<18} {fa:.4} m");
     }
     for f in &job.files {
-        eprintln!("wrote {f}");
+        eprintln!("wrote {}", out.join(f).display());
     }
 }
 
