@@ -17,10 +17,11 @@ $ca data audit designs/nanobench_audited.design --out results/nanobench_audit_hy
 $ca split designs/nanobench_confirmatory.design --out results/nanobench_split > results/nanobench_split/summary.txt 2>/dev/null
 $ca split designs/nanobench_audited.design --out results/nanobench_split_audited > results/nanobench_split_audited/summary.txt 2>/dev/null
 # The two 80-job runs (nanobench_confirmatory, nanobench_audited) are not
-# regenerated here: they were trained before runs kept job records
-# (jobs/*.json), so a resume refuses their directories, and a full rerun
-# takes about 11 minutes each (`crossaudit run designs/NAME.design --out
-# results/NAME`). README says which of their files are stale.
+# regenerated here: each is a full rerun of about 11 minutes on a quiet
+# machine (`crossaudit run designs/NAME.design --out DIR --workers 2`, then
+# cells/, cells.csv, report/, run.json, audit/, curves/ and
+# manifests/manifests.json copied over results/NAME; weights and job
+# records are not committed, so the committed folders cannot be resumed).
 # The small studies are retrained from scratch in a fresh directory, so
 # that training itself is checked, then their outputs replace the committed ones.
 fresh() {  # fresh DESIGN OUT
