@@ -14,7 +14,7 @@ use crossaudit::{AnalyzeOptions, Error};
 mod progress;
 
 #[derive(Parser)]
-#[command(name = "crossaudit", version, about = "Preregistered, leakage-aware evaluation of learned dynamics models")]
+#[command(name = "crossaudit", version = crossaudit::BUILD, about = "Preregistered, leakage-aware evaluation of learned dynamics models")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
