@@ -292,8 +292,7 @@ fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
 
 /// SHA-256 of a per-cell file, for the provenance of its analysis.
 pub fn file_sha256(path: &Path) -> Result<String, CellsError> {
-    let bytes = std::fs::read(path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })?;
-    Ok(crate::io::sha256_hex(&bytes))
+    crate::io::sha256_file(path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
 }
 
 /// [`write_cells`] to a temporary file, then renamed over `path`: a reader

@@ -68,6 +68,12 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// SHA-256 of a file's bytes, lowercase hex: how every file a resume
+/// reuses is checked against its record.
+pub fn sha256_file(path: &Path) -> std::io::Result<String> {
+    Ok(sha256_hex(&std::fs::read(path)?))
+}
+
 /// Serializes an `f64` in Rust's shortest round-trip `Display` form (`1`,
 /// `0.00001`), the form of every number in the CSV files written here, so
 /// the same values always give the same bytes.

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::{DataOrigin, RunError};
-use crate::io::{pretty_json, sha256_hex, write_atomic};
+use crate::io::{pretty_json, sha256_file, write_atomic};
 use crate::model::FeatureMap;
 use crate::plan::TrainingJob;
 use crate::split::JobManifests;
@@ -70,9 +70,11 @@ impl RunRecord {
         }
         let differs =
             |what: &str, was: String, is: String| RunError::OtherData { dir: dir.clone(), what: what.into(), was, is };
-        if std::mem::discriminant(&self.data) != std::mem::discriminant(&now.data)
-            || matches!((&self.data, &now.data), (DataOrigin::Simulated { .. }, DataOrigin::Simulated { .. }) if self.data != now.data)
-        {
+        // A directory may be named by another path (the audit hash below
+        // checks its content); any other difference in the data is refused.
+        let same_data = matches!((&self.data, &now.data), (DataOrigin::Directory { .. }, DataOrigin::Directory { .. }))
+            || self.data == now.data;
+        if !same_data {
             return Err(differs("data", self.data.describe(), now.data.describe()));
         }
         if self.audit_sha256 != now.audit_sha256 {
@@ -125,8 +127,8 @@ impl JobRecord {
             .iter()
             .map(|f| {
                 let path = out.join(f);
-                let bytes = std::fs::read(&path).map_err(|e| RunError::Write(crate::io::WriteError::new(&path, e)))?;
-                Ok((f.clone(), sha256_hex(&bytes)))
+                let sha = sha256_file(&path).map_err(|e| RunError::Write(crate::io::WriteError::new(&path, e)))?;
+                Ok((f.clone(), sha))
             })
             .collect()
     }
@@ -167,8 +169,7 @@ impl JobRecord {
                 record: job_record_path(out, job).display().to_string(),
                 reason,
             };
-            let bytes = std::fs::read(&path).map_err(|e| changed(e.to_string()))?;
-            let now = sha256_hex(&bytes);
+            let now = sha256_file(&path).map_err(|e| changed(e.to_string()))?;
             if now != *sha {
                 return Err(changed(format!("sha256 {now}, recorded {sha}")));
             }

@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::io::{pretty_json, sha256_hex, write_atomic};
+use crate::io::{pretty_json, sha256_file, sha256_hex, write_atomic};
 
 pub use crate::design::SimSpec;
 pub use flight::fly;
@@ -160,8 +160,7 @@ pub fn ensure(spec: &SimSpec, dir: &Path) -> Result<Ensured, SimulateError> {
             dir: dir_text.clone(),
             reason,
         };
-        let bytes = std::fs::read(&path).map_err(|e| modified(e.to_string()))?;
-        let now = sha256_hex(&bytes);
+        let now = sha256_file(&path).map_err(|e| modified(e.to_string()))?;
         if now != *sha {
             return Err(modified(format!("sha256 {now}, recorded {sha}")));
         }
