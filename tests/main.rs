@@ -16,6 +16,7 @@ mod model;
 mod run;
 mod simulate;
 mod split;
+mod split_numpy;
 mod stats_props;
 mod stats_reference;
 mod trust;

@@ -9,6 +9,7 @@
 
 mod invariants;
 mod manifest;
+mod numpy_legacy;
 mod prepare;
 mod treatment;
 
@@ -24,6 +25,7 @@ use crate::design::{ArmKind, Design, DuplicatePolicy, RecordingFactor, StartsPol
 
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
+pub use numpy_legacy::RandomState;
 pub use prepare::{prepare, Prepared};
 pub use treatment::{treatment_audit, Composition, TreatmentAudit};
 
