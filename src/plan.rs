@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::design::{
-    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric, ModelKind, Role,
+    ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric, ModelKind, Role,
     Seed, Sensitivity, StartsPolicy, Training,
 };
 use crate::stats::DfRule;
@@ -104,6 +104,9 @@ pub struct Plan {
     pub seeds: Vec<Seed>,
     /// Number of evaluation recordings I.
     pub recordings: usize,
+    /// Whether evaluation recordings without a CSV may be left out
+    /// (`missing csv allow`): the cells then hold at least 2 and at most I.
+    pub recordings_may_be_absent: bool,
     /// Condition labels the grouped sensitivity groups recordings by.
     pub conditions: Vec<Condition>,
     /// treated - reference arm.
@@ -165,6 +168,7 @@ pub fn compile(design: &Design) -> Plan {
         arms: design.arms.clone(),
         seeds: design.seeds.clone(),
         recordings: design.recording.evaluation,
+        recordings_may_be_absent: design.data.missing_csv_allowed,
         conditions: design.recording.conditions.clone(),
         contrast: design.contrast.clone(),
         primary,
@@ -326,12 +330,16 @@ impl Plan {
 
 fn model_text(kind: &ModelKind) -> String {
     match kind {
-        ModelKind::Mlp { widths, inputs } => format!(
-            "mlp({}) inputs {}",
+        ModelKind::Mlp { widths, inputs, actions } => format!(
+            "mlp({}) inputs {} actions {}",
             widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", "),
             match inputs {
                 InputMap::World => "world",
                 InputMap::Relative => "relative",
+            },
+            match actions {
+                ActionScaling::Raw => "raw",
+                ActionScaling::Standardized => "standardized",
             }
         ),
         ModelKind::Persistence => "persistence".to_string(),

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use super::metadata::{parse_name, read_metadata, Metadata};
 use super::{load_recording, natural_key, recording_name, Layout, Recording};
-use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Strictness};
+use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy};
 use crate::stats::quantile_type7;
 
 /// Upstream NanoBench plausibility bounds over active rows, each checked at
@@ -62,8 +62,11 @@ pub struct FileRow {
     pub duration_s: f64,
     /// Trajectory shape from the file name.
     pub trajectory: String,
-    /// Speed token from the file name, or `unknown`.
+    /// Speed label: the file name's token, or from the metadata speed when
+    /// the design says `speed from metadata`; `unknown` without one.
     pub speed: String,
+    /// Metadata `params.speed_mps`, if any.
+    pub speed_mps: Option<f64>,
     /// Controller from the file name (`pid` or `mellinger`).
     pub controller: String,
     /// Repetition number from the file name, if any.
@@ -76,6 +79,12 @@ pub struct FileRow {
     pub battery_end_v: Option<f64>,
     /// Identity group shared with byte-identical recordings, if any.
     pub duplicate_group: Option<String>,
+    /// The extrapolated onboard tail, if the file has one.
+    pub tail: Option<super::Tail>,
+    /// Rows cut from the end (`tails truncate`).
+    pub rows_cut: usize,
+    /// Metadata row counts of the onboard estimator and attitude streams.
+    pub onboard_row_counts: (Option<u64>, Option<u64>),
     /// XXH3-128 of the data rows, hex.
     pub content_hash: String,
     /// Each declared rule's verdict, in declaration order.
@@ -99,6 +108,8 @@ pub struct Audit {
     pub rules: Vec<String>,
     /// How identical recordings are treated.
     pub duplicates: DuplicatePolicy,
+    /// What happens to extrapolated onboard tails.
+    pub tails: TailPolicy,
     /// Every file seen, in natural name order.
     pub files: Vec<FileRow>,
     /// Groups of identical recordings (two or more names each).
@@ -151,6 +162,19 @@ fn rule_label(rule: &InclusionRule) -> String {
         }
         InclusionRule::Implausible => "plausible (upstream percentile bounds)".to_string(),
     }
+}
+
+fn labels(spec: &DataSpec) -> Vec<String> {
+    let mut out: Vec<String> = spec.rules.iter().map(rule_label).collect();
+    for (k, r) in spec.rules.iter().enumerate() {
+        if *r == InclusionRule::Implausible {
+            out[k] = match spec.plausibility {
+                Pooling::Pooled => "plausible (upstream percentile bounds, motors pooled)".to_string(),
+                Pooling::PerColumn => "plausible (upstream percentile bounds, per motor)".to_string(),
+            };
+        }
+    }
+    out
 }
 
 /// The CSV files and metadata-only names in `dir`.
@@ -219,8 +243,13 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
             let meta = read_metadata(&meta_path(path));
             let broken = meta.as_ref().err().filter(|_| meta_path(path).exists()).cloned();
             let (mut row, rec) = match load_recording(path, &layout) {
-                Ok(rec) => (judged(spec, &rec, meta), keep.then_some(rec)),
-                Err(e) => (unreadable(path, meta, e.to_string()), None),
+                Ok(mut rec) => {
+                    if spec.tails == TailPolicy::Truncate {
+                        rec.truncate_tail();
+                    }
+                    (judged(spec, &rec, meta), keep.then_some(rec))
+                }
+                Err(e) => (unreadable(spec, path, meta, e.to_string()), None),
             };
             row.broken_metadata = broken;
             (row, rec)
@@ -235,7 +264,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
     }
     for name in missing {
         let meta = read_metadata(&dir.join(format!("{name}_metadata.yaml"))).ok();
-        let mut row = blank(&name, "", meta.as_ref());
+        let mut row = blank(spec, &name, "", meta.as_ref());
         row.status = Status::Missing;
         row.reason = "listed by its metadata file, but no CSV is present".into();
         files.push(row);
@@ -253,8 +282,9 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
     }
     let audit = Audit {
         data_dir: dir.display().to_string(),
-        rules: spec.rules.iter().map(rule_label).collect(),
+        rules: labels(spec),
         duplicates: spec.duplicates,
+        tails: spec.tails,
         files,
         duplicate_groups: groups,
     };
@@ -265,8 +295,14 @@ fn meta_path(csv: &Path) -> PathBuf {
     csv.with_file_name(format!("{}_metadata.yaml", recording_name(csv)))
 }
 
-fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
+fn blank(spec: &DataSpec, name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
     let parts = parse_name(name);
+    let speed_mps = meta.and_then(|m| m.params.speed_mps);
+    let speed = match &spec.speed {
+        SpeedLabels::Name => parts.speed.clone(),
+        SpeedLabels::Metadata { labels, thresholds } => SpeedLabels::label(labels, thresholds, speed_mps),
+    };
+    let count = |k: &str| meta.and_then(|m| m.row_counts.get(k).copied());
     FileRow {
         name: name.to_string(),
         file: file.to_string(),
@@ -274,7 +310,8 @@ fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
         active_rows: 0,
         duration_s: 0.0,
         trajectory: meta.and_then(|m| m.trajectory_type.clone()).unwrap_or_else(|| parts.shape.clone()),
-        speed: parts.speed.clone(),
+        speed,
+        speed_mps,
         controller: parts.controller.name().to_string(),
         // The file name's `repN` is the recording's identity; the metadata's
         // `repetition` sometimes disagrees (noted in `judged`).
@@ -283,6 +320,9 @@ fn blank(name: &str, file: &str, meta: Option<&Metadata>) -> FileRow {
         battery_start_v: meta.and_then(|m| m.battery_voltage_start),
         battery_end_v: meta.and_then(|m| m.battery_voltage_end),
         duplicate_group: None,
+        tail: None,
+        rows_cut: 0,
+        onboard_row_counts: (count("estimator"), count("attitude")),
         content_hash: String::new(),
         verdicts: Vec::new(),
         broken_metadata: None,
@@ -295,21 +335,22 @@ fn file_name(path: &Path) -> String {
     path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()
 }
 
-fn unreadable(path: &Path, meta: Result<Metadata, String>, why: String) -> FileRow {
-    let mut row = blank(&recording_name(path), &file_name(path), meta.as_ref().ok());
+fn unreadable(spec: &DataSpec, path: &Path, meta: Result<Metadata, String>, why: String) -> FileRow {
+    let mut row = blank(spec, &recording_name(path), &file_name(path), meta.as_ref().ok());
     row.status = Status::Excluded;
     row.reason = why;
     row
 }
 
 fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> FileRow {
-    let mut row = blank(&rec.name, &file_name(&rec.path), meta.as_ref().ok());
+    let mut row = blank(spec, &rec.name, &file_name(&rec.path), meta.as_ref().ok());
+    row.tail = rec.tail;
+    row.rows_cut = rec.rows_cut;
     row.rows = rec.rows;
     row.active_rows = rec.active_rows();
     row.duration_s = rec.duration_s();
     row.content_hash = rec.content_hash.clone();
-    for rule in &spec.rules {
-        let label = rule_label(rule);
+    for (rule, label) in spec.rules.iter().zip(labels(spec)) {
         let (pass, detail) = match rule {
             InclusionRule::Active { min_samples, .. } => {
                 let n = rec.active_rows() as u64;
@@ -322,6 +363,17 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
             row.reason = format!("{label}: {detail}");
         }
         row.verdicts.push(Verdict { rule: label, pass, detail });
+    }
+    if let (Some(tail), TailPolicy::Exclude) = (rec.tail, spec.tails) {
+        if row.status == Status::Included {
+            row.status = Status::Excluded;
+            row.reason = format!(
+                "tails exclude: onboard streams end at row {} ({} extrapolated rows, {} active)",
+                tail.start + 1,
+                tail.rows,
+                tail.active
+            );
+        }
     }
     let note = match &meta {
         Err(e) => Some(e.clone()),
@@ -351,8 +403,18 @@ fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
         ("battery".into(), active.iter().map(|&k| rec.state[k][vbat]).collect(), BATTERY_BOUNDS_V),
         ("setpoint z".into(), active.iter().map(|&k| rec.state[k][spz]).collect(), SETPOINT_Z_BOUNDS_M),
     ];
-    for m in 0..4 {
-        checks.push((format!("PWM m{}", m + 1), active.iter().map(|&k| rec.pwm[k][m]).collect(), PWM_BOUNDS));
+    match spec.plausibility {
+        // Upstream: np.nanpercentile over the N x 4 array, all motors together.
+        Pooling::Pooled => checks.push((
+            "PWM (4 motors pooled)".into(),
+            active.iter().flat_map(|&k| rec.pwm[k]).collect(),
+            PWM_BOUNDS,
+        )),
+        Pooling::PerColumn => {
+            for m in 0..4 {
+                checks.push((format!("PWM m{}", m + 1), active.iter().map(|&k| rec.pwm[k][m]).collect(), PWM_BOUNDS));
+            }
+        }
     }
     let mut failures = Vec::new();
     for (what, mut v, (lo, hi)) in checks {
@@ -429,6 +491,13 @@ impl Audit {
             "battery_end_v",
             "duplicate_group",
             "content_hash",
+            "speed_mps",
+            "onboard_tail_from_row",
+            "onboard_tail_rows",
+            "onboard_tail_active_rows",
+            "rows_cut",
+            "meta_estimator_rows",
+            "meta_attitude_rows",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -455,6 +524,13 @@ impl Audit {
                 opt(f.battery_end_v),
                 f.duplicate_group.clone().unwrap_or_default(),
                 f.content_hash.clone(),
+                opt(f.speed_mps),
+                f.tail.map(|t| (t.start + 1).to_string()).unwrap_or_default(),
+                f.tail.map(|t| t.rows.to_string()).unwrap_or_default(),
+                f.tail.map(|t| t.active.to_string()).unwrap_or_default(),
+                f.rows_cut.to_string(),
+                f.onboard_row_counts.0.map(|c| c.to_string()).unwrap_or_default(),
+                f.onboard_row_counts.1.map(|c| c.to_string()).unwrap_or_default(),
             ];
             for k in 0..self.rules.len() {
                 rec.push(match f.verdicts.get(k) {
@@ -523,6 +599,27 @@ impl Audit {
             let _ = writeln!(s, "\nexcluded or missing:");
             for f in excluded {
                 let _ = writeln!(s, "  {}: {}", f.name, f.reason);
+            }
+        }
+        let tails: Vec<&FileRow> = self.files.iter().filter(|f| f.tail.is_some()).collect();
+        if !tails.is_empty() {
+            let policy = format!("{:?}", self.tails).to_lowercase();
+            let _ = writeln!(s, "\nextrapolated onboard tails (policy `tails {policy}`):");
+            for f in tails {
+                let Some(t) = f.tail else { continue };
+                let meta = |c: Option<u64>| c.map(|c| c.to_string()).unwrap_or_else(|| "?".into());
+                let _ = writeln!(
+                    s,
+                    "  {}: from row {} of {}, {} rows ({} active); rows cut {}; metadata estimator/attitude rows {}/{}",
+                    f.name,
+                    t.start + 1,
+                    t.start + t.rows,
+                    t.rows,
+                    t.active,
+                    f.rows_cut,
+                    meta(f.onboard_row_counts.0),
+                    meta(f.onboard_row_counts.1)
+                );
             }
         }
         if !self.duplicate_groups.is_empty() {

@@ -92,6 +92,16 @@ pub struct Metadata {
     /// Row counts per logged table, as upstream recorded them.
     #[serde(default)]
     pub row_counts: BTreeMap<String, u64>,
+    /// Trajectory parameters; only the speed is read.
+    #[serde(default)]
+    pub params: Params,
+}
+
+/// The `params` mapping of a metadata file.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+pub struct Params {
+    /// Commanded speed, m/s, when the trajectory has one.
+    pub speed_mps: Option<f64>,
 }
 
 /// Reads a `_metadata.yaml` file; the error names the file, line and column.

@@ -7,6 +7,8 @@ pub mod metadata;
 
 use std::path::{Path, PathBuf};
 
+use serde::Serialize;
+
 use crate::design::{Cmp, DataSpec, InclusionRule};
 pub use audit::{audit, audit_and_load, Audit, AuditError, FileRow, Status};
 pub use log::{LogError, NANOBENCH_COLUMNS};
@@ -37,6 +39,70 @@ pub struct Recording {
     pub active: Vec<bool>,
     /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
     pub content_hash: String,
+    /// The extrapolated onboard tail found in the file, if any (see [`onboard_tail`]).
+    pub tail: Option<Tail>,
+    /// Rows cut from the end of the file (`tails truncate`).
+    pub rows_cut: usize,
+}
+
+/// The rows after a log's onboard streams end: the upstream merge
+/// extrapolates every onboard column linearly in time to the last Vicon
+/// row, so the onboard estimator's velocity and attitude quaternion lie
+/// exactly on straight lines there (speeds up to 60 m/s, quaternion norms
+/// up to 13 on this snapshot).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Tail {
+    /// First extrapolated row (0-based data row).
+    pub start: usize,
+    /// Rows from `start` to the end of the file.
+    pub rows: usize,
+    /// Active rows among them.
+    pub active: usize,
+}
+
+/// The onboard columns the tail detector reads, whatever the state columns.
+pub const ONBOARD_COLUMNS: [&str; 7] = [
+    "est_stateEstimate_vx",
+    "est_stateEstimate_vy",
+    "est_stateEstimate_vz",
+    "att_stateEstimate_qw",
+    "att_stateEstimate_qx",
+    "att_stateEstimate_qy",
+    "att_stateEstimate_qz",
+];
+
+/// A final straight run shorter than this (0.5 s at 100 Hz) is the ordinary
+/// end of the onboard log, not a tail.
+pub const MIN_TAIL_ROWS: usize = 50;
+
+/// The extrapolated onboard tail of a log: the longest final run of rows on
+/// which every column of `onboard` is a linear function of time (successive
+/// slopes equal to a relative 1e-6), when it is at least [`MIN_TAIL_ROWS`]
+/// long and holds an active row. Real estimator output is never exactly
+/// linear over more than a few rows; the extrapolation always is.
+pub fn onboard_tail(t: &[f64], onboard: &[&[f64]], active: &[bool]) -> Option<Tail> {
+    let n = t.len();
+    if n < MIN_TAIL_ROWS || onboard.is_empty() {
+        return None;
+    }
+    let slope = |v: &[f64], k: usize| (v[k + 1] - v[k]) / (t[k + 1] - t[k]);
+    let mut start = 0;
+    for v in onboard {
+        let last = slope(v, n - 2);
+        // Rows k..n are on the line while the slope of (k-1, k) equals it.
+        let mut k = n - 2;
+        while k > 0 {
+            let s = slope(v, k - 1);
+            if !s.is_finite() || !last.is_finite() || (s - last).abs() > 1e-6 * last.abs().max(1.0) {
+                break;
+            }
+            k -= 1;
+        }
+        start = start.max(k);
+    }
+    let rows = n - start;
+    let active = active[start..].iter().filter(|a| **a).count();
+    (rows >= MIN_TAIL_ROWS && active > 0).then_some(Tail { start, rows, active })
 }
 
 impl Recording {
@@ -75,6 +141,8 @@ pub struct Layout {
     active_threshold: f64,
     /// Index within the state of the battery column, if declared.
     battery: Option<usize>,
+    /// Whether the schema's onboard columns were kept for the tail detector.
+    onboard: bool,
 }
 
 impl Layout {
@@ -85,9 +153,13 @@ impl Layout {
         names.extend(spec.state_columns.iter().cloned());
         names.extend(spec.action_columns.iter().cloned());
         names.push(column);
+        let onboard = spec.source == crate::design::DataSource::Nanobench;
+        if onboard {
+            names.extend(ONBOARD_COLUMNS.iter().map(|c| c.to_string()));
+        }
         let keep = log::column_indices(&names).map_err(|e| format!("data declaration: {e}"))?;
         let battery = spec.state_columns.iter().position(|c| c == "pwr_pm_vbat");
-        Ok(Layout { keep, active_cmp: cmp, active_threshold: threshold, battery })
+        Ok(Layout { keep, active_cmp: cmp, active_threshold: threshold, battery, onboard })
     }
 }
 
@@ -114,7 +186,13 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
             a[k] = (*v / PWM_FULL_SCALE).clamp(0.0, 1.0);
         }
     }
-    let active = cols[19].iter().map(|v| layout.active_cmp.holds(*v, layout.active_threshold)).collect();
+    let active: Vec<bool> = cols[19].iter().map(|v| layout.active_cmp.holds(*v, layout.active_threshold)).collect();
+    let tail = if layout.onboard {
+        let onboard: Vec<&[f64]> = cols[20..27].iter().map(|c| c.as_slice()).collect();
+        onboard_tail(&cols[0], &onboard, &active)
+    } else {
+        None
+    };
     Ok(Recording {
         name: recording_name(path),
         path: path.to_path_buf(),
@@ -125,7 +203,24 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         pwm,
         active,
         content_hash: parsed.content_hash,
+        tail,
+        rows_cut: 0,
     })
+}
+
+impl Recording {
+    /// Cuts the log at its onboard tail (`tails truncate`); no tail, no change.
+    pub fn truncate_tail(&mut self) {
+        let Some(tail) = self.tail else { return };
+        let n = tail.start;
+        self.t.truncate(n);
+        self.state.truncate(n);
+        self.action.truncate(n);
+        self.pwm.truncate(n);
+        self.active.truncate(n);
+        self.rows_cut = self.rows - n;
+        self.rows = n;
+    }
 }
 
 /// Battery is logged at 10 Hz and forward-filled with zeros before the

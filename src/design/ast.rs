@@ -50,7 +50,7 @@ pub enum Statement {
     Data(DataBlock),
     FactorRecording(Vec<Spanned<RecordingItem>>),
     FactorSeed(SeedSpec),
-    Validation { windows: Int, recordings: Int, seed: Int },
+    Validation { windows: Int, recordings: ValRecordings, seed: Int },
     Arm { name: Ident, body: ArmBody },
     Model { name: Ident, kind: ModelKind },
     Train(Vec<Spanned<TrainItem>>),
@@ -60,6 +60,14 @@ pub enum Statement {
     Sensitivity(Vec<Spanned<SensitivityItem>>),
     Interaction { left: Ident, right: Ident },
     Decide { name: Ident, conditions: Vec<Spanned<ConditionAst>> },
+    Generator(Ident),
+}
+
+/// `from 8 recordings` or `from recordings "A", "B"`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ValRecordings {
+    Count(Int),
+    List(Vec<Spanned<String>>),
 }
 
 impl Statement {
@@ -80,6 +88,7 @@ impl Statement {
             Statement::Sensitivity(_) => "sensitivity",
             Statement::Interaction { .. } => "interaction",
             Statement::Decide { .. } => "decide",
+            Statement::Generator(_) => "generator",
         }
     }
 }
@@ -95,7 +104,11 @@ pub enum DataItem {
     Path(Spanned<String>),
     Rate(Number),
     IncludeActive { column: Ident, cmp: Spanned<Cmp>, threshold: Number, min_samples: Int },
-    ExcludeImplausible,
+    ExcludeImplausible(Option<Ident>),
+    Tails(Ident),
+    Speed(SpeedAst),
+    Universe { kind: Ident, order: Option<Ident> },
+    MissingCsv(Ident),
     Duplicates(Spanned<String>),
     Strict,
     State(Vec<Ident>),
@@ -106,9 +119,17 @@ pub enum DataItem {
     SimDuration(Number),
 }
 
+/// `speed from name` or `speed from metadata slow < 1.0 <= medium`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SpeedAst {
+    Name,
+    Metadata { first: Ident, steps: Vec<(Number, Ident)> },
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum RecordingItem {
     Evaluation(Int),
+    EvaluationList(Vec<Spanned<String>>),
     SplitSeed(Int),
     Starts(Int),
     Horizon(Int),
@@ -129,7 +150,7 @@ pub enum ArmBody {
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum ModelKind {
-    Mlp { widths: Vec<Int>, inputs: Spanned<String> },
+    Mlp { widths: Vec<Int>, inputs: Spanned<String>, actions: Option<Ident> },
     Baseline(Spanned<String>),
 }
 
@@ -141,6 +162,8 @@ pub enum TrainItem {
     Schedule(Ident),
     Patience(Int),
     ActionNoise(Number),
+    Target(Ident),
+    Actions(Ident),
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -64,6 +64,30 @@ pub struct Design {
     pub interaction: Option<Interaction>,
     /// The preregistered decision rule on the primary endpoint.
     pub decision: DecisionRule,
+    /// The generator of every split draw.
+    pub generator: Generator,
+}
+
+/// The generator of the split's draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Generator {
+    /// ChaCha8 streams seeded from the design (one stream per draw).
+    Chacha8,
+    /// numpy's legacy `RandomState(seed)`, bit for bit: one state per
+    /// declared seed, its draws made in a fixed order (see `split`).
+    NumpyLegacy,
+}
+
+/// A recording name written in the design, with its byte offset there (for
+/// located errors when the data do not hold it).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ListedName {
+    /// The recording name.
+    pub name: String,
+    /// Byte offset of the quoted name in the design source.
+    #[serde(skip)]
+    pub offset: usize,
 }
 
 /// The design's `data` block: where the logs come from and which rows count.
@@ -85,8 +109,107 @@ pub struct DataSpec {
     pub state_columns: Vec<String>,
     /// The 4 action columns, in model order.
     pub action_columns: Vec<String>,
+    /// The named state preset, when the design used one.
+    pub state_preset: Option<StatePreset>,
+    /// What to do with extrapolated onboard tails.
+    pub tails: TailPolicy,
+    /// Where the speed labels come from.
+    pub speed: SpeedLabels,
+    /// How the plausibility rule takes the motor percentiles.
+    pub plausibility: Pooling,
+    /// Which recordings a split draws from, in which order.
+    pub universe: Universe,
+    /// Whether drawn evaluation or validation recordings without a CSV may
+    /// be left out (`missing csv allow`) instead of stopping the study.
+    pub missing_csv_allowed: bool,
     /// For `data simulated`: what to generate.
     pub simulated: Option<SimSpec>,
+}
+
+/// Named state-column conventions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StatePreset {
+    /// NanoBench task 2: Vicon position, onboard-estimator velocity and attitude.
+    Onboard,
+    /// Vicon position, velocity and quaternion.
+    MotionCapture,
+}
+
+impl StatePreset {
+    /// The preset's 14 columns.
+    pub fn columns(self) -> [&'static str; 14] {
+        match self {
+            StatePreset::Onboard => DEFAULT_STATE_COLUMNS,
+            StatePreset::MotionCapture => MOTION_CAPTURE_STATE_COLUMNS,
+        }
+    }
+
+    /// The name written in designs.
+    pub fn name(self) -> &'static str {
+        match self {
+            StatePreset::Onboard => "onboard",
+            StatePreset::MotionCapture => "motion_capture",
+        }
+    }
+}
+
+/// What happens to a log whose onboard streams end before its last row
+/// (the rows after are extrapolated by the upstream merge).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TailPolicy {
+    /// Use every row (upstream and the paper).
+    Keep,
+    /// Exclude the file.
+    Exclude,
+    /// Cut the log where its onboard streams end.
+    Truncate,
+}
+
+/// Where a recording's speed label comes from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "from")]
+pub enum SpeedLabels {
+    /// The file name's token (slow, medium, fast), `unknown` without one.
+    Name,
+    /// Metadata `params.speed_mps`: `labels[k]` below `thresholds[k]`, the
+    /// last label at or above the last threshold; `unknown` without a speed.
+    Metadata {
+        /// One more label than thresholds.
+        labels: Vec<String>,
+        /// Ascending thresholds, m/s.
+        thresholds: Vec<f64>,
+    },
+}
+
+impl SpeedLabels {
+    /// The label of a metadata speed (or of its absence).
+    pub fn label(labels: &[String], thresholds: &[f64], speed_mps: Option<f64>) -> String {
+        match speed_mps {
+            None => "unknown".to_string(),
+            Some(v) => labels[thresholds.iter().take_while(|t| v >= **t).count()].clone(),
+        }
+    }
+}
+
+/// How the plausibility rule treats the four motor columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pooling {
+    /// One percentile over all four motors' values (upstream's `np.nanpercentile` over the N x 4 array).
+    Pooled,
+    /// One percentile per motor.
+    PerColumn,
+}
+
+/// The recordings a split draws from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Universe {
+    /// Whether names listed only by a metadata file take part.
+    pub metadata: bool,
+    /// `natural` (rep2 before rep10) or `bytewise` (Python's `sorted`).
+    pub bytewise: bool,
 }
 
 /// What to simulate (the design's `data simulated { ... }`).
@@ -171,6 +294,25 @@ pub const DEFAULT_STATE_COLUMNS: [&str; 14] = [
     "pwr_pm_vbat",
 ];
 
+/// Vicon velocity and quaternion in the task-2 layout (position, velocity,
+/// quaternion w-first, setpoint, battery).
+pub const MOTION_CAPTURE_STATE_COLUMNS: [&str; 14] = [
+    "px",
+    "py",
+    "pz",
+    "vx",
+    "vy",
+    "vz",
+    "qw",
+    "qx",
+    "qy",
+    "qz",
+    "sp_ctrltarget_x",
+    "sp_ctrltarget_y",
+    "sp_ctrltarget_z",
+    "pwr_pm_vbat",
+];
+
 /// NanoBench task-2 action convention: motor PWM / 65535, clipped to [0, 1].
 pub const DEFAULT_ACTION_COLUMNS: [&str; 4] = ["motor_motor_m1", "motor_motor_m2", "motor_motor_m3", "motor_motor_m4"];
 
@@ -207,6 +349,8 @@ pub struct RecordingFactor {
     pub horizon: usize,
     /// Condition labels whose groups the grouped sensitivity resamples.
     pub conditions: Vec<Condition>,
+    /// A pinned evaluation set (`evaluation recordings "..."`); empty when drawn.
+    pub listed: Vec<ListedName>,
 }
 
 /// The shared early-stopping validation set.
@@ -218,6 +362,8 @@ pub struct ValidationSpec {
     pub recordings: usize,
     /// Seed of the draw.
     pub seed: u64,
+    /// Pinned validation recordings; empty when drawn.
+    pub listed: Vec<ListedName>,
 }
 
 /// A training-data arm.
@@ -284,6 +430,8 @@ pub enum ModelKind {
         widths: Vec<usize>,
         /// The input map.
         inputs: InputMap,
+        /// How the actions enter.
+        actions: ActionScaling,
     },
     /// Predicts no change.
     Persistence,
@@ -318,6 +466,26 @@ pub enum InputMap {
     Relative,
 }
 
+/// How the actions u in [0, 1] enter a network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionScaling {
+    /// As they are (the paper).
+    Raw,
+    /// Through the model's input standardizer.
+    Standardized,
+}
+
+/// What the network predicts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetKind {
+    /// The paper's dz = S(x_{t+1}) - S(x_t) = (x_{t+1} - x_t) / sd_x.
+    StateScaled,
+    /// The increment through its own mean and SD.
+    Standardized,
+}
+
 /// The training block shared by every trained model.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Training {
@@ -335,6 +503,8 @@ pub struct Training {
     pub patience: usize,
     /// SD of the Gaussian noise added to actions during training.
     pub action_noise: f64,
+    /// What the networks predict.
+    pub target: TargetKind,
 }
 
 /// Optimizers the language accepts.

@@ -53,25 +53,46 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::estimate
         | Rule::sensitivity
         | Rule::interaction
-        | Rule::decide => {
-            "a statement (study, data, factor, validation, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide)"
+        | Rule::decide
+        | Rule::generator => {
+            "a statement (study, data, factor, validation, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide, generator)"
         }
         Rule::ident | Rule::ident_list => "a name",
-        Rule::string | Rule::string_inner => "a quoted string",
+        Rule::string | Rule::string_inner | Rule::string_list => "a quoted string",
         Rule::int | Rule::int_list => "an integer",
         Rule::number => "a number",
         Rule::seconds => "a duration in seconds (e.g. `1.0 s`)",
         Rule::cap => "`cap <metres> m`",
         Rule::ep_models => "`model <name>` or `models <names>`",
         Rule::rec_evaluation
+        | Rule::rec_eval_list
         | Rule::rec_split_seed
         | Rule::rec_starts
         | Rule::rec_horizon
         | Rule::rec_conditions => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions)",
         Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
-        Rule::batch | Rule::epochs | Rule::schedule | Rule::patience | Rule::action_noise => {
-            "a training clause (adam, batch, epochs, cosine, constant, patience, action_noise)"
+        Rule::batch
+        | Rule::epochs
+        | Rule::schedule
+        | Rule::patience
+        | Rule::action_noise
+        | Rule::target
+        | Rule::actions => {
+            "a training clause (adam, batch, epochs, cosine, constant, patience, action_noise, target, actions)"
         }
+        Rule::target_kind => "a target (state_scaled, standardized)",
+        Rule::action_scaling => "an action scaling (raw, standardized)",
+        Rule::model_actions => "`actions raw` or `actions standardized`",
+        Rule::generator_kind => "a generator (chacha8, numpy_legacy)",
+        Rule::tails_policy => "a tails policy (keep, exclude, truncate)",
+        Rule::pooling => "`pooled` or `per_column`",
+        Rule::speed_name | Rule::speed_metadata | Rule::speed_step => {
+            "`name` or `metadata LABEL < THRESHOLD <= LABEL ...`"
+        }
+        Rule::universe_kind => "a universe (csv, metadata)",
+        Rule::sort_order => "an order (natural, bytewise)",
+        Rule::missing_policy => "`allow` or `refuse`",
+        Rule::val_count | Rule::val_list => "`N recordings` or `recordings \"NAME\", ...`",
         Rule::data_path
         | Rule::data_rate
         | Rule::include_active
@@ -80,11 +101,15 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::strict
         | Rule::state_cols
         | Rule::action_cols
+        | Rule::tails
+        | Rule::speed_labels
+        | Rule::universe
+        | Rule::missing_csv
         | Rule::sim_recordings
         | Rule::sim_seed
         | Rule::sim_strength
         | Rule::sim_duration => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action; recordings, seed, strength, duration for simulated data)"
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
@@ -158,6 +183,10 @@ fn ident(pair: Pair<Rule>) -> Ident {
     Spanned::new(pair.as_str().to_string(), span_of(&pair))
 }
 
+fn strings(pair: Pair<Rule>) -> Vec<Spanned<String>> {
+    pair.into_inner().map(string).collect()
+}
+
 fn idents(pair: Pair<Rule>) -> Vec<Ident> {
     pair.into_inner().map(ident).collect()
 }
@@ -222,8 +251,16 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::factor_recording => Statement::FactorRecording(spanned_items(k, recording_item)?),
         Rule::factor_seed => Statement::FactorSeed(seed_spec(k.next())?),
         Rule::validation => {
-            Statement::Validation { windows: int(k.next())?, recordings: int(k.next())?, seed: int(k.next())? }
+            let windows = int(k.next())?;
+            let from = k.next();
+            let recordings = if from.as_rule() == Rule::val_count {
+                ValRecordings::Count(int(kids(from).next())?)
+            } else {
+                ValRecordings::List(strings(kids(from).next()))
+            };
+            Statement::Validation { windows, recordings, seed: int(k.next())? }
         }
+        Rule::generator => Statement::Generator(ident(k.next())),
         Rule::arm => Statement::Arm { name: ident(k.next()), body: arm_body(k.next())? },
         Rule::model => Statement::Model { name: ident(k.next()), kind: model_kind(k.next())? },
         Rule::train => Statement::Train(spanned_items(k, train_item)?),
@@ -261,6 +298,7 @@ fn recording_item(p: Pair<Rule>) -> Result<RecordingItem, Diagnostic> {
     let mut c = kids(p);
     Ok(match rule {
         Rule::rec_evaluation => RecordingItem::Evaluation(int(c.next())?),
+        Rule::rec_eval_list => RecordingItem::EvaluationList(strings(c.next())),
         Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
         Rule::rec_starts => RecordingItem::Starts(int(c.next())?),
         Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),
@@ -305,7 +343,8 @@ fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
     let mut c = kids(kind);
     let widths = c.next().into_inner().map(int).collect::<Result<_, _>>()?;
     let inputs = c.next();
-    Ok(ModelKind::Mlp { widths, inputs: Spanned::new(inputs.as_str().to_string(), span_of(&inputs)) })
+    let actions = c.0.next().map(|a| ident(kids(a).next()));
+    Ok(ModelKind::Mlp { widths, inputs: Spanned::new(inputs.as_str().to_string(), span_of(&inputs)), actions })
 }
 
 fn train_item(p: Pair<Rule>) -> Result<TrainItem, Diagnostic> {
@@ -319,6 +358,8 @@ fn train_item(p: Pair<Rule>) -> Result<TrainItem, Diagnostic> {
         Rule::epochs => TrainItem::Epochs(int(c.next())?),
         Rule::patience => TrainItem::Patience(int(c.next())?),
         Rule::action_noise => TrainItem::ActionNoise(number(c.next())?),
+        Rule::target => TrainItem::Target(ident(c.next())),
+        Rule::actions => TrainItem::Actions(ident(c.next())),
         _ => TrainItem::Schedule(Spanned::new(text, span)),
     })
 }
@@ -387,7 +428,28 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
             threshold: number(c.next())?,
             min_samples: int(c.next())?,
         },
-        Rule::exclude_implausible => DataItem::ExcludeImplausible,
+        Rule::exclude_implausible => DataItem::ExcludeImplausible(c.0.next().map(ident)),
+        Rule::tails => DataItem::Tails(ident(c.next())),
+        Rule::speed_labels => {
+            let how = c.next();
+            if how.as_rule() == Rule::speed_name {
+                DataItem::Speed(SpeedAst::Name)
+            } else {
+                let mut m = kids(how);
+                let first = ident(m.next());
+                let mut steps = Vec::new();
+                for step in m.0 {
+                    let mut s = kids(step);
+                    steps.push((number(s.next())?, ident(s.next())));
+                }
+                DataItem::Speed(SpeedAst::Metadata { first, steps })
+            }
+        }
+        Rule::universe => {
+            let kind = ident(c.next());
+            DataItem::Universe { kind, order: c.0.next().map(ident) }
+        }
+        Rule::missing_csv => DataItem::MissingCsv(ident(c.next())),
         Rule::duplicates => {
             let p = c.next();
             DataItem::Duplicates(Spanned::new(p.as_str().to_string(), span_of(&p)))

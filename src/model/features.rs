@@ -4,19 +4,25 @@
 //! q = `x[6..10]` (w, x, y, z), r = `x[10..13]` (position setpoint), b = `x[13]`
 //! (battery). Action u: 4 motor commands in [0, 1].
 //!
-//! - world: standardized [x, u] (18 inputs);
-//! - relative: [0_3, v, q, r - p, b] through its own standardizer, plus u
-//!   unstandardized. Absolute position never enters, so a joint translation
-//!   of position and reference leaves the inputs unchanged.
+//! - world: [S(x), u], S the state standardizer (18 inputs);
+//! - relative: [T(0_3, v, q, r - p, b), u], T its own standardizer.
+//!   Absolute position never enters, so a joint translation of position and
+//!   reference leaves the inputs unchanged.
 //!
-//! Target: the standardized increment x_{t+1} - x_t with the exogenous
-//! components (r, b) set to zero: the model never predicts what the rollout
-//! overwrites with measured values.
+//! u enters raw, in [0, 1], as in the paper (`actions raw`); with `actions
+//! standardized` it goes through the input standardizer as well.
+//!
+//! Target (`target state_scaled`, the paper's): dz = S(x_{t+1}) - S(x_t) =
+//! (x_{t+1} - x_t) / sd_x per dimension, no centring, no second
+//! standardizer; the rollout inverts it as x_{t+1} = x_t + sd_x dz. With
+//! `target standardized` the increment goes through its own mean and SD.
+//! Either way the exogenous components (r, b) of the target are zero: the
+//! model never predicts what the rollout overwrites with measured values.
 
 use serde::{Deserialize, Serialize};
 
 use super::Standardizer;
-use crate::design::InputMap;
+use crate::design::{ActionScaling, InputMap, TargetKind};
 
 /// State dimensions: position, velocity, quaternion, reference, battery.
 pub const STATE: usize = 14;
@@ -67,29 +73,50 @@ pub fn raw_target(x: &State, next: &State) -> State {
 pub struct FeatureMap {
     /// World or relative inputs.
     pub map: InputMap,
-    /// On all 18 inputs for world; on the first 14 for relative (u passes
-    /// through unchanged: the last 4 dimensions are the identity).
+    /// How the actions enter (raw: the last 4 input dimensions are the identity).
+    pub actions: ActionScaling,
+    /// What the network predicts.
+    pub target_kind: TargetKind,
+    /// On the 18 inputs: S on the state for world, T for relative; the
+    /// identity on u when actions are raw.
     pub input: Standardizer,
-    /// On the 14-dimensional target.
+    /// On the 14-dimensional increment: mean 0 and S's SDs for the
+    /// state-scaled target, the increment's own mean and SD otherwise.
     pub target: Standardizer,
     /// SHA-256 of the fit manifest these were fitted on (invariant 6).
     pub fitted_on: String,
 }
 
 impl FeatureMap {
-    /// Fits both standardizers on (x_t, u_t, x_{t+1}) windows.
-    pub fn fit(map: InputMap, windows: &[(State, Action, State)], fitted_on: &str) -> FeatureMap {
+    /// Fits the standardizers on (x_t, u_t, x_{t+1}) windows.
+    pub fn fit(
+        map: InputMap,
+        actions: ActionScaling,
+        target_kind: TargetKind,
+        windows: &[(State, Action, State)],
+        fitted_on: &str,
+    ) -> FeatureMap {
         let inputs: Vec<[f64; INPUT]> = windows.iter().map(|(x, u, _)| raw_input(map, x, u)).collect();
-        let targets: Vec<State> = windows.iter().map(|(x, _, n)| raw_target(x, n)).collect();
         let mut input = Standardizer::fit(inputs.iter().map(|r| &r[..]), INPUT);
-        if map == InputMap::Relative {
+        if actions == ActionScaling::Raw {
             for k in STATE..INPUT {
                 input.mean[k] = 0.0;
                 input.std[k] = 1.0;
             }
         }
-        let target = Standardizer::fit(targets.iter().map(|r| &r[..]), STATE);
-        FeatureMap { map, input, target, fitted_on: fitted_on.to_string() }
+        let target = match target_kind {
+            TargetKind::StateScaled => {
+                // S: per-dimension population SD of x_t over these windows
+                // (for world these are the input standardizer's first 14).
+                let s = Standardizer::fit(windows.iter().map(|(x, _, _)| &x[..]), STATE);
+                Standardizer { mean: vec![0.0; STATE], std: s.std }
+            }
+            TargetKind::Standardized => {
+                let targets: Vec<State> = windows.iter().map(|(x, _, n)| raw_target(x, n)).collect();
+                Standardizer::fit(targets.iter().map(|r| &r[..]), STATE)
+            }
+        };
+        FeatureMap { map, actions, target_kind, input, target, fitted_on: fitted_on.to_string() }
     }
 
     /// Standardized input, written into `out` (18 values).

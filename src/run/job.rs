@@ -10,7 +10,7 @@ use super::record::JobRecord;
 use super::RunError;
 use crate::cells::{write_cells_atomic, Cell};
 use crate::data::Recording;
-use crate::design::{InputMap, ModelKind};
+use crate::design::{ActionScaling, InputMap, ModelKind, TargetKind};
 use crate::io::{create_dir_all, f64_text, write_atomic};
 use crate::model::baseline::{ConstantVelocity, Persistence};
 use crate::model::{net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
@@ -160,11 +160,11 @@ pub fn run_job_with(
     let mut one_step = Vec::new();
     let mut standardizers = None;
     let (cells, epochs, best_val_loss, train_seconds, rollout_seconds) = match &job.kind {
-        ModelKind::Mlp { widths, inputs } => {
+        ModelKind::Mlp { widths, inputs, actions } => {
             // Invariant 6 is checked after training on what the job record
             // says these were fitted on (run/trained_invariants.rs).
-            let features = FeatureMap::fit(*inputs, &bench.fit, &bench.fit_sha);
             let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
+            let features = FeatureMap::fit(*inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
             let t0 = std::time::Instant::now();
             let (net, epochs) = net::train_with(
                 engine,
@@ -243,7 +243,10 @@ fn bench<'a>(plan: &'a Plan, job: &'a TrainingJob, prepared: &'a Prepared) -> Re
     let fit = triples(recs, fit_windows);
     // The world standardizers of this arm: the yardstick for one-step
     // errors, whatever the model.
-    let yardstick = FeatureMap::fit(InputMap::World, &fit, &fit_sha);
+    // (Standardized actions and increments: the first wave's scale, kept so
+    // that one-step errors stay comparable across parameterizations.)
+    let yardstick =
+        FeatureMap::fit(InputMap::World, ActionScaling::Standardized, TargetKind::Standardized, &fit, &fit_sha);
     Ok(Bench {
         plan,
         job,

@@ -62,6 +62,13 @@ struct WindowRow<'a> {
     sample_index: usize,
 }
 
+/// A drawn recording without a CSV.
+#[derive(Serialize)]
+struct AbsentRow<'a> {
+    role: &'a str,
+    recording: &'a str,
+}
+
 /// A row of a recording manifest.
 #[derive(Serialize)]
 struct RecordingRow<'a> {
@@ -100,6 +107,15 @@ impl Manifests {
         files.insert("evaluation_starts.csv".to_string(), windows_csv(split, &split.starts));
         files.insert("validation_recordings.csv".to_string(), recordings_csv(split, &split.validation_recordings));
         files.insert("validation_windows.csv".to_string(), windows_csv(split, &split.validation));
+        if !split.evaluation_absent.is_empty() || !split.validation_absent.is_empty() {
+            let rows = split
+                .evaluation_absent
+                .iter()
+                .map(|n| AbsentRow { role: "evaluation", recording: n })
+                .chain(split.validation_absent.iter().map(|n| AbsentRow { role: "validation", recording: n }));
+            let n = split.evaluation_absent.len() + split.validation_absent.len();
+            files.insert("absent_recordings.csv".to_string(), summary(to_csv(rows, &["role", "recording"]), n));
+        }
         for (arm, w) in &split.fits {
             files.insert(format!("fit_{arm}.csv"), windows_csv(split, w));
         }

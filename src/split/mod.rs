@@ -5,7 +5,28 @@
 //! validation recordings V from R\E (validation seed) and their windows,
 //! the disjoint fit set from R\E\V, and the contaminated fit set (the
 //! disjoint set with a declared fraction replaced by E windows that are not
-//! registered starts). Every draw is a ChaCha8 stream seeded from the design.
+//! registered starts).
+//!
+//! The universe a split draws from is the included recordings (and, under
+//! `universe metadata`, the names a metadata file lists without a CSV),
+//! sorted naturally or bytewise; a duplicate group under `duplicates group`
+//! is one entry, named by its first member.
+//!
+//! Draws (`generator`):
+//! - `chacha8` (default): each draw on its own ChaCha8 stream of its seed:
+//!   E = a shuffle of the universe (split seed, stream 0), first I; the
+//!   starts of the k-th evaluation recording on stream 1 + k; V = a shuffle
+//!   of the rest (validation seed, stream 0), its windows on stream 1; each
+//!   fit arm's windows (its seed, stream 0); a derived arm's replaced
+//!   positions (stream 0) and incoming windows (stream 1).
+//! - `numpy_legacy`: one numpy `RandomState` per seed, its calls in this
+//!   order: `RandomState(split_seed)`: `permutation(len(universe))[:I]`,
+//!   then `choice(n_valid, starts, replace=False)` per evaluation recording
+//!   in universe order; `RandomState(validation_seed)`:
+//!   `permutation(len(rest))[:V]`, then `choice(n_windows, windows,
+//!   replace=False)`; `RandomState(arm_seed).choice(n_pool, windows,
+//!   replace=False)`; `RandomState(seed)`: `choice(n_fit, k)` positions, then
+//!   `choice(n_pool, k)` incoming windows. Drawn sets are stored sorted.
 
 mod invariants;
 mod manifest;
@@ -20,8 +41,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::data::{Audit, Recording};
-use crate::design::{ArmKind, Design, DuplicatePolicy, RecordingFactor, StartsPolicy};
+use crate::data::{natural_key, Audit, Recording, Status};
+use crate::design::{ArmKind, Design, DuplicatePolicy, Generator, ListedName, RecordingFactor, StartsPolicy};
 
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
@@ -72,6 +93,10 @@ pub struct Split {
     pub horizon: usize,
     /// Sample rate, Hz.
     pub rate_hz: f64,
+    /// Evaluation recordings the split drew that have no CSV (`missing csv allow`).
+    pub evaluation_absent: Vec<String>,
+    /// Validation recordings the split drew that have no CSV.
+    pub validation_absent: Vec<String>,
 }
 
 /// What the split needs to know of an included recording.
@@ -144,6 +169,46 @@ pub enum SplitError {
     /// A manifest or audit file could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),
+    /// A pinned recording is not in the universe.
+    #[error("{what} recording \"{name}\" (design byte {offset}) is not among the {available} recordings the split draws from{hint}")]
+    NotInUniverse {
+        /// `evaluation` or `validation`.
+        what: &'static str,
+        /// The name as written.
+        name: String,
+        /// Byte offset in the design source.
+        offset: usize,
+        /// Size of the universe.
+        available: usize,
+        /// Why it may be absent.
+        hint: String,
+    },
+    /// A recording pinned for evaluation is also pinned for validation.
+    #[error("recording \"{name}\" is listed for both evaluation and validation")]
+    ListedTwice {
+        /// The name.
+        name: String,
+    },
+    /// Drawn recordings without a CSV, and the design does not allow them.
+    #[error("the split drew {what} recordings that have no CSV in the data directory: {names}; declare `missing csv allow` in the data block to proceed without them (each is then listed in the report)")]
+    Absent {
+        /// `evaluation` or `validation`.
+        what: &'static str,
+        /// The names, comma-separated.
+        names: String,
+    },
+    /// Located version of an error about a name written in the design.
+    #[error("{path}:{line}:{column}: {message}")]
+    Located {
+        /// The design file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
     /// An invariant failed; nothing may train.
     #[error("invariant check failed, nothing will train (see {path}):\n{list}")]
     Invariants {
@@ -186,49 +251,184 @@ fn draw(pool: &[Window], k: usize, rng: &mut ChaCha8Rng) -> Vec<Window> {
     picked
 }
 
+/// `k` of `pool` by numpy's `choice(len(pool), k, replace=False)`, sorted.
+fn draw_numpy(pool: &[Window], k: usize, rs: &mut RandomState) -> Vec<Window> {
+    let mut picked: Vec<Window> = rs.choice(pool.len(), k).into_iter().map(|i| pool[i]).collect();
+    picked.sort();
+    picked
+}
+
+/// A numpy seed: the validator refuses seeds above 2^32 - 1 under `numpy_legacy`.
+fn np_seed(seed: u64) -> u32 {
+    u32::try_from(seed).unwrap_or(u32::MAX)
+}
+
+/// An entry of the universe: a deployment unit with data, or a name that a
+/// metadata file lists without a CSV.
+#[derive(Debug, Clone)]
+enum Slot {
+    Unit(usize),
+    Absent(String),
+}
+
+/// The universe, in the declared order, each entry with its name.
+fn universe(design: &Design, audit: &Audit, info: &[RecordingInfo], units: &[DeploymentUnit]) -> Vec<(String, Slot)> {
+    let mut slots: Vec<(String, Slot)> =
+        units.iter().enumerate().map(|(u, unit)| (info[unit.members[0]].name.clone(), Slot::Unit(u))).collect();
+    if design.data.universe.metadata {
+        let absent = audit.files.iter().filter(|f| f.status == Status::Missing);
+        slots.extend(absent.map(|f| (f.name.clone(), Slot::Absent(f.name.clone()))));
+    }
+    if design.data.universe.bytewise {
+        slots.sort_by(|a, b| a.0.cmp(&b.0));
+    } else {
+        slots.sort_by_key(|(name, _)| natural_key(name));
+    }
+    slots
+}
+
+/// Positions in `names` of the pinned `listed` names.
+fn pinned(listed: &[ListedName], names: &[&str], what: &'static str, metadata: bool) -> Result<Vec<usize>, SplitError> {
+    listed
+        .iter()
+        .map(|l| {
+            names.iter().position(|n| *n == l.name).ok_or_else(|| SplitError::NotInUniverse {
+                what,
+                name: l.name.clone(),
+                offset: l.offset,
+                available: names.len(),
+                hint: if metadata {
+                    " (it has neither an included CSV nor a metadata file)".to_string()
+                } else {
+                    " (it has no included CSV; `universe metadata` also admits names listed only by metadata)".to_string()
+                },
+            })
+        })
+        .collect()
+}
+
+/// Splits chosen slots into loaded unit indices and absent names; absent
+/// names are an error unless the design allows them.
+fn resolve(
+    chosen: &[usize],
+    slots: &[(String, Slot)],
+    what: &'static str,
+    allowed: bool,
+) -> Result<(Vec<usize>, Vec<String>), SplitError> {
+    let mut units = Vec::new();
+    let mut absent = Vec::new();
+    for &c in chosen {
+        match &slots[c].1 {
+            Slot::Unit(u) => units.push(*u),
+            Slot::Absent(name) => absent.push(name.clone()),
+        }
+    }
+    absent.sort();
+    if !absent.is_empty() && !allowed {
+        return Err(SplitError::Absent { what, names: absent.join(", ") });
+    }
+    Ok((units, absent))
+}
+
 /// Builds the split. `recordings` are the audit's included recordings.
 pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
     let info = recording_info(audit, recordings);
     let units = units(&info, design.data.duplicates);
+    let slots = universe(design, audit, &info, &units);
+    let names: Vec<&str> = slots.iter().map(|(n, _)| n.as_str()).collect();
+    let numpy = design.generator == Generator::NumpyLegacy;
+    let allowed = design.data.missing_csv_allowed;
     let rf = &design.recording;
     let val = &design.validation;
     let needed = rf.evaluation + val.recordings + 1;
-    if units.len() < needed {
+    if slots.len() < needed {
         return Err(SplitError::TooFewRecordings {
             needed,
             evaluation: rf.evaluation,
             validation: val.recordings,
-            available: units.len(),
+            available: slots.len(),
         });
     }
-    // E: shuffle units with the split seed, take the first I.
-    let mut order: Vec<usize> = (0..units.len()).collect();
-    order.shuffle(&mut rng(rf.split_seed, 0));
-    let (e_units, rest) = order.split_at(rf.evaluation);
+    // E: pinned, or the first I of a shuffle of the universe (split seed).
+    let mut split_rs = RandomState::new(np_seed(rf.split_seed));
+    let e_slots: Vec<usize> = if !rf.listed.is_empty() {
+        pinned(&rf.listed, &names, "evaluation", design.data.universe.metadata)?
+    } else if numpy {
+        split_rs.choice(slots.len(), rf.evaluation)
+    } else {
+        let mut order: Vec<usize> = (0..slots.len()).collect();
+        order.shuffle(&mut rng(rf.split_seed, 0));
+        order.truncate(rf.evaluation);
+        order
+    };
+    let (e_units, evaluation_absent) = resolve(&e_slots, &slots, "evaluation", allowed)?;
     let evaluation = sorted(e_units.iter().map(|&u| units[u].members[0]));
     let evaluation_side = sorted(e_units.iter().flat_map(|&u| units[u].members.clone()));
-    let starts = draw_starts(rf, &info, recordings, &evaluation)?;
+    let starts = if numpy {
+        // In universe order, continuing the split seed's RandomState.
+        let mut ordered: Vec<usize> = e_slots.clone();
+        ordered.sort();
+        let in_order: Vec<usize> = ordered
+            .iter()
+            .filter_map(|&c| match slots[c].1 {
+                Slot::Unit(u) => Some(units[u].members[0]),
+                Slot::Absent(_) => None,
+            })
+            .collect();
+        draw_starts(rf, &info, recordings, &in_order, &mut |pool, k, _| draw_numpy(pool, k, &mut split_rs))?
+    } else {
+        draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, idx| {
+            draw(pool, k, &mut rng(rf.split_seed, 1 + idx as u64))
+        })?
+    };
 
-    // V: from the remaining units, with the validation seed.
-    let mut rest: Vec<usize> = rest.to_vec();
-    rest.sort();
-    rest.shuffle(&mut rng(val.seed, 0));
-    let (v_units, fit_units) = rest.split_at(val.recordings);
+    // V: pinned, or from the rest of the universe with the validation seed.
+    let e_set: BTreeSet<usize> = e_slots.iter().copied().collect();
+    let rest: Vec<usize> = (0..slots.len()).filter(|c| !e_set.contains(c)).collect();
+    let mut val_rs = RandomState::new(np_seed(val.seed));
+    let v_slots: Vec<usize> = if !val.listed.is_empty() {
+        let v = pinned(&val.listed, &names, "validation", design.data.universe.metadata)?;
+        if let Some(&c) = v.iter().find(|c| e_set.contains(c)) {
+            return Err(SplitError::ListedTwice { name: names[c].to_string() });
+        }
+        v
+    } else if numpy {
+        val_rs.choice(rest.len(), val.recordings).into_iter().map(|k| rest[k]).collect()
+    } else {
+        let mut r = rest.clone();
+        r.shuffle(&mut rng(val.seed, 0));
+        r.truncate(val.recordings);
+        r
+    };
+    let (v_units, validation_absent) = resolve(&v_slots, &slots, "validation", allowed)?;
     let validation_recordings = sorted(v_units.iter().map(|&u| units[u].members[0]));
     let v_pool = pool_of(&validation_recordings, recordings);
     if v_pool.len() < val.windows {
         return Err(SplitError::TooFewWindows {
-            what: format!("validation ({} recordings)", val.recordings),
+            what: format!("validation ({} recordings with data)", validation_recordings.len()),
             needed: val.windows,
             available: v_pool.len(),
         });
     }
-    let validation = draw(&v_pool, val.windows, &mut rng(val.seed, 1));
+    let validation = if numpy {
+        draw_numpy(&v_pool, val.windows, &mut val_rs)
+    } else {
+        draw(&v_pool, val.windows, &mut rng(val.seed, 1))
+    };
 
     // R \ E \ V: every member of the remaining units (with `duplicates keep`
     // each identical file is its own unit, as in the paper).
+    let v_set: BTreeSet<usize> = v_slots.iter().copied().collect();
+    let fit_units: Vec<usize> = rest
+        .iter()
+        .filter(|c| !v_set.contains(c))
+        .filter_map(|&c| match slots[c].1 {
+            Slot::Unit(u) => Some(u),
+            Slot::Absent(_) => None,
+        })
+        .collect();
     let fit_recordings = sorted(fit_units.iter().flat_map(|&u| units[u].members.clone()));
-    let mut fits = draw_fit_arms(design, &fit_recordings, recordings)?;
+    let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy)?;
     let e_pool = pool_of(&evaluation, recordings);
     let mut contaminating = Vec::new();
     for arm in &design.arms {
@@ -241,7 +441,7 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             }
             StartsPolicy::Allow => e_pool.clone(),
         };
-        let (fit, incoming) = contaminate(&arm.name, &base, *percent, &pool, *seed)?;
+        let (fit, incoming) = contaminate(&arm.name, &base, *percent, &pool, *seed, numpy)?;
         fits.push((arm.name.clone(), fit));
         contaminating.push((arm.name.clone(), incoming));
     }
@@ -257,6 +457,8 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         contaminating,
         horizon: rf.horizon,
         rate_hz: design.data.rate_hz,
+        evaluation_absent,
+        validation_absent,
     })
 }
 
@@ -289,12 +491,14 @@ fn recording_info(audit: &Audit, recordings: &[Recording]) -> Vec<RecordingInfo>
 }
 
 /// The registered rollout starts: `starts` valid starts per evaluation
-/// recording, each recording on its own stream of the split seed.
+/// recording, in the order given, each drawn by `pick(pool, k, position)`.
+/// Returned sorted.
 fn draw_starts(
     rf: &RecordingFactor,
     info: &[RecordingInfo],
     recordings: &[Recording],
     evaluation: &[usize],
+    pick: &mut dyn FnMut(&[Window], usize, usize) -> Vec<Window>,
 ) -> Result<Vec<Window>, SplitError> {
     let mut starts = Vec::new();
     for (k, &r) in evaluation.iter().enumerate() {
@@ -308,8 +512,9 @@ fn draw_starts(
             });
         }
         let pool: Vec<Window> = valid.into_iter().map(|t| Window { recording: r, t }).collect();
-        starts.extend(draw(&pool, rf.starts, &mut rng(rf.split_seed, 1 + k as u64)));
+        starts.extend(pick(&pool, rf.starts, k));
     }
+    starts.sort();
     Ok(starts)
 }
 
@@ -318,6 +523,7 @@ fn draw_fit_arms(
     design: &Design,
     fit_recordings: &[usize],
     recordings: &[Recording],
+    numpy: bool,
 ) -> Result<Vec<(String, Vec<Window>)>, SplitError> {
     let fit_pool = pool_of(fit_recordings, recordings);
     let mut fits = Vec::new();
@@ -330,7 +536,12 @@ fn draw_fit_arms(
                 available: fit_pool.len(),
             });
         }
-        fits.push((arm.name.clone(), draw(&fit_pool, windows, &mut rng(seed, 0))));
+        let drawn = if numpy {
+            draw_numpy(&fit_pool, windows, &mut RandomState::new(np_seed(seed)))
+        } else {
+            draw(&fit_pool, windows, &mut rng(seed, 0))
+        };
+        fits.push((arm.name.clone(), drawn));
     }
     Ok(fits)
 }
@@ -344,6 +555,7 @@ fn contaminate(
     percent: f64,
     pool: &[Window],
     seed: u64,
+    numpy: bool,
 ) -> Result<(Vec<Window>, Vec<Window>), SplitError> {
     let replaced = (percent / 100.0 * base.len() as f64).round() as usize;
     if replaced == 0 {
@@ -356,8 +568,14 @@ fn contaminate(
             available: pool.len(),
         });
     }
-    let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), replaced).into_vec();
-    let incoming = draw(pool, replaced, &mut rng(seed, 1));
+    let (positions, incoming) = if numpy {
+        let mut rs = RandomState::new(np_seed(seed));
+        let positions = rs.choice(base.len(), replaced);
+        (positions, draw_numpy(pool, replaced, &mut rs))
+    } else {
+        let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), replaced).into_vec();
+        (positions, draw(pool, replaced, &mut rng(seed, 1)))
+    };
     let mut fit = base.to_vec();
     for (&p, w) in positions.iter().zip(&incoming) {
         fit[p] = *w;

@@ -28,6 +28,20 @@ pub struct Prepared {
     pub treatment: TreatmentAudit,
 }
 
+/// Points an error about a name written in the design at its line and column.
+fn locate(file: &DesignFile, e: SplitError) -> SplitError {
+    let SplitError::NotInUniverse { offset, .. } = &e else { return e };
+    let before = &file.source[..(*offset).min(file.source.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+    let message = e.to_string();
+    let message = match message.split_once(" (design byte ") {
+        Some((head, tail)) => format!("{head}{}", tail.split_once(')').map(|t| t.1).unwrap_or("")),
+        None => message,
+    };
+    SplitError::Located { path: file.path.display().to_string(), line, column, message }
+}
+
 /// Audits the data, builds the split, and writes `audit/`, `manifests/`,
 /// `audit/invariants.json` and `audit/treatment.json` under `out`. A failed
 /// invariant is an error, returned after `audit/invariants.json` is written
@@ -48,7 +62,7 @@ pub fn prepare(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result
     let design = &file.design;
     let (audit, recordings) = data::audit_and_load(&design.data, dir)?;
     audit.write(&out.join("audit"))?;
-    let split = super::build(design, &audit, &recordings)?;
+    let split = super::build(design, &audit, &recordings).map_err(|e| locate(file, e))?;
     let manifests = Manifests::new(design, Some(file.sha256.clone()), &split);
     write_split(out, &manifests)?;
     let jobs = JobManifests::for_plan(plan, &manifests);

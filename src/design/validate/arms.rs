@@ -83,7 +83,9 @@ impl Validator {
         out
     }
 
-    pub(super) fn models(&mut self, stmts: &[&Spanned<Statement>]) -> Vec<(Model, Span)> {
+    /// The models; `actions` is the train block's action scaling, which a
+    /// model's own `actions` clause overrides.
+    pub(super) fn models(&mut self, stmts: &[&Spanned<Statement>], actions: ActionScaling) -> Vec<(Model, Span)> {
         let mut out: Vec<(Model, Span)> = Vec::new();
         for s in stmts {
             let Statement::Model { name, kind } = &s.node else {
@@ -94,7 +96,7 @@ impl Validator {
                 continue;
             }
             let kind = match kind {
-                ast::ModelKind::Mlp { widths: spans, inputs } => {
+                ast::ModelKind::Mlp { widths: spans, inputs, actions: own } => {
                     let widths: Vec<usize> = spans.iter().map(|w| self.count(w, "a layer width", 1)).collect();
                     if !mlp_supported(&widths) && widths.iter().all(|w| *w >= 1) {
                         let span = Span {
@@ -115,7 +117,8 @@ impl Validator {
                         );
                     }
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
-                    crate::design::ModelKind::Mlp { widths, inputs }
+                    let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
+                    crate::design::ModelKind::Mlp { widths, inputs, actions }
                 }
                 ast::ModelKind::Baseline(b) => {
                     if b.node == "persistence" {
@@ -134,6 +137,7 @@ impl Validator {
         let mut seen = BTreeMap::new();
         let (mut lr, mut batch, mut epochs, mut schedule, mut patience, mut noise) =
             (None, None, None, None, None, None);
+        let mut target = TargetKind::StateScaled;
         for item in items {
             match &item.node {
                 TrainItem::Optimizer { lr: rate, .. } => {
@@ -163,6 +167,11 @@ impl Validator {
                     }
                     noise = Some(x.node);
                 }
+                TrainItem::Target(t) => {
+                    self.once(&mut seen, "target", item.span);
+                    target = if t.node == "standardized" { TargetKind::Standardized } else { TargetKind::StateScaled };
+                }
+                TrainItem::Actions(_) => self.once(&mut seen, "actions", item.span),
             }
         }
         let missing: Vec<&str> = [
@@ -194,6 +203,28 @@ impl Validator {
             schedule: schedule?,
             patience: patience?,
             action_noise: noise?,
+            target,
         })
     }
+}
+
+/// `raw` or `standardized` (the grammar admits nothing else).
+pub(super) fn action_scaling(word: &str) -> ActionScaling {
+    if word == "standardized" {
+        ActionScaling::Standardized
+    } else {
+        ActionScaling::Raw
+    }
+}
+
+/// The train block's `actions` clause, or the paper's raw actions.
+pub(super) fn declared_actions(train: Option<&Spanned<Statement>>) -> ActionScaling {
+    let Some(Statement::Train(items)) = train.map(|s| &s.node) else { return ActionScaling::Raw };
+    items
+        .iter()
+        .find_map(|i| match &i.node {
+            TrainItem::Actions(a) => Some(action_scaling(&a.node)),
+            _ => None,
+        })
+        .unwrap_or(ActionScaling::Raw)
 }

@@ -21,6 +21,12 @@ impl Validator {
             strictness: Strictness::Lenient,
             state_columns: DEFAULT_STATE_COLUMNS.iter().map(|s| s.to_string()).collect(),
             action_columns: DEFAULT_ACTION_COLUMNS.iter().map(|s| s.to_string()).collect(),
+            state_preset: Some(StatePreset::Onboard),
+            tails: TailPolicy::Keep,
+            speed: SpeedLabels::Name,
+            plausibility: Pooling::Pooled,
+            universe: Universe { metadata: false, bytewise: false },
+            missing_csv_allowed: false,
             simulated: None,
         };
         for item in &block.items {
@@ -107,9 +113,35 @@ impl Validator {
                     min_samples: self.count(min_samples, "the active-sample minimum", 1) as u64,
                 });
             }
-            DataItem::ExcludeImplausible => {
+            DataItem::ExcludeImplausible(pooling) => {
                 self.once(seen, "exclude", item.span);
                 spec.rules.push(InclusionRule::Implausible);
+                if pooling.as_ref().is_some_and(|p| p.node == "per_column") {
+                    spec.plausibility = Pooling::PerColumn;
+                }
+            }
+            DataItem::Tails(p) => {
+                self.once(seen, "tails", item.span);
+                spec.tails = match p.node.as_str() {
+                    "exclude" => TailPolicy::Exclude,
+                    "truncate" => TailPolicy::Truncate,
+                    _ => TailPolicy::Keep,
+                };
+            }
+            DataItem::Speed(how) => {
+                self.once(seen, "speed", item.span);
+                spec.speed = self.speed_labels(how);
+            }
+            DataItem::Universe { kind, order } => {
+                self.once(seen, "universe", item.span);
+                spec.universe = Universe {
+                    metadata: kind.node == "metadata",
+                    bytewise: order.as_ref().is_some_and(|o| o.node == "bytewise"),
+                };
+            }
+            DataItem::MissingCsv(p) => {
+                self.once(seen, "missing", item.span);
+                spec.missing_csv_allowed = p.node == "allow";
             }
             DataItem::Duplicates(p) => {
                 self.once(seen, "duplicates", item.span);
@@ -125,7 +157,25 @@ impl Validator {
             }
             DataItem::State(cols) => {
                 self.once(seen, "state", item.span);
-                spec.state_columns = self.columns(cols, 14, "state", item.span);
+                let preset = match cols.as_slice() {
+                    [one] if one.node == "onboard" => Some(StatePreset::Onboard),
+                    [one] if one.node == "motion_capture" => Some(StatePreset::MotionCapture),
+                    _ => None,
+                };
+                spec.state_preset = preset;
+                spec.state_columns = match preset {
+                    Some(p) => p.columns().iter().map(|c| c.to_string()).collect(),
+                    None if cols.len() == 1 => {
+                        self.err_help(
+                            "unknown state preset",
+                            cols[0].span,
+                            format!("`{}` is not a state preset", cols[0].node),
+                            "presets: onboard, motion_capture; or list the 14 columns",
+                        );
+                        Vec::new()
+                    }
+                    None => self.columns(cols, 14, "state", item.span),
+                };
             }
             DataItem::Action(cols) => {
                 self.once(seen, "action", item.span);
@@ -162,6 +212,31 @@ impl Validator {
                 sim.duration = Some(duration);
             }
         }
+    }
+
+    /// `speed from metadata a < t1 <= b < t2 <= c`: thresholds ascending,
+    /// labels distinct.
+    fn speed_labels(&mut self, how: &SpeedAst) -> SpeedLabels {
+        let SpeedAst::Metadata { first, steps } = how else { return SpeedLabels::Name };
+        let mut labels = vec![first.node.clone()];
+        let mut thresholds = Vec::new();
+        let mut names = vec![first.clone()];
+        for (t, label) in steps {
+            if thresholds.last().is_some_and(|last| t.node <= *last) {
+                self.err("thresholds out of order", t.span, "speed thresholds must increase from left to right");
+            }
+            if t.node < 0.0 {
+                self.err("negative value", t.span, format!("a speed threshold must be >= 0, found {}", t.node));
+            }
+            thresholds.push(t.node);
+            labels.push(label.node.clone());
+            names.push(label.clone());
+        }
+        self.no_duplicate_names(&names, "speed label");
+        if let Some(l) = names.iter().find(|n| n.node == "unknown") {
+            self.err("reserved label", l.span, "`unknown` is the label of a recording without a metadata speed");
+        }
+        SpeedLabels::Metadata { labels, thresholds }
     }
 
     pub(super) fn columns(&mut self, cols: &[Ident], want: usize, what: &str, span: Span) -> Vec<String> {

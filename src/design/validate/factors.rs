@@ -12,11 +12,20 @@ impl Validator {
         let mut seen = BTreeMap::new();
         let (mut evaluation, mut split_seed, mut starts, mut horizon) = (None, None, None, None);
         let mut conditions = Vec::new();
+        let mut listed = Vec::new();
         for item in items {
             match &item.node {
                 RecordingItem::Evaluation(n) => {
                     self.once(&mut seen, "evaluation", item.span);
                     evaluation = Some(self.count(n, "the number of evaluation recordings", 2));
+                }
+                RecordingItem::EvaluationList(names) => {
+                    self.once(&mut seen, "evaluation", item.span);
+                    listed = self.listed(names, "evaluation");
+                    evaluation = Some(listed.len());
+                    if listed.len() < 2 {
+                        self.err("too few recordings", item.span, "a crossed design needs at least 2 evaluation recordings");
+                    }
                 }
                 RecordingItem::SplitSeed(n) => {
                     self.once(&mut seen, "split_seed", item.span);
@@ -70,6 +79,7 @@ impl Validator {
             starts: starts?,
             horizon: horizon?,
             conditions,
+            listed,
         })
     }
 

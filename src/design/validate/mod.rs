@@ -107,15 +107,18 @@ impl Validator {
             _ => None,
         });
         let validation = singles.get("validation").and_then(|s| match &s.node {
-            Statement::Validation { windows, recordings, seed } => Some(ValidationSpec {
-                windows: self.count(windows, "validation windows", 1),
-                recordings: self.count(recordings, "validation recordings", 1),
-                seed: self.nonneg(seed, "validation seed"),
-            }),
+            Statement::Validation { windows, recordings, seed } => Some(self.validation(windows, recordings, seed)),
             _ => None,
         });
+        let generator = match singles.get("generator").map(|s| &s.node) {
+            Some(Statement::Generator(g)) if g.node == "numpy_legacy" => Generator::NumpyLegacy,
+            _ => Generator::Chacha8,
+        };
+        if generator == Generator::NumpyLegacy {
+            self.numpy_seeds(ast);
+        }
         let arms = self.arms(&arms);
-        let models = self.models(&models);
+        let models = self.models(&models, arms::declared_actions(singles.get("train").copied()));
         let training = self.train_block(singles.get("train").copied(), &models);
         let rate = data.as_ref().map(|d: &DataSpec| d.rate_hz).unwrap_or(100.0);
         let horizon = recording.as_ref().map(|r: &RecordingFactor| r.horizon);
@@ -167,7 +170,63 @@ impl Validator {
             sensitivity: sensitivity?,
             interaction,
             decision: decision?,
+            generator,
         })
+    }
+
+    /// `validation N windows from (K recordings | recordings "A", ...) seed S`.
+    fn validation(&mut self, windows: &Int, recordings: &ValRecordings, seed: &Int) -> ValidationSpec {
+        let windows = self.count(windows, "validation windows", 1);
+        let seed = self.nonneg(seed, "validation seed");
+        match recordings {
+            ValRecordings::Count(n) => {
+                ValidationSpec { windows, recordings: self.count(n, "validation recordings", 1), seed, listed: Vec::new() }
+            }
+            ValRecordings::List(names) => {
+                let listed = self.listed(names, "validation");
+                ValidationSpec { windows, recordings: listed.len(), seed, listed }
+            }
+        }
+    }
+
+    /// A pinned list of recording names: none empty, none twice.
+    fn listed(&mut self, names: &[Spanned<String>], what: &str) -> Vec<ListedName> {
+        for (i, n) in names.iter().enumerate() {
+            if n.node.trim().is_empty() {
+                self.err("empty name", n.span, format!("an empty {what} recording name"));
+            } else if names[..i].iter().any(|m| m.node == n.node) {
+                self.err("duplicate name", n.span, format!("{what} recording `{}` is listed twice", n.node));
+            }
+        }
+        names.iter().map(|n| ListedName { name: n.node.clone(), offset: n.span.start }).collect()
+    }
+
+    /// numpy's legacy RandomState takes seeds 0..=2^32-1 only: every seed
+    /// the split draws with must fit.
+    fn numpy_seeds(&mut self, ast: &Ast) {
+        let mut seeds: Vec<&Int> = Vec::new();
+        for s in &ast.statements {
+            match &s.node {
+                Statement::FactorRecording(items) => seeds.extend(items.iter().filter_map(|i| match &i.node {
+                    RecordingItem::SplitSeed(n) => Some(n),
+                    _ => None,
+                })),
+                Statement::Validation { seed, .. } => seeds.push(seed),
+                Statement::Arm { body: ArmBody::Fit { seed: Some(seed), .. }, .. } => seeds.push(seed),
+                Statement::Arm { body: ArmBody::Derived { seed, .. }, .. } => seeds.push(seed),
+                _ => {}
+            }
+        }
+        for seed in seeds {
+            if seed.node > i64::from(u32::MAX) {
+                self.err_help(
+                    "seed out of range for numpy_legacy",
+                    seed.span,
+                    format!("{} does not fit in 32 bits", seed.node),
+                    "numpy's RandomState takes seeds 0 to 4294967295",
+                );
+            }
+        }
     }
 
     /// Sorts the statements into single ones (by keyword) and the repeated
