@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# One full training grid, run in a scratch directory and copied into results/:
+#   bash scripts/full_run.sh DESIGN RESULTS_DIR [BINARY]
+# Runs `crossaudit run DESIGN --out /tmp/full_NAME --workers 2` under
+# /usr/bin/time, then copies cells/, cells.csv, report/, run.json, audit/,
+# curves/, manifests/manifests.json, stdout.txt and time.txt into RESULTS_DIR
+# (model weights, job records and manifest CSVs are not committed).
+# BINARY defaults to target/release/crossaudit; pass a copy when the tree is
+# rebuilt while a long run goes on.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+design=$1; dest=$2; ca=${3:-target/release/crossaudit}
+tmp=/tmp/full_$(basename "$dest")
+mkdir -p "$tmp" "$dest"
+/usr/bin/time -v -o "$tmp/time.txt" "$ca" run "$design" --out "$tmp" --workers 2 > "$tmp/stdout.txt" 2>&1
+for part in cells cells.csv report run.json audit curves stdout.txt time.txt; do
+  rm -rf "${dest:?}/$part"; cp -r "$tmp/$part" "$dest/$part"
+done
+mkdir -p "$dest/manifests"; cp "$tmp/manifests/manifests.json" "$dest/manifests/manifests.json"
+cat > "$dest/COMMAND" <<CMD
+bash scripts/full_run.sh $design $dest
+# = crossaudit run $design --out $tmp --workers 2, then cells/, cells.csv, report/, run.json, audit/,
+# curves/, manifests/manifests.json, stdout.txt and time.txt copied here (weights, job records and
+# manifest CSVs are not committed). Built from commit $("$ca" --version | sed 's/.*commit //; s/)//').
+CMD
