@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let split_dir = out.join("split");
     let o = crossaudit::split::prepare(&file, &crossaudit::compile(&file.design), &dir, &split_dir)?;
     let m = file.design.models.iter().find(|m| m.name == *model).ok_or("no such model")?;
-    let ModelKind::Mlp { widths, inputs } = &m.kind else { return Err("not an MLP".into()) };
+    let ModelKind::Mlp { widths, inputs, actions } = &m.kind else { return Err("not an MLP".into()) };
     let triples = |ws: &[crossaudit::split::Window]| -> Vec<_> {
         ws.iter()
             .map(|w| {
@@ -47,7 +47,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let fit = triples(o.split.fit(arm).ok_or("no such arm")?);
     let val = triples(&o.split.validation);
-    let fm = FeatureMap::fit(*inputs, &fit, "export");
+    let target = file.design.training.as_ref().ok_or("no train block")?.target;
+    let fm = FeatureMap::fit(*inputs, *actions, target, &fit, "export");
     for (name, set) in [("fit", &fit), ("val", &val)] {
         // Raw network input before standardization (the map's raw input with
         // the clean action), raw action, standardized target.

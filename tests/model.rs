@@ -2,7 +2,7 @@
 //! failure-aware cases, own-arm standardizers and thread-count determinism.
 
 use crate::common::{root, run_job};
-use crossaudit::design::InputMap;
+use crossaudit::design::{ActionScaling, InputMap, TargetKind};
 use crossaudit::model::features::{raw_input, Action, State};
 use crossaudit::model::{Dynamics, FeatureMap, Learned};
 use crossaudit::rollout::{attitude_error_deg, failure_aware, StartOutcome, Trace};
@@ -52,7 +52,7 @@ fn relative_inputs_ignore_a_joint_translation_and_predictions_translate_with_it(
     assert_ne!(raw_input(InputMap::World, &x, &u), raw_input(InputMap::World, &y, &u));
     // Any weights will do: train a tiny relative net for one epoch.
     let w = windows(0.0, 300);
-    let features = FeatureMap::fit(InputMap::Relative, &w, "manifest");
+    let features = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::StateScaled, &w, "manifest");
     let mut t = tiny_training();
     t.epochs = 1;
     let (net, _) = crossaudit::model::train(&[32, 32, 32], &features, &w, &w[..50], &t, 3, &mut |_| {}).unwrap();
@@ -115,13 +115,13 @@ fn failure_aware_metric_on_hand_built_rollouts() {
 fn standardizers_use_their_own_arm_only() {
     let a = windows(0.0, 400);
     let b = windows(10.0, 400);
-    let fa = FeatureMap::fit(InputMap::World, &a, "fit_a");
-    let fb = FeatureMap::fit(InputMap::World, &b, "fit_b");
+    let fa = FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &a, "fit_a");
+    let fb = FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &b, "fit_b");
     let joint: Vec<_> = a.iter().chain(&b).copied().collect();
-    let fj = FeatureMap::fit(InputMap::World, &joint, "joint");
+    let fj = FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &joint, "joint");
     assert_ne!(fa.input.mean, fb.input.mean);
     assert_ne!(fa.input.mean, fj.input.mean, "fitting on both arms would change arm A's standardizer");
-    assert_eq!(fa, FeatureMap::fit(InputMap::World, &a, "fit_a"));
+    assert_eq!(fa, FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &a, "fit_a"));
     // Constant dimensions (quaternion components here) get SD 1, not 0.
     assert!(fa.input.std.iter().all(|s| *s > 0.0 && s.is_finite()));
 }
@@ -200,4 +200,74 @@ fn a_saved_cell_is_re_evaluated_without_retraining() {
         2.0,
     );
     assert_eq!(again, cell.cells, "re-evaluating the saved model must reproduce the cell's rows");
+}
+
+/// Population mean and SD of dimension `k` over `rows`, recomputed here
+/// from the definition (divisor n).
+fn mean_sd(rows: &[[f64; 14]], k: usize) -> (f64, f64) {
+    let n = rows.len() as f64;
+    let m = rows.iter().map(|r| r[k]).sum::<f64>() / n;
+    (m, (rows.iter().map(|r| (r[k] - m).powi(2)).sum::<f64>() / n).sqrt())
+}
+
+/// `target state_scaled` (the paper): dz = (x_{t+1} - x_t) / sd_x, with
+/// sd_x the SD of x_t over the fit windows: no centring, and per-dimension
+/// weights 1 / sd_x. `target standardized`: the increment's own mean and SD.
+#[test]
+fn state_scaled_target_divides_the_increment_by_the_state_sd() {
+    // Increments that vary, so that their own SD is not zero.
+    let w: Vec<(State, Action, State)> = windows(0.0, 400)
+        .into_iter()
+        .enumerate()
+        .map(|(k, (x, u, mut next))| {
+            next[0] += 0.02 * (k as f64 * 0.3).sin();
+            next[1] -= 0.01 * (k as f64 * 0.7).cos();
+            (x, u, next)
+        })
+        .collect();
+    let xs: Vec<[f64; 14]> = w.iter().map(|(x, _, _)| *x).collect();
+    let paper = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::StateScaled, &w, "m");
+    let own = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::Standardized, &w, "m");
+    let (x, u, next) = w[37];
+    let (mut z_paper, mut z_own) = ([0f32; 14], [0f32; 14]);
+    paper.target(&x, &next, &mut z_paper);
+    own.target(&x, &next, &mut z_own);
+    for k in 0..2 {
+        let (_, sd) = mean_sd(&xs, k);
+        let want = (next[k] - x[k]) / sd;
+        assert!((f64::from(z_paper[k]) - want).abs() < 1e-6 * want.abs().max(1e-3), "dim {k}: {} vs {want}", z_paper[k]);
+        assert_eq!(paper.target.mean[k], 0.0, "no centring");
+        let dx: Vec<[f64; 14]> = w.iter().map(|(a, _, b)| std::array::from_fn(|j| b[j] - a[j])).collect();
+        let (dm, dsd) = mean_sd(&dx, k);
+        let standardized = ((next[k] - x[k]) - dm) / dsd;
+        assert!((f64::from(z_own[k]) - standardized).abs() < 1e-5, "dim {k}: standardized increment");
+        assert!((f64::from(z_paper[k]) - standardized).abs() > 1e-3, "the two targets differ in dim {k}");
+    }
+    // Exogenous components are zero under both; the rollout inverts dz exactly.
+    assert!(z_paper[10..].iter().chain(&z_own[10..]).all(|v| *v == 0.0));
+    let back = paper.next_state(&x, &z_paper);
+    assert!((back[0] - next[0]).abs() < 1e-7 && (back[1] - next[1]).abs() < 1e-7);
+    let _ = u;
+}
+
+/// `actions raw` (the paper): u reaches both networks unscaled;
+/// `actions standardized`: through the input standardizer, in both maps.
+#[test]
+fn raw_actions_reach_both_networks_unscaled() {
+    let w = windows(0.0, 400);
+    let (x, u, _) = w[11];
+    for map in [InputMap::World, InputMap::Relative] {
+        let raw = FeatureMap::fit(map, ActionScaling::Raw, TargetKind::StateScaled, &w, "m");
+        let std = FeatureMap::fit(map, ActionScaling::Standardized, TargetKind::StateScaled, &w, "m");
+        let (mut a, mut b) = ([0f32; 18], [0f32; 18]);
+        raw.input(&x, &u, &mut a);
+        std.input(&x, &u, &mut b);
+        for k in 0..4 {
+            assert_eq!(a[14 + k], u[k] as f32, "{map:?}: raw u_{k} enters unscaled");
+        }
+        assert_eq!(a[..14], b[..14], "{map:?}: the state part does not depend on the action scaling");
+        let us: Vec<[f64; 14]> = w.iter().map(|(_, u, _)| std::array::from_fn(|j| if j < 4 { u[j] } else { 0.0 })).collect();
+        let (m, sd) = mean_sd(&us, 0);
+        assert!((f64::from(b[14]) - (u[0] - m) / sd).abs() < 1e-5, "{map:?}: standardized u_0");
+    }
 }

@@ -27,6 +27,8 @@ fn recordings(n: usize, dup: &[usize]) -> Vec<Recording> {
                 pwm: vec![[30000.0; 4]; rows],
                 active: (0..rows).map(|i| i >= 10).collect(),
                 content_hash: hash,
+                tail: None,
+                rows_cut: 0,
             }
         })
         .collect()
@@ -44,6 +46,10 @@ fn audit_of(recs: &[Recording], dup: &[usize]) -> Audit {
             duration_s: r.duration_s(),
             trajectory: if k % 2 == 0 { "circle".into() } else { "star".into() },
             speed: "slow".into(),
+            speed_mps: None,
+            tail: None,
+            rows_cut: 0,
+            onboard_row_counts: (None, None),
             controller: "pid".into(),
             repetition: Some(1),
             start_utc: None,
@@ -61,6 +67,7 @@ fn audit_of(recs: &[Recording], dup: &[usize]) -> Audit {
         data_dir: "synthetic".into(),
         rules: Vec::new(),
         duplicates: DuplicatePolicy::Group,
+        tails: crossaudit::design::TailPolicy::Keep,
         files,
         duplicate_groups: Default::default(),
     }
