@@ -12,8 +12,8 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::design::{
-    ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric, ModelKind, Role,
-    Seed, Sensitivity, StartsPolicy, Training,
+    ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric,
+    ModelKind, Role, Seed, Sensitivity, StartsPolicy, Training,
 };
 use crate::stats::DfRule;
 

@@ -13,6 +13,7 @@ mod designs;
 mod fused;
 mod golden;
 mod model;
+mod paper;
 mod run;
 mod simulate;
 mod split;

@@ -235,7 +235,11 @@ fn state_scaled_target_divides_the_increment_by_the_state_sd() {
     for k in 0..2 {
         let (_, sd) = mean_sd(&xs, k);
         let want = (next[k] - x[k]) / sd;
-        assert!((f64::from(z_paper[k]) - want).abs() < 1e-6 * want.abs().max(1e-3), "dim {k}: {} vs {want}", z_paper[k]);
+        assert!(
+            (f64::from(z_paper[k]) - want).abs() < 1e-6 * want.abs().max(1e-3),
+            "dim {k}: {} vs {want}",
+            z_paper[k]
+        );
         assert_eq!(paper.target.mean[k], 0.0, "no centring");
         let dx: Vec<[f64; 14]> = w.iter().map(|(a, _, b)| std::array::from_fn(|j| b[j] - a[j])).collect();
         let (dm, dsd) = mean_sd(&dx, k);
@@ -266,7 +270,8 @@ fn raw_actions_reach_both_networks_unscaled() {
             assert_eq!(a[14 + k], u[k] as f32, "{map:?}: raw u_{k} enters unscaled");
         }
         assert_eq!(a[..14], b[..14], "{map:?}: the state part does not depend on the action scaling");
-        let us: Vec<[f64; 14]> = w.iter().map(|(_, u, _)| std::array::from_fn(|j| if j < 4 { u[j] } else { 0.0 })).collect();
+        let us: Vec<[f64; 14]> =
+            w.iter().map(|(_, u, _)| std::array::from_fn(|j| if j < 4 { u[j] } else { 0.0 })).collect();
         let (m, sd) = mean_sd(&us, 0);
         assert!((f64::from(b[14]) - (u[0] - m) / sd).abs() < 1e-5, "{map:?}: standardized u_0");
     }

@@ -115,7 +115,9 @@ fn standardizers(records: &[JobRecord], prepared: &Prepared, out: &Path) -> Inva
         match windows {
             Err(e) => failures.push(format!("{job}: {e}")),
             Ok(w) => {
-                if FeatureMap::fit(recorded.map, recorded.actions, recorded.target_kind, w, &r.manifests.fit_sha256) != *recorded {
+                if FeatureMap::fit(recorded.map, recorded.actions, recorded.target_kind, w, &r.manifests.fit_sha256)
+                    != *recorded
+                {
                     failures.push(format!("{job}: its standardizers differ from those fitted on {file}"));
                 }
             }

@@ -300,7 +300,8 @@ fn pinned(listed: &[ListedName], names: &[&str], what: &'static str, metadata: b
                 hint: if metadata {
                     " (it has neither an included CSV nor a metadata file)".to_string()
                 } else {
-                    " (it has no included CSV; `universe metadata` also admits names listed only by metadata)".to_string()
+                    " (it has no included CSV; `universe metadata` also admits names listed only by metadata)"
+                        .to_string()
                 },
             })
         })

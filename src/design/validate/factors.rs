@@ -24,7 +24,11 @@ impl Validator {
                     listed = self.listed(names, "evaluation");
                     evaluation = Some(listed.len());
                     if listed.len() < 2 {
-                        self.err("too few recordings", item.span, "a crossed design needs at least 2 evaluation recordings");
+                        self.err(
+                            "too few recordings",
+                            item.span,
+                            "a crossed design needs at least 2 evaluation recordings",
+                        );
                     }
                 }
                 RecordingItem::SplitSeed(n) => {

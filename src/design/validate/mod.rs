@@ -179,9 +179,12 @@ impl Validator {
         let windows = self.count(windows, "validation windows", 1);
         let seed = self.nonneg(seed, "validation seed");
         match recordings {
-            ValRecordings::Count(n) => {
-                ValidationSpec { windows, recordings: self.count(n, "validation recordings", 1), seed, listed: Vec::new() }
-            }
+            ValRecordings::Count(n) => ValidationSpec {
+                windows,
+                recordings: self.count(n, "validation recordings", 1),
+                seed,
+                listed: Vec::new(),
+            },
             ValRecordings::List(names) => {
                 let listed = self.listed(names, "validation");
                 ValidationSpec { windows, recordings: listed.len(), seed, listed }
