@@ -183,14 +183,26 @@ pub enum SplitError {
         /// Why it may be absent.
         hint: String,
     },
-    /// A recording pinned for evaluation is also pinned for validation.
-    #[error("recording \"{name}\" is listed for both evaluation and validation")]
+    /// A recording pinned for evaluation is also pinned for validation
+    /// (itself, or an identical copy under `duplicates group`).
+    #[error("validation recording \"{name}\" is an evaluation recording or an identical copy of one")]
     ListedTwice {
         /// The name.
         name: String,
     },
-    /// Drawn recordings without a CSV, and the design does not allow them.
-    #[error("the split drew {what} recordings that have no CSV in the data directory: {names}; declare `missing csv allow` in the data block to proceed without them (each is then listed in the report)")]
+    /// Two pinned names are one deployment unit (identical recordings).
+    #[error(
+        "\"{first}\" and \"{second}\" are identical recordings, one deployment unit under `duplicates group`: list one"
+    )]
+    SameUnit {
+        /// The first name.
+        first: String,
+        /// The second.
+        second: String,
+    },
+    /// Drawn or pinned recordings without usable data, and the design does
+    /// not allow them.
+    #[error("the split drew or pinned {what} recordings without usable data (no CSV, or excluded by the data rules; see audit/recordings.csv): {names}; declare `missing csv allow` in the data block to proceed without them (each is then listed in manifests/absent_recordings.csv and the report)")]
     Absent {
         /// `evaluation` or `validation`.
         what: &'static str,
@@ -264,7 +276,9 @@ fn np_seed(seed: u64) -> u32 {
 }
 
 /// An entry of the universe: a deployment unit with data, or a name that a
-/// metadata file lists without a CSV.
+/// metadata file lists without a CSV. (Pinned names of files the data rules
+/// exclude are also `Absent`, appended after the universe so that no draw
+/// reaches them.)
 #[derive(Debug, Clone)]
 enum Slot {
     Unit(usize),
@@ -287,16 +301,27 @@ fn universe(design: &Design, audit: &Audit, info: &[RecordingInfo], units: &[Dep
     slots
 }
 
-/// Positions in `names` of the pinned `listed` names.
-fn pinned(listed: &[ListedName], names: &[&str], what: &'static str, metadata: bool) -> Result<Vec<usize>, SplitError> {
-    listed
+/// The slots of the pinned `listed` names: a name matches a slot by its own
+/// name or, under `duplicates group`, by any member of its unit. Two names
+/// of one unit are refused.
+fn pinned(
+    listed: &[ListedName],
+    slots: &[(String, Slot)],
+    members: &dyn Fn(usize) -> Vec<String>,
+    what: &'static str,
+    metadata: bool,
+) -> Result<Vec<usize>, SplitError> {
+    let found: Vec<usize> = listed
         .iter()
         .map(|l| {
-            names.iter().position(|n| *n == l.name).ok_or_else(|| SplitError::NotInUniverse {
+            let hit = slots
+                .iter()
+                .position(|(n, slot)| *n == l.name || matches!(slot, Slot::Unit(u) if members(*u).contains(&l.name)));
+            hit.ok_or_else(|| SplitError::NotInUniverse {
                 what,
                 name: l.name.clone(),
                 offset: l.offset,
-                available: names.len(),
+                available: slots.len(),
                 hint: if metadata {
                     " (it has neither an included CSV nor a metadata file)".to_string()
                 } else {
@@ -305,7 +330,13 @@ fn pinned(listed: &[ListedName], names: &[&str], what: &'static str, metadata: b
                 },
             })
         })
-        .collect()
+        .collect::<Result<_, _>>()?;
+    for (i, c) in found.iter().enumerate() {
+        if let Some(j) = found[..i].iter().position(|d| d == c) {
+            return Err(SplitError::SameUnit { first: listed[j].name.clone(), second: listed[i].name.clone() });
+        }
+    }
+    Ok(found)
 }
 
 /// Splits chosen slots into loaded unit indices and absent names; absent
@@ -335,29 +366,34 @@ fn resolve(
 pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
     let info = recording_info(audit, recordings);
     let units = units(&info, design.data.duplicates);
-    let slots = universe(design, audit, &info, &units);
-    let names: Vec<&str> = slots.iter().map(|(n, _)| n.as_str()).collect();
-    let numpy = design.generator == Generator::NumpyLegacy;
-    let allowed = design.data.missing_csv_allowed;
     let rf = &design.recording;
     let val = &design.validation;
+    let mut slots = universe(design, audit, &info, &units);
+    let drawable = slots.len();
+    if !rf.listed.is_empty() || !val.listed.is_empty() {
+        let excluded = audit.files.iter().filter(|f| f.status == Status::Excluded);
+        slots.extend(excluded.map(|f| (f.name.clone(), Slot::Absent(f.name.clone()))));
+    }
+    let members = |u: usize| -> Vec<String> { units[u].members.iter().map(|&m| info[m].name.clone()).collect() };
+    let numpy = design.generator == Generator::NumpyLegacy;
+    let allowed = design.data.missing_csv_allowed;
     let needed = rf.evaluation + val.recordings + 1;
-    if slots.len() < needed {
+    if drawable < needed {
         return Err(SplitError::TooFewRecordings {
             needed,
             evaluation: rf.evaluation,
             validation: val.recordings,
-            available: slots.len(),
+            available: drawable,
         });
     }
     // E: pinned, or the first I of a shuffle of the universe (split seed).
     let mut split_rs = RandomState::new(np_seed(rf.split_seed));
     let e_slots: Vec<usize> = if !rf.listed.is_empty() {
-        pinned(&rf.listed, &names, "evaluation", design.data.universe.metadata)?
+        pinned(&rf.listed, &slots, &members, "evaluation", design.data.universe.metadata)?
     } else if numpy {
-        split_rs.choice(slots.len(), rf.evaluation)
+        split_rs.choice(drawable, rf.evaluation)
     } else {
-        let mut order: Vec<usize> = (0..slots.len()).collect();
+        let mut order: Vec<usize> = (0..drawable).collect();
         order.shuffle(&mut rng(rf.split_seed, 0));
         order.truncate(rf.evaluation);
         order
@@ -385,12 +421,12 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
 
     // V: pinned, or from the rest of the universe with the validation seed.
     let e_set: BTreeSet<usize> = e_slots.iter().copied().collect();
-    let rest: Vec<usize> = (0..slots.len()).filter(|c| !e_set.contains(c)).collect();
+    let rest: Vec<usize> = (0..drawable).filter(|c| !e_set.contains(c)).collect();
     let mut val_rs = RandomState::new(np_seed(val.seed));
     let v_slots: Vec<usize> = if !val.listed.is_empty() {
-        let v = pinned(&val.listed, &names, "validation", design.data.universe.metadata)?;
-        if let Some(&c) = v.iter().find(|c| e_set.contains(c)) {
-            return Err(SplitError::ListedTwice { name: names[c].to_string() });
+        let v = pinned(&val.listed, &slots, &members, "validation", design.data.universe.metadata)?;
+        if let Some(k) = v.iter().position(|c| e_set.contains(c)) {
+            return Err(SplitError::ListedTwice { name: val.listed[k].name.clone() });
         }
         v
     } else if numpy {
