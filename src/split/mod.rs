@@ -527,6 +527,9 @@ fn recording_info(audit: &Audit, recordings: &[Recording]) -> Vec<RecordingInfo>
         .collect()
 }
 
+/// Draws `k` windows of a pool for the evaluation recording at a position.
+type StartPicker<'a> = dyn FnMut(&[Window], usize, usize) -> Vec<Window> + 'a;
+
 /// The registered rollout starts: `starts` valid starts per evaluation
 /// recording, in the order given, each drawn by `pick(pool, k, position)`.
 /// Returned sorted.
@@ -535,7 +538,7 @@ fn draw_starts(
     info: &[RecordingInfo],
     recordings: &[Recording],
     evaluation: &[usize],
-    pick: &mut dyn FnMut(&[Window], usize, usize) -> Vec<Window>,
+    pick: &mut StartPicker<'_>,
 ) -> Result<Vec<Window>, SplitError> {
     let mut starts = Vec::new();
     for (k, &r) in evaluation.iter().enumerate() {
