@@ -241,3 +241,28 @@ fn onboard_tail_detector_on_synthetic_columns() {
 fn noisy_line(t: &[f64], from: usize) -> Vec<f64> {
     (0..t.len()).map(|k| if k >= from { -1.0 + 0.5 * (t[k] - t[from]) } else { (k as f64 * 1.7).sin() }).collect()
 }
+
+/// Action scaling: the train block's applies to every model unless a model
+/// line declares its own; the target is the train block's.
+#[test]
+fn a_model_line_overrides_the_train_blocks_action_scaling() {
+    use crossaudit::design::{ActionScaling, ModelKind, TargetKind};
+    let d = variant(|s| {
+        s.replace("inputs world\n", "inputs world actions standardized\n")
+            .replace("target state_scaled actions raw", "target standardized actions raw")
+    });
+    let actions: Vec<(String, ActionScaling)> = d
+        .models
+        .iter()
+        .map(|m| match &m.kind {
+            ModelKind::Mlp { actions, .. } => (m.name.clone(), *actions),
+            _ => unreachable!(),
+        })
+        .collect();
+    assert_eq!(actions, [("world".into(), ActionScaling::Standardized), ("relative".into(), ActionScaling::Raw)]);
+    assert_eq!(d.training.as_ref().unwrap().target, TargetKind::Standardized);
+    // Without a train-block clause the paper's raw actions and state-scaled target apply.
+    let plain = variant(|s| s.replace("\n        target state_scaled actions raw }", " }"));
+    assert!(plain.models.iter().all(|m| matches!(m.kind, ModelKind::Mlp { actions: ActionScaling::Raw, .. })));
+    assert_eq!(plain.training.unwrap().target, TargetKind::StateScaled);
+}
