@@ -236,13 +236,13 @@ steps = [
     ("+ tails truncated (the audited design)", "nanobench_paper_audited"),
 ]
 for label, path in steps:
+    design = f"designs/{path}.design"
     f = os.path.join(R, path, "report/results.json")
     if not os.path.exists(f):
-        p(f"| {label} | `{path}` | not run | | | | | | |")
+        p(f"| {label} | `{design}` | not run | | | | | | |")
         continue
     r = load(path + "/report/results.json")
     u = unit(r, "world", 1.0)
     c = u["conditional"]
-    design = "designs/" + (path.replace("nanobench_paper_audited", "nanobench_paper_audited") if "/" in path else path) + ".design"
     p(f"| {label} | `{design}` | {u['estimate']['rows']} | {u['mean_treated']:.3f} | {u['mean_reference']:.3f} | {u['optimism_pct']:.1f}% | {ci(u['estimate'])} | {100*c['divergent_treated']/c['starts_treated']:.2f}% / {100*c['divergent_reference']/c['starts_reference']:.2f}% | {'confirmed' if r['decision']['holds'] else 'not confirmed'} |")
 print("\n".join(out))
