@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::design::{
     ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric,
-    ModelKind, Role, Seed, Sensitivity, StartsPolicy, Training,
+    ModelKind, Role, Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
 use crate::stats::DfRule;
 
@@ -287,6 +287,13 @@ impl Plan {
         );
         for m in &self.models {
             let _ = writeln!(s, "  model {}: {}", m.name, model_text(&m.kind));
+        }
+        if let Some(t) = &self.training {
+            let target = match t.target {
+                TargetKind::StateScaled => "state-scaled increment, dz = (x_{t+1} - x_t) / sd_x (the paper's)",
+                TargetKind::Standardized => "standardized increment (its own mean and SD)",
+            };
+            let _ = writeln!(s, "  target: {target}");
         }
         for a in &self.arms {
             let _ = writeln!(s, "  arm {}: {}", a.name, arm_text(&a.kind));

@@ -206,7 +206,7 @@ fn the_state_presets_read_onboard_or_motion_capture_columns() {
     let col = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
     for (preset, v, q) in [("onboard", "est_stateEstimate_vx", "att_stateEstimate_qw"), ("motion_capture", "vx", "qw")]
     {
-        let d = variant(|s| s.replace("state      onboard", &format!("state {preset}")));
+        let d = variant(|s| s.replace("state      motion_capture", &format!("state {preset}")));
         let layout = crossaudit::data::Layout::new(&d.data).unwrap();
         let rec = crossaudit::data::load_recording(&file, &layout).unwrap();
         assert_eq!(rec.state[500][3], col(v), "{preset}: velocity x");

@@ -260,7 +260,7 @@ fn data_that_cannot_support_the_design_is_a_clear_error() {
     let mut d = minimal_design();
     d.validation.windows = 10_000;
     let e = split::build(&d, &audit_of(&recs, &[]), &recs).unwrap_err();
-    assert!(e.to_string().starts_with("validation (2 recordings): the design needs 10000 windows"), "{e}");
+    assert!(e.to_string().starts_with("validation (2 recordings with data): the design needs 10000 windows"), "{e}");
 
     let mut d = minimal_design();
     d.arms[0].kind = ArmKind::Fit { windows: 100_000, seed: 0 };
