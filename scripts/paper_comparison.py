@@ -169,7 +169,7 @@ for t in sorted({k[0] for k in PAPER_COMP} | {k[0] for k in counts}):
 p("")
 p("Ours counts the 26 names the split drew, the two without a CSV ("
   + ", ".join(n for r, n in gone if r == "evaluation") + ") by their metadata labels;"
-  " `tests/paper.rs` checks that the table is equal to the paper's.")
+  " `tests/split_paper.rs` checks that the table is equal to the paper's.")
 p("")
 # Evidence for the differences, from the committed manifests of the run.
 tails = {l.split()[0]: int(l.split()[1]) for l in open("tests/data/onboard_tails.txt")}
