@@ -18,6 +18,7 @@ mod simulate;
 mod split;
 mod split_numpy;
 mod split_paper;
+mod stats_mixed;
 mod stats_props;
 mod stats_reference;
 mod trust;

@@ -8,6 +8,7 @@ pub mod coverage;
 mod crossed;
 mod intervals;
 mod matrix;
+pub mod mixed;
 mod rng;
 
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};

@@ -1,0 +1,42 @@
+# Reference fits for crossaudit's stats::mixed, from lme4 (and the data
+# files the tests read). Run from the repository root:
+#
+#   Rscript scripts/reference/mixed_reference.R > scripts/reference/mixed_reference.out
+#
+# R and lme4 from Debian: apt-get install r-base-core r-cran-lme4.
+# Writes tests/fixtures/{penicillin_unbalanced,pastes,dyestuff2}.csv and
+# prints, for each fit, the REML or ML criterion, the variance components,
+# the intercept and its standard error, and isSingular. BOBYQA is run to a
+# tight tolerance so that the optimum, not the optimizer, is compared.
+suppressMessages(library(lme4))
+ctl <- lmerControl(optimizer = "bobyqa", optCtrl = list(rhoend = 1e-12, maxfun = 1e6),
+                   check.conv.singular = "ignore")
+cat("# lme4", as.character(packageVersion("lme4")), "R", R.version$major, R.version$minor, "\n")
+show_fit <- function(name, m) {
+  vc <- as.data.frame(VarCorr(m))
+  cat(name, "criterion", format(if (isREML(m)) m@devcomp$cmp[["REML"]] else deviance(m), digits = 15), "\n")
+  for (i in seq_len(nrow(vc))) cat(name, "var", vc$grp[i], format(vc$vcov[i], digits = 15), "\n")
+  cat(name, "intercept", format(fixef(m)[[1]], digits = 15), "\n")
+  cat(name, "se", format(sqrt(vcov(m)[1, 1]), digits = 15), "\n")
+  cat(name, "theta", format(getME(m, "theta"), digits = 15), "\n")
+  cat(name, "singular", isSingular(m), "\n")
+}
+# Penicillin, unbalanced: every cell whose (plate index + 2 * sample index)
+# is divisible by 7 removed (24 of 144), deterministic.
+P <- Penicillin
+pi <- as.integer(P$plate); si <- as.integer(P$sample)
+PU <- P[((pi - 1) + 2 * (si - 1)) %% 7 != 0, ]
+write.csv(data.frame(diameter = PU$diameter, plate = PU$plate, sample = PU$sample),
+          "tests/fixtures/penicillin_unbalanced.csv", row.names = FALSE, quote = FALSE)
+show_fit("penicillin_reml", lmer(diameter ~ 1 + (1 | plate) + (1 | sample), P, control = ctl))
+show_fit("penicillin_ml", lmer(diameter ~ 1 + (1 | plate) + (1 | sample), P, REML = FALSE, control = ctl))
+show_fit("penicillin_unbalanced_reml", lmer(diameter ~ 1 + (1 | plate) + (1 | sample), PU, control = ctl))
+show_fit("penicillin_unbalanced_ml", lmer(diameter ~ 1 + (1 | plate) + (1 | sample), PU, REML = FALSE, control = ctl))
+# Pastes: casks nested in batches.
+write.csv(data.frame(strength = Pastes$strength, batch = Pastes$batch, cask = Pastes$cask),
+          "tests/fixtures/pastes.csv", row.names = FALSE, quote = FALSE)
+show_fit("pastes_reml", lmer(strength ~ 1 + (1 | batch) + (1 | batch:cask), Pastes, control = ctl))
+# Dyestuff2: the batch variance is estimated at zero (a singular fit).
+write.csv(data.frame(Yield = Dyestuff2$Yield, Batch = Dyestuff2$Batch),
+          "tests/fixtures/dyestuff2.csv", row.names = FALSE, quote = FALSE)
+show_fit("dyestuff2_reml", lmer(Yield ~ 1 + (1 | Batch), Dyestuff2, control = ctl))

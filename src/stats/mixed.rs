@@ -1,0 +1,384 @@
+//! Linear mixed models with a fixed intercept and any number of
+//! random-intercept factors, crossed or nested, fitted by REML or ML through
+//! the profiled deviance of lme4 (Bates, Maechler, Bolker and Walker 2015,
+//! "Fitting linear mixed-effects models using lme4", section 3).
+//!
+//! The model is y = 1 mu + Z b + e with b ~ N(0, sigma^2 Lambda Lambda'),
+//! e ~ N(0, sigma^2 I), Lambda diagonal with the relative standard deviation
+//! theta_k of factor k on each of its levels. For a given theta the
+//! penalized least-squares system
+//!
+//! ```text
+//! [ Lambda'Z'Z Lambda + I   Lambda'Z'1 ] [u ]   [ Lambda'Z'y ]
+//! [ 1'Z Lambda              n          ] [mu] = [ 1'y        ]
+//! ```
+//!
+//! is factored as [L 0; r' R_X] (faer's Cholesky of the q x q block, q the
+//! number of levels of all factors together; a triangular solve for r), and
+//! with c the forward-solved right-hand side the penalized residual sum of
+//! squares is r^2 = y'y - |c|^2. The profiled deviances are
+//!
+//! ```text
+//! ML:   log|L|^2 + n (1 + log(2 pi r^2 / n))
+//! REML: log|L|^2 + log R_X^2 + (n - 1) (1 + log(2 pi r^2 / (n - 1)))
+//! ```
+//!
+//! minimised over theta >= 0 by Nelder-Mead with restarts and a check of
+//! every boundary face; sigma^2 = r^2 / n (ML) or r^2 / (n - 1) (REML), the
+//! factor variances are sigma^2 theta_k^2 and Var(mu) = sigma^2 / R_X^2. A
+//! factor whose theta is below 1e-4 makes the fit singular, as lme4's
+//! `isSingular` says. Unbalanced data and missing cells need nothing
+//! special: the data are rows, not a matrix.
+//!
+//! ```
+//! use crossaudit::stats::mixed::{fit, Criterion, MixedData};
+//! // Two crossed factors, balanced 3 x 2, one observation per cell.
+//! let y = vec![1.0, 2.0, 2.5, 3.0, 4.0, 6.5];
+//! let rows = vec![0, 0, 1, 1, 2, 2];
+//! let cols = vec![0, 1, 0, 1, 0, 1];
+//! let data = MixedData::new(y, vec![("row".into(), rows), ("col".into(), cols)]).unwrap();
+//! let f = fit(&data, Criterion::Reml).unwrap();
+//! assert!((f.intercept - 19.0 / 6.0).abs() < 1e-9); // balanced: the grand mean
+//! ```
+
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::{Mat, Par, Side};
+use serde::Serialize;
+
+/// REML (restricted) or ML (full) likelihood.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Criterion {
+    /// Restricted maximum likelihood (lme4's default).
+    Reml,
+    /// Maximum likelihood.
+    Ml,
+}
+
+/// Why a model cannot be fitted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MixedError {
+    /// Fewer than two observations.
+    #[error("a mixed model needs at least 2 observations, found {0}")]
+    TooFewObservations(usize),
+    /// A response that is not finite.
+    #[error("observation {row}: the response {value} is not finite")]
+    NonFinite {
+        /// 0-based row.
+        row: usize,
+        /// The value.
+        value: f64,
+    },
+    /// A factor whose codes do not match the response.
+    #[error("factor {factor}: {found} codes for {expected} observations")]
+    Length {
+        /// Factor name.
+        factor: String,
+        /// Codes given.
+        found: usize,
+        /// Observations.
+        expected: usize,
+    },
+    /// No random factor.
+    #[error("a mixed model needs at least one random factor")]
+    NoFactor,
+    /// A factor with a single level carries no variance.
+    #[error("factor {factor} has {levels} level(s); a random factor needs at least 2")]
+    TooFewLevels {
+        /// Factor name.
+        factor: String,
+        /// Its number of levels.
+        levels: usize,
+    },
+    /// The penalized system could not be factored (it is positive definite
+    /// for every theta, so this means non-finite input slipped through).
+    #[error("the penalized least-squares system is not positive definite at theta = {theta:?}")]
+    NotPositiveDefinite {
+        /// Where.
+        theta: Vec<f64>,
+    },
+}
+
+/// One random-intercept factor: a level code per observation.
+#[derive(Debug, Clone, PartialEq)]
+struct Factor {
+    name: String,
+    codes: Vec<usize>,
+    levels: usize,
+}
+
+/// Response and random factors, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedData {
+    y: Vec<f64>,
+    factors: Vec<Factor>,
+}
+
+impl MixedData {
+    /// `factors`: (name, level code per observation). Codes are relabelled
+    /// densely in order of first appearance, so any integers will do; a
+    /// nested factor is given with codes unique across its parent's levels.
+    pub fn new(y: Vec<f64>, factors: Vec<(String, Vec<usize>)>) -> Result<MixedData, MixedError> {
+        let n = y.len();
+        if n < 2 {
+            return Err(MixedError::TooFewObservations(n));
+        }
+        if let Some((row, &value)) = y.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(MixedError::NonFinite { row, value });
+        }
+        if factors.is_empty() {
+            return Err(MixedError::NoFactor);
+        }
+        let mut out = Vec::new();
+        for (name, codes) in factors {
+            if codes.len() != n {
+                return Err(MixedError::Length { factor: name, found: codes.len(), expected: n });
+            }
+            let mut map = std::collections::HashMap::new();
+            let dense: Vec<usize> = codes
+                .iter()
+                .map(|c| {
+                    let next = map.len();
+                    *map.entry(*c).or_insert(next)
+                })
+                .collect();
+            if map.len() < 2 {
+                return Err(MixedError::TooFewLevels { factor: name, levels: map.len() });
+            }
+            out.push(Factor { name, codes: dense, levels: map.len() });
+        }
+        Ok(MixedData { y, factors: out })
+    }
+
+    /// Number of observations.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Whether there are no observations (never, once validated).
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+}
+
+/// A fitted model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MixedFit {
+    /// REML or ML.
+    pub criterion: Criterion,
+    /// Factor names, in the order given.
+    pub factors: Vec<String>,
+    /// Levels per factor.
+    pub levels: Vec<usize>,
+    /// Relative standard deviations theta_k (factor SD / residual SD).
+    pub theta: Vec<f64>,
+    /// Factor variances sigma^2 theta_k^2.
+    pub variances: Vec<f64>,
+    /// Residual variance sigma^2.
+    pub residual: f64,
+    /// The fixed intercept.
+    pub intercept: f64,
+    /// Its standard error, sqrt(sigma^2 / R_X^2).
+    pub se: f64,
+    /// The profiled deviance at the optimum (-2 log-likelihood, REML or ML).
+    pub deviance: f64,
+    /// A factor's theta below 1e-4: a boundary fit, as lme4 flags it.
+    pub singular: bool,
+    /// Deviance evaluations used.
+    pub evaluations: usize,
+    /// Observations.
+    pub n: usize,
+}
+
+/// The cross-products the deviance needs, computed once.
+struct Cross {
+    /// Z'Z, q x q, dense.
+    ztz: Mat<f64>,
+    /// Z'y and Z'1 (level sums and counts).
+    zty: Vec<f64>,
+    zt1: Vec<f64>,
+    yty: f64,
+    sum_y: f64,
+    n: f64,
+    /// Factor of each of the q columns.
+    factor_of: Vec<usize>,
+}
+
+fn cross(d: &MixedData) -> Cross {
+    let offsets: Vec<usize> = d
+        .factors
+        .iter()
+        .scan(0, |acc, f| {
+            let o = *acc;
+            *acc += f.levels;
+            Some(o)
+        })
+        .collect();
+    let q: usize = d.factors.iter().map(|f| f.levels).sum();
+    let mut ztz = Mat::<f64>::zeros(q, q);
+    let mut zty = vec![0.0; q];
+    let mut zt1 = vec![0.0; q];
+    let mut cols = vec![0usize; d.factors.len()];
+    for (i, &y) in d.y.iter().enumerate() {
+        for (k, f) in d.factors.iter().enumerate() {
+            cols[k] = offsets[k] + f.codes[i];
+        }
+        for &a in &cols {
+            zty[a] += y;
+            zt1[a] += 1.0;
+            for &b in &cols {
+                ztz[(a, b)] += 1.0;
+            }
+        }
+    }
+    let factor_of = d.factors.iter().enumerate().flat_map(|(k, f)| std::iter::repeat_n(k, f.levels)).collect();
+    Cross {
+        ztz,
+        zty,
+        zt1,
+        yty: d.y.iter().map(|y| y * y).sum(),
+        sum_y: d.y.iter().sum(),
+        n: d.y.len() as f64,
+        factor_of,
+    }
+}
+
+/// The deviance and the estimates at one theta.
+#[derive(Debug, Clone, Copy)]
+struct Eval {
+    deviance: f64,
+    intercept: f64,
+    sigma2: f64,
+    rx2: f64,
+}
+
+fn evaluate(c: &Cross, theta: &[f64], criterion: Criterion) -> Result<Eval, MixedError> {
+    let q = c.zty.len();
+    let lambda: Vec<f64> = c.factor_of.iter().map(|&k| theta[k]).collect();
+    let a = Mat::<f64>::from_fn(q, q, |i, j| lambda[i] * c.ztz[(i, j)] * lambda[j] + if i == j { 1.0 } else { 0.0 });
+    let llt = a.llt(Side::Lower).map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
+    let l = llt.L();
+    // Forward solves: cu = L^-1 Lambda Z'y, rzx = L^-1 Lambda Z'1.
+    let mut rhs = Mat::<f64>::from_fn(q, 2, |i, j| lambda[i] * if j == 0 { c.zty[i] } else { c.zt1[i] });
+    solve_lower_triangular_in_place(l, rhs.as_mut(), Par::Seq);
+    let (mut cu2, mut rzx2, mut rzx_cu) = (0.0, 0.0, 0.0);
+    let mut log_det_l2 = 0.0;
+    for i in 0..q {
+        let (cu, rzx) = (rhs[(i, 0)], rhs[(i, 1)]);
+        cu2 += cu * cu;
+        rzx2 += rzx * rzx;
+        rzx_cu += rzx * cu;
+        log_det_l2 += 2.0 * l[(i, i)].ln();
+    }
+    let rx2 = c.n - rzx2;
+    let c_beta = (c.sum_y - rzx_cu) / rx2.sqrt();
+    let intercept = c_beta / rx2.sqrt();
+    let r2 = (c.yty - cu2 - c_beta * c_beta).max(f64::MIN_POSITIVE);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let (deviance, sigma2) = match criterion {
+        Criterion::Ml => (log_det_l2 + c.n * (1.0 + (two_pi * r2 / c.n).ln()), r2 / c.n),
+        Criterion::Reml => {
+            let m = c.n - 1.0;
+            (log_det_l2 + rx2.ln() + m * (1.0 + (two_pi * r2 / m).ln()), r2 / m)
+        }
+    };
+    Ok(Eval { deviance, intercept, sigma2, rx2 })
+}
+
+/// Minimises `f` over the non-negative orthant by Nelder-Mead (reflections
+/// clamped at zero), from `start`, until the simplex's deviances agree to a
+/// relative 1e-13, its vertices to 1e-10, or 20,000 iterations.
+fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, start: &[f64], step: f64) -> (Vec<f64>, f64) {
+    let k = start.len();
+    let clamp = |v: Vec<f64>| -> Vec<f64> { v.into_iter().map(|x| x.max(0.0)).collect() };
+    let mut simplex: Vec<Vec<f64>> = vec![start.to_vec()];
+    for i in 0..k {
+        let mut v = start.to_vec();
+        v[i] += step;
+        simplex.push(v);
+    }
+    let mut values: Vec<f64> = simplex.iter().map(|v| f(v)).collect();
+    for _ in 0..20_000 {
+        let mut order: Vec<usize> = (0..=k).collect();
+        order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+        simplex = order.iter().map(|&i| simplex[i].clone()).collect();
+        values = order.iter().map(|&i| values[i]).collect();
+        let spread = values[k] - values[0];
+        let size =
+            simplex[1..].iter().flat_map(|v| v.iter().zip(&simplex[0]).map(|(a, b)| (a - b).abs())).fold(0.0, f64::max);
+        if spread <= 1e-13 * (1.0 + values[0].abs()) || size < 1e-10 {
+            break;
+        }
+        let centroid: Vec<f64> = (0..k).map(|j| simplex[..k].iter().map(|v| v[j]).sum::<f64>() / k as f64).collect();
+        let towards =
+            |t: f64| -> Vec<f64> { clamp((0..k).map(|j| centroid[j] + t * (simplex[k][j] - centroid[j])).collect()) };
+        let reflected = towards(-1.0);
+        let fr = f(&reflected);
+        if fr < values[0] {
+            let expanded = towards(-2.0);
+            let fe = f(&expanded);
+            (simplex[k], values[k]) = if fe < fr { (expanded, fe) } else { (reflected, fr) };
+        } else if fr < values[k - 1] {
+            (simplex[k], values[k]) = (reflected, fr);
+        } else {
+            let contracted = if fr < values[k] { towards(-0.5) } else { towards(0.5) };
+            let fc = f(&contracted);
+            if fc < values[k].min(fr) {
+                (simplex[k], values[k]) = (contracted, fc);
+            } else {
+                for i in 1..=k {
+                    simplex[i] = clamp((0..k).map(|j| simplex[0][j] + 0.5 * (simplex[i][j] - simplex[0][j])).collect());
+                    values[i] = f(&simplex[i]);
+                }
+            }
+        }
+    }
+    let best = (0..=k).min_by(|&a, &b| values[a].total_cmp(&values[b])).unwrap_or(0);
+    (simplex[best].clone(), values[best])
+}
+
+/// Fits the model by REML or ML.
+pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedError> {
+    let c = cross(data);
+    let k = data.factors.len();
+    // Check once that the system factors (it always does for finite data).
+    evaluate(&c, &vec![1.0; k], criterion)?;
+    let mut evaluations = 0usize;
+    let mut dev = |theta: &[f64]| -> f64 {
+        evaluations += 1;
+        evaluate(&c, theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
+    };
+    let (mut best, mut best_dev) = nelder_mead(&mut dev, &vec![1.0; k], 0.5);
+    // Restart from the optimum with a smaller simplex until it stops improving.
+    for step in [0.1, 0.03, 0.01, 3e-3, 1e-3, 3e-4, 1e-4] {
+        let (t, d) = nelder_mead(&mut dev, &best, step);
+        if d < best_dev {
+            (best, best_dev) = (t, d);
+        }
+    }
+    // Boundary faces: a theta at exactly zero is where lme4's bounded
+    // optimizer stops when the optimum is on the boundary.
+    for j in 0..k {
+        let mut t = best.clone();
+        t[j] = 0.0;
+        let d = dev(&t);
+        if d <= best_dev {
+            (best, best_dev) = (t, d);
+        }
+    }
+    let e = evaluate(&c, &best, criterion)?;
+    Ok(MixedFit {
+        criterion,
+        factors: data.factors.iter().map(|f| f.name.clone()).collect(),
+        levels: data.factors.iter().map(|f| f.levels).collect(),
+        variances: best.iter().map(|t| e.sigma2 * t * t).collect(),
+        singular: best.iter().any(|t| *t < 1e-4),
+        theta: best,
+        residual: e.sigma2,
+        intercept: e.intercept,
+        se: (e.sigma2 / e.rx2).sqrt(),
+        deviance: e.deviance,
+        evaluations,
+        n: data.len(),
+    })
+}

@@ -1,0 +1,136 @@
+//! stats::mixed against lme4: every expected number comes from
+//! scripts/reference/mixed_reference.R (lme4 1.1.31 with BOBYQA run to
+//! rhoend 1e-12), output committed in scripts/reference/mixed_reference.out;
+//! the balanced Penicillin fit also against the closed form.
+
+use std::collections::BTreeMap;
+
+use crate::common::root;
+use crossaudit::stats::mixed::{fit, Criterion, MixedData, MixedError, MixedFit};
+
+/// `name key values...` lines of the reference output.
+fn reference() -> BTreeMap<(String, String), Vec<String>> {
+    let text = std::fs::read_to_string(root().join("scripts/reference/mixed_reference.out")).unwrap();
+    let mut out = BTreeMap::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f[1] == "var" {
+            out.insert((f[0].to_string(), format!("var {}", f[2])), vec![f[3].to_string()]);
+        } else {
+            out.insert((f[0].to_string(), f[1].to_string()), f[2..].iter().map(|s| s.to_string()).collect());
+        }
+    }
+    out
+}
+
+/// A CSV fixture: response column, then factor columns (codes by first appearance).
+fn data(file: &str, factors: &[(&str, &[usize])]) -> MixedData {
+    let text = std::fs::read_to_string(root().join("tests/fixtures").join(file)).unwrap();
+    let mut y = Vec::new();
+    let mut cols: Vec<Vec<String>> = vec![Vec::new(); factors.len()];
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        y.push(f[0].parse::<f64>().unwrap());
+        for (k, (_, parts)) in factors.iter().enumerate() {
+            cols[k].push(parts.iter().map(|&p| f[p]).collect::<Vec<_>>().join(":"));
+        }
+    }
+    let coded = factors
+        .iter()
+        .zip(cols)
+        .map(|((name, _), col)| {
+            let mut levels: Vec<String> = Vec::new();
+            let codes = col
+                .iter()
+                .map(|v| match levels.iter().position(|l| l == v) {
+                    Some(i) => i,
+                    None => {
+                        levels.push(v.clone());
+                        levels.len() - 1
+                    }
+                })
+                .collect();
+            (name.to_string(), codes)
+        })
+        .collect();
+    MixedData::new(y, coded).unwrap()
+}
+
+fn num(r: &BTreeMap<(String, String), Vec<String>>, name: &str, key: &str) -> f64 {
+    r[&(name.to_string(), key.to_string())][0].parse().unwrap()
+}
+
+fn check(f: &MixedFit, name: &str, vars: &[&str]) {
+    let r = reference();
+    let close = |a: f64, b: f64, rel: f64, what: &str| {
+        assert!((a - b).abs() <= rel * b.abs().max(1e-3), "{name} {what}: ours {a}, lme4 {b}");
+    };
+    close(f.deviance, num(&r, name, "criterion"), 1e-10, "REML/ML criterion");
+    close(f.intercept, num(&r, name, "intercept"), 1e-8, "intercept");
+    close(f.se, num(&r, name, "se"), 1e-5, "SE");
+    close(f.residual, num(&r, name, "var Residual"), 1e-5, "residual variance");
+    for (k, v) in vars.iter().enumerate() {
+        close(f.variances[k], num(&r, name, &format!("var {v}")), 1e-5, v);
+    }
+    let singular = r[&(name.to_string(), "singular".to_string())][0] == "TRUE";
+    assert_eq!(f.singular, singular, "{name}: singular flag");
+}
+
+#[test]
+fn balanced_crossed_reml_is_the_closed_form_and_lme4() {
+    let d = data("penicillin.csv", &[("plate", &[1]), ("sample", &[2])]);
+    let f = fit(&d, Criterion::Reml).unwrap();
+    check(&f, "penicillin_reml", &["plate", "sample"]);
+    // Balanced, positive components: REML = the ANOVA estimates, exactly
+    // (MS from scripts/reference/crossed_reference.out as fractions).
+    let (ms_p, ms_s, ms_e) = (953.0 / 207.0, 4043.0 / 45.0, 313.0 / 1035.0);
+    // The optimizer stops when the simplex's deviances agree to 1e-12, which
+    // leaves the components about 1e-6 (relative) from the optimum.
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    assert!(rel(f.variances[0], (ms_p - ms_e) / 6.0) < 1e-5, "{}", f.variances[0]);
+    assert!(rel(f.variances[1], (ms_s - ms_e) / 24.0) < 1e-5, "{}", f.variances[1]);
+    assert!(rel(f.residual, ms_e) < 1e-5, "{}", f.residual);
+    assert!((f.intercept - 827.0 / 36.0).abs() < 1e-10);
+}
+
+#[test]
+fn balanced_crossed_ml_matches_lme4() {
+    let d = data("penicillin.csv", &[("plate", &[1]), ("sample", &[2])]);
+    check(&fit(&d, Criterion::Ml).unwrap(), "penicillin_ml", &["plate", "sample"]);
+}
+
+#[test]
+fn unbalanced_crossed_reml_and_ml_match_lme4() {
+    let d = data("penicillin_unbalanced.csv", &[("plate", &[1]), ("sample", &[2])]);
+    assert_eq!(d.len(), 124);
+    check(&fit(&d, Criterion::Reml).unwrap(), "penicillin_unbalanced_reml", &["plate", "sample"]);
+    check(&fit(&d, Criterion::Ml).unwrap(), "penicillin_unbalanced_ml", &["plate", "sample"]);
+}
+
+#[test]
+fn nested_factors_match_lme4() {
+    // Casks nested in batches: the cask factor is batch:cask.
+    let d = data("pastes.csv", &[("batch:cask", &[1, 2]), ("batch", &[1])]);
+    check(&fit(&d, Criterion::Reml).unwrap(), "pastes_reml", &["batch:cask", "batch"]);
+}
+
+#[test]
+fn a_boundary_fit_is_flagged_singular_as_lme4_flags_it() {
+    let d = data("dyestuff2.csv", &[("Batch", &[1])]);
+    let f = fit(&d, Criterion::Reml).unwrap();
+    check(&f, "dyestuff2_reml", &["Batch"]);
+    assert_eq!(f.theta, vec![0.0]);
+}
+
+#[test]
+fn bad_inputs_are_typed_errors() {
+    let e = MixedData::new(vec![1.0], vec![("a".into(), vec![0])]).unwrap_err();
+    assert_eq!(e, MixedError::TooFewObservations(1));
+    let e = MixedData::new(vec![1.0, f64::NAN], vec![("a".into(), vec![0, 1])]).unwrap_err();
+    assert!(matches!(e, MixedError::NonFinite { row: 1, .. }));
+    let e = MixedData::new(vec![1.0, 2.0], vec![("a".into(), vec![0])]).unwrap_err();
+    assert!(matches!(e, MixedError::Length { found: 1, expected: 2, .. }));
+    let e = MixedData::new(vec![1.0, 2.0], vec![("a".into(), vec![3, 3])]).unwrap_err();
+    assert!(matches!(e, MixedError::TooFewLevels { levels: 1, .. }));
+    assert_eq!(MixedData::new(vec![1.0, 2.0], vec![]).unwrap_err(), MixedError::NoFactor);
+}
