@@ -72,6 +72,14 @@ fn check(f: &MixedFit, name: &str, vars: &[&str]) {
     for (k, v) in vars.iter().enumerate() {
         close(f.variances[k], num(&r, name, &format!("var {v}")), 1e-5, v);
     }
+    if let Some(df) = r.get(&(name.to_string(), "satterthwaite_df".to_string())) {
+        let want: f64 = df[0].parse().unwrap();
+        // Both sides differentiate numerically (lmerTest: numDeriv with
+        // Richardson extrapolation; ours: central differences with it too),
+        // which limits agreement to a few parts in 10^4 on flat likelihoods
+        // (Pastes: exact 9, lmerTest 8.9999995, ours 9.0017).
+        close(f.df_satterthwaite.unwrap(), want, 5e-4, "Satterthwaite df (lmerTest)");
+    }
     let singular = r[&(name.to_string(), "singular".to_string())][0] == "TRUE";
     assert_eq!(f.singular, singular, "{name}: singular flag");
 }
@@ -91,6 +99,10 @@ fn balanced_crossed_reml_is_the_closed_form_and_lme4() {
     assert!(rel(f.variances[1], (ms_s - ms_e) / 24.0) < 1e-5, "{}", f.variances[1]);
     assert!(rel(f.residual, ms_e) < 1e-5, "{}", f.residual);
     assert!((f.intercept - 827.0 / 36.0).abs() < 1e-10);
+    // Balanced two-way: Var(mean) = (MS_p + MS_s - MS_e) / 144, and the
+    // classical Satterthwaite df of that combination of mean squares.
+    let df = (ms_p + ms_s - ms_e).powi(2) / (ms_p.powi(2) / 23.0 + ms_s.powi(2) / 5.0 + ms_e.powi(2) / 115.0);
+    assert!(rel(f.df_satterthwaite.unwrap(), df) < 5e-4, "{:?} vs {df}", f.df_satterthwaite);
 }
 
 #[test]

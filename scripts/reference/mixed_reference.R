@@ -40,3 +40,12 @@ show_fit("pastes_reml", lmer(strength ~ 1 + (1 | batch) + (1 | batch:cask), Past
 write.csv(data.frame(Yield = Dyestuff2$Yield, Batch = Dyestuff2$Batch),
           "tests/fixtures/dyestuff2.csv", row.names = FALSE, quote = FALSE)
 show_fit("dyestuff2_reml", lmer(Yield ~ 1 + (1 | Batch), Dyestuff2, control = ctl))
+# Satterthwaite df of the intercept (lmerTest), REML fits.
+suppressMessages(library(lmerTest))
+sat <- function(name, f, d) {
+  m <- lmerTest::lmer(f, d, control = ctl)
+  cat(name, "satterthwaite_df", format(summary(m)$coefficients[1, "df"], digits = 15), "\n")
+}
+sat("penicillin_reml", diameter ~ 1 + (1 | plate) + (1 | sample), P)
+sat("penicillin_unbalanced_reml", diameter ~ 1 + (1 | plate) + (1 | sample), PU)
+sat("pastes_reml", strength ~ 1 + (1 | batch) + (1 | batch:cask), Pastes)

@@ -184,6 +184,13 @@ pub struct MixedFit {
     pub deviance: f64,
     /// A factor's theta below 1e-4: a boundary fit, as lme4 flags it.
     pub singular: bool,
+    /// Satterthwaite degrees of freedom of the intercept (REML fits; `None`
+    /// for ML), as lmerTest computes them: 2 Var(mu)^2 / (g' A g), with g
+    /// the gradient of Var(mu) in the variance parameters and A their
+    /// asymptotic covariance, twice the inverse Hessian of the REML
+    /// deviance (both by central differences). Components estimated at
+    /// zero are held there.
+    pub df_satterthwaite: Option<f64>,
     /// Deviance evaluations used.
     pub evaluations: usize,
     /// Observations.
@@ -250,6 +257,8 @@ struct Eval {
     intercept: f64,
     sigma2: f64,
     rx2: f64,
+    log_det_l2: f64,
+    r2: f64,
 }
 
 fn evaluate(c: &Cross, theta: &[f64], criterion: Criterion) -> Result<Eval, MixedError> {
@@ -282,7 +291,7 @@ fn evaluate(c: &Cross, theta: &[f64], criterion: Criterion) -> Result<Eval, Mixe
             (log_det_l2 + rx2.ln() + m * (1.0 + (two_pi * r2 / m).ln()), r2 / m)
         }
     };
-    Ok(Eval { deviance, intercept, sigma2, rx2 })
+    Ok(Eval { deviance, intercept, sigma2, rx2, log_det_l2, r2 })
 }
 
 /// Minimises `f` over the non-negative orthant by Nelder-Mead (reflections
@@ -337,6 +346,68 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, start: &[f64], step: f64) -> (V
     (simplex[best].clone(), values[best])
 }
 
+/// The REML deviance, not profiled, at variances `phi` = (factor variances,
+/// residual variance), and Var(mu) there.
+fn reml_at(c: &Cross, phi: &[f64]) -> Result<(f64, f64), MixedError> {
+    let k = phi.len() - 1;
+    let s2 = phi[k];
+    let theta: Vec<f64> = phi[..k].iter().map(|v| (v.max(0.0) / s2).sqrt()).collect();
+    let e = evaluate(c, &theta, Criterion::Reml)?;
+    let m = c.n - 1.0;
+    let dev = e.log_det_l2 + e.rx2.ln() + m * (2.0 * std::f64::consts::PI * s2).ln() + e.r2 / s2;
+    Ok((dev, s2 / e.rx2))
+}
+
+/// Satterthwaite df of the intercept at the REML optimum `theta`, `sigma2`.
+fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<f64, MixedError> {
+    let mut phi: Vec<f64> = theta.iter().map(|t| sigma2 * t * t).collect();
+    phi.push(sigma2);
+    // Free parameters: the residual and every component not at zero.
+    let free: Vec<usize> = (0..phi.len()).filter(|&i| i == phi.len() - 1 || theta[i] >= 1e-4).collect();
+    let m = free.len();
+    let at = |delta: &[(usize, f64)]| -> Result<(f64, f64), MixedError> {
+        let mut p = phi.clone();
+        for &(j, d) in delta {
+            p[free[j]] += d;
+        }
+        reml_at(c, &p)
+    };
+    let (f0, v0) = at(&[])?;
+    // Central differences with steps of a relative 4e-3 and 2e-3, combined
+    // by Richardson extrapolation (the O(h^2) errors cancel); smaller steps
+    // drown in the rounding of the deviance.
+    let derivatives = |rel: f64| -> Result<(Vec<f64>, Mat<f64>), MixedError> {
+        let h: Vec<f64> = free.iter().map(|&i| rel * phi[i]).collect();
+        let mut grad = vec![0.0; m];
+        let mut hess = Mat::<f64>::zeros(m, m);
+        for a in 0..m {
+            let (fp, vp) = at(&[(a, h[a])])?;
+            let (fm, vm) = at(&[(a, -h[a])])?;
+            grad[a] = (vp - vm) / (2.0 * h[a]);
+            hess[(a, a)] = (fp - 2.0 * f0 + fm) / (h[a] * h[a]);
+            for b in 0..a {
+                let pp = at(&[(a, h[a]), (b, h[b])])?.0;
+                let pm = at(&[(a, h[a]), (b, -h[b])])?.0;
+                let mp = at(&[(a, -h[a]), (b, h[b])])?.0;
+                let mm = at(&[(a, -h[a]), (b, -h[b])])?.0;
+                hess[(a, b)] = (pp - pm - mp + mm) / (4.0 * h[a] * h[b]);
+                hess[(b, a)] = hess[(a, b)];
+            }
+        }
+        Ok((grad, hess))
+    };
+    let (g1, h1) = derivatives(4e-3)?;
+    let (g2, h2) = derivatives(2e-3)?;
+    let grad: Vec<f64> = g1.iter().zip(&g2).map(|(a, b)| (4.0 * b - a) / 3.0).collect();
+    let hess = Mat::<f64>::from_fn(m, m, |i, j| (4.0 * h2[(i, j)] - h1[(i, j)]) / 3.0);
+    // A = 2 H^-1 (the deviance is -2 log L); g' A g by a Cholesky solve.
+    let llt = hess.llt(Side::Lower).map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
+    let mut g = Mat::<f64>::from_fn(m, 1, |i, _| grad[i]);
+    solve_lower_triangular_in_place(llt.L(), g.as_mut(), Par::Seq);
+    let gag = 2.0 * (0..m).map(|i| g[(i, 0)] * g[(i, 0)]).sum::<f64>();
+    Ok(2.0 * v0 * v0 / gag)
+}
+
 /// Fits the model by REML or ML.
 pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedError> {
     let c = cross(data);
@@ -367,7 +438,12 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
         }
     }
     let e = evaluate(&c, &best, criterion)?;
+    let df_satterthwaite = match criterion {
+        Criterion::Reml => Some(satterthwaite(&c, &best, e.sigma2)?),
+        Criterion::Ml => None,
+    };
     Ok(MixedFit {
+        df_satterthwaite,
         criterion,
         factors: data.factors.iter().map(|f| f.name.clone()).collect(),
         levels: data.factors.iter().map(|f| f.levels).collect(),
