@@ -20,7 +20,7 @@ with open(sys.argv[1], "w") as f:
     for (rec, seed), v in sorted(rows.items()):
         f.write(f"{v['contaminated'] - v['disjoint']!r},{rec},{seed}\n")
 PY
-cargo build --release --quiet --example mixed_fit
+cargo build --release --quiet --bin crossaudit --example mixed_fit
 echo "# $(date -u +%FT%TZ), $(nproc) cores; crossaudit $(target/release/crossaudit --version | sed 's/crossaudit //'), $(Rscript -e 'cat("lme4", as.character(packageVersion("lme4")))')"
 for data in "$tmp/primary.csv" tests/fixtures/penicillin_unbalanced.csv; do
   echo "## $(basename "$data")"
