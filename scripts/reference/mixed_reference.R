@@ -49,3 +49,18 @@ sat <- function(name, f, d) {
 sat("penicillin_reml", diameter ~ 1 + (1 | plate) + (1 | sample), P)
 sat("penicillin_unbalanced_reml", diameter ~ 1 + (1 | plate) + (1 | sample), PU)
 sat("pastes_reml", strength ~ 1 + (1 | batch) + (1 | batch:cask), Pastes)
+sat("dyestuff2_reml", Yield ~ 1 + (1 | Batch), Dyestuff2)
+# Kenward-Roger (pbkrtest): the adjusted SE of the intercept (vcovAdj) and
+# its denominator df (Lb_ddf with L = 1), REML fits.
+suppressMessages(library(pbkrtest))
+cat("# pbkrtest", as.character(packageVersion("pbkrtest")), "lmerTest", as.character(packageVersion("lmerTest")), "\n")
+kr <- function(name, f, d) {
+  m <- lme4::lmer(f, d, control = ctl)
+  V <- vcovAdj(m)
+  cat(name, "kr_se", format(sqrt(as.matrix(V)[1, 1]), digits = 15), "\n")
+  cat(name, "kr_df", format(Lb_ddf(matrix(1, 1, 1), vcov(m), V), digits = 15), "\n")
+}
+kr("penicillin_reml", diameter ~ 1 + (1 | plate) + (1 | sample), P)
+kr("penicillin_unbalanced_reml", diameter ~ 1 + (1 | plate) + (1 | sample), PU)
+kr("pastes_reml", strength ~ 1 + (1 | batch) + (1 | batch:cask), Pastes)
+kr("dyestuff2_reml", Yield ~ 1 + (1 | Batch), Dyestuff2)

@@ -14,16 +14,19 @@
 //! ```
 //!
 //! is factored as [L 0; r' R_X] (faer's Cholesky of the q x q block, q the
-//! number of levels of all factors together; a triangular solve for r), and
-//! with c the forward-solved right-hand side the penalized residual sum of
-//! squares is r^2 = y'y - |c|^2. The profiled deviances are
+//! number of levels of all factors together; a triangular solve for r). The
+//! penalized residual sum of squares r^2 = |y - 1 mu - Z Lambda u|^2 + |u|^2
+//! is computed from the solution itself (y centred first), not as
+//! y'y - |c|^2, which loses digits to cancellation. The profiled deviances
+//! are
 //!
 //! ```text
 //! ML:   log|L|^2 + n (1 + log(2 pi r^2 / n))
 //! REML: log|L|^2 + log R_X^2 + (n - 1) (1 + log(2 pi r^2 / (n - 1)))
 //! ```
 //!
-//! minimised over theta >= 0 by Nelder-Mead with restarts and a check of
+//! minimised over theta >= 0 by Nelder-Mead with restarts, Newton steps on
+//! a finite-difference gradient and Hessian, and a check of
 //! every boundary face; sigma^2 = r^2 / n (ML) or r^2 / (n - 1) (REML), the
 //! factor variances are sigma^2 theta_k^2 and Var(mu) = sigma^2 / R_X^2. A
 //! factor whose theta is below 1e-4 makes the fit singular, as lme4's
@@ -41,7 +44,8 @@
 //! assert!((f.intercept - 19.0 / 6.0).abs() < 1e-9); // balanced: the grand mean
 //! ```
 
-use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::linalg::triangular_solve::{solve_lower_triangular_in_place, solve_upper_triangular_in_place};
 use faer::{Mat, Par, Side};
 use serde::Serialize;
 
@@ -191,10 +195,28 @@ pub struct MixedFit {
     /// deviance (both by central differences). Components estimated at
     /// zero are held there.
     pub df_satterthwaite: Option<f64>,
+    /// Kenward-Roger (1997) inference for the intercept (REML fits; `None`
+    /// for ML), as pbkrtest computes it.
+    pub kenward_roger: Option<KenwardRoger>,
     /// Deviance evaluations used.
     pub evaluations: usize,
     /// Observations.
     pub n: usize,
+}
+
+/// Kenward-Roger inference for the intercept: the small-sample adjusted
+/// variance and the denominator df (pbkrtest's `vcovAdj` and `Lb_ddf`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct KenwardRoger {
+    /// sqrt of the adjusted Var(mu): Phi + 2 Phi U Phi (Kenward and Roger
+    /// 1997, eq. 4; no second-derivative term, since V is linear in the
+    /// variances).
+    pub se: f64,
+    /// The denominator df. With one fixed effect the KR scaling factor is 1
+    /// and the df reduce to 2 / A, A = Phi^2 sum_ij W_ij P_i P_j (W twice
+    /// the inverse expected REML information): Satterthwaite's formula
+    /// with the expected rather than the observed information.
+    pub df: f64,
 }
 
 /// The cross-products the deviance needs, computed once.
@@ -204,11 +226,15 @@ struct Cross {
     /// Z'y and Z'1 (level sums and counts).
     zty: Vec<f64>,
     zt1: Vec<f64>,
-    yty: f64,
     sum_y: f64,
     n: f64,
     /// Factor of each of the q columns.
     factor_of: Vec<usize>,
+    /// The response, centred at `y_mean` (the intercept is shifted back).
+    y: Vec<f64>,
+    y_mean: f64,
+    /// The q-column of each observation for each factor, row-major (n x k).
+    columns: Vec<usize>,
 }
 
 fn cross(d: &MixedData) -> Cross {
@@ -225,29 +251,25 @@ fn cross(d: &MixedData) -> Cross {
     let mut ztz = Mat::<f64>::zeros(q, q);
     let mut zty = vec![0.0; q];
     let mut zt1 = vec![0.0; q];
-    let mut cols = vec![0usize; d.factors.len()];
-    for (i, &y) in d.y.iter().enumerate() {
-        for (k, f) in d.factors.iter().enumerate() {
-            cols[k] = offsets[k] + f.codes[i];
-        }
+    // Centring y keeps the penalized residual sum of squares from being a
+    // small difference of large sums.
+    let y_mean = d.y.iter().sum::<f64>() / d.y.len() as f64;
+    let y: Vec<f64> = d.y.iter().map(|v| v - y_mean).collect();
+    let k = d.factors.len();
+    let mut columns = Vec::with_capacity(y.len() * k);
+    for (i, &yi) in y.iter().enumerate() {
+        let cols: Vec<usize> = d.factors.iter().enumerate().map(|(k, f)| offsets[k] + f.codes[i]).collect();
         for &a in &cols {
-            zty[a] += y;
+            zty[a] += yi;
             zt1[a] += 1.0;
             for &b in &cols {
                 ztz[(a, b)] += 1.0;
             }
         }
+        columns.extend(cols);
     }
     let factor_of = d.factors.iter().enumerate().flat_map(|(k, f)| std::iter::repeat_n(k, f.levels)).collect();
-    Cross {
-        ztz,
-        zty,
-        zt1,
-        yty: d.y.iter().map(|y| y * y).sum(),
-        sum_y: d.y.iter().sum(),
-        n: d.y.len() as f64,
-        factor_of,
-    }
+    Cross { ztz, zty, zt1, sum_y: y.iter().sum(), n: y.len() as f64, factor_of, y, y_mean, columns }
 }
 
 /// The deviance and the estimates at one theta.
@@ -270,19 +292,31 @@ fn evaluate(c: &Cross, theta: &[f64], criterion: Criterion) -> Result<Eval, Mixe
     // Forward solves: cu = L^-1 Lambda Z'y, rzx = L^-1 Lambda Z'1.
     let mut rhs = Mat::<f64>::from_fn(q, 2, |i, j| lambda[i] * if j == 0 { c.zty[i] } else { c.zt1[i] });
     solve_lower_triangular_in_place(l, rhs.as_mut(), Par::Seq);
-    let (mut cu2, mut rzx2, mut rzx_cu) = (0.0, 0.0, 0.0);
+    let (mut rzx2, mut rzx_cu) = (0.0, 0.0);
     let mut log_det_l2 = 0.0;
     for i in 0..q {
         let (cu, rzx) = (rhs[(i, 0)], rhs[(i, 1)]);
-        cu2 += cu * cu;
         rzx2 += rzx * rzx;
         rzx_cu += rzx * cu;
         log_det_l2 += 2.0 * l[(i, i)].ln();
     }
     let rx2 = c.n - rzx2;
     let c_beta = (c.sum_y - rzx_cu) / rx2.sqrt();
-    let intercept = c_beta / rx2.sqrt();
-    let r2 = (c.yty - cu2 - c_beta * c_beta).max(f64::MIN_POSITIVE);
+    let beta = c_beta / rx2.sqrt();
+    // The penalized RSS from the solution itself, |y - mu - Z Lambda u|^2 +
+    // |u|^2, with L'u = cu - rzx mu; y'y - |cu|^2 - c_beta^2 is the same
+    // number in exact arithmetic but loses digits to cancellation.
+    let mut u = Mat::<f64>::from_fn(q, 1, |i, _| rhs[(i, 0)] - rhs[(i, 1)] * beta);
+    solve_upper_triangular_in_place(l.transpose(), u.as_mut(), Par::Seq);
+    let b: Vec<f64> = (0..q).map(|i| lambda[i] * u[(i, 0)]).collect();
+    let k = theta.len();
+    let mut r2: f64 = (0..q).map(|i| u[(i, 0)] * u[(i, 0)]).sum();
+    for (i, yi) in c.y.iter().enumerate() {
+        let fitted = beta + c.columns[i * k..(i + 1) * k].iter().map(|&a| b[a]).sum::<f64>();
+        r2 += (yi - fitted).powi(2);
+    }
+    let r2 = r2.max(f64::MIN_POSITIVE);
+    let intercept = beta + c.y_mean;
     let two_pi = 2.0 * std::f64::consts::PI;
     let (deviance, sigma2) = match criterion {
         Criterion::Ml => (log_det_l2 + c.n * (1.0 + (two_pi * r2 / c.n).ln()), r2 / c.n),
@@ -344,6 +378,61 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, start: &[f64], step: f64) -> (V
     }
     let best = (0..=k).min_by(|&a, &b| values[a].total_cmp(&values[b])).unwrap_or(0);
     (simplex[best].clone(), values[best])
+}
+
+/// Newton steps from the Nelder-Mead optimum `x` on the coordinates not at
+/// zero, with gradient and Hessian by central differences, each step taken
+/// only if the deviance does not rise. A derivative-free search stops where
+/// the deviance is flat to its rounding, which leaves theta about
+/// sqrt(1e-13) from the optimum; the gradient's root is a thousand times
+/// sharper.
+fn polish(f: &mut dyn FnMut(&[f64]) -> f64, mut x: Vec<f64>, mut fx: f64) -> (Vec<f64>, f64) {
+    for _ in 0..8 {
+        let free: Vec<usize> = (0..x.len()).filter(|&i| x[i] > 0.0).collect();
+        let m = free.len();
+        if m == 0 {
+            break;
+        }
+        let h: Vec<f64> = free.iter().map(|&i| (1e-4 * x[i].max(1.0)).min(0.5 * x[i])).collect();
+        let at = |f: &mut dyn FnMut(&[f64]) -> f64, d: &[(usize, f64)]| {
+            let mut y = x.clone();
+            for &(j, s) in d {
+                y[free[j]] += s;
+            }
+            f(&y)
+        };
+        let mut g = Mat::<f64>::zeros(m, 1);
+        let mut hess = Mat::<f64>::zeros(m, m);
+        for a in 0..m {
+            let (fp, fm) = (at(f, &[(a, h[a])]), at(f, &[(a, -h[a])]));
+            g[(a, 0)] = (fp - fm) / (2.0 * h[a]);
+            hess[(a, a)] = (fp - 2.0 * fx + fm) / (h[a] * h[a]);
+            for b in 0..a {
+                let pp = at(f, &[(a, h[a]), (b, h[b])]);
+                let pm = at(f, &[(a, h[a]), (b, -h[b])]);
+                let mp = at(f, &[(a, -h[a]), (b, h[b])]);
+                let mm = at(f, &[(a, -h[a]), (b, -h[b])]);
+                hess[(a, b)] = (pp - pm - mp + mm) / (4.0 * h[a] * h[b]);
+                hess[(b, a)] = hess[(a, b)];
+            }
+        }
+        let Ok(llt) = hess.llt(Side::Lower) else { break };
+        let step = llt.solve(&g);
+        let mut y = x.clone();
+        for (j, &i) in free.iter().enumerate() {
+            y[i] = (x[i] - step[(j, 0)]).max(0.0);
+        }
+        let fy = f(&y);
+        let size = (0..m).map(|j| step[(j, 0)].abs()).fold(0.0, f64::max);
+        if fy > fx {
+            break;
+        }
+        (x, fx) = (y, fy);
+        if size < 1e-12 {
+            break;
+        }
+    }
+    (x, fx)
 }
 
 /// The REML deviance, not profiled, at variances `phi` = (factor variances,
@@ -408,6 +497,101 @@ fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<f64, MixedErro
     Ok(2.0 * v0 * v0 / gag)
 }
 
+/// Kenward-Roger inference for the intercept at the REML optimum, in the
+/// q-dimensional space of random-effect levels rather than pbkrtest's n x n
+/// matrices. With V = sum_k phi_k Z_k Z_k' + phi_e I, C = Lambda'Z'Z Lambda
+/// + I, B = Lambda C^-1 Lambda, K = Z'Z and t = Z'1, Woodbury gives
+/// V^-1 = (I - Z B Z') / phi_e, hence with w = V^-1 1:
+///
+/// ```text
+/// Z'w = (I - K B) t / phi_e =: u / phi_e       1'w = (n - t'Bt) / phi_e = 1 / Phi
+/// Z'V^-1 Z = (K - K B K) / phi_e =: M1 / phi_e  (V^-1 Z)'(V^-1 Z) = (I - K B) M1 / phi_e^2
+/// ```
+///
+/// and every quantity of pbkrtest's `vcovAdj` (P_i = -X'V^-1 G_i V^-1 X,
+/// Q_ij = X'V^-1 G_i V^-1 G_j V^-1 X, tr(V^-1 G_i V^-1 G_j), G_k = Z_k Z_k'
+/// and G_e = I) follows from q x q products.
+fn kenward_roger(c: &Cross, theta: &[f64], sigma2: f64) -> Result<KenwardRoger, MixedError> {
+    let q = c.zty.len();
+    let k = theta.len();
+    let m = k + 1;
+    let pe = sigma2;
+    let lambda: Vec<f64> = c.factor_of.iter().map(|&f| theta[f]).collect();
+    let a = Mat::<f64>::from_fn(q, q, |i, j| lambda[i] * c.ztz[(i, j)] * lambda[j] + if i == j { 1.0 } else { 0.0 });
+    let llt = a.llt(Side::Lower).map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
+    let cinv = llt.inverse();
+    let b = Mat::<f64>::from_fn(q, q, |i, j| lambda[i] * cinv[(i, j)] * lambda[j]);
+    let kb = &c.ztz * &b;
+    let m1 = &c.ztz - &kb * &c.ztz;
+    let m2 = &m1 - &kb * &m1;
+    let col = |v: &[f64]| Mat::<f64>::from_fn(v.len(), 1, |i, _| v[i]);
+    let dot = |x: &Mat<f64>, y: &Mat<f64>| (0..x.nrows()).map(|i| x[(i, 0)] * y[(i, 0)]).sum::<f64>();
+    let t = col(&c.zt1);
+    let bt = &b * &t;
+    let tbt = dot(&t, &bt);
+    let u = &t - &kb * &t;
+    let bu = &b * &u;
+    let kbu = &kb * &u;
+    let n = c.n;
+    // v = 1 - Z B t, so v'v = n - 2 t'Bt + (Bt)'K(Bt) and (V^-1 w) = (v - Z B u) / phi_e^2.
+    let vv = n - 2.0 * tbt + dot(&bt, &(&c.ztz * &bt));
+    let ubu = dot(&u, &bu);
+    let phi = pe / (n - tbt);
+    let block: Vec<Vec<usize>> = (0..k).map(|f| (0..q).filter(|&i| c.factor_of[i] == f).collect()).collect();
+    let (pe2, pe3) = (pe * pe, pe * pe * pe);
+    let mut p = vec![0.0; m];
+    let mut qm = Mat::<f64>::zeros(m, m);
+    let mut kt = Mat::<f64>::zeros(m, m);
+    for i in 0..k {
+        p[i] = -block[i].iter().map(|&a| u[(a, 0)] * u[(a, 0)]).sum::<f64>() / pe2;
+        for j in 0..k {
+            let mut quad = 0.0;
+            let mut frob = 0.0;
+            for &a in &block[i] {
+                for &b2 in &block[j] {
+                    quad += u[(a, 0)] * m1[(a, b2)] * u[(b2, 0)];
+                    frob += m1[(a, b2)] * m1[(a, b2)];
+                }
+            }
+            qm[(i, j)] = quad / pe3;
+            kt[(i, j)] = frob / pe2;
+        }
+        let qie = block[i].iter().map(|&a| u[(a, 0)] * (u[(a, 0)] - kbu[(a, 0)])).sum::<f64>() / pe3;
+        qm[(i, k)] = qie;
+        qm[(k, i)] = qie;
+        let tr = block[i].iter().map(|&a| m2[(a, a)]).sum::<f64>() / pe2;
+        kt[(i, k)] = tr;
+        kt[(k, i)] = tr;
+    }
+    p[k] = -vv / pe2;
+    qm[(k, k)] = (vv - ubu) / pe3;
+    let tr_bk: f64 = (0..q).map(|i| kb[(i, i)]).sum();
+    let tr_bkbk: f64 = (0..q).flat_map(|i| (0..q).map(move |j| (i, j))).map(|(i, j)| kb[(i, j)] * kb[(j, i)]).sum();
+    kt[(k, k)] = (n - 2.0 * tr_bk + tr_bkbk) / pe2;
+    // Expected REML information (times 2) and W = 2 IE2^-1; pbkrtest takes
+    // a generalized inverse when IE2 is numerically singular.
+    let ie2 = Mat::<f64>::from_fn(m, m, |i, j| kt[(i, j)] - 2.0 * phi * qm[(i, j)] + phi * phi * p[i] * p[j]);
+    let evd =
+        ie2.self_adjoint_eigen(Side::Lower).map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
+    let (s, vecs) = (evd.S().column_vector(), evd.U());
+    let largest = (0..m).map(|i| s[i].abs()).fold(0.0, f64::max);
+    let smallest = (0..m).map(|i| s[i].abs()).fold(f64::INFINITY, f64::min);
+    let keep = |x: f64| if smallest > 1e-10 { true } else { x.abs() > f64::EPSILON.sqrt() * largest };
+    let w = Mat::<f64>::from_fn(m, m, |i, j| {
+        2.0 * (0..m).filter(|&l| keep(s[l])).map(|l| vecs[(i, l)] * vecs[(j, l)] / s[l]).sum::<f64>()
+    });
+    let mut uu = 0.0;
+    let mut aa = 0.0;
+    for i in 0..m {
+        for j in 0..m {
+            uu += w[(i, j)] * (qm[(i, j)] - p[i] * phi * p[j]);
+            aa += w[(i, j)] * p[i] * p[j];
+        }
+    }
+    let adjusted = phi + 2.0 * phi * uu * phi;
+    Ok(KenwardRoger { se: adjusted.sqrt(), df: 2.0 / (phi * phi * aa) })
+}
+
 /// Fits the model by REML or ML.
 pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedError> {
     let c = cross(data);
@@ -427,6 +611,7 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
             (best, best_dev) = (t, d);
         }
     }
+    (best, best_dev) = polish(&mut dev, best, best_dev);
     // Boundary faces: a theta at exactly zero is where lme4's bounded
     // optimizer stops when the optimum is on the boundary.
     for j in 0..k {
@@ -438,12 +623,13 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
         }
     }
     let e = evaluate(&c, &best, criterion)?;
-    let df_satterthwaite = match criterion {
-        Criterion::Reml => Some(satterthwaite(&c, &best, e.sigma2)?),
-        Criterion::Ml => None,
+    let (df_satterthwaite, kenward_roger) = match criterion {
+        Criterion::Reml => (Some(satterthwaite(&c, &best, e.sigma2)?), Some(kenward_roger(&c, &best, e.sigma2)?)),
+        Criterion::Ml => (None, None),
     };
     Ok(MixedFit {
         df_satterthwaite,
+        kenward_roger,
         criterion,
         factors: data.factors.iter().map(|f| f.name.clone()).collect(),
         levels: data.factors.iter().map(|f| f.levels).collect(),
