@@ -499,8 +499,9 @@ fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<f64, MixedErro
 
 /// Kenward-Roger inference for the intercept at the REML optimum, in the
 /// q-dimensional space of random-effect levels rather than pbkrtest's n x n
-/// matrices. With V = sum_k phi_k Z_k Z_k' + phi_e I, C = Lambda'Z'Z Lambda
-/// + I, B = Lambda C^-1 Lambda, K = Z'Z and t = Z'1, Woodbury gives
+/// matrices. With V = sum_k phi_k Z_k Z_k' + phi_e I, the penalized block
+/// C = Lambda'Z'Z Lambda + I, B = Lambda C^-1 Lambda, K = Z'Z and t = Z'1,
+/// Woodbury gives
 /// V^-1 = (I - Z B Z') / phi_e, hence with w = V^-1 1:
 ///
 /// ```text
