@@ -12,8 +12,8 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::design::{
-    ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, InputMap, Meters, Metric,
-    ModelKind, Role, Seed, Sensitivity, StartsPolicy, TargetKind, Training,
+    ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, EstimatorKind, InputMap, Meters,
+    Metric, ModelKind, Role, Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
 use crate::stats::DfRule;
 
@@ -323,9 +323,17 @@ impl Plan {
             (DfRule::SeedsMinusOne, Some(v)) => format!("t with J - 1 = {v} df"),
             (DfRule::RecordingsMinusOne, Some(v)) => format!("t with I - 1 = {v} df"),
             (DfRule::Normal, _) => "normal (z)".to_string(),
+            (DfRule::KenwardRoger, _) => "Kenward-Roger SE and df".to_string(),
             _ => "t with Satterthwaite df".to_string(),
         };
-        let _ = writeln!(s, "estimator: crossed MoM, level {}, {df}", self.estimator.level);
+        let kind = match self.estimator.kind {
+            EstimatorKind::CrossedMom => "crossed MoM",
+            EstimatorKind::Reml => "REML (recording and seed random intercepts)",
+        };
+        let _ = writeln!(s, "estimator: {kind}, level {}, {df}", self.estimator.level);
+        if self.estimator.missing_allowed {
+            let _ = writeln!(s, "missing cells: allowed (each is listed in the report)");
+        }
         if let Some(b) = self.sensitivity.bootstrap {
             let _ = writeln!(s, "bootstrap: pigeonhole, B = {}, seed {}", b.replicates, b.seed);
         }

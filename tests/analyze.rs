@@ -116,10 +116,17 @@ fn compare_intervals_lists_every_estimator() {
     )
     .unwrap();
     let iv = a.units[0].intervals.as_ref().unwrap();
-    assert_eq!(iv.len(), 7);
+    assert_eq!(iv.len(), 9);
     // The MoM t(J-1) row is the primary estimate itself.
     assert_eq!(iv[0].lower, a.units[0].estimate.lower);
     assert_eq!(iv[0].upper, a.units[0].estimate.upper);
+    // The REML rows: the seed component is truncated at zero here (MS seed <
+    // MS residual), so REML re-pools it and its SE differs from the MoM's;
+    // Kenward-Roger's SE is never below the model-based one.
+    use crossaudit::stats::IntervalMethod::*;
+    let row = |m| iv.iter().find(|e| e.method == m).unwrap();
+    assert!(row(RemlKenwardRoger).se >= row(RemlSatterthwaite).se);
+    assert!(row(RemlKenwardRoger).df.is_finite() && row(RemlSatterthwaite).df.is_finite());
 }
 
 #[test]

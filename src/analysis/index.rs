@@ -25,10 +25,10 @@ pub(crate) struct Indexed<'a> {
 }
 
 impl Indexed<'_> {
-    /// The cell at a key the completeness check guaranteed.
-    pub(crate) fn get(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> &Cell {
+    /// The cell at a key, if the data has it.
+    pub(crate) fn find(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> Option<&Cell> {
         let k = (model.to_string(), arm.to_string(), seed, recording.to_string(), h.to_bits());
-        self.cells[&k]
+        self.cells.get(&k).copied()
     }
 }
 
@@ -103,8 +103,10 @@ fn check_labels(labels: &mut BTreeMap<String, (String, String, u64)>, c: &Cell) 
 }
 
 /// Every (model, horizon) x contrast arm x seed x recording the plan needs
-/// is present; otherwise the first ten missing cells are named.
-pub(crate) fn check_complete(plan: &Plan, data: &Indexed, recordings: &[String]) -> Result<(), AnalysisError> {
+/// is present; otherwise the first ten missing cells are named. Under
+/// `estimate reml ... missing allow` the missing cells are returned, every
+/// one, for the report to list.
+pub(crate) fn check_complete(plan: &Plan, data: &Indexed, recordings: &[String]) -> Result<Vec<String>, AnalysisError> {
     let mut missing = Vec::new();
     for (model, h) in plan.row_keys() {
         for arm in [&plan.contrast.treated, &plan.contrast.reference] {
@@ -112,17 +114,17 @@ pub(crate) fn check_complete(plan: &Plan, data: &Indexed, recordings: &[String])
                 for r in recordings {
                     let k = (model.to_string(), arm.clone(), s.0, r.clone(), h.to_bits());
                     if !data.cells.contains_key(&k) {
-                        missing.push(format!("  model={model} arm={arm} seed={} recording={r} horizon={h} s", s.0));
+                        missing.push(format!("model={model} arm={arm} seed={} recording={r} horizon={h} s", s.0));
                     }
                 }
             }
         }
     }
-    if missing.is_empty() {
-        return Ok(());
+    if missing.is_empty() || plan.estimator.missing_allowed {
+        return Ok(missing);
     }
     let count = missing.len();
-    let mut list: Vec<String> = missing.into_iter().take(10).collect();
+    let mut list: Vec<String> = missing.into_iter().take(10).map(|m| format!("  {m}")).collect();
     if count > 10 {
         list.push(format!("  ... and {} more", count - 10));
     }

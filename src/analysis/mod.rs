@@ -70,7 +70,7 @@ pub enum AnalysisError {
     },
     /// Cells of the crossed matrix are missing.
     #[error(
-        "{count} missing cell(s); the crossed design needs every model x arm x seed x recording x horizon:\n{list}"
+        "{count} missing cell(s); the crossed method of moments needs every model x arm x seed x recording x horizon (a design with `estimate reml ... missing allow` analyses incomplete data):\n{list}"
     )]
     Missing {
         /// How many.
@@ -226,7 +226,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         return Err(AnalysisError::RecordingCount { found: recordings.len(), declared: plan.recordings });
     }
     let names: Vec<String> = recordings.iter().map(|r| r.recording.clone()).collect();
-    index::check_complete(plan, &data, &names)?;
+    let missing_cells = index::check_complete(plan, &data, &names)?;
 
     let ctx = unit::Ctx { plan, data: &data, recordings: &recordings, options };
     // Units are independent (each has its own bootstrap stream), so they
@@ -248,6 +248,12 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
             "{} of the {} declared evaluation recordings are in the cells: the design allows drawn recordings without a CSV (`missing csv allow`); the run's manifests/absent_recordings.csv names the others",
             recordings.len(),
             plan.recordings
+        ));
+    }
+    if !missing_cells.is_empty() {
+        warnings.push(format!(
+            "{} cell(s) of the crossed matrix are missing (the design allows it: `missing allow`); each is listed under Missing cells",
+            missing_cells.len()
         ));
     }
     for r in per_unit {
@@ -276,6 +282,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         interactions,
         decision,
         warnings,
+        missing_cells,
         figures: Vec::new(),
         provenance: Provenance::default(),
     })

@@ -39,6 +39,10 @@ pub struct Analysis {
     pub decision: Decision,
     /// Analyses skipped or caveats, in plan order.
     pub warnings: Vec<String>,
+    /// Cells of the crossed matrix absent from the per-cell data, one line
+    /// each (only under `estimate reml ... missing allow`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub missing_cells: Vec<String>,
     /// Figure files (relative to the report), when a run drew them.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<String>,
@@ -205,11 +209,16 @@ pub struct ConditionalSummary {
     pub divergent_reference: u64,
     /// All starts, reference arm.
     pub starts_reference: u64,
-    /// Crossed interval of the conditional RMSE difference; absent when a
-    /// cell has no finite rollout.
+    /// Crossed interval of the conditional RMSE difference over the pairs
+    /// where both arms have a finite value: the plan's estimator when none
+    /// is dropped, REML with Kenward-Roger df otherwise; absent when too
+    /// few pairs remain for a crossed model.
     pub difference: Option<CrossedEstimate>,
-    /// Cells in which every start diverged.
+    /// Cells (either arm) in which every start diverged.
     pub cells_without_finite_rollout: usize,
+    /// Recording x seed pairs left out of the conditional contrast because
+    /// an arm has no finite value there (or no cell).
+    pub pairs_dropped: usize,
 }
 
 /// The crossed estimate of an interaction of two models' contrasts.

@@ -1,5 +1,10 @@
 //! One analysis unit: the two arms' I x J arrays, the crossed estimate of
 //! their difference, and every preregistered sensitivity analysis.
+//!
+//! Arrays are grids with optional cells. Under the crossed MoM every cell
+//! is present (the index refuses incomplete data); under `estimate reml ...
+//! missing allow` a cell may be absent, and every summary is taken over the
+//! cells where both arms have a value, so the contrast stays paired.
 
 use std::collections::BTreeMap;
 
@@ -8,9 +13,12 @@ use super::index::Indexed;
 use super::types::*;
 use super::AnalysisError;
 use crate::cells::Cell;
-use crate::design::{Condition, Factor, Grouped, Metric};
+use crate::design::{Condition, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
-use crate::stats::{compare_intervals, crossed_mom, pigeonhole_bootstrap, CrossedMatrix, StatsError};
+use crate::stats::{
+    compare_intervals, crossed_mom, crossed_reml, pigeonhole_bootstrap, reml_intervals, CrossedEstimate, CrossedMatrix,
+    DfRule, StatsError,
+};
 
 /// What every unit's estimation reads: the plan, the indexed cells and the
 /// evaluation recordings in row order.
@@ -21,11 +29,96 @@ pub(crate) struct Ctx<'a> {
     pub(crate) options: AnalyzeOptions,
 }
 
-/// The two arms' I x J arrays for one unit.
+/// A rows x cols grid (recordings x seeds, row-major); `None` where a cell
+/// is missing.
+#[derive(Debug, Clone)]
+struct Grid {
+    rows: usize,
+    cols: usize,
+    v: Vec<Option<f64>>,
+}
+
+impl Grid {
+    fn get(&self, i: usize, j: usize) -> Option<f64> {
+        self.v[i * self.cols + j]
+    }
+
+    /// The balanced matrix, when no cell is missing.
+    fn complete(&self) -> Option<Result<CrossedMatrix, StatsError>> {
+        let values: Option<Vec<f64>> = self.v.iter().copied().collect();
+        values.map(|v| CrossedMatrix::new(self.rows, self.cols, v))
+    }
+
+    fn missing(&self) -> usize {
+        self.v.iter().filter(|x| x.is_none()).count()
+    }
+
+    /// (row, col, value) of the cells present.
+    fn cells(&self) -> Vec<(usize, usize, f64)> {
+        (0..self.rows)
+            .flat_map(|i| (0..self.cols).map(move |j| (i, j)))
+            .filter_map(|(i, j)| self.get(i, j).map(|x| (i, j, x)))
+            .collect()
+    }
+
+    /// self - other where both are present.
+    fn minus(&self, other: &Grid) -> Grid {
+        let v = self.v.iter().zip(&other.v).map(|(a, b)| Some((*a)? - (*b)?)).collect();
+        Grid { rows: self.rows, cols: self.cols, v }
+    }
+
+    /// self where `mask` is present.
+    fn masked(&self, mask: &Grid) -> Grid {
+        let v = self.v.iter().zip(&mask.v).map(|(a, m)| m.and(*a)).collect();
+        Grid { rows: self.rows, cols: self.cols, v }
+    }
+
+    fn mean(&self) -> f64 {
+        mean(self.v.iter().flatten().copied())
+    }
+
+    fn col_mean(&self, j: usize) -> f64 {
+        mean((0..self.rows).filter_map(|i| self.get(i, j)))
+    }
+
+    fn row_mean(&self, i: usize) -> f64 {
+        mean((0..self.cols).filter_map(|j| self.get(i, j)))
+    }
+
+    fn without(&self, factor: Factor, k: usize) -> Grid {
+        let keep = |i: usize, j: usize| match factor {
+            Factor::Seed => j != k,
+            Factor::Recording => i != k,
+        };
+        let (rows, cols) = match factor {
+            Factor::Seed => (self.rows, self.cols - 1),
+            Factor::Recording => (self.rows - 1, self.cols),
+        };
+        let v = (0..self.rows)
+            .flat_map(|i| (0..self.cols).map(move |j| (i, j)))
+            .filter(|&(i, j)| keep(i, j))
+            .map(|(i, j)| self.get(i, j))
+            .collect();
+        Grid { rows, cols, v }
+    }
+}
+
+/// Mean of the values; NaN when there are none.
+fn mean(values: impl Iterator<Item = f64>) -> f64 {
+    let (n, s) = values.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));
+    if n == 0 {
+        f64::NAN
+    } else {
+        s / n as f64
+    }
+}
+
+/// The two arms' grids for one unit, each masked to the cells where both
+/// arms have a value, and their difference.
 struct ArmArrays {
-    treated: CrossedMatrix,
-    reference: CrossedMatrix,
-    diff: CrossedMatrix,
+    treated: Grid,
+    reference: Grid,
+    diff: Grid,
 }
 
 fn metric_value(c: &Cell, metric: Metric) -> Option<f64> {
@@ -43,30 +136,55 @@ fn optimism(reference: f64, treated: f64) -> f64 {
 }
 
 impl Ctx<'_> {
-    fn cell(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> &Cell {
-        self.data.get(model, arm, seed, recording, h)
+    /// The crossed estimate of a grid's mean under the plan's estimator. The
+    /// MoM needs every cell; REML takes whatever cells are present.
+    fn estimate(&self, g: &Grid) -> Result<CrossedEstimate, StatsError> {
+        let est = &self.plan.estimator;
+        match est.kind {
+            EstimatorKind::Reml => crossed_reml(&g.cells(), g.rows, g.cols, est.level, est.df),
+            EstimatorKind::CrossedMom => match g.complete() {
+                Some(m) => crossed_mom(&m?, est.level, est.df),
+                None => Err(StatsError::Invalid(format!(
+                    "{} of {} cells are missing and the method of moments needs every one",
+                    g.missing(),
+                    g.v.len()
+                ))),
+            },
+        }
+    }
+
+    /// One arm's grid of `metric`; a cell without a value is missing when
+    /// the design allows missing cells, an error otherwise.
+    fn grid(&self, model: &str, arm: &str, metric: Metric, h: f64, label: &str) -> Result<Grid, AnalysisError> {
+        let (rows, cols) = (self.recordings.len(), self.plan.seeds.len());
+        let mut v = Vec::with_capacity(rows * cols);
+        for r in self.recordings {
+            for s in &self.plan.seeds {
+                let value = match self.data.find(model, arm, s.0, &r.recording, h) {
+                    None => None,
+                    Some(c) => match metric_value(c, metric) {
+                        Some(x) => Some(x),
+                        None if self.plan.estimator.missing_allowed => None,
+                        None => {
+                            return Err(AnalysisError::EmptyMetric {
+                                line: c.line,
+                                field: metric.column(),
+                                unit: label.to_string(),
+                            })
+                        }
+                    },
+                };
+                v.push(value);
+            }
+        }
+        Ok(Grid { rows, cols, v })
     }
 
     fn arrays(&self, model: &str, metric: Metric, h: f64, label: &str) -> Result<ArmArrays, AnalysisError> {
-        let stats = |source| AnalysisError::Stats { unit: label.to_string(), source };
-        let arr = |arm: &str| -> Result<CrossedMatrix, AnalysisError> {
-            let mut values = Vec::with_capacity(self.recordings.len() * self.plan.seeds.len());
-            for r in self.recordings {
-                for s in &self.plan.seeds {
-                    let c = self.cell(model, arm, s.0, &r.recording, h);
-                    values.push(metric_value(c, metric).ok_or_else(|| AnalysisError::EmptyMetric {
-                        line: c.line,
-                        field: metric.column(),
-                        unit: label.to_string(),
-                    })?);
-                }
-            }
-            CrossedMatrix::new(self.recordings.len(), self.plan.seeds.len(), values).map_err(stats)
-        };
-        let treated = arr(&self.plan.contrast.treated)?;
-        let reference = arr(&self.plan.contrast.reference)?;
-        let diff = treated.minus(&reference).map_err(stats)?;
-        Ok(ArmArrays { treated, reference, diff })
+        let treated = self.grid(model, &self.plan.contrast.treated, metric, h, label)?;
+        let reference = self.grid(model, &self.plan.contrast.reference, metric, h, label)?;
+        let diff = treated.minus(&reference);
+        Ok(ArmArrays { treated: treated.masked(&diff), reference: reference.masked(&diff), diff })
     }
 
     pub(crate) fn unit(
@@ -78,6 +196,14 @@ impl Ctx<'_> {
         let label = u.label();
         let stats = |source| AnalysisError::Stats { unit: label.clone(), source };
         let a = self.arrays(&u.model, u.metric, u.horizon_s, &label)?;
+        let dropped = a.diff.missing();
+        if dropped > 0 {
+            warnings.push(format!(
+                "{label}: {dropped} of {} recording x seed pairs lack a value in one arm or both; every estimate of this unit uses the other {}",
+                a.diff.v.len(),
+                a.diff.v.len() - dropped
+            ));
+        }
         let (mean_t, mean_r) = (a.treated.mean(), a.reference.mean());
         if mean_r == 0.0 {
             return Err(AnalysisError::ZeroReferenceMean {
@@ -86,11 +212,18 @@ impl Ctx<'_> {
             });
         }
         let est = &self.plan.estimator;
-        let estimate = crossed_mom(&a.diff, est.level, est.df).map_err(stats)?;
+        let estimate = self.estimate(&a.diff).map_err(stats)?;
         let optimism_pct = optimism(mean_r, mean_t);
-        let bootstrap = match self.plan.sensitivity.bootstrap {
-            Some(b) => Some(pigeonhole_bootstrap(&a.diff, b.replicates, est.level, b.seed, stream).map_err(stats)?),
-            None => None,
+        let complete = a.diff.complete().transpose().map_err(stats)?;
+        let bootstrap = match (self.plan.sensitivity.bootstrap, &complete) {
+            (Some(b), Some(m)) => {
+                Some(pigeonhole_bootstrap(m, b.replicates, est.level, b.seed, stream).map_err(stats)?)
+            }
+            (Some(_), None) => {
+                warnings.push(format!("{label}: pigeonhole bootstrap skipped: it resamples a complete array"));
+                None
+            }
+            (None, _) => None,
         };
         let grouped = if self.plan.sensitivity.grouped == Grouped::ByConditions {
             self.grouped(&a.diff, &label, warnings)?
@@ -105,15 +238,21 @@ impl Ctx<'_> {
             .plan
             .seeds
             .iter()
-            .zip(a.treated.col_means().iter().zip(a.reference.col_means()))
-            .map(|(s, (t, r))| SeedOptimism { seed: s.0, optimism_pct: optimism(r, *t) })
+            .enumerate()
+            .map(|(j, s)| (s, a.treated.col_mean(j), a.reference.col_mean(j)))
+            .filter(|(_, t, _)| !t.is_nan())
+            .map(|(s, t, r)| SeedOptimism { seed: s.0, optimism_pct: optimism(r, t) })
             .collect();
         let per_trajectory = self.per_trajectory(&a.diff);
         let conditional = self.conditional(u, &label)?;
         let rule_holds = rule_holds(&self.plan.decision, optimism_pct, &estimate);
         let intervals = if self.options.compare_intervals {
             let b = self.plan.sensitivity.bootstrap.map(|b| (b.replicates, b.seed)).unwrap_or((9999, 0));
-            Some(compare_intervals(&a.diff, est.level, b.0, b.1, stream).map_err(stats)?)
+            let d = &a.diff;
+            Some(match &complete {
+                Some(m) => compare_intervals(m, est.level, b.0, b.1, stream).map_err(stats)?,
+                None => reml_intervals(&d.cells(), d.rows, d.cols, est.level).map_err(stats)?,
+            })
         } else {
             None
         };
@@ -141,7 +280,7 @@ impl Ctx<'_> {
     /// same crossed estimator on the groups x seeds array.
     fn grouped(
         &self,
-        diff: &CrossedMatrix,
+        diff: &Grid,
         label: &str,
         warnings: &mut Vec<String>,
     ) -> Result<Option<GroupedResult>, AnalysisError> {
@@ -173,25 +312,38 @@ impl Ctx<'_> {
             .collect();
         let per_group = (0..groups.len()).map(|g| index.iter().filter(|&&x| x == g).count()).collect();
         let stats = |source| AnalysisError::Stats { unit: label.to_string(), source };
-        let m = diff.group_rows(&index, groups.len()).map_err(stats)?;
-        let estimate = crossed_mom(&m, self.plan.estimator.level, self.plan.estimator.df).map_err(stats)?;
+        let estimate = match diff.complete() {
+            // Complete: the group means of the balanced array (bit for bit
+            // the first wave's computation).
+            Some(m) => {
+                let g = m.map_err(stats)?.group_rows(&index, groups.len()).map_err(stats)?;
+                let grid = Grid { rows: g.rows(), cols: g.cols(), v: g.values().iter().map(|x| Some(*x)).collect() };
+                self.estimate(&grid).map_err(stats)?
+            }
+            // Incomplete: each group x seed mean over the cells present.
+            None => {
+                let v = (0..groups.len())
+                    .flat_map(|g| (0..diff.cols).map(move |j| (g, j)))
+                    .map(|(g, j)| {
+                        let m = mean((0..diff.rows).filter(|&i| index[i] == g).filter_map(|i| diff.get(i, j)));
+                        (!m.is_nan()).then_some(m)
+                    })
+                    .collect();
+                self.estimate(&Grid { rows: groups.len(), cols: diff.cols, v }).map_err(stats)?
+            }
+        };
         Ok(Some(GroupedResult { groups, recordings_per_group: per_group, estimate }))
     }
 
     fn leave_one_out(&self, a: &ArmArrays, factor: Factor) -> Result<LeaveOneOut, StatsError> {
         let n = match factor {
-            Factor::Seed => a.diff.cols(),
-            Factor::Recording => a.diff.rows(),
+            Factor::Seed => a.diff.cols,
+            Factor::Recording => a.diff.rows,
         };
-        let est = &self.plan.estimator;
         let mut fits = Vec::with_capacity(n);
         for k in 0..n {
-            let drop = |m: &CrossedMatrix| match factor {
-                Factor::Seed => m.without_col(k),
-                Factor::Recording => m.without_row(k),
-            };
-            let e = crossed_mom(&drop(&a.diff)?, est.level, est.df)?;
-            let opt = optimism(drop(&a.reference)?.mean(), drop(&a.treated)?.mean());
+            let e = self.estimate(&a.diff.without(factor, k))?;
+            let opt = optimism(a.reference.without(factor, k).mean(), a.treated.without(factor, k).mean());
             fits.push((e.mean, e.upper, opt, rule_holds(&self.plan.decision, opt, &e)));
         }
         let min = |f: fn(&(f64, f64, f64, bool)) -> f64| fits.iter().map(f).fold(f64::INFINITY, f64::min);
@@ -209,12 +361,16 @@ impl Ctx<'_> {
         })
     }
 
-    fn per_trajectory(&self, diff: &CrossedMatrix) -> Vec<TrajectoryMean> {
+    fn per_trajectory(&self, diff: &Grid) -> Vec<TrajectoryMean> {
         let mut acc: BTreeMap<&str, (usize, f64)> = BTreeMap::new();
         for (i, r) in self.recordings.iter().enumerate() {
+            let m = diff.row_mean(i);
+            if m.is_nan() {
+                continue;
+            }
             let e = acc.entry(r.trajectory.as_str()).or_insert((0, 0.0));
             e.0 += 1;
-            e.1 += diff.row(i).iter().sum::<f64>() / diff.cols() as f64;
+            e.1 += m;
         }
         acc.into_iter()
             .map(|(t, (n, s))| TrajectoryMean {
@@ -225,47 +381,58 @@ impl Ctx<'_> {
             .collect()
     }
 
+    /// Divergence counts over every cell present, and the conditional-RMSE
+    /// contrast over the recording x seed pairs where both arms have a
+    /// finite value (a cell in which every start diverged has none). The
+    /// contrast uses the plan's estimator when no pair is dropped; otherwise
+    /// REML with Kenward-Roger df, the estimator for incomplete arrays.
     fn conditional(&self, u: &AnalysisUnit, label: &str) -> Result<ConditionalSummary, AnalysisError> {
-        let mut sums = [(0.0, 0usize, 0u64, 0u64); 2];
-        let mut values = [Vec::new(), Vec::new()];
+        let mut counts = [(0u64, 0u64); 2];
         let mut without = 0;
         let arms = [&self.plan.contrast.treated, &self.plan.contrast.reference];
+        let (rows, cols) = (self.recordings.len(), self.plan.seeds.len());
+        let mut grids = [Vec::with_capacity(rows * cols), Vec::with_capacity(rows * cols)];
         for (k, arm) in arms.iter().enumerate() {
             for r in self.recordings {
                 for s in &self.plan.seeds {
-                    let c = self.cell(&u.model, arm, s.0, &r.recording, u.horizon_s);
-                    sums[k].2 += c.n_divergent;
-                    sums[k].3 += c.n_starts;
-                    match c.conditional_position_rmse_m {
-                        Some(v) => {
-                            sums[k].0 += v;
-                            sums[k].1 += 1;
-                            values[k].push(v);
+                    let c = self.data.find(&u.model, arm, s.0, &r.recording, u.horizon_s);
+                    if let Some(c) = c {
+                        counts[k].0 += c.n_divergent;
+                        counts[k].1 += c.n_starts;
+                        if c.conditional_position_rmse_m.is_none() {
+                            without += 1;
                         }
-                        None => without += 1,
                     }
+                    grids[k].push(c.and_then(|c| c.conditional_position_rmse_m));
                 }
             }
         }
-        let mean = |(s, n, _, _): (f64, usize, u64, u64)| (n > 0).then(|| s / n as f64);
-        let difference = if without == 0 {
-            let (i, j) = (self.recordings.len(), self.plan.seeds.len());
-            let diff: Vec<f64> = values[0].iter().zip(&values[1]).map(|(t, r)| t - r).collect();
-            let stats = |source| AnalysisError::Stats { unit: format!("{label} (conditional RMSE)"), source };
-            let m = CrossedMatrix::new(i, j, diff).map_err(stats)?;
-            Some(crossed_mom(&m, self.plan.estimator.level, self.plan.estimator.df).map_err(stats)?)
-        } else {
+        let [t, r] = grids.map(|v| Grid { rows, cols, v });
+        let diff = t.minus(&r);
+        let (t, r) = (t.masked(&diff), r.masked(&diff));
+        let stats = |source| AnalysisError::Stats { unit: format!("{label} (conditional RMSE)"), source };
+        let pairs = diff.v.len() - diff.missing();
+        let difference = if pairs == 0 {
             None
+        } else if diff.missing() == 0 {
+            Some(self.estimate(&diff).map_err(stats)?)
+        } else {
+            let level = self.plan.estimator.level;
+            // Too few pairs left for a crossed model: no interval, and the
+            // report says how many pairs were dropped.
+            crossed_reml(&diff.cells(), rows, cols, level, DfRule::KenwardRoger).ok()
         };
+        let mean = |g: &Grid| (pairs > 0).then(|| g.mean());
         Ok(ConditionalSummary {
-            mean_conditional_treated: mean(sums[0]),
-            mean_conditional_reference: mean(sums[1]),
-            divergent_treated: sums[0].2,
-            starts_treated: sums[0].3,
-            divergent_reference: sums[1].2,
-            starts_reference: sums[1].3,
+            mean_conditional_treated: mean(&t),
+            mean_conditional_reference: mean(&r),
+            divergent_treated: counts[0].0,
+            starts_treated: counts[0].1,
+            divergent_reference: counts[1].0,
+            starts_reference: counts[1].1,
             difference,
             cells_without_finite_rollout: without,
+            pairs_dropped: diff.missing(),
         })
     }
 
@@ -274,12 +441,14 @@ impl Ctx<'_> {
         let stats = |source| AnalysisError::Stats { unit: label.clone(), source };
         let l = self.arrays(&ix.left, ix.metric, ix.horizon_s, &label)?;
         let r = self.arrays(&ix.right, ix.metric, ix.horizon_s, &label)?;
-        let delta = l.diff.minus(&r.diff).map_err(stats)?;
+        let delta = l.diff.minus(&r.diff);
         let est = &self.plan.estimator;
-        let estimate = crossed_mom(&delta, est.level, est.df).map_err(stats)?;
-        let bootstrap = match self.plan.sensitivity.bootstrap {
-            Some(b) => Some(pigeonhole_bootstrap(&delta, b.replicates, est.level, b.seed, stream).map_err(stats)?),
-            None => None,
+        let estimate = self.estimate(&delta).map_err(stats)?;
+        let bootstrap = match (self.plan.sensitivity.bootstrap, delta.complete()) {
+            (Some(b), Some(m)) => {
+                Some(pigeonhole_bootstrap(&m.map_err(stats)?, b.replicates, est.level, b.seed, stream).map_err(stats)?)
+            }
+            _ => None,
         };
         Ok(InteractionResult {
             metric: ix.metric,

@@ -180,6 +180,7 @@ pub enum EstimateItem {
     Level(Number),
     DfFactorMinus { factor: Ident, minus: Int },
     DfNamed(Ident),
+    Missing(Ident),
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -627,6 +627,9 @@ pub struct Estimator {
     pub level: f64,
     /// Degrees of freedom of the t quantile.
     pub df: DfRule,
+    /// Whether per-cell files may lack cells (`missing allow`; REML only).
+    /// Each missing cell is listed in the report.
+    pub missing_allowed: bool,
 }
 
 /// Estimators the language accepts.
@@ -635,6 +638,9 @@ pub struct Estimator {
 pub enum EstimatorKind {
     /// Two-way crossed random effects, method of moments (ANOVA).
     CrossedMom,
+    /// The same model by restricted maximum likelihood ([`crate::stats::mixed`]):
+    /// unbalanced arrays, Kenward-Roger or Satterthwaite df.
+    Reml,
 }
 
 pub use crate::stats::DfRule;

@@ -116,8 +116,8 @@ fn rule_name(rule: &Rule) -> String {
         Rule::mlp | Rule::baseline => "a model kind (mlp(...), persistence, constant_velocity)",
         Rule::input_kind => "an input map (world, relative)",
         Rule::role => "an endpoint role (primary, secondary)",
-        Rule::est_level | Rule::est_df => "an estimator clause (level, df)",
-        Rule::df_factor_minus | Rule::df_named => "a df rule (seed - 1, recording - 1, satterthwaite, z)",
+        Rule::est_level | Rule::est_df | Rule::est_missing => "an estimator clause (level, df, missing)",
+        Rule::df_factor_minus | Rule::df_named => "a df rule (seed - 1, recording - 1, satterthwaite, kenward_roger, z)",
         Rule::bootstrap | Rule::grouped | Rule::leave_one_out => {
             "a sensitivity (bootstrap, grouped, leave_one_out)"
         }
@@ -384,6 +384,9 @@ fn endpoint(mut k: Kids<'_>) -> Result<EndpointStmt, Diagnostic> {
 fn estimate_item(p: Pair<Rule>) -> Result<EstimateItem, Diagnostic> {
     if p.as_rule() == Rule::est_level {
         return Ok(EstimateItem::Level(number(kids(p).next())?));
+    }
+    if p.as_rule() == Rule::est_missing {
+        return Ok(EstimateItem::Missing(ident(kids(p).next())));
     }
     let rule_pair = kids(p).next();
     if rule_pair.as_rule() == Rule::df_factor_minus {

@@ -7,7 +7,7 @@ use super::format::{decision_summary, f, level_pct};
 use super::Table;
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::{Factor, Role};
-use crate::stats::{BootstrapInterval, CrossedEstimate};
+use crate::stats::{BootstrapInterval, CrossedEstimate, DfRule};
 
 fn ci(e: &CrossedEstimate) -> String {
     format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4))
@@ -54,7 +54,11 @@ pub fn render_markdown(a: &Analysis) -> String {
     let mut s = header(a);
     let level = level_pct(a.level);
     section(&mut s, "Endpoints", "", &endpoints(a, &level));
-    let note = "Shares are of SE^2 = s2_rec/I + s2_seed/J + s2_res/(IJ).";
+    let note = if reml(a) {
+        "REML estimates (no mean squares). Shares are of Var(d mean) by source, phi_k dVar/dphi_k, which add up to it; on a complete array they are s2_rec/I, s2_seed/J and s2_res/(IJ)."
+    } else {
+        "Shares are of SE^2 = s2_rec/I + s2_seed/J + s2_res/(IJ)."
+    };
     section(&mut s, "Variance components of d", note, &components(a));
     if !a.interactions.is_empty() {
         section(&mut s, "Interaction", "delta_ij = d_left,ij - d_right,ij, same estimator.", &interactions(a, &level));
@@ -68,9 +72,26 @@ pub fn render_markdown(a: &Analysis) -> String {
     }
     section(&mut s, "Per-seed optimism", "", &per_seed(a));
     section(&mut s, "Mean difference by trajectory", "", &per_trajectory(a));
-    section(&mut s, "Conditional RMSE and divergence", "", &conditional(a, &level));
+    let note = if a.units.iter().any(|u| u.conditional.pairs_dropped > 0) {
+        "Conditional RMSE is paired: means and the contrast use the recording x seed pairs where both arms have a finite value. Where pairs were dropped (column `pairs dropped`), the contrast is estimated by REML with Kenward-Roger df."
+    } else {
+        ""
+    };
+    section(&mut s, "Conditional RMSE and divergence", note, &conditional(a, &level));
     if a.units.iter().any(|u| u.intervals.is_some()) {
         section(&mut s, "Interval estimators compared", "", &compared(a, &level));
+    }
+    if !a.missing_cells.is_empty() {
+        let _ = writeln!(s, "## Missing cells\n");
+        let _ = writeln!(
+            s,
+            "{} cell(s) of the crossed matrix are absent from the per-cell data; the REML fits use the others.\n",
+            a.missing_cells.len()
+        );
+        for m in &a.missing_cells {
+            let _ = writeln!(s, "- {m}");
+        }
+        let _ = writeln!(s);
     }
     if !a.warnings.is_empty() {
         let _ = writeln!(s, "## Warnings\n");
@@ -80,6 +101,11 @@ pub fn render_markdown(a: &Analysis) -> String {
         let _ = writeln!(s);
     }
     s
+}
+
+/// Whether the analysis used REML (its estimates carry the fit's summary).
+fn reml(a: &Analysis) -> bool {
+    a.units.first().is_some_and(|u| u.estimate.reml.is_some())
 }
 
 /// Title with the verdict, the decision line, the rule and the figures.
@@ -96,9 +122,22 @@ fn header(a: &Analysis) -> String {
         level_pct(a.level),
         level_pct(a.level)
     );
+    let estimator = match a.units.first().and_then(|u| u.estimate.reml) {
+        None => "crossed method-of-moments estimator".to_string(),
+        Some(r) => format!(
+            "REML estimator (random intercepts for recording and seed, lme4's model), {} df",
+            match r.df_rule {
+                DfRule::KenwardRoger => "Kenward-Roger SE and",
+                DfRule::Satterthwaite => "Satterthwaite",
+                DfRule::SeedsMinusOne => "J - 1",
+                DfRule::RecordingsMinusOne => "I - 1",
+                DfRule::Normal => "normal (infinite)",
+            }
+        ),
+    };
     let _ = writeln!(
         s,
-        "Contrast `{} - {}` over {} recordings x {} seeds; crossed method-of-moments estimator, {} intervals.",
+        "Contrast `{} - {}` over {} recordings x {} seeds; {estimator}, {} intervals.",
         a.treated,
         a.reference,
         a.recordings.len(),
@@ -179,12 +218,14 @@ fn components(a: &Analysis) -> Table {
     let mut table = Table::new(&cols, "lllrrrrrrrrr");
     for u in &a.units {
         let e = &u.estimate;
-        let (m, c) = (&e.mean_squares, &e.components);
+        let c = &e.components;
+        let ms =
+            |f: fn(&crate::stats::MeanSquares) -> f64| e.mean_squares.as_ref().map_or("–".to_string(), |m| sci(f(m)));
         table.row([
             unit_name(u),
-            sci(m.ms_rows),
-            sci(m.ms_cols),
-            sci(m.ms_error),
+            ms(|m| m.ms_rows),
+            ms(|m| m.ms_cols),
+            ms(|m| m.ms_error),
             sci(c.recording),
             sci(c.seed),
             sci(c.residual),
@@ -292,16 +333,20 @@ fn conditional(a: &Analysis, level: &str) -> Table {
         format!("divergent {r}"),
         format!("cond. {level} CI"),
     );
-    let cols = ["model", "metric", "horizon", &rt, &rr, &dt, &dr, "cond. d mean", &ci_h];
-    let mut table = Table::new(&cols, "lllrrrrrl");
+    let dropped = a.units.iter().any(|u| u.conditional.pairs_dropped > 0);
+    let mut cols = vec!["model", "metric", "horizon", &rt, &rr, &dt, &dr, "cond. d mean", &ci_h];
+    if dropped {
+        cols.push("pairs dropped");
+    }
+    let mut table = Table::new(&cols, if dropped { "lllrrrrrlr" } else { "lllrrrrrl" });
     for u in &a.units {
         let c = &u.conditional;
         let opt = |v: Option<f64>| v.map(|x| f(x, 4)).unwrap_or_else(|| "NA".into());
         let (dm, dci) = match &c.difference {
             Some(e) => (f(e.mean, 4), ci(e)),
-            None => ("NA".into(), format!("({} cells without a finite rollout)", c.cells_without_finite_rollout)),
+            None => ("NA".into(), format!("({} pairs without a finite rollout in both arms)", c.pairs_dropped)),
         };
-        table.row([
+        let mut row = vec![
             unit_name(u),
             opt(c.mean_conditional_treated),
             opt(c.mean_conditional_reference),
@@ -309,7 +354,11 @@ fn conditional(a: &Analysis, level: &str) -> Table {
             format!("{}/{}", c.divergent_reference, c.starts_reference),
             dm,
             dci,
-        ]);
+        ];
+        if dropped {
+            row.push(c.pairs_dropped.to_string());
+        }
+        table.row(row);
     }
     table
 }

@@ -14,9 +14,12 @@ pub enum DfRule {
     SeedsMinusOne,
     /// I - 1 (recordings minus one).
     RecordingsMinusOne,
-    /// Satterthwaite's approximation for the linear combination of mean
-    /// squares that makes SE^2.
+    /// Satterthwaite's approximation: for the crossed MoM, of the linear
+    /// combination of mean squares that makes SE^2; for REML, lmerTest's
+    /// (observed information of the variance parameters).
     Satterthwaite,
+    /// Kenward and Roger (1997), with the adjusted SE (REML only).
+    KenwardRoger,
     /// The normal quantile (z).
     Normal,
 }
@@ -24,7 +27,7 @@ pub enum DfRule {
 impl DfRule {
     /// The degrees of freedom for an I x J array (`rows` x `cols`) when the
     /// rule fixes them: J - 1, I - 1 or infinite (the normal). `None` for
-    /// Satterthwaite, whose df depend on the data's mean squares.
+    /// Satterthwaite and Kenward-Roger, whose df depend on the data.
     ///
     /// ```
     /// use crossaudit::stats::DfRule;
@@ -37,7 +40,7 @@ impl DfRule {
             DfRule::SeedsMinusOne => Some(cols as f64 - 1.0),
             DfRule::RecordingsMinusOne => Some(rows as f64 - 1.0),
             DfRule::Normal => Some(f64::INFINITY),
-            DfRule::Satterthwaite => None,
+            DfRule::Satterthwaite | DfRule::KenwardRoger => None,
         }
     }
 }
@@ -120,8 +123,9 @@ pub struct CrossedEstimate {
     pub lower: f64,
     /// Upper interval bound.
     pub upper: f64,
-    /// The two-way ANOVA table.
-    pub mean_squares: MeanSquares,
+    /// The two-way ANOVA table (method of moments only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mean_squares: Option<MeanSquares>,
     /// The variance components.
     pub components: VarianceComponents,
     /// Shares of SE^2 from recordings, seeds and residual (sum to 1 when SE > 0).
@@ -130,6 +134,35 @@ pub struct CrossedEstimate {
     pub share_seed: f64,
     /// Share of SE^2 from the residual.
     pub share_residual: f64,
+    /// What the REML fit adds (REML only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reml: Option<RemlSummary>,
+}
+
+/// The REML fit behind a [`CrossedEstimate`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RemlSummary {
+    /// The df rule of the interval.
+    pub df_rule: DfRule,
+    /// Cells the fit used.
+    pub cells: usize,
+    /// Cells of the rows x cols array it lacked.
+    pub missing: usize,
+    /// The REML criterion (-2 restricted log-likelihood) at the optimum.
+    pub criterion: f64,
+    /// A variance component estimated at zero (lme4's `isSingular`).
+    pub singular: bool,
+    /// The model-based SE, sqrt(sigma^2 / R_X^2), before any Kenward-Roger
+    /// adjustment.
+    pub se_model: f64,
+    /// lmerTest's Satterthwaite df.
+    #[serde(serialize_with = "crate::io::df_json")]
+    pub df_satterthwaite: f64,
+    /// Kenward-Roger df.
+    #[serde(serialize_with = "crate::io::df_json")]
+    pub df_kenward_roger: f64,
+    /// The Kenward-Roger adjusted SE.
+    pub se_kenward_roger: f64,
 }
 
 /// The two-way ANOVA of an I x J array without replication.
@@ -174,6 +207,11 @@ pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<Cro
     let se2_parts = components.se2_parts(i_n, j_n);
     let se2: f64 = se2_parts.iter().sum();
     let se = se2.sqrt();
+    if df_rule == DfRule::KenwardRoger {
+        return Err(StatsError::Invalid(
+            "Kenward-Roger df need a likelihood: use crossed_reml, not the method of moments".to_string(),
+        ));
+    }
     let df = df_rule.df(m.rows(), m.cols()).unwrap_or_else(|| satterthwaite(&ms, sa > 0.0, sb > 0.0, i_n, j_n));
     let critical = critical_value(level, df)?;
     let share = |x: f64| if se2 > 0.0 { x / se2 } else { 0.0 };
@@ -187,14 +225,114 @@ pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<Cro
         critical,
         lower: ms.grand_mean - critical * se,
         upper: ms.grand_mean + critical * se,
-        mean_squares: ms,
+        mean_squares: Some(ms),
         components,
         share_recording: share(se2_parts[0]),
         share_seed: share(se2_parts[1]),
         share_residual: share(se2_parts[2]),
+        reml: None,
     })
 }
 
+/// REML estimate of the grand mean of a crossed rows x cols array with
+/// cells missing: `cells` holds (row, col, value) for the cells present.
+/// The model is the crossed MoM's, y = mu + a_row + b_col + e, fitted by
+/// [`super::mixed`]; the interval is mu +- t(df) SE with the df and SE
+/// `df_rule` names: Kenward-Roger (adjusted SE), Satterthwaite (lmerTest's;
+/// model SE), J - 1, I - 1 or the normal. On a complete array with both
+/// components positive the REML estimates are the MoM estimates.
+pub fn crossed_reml(
+    cells: &[(usize, usize, f64)],
+    rows: usize,
+    cols: usize,
+    level: f64,
+    df_rule: DfRule,
+) -> Result<CrossedEstimate, StatsError> {
+    reml_with(&crossed_reml_fit(cells)?, cells.len(), rows * cols, level, df_rule)
+}
+
+/// The REML fit of the crossed model on the cells present.
+pub(crate) fn crossed_reml_fit(cells: &[(usize, usize, f64)]) -> Result<super::mixed::MixedFit, StatsError> {
+    use super::mixed::{fit, Criterion, MixedData};
+    let fail = |e: super::mixed::MixedError| StatsError::Invalid(e.to_string());
+    if let Some(&(row, col, value)) = cells.iter().find(|c| !c.2.is_finite()) {
+        return Err(StatsError::NonFinite { row, col, value });
+    }
+    let distinct = |f: fn(&(usize, usize, f64)) -> usize| {
+        let mut v: Vec<usize> = cells.iter().map(f).collect();
+        v.sort_unstable();
+        v.dedup();
+        v.len()
+    };
+    let (i_n, j_n) = (distinct(|c| c.0), distinct(|c| c.1));
+    if i_n < 2 {
+        return Err(StatsError::TooFew { what: "rows with a cell", found: i_n });
+    }
+    if j_n < 2 {
+        return Err(StatsError::TooFew { what: "columns with a cell", found: j_n });
+    }
+    let data = MixedData::new(
+        cells.iter().map(|c| c.2).collect(),
+        vec![
+            ("recording".into(), cells.iter().map(|c| c.0).collect()),
+            ("seed".into(), cells.iter().map(|c| c.1).collect()),
+        ],
+    )
+    .map_err(fail)?;
+    fit(&data, Criterion::Reml).map_err(fail)
+}
+
+/// The estimate from a REML fit of `cells` cells of a `size`-cell array.
+pub(crate) fn reml_with(
+    f: &super::mixed::MixedFit,
+    cells: usize,
+    size: usize,
+    level: f64,
+    df_rule: DfRule,
+) -> Result<CrossedEstimate, StatsError> {
+    let kr = f.kenward_roger.ok_or_else(|| StatsError::Invalid("not a REML fit".into()))?;
+    let df_s = f.df_satterthwaite.unwrap_or(f64::NAN);
+    let (i_n, j_n) = (f.levels[0], f.levels[1]);
+    let (se, df) = match df_rule {
+        DfRule::KenwardRoger => (kr.se, kr.df),
+        DfRule::Satterthwaite if df_s.is_nan() => {
+            return Err(StatsError::Invalid(
+                "Satterthwaite df undefined: the REML deviance's Hessian is not positive definite at the optimum"
+                    .into(),
+            ))
+        }
+        DfRule::Satterthwaite => (f.se, df_s),
+        other => (f.se, other.df(i_n, j_n).expect("fixed df rules")),
+    };
+    let critical = critical_value(level, df)?;
+    Ok(CrossedEstimate {
+        rows: i_n,
+        cols: j_n,
+        mean: f.intercept,
+        se,
+        df,
+        level,
+        critical,
+        lower: f.intercept - critical * se,
+        upper: f.intercept + critical * se,
+        mean_squares: None,
+        components: VarianceComponents { recording: f.variances[0], seed: f.variances[1], residual: f.residual },
+        share_recording: f.shares[0],
+        share_seed: f.shares[1],
+        share_residual: f.shares[2],
+        reml: Some(RemlSummary {
+            df_rule,
+            cells,
+            missing: size - cells.min(size),
+            criterion: f.deviance,
+            singular: f.singular,
+            se_model: f.se,
+            df_satterthwaite: df_s,
+            df_kenward_roger: kr.df,
+            se_kenward_roger: kr.se,
+        }),
+    })
+}
 /// Satterthwaite (1946) df for SE^2 written as sum_k c_k MS_k. With both
 /// components kept, SE^2 = (MS_r + MS_c - MS_e)/(IJ); a component truncated
 /// at zero drops its MS_k and gives MS_e back its share.

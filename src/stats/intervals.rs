@@ -5,6 +5,7 @@
 
 use serde::Serialize;
 
+use super::crossed::{crossed_reml_fit, reml_with};
 use super::{critical_value, crossed_mom, pigeonhole_bootstrap, CrossedMatrix, DfRule, StatsError};
 
 /// Interval methods compared by the coverage study and `--compare-intervals`.
@@ -17,6 +18,10 @@ pub enum IntervalMethod {
     MomSatterthwaite,
     /// Crossed MoM with the normal quantile.
     MomZ,
+    /// REML with lmerTest's Satterthwaite df and the model-based SE.
+    RemlSatterthwaite,
+    /// REML with Kenward-Roger df and adjusted SE (pbkrtest).
+    RemlKenwardRoger,
     /// Pigeonhole bootstrap percentile interval.
     PigeonholePercentile,
     /// All I x J cells treated as independent: t(IJ - 1).
@@ -34,6 +39,8 @@ impl IntervalMethod {
             IntervalMethod::MomT => "crossed MoM, t(J-1)",
             IntervalMethod::MomSatterthwaite => "crossed MoM, Satterthwaite df",
             IntervalMethod::MomZ => "crossed MoM, z",
+            IntervalMethod::RemlSatterthwaite => "REML, Satterthwaite df",
+            IntervalMethod::RemlKenwardRoger => "REML, Kenward-Roger",
             IntervalMethod::PigeonholePercentile => "pigeonhole bootstrap, percentile",
             IntervalMethod::NaiveIid => "naive iid over cells, t(IJ-1)",
             IntervalMethod::ClusterRecording => "clustered by recording, t(I-1)",
@@ -51,7 +58,8 @@ pub struct IntervalEstimate {
     pub estimate: f64,
     /// Standard error.
     pub se: f64,
-    /// Infinite for the normal; NaN where no df applies (bootstrap). JSON:
+    /// Infinite for the normal; NaN where no df applies (bootstrap) or the
+    /// method is undefined on the array (every field NaN). JSON:
     /// a number, `"infinite"` or `"undefined"`.
     #[serde(serialize_with = "crate::io::df_json")]
     pub df: f64,
@@ -75,6 +83,27 @@ pub fn one_sample_interval(values: &[f64], level: f64) -> Result<(f64, f64, f64,
     Ok((mean, se, df, mean - q * se, mean + q * se))
 }
 
+/// The two REML intervals of a rows x cols array with cells missing
+/// (`cells`: row, column, value of those present).
+pub fn reml_intervals(
+    cells: &[(usize, usize, f64)],
+    rows: usize,
+    cols: usize,
+    level: f64,
+) -> Result<Vec<IntervalEstimate>, StatsError> {
+    let fit = crossed_reml_fit(cells)?;
+    [
+        (IntervalMethod::RemlSatterthwaite, DfRule::Satterthwaite),
+        (IntervalMethod::RemlKenwardRoger, DfRule::KenwardRoger),
+    ]
+    .into_iter()
+    .map(|(method, rule)| {
+        let e = reml_with(&fit, cells.len(), rows * cols, level, rule)?;
+        Ok(IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper })
+    })
+    .collect()
+}
+
 /// Every interval of [`IntervalMethod`] for one array. The bootstrap uses
 /// (`b`, `seed`, `stream`).
 pub fn compare_intervals(
@@ -92,6 +121,23 @@ pub fn compare_intervals(
     ] {
         let e = crossed_mom(m, level, rule)?;
         out.push(IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper });
+    }
+    let cells: Vec<(usize, usize, f64)> =
+        (0..m.rows()).flat_map(|i| (0..m.cols()).map(move |j| (i, j))).map(|(i, j)| (i, j, m.get(i, j))).collect();
+    // REML can be undefined where the MoM is not (a residual of exactly
+    // zero): those rows are NaN rather than the whole comparison refused.
+    match reml_intervals(&cells, m.rows(), m.cols(), level) {
+        Ok(rows) => out.extend(rows),
+        Err(_) => out.extend([IntervalMethod::RemlSatterthwaite, IntervalMethod::RemlKenwardRoger].map(|method| {
+            IntervalEstimate {
+                method,
+                estimate: f64::NAN,
+                se: f64::NAN,
+                df: f64::NAN,
+                lower: f64::NAN,
+                upper: f64::NAN,
+            }
+        })),
     }
     let boot = pigeonhole_bootstrap(m, b, level, seed, stream)?;
     out.push(IntervalEstimate {

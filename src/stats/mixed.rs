@@ -83,6 +83,18 @@ pub enum MixedError {
         /// Observations.
         expected: usize,
     },
+    /// Every observation equal: there is no variance to partition.
+    #[error("every observation is {0}: a constant response has no variance to partition")]
+    ConstantResponse(f64),
+    /// The factors explain the response exactly: REML's optimum is at a
+    /// zero residual variance, where the likelihood is unbounded.
+    #[error("the random factors reproduce the response exactly (residual variance {residual:e} of a total {total:e}): the likelihood has no finite optimum")]
+    ZeroResidual {
+        /// The residual variance where the optimizer stopped.
+        residual: f64,
+        /// The response's sample variance.
+        total: f64,
+    },
     /// No random factor.
     #[error("a mixed model needs at least one random factor")]
     NoFactor,
@@ -129,6 +141,9 @@ impl MixedData {
         }
         if let Some((row, &value)) = y.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(MixedError::NonFinite { row, value });
+        }
+        if y.iter().all(|v| *v == y[0]) {
+            return Err(MixedError::ConstantResponse(y[0]));
         }
         if factors.is_empty() {
             return Err(MixedError::NoFactor);
@@ -193,11 +208,17 @@ pub struct MixedFit {
     /// the gradient of Var(mu) in the variance parameters and A their
     /// asymptotic covariance, twice the inverse Hessian of the REML
     /// deviance (both by central differences). Components estimated at
-    /// zero are held there.
+    /// zero are held there. Also `None` where that Hessian is not positive
+    /// definite.
     pub df_satterthwaite: Option<f64>,
     /// Kenward-Roger (1997) inference for the intercept (REML fits; `None`
     /// for ML), as pbkrtest computes it.
     pub kenward_roger: Option<KenwardRoger>,
+    /// Var(mu) split by source: factors in order, then the residual. Var(mu)
+    /// is homogeneous of degree 1 in the variances, so by Euler's theorem
+    /// the terms phi_k dVar(mu)/dphi_k add up to it; on a balanced crossed
+    /// array they are sa/I, sb/J and se/(IJ). Fractions of Var(mu).
+    pub shares: Vec<f64>,
     /// Deviance evaluations used.
     pub evaluations: usize,
     /// Observations.
@@ -447,8 +468,9 @@ fn reml_at(c: &Cross, phi: &[f64]) -> Result<(f64, f64), MixedError> {
     Ok((dev, s2 / e.rx2))
 }
 
-/// Satterthwaite df of the intercept at the REML optimum `theta`, `sigma2`.
-fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<f64, MixedError> {
+/// Satterthwaite df of the intercept at the REML optimum `theta`, `sigma2`;
+/// `None` when the numerical Hessian is not positive definite there.
+fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<Option<f64>, MixedError> {
     let mut phi: Vec<f64> = theta.iter().map(|t| sigma2 * t * t).collect();
     phi.push(sigma2);
     // Free parameters: the residual and every component not at zero.
@@ -490,11 +512,11 @@ fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<f64, MixedErro
     let grad: Vec<f64> = g1.iter().zip(&g2).map(|(a, b)| (4.0 * b - a) / 3.0).collect();
     let hess = Mat::<f64>::from_fn(m, m, |i, j| (4.0 * h2[(i, j)] - h1[(i, j)]) / 3.0);
     // A = 2 H^-1 (the deviance is -2 log L); g' A g by a Cholesky solve.
-    let llt = hess.llt(Side::Lower).map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
+    let Ok(llt) = hess.llt(Side::Lower) else { return Ok(None) };
     let mut g = Mat::<f64>::from_fn(m, 1, |i, _| grad[i]);
     solve_lower_triangular_in_place(llt.L(), g.as_mut(), Par::Seq);
     let gag = 2.0 * (0..m).map(|i| g[(i, 0)] * g[(i, 0)]).sum::<f64>();
-    Ok(2.0 * v0 * v0 / gag)
+    Ok(Some(2.0 * v0 * v0 / gag))
 }
 
 /// Kenward-Roger inference for the intercept at the REML optimum, in the
@@ -512,7 +534,10 @@ fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<f64, MixedErro
 /// and every quantity of pbkrtest's `vcovAdj` (P_i = -X'V^-1 G_i V^-1 X,
 /// Q_ij = X'V^-1 G_i V^-1 G_j V^-1 X, tr(V^-1 G_i V^-1 G_j), G_k = Z_k Z_k'
 /// and G_e = I) follows from q x q products.
-fn kenward_roger(c: &Cross, theta: &[f64], sigma2: f64) -> Result<KenwardRoger, MixedError> {
+///
+/// Also returns the shares of Var(mu) = Phi by source, -phi_k Phi P_k
+/// (dPhi/dphi_k = -Phi^2 P_k).
+fn kenward_roger(c: &Cross, theta: &[f64], sigma2: f64) -> Result<(KenwardRoger, Vec<f64>), MixedError> {
     let q = c.zty.len();
     let k = theta.len();
     let m = k + 1;
@@ -590,7 +615,9 @@ fn kenward_roger(c: &Cross, theta: &[f64], sigma2: f64) -> Result<KenwardRoger, 
         }
     }
     let adjusted = phi + 2.0 * phi * uu * phi;
-    Ok(KenwardRoger { se: adjusted.sqrt(), df: 2.0 / (phi * phi * aa) })
+    let variances: Vec<f64> = theta.iter().map(|t| pe * t * t).chain([pe]).collect();
+    let shares = (0..m).map(|i| -variances[i] * phi * p[i]).collect();
+    Ok((KenwardRoger { se: adjusted.sqrt(), df: 2.0 / (phi * phi * aa) }, shares))
 }
 
 /// Fits the model by REML or ML.
@@ -624,11 +651,17 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
         }
     }
     let e = evaluate(&c, &best, criterion)?;
+    let total = c.y.iter().map(|v| v * v).sum::<f64>() / (c.n - 1.0);
+    if e.sigma2 <= 1e-10 * total {
+        return Err(MixedError::ZeroResidual { residual: e.sigma2, total });
+    }
+    let (kr, shares) = kenward_roger(&c, &best, e.sigma2)?;
     let (df_satterthwaite, kenward_roger) = match criterion {
-        Criterion::Reml => (Some(satterthwaite(&c, &best, e.sigma2)?), Some(kenward_roger(&c, &best, e.sigma2)?)),
+        Criterion::Reml => (satterthwaite(&c, &best, e.sigma2)?, Some(kr)),
         Criterion::Ml => (None, None),
     };
     Ok(MixedFit {
+        shares,
         df_satterthwaite,
         kenward_roger,
         criterion,

@@ -12,8 +12,10 @@ pub mod mixed;
 mod rng;
 
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
-pub use crossed::{crossed_mom, mean_squares, CrossedEstimate, DfRule, MeanSquares, VarianceComponents};
-pub use intervals::{compare_intervals, one_sample_interval, IntervalEstimate, IntervalMethod};
+pub use crossed::{
+    crossed_mom, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary, VarianceComponents,
+};
+pub use intervals::{compare_intervals, one_sample_interval, reml_intervals, IntervalEstimate, IntervalMethod};
 pub use matrix::CrossedMatrix;
 pub use rng::standard_normal;
 

@@ -9,17 +9,26 @@ use crate::design::*;
 
 impl Validator {
     pub(super) fn estimator(&mut self, kind: &Ident, items: &[Spanned<EstimateItem>]) -> Option<Estimator> {
-        if kind.node != "crossed_mom" {
-            self.err_help(
-                "unknown estimator",
-                kind.span,
-                format!("`{}` is not an estimator", kind.node),
-                "known estimators: crossed_mom",
-            );
-        }
+        let estimator = match kind.node.as_str() {
+            "crossed_mom" => EstimatorKind::CrossedMom,
+            "reml" => EstimatorKind::Reml,
+            _ => {
+                self.err_help(
+                    "unknown estimator",
+                    kind.span,
+                    format!("`{}` is not an estimator", kind.node),
+                    "known estimators: crossed_mom, reml",
+                );
+                EstimatorKind::CrossedMom
+            }
+        };
         let mut seen = BTreeMap::new();
         let mut level = 0.95;
-        let mut df = DfRule::SeedsMinusOne;
+        let mut df = match estimator {
+            EstimatorKind::CrossedMom => DfRule::SeedsMinusOne,
+            EstimatorKind::Reml => DfRule::KenwardRoger,
+        };
+        let mut missing_allowed = false;
         for item in items {
             match &item.node {
                 EstimateItem::Level(l) => {
@@ -43,7 +52,7 @@ impl Validator {
                             "unknown factor",
                             factor.span,
                             format!("`{other}` is not a factor"),
-                            "df rules: seed - 1, recording - 1, satterthwaite, z",
+                            "df rules: seed - 1, recording - 1, satterthwaite, kenward_roger, z",
                         ),
                     }
                     if minus.node != 1 {
@@ -52,11 +61,35 @@ impl Validator {
                 }
                 EstimateItem::DfNamed(n) => {
                     self.once(&mut seen, "df", item.span);
-                    df = if n.node == "z" { DfRule::Normal } else { DfRule::Satterthwaite };
+                    df = match n.node.as_str() {
+                        "z" => DfRule::Normal,
+                        "kenward_roger" => DfRule::KenwardRoger,
+                        _ => DfRule::Satterthwaite,
+                    };
+                    if df == DfRule::KenwardRoger && estimator == EstimatorKind::CrossedMom {
+                        self.err_help(
+                            "df rule needs a likelihood",
+                            n.span,
+                            "Kenward-Roger df come from the REML likelihood; the method of moments has none",
+                            "write `estimate reml ... df kenward_roger`, or keep crossed_mom with `df satterthwaite`",
+                        );
+                    }
+                }
+                EstimateItem::Missing(p) => {
+                    self.once(&mut seen, "missing", item.span);
+                    missing_allowed = p.node == "allow";
+                    if missing_allowed && estimator == EstimatorKind::CrossedMom {
+                        self.err_help(
+                            "missing cells need REML",
+                            p.span,
+                            "the method of moments needs every cell of the recording x seed array",
+                            "write `estimate reml ... missing allow` to analyse per-cell files with missing cells",
+                        );
+                    }
                 }
             }
         }
-        Some(Estimator { kind: EstimatorKind::CrossedMom, level, df })
+        Some(Estimator { kind: estimator, level, df, missing_allowed })
     }
 
     pub(super) fn sensitivity(

@@ -133,7 +133,12 @@ impl Validator {
                 Statement::Estimate { kind, items } => self.estimator(kind, items),
                 _ => None,
             },
-            None => Some(Estimator { kind: EstimatorKind::CrossedMom, level: 0.95, df: DfRule::SeedsMinusOne }),
+            None => Some(Estimator {
+                kind: EstimatorKind::CrossedMom,
+                level: 0.95,
+                df: DfRule::SeedsMinusOne,
+                missing_allowed: false,
+            }),
         };
         let conditions = recording.as_ref().map(|r| r.conditions.clone()).unwrap_or_default();
         let sensitivity = match singles.get("sensitivity") {
