@@ -164,3 +164,100 @@ fn bad_inputs_are_typed_errors() {
     assert!(matches!(e, MixedError::TooFewLevels { levels: 1, .. }));
     assert_eq!(MixedData::new(vec![1.0, 2.0], vec![]).unwrap_err(), MixedError::NoFactor);
 }
+
+/// `run key value` lines of scripts/reference/mixed_cells_reference.out.
+fn cells_reference(run: &str, key: &str) -> f64 {
+    let text = std::fs::read_to_string(root().join("scripts/reference/mixed_cells_reference.out")).unwrap();
+    let want: Vec<&str> = key.split(' ').collect();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f[0] == run && f[1..f.len() - 1] == want[..] {
+            return f[f.len() - 1].parse().unwrap();
+        }
+    }
+    panic!("{run} {key} not in mixed_cells_reference.out")
+}
+
+/// The committed run's cells.csv without the rows R deleted at random
+/// (tests/fixtures/deleted_cells_RUN.csv), analysed by the real CLI under
+/// the REML reanalysis design; the primary unit against lme4, lmerTest and
+/// pbkrtest on the same 454 pairs (scripts/reference/mixed_cells_reference.R).
+fn reml_on_deleted_cells(run: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let deleted = std::fs::read_to_string(root().join(format!("tests/fixtures/deleted_cells_{run}.csv"))).unwrap();
+    let deleted: Vec<(String, String, String)> = deleted
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0].to_string(), f[1].to_string(), f[2].to_string())
+        })
+        .collect();
+    let text = std::fs::read_to_string(root().join(format!("results/{run}/cells.csv"))).unwrap();
+    let mut kept = Vec::new();
+    let mut removed = 0;
+    for (i, line) in text.lines().enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        let gone = i > 0
+            && f[0] == "world"
+            && f[6] == "1"
+            && deleted.iter().any(|(r, s, a)| f[1] == a && f[2] == s && f[3] == r);
+        if gone {
+            removed += 1;
+        } else {
+            kept.push(line);
+        }
+    }
+    assert_eq!(removed, 26);
+    let cells = dir.path().join("cells.csv");
+    std::fs::write(&cells, kept.join("\n") + "\n").unwrap();
+    let design = root().join(format!("designs/reanalysis/{run}_reml.design"));
+    let out = dir.path().join("report");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .args(["analyze", design.to_str().unwrap(), "--cells", cells.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let e = &json["units"][0]["estimate"];
+    assert_eq!(json["units"][0]["model"], "world");
+    assert_eq!(json["missing_cells"].as_array().unwrap().len(), 26);
+    let reml = &e["reml"];
+    assert_eq!(reml["cells"], cells_reference(run, "cells") as u64);
+    let get = |v: &serde_json::Value| v.as_f64().unwrap();
+    let close = |ours: f64, key: &str, rel: f64| {
+        let want = cells_reference(run, key);
+        assert!((ours - want).abs() <= rel * want.abs(), "{run} {key}: ours {ours}, R {want}");
+    };
+    // Tolerances as in check() above: the criterion at each side's optimum
+    // 1e-11, the GLS intercept 1e-8, everything that moves with theta 1e-6.
+    close(get(&reml["criterion"]), "criterion", 1e-11);
+    close(get(&e["mean"]), "intercept", 1e-8);
+    close(get(&e["components"]["recording"]), "var recording", 1e-6);
+    close(get(&e["components"]["seed"]), "var seed", 1e-6);
+    close(get(&e["components"]["residual"]), "var Residual", 1e-6);
+    close(get(&reml["se_model"]), "se", 1e-6);
+    close(get(&e["se"]), "kr_se", 1e-6);
+    close(get(&e["df"]), "kr_df", 1e-6);
+    close(get(&reml["df_satterthwaite"]), "satterthwaite_df", 1e-6);
+    close(get(&e["lower"]), "kr_lower", 1e-6);
+    close(get(&e["upper"]), "kr_upper", 1e-6);
+    // Every deleted cell is listed in the report.
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Missing cells"));
+    for (r, s, a) in &deleted {
+        assert!(report.contains(&format!("arm={a} seed={s} recording={r} horizon=1 s")), "{r} {s} {a} not listed");
+    }
+}
+
+#[test]
+fn reml_on_the_paper_run_with_cells_deleted_matches_lme4() {
+    reml_on_deleted_cells("nanobench_paper");
+}
+
+#[test]
+fn reml_on_the_audited_run_with_cells_deleted_matches_lme4() {
+    reml_on_deleted_cells("nanobench_paper_audited");
+}

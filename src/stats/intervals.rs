@@ -92,16 +92,26 @@ pub fn reml_intervals(
     level: f64,
 ) -> Result<Vec<IntervalEstimate>, StatsError> {
     let fit = crossed_reml_fit(cells)?;
-    [
+    // A df rule that is undefined on this fit (Satterthwaite where the
+    // numerical Hessian is not positive definite) gives a NaN row, not the
+    // loss of the other.
+    Ok([
         (IntervalMethod::RemlSatterthwaite, DfRule::Satterthwaite),
         (IntervalMethod::RemlKenwardRoger, DfRule::KenwardRoger),
     ]
     .into_iter()
-    .map(|(method, rule)| {
-        let e = reml_with(&fit, cells.len(), rows * cols, level, rule)?;
-        Ok(IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper })
+    .map(|(method, rule)| match reml_with(&fit, cells.len(), rows * cols, level, rule) {
+        Ok(e) => IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper },
+        Err(_) => IntervalEstimate {
+            method,
+            estimate: f64::NAN,
+            se: f64::NAN,
+            df: f64::NAN,
+            lower: f64::NAN,
+            upper: f64::NAN,
+        },
     })
-    .collect()
+    .collect())
 }
 
 /// Every interval of [`IntervalMethod`] for one array. The bootstrap uses

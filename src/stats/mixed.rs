@@ -456,39 +456,48 @@ fn polish(f: &mut dyn FnMut(&[f64]) -> f64, mut x: Vec<f64>, mut fx: f64) -> (Ve
     (x, fx)
 }
 
-/// The REML deviance, not profiled, at variances `phi` = (factor variances,
-/// residual variance), and Var(mu) there.
-fn reml_at(c: &Cross, phi: &[f64]) -> Result<(f64, f64), MixedError> {
-    let k = phi.len() - 1;
-    let s2 = phi[k];
-    let theta: Vec<f64> = phi[..k].iter().map(|v| (v.max(0.0) / s2).sqrt()).collect();
-    let e = evaluate(c, &theta, Criterion::Reml)?;
+/// The REML deviance, not profiled, at `p` = (theta_1..theta_k, sigma),
+/// lmerTest's parameterization, and Var(mu) there. The deviance depends on
+/// each theta only through theta^2, so it is smooth and even at zero and a
+/// difference step may cross it.
+fn reml_at(c: &Cross, p: &[f64]) -> Result<(f64, f64), MixedError> {
+    let k = p.len() - 1;
+    let s2 = p[k] * p[k];
+    let e = evaluate(c, &p[..k], Criterion::Reml)?;
     let m = c.n - 1.0;
     let dev = e.log_det_l2 + e.rx2.ln() + m * (2.0 * std::f64::consts::PI * s2).ln() + e.r2 / s2;
     Ok((dev, s2 / e.rx2))
 }
 
-/// Satterthwaite df of the intercept at the REML optimum `theta`, `sigma2`;
-/// `None` when the numerical Hessian is not positive definite there.
+/// Satterthwaite df of the intercept at the REML optimum `theta`, `sigma2`,
+/// as lmerTest computes them: 2 Var(mu)^2 / (g' A g) with g the gradient of
+/// Var(mu) and A = 2 H^-1, H the Hessian of the REML deviance, both in
+/// (theta, sigma) and both by central differences. The df do not depend on
+/// the parameterization, but the differences do: in the variances
+/// sigma^2 theta^2 a small component makes them ill-conditioned, in theta
+/// they are not. `None` when H is not positive definite.
 fn satterthwaite(c: &Cross, theta: &[f64], sigma2: f64) -> Result<Option<f64>, MixedError> {
-    let mut phi: Vec<f64> = theta.iter().map(|t| sigma2 * t * t).collect();
-    phi.push(sigma2);
-    // Free parameters: the residual and every component not at zero.
-    let free: Vec<usize> = (0..phi.len()).filter(|&i| i == phi.len() - 1 || theta[i] >= 1e-4).collect();
+    let mut par: Vec<f64> = theta.to_vec();
+    par.push(sigma2.sqrt());
+    // Free parameters: sigma and every theta not at zero (a singular
+    // component is held at zero, as lmerTest holds it).
+    let free: Vec<usize> = (0..par.len()).filter(|&i| i == par.len() - 1 || theta[i] >= 1e-4).collect();
     let m = free.len();
     let at = |delta: &[(usize, f64)]| -> Result<(f64, f64), MixedError> {
-        let mut p = phi.clone();
+        let mut p = par.clone();
         for &(j, d) in delta {
             p[free[j]] += d;
         }
         reml_at(c, &p)
     };
     let (f0, v0) = at(&[])?;
-    // Central differences with steps of a relative 4e-3 and 2e-3, combined
-    // by Richardson extrapolation (the O(h^2) errors cancel); smaller steps
+    // Central differences with steps of a relative 4e-3 and 2e-3 (of
+    // theta, or of 0.1 for theta below 0.1; of sigma), combined by
+    // Richardson extrapolation (the O(h^2) errors cancel); smaller steps
     // drown in the rounding of the deviance.
     let derivatives = |rel: f64| -> Result<(Vec<f64>, Mat<f64>), MixedError> {
-        let h: Vec<f64> = free.iter().map(|&i| rel * phi[i]).collect();
+        let h: Vec<f64> =
+            free.iter().map(|&i| if i == par.len() - 1 { rel * par[i] } else { rel * par[i].max(0.1) }).collect();
         let mut grad = vec![0.0; m];
         let mut hess = Mat::<f64>::zeros(m, m);
         for a in 0..m {
