@@ -42,6 +42,13 @@ fresh designs/simulated_control_high.design results/simulated_controls/strength_
 # results/nanobench_paper*, results/paper_columns and results/paper_hygiene).
 python3 scripts/paper_columns.py results/paper_columns > results/paper_columns/decision.md
 python3 scripts/paper_comparison.py > docs/paper_comparison.md
+# The committed paper and audited runs reanalysed by REML with Kenward-Roger
+# df beside their preregistered MoM analyses (docs/reml_reanalysis.md).
+for run in nanobench_paper nanobench_paper_audited; do
+  $ca analyze designs/reanalysis/${run}_reml.design --cells results/$run/cells.csv \
+      --out results/reanalysis/${run}_reml --compare-intervals >/dev/null 2>&1
+done
+python3 scripts/reml_reanalysis.py > docs/reml_reanalysis.md
 rm -rf results/*/models results/*/simulated_data results/simulated_controls/*/models results/simulated_controls/*/simulated_data
 # Wall-clock columns and logs are not reproducible: keep the committed ones.
 git checkout -- results/*/curves results/simulated_controls/*/curves results/*/time.txt results/*/stdout.txt 2>/dev/null || true
