@@ -119,6 +119,13 @@ fn balanced_crossed_reml_is_the_closed_form_and_lme4() {
     // 1997, section 4: exact for balanced variance-component designs).
     let kr = f.kenward_roger.unwrap();
     assert!(rel(kr.se, f.se) < 1e-10, "{} vs {}", kr.se, f.se);
+    // Shares of Var(mean): on a balanced crossed array they are
+    // sa/I, sb/J and se/(IJ) over their sum (24 plates, 6 samples).
+    let parts = [(ms_p - ms_e) / 6.0 / 24.0, (ms_s - ms_e) / 24.0 / 6.0, ms_e / 144.0];
+    let total: f64 = parts.iter().sum();
+    for (k, p) in parts.iter().enumerate() {
+        assert!((f.shares[k] - p / total).abs() < 1e-6, "share {k}: {} vs {}", f.shares[k], p / total);
+    }
     assert!(rel(kr.df, df) < 1e-6, "{} vs {df}", kr.df);
     assert!(rel(f.df_satterthwaite.unwrap(), df) < 1e-6, "{:?} vs {df}", f.df_satterthwaite);
 }
@@ -260,4 +267,65 @@ fn reml_on_the_paper_run_with_cells_deleted_matches_lme4() {
 #[test]
 fn reml_on_the_audited_run_with_cells_deleted_matches_lme4() {
     reml_on_deleted_cells("nanobench_paper_audited");
+}
+
+#[test]
+fn shares_add_up_on_unbalanced_data() {
+    let d = data("penicillin_unbalanced.csv", &[("plate", &[1]), ("sample", &[2])]);
+    let f = fit(&d, Criterion::Reml).unwrap();
+    assert!((f.shares.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{:?}", f.shares);
+    assert!(f.shares.iter().all(|s| *s > 0.0));
+}
+
+#[test]
+fn a_constant_response_or_a_perfect_fit_is_a_typed_error() {
+    let e = MixedData::new(vec![2.0; 4], vec![("a".into(), vec![0, 0, 1, 1])]).unwrap_err();
+    assert_eq!(e, MixedError::ConstantResponse(2.0));
+    // d_ij = a_i exactly: REML has no finite optimum (residual variance 0).
+    let y = vec![1.0, 1.0, 1.0, 3.0, 3.0, 3.0, -2.0, -2.0, -2.0];
+    let rows = vec![0, 0, 0, 1, 1, 1, 2, 2, 2];
+    let cols = vec![0, 1, 2, 0, 1, 2, 0, 1, 2];
+    let d = MixedData::new(y, vec![("row".into(), rows), ("col".into(), cols)]).unwrap();
+    assert!(matches!(fit(&d, Criterion::Reml), Err(MixedError::ZeroResidual { .. })));
+}
+
+/// The strong simulated control has cells in which every start diverged.
+/// The conditional-RMSE contrast pairs the arms: the means in the analysis
+/// are recomputed here from cells.csv over the recording x seed pairs where
+/// both arms have a value.
+#[test]
+fn the_conditional_rmse_contrast_is_paired() {
+    let run = root().join("results/simulated_controls/strength_high");
+    let a = crossaudit::analyze_files(
+        &root().join("designs/simulated_control_high.design"),
+        &run.join("cells.csv"),
+        Default::default(),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(run.join("cells.csv")).unwrap();
+    let mut checked = 0;
+    for u in &a.units {
+        let mut arms: BTreeMap<(String, String), [Option<f64>; 2]> = BTreeMap::new();
+        for line in text.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            if f[0] != u.model || f[6].parse::<f64>().unwrap() != u.horizon_s {
+                continue;
+            }
+            let k = if f[1] == a.treated { 0 } else { 1 };
+            arms.entry((f[3].to_string(), f[2].to_string())).or_default()[k] = f[10].parse::<f64>().ok();
+        }
+        let pairs: Vec<(f64, f64)> = arms.values().filter_map(|[t, r]| Some(((*t)?, (*r)?))).collect();
+        let dropped = arms.len() - pairs.len();
+        let c = &u.conditional;
+        assert_eq!(c.pairs_dropped, dropped);
+        let mean = |k: usize| pairs.iter().map(|p| if k == 0 { p.0 } else { p.1 }).sum::<f64>() / pairs.len() as f64;
+        assert!((c.mean_conditional_treated.unwrap() - mean(0)).abs() < 1e-12);
+        assert!((c.mean_conditional_reference.unwrap() - mean(1)).abs() < 1e-12);
+        if dropped > 0 {
+            let e = c.difference.as_ref().unwrap();
+            assert_eq!(e.reml.unwrap().cells, pairs.len());
+            checked += 1;
+        }
+    }
+    assert!(checked > 0, "the control should have units with dropped pairs");
 }
