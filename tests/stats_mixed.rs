@@ -329,3 +329,12 @@ fn the_conditional_rmse_contrast_is_paired() {
     }
     assert!(checked > 0, "the control should have units with dropped pairs");
 }
+
+#[test]
+fn three_factors_crossed_and_nested_match_lme4() {
+    // a crossed with b, c nested in a (the factor a:c), 14 of 144 cells
+    // removed: y ~ 1 + (1|a) + (1|b) + (1|a:c).
+    let d = data("three_factor.csv", &[("a:c", &[1, 3]), ("a", &[1]), ("b", &[2])]);
+    assert_eq!(d.len(), 130);
+    check(&fit(&d, Criterion::Reml).unwrap(), "three_factor_reml", &["a:c", "a", "b"]);
+}

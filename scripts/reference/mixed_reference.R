@@ -64,3 +64,19 @@ kr("penicillin_reml", diameter ~ 1 + (1 | plate) + (1 | sample), P)
 kr("penicillin_unbalanced_reml", diameter ~ 1 + (1 | plate) + (1 | sample), PU)
 kr("pastes_reml", strength ~ 1 + (1 | batch) + (1 | batch:cask), Pastes)
 kr("dyestuff2_reml", Yield ~ 1 + (1 | Batch), Dyestuff2)
+# Three factors, crossed and nested, unbalanced: a (8 levels) crossed with
+# b (6 levels), c nested in a (3 per a), one observation per a:c x b cell,
+# 10% of the cells removed; simulated with set.seed(7).
+set.seed(7)
+T3 <- expand.grid(c = 1:3, a = 1:8, b = 1:6)
+ea <- rnorm(8, sd = 1.0); eb <- rnorm(6, sd = 0.7); ec <- rnorm(24, sd = 0.5)
+T3$y <- 10 + ea[T3$a] + eb[T3$b] + ec[(T3$a - 1) * 3 + T3$c] + rnorm(nrow(T3), sd = 0.4)
+T3 <- T3[-sample(nrow(T3), 14), ]
+write.csv(data.frame(y = T3$y, a = T3$a, b = T3$b, c = T3$c), "tests/fixtures/three_factor.csv",
+          row.names = FALSE, quote = FALSE)
+T3 <- read.csv("tests/fixtures/three_factor.csv")  # fit exactly what the test reads
+T3$a <- factor(T3$a); T3$b <- factor(T3$b); T3$c <- factor(T3$c)
+f3 <- y ~ 1 + (1 | a) + (1 | b) + (1 | a:c)
+show_fit("three_factor_reml", lme4::lmer(f3, T3, control = ctl))
+sat("three_factor_reml", f3, T3)
+kr("three_factor_reml", f3, T3)
