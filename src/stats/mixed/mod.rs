@@ -1,0 +1,448 @@
+//! Linear mixed models with a fixed intercept and any number of
+//! random-intercept factors, crossed or nested, fitted by REML or ML through
+//! the profiled deviance of lme4 (Bates, Maechler, Bolker and Walker 2015,
+//! "Fitting linear mixed-effects models using lme4", section 3).
+//!
+//! The model is y = X beta + Z b + e with b ~ N(0, sigma^2 Lambda Lambda'),
+//! e ~ N(0, sigma^2 I), X an intercept and optional categorical fixed
+//! effects (treatment contrasts, as R codes them), Lambda diagonal with the
+//! relative standard deviation theta_k of factor k on each of its levels.
+//! For a given theta the penalized least-squares system
+//!
+//! ```text
+//! [ Lambda'Z'Z Lambda + I   Lambda'Z'X ] [u   ]   [ Lambda'Z'y ]
+//! [ X'Z Lambda              X'X        ] [beta] = [ X'y        ]
+//! ```
+//!
+//! is factored as [L 0; R' R_X] after eliminating the levels of the factor
+//! with the most levels, whose block is diagonal (see `system`), so the
+//! dense Cholesky factorization (faer) is over the other factors' levels
+//! and the fixed effects only. The penalized residual sum of squares
+//! r^2 = |y - X beta - Z Lambda u|^2 + |u|^2 is computed from the solution
+//! itself (y centred first), not as y'y - |c|^2, which loses digits to
+//! cancellation. With p fixed effects the profiled deviances are
+//!
+//! ```text
+//! ML:   log|L|^2 + n (1 + log(2 pi r^2 / n))
+//! REML: log|L|^2 + log|R_X|^2 + (n - p) (1 + log(2 pi r^2 / (n - p)))
+//! ```
+//!
+//! minimised over theta >= 0 by Nelder-Mead, Newton steps on a
+//! finite-difference gradient and Hessian, and a check of every boundary
+//! face; sigma^2 = r^2 / n (ML) or r^2 / (n - p) (REML), the factor
+//! variances are sigma^2 theta_k^2 and Var(beta) = sigma^2 (R_X'R_X)^-1. A
+//! factor whose theta is below 1e-4 makes the fit singular, as lme4's
+//! `isSingular` says. Unbalanced data and missing cells need nothing
+//! special: the data are rows, not a matrix.
+//!
+//! ```
+//! use crossaudit::stats::mixed::{fit, Criterion, MixedData};
+//! // Two crossed factors, balanced 3 x 2, one observation per cell.
+//! let y = vec![1.0, 2.0, 2.5, 3.0, 4.0, 6.5];
+//! let rows = vec![0, 0, 1, 1, 2, 2];
+//! let cols = vec![0, 1, 0, 1, 0, 1];
+//! let data = MixedData::new(y, vec![("row".into(), rows), ("col".into(), cols)]).unwrap();
+//! let f = fit(&data, Criterion::Reml).unwrap();
+//! assert!((f.intercept - 19.0 / 6.0).abs() < 1e-9); // balanced: the grand mean
+//! ```
+
+mod inference;
+mod optimize;
+mod system;
+
+use serde::Serialize;
+
+/// REML (restricted) or ML (full) likelihood.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Criterion {
+    /// Restricted maximum likelihood (lme4's default).
+    Reml,
+    /// Maximum likelihood.
+    Ml,
+}
+
+/// Why a model cannot be fitted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MixedError {
+    /// Fewer than two observations.
+    #[error("a mixed model needs at least 2 observations, found {0}")]
+    TooFewObservations(usize),
+    /// A response that is not finite.
+    #[error("observation {row}: the response {value} is not finite")]
+    NonFinite {
+        /// 0-based row.
+        row: usize,
+        /// The value.
+        value: f64,
+    },
+    /// A factor whose codes do not match the response.
+    #[error("factor {factor}: {found} codes for {expected} observations")]
+    Length {
+        /// Factor name.
+        factor: String,
+        /// Codes given.
+        found: usize,
+        /// Observations.
+        expected: usize,
+    },
+    /// Every observation equal: there is no variance to partition.
+    #[error("every observation is {0}: a constant response has no variance to partition")]
+    ConstantResponse(f64),
+    /// The factors explain the response exactly: REML's optimum is at a
+    /// zero residual variance, where the likelihood is unbounded.
+    #[error("the random factors reproduce the response exactly (residual variance {residual:e} of a total {total:e}): the likelihood has no finite optimum")]
+    ZeroResidual {
+        /// The residual variance where the optimizer stopped.
+        residual: f64,
+        /// The response's sample variance.
+        total: f64,
+    },
+    /// The fixed-effect columns are linearly dependent (a level of one
+    /// fixed factor determined by another's), or leave no residual df.
+    #[error("the fixed effects are not estimable: {0}")]
+    FixedEffects(String),
+    /// No random factor.
+    #[error("a mixed model needs at least one random factor")]
+    NoFactor,
+    /// A factor with a single level carries no variance.
+    #[error("factor {factor} has {levels} level(s); a random factor needs at least 2")]
+    TooFewLevels {
+        /// Factor name.
+        factor: String,
+        /// Its number of levels.
+        levels: usize,
+    },
+    /// The penalized system could not be factored (it is positive definite
+    /// for every theta, so this means non-finite input slipped through).
+    #[error("the penalized least-squares system is not positive definite at theta = {theta:?}")]
+    NotPositiveDefinite {
+        /// Where.
+        theta: Vec<f64>,
+    },
+}
+
+/// One random-intercept factor: a level code per observation.
+#[derive(Debug, Clone, PartialEq)]
+struct Factor {
+    name: String,
+    codes: Vec<usize>,
+    levels: usize,
+}
+
+/// A categorical fixed effect, coded by treatment contrasts.
+#[derive(Debug, Clone, PartialEq)]
+struct FixedFactor {
+    name: String,
+    /// Levels, sorted; the first is the reference.
+    labels: Vec<String>,
+    codes: Vec<usize>,
+}
+
+/// Response, fixed effects and random factors, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedData {
+    y: Vec<f64>,
+    fixed: Vec<FixedFactor>,
+    factors: Vec<Factor>,
+}
+
+impl MixedData {
+    /// `factors`: (name, level code per observation). Codes are relabelled
+    /// densely in order of first appearance, so any integers will do; a
+    /// nested factor is given with codes unique across its parent's levels.
+    /// The fixed part is an intercept; [`MixedData::with_fixed`] adds
+    /// categorical fixed effects.
+    pub fn new(y: Vec<f64>, factors: Vec<(String, Vec<usize>)>) -> Result<MixedData, MixedError> {
+        let n = y.len();
+        if n < 2 {
+            return Err(MixedError::TooFewObservations(n));
+        }
+        if let Some((row, &value)) = y.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(MixedError::NonFinite { row, value });
+        }
+        if y.iter().all(|v| *v == y[0]) {
+            return Err(MixedError::ConstantResponse(y[0]));
+        }
+        if factors.is_empty() {
+            return Err(MixedError::NoFactor);
+        }
+        let mut out = Vec::new();
+        for (name, codes) in factors {
+            if codes.len() != n {
+                return Err(MixedError::Length { factor: name, found: codes.len(), expected: n });
+            }
+            let mut map = std::collections::HashMap::new();
+            let dense: Vec<usize> = codes
+                .iter()
+                .map(|c| {
+                    let next = map.len();
+                    *map.entry(*c).or_insert(next)
+                })
+                .collect();
+            if map.len() < 2 {
+                return Err(MixedError::TooFewLevels { factor: name, levels: map.len() });
+            }
+            out.push(Factor { name, codes: dense, levels: map.len() });
+        }
+        Ok(MixedData { y, fixed: Vec::new(), factors: out })
+    }
+
+    /// Adds a categorical fixed effect with one label per observation. Its
+    /// levels are sorted bytewise (R's order for ASCII labels in the C
+    /// locale) and coded by treatment contrasts: the first level is the
+    /// reference, and each other level gets a column named `name` followed
+    /// by the level (R's `factorB`).
+    pub fn with_fixed(mut self, name: &str, labels: &[String]) -> Result<MixedData, MixedError> {
+        if labels.len() != self.y.len() {
+            return Err(MixedError::Length { factor: name.into(), found: labels.len(), expected: self.y.len() });
+        }
+        let mut sorted: Vec<String> = labels.to_vec();
+        sorted.sort();
+        sorted.dedup();
+        if sorted.len() < 2 {
+            return Err(MixedError::TooFewLevels { factor: name.into(), levels: sorted.len() });
+        }
+        let codes = labels.iter().map(|l| sorted.binary_search(l).unwrap_or(0)).collect();
+        self.fixed.push(FixedFactor { name: name.into(), labels: sorted, codes });
+        Ok(self)
+    }
+
+    /// Number of observations.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Whether there are no observations (never, once validated).
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+
+    /// Number of fixed-effect columns.
+    fn p(&self) -> usize {
+        1 + self.fixed.iter().map(|f| f.labels.len() - 1).sum::<usize>()
+    }
+
+    /// Names of the fixed-effect columns, R's way.
+    fn fixed_names(&self) -> Vec<String> {
+        let mut names = vec!["(Intercept)".to_string()];
+        for f in &self.fixed {
+            names.extend(f.labels[1..].iter().map(|l| format!("{}{l}", f.name)));
+        }
+        names
+    }
+
+    /// The fixed-effect design, n x p row-major.
+    fn design(&self) -> Vec<f64> {
+        let p = self.p();
+        let mut x = vec![0.0; self.y.len() * p];
+        for i in 0..self.y.len() {
+            x[i * p] = 1.0;
+            let mut col = 1;
+            for f in &self.fixed {
+                if f.codes[i] > 0 {
+                    x[i * p + col + f.codes[i] - 1] = 1.0;
+                }
+                col += f.labels.len() - 1;
+            }
+        }
+        x
+    }
+}
+
+/// How much inference [`fit_with`] computes beyond the estimates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Inference {
+    /// Satterthwaite and Kenward-Roger df and the shares (REML), as [`fit`].
+    Full,
+    /// Estimates, standard errors and the deviance only, as `lme4::lmer`
+    /// returns them: no df, no shares. Kenward-Roger works with q x q
+    /// matrices (q all levels together), which for tens of thousands of
+    /// observations and thousands of levels costs far more than the fit.
+    Estimates,
+}
+
+/// One fixed-effect coefficient.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FixedEffect {
+    /// R's name: `(Intercept)` or factor name and level.
+    pub name: String,
+    /// The estimate.
+    pub estimate: f64,
+    /// Its model-based standard error, sigma sqrt((R_X'R_X)^-1).
+    pub se: f64,
+    /// Satterthwaite df (REML with [`Inference::Full`]).
+    pub df_satterthwaite: Option<f64>,
+    /// Kenward-Roger SE and df (REML with [`Inference::Full`]).
+    pub kenward_roger: Option<KenwardRoger>,
+}
+
+/// A fitted model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MixedFit {
+    /// REML or ML.
+    pub criterion: Criterion,
+    /// Factor names, in the order given.
+    pub factors: Vec<String>,
+    /// Levels per factor.
+    pub levels: Vec<usize>,
+    /// Relative standard deviations theta_k (factor SD / residual SD).
+    pub theta: Vec<f64>,
+    /// Factor variances sigma^2 theta_k^2.
+    pub variances: Vec<f64>,
+    /// Residual variance sigma^2.
+    pub residual: f64,
+    /// The fixed intercept (the reference level's mean when there are
+    /// fixed factors).
+    pub intercept: f64,
+    /// Its standard error, sqrt(sigma^2 / R_X^2).
+    pub se: f64,
+    /// The profiled deviance at the optimum (-2 log-likelihood, REML or ML).
+    pub deviance: f64,
+    /// A factor's theta below 1e-4: a boundary fit, as lme4 flags it.
+    pub singular: bool,
+    /// Satterthwaite degrees of freedom of the intercept (REML fits; `None`
+    /// for ML), as lmerTest computes them: 2 Var(mu)^2 / (g' A g), with g
+    /// the gradient of Var(mu) in the variance parameters and A their
+    /// asymptotic covariance, twice the inverse Hessian of the REML
+    /// deviance (both by central differences). Components estimated at
+    /// zero are held there. Also `None` where that Hessian is not positive
+    /// definite.
+    pub df_satterthwaite: Option<f64>,
+    /// Kenward-Roger (1997) inference for the intercept (REML fits; `None`
+    /// for ML), as pbkrtest computes it.
+    pub kenward_roger: Option<KenwardRoger>,
+    /// Var(mu) split by source: factors in order, then the residual. Var(mu)
+    /// is homogeneous of degree 1 in the variances, so by Euler's theorem
+    /// the terms phi_k dVar(mu)/dphi_k add up to it; on a balanced crossed
+    /// array they are sa/I, sb/J and se/(IJ). Fractions of Var(mu).
+    pub shares: Vec<f64>,
+    /// Every fixed-effect coefficient, the intercept first.
+    pub fixed: Vec<FixedEffect>,
+    /// Deviance evaluations used.
+    pub evaluations: usize,
+    /// Observations.
+    pub n: usize,
+}
+
+/// Kenward-Roger inference for the intercept: the small-sample adjusted
+/// variance and the denominator df (pbkrtest's `vcovAdj` and `Lb_ddf`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct KenwardRoger {
+    /// sqrt of the adjusted Var(mu): Phi + 2 Phi U Phi (Kenward and Roger
+    /// 1997, eq. 4; no second-derivative term, since V is linear in the
+    /// variances).
+    pub se: f64,
+    /// The denominator df. For one coefficient the KR scaling factor is 1
+    /// and the df reduce to 2 / A, A = sum_ij W_ij g_i g_j / Phi^2, g_i the
+    /// derivative of its variance in component i and W twice the inverse
+    /// expected REML information: Satterthwaite's formula with the expected
+    /// rather than the observed information.
+    pub df: f64,
+}
+
+/// Fits the model by REML or ML, with every inference ([`Inference::Full`]).
+pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedError> {
+    fit_with(data, criterion, Inference::Full)
+}
+
+/// The optimum of the profiled deviance: theta, its deviance and the
+/// evaluations used.
+fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, usize), MixedError> {
+    let k = s.factors();
+    // Check once that the system factors (it always does for finite data).
+    s.evaluate(&vec![1.0; k], criterion)?;
+    let mut evaluations = 0usize;
+    let mut dev = |theta: &[f64]| -> f64 {
+        evaluations += 1;
+        s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
+    };
+    // Nelder-Mead to a relative 1e-8 from lme4's start, then Newton on
+    // difference derivatives; if Newton does not converge (a Hessian not
+    // positive definite far from the optimum, or a boundary optimum),
+    // Nelder-Mead restarts with smaller simplices and Newton again.
+    let (mut best, mut best_dev) = optimize::nelder_mead(&mut dev, &vec![1.0; k], 0.5, 1e-8);
+    let (x, fx, converged) = optimize::newton(&mut dev, best, best_dev, 12);
+    (best, best_dev) = (x, fx);
+    if !converged {
+        for step in [0.1, 0.01, 1e-3, 1e-4] {
+            let (t, d) = optimize::nelder_mead(&mut dev, &best, step, 1e-13);
+            if d < best_dev {
+                (best, best_dev) = (t, d);
+            }
+        }
+        let (x, fx, _) = optimize::newton(&mut dev, best, best_dev, 8);
+        (best, best_dev) = (x, fx);
+    }
+    // Boundary faces: a theta at exactly zero is where lme4's bounded
+    // optimizer stops when the optimum is on the boundary.
+    for j in 0..k {
+        if best[j] == 0.0 {
+            continue;
+        }
+        let mut t = best.clone();
+        t[j] = 0.0;
+        let d = dev(&t);
+        if d <= best_dev {
+            let (x, fx, _) = optimize::newton(&mut dev, t, d, 8);
+            (best, best_dev) = (x, fx);
+        }
+    }
+    Ok((best, best_dev, evaluations))
+}
+
+/// Fits the model by REML or ML, with the inference `inference` asks for.
+pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) -> Result<MixedFit, MixedError> {
+    let p = data.p();
+    if data.len() <= p {
+        return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));
+    }
+    let s = system::System::new(data);
+    if s.xtx.llt(faer::Side::Lower).is_err() {
+        return Err(MixedError::FixedEffects(format!("the columns {:?} are linearly dependent", data.fixed_names())));
+    }
+    let (best, _, evaluations) = optimum(&s, criterion)?;
+    let e = s.evaluate(&best, criterion)?;
+    let total = s.y.iter().map(|v| v * v).sum::<f64>() / (s.n - 1.0);
+    if e.sigma2 <= 1e-10 * total {
+        return Err(MixedError::ZeroResidual { residual: e.sigma2, total });
+    }
+    let (kr, shares, df) = match (criterion, inference) {
+        (Criterion::Reml, Inference::Full) => {
+            let (kr, shares) = inference::kenward_roger(&s, &best, e.sigma2)?;
+            let df = inference::satterthwaite(&s, &best, e.sigma2)?;
+            (kr.into_iter().map(Some).collect(), shares, df)
+        }
+        _ => (vec![None; p], Vec::new(), vec![None; p]),
+    };
+    let fixed: Vec<FixedEffect> = data
+        .fixed_names()
+        .into_iter()
+        .enumerate()
+        .map(|(c, name)| FixedEffect {
+            name,
+            estimate: e.beta[c],
+            se: (e.sigma2 * e.rx_inv[(c, c)]).sqrt(),
+            df_satterthwaite: df[c],
+            kenward_roger: kr[c],
+        })
+        .collect();
+    Ok(MixedFit {
+        shares,
+        df_satterthwaite: df[0],
+        kenward_roger: kr[0],
+        criterion,
+        factors: data.factors.iter().map(|f| f.name.clone()).collect(),
+        levels: data.factors.iter().map(|f| f.levels).collect(),
+        variances: best.iter().map(|t| e.sigma2 * t * t).collect(),
+        singular: best.iter().any(|t| *t < 1e-4),
+        theta: best,
+        residual: e.sigma2,
+        intercept: fixed[0].estimate,
+        se: fixed[0].se,
+        fixed,
+        deviance: e.deviance,
+        evaluations,
+        n: data.len(),
+    })
+}
