@@ -273,7 +273,8 @@ fn reml_on_the_audited_run_with_cells_deleted_matches_lme4() {
 fn shares_add_up_on_unbalanced_data() {
     let d = data("penicillin_unbalanced.csv", &[("plate", &[1]), ("sample", &[2])]);
     let f = fit(&d, Criterion::Reml).unwrap();
-    assert!((f.shares.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{:?}", f.shares);
+    // An identity (Euler), up to the rounding of the q x q inverse.
+    assert!((f.shares.iter().sum::<f64>() - 1.0).abs() < 1e-10, "{:?}", f.shares);
     assert!(f.shares.iter().all(|s| *s > 0.0));
 }
 

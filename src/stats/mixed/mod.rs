@@ -260,6 +260,9 @@ pub enum Inference {
     /// matrices (q all levels together), which for tens of thousands of
     /// observations and thousands of levels costs far more than the fit.
     Estimates,
+    /// The estimates and Satterthwaite df (REML; a few dozen deviance
+    /// evaluations), without Kenward-Roger and the shares.
+    Satterthwaite,
 }
 
 /// One fixed-effect coefficient.
@@ -352,18 +355,26 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
     let k = s.factors();
     // Check once that the system factors (it always does for finite data).
     s.evaluate(&vec![1.0; k], criterion)?;
-    let mut evaluations = 0usize;
+    let evaluations = std::cell::Cell::new(0usize);
     let mut dev = |theta: &[f64]| -> f64 {
-        evaluations += 1;
+        evaluations.set(evaluations.get() + 1);
         s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
     };
-    // Nelder-Mead to a relative 1e-8 from lme4's start, then Newton on
-    // difference derivatives; if Newton does not converge (a Hessian not
-    // positive definite far from the optimum, or a boundary optimum),
-    // Nelder-Mead restarts with smaller simplices and Newton again.
-    let (mut best, mut best_dev) = optimize::nelder_mead(&mut dev, &vec![1.0; k], 0.5, 1e-8);
-    let (x, fx, converged) = optimize::newton(&mut dev, best, best_dev, 12);
-    (best, best_dev) = (x, fx);
+    // Newton on difference derivatives from lme4's start; where it does
+    // not converge (a Hessian not positive definite far from the optimum,
+    // an optimum on the boundary), Nelder-Mead to a relative 1e-4 and
+    // Newton again, and then Nelder-Mead restarts with smaller simplices.
+    let start = vec![1.0; k];
+    let moments = s.moment_start();
+    let f0 = dev(&moments);
+    let (mut best, mut best_dev, mut converged) = optimize::newton(&mut dev, moments, f0, 20);
+    if !converged {
+        let (t, d) = optimize::nelder_mead(&mut dev, &start, 0.5, 1e-4);
+        if d < best_dev {
+            (best, best_dev) = (t, d);
+        }
+        (best, best_dev, converged) = optimize::newton(&mut dev, best, best_dev, 12);
+    }
     if !converged {
         for step in [0.1, 0.01, 1e-3, 1e-4] {
             let (t, d) = optimize::nelder_mead(&mut dev, &best, step, 1e-13);
@@ -371,8 +382,7 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
                 (best, best_dev) = (t, d);
             }
         }
-        let (x, fx, _) = optimize::newton(&mut dev, best, best_dev, 8);
-        (best, best_dev) = (x, fx);
+        (best, best_dev, _) = optimize::newton(&mut dev, best, best_dev, 8);
     }
     // Boundary faces: a theta at exactly zero is where lme4's bounded
     // optimizer stops when the optimum is on the boundary.
@@ -388,7 +398,7 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
             (best, best_dev) = (x, fx);
         }
     }
-    Ok((best, best_dev, evaluations))
+    Ok((best, best_dev, evaluations.get()))
 }
 
 /// Fits the model by REML or ML, with the inference `inference` asks for.
@@ -412,6 +422,9 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
             let (kr, shares) = inference::kenward_roger(&s, &best, e.sigma2)?;
             let df = inference::satterthwaite(&s, &best, e.sigma2)?;
             (kr.into_iter().map(Some).collect(), shares, df)
+        }
+        (Criterion::Reml, Inference::Satterthwaite) => {
+            (vec![None; p], Vec::new(), inference::satterthwaite(&s, &best, e.sigma2)?)
         }
         _ => (vec![None; p], Vec::new(), vec![None; p]),
     };

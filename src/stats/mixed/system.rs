@@ -21,8 +21,12 @@
 //! sum_s nnz(b_s)^2, so InstEval (2,972 students crossed with 1,128
 //! lecturers) factors a 1,129 x 1,129 matrix instead of 4,101 x 4,101.
 
+use std::cell::RefCell;
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch, LltParams};
 use faer::linalg::triangular_solve::{solve_lower_triangular_in_place, solve_upper_triangular_in_place};
-use faer::{Mat, Par, Side};
+use faer::{Auto, Mat, Par};
 
 use super::{Criterion, MixedData, MixedError};
 
@@ -62,6 +66,10 @@ pub(super) struct System {
     pub xtx: Mat<f64>,
     z2y: Vec<f64>,
     xty: Vec<f64>,
+    /// The dense matrix and the factorization's scratch, reused by every
+    /// evaluation: allocating 10 MB afresh (InstEval) costs a third of a
+    /// factorization in page faults.
+    work: RefCell<(Mat<f64>, MemBuffer)>,
 }
 
 /// The deviance and the estimates at one theta.
@@ -134,6 +142,9 @@ impl System {
                 }
             }
         }
+        let m = q2 + p;
+        let scratch = cholesky_in_place_scratch::<f64>(m, Par::Seq, <LltParams as Auto<f64>>::auto().into());
+        let work = RefCell::new((Mat::zeros(m, m), MemBuffer::new(scratch)));
         let mut row_start = vec![0];
         let mut row = Vec::new();
         for r in rows {
@@ -162,6 +173,7 @@ impl System {
             xtx,
             z2y,
             xty,
+            work,
         }
     }
 
@@ -177,7 +189,8 @@ impl System {
         let t1 = theta[self.first];
         let lam: Vec<f64> = self.dense_factor.iter().map(|&j| theta[j]).collect();
         // Lower triangle of M before the elimination, and the right side.
-        let mut a = Mat::<f64>::zeros(m, m);
+        let mut work = self.work.borrow_mut();
+        let (a, buffer) = &mut *work;
         for j in 0..q2 {
             for i in j..q2 {
                 a[(i, j)] = lam[i] * self.z2z2[(i, j)] * lam[j];
@@ -224,8 +237,15 @@ impl System {
                 }
             }
         }
-        let llt = a.llt(Side::Lower).map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
-        let l = llt.L();
+        cholesky_in_place(
+            a.as_mut(),
+            Default::default(),
+            Par::Seq,
+            MemStack::new(buffer),
+            <LltParams as Auto<f64>>::auto().into(),
+        )
+        .map_err(|_| MixedError::NotPositiveDefinite { theta: theta.to_vec() })?;
+        let l = a.as_ref();
         let mut log_det_l2 = log_det_d;
         let mut log_det_rx2 = 0.0;
         for i in 0..m {
@@ -288,6 +308,48 @@ impl System {
             }
         };
         Ok(Eval { deviance, beta, sigma2, log_det_l2, log_det_rx2, r2, rx_inv })
+    }
+
+    /// A starting theta from one-way analyses of variance, factor by
+    /// factor: sigma_j^2 = (MS_between - MS_within) / n0 (n0 the effective
+    /// level size), each relative to the smallest MS_within. Each ignores
+    /// the other factors, so it is only a start (near the optimum when
+    /// the factors are crossed and roughly balanced); 1 where undefined.
+    pub fn moment_start(&self) -> Vec<f64> {
+        let k = self.factors();
+        let n = self.n;
+        let mut between = vec![0.0; k];
+        let mut within = vec![f64::INFINITY; k];
+        let mut n0 = vec![0.0; k];
+        for j in 0..k {
+            let l = self.levels[j];
+            let (mut sum, mut cnt) = (vec![0.0; l], vec![0.0; l]);
+            for (i, y) in self.y.iter().enumerate() {
+                sum[self.codes[i * k + j]] += y;
+                cnt[self.codes[i * k + j]] += 1.0;
+            }
+            let mean = |a: usize| sum[a] / cnt[a];
+            let ssb: f64 =
+                (0..l).map(|a| cnt[a] * mean(a) * mean(a)).sum::<f64>() - self.y.iter().sum::<f64>().powi(2) / n;
+            let ssw: f64 = self.y.iter().enumerate().map(|(i, y)| (y - mean(self.codes[i * k + j])).powi(2)).sum();
+            if n > l as f64 {
+                within[j] = ssw / (n - l as f64);
+            }
+            between[j] = ssb / (l as f64 - 1.0);
+            n0[j] = (n - cnt.iter().map(|c| c * c).sum::<f64>() / n) / (l as f64 - 1.0);
+        }
+        let residual = within.iter().copied().fold(f64::INFINITY, f64::min);
+        (0..k)
+            .map(|j| {
+                let w = if within[j].is_finite() { within[j] } else { residual };
+                let v = (between[j] - w) / n0[j];
+                if residual.is_finite() && residual > 0.0 && v.is_finite() {
+                    (v.max(0.0) / residual).sqrt().max(0.05)
+                } else {
+                    1.0
+                }
+            })
+            .collect()
     }
 
     /// Z'Z over all q levels (factors in order), Z'X (q x p) and the factor
