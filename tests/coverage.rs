@@ -2,7 +2,7 @@
 
 use crate::common::assert_rel;
 use crate::snapshots;
-use crossaudit::stats::coverage::{draw_array, simulate, Distribution, Performance, Setting};
+use crossaudit::stats::coverage::{draw_array, simulate, Distribution, Missing, Performance, Setting};
 use crossaudit::stats::{pigeonhole_variance, IntervalMethod};
 use rand::SeedableRng;
 
@@ -13,7 +13,13 @@ fn find(rows: &[Performance], m: IntervalMethod) -> &Performance {
 #[test]
 fn naive_iid_coverage_collapses_when_the_recording_component_dominates() {
     // The paper's shares of SE^2: 95.9% recording, 1.1% seed, 3.0% residual.
-    let s = Setting { rows: 26, cols: 20, shares: [0.959, 0.011, 0.030], distribution: Distribution::Normal };
+    let s = Setting {
+        rows: 26,
+        cols: 20,
+        shares: [0.959, 0.011, 0.030],
+        distribution: Distribution::Normal,
+        missing: Missing::Complete,
+    };
     let rows = simulate(&s, 400, 0.95, 19, 7).unwrap();
     let naive = find(&rows, IntervalMethod::NaiveIid);
     let mom = find(&rows, IntervalMethod::MomT);
@@ -28,8 +34,13 @@ fn naive_iid_coverage_collapses_when_the_recording_component_dominates() {
 
 #[test]
 fn crossed_mom_t_reaches_nominal_coverage_in_the_normal_balanced_case() {
-    let s =
-        Setting { rows: 26, cols: 20, shares: [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0], distribution: Distribution::Normal };
+    let s = Setting {
+        rows: 26,
+        cols: 20,
+        shares: [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+        distribution: Distribution::Normal,
+        missing: Missing::Complete,
+    };
     let rows = simulate(&s, 2000, 0.95, 9, 11).unwrap();
     let mom = find(&rows, IntervalMethod::MomT);
     assert!(
@@ -55,8 +66,20 @@ fn expected_pigeonhole_variance(s: &Setting) -> f64 {
 #[test]
 fn pigeonhole_variance_matches_its_expectation_and_is_anti_conservative_with_few_seeds() {
     for s in [
-        Setting { rows: 26, cols: 20, shares: [0.959, 0.011, 0.030], distribution: Distribution::Normal },
-        Setting { rows: 26, cols: 3, shares: [0.05, 0.90, 0.05], distribution: Distribution::Normal },
+        Setting {
+            rows: 26,
+            cols: 20,
+            shares: [0.959, 0.011, 0.030],
+            distribution: Distribution::Normal,
+            missing: Missing::Complete,
+        },
+        Setting {
+            rows: 26,
+            cols: 3,
+            shares: [0.05, 0.90, 0.05],
+            distribution: Distribution::Normal,
+            missing: Missing::Complete,
+        },
     ] {
         let n = 4000;
         let v: Vec<f64> = (0..n)
@@ -79,7 +102,13 @@ fn pigeonhole_variance_matches_its_expectation_and_is_anti_conservative_with_few
     // E[Var*] = 25*7.8/2028 + 2*74.1/234 + 50*3.9/6084 = 0.7615, well below the
     // true SE^2 = 1 (the seed term is shrunk by (J-1)/J = 2/3), and the
     // percentile interval under-covers.
-    let s = Setting { rows: 26, cols: 3, shares: [0.05, 0.90, 0.05], distribution: Distribution::Normal };
+    let s = Setting {
+        rows: 26,
+        cols: 3,
+        shares: [0.05, 0.90, 0.05],
+        distribution: Distribution::Normal,
+        missing: Missing::Complete,
+    };
     assert_rel(
         expected_pigeonhole_variance(&s),
         25.0 * 7.8 / 2028.0 + 2.0 * 74.1 / 234.0 + 50.0 * 3.9 / 6084.0,
@@ -99,7 +128,13 @@ fn pigeonhole_variance_matches_its_expectation_and_is_anti_conservative_with_few
 
 #[test]
 fn replications_do_not_depend_on_the_thread_count() {
-    let s = Setting { rows: 8, cols: 5, shares: [0.5, 0.3, 0.2], distribution: Distribution::HeavyTailed };
+    let s = Setting {
+        rows: 8,
+        cols: 5,
+        shares: [0.5, 0.3, 0.2],
+        distribution: Distribution::HeavyTailed,
+        missing: Missing::Complete,
+    };
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| simulate(&s, 60, 0.95, 49, 17).unwrap())
@@ -174,4 +209,50 @@ fn the_planner_reproduces_the_pilot_se_and_the_closed_form_power() {
     // More of either factor never increases the SE.
     let se = |i, j| p.rows.iter().find(|r| r.recordings == i && r.seeds == j).unwrap().se;
     assert!(se(52, 20) <= se(26, 20) && se(26, 20) <= se(26, 5));
+}
+
+#[test]
+fn a_lost_row_leaves_a_complete_array_where_reml_and_listwise_mom_agree() {
+    // With whole rows lost the cells left form a complete array, on which
+    // REML's intercept is the grand mean (GLS on balanced data), the same
+    // number the MoM gives on the complete rows: equal bias and EmpSE.
+    let s = Setting {
+        rows: 10,
+        cols: 6,
+        shares: [0.4, 0.3, 0.3],
+        distribution: Distribution::Normal,
+        missing: Missing::RowLoss(2),
+    };
+    let p = simulate(&s, 40, 0.95, 9, 5).unwrap();
+    let get = |m: IntervalMethod| p.iter().find(|r| r.method == m).unwrap();
+    let (reml, mom) = (get(IntervalMethod::RemlT), get(IntervalMethod::MomTCompleteRows));
+    assert_eq!((reml.reps, mom.reps), (40, 40));
+    assert_rel(reml.bias, mom.bias, 1e-9, "bias");
+    assert_rel(reml.emp_se, mom.emp_se, 1e-9, "EmpSE");
+    assert!(s.label().ends_with(", 2 whole row(s) lost"), "{}", s.label());
+}
+
+#[test]
+fn cells_missing_at_random_leave_listwise_deletion_undefined_and_reml_defined() {
+    // 30% of 12 cells per row missing: a row is complete with probability
+    // 0.7^12 = 1.4%, so the listwise MoM is almost never defined, while
+    // REML uses every cell present in every replication.
+    let s = Setting {
+        rows: 10,
+        cols: 12,
+        shares: [0.4, 0.3, 0.3],
+        distribution: Distribution::Normal,
+        missing: Missing::Mcar(0.3),
+    };
+    let p = simulate(&s, 30, 0.95, 9, 5).unwrap();
+    let get = |m: IntervalMethod| p.iter().find(|r| r.method == m).unwrap();
+    assert_eq!(get(IntervalMethod::RemlKenwardRoger).reps, 30);
+    assert_eq!(get(IntervalMethod::RemlSatterthwaite).reps, 30);
+    assert!(get(IntervalMethod::MomTCompleteRows).reps < 5, "{}", get(IntervalMethod::MomTCompleteRows).reps);
+    // Deterministic: the same seed gives the same table.
+    let again = simulate(&s, 30, 0.95, 9, 5).unwrap();
+    assert_eq!(
+        crossaudit::methods::coverage::to_csv(&p).unwrap(),
+        crossaudit::methods::coverage::to_csv(&again).unwrap()
+    );
 }

@@ -91,6 +91,8 @@ fn check(f: &MixedFit, name: &str, vars: &[&str]) {
             close(kr.df, num(&r, name, "kr_df"), 1e-6, "Kenward-Roger df (pbkrtest)");
         }
         (None, None) => {}
+        // Fits with fixed factors list the intercept's KR with the others.
+        (Some(_), None) if r.contains_key(&(name.to_string(), "fixed_(Intercept)".to_string())) => {}
         (ours, theirs) => panic!("{name}: Kenward-Roger ours {ours:?}, pbkrtest {theirs:?}"),
     }
     let singular = r[&(name.to_string(), "singular".to_string())][0] == "TRUE";
@@ -338,4 +340,89 @@ fn three_factors_crossed_and_nested_match_lme4() {
     let d = data("three_factor.csv", &[("a:c", &[1, 3]), ("a", &[1]), ("b", &[2])]);
     assert_eq!(d.len(), 130);
     check(&fit(&d, Criterion::Reml).unwrap(), "three_factor_reml", &["a:c", "a", "b"]);
+}
+
+/// Machines (nlme): score ~ Machine + (1 | Worker) + (1 | Worker:Machine).
+fn machines(file: &str) -> MixedData {
+    let d = data(file, &[("Worker", &[1]), ("Worker:Machine", &[1, 2])]);
+    let text = std::fs::read_to_string(root().join("tests/fixtures").join(file)).unwrap();
+    let machine: Vec<String> = text.lines().skip(1).map(|l| l.split(',').nth(2).unwrap().to_string()).collect();
+    d.with_fixed("Machine", &machine).unwrap()
+}
+
+#[test]
+fn fixed_categorical_effects_match_lme4_lmertest_and_pbkrtest() {
+    let r = reference();
+    for (file, name) in [("machines.csv", "machines_reml"), ("machines_unbalanced.csv", "machines_unbalanced_reml")] {
+        let f = fit(&machines(file), Criterion::Reml).unwrap();
+        check(&f, name, &["Worker", "Worker:Machine"]);
+        let names: Vec<&str> = f.fixed.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["(Intercept)", "MachineB", "MachineC"], "R's treatment-contrast names");
+        for c in &f.fixed {
+            let want: Vec<f64> =
+                r[&(name.to_string(), format!("fixed_{}", c.name))].iter().map(|v| v.parse().unwrap()).collect();
+            let close = |a: f64, b: f64, rel: f64, what: &str| {
+                assert!((a - b).abs() <= rel * b.abs(), "{name} {} {what}: ours {a}, R {b}", c.name);
+            };
+            // Same tolerances as the intercept-only fits (see `check`).
+            close(c.estimate, want[0], 1e-8, "estimate");
+            close(c.se, want[1], 1e-6, "SE");
+            // lmerTest's df come from numDeriv's Hessian: on the balanced
+            // design, where they are exactly 10 (the Worker:Machine stratum),
+            // lmerTest reports 10.0000008; ours are closer. 1e-6 covers both.
+            close(c.df_satterthwaite.unwrap(), want[2], 1e-6, "Satterthwaite df (lmerTest)");
+            let kr = c.kenward_roger.unwrap();
+            close(kr.se, want[3], 1e-6, "Kenward-Roger SE (pbkrtest)");
+            close(kr.df, want[4], 1e-6, "Kenward-Roger df (pbkrtest)");
+        }
+    }
+}
+
+#[test]
+fn aliased_fixed_effects_are_a_typed_error() {
+    // Machine given twice: the second copy's columns repeat the first's.
+    let text = std::fs::read_to_string(root().join("tests/fixtures/machines.csv")).unwrap();
+    let machine: Vec<String> = text.lines().skip(1).map(|l| l.split(',').nth(2).unwrap().to_string()).collect();
+    let d = machines("machines.csv").with_fixed("Again", &machine).unwrap();
+    assert!(matches!(fit(&d, Criterion::Reml), Err(MixedError::FixedEffects(_))));
+    // A fixed factor with one level, or the wrong length.
+    let d = machines("machines.csv");
+    assert!(matches!(d.clone().with_fixed("One", &vec!["a".to_string(); 54]), Err(MixedError::TooFewLevels { .. })));
+    assert!(matches!(d.with_fixed("Short", &["a".to_string(), "b".to_string()]), Err(MixedError::Length { .. })));
+}
+
+#[test]
+fn profile_intervals_match_lme4_confint() {
+    use crossaudit::stats::mixed::profile_intervals;
+    let r = reference();
+    let cases: [(&str, MixedData, &[&str]); 4] = [
+        ("penicillin", data("penicillin.csv", &[("plate", &[1]), ("sample", &[2])]), &["plate", "sample"]),
+        (
+            "penicillin_unbalanced",
+            data("penicillin_unbalanced.csv", &[("plate", &[1]), ("sample", &[2])]),
+            &["plate", "sample"],
+        ),
+        ("pastes", data("pastes.csv", &[("batch", &[1]), ("batch:cask", &[1, 2])]), &["batch", "batch:cask"]),
+        ("machines_unbalanced", machines("machines_unbalanced.csv"), &["Worker", "Worker:Machine"]),
+    ];
+    for (name, d, factors) in cases {
+        // lme4 profiles the ML deviance (devfun2 refits by ML).
+        let iv = profile_intervals(&d, Criterion::Ml, 0.95).unwrap();
+        for (k, group) in factors.iter().chain(&["Residual"]).enumerate() {
+            let want: Vec<f64> =
+                r[&(name.to_string(), format!("profile_{group}"))].iter().map(|v| v.parse().unwrap()).collect();
+            assert_eq!(iv[k].name, *group);
+            // lme4 steps along the profile and interpolates it with a
+            // spline; ours solves for each limit to 1e-9. The spline's error
+            // sets the tolerance: 1e-4 relative. A lower limit of exactly 0
+            // (Pastes' batch) is 0 in both.
+            for (ours, theirs, what) in [(iv[k].lower, want[0], "lower"), (iv[k].upper, want[1], "upper")] {
+                assert!(
+                    (ours - theirs).abs() <= 1e-4 * theirs.abs(),
+                    "{name} {group} {what}: ours {ours}, lme4 {theirs}"
+                );
+            }
+            assert!(iv[k].lower <= iv[k].estimate && iv[k].estimate <= iv[k].upper);
+        }
+    }
 }

@@ -80,3 +80,46 @@ f3 <- y ~ 1 + (1 | a) + (1 | b) + (1 | a:c)
 show_fit("three_factor_reml", lme4::lmer(f3, T3, control = ctl))
 sat("three_factor_reml", f3, T3)
 kr("three_factor_reml", f3, T3)
+# Fixed categorical effects: nlme's Machines (6 workers x 3 machines x 3
+# replicates), score ~ Machine + (1 | Worker) + (1 | Worker:Machine), as
+# published and with every replicate 3 of worker 1 and replicates 2-3 of
+# worker 4 on machine C removed (unbalanced). Each coefficient: estimate,
+# SE, lmerTest's Satterthwaite df, pbkrtest's adjusted SE and Lb_ddf for
+# that coefficient alone.
+data(Machines, package = "nlme")
+M <- data.frame(score = Machines$score, Worker = as.character(Machines$Worker),
+                Machine = as.character(Machines$Machine))
+M$rep <- ave(seq_len(nrow(M)), M$Worker, M$Machine, FUN = seq_along)
+MU <- M[!(M$Worker == "1" & M$rep == 3) & !(M$Worker == "4" & M$Machine == "C" & M$rep >= 2), ]
+write.csv(M[, 1:3], "tests/fixtures/machines.csv", row.names = FALSE, quote = FALSE)
+write.csv(MU[, 1:3], "tests/fixtures/machines_unbalanced.csv", row.names = FALSE, quote = FALSE)
+fm <- score ~ Machine + (1 | Worker) + (1 | Worker:Machine)
+fixed_rows <- function(name, d) {
+  m <- lmerTest::lmer(fm, d, control = ctl)
+  show_fit(name, m)
+  co <- summary(m)$coefficients
+  V <- vcovAdj(as(m, "lmerMod"))
+  for (j in seq_len(nrow(co))) {
+    L <- matrix(0, 1, nrow(co)); L[1, j] <- 1
+    cat(name, paste0("fixed_", rownames(co)[j]),
+        format(c(co[j, "Estimate"], co[j, "Std. Error"], co[j, "df"], sqrt(as.matrix(V)[j, j]),
+                 Lb_ddf(L, vcov(m), V)), digits = 15), "\n")
+  }
+}
+fixed_rows("machines_reml", M)
+fixed_rows("machines_unbalanced_reml", MU)
+# Profile-likelihood intervals for the standard deviations (lme4's
+# confint(method = "profile"), which profiles the ML deviance whatever the
+# fit: devfun2 calls refitML). Rows: the factor's SD, then the residual's.
+prof <- function(name, f, d) {
+  m <- lme4::lmer(f, d, control = ctl)
+  ci <- suppressMessages(confint(m, method = "profile", oldNames = FALSE, level = 0.95))
+  for (r in rownames(ci)[grepl("^sd_|^sigma$", rownames(ci))]) {
+    g <- if (r == "sigma") "Residual" else sub("^sd_\\(Intercept\\)\\|", "", r)
+    cat(name, paste0("profile_", g), format(ci[r, ], digits = 15), "\n")
+  }
+}
+prof("penicillin", diameter ~ 1 + (1 | plate) + (1 | sample), P)
+prof("penicillin_unbalanced", diameter ~ 1 + (1 | plate) + (1 | sample), PU)
+prof("pastes", strength ~ 1 + (1 | batch) + (1 | batch:cask), Pastes)
+prof("machines_unbalanced", fm, MU)

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
 use crate::report::charts::{category_label, draw_err, DrawError};
 use crate::report::Table;
-use crate::stats::coverage::{simulate, Distribution, Performance, Setting};
+use crate::stats::coverage::{simulate, Distribution, Missing, Performance, Setting};
 use crate::stats::StatsError;
 
 /// Why a coverage study could not run or be written.
@@ -63,7 +63,8 @@ pub enum CoverageError {
     Draw(#[from] DrawError),
 }
 
-/// A coverage study: the grid is rows x cols x shares x distributions.
+/// A coverage study: the grid is rows x cols x shares x distributions x
+/// missing-cell patterns.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoverageSpec {
@@ -85,6 +86,15 @@ pub struct CoverageSpec {
     pub shares: Vec<[f64; 3]>,
     /// Error distributions.
     pub distributions: Vec<Distribution>,
+    /// Missing-cell patterns (default: complete arrays only): `"complete"`,
+    /// `{"mcar": 0.1}` (each cell lost with probability 0.1) or
+    /// `{"row_loss": 1}` (that many whole rows lost).
+    #[serde(default = "default_missing")]
+    pub missing: Vec<Missing>,
+}
+
+fn default_missing() -> Vec<Missing> {
+    vec![Missing::Complete]
 }
 
 /// The largest number of recordings or seeds of one setting.
@@ -139,19 +149,36 @@ impl CoverageSpec {
                 return bad(format!("each `shares` entry is three non-negative shares summing to 1, found {s:?}"));
             }
         }
-        if self.rows.is_empty() || self.cols.is_empty() || self.shares.is_empty() || self.distributions.is_empty() {
-            return bad("`rows`, `cols`, `shares` and `distributions` each need at least one entry".into());
+        if self.rows.is_empty()
+            || self.cols.is_empty()
+            || self.shares.is_empty()
+            || self.distributions.is_empty()
+            || self.missing.is_empty()
+        {
+            return bad("`rows`, `cols`, `shares`, `distributions` and `missing` each need at least one entry".into());
+        }
+        for m in &self.missing {
+            match *m {
+                Missing::Mcar(p) if !(0.0..1.0).contains(&p) => {
+                    return bad(format!("`mcar` is a probability in [0, 1), found {p}"));
+                }
+                Missing::RowLoss(k) if self.rows.iter().any(|&i| k + 2 > i) => {
+                    return bad(format!("`row_loss` {k} must leave at least 2 of every `rows` entry"));
+                }
+                _ => {}
+            }
         }
         if let Some(n) = self.rows.iter().chain(&self.cols).find(|n| **n > MAX_SIDE) {
             return bad(format!("`rows` and `cols` may be at most {MAX_SIDE}, found {n}"));
         }
-        let settings = self.rows.len() * self.cols.len() * self.shares.len() * self.distributions.len();
+        let settings =
+            self.rows.len() * self.cols.len() * self.shares.len() * self.distributions.len() * self.missing.len();
         if settings > MAX_SETTINGS {
             return bad(format!("the grid has {settings} settings; at most {MAX_SETTINGS} are allowed"));
         }
         let cells: f64 = self.rows.iter().map(|&i| self.cols.iter().map(|&j| (i * j) as f64).sum::<f64>()).sum();
         let work = cells
-            * (self.shares.len() * self.distributions.len()) as f64
+            * (self.shares.len() * self.distributions.len() * self.missing.len()) as f64
             * self.reps as f64
             * (self.bootstrap as f64 + 1.0);
         if work > MAX_WORK {
@@ -162,14 +189,17 @@ impl CoverageSpec {
         Ok(())
     }
 
-    /// Every setting of the grid, rows x cols x shares x distributions.
+    /// Every setting of the grid, rows x cols x shares x distributions x
+    /// missing-cell patterns.
     pub fn settings(&self) -> Vec<Setting> {
         let mut out = Vec::new();
         for &rows in &self.rows {
             for &cols in &self.cols {
                 for &shares in &self.shares {
                     for &distribution in &self.distributions {
-                        out.push(Setting { rows, cols, shares, distribution });
+                        for &missing in &self.missing {
+                            out.push(Setting { rows, cols, shares, distribution, missing });
+                        }
                     }
                 }
             }

@@ -33,6 +33,21 @@ pub enum Distribution {
     OutlyingRow,
 }
 
+/// Which cells of a simulated array are lost before the analysis.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Missing {
+    /// Every cell present.
+    #[default]
+    Complete,
+    /// Each cell lost independently with this probability (a failed job,
+    /// an all-divergent cell): missing completely at random.
+    Mcar(f64),
+    /// This many whole rows lost, chosen at random (a recording with too
+    /// few valid starts for every seed).
+    RowLoss(usize),
+}
+
 /// One simulation setting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Setting {
@@ -44,6 +59,9 @@ pub struct Setting {
     pub shares: [f64; 3],
     /// Distribution of effects and errors.
     pub distribution: Distribution,
+    /// Cells lost before the analysis.
+    #[serde(default)]
+    pub missing: Missing,
 }
 
 impl Setting {
@@ -56,8 +74,13 @@ impl Setting {
 
     /// A one-line label for tables.
     pub fn label(&self) -> String {
+        let missing = match self.missing {
+            Missing::Complete => String::new(),
+            Missing::Mcar(p) => format!(", {:.0}% of cells missing at random", 100.0 * p),
+            Missing::RowLoss(k) => format!(", {k} whole row(s) lost"),
+        };
         format!(
-            "I={} J={} shares {:.1}/{:.1}/{:.1} {:?}",
+            "I={} J={} shares {:.1}/{:.1}/{:.1} {:?}{missing}",
             self.rows,
             self.cols,
             100.0 * self.shares[0],
@@ -177,7 +200,7 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
         coverage_mcse: (cov * (1.0 - cov) / n).sqrt(),
         mean_width: mean(&width),
         mean_width_mcse: (var(&width) / n).sqrt(),
-        median_width: super::quantile_type7(&sorted, 0.5),
+        median_width: if sorted.is_empty() { f64::NAN } else { super::quantile_type7(&sorted, 0.5) },
         bias: mean(&theta) - truth,
         bias_mcse: (var(&theta) / n).sqrt(),
         emp_se: emp,
@@ -191,9 +214,69 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
     }
 }
 
+/// The estimators that work with missing cells, on one array with the
+/// cells of `setting.missing` removed (drawn from `rng` after the array):
+/// REML with Kenward-Roger, Satterthwaite and t(J - 1) df on the cells
+/// present, and the crossed MoM with t(J - 1) on the complete rows
+/// (listwise deletion). An estimator undefined on this array (fewer than
+/// two complete rows, say) gives NaN, left out of its performance.
+fn with_missing(
+    s: &Setting,
+    m: &CrossedMatrix,
+    level: f64,
+    rng: &mut ChaCha8Rng,
+) -> Result<Vec<(IntervalMethod, Estimate)>, StatsError> {
+    use super::crossed::{crossed_mom, crossed_reml_fit, reml_with};
+    use super::DfRule;
+    let (rows, cols) = (m.rows(), m.cols());
+    let mut present = vec![true; rows * cols];
+    match s.missing {
+        Missing::Complete => {}
+        Missing::Mcar(p) => present.iter_mut().for_each(|c| *c = rng.gen::<f64>() >= p),
+        Missing::RowLoss(k) => {
+            let mut order: Vec<usize> = (0..rows).collect();
+            for i in 0..k.min(rows) {
+                let j = rng.gen_range(i..rows);
+                order.swap(i, j);
+                present[order[i] * cols..(order[i] + 1) * cols].iter_mut().for_each(|c| *c = false);
+            }
+        }
+    }
+    let nan = (f64::NAN, f64::NAN, f64::NAN, f64::NAN);
+    let cells: Vec<(usize, usize, f64)> = (0..rows)
+        .flat_map(|i| (0..cols).map(move |j| (i, j)))
+        .filter(|&(i, j)| present[i * cols + j])
+        .map(|(i, j)| (i, j, m.get(i, j)))
+        .collect();
+    let mut out = Vec::new();
+    let fit = crossed_reml_fit(&cells).ok();
+    for (method, rule) in [
+        (IntervalMethod::RemlKenwardRoger, DfRule::KenwardRoger),
+        (IntervalMethod::RemlSatterthwaite, DfRule::Satterthwaite),
+        (IntervalMethod::RemlT, DfRule::SeedsMinusOne),
+    ] {
+        let e = fit.as_ref().and_then(|f| reml_with(f, cells.len(), rows * cols, level, rule).ok());
+        out.push((method, e.map_or(nan, |e| (e.mean, e.se, e.lower, e.upper))));
+    }
+    let complete: Vec<usize> = (0..rows).filter(|&i| present[i * cols..(i + 1) * cols].iter().all(|c| *c)).collect();
+    let listwise = if complete.len() >= 2 {
+        let data = complete.iter().flat_map(|&i| (0..cols).map(move |j| m.get(i, j))).collect();
+        CrossedMatrix::new(complete.len(), cols, data)
+            .and_then(|sub| crossed_mom(&sub, level, DfRule::SeedsMinusOne))
+            .ok()
+            .map(|e| (e.mean, e.se, e.lower, e.upper))
+    } else {
+        None
+    };
+    out.push((IntervalMethod::MomTCompleteRows, listwise.unwrap_or(nan)));
+    Ok(out)
+}
+
 /// Runs `reps` replications of one setting: every estimator on every array.
 /// Replication r uses ChaCha8 stream r of `seed` for the data and stream
-/// 2^32 + r for its bootstrap.
+/// 2^32 + r for its bootstrap. With missing cells, the estimators of
+/// `with_missing` instead; each estimator's performance is over the
+/// replications where it was defined (its `reps`).
 pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Result<Vec<Performance>, StatsError> {
     let per_rep: Vec<Vec<(IntervalMethod, Estimate)>> = (0..reps)
         .into_par_iter()
@@ -201,6 +284,9 @@ pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Re
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(r as u64);
             let m = draw_array(s, &mut rng)?;
+            if s.missing != Missing::Complete {
+                return with_missing(s, &m, level, &mut rng);
+            }
             let iv = compare_intervals(&m, level, b, seed, (1u64 << 32) + r as u64)?;
             Ok(iv.into_iter().map(|e| (e.method, (e.estimate, e.se, e.lower, e.upper))).collect())
         })
@@ -211,7 +297,7 @@ pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Re
         .iter()
         .enumerate()
         .map(|(k, &method)| {
-            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).collect();
+            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).filter(|e| !e.0.is_nan()).collect();
             performance(&label, method, &est, 0.0)
         })
         .collect())

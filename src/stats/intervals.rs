@@ -22,6 +22,12 @@ pub enum IntervalMethod {
     RemlSatterthwaite,
     /// REML with Kenward-Roger df and adjusted SE (pbkrtest).
     RemlKenwardRoger,
+    /// REML's model-based SE with the preregistered t(J - 1) (coverage
+    /// settings with missing cells).
+    RemlT,
+    /// Crossed MoM with t(J - 1) on the rows with every cell present
+    /// (listwise deletion; coverage settings with missing cells).
+    MomTCompleteRows,
     /// Pigeonhole bootstrap percentile interval.
     PigeonholePercentile,
     /// All I x J cells treated as independent: t(IJ - 1).
@@ -41,6 +47,8 @@ impl IntervalMethod {
             IntervalMethod::MomZ => "crossed MoM, z",
             IntervalMethod::RemlSatterthwaite => "REML, Satterthwaite df",
             IntervalMethod::RemlKenwardRoger => "REML, Kenward-Roger",
+            IntervalMethod::RemlT => "REML, t(J-1)",
+            IntervalMethod::MomTCompleteRows => "crossed MoM, t(J-1), complete rows only",
             IntervalMethod::PigeonholePercentile => "pigeonhole bootstrap, percentile",
             IntervalMethod::NaiveIid => "naive iid over cells, t(IJ-1)",
             IntervalMethod::ClusterRecording => "clustered by recording, t(I-1)",

@@ -48,9 +48,12 @@
 
 mod inference;
 mod optimize;
+mod profile;
 mod system;
 
 use serde::Serialize;
+
+pub use profile::{profile_intervals, ProfileInterval};
 
 /// REML (restricted) or ML (full) likelihood.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -102,6 +105,12 @@ pub enum MixedError {
     /// fixed factor determined by another's), or leave no residual df.
     #[error("the fixed effects are not estimable: {0}")]
     FixedEffects(String),
+    /// A confidence level outside (0, 1).
+    #[error("the confidence level must be strictly between 0 and 1, found {0}")]
+    Level(f64),
+    /// A profile that never crosses its cutoff.
+    #[error("profile-likelihood interval: {0}")]
+    Profile(String),
     /// No random factor.
     #[error("a mixed model needs at least one random factor")]
     NoFactor,
@@ -408,7 +417,13 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));
     }
     let s = system::System::new(data);
-    if s.xtx.llt(faer::Side::Lower).is_err() {
+    // Rank of X: a Cholesky pivot below 1e-10 of its column's X'X diagonal
+    // (exact aliasing leaves a rounding residue, positive or negative).
+    let aliased = match s.xtx.llt(faer::Side::Lower) {
+        Err(_) => true,
+        Ok(llt) => (0..p).any(|c| llt.L()[(c, c)].powi(2) <= 1e-10 * s.xtx[(c, c)]),
+    };
+    if aliased {
         return Err(MixedError::FixedEffects(format!("the columns {:?} are linearly dependent", data.fixed_names())));
     }
     let (best, _, evaluations) = optimum(&s, criterion)?;
