@@ -289,7 +289,8 @@ fn a_constant_response_or_a_perfect_fit_is_a_typed_error() {
     let rows = vec![0, 0, 0, 1, 1, 1, 2, 2, 2];
     let cols = vec![0, 1, 2, 0, 1, 2, 0, 1, 2];
     let d = MixedData::new(y, vec![("row".into(), rows), ("col".into(), cols)]).unwrap();
-    assert!(matches!(fit(&d, Criterion::Reml), Err(MixedError::ZeroResidual { .. })));
+    let r = fit(&d, Criterion::Reml);
+    assert!(matches!(r, Err(MixedError::ZeroResidual { .. })), "{r:?}");
 }
 
 /// The strong simulated control has cells in which every start diverged.

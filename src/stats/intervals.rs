@@ -77,6 +77,14 @@ pub struct IntervalEstimate {
     pub upper: f64,
 }
 
+impl IntervalEstimate {
+    /// An estimator undefined on this array: every field NaN.
+    pub fn undefined(method: IntervalMethod) -> IntervalEstimate {
+        let nan = f64::NAN;
+        IntervalEstimate { method, estimate: nan, se: nan, df: nan, lower: nan, upper: nan }
+    }
+}
+
 /// Mean, SE = sd / sqrt(n) and the t(n - 1) interval of independent values.
 pub fn one_sample_interval(values: &[f64], level: f64) -> Result<(f64, f64, f64, f64, f64), StatsError> {
     let n = values.len();
@@ -110,14 +118,7 @@ pub fn reml_intervals(
     .into_iter()
     .map(|(method, rule)| match reml_with(&fit, cells.len(), rows * cols, level, rule) {
         Ok(e) => IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper },
-        Err(_) => IntervalEstimate {
-            method,
-            estimate: f64::NAN,
-            se: f64::NAN,
-            df: f64::NAN,
-            lower: f64::NAN,
-            upper: f64::NAN,
-        },
+        Err(_) => IntervalEstimate::undefined(method),
     })
     .collect())
 }
@@ -146,16 +147,9 @@ pub fn compare_intervals(
     // zero): those rows are NaN rather than the whole comparison refused.
     match reml_intervals(&cells, m.rows(), m.cols(), level) {
         Ok(rows) => out.extend(rows),
-        Err(_) => out.extend([IntervalMethod::RemlSatterthwaite, IntervalMethod::RemlKenwardRoger].map(|method| {
-            IntervalEstimate {
-                method,
-                estimate: f64::NAN,
-                se: f64::NAN,
-                df: f64::NAN,
-                lower: f64::NAN,
-                upper: f64::NAN,
-            }
-        })),
+        Err(_) => out.extend(
+            [IntervalMethod::RemlSatterthwaite, IntervalMethod::RemlKenwardRoger].map(IntervalEstimate::undefined),
+        ),
     }
     let boot = pigeonhole_bootstrap(m, b, level, seed, stream)?;
     out.push(IntervalEstimate {

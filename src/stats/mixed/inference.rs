@@ -15,11 +15,8 @@ use super::{Criterion, KenwardRoger, MixedError};
 /// even at zero and a difference step may cross it.
 fn reml_at(s: &System, p: &[f64]) -> Result<(f64, Vec<f64>), MixedError> {
     let k = p.len() - 1;
-    let s2 = p[k] * p[k];
-    let e = s.evaluate(&p[..k], Criterion::Reml)?;
-    let m = s.n - s.p as f64;
-    let dev = e.log_det_l2 + e.log_det_rx2 + m * (2.0 * std::f64::consts::PI * s2).ln() + e.r2 / s2;
-    Ok((dev, (0..s.p).map(|c| s2 * e.rx_inv[(c, c)]).collect()))
+    let (dev, e) = s.unprofiled(&p[..k], p[k], Criterion::Reml)?;
+    Ok((dev, (0..s.p).map(|c| p[k] * p[k] * e.rx_inv[(c, c)]).collect()))
 }
 
 /// Satterthwaite df of each fixed effect at the REML optimum `theta`,

@@ -362,9 +362,12 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
 /// evaluations used.
 fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, usize), MixedError> {
     let k = s.factors();
-    // Check once that the system factors (it always does for finite data).
-    s.evaluate(&vec![1.0; k], criterion)?;
-    let evaluations = std::cell::Cell::new(0usize);
+    let moments = s.moment_start();
+    // The start is evaluated directly, so that a system that cannot be
+    // factored (never, for finite data) is an error rather than an
+    // infinite deviance.
+    let f0 = s.evaluate(&moments, criterion)?.deviance;
+    let evaluations = std::cell::Cell::new(1usize);
     let mut dev = |theta: &[f64]| -> f64 {
         evaluations.set(evaluations.get() + 1);
         s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
@@ -374,8 +377,6 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
     // an optimum on the boundary), Nelder-Mead to a relative 1e-4 and
     // Newton again, and then Nelder-Mead restarts with smaller simplices.
     let start = vec![1.0; k];
-    let moments = s.moment_start();
-    let f0 = dev(&moments);
     let (mut best, mut best_dev, mut converged) = optimize::newton(&mut dev, moments, f0, 20);
     if !converged {
         let (t, d) = optimize::nelder_mead(&mut dev, &start, 0.5, 1e-4);
@@ -416,7 +417,17 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
     if data.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));
     }
-    let s = system::System::new(data);
+    fit_system(&system::System::new(data), data, criterion, inference)
+}
+
+/// [`fit_with`] on the products of `data` already computed.
+fn fit_system(
+    s: &system::System,
+    data: &MixedData,
+    criterion: Criterion,
+    inference: Inference,
+) -> Result<MixedFit, MixedError> {
+    let p = data.p();
     // Rank of X: a Cholesky pivot below 1e-10 of its column's X'X diagonal
     // (exact aliasing leaves a rounding residue, positive or negative).
     let aliased = match s.xtx.llt(faer::Side::Lower) {
@@ -426,7 +437,7 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
     if aliased {
         return Err(MixedError::FixedEffects(format!("the columns {:?} are linearly dependent", data.fixed_names())));
     }
-    let (best, _, evaluations) = optimum(&s, criterion)?;
+    let (best, _, evaluations) = optimum(s, criterion)?;
     let e = s.evaluate(&best, criterion)?;
     let total = s.y.iter().map(|v| v * v).sum::<f64>() / (s.n - 1.0);
     if e.sigma2 <= 1e-10 * total {
@@ -434,12 +445,12 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
     }
     let (kr, shares, df) = match (criterion, inference) {
         (Criterion::Reml, Inference::Full) => {
-            let (kr, shares) = inference::kenward_roger(&s, &best, e.sigma2)?;
-            let df = inference::satterthwaite(&s, &best, e.sigma2)?;
+            let (kr, shares) = inference::kenward_roger(s, &best, e.sigma2)?;
+            let df = inference::satterthwaite(s, &best, e.sigma2)?;
             (kr.into_iter().map(Some).collect(), shares, df)
         }
         (Criterion::Reml, Inference::Satterthwaite) => {
-            (vec![None; p], Vec::new(), inference::satterthwaite(&s, &best, e.sigma2)?)
+            (vec![None; p], Vec::new(), inference::satterthwaite(s, &best, e.sigma2)?)
         }
         _ => (vec![None; p], Vec::new(), vec![None; p]),
     };

@@ -39,18 +39,13 @@ pub struct ProfileInterval {
     pub upper: f64,
 }
 
-/// The deviance at `theta` and `sigma`, not profiled over sigma.
+/// The deviance at `theta` and `sigma`, not profiled over sigma; infinite
+/// outside the parameter space or where the system cannot be solved.
 fn deviance(s: &System, theta: &[f64], sigma: f64, criterion: Criterion) -> f64 {
     if sigma.is_nan() || sigma <= 0.0 || theta.iter().any(|t| t.is_nan() || *t < 0.0) {
         return f64::INFINITY;
     }
-    let Ok(e) = s.evaluate(theta, criterion) else { return f64::INFINITY };
-    let s2 = sigma * sigma;
-    let two_pi = 2.0 * std::f64::consts::PI;
-    match criterion {
-        Criterion::Reml => e.log_det_l2 + e.log_det_rx2 + (s.n - s.p as f64) * (two_pi * s2).ln() + e.r2 / s2,
-        Criterion::Ml => e.log_det_l2 + s.n * (two_pi * s2).ln() + e.r2 / s2,
-    }
+    s.unprofiled(theta, sigma, criterion).map_or(f64::INFINITY, |(d, _)| d)
 }
 
 /// The profile of standard deviation `which` (k factors, then the
@@ -95,8 +90,8 @@ pub fn profile_intervals(
     if level.is_nan() || level <= 0.0 || level >= 1.0 {
         return Err(MixedError::Level(level));
     }
-    let fit: MixedFit = super::fit_with(data, criterion, super::Inference::Estimates)?;
     let s = System::new(data);
+    let fit: MixedFit = super::fit_system(&s, data, criterion, super::Inference::Estimates)?;
     let k = s.factors();
     let sigma = fit.residual.sqrt();
     let sds: Vec<f64> = fit.variances.iter().map(|v| v.sqrt()).chain([sigma]).collect();

@@ -314,7 +314,8 @@ impl System {
     /// factor: sigma_j^2 = (MS_between - MS_within) / n0 (n0 the effective
     /// level size), each relative to the smallest MS_within. Each ignores
     /// the other factors, so it is only a start (near the optimum when
-    /// the factors are crossed and roughly balanced); 1 where undefined.
+    /// the factors are crossed and roughly balanced); 1 where undefined,
+    /// and kept in [0.05, 1000].
     pub fn moment_start(&self) -> Vec<f64> {
         let k = self.factors();
         let n = self.n;
@@ -339,17 +340,36 @@ impl System {
             n0[j] = (n - cnt.iter().map(|c| c * c).sum::<f64>() / n) / (l as f64 - 1.0);
         }
         let residual = within.iter().copied().fold(f64::INFINITY, f64::min);
+        // A within-level variance that is rounding (a factor reproducing the
+        // response) gives no usable ratio; theta is kept in [0.05, 1000].
+        let total = self.y.iter().map(|v| v * v).sum::<f64>() / (n - 1.0);
         (0..k)
             .map(|j| {
                 let w = if within[j].is_finite() { within[j] } else { residual };
                 let v = (between[j] - w) / n0[j];
-                if residual.is_finite() && residual > 0.0 && v.is_finite() {
-                    (v.max(0.0) / residual).sqrt().max(0.05)
+                if residual.is_finite() && residual > 1e-10 * total && v.is_finite() {
+                    (v.max(0.0) / residual).sqrt().clamp(0.05, 1e3)
                 } else {
                     1.0
                 }
             })
             .collect()
+    }
+
+    /// The deviance at `theta` and `sigma`, not profiled over sigma
+    /// (lmerTest's parameterization for the Satterthwaite Hessian, lme4's
+    /// for its profiles), and the solution there:
+    /// REML: log|L|^2 + log|R_X|^2 + (n - p) log(2 pi sigma^2) + r^2 / sigma^2;
+    /// ML: log|L|^2 + n log(2 pi sigma^2) + r^2 / sigma^2.
+    pub fn unprofiled(&self, theta: &[f64], sigma: f64, criterion: Criterion) -> Result<(f64, Eval), MixedError> {
+        let e = self.evaluate(theta, criterion)?;
+        let s2 = sigma * sigma;
+        let log_2pi_s2 = (2.0 * std::f64::consts::PI * s2).ln();
+        let dev = match criterion {
+            Criterion::Reml => e.log_det_l2 + e.log_det_rx2 + (self.n - self.p as f64) * log_2pi_s2 + e.r2 / s2,
+            Criterion::Ml => e.log_det_l2 + self.n * log_2pi_s2 + e.r2 / s2,
+        };
+        Ok((dev, e))
     }
 
     /// Z'Z over all q levels (factors in order), Z'X (q x p) and the factor
