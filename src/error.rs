@@ -17,6 +17,12 @@ pub enum Error {
     /// The split could not be built or an invariant failed.
     #[error(transparent)]
     Split(#[from] crate::split::SplitError),
+    /// A published split file cannot be read.
+    #[error(transparent)]
+    Published(#[from] crate::published::PublishedError),
+    /// A published split could not be audited.
+    #[error(transparent)]
+    SplitAudit(#[from] crate::split_audit::SplitAuditError),
     /// A per-cell file is malformed.
     #[error(transparent)]
     Cells(#[from] crate::cells::CellsError),

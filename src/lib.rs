@@ -10,11 +10,13 @@ pub mod io;
 pub mod methods;
 pub mod model;
 pub mod plan;
+pub mod published;
 pub mod report;
 pub mod rollout;
 pub mod run;
 pub mod sim;
 pub mod split;
+pub mod split_audit;
 pub mod stats;
 
 use std::path::Path;

@@ -27,6 +27,7 @@ fn recordings(n: usize, dup: &[usize]) -> Vec<Recording> {
                 pwm: vec![[30000.0; 4]; rows],
                 active: (0..rows).map(|i| i >= 10).collect(),
                 content_hash: hash,
+                row_hashes: (0..rows as u64).map(|i| i * 1000 + k as u64).collect(),
                 tail: None,
                 rows_cut: 0,
             }

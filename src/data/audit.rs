@@ -209,7 +209,7 @@ fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
 
 /// Loads every recording in `dir` and applies the declared rules in order.
 pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
-    audit_with(spec, dir, false).map(|(a, _)| a)
+    audit_with(spec, dir, Keep::None).map(|(a, _)| a)
 }
 
 /// As [`audit`], and also returns the included recordings (in audit row
@@ -224,10 +224,27 @@ pub fn audit(spec: &DataSpec, dir: &Path) -> Result<Audit, AuditError> {
 /// assert!(audit.files.len() > recordings.len()); // the implausible fixture is excluded
 /// ```
 pub fn audit_and_load(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Recording>), AuditError> {
-    audit_with(spec, dir, true)
+    let (audit, recordings) = audit_with(spec, dir, Keep::Included)?;
+    Ok((audit, recordings.into_iter().flatten().collect()))
 }
 
-fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Recording>), AuditError> {
+/// As [`audit`], and also returns every readable recording, excluded ones
+/// too: entry `k` belongs to `audit.files[k]` (`None` for a file that could
+/// not be read or has no CSV). The split audit reads excluded files as well,
+/// since a loader with other rules would keep them.
+pub fn audit_and_load_all(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Option<Recording>>), AuditError> {
+    audit_with(spec, dir, Keep::All)
+}
+
+/// Which loaded recordings an audit returns.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Keep {
+    None,
+    Included,
+    All,
+}
+
+fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Option<Recording>>), AuditError> {
     let layout = Layout::new(spec).map_err(AuditError::Layout)?;
     if spec.rules.contains(&InclusionRule::Implausible) {
         for needed in ["pwr_pm_vbat", "sp_ctrltarget_z"] {
@@ -247,7 +264,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
                     if spec.tails == TailPolicy::Truncate {
                         rec.truncate_tail();
                     }
-                    (judged(spec, &rec, meta), keep.then_some(rec))
+                    (judged(spec, &rec, meta), (keep != Keep::None).then_some(rec))
                 }
                 Err(e) => (unreadable(spec, path, meta, e.to_string()), None),
             };
@@ -257,9 +274,11 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
         .collect();
     let (mut files, mut recordings): (Vec<FileRow>, Vec<Option<Recording>>) = loaded.into_iter().unzip();
     let groups = duplicates(&mut files, spec.duplicates);
-    for (f, r) in files.iter().zip(recordings.iter_mut()) {
-        if f.status != Status::Included {
-            *r = None;
+    if keep == Keep::Included {
+        for (f, r) in files.iter().zip(recordings.iter_mut()) {
+            if f.status != Status::Included {
+                *r = None;
+            }
         }
     }
     for name in missing {
@@ -268,6 +287,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
         row.status = Status::Missing;
         row.reason = "listed by its metadata file, but no CSV is present".into();
         files.push(row);
+        recordings.push(None);
     }
     if spec.strictness == Strictness::Strict {
         let mut bad: Vec<String> = files
@@ -288,7 +308,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: bool) -> Result<(Audit, Vec<Rec
         files,
         duplicate_groups: groups,
     };
-    Ok((audit, recordings.into_iter().flatten().collect()))
+    Ok((audit, recordings))
 }
 
 fn meta_path(csv: &Path) -> PathBuf {

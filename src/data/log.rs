@@ -195,6 +195,10 @@ pub struct Log {
     /// non-cryptographic hash is enough to find identical logs, and it is
     /// ten times faster than SHA-256 on the ~200 MB of shared logs.
     pub content_hash: String,
+    /// XXH3-64 of each data row as written (without its line ending): equal
+    /// rows in two logs are the same bytes. The split audit finds shared
+    /// runs of rows with them.
+    pub row_hashes: Vec<u64>,
 }
 
 /// Reads the file's bytes, decompressing `.gz`.
@@ -257,6 +261,7 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
     let columns = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
     let mut t = Tokenizer { file, body, slots, columns, previous_t: f64::NEG_INFINITY, line: 1, i: 0 };
     let mut rows = 0;
+    let mut row_hashes = Vec::with_capacity(estimate);
     while t.i < body.len() {
         t.line += 1;
         // Blank line (`\n` or `\r\n`).
@@ -264,17 +269,23 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
             t.i += if body[t.i] == b'\r' { 2 } else { 1 };
             continue;
         }
+        let start = t.i;
         let fields = t.row()?;
         if fields != n {
             return Err(LogError::Ragged { file: file.to_string(), line: t.line, found: fields, expected: n });
         }
+        let mut end = t.i;
+        while end > start && matches!(body[end - 1], b'\n' | b'\r') {
+            end -= 1;
+        }
+        row_hashes.push(xxhash_rust::xxh3::xxh3_64(&body[start..end]));
         rows += 1;
     }
     if rows == 0 {
         return Err(LogError::NoRows { file: file.to_string() });
     }
     let content_hash = format!("{:032x}", xxhash_rust::xxh3::xxh3_128(body));
-    Ok(Log { rows, columns: t.columns, content_hash })
+    Ok(Log { rows, columns: t.columns, content_hash, row_hashes })
 }
 
 /// Checks the header against the NanoBench schema; returns where it ends.

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::design::{Cmp, DataSpec, InclusionRule};
-pub use audit::{audit, audit_and_load, Audit, AuditError, FileRow, Status};
+pub use audit::{audit, audit_and_load, audit_and_load_all, Audit, AuditError, FileRow, Status};
 pub use log::{LogError, NANOBENCH_COLUMNS};
 pub use metadata::{parse_name, Controller, Metadata, NameParts};
 
@@ -39,6 +39,8 @@ pub struct Recording {
     pub active: Vec<bool>,
     /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
     pub content_hash: String,
+    /// XXH3-64 of each data row as written (see [`log::Log::row_hashes`]).
+    pub row_hashes: Vec<u64>,
     /// The extrapolated onboard tail found in the file, if any (see [`onboard_tail`]).
     pub tail: Option<Tail>,
     /// Rows cut from the end of the file (`tails truncate`).
@@ -203,6 +205,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         pwm,
         active,
         content_hash: parsed.content_hash,
+        row_hashes: parsed.row_hashes,
         tail,
         rows_cut: 0,
     })
@@ -218,6 +221,7 @@ impl Recording {
         self.action.truncate(n);
         self.pwm.truncate(n);
         self.active.truncate(n);
+        self.row_hashes.truncate(n);
         self.rows_cut = self.rows - n;
         self.rows = n;
     }

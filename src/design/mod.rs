@@ -126,6 +126,42 @@ pub struct DataSpec {
     pub simulated: Option<SimSpec>,
 }
 
+impl DataSpec {
+    /// The rules of upstream NanoBench's task-2 loader
+    /// (shared/nanobench/README.md): rows with `motor_motor_m1 > 1000` are
+    /// active, a file needs at least one, and whole files failing the
+    /// percentile plausibility bounds (motors pooled) are dropped; the
+    /// task-2 state columns; identical files and onboard tails kept; speed
+    /// from the file name. What the split audit applies when no design is given.
+    pub fn upstream_task2() -> DataSpec {
+        DataSpec {
+            source: DataSource::Nanobench,
+            path: None,
+            rate_hz: 100.0,
+            rules: vec![
+                InclusionRule::Active {
+                    column: "motor_motor_m1".into(),
+                    cmp: Cmp::Gt,
+                    threshold: 1000.0,
+                    min_samples: 1,
+                },
+                InclusionRule::Implausible,
+            ],
+            duplicates: DuplicatePolicy::Keep,
+            strictness: Strictness::Lenient,
+            state_columns: DEFAULT_STATE_COLUMNS.iter().map(|c| c.to_string()).collect(),
+            action_columns: DEFAULT_ACTION_COLUMNS.iter().map(|c| c.to_string()).collect(),
+            state_preset: Some(StatePreset::Onboard),
+            tails: TailPolicy::Keep,
+            speed: SpeedLabels::Name,
+            plausibility: Pooling::Pooled,
+            universe: Universe { metadata: false, bytewise: false },
+            missing_csv_allowed: false,
+            simulated: None,
+        }
+    }
+}
+
 /// Named state-column conventions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]

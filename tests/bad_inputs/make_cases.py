@@ -151,3 +151,25 @@ case("cli_plan_recordings_one", "plan designs/nanobench_confirmatory.design --ce
 case("cli_train_unknown_model", "train tests/designs/sim_small.design --model transformer --arm disjoint --seed 1 --out {out}")
 case("cli_unknown_subcommand", "frobnicate")
 case("cli_engine_unknown", "train tests/designs/sim_small.design --model world --arm disjoint --seed 1 --out {out} --engine gpu")
+
+# ---- published split files (crossaudit audit split) ---------------------------
+def split_case(name, file_name, body):
+    case(name, "audit split {dir}/" + file_name + " --data tests/fixtures/splits/data --out {out}", {file_name: body})
+
+split_case("split_recording_in_two_roles", "split.json",
+           '{\n  "train_files": ["/a/S1_circle_slow_rep1.csv", "/a/S2_star_fast_rep1.csv"],\n'
+           '  "test_files": ["/b/S1_circle_slow_rep1.csv"]\n}\n')
+split_case("split_recording_twice_in_role", "split.csv", "recording,role\nS1_circle_slow_rep1,train\nS2_star_fast_rep1,test\n/x/S1_circle_slow_rep1.csv,train\n")
+split_case("split_malformed_json", "split.json", '{\n  "train_files": ["S1_circle_slow_rep1",\n  "test_files": ["S2_star_fast_rep1"]\n}\n')
+split_case("split_malformed_csv", "split.csv", "recording,role\nS1_circle_slow_rep1,train\nS2_star_fast_rep1,test,extra\n")
+split_case("split_csv_no_role_column", "split.csv", "recording,split\nS1_circle_slow_rep1,train\n")
+split_case("split_fold_not_a_number", "split.csv", "recording,fold\nS1_circle_slow_rep1,0\nS2_star_fast_rep1,one\n")
+split_case("split_empty_role", "split.json", '{"train_files": ["S1_circle_slow_rep1"], "val_files": []}\n')
+split_case("split_entry_not_a_string", "split.json", '{"train_files": ["S1_circle_slow_rep1", 42]}\n')
+split_case("split_unknown_role_key", "split.json", '{"train_files": ["S1_circle_slow_rep1"], "holdout": ["S2_star_fast_rep1"]}\n')
+split_case("split_role_declared_twice", "split.json", '{"test_files": ["S1_circle_slow_rep1"], "test_files": ["S2_star_fast_rep1"]}\n')
+split_case("split_empty_name", "split.csv", "recording,role\nS1_circle_slow_rep1,train\n\"\",test\n")
+split_case("split_unknown_format", "split.txt", "S1_circle_slow_rep1 train\n")
+case("split_file_missing", "audit split {dir}/none.json --data tests/fixtures/splits/data --out {out}")
+case("split_data_missing", "audit split tests/fixtures/splits/nanobench_small.json --data {dir}/nowhere --out {out}")
+case("split_min_run_zero", "audit split tests/fixtures/splits/nanobench_small.json --data tests/fixtures/splits/data --min-run 0 --out {out}")

@@ -31,6 +31,11 @@ enum Command {
     },
     /// Record the design's SHA-256, tool version and UTC time in FILE.design.lock.
     Lock { design: PathBuf },
+    /// Audits: of a benchmark's published split.
+    Audit {
+        #[command(subcommand)]
+        command: AuditCommand,
+    },
     /// Flight-log data commands.
     Data {
         #[command(subcommand)]
@@ -147,10 +152,49 @@ enum DataCommand {
     },
 }
 
+#[derive(Subcommand)]
+enum AuditCommand {
+    /// Audit a published split (NanoBench split_metadata.json, a
+    /// recording,role CSV, or a fold list): declared vs effective
+    /// membership, identical recordings across roles, shared runs of rows,
+    /// and each role's trajectory x speed composition.
+    Split {
+        /// The split file (.json or .csv).
+        split: PathBuf,
+        /// Data directory holding the recordings.
+        #[arg(long)]
+        data: PathBuf,
+        /// Apply this design's data rules [default: upstream NanoBench task-2
+        /// loader's: active motor_motor_m1 > 1000, plausibility bounds pooled].
+        #[arg(long)]
+        design: Option<PathBuf>,
+        /// Output directory for split_audit.md, split_audit.json, split_recordings.csv.
+        #[arg(long, default_value = "split_audit")]
+        out: PathBuf,
+        /// Shortest run of identical rows reported between non-identical recordings.
+        #[arg(long, default_value_t = crossaudit::split_audit::DEFAULT_MIN_RUN_ROWS,
+              value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+        min_run: usize,
+        /// `leak`: exit with status 3 when two roles hold byte-identical
+        /// recordings (after writing every output), for a benchmark's CI.
+        #[arg(long, value_parser = ["leak"])]
+        fail_on: Option<String>,
+    },
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
     let result = match cli.command {
+        Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, fail_on } } => {
+            match audit_split(&split, &data, design.as_deref(), &out, min_run) {
+                Ok(true) if fail_on.is_some() => {
+                    eprintln!("exact leakage found: exiting with status 3 (--fail-on leak)");
+                    return ExitCode::from(3);
+                }
+                other => other.map(|_| ()),
+            }
+        }
         Command::Check { design, json } => check(&design, json),
         Command::Lock { design } => lock_design(&design),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
@@ -184,6 +228,26 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
     print!("{}", audit.summary());
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+/// Returns whether exact leakage was found.
+fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min_run: usize) -> Result<bool, Error> {
+    let published = crossaudit::published::read(split)?;
+    let (spec, from) = match design {
+        Some(d) => (design::load(d)?.design.data, format!("data rules of {}", d.display())),
+        None => (crossaudit::design::DataSpec::upstream_task2(), "upstream NanoBench task-2 loader".to_string()),
+    };
+    if !data.is_dir() {
+        return Err(crossaudit::run::RunError::NoDataDir { dir: data.display().to_string() }.into());
+    }
+    let options = crossaudit::split_audit::Options { min_run_rows: min_run };
+    let audit = crossaudit::split_audit::audit(&published, &spec, &from, data, options)?;
+    let written = audit.write(out)?;
+    print!("{}", audit.summary());
+    for p in written {
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(audit.has_exact_leak())
 }
 
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {

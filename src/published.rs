@@ -1,0 +1,511 @@
+//! Stage: published splits. A benchmark's own split file, read into roles
+//! (`train`, `val`, `test`, `fold0`, ...) each listing recordings by name,
+//! every name with the line and column it was written at.
+//!
+//! Three forms are read:
+//! - NanoBench's `split_metadata.json`: an object whose `<role>_files`
+//!   keys hold lists of paths (`train_files`, `val_files`, `test_files`);
+//!   other keys must be scalars (`seed`) and are kept as notes.
+//! - A role CSV with a header holding `recording` and `role` (any role names).
+//! - A scikit-learn-style fold list: a JSON array of arrays of names (or an
+//!   object whose `folds` key holds one), or a CSV with `recording` and
+//!   `fold` columns. Fold `k` becomes role `fold<k>`.
+//!
+//! A name is matched to a recording by its file stem: directories, `.csv`
+//! and `.gz` are removed (`/x/y/B9_trefoil_slow_rep3.csv` is
+//! `B9_trefoil_slow_rep3`), nothing else. A recording listed twice (in two
+//! roles, or twice in one) is an error naming both places; so is an entry
+//! that leaves no stem, an empty role, and a file with no roles at all.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
+
+use serde::Serialize;
+
+/// The form a split file was read as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Format {
+    /// NanoBench's `split_metadata.json` (`<role>_files` lists).
+    NanobenchJson,
+    /// A CSV of `recording,role`.
+    RoleCsv,
+    /// A JSON list of folds (lists of names).
+    FoldJson,
+    /// A CSV of `recording,fold`.
+    FoldCsv,
+}
+
+impl Format {
+    /// Lowercase label used in reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            Format::NanobenchJson => "NanoBench split_metadata.json",
+            Format::RoleCsv => "CSV recording,role",
+            Format::FoldJson => "JSON fold list",
+            Format::FoldCsv => "CSV recording,fold",
+        }
+    }
+}
+
+/// Where something was written in the split file (1-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Place {
+    /// Line.
+    pub line: usize,
+    /// Column, in characters.
+    pub column: usize,
+}
+
+impl fmt::Display for Place {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.line, self.column)
+    }
+}
+
+/// One listed recording.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Entry {
+    /// The file stem it matches, e.g. `B9_trefoil_slow_rep3`.
+    pub name: String,
+    /// The entry as written, e.g. a path.
+    pub listed: String,
+    /// Where it was written.
+    pub at: Place,
+}
+
+/// A role and the recordings declared in it, in file order.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Role {
+    /// Role name, e.g. `test`.
+    pub name: String,
+    /// Where the role was first named.
+    pub at: Place,
+    /// Its recordings.
+    pub entries: Vec<Entry>,
+}
+
+/// A published split as read.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PublishedSplit {
+    /// The file, as given.
+    pub path: String,
+    /// SHA-256 of its bytes.
+    pub sha256: String,
+    /// The form it was read as.
+    pub format: Format,
+    /// Roles in the order the file first names them.
+    pub roles: Vec<Role>,
+    /// Scalar keys of a NanoBench JSON (e.g. `seed`), as written.
+    pub notes: BTreeMap<String, String>,
+}
+
+/// Why a split file cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PublishedError {
+    /// The file could not be read.
+    #[error("cannot read split file {path}: {message}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        message: String,
+    },
+    /// Something at a place in the file is wrong.
+    #[error("{path}:{line}:{column}: {message}")]
+    At {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl PublishedSplit {
+    /// The role a recording is declared in, if any.
+    pub fn role_of(&self, name: &str) -> Option<&Role> {
+        self.roles.iter().find(|r| r.entries.iter().any(|e| e.name == name))
+    }
+
+    /// The role called `name`.
+    pub fn role(&self, name: &str) -> Option<&Role> {
+        self.roles.iter().find(|r| r.name == name)
+    }
+
+    /// Every declared entry with its role, in file order of the roles.
+    pub fn entries(&self) -> impl Iterator<Item = (&Role, &Entry)> {
+        self.roles.iter().flat_map(|r| r.entries.iter().map(move |e| (r, e)))
+    }
+}
+
+/// `/a/b/B9_trefoil_slow_rep3.csv.gz` -> `B9_trefoil_slow_rep3`.
+pub fn stem(listed: &str) -> String {
+    let file = listed.rsplit(['/', '\\']).next().unwrap_or(listed).trim();
+    let file = file.strip_suffix(".gz").unwrap_or(file);
+    file.strip_suffix(".csv").unwrap_or(file).to_string()
+}
+
+/// Reads a split file; the form is chosen by its extension (`.json` or
+/// `.csv`) and, within it, by its shape.
+///
+/// ```
+/// let s = crossaudit::published::read(std::path::Path::new("tests/fixtures/splits/nanobench_small.json")).unwrap();
+/// assert_eq!(s.roles.iter().map(|r| r.name.as_str()).collect::<Vec<_>>(), ["train", "val", "test"]);
+/// ```
+pub fn read(path: &Path) -> Result<PublishedSplit, PublishedError> {
+    let shown = path.display().to_string();
+    let bytes =
+        std::fs::read(path).map_err(|e| PublishedError::Read { path: shown.clone(), message: e.to_string() })?;
+    let sha256 = crate::io::sha256_hex(&bytes);
+    let text = String::from_utf8(bytes)
+        .map_err(|e| PublishedError::Read { path: shown.clone(), message: format!("not UTF-8: {e}") })?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let name = path.file_name().map(|n| n.to_string_lossy().to_lowercase()).unwrap_or_default();
+    let (format, roles, notes) = if name.ends_with(".json") {
+        from_json(&shown, text)?
+    } else if name.ends_with(".csv") {
+        let (f, r) = from_csv(&shown, text)?;
+        (f, r, BTreeMap::new())
+    } else {
+        return Err(PublishedError::Read {
+            path: shown,
+            message: "unknown split file form: give a .json (NanoBench split_metadata.json or a fold list) or a .csv (recording,role or recording,fold)".into(),
+        });
+    };
+    let split = PublishedSplit { path: shown, sha256, format, roles, notes };
+    check(&split)?;
+    Ok(split)
+}
+
+fn at(path: &str, place: Place, message: impl Into<String>) -> PublishedError {
+    PublishedError::At { path: path.to_string(), line: place.line, column: place.column, message: message.into() }
+}
+
+/// No role empty, no recording twice, no entry without a stem.
+fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
+    let path = &split.path;
+    if split.roles.is_empty() {
+        return Err(at(path, Place { line: 1, column: 1 }, "the split declares no roles"));
+    }
+    let mut seen: BTreeMap<&str, (&Role, &Entry)> = BTreeMap::new();
+    for (k, role) in split.roles.iter().enumerate() {
+        if let Some(first) = split.roles[..k].iter().find(|r| r.name == role.name) {
+            let (line, column) = (first.at.line, first.at.column);
+            return Err(at(
+                path,
+                role.at,
+                format!("role `{}` is declared twice (first at line {line}, column {column})", role.name),
+            ));
+        }
+        if role.entries.is_empty() {
+            return Err(at(path, role.at, format!("role `{}` lists no recordings", role.name)));
+        }
+        for e in &role.entries {
+            if e.name.is_empty() {
+                return Err(at(path, e.at, format!("entry \"{}\" names no recording file", e.listed)));
+            }
+            if let Some((r0, e0)) = seen.get(e.name.as_str()) {
+                let how = if r0.name == role.name {
+                    format!("twice in role `{}`", role.name)
+                } else {
+                    format!("in two roles, `{}` and `{}`", r0.name, role.name)
+                };
+                let same = if e0.listed == e.listed { String::new() } else { format!(" as \"{}\"", e0.listed) };
+                return Err(at(
+                    path,
+                    e.at,
+                    format!(
+                        "recording {} is listed {how} (first at line {}, column {}{same})",
+                        e.name, e0.at.line, e0.at.column
+                    ),
+                ));
+            }
+            seen.insert(&e.name, (role, e));
+        }
+    }
+    Ok(())
+}
+
+// ------------------------------------------------------------------ CSV
+
+fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedError> {
+    let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(text.as_bytes());
+    let header =
+        reader.headers().map_err(|e| csv_error(path, &e))?.iter().map(|h| h.trim().to_string()).collect::<Vec<_>>();
+    let first = Place { line: 1, column: 1 };
+    let find = |name: &str| header.iter().position(|h| h == name);
+    let recording = find("recording")
+        .ok_or_else(|| at(path, first, format!("the header ({}) has no `recording` column", header.join(","))))?;
+    let (format, key) = match (find("role"), find("fold")) {
+        (Some(k), None) => (Format::RoleCsv, k),
+        (None, Some(k)) => (Format::FoldCsv, k),
+        (Some(_), Some(_)) => return Err(at(path, first, "the header has both `role` and `fold`; give one")),
+        (None, None) => {
+            return Err(at(
+                path,
+                first,
+                format!("the header ({}) has neither a `role` nor a `fold` column", header.join(",")),
+            ))
+        }
+    };
+    let mut roles: Vec<Role> = Vec::new();
+    for row in reader.records() {
+        let row = row.map_err(|e| csv_error(path, &e))?;
+        let line = row.position().map(|p| p.line() as usize).unwrap_or(0);
+        let place = |field: usize| Place { line, column: column_of(text, line, field) };
+        let listed = row.get(recording).unwrap_or("").trim().to_string();
+        let value = row.get(key).unwrap_or("").trim();
+        if listed.is_empty() {
+            return Err(at(path, place(recording), "empty `recording`"));
+        }
+        let role = match format {
+            Format::FoldCsv => match value.parse::<u32>() {
+                Ok(k) => format!("fold{k}"),
+                Err(_) => {
+                    return Err(at(path, place(key), format!("fold \"{value}\" is not a fold number (0, 1, 2, ...)")))
+                }
+            },
+            _ if value.is_empty() => return Err(at(path, place(key), "empty `role`")),
+            _ => value.to_string(),
+        };
+        let entry = Entry { name: stem(&listed), listed, at: place(recording) };
+        match roles.iter_mut().find(|r| r.name == role) {
+            Some(r) => r.entries.push(entry),
+            None => roles.push(Role { name: role, at: place(key), entries: vec![entry] }),
+        }
+    }
+    Ok((format, roles))
+}
+
+fn csv_error(path: &str, e: &csv::Error) -> PublishedError {
+    let line = e.position().map(|p| p.line() as usize).unwrap_or(1);
+    let message = match e.kind() {
+        csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
+            format!("this row has {len} fields, the header {expected_len}")
+        }
+        csv::ErrorKind::Utf8 { .. } => "not UTF-8".to_string(),
+        _ => e.to_string(),
+    };
+    at(path, Place { line, column: 1 }, message)
+}
+
+/// The 1-based character column where field `field` of line `line` starts
+/// (plain CSV; quoted commas are honoured).
+fn column_of(text: &str, line: usize, field: usize) -> usize {
+    let Some(l) = text.lines().nth(line.saturating_sub(1)) else { return 1 };
+    let mut quoted = false;
+    let mut k = 0;
+    for (col, ch) in l.chars().enumerate() {
+        if k == field {
+            return col + 1;
+        }
+        match ch {
+            '"' => quoted = !quoted,
+            ',' if !quoted => k += 1,
+            _ => {}
+        }
+    }
+    l.chars().count() + 1
+}
+
+// ----------------------------------------------------------------- JSON
+
+/// A JSON value with the place of each node (the text has already been
+/// accepted by serde_json, so this reader can be simple).
+#[derive(Debug)]
+enum Node {
+    Str(String),
+    Arr(Vec<(Place, Node)>),
+    Obj(Vec<(Place, String, Place, Node)>),
+    /// Numbers, booleans and null, as written.
+    Scalar(String),
+}
+
+/// The form, roles and scalar notes of a split file.
+type Read = (Format, Vec<Role>, BTreeMap<String, String>);
+
+fn from_json(path: &str, text: &str) -> Result<Read, PublishedError> {
+    if let Err(e) = serde_json::from_str::<serde_json::Value>(text) {
+        return Err(at(
+            path,
+            Place { line: e.line().max(1), column: e.column().max(1) },
+            format!("malformed JSON: {e}"),
+        ));
+    }
+    let mut p = Parser { text, i: 0, line: 1, column: 1 };
+    p.ws();
+    let (top_at, top) = p.value();
+    match top {
+        Node::Arr(folds) => Ok((Format::FoldJson, fold_roles(path, folds)?, BTreeMap::new())),
+        Node::Obj(members) if members.iter().any(|(_, k, _, _)| k == "folds") => {
+            let (_, _, vat, v) = members.into_iter().find(|(_, k, _, _)| k == "folds").expect("checked");
+            match v {
+                Node::Arr(folds) => Ok((Format::FoldJson, fold_roles(path, folds)?, BTreeMap::new())),
+                _ => Err(at(path, vat, "`folds` must be a list of lists of recording names")),
+            }
+        }
+        Node::Obj(members) => {
+            let mut roles = Vec::new();
+            let mut notes = BTreeMap::new();
+            for (kat, key, vat, v) in members {
+                match (key.strip_suffix("_files"), v) {
+                    (Some(role), Node::Arr(items)) if !role.is_empty() => {
+                        let entries = names(path, items, &format!("`{key}`"))?;
+                        roles.push(Role { name: role.to_string(), at: kat, entries });
+                    }
+                    (Some(_), _) => return Err(at(path, vat, format!("`{key}` must be a list of file paths"))),
+                    (None, Node::Scalar(s)) => {
+                        notes.insert(key, s);
+                    }
+                    (None, Node::Str(s)) => {
+                        notes.insert(key, s);
+                    }
+                    (None, _) => {
+                        return Err(at(
+                            path,
+                            kat,
+                            format!("unknown key `{key}`: a NanoBench split names its roles `<role>_files` (train_files, val_files, test_files)"),
+                        ))
+                    }
+                }
+            }
+            Ok((Format::NanobenchJson, roles, notes))
+        }
+        _ => Err(at(path, top_at, "a split file is an object of `<role>_files` lists (NanoBench), or a list of folds")),
+    }
+}
+
+fn fold_roles(path: &str, folds: Vec<(Place, Node)>) -> Result<Vec<Role>, PublishedError> {
+    folds
+        .into_iter()
+        .enumerate()
+        .map(|(k, (place, fold))| match fold {
+            Node::Arr(items) => {
+                Ok(Role { name: format!("fold{k}"), at: place, entries: names(path, items, &format!("fold {k}"))? })
+            }
+            _ => Err(at(path, place, format!("fold {k} must be a list of recording names"))),
+        })
+        .collect()
+}
+
+fn names(path: &str, items: Vec<(Place, Node)>, what: &str) -> Result<Vec<Entry>, PublishedError> {
+    items
+        .into_iter()
+        .map(|(place, item)| match item {
+            Node::Str(listed) => Ok(Entry { name: stem(&listed), listed, at: place }),
+            _ => Err(at(path, place, format!("{what}: every entry must be a recording name or path (a string)"))),
+        })
+        .collect()
+}
+
+struct Parser<'a> {
+    text: &'a str,
+    i: usize,
+    line: usize,
+    column: usize,
+}
+
+impl Parser<'_> {
+    fn peek(&self) -> Option<char> {
+        self.text[self.i..].chars().next()
+    }
+
+    fn bump(&mut self) -> Option<char> {
+        let c = self.peek()?;
+        self.i += c.len_utf8();
+        if c == '\n' {
+            self.line += 1;
+            self.column = 1;
+        } else {
+            self.column += 1;
+        }
+        Some(c)
+    }
+
+    fn ws(&mut self) {
+        while self.peek().is_some_and(|c| c.is_whitespace()) {
+            self.bump();
+        }
+    }
+
+    fn place(&self) -> Place {
+        Place { line: self.line, column: self.column }
+    }
+
+    /// A value at the cursor (whitespace skipped before it); valid JSON only.
+    fn value(&mut self) -> (Place, Node) {
+        let place = self.place();
+        let node = match self.peek() {
+            Some('"') => Node::Str(self.string()),
+            Some('[') => {
+                self.bump();
+                let mut items = Vec::new();
+                loop {
+                    self.ws();
+                    if self.peek() == Some(']') {
+                        self.bump();
+                        break;
+                    }
+                    items.push(self.value());
+                    self.ws();
+                    if self.peek() == Some(',') {
+                        self.bump();
+                    }
+                }
+                Node::Arr(items)
+            }
+            Some('{') => {
+                self.bump();
+                let mut members = Vec::new();
+                loop {
+                    self.ws();
+                    if self.peek() == Some('}') {
+                        self.bump();
+                        break;
+                    }
+                    let kat = self.place();
+                    let key = self.string();
+                    self.ws();
+                    self.bump(); // ':'
+                    self.ws();
+                    let (vat, v) = self.value();
+                    members.push((kat, key, vat, v));
+                    self.ws();
+                    if self.peek() == Some(',') {
+                        self.bump();
+                    }
+                }
+                Node::Obj(members)
+            }
+            _ => {
+                let start = self.i;
+                while self.peek().is_some_and(|c| !(c == ',' || c == ']' || c == '}' || c.is_whitespace())) {
+                    self.bump();
+                }
+                Node::Scalar(self.text[start..self.i].to_string())
+            }
+        };
+        (place, node)
+    }
+
+    /// A string literal at the cursor, decoded by serde_json.
+    fn string(&mut self) -> String {
+        let start = self.i;
+        self.bump();
+        while let Some(c) = self.bump() {
+            match c {
+                '\\' => {
+                    self.bump();
+                }
+                '"' => break,
+                _ => {}
+            }
+        }
+        serde_json::from_str(&self.text[start..self.i]).unwrap_or_default()
+    }
+}

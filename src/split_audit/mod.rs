@@ -1,0 +1,530 @@
+//! Stage: the audit of a published split. Every recording a benchmark's
+//! split file declares is loaded through the same loader and inclusion
+//! rules as a study's data, and the audit reports, per role and across
+//! roles:
+//!
+//! - declared against effective membership: entries with no CSV (a
+//!   metadata file only, or nothing at all), files the rules drop (a loader
+//!   that skips them silently changes the split), and the counts left;
+//! - exact leakage: recordings whose data rows are byte-identical (one
+//!   content-identity group) on two sides;
+//! - near-leakage worth a look: two recordings on different sides sharing a
+//!   run of at least `min_run_rows` identical rows (a partial copy), and
+//!   recordings whose trajectory x speed also occurs on another side (a new
+//!   repetition of a known manoeuvre: not a leak, but a different estimand);
+//! - each role's trajectory x speed composition and its total-variation
+//!   distance from the others.
+//!
+//! Recordings in the data directory that no role lists are reported as
+//! unlisted.
+
+mod render;
+mod runs;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::data::{self, AuditError, FileRow, Status};
+use crate::design::DataSpec;
+use crate::published::{Format, PublishedSplit};
+
+/// Shared runs shorter than this many rows (1 s at 100 Hz) are not reported.
+pub const DEFAULT_MIN_RUN_ROWS: usize = 100;
+
+/// Knobs of the audit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Options {
+    /// The shortest run of identical rows reported as near-leakage.
+    pub min_run_rows: usize,
+}
+
+impl Default for Options {
+    fn default() -> Options {
+        Options { min_run_rows: DEFAULT_MIN_RUN_ROWS }
+    }
+}
+
+/// Where a declared name was found in the data directory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Presence {
+    /// A CSV of that name is there.
+    Csv,
+    /// Only its metadata file is there.
+    MetadataOnly,
+    /// Neither: the name is unknown to the data directory.
+    Unknown,
+}
+
+/// What a loader under the audit's rules makes of a declared recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Loaded and kept: it is in the effective split.
+    Kept,
+    /// Present but dropped by a rule (or unreadable).
+    Dropped,
+    /// Not there to load.
+    Absent,
+}
+
+/// One recording of the audit: a declared entry, or a file no role lists.
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordingRow {
+    /// Recording name (file stem).
+    pub recording: String,
+    /// Declared role; empty when no role lists it.
+    pub role: String,
+    /// The entry as written in the split file.
+    pub listed_as: String,
+    /// Its line in the split file (0 when unlisted).
+    pub line: usize,
+    /// Its column in the split file.
+    pub column: usize,
+    /// Whether the data directory holds it.
+    pub presence: Presence,
+    /// Kept, dropped or absent under the audit's rules.
+    pub effect: Effect,
+    /// Why it was dropped or is absent; empty when kept.
+    pub reason: String,
+    /// Trajectory shape.
+    pub trajectory: String,
+    /// Speed label.
+    pub speed: String,
+    /// Data rows.
+    pub rows: usize,
+    /// Active rows.
+    pub active_rows: usize,
+    /// XXH3-128 of its data rows.
+    pub content_hash: String,
+    /// Byte-identical recordings in other roles, as `role:name`.
+    pub identical_in_other_roles: Vec<String>,
+    /// The longest run of identical rows shared with a recording of another
+    /// role that is not an identical copy, and with which (`role:name`).
+    pub longest_shared_run: Option<(usize, String)>,
+    /// Kept recordings of other roles with the same trajectory and speed.
+    pub same_condition_in_other_roles: usize,
+}
+
+/// A content-identity group with members in two or more roles.
+#[derive(Debug, Clone, Serialize)]
+pub struct ExactLeak {
+    /// XXH3-128 of the shared data rows.
+    pub content_hash: String,
+    /// Members as (role, recording, kept).
+    pub members: Vec<(String, String, bool)>,
+    /// Whether copies survive the rules in two or more roles.
+    pub effective: bool,
+}
+
+/// Two recordings in different roles sharing a long run of identical rows.
+#[derive(Debug, Clone, Serialize)]
+pub struct SharedRun {
+    /// One side: (role, recording, first row of the run, 1-based data row).
+    pub a: (String, String, usize),
+    /// The other side.
+    pub b: (String, String, usize),
+    /// Length of the longest shared run, rows.
+    pub rows: usize,
+}
+
+/// Declared and effective membership of one role.
+#[derive(Debug, Clone, Serialize)]
+pub struct RoleSummary {
+    /// Role name.
+    pub role: String,
+    /// Entries the file declares.
+    pub declared: usize,
+    /// Entries with a CSV.
+    pub with_csv: usize,
+    /// Entries with only a metadata file.
+    pub metadata_only: usize,
+    /// Entries the data directory does not know.
+    pub unknown: usize,
+    /// Entries present but dropped by the rules.
+    pub dropped: usize,
+    /// Entries kept: the effective size.
+    pub effective: usize,
+    /// Distinct contents among the kept ones.
+    pub effective_distinct: usize,
+    /// Entries with a CSV that have a byte-identical copy in another role.
+    pub with_identical_elsewhere: usize,
+    /// Kept entries with a kept byte-identical copy in another role.
+    pub effective_with_identical_elsewhere: usize,
+}
+
+/// Counts for an ordered pair of roles: of the `role` recordings, how many...
+#[derive(Debug, Clone, Serialize)]
+pub struct PairCounts {
+    /// The role counted.
+    pub role: String,
+    /// The other role.
+    pub other: String,
+    /// ...have a byte-identical copy in `other` (CSV present).
+    pub identical: usize,
+    /// ...have one with both copies kept.
+    pub identical_effective: usize,
+    /// ...share a run of identical rows with a recording of `other`
+    /// (identical copies not counted).
+    pub shared_run: usize,
+    /// ...kept, whose trajectory x speed occurs among `other`'s kept ones.
+    pub same_condition: usize,
+}
+
+/// The trajectory x speed make-up of each role's kept recordings.
+#[derive(Debug, Clone, Serialize)]
+pub struct Composition {
+    /// The (trajectory, speed) cells, sorted.
+    pub cells: Vec<(String, String)>,
+    /// Per role, the count in each cell.
+    pub counts: Vec<(String, Vec<usize>)>,
+    /// Per role, the total-variation distance of its cell shares from those
+    /// of all other roles together (0 = same mix, 1 = no cell in common).
+    pub distance_from_rest: Vec<(String, f64)>,
+    /// Total-variation distance for each pair of roles.
+    pub pairwise: Vec<(String, String, f64)>,
+}
+
+/// The audit of one published split.
+#[derive(Debug, Clone, Serialize)]
+pub struct SplitAudit {
+    /// The split file, as given.
+    pub split_file: String,
+    /// Its SHA-256.
+    pub split_sha256: String,
+    /// The form it was read as.
+    pub format: Format,
+    /// Scalar notes of the file (e.g. its seed).
+    pub notes: BTreeMap<String, String>,
+    /// The data directory.
+    pub data_dir: String,
+    /// Where the rules came from: a design file, or upstream's task-2 loader.
+    pub rules_from: String,
+    /// The inclusion rules applied, in order.
+    pub rules: Vec<String>,
+    /// The knobs.
+    pub options: Options,
+    /// Roles in file order.
+    pub roles: Vec<RoleSummary>,
+    /// Every ordered pair of distinct roles.
+    pub pairs: Vec<PairCounts>,
+    /// Identity groups spanning roles.
+    pub exact: Vec<ExactLeak>,
+    /// Shared runs across roles, longest first.
+    pub shared_runs: Vec<SharedRun>,
+    /// Composition of the kept recordings.
+    pub composition: Composition,
+    /// Every declared entry, then every unlisted recording.
+    pub recordings: Vec<RecordingRow>,
+}
+
+/// Why a split could not be audited.
+#[derive(Debug, thiserror::Error)]
+pub enum SplitAuditError {
+    /// The data directory could not be audited.
+    #[error(transparent)]
+    Data(#[from] AuditError),
+    /// An output could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::WriteError),
+}
+
+impl SplitAudit {
+    /// Whether two roles hold byte-identical recordings (CSV present on both sides).
+    pub fn has_exact_leak(&self) -> bool {
+        !self.exact.is_empty()
+    }
+
+    /// Writes split_audit.md, split_audit.json and split_recordings.csv into `dir`.
+    pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, SplitAuditError> {
+        crate::io::create_dir_all(dir)?;
+        let mut out = Vec::new();
+        for (name, text) in [
+            ("split_audit.md", self.to_markdown()),
+            ("split_audit.json", crate::io::pretty_json(self)),
+            ("split_recordings.csv", self.to_csv()),
+        ] {
+            let path = dir.join(name);
+            crate::io::write_atomic(&path, text.as_bytes())?;
+            out.push(path);
+        }
+        Ok(out)
+    }
+}
+
+/// Audits `split` against the recordings in `dir` under the data rules
+/// `spec`; `rules_from` says where those came from.
+///
+/// ```
+/// use std::path::Path;
+/// let split = crossaudit::published::read(Path::new("tests/fixtures/splits/nanobench_small.json")).unwrap();
+/// let spec = crossaudit::design::DataSpec::upstream_task2();
+/// let audit = crossaudit::split_audit::audit(&split, &spec, "upstream", Path::new("tests/fixtures/nanobench"), Default::default()).unwrap();
+/// assert_eq!(audit.roles.len(), 3);
+/// ```
+pub fn audit(
+    split: &PublishedSplit,
+    spec: &DataSpec,
+    rules_from: &str,
+    dir: &Path,
+    options: Options,
+) -> Result<SplitAudit, SplitAuditError> {
+    let (data_audit, loaded) = data::audit_and_load_all(spec, dir)?;
+    let by_name: BTreeMap<&str, usize> =
+        data_audit.files.iter().enumerate().map(|(k, f)| (f.name.as_str(), k)).collect();
+    let mut rows: Vec<RecordingRow> = split
+        .entries()
+        .map(|(role, e)| {
+            let file = by_name.get(e.name.as_str()).map(|&k| &data_audit.files[k]);
+            let mut row = row_of(&e.name, file);
+            row.role = role.name.clone();
+            row.listed_as = e.listed.clone();
+            (row.line, row.column) = (e.at.line, e.at.column);
+            row
+        })
+        .collect();
+    let declared: BTreeSet<&str> = split.entries().map(|(_, e)| e.name.as_str()).collect();
+    for f in data_audit.files.iter().filter(|f| !declared.contains(f.name.as_str())) {
+        rows.push(row_of(&f.name, Some(f)));
+    }
+    let exact = exact_leaks(&mut rows);
+    let listed: Vec<usize> = (0..rows.len()).filter(|&k| !rows[k].role.is_empty()).collect();
+    let recordings_of = |k: usize| by_name.get(rows[k].recording.as_str()).and_then(|&i| loaded[i].as_ref());
+    let hashed: Vec<(usize, &[u64])> =
+        listed.iter().filter_map(|&k| recordings_of(k).map(|r| (k, r.row_hashes.as_slice()))).collect();
+    let shared_runs = shared_runs(&mut rows, &hashed, options.min_run_rows);
+    same_conditions(&mut rows);
+    let role_names: Vec<String> = split.roles.iter().map(|r| r.name.clone()).collect();
+    let roles = role_names.iter().map(|r| summary(r, &rows)).collect();
+    let pairs = pair_counts(&role_names, &rows, &shared_runs);
+    let composition = composition(&role_names, &rows);
+    Ok(SplitAudit {
+        split_file: split.path.clone(),
+        split_sha256: split.sha256.clone(),
+        format: split.format,
+        notes: split.notes.clone(),
+        data_dir: dir.display().to_string(),
+        rules_from: rules_from.to_string(),
+        rules: data_audit.rules.clone(),
+        options,
+        roles,
+        pairs,
+        exact,
+        shared_runs,
+        composition,
+        recordings: rows,
+    })
+}
+
+fn row_of(name: &str, file: Option<&FileRow>) -> RecordingRow {
+    let parts = data::parse_name(name);
+    let mut row = RecordingRow {
+        recording: name.to_string(),
+        role: String::new(),
+        listed_as: String::new(),
+        line: 0,
+        column: 0,
+        presence: Presence::Unknown,
+        effect: Effect::Absent,
+        reason: "no CSV and no metadata file of this name in the data directory".into(),
+        trajectory: parts.shape,
+        speed: parts.speed,
+        rows: 0,
+        active_rows: 0,
+        content_hash: String::new(),
+        identical_in_other_roles: Vec::new(),
+        longest_shared_run: None,
+        same_condition_in_other_roles: 0,
+    };
+    let Some(f) = file else { return row };
+    row.trajectory = f.trajectory.clone();
+    row.speed = f.speed.clone();
+    row.rows = f.rows;
+    row.active_rows = f.active_rows;
+    row.content_hash = f.content_hash.clone();
+    // Notes (`note: ...`) on kept files are the data audit's, not a reason to drop.
+    let reason = f.reason.split("; note: ").next().unwrap_or("").to_string();
+    (row.presence, row.effect, row.reason) = match f.status {
+        Status::Included => (Presence::Csv, Effect::Kept, String::new()),
+        Status::Excluded => (Presence::Csv, Effect::Dropped, reason),
+        Status::Missing => (Presence::MetadataOnly, Effect::Absent, "only a metadata file; no CSV".into()),
+    };
+    row
+}
+
+/// Groups listed recordings by content; a group spanning two roles is a leak.
+fn exact_leaks(rows: &mut [RecordingRow]) -> Vec<ExactLeak> {
+    let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (k, r) in rows.iter().enumerate() {
+        if !r.role.is_empty() && !r.content_hash.is_empty() {
+            groups.entry(r.content_hash.clone()).or_default().push(k);
+        }
+    }
+    let mut leaks = Vec::new();
+    for (hash, members) in groups {
+        let roles: BTreeSet<&str> = members.iter().map(|&k| rows[k].role.as_str()).collect();
+        if roles.len() < 2 {
+            continue;
+        }
+        for &k in &members {
+            rows[k].identical_in_other_roles = members
+                .iter()
+                .filter(|&&j| rows[j].role != rows[k].role)
+                .map(|&j| format!("{}:{}", rows[j].role, rows[j].recording))
+                .collect();
+        }
+        let kept_roles: BTreeSet<&str> =
+            members.iter().filter(|&&k| rows[k].effect == Effect::Kept).map(|&k| rows[k].role.as_str()).collect();
+        let effective = kept_roles.len() >= 2;
+        let members = members
+            .iter()
+            .map(|&k| (rows[k].role.clone(), rows[k].recording.clone(), rows[k].effect == Effect::Kept))
+            .collect();
+        leaks.push(ExactLeak { content_hash: hash, members, effective });
+    }
+    // In the order of the split file's first member.
+    leaks.sort_by_key(|l| {
+        l.members.iter().filter_map(|(_, name, _)| rows.iter().position(|r| &r.recording == name)).min()
+    });
+    leaks
+}
+
+/// Finds runs of at least `min_rows` identical rows shared by recordings of
+/// two roles that are not identical copies; records the longest per row.
+fn shared_runs(rows: &mut [RecordingRow], hashed: &[(usize, &[u64])], min_rows: usize) -> Vec<SharedRun> {
+    let found = runs::longest_shared(hashed, min_rows, &|a, b| {
+        rows[a].role != rows[b].role && rows[a].content_hash != rows[b].content_hash
+    });
+    let mut out = Vec::new();
+    for run in found {
+        let (a, b) = (run.a, run.b);
+        for (me, other) in [(a, b), (b, a)] {
+            let longer = rows[me].longest_shared_run.as_ref().is_none_or(|(n, _)| run.rows > *n);
+            if longer {
+                let label = format!("{}:{}", rows[other].role, rows[other].recording);
+                rows[me].longest_shared_run = Some((run.rows, label));
+            }
+        }
+        out.push(SharedRun {
+            a: (rows[a].role.clone(), rows[a].recording.clone(), run.start_a + 1),
+            b: (rows[b].role.clone(), rows[b].recording.clone(), run.start_b + 1),
+            rows: run.rows,
+        });
+    }
+    out.sort_by(|x, y| y.rows.cmp(&x.rows).then_with(|| x.a.1.cmp(&y.a.1)).then_with(|| x.b.1.cmp(&y.b.1)));
+    out
+}
+
+/// For each kept listed recording: kept recordings of other roles with the
+/// same trajectory and speed.
+fn same_conditions(rows: &mut [RecordingRow]) {
+    let kept: Vec<(String, String, String)> = rows
+        .iter()
+        .filter(|r| !r.role.is_empty() && r.effect == Effect::Kept)
+        .map(|r| (r.role.clone(), r.trajectory.clone(), r.speed.clone()))
+        .collect();
+    for r in rows.iter_mut().filter(|r| !r.role.is_empty() && r.effect == Effect::Kept) {
+        r.same_condition_in_other_roles =
+            kept.iter().filter(|(role, t, s)| *role != r.role && *t == r.trajectory && *s == r.speed).count();
+    }
+}
+
+fn summary(role: &str, rows: &[RecordingRow]) -> RoleSummary {
+    let mine: Vec<&RecordingRow> = rows.iter().filter(|r| r.role == role).collect();
+    let count = |f: &dyn Fn(&RecordingRow) -> bool| mine.iter().filter(|r| f(r)).count();
+    let kept_hashes: BTreeSet<&str> =
+        mine.iter().filter(|r| r.effect == Effect::Kept).map(|r| r.content_hash.as_str()).collect();
+    let kept_elsewhere = |r: &RecordingRow| {
+        rows.iter().any(|o| {
+            !o.role.is_empty() && o.role != r.role && o.effect == Effect::Kept && o.content_hash == r.content_hash
+        })
+    };
+    RoleSummary {
+        role: role.to_string(),
+        declared: mine.len(),
+        with_csv: count(&|r| r.presence == Presence::Csv),
+        metadata_only: count(&|r| r.presence == Presence::MetadataOnly),
+        unknown: count(&|r| r.presence == Presence::Unknown),
+        dropped: count(&|r| r.effect == Effect::Dropped),
+        effective: count(&|r| r.effect == Effect::Kept),
+        effective_distinct: kept_hashes.len(),
+        with_identical_elsewhere: count(&|r| !r.identical_in_other_roles.is_empty()),
+        effective_with_identical_elsewhere: count(&|r| r.effect == Effect::Kept && kept_elsewhere(r)),
+    }
+}
+
+fn pair_counts(roles: &[String], rows: &[RecordingRow], runs: &[SharedRun]) -> Vec<PairCounts> {
+    let mut out = Vec::new();
+    for role in roles {
+        for other in roles.iter().filter(|o| *o != role) {
+            let mine: Vec<&RecordingRow> = rows.iter().filter(|r| &r.role == role).collect();
+            let copies = |r: &RecordingRow, kept: bool| {
+                !r.content_hash.is_empty()
+                    && (!kept || r.effect == Effect::Kept)
+                    && rows.iter().any(|o| {
+                        &o.role == other && o.content_hash == r.content_hash && (!kept || o.effect == Effect::Kept)
+                    })
+            };
+            let identical = mine.iter().filter(|r| copies(r, false)).count();
+            let identical_effective = mine.iter().filter(|r| copies(r, true)).count();
+            let sharing: BTreeSet<&str> = runs
+                .iter()
+                .flat_map(|s| [(&s.a, &s.b), (&s.b, &s.a)])
+                .filter(|(me, them)| &me.0 == role && &them.0 == other)
+                .map(|(me, _)| me.1.as_str())
+                .collect();
+            let cells: BTreeSet<(&str, &str)> = rows
+                .iter()
+                .filter(|o| &o.role == other && o.effect == Effect::Kept)
+                .map(|o| (o.trajectory.as_str(), o.speed.as_str()))
+                .collect();
+            let same_condition = mine
+                .iter()
+                .filter(|r| r.effect == Effect::Kept && cells.contains(&(r.trajectory.as_str(), r.speed.as_str())))
+                .count();
+            out.push(PairCounts {
+                role: role.clone(),
+                other: other.clone(),
+                identical,
+                identical_effective,
+                shared_run: sharing.len(),
+                same_condition,
+            });
+        }
+    }
+    out
+}
+
+/// Total-variation distance between two count vectors' shares.
+fn tv_distance(a: &[usize], b: &[usize]) -> f64 {
+    let (na, nb) = (a.iter().sum::<usize>() as f64, b.iter().sum::<usize>() as f64);
+    if na == 0.0 || nb == 0.0 {
+        return f64::NAN;
+    }
+    0.5 * a.iter().zip(b).map(|(&x, &y)| (x as f64 / na - y as f64 / nb).abs()).sum::<f64>()
+}
+
+fn composition(roles: &[String], rows: &[RecordingRow]) -> Composition {
+    let kept = || rows.iter().filter(|r| !r.role.is_empty() && r.effect == Effect::Kept);
+    let cells: Vec<(String, String)> =
+        kept().map(|r| (r.trajectory.clone(), r.speed.clone())).collect::<BTreeSet<_>>().into_iter().collect();
+    let counts_where = |f: &dyn Fn(&RecordingRow) -> bool| -> Vec<usize> {
+        cells.iter().map(|(t, s)| kept().filter(|r| f(r) && &r.trajectory == t && &r.speed == s).count()).collect()
+    };
+    let counts: Vec<(String, Vec<usize>)> =
+        roles.iter().map(|role| (role.clone(), counts_where(&|r| &r.role == role))).collect();
+    let distance_from_rest = roles
+        .iter()
+        .zip(&counts)
+        .map(|(role, (_, c))| (role.clone(), tv_distance(c, &counts_where(&|r| &r.role != role))))
+        .collect();
+    let mut pairwise = Vec::new();
+    for (i, (a, ca)) in counts.iter().enumerate() {
+        for (b, cb) in &counts[i + 1..] {
+            pairwise.push((a.clone(), b.clone(), tv_distance(ca, cb)));
+        }
+    }
+    Composition { cells, counts, distance_from_rest, pairwise }
+}

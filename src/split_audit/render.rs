@@ -1,0 +1,253 @@
+//! The split audit as Markdown and as a per-recording CSV.
+
+use std::fmt::Write as _;
+
+use super::{Effect, Presence, SplitAudit};
+
+fn role_label(role: &str) -> &str {
+    if role.is_empty() {
+        "(unlisted)"
+    } else {
+        role
+    }
+}
+
+fn distance(d: f64) -> String {
+    if d.is_finite() {
+        format!("{d:.3}")
+    } else {
+        "n/a".into()
+    }
+}
+
+impl SplitAudit {
+    /// split_audit.md: the findings, then the tables behind them.
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Split audit: {}\n", self.split_file);
+        let _ = writeln!(
+            s,
+            "- split file: `{}` ({}), sha256 `{}`",
+            self.split_file,
+            self.format.label(),
+            self.split_sha256
+        );
+        for (k, v) in &self.notes {
+            let _ = writeln!(s, "- split file `{k}`: {v}");
+        }
+        let _ = writeln!(s, "- data: `{}`", self.data_dir);
+        let _ = writeln!(s, "- rules ({}): {}", self.rules_from, self.rules.join("; "));
+        let _ = writeln!(
+            s,
+            "- identical: byte-identical data rows (XXH3-128 of everything after the header); shared runs: at least {} consecutive identical rows (XXH3-64 per row) between recordings that are not identical copies",
+            self.options.min_run_rows
+        );
+        self.findings(&mut s);
+        self.membership(&mut s);
+        self.leak_tables(&mut s);
+        self.composition_tables(&mut s);
+        s
+    }
+
+    /// The findings, as printed by `crossaudit audit split`.
+    pub fn summary(&self) -> String {
+        let mut s = format!("{} against {}:\n", self.split_file, self.data_dir);
+        self.findings(&mut s);
+        s.replace("\n## Findings\n\n", "")
+    }
+
+    fn findings(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Findings\n");
+        let leaking: usize = self.exact.iter().map(|l| l.members.len()).sum();
+        let effective = self.exact.iter().filter(|l| l.effective).count();
+        let _ = writeln!(
+            s,
+            "- exact leakage: {} identity group(s) span two or more roles ({} recordings); {} of them still span roles after the rules.",
+            self.exact.len(),
+            leaking,
+            effective
+        );
+        for p in self.pairs.iter().filter(|p| p.identical > 0) {
+            let total = self.roles.iter().find(|r| r.role == p.role).map(|r| r.with_csv).unwrap_or(0);
+            let _ = writeln!(
+                s,
+                "  - {} of {} `{}` recordings with a CSV have a byte-identical copy in `{}` ({} with both copies kept).",
+                p.identical, total, p.role, p.other, p.identical_effective
+            );
+        }
+        for r in &self.roles {
+            let _ = writeln!(
+                s,
+                "- `{}`: {} declared, {} effective ({} without a CSV, {} unknown, {} dropped by the rules).",
+                r.role, r.declared, r.effective, r.metadata_only, r.unknown, r.dropped
+            );
+        }
+        let dropped: Vec<_> =
+            self.recordings.iter().filter(|r| !r.role.is_empty() && r.effect == Effect::Dropped).collect();
+        if !dropped.is_empty() {
+            let _ = writeln!(s, "- dropped by the rules (a loader applying them silently shrinks the split):");
+            for r in dropped {
+                let _ = writeln!(s, "  - `{}` {}: {}", r.role, r.recording, r.reason);
+            }
+        }
+        let _ = writeln!(
+            s,
+            "- shared runs of identical rows between non-identical recordings across roles: {} pair(s).",
+            self.shared_runs.len()
+        );
+        let unlisted = self.recordings.iter().filter(|r| r.role.is_empty()).count();
+        let _ = writeln!(s, "- recordings in the data directory that no role lists: {unlisted}.");
+    }
+
+    fn membership(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Declared and effective membership\n");
+        let _ = writeln!(s, "| role | declared | with CSV | metadata only | unknown | dropped | effective | distinct contents | identical copy in another role | kept, with a kept copy elsewhere |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for r in &self.roles {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                r.role,
+                r.declared,
+                r.with_csv,
+                r.metadata_only,
+                r.unknown,
+                r.dropped,
+                r.effective,
+                r.effective_distinct,
+                r.with_identical_elsewhere,
+                r.effective_with_identical_elsewhere
+            );
+        }
+        let absent: Vec<_> =
+            self.recordings.iter().filter(|r| !r.role.is_empty() && r.presence != Presence::Csv).collect();
+        if !absent.is_empty() {
+            let _ = writeln!(s, "\nDeclared but not there:\n");
+            for r in absent {
+                let _ = writeln!(s, "- `{}` {} (line {}): {}", r.role, r.recording, r.line, r.reason);
+            }
+        }
+        let unlisted: Vec<_> = self.recordings.iter().filter(|r| r.role.is_empty()).collect();
+        if !unlisted.is_empty() {
+            let _ = writeln!(s, "\nIn the data directory but in no role:\n");
+            for r in unlisted {
+                let _ = writeln!(s, "- {}", r.recording);
+            }
+        }
+    }
+
+    fn leak_tables(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Across roles\n");
+        let _ = writeln!(s, "Of the recordings of `role`, how many have, in `other`: a byte-identical copy (CSV present; both kept), a shared run of identical rows, and (kept ones) the same trajectory and speed among its kept recordings.\n");
+        let _ = writeln!(s, "| role | other | identical copy | both kept | shared run | same trajectory x speed |");
+        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|");
+        for p in &self.pairs {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} |",
+                p.role, p.other, p.identical, p.identical_effective, p.shared_run, p.same_condition
+            );
+        }
+        if !self.exact.is_empty() {
+            let _ = writeln!(s, "\n### Identity groups spanning roles\n");
+            let _ = writeln!(s, "| content (XXH3-128, first 12) | members (role: recording, * = dropped or absent) | spans roles after the rules |");
+            let _ = writeln!(s, "|---|---|---|");
+            for l in &self.exact {
+                let members: Vec<String> = l
+                    .members
+                    .iter()
+                    .map(|(role, name, kept)| format!("{role}: {name}{}", if *kept { "" } else { " *" }))
+                    .collect();
+                let hash = l.content_hash.get(..12).unwrap_or(&l.content_hash);
+                let _ = writeln!(s, "| {hash} | {} | {} |", members.join(", "), if l.effective { "yes" } else { "no" });
+            }
+        }
+        if !self.shared_runs.is_empty() {
+            let _ = writeln!(s, "\n### Shared runs of identical rows\n");
+            let _ = writeln!(s, "| recording | from row | other | from row | rows |");
+            let _ = writeln!(s, "|---|---:|---|---:|---:|");
+            for r in &self.shared_runs {
+                let _ =
+                    writeln!(s, "| {}: {} | {} | {}: {} | {} | {} |", r.a.0, r.a.1, r.a.2, r.b.0, r.b.1, r.b.2, r.rows);
+            }
+        }
+    }
+
+    fn composition_tables(&self, s: &mut String) {
+        let c = &self.composition;
+        let _ = writeln!(s, "\n## Composition of the kept recordings (trajectory x speed)\n");
+        let roles: Vec<&str> = c.counts.iter().map(|(r, _)| r.as_str()).collect();
+        let _ = writeln!(s, "| trajectory | speed | {} |", roles.join(" | "));
+        let _ = writeln!(s, "|---|---|{}", "---:|".repeat(roles.len()));
+        for (k, (t, sp)) in c.cells.iter().enumerate() {
+            let counts: Vec<String> = c.counts.iter().map(|(_, v)| v[k].to_string()).collect();
+            let _ = writeln!(s, "| {t} | {sp} | {} |", counts.join(" | "));
+        }
+        let totals: Vec<String> = c.counts.iter().map(|(_, v)| v.iter().sum::<usize>().to_string()).collect();
+        let _ = writeln!(s, "| total | | {} |", totals.join(" | "));
+        let _ =
+            writeln!(s, "\nTotal-variation distance of the cell shares (0 = the same mix, 1 = no cell in common):\n");
+        for (role, d) in &c.distance_from_rest {
+            let _ = writeln!(s, "- `{role}` against all other roles together: {}", distance(*d));
+        }
+        for (a, b, d) in &c.pairwise {
+            let _ = writeln!(s, "- `{a}` against `{b}`: {}", distance(*d));
+        }
+    }
+
+    /// split_recordings.csv: one row per declared entry, then one per
+    /// recording no role lists.
+    pub fn to_csv(&self) -> String {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        let _ = w.write_record([
+            "recording",
+            "role",
+            "listed_as",
+            "line",
+            "column",
+            "presence",
+            "effect",
+            "reason",
+            "trajectory",
+            "speed",
+            "rows",
+            "active_rows",
+            "content_hash",
+            "identical_in_other_roles",
+            "longest_shared_run_rows",
+            "longest_shared_run_with",
+            "same_condition_in_other_roles",
+        ]);
+        for r in &self.recordings {
+            let lower = |v: &dyn std::fmt::Debug| format!("{v:?}").to_lowercase();
+            let presence = match r.presence {
+                Presence::MetadataOnly => "metadata_only".to_string(),
+                p => lower(&p),
+            };
+            let (run, with) = match &r.longest_shared_run {
+                Some((n, who)) => (n.to_string(), who.clone()),
+                None => (String::new(), String::new()),
+            };
+            let _ = w.write_record([
+                r.recording.clone(),
+                role_label(&r.role).to_string(),
+                r.listed_as.clone(),
+                r.line.to_string(),
+                r.column.to_string(),
+                presence,
+                lower(&r.effect),
+                r.reason.clone(),
+                r.trajectory.clone(),
+                r.speed.clone(),
+                r.rows.to_string(),
+                r.active_rows.to_string(),
+                r.content_hash.clone(),
+                r.identical_in_other_roles.join(" "),
+                run,
+                with,
+                r.same_condition_in_other_roles.to_string(),
+            ]);
+        }
+        String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+    }
+}
