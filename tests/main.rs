@@ -16,6 +16,7 @@ mod model;
 mod run;
 mod simulate;
 mod split;
+mod split_audit;
 mod split_numpy;
 mod split_paper;
 mod stats_mixed;
