@@ -93,6 +93,9 @@ pub struct PlannedModel {
 pub struct Plan {
     /// The study's name.
     pub study: String,
+    /// The published split the design pins, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub published: Option<crate::design::PublishedPin>,
     /// Every training job, models x arms x seeds in design order.
     #[serde(rename = "training_cells")]
     pub jobs: Vec<TrainingJob>,
@@ -163,6 +166,7 @@ pub fn compile(design: &Design) -> Plan {
         * design.seeds.len();
     Plan {
         study: design.study.clone(),
+        published: design.published.clone(),
         jobs,
         models: design.models.iter().map(|m| PlannedModel { name: m.name.clone(), kind: m.kind.clone() }).collect(),
         arms: design.arms.clone(),
@@ -297,6 +301,22 @@ impl Plan {
         }
         for a in &self.arms {
             let _ = writeln!(s, "  arm {}: {}", a.name, arm_text(&a.kind));
+        }
+        if let Some(p) = &self.published {
+            let leaked = match p.leaked {
+                crate::design::LeakPolicy::Refuse => "refused",
+                crate::design::LeakPolicy::Drop => "dropped from the fit pool",
+            };
+            let _ = writeln!(
+                s,
+                "split: published {} (sha256 {}): evaluation {}, validation {}, fit {} ({} recordings); fit copies of held-out recordings {leaked}",
+                p.file,
+                p.sha256,
+                p.evaluation_roles.join(", "),
+                p.validation_roles.join(", "),
+                p.fit_roles.join(", "),
+                p.fit.len()
+            );
         }
         let seeds = &self.seeds;
         let (first, last) = (seeds.first().map(|x| x.0).unwrap_or(0), seeds.last().map(|x| x.0).unwrap_or(0));

@@ -299,3 +299,106 @@ fn committed_upstream_audit_is_current() {
         );
     }
 }
+
+fn pinned_design(edit: &dyn Fn(&str) -> String) -> Result<crossaudit::Design, crossaudit::design::DesignError> {
+    let path = root().join("tests/designs/published_fixture.design");
+    let text = edit(&std::fs::read_to_string(&path).unwrap());
+    crossaudit::design::from_str_in("published_fixture.design", &text, &root().join("tests/designs"))
+}
+
+fn build_pinned(design: &crossaudit::Design) -> Result<crossaudit::split::Split, crossaudit::split::SplitError> {
+    let (audit, recordings) = crossaudit::data::audit_and_load(&design.data, &fixture("data")).unwrap();
+    crossaudit::split::build(design, &audit, &recordings)
+}
+
+#[test]
+fn a_design_pins_the_published_roles_and_drops_leaked_fit_copies() {
+    let file = crossaudit::design::load(&root().join("tests/designs/published_fixture.design")).unwrap();
+    let pin = file.design.published.as_ref().unwrap();
+    assert_eq!((pin.evaluation_roles.clone(), pin.fit.len()), (vec!["test".to_string()], 3));
+    let plan = crossaudit::compile(&file.design);
+    let tmp = tempfile::tempdir().unwrap();
+    let p = crossaudit::split::prepare(&file, &plan, &fixture("data"), tmp.path()).unwrap();
+    let names = |rs: &[usize]| rs.iter().map(|&r| p.split.recordings[r].name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&p.split.evaluation), ["S1_circle_slow_rep2", "S3_oval_medium_rep2"]);
+    assert_eq!(names(&p.split.validation_recordings), ["S2_star_fast_rep1"]);
+    assert_eq!(p.split.fit_leaked, [("S1_circle_slow_rep1".to_string(), "S1_circle_slow_rep2".to_string())]);
+    let disjoint = p.split.fit("disjoint").unwrap();
+    let fit_names: std::collections::BTreeSet<String> =
+        disjoint.iter().map(|w| p.split.recordings[w.recording].name.clone()).collect();
+    assert_eq!(fit_names.into_iter().collect::<Vec<_>>(), ["S3_oval_medium_rep1", "S4_linear_ramp_rep1"]);
+    assert!(p.invariants.all_pass);
+    let dropped = std::fs::read_to_string(tmp.path().join("manifests/fit_leaked_dropped.csv")).unwrap();
+    assert_eq!(dropped, "recording,identical_to\nS1_circle_slow_rep1,S1_circle_slow_rep2\n");
+}
+
+#[test]
+fn leaked_refuse_is_an_error_naming_the_copy() {
+    let d = pinned_design(&|t| t.replace("leaked drop", "leaked refuse")).unwrap();
+    let e = build_pinned(&d).unwrap_err().to_string();
+    assert!(e.contains("S1_circle_slow_rep1 (fit) is identical to S1_circle_slow_rep2"), "{e}");
+    // Refuse is the default.
+    let d = pinned_design(&|t| t.replace("; leaked drop", "")).unwrap();
+    assert!(build_pinned(&d).is_err());
+}
+
+#[test]
+fn a_name_the_data_do_not_know_is_located_in_the_split_file() {
+    // nanobench_small.json lists Z9_unknown_rep1 in train (line 8) and an implausible val file.
+    let d = pinned_design(&|t| {
+        t.replace("pin.json", "nanobench_small.json")
+            .replace("duplicates keep", "duplicates keep\n  missing csv allow")
+            .replace("validation val; fit train", "validation train; fit val")
+    })
+    .unwrap();
+    let e = build_pinned(&d).unwrap_err().to_string();
+    assert!(e.contains("nanobench_small.json:8:5: validation recording \"Z9_unknown_rep1\""), "{e}");
+    // As a fit recording (a split file written here, named by its absolute path).
+    let tmp = tempfile::tempdir().unwrap();
+    let split = tmp.path().join("split.json");
+    std::fs::write(
+        &split,
+        "{\"train_files\": [\"S3_oval_medium_rep1\",\n  \"Z9_unknown_rep1\"],\n \"val_files\": [\"S2_star_fast_rep1\"],\n \"test_files\": [\"S1_circle_slow_rep2\", \"S3_oval_medium_rep2\"]}\n",
+    )
+    .unwrap();
+    let d = pinned_design(&|t| t.replace("../fixtures/splits/pin.json", split.to_str().unwrap())).unwrap();
+    let e = build_pinned(&d).unwrap_err().to_string();
+    assert!(
+        e.contains("split.json:2:3: fit recording \"Z9_unknown_rep1\" has neither a CSV nor a metadata file"),
+        "{e}"
+    );
+}
+
+#[test]
+fn published_split_design_errors_are_located() {
+    let err = |edit: &dyn Fn(&str) -> String| pinned_design(edit).unwrap_err().to_string();
+    let e = err(&|t| t.replace("fit train;", ""));
+    assert!(e.contains("missing: fit") && e.contains("role `train`"), "{e}");
+    let e = err(&|t| t.replace("fit train", "fit training"));
+    assert!(e.contains("has no role `training`") && e.contains("`train`, `val`, `test`"), "{e}");
+    let e = err(&|t| t.replace("validation val", "validation test"));
+    assert!(e.contains("role `test` is already mapped to evaluation"), "{e}");
+    let e = err(&|t| t.replace("split_seed 1;", "evaluation 4 split_seed 1;"));
+    assert!(e.contains("evaluation recordings given twice"), "{e}");
+    let e = err(&|t| t.replace("from split", "from 2 recordings"));
+    assert!(e.contains("validation recordings given twice"), "{e}");
+    let e = err(&|t| t.lines().filter(|l| !l.starts_with("split published")).collect::<Vec<_>>().join("\n"));
+    assert!(e.contains("`from split` needs a `split published` statement"), "{e}");
+    let e = err(&|t| t.replace("pin.json", "nowhere.json"));
+    assert!(e.contains("cannot read split file") && e.contains("nowhere.json"), "{e}");
+    let e = err(&|t| t.replace("{ evaluation test;", "{ ignore val; evaluation test;"));
+    assert!(e.contains("role mapped twice") || e.contains("already mapped"), "{e}");
+}
+
+/// The shipped design pinning NanoBench's own split builds on the shared logs.
+#[test]
+#[ignore = "needs ../shared/nanobench"]
+fn the_upstream_split_design_builds_on_the_shared_logs() {
+    let dir = shared_logs();
+    let file = crossaudit::design::load(&root().join("designs/nanobench_upstream_split.design")).unwrap();
+    let (audit, recordings) = crossaudit::data::audit_and_load(&file.design.data, &dir).unwrap();
+    let s = crossaudit::split::build(&file.design, &audit, &recordings).unwrap();
+    // results/upstream_split_audit: 12 test and 13 val recordings kept; 4 train copies of kept held-out ones.
+    assert_eq!((s.evaluation.len(), s.validation_recordings.len(), s.fit_leaked.len()), (12, 13, 4));
+    assert_eq!(s.evaluation_absent.len() + s.validation_absent.len() + s.fit_absent.len(), 4 + 3 + 12);
+}

@@ -61,13 +61,25 @@ pub enum Statement {
     Interaction { left: Ident, right: Ident },
     Decide { name: Ident, conditions: Vec<Spanned<ConditionAst>> },
     Generator(Ident),
+    Published { file: Spanned<String>, items: Vec<Spanned<PublishedItem>> },
 }
 
-/// `from 8 recordings` or `from recordings "A", "B"`.
+/// `from 8 recordings`, `from recordings "A", "B"` or `from split`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ValRecordings {
     Count(Int),
     List(Vec<Spanned<String>>),
+    Split(Span),
+}
+
+/// A clause of `split published "FILE" { ... }`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PublishedItem {
+    Evaluation(Vec<Spanned<String>>),
+    Validation(Vec<Spanned<String>>),
+    Fit(Vec<Spanned<String>>),
+    Ignore(Vec<Spanned<String>>),
+    Leaked(Ident),
 }
 
 impl Statement {
@@ -89,6 +101,7 @@ impl Statement {
             Statement::Interaction { .. } => "interaction",
             Statement::Decide { .. } => "decide",
             Statement::Generator(_) => "generator",
+            Statement::Published { .. } => "split published",
         }
     }
 }

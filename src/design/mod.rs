@@ -66,6 +66,46 @@ pub struct Design {
     pub decision: DecisionRule,
     /// The generator of every split draw.
     pub generator: Generator,
+    /// A benchmark's published split, when the design pins one instead of
+    /// drawing (`split published "FILE" { ... }`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub published: Option<PublishedPin>,
+}
+
+/// What a pinned published split does with a fit recording that is
+/// byte-identical to an evaluation or validation recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LeakPolicy {
+    /// Such a split is an error (the default).
+    Refuse,
+    /// The copy leaves the fit pool; manifests/fit_leaked_dropped.csv lists it.
+    Drop,
+}
+
+/// A published split pinned by the design: its evaluation and validation
+/// roles fill [`RecordingFactor::listed`] and [`ValidationSpec::listed`],
+/// its fit roles [`PublishedPin::fit`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PublishedPin {
+    /// The split file as written in the design.
+    pub file: String,
+    /// SHA-256 of the split file when the design was loaded.
+    pub sha256: String,
+    /// The split file's format.
+    pub format: crate::published::Format,
+    /// Roles whose recordings are evaluated.
+    pub evaluation_roles: Vec<String>,
+    /// Roles whose recordings give the validation windows.
+    pub validation_roles: Vec<String>,
+    /// Roles whose recordings the fit windows come from.
+    pub fit_roles: Vec<String>,
+    /// Roles left out of the study.
+    pub ignored_roles: Vec<String>,
+    /// Fit recordings identical to an evaluation or validation one.
+    pub leaked: LeakPolicy,
+    /// The fit recordings, in file order.
+    pub fit: Vec<ListedName>,
 }
 
 /// The generator of the split's draws.
@@ -88,6 +128,9 @@ pub struct ListedName {
     /// Byte offset of the quoted name in the design source.
     #[serde(skip)]
     pub offset: usize,
+    /// For a name read from a published split file: the file, line and column.
+    #[serde(skip)]
+    pub at: Option<(String, usize, usize)>,
 }
 
 /// The design's `data` block: where the logs come from and which rows count.
@@ -827,18 +870,24 @@ pub(crate) fn parse(file: &str, source: &str) -> Result<Ast, DesignError> {
 }
 
 /// Validates a parsed design.
-pub(crate) fn validate(file: &str, source: &str, ast: &Ast) -> Result<Design, DesignError> {
-    validate::validate(ast).map_err(|diagnostics| DesignError {
+pub(crate) fn validate(file: &str, source: &str, ast: &Ast, base: &Path) -> Result<Design, DesignError> {
+    validate::validate(ast, base).map_err(|diagnostics| DesignError {
         file: file.to_string(),
         source_text: source.to_string(),
         diagnostics,
     })
 }
 
-/// Parse and validate in one call.
+/// Parse and validate in one call. A `split published` file is read
+/// relative to the current directory.
 pub fn from_str(file: &str, source: &str) -> Result<Design, DesignError> {
+    from_str_in(file, source, Path::new(""))
+}
+
+/// As [`from_str`], reading a `split published` file relative to `base`.
+pub fn from_str_in(file: &str, source: &str, base: &Path) -> Result<Design, DesignError> {
     let ast = parse(file, source)?;
-    validate(file, source, &ast)
+    validate(file, source, &ast, base)
 }
 
 /// A design file read from disk, with its bytes kept for hashing and locking.
@@ -884,6 +933,8 @@ pub fn load(path: &Path) -> Result<DesignFile, LoadError> {
         Some(rest) => rest.to_string(),
         None => source,
     };
-    let design = from_str(&path.display().to_string(), &source)?;
+    // A published split file is read relative to the design file.
+    let base = path.parent().unwrap_or(Path::new(""));
+    let design = from_str_in(&path.display().to_string(), &source, base)?;
     Ok(DesignFile { path: path.to_path_buf(), source, design, sha256 })
 }

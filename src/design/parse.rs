@@ -54,9 +54,15 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::sensitivity
         | Rule::interaction
         | Rule::decide
-        | Rule::generator => {
-            "a statement (study, data, factor, validation, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide, generator)"
+        | Rule::generator
+        | Rule::published => {
+            "a statement (study, data, factor, validation, split, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide, generator)"
         }
+        Rule::pub_evaluation | Rule::pub_validation | Rule::pub_fit | Rule::pub_ignore | Rule::pub_leaked => {
+            "a published-split clause (evaluation, validation, fit, ignore, leaked)"
+        }
+        Rule::role_list | Rule::role_name => "a role of the split file",
+        Rule::leaked_policy => "`refuse` or `drop`",
         Rule::ident | Rule::ident_list => "a name",
         Rule::string | Rule::string_inner | Rule::string_list => "a quoted string",
         Rule::int | Rule::int_list => "an integer",
@@ -92,7 +98,9 @@ fn rule_name(rule: &Rule) -> String {
         Rule::universe_kind => "a universe (csv, metadata)",
         Rule::sort_order => "an order (natural, bytewise)",
         Rule::missing_policy => "`allow` or `refuse`",
-        Rule::val_count | Rule::val_list => "`N recordings` or `recordings \"NAME\", ...`",
+        Rule::val_count | Rule::val_list | Rule::val_split => {
+            "`N recordings`, `recordings \"NAME\", ...` or `split`"
+        }
         Rule::data_path
         | Rule::data_rate
         | Rule::include_active
@@ -253,14 +261,18 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::validation => {
             let windows = int(k.next())?;
             let from = k.next();
-            let recordings = if from.as_rule() == Rule::val_count {
-                ValRecordings::Count(int(kids(from).next())?)
-            } else {
-                ValRecordings::List(strings(kids(from).next()))
+            let recordings = match from.as_rule() {
+                Rule::val_count => ValRecordings::Count(int(kids(from).next())?),
+                Rule::val_split => ValRecordings::Split(span_of(&from)),
+                _ => ValRecordings::List(strings(kids(from).next())),
             };
             Statement::Validation { windows, recordings, seed: int(k.next())? }
         }
         Rule::generator => Statement::Generator(ident(k.next())),
+        Rule::published => {
+            let file = string(k.next());
+            Statement::Published { file, items: spanned_items(k, published_item)? }
+        }
         Rule::arm => Statement::Arm { name: ident(k.next()), body: arm_body(k.next())? },
         Rule::model => Statement::Model { name: ident(k.next()), kind: model_kind(k.next())? },
         Rule::train => Statement::Train(spanned_items(k, train_item)?),
@@ -277,6 +289,30 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
             Statement::Decide { name, conditions: spanned_items(k, condition)? }
         }
         other => unreachable!("statement rule {other:?} is not a statement"),
+    })
+}
+
+fn published_item(p: Pair<Rule>) -> Result<PublishedItem, Diagnostic> {
+    let rule = p.as_rule();
+    let mut c = kids(p);
+    let roles = |list: Pair<Rule>| -> Vec<Spanned<String>> {
+        list.into_inner()
+            .map(|name| {
+                let inner = name.into_inner().next().expect("grammar guarantees a role name");
+                if inner.as_rule() == Rule::string {
+                    string(inner)
+                } else {
+                    ident(inner)
+                }
+            })
+            .collect()
+    };
+    Ok(match rule {
+        Rule::pub_evaluation => PublishedItem::Evaluation(roles(c.next())),
+        Rule::pub_validation => PublishedItem::Validation(roles(c.next())),
+        Rule::pub_fit => PublishedItem::Fit(roles(c.next())),
+        Rule::pub_ignore => PublishedItem::Ignore(roles(c.next())),
+        _ => PublishedItem::Leaked(ident(c.next())),
     })
 }
 

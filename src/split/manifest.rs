@@ -69,6 +69,13 @@ struct AbsentRow<'a> {
     recording: &'a str,
 }
 
+/// A fit recording of a published split dropped as a copy of a held-out one.
+#[derive(Serialize)]
+struct LeakedRow<'a> {
+    recording: &'a str,
+    identical_to: &'a str,
+}
+
 /// A row of a recording manifest.
 #[derive(Serialize)]
 struct RecordingRow<'a> {
@@ -107,14 +114,21 @@ impl Manifests {
         files.insert("evaluation_starts.csv".to_string(), windows_csv(split, &split.starts));
         files.insert("validation_recordings.csv".to_string(), recordings_csv(split, &split.validation_recordings));
         files.insert("validation_windows.csv".to_string(), windows_csv(split, &split.validation));
-        if !split.evaluation_absent.is_empty() || !split.validation_absent.is_empty() {
+        if !split.evaluation_absent.is_empty() || !split.validation_absent.is_empty() || !split.fit_absent.is_empty() {
             let rows = split
                 .evaluation_absent
                 .iter()
                 .map(|n| AbsentRow { role: "evaluation", recording: n })
-                .chain(split.validation_absent.iter().map(|n| AbsentRow { role: "validation", recording: n }));
-            let n = split.evaluation_absent.len() + split.validation_absent.len();
+                .chain(split.validation_absent.iter().map(|n| AbsentRow { role: "validation", recording: n }))
+                .chain(split.fit_absent.iter().map(|n| AbsentRow { role: "fit", recording: n }));
+            let n = split.evaluation_absent.len() + split.validation_absent.len() + split.fit_absent.len();
             files.insert("absent_recordings.csv".to_string(), summary(to_csv(rows, &["role", "recording"]), n));
+        }
+        if !split.fit_leaked.is_empty() {
+            let rows = split.fit_leaked.iter().map(|(copy, held)| LeakedRow { recording: copy, identical_to: held });
+            let n = split.fit_leaked.len();
+            files
+                .insert("fit_leaked_dropped.csv".to_string(), summary(to_csv(rows, &["recording", "identical_to"]), n));
         }
         for (arm, w) in &split.fits {
             files.insert(format!("fit_{arm}.csv"), windows_csv(split, w));

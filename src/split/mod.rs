@@ -42,7 +42,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::data::{natural_key, Audit, Recording, Status};
-use crate::design::{ArmKind, Design, DuplicatePolicy, Generator, ListedName, RecordingFactor, StartsPolicy};
+use crate::design::{
+    ArmKind, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor, StartsPolicy,
+};
 
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
@@ -97,6 +99,11 @@ pub struct Split {
     pub evaluation_absent: Vec<String>,
     /// Validation recordings the split drew that have no CSV.
     pub validation_absent: Vec<String>,
+    /// Fit recordings a published split lists that have no usable data.
+    pub fit_absent: Vec<String>,
+    /// Fit recordings of a published split dropped under `leaked drop`:
+    /// (the copy, the evaluation or validation recording it repeats).
+    pub fit_leaked: Vec<(String, String)>,
 }
 
 /// What the split needs to know of an included recording.
@@ -209,6 +216,17 @@ pub enum SplitError {
         /// The names, comma-separated.
         names: String,
     },
+    /// A published split's fit roles hold copies of evaluation or
+    /// validation recordings, and the design says `leaked refuse`.
+    #[error("the published split {file} puts {count} byte-identical cop(ies) of evaluation or validation recordings in its fit roles:\n{list}\n(`crossaudit audit split` reports every such copy; declare `leaked drop` in the `split published` statement to fit without them)")]
+    PublishedLeak {
+        /// The split file as written in the design.
+        file: String,
+        /// How many fit recordings are copies.
+        count: usize,
+        /// One line per copy.
+        list: String,
+    },
     /// Located version of an error about a name written in the design.
     #[error("{path}:{line}:{column}: {message}")]
     Located {
@@ -317,16 +335,33 @@ fn pinned(
             let hit = slots
                 .iter()
                 .position(|(n, slot)| *n == l.name || matches!(slot, Slot::Unit(u) if members(*u).contains(&l.name)));
-            hit.ok_or_else(|| SplitError::NotInUniverse {
-                what,
-                name: l.name.clone(),
-                offset: l.offset,
-                available: slots.len(),
-                hint: if metadata {
-                    " (it has neither an included CSV nor a metadata file)".to_string()
-                } else {
-                    " (it has no included CSV; `universe metadata` also admits names listed only by metadata)"
-                        .to_string()
+            hit.ok_or_else(|| match &l.at {
+                Some((path, line, column)) => SplitError::Located {
+                    path: path.clone(),
+                    line: *line,
+                    column: *column,
+                    message: format!(
+                        "{what} recording \"{}\" is not among the {} recordings the split draws from{}",
+                        l.name,
+                        slots.len(),
+                        if metadata {
+                            " (it has neither an included CSV nor a metadata file)"
+                        } else {
+                            " (it has no included CSV)"
+                        }
+                    ),
+                },
+                None => SplitError::NotInUniverse {
+                    what,
+                    name: l.name.clone(),
+                    offset: l.offset,
+                    available: slots.len(),
+                    hint: if metadata {
+                        " (it has neither an included CSV nor a metadata file)".to_string()
+                    } else {
+                        " (it has no included CSV; `universe metadata` also admits names listed only by metadata)"
+                            .to_string()
+                    },
                 },
             })
         })
@@ -374,11 +409,17 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         let excluded = audit.files.iter().filter(|f| f.status == Status::Excluded);
         slots.extend(excluded.map(|f| (f.name.clone(), Slot::Absent(f.name.clone()))));
     }
+    // A published split may list names that have only a metadata file.
+    if design.published.is_some() && !design.data.universe.metadata {
+        let missing = audit.files.iter().filter(|f| f.status == Status::Missing);
+        slots.extend(missing.map(|f| (f.name.clone(), Slot::Absent(f.name.clone()))));
+    }
     let members = |u: usize| -> Vec<String> { units[u].members.iter().map(|&m| info[m].name.clone()).collect() };
     let numpy = design.generator == Generator::NumpyLegacy;
     let allowed = design.data.missing_csv_allowed;
     let needed = rf.evaluation + val.recordings + 1;
-    if drawable < needed {
+    // A published split's names are checked one by one (absent ones are listed, unknown ones refused).
+    if design.published.is_none() && drawable < needed {
         return Err(SplitError::TooFewRecordings {
             needed,
             evaluation: rf.evaluation,
@@ -456,15 +497,23 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     // R \ E \ V: every member of the remaining units (with `duplicates keep`
     // each identical file is its own unit, as in the paper).
     let v_set: BTreeSet<usize> = v_slots.iter().copied().collect();
-    let fit_units: Vec<usize> = rest
-        .iter()
-        .filter(|c| !v_set.contains(c))
-        .filter_map(|&c| match slots[c].1 {
-            Slot::Unit(u) => Some(u),
-            Slot::Absent(_) => None,
-        })
-        .collect();
-    let fit_recordings = sorted(fit_units.iter().flat_map(|&u| units[u].members.clone()));
+    let (fit_recordings, fit_absent, fit_leaked) = match &design.published {
+        None => {
+            let fit_units: Vec<usize> = rest
+                .iter()
+                .filter(|c| !v_set.contains(c))
+                .filter_map(|&c| match slots[c].1 {
+                    Slot::Unit(u) => Some(u),
+                    Slot::Absent(_) => None,
+                })
+                .collect();
+            (sorted(fit_units.iter().flat_map(|&u| units[u].members.clone())), Vec::new(), Vec::new())
+        }
+        Some(pin) => {
+            let held: Vec<usize> = evaluation_side.iter().chain(&validation_recordings).copied().collect();
+            published_fit(pin, &slots, &units, &info, &held, allowed)?
+        }
+    };
     let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy)?;
     let e_pool = pool_of(&evaluation, recordings);
     let mut contaminating = Vec::new();
@@ -496,7 +545,67 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         rate_hz: design.data.rate_hz,
         evaluation_absent,
         validation_absent,
+        fit_absent,
+        fit_leaked,
     })
+}
+
+/// The fit recordings of a published split: its fit roles' names, without
+/// the ones that have no usable data (an error unless `missing csv allow`)
+/// and, under `leaked drop`, without copies of a held-out recording (an
+/// error under `leaked refuse`). Returns the recordings, the absent names
+/// and the dropped (copy, held-out original) pairs.
+fn published_fit(
+    pin: &PublishedPin,
+    slots: &[(String, Slot)],
+    units: &[DeploymentUnit],
+    info: &[RecordingInfo],
+    held: &[usize],
+    allowed: bool,
+) -> Result<(Vec<usize>, Vec<String>, Vec<(String, String)>), SplitError> {
+    let mut recordings = BTreeSet::new();
+    let mut absent = Vec::new();
+    let mut leaked = Vec::new();
+    for l in &pin.fit {
+        let unit = slots.iter().find_map(|(_, slot)| match slot {
+            Slot::Unit(u) if units[*u].members.iter().any(|&m| info[m].name == l.name) => Some(*u),
+            _ => None,
+        });
+        let Some(u) = unit else {
+            if slots.iter().any(|(n, _)| *n == l.name) {
+                absent.push(l.name.clone());
+                continue;
+            }
+            let (path, line, column) = l.at.clone().unwrap_or_default();
+            return Err(SplitError::Located {
+                path,
+                line,
+                column,
+                message: format!(
+                    "fit recording \"{}\" has neither a CSV nor a metadata file in the data directory",
+                    l.name
+                ),
+            });
+        };
+        // The listed recording itself (under `duplicates group` its unit may hold copies listed elsewhere).
+        let Some(&r) = units[u].members.iter().find(|&&m| info[m].name == l.name) else { continue };
+        match held.iter().find(|&&h| h == r || info[h].content_hash == info[r].content_hash) {
+            Some(&h) => leaked.push((info[r].name.clone(), info[h].name.clone())),
+            None => {
+                recordings.insert(r);
+            }
+        }
+    }
+    absent.sort();
+    if !absent.is_empty() && !allowed {
+        return Err(SplitError::Absent { what: "fit", names: absent.join(", ") });
+    }
+    if !leaked.is_empty() && pin.leaked == LeakPolicy::Refuse {
+        let list =
+            leaked.iter().map(|(c, h)| format!("  {c} (fit) is identical to {h}")).collect::<Vec<_>>().join("\n");
+        return Err(SplitError::PublishedLeak { file: pin.file.clone(), count: leaked.len(), list });
+    }
+    Ok((recordings.into_iter().collect(), absent, leaked))
 }
 
 fn sorted(v: impl Iterator<Item = usize>) -> Vec<usize> {

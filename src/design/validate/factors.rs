@@ -8,12 +8,29 @@ use crate::design::ast::*;
 use crate::design::*;
 
 impl Validator {
-    pub(super) fn recording(&mut self, items: &[Spanned<RecordingItem>], span: Span) -> Option<RecordingFactor> {
+    /// `published`: the design has a `split published` statement, whose
+    /// evaluation names are `pinned` (None when the split file could not be read).
+    pub(super) fn recording(
+        &mut self,
+        items: &[Spanned<RecordingItem>],
+        span: Span,
+        published: bool,
+        pinned: Option<Vec<ListedName>>,
+    ) -> Option<RecordingFactor> {
         let mut seen = BTreeMap::new();
         let (mut evaluation, mut split_seed, mut starts, mut horizon) = (None, None, None, None);
         let mut conditions = Vec::new();
         let mut listed = Vec::new();
         for item in items {
+            if published && matches!(item.node, RecordingItem::Evaluation(_) | RecordingItem::EvaluationList(_)) {
+                self.err_help(
+                    "evaluation recordings given twice",
+                    item.span,
+                    "the published split's evaluation roles give the evaluation recordings",
+                    "remove this clause: with `split published` the recording factor declares split_seed, starts, horizon and conditions",
+                );
+                continue;
+            }
             match &item.node {
                 RecordingItem::Evaluation(n) => {
                     self.once(&mut seen, "evaluation", item.span);
@@ -60,6 +77,10 @@ impl Validator {
                     }
                 }
             }
+        }
+        if published {
+            listed = pinned.unwrap_or_default();
+            evaluation = Some(listed.len().max(2));
         }
         let mut missing = Vec::new();
         for (name, present) in [

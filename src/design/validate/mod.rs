@@ -7,8 +7,10 @@ mod arms;
 mod data;
 mod endpoints;
 mod factors;
+mod published;
 
 use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 use super::ast::*;
 use super::diagnostic::Diagnostic;
@@ -21,8 +23,8 @@ const MAX_SEEDS: u64 = 100_000;
 /// Tolerance for "this many seconds is a whole number of samples".
 const SAMPLE_EPS: f64 = 1e-9;
 
-pub fn validate(ast: &Ast) -> Result<Design, Vec<Diagnostic>> {
-    let mut v = Validator::default();
+pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
+    let mut v = Validator { base: base.to_path_buf(), ..Validator::default() };
     let design = v.design(ast);
     match design {
         Some(d) if v.diags.is_empty() => Ok(d),
@@ -33,6 +35,8 @@ pub fn validate(ast: &Ast) -> Result<Design, Vec<Diagnostic>> {
 #[derive(Default)]
 struct Validator {
     diags: Vec<Diagnostic>,
+    /// Where a `split published` file is read from.
+    base: PathBuf,
 }
 
 impl Validator {
@@ -98,8 +102,16 @@ impl Validator {
             Statement::Data(block) => self.data(block),
             _ => None,
         });
+        let published = singles.get("split published").and_then(|s| match &s.node {
+            Statement::Published { file, items } => self.published(file, items, s.span),
+            _ => None,
+        });
+        let pinned_by_split = singles.contains_key("split published");
         let recording = singles.get("factor recording").and_then(|s| match &s.node {
-            Statement::FactorRecording(items) => self.recording(items, s.span),
+            Statement::FactorRecording(items) => {
+                let pinned = published.as_ref().map(|p| p.evaluation.clone());
+                self.recording(items, s.span, pinned_by_split, pinned)
+            }
             _ => None,
         });
         let seeds = singles.get("factor seed").and_then(|s| match &s.node {
@@ -107,7 +119,10 @@ impl Validator {
             _ => None,
         });
         let validation = singles.get("validation").and_then(|s| match &s.node {
-            Statement::Validation { windows, recordings, seed } => Some(self.validation(windows, recordings, seed)),
+            Statement::Validation { windows, recordings, seed } => {
+                let pinned = published.as_ref().map(|p| p.validation.clone());
+                Some(self.validation(windows, recordings, seed, pinned_by_split, pinned))
+            }
             _ => None,
         });
         let generator = match singles.get("generator").map(|s| &s.node) {
@@ -176,13 +191,54 @@ impl Validator {
             interaction,
             decision: decision?,
             generator,
+            published: published.map(|p| p.pin),
         })
     }
 
-    /// `validation N windows from (K recordings | recordings "A", ...) seed S`.
-    fn validation(&mut self, windows: &Int, recordings: &ValRecordings, seed: &Int) -> ValidationSpec {
+    /// `validation N windows from (K recordings | recordings "A", ... | split) seed S`.
+    fn validation(
+        &mut self,
+        windows: &Int,
+        recordings: &ValRecordings,
+        seed: &Int,
+        published: bool,
+        pinned: Option<Vec<ListedName>>,
+    ) -> ValidationSpec {
         let windows = self.count(windows, "validation windows", 1);
         let seed = self.nonneg(seed, "validation seed");
+        match (recordings, published) {
+            (ValRecordings::Split(_), true) => {
+                let listed = pinned.unwrap_or_default();
+                return ValidationSpec { windows, recordings: listed.len(), seed, listed };
+            }
+            (ValRecordings::Split(span), false) => {
+                self.err_help(
+                    "no published split",
+                    *span,
+                    "`from split` needs a `split published` statement",
+                    "declare `split published \"FILE\" { evaluation ROLE; validation ROLE; fit ROLE }`, or draw: `from 8 recordings`",
+                );
+                return ValidationSpec { windows, recordings: 1, seed, listed: Vec::new() };
+            }
+            (ValRecordings::Count(Spanned { span, .. }), true) => {
+                self.err_help(
+                    "validation recordings given twice",
+                    *span,
+                    "the published split's validation roles give the validation recordings",
+                    "write `validation N windows from split seed S`",
+                );
+            }
+            (ValRecordings::List(names), true) => {
+                let span = names.first().map(|n| n.span).unwrap_or_default();
+                self.err_help(
+                    "validation recordings given twice",
+                    span,
+                    "the published split's validation roles give the validation recordings",
+                    "write `validation N windows from split seed S`",
+                );
+            }
+            _ => {}
+        }
         match recordings {
             ValRecordings::Count(n) => ValidationSpec {
                 windows,
@@ -194,6 +250,7 @@ impl Validator {
                 let listed = self.listed(names, "validation");
                 ValidationSpec { windows, recordings: listed.len(), seed, listed }
             }
+            ValRecordings::Split(_) => ValidationSpec { windows, recordings: 1, seed, listed: Vec::new() },
         }
     }
 
@@ -206,7 +263,7 @@ impl Validator {
                 self.err("duplicate name", n.span, format!("{what} recording `{}` is listed twice", n.node));
             }
         }
-        names.iter().map(|n| ListedName { name: n.node.clone(), offset: n.span.start }).collect()
+        names.iter().map(|n| ListedName { name: n.node.clone(), offset: n.span.start, at: None }).collect()
     }
 
     /// numpy's legacy RandomState takes seeds 0..=2^32-1 only: every seed

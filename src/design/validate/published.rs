@@ -1,0 +1,164 @@
+//! `split published "FILE" { evaluation ROLE; validation ROLE; fit ROLE }`:
+//! the split file is read here, every role of it must be mapped (or
+//! ignored), and its names become the design's pinned recordings, each
+//! remembering where the split file lists it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::Validator;
+use crate::design::ast::*;
+use crate::design::*;
+
+/// A resolved `split published`: the pin and the evaluation and validation
+/// names it gives the recording factor and the validation statement.
+pub(super) struct Pinned {
+    pub pin: PublishedPin,
+    pub evaluation: Vec<ListedName>,
+    pub validation: Vec<ListedName>,
+}
+
+type Roles = Option<Vec<Spanned<String>>>;
+
+impl Validator {
+    pub(super) fn published(
+        &mut self,
+        file: &Spanned<String>,
+        items: &[Spanned<PublishedItem>],
+        span: Span,
+    ) -> Option<Pinned> {
+        let mut seen = BTreeMap::new();
+        let (mut evaluation, mut validation, mut fit): (Roles, Roles, Roles) = (None, None, None);
+        let mut ignore = Vec::new();
+        let mut leaked = LeakPolicy::Refuse;
+        for item in items {
+            match &item.node {
+                PublishedItem::Evaluation(r) => {
+                    self.once(&mut seen, "evaluation", item.span);
+                    evaluation = Some(r.clone());
+                }
+                PublishedItem::Validation(r) => {
+                    self.once(&mut seen, "validation", item.span);
+                    validation = Some(r.clone());
+                }
+                PublishedItem::Fit(r) => {
+                    self.once(&mut seen, "fit", item.span);
+                    fit = Some(r.clone());
+                }
+                PublishedItem::Ignore(r) => ignore.extend(r.iter().cloned()),
+                PublishedItem::Leaked(p) => {
+                    self.once(&mut seen, "leaked", item.span);
+                    leaked = if p.node == "drop" { LeakPolicy::Drop } else { LeakPolicy::Refuse };
+                }
+            }
+        }
+        let missing: Vec<&str> = [("evaluation", &evaluation), ("validation", &validation), ("fit", &fit)]
+            .iter()
+            .filter(|(_, r)| r.is_none())
+            .map(|(n, _)| *n)
+            .collect();
+        if !missing.is_empty() {
+            self.err_help(
+                "incomplete published split",
+                span,
+                format!("missing: {}", missing.join(", ")),
+                "map the split file's roles: `evaluation test; validation val; fit train`",
+            );
+        }
+        let path =
+            if Path::new(&file.node).is_absolute() { PathBuf::from(&file.node) } else { self.base.join(&file.node) };
+        let split = match crate::published::read(&path) {
+            Ok(s) => s,
+            Err(e) => {
+                self.err_help(
+                    "cannot use the published split",
+                    file.span,
+                    e.to_string(),
+                    "a relative path is read from the design file's folder",
+                );
+                return None;
+            }
+        };
+        let known = split.roles.iter().map(|r| format!("`{}`", r.name)).collect::<Vec<_>>().join(", ");
+        let mut mapped: Vec<(String, &'static str)> = Vec::new();
+        let groups: [(&'static str, &[Spanned<String>]); 4] = [
+            ("evaluation", evaluation.as_deref().unwrap_or(&[])),
+            ("validation", validation.as_deref().unwrap_or(&[])),
+            ("fit", fit.as_deref().unwrap_or(&[])),
+            ("ignore", &ignore),
+        ];
+        for (what, roles) in groups {
+            for r in roles {
+                if split.role(&r.node).is_none() {
+                    self.err_help(
+                        "unknown role",
+                        r.span,
+                        format!("{} has no role `{}`", path.display(), r.node),
+                        format!("its roles are {known}"),
+                    );
+                } else if let Some((_, first)) = mapped.iter().find(|(n, _)| *n == r.node) {
+                    self.err("role mapped twice", r.span, format!("role `{}` is already mapped to {first}", r.node));
+                } else {
+                    mapped.push((r.node.clone(), what));
+                }
+            }
+        }
+        for role in &split.roles {
+            if !mapped.iter().any(|(n, _)| *n == role.name) {
+                self.err_help(
+                    "unmapped role",
+                    file.span,
+                    format!(
+                        "role `{}` of {} ({} recordings) is not mapped",
+                        role.name,
+                        path.display(),
+                        role.entries.len()
+                    ),
+                    format!(
+                        "map it with `evaluation`, `validation` or `fit`, or leave it out with `ignore {}`",
+                        role.name
+                    ),
+                );
+            }
+        }
+        let shown = path.display().to_string();
+        let names = |what: &str| -> Vec<ListedName> {
+            split
+                .roles
+                .iter()
+                .filter(|r| mapped.iter().any(|(n, w)| *n == r.name && *w == what))
+                .flat_map(|r| r.entries.iter())
+                .map(|e| ListedName {
+                    name: e.name.clone(),
+                    offset: file.span.start,
+                    at: Some((shown.clone(), e.at.line, e.at.column)),
+                })
+                .collect()
+        };
+        let pinned_evaluation = names("evaluation");
+        if evaluation.is_some() && pinned_evaluation.len() < 2 {
+            self.err(
+                "too few recordings",
+                span,
+                format!(
+                    "the evaluation roles list {} recording(s); a crossed design needs at least 2",
+                    pinned_evaluation.len()
+                ),
+            );
+        }
+        let roles_of =
+            |what: &str| -> Vec<String> { mapped.iter().filter(|(_, w)| *w == what).map(|(n, _)| n.clone()).collect() };
+        let pin = PublishedPin {
+            file: file.node.clone(),
+            sha256: split.sha256.clone(),
+            format: split.format,
+            evaluation_roles: roles_of("evaluation"),
+            validation_roles: roles_of("validation"),
+            fit_roles: roles_of("fit"),
+            ignored_roles: roles_of("ignore"),
+            leaked,
+            fit: names("fit"),
+        };
+        Some(Pinned { pin, evaluation: pinned_evaluation, validation: names("validation") })
+    }
+}
