@@ -550,6 +550,9 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     })
 }
 
+/// Fit recordings, absent names, and (copy, held-out original) pairs dropped.
+type PublishedFit = (Vec<usize>, Vec<String>, Vec<(String, String)>);
+
 /// The fit recordings of a published split: its fit roles' names, without
 /// the ones that have no usable data (an error unless `missing csv allow`)
 /// and, under `leaked drop`, without copies of a held-out recording (an
@@ -562,7 +565,7 @@ fn published_fit(
     info: &[RecordingInfo],
     held: &[usize],
     allowed: bool,
-) -> Result<(Vec<usize>, Vec<String>, Vec<(String, String)>), SplitError> {
+) -> Result<PublishedFit, SplitError> {
     let mut recordings = BTreeSet::new();
     let mut absent = Vec::new();
     let mut leaked = Vec::new();
