@@ -228,12 +228,14 @@ pub fn audit_and_load(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Recordi
     Ok((audit, recordings.into_iter().flatten().collect()))
 }
 
-/// As [`audit`], and also returns every readable recording, excluded ones
+/// As [`audit`], and also returns the row hashes (see
+/// [`Recording::row_hashes`]) of every readable recording, excluded ones
 /// too: entry `k` belongs to `audit.files[k]` (`None` for a file that could
 /// not be read or has no CSV). The split audit reads excluded files as well,
-/// since a loader with other rules would keep them.
-pub fn audit_and_load_all(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Option<Recording>>), AuditError> {
-    audit_with(spec, dir, Keep::All)
+/// since a loader with other rules would keep them; it keeps only the hashes.
+pub fn audit_and_hash_rows(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Option<Vec<u64>>>), AuditError> {
+    let (audit, recordings) = audit_with(spec, dir, Keep::RowHashes)?;
+    Ok((audit, recordings.into_iter().map(|r| r.map(|r| r.row_hashes)).collect()))
 }
 
 /// Which loaded recordings an audit returns.
@@ -241,7 +243,8 @@ pub fn audit_and_load_all(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Opt
 enum Keep {
     None,
     Included,
-    All,
+    /// Every readable recording, emptied of all but its row hashes.
+    RowHashes,
 }
 
 fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Option<Recording>>), AuditError> {
@@ -264,7 +267,13 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
                     if spec.tails == TailPolicy::Truncate {
                         rec.truncate_tail();
                     }
-                    (judged(spec, &rec, meta), (keep != Keep::None).then_some(rec))
+                    let row = judged(spec, &rec, meta);
+                    let kept = match keep {
+                        Keep::None => None,
+                        Keep::Included => Some(rec),
+                        Keep::RowHashes => Some(Recording { row_hashes: rec.row_hashes, ..Recording::empty() }),
+                    };
+                    (row, kept)
                 }
                 Err(e) => (unreadable(spec, path, meta, e.to_string()), None),
             };

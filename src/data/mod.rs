@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::design::{Cmp, DataSpec, InclusionRule};
-pub use audit::{audit, audit_and_load, audit_and_load_all, Audit, AuditError, FileRow, Status};
+pub use audit::{audit, audit_and_hash_rows, audit_and_load, Audit, AuditError, FileRow, Status};
 pub use log::{LogError, NANOBENCH_COLUMNS};
 pub use metadata::{parse_name, Controller, Metadata, NameParts};
 
@@ -108,6 +108,24 @@ pub fn onboard_tail(t: &[f64], onboard: &[&[f64]], active: &[bool]) -> Option<Ta
 }
 
 impl Recording {
+    /// A recording with no rows (a placeholder to move fields out of).
+    pub(crate) fn empty() -> Recording {
+        Recording {
+            name: String::new(),
+            path: PathBuf::new(),
+            rows: 0,
+            t: Vec::new(),
+            state: Vec::new(),
+            action: Vec::new(),
+            pwm: Vec::new(),
+            active: Vec::new(),
+            content_hash: String::new(),
+            row_hashes: Vec::new(),
+            tail: None,
+            rows_cut: 0,
+        }
+    }
+
     /// Rows meeting the active rule.
     pub fn active_rows(&self) -> usize {
         self.active.iter().filter(|a| **a).count()

@@ -271,7 +271,7 @@ pub fn audit(
     dir: &Path,
     options: Options,
 ) -> Result<SplitAudit, SplitAuditError> {
-    let (data_audit, loaded) = data::audit_and_load_all(spec, dir)?;
+    let (data_audit, loaded) = data::audit_and_hash_rows(spec, dir)?;
     let by_name: BTreeMap<&str, usize> =
         data_audit.files.iter().enumerate().map(|(k, f)| (f.name.as_str(), k)).collect();
     let mut rows: Vec<RecordingRow> = split
@@ -291,9 +291,8 @@ pub fn audit(
     }
     let exact = exact_leaks(&mut rows);
     let listed: Vec<usize> = (0..rows.len()).filter(|&k| !rows[k].role.is_empty()).collect();
-    let recordings_of = |k: usize| by_name.get(rows[k].recording.as_str()).and_then(|&i| loaded[i].as_ref());
-    let hashed: Vec<(usize, &[u64])> =
-        listed.iter().filter_map(|&k| recordings_of(k).map(|r| (k, r.row_hashes.as_slice()))).collect();
+    let hashes_of = |k: usize| by_name.get(rows[k].recording.as_str()).and_then(|&i| loaded[i].as_deref());
+    let hashed: Vec<(usize, &[u64])> = listed.iter().filter_map(|&k| hashes_of(k).map(|h| (k, h))).collect();
     let shared_runs = shared_runs(&mut rows, &hashed, options.min_run_rows);
     same_conditions(&mut rows);
     let role_names: Vec<String> = split.roles.iter().map(|r| r.name.clone()).collect();
