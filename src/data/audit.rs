@@ -233,10 +233,13 @@ pub fn audit_and_load(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Recordi
 /// too: entry `k` belongs to `audit.files[k]` (`None` for a file that could
 /// not be read or has no CSV). The split audit reads excluded files as well,
 /// since a loader with other rules would keep them; it keeps only the hashes.
-pub fn audit_and_hash_rows(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<Option<Vec<u64>>>), AuditError> {
+pub fn audit_and_hash_rows(spec: &DataSpec, dir: &Path) -> Result<(Audit, Vec<RowHashes>), AuditError> {
     let (audit, recordings) = audit_with(spec, dir, Keep::RowHashes)?;
     Ok((audit, recordings.into_iter().map(|r| r.map(|r| r.row_hashes)).collect()))
 }
+
+/// The row hashes of one file of an audit, if it could be read.
+pub type RowHashes = Option<Vec<u64>>;
 
 /// Which loaded recordings an audit returns.
 #[derive(Clone, Copy, PartialEq, Eq)]
