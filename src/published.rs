@@ -442,46 +442,16 @@ impl Parser<'_> {
         let place = self.place();
         let node = match self.peek() {
             Some('"') => Node::Str(self.string()),
-            Some('[') => {
-                self.bump();
-                let mut items = Vec::new();
-                loop {
-                    self.ws();
-                    if self.peek() == Some(']') {
-                        self.bump();
-                        break;
-                    }
-                    items.push(self.value());
-                    self.ws();
-                    if self.peek() == Some(',') {
-                        self.bump();
-                    }
-                }
-                Node::Arr(items)
-            }
-            Some('{') => {
-                self.bump();
-                let mut members = Vec::new();
-                loop {
-                    self.ws();
-                    if self.peek() == Some('}') {
-                        self.bump();
-                        break;
-                    }
-                    let kat = self.place();
-                    let key = self.string();
-                    self.ws();
-                    self.bump(); // ':'
-                    self.ws();
-                    let (vat, v) = self.value();
-                    members.push((kat, key, vat, v));
-                    self.ws();
-                    if self.peek() == Some(',') {
-                        self.bump();
-                    }
-                }
-                Node::Obj(members)
-            }
+            Some('[') => Node::Arr(self.items(']', Parser::value)),
+            Some('{') => Node::Obj(self.items('}', |p| {
+                let kat = p.place();
+                let key = p.string();
+                p.ws();
+                p.bump(); // ':'
+                p.ws();
+                let (vat, v) = p.value();
+                (kat, key, vat, v)
+            })),
             _ => {
                 let start = self.i;
                 while self.peek().is_some_and(|c| !(c == ',' || c == ']' || c == '}' || c.is_whitespace())) {
@@ -491,6 +461,25 @@ impl Parser<'_> {
             }
         };
         (place, node)
+    }
+
+    /// The comma-separated items of the list or object opening at the
+    /// cursor, up to its `close` character.
+    fn items<T>(&mut self, close: char, mut item: impl FnMut(&mut Self) -> T) -> Vec<T> {
+        self.bump();
+        let mut out = Vec::new();
+        loop {
+            self.ws();
+            if self.peek() == Some(close) {
+                self.bump();
+                return out;
+            }
+            out.push(item(self));
+            self.ws();
+            if self.peek() == Some(',') {
+                self.bump();
+            }
+        }
     }
 
     /// A string literal at the cursor, decoded by serde_json.

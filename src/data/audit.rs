@@ -252,6 +252,7 @@ enum Keep {
 
 fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Option<Recording>>), AuditError> {
     let layout = Layout::new(spec).map_err(AuditError::Layout)?;
+    let layout = if keep == Keep::RowHashes { layout.with_row_hashes() } else { layout };
     if spec.rules.contains(&InclusionRule::Implausible) {
         for needed in ["pwr_pm_vbat", "sp_ctrltarget_z"] {
             if !spec.state_columns.iter().any(|c| c == needed) {

@@ -197,7 +197,8 @@ pub struct Log {
     pub content_hash: String,
     /// XXH3-64 of each data row as written (without its line ending): equal
     /// rows in two logs are the same bytes. The split audit finds shared
-    /// runs of rows with them.
+    /// runs of rows with them. Empty unless asked for
+    /// ([`parse_with_row_hashes`]).
     pub row_hashes: Vec<u64>,
 }
 
@@ -245,6 +246,15 @@ pub fn column_indices(names: &[String]) -> Result<Vec<usize>, String> {
 
 /// Parses and checks a whole log held in memory.
 pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> {
+    parse_log(file, bytes, keep, false)
+}
+
+/// As [`parse`], and hashes every data row into [`Log::row_hashes`].
+pub fn parse_with_row_hashes(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> {
+    parse_log(file, bytes, keep, true)
+}
+
+fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Result<Log, LogError> {
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }
@@ -261,7 +271,7 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
     let columns = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
     let mut t = Tokenizer { file, body, slots, columns, previous_t: f64::NEG_INFINITY, line: 1, i: 0 };
     let mut rows = 0;
-    let mut row_hashes = Vec::with_capacity(estimate);
+    let mut row_hashes = Vec::with_capacity(if hash_rows { estimate } else { 0 });
     while t.i < body.len() {
         t.line += 1;
         // Blank line (`\n` or `\r\n`).
@@ -274,11 +284,13 @@ pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> 
         if fields != n {
             return Err(LogError::Ragged { file: file.to_string(), line: t.line, found: fields, expected: n });
         }
-        let mut end = t.i;
-        while end > start && matches!(body[end - 1], b'\n' | b'\r') {
-            end -= 1;
+        if hash_rows {
+            let mut end = t.i;
+            while end > start && matches!(body[end - 1], b'\n' | b'\r') {
+                end -= 1;
+            }
+            row_hashes.push(xxhash_rust::xxh3::xxh3_64(&body[start..end]));
         }
-        row_hashes.push(xxhash_rust::xxh3::xxh3_64(&body[start..end]));
         rows += 1;
     }
     if rows == 0 {

@@ -39,7 +39,8 @@ pub struct Recording {
     pub active: Vec<bool>,
     /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
     pub content_hash: String,
-    /// XXH3-64 of each data row as written (see [`log::Log::row_hashes`]).
+    /// XXH3-64 of each data row as written (see [`log::Log::row_hashes`]);
+    /// empty unless the layout asks for them.
     pub row_hashes: Vec<u64>,
     /// The extrapolated onboard tail found in the file, if any (see [`onboard_tail`]).
     pub tail: Option<Tail>,
@@ -163,6 +164,8 @@ pub struct Layout {
     battery: Option<usize>,
     /// Whether the schema's onboard columns were kept for the tail detector.
     onboard: bool,
+    /// Whether each row is hashed ([`Recording::row_hashes`]).
+    row_hashes: bool,
 }
 
 impl Layout {
@@ -179,14 +182,24 @@ impl Layout {
         }
         let keep = log::column_indices(&names).map_err(|e| format!("data declaration: {e}"))?;
         let battery = spec.state_columns.iter().position(|c| c == "pwr_pm_vbat");
-        Ok(Layout { keep, active_cmp: cmp, active_threshold: threshold, battery, onboard })
+        Ok(Layout { keep, active_cmp: cmp, active_threshold: threshold, battery, onboard, row_hashes: false })
+    }
+
+    /// The same layout, also hashing every row (for the split audit).
+    pub fn with_row_hashes(self) -> Layout {
+        Layout { row_hashes: true, ..self }
     }
 }
 
 /// Loads one recording (`.csv` or `.csv.gz`).
 pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogError> {
     let bytes = log::read_bytes(path)?;
-    let parsed = log::parse(&path.display().to_string(), &bytes, &layout.keep)?;
+    let file = path.display().to_string();
+    let parsed = if layout.row_hashes {
+        log::parse_with_row_hashes(&file, &bytes, &layout.keep)?
+    } else {
+        log::parse(&file, &bytes, &layout.keep)?
+    };
     let cols = parsed.columns;
     let rows = parsed.rows;
     let mut state = vec![[0.0; 14]; rows];

@@ -178,9 +178,6 @@ impl DataSpec {
     /// from the file name. What the split audit applies when no design is given.
     pub fn upstream_task2() -> DataSpec {
         DataSpec {
-            source: DataSource::Nanobench,
-            path: None,
-            rate_hz: 100.0,
             rules: vec![
                 InclusionRule::Active {
                     column: "motor_motor_m1".into(),
@@ -190,6 +187,20 @@ impl DataSpec {
                 },
                 InclusionRule::Implausible,
             ],
+            ..DataSpec::nanobench_defaults()
+        }
+    }
+
+    /// What a `data nanobench { }` block declares when it says nothing: no
+    /// inclusion rule, the task-2 state and action columns, 100 Hz,
+    /// identical files and onboard tails kept, speed from the file name, the
+    /// included CSVs as the universe in natural order.
+    pub fn nanobench_defaults() -> DataSpec {
+        DataSpec {
+            source: DataSource::Nanobench,
+            path: None,
+            rate_hz: 100.0,
+            rules: Vec::new(),
             duplicates: DuplicatePolicy::Keep,
             strictness: Strictness::Lenient,
             state_columns: DEFAULT_STATE_COLUMNS.iter().map(|c| c.to_string()).collect(),

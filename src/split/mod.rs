@@ -418,8 +418,9 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     let numpy = design.generator == Generator::NumpyLegacy;
     let allowed = design.data.missing_csv_allowed;
     let needed = rf.evaluation + val.recordings + 1;
-    // A published split's names are checked one by one (absent ones are listed, unknown ones refused).
-    if design.published.is_none() && drawable < needed {
+    // Pinned names are checked one by one instead (absent ones listed, unknown ones refused).
+    let drawn = rf.listed.is_empty() || val.listed.is_empty();
+    if drawn && drawable < needed {
         return Err(SplitError::TooFewRecordings {
             needed,
             evaluation: rf.evaluation,

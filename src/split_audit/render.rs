@@ -42,6 +42,7 @@ impl SplitAudit {
             "- identical: byte-identical data rows (XXH3-128 of everything after the header); shared runs: at least {} consecutive identical rows (XXH3-64 per row) between recordings that are not identical copies",
             self.options.min_run_rows
         );
+        let _ = writeln!(s, "\n## Findings\n");
         self.findings(&mut s);
         self.membership(&mut s);
         self.leak_tables(&mut s);
@@ -53,11 +54,10 @@ impl SplitAudit {
     pub fn summary(&self) -> String {
         let mut s = format!("{} against {}:\n", self.split_file, self.data_dir);
         self.findings(&mut s);
-        s.replace("\n## Findings\n\n", "")
+        s
     }
 
     fn findings(&self, s: &mut String) {
-        let _ = writeln!(s, "\n## Findings\n");
         let leaking: usize = self.exact.iter().map(|l| l.members.len()).sum();
         let effective = self.exact.iter().filter(|l| l.effective).count();
         let _ = writeln!(

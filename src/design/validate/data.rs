@@ -12,23 +12,7 @@ impl Validator {
         let source = self.data_source(&block.source);
         let mut sim = SimParts::default();
         let mut seen = BTreeMap::new();
-        let mut spec = DataSpec {
-            source: DataSource::Nanobench,
-            path: None,
-            rate_hz: 100.0,
-            rules: Vec::new(),
-            duplicates: DuplicatePolicy::Keep,
-            strictness: Strictness::Lenient,
-            state_columns: DEFAULT_STATE_COLUMNS.iter().map(|s| s.to_string()).collect(),
-            action_columns: DEFAULT_ACTION_COLUMNS.iter().map(|s| s.to_string()).collect(),
-            state_preset: Some(StatePreset::Onboard),
-            tails: TailPolicy::Keep,
-            speed: SpeedLabels::Name,
-            plausibility: Pooling::Pooled,
-            universe: Universe { metadata: false, bytewise: false },
-            missing_csv_allowed: false,
-            simulated: None,
-        };
+        let mut spec = DataSpec::nanobench_defaults();
         for item in &block.items {
             self.data_item(item, &mut seen, &mut spec, &mut sim);
         }
