@@ -15,6 +15,7 @@ mod golden;
 mod model;
 mod run;
 mod simulate;
+mod slurm;
 mod split;
 mod split_audit;
 mod split_numpy;

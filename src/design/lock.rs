@@ -22,7 +22,7 @@ pub struct LockFile {
 }
 
 /// Whether a design matches its lock.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "status")]
 pub enum LockStatus {
     /// No lock file.

@@ -932,7 +932,16 @@ pub enum LoadError {
 
 /// Reads, parses and validates a design file.
 pub fn load(path: &Path) -> Result<DesignFile, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.display().to_string(), source })?;
+    load_copy(path, path)
+}
+
+/// Reads a verbatim copy of the design `original` from `copy`: its bytes
+/// and hash are the copy's, while errors, the lock and a `split published`
+/// file are looked up as for `original`. A run prepared for a cluster keeps
+/// such a copy, so its jobs run the design as it was prepared.
+pub fn load_copy(copy: &Path, original: &Path) -> Result<DesignFile, LoadError> {
+    let bytes = std::fs::read(copy).map_err(|source| LoadError::Io { path: copy.display().to_string(), source })?;
+    let path = original;
     let sha256 = crate::io::sha256_hex(&bytes);
     let source = String::from_utf8(bytes).map_err(|e| LoadError::Io {
         path: path.display().to_string(),

@@ -14,6 +14,7 @@
 mod grid;
 pub mod job;
 mod record;
+pub mod slurm;
 mod source;
 mod trained_invariants;
 
@@ -207,6 +208,70 @@ pub enum RunError {
     /// A file could not be written.
     #[error(transparent)]
     Write(#[from] WriteError),
+    /// A Slurm option sbatch would misread.
+    #[error("{option} {value:?}: expected {expected}")]
+    SlurmOption {
+        /// The flag.
+        option: String,
+        /// As given.
+        value: String,
+        /// What it may be.
+        expected: String,
+    },
+    /// A path that cannot go into a Slurm script as it is.
+    #[error("{path} cannot be used in a Slurm script: {reason}; choose another directory")]
+    UnsafeClusterPath {
+        /// The path.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+    /// A directory that `run --slurm` did not prepare, or whose records disagree.
+    #[error(
+        "{dir} is not a run prepared for Slurm ({reason}); prepare it with `crossaudit run DESIGN --out {dir} --slurm`"
+    )]
+    NotPrepared {
+        /// The run directory.
+        dir: String,
+        /// What is missing or inconsistent.
+        reason: String,
+    },
+    /// An array index beyond the job list.
+    #[error("array index {index} is out of range: the study has {jobs} jobs, indices 0 to {}", jobs.saturating_sub(1))]
+    NoSuchTask {
+        /// The index asked for.
+        index: usize,
+        /// Jobs in the study.
+        jobs: usize,
+    },
+    /// Another process holds the job's lock.
+    #[error("job {job} is being run by another process (it holds {lock}); wait for it, or cancel it first")]
+    JobBusy {
+        /// `model/arm/seed`.
+        job: String,
+        /// The lock file.
+        lock: String,
+    },
+    /// The gather step found jobs without a record.
+    #[error("{missing} of {jobs} jobs in {dir} have not finished, so cells.csv and the report were not written:\n{list}resubmit with `sh {dir}/slurm/submit.sh` (finished jobs are skipped), or run the missing ones with `crossaudit job {dir} --index N`")]
+    JobsMissing {
+        /// The run directory.
+        dir: String,
+        /// How many jobs have no record.
+        missing: usize,
+        /// Jobs in the study.
+        jobs: usize,
+        /// One line per missing job: index, job, Slurm log.
+        list: String,
+    },
+    /// Submitting to Slurm failed.
+    #[error("submitting {script} failed: {reason}")]
+    Submit {
+        /// submit.sh.
+        script: String,
+        /// Why (sbatch's message).
+        reason: String,
+    },
 }
 
 /// What a finished run produced.
@@ -252,13 +317,41 @@ pub fn run(
     if options.workers == 0 {
         return Err(RunError::NoWorkers);
     }
+    let opened = open(file, plan, data, out, options.exploratory)?;
+    let (todo, builds) = pending(plan, out)?;
+    let skipped = plan.jobs.len() - todo.len();
+    observer.start(plan.jobs.len(), skipped);
+    let trained = todo.len();
+    grid::run_grid(&file.sha256, plan, &opened.prepared, out, todo, options.workers, observer)?;
+    let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
+    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
+    Ok(outcome)
+}
+
+/// A run directory made ready for its jobs: the lock state it runs under,
+/// the prepared split and the record written to `run.json`.
+struct Opened {
+    /// The design's lock state when the run was opened.
+    status: LockStatus,
+    /// Whether every output is labelled EXPLORATORY.
+    exploratory: bool,
+    /// The split every job reads.
+    prepared: crate::split::Prepared,
+    /// What `run.json` holds.
+    record: RunRecord,
+}
+
+/// Checks the lock, refuses a directory that holds another design or other
+/// data, writes the audit, manifests and invariants, and (re)writes
+/// `run.json`: everything before the first job.
+fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bool) -> Result<Opened, RunError> {
     let status = lock::status(&file.path, &file.sha256)?;
     let exploratory = match status {
-        LockStatus::LockedChanged { .. } if !options.exploratory => {
+        LockStatus::LockedChanged { .. } if !exploratory => {
             return Err(RunError::LockChanged { path: file.path.display().to_string() })
         }
         LockStatus::LockedChanged { .. } => true,
-        _ => options.exploratory,
+        _ => exploratory,
     };
     create_dir_all(out)?;
     let previous = RunRecord::read(out)?;
@@ -268,20 +361,17 @@ pub fn run(
         }
     }
     let prepared = crate::split::prepare(file, plan, &data.dir, out)?;
-    let record = RunRecord {
-        study: plan.study.clone(),
-        design_sha256: file.sha256.clone(),
-        data: data.origin.clone(),
-        audit_sha256: crate::io::sha256_hex(prepared.audit.to_csv().as_bytes()),
-        manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
-        exploratory,
-        crossaudit: crate::BUILD.to_string(),
-    };
+    let record = RunRecord::new(plan, file, data, &prepared, exploratory);
     if let Some(p) = &previous {
         p.check_resume(out, &record)?;
     }
     record.write(out)?;
+    Ok(Opened { status, exploratory, prepared, record })
+}
 
+/// The jobs without a record, in plan order, and the builds that ran the
+/// finished ones (whose files are verified against their records).
+fn pending(plan: &Plan, out: &Path) -> Result<(VecDeque<TrainingJob>, std::collections::BTreeSet<String>), RunError> {
     let mut todo = VecDeque::new();
     let mut builds = std::collections::BTreeSet::new();
     for j in &plan.jobs {
@@ -293,14 +383,26 @@ pub fn run(
             None => todo.push_back(j.clone()),
         }
     }
-    let skipped = plan.jobs.len() - todo.len();
-    observer.start(plan.jobs.len(), skipped);
-    let trained = todo.len();
-    grid::run_grid(&file.sha256, plan, &prepared, out, todo, options.workers, observer)?;
-    trained_invariants::check(plan, &prepared, out)?;
+    Ok((todo, builds))
+}
+
+/// Everything after the last job: the invariants on what the jobs recorded,
+/// cells.csv, the analysis and the report. `design_path` is the design as
+/// the user named it (the report quotes it); `builds` are the builds that
+/// trained cells, of which any but this one is reported.
+fn finish(
+    design_path: &str,
+    plan: &Plan,
+    opened: &Opened,
+    out: &Path,
+    mut builds: std::collections::BTreeSet<String>,
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let (prepared, record) = (&opened.prepared, &opened.record);
+    trained_invariants::check(plan, prepared, out)?;
 
     let cells_csv = gather(plan, out)?;
-    let mut analysis = analyze_run(file, plan, &cells_csv, &status, exploratory)?;
+    let mut analysis = analyze_run(design_path, &record.design_sha256, plan, &cells_csv, opened)?;
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
     for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
         analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
@@ -319,7 +421,14 @@ pub fn run(
         .map_err(crate::report::ReportError::from)?;
     analysis.figures = figures.iter().filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned())).collect();
     crate::report::write_all(&analysis, &report_dir)?;
-    Ok(RunOutcome { cells_csv, report_dir, analysis, trained, skipped, seconds: started.elapsed().as_secs_f64() })
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis,
+        trained: 0,
+        skipped: plan.jobs.len(),
+        seconds: started.elapsed().as_secs_f64(),
+    })
 }
 
 /// `out/cells/STEM.csv`: the per-cell rows of one job, present once it finished.
@@ -342,22 +451,21 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
 /// The preregistered analysis of the gathered cells, labelled with the
 /// design's hash and lock state.
 fn analyze_run(
-    file: &DesignFile,
+    design_path: &str,
+    design_sha256: &str,
     plan: &Plan,
     cells_csv: &Path,
-    status: &LockStatus,
-    exploratory: bool,
+    opened: &Opened,
 ) -> Result<Analysis, RunError> {
     let cells = read_cells(cells_csv)?;
     let mut analysis =
         analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
-    analysis.record_design(&file.sha256, status);
-    analysis.exploratory |= exploratory;
+    analysis.record_design(design_sha256, &opened.status);
+    analysis.exploratory |= opened.exploratory;
     analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
-    if *status == LockStatus::Unlocked {
+    if opened.status == LockStatus::Unlocked {
         analysis.warnings.push(format!(
-            "{} was not locked before this run: lock a design (`crossaudit lock`) to preregister it",
-            file.path.display()
+            "{design_path} was not locked before this run: lock a design (`crossaudit lock`) to preregister it"
         ));
     }
     Ok(analysis)

@@ -39,6 +39,25 @@ pub struct RunRecord {
 const RUN_OUTPUTS: [&str; 5] = ["jobs", "cells", "models", "curves", "cells.csv"];
 
 impl RunRecord {
+    /// The record of a run of `file` on `data`, prepared as `prepared`.
+    pub(crate) fn new(
+        plan: &crate::plan::Plan,
+        file: &crate::design::DesignFile,
+        data: &super::Data,
+        prepared: &crate::split::Prepared,
+        exploratory: bool,
+    ) -> RunRecord {
+        RunRecord {
+            study: plan.study.clone(),
+            design_sha256: file.sha256.clone(),
+            data: data.origin.clone(),
+            audit_sha256: crate::io::sha256_hex(prepared.audit.to_csv().as_bytes()),
+            manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
+            exploratory,
+            crossaudit: crate::BUILD.to_string(),
+        }
+    }
+
     /// The record of the run in `out`: `None` for a directory no run has
     /// written into, an error when run.json is unreadable or missing beside
     /// a run's outputs (nothing there can be verified, so nothing is reused).

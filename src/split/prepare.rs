@@ -59,19 +59,36 @@ fn locate(file: &DesignFile, e: SplitError) -> SplitError {
 /// assert!(out.path().join("manifests/manifests.json").exists());
 /// ```
 pub fn prepare(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result<Prepared, SplitError> {
+    prepare_into(file, plan, dir, out, true)
+}
+
+/// As [`prepare`], writing nothing: what a job on a cluster node does with
+/// a run directory that [`prepare`] already wrote (and that other jobs may
+/// be reading). `out` only names where the invariants would be written.
+pub fn rebuild(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result<Prepared, SplitError> {
+    prepare_into(file, plan, dir, out, false)
+}
+
+fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: bool) -> Result<Prepared, SplitError> {
     let design = &file.design;
     let (audit, recordings) = data::audit_and_load(&design.data, dir)?;
-    audit.write(&out.join("audit"))?;
+    if write {
+        audit.write(&out.join("audit"))?;
+    }
     let split = super::build(design, &audit, &recordings).map_err(|e| locate(file, e))?;
     let manifests = Manifests::new(design, Some(file.sha256.clone()), &split);
-    write_split(out, &manifests)?;
+    if write {
+        write_split(out, &manifests)?;
+    }
     let jobs = JobManifests::for_plan(plan, &manifests);
     let invariants = check_invariants(design, &split, &jobs);
     let treatment = treatment_audit(&split);
     let audit_dir = out.join("audit");
     let inv_path = audit_dir.join("invariants.json");
-    write_atomic(&inv_path, invariants.to_json().as_bytes())?;
-    write_atomic(&audit_dir.join("treatment.json"), treatment.to_json().as_bytes())?;
+    if write {
+        write_atomic(&inv_path, invariants.to_json().as_bytes())?;
+        write_atomic(&audit_dir.join("treatment.json"), treatment.to_json().as_bytes())?;
+    }
     if !invariants.all_pass {
         let list = invariants
             .failures()

@@ -86,6 +86,24 @@ enum Command {
         /// Allow a design changed after locking; every output is labelled EXPLORATORY.
         #[arg(long)]
         exploratory: bool,
+        #[command(flatten)]
+        slurm: SlurmArgs,
+    },
+    /// Run one training job of a run prepared with `run --slurm` (what each
+    /// Slurm array task runs); a finished job is verified and skipped.
+    Job {
+        /// The run directory.
+        dir: PathBuf,
+        /// The job's array index (SLURM_ARRAY_TASK_ID).
+        #[arg(long)]
+        index: usize,
+    },
+    /// Write cells.csv and the report of a run prepared with `run --slurm`
+    /// (what the dependent gather job runs); refuses while any job is
+    /// unfinished, naming each with its Slurm log.
+    Gather {
+        /// The run directory.
+        dir: PathBuf,
     },
     /// Monte Carlo coverage of the interval estimators over a grid of crossed
     /// settings (JSON spec).
@@ -135,6 +153,37 @@ enum Command {
         #[arg(long)]
         compare_intervals: bool,
     },
+}
+
+/// `run --slurm`: prepare the run directory for a Slurm job array.
+#[derive(clap::Args)]
+struct SlurmArgs {
+    /// Prepare DIR (audit, manifests, invariants, job list) and write
+    /// DIR/slurm/submit.sh: a job array with one task per training job and a
+    /// dependent gather job. Nothing trains here.
+    #[arg(long, conflicts_with = "workers")]
+    slurm: bool,
+    /// Submit with sbatch after writing the scripts.
+    #[arg(long, requires = "slurm")]
+    submit: bool,
+    /// CPUs per array task.
+    #[arg(long, default_value_t = 1, requires = "slurm")]
+    cpus: usize,
+    /// Memory per array task (sbatch --mem).
+    #[arg(long, default_value = "4G", requires = "slurm")]
+    mem: String,
+    /// At most N array tasks at once (the array's %N).
+    #[arg(long, requires = "slurm")]
+    throttle: Option<usize>,
+    /// Wall-time limit per task (sbatch --time).
+    #[arg(long, requires = "slurm")]
+    time: Option<String>,
+    /// Slurm partition.
+    #[arg(long, requires = "slurm")]
+    partition: Option<String>,
+    /// Slurm account.
+    #[arg(long, requires = "slurm")]
+    account: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -203,7 +252,12 @@ fn main() -> ExitCode {
             let engine = if engine == "reference" { Engine::Reference } else { Engine::Fused };
             train(&design, (&model, &arm, seed), data, &out, engine)
         }
-        Command::Run { design, data, out, workers, exploratory } => run(&design, data, &out, workers, exploratory),
+        Command::Run { design, data, out, exploratory, slurm, .. } if slurm.slurm => {
+            slurm_prepare(&design, data, &out, exploratory, slurm)
+        }
+        Command::Run { design, data, out, workers, exploratory, .. } => run(&design, data, &out, workers, exploratory),
+        Command::Job { dir, index } => slurm_job(&dir, index),
+        Command::Gather { dir } => slurm_gather(&dir),
         Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
         Command::Plan { design, cells, recordings, seeds, out } => power(&design, &cells, &recordings, &seeds, &out),
         Command::Simulate { design, out } => simulate(&design, &out),
@@ -330,6 +384,111 @@ fn run(
     eprintln!(
         "{} cells trained, {} resumed, {:.1} s; wrote {} and {}",
         o.trained,
+        o.skipped,
+        o.seconds,
+        o.cells_csv.display(),
+        o.report_dir.display()
+    );
+    println!("{}", decision_line(&o.analysis));
+    Ok(())
+}
+
+fn slurm_prepare(
+    design: &Path,
+    data: Option<PathBuf>,
+    out: &Path,
+    exploratory: bool,
+    a: SlurmArgs,
+) -> Result<(), Error> {
+    use crossaudit::run::slurm;
+    let file = design::load(design)?;
+    let plan = crossaudit::compile(&file.design);
+    let binary = std::env::current_exe().map_err(|e| crossaudit::run::RunError::Submit {
+        script: "(not written)".into(),
+        reason: format!("cannot locate the crossaudit binary: {e}"),
+    })?;
+    let options = slurm::SlurmOptions {
+        cpus: a.cpus,
+        mem: a.mem,
+        throttle: a.throttle,
+        time: a.time,
+        partition: a.partition,
+        account: a.account,
+        ..slurm::SlurmOptions::new(binary)
+    };
+    // Before anything (simulated data included) is written into `out`.
+    options.validate()?;
+    slurm::check_dir(out)?;
+    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
+    let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;
+    if a.submit {
+        let ids = slurm::submit(&prepared)?;
+        match &ids.array {
+            Some(array) => eprintln!(
+                "submitted array job {array} ({} of {} jobs) and gather job {}",
+                prepared.pending, prepared.jobs, ids.gather
+            ),
+            None => eprintln!("every job had finished: submitted gather job {}", ids.gather),
+        }
+        eprintln!(
+            "logs: {}/slurm/logs; results: {}/cells.csv and report/ once the gather job ends",
+            prepared.dir.display(),
+            prepared.dir.display()
+        );
+        println!("{}", [ids.array.clone().unwrap_or_default(), ids.gather].join(" ").trim());
+    } else {
+        print!("{}", prepared.submit_text);
+        eprintln!(
+            "prepared {} ({} of {} jobs pending); submit with: sh {}",
+            prepared.dir.display(),
+            prepared.pending,
+            prepared.jobs,
+            prepared.submit.display()
+        );
+    }
+    Ok(())
+}
+
+fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
+    use crossaudit::run::slurm::{self, TaskOutcome};
+    let var = |k: &str| std::env::var(k).unwrap_or_else(|_| "-".into());
+    eprintln!(
+        "crossaudit {}: task {index} of {} (Slurm job {}, array job {}, host {})",
+        crossaudit::BUILD,
+        dir.display(),
+        var("SLURM_JOB_ID"),
+        var("SLURM_ARRAY_JOB_ID"),
+        var("SLURMD_NODENAME"),
+    );
+    let started = std::time::Instant::now();
+    let mut last = std::time::Instant::now();
+    let outcome = slurm::run_task(dir, index, &mut |e| {
+        // A line every 10 s at most: enough to see progress in a log.
+        if last.elapsed().as_secs() >= 10 {
+            eprintln!("  epoch {}: train {:.4} val {:.4}", e.epoch, e.train_loss, e.val_loss);
+            last = std::time::Instant::now();
+        }
+    })?;
+    match outcome {
+        TaskOutcome::AlreadyFinished { job } => eprintln!("job {job} had finished: files verified, nothing run"),
+        TaskOutcome::Ran(o) => {
+            eprintln!(
+                "job {}/{}/{} finished in {:.1} s: wrote {}",
+                o.model,
+                o.arm,
+                o.seed,
+                started.elapsed().as_secs_f64(),
+                o.files.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+fn slurm_gather(dir: &Path) -> Result<(), Error> {
+    let o = crossaudit::run::slurm::gather(dir)?;
+    eprintln!(
+        "gathered {} jobs in {:.1} s; wrote {} and {}",
         o.skipped,
         o.seconds,
         o.cells_csv.display(),

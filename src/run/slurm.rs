@@ -1,0 +1,549 @@
+//! The bridge to a cluster scheduler: a study as a Slurm job array.
+//!
+//! [`prepare`] does once, on the submitting machine, everything before the
+//! first job (the same [`super::open`] as a local run: audit, manifests,
+//! invariants, `run.json`), then writes under `DIR/slurm/`:
+//!
+//! - `design.design`: a verbatim copy of the design, which every task runs;
+//! - `array.json`: the [`ArrayRecord`], with the job list (array index ->
+//!   job), the absolute data directory and the lock state;
+//! - `array.sbatch` (one array task per job: `crossaudit job DIR --index
+//!   $SLURM_ARRAY_TASK_ID`), `gather.sbatch` (`crossaudit gather DIR`) and
+//!   `submit.sh`, which submits the array, then the gather job with
+//!   `--dependency=afterok:ARRAY`.
+//!
+//! Every value taken from a design or a path is either checked against a
+//! narrow alphabet (job names, resources) or single-quoted for the shell
+//! (paths), so no name can run a command; paths with a newline or with `%`
+//! (Slurm's file-name patterns) are refused.
+//!
+//! [`run_task`] runs one job exactly as a local run does (same function,
+//! one thread), after verifying that the design copy, the data and the
+//! rebuilt manifests are those the run was prepared with; a finished job is
+//! skipped. [`gather`] refuses while any job has no record, naming each
+//! with its Slurm log, then writes `cells.csv` and the report with the same
+//! code as a local run, so the bytes are the same.
+//!
+//! Shared-filesystem assumption: DIR, the data directory and the crossaudit
+//! binary are visible at the same absolute paths from every node. Nothing
+//! else is read or written outside DIR.
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::{finish, open, pending, Data, DataOrigin, JobRecord, Opened, RunError, RunOutcome, RunRecord};
+use crate::design::{self, DesignFile, LockStatus};
+use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
+use crate::plan::{Plan, TrainingJob};
+
+/// `DIR/slurm`: everything the scheduler reads.
+pub const SLURM_DIR: &str = "slurm";
+
+/// Resources and submission settings of the array; none come from the design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlurmOptions {
+    /// CPUs per array task (`--cpus-per-task`). A job trains on one thread,
+    /// as in a local run; more CPUs only reserve headroom.
+    pub cpus: usize,
+    /// Memory per array task (`--mem`), as Slurm writes it: digits and an
+    /// optional unit K, M, G or T.
+    pub mem: String,
+    /// At most this many array tasks at once (`--array=...%N`).
+    pub throttle: Option<usize>,
+    /// Wall-time limit per task (`--time`), in one of Slurm's forms
+    /// (`MM`, `MM:SS`, `HH:MM:SS`, `D-HH`, `D-HH:MM`, `D-HH:MM:SS`).
+    pub time: Option<String>,
+    /// Partition (`--partition`).
+    pub partition: Option<String>,
+    /// Account (`--account`).
+    pub account: Option<String>,
+    /// The crossaudit binary every task runs (absolute path).
+    pub binary: PathBuf,
+}
+
+impl SlurmOptions {
+    /// One CPU and 4 GiB per task, no throttle, time limit, partition or
+    /// account; `binary` as given.
+    pub fn new(binary: PathBuf) -> SlurmOptions {
+        SlurmOptions { cpus: 1, mem: "4G".into(), throttle: None, time: None, partition: None, account: None, binary }
+    }
+
+    /// Refuses values that sbatch would misread.
+    pub fn validate(&self) -> Result<(), RunError> {
+        let bad = |option: &str, value: &str, expected: &str| RunError::SlurmOption {
+            option: option.into(),
+            value: value.into(),
+            expected: expected.into(),
+        };
+        if self.cpus == 0 {
+            return Err(bad("--cpus", "0", "at least 1"));
+        }
+        if self.throttle == Some(0) {
+            return Err(bad("--throttle", "0", "at least 1"));
+        }
+        let digits = self.mem.trim_end_matches(['K', 'M', 'G', 'T']);
+        if digits.is_empty()
+            || !digits.bytes().all(|b| b.is_ascii_digit())
+            || self.mem.len() > digits.len() + 1
+            || digits.bytes().all(|b| b == b'0')
+        {
+            return Err(bad("--mem", &self.mem, "a positive size such as 4G, 1500M or 2048"));
+        }
+        if let Some(t) = &self.time {
+            if !slurm_time(t) {
+                return Err(bad("--time", t, "a Slurm time such as 30, 2:00:00 or 1-12:00:00"));
+            }
+        }
+        for (option, value) in [("--partition", &self.partition), ("--account", &self.account)] {
+            if let Some(v) = value {
+                if v.is_empty() || !v.bytes().all(|b| b.is_ascii_alphanumeric() || b"_.,-".contains(&b)) {
+                    return Err(bad(option, v, "letters, digits and _ . , -"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One of Slurm's time forms: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`.
+fn slurm_time(t: &str) -> bool {
+    let number = |s: &str| !s.is_empty() && s.len() <= 6 && s.bytes().all(|b| b.is_ascii_digit());
+    let (days, clock) = match t.split_once('-') {
+        Some((d, c)) => (Some(d), c),
+        None => (None, t),
+    };
+    let parts: Vec<&str> = clock.split(':').collect();
+    days.is_none_or(number) && parts.iter().all(|p| number(p)) && parts.len() <= 3
+}
+
+/// `DIR/slurm/array.json`: what every array task and the gather step read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ArrayRecord {
+    /// The design as the user named it (the report quotes it).
+    pub design_path: String,
+    /// The design file's absolute path: a `split published` file in it is
+    /// read relative to its directory.
+    pub design_file: PathBuf,
+    /// SHA-256 of the design (and of `slurm/design.design`).
+    pub design_sha256: String,
+    /// The design's lock state when the run was prepared.
+    pub lock: LockStatus,
+    /// The flight-log directory every task loads, absolute.
+    pub data_dir: PathBuf,
+    /// Where the logs came from, as run.json says.
+    pub data: DataOrigin,
+    /// The training jobs, by array index (`SLURM_ARRAY_TASK_ID`).
+    pub jobs: Vec<String>,
+    /// The build that prepared the run.
+    pub crossaudit: String,
+}
+
+impl ArrayRecord {
+    /// Reads `DIR/slurm/array.json`.
+    pub fn read(dir: &Path) -> Result<ArrayRecord, RunError> {
+        let path = dir.join(SLURM_DIR).join("array.json");
+        let bad = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
+        let bytes = std::fs::read(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        serde_json::from_slice(&bytes).map_err(|e| bad(format!("{}: {e}", path.display())))
+    }
+}
+
+/// What [`prepare`] wrote.
+#[derive(Debug, Clone)]
+pub struct PreparedArray {
+    /// The run directory, absolute.
+    pub dir: PathBuf,
+    /// `DIR/slurm/submit.sh`.
+    pub submit: PathBuf,
+    /// Its text.
+    pub submit_text: String,
+    /// Jobs in the study.
+    pub jobs: usize,
+    /// Jobs without a record, which the array runs.
+    pub pending: usize,
+}
+
+/// A string as one single-quoted shell word: nothing in it is expanded.
+pub fn shell_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+/// Refuses a run directory that Slurm or a script would misread (see
+/// [`prepare`]); worth calling before anything is written into it.
+pub fn check_dir(out: &Path) -> Result<(), RunError> {
+    path_word(out).map(|_| ())
+}
+
+/// A path as a shell word, refused when Slurm or a script would misread it:
+/// not UTF-8, a control character (a newline would end the command), or
+/// `%` (sbatch expands `%j`, `%a`, ... in file names).
+fn path_word(p: &Path) -> Result<String, RunError> {
+    let unsafe_path =
+        |reason: &str| RunError::UnsafeClusterPath { path: p.display().to_string(), reason: reason.into() };
+    let s = p.to_str().ok_or_else(|| unsafe_path("it is not UTF-8"))?;
+    if s.chars().any(char::is_control) {
+        return Err(unsafe_path("it holds a control character such as a newline"));
+    }
+    if s.contains('%') {
+        return Err(unsafe_path("it holds `%`, which sbatch expands in log file names"));
+    }
+    Ok(shell_quote(s))
+}
+
+/// A Slurm job name from the study's name: letters, digits, `_`, `.` and
+/// `-` kept, anything else `_`, at most 64 characters.
+fn job_name(study: &str) -> String {
+    let name: String =
+        study.chars().map(|c| if c.is_ascii_alphanumeric() || "_.-".contains(c) { c } else { '_' }).take(53).collect();
+    format!("crossaudit-{name}")
+}
+
+/// Indices as a Slurm array spec: `0-4,7,9-12`.
+fn array_spec(indices: &[usize]) -> String {
+    let mut out = String::new();
+    let mut i = 0;
+    while i < indices.len() {
+        let mut j = i;
+        while j + 1 < indices.len() && indices[j + 1] == indices[j] + 1 {
+            j += 1;
+        }
+        if !out.is_empty() {
+            out.push(',');
+        }
+        match j - i {
+            0 => write!(out, "{}", indices[i]),
+            _ => write!(out, "{}-{}", indices[i], indices[j]),
+        }
+        .ok();
+        i = j + 1;
+    }
+    out
+}
+
+/// Prepares `out` for Slurm: everything a local run does before its first
+/// job, then the design copy, `slurm/array.json` and the three scripts.
+/// Finished jobs (from an earlier run, local or not) are verified and left
+/// out of the array.
+pub fn prepare(
+    file: &DesignFile,
+    plan: &Plan,
+    data: &Data,
+    out: &Path,
+    exploratory: bool,
+    options: &SlurmOptions,
+) -> Result<PreparedArray, RunError> {
+    options.validate()?;
+    check_dir(out)?;
+    create_dir_all(out)?;
+    let absolute = |p: &Path| p.canonicalize().map_err(|e| RunError::Write(crate::io::WriteError::new(p, e)));
+    let dir = absolute(out)?;
+    let binary = absolute(&options.binary)?;
+    let (dir_q, binary_q) = (path_word(&dir)?, path_word(&binary)?);
+    let opened = open(file, plan, data, &dir, exploratory)?;
+    let (todo, _) = pending(plan, &dir)?;
+    let todo: BTreeSet<String> = todo.iter().map(TrainingJob::stem).collect();
+    let indices: Vec<usize> = (0..plan.jobs.len()).filter(|i| todo.contains(&plan.jobs[*i].stem())).collect();
+
+    let bytes = std::fs::read(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
+    if sha256_hex(&bytes) != file.sha256 {
+        return Err(RunError::LockChanged { path: file.path.display().to_string() });
+    }
+    let slurm = dir.join(SLURM_DIR);
+    create_dir_all(&slurm.join("logs"))?;
+    create_dir_all(&slurm.join("locks"))?;
+    write_atomic(&slurm.join("design.design"), &bytes)?;
+    let record = ArrayRecord {
+        design_path: file.path.display().to_string(),
+        design_file: absolute(&file.path)?,
+        design_sha256: file.sha256.clone(),
+        lock: opened.status.clone(),
+        data_dir: absolute(&data.dir)?,
+        data: data.origin.clone(),
+        jobs: plan.jobs.iter().map(TrainingJob::stem).collect(),
+        crossaudit: crate::BUILD.to_string(),
+    };
+    write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
+
+    let task = |command: &str| {
+        format!(
+            "#!/bin/sh\n# Written by `crossaudit run --slurm` (crossaudit {}); submitted by submit.sh.\nset -eu\nexec {binary_q} {command}\n",
+            crate::BUILD
+        )
+    };
+    let array_script = slurm.join("array.sbatch");
+    write_atomic(&array_script, task(&format!("job {dir_q} --index \"$SLURM_ARRAY_TASK_ID\"")).as_bytes())?;
+    let gather_script = slurm.join("gather.sbatch");
+    write_atomic(&gather_script, task(&format!("gather {dir_q}")).as_bytes())?;
+
+    let name = job_name(&plan.study);
+    let mut common = format!("--cpus-per-task={} --mem={} --chdir={dir_q}", options.cpus, options.mem);
+    for (flag, value) in [("time", &options.time), ("partition", &options.partition), ("account", &options.account)] {
+        if let Some(v) = value {
+            write!(common, " --{flag}={}", shell_quote(v)).ok();
+        }
+    }
+    let logs = slurm.join("logs");
+    path_word(&logs)?;
+    let log_word = |file: &str| shell_quote(&format!("{}/{file}", logs.display()));
+    let mut submit = format!(
+        "#!/bin/sh\n\
+         # Submits the study in {dir} to Slurm (written by `crossaudit run --slurm`, crossaudit {build}):\n\
+         # an array of {n} training job(s), one per task, then a gather job that\n\
+         # writes cells.csv and the report once every task has succeeded.\n\
+         # Resubmitting is safe: a task whose job finished verifies it and exits.\n\
+         # Logs: {logs}/task-INDEX.out (appended to by every attempt) and gather.out.\n\
+         set -eu\n",
+        dir = dir.display(),
+        build = crate::BUILD,
+        n = indices.len(),
+        logs = logs.display(),
+    );
+    let dependency = if indices.is_empty() {
+        submit.push_str("echo 'no training job is pending: submitting the gather step alone' >&2\n");
+        String::new()
+    } else {
+        let spec = match options.throttle {
+            Some(t) => format!("{}%{t}", array_spec(&indices)),
+            None => array_spec(&indices),
+        };
+        write!(
+            submit,
+            "array=$(sbatch --parsable --job-name={} --array={} {common} --output={} --open-mode=append {})\n\
+             array=${{array%%;*}}\n\
+             echo \"submitted array job $array ({} task(s))\" >&2\n",
+            shell_quote(&name),
+            shell_quote(&spec),
+            log_word("task-%a.out"),
+            path_word(&array_script)?,
+            indices.len(),
+        )
+        .ok();
+        " --dependency=\"afterok:$array\" --kill-on-invalid-dep=yes".to_string()
+    };
+    write!(
+        submit,
+        "gather=$(sbatch --parsable --job-name={}{dependency} {common} --output={} --open-mode=append {})\n\
+         gather=${{gather%%;*}}\n\
+         echo \"submitted gather job $gather\" >&2\n\
+         echo \"${{array:-}} $gather\"\n",
+        shell_quote(&format!("{name}-gather")),
+        log_word("gather.out"),
+        path_word(&gather_script)?,
+    )
+    .ok();
+    let submit_path = slurm.join("submit.sh");
+    write_atomic(&submit_path, submit.as_bytes())?;
+    Ok(PreparedArray { dir, submit: submit_path, submit_text: submit, jobs: plan.jobs.len(), pending: indices.len() })
+}
+
+/// The Slurm job IDs [`submit`] got back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Submitted {
+    /// The array job (none when no training job was pending).
+    pub array: Option<String>,
+    /// The gather job.
+    pub gather: String,
+}
+
+/// Runs `DIR/slurm/submit.sh` with `sh`: sbatch must be on the PATH.
+pub fn submit(prepared: &PreparedArray) -> Result<Submitted, RunError> {
+    let script = prepared.submit.display().to_string();
+    let failed = |reason: String| RunError::Submit { script: script.clone(), reason };
+    let sbatch_found =
+        std::env::var_os("PATH").is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join("sbatch").is_file()));
+    if !sbatch_found {
+        return Err(failed(
+            "sbatch is not on the PATH (is Slurm installed here?); the script is written, submit it where sbatch runs"
+                .into(),
+        ));
+    }
+    let output = std::process::Command::new("sh")
+        .arg(&prepared.submit)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .map_err(|e| failed(format!("cannot run sh: {e}")))?;
+    let stderr = String::from_utf8_lossy(&output.stderr).trim().to_string();
+    if !output.status.success() {
+        return Err(failed(format!("{} ({stderr})", output.status)));
+    }
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let ids: Vec<&str> = stdout.split_whitespace().collect();
+    let numeric = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    match ids.as_slice() {
+        [gather] if numeric(gather) => Ok(Submitted { array: None, gather: gather.to_string() }),
+        [array, gather] if numeric(array) && numeric(gather) => {
+            Ok(Submitted { array: Some(array.to_string()), gather: gather.to_string() })
+        }
+        _ => Err(failed(format!("unexpected output {:?} ({stderr})", stdout.trim()))),
+    }
+}
+
+/// What one array task did.
+#[derive(Debug)]
+pub enum TaskOutcome {
+    /// The job had finished before: its files were verified and nothing ran.
+    AlreadyFinished {
+        /// `model/arm/seed`.
+        job: String,
+    },
+    /// The job ran now.
+    Ran(Box<super::JobOutcome>),
+}
+
+/// The run directory of a prepared array, opened for a task or the gather
+/// step: its records, the design copy, the plan and the rebuilt split,
+/// each checked against what `prepare` recorded.
+struct Prepared {
+    array: ArrayRecord,
+    run: RunRecord,
+    file: DesignFile,
+    plan: Plan,
+}
+
+fn reopen(dir: &Path) -> Result<Prepared, RunError> {
+    let array = ArrayRecord::read(dir)?;
+    let not_prepared = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
+    let run = RunRecord::read(dir)?.ok_or_else(|| not_prepared("run.json is missing".into()))?;
+    let copy = dir.join(SLURM_DIR).join("design.design");
+    let file = design::load_copy(&copy, &array.design_file).map_err(|e| not_prepared(e.to_string()))?;
+    for (what, sha) in [("slurm/design.design", &file.sha256), ("run.json", &run.design_sha256)] {
+        if *sha != array.design_sha256 {
+            return Err(not_prepared(format!(
+                "{what} records design sha256 {sha}, slurm/array.json {}",
+                array.design_sha256
+            )));
+        }
+    }
+    let plan = crate::plan::compile(&file.design);
+    let stems: Vec<String> = plan.jobs.iter().map(TrainingJob::stem).collect();
+    if stems != array.jobs {
+        return Err(not_prepared("the design copy compiles to another job list than slurm/array.json".into()));
+    }
+    Ok(Prepared { array, run, file, plan })
+}
+
+/// The split rebuilt in memory from the recorded data directory, refused
+/// unless its audit and manifests are those of run.json.
+fn rebuild(p: &Prepared, dir: &Path) -> Result<crate::split::Prepared, RunError> {
+    let data_dir = &p.array.data_dir;
+    if let DataOrigin::Simulated { spec, record_sha256 } = &p.array.data {
+        // Verify, never generate: other tasks may be reading the directory.
+        if !data_dir.join(crate::sim::RECORD).is_file() {
+            return Err(RunError::NoDataDir {
+                dir: format!("{} (its simulation record is missing)", data_dir.display()),
+            });
+        }
+        let ensured = crate::sim::ensure(spec, data_dir)?;
+        let now = ensured.record().sha256();
+        if now != *record_sha256 {
+            return Err(RunError::OtherData {
+                dir: dir.display().to_string(),
+                what: "simulation record (sha256)".into(),
+                was: record_sha256.clone(),
+                is: now,
+            });
+        }
+    }
+    if !data_dir.is_dir() {
+        return Err(RunError::NoDataDir { dir: data_dir.display().to_string() });
+    }
+    let prepared = crate::split::rebuild(&p.file, &p.plan, data_dir, dir)?;
+    let data = Data { dir: data_dir.clone(), origin: p.array.data.clone() };
+    let now = RunRecord::new(&p.plan, &p.file, &data, &prepared, p.run.exploratory);
+    p.run.check_resume(dir, &now)?;
+    Ok(prepared)
+}
+
+/// Runs the job at array `index` of the run prepared in `dir`, on one
+/// thread, exactly as a local run would; skips (after verifying its files)
+/// a job that finished. A lock on `DIR/slurm/locks/INDEX.lock`, released by
+/// the operating system however the task ends, keeps two tasks off one job.
+pub fn run_task(
+    dir: &Path,
+    index: usize,
+    on_epoch: &mut (dyn FnMut(&crate::model::EpochLog) + Send),
+) -> Result<TaskOutcome, RunError> {
+    let p = reopen(dir)?;
+    let job = p.plan.jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: p.plan.jobs.len() })?;
+    let locks = dir.join(SLURM_DIR).join("locks");
+    create_dir_all(&locks)?;
+    let lock_path = locks.join(format!("{index}.lock"));
+    let lock =
+        std::fs::File::create(&lock_path).map_err(|e| RunError::Write(crate::io::WriteError::new(&lock_path, e)))?;
+    match lock.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            return Err(RunError::JobBusy { job: job.stem().replace("__", "/"), lock: lock_path.display().to_string() })
+        }
+        Err(std::fs::TryLockError::Error(e)) => return Err(RunError::Write(crate::io::WriteError::new(&lock_path, e))),
+    }
+    if let Some(r) = JobRecord::read(dir, job)? {
+        r.verify_files(dir, job)?;
+        return Ok(TaskOutcome::AlreadyFinished { job: job.stem().replace("__", "/") });
+    }
+    let prepared = rebuild(&p, dir)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let outcome = pool.install(|| super::run_job(&p.array.design_sha256, &p.plan, job, &prepared, dir, on_epoch))?;
+    drop(lock);
+    Ok(TaskOutcome::Ran(Box::new(outcome)))
+}
+
+/// The gather step: refuses while any job has no record (naming each with
+/// its array index and Slurm log), then writes cells.csv and the report
+/// with the code a local run uses.
+pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
+    let started = std::time::Instant::now();
+    let p = reopen(dir)?;
+    let (todo, builds) = pending(&p.plan, dir)?;
+    if !todo.is_empty() {
+        let logs = dir.join(SLURM_DIR).join("logs");
+        let mut list = String::new();
+        for job in &todo {
+            let index = p.plan.jobs.iter().position(|j| j.stem() == job.stem()).unwrap_or(usize::MAX);
+            let log = logs.join(format!("task-{index}.out"));
+            let last = std::fs::read_to_string(&log).ok().and_then(|t| {
+                t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())
+            });
+            let status = match last {
+                Some(line) => format!("Slurm log {} (last line: {line})", log.display()),
+                None if log.exists() => format!("Slurm log {} (empty)", log.display()),
+                None => format!("no Slurm log at {}: the task never started", log.display()),
+            };
+            writeln!(list, "  task {index} ({}): {status}", job.stem().replace("__", "/")).ok();
+        }
+        return Err(RunError::JobsMissing {
+            dir: dir.display().to_string(),
+            missing: todo.len(),
+            jobs: p.plan.jobs.len(),
+            list,
+        });
+    }
+    let prepared = rebuild(&p, dir)?;
+    let opened = Opened { status: p.array.lock.clone(), exploratory: p.run.exploratory, prepared, record: p.run };
+    let mut outcome = finish(&p.array.design_path, &p.plan, &opened, dir, builds)?;
+    outcome.seconds = started.elapsed().as_secs_f64();
+    Ok(outcome)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn array_specs_and_quoting() {
+        assert_eq!(array_spec(&[0, 1, 2, 3, 4, 7, 9, 10, 11, 12]), "0-4,7,9-12");
+        assert_eq!(array_spec(&[5]), "5");
+        assert_eq!(shell_quote("x\"; rm -rf ~; \""), "'x\"; rm -rf ~; \"'");
+        assert_eq!(shell_quote("it's"), "'it'\\''s'");
+        assert_eq!(job_name("x\"; rm -rf ~; \"$(touch pwned)"), "crossaudit-x___rm_-rf_______touch_pwned_");
+        for ok in ["30", "2:00:00", "1-12", "1-12:00", "1-12:00:00", "45:00"] {
+            assert!(slurm_time(ok), "{ok}");
+        }
+        for bad in ["", "1:2:3:4", "a", "1-", "-1", "1-2-3", "1;2"] {
+            assert!(!slurm_time(bad), "{bad}");
+        }
+    }
+}
