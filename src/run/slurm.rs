@@ -65,10 +65,11 @@ pub struct SlurmOptions {
 }
 
 impl SlurmOptions {
-    /// One CPU and 4 GiB per task, no throttle, time limit, partition or
-    /// account; `binary` as given.
+    /// One CPU and 1 GiB per task (a job of the paper's protocol on the
+    /// NanoBench logs peaks at 110 MB resident), no throttle, time limit,
+    /// partition or account; `binary` as given.
     pub fn new(binary: PathBuf) -> SlurmOptions {
-        SlurmOptions { cpus: 1, mem: "4G".into(), throttle: None, time: None, partition: None, account: None, binary }
+        SlurmOptions { cpus: 1, mem: "1G".into(), throttle: None, time: None, partition: None, account: None, binary }
     }
 
     /// Refuses values that sbatch would misread.

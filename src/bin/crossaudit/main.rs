@@ -169,8 +169,9 @@ struct SlurmArgs {
     /// CPUs per array task.
     #[arg(long, default_value_t = 1, requires = "slurm")]
     cpus: usize,
-    /// Memory per array task (sbatch --mem).
-    #[arg(long, default_value = "4G", requires = "slurm")]
+    /// Memory per array task (sbatch --mem); a job of the paper's protocol
+    /// peaks at 110 MB.
+    #[arg(long, default_value = "1G", requires = "slurm")]
     mem: String,
     /// At most N array tasks at once (the array's %N).
     #[arg(long, requires = "slurm")]
