@@ -242,7 +242,7 @@ pub fn prepare(
     let absolute = |p: &Path| p.canonicalize().map_err(|e| RunError::Write(crate::io::WriteError::new(p, e)));
     let dir = absolute(out)?;
     let binary = absolute(&options.binary)?;
-    let (dir_q, binary_q) = (path_word(&dir)?, path_word(&binary)?);
+    path_word(&binary)?;
     let opened = open(file, plan, data, &dir, exploratory)?;
     let (todo, _) = pending(plan, &dir)?;
     let todo: BTreeSet<String> = todo.iter().map(TrainingJob::stem).collect();
@@ -250,7 +250,10 @@ pub fn prepare(
 
     let bytes = std::fs::read(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
     if sha256_hex(&bytes) != file.sha256 {
-        return Err(RunError::LockChanged { path: file.path.display().to_string() });
+        return Err(RunError::NotPrepared {
+            dir: dir.display().to_string(),
+            reason: format!("{} changed while the run was being prepared", file.path.display()),
+        });
     }
     let slurm = dir.join(SLURM_DIR);
     create_dir_all(&slurm.join("logs"))?;
@@ -268,6 +271,23 @@ pub fn prepare(
     };
     write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
 
+    let submit = write_scripts(&slurm, &dir, &binary, &plan.study, &indices, options)?;
+    let submit_path = slurm.join("submit.sh");
+    write_atomic(&submit_path, submit.as_bytes())?;
+    Ok(PreparedArray { dir, submit: submit_path, submit_text: submit, jobs: plan.jobs.len(), pending: indices.len() })
+}
+
+/// Writes `array.sbatch` and `gather.sbatch` into `slurm` and returns the
+/// text of `submit.sh` for the array of `indices`.
+fn write_scripts(
+    slurm: &Path,
+    dir: &Path,
+    binary: &Path,
+    study: &str,
+    indices: &[usize],
+    options: &SlurmOptions,
+) -> Result<String, RunError> {
+    let (dir_q, binary_q) = (path_word(dir)?, path_word(binary)?);
     let task = |command: &str| {
         format!(
             "#!/bin/sh\n# Written by `crossaudit run --slurm` (crossaudit {}); submitted by submit.sh.\nset -eu\nexec {binary_q} {command}\n",
@@ -279,7 +299,7 @@ pub fn prepare(
     let gather_script = slurm.join("gather.sbatch");
     write_atomic(&gather_script, task(&format!("gather {dir_q}")).as_bytes())?;
 
-    let name = job_name(&plan.study);
+    let name = job_name(study);
     let mut common = format!("--cpus-per-task={} --mem={} --chdir={dir_q}", options.cpus, options.mem);
     for (flag, value) in [("time", &options.time), ("partition", &options.partition), ("account", &options.account)] {
         if let Some(v) = value {
@@ -307,8 +327,8 @@ pub fn prepare(
         String::new()
     } else {
         let spec = match options.throttle {
-            Some(t) => format!("{}%{t}", array_spec(&indices)),
-            None => array_spec(&indices),
+            Some(t) => format!("{}%{t}", array_spec(indices)),
+            None => array_spec(indices),
         };
         write!(
             submit,
@@ -335,9 +355,7 @@ pub fn prepare(
         path_word(&gather_script)?,
     )
     .ok();
-    let submit_path = slurm.join("submit.sh");
-    write_atomic(&submit_path, submit.as_bytes())?;
-    Ok(PreparedArray { dir, submit: submit_path, submit_text: submit, jobs: plan.jobs.len(), pending: indices.len() })
+    Ok(submit)
 }
 
 /// The Slurm job IDs [`submit`] got back.
