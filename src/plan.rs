@@ -43,6 +43,11 @@ impl TrainingJob {
     pub fn stem(&self) -> String {
         format!("{}__{}__{}", self.model, self.arm, self.seed.0)
     }
+
+    /// `model/arm/seed`, as used in messages.
+    pub fn label(&self) -> String {
+        format!("{}/{}/{}", self.model, self.arm, self.seed.0)
+    }
 }
 
 /// One analysis unit: a metric at a horizon for a model, contrasted over the

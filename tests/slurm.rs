@@ -98,6 +98,20 @@ fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
     v
 }
 
+/// Staging files (`*.tmp`) anywhere under `dir`.
+fn staging_files(dir: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()) {
+        let p = e.path();
+        if p.is_dir() {
+            found.extend(staging_files(&p));
+        } else if p.extension().is_some_and(|x| x == "tmp") {
+            found.push(p.display().to_string());
+        }
+    }
+    found
+}
+
 #[track_caller]
 fn assert_same_run(local: &Path, cluster: &Path) {
     let (a, b) = (tree(local), tree(cluster));
@@ -496,7 +510,7 @@ fn a_task_cancelled_mid_job_is_named_and_a_resubmission_gives_the_same_bytes() {
     assert!(!dir.join("cells.csv").exists(), "the gather step ran despite a cancelled task");
     // Nothing half-written: the job's files are absent or complete (each is
     // written atomically; its record, written last, is absent).
-    assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().ends_with(".tmp")));
+    assert_eq!(staging_files(&dir), Vec::<String>::new(), "staging files left behind");
 
     // The gather step names the cancelled job and its Slurm log.
     let o = crossaudit_in(&cwd, &["gather", d], &[]);

@@ -402,7 +402,7 @@ fn finish(
     trained_invariants::check(plan, prepared, out)?;
 
     let cells_csv = gather(plan, out)?;
-    let mut analysis = analyze_run(design_path, &record.design_sha256, plan, &cells_csv, opened)?;
+    let mut analysis = analyze_run(design_path, plan, &cells_csv, opened)?;
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
     for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
         analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
@@ -450,17 +450,11 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
 
 /// The preregistered analysis of the gathered cells, labelled with the
 /// design's hash and lock state.
-fn analyze_run(
-    design_path: &str,
-    design_sha256: &str,
-    plan: &Plan,
-    cells_csv: &Path,
-    opened: &Opened,
-) -> Result<Analysis, RunError> {
+fn analyze_run(design_path: &str, plan: &Plan, cells_csv: &Path, opened: &Opened) -> Result<Analysis, RunError> {
     let cells = read_cells(cells_csv)?;
     let mut analysis =
         analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
-    analysis.record_design(design_sha256, &opened.status);
+    analysis.record_design(&opened.record.design_sha256, &opened.status);
     analysis.exploratory |= opened.exploratory;
     analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
     if opened.status == LockStatus::Unlocked {

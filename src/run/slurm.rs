@@ -224,6 +224,15 @@ fn array_spec(indices: &[usize]) -> String {
     out
 }
 
+/// The array indices (plan positions) of the jobs without a record, and
+/// the builds that ran the finished ones (see [`pending`]).
+fn unfinished(plan: &Plan, dir: &Path) -> Result<(Vec<usize>, BTreeSet<String>), RunError> {
+    let (todo, builds) = pending(plan, dir)?;
+    let todo: BTreeSet<String> = todo.iter().map(TrainingJob::stem).collect();
+    let indices = plan.jobs.iter().enumerate().filter(|(_, j)| todo.contains(&j.stem())).map(|(i, _)| i).collect();
+    Ok((indices, builds))
+}
+
 /// Prepares `out` for Slurm: everything a local run does before its first
 /// job, then the design copy, `slurm/array.json` and the three scripts.
 /// Finished jobs (from an earlier run, local or not) are verified and left
@@ -244,9 +253,7 @@ pub fn prepare(
     let binary = absolute(&options.binary)?;
     path_word(&binary)?;
     let opened = open(file, plan, data, &dir, exploratory)?;
-    let (todo, _) = pending(plan, &dir)?;
-    let todo: BTreeSet<String> = todo.iter().map(TrainingJob::stem).collect();
-    let indices: Vec<usize> = (0..plan.jobs.len()).filter(|i| todo.contains(&plan.jobs[*i].stem())).collect();
+    let (indices, _) = unfinished(plan, &dir)?;
 
     let bytes = std::fs::read(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
     if sha256_hex(&bytes) != file.sha256 {
@@ -495,13 +502,13 @@ pub fn run_task(
     match lock.try_lock() {
         Ok(()) => {}
         Err(std::fs::TryLockError::WouldBlock) => {
-            return Err(RunError::JobBusy { job: job.stem().replace("__", "/"), lock: lock_path.display().to_string() })
+            return Err(RunError::JobBusy { job: job.label(), lock: lock_path.display().to_string() })
         }
         Err(std::fs::TryLockError::Error(e)) => return Err(RunError::Write(crate::io::WriteError::new(&lock_path, e))),
     }
     if let Some(r) = JobRecord::read(dir, job)? {
         r.verify_files(dir, job)?;
-        return Ok(TaskOutcome::AlreadyFinished { job: job.stem().replace("__", "/") });
+        return Ok(TaskOutcome::AlreadyFinished { job: job.label() });
     }
     let prepared = rebuild(&p, dir)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
@@ -516,12 +523,12 @@ pub fn run_task(
 pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let p = reopen(dir)?;
-    let (todo, builds) = pending(&p.plan, dir)?;
+    let (todo, builds) = unfinished(&p.plan, dir)?;
     if !todo.is_empty() {
         let logs = dir.join(SLURM_DIR).join("logs");
         let mut list = String::new();
-        for job in &todo {
-            let index = p.plan.jobs.iter().position(|j| j.stem() == job.stem()).unwrap_or(usize::MAX);
+        for &index in &todo {
+            let job = &p.plan.jobs[index];
             let log = logs.join(format!("task-{index}.out"));
             let last = std::fs::read_to_string(&log).ok().and_then(|t| {
                 t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())
@@ -531,7 +538,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
                 None if log.exists() => format!("Slurm log {} (empty)", log.display()),
                 None => format!("no Slurm log at {}: the task never started", log.display()),
             };
-            writeln!(list, "  task {index} ({}): {status}", job.stem().replace("__", "/")).ok();
+            writeln!(list, "  task {index} ({}): {status}", job.label()).ok();
         }
         return Err(RunError::JobsMissing {
             dir: dir.display().to_string(),

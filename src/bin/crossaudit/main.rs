@@ -338,7 +338,7 @@ fn train(
     let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
-    let bar = progress::epoch_bar(epochs, &job.stem().replace("__", "/"));
+    let bar = progress::epoch_bar(epochs, &job.label());
     let result = crossaudit::run::run_job_with(engine, &file.sha256, &plan, job, &prepared, out, &mut |e| {
         bar.set_position(e.epoch as u64);
         bar.set_message(format!("train {:.4} val {:.4}", e.train_loss, e.val_loss));

@@ -86,10 +86,6 @@ impl RunProgress {
     }
 }
 
-fn name(j: &TrainingJob) -> String {
-    format!("{}/{}/{}", j.model, j.arm, j.seed.0)
-}
-
 impl RunObserver for RunProgress {
     fn start(&self, total: usize, done: usize) {
         self.overall.set_length(total as u64);
@@ -100,13 +96,13 @@ impl RunObserver for RunProgress {
     }
 
     fn job_started(&self, w: usize, j: &TrainingJob) {
-        self.workers[w].set_message(name(j));
+        self.workers[w].set_message(j.label());
     }
 
     fn epoch(&self, w: usize, j: &TrainingJob, e: &EpochLog) {
         self.workers[w].set_message(format!(
             "{} epoch {}/{} train {:.4} val {:.4}",
-            name(j),
+            j.label(),
             e.epoch,
             self.epochs,
             e.train_loss,
@@ -126,7 +122,7 @@ impl RunObserver for RunProgress {
             .collect();
         let _ = self.bars.println(format!(
             "done {} in {secs:.1} s: {} epochs, {val}mean FA RMSE {}",
-            name(j),
+            j.label(),
             o.epochs.len(),
             fa.join(", ")
         ));
