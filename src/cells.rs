@@ -1,5 +1,11 @@
 //! The per-cell CSV: the interface between running a study and analysing
-//! it. One row per (model, arm, seed, recording, horizon).
+//! it. One row per (model, arm, seed, recording, horizon), and per split in
+//! a multi-split study.
+//!
+//! The header is [`HEADER`], with two optional columns: `split` first, in a
+//! multi-split study, and `dose` after `arm` (the percentage of the
+//! reference arm's windows replaced; 0 for the reference) in a
+//! dose-response study. A file without them is read as before.
 
 use std::path::Path;
 
@@ -28,6 +34,12 @@ pub const HEADER: [&str; 14] = [
 /// One cell's metrics: a row of the per-cell CSV.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Cell {
+    /// The split, in a multi-split study (column `split`).
+    #[serde(skip)]
+    pub split: Option<u64>,
+    /// The dose in percent, in a dose-response study (column `dose`).
+    #[serde(skip)]
+    pub dose: Option<f64>,
     /// The model's name.
     pub model: String,
     /// The arm it was fitted on.
@@ -135,8 +147,14 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     let header =
         rdr.headers().map_err(|e| CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })?.clone();
     let found: Vec<&str> = header.iter().collect();
-    if found != HEADER {
-        return Err(CellsError::Header { path: name.to_string(), expected: HEADER.join(","), found: found.join(",") });
+    let has_split = found.first() == Some(&"split");
+    let has_dose = found.get(usize::from(has_split) + 2) == Some(&"dose");
+    if found != header_for(has_split, has_dose) {
+        return Err(CellsError::Header {
+            path: name.to_string(),
+            expected: format!("{} (optionally `split` first and `dose` after `arm`)", HEADER.join(",")),
+            found: found.join(","),
+        });
     }
     let mut cells = Vec::new();
     for rec in rdr.records() {
@@ -152,7 +170,20 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
             line,
             message: e.to_string(),
         })?;
-        cells.push(parse_row(name, line, &raw)?);
+        let mut cell = parse_row(name, line, &raw)?;
+        let r = Row { name, line };
+        if has_split {
+            cell.split = Some(r.uint("split", raw.split.as_deref().unwrap_or(""))?);
+        }
+        if has_dose {
+            let v = raw.dose.as_deref().unwrap_or("");
+            let dose = r.float("dose", v)?;
+            if dose > 100.0 {
+                return Err(r.fail("dose", v, "exceeds 100 (a percentage)"));
+            }
+            cell.dose = Some(dose);
+        }
+        cells.push(cell);
     }
     if cells.is_empty() {
         return Err(CellsError::Empty { path: name.to_string() });
@@ -169,9 +200,25 @@ fn csv_message(e: &csv::Error) -> String {
     }
 }
 
+/// The header with the optional columns.
+fn header_for(split: bool, dose: bool) -> Vec<&'static str> {
+    let mut h: Vec<&'static str> = Vec::with_capacity(HEADER.len() + 2);
+    if split {
+        h.push("split");
+    }
+    h.extend(&HEADER[..2]);
+    if dose {
+        h.push("dose");
+    }
+    h.extend(&HEADER[2..]);
+    h
+}
+
 /// A row as text, by column name.
 #[derive(Deserialize)]
 struct RawRow {
+    split: Option<String>,
+    dose: Option<String>,
     model: String,
     arm: String,
     seed: String,
@@ -268,6 +315,8 @@ fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
         return Err(r.fail("divergence_rate", &raw.divergence_rate, problem));
     }
     Ok(Cell {
+        split: None,
+        dose: None,
         model: r.label("model", &raw.model)?,
         arm: r.label("arm", &raw.arm)?,
         seed: r.uint("seed", &raw.seed)?,
@@ -303,17 +352,50 @@ pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError>
     std::fs::rename(&tmp, path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
 }
 
-/// Writes cells with the exact header. Floats use Rust's shortest
-/// round-trip form, so the same values give the same bytes.
+/// Writes cells with the exact header, and the `split` and `dose` columns
+/// when the cells carry them. Floats use Rust's shortest round-trip form,
+/// so the same values give the same bytes.
 pub fn write_cells(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
     let p = path.display().to_string();
     let io = |source: std::io::Error| CellsError::Io { path: p.clone(), source };
+    let (has_split, has_dose) = (cells.iter().any(|c| c.split.is_some()), cells.iter().any(|c| c.dose.is_some()));
     let mut w = csv::Writer::from_path(path).map_err(|e| io(e.into()))?;
-    for c in cells {
-        w.serialize(c).map_err(|e| io(e.into()))?;
+    if !has_split && !has_dose {
+        for c in cells {
+            w.serialize(c).map_err(|e| io(e.into()))?;
+        }
+        if cells.is_empty() {
+            w.write_record(HEADER).map_err(|e| io(e.into()))?;
+        }
+        return w.flush().map_err(io);
     }
-    if cells.is_empty() {
-        w.write_record(HEADER).map_err(|e| io(e.into()))?;
+    w.write_record(header_for(has_split, has_dose)).map_err(|e| io(e.into()))?;
+    let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+    for c in cells {
+        let mut row: Vec<String> = Vec::with_capacity(16);
+        if has_split {
+            row.push(c.split.map(|s| s.to_string()).unwrap_or_default());
+        }
+        row.push(c.model.clone());
+        row.push(c.arm.clone());
+        if has_dose {
+            row.push(opt(c.dose));
+        }
+        row.extend([
+            c.seed.to_string(),
+            c.recording.clone(),
+            c.trajectory.clone(),
+            c.speed.clone(),
+            c.horizon_s.to_string(),
+            c.n_starts.to_string(),
+            c.n_divergent.to_string(),
+            c.fa_position_rmse_m.to_string(),
+            opt(c.conditional_position_rmse_m),
+            c.divergence_rate.to_string(),
+            opt(c.velocity_rmse_mps),
+            opt(c.attitude_rmse_deg),
+        ]);
+        w.write_record(&row).map_err(|e| io(e.into()))?;
     }
     w.flush().map_err(io)
 }

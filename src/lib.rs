@@ -67,3 +67,38 @@ pub fn analyze_with(
     a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
     Ok(a)
 }
+
+/// The analysis of a dose-response or multi-split design's per-cell file
+/// (with its `split` and `dose` columns), labelled with the design's hash
+/// and lock state.
+///
+/// ```
+/// use std::path::Path;
+/// let a = crossaudit::analyze_family_files(
+///     Path::new("designs/nanobench_dose_response.design"),
+///     Path::new("results/dose_response/cells.csv"),
+///     Default::default(),
+/// )
+/// .unwrap();
+/// assert_eq!(a.doses.len(), 5);
+/// assert!(a.splits[0].trend.is_some());
+/// ```
+pub fn analyze_family_files(
+    design_path: &Path,
+    cells_path: &Path,
+    options: AnalyzeOptions,
+) -> Result<analysis::family::FamilyAnalysis, Error> {
+    let file = design::load(design_path)?;
+    let plan = compile(&file.design);
+    let status = design::lock::status(&file.path, &file.sha256)?;
+    let cells = cells::read_cells(cells_path)?;
+    let mut a = analysis::family::analyze_family(&plan, &cells, options)
+        .map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
+    a.design_sha256 = Some(file.sha256.clone());
+    if let design::LockStatus::LockedChanged { .. } = status {
+        a.exploratory = true;
+        a.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+    }
+    a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
+    Ok(a)
+}

@@ -31,6 +31,10 @@ pub struct TrainingJob {
     pub seed: Seed,
     /// Horizons (s) at which it is evaluated: every endpoint naming the model.
     pub horizons_s: Vec<f64>,
+    /// The split it belongs to, in a multi-split study (whose split `s`
+    /// runs in the directory `split-s` of the study's run directory).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split: Option<u64>,
 }
 
 impl TrainingJob {
@@ -44,10 +48,28 @@ impl TrainingJob {
         format!("{}__{}__{}", self.model, self.arm, self.seed.0)
     }
 
-    /// `model/arm/seed`, as used in messages.
+    /// `model/arm/seed` (`split-s model/arm/seed` in a multi-split study),
+    /// as used in messages.
     pub fn label(&self) -> String {
-        format!("{}/{}/{}", self.model, self.arm, self.seed.0)
+        match self.split {
+            None => format!("{}/{}/{}", self.model, self.arm, self.seed.0),
+            Some(s) => format!("{} {}/{}/{}", split_dir(s), self.model, self.arm, self.seed.0),
+        }
     }
+}
+
+/// `split-s`: the directory of split `s` inside a multi-split run.
+pub fn split_dir(split: u64) -> String {
+    format!("split-{split}")
+}
+
+/// One dose of a dose-response contrast: the arm that carries it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DoseArm {
+    /// The arm's name (`contaminated_5pct`).
+    pub arm: String,
+    /// Percentage of the reference arm's windows replaced.
+    pub percent: f64,
 }
 
 /// One analysis unit: a metric at a horizon for a model, contrasted over the
@@ -137,8 +159,16 @@ pub struct Plan {
     pub training: Option<Training>,
     /// Log rate (Hz), which turns horizons in seconds into steps.
     pub rate_hz: f64,
-    /// Rows the per-cell CSV must hold for the analysis: units x arms x I x J.
+    /// Rows the per-cell CSV must hold for the analysis: units x arms x I x J
+    /// (x splits).
     pub required_rows: usize,
+    /// The split factor's values; empty for a single-split study.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub splits: Vec<u64>,
+    /// The doses of a dose-response contrast, increasing; empty when the
+    /// treated arm is one arm.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub doses: Vec<DoseArm>,
 }
 
 /// Compiles the design's training jobs and analysis units.
@@ -151,24 +181,30 @@ pub struct Plan {
 /// ```
 pub fn compile(design: &Design) -> Plan {
     let mut jobs = Vec::new();
-    for m in &design.models {
-        let horizons_s = horizons_for(design, &m.name);
-        for a in &design.arms {
-            for &seed in &design.seeds {
-                let (model, kind, arm, horizons_s) =
-                    (m.name.clone(), m.kind.clone(), a.name.clone(), horizons_s.clone());
-                jobs.push(TrainingJob { model, kind, arm, seed, horizons_s });
+    let splits: Vec<Option<u64>> =
+        if design.splits.is_empty() { vec![None] } else { design.splits.iter().copied().map(Some).collect() };
+    for &split in &splits {
+        for m in &design.models {
+            let horizons_s = horizons_for(design, &m.name);
+            for a in &design.arms {
+                for &seed in &design.seeds {
+                    let (model, kind, arm, horizons_s) =
+                        (m.name.clone(), m.kind.clone(), a.name.clone(), horizons_s.clone());
+                    jobs.push(TrainingJob { model, kind, arm, seed, horizons_s, split });
+                }
             }
         }
     }
+    let doses: Vec<DoseArm> = design.doses().into_iter().map(|(arm, percent)| DoseArm { arm, percent }).collect();
     let mut units = units(design).into_iter();
     let primary = units.next().expect("a validated design has exactly one primary endpoint");
     let secondary: Vec<AnalysisUnit> = units.collect();
     let interactions = interactions(design, std::iter::once(&primary).chain(&secondary));
     let required_rows = distinct_rows(std::iter::once(&primary).chain(&secondary))
-        * 2
+        * (1 + doses.len().max(1))
         * design.recording.evaluation
-        * design.seeds.len();
+        * design.seeds.len()
+        * splits.len();
     Plan {
         study: design.study.clone(),
         published: design.published.clone(),
@@ -191,6 +227,8 @@ pub fn compile(design: &Design) -> Plan {
         training: design.training.clone(),
         rate_hz: design.data.rate_hz,
         required_rows,
+        splits: design.splits.clone(),
+        doses,
     }
 }
 
@@ -257,6 +295,41 @@ fn distinct_rows<'a>(units: impl Iterator<Item = &'a AnalysisUnit>) -> usize {
 }
 
 impl Plan {
+    /// The plan of one split of a multi-split study: its jobs (without
+    /// their split, since they run in the split's own directory) and rows.
+    pub fn for_split(&self, split: u64) -> Plan {
+        let mut p = self.clone();
+        p.jobs = self
+            .jobs
+            .iter()
+            .filter(|j| j.split == Some(split))
+            .map(|j| TrainingJob { split: None, ..j.clone() })
+            .collect();
+        p.required_rows = self.required_rows / self.splits.len().max(1);
+        p.splits = Vec::new();
+        p
+    }
+
+    /// The two-arm plan of one dose of a dose-response contrast: the dose's
+    /// arm against the reference, analysed as a single-dose study (its
+    /// decision rule on that contrast's primary estimate).
+    pub fn for_dose(&self, dose: &DoseArm) -> Plan {
+        let mut p = self.clone();
+        p.contrast.treated = dose.arm.clone();
+        p.arms.retain(|a| a.name == dose.arm || a.name == self.contrast.reference);
+        p.jobs.retain(|j| j.arm == dose.arm || j.arm == self.contrast.reference);
+        p.required_rows = self.required_rows / (1 + self.doses.len()) * 2;
+        p.doses = Vec::new();
+        p.decision.on = crate::design::DecisionTarget::Primary;
+        p
+    }
+
+    /// Whether the study is analysed as a family (several splits or
+    /// doses) rather than as one crossed contrast.
+    pub fn is_family(&self) -> bool {
+        !self.splits.is_empty() || !self.doses.is_empty()
+    }
+
     /// Every analysis unit: the primary first, then the secondary ones.
     pub fn units(&self) -> impl Iterator<Item = &AnalysisUnit> {
         std::iter::once(&self.primary).chain(&self.secondary)
@@ -284,9 +357,10 @@ impl Plan {
         let mut s = String::new();
         let _ = writeln!(s, "study: {}", self.study);
         let trains = self.jobs.iter().filter(|c| c.trains()).count();
+        let splits = if self.splits.is_empty() { String::new() } else { format!(" x {} splits", self.splits.len()) };
         let _ = writeln!(
             s,
-            "training cells: {} = {} models x {} arms x {} seeds ({} fitted, {} parameter-free)",
+            "training cells: {} = {} models x {} arms x {} seeds{splits} ({} fitted, {} parameter-free)",
             self.jobs.len(),
             self.models.len(),
             self.arms.len(),
@@ -294,6 +368,19 @@ impl Plan {
             trains,
             self.jobs.len() - trains
         );
+        if !self.splits.is_empty() {
+            let list: Vec<String> = self.splits.iter().map(|s| s.to_string()).collect();
+            let _ = writeln!(
+                s,
+                "splits: {} ({}), each redrawn whole: evaluation seeded with the split, every other draw's seed shifted by (split - split_seed)",
+                self.splits.len(),
+                list.join(", ")
+            );
+        }
+        if !self.doses.is_empty() {
+            let list: Vec<String> = self.doses.iter().map(|d| format!("{}% ({})", d.percent, d.arm)).collect();
+            let _ = writeln!(s, "doses of {} (nested): {}", self.contrast.treated, list.join(", "));
+        }
         for m in &self.models {
             let _ = writeln!(s, "  model {}: {}", m.name, model_text(&m.kind));
         }
@@ -390,7 +477,7 @@ fn model_text(kind: &ModelKind) -> String {
 fn arm_text(kind: &ArmKind) -> String {
     match kind {
         ArmKind::Fit { windows, seed } => format!("fit {windows} windows (seed {seed})"),
-        ArmKind::Derived { from, percent, starts, seed } => format!(
+        ArmKind::Derived { from, percent, starts, seed, .. } => format!(
             "{from} with {percent}% replaced by evaluation windows{} (seed {seed})",
             if *starts == StartsPolicy::Exclude { ", registered starts excluded" } else { "" }
         ),

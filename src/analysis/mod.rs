@@ -7,6 +7,7 @@
 //! logs, splits, models or files, so any per-cell CSV can be reanalysed.
 
 mod decision;
+pub mod family;
 mod index;
 mod types;
 mod unit;
@@ -124,6 +125,12 @@ pub enum AnalysisError {
         /// Why.
         source: StatsError,
     },
+    /// A dose-response or multi-split study's cells do not fit its design.
+    #[error("{message}")]
+    Family {
+        /// What is wrong, with the line.
+        message: String,
+    },
 }
 
 /// A value as a reader would write it: scientific notation when very large.
@@ -212,6 +219,25 @@ impl FileAnalysisError {
 /// assert_eq!(a.decision.rule.to_string(), "confirmed when optimism >= 10% and upper < 0");
 /// ```
 pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<Analysis, AnalysisError> {
+    if let Some(c) = cells.iter().find(|c| c.split.is_some() && plan.splits.is_empty()) {
+        return Err(AnalysisError::Family {
+            message: format!("line {}: the file has a `split` column, but the design has no split factor", c.line),
+        });
+    }
+    if let Some(c) = cells.iter().find(|c| c.dose.is_some() && plan.doses.is_empty()) {
+        return Err(AnalysisError::Family {
+            message: format!(
+                "line {}: the file has a `dose` column, but the design has no dose-response contrast",
+                c.line
+            ),
+        });
+    }
+    if plan.is_family() {
+        return Err(AnalysisError::Family {
+            message: "the design has several splits or doses: analyse it with analysis::family::analyze_family"
+                .to_string(),
+        });
+    }
     for c in cells {
         check_values(plan, c)?;
     }

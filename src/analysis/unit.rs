@@ -13,7 +13,7 @@ use super::index::Indexed;
 use super::types::*;
 use super::AnalysisError;
 use crate::cells::Cell;
-use crate::design::{Condition, EstimatorKind, Factor, Grouped, Metric};
+use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
 use crate::stats::{
     compare_intervals, crossed_mom, crossed_reml, pigeonhole_bootstrap, reml_intervals, CrossedEstimate, CrossedMatrix,
@@ -135,22 +135,39 @@ fn optimism(reference: f64, treated: f64) -> f64 {
     100.0 * (reference - treated) / reference
 }
 
+/// The crossed estimate of the mean of a rows x cols grid (row-major,
+/// `None` where a cell is missing) under `est`. The MoM needs every cell;
+/// REML takes whatever cells are present.
+pub(crate) fn estimate_grid(
+    est: &Estimator,
+    rows: usize,
+    cols: usize,
+    v: Vec<Option<f64>>,
+) -> Result<CrossedEstimate, StatsError> {
+    let g = Grid { rows, cols, v };
+    match est.kind {
+        EstimatorKind::Reml => crossed_reml(&g.cells(), g.rows, g.cols, est.level, est.df),
+        EstimatorKind::CrossedMom => match g.complete() {
+            Some(m) => crossed_mom(&m?, est.level, est.df),
+            None => Err(StatsError::Invalid(format!(
+                "{} of {} cells are missing and the method of moments needs every one",
+                g.missing(),
+                g.v.len()
+            ))),
+        },
+    }
+}
+
+/// The value of `metric` in a cell, if it has one.
+pub(crate) fn value_of(c: &Cell, metric: Metric) -> Option<f64> {
+    metric_value(c, metric)
+}
+
 impl Ctx<'_> {
     /// The crossed estimate of a grid's mean under the plan's estimator. The
     /// MoM needs every cell; REML takes whatever cells are present.
     fn estimate(&self, g: &Grid) -> Result<CrossedEstimate, StatsError> {
-        let est = &self.plan.estimator;
-        match est.kind {
-            EstimatorKind::Reml => crossed_reml(&g.cells(), g.rows, g.cols, est.level, est.df),
-            EstimatorKind::CrossedMom => match g.complete() {
-                Some(m) => crossed_mom(&m?, est.level, est.df),
-                None => Err(StatsError::Invalid(format!(
-                    "{} of {} cells are missing and the method of moments needs every one",
-                    g.missing(),
-                    g.v.len()
-                ))),
-            },
-        }
+        estimate_grid(&self.plan.estimator, g.rows, g.cols, g.v.clone())
     }
 
     /// One arm's grid of `metric`; a cell without a value is missing when

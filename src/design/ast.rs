@@ -50,6 +50,7 @@ pub enum Statement {
     Data(DataBlock),
     FactorRecording(Vec<Spanned<RecordingItem>>),
     FactorSeed(SeedSpec),
+    FactorSplit(SeedSpec),
     Validation { windows: Int, recordings: ValRecordings, seed: Int },
     Arm { name: Ident, body: ArmBody },
     Model { name: Ident, kind: ModelKind },
@@ -59,7 +60,7 @@ pub enum Statement {
     Estimate { kind: Ident, items: Vec<Spanned<EstimateItem>> },
     Sensitivity(Vec<Spanned<SensitivityItem>>),
     Interaction { left: Ident, right: Ident },
-    Decide { name: Ident, conditions: Vec<Spanned<ConditionAst>> },
+    Decide { name: Ident, on: Option<Ident>, conditions: Vec<Spanned<ConditionAst>> },
     Generator(Ident),
     Published { file: Spanned<String>, items: Vec<Spanned<PublishedItem>> },
 }
@@ -90,6 +91,7 @@ impl Statement {
             Statement::Data(_) => "data",
             Statement::FactorRecording(_) => "factor recording",
             Statement::FactorSeed(_) => "factor seed",
+            Statement::FactorSplit(_) => "factor split",
             Statement::Validation { .. } => "validation",
             Statement::Arm { .. } => "arm",
             Statement::Model { .. } => "model",
@@ -157,8 +159,17 @@ pub enum SeedSpec {
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum ArmBody {
-    Fit { windows: Int, seed: Option<Int> },
-    Derived { from: Ident, percent: Number, exclude_starts: bool, seed: Int },
+    Fit {
+        windows: Int,
+        seed: Option<Int>,
+    },
+    /// `percents` holds one share, or several for a dose-response family.
+    Derived {
+        from: Ident,
+        percents: Vec<Number>,
+        exclude_starts: bool,
+        seed: Int,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq)]

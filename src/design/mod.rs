@@ -70,6 +70,55 @@ pub struct Design {
     /// drawing (`split published "FILE" { ... }`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub published: Option<PublishedPin>,
+    /// The split factor (`factor split = 42..46`): one whole split per
+    /// value; empty for a single-split design.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub splits: Vec<u64>,
+}
+
+impl Design {
+    /// The single-split design that split `split` of a multi-split design
+    /// runs: its evaluation draw seeded with `split`, and the validation,
+    /// fit and contamination seeds each shifted by `split - split_seed`, so
+    /// that the split equal to `split_seed` is the single-split design
+    /// itself. Validation keeps every shifted seed in range.
+    pub fn for_split(&self, split: u64) -> Design {
+        let shift = |seed: u64| -> u64 { (seed as i128 + split as i128 - self.recording.split_seed as i128) as u64 };
+        let mut d = self.clone();
+        d.splits = Vec::new();
+        d.recording.split_seed = split;
+        d.validation.seed = shift(self.validation.seed);
+        for a in &mut d.arms {
+            match &mut a.kind {
+                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => *seed = shift(*seed),
+            }
+        }
+        d
+    }
+
+    /// The dose-response arms of the contrast's treated family, by
+    /// increasing dose: (arm name, percent). Empty unless the treated arm
+    /// was declared with several doses.
+    pub fn doses(&self) -> Vec<(String, f64)> {
+        let mut out: Vec<(String, f64)> = self
+            .arms
+            .iter()
+            .filter_map(|a| match &a.kind {
+                ArmKind::Derived { percent, family: Some(f), .. } if *f == self.contrast.treated => {
+                    Some((a.name.clone(), *percent))
+                }
+                _ => None,
+            })
+            .collect();
+        out.sort_by(|a, b| a.1.total_cmp(&b.1));
+        out
+    }
+}
+
+/// The arm name of one dose of a dose-response family: `contaminated` at
+/// 5% is `contaminated_5pct`, at 2.5% `contaminated_2p5pct`.
+pub fn dose_arm_name(family: &str, percent: f64) -> String {
+    format!("{family}_{}pct", percent.to_string().replace('.', "p"))
 }
 
 /// What a pinned published split does with a fit recording that is
@@ -488,6 +537,11 @@ pub enum ArmKind {
         starts: StartsPolicy,
         /// ChaCha8 seed of the draw.
         seed: u64,
+        /// The dose-response family the arm belongs to (`replace 1%, 5%`
+        /// declares one arm per dose, named by [`dose_arm_name`]): the
+        /// family's doses are nested, each replacing a prefix of one draw.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        family: Option<String>,
     },
 }
 
@@ -789,6 +843,9 @@ pub struct Interaction {
 pub struct DecisionRule {
     /// What the study concludes when every condition holds, e.g. `confirmed`.
     pub name: String,
+    /// The estimate the rule is evaluated on.
+    #[serde(skip_serializing_if = "DecisionTarget::is_primary")]
+    pub on: DecisionTarget,
     /// Conditions joined by `and`.
     pub conditions: Vec<DecisionCondition>,
 }
@@ -834,7 +891,11 @@ impl DecisionRule {
 /// ```
 impl std::fmt::Display for DecisionRule {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} when ", self.name)?;
+        match self.on {
+            DecisionTarget::Primary => write!(f, "{} when ", self.name)?,
+            DecisionTarget::Pooled => write!(f, "{} on pooled when ", self.name)?,
+            DecisionTarget::Slope => write!(f, "{} on slope when ", self.name)?,
+        }
         for (k, c) in self.conditions.iter().enumerate() {
             if k > 0 {
                 f.write_str(" and ")?;
@@ -842,6 +903,28 @@ impl std::fmt::Display for DecisionRule {
             write!(f, "{c}")?;
         }
         Ok(())
+    }
+}
+
+/// The estimate a decision rule is evaluated on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DecisionTarget {
+    /// The primary endpoint's crossed estimate (single split, single dose).
+    Primary,
+    /// The pooled estimate over splits (`decide NAME on pooled when ...`).
+    Pooled,
+    /// The slope over doses (`decide NAME on slope when ...`), pooled over
+    /// splits in a multi-split design: `mean`, `lower` and `upper` are the
+    /// slope of the difference per percentage point of dose, `optimism`
+    /// the slope of optimism in percentage points per percentage point.
+    Slope,
+}
+
+impl DecisionTarget {
+    /// Whether the rule is on the primary estimate (the default).
+    pub fn is_primary(&self) -> bool {
+        *self == DecisionTarget::Primary
     }
 }
 

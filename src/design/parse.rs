@@ -44,6 +44,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::data
         | Rule::factor_recording
         | Rule::factor_seed
+        | Rule::factor_split
         | Rule::validation
         | Rule::arm
         | Rule::model
@@ -258,6 +259,7 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         }
         Rule::factor_recording => Statement::FactorRecording(spanned_items(k, recording_item)?),
         Rule::factor_seed => Statement::FactorSeed(seed_spec(k.next())?),
+        Rule::factor_split => Statement::FactorSplit(seed_spec(k.next())?),
         Rule::validation => {
             let windows = int(k.next())?;
             let from = k.next();
@@ -286,7 +288,8 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::sensitivity => Statement::Sensitivity(spanned_items(k, sensitivity_item)?),
         Rule::decide => {
             let name = ident(k.next());
-            Statement::Decide { name, conditions: spanned_items(k, condition)? }
+            let on = if k.peek_rule() == Some(Rule::decide_on) { Some(ident(kids(k.next()).next())) } else { None };
+            Statement::Decide { name, on, conditions: spanned_items(k, condition)? }
         }
         other => unreachable!("statement rule {other:?} is not a statement"),
     })
@@ -363,13 +366,16 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
         return Ok(ArmBody::Fit { windows, seed });
     }
     let from = ident(c.next());
-    let percent = number(c.next())?;
+    let mut percents = Vec::new();
+    while c.peek_rule() == Some(Rule::dose) {
+        percents.push(number(kids(c.next()).next())?);
+    }
     let exclude_starts = c.peek_rule() == Some(Rule::exclude_starts);
     if exclude_starts {
         c.next();
     }
     let seed = int(c.next())?;
-    Ok(ArmBody::Derived { from, percent, exclude_starts, seed })
+    Ok(ArmBody::Derived { from, percents, exclude_starts, seed })
 }
 
 fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {

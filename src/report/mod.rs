@@ -6,6 +6,7 @@
 //! file and imports no stage above `analysis`.
 
 pub mod charts;
+pub mod family;
 pub mod figures;
 mod format;
 mod markdown;

@@ -93,6 +93,8 @@ pub fn cells(
             let outcomes: Vec<StartOutcome> = mine.iter().map(|t| StartOutcome::of(t, k, cap_m)).collect();
             let m = failure_aware(&outcomes, cap_m);
             out.push(Cell {
+                split: None,
+                dose: None,
                 model: model.to_string(),
                 arm: arm.to_string(),
                 seed,

@@ -24,6 +24,7 @@ use std::time::Instant;
 
 use serde::Deserialize;
 
+use crate::analysis::family::{analyze_family, FamilyAnalysis};
 use crate::analysis::{self, Analysis, FileAnalysisError};
 use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
@@ -274,6 +275,34 @@ pub enum RunError {
     },
 }
 
+/// The analysis a run wrote: one crossed contrast, or a family of them
+/// (several splits or doses).
+#[derive(Debug, Clone)]
+pub enum StudyAnalysis {
+    /// A single-split, single-dose study.
+    Single(Box<Analysis>),
+    /// A dose-response or multi-split study.
+    Family(Box<FamilyAnalysis>),
+}
+
+impl StudyAnalysis {
+    /// The decision line the console prints.
+    pub fn decision_line(&self) -> String {
+        match self {
+            StudyAnalysis::Single(a) => crate::report::decision_line(a),
+            StudyAnalysis::Family(a) => crate::report::family::family_decision_line(a),
+        }
+    }
+
+    /// The preregistered decision.
+    pub fn decision(&self) -> &crate::analysis::Decision {
+        match self {
+            StudyAnalysis::Single(a) => &a.decision,
+            StudyAnalysis::Family(a) => &a.decision,
+        }
+    }
+}
+
 /// What a finished run produced.
 #[derive(Debug, Clone)]
 pub struct RunOutcome {
@@ -282,7 +311,7 @@ pub struct RunOutcome {
     /// `out/report`.
     pub report_dir: PathBuf,
     /// The analysis written to the report.
-    pub analysis: Analysis,
+    pub analysis: StudyAnalysis,
     /// Jobs run now.
     pub trained: usize,
     /// Jobs finished by an earlier run.
@@ -317,6 +346,9 @@ pub fn run(
     if options.workers == 0 {
         return Err(RunError::NoWorkers);
     }
+    if !plan.splits.is_empty() {
+        return run_splits(file, plan, data, out, options, observer, started);
+    }
     let opened = open(file, plan, data, out, options.exploratory)?;
     let (todo, builds) = pending(plan, out)?;
     let skipped = plan.jobs.len() - todo.len();
@@ -326,6 +358,131 @@ pub fn run(
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// A multi-split study: each split a complete single-split run in
+/// `out/split-S` (its own audit, manifests, invariants, treatment audit,
+/// jobs and report), one after the other; then `out/cells.csv` (every
+/// split's cells with a `split` column) and the pooled analysis in
+/// `out/report`.
+fn run_splits(
+    file: &DesignFile,
+    plan: &Plan,
+    data: &Data,
+    out: &Path,
+    options: RunOptions,
+    observer: &dyn RunObserver,
+    started: Instant,
+) -> Result<RunOutcome, RunError> {
+    let (mut trained, mut skipped) = (0, 0);
+    let mut builds = std::collections::BTreeSet::new();
+    let mut status = LockStatus::Unlocked;
+    let mut exploratory = options.exploratory;
+    let mut first: Option<RunRecord> = None;
+    refuse_single_run(out)?;
+    for &s in &plan.splits {
+        let (split_file, split_plan, dir) = split_parts(file, plan, out, s);
+        let opened = open(&split_file, &split_plan, data, &dir, options.exploratory)?;
+        let (todo, done_builds) = pending(&split_plan, &dir)?;
+        skipped += split_plan.jobs.len() - todo.len();
+        trained += todo.len();
+        observer.start(split_plan.jobs.len(), split_plan.jobs.len() - todo.len());
+        grid::run_grid(&file.sha256, &split_plan, &opened.prepared, &dir, todo, options.workers, observer)?;
+        builds.extend(done_builds.iter().cloned());
+        finish(&file.path.display().to_string(), &split_plan, &opened, &dir, done_builds)?;
+        (status, exploratory) = (opened.status.clone(), opened.exploratory);
+        first.get_or_insert(opened.record);
+    }
+    let record = first.ok_or(RunError::NoWorkers)?;
+    let mut outcome =
+        finish_splits(&file.path.display().to_string(), plan, out, &status, exploratory, &record, builds)?;
+    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
+    Ok(outcome)
+}
+
+/// A multi-split study's directory must not hold a single-split run.
+fn refuse_single_run(out: &Path) -> Result<(), RunError> {
+    if let Some(r) = RunRecord::read(out)? {
+        return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: r.design_sha256 });
+    }
+    Ok(())
+}
+
+/// Split `s` of a multi-split study: its single-split design (same file,
+/// same hash, the split's seeds), its plan and its directory.
+fn split_parts(file: &DesignFile, plan: &Plan, out: &Path, s: u64) -> (DesignFile, Plan, PathBuf) {
+    let split_file = DesignFile { design: file.design.for_split(s), ..file.clone() };
+    (split_file, plan.for_split(s), out.join(crate::plan::split_dir(s)))
+}
+
+/// After every split finished: `out/cells.csv` with a `split` column and
+/// the family analysis in `out/report`.
+fn finish_splits(
+    design_path: &str,
+    plan: &Plan,
+    out: &Path,
+    status: &LockStatus,
+    exploratory: bool,
+    record: &RunRecord,
+    mut builds: std::collections::BTreeSet<String>,
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let mut all: Vec<Cell> = Vec::new();
+    for &s in &plan.splits {
+        let dir = out.join(crate::plan::split_dir(s));
+        all.extend(read_cells(&dir.join("cells.csv"))?.into_iter().map(|c| Cell { split: Some(s), ..c }));
+    }
+    let cells_csv = out.join("cells.csv");
+    write_cells_atomic(&cells_csv, &all)?;
+    let cells = read_cells(&cells_csv)?;
+    let mut a = analyze_family(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
+    label_family(&mut a, design_path, status, exploratory, &record.design_sha256, &cells_csv)?;
+    a.provenance.data = Some(record.data.describe());
+    a.warnings.push(
+        "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
+            .to_string(),
+    );
+    builds.remove(crate::BUILD);
+    for b in builds {
+        a.warnings.push(format!(
+            "some cells were trained by crossaudit {b}; this run, which resumed them, is {}",
+            crate::BUILD
+        ));
+    }
+    let report_dir = out.join("report");
+    crate::report::family::write_family(&mut a, &report_dir)?;
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis: StudyAnalysis::Family(Box::new(a)),
+        trained: 0,
+        skipped: plan.jobs.len(),
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The design hash, lock state and cells of a family analysis.
+fn label_family(
+    a: &mut FamilyAnalysis,
+    design_path: &str,
+    status: &LockStatus,
+    exploratory: bool,
+    sha256: &str,
+    cells_csv: &Path,
+) -> Result<(), RunError> {
+    a.design_sha256 = Some(sha256.to_string());
+    if let LockStatus::LockedChanged { .. } = status {
+        a.exploratory = true;
+        a.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+    }
+    a.exploratory |= exploratory;
+    a.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
+    if *status == LockStatus::Unlocked {
+        a.warnings.push(format!(
+            "{design_path} was not locked before this run: lock a design (`crossaudit lock`) to preregister it"
+        ));
+    }
+    Ok(())
 }
 
 /// A run directory made ready for its jobs: the lock state it runs under,
@@ -402,6 +559,31 @@ fn finish(
     trained_invariants::check(plan, prepared, out)?;
 
     let cells_csv = gather(plan, out)?;
+    if plan.is_family() {
+        let cells = read_cells(&cells_csv)?;
+        let mut a =
+            analyze_family(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
+        label_family(&mut a, design_path, &opened.status, opened.exploratory, &record.design_sha256, &cells_csv)?;
+        a.provenance.data = Some(record.data.describe());
+        a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
+        builds.remove(crate::BUILD);
+        for b in builds {
+            a.warnings.push(format!(
+                "some cells were trained by crossaudit {b}; this run, which resumed them, is {}",
+                crate::BUILD
+            ));
+        }
+        let report_dir = out.join("report");
+        crate::report::family::write_family(&mut a, &report_dir)?;
+        return Ok(RunOutcome {
+            cells_csv,
+            report_dir,
+            analysis: StudyAnalysis::Family(Box::new(a)),
+            trained: 0,
+            skipped: plan.jobs.len(),
+            seconds: started.elapsed().as_secs_f64(),
+        });
+    }
     let mut analysis = analyze_run(design_path, plan, &cells_csv, opened)?;
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
     for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
@@ -424,7 +606,7 @@ fn finish(
     Ok(RunOutcome {
         cells_csv,
         report_dir,
-        analysis,
+        analysis: StudyAnalysis::Single(Box::new(analysis)),
         trained: 0,
         skipped: plan.jobs.len(),
         seconds: started.elapsed().as_secs_f64(),
@@ -443,6 +625,16 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
         all.extend(read_cells(&job_cells(out, j))?);
     }
     check_baselines(plan, &all)?;
+    if !plan.doses.is_empty() {
+        // A dose-response study's cells carry their dose: 0 for the reference.
+        for c in &mut all {
+            c.dose = if c.arm == plan.contrast.reference {
+                Some(0.0)
+            } else {
+                plan.doses.iter().find(|d| d.arm == c.arm).map(|d| d.percent)
+            };
+        }
+    }
     let cells_csv = out.join("cells.csv");
     write_cells_atomic(&cells_csv, &all)?;
     Ok(cells_csv)

@@ -518,8 +518,27 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy)?;
     let e_pool = pool_of(&evaluation, recordings);
     let mut contaminating = Vec::new();
+    // Derived arms, a dose-response family at a time: its doses share one
+    // draw, each replacing a prefix of it, so that they are nested.
+    let mut done: BTreeSet<String> = BTreeSet::new();
     for arm in &design.arms {
-        let ArmKind::Derived { from, percent, starts: policy, seed } = &arm.kind else { continue };
+        let ArmKind::Derived { from, starts: policy, seed, family, .. } = &arm.kind else { continue };
+        let group = family.clone().unwrap_or_else(|| arm.name.clone());
+        if !done.insert(group) {
+            continue;
+        }
+        let members: Vec<(String, f64)> = design
+            .arms
+            .iter()
+            .filter_map(|a| match &a.kind {
+                ArmKind::Derived { percent, family: f, .. }
+                    if a.name == arm.name || (family.is_some() && f == family) =>
+                {
+                    Some((a.name.clone(), *percent))
+                }
+                _ => None,
+            })
+            .collect();
         let Some(base) = fits.iter().find(|(n, _)| n == from).map(|(_, w)| w.clone()) else { continue };
         let pool: Vec<Window> = match policy {
             StartsPolicy::Exclude => {
@@ -528,9 +547,10 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             }
             StartsPolicy::Allow => e_pool.clone(),
         };
-        let (fit, incoming) = contaminate(&arm.name, &base, *percent, &pool, *seed, numpy)?;
-        fits.push((arm.name.clone(), fit));
-        contaminating.push((arm.name.clone(), incoming));
+        for (name, fit, incoming) in contaminate(&base, &members, &pool, *seed, numpy)? {
+            fits.push((name.clone(), fit));
+            contaminating.push((name, incoming));
+        }
     }
     Ok(Split {
         recordings: info,
@@ -699,42 +719,59 @@ fn draw_fit_arms(
     Ok(fits)
 }
 
-/// A derived arm: `percent`% of `base`'s positions (stream 0 of `seed`)
-/// replaced by windows drawn from `pool` (stream 1). Returns the sorted fit
-/// set and the incoming evaluation windows.
+/// Derived arms of one base: each member's `percent`% of `base`'s
+/// positions replaced by windows of `pool`. The positions (stream 0 of
+/// `seed`) and the incoming windows (stream 1) are drawn once, in random
+/// order, for the largest dose; each dose takes their first k, so a smaller
+/// dose's replaced positions and incoming windows are part of every larger
+/// dose's. For one arm this is a plain draw of k. Returns (arm, sorted fit
+/// set, sorted incoming evaluation windows) per member, in member order.
 fn contaminate(
-    arm: &str,
     base: &[Window],
-    percent: f64,
+    members: &[(String, f64)],
     pool: &[Window],
     seed: u64,
     numpy: bool,
-) -> Result<(Vec<Window>, Vec<Window>), SplitError> {
-    let replaced = (percent / 100.0 * base.len() as f64).round() as usize;
-    if replaced == 0 {
-        return Err(SplitError::NothingToReplace { arm: arm.to_string(), percent, windows: base.len(), replaced });
+) -> Result<Vec<(String, Vec<Window>, Vec<Window>)>, SplitError> {
+    let count = |percent: f64| (percent / 100.0 * base.len() as f64).round() as usize;
+    let mut most = 0;
+    for (arm, percent) in members {
+        let replaced = count(*percent);
+        if replaced == 0 {
+            let (arm, percent, windows) = (arm.clone(), *percent, base.len());
+            return Err(SplitError::NothingToReplace { arm, percent, windows, replaced });
+        }
+        if pool.len() < replaced {
+            return Err(SplitError::TooFewWindows {
+                what: format!("arm {arm} (evaluation windows that are not registered starts)"),
+                needed: replaced,
+                available: pool.len(),
+            });
+        }
+        most = most.max(replaced);
     }
-    if pool.len() < replaced {
-        return Err(SplitError::TooFewWindows {
-            what: format!("arm {arm} (evaluation windows that are not registered starts)"),
-            needed: replaced,
-            available: pool.len(),
-        });
-    }
-    let (positions, incoming) = if numpy {
+    let (positions, incoming): (Vec<usize>, Vec<Window>) = if numpy {
         let mut rs = RandomState::new(np_seed(seed));
-        let positions = rs.choice(base.len(), replaced);
-        (positions, draw_numpy(pool, replaced, &mut rs))
+        let positions = rs.choice(base.len(), most);
+        (positions, rs.choice(pool.len(), most).into_iter().map(|i| pool[i]).collect())
     } else {
-        let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), replaced).into_vec();
-        (positions, draw(pool, replaced, &mut rng(seed, 1)))
+        let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), most).into_vec();
+        let incoming = rand::seq::index::sample(&mut rng(seed, 1), pool.len(), most).into_iter().map(|i| pool[i]);
+        (positions, incoming.collect())
     };
-    let mut fit = base.to_vec();
-    for (&p, w) in positions.iter().zip(&incoming) {
-        fit[p] = *w;
+    let mut out = Vec::new();
+    for (arm, percent) in members {
+        let k = count(*percent);
+        let mut fit = base.to_vec();
+        for (&p, w) in positions[..k].iter().zip(&incoming[..k]) {
+            fit[p] = *w;
+        }
+        fit.sort();
+        let mut taken = incoming[..k].to_vec();
+        taken.sort();
+        out.push((arm.clone(), fit, taken));
     }
-    fit.sort();
-    Ok((fit, incoming))
+    Ok(out)
 }
 
 /// Deployment units. With `duplicates group`, identical recordings form one

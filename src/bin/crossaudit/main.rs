@@ -390,7 +390,7 @@ fn run(
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", decision_line(&o.analysis));
+    println!("{}", o.analysis.decision_line());
     Ok(())
 }
 
@@ -495,7 +495,7 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", decision_line(&o.analysis));
+    println!("{}", o.analysis.decision_line());
     Ok(())
 }
 
@@ -584,6 +584,20 @@ fn lock_design(path: &Path) -> Result<(), Error> {
 }
 
 fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOptions) -> Result<(), Error> {
+    let file = crossaudit::design::load(design)?;
+    if crossaudit::compile(&file.design).is_family() {
+        let mut a = crossaudit::analyze_family_files(design, cells, options)?;
+        let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
+        let written = crossaudit::report::family::write_family(&mut a, &dir)?;
+        for w in &a.warnings {
+            eprintln!("warning: {w}");
+        }
+        for p in written {
+            eprintln!("wrote {}", p.display());
+        }
+        println!("{}", crossaudit::report::family::family_decision_line(&a));
+        return Ok(());
+    }
     let analysis = crossaudit::analyze_files(design, cells, options)?;
     let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
     let written = crossaudit::report::write_all(&analysis, &dir)?;

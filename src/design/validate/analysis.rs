@@ -235,6 +235,6 @@ impl Validator {
             }
             out.push(DecisionCondition { quantity, cmp: c.cmp.node, value: c.value.node });
         }
-        Some(DecisionRule { name: name.node.clone(), conditions: out })
+        Some(DecisionRule { name: name.node.clone(), on: DecisionTarget::Primary, conditions: out })
     }
 }

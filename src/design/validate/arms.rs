@@ -20,33 +20,60 @@ impl Validator {
                 continue;
             }
             names.push(name);
-            let kind = match body {
-                ArmBody::Fit { windows, seed } => ArmKind::Fit {
-                    windows: self.count(windows, "fit windows", 1),
-                    seed: seed.as_ref().map(|s| self.nonneg(s, "the fit seed")).unwrap_or(0),
-                },
-                ArmBody::Derived { from, percent, exclude_starts, seed } => {
-                    if !(percent.node > 0.0 && percent.node <= 100.0) {
-                        self.err_help(
-                            "percentage out of range",
-                            percent.span,
-                            format!("{}% is outside (0, 100]", percent.node),
-                            "the replaced share must be more than 0% and at most 100%",
-                        );
+            match body {
+                ArmBody::Fit { windows, seed } => {
+                    let kind = ArmKind::Fit {
+                        windows: self.count(windows, "fit windows", 1),
+                        seed: seed.as_ref().map(|s| self.nonneg(s, "the fit seed")).unwrap_or(0),
+                    };
+                    out.push((Arm { name: name.node.clone(), kind }, s.span));
+                }
+                ArmBody::Derived { from, percents, exclude_starts, seed } => {
+                    for (k, percent) in percents.iter().enumerate() {
+                        if !(percent.node > 0.0 && percent.node <= 100.0) {
+                            self.err_help(
+                                "percentage out of range",
+                                percent.span,
+                                format!("{}% is outside (0, 100]", percent.node),
+                                "the replaced share must be more than 0% and at most 100%",
+                            );
+                        }
+                        if percents[..k].iter().any(|p| p.node == percent.node) {
+                            self.err("duplicate dose", percent.span, format!("{}% is listed twice", percent.node));
+                        }
                     }
-                    ArmKind::Derived {
-                        from: from.node.clone(),
-                        percent: percent.node,
-                        starts: if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow },
-                        seed: self.nonneg(seed, "the contamination seed"),
+                    let seed = self.nonneg(seed, "the contamination seed");
+                    let starts = if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow };
+                    // One share: an arm of that name. Several: a dose-response
+                    // family, one arm per dose.
+                    let family = (percents.len() > 1).then(|| name.node.clone());
+                    for percent in percents {
+                        let arm_name = match &family {
+                            Some(f) => dose_arm_name(f, percent.node),
+                            None => name.node.clone(),
+                        };
+                        if out.iter().any(|(a, _)| a.name == arm_name) {
+                            self.err(
+                                "duplicate name",
+                                percent.span,
+                                format!("this dose's arm `{arm_name}` has the name of another arm"),
+                            );
+                        }
+                        let kind = ArmKind::Derived {
+                            from: from.node.clone(),
+                            percent: percent.node,
+                            starts,
+                            seed,
+                            family: family.clone(),
+                        };
+                        out.push((Arm { name: arm_name, kind }, s.span));
                     }
                 }
-            };
-            out.push((Arm { name: name.node.clone(), kind }, s.span));
+            }
         }
         // Resolve `from` after all arms are known, so order does not matter.
         for s in stmts {
-            let Statement::Arm { name, body: ArmBody::Derived { from, percent, .. } } = &s.node else {
+            let Statement::Arm { name, body: ArmBody::Derived { from, percents, .. } } = &s.node else {
                 continue;
             };
             match out.iter().find(|(a, _)| a.name == from.node) {
@@ -68,14 +95,17 @@ impl Validator {
                     "derive contaminated arms from an arm with `fit N windows`",
                 ),
                 Some((Arm { kind: ArmKind::Fit { windows, .. }, .. }, _)) => {
-                    let replaced = percent.node / 100.0 * *windows as f64;
-                    if percent.node > 0.0 && percent.node <= 100.0 && (replaced - replaced.round()).abs() > 1e-9 {
-                        self.err_help(
-                            "fraction of windows is not whole",
-                            percent.span,
-                            format!("{}% of {} windows is {} windows", percent.node, windows, replaced),
-                            "choose a percentage that replaces a whole number of windows",
-                        );
+                    let windows = *windows;
+                    for percent in percents {
+                        let replaced = percent.node / 100.0 * windows as f64;
+                        if percent.node > 0.0 && percent.node <= 100.0 && (replaced - replaced.round()).abs() > 1e-9 {
+                            self.err_help(
+                                "fraction of windows is not whole",
+                                percent.span,
+                                format!("{}% of {} windows is {} windows", percent.node, windows, replaced),
+                                "choose a percentage that replaces a whole number of windows",
+                            );
+                        }
                     }
                 }
             }

@@ -178,7 +178,13 @@ impl Validator {
     }
 
     pub(super) fn contrast(&mut self, treated: &Ident, reference: &Ident, arms: &[(Arm, Span)]) -> Option<Contrast> {
-        let declared: Vec<&str> = arms.iter().map(|x| x.0.name.as_str()).collect();
+        // A dose-response family is contrasted by its name, dose by dose.
+        let families = arms.iter().filter_map(|x| match &x.0.kind {
+            ArmKind::Derived { family: Some(f), .. } => Some(f.as_str()),
+            _ => None,
+        });
+        let mut declared: Vec<&str> = arms.iter().map(|x| x.0.name.as_str()).chain(families).collect();
+        declared.dedup();
         let ok = self.two_declared(("arm", "arms", "contrast"), treated, reference, &declared);
         ok.then(|| Contrast { treated: treated.node.clone(), reference: reference.node.clone() })
     }

@@ -170,8 +170,26 @@ impl Validator {
             },
             None => None,
         };
+        let splits = match singles.get("factor split") {
+            Some(s) => match &s.node {
+                Statement::FactorSplit(spec) => self.splits(spec, s.span, recording.as_ref(), published.is_some()),
+                _ => None,
+            },
+            None => Some(Vec::new()),
+        };
+        if let (Some(splits), Some(rf), Some(val)) = (&splits, &recording, &validation) {
+            let span = singles.get("factor split").map(|s| s.span).unwrap_or_default();
+            self.shifted_seeds(splits, rf, val, &arms, generator, span);
+        }
+        let dosed = contrast.as_ref().is_some_and(|c: &Contrast| {
+            arms.iter().any(|(a, _)| matches!(&a.kind, ArmKind::Derived { family: Some(f), .. } if *f == c.treated))
+        });
+        let multi_split = splits.as_ref().is_some_and(|s| !s.is_empty());
         let decision = singles.get("decide").and_then(|s| match &s.node {
-            Statement::Decide { name, conditions } => self.decision(name, conditions),
+            Statement::Decide { name, on, conditions } => {
+                let on = self.decision_target(on.as_ref(), name, multi_split, dosed);
+                self.decision(name, conditions).map(|d| DecisionRule { on, ..d })
+            }
             _ => None,
         });
 
@@ -192,7 +210,140 @@ impl Validator {
             decision: decision?,
             generator,
             published: published.map(|p| p.pin),
+            splits: splits?,
         })
+    }
+
+    /// The estimate a decision is on: the pooled one in a multi-split
+    /// design, the slope in a dose-response design, which the design must
+    /// say (`decide NAME on pooled|slope when ...`); the primary otherwise.
+    fn decision_target(&mut self, on: Option<&Ident>, name: &Ident, multi_split: bool, dosed: bool) -> DecisionTarget {
+        match on.map(|o| o.node.as_str()) {
+            Some("slope") if !dosed => {
+                let span = on.map(|o| o.span).unwrap_or(name.span);
+                self.err_help(
+                    "no slope to decide on",
+                    span,
+                    "`on slope` needs a dose-response contrast",
+                    "declare the treated arm with several doses: `replace 1%, 5%, 25% with evaluation windows ...`",
+                );
+                DecisionTarget::Slope
+            }
+            Some("slope") => DecisionTarget::Slope,
+            Some(_) if dosed => {
+                let span = on.map(|o| o.span).unwrap_or(name.span);
+                self.err_help(
+                    "ambiguous decision",
+                    span,
+                    "a dose-response design has one estimate per dose",
+                    "decide on the trend: `decide NAME on slope when ...`",
+                );
+                DecisionTarget::Pooled
+            }
+            Some(_) if !multi_split => {
+                let span = on.map(|o| o.span).unwrap_or(name.span);
+                self.err_help(
+                    "no pooled estimate",
+                    span,
+                    "`on pooled` needs a split factor",
+                    "declare several splits (`factor split = 42..46`), or drop `on pooled`",
+                );
+                DecisionTarget::Pooled
+            }
+            Some(_) => DecisionTarget::Pooled,
+            None if dosed => {
+                self.err_help(
+                    "decision target missing",
+                    name.span,
+                    "a dose-response design has one estimate per dose: say which the rule is on",
+                    "write `decide NAME on slope when ...` (the trend over doses)",
+                );
+                DecisionTarget::Slope
+            }
+            None if multi_split => {
+                self.err_help(
+                    "decision target missing",
+                    name.span,
+                    "a multi-split design has one estimate per split: say which the rule is on",
+                    "write `decide NAME on pooled when ...` (the pooled estimate over splits)",
+                );
+                DecisionTarget::Pooled
+            }
+            None => DecisionTarget::Primary,
+        }
+    }
+
+    /// `factor split = ...`: at least 2 distinct values, on a drawn split.
+    fn splits(
+        &mut self,
+        spec: &SeedSpec,
+        span: Span,
+        recording: Option<&RecordingFactor>,
+        published: bool,
+    ) -> Option<Vec<u64>> {
+        let values: Vec<u64> = self.seeds(spec, span)?.into_iter().map(|s| s.0).collect();
+        if published {
+            self.err_help(
+                "split factor on a published split",
+                span,
+                "a published split is one fixed split; there is nothing to redraw",
+                "drop `factor split`, or draw the split (`evaluation N split_seed S`)",
+            );
+        }
+        if recording.is_some_and(|r| !r.listed.is_empty()) {
+            self.err_help(
+                "split factor on pinned recordings",
+                span,
+                "the evaluation recordings are pinned (`evaluation recordings ...`), so every split would be the same",
+                "draw them instead: `evaluation N split_seed S`",
+            );
+        }
+        Some(values)
+    }
+
+    /// Every seed a split shifts (see [`Design::for_split`]) must stay in
+    /// range: at least 0, and below 2^32 under `numpy_legacy`.
+    fn shifted_seeds(
+        &mut self,
+        splits: &[u64],
+        rf: &RecordingFactor,
+        val: &ValidationSpec,
+        arms: &[(Arm, Span)],
+        generator: Generator,
+        span: Span,
+    ) {
+        if !val.listed.is_empty() && !splits.is_empty() {
+            self.err_help(
+                "split factor on pinned recordings",
+                span,
+                "the validation recordings are pinned, so every split would draw evaluation recordings around the same validation set",
+                "draw them instead: `validation N windows from K recordings seed S`",
+            );
+        }
+        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
+        let mut declared = vec![("the validation seed".to_string(), val.seed)];
+        for (a, _) in arms {
+            match a.kind {
+                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => {
+                    declared.push((format!("arm {}'s seed", a.name), seed))
+                }
+            }
+        }
+        for &split in splits {
+            let offset = split as i128 - rf.split_seed as i128;
+            for (what, seed) in &declared {
+                let shifted = *seed as i128 + offset;
+                if shifted < 0 || shifted > max as i128 {
+                    self.err_help(
+                        "split shifts a seed out of range",
+                        span,
+                        format!("split {split} shifts {what} ({seed}) by {offset} to {shifted}"),
+                        format!("split s draws with each declared seed plus (s - split_seed), here s - {}; choose splits or seeds that keep every seed from 0 to {max}", rf.split_seed),
+                    );
+                    return;
+                }
+            }
+        }
     }
 
     /// `validation N windows from (K recordings | recordings "A", ... | split) seed S`.

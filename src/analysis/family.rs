@@ -1,0 +1,574 @@
+//! Studies of several crossed contrasts: a dose-response contrast (one
+//! treated arm per dose, against one shared reference arm) and a
+//! multi-split study (the whole split redrawn per split value), alone or
+//! together.
+//!
+//! For each split and dose, the contrast is analysed exactly as a
+//! single-split, single-dose study ([`super::analyze`] on that split's cells
+//! of that dose's arm and the reference arm). On top of that:
+//! - the trend over doses: per cell (recording x seed), the least-squares
+//!   slope of d = treated - reference over the doses, the reference itself
+//!   included as dose 0 (d = 0); its crossed estimate is the slope of the
+//!   mean difference per percentage point of dose, with the crossed
+//!   interval of the design's estimator. The slope in optimism is
+//!   -100 slope / mean(reference), percentage points of optimism per
+//!   percentage point of dose;
+//! - the smallest dose whose interval excludes zero;
+//! - over several splits, a pooled estimate of each dose's difference and
+//!   of the slope: REML fit of value = mu + a_split + b_recording + c_seed + e
+//!   (recordings recur across splits and seeds are shared, so all three are
+//!   crossed random intercepts; lme4's `(1|split) + (1|recording) +
+//!   (1|seed)`), with the interval mu +- t(df) SE, df Satterthwaite's
+//!   (Kenward-Roger's SE and df when the design's estimator uses them).
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::Serialize;
+
+use super::types::{Analysis, ConditionOutcome, Decision, Provenance};
+use super::unit::{estimate_grid, value_of};
+use super::{analyze, AnalysisError, AnalyzeOptions};
+use crate::cells::Cell;
+use crate::design::{ArmKind, DecisionRule, DecisionTarget, Quantity};
+use crate::plan::{DoseArm, Plan};
+use crate::stats::mixed::{self, Criterion, MixedData};
+use crate::stats::{critical_value, CrossedEstimate, DfRule, StatsError};
+
+/// The analysis of a dose-response or multi-split study (results.json).
+#[derive(Debug, Clone, Serialize)]
+pub struct FamilyAnalysis {
+    /// The study's name.
+    pub study: String,
+    /// SHA-256 of the design file, when the analysis came from one.
+    pub design_sha256: Option<String>,
+    /// True when the design changed after locking (or the run was labelled so).
+    pub exploratory: bool,
+    /// The treated arm (or dose-response family) of the contrast.
+    pub treated: String,
+    /// The reference arm.
+    pub reference: String,
+    /// Confidence level of every interval.
+    pub level: f64,
+    /// The primary unit, `model metric at h s`.
+    pub unit: String,
+    /// The doses, increasing (one entry, the treated arm, without doses).
+    pub doses: Vec<DoseArm>,
+    /// Per split (one entry, split `None`, in a single-split study).
+    pub splits: Vec<SplitResult>,
+    /// Pooled over splits, when there are several.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pooled: Option<Pooled>,
+    /// The preregistered decision.
+    pub decision: Decision,
+    /// Caveats, in order.
+    pub warnings: Vec<String>,
+    /// Figure files (relative to the report).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub figures: Vec<String>,
+    /// Which data, which cells and which build produced this analysis.
+    pub provenance: Provenance,
+}
+
+/// One split's contrasts.
+#[derive(Debug, Clone, Serialize)]
+pub struct SplitResult {
+    /// The split value (`None` in a single-split study).
+    pub split: Option<u64>,
+    /// Per dose, increasing.
+    pub doses: Vec<DoseResult>,
+    /// The trend over doses (two or more doses).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trend: Option<Trend>,
+    /// The full single-contrast analysis of each dose, in dose order.
+    #[serde(skip)]
+    pub detail: Vec<Analysis>,
+}
+
+/// One dose's primary contrast in one split.
+#[derive(Debug, Clone, Serialize)]
+pub struct DoseResult {
+    /// The treated arm.
+    pub arm: String,
+    /// Percent of the reference arm's windows replaced (NaN, written null,
+    /// when the treated arm is not derived from the reference).
+    pub percent: f64,
+    /// Mean of the treated arm.
+    pub mean_treated: f64,
+    /// Mean of the reference arm.
+    pub mean_reference: f64,
+    /// 100 (mean_reference - mean_treated) / mean_reference.
+    pub optimism_pct: f64,
+    /// The crossed estimate of treated - reference.
+    pub estimate: CrossedEstimate,
+}
+
+/// The slope of the difference over doses.
+#[derive(Debug, Clone, Serialize)]
+pub struct Trend {
+    /// Crossed estimate of the per-cell slope (metric units per percentage point).
+    pub slope: CrossedEstimate,
+    /// -100 slope / mean(reference): optimism points per dose point.
+    pub optimism_slope: f64,
+    /// Its interval, from the slope's.
+    pub optimism_slope_lower: f64,
+    /// Its interval, from the slope's.
+    pub optimism_slope_upper: f64,
+    /// The smallest dose whose interval excludes zero, if any.
+    pub smallest_dose_excluding_zero: Option<f64>,
+}
+
+/// Estimates pooled over splits.
+#[derive(Debug, Clone, Serialize)]
+pub struct Pooled {
+    /// Per dose, increasing.
+    pub doses: Vec<PooledEstimate>,
+    /// The slope over doses (two or more doses).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slope: Option<PooledEstimate>,
+    /// The smallest dose whose pooled interval excludes zero, if any.
+    pub smallest_dose_excluding_zero: Option<f64>,
+}
+
+/// A REML estimate over split, recording and seed.
+#[derive(Debug, Clone, Serialize)]
+pub struct PooledEstimate {
+    /// What is estimated: `dose 5%`, `slope`.
+    pub label: String,
+    /// Observations (split x recording x seed cells).
+    pub n: usize,
+    /// Levels of split, recording and seed.
+    pub levels: Vec<usize>,
+    /// The intercept mu.
+    pub mean: f64,
+    /// Its SE (Kenward-Roger's adjusted SE under `df kenward_roger`).
+    pub se: f64,
+    /// The df of the interval.
+    pub df: f64,
+    /// Which df: `satterthwaite` or `kenward_roger`.
+    pub df_rule: String,
+    /// Lower bound.
+    pub lower: f64,
+    /// Upper bound.
+    pub upper: f64,
+    /// Optimism (%): for a dose, 100 (mean_reference - mean_treated) /
+    /// mean_reference over every cell; for the slope, -100 mean / mean_reference.
+    pub optimism_pct: f64,
+    /// Optimism at the interval's bounds (-100 bound / mean_reference).
+    pub optimism_lower: f64,
+    /// Optimism at the interval's bounds.
+    pub optimism_upper: f64,
+    /// Variance components: split, recording, seed, residual.
+    pub variances: [f64; 4],
+    /// Share of the total variance from the split: var_split / sum.
+    pub split_share: f64,
+    /// Shares of Var(mu): split, recording, seed, residual.
+    pub se2_shares: Vec<f64>,
+    /// A component estimated at the boundary (lme4's singular fit).
+    pub singular: bool,
+}
+
+/// The reference arm's and each dose's value of the primary metric, per
+/// (recording, seed), for one split.
+struct Values {
+    recordings: Vec<String>,
+    seeds: Vec<u64>,
+    /// [dose][recording * seeds + seed]: treated - reference.
+    d: Vec<Vec<Option<f64>>>,
+    mean_reference: f64,
+}
+
+/// The doses a plan contrasts: its dose arms, or the treated arm alone.
+pub fn contrast_doses(plan: &Plan) -> Vec<DoseArm> {
+    if !plan.doses.is_empty() {
+        return plan.doses.clone();
+    }
+    let percent = plan
+        .arms
+        .iter()
+        .find(|a| a.name == plan.contrast.treated)
+        .and_then(|a| match &a.kind {
+            ArmKind::Derived { percent, .. } => Some(*percent),
+            ArmKind::Fit { .. } => None,
+        })
+        .unwrap_or(f64::NAN);
+    vec![DoseArm { arm: plan.contrast.treated.clone(), percent }]
+}
+
+fn fail(message: String) -> AnalysisError {
+    AnalysisError::Family { message }
+}
+
+/// Checks the split and dose columns against the plan.
+fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
+    let splits: BTreeSet<u64> = plan.splits.iter().copied().collect();
+    for c in cells {
+        match (c.split, plan.splits.is_empty()) {
+            (Some(s), false) if !splits.contains(&s) => {
+                return Err(fail(format!(
+                    "line {}, field `split`: {s} is not a split of the design ({})",
+                    c.line,
+                    plan.splits.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(", ")
+                )))
+            }
+            (None, false) => {
+                return Err(fail(format!(
+                    "line {}: the design has a split factor, so every row needs a `split` value; this file has no `split` column",
+                    c.line
+                )))
+            }
+            _ => {}
+        }
+        if let Some(dose) = c.dose {
+            let expected = if c.arm == plan.contrast.reference {
+                Some(0.0)
+            } else {
+                plan.doses.iter().find(|d| d.arm == c.arm).map(|d| d.percent)
+            };
+            if let Some(e) = expected {
+                if e != dose {
+                    return Err(fail(format!(
+                        "line {}, field `dose`: {dose} disagrees with arm `{}`, which the design gives dose {e}",
+                        c.line, c.arm
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Analyses a dose-response or multi-split study's per-cell data.
+pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<FamilyAnalysis, AnalysisError> {
+    check_columns(plan, cells)?;
+    let doses = contrast_doses(plan);
+    let split_values: Vec<Option<u64>> =
+        if plan.splits.is_empty() { vec![None] } else { plan.splits.iter().copied().map(Some).collect() };
+    let mut splits = Vec::new();
+    let mut values = Vec::new();
+    let mut warnings = Vec::new();
+    for &split in &split_values {
+        let sub_plan = match split {
+            Some(s) => plan.for_split(s),
+            None => plan.clone(),
+        };
+        let mine: Vec<Cell> = cells.iter().filter(|c| c.split == split).cloned().collect();
+        let mut detail = Vec::new();
+        let mut results = Vec::new();
+        for dose in &doses {
+            let dose_plan = if plan.doses.is_empty() { sub_plan.clone() } else { sub_plan.for_dose(dose) };
+            let arms = [dose.arm.as_str(), plan.contrast.reference.as_str()];
+            let subset: Vec<Cell> = mine
+                .iter()
+                .filter(|c| arms.contains(&c.arm.as_str()))
+                .map(|c| Cell { split: None, dose: None, ..c.clone() })
+                .collect();
+            let a = analyze(&dose_plan, &subset, options).map_err(|e| match split {
+                Some(s) => fail(format!("split {s}, arm {}: {e}", dose.arm)),
+                None if !plan.doses.is_empty() => fail(format!("arm {}: {e}", dose.arm)),
+                None => e,
+            })?;
+            let u = &a.units[0];
+            for w in &a.warnings {
+                let at = match split {
+                    Some(s) => format!("split {s}, arm {}", dose.arm),
+                    None => format!("arm {}", dose.arm),
+                };
+                warnings.push(format!("{at}: {w}"));
+            }
+            results.push(DoseResult {
+                arm: dose.arm.clone(),
+                percent: dose.percent,
+                mean_treated: u.mean_treated,
+                mean_reference: u.mean_reference,
+                optimism_pct: u.optimism_pct,
+                estimate: u.estimate,
+            });
+            detail.push(a);
+        }
+        let v = split_values_of(plan, &mine, &doses, &detail[0])?;
+        let trend = if doses.len() >= 2 { Some(trend(plan, &v, &doses, &results)?) } else { None };
+        splits.push(SplitResult { split, doses: results, trend, detail });
+        values.push(v);
+    }
+    let pooled = if split_values.len() >= 2 { Some(pool(plan, &split_values, &values, &doses)?) } else { None };
+    let provenance = splits[0].detail[0].provenance.clone();
+    let unit = format!("{} {} at {} s", plan.primary.model, plan.primary.metric.name(), plan.primary.horizon_s);
+    let decision = decide(&plan.decision, &unit, &splits, pooled.as_ref());
+    Ok(FamilyAnalysis {
+        study: plan.study.clone(),
+        design_sha256: None,
+        exploratory: false,
+        treated: plan.contrast.treated.clone(),
+        reference: plan.contrast.reference.clone(),
+        level: plan.estimator.level,
+        unit,
+        doses,
+        splits,
+        pooled,
+        decision,
+        warnings,
+        figures: Vec::new(),
+        provenance,
+    })
+}
+
+/// The primary metric's differences of one split, per dose, in the row and
+/// column order of that split's analysis.
+fn split_values_of(plan: &Plan, cells: &[Cell], doses: &[DoseArm], a: &Analysis) -> Result<Values, AnalysisError> {
+    let u = &plan.primary;
+    let mut by: BTreeMap<(&str, &str, u64), f64> = BTreeMap::new();
+    for c in cells {
+        if c.model == u.model && (c.horizon_s - u.horizon_s).abs() <= 1e-9 * u.horizon_s.max(1.0) {
+            if let Some(x) = value_of(c, u.metric) {
+                by.insert((c.arm.as_str(), c.recording.as_str(), c.seed), x);
+            }
+        }
+    }
+    let recordings: Vec<String> = a.recordings.iter().map(|r| r.recording.clone()).collect();
+    let seeds = a.seeds.clone();
+    let reference = &plan.contrast.reference;
+    let mut ref_sum = 0.0;
+    let mut ref_n = 0usize;
+    let mut d = Vec::new();
+    for dose in doses {
+        let mut v = Vec::with_capacity(recordings.len() * seeds.len());
+        for r in &recordings {
+            for &s in &seeds {
+                let t = by.get(&(dose.arm.as_str(), r.as_str(), s));
+                let b = by.get(&(reference.as_str(), r.as_str(), s));
+                v.push(match (t, b) {
+                    (Some(t), Some(b)) => Some(t - b),
+                    _ => None,
+                });
+            }
+        }
+        d.push(v);
+    }
+    for r in &recordings {
+        for &s in &seeds {
+            if let Some(b) = by.get(&(reference.as_str(), r.as_str(), s)) {
+                ref_sum += b;
+                ref_n += 1;
+            }
+        }
+    }
+    Ok(Values { recordings, seeds, d, mean_reference: ref_sum / ref_n.max(1) as f64 })
+}
+
+/// Least-squares weights of the slope over (0, doses...): the slope of
+/// (0, d_1, ..., d_K) is sum_k w_k d_k.
+fn slope_weights(doses: &[DoseArm]) -> Vec<f64> {
+    let x: Vec<f64> = std::iter::once(0.0).chain(doses.iter().map(|d| d.percent)).collect();
+    let mean = x.iter().sum::<f64>() / x.len() as f64;
+    let sxx: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
+    doses.iter().map(|d| (d.percent - mean) / sxx).collect()
+}
+
+/// Per-cell slopes of one split (None where a dose's cell is missing).
+fn slopes(v: &Values, doses: &[DoseArm]) -> Vec<Option<f64>> {
+    let w = slope_weights(doses);
+    (0..v.recordings.len() * v.seeds.len())
+        .map(|k| {
+            let mut total = 0.0;
+            for (dk, wk) in v.d.iter().zip(&w) {
+                total += wk * dk[k]?;
+            }
+            Some(total)
+        })
+        .collect()
+}
+
+/// -100 x / mean_reference.
+fn as_optimism(x: f64, mean_reference: f64) -> f64 {
+    -100.0 * x / mean_reference
+}
+
+fn smallest_excluding_zero<'a>(items: impl Iterator<Item = (f64, f64, f64)> + 'a) -> Option<f64> {
+    items.filter(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p).reduce(f64::min)
+}
+
+fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> Result<Trend, AnalysisError> {
+    let slope = estimate_grid(&plan.estimator, v.recordings.len(), v.seeds.len(), slopes(v, doses))
+        .map_err(|e| AnalysisError::Stats { unit: "slope over doses".to_string(), source: e })?;
+    let (a, b) = (as_optimism(slope.upper, v.mean_reference), as_optimism(slope.lower, v.mean_reference));
+    Ok(Trend {
+        optimism_slope: as_optimism(slope.mean, v.mean_reference),
+        optimism_slope_lower: a.min(b),
+        optimism_slope_upper: a.max(b),
+        slope,
+        smallest_dose_excluding_zero: smallest_excluding_zero(
+            results.iter().map(|r| (r.percent, r.estimate.lower, r.estimate.upper)),
+        ),
+    })
+}
+
+/// The pooled REML estimates over splits.
+fn pool(plan: &Plan, splits: &[Option<u64>], values: &[Values], doses: &[DoseArm]) -> Result<Pooled, AnalysisError> {
+    let mut ref_sum = 0.0;
+    let mut ref_n = 0.0;
+    for v in values {
+        let n = (v.recordings.len() * v.seeds.len()) as f64;
+        ref_sum += v.mean_reference * n;
+        ref_n += n;
+    }
+    let mean_reference = ref_sum / ref_n;
+    let mut out = Vec::new();
+    for (k, dose) in doses.iter().enumerate() {
+        let per: Vec<Vec<Option<f64>>> = values.iter().map(|v| v.d[k].clone()).collect();
+        let label = if dose.percent.is_nan() { dose.arm.clone() } else { format!("dose {}%", dose.percent) };
+        let mut e = pooled_estimate(plan, &label, splits, values, &per, mean_reference)?;
+        // A dose's optimism is the paper's ratio of arm means over every cell.
+        let mean_d = mean_present(&per);
+        e.optimism_pct = as_optimism(mean_d, mean_reference);
+        out.push(e);
+    }
+    let slope = if doses.len() >= 2 {
+        let per: Vec<Vec<Option<f64>>> = values.iter().map(|v| slopes(v, doses)).collect();
+        Some(pooled_estimate(plan, "slope", splits, values, &per, mean_reference)?)
+    } else {
+        None
+    };
+    let smallest = smallest_excluding_zero(
+        doses.iter().zip(&out).map(|(d, e)| (d.percent, e.lower, e.upper)).filter(|x| !x.0.is_nan()),
+    );
+    Ok(Pooled { doses: out, slope, smallest_dose_excluding_zero: smallest })
+}
+
+fn mean_present(per: &[Vec<Option<f64>>]) -> f64 {
+    let all: Vec<f64> = per.iter().flatten().filter_map(|x| *x).collect();
+    all.iter().sum::<f64>() / all.len().max(1) as f64
+}
+
+fn pooled_estimate(
+    plan: &Plan,
+    label: &str,
+    splits: &[Option<u64>],
+    values: &[Values],
+    per: &[Vec<Option<f64>>],
+    mean_reference: f64,
+) -> Result<PooledEstimate, AnalysisError> {
+    let mut recording_codes: BTreeMap<&str, usize> = BTreeMap::new();
+    let (mut y, mut fs, mut fr, mut fj) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (si, (v, vals)) in values.iter().zip(per).enumerate() {
+        for (i, r) in v.recordings.iter().enumerate() {
+            let next = recording_codes.len();
+            let rc = *recording_codes.entry(r.as_str()).or_insert(next);
+            for (j, &seed) in v.seeds.iter().enumerate() {
+                if let Some(x) = vals[i * v.seeds.len() + j] {
+                    y.push(x);
+                    fs.push(si);
+                    fr.push(rc);
+                    fj.push(seed as usize);
+                }
+            }
+        }
+    }
+    let n = y.len();
+    let stats = |e: mixed::MixedError| AnalysisError::Stats {
+        unit: format!("pooled {label}"),
+        source: StatsError::Invalid(e.to_string()),
+    };
+    let data =
+        MixedData::new(y, vec![("split".to_string(), fs), ("recording".to_string(), fr), ("seed".to_string(), fj)])
+            .map_err(stats)?;
+    let fit = mixed::fit(&data, Criterion::Reml).map_err(stats)?;
+    let (se, df, df_rule) = match (plan.estimator.df, fit.kenward_roger) {
+        (DfRule::KenwardRoger, Some(kr)) => (kr.se, kr.df, "kenward_roger"),
+        _ => (fit.se, fit.df_satterthwaite.unwrap_or(f64::NAN), "satterthwaite"),
+    };
+    if !df.is_finite() {
+        return Err(AnalysisError::Stats {
+            unit: format!("pooled {label}"),
+            source: StatsError::Invalid("the Satterthwaite df are undefined at this fit".to_string()),
+        });
+    }
+    let critical = critical_value(plan.estimator.level, df)
+        .map_err(|e| AnalysisError::Stats { unit: format!("pooled {label}"), source: e })?;
+    let (lower, upper) = (fit.intercept - critical * se, fit.intercept + critical * se);
+    let variances = [fit.variances[0], fit.variances[1], fit.variances[2], fit.residual];
+    let total: f64 = variances.iter().sum();
+    let (a, b) = (as_optimism(upper, mean_reference), as_optimism(lower, mean_reference));
+    let _ = splits;
+    Ok(PooledEstimate {
+        label: label.to_string(),
+        n,
+        levels: fit.levels.clone(),
+        mean: fit.intercept,
+        se,
+        df,
+        df_rule: df_rule.to_string(),
+        lower,
+        upper,
+        optimism_pct: as_optimism(fit.intercept, mean_reference),
+        optimism_lower: a.min(b),
+        optimism_upper: a.max(b),
+        variances,
+        split_share: if total > 0.0 { variances[0] / total } else { 0.0 },
+        se2_shares: fit.shares.clone(),
+        singular: fit.singular,
+    })
+}
+
+/// The rule on its target: the primary (single split and dose), the pooled
+/// estimate (several splits, one dose) or the slope (pooled when there are
+/// several splits).
+fn decide(rule: &DecisionRule, unit: &str, splits: &[SplitResult], pooled: Option<&Pooled>) -> Decision {
+    // (label, optimism, mean, lower, upper)
+    let observed: (String, f64, f64, f64, f64) = match (rule.on, pooled) {
+        (DecisionTarget::Slope, Some(p)) => {
+            let s = p.slope.as_ref();
+            let s = s.map(|s| (s.optimism_pct, s.mean, s.lower, s.upper)).unwrap_or((
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+            ));
+            (format!("slope over doses, pooled over {} splits: {unit}", splits.len()), s.0, s.1, s.2, s.3)
+        }
+        (DecisionTarget::Slope, None) => {
+            let t = splits[0].trend.as_ref();
+            let t = t.map(|t| (t.optimism_slope, t.slope.mean, t.slope.lower, t.slope.upper)).unwrap_or((
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+            ));
+            (format!("slope over doses: {unit}"), t.0, t.1, t.2, t.3)
+        }
+        (_, Some(p)) => {
+            let e = &p.doses[0];
+            (format!("pooled over {} splits: {unit}", splits.len()), e.optimism_pct, e.mean, e.lower, e.upper)
+        }
+        (_, None) => {
+            let d = &splits[0].doses[0];
+            (unit.to_string(), d.optimism_pct, d.estimate.mean, d.estimate.lower, d.estimate.upper)
+        }
+    };
+    let conditions: Vec<ConditionOutcome> = rule
+        .conditions
+        .iter()
+        .map(|c| {
+            let value = match c.quantity {
+                Quantity::Optimism => observed.1,
+                Quantity::Mean => observed.2,
+                Quantity::Lower => observed.3,
+                Quantity::Upper => observed.4,
+            };
+            ConditionOutcome { condition: *c, quantity: c.quantity, value, holds: c.holds(value) }
+        })
+        .collect();
+    Decision {
+        name: rule.name.clone(),
+        rule: rule.clone(),
+        unit: observed.0,
+        holds: conditions.iter().all(|c| c.holds),
+        conditions,
+    }
+}
+
+impl FamilyAnalysis {
+    /// Records the per-cell file analysed and its SHA-256.
+    pub fn record_cells(&mut self, path: &std::path::Path, sha256: &str) {
+        self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));
+    }
+}

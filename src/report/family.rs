@@ -1,0 +1,315 @@
+//! The report of a dose-response or multi-split study: report.md (the
+//! decision, the estimate per split and dose, the trend, the pooled
+//! estimates), results.json, and two figures: optimism against dose with
+//! intervals, and the per-split estimates beside the pooled one (a forest
+//! plot).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::{BLACK, RED};
+
+use super::charts::{intervals, DrawError, IntervalRow};
+use super::format::{decision_summary, f, level_pct};
+use super::{ReportError, Table};
+use crate::analysis::family::{FamilyAnalysis, PooledEstimate};
+use crate::io::{create_dir_all, pretty_json, write_atomic};
+
+fn split_name(s: Option<u64>) -> String {
+    s.map(|s| s.to_string()).unwrap_or_else(|| "-".to_string())
+}
+
+fn dose_name(p: f64, arm: &str) -> String {
+    if p.is_nan() {
+        arm.to_string()
+    } else {
+        format!("{p}%")
+    }
+}
+
+fn df(v: f64) -> String {
+    if v.is_infinite() {
+        "z".into()
+    } else {
+        f(v, 1)
+    }
+}
+
+fn sci(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// The decision line as the console prints it.
+pub fn family_decision_line(a: &FamilyAnalysis) -> String {
+    let line = decision_summary(&a.decision);
+    if a.exploratory {
+        format!("EXPLORATORY {line}")
+    } else {
+        line
+    }
+}
+
+/// report.md of a family analysis.
+pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
+    let mut s = String::new();
+    let exploratory = if a.exploratory { "EXPLORATORY: " } else { "" };
+    let _ = writeln!(s, "# {exploratory}{}\n", a.study);
+    let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
+    let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
+    if let Some(sha) = &a.design_sha256 {
+        let _ = writeln!(s, "Design sha256: {sha}.");
+    }
+    if let Some((path, sha)) = &a.provenance.cells {
+        let _ = writeln!(s, "Per-cell data: {path} (sha256 {sha}).");
+    }
+    if let Some(d) = &a.provenance.data {
+        let _ = writeln!(s, "Data: {d}.");
+    }
+    let _ = writeln!(s, "crossaudit {}.\n", a.provenance.crossaudit);
+    let level = level_pct(a.level);
+
+    let _ = writeln!(s, "## Per split and dose\n");
+    let _ = writeln!(
+        s,
+        "Each row is the crossed analysis of one contrast (its treated arm against the shared reference arm) over that split's recording x seed matrix, {level} intervals of the design's estimator. Optimism = 100 (mean reference - mean treated) / mean reference.\n"
+    );
+    let mut t = Table::new(
+        &["split", "dose", "arm", "mean ref", "mean treated", "d", "SE", "df", "interval", "optimism %", "excludes 0"],
+        "llrrrrrrrrl",
+    );
+    for sp in &a.splits {
+        for d in &sp.doses {
+            let e = &d.estimate;
+            t.row([
+                split_name(sp.split),
+                dose_name(d.percent, &d.arm),
+                d.arm.clone(),
+                f(d.mean_reference, 4),
+                f(d.mean_treated, 4),
+                f(e.mean, 4),
+                f(e.se, 4),
+                df(e.df),
+                format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
+                f(d.optimism_pct, 1),
+                if e.lower > 0.0 || e.upper < 0.0 { "yes".into() } else { "no".into() },
+            ]);
+        }
+    }
+    let _ = writeln!(s, "{}", t.render());
+
+    if a.splits.iter().any(|sp| sp.trend.is_some()) {
+        let _ = writeln!(s, "## Trend over dose\n");
+        let _ = writeln!(
+            s,
+            "Per recording x seed cell, the least-squares slope of d over the doses with the reference arm as dose 0 (d = 0); its crossed estimate, per percentage point of dose. The optimism slope is -100 slope / mean reference (optimism points per dose point), its interval the slope's rescaled.\n"
+        );
+        let mut t = Table::new(
+            &[
+                "split",
+                "slope (m/pp)",
+                "SE",
+                "df",
+                "interval",
+                "optimism slope",
+                "optimism interval",
+                "smallest dose excluding 0",
+            ],
+            "lrrrrrrr",
+        );
+        for sp in &a.splits {
+            if let Some(tr) = &sp.trend {
+                let e = &tr.slope;
+                t.row([
+                    split_name(sp.split),
+                    sci(e.mean),
+                    sci(e.se),
+                    df(e.df),
+                    format!("[{}, {}]", sci(e.lower), sci(e.upper)),
+                    f(tr.optimism_slope, 3),
+                    format!("[{}, {}]", f(tr.optimism_slope_lower, 3), f(tr.optimism_slope_upper, 3)),
+                    tr.smallest_dose_excluding_zero.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into()),
+                ]);
+            }
+        }
+        let _ = writeln!(s, "{}", t.render());
+    }
+
+    if let Some(p) = &a.pooled {
+        let _ = writeln!(s, "## Pooled over splits\n");
+        let _ = writeln!(
+            s,
+            "REML fit of value = mu + split + recording + seed + residual, all three random intercepts and crossed (recordings recur across splits, seeds are shared): lme4's `lmer(d ~ 1 + (1|split) + (1|recording) + (1|seed))`. Interval mu +- t(df) SE, {level}. Split share = var(split) / total variance; SE^2 shares are phi_k dVar(mu)/dphi_k (split, recording, seed, residual).\n"
+        );
+        let mut t = Table::new(
+            &[
+                "estimate",
+                "n",
+                "mu",
+                "SE",
+                "df",
+                "interval",
+                "optimism %",
+                "optimism interval",
+                "var split",
+                "var recording",
+                "var seed",
+                "var residual",
+                "split share",
+                "SE^2 shares",
+            ],
+            "lrrrrrrrrrrrrl",
+        );
+        let row = |t: &mut Table, e: &PooledEstimate| {
+            let slope = e.label == "slope";
+            let num = |v: f64| if slope { sci(v) } else { f(v, 4) };
+            t.row([
+                e.label.clone(),
+                e.n.to_string(),
+                num(e.mean),
+                num(e.se),
+                format!("{} ({})", df(e.df), e.df_rule),
+                format!("[{}, {}]", num(e.lower), num(e.upper)),
+                f(e.optimism_pct, if slope { 3 } else { 1 }),
+                format!(
+                    "[{}, {}]",
+                    f(e.optimism_lower, if slope { 3 } else { 1 }),
+                    f(e.optimism_upper, if slope { 3 } else { 1 })
+                ),
+                sci(e.variances[0]),
+                sci(e.variances[1]),
+                sci(e.variances[2]),
+                sci(e.variances[3]),
+                f(e.split_share, 3),
+                e.se2_shares.iter().map(|x| f(*x, 3)).collect::<Vec<_>>().join(" / ")
+                    + if e.singular { " (singular)" } else { "" },
+            ]);
+        };
+        for e in &p.doses {
+            row(&mut t, e);
+        }
+        if let Some(e) = &p.slope {
+            row(&mut t, e);
+        }
+        let _ = writeln!(s, "{}", t.render());
+        if p.slope.is_some() {
+            let smallest = p.smallest_dose_excluding_zero.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into());
+            let _ = writeln!(s, "Smallest dose whose pooled interval excludes zero: {smallest}.\n");
+        }
+    }
+    if !a.figures.is_empty() {
+        let _ = writeln!(s, "## Figures\n");
+        for fig in &a.figures {
+            let _ = writeln!(s, "![{fig}]({fig})");
+        }
+        let _ = writeln!(s);
+    }
+    if !a.warnings.is_empty() {
+        let _ = writeln!(s, "## Warnings\n");
+        for w in &a.warnings {
+            let _ = writeln!(s, "- {w}");
+        }
+        let _ = writeln!(s);
+    }
+    s
+}
+
+/// Draws the figures: optimism against dose (two or more doses), and the
+/// per-split estimates with the pooled one (two or more splits).
+pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, DrawError> {
+    let mut written = Vec::new();
+    let mut lines = vec![(0.0, BLACK)];
+    if let Some(t) = a.decision.rule.optimism_threshold() {
+        if a.decision.rule.on != crate::design::DecisionTarget::Slope {
+            lines.push((t, RED));
+        }
+    }
+    let tag = if a.exploratory { "EXPLORATORY: " } else { "" };
+    let level = level_pct(a.level);
+    if a.doses.len() >= 2 {
+        // Pooled over splits when there are several, else the one split's.
+        let rows: Vec<IntervalRow> = match &a.pooled {
+            Some(p) => p
+                .doses
+                .iter()
+                .zip(&a.doses)
+                .map(|(e, d)| (format!("{}%", d.percent), e.optimism_pct, e.optimism_lower, e.optimism_upper))
+                .collect(),
+            None => a.splits[0]
+                .doses
+                .iter()
+                .map(|d| {
+                    let k = -100.0 / d.mean_reference;
+                    (format!("{}%", d.percent), d.optimism_pct, d.estimate.upper * k, d.estimate.lower * k)
+                })
+                .collect(),
+        };
+        let what = if a.pooled.is_some() { "pooled over splits" } else { "crossed intervals" };
+        let p = dir.join("optimism_by_dose.svg");
+        let title = format!("{tag}Optimism against dose ({} vs {}), {level} {what}", a.treated, a.reference);
+        intervals(&p, &title, "optimism (%)", &rows, &[(0.0, BLACK)])?;
+        written.push(p);
+    }
+    if let Some(p) = &a.pooled {
+        for (k, d) in a.doses.iter().enumerate() {
+            let mut rows: Vec<IntervalRow> = a
+                .splits
+                .iter()
+                .map(|sp| {
+                    let r = &sp.doses[k];
+                    let kk = -100.0 / r.mean_reference;
+                    (split_name(sp.split), r.optimism_pct, r.estimate.upper * kk, r.estimate.lower * kk)
+                })
+                .collect();
+            let e = &p.doses[k];
+            rows.push(("pooled".to_string(), e.optimism_pct, e.optimism_lower, e.optimism_upper));
+            let name = if a.doses.len() == 1 {
+                "forest.svg".to_string()
+            } else {
+                format!("forest_{}.svg", d.percent.to_string().replace('.', "p"))
+            };
+            let path = dir.join(&name);
+            let title = format!(
+                "{tag}Optimism per split and pooled, {} ({}), {level} intervals",
+                a.unit,
+                dose_name(d.percent, &d.arm)
+            );
+            intervals(&path, &title, "optimism (%)", &rows, &lines)?;
+            written.push(path);
+        }
+    }
+    Ok(written)
+}
+
+/// Writes report.md, results.json and the figures into `dir`; the figures'
+/// names are recorded in the analysis first.
+pub fn write_family(a: &mut FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    create_dir_all(dir)?;
+    let figures = write_family_figures(a, dir)?;
+    a.figures = figures.iter().filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned())).collect();
+    let mut out = figures;
+    for (name, text) in [("report.md", render_family_markdown(a)), ("results.json", pretty_json(a))] {
+        let path = dir.join(name);
+        write_atomic(&path, text.as_bytes())?;
+        out.push(path);
+    }
+    // Each contrast's full single-contrast analysis, beside the summary.
+    for sp in &a.splits {
+        for (d, detail) in sp.doses.iter().zip(&sp.detail) {
+            let mut sub = match sp.split {
+                Some(s) => dir.join(crate::plan::split_dir(s)),
+                None => dir.to_path_buf(),
+            };
+            if a.doses.len() >= 2 {
+                sub = sub.join(&d.arm);
+            }
+            if sub != dir {
+                out.extend(super::write_all(detail, &sub)?);
+            }
+        }
+    }
+    Ok(out)
+}
