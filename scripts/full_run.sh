@@ -4,7 +4,9 @@
 # Runs `crossaudit run DESIGN --out /tmp/full_NAME --workers 2` under
 # /usr/bin/time, then copies cells/, cells.csv, report/, run.json, audit/,
 # curves/, manifests/manifests.json, stdout.txt and time.txt into RESULTS_DIR
-# (model weights, job records and manifest CSVs are not committed).
+# (model weights, job records and manifest CSVs are not committed); a
+# multi-split study's split-S/ directories likewise, with its pooled
+# cells.csv and report/.
 # BINARY defaults to target/release/crossaudit; pass a copy when the tree is
 # rebuilt while a long run goes on.
 set -euo pipefail
@@ -13,10 +15,25 @@ design=$1; dest=$2; ca=${3:-target/release/crossaudit}
 tmp=/tmp/full_$(basename "$dest")
 mkdir -p "$tmp" "$dest"
 /usr/bin/time -v -o "$tmp/time.txt" "$ca" run "$design" --out "$tmp" --workers 2 > "$tmp/stdout.txt" 2>&1
-for part in cells cells.csv report run.json audit curves stdout.txt time.txt; do
-  rm -rf "${dest:?}/$part"; cp -r "$tmp/$part" "$dest/$part"
-done
-mkdir -p "$dest/manifests"; cp "$tmp/manifests/manifests.json" "$dest/manifests/manifests.json"
+copy_run() {  # copy_run FROM TO: one run directory's committed parts
+  for part in cells cells.csv report run.json audit curves; do
+    rm -rf "${2:?}/$part"; cp -r "$1/$part" "$2/$part"
+  done
+  mkdir -p "$2/manifests"; cp "$1/manifests/manifests.json" "$2/manifests/manifests.json"
+}
+if [ -f "$tmp/run.json" ]; then
+  copy_run "$tmp" "$dest"
+else
+  # A multi-split study: one run directory per split, then the pooled
+  # cells.csv and report at the top.
+  for split in "$tmp"/split-*; do
+    mkdir -p "$dest/$(basename "$split")"; copy_run "$split" "$dest/$(basename "$split")"
+  done
+  for part in cells.csv report; do
+    rm -rf "${dest:?}/$part"; cp -r "$tmp/$part" "$dest/$part"
+  done
+fi
+cp "$tmp/stdout.txt" "$tmp/time.txt" "$dest/"
 cat > "$dest/COMMAND" <<CMD
 bash scripts/full_run.sh $design $dest
 # = crossaudit run $design --out $tmp --workers 2, then cells/, cells.csv, report/, run.json, audit/,
