@@ -31,15 +31,29 @@ $ca split designs/nanobench_audited.design --out results/nanobench_split_audited
 fresh() {  # fresh DESIGN OUT
   tmp=$(mktemp -d)
   $ca run "$1" --out "$tmp" >/dev/null 2>&1
-  for part in cells cells.csv report run.json audit manifests/manifests.json; do
-    rm -rf "$2/$part"; mkdir -p "$(dirname "$2/$part")"; cp -r "$tmp/$part" "$2/$part"
+  copy_parts "$tmp" "$2"
+  # A multi-split study: each split's run directory, then its pooled cells.csv and report.
+  for split in "$tmp"/split-*; do
+    [ -d "$split" ] && copy_parts "$split" "$2/$(basename "$split")"
+  done
+  for part in cells.csv report; do
+    [ -e "$tmp/$part" ] && { rm -rf "${2:?}/$part"; cp -r "$tmp/$part" "$2/$part"; }
   done
   rm -rf "$tmp"
+}
+copy_parts() {  # copy_parts FROM TO: the committed parts of one run directory
+  [ -f "$1/run.json" ] || return 0
+  for part in cells cells.csv report run.json audit manifests/manifests.json; do
+    rm -rf "${2:?}/$part"; mkdir -p "$(dirname "$2/$part")"; cp -r "$1/$part" "$2/$part"
+  done
 }
 fresh designs/quickstart.design results/quickstart
 fresh designs/quickstart_nanobench.design results/quickstart_nanobench
 fresh designs/simulated_control_0.design results/simulated_controls/strength_0
 fresh designs/simulated_control_high.design results/simulated_controls/strength_high
+for d in dose_0 dose_high splits_0 splits_high; do
+  fresh designs/simulated_$d.design results/simulated_family/$d
+done
 # The pages built from committed full runs (docs/paper_comparison.md reads
 # results/nanobench_paper*, results/paper_columns and results/paper_hygiene).
 python3 scripts/paper_columns.py results/paper_columns > results/paper_columns/decision.md
