@@ -100,6 +100,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     let fa = ((finite as f64 * cond * cond + n_div as f64 * cap * cap) / starts as f64).sqrt();
                     let some = |v: f64| (finite > 0).then_some(v);
                     cells.push(Cell {
+                        split: None,
+                        dose: None,
                         model: model.clone(),
                         arm: arm.clone(),
                         seed: s.0,

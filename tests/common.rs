@@ -104,6 +104,8 @@ pub fn minimal_cells(design: &Design) -> Vec<Cell> {
                         let d = if arm == "contaminated" { -0.06 + 0.005 * ((i * 3 + j * 7) % 5) as f64 } else { 0.0 };
                         let v = base * h + d;
                         out.push(Cell {
+                            split: None,
+                            dose: None,
                             model: model.into(),
                             arm: arm.into(),
                             seed: s.0,

@@ -10,6 +10,7 @@ mod coverage;
 mod data;
 mod design_errors;
 mod designs;
+mod family;
 mod fused;
 mod golden;
 mod model;

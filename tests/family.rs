@@ -1,0 +1,392 @@
+//! Multi-split and dose-response designs: the language, nested
+//! contamination, the per-cell columns, the family analysis (snapshots of
+//! the committed runs, lme4's pooled fit), the known-truth simulations, and
+//! the real CLI end to end.
+
+use std::fmt::Write as _;
+use std::process::Command;
+
+use crossaudit::analysis::family::{analyze_family, FamilyAnalysis};
+use crossaudit::cells::{read_cells, read_cells_from, write_cells};
+use crossaudit::design::{self, ArmKind};
+use crossaudit::run::{run, Quiet, RunOptions, StudyAnalysis};
+
+use crate::common::{assert_rel, root, shared_logs};
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
+    c.current_dir(root());
+    c
+}
+
+/// The diagnostics a design text gets, joined.
+fn errors(text: &str) -> String {
+    match design::from_str("t.design", text) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn tiny_family() -> String {
+    std::fs::read_to_string(root().join("tests/designs/tiny_family.design")).unwrap()
+}
+
+#[test]
+fn dose_and_split_declarations_compile_to_arms_and_jobs() {
+    let d = design::from_str("t", &tiny_family()).unwrap();
+    assert_eq!(d.splits, vec![42, 43]);
+    let names: Vec<&str> = d.arms.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(names, ["disjoint", "contaminated_5pct", "contaminated_25pct", "contaminated_50pct"]);
+    assert!(d.arms[1..].iter().all(|a| matches!(&a.kind, ArmKind::Derived { family: Some(f), seed: 7, .. } if f == "contaminated")));
+    let plan = crossaudit::compile(&d);
+    // 1 model x 4 arms x 2 seeds x 2 splits.
+    assert_eq!(plan.jobs.len(), 16);
+    assert_eq!(plan.doses.iter().map(|d| d.percent).collect::<Vec<_>>(), [5.0, 25.0, 50.0]);
+    // Units x (reference + doses) x I x J x splits.
+    assert_eq!(plan.required_rows, 4 * 4 * 2 * 2);
+    let one = plan.for_split(43);
+    assert!(one.jobs.iter().all(|j| j.split.is_none()) && one.jobs.len() == 8);
+    // Split 43 shifts every declared seed by 43 - 42 = 1; split 42 is the design itself.
+    let s43 = d.for_split(43);
+    assert_eq!((s43.recording.split_seed, s43.validation.seed), (43, 144));
+    assert!(matches!(s43.arms[0].kind, ArmKind::Fit { seed: 43, .. }));
+    assert!(matches!(s43.arms[2].kind, ArmKind::Derived { seed: 8, .. }));
+    let s42 = d.for_split(42);
+    assert_eq!(s42.arms, d.arms);
+    assert_eq!(s42.validation, d.validation);
+}
+
+#[test]
+fn bad_dose_and_split_declarations_are_refused_where_they_are_written() {
+    let base = tiny_family();
+    // A dose-response design must say which estimate the rule is on.
+    let e = errors(&base.replace("decide grows on slope when", "decide grows when"));
+    assert!(e.contains("decision target missing") && e.contains("on slope"), "{e}");
+    let e = errors(&base.replace("decide grows on slope when", "decide grows on pooled when"));
+    assert!(e.contains("ambiguous decision"), "{e}");
+    // `on pooled` without splits, `on slope` without doses.
+    let single = base.replace("factor split = 42..43\n", "").replace("5%, 25%, 50%", "25%");
+    let e = errors(&single.replace("on slope", "on pooled"));
+    assert!(e.contains("no pooled estimate") && e.contains("t.design:"), "{e}");
+    let e = errors(&single);
+    assert!(e.contains("no slope to decide on"), "{e}");
+    // A repeated dose, a dose outside (0, 100], a dose replacing part of a window.
+    let e = errors(&base.replace("5%, 25%, 50%", "5%, 25%, 5%"));
+    assert!(e.contains("duplicate dose") && e.contains("5% is listed twice"), "{e}");
+    let e = errors(&base.replace("5%, 25%, 50%", "5%, 150%"));
+    assert!(e.contains("percentage out of range"), "{e}");
+    let e = errors(&base.replace("5%, 25%, 50%", "5%, 0.01%"));
+    assert!(e.contains("fraction of windows is not whole"), "{e}");
+    // A dose arm whose name another arm already has.
+    let e = errors(&base.replace(
+        "arm contaminated {",
+        "arm contaminated_5pct { from disjoint replace 10% with evaluation windows seed 3 }\narm contaminated {",
+    ));
+    assert!(e.contains("has the name of another arm"), "{e}");
+    // One split value, a split that shifts a seed below zero, a split of pinned recordings.
+    let e = errors(&base.replace("factor split = 42..43", "factor split = 42"));
+    assert!(e.contains("too few seeds") || e.contains("at least 2"), "{e}");
+    let e = errors(&base.replace("factor split = 42..43", "factor split = 0..1"));
+    assert!(e.contains("split shifts a seed out of range") && e.contains("split 0 shifts"), "{e}");
+    let pinned = base.replace(
+        "evaluation 4 split_seed 42",
+        "evaluation recordings \"B5_helix_rep1\", \"B2_circle_medium_rep1\" split_seed 42",
+    );
+    let e = errors(&pinned);
+    assert!(e.contains("split factor on pinned recordings"), "{e}");
+}
+
+#[test]
+#[ignore = "needs ../shared/nanobench"]
+fn doses_are_nested_and_a_single_dose_draw_is_unchanged() {
+    shared_logs();
+    let out = tempfile::tempdir().unwrap();
+    let file = design::load(&root().join("tests/designs/tiny_family.design")).unwrap();
+    let split_file = design::DesignFile { design: file.design.for_split(42), ..file.clone() };
+    let plan = crossaudit::compile(&split_file.design);
+    let p = crossaudit::split::prepare(&split_file, &plan, &shared_logs(), out.path()).unwrap();
+    let incoming = |arm: &str| -> Vec<crossaudit::split::Window> {
+        p.split.contaminating.iter().find(|(n, _)| n == arm).unwrap().1.clone()
+    };
+    let (d5, d25, d50) = (incoming("contaminated_5pct"), incoming("contaminated_25pct"), incoming("contaminated_50pct"));
+    assert_eq!((d5.len(), d25.len(), d50.len()), (100, 500, 1000));
+    assert!(d5.iter().all(|w| d25.contains(w)) && d25.iter().all(|w| d50.contains(w)));
+    // The replaced positions are nested too: what a dose keeps of the
+    // disjoint fit set, every smaller dose keeps.
+    let fit = |arm: &str| p.split.fit(arm).unwrap().to_vec();
+    let disjoint = fit("disjoint");
+    let kept = |arm: &str| -> Vec<crossaudit::split::Window> {
+        fit(arm).into_iter().filter(|w| disjoint.binary_search(w).is_ok()).collect()
+    };
+    assert!(kept("contaminated_50pct").iter().all(|w| kept("contaminated_25pct").contains(w)));
+    assert!(kept("contaminated_25pct").iter().all(|w| kept("contaminated_5pct").contains(w)));
+    // The same arm declared alone (one dose) draws exactly what it drew before doses existed:
+    // the committed manifests of the tiny design are unchanged (tests/split.rs locks them), and
+    // here the one-dose 25% arm equals the family's 25% dose.
+    let alone = tiny_family().replace("5%, 25%, 50%", "25%").replace("factor split = 42..43\n", "").replace(
+        "decide grows on slope when upper < 0",
+        "decide confirmed when upper < 0",
+    );
+    let alone_file = design::DesignFile { design: design::from_str("t", &alone).unwrap(), ..file.clone() };
+    let plan = crossaudit::compile(&alone_file.design);
+    let q = crossaudit::split::prepare(&alone_file, &plan, &shared_logs(), out.path()).unwrap();
+    assert_eq!(q.split.fit("contaminated").unwrap(), p.split.fit("contaminated_25pct").unwrap());
+    assert_eq!(q.split.contaminating[0].1, d25);
+}
+
+#[test]
+fn split_and_dose_columns_are_written_only_when_present_and_read_back() {
+    let d = crate::common::minimal_design();
+    let cells = crate::common::minimal_cells(&d);
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain.csv");
+    write_cells(&plain, &cells).unwrap();
+    let header = std::fs::read_to_string(&plain).unwrap().lines().next().unwrap().to_string();
+    assert_eq!(header, crossaudit::cells::HEADER.join(","));
+    let tagged: Vec<_> = cells
+        .iter()
+        .map(|c| crossaudit::cells::Cell { split: Some(7), dose: Some(if c.arm == "disjoint" { 0.0 } else { 2.5 }), ..c.clone() })
+        .collect();
+    let path = dir.path().join("tagged.csv");
+    write_cells(&path, &tagged).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.starts_with("split,model,arm,dose,seed,recording,"), "{}", &text[..80]);
+    let back = read_cells(&path).unwrap();
+    assert_eq!(back.len(), tagged.len());
+    assert!(back.iter().zip(&tagged).all(|(a, b)| a.split == b.split && a.dose == b.dose && a.fa_position_rmse_m == b.fa_position_rmse_m));
+    // Bad values name the line and the field.
+    let bad = text.replacen("\n7,", "\nseven,", 1);
+    let e = read_cells_from("x.csv", bad.as_bytes()).unwrap_err().to_string();
+    assert!(e.contains("line 2, field `split`"), "{e}");
+    let bad = text.replacen(",2.5,", ",250,", 1);
+    let e = read_cells_from("x.csv", bad.as_bytes()).unwrap_err().to_string();
+    assert!(e.contains("field `dose`") && e.contains("exceeds 100"), "{e}");
+    // A split column where the design has no split factor is refused, not pooled silently.
+    let plan = crossaudit::compile(&d);
+    let e = crossaudit::analysis::analyze(&plan, &back, Default::default()).unwrap_err().to_string();
+    assert!(e.contains("`split` column, but the design has no split factor"), "{e}");
+}
+
+/// The committed run's family analysis, from its design and cells.csv.
+fn committed(design: &str, run: &str) -> FamilyAnalysis {
+    crossaudit::analyze_family_files(
+        &root().join("designs").join(design),
+        &root().join("results").join(run).join("cells.csv"),
+        Default::default(),
+    )
+    .unwrap()
+}
+
+/// A family analysis as text, build and paths left out.
+fn summary(a: &FamilyAnalysis) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", crossaudit::report::decision_summary(&a.decision));
+    for sp in &a.splits {
+        for d in &sp.doses {
+            let e = &d.estimate;
+            let _ = writeln!(
+                s,
+                "split {:?} dose {} ({}): d {:.6} se {:.6} df {:.2} [{:.6}, {:.6}] optimism {:.3}%",
+                sp.split, d.percent, d.arm, e.mean, e.se, e.df, e.lower, e.upper, d.optimism_pct
+            );
+        }
+        if let Some(t) = &sp.trend {
+            let e = &t.slope;
+            let _ = writeln!(
+                s,
+                "split {:?} slope {:.6e} se {:.6e} [{:.6e}, {:.6e}] optimism slope {:.4} [{:.4}, {:.4}] smallest {:?}",
+                sp.split,
+                e.mean,
+                e.se,
+                e.lower,
+                e.upper,
+                t.optimism_slope,
+                t.optimism_slope_lower,
+                t.optimism_slope_upper,
+                t.smallest_dose_excluding_zero
+            );
+        }
+    }
+    if let Some(p) = &a.pooled {
+        for e in p.doses.iter().chain(&p.slope) {
+            let _ = writeln!(
+                s,
+                "pooled {}: n {} mu {:.6e} se {:.6e} df {:.3} [{:.6e}, {:.6e}] optimism {:.3}% split share {:.4}",
+                e.label, e.n, e.mean, e.se, e.df, e.lower, e.upper, e.optimism_pct, e.split_share
+            );
+        }
+    }
+    s
+}
+
+#[test]
+fn dose_response_analysis_of_the_committed_run_is_locked() {
+    let a = committed("nanobench_dose_response.design", "dose_response");
+    crate::snapshots!({ insta::assert_snapshot!(summary(&a)) });
+}
+
+#[test]
+fn multi_split_analysis_of_the_committed_run_is_locked() {
+    let a = committed("nanobench_multi_split.design", "multi_split");
+    crate::snapshots!({ insta::assert_snapshot!(summary(&a)) });
+}
+
+/// `name key value...` lines of scripts/reference/multi_split_reference.out.
+fn lme4(name: &str, key: &str) -> f64 {
+    let text = std::fs::read_to_string(root().join("scripts/reference/multi_split_reference.out")).unwrap();
+    for line in text.lines() {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() >= 3 && f[0] == name && f[1] == key {
+            return f[f.len() - 1].parse().unwrap();
+        }
+        if f.len() == 4 && f[0] == name && f[1] == "var" && f[2] == key {
+            return f[3].parse().unwrap();
+        }
+    }
+    panic!("{name} {key} not in multi_split_reference.out")
+}
+
+/// The pooled estimate of the committed multi-split runs against lme4,
+/// lmerTest and pbkrtest on the same cells
+/// (scripts/reference/multi_split_reference.R, its output committed beside it).
+#[test]
+fn pooled_estimate_matches_lme4_on_the_committed_cells() {
+    for (design, run, name) in [
+        ("nanobench_multi_split.design", "multi_split", "multi_split"),
+        ("simulated_splits_0.design", "simulated_family/splits_0", "simulated_family.splits_0"),
+        ("simulated_splits_high.design", "simulated_family/splits_high", "simulated_family.splits_high"),
+    ] {
+        let a = committed(design, run);
+        let p = &a.pooled.as_ref().unwrap().doses[0];
+        assert_eq!(p.n as f64, lme4(name, "cells"));
+        assert_rel(p.mean, lme4(name, "intercept"), 1e-6, "intercept");
+        assert_rel(p.se, lme4(name, "se"), 1e-6, "se");
+        assert_rel(p.df, lme4(name, "satterthwaite_df"), 1e-4, "Satterthwaite df");
+        assert_rel(p.lower, lme4(name, "lower"), 1e-5, "lower");
+        assert_rel(p.upper, lme4(name, "upper"), 1e-5, "upper");
+        for (k, factor) in ["split", "recording", "seed", "Residual"].iter().enumerate() {
+            let r = lme4(name, factor);
+            // A component at the boundary is zero in both (or 1e-10 of the total).
+            if r.abs() < 1e-10 {
+                assert!(p.variances[k].abs() < 1e-8, "{name} {factor}: {} vs lme4 {r}", p.variances[k]);
+            } else {
+                assert_rel(p.variances[k], r, 1e-5, &format!("{name} var {factor}"));
+            }
+        }
+    }
+}
+
+/// A fresh run of a simulated design with the real CLI's library path.
+fn simulate(design: &str) -> FamilyAnalysis {
+    let out = tempfile::tempdir().unwrap();
+    let file = design::load(&root().join("designs").join(design)).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
+    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+    let StudyAnalysis::Family(a) = done.analysis else { panic!("{design}: not a family analysis") };
+    // The run's cells.csv is the committed one, byte for byte.
+    let run_dir = design.trim_start_matches("simulated_").trim_end_matches(".design");
+    let committed = root().join("results/simulated_family").join(run_dir).join("cells.csv");
+    assert_eq!(std::fs::read(out.path().join("cells.csv")).unwrap(), std::fs::read(&committed).unwrap(), "{design}");
+    *a
+}
+
+/// Known truth, dose-response: at strength 0 evaluation windows carry
+/// nothing new, so every dose's interval and the slope's cover zero; at
+/// strength 1 the optimism slope's interval lies above zero.
+#[test]
+fn simulated_dose_response_recovers_the_known_truth() {
+    let zero = simulate("simulated_dose_0.design");
+    let s = &zero.splits[0];
+    for d in &s.doses {
+        assert!(d.estimate.lower < 0.0 && d.estimate.upper > 0.0, "strength 0, dose {}%: {:?}", d.percent, d.estimate);
+    }
+    let t = s.trend.as_ref().unwrap();
+    assert!(t.slope.lower < 0.0 && t.slope.upper > 0.0, "strength 0 slope: {:?}", t.slope);
+    assert_eq!(t.smallest_dose_excluding_zero, None);
+    assert!(!zero.decision.holds);
+
+    let high = simulate("simulated_dose_high.design");
+    let t = high.splits[0].trend.as_ref().unwrap();
+    assert!(t.optimism_slope_lower > 0.0, "strength 1 optimism slope: [{}, {}]", t.optimism_slope_lower, t.optimism_slope_upper);
+    assert!(t.slope.upper < 0.0 && high.decision.holds);
+}
+
+/// Known truth, multi-split: at strength 0 the pooled interval covers zero.
+#[test]
+fn simulated_multi_split_at_strength_zero_covers_zero() {
+    let zero = simulate("simulated_splits_0.design");
+    let p = &zero.pooled.as_ref().unwrap().doses[0];
+    assert!(p.lower < 0.0 && p.upper > 0.0, "strength 0 pooled: [{}, {}]", p.lower, p.upper);
+    assert_eq!(zero.splits.len(), 5);
+    assert!(!zero.decision.holds);
+}
+
+/// The real CLI on a dose x split study of the real logs: every split's
+/// directory, the pooled cells with both columns, the report and figures;
+/// a rerun resumes every job; `analyze` of the written cells gives the
+/// same decision.
+#[test]
+#[ignore = "needs ../shared/nanobench"]
+fn cli_runs_a_dose_by_split_study_and_resumes_it() {
+    shared_logs();
+    let out = tempfile::tempdir().unwrap();
+    let dir = out.path().join("run");
+    let go = || {
+        bin()
+            .args(["run", "tests/designs/tiny_family.design", "--out"])
+            .arg(&dir)
+            .args(["--workers", "2"])
+            .output()
+            .unwrap()
+    };
+    let first = go();
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let stdout = String::from_utf8_lossy(&first.stdout).to_string();
+    assert!(stdout.contains("16 cells trained, 0 resumed"), "{stdout}");
+    for s in ["split-42", "split-43"] {
+        for part in ["run.json", "audit/treatment.json", "audit/invariants.json", "manifests/manifests.json", "report/report.md"] {
+            assert!(dir.join(s).join(part).exists(), "{s}/{part}");
+        }
+    }
+    for part in ["report/report.md", "report/results.json", "report/optimism_by_dose.svg", "report/forest_25.svg"] {
+        assert!(dir.join(part).exists(), "{part}");
+    }
+    let cells = std::fs::read_to_string(dir.join("cells.csv")).unwrap();
+    assert!(cells.starts_with("split,model,arm,dose,seed,"));
+    assert_eq!(cells.lines().count(), 1 + 2 * 4 * 4 * 2);
+    let second = go();
+    assert!(second.status.success());
+    assert!(String::from_utf8_lossy(&second.stdout).contains("0 cells trained, 16 resumed"));
+    assert_eq!(std::fs::read_to_string(dir.join("cells.csv")).unwrap(), cells);
+    let again = bin()
+        .args(["analyze", "tests/designs/tiny_family.design", "--cells"])
+        .arg(dir.join("cells.csv"))
+        .arg("--out")
+        .arg(out.path().join("again"))
+        .output()
+        .unwrap();
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    let line = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).lines().last().unwrap().to_string();
+    assert_eq!(line(&again), line(&first));
+    // A wrong dose value is refused with its line.
+    let bad = cells.replacen(",disjoint,0,", ",disjoint,5,", 1);
+    std::fs::write(out.path().join("bad.csv"), bad).unwrap();
+    let o = bin()
+        .args(["analyze", "tests/designs/tiny_family.design", "--cells"])
+        .arg(out.path().join("bad.csv"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("line 2, field `dose`") && e.contains("disagrees with arm `disjoint`"), "{e}");
+}
+
+#[test]
+fn family_analysis_refuses_cells_without_the_split_column() {
+    let d = design::from_str("t", &tiny_family()).unwrap();
+    let plan = crossaudit::compile(&d);
+    let c = crossaudit::cells::Cell { split: None, ..crate::common::minimal_cells(&crate::common::minimal_design())[0].clone() };
+    let e = analyze_family(&plan, &[c], Default::default()).unwrap_err().to_string();
+    assert!(e.contains("every row needs a `split` value"), "{e}");
+}
