@@ -124,6 +124,12 @@ pub struct RecordingInfo {
 /// Why the data cannot support the design.
 #[derive(Debug, thiserror::Error)]
 pub enum SplitError {
+    /// A multi-split design given where one split is prepared.
+    #[error("the design declares {splits} splits (`factor split`); this command prepares one split: use `crossaudit run`, which runs each split in its own directory")]
+    SeveralSplits {
+        /// How many.
+        splits: usize,
+    },
     /// Not enough deployment units for evaluation, validation and fitting.
     #[error("the design needs {needed} recordings ({evaluation} evaluation + {validation} validation + at least 1 for fitting), but only {available} usable deployment units remain")]
     TooFewRecordings {

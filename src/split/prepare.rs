@@ -71,6 +71,9 @@ pub fn rebuild(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result
 
 fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: bool) -> Result<Prepared, SplitError> {
     let design = &file.design;
+    if !design.splits.is_empty() {
+        return Err(SplitError::SeveralSplits { splits: design.splits.len() });
+    }
     let (audit, recordings) = data::audit_and_load(&design.data, dir)?;
     if write {
         audit.write(&out.join("audit"))?;
