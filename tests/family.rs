@@ -37,7 +37,9 @@ fn dose_and_split_declarations_compile_to_arms_and_jobs() {
     assert_eq!(d.splits, vec![42, 43]);
     let names: Vec<&str> = d.arms.iter().map(|a| a.name.as_str()).collect();
     assert_eq!(names, ["disjoint", "contaminated_5pct", "contaminated_25pct", "contaminated_50pct"]);
-    assert!(d.arms[1..].iter().all(|a| matches!(&a.kind, ArmKind::Derived { family: Some(f), seed: 7, .. } if f == "contaminated")));
+    assert!(d.arms[1..]
+        .iter()
+        .all(|a| matches!(&a.kind, ArmKind::Derived { family: Some(f), seed: 7, .. } if f == "contaminated")));
     let plan = crossaudit::compile(&d);
     // 1 model x 4 arms x 2 seeds x 2 splits.
     assert_eq!(plan.jobs.len(), 16);
@@ -108,7 +110,8 @@ fn doses_are_nested_and_a_single_dose_draw_is_unchanged() {
     let incoming = |arm: &str| -> Vec<crossaudit::split::Window> {
         p.split.contaminating.iter().find(|(n, _)| n == arm).unwrap().1.clone()
     };
-    let (d5, d25, d50) = (incoming("contaminated_5pct"), incoming("contaminated_25pct"), incoming("contaminated_50pct"));
+    let (d5, d25, d50) =
+        (incoming("contaminated_5pct"), incoming("contaminated_25pct"), incoming("contaminated_50pct"));
     assert_eq!((d5.len(), d25.len(), d50.len()), (100, 500, 1000));
     assert!(d5.iter().all(|w| d25.contains(w)) && d25.iter().all(|w| d50.contains(w)));
     // The replaced positions are nested too: what a dose keeps of the
@@ -123,10 +126,10 @@ fn doses_are_nested_and_a_single_dose_draw_is_unchanged() {
     // The same arm declared alone (one dose) draws exactly what it drew before doses existed:
     // the committed manifests of the tiny design are unchanged (tests/split.rs locks them), and
     // here the one-dose 25% arm equals the family's 25% dose.
-    let alone = tiny_family().replace("5%, 25%, 50%", "25%").replace("factor split = 42..43\n", "").replace(
-        "decide grows on slope when upper < 0",
-        "decide confirmed when upper < 0",
-    );
+    let alone = tiny_family()
+        .replace("5%, 25%, 50%", "25%")
+        .replace("factor split = 42..43\n", "")
+        .replace("decide grows on slope when upper < 0", "decide confirmed when upper < 0");
     let alone_file = design::DesignFile { design: design::from_str("t", &alone).unwrap(), ..file.clone() };
     let plan = crossaudit::compile(&alone_file.design);
     let q = crossaudit::split::prepare(&alone_file, &plan, &shared_logs(), out.path()).unwrap();
@@ -145,7 +148,11 @@ fn split_and_dose_columns_are_written_only_when_present_and_read_back() {
     assert_eq!(header, crossaudit::cells::HEADER.join(","));
     let tagged: Vec<_> = cells
         .iter()
-        .map(|c| crossaudit::cells::Cell { split: Some(7), dose: Some(if c.arm == "disjoint" { 0.0 } else { 2.5 }), ..c.clone() })
+        .map(|c| crossaudit::cells::Cell {
+            split: Some(7),
+            dose: Some(if c.arm == "disjoint" { 0.0 } else { 2.5 }),
+            ..c.clone()
+        })
         .collect();
     let path = dir.path().join("tagged.csv");
     write_cells(&path, &tagged).unwrap();
@@ -153,7 +160,10 @@ fn split_and_dose_columns_are_written_only_when_present_and_read_back() {
     assert!(text.starts_with("split,model,arm,dose,seed,recording,"), "{}", &text[..80]);
     let back = read_cells(&path).unwrap();
     assert_eq!(back.len(), tagged.len());
-    assert!(back.iter().zip(&tagged).all(|(a, b)| a.split == b.split && a.dose == b.dose && a.fa_position_rmse_m == b.fa_position_rmse_m));
+    assert!(back
+        .iter()
+        .zip(&tagged)
+        .all(|(a, b)| a.split == b.split && a.dose == b.dose && a.fa_position_rmse_m == b.fa_position_rmse_m));
     // Bad values name the line and the field.
     let bad = text.replacen("\n7,", "\nseven,", 1);
     let e = read_cells_from("x.csv", bad.as_bytes()).unwrap_err().to_string();
@@ -308,7 +318,12 @@ fn simulated_dose_response_recovers_the_known_truth() {
 
     let high = simulate("simulated_dose_high.design");
     let t = high.splits[0].trend.as_ref().unwrap();
-    assert!(t.optimism_slope_lower > 0.0, "strength 1 optimism slope: [{}, {}]", t.optimism_slope_lower, t.optimism_slope_upper);
+    assert!(
+        t.optimism_slope_lower > 0.0,
+        "strength 1 optimism slope: [{}, {}]",
+        t.optimism_slope_lower,
+        t.optimism_slope_upper
+    );
     assert!(t.slope.upper < 0.0 && high.decision.holds);
 }
 
@@ -342,10 +357,18 @@ fn cli_runs_a_dose_by_split_study_and_resumes_it() {
     };
     let first = go();
     assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
-    let stdout = String::from_utf8_lossy(&first.stdout).to_string();
-    assert!(stdout.contains("16 cells trained, 0 resumed"), "{stdout}");
+    let said = |o: &std::process::Output| {
+        format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+    };
+    assert!(said(&first).contains("16 cells trained, 0 resumed"), "{}", said(&first));
     for s in ["split-42", "split-43"] {
-        for part in ["run.json", "audit/treatment.json", "audit/invariants.json", "manifests/manifests.json", "report/report.md"] {
+        for part in [
+            "run.json",
+            "audit/treatment.json",
+            "audit/invariants.json",
+            "manifests/manifests.json",
+            "report/report.md",
+        ] {
             assert!(dir.join(s).join(part).exists(), "{s}/{part}");
         }
     }
@@ -357,7 +380,7 @@ fn cli_runs_a_dose_by_split_study_and_resumes_it() {
     assert_eq!(cells.lines().count(), 1 + 2 * 4 * 4 * 2);
     let second = go();
     assert!(second.status.success());
-    assert!(String::from_utf8_lossy(&second.stdout).contains("0 cells trained, 16 resumed"));
+    assert!(said(&second).contains("0 cells trained, 16 resumed"), "{}", said(&second));
     assert_eq!(std::fs::read_to_string(dir.join("cells.csv")).unwrap(), cells);
     let again = bin()
         .args(["analyze", "tests/designs/tiny_family.design", "--cells"])
@@ -386,7 +409,10 @@ fn cli_runs_a_dose_by_split_study_and_resumes_it() {
 fn family_analysis_refuses_cells_without_the_split_column() {
     let d = design::from_str("t", &tiny_family()).unwrap();
     let plan = crossaudit::compile(&d);
-    let c = crossaudit::cells::Cell { split: None, ..crate::common::minimal_cells(&crate::common::minimal_design())[0].clone() };
+    let c = crossaudit::cells::Cell {
+        split: None,
+        ..crate::common::minimal_cells(&crate::common::minimal_design())[0].clone()
+    };
     let e = analyze_family(&plan, &[c], Default::default()).unwrap_err().to_string();
     assert!(e.contains("every row needs a `split` value"), "{e}");
 }

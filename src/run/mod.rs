@@ -402,8 +402,10 @@ fn run_splits(
 
 /// A multi-split study's directory must not hold a single-split run.
 fn refuse_single_run(out: &Path) -> Result<(), RunError> {
-    if let Some(r) = RunRecord::read(out)? {
-        return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: r.design_sha256 });
+    if out.join("run.json").exists() {
+        if let Some(r) = RunRecord::read(out)? {
+            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: r.design_sha256 });
+        }
     }
     Ok(())
 }

@@ -725,6 +725,9 @@ fn draw_fit_arms(
     Ok(fits)
 }
 
+/// A derived arm's name, sorted fit set and sorted incoming evaluation windows.
+type DerivedArm = (String, Vec<Window>, Vec<Window>);
+
 /// Derived arms of one base: each member's `percent`% of `base`'s
 /// positions replaced by windows of `pool`. The positions (stream 0 of
 /// `seed`) and the incoming windows (stream 1) are drawn once, in random
@@ -738,7 +741,7 @@ fn contaminate(
     pool: &[Window],
     seed: u64,
     numpy: bool,
-) -> Result<Vec<(String, Vec<Window>, Vec<Window>)>, SplitError> {
+) -> Result<Vec<DerivedArm>, SplitError> {
     let count = |percent: f64| (percent / 100.0 * base.len() as f64).round() as usize;
     let mut most = 0;
     for (arm, percent) in members {
