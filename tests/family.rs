@@ -416,3 +416,40 @@ fn family_analysis_refuses_cells_without_the_split_column() {
     let e = analyze_family(&plan, &[c], Default::default()).unwrap_err().to_string();
     assert!(e.contains("every row needs a `split` value"), "{e}");
 }
+
+/// The multi-split planner from the committed five-split pilot: at the
+/// pilot's own size its SE is lme4's pooled SE up to the recordings that
+/// recur across splits (scripts/reference/multi_split_reference.out:
+/// 0.0162481280580901), each row follows the closed form, and more splits
+/// narrow the interval.
+#[test]
+fn split_planner_predicts_the_pilots_se_and_narrows_with_splits() {
+    let design = root().join("designs/nanobench_multi_split.design");
+    let file = design::load(&design).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let a = committed("nanobench_multi_split.design", "multi_split");
+    let p = crossaudit::methods::split_power_plan(&plan, &a, &[5, 10], &[26], &[10, 20]).unwrap();
+    assert_eq!(p.pilot, (5, 26, 10));
+    let at = |s: usize, j: usize| p.rows.iter().find(|r| r.splits == s && r.seeds == j).unwrap().clone();
+    let pilot = at(5, 10);
+    let lme4_se = lme4("multi_split", "se");
+    assert!(pilot.se < lme4_se && pilot.se > 0.95 * lme4_se, "planner {} vs lme4 {lme4_se}", pilot.se);
+    let [vs, vr, vj, ve] = ["split", "recording", "seed", "Residual"].map(|f| lme4("multi_split", f));
+    let closed = (vs / 10.0 + vr / 260.0 + vj / 20.0 + ve / 5200.0).sqrt();
+    assert_rel(at(10, 20).se, closed, 1e-5, "closed-form SE at 10 splits, 20 seeds");
+    assert!(at(10, 10).width < pilot.width && at(10, 10).power >= pilot.power);
+    // The CLI writes the plan for a multi-split design.
+    let out = tempfile::tempdir().unwrap();
+    let o = bin()
+        .args(["plan", "designs/nanobench_multi_split.design", "--cells", "results/multi_split/cells.csv"])
+        .args(["--splits", "3,5,10", "--recordings", "26", "--seeds", "10", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.path().join("plan.md")).unwrap();
+    assert!(
+        md.starts_with("# Multi-split planner") && md.lines().filter(|l| l.starts_with("| 10 |")).count() == 1,
+        "{md}"
+    );
+}

@@ -5,4 +5,6 @@ pub mod coverage;
 pub mod power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};
-pub use power::{power_plan, PowerError, PowerPlan, PowerRow};
+pub use power::{
+    pooled_se, power_plan, split_power_plan, PowerError, PowerPlan, PowerRow, SplitPowerPlan, SplitPowerRow,
+};

@@ -129,6 +129,9 @@ enum Command {
         /// Numbers of seeds to consider.
         #[arg(long, value_delimiter = ',', default_value = "3,5,10,20,40")]
         seeds: Vec<usize>,
+        /// Numbers of splits to consider (a design with a split factor).
+        #[arg(long, value_delimiter = ',', default_value = "3,5,10")]
+        splits: Vec<usize>,
         /// Output directory for plan.md, plan.json, plan.svg.
         #[arg(long, default_value = "plan")]
         out: PathBuf,
@@ -260,7 +263,9 @@ fn main() -> ExitCode {
         Command::Job { dir, index } => slurm_job(&dir, index),
         Command::Gather { dir } => slurm_gather(&dir),
         Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
-        Command::Plan { design, cells, recordings, seeds, out } => power(&design, &cells, &recordings, &seeds, &out),
+        Command::Plan { design, cells, recordings, seeds, splits, out } => {
+            power(&design, &cells, (&splits, &recordings, &seeds), &out)
+        }
         Command::Simulate { design, out } => simulate(&design, &out),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
@@ -515,9 +520,21 @@ fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Err
     Ok(())
 }
 
-fn power(design: &Path, cells: &Path, recordings: &[usize], seeds: &[usize], out: &Path) -> Result<(), Error> {
+fn power(
+    design: &Path,
+    cells: &Path,
+    (splits, recordings, seeds): (&[usize], &[usize], &[usize]),
+    out: &Path,
+) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
+    if !plan.splits.is_empty() {
+        let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
+        let power = crossaudit::methods::split_power_plan(&plan, &family, splits, recordings, seeds)?;
+        power.write(out)?;
+        print!("{}", power.to_markdown());
+        return Ok(());
+    }
     let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
     let power = crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?;
     power.write(out)?;
