@@ -300,7 +300,8 @@ pub fn write_family(a: &mut FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, 
     for sp in &a.splits {
         for (d, detail) in sp.doses.iter().zip(&sp.detail) {
             let mut sub = match sp.split {
-                Some(s) => dir.join(crate::plan::split_dir(s)),
+                // The name of the split's run directory (`plan::split_dir`).
+                Some(s) => dir.join(format!("split-{s}")),
                 None => dir.to_path_buf(),
             };
             if a.doses.len() >= 2 {
