@@ -403,6 +403,16 @@ fn cli_runs_a_dose_by_split_study_and_resumes_it() {
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("line 2, field `dose`") && e.contains("disagrees with arm `disjoint`"), "{e}");
+    // An arm the design does not have is refused, not left out of every contrast.
+    let bad = cells.replacen(",disjoint,0,", ",other,0,", 1);
+    std::fs::write(out.path().join("bad.csv"), bad).unwrap();
+    let o = bin()
+        .args(["analyze", "tests/designs/tiny_family.design", "--cells"])
+        .arg(out.path().join("bad.csv"))
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("line 2, field `arm`: \"other\" is not in the design"), "{e}");
 }
 
 #[test]
@@ -411,6 +421,7 @@ fn family_analysis_refuses_cells_without_the_split_column() {
     let plan = crossaudit::compile(&d);
     let c = crossaudit::cells::Cell {
         split: None,
+        arm: "disjoint".to_string(),
         ..crate::common::minimal_cells(&crate::common::minimal_design())[0].clone()
     };
     let e = analyze_family(&plan, &[c], Default::default()).unwrap_err().to_string();

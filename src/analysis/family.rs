@@ -202,6 +202,15 @@ fn fail(message: String) -> AnalysisError {
 fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
     let splits: BTreeSet<u64> = plan.splits.iter().copied().collect();
     for c in cells {
+        if !plan.arms.iter().any(|a| a.name == c.arm) {
+            let known: Vec<&str> = plan.arms.iter().map(|a| a.name.as_str()).collect();
+            return Err(fail(format!(
+                "line {}, field `arm`: {:?} is not in the design ({})",
+                c.line,
+                c.arm,
+                known.join(", ")
+            )));
+        }
         match (c.split, plan.splits.is_empty()) {
             (Some(s), false) if !splits.contains(&s) => {
                 return Err(fail(format!(
