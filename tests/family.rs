@@ -466,17 +466,15 @@ fn split_planner_predicts_the_pilots_se_and_narrows_with_splits() {
 }
 
 /// Commands that prepare one split refuse a multi-split design instead of
-/// silently running its first split; a dose-response design goes through
-/// the Slurm path as any other (tests/slurm.rs runs the scripts).
+/// silently running its first split (`run --slurm` prepares every split:
+/// tests/slurm.rs).
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn one_split_commands_refuse_a_multi_split_design() {
     shared_logs();
     let out = tempfile::tempdir().unwrap();
-    for args in [
-        vec!["run", "tests/designs/tiny_family.design", "--slurm", "--out"],
-        vec!["split", "tests/designs/tiny_family.design", "--out"],
-    ] {
+    let train = ["train", "tests/designs/tiny_family.design", "--model", "world", "--arm", "disjoint", "--seed", "1"];
+    for args in [vec!["split", "tests/designs/tiny_family.design", "--out"], [&train[..], &["--out"]].concat()] {
         let o = bin().args(&args).arg(out.path().join("x")).output().unwrap();
         assert!(!o.status.success(), "{args:?}");
         let e = String::from_utf8_lossy(&o.stderr);

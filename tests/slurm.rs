@@ -3,9 +3,9 @@
 //! The first tests need no Slurm: they run the generated scripts with `sh`
 //! (the array task script once per index, as Slurm would), check that
 //! hostile names cannot run a command, and that bad options and
-//! directories are refused. The last two submit to a real single-node
-//! Slurm started by `scripts/slurm-local.sh` and compare the bytes with a
-//! local run; they print a SKIPPED line and return when Slurm is not
+//! directories are refused; a dose x split study runs as one array. The
+//! last three submit to a real single-node Slurm started by
+//! `scripts/slurm-local.sh` and compare the bytes with a local run; they print a SKIPPED line and return when Slurm is not
 //! installed (`.ci/run` installs it).
 
 use std::io::Write as _;
@@ -78,12 +78,13 @@ fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
                 continue;
             }
             let bytes = std::fs::read(&p).unwrap();
-            let bytes = if name.starts_with("curves/") {
+            let under = |folder: &str| name.starts_with(&format!("{folder}/")) || name.contains(&format!("/{folder}/"));
+            let bytes = if under("curves") {
                 let t = String::from_utf8(bytes).unwrap();
                 let lines: Vec<String> = t.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string()).collect();
                 assert!(lines[0].ends_with("val_loss"), "{name}: {}", lines[0]);
                 lines.join("\n").into_bytes()
-            } else if name.starts_with("jobs/") {
+            } else if under("jobs") {
                 let t = String::from_utf8(bytes).unwrap();
                 t.lines().filter(|l| !l.contains("\"curves/")).collect::<Vec<_>>().join("\n").into_bytes()
             } else {
@@ -120,9 +121,11 @@ fn assert_same_run(local: &Path, cluster: &Path) {
     for ((name, x), (_, y)) in a.iter().zip(&b) {
         assert!(x == y, "{name} differs between the local run and the cluster run");
     }
-    for must in ["cells.csv", "report/report.md", "report/results.json", "run.json"] {
+    for must in ["cells.csv", "report/report.md", "report/results.json"] {
         assert!(a.iter().any(|(n, _)| n == must), "{must} missing");
     }
+    // run.json at the top, or in each split's directory of a multi-split study.
+    assert!(a.iter().any(|(n, _)| n == "run.json" || n.ends_with("/run.json")), "run.json missing");
 }
 
 /// A local run of `design` into `out`, from `cwd`.
@@ -133,6 +136,9 @@ fn local_run(cwd: &Path, design: &Path, out: &Path) {
         &[],
     ));
 }
+
+/// The simulated study over two splits and two doses (24 jobs), seconds per run.
+const SPLITS_DESIGN: &str = "tests/designs/sim_splits_small.design";
 
 /// Runs `DIR/slurm/array.sbatch` with `sh` for one index, as a Slurm task would.
 fn sh_task(cwd: &Path, dir: &Path, index: usize) -> Output {
@@ -254,6 +260,77 @@ fn hostile_names_are_quoted_and_the_scripts_reproduce_a_local_run() {
     let local = tmp.path().join("local");
     local_run(&cwd, &design, &local);
     assert_same_run(&local, &dir);
+}
+
+/// A dose x split study is one array over every split's jobs. Each split
+/// is opened in DIR/split-s as a local run opens it, a task trains in its
+/// split's directory, a local run resumes a half-finished array, and the
+/// gather step pools the splits: the same bytes as a local run.
+#[test]
+fn a_dose_by_split_study_runs_as_one_array_and_matches_a_local_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cwd = tmp.path().join("cwd");
+    std::fs::create_dir_all(&cwd).unwrap();
+    let design = root().join(SPLITS_DESIGN);
+    let dir = tmp.path().join("cluster");
+    let (ds, d) = (design.to_str().unwrap(), dir.to_str().unwrap());
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm"], &[]);
+    assert_ok(&o);
+    assert!(text(&o).contains("--array='0-23'") && text(&o).contains("24 of 24 jobs pending"), "{}", text(&o));
+    for s in ["split-42", "split-43"] {
+        for f in ["run.json", "audit/treatment.json", "manifests/manifests.json"] {
+            assert!(dir.join(s).join(f).is_file(), "{s}/{f} was not written by run --slurm");
+        }
+    }
+    let array = std::fs::read_to_string(dir.join("slurm/array.json")).unwrap();
+    assert!(
+        array.contains("\"split-42/world__disjoint__1\"")
+            && array.contains("\"split-43/relative__contaminated_25pct__2\"")
+    );
+
+    // The gather step names a missing job with its split.
+    let gather = || Command::new("sh").current_dir(&cwd).arg(dir.join("slurm/gather.sbatch")).output().unwrap();
+    let o = gather();
+    assert_refused(&o, "24 of 24 jobs");
+    let canonical = dir.canonicalize().unwrap().display().to_string();
+    assert!(
+        text(&o).contains(&format!(
+            "task 13 (split-43 world/disjoint/2): no Slurm log at {canonical}/slurm/logs/task-13.out"
+        )),
+        "{}",
+        text(&o)
+    );
+    // Half the tasks through the array script (task 13 is split 43's), one twice.
+    for i in (0..24).step_by(2).chain([13]) {
+        let o = sh_task(&cwd, &dir, i);
+        assert_ok(&o);
+        assert!(text(&o).contains("finished in") && text(&o).contains("wrote split-4"), "{}", text(&o));
+    }
+    let o = sh_task(&cwd, &dir, 13);
+    assert_ok(&o);
+    assert!(text(&o).contains("job split-43 world/disjoint/2 had finished: files verified"), "{}", text(&o));
+    let o = crossaudit_in(&cwd, &["job", d, "--index", "24"], &[]);
+    assert_refused(&o, "array index 24 is out of range: the study has 24 jobs");
+    // A local run resumes the rest, and the gather step then agrees with it.
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--workers", "2"], &[]);
+    assert_ok(&o);
+    assert!(text(&o).contains("11 cells trained, 13 resumed"), "{}", text(&o));
+    assert_ok(&gather());
+    let local = tmp.path().join("local");
+    local_run(&cwd, &design, &local);
+    assert_same_run(&local, &dir);
+    for s in ["split-42", "split-43"] {
+        assert!(tree(&dir).iter().any(|(n, _)| n == &format!("{s}/report/report.md")), "{s} has no report");
+    }
+
+    // A directory holding a single-split run is not prepared for a multi-split one.
+    let single = tmp.path().join("single");
+    let o =
+        crossaudit_in(&cwd, &["run", root().join(DESIGN).to_str().unwrap(), "--out", single.to_str().unwrap()], &[]);
+    assert_ok(&o);
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", single.to_str().unwrap(), "--slurm"], &[]);
+    assert_refused(&o, "holds a run of a different design");
+    assert!(!single.join("split-42").exists() && !single.join("slurm").exists());
 }
 
 #[test]
@@ -461,6 +538,39 @@ fn a_study_through_real_slurm_matches_a_local_run_byte_for_byte() {
     no_pwned(&[&cwd, tmp.path(), &dir]);
     let local = tmp.path().join("local");
     local_run(&cwd, &design, &local);
+    assert_same_run(&local, &dir);
+}
+
+/// The dose x split study through a real Slurm: one array over both
+/// splits, then the gather job pools them; the same bytes as a local run.
+#[test]
+fn a_dose_by_split_study_through_real_slurm_matches_a_local_run() {
+    let Some((_guard, cluster)) = cluster("a_dose_by_split_study_through_real_slurm_matches_a_local_run") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let design = root().join(SPLITS_DESIGN);
+    let dir = tmp.path().join("cluster");
+    let o = crossaudit_in(
+        tmp.path(),
+        &["run", design.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--slurm", "--submit"],
+        &cluster.env(),
+    );
+    let ids = submitted(&o);
+    assert_eq!(ids.len(), 2, "{}", text(&o));
+    let ids: Vec<&str> = ids.iter().map(String::as_str).collect();
+    cluster.wait(&ids, Duration::from_secs(600), &dir);
+    let gather_log = std::fs::read_to_string(dir.join("slurm/logs/gather.out")).unwrap_or_default();
+    assert!(gather_log.contains("gathered 24 jobs"), "the gather job did not finish: {}", logs(&dir));
+    assert!(gather_log.contains("on slope over doses, pooled over 2 splits"), "{gather_log}");
+    for i in 0..24 {
+        let log = std::fs::read_to_string(dir.join(format!("slurm/logs/task-{i}.out"))).unwrap();
+        let split = if i < 12 { "split-42" } else { "split-43" };
+        assert!(log.contains(&format!("job {split} ")) && log.contains("finished in"), "task {i}: {log}");
+        assert!(log.contains(&format!("array job {}", ids[0])), "task {i} ran outside the array: {log}");
+    }
+    let local = tmp.path().join("local");
+    local_run(tmp.path(), &design, &local);
     assert_same_run(&local, &dir);
 }
 

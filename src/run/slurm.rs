@@ -24,6 +24,12 @@
 //! with its Slurm log, then writes `cells.csv` and the report with the same
 //! code as a local run, so the bytes are the same.
 //!
+//! A multi-split study is one array over every split's jobs: each split is
+//! opened in `DIR/split-s` exactly as a local run opens it (its own audit,
+//! manifests, invariants and run.json), a task runs its job in its split's
+//! directory, and the gather step finishes each split, then pools them into
+//! `DIR/cells.csv` and `DIR/report`, as a local run does.
+//!
 //! Shared-filesystem assumption: DIR, the data directory and the crossaudit
 //! binary are visible at the same absolute paths from every node. Nothing
 //! else is read or written outside DIR.
@@ -224,12 +230,51 @@ fn array_spec(indices: &[usize]) -> String {
     out
 }
 
+/// `model__arm__seed`, or `split-s/model__arm__seed` in a multi-split
+/// study: a job's entry in `array.json`.
+fn array_key(job: &TrainingJob) -> String {
+    match job.split {
+        None => job.stem(),
+        Some(s) => format!("{}/{}", crate::plan::split_dir(s), job.stem()),
+    }
+}
+
+/// One run directory of a prepared array: the study's own, or in a
+/// multi-split study split `s`'s (`DIR/split-s`, with the split's design,
+/// plan and run.json).
+#[derive(Clone)]
+struct Part {
+    split: Option<u64>,
+    file: DesignFile,
+    plan: Plan,
+    dir: PathBuf,
+}
+
+/// The run directories of the study in `dir`: itself, or one per split.
+fn parts(file: &DesignFile, plan: &Plan, dir: &Path) -> Vec<Part> {
+    if plan.splits.is_empty() {
+        return vec![Part { split: None, file: file.clone(), plan: plan.clone(), dir: dir.to_path_buf() }];
+    }
+    plan.splits
+        .iter()
+        .map(|&s| {
+            let (file, plan, dir) = super::split_parts(file, plan, dir, s);
+            Part { split: Some(s), file, plan, dir }
+        })
+        .collect()
+}
+
 /// The array indices (plan positions) of the jobs without a record, and
 /// the builds that ran the finished ones (see [`pending`]).
-fn unfinished(plan: &Plan, dir: &Path) -> Result<(Vec<usize>, BTreeSet<String>), RunError> {
-    let (todo, builds) = pending(plan, dir)?;
-    let todo: BTreeSet<String> = todo.iter().map(TrainingJob::stem).collect();
-    let indices = plan.jobs.iter().enumerate().filter(|(_, j)| todo.contains(&j.stem())).map(|(i, _)| i).collect();
+fn unfinished(plan: &Plan, parts: &[Part]) -> Result<(Vec<usize>, BTreeSet<String>), RunError> {
+    let mut todo = BTreeSet::new();
+    let mut builds = BTreeSet::new();
+    for part in parts {
+        let (jobs, done) = pending(&part.plan, &part.dir)?;
+        todo.extend(jobs.iter().map(|j| array_key(&TrainingJob { split: part.split, ..j.clone() })));
+        builds.extend(done);
+    }
+    let indices = plan.jobs.iter().enumerate().filter(|(_, j)| todo.contains(&array_key(j))).map(|(i, _)| i).collect();
     Ok((indices, builds))
 }
 
@@ -252,8 +297,17 @@ pub fn prepare(
     let dir = absolute(out)?;
     let binary = absolute(&options.binary)?;
     path_word(&binary)?;
-    let opened = open(file, plan, data, &dir, exploratory)?;
-    let (indices, _) = unfinished(plan, &dir)?;
+    // Each split of a multi-split study is opened in its own directory, as a
+    // local run opens it.
+    let parts = parts(file, plan, &dir);
+    if !plan.splits.is_empty() {
+        super::refuse_single_run(&dir)?;
+    }
+    let mut lock = LockStatus::Unlocked;
+    for part in &parts {
+        lock = open(&part.file, &part.plan, data, &part.dir, exploratory)?.status;
+    }
+    let (indices, _) = unfinished(plan, &parts)?;
 
     let bytes = std::fs::read(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
     if sha256_hex(&bytes) != file.sha256 {
@@ -270,10 +324,10 @@ pub fn prepare(
         design_path: file.path.display().to_string(),
         design_file: absolute(&file.path)?,
         design_sha256: file.sha256.clone(),
-        lock: opened.status.clone(),
+        lock,
         data_dir: absolute(&data.dir)?,
         data: data.origin.clone(),
-        jobs: plan.jobs.iter().map(TrainingJob::stem).collect(),
+        jobs: plan.jobs.iter().map(array_key).collect(),
         crossaudit: crate::BUILD.to_string(),
     };
     write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
@@ -416,46 +470,64 @@ pub enum TaskOutcome {
         job: String,
     },
     /// The job ran now.
-    Ran(Box<super::JobOutcome>),
+    Ran {
+        /// `model/arm/seed` (`split-s model/arm/seed` in a multi-split study).
+        job: String,
+        /// What it wrote.
+        outcome: Box<super::JobOutcome>,
+    },
 }
 
 /// The run directory of a prepared array, opened for a task or the gather
-/// step: its records, the design copy, the plan and the rebuilt split,
-/// each checked against what `prepare` recorded.
+/// step: its records, the design copy and the plan, each checked against
+/// what `prepare` recorded, and its run directories (one per split in a
+/// multi-split study) with their run.json.
 struct Prepared {
     array: ArrayRecord,
-    run: RunRecord,
-    file: DesignFile,
     plan: Plan,
+    parts: Vec<(Part, RunRecord)>,
 }
 
 fn reopen(dir: &Path) -> Result<Prepared, RunError> {
     let array = ArrayRecord::read(dir)?;
     let not_prepared = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
-    let run = RunRecord::read(dir)?.ok_or_else(|| not_prepared("run.json is missing".into()))?;
     let copy = dir.join(SLURM_DIR).join("design.design");
     let file = design::load_copy(&copy, &array.design_file).map_err(|e| not_prepared(e.to_string()))?;
-    for (what, sha) in [("slurm/design.design", &file.sha256), ("run.json", &run.design_sha256)] {
-        if *sha != array.design_sha256 {
+    if file.sha256 != array.design_sha256 {
+        return Err(not_prepared(format!(
+            "slurm/design.design records design sha256 {}, slurm/array.json {}",
+            file.sha256, array.design_sha256
+        )));
+    }
+    let plan = crate::plan::compile(&file.design);
+    let keys: Vec<String> = plan.jobs.iter().map(array_key).collect();
+    if keys != array.jobs {
+        return Err(not_prepared("the design copy compiles to another job list than slurm/array.json".into()));
+    }
+    let mut opened = Vec::new();
+    for part in parts(&file, &plan, dir) {
+        let run_json = part.dir.join("run.json");
+        let run =
+            RunRecord::read(&part.dir)?.ok_or_else(|| not_prepared(format!("{} is missing", run_json.display())))?;
+        if run.design_sha256 != array.design_sha256 {
             return Err(not_prepared(format!(
-                "{what} records design sha256 {sha}, slurm/array.json {}",
+                "{} records design sha256 {}, slurm/array.json {}",
+                run_json.display(),
+                run.design_sha256,
                 array.design_sha256
             )));
         }
+        opened.push((part, run));
     }
-    let plan = crate::plan::compile(&file.design);
-    let stems: Vec<String> = plan.jobs.iter().map(TrainingJob::stem).collect();
-    if stems != array.jobs {
-        return Err(not_prepared("the design copy compiles to another job list than slurm/array.json".into()));
-    }
-    Ok(Prepared { array, run, file, plan })
+    Ok(Prepared { array, plan, parts: opened })
 }
 
-/// The split rebuilt in memory from the recorded data directory, refused
-/// unless its audit and manifests are those of run.json.
-fn rebuild(p: &Prepared, dir: &Path) -> Result<crate::split::Prepared, RunError> {
-    let data_dir = &p.array.data_dir;
-    if let DataOrigin::Simulated { spec, record_sha256 } = &p.array.data {
+/// The split of one run directory rebuilt in memory from the recorded data
+/// directory, refused unless its audit and manifests are those of its
+/// run.json.
+fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::split::Prepared, RunError> {
+    let data_dir = &array.data_dir;
+    if let DataOrigin::Simulated { spec, record_sha256 } = &array.data {
         // Verify, never generate: other tasks may be reading the directory.
         if !data_dir.join(crate::sim::RECORD).is_file() {
             return Err(RunError::NoDataDir {
@@ -466,7 +538,7 @@ fn rebuild(p: &Prepared, dir: &Path) -> Result<crate::split::Prepared, RunError>
         let now = ensured.record().sha256();
         if now != *record_sha256 {
             return Err(RunError::OtherData {
-                dir: dir.display().to_string(),
+                dir: part.dir.display().to_string(),
                 what: "simulation record (sha256)".into(),
                 was: record_sha256.clone(),
                 is: now,
@@ -476,10 +548,10 @@ fn rebuild(p: &Prepared, dir: &Path) -> Result<crate::split::Prepared, RunError>
     if !data_dir.is_dir() {
         return Err(RunError::NoDataDir { dir: data_dir.display().to_string() });
     }
-    let prepared = crate::split::rebuild(&p.file, &p.plan, data_dir, dir)?;
-    let data = Data { dir: data_dir.clone(), origin: p.array.data.clone() };
-    let now = RunRecord::new(&p.plan, &p.file, &data, &prepared, p.run.exploratory);
-    p.run.check_resume(dir, &now)?;
+    let prepared = crate::split::rebuild(&part.file, &part.plan, data_dir, &part.dir)?;
+    let data = Data { dir: data_dir.clone(), origin: array.data.clone() };
+    let now = RunRecord::new(&part.plan, &part.file, &data, &prepared, run.exploratory);
+    run.check_resume(&part.dir, &now)?;
     Ok(prepared)
 }
 
@@ -506,15 +578,24 @@ pub fn run_task(
         }
         Err(std::fs::TryLockError::Error(e)) => return Err(RunError::Write(crate::io::WriteError::new(&lock_path, e))),
     }
-    if let Some(r) = JobRecord::read(dir, job)? {
-        r.verify_files(dir, job)?;
+    // The job as its run directory knows it (without its split).
+    let (part, run) = p.parts.iter().find(|(part, _)| part.split == job.split).expect("every split has a part");
+    let local = TrainingJob { split: None, ..job.clone() };
+    if let Some(r) = JobRecord::read(&part.dir, &local)? {
+        r.verify_files(&part.dir, &local)?;
         return Ok(TaskOutcome::AlreadyFinished { job: job.label() });
     }
-    let prepared = rebuild(&p, dir)?;
+    let prepared = rebuild(&p.array, part, run)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let outcome = pool.install(|| super::run_job(&p.array.design_sha256, &p.plan, job, &prepared, dir, on_epoch))?;
+    let outcome =
+        pool.install(|| super::run_job(&p.array.design_sha256, &part.plan, &local, &prepared, &part.dir, on_epoch))?;
     drop(lock);
-    Ok(TaskOutcome::Ran(Box::new(outcome)))
+    let mut outcome = Box::new(outcome);
+    if let Some(s) = part.split {
+        // Paths relative to the study's directory, as the logs quote them.
+        outcome.files = outcome.files.iter().map(|f| format!("{}/{f}", crate::plan::split_dir(s))).collect();
+    }
+    Ok(TaskOutcome::Ran { job: job.label(), outcome })
 }
 
 /// The gather step: refuses while any job has no record (naming each with
@@ -523,7 +604,8 @@ pub fn run_task(
 pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let p = reopen(dir)?;
-    let (todo, builds) = unfinished(&p.plan, dir)?;
+    let parts: Vec<Part> = p.parts.iter().map(|(part, _)| part.clone()).collect();
+    let (todo, _) = unfinished(&p.plan, &parts)?;
     if !todo.is_empty() {
         let logs = dir.join(SLURM_DIR).join("logs");
         let mut list = String::new();
@@ -547,9 +629,30 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
             list,
         });
     }
-    let prepared = rebuild(&p, dir)?;
-    let opened = Opened { status: p.array.lock.clone(), exploratory: p.run.exploratory, prepared, record: p.run };
-    let mut outcome = finish(&p.array.design_path, &p.plan, &opened, dir, builds)?;
+    // Each run directory is finished as a local run finishes it; a
+    // multi-split study then pools its splits, as a local run does.
+    let mut all_builds = BTreeSet::new();
+    let mut last = None;
+    for (part, run) in p.parts {
+        let (_, builds) = pending(&part.plan, &part.dir)?;
+        all_builds.extend(builds.iter().cloned());
+        let prepared = rebuild(&p.array, &part, &run)?;
+        let opened = Opened { status: p.array.lock.clone(), exploratory: run.exploratory, prepared, record: run };
+        let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
+        last = Some((outcome, opened.record));
+    }
+    let (mut outcome, record) = last.expect("a study has at least one run directory");
+    if !p.plan.splits.is_empty() {
+        outcome = super::finish_splits(
+            &p.array.design_path,
+            &p.plan,
+            dir,
+            &p.array.lock,
+            record.exploratory,
+            &record,
+            all_builds,
+        )?;
+    }
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(outcome)
 }

@@ -125,7 +125,7 @@ pub struct RecordingInfo {
 #[derive(Debug, thiserror::Error)]
 pub enum SplitError {
     /// A multi-split design given where one split is prepared.
-    #[error("the design declares {splits} splits (`factor split`), and this command prepares one split (`split`, `train` and `run --slurm` do): run the study with `crossaudit run DESIGN --out DIR`, which runs each split in its own directory DIR/split-S")]
+    #[error("the design declares {splits} splits (`factor split`), and this command prepares one split (`split` and `train` do): run the study with `crossaudit run DESIGN --out DIR` (with `--slurm` for a cluster), which runs each split in its own directory DIR/split-S")]
     SeveralSplits {
         /// How many.
         splits: usize,

@@ -477,14 +477,11 @@ fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
     })?;
     match outcome {
         TaskOutcome::AlreadyFinished { job } => eprintln!("job {job} had finished: files verified, nothing run"),
-        TaskOutcome::Ran(o) => {
+        TaskOutcome::Ran { job, outcome } => {
             eprintln!(
-                "job {}/{}/{} finished in {:.1} s: wrote {}",
-                o.model,
-                o.arm,
-                o.seed,
+                "job {job} finished in {:.1} s: wrote {}",
                 started.elapsed().as_secs_f64(),
-                o.files.join(", ")
+                outcome.files.join(", ")
             );
         }
     }
