@@ -465,6 +465,74 @@ fn split_planner_predicts_the_pilots_se_and_narrows_with_splits() {
     );
 }
 
+/// A value of scripts/reference/dose_slope_reference.out (base R: per-cell
+/// lm slopes of the committed dose-response cells, their two-way ANOVA
+/// components and the closed-form SE).
+fn r_slope(key: &str) -> f64 {
+    let text = std::fs::read_to_string(root().join("scripts/reference/dose_slope_reference.out")).unwrap();
+    let line = text.lines().find(|l| l.starts_with(&format!("dose_response {key} "))).expect(key);
+    line.split_whitespace().last().unwrap().parse().unwrap()
+}
+
+/// The dose-response planner on the committed pilot: its components and
+/// predicted SEs are R's, and the pilot-size SE is the report's.
+#[test]
+fn dose_planner_matches_r_on_the_committed_pilot() {
+    let file = design::load(&root().join("designs/nanobench_dose_response.design")).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let a = committed("nanobench_dose_response.design", "dose_response");
+    let p = crossaudit::methods::dose_power_plan(&plan, &a, &[13, 24, 26, 52], &[5, 10, 20, 40]).unwrap();
+    assert_eq!((p.pilot_recordings, p.pilot_seeds), (24, 10));
+    assert!(p.unit.starts_with("slope over doses of world fa_position_rmse"), "{}", p.unit);
+    assert_rel(p.mean_d, r_slope("mean_slope"), 1e-10, "mean slope");
+    assert_rel(p.sigma2_recording, r_slope("var recording"), 1e-8, "recording component");
+    assert_rel(p.sigma2_seed, r_slope("var seed"), 1e-8, "seed component");
+    assert_rel(p.sigma2_residual, r_slope("var residual"), 1e-8, "residual component");
+    for (i, j) in [(24, 10), (13, 5), (26, 20), (52, 40)] {
+        let row = p.rows.iter().find(|r| r.recordings == i && r.seeds == j).unwrap();
+        assert_rel(row.se, r_slope(&format!("se_at {i} {j}")), 1e-8, &format!("SE at {i} x {j}"));
+    }
+    let pilot = p.rows.iter().find(|r| r.recordings == 24 && r.seeds == 10).unwrap();
+    assert_rel(pilot.se, a.splits[0].trend.as_ref().unwrap().slope.se, 1e-12, "pilot SE vs the report's");
+    // A design without doses has no trend to plan.
+    let single = crossaudit::compile(&design::load(&root().join("tests/designs/sim_small.design")).unwrap().design);
+    let no_trend = FamilyAnalysis {
+        splits: vec![crossaudit::analysis::family::SplitResult { trend: None, ..a.splits[0].clone() }],
+        ..a.clone()
+    };
+    let e = crossaudit::methods::dose_power_plan(&single, &no_trend, &[13], &[5]).unwrap_err();
+    assert!(e.to_string().contains("no trend over doses"), "{e}");
+
+    // The CLI plans the slope of a dose-response design.
+    let out = tempfile::tempdir().unwrap();
+    let o = bin()
+        .args(["plan", "designs/nanobench_dose_response.design", "--cells", "results/dose_response/cells.csv"])
+        .args(["--recordings", "13,26", "--seeds", "5,10", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.path().join("plan.md")).unwrap();
+    assert!(md.contains("mean slope (per dose point)") && md.contains("| 13 | 5 | 3.381e-4 |"), "{md}");
+}
+
+/// With doses and splits and a rule on the slope, the multi-split planner
+/// plans the pooled slope, not the first dose.
+#[test]
+fn split_planner_plans_the_pooled_slope_when_the_rule_is_on_it() {
+    let file = design::load(&root().join("tests/designs/sim_splits_small.design")).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let out = tempfile::tempdir().unwrap();
+    let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
+    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+    let StudyAnalysis::Family(a) = done.analysis else { panic!("a dose x split study is a family") };
+    let slope = a.pooled.as_ref().unwrap().slope.clone().unwrap();
+    let p = crossaudit::methods::split_power_plan(&plan, &a, &[2], &[4], &[2]).unwrap();
+    assert!(p.unit.starts_with("slope over doses of"), "{}", p.unit);
+    assert_eq!((p.mean_d, p.variances), (slope.mean, slope.variances));
+    assert_rel(p.rows[0].se, crossaudit::methods::pooled_se(slope.variances, 2.0, 4.0, 2.0), 1e-15, "closed form");
+}
+
 /// Commands that prepare one split refuse a multi-split design instead of
 /// silently running its first split (`run --slurm` prepares every split:
 /// tests/slurm.rs).

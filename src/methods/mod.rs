@@ -6,5 +6,6 @@ pub mod power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};
 pub use power::{
-    pooled_se, power_plan, split_power_plan, PowerError, PowerPlan, PowerRow, SplitPowerPlan, SplitPowerRow,
+    dose_power_plan, pooled_se, power_plan, split_power_plan, PowerError, PowerPlan, PowerRow, SplitPowerPlan,
+    SplitPowerRow,
 };

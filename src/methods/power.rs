@@ -31,6 +31,9 @@ pub enum PowerError {
     /// The pilot analysis has no primary unit.
     #[error("the analysis has no primary endpoint")]
     NoPrimary,
+    /// A dose-response plan needs a trend, which needs two or more doses.
+    #[error("the pilot has no trend over doses (it needs two or more doses)")]
+    NoTrend,
     /// A quantile could not be computed.
     #[error(transparent)]
     Stats(#[from] StatsError),
@@ -66,7 +69,11 @@ pub struct PowerPlan {
     pub pilot_recordings: usize,
     /// Seeds in the pilot.
     pub pilot_seeds: usize,
-    /// Pilot mean d.
+    /// What is planned: `d`, or `slope (per dose point)` (plan.md says
+    /// which; plan.json's `unit` names it).
+    #[serde(skip)]
+    pub estimand: String,
+    /// Pilot mean of the estimand (d, or the slope).
     pub mean_d: f64,
     /// Pilot reference-arm mean.
     pub mean_reference: f64,
@@ -96,16 +103,68 @@ pub fn power_plan(
     recordings: &[usize],
     seeds: &[usize],
 ) -> Result<PowerPlan, PowerError> {
-    if let Some(n) = recordings.iter().chain(seeds).find(|n| **n < 2) {
+    check_counts(&[recordings, seeds])?;
+    let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
+    let unit = format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s);
+    crossed_plan(plan, unit, "d", &u.estimate, u.mean_reference, recordings, seeds)
+}
+
+/// The planner for a single-split dose-response design: [`power_plan`]
+/// applied to the trend, the per-cell least-squares slope of d over the
+/// doses (its crossed estimate's components and mean from the pilot). A
+/// rule `optimism >= c%` on the slope holds when the slope is at most
+/// -c m_ref / 100, as for d, since the optimism slope is -100 slope / m_ref.
+///
+/// A multi-split design goes to [`split_power_plan`], which plans the
+/// pooled slope when the rule is on it.
+pub fn dose_power_plan(
+    plan: &Plan,
+    family: &crate::analysis::family::FamilyAnalysis,
+    recordings: &[usize],
+    seeds: &[usize],
+) -> Result<PowerPlan, PowerError> {
+    check_counts(&[recordings, seeds])?;
+    let split = family.splits.first().ok_or(PowerError::NoPrimary)?;
+    let trend = split.trend.as_ref().ok_or(PowerError::NoTrend)?;
+    let reference = split.doses.first().ok_or(PowerError::NoPrimary)?.mean_reference;
+    let unit = format!("slope over doses of {}", family.unit);
+    crossed_plan(plan, unit, "slope (per dose point)", &trend.slope, reference, recordings, seeds)
+}
+
+fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
+    let all = || counts.iter().flat_map(|c| c.iter());
+    if let Some(n) = all().find(|n| **n < 2) {
         return Err(PowerError::TooFew(*n));
     }
-    if let Some(n) = recordings.iter().chain(seeds).find(|n| **n > MAX_PLANNED) {
+    if let Some(n) = all().find(|n| **n > MAX_PLANNED) {
         return Err(PowerError::TooMany(*n));
     }
-    let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
-    let c = &u.estimate.components;
-    let threshold = plan.decision.optimism_threshold();
+    Ok(())
+}
+
+/// P(the decision rule holds) for an estimate ~ N(mean, se^2) whose
+/// interval half-width is t se: the rule "optimism >= c% and upper < 0"
+/// holds when the estimate is at most min(-t se, -c m_ref / 100).
+fn rule_power(plan: &Plan, mean: f64, se: f64, t: f64, mean_reference: f64) -> Result<f64, PowerError> {
     let normal = Normal::new(0.0, 1.0).map_err(|e| StatsError::Invalid(e.to_string()))?;
+    let mut bound = -t * se;
+    if let Some(thr) = plan.decision.optimism_threshold() {
+        bound = bound.min(-thr * mean_reference / 100.0);
+    }
+    Ok(if se > 0.0 { normal.cdf((bound - mean) / se) } else { f64::from(u8::from(mean <= bound)) })
+}
+
+/// The rows and advice of a crossed (recording x seed) plan for `estimate`.
+fn crossed_plan(
+    plan: &Plan,
+    unit: String,
+    estimand: &str,
+    estimate: &crate::stats::CrossedEstimate,
+    mean_reference: f64,
+    recordings: &[usize],
+    seeds: &[usize],
+) -> Result<PowerPlan, PowerError> {
+    let c = &estimate.components;
     let mut rows = Vec::new();
     for &i in recordings {
         for &j in seeds {
@@ -113,36 +172,43 @@ pub fn power_plan(
             // Satterthwaite's df need data; the planner uses the normal there.
             let df = plan.df(i, j).unwrap_or(f64::INFINITY);
             let t = critical_value(plan.estimator.level, df)?;
-            let mut bound = -t * se;
-            if let Some(thr) = threshold {
-                bound = bound.min(-thr * u.mean_reference / 100.0);
-            }
-            let power = if se > 0.0 {
-                normal.cdf((bound - u.estimate.mean) / se)
-            } else {
-                f64::from(u8::from(u.estimate.mean <= bound))
-            };
+            let power = rule_power(plan, estimate.mean, se, t, mean_reference)?;
             rows.push(PowerRow { recordings: i, seeds: j, se, width: 2.0 * t * se, power });
         }
     }
-    let (i0, j0) = (analysis.recordings.len() as f64, analysis.seeds.len() as f64);
+    let (i0, j0) = (estimate.rows as f64, estimate.cols as f64);
     let (base, more_rec, more_seed) = (c.se_at(i0, j0), c.se_at(2.0 * i0, j0), c.se_at(i0, 2.0 * j0));
+    let digits = if base.abs() < 1e-3 { 3 } else { 4 };
     let advice = format!(
-        "From the pilot's {i0} recordings x {j0} seeds (SE {base:.4}): doubling the recordings gives SE {more_rec:.4}, doubling the seeds gives SE {more_seed:.4}; {} reduce the SE more.",
+        "From the pilot's {i0} recordings x {j0} seeds (SE {}): doubling the recordings gives SE {}, doubling the seeds gives SE {}; {} reduce the SE more.",
+        fmt_se(base, digits),
+        fmt_se(more_rec, digits),
+        fmt_se(more_seed, digits),
         if more_rec < more_seed { "more recordings" } else { "more seeds" }
     );
     Ok(PowerPlan {
-        unit: format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s),
-        pilot_recordings: analysis.recordings.len(),
-        pilot_seeds: analysis.seeds.len(),
-        mean_d: u.estimate.mean,
-        mean_reference: u.mean_reference,
+        unit,
+        estimand: estimand.to_string(),
+        pilot_recordings: estimate.rows,
+        pilot_seeds: estimate.cols,
+        mean_d: estimate.mean,
+        mean_reference,
         sigma2_recording: c.recording,
         sigma2_seed: c.seed,
         sigma2_residual: c.residual,
         rows,
         advice,
     })
+}
+
+/// An SE as the plan prints it: 4 decimals, or 3 significant digits
+/// (`digits` 3) for the small numbers a slope per dose point gives.
+fn fmt_se(v: f64, digits: usize) -> String {
+    if digits == 4 {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
+    }
 }
 
 impl PowerPlan {
@@ -152,10 +218,11 @@ impl PowerPlan {
         let _ = writeln!(s, "# Design planner: {}\n", self.unit);
         let _ = writeln!(
             s,
-            "Pilot: {} recordings x {} seeds; mean d {:.5}, reference mean {:.5}; sigma^2 recording {:.3e}, seed {:.3e}, residual {:.3e}.\n",
+            "Pilot: {} recordings x {} seeds; mean {} {}, reference mean {:.5}; sigma^2 recording {:.3e}, seed {:.3e}, residual {:.3e}.\n",
             self.pilot_recordings,
             self.pilot_seeds,
-            self.mean_d,
+            self.estimand,
+            if self.mean_d.abs() < 1e-3 { format!("{:.4e}", self.mean_d) } else { format!("{:.5}", self.mean_d) },
             self.mean_reference,
             self.sigma2_recording,
             self.sigma2_seed,
@@ -164,12 +231,15 @@ impl PowerPlan {
         let _ = writeln!(s, "{}\n", self.advice);
         let cols = ["recordings I", "seeds J", "predicted SE", "interval width", "P(decision rule holds)"];
         let mut table = Table::new(&cols, "rrrrr");
+        // A slope per dose point is small: three significant digits.
+        let small = self.rows.iter().all(|r| r.width < 1e-2);
+        let num = |v: f64| if small { format!("{v:.3e}") } else { format!("{v:.5}") };
         for r in &self.rows {
             table.row([
                 r.recordings.to_string(),
                 r.seeds.to_string(),
-                format!("{:.5}", r.se),
-                format!("{:.5}", r.width),
+                num(r.se),
+                num(r.width),
                 format!("{:.3}", r.power),
             ]);
         }
@@ -280,38 +350,30 @@ pub fn split_power_plan(
     recordings: &[usize],
     seeds: &[usize],
 ) -> Result<SplitPowerPlan, PowerError> {
-    if let Some(n) = splits.iter().chain(recordings).chain(seeds).find(|n| **n < 2) {
-        return Err(PowerError::TooFew(*n));
-    }
-    if let Some(n) = splits.iter().chain(recordings).chain(seeds).find(|n| **n > MAX_PLANNED) {
-        return Err(PowerError::TooMany(*n));
-    }
-    let pooled = family.pooled.as_ref().and_then(|p| p.doses.first()).ok_or(PowerError::NoPrimary)?;
+    check_counts(&[splits, recordings, seeds])?;
+    // The pooled estimate the rule is on: the slope, or the first dose's.
+    let pooled = family.pooled.as_ref().ok_or(PowerError::NoPrimary)?;
+    let on_slope = plan.decision.on == crate::design::DecisionTarget::Slope;
+    let pooled = if on_slope {
+        pooled.slope.as_ref().ok_or(PowerError::NoTrend)?
+    } else {
+        pooled.doses.first().ok_or(PowerError::NoPrimary)?
+    };
     let first = family.splits.first().and_then(|s| s.doses.first()).ok_or(PowerError::NoPrimary)?;
     let mean_reference = first.mean_reference;
-    let threshold = plan.decision.optimism_threshold();
-    let normal = Normal::new(0.0, 1.0).map_err(|e| StatsError::Invalid(e.to_string()))?;
     let mut rows = Vec::new();
     for &s in splits {
         for &i in recordings {
             for &j in seeds {
                 let se = pooled_se(pooled.variances, s as f64, i as f64, j as f64);
                 let t = critical_value(plan.estimator.level, (s - 1) as f64)?;
-                let mut bound = -t * se;
-                if let Some(thr) = threshold {
-                    bound = bound.min(-thr * mean_reference / 100.0);
-                }
-                let power = if se > 0.0 {
-                    normal.cdf((bound - pooled.mean) / se)
-                } else {
-                    f64::from(u8::from(pooled.mean <= bound))
-                };
+                let power = rule_power(plan, pooled.mean, se, t, mean_reference)?;
                 rows.push(SplitPowerRow { splits: s, recordings: i, seeds: j, se, width: 2.0 * t * se, power });
             }
         }
     }
     Ok(SplitPowerPlan {
-        unit: family.unit.clone(),
+        unit: if on_slope { format!("slope over doses of {}", family.unit) } else { family.unit.clone() },
         pilot: (family.splits.len(), first.estimate.rows, first.estimate.cols),
         mean_d: pooled.mean,
         mean_reference,

@@ -117,7 +117,8 @@ enum Command {
         out: PathBuf,
     },
     /// Predict SE, interval width and the probability the decision rule holds
-    /// for other numbers of recordings and seeds, from pilot per-cell data.
+    /// for other numbers of recordings and seeds (and splits), from pilot
+    /// per-cell data; for a dose-response design, of the slope over doses.
     Plan {
         design: PathBuf,
         /// Pilot per-cell CSV analysable under the design.
@@ -532,8 +533,14 @@ fn power(
         print!("{}", power.to_markdown());
         return Ok(());
     }
-    let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
-    let power = crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?;
+    let power = if plan.is_family() {
+        // A dose-response design: the trend's slope is planned.
+        let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
+        crossaudit::methods::dose_power_plan(&plan, &family, recordings, seeds)?
+    } else {
+        let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
+        crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?
+    };
     power.write(out)?;
     print!("{}", power.to_markdown());
     Ok(())
