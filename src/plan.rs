@@ -324,6 +324,12 @@ impl Plan {
         p
     }
 
+    /// Whether the decision rule is on the slope over doses (`decide NAME
+    /// on slope when ...`).
+    pub fn rule_on_slope(&self) -> bool {
+        self.decision.on == crate::design::DecisionTarget::Slope
+    }
+
     /// Whether the study is analysed as a family (several splits or
     /// doses) rather than as one crossed contrast.
     pub fn is_family(&self) -> bool {

@@ -353,7 +353,7 @@ pub fn split_power_plan(
     check_counts(&[splits, recordings, seeds])?;
     // The pooled estimate the rule is on: the slope, or the first dose's.
     let pooled = family.pooled.as_ref().ok_or(PowerError::NoPrimary)?;
-    let on_slope = plan.decision.on == crate::design::DecisionTarget::Slope;
+    let on_slope = plan.rule_on_slope();
     let pooled = if on_slope {
         pooled.slope.as_ref().ok_or(PowerError::NoTrend)?
     } else {
