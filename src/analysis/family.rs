@@ -301,7 +301,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     }
     let pooled = if split_values.len() >= 2 { Some(pool(plan, &split_values, &values, &doses)?) } else { None };
     let provenance = splits[0].detail[0].provenance.clone();
-    let unit = format!("{} {} at {} s", plan.primary.model, plan.primary.metric.name(), plan.primary.horizon_s);
+    let unit = plan.primary.label();
     let decision = decide(&plan.decision, &unit, &splits, pooled.as_ref());
     Ok(FamilyAnalysis {
         study: plan.study.clone(),

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::{BLACK, RED};
 
 use super::charts::{intervals, DrawError, IntervalRow};
-use super::format::{decision_summary, f, level_pct};
+use super::format::{decision_summary, df, f, level_pct, sci};
 use super::{ReportError, Table};
 use crate::analysis::family::{FamilyAnalysis, PooledEstimate};
 use crate::io::{create_dir_all, pretty_json, write_atomic};
@@ -24,22 +24,6 @@ fn dose_name(p: f64, arm: &str) -> String {
         arm.to_string()
     } else {
         format!("{p}%")
-    }
-}
-
-fn df(v: f64) -> String {
-    if v.is_infinite() {
-        "z".into()
-    } else {
-        f(v, 1)
-    }
-}
-
-fn sci(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else {
-        format!("{v:.3e}")
     }
 }
 

@@ -59,3 +59,21 @@ pub fn decision_line(a: &crate::analysis::Analysis) -> String {
 pub fn level_pct(level: f64) -> String {
     format!("{}%", f(level * 100.0, 0))
 }
+
+/// Degrees of freedom: `z` for the normal.
+pub(super) fn df(v: f64) -> String {
+    if v.is_infinite() {
+        "z".into()
+    } else {
+        f(v, 1)
+    }
+}
+
+/// Variance-scale numbers span many orders of magnitude.
+pub(super) fn sci(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else {
+        format!("{v:.3e}")
+    }
+}

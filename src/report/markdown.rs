@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use super::format::{decision_summary, f, level_pct};
+use super::format::{decision_summary, df, f, level_pct, sci};
 use super::Table;
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::{Factor, Role};
@@ -15,24 +15,6 @@ fn ci(e: &CrossedEstimate) -> String {
 
 fn boot(b: &Option<BootstrapInterval>) -> String {
     b.map(|b| format!("[{}, {}]", f(b.lower, 4), f(b.upper, 4))).unwrap_or_else(|| "-".into())
-}
-
-/// Degrees of freedom: `z` for the normal.
-fn df(v: f64) -> String {
-    if v.is_infinite() {
-        "z".into()
-    } else {
-        f(v, 1)
-    }
-}
-
-/// Variance-scale numbers span many orders of magnitude.
-fn sci(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else {
-        format!("{v:.3e}")
-    }
 }
 
 /// `model | metric | h s`: the first three columns of most tables.

@@ -426,7 +426,7 @@ fn finish_splits(
     status: &LockStatus,
     exploratory: bool,
     record: &RunRecord,
-    mut builds: std::collections::BTreeSet<String>,
+    builds: std::collections::BTreeSet<String>,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let mut all: Vec<Cell> = Vec::new();
@@ -436,21 +436,35 @@ fn finish_splits(
     }
     let cells_csv = out.join("cells.csv");
     write_cells_atomic(&cells_csv, &all)?;
+    let mut outcome = report_family(design_path, plan, out, cells_csv, (status, exploratory, record), builds, |a| {
+        a.warnings.push(
+            "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
+                .to_string(),
+        )
+    })?;
+    outcome.seconds = started.elapsed().as_secs_f64();
+    Ok(outcome)
+}
+
+/// The family analysis of `cells_csv` (labelled with the design, lock
+/// state, data and resumed builds, then `extra`), its report written in
+/// `out/report`.
+fn report_family(
+    design_path: &str,
+    plan: &Plan,
+    out: &Path,
+    cells_csv: PathBuf,
+    (status, exploratory, record): (&LockStatus, bool, &RunRecord),
+    builds: std::collections::BTreeSet<String>,
+    extra: impl FnOnce(&mut FamilyAnalysis),
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
     let cells = read_cells(&cells_csv)?;
     let mut a = analyze_family(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
     label_family(&mut a, design_path, status, exploratory, &record.design_sha256, &cells_csv)?;
     a.provenance.data = Some(record.data.describe());
-    a.warnings.push(
-        "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
-            .to_string(),
-    );
-    builds.remove(crate::BUILD);
-    for b in builds {
-        a.warnings.push(format!(
-            "some cells were trained by crossaudit {b}; this run, which resumed them, is {}",
-            crate::BUILD
-        ));
-    }
+    extra(&mut a);
+    a.warnings.extend(resumed_builds(builds));
     let report_dir = out.join("report");
     crate::report::family::write_family(&mut a, &report_dir)?;
     Ok(RunOutcome {
@@ -461,6 +475,17 @@ fn finish_splits(
         skipped: plan.jobs.len(),
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// A warning for each build other than this one that trained cells.
+fn resumed_builds(mut builds: std::collections::BTreeSet<String>) -> Vec<String> {
+    builds.remove(crate::BUILD);
+    builds
+        .into_iter()
+        .map(|b| {
+            format!("some cells were trained by crossaudit {b}; this run, which resumed them, is {}", crate::BUILD)
+        })
+        .collect()
 }
 
 /// The design hash, lock state and cells of a family analysis.
@@ -554,7 +579,7 @@ fn finish(
     plan: &Plan,
     opened: &Opened,
     out: &Path,
-    mut builds: std::collections::BTreeSet<String>,
+    builds: std::collections::BTreeSet<String>,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let (prepared, record) = (&opened.prepared, &opened.record);
@@ -562,42 +587,19 @@ fn finish(
 
     let cells_csv = gather(plan, out)?;
     if plan.is_family() {
-        let cells = read_cells(&cells_csv)?;
-        let mut a =
-            analyze_family(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
-        label_family(&mut a, design_path, &opened.status, opened.exploratory, &record.design_sha256, &cells_csv)?;
-        a.provenance.data = Some(record.data.describe());
-        a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
-        builds.remove(crate::BUILD);
-        for b in builds {
-            a.warnings.push(format!(
-                "some cells were trained by crossaudit {b}; this run, which resumed them, is {}",
-                crate::BUILD
-            ));
-        }
-        let report_dir = out.join("report");
-        crate::report::family::write_family(&mut a, &report_dir)?;
-        return Ok(RunOutcome {
-            cells_csv,
-            report_dir,
-            analysis: StudyAnalysis::Family(Box::new(a)),
-            trained: 0,
-            skipped: plan.jobs.len(),
-            seconds: started.elapsed().as_secs_f64(),
-        });
+        let labels = (&opened.status, opened.exploratory, record);
+        let mut outcome = report_family(design_path, plan, out, cells_csv, labels, builds, |a| {
+            a.provenance.audit_sha256 = Some(record.audit_sha256.clone())
+        })?;
+        outcome.seconds = started.elapsed().as_secs_f64();
+        return Ok(outcome);
     }
     let mut analysis = analyze_run(design_path, plan, &cells_csv, opened)?;
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
     for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
         analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
     }
-    builds.remove(crate::BUILD);
-    for b in builds {
-        analysis.warnings.push(format!(
-            "some cells were trained by crossaudit {b}; this run, which resumed them, is {}",
-            crate::BUILD
-        ));
-    }
+    analysis.warnings.extend(resumed_builds(builds));
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = read_curves(plan, out)?;

@@ -242,7 +242,6 @@ fn array_key(job: &TrainingJob) -> String {
 /// One run directory of a prepared array: the study's own, or in a
 /// multi-split study split `s`'s (`DIR/split-s`, with the split's design,
 /// plan and run.json).
-#[derive(Clone)]
 struct Part {
     split: Option<u64>,
     file: DesignFile,
@@ -265,14 +264,18 @@ fn parts(file: &DesignFile, plan: &Plan, dir: &Path) -> Vec<Part> {
 }
 
 /// The array indices (plan positions) of the jobs without a record, and
-/// the builds that ran the finished ones (see [`pending`]).
-fn unfinished(plan: &Plan, parts: &[Part]) -> Result<(Vec<usize>, BTreeSet<String>), RunError> {
+/// for each run directory the builds that ran its finished jobs (see
+/// [`pending`]).
+fn unfinished<'a>(
+    plan: &Plan,
+    parts: impl IntoIterator<Item = &'a Part>,
+) -> Result<(Vec<usize>, Vec<BTreeSet<String>>), RunError> {
     let mut todo = BTreeSet::new();
-    let mut builds = BTreeSet::new();
+    let mut builds = Vec::new();
     for part in parts {
         let (jobs, done) = pending(&part.plan, &part.dir)?;
         todo.extend(jobs.iter().map(|j| array_key(&TrainingJob { split: part.split, ..j.clone() })));
-        builds.extend(done);
+        builds.push(done);
     }
     let indices = plan.jobs.iter().enumerate().filter(|(_, j)| todo.contains(&array_key(j))).map(|(i, _)| i).collect();
     Ok((indices, builds))
@@ -604,8 +607,7 @@ pub fn run_task(
 pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let p = reopen(dir)?;
-    let parts: Vec<Part> = p.parts.iter().map(|(part, _)| part.clone()).collect();
-    let (todo, _) = unfinished(&p.plan, &parts)?;
+    let (todo, builds) = unfinished(&p.plan, p.parts.iter().map(|(part, _)| part))?;
     if !todo.is_empty() {
         let logs = dir.join(SLURM_DIR).join("logs");
         let mut list = String::new();
@@ -633,8 +635,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     // multi-split study then pools its splits, as a local run does.
     let mut all_builds = BTreeSet::new();
     let mut last = None;
-    for (part, run) in p.parts {
-        let (_, builds) = pending(&part.plan, &part.dir)?;
+    for ((part, run), builds) in p.parts.into_iter().zip(builds) {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
         let opened = Opened { status: p.array.lock.clone(), exploratory: run.exploratory, prepared, record: run };
