@@ -44,6 +44,9 @@ pub enum Error {
     /// The simulator's recordings could not be written.
     #[error(transparent)]
     Simulate(#[from] crate::sim::SimulateError),
+    /// A mixed model could not be fitted from a formula and a CSV file.
+    #[error(transparent)]
+    Mixed(#[from] crate::stats::mixed::formula::FileError),
     /// A file could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),

@@ -13,7 +13,9 @@
 //!   interval of the design's estimator. The slope in optimism is
 //!   -100 slope / mean(reference), percentage points of optimism per
 //!   percentage point of dose;
-//! - the smallest dose whose interval excludes zero;
+//! - the smallest dose whose interval excludes zero (descriptive), and the
+//!   lowest dose reached by step-down testing from the largest dose, which
+//!   controls the family-wise error over the doses;
 //! - over several splits, a pooled estimate of each dose's difference and
 //!   of the slope: REML fit of value = mu + a_split + b_recording + c_seed + e
 //!   (recordings recur across splits and seeds are shared, so all three are
@@ -113,8 +115,15 @@ pub struct Trend {
     pub optimism_slope_lower: f64,
     /// Its interval, from the slope's.
     pub optimism_slope_upper: f64,
-    /// The smallest dose whose interval excludes zero, if any.
+    /// The smallest dose whose interval excludes zero, if any: descriptive,
+    /// with no control of multiplicity over the doses.
     pub smallest_dose_excluding_zero: Option<f64>,
+    /// The lowest dose reached by step-down (fixed-sequence) testing from
+    /// the largest dose: each dose's interval is examined in decreasing
+    /// order of dose, and the sequence stops at the first that includes
+    /// zero. A closed testing procedure, so the family-wise error over the
+    /// doses is at most 1 - level.
+    pub step_down_dose: Option<f64>,
 }
 
 /// Estimates pooled over splits.
@@ -125,8 +134,13 @@ pub struct Pooled {
     /// The slope over doses (two or more doses).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub slope: Option<PooledEstimate>,
-    /// The smallest dose whose pooled interval excludes zero, if any.
+    /// The smallest dose whose pooled interval excludes zero, if any
+    /// (descriptive, no multiplicity control).
     pub smallest_dose_excluding_zero: Option<f64>,
+    /// The lowest dose reached by step-down testing of the pooled
+    /// intervals from the largest dose (family-wise error at most
+    /// 1 - level; see [`Trend::step_down_dose`]).
+    pub step_down_dose: Option<f64>,
 }
 
 /// A REML estimate over split, recording and seed.
@@ -396,6 +410,18 @@ fn smallest_excluding_zero<'a>(items: impl Iterator<Item = (f64, f64, f64)> + 'a
     items.filter(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p).reduce(f64::min)
 }
 
+/// Step-down (fixed-sequence) testing of (dose, lower, upper) from the
+/// largest dose: the lowest dose before the first interval that includes
+/// zero. Testing hypotheses in a fixed order, each at the full level, and
+/// stopping at the first not rejected is a closed testing procedure
+/// (Maurer, Hothorn and Lehmacher 1995), so it controls the family-wise
+/// error rate without adjusting the intervals.
+fn step_down(items: impl Iterator<Item = (f64, f64, f64)>) -> Option<f64> {
+    let mut v: Vec<(f64, f64, f64)> = items.collect();
+    v.sort_by(|a, b| b.0.total_cmp(&a.0));
+    v.into_iter().take_while(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p).last()
+}
+
 fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> Result<Trend, AnalysisError> {
     let slope = estimate_grid(&plan.estimator, v.recordings.len(), v.seeds.len(), slopes(v, doses))
         .map_err(|e| AnalysisError::Stats { unit: "slope over doses".to_string(), source: e })?;
@@ -408,6 +434,7 @@ fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> 
         smallest_dose_excluding_zero: smallest_excluding_zero(
             results.iter().map(|r| (r.percent, r.estimate.lower, r.estimate.upper)),
         ),
+        step_down_dose: step_down(results.iter().map(|r| (r.percent, r.estimate.lower, r.estimate.upper))),
     })
 }
 
@@ -437,10 +464,10 @@ fn pool(plan: &Plan, splits: &[Option<u64>], values: &[Values], doses: &[DoseArm
     } else {
         None
     };
-    let smallest = smallest_excluding_zero(
-        doses.iter().zip(&out).map(|(d, e)| (d.percent, e.lower, e.upper)).filter(|x| !x.0.is_nan()),
-    );
-    Ok(Pooled { doses: out, slope, smallest_dose_excluding_zero: smallest })
+    let intervals = || doses.iter().zip(&out).map(|(d, e)| (d.percent, e.lower, e.upper)).filter(|x| !x.0.is_nan());
+    let smallest = smallest_excluding_zero(intervals());
+    let step = step_down(intervals());
+    Ok(Pooled { doses: out, slope, smallest_dose_excluding_zero: smallest, step_down_dose: step })
 }
 
 fn mean_present(per: &[Vec<Option<f64>>]) -> f64 {

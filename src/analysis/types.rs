@@ -211,14 +211,19 @@ pub struct ConditionalSummary {
     pub starts_reference: u64,
     /// Crossed interval of the conditional RMSE difference over the pairs
     /// where both arms have a finite value: the plan's estimator when none
-    /// is dropped, REML with Kenward-Roger df otherwise; absent when too
-    /// few pairs remain for a crossed model.
+    /// is dropped; otherwise REML, with the plan's df when the plan's
+    /// estimator is REML and Kenward-Roger df when it is the method of
+    /// moments; absent when too few pairs remain for a crossed model (see
+    /// `difference_error`).
     pub difference: Option<CrossedEstimate>,
     /// Cells (either arm) in which every start diverged.
     pub cells_without_finite_rollout: usize,
     /// Recording x seed pairs left out of the conditional contrast because
     /// an arm has no finite value there (or no cell).
     pub pairs_dropped: usize,
+    /// Why the contrast over the pairs left could not be estimated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub difference_error: Option<String>,
 }
 
 /// The crossed estimate of an interaction of two models' contrasts.

@@ -402,7 +402,9 @@ impl Ctx<'_> {
     /// contrast over the recording x seed pairs where both arms have a
     /// finite value (a cell in which every start diverged has none). The
     /// contrast uses the plan's estimator when no pair is dropped; otherwise
-    /// REML with Kenward-Roger df, the estimator for incomplete arrays.
+    /// REML with the plan's df when the plan's estimator is REML, and REML
+    /// with Kenward-Roger df when it is the method of moments (which needs
+    /// a complete array).
     fn conditional(&self, u: &AnalysisUnit, label: &str) -> Result<ConditionalSummary, AnalysisError> {
         let mut counts = [(0u64, 0u64); 2];
         let mut without = 0;
@@ -429,15 +431,29 @@ impl Ctx<'_> {
         let (t, r) = (t.masked(&diff), r.masked(&diff));
         let stats = |source| AnalysisError::Stats { unit: format!("{label} (conditional RMSE)"), source };
         let pairs = diff.v.len() - diff.missing();
+        let mut difference_error = None;
         let difference = if pairs == 0 {
             None
         } else if diff.missing() == 0 {
             Some(self.estimate(&diff).map_err(stats)?)
         } else {
-            let level = self.plan.estimator.level;
-            // Too few pairs left for a crossed model: no interval, and the
-            // report says how many pairs were dropped.
-            crossed_reml(&diff.cells(), rows, cols, level, DfRule::KenwardRoger).ok()
+            // An incomplete array: the preregistered estimator when it is
+            // REML (which takes whatever cells are present), REML with
+            // Kenward-Roger df when it is the method of moments (which
+            // needs every cell); the report says which. Too few pairs left
+            // for a crossed model: no interval, and the reason is kept.
+            let est = &self.plan.estimator;
+            let rule = match est.kind {
+                EstimatorKind::Reml => est.df,
+                EstimatorKind::CrossedMom => DfRule::KenwardRoger,
+            };
+            match crossed_reml(&diff.cells(), rows, cols, est.level, rule) {
+                Ok(e) => Some(e),
+                Err(e) => {
+                    difference_error = Some(e.to_string());
+                    None
+                }
+            }
         };
         let mean = |g: &Grid| (pairs > 0).then(|| g.mean());
         Ok(ConditionalSummary {
@@ -450,6 +466,7 @@ impl Ctx<'_> {
             difference,
             cells_without_finite_rollout: without,
             pairs_dropped: diff.missing(),
+            difference_error,
         })
     }
 

@@ -89,7 +89,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         let _ = writeln!(s, "## Trend over dose\n");
         let _ = writeln!(
             s,
-            "Per recording x seed cell, the least-squares slope of d over the doses with the reference arm as dose 0 (d = 0); its crossed estimate, per percentage point of dose. The optimism slope is -100 slope / mean reference (optimism points per dose point), its interval the slope's rescaled.\n"
+            "Per recording x seed cell, the least-squares slope of d over the doses with the reference arm as dose 0 (d = 0); its crossed estimate, per percentage point of dose. The dose-0 point is d = 0 by construction (no noise) and the line's intercept is free: the slope is the ordinary least-squares slope over 0 and the doses, not a fit through the origin. The optimism slope is -100 slope / mean reference (optimism points per dose point), its interval the slope's rescaled. `smallest dose excluding 0` is descriptive (no control of multiplicity over the doses); `step-down dose` is the lowest dose reached by testing from the largest dose down, stopping at the first interval that includes zero, which keeps the family-wise error at most 1 - level.\n"
         );
         let mut t = Table::new(
             &[
@@ -101,8 +101,9 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
                 "optimism slope",
                 "optimism interval",
                 "smallest dose excluding 0",
+                "step-down dose",
             ],
-            "lrrrrrrr",
+            "lrrrrrrrr",
         );
         for sp in &a.splits {
             if let Some(tr) = &sp.trend {
@@ -116,6 +117,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
                     f(tr.optimism_slope, 3),
                     format!("[{}, {}]", f(tr.optimism_slope_lower, 3), f(tr.optimism_slope_upper, 3)),
                     tr.smallest_dose_excluding_zero.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into()),
+                    tr.step_down_dose.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into()),
                 ]);
             }
         }
@@ -126,8 +128,16 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         let _ = writeln!(s, "## Pooled over splits\n");
         let _ = writeln!(
             s,
-            "REML fit of value = mu + split + recording + seed + residual, all three random intercepts and crossed (recordings recur across splits, seeds are shared): lme4's `lmer(d ~ 1 + (1|split) + (1|recording) + (1|seed))`. Interval mu +- t(df) SE, {level}. Split share = var(split) / total variance; SE^2 shares are phi_k dVar(mu)/dphi_k (split, recording, seed, residual).\n"
+            "REML fit of value = mu + split + recording + seed + residual, all three random intercepts and crossed (recordings recur across splits, seeds are shared): lme4's `lmer(d ~ 1 + (1|split) + (1|recording) + (1|seed))`. Interval mu +- t(df) SE, {level}; the df are Satterthwaite's unless the design's estimator asks for Kenward-Roger (column `df`). Split share = var(split) / total variance; SE^2 shares are phi_k dVar(mu)/dphi_k (split, recording, seed, residual).\n"
         );
+        let n = a.splits.len();
+        if n < 10 {
+            let _ = writeln!(
+                s,
+                "The split variance is estimated from {n} splits, so it has at most {} degrees of freedom: its estimate (and the split share) is very imprecise, and a zero estimate (singular) is common even when splits differ. The interval accounts for this through its df; the split variance itself is descriptive.\n",
+                n - 1
+            );
+        }
         let mut t = Table::new(
             &[
                 "estimate",
@@ -181,7 +191,11 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         let _ = writeln!(s, "{}", t.render());
         if p.slope.is_some() {
             let smallest = p.smallest_dose_excluding_zero.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into());
-            let _ = writeln!(s, "Smallest dose whose pooled interval excludes zero: {smallest}.\n");
+            let step = p.step_down_dose.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into());
+            let _ = writeln!(
+                s,
+                "Smallest dose whose pooled interval excludes zero: {smallest} (descriptive, no multiplicity control). Lowest dose reached by step-down testing from the largest dose (family-wise error at most 1 - level): {step}.\n"
+            );
         }
     }
     if !a.figures.is_empty() {

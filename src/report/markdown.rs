@@ -55,7 +55,11 @@ pub fn render_markdown(a: &Analysis) -> String {
     section(&mut s, "Per-seed optimism", "", &per_seed(a));
     section(&mut s, "Mean difference by trajectory", "", &per_trajectory(a));
     let note = if a.units.iter().any(|u| u.conditional.pairs_dropped > 0) {
-        "Conditional RMSE is paired: means and the contrast use the recording x seed pairs where both arms have a finite value. Where pairs were dropped (column `pairs dropped`), the contrast is estimated by REML with Kenward-Roger df."
+        if a.units.first().and_then(|u| u.estimate.reml.as_ref()).is_some() {
+            "Conditional RMSE is paired: means and the contrast use the recording x seed pairs where both arms have a finite value. Where pairs were dropped (column `pairs dropped`), the contrast is estimated by the preregistered REML estimator on the pairs left."
+        } else {
+            "Conditional RMSE is paired: means and the contrast use the recording x seed pairs where both arms have a finite value. Where pairs were dropped (column `pairs dropped`), the preregistered method of moments (which needs every pair) cannot be used: the contrast is estimated by REML with Kenward-Roger df instead."
+        }
     } else {
         ""
     };
@@ -126,6 +130,19 @@ fn header(a: &Analysis) -> String {
         a.seeds.len(),
         level_pct(a.level)
     );
+    let singular: Vec<String> = a
+        .units
+        .iter()
+        .filter(|u| u.estimate.reml.is_some_and(|r| r.singular))
+        .map(|u| format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s))
+        .collect();
+    if !singular.is_empty() {
+        let _ = writeln!(
+            s,
+            "Singular REML fit (a variance component estimated at zero, as lme4's isSingular says) for {}. There Satterthwaite's df hold the zero component fixed while Kenward-Roger's keep it through a generalized inverse, so the two df differ.",
+            singular.join("; ")
+        );
+    }
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`.");
     }
@@ -326,7 +343,13 @@ fn conditional(a: &Analysis, level: &str) -> Table {
         let opt = |v: Option<f64>| v.map(|x| f(x, 4)).unwrap_or_else(|| "NA".into());
         let (dm, dci) = match &c.difference {
             Some(e) => (f(e.mean, 4), ci(e)),
-            None => ("NA".into(), format!("({} pairs without a finite rollout in both arms)", c.pairs_dropped)),
+            None => (
+                "NA".into(),
+                match &c.difference_error {
+                    Some(e) => format!("(not estimable on the {} pairs left: {e})", c.pairs_dropped),
+                    None => format!("({} pairs without a finite rollout in both arms)", c.pairs_dropped),
+                },
+            ),
         };
         let mut row = vec![
             unit_name(u),

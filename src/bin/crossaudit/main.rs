@@ -137,6 +137,28 @@ enum Command {
         #[arg(long, default_value = "plan")]
         out: PathBuf,
     },
+    /// Fit a linear mixed model with random intercepts (crossed or nested)
+    /// to any tidy CSV, as lme4's lmer with lmerTest's and pbkrtest's
+    /// small-sample df: `y ~ 1 + x + f + (1|a) + (1|b) + (1|a:c)`.
+    Mixed {
+        /// The CSV file: a header row of column names, one row per observation.
+        data: PathBuf,
+        /// The model, in lme4's formula language (random intercepts only).
+        #[arg(long)]
+        formula: String,
+        /// Maximum likelihood instead of REML.
+        #[arg(long)]
+        ml: bool,
+        /// Denominator df of the fixed-effect t tests (REML fits).
+        #[arg(long, default_value = "satterthwaite", value_parser = ["satterthwaite", "kenward-roger"])]
+        df: String,
+        /// Profile-likelihood intervals of the standard deviations at this level (e.g. 0.95).
+        #[arg(long)]
+        profile: Option<f64>,
+        /// Print every number as JSON instead of the summary.
+        #[arg(long)]
+        json: bool,
+    },
     /// Generate the recordings of a `data simulated` design (NanoBench schema).
     Simulate {
         design: PathBuf,
@@ -268,6 +290,7 @@ fn main() -> ExitCode {
             power(&design, &cells, (&splits, &recordings, &seeds), &out)
         }
         Command::Simulate { design, out } => simulate(&design, &out),
+        Command::Mixed { data, formula, ml, df, profile, json } => mixed(&data, &formula, ml, &df, profile, json),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -558,6 +581,22 @@ fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
         crossaudit::sim::RECORD,
         out.display()
     );
+    Ok(())
+}
+
+fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, json: bool) -> Result<(), Error> {
+    use crossaudit::stats::mixed::{formula::DfMethod, Criterion};
+    let criterion = if ml { Criterion::Ml } else { Criterion::Reml };
+    let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
+    let fit = crossaudit::stats::mixed::formula::fit_file(data, formula, criterion, df, profile)?;
+    if json {
+        print!("{}", crossaudit::io::pretty_json(&fit));
+    } else {
+        print!("{}", fit.summary());
+    }
+    if !fit.fit.certificate.certified {
+        eprintln!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
+    }
     Ok(())
 }
 

@@ -46,6 +46,7 @@
 //! assert!((f.intercept - 19.0 / 6.0).abs() < 1e-9); // balanced: the grand mean
 //! ```
 
+pub mod formula;
 mod inference;
 mod optimize;
 mod profile;
@@ -111,6 +112,14 @@ pub enum MixedError {
     /// A profile that never crosses its cutoff.
     #[error("profile-likelihood interval: {0}")]
     Profile(String),
+    /// A random factor whose variance the data cannot identify.
+    #[error("factor {factor} is not identifiable: {reason}")]
+    Unidentifiable {
+        /// Factor name.
+        factor: String,
+        /// Why.
+        reason: String,
+    },
     /// No random factor.
     #[error("a mixed model needs at least one random factor")]
     NoFactor,
@@ -139,20 +148,12 @@ struct Factor {
     levels: usize,
 }
 
-/// A categorical fixed effect, coded by treatment contrasts.
-#[derive(Debug, Clone, PartialEq)]
-struct FixedFactor {
-    name: String,
-    /// Levels, sorted; the first is the reference.
-    labels: Vec<String>,
-    codes: Vec<usize>,
-}
-
 /// Response, fixed effects and random factors, validated.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MixedData {
     y: Vec<f64>,
-    fixed: Vec<FixedFactor>,
+    /// Fixed-effect columns beside the intercept: R's name and values.
+    columns: Vec<(String, Vec<f64>)>,
     factors: Vec<Factor>,
 }
 
@@ -192,9 +193,33 @@ impl MixedData {
             if map.len() < 2 {
                 return Err(MixedError::TooFewLevels { factor: name, levels: map.len() });
             }
+            // lme4's check.nobs.vs.nlev: a factor with as many levels as
+            // observations is confounded with the residual, and any split
+            // of the variance between the two fits equally well.
+            if map.len() >= n {
+                return Err(MixedError::Unidentifiable {
+                    factor: name,
+                    reason: format!(
+                        "it has {} levels for {n} observations, so it cannot be told apart from the residual (lme4 refuses this too: the number of levels of each grouping factor must be < the number of observations)",
+                        map.len()
+                    ),
+                });
+            }
+            // Two factors that group the observations the same way (codes
+            // relabelled by first appearance are then equal) share one
+            // variance in any proportion.
+            if let Some(other) = out.iter().find(|f: &&Factor| f.codes == dense) {
+                return Err(MixedError::Unidentifiable {
+                    factor: name,
+                    reason: format!(
+                        "it groups the observations exactly as factor {} does, so their variances cannot be told apart",
+                        other.name
+                    ),
+                });
+            }
             out.push(Factor { name, codes: dense, levels: map.len() });
         }
-        Ok(MixedData { y, fixed: Vec::new(), factors: out })
+        Ok(MixedData { y, columns: Vec::new(), factors: out })
     }
 
     /// Adds a categorical fixed effect with one label per observation. Its
@@ -212,8 +237,31 @@ impl MixedData {
         if sorted.len() < 2 {
             return Err(MixedError::TooFewLevels { factor: name.into(), levels: sorted.len() });
         }
-        let codes = labels.iter().map(|l| sorted.binary_search(l).unwrap_or(0)).collect();
-        self.fixed.push(FixedFactor { name: name.into(), labels: sorted, codes });
+        let codes: Vec<usize> = labels.iter().map(|l| sorted.binary_search(l).unwrap_or(0)).collect();
+        for (level, label) in sorted.iter().enumerate().skip(1) {
+            let column = codes.iter().map(|&c| if c == level { 1.0 } else { 0.0 }).collect();
+            self.columns.push((format!("{name}{label}"), column));
+        }
+        Ok(self)
+    }
+
+    /// Adds fixed-effect columns of the design matrix as they are (a
+    /// numeric covariate, a contrast or indicator column, a product of
+    /// them for an interaction), each with its name. The intercept is
+    /// always the first column and is not given here. Aliased columns are
+    /// refused when the model is fitted.
+    pub fn with_columns(mut self, columns: Vec<(String, Vec<f64>)>) -> Result<MixedData, MixedError> {
+        for (name, values) in columns {
+            if values.len() != self.y.len() {
+                return Err(MixedError::Length { factor: name, found: values.len(), expected: self.y.len() });
+            }
+            if let Some((row, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(MixedError::FixedEffects(format!(
+                    "column {name}, observation {row}: {value} is not finite"
+                )));
+            }
+            self.columns.push((name, values));
+        }
         Ok(self)
     }
 
@@ -229,16 +277,12 @@ impl MixedData {
 
     /// Number of fixed-effect columns.
     fn p(&self) -> usize {
-        1 + self.fixed.iter().map(|f| f.labels.len() - 1).sum::<usize>()
+        1 + self.columns.len()
     }
 
     /// Names of the fixed-effect columns, R's way.
     fn fixed_names(&self) -> Vec<String> {
-        let mut names = vec!["(Intercept)".to_string()];
-        for f in &self.fixed {
-            names.extend(f.labels[1..].iter().map(|l| format!("{}{l}", f.name)));
-        }
-        names
+        std::iter::once("(Intercept)".to_string()).chain(self.columns.iter().map(|(n, _)| n.clone())).collect()
     }
 
     /// The fixed-effect design, n x p row-major.
@@ -247,12 +291,8 @@ impl MixedData {
         let mut x = vec![0.0; self.y.len() * p];
         for i in 0..self.y.len() {
             x[i * p] = 1.0;
-            let mut col = 1;
-            for f in &self.fixed {
-                if f.codes[i] > 0 {
-                    x[i * p + col + f.codes[i] - 1] = 1.0;
-                }
-                col += f.labels.len() - 1;
+            for (c, (_, values)) in self.columns.iter().enumerate() {
+                x[i * p + 1 + c] = values[i];
             }
         }
         x
@@ -331,10 +371,43 @@ pub struct MixedFit {
     pub shares: Vec<f64>,
     /// Every fixed-effect coefficient, the intercept first.
     pub fixed: Vec<FixedEffect>,
+    /// Why the optimum is one: the first-order conditions checked where
+    /// the optimizer stopped.
+    pub certificate: Certificate,
     /// Deviance evaluations used.
     pub evaluations: usize,
     /// Observations.
     pub n: usize,
+}
+
+/// The optimizer's certificate: the first-order (Karush-Kuhn-Tucker)
+/// conditions of a minimum of the profiled deviance over theta >= 0,
+/// checked by differences at the point returned. Off the boundary the
+/// gradient must vanish; on it (theta_k = 0) leaving the boundary must not
+/// lower the deviance. The deviance depends on theta_k only through
+/// theta_k^2, so its derivative in theta_k is zero at zero whatever the
+/// optimum: the boundary condition is on the derivative in the variance,
+/// theta_k^2, and on the deviance along a ladder of thetas from 0.01 to 3.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Certificate {
+    /// Largest |d deviance / d theta_k| over the thetas off the boundary
+    /// (central differences); 0 when every theta is at zero.
+    pub gradient: f64,
+    /// The decrease of the deviance a Newton step on the diagonal
+    /// curvature would still give, sum g_k^2 / (2 H_kk): how far from the
+    /// optimum the point can be, in deviance units.
+    pub predicted_decrease: f64,
+    /// Per factor, the one-sided derivative d deviance / d(theta_k^2) at
+    /// the boundary (non-negative at a boundary optimum); `None` for a
+    /// factor off the boundary.
+    pub boundary: Vec<Option<f64>>,
+    /// Whether every condition holds: predicted decrease below 1e-7 of the
+    /// deviance (and 1e-6 absolute), every boundary derivative
+    /// non-negative (to rounding) and no point of the ladder lower.
+    pub certified: bool,
+    /// Optimizer restarts the certificate asked for (0 when the first
+    /// search was certified).
+    pub restarts: usize,
 }
 
 /// Kenward-Roger inference for the intercept: the small-sample adjusted
@@ -358,9 +431,9 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
     fit_with(data, criterion, Inference::Full)
 }
 
-/// The optimum of the profiled deviance: theta, its deviance and the
-/// evaluations used.
-fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, usize), MixedError> {
+/// The optimum of the profiled deviance: theta, its deviance, the
+/// evaluations used and its certificate.
+fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, usize, Certificate), MixedError> {
     let k = s.factors();
     let moments = s.moment_start();
     // The start is evaluated directly, so that a system that cannot be
@@ -372,12 +445,12 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
         evaluations.set(evaluations.get() + 1);
         s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
     };
-    // Newton on difference derivatives from lme4's start; where it does
+    // Newton on difference derivatives from the moment start; where it does
     // not converge (a Hessian not positive definite far from the optimum,
     // an optimum on the boundary), Nelder-Mead to a relative 1e-4 and
     // Newton again, and then Nelder-Mead restarts with smaller simplices.
     let start = vec![1.0; k];
-    let (mut best, mut best_dev, mut converged) = optimize::newton(&mut dev, moments, f0, 20);
+    let (mut best, mut best_dev, mut converged) = optimize::newton(&mut dev, moments.clone(), f0, 20);
     if !converged {
         let (t, d) = optimize::nelder_mead(&mut dev, &start, 0.5, 1e-4);
         if d < best_dev {
@@ -408,7 +481,55 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
             (best, best_dev) = (x, fx);
         }
     }
-    Ok((best, best_dev, evaluations.get()))
+    // The certificate: the first-order conditions of a minimum over
+    // theta >= 0 (Karush-Kuhn-Tucker), checked where the search stopped.
+    // Newton holds a theta it clamped to zero there for good, and a
+    // clamped simplex collapses into the face it hits, so a boundary point
+    // that is not the optimum can look converged: where the certificate
+    // fails, the search leaves the boundary in the direction that lowers
+    // the deviance and restarts from several points, by Nelder-Mead over
+    // all of R^k (the deviance is even in each theta, so zero is an
+    // ordinary point for it) and Newton, until the certificate holds.
+    let mut certificate = optimize::certify(&mut dev, &best, best_dev);
+    let mut restarts = 0;
+    for _ in 0..4 {
+        if certificate.certified {
+            break;
+        }
+        let mut starts: Vec<Vec<f64>> = certificate.escapes.clone();
+        starts.push(best.clone());
+        starts.push(moments.clone());
+        starts.push(start.clone());
+        starts.push(best.iter().map(|t| t.max(0.5)).collect());
+        for from in starts {
+            restarts += 1;
+            let (t, d) = optimize::nelder_mead_even(&mut dev, &from, 0.5, 1e-12);
+            let t: Vec<f64> = t.into_iter().map(|v| if v < 1e-6 { 0.0 } else { v }).collect();
+            let d = if t.iter().any(|v| *v == 0.0) { dev(&t).min(d) } else { d };
+            let (mut t, mut d, converged) = optimize::newton(&mut dev, t, d, 30);
+            if !converged {
+                for step in [0.1, 0.01, 1e-3] {
+                    let (t2, d2) = optimize::nelder_mead_even(&mut dev, &t, step, 1e-14);
+                    if d2 < d {
+                        (t, d) = (t2, d2);
+                    }
+                }
+                (t, d, _) = optimize::newton(&mut dev, t, d, 12);
+            }
+            if d < best_dev {
+                (best, best_dev) = (t, d);
+            }
+        }
+        certificate = optimize::certify(&mut dev, &best, best_dev);
+    }
+    let certificate = Certificate {
+        gradient: certificate.gradient,
+        predicted_decrease: certificate.predicted_decrease,
+        boundary: certificate.boundary,
+        certified: certificate.certified,
+        restarts,
+    };
+    Ok((best, best_dev, evaluations.get(), certificate))
 }
 
 /// Fits the model by REML or ML, with the inference `inference` asks for.
@@ -437,7 +558,7 @@ fn fit_system(
     if aliased {
         return Err(MixedError::FixedEffects(format!("the columns {:?} are linearly dependent", data.fixed_names())));
     }
-    let (best, _, evaluations) = optimum(s, criterion)?;
+    let (best, _, evaluations, certificate) = optimum(s, criterion)?;
     let e = s.evaluate(&best, criterion)?;
     let total = s.y.iter().map(|v| v * v).sum::<f64>() / (s.n - 1.0);
     if e.sigma2 <= 1e-10 * total {
@@ -481,6 +602,7 @@ fn fit_system(
         se: fixed[0].se,
         fixed,
         deviance: e.deviance,
+        certificate,
         evaluations,
         n: data.len(),
     })

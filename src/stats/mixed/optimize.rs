@@ -7,8 +7,39 @@ use faer::{Mat, Side};
 /// clamped at zero), from `start`, until the simplex's deviances agree to a
 /// relative `tol`, its vertices to 1e-10, or 20,000 iterations.
 pub(super) fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, start: &[f64], step: f64, tol: f64) -> (Vec<f64>, f64) {
+    simplex_search(f, start, step, tol, true)
+}
+
+/// Nelder-Mead over all of R^k, for a deviance that is even in every
+/// coordinate (it depends on theta only through theta^2): the boundary
+/// theta = 0 is then an ordinary interior point, which a simplex crosses
+/// and leaves as easily as any other, where clamped reflections collapse
+/// the simplex into the face they hit. Returns |theta|.
+pub(super) fn nelder_mead_even(
+    f: &mut dyn FnMut(&[f64]) -> f64,
+    start: &[f64],
+    step: f64,
+    tol: f64,
+) -> (Vec<f64>, f64) {
+    let (x, fx) = simplex_search(f, start, step, tol, false);
+    (x.into_iter().map(f64::abs).collect(), fx)
+}
+
+fn simplex_search(
+    f: &mut dyn FnMut(&[f64]) -> f64,
+    start: &[f64],
+    step: f64,
+    tol: f64,
+    bounded: bool,
+) -> (Vec<f64>, f64) {
     let k = start.len();
-    let clamp = |v: Vec<f64>| -> Vec<f64> { v.into_iter().map(|x| x.max(0.0)).collect() };
+    let clamp = |v: Vec<f64>| -> Vec<f64> {
+        if bounded {
+            v.into_iter().map(|x| x.max(0.0)).collect()
+        } else {
+            v
+        }
+    };
     let mut simplex: Vec<Vec<f64>> = vec![start.to_vec()];
     for i in 0..k {
         let mut v = start.to_vec();
@@ -158,4 +189,90 @@ pub(super) fn newton(
         }
     }
     (x, fx, false)
+}
+
+/// The first-order conditions at `x` (see `Certificate` in the parent
+/// module), and the points that leave the boundary to a lower deviance.
+pub(super) struct Checked {
+    pub gradient: f64,
+    pub predicted_decrease: f64,
+    pub boundary: Vec<Option<f64>>,
+    pub certified: bool,
+    /// For each boundary theta whose ladder found a lower deviance: `x`
+    /// with that theta at the lowest point of its ladder.
+    pub escapes: Vec<Vec<f64>>,
+}
+
+/// A theta below this is on the boundary (lme4's `isSingular` flags
+/// 1e-4; a theta of 1e-6 is a variance ratio of 1e-12).
+const BOUNDARY: f64 = 1e-6;
+
+/// Checks the first-order conditions of a minimum over theta >= 0 at `x`
+/// (deviance `fx`). Off the boundary: central differences with a step of
+/// 1e-3 of max(theta, 0.1), which the deviance's evenness lets cross zero;
+/// the predicted decrease sum g^2 / (2 H_kk) must be below 1e-7 of the
+/// deviance (at least 1e-6), and every H_kk positive. On it: the
+/// one-sided derivative in theta^2 from a step of 0.01, and the deviance
+/// at theta = 0.01, 0.03, 0.1, 0.3, 1 and 3 (the rest held), none lower
+/// than `fx` beyond rounding (1e-10 of the deviance).
+pub(super) fn certify(f: &mut dyn FnMut(&[f64]) -> f64, x: &[f64], fx: f64) -> Checked {
+    let k = x.len();
+    let tolerance = (1e-7 * fx.abs()).max(1e-6);
+    let rounding = 1e-10 * fx.abs().max(1.0);
+    let mut gradient: f64 = 0.0;
+    let mut predicted_decrease = 0.0;
+    let mut boundary = vec![None; k];
+    let mut escapes = Vec::new();
+    let mut certified = fx.is_finite();
+    for j in 0..k {
+        let mut y = x.to_vec();
+        if x[j] < BOUNDARY {
+            let mut at = |t: f64| {
+                y[j] = t;
+                f(&y)
+            };
+            let h = 1e-2;
+            let derivative = (at(h) - fx) / (h * h - x[j] * x[j]);
+            boundary[j] = Some(derivative);
+            let mut lowest = (fx - rounding, None);
+            for t in [0.01, 0.03, 0.1, 0.3, 1.0, 3.0] {
+                let v = at(t);
+                if v < lowest.0 {
+                    lowest = (v, Some(t));
+                }
+            }
+            if let (_, Some(t)) = lowest {
+                let mut e = x.to_vec();
+                e[j] = t;
+                escapes.push(e);
+                certified = false;
+            } else if derivative * h * h < -rounding {
+                let mut e = x.to_vec();
+                e[j] = h;
+                escapes.push(e);
+                certified = false;
+            }
+        } else {
+            let h = 1e-3 * x[j].max(0.1);
+            y[j] = x[j] + h;
+            let fp = f(&y);
+            y[j] = x[j] - h;
+            let fm = f(&y);
+            let g = (fp - fm) / (2.0 * h);
+            let curvature = (fp - 2.0 * fx + fm) / (h * h);
+            gradient = gradient.max(g.abs());
+            if curvature > 0.0 {
+                predicted_decrease += g * g / (2.0 * curvature);
+            } else if (fp.min(fm)) < fx - rounding {
+                certified = false;
+            }
+            if !fp.is_finite() || !fm.is_finite() {
+                certified = false;
+            }
+        }
+    }
+    if !(predicted_decrease <= tolerance) {
+        certified = false;
+    }
+    Checked { gradient, predicted_decrease, boundary, certified, escapes }
 }

@@ -316,23 +316,28 @@ impl System {
     /// the other factors, so it is only a start (near the optimum when
     /// the factors are crossed and roughly balanced); 1 where undefined,
     /// and kept in [0.05, 1000].
+    /// With fixed effects beyond the intercept the analyses are of the
+    /// ordinary least-squares residuals, so that a fixed effect that
+    /// varies between a factor's levels is not taken for that factor's
+    /// variance (which can start the search in the wrong basin).
     pub fn moment_start(&self) -> Vec<f64> {
         let k = self.factors();
         let n = self.n;
+        let residuals = self.ols_residuals();
+        let y = residuals.as_deref().unwrap_or(&self.y);
         let mut between = vec![0.0; k];
         let mut within = vec![f64::INFINITY; k];
         let mut n0 = vec![0.0; k];
         for j in 0..k {
             let l = self.levels[j];
             let (mut sum, mut cnt) = (vec![0.0; l], vec![0.0; l]);
-            for (i, y) in self.y.iter().enumerate() {
+            for (i, y) in y.iter().enumerate() {
                 sum[self.codes[i * k + j]] += y;
                 cnt[self.codes[i * k + j]] += 1.0;
             }
             let mean = |a: usize| sum[a] / cnt[a];
-            let ssb: f64 =
-                (0..l).map(|a| cnt[a] * mean(a) * mean(a)).sum::<f64>() - self.y.iter().sum::<f64>().powi(2) / n;
-            let ssw: f64 = self.y.iter().enumerate().map(|(i, y)| (y - mean(self.codes[i * k + j])).powi(2)).sum();
+            let ssb: f64 = (0..l).map(|a| cnt[a] * mean(a) * mean(a)).sum::<f64>() - y.iter().sum::<f64>().powi(2) / n;
+            let ssw: f64 = y.iter().enumerate().map(|(i, y)| (y - mean(self.codes[i * k + j])).powi(2)).sum();
             if n > l as f64 {
                 within[j] = ssw / (n - l as f64);
             }
@@ -342,7 +347,7 @@ impl System {
         let residual = within.iter().copied().fold(f64::INFINITY, f64::min);
         // A within-level variance that is rounding (a factor reproducing the
         // response) gives no usable ratio; theta is kept in [0.05, 1000].
-        let total = self.y.iter().map(|v| v * v).sum::<f64>() / (n - 1.0);
+        let total = y.iter().map(|v| v * v).sum::<f64>() / (n - 1.0);
         (0..k)
             .map(|j| {
                 let w = if within[j].is_finite() { within[j] } else { residual };
@@ -354,6 +359,24 @@ impl System {
                 }
             })
             .collect()
+    }
+
+    /// y - X beta by ordinary least squares; `None` for an intercept-only
+    /// model (the centred response already is that) or a singular X'X.
+    fn ols_residuals(&self) -> Option<Vec<f64>> {
+        use faer::linalg::solvers::Solve;
+        if self.p == 1 {
+            return None;
+        }
+        let llt = self.xtx.llt(faer::Side::Lower).ok()?;
+        let beta = llt.solve(Mat::<f64>::from_fn(self.p, 1, |i, _| self.xty[i]));
+        Some(
+            self.y
+                .iter()
+                .enumerate()
+                .map(|(i, yi)| yi - (0..self.p).map(|c| self.x[i * self.p + c] * beta[(c, 0)]).sum::<f64>())
+                .collect(),
+        )
     }
 
     /// The deviance at `theta` and `sigma`, not profiled over sigma
