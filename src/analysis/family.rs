@@ -507,7 +507,7 @@ fn pooled_estimate(
     let data =
         MixedData::new(y, vec![("split".to_string(), fs), ("recording".to_string(), fr), ("seed".to_string(), fj)])
             .map_err(stats)?;
-    let fit = mixed::fit(&data, Criterion::Reml).map_err(stats)?;
+    let fit = mixed::fit(&data, Criterion::Reml).and_then(|f| f.certified()).map_err(stats)?;
     let (se, df, df_rule) = match (plan.estimator.df, fit.kenward_roger) {
         (DfRule::KenwardRoger, Some(kr)) => (kr.se, kr.df, "kenward_roger"),
         _ => (fit.se, fit.df_satterthwaite.unwrap_or(f64::NAN), "satterthwaite"),
@@ -606,5 +606,27 @@ impl FamilyAnalysis {
     /// Records the per-cell file analysed and its SHA-256.
     pub fn record_cells(&mut self, path: &std::path::Path, sha256: &str) {
         self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{smallest_excluding_zero, step_down};
+
+    /// Doses 1%, 5%, 10% with intervals that exclude zero at 1% and 10%
+    /// but not at 5%: the descriptive rule picks 1%, while step-down
+    /// testing from 10% stops at 5% and keeps 10% (a 1% finding reached
+    /// past a non-rejection is exactly what it does not allow).
+    #[test]
+    fn step_down_stops_at_the_first_interval_that_includes_zero() {
+        let intervals = [(1.0, -0.3, -0.01), (5.0, -0.2, 0.05), (10.0, -0.5, -0.2)];
+        assert_eq!(smallest_excluding_zero(intervals.iter().copied()), Some(1.0));
+        assert_eq!(step_down(intervals.iter().copied()), Some(10.0));
+        // Every interval excludes zero: both pick the smallest dose.
+        let all = [(1.0, -0.3, -0.01), (5.0, -0.2, -0.05), (10.0, -0.5, -0.2)];
+        assert_eq!(step_down(all.iter().copied()), Some(1.0));
+        // The largest dose includes zero: nothing is claimed.
+        let none = [(1.0, -0.3, -0.01), (10.0, -0.5, 0.2)];
+        assert_eq!(step_down(none.iter().copied()), None);
     }
 }

@@ -279,7 +279,7 @@ pub(crate) fn crossed_reml_fit(cells: &[(usize, usize, f64)]) -> Result<super::m
         ],
     )
     .map_err(fail)?;
-    fit(&data, Criterion::Reml).map_err(fail)
+    fit(&data, Criterion::Reml).and_then(|f| f.certified()).map_err(fail)
 }
 
 /// The estimate from a REML fit of `cells` cells of a `size`-cell array.

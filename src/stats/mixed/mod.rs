@@ -112,6 +112,17 @@ pub enum MixedError {
     /// A profile that never crosses its cutoff.
     #[error("profile-likelihood interval: {0}")]
     Profile(String),
+    /// The optimizer's certificate failed after every restart: the point
+    /// it stopped at may not be the optimum.
+    #[error("the REML/ML optimizer could not certify its optimum (largest gradient {gradient:.3e}, predicted decrease {predicted_decrease:.3e}) after {restarts} restarts; no estimate is reported")]
+    NotCertified {
+        /// Largest |gradient| off the boundary.
+        gradient: f64,
+        /// Decrease a Newton step would still give.
+        predicted_decrease: f64,
+        /// Restarts tried.
+        restarts: usize,
+    },
     /// A random factor whose variance the data cannot identify.
     #[error("factor {factor} is not identifiable: {reason}")]
     Unidentifiable {
@@ -327,6 +338,24 @@ pub struct FixedEffect {
     pub df_satterthwaite: Option<f64>,
     /// Kenward-Roger SE and df (REML with [`Inference::Full`]).
     pub kenward_roger: Option<KenwardRoger>,
+}
+
+impl MixedFit {
+    /// The fit, or [`MixedError::NotCertified`] when its certificate failed:
+    /// for callers that must not go on from a point that may not be the
+    /// optimum.
+    pub fn certified(self) -> Result<MixedFit, MixedError> {
+        let c = &self.certificate;
+        if c.certified {
+            Ok(self)
+        } else {
+            Err(MixedError::NotCertified {
+                gradient: c.gradient,
+                predicted_decrease: c.predicted_decrease,
+                restarts: c.restarts,
+            })
+        }
+    }
 }
 
 /// A fitted model.
