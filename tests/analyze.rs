@@ -359,3 +359,33 @@ fn the_committed_audited_run_analysis_is_locked() {
     let s = locked_real_run("designs/nanobench_audited.design", "results/nanobench_audited/cells.csv");
     snapshots!({ insta::assert_snapshot!(s) });
 }
+
+/// Issue 30: a single-contrast report never said when its REML fit was
+/// singular. The minimal design's hand-built cells, analysed by REML with
+/// Satterthwaite df: d_ij = -0.06 + 0.005 ((3i + 7j) mod 5) has no
+/// recording or seed main effect to speak of, so the fits are singular;
+/// the report's header names each singular unit and says why its
+/// Satterthwaite and Kenward-Roger df differ.
+#[test]
+fn a_singular_reml_fit_is_named_in_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(minimal_design_path()).unwrap();
+    let design = dir.path().join("reml.design");
+    std::fs::write(
+        &design,
+        // Both models have the same cells, so their interaction is zero
+        // everywhere: it is left out.
+        text.replace("estimate crossed_mom level 0.95 df seed - 1", "estimate reml level 0.95 df satterthwaite")
+            .replace("interaction world - relative\n", ""),
+    )
+    .unwrap();
+    let cells = write_temp_cells(dir.path(), &minimal_cells(&minimal_design()));
+    let a = crossaudit::analyze_files(&design, &cells, Default::default()).unwrap();
+    let singular: Vec<_> = a.units.iter().filter(|u| u.estimate.reml.unwrap().singular).collect();
+    assert!(!singular.is_empty(), "the hand-built cells give singular fits");
+    let report = crossaudit::report::render_markdown(&a);
+    assert!(report.contains("Singular REML fit"), "{report}");
+    for u in singular {
+        assert!(report.contains(&format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s)), "{report}");
+    }
+}

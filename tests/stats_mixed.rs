@@ -334,6 +334,37 @@ fn the_conditional_rmse_contrast_is_paired() {
     assert!(checked > 0, "the control should have units with dropped pairs");
 }
 
+/// Issue 30: with pairs dropped, the conditional contrast used REML with
+/// Kenward-Roger df whatever was preregistered. A REML design now gets its
+/// own df rule (here Satterthwaite); a method-of-moments design, which
+/// needs every pair, gets REML with Kenward-Roger df, as its report says.
+#[test]
+fn the_conditional_contrast_keeps_the_preregistered_reml_df_rule() {
+    let run = root().join("results/simulated_controls/strength_high");
+    let text = std::fs::read_to_string(root().join("designs/simulated_control_high.design")).unwrap();
+    assert!(text.contains("estimate crossed_mom level 0.95 df seed - 1"));
+    let dir = tempfile::tempdir().unwrap();
+    let reml = dir.path().join("reml.design");
+    std::fs::write(
+        &reml,
+        text.replace("estimate crossed_mom level 0.95 df seed - 1", "estimate reml level 0.95 df satterthwaite"),
+    )
+    .unwrap();
+    for (design, rule) in [
+        (reml, crossaudit::stats::DfRule::Satterthwaite),
+        (root().join("designs/simulated_control_high.design"), crossaudit::stats::DfRule::KenwardRoger),
+    ] {
+        let a = crossaudit::analyze_files(&design, &run.join("cells.csv"), Default::default()).unwrap();
+        let mut checked = 0;
+        for u in a.units.iter().filter(|u| u.conditional.pairs_dropped > 0) {
+            let e = u.conditional.difference.as_ref().unwrap();
+            assert_eq!(e.reml.unwrap().df_rule, rule, "{}", design.display());
+            checked += 1;
+        }
+        assert!(checked > 0);
+    }
+}
+
 #[test]
 fn three_factors_crossed_and_nested_match_lme4() {
     // a crossed with b, c nested in a (the factor a:c), 14 of 144 cells
