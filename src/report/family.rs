@@ -189,6 +189,15 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
             row(&mut t, e);
         }
         let _ = writeln!(s, "{}", t.render());
+        let singular: Vec<&str> =
+            p.doses.iter().chain(p.slope.as_ref()).filter(|e| e.singular).map(|e| e.label.as_str()).collect();
+        if !singular.is_empty() {
+            let _ = writeln!(
+                s,
+                "Singular pooled fit (a variance component estimated at zero) for {}. There Satterthwaite's df hold the zero component fixed while Kenward-Roger's keep it through a generalized inverse, so the two df differ.\n",
+                singular.join(", ")
+            );
+        }
         if p.slope.is_some() {
             let smallest = p.smallest_dose_excluding_zero.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into());
             let step = p.step_down_dose.map(|p| format!("{p}%")).unwrap_or_else(|| "none".into());
