@@ -134,6 +134,13 @@ pub struct Plan {
     pub seeds: Vec<Seed>,
     /// Number of evaluation recordings I.
     pub recordings: usize,
+    /// Rollout starts per evaluation recording (`starts N`): the `n_starts`
+    /// of every cell a run of the design writes.
+    pub starts: usize,
+    /// The pinned evaluation recordings (`evaluation recordings "..."`, or
+    /// a published split's evaluation roles); empty when they are drawn.
+    #[serde(skip)]
+    pub pinned_recordings: Vec<String>,
     /// Whether evaluation recordings without a CSV may be left out
     /// (`missing csv allow`): the cells then hold at least 2 and at most I.
     pub recordings_may_be_absent: bool,
@@ -213,6 +220,8 @@ pub fn compile(design: &Design) -> Plan {
         arms: design.arms.clone(),
         seeds: design.seeds.clone(),
         recordings: design.recording.evaluation,
+        starts: design.recording.starts,
+        pinned_recordings: design.recording.listed.iter().map(|l| l.name.clone()).collect(),
         recordings_may_be_absent: design.data.missing_csv_allowed,
         conditions: design.recording.conditions.clone(),
         contrast: design.contrast.clone(),

@@ -118,3 +118,42 @@ pub fn read_metadata(path: &Path) -> Result<Metadata, String> {
         format!("{}: invalid metadata{at}: {e}", path.display())
     })
 }
+
+/// The metadata numbers no recording can have, each located by line and
+/// column in `path`: a speed that is not a finite number >= 0 m/s, a
+/// battery voltage that is not a finite number > 0 V. A speed label or a
+/// battery check read from such a value would be a plausible wrong answer
+/// (`.nan` and `-5` both compare as below every threshold), so the audit
+/// refuses them whatever the design's strictness.
+pub fn impossible_values(path: &Path, m: &Metadata) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let at = |key: &str| -> String {
+        text.lines()
+            .enumerate()
+            .find_map(|(k, l)| {
+                let start = l.len() - l.trim_start().len();
+                let rest = l[start..].strip_prefix(key)?.strip_prefix(':')?;
+                let value = start + key.len() + 1 + (rest.len() - rest.trim_start().len());
+                Some(format!("line {}, column {}", k + 1, value + 1))
+            })
+            .unwrap_or_else(|| "line ?".to_string())
+    };
+    let mut out = Vec::new();
+    let checks: [(&str, &str, Option<f64>, fn(f64) -> bool, &str); 3] = [
+        ("speed_mps", "params.speed_mps", m.params.speed_mps, |v| v >= 0.0, "a finite speed >= 0 m/s"),
+        (
+            "battery_voltage_start",
+            "battery_voltage_start",
+            m.battery_voltage_start,
+            |v| v > 0.0,
+            "a finite voltage > 0 V",
+        ),
+        ("battery_voltage_end", "battery_voltage_end", m.battery_voltage_end, |v| v > 0.0, "a finite voltage > 0 V"),
+    ];
+    for (key, name, value, ok, expected) in checks {
+        if let Some(v) = value.filter(|v| !v.is_finite() || !ok(*v)) {
+            out.push(format!("{}: {}: `{name}` is {v}, expected {expected}", path.display(), at(key)));
+        }
+    }
+    out
+}
