@@ -169,11 +169,12 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     // Every evaluation recording gets exactly `starts` rollout starts
     // (split/mod.rs, draw_starts), in every arm.
     if c.n_starts != plan.starts as u64 {
-        return Err(impossible(
-            "n_starts",
-            c.n_starts as f64,
-            format!("the design gives every evaluation recording `starts {}`, in every arm", plan.starts),
-        ));
+        return Err(AnalysisError::NotInDesign {
+            line: c.line,
+            field: "n_starts",
+            value: c.n_starts.to_string(),
+            known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
+        });
     }
     if !plan.pinned_recordings.is_empty() && !plan.pinned_recordings.contains(&c.recording) {
         let n = plan.pinned_recordings.len();
