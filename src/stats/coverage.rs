@@ -174,8 +174,12 @@ pub struct Performance {
 /// One replication's (estimate, SE, lower, upper).
 pub type Estimate = (f64, f64, f64, f64);
 
-/// Morris, White & Crowther (2019), Table 6, against the true value.
+/// Morris, White & Crowther (2019), Table 6, against the true value, over
+/// the usable replications of `est` (see [`usable`]; `reps` counts them).
+/// Monte Carlo SEs need two or more and are NaN with fewer.
 pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], truth: f64) -> Performance {
+    let est: Vec<Estimate> = est.iter().copied().filter(usable).collect();
+    let est = est.as_slice();
     let n = est.len() as f64;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let var = |v: &[f64]| {
@@ -277,7 +281,7 @@ fn with_missing(
 /// both interval ends are numbers. A Kenward-Roger interval with NaN ends
 /// (df undefined) is not a miss but no interval at all, left out with the
 /// estimator's other undefined replications; an infinite end still covers.
-fn usable(e: &Estimate) -> bool {
+pub fn usable(e: &Estimate) -> bool {
     ![e.0, e.1, e.2, e.3].iter().any(|x| x.is_nan())
 }
 
@@ -306,7 +310,7 @@ pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Re
         .iter()
         .enumerate()
         .map(|(k, &method)| {
-            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).filter(|e| usable(e)).collect();
+            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).collect();
             performance(&label, method, &est, 0.0)
         })
         .collect())
