@@ -46,10 +46,7 @@ fn lock_records_hash_and_detects_changes() {
     std::fs::write(&path, file.source.replace("level 0.95", "level 0.9")).unwrap();
     let changed = design::load(&path).unwrap();
     assert!(matches!(lock::status(&changed).unwrap(), LockStatus::LockedChanged { .. }));
-    assert!(
-        lock::write_lock(&changed, std::time::UNIX_EPOCH).is_err(),
-        "a changed design is not silently re-locked"
-    );
+    assert!(lock::write_lock(&changed, std::time::UNIX_EPOCH).is_err(), "a changed design is not silently re-locked");
 }
 
 #[test]

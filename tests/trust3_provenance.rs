@@ -119,6 +119,9 @@ fn copy_of_reference(into: &Path) -> PathBuf {
     out
 }
 
+/// A change made to a job record on purpose.
+type JsonEdit = fn(&mut serde_json::Value);
+
 fn edit_json(path: &Path, edit: impl Fn(&mut serde_json::Value)) {
     let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
     edit(&mut v);
@@ -152,7 +155,8 @@ fn train_with_the_same_design_reuses_a_finished_job() {
     let dir = tempfile::tempdir().unwrap();
     let out = copy_of_reference(dir.path());
     let before = tree(&out);
-    let o = crossaudit(&["train", s(design), "--model", "world", "--arm", "contaminated", "--seed", "2", "--out", s(&out)]);
+    let o =
+        crossaudit(&["train", s(design), "--model", "world", "--arm", "contaminated", "--seed", "2", "--out", s(&out)]);
     assert_ok(&o);
     assert!(stderr(&o).contains("had finished") && stderr(&o).contains("nothing run"), "{}", stderr(&o));
     assert_eq!(tree(&out), before);
@@ -189,7 +193,7 @@ fn a_job_record_whose_files_were_emptied_or_cut_is_refused() {
     // Issue 30, class 1: a record whose `files` map was emptied verified
     // nothing, so edited cells were accepted.
     let (_, design, _) = reference();
-    let cases: [(&str, fn(&mut serde_json::Value)); 3] = [
+    let cases: [(&str, JsonEdit); 3] = [
         ("its `files` lists nothing", |v| v["files"] = serde_json::json!({})),
         ("but the job writes", |v| {
             v["files"].as_object_mut().unwrap().remove("models/world__contaminated__1.safetensors");
@@ -231,7 +235,8 @@ fn editing_a_file_the_design_refers_to_makes_its_lock_stale() {
     let dir = tempfile::tempdir().unwrap();
     let (design, pin) = published_copy(dir.path());
     assert_ok(&crossaudit(&["lock", s(&design)]));
-    let lock: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("study.design.lock")).unwrap()).unwrap();
+    let lock: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("study.design.lock")).unwrap()).unwrap();
     assert_eq!(lock["language"], 1);
     assert!(lock["files"]["pin.json"].as_str().is_some_and(|h| h.len() == 64), "{lock}");
     assert!(stdout(&crossaudit(&["check", s(&design)])).contains("lock: locked/unchanged"));
@@ -245,7 +250,10 @@ fn editing_a_file_the_design_refers_to_makes_its_lock_stale() {
     assert_eq!(json["lock"]["status"], "locked_stale");
     assert!(json["lock"]["reason"].as_str().unwrap().contains("`pin.json`"), "{json}");
     let out = dir.path().join("out");
-    assert_refused(&crossaudit(&["run", s(&design), "--out", s(&out)]), "`pin.json`, which the design refers to, changed");
+    assert_refused(
+        &crossaudit(&["run", s(&design), "--out", s(&out)]),
+        "`pin.json`, which the design refers to, changed",
+    );
     assert_refused(&crossaudit(&["lock", s(&design)]), "delete the lock to re-lock");
 }
 
@@ -336,7 +344,8 @@ fn an_unlocked_design_says_not_preregistered_wherever_a_locked_one_is() {
     assert_ok(&o);
     assert!(stdout(&o).starts_with("NOT PREREGISTERED decision:"), "{}", stdout(&o));
     assert!(stderr(&o).contains("was not locked: results are NOT PREREGISTERED"), "{}", stderr(&o));
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(unlocked.join("results.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(unlocked.join("results.json")).unwrap()).unwrap();
     assert_eq!((json["preregistered"].clone(), json["exploratory"].clone()), (false.into(), false.into()));
     let md = std::fs::read_to_string(unlocked.join("report.md")).unwrap();
     assert!(md.lines().next().unwrap().contains("NOT PREREGISTERED"), "{md}");

@@ -139,19 +139,15 @@ pub fn impossible_values(path: &Path, m: &Metadata) -> Vec<String> {
             .unwrap_or_else(|| "line ?".to_string())
     };
     let mut out = Vec::new();
-    let checks: [(&str, &str, Option<f64>, fn(f64) -> bool, &str); 3] = [
-        ("speed_mps", "params.speed_mps", m.params.speed_mps, |v| v >= 0.0, "a finite speed >= 0 m/s"),
-        (
-            "battery_voltage_start",
-            "battery_voltage_start",
-            m.battery_voltage_start,
-            |v| v > 0.0,
-            "a finite voltage > 0 V",
-        ),
-        ("battery_voltage_end", "battery_voltage_end", m.battery_voltage_end, |v| v > 0.0, "a finite voltage > 0 V"),
+    // (key as written, name in messages, value, least value, whether the least is allowed)
+    let checks = [
+        ("speed_mps", "params.speed_mps", m.params.speed_mps, true, "a finite speed >= 0 m/s"),
+        ("battery_voltage_start", "battery_voltage_start", m.battery_voltage_start, false, "a finite voltage > 0 V"),
+        ("battery_voltage_end", "battery_voltage_end", m.battery_voltage_end, false, "a finite voltage > 0 V"),
     ];
-    for (key, name, value, ok, expected) in checks {
-        if let Some(v) = value.filter(|v| !v.is_finite() || !ok(*v)) {
+    for (key, name, value, zero_ok, expected) in checks {
+        let ok = |v: f64| v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0));
+        if let Some(v) = value.filter(|v| !ok(*v)) {
             out.push(format!("{}: {}: `{name}` is {v}, expected {expected}", path.display(), at(key)));
         }
     }

@@ -220,7 +220,9 @@ fn stale(lock: &LockFile, files: &BTreeMap<String, String>) -> Option<String> {
         match locked.get(f) {
             None => return Some(format!("the lock records no hash of `{f}`, which the design refers to")),
             Some(l) if l != sha => {
-                return Some(format!("`{f}`, which the design refers to, changed after the lock: its sha256 is {sha}, the lock records {l}"))
+                return Some(format!(
+                "`{f}`, which the design refers to, changed after the lock: its sha256 is {sha}, the lock records {l}"
+            ))
             }
             Some(_) => {}
         }

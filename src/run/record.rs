@@ -213,7 +213,13 @@ impl JobRecord {
         let listed: Vec<&String> = self.files.keys().collect();
         let expected = JobRecord::expected_files(job);
         if listed != expected.iter().collect::<Vec<_>>() {
-            let shown = |v: Vec<&String>| if v.is_empty() { "nothing".to_string() } else { v.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ") };
+            let shown = |v: Vec<&String>| {
+                if v.is_empty() {
+                    "nothing".to_string()
+                } else {
+                    v.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                }
+            };
             return Err(bad(format!(
                 "its `files` lists {}, but the job writes {}",
                 shown(listed),
