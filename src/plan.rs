@@ -141,6 +141,11 @@ pub struct Plan {
     /// a published split's evaluation roles); empty when they are drawn.
     #[serde(skip)]
     pub pinned_recordings: Vec<String>,
+    /// Every speed label the design's data block can give a recording
+    /// (the file name's token, or the metadata speed's labels, and
+    /// `unknown`).
+    #[serde(skip)]
+    pub speed_labels: Vec<String>,
     /// Whether evaluation recordings without a CSV may be left out
     /// (`missing csv allow`): the cells then hold at least 2 and at most I.
     pub recordings_may_be_absent: bool,
@@ -222,6 +227,12 @@ pub fn compile(design: &Design) -> Plan {
         recordings: design.recording.evaluation,
         starts: design.recording.starts,
         pinned_recordings: design.recording.listed.iter().map(|l| l.name.clone()).collect(),
+        speed_labels: match &design.data.speed {
+            crate::design::SpeedLabels::Name => ["slow", "medium", "fast", "unknown"].map(String::from).to_vec(),
+            crate::design::SpeedLabels::Metadata { labels, .. } => {
+                labels.iter().cloned().chain(std::iter::once("unknown".to_string())).collect()
+            }
+        },
         recordings_may_be_absent: design.data.missing_csv_allowed,
         conditions: design.recording.conditions.clone(),
         contrast: design.contrast.clone(),

@@ -156,8 +156,8 @@ const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
 
 /// Refuses values no rollout under the plan can produce (the row reader
 /// has already refused negative, non-finite and inconsistent counts): a
-/// number of starts other than the design's, a recording the design does
-/// not pin (when it pins them), position errors above the divergence cap, attitude errors above 180
+/// number of starts other than the design's, a speed label its data block
+/// cannot give, a recording the design does not pin (when it pins them), position errors above the divergence cap, attitude errors above 180
 /// degrees, and a failure-aware RMSE that is not the one its conditional
 /// RMSE, divergence count and cap imply. Every non-divergent start's error
 /// is at most the cap, so with n starts, d of them divergent,
@@ -174,6 +174,14 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             field: "n_starts",
             value: c.n_starts.to_string(),
             known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
+        });
+    }
+    if !plan.speed_labels.contains(&c.speed) {
+        return Err(AnalysisError::NotInDesign {
+            line: c.line,
+            field: "speed",
+            value: c.speed.clone(),
+            known: format!("the design's data block labels speeds {}", plan.speed_labels.join(", ")),
         });
     }
     if !plan.pinned_recordings.is_empty() && !plan.pinned_recordings.contains(&c.recording) {

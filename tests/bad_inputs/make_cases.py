@@ -268,6 +268,13 @@ PINNED = MINIMAL.replace("evaluation 4 split_seed 1;",
 case("r3b_cells_recording_not_pinned", "analyze {dir}/study.design --cells {dir}/cells.csv --out {out}",
      {"study.design": PINNED, "cells.csv": GOOD_CELLS_TEXT})
 
+# A speed label the design's data block cannot give (file-name labels).
+def speed_of_recording(rec, label):
+    return all_rows(lambda r: r[:5] + [label] + r[6:] if r[3] == rec else r)
+
+cells("r3b_cells_speed_not_a_label", speed_of_recording("R1_circle_fast_rep1", "ultra"))
+cells("r3b_cells_speed_case_differs", speed_of_recording("R2_circle_slow_rep1", "Slow"))
+
 def meta_speed(value, key="speed_mps", top=False):
     if top:
         return META + f"{key}: {value}\nparams:\n  speed_mps: 0.5\n"
