@@ -59,11 +59,11 @@ pub fn analyze_with(
     cells_path: &Path,
     options: AnalyzeOptions,
 ) -> Result<Analysis, Error> {
-    let status = design::lock::status(&file.path, &file.sha256)?;
+    let status = design::lock::status(file)?;
     let cells = cells::read_cells(cells_path)?;
     let mut a =
         analysis::analyze(plan, &cells, options).map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
-    a.record_design(&file.sha256, &status);
+    a.record_design(&file.path.display().to_string(), &file.sha256, &status);
     a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
     Ok(a)
 }
@@ -90,15 +90,11 @@ pub fn analyze_family_files(
 ) -> Result<analysis::family::FamilyAnalysis, Error> {
     let file = design::load(design_path)?;
     let plan = compile(&file.design);
-    let status = design::lock::status(&file.path, &file.sha256)?;
+    let status = design::lock::status(&file)?;
     let cells = cells::read_cells(cells_path)?;
     let mut a = analysis::family::analyze_family(&plan, &cells, options)
         .map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
-    a.design_sha256 = Some(file.sha256.clone());
-    if let design::LockStatus::LockedChanged { .. } = status {
-        a.exploratory = true;
-        a.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
-    }
+    a.record_design(&file.path.display().to_string(), &file.sha256, &status);
     a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
     Ok(a)
 }

@@ -134,6 +134,18 @@ pub struct Plan {
     pub seeds: Vec<Seed>,
     /// Number of evaluation recordings I.
     pub recordings: usize,
+    /// Rollout starts per evaluation recording (`starts N`): the `n_starts`
+    /// of every cell a run of the design writes.
+    pub starts: usize,
+    /// The pinned evaluation recordings (`evaluation recordings "..."`, or
+    /// a published split's evaluation roles); empty when they are drawn.
+    #[serde(skip)]
+    pub pinned_recordings: Vec<String>,
+    /// Every speed label the design's data block can give a recording
+    /// (the file name's token, or the metadata speed's labels, and
+    /// `unknown`).
+    #[serde(skip)]
+    pub speed_labels: Vec<String>,
     /// Whether evaluation recordings without a CSV may be left out
     /// (`missing csv allow`): the cells then hold at least 2 and at most I.
     pub recordings_may_be_absent: bool,
@@ -213,6 +225,14 @@ pub fn compile(design: &Design) -> Plan {
         arms: design.arms.clone(),
         seeds: design.seeds.clone(),
         recordings: design.recording.evaluation,
+        starts: design.recording.starts,
+        pinned_recordings: design.recording.listed.iter().map(|l| l.name.clone()).collect(),
+        speed_labels: match &design.data.speed {
+            crate::design::SpeedLabels::Name => ["slow", "medium", "fast", "unknown"].map(String::from).to_vec(),
+            crate::design::SpeedLabels::Metadata { labels, .. } => {
+                labels.iter().cloned().chain(std::iter::once("unknown".to_string())).collect()
+            }
+        },
         recordings_may_be_absent: design.data.missing_csv_allowed,
         conditions: design.recording.conditions.clone(),
         contrast: design.contrast.clone(),

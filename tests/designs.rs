@@ -38,18 +38,15 @@ fn lock_records_hash_and_detects_changes() {
     let path = dir.path().join("study.design");
     std::fs::copy(crate::common::minimal_design_path(), &path).unwrap();
     let file = design::load(&path).unwrap();
-    assert_eq!(lock::status(&path, &file.sha256).unwrap(), LockStatus::Unlocked);
-    let l = lock::write_lock(&path, &file.sha256, std::time::UNIX_EPOCH).unwrap();
+    assert_eq!(lock::status(&file).unwrap(), LockStatus::Unlocked);
+    let l = lock::write_lock(&file, std::time::UNIX_EPOCH).unwrap();
     assert_eq!(l.locked_at_utc, "1970-01-01T00:00:00Z");
     assert_eq!(l.sha256.len(), 64);
-    assert!(matches!(lock::status(&path, &file.sha256).unwrap(), LockStatus::LockedUnchanged { .. }));
+    assert!(matches!(lock::status(&file).unwrap(), LockStatus::LockedUnchanged { .. }));
     std::fs::write(&path, file.source.replace("level 0.95", "level 0.9")).unwrap();
     let changed = design::load(&path).unwrap();
-    assert!(matches!(lock::status(&path, &changed.sha256).unwrap(), LockStatus::LockedChanged { .. }));
-    assert!(
-        lock::write_lock(&path, &changed.sha256, std::time::UNIX_EPOCH).is_err(),
-        "a changed design is not silently re-locked"
-    );
+    assert!(matches!(lock::status(&changed).unwrap(), LockStatus::LockedChanged { .. }));
+    assert!(lock::write_lock(&changed, std::time::UNIX_EPOCH).is_err(), "a changed design is not silently re-locked");
 }
 
 #[test]

@@ -27,3 +27,4 @@ mod stats_props;
 mod stats_reference;
 mod stats_stress;
 mod trust;
+mod trust3_provenance;

@@ -45,6 +45,10 @@ pub struct FamilyAnalysis {
     pub design_sha256: Option<String>,
     /// True when the design changed after locking (or the run was labelled so).
     pub exploratory: bool,
+    /// Whether the design was locked before this analysis and is unchanged
+    /// since (see [`super::Analysis::preregistered`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preregistered: Option<bool>,
     /// The treated arm (or dose-response family) of the contrast.
     pub treated: String,
     /// The reference arm.
@@ -321,6 +325,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         study: plan.study.clone(),
         design_sha256: None,
         exploratory: false,
+        preregistered: None,
         treated: plan.contrast.treated.clone(),
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,
@@ -606,6 +611,25 @@ impl FamilyAnalysis {
     /// Records the per-cell file analysed and its SHA-256.
     pub fn record_cells(&mut self, path: &std::path::Path, sha256: &str) {
         self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));
+    }
+
+    /// Records the design the analysis ran under, as
+    /// [`super::Analysis::record_design`] does.
+    pub fn record_design(&mut self, path: &str, sha256: &str, status: &crate::design::LockStatus) {
+        self.design_sha256 = Some(sha256.to_string());
+        let (exploratory, preregistered, warning) = super::lock_labels(path, status);
+        self.exploratory |= exploratory;
+        self.preregistered = Some(preregistered && !self.exploratory);
+        self.warnings.extend(warning);
+    }
+
+    /// Labels the analysis EXPLORATORY, as
+    /// [`super::Analysis::mark_exploratory`] does.
+    pub fn mark_exploratory(&mut self) {
+        self.exploratory = true;
+        if self.preregistered.is_some() {
+            self.preregistered = Some(false);
+        }
     }
 }
 

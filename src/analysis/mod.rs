@@ -117,6 +117,14 @@ pub enum AnalysisError {
         /// The reference arm.
         arm: String,
     },
+    /// The unit's data have no variance to estimate an interval from.
+    #[error("{unit}: {detail}")]
+    Degenerate {
+        /// The unit.
+        unit: String,
+        /// What is degenerate about it.
+        detail: String,
+    },
     /// The statistics refused the unit's matrix.
     #[error("{unit}: {source}")]
     Stats {
@@ -147,8 +155,9 @@ fn show(v: f64) -> String {
 const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
 
 /// Refuses values no rollout under the plan can produce (the row reader
-/// has already refused negative, non-finite and inconsistent counts):
-/// position errors above the divergence cap, attitude errors above 180
+/// has already refused negative, non-finite and inconsistent counts): a
+/// number of starts other than the design's, a speed label its data block
+/// cannot give, a recording the design does not pin (when it pins them), position errors above the divergence cap, attitude errors above 180
 /// degrees, and a failure-aware RMSE that is not the one its conditional
 /// RMSE, divergence count and cap imply. Every non-divergent start's error
 /// is at most the cap, so with n starts, d of them divergent,
@@ -157,6 +166,35 @@ const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
 fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     let cap = plan.cap.0;
     let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line, field, value, problem };
+    // Every evaluation recording gets exactly `starts` rollout starts
+    // (split/mod.rs, draw_starts), in every arm.
+    if c.n_starts != plan.starts as u64 {
+        return Err(AnalysisError::NotInDesign {
+            line: c.line,
+            field: "n_starts",
+            value: c.n_starts.to_string(),
+            known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
+        });
+    }
+    if !plan.speed_labels.contains(&c.speed) {
+        return Err(AnalysisError::NotInDesign {
+            line: c.line,
+            field: "speed",
+            value: c.speed.clone(),
+            known: format!("the design's data block labels speeds {}", plan.speed_labels.join(", ")),
+        });
+    }
+    if !plan.pinned_recordings.is_empty() && !plan.pinned_recordings.contains(&c.recording) {
+        let n = plan.pinned_recordings.len();
+        let shown: Vec<&str> = plan.pinned_recordings.iter().take(5).map(|r| r.as_str()).collect();
+        let more = if n > 5 { format!(", ... ({n} in all)") } else { String::new() };
+        return Err(AnalysisError::NotInDesign {
+            line: c.line,
+            field: "recording",
+            value: c.recording.clone(),
+            known: format!("the design pins its evaluation recordings: {}{more}", shown.join(", ")),
+        });
+    }
     if c.fa_position_rmse_m > cap {
         return Err(impossible(
             "fa_position_rmse_m",
@@ -299,6 +337,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         study: plan.study.clone(),
         design_sha256: None,
         exploratory: false,
+        preregistered: None,
         treated: plan.contrast.treated.clone(),
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,

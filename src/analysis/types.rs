@@ -21,6 +21,13 @@ pub struct Analysis {
     pub design_sha256: Option<String>,
     /// True when the design changed after locking (or the run was labelled so).
     pub exploratory: bool,
+    /// Whether the design was locked before this analysis and is unchanged
+    /// since, with the run not labelled exploratory: `false` for a design
+    /// that was never locked, whose outputs all say NOT PREREGISTERED.
+    /// `None` when the analysis was not given a design's lock state (an
+    /// in-memory analysis, or one split's or dose's part of a family).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preregistered: Option<bool>,
     /// The treated arm of the contrast.
     pub treated: String,
     /// The reference arm of the contrast.
@@ -81,13 +88,45 @@ impl Analysis {
         self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));
     }
 
-    /// Records the design the analysis ran under: its hash, and, when it
-    /// changed after it was locked, an EXPLORATORY label and warning.
-    pub fn record_design(&mut self, sha256: &str, status: &LockStatus) {
+    /// Records the design the analysis ran under (`path` as the user named
+    /// it): its hash, whether it is preregistered, and, when it changed
+    /// after it was locked, an EXPLORATORY label, or, when it was never
+    /// locked, a NOT PREREGISTERED one, each with a warning.
+    pub fn record_design(&mut self, path: &str, sha256: &str, status: &LockStatus) {
         self.design_sha256 = Some(sha256.to_string());
-        if let LockStatus::LockedChanged { .. } = status {
-            self.exploratory = true;
-            self.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+        let (exploratory, preregistered, warning) = lock_labels(path, status);
+        self.exploratory |= exploratory;
+        self.preregistered = Some(preregistered && !self.exploratory);
+        self.warnings.extend(warning);
+    }
+
+    /// Labels the analysis EXPLORATORY (a run of a changed design, allowed
+    /// with `--exploratory`): it is then not the preregistered one.
+    pub fn mark_exploratory(&mut self) {
+        self.exploratory = true;
+        if self.preregistered.is_some() {
+            self.preregistered = Some(false);
+        }
+    }
+}
+
+/// What a design's lock state makes of an analysis: (exploratory,
+/// preregistered, the warning to give).
+pub fn lock_labels(path: &str, status: &LockStatus) -> (bool, bool, Option<String>) {
+    match status {
+        LockStatus::Unlocked => (
+            false,
+            false,
+            Some(format!(
+                "{path} was not locked: results are NOT PREREGISTERED; lock a design (`crossaudit lock`) before running it to preregister it"
+            )),
+        ),
+        LockStatus::LockedUnchanged { .. } => (false, true, None),
+        LockStatus::LockedChanged { .. } => {
+            (true, false, Some("the design changed after it was locked: results are EXPLORATORY".to_string()))
+        }
+        LockStatus::LockedStale { reason, .. } => {
+            (true, false, Some(format!("the design's lock no longer holds ({reason}): results are EXPLORATORY")))
         }
     }
 }

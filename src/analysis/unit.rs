@@ -228,6 +228,7 @@ impl Ctx<'_> {
                 arm: self.plan.contrast.reference.clone(),
             });
         }
+        self.degenerate(u, &a, &label)?;
         let est = &self.plan.estimator;
         let estimate = self.estimate(&a.diff).map_err(stats)?;
         let optimism_pct = optimism(mean_r, mean_t);
@@ -291,6 +292,46 @@ impl Ctx<'_> {
             rule_holds,
             intervals,
         })
+    }
+
+    /// Refuses a unit whose treated - reference differences do not vary: the
+    /// method of moments would give an interval of width zero around them
+    /// (and confirm any nonzero shift), REML cannot fit them at all. The
+    /// differences count as constant when their range is within 1e-9 of the
+    /// largest value in either arm, the size of rounding in the subtraction.
+    /// When every start diverged in both arms (every cell at the cap), the
+    /// message says so: the endpoint cannot tell the arms apart.
+    fn degenerate(&self, u: &AnalysisUnit, a: &ArmArrays, label: &str) -> Result<(), AnalysisError> {
+        let d: Vec<f64> = a.diff.v.iter().flatten().copied().collect();
+        let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(*x), h.max(*x)));
+        let scale = a.treated.v.iter().chain(&a.reference.v).flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+        if d.len() < 2 || hi - lo > 1e-9 * scale {
+            return Ok(());
+        }
+        let all_diverged = [&self.plan.contrast.treated, &self.plan.contrast.reference].iter().all(|arm| {
+            self.recordings.iter().all(|r| {
+                self.plan.seeds.iter().all(|s| {
+                    self.data
+                        .find(&u.model, arm, s.0, &r.recording, u.horizon_s)
+                        .is_none_or(|c| c.n_divergent == c.n_starts)
+                })
+            })
+        });
+        let detail = if all_diverged && u.metric != Metric::DivergenceRate {
+            format!(
+                "every start diverged in both arms (every cell is at the divergence cap of {} m), so the endpoint cannot tell `{}` from `{}`; no optimism or interval is reported for it",
+                self.plan.cap.0, self.plan.contrast.treated, self.plan.contrast.reference
+            )
+        } else {
+            format!(
+                "every {} - {} difference is {} in all {} recording x seed pairs: with no variance there is no interval to decide on (per-cell data whose arms differ by a constant are not the output of a run)",
+                self.plan.contrast.treated,
+                self.plan.contrast.reference,
+                (lo + hi) / 2.0,
+                d.len()
+            )
+        };
+        Err(AnalysisError::Degenerate { unit: label.to_string(), detail })
     }
 
     /// Average d within condition groups (e.g. trajectory x speed), then the

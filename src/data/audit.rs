@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::metadata::{parse_name, read_metadata, Metadata};
+use super::metadata::{impossible_values, parse_name, read_metadata, Metadata};
 use super::{load_recording, natural_key, recording_name, Layout, Recording};
 use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy};
 use crate::stats::quantile_type7;
@@ -150,6 +150,15 @@ pub enum AuditError {
         /// One line per file and reason.
         list: String,
     },
+    /// Metadata numbers no recording can have (a non-finite or negative
+    /// speed, say), refused whatever the design's strictness.
+    #[error("{count} metadata value(s) no recording can have:\n{list}")]
+    Metadata {
+        /// How many values.
+        count: usize,
+        /// One line per value: file, line, column and what is wrong.
+        list: String,
+    },
     /// An audit file could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),
@@ -261,6 +270,15 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         }
     }
     let (csvs, missing) = list(dir)?;
+    let metas = csvs.iter().map(|p| meta_path(p)).chain(missing.iter().map(|n| dir.join(format!("{n}_metadata.yaml"))));
+    let impossible: Vec<String> =
+        metas.flat_map(|p| read_metadata(&p).map(|m| impossible_values(&p, &m)).unwrap_or_default()).collect();
+    if !impossible.is_empty() {
+        return Err(AuditError::Metadata {
+            count: impossible.len(),
+            list: impossible.iter().map(|l| format!("  {l}")).collect::<Vec<_>>().join("\n"),
+        });
+    }
     let loaded: Vec<(FileRow, Option<Recording>)> = csvs
         .par_iter()
         .map(|path| {

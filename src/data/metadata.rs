@@ -118,3 +118,38 @@ pub fn read_metadata(path: &Path) -> Result<Metadata, String> {
         format!("{}: invalid metadata{at}: {e}", path.display())
     })
 }
+
+/// The metadata numbers no recording can have, each located by line and
+/// column in `path`: a speed that is not a finite number >= 0 m/s, a
+/// battery voltage that is not a finite number > 0 V. A speed label or a
+/// battery check read from such a value would be a plausible wrong answer
+/// (`.nan` and `-5` both compare as below every threshold), so the audit
+/// refuses them whatever the design's strictness.
+pub fn impossible_values(path: &Path, m: &Metadata) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let at = |key: &str| -> String {
+        text.lines()
+            .enumerate()
+            .find_map(|(k, l)| {
+                let start = l.len() - l.trim_start().len();
+                let rest = l[start..].strip_prefix(key)?.strip_prefix(':')?;
+                let value = start + key.len() + 1 + (rest.len() - rest.trim_start().len());
+                Some(format!("line {}, column {}", k + 1, value + 1))
+            })
+            .unwrap_or_else(|| "line ?".to_string())
+    };
+    let mut out = Vec::new();
+    // (key as written, name in messages, value, least value, whether the least is allowed)
+    let checks = [
+        ("speed_mps", "params.speed_mps", m.params.speed_mps, true, "a finite speed >= 0 m/s"),
+        ("battery_voltage_start", "battery_voltage_start", m.battery_voltage_start, false, "a finite voltage > 0 V"),
+        ("battery_voltage_end", "battery_voltage_end", m.battery_voltage_end, false, "a finite voltage > 0 V"),
+    ];
+    for (key, name, value, zero_ok, expected) in checks {
+        let ok = |v: f64| v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0));
+        if let Some(v) = value.filter(|v| !ok(*v)) {
+            out.push(format!("{}: {}: `{name}` is {v}, expected {expected}", path.display(), at(key)));
+        }
+    }
+    out
+}

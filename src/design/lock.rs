@@ -1,10 +1,28 @@
-//! `FILE.design.lock`: the design's SHA-256, the tool version and the UTC
-//! time it was locked. A run of a locked design checks the hash.
+//! `FILE.design.lock`: the design's SHA-256, the SHA-256 of every file it
+//! refers to (a `split published` file), the version of the language's
+//! defaults it was written under, the tool version and the UTC time it was
+//! locked. A run of a locked design checks all of them.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use serde::{Deserialize, Serialize};
+
+use super::DesignFile;
+
+/// The version of the design language's defaults: what a design means in
+/// everything it leaves unsaid (optimizer settings, tolerances, inclusion
+/// rules, ...). Bump it whenever a default changes: a design locked under
+/// another version is then reported as changed, since the same bytes now
+/// describe another study. Locks written before the version was recorded
+/// read as version 1, the defaults up to and including this one.
+pub const LANGUAGE_VERSION: u32 = 1;
+
+/// The language version of a lock written before the field existed.
+fn first_language() -> u32 {
+    1
+}
 
 /// The contents of `FILE.design.lock`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -13,6 +31,14 @@ pub struct LockFile {
     pub design: String,
     /// SHA-256 of the design file's bytes, lowercase hex.
     pub sha256: String,
+    /// The version of the language's defaults it was locked under
+    /// ([`LANGUAGE_VERSION`]).
+    #[serde(default = "first_language")]
+    pub language: u32,
+    /// Every file the design refers to (as written in it) and its SHA-256;
+    /// absent from locks written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub files: Option<BTreeMap<String, String>>,
     /// Tool name (`crossaudit`).
     pub tool: String,
     /// Tool version that locked it.
@@ -41,6 +67,15 @@ pub enum LockStatus {
         /// When it was locked (RFC 3339, UTC).
         locked_at_utc: String,
     },
+    /// Locked, and the design's bytes are those locked, but what they mean
+    /// changed: a file the design refers to changed, or the lock was made
+    /// under other language defaults. Analyses are exploratory.
+    LockedStale {
+        /// What changed.
+        reason: String,
+        /// When it was locked (RFC 3339, UTC).
+        locked_at_utc: String,
+    },
 }
 
 impl LockStatus {
@@ -49,7 +84,24 @@ impl LockStatus {
         match self {
             LockStatus::Unlocked => "unlocked",
             LockStatus::LockedUnchanged { .. } => "locked/unchanged",
-            LockStatus::LockedChanged { .. } => "locked/changed",
+            LockStatus::LockedChanged { .. } | LockStatus::LockedStale { .. } => "locked/changed",
+        }
+    }
+
+    /// Whether the design, or something it depends on, changed after it was
+    /// locked: a run needs `--exploratory` and every output says so.
+    pub fn changed(&self) -> bool {
+        matches!(self, LockStatus::LockedChanged { .. } | LockStatus::LockedStale { .. })
+    }
+
+    /// What changed after the lock, in words (empty unless [`Self::changed`]).
+    pub fn reason(&self) -> String {
+        match self {
+            LockStatus::LockedChanged { locked_sha256, current_sha256, .. } => {
+                format!("the design's sha256 is {current_sha256}, the lock records {locked_sha256}")
+            }
+            LockStatus::LockedStale { reason, .. } => reason.clone(),
+            _ => String::new(),
         }
     }
 }
@@ -93,6 +145,16 @@ pub enum LockError {
         /// When it was locked (RFC 3339, UTC).
         locked_at_utc: String,
     },
+    /// The design's bytes are those locked, but the lock no longer holds.
+    #[error("{path} is already locked ({locked_at_utc}), but {reason}; delete the lock to re-lock the design as it now reads")]
+    StaleLock {
+        /// The path.
+        path: String,
+        /// What changed.
+        reason: String,
+        /// When it was locked (RFC 3339, UTC).
+        locked_at_utc: String,
+    },
 }
 
 /// `FILE.design` -> `FILE.design.lock`.
@@ -115,39 +177,92 @@ pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
         .map_err(|source| LockError::Parse { path: path.display().to_string(), source })
 }
 
-/// Whether `design`, whose bytes hash to `current_sha256`, matches its lock.
-pub fn status(design: &Path, current_sha256: &str) -> Result<LockStatus, LockError> {
-    Ok(match read_lock(design)? {
-        None => LockStatus::Unlocked,
-        Some(lock) if lock.sha256 == current_sha256 => {
-            LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc }
-        }
-        Some(lock) => LockStatus::LockedChanged {
+/// Every file `file`'s design refers to, as written in it, and its SHA-256
+/// when the design was loaded.
+pub fn referenced_files(file: &DesignFile) -> BTreeMap<String, String> {
+    file.design.published.iter().map(|p| (p.file.clone(), p.sha256.clone())).collect()
+}
+
+/// Whether the design in `file` matches its lock: the design's bytes, the
+/// bytes of every file it refers to, and the language defaults.
+pub fn status(file: &DesignFile) -> Result<LockStatus, LockError> {
+    let Some(lock) = read_lock(&file.path)? else { return Ok(LockStatus::Unlocked) };
+    if lock.sha256 != file.sha256 {
+        return Ok(LockStatus::LockedChanged {
             locked_sha256: lock.sha256,
-            current_sha256: current_sha256.to_string(),
+            current_sha256: file.sha256.clone(),
             locked_at_utc: lock.locked_at_utc,
-        },
+        });
+    }
+    Ok(match stale(&lock, &referenced_files(file)) {
+        Some(reason) => LockStatus::LockedStale { reason, locked_at_utc: lock.locked_at_utc },
+        None => LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc },
     })
 }
 
-/// Writes the lock for a design whose bytes hash to `sha256`. Re-locking an
-/// unchanged design is a no-op that returns the existing lock; a changed
-/// design with an existing lock is refused.
-pub fn write_lock(design: &Path, sha256: &str, now: SystemTime) -> Result<LockFile, LockError> {
-    let path = lock_path(design);
-    if let Some(existing) = read_lock(design)? {
-        if existing.sha256 == sha256 {
-            return Ok(existing);
-        }
-        return Err(LockError::AlreadyLocked {
-            path: path.display().to_string(),
-            sha256: existing.sha256,
-            locked_at_utc: existing.locked_at_utc,
+/// Why a lock whose design bytes match no longer holds, if it does not.
+fn stale(lock: &LockFile, files: &BTreeMap<String, String>) -> Option<String> {
+    if lock.language != LANGUAGE_VERSION {
+        return Some(format!(
+            "it was locked under the defaults of design language version {}, and this crossaudit applies version {LANGUAGE_VERSION}'s, so the same text may now describe another study",
+            lock.language
+        ));
+    }
+    let Some(locked) = &lock.files else {
+        return (!files.is_empty()).then(|| {
+            format!(
+                "the lock records no hash of {}, which the design refers to (it predates recording them), so an edit to it cannot be ruled out",
+                files.keys().map(|f| format!("`{f}`")).collect::<Vec<_>>().join(", ")
+            )
         });
+    };
+    for (f, sha) in files {
+        match locked.get(f) {
+            None => return Some(format!("the lock records no hash of `{f}`, which the design refers to")),
+            Some(l) if l != sha => {
+                return Some(format!(
+                "`{f}`, which the design refers to, changed after the lock: its sha256 is {sha}, the lock records {l}"
+            ))
+            }
+            Some(_) => {}
+        }
+    }
+    locked
+        .keys()
+        .find(|f| !files.contains_key(*f))
+        .map(|f| format!("the lock records `{f}`, which the design no longer refers to"))
+}
+
+/// Writes the lock of the design in `file`: its hash, the hash of every
+/// file it refers to and [`LANGUAGE_VERSION`]. Re-locking an unchanged
+/// design is a no-op that returns the existing lock; a design with an
+/// existing lock that no longer holds is refused.
+pub fn write_lock(file: &DesignFile, now: SystemTime) -> Result<LockFile, LockError> {
+    let design = &file.path;
+    let path = lock_path(design);
+    let files = referenced_files(file);
+    if let Some(existing) = read_lock(design)? {
+        if existing.sha256 != file.sha256 {
+            return Err(LockError::AlreadyLocked {
+                path: path.display().to_string(),
+                sha256: existing.sha256,
+                locked_at_utc: existing.locked_at_utc,
+            });
+        }
+        if let Some(reason) = stale(&existing, &files) {
+            return Err(LockError::StaleLock {
+                path: path.display().to_string(),
+                reason,
+                locked_at_utc: existing.locked_at_utc,
+            });
+        }
+        return Ok(existing);
     }
     let lock = LockFile {
         design: design.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        sha256: sha256.to_string(),
+        sha256: file.sha256.clone(),
+        language: LANGUAGE_VERSION,
+        files: Some(files),
         tool: env!("CARGO_PKG_NAME").to_string(),
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         locked_at_utc: humantime::format_rfc3339_seconds(now).to_string(),

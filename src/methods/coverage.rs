@@ -307,10 +307,22 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
     for setting in settings {
         let mut table = Table::new(&cols, "lrrrrrrr");
         for r in rows.iter().filter(|r| r.setting == setting) {
-            let pm = |v: f64, m: f64, d: usize| format!("{v:.d$} ({m:.d$})");
+            // An MCSE needs 2 or more usable replications; fewer print none.
+            let pm = |v: f64, m: f64, d: usize| {
+                if r.reps < 2 {
+                    format!("{v:.d$} (no MCSE)")
+                } else {
+                    format!("{v:.d$} ({m:.d$})")
+                }
+            };
+            let coverage = match r.reps {
+                0 => "no usable replication".to_string(),
+                n if n < spec.reps => format!("{}; {n} of {} usable", pm(r.coverage, r.coverage_mcse, 3), spec.reps),
+                _ => pm(r.coverage, r.coverage_mcse, 3),
+            };
             table.row([
                 r.method.label().to_string(),
-                pm(r.coverage, r.coverage_mcse, 3),
+                coverage,
                 pm(r.mean_width, r.mean_width_mcse, 3),
                 format!("{:.3}", r.median_width),
                 pm(r.bias, r.bias_mcse, 3),
@@ -369,10 +381,11 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
         let dx = (k as f64 - (methods.len() as f64 - 1.0) / 2.0) * 0.08;
         let pts: Vec<(f64, f64, f64)> = rows
             .iter()
-            .filter(|r| r.method == *m)
+            .filter(|r| r.method == *m && r.coverage.is_finite())
             .map(|r| {
                 let x = settings.iter().position(|s| *s == r.setting).unwrap_or(0) as f64 + dx;
-                (x, r.coverage, r.coverage_mcse)
+                // No bar without an MCSE (fewer than 2 usable replications).
+                (x, r.coverage, if r.coverage_mcse.is_finite() { r.coverage_mcse } else { 0.0 })
             })
             .collect();
         chart

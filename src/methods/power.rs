@@ -34,6 +34,17 @@ pub enum PowerError {
     /// A dose-response plan needs a trend, which needs two or more doses.
     #[error("the pilot has no trend over doses (it needs two or more doses)")]
     NoTrend,
+    /// The pilot's variance components are zero (or rounding noise): every
+    /// predicted SE would be zero and every P(rule holds) 0 or 1.
+    #[error("the pilot's variance components of {unit} are {components} against a mean of {mean}: the pilot has no variance to plan from (its differences are constant up to rounding), so every predicted SE would be 0 and every P(rule holds) 0 or 1; plan from a pilot whose cells vary")]
+    Degenerate {
+        /// What is planned.
+        unit: String,
+        /// The components, as printed.
+        components: String,
+        /// The pilot's reference mean.
+        mean: f64,
+    },
     /// A quantile could not be computed.
     #[error(transparent)]
     Stats(#[from] StatsError),
@@ -142,6 +153,22 @@ fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
     Ok(())
 }
 
+/// Refuses components whose sum is not above 1e-18 times the square of the
+/// larger of the pilot's means: a relative SD under 1e-9 is rounding in the
+/// differences, not variation between recordings or seeds.
+fn refuse_degenerate(unit: &str, components: &[f64], mean: f64, mean_reference: f64) -> Result<(), PowerError> {
+    let total: f64 = components.iter().sum();
+    let scale = mean.abs().max(mean_reference.abs());
+    if total > 1e-18 * scale * scale && total.is_finite() {
+        return Ok(());
+    }
+    Err(PowerError::Degenerate {
+        unit: unit.to_string(),
+        components: components.iter().map(|v| format!("{v:.3e}")).collect::<Vec<_>>().join(", "),
+        mean: mean_reference,
+    })
+}
+
 /// P(the decision rule holds) for an estimate ~ N(mean, se^2) whose
 /// interval half-width is t se: the rule "optimism >= c% and upper < 0"
 /// holds when the estimate is at most min(-t se, -c m_ref / 100).
@@ -165,6 +192,7 @@ fn crossed_plan(
     seeds: &[usize],
 ) -> Result<PowerPlan, PowerError> {
     let c = &estimate.components;
+    refuse_degenerate(&unit, &[c.recording, c.seed, c.residual], estimate.mean, mean_reference)?;
     let mut rows = Vec::new();
     for &i in recordings {
         for &j in seeds {
@@ -361,6 +389,7 @@ pub fn split_power_plan(
     };
     let first = family.splits.first().and_then(|s| s.doses.first()).ok_or(PowerError::NoPrimary)?;
     let mean_reference = first.mean_reference;
+    refuse_degenerate(&family.unit, &pooled.variances, pooled.mean, mean_reference)?;
     let mut rows = Vec::new();
     for &s in splits {
         for &i in recordings {

@@ -29,19 +29,18 @@ fn dose_name(p: f64, arm: &str) -> String {
 
 /// The decision line as the console prints it.
 pub fn family_decision_line(a: &FamilyAnalysis) -> String {
-    let line = decision_summary(&a.decision);
-    if a.exploratory {
-        format!("EXPLORATORY {line}")
-    } else {
-        line
-    }
+    super::format::labelled(decision_summary(&a.decision), a.exploratory, a.preregistered)
 }
 
 /// report.md of a family analysis.
 pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
-    let exploratory = if a.exploratory { "EXPLORATORY: " } else { "" };
-    let _ = writeln!(s, "# {exploratory}{}\n", a.study);
+    let tag = match super::format::status_tag(a.exploratory, a.preregistered) {
+        Some("NOT PREREGISTERED") => "NOT PREREGISTERED (the design was not locked): ".to_string(),
+        Some(t) => format!("{t}: "),
+        None => String::new(),
+    };
+    let _ = writeln!(s, "# {tag}{}\n", a.study);
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {

@@ -45,13 +45,31 @@ pub fn decision_summary(d: &Decision) -> String {
 }
 
 /// The decision line as the console prints it: [`decision_summary`],
-/// prefixed `EXPLORATORY` when the analysis is not the preregistered one.
+/// prefixed `EXPLORATORY` when the design changed after it was locked, or
+/// `NOT PREREGISTERED` when it was never locked.
 pub fn decision_line(a: &crate::analysis::Analysis) -> String {
-    let line = decision_summary(&a.decision);
-    if a.exploratory {
-        format!("EXPLORATORY {line}")
+    labelled(decision_summary(&a.decision), a.exploratory, a.preregistered)
+}
+
+/// `line` prefixed with the analysis's preregistration status, when it is
+/// not the preregistered analysis.
+pub(crate) fn labelled(line: String, exploratory: bool, preregistered: Option<bool>) -> String {
+    match status_tag(exploratory, preregistered) {
+        Some(tag) => format!("{tag} {line}"),
+        None => line,
+    }
+}
+
+/// `EXPLORATORY` (the design changed after it was locked), `NOT
+/// PREREGISTERED` (it was never locked) or nothing (the preregistered
+/// analysis, or one given no lock state).
+pub(crate) fn status_tag(exploratory: bool, preregistered: Option<bool>) -> Option<&'static str> {
+    if exploratory {
+        Some("EXPLORATORY")
+    } else if preregistered == Some(false) {
+        Some("NOT PREREGISTERED")
     } else {
-        line
+        None
     }
 }
 

@@ -99,7 +99,12 @@ fn header(a: &Analysis) -> String {
     let mut s = String::new();
     let name = a.decision.name.to_uppercase();
     let verdict = if a.decision.holds { name } else { format!("NOT {name}") };
-    let _ = writeln!(s, "# {}: {}{}\n", a.study, verdict, if a.exploratory { " (EXPLORATORY)" } else { "" });
+    let tag = match super::format::status_tag(a.exploratory, a.preregistered) {
+        Some("NOT PREREGISTERED") => " (NOT PREREGISTERED: the design was not locked)".to_string(),
+        Some(t) => format!(" ({t})"),
+        None => String::new(),
+    };
+    let _ = writeln!(s, "# {}: {}{}\n", a.study, verdict, tag);
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
     let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
     let _ = writeln!(
@@ -157,7 +162,13 @@ fn header(a: &Analysis) -> String {
         s,
         "Analysed by crossaudit {}{}.",
         p.crossaudit,
-        if a.exploratory { "; EXPLORATORY: not the preregistered analysis" } else { "" }
+        if a.exploratory {
+            "; EXPLORATORY: not the preregistered analysis"
+        } else if a.preregistered == Some(false) {
+            "; NOT PREREGISTERED: the design was not locked before it ran"
+        } else {
+            ""
+        }
     );
     let _ = writeln!(s);
     if !a.figures.is_empty() {

@@ -81,6 +81,8 @@ pub fn render_tex(a: &Analysis) -> String {
     let _ = writeln!(m.text, "% crossaudit results for study \"{}\"; \\input this file.", a.study);
     if a.exploratory {
         let _ = writeln!(m.text, "% EXPLORATORY: the design changed after it was locked.");
+    } else if a.preregistered == Some(false) {
+        let _ = writeln!(m.text, "% NOT PREREGISTERED: the design was not locked.");
     }
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(m.text, "% design sha256 {h}");
@@ -95,6 +97,9 @@ pub fn render_tex(a: &Analysis) -> String {
     }
     let _ = writeln!(m.text, "% crossaudit {}", p.crossaudit);
     m.add(&["exploratory"], if a.exploratory { "yes".to_string() } else { "no".to_string() });
+    if let Some(p) = a.preregistered {
+        m.add(&["preregistered"], if p { "yes".to_string() } else { "no".to_string() });
+    }
     m.add(&["decision"], if a.decision.holds { a.decision.name.clone() } else { format!("not {}", a.decision.name) });
     m.add(&["recordings"], a.recordings.len().to_string());
     m.add(&["seeds"], a.seeds.len().to_string());

@@ -51,10 +51,12 @@ pub struct RunOptions {
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     /// The design changed after it was locked and the run was not labelled exploratory.
-    #[error("{path} changed after it was locked; rerun with --exploratory to label every output EXPLORATORY, or lock an amended design")]
+    #[error("{path} changed after it was locked ({reason}); rerun with --exploratory to label every output EXPLORATORY, or lock an amended design")]
     LockChanged {
         /// The design file.
         path: String,
+        /// What changed: the design's bytes, a file it refers to, or the language defaults.
+        reason: String,
     },
     /// The output directory holds a run of another design.
     #[error("{dir} holds a run of a different design (sha256 {sha256}); use a new output directory")]
@@ -350,7 +352,7 @@ pub fn run(
         return run_splits(file, plan, data, out, options, observer, started);
     }
     let opened = open(file, plan, data, out, options.exploratory)?;
-    let (todo, builds) = pending(plan, out)?;
+    let (todo, builds) = pending(plan, out, &file.sha256)?;
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);
     let trained = todo.len();
@@ -383,7 +385,7 @@ fn run_splits(
     for &s in &plan.splits {
         let (split_file, split_plan, dir) = split_parts(file, plan, out, s);
         let opened = open(&split_file, &split_plan, data, &dir, options.exploratory)?;
-        let (todo, done_builds) = pending(&split_plan, &dir)?;
+        let (todo, done_builds) = pending(&split_plan, &dir, &file.sha256)?;
         skipped += split_plan.jobs.len() - todo.len();
         trained += todo.len();
         observer.start(split_plan.jobs.len(), split_plan.jobs.len() - todo.len());
@@ -497,18 +499,11 @@ fn label_family(
     sha256: &str,
     cells_csv: &Path,
 ) -> Result<(), RunError> {
-    a.design_sha256 = Some(sha256.to_string());
-    if let LockStatus::LockedChanged { .. } = status {
-        a.exploratory = true;
-        a.warnings.push("the design changed after it was locked: results are EXPLORATORY".to_string());
+    a.record_design(design_path, sha256, status);
+    if exploratory {
+        a.mark_exploratory();
     }
-    a.exploratory |= exploratory;
     a.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
-    if *status == LockStatus::Unlocked {
-        a.warnings.push(format!(
-            "{design_path} was not locked before this run: lock a design (`crossaudit lock`) to preregister it"
-        ));
-    }
     Ok(())
 }
 
@@ -527,47 +522,130 @@ struct Opened {
 
 /// Checks the lock, refuses a directory that holds another design or other
 /// data, writes the audit, manifests and invariants, and (re)writes
-/// `run.json`: everything before the first job.
+/// `run.json`: everything before the first job. Nothing is written into a
+/// directory that holds a run until its record (design, data, audit and
+/// manifests) is found to be this run's.
 fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bool) -> Result<Opened, RunError> {
-    let status = lock::status(&file.path, &file.sha256)?;
-    let exploratory = match status {
-        LockStatus::LockedChanged { .. } if !exploratory => {
-            return Err(RunError::LockChanged { path: file.path.display().to_string() })
-        }
-        LockStatus::LockedChanged { .. } => true,
-        _ => exploratory,
-    };
+    let status = lock::status(file)?;
+    if status.changed() && !exploratory {
+        return Err(RunError::LockChanged { path: file.path.display().to_string(), reason: status.reason() });
+    }
+    let exploratory = exploratory || status.changed();
+    let previous = check_out(out, &file.sha256)?;
     create_dir_all(out)?;
-    let previous = RunRecord::read(out)?;
-    if let Some(p) = &previous {
-        if p.design_sha256 != file.sha256 {
-            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: p.design_sha256.clone() });
+    let prepared = match &previous {
+        None => crate::split::prepare(file, plan, &data.dir, out)?,
+        Some(p) => {
+            // Built in memory and compared first: a directory of another
+            // data set is refused before anything in it is overwritten.
+            let prepared = crate::split::rebuild(file, plan, &data.dir, out)?;
+            p.check_resume(out, &RunRecord::new(plan, file, data, &prepared, exploratory))?;
+            crate::split::write_prepared(&prepared, out)?;
+            prepared
         }
-    }
-    let prepared = crate::split::prepare(file, plan, &data.dir, out)?;
+    };
     let record = RunRecord::new(plan, file, data, &prepared, exploratory);
-    if let Some(p) = &previous {
-        p.check_resume(out, &record)?;
-    }
     record.write(out)?;
     Ok(Opened { status, exploratory, prepared, record })
 }
 
+/// The record of the run in `out`, if any, refusing a run of a design other
+/// than the one hashing to `design_sha256`: what every command that writes
+/// into a run directory calls first.
+pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, RunError> {
+    let previous = RunRecord::read(out)?;
+    if let Some(p) = &previous {
+        if p.design_sha256 != design_sha256 {
+            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: p.design_sha256.clone() });
+        }
+    }
+    Ok(previous)
+}
+
+/// Refuses to write a report, plan or any other output of `design_sha256`
+/// into `dir` when `dir` or its parent holds a run of another design
+/// (`analyze --out`, whose default is the `report/` beside the per-cell
+/// file, `plan --out`, ...).
+pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError> {
+    for d in [Some(dir), dir.parent()].into_iter().flatten() {
+        if d.join("run.json").is_file() {
+            check_out(d, design_sha256)?;
+        }
+    }
+    Ok(())
+}
+
 /// The jobs without a record, in plan order, and the builds that ran the
-/// finished ones (whose files are verified against their records).
-fn pending(plan: &Plan, out: &Path) -> Result<(VecDeque<TrainingJob>, std::collections::BTreeSet<String>), RunError> {
+/// finished ones. Each finished job's record must be of this run's design
+/// and list exactly the files such a job writes, each unchanged.
+fn pending(
+    plan: &Plan,
+    out: &Path,
+    design_sha256: &str,
+) -> Result<(VecDeque<TrainingJob>, std::collections::BTreeSet<String>), RunError> {
     let mut todo = VecDeque::new();
     let mut builds = std::collections::BTreeSet::new();
     for j in &plan.jobs {
         match JobRecord::read(out, j)? {
             Some(r) => {
-                r.verify_files(out, j)?;
+                r.verify(out, j, design_sha256)?;
                 builds.insert(r.crossaudit);
             }
             None => todo.push_back(j.clone()),
         }
     }
     Ok((todo, builds))
+}
+
+/// What [`train_job`] did.
+#[derive(Debug)]
+pub enum TrainOutcome {
+    /// The job had finished in this directory: its files were verified and
+    /// nothing was run.
+    AlreadyFinished,
+    /// The job ran.
+    Ran(Box<JobOutcome>),
+}
+
+/// `crossaudit train`: one job of `plan` into the run directory `out`,
+/// opened exactly as [`run`] opens it (lock, design, data and manifests
+/// checked against `run.json`), so that a later `run` of the same design
+/// reuses the job and a run of another design is never overwritten. A job
+/// that finished there is verified and left as it is.
+pub fn train_job(
+    file: &DesignFile,
+    plan: &Plan,
+    data: &Data,
+    out: &Path,
+    job: &TrainingJob,
+    (engine, exploratory): (crate::model::Engine, bool),
+    on_epoch: &mut dyn FnMut(&crate::model::EpochLog),
+) -> Result<TrainOutcome, RunError> {
+    if !plan.splits.is_empty() {
+        return Err(RunError::Split(crate::split::SplitError::SeveralSplits { splits: plan.splits.len() }));
+    }
+    let opened = open(file, plan, data, out, exploratory)?;
+    if let Some(r) = JobRecord::read(out, job)? {
+        r.verify(out, job, &file.sha256)?;
+        return Ok(TrainOutcome::AlreadyFinished);
+    }
+    let outcome = run_job_with(engine, &file.sha256, plan, job, &opened.prepared, out, on_epoch)?;
+    Ok(TrainOutcome::Ran(Box::new(outcome)))
+}
+
+/// `crossaudit split`: the audit, manifests and invariants of `file` written
+/// into `out`, refused when `out` holds a run of another design or of other
+/// data (a run directory's manifests are never replaced by another's).
+pub fn split_into(file: &DesignFile, plan: &Plan, data: &Data, out: &Path) -> Result<crate::split::Prepared, RunError> {
+    match check_out(out, &file.sha256)? {
+        None => Ok(crate::split::prepare(file, plan, &data.dir, out)?),
+        Some(p) => {
+            let prepared = crate::split::rebuild(file, plan, &data.dir, out)?;
+            p.check_resume(out, &RunRecord::new(plan, file, data, &prepared, p.exploratory))?;
+            crate::split::write_prepared(&prepared, out)?;
+            Ok(prepared)
+        }
+    }
 }
 
 /// Everything after the last job: the invariants on what the jobs recorded,
@@ -650,14 +728,11 @@ fn analyze_run(design_path: &str, plan: &Plan, cells_csv: &Path, opened: &Opened
     let cells = read_cells(cells_csv)?;
     let mut analysis =
         analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
-    analysis.record_design(&opened.record.design_sha256, &opened.status);
-    analysis.exploratory |= opened.exploratory;
-    analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
-    if opened.status == LockStatus::Unlocked {
-        analysis.warnings.push(format!(
-            "{design_path} was not locked before this run: lock a design (`crossaudit lock`) to preregister it"
-        ));
+    analysis.record_design(design_path, &opened.record.design_sha256, &opened.status);
+    if opened.exploratory {
+        analysis.mark_exploratory();
     }
+    analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
     Ok(analysis)
 }
 

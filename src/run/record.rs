@@ -179,8 +179,58 @@ impl JobRecord {
         Ok(Some(record))
     }
 
+    /// The files a finished `job` writes (relative to the run directory):
+    /// always its per-cell rows; a fitted model's weights, their metadata
+    /// and its training curve too.
+    pub fn expected_files(job: &TrainingJob) -> Vec<String> {
+        let stem = job.stem();
+        let mut files = vec![format!("cells/{stem}.csv")];
+        if job.trains() {
+            files.extend([
+                format!("curves/{stem}.csv"),
+                format!("models/{stem}.json"),
+                format!("models/{stem}.safetensors"),
+            ]);
+        }
+        files.sort();
+        files
+    }
+
+    /// Refuses a finished job that is not this run's: a record of another
+    /// design than `design_sha256`, one whose `files` are not exactly those
+    /// such a job writes (an emptied or edited list verifies nothing), or a
+    /// file that changed since the job wrote it.
+    pub fn verify(&self, out: &Path, job: &TrainingJob, design_sha256: &str) -> Result<(), RunError> {
+        let path = job_record_path(out, job);
+        let bad = |reason: String| RunError::BadJobRecord { path: path.display().to_string(), reason };
+        if self.design_sha256 != design_sha256 {
+            return Err(bad(format!(
+                "it records design sha256 {}, but the run in {} is of design sha256 {design_sha256}",
+                self.design_sha256,
+                out.display()
+            )));
+        }
+        let listed: Vec<&String> = self.files.keys().collect();
+        let expected = JobRecord::expected_files(job);
+        if listed != expected.iter().collect::<Vec<_>>() {
+            let shown = |v: Vec<&String>| {
+                if v.is_empty() {
+                    "nothing".to_string()
+                } else {
+                    v.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                }
+            };
+            return Err(bad(format!(
+                "its `files` lists {}, but the job writes {}",
+                shown(listed),
+                shown(expected.iter().collect())
+            )));
+        }
+        self.verify_files(out, job)
+    }
+
     /// Refuses a finished job whose files changed since it wrote them.
-    pub fn verify_files(&self, out: &Path, job: &TrainingJob) -> Result<(), RunError> {
+    fn verify_files(&self, out: &Path, job: &TrainingJob) -> Result<(), RunError> {
         for (file, sha) in &self.files {
             let path = out.join(file);
             let changed = |reason: String| RunError::JobFileChanged {

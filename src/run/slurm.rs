@@ -136,7 +136,8 @@ pub struct ArrayRecord {
     pub design_file: PathBuf,
     /// SHA-256 of the design (and of `slurm/design.design`).
     pub design_sha256: String,
-    /// The design's lock state when the run was prepared.
+    /// The design's lock state when the run was prepared; informational:
+    /// the gather step recomputes it from the design copy and the lock.
     pub lock: LockStatus,
     /// The flight-log directory every task loads, absolute.
     pub data_dir: PathBuf,
@@ -273,7 +274,7 @@ fn unfinished<'a>(
     let mut todo = BTreeSet::new();
     let mut builds = Vec::new();
     for part in parts {
-        let (jobs, done) = pending(&part.plan, &part.dir)?;
+        let (jobs, done) = pending(&part.plan, &part.dir, &part.file.sha256)?;
         todo.extend(jobs.iter().map(|j| array_key(&TrainingJob { split: part.split, ..j.clone() })));
         builds.push(done);
     }
@@ -487,8 +488,17 @@ pub enum TaskOutcome {
 /// multi-split study) with their run.json.
 struct Prepared {
     array: ArrayRecord,
+    file: DesignFile,
     plan: Plan,
     parts: Vec<(Part, RunRecord)>,
+}
+
+impl Prepared {
+    /// The design's lock state now: the design copy (with the files it
+    /// refers to) against the lock beside the original design.
+    fn lock_now(&self) -> Result<LockStatus, RunError> {
+        Ok(design::lock::status(&self.file)?)
+    }
 }
 
 fn reopen(dir: &Path) -> Result<Prepared, RunError> {
@@ -522,7 +532,7 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
         }
         opened.push((part, run));
     }
-    Ok(Prepared { array, plan, parts: opened })
+    Ok(Prepared { array, file, plan, parts: opened })
 }
 
 /// The split of one run directory rebuilt in memory from the recorded data
@@ -585,7 +595,7 @@ pub fn run_task(
     let (part, run) = p.parts.iter().find(|(part, _)| part.split == job.split).expect("every split has a part");
     let local = TrainingJob { split: None, ..job.clone() };
     if let Some(r) = JobRecord::read(&part.dir, &local)? {
-        r.verify_files(&part.dir, &local)?;
+        r.verify(&part.dir, &local, &p.array.design_sha256)?;
         return Ok(TaskOutcome::AlreadyFinished { job: job.label() });
     }
     let prepared = rebuild(&p.array, part, run)?;
@@ -633,12 +643,16 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     }
     // Each run directory is finished as a local run finishes it; a
     // multi-split study then pools its splits, as a local run does.
+    // The lock state is recomputed from the design copy and the lock beside
+    // the original design, never taken from array.json, which anyone can edit.
+    let lock = p.lock_now()?;
     let mut all_builds = BTreeSet::new();
     let mut last = None;
     for ((part, run), builds) in p.parts.into_iter().zip(builds) {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
-        let opened = Opened { status: p.array.lock.clone(), exploratory: run.exploratory, prepared, record: run };
+        let exploratory = run.exploratory || lock.changed();
+        let opened = Opened { status: lock.clone(), exploratory, prepared, record: run };
         let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
         last = Some((outcome, opened.record));
     }
@@ -648,8 +662,8 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
             &p.array.design_path,
             &p.plan,
             dir,
-            &p.array.lock,
-            record.exploratory,
+            &lock,
+            record.exploratory || lock.changed(),
             &record,
             all_builds,
         )?;

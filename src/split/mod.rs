@@ -49,7 +49,7 @@ use crate::design::{
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
-pub use prepare::{prepare, rebuild, Prepared};
+pub use prepare::{prepare, rebuild, write_prepared, Prepared};
 pub use treatment::{treatment_audit, Composition, TreatmentAudit};
 
 /// A one-step window or a rollout start: (recording index, row index).

@@ -69,6 +69,17 @@ pub fn rebuild(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path) -> Result
     prepare_into(file, plan, dir, out, false)
 }
 
+/// Writes what [`prepare`] writes, for a split already built (by
+/// [`rebuild`], and found to be the one a run directory records).
+pub fn write_prepared(prepared: &Prepared, out: &Path) -> Result<(), SplitError> {
+    prepared.audit.write(&out.join("audit"))?;
+    write_split(out, &prepared.manifests)?;
+    let audit_dir = out.join("audit");
+    write_atomic(&audit_dir.join("invariants.json"), prepared.invariants.to_json().as_bytes())?;
+    write_atomic(&audit_dir.join("treatment.json"), prepared.treatment.to_json().as_bytes())?;
+    Ok(())
+}
+
 fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: bool) -> Result<Prepared, SplitError> {
     let design = &file.design;
     if !design.splits.is_empty() {

@@ -174,8 +174,12 @@ pub struct Performance {
 /// One replication's (estimate, SE, lower, upper).
 pub type Estimate = (f64, f64, f64, f64);
 
-/// Morris, White & Crowther (2019), Table 6, against the true value.
+/// Morris, White & Crowther (2019), Table 6, against the true value, over
+/// the usable replications of `est` (see [`usable`]; `reps` counts them).
+/// Monte Carlo SEs need two or more and are NaN with fewer.
 pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], truth: f64) -> Performance {
+    let est: Vec<Estimate> = est.iter().copied().filter(usable).collect();
+    let est = est.as_slice();
     let n = est.len() as f64;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let var = |v: &[f64]| {
@@ -197,7 +201,8 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
         method,
         reps: est.len(),
         coverage: cov,
-        coverage_mcse: (cov * (1.0 - cov) / n).sqrt(),
+        // No Monte Carlo SE from fewer than 2 replications: NaN, not 0.
+        coverage_mcse: if n >= 2.0 { (cov * (1.0 - cov) / n).sqrt() } else { f64::NAN },
         mean_width: mean(&width),
         mean_width_mcse: (var(&width) / n).sqrt(),
         median_width: if sorted.is_empty() { f64::NAN } else { super::quantile_type7(&sorted, 0.5) },
@@ -272,6 +277,14 @@ fn with_missing(
     Ok(out)
 }
 
+/// Whether a replication's estimate can be scored: its estimate, SE and
+/// both interval ends are numbers. A Kenward-Roger interval with NaN ends
+/// (df undefined) is not a miss but no interval at all, left out with the
+/// estimator's other undefined replications; an infinite end still covers.
+pub fn usable(e: &Estimate) -> bool {
+    ![e.0, e.1, e.2, e.3].iter().any(|x| x.is_nan())
+}
+
 /// Runs `reps` replications of one setting: every estimator on every array.
 /// Replication r uses ChaCha8 stream r of `seed` for the data and stream
 /// 2^32 + r for its bootstrap. With missing cells, the estimators of
@@ -297,7 +310,7 @@ pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Re
         .iter()
         .enumerate()
         .map(|(k, &method)| {
-            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).filter(|e| !e.0.is_nan()).collect();
+            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).collect();
             performance(&label, method, &est, 0.0)
         })
         .collect())

@@ -173,3 +173,157 @@ split_case("split_unknown_format", "split.txt", "S1_circle_slow_rep1 train\n")
 case("split_file_missing", "audit split {dir}/none.json --data tests/fixtures/splits/data --out {out}")
 case("split_data_missing", "audit split tests/fixtures/splits/nanobench_small.json --data {dir}/nowhere --out {out}")
 case("split_min_run_zero", "audit split tests/fixtures/splits/nanobench_small.json --data tests/fixtures/splits/data --min-run 0 --out {out}")
+
+# Round 3 (trust-b): provenance, impossible values, degenerate data, preregistration status
+# =========================================================================================
+import hashlib
+
+def sha(b):
+    return hashlib.sha256(b if isinstance(b, bytes) else b.encode()).hexdigest()
+
+def lock_json(design_text, language=None, files=None, design_name="study.design"):
+    d = {"design": design_name, "sha256": sha(design_text)}
+    if language is not None:
+        d["language"] = language
+    if files is not None:
+        d["files"] = files
+    d.update({"tool": "crossaudit", "tool_version": "0.1.0", "locked_at_utc": "2026-01-01T00:00:00Z"})
+    return json.dumps(d, indent=2) + "\n"
+
+# ---- class 1: a lock covers the files a design refers to and the language defaults
+PIN = open(os.path.join(ROOT, "tests/fixtures/splits/pin.json"), "rb").read()
+PUBLISHED = open(os.path.join(ROOT, "tests/designs/published_fixture.design")).read() \
+    .replace('path "../fixtures/splits/data"', 'path "../../fixtures/splits/data"') \
+    .replace('"../fixtures/splits/pin.json"', '"pin.json"')
+
+def locked_run(name, design_text, lock_text, extra_files=None, command="run"):
+    files = {"study.design": design_text, "study.design.lock": lock_text}
+    files.update(extra_files or {})
+    case(name, command + " {dir}/study.design --out {out}", files)
+
+# The split file edited after the lock (the lock records its old hash).
+locked_run("r3b_lock_split_file_edited", PUBLISHED,
+           lock_json(PUBLISHED, 1, {"pin.json": sha(PIN)}), {"pin.json": PIN + b"\n"})
+# A lock written before referenced files were recorded: an edit cannot be ruled out.
+locked_run("r3b_lock_predates_file_hashes", PUBLISHED, lock_json(PUBLISHED), {"pin.json": PIN})
+# The lock names a file the design no longer refers to.
+locked_run("r3b_lock_names_unreferenced_file", PUBLISHED,
+           lock_json(PUBLISHED, 1, {"pin.json": sha(PIN), "old_split.json": sha("x")}), {"pin.json": PIN})
+# Locked under other language defaults (an older and a newer version).
+locked_run("r3b_lock_older_language", PUBLISHED, lock_json(PUBLISHED, 0, {"pin.json": sha(PIN)}), {"pin.json": PIN})
+locked_run("r3b_lock_newer_language", PUBLISHED, lock_json(PUBLISHED, 7, {"pin.json": sha(PIN)}), {"pin.json": PIN})
+# `train` into the same directory checks the lock as `run` does.
+case("r3b_train_split_file_edited", "train {dir}/study.design --model world --arm disjoint --seed 1 --out {out}",
+     {"study.design": PUBLISHED, "study.design.lock": lock_json(PUBLISHED, 1, {"pin.json": sha(PIN)}),
+      "pin.json": PIN.replace(b"{", b"{ ", 1)})
+
+# ---- class 1: every writer refuses a run directory of another design
+OTHER_RUN = json.dumps({
+    "study": "other", "design_sha256": "0" * 64,
+    "data": {"kind": "directory", "path": "elsewhere"},
+    "audit_sha256": "1" * 64, "manifests_sha256": "2" * 64,
+    "exploratory": False, "crossaudit": "0.1.0 (commit 000000000000)"}, indent=2)
+GOOD_CELLS_TEXT = open(os.path.join(ROOT, "fuzz/seeds_cells/minimal_complete.csv")).read()
+RUN_DIR = {"run/run.json": OTHER_RUN, "run/cells.csv": GOOD_CELLS_TEXT}
+case("r3b_train_into_other_designs_run",
+     "train tests/designs/sim_small.design --model world --arm disjoint --seed 1 --out {dir}/run", RUN_DIR)
+case("r3b_run_into_other_designs_run", "run tests/designs/sim_small.design --out {dir}/run", RUN_DIR)
+case("r3b_split_into_other_designs_run", "split tests/designs/sim_small.design --out {dir}/run", RUN_DIR)
+case("r3b_slurm_into_other_designs_run", "run tests/designs/sim_small.design --slurm --out {dir}/run", RUN_DIR)
+case("r3b_analyze_into_other_designs_report",
+     "analyze tests/designs/minimal.design --cells {dir}/run/cells.csv", RUN_DIR)
+case("r3b_plan_into_other_designs_run",
+     "plan tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run", RUN_DIR)
+case("r3b_data_audit_into_other_designs_run",
+     "data audit tests/designs/minimal.design --data tests/fixtures/splits/data --out {dir}/run/audit", RUN_DIR)
+case("r3b_simulate_into_other_designs_run", "simulate tests/designs/sim_small.design --out {dir}/run", RUN_DIR)
+
+# ---- class 2: values the design cannot produce ------------------------------
+def all_rows(fn):
+    def edit(lines):
+        return [lines[0]] + [",".join(fn(l.split(","))) for l in lines[1:]]
+    return edit
+
+def starts_where_finite(arm, n):
+    # n_starts changed only in rows with no divergent start, so the row's
+    # own identities (rate = 0, FA = conditional) still hold.
+    def f(r):
+        if (arm is None or r[1] == arm) and r[8] == "0":
+            r[7] = str(n)
+        return r
+    return all_rows(f)
+
+def first_finite_row_starts(n):
+    def edit(lines):
+        k = next(i for i, l in enumerate(lines) if i > 0 and l.split(",")[8] == "0")
+        return field(k, 7, str(n))(lines)
+    return edit
+
+cells("r3b_cells_n_starts_not_the_designs", first_finite_row_starts(10))
+cells("r3b_cells_n_starts_differ_between_arms", starts_where_finite("contaminated", 6))
+cells("r3b_cells_n_starts_every_row_other", starts_where_finite(None, 7))
+cells("r3b_cells_n_starts_u64_max", starts_where_finite("disjoint", 18446744073709551615))
+PINNED = MINIMAL.replace("evaluation 4 split_seed 1;",
+    'split_seed 1; evaluation recordings "R1_circle_fast_rep1", "R2_circle_slow_rep1", "R3_star_fast_rep1", "R5_star_slow_rep1";')
+case("r3b_cells_recording_not_pinned", "analyze {dir}/study.design --cells {dir}/cells.csv --out {out}",
+     {"study.design": PINNED, "cells.csv": GOOD_CELLS_TEXT})
+
+# A speed label the design's data block cannot give (file-name labels).
+def speed_of_recording(rec, label):
+    return all_rows(lambda r: r[:5] + [label] + r[6:] if r[3] == rec else r)
+
+cells("r3b_cells_speed_not_a_label", speed_of_recording("R1_circle_fast_rep1", "ultra"))
+cells("r3b_cells_speed_case_differs", speed_of_recording("R2_circle_slow_rep1", "Slow"))
+
+def meta_speed(value, key="speed_mps", top=False):
+    if top:
+        return META + f"{key}: {value}\nparams:\n  speed_mps: 0.5\n"
+    return META + f"params:\n  duration_s: 20.0\n  {key}: {value}\n"
+
+for name, text in [("r3b_metadata_speed_nan", meta_speed(".nan")),
+                   ("r3b_metadata_speed_negative", meta_speed("-5")),
+                   ("r3b_metadata_speed_infinite", meta_speed(".inf")),
+                   ("r3b_metadata_battery_negative", meta_speed("-3.9", "battery_voltage_start", top=True)),
+                   ("r3b_metadata_battery_nan", meta_speed(".NaN", "battery_voltage_end", top=True))]:
+    # Lenient data (no `strict`): impossible numbers are refused all the same.
+    logs(name, {"A1_circle_slow_rep1.csv": GOOD_LOG, "A1_circle_slow_rep1_metadata.yaml": text}, design=MINIMAL)
+
+# ---- class 3: degenerate data -------------------------------------------------
+def finite_rows(r):
+    # Every start finite: FA = conditional, rate 0.
+    r[8], r[11], r[10] = "0", "0", r[9]
+    return r
+
+def shifted(delta):
+    def edit(lines):
+        rows = [finite_rows(l.split(",")) for l in lines[1:]]
+        disjoint = {(r[0], r[2], r[3], r[6]): r for r in rows if r[1] == "disjoint"}
+        for r in rows:
+            if r[1] == "contaminated":
+                v = float(disjoint[(r[0], r[2], r[3], r[6])][9]) + delta
+                r[9] = r[10] = repr(round(v, 6))
+        return [lines[0]] + [",".join(r) for r in rows]
+    return edit
+
+cells("r3b_cells_constant_shift", shifted(-0.01))
+cells("r3b_cells_identical_arms", shifted(0.0))
+cells("r3b_cells_shift_with_rounding_noise", shifted(-0.1))
+
+def all_diverged(lines):
+    def f(r):
+        r[8], r[11], r[9] = r[7], "1", "2"
+        r[10] = r[12] = r[13] = ""
+        return r
+    return [lines[0]] + [",".join(f(l.split(","))) for l in lines[1:]]
+
+cells("r3b_cells_every_rollout_diverged", all_diverged)
+REML = MINIMAL.replace("estimate crossed_mom level 0.95 df seed - 1", "estimate reml level 0.95 df kenward_roger")
+case("r3b_cells_constant_shift_reml", "analyze {dir}/study.design --cells {dir}/cells.csv --out {out}",
+     {"study.design": REML, "cells.csv": "\n".join(shifted(-0.01)([HEADER] + GOOD_CELLS[1:])) + "\n"})
+case("r3b_plan_constant_shift_pilot", "plan tests/designs/minimal.design --cells {dir}/cells.csv --out {out}",
+     {"cells.csv": "\n".join(shifted(-0.02)([HEADER] + GOOD_CELLS[1:])) + "\n"})
+
+# ---- class 8: preregistration status -----------------------------------------
+design("r3b_decide_optimism_fraction", MINIMAL.replace("optimism >= 10%", "optimism >= 0.1"))
+design("r3b_decide_optimism_fraction_strict", MINIMAL.replace("optimism >= 10%", "optimism > 0.25"))
+design("r3b_decide_optimism_negative_fraction", MINIMAL.replace("optimism >= 10% and upper < 0", "optimism >= -0.5"))

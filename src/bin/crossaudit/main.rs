@@ -70,6 +70,9 @@ enum Command {
         /// results, about half the speed).
         #[arg(long, default_value = "fused", value_parser = ["fused", "reference"])]
         engine: String,
+        /// Allow a design changed after locking; every output is labelled EXPLORATORY.
+        #[arg(long)]
+        exploratory: bool,
     },
     /// Run a locked design end to end: audit, manifests, invariants, every
     /// training cell, cells.csv and the report. Resumes a partial run.
@@ -275,9 +278,9 @@ fn main() -> ExitCode {
         Command::Lock { design } => lock_design(&design),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Split { design, data, out } => split(&design, data, &out),
-        Command::Train { design, model, arm, seed, data, out, engine } => {
+        Command::Train { design, model, arm, seed, data, out, engine, exploratory } => {
             let engine = if engine == "reference" { Engine::Reference } else { Engine::Fused };
-            train(&design, (&model, &arm, seed), data, &out, engine)
+            train(&design, (&model, &arm, seed), data, &out, (engine, exploratory))
         }
         Command::Run { design, data, out, exploratory, slurm, .. } if slurm.slurm => {
             slurm_prepare(&design, data, &out, exploratory, slurm)
@@ -306,6 +309,7 @@ fn main() -> ExitCode {
 
 fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
+    crossaudit::run::check_output_dir(out, &file.sha256)?;
     let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
@@ -337,8 +341,9 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
-    let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
+    crossaudit::run::check_out(out, &file.sha256)?;
+    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
+    let prepared = crossaudit::run::split_into(&file, &plan, &data, out)?;
     print!("{}", prepared.treatment.render_text());
     for i in &prepared.invariants.invariants {
         println!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
@@ -355,7 +360,7 @@ fn train(
     (model, arm, seed): (&str, &str, u64),
     data: Option<PathBuf>,
     out: &Path,
-    engine: Engine,
+    (engine, exploratory): (Engine, bool),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
@@ -364,17 +369,22 @@ fn train(
         .iter()
         .find(|j| j.model == model && j.arm == arm && j.seed.0 == seed)
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
-    let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
-    let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
+    // Before anything (simulated data included) is written into `out`.
+    crossaudit::run::check_out(out, &file.sha256)?;
+    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
     let bar = progress::epoch_bar(epochs, &job.label());
-    let result = crossaudit::run::run_job_with(engine, &file.sha256, &plan, job, &prepared, out, &mut |e| {
+    let result = crossaudit::run::train_job(&file, &plan, &data, out, job, (engine, exploratory), &mut |e| {
         bar.set_position(e.epoch as u64);
         bar.set_message(format!("train {:.4} val {:.4}", e.train_loss, e.val_loss));
     });
     bar.finish_and_clear();
-    let outcome = result?;
-    progress::print_job(model, arm, seed, &outcome, out);
+    match result? {
+        crossaudit::run::TrainOutcome::AlreadyFinished => {
+            eprintln!("job {} had finished in {}: files verified, nothing run", job.label(), out.display())
+        }
+        crossaudit::run::TrainOutcome::Ran(outcome) => progress::print_job(model, arm, seed, &outcome, out),
+    }
     Ok(())
 }
 
@@ -404,6 +414,8 @@ fn run(
     if workers == 0 {
         return Err(crossaudit::run::RunError::NoWorkers.into());
     }
+    // Before anything (simulated data included) is written into `out`.
+    crossaudit::run::check_out(out, &file.sha256)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
@@ -449,6 +461,7 @@ fn slurm_prepare(
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
     slurm::check_dir(out)?;
+    crossaudit::run::check_out(out, &file.sha256)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;
     if a.submit {
@@ -548,6 +561,7 @@ fn power(
     out: &Path,
 ) -> Result<(), Error> {
     let file = design::load(design)?;
+    crossaudit::run::check_output_dir(out, &file.sha256)?;
     let plan = crossaudit::compile(&file.design);
     if !plan.splits.is_empty() {
         let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
@@ -571,6 +585,7 @@ fn power(
 
 fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
+    crossaudit::run::check_output_dir(out, &file.sha256)?;
     let Some(sim) = file.design.data.simulated else {
         return Err(crossaudit::run::RunError::NotSimulated { path: design.display().to_string() }.into());
     };
@@ -609,7 +624,7 @@ fn render(e: &Error, color: bool) -> String {
 
 fn check(path: &Path, json: bool) -> Result<(), Error> {
     let file = design::load(path)?;
-    let status = lock::status(path, &file.sha256)?;
+    let status = lock::status(&file)?;
     let plan = crossaudit::compile(&file.design);
     if json {
         let value = serde_json::json!({
@@ -631,7 +646,7 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
 
 fn lock_design(path: &Path) -> Result<(), Error> {
     let file = design::load(path)?;
-    let lock = lock::write_lock(path, &file.sha256, std::time::SystemTime::now())?;
+    let lock = lock::write_lock(&file, std::time::SystemTime::now())?;
     println!(
         "{}: locked sha256 {} at {} ({} {})",
         lock::lock_path(path).display(),
@@ -645,9 +660,11 @@ fn lock_design(path: &Path) -> Result<(), Error> {
 
 fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOptions) -> Result<(), Error> {
     let file = crossaudit::design::load(design)?;
+    let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
+    // A run's report is never replaced by another design's analysis.
+    crossaudit::run::check_output_dir(&dir, &file.sha256)?;
     if crossaudit::compile(&file.design).is_family() {
         let mut a = crossaudit::analyze_family_files(design, cells, options)?;
-        let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
         let written = crossaudit::report::family::write_family(&mut a, &dir)?;
         for w in &a.warnings {
             eprintln!("warning: {w}");
@@ -659,7 +676,6 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
         return Ok(());
     }
     let analysis = crossaudit::analyze_files(design, cells, options)?;
-    let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
     let written = crossaudit::report::write_all(&analysis, &dir)?;
     for w in &analysis.warnings {
         eprintln!("warning: {w}");

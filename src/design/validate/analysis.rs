@@ -233,7 +233,21 @@ impl Validator {
                     "only optimism is a percentage",
                 );
             }
-            out.push(DecisionCondition { quantity, cmp: c.cmp.node, value: c.value.node });
+            let v = c.value.node;
+            if quantity == Quantity::Optimism && !c.percent && v != 0.0 && v.abs() < 1.0 {
+                // `0.1` is a fraction to most readers and 0.1 % to the rule.
+                self.err_help(
+                    "optimism threshold without `%`",
+                    c.value.span,
+                    format!("optimism is a percentage, so `{v}` would be read as {v}%"),
+                    // Rounded to 9 decimals: 0.1 x 100 is 10.000000000000002 in floating point.
+                    format!(
+                        "write `{}%` for a fraction of {v}, or `{v}%` if {v} percent is meant",
+                        (v * 1e11).round() / 1e9
+                    ),
+                );
+            }
+            out.push(DecisionCondition { quantity, cmp: c.cmp.node, value: v });
         }
         Some(DecisionRule { name: name.node.clone(), on: DecisionTarget::Primary, conditions: out })
     }

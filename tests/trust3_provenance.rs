@@ -1,0 +1,406 @@
+//! Issue 30, round 3 (trust-b): sequences the bad-input corpus cannot
+//! express, each with the real binary. Job provenance: a run directory is
+//! written only by its own design, a finished job is reused only when its
+//! record is of this run's design and lists exactly the files such a job
+//! writes, a lock covers the files a design refers to and the language's
+//! defaults, and the gather step recomputes the lock state. Preregistration
+//! status: an unlocked design's outputs say NOT PREREGISTERED wherever a
+//! locked one's say preregistered. Degenerate data: coverage leaves out
+//! unusable replications, the planner refuses a pilot without variance.
+//!
+//! The runs use a tiny simulated design (one model, two seeds, a few
+//! epochs) written by the tests, so none needs data beside the repository.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use crate::common::root;
+
+/// The tiny simulated study; `{epochs}` is filled in, so that two designs
+/// can differ only in their epochs (issue 30's example).
+const TINY: &str = r#"study "trust3-tiny"
+data simulated {
+  recordings 12 seed 5 strength 1.0 duration 15 s
+  rate       100 Hz
+  include    active(motor_motor_m1 > 1000) >= 200 samples
+  exclude    implausible
+  duplicates group
+}
+factor recording { evaluation 4 split_seed 42; starts 10 horizon 100 conditions trajectory, speed }
+factor seed = 1..2
+validation 300 windows from 2 recordings seed 143
+arm disjoint     { fit 2000 windows seed 42 }
+arm contaminated { from disjoint replace 25% with evaluation windows exclude starts seed 7 }
+model world = mlp(32, 32, 32) inputs world
+train { adam lr 1e-3 batch 256 epochs {epochs} cosine patience 15 action_noise 0.02 }
+endpoint primary fa_position_rmse at 1.0 s cap 2 m model world
+contrast contaminated - disjoint
+estimate crossed_mom level 0.95 df seed - 1
+decide confirmed when optimism >= 10% and upper < 0
+"#;
+
+fn crossaudit(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).env("NO_COLOR", "1").output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[track_caller]
+fn assert_ok(o: &Output) {
+    assert!(o.status.success(), "{}", stderr(o));
+}
+
+#[track_caller]
+fn assert_refused(o: &Output, needle: &str) {
+    assert_eq!(o.status.code(), Some(1), "expected a refusal containing {needle:?}; stderr: {}", stderr(o));
+    assert!(stderr(o).contains(needle), "expected {needle:?} in: {}", stderr(o));
+    assert!(!stderr(o).contains("panicked"), "{}", stderr(o));
+}
+
+/// Writes the tiny design with `epochs` into `dir/NAME`.
+fn tiny(dir: &Path, name: &str, epochs: u32) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, TINY.replace("{epochs}", &epochs.to_string())).unwrap();
+    path
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Every file under `dir`, by relative path.
+fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    fn walk(base: &Path, dir: &Path, out: &mut Vec<(String, Vec<u8>)>) {
+        for e in std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()) {
+            let p = e.path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                out.push((p.strip_prefix(base).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    let mut v = Vec::new();
+    walk(dir, dir, &mut v);
+    v.sort();
+    v
+}
+
+/// One finished run of the tiny design (3 epochs), shared by the tests
+/// that break a copy of it: (its directory, its design, its stdout).
+fn reference() -> &'static (PathBuf, PathBuf, String) {
+    static REFERENCE: std::sync::OnceLock<(PathBuf, PathBuf, String)> = std::sync::OnceLock::new();
+    REFERENCE.get_or_init(|| {
+        let base = root().join("target/test-trust3");
+        let _ = std::fs::remove_dir_all(&base);
+        std::fs::create_dir_all(&base).unwrap();
+        let design = tiny(&base, "a.design", 3);
+        let out = base.join("reference");
+        let o = crossaudit(&["run", s(&design), "--out", s(&out), "--workers", "2"]);
+        assert_ok(&o);
+        (out, design, stdout(&o))
+    })
+}
+
+/// A copy of the reference run (every file) in `into`.
+fn copy_of_reference(into: &Path) -> PathBuf {
+    let out = into.join("copy");
+    for (name, bytes) in tree(&reference().0) {
+        let p = out.join(&name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, bytes).unwrap();
+    }
+    out
+}
+
+/// A change made to a job record on purpose.
+type JsonEdit = fn(&mut serde_json::Value);
+
+fn edit_json(path: &Path, edit: impl Fn(&mut serde_json::Value)) {
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    edit(&mut v);
+    std::fs::write(path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+}
+
+#[test]
+fn train_with_another_design_cannot_overwrite_a_finished_run() {
+    // Issue 30, class 1: `train b.design` (b differs only in its epochs)
+    // into a finished run of a.design exited 0 and overwrote a job, and the
+    // next `run a.design` reused it. Now it is refused and nothing changes.
+    let (_, design, first) = reference();
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let b = tiny(dir.path(), "b.design", 4);
+    let before = tree(&out);
+    let o = crossaudit(&["train", s(&b), "--model", "world", "--arm", "disjoint", "--seed", "1", "--out", s(&out)]);
+    assert_refused(&o, "holds a run of a different design");
+    assert_eq!(tree(&out), before, "a refused train wrote into the run directory");
+    let again = crossaudit(&["run", s(design), "--out", s(&out), "--workers", "2"]);
+    assert_ok(&again);
+    assert!(stderr(&again).contains("0 cells trained, 4 resumed"), "{}", stderr(&again));
+    assert_eq!(stdout(&again), *first, "the decision moved");
+}
+
+#[test]
+fn train_with_the_same_design_reuses_a_finished_job() {
+    // A finished job is verified and left as it is, not trained again over
+    // its files (its record would change: the curve's seconds differ).
+    let (_, design, _) = reference();
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let before = tree(&out);
+    let o =
+        crossaudit(&["train", s(design), "--model", "world", "--arm", "contaminated", "--seed", "2", "--out", s(&out)]);
+    assert_ok(&o);
+    assert!(stderr(&o).contains("had finished") && stderr(&o).contains("nothing run"), "{}", stderr(&o));
+    assert_eq!(tree(&out), before);
+}
+
+#[test]
+fn split_and_analyze_with_another_design_leave_the_run_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let b = tiny(dir.path(), "b.design", 4);
+    let before = tree(&out);
+    assert_refused(&crossaudit(&["split", s(&b), "--out", s(&out)]), "holds a run of a different design");
+    // `analyze` writes report/ beside the cells by default: the run's report.
+    let cells = out.join("cells.csv");
+    assert_refused(&crossaudit(&["analyze", s(&b), "--cells", s(&cells)]), "holds a run of a different design");
+    assert_eq!(tree(&out), before);
+}
+
+#[test]
+fn a_job_record_of_another_design_is_refused() {
+    // Issue 30, class 1: a job record's design hash was never compared with
+    // run.json.
+    let (_, design, _) = reference();
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    edit_json(&out.join("jobs/world__disjoint__1.json"), |v| v["design_sha256"] = "ab".repeat(32).into());
+    let o = crossaudit(&["run", s(design), "--out", s(&out)]);
+    assert_refused(&o, "records design sha256 abab");
+    assert!(stderr(&o).contains("world__disjoint__1.json"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_job_record_whose_files_were_emptied_or_cut_is_refused() {
+    // Issue 30, class 1: a record whose `files` map was emptied verified
+    // nothing, so edited cells were accepted.
+    let (_, design, _) = reference();
+    let cases: [(&str, JsonEdit); 3] = [
+        ("its `files` lists nothing", |v| v["files"] = serde_json::json!({})),
+        ("but the job writes", |v| {
+            v["files"].as_object_mut().unwrap().remove("models/world__contaminated__1.safetensors");
+        }),
+        ("but the job writes", |v| v["files"]["cells/other.csv"] = "00".repeat(32).into()),
+    ];
+    for (needle, edit) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let out = copy_of_reference(dir.path());
+        edit_json(&out.join("jobs/world__contaminated__1.json"), edit);
+        let cells = out.join("cells/world__contaminated__1.csv");
+        let text = std::fs::read_to_string(&cells).unwrap();
+        std::fs::write(&cells, text.replacen(",0.", ",0.0", 1)).unwrap();
+        let o = crossaudit(&["run", s(design), "--out", s(&out)]);
+        assert_refused(&o, needle);
+        assert!(stderr(&o).contains("world__contaminated__1.json"), "{}", stderr(&o));
+    }
+}
+
+/// The published-split fixture design copied into `dir` beside its split
+/// file, its data path made absolute.
+fn published_copy(dir: &Path) -> (PathBuf, PathBuf) {
+    let text = std::fs::read_to_string(root().join("tests/designs/published_fixture.design")).unwrap();
+    let data = root().join("tests/fixtures/splits/data");
+    let text = text
+        .replace("\"../fixtures/splits/data\"", &format!("\"{}\"", data.display()))
+        .replace("\"../fixtures/splits/pin.json\"", "\"pin.json\"");
+    let design = dir.join("study.design");
+    std::fs::write(&design, text).unwrap();
+    let pin = dir.join("pin.json");
+    std::fs::copy(root().join("tests/fixtures/splits/pin.json"), &pin).unwrap();
+    (design, pin)
+}
+
+#[test]
+fn editing_a_file_the_design_refers_to_makes_its_lock_stale() {
+    // Issue 30, class 1: editing a locked design's published split file
+    // left the design "locked, unchanged".
+    let dir = tempfile::tempdir().unwrap();
+    let (design, pin) = published_copy(dir.path());
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    let lock: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("study.design.lock")).unwrap()).unwrap();
+    assert_eq!(lock["language"], 1);
+    assert!(lock["files"]["pin.json"].as_str().is_some_and(|h| h.len() == 64), "{lock}");
+    assert!(stdout(&crossaudit(&["check", s(&design)])).contains("lock: locked/unchanged"));
+    // The same roles and names, one more line: another file.
+    let mut bytes = std::fs::read(&pin).unwrap();
+    bytes.push(b'\n');
+    std::fs::write(&pin, bytes).unwrap();
+    let check = stdout(&crossaudit(&["check", s(&design)]));
+    assert!(check.contains("lock: locked/changed"), "{check}");
+    let json: serde_json::Value = serde_json::from_slice(&crossaudit(&["check", "--json", s(&design)]).stdout).unwrap();
+    assert_eq!(json["lock"]["status"], "locked_stale");
+    assert!(json["lock"]["reason"].as_str().unwrap().contains("`pin.json`"), "{json}");
+    let out = dir.path().join("out");
+    assert_refused(
+        &crossaudit(&["run", s(&design), "--out", s(&out)]),
+        "`pin.json`, which the design refers to, changed",
+    );
+    assert_refused(&crossaudit(&["lock", s(&design)]), "delete the lock to re-lock");
+}
+
+#[test]
+fn a_lock_made_under_other_language_defaults_is_reported() {
+    // Issue 30, class 1: a lock recorded only the design's bytes, so an old
+    // locked design silently took new language defaults.
+    let dir = tempfile::tempdir().unwrap();
+    let design = dir.path().join("minimal.design");
+    std::fs::copy(root().join("tests/designs/minimal.design"), &design).unwrap();
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    edit_json(&dir.path().join("minimal.design.lock"), |v| v["language"] = 0.into());
+    assert!(stdout(&crossaudit(&["check", s(&design)])).contains("lock: locked/changed"));
+    let cells = root().join("fuzz/seeds_cells/minimal_complete.csv");
+    let report = dir.path().join("report");
+    let o = crossaudit(&["analyze", s(&design), "--cells", s(&cells), "--out", s(&report)]);
+    assert_ok(&o);
+    assert!(stdout(&o).starts_with("EXPLORATORY decision:"), "{}", stdout(&o));
+    assert!(stderr(&o).contains("design language version 0"), "{}", stderr(&o));
+}
+
+#[test]
+fn every_committed_lock_still_holds() {
+    // The locks under designs/ verify under the new lock format (the
+    // upstream-split design's lock was regenerated to record its split
+    // file's hash; its time and design hash are unchanged).
+    let mut checked = 0;
+    let mut dirs = vec![root().join("designs")];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap().filter_map(|e| e.ok()) {
+            let p = e.path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "design") && crossaudit::design::lock::lock_path(&p).exists() {
+                let file = crossaudit::design::load(&p).unwrap();
+                let status = crossaudit::design::lock::status(&file).unwrap();
+                assert!(
+                    matches!(status, crossaudit::design::LockStatus::LockedUnchanged { .. }),
+                    "{}: {status:?}",
+                    p.display()
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 15, "{checked} locks checked");
+}
+
+#[test]
+fn gather_recomputes_the_lock_state_instead_of_trusting_array_json() {
+    // Issue 30, class 1: `gather` took the lock state from array.json.
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny(dir.path(), "a.design", 2);
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    // Changed after the lock: prepared as exploratory, as it must be.
+    std::fs::write(&design, TINY.replace("{epochs}", "3")).unwrap();
+    let out = dir.path().join("slurm-run");
+    assert_ok(&crossaudit(&["run", s(&design), "--slurm", "--exploratory", "--out", s(&out)]));
+    for index in 0..4 {
+        assert_ok(&crossaudit(&["job", s(&out), "--index", &index.to_string()]));
+    }
+    // Someone makes the run look preregistered.
+    edit_json(&out.join("slurm/array.json"), |v| {
+        v["lock"] = serde_json::json!({"status": "locked_unchanged", "locked_at_utc": "2026-01-01T00:00:00Z"})
+    });
+    edit_json(&out.join("run.json"), |v| v["exploratory"] = false.into());
+    let o = crossaudit(&["gather", s(&out)]);
+    assert_ok(&o);
+    assert!(stdout(&o).starts_with("EXPLORATORY decision:"), "{}", stdout(&o));
+    let results: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report/results.json")).unwrap()).unwrap();
+    assert_eq!(results["exploratory"], true);
+    assert_eq!(results["preregistered"], false);
+}
+
+#[test]
+fn an_unlocked_design_says_not_preregistered_wherever_a_locked_one_is() {
+    // Issue 30, class 8: a never-locked design ran and was analysed with
+    // nothing on the decision line, and results.json said
+    // `exploratory: false` with no warning.
+    let dir = tempfile::tempdir().unwrap();
+    let design = dir.path().join("minimal.design");
+    std::fs::copy(root().join("tests/designs/minimal.design"), &design).unwrap();
+    let cells = root().join("fuzz/seeds_cells/minimal_complete.csv");
+    let analyze = |report: &Path| crossaudit(&["analyze", s(&design), "--cells", s(&cells), "--out", s(report)]);
+    let unlocked = dir.path().join("unlocked");
+    let o = analyze(&unlocked);
+    assert_ok(&o);
+    assert!(stdout(&o).starts_with("NOT PREREGISTERED decision:"), "{}", stdout(&o));
+    assert!(stderr(&o).contains("was not locked: results are NOT PREREGISTERED"), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(unlocked.join("results.json")).unwrap()).unwrap();
+    assert_eq!((json["preregistered"].clone(), json["exploratory"].clone()), (false.into(), false.into()));
+    let md = std::fs::read_to_string(unlocked.join("report.md")).unwrap();
+    assert!(md.lines().next().unwrap().contains("NOT PREREGISTERED"), "{md}");
+    let tex = std::fs::read_to_string(unlocked.join("results.tex")).unwrap();
+    assert!(tex.contains("% NOT PREREGISTERED") && tex.contains("caPreregistered}{no}"), "{tex}");
+
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    let locked = dir.path().join("locked");
+    let o = analyze(&locked);
+    assert_ok(&o);
+    assert!(stdout(&o).starts_with("decision:"), "{}", stdout(&o));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(locked.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["preregistered"], true);
+    assert!(!std::fs::read_to_string(locked.join("report.md")).unwrap().contains("PREREGISTERED"));
+    assert!(std::fs::read_to_string(locked.join("results.tex")).unwrap().contains("caPreregistered}{yes}"));
+
+    // A run of an unlocked design says so on its decision line too.
+    let (_, _, first) = reference();
+    assert!(first.starts_with("NOT PREREGISTERED decision:"), "{first}");
+}
+
+#[test]
+fn coverage_leaves_out_intervals_with_nan_ends_and_gives_no_mcse_from_one() {
+    // Issue 30, class 3: a Kenward-Roger interval with NaN ends was counted
+    // as a miss, and one usable replication printed "1.000 (0.000)".
+    use crossaudit::stats::coverage::performance;
+    use crossaudit::stats::IntervalMethod;
+    let nan = f64::NAN;
+    // One replication whose df were undefined, one covering the truth 0.
+    let est = [(0.2, 1.0, nan, nan), (0.1, 1.0, -1.9, 2.1)];
+    let p = performance("s", IntervalMethod::RemlKenwardRoger, &est, 0.0);
+    // By hand: one usable replication, which covers, so coverage 1/1; an
+    // MCSE needs two (Morris, White & Crowther 2019, Table 6: sqrt(c(1-c)/n)
+    // is 0 at n = 1, which is no standard error).
+    assert_eq!(p.reps, 1);
+    assert_eq!(p.coverage, 1.0);
+    assert!(p.coverage_mcse.is_nan());
+    // Two usable, one covering: coverage 1/2, MCSE sqrt(0.5 * 0.5 / 2).
+    let est = [(0.2, 1.0, nan, nan), (0.1, 1.0, -1.9, 2.1), (3.0, 1.0, 1.0, 5.0)];
+    let p = performance("s", IntervalMethod::RemlKenwardRoger, &est, 0.0);
+    assert_eq!((p.reps, p.coverage), (2, 0.5));
+    assert!((p.coverage_mcse - (0.125f64).sqrt()).abs() < 1e-15);
+}
+
+#[test]
+fn the_planner_refuses_a_pilot_without_variance() {
+    // Issue 30, class 3: the planner planned on components of about 1e-34
+    // and predicted P(rule holds) = 1.000 at every size.
+    let file = crossaudit::design::load(&root().join("tests/designs/minimal.design")).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let cells = crossaudit::cells::read_cells(&root().join("fuzz/seeds_cells/minimal_complete.csv")).unwrap();
+    let mut a = crossaudit::analysis::analyze(&plan, &cells, Default::default()).unwrap();
+    assert!(crossaudit::methods::power_plan(&plan, &a, &[4, 8], &[3, 6]).is_ok());
+    let c = &mut a.units[0].estimate.components;
+    (c.recording, c.seed, c.residual) = (1e-34, 2e-34, 0.0);
+    let e = crossaudit::methods::power_plan(&plan, &a, &[4, 8], &[3, 6]).unwrap_err().to_string();
+    assert!(e.contains("no variance to plan from"), "{e}");
+}
