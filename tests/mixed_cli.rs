@@ -166,3 +166,28 @@ fn unidentifiable_random_factors_are_refused() {
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("factor a:obs is not identifiable"), "{stderr}");
 }
+
+/// Models whose dense matrices would not fit in memory are refused before
+/// anything is allocated: two crossed factors of 30,000 levels each (the
+/// dense system would be 30,001 square, 7.2 GB), and a categorical fixed
+/// effect with 30,000 levels.
+#[test]
+fn a_model_too_large_for_memory_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("big.csv");
+    let mut text = String::from("y,a,b\n");
+    for i in 0..60_000usize {
+        text.push_str(&format!("{},{},{}\n", (i * 37 % 101) as f64, i % 30_000, (i * 7 + i / 30_000) % 30_000));
+    }
+    std::fs::write(&file, text).unwrap();
+    let f = file.to_str().unwrap();
+    let (code, _, stderr) = run(&["mixed", f, "--formula", "y ~ 1 + (1|a) + (1|b)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("the model is too large: the random factors but the largest have 30000 levels"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run(&["mixed", f, "--formula", "y ~ factor(a) + (1|b)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("the model is too large: the categorical variable a has 30000 levels"), "{stderr}");
+}

@@ -368,6 +368,15 @@ fn coded(table: &Table, v: &Variable, contrasts: bool) -> Result<Vec<(String, Ve
             if numeric.is_some() {
                 levels.sort_by(|a, b| a.parse::<f64>().unwrap_or(0.0).total_cmp(&b.parse::<f64>().unwrap_or(0.0)));
             }
+            if levels.len() > super::MAX_DENSE {
+                return Err(MixedError::TooLarge(format!(
+                    "the categorical variable {} has {} levels, over the limit of {} fixed-effect columns",
+                    v.name,
+                    levels.len(),
+                    super::MAX_DENSE
+                ))
+                .into());
+            }
             let skip = usize::from(contrasts);
             Ok(levels
                 .iter()
@@ -434,6 +443,16 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
         // Products, the first variable varying fastest.
         let mut acc: Vec<(String, Vec<f64>)> = vec![(String::new(), vec![1.0; y.len()])];
         for part in &parts {
+            let width = columns.len() + acc.len() * part.len();
+            if width > super::MAX_DENSE || width.saturating_mul(y.len()) > super::MAX_DESIGN_VALUES {
+                return Err(MixedError::TooLarge(format!(
+                    "the fixed effects would have {width} columns for {} observations, over the limits of {} columns and {} values",
+                    y.len(),
+                    super::MAX_DENSE,
+                    super::MAX_DESIGN_VALUES
+                ))
+                .into());
+            }
             let mut next = Vec::new();
             for (name_b, vb) in part {
                 for (name_a, va) in &acc {
@@ -540,7 +559,14 @@ pub fn fit_table(
             return Err(MixedError::Level(level).into());
         }
     }
-    let fit = super::fit(&data, criterion)?;
+    // Kenward-Roger (and the shares) need the q x q matrices over every
+    // level; Satterthwaite needs only deviance evaluations.
+    let inference = match (criterion, df) {
+        (super::Criterion::Reml, DfMethod::KenwardRoger) => super::Inference::Full,
+        (super::Criterion::Reml, DfMethod::Satterthwaite) => super::Inference::Satterthwaite,
+        (super::Criterion::Ml, _) => super::Inference::Estimates,
+    };
+    let fit = super::fit_with(&data, criterion, inference)?;
     let reml = criterion == super::Criterion::Reml;
     let fixed = fit
         .fixed

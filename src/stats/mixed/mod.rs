@@ -123,6 +123,9 @@ pub enum MixedError {
         /// Restarts tried.
         restarts: usize,
     },
+    /// A model whose dense matrices would not fit in memory.
+    #[error("the model is too large: {0}")]
+    TooLarge(String),
     /// A random factor whose variance the data cannot identify.
     #[error("factor {factor} is not identifiable: {reason}")]
     Unidentifiable {
@@ -534,7 +537,7 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
             restarts += 1;
             let (t, d) = optimize::nelder_mead_even(&mut dev, &from, 0.5, 1e-12);
             let t: Vec<f64> = t.into_iter().map(|v| if v < 1e-6 { 0.0 } else { v }).collect();
-            let d = if t.iter().any(|v| *v == 0.0) { dev(&t).min(d) } else { d };
+            let d = if t.contains(&0.0) { dev(&t).min(d) } else { d };
             let (mut t, mut d, converged) = optimize::newton(&mut dev, t, d, 30);
             if !converged {
                 for step in [0.1, 0.01, 1e-3] {
@@ -567,7 +570,51 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
     if data.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));
     }
+    data.check_size(inference)?;
     fit_system(&system::System::new(data), data, criterion, inference)
+}
+
+/// The largest dense system a fit builds: the levels of every factor but
+/// the largest, plus the fixed-effect columns (InstEval: 1,142). A 20,000
+/// square matrix of f64 is 3.2 GB.
+pub const MAX_DENSE: usize = 20_000;
+
+/// The most values of the fixed-effect design (observations x columns).
+pub const MAX_DESIGN_VALUES: usize = 100_000_000;
+
+impl MixedData {
+    /// Refuses a model whose dense matrices would not fit in memory, before
+    /// any is allocated: the penalized system (every factor's levels but
+    /// the largest's, plus the fixed effects), the n x p design, and for
+    /// Kenward-Roger the q x q matrices over all levels.
+    fn check_size(&self, inference: Inference) -> Result<(), MixedError> {
+        let levels: Vec<usize> = self.factors.iter().map(|f| f.levels).collect();
+        let largest = levels.iter().copied().max().unwrap_or(0);
+        let q: usize = levels.iter().sum();
+        let dense = q - largest + self.p();
+        let too_large = |what: String| Err(MixedError::TooLarge(what));
+        if dense > MAX_DENSE {
+            return too_large(format!(
+                "the random factors but the largest have {} levels and there are {} fixed-effect columns: the dense system would be {dense} x {dense}, over the limit of {MAX_DENSE}",
+                q - largest,
+                self.p()
+            ));
+        }
+        if self.len().saturating_mul(self.p()) > MAX_DESIGN_VALUES {
+            return too_large(format!(
+                "{} observations x {} fixed-effect columns is over the limit of {MAX_DESIGN_VALUES} values",
+                self.len(),
+                self.p()
+            ));
+        }
+        if inference == Inference::Full && q + self.p() > MAX_DENSE {
+            return too_large(format!(
+                "Kenward-Roger works with matrices over every level ({q} levels, {} fixed-effect columns), over the limit of {MAX_DENSE}; use Satterthwaite df",
+                self.p()
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// [`fit_with`] on the products of `data` already computed.

@@ -271,7 +271,7 @@ pub(super) fn certify(f: &mut dyn FnMut(&[f64]) -> f64, x: &[f64], fx: f64) -> C
             }
         }
     }
-    if !(predicted_decrease <= tolerance) {
+    if predicted_decrease.is_nan() || predicted_decrease > tolerance {
         certified = false;
     }
     Checked { gradient, predicted_decrease, boundary, certified, escapes }
