@@ -191,3 +191,22 @@ fn a_model_too_large_for_memory_is_refused_up_front() {
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("the model is too large: the categorical variable a has 30000 levels"), "{stderr}");
 }
+
+/// A byte-order mark is not part of the first column's name, and a header
+/// that names a column twice is refused (which of the two would be used?).
+#[test]
+fn mixed_reads_a_bom_and_refuses_a_repeated_column_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("tests/fixtures/mixed_published/penicillin.csv")).unwrap();
+    let bom = dir.path().join("bom.csv");
+    std::fs::write(&bom, format!("\u{feff}{text}")).unwrap();
+    let (code, stdout, stderr) =
+        run(&["mixed", bom.to_str().unwrap(), "--formula", "diameter ~ 1 + (1|plate) + (1|sample)"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("Number of obs: 144"), "{stdout}");
+    let twice = dir.path().join("twice.csv");
+    std::fs::write(&twice, text.replacen("sample", "plate", 1)).unwrap();
+    let (code, _, stderr) = run(&["mixed", twice.to_str().unwrap(), "--formula", "diameter ~ 1 + (1|plate)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("row 0, field plate: the header names column `plate` twice (fields 2 and 3)"), "{stderr}");
+}

@@ -470,6 +470,8 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
 /// Reads a tidy CSV (a header row of names, then one row per observation)
 /// from `text`.
 pub fn read_csv(text: &str) -> Result<Table, FormulaError> {
+    // A byte-order mark (spreadsheet exports) is not part of the first name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(text.as_bytes());
     let names: Vec<String> = match reader.headers() {
         Ok(h) => h.iter().map(|s| s.trim().trim_matches('"').to_string()).collect(),
@@ -477,6 +479,19 @@ pub fn read_csv(text: &str) -> Result<Table, FormulaError> {
     };
     if names.is_empty() || names.iter().all(String::is_empty) {
         return Err(FormulaError::Value { row: 0, field: "header".into(), message: "the file has no header".into() });
+    }
+    for (i, name) in names.iter().enumerate() {
+        if names[..i].contains(name) {
+            return Err(FormulaError::Value {
+                row: 0,
+                field: name.clone(),
+                message: format!(
+                    "the header names column `{name}` twice (fields {} and {})",
+                    names[..i].iter().position(|n| n == name).unwrap_or(0) + 1,
+                    i + 1
+                ),
+            });
+        }
     }
     let mut columns: Vec<Vec<String>> = vec![Vec::new(); names.len()];
     for (row, record) in reader.records().enumerate() {
