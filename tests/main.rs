@@ -25,3 +25,4 @@ mod stats_mixed;
 mod stats_props;
 mod stats_reference;
 mod trust;
+mod trust3_io;

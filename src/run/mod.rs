@@ -11,6 +11,7 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
+mod folder;
 mod grid;
 pub mod job;
 mod record;
@@ -32,6 +33,7 @@ use crate::io::{create_dir_all, WriteError};
 use crate::plan::{Plan, TrainingJob};
 use crate::report::figures::Curve;
 
+pub use folder::{check_out_dir, lock_folder, FolderLock};
 pub use grid::{Quiet, RunObserver};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
@@ -171,6 +173,22 @@ pub enum RunError {
     /// The design has no data path and none was given.
     #[error("the design's data block has no `path`; pass --data DIR")]
     NoDataPath,
+    /// The output folder is, or is inside, or holds the data folder.
+    #[error("the output folder {out} {how} {data}: what crossaudit writes there would be read back as flight logs; choose an output folder outside the data folder")]
+    OutInData {
+        /// The output folder as given.
+        out: String,
+        /// The data folder as given.
+        data: String,
+        /// "is the data folder", "is inside the data folder" or "holds the data folder".
+        how: &'static str,
+    },
+    /// Another crossaudit process holds the output folder's lock.
+    #[error("{dir} is in use by another crossaudit process (a run, train, gather or job on it has not ended); wait for it to end, or use another output folder")]
+    FolderBusy {
+        /// The folder.
+        dir: String,
+    },
     /// The data directory does not exist.
     #[error("data directory {dir} does not exist")]
     NoDataDir {

@@ -153,7 +153,7 @@ impl ArrayRecord {
     pub fn read(dir: &Path) -> Result<ArrayRecord, RunError> {
         let path = dir.join(SLURM_DIR).join("array.json");
         let bad = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
-        let bytes = std::fs::read(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        let bytes = crate::io::read_own(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
         serde_json::from_slice(&bytes).map_err(|e| bad(format!("{}: {e}", path.display())))
     }
 }
@@ -312,7 +312,8 @@ pub fn prepare(
     }
     let (indices, _) = unfinished(plan, &parts)?;
 
-    let bytes = std::fs::read(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
+    let bytes =
+        crate::io::read_own(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
     if sha256_hex(&bytes) != file.sha256 {
         return Err(RunError::NotPrepared {
             dir: dir.display().to_string(),
@@ -568,6 +569,9 @@ pub fn run_task(
     on_epoch: &mut (dyn FnMut(&crate::model::EpochLog) + Send),
 ) -> Result<TaskOutcome, RunError> {
     let p = reopen(dir)?;
+    // Shared: jobs of one run run side by side; a `run` or `gather` on
+    // the folder (exclusive) waits for none of them silently.
+    let _folder = super::lock_folder(dir, true)?;
     let job = p.plan.jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: p.plan.jobs.len() })?;
     let locks = dir.join(SLURM_DIR).join("locks");
     create_dir_all(&locks)?;

@@ -9,8 +9,11 @@ use clap::{Parser, Subcommand};
 use crossaudit::design::{self, lock, LoadError};
 use crossaudit::model::Engine;
 use crossaudit::report::decision_line;
+use crossaudit::run::lock_folder;
 use crossaudit::{AnalyzeOptions, Error};
 
+#[macro_use]
+mod output;
 mod progress;
 
 #[derive(Parser)]
@@ -243,7 +246,10 @@ fn main() -> ExitCode {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, fail_on } } => {
             match audit_split(&split, &data, design.as_deref(), &out, min_run) {
                 Ok(true) if fail_on.is_some() => {
-                    eprintln!("exact leakage found: exiting with status 3 (--fail-on leak)");
+                    note!("exact leakage found: exiting with status 3 (--fail-on leak)");
+                    if let Err(e) = output::flush() {
+                        output::note_raw(&render(&e, color));
+                    }
                     return ExitCode::from(3);
                 }
                 other => other.map(|_| ()),
@@ -272,10 +278,16 @@ fn main() -> ExitCode {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
     };
+    // Text printed without a final newline is still buffered.
+    let result = result.and_then(|()| output::flush());
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of a pipe has gone (`crossaudit check X | head -1`):
+        // nothing is left to tell it, so end quietly, with the status a
+        // shell gives a command ended by SIGPIPE. Every file was written.
+        Err(Error::Stdout(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(141),
         Err(e) => {
-            eprint!("{}", render(&e, color));
+            output::note_raw(&render(&e, color));
             ExitCode::FAILURE
         }
     }
@@ -283,11 +295,12 @@ fn main() -> ExitCode {
 
 fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
+    let _lock = lock_folder(out, false)?;
     let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
-    print!("{}", audit.summary());
-    eprintln!("wrote {}", path.display());
+    out!("{}", audit.summary());
+    note!("wrote {}", path.display());
     Ok(())
 }
 
@@ -301,12 +314,14 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
     if !data.is_dir() {
         return Err(crossaudit::run::RunError::NoDataDir { dir: data.display().to_string() }.into());
     }
+    crossaudit::run::check_out_dir(data, out)?;
+    let _lock = lock_folder(out, false)?;
     let options = crossaudit::split_audit::Options { min_run_rows: min_run };
     let audit = crossaudit::split_audit::audit(&published, &spec, &from, data, options)?;
     let written = audit.write(out)?;
-    print!("{}", audit.summary());
+    out!("{}", audit.summary());
     for p in written {
-        eprintln!("wrote {}", p.display());
+        note!("wrote {}", p.display());
     }
     Ok(audit.has_exact_leak())
 }
@@ -314,16 +329,17 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
+    let _lock = lock_folder(out, false)?;
     let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
-    print!("{}", prepared.treatment.render_text());
+    out!("{}", prepared.treatment.render_text());
     for i in &prepared.invariants.invariants {
-        println!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
+        outln!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
     }
     for (name, m) in &prepared.manifests.files {
-        println!("manifest {name}: {} rows, sha256 {}", m.rows, m.sha256);
+        outln!("manifest {name}: {} rows, sha256 {}", m.rows, m.sha256);
     }
-    eprintln!("wrote {}", out.display());
+    note!("wrote {}", out.display());
     Ok(())
 }
 
@@ -341,6 +357,7 @@ fn train(
         .iter()
         .find(|j| j.model == model && j.arm == arm && j.seed.0 == seed)
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
+    let _lock = lock_folder(out, false)?;
     let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let prepared = crossaudit::split::prepare(&file, &plan, &dir, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
@@ -351,8 +368,7 @@ fn train(
     });
     bar.finish_and_clear();
     let outcome = result?;
-    progress::print_job(model, arm, seed, &outcome, out);
-    Ok(())
+    progress::print_job(model, arm, seed, &outcome, out)
 }
 
 fn unknown_job(plan: &crossaudit::Plan, model: &str, arm: &str, seed: u64) -> crossaudit::run::RunError {
@@ -381,6 +397,7 @@ fn run(
     if workers == 0 {
         return Err(crossaudit::run::RunError::NoWorkers.into());
     }
+    let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
@@ -388,7 +405,7 @@ fn run(
     let result = crossaudit::run::run(&file, &plan, &data, out, options, &progress);
     progress.finish();
     let o = result?;
-    eprintln!(
+    note!(
         "{} cells trained, {} resumed, {:.1} s; wrote {} and {}",
         o.trained,
         o.skipped,
@@ -396,7 +413,7 @@ fn run(
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", o.analysis.decision_line());
+    outln!("{}", o.analysis.decision_line());
     Ok(())
 }
 
@@ -426,26 +443,29 @@ fn slurm_prepare(
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
     slurm::check_dir(out)?;
+    let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;
     if a.submit {
         let ids = slurm::submit(&prepared)?;
         match &ids.array {
-            Some(array) => eprintln!(
+            Some(array) => note!(
                 "submitted array job {array} ({} of {} jobs) and gather job {}",
-                prepared.pending, prepared.jobs, ids.gather
+                prepared.pending,
+                prepared.jobs,
+                ids.gather
             ),
-            None => eprintln!("every job had finished: submitted gather job {}", ids.gather),
+            None => note!("every job had finished: submitted gather job {}", ids.gather),
         }
-        eprintln!(
+        note!(
             "logs: {}/slurm/logs; results: {}/cells.csv and report/ once the gather job ends",
             prepared.dir.display(),
             prepared.dir.display()
         );
-        println!("{}", [ids.array.clone().unwrap_or_default(), ids.gather].join(" ").trim());
+        outln!("{}", [ids.array.clone().unwrap_or_default(), ids.gather].join(" ").trim());
     } else {
-        print!("{}", prepared.submit_text);
-        eprintln!(
+        out!("{}", prepared.submit_text);
+        note!(
             "prepared {} ({} of {} jobs pending); submit with: sh {}",
             prepared.dir.display(),
             prepared.pending,
@@ -459,7 +479,7 @@ fn slurm_prepare(
 fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
     use crossaudit::run::slurm::{self, TaskOutcome};
     let var = |k: &str| std::env::var(k).unwrap_or_else(|_| "-".into());
-    eprintln!(
+    note!(
         "crossaudit {}: task {index} of {} (Slurm job {}, array job {}, host {})",
         crossaudit::BUILD,
         dir.display(),
@@ -472,33 +492,31 @@ fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
     let outcome = slurm::run_task(dir, index, &mut |e| {
         // A line every 10 s at most: enough to see progress in a log.
         if last.elapsed().as_secs() >= 10 {
-            eprintln!("  epoch {}: train {:.4} val {:.4}", e.epoch, e.train_loss, e.val_loss);
+            note!("  epoch {}: train {:.4} val {:.4}", e.epoch, e.train_loss, e.val_loss);
             last = std::time::Instant::now();
         }
     })?;
     match outcome {
-        TaskOutcome::AlreadyFinished { job } => eprintln!("job {job} had finished: files verified, nothing run"),
+        TaskOutcome::AlreadyFinished { job } => note!("job {job} had finished: files verified, nothing run"),
         TaskOutcome::Ran { job, outcome } => {
-            eprintln!(
-                "job {job} finished in {:.1} s: wrote {}",
-                started.elapsed().as_secs_f64(),
-                outcome.files.join(", ")
-            );
+            note!("job {job} finished in {:.1} s: wrote {}", started.elapsed().as_secs_f64(), outcome.files.join(", "));
         }
     }
     Ok(())
 }
 
 fn slurm_gather(dir: &Path) -> Result<(), Error> {
+    // A folder that is not there is the library's to name.
+    let _lock = if dir.is_dir() { Some(lock_folder(dir, false)?) } else { None };
     let o = crossaudit::run::slurm::gather(dir)?;
-    eprintln!(
+    note!(
         "gathered {} jobs in {:.1} s; wrote {} and {}",
         o.skipped,
         o.seconds,
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", o.analysis.decision_line());
+    outln!("{}", o.analysis.decision_line());
     Ok(())
 }
 
@@ -508,12 +526,13 @@ fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Err
         spec.reps = r;
         spec.validate(spec_path)?;
     }
+    let _lock = lock_folder(out, false)?;
     let started = std::time::Instant::now();
     let rows = crossaudit::methods::run_coverage(&spec, &mut |k, n, s| {
-        eprintln!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
+        note!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
     })?;
     for p in crossaudit::methods::coverage::write(out, &spec, &rows)? {
-        eprintln!("wrote {}", p.display());
+        note!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -529,8 +548,9 @@ fn power(
     if !plan.splits.is_empty() {
         let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
         let power = crossaudit::methods::split_power_plan(&plan, &family, splits, recordings, seeds)?;
+        let _lock = lock_folder(out, false)?;
         power.write(out)?;
-        print!("{}", power.to_markdown());
+        out!("{}", power.to_markdown());
         return Ok(());
     }
     let power = if plan.is_family() {
@@ -541,8 +561,9 @@ fn power(
         let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
         crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?
     };
+    let _lock = lock_folder(out, false)?;
     power.write(out)?;
-    print!("{}", power.to_markdown());
+    out!("{}", power.to_markdown());
     Ok(())
 }
 
@@ -551,8 +572,9 @@ fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
     let Some(sim) = file.design.data.simulated else {
         return Err(crossaudit::run::RunError::NotSimulated { path: design.display().to_string() }.into());
     };
+    let _lock = lock_folder(out, false)?;
     let record = crossaudit::sim::simulate(&sim, out)?;
-    eprintln!(
+    note!(
         "wrote {} simulated recordings (CSV + metadata) and {} to {}",
         record.files.len() / 2,
         crossaudit::sim::RECORD,
@@ -580,12 +602,12 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
             "plan": plan,
             "validated": file.design,
         });
-        print!("{}", crossaudit::io::pretty_json(&value));
+        out!("{}", crossaudit::io::pretty_json(&value));
     } else {
-        println!("{}: valid", path.display());
-        println!("sha256: {}", file.sha256);
-        println!("lock: {}", status.label());
-        print!("{}", plan.render_text());
+        outln!("{}: valid", path.display());
+        outln!("sha256: {}", file.sha256);
+        outln!("lock: {}", status.label());
+        out!("{}", plan.render_text());
     }
     Ok(())
 }
@@ -593,7 +615,7 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
 fn lock_design(path: &Path) -> Result<(), Error> {
     let file = design::load(path)?;
     let lock = lock::write_lock(path, &file.sha256, std::time::SystemTime::now())?;
-    println!(
+    outln!(
         "{}: locked sha256 {} at {} ({} {})",
         lock::lock_path(path).display(),
         lock.sha256,
@@ -609,25 +631,27 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     if crossaudit::compile(&file.design).is_family() {
         let mut a = crossaudit::analyze_family_files(design, cells, options)?;
         let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
+        let _lock = lock_folder(&dir, false)?;
         let written = crossaudit::report::family::write_family(&mut a, &dir)?;
         for w in &a.warnings {
-            eprintln!("warning: {w}");
+            note!("warning: {w}");
         }
         for p in written {
-            eprintln!("wrote {}", p.display());
+            note!("wrote {}", p.display());
         }
-        println!("{}", crossaudit::report::family::family_decision_line(&a));
+        outln!("{}", crossaudit::report::family::family_decision_line(&a));
         return Ok(());
     }
     let analysis = crossaudit::analyze_files(design, cells, options)?;
     let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
+    let _lock = lock_folder(&dir, false)?;
     let written = crossaudit::report::write_all(&analysis, &dir)?;
     for w in &analysis.warnings {
-        eprintln!("warning: {w}");
+        note!("warning: {w}");
     }
     for p in written {
-        eprintln!("wrote {}", p.display());
+        note!("wrote {}", p.display());
     }
-    println!("{}", decision_line(&analysis));
+    outln!("{}", decision_line(&analysis));
     Ok(())
 }

@@ -94,7 +94,7 @@ impl Validator {
                     column: column.node.clone(),
                     cmp: cmp.node,
                     threshold: threshold.node,
-                    min_samples: self.count(min_samples, "the active-sample minimum", 1) as u64,
+                    min_samples: self.count(min_samples, "the active-sample minimum", 1, u64::MAX) as u64,
                 });
             }
             DataItem::ExcludeImplausible(pooling) => {
@@ -167,7 +167,7 @@ impl Validator {
             }
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
-                let count = self.count(n, "the number of simulated recordings", 2);
+                let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
                 if count > MAX_SIM_RECORDINGS {
                     let message = format!("at most {MAX_SIM_RECORDINGS} recordings can be simulated, found {count}");
                     self.err("too many recordings", n.span, message);

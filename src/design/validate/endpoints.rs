@@ -16,7 +16,7 @@ impl Validator {
         let mut out: Vec<(Endpoint, Span)> = Vec::new();
         let mut primary_cap: Option<f64> = None;
         let mut primaries: Vec<Span> = Vec::new();
-        let mut seen_cells: Vec<(Metric, u64, String)> = Vec::new();
+        let mut seen_cells: std::collections::BTreeSet<(Metric, u64, String)> = Default::default();
         // The primary's cap is the study's divergence cap; read it first.
         for s in stmts {
             if let Statement::Endpoint(e) = &s.node {
@@ -52,14 +52,12 @@ impl Validator {
                 for h in &horizons {
                     for m in &names {
                         let key = (metric, (h.0 * 1e9).round() as u64, m.clone());
-                        if seen_cells.contains(&key) {
+                        if !seen_cells.insert(key) {
                             self.err(
                                 "duplicate endpoint",
                                 s.span,
                                 format!("{} at {} s for model `{}` is already an endpoint", metric.name(), h.0, m),
                             );
-                        } else {
-                            seen_cells.push(key);
                         }
                     }
                 }
@@ -81,16 +79,28 @@ impl Validator {
     /// The horizons of one endpoint, each checked against the rate and the rollout.
     fn horizons(&mut self, horizons: &[Number], rate: f64, horizon_samples: Option<usize>) -> Vec<Seconds> {
         let mut out = Vec::new();
-        for (i, h) in horizons.iter().enumerate() {
+        let mut seen = std::collections::BTreeSet::new();
+        for h in horizons {
             if h.node <= 0.0 {
                 self.err("non-positive horizon", h.span, format!("the horizon must be > 0 s, found {} s", h.node));
                 continue;
             }
-            if horizons[..i].iter().any(|g| g.node == h.node) {
+            if !seen.insert(h.node.to_bits()) {
                 self.err("duplicate horizon", h.span, format!("{} s is listed twice", h.node));
                 continue;
             }
             let samples = h.node * rate;
+            if samples.round() < 1.0 {
+                // Zero samples would be a rollout that never moves: the
+                // metrics at that horizon have nothing to average.
+                self.err_help(
+                    "horizon shorter than one sample",
+                    h.span,
+                    format!("{} s at {} Hz is {} samples", h.node, rate, samples),
+                    format!("a horizon lasts at least one sample, {} s at {} Hz", 1.0 / rate, rate),
+                );
+                continue;
+            }
             if (samples - samples.round()).abs() > SAMPLE_EPS {
                 self.err(
                     "horizon between samples",
