@@ -270,19 +270,13 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
         .collect::<Vec<_>>();
     let first = Place { line: 1, column: 1 };
     let header_at = |k: usize| Place { line: 1, column: column_of(text, 0, k) };
+    let mut columns: BTreeMap<&str, usize> = BTreeMap::new();
     for (k, h) in header.iter().enumerate() {
-        if let Some(j) = header[..k].iter().position(|g| g == h) {
+        if let Some(j) = columns.insert(h, k) {
             return Err(at(
                 path,
                 header_at(k),
                 format!("column `{h}` appears twice in the header (first as column {})", j + 1),
-            ));
-        }
-        if !matches!(h.as_str(), "recording" | "role" | "fold") {
-            return Err(at(
-                path,
-                header_at(k),
-                format!("unknown column `{h}`: a split CSV has the columns `recording` and `role` (or `fold`), nothing else"),
             ));
         }
     }
@@ -301,6 +295,15 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             ))
         }
     };
+    for (k, h) in header.iter().enumerate() {
+        if !matches!(h.as_str(), "recording" | "role" | "fold") {
+            return Err(at(
+                path,
+                header_at(k),
+                format!("unknown column `{h}`: a split CSV has the columns `recording` and `role` (or `fold`), nothing else"),
+            ));
+        }
+    }
     let mut roles: Vec<Role> = Vec::new();
     // Role name -> index in `roles`, so a long file reads in linear time.
     let mut index: BTreeMap<String, usize> = BTreeMap::new();
