@@ -40,6 +40,9 @@ pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;
 
+/// The most training workers (threads) a run starts.
+pub const MAX_WORKERS: usize = 1024;
+
 /// Options of a run that are not part of the design.
 #[derive(Debug, Clone, Copy)]
 pub struct RunOptions {
@@ -123,6 +126,12 @@ pub enum RunError {
     /// `--workers 0`.
     #[error("--workers must be at least 1")]
     NoWorkers,
+    /// More workers than threads a process should start.
+    #[error("--workers {workers} is more than {MAX_WORKERS}: each worker is a thread training one job; use at most one per core")]
+    TooManyWorkers {
+        /// As given.
+        workers: usize,
+    },
     /// A worker's thread pool could not start.
     #[error("worker pool: {0}")]
     WorkerPool(#[from] rayon::ThreadPoolBuildError),
@@ -361,9 +370,7 @@ pub fn run(
     observer: &dyn RunObserver,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
-    if options.workers == 0 {
-        return Err(RunError::NoWorkers);
-    }
+    check_workers(options.workers)?;
     if !plan.splits.is_empty() {
         return run_splits(file, plan, data, out, options, observer, started);
     }
@@ -376,6 +383,15 @@ pub fn run(
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// At least one worker, at most [`MAX_WORKERS`].
+pub fn check_workers(workers: usize) -> Result<(), RunError> {
+    match workers {
+        0 => Err(RunError::NoWorkers),
+        n if n > MAX_WORKERS => Err(RunError::TooManyWorkers { workers: n }),
+        _ => Ok(()),
+    }
 }
 
 /// A multi-split study: each split a complete single-split run in

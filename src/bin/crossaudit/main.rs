@@ -394,9 +394,7 @@ fn run(
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
-    if workers == 0 {
-        return Err(crossaudit::run::RunError::NoWorkers.into());
-    }
+    crossaudit::run::check_workers(workers)?;
     let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);

@@ -182,6 +182,14 @@ impl Validator {
                 self.once(seen, "strength", item.span);
                 if x.node < 0.0 {
                     self.err("negative value", x.span, format!("strength must be >= 0, found {}", x.node));
+                } else if x.node > MAX_SIM_STRENGTH {
+                    let found = if x.node >= 1e6 { format!("{:e}", x.node) } else { x.node.to_string() };
+                    self.err_help(
+                        "value too large",
+                        x.span,
+                        format!("strength must be at most {MAX_SIM_STRENGTH}, found {found}"),
+                        "above it the simulated wind and biases leave too few flyable samples (at 1000 every rollout diverges)",
+                    );
                 }
                 sim.strength = Some(x.node);
             }
@@ -234,6 +242,9 @@ impl Validator {
 
 /// The most recordings a design may simulate.
 const MAX_SIM_RECORDINGS: usize = 2_000;
+/// The strongest recording-specific structure the simulator is asked for
+/// (the shipped designs use 0 to 2; at 100 no recording keeps a valid start).
+const MAX_SIM_STRENGTH: f64 = 10.0;
 /// The longest simulated recording, in seconds.
 const MAX_SIM_DURATION_S: f64 = 3_600.0;
 /// The most seconds of flight (recordings x duration) a design may

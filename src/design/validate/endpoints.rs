@@ -65,6 +65,19 @@ impl Validator {
                 out.push((Endpoint { role, metric, horizons, cap, models: names }, s.span));
             }
         }
+        // A model no endpoint names would be trained and never scored: its
+        // jobs would write per-cell files without rows.
+        for (m, span) in models {
+            let all_read = !stmts.is_empty() && out.len() == stmts.len();
+            if all_read && !out.iter().any(|(e, _)| e.models.contains(&m.name)) {
+                self.err_help(
+                    "model in no endpoint",
+                    *span,
+                    format!("model `{}` is named by no endpoint", m.name),
+                    "name it in an endpoint (`models a, b`), or remove it",
+                );
+            }
+        }
         if primaries.is_empty() && !stmts.is_empty() {
             self.err_help(
                 "no primary endpoint",
