@@ -294,15 +294,22 @@ impl LineIndex {
 /// assert_eq!(crossaudit::io::lone_cr_to_lf("a\rb\r\nc"), "a\nb\r\nc");
 /// ```
 pub fn lone_cr_to_lf(text: &str) -> std::borrow::Cow<'_, str> {
-    let bytes = text.as_bytes();
+    match lone_cr_to_lf_bytes(text.as_bytes()) {
+        std::borrow::Cow::Borrowed(_) => std::borrow::Cow::Borrowed(text),
+        // Only ASCII `\r` became ASCII `\n`: still UTF-8.
+        std::borrow::Cow::Owned(b) => std::borrow::Cow::Owned(String::from_utf8(b).unwrap_or_default()),
+    }
+}
+
+/// As [`lone_cr_to_lf`], on bytes (a flight log).
+pub fn lone_cr_to_lf_bytes(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
     let lone = |k: usize| bytes[k] == b'\r' && bytes.get(k + 1) != Some(&b'\n');
-    if !(0..bytes.len()).any(lone) {
-        return std::borrow::Cow::Borrowed(text);
+    // One pass over the `\r`s only: most files have none, or only `\r\n`.
+    let mut crs = bytes.iter().enumerate().filter(|(_, &b)| b == b'\r');
+    if !crs.any(|(k, _)| lone(k)) {
+        return std::borrow::Cow::Borrowed(bytes);
     }
-    let mut out = String::with_capacity(text.len());
-    for (k, c) in text.char_indices() {
-        out.push(if lone(k) { '\n' } else { c });
-    }
+    let out = (0..bytes.len()).map(|k| if lone(k) { b'\n' } else { bytes[k] }).collect();
     std::borrow::Cow::Owned(out)
 }
 

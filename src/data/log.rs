@@ -264,6 +264,9 @@ pub fn parse_with_row_hashes(file: &str, bytes: &[u8], keep: &[usize]) -> Result
 }
 
 fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Result<Log, LogError> {
+    // Lone `\r` line endings are read as lines (as pandas reads them), so
+    // errors name the line an editor shows.
+    let bytes = &*crate::io::lone_cr_to_lf_bytes(bytes);
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }

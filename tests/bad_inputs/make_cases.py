@@ -187,7 +187,6 @@ def r3a_design(name, old, new, base=MINIMAL):
     design(name, base.replace(old, new, 1))
 
 r3a_design("r3a_endpoint_horizon_tiny", "at 1.0 s cap 2 m", "at 1e-12 s cap 2 m")
-r3a_design("r3a_endpoint_horizon_half_sample", "at 0.5 s models", "at 0.004 s models")
 r3a_design("r3a_bootstrap_replicates_huge", "pigeonhole 99 seed 5", "pigeonhole 4000000000 seed 5")
 r3a_design("r3a_bootstrap_work_huge", "pigeonhole 99 seed 5", "pigeonhole 100000 seed 5",
            MINIMAL.replace("evaluation 4 split_seed 1; starts 5 horizon 100", "evaluation 90000 split_seed 1; starts 1 horizon 100"))
@@ -204,9 +203,10 @@ r3a_design("r3a_validation_windows_huge", "validation 100 windows", "validation 
 r3a_design("r3a_study_cells_huge", "factor seed = 1..3", "factor seed = 1..50000",
            MINIMAL.replace("evaluation 4 split_seed 1", "evaluation 1000 split_seed 1")
                   .replace("sensitivity bootstrap pigeonhole 99 seed 5; grouped conditions; leave_one_out seed, recording\n", ""))
-r3a_design("r3a_split_factor_huge", "factor seed = 1..3", "factor seed = 1..3\nfactor split = 1..2000")
+r3a_design("r3a_split_factor_huge", "factor seed = 1..3", "factor seed = 1..3\nfactor split = 1..2000",
+           MINIMAL.replace("decide confirmed when", "decide confirmed on pooled when"))
 r3a_design("r3a_doses_huge", "replace 25% with",
-           "replace " + ", ".join(f"{k}%" for k in range(1, 102)) + " with",
+           "replace " + ", ".join(f"{k / 2:g}%" for k in range(1, 102)) + " with",
            MINIMAL.replace("decide confirmed when", "decide confirmed on slope when"))
 design("r3a_sim_strength_huge", SMALL.replace("strength 1.0", "strength 1e300"))
 design("r3a_model_in_no_endpoint", MINIMAL.replace("models world, relative", "model world")
@@ -250,10 +250,6 @@ case("r3a_design_split_folds_beside_role_lists", "check {dir}/study.design", {
     "study.design": PIN_DESIGN,
     "split.json": '{\n  "train_files": ["S1_circle_slow_rep1.csv"],\n  "val_files": ["S2_star_fast_rep1.csv"],\n'
                   '  "test_files": ["S1_circle_slow_rep2.csv", "S3_oval_medium_rep2.csv"],\n  "folds": ' + FOLDS + '\n}\n'})
-case("r3a_design_split_test_files_twice", "check {dir}/study.design", {
-    "study.design": PIN_DESIGN,
-    "split.json": '{\n  "train_files": ["S1_circle_slow_rep1.csv"],\n  "val_files": ["S2_star_fast_rep1.csv"],\n'
-                  '  "test_files": ["S1_circle_slow_rep2.csv"],\n  "test_files": ["S3_oval_medium_rep2.csv"]\n}\n'})
 
 # ---- line numbers: CRLF (Python's csv module) and lone CR --------------------
 def crlf(text):
@@ -275,16 +271,13 @@ split_case("r3a_crlf_split_csv_ragged", "split.csv",
            crlf("recording,role\nS1_circle_slow_rep1,train\nS2_star_fast_rep1,test\nS3_oval_medium_rep1,test,x\n"))
 split_case("r3a_cr_split_csv_bad_fold", "split.csv",
            "recording,fold\rS1_circle_slow_rep1,0\rS2_star_fast_rep1,1\rS3_oval_medium_rep1,one\r")
-split_case("r3a_crlf_split_json_key_twice", "split.json",
-           crlf('{\n  "train_files": ["S1_circle_slow_rep1"],\n  "test_files": ["S2_star_fast_rep1"],\n  "test_files": ["S3_oval_medium_rep1"]\n}\n'))
+split_case("r3a_crlf_split_json_folds_twice", "split.json",
+           crlf('{\n  "folds": ' + FOLDS + ',\n  "seed": 3,\n  "folds": [["S3_oval_medium_rep1"], ["S3_oval_medium_rep2"]]\n}\n'))
 split_case("r3a_cr_split_json_malformed", "split.json",
            '{\r  "train_files": ["S1_circle_slow_rep1"],\r  "test_files": ["S2_star_fast_rep1"]\r  "val_files": []\r}\r')
-design("r3a_crlf_design_error", crlf(MINIMAL.replace("lr 1e-3", "lr -1e-3")))
 design("r3a_cr_design_error", MINIMAL.replace("lr 1e-3", "lr -1e-3").replace("\n", "\r"))
 log_lines = GOOD_LOG.decode().splitlines()
 bad_log = log_lines[:3] + [",".join(["abc"] + log_lines[3].split(",")[1:])] + log_lines[4:]
-logs("r3a_crlf_log_non_numeric", {"A1_circle_slow_rep1.csv": crlf("\n".join(bad_log) + "\n")})
-logs("r3a_crlf_metadata_invalid", {"A1_circle_slow_rep1.csv": GOOD_LOG,
-                                   "A1_circle_slow_rep1_metadata.yaml": crlf("category: tracking\ncrazyflie_id: CF1\ntrajectory_id: [circle\n")})
-case("r3a_crlf_coverage_spec_malformed", "coverage {dir}/spec.json --out {out}",
-     {"spec.json": crlf('{\n "seed": 1,\n "reps": 10,\n "level": ,\n "rows": [4]\n}\n')})
+logs("r3a_cr_log_non_numeric", {"A1_circle_slow_rep1.csv": "\r".join(bad_log) + "\r"})
+case("r3a_cr_coverage_spec_malformed", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": '{\r "seed": 1,\r "reps": 10,\r "level": ,\r "rows": [4]\r}\r'})
