@@ -80,6 +80,11 @@ impl Validator {
         }
         if published {
             listed = pinned.unwrap_or_default();
+            if listed.len() as u64 > limits::RECORDINGS {
+                let what = "evaluation recordings of the published split";
+                self.too_large(span, what, listed.len() as u64, limits::RECORDINGS);
+                return None;
+            }
             evaluation = Some(listed.len().max(2));
         }
         let mut missing = Vec::new();
