@@ -81,6 +81,7 @@ fn output_into_a_closed_pipe_ends_quietly_without_a_panic() {
         vec!["check", MINIMAL],
         vec!["check", MINIMAL, "--json"],
         vec!["analyze", MINIMAL, "--cells", CELLS, "--out", report],
+        vec!["--help"],
     ] {
         let (code, err) = into_closed_pipe(&args);
         assert!(!err.contains("panicked"), "{args:?} panicked:\n{err}");
@@ -116,8 +117,8 @@ fn output_to_a_full_disk_is_an_error_not_a_panic() {
     }
     let dir = tempfile::tempdir().unwrap();
     let report = dir.path().join("report");
-    for args in [vec!["check", MINIMAL], vec!["analyze", MINIMAL, "--cells", CELLS, "--out", report.to_str().unwrap()]]
-    {
+    let analyze = vec!["analyze", MINIMAL, "--cells", CELLS, "--out", report.to_str().unwrap()];
+    for args in [vec!["check", MINIMAL], analyze, vec!["--help"], vec!["--version"]] {
         let full = File::options().write(true).open("/dev/full").unwrap();
         let got = finish(spawn(&args, Stdio::from(full)), &args.join(" "));
         assert_refused(&got, &["cannot write to standard output", "No space left on device"]);

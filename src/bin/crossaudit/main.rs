@@ -240,8 +240,11 @@ enum AuditCommand {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
     let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return clap_exit(&e, color),
+    };
     let result = match cli.command {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, fail_on } } => {
             match audit_split(&split, &data, design.as_deref(), &out, min_run) {
@@ -288,6 +291,24 @@ fn main() -> ExitCode {
         Err(Error::Stdout(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(141),
         Err(e) => {
             output::note_raw(&render(&e, color));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// `--help` and `--version` (to standard output, through [`output`], so a
+/// closed pipe or a full disk is handled as for any output) and usage
+/// errors (to standard error, status 2).
+fn clap_exit(e: &clap::Error, color: bool) -> ExitCode {
+    if e.use_stderr() || std::io::stdout().is_terminal() {
+        let _ = e.print();
+        return ExitCode::from(e.exit_code().clamp(0, 255) as u8);
+    }
+    match output::print(format_args!("{}", e.render())).and_then(|()| output::flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Error::Stdout(io)) if io.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(141),
+        Err(err) => {
+            output::note_raw(&render(&err, color));
             ExitCode::FAILURE
         }
     }
@@ -441,9 +462,11 @@ fn slurm_prepare(
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
     slurm::check_dir(out)?;
-    let _lock = lock_folder(out, false)?;
+    let lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;
+    // The array's jobs take the folder's shared lock: free it before any can start.
+    drop(lock);
     if a.submit {
         let ids = slurm::submit(&prepared)?;
         match &ids.array {
