@@ -1,6 +1,6 @@
 //! Endpoints (metrics, horizons, caps, models) and the contrast.
 
-use super::{known, Validator, SAMPLE_EPS};
+use super::{known, limits, Validator, SAMPLE_EPS};
 use crate::design::ast::*;
 use crate::design::*;
 
@@ -141,6 +141,14 @@ impl Validator {
         if let Some(c) = cap {
             if c.node <= 0.0 {
                 self.err("non-positive cap", c.span, format!("the divergence cap must be > 0 m, found {} m", c.node));
+            } else if c.node > limits::CAP_M {
+                let found = if c.node >= 1e6 { format!("{:e}", c.node) } else { c.node.to_string() };
+                self.err_help(
+                    "value too large",
+                    c.span,
+                    format!("the divergence cap must be at most {} m, found {found} m", limits::CAP_M),
+                    "a diverged rollout scores the cap: squared in the analysis, a cap this large overflows",
+                );
             } else if let Some(p) = primary_cap {
                 if role == Role::Secondary && c.node != p {
                     self.err_help(
