@@ -340,3 +340,26 @@ fn line_numbers_are_right_for_crlf_and_lone_cr() {
         assert_refused(&got, &[&format!("FILE:{line}:")]);
     }
 }
+
+#[test]
+fn long_lists_in_a_design_are_refused_at_their_limit_in_linear_time() {
+    // Issue 30 class 4: 200,000 seeds as a list passed where the range was
+    // refused, and lists were checked for duplicates pairwise (a hang).
+    let minimal = std::fs::read_to_string(root().join(MINIMAL)).unwrap();
+    let names: Vec<String> = (0..100_001).map(|k| format!("\"R{k}_circle_slow_rep1\"")).collect();
+    let listed = minimal
+        .replace("evaluation 4 split_seed 1;", &format!("evaluation recordings {} split_seed 1;", names.join(", ")));
+    let seeds: Vec<String> = (0..200_000).map(|k| k.to_string()).collect();
+    let seeded = minimal.replace("factor seed = 1..3", &format!("factor seed = {}", seeds.join(", ")));
+    for (text, needle) in [
+        (listed, "the number of listed evaluation recordings must be at most 100000, found 100001"),
+        (seeded, "seed number 100001 of a list of 200000"),
+    ] {
+        let started = Instant::now();
+        let got = on_file("study.design", &text, &["check", "{f}"]);
+        assert_refused(&got, &[needle]);
+        assert_eq!(got.1.matches("error:").count(), 1, "one error, not its consequences:\n{}", got.1);
+        assert!(got.1.lines().all(|l| l.len() < 300), "the long line is quoted around the error:\n{}", got.1);
+        assert!(started.elapsed() < Duration::from_secs(10), "took {:?}", started.elapsed());
+    }
+}

@@ -490,13 +490,12 @@ impl Validator {
 
     /// A pinned list of recording names: none empty, none twice.
     fn listed(&mut self, names: &[Spanned<String>], what: &str) -> Vec<ListedName> {
+        let mut seen = std::collections::BTreeSet::new();
         if let Some(first_over) = names.get(limits::RECORDINGS as usize) {
             let what = format!("the number of listed {what} recordings");
             self.too_large(first_over.span, &what, names.len() as u64, limits::RECORDINGS);
-            return Vec::new();
         }
-        let mut seen = std::collections::BTreeSet::new();
-        for n in names {
+        for n in names.iter().take(limits::RECORDINGS as usize) {
             if n.node.trim().is_empty() {
                 self.err("empty name", n.span, format!("an empty {what} recording name"));
             } else if !seen.insert(n.node.as_str()) {
