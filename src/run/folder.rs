@@ -67,11 +67,11 @@ pub struct FolderLock {
     _file: File,
 }
 
-/// Creates `dir` if needed and takes an exclusive lock on it (`shared`:
-/// a shared one, as each Slurm job of one run does, so jobs run side by
-/// side while a `run`, `train` or `gather` on the folder waits for none
-/// of them silently). A folder another crossaudit process holds is
-/// refused with [`RunError::FolderBusy`].
+/// Creates `dir` if needed and takes an exclusive lock on it, or with
+/// `shared` a shared one, as each Slurm job of a run does: the jobs train
+/// side by side, and a `run`, `train` or `gather` on the folder is refused
+/// while any of them holds it. A folder another crossaudit process holds
+/// is refused with [`RunError::FolderBusy`], never waited for.
 pub fn lock_folder(dir: &Path, shared: bool) -> Result<FolderLock, RunError> {
     create_dir_all(dir)?;
     let file = File::open(dir).map_err(|e| WriteError::new(dir, e))?;

@@ -562,15 +562,16 @@ fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::s
 /// Runs the job at array `index` of the run prepared in `dir`, on one
 /// thread, exactly as a local run would; skips (after verifying its files)
 /// a job that finished. A lock on `DIR/slurm/locks/INDEX.lock`, released by
-/// the operating system however the task ends, keeps two tasks off one job.
+/// the operating system however the task ends, keeps two tasks off one job;
+/// a shared lock on `DIR` itself keeps a `run` or `gather` off the folder.
 pub fn run_task(
     dir: &Path,
     index: usize,
     on_epoch: &mut (dyn FnMut(&crate::model::EpochLog) + Send),
 ) -> Result<TaskOutcome, RunError> {
     let p = reopen(dir)?;
-    // Shared: jobs of one run run side by side; a `run` or `gather` on
-    // the folder (exclusive) waits for none of them silently.
+    // Shared: the jobs of one run train side by side, while a `run`,
+    // `train` or `gather` on the folder (exclusive) is refused meanwhile.
     let _folder = super::lock_folder(dir, true)?;
     let job = p.plan.jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: p.plan.jobs.len() })?;
     let locks = dir.join(SLURM_DIR).join("locks");
