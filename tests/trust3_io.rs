@@ -363,3 +363,25 @@ fn long_lists_in_a_design_are_refused_at_their_limit_in_linear_time() {
         assert!(started.elapsed() < Duration::from_secs(10), "took {:?}", started.elapsed());
     }
 }
+
+#[test]
+fn the_largest_min_run_ends_at_once() {
+    // Issue 30 class 4: `audit split --min-run 18446744073709551615` looped
+    // 2^64 times building its rolling hash.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sa");
+    let started = Instant::now();
+    let (code, err) = run(&[
+        "audit",
+        "split",
+        "tests/fixtures/splits/nanobench_small.json",
+        "--data",
+        "tests/fixtures/splits/data",
+        "--min-run",
+        "18446744073709551615",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(started.elapsed() < Duration::from_secs(10), "took {:?}", started.elapsed());
+}
