@@ -88,8 +88,15 @@ impl SlurmOptions {
         if self.cpus == 0 {
             return Err(bad("--cpus", "0", "at least 1"));
         }
+        // sbatch reads both as 32-bit numbers; a job trains on one thread.
+        if self.cpus > super::MAX_WORKERS {
+            return Err(bad("--cpus", &self.cpus.to_string(), &format!("at most {}", super::MAX_WORKERS)));
+        }
         if self.throttle == Some(0) {
             return Err(bad("--throttle", "0", "at least 1"));
+        }
+        if let Some(t) = self.throttle.filter(|&t| t > MAX_THROTTLE) {
+            return Err(bad("--throttle", &t.to_string(), &format!("at most {MAX_THROTTLE}")));
         }
         let digits = self.mem.trim_end_matches(['K', 'M', 'G', 'T']);
         if digits.is_empty()
@@ -114,6 +121,10 @@ impl SlurmOptions {
         Ok(())
     }
 }
+
+/// The largest `--throttle` (the array's `%N`, a 32-bit number to sbatch;
+/// no study has this many jobs).
+const MAX_THROTTLE: usize = 1_000_000;
 
 /// One of Slurm's time forms: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`.
 fn slurm_time(t: &str) -> bool {

@@ -213,6 +213,8 @@ design("r3a_sim_strength_huge", SMALL.replace("strength 1.0", "strength 1e300"))
 design("r3a_model_in_no_endpoint", MINIMAL.replace("models world, relative", "model world")
        .replace("interaction world - relative\n", ""))
 case("r3a_cli_workers_huge", "run tests/designs/sim_small.design --out {out} --workers 100000000")
+case("r3a_cli_slurm_cpus_huge", "run tests/designs/sim_small.design --out {out} --slurm --cpus 18446744073709551615")
+case("r3a_cli_slurm_throttle_huge", "run tests/designs/sim_small.design --out {out} --slurm --throttle 18446744073709551615")
 design("r3a_statements_huge", MINIMAL + "".join(f"arm extra{k} {{ fit 10 windows }}\n" for k in range(10_001)))
 split_case("r3a_split_folds_huge", "folds.json",
            json.dumps([[f"S{k}_circle_slow_rep1"] for k in range(201)]) + "\n")
