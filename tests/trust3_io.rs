@@ -385,3 +385,24 @@ fn the_largest_min_run_ends_at_once() {
     assert_eq!(code, Some(0), "{err}");
     assert!(started.elapsed() < Duration::from_secs(10), "took {:?}", started.elapsed());
 }
+
+#[test]
+fn a_slurm_job_shares_its_run_folder_with_other_jobs_only() {
+    // Issue 30 class 6: a job takes a shared lock on its run folder, so a
+    // `run` or `gather` holding it (exclusive) keeps every job off.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("slurm");
+    let o = out.to_str().unwrap();
+    let (code, err) = run(&["run", "tests/designs/sim_small.design", "--out", o, "--slurm"]);
+    assert_eq!(code, Some(0), "{err}");
+    let held = File::open(&out).unwrap();
+    held.try_lock().unwrap();
+    assert_refused(&run(&["job", o, "--index", "0"]), &[&format!("{o} is in use by another crossaudit process")]);
+    assert!(!out.join("jobs").exists(), "no job ran");
+    drop(held);
+    let shared = File::open(&out).unwrap();
+    shared.try_lock_shared().unwrap();
+    let (code, err) = run(&["job", o, "--index", "0"]);
+    assert_eq!(code, Some(0), "a job runs beside another job's shared lock:\n{err}");
+    assert_refused(&run(&["gather", o]), &["is in use by another crossaudit process"]);
+}
