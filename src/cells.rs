@@ -149,7 +149,7 @@ pub fn read_cells_from(name: &str, mut reader: impl std::io::Read) -> Result<Vec
     std::io::Read::read_to_end(&mut std::io::Read::take(&mut reader, limit + 1), &mut bytes)
         .map_err(|source| CellsError::Io { path: name.to_string(), source })?;
     if bytes.len() as u64 > limit {
-        let message = format!("more than {limit} bytes, the most read from a per-cell CSV");
+        let message = format!("it holds more than the {limit} bytes read from a per-cell CSV");
         return Err(CellsError::Io { path: name.to_string(), source: std::io::Error::other(message) });
     }
     // Lines are counted here: the csv crate's count is one short after

@@ -142,11 +142,12 @@ pub enum ReadError {
         kind: String,
     },
     /// Larger than the limit for its kind.
-    #[error("cannot read {path}: it holds more than {limit} bytes ({size}), the most read from {what}")]
+    #[error("cannot read {path}: it holds {size}, more than the {limit} bytes read from {what}")]
     TooLarge {
         /// The file.
         path: String,
-        /// Its size (or "at least" the limit when it grew while read).
+        /// Its size, e.g. "5000000 bytes" ("at least ..." when it grew
+        /// while it was read).
         size: String,
         /// The limit.
         limit: u64,
@@ -171,7 +172,7 @@ impl ReadError {
             ReadError::Io { source, .. } => source.to_string(),
             ReadError::NotAFile { kind, .. } => format!("it is {kind}, not a regular file"),
             ReadError::TooLarge { size, limit, what, .. } => {
-                format!("it holds more than {limit} bytes ({size}), the most read from {what}")
+                format!("it holds {size}, more than the {limit} bytes read from {what}")
             }
         }
     }
@@ -210,9 +211,9 @@ pub fn check_regular(path: &Path, limit: u64, what: &'static str) -> Result<(), 
     let meta = std::fs::metadata(path).map_err(|source| ReadError::Io { path: shown.clone(), source })?;
     if !meta.is_file() {
         let mut kind = kind_of(meta.file_type()).to_string();
-        if let Ok(target) = std::fs::canonicalize(path) {
-            if target != path {
-                kind = format!("{kind} ({})", target.display());
+        if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+            if let Ok(target) = std::fs::canonicalize(path) {
+                kind = format!("{kind}, {}, through a symbolic link", target.display());
             }
         }
         return Err(ReadError::NotAFile { path: shown, kind });
@@ -235,7 +236,8 @@ pub fn read_input(path: &Path, limit: u64, what: &'static str) -> Result<Vec<u8>
     file.take(limit + 1).read_to_end(&mut bytes).map_err(|source| ReadError::Io { path: shown(), source })?;
     if bytes.len() as u64 > limit {
         // It grew after it was measured.
-        return Err(ReadError::TooLarge { path: shown(), size: "growing".into(), limit, what });
+        let size = format!("at least {} bytes", limit + 1);
+        return Err(ReadError::TooLarge { path: shown(), size, limit, what });
     }
     Ok(bytes)
 }

@@ -205,13 +205,13 @@ fn inputs_larger_than_their_limit_are_refused_before_they_are_read() {
     let p = |name: &str| d.join(name).to_str().unwrap().to_string();
     let sparse = |name: &str, len: u64| File::create(d.join(name)).unwrap().set_len(len).unwrap();
     sparse("study.design", crossaudit::io::MAX_SMALL_TEXT + 1);
-    assert_refused(&run(&["check", &p("study.design")]), &["study.design", "the most read from a design file"]);
+    assert_refused(&run(&["check", &p("study.design")]), &["study.design", "bytes read from a design file"]);
     sparse("cells.csv", crossaudit::io::MAX_CELLS_FILE + 1);
     let got = run(&["analyze", MINIMAL, "--cells", &p("cells.csv"), "--out", &p("report")]);
-    assert_refused(&got, &["cells.csv", "the most read from a per-cell CSV"]);
+    assert_refused(&got, &["cells.csv", "bytes read from a per-cell CSV"]);
     sparse("split.json", crossaudit::io::MAX_SPLIT_FILE + 1);
     let got = run(&["audit", "split", &p("split.json"), "--data", "tests/fixtures/splits/data", "--out", &p("sa")]);
-    assert_refused(&got, &["split.json", "the most read from a split file"]);
+    assert_refused(&got, &["split.json", "bytes read from a split file"]);
 }
 
 #[test]

@@ -237,7 +237,7 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
         let limit = crate::io::MAX_LOG_FILE;
         return Err(LogError::Io {
             file,
-            message: format!("it decompresses to more than {limit} bytes, the most read from a flight log"),
+            message: format!("it decompresses to more than the {limit} bytes read from a flight log"),
         });
     }
     Ok(out)
