@@ -137,13 +137,26 @@ pub enum CellsError {
 /// belong to the analysis, which knows the design.
 pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
     let p = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;
-    read_cells_from(&p, file)
+    let bytes = crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
+        .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
+    read_cells_from(&p, bytes.as_slice())
 }
 
 /// As [`read_cells`], from any reader; `name` is used in messages.
-pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cell>, CellsError> {
-    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(reader);
+pub fn read_cells_from(name: &str, mut reader: impl std::io::Read) -> Result<Vec<Cell>, CellsError> {
+    let mut bytes = Vec::new();
+    let limit = crate::io::MAX_CELLS_FILE;
+    std::io::Read::read_to_end(&mut std::io::Read::take(&mut reader, limit + 1), &mut bytes)
+        .map_err(|source| CellsError::Io { path: name.to_string(), source })?;
+    if bytes.len() as u64 > limit {
+        let message = format!("it holds more than the {limit} bytes read from a per-cell CSV");
+        return Err(CellsError::Io { path: name.to_string(), source: std::io::Error::other(message) });
+    }
+    // Lines are counted here: the csv crate's count is one short after
+    // each `\r\n`, the line ending Python's csv module writes.
+    let lines = crate::io::LineIndex::new(&bytes);
+    let line_of = |p: Option<&csv::Position>| p.map(|p| lines.line_of(p.byte() as usize) as u64).unwrap_or(0);
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(bytes.as_slice());
     let header =
         rdr.headers().map_err(|e| CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })?.clone();
     let found: Vec<&str> = header.iter().collect();
@@ -159,10 +172,10 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     let mut cells = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| {
-            let line = e.position().map(|p| p.line()).unwrap_or(0);
+            let line = line_of(e.position());
             CellsError::Csv { path: name.to_string(), line, message: csv_message(&e) }
         })?;
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let line = line_of(rec.position());
         // Every field is read as text by its header name, then checked here,
         // so that an error names the field and shows the value.
         let raw: RawRow = rec.deserialize(Some(&header)).map_err(|e| CellsError::Csv {

@@ -50,4 +50,8 @@ pub enum Error {
     /// A file could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),
+    /// Standard output could not be written: a full disk, or a pipe whose
+    /// reader has gone (which the command line ends quietly).
+    #[error("cannot write to standard output: {0}")]
+    Stdout(std::io::Error),
 }

@@ -71,6 +71,7 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// SHA-256 of a file's bytes, lowercase hex: how every file a resume
 /// reuses is checked against its record.
 pub fn sha256_file(path: &Path) -> std::io::Result<String> {
+    check_regular(path, u64::MAX, "a recorded file").map_err(ReadError::into_io)?;
     Ok(sha256_hex(&std::fs::read(path)?))
 }
 
@@ -101,4 +102,226 @@ pub fn df_json<S: serde::Serializer>(value: &f64, s: S) -> Result<S::Ok, S::Erro
     } else {
         s.serialize_str("undefined")
     }
+}
+
+/// The most bytes read from a design, a lock, a metadata file or a
+/// coverage spec: far above any real one (the paper's design is 3 KB).
+pub const MAX_SMALL_TEXT: u64 = 4 << 20;
+
+/// The most bytes read from a published split file (a 200,000-name list
+/// is about 10 MB).
+pub const MAX_SPLIT_FILE: u64 = 256 << 20;
+
+/// The most bytes read from a per-cell CSV (the paper's study writes about
+/// 40 KB; a million cells is about 200 MB).
+pub const MAX_CELLS_FILE: u64 = 1 << 30;
+
+/// The most bytes read from, or decompressed out of, one flight log (a
+/// 100 Hz NanoBench log of an hour is about 150 MB).
+pub const MAX_LOG_FILE: u64 = 2 << 30;
+
+/// An input file that was not read: missing, not a regular file (a FIFO
+/// would block the read forever, a device such as `/dev/zero` never ends),
+/// or larger than the limit for its kind.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The operating system's error (missing, no permission, ...).
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+    /// A directory, FIFO, socket or device, possibly through a symlink.
+    #[error("cannot read {path}: it is {kind}, not a regular file")]
+    NotAFile {
+        /// The file.
+        path: String,
+        /// What it is, e.g. "a FIFO (named pipe)".
+        kind: String,
+    },
+    /// Larger than the limit for its kind.
+    #[error("cannot read {path}: it holds {size}, more than the {limit} bytes read from {what}")]
+    TooLarge {
+        /// The file.
+        path: String,
+        /// Its size, e.g. "5000000 bytes" ("at least ..." when it grew
+        /// while it was read).
+        size: String,
+        /// The limit.
+        limit: u64,
+        /// The kind of file, e.g. "a design file".
+        what: &'static str,
+    },
+}
+
+impl ReadError {
+    /// As an `std::io::Error` (the operating system's own where there is
+    /// one), for errors that already name the path.
+    pub fn into_io(self) -> std::io::Error {
+        match self {
+            ReadError::Io { source, .. } => source,
+            other => std::io::Error::new(std::io::ErrorKind::InvalidInput, other.reason()),
+        }
+    }
+
+    /// The reason without the path, for messages that name the file first.
+    pub fn reason(&self) -> String {
+        match self {
+            ReadError::Io { source, .. } => source.to_string(),
+            ReadError::NotAFile { kind, .. } => format!("it is {kind}, not a regular file"),
+            ReadError::TooLarge { size, limit, what, .. } => {
+                format!("it holds {size}, more than the {limit} bytes read from {what}")
+            }
+        }
+    }
+}
+
+/// What a file type is, in words, for [`ReadError::NotAFile`].
+fn kind_of(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// Checks that `path` (after following symlinks) is a regular file of at
+/// most `limit` bytes, before anything opens it: opening a FIFO blocks
+/// until a writer comes, and a device is never exhausted.
+pub fn check_regular(path: &Path, limit: u64, what: &'static str) -> Result<(), ReadError> {
+    let shown = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|source| ReadError::Io { path: shown.clone(), source })?;
+    if !meta.is_file() {
+        let mut kind = kind_of(meta.file_type()).to_string();
+        if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+            if let Ok(target) = std::fs::canonicalize(path) {
+                kind = format!("{kind}, {}, through a symbolic link", target.display());
+            }
+        }
+        return Err(ReadError::NotAFile { path: shown, kind });
+    }
+    if meta.len() > limit {
+        return Err(ReadError::TooLarge { path: shown, size: format!("{} bytes", meta.len()), limit, what });
+    }
+    Ok(())
+}
+
+/// Reads an input file whole: a regular file (symlinks followed) of at
+/// most `limit` bytes, else a [`ReadError`] saying what it is. `what`
+/// names the kind of file in the message ("a design file").
+pub fn read_input(path: &Path, limit: u64, what: &'static str) -> Result<Vec<u8>, ReadError> {
+    use std::io::Read;
+    check_regular(path, limit, what)?;
+    let shown = || path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|source| ReadError::Io { path: shown(), source })?;
+    let mut bytes = Vec::new();
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(|source| ReadError::Io { path: shown(), source })?;
+    if bytes.len() as u64 > limit {
+        // It grew after it was measured.
+        let size = format!("at least {} bytes", limit + 1);
+        return Err(ReadError::TooLarge { path: shown(), size, limit, what });
+    }
+    Ok(bytes)
+}
+
+/// Line numbers of byte offsets in a text, counting `\r\n`, a lone `\n`
+/// and a lone `\r` each as one line break, as editors and Python's csv
+/// module do (the csv crate's own line count is one short after `\r\n`).
+#[derive(Debug, Clone)]
+pub struct LineIndex {
+    /// Byte offset where each line starts; the first is 0.
+    starts: Vec<usize>,
+}
+
+impl LineIndex {
+    /// The index of `text`.
+    ///
+    /// ```
+    /// let ix = crossaudit::io::LineIndex::new(b"a\r\nb\rc\nd");
+    /// assert_eq!([0, 3, 5, 7].map(|b| ix.line_of(b)), [1, 2, 3, 4]);
+    /// // The last byte of a line break belongs to the line after it.
+    /// assert_eq!(ix.line_of(2), 2);
+    /// ```
+    pub fn new(text: &[u8]) -> LineIndex {
+        let mut starts = vec![0];
+        let mut k = 0;
+        while k < text.len() {
+            match text[k] {
+                b'\r' if text.get(k + 1) == Some(&b'\n') => {
+                    starts.push(k + 2);
+                    k += 2;
+                }
+                b'\r' | b'\n' => {
+                    starts.push(k + 1);
+                    k += 1;
+                }
+                _ => k += 1,
+            }
+        }
+        LineIndex { starts }
+    }
+
+    /// The 1-based line of byte `offset`. An offset on the last byte of a
+    /// line break counts as the start of the next line: the csv crate
+    /// reports a record after `\r\n` as starting on its `\n`.
+    pub fn line_of(&self, offset: usize) -> usize {
+        let k = if self.starts.binary_search(&(offset + 1)).is_ok() { offset + 1 } else { offset };
+        self.starts.partition_point(|&s| s <= k)
+    }
+}
+
+/// `text` with each lone `\r` (old Mac line ending) made `\n`, so parsers
+/// that count only `\n` (pest, serde_json, YAML) count those lines too.
+/// Byte offsets do not move, and `\r\n` is left as it is.
+///
+/// ```
+/// assert_eq!(crossaudit::io::lone_cr_to_lf("a\rb\r\nc"), "a\nb\r\nc");
+/// ```
+pub fn lone_cr_to_lf(text: &str) -> std::borrow::Cow<'_, str> {
+    match lone_cr_to_lf_bytes(text.as_bytes()) {
+        std::borrow::Cow::Borrowed(_) => std::borrow::Cow::Borrowed(text),
+        // Only ASCII `\r` became ASCII `\n`: still UTF-8.
+        std::borrow::Cow::Owned(b) => std::borrow::Cow::Owned(String::from_utf8(b).unwrap_or_default()),
+    }
+}
+
+/// As [`lone_cr_to_lf`], on bytes (a flight log).
+pub fn lone_cr_to_lf_bytes(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    let lone = |k: usize| bytes[k] == b'\r' && bytes.get(k + 1) != Some(&b'\n');
+    // One pass over the `\r`s only: most files have none, or only `\r\n`.
+    let mut crs = bytes.iter().enumerate().filter(|(_, &b)| b == b'\r');
+    if !crs.any(|(k, _)| lone(k)) {
+        return std::borrow::Cow::Borrowed(bytes);
+    }
+    let out = (0..bytes.len()).map(|k| if lone(k) { b'\n' } else { bytes[k] }).collect();
+    std::borrow::Cow::Owned(out)
+}
+
+/// The most bytes read from a file crossaudit wrote itself and reads back
+/// (run and job records, manifests, curves, the simulation record).
+pub const MAX_OWN_FILE: u64 = 1 << 30;
+
+/// Reads a file crossaudit wrote and reads back, as [`read_input`] does
+/// (a FIFO or a device put in its place is refused, not read), with the
+/// operating system's error kind kept (a missing record is no error).
+pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
+    read_input(path, MAX_OWN_FILE, "a file crossaudit wrote").map_err(ReadError::into_io)
 }

@@ -16,12 +16,24 @@
 //! `B9_trefoil_slow_rep3`), nothing else. A recording listed twice (in two
 //! roles, or twice in one) is an error naming both places; so is an entry
 //! that leaves no stem, an empty role, and a file with no roles at all.
+//!
+//! Nothing in a split file is dropped without a word: a JSON key written
+//! twice in one object (JSON readers keep one), a `<role>_files` list
+//! beside `folds`, any list or object that is neither, a CSV column other
+//! than `recording`, `role` and `fold`, or one written twice, is an error
+//! at its line and column. Lines are counted as an editor counts them,
+//! whether they end in `\n`, `\r\n` or `\r`.
 
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::Path;
 
 use serde::Serialize;
+
+/// The most roles (or folds) a split file may declare: the split audit
+/// compares every ordered pair of roles, so its reports grow with the
+/// square (a 2,000-fold list would write about a gigabyte).
+pub const MAX_ROLES: usize = 200;
 
 /// The form a split file was read as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -159,12 +171,13 @@ pub fn stem(listed: &str) -> String {
 /// ```
 pub fn read(path: &Path) -> Result<PublishedSplit, PublishedError> {
     let shown = path.display().to_string();
-    let bytes =
-        std::fs::read(path).map_err(|e| PublishedError::Read { path: shown.clone(), message: e.to_string() })?;
+    let bytes = crate::io::read_input(path, crate::io::MAX_SPLIT_FILE, "a split file")
+        .map_err(|e| PublishedError::Read { path: shown.clone(), message: e.reason() })?;
     let sha256 = crate::io::sha256_hex(&bytes);
     let text = String::from_utf8(bytes)
         .map_err(|e| PublishedError::Read { path: shown.clone(), message: format!("not UTF-8: {e}") })?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let text = &*crate::io::lone_cr_to_lf(text);
     let name = path.file_name().map(|n| n.to_string_lossy().to_lowercase()).unwrap_or_default();
     let (format, roles, notes) = if name.ends_with(".json") {
         from_json(&shown, text)?
@@ -192,9 +205,20 @@ fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
     if split.roles.is_empty() {
         return Err(at(path, Place { line: 1, column: 1 }, "the split declares no roles"));
     }
+    if let Some(role) = split.roles.get(MAX_ROLES) {
+        return Err(at(
+            path,
+            role.at,
+            format!(
+                "the split declares {} roles (or folds), more than the {MAX_ROLES} the audit compares pairwise",
+                split.roles.len()
+            ),
+        ));
+    }
     let mut seen: BTreeMap<&str, (&Role, &Entry)> = BTreeMap::new();
-    for (k, role) in split.roles.iter().enumerate() {
-        if let Some(first) = split.roles[..k].iter().find(|r| r.name == role.name) {
+    let mut named: BTreeMap<&str, &Role> = BTreeMap::new();
+    for role in &split.roles {
+        if let Some(first) = named.insert(&role.name, role) {
             let (line, column) = (first.at.line, first.at.column);
             return Err(at(
                 path,
@@ -234,10 +258,28 @@ fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
 // ------------------------------------------------------------------ CSV
 
 fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedError> {
+    // Lines are counted here: the csv crate's count is one short after
+    // each `\r\n`, the line ending Python's csv module writes.
+    let lines = crate::io::LineIndex::new(text.as_bytes());
     let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(text.as_bytes());
-    let header =
-        reader.headers().map_err(|e| csv_error(path, &e))?.iter().map(|h| h.trim().to_string()).collect::<Vec<_>>();
+    let header = reader
+        .headers()
+        .map_err(|e| csv_error(path, &lines, &e))?
+        .iter()
+        .map(|h| h.trim().to_string())
+        .collect::<Vec<_>>();
     let first = Place { line: 1, column: 1 };
+    let header_at = |k: usize| Place { line: 1, column: column_of(text, 0, k) };
+    let mut columns: BTreeMap<&str, usize> = BTreeMap::new();
+    for (k, h) in header.iter().enumerate() {
+        if let Some(j) = columns.insert(h, k) {
+            return Err(at(
+                path,
+                header_at(k),
+                format!("column `{h}` appears twice in the header (first as column {})", j + 1),
+            ));
+        }
+    }
     let find = |name: &str| header.iter().position(|h| h == name);
     let recording = find("recording")
         .ok_or_else(|| at(path, first, format!("the header ({}) has no `recording` column", header.join(","))))?;
@@ -253,11 +295,23 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             ))
         }
     };
+    for (k, h) in header.iter().enumerate() {
+        if !matches!(h.as_str(), "recording" | "role" | "fold") {
+            return Err(at(
+                path,
+                header_at(k),
+                format!("unknown column `{h}`: a split CSV has the columns `recording` and `role` (or `fold`), nothing else"),
+            ));
+        }
+    }
     let mut roles: Vec<Role> = Vec::new();
+    // Role name -> index in `roles`, so a long file reads in linear time.
+    let mut index: BTreeMap<String, usize> = BTreeMap::new();
     for row in reader.records() {
-        let row = row.map_err(|e| csv_error(path, &e))?;
-        let line = row.position().map(|p| p.line() as usize).unwrap_or(0);
-        let place = |field: usize| Place { line, column: column_of(text, line, field) };
+        let row = row.map_err(|e| csv_error(path, &lines, &e))?;
+        let start = row.position().map(|p| skip_breaks(text, p.byte() as usize)).unwrap_or(0);
+        let line = lines.line_of(start);
+        let place = |field: usize| Place { line, column: column_of(text, start, field) };
         let listed = row.get(recording).unwrap_or("").trim().to_string();
         let value = row.get(key).unwrap_or("").trim();
         if listed.is_empty() {
@@ -274,16 +328,19 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             _ => value.to_string(),
         };
         let entry = Entry { name: stem(&listed), listed, at: place(recording) };
-        match roles.iter_mut().find(|r| r.name == role) {
-            Some(r) => r.entries.push(entry),
-            None => roles.push(Role { name: role, at: place(key), entries: vec![entry] }),
+        match index.get(&role) {
+            Some(&k) => roles[k].entries.push(entry),
+            None => {
+                index.insert(role.clone(), roles.len());
+                roles.push(Role { name: role, at: place(key), entries: vec![entry] });
+            }
         }
     }
     Ok((format, roles))
 }
 
-fn csv_error(path: &str, e: &csv::Error) -> PublishedError {
-    let line = e.position().map(|p| p.line() as usize).unwrap_or(1);
+fn csv_error(path: &str, lines: &crate::io::LineIndex, e: &csv::Error) -> PublishedError {
+    let line = e.position().map(|p| lines.line_of(p.byte() as usize)).unwrap_or(1);
     let message = match e.kind() {
         csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
             format!("this row has {len} fields, the header {expected_len}")
@@ -294,10 +351,18 @@ fn csv_error(path: &str, e: &csv::Error) -> PublishedError {
     at(path, Place { line, column: 1 }, message)
 }
 
-/// The 1-based character column where field `field` of line `line` starts
-/// (plain CSV; quoted commas are honoured).
-fn column_of(text: &str, line: usize, field: usize) -> usize {
-    let Some(l) = text.lines().nth(line.saturating_sub(1)) else { return 1 };
+/// `offset` moved past any line breaks (the csv crate reports a record
+/// after `\r\n` as starting on its `\n`).
+fn skip_breaks(text: &str, offset: usize) -> usize {
+    let rest = text.get(offset..).unwrap_or("");
+    offset + (rest.len() - rest.trim_start_matches(['\r', '\n']).len())
+}
+
+/// The 1-based character column where field `field` starts in the record
+/// that starts at byte `start` (plain CSV; quoted commas are honoured).
+fn column_of(text: &str, start: usize, field: usize) -> usize {
+    let rest = text.get(start..).unwrap_or("");
+    let l = rest.split(['\r', '\n']).next().unwrap_or("");
     let mut quoted = false;
     let mut k = 0;
     for (col, ch) in l.chars().enumerate() {
@@ -340,15 +405,10 @@ fn from_json(path: &str, text: &str) -> Result<Read, PublishedError> {
     let mut p = Parser { text, i: 0, line: 1, column: 1 };
     p.ws();
     let (top_at, top) = p.value();
+    no_duplicate_keys(path, &top)?;
     match top {
         Node::Arr(folds) => Ok((Format::FoldJson, fold_roles(path, folds)?, BTreeMap::new())),
-        Node::Obj(members) if members.iter().any(|(_, k, _, _)| k == "folds") => {
-            let (_, _, vat, v) = members.into_iter().find(|(_, k, _, _)| k == "folds").expect("checked");
-            match v {
-                Node::Arr(folds) => Ok((Format::FoldJson, fold_roles(path, folds)?, BTreeMap::new())),
-                _ => Err(at(path, vat, "`folds` must be a list of lists of recording names")),
-            }
-        }
+        Node::Obj(members) if members.iter().any(|(_, k, _, _)| k == "folds") => fold_object(path, members),
         Node::Obj(members) => {
             let mut roles = Vec::new();
             let mut notes = BTreeMap::new();
@@ -377,6 +437,66 @@ fn from_json(path: &str, text: &str) -> Result<Read, PublishedError> {
             Ok((Format::NanobenchJson, roles, notes))
         }
         _ => Err(at(path, top_at, "a split file is an object of `<role>_files` lists (NanoBench), or a list of folds")),
+    }
+}
+
+/// An object with a `folds` list: besides it, only scalar notes (`seed`).
+/// A `<role>_files` list beside `folds` would be a second, conflicting
+/// split; any other list or object is unknown. Neither is dropped quietly.
+fn fold_object(path: &str, members: Vec<(Place, String, Place, Node)>) -> Result<Read, PublishedError> {
+    let mut folds = None;
+    let mut notes = BTreeMap::new();
+    for (kat, key, vat, v) in members {
+        match (key.as_str(), v) {
+            ("folds", Node::Arr(list)) => folds = Some(list),
+            ("folds", _) => return Err(at(path, vat, "`folds` must be a list of lists of recording names")),
+            (k, _) if k.ends_with("_files") => {
+                return Err(at(
+                    path,
+                    kat,
+                    format!("`{key}` beside `folds`: a split file is either a fold list or NanoBench `<role>_files` lists, not both"),
+                ))
+            }
+            (_, Node::Scalar(s) | Node::Str(s)) => {
+                notes.insert(key, s);
+            }
+            (_, _) => {
+                return Err(at(
+                    path,
+                    kat,
+                    format!("unknown key `{key}` beside `folds`: a fold list's object holds `folds` and scalar notes (`seed`) only"),
+                ))
+            }
+        }
+    }
+    let folds = folds.expect("called with a `folds` key");
+    Ok((Format::FoldJson, fold_roles(path, folds)?, notes))
+}
+
+/// A key written twice in one object: JSON readers keep one of the two
+/// silently (serde_json the last), so a second `folds` or `test_files`
+/// would be dropped or win without a word.
+fn no_duplicate_keys(path: &str, node: &Node) -> Result<(), PublishedError> {
+    match node {
+        Node::Arr(items) => items.iter().try_for_each(|(_, n)| no_duplicate_keys(path, n)),
+        Node::Obj(members) => {
+            let mut seen: BTreeMap<&str, Place> = BTreeMap::new();
+            for (kat, key, _, v) in members {
+                if let Some(first) = seen.insert(key, *kat) {
+                    return Err(at(
+                        path,
+                        *kat,
+                        format!(
+                            "key `{key}` appears twice in one object (first at line {}, column {}); JSON readers would keep only one of them",
+                            first.line, first.column
+                        ),
+                    ));
+                }
+                no_duplicate_keys(path, v)?;
+            }
+            Ok(())
+        }
+        Node::Str(_) | Node::Scalar(_) => Ok(()),
     }
 }
 

@@ -27,4 +27,5 @@ mod stats_props;
 mod stats_reference;
 mod stats_stress;
 mod trust;
+mod trust3_io;
 mod trust3_provenance;

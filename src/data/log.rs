@@ -211,7 +211,8 @@ pub struct Log {
 /// data got.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
     let file = path.display().to_string();
-    let raw = std::fs::read(path).map_err(|e| LogError::Io { file: file.clone(), message: e.to_string() })?;
+    let raw = crate::io::read_input(path, crate::io::MAX_LOG_FILE, "a flight log")
+        .map_err(|e| LogError::Io { file: file.clone(), message: e.reason() })?;
     if path.extension().is_none_or(|e| e != "gz") {
         return Ok(raw);
     }
@@ -226,10 +227,18 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
         }
     }
     let mut out = Vec::with_capacity(raw.len() * 3);
-    let mut dec = flate2::read::MultiGzDecoder::new(&raw[..]);
+    // A gzip bomb stops at the limit rather than exhausting memory.
+    let mut dec = flate2::read::MultiGzDecoder::new(&raw[..]).take(crate::io::MAX_LOG_FILE + 1);
     if let Err(e) = dec.read_to_end(&mut out) {
         let line = out.iter().filter(|&&b| b == b'\n').count() + 1;
         return Err(LogError::Gzip { file, bytes: out.len(), line, message: e.to_string() });
+    }
+    if out.len() as u64 > crate::io::MAX_LOG_FILE {
+        let limit = crate::io::MAX_LOG_FILE;
+        return Err(LogError::Io {
+            file,
+            message: format!("it decompresses to more than the {limit} bytes read from a flight log"),
+        });
     }
     Ok(out)
 }
@@ -255,6 +264,9 @@ pub fn parse_with_row_hashes(file: &str, bytes: &[u8], keep: &[usize]) -> Result
 }
 
 fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Result<Log, LogError> {
+    // Lone `\r` line endings are read as lines (as pandas reads them), so
+    // errors name the line an editor shows.
+    let bytes = &*crate::io::lone_cr_to_lf_bytes(bytes);
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }

@@ -106,7 +106,9 @@ pub struct Params {
 
 /// Reads a `_metadata.yaml` file; the error names the file, line and column.
 pub fn read_metadata(path: &Path) -> Result<Metadata, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a metadata file")
+        .map_err(|e| format!("{}: cannot read: {}", path.display(), e.reason()))?;
+    let text = String::from_utf8(bytes).map_err(|e| format!("{}: cannot read: not UTF-8: {e}", path.display()))?;
     if text.trim().is_empty() {
         return Err(format!(
             "{}: the metadata file is empty (delete it if the recording has no metadata)",

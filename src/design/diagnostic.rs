@@ -60,14 +60,38 @@ impl DesignError {
 
 /// 1-based line and column (in characters) of a byte offset, the line's
 /// text, and the column where the span stops on that line.
-struct Location<'a> {
+struct Location {
     line: usize,
     col: usize,
-    text: &'a str,
+    /// The line as shown: all of it, or a window around the span.
+    text: String,
+    /// The span's first and last-plus-one columns in `text`.
+    shown_col: usize,
     end_col: usize,
 }
 
-fn locate(source: &str, span: Span) -> Location<'_> {
+/// The most characters of a source line quoted: a design that writes a
+/// 100,000-seed list on one line is quoted around its error, not whole.
+const MAX_QUOTED: usize = 120;
+
+/// `loc` with its line cut to [`MAX_QUOTED`] characters around the span
+/// (`...` marks what is left out), the span's carets at most that wide.
+fn shorten(loc: Location) -> Location {
+    let chars: Vec<char> = loc.text.chars().collect();
+    if chars.len() <= MAX_QUOTED {
+        return loc;
+    }
+    let from = (loc.col - 1).saturating_sub(MAX_QUOTED / 3);
+    let to = (from + MAX_QUOTED).min(chars.len());
+    let head = if from > 0 { "..." } else { "" };
+    let tail = if to < chars.len() { "..." } else { "" };
+    let text = format!("{head}{}{tail}", chars[from..to].iter().collect::<String>());
+    let shown_col = loc.col - from + head.len();
+    let end_col = (loc.end_col - from + head.len()).min(to - from + head.len() + 1).max(shown_col + 1);
+    Location { text, shown_col, end_col, ..loc }
+}
+
+fn locate(source: &str, span: Span) -> Location {
     let start = floor_char_boundary(source, span.start.min(source.len()));
     let end = floor_char_boundary(source, span.end.clamp(start, source.len()));
     let line_start = source[..start].rfind('\n').map(|k| k + 1).unwrap_or(0);
@@ -77,7 +101,7 @@ fn locate(source: &str, span: Span) -> Location<'_> {
     let col = source[line_start..start].chars().count() + 1;
     let end_on_line = end.min(line_start + text.len()).max(start);
     let width = source[start..end_on_line].chars().count().max(1);
-    Location { line, col, text, end_col: col + width }
+    Location { line, col, text: text.to_string(), shown_col: col, end_col: col + width }
 }
 
 fn floor_char_boundary(s: &str, mut k: usize) -> usize {
@@ -96,7 +120,7 @@ fn render_one(out: &mut String, file: &str, source: &str, d: &Diagnostic, color:
             text.to_string()
         }
     };
-    let loc = locate(source, d.span);
+    let loc = shorten(locate(source, d.span));
     let gutter = " ".repeat(loc.line.to_string().len());
     let bar = paint("1;34", "|");
     let _ = writeln!(out, "{}: {}", paint("1;31", "error"), paint("1", &d.title));
@@ -104,8 +128,8 @@ fn render_one(out: &mut String, file: &str, source: &str, d: &Diagnostic, color:
     let _ = writeln!(out, "{gutter} {bar}");
     let _ = writeln!(out, "{} {bar} {}", paint("1;34", &loc.line.to_string()), loc.text);
     // Keep tabs under tabs so the caret lines up however tabs are shown.
-    let pad: String = loc.text.chars().take(loc.col - 1).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
-    let carets = "^".repeat(loc.end_col - loc.col);
+    let pad: String = loc.text.chars().take(loc.shown_col - 1).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
+    let carets = "^".repeat(loc.end_col - loc.shown_col);
     let _ = writeln!(out, "{gutter} {bar} {pad}{} {}", paint("1;31", &carets), paint("1;31", &d.label));
     if let Some(help) = &d.help {
         let _ = writeln!(out, "{gutter} {bar}");

@@ -167,11 +167,13 @@ pub fn lock_path(design: &Path) -> PathBuf {
 /// The lock of `design`, or `None` when it has none.
 pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
     let path = lock_path(design);
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
+    let read = crate::io::read_input(&path, crate::io::MAX_SMALL_TEXT, "a lock file").map_err(|e| e.into_io());
+    let bytes = match read {
+        Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(source) => return Err(LockError::Read { path: path.display().to_string(), source }),
     };
+    let text = String::from_utf8_lossy(&bytes);
     serde_json::from_str(&text)
         .map(Some)
         .map_err(|source| LockError::Parse { path: path.display().to_string(), source })

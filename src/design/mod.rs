@@ -980,6 +980,9 @@ pub fn from_str(file: &str, source: &str) -> Result<Design, DesignError> {
 
 /// As [`from_str`], reading a `split published` file relative to `base`.
 pub fn from_str_in(file: &str, source: &str, base: &Path) -> Result<Design, DesignError> {
+    // pest and the diagnostics count lines by `\n`; a file saved with
+    // lone `\r` line endings is read as the lines an editor shows.
+    let source = &*crate::io::lone_cr_to_lf(source);
     let ast = parse(file, source)?;
     validate(file, source, &ast, base)
 }
@@ -1023,7 +1026,8 @@ pub fn load(path: &Path) -> Result<DesignFile, LoadError> {
 /// file are looked up as for `original`. A run prepared for a cluster keeps
 /// such a copy, so its jobs run the design as it was prepared.
 pub fn load_copy(copy: &Path, original: &Path) -> Result<DesignFile, LoadError> {
-    let bytes = std::fs::read(copy).map_err(|source| LoadError::Io { path: copy.display().to_string(), source })?;
+    let bytes = crate::io::read_input(copy, crate::io::MAX_SMALL_TEXT, "a design file")
+        .map_err(|e| LoadError::Io { path: copy.display().to_string(), source: e.into_io() })?;
     let path = original;
     let sha256 = crate::io::sha256_hex(&bytes);
     let source = String::from_utf8(bytes).map_err(|e| LoadError::Io {

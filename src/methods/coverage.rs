@@ -117,7 +117,13 @@ impl CoverageSpec {
     /// Reads and validates a spec file.
     pub fn load(path: &Path) -> Result<CoverageSpec, CoverageError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| CoverageError::Read { path: p.clone(), source })?;
+        let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a coverage spec")
+            .map_err(|e| CoverageError::Read { path: p.clone(), source: e.into_io() })?;
+        let text = String::from_utf8(bytes).map_err(|e| CoverageError::Read {
+            path: p.clone(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8: {e}")),
+        })?;
+        let text = crate::io::lone_cr_to_lf(&text);
         let spec: CoverageSpec = serde_json::from_str(&text).map_err(|source| CoverageError::Parse {
             path: p.clone(),
             line: source.line(),

@@ -39,6 +39,8 @@ pub(crate) fn run_grid(
     workers: usize,
     observer: &dyn RunObserver,
 ) -> Result<(), RunError> {
+    // No idle threads: never more workers than jobs.
+    let workers = workers.min(todo.len()).max(1);
     let queue = Mutex::new(todo);
     let first_error: Mutex<Option<RunError>> = Mutex::new(None);
     let fail = |e: RunError| {

@@ -11,6 +11,7 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
+mod folder;
 mod grid;
 pub mod job;
 mod record;
@@ -32,11 +33,15 @@ use crate::io::{create_dir_all, WriteError};
 use crate::plan::{Plan, TrainingJob};
 use crate::report::figures::Curve;
 
+pub use folder::{check_out_dir, lock_folder, FolderLock};
 pub use grid::{Quiet, RunObserver};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;
+
+/// The most training workers (threads) a run starts.
+pub const MAX_WORKERS: usize = 1024;
 
 /// Options of a run that are not part of the design.
 #[derive(Debug, Clone, Copy)]
@@ -123,6 +128,12 @@ pub enum RunError {
     /// `--workers 0`.
     #[error("--workers must be at least 1")]
     NoWorkers,
+    /// More workers than threads a process should start.
+    #[error("--workers {workers} is more than {MAX_WORKERS}: each worker is a thread training one job; use at most one per core")]
+    TooManyWorkers {
+        /// As given.
+        workers: usize,
+    },
     /// A worker's thread pool could not start.
     #[error("worker pool: {0}")]
     WorkerPool(#[from] rayon::ThreadPoolBuildError),
@@ -173,6 +184,22 @@ pub enum RunError {
     /// The design has no data path and none was given.
     #[error("the design's data block has no `path`; pass --data DIR")]
     NoDataPath,
+    /// The output folder is, or is inside, or holds the data folder.
+    #[error("the output folder {out} {how} {data}: what crossaudit writes there would be read back as flight logs; choose an output folder outside the data folder")]
+    OutInData {
+        /// The output folder as given.
+        out: String,
+        /// The data folder as given.
+        data: String,
+        /// "is the data folder", "is inside the data folder" or "holds the data folder".
+        how: &'static str,
+    },
+    /// Another crossaudit process holds the output folder's lock.
+    #[error("{dir} is in use by another crossaudit process (a run, train, gather or job on it has not ended); wait for it to end, or use another output folder")]
+    FolderBusy {
+        /// The folder.
+        dir: String,
+    },
     /// The data directory does not exist.
     #[error("data directory {dir} does not exist")]
     NoDataDir {
@@ -345,9 +372,7 @@ pub fn run(
     observer: &dyn RunObserver,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
-    if options.workers == 0 {
-        return Err(RunError::NoWorkers);
-    }
+    check_workers(options.workers)?;
     if !plan.splits.is_empty() {
         return run_splits(file, plan, data, out, options, observer, started);
     }
@@ -360,6 +385,15 @@ pub fn run(
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// At least one worker, at most [`MAX_WORKERS`].
+pub fn check_workers(workers: usize) -> Result<(), RunError> {
+    match workers {
+        0 => Err(RunError::NoWorkers),
+        n if n > MAX_WORKERS => Err(RunError::TooManyWorkers { workers: n }),
+        _ => Ok(()),
+    }
 }
 
 /// A multi-split study: each split a complete single-split run in

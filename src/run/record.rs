@@ -68,7 +68,7 @@ impl RunRecord {
             dir: out.display().to_string(),
             reason,
         };
-        match std::fs::read(&path) {
+        match crate::io::read_own(&path) {
             Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| unreadable(e.to_string())),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 match RUN_OUTPUTS.iter().find(|name| out.join(name).exists()) {
@@ -165,7 +165,7 @@ impl JobRecord {
     pub fn read(out: &Path, job: &TrainingJob) -> Result<Option<JobRecord>, RunError> {
         let path = job_record_path(out, job);
         let bad = |reason: String| RunError::BadJobRecord { path: path.display().to_string(), reason };
-        let bytes = match std::fs::read(&path) {
+        let bytes = match crate::io::read_own(&path) {
             Ok(b) => b,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(e) => return Err(bad(e.to_string())),

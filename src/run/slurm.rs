@@ -88,8 +88,15 @@ impl SlurmOptions {
         if self.cpus == 0 {
             return Err(bad("--cpus", "0", "at least 1"));
         }
+        // sbatch reads both as 32-bit numbers; a job trains on one thread.
+        if self.cpus > super::MAX_WORKERS {
+            return Err(bad("--cpus", &self.cpus.to_string(), &format!("at most {}", super::MAX_WORKERS)));
+        }
         if self.throttle == Some(0) {
             return Err(bad("--throttle", "0", "at least 1"));
+        }
+        if let Some(t) = self.throttle.filter(|&t| t > MAX_THROTTLE) {
+            return Err(bad("--throttle", &t.to_string(), &format!("at most {MAX_THROTTLE}")));
         }
         let digits = self.mem.trim_end_matches(['K', 'M', 'G', 'T']);
         if digits.is_empty()
@@ -114,6 +121,10 @@ impl SlurmOptions {
         Ok(())
     }
 }
+
+/// The largest `--throttle` (the array's `%N`, a 32-bit number to sbatch;
+/// no study has this many jobs).
+const MAX_THROTTLE: usize = 1_000_000;
 
 /// One of Slurm's time forms: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`.
 fn slurm_time(t: &str) -> bool {
@@ -154,7 +165,7 @@ impl ArrayRecord {
     pub fn read(dir: &Path) -> Result<ArrayRecord, RunError> {
         let path = dir.join(SLURM_DIR).join("array.json");
         let bad = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
-        let bytes = std::fs::read(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        let bytes = crate::io::read_own(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
         serde_json::from_slice(&bytes).map_err(|e| bad(format!("{}: {e}", path.display())))
     }
 }
@@ -313,7 +324,8 @@ pub fn prepare(
     }
     let (indices, _) = unfinished(plan, &parts)?;
 
-    let bytes = std::fs::read(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
+    let bytes =
+        crate::io::read_own(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
     if sha256_hex(&bytes) != file.sha256 {
         return Err(RunError::NotPrepared {
             dir: dir.display().to_string(),
@@ -571,13 +583,17 @@ fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::s
 /// Runs the job at array `index` of the run prepared in `dir`, on one
 /// thread, exactly as a local run would; skips (after verifying its files)
 /// a job that finished. A lock on `DIR/slurm/locks/INDEX.lock`, released by
-/// the operating system however the task ends, keeps two tasks off one job.
+/// the operating system however the task ends, keeps two tasks off one job;
+/// a shared lock on `DIR` itself keeps a `run` or `gather` off the folder.
 pub fn run_task(
     dir: &Path,
     index: usize,
     on_epoch: &mut (dyn FnMut(&crate::model::EpochLog) + Send),
 ) -> Result<TaskOutcome, RunError> {
     let p = reopen(dir)?;
+    // Shared: the jobs of one run train side by side, while a `run`,
+    // `train` or `gather` on the folder (exclusive) is refused meanwhile.
+    let _folder = super::lock_folder(dir, true)?;
     let job = p.plan.jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: p.plan.jobs.len() })?;
     let locks = dir.join(SLURM_DIR).join("locks");
     create_dir_all(&locks)?;

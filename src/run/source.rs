@@ -78,6 +78,9 @@ pub fn data_dir(design: &Design, design_file: &Path, data: Option<PathBuf>, out:
     if !data.dir.is_dir() {
         return Err(RunError::NoDataDir { dir: data.dir.display().to_string() });
     }
+    if let DataOrigin::Directory { .. } = data.origin {
+        super::check_out_dir(&data.dir, out)?;
+    }
     Ok(data)
 }
 

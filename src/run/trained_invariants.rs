@@ -139,7 +139,7 @@ fn fit_windows(
     prepared: &Prepared,
 ) -> Result<Vec<Triple>, String> {
     let name = path.display();
-    let bytes = std::fs::read(path).map_err(|e| format!("{name}: {e}"))?;
+    let bytes = crate::io::read_own(path).map_err(|e| format!("{name}: {e}"))?;
     if sha256_hex(&bytes) != sha {
         return Err(format!("{name} no longer has the sha256 the job recorded"));
     }

@@ -136,7 +136,7 @@ pub fn ensure(spec: &SimSpec, dir: &Path) -> Result<Ensured, SimulateError> {
         dir: dir_text.clone(),
         reason,
     };
-    let text = match std::fs::read(&record_path) {
+    let text = match crate::io::read_own(&record_path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Ensured::Generated(simulate(spec, dir)?)),
         Err(e) => return Err(bad(e.to_string())),

@@ -32,12 +32,31 @@ const BASE: u64 = 0x0000_0100_0000_01b3;
 /// (a recording repeating one window many times adds nothing new).
 const PER_RECORDING: usize = 8;
 
+/// `base^exp` modulo 2^64, by squaring: what `exp` wrapping
+/// multiplications give, in 64 steps at most.
+fn wrapping_pow(mut base: u64, mut exp: u64) -> u64 {
+    let mut out = 1u64;
+    while exp > 0 {
+        if exp & 1 == 1 {
+            out = out.wrapping_mul(base);
+        }
+        base = base.wrapping_mul(base);
+        exp >>= 1;
+    }
+    out
+}
+
 /// For every pair of recordings (`id`, row hashes) that `eligible(id_a,
 /// id_b)` admits, their longest shared run of at least `k` identical rows;
 /// pairs without one are left out. Sorted by the pair.
 pub fn longest_shared(recs: &[(usize, &[u64])], k: usize, eligible: &dyn Fn(usize, usize) -> bool) -> Vec<Run> {
     let k = k.max(1);
-    let top = (0..k - 1).fold(1u64, |p, _| p.wrapping_mul(BASE));
+    if recs.iter().all(|(_, h)| h.len() < k) {
+        // No recording holds a window: nothing to find (and `--min-run`
+        // may be any number up to 2^64 - 1).
+        return Vec::new();
+    }
+    let top = wrapping_pow(BASE, k as u64 - 1);
     let mut windows: Vec<(u64, u32, u32)> = Vec::new();
     for (r, (_, h)) in recs.iter().enumerate() {
         if h.len() < k {
@@ -114,5 +133,15 @@ mod tests {
         assert_eq!(runs, vec![Run { a: 7, b: 8, start_a: 10, start_b: 5, rows: 50 }]);
         assert!(longest_shared(&recs, 51, &|_, _| true).is_empty());
         assert!(longest_shared(&recs, 20, &|_, _| false).is_empty());
+        // Issue 30: `--min-run 18446744073709551615` looped 2^64 times.
+        assert!(longest_shared(&recs, usize::MAX, &|_, _| true).is_empty());
+    }
+
+    #[test]
+    fn wrapping_pow_is_repeated_wrapping_multiplication() {
+        for e in [0u64, 1, 2, 3, 19, 64, 99] {
+            let slow = (0..e).fold(1u64, |p, _| p.wrapping_mul(BASE));
+            assert_eq!(wrapping_pow(BASE, e), slow, "exponent {e}");
+        }
     }
 }

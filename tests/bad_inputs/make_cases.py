@@ -175,7 +175,7 @@ case("split_data_missing", "audit split tests/fixtures/splits/nanobench_small.js
 case("split_min_run_zero", "audit split tests/fixtures/splits/nanobench_small.json --data tests/fixtures/splits/data --min-run 0 --out {out}")
 
 # Round 3 (trust-b): provenance, impossible values, degenerate data, preregistration status
-# =========================================================================================
+# ==================================================================================
 import hashlib
 
 def sha(b):
@@ -327,3 +327,113 @@ case("r3b_plan_constant_shift_pilot", "plan tests/designs/minimal.design --cells
 design("r3b_decide_optimism_fraction", MINIMAL.replace("optimism >= 10%", "optimism >= 0.1"))
 design("r3b_decide_optimism_fraction_strict", MINIMAL.replace("optimism >= 10%", "optimism > 0.25"))
 design("r3b_decide_optimism_negative_fraction", MINIMAL.replace("optimism >= 10% and upper < 0", "optimism >= -0.5"))
+# =============================================================================
+# Round 3 (trust-a): limits, output, folders, split files, line numbers
+# =============================================================================
+# Issue 30, classes 4, 6, 7 and 9 (class 5, standard output, needs a closed
+# pipe or /dev/full and is tested in tests/trust3_io.rs, as are FIFOs,
+# symlinks to /dev/zero, concurrent runs and files too large to commit).
+
+# ---- limits: values `check` accepted that a run could not survive -----------
+def r3a_design(name, old, new, base=MINIMAL):
+    assert old in base, (name, old)
+    design(name, base.replace(old, new, 1))
+
+r3a_design("r3a_endpoint_horizon_tiny", "at 1.0 s cap 2 m", "at 1e-12 s cap 2 m")
+r3a_design("r3a_bootstrap_replicates_huge", "pigeonhole 99 seed 5", "pigeonhole 4000000000 seed 5")
+r3a_design("r3a_bootstrap_work_huge", "pigeonhole 99 seed 5", "pigeonhole 100000 seed 5",
+           MINIMAL.replace("evaluation 4 split_seed 1; starts 5 horizon 100", "evaluation 90000 split_seed 1; starts 1 horizon 100"))
+r3a_design("r3a_seed_list_huge", "factor seed = 1..3",
+           "factor seed = " + ", ".join(str(k) for k in range(1, 100_002)))
+r3a_design("r3a_starts_huge", "starts 5 horizon 100", "starts 1000000 horizon 100")
+r3a_design("r3a_rollout_horizon_huge", "starts 5 horizon 100", "starts 5 horizon 2000000")
+r3a_design("r3a_rollout_steps_huge", "evaluation 4 split_seed 1; starts 5 horizon 100",
+           "evaluation 1000 split_seed 1; starts 10000 horizon 1000")
+r3a_design("r3a_epochs_huge", "epochs 5 cosine", "epochs 1000000000 cosine")
+r3a_design("r3a_batch_huge", "batch 64 epochs", "batch 4000000000 epochs")
+r3a_design("r3a_fit_windows_huge", "fit 400 windows", "fit 4000000000 windows")
+r3a_design("r3a_validation_windows_huge", "validation 100 windows", "validation 4000000000 windows")
+r3a_design("r3a_study_cells_huge", "factor seed = 1..3", "factor seed = 1..50000",
+           MINIMAL.replace("evaluation 4 split_seed 1", "evaluation 1000 split_seed 1")
+                  .replace("sensitivity bootstrap pigeonhole 99 seed 5; grouped conditions; leave_one_out seed, recording\n", ""))
+r3a_design("r3a_split_factor_huge", "factor seed = 1..3", "factor seed = 1..3\nfactor split = 1..2000",
+           MINIMAL.replace("decide confirmed when", "decide confirmed on pooled when"))
+r3a_design("r3a_doses_huge", "replace 25% with",
+           "replace " + ", ".join(f"{k / 2:g}%" for k in range(1, 102)) + " with",
+           MINIMAL.replace("decide confirmed when", "decide confirmed on slope when"))
+r3a_design("r3a_cap_huge", "cap 2 m", "cap 1e300 m")
+design("r3a_sim_strength_huge", SMALL.replace("strength 1.0", "strength 1e300"))
+design("r3a_model_in_no_endpoint", MINIMAL.replace("models world, relative", "model world")
+       .replace("interaction world - relative\n", ""))
+case("r3a_cli_workers_huge", "run tests/designs/sim_small.design --out {out} --workers 100000000")
+case("r3a_cli_slurm_cpus_huge", "run tests/designs/sim_small.design --out {out} --slurm --cpus 18446744073709551615")
+case("r3a_cli_slurm_throttle_huge", "run tests/designs/sim_small.design --out {out} --slurm --throttle 18446744073709551615")
+design("r3a_statements_huge", MINIMAL + "".join(f"arm extra{k} {{ fit 10 windows }}\n" for k in range(10_001)))
+split_case("r3a_split_folds_huge", "folds.json",
+           json.dumps([[f"S{k}_circle_slow_rep1"] for k in range(201)]) + "\n")
+
+# ---- folders: --out and the data folder -------------------------------------
+# Refused before any log is read: the first rows of one log are enough.
+FOLDER_LOGS = {"logs/A1_circle_slow_rep1.csv": b"\n".join(GOOD_LOG.split(b"\n")[:20]) + b"\n", "study.design": STRICT}
+case("r3a_out_is_data_folder", "data audit {dir}/study.design --data {dir}/logs --out {dir}/logs", FOLDER_LOGS)
+case("r3a_out_inside_data_folder", "data audit {dir}/study.design --data {dir}/logs --out {dir}/logs/audit", FOLDER_LOGS)
+case("r3a_data_inside_out_folder", "data audit {dir}/study.design --data {dir}/logs --out {dir}", FOLDER_LOGS)
+case("r3a_out_is_data_folder_dotted", "data audit {dir}/study.design --data {dir}/logs --out {dir}/logs/../logs/.", FOLDER_LOGS)
+case("r3a_run_out_is_data_folder", "run {dir}/study.design --data {dir}/logs --out {dir}/logs", FOLDER_LOGS)
+case("r3a_split_out_is_data_folder", "split {dir}/study.design --data {dir}/logs --out {dir}/logs/split", FOLDER_LOGS)
+case("r3a_audit_split_out_is_data_folder",
+     "audit split tests/fixtures/splits/nanobench_small.json --data tests/fixtures/splits/data --out tests/fixtures/splits/data")
+
+# ---- split files: nothing dropped without a word ----------------------------
+FOLDS = '[["S1_circle_slow_rep1", "S4_linear_ramp_rep1"], ["S1_circle_slow_rep2", "S2_star_fast_rep1"]]'
+split_case("r3a_split_train_files_beside_folds", "split.json",
+           '{\n  "folds": ' + FOLDS + ',\n  "train_files": ["S3_oval_medium_rep1"]\n}\n')
+split_case("r3a_split_folds_twice", "split.json",
+           '{\n  "folds": ' + FOLDS + ',\n  "folds": [["S3_oval_medium_rep1"], ["S3_oval_medium_rep2"]]\n}\n')
+split_case("r3a_split_unknown_list_beside_folds", "split.json",
+           '{\n  "folds": ' + FOLDS + ',\n  "holdout": ["S3_oval_medium_rep1"]\n}\n')
+split_case("r3a_split_note_twice", "split.json",
+           '{\n  "seed": 1,\n  "train_files": ["S1_circle_slow_rep1"],\n  "test_files": ["S2_star_fast_rep1"],\n  "seed": 2\n}\n')
+split_case("r3a_split_csv_unknown_column", "split.csv",
+           "recording,role,comment\nS1_circle_slow_rep1,train,ok\nS2_star_fast_rep1,test,ok\n")
+split_case("r3a_split_csv_column_twice", "split.csv",
+           "recording,role,role\nS1_circle_slow_rep1,train,test\nS2_star_fast_rep1,test,train\n")
+split_case("r3a_split_csv_recording_twice", "split.csv",
+           "recording,fold,recording\nS1_circle_slow_rep1,0,S2_star_fast_rep1\n")
+PIN_DESIGN = open(os.path.join(ROOT, "tests/designs/published_fixture.design")).read().replace(
+    '"../fixtures/splits/pin.json"', '"split.json"').replace('path "../fixtures/splits/data"', 'path "data"')
+case("r3a_design_split_folds_beside_role_lists", "check {dir}/study.design", {
+    "study.design": PIN_DESIGN,
+    "split.json": '{\n  "train_files": ["S1_circle_slow_rep1.csv"],\n  "val_files": ["S2_star_fast_rep1.csv"],\n'
+                  '  "test_files": ["S1_circle_slow_rep2.csv", "S3_oval_medium_rep2.csv"],\n  "folds": ' + FOLDS + '\n}\n'})
+
+# ---- line numbers: CRLF (Python's csv module) and lone CR --------------------
+def crlf(text):
+    return text.replace("\r\n", "\n").replace("\n", "\r\n")
+
+# The bad value is on line 4 of the file in every case below.
+cells_lines = [HEADER] + GOOD_CELLS[1:]
+bad = cells_lines[3].split(",")
+bad[9] = "NaN"
+case("r3a_crlf_cells_bad_value", "analyze tests/designs/minimal.design --cells {dir}/cells.csv --out {out}",
+     {"cells.csv": crlf("\n".join(cells_lines[:3] + [",".join(bad)] + cells_lines[4:]) + "\n")})
+case("r3a_crlf_cells_short_row", "analyze tests/designs/minimal.design --cells {dir}/cells.csv --out {out}",
+     {"cells.csv": crlf("\n".join(cells_lines[:3] + [",".join(bad[:10])] + cells_lines[4:]) + "\n")})
+case("r3a_cr_cells_bad_value", "analyze tests/designs/minimal.design --cells {dir}/cells.csv --out {out}",
+     {"cells.csv": ("\n".join(cells_lines[:3] + [",".join(bad)] + cells_lines[4:]) + "\n").replace("\n", "\r")})
+split_case("r3a_crlf_split_csv_bad_fold", "split.csv",
+           crlf("recording,fold\nS1_circle_slow_rep1,0\nS2_star_fast_rep1,1\nS3_oval_medium_rep1,one\n"))
+split_case("r3a_crlf_split_csv_ragged", "split.csv",
+           crlf("recording,role\nS1_circle_slow_rep1,train\nS2_star_fast_rep1,test\nS3_oval_medium_rep1,test,x\n"))
+split_case("r3a_cr_split_csv_bad_fold", "split.csv",
+           "recording,fold\rS1_circle_slow_rep1,0\rS2_star_fast_rep1,1\rS3_oval_medium_rep1,one\r")
+split_case("r3a_crlf_split_json_folds_twice", "split.json",
+           crlf('{\n  "folds": ' + FOLDS + ',\n  "seed": 3,\n  "folds": [["S3_oval_medium_rep1"], ["S3_oval_medium_rep2"]]\n}\n'))
+split_case("r3a_cr_split_json_malformed", "split.json",
+           '{\r  "train_files": ["S1_circle_slow_rep1"],\r  "test_files": ["S2_star_fast_rep1"]\r  "val_files": []\r}\r')
+design("r3a_cr_design_error", MINIMAL.replace("lr 1e-3", "lr -1e-3").replace("\n", "\r"))
+log_lines = GOOD_LOG.decode().splitlines()
+bad_log = log_lines[:3] + [",".join(["abc"] + log_lines[3].split(",")[1:])] + log_lines[4:]
+logs("r3a_cr_log_non_numeric", {"A1_circle_slow_rep1.csv": "\r".join(bad_log) + "\r"})
+case("r3a_cr_coverage_spec_malformed", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": '{\r "seed": 1,\r "reps": 10,\r "level": ,\r "rows": [4]\r}\r'})

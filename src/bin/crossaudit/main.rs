@@ -9,8 +9,11 @@ use clap::{Parser, Subcommand};
 use crossaudit::design::{self, lock, LoadError};
 use crossaudit::model::Engine;
 use crossaudit::report::decision_line;
+use crossaudit::run::lock_folder;
 use crossaudit::{AnalyzeOptions, Error};
 
+#[macro_use]
+mod output;
 mod progress;
 
 #[derive(Parser)]
@@ -262,13 +265,19 @@ enum AuditCommand {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
     let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return clap_exit(&e, color),
+    };
     let result = match cli.command {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, fail_on } } => {
             match audit_split(&split, &data, design.as_deref(), &out, min_run) {
                 Ok(true) if fail_on.is_some() => {
-                    eprintln!("exact leakage found: exiting with status 3 (--fail-on leak)");
+                    note!("exact leakage found: exiting with status 3 (--fail-on leak)");
+                    if let Err(e) = output::flush() {
+                        output::note_raw(&render(&e, color));
+                    }
                     return ExitCode::from(3);
                 }
                 other => other.map(|_| ()),
@@ -298,10 +307,34 @@ fn main() -> ExitCode {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
     };
+    // Text printed without a final newline is still buffered.
+    let result = result.and_then(|()| output::flush());
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of a pipe has gone (`crossaudit check X | head -1`):
+        // nothing is left to tell it, so end quietly, with the status a
+        // shell gives a command ended by SIGPIPE. Every file was written.
+        Err(Error::Stdout(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(141),
         Err(e) => {
-            eprint!("{}", render(&e, color));
+            output::note_raw(&render(&e, color));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// `--help` and `--version` (to standard output, through [`output`], so a
+/// closed pipe or a full disk is handled as for any output) and usage
+/// errors (to standard error, status 2).
+fn clap_exit(e: &clap::Error, color: bool) -> ExitCode {
+    if e.use_stderr() || std::io::stdout().is_terminal() {
+        let _ = e.print();
+        return ExitCode::from(e.exit_code().clamp(0, 255) as u8);
+    }
+    match output::print(format_args!("{}", e.render())).and_then(|()| output::flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Error::Stdout(io)) if io.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(141),
+        Err(err) => {
+            output::note_raw(&render(&err, color));
             ExitCode::FAILURE
         }
     }
@@ -310,11 +343,12 @@ fn main() -> ExitCode {
 fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     crossaudit::run::check_output_dir(out, &file.sha256)?;
+    let _lock = lock_folder(out, false)?;
     let dir = crossaudit::run::data_dir(&file.design, &file.path, data, out)?.dir;
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
-    print!("{}", audit.summary());
-    eprintln!("wrote {}", path.display());
+    out!("{}", audit.summary());
+    note!("wrote {}", path.display());
     Ok(())
 }
 
@@ -328,12 +362,14 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
     if !data.is_dir() {
         return Err(crossaudit::run::RunError::NoDataDir { dir: data.display().to_string() }.into());
     }
+    crossaudit::run::check_out_dir(data, out)?;
+    let _lock = lock_folder(out, false)?;
     let options = crossaudit::split_audit::Options { min_run_rows: min_run };
     let audit = crossaudit::split_audit::audit(&published, &spec, &from, data, options)?;
     let written = audit.write(out)?;
-    print!("{}", audit.summary());
+    out!("{}", audit.summary());
     for p in written {
-        eprintln!("wrote {}", p.display());
+        note!("wrote {}", p.display());
     }
     Ok(audit.has_exact_leak())
 }
@@ -342,16 +378,17 @@ fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> 
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
     crossaudit::run::check_out(out, &file.sha256)?;
+    let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = crossaudit::run::split_into(&file, &plan, &data, out)?;
-    print!("{}", prepared.treatment.render_text());
+    out!("{}", prepared.treatment.render_text());
     for i in &prepared.invariants.invariants {
-        println!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
+        outln!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
     }
     for (name, m) in &prepared.manifests.files {
-        println!("manifest {name}: {} rows, sha256 {}", m.rows, m.sha256);
+        outln!("manifest {name}: {} rows, sha256 {}", m.rows, m.sha256);
     }
-    eprintln!("wrote {}", out.display());
+    note!("wrote {}", out.display());
     Ok(())
 }
 
@@ -371,6 +408,7 @@ fn train(
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
     // Before anything (simulated data included) is written into `out`.
     crossaudit::run::check_out(out, &file.sha256)?;
+    let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
     let bar = progress::epoch_bar(epochs, &job.label());
@@ -381,11 +419,11 @@ fn train(
     bar.finish_and_clear();
     match result? {
         crossaudit::run::TrainOutcome::AlreadyFinished => {
-            eprintln!("job {} had finished in {}: files verified, nothing run", job.label(), out.display())
+            note!("job {} had finished in {}: files verified, nothing run", job.label(), out.display());
+            Ok(())
         }
         crossaudit::run::TrainOutcome::Ran(outcome) => progress::print_job(model, arm, seed, &outcome, out),
     }
-    Ok(())
 }
 
 fn unknown_job(plan: &crossaudit::Plan, model: &str, arm: &str, seed: u64) -> crossaudit::run::RunError {
@@ -411,11 +449,10 @@ fn run(
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
-    if workers == 0 {
-        return Err(crossaudit::run::RunError::NoWorkers.into());
-    }
+    crossaudit::run::check_workers(workers)?;
     // Before anything (simulated data included) is written into `out`.
     crossaudit::run::check_out(out, &file.sha256)?;
+    let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
@@ -423,7 +460,7 @@ fn run(
     let result = crossaudit::run::run(&file, &plan, &data, out, options, &progress);
     progress.finish();
     let o = result?;
-    eprintln!(
+    note!(
         "{} cells trained, {} resumed, {:.1} s; wrote {} and {}",
         o.trained,
         o.skipped,
@@ -431,7 +468,7 @@ fn run(
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", o.analysis.decision_line());
+    outln!("{}", o.analysis.decision_line());
     Ok(())
 }
 
@@ -462,26 +499,31 @@ fn slurm_prepare(
     options.validate()?;
     slurm::check_dir(out)?;
     crossaudit::run::check_out(out, &file.sha256)?;
+    let lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;
+    // The array's jobs take the folder's shared lock: free it before any can start.
+    drop(lock);
     if a.submit {
         let ids = slurm::submit(&prepared)?;
         match &ids.array {
-            Some(array) => eprintln!(
+            Some(array) => note!(
                 "submitted array job {array} ({} of {} jobs) and gather job {}",
-                prepared.pending, prepared.jobs, ids.gather
+                prepared.pending,
+                prepared.jobs,
+                ids.gather
             ),
-            None => eprintln!("every job had finished: submitted gather job {}", ids.gather),
+            None => note!("every job had finished: submitted gather job {}", ids.gather),
         }
-        eprintln!(
+        note!(
             "logs: {}/slurm/logs; results: {}/cells.csv and report/ once the gather job ends",
             prepared.dir.display(),
             prepared.dir.display()
         );
-        println!("{}", [ids.array.clone().unwrap_or_default(), ids.gather].join(" ").trim());
+        outln!("{}", [ids.array.clone().unwrap_or_default(), ids.gather].join(" ").trim());
     } else {
-        print!("{}", prepared.submit_text);
-        eprintln!(
+        out!("{}", prepared.submit_text);
+        note!(
             "prepared {} ({} of {} jobs pending); submit with: sh {}",
             prepared.dir.display(),
             prepared.pending,
@@ -495,7 +537,7 @@ fn slurm_prepare(
 fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
     use crossaudit::run::slurm::{self, TaskOutcome};
     let var = |k: &str| std::env::var(k).unwrap_or_else(|_| "-".into());
-    eprintln!(
+    note!(
         "crossaudit {}: task {index} of {} (Slurm job {}, array job {}, host {})",
         crossaudit::BUILD,
         dir.display(),
@@ -508,33 +550,31 @@ fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
     let outcome = slurm::run_task(dir, index, &mut |e| {
         // A line every 10 s at most: enough to see progress in a log.
         if last.elapsed().as_secs() >= 10 {
-            eprintln!("  epoch {}: train {:.4} val {:.4}", e.epoch, e.train_loss, e.val_loss);
+            note!("  epoch {}: train {:.4} val {:.4}", e.epoch, e.train_loss, e.val_loss);
             last = std::time::Instant::now();
         }
     })?;
     match outcome {
-        TaskOutcome::AlreadyFinished { job } => eprintln!("job {job} had finished: files verified, nothing run"),
+        TaskOutcome::AlreadyFinished { job } => note!("job {job} had finished: files verified, nothing run"),
         TaskOutcome::Ran { job, outcome } => {
-            eprintln!(
-                "job {job} finished in {:.1} s: wrote {}",
-                started.elapsed().as_secs_f64(),
-                outcome.files.join(", ")
-            );
+            note!("job {job} finished in {:.1} s: wrote {}", started.elapsed().as_secs_f64(), outcome.files.join(", "));
         }
     }
     Ok(())
 }
 
 fn slurm_gather(dir: &Path) -> Result<(), Error> {
+    // A folder that is not there is the library's to name.
+    let _lock = if dir.is_dir() { Some(lock_folder(dir, false)?) } else { None };
     let o = crossaudit::run::slurm::gather(dir)?;
-    eprintln!(
+    note!(
         "gathered {} jobs in {:.1} s; wrote {} and {}",
         o.skipped,
         o.seconds,
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    println!("{}", o.analysis.decision_line());
+    outln!("{}", o.analysis.decision_line());
     Ok(())
 }
 
@@ -544,12 +584,13 @@ fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Err
         spec.reps = r;
         spec.validate(spec_path)?;
     }
+    let _lock = lock_folder(out, false)?;
     let started = std::time::Instant::now();
     let rows = crossaudit::methods::run_coverage(&spec, &mut |k, n, s| {
-        eprintln!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
+        note!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
     })?;
     for p in crossaudit::methods::coverage::write(out, &spec, &rows)? {
-        eprintln!("wrote {}", p.display());
+        note!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -566,8 +607,9 @@ fn power(
     if !plan.splits.is_empty() {
         let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
         let power = crossaudit::methods::split_power_plan(&plan, &family, splits, recordings, seeds)?;
+        let _lock = lock_folder(out, false)?;
         power.write(out)?;
-        print!("{}", power.to_markdown());
+        out!("{}", power.to_markdown());
         return Ok(());
     }
     let power = if plan.is_family() {
@@ -578,8 +620,9 @@ fn power(
         let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
         crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?
     };
+    let _lock = lock_folder(out, false)?;
     power.write(out)?;
-    print!("{}", power.to_markdown());
+    out!("{}", power.to_markdown());
     Ok(())
 }
 
@@ -589,8 +632,9 @@ fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
     let Some(sim) = file.design.data.simulated else {
         return Err(crossaudit::run::RunError::NotSimulated { path: design.display().to_string() }.into());
     };
+    let _lock = lock_folder(out, false)?;
     let record = crossaudit::sim::simulate(&sim, out)?;
-    eprintln!(
+    note!(
         "wrote {} simulated recordings (CSV + metadata) and {} to {}",
         record.files.len() / 2,
         crossaudit::sim::RECORD,
@@ -634,12 +678,12 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
             "plan": plan,
             "validated": file.design,
         });
-        print!("{}", crossaudit::io::pretty_json(&value));
+        out!("{}", crossaudit::io::pretty_json(&value));
     } else {
-        println!("{}: valid", path.display());
-        println!("sha256: {}", file.sha256);
-        println!("lock: {}", status.label());
-        print!("{}", plan.render_text());
+        outln!("{}: valid", path.display());
+        outln!("sha256: {}", file.sha256);
+        outln!("lock: {}", status.label());
+        out!("{}", plan.render_text());
     }
     Ok(())
 }
@@ -647,7 +691,7 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
 fn lock_design(path: &Path) -> Result<(), Error> {
     let file = design::load(path)?;
     let lock = lock::write_lock(&file, std::time::SystemTime::now())?;
-    println!(
+    outln!(
         "{}: locked sha256 {} at {} ({} {})",
         lock::lock_path(path).display(),
         lock.sha256,
@@ -665,24 +709,26 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     crossaudit::run::check_output_dir(&dir, &file.sha256)?;
     if crossaudit::compile(&file.design).is_family() {
         let mut a = crossaudit::analyze_family_files(design, cells, options)?;
+        let _lock = lock_folder(&dir, false)?;
         let written = crossaudit::report::family::write_family(&mut a, &dir)?;
         for w in &a.warnings {
-            eprintln!("warning: {w}");
+            note!("warning: {w}");
         }
         for p in written {
-            eprintln!("wrote {}", p.display());
+            note!("wrote {}", p.display());
         }
-        println!("{}", crossaudit::report::family::family_decision_line(&a));
+        outln!("{}", crossaudit::report::family::family_decision_line(&a));
         return Ok(());
     }
     let analysis = crossaudit::analyze_files(design, cells, options)?;
+    let _lock = lock_folder(&dir, false)?;
     let written = crossaudit::report::write_all(&analysis, &dir)?;
     for w in &analysis.warnings {
-        eprintln!("warning: {w}");
+        note!("warning: {w}");
     }
     for p in written {
-        eprintln!("wrote {}", p.display());
+        note!("wrote {}", p.display());
     }
-    println!("{}", decision_line(&analysis));
+    outln!("{}", decision_line(&analysis));
     Ok(())
 }

@@ -6,6 +6,7 @@ use std::io::IsTerminal;
 use crossaudit::model::EpochLog;
 use crossaudit::plan::TrainingJob;
 use crossaudit::run::{JobOutcome, RunObserver};
+use crossaudit::Error;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 fn style(template: &str) -> ProgressStyle {
@@ -21,12 +22,12 @@ pub fn epoch_bar(epochs: u64, prefix: &str) -> ProgressBar {
 }
 
 /// What `train` prints about its job.
-pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome, out: &std::path::Path) {
+pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome, out: &std::path::Path) -> Result<(), Error> {
     if let (Some(best), Some(last)) = (job.best_val_loss, job.epochs.last()) {
-        println!("{model}/{arm}/{seed}: {} epochs, best validation loss {best:.5}", last.epoch);
+        outln!("{model}/{arm}/{seed}: {} epochs, best validation loss {best:.5}", last.epoch);
     }
     if !job.epochs.is_empty() {
-        println!(
+        outln!(
             "timing: training {:.2} s ({} epochs, {:.3} s per epoch), rollouts {:.2} s",
             job.train_seconds,
             job.epochs.len(),
@@ -35,14 +36,15 @@ pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome, out: &std:
         );
     }
     for (who, e) in &job.one_step {
-        println!("one-step validation error (standardized, world units of this arm): {who:<18} {e:.5}");
+        outln!("one-step validation error (standardized, world units of this arm): {who:<18} {e:.5}");
     }
     for (who, h, fa) in &job.mean_fa_rmse {
-        println!("mean failure-aware position RMSE at {h} s over evaluation recordings: {who:<18} {fa:.4} m");
+        outln!("mean failure-aware position RMSE at {h} s over evaluation recordings: {who:<18} {fa:.4} m");
     }
     for f in &job.files {
-        eprintln!("wrote {}", out.join(f).display());
+        note!("wrote {}", out.join(f).display());
     }
+    Ok(())
 }
 
 /// Progress for `run`: one overall bar and one status line per worker on a

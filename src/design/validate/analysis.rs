@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::Validator;
+use super::{limits, Validator};
 use crate::design::ast::*;
 use crate::design::*;
 
@@ -113,10 +113,26 @@ impl Validator {
                             "known schemes: pigeonhole (rows and columns resampled independently)",
                         );
                     }
-                    out.bootstrap = Some(BootstrapSpec {
-                        replicates: self.count(replicates, "bootstrap replicates", 1),
-                        seed: self.nonneg(seed, "the bootstrap seed"),
-                    });
+                    let reps = self.count(replicates, "bootstrap replicates", 1, limits::BOOTSTRAP);
+                    if let (Some(s), Some(r)) = (n_seeds, recording) {
+                        let work = (reps as u64).saturating_mul(s as u64).saturating_mul(r.evaluation as u64);
+                        if work > limits::BOOTSTRAP_WORK {
+                            self.err_help(
+                                "bootstrap too large",
+                                replicates.span,
+                                format!(
+                                    "{reps} replicates of {} recordings x {s} seeds is {work} resampled cells",
+                                    r.evaluation
+                                ),
+                                format!(
+                                    "the bootstrap may resample at most {} cells in all; lower the replicates",
+                                    limits::BOOTSTRAP_WORK
+                                ),
+                            );
+                        }
+                    }
+                    out.bootstrap =
+                        Some(BootstrapSpec { replicates: reps, seed: self.nonneg(seed, "the bootstrap seed") });
                 }
                 SensitivityItem::Grouped => {
                     self.once(&mut seen, "grouped", item.span);

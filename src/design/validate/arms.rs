@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{known, Validator};
+use super::{known, limits, Validator};
 use crate::design::ast::{self, *};
 use crate::design::*;
 
@@ -23,12 +23,17 @@ impl Validator {
             match body {
                 ArmBody::Fit { windows, seed } => {
                     let kind = ArmKind::Fit {
-                        windows: self.count(windows, "fit windows", 1),
+                        windows: self.count(windows, "fit windows", 1, limits::WINDOWS),
                         seed: seed.as_ref().map(|s| self.nonneg(s, "the fit seed")).unwrap_or(0),
                     };
                     out.push((Arm { name: name.node.clone(), kind }, s.span));
                 }
                 ArmBody::Derived { from, percents, exclude_starts, seed } => {
+                    if let Some(first_over) = percents.get(limits::DOSES) {
+                        let n = percents.len() as u64;
+                        self.too_large(first_over.span, "the number of doses", n, limits::DOSES as u64);
+                    }
+                    let percents = &percents[..percents.len().min(limits::DOSES)];
                     for (k, percent) in percents.iter().enumerate() {
                         if !(percent.node > 0.0 && percent.node <= 100.0) {
                             self.err_help(
@@ -127,7 +132,8 @@ impl Validator {
             }
             let kind = match kind {
                 ast::ModelKind::Mlp { widths: spans, inputs, actions: own } => {
-                    let widths: Vec<usize> = spans.iter().map(|w| self.count(w, "a layer width", 1)).collect();
+                    let widths: Vec<usize> =
+                        spans.iter().map(|w| self.count(w, "a layer width", 1, u64::MAX)).collect();
                     if !mlp_supported(&widths) && widths.iter().all(|w| *w >= 1) {
                         let span = Span {
                             start: spans.first().map(|w| w.span.start).unwrap_or(name.span.start),
@@ -176,11 +182,11 @@ impl Validator {
                 }
                 TrainItem::Batch(n) => {
                     self.once(&mut seen, "batch", item.span);
-                    batch = Some(self.count(n, "the batch size", 1));
+                    batch = Some(self.count(n, "the batch size", 1, limits::BATCH));
                 }
                 TrainItem::Epochs(n) => {
                     self.once(&mut seen, "epochs", item.span);
-                    epochs = Some(self.count(n, "the epoch cap", 1));
+                    epochs = Some(self.count(n, "the epoch cap", 1, limits::EPOCHS));
                 }
                 TrainItem::Schedule(s) => {
                     self.once(&mut seen, "schedule", item.span);
@@ -188,7 +194,7 @@ impl Validator {
                 }
                 TrainItem::Patience(n) => {
                     self.once(&mut seen, "patience", item.span);
-                    patience = Some(self.count(n, "the early-stopping patience", 1));
+                    patience = Some(self.count(n, "the early-stopping patience", 1, limits::EPOCHS));
                 }
                 TrainItem::ActionNoise(x) => {
                     self.once(&mut seen, "action_noise", item.span);

@@ -94,7 +94,7 @@ impl Validator {
                     column: column.node.clone(),
                     cmp: cmp.node,
                     threshold: threshold.node,
-                    min_samples: self.count(min_samples, "the active-sample minimum", 1) as u64,
+                    min_samples: self.count(min_samples, "the active-sample minimum", 1, u64::MAX) as u64,
                 });
             }
             DataItem::ExcludeImplausible(pooling) => {
@@ -167,7 +167,7 @@ impl Validator {
             }
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
-                let count = self.count(n, "the number of simulated recordings", 2);
+                let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
                 if count > MAX_SIM_RECORDINGS {
                     let message = format!("at most {MAX_SIM_RECORDINGS} recordings can be simulated, found {count}");
                     self.err("too many recordings", n.span, message);
@@ -182,6 +182,14 @@ impl Validator {
                 self.once(seen, "strength", item.span);
                 if x.node < 0.0 {
                     self.err("negative value", x.span, format!("strength must be >= 0, found {}", x.node));
+                } else if x.node > MAX_SIM_STRENGTH {
+                    let found = if x.node >= 1e6 { format!("{:e}", x.node) } else { x.node.to_string() };
+                    self.err_help(
+                        "value too large",
+                        x.span,
+                        format!("strength must be at most {MAX_SIM_STRENGTH}, found {found}"),
+                        "above it the simulated wind and biases leave too few flyable samples (at 1000 every rollout diverges)",
+                    );
                 }
                 sim.strength = Some(x.node);
             }
@@ -234,6 +242,9 @@ impl Validator {
 
 /// The most recordings a design may simulate.
 const MAX_SIM_RECORDINGS: usize = 2_000;
+/// The strongest recording-specific structure the simulator is asked for
+/// (the shipped designs use 0 to 2; at 100 no recording keeps a valid start).
+const MAX_SIM_STRENGTH: f64 = 10.0;
 /// The longest simulated recording, in seconds.
 const MAX_SIM_DURATION_S: f64 = 3_600.0;
 /// The most seconds of flight (recordings x duration) a design may

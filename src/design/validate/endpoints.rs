@@ -1,6 +1,6 @@
 //! Endpoints (metrics, horizons, caps, models) and the contrast.
 
-use super::{known, Validator, SAMPLE_EPS};
+use super::{known, limits, Validator, SAMPLE_EPS};
 use crate::design::ast::*;
 use crate::design::*;
 
@@ -16,7 +16,7 @@ impl Validator {
         let mut out: Vec<(Endpoint, Span)> = Vec::new();
         let mut primary_cap: Option<f64> = None;
         let mut primaries: Vec<Span> = Vec::new();
-        let mut seen_cells: Vec<(Metric, u64, String)> = Vec::new();
+        let mut seen_cells: std::collections::BTreeSet<(Metric, u64, String)> = Default::default();
         // The primary's cap is the study's divergence cap; read it first.
         for s in stmts {
             if let Statement::Endpoint(e) = &s.node {
@@ -52,19 +52,30 @@ impl Validator {
                 for h in &horizons {
                     for m in &names {
                         let key = (metric, (h.0 * 1e9).round() as u64, m.clone());
-                        if seen_cells.contains(&key) {
+                        if !seen_cells.insert(key) {
                             self.err(
                                 "duplicate endpoint",
                                 s.span,
                                 format!("{} at {} s for model `{}` is already an endpoint", metric.name(), h.0, m),
                             );
-                        } else {
-                            seen_cells.push(key);
                         }
                     }
                 }
                 let cap = Meters(e.cap.as_ref().map(|c| c.node).or(primary_cap).unwrap_or(f64::NAN));
                 out.push((Endpoint { role, metric, horizons, cap, models: names }, s.span));
+            }
+        }
+        // A model no endpoint names would be trained and never scored: its
+        // jobs would write per-cell files without rows.
+        for (m, span) in models {
+            let all_read = !stmts.is_empty() && out.len() == stmts.len();
+            if all_read && !out.iter().any(|(e, _)| e.models.contains(&m.name)) {
+                self.err_help(
+                    "model in no endpoint",
+                    *span,
+                    format!("model `{}` is named by no endpoint", m.name),
+                    "name it in an endpoint (`models a, b`), or remove it",
+                );
             }
         }
         if primaries.is_empty() && !stmts.is_empty() {
@@ -81,16 +92,28 @@ impl Validator {
     /// The horizons of one endpoint, each checked against the rate and the rollout.
     fn horizons(&mut self, horizons: &[Number], rate: f64, horizon_samples: Option<usize>) -> Vec<Seconds> {
         let mut out = Vec::new();
-        for (i, h) in horizons.iter().enumerate() {
+        let mut seen = std::collections::BTreeSet::new();
+        for h in horizons {
             if h.node <= 0.0 {
                 self.err("non-positive horizon", h.span, format!("the horizon must be > 0 s, found {} s", h.node));
                 continue;
             }
-            if horizons[..i].iter().any(|g| g.node == h.node) {
+            if !seen.insert(h.node.to_bits()) {
                 self.err("duplicate horizon", h.span, format!("{} s is listed twice", h.node));
                 continue;
             }
             let samples = h.node * rate;
+            if samples.round() < 1.0 {
+                // Zero samples would be a rollout that never moves: the
+                // metrics at that horizon have nothing to average.
+                self.err_help(
+                    "horizon shorter than one sample",
+                    h.span,
+                    format!("{} s at {} Hz is {} samples", h.node, rate, samples),
+                    format!("a horizon lasts at least one sample, {} s at {} Hz", 1.0 / rate, rate),
+                );
+                continue;
+            }
             if (samples - samples.round()).abs() > SAMPLE_EPS {
                 self.err(
                     "horizon between samples",
@@ -118,6 +141,14 @@ impl Validator {
         if let Some(c) = cap {
             if c.node <= 0.0 {
                 self.err("non-positive cap", c.span, format!("the divergence cap must be > 0 m, found {} m", c.node));
+            } else if c.node > limits::CAP_M {
+                let found = if c.node >= 1e6 { format!("{:e}", c.node) } else { c.node.to_string() };
+                self.err_help(
+                    "value too large",
+                    c.span,
+                    format!("the divergence cap must be at most {} m, found {found} m", limits::CAP_M),
+                    "a diverged rollout scores the cap: squared in the analysis, a cap this large overflows",
+                );
             } else if let Some(p) = primary_cap {
                 if role == Role::Secondary && c.node != p {
                     self.err_help(

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{Validator, MAX_SEEDS};
+use super::{limits, Validator, MAX_SEEDS};
 use crate::design::ast::*;
 use crate::design::*;
 
@@ -34,7 +34,7 @@ impl Validator {
             match &item.node {
                 RecordingItem::Evaluation(n) => {
                     self.once(&mut seen, "evaluation", item.span);
-                    evaluation = Some(self.count(n, "the number of evaluation recordings", 2));
+                    evaluation = Some(self.count(n, "the number of evaluation recordings", 2, limits::RECORDINGS));
                 }
                 RecordingItem::EvaluationList(names) => {
                     self.once(&mut seen, "evaluation", item.span);
@@ -54,11 +54,11 @@ impl Validator {
                 }
                 RecordingItem::Starts(n) => {
                     self.once(&mut seen, "starts", item.span);
-                    starts = Some(self.count(n, "rollout starts per recording", 1));
+                    starts = Some(self.count(n, "rollout starts per recording", 1, limits::STARTS));
                 }
                 RecordingItem::Horizon(n) => {
                     self.once(&mut seen, "horizon", item.span);
-                    horizon = Some(self.count(n, "the rollout horizon (samples)", 1));
+                    horizon = Some(self.count(n, "the rollout horizon (samples)", 1, limits::HORIZON_SAMPLES));
                 }
                 RecordingItem::Conditions(names) => {
                     self.once(&mut seen, "conditions", item.span);
@@ -80,6 +80,11 @@ impl Validator {
         }
         if published {
             listed = pinned.unwrap_or_default();
+            if listed.len() as u64 > limits::RECORDINGS {
+                let what = "evaluation recordings of the published split";
+                self.too_large(span, what, listed.len() as u64, limits::RECORDINGS);
+                return None;
+            }
             evaluation = Some(listed.len().max(2));
         }
         let mut missing = Vec::new();
@@ -98,6 +103,18 @@ impl Validator {
             return None;
         }
         conditions.dedup();
+        if let (Some(e), Some(s), Some(h)) = (evaluation, starts, horizon) {
+            // Every job holds its rollouts' traces in memory.
+            let steps = (e as u64).saturating_mul(s as u64).saturating_mul(h as u64);
+            if steps > limits::ROLLOUT_STEPS {
+                self.err_help(
+                    "rollouts too large",
+                    span,
+                    format!("{e} recordings x {s} starts x {h} samples is {steps} model steps per job"),
+                    format!("a job's rollouts may take at most {} model steps (held in memory); lower evaluation, starts or horizon", limits::ROLLOUT_STEPS),
+                );
+            }
+        }
         Some(RecordingFactor {
             evaluation: evaluation?,
             split_seed: split_seed?,
@@ -136,9 +153,20 @@ impl Validator {
                 (a..=b).map(Seed).collect()
             }
             SeedSpec::List(list) => {
+                // The same limit as a range: a list is no way around it.
+                if let Some(first_over) = list.get(MAX_SEEDS as usize) {
+                    self.err_help(
+                        "too many seeds",
+                        first_over.span,
+                        format!("seed number {} of a list of {}", MAX_SEEDS + 1, list.len()),
+                        format!("a design may declare at most {MAX_SEEDS} seeds, listed or as a range"),
+                    );
+                    return None;
+                }
+                let mut seen = std::collections::BTreeSet::new();
                 let mut out = Vec::new();
-                for (i, s) in list.iter().enumerate() {
-                    if list[..i].iter().any(|t| t.node == s.node) {
+                for s in list {
+                    if !seen.insert(s.node) {
                         self.err("duplicate seed", s.span, format!("seed {} is listed twice", s.node));
                     }
                     out.push(Seed(self.nonneg(s, "a seed")));

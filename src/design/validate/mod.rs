@@ -20,11 +20,56 @@ use super::*;
 /// range can ask for (found by fuzzing: `factor seed = 1..44444444444`).
 const MAX_SEEDS: u64 = 100_000;
 
+/// Limits on what a design may ask for, checked by `check` so that a run
+/// never panics, aborts on an allocation or runs for ever on a value it
+/// accepted. Each is far above any real study (the paper's design: 26
+/// evaluation recordings, 20 seeds, 50 starts of 100 samples, 2,000
+/// bootstrap replicates) and is named in the message that refuses it.
+pub(super) mod limits {
+    /// Statements in one design (the paper's has 17): name checks compare
+    /// statements with each other.
+    pub const STATEMENTS: usize = 10_000;
+    /// Evaluation or validation recordings (drawn or listed).
+    pub const RECORDINGS: u64 = 100_000;
+    /// Rollout starts per recording.
+    pub const STARTS: u64 = 100_000;
+    /// Samples a rollout lasts.
+    pub const HORIZON_SAMPLES: u64 = 1_000_000;
+    /// Model steps one job's rollouts take (recordings x starts x horizon):
+    /// the traces are held in memory.
+    pub const ROLLOUT_STEPS: u64 = 100_000_000;
+    /// Fit or validation windows.
+    pub const WINDOWS: u64 = 10_000_000;
+    /// Batch size.
+    pub const BATCH: u64 = 1_000_000;
+    /// Epochs (and early-stopping patience).
+    pub const EPOCHS: u64 = 100_000;
+    /// Splits of `factor split`: each is a complete run.
+    pub const SPLITS: u64 = 1_000;
+    /// Doses of one dose-response arm.
+    pub const DOSES: usize = 100;
+    /// The divergence cap, metres (the paper's is 2 m).
+    pub const CAP_M: f64 = 1000.0;
+    /// Bootstrap replicates.
+    pub const BOOTSTRAP: u64 = 100_000;
+    /// Bootstrap work: replicates x recordings x seeds, each replicate a
+    /// resampled matrix.
+    pub const BOOTSTRAP_WORK: u64 = 2_000_000_000;
+    /// Per-cell rows a study writes (models x arms x seeds x splits x
+    /// recordings x horizons), all held by the analysis.
+    pub const CELLS: u64 = 10_000_000;
+}
+
 /// Tolerance for "this many seconds is a whole number of samples".
 const SAMPLE_EPS: f64 = 1e-9;
 
 pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
     let mut v = Validator { base: base.to_path_buf(), ..Validator::default() };
+    if let Some(s) = ast.statements.get(limits::STATEMENTS) {
+        let n = ast.statements.len();
+        v.too_large(s.span, "the number of statements", n as u64, limits::STATEMENTS as u64);
+        return Err(v.diags);
+    }
     let design = v.design(ast);
     match design {
         Some(d) if v.diags.is_empty() => Ok(d),
@@ -58,15 +103,44 @@ impl Validator {
         }
     }
 
-    /// A count that must be at least `min`.
-    fn count(&mut self, i: &Int, what: &str, min: i64) -> usize {
+    /// A count that must be at least `min` and at most `max` (a limit of
+    /// [`limits`]; `u64::MAX` where none is needed).
+    fn count(&mut self, i: &Int, what: &str, min: i64, max: u64) -> usize {
         if i.node < min {
             let title = if min == 1 { "non-positive value" } else { "value too small" };
             self.err(title, i.span, format!("{what} must be >= {min}, found {}", i.node));
             min.max(0) as usize
+        } else if i.node as u64 > max {
+            self.too_large(i.span, what, i.node as u64, max);
+            usize::try_from(max).unwrap_or(usize::MAX)
         } else {
             i.node as usize
         }
+    }
+
+    /// The per-cell rows of a study (`factors`: arms, seeds, splits,
+    /// recordings, endpoint horizons x models) stay under [`limits::CELLS`].
+    fn cells_limit(&mut self, span: Span, factors: [usize; 5]) {
+        let cells = factors.iter().fold(1u64, |acc, &n| acc.saturating_mul(n as u64));
+        if cells > limits::CELLS {
+            let [a, s, sp, r, h] = factors;
+            self.err_help(
+                "study too large",
+                span,
+                format!("{a} arms x {s} seeds x {sp} splits x {r} recordings x {h} endpoint horizons and models is {cells} per-cell rows"),
+                format!("a study may have at most {} per-cell rows (all held by the analysis); fewer seeds, recordings or arms", limits::CELLS),
+            );
+        }
+    }
+
+    /// A value above one of the [`limits`].
+    fn too_large(&mut self, span: Span, what: &str, found: u64, max: u64) {
+        self.err_help(
+            "value too large",
+            span,
+            format!("{what} must be at most {max}, found {found}"),
+            format!("crossaudit refuses more than {max} so that a run cannot run out of memory or time on it"),
+        );
     }
 
     fn positive(&mut self, n: &Number, what: &str) -> f64 {
@@ -193,6 +267,11 @@ impl Validator {
             _ => None,
         });
 
+        if let (Some(seeds), Some(rf), Some(splits)) = (&seeds, &recording, &splits) {
+            let span = singles.get("factor seed").map(|s| s.span).unwrap_or(end);
+            let horizons: usize = endpoints.iter().map(|(e, _)| e.horizons.len() * e.models.len()).sum();
+            self.cells_limit(span, [arms.len(), seeds.len(), splits.len().max(1), rf.evaluation, horizons]);
+        }
         Some(Design {
             study: study?,
             data: data?,
@@ -282,6 +361,10 @@ impl Validator {
         published: bool,
     ) -> Option<Vec<u64>> {
         let values: Vec<u64> = self.seeds(spec, span)?.into_iter().map(|s| s.0).collect();
+        if values.len() as u64 > limits::SPLITS {
+            self.too_large(span, "the number of splits", values.len() as u64, limits::SPLITS);
+            return None;
+        }
         if published {
             self.err_help(
                 "split factor on a published split",
@@ -355,7 +438,7 @@ impl Validator {
         published: bool,
         pinned: Option<Vec<ListedName>>,
     ) -> ValidationSpec {
-        let windows = self.count(windows, "validation windows", 1);
+        let windows = self.count(windows, "validation windows", 1, limits::WINDOWS);
         let seed = self.nonneg(seed, "validation seed");
         match (recordings, published) {
             (ValRecordings::Split(_), true) => {
@@ -393,7 +476,7 @@ impl Validator {
         match recordings {
             ValRecordings::Count(n) => ValidationSpec {
                 windows,
-                recordings: self.count(n, "validation recordings", 1),
+                recordings: self.count(n, "validation recordings", 1, limits::RECORDINGS),
                 seed,
                 listed: Vec::new(),
             },
@@ -407,10 +490,15 @@ impl Validator {
 
     /// A pinned list of recording names: none empty, none twice.
     fn listed(&mut self, names: &[Spanned<String>], what: &str) -> Vec<ListedName> {
-        for (i, n) in names.iter().enumerate() {
+        let mut seen = std::collections::BTreeSet::new();
+        if let Some(first_over) = names.get(limits::RECORDINGS as usize) {
+            let what = format!("the number of listed {what} recordings");
+            self.too_large(first_over.span, &what, names.len() as u64, limits::RECORDINGS);
+        }
+        for n in names.iter().take(limits::RECORDINGS as usize) {
             if n.node.trim().is_empty() {
                 self.err("empty name", n.span, format!("an empty {what} recording name"));
-            } else if names[..i].iter().any(|m| m.node == n.node) {
+            } else if !seen.insert(n.node.as_str()) {
                 self.err("duplicate name", n.span, format!("{what} recording `{}` is listed twice", n.node));
             }
         }
@@ -517,8 +605,9 @@ impl Validator {
     }
 
     fn no_duplicate_names(&mut self, names: &[Ident], what: &str) {
-        for (i, n) in names.iter().enumerate() {
-            if names[..i].iter().any(|m| m.node == n.node) {
+        let mut seen = std::collections::BTreeSet::new();
+        for n in names {
+            if !seen.insert(n.node.as_str()) {
                 self.err("duplicate name", n.span, format!("{what} `{}` is listed twice", n.node));
             }
         }

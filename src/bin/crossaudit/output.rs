@@ -1,0 +1,47 @@
+//! Printing that cannot panic. `println!` panics when standard output is
+//! a closed pipe (`crossaudit check X | head -1`) or a full disk
+//! (`> /dev/full`); `out!` and `outln!` return the failure as
+//! [`Error::Stdout`] instead, which `main` turns into a quiet end (closed
+//! pipe) or a message and a non-zero exit (anything else). `note!` writes
+//! a line to standard error and ignores a failure there: there is nowhere
+//! left to report it.
+
+use std::io::Write;
+
+use crossaudit::Error;
+
+/// `print!` to standard output; `?`-returns [`Error::Stdout`] on failure.
+macro_rules! out {
+    ($($arg:tt)*) => { $crate::output::print(format_args!($($arg)*))? };
+}
+
+/// `println!` to standard output; `?`-returns [`Error::Stdout`] on failure.
+macro_rules! outln {
+    ($($arg:tt)*) => { $crate::output::print(format_args!("{}\n", format_args!($($arg)*)))? };
+}
+
+/// `eprintln!` that ignores a failure to write standard error.
+macro_rules! note {
+    ($($arg:tt)*) => { $crate::output::note(format_args!($($arg)*)) };
+}
+
+/// Writes to standard output.
+pub fn print(args: std::fmt::Arguments<'_>) -> Result<(), Error> {
+    std::io::stdout().lock().write_fmt(args).map_err(Error::Stdout)
+}
+
+/// Flushes standard output: text written without a final newline is
+/// still buffered, and a failure must be seen before the exit status is.
+pub fn flush() -> Result<(), Error> {
+    std::io::stdout().lock().flush().map_err(Error::Stdout)
+}
+
+/// Writes a line to standard error, ignoring a failure.
+pub fn note(args: std::fmt::Arguments<'_>) {
+    let _ = writeln!(std::io::stderr().lock(), "{args}");
+}
+
+/// Writes to standard error, ignoring a failure.
+pub fn note_raw(text: &str) {
+    let _ = std::io::stderr().lock().write_all(text.as_bytes());
+}
