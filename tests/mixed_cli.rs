@@ -210,3 +210,32 @@ fn mixed_reads_a_bom_and_refuses_a_repeated_column_name() {
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("row 0, field plate: the header names column `plate` twice (fields 2 and 3)"), "{stderr}");
 }
+
+/// What `crossaudit mixed` reads is held to the rules of every input: a
+/// FIFO is refused before it is opened (opening it would block), a
+/// symbolic link to /dev/zero is refused (it would be read until memory
+/// runs out), and a closed standard output ends quietly.
+#[test]
+fn mixed_refuses_a_fifo_and_a_device_and_survives_a_closed_pipe() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("fifo.csv");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let (code, _, stderr) = run(&["mixed", fifo.to_str().unwrap(), "--formula", "y ~ 1 + (1|a)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("fifo.csv") && stderr.contains("FIFO"), "{stderr}");
+    let zero = dir.path().join("zero.csv");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let (code, _, stderr) = run(&["mixed", zero.to_str().unwrap(), "--formula", "y ~ 1 + (1|a)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("/dev/zero"), "{stderr}");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(root())
+        .args(["mixed", "tests/fixtures/mixed_published/penicillin.csv", "--formula", "diameter ~ 1 + (1|plate)"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"), "{}", String::from_utf8_lossy(&out.stderr));
+}

@@ -649,12 +649,12 @@ fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, j
     let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
     let fit = crossaudit::stats::mixed::formula::fit_file(data, formula, criterion, df, profile)?;
     if json {
-        print!("{}", crossaudit::io::pretty_json(&fit));
+        out!("{}", crossaudit::io::pretty_json(&fit));
     } else {
-        print!("{}", fit.summary());
+        out!("{}", fit.summary());
     }
     if !fit.fit.certificate.certified {
-        eprintln!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
+        note!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
     }
     Ok(())
 }

@@ -75,6 +75,9 @@ pub enum FormulaError {
         /// What is wrong.
         message: String,
     },
+    /// The file cannot be read (its own message names it).
+    #[error("{0}")]
+    Read(String),
     /// The model the formula describes cannot be fitted.
     #[error(transparent)]
     Model(#[from] MixedError),
@@ -713,7 +716,8 @@ pub struct FileError {
 
 /// Reads the tidy CSV at `path` and fits `formula` to it (see
 /// [`fit_table`]). A path that is not a regular file (a folder, a FIFO, a
-/// device) or is over 1 GiB is refused before it is read.
+/// device) or is over 1 GiB is refused before it is read
+/// ([`crate::io::read_input`]).
 pub fn fit_file(
     path: &std::path::Path,
     formula: &str,
@@ -722,17 +726,11 @@ pub fn fit_file(
     profile: Option<f64>,
 ) -> Result<FormulaFit, FileError> {
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
-    let read = |message: String| fail(FormulaError::Value { row: 0, field: "file".into(), message });
-    let meta = std::fs::metadata(path).map_err(|e| read(format!("cannot read: {e}")))?;
-    if !meta.is_file() {
-        return Err(read("not a regular file".into()));
-    }
-    if meta.len() > 1 << 30 {
-        return Err(read(format!("{} bytes: the limit is 1 GiB", meta.len())));
-    }
-    let bytes = std::fs::read(path).map_err(|e| read(format!("cannot read: {e}")))?;
+    let read = |message: String| fail(FormulaError::Read(message));
+    let bytes =
+        crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a data file").map_err(|e| read(e.to_string()))?;
     let text = String::from_utf8(bytes)
-        .map_err(|e| read(format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))?;
+        .map_err(|e| read(format!("not UTF-8 text (byte {} is not)", e.utf8_error().valid_up_to())))?;
     let table = read_csv(&text).map_err(fail)?;
     fit_table(formula, &table, criterion, df, profile).map_err(fail)
 }
