@@ -362,6 +362,7 @@ r3a_design("r3a_doses_huge", "replace 25% with",
            "replace " + ", ".join(f"{k / 2:g}%" for k in range(1, 102)) + " with",
            MINIMAL.replace("decide confirmed when", "decide confirmed on slope when"))
 r3a_design("r3a_cap_huge", "cap 2 m", "cap 1e300 m")
+r3a_design("r3a_cap_tiny", "cap 2 m", "cap 1e-300 m")
 design("r3a_sim_strength_huge", SMALL.replace("strength 1.0", "strength 1e300"))
 design("r3a_model_in_no_endpoint", MINIMAL.replace("models world, relative", "model world")
        .replace("interaction world - relative\n", ""))

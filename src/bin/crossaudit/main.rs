@@ -377,7 +377,7 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    crossaudit::run::check_out(out, &file.sha256)?;
+    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = crossaudit::run::split_into(&file, &plan, &data, out)?;
@@ -407,7 +407,7 @@ fn train(
         .find(|j| j.model == model && j.arm == arm && j.seed.0 == seed)
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
     // Before anything (simulated data included) is written into `out`.
-    crossaudit::run::check_out(out, &file.sha256)?;
+    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs as u64).unwrap_or(0);
@@ -451,7 +451,7 @@ fn run(
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     crossaudit::run::check_workers(workers)?;
     // Before anything (simulated data included) is written into `out`.
-    crossaudit::run::check_out(out, &file.sha256)?;
+    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
@@ -498,7 +498,7 @@ fn slurm_prepare(
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
     slurm::check_dir(out)?;
-    crossaudit::run::check_out(out, &file.sha256)?;
+    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;

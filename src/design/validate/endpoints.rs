@@ -141,6 +141,14 @@ impl Validator {
         if let Some(c) = cap {
             if c.node <= 0.0 {
                 self.err("non-positive cap", c.span, format!("the divergence cap must be > 0 m, found {} m", c.node));
+            } else if c.node < limits::CAP_MIN_M {
+                let found = if c.node < 1e-6 { format!("{:e}", c.node) } else { c.node.to_string() };
+                self.err_help(
+                    "value too small",
+                    c.span,
+                    format!("the divergence cap must be at least {} m, found {found} m", limits::CAP_MIN_M),
+                    "a rollout whose error passes the cap is scored as diverged: below a millimetre every rollout diverges",
+                );
             } else if c.node > limits::CAP_M {
                 let found = if c.node >= 1e6 { format!("{:e}", c.node) } else { c.node.to_string() };
                 self.err_help(

@@ -48,8 +48,11 @@ pub(super) mod limits {
     pub const SPLITS: u64 = 1_000;
     /// Doses of one dose-response arm.
     pub const DOSES: usize = 100;
-    /// The divergence cap, metres (the paper's is 2 m).
+    /// The largest divergence cap, metres (the paper's is 2 m).
     pub const CAP_M: f64 = 1000.0;
+    /// The smallest divergence cap, in metres: a millimetre. Below it every
+    /// rollout diverges and the arm means are the cap (or underflow to 0).
+    pub const CAP_MIN_M: f64 = 1e-3;
     /// Bootstrap replicates.
     pub const BOOTSTRAP: u64 = 100_000;
     /// Bootstrap work: replicates x recordings x seeds, each replicate a
