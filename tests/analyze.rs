@@ -389,3 +389,45 @@ fn a_singular_reml_fit_is_named_in_the_report() {
         assert!(report.contains(&format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s)), "{report}");
     }
 }
+
+/// A secondary endpoint whose arms cannot differ (here the relative model's
+/// contaminated cells equal its disjoint ones, as a baseline model's would)
+/// is left out with a warning, and the primary endpoint is still decided;
+/// the same on the primary endpoint is an error (issue 30: no decision on
+/// differences without variance).
+#[test]
+fn a_degenerate_secondary_endpoint_is_left_out_and_the_primary_still_decides() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = minimal_design();
+    let mut cells = minimal_cells(&design);
+    let same_as_disjoint = |cells: &mut Vec<Cell>, model: &str| {
+        let reference: Vec<Cell> = cells.iter().filter(|c| c.model == model && c.arm == "disjoint").cloned().collect();
+        for c in cells.iter_mut().filter(|c| c.model == model && c.arm == "contaminated") {
+            let r = reference
+                .iter()
+                .find(|r| (r.seed, &r.recording, r.horizon_s) == (c.seed, &c.recording, c.horizon_s))
+                .unwrap();
+            (c.fa_position_rmse_m, c.conditional_position_rmse_m) =
+                (r.fa_position_rmse_m, r.conditional_position_rmse_m);
+        }
+    };
+    same_as_disjoint(&mut cells, "relative");
+    // Without the interaction (world - relative), which would no longer be
+    // a contrast of two trained models.
+    let text = std::fs::read_to_string(minimal_design_path()).unwrap().replace("interaction world - relative\n", "");
+    let path = dir.path().join("study.design");
+    std::fs::write(&path, text).unwrap();
+    let file = write_temp_cells(dir.path(), &cells);
+    let a = crossaudit::analyze_files(&path, &file, Default::default()).unwrap();
+    assert!(a.units.iter().all(|u| u.model != "relative"));
+    assert!(a.units.iter().any(|u| u.model == "world"));
+    assert!(
+        a.warnings.iter().any(|w| w.contains("relative fa_position_rmse at 0.5 s") && w.contains("left out")),
+        "{:?}",
+        a.warnings
+    );
+    same_as_disjoint(&mut cells, "world");
+    let file = write_temp_cells(dir.path(), &cells);
+    let e = crossaudit::analyze_files(&path, &file, Default::default()).unwrap_err().to_string();
+    assert!(e.contains("world fa_position_rmse at 1 s"), "{e}");
+}

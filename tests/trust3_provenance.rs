@@ -330,6 +330,26 @@ fn gather_recomputes_the_lock_state_instead_of_trusting_array_json() {
 }
 
 #[test]
+fn a_design_locked_after_its_slurm_run_was_prepared_is_not_preregistered_at_gather() {
+    // Issue 30, class 1: a lock made while the array runs must not make the
+    // run preregistered (the gather reads the lock beside the design).
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny(dir.path(), "a.design", 2);
+    let out = dir.path().join("slurm-run");
+    assert_ok(&crossaudit(&["run", s(&design), "--slurm", "--out", s(&out)]));
+    for index in 0..4 {
+        assert_ok(&crossaudit(&["job", s(&out), "--index", &index.to_string()]));
+    }
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    let o = crossaudit(&["gather", s(&out)]);
+    assert_ok(&o);
+    assert!(stdout(&o).starts_with("NOT PREREGISTERED decision:"), "{}", stdout(&o));
+    let results: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report/results.json")).unwrap()).unwrap();
+    assert_eq!(results["preregistered"], false);
+}
+
+#[test]
 fn an_unlocked_design_says_not_preregistered_wherever_a_locked_one_is() {
     // Issue 30, class 8: a never-locked design ran and was analysed with
     // nothing on the decision line, and results.json said

@@ -320,8 +320,19 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
             missing_cells.len()
         ));
     }
-    for r in per_unit {
-        let (u, w) = r?;
+    for (unit, r) in all.iter().zip(per_unit) {
+        // A secondary endpoint whose arms cannot differ (every rollout
+        // diverged in both, or a baseline model that fits nothing) has no
+        // interval: it is left out with a warning, and the primary endpoint
+        // is still decided. A degenerate primary endpoint decides nothing:
+        // that is an error.
+        let (u, w) = match r {
+            Err(AnalysisError::Degenerate { unit: label, detail }) if unit.role != crate::design::Role::Primary => {
+                warnings.push(format!("{label}: {detail}; this secondary endpoint is left out of the report"));
+                continue;
+            }
+            r => r?,
+        };
         units.push(u);
         warnings.extend(w);
     }

@@ -226,7 +226,7 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
             }
         }
     }
-    let mut out = Vec::with_capacity(raw.len() * 3);
+    let mut out = Vec::with_capacity((raw.len() * 3).min(crate::io::MAX_LOG_FILE as usize + 1));
     // A gzip bomb stops at the limit rather than exhausting memory.
     let mut dec = flate2::read::MultiGzDecoder::new(&raw[..]).take(crate::io::MAX_LOG_FILE + 1);
     if let Err(e) = dec.read_to_end(&mut out) {

@@ -511,6 +511,20 @@ impl Prepared {
     fn lock_now(&self) -> Result<LockStatus, RunError> {
         Ok(design::lock::status(&self.file)?)
     }
+
+    /// The lock state a gather reports: the state now, unless the state
+    /// recorded when the run was prepared was less preregistered (a design
+    /// locked after its run was prepared is not preregistered for that run;
+    /// an edit of array.json can only lower the label, never raise it).
+    fn lock_for_gather(&self) -> Result<LockStatus, RunError> {
+        let rank = |s: &LockStatus| match s {
+            LockStatus::Unlocked => 0,
+            LockStatus::LockedUnchanged { .. } => 2,
+            _ => 1,
+        };
+        let now = self.lock_now()?;
+        Ok(if rank(&self.array.lock) < rank(&now) { self.array.lock.clone() } else { now })
+    }
 }
 
 fn reopen(dir: &Path) -> Result<Prepared, RunError> {
@@ -660,8 +674,9 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     // Each run directory is finished as a local run finishes it; a
     // multi-split study then pools its splits, as a local run does.
     // The lock state is recomputed from the design copy and the lock beside
-    // the original design, never taken from array.json, which anyone can edit.
-    let lock = p.lock_now()?;
+    // the original design; array.json's (the state when the run was
+    // prepared), which anyone can edit, can only lower it.
+    let lock = p.lock_for_gather()?;
     let mut all_builds = BTreeSet::new();
     let mut last = None;
     for ((part, run), builds) in p.parts.into_iter().zip(builds) {

@@ -536,8 +536,19 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
         for from in starts {
             restarts += 1;
             let (t, d) = optimize::nelder_mead_even(&mut dev, &from, 0.5, 1e-12);
-            let t: Vec<f64> = t.into_iter().map(|v| if v < 1e-6 { 0.0 } else { v }).collect();
-            let d = if t.contains(&0.0) { dev(&t).min(d) } else { d };
+            // Thetas below 1e-6 are set to zero when that is no worse: the
+            // point and its deviance stay a pair.
+            let zeroed: Vec<f64> = t.iter().map(|&v| if v < 1e-6 { 0.0 } else { v }).collect();
+            let (t, d) = if zeroed != t {
+                let dz = dev(&zeroed);
+                if dz <= d {
+                    (zeroed, dz)
+                } else {
+                    (t, d)
+                }
+            } else {
+                (t, d)
+            };
             let (mut t, mut d, converged) = optimize::newton(&mut dev, t, d, 30);
             if !converged {
                 for step in [0.1, 0.01, 1e-3] {
