@@ -300,7 +300,11 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             return Err(at(
                 path,
                 header_at(k),
-                format!("unknown column `{h}`: a split CSV has the columns `recording` and `role` (or `fold`), nothing else"),
+                if h.is_empty() && k == 0 {
+                    "an unnamed first column (pandas writes its index there unless `to_csv(..., index=False)`): a split CSV has the columns `recording` and `role` (or `fold`), nothing else".to_string()
+                } else {
+                    format!("unknown column `{h}`: a split CSV has the columns `recording` and `role` (or `fold`), nothing else")
+                },
             ));
         }
     }

@@ -129,6 +129,11 @@ fn mixed_refuses_bad_formulas_and_tables_with_located_errors() {
         ("diameter ~ 1", "a mixed model needs a random term"),
         ("diameter ~ 1 + log(plate) + (1|plate)", "column 16: `log(...)`"),
         ("plate ~ 1 + (1|sample)", "row 1, field plate: the response must be a number"),
+        (
+            "diameter ~ a*b*c*d*e*f*g*h*i*j*k*l + (1|plate)",
+            "column 36: 12 variables crossed with `*` make 4095 terms; at most 10 may be crossed",
+        ),
+        ("diameter ~ 1 + (1|a/b/c/d/e/f/g/h/i/j/k/l/m/n/o/p/q)", "column 53: 17 random-intercept terms; at most 16"),
     ];
     for (formula, message) in cases {
         let (code, _, stderr) = run(&["mixed", file, "--formula", formula]);

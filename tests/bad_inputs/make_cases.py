@@ -395,6 +395,8 @@ split_case("r3a_split_unknown_list_beside_folds", "split.json",
            '{\n  "folds": ' + FOLDS + ',\n  "holdout": ["S3_oval_medium_rep1"]\n}\n')
 split_case("r3a_split_note_twice", "split.json",
            '{\n  "seed": 1,\n  "train_files": ["S1_circle_slow_rep1"],\n  "test_files": ["S2_star_fast_rep1"],\n  "seed": 2\n}\n')
+split_case("r3a_split_csv_pandas_index", "split.csv",
+           ",recording,role\n0,S1_circle_slow_rep1,train\n1,S2_star_fast_rep1,test\n")
 split_case("r3a_split_csv_unknown_column", "split.csv",
            "recording,role,comment\nS1_circle_slow_rep1,train,ok\nS2_star_fast_rep1,test,ok\n")
 split_case("r3a_split_csv_column_twice", "split.csv",

@@ -25,6 +25,12 @@ use std::collections::HashMap;
 
 use super::{MixedData, MixedError};
 
+/// The most variables one `*` crossing may join (2^10 - 1 = 1,023 terms).
+pub const MAX_CROSSED: usize = 10;
+
+/// The most random-intercept terms of one model.
+pub const MAX_RANDOM: usize = 16;
+
 /// A parsed formula.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Formula {
@@ -262,6 +268,17 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
                     }
                 }
                 // a:b * c:d = every non-empty union of the crossed parts.
+                if groups.len() > MAX_CROSSED {
+                    return p.error(format!(
+                        "{} variables crossed with `*` make {} terms; at most {MAX_CROSSED} may be crossed",
+                        groups.len(),
+                        if groups.len() < 64 {
+                            ((1u64 << groups.len()) - 1).to_string()
+                        } else {
+                            "more than 2^63".into()
+                        }
+                    ));
+                }
                 for mask in 1..(1u32 << groups.len()) {
                     let mut term: Vec<Variable> = Vec::new();
                     for (g, part) in groups.iter().enumerate() {
@@ -298,6 +315,15 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
         return Err(FormulaError::Syntax {
             column: end,
             message: "a mixed model needs a random term (1|group)".into(),
+        });
+    }
+    if groups.len() > MAX_RANDOM {
+        return Err(FormulaError::Syntax {
+            column: end,
+            message: format!(
+                "{} random-intercept terms; at most {MAX_RANDOM} (the optimizer searches one variance ratio per term)",
+                groups.len()
+            ),
         });
     }
     Ok(Formula { response, fixed: unique, random: groups })
