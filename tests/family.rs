@@ -549,3 +549,30 @@ fn one_split_commands_refuse_a_multi_split_design() {
         assert!(e.contains("declares 2 splits") && e.contains("DIR/split-S"), "{args:?}: {e}");
     }
 }
+
+/// Each dose's own report carries the family's preregistration labels
+/// (issue 30, class 8: every output of a locked design says it is
+/// preregistered, and an exploratory family's every output says EXPLORATORY).
+#[test]
+fn every_dose_report_of_a_family_carries_its_preregistration_labels() {
+    let out = tempfile::tempdir().unwrap();
+    let o = bin()
+        .args([
+            "analyze",
+            "designs/nanobench_dose_response.design",
+            "--cells",
+            "results/dose_response/cells.csv",
+            "--out",
+        ])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for dose in ["1pct", "5pct", "10pct", "25pct", "50pct"] {
+        let path = out.path().join(format!("contaminated_{dose}/results.json"));
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        assert_eq!(v["preregistered"], true, "{}", path.display());
+        assert_eq!(v["exploratory"], false, "{}", path.display());
+        assert!(v["design_sha256"].is_string(), "{}", path.display());
+    }
+}

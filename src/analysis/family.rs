@@ -621,6 +621,13 @@ impl FamilyAnalysis {
         self.exploratory |= exploratory;
         self.preregistered = Some(preregistered && !self.exploratory);
         self.warnings.extend(warning);
+        // Each dose's and split's own report carries the same labels.
+        let (exploratory, preregistered) = (self.exploratory, self.preregistered);
+        for a in self.splits.iter_mut().flat_map(|s| s.detail.iter_mut()) {
+            a.design_sha256 = Some(sha256.to_string());
+            a.exploratory |= exploratory;
+            a.preregistered = preregistered;
+        }
     }
 
     /// Labels the analysis EXPLORATORY, as
@@ -629,6 +636,9 @@ impl FamilyAnalysis {
         self.exploratory = true;
         if self.preregistered.is_some() {
             self.preregistered = Some(false);
+        }
+        for a in self.splits.iter_mut().flat_map(|s| s.detail.iter_mut()) {
+            a.mark_exploratory();
         }
     }
 }
