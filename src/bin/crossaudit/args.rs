@@ -1,0 +1,254 @@
+//! The command line's arguments: every subcommand and its options, as
+//! clap parses them. `main.rs` makes one library call per subcommand.
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "crossaudit", version = crossaudit::BUILD, about = "Preregistered, leakage-aware evaluation of learned dynamics models")]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Command,
+}
+
+#[derive(Subcommand)]
+pub(crate) enum Command {
+    /// Validate a design and print its compiled plan.
+    Check {
+        design: PathBuf,
+        /// Print the plan (and the validated design) as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Record the design's SHA-256, tool version and UTC time in FILE.design.lock.
+    Lock { design: PathBuf },
+    /// Audits: of a benchmark's published split.
+    Audit {
+        #[command(subcommand)]
+        command: AuditCommand,
+    },
+    /// Flight-log data commands.
+    Data {
+        #[command(subcommand)]
+        command: DataCommand,
+    },
+    /// Build the shared experiment: manifests, invariants, treatment audit.
+    Split {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory (manifests/, audit/).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Run one training cell end to end: split, fit, rollouts, per-cell rows.
+    Train {
+        design: PathBuf,
+        #[arg(long)]
+        model: String,
+        #[arg(long)]
+        arm: String,
+        #[arg(long)]
+        seed: u64,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory (manifests/, audit/, models/, cells/, curves/).
+        #[arg(long)]
+        out: PathBuf,
+        /// Trainer: `fused` (default) or `reference` (dfdx's own; bit-identical
+        /// results, about half the speed).
+        #[arg(long, default_value = "fused", value_parser = ["fused", "reference"])]
+        engine: String,
+        /// Allow a design changed after locking; every output is labelled EXPLORATORY.
+        #[arg(long)]
+        exploratory: bool,
+    },
+    /// Run a locked design end to end: audit, manifests, invariants, every
+    /// training cell, cells.csv and the report. Resumes a partial run.
+    Run {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        #[arg(long)]
+        out: PathBuf,
+        /// Parallel training workers, one thread each [default: one per core].
+        #[arg(long)]
+        workers: Option<usize>,
+        /// Allow a design changed after locking; every output is labelled EXPLORATORY.
+        #[arg(long)]
+        exploratory: bool,
+        #[command(flatten)]
+        slurm: SlurmArgs,
+    },
+    /// Run one training job of a run prepared with `run --slurm` (what each
+    /// Slurm array task runs); a finished job is verified and skipped.
+    Job {
+        /// The run directory.
+        dir: PathBuf,
+        /// The job's array index (SLURM_ARRAY_TASK_ID).
+        #[arg(long)]
+        index: usize,
+    },
+    /// Write cells.csv and the report of a run prepared with `run --slurm`
+    /// (what the dependent gather job runs); refuses while any job is
+    /// unfinished, naming each with its Slurm log.
+    Gather {
+        /// The run directory.
+        dir: PathBuf,
+    },
+    /// Monte Carlo coverage of the interval estimators over a grid of crossed
+    /// settings (JSON spec).
+    Coverage {
+        spec: PathBuf,
+        /// Override the spec's replications per setting.
+        #[arg(long)]
+        reps: Option<usize>,
+        /// Output directory for coverage.csv, coverage.md, coverage.svg.
+        #[arg(long, default_value = "coverage")]
+        out: PathBuf,
+    },
+    /// Predict SE, interval width and the probability the decision rule holds
+    /// for other numbers of recordings and seeds (and splits), from pilot
+    /// per-cell data; for a dose-response design, of the slope over doses.
+    Plan {
+        design: PathBuf,
+        /// Pilot per-cell CSV analysable under the design.
+        #[arg(long)]
+        cells: PathBuf,
+        /// Numbers of recordings to consider.
+        #[arg(long, value_delimiter = ',', default_value = "13,26,52")]
+        recordings: Vec<usize>,
+        /// Numbers of seeds to consider.
+        #[arg(long, value_delimiter = ',', default_value = "3,5,10,20,40")]
+        seeds: Vec<usize>,
+        /// Numbers of splits to consider (a design with a split factor).
+        #[arg(long, value_delimiter = ',', default_value = "3,5,10")]
+        splits: Vec<usize>,
+        /// Output directory for plan.md, plan.json, plan.svg.
+        #[arg(long, default_value = "plan")]
+        out: PathBuf,
+    },
+    /// Fit a linear mixed model with random intercepts (crossed or nested)
+    /// to any tidy CSV, as lme4's lmer with lmerTest's and pbkrtest's
+    /// small-sample df: `y ~ 1 + x + f + (1|a) + (1|b) + (1|a:c)`.
+    Mixed {
+        /// The CSV file: a header row of column names, one row per observation.
+        data: PathBuf,
+        /// The model, in lme4's formula language (random intercepts only).
+        #[arg(long)]
+        formula: String,
+        /// Maximum likelihood instead of REML.
+        #[arg(long)]
+        ml: bool,
+        /// Denominator df of the fixed-effect t tests (REML fits).
+        #[arg(long, default_value = "satterthwaite", value_parser = ["satterthwaite", "kenward-roger"])]
+        df: String,
+        /// Profile-likelihood intervals of the standard deviations at this level (e.g. 0.95).
+        #[arg(long)]
+        profile: Option<f64>,
+        /// Print every number as JSON instead of the summary.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Generate the recordings of a `data simulated` design (NanoBench schema).
+    Simulate {
+        design: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Run the design's analysis on a per-cell CSV.
+    Analyze {
+        design: PathBuf,
+        /// The per-cell CSV (header: see README).
+        #[arg(long)]
+        cells: PathBuf,
+        /// Output directory for report.md, results.json and results.tex
+        /// [default: report/ next to the cells file].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Add every interval estimator side by side for each contrast.
+        #[arg(long)]
+        compare_intervals: bool,
+    },
+}
+
+/// `run --slurm`: prepare the run directory for a Slurm job array.
+#[derive(clap::Args)]
+pub(crate) struct SlurmArgs {
+    /// Prepare DIR (audit, manifests, invariants, job list) and write
+    /// DIR/slurm/submit.sh: a job array with one task per training job and a
+    /// dependent gather job. Nothing trains here.
+    #[arg(long, conflicts_with = "workers")]
+    pub(crate) slurm: bool,
+    /// Submit with sbatch after writing the scripts.
+    #[arg(long, requires = "slurm")]
+    pub(crate) submit: bool,
+    /// CPUs per array task.
+    #[arg(long, default_value_t = 1, requires = "slurm")]
+    pub(crate) cpus: usize,
+    /// Memory per array task (sbatch --mem); a job of the paper's protocol
+    /// peaks at 110 MB.
+    #[arg(long, default_value = "1G", requires = "slurm")]
+    pub(crate) mem: String,
+    /// At most N array tasks at once (the array's %N).
+    #[arg(long, requires = "slurm")]
+    pub(crate) throttle: Option<usize>,
+    /// Wall-time limit per task (sbatch --time).
+    #[arg(long, requires = "slurm")]
+    pub(crate) time: Option<String>,
+    /// Slurm partition.
+    #[arg(long, requires = "slurm")]
+    pub(crate) partition: Option<String>,
+    /// Slurm account.
+    #[arg(long, requires = "slurm")]
+    pub(crate) account: Option<String>,
+}
+
+#[derive(Subcommand)]
+pub(crate) enum DataCommand {
+    /// Load every recording, apply the design's inclusion rules in order,
+    /// write recordings.csv and print a summary.
+    Audit {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`, relative to the current directory].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Output directory for recordings.csv.
+        #[arg(long, default_value = "audit")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+pub(crate) enum AuditCommand {
+    /// Audit a published split (NanoBench split_metadata.json, a
+    /// recording,role CSV, or a fold list): declared vs effective
+    /// membership, identical recordings across roles, shared runs of rows,
+    /// and each role's trajectory x speed composition.
+    Split {
+        /// The split file (.json or .csv).
+        split: PathBuf,
+        /// Data directory holding the recordings.
+        #[arg(long)]
+        data: PathBuf,
+        /// Apply this design's data rules [default: upstream NanoBench task-2
+        /// loader's: active motor_motor_m1 > 1000, plausibility bounds pooled].
+        #[arg(long)]
+        design: Option<PathBuf>,
+        /// Output directory for split_audit.md, split_audit.json, split_recordings.csv.
+        #[arg(long, default_value = "split_audit")]
+        out: PathBuf,
+        /// Shortest run of identical rows reported between non-identical recordings.
+        #[arg(long, default_value_t = crossaudit::split_audit::DEFAULT_MIN_RUN_ROWS,
+              value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+        min_run: usize,
+        /// `leak`: exit with status 3 when two roles hold byte-identical
+        /// recordings (after writing every output), for a benchmark's CI.
+        #[arg(long, value_parser = ["leak"])]
+        fail_on: Option<String>,
+    },
+}

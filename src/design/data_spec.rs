@@ -1,0 +1,291 @@
+//! The design's `data` block: where the logs come from, which rows and
+//! recordings count, the column conventions and the simulator's settings.
+
+use super::*;
+
+/// A recording name written in the design, with its byte offset there (for
+/// located errors when the data do not hold it).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ListedName {
+    /// The recording name.
+    pub name: String,
+    /// Byte offset of the quoted name in the design source.
+    #[serde(skip)]
+    pub offset: usize,
+    /// For a name read from a published split file: the file, line and column.
+    #[serde(skip)]
+    pub at: Option<(String, usize, usize)>,
+}
+
+/// The design's `data` block: where the logs come from and which rows count.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DataSpec {
+    /// NanoBench logs on disk or the built-in simulator.
+    pub source: DataSource,
+    /// Data directory as written in the design, if any.
+    pub path: Option<String>,
+    /// Sample rate the logs are read at, Hz.
+    pub rate_hz: f64,
+    /// Inclusion rules in the order declared; applied in that order.
+    pub rules: Vec<InclusionRule>,
+    /// How byte-identical recordings are treated.
+    pub duplicates: DuplicatePolicy,
+    /// Whether unreadable files are excluded or an error.
+    pub strictness: Strictness,
+    /// The 14 state columns, in model order.
+    pub state_columns: Vec<String>,
+    /// The 4 action columns, in model order.
+    pub action_columns: Vec<String>,
+    /// The named state preset, when the design used one.
+    pub state_preset: Option<StatePreset>,
+    /// What to do with extrapolated onboard tails.
+    pub tails: TailPolicy,
+    /// Where the speed labels come from.
+    pub speed: SpeedLabels,
+    /// How the plausibility rule takes the motor percentiles.
+    pub plausibility: Pooling,
+    /// Which recordings a split draws from, in which order.
+    pub universe: Universe,
+    /// Whether drawn evaluation or validation recordings without a CSV may
+    /// be left out (`missing csv allow`) instead of stopping the study.
+    pub missing_csv_allowed: bool,
+    /// For `data simulated`: what to generate.
+    pub simulated: Option<SimSpec>,
+}
+
+impl DataSpec {
+    /// The rules of upstream NanoBench's task-2 loader
+    /// (shared/nanobench/README.md): rows with `motor_motor_m1 > 1000` are
+    /// active, a file needs at least one, and whole files failing the
+    /// percentile plausibility bounds (motors pooled) are dropped; the
+    /// task-2 state columns; identical files and onboard tails kept; speed
+    /// from the file name. What the split audit applies when no design is given.
+    pub fn upstream_task2() -> DataSpec {
+        DataSpec {
+            rules: vec![
+                InclusionRule::Active {
+                    column: "motor_motor_m1".into(),
+                    cmp: Cmp::Gt,
+                    threshold: 1000.0,
+                    min_samples: 1,
+                },
+                InclusionRule::Implausible,
+            ],
+            ..DataSpec::nanobench_defaults()
+        }
+    }
+
+    /// What a `data nanobench { }` block declares when it says nothing: no
+    /// inclusion rule, the task-2 state and action columns, 100 Hz,
+    /// identical files and onboard tails kept, speed from the file name, the
+    /// included CSVs as the universe in natural order.
+    pub fn nanobench_defaults() -> DataSpec {
+        DataSpec {
+            source: DataSource::Nanobench,
+            path: None,
+            rate_hz: 100.0,
+            rules: Vec::new(),
+            duplicates: DuplicatePolicy::Keep,
+            strictness: Strictness::Lenient,
+            state_columns: DEFAULT_STATE_COLUMNS.iter().map(|c| c.to_string()).collect(),
+            action_columns: DEFAULT_ACTION_COLUMNS.iter().map(|c| c.to_string()).collect(),
+            state_preset: Some(StatePreset::Onboard),
+            tails: TailPolicy::Keep,
+            speed: SpeedLabels::Name,
+            plausibility: Pooling::Pooled,
+            universe: Universe { metadata: false, bytewise: false },
+            missing_csv_allowed: false,
+            simulated: None,
+        }
+    }
+}
+
+/// Named state-column conventions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StatePreset {
+    /// NanoBench task 2: Vicon position, onboard-estimator velocity and attitude.
+    Onboard,
+    /// Vicon position, velocity and quaternion.
+    MotionCapture,
+}
+
+impl StatePreset {
+    /// The preset's 14 columns.
+    pub fn columns(self) -> [&'static str; 14] {
+        match self {
+            StatePreset::Onboard => DEFAULT_STATE_COLUMNS,
+            StatePreset::MotionCapture => MOTION_CAPTURE_STATE_COLUMNS,
+        }
+    }
+
+    /// The name written in designs.
+    pub fn name(self) -> &'static str {
+        match self {
+            StatePreset::Onboard => "onboard",
+            StatePreset::MotionCapture => "motion_capture",
+        }
+    }
+}
+
+/// What happens to a log whose onboard streams end before its last row
+/// (the rows after are extrapolated by the upstream merge).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TailPolicy {
+    /// Use every row (upstream and the paper).
+    Keep,
+    /// Exclude the file.
+    Exclude,
+    /// Cut the log where its onboard streams end.
+    Truncate,
+}
+
+/// Where a recording's speed label comes from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "from")]
+pub enum SpeedLabels {
+    /// The file name's token (slow, medium, fast), `unknown` without one.
+    Name,
+    /// Metadata `params.speed_mps`: `labels[k]` below `thresholds[k]`, the
+    /// last label at or above the last threshold; `unknown` without a speed.
+    Metadata {
+        /// One more label than thresholds.
+        labels: Vec<String>,
+        /// Ascending thresholds, m/s.
+        thresholds: Vec<f64>,
+    },
+}
+
+impl SpeedLabels {
+    /// The label of a metadata speed (or of its absence).
+    pub fn label(labels: &[String], thresholds: &[f64], speed_mps: Option<f64>) -> String {
+        match speed_mps {
+            None => "unknown".to_string(),
+            Some(v) => labels[thresholds.iter().take_while(|t| v >= **t).count()].clone(),
+        }
+    }
+}
+
+/// How the plausibility rule treats the four motor columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pooling {
+    /// One percentile over all four motors' values (upstream's `np.nanpercentile` over the N x 4 array).
+    Pooled,
+    /// One percentile per motor.
+    PerColumn,
+}
+
+/// The recordings a split draws from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Universe {
+    /// Whether names listed only by a metadata file take part.
+    pub metadata: bool,
+    /// `natural` (rep2 before rep10) or `bytewise` (Python's `sorted`).
+    pub bytewise: bool,
+}
+
+/// What to simulate (the design's `data simulated { ... }`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SimSpec {
+    /// Number of recordings to generate.
+    pub recordings: usize,
+    /// Seed of the simulator's ChaCha8 streams (one stream per recording).
+    pub seed: u64,
+    /// Recording-specific structure: 0 = exchangeable recordings.
+    pub strength: f64,
+    /// Seconds of trajectory per recording (plus take-off and landing).
+    pub duration_s: f64,
+}
+
+/// Where the recordings come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DataSource {
+    /// NanoBench task-2 logs in a directory.
+    Nanobench,
+    /// Generated by the built-in Crazyflie simulator, in the NanoBench schema.
+    Simulated,
+}
+
+/// A rule a recording must pass to be included.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "rule")]
+pub enum InclusionRule {
+    /// At least `min_samples` rows with `column cmp threshold`.
+    Active {
+        /// Schema column tested.
+        column: String,
+        /// The comparison.
+        cmp: Cmp,
+        /// The threshold.
+        threshold: f64,
+        /// Minimum number of rows that must meet it.
+        min_samples: u64,
+    },
+    /// The upstream 0.5/99.5 percentile bounds on battery, setpoint z and PWM.
+    Implausible,
+}
+
+/// How byte-identical recordings (one identity group) are treated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DuplicatePolicy {
+    /// Identical recordings form one deployment unit for the split.
+    Group,
+    /// Keep the first of each identical group, exclude the rest.
+    First,
+    /// Treat identical recordings as independent (the groups are still reported).
+    Keep,
+}
+
+/// What happens to files that cannot be read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Strictness {
+    /// Unreadable or corrupt files are excluded with a reason.
+    Lenient,
+    /// Any exclusion other than a declared rule is an error.
+    Strict,
+}
+
+/// NanoBench task-2 state convention (shared/nanobench/README.md).
+pub const DEFAULT_STATE_COLUMNS: [&str; 14] = [
+    "px",
+    "py",
+    "pz",
+    "est_stateEstimate_vx",
+    "est_stateEstimate_vy",
+    "est_stateEstimate_vz",
+    "att_stateEstimate_qw",
+    "att_stateEstimate_qx",
+    "att_stateEstimate_qy",
+    "att_stateEstimate_qz",
+    "sp_ctrltarget_x",
+    "sp_ctrltarget_y",
+    "sp_ctrltarget_z",
+    "pwr_pm_vbat",
+];
+
+/// Vicon velocity and quaternion in the task-2 layout (position, velocity,
+/// quaternion w-first, setpoint, battery).
+pub const MOTION_CAPTURE_STATE_COLUMNS: [&str; 14] = [
+    "px",
+    "py",
+    "pz",
+    "vx",
+    "vy",
+    "vz",
+    "qw",
+    "qx",
+    "qy",
+    "qz",
+    "sp_ctrltarget_x",
+    "sp_ctrltarget_y",
+    "sp_ctrltarget_z",
+    "pwr_pm_vbat",
+];
+
+/// NanoBench task-2 action convention: motor PWM / 65535, clipped to [0, 1].
+pub const DEFAULT_ACTION_COLUMNS: [&str; 4] = ["motor_motor_m1", "motor_motor_m2", "motor_motor_m3", "motor_motor_m4"];
