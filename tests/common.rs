@@ -135,3 +135,27 @@ pub fn write_temp_cells(dir: &Path, cells: &[Cell]) -> PathBuf {
     crossaudit::cells::write_cells(&p, cells).expect("write cells");
     p
 }
+
+/// A finished command's standard error, as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A finished command's standard output, as text.
+pub fn stdout(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The command succeeded (else its standard error is shown).
+#[track_caller]
+pub fn assert_ok(o: &std::process::Output) {
+    assert!(o.status.success(), "{}", stderr(o));
+}
+
+/// The command was refused (exit 1, no panic) with `needle` in its message.
+#[track_caller]
+pub fn assert_refused(o: &std::process::Output, needle: &str) {
+    assert_eq!(o.status.code(), Some(1), "expected a refusal containing {needle:?}; stderr: {}", stderr(o));
+    assert!(stderr(o).contains(needle), "expected {needle:?} in: {}", stderr(o));
+    assert!(!stderr(o).contains("panicked"), "{}", stderr(o));
+}

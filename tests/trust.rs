@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::common::root;
+use crate::common::{assert_ok, assert_refused, root, stderr};
 
 const DESIGN: &str = "tests/designs/sim_small.design";
 
@@ -25,22 +25,6 @@ fn run(out: &Path, extra: &[&str]) -> Output {
     }
     args.extend_from_slice(extra);
     crossaudit(&args)
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-#[track_caller]
-fn assert_ok(o: &Output) {
-    assert!(o.status.success(), "{}", stderr(o));
-}
-
-#[track_caller]
-fn assert_refused(o: &Output, needle: &str) {
-    assert_eq!(o.status.code(), Some(1), "expected a refusal containing {needle:?}; stderr: {}", stderr(o));
-    assert!(stderr(o).contains(needle), "expected {needle:?} in: {}", stderr(o));
-    assert!(!stderr(o).contains("panicked"), "{}", stderr(o));
 }
 
 /// Every file under `dir` (relative path, bytes), leaving out staging files

@@ -14,7 +14,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use crate::common::root;
+use crate::common::{assert_ok, assert_refused, root, stderr, stdout};
 
 /// The tiny simulated study; `{epochs}` is filled in, so that two designs
 /// can differ only in their epochs (issue 30's example).
@@ -41,26 +41,6 @@ decide confirmed when optimism >= 10% and upper < 0
 
 fn crossaudit(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).env("NO_COLOR", "1").output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-#[track_caller]
-fn assert_ok(o: &Output) {
-    assert!(o.status.success(), "{}", stderr(o));
-}
-
-#[track_caller]
-fn assert_refused(o: &Output, needle: &str) {
-    assert_eq!(o.status.code(), Some(1), "expected a refusal containing {needle:?}; stderr: {}", stderr(o));
-    assert!(stderr(o).contains(needle), "expected {needle:?} in: {}", stderr(o));
-    assert!(!stderr(o).contains("panicked"), "{}", stderr(o));
 }
 
 /// Writes the tiny design with `epochs` into `dir/NAME`.
