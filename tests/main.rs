@@ -15,6 +15,7 @@ mod fused;
 mod golden;
 mod mixed_cli;
 mod model;
+mod multiverse;
 mod run;
 mod simulate;
 mod slurm;

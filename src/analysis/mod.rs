@@ -9,6 +9,7 @@
 mod decision;
 pub mod family;
 mod index;
+pub mod multiverse;
 mod types;
 mod unit;
 

@@ -51,18 +51,49 @@ pub enum Statement {
     FactorRecording(Vec<Spanned<RecordingItem>>),
     FactorSeed(SeedSpec),
     FactorSplit(SeedSpec),
-    Validation { windows: Int, recordings: ValRecordings, seed: Int },
-    Arm { name: Ident, body: ArmBody },
-    Model { name: Ident, kind: ModelKind },
+    FactorDraw(SeedSpec),
+    Draws(Ident),
+    Choices(Vec<Spanned<ChoiceAst>>),
+    PrimarySpec(Vec<(Ident, Spanned<Alternative>)>),
+    Validation {
+        windows: Int,
+        recordings: ValRecordings,
+        seed: Int,
+    },
+    Arm {
+        name: Ident,
+        body: ArmBody,
+    },
+    Model {
+        name: Ident,
+        kind: ModelKind,
+    },
     Train(Vec<Spanned<TrainItem>>),
     Endpoint(EndpointStmt),
-    Contrast { treated: Ident, reference: Ident },
-    Estimate { kind: Ident, items: Vec<Spanned<EstimateItem>> },
+    Contrast {
+        treated: Ident,
+        reference: Ident,
+    },
+    Estimate {
+        kind: Ident,
+        items: Vec<Spanned<EstimateItem>>,
+    },
     Sensitivity(Vec<Spanned<SensitivityItem>>),
-    Interaction { left: Ident, right: Ident },
-    Decide { name: Ident, on: Option<Ident>, conditions: Vec<Spanned<ConditionAst>> },
+    Interaction {
+        left: Ident,
+        right: Ident,
+    },
+    Decide {
+        name: Ident,
+        on: Option<Ident>,
+        conditions: Vec<Spanned<ConditionAst>>,
+        combine: Option<Spanned<CombineAst>>,
+    },
     Generator(Ident),
-    Published { file: Spanned<String>, items: Vec<Spanned<PublishedItem>> },
+    Published {
+        file: Spanned<String>,
+        items: Vec<Spanned<PublishedItem>>,
+    },
 }
 
 /// `from 8 recordings`, `from recordings "A", "B"` or `from split`.
@@ -92,6 +123,10 @@ impl Statement {
             Statement::FactorRecording(_) => "factor recording",
             Statement::FactorSeed(_) => "factor seed",
             Statement::FactorSplit(_) => "factor split",
+            Statement::FactorDraw(_) => "factor draw",
+            Statement::Draws(_) => "draws",
+            Statement::Choices(_) => "choices",
+            Statement::PrimarySpec(_) => "primary specification",
             Statement::Validation { .. } => "validation",
             Statement::Arm { .. } => "arm",
             Statement::Model { .. } => "model",
@@ -259,4 +294,35 @@ pub struct ConditionAst {
     pub cmp: Spanned<Cmp>,
     pub value: Number,
     pub percent: bool,
+}
+
+/// One open choice: a setting and its alternatives as written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChoiceAst {
+    pub setting: Ident,
+    pub alternatives: Vec<Spanned<Alternative>>,
+}
+
+/// An alternative of a choice: a name or a number, as written.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Alternative {
+    Name(String),
+    Number(f64, String),
+}
+
+impl Alternative {
+    /// As written in the design.
+    pub fn text(&self) -> &str {
+        match self {
+            Alternative::Name(s) | Alternative::Number(_, s) => s,
+        }
+    }
+}
+
+/// `in primary`, `in every specification`, `in at least P% of specifications`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CombineAst {
+    Primary,
+    Every,
+    AtLeast(Number),
 }

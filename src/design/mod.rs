@@ -9,6 +9,7 @@ mod ast;
 mod data_spec;
 mod diagnostic;
 pub mod lock;
+pub mod multiverse;
 mod parse;
 mod validate;
 
@@ -21,6 +22,7 @@ pub use ast::{Ast, Cmp, Span};
 pub use data_spec::*;
 pub use diagnostic::{DesignError, Diagnostic};
 pub use lock::{LockFile, LockStatus};
+pub use multiverse::{Choice, ChoiceRole, Combine, Multiverse, Specification};
 
 /// A training seed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
@@ -78,6 +80,23 @@ pub struct Design {
     /// value; empty for a single-split design.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub splits: Vec<u64>,
+    /// `draws coupled`: every draw after the evaluation recordings by
+    /// priority sampling, so that designs differing in their data share
+    /// every start and window that survives in both (see `split`).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub coupled: bool,
+    /// The draw factor (`factor draw = 1..3`): one complete run per value,
+    /// the evaluation set fixed; empty without draw replication.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub draws: Vec<u64>,
+    /// The draw this design runs ([`Design::for_draw`]); None is the
+    /// design's own draw.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub draw: Option<u64>,
+    /// The open choices and their specifications (`choices { ... }`); this
+    /// design is then the primary specification's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub multiverse: Option<Multiverse>,
 }
 
 impl Design {
@@ -91,6 +110,28 @@ impl Design {
         let mut d = self.clone();
         d.splits = Vec::new();
         d.recording.split_seed = split;
+        d.validation.seed = shift(self.validation.seed);
+        for a in &mut d.arms {
+            match &mut a.kind {
+                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => *seed = shift(*seed),
+            }
+        }
+        d
+    }
+
+    /// Draw `k` of a draw-replicated design: the evaluation recordings as
+    /// declared, and every other draw (starts, validation, fit and
+    /// contamination) with its seed shifted by `k - 1`, so that draw 1 is
+    /// the design itself.
+    pub fn for_draw(&self, k: u64) -> Design {
+        let shift = |seed: u64| -> u64 { seed.saturating_add(k.saturating_sub(1)) };
+        let mut d = self.clone();
+        d.draws = Vec::new();
+        d.multiverse = None;
+        if k <= 1 {
+            return d;
+        }
+        d.draw = Some(k);
         d.validation.seed = shift(self.validation.seed);
         for a in &mut d.arms {
             match &mut a.kind {

@@ -45,6 +45,10 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::factor_recording
         | Rule::factor_seed
         | Rule::factor_split
+        | Rule::factor_draw
+        | Rule::draws
+        | Rule::choices
+        | Rule::primary_spec
         | Rule::validation
         | Rule::arm
         | Rule::model
@@ -57,7 +61,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::decide
         | Rule::generator
         | Rule::published => {
-            "a statement (study, data, factor, validation, split, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide, generator)"
+            "a statement (study, data, factor, validation, split, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide, generator, draws, choices, primary specification)"
         }
         Rule::pub_evaluation | Rule::pub_validation | Rule::pub_fit | Rule::pub_ignore | Rule::pub_leaked => {
             "a published-split clause (evaluation, validation, fit, ignore, leaked)"
@@ -91,6 +95,13 @@ fn rule_name(rule: &Rule) -> String {
         Rule::action_scaling => "an action scaling (raw, standardized)",
         Rule::model_actions => "`actions raw` or `actions standardized`",
         Rule::generator_kind => "a generator (chacha8, numpy_legacy)",
+        Rule::draws_kind => "`coupled` or `independent`",
+        Rule::choice => "a choice (`SETTING ALTERNATIVE | ALTERNATIVE ...`)",
+        Rule::alternative => "an alternative (a name or a number)",
+        Rule::spec_value => "a choice and its alternative (`state onboard`)",
+        Rule::combine | Rule::combine_primary | Rule::combine_every | Rule::combine_share => {
+            "`in primary`, `in every specification` or `in at least P% of specifications`"
+        }
         Rule::tails_policy => "a tails policy (keep, exclude, truncate)",
         Rule::pooling => "`pooled` or `per_column`",
         Rule::speed_name | Rule::speed_metadata | Rule::speed_step => {
@@ -260,6 +271,17 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::factor_recording => Statement::FactorRecording(spanned_items(k, recording_item)?),
         Rule::factor_seed => Statement::FactorSeed(seed_spec(k.next())?),
         Rule::factor_split => Statement::FactorSplit(seed_spec(k.next())?),
+        Rule::factor_draw => Statement::FactorDraw(seed_spec(k.next())?),
+        Rule::draws => Statement::Draws(ident(k.next())),
+        Rule::choices => Statement::Choices(spanned_items(k, choice)?),
+        Rule::primary_spec => Statement::PrimarySpec(
+            k.0.map(|p| {
+                let mut c = kids(p);
+                let setting = ident(c.next());
+                (setting, alternative(c.next()))
+            })
+            .collect(),
+        ),
         Rule::validation => {
             let windows = int(k.next())?;
             let from = k.next();
@@ -289,7 +311,23 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::decide => {
             let name = ident(k.next());
             let on = if k.peek_rule() == Some(Rule::decide_on) { Some(ident(kids(k.next()).next())) } else { None };
-            Statement::Decide { name, on, conditions: spanned_items(k, condition)? }
+            let mut conditions = Vec::new();
+            let mut combine = None;
+            for p in k.0 {
+                let span = span_of(&p);
+                if p.as_rule() == Rule::combine {
+                    let inner = kids(p).next();
+                    let node = match inner.as_rule() {
+                        Rule::combine_primary => CombineAst::Primary,
+                        Rule::combine_every => CombineAst::Every,
+                        _ => CombineAst::AtLeast(number(kids(inner).next())?),
+                    };
+                    combine = Some(Spanned::new(node, span));
+                } else {
+                    conditions.push(Spanned::new(condition(p)?, span));
+                }
+            }
+            Statement::Decide { name, on, conditions, combine }
         }
         other => unreachable!("statement rule {other:?} is not a statement"),
     })
@@ -508,4 +546,23 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         Rule::sim_duration => DataItem::SimDuration(number(c.next())?),
         other => return Err(Diagnostic::new("internal", text_span, format!("unexpected data rule {other:?}"))),
     })
+}
+
+fn choice(p: Pair<Rule>) -> Result<ChoiceAst, Diagnostic> {
+    let mut c = kids(p);
+    let setting = ident(c.next());
+    Ok(ChoiceAst { setting, alternatives: c.0.map(alternative).collect() })
+}
+
+/// A choice's alternative: a number keeps its text for labels.
+fn alternative(p: Pair<Rule>) -> Spanned<Alternative> {
+    let span = span_of(&p);
+    let inner = p.into_inner().next().expect("grammar guarantees an alternative");
+    let text = inner.as_str().to_string();
+    let node = if inner.as_rule() == Rule::number {
+        Alternative::Number(text.parse().unwrap_or(f64::NAN), text)
+    } else {
+        Alternative::Name(text)
+    };
+    Spanned::new(node, span)
 }

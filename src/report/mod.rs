@@ -10,6 +10,7 @@ pub mod family;
 pub mod figures;
 mod format;
 mod markdown;
+pub mod multiverse;
 mod table;
 mod tex;
 

@@ -14,6 +14,7 @@
 mod folder;
 mod grid;
 pub mod job;
+pub mod outer;
 mod record;
 pub mod slurm;
 mod source;
@@ -294,6 +295,12 @@ pub enum RunError {
         /// One line per missing job: index, job, Slurm log.
         list: String,
     },
+    /// A multiverse or draw-replicated design was given to the Slurm path.
+    #[error("{design}: a design with choices or a draw factor runs locally (`crossaudit run`); its Slurm array is not built yet")]
+    OuterOnSlurm {
+        /// The design.
+        design: String,
+    },
     /// Submitting to Slurm failed.
     #[error("submitting {script} failed: {reason}")]
     Submit {
@@ -312,6 +319,8 @@ pub enum StudyAnalysis {
     Single(Box<Analysis>),
     /// A dose-response or multi-split study.
     Family(Box<FamilyAnalysis>),
+    /// A multiverse or a draw-replicated study.
+    Multiverse(Box<crate::analysis::multiverse::MultiverseAnalysis>),
 }
 
 impl StudyAnalysis {
@@ -320,14 +329,16 @@ impl StudyAnalysis {
         match self {
             StudyAnalysis::Single(a) => crate::report::decision_line(a),
             StudyAnalysis::Family(a) => crate::report::family::family_decision_line(a),
+            StudyAnalysis::Multiverse(a) => outer::decision_line(a),
         }
     }
 
-    /// The preregistered decision.
-    pub fn decision(&self) -> &crate::analysis::Decision {
+    /// Whether the preregistered decision holds.
+    pub fn holds(&self) -> bool {
         match self {
-            StudyAnalysis::Single(a) => &a.decision,
-            StudyAnalysis::Family(a) => &a.decision,
+            StudyAnalysis::Single(a) => a.decision.holds,
+            StudyAnalysis::Family(a) => a.decision.holds,
+            StudyAnalysis::Multiverse(a) => a.decision.holds,
         }
     }
 }
@@ -373,6 +384,9 @@ pub fn run(
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     check_workers(options.workers)?;
+    if let Some(levels) = outer::levels(&file.design) {
+        return outer::run_levels(file, levels, data, out, options, observer, started);
+    }
     if !plan.splits.is_empty() {
         return run_splits(file, plan, data, out, options, observer, started);
     }

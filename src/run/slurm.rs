@@ -306,6 +306,9 @@ pub fn prepare(
     options: &SlurmOptions,
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
+    if super::outer::levels(&file.design).is_some() {
+        return Err(RunError::OuterOnSlurm { design: file.path.display().to_string() });
+    }
     check_dir(out)?;
     create_dir_all(out)?;
     let absolute = |p: &Path| p.canonicalize().map_err(|e| RunError::Write(crate::io::WriteError::new(p, e)));

@@ -28,6 +28,7 @@
 //!   replace=False)`; `RandomState(seed)`: `choice(n_fit, k)` positions, then
 //!   `choice(n_pool, k)` incoming windows. Drawn sets are stored sorted.
 
+mod coupled;
 mod invariants;
 mod manifest;
 mod numpy_legacy;
@@ -45,7 +46,9 @@ use crate::data::{natural_key, Audit, Recording, Status};
 use crate::design::{
     ArmKind, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor, StartsPolicy,
 };
+use coupled::Purpose;
 
+pub use coupled::key as coupled_key;
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
@@ -422,6 +425,7 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     }
     let members = |u: usize| -> Vec<String> { units[u].members.iter().map(|&m| info[m].name.clone()).collect() };
     let numpy = design.generator == Generator::NumpyLegacy;
+    let coupled = design.coupled;
     let allowed = design.data.missing_csv_allowed;
     let needed = rf.evaluation + val.recordings + 1;
     // Pinned names are checked one by one instead (absent ones listed, unknown ones refused).
@@ -440,6 +444,10 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         pinned(&rf.listed, &slots, &members, "evaluation", design.data.universe.metadata)?
     } else if numpy {
         split_rs.choice(drawable, rf.evaluation)
+    } else if coupled {
+        let mut order = coupled::order(drawable, rf.split_seed, Purpose::Evaluation, &|c| slots[c].0.clone(), &|_| 0);
+        order.truncate(rf.evaluation);
+        order
     } else {
         let mut order: Vec<usize> = (0..drawable).collect();
         order.shuffle(&mut rng(rf.split_seed, 0));
@@ -449,17 +457,29 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     let (e_units, evaluation_absent) = resolve(&e_slots, &slots, "evaluation", allowed)?;
     let evaluation = sorted(e_units.iter().map(|&u| units[u].members[0]));
     let evaluation_side = sorted(e_units.iter().flat_map(|&u| units[u].members.clone()));
-    let starts = if numpy {
+    // Draw k of a draw-replicated design redraws the starts with the
+    // evaluation set fixed: seed split_seed + k - 1 (numpy: a fresh
+    // RandomState of it; chacha8: streams 2^32 + position).
+    let redraw = design.draw.filter(|&k| k > 1).map(|k| rf.split_seed.saturating_add(k - 1));
+    let name = |r: usize| info[r].name.clone();
+    let starts = if coupled {
+        let seed = redraw.unwrap_or(rf.split_seed);
+        draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, _| {
+            coupled::draw(pool, k, seed, Purpose::Starts, &name)
+        })?
+    } else if let Some(seed) = redraw {
+        if numpy {
+            let mut rs = RandomState::new(np_seed(seed));
+            let in_order = universe_order(&e_slots, &slots, &units);
+            draw_starts(rf, &info, recordings, &in_order, &mut |pool, k, _| draw_numpy(pool, k, &mut rs))?
+        } else {
+            draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, idx| {
+                draw(pool, k, &mut rng(seed, (1 << 32) + idx as u64))
+            })?
+        }
+    } else if numpy {
         // In universe order, continuing the split seed's RandomState.
-        let mut ordered: Vec<usize> = e_slots.clone();
-        ordered.sort();
-        let in_order: Vec<usize> = ordered
-            .iter()
-            .filter_map(|&c| match slots[c].1 {
-                Slot::Unit(u) => Some(units[u].members[0]),
-                Slot::Absent(_) => None,
-            })
-            .collect();
+        let in_order = universe_order(&e_slots, &slots, &units);
         draw_starts(rf, &info, recordings, &in_order, &mut |pool, k, _| draw_numpy(pool, k, &mut split_rs))?
     } else {
         draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, idx| {
@@ -477,6 +497,10 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             return Err(SplitError::ListedTwice { name: val.listed[k].name.clone() });
         }
         v
+    } else if coupled {
+        let order =
+            coupled::order(rest.len(), val.seed, Purpose::ValidationRecordings, &|i| slots[rest[i]].0.clone(), &|_| 0);
+        order.into_iter().take(val.recordings).map(|i| rest[i]).collect()
     } else if numpy {
         val_rs.choice(rest.len(), val.recordings).into_iter().map(|k| rest[k]).collect()
     } else {
@@ -495,7 +519,9 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             available: v_pool.len(),
         });
     }
-    let validation = if numpy {
+    let validation = if coupled {
+        coupled::draw(&v_pool, val.windows, val.seed, Purpose::ValidationWindows, &name)
+    } else if numpy {
         draw_numpy(&v_pool, val.windows, &mut val_rs)
     } else {
         draw(&v_pool, val.windows, &mut rng(val.seed, 1))
@@ -521,7 +547,7 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             published_fit(pin, &slots, &units, &info, &held, allowed)?
         }
     };
-    let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy)?;
+    let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy, &name)?;
     let e_pool = pool_of(&evaluation, recordings);
     let mut contaminating = Vec::new();
     // Derived arms, a dose-response family at a time: its doses share one
@@ -553,9 +579,16 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             }
             StartsPolicy::Allow => e_pool.clone(),
         };
-        for (name, fit, incoming) in contaminate(&base, &members, &pool, *seed, numpy)? {
-            fits.push((name.clone(), fit));
-            contaminating.push((name, incoming));
+        let how = if coupled {
+            Draw::Coupled(&name)
+        } else if numpy {
+            Draw::Numpy
+        } else {
+            Draw::Chacha
+        };
+        for (arm_name, fit, incoming) in contaminate(&base, &members, &pool, *seed, how)? {
+            fits.push((arm_name.clone(), fit));
+            contaminating.push((arm_name, incoming));
         }
     }
     Ok(Split {
@@ -638,6 +671,29 @@ fn published_fit(
     Ok((recordings.into_iter().collect(), absent, leaked))
 }
 
+/// The evaluation recordings in universe order (the order numpy's starts
+/// are drawn in), without absent names.
+fn universe_order(e_slots: &[usize], slots: &[(String, Slot)], units: &[DeploymentUnit]) -> Vec<usize> {
+    let mut ordered: Vec<usize> = e_slots.to_vec();
+    ordered.sort();
+    ordered
+        .iter()
+        .filter_map(|&c| match slots[c].1 {
+            Slot::Unit(u) => Some(units[u].members[0]),
+            Slot::Absent(_) => None,
+        })
+        .collect()
+}
+
+/// How a derived arm's draws are made.
+#[derive(Clone, Copy)]
+enum Draw<'a> {
+    Chacha,
+    Numpy,
+    /// Priority sampling, recordings named by the function.
+    Coupled(&'a dyn Fn(usize) -> String),
+}
+
 fn sorted(v: impl Iterator<Item = usize>) -> Vec<usize> {
     let mut v: Vec<usize> = v.collect();
     v.sort();
@@ -703,6 +759,7 @@ fn draw_fit_arms(
     fit_recordings: &[usize],
     recordings: &[Recording],
     numpy: bool,
+    name: &dyn Fn(usize) -> String,
 ) -> Result<Vec<(String, Vec<Window>)>, SplitError> {
     let fit_pool = pool_of(fit_recordings, recordings);
     let mut fits = Vec::new();
@@ -715,7 +772,9 @@ fn draw_fit_arms(
                 available: fit_pool.len(),
             });
         }
-        let drawn = if numpy {
+        let drawn = if design.coupled {
+            coupled::draw(&fit_pool, windows, seed, Purpose::Fit, name)
+        } else if numpy {
             draw_numpy(&fit_pool, windows, &mut RandomState::new(np_seed(seed)))
         } else {
             draw(&fit_pool, windows, &mut rng(seed, 0))
@@ -740,7 +799,7 @@ fn contaminate(
     members: &[(String, f64)],
     pool: &[Window],
     seed: u64,
-    numpy: bool,
+    how: Draw<'_>,
 ) -> Result<Vec<DerivedArm>, SplitError> {
     let count = |percent: f64| (percent / 100.0 * base.len() as f64).round() as usize;
     let mut most = 0;
@@ -759,14 +818,26 @@ fn contaminate(
         }
         most = most.max(replaced);
     }
-    let (positions, incoming): (Vec<usize>, Vec<Window>) = if numpy {
-        let mut rs = RandomState::new(np_seed(seed));
-        let positions = rs.choice(base.len(), most);
-        (positions, rs.choice(pool.len(), most).into_iter().map(|i| pool[i]).collect())
-    } else {
-        let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), most).into_vec();
-        let incoming = rand::seq::index::sample(&mut rng(seed, 1), pool.len(), most).into_iter().map(|i| pool[i]);
-        (positions, incoming.collect())
+    let (positions, incoming): (Vec<usize>, Vec<Window>) = match how {
+        Draw::Numpy => {
+            let mut rs = RandomState::new(np_seed(seed));
+            let positions = rs.choice(base.len(), most);
+            (positions, rs.choice(pool.len(), most).into_iter().map(|i| pool[i]).collect())
+        }
+        Draw::Chacha => {
+            let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), most).into_vec();
+            let incoming = rand::seq::index::sample(&mut rng(seed, 1), pool.len(), most).into_iter().map(|i| pool[i]);
+            (positions, incoming.collect())
+        }
+        Draw::Coupled(name) => {
+            let replaced = coupled::order(base.len(), seed, Purpose::Replaced, &|i| name(base[i].recording), &|i| {
+                base[i].t as u64
+            });
+            let incoming = coupled::order(pool.len(), seed, Purpose::Incoming, &|i| name(pool[i].recording), &|i| {
+                pool[i].t as u64
+            });
+            (replaced.into_iter().take(most).collect(), incoming.into_iter().take(most).map(|i| pool[i]).collect())
+        }
     };
     let mut out = Vec::new();
     for (arm, percent) in members {

@@ -425,20 +425,35 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
     let file = design::load(path)?;
     let status = lock::status(&file)?;
     let plan = crossaudit::compile(&file.design);
+    let levels = crossaudit::run::outer::levels(&file.design);
     if json {
-        let value = serde_json::json!({
+        let mut value = serde_json::json!({
             "design": path.display().to_string(),
             "sha256": file.sha256,
             "lock": status,
             "plan": plan,
             "validated": file.design,
         });
+        if let Some(levels) = &levels {
+            let specs = file.design.multiverse.as_ref().map_or(1, |m| m.specs.len());
+            value["outer"] = serde_json::json!({
+                "specifications": specs,
+                "levels": levels.iter().map(|l| serde_json::json!({
+                    "id": l.id,
+                    "shares_run_of": l.shares.map(|s| levels[s].id.clone()),
+                })).collect::<Vec<_>>(),
+                "jobs": crossaudit::run::outer::job_count(levels),
+            });
+        }
         out!("{}", crossaudit::io::pretty_json(&value));
     } else {
         outln!("{}: valid", path.display());
         outln!("sha256: {}", file.sha256);
         outln!("lock: {}", status.label());
         out!("{}", plan.render_text());
+        if let Some(levels) = &levels {
+            out!("{}", crossaudit::run::outer::render_levels(&file.design, levels));
+        }
     }
     Ok(())
 }

@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 
 use super::ast::*;
 use super::diagnostic::Diagnostic;
+use super::multiverse;
 use super::*;
 
 /// More training seeds than anyone will train; bounds the memory a seed
@@ -67,12 +68,75 @@ pub(super) mod limits {
 const SAMPLE_EPS: f64 = 1e-9;
 
 pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
-    let mut v = Validator { base: base.to_path_buf(), ..Validator::default() };
     if let Some(s) = ast.statements.get(limits::STATEMENTS) {
+        let mut v = Validator::default();
         let n = ast.statements.len();
         v.too_large(s.span, "the number of statements", n as u64, limits::STATEMENTS as u64);
         return Err(v.diags);
     }
+    let mut diags = Vec::new();
+    let Some(declared) = multiverse::declared(ast, &mut diags) else {
+        let single = validate_single(ast, base);
+        return match (single, diags.is_empty()) {
+            (Ok(d), true) => Ok(d),
+            (Ok(_), false) => Err(diags),
+            (Err(mut more), _) => {
+                diags.append(&mut more);
+                diags.sort_by_key(|d| d.span.start);
+                Err(diags)
+            }
+        };
+    };
+    multiverse::alternative_kinds(&declared, &mut diags);
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let choices: Vec<multiverse::Choice> = declared.choices.iter().map(|(c, _)| c.clone()).collect();
+    let combos = multiverse::combinations(&choices);
+    let mut specs = Vec::new();
+    let mut failed: Vec<(String, Vec<Diagnostic>)> = Vec::new();
+    for (k, values) in combos.iter().enumerate() {
+        let spec_ast = multiverse::spec_ast(ast, &declared, values);
+        let label: Vec<String> =
+            choices.iter().zip(values).map(|(c, &i)| format!("{} {}", c.setting, c.alternatives[i])).collect();
+        match validate_single(&spec_ast, base) {
+            Ok(d) => specs.push(multiverse::Specification {
+                id: multiverse::spec_id(k, combos.len()),
+                values: choices.iter().zip(values).map(|(c, &i)| c.alternatives[i].clone()).collect(),
+                design: Box::new(d),
+            }),
+            Err(found) => failed.push((label.join(", "), found)),
+        }
+    }
+    // An error every specification makes is the design's; one only some
+    // make names the first specification it was found in.
+    for (label, found) in &failed {
+        for d in found {
+            if diags.iter().any(|o: &Diagnostic| o.title == d.title && o.span == d.span) {
+                continue;
+            }
+            let everywhere = failed.len() == combos.len()
+                && failed.iter().all(|(_, f)| f.iter().any(|o| o.title == d.title && o.span == d.span));
+            let mut d = d.clone();
+            if !everywhere {
+                d.label = format!("{} (in the specification {label})", d.label);
+            }
+            diags.push(d);
+        }
+    }
+    if !diags.is_empty() {
+        diags.sort_by_key(|d| d.span.start);
+        return Err(diags);
+    }
+    let primary = combos.iter().position(|v| *v == declared.primary).unwrap_or(0);
+    let mut design = (*specs[primary].design).clone();
+    design.multiverse = Some(multiverse::Multiverse { choices, specs, primary, combine: declared.combine });
+    Ok(design)
+}
+
+/// One specification: the design as written, every choice already in place.
+fn validate_single(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
+    let mut v = Validator { base: base.to_path_buf(), ..Validator::default() };
     let design = v.design(ast);
     match design {
         Some(d) if v.diags.is_empty() => Ok(d),
@@ -262,8 +326,23 @@ impl Validator {
             arms.iter().any(|(a, _)| matches!(&a.kind, ArmKind::Derived { family: Some(f), .. } if *f == c.treated))
         });
         let multi_split = splits.as_ref().is_some_and(|s| !s.is_empty());
+        let coupled = matches!(singles.get("draws").map(|s| &s.node), Some(Statement::Draws(d)) if d.node == "coupled");
+        let draws = match singles.get("factor draw") {
+            Some(s) => match &s.node {
+                Statement::FactorDraw(spec) => self.draw_factor(
+                    spec,
+                    s.span,
+                    (multi_split, dosed),
+                    (recording.as_ref(), validation.as_ref()),
+                    &arms,
+                    generator,
+                ),
+                _ => None,
+            },
+            None => Some(Vec::new()),
+        };
         let decision = singles.get("decide").and_then(|s| match &s.node {
-            Statement::Decide { name, on, conditions } => {
+            Statement::Decide { name, on, conditions, .. } => {
                 let on = self.decision_target(on.as_ref(), name, multi_split, dosed);
                 self.decision(name, conditions).map(|d| DecisionRule { on, ..d })
             }
@@ -273,7 +352,8 @@ impl Validator {
         if let (Some(seeds), Some(rf), Some(splits)) = (&seeds, &recording, &splits) {
             let span = singles.get("factor seed").map(|s| s.span).unwrap_or(end);
             let horizons: usize = endpoints.iter().map(|(e, _)| e.horizons.len() * e.models.len()).sum();
-            self.cells_limit(span, [arms.len(), seeds.len(), splits.len().max(1), rf.evaluation, horizons]);
+            let outer = splits.len().max(1) * draws.as_ref().map_or(1, |d| d.len().max(1));
+            self.cells_limit(span, [arms.len(), seeds.len(), outer, rf.evaluation, horizons]);
         }
         Some(Design {
             study: study?,
@@ -293,6 +373,10 @@ impl Validator {
             generator,
             published: published.map(|p| p.pin),
             splits: splits?,
+            coupled,
+            draws: draws?,
+            draw: None,
+            multiverse: None,
         })
     }
 
@@ -383,6 +467,75 @@ impl Validator {
                 "the evaluation recordings are pinned (`evaluation recordings ...`), so every split would be the same",
                 "draw them instead: `evaluation N split_seed S`",
             );
+        }
+        Some(values)
+    }
+
+    /// `factor draw = ...`: at least 2 distinct values from 1, each shift
+    /// keeping every seed in range; not with a split factor or doses.
+    fn draw_factor(
+        &mut self,
+        spec: &SeedSpec,
+        span: Span,
+        (multi_split, dosed): (bool, bool),
+        (recording, validation): (Option<&RecordingFactor>, Option<&ValidationSpec>),
+        arms: &[(Arm, Span)],
+        generator: Generator,
+    ) -> Option<Vec<u64>> {
+        let values: Vec<u64> = self.seeds(spec, span)?.into_iter().map(|s| s.0).collect();
+        if values.len() as u64 > limits::SPLITS {
+            self.too_large(span, "the number of draws", values.len() as u64, limits::SPLITS);
+            return None;
+        }
+        if values.len() < 2 {
+            self.err_help("one draw", span, "draw replication needs at least two draws", "write `factor draw = 1..3`");
+        }
+        if values.contains(&0) {
+            self.err_help(
+                "draw 0",
+                span,
+                "draws are numbered from 1 (draw 1 is the design's own draw)",
+                "write `factor draw = 1..3`",
+            );
+        }
+        if multi_split {
+            self.err_help(
+                "draw and split factors together",
+                span,
+                "a split factor already redraws every draw with its evaluation set",
+                "keep one: `factor split` redraws the evaluation set too, `factor draw` keeps it fixed",
+            );
+        }
+        if dosed {
+            self.err_help(
+                "draw factor with doses",
+                span,
+                "draw replication of a dose-response family is not supported",
+                "replicate the draws of one dose, or drop `factor draw`",
+            );
+        }
+        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
+        let mut declared: Vec<(String, u64)> = Vec::new();
+        declared.extend(recording.map(|r| ("the split seed (starts)".to_string(), r.split_seed)));
+        declared.extend(validation.map(|v| ("the validation seed".to_string(), v.seed)));
+        for (a, _) in arms {
+            match a.kind {
+                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => {
+                    declared.push((format!("arm {}'s seed", a.name), seed))
+                }
+            }
+        }
+        let last = values.iter().copied().max().unwrap_or(1);
+        for (what, seed) in &declared {
+            if seed.checked_add(last - 1).is_none_or(|s| s > max) {
+                self.err_help(
+                    "draw shifts a seed out of range",
+                    span,
+                    format!("draw {last} shifts {what} ({seed}) by {}", last - 1),
+                    format!("draw k draws with each declared seed plus k - 1; keep every seed from 0 to {max}"),
+                );
+                return None;
+            }
         }
         Some(values)
     }

@@ -1,0 +1,522 @@
+//! The analysis of a multiverse and of draw replication: every
+//! specification's preregistered analysis, the paired effect of each choice
+//! on the primary difference d, joint inference over the whole
+//! specification curve, the share of specifications meeting the rule, the
+//! decision by the declared combination, and the variance the unpublished
+//! draws add.
+//!
+//! Specifications share their evaluation recordings and seeds wherever the
+//! data allow, so the primary difference d(recording, seed) of two
+//! specifications is paired cell by cell. A choice's effect is, per cell,
+//! the mean of d over the specifications taking an alternative minus its
+//! mean over those taking the primary's alternative; its interval is the
+//! design's crossed estimator on that recording x seed matrix. The joint
+//! bootstrap resamples recordings and seeds once per replicate, the same
+//! draw for every specification (the pigeonhole bootstrap of one contrast,
+//! applied to all at once), and gives simultaneous max-|t| bands.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::{analyze, Analysis, AnalysisError, AnalyzeOptions};
+use crate::cells::Cell;
+use crate::design::{Choice, Combine, DecisionRule, Design, Estimator};
+use crate::plan::Plan;
+use crate::stats::{quantile_type7, CrossedEstimate};
+
+/// One outer level of a study: a specification, a draw, or both, with
+/// its compiled plan and its cells.
+pub struct LevelInput<'a> {
+    /// The level's directory name (`spec-s1`, `draw-2`, `spec-s1_draw-2`).
+    pub id: String,
+    /// The specification's index in the multiverse, if any.
+    pub spec: Option<usize>,
+    /// The draw, under draw replication.
+    pub draw: Option<u64>,
+    /// The level whose run it shares (analysis-only choices), if not its own.
+    pub shares: Option<String>,
+    /// Its plan.
+    pub plan: &'a Plan,
+    /// Its cells.
+    pub cells: &'a [Cell],
+}
+
+/// The whole multiverse (or draw-replication) analysis: `multiverse.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct MultiverseAnalysis {
+    /// The study's name.
+    pub study: String,
+    /// The open choices (empty under draw replication alone).
+    pub choices: Vec<Choice>,
+    /// How specifications combine into the decision.
+    pub combine: Combine,
+    /// The preregistered rule, as written.
+    #[serde(serialize_with = "as_text")]
+    pub rule: DecisionRule,
+    /// One row per specification (at the first draw).
+    pub specs: Vec<SpecResult>,
+    /// Each choice's paired effect on d, per alternative.
+    pub choice_effects: Vec<ChoiceEffect>,
+    /// Joint inference over the whole curve.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint: Option<JointBootstrap>,
+    /// Draw replication, per specification.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub draws: Vec<DrawReplication>,
+    /// Starts and windows each pair of specifications shares (filled by the run).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub shared: Vec<SharedDraws>,
+    /// The decision by the declared combination.
+    pub decision: MultiverseDecision,
+    /// Caveats.
+    pub warnings: Vec<String>,
+    /// Each level's own analysis, in level order (not serialized here: each
+    /// is in its level's report).
+    #[serde(skip)]
+    pub levels: Vec<(String, Box<Analysis>)>,
+    /// SHA-256 of the design, lock state: filled by the run.
+    pub design_sha256: Option<String>,
+    /// Whether the design was locked and unchanged.
+    pub preregistered: Option<bool>,
+    /// Whether every output is labelled EXPLORATORY.
+    pub exploratory: bool,
+}
+
+fn as_text<S: serde::Serializer, T: std::fmt::Display>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&v.to_string())
+}
+
+/// One specification's primary result.
+#[derive(Debug, Clone, Serialize)]
+pub struct SpecResult {
+    /// `s1`, `s2`, ...
+    pub id: String,
+    /// Its alternative of each choice, in choice order.
+    pub values: Vec<String>,
+    /// Whether it is the primary specification.
+    pub primary: bool,
+    /// The level whose run it shares, when only the analysis differs.
+    pub shares_run_of: Option<String>,
+    /// The primary crossed estimate of d (treated - reference), metres.
+    pub estimate: CrossedEstimate,
+    /// Mean of the treated arm, metres.
+    pub mean_treated: f64,
+    /// Mean of the reference arm, metres.
+    pub mean_reference: f64,
+    /// 100 (reference - treated) / reference.
+    pub optimism_pct: f64,
+    /// Whether the preregistered rule holds in this specification.
+    pub rule_holds: bool,
+    /// Evaluation recordings analysed.
+    pub recordings: usize,
+}
+
+/// One alternative of a choice against the primary's alternative.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChoiceEffect {
+    /// The choice.
+    pub setting: String,
+    /// The primary specification's alternative.
+    pub reference: String,
+    /// The alternative compared with it.
+    pub alternative: String,
+    /// Specifications on each side.
+    pub specs_per_side: usize,
+    /// The crossed estimate of mean d(alternative) - mean d(reference), metres.
+    pub estimate: Option<CrossedEstimate>,
+    /// Why there is no estimate, if there is none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Recordings every specification shares (the rows of the paired matrix).
+    pub recordings: usize,
+}
+
+/// The joint pigeonhole bootstrap over every specification.
+#[derive(Debug, Clone, Serialize)]
+pub struct JointBootstrap {
+    /// Replicates.
+    pub replicates: usize,
+    /// ChaCha8 seed (the design's bootstrap seed, or 11).
+    pub seed: u64,
+    /// Simultaneous level.
+    pub level: f64,
+    /// The max-|t| quantile multiplying each specification's bootstrap SE.
+    pub critical: f64,
+    /// Per specification: (id, bootstrap SE, simultaneous lower, upper), metres.
+    pub bands: Vec<(String, f64, f64, f64)>,
+    /// Share of specifications with d < 0: observed, and its bootstrap
+    /// percentile interval.
+    pub share_negative: (f64, f64, f64),
+    /// Recordings every specification shares.
+    pub recordings: usize,
+}
+
+/// How much the unpublished draws move one specification's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct DrawReplication {
+    /// The specification (`-` without choices).
+    pub spec: String,
+    /// Per draw: (draw, estimate of d, lower, upper, optimism %).
+    pub per_draw: Vec<(u64, f64, f64, f64, f64)>,
+    /// REML variance components of d over recording x seed x draw:
+    /// (source, variance in m^2, share of Var(mean)).
+    pub components: Vec<(String, f64, f64)>,
+    /// The pooled mean of d over draws and its SE, metres.
+    pub pooled: Option<(f64, f64)>,
+    /// Why there is no pooled fit, if none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// What two specifications' splits have in common.
+#[derive(Debug, Clone, Serialize)]
+pub struct SharedDraws {
+    /// The two specifications.
+    pub left: String,
+    /// The other.
+    pub right: String,
+    /// Shared evaluation recordings / of the left's.
+    pub recordings: (usize, usize),
+    /// Shared rollout starts (recording name and row) / of the left's.
+    pub starts: (usize, usize),
+    /// Shared fit windows of the reference arm / of the left's.
+    pub fit_windows: (usize, usize),
+}
+
+/// The decision by the declared combination.
+#[derive(Debug, Clone, Serialize)]
+pub struct MultiverseDecision {
+    /// The rule's name.
+    pub name: String,
+    /// Whether it holds by the combination.
+    pub holds: bool,
+    /// Specifications in which the rule holds.
+    pub specs_holding: usize,
+    /// Specifications.
+    pub specs: usize,
+    /// Whether it holds in the primary specification.
+    pub primary_holds: bool,
+}
+
+/// Analyses every level and combines them.
+pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<MultiverseAnalysis, AnalysisError> {
+    let mut analyses: Vec<(String, Box<Analysis>)> = Vec::new();
+    for l in levels {
+        let a = analyze(l.plan, l.cells, AnalyzeOptions::default())?;
+        analyses.push((l.id.clone(), Box::new(a)));
+    }
+    let mv = design.multiverse.as_ref();
+    let first_draw = levels.iter().filter_map(|l| l.draw).min();
+    let spec_levels: Vec<usize> =
+        (0..levels.len()).filter(|&k| levels[k].draw.is_none() || levels[k].draw == first_draw).collect();
+    let primary = mv.map(|m| m.primary).unwrap_or(0);
+    let mut specs = Vec::new();
+    for &k in &spec_levels {
+        let (l, a) = (&levels[k], &analyses[k].1);
+        let u = &a.units[0];
+        let index = l.spec.unwrap_or(0);
+        specs.push(SpecResult {
+            id: mv.map(|m| m.specs[index].id.clone()).unwrap_or_else(|| "-".to_string()),
+            values: mv.map(|m| m.specs[index].values.clone()).unwrap_or_default(),
+            primary: index == primary,
+            shares_run_of: l.shares.clone(),
+            estimate: u.estimate,
+            mean_treated: u.mean_treated,
+            mean_reference: u.mean_reference,
+            optimism_pct: u.optimism_pct,
+            rule_holds: a.decision.holds,
+            recordings: u.estimate.rows,
+        });
+    }
+    let mut warnings = Vec::new();
+    let diffs: Vec<Diff> = spec_levels.iter().map(|&k| Diff::of(levels[k].plan, levels[k].cells)).collect();
+    let (choice_effects, joint) = match mv {
+        Some(m) => {
+            let effects = choice_effects(m, &diffs, &design.estimator, &mut warnings);
+            let seed = design.sensitivity.bootstrap.as_ref().map(|b| b.seed).unwrap_or(11);
+            let reps = design.sensitivity.bootstrap.as_ref().map(|b| b.replicates).unwrap_or(1999).min(9999);
+            let ids: Vec<String> = specs.iter().map(|s| s.id.clone()).collect();
+            (effects, joint_bootstrap(&ids, &diffs, reps, seed, design.estimator.level))
+        }
+        None => (Vec::new(), None),
+    };
+    let draws = draw_replication(levels, &analyses, mv.map(|m| m.specs.iter().map(|s| s.id.clone()).collect()));
+    let holding = specs.iter().filter(|s| s.rule_holds).count();
+    let primary_holds = specs.iter().find(|s| s.primary).map(|s| s.rule_holds).unwrap_or(false);
+    let combine = mv.map(|m| m.combine).unwrap_or(Combine::Primary);
+    let holds = match combine {
+        Combine::Primary => primary_holds,
+        Combine::Every => holding == specs.len(),
+        Combine::AtLeast(p) => 100.0 * holding as f64 >= p * specs.len() as f64,
+    };
+    if !draws.is_empty() {
+        warnings.push(format!(
+            "the decision reads draw {} (the first declared draw); the other draws measure how far the unpublished draws move it",
+            first_draw.unwrap_or(1)
+        ));
+    }
+    Ok(MultiverseAnalysis {
+        study: design.study.clone(),
+        choices: mv.map(|m| m.choices.clone()).unwrap_or_default(),
+        combine,
+        rule: design.decision.clone(),
+        decision: MultiverseDecision {
+            name: design.decision.name.clone(),
+            holds,
+            specs_holding: holding,
+            specs: specs.len(),
+            primary_holds,
+        },
+        specs,
+        choice_effects,
+        joint,
+        draws,
+        shared: Vec::new(),
+        warnings,
+        levels: analyses,
+        design_sha256: None,
+        preregistered: None,
+        exploratory: false,
+    })
+}
+
+/// The primary difference d = treated - reference of one level, per
+/// (recording, seed), at the primary unit.
+struct Diff {
+    cells: BTreeMap<(String, u64), f64>,
+}
+
+impl Diff {
+    fn of(plan: &Plan, cells: &[Cell]) -> Diff {
+        let u = &plan.primary;
+        let value = |arm: &str| -> BTreeMap<(String, u64), f64> {
+            cells
+                .iter()
+                .filter(|c| c.model == u.model && c.arm == arm && (c.horizon_s - u.horizon_s).abs() < 1e-9)
+                .filter_map(|c| super::unit::value_of(c, u.metric).map(|v| ((c.recording.clone(), c.seed), v)))
+                .collect()
+        };
+        let (t, r) = (value(&plan.contrast.treated), value(&plan.contrast.reference));
+        Diff { cells: t.iter().filter_map(|(k, v)| r.get(k).map(|w| (k.clone(), v - w))).collect() }
+    }
+}
+
+/// The recordings and seeds every level has a d for, and each level's
+/// recordings x seeds matrix over them.
+fn common(diffs: &[&Diff]) -> (Vec<String>, Vec<u64>, Vec<Vec<f64>>) {
+    let keys: BTreeSet<(String, u64)> = match diffs.first() {
+        Some(d) => d.cells.keys().filter(|k| diffs.iter().all(|o| o.cells.contains_key(*k))).cloned().collect(),
+        None => BTreeSet::new(),
+    };
+    let recs: BTreeSet<String> = keys.iter().map(|k| k.0.clone()).collect();
+    let seeds: BTreeSet<u64> = keys.iter().map(|k| k.1).collect();
+    // Only complete rows and columns: a recording every seed has.
+    let recs: Vec<String> =
+        recs.into_iter().filter(|r| seeds.iter().all(|s| keys.contains(&(r.clone(), *s)))).collect();
+    let seeds: Vec<u64> = seeds.into_iter().filter(|s| recs.iter().all(|r| keys.contains(&(r.clone(), *s)))).collect();
+    let mats = diffs
+        .iter()
+        .map(|d| recs.iter().flat_map(|r| seeds.iter().map(|s| d.cells[&(r.clone(), *s)])).collect())
+        .collect();
+    (recs, seeds, mats)
+}
+
+fn choice_effects(
+    m: &crate::design::Multiverse,
+    diffs: &[Diff],
+    est: &Estimator,
+    warnings: &mut Vec<String>,
+) -> Vec<ChoiceEffect> {
+    let all: Vec<&Diff> = diffs.iter().collect();
+    let (recs, seeds, mats) = common(&all);
+    let total: BTreeSet<&String> = diffs.iter().flat_map(|d| d.cells.keys().map(|k| &k.0)).collect();
+    if recs.len() < total.len() {
+        warnings.push(format!(
+            "{} of {} evaluation recordings are in every specification; the paired choice effects and the joint bootstrap use those",
+            recs.len(),
+            total.len()
+        ));
+    }
+    let primary = &m.specs[m.primary].values;
+    let mut out = Vec::new();
+    for (c, choice) in m.choices.iter().enumerate() {
+        for alt in choice.alternatives.iter().filter(|a| **a != primary[c]) {
+            let side =
+                |value: &str| -> Vec<usize> { (0..m.specs.len()).filter(|&s| m.specs[s].values[c] == value).collect() };
+            let (with, without) = (side(alt), side(&primary[c]));
+            let n = recs.len() * seeds.len();
+            let mean_over =
+                |idx: &[usize], cell: usize| idx.iter().map(|&s| mats[s][cell]).sum::<f64>() / idx.len() as f64;
+            let v: Vec<Option<f64>> =
+                (0..n).map(|cell| Some(mean_over(&with, cell) - mean_over(&without, cell))).collect();
+            let (estimate, error) = match super::unit::estimate_grid(est, recs.len(), seeds.len(), v) {
+                Ok(e) => (Some(e), None),
+                Err(e) => (None, Some(e.to_string())),
+            };
+            out.push(ChoiceEffect {
+                setting: choice.setting.clone(),
+                reference: primary[c].clone(),
+                alternative: alt.clone(),
+                specs_per_side: with.len(),
+                estimate,
+                error,
+                recordings: recs.len(),
+            });
+        }
+    }
+    out
+}
+
+/// One replicate's row and column draw counts, from ChaCha8 stream 7 of `seed`.
+fn joint_bootstrap(ids: &[String], diffs: &[Diff], b: usize, seed: u64, level: f64) -> Option<JointBootstrap> {
+    let all: Vec<&Diff> = diffs.iter().collect();
+    let (recs, seeds, mats) = common(&all);
+    let (rows, cols) = (recs.len(), seeds.len());
+    if rows < 2 || cols < 2 || b < 2 {
+        return None;
+    }
+    let mean = |m: &[f64], rc: &[u32], cc: &[u32]| -> f64 {
+        let mut s = 0.0;
+        for i in 0..rows {
+            if rc[i] == 0 {
+                continue;
+            }
+            let row: f64 = (0..cols).map(|j| f64::from(cc[j]) * m[i * cols + j]).sum();
+            s += f64::from(rc[i]) * row;
+        }
+        s / (rows * cols) as f64
+    };
+    let observed: Vec<f64> = mats.iter().map(|m| m.iter().sum::<f64>() / (rows * cols) as f64).collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(7);
+    let mut reps: Vec<Vec<f64>> = vec![Vec::with_capacity(b); mats.len()];
+    for _ in 0..b {
+        let mut rc = vec![0u32; rows];
+        let mut cc = vec![0u32; cols];
+        for _ in 0..rows {
+            rc[rng.gen_range(0..rows)] += 1;
+        }
+        for _ in 0..cols {
+            cc[rng.gen_range(0..cols)] += 1;
+        }
+        for (s, m) in mats.iter().enumerate() {
+            reps[s].push(mean(m, &rc, &cc));
+        }
+    }
+    let se: Vec<f64> = reps
+        .iter()
+        .map(|r| {
+            let m = r.iter().sum::<f64>() / b as f64;
+            (r.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (b - 1) as f64).sqrt()
+        })
+        .collect();
+    let mut t_max: Vec<f64> = (0..b)
+        .map(|k| {
+            (0..mats.len())
+                .map(|s| if se[s] > 0.0 { (reps[s][k] - observed[s]).abs() / se[s] } else { 0.0 })
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    t_max.sort_by(f64::total_cmp);
+    let critical = quantile_type7(&t_max, level);
+    let mut share: Vec<f64> =
+        (0..b).map(|k| (0..mats.len()).filter(|&s| reps[s][k] < 0.0).count() as f64 / mats.len() as f64).collect();
+    share.sort_by(f64::total_cmp);
+    let alpha = 1.0 - level;
+    let observed_share = observed.iter().filter(|d| **d < 0.0).count() as f64 / mats.len() as f64;
+    Some(JointBootstrap {
+        replicates: b,
+        seed,
+        level,
+        critical,
+        bands: (0..mats.len())
+            .map(|s| (ids[s].clone(), se[s], observed[s] - critical * se[s], observed[s] + critical * se[s]))
+            .collect(),
+        share_negative: (
+            observed_share,
+            quantile_type7(&share, alpha / 2.0),
+            quantile_type7(&share, 1.0 - alpha / 2.0),
+        ),
+        recordings: rows,
+    })
+}
+
+/// Per specification with several draws: each draw's estimate and the
+/// REML variance components of d over recording, seed and draw.
+fn draw_replication(
+    levels: &[LevelInput],
+    analyses: &[(String, Box<Analysis>)],
+    spec_ids: Option<Vec<String>>,
+) -> Vec<DrawReplication> {
+    let specs: BTreeSet<usize> = levels.iter().filter(|l| l.draw.is_some()).map(|l| l.spec.unwrap_or(0)).collect();
+    let mut out = Vec::new();
+    for s in specs {
+        let members: Vec<usize> =
+            (0..levels.len()).filter(|&k| levels[k].draw.is_some() && levels[k].spec.unwrap_or(0) == s).collect();
+        let per_draw = members
+            .iter()
+            .map(|&k| {
+                let u = &analyses[k].1.units[0];
+                (levels[k].draw.unwrap_or(1), u.estimate.mean, u.estimate.lower, u.estimate.upper, u.optimism_pct)
+            })
+            .collect();
+        let (mut y, mut rec, mut seed, mut draw, mut rec_draw, mut seed_draw) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut names: BTreeMap<String, usize> = BTreeMap::new();
+        for &k in &members {
+            let d = Diff::of(levels[k].plan, levels[k].cells);
+            let kd = levels[k].draw.unwrap_or(1) as usize;
+            for ((r, sd), v) in &d.cells {
+                let n = names.len();
+                let ri = *names.entry(r.clone()).or_insert(n);
+                y.push(*v);
+                rec.push(ri);
+                seed.push(*sd as usize);
+                draw.push(kd);
+                rec_draw.push(ri * 100_000 + kd);
+                seed_draw.push(*sd as usize * 100_000 + kd);
+            }
+        }
+        let factors = vec![
+            ("recording".to_string(), rec),
+            ("seed".to_string(), seed),
+            ("draw".to_string(), draw),
+            ("recording:draw".to_string(), rec_draw),
+            ("seed:draw".to_string(), seed_draw),
+        ];
+        let fit = crate::stats::mixed::MixedData::new(y, factors)
+            .and_then(|data| crate::stats::mixed::fit(&data, crate::stats::mixed::Criterion::Reml))
+            .and_then(|f| f.certified());
+        let spec = spec_ids.as_ref().map(|ids| ids[s].clone()).unwrap_or_else(|| "-".to_string());
+        match fit {
+            Ok(f) => {
+                let mut components: Vec<(String, f64, f64)> = f
+                    .factors
+                    .iter()
+                    .zip(&f.variances)
+                    .zip(&f.shares)
+                    .map(|((n, v), sh)| (n.clone(), *v, *sh))
+                    .collect();
+                components.push(("residual".to_string(), f.residual, f.shares.last().copied().unwrap_or(0.0)));
+                out.push(DrawReplication {
+                    spec,
+                    per_draw,
+                    components,
+                    pooled: Some((f.intercept, f.se)),
+                    error: None,
+                });
+            }
+            Err(e) => out.push(DrawReplication {
+                spec,
+                per_draw,
+                components: Vec::new(),
+                pooled: None,
+                error: Some(e.to_string()),
+            }),
+        }
+    }
+    out
+}

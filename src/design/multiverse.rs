@@ -1,0 +1,542 @@
+//! A multiverse: the open choices of a design, declared before the run.
+//!
+//! `choices { state motion_capture | onboard; tails keep | truncate }` lists
+//! settings the language already has, each with its alternatives; every
+//! combination is a *specification*, a complete design of its own (the
+//! design text with that alternative written in place of each choice).
+//! `primary specification ...` names the one whose estimate the decision
+//! reads, and `decide ... in every specification` (or `in at least P% of
+//! specifications`) says how the others enter it.
+//!
+//! Specifications are expanded at validation ([`expand`]) so that each one
+//! is checked exactly as a single-specification design with those lines
+//! would be, and every error points at the choice that produced it.
+
+use serde::Serialize;
+
+use super::ast::*;
+use super::diagnostic::Diagnostic;
+use super::Design;
+
+/// Specifications one design may declare: each is a complete run.
+pub const MAX_SPECS: usize = 256;
+
+/// The open choices and the specifications they span.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Multiverse {
+    /// The choices, in declaration order.
+    pub choices: Vec<Choice>,
+    /// Every combination of alternatives, the first choice varying slowest.
+    pub specs: Vec<Specification>,
+    /// Index of the primary specification in `specs`.
+    pub primary: usize,
+    /// How the specifications combine into the decision.
+    pub combine: Combine,
+}
+
+/// One open choice.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Choice {
+    /// The setting, as written (`state`, `tails`, `estimate`, ...).
+    pub setting: String,
+    /// Its alternatives, as written.
+    pub alternatives: Vec<String>,
+    /// Whether the choice changes what is trained or only the analysis.
+    pub role: ChoiceRole,
+}
+
+/// What a choice changes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChoiceRole {
+    /// The data, the split or the training: its alternatives train models of their own.
+    Run,
+    /// Only the analysis of the same cells: nothing is retrained.
+    Analysis,
+}
+
+/// One specification: an alternative for every choice.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Specification {
+    /// `s1`, `s2`, ... (zero-padded to the widest).
+    pub id: String,
+    /// The alternative taken for each choice, in choice order.
+    pub values: Vec<String>,
+    /// The complete design of this specification.
+    #[serde(skip)]
+    pub design: Box<Design>,
+}
+
+/// How the specifications combine into the decision.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind", content = "percent")]
+pub enum Combine {
+    /// The primary specification decides; the others are reported.
+    Primary,
+    /// The rule must hold in every specification.
+    Every,
+    /// The rule must hold in at least this percentage of them.
+    AtLeast(f64),
+}
+
+impl Combine {
+    /// As written after `decide ... when ...`.
+    pub fn describe(&self) -> String {
+        match self {
+            Combine::Primary => "in the primary specification (the others are reported)".to_string(),
+            Combine::Every => "in every specification".to_string(),
+            Combine::AtLeast(p) => format!("in at least {p}% of specifications"),
+        }
+    }
+}
+
+impl Multiverse {
+    /// `state=motion_capture, tails=keep` for specification `k`.
+    pub fn label(&self, k: usize) -> String {
+        let spec = &self.specs[k];
+        self.choices.iter().zip(&spec.values).map(|(c, v)| format!("{}={v}", c.setting)).collect::<Vec<_>>().join(", ")
+    }
+
+    /// The primary specification.
+    pub fn primary_spec(&self) -> &Specification {
+        &self.specs[self.primary]
+    }
+
+    /// For each specification, the earlier one whose run it shares (same
+    /// data, split, arms, models, training and endpoints), or itself.
+    pub fn run_of(&self) -> Vec<usize> {
+        let keys: Vec<String> = self.specs.iter().map(|s| run_key(&s.design)).collect();
+        keys.iter().map(|k| keys.iter().position(|o| o == k).unwrap_or(0)).collect()
+    }
+}
+
+/// What decides the trained cells of a design: everything but the
+/// analysis (estimator, sensitivity, interaction, decision) and the name.
+pub fn run_key(d: &Design) -> String {
+    #[derive(Serialize)]
+    struct RunPart<'a> {
+        data: &'a super::DataSpec,
+        recording: &'a super::RecordingFactor,
+        seeds: &'a [super::Seed],
+        validation: &'a super::ValidationSpec,
+        arms: &'a [super::Arm],
+        models: &'a [super::Model],
+        training: &'a Option<super::Training>,
+        endpoints: Vec<(f64, Vec<f64>, Vec<&'a str>)>,
+        generator: super::Generator,
+        published: &'a Option<super::PublishedPin>,
+        splits: &'a [u64],
+        coupled: bool,
+        draw: Option<u64>,
+    }
+    let endpoints = d
+        .endpoints
+        .iter()
+        .map(|e| (e.cap.0, e.horizons.iter().map(|h| h.0).collect(), e.models.iter().map(|m| m.as_str()).collect()))
+        .collect();
+    let part = RunPart {
+        data: &d.data,
+        recording: &d.recording,
+        seeds: &d.seeds,
+        validation: &d.validation,
+        arms: &d.arms,
+        models: &d.models,
+        training: &d.training,
+        endpoints,
+        generator: d.generator,
+        published: &d.published,
+        splits: &d.splits,
+        coupled: d.coupled,
+        draw: d.draw.filter(|&k| k > 1),
+    };
+    crate::io::sha256_hex(serde_json::to_string(&part).unwrap_or_default().as_bytes())
+}
+
+/// Where a setting goes when a specification writes it.
+#[derive(Clone, Copy)]
+enum Target {
+    Data,
+    Train,
+    Generator,
+    Draws,
+    EstimateKind,
+    EstimateLevel,
+}
+
+/// The settings a choice may name: (setting, where it goes, role, what
+/// its alternatives are).
+const SETTINGS: [(&str, Target, ChoiceRole, &str); 11] = [
+    ("state", Target::Data, ChoiceRole::Run, "a state preset (motion_capture, onboard)"),
+    ("tails", Target::Data, ChoiceRole::Run, "keep, exclude or truncate"),
+    ("duplicates", Target::Data, ChoiceRole::Run, "group, first or keep"),
+    ("implausible", Target::Data, ChoiceRole::Run, "pooled, per_column or none"),
+    ("target", Target::Train, ChoiceRole::Run, "state_scaled or standardized"),
+    ("actions", Target::Train, ChoiceRole::Run, "raw or standardized"),
+    ("action_noise", Target::Train, ChoiceRole::Run, "a noise SD (a number)"),
+    ("generator", Target::Generator, ChoiceRole::Run, "chacha8 or numpy_legacy"),
+    ("draws", Target::Draws, ChoiceRole::Run, "coupled or independent"),
+    ("estimate", Target::EstimateKind, ChoiceRole::Analysis, "an estimator (crossed_mom, reml, ...)"),
+    ("level", Target::EstimateLevel, ChoiceRole::Analysis, "a confidence level (a number)"),
+];
+
+fn setting(name: &str) -> Option<(Target, ChoiceRole)> {
+    SETTINGS.iter().find(|s| s.0 == name).map(|s| (s.1, s.2))
+}
+
+/// The choices of an AST, their primary specification and combination,
+/// checked; None when the design declares no choices (after reporting a
+/// `primary specification` or a combination that has nothing to refer to).
+pub(super) struct Declared {
+    pub choices: Vec<(Choice, Spanned<ChoiceAst>)>,
+    pub primary: Vec<usize>,
+    pub combine: Combine,
+}
+
+/// Reads and checks `choices`, `primary specification` and the decision's
+/// combination. Errors go to `diags`.
+pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declared> {
+    let mut choices_stmt = None;
+    let mut primary_stmt = None;
+    let mut combine = None;
+    for s in &ast.statements {
+        match &s.node {
+            Statement::Choices(c) => choices_stmt = choices_stmt.or(Some((c, s.span))),
+            Statement::PrimarySpec(p) => primary_stmt = primary_stmt.or(Some((p, s.span))),
+            Statement::Decide { combine: Some(c), .. } => combine = Some(c.clone()),
+            _ => {}
+        }
+    }
+    let Some((list, span)) = choices_stmt else {
+        if let Some((_, span)) = primary_stmt {
+            diags.push(
+                Diagnostic::new("no choices", span, "a primary specification needs a `choices { ... }` block")
+                    .with_help("declare the open choices, or drop `primary specification`"),
+            );
+        }
+        if let Some(c) = combine.filter(|c| c.node != CombineAst::Primary) {
+            diags.push(
+                Diagnostic::new("no choices", c.span, "there is one specification to decide in")
+                    .with_help("declare the open choices with `choices { ... }`, or drop this clause"),
+            );
+        }
+        return None;
+    };
+    let before = diags.len();
+    let mut out: Vec<(Choice, Spanned<ChoiceAst>)> = Vec::new();
+    if list.is_empty() {
+        diags.push(
+            Diagnostic::new("no choices", span, "the `choices` block is empty")
+                .with_help("list each open setting with its alternatives, e.g. `state motion_capture | onboard`"),
+        );
+    }
+    for c in list {
+        let name = &c.node.setting;
+        let Some((_, role)) = setting(&name.node) else {
+            let known: Vec<&str> = SETTINGS.iter().map(|s| s.0).collect();
+            diags.push(
+                Diagnostic::new(
+                    "unknown choice",
+                    name.span,
+                    format!("`{}` is not a setting a choice can take", name.node),
+                )
+                .with_help(format!("settings a choice can take: {}", known.join(", "))),
+            );
+            continue;
+        };
+        if let Some((first, _)) = out.iter().find(|(o, _)| o.setting == name.node) {
+            diags.push(Diagnostic::new("declared twice", name.span, format!("a second choice of `{}`", first.setting)));
+            continue;
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        for a in &c.node.alternatives {
+            if !seen.insert(a.node.text()) {
+                diags.push(Diagnostic::new(
+                    "duplicate alternative",
+                    a.span,
+                    format!("`{}` is listed twice", a.node.text()),
+                ));
+            }
+        }
+        let alternatives = c.node.alternatives.iter().map(|a| a.node.text().to_string()).collect();
+        out.push((Choice { setting: name.node.clone(), alternatives, role }, c.clone()));
+    }
+    let count = out.iter().fold(1usize, |n, (c, _)| n.saturating_mul(c.alternatives.len()));
+    if count > MAX_SPECS {
+        diags.push(
+            Diagnostic::new("too many specifications", span, format!("these choices span {count} specifications"))
+                .with_help(format!("a multiverse may have at most {MAX_SPECS} specifications, each a complete run")),
+        );
+    }
+    declared_elsewhere(ast, &out, diags);
+    let primary = primary_values(&out, primary_stmt, span, diags);
+    let combine = match combine.map(|c| c.node) {
+        None | Some(CombineAst::Primary) => Combine::Primary,
+        Some(CombineAst::Every) => Combine::Every,
+        Some(CombineAst::AtLeast(p)) => {
+            if !(p.node > 0.0 && p.node <= 100.0) {
+                diags.push(Diagnostic::new(
+                    "share out of range",
+                    p.span,
+                    format!("a share of specifications must be in (0, 100]%, found {}", p.node),
+                ));
+            }
+            Combine::AtLeast(p.node)
+        }
+    };
+    if diags.len() > before {
+        return None;
+    }
+    Some(Declared { choices: out, primary: primary?, combine })
+}
+
+/// A setting that is a choice must not also be written in the design.
+fn declared_elsewhere(ast: &Ast, choices: &[(Choice, Spanned<ChoiceAst>)], diags: &mut Vec<Diagnostic>) {
+    for s in &ast.statements {
+        let written: Vec<(&str, Span)> = match &s.node {
+            Statement::Data(b) => b
+                .items
+                .iter()
+                .filter_map(|i| match &i.node {
+                    DataItem::State(_) => Some(("state", i.span)),
+                    DataItem::Tails(_) => Some(("tails", i.span)),
+                    DataItem::Duplicates(_) => Some(("duplicates", i.span)),
+                    DataItem::ExcludeImplausible(_) => Some(("implausible", i.span)),
+                    _ => None,
+                })
+                .collect(),
+            Statement::Train(items) => items
+                .iter()
+                .filter_map(|i| match &i.node {
+                    TrainItem::Target(_) => Some(("target", i.span)),
+                    TrainItem::Actions(_) => Some(("actions", i.span)),
+                    TrainItem::ActionNoise(_) => Some(("action_noise", i.span)),
+                    _ => None,
+                })
+                .collect(),
+            Statement::Generator(_) => vec![("generator", s.span)],
+            Statement::Draws(_) => vec![("draws", s.span)],
+            Statement::Estimate { kind, items } => std::iter::once(("estimate", kind.span))
+                .chain(items.iter().filter_map(|i| match &i.node {
+                    EstimateItem::Level(_) => Some(("level", i.span)),
+                    _ => None,
+                }))
+                .collect(),
+            _ => Vec::new(),
+        };
+        for (name, span) in written {
+            if let Some((_, c)) = choices.iter().find(|(c, _)| c.setting == name) {
+                diags.push(
+                    Diagnostic::new(
+                        "setting is a choice",
+                        span,
+                        format!("`{name}` is written here and is also an open choice"),
+                    )
+                    .with_help(format!(
+                        "the choice at byte {} gives every specification its `{name}`; remove this one",
+                        c.node.setting.span.start
+                    )),
+                );
+            }
+        }
+    }
+}
+
+/// The alternative index of each choice in the primary specification.
+fn primary_values(
+    choices: &[(Choice, Spanned<ChoiceAst>)],
+    stmt: Option<(&Vec<(Ident, Spanned<Alternative>)>, Span)>,
+    choices_span: Span,
+    diags: &mut Vec<Diagnostic>,
+) -> Option<Vec<usize>> {
+    let Some((values, span)) = stmt else {
+        diags.push(
+            Diagnostic::new(
+                "no primary specification",
+                choices_span,
+                "a multiverse must say which specification is primary",
+            )
+            .with_help("add `primary specification SETTING ALTERNATIVE, ...` naming one alternative of every choice"),
+        );
+        return None;
+    };
+    let mut out = vec![None; choices.len()];
+    for (name, alt) in values {
+        let Some(k) = choices.iter().position(|(c, _)| c.setting == name.node) else {
+            diags.push(Diagnostic::new(
+                "unknown choice",
+                name.span,
+                format!("`{}` is not one of the choices", name.node),
+            ));
+            continue;
+        };
+        if out[k].is_some() {
+            diags.push(Diagnostic::new("declared twice", name.span, format!("`{}` is given twice", name.node)));
+            continue;
+        }
+        match choices[k].0.alternatives.iter().position(|a| a == alt.node.text()) {
+            Some(i) => out[k] = Some(i),
+            None => diags.push(
+                Diagnostic::new(
+                    "unknown alternative",
+                    alt.span,
+                    format!("`{}` is not an alternative of `{}`", alt.node.text(), name.node),
+                )
+                .with_help(format!("alternatives: {}", choices[k].0.alternatives.join(" | "))),
+            ),
+        }
+    }
+    for (k, v) in out.iter().enumerate() {
+        if v.is_none() && !diags.iter().any(|d| d.span.start >= span.start && d.span.end <= span.end) {
+            diags.push(
+                Diagnostic::new(
+                    "incomplete primary specification",
+                    span,
+                    format!("no alternative given for `{}`", choices[k].0.setting),
+                )
+                .with_help("the primary specification names one alternative of every choice"),
+            );
+        }
+    }
+    out.into_iter().collect()
+}
+
+/// Every combination of alternatives, the first choice varying slowest.
+pub(super) fn combinations(choices: &[Choice]) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new()];
+    for c in choices {
+        out = out
+            .into_iter()
+            .flat_map(|prefix| {
+                (0..c.alternatives.len()).map(move |i| {
+                    let mut p = prefix.clone();
+                    p.push(i);
+                    p
+                })
+            })
+            .collect();
+    }
+    out
+}
+
+/// The AST of one specification: the choices, the primary specification
+/// and the combination removed, and each choice's alternative written
+/// where the setting belongs (with the alternative's span, so that errors
+/// point at it).
+pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast {
+    let mut statements: Vec<Spanned<Statement>> = ast
+        .statements
+        .iter()
+        .filter(|s| !matches!(s.node, Statement::Choices(_) | Statement::PrimarySpec(_)))
+        .cloned()
+        .map(|mut s| {
+            if let Statement::Decide { combine, .. } = &mut s.node {
+                *combine = None;
+            }
+            s
+        })
+        .collect();
+    for ((choice, c), &i) in declared.choices.iter().zip(values) {
+        let alt = &c.node.alternatives[i];
+        let ident = Spanned::new(alt.node.text().to_string(), alt.span);
+        let number = match alt.node {
+            Alternative::Number(v, _) => v,
+            Alternative::Name(_) => f64::NAN,
+        };
+        let Some((target, _)) = setting(&choice.setting) else { continue };
+        let item_span = alt.span;
+        match target {
+            Target::Data => {
+                let item = match choice.setting.as_str() {
+                    "state" => Some(DataItem::State(vec![ident])),
+                    "tails" => Some(DataItem::Tails(ident)),
+                    "duplicates" => Some(DataItem::Duplicates(ident)),
+                    _ if ident.node == "none" => None,
+                    _ => Some(DataItem::ExcludeImplausible(Some(ident))),
+                };
+                for s in &mut statements {
+                    if let (Statement::Data(b), Some(item)) = (&mut s.node, item.clone()) {
+                        b.items.push(Spanned::new(item, item_span));
+                    }
+                }
+            }
+            Target::Train => {
+                let item = match choice.setting.as_str() {
+                    "target" => TrainItem::Target(ident),
+                    "actions" => TrainItem::Actions(ident),
+                    _ => TrainItem::ActionNoise(Spanned::new(number, alt.span)),
+                };
+                for s in &mut statements {
+                    if let Statement::Train(items) = &mut s.node {
+                        items.push(Spanned::new(item.clone(), item_span));
+                    }
+                }
+            }
+            Target::Generator => statements.push(Spanned::new(Statement::Generator(ident), item_span)),
+            Target::Draws => statements.push(Spanned::new(Statement::Draws(ident), item_span)),
+            Target::EstimateKind => {
+                let mut found = false;
+                for s in &mut statements {
+                    if let Statement::Estimate { kind, .. } = &mut s.node {
+                        *kind = ident.clone();
+                        found = true;
+                    }
+                }
+                if !found {
+                    statements.push(Spanned::new(Statement::Estimate { kind: ident, items: Vec::new() }, item_span));
+                }
+            }
+            Target::EstimateLevel => {
+                let level = Spanned::new(EstimateItem::Level(Spanned::new(number, alt.span)), item_span);
+                let mut found = false;
+                for s in &mut statements {
+                    if let Statement::Estimate { items, .. } = &mut s.node {
+                        items.push(level.clone());
+                        found = true;
+                    }
+                }
+                if !found {
+                    let kind = Spanned::new("crossed_mom".to_string(), item_span);
+                    statements.push(Spanned::new(Statement::Estimate { kind, items: vec![level] }, item_span));
+                }
+            }
+        }
+    }
+    Ast { statements }
+}
+
+/// A number alternative where a name is expected, or a name where a number is.
+pub(super) fn alternative_kinds(declared: &Declared, diags: &mut Vec<Diagnostic>) {
+    for (choice, c) in &declared.choices {
+        let numeric = matches!(choice.setting.as_str(), "action_noise" | "level");
+        let names: &[&str] = match choice.setting.as_str() {
+            "state" => &["motion_capture", "onboard"],
+            "tails" => &["keep", "exclude", "truncate"],
+            "duplicates" => &["group", "first", "keep"],
+            "implausible" => &["pooled", "per_column", "none"],
+            "target" => &["state_scaled", "standardized"],
+            "actions" => &["raw", "standardized"],
+            "generator" => &["chacha8", "numpy_legacy"],
+            "draws" => &["coupled", "independent"],
+            _ => &[],
+        };
+        for a in &c.node.alternatives {
+            let ok = match &a.node {
+                Alternative::Number(..) => numeric,
+                Alternative::Name(n) => !numeric && (names.is_empty() || names.contains(&n.as_str())),
+            };
+            if !ok {
+                let want = SETTINGS.iter().find(|s| s.0 == choice.setting).map(|s| s.3).unwrap_or("");
+                diags.push(
+                    Diagnostic::new("wrong alternative", a.span, format!("`{}` is not {want}", a.node.text()))
+                        .with_help(format!("`{}` takes {want}", choice.setting)),
+                );
+            }
+        }
+    }
+}
+
+/// Zero-padded specification ids: `s1`..`s8`, or `s01`..`s12`.
+pub(super) fn spec_id(k: usize, count: usize) -> String {
+    let width = count.to_string().len();
+    format!("s{:0width$}", k + 1)
+}

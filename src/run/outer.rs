@@ -1,0 +1,281 @@
+//! Outer factors of a study: a multiverse's specifications and draw
+//! replication. Each level (a specification, a draw, or one of each) is a
+//! complete single run in its own directory, `out/spec-ID`, `out/draw-K` or
+//! `out/spec-ID_draw-K`; a level whose trained part (data, split, arms,
+//! models, training, endpoints) is identical to an earlier one's (a choice
+//! that changes only the analysis) trains nothing and is analysed on that
+//! level's cells. Then `out/multiverse_cells.csv` (every level's cells with
+//! `spec` and `draw` columns) and the combined analysis in `out/report`.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::*;
+use crate::analysis::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, SharedDraws};
+use crate::design::multiverse::run_key;
+use crate::design::Design;
+use crate::io::write_atomic;
+
+/// One level of the outer factors.
+#[derive(Debug, Clone)]
+pub struct Level {
+    /// Its directory name.
+    pub id: String,
+    /// The specification's index, in a multiverse.
+    pub spec: Option<usize>,
+    /// The draw, under draw replication.
+    pub draw: Option<u64>,
+    /// The complete single-run design of the level.
+    pub design: Design,
+    /// The earlier level whose run it shares, if its own would train the same jobs.
+    pub shares: Option<usize>,
+}
+
+/// The outer levels of `design`, or None for a study without choices or draws.
+pub fn levels(design: &Design) -> Option<Vec<Level>> {
+    let specs: Vec<(Option<usize>, String, &Design)> = match &design.multiverse {
+        Some(m) => m.specs.iter().enumerate().map(|(k, s)| (Some(k), format!("spec-{}", s.id), &*s.design)).collect(),
+        None if !design.draws.is_empty() => vec![(None, String::new(), design)],
+        None => return None,
+    };
+    let mut out: Vec<Level> = Vec::new();
+    for (spec, name, d) in specs {
+        let mut plain = d.clone();
+        plain.multiverse = None;
+        if d.draws.is_empty() {
+            out.push(Level { id: name, spec, draw: None, design: plain, shares: None });
+            continue;
+        }
+        for &k in &d.draws {
+            let id = if name.is_empty() { format!("draw-{k}") } else { format!("{name}_draw-{k}") };
+            out.push(Level { id, spec, draw: Some(k), design: d.for_draw(k), shares: None });
+        }
+    }
+    let keys: Vec<String> = out.iter().map(|l| run_key(&l.design)).collect();
+    for k in 0..out.len() {
+        out[k].shares = keys[..k].iter().position(|o| *o == keys[k]);
+    }
+    Some(out)
+}
+
+/// Jobs a study with outer levels trains: those of every level that does
+/// not share another's run.
+pub fn job_count(levels: &[Level]) -> usize {
+    levels.iter().filter(|l| l.shares.is_none()).map(|l| crate::plan::compile(&l.design).jobs.len()).sum()
+}
+
+/// What `crossaudit check` prints about the outer levels: the
+/// specifications, the draws and the jobs they train.
+pub fn render_levels(design: &Design, levels: &[Level]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    if let Some(m) = &design.multiverse {
+        let choices: Vec<String> =
+            m.choices.iter().map(|c| format!("{} ({})", c.setting, c.alternatives.join(" | "))).collect();
+        let _ = writeln!(s, "multiverse: {} specifications over {}", m.specs.len(), choices.join(", "));
+        let _ = writeln!(s, "  primary specification {}: {}", m.specs[m.primary].id, m.label(m.primary));
+        let _ = writeln!(s, "  decided {}", m.combine.describe());
+        for (k, sp) in m.specs.iter().enumerate() {
+            let _ = writeln!(s, "  {}: {}", sp.id, m.label(k));
+        }
+    }
+    if !design.draws.is_empty() {
+        let list: Vec<String> = design.draws.iter().map(|d| d.to_string()).collect();
+        let _ = writeln!(
+            s,
+            "draws: {} ({}), the evaluation set fixed; draw k shifts every other draw's seed by k - 1",
+            design.draws.len(),
+            list.join(", ")
+        );
+    }
+    let shared = levels.iter().filter(|l| l.shares.is_some()).count();
+    let _ = writeln!(
+        s,
+        "runs: {} levels, {} trained ({} share another level's cells: only their analysis differs); jobs: {} in all",
+        levels.len(),
+        levels.len() - shared,
+        shared,
+        job_count(levels)
+    );
+    if design.coupled {
+        let _ = writeln!(s, "draws coupled: priority sampling after the evaluation draw (shared starts and windows)");
+    }
+    s
+}
+
+/// Runs (or resumes) every level, then the combined analysis.
+pub(super) fn run_levels(
+    file: &DesignFile,
+    levels: Vec<Level>,
+    data: &Data,
+    out: &Path,
+    options: RunOptions,
+    observer: &dyn RunObserver,
+    started: Instant,
+) -> Result<RunOutcome, RunError> {
+    refuse_single_run(out)?;
+    let (mut trained, mut skipped) = (0, 0);
+    let mut builds = BTreeSet::new();
+    let mut status = LockStatus::Unlocked;
+    let mut exploratory = options.exploratory;
+    let mut splits: Vec<Option<crate::split::Split>> = vec![None; levels.len()];
+    let mut record: Option<RunRecord> = None;
+    for (k, level) in levels.iter().enumerate() {
+        if level.shares.is_some() {
+            continue;
+        }
+        let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
+        let plan = crate::plan::compile(&level.design);
+        let dir = out.join(&level.id);
+        let opened = open(&level_file, &plan, data, &dir, options.exploratory)?;
+        let (todo, done_builds) = pending(&plan, &dir, &file.sha256)?;
+        skipped += plan.jobs.len() - todo.len();
+        trained += todo.len();
+        observer.start(plan.jobs.len(), plan.jobs.len() - todo.len());
+        grid::run_grid(&file.sha256, &plan, &opened.prepared, &dir, todo, options.workers, observer)?;
+        builds.extend(done_builds.iter().cloned());
+        finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds)?;
+        (status, exploratory) = (opened.status.clone(), opened.exploratory);
+        splits[k] = Some(opened.prepared.split.clone());
+        record.get_or_insert(opened.record);
+    }
+    let record = record.ok_or(RunError::NoWorkers)?;
+    let mut outcome = finish_levels(file, &levels, out, (&status, exploratory, &record), &splits, builds)?;
+    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
+    Ok(outcome)
+}
+
+/// The directory holding level `k`'s cells: its own, or the one it shares.
+fn run_dir(out: &Path, levels: &[Level], k: usize) -> PathBuf {
+    out.join(&levels[levels[k].shares.unwrap_or(k)].id)
+}
+
+/// Every level's cells in one file, `spec` and `draw` columns first.
+fn write_all_cells(path: &Path, out: &Path, levels: &[Level]) -> Result<(), RunError> {
+    let mut text = String::new();
+    for k in 0..levels.len() {
+        let source = run_dir(out, levels, k).join("cells.csv");
+        let body = std::fs::read_to_string(&source)
+            .map_err(|e| RunError::Cells(CellsError::Io { path: source.display().to_string(), source: e }))?;
+        let mut lines = body.lines();
+        let header = lines.next().unwrap_or("");
+        if k == 0 {
+            text.push_str(&format!("spec,draw,{header}\n"));
+        }
+        let level = &levels[k];
+        let spec = level.id.split('_').next().unwrap_or("").strip_prefix("spec-").unwrap_or("");
+        let draw = level.draw.map(|d| d.to_string()).unwrap_or_default();
+        for l in lines {
+            text.push_str(&format!("{spec},{draw},{l}\n"));
+        }
+    }
+    Ok(write_atomic(path, text.as_bytes())?)
+}
+
+/// After every level finished: the combined cells, analysis and report.
+fn finish_levels(
+    file: &DesignFile,
+    levels: &[Level],
+    out: &Path,
+    (status, exploratory, record): (&LockStatus, bool, &RunRecord),
+    splits: &[Option<crate::split::Split>],
+    builds: BTreeSet<String>,
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let plans: Vec<Plan> = levels.iter().map(|l| crate::plan::compile(&l.design)).collect();
+    let mut cells: Vec<Vec<Cell>> = Vec::new();
+    for k in 0..levels.len() {
+        cells.push(read_cells(&run_dir(out, levels, k).join("cells.csv"))?);
+    }
+    let inputs: Vec<LevelInput> = levels
+        .iter()
+        .enumerate()
+        .map(|(k, l)| LevelInput {
+            id: l.id.clone(),
+            spec: l.spec,
+            draw: l.draw,
+            shares: l.shares.map(|s| levels[s].id.clone()),
+            plan: &plans[k],
+            cells: &cells[k],
+        })
+        .collect();
+    let cells_csv = out.join("multiverse_cells.csv");
+    write_all_cells(&cells_csv, out, levels)?;
+    let mut a = analyze_multiverse(&file.design, &inputs).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
+    a.shared = shared_draws(levels, splits);
+    a.design_sha256 = Some(record.design_sha256.clone());
+    a.exploratory = exploratory;
+    a.preregistered = Some(!exploratory && matches!(status, LockStatus::LockedUnchanged { .. }));
+    a.warnings.extend(resumed_builds(builds));
+    for (k, l) in levels.iter().enumerate() {
+        // A level that shares another's run gets its own report of its own analysis.
+        if let Some(s) = l.shares {
+            let dir = out.join(&l.id);
+            create_dir_all(&dir)?;
+            let mut analysis = a.levels[k].1.as_ref().clone();
+            analysis.record_design(&file.path.display().to_string(), &record.design_sha256, status);
+            analysis
+                .warnings
+                .push(format!("trained nothing: its cells are those of {} (only the analysis differs)", levels[s].id));
+            crate::report::write_all(&analysis, &dir.join("report"))?;
+        }
+    }
+    let report_dir = out.join("report");
+    crate::report::multiverse::write_multiverse(&a, &report_dir)?;
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis: StudyAnalysis::Multiverse(Box::new(a)),
+        trained: 0,
+        skipped: 0,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// For each pair of levels with a split of their own (at the first draw):
+/// evaluation recordings, starts and reference-arm fit windows in common,
+/// by recording name and row.
+fn shared_draws(levels: &[Level], splits: &[Option<crate::split::Split>]) -> Vec<SharedDraws> {
+    type Sets = (BTreeSet<String>, BTreeSet<(String, usize)>, BTreeSet<(String, usize)>);
+    let sets = |s: &crate::split::Split, reference: &str| -> Sets {
+        let name = |r: usize| s.recordings[r].name.clone();
+        let fit = s.fit(reference).unwrap_or(&[]);
+        (
+            s.evaluation.iter().map(|&r| name(r)).collect(),
+            s.starts.iter().map(|w| (name(w.recording), w.t)).collect(),
+            fit.iter().map(|w| (name(w.recording), w.t)).collect(),
+        )
+    };
+    let first_draw = levels.iter().filter_map(|l| l.draw).min();
+    let own: Vec<(usize, Sets)> = (0..levels.len())
+        .filter(|&k| levels[k].draw == first_draw)
+        .filter_map(|k| splits[k].as_ref().map(|s| (k, sets(s, &levels[k].design.contrast.reference))))
+        .collect();
+    let mut out = Vec::new();
+    for (a, (ka, sa)) in own.iter().enumerate() {
+        for (kb, sb) in own.iter().skip(a + 1) {
+            out.push(SharedDraws {
+                left: levels[*ka].id.clone(),
+                right: levels[*kb].id.clone(),
+                recordings: (sa.0.intersection(&sb.0).count(), sa.0.len()),
+                starts: (sa.1.intersection(&sb.1).count(), sa.1.len()),
+                fit_windows: (sa.2.intersection(&sb.2).count(), sa.2.len()),
+            });
+        }
+    }
+    out
+}
+
+/// The decision line of a multiverse.
+pub fn decision_line(a: &MultiverseAnalysis) -> String {
+    let d = &a.decision;
+    let verdict = if d.holds { d.name.to_uppercase() } else { format!("NOT {}", d.name.to_uppercase()) };
+    format!(
+        "{verdict} {} ({} of {} specifications meet the rule; primary: {})",
+        a.combine.describe(),
+        d.specs_holding,
+        d.specs,
+        if d.primary_holds { "met" } else { "not met" }
+    )
+}

@@ -1,0 +1,289 @@
+//! The multiverse: choices in the language, specifications sharing draws
+//! and jobs, the specification curve and the paired choice effects, draw
+//! replication.
+
+use std::path::Path;
+use std::process::Command;
+
+use crossaudit::analysis::multiverse::{analyze_multiverse, LevelInput};
+use crossaudit::cells::Cell;
+use crossaudit::design;
+
+use crate::common::root;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
+    c.current_dir(root());
+    c
+}
+
+/// The small simulated study of the trust tests, trained for two epochs.
+fn small(extra: &str) -> String {
+    let base = std::fs::read_to_string(root().join("tests/designs/sim_small.design")).unwrap();
+    base.replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2")
+        .replace("estimate crossed_mom level 0.95 df seed - 1\n", "")
+        + extra
+}
+
+fn errors(text: &str) -> String {
+    match design::from_str("m.design", text) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.render(false),
+    }
+}
+
+#[test]
+fn choices_expand_into_every_combination_with_a_primary() {
+    let text = small(
+        "choices {\n  tails keep | truncate\n  level 0.95 | 0.99\n}\nprimary specification tails keep, level 0.99\n",
+    );
+    let d = design::from_str("m.design", &text).unwrap();
+    let m = d.multiverse.as_ref().unwrap();
+    assert_eq!(m.specs.len(), 4);
+    let labels: Vec<String> = (0..4).map(|k| m.label(k)).collect();
+    assert_eq!(
+        labels,
+        [
+            "tails=keep, level=0.95",
+            "tails=keep, level=0.99",
+            "tails=truncate, level=0.95",
+            "tails=truncate, level=0.99"
+        ]
+    );
+    assert_eq!(m.primary, 1);
+    // The design is the primary specification's.
+    assert_eq!(d.estimator.level, 0.99);
+    assert_eq!(m.specs[2].design.data.tails, design::TailPolicy::Truncate);
+    // Level is an analysis choice: specifications 1 and 2 share the run of 0, 3 that of 2.
+    assert_eq!(m.run_of(), [0, 0, 2, 2]);
+    // A design without choices is unchanged by the new fields.
+    let plain = design::from_str("p.design", &small("estimate crossed_mom level 0.95 df seed - 1\n")).unwrap();
+    assert!(plain.multiverse.is_none() && !plain.coupled && plain.draws.is_empty());
+}
+
+#[test]
+fn bad_choices_are_refused_where_they_are_written() {
+    let e = errors(&small("choices { colour red | blue }\nprimary specification colour red\n"));
+    assert!(e.contains("unknown choice") && e.contains("`colour` is not a setting a choice can take"), "{e}");
+    let e = errors(&small("choices { tails keep | sideways }\nprimary specification tails keep\n"));
+    assert!(e.contains("wrong alternative") && e.contains("`sideways` is not keep, exclude or truncate"), "{e}");
+    let e = errors(&small("choices { tails keep | truncate }\n"));
+    assert!(e.contains("no primary specification"), "{e}");
+    let e = errors(&small("choices { tails keep | truncate }\nprimary specification tails cut\n"));
+    assert!(e.contains("`cut` is not an alternative of `tails`"), "{e}");
+    let e = errors(&small(
+        "choices { level 0.95 | 0.99 }\nprimary specification level 0.95\nestimate crossed_mom level 0.9\n",
+    ));
+    assert!(e.contains("setting is a choice"), "{e}");
+    let e = errors(&small("primary specification tails keep\n"));
+    assert!(e.contains("a primary specification needs a `choices { ... }` block"), "{e}");
+    let e = errors(&small("factor draw = 1\n"));
+    assert!(e.contains("draw replication needs at least two draws"), "{e}");
+    // An alternative that makes its specification invalid names the specification.
+    let e = errors(&small("choices { level 0.95 | 1.5 }\nprimary specification level 0.95\n"));
+    assert!(e.contains("in the specification level 1.5"), "{e}");
+    assert!(e.contains("m.design:"), "errors name the file, line and column: {e}");
+}
+
+/// Two specifications that differ only in the analysis train once: the
+/// second is analysed on the first's cells, and the run says so.
+#[test]
+fn an_analysis_only_choice_trains_no_extra_job() {
+    let out = tempfile::tempdir().unwrap();
+    let path = out.path().join("m.design");
+    std::fs::write(
+        &path,
+        small("choices { level 0.95 | 0.99 }\nprimary specification level 0.95\nestimate crossed_mom df seed - 1\n"),
+    )
+    .unwrap();
+    let check = bin().arg("check").arg(&path).output().unwrap();
+    let said = String::from_utf8_lossy(&check.stdout);
+    assert!(said.contains("multiverse: 2 specifications over level (0.95 | 0.99)"), "{said}");
+    assert!(said.contains("runs: 2 levels, 1 trained (1 share another level's cells"), "{said}");
+    assert!(said.contains("jobs: 8 in all"), "{said}");
+    let run =
+        bin().arg("run").arg(&path).arg("--out").arg(out.path().join("run")).args(["--workers", "2"]).output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&run.stdout), String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "{said}");
+    assert!(said.contains("8 cells trained, 0 resumed"), "{said}");
+    let dir = out.path().join("run");
+    assert!(dir.join("spec-s1/run.json").exists());
+    assert!(!dir.join("spec-s2/run.json").exists() && dir.join("spec-s2/report/report.md").exists());
+    let report = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+    assert!(report.contains("no (cells of spec-s1)"), "{report}");
+    let specs = std::fs::read_to_string(dir.join("report/specs.csv")).unwrap();
+    let rows: Vec<&str> = specs.lines().collect();
+    assert_eq!(rows.len(), 3);
+    // Same cells, same estimate; the 99% interval is wider.
+    let field = |row: &str, k: usize| row.split(',').nth(k).unwrap().parse::<f64>().unwrap();
+    assert_eq!(field(rows[1], 3), field(rows[2], 3));
+    assert!(field(rows[2], 6) - field(rows[2], 7) < field(rows[1], 6) - field(rows[1], 7));
+    let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
+    assert!(cells.starts_with("spec,draw,model,arm,seed,"));
+    assert!(dir.join("report/spec_curve.svg").exists() && dir.join("report/choice_effects.csv").exists());
+    // A rerun resumes everything.
+    let again = bin().arg("run").arg(&path).arg("--out").arg(&dir).args(["--workers", "2"]).output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&again.stdout), String::from_utf8_lossy(&again.stderr));
+    assert!(again.status.success() && said.contains("0 cells trained, 8 resumed"), "{said}");
+    assert_eq!(std::fs::read_to_string(dir.join("report/specs.csv")).unwrap(), specs);
+}
+
+/// Removing one fit recording moves almost nothing of a coupled draw: the
+/// evaluation recordings, their starts and the validation set stay, and
+/// at least 98% of the fit windows; an independent draw keeps far less.
+#[test]
+fn coupled_draws_survive_removing_a_fit_recording() {
+    let text = |coupled: bool| {
+        let d = small(&format!(
+            "estimate crossed_mom level 0.95 df seed - 1\n{}",
+            if coupled { "draws coupled\n" } else { "" }
+        ));
+        d.replace("recordings 16 seed 5 strength 1.0 duration 15 s", "recordings 120 seed 5 strength 1.0 duration 12 s")
+    };
+    let out = tempfile::tempdir().unwrap();
+    let full = out.path().join("full");
+    let coupled = design::from_str("c.design", &text(true)).unwrap();
+    crossaudit::sim::simulate(coupled.data.simulated.as_ref().unwrap(), &full).unwrap();
+    let prepare = |d: &design::Design, data: &Path, name: &str| {
+        let file = design::DesignFile {
+            path: out.path().join("c.design"),
+            source: String::new(),
+            design: d.clone(),
+            sha256: String::new(),
+        };
+        let plan = crossaudit::compile(d);
+        crossaudit::split::prepare(&file, &plan, data, &out.path().join(name)).unwrap().split
+    };
+    let a = prepare(&coupled, &full, "a");
+    // A fit recording (in no evaluation or validation set), removed from a copy of the data.
+    let held: Vec<usize> = a.evaluation.iter().chain(&a.validation_recordings).copied().collect();
+    let victim = a.fit("disjoint").unwrap().iter().map(|w| w.recording).find(|r| !held.contains(r)).unwrap();
+    let victim = a.recordings[victim].name.clone();
+    let fewer = out.path().join("fewer");
+    std::fs::create_dir_all(&fewer).unwrap();
+    for e in std::fs::read_dir(&full).unwrap() {
+        let e = e.unwrap();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if !name.starts_with(&format!("{victim}.")) && !name.starts_with('.') && name != "simulation.json" {
+            std::fs::copy(e.path(), fewer.join(&name)).unwrap();
+        }
+    }
+    let named = |s: &crossaudit::split::Split,
+                 w: &[crossaudit::split::Window]|
+     -> std::collections::BTreeSet<(String, usize)> {
+        w.iter().map(|w| (s.recordings[w.recording].name.clone(), w.t)).collect()
+    };
+    let kept = |x: &crossaudit::split::Split,
+                y: &crossaudit::split::Split,
+                w: fn(&crossaudit::split::Split) -> Vec<crossaudit::split::Window>| {
+        let (p, q) = (named(x, &w(x)), named(y, &w(y)));
+        p.intersection(&q).count() as f64 / p.len() as f64
+    };
+    let b = prepare(&coupled, &fewer, "b");
+    let starts = |s: &crossaudit::split::Split| s.starts.clone();
+    let fit = |s: &crossaudit::split::Split| s.fit("disjoint").unwrap().to_vec();
+    let contaminated = |s: &crossaudit::split::Split| s.fit("contaminated").unwrap().to_vec();
+    let validation = |s: &crossaudit::split::Split| s.validation.clone();
+    assert_eq!(kept(&a, &b, starts), 1.0);
+    assert_eq!(kept(&a, &b, validation), 1.0);
+    assert!(kept(&a, &b, fit) >= 0.98, "coupled fit windows kept: {}", kept(&a, &b, fit));
+    assert!(kept(&a, &b, contaminated) >= 0.98, "coupled contaminated windows kept: {}", kept(&a, &b, contaminated));
+    // The same removal under independent draws.
+    let independent = design::from_str("i.design", &text(false)).unwrap();
+    let (c, d) = (prepare(&independent, &full, "c"), prepare(&independent, &fewer, "d"));
+    assert!(kept(&c, &d, fit) < 0.9, "independent fit windows kept: {}", kept(&c, &d, fit));
+}
+
+/// Synthetic cells with a known effect of one choice and none of the
+/// other: d = -0.02 - 0.05 [state = onboard] + a_i + b_j + e_ijs.
+fn planted_cells(d: &design::Design, values: &[String], spec: usize) -> Vec<Cell> {
+    // A fixed linear congruential sequence: reproducible noise without a dependency.
+    let mut state = 12345u64 + 7919 * spec as u64;
+    let mut noise = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.02
+    };
+    let effect = if values[0] == "onboard" { -0.05 } else { 0.0 };
+    let mut out = Vec::new();
+    for i in 0..30 {
+        for (j, s) in d.seeds.iter().enumerate() {
+            let a = 0.01 * ((i * 7 % 11) as f64 - 5.0) / 5.0;
+            let b = 0.005 * ((j * 3 % 5) as f64 - 2.0) / 2.0;
+            let reference = 0.4 + 0.01 * i as f64;
+            let diff = -0.02 + effect + a + b + noise();
+            for h in [0.5, 1.0] {
+                for (arm, v) in [("disjoint", reference), ("contaminated", reference + diff)] {
+                    for model in ["world", "relative"] {
+                        out.push(Cell {
+                            split: None,
+                            dose: None,
+                            model: model.into(),
+                            arm: arm.into(),
+                            seed: s.0,
+                            recording: format!("R{i:02}_circle_slow_rep1"),
+                            trajectory: "circle".into(),
+                            speed: "slow".into(),
+                            horizon_s: h,
+                            n_starts: 10,
+                            n_divergent: 0,
+                            fa_position_rmse_m: v * h,
+                            conditional_position_rmse_m: Some(v * h),
+                            divergence_rate: 0.0,
+                            velocity_rmse_mps: Some(0.1),
+                            attitude_rmse_deg: Some(1.0),
+                            line: 0,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn planted_choice_effects_are_recovered_by_the_paired_analysis() {
+    let text = small(
+        "choices {\n  state motion_capture | onboard\n  tails keep | truncate\n}\nprimary specification state motion_capture, tails keep\ndraws coupled\nestimate crossed_mom level 0.95 df seed - 1\n",
+    )
+    .replace("factor seed = 1..2", "factor seed = 1..10")
+    .replace("evaluation 4 split_seed 42", "evaluation 30 split_seed 42");
+    let d = design::from_str("m.design", &text).unwrap();
+    let m = d.multiverse.as_ref().unwrap();
+    let plans: Vec<crossaudit::Plan> = m.specs.iter().map(|s| crossaudit::compile(&s.design)).collect();
+    let cells: Vec<Vec<Cell>> =
+        m.specs.iter().enumerate().map(|(k, s)| planted_cells(&s.design, &s.values, k)).collect();
+    let levels: Vec<LevelInput> = (0..m.specs.len())
+        .map(|k| LevelInput {
+            id: format!("spec-{}", m.specs[k].id),
+            spec: Some(k),
+            draw: None,
+            shares: None,
+            plan: &plans[k],
+            cells: &cells[k],
+        })
+        .collect();
+    let a = analyze_multiverse(&d, &levels).unwrap();
+    let effect = |setting: &str| a.choice_effects.iter().find(|e| e.setting == setting).unwrap().estimate.unwrap();
+    let state = effect("state");
+    assert!(state.lower < -0.05 && state.upper > -0.05 && state.upper < 0.0, "state: {state:?}");
+    let tails = effect("tails");
+    assert!(tails.lower < 0.0 && tails.upper > 0.0, "tails: {tails:?}");
+    // The curve: both onboard specifications below both motion-capture ones.
+    let mut order: Vec<&str> = a.specs.iter().map(|s| s.id.as_str()).collect();
+    order.sort_by(|x, y| {
+        let e = |id: &str| a.specs.iter().find(|s| s.id == id).unwrap().estimate.mean;
+        e(x).total_cmp(&e(y))
+    });
+    let onboard: Vec<&str> = a.specs.iter().filter(|s| s.values[0] == "onboard").map(|s| s.id.as_str()).collect();
+    assert!(onboard.contains(&order[0]) && onboard.contains(&order[1]), "{order:?}");
+    // Joint bands are wider than each specification's own interval, and cover its estimate.
+    let joint = a.joint.as_ref().unwrap();
+    assert!(joint.critical > 1.96);
+    for (s, band) in a.specs.iter().zip(&joint.bands) {
+        assert!(band.2 < s.estimate.mean && band.3 > s.estimate.mean);
+    }
+    assert_eq!(joint.share_negative.0, 1.0);
+    // The primary decides: its d is -0.02 with optimism about 5%, under the 10% of the rule.
+    assert!(!a.decision.primary_holds && !a.decision.holds);
+}
