@@ -502,7 +502,14 @@ fn model_text(kind: &ModelKind) -> String {
 
 fn arm_text(kind: &ArmKind) -> String {
     match kind {
-        ArmKind::Fit { windows, seed } => format!("fit {windows} windows (seed {seed})"),
+        ArmKind::Fit { windows, seed, hold_out } if hold_out.is_empty() => format!("fit {windows} windows (seed {seed})"),
+        ArmKind::Fit { windows, seed, hold_out } => {
+            let held: Vec<&str> = hold_out.iter().map(|c| c.name()).collect();
+            format!(
+                "fit {windows} windows (seed {seed}) from recordings sharing no {} with any evaluation recording",
+                held.join(" or ")
+            )
+        }
         ArmKind::Derived { from, percent, starts, seed, .. } => format!(
             "{from} with {percent}% replaced by evaluation windows{} (seed {seed})",
             if *starts == StartsPolicy::Exclude { ", registered starts excluded" } else { "" }

@@ -287,3 +287,137 @@ fn planted_choice_effects_are_recovered_by_the_paired_analysis() {
     // The primary decides: its d is -0.02 with optimism about 5%, under the 10% of the rule.
     assert!(!a.decision.primary_holds && !a.decision.holds);
 }
+
+/// The analysis of a committed multiverse run, recomputed from its cells:
+/// every level's plan from the design, its cells from its directory.
+fn committed(design: &str, run: &str) -> crossaudit::analysis::multiverse::MultiverseAnalysis {
+    let file = design::load(&root().join(design)).unwrap();
+    let levels = crossaudit::run::outer::levels(&file.design).unwrap();
+    let plans: Vec<crossaudit::Plan> = levels.iter().map(|l| crossaudit::compile(&l.design)).collect();
+    let cells: Vec<Vec<Cell>> = (0..levels.len())
+        .map(|k| {
+            let own = &levels[levels[k].shares.unwrap_or(k)].id;
+            crossaudit::cells::read_cells(&root().join(run).join(own).join("cells.csv")).unwrap()
+        })
+        .collect();
+    let inputs: Vec<LevelInput> = levels
+        .iter()
+        .enumerate()
+        .map(|(k, l)| LevelInput {
+            id: l.id.clone(),
+            spec: l.spec,
+            draw: l.draw,
+            shares: l.shares.map(|s| levels[s].id.clone()),
+            plan: &plans[k],
+            cells: &cells[k],
+        })
+        .collect();
+    analyze_multiverse(&file.design, &inputs).unwrap()
+}
+
+/// The committed runs' tables, recomputed from their cells, are the
+/// committed ones byte for byte, and locked by a snapshot.
+#[test]
+fn committed_multiverse_and_draw_analyses_are_locked() {
+    for (design, run, name) in [
+        ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper", "paper_multiverse"),
+        ("designs/multiverse/paper_draws.design", "results/multiverse/draws", "paper_draws"),
+    ] {
+        let a = committed(design, run);
+        let specs = crossaudit::report::multiverse::specs_csv(&a);
+        let effects = crossaudit::report::multiverse::effects_csv(&a);
+        let report = root().join(run).join("report");
+        assert_eq!(specs, std::fs::read_to_string(report.join("specs.csv")).unwrap(), "{run}");
+        assert_eq!(effects, std::fs::read_to_string(report.join("choice_effects.csv")).unwrap(), "{run}");
+        let draws = serde_json::to_string_pretty(&a.draws).unwrap();
+        crate::snapshots!({ insta::assert_snapshot!(name, format!("{specs}\n{effects}\n{draws}")) });
+    }
+}
+
+fn r_table(path: &str) -> Vec<std::collections::BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(root().join(path)).unwrap();
+    let mut rdr = csv::Reader::from_reader(text.as_bytes());
+    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+    rdr.records().map(|r| header.iter().cloned().zip(r.unwrap().iter().map(String::from)).collect()).collect()
+}
+
+/// crossaudit's per-specification estimates, paired choice effects and
+/// draw-replication REML against base R and lme4
+/// (scripts/reference/multiverse_check.R, run on the committed cells).
+#[test]
+fn committed_multiverse_matches_r_and_lme4() {
+    let a = committed("designs/multiverse/paper_multiverse.design", "results/multiverse/paper");
+    let num = |row: &std::collections::BTreeMap<String, String>, k: &str| row[k].parse::<f64>().unwrap();
+    let rows = r_table("results/multiverse/paper/reference/specs_r.csv");
+    assert_eq!(rows.len(), a.specs.len());
+    for (s, r) in a.specs.iter().zip(&rows) {
+        assert_eq!(s.id, r["spec"]);
+        crate::common::assert_rel(s.estimate.mean, num(r, "d_m"), 1e-9, &format!("{} d", s.id));
+        crate::common::assert_rel(s.estimate.se, num(r, "se_m"), 1e-9, &format!("{} se", s.id));
+        crate::common::assert_rel(s.estimate.lower, num(r, "lower_m"), 1e-9, &format!("{} lower", s.id));
+        crate::common::assert_rel(s.optimism_pct, num(r, "optimism_pct"), 1e-9, &format!("{} optimism", s.id));
+    }
+    let rows = r_table("results/multiverse/paper/reference/choice_effects_r.csv");
+    assert_eq!(rows.len(), a.choice_effects.len());
+    for (e, r) in a.choice_effects.iter().zip(&rows) {
+        assert_eq!((e.setting.as_str(), e.alternative.as_str()), (r["choice"].as_str(), r["alternative"].as_str()));
+        let x = e.estimate.unwrap();
+        crate::common::assert_rel(x.mean, num(r, "effect_m"), 1e-9, &format!("{} effect", e.setting));
+        crate::common::assert_rel(x.se, num(r, "se_m"), 1e-9, &format!("{} se", e.setting));
+        crate::common::assert_rel(x.upper, num(r, "upper_m"), 1e-9, &format!("{} upper", e.setting));
+    }
+    let a = committed("designs/multiverse/paper_draws.design", "results/multiverse/draws");
+    let rows = r_table("results/multiverse/draws/reference/draws_r.csv");
+    let d = &a.draws[0];
+    let (pooled, se) = d.pooled.unwrap();
+    // lme4 (bobyqa) and crossaudit's optimizer meet to about 1e-6 in the
+    // variances; variances at zero are compared absolutely.
+    crate::common::assert_rel(pooled, num(&rows[0], "pooled_m"), 1e-6, "pooled d");
+    crate::common::assert_rel(se, num(&rows[0], "se_m"), 1e-4, "pooled SE");
+    for (name, column) in [
+        ("recording", "var_recording"),
+        ("seed", "var_seed"),
+        ("draw", "var_draw"),
+        ("recording:draw", "var_recording_draw"),
+        ("seed:draw", "var_seed_draw"),
+        ("residual", "var_residual"),
+    ] {
+        let ours = d.components.iter().find(|c| c.0 == name).unwrap().1;
+        let theirs = num(&rows[0], column);
+        assert!((ours - theirs).abs() <= 1e-4 * theirs.abs() + 1e-9, "{name}: {ours} vs lme4 {theirs}");
+    }
+}
+
+/// `hold out trajectory` on the real logs: the family arm has no recording
+/// of an evaluation recording's trajectory, and under coupled draws it
+/// keeps every window of the recording-disjoint draw outside that family.
+#[test]
+#[ignore = "needs ../shared/nanobench"]
+fn a_trajectory_holdout_keeps_the_family_out_and_the_rest_of_the_draw() {
+    let logs = crate::common::shared_logs();
+    let out = tempfile::tempdir().unwrap();
+    let file = design::load(&root().join("designs/multiverse/holdout_trajectory.design")).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let s = crossaudit::split::prepare(&file, &plan, &logs, out.path()).unwrap().split;
+    let families: std::collections::BTreeSet<&str> =
+        s.evaluation_side.iter().map(|&r| s.recordings[r].trajectory.as_str()).collect();
+    assert_eq!(families.iter().copied().collect::<Vec<_>>(), ["trefoil"]);
+    let family = s.fit("family").unwrap();
+    assert_eq!(family.len(), 16000);
+    assert!(family.iter().all(|w| s.recordings[w.recording].trajectory != "trefoil"));
+    let disjoint = s.fit("disjoint").unwrap();
+    assert!(disjoint.iter().any(|w| s.recordings[w.recording].trajectory == "trefoil"));
+    let outside: Vec<_> = disjoint.iter().filter(|w| s.recordings[w.recording].trajectory != "trefoil").collect();
+    assert!(outside.iter().all(|w| family.binary_search(w).is_ok()), "coupled draws keep the shared windows");
+}
+
+#[test]
+fn a_holdout_names_a_recording_label() {
+    let e = errors(&small("estimate crossed_mom level 0.95 df seed - 1\n").replace(
+        "arm disjoint     { fit 3000 windows seed 42 }",
+        "arm disjoint     { fit 3000 windows seed 42 hold out colour }",
+    ));
+    assert!(e.contains("unknown holdout") && e.contains("`colour` is not a recording label"), "{e}");
+    let e = errors(&small("choices { contrast contaminated - disjoint | world }\nprimary specification contrast contaminated - disjoint\n"));
+    assert!(e.contains("wrong alternative"), "{e}");
+}

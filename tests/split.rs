@@ -264,7 +264,7 @@ fn data_that_cannot_support_the_design_is_a_clear_error() {
     assert!(e.to_string().starts_with("validation (2 recordings with data): the design needs 10000 windows"), "{e}");
 
     let mut d = minimal_design();
-    d.arms[0].kind = ArmKind::Fit { windows: 100_000, seed: 0 };
+    d.arms[0].kind = ArmKind::Fit { windows: 100_000, seed: 0, hold_out: Vec::new() };
     let e = split::build(&d, &audit_of(&recs, &[]), &recs).unwrap_err();
     assert!(matches!(e, SplitError::TooFewWindows { needed: 100_000, .. }), "{e}");
 

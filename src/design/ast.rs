@@ -197,6 +197,7 @@ pub enum ArmBody {
     Fit {
         windows: Int,
         seed: Option<Int>,
+        hold_out: Vec<Ident>,
     },
     /// `percents` holds one share, or several for a dose-response family.
     Derived {

@@ -283,6 +283,11 @@ pub enum ArmKind {
         windows: usize,
         /// ChaCha8 seed of the draw.
         seed: u64,
+        /// Labels whose every recording sharing a value with an evaluation
+        /// recording is held out of the fit pool (`hold out trajectory`);
+        /// empty: only the evaluation and validation recordings are.
+        #[serde(skip_serializing_if = "Vec::is_empty", default)]
+        hold_out: Vec<Condition>,
     },
     /// Another arm with `percent`% of its windows replaced by evaluation windows.
     /// Arm `from` with `percent`% of its windows replaced (ChaCha8 `seed`).

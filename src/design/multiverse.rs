@@ -161,11 +161,12 @@ enum Target {
     Draws,
     EstimateKind,
     EstimateLevel,
+    Contrast,
 }
 
 /// The settings a choice may name: (setting, where it goes, role, what
 /// its alternatives are).
-const SETTINGS: [(&str, Target, ChoiceRole, &str); 11] = [
+const SETTINGS: [(&str, Target, ChoiceRole, &str); 12] = [
     ("state", Target::Data, ChoiceRole::Run, "a state preset (motion_capture, onboard)"),
     ("tails", Target::Data, ChoiceRole::Run, "keep, exclude or truncate"),
     ("duplicates", Target::Data, ChoiceRole::Run, "group, first or keep"),
@@ -177,6 +178,7 @@ const SETTINGS: [(&str, Target, ChoiceRole, &str); 11] = [
     ("draws", Target::Draws, ChoiceRole::Run, "coupled or independent"),
     ("estimate", Target::EstimateKind, ChoiceRole::Analysis, "an estimator (crossed_mom, reml, ...)"),
     ("level", Target::EstimateLevel, ChoiceRole::Analysis, "a confidence level (a number)"),
+    ("contrast", Target::Contrast, ChoiceRole::Analysis, "a contrast (`treated - reference`)"),
 ];
 
 fn setting(name: &str) -> Option<(Target, ChoiceRole)> {
@@ -267,6 +269,7 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
                 .with_help(format!("a multiverse may have at most {MAX_SPECS} specifications, each a complete run")),
         );
     }
+    alternative_kinds(&out, diags);
     declared_elsewhere(ast, &out, diags);
     let primary = primary_values(&out, primary_stmt, span, diags);
     let combine = match combine.map(|c| c.node) {
@@ -314,6 +317,7 @@ fn declared_elsewhere(ast: &Ast, choices: &[(Choice, Spanned<ChoiceAst>)], diags
                 })
                 .collect(),
             Statement::Generator(_) => vec![("generator", s.span)],
+            Statement::Contrast { treated, .. } => vec![("contrast", treated.span)],
             Statement::Draws(_) => vec![("draws", s.span)],
             Statement::Estimate { kind, items } => std::iter::once(("estimate", kind.span))
                 .chain(items.iter().filter_map(|i| match &i.node {
@@ -472,6 +476,12 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
                 }
             }
             Target::Generator => statements.push(Spanned::new(Statement::Generator(ident), item_span)),
+            Target::Contrast => {
+                let text = alt.node.text();
+                let (treated, reference) = text.split_once(" - ").unwrap_or((text, ""));
+                let at = |s: &str| Spanned::new(s.to_string(), item_span);
+                statements.push(Spanned::new(Statement::Contrast { treated: at(treated), reference: at(reference) }, item_span));
+            }
             Target::Draws => statements.push(Spanned::new(Statement::Draws(ident), item_span)),
             Target::EstimateKind => {
                 let mut found = false;
@@ -505,8 +515,8 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
 }
 
 /// A number alternative where a name is expected, or a name where a number is.
-pub(super) fn alternative_kinds(declared: &Declared, diags: &mut Vec<Diagnostic>) {
-    for (choice, c) in &declared.choices {
+fn alternative_kinds(choices: &[(Choice, Spanned<ChoiceAst>)], diags: &mut Vec<Diagnostic>) {
+    for (choice, c) in choices {
         let numeric = matches!(choice.setting.as_str(), "action_noise" | "level");
         let names: &[&str] = match choice.setting.as_str() {
             "state" => &["motion_capture", "onboard"],
@@ -519,9 +529,11 @@ pub(super) fn alternative_kinds(declared: &Declared, diags: &mut Vec<Diagnostic>
             "draws" => &["coupled", "independent"],
             _ => &[],
         };
+        let contrast = choice.setting == "contrast";
         for a in &c.node.alternatives {
             let ok = match &a.node {
                 Alternative::Number(..) => numeric,
+                Alternative::Name(n) if contrast || n.contains(" - ") => contrast && n.contains(" - "),
                 Alternative::Name(n) => !numeric && (names.is_empty() || names.contains(&n.as_str())),
             };
             if !ok {

@@ -97,7 +97,7 @@ fn rule_name(rule: &Rule) -> String {
         Rule::generator_kind => "a generator (chacha8, numpy_legacy)",
         Rule::draws_kind => "`coupled` or `independent`",
         Rule::choice => "a choice (`SETTING ALTERNATIVE | ALTERNATIVE ...`)",
-        Rule::alternative => "an alternative (a name or a number)",
+        Rule::alternative | Rule::alt_contrast => "an alternative (a name, a number or `treated - reference`)",
         Rule::spec_value => "a choice and its alternative (`state onboard`)",
         Rule::combine | Rule::combine_primary | Rule::combine_every | Rule::combine_share => {
             "`in primary`, `in every specification` or `in at least P% of specifications`"
@@ -400,8 +400,12 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
     let mut c = kids(body);
     if rule == Rule::arm_fit {
         let windows = int(c.next())?;
-        let seed = c.0.next().map(int).transpose()?;
-        return Ok(ArmBody::Fit { windows, seed });
+        let seed = if c.peek_rule() == Some(Rule::int) { Some(int(c.next())?) } else { None };
+        let hold_out = match c.0.next() {
+            Some(h) => idents(kids(h).next()),
+            None => Vec::new(),
+        };
+        return Ok(ArmBody::Fit { windows, seed, hold_out });
     }
     let from = ident(c.next());
     let mut percents = Vec::new();
@@ -559,7 +563,10 @@ fn alternative(p: Pair<Rule>) -> Spanned<Alternative> {
     let span = span_of(&p);
     let inner = p.into_inner().next().expect("grammar guarantees an alternative");
     let text = inner.as_str().to_string();
-    let node = if inner.as_rule() == Rule::number {
+    let node = if inner.as_rule() == Rule::alt_contrast {
+        let names: Vec<String> = inner.into_inner().map(|p| p.as_str().to_string()).collect();
+        Alternative::Name(names.join(" - "))
+    } else if inner.as_rule() == Rule::number {
         Alternative::Number(text.parse().unwrap_or(f64::NAN), text)
     } else {
         Alternative::Name(text)

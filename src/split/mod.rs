@@ -44,7 +44,7 @@ use serde::Serialize;
 
 use crate::data::{natural_key, Audit, Recording, Status};
 use crate::design::{
-    ArmKind, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor, StartsPolicy,
+    ArmKind, Condition, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor, StartsPolicy,
 };
 use coupled::Purpose;
 
@@ -547,7 +547,7 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             published_fit(pin, &slots, &units, &info, &held, allowed)?
         }
     };
-    let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy, &name)?;
+    let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy, &name, (&info, &evaluation_side))?;
     let e_pool = pool_of(&evaluation, recordings);
     let mut contaminating = Vec::new();
     // Derived arms, a dose-response family at a time: its doses share one
@@ -760,11 +760,36 @@ fn draw_fit_arms(
     recordings: &[Recording],
     numpy: bool,
     name: &dyn Fn(usize) -> String,
+    (info, evaluation): (&[RecordingInfo], &[usize]),
 ) -> Result<Vec<(String, Vec<Window>)>, SplitError> {
     let fit_pool = pool_of(fit_recordings, recordings);
     let mut fits = Vec::new();
     for arm in &design.arms {
-        let ArmKind::Fit { windows, seed } = arm.kind else { continue };
+        let ArmKind::Fit { windows, seed, ref hold_out } = arm.kind else { continue };
+        // A stricter holdout: every recording sharing a held-out label
+        // with an evaluation recording leaves this arm's pool.
+        let held = |r: usize| {
+            hold_out.iter().any(|c| {
+                let label = |k: usize| match c {
+                    Condition::Trajectory => &info[k].trajectory,
+                    Condition::Speed => &info[k].speed,
+                };
+                evaluation.iter().any(|&e| label(e) == label(r))
+            })
+        };
+        let own_pool;
+        let fit_pool: &[Window] = if hold_out.is_empty() {
+            &fit_pool
+        } else {
+            let kept: Vec<usize> = fit_recordings.iter().copied().filter(|&r| !held(r)).collect();
+            own_pool = pool_of(&kept, recordings);
+            &own_pool
+        };
+        let fit_recordings: Vec<usize> = if hold_out.is_empty() {
+            fit_recordings.to_vec()
+        } else {
+            fit_recordings.iter().copied().filter(|&r| !held(r)).collect()
+        };
         if fit_pool.len() < windows {
             return Err(SplitError::TooFewWindows {
                 what: format!("arm {} (from {} fit recordings)", arm.name, fit_recordings.len()),
@@ -773,11 +798,11 @@ fn draw_fit_arms(
             });
         }
         let drawn = if design.coupled {
-            coupled::draw(&fit_pool, windows, seed, Purpose::Fit, name)
+            coupled::draw(fit_pool, windows, seed, Purpose::Fit, name)
         } else if numpy {
-            draw_numpy(&fit_pool, windows, &mut RandomState::new(np_seed(seed)))
+            draw_numpy(fit_pool, windows, &mut RandomState::new(np_seed(seed)))
         } else {
-            draw(&fit_pool, windows, &mut rng(seed, 0))
+            draw(fit_pool, windows, &mut rng(seed, 0))
         };
         fits.push((arm.name.clone(), drawn));
     }

@@ -21,10 +21,11 @@ impl Validator {
             }
             names.push(name);
             match body {
-                ArmBody::Fit { windows, seed } => {
+                ArmBody::Fit { windows, seed, hold_out } => {
                     let kind = ArmKind::Fit {
                         windows: self.count(windows, "fit windows", 1, limits::WINDOWS),
                         seed: seed.as_ref().map(|s| self.nonneg(s, "the fit seed")).unwrap_or(0),
+                        hold_out: self.hold_out(hold_out),
                     };
                     out.push((Arm { name: name.node.clone(), kind }, s.span));
                 }
@@ -263,4 +264,32 @@ pub(super) fn declared_actions(train: Option<&Spanned<Statement>>) -> ActionScal
             _ => None,
         })
         .unwrap_or(ActionScaling::Raw)
+}
+
+impl Validator {
+    /// `hold out trajectory, speed`: condition labels, each once.
+    fn hold_out(&mut self, names: &[Ident]) -> Vec<Condition> {
+        let mut out = Vec::new();
+        for n in names {
+            let c = match n.node.as_str() {
+                "trajectory" => Condition::Trajectory,
+                "speed" => Condition::Speed,
+                _ => {
+                    self.err_help(
+                        "unknown holdout",
+                        n.span,
+                        format!("`{}` is not a recording label", n.node),
+                        "a fit set can hold out every recording sharing an evaluation recording's `trajectory` or `speed`",
+                    );
+                    continue;
+                }
+            };
+            if out.contains(&c) {
+                self.err("duplicate name", n.span, format!("`{}` is listed twice", n.node));
+            } else {
+                out.push(c);
+            }
+        }
+        out
+    }
 }

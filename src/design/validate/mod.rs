@@ -87,10 +87,6 @@ pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
             }
         };
     };
-    multiverse::alternative_kinds(&declared, &mut diags);
-    if !diags.is_empty() {
-        return Err(diags);
-    }
     let choices: Vec<multiverse::Choice> = declared.choices.iter().map(|(c, _)| c.clone()).collect();
     let combos = multiverse::combinations(&choices);
     let mut specs = Vec::new();
