@@ -502,7 +502,9 @@ fn model_text(kind: &ModelKind) -> String {
 
 fn arm_text(kind: &ArmKind) -> String {
     match kind {
-        ArmKind::Fit { windows, seed, hold_out } if hold_out.is_empty() => format!("fit {windows} windows (seed {seed})"),
+        ArmKind::Fit { windows, seed, hold_out } if hold_out.is_empty() => {
+            format!("fit {windows} windows (seed {seed})")
+        }
         ArmKind::Fit { windows, seed, hold_out } => {
             let held: Vec<&str> = hold_out.iter().map(|c| c.name()).collect();
             format!(

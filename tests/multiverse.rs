@@ -121,6 +121,10 @@ fn an_analysis_only_choice_trains_no_extra_job() {
     let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
     assert!(cells.starts_with("spec,draw,model,arm,seed,"));
     assert!(dir.join("report/spec_curve.svg").exists() && dir.join("report/choice_effects.csv").exists());
+    // The Slurm path refuses it, naming the local command.
+    let slurm = bin().arg("run").arg(&path).arg("--out").arg(out.path().join("slurm")).arg("--slurm").output().unwrap();
+    let e = String::from_utf8_lossy(&slurm.stderr);
+    assert!(!slurm.status.success() && e.contains("runs locally (`crossaudit run`)"), "{e}");
     // A rerun resumes everything.
     let again = bin().arg("run").arg(&path).arg("--out").arg(&dir).args(["--workers", "2"]).output().unwrap();
     let said = format!("{}{}", String::from_utf8_lossy(&again.stdout), String::from_utf8_lossy(&again.stderr));
@@ -292,27 +296,7 @@ fn planted_choice_effects_are_recovered_by_the_paired_analysis() {
 /// every level's plan from the design, its cells from its directory.
 fn committed(design: &str, run: &str) -> crossaudit::analysis::multiverse::MultiverseAnalysis {
     let file = design::load(&root().join(design)).unwrap();
-    let levels = crossaudit::run::outer::levels(&file.design).unwrap();
-    let plans: Vec<crossaudit::Plan> = levels.iter().map(|l| crossaudit::compile(&l.design)).collect();
-    let cells: Vec<Vec<Cell>> = (0..levels.len())
-        .map(|k| {
-            let own = &levels[levels[k].shares.unwrap_or(k)].id;
-            crossaudit::cells::read_cells(&root().join(run).join(own).join("cells.csv")).unwrap()
-        })
-        .collect();
-    let inputs: Vec<LevelInput> = levels
-        .iter()
-        .enumerate()
-        .map(|(k, l)| LevelInput {
-            id: l.id.clone(),
-            spec: l.spec,
-            draw: l.draw,
-            shares: l.shares.map(|s| levels[s].id.clone()),
-            plan: &plans[k],
-            cells: &cells[k],
-        })
-        .collect();
-    analyze_multiverse(&file.design, &inputs).unwrap()
+    crossaudit::run::outer::analyze_dir(&file, &root().join(run)).unwrap()
 }
 
 /// The committed runs' tables, recomputed from their cells, are the
@@ -330,6 +314,13 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
         assert_eq!(specs, std::fs::read_to_string(report.join("specs.csv")).unwrap(), "{run}");
         assert_eq!(effects, std::fs::read_to_string(report.join("choice_effects.csv")).unwrap(), "{run}");
         let draws = serde_json::to_string_pretty(&a.draws).unwrap();
+        // The CLI gives the committed decision line from the run directory.
+        let out = tempfile::tempdir().unwrap();
+        let o = bin().args(["analyze", design, "--cells", run, "--out"]).arg(out.path()).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let line = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        assert_eq!(line, crossaudit::run::outer::decision_line(&a));
+        assert_eq!(std::fs::read_to_string(out.path().join("specs.csv")).unwrap(), specs);
         crate::snapshots!({ insta::assert_snapshot!(name, format!("{specs}\n{effects}\n{draws}")) });
     }
 }
@@ -420,4 +411,48 @@ fn a_holdout_names_a_recording_label() {
     assert!(e.contains("unknown holdout") && e.contains("`colour` is not a recording label"), "{e}");
     let e = errors(&small("choices { contrast contaminated - disjoint | world }\nprimary specification contrast contaminated - disjoint\n"));
     assert!(e.contains("wrong alternative"), "{e}");
+}
+
+#[test]
+fn multiverse_limits_and_misuse_are_refused_clearly() {
+    // 2^9 = 512 specifications: more than a multiverse may have.
+    let many: String = [
+        "tails keep | truncate",
+        "duplicates keep | group",
+        "implausible pooled | per_column",
+        "target state_scaled | standardized",
+        "actions raw | standardized",
+        "action_noise 0 | 0.02",
+        "generator chacha8 | numpy_legacy",
+        "draws coupled | independent",
+        "level 0.9 | 0.95",
+    ]
+    .join("\n");
+    let text = small(&format!("choices {{\n{many}\n}}\nprimary specification tails keep\n"))
+        .replace("exclude    implausible\n", "")
+        .replace("duplicates group\n", "");
+    let e = errors(&text);
+    assert!(e.contains("too many specifications") && e.contains("these choices span 512 specifications"), "{e}");
+    // A draw factor too large, and a shift out of numpy's range.
+    let e = errors(&small("estimate crossed_mom level 0.95 df seed - 1\nfactor draw = 1..5000\n"));
+    assert!(e.contains("the number of draws must be at most 1000"), "{e}");
+    let e = errors(
+        &small("estimate crossed_mom level 0.95 df seed - 1\ngenerator numpy_legacy\nfactor draw = 1..3\n")
+            .replace("seed 143", "seed 4294967295"),
+    );
+    assert!(e.contains("draw shifts a seed out of range"), "{e}");
+    // `analyze` of a multiverse reads a run directory, and says so.
+    let out = tempfile::tempdir().unwrap();
+    let path = out.path().join("m.design");
+    std::fs::write(&path, small("choices { level 0.95 | 0.99 }\nprimary specification level 0.95\n")).unwrap();
+    let cells = out.path().join("cells.csv");
+    std::fs::write(&cells, "model,arm\n").unwrap();
+    let o = bin().arg("analyze").arg(&path).arg("--cells").arg(&cells).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("is analysed from its run directory"), "{e}");
+    // A missing level's cells are named with their path.
+    std::fs::create_dir_all(out.path().join("run")).unwrap();
+    let o = bin().arg("analyze").arg(&path).arg("--cells").arg(out.path().join("run")).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("spec-s1") && e.contains("cells.csv"), "{e}");
 }

@@ -480,7 +480,10 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
                 let text = alt.node.text();
                 let (treated, reference) = text.split_once(" - ").unwrap_or((text, ""));
                 let at = |s: &str| Spanned::new(s.to_string(), item_span);
-                statements.push(Spanned::new(Statement::Contrast { treated: at(treated), reference: at(reference) }, item_span));
+                statements.push(Spanned::new(
+                    Statement::Contrast { treated: at(treated), reference: at(reference) },
+                    item_span,
+                ));
             }
             Target::Draws => statements.push(Spanned::new(Statement::Draws(ident), item_span)),
             Target::EstimateKind => {

@@ -295,6 +295,12 @@ pub enum RunError {
         /// One line per missing job: index, job, Slurm log.
         list: String,
     },
+    /// `analyze --cells DIR` of a multiverse needs a design with outer levels and a run directory.
+    #[error("{design}: a design with choices or a draw factor is analysed from its run directory: `crossaudit analyze DESIGN --cells RUN_DIR`")]
+    NotOuter {
+        /// The design.
+        design: String,
+    },
     /// A multiverse or draw-replicated design was given to the Slurm path.
     #[error("{design}: a design with choices or a draw factor runs locally (`crossaudit run`); its Slurm array is not built yet")]
     OuterOnSlurm {

@@ -267,6 +267,45 @@ fn shared_draws(levels: &[Level], splits: &[Option<crate::split::Split>]) -> Vec
     out
 }
 
+/// The analysis of a finished multiverse or draw-replicated run directory
+/// `dir` (what `crossaudit analyze DESIGN --cells DIR` reads): each
+/// level's plan from `file`, its cells from `DIR/LEVEL/cells.csv` (a level
+/// sharing another's run, from that one's). Errors name the file and line.
+pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, RunError> {
+    let levels = levels(&file.design).ok_or(RunError::NotOuter { design: file.path.display().to_string() })?;
+    if !dir.is_dir() {
+        return Err(RunError::NotOuter { design: file.path.display().to_string() });
+    }
+    let plans: Vec<Plan> = levels.iter().map(|l| crate::plan::compile(&l.design)).collect();
+    let mut cells: Vec<Vec<Cell>> = Vec::new();
+    for k in 0..levels.len() {
+        cells.push(read_cells(&run_dir(dir, &levels, k).join("cells.csv"))?);
+    }
+    let inputs: Vec<LevelInput> = levels
+        .iter()
+        .enumerate()
+        .map(|(k, l)| LevelInput {
+            id: l.id.clone(),
+            spec: l.spec,
+            draw: l.draw,
+            shares: l.shares.map(|s| levels[s].id.clone()),
+            plan: &plans[k],
+            cells: &cells[k],
+        })
+        .collect();
+    let a = analyze_multiverse(&file.design, &inputs).map_err(|e| FileAnalysisError::new(dir, e))?;
+    Ok(a)
+}
+
+/// Labels an analysis with the design's hash and lock state.
+pub fn label(a: &mut MultiverseAnalysis, file: &DesignFile) -> Result<(), RunError> {
+    let status = lock::status(file)?;
+    a.design_sha256 = Some(file.sha256.clone());
+    a.exploratory = status.changed();
+    a.preregistered = Some(matches!(status, LockStatus::LockedUnchanged { .. }));
+    Ok(())
+}
+
 /// The decision line of a multiverse.
 pub fn decision_line(a: &MultiverseAnalysis) -> String {
     let d = &a.decision;

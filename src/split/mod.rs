@@ -44,7 +44,8 @@ use serde::Serialize;
 
 use crate::data::{natural_key, Audit, Recording, Status};
 use crate::design::{
-    ArmKind, Condition, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor, StartsPolicy,
+    ArmKind, Condition, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor,
+    StartsPolicy,
 };
 use coupled::Purpose;
 

@@ -252,6 +252,9 @@ fn slurm_prepare(
     };
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
+    if crossaudit::run::outer::levels(&file.design).is_some() {
+        return Err(crossaudit::run::RunError::OuterOnSlurm { design: file.path.display().to_string() }.into());
+    }
     slurm::check_dir(out)?;
     crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let lock = lock_folder(out, false)?;
@@ -477,6 +480,21 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
     // A run's report is never replaced by another design's analysis.
     crossaudit::run::check_output_dir(&dir, &file.sha256)?;
+    if crossaudit::run::outer::levels(&file.design).is_some() {
+        // A multiverse or draw-replicated run: `--cells` is its run directory.
+        let mut a = crossaudit::run::outer::analyze_dir(&file, cells)?;
+        crossaudit::run::outer::label(&mut a, &file)?;
+        let _lock = lock_folder(&dir, false)?;
+        let written = crossaudit::report::multiverse::write_multiverse(&a, &dir)?;
+        for w in &a.warnings {
+            note!("warning: {w}");
+        }
+        for p in written {
+            note!("wrote {}", p.display());
+        }
+        outln!("{}", crossaudit::run::outer::decision_line(&a));
+        return Ok(());
+    }
     if crossaudit::compile(&file.design).is_family() {
         let mut a = crossaudit::analyze_family_files(design, cells, options)?;
         let _lock = lock_folder(&dir, false)?;
