@@ -456,3 +456,33 @@ fn multiverse_limits_and_misuse_are_refused_clearly() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("spec-s1") && e.contains("cells.csv"), "{e}");
 }
+
+/// A choice of the training (`action_noise`) retrains every fitted model,
+/// but a parameter-free baseline's jobs read the same inputs in both
+/// specifications: the second takes them by content hash.
+#[test]
+fn jobs_with_identical_inputs_are_shared_by_content_hash() {
+    let out = tempfile::tempdir().unwrap();
+    let path = out.path().join("m.design");
+    let text = small("choices { action_noise 0.02 | 0.05 }\nprimary specification action_noise 0.02\nestimate crossed_mom level 0.95 df seed - 1\n")
+        .replace(" action_noise 0.02 }", " }")
+        .replace("model relative = mlp(32, 32, 32) inputs relative", "model relative = mlp(32, 32, 32) inputs relative\nmodel still = persistence")
+        .replace("endpoint secondary fa_position_rmse at 0.5 s models world, relative", "endpoint secondary fa_position_rmse at 0.5 s models world, relative, still");
+    std::fs::write(&path, text).unwrap();
+    let run =
+        bin().arg("run").arg(&path).arg("--out").arg(out.path().join("run")).args(["--workers", "2"]).output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&run.stdout), String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "{said}");
+    // 12 jobs per specification (3 models x 2 arms x 2 seeds); the second trains its 8 fitted ones.
+    assert!(said.contains("20 cells trained, 4 resumed"), "{said}");
+    let dir = out.path().join("run");
+    for stem in ["still__disjoint__1", "still__contaminated__2"] {
+        let a = std::fs::read(dir.join(format!("spec-s1/cells/{stem}.csv"))).unwrap();
+        assert_eq!(a, std::fs::read(dir.join(format!("spec-s2/cells/{stem}.csv"))).unwrap());
+    }
+    let report = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+    assert!(report.contains("spec-s2: 4 job(s) whose inputs"), "{report}");
+    // Fitted models differ with the noise.
+    let w = |s: &str| std::fs::read(dir.join(format!("{s}/cells/world__disjoint__1.csv"))).unwrap();
+    assert_ne!(w("spec-s1"), w("spec-s2"));
+}

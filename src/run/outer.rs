@@ -121,6 +121,10 @@ pub(super) fn run_levels(
     let mut exploratory = options.exploratory;
     let mut splits: Vec<Option<crate::split::Split>> = vec![None; levels.len()];
     let mut record: Option<RunRecord> = None;
+    // Finished jobs by content: a later level's job with the same inputs
+    // takes their files instead of training again.
+    let mut finished: std::collections::BTreeMap<String, (PathBuf, TrainingJob)> = Default::default();
+    let mut reused: Vec<String> = Vec::new();
     for (k, level) in levels.iter().enumerate() {
         if level.shares.is_some() {
             continue;
@@ -129,11 +133,30 @@ pub(super) fn run_levels(
         let plan = crate::plan::compile(&level.design);
         let dir = out.join(&level.id);
         let opened = open(&level_file, &plan, data, &dir, options.exploratory)?;
-        let (todo, done_builds) = pending(&plan, &dir, &file.sha256)?;
+        let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256)?;
+        let keys: Vec<String> =
+            plan.jobs.iter().map(|j| job_key(&level.design, &plan, j, &opened.prepared, &opened.record)).collect();
+        let mut copied = 0;
+        for (j, key) in plan.jobs.iter().zip(&keys) {
+            if let (Some((from, earlier)), true) = (finished.get(key), todo.contains(j)) {
+                copy_job(from, earlier, &dir, j)?;
+                todo.retain(|t| t != j);
+                copied += 1;
+            }
+        }
+        if copied > 0 {
+            reused.push(format!(
+                "{}: {copied} job(s) whose inputs (manifests, data, model, training, seed) equal an earlier level's were not trained again: their files were copied, by content hash",
+                level.id
+            ));
+        }
         skipped += plan.jobs.len() - todo.len();
         trained += todo.len();
         observer.start(plan.jobs.len(), plan.jobs.len() - todo.len());
         grid::run_grid(&file.sha256, &plan, &opened.prepared, &dir, todo, options.workers, observer)?;
+        for (j, key) in plan.jobs.iter().zip(keys) {
+            finished.entry(key).or_insert_with(|| (dir.clone(), j.clone()));
+        }
         builds.extend(done_builds.iter().cloned());
         finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds)?;
         (status, exploratory) = (opened.status.clone(), opened.exploratory);
@@ -142,8 +165,58 @@ pub(super) fn run_levels(
     }
     let record = record.ok_or(RunError::NoWorkers)?;
     let mut outcome = finish_levels(file, &levels, out, (&status, exploratory, &record), &splits, builds)?;
+    if let StudyAnalysis::Multiverse(a) = &mut outcome.analysis {
+        if !reused.is_empty() {
+            a.warnings.extend(reused);
+            crate::report::multiverse::write_multiverse(a, &outcome.report_dir)?;
+        }
+    }
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// What decides every file a job writes: the manifests it reads (by hash),
+/// the data they index (the inclusion audit's hash and the data block:
+/// columns, tails, duplicates), the model, the training (fitted models
+/// only), the seed, the horizons, the cap and the rate.
+fn job_key(
+    design: &Design,
+    plan: &Plan,
+    job: &TrainingJob,
+    prepared: &crate::split::Prepared,
+    record: &RunRecord,
+) -> String {
+    let manifests = crate::split::JobManifests::for_plan(plan, &prepared.manifests)
+        .into_iter()
+        .find(|m| m.model == job.model && m.arm == job.arm && m.seed == job.seed);
+    let key = serde_json::json!({
+        "manifests": manifests,
+        "audit_sha256": record.audit_sha256,
+        "data": design.data,
+        "model": job.kind,
+        "training": if job.trains() { serde_json::to_value(&plan.training).unwrap_or_default() } else { serde_json::Value::Null },
+        "seed": job.seed,
+        "horizons_s": job.horizons_s,
+        "cap": plan.cap.0,
+        "rate_hz": plan.rate_hz,
+    });
+    crate::io::sha256_hex(key.to_string().as_bytes())
+}
+
+/// Copies a finished job's files and record from the run directory `from`
+/// into `to`, where `job` (the same model, arm and seed) will find it finished.
+fn copy_job(from: &Path, earlier: &TrainingJob, to: &Path, job: &TrainingJob) -> Result<(), RunError> {
+    let record = JobRecord::read(from, earlier)?.ok_or_else(|| RunError::BadJobRecord {
+        path: super::record::job_record_path(from, earlier).display().to_string(),
+        reason: "the job it would be copied from has no record".to_string(),
+    })?;
+    for name in record.files.keys() {
+        let target = to.join(name);
+        create_dir_all(target.parent().unwrap_or(to))?;
+        let bytes = std::fs::read(from.join(name)).map_err(|e| crate::io::WriteError::new(&from.join(name), e))?;
+        write_atomic(&target, &bytes)?;
+    }
+    record.write(to, job)
 }
 
 /// The directory holding level `k`'s cells: its own, or the one it shares.
