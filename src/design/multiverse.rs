@@ -203,7 +203,7 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
     for s in &ast.statements {
         match &s.node {
             Statement::Choices(c) => choices_stmt = choices_stmt.or(Some((c, s.span))),
-            Statement::PrimarySpec(p) => primary_stmt = primary_stmt.or(Some((p, s.span))),
+            Statement::PrimarySpec(p) => primary_stmt = primary_stmt.or(Some((p.as_slice(), s.span))),
             Statement::Decide { combine: Some(c), .. } => combine = Some(c.clone()),
             _ => {}
         }
@@ -345,10 +345,13 @@ fn declared_elsewhere(ast: &Ast, choices: &[(Choice, Spanned<ChoiceAst>)], diags
     }
 }
 
+/// A choice and its alternative in `primary specification ...`.
+type SpecValue = (Ident, Spanned<Alternative>);
+
 /// The alternative index of each choice in the primary specification.
 fn primary_values(
     choices: &[(Choice, Spanned<ChoiceAst>)],
-    stmt: Option<(&Vec<(Ident, Spanned<Alternative>)>, Span)>,
+    stmt: Option<(&[SpecValue], Span)>,
     choices_span: Span,
     diags: &mut Vec<Diagnostic>,
 ) -> Option<Vec<usize>> {

@@ -278,8 +278,8 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
         a.choices.iter().flat_map(|c| c.alternatives.iter().map(move |v| (c.setting.clone(), v.clone()))).collect();
     let (left, top, plot_h, row_h, col_w) =
         (230.0, 40.0, 260.0, 18.0, 34.0_f64.max(480.0 / a.specs.len().max(1) as f64));
-    let width = left + col_w * a.specs.len() as f64 + 30.0;
-    let height = top + plot_h + 40.0 + row_h * rows.len() as f64 + 20.0;
+    let width = (left + col_w * a.specs.len() as f64 + 30.0).max(720.0);
+    let height = top + plot_h + 40.0 + row_h * rows.len() as f64 + 40.0;
     let band = |id: &str| a.joint.as_ref().and_then(|j| j.bands.iter().find(|b| b.0 == id)).map(|b| (b.2, b.3));
     let mut lo = 0.0f64;
     let mut hi = 0.0f64;
@@ -303,19 +303,24 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let _ = writeln!(
         s,
-        r#"<text x="{left}" y="20" font-size="14">Specification curve: d = treated - reference (m), {} intervals; grey: joint bands</text>"#,
+        r#"<text x="10" y="20" font-size="14">d = treated - reference (m) by specification: {} intervals; grey: joint bands</text>"#,
         level_pct(a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95))
     );
     // Axis with ticks.
     let _ = writeln!(s, r#"<line x1="{left}" y1="{top}" x2="{left}" y2="{}" stroke="black"/>"#, top + plot_h);
-    for t in 0..=4 {
-        let v = lo + (hi - lo) * t as f64 / 4.0;
+    // Round ticks: a step of 1, 2 or 5 x 10^k giving four to eight of them.
+    let raw = (hi - lo) / 5.0;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+    let ticks: Vec<f64> =
+        (0..20).map(|k| (lo / step).ceil() * step + k as f64 * step).take_while(|v| *v <= hi + 1e-12).collect();
+    for v in ticks {
         let _ = writeln!(
             s,
             r#"<text x="{}" y="{:.1}" text-anchor="end">{}</text><line x1="{}" y1="{:.1}" x2="{left}" y2="{:.1}" stroke="black"/>"#,
             left - 8.0,
             y(v) + 4.0,
-            f(v, 3),
+            f(if v.abs() < step * 1e-6 { 0.0 } else { v }, 3),
             left - 4.0,
             y(v),
             y(v)
@@ -390,10 +395,15 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
             let _ = writeln!(s, r#"<circle cx="{:.1}" cy="{yy:.1}" r="4" fill="{fill}" stroke="black"/>"#, x(k));
         }
     }
-    let key_y = height - 6.0;
+    let key_y = height - 24.0;
     let _ = writeln!(
         s,
-        r##"<text x="{left}" y="{key_y:.1}">blue: rule met; red: not met; square: primary specification; filled dot: the alternative the specification takes</text>"##
+        r##"<text x="10" y="{key_y:.1}">Blue: the rule is met; red: not met. Square: the primary specification.</text>"##
+    );
+    let _ = writeln!(
+        s,
+        r##"<text x="10" y="{:.1}">Below: a filled dot marks the alternative each specification takes.</text>"##,
+        key_y + 16.0
     );
     let _ = writeln!(s, "</svg>");
     let _ = label;
