@@ -4,7 +4,7 @@
 #   bash scripts/full_multiverse.sh DESIGN RESULTS_DIR [BINARY]
 # Runs `crossaudit run DESIGN --out /tmp/full_NAME/run --workers 2` under
 # /usr/bin/time (a rerun resumes every finished job), then copies each
-# level's committed parts (cells/, cells.csv, report/, run.json, audit/,
+# level's committed parts (cells.csv, report/, run.json, audit/,
 # curves/, manifests/manifests.json; a level that shares another's run has
 # report/ only), the top-level multiverse_cells.csv and report/, stdout.txt
 # and time.txt into RESULTS_DIR, and runs the R recomputation
@@ -22,7 +22,7 @@ for level in "$tmp"/run/*/; do
   [ "$name" = simulated_data ] && continue
   rm -rf "${dest:?}/$name"; mkdir -p "$dest/$name"
   if [ -f "$level/run.json" ]; then
-    for part in cells cells.csv report run.json audit curves; do cp -r "$level/$part" "$dest/$name/$part"; done
+    for part in cells.csv report run.json audit curves; do cp -r "$level/$part" "$dest/$name/$part"; done
     mkdir -p "$dest/$name/manifests"; cp "$level/manifests/manifests.json" "$dest/$name/manifests/"
   else
     cp -r "$level/report" "$dest/$name/report"

@@ -306,6 +306,7 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
     for (design, run, name) in [
         ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper", "paper_multiverse"),
         ("designs/multiverse/paper_draws.design", "results/multiverse/draws", "paper_draws"),
+        ("designs/multiverse/holdout_trajectory.design", "results/multiverse/holdout", "holdout_trajectory"),
     ] {
         let a = committed(design, run);
         let specs = crossaudit::report::multiverse::specs_csv(&a);
@@ -313,7 +314,27 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
         let report = root().join(run).join("report");
         assert_eq!(specs, std::fs::read_to_string(report.join("specs.csv")).unwrap(), "{run}");
         assert_eq!(effects, std::fs::read_to_string(report.join("choice_effects.csv")).unwrap(), "{run}");
-        let draws = serde_json::to_string_pretty(&a.draws).unwrap();
+        // The REML fit's numbers to 6 significant digits: its optimizer's
+        // last bits may differ between CPUs (SIMD dispatch in faer).
+        let draws: String = a
+            .draws
+            .iter()
+            .map(|d| {
+                let per: Vec<String> = d
+                    .per_draw
+                    .iter()
+                    .map(|x| format!("draw {}: d {:.6e} optimism {:.4} rule {}", x.0, x.1, x.4, x.5))
+                    .collect();
+                let comp: Vec<String> =
+                    d.components.iter().map(|c| format!("{} {:.5e} ({:.4})", c.0, c.1, c.2)).collect();
+                format!(
+                    "{}\n{}\npooled {:?}",
+                    per.join("\n"),
+                    comp.join("\n"),
+                    d.pooled.map(|(m, se)| format!("{m:.5e} se {se:.5e}"))
+                )
+            })
+            .collect();
         // The CLI gives the committed decision line from the run directory.
         let out = tempfile::tempdir().unwrap();
         let o = bin().args(["analyze", design, "--cells", run, "--out"]).arg(out.path()).output().unwrap();
@@ -323,6 +344,10 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
         assert_eq!(std::fs::read_to_string(out.path().join("specs.csv")).unwrap(), specs);
         crate::snapshots!({ insta::assert_snapshot!(name, format!("{specs}\n{effects}\n{draws}")) });
     }
+    // Draw 1 of the draw replication is the multiverse's primary
+    // specification: two runs of the same inputs, the same cells byte for byte.
+    let cells = |p: &str| std::fs::read(root().join(p)).unwrap();
+    assert_eq!(cells("results/multiverse/draws/draw-1/cells.csv"), cells("results/multiverse/paper/spec-s1/cells.csv"));
 }
 
 fn r_table(path: &str) -> Vec<std::collections::BTreeMap<String, String>> {
@@ -337,17 +362,28 @@ fn r_table(path: &str) -> Vec<std::collections::BTreeMap<String, String>> {
 /// (scripts/reference/multiverse_check.R, run on the committed cells).
 #[test]
 fn committed_multiverse_matches_r_and_lme4() {
-    let a = committed("designs/multiverse/paper_multiverse.design", "results/multiverse/paper");
     let num = |row: &std::collections::BTreeMap<String, String>, k: &str| row[k].parse::<f64>().unwrap();
-    let rows = r_table("results/multiverse/paper/reference/specs_r.csv");
-    assert_eq!(rows.len(), a.specs.len());
-    for (s, r) in a.specs.iter().zip(&rows) {
-        assert_eq!(s.id, r["spec"]);
-        crate::common::assert_rel(s.estimate.mean, num(r, "d_m"), 1e-9, &format!("{} d", s.id));
-        crate::common::assert_rel(s.estimate.se, num(r, "se_m"), 1e-9, &format!("{} se", s.id));
-        crate::common::assert_rel(s.estimate.lower, num(r, "lower_m"), 1e-9, &format!("{} lower", s.id));
-        crate::common::assert_rel(s.optimism_pct, num(r, "optimism_pct"), 1e-9, &format!("{} optimism", s.id));
+    for (design, run) in [
+        ("designs/multiverse/holdout_trajectory.design", "results/multiverse/holdout"),
+        ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper"),
+    ] {
+        let a = committed(design, run);
+        let rows = r_table(&format!("{run}/reference/specs_r.csv"));
+        assert_eq!(rows.len(), a.specs.len());
+        for (s, r) in a.specs.iter().zip(&rows) {
+            assert_eq!(s.id, r["spec"]);
+            crate::common::assert_rel(s.estimate.mean, num(r, "d_m"), 1e-9, &format!("{run} {} d", s.id));
+            crate::common::assert_rel(s.estimate.se, num(r, "se_m"), 1e-9, &format!("{run} {} se", s.id));
+            crate::common::assert_rel(s.estimate.lower, num(r, "lower_m"), 1e-9, &format!("{run} {} lower", s.id));
+            crate::common::assert_rel(
+                s.optimism_pct,
+                num(r, "optimism_pct"),
+                1e-9,
+                &format!("{run} {} optimism", s.id),
+            );
+        }
     }
+    let a = committed("designs/multiverse/paper_multiverse.design", "results/multiverse/paper");
     let rows = r_table("results/multiverse/paper/reference/choice_effects_r.csv");
     assert_eq!(rows.len(), a.choice_effects.len());
     for (e, r) in a.choice_effects.iter().zip(&rows) {

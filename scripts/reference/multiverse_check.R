@@ -29,10 +29,12 @@ out <- file.path(dir, "reference")
 dir.create(out, showWarnings = FALSE)
 
 # d per recording x seed of one level, as a matrix (rows: recordings).
-d_matrix <- function(x) {
+# The contrast is contaminated - disjoint unless a `contrast` choice names another.
+d_matrix <- function(x, contrast = "contaminated - disjoint") {
+  arms <- strsplit(contrast, " - ", fixed = TRUE)[[1]]
   p <- x[x$model == "world" & abs(x$horizon_s - 1) < 1e-9, ]
-  t <- p[p$arm == "contaminated", c("recording", "seed", "fa_position_rmse_m")]
-  r <- p[p$arm == "disjoint", c("recording", "seed", "fa_position_rmse_m")]
+  t <- p[p$arm == arms[1], c("recording", "seed", "fa_position_rmse_m")]
+  r <- p[p$arm == arms[2], c("recording", "seed", "fa_position_rmse_m")]
   m <- merge(t, r, by = c("recording", "seed"), suffixes = c(".t", ".r"))
   m$d <- m$fa_position_rmse_m.t - m$fa_position_rmse_m.r
   w <- reshape(m[, c("recording", "seed", "d")], idvar = "recording", timevar = "seed", direction = "wide")
@@ -59,8 +61,14 @@ first_draw <- if (all(cells$draw == "")) "" else as.character(min(as.integer(cel
 ids <- specs_csv$spec
 level_of <- function(id, draw) cells[cells$spec == ifelse(id == "-", "", id) & cells$draw == draw, ]
 spec_rows <- list(); mats <- list()
+contrast_of <- function(id) {
+  if ("contrast" %in% names(specs_csv)) specs_csv$contrast[specs_csv$spec == id] else "contaminated - disjoint"
+}
+# multiverse_cells.csv holds every level's cells, a level that shares
+# another's run included (under its own id).
+cells_of <- level_of
 for (id in ids) {
-  x <- d_matrix(level_of(id, first_draw))
+  x <- d_matrix(cells_of(id, first_draw), contrast_of(id))
   mats[[id]] <- x$d
   e <- mom(x$d)
   spec_rows[[id]] <- data.frame(spec = id, d_m = e[["mean"]], se_m = e[["se"]], df = e[["df"]],
@@ -90,7 +98,7 @@ if (first_draw != "") {
   rows <- list()
   for (id in ids) {
     long <- do.call(rbind, lapply(unique(cells$draw), function(k) {
-      w <- d_matrix(level_of(id, k))$d
+      w <- d_matrix(cells_of(id, k), contrast_of(id))$d
       data.frame(y = as.vector(w), recording = rep(rownames(w), ncol(w)),
                  seed = rep(colnames(w), each = nrow(w)), draw = k)
     }))

@@ -159,8 +159,8 @@ pub struct JointBootstrap {
 pub struct DrawReplication {
     /// The specification (`-` without choices).
     pub spec: String,
-    /// Per draw: (draw, estimate of d, lower, upper, optimism %).
-    pub per_draw: Vec<(u64, f64, f64, f64, f64)>,
+    /// Per draw: (draw, estimate of d, lower, upper, optimism %, whether the rule holds).
+    pub per_draw: Vec<(u64, f64, f64, f64, f64, bool)>,
     /// REML variance components of d over recording x seed x draw:
     /// (source, variance in m^2, share of Var(mean)).
     pub components: Vec<(String, f64, f64)>,
@@ -199,6 +199,10 @@ pub struct MultiverseDecision {
     pub specs: usize,
     /// Whether it holds in the primary specification.
     pub primary_holds: bool,
+    /// Under draw replication: draws of the primary specification in which
+    /// the rule holds, and how many draws.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub draws_holding: Option<(usize, usize)>,
 }
 
 /// Analyses every level and combines them.
@@ -269,6 +273,10 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
             specs_holding: holding,
             specs: specs.len(),
             primary_holds,
+            draws_holding: draws
+                .iter()
+                .find(|d| d.spec == specs.iter().find(|s| s.primary).map_or("-", |s| s.id.as_str()))
+                .map(|d| (d.per_draw.iter().filter(|x| x.5).count(), d.per_draw.len())),
         },
         specs,
         choice_effects,
@@ -459,8 +467,10 @@ fn draw_replication(
         let per_draw = members
             .iter()
             .map(|&k| {
-                let u = &analyses[k].1.units[0];
-                (levels[k].draw.unwrap_or(1), u.estimate.mean, u.estimate.lower, u.estimate.upper, u.optimism_pct)
+                let a = &analyses[k].1;
+                let u = &a.units[0];
+                let draw = levels[k].draw.unwrap_or(1);
+                (draw, u.estimate.mean, u.estimate.lower, u.estimate.upper, u.optimism_pct, a.decision.holds)
             })
             .collect();
         let (mut y, mut rec, mut seed, mut draw, mut rec_draw, mut seed_draw) =

@@ -36,6 +36,10 @@ fn verdict(a: &MultiverseAnalysis) -> String {
     let d = &a.decision;
     let name = d.name.to_uppercase();
     let v = if d.holds { name } else { format!("NOT {name}") };
+    if a.choices.is_empty() {
+        let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
+        return format!("**{v}** on the design's own draw: the rule holds in {holding} of {draws} draws.");
+    }
     format!(
         "**{v}** {}: the rule holds in {} of {} specifications (primary: {}).",
         a.combine.describe(),
@@ -167,10 +171,12 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
             if d.spec != "-" {
                 let _ = writeln!(s, "### Specification {}\n", d.spec);
             }
-            let _ = writeln!(s, "| draw | d (m) | interval (m) | optimism |");
-            let _ = writeln!(s, "|---:|---:|---|---:|");
-            for (k, m, lo, hi, opt) in &d.per_draw {
-                let _ = writeln!(s, "| {k} | {} | [{}, {}] | {}% |", f(*m, 4), f(*lo, 4), f(*hi, 4), f(*opt, 1));
+            let _ = writeln!(s, "| draw | d (m) | interval (m) | optimism | rule |");
+            let _ = writeln!(s, "|---:|---:|---|---:|---|");
+            for (k, m, lo, hi, opt, holds) in &d.per_draw {
+                let rule = if *holds { "met" } else { "not met" };
+                let _ =
+                    writeln!(s, "| {k} | {} | [{}, {}] | {}% | {rule} |", f(*m, 4), f(*lo, 4), f(*hi, 4), f(*opt, 1));
             }
             match (&d.pooled, &d.error) {
                 (Some((m, se)), _) => {

@@ -383,6 +383,10 @@ pub fn label(a: &mut MultiverseAnalysis, file: &DesignFile) -> Result<(), RunErr
 pub fn decision_line(a: &MultiverseAnalysis) -> String {
     let d = &a.decision;
     let verdict = if d.holds { d.name.to_uppercase() } else { format!("NOT {}", d.name.to_uppercase()) };
+    if a.choices.is_empty() {
+        let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
+        return format!("{verdict} on the design's own draw (the rule holds in {holding} of {draws} draws)");
+    }
     format!(
         "{verdict} {} ({} of {} specifications meet the rule; primary: {})",
         a.combine.describe(),
