@@ -32,6 +32,9 @@ $ca split designs/nanobench_audited.design --out results/nanobench_split_audited
 # two 80-job runs (nanobench_confirmatory, nanobench_audited) are stale: a
 # rerun of their designs with this build applies the paper's
 # parameterization (docs/study-nanobench.md).
+# The multiverse runs (results/multiverse/paper, draws and holdout; 21, 6
+# and 2 minutes) are rerun with `bash scripts/full_multiverse.sh DESIGN
+# RESULTS_DIR`, which also reruns their R recomputation.
 # The small studies are retrained from scratch in a fresh directory, so
 # that training itself is checked, then their outputs replace the committed ones.
 fresh() {  # fresh DESIGN OUT

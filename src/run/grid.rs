@@ -17,6 +17,9 @@ use crate::split::Prepared;
 pub trait RunObserver: Sync {
     /// The grid starts: `total` jobs, `already_done` of them finished before.
     fn start(&self, _total: usize, _already_done: usize) {}
+    /// A study with outer levels (specifications, draws) starts level
+    /// `index` of `count`, described by `label`.
+    fn level(&self, _index: usize, _count: usize, _label: &str) {}
     /// `worker` took `job`.
     fn job_started(&self, _worker: usize, _job: &TrainingJob) {}
     /// An epoch of `job` finished.

@@ -129,6 +129,11 @@ pub(super) fn run_levels(
         if level.shares.is_some() {
             continue;
         }
+        let label = match (&file.design.multiverse, level.spec) {
+            (Some(m), Some(s)) => format!("{} ({})", level.id, m.label(s)),
+            _ => level.id.clone(),
+        };
+        observer.level(k + 1, levels.len(), &label);
         let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
         let plan = crate::plan::compile(&level.design);
         let dir = out.join(&level.id);

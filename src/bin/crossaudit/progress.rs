@@ -89,6 +89,10 @@ impl RunProgress {
 }
 
 impl RunObserver for RunProgress {
+    fn level(&self, index: usize, count: usize, label: &str) {
+        let _ = self.bars.println(format!("level {index} of {count}: {label}"));
+    }
+
     fn start(&self, total: usize, done: usize) {
         self.overall.set_length(total as u64);
         self.overall.set_position(done as u64);
