@@ -522,3 +522,18 @@ fn jobs_with_identical_inputs_are_shared_by_content_hash() {
     let w = |s: &str| std::fs::read(dir.join(format!("{s}/cells/world__disjoint__1.csv"))).unwrap();
     assert_ne!(w("spec-s1"), w("spec-s2"));
 }
+
+#[test]
+fn choices_with_splits_or_doses_are_refused() {
+    let e = errors(
+        &small("choices { level 0.95 | 0.99 }\nprimary specification level 0.95\nfactor split = 42..43\n")
+            .replace("decide confirmed when", "decide confirmed on pooled when"),
+    );
+    assert!(e.contains("choices with splits or doses"), "{e}");
+    let e = errors(
+        &small("choices { level 0.95 | 0.99 }\nprimary specification level 0.95\n")
+            .replace("replace 25% with", "replace 5%, 25% with")
+            .replace("decide confirmed when", "decide confirmed on slope when"),
+    );
+    assert!(e.contains("choices with splits or doses"), "{e}");
+}

@@ -390,11 +390,8 @@ pub fn run(
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     check_workers(options.workers)?;
-    if let Some(levels) = outer::levels(&file.design) {
-        return outer::run_levels(file, levels, data, out, options, observer, started);
-    }
-    if !plan.splits.is_empty() {
-        return run_splits(file, plan, data, out, options, observer, started);
+    if let Some(levels) = outer::study_levels(&file.design, plan) {
+        return outer::run_levels(file, plan, levels, data, out, options, observer, started);
     }
     let opened = open(file, plan, data, out, options.exploratory)?;
     let (todo, builds) = pending(plan, out, &file.sha256)?;
@@ -414,46 +411,6 @@ pub fn check_workers(workers: usize) -> Result<(), RunError> {
         n if n > MAX_WORKERS => Err(RunError::TooManyWorkers { workers: n }),
         _ => Ok(()),
     }
-}
-
-/// A multi-split study: each split a complete single-split run in
-/// `out/split-S` (its own audit, manifests, invariants, treatment audit,
-/// jobs and report), one after the other; then `out/cells.csv` (every
-/// split's cells with a `split` column) and the pooled analysis in
-/// `out/report`.
-fn run_splits(
-    file: &DesignFile,
-    plan: &Plan,
-    data: &Data,
-    out: &Path,
-    options: RunOptions,
-    observer: &dyn RunObserver,
-    started: Instant,
-) -> Result<RunOutcome, RunError> {
-    let (mut trained, mut skipped) = (0, 0);
-    let mut builds = std::collections::BTreeSet::new();
-    let mut status = LockStatus::Unlocked;
-    let mut exploratory = options.exploratory;
-    let mut first: Option<RunRecord> = None;
-    refuse_single_run(out)?;
-    for &s in &plan.splits {
-        let (split_file, split_plan, dir) = split_parts(file, plan, out, s);
-        let opened = open(&split_file, &split_plan, data, &dir, options.exploratory)?;
-        let (todo, done_builds) = pending(&split_plan, &dir, &file.sha256)?;
-        skipped += split_plan.jobs.len() - todo.len();
-        trained += todo.len();
-        observer.start(split_plan.jobs.len(), split_plan.jobs.len() - todo.len());
-        grid::run_grid(&file.sha256, &split_plan, &opened.prepared, &dir, todo, options.workers, observer)?;
-        builds.extend(done_builds.iter().cloned());
-        finish(&file.path.display().to_string(), &split_plan, &opened, &dir, done_builds)?;
-        (status, exploratory) = (opened.status.clone(), opened.exploratory);
-        first.get_or_insert(opened.record);
-    }
-    let record = first.ok_or(RunError::NoWorkers)?;
-    let mut outcome =
-        finish_splits(&file.path.display().to_string(), plan, out, &status, exploratory, &record, builds)?;
-    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
-    Ok(outcome)
 }
 
 /// A multi-split study's directory must not hold a single-split run.

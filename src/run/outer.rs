@@ -1,11 +1,17 @@
-//! Outer factors of a study: a multiverse's specifications and draw
-//! replication. Each level (a specification, a draw, or one of each) is a
-//! complete single run in its own directory, `out/spec-ID`, `out/draw-K` or
-//! `out/spec-ID_draw-K`; a level whose trained part (data, split, arms,
-//! models, training, endpoints) is identical to an earlier one's (a choice
-//! that changes only the analysis) trains nothing and is analysed on that
-//! level's cells. Then `out/multiverse_cells.csv` (every level's cells with
-//! `spec` and `draw` columns) and the combined analysis in `out/report`.
+//! Outer factors of a study: a multiverse's specifications, draw
+//! replication and whole splits. A study is the product of its outer
+//! factors; each level (a specification, a draw, a split, or one of each)
+//! is a complete single run in its own directory named by its factors'
+//! values, `out/spec-ID`, `out/draw-K`, `out/spec-ID_draw-K` or
+//! `out/split-S`, all run by one loop. A level whose trained part (data,
+//! split, arms, models, training, endpoints) is identical to an earlier
+//! one's (a choice that changes only the analysis) trains nothing and is
+//! analysed on that level's cells, and a job whose inputs equal an earlier
+//! one's is copied by content hash. What follows depends on the factors'
+//! role, not on their names ([`Role`]): whole redraws (splits) are pooled
+//! by the family analysis into `out/cells.csv` and `out/report`;
+//! specifications and replicate draws are combined by the multiverse
+//! analysis into `out/multiverse_cells.csv` and `out/report`.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -17,6 +23,22 @@ use crate::design::multiverse::run_key;
 use crate::design::Design;
 use crate::io::write_atomic;
 
+/// What an outer factor's levels are to each other, which decides how they
+/// are combined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// Alternative analyses of the same question (a multiverse's
+    /// specifications): each reported, combined by the declared rule, their
+    /// differences estimated pairwise.
+    Specification,
+    /// Replicates of the unpublished draws with the evaluation set fixed: a
+    /// variance component beside recording and seed.
+    Replicate,
+    /// Whole redraws of the experiment, evaluation set included (splits):
+    /// pooled by REML over split, recording and seed.
+    Redraw,
+}
+
 /// One level of the outer factors.
 #[derive(Debug, Clone)]
 pub struct Level {
@@ -26,6 +48,8 @@ pub struct Level {
     pub spec: Option<usize>,
     /// The draw, under draw replication.
     pub draw: Option<u64>,
+    /// The split, in a multi-split study.
+    pub split: Option<u64>,
     /// The complete single-run design of the level.
     pub design: Design,
     /// The earlier level whose run it shares, if its own would train the same jobs.
@@ -44,12 +68,12 @@ pub fn levels(design: &Design) -> Option<Vec<Level>> {
         let mut plain = d.clone();
         plain.multiverse = None;
         if d.draws.is_empty() {
-            out.push(Level { id: name, spec, draw: None, design: plain, shares: None });
+            out.push(Level { id: name, spec, draw: None, split: None, design: plain, shares: None });
             continue;
         }
         for &k in &d.draws {
             let id = if name.is_empty() { format!("draw-{k}") } else { format!("{name}_draw-{k}") };
-            out.push(Level { id, spec, draw: Some(k), design: d.for_draw(k), shares: None });
+            out.push(Level { id, spec, draw: Some(k), split: None, design: d.for_draw(k), shares: None });
         }
     }
     let keys: Vec<String> = out.iter().map(|l| run_key(&l.design)).collect();
@@ -57,6 +81,41 @@ pub fn levels(design: &Design) -> Option<Vec<Level>> {
         out[k].shares = keys[..k].iter().position(|o| *o == keys[k]);
     }
     Some(out)
+}
+
+/// Every outer level of a study with any outer factor, splits included, and
+/// the role that decides how its levels are combined; None for a study of
+/// one run. (A dose is not an outer factor: a dose-response family's arms
+/// are trained in one run.)
+pub fn study_levels(design: &Design, plan: &Plan) -> Option<(Vec<Level>, Role)> {
+    if let Some(levels) = levels(design) {
+        let role = if design.multiverse.is_some() { Role::Specification } else { Role::Replicate };
+        return Some((levels, role));
+    }
+    if plan.splits.is_empty() {
+        return None;
+    }
+    let levels = plan
+        .splits
+        .iter()
+        .map(|&s| Level {
+            id: crate::plan::split_dir(s),
+            spec: None,
+            draw: None,
+            split: Some(s),
+            design: design.for_split(s),
+            shares: None,
+        })
+        .collect();
+    Some((levels, Role::Redraw))
+}
+
+/// The plan a level runs: a split's is the study plan's jobs of that split.
+fn level_plan(level: &Level, study: &Plan) -> Plan {
+    match level.split {
+        Some(s) => study.for_split(s),
+        None => crate::plan::compile(&level.design),
+    }
 }
 
 /// Jobs a study with outer levels trains: those of every level that does
@@ -104,10 +163,12 @@ pub fn render_levels(design: &Design, levels: &[Level]) -> String {
     s
 }
 
-/// Runs (or resumes) every level, then the combined analysis.
+/// Runs (or resumes) every level, then combines them by their role.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn run_levels(
     file: &DesignFile,
-    levels: Vec<Level>,
+    study: &Plan,
+    (levels, role): (Vec<Level>, Role),
     data: &Data,
     out: &Path,
     options: RunOptions,
@@ -135,7 +196,7 @@ pub(super) fn run_levels(
         };
         observer.level(k + 1, levels.len(), &label);
         let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
-        let plan = crate::plan::compile(&level.design);
+        let plan = level_plan(level, study);
         let dir = out.join(&level.id);
         let opened = open(&level_file, &plan, data, &dir, options.exploratory)?;
         let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256)?;
@@ -169,6 +230,12 @@ pub(super) fn run_levels(
         record.get_or_insert(opened.record);
     }
     let record = record.ok_or(RunError::NoWorkers)?;
+    if role == Role::Redraw {
+        let path = file.path.display().to_string();
+        let mut outcome = super::finish_splits(&path, study, out, &status, exploratory, &record, builds)?;
+        (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
+        return Ok(outcome);
+    }
     let mut outcome = finish_levels(file, &levels, out, (&status, exploratory, &record), &splits, builds)?;
     if let StudyAnalysis::Multiverse(a) = &mut outcome.analysis {
         if !reused.is_empty() {

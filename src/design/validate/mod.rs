@@ -124,6 +124,21 @@ pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
         diags.sort_by_key(|d| d.span.start);
         return Err(diags);
     }
+    // Each specification is one crossed contrast: a multiverse of
+    // multi-split or dose-response designs would need a family analysis
+    // per specification, which the combined analysis does not do.
+    if specs.iter().any(|s| !s.design.splits.is_empty() || !s.design.doses().is_empty()) {
+        let span = declared.choices.first().map(|c| c.1.span).unwrap_or_default();
+        diags.push(
+            Diagnostic::new(
+                "choices with splits or doses",
+                span,
+                "a multiverse's specifications must each be one crossed contrast",
+            )
+            .with_help("drop `factor split` or the doses, or run each specification's family as its own design"),
+        );
+        return Err(diags);
+    }
     let primary = combos.iter().position(|v| *v == declared.primary).unwrap_or(0);
     let mut design = (*specs[primary].design).clone();
     design.multiverse = Some(multiverse::Multiverse { choices, specs, primary, combine: declared.combine });
