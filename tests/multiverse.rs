@@ -486,6 +486,14 @@ fn multiverse_limits_and_misuse_are_refused_clearly() {
     let o = bin().arg("analyze").arg(&path).arg("--cells").arg(&cells).output().unwrap();
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("is analysed from its run directory"), "{e}");
+    // `split` and `train` do one run: refused before anything is written.
+    for args in [vec!["split"], vec!["train", "--model", "world", "--arm", "disjoint", "--seed", "1"]] {
+        let target = out.path().join(format!("one-{}", args[0]));
+        let o = bin().arg(args[0]).arg(&path).args(&args[1..]).arg("--out").arg(&target).output().unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains("is several runs; `crossaudit run` prepares"), "{e}");
+        assert!(!target.exists(), "{}", target.display());
+    }
     // A missing level's cells are named with their path.
     std::fs::create_dir_all(out.path().join("run")).unwrap();
     let o = bin().arg("analyze").arg(&path).arg("--cells").arg(out.path().join("run")).output().unwrap();

@@ -295,6 +295,14 @@ pub enum RunError {
         /// One line per missing job: index, job, Slurm log.
         list: String,
     },
+    /// `split` or `train` was given a design whose study is several runs.
+    #[error("{design}: a design with choices or a draw factor is several runs; `crossaudit run` prepares and trains every one (`{command}` would do one level only)")]
+    OuterOneLevel {
+        /// The design.
+        design: String,
+        /// The command refused.
+        command: &'static str,
+    },
     /// `analyze --cells DIR` of a multiverse needs a design with outer levels and a run directory.
     #[error("{design}: a design with choices or a draw factor is analysed from its run directory: `crossaudit analyze DESIGN --cells RUN_DIR`")]
     NotOuter {

@@ -131,6 +131,10 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
 
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
+    if crossaudit::run::outer::levels(&file.design).is_some() {
+        let design = file.path.display().to_string();
+        return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "split" }.into());
+    }
     let plan = crossaudit::compile(&file.design);
     crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
@@ -155,6 +159,10 @@ fn train(
     (engine, exploratory): (Engine, bool),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
+    if crossaudit::run::outer::levels(&file.design).is_some() {
+        let design = file.path.display().to_string();
+        return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "train" }.into());
+    }
     let plan = crossaudit::compile(&file.design);
     let job = plan
         .jobs
