@@ -545,3 +545,26 @@ fn choices_with_splits_or_doses_are_refused() {
     );
     assert!(e.contains("choices with splits or doses"), "{e}");
 }
+
+/// Training and data settings as choices: each specification's design
+/// carries its alternative; whole-number settings refuse fractions.
+#[test]
+fn training_and_data_settings_can_be_choices() {
+    let text = small(
+        "choices {\n  epochs 2 | 4\n  lr 0.001 | 0.0003\n  universe csv | metadata\n  cap 2 | 5\n}\nprimary specification epochs 2, lr 0.001, universe csv, cap 2\nestimate crossed_mom level 0.95 df seed - 1\n",
+    )
+    .replace("train { adam lr 1e-3 batch 256 epochs 2 cosine patience 2 action_noise 0.02 }", "train { batch 256 cosine patience 2 action_noise 0.02 }")
+    .replace("cap 2 m ", "");
+    let d = design::from_str("m.design", &text).unwrap();
+    let m = d.multiverse.as_ref().unwrap();
+    assert_eq!(m.specs.len(), 16);
+    let last = &m.specs[15].design;
+    let t = last.training.as_ref().unwrap();
+    assert_eq!((t.epochs, t.lr), (4, 0.0003));
+    assert!(last.data.universe.metadata);
+    assert!(last.endpoints.iter().all(|e| e.cap.0 == 5.0));
+    let e = errors(&text.replace("epochs 2 | 4", "epochs 2 | 4.5"));
+    assert!(e.contains("`4.5` is not an epoch cap (a whole number)"), "{e}");
+    let e = errors(&text.replace("train { batch 256", "train { adam lr 1e-3 batch 256"));
+    assert!(e.contains("setting is a choice") && e.contains("`lr` is written here"), "{e}");
+}

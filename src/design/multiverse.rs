@@ -162,11 +162,12 @@ enum Target {
     EstimateKind,
     EstimateLevel,
     Contrast,
+    Cap,
 }
 
 /// The settings a choice may name: (setting, where it goes, role, what
 /// its alternatives are).
-const SETTINGS: [(&str, Target, ChoiceRole, &str); 12] = [
+const SETTINGS: [(&str, Target, ChoiceRole, &str); 19] = [
     ("state", Target::Data, ChoiceRole::Run, "a state preset (motion_capture, onboard)"),
     ("tails", Target::Data, ChoiceRole::Run, "keep, exclude or truncate"),
     ("duplicates", Target::Data, ChoiceRole::Run, "group, first or keep"),
@@ -174,6 +175,13 @@ const SETTINGS: [(&str, Target, ChoiceRole, &str); 12] = [
     ("target", Target::Train, ChoiceRole::Run, "state_scaled or standardized"),
     ("actions", Target::Train, ChoiceRole::Run, "raw or standardized"),
     ("action_noise", Target::Train, ChoiceRole::Run, "a noise SD (a number)"),
+    ("lr", Target::Train, ChoiceRole::Run, "a learning rate (a number)"),
+    ("batch", Target::Train, ChoiceRole::Run, "a batch size (a whole number)"),
+    ("epochs", Target::Train, ChoiceRole::Run, "an epoch cap (a whole number)"),
+    ("patience", Target::Train, ChoiceRole::Run, "an early-stopping patience (a whole number)"),
+    ("schedule", Target::Train, ChoiceRole::Run, "cosine or constant"),
+    ("universe", Target::Data, ChoiceRole::Run, "csv or metadata"),
+    ("cap", Target::Cap, ChoiceRole::Run, "a divergence cap in metres (a number)"),
     ("generator", Target::Generator, ChoiceRole::Run, "chacha8 or numpy_legacy"),
     ("draws", Target::Draws, ChoiceRole::Run, "coupled or independent"),
     ("estimate", Target::EstimateKind, ChoiceRole::Analysis, "an estimator (crossed_mom, reml, ...)"),
@@ -304,6 +312,7 @@ fn declared_elsewhere(ast: &Ast, choices: &[(Choice, Spanned<ChoiceAst>)], diags
                     DataItem::Tails(_) => Some(("tails", i.span)),
                     DataItem::Duplicates(_) => Some(("duplicates", i.span)),
                     DataItem::ExcludeImplausible(_) => Some(("implausible", i.span)),
+                    DataItem::Universe { .. } => Some(("universe", i.span)),
                     _ => None,
                 })
                 .collect(),
@@ -313,11 +322,16 @@ fn declared_elsewhere(ast: &Ast, choices: &[(Choice, Spanned<ChoiceAst>)], diags
                     TrainItem::Target(_) => Some(("target", i.span)),
                     TrainItem::Actions(_) => Some(("actions", i.span)),
                     TrainItem::ActionNoise(_) => Some(("action_noise", i.span)),
-                    _ => None,
+                    TrainItem::Optimizer { .. } => Some(("lr", i.span)),
+                    TrainItem::Batch(_) => Some(("batch", i.span)),
+                    TrainItem::Epochs(_) => Some(("epochs", i.span)),
+                    TrainItem::Patience(_) => Some(("patience", i.span)),
+                    TrainItem::Schedule(_) => Some(("schedule", i.span)),
                 })
                 .collect(),
             Statement::Generator(_) => vec![("generator", s.span)],
             Statement::Contrast { treated, .. } => vec![("contrast", treated.span)],
+            Statement::Endpoint(e) => e.cap.iter().map(|c| ("cap", c.span)).collect(),
             Statement::Draws(_) => vec![("draws", s.span)],
             Statement::Estimate { kind, items } => std::iter::once(("estimate", kind.span))
                 .chain(items.iter().filter_map(|i| match &i.node {
@@ -457,6 +471,7 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
                     "state" => Some(DataItem::State(vec![ident])),
                     "tails" => Some(DataItem::Tails(ident)),
                     "duplicates" => Some(DataItem::Duplicates(ident)),
+                    "universe" => Some(DataItem::Universe { kind: ident, order: None }),
                     _ if ident.node == "none" => None,
                     _ => Some(DataItem::ExcludeImplausible(Some(ident))),
                 };
@@ -467,9 +482,18 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
                 }
             }
             Target::Train => {
+                let int = Spanned::new(number as i64, alt.span);
                 let item = match choice.setting.as_str() {
                     "target" => TrainItem::Target(ident),
                     "actions" => TrainItem::Actions(ident),
+                    "schedule" => TrainItem::Schedule(ident),
+                    "batch" => TrainItem::Batch(int),
+                    "epochs" => TrainItem::Epochs(int),
+                    "patience" => TrainItem::Patience(int),
+                    "lr" => TrainItem::Optimizer {
+                        kind: Spanned::new("adam".to_string(), alt.span),
+                        lr: Spanned::new(number, alt.span),
+                    },
                     _ => TrainItem::ActionNoise(Spanned::new(number, alt.span)),
                 };
                 for s in &mut statements {
@@ -479,6 +503,13 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
                 }
             }
             Target::Generator => statements.push(Spanned::new(Statement::Generator(ident), item_span)),
+            Target::Cap => {
+                for s in &mut statements {
+                    if let Statement::Endpoint(e) = &mut s.node {
+                        e.cap = Some(Spanned::new(number, alt.span));
+                    }
+                }
+            }
             Target::Contrast => {
                 let text = alt.node.text();
                 let (treated, reference) = text.split_once(" - ").unwrap_or((text, ""));
@@ -523,7 +554,11 @@ pub(super) fn spec_ast(ast: &Ast, declared: &Declared, values: &[usize]) -> Ast 
 /// A number alternative where a name is expected, or a name where a number is.
 fn alternative_kinds(choices: &[(Choice, Spanned<ChoiceAst>)], diags: &mut Vec<Diagnostic>) {
     for (choice, c) in choices {
-        let numeric = matches!(choice.setting.as_str(), "action_noise" | "level");
+        let numeric = matches!(
+            choice.setting.as_str(),
+            "action_noise" | "level" | "lr" | "batch" | "epochs" | "patience" | "cap"
+        );
+        let whole = matches!(choice.setting.as_str(), "batch" | "epochs" | "patience");
         let names: &[&str] = match choice.setting.as_str() {
             "state" => &["motion_capture", "onboard"],
             "tails" => &["keep", "exclude", "truncate"],
@@ -533,11 +568,14 @@ fn alternative_kinds(choices: &[(Choice, Spanned<ChoiceAst>)], diags: &mut Vec<D
             "actions" => &["raw", "standardized"],
             "generator" => &["chacha8", "numpy_legacy"],
             "draws" => &["coupled", "independent"],
+            "schedule" => &["cosine", "constant"],
+            "universe" => &["csv", "metadata"],
             _ => &[],
         };
         let contrast = choice.setting == "contrast";
         for a in &c.node.alternatives {
             let ok = match &a.node {
+                Alternative::Number(v, _) if whole => v.fract() == 0.0 && *v >= 0.0 && *v < 1e15,
                 Alternative::Number(..) => numeric,
                 Alternative::Name(n) if contrast || n.contains(" - ") => contrast && n.contains(" - "),
                 Alternative::Name(n) => !numeric && (names.is_empty() || names.contains(&n.as_str())),
