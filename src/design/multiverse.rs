@@ -318,15 +318,18 @@ fn declared_elsewhere(ast: &Ast, choices: &[(Choice, Spanned<ChoiceAst>)], diags
                 .collect(),
             Statement::Train(items) => items
                 .iter()
-                .filter_map(|i| match &i.node {
-                    TrainItem::Target(_) => Some(("target", i.span)),
-                    TrainItem::Actions(_) => Some(("actions", i.span)),
-                    TrainItem::ActionNoise(_) => Some(("action_noise", i.span)),
-                    TrainItem::Optimizer { .. } => Some(("lr", i.span)),
-                    TrainItem::Batch(_) => Some(("batch", i.span)),
-                    TrainItem::Epochs(_) => Some(("epochs", i.span)),
-                    TrainItem::Patience(_) => Some(("patience", i.span)),
-                    TrainItem::Schedule(_) => Some(("schedule", i.span)),
+                .map(|i| {
+                    let name = match &i.node {
+                        TrainItem::Target(_) => "target",
+                        TrainItem::Actions(_) => "actions",
+                        TrainItem::ActionNoise(_) => "action_noise",
+                        TrainItem::Optimizer { .. } => "lr",
+                        TrainItem::Batch(_) => "batch",
+                        TrainItem::Epochs(_) => "epochs",
+                        TrainItem::Patience(_) => "patience",
+                        TrainItem::Schedule(_) => "schedule",
+                    };
+                    (name, i.span)
                 })
                 .collect(),
             Statement::Generator(_) => vec![("generator", s.span)],
