@@ -568,3 +568,33 @@ fn training_and_data_settings_can_be_choices() {
     let e = errors(&text.replace("train { batch 256", "train { adam lr 1e-3 batch 256"));
     assert!(e.contains("setting is a choice") && e.contains("`lr` is written here"), "{e}");
 }
+
+/// Choices and draws together: one level per specification and draw, the
+/// curve read at the first draw, draw replication per specification.
+#[test]
+fn choices_and_draws_together_run_every_level() {
+    let out = tempfile::tempdir().unwrap();
+    let path = out.path().join("m.design");
+    std::fs::write(
+        &path,
+        small("choices { tails keep | truncate }\nprimary specification tails keep\nfactor draw = 1..2\ndraws coupled\nestimate crossed_mom level 0.95 df seed - 1\n")
+            .replace("factor seed = 1..2", "factor seed = 1..3"),
+    )
+    .unwrap();
+    let run =
+        bin().arg("run").arg(&path).arg("--out").arg(out.path().join("run")).args(["--workers", "2"]).output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&run.stdout), String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "{said}");
+    let dir = out.path().join("run");
+    for level in ["spec-s1_draw-1", "spec-s1_draw-2", "spec-s2_draw-1", "spec-s2_draw-2"] {
+        assert!(dir.join(level).join("report/report.md").exists(), "{level}");
+    }
+    let a = crossaudit::run::outer::analyze_dir(&design::load(&path).unwrap(), &dir).unwrap();
+    assert_eq!(a.specs.len(), 2);
+    assert_eq!(a.draws.len(), 2);
+    assert!(a.draws.iter().all(|d| d.per_draw.len() == 2));
+    let report = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+    assert!(report.contains("## Draw replication") && report.contains("### Specification s2"), "{report}");
+    let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
+    assert!(cells.lines().any(|l| l.starts_with("s2,2,")), "spec and draw columns");
+}
