@@ -121,10 +121,25 @@ fn an_analysis_only_choice_trains_no_extra_job() {
     let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
     assert!(cells.starts_with("spec,draw,model,arm,seed,"));
     assert!(dir.join("report/spec_curve.svg").exists() && dir.join("report/choice_effects.csv").exists());
-    // The Slurm path refuses it, naming the local command.
-    let slurm = bin().arg("run").arg(&path).arg("--out").arg(out.path().join("slurm")).arg("--slurm").output().unwrap();
-    let e = String::from_utf8_lossy(&slurm.stderr);
-    assert!(!slurm.status.success() && e.contains("runs locally (`crossaudit run`)"), "{e}");
+    // The same study as one Slurm array (the tasks run here as the array
+    // script runs them): one task per job of the levels that train, and the
+    // gather step writes what the local run wrote.
+    let cluster = out.path().join("cluster");
+    let prep = bin().arg("run").arg(&path).arg("--out").arg(&cluster).arg("--slurm").output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&prep.stdout), String::from_utf8_lossy(&prep.stderr));
+    assert!(prep.status.success() && said.contains("8 of 8 jobs pending"), "{said}");
+    let array = std::fs::read_to_string(cluster.join("slurm/array.json")).unwrap();
+    assert!(array.contains("\"spec-s1/world__disjoint__1\"") && !array.contains("spec-s2/"), "{array}");
+    for index in 0..8 {
+        let o = bin().arg("job").arg(&cluster).args(["--index", &index.to_string()]).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let g = bin().arg("gather").arg(&cluster).output().unwrap();
+    assert!(g.status.success(), "{}", String::from_utf8_lossy(&g.stderr));
+    for f in ["report/specs.csv", "report/choice_effects.csv", "multiverse_cells.csv", "spec-s1/cells.csv"] {
+        assert_eq!(std::fs::read(cluster.join(f)).unwrap(), std::fs::read(dir.join(f)).unwrap(), "{f}");
+    }
+    assert!(cluster.join("spec-s2/report/report.md").exists());
     // A rerun resumes everything.
     let again = bin().arg("run").arg(&path).arg("--out").arg(&dir).args(["--workers", "2"]).output().unwrap();
     let said = format!("{}{}", String::from_utf8_lossy(&again.stdout), String::from_utf8_lossy(&again.stderr));

@@ -309,12 +309,6 @@ pub enum RunError {
         /// The design.
         design: String,
     },
-    /// A multiverse or draw-replicated design was given to the Slurm path.
-    #[error("{design}: a design with choices or a draw factor runs locally (`crossaudit run`); its Slurm array is not built yet")]
-    OuterOnSlurm {
-        /// The design.
-        design: String,
-    },
     /// Submitting to Slurm failed.
     #[error("submitting {script} failed: {reason}")]
     Submit {
@@ -429,13 +423,6 @@ fn refuse_single_run(out: &Path) -> Result<(), RunError> {
         }
     }
     Ok(())
-}
-
-/// Split `s` of a multi-split study: its single-split design (same file,
-/// same hash, the split's seeds), its plan and its directory.
-fn split_parts(file: &DesignFile, plan: &Plan, out: &Path, s: u64) -> (DesignFile, Plan, PathBuf) {
-    let split_file = DesignFile { design: file.design.for_split(s), ..file.clone() };
-    (split_file, plan.for_split(s), out.join(crate::plan::split_dir(s)))
 }
 
 /// After every split finished: `out/cells.csv` with a `split` column and

@@ -111,7 +111,7 @@ pub fn study_levels(design: &Design, plan: &Plan) -> Option<(Vec<Level>, Role)> 
 }
 
 /// The plan a level runs: a split's is the study plan's jobs of that split.
-fn level_plan(level: &Level, study: &Plan) -> Plan {
+pub(super) fn level_plan(level: &Level, study: &Plan) -> Plan {
     match level.split {
         Some(s) => study.for_split(s),
         None => crate::plan::compile(&level.design),
@@ -319,7 +319,7 @@ fn write_all_cells(path: &Path, out: &Path, levels: &[Level]) -> Result<(), RunE
 }
 
 /// After every level finished: the combined cells, analysis and report.
-fn finish_levels(
+pub(super) fn finish_levels(
     file: &DesignFile,
     levels: &[Level],
     out: &Path,

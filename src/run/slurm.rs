@@ -40,6 +40,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::outer;
 use super::{finish, open, pending, Data, DataOrigin, JobRecord, Opened, RunError, RunOutcome, RunRecord};
 use crate::design::{self, DesignFile, LockStatus};
 use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
@@ -242,54 +243,79 @@ fn array_spec(indices: &[usize]) -> String {
     out
 }
 
-/// `model__arm__seed`, or `split-s/model__arm__seed` in a multi-split
-/// study: a job's entry in `array.json`.
-fn array_key(job: &TrainingJob) -> String {
-    match job.split {
-        None => job.stem(),
-        Some(s) => format!("{}/{}", crate::plan::split_dir(s), job.stem()),
-    }
-}
-
-/// One run directory of a prepared array: the study's own, or in a
-/// multi-split study split `s`'s (`DIR/split-s`, with the split's design,
-/// plan and run.json).
+/// One run directory of a prepared array: the study's own, or one level's
+/// of a study with outer factors (`DIR/split-s`, `DIR/spec-s2`, ...: the
+/// level's design, plan and run.json).
 struct Part {
-    split: Option<u64>,
+    /// The level's directory name; None for a study of one run.
+    level: Option<String>,
     file: DesignFile,
     plan: Plan,
     dir: PathBuf,
 }
 
-/// The run directories of the study in `dir`: itself, or one per split.
-fn parts(file: &DesignFile, plan: &Plan, dir: &Path) -> Vec<Part> {
-    if plan.splits.is_empty() {
-        return vec![Part { split: None, file: file.clone(), plan: plan.clone(), dir: dir.to_path_buf() }];
+impl Part {
+    /// `model__arm__seed`, or `LEVEL/model__arm__seed`: a job's entry in
+    /// `array.json`.
+    fn key(&self, job: &TrainingJob) -> String {
+        match &self.level {
+            None => job.stem(),
+            Some(l) => format!("{l}/{}", job.stem()),
+        }
     }
-    plan.splits
-        .iter()
-        .map(|&s| {
-            let (file, plan, dir) = super::split_parts(file, plan, dir, s);
-            Part { split: Some(s), file, plan, dir }
-        })
-        .collect()
+
+    /// `model/arm/seed`, or `LEVEL model/arm/seed`.
+    fn label(&self, job: &TrainingJob) -> String {
+        match &self.level {
+            None => job.label(),
+            Some(l) => format!("{l} {}", job.label()),
+        }
+    }
 }
 
-/// The array indices (plan positions) of the jobs without a record, and
-/// for each run directory the builds that ran its finished jobs (see
-/// [`pending`]).
-fn unfinished<'a>(
-    plan: &Plan,
-    parts: impl IntoIterator<Item = &'a Part>,
-) -> Result<(Vec<usize>, Vec<BTreeSet<String>>), RunError> {
-    let mut todo = BTreeSet::new();
+/// The run directories of the study in `dir`: itself, or one per outer
+/// level that trains (a level sharing another's run has none), with the
+/// levels and their role.
+fn parts(file: &DesignFile, plan: &Plan, dir: &Path) -> (Vec<Part>, Option<(Vec<outer::Level>, outer::Role)>) {
+    let Some((levels, role)) = outer::study_levels(&file.design, plan) else {
+        let part = Part { level: None, file: file.clone(), plan: plan.clone(), dir: dir.to_path_buf() };
+        return (vec![part], None);
+    };
+    let parts = levels
+        .iter()
+        .filter(|l| l.shares.is_none())
+        .map(|l| Part {
+            level: Some(l.id.clone()),
+            file: DesignFile { design: l.design.clone(), ..file.clone() },
+            plan: outer::level_plan(l, plan),
+            dir: dir.join(&l.id),
+        })
+        .collect();
+    (parts, Some((levels, role)))
+}
+
+/// Every job of the study by array index: (part, the job as its run
+/// directory knows it). In a multi-split study the order is the plan's.
+fn study_jobs(parts: &[Part]) -> Vec<(usize, &TrainingJob)> {
+    parts.iter().enumerate().flat_map(|(k, p)| p.plan.jobs.iter().map(move |j| (k, j))).collect()
+}
+
+/// The array indices of the jobs without a record, and for each run
+/// directory the builds that ran its finished jobs (see [`pending`]).
+fn unfinished<'a>(parts: impl IntoIterator<Item = &'a Part>) -> Result<(Vec<usize>, Vec<BTreeSet<String>>), RunError> {
+    let mut indices = Vec::new();
     let mut builds = Vec::new();
+    let mut index = 0;
     for part in parts {
         let (jobs, done) = pending(&part.plan, &part.dir, &part.file.sha256)?;
-        todo.extend(jobs.iter().map(|j| array_key(&TrainingJob { split: part.split, ..j.clone() })));
+        for j in &part.plan.jobs {
+            if jobs.contains(j) {
+                indices.push(index);
+            }
+            index += 1;
+        }
         builds.push(done);
     }
-    let indices = plan.jobs.iter().enumerate().filter(|(_, j)| todo.contains(&array_key(j))).map(|(i, _)| i).collect();
     Ok((indices, builds))
 }
 
@@ -306,9 +332,6 @@ pub fn prepare(
     options: &SlurmOptions,
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
-    if super::outer::levels(&file.design).is_some() {
-        return Err(RunError::OuterOnSlurm { design: file.path.display().to_string() });
-    }
     check_dir(out)?;
     create_dir_all(out)?;
     let absolute = |p: &Path| p.canonicalize().map_err(|e| RunError::Write(crate::io::WriteError::new(p, e)));
@@ -317,15 +340,16 @@ pub fn prepare(
     path_word(&binary)?;
     // Each split of a multi-split study is opened in its own directory, as a
     // local run opens it.
-    let parts = parts(file, plan, &dir);
-    if !plan.splits.is_empty() {
+    let (parts, outer) = parts(file, plan, &dir);
+    if outer.is_some() {
         super::refuse_single_run(&dir)?;
     }
     let mut lock = LockStatus::Unlocked;
     for part in &parts {
         lock = open(&part.file, &part.plan, data, &part.dir, exploratory)?.status;
     }
-    let (indices, _) = unfinished(plan, &parts)?;
+    let (indices, _) = unfinished(&parts)?;
+    let keys: Vec<String> = study_jobs(&parts).into_iter().map(|(k, j)| parts[k].key(j)).collect();
 
     let bytes =
         crate::io::read_own(&file.path).map_err(|e| RunError::Write(crate::io::WriteError::new(&file.path, e)))?;
@@ -346,7 +370,7 @@ pub fn prepare(
         lock,
         data_dir: absolute(&data.dir)?,
         data: data.origin.clone(),
-        jobs: plan.jobs.iter().map(array_key).collect(),
+        jobs: keys.clone(),
         crossaudit: crate::BUILD.to_string(),
     };
     write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
@@ -354,7 +378,7 @@ pub fn prepare(
     let submit = write_scripts(&slurm, &dir, &binary, &plan.study, &indices, options)?;
     let submit_path = slurm.join("submit.sh");
     write_atomic(&submit_path, submit.as_bytes())?;
-    Ok(PreparedArray { dir, submit: submit_path, submit_text: submit, jobs: plan.jobs.len(), pending: indices.len() })
+    Ok(PreparedArray { dir, submit: submit_path, submit_text: submit, jobs: keys.len(), pending: indices.len() })
 }
 
 /// Writes `array.sbatch` and `gather.sbatch` into `slurm` and returns the
@@ -506,6 +530,15 @@ struct Prepared {
     file: DesignFile,
     plan: Plan,
     parts: Vec<(Part, RunRecord)>,
+    /// The outer levels and their role, for a study with outer factors.
+    outer: Option<(Vec<outer::Level>, outer::Role)>,
+}
+
+impl Prepared {
+    /// Every job by array index: (part, job).
+    fn jobs(&self) -> Vec<(usize, &TrainingJob)> {
+        self.parts.iter().enumerate().flat_map(|(k, (p, _))| p.plan.jobs.iter().map(move |j| (k, j))).collect()
+    }
 }
 
 impl Prepared {
@@ -542,12 +575,13 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
         )));
     }
     let plan = crate::plan::compile(&file.design);
-    let keys: Vec<String> = plan.jobs.iter().map(array_key).collect();
+    let (parts, outer) = parts(&file, &plan, dir);
+    let keys: Vec<String> = study_jobs(&parts).into_iter().map(|(k, j)| parts[k].key(j)).collect();
     if keys != array.jobs {
         return Err(not_prepared("the design copy compiles to another job list than slurm/array.json".into()));
     }
     let mut opened = Vec::new();
-    for part in parts(&file, &plan, dir) {
+    for part in parts {
         let run_json = part.dir.join("run.json");
         let run =
             RunRecord::read(&part.dir)?.ok_or_else(|| not_prepared(format!("{} is missing", run_json.display())))?;
@@ -561,7 +595,7 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
         }
         opened.push((part, run));
     }
-    Ok(Prepared { array, file, plan, parts: opened })
+    Ok(Prepared { array, file, plan, parts: opened, outer })
 }
 
 /// The split of one run directory rebuilt in memory from the recorded data
@@ -611,7 +645,10 @@ pub fn run_task(
     // Shared: the jobs of one run train side by side, while a `run`,
     // `train` or `gather` on the folder (exclusive) is refused meanwhile.
     let _folder = super::lock_folder(dir, true)?;
-    let job = p.plan.jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: p.plan.jobs.len() })?;
+    let jobs = p.jobs();
+    let &(k, local) = jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: jobs.len() })?;
+    let (part, run) = &p.parts[k];
+    let label = part.label(local);
     let locks = dir.join(SLURM_DIR).join("locks");
     create_dir_all(&locks)?;
     let lock_path = locks.join(format!("{index}.lock"));
@@ -620,28 +657,25 @@ pub fn run_task(
     match lock.try_lock() {
         Ok(()) => {}
         Err(std::fs::TryLockError::WouldBlock) => {
-            return Err(RunError::JobBusy { job: job.label(), lock: lock_path.display().to_string() })
+            return Err(RunError::JobBusy { job: label, lock: lock_path.display().to_string() })
         }
         Err(std::fs::TryLockError::Error(e)) => return Err(RunError::Write(crate::io::WriteError::new(&lock_path, e))),
     }
-    // The job as its run directory knows it (without its split).
-    let (part, run) = p.parts.iter().find(|(part, _)| part.split == job.split).expect("every split has a part");
-    let local = TrainingJob { split: None, ..job.clone() };
-    if let Some(r) = JobRecord::read(&part.dir, &local)? {
-        r.verify(&part.dir, &local, &p.array.design_sha256)?;
-        return Ok(TaskOutcome::AlreadyFinished { job: job.label() });
+    if let Some(r) = JobRecord::read(&part.dir, local)? {
+        r.verify(&part.dir, local, &p.array.design_sha256)?;
+        return Ok(TaskOutcome::AlreadyFinished { job: label });
     }
     let prepared = rebuild(&p.array, part, run)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let outcome =
-        pool.install(|| super::run_job(&p.array.design_sha256, &part.plan, &local, &prepared, &part.dir, on_epoch))?;
+        pool.install(|| super::run_job(&p.array.design_sha256, &part.plan, local, &prepared, &part.dir, on_epoch))?;
     drop(lock);
     let mut outcome = Box::new(outcome);
-    if let Some(s) = part.split {
+    if let Some(level) = &part.level {
         // Paths relative to the study's directory, as the logs quote them.
-        outcome.files = outcome.files.iter().map(|f| format!("{}/{f}", crate::plan::split_dir(s))).collect();
+        outcome.files = outcome.files.iter().map(|f| format!("{level}/{f}")).collect();
     }
-    Ok(TaskOutcome::Ran { job: job.label(), outcome })
+    Ok(TaskOutcome::Ran { job: label, outcome })
 }
 
 /// The gather step: refuses while any job has no record (naming each with
@@ -650,12 +684,13 @@ pub fn run_task(
 pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let p = reopen(dir)?;
-    let (todo, builds) = unfinished(&p.plan, p.parts.iter().map(|(part, _)| part))?;
+    let (todo, builds) = unfinished(p.parts.iter().map(|(part, _)| part))?;
+    let jobs = p.jobs();
     if !todo.is_empty() {
         let logs = dir.join(SLURM_DIR).join("logs");
         let mut list = String::new();
         for &index in &todo {
-            let job = &p.plan.jobs[index];
+            let (k, job) = jobs[index];
             let log = logs.join(format!("task-{index}.out"));
             let last = std::fs::read_to_string(&log).ok().and_then(|t| {
                 t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())
@@ -665,12 +700,12 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
                 None if log.exists() => format!("Slurm log {} (empty)", log.display()),
                 None => format!("no Slurm log at {}: the task never started", log.display()),
             };
-            writeln!(list, "  task {index} ({}): {status}", job.label()).ok();
+            writeln!(list, "  task {index} ({}): {status}", p.parts[k].0.label(job)).ok();
         }
         return Err(RunError::JobsMissing {
             dir: dir.display().to_string(),
             missing: todo.len(),
-            jobs: p.plan.jobs.len(),
+            jobs: jobs.len(),
             list,
         });
     }
@@ -682,25 +717,33 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let lock = p.lock_for_gather()?;
     let mut all_builds = BTreeSet::new();
     let mut last = None;
+    let mut splits: Vec<(String, crate::split::Split)> = Vec::new();
     for ((part, run), builds) in p.parts.into_iter().zip(builds) {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
         let exploratory = run.exploratory || lock.changed();
         let opened = Opened { status: lock.clone(), exploratory, prepared, record: run };
         let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
+        if let Some(level) = &part.level {
+            splits.push((level.clone(), opened.prepared.split.clone()));
+        }
         last = Some((outcome, opened.record));
     }
     let (mut outcome, record) = last.expect("a study has at least one run directory");
-    if !p.plan.splits.is_empty() {
-        outcome = super::finish_splits(
-            &p.array.design_path,
-            &p.plan,
-            dir,
-            &lock,
-            record.exploratory || lock.changed(),
-            &record,
-            all_builds,
-        )?;
+    let exploratory = record.exploratory || lock.changed();
+    match p.outer {
+        None => {}
+        Some((_, outer::Role::Redraw)) => {
+            outcome =
+                super::finish_splits(&p.array.design_path, &p.plan, dir, &lock, exploratory, &record, all_builds)?;
+        }
+        Some((levels, _)) => {
+            // The same combined analysis a local run writes.
+            let by_level: Vec<Option<crate::split::Split>> =
+                levels.iter().map(|l| splits.iter().find(|(id, _)| *id == l.id).map(|(_, s)| s.clone())).collect();
+            outcome =
+                outer::finish_levels(&p.file, &levels, dir, (&lock, exploratory, &record), &by_level, all_builds)?;
+        }
     }
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(outcome)

@@ -260,9 +260,6 @@ fn slurm_prepare(
     };
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
-    if crossaudit::run::outer::levels(&file.design).is_some() {
-        return Err(crossaudit::run::RunError::OuterOnSlurm { design: file.path.display().to_string() }.into());
-    }
     slurm::check_dir(out)?;
     crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let lock = lock_folder(out, false)?;
