@@ -8,7 +8,7 @@
 //! leaves about (n - 1) / n of a window draw in place, where an independent
 //! draw would keep only the share two random subsets have in common.
 //!
-//! The key, for reimplementation (scripts/reference/multiverse_check.py):
+//! The key, for reimplementation elsewhere:
 //! `key = mix(mix(mix(seed ^ mix(tag)) ^ fnv1a64(name)) ^ row)` with
 //! `mix` SplitMix64's finalizer (after adding 0x9E3779B97F4A7C15) and
 //! `fnv1a64` the 64-bit FNV-1a hash of the name's UTF-8 bytes; ties (never
