@@ -208,10 +208,16 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
     let mut choices_stmt = None;
     let mut primary_stmt = None;
     let mut combine = None;
+    let twice = |what: &str, span: Span| {
+        Diagnostic::new("declared twice", span, format!("a second `{what}` statement"))
+            .with_help(format!("a design has one `{what}` statement"))
+    };
     for s in &ast.statements {
         match &s.node {
-            Statement::Choices(c) => choices_stmt = choices_stmt.or(Some((c, s.span))),
-            Statement::PrimarySpec(p) => primary_stmt = primary_stmt.or(Some((p.as_slice(), s.span))),
+            Statement::Choices(_) if choices_stmt.is_some() => diags.push(twice("choices", s.span)),
+            Statement::Choices(c) => choices_stmt = Some((c, s.span)),
+            Statement::PrimarySpec(_) if primary_stmt.is_some() => diags.push(twice("primary specification", s.span)),
+            Statement::PrimarySpec(p) => primary_stmt = Some((p.as_slice(), s.span)),
             Statement::Decide { combine: Some(c), .. } => combine = Some(c.clone()),
             _ => {}
         }
