@@ -484,6 +484,18 @@ fn multiverse_limits_and_misuse_are_refused_clearly() {
         .replace("duplicates group\n", "");
     let e = errors(&text);
     assert!(e.contains("too many specifications") && e.contains("these choices span 512 specifications"), "{e}");
+    // An alternative that is not a finite number, as any number of the language.
+    let e = errors(&small("choices { level 0.95 | 1e999 }\nprimary specification level 0.95\n"));
+    assert!(e.contains("number out of range") && e.contains("is not a finite number"), "{e}");
+    // Two choices blocks, two primary specifications.
+    let e = errors(&small(
+        "choices { level 0.95 | 0.99 }\nchoices { level 0.9 | 0.99 }\nprimary specification level 0.95\n",
+    ));
+    assert!(e.contains("a second `choices` statement"), "{e}");
+    let e = errors(&small(
+        "choices { level 0.95 | 0.99 }\nprimary specification level 0.95\nprimary specification level 0.99\n",
+    ));
+    assert!(e.contains("a second `primary specification` statement"), "{e}");
     // A draw factor too large, and a shift out of numpy's range.
     let e = errors(&small("estimate crossed_mom level 0.95 df seed - 1\nfactor draw = 1..5000\n"));
     assert!(e.contains("the number of draws must be at most 1000"), "{e}");

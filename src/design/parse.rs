@@ -278,9 +278,9 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
             k.0.map(|p| {
                 let mut c = kids(p);
                 let setting = ident(c.next());
-                (setting, alternative(c.next()))
+                alternative(c.next()).map(|a| (setting, a))
             })
-            .collect(),
+            .collect::<Result<_, _>>()?,
         ),
         Rule::validation => {
             let windows = int(k.next())?;
@@ -555,11 +555,12 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
 fn choice(p: Pair<Rule>) -> Result<ChoiceAst, Diagnostic> {
     let mut c = kids(p);
     let setting = ident(c.next());
-    Ok(ChoiceAst { setting, alternatives: c.0.map(alternative).collect() })
+    Ok(ChoiceAst { setting, alternatives: c.0.map(alternative).collect::<Result<_, _>>()? })
 }
 
-/// A choice's alternative: a number keeps its text for labels.
-fn alternative(p: Pair<Rule>) -> Spanned<Alternative> {
+/// A choice's alternative: a number keeps its text for labels, and must be
+/// finite, as every number of the language.
+fn alternative(p: Pair<Rule>) -> Result<Spanned<Alternative>, Diagnostic> {
     let span = span_of(&p);
     let inner = p.into_inner().next().expect("grammar guarantees an alternative");
     let text = inner.as_str().to_string();
@@ -567,9 +568,10 @@ fn alternative(p: Pair<Rule>) -> Spanned<Alternative> {
         let names: Vec<String> = inner.into_inner().map(|p| p.as_str().to_string()).collect();
         Alternative::Name(names.join(" - "))
     } else if inner.as_rule() == Rule::number {
-        Alternative::Number(text.parse().unwrap_or(f64::NAN), text)
+        let v = number(inner)?;
+        Alternative::Number(v.node, text)
     } else {
         Alternative::Name(text)
     };
-    Spanned::new(node, span)
+    Ok(Spanned::new(node, span))
 }

@@ -295,6 +295,14 @@ pub enum RunError {
         /// One line per missing job: index, job, Slurm log.
         list: String,
     },
+    /// A level of a study with outer factors failed; its label says which.
+    #[error("{level}: {source}")]
+    InLevel {
+        /// `spec-s3 (state=onboard, tails=keep)`, `draw-2`, `split-44`.
+        level: String,
+        /// What failed.
+        source: Box<RunError>,
+    },
     /// `split` or `train` was given a design whose study is several runs.
     #[error("{design}: a design with choices or a draw factor is several runs; `crossaudit run` prepares and trains every one (`{command}` would do one level only)")]
     OuterOneLevel {

@@ -195,17 +195,18 @@ pub(super) fn run_levels(
             _ => level.id.clone(),
         };
         observer.level(k + 1, levels.len(), &label);
+        let in_level = |e: RunError| RunError::InLevel { level: label.clone(), source: Box::new(e) };
         let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
         let plan = level_plan(level, study);
         let dir = out.join(&level.id);
-        let opened = open(&level_file, &plan, data, &dir, options.exploratory)?;
-        let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256)?;
+        let opened = open(&level_file, &plan, data, &dir, options.exploratory).map_err(in_level)?;
+        let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256).map_err(in_level)?;
         let keys: Vec<String> =
             plan.jobs.iter().map(|j| job_key(&level.design, &plan, j, &opened.prepared, &opened.record)).collect();
         let mut copied = 0;
         for (j, key) in plan.jobs.iter().zip(&keys) {
             if let (Some((from, earlier)), true) = (finished.get(key), todo.contains(j)) {
-                copy_job(from, earlier, &dir, j)?;
+                copy_job(from, earlier, &dir, j).map_err(in_level)?;
                 todo.retain(|t| t != j);
                 copied += 1;
             }
@@ -219,12 +220,13 @@ pub(super) fn run_levels(
         skipped += plan.jobs.len() - todo.len();
         trained += todo.len();
         observer.start(plan.jobs.len(), plan.jobs.len() - todo.len());
-        grid::run_grid(&file.sha256, &plan, &opened.prepared, &dir, todo, options.workers, observer)?;
+        grid::run_grid(&file.sha256, &plan, &opened.prepared, &dir, todo, options.workers, observer)
+            .map_err(in_level)?;
         for (j, key) in plan.jobs.iter().zip(keys) {
             finished.entry(key).or_insert_with(|| (dir.clone(), j.clone()));
         }
         builds.extend(done_builds.iter().cloned());
-        finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds)?;
+        finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds).map_err(in_level)?;
         (status, exploratory) = (opened.status.clone(), opened.exploratory);
         splits[k] = Some(opened.prepared.split.clone());
         record.get_or_insert(opened.record);
