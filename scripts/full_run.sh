@@ -11,7 +11,7 @@
 # rebuilt while a long run goes on.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-design=$1; dest=$2; ca=${3:-target/release/crossaudit}
+design=$1; dest=$2; ca=${3:-${CARGO_TARGET_DIR:-target}/release/crossaudit}
 tmp=/tmp/full_$(basename "$dest")
 mkdir -p "$tmp" "$dest"
 /usr/bin/time -v -o "$tmp/time.txt" "$ca" run "$design" --out "$tmp" --workers 2 > "$tmp/stdout.txt" 2>&1

@@ -8,7 +8,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
-ca=target/release/crossaudit
+ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
+[ -x "$ca" ] || { echo "regenerate.sh: no binary at $ca after cargo build" >&2; exit 1; }
 $ca analyze designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --out results/example --compare-intervals >/dev/null 2>&1
 $ca coverage specs/coverage_paper.json --out results/coverage 2>/dev/null
 $ca coverage specs/coverage_missing.json --out results/coverage_missing 2>/dev/null

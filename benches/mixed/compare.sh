@@ -22,10 +22,10 @@ with open(sys.argv[1], "w") as f:
         f.write(f"{v['contaminated'] - v['disjoint']!r},{rec},{seed}\n")
 PY
 cargo build --release --quiet --bin crossaudit --example mixed_fit
-echo "# $(date -u +%FT%TZ), $(nproc) cores; crossaudit $(target/release/crossaudit --version | sed 's/crossaudit //'), $(Rscript -e 'cat("lme4", as.character(packageVersion("lme4")))')"
+echo "# $(date -u +%FT%TZ), $(nproc) cores; crossaudit $(${CARGO_TARGET_DIR:-target}/release/crossaudit --version | sed 's/crossaudit //'), $(Rscript -e 'cat("lme4", as.character(packageVersion("lme4")))')"
 for data in "$tmp/primary.csv" tests/fixtures/penicillin_unbalanced.csv; do
   echo "## $(basename "$data")"
-  target/release/examples/mixed_fit "$data" 50
+  ${CARGO_TARGET_DIR:-target}/release/examples/mixed_fit "$data" 50
   Rscript - "$data" <<'R'
 suppressMessages(library(lme4))
 f <- commandArgs(TRUE)[1]

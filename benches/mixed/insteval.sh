@@ -21,15 +21,15 @@ cargo build --release --quiet --bin crossaudit --example mixed_fit
 Rscript -e 'suppressMessages(library(lme4)); d <- InstEval;
   write.csv(data.frame(y = d$y, s = d$s, d = d$d, dept = d$dept), commandArgs(TRUE)[1], row.names = FALSE, quote = FALSE)' \
   "$tmp/insteval.csv"
-echo "# $(date -u +%FT%TZ), $(nproc) cores; crossaudit $(target/release/crossaudit --version | sed 's/crossaudit //'), $(Rscript -e 'cat("lme4", as.character(packageVersion("lme4")), "lmerTest", as.character(packageVersion("lmerTest")))')"
+echo "# $(date -u +%FT%TZ), $(nproc) cores; crossaudit $(${CARGO_TARGET_DIR:-target}/release/crossaudit --version | sed 's/crossaudit //'), $(Rscript -e 'cat("lme4", as.character(packageVersion("lme4")), "lmerTest", as.character(packageVersion("lmerTest")))')"
 echo "# InstEval: $(($(wc -l < "$tmp/insteval.csv") - 1)) rows"
 for cols in s,d s,d,dept; do
   reps=5; rreps=3
   [ "$cols" = s,d,dept ] && { reps=3; rreps=2; }
   echo "## y ~ 1 + $(echo "$cols" | sed 's/\([a-z]*\)/(1|\1)/g; s/,/ + /g')"
-  target/release/examples/mixed_fit "$tmp/insteval.csv" "$reps" --estimates --columns "$cols" \
+  ${CARGO_TARGET_DIR:-target}/release/examples/mixed_fit "$tmp/insteval.csv" "$reps" --estimates --columns "$cols" \
     | sed -n 's/^crossaudit median_fit_seconds/crossaudit timing median_fit_seconds/p; s/^crossaudit criterion \([^ ]*\) evaluations \(.*\)/crossaudit timing evaluations \2/p'
-  target/release/examples/mixed_fit "$tmp/insteval.csv" 1 --satterthwaite --columns "$cols" | grep -v median_fit_seconds
+  ${CARGO_TARGET_DIR:-target}/release/examples/mixed_fit "$tmp/insteval.csv" 1 --satterthwaite --columns "$cols" | grep -v median_fit_seconds
   Rscript - "$tmp/insteval.csv" "$cols" "$rreps" <<'R'
 suppressMessages({library(lme4); library(lmerTest)})
 a <- commandArgs(TRUE); cols <- strsplit(a[2], ",")[[1]]; reps <- as.integer(a[3])

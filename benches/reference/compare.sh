@@ -22,9 +22,9 @@ cargo run --release -q --example export_cell -- "$design" world disjoint 100 "$e
 out=$(mktemp -d)
 ref=$(mktemp -d)
 t0=$(date +%s.%N)
-RAYON_NUM_THREADS=$threads target/release/crossaudit train "$design" --model world --arm disjoint --seed 100 --out "$out" > "$out/summary.txt" 2>/dev/null
+RAYON_NUM_THREADS=$threads ${CARGO_TARGET_DIR:-target}/release/crossaudit train "$design" --model world --arm disjoint --seed 100 --out "$out" > "$out/summary.txt" 2>/dev/null
 t1=$(date +%s.%N)
-RAYON_NUM_THREADS=$threads target/release/crossaudit train "$design" --model world --arm disjoint --seed 100 --out "$ref" --engine reference > "$ref/summary.txt" 2>/dev/null
+RAYON_NUM_THREADS=$threads ${CARGO_TARGET_DIR:-target}/release/crossaudit train "$design" --model world --arm disjoint --seed 100 --out "$ref" --engine reference > "$ref/summary.txt" 2>/dev/null
 cmp "$out/models/world__disjoint__100.safetensors" "$ref/models/world__disjoint__100.safetensors" && cmp "$out/cells/world__disjoint__100.csv" "$ref/cells/world__disjoint__100.csv" && echo "fused and reference: weights and per-cell rows byte-identical"
 torch_json=$(.venv-torch/bin/python benches/reference/torch_cell.py "$export_dir" "$threads")
 python3 - "$out" "$ref" "$t0" "$t1" "$torch_json" <<'PY'
