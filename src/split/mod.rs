@@ -28,11 +28,14 @@
 //!   replace=False)`; `RandomState(seed)`: `choice(n_fit, k)` positions, then
 //!   `choice(n_pool, k)` incoming windows. Drawn sets are stored sorted.
 
+mod arms;
 mod coupled;
 mod invariants;
 mod manifest;
 mod numpy_legacy;
+mod pinned;
 mod prepare;
+mod starts;
 mod treatment;
 
 use std::collections::BTreeSet;
@@ -49,11 +52,14 @@ use crate::design::{
 };
 use coupled::Purpose;
 
+use arms::{contaminate, draw_fit_arms, Draw};
 pub use coupled::key as coupled_key;
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
+use pinned::{pinned, published_fit, resolve};
 pub use prepare::{prepare, rebuild, write_prepared, Prepared};
+use starts::draw_starts;
 pub use treatment::{treatment_audit, Composition, TreatmentAudit};
 
 /// A one-step window or a rollout start: (recording index, row index).
@@ -267,17 +273,6 @@ fn windows_of(rec: &Recording, index: usize) -> Vec<Window> {
         .collect()
 }
 
-/// A start at row t needs t and the `horizon` rows after it all active.
-fn valid_starts(rec: &Recording, horizon: usize) -> Vec<usize> {
-    let n = rec.rows;
-    let mut run_after = vec![0usize; n + 1];
-    // run_after[t] = consecutive active rows from t onward.
-    for t in (0..n).rev() {
-        run_after[t] = if rec.active[t] { run_after[t + 1] + 1 } else { 0 };
-    }
-    (0..n).filter(|&t| run_after[t] > horizon).collect()
-}
-
 fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed);
     r.set_stream(stream);
@@ -327,84 +322,6 @@ fn universe(design: &Design, audit: &Audit, info: &[RecordingInfo], units: &[Dep
         slots.sort_by_key(|(name, _)| natural_key(name));
     }
     slots
-}
-
-/// The slots of the pinned `listed` names: a name matches a slot by its own
-/// name or, under `duplicates group`, by any member of its unit. Two names
-/// of one unit are refused.
-fn pinned(
-    listed: &[ListedName],
-    slots: &[(String, Slot)],
-    members: &dyn Fn(usize) -> Vec<String>,
-    what: &'static str,
-    metadata: bool,
-) -> Result<Vec<usize>, SplitError> {
-    let found: Vec<usize> = listed
-        .iter()
-        .map(|l| {
-            let hit = slots
-                .iter()
-                .position(|(n, slot)| *n == l.name || matches!(slot, Slot::Unit(u) if members(*u).contains(&l.name)));
-            hit.ok_or_else(|| match &l.at {
-                Some((path, line, column)) => SplitError::Located {
-                    path: path.clone(),
-                    line: *line,
-                    column: *column,
-                    message: format!(
-                        "{what} recording \"{}\" is not among the {} recordings the split draws from{}",
-                        l.name,
-                        slots.len(),
-                        if metadata {
-                            " (it has neither an included CSV nor a metadata file)"
-                        } else {
-                            " (it has no included CSV)"
-                        }
-                    ),
-                },
-                None => SplitError::NotInUniverse {
-                    what,
-                    name: l.name.clone(),
-                    offset: l.offset,
-                    available: slots.len(),
-                    hint: if metadata {
-                        " (it has neither an included CSV nor a metadata file)".to_string()
-                    } else {
-                        " (it has no included CSV; `universe metadata` also admits names listed only by metadata)"
-                            .to_string()
-                    },
-                },
-            })
-        })
-        .collect::<Result<_, _>>()?;
-    for (i, c) in found.iter().enumerate() {
-        if let Some(j) = found[..i].iter().position(|d| d == c) {
-            return Err(SplitError::SameUnit { first: listed[j].name.clone(), second: listed[i].name.clone() });
-        }
-    }
-    Ok(found)
-}
-
-/// Splits chosen slots into loaded unit indices and absent names; absent
-/// names are an error unless the design allows them.
-fn resolve(
-    chosen: &[usize],
-    slots: &[(String, Slot)],
-    what: &'static str,
-    allowed: bool,
-) -> Result<(Vec<usize>, Vec<String>), SplitError> {
-    let mut units = Vec::new();
-    let mut absent = Vec::new();
-    for &c in chosen {
-        match &slots[c].1 {
-            Slot::Unit(u) => units.push(*u),
-            Slot::Absent(name) => absent.push(name.clone()),
-        }
-    }
-    absent.sort();
-    if !absent.is_empty() && !allowed {
-        return Err(SplitError::Absent { what, names: absent.join(", ") });
-    }
-    Ok((units, absent))
 }
 
 /// Builds the split. `recordings` are the audit's included recordings.
@@ -611,67 +528,6 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     })
 }
 
-/// Fit recordings, absent names, and (copy, held-out original) pairs dropped.
-type PublishedFit = (Vec<usize>, Vec<String>, Vec<(String, String)>);
-
-/// The fit recordings of a published split: its fit roles' names, without
-/// the ones that have no usable data (an error unless `missing csv allow`)
-/// and, under `leaked drop`, without copies of a held-out recording (an
-/// error under `leaked refuse`). Returns the recordings, the absent names
-/// and the dropped (copy, held-out original) pairs.
-fn published_fit(
-    pin: &PublishedPin,
-    slots: &[(String, Slot)],
-    units: &[DeploymentUnit],
-    info: &[RecordingInfo],
-    held: &[usize],
-    allowed: bool,
-) -> Result<PublishedFit, SplitError> {
-    let mut recordings = BTreeSet::new();
-    let mut absent = Vec::new();
-    let mut leaked = Vec::new();
-    for l in &pin.fit {
-        let unit = slots.iter().find_map(|(_, slot)| match slot {
-            Slot::Unit(u) if units[*u].members.iter().any(|&m| info[m].name == l.name) => Some(*u),
-            _ => None,
-        });
-        let Some(u) = unit else {
-            if slots.iter().any(|(n, _)| *n == l.name) {
-                absent.push(l.name.clone());
-                continue;
-            }
-            let (path, line, column) = l.at.clone().unwrap_or_default();
-            return Err(SplitError::Located {
-                path,
-                line,
-                column,
-                message: format!(
-                    "fit recording \"{}\" has neither a CSV nor a metadata file in the data directory",
-                    l.name
-                ),
-            });
-        };
-        // The listed recording itself (under `duplicates group` its unit may hold copies listed elsewhere).
-        let Some(&r) = units[u].members.iter().find(|&&m| info[m].name == l.name) else { continue };
-        match held.iter().find(|&&h| h == r || info[h].content_hash == info[r].content_hash) {
-            Some(&h) => leaked.push((info[r].name.clone(), info[h].name.clone())),
-            None => {
-                recordings.insert(r);
-            }
-        }
-    }
-    absent.sort();
-    if !absent.is_empty() && !allowed {
-        return Err(SplitError::Absent { what: "fit", names: absent.join(", ") });
-    }
-    if !leaked.is_empty() && pin.leaked == LeakPolicy::Refuse {
-        let list =
-            leaked.iter().map(|(c, h)| format!("  {c} (fit) is identical to {h}")).collect::<Vec<_>>().join("\n");
-        return Err(SplitError::PublishedLeak { file: pin.file.clone(), count: leaked.len(), list });
-    }
-    Ok((recordings.into_iter().collect(), absent, leaked))
-}
-
 /// The evaluation recordings in universe order (the order numpy's starts
 /// are drawn in), without absent names.
 fn universe_order(e_slots: &[usize], slots: &[(String, Slot)], units: &[DeploymentUnit]) -> Vec<usize> {
@@ -684,15 +540,6 @@ fn universe_order(e_slots: &[usize], slots: &[(String, Slot)], units: &[Deployme
             Slot::Absent(_) => None,
         })
         .collect()
-}
-
-/// How a derived arm's draws are made.
-#[derive(Clone, Copy)]
-enum Draw<'a> {
-    Chacha,
-    Numpy,
-    /// Priority sampling, recordings named by the function.
-    Coupled(&'a dyn Fn(usize) -> String),
 }
 
 fn sorted(v: impl Iterator<Item = usize>) -> Vec<usize> {
@@ -721,163 +568,6 @@ fn recording_info(audit: &Audit, recordings: &[Recording]) -> Vec<RecordingInfo>
             }
         })
         .collect()
-}
-
-/// Draws `k` windows of a pool for the evaluation recording at a position.
-type StartPicker<'a> = dyn FnMut(&[Window], usize, usize) -> Vec<Window> + 'a;
-
-/// The registered rollout starts: `starts` valid starts per evaluation
-/// recording, in the order given, each drawn by `pick(pool, k, position)`.
-/// Returned sorted.
-fn draw_starts(
-    rf: &RecordingFactor,
-    info: &[RecordingInfo],
-    recordings: &[Recording],
-    evaluation: &[usize],
-    pick: &mut StartPicker<'_>,
-) -> Result<Vec<Window>, SplitError> {
-    let mut starts = Vec::new();
-    for (k, &r) in evaluation.iter().enumerate() {
-        let valid = valid_starts(&recordings[r], rf.horizon);
-        if valid.len() < rf.starts {
-            return Err(SplitError::TooFewStarts {
-                recording: info[r].name.clone(),
-                valid: valid.len(),
-                needed: rf.starts,
-                horizon: rf.horizon,
-            });
-        }
-        let pool: Vec<Window> = valid.into_iter().map(|t| Window { recording: r, t }).collect();
-        starts.extend(pick(&pool, rf.starts, k));
-    }
-    starts.sort();
-    Ok(starts)
-}
-
-/// The fit sets of the `fit` arms, drawn from the fitting recordings.
-fn draw_fit_arms(
-    design: &Design,
-    fit_recordings: &[usize],
-    recordings: &[Recording],
-    numpy: bool,
-    name: &dyn Fn(usize) -> String,
-    (info, evaluation): (&[RecordingInfo], &[usize]),
-) -> Result<Vec<(String, Vec<Window>)>, SplitError> {
-    let fit_pool = pool_of(fit_recordings, recordings);
-    let mut fits = Vec::new();
-    for arm in &design.arms {
-        let ArmKind::Fit { windows, seed, ref hold_out } = arm.kind else { continue };
-        // A stricter holdout: every recording sharing a held-out label
-        // with an evaluation recording leaves this arm's pool.
-        let held = |r: usize| {
-            hold_out.iter().any(|c| {
-                let label = |k: usize| match c {
-                    Condition::Trajectory => &info[k].trajectory,
-                    Condition::Speed => &info[k].speed,
-                };
-                evaluation.iter().any(|&e| label(e) == label(r))
-            })
-        };
-        let own_pool;
-        let fit_pool: &[Window] = if hold_out.is_empty() {
-            &fit_pool
-        } else {
-            let kept: Vec<usize> = fit_recordings.iter().copied().filter(|&r| !held(r)).collect();
-            own_pool = pool_of(&kept, recordings);
-            &own_pool
-        };
-        let fit_recordings: Vec<usize> = if hold_out.is_empty() {
-            fit_recordings.to_vec()
-        } else {
-            fit_recordings.iter().copied().filter(|&r| !held(r)).collect()
-        };
-        if fit_pool.len() < windows {
-            return Err(SplitError::TooFewWindows {
-                what: format!("arm {} (from {} fit recordings)", arm.name, fit_recordings.len()),
-                needed: windows,
-                available: fit_pool.len(),
-            });
-        }
-        let drawn = if design.coupled {
-            coupled::draw(fit_pool, windows, seed, Purpose::Fit, name)
-        } else if numpy {
-            draw_numpy(fit_pool, windows, &mut RandomState::new(np_seed(seed)))
-        } else {
-            draw(fit_pool, windows, &mut rng(seed, 0))
-        };
-        fits.push((arm.name.clone(), drawn));
-    }
-    Ok(fits)
-}
-
-/// A derived arm's name, sorted fit set and sorted incoming evaluation windows.
-type DerivedArm = (String, Vec<Window>, Vec<Window>);
-
-/// Derived arms of one base: each member's `percent`% of `base`'s
-/// positions replaced by windows of `pool`. The positions (stream 0 of
-/// `seed`) and the incoming windows (stream 1) are drawn once, in random
-/// order, for the largest dose; each dose takes their first k, so a smaller
-/// dose's replaced positions and incoming windows are part of every larger
-/// dose's. For one arm this is a plain draw of k. Returns (arm, sorted fit
-/// set, sorted incoming evaluation windows) per member, in member order.
-fn contaminate(
-    base: &[Window],
-    members: &[(String, f64)],
-    pool: &[Window],
-    seed: u64,
-    how: Draw<'_>,
-) -> Result<Vec<DerivedArm>, SplitError> {
-    let count = |percent: f64| (percent / 100.0 * base.len() as f64).round() as usize;
-    let mut most = 0;
-    for (arm, percent) in members {
-        let replaced = count(*percent);
-        if replaced == 0 {
-            let (arm, percent, windows) = (arm.clone(), *percent, base.len());
-            return Err(SplitError::NothingToReplace { arm, percent, windows, replaced });
-        }
-        if pool.len() < replaced {
-            return Err(SplitError::TooFewWindows {
-                what: format!("arm {arm} (evaluation windows that are not registered starts)"),
-                needed: replaced,
-                available: pool.len(),
-            });
-        }
-        most = most.max(replaced);
-    }
-    let (positions, incoming): (Vec<usize>, Vec<Window>) = match how {
-        Draw::Numpy => {
-            let mut rs = RandomState::new(np_seed(seed));
-            let positions = rs.choice(base.len(), most);
-            (positions, rs.choice(pool.len(), most).into_iter().map(|i| pool[i]).collect())
-        }
-        Draw::Chacha => {
-            let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), most).into_vec();
-            let incoming = rand::seq::index::sample(&mut rng(seed, 1), pool.len(), most).into_iter().map(|i| pool[i]);
-            (positions, incoming.collect())
-        }
-        Draw::Coupled(name) => {
-            let replaced = coupled::order(base.len(), seed, Purpose::Replaced, &|i| name(base[i].recording), &|i| {
-                base[i].t as u64
-            });
-            let incoming = coupled::order(pool.len(), seed, Purpose::Incoming, &|i| name(pool[i].recording), &|i| {
-                pool[i].t as u64
-            });
-            (replaced.into_iter().take(most).collect(), incoming.into_iter().take(most).map(|i| pool[i]).collect())
-        }
-    };
-    let mut out = Vec::new();
-    for (arm, percent) in members {
-        let k = count(*percent);
-        let mut fit = base.to_vec();
-        for (&p, w) in positions[..k].iter().zip(&incoming[..k]) {
-            fit[p] = *w;
-        }
-        fit.sort();
-        let mut taken = incoming[..k].to_vec();
-        taken.sort();
-        out.push((arm.clone(), fit, taken));
-    }
-    Ok(out)
 }
 
 /// Deployment units. With `duplicates group`, identical recordings form one
