@@ -46,6 +46,7 @@
 //! assert!((f.intercept - 19.0 / 6.0).abs() < 1e-9); // balanced: the grand mean
 //! ```
 
+mod data;
 pub mod formula;
 mod inference;
 mod optimize;
@@ -54,6 +55,7 @@ mod system;
 
 use serde::Serialize;
 
+pub use data::{MixedData, MAX_DENSE, MAX_DESIGN_VALUES};
 pub use profile::{profile_intervals, ProfileInterval};
 
 /// REML (restricted) or ML (full) likelihood.
@@ -152,165 +154,6 @@ pub enum MixedError {
         /// Where.
         theta: Vec<f64>,
     },
-}
-
-/// One random-intercept factor: a level code per observation.
-#[derive(Debug, Clone, PartialEq)]
-struct Factor {
-    name: String,
-    codes: Vec<usize>,
-    levels: usize,
-}
-
-/// Response, fixed effects and random factors, validated.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MixedData {
-    y: Vec<f64>,
-    /// Fixed-effect columns beside the intercept: R's name and values.
-    columns: Vec<(String, Vec<f64>)>,
-    factors: Vec<Factor>,
-}
-
-impl MixedData {
-    /// `factors`: (name, level code per observation). Codes are relabelled
-    /// densely in order of first appearance, so any integers will do; a
-    /// nested factor is given with codes unique across its parent's levels.
-    /// The fixed part is an intercept; [`MixedData::with_fixed`] adds
-    /// categorical fixed effects.
-    pub fn new(y: Vec<f64>, factors: Vec<(String, Vec<usize>)>) -> Result<MixedData, MixedError> {
-        let n = y.len();
-        if n < 2 {
-            return Err(MixedError::TooFewObservations(n));
-        }
-        if let Some((row, &value)) = y.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(MixedError::NonFinite { row, value });
-        }
-        if y.iter().all(|v| *v == y[0]) {
-            return Err(MixedError::ConstantResponse(y[0]));
-        }
-        if factors.is_empty() {
-            return Err(MixedError::NoFactor);
-        }
-        let mut out = Vec::new();
-        for (name, codes) in factors {
-            if codes.len() != n {
-                return Err(MixedError::Length { factor: name, found: codes.len(), expected: n });
-            }
-            let mut map = std::collections::HashMap::new();
-            let dense: Vec<usize> = codes
-                .iter()
-                .map(|c| {
-                    let next = map.len();
-                    *map.entry(*c).or_insert(next)
-                })
-                .collect();
-            if map.len() < 2 {
-                return Err(MixedError::TooFewLevels { factor: name, levels: map.len() });
-            }
-            // lme4's check.nobs.vs.nlev: a factor with as many levels as
-            // observations is confounded with the residual, and any split
-            // of the variance between the two fits equally well.
-            if map.len() >= n {
-                return Err(MixedError::Unidentifiable {
-                    factor: name,
-                    reason: format!(
-                        "it has {} levels for {n} observations, so it cannot be told apart from the residual (lme4 refuses this too: the number of levels of each grouping factor must be < the number of observations)",
-                        map.len()
-                    ),
-                });
-            }
-            // Two factors that group the observations the same way (codes
-            // relabelled by first appearance are then equal) share one
-            // variance in any proportion.
-            if let Some(other) = out.iter().find(|f: &&Factor| f.codes == dense) {
-                return Err(MixedError::Unidentifiable {
-                    factor: name,
-                    reason: format!(
-                        "it groups the observations exactly as factor {} does, so their variances cannot be told apart",
-                        other.name
-                    ),
-                });
-            }
-            out.push(Factor { name, codes: dense, levels: map.len() });
-        }
-        Ok(MixedData { y, columns: Vec::new(), factors: out })
-    }
-
-    /// Adds a categorical fixed effect with one label per observation. Its
-    /// levels are sorted bytewise (R's order for ASCII labels in the C
-    /// locale) and coded by treatment contrasts: the first level is the
-    /// reference, and each other level gets a column named `name` followed
-    /// by the level (R's `factorB`).
-    pub fn with_fixed(mut self, name: &str, labels: &[String]) -> Result<MixedData, MixedError> {
-        if labels.len() != self.y.len() {
-            return Err(MixedError::Length { factor: name.into(), found: labels.len(), expected: self.y.len() });
-        }
-        let mut sorted: Vec<String> = labels.to_vec();
-        sorted.sort();
-        sorted.dedup();
-        if sorted.len() < 2 {
-            return Err(MixedError::TooFewLevels { factor: name.into(), levels: sorted.len() });
-        }
-        let codes: Vec<usize> = labels.iter().map(|l| sorted.binary_search(l).unwrap_or(0)).collect();
-        for (level, label) in sorted.iter().enumerate().skip(1) {
-            let column = codes.iter().map(|&c| if c == level { 1.0 } else { 0.0 }).collect();
-            self.columns.push((format!("{name}{label}"), column));
-        }
-        Ok(self)
-    }
-
-    /// Adds fixed-effect columns of the design matrix as they are (a
-    /// numeric covariate, a contrast or indicator column, a product of
-    /// them for an interaction), each with its name. The intercept is
-    /// always the first column and is not given here. Aliased columns are
-    /// refused when the model is fitted.
-    pub fn with_columns(mut self, columns: Vec<(String, Vec<f64>)>) -> Result<MixedData, MixedError> {
-        for (name, values) in columns {
-            if values.len() != self.y.len() {
-                return Err(MixedError::Length { factor: name, found: values.len(), expected: self.y.len() });
-            }
-            if let Some((row, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                return Err(MixedError::FixedEffects(format!(
-                    "column {name}, observation {row}: {value} is not finite"
-                )));
-            }
-            self.columns.push((name, values));
-        }
-        Ok(self)
-    }
-
-    /// Number of observations.
-    pub fn len(&self) -> usize {
-        self.y.len()
-    }
-
-    /// Whether there are no observations (never, once validated).
-    pub fn is_empty(&self) -> bool {
-        self.y.is_empty()
-    }
-
-    /// Number of fixed-effect columns.
-    fn p(&self) -> usize {
-        1 + self.columns.len()
-    }
-
-    /// Names of the fixed-effect columns, R's way.
-    fn fixed_names(&self) -> Vec<String> {
-        std::iter::once("(Intercept)".to_string()).chain(self.columns.iter().map(|(n, _)| n.clone())).collect()
-    }
-
-    /// The fixed-effect design, n x p row-major.
-    fn design(&self) -> Vec<f64> {
-        let p = self.p();
-        let mut x = vec![0.0; self.y.len() * p];
-        for i in 0..self.y.len() {
-            x[i * p] = 1.0;
-            for (c, (_, values)) in self.columns.iter().enumerate() {
-                x[i * p + 1 + c] = values[i];
-            }
-        }
-        x
-    }
 }
 
 /// How much inference [`fit_with`] computes beyond the estimates.
@@ -583,49 +426,6 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
     }
     data.check_size(inference)?;
     fit_system(&system::System::new(data), data, criterion, inference)
-}
-
-/// The largest dense system a fit builds: the levels of every factor but
-/// the largest, plus the fixed-effect columns (InstEval: 1,142). A 20,000
-/// square matrix of f64 is 3.2 GB.
-pub const MAX_DENSE: usize = 20_000;
-
-/// The most values of the fixed-effect design (observations x columns).
-pub const MAX_DESIGN_VALUES: usize = 100_000_000;
-
-impl MixedData {
-    /// Refuses a model whose dense matrices would not fit in memory, before
-    /// any is allocated: the penalized system (every factor's levels but
-    /// the largest's, plus the fixed effects), the n x p design, and for
-    /// Kenward-Roger the q x q matrices over all levels.
-    fn check_size(&self, inference: Inference) -> Result<(), MixedError> {
-        let levels: Vec<usize> = self.factors.iter().map(|f| f.levels).collect();
-        let largest = levels.iter().copied().max().unwrap_or(0);
-        let q: usize = levels.iter().sum();
-        let dense = q - largest + self.p();
-        let too_large = |what: String| Err(MixedError::TooLarge(what));
-        if dense > MAX_DENSE {
-            return too_large(format!(
-                "the random factors but the largest have {} levels and there are {} fixed-effect columns: the dense system would be {dense} x {dense}, over the limit of {MAX_DENSE}",
-                q - largest,
-                self.p()
-            ));
-        }
-        if self.len().saturating_mul(self.p()) > MAX_DESIGN_VALUES {
-            return too_large(format!(
-                "{} observations x {} fixed-effect columns is over the limit of {MAX_DESIGN_VALUES} values",
-                self.len(),
-                self.p()
-            ));
-        }
-        if inference == Inference::Full && q + self.p() > MAX_DENSE {
-            return too_large(format!(
-                "Kenward-Roger works with matrices over every level ({q} levels, {} fixed-effect columns), over the limit of {MAX_DENSE}; use Satterthwaite df",
-                self.p()
-            ));
-        }
-        Ok(())
-    }
 }
 
 /// [`fit_with`] on the products of `data` already computed.

@@ -1,0 +1,283 @@
+//! Why a run, a job, a Slurm step or a split of a run directory failed: one
+//! error type for the orchestrator, each variant saying what to do next.
+
+use crate::analysis::FileAnalysisError;
+use crate::cells::CellsError;
+use crate::design::lock;
+use crate::io::WriteError;
+
+use super::MAX_WORKERS;
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The design changed after it was locked and the run was not labelled exploratory.
+    #[error("{path} changed after it was locked ({reason}); rerun with --exploratory to label every output EXPLORATORY, or lock an amended design")]
+    LockChanged {
+        /// The design file.
+        path: String,
+        /// What changed: the design's bytes, a file it refers to, or the language defaults.
+        reason: String,
+    },
+    /// The output directory holds a run of another design.
+    #[error("{dir} holds a run of a different design (sha256 {sha256}); use a new output directory")]
+    OtherDesign {
+        /// The output directory.
+        dir: String,
+        /// The other design's hash.
+        sha256: String,
+    },
+    /// run.json cannot be read, or is missing beside a run's outputs.
+    #[error("{path} cannot be read as the record of a run ({reason}), so nothing in {dir} can be verified for reuse; use a new output directory")]
+    BadRunRecord {
+        /// run.json.
+        path: String,
+        /// The output directory.
+        dir: String,
+        /// Why.
+        reason: String,
+    },
+    /// The run being resumed used other data.
+    #[error("{dir} holds a run on other data: its {what} was {was}, now {is}; use a new output directory")]
+    OtherData {
+        /// The output directory.
+        dir: String,
+        /// What differs.
+        what: String,
+        /// As recorded.
+        was: String,
+        /// Now.
+        is: String,
+    },
+    /// A job record cannot be read.
+    #[error("{path} cannot be read as a job record ({reason}); delete it to train that job again")]
+    BadJobRecord {
+        /// The record.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+    /// A finished job's file changed after the job wrote it.
+    #[error("{path} is not the file its job wrote ({reason}, see {record}); delete both to train that job again")]
+    JobFileChanged {
+        /// The file.
+        path: String,
+        /// The job record that lists it.
+        record: String,
+        /// Missing, or its SHA-256 against the recorded one.
+        reason: String,
+    },
+    /// The job records contradict an invariant.
+    #[error("invariants failed on what the jobs recorded (see {path}):\n{list}")]
+    TrainedInvariants {
+        /// `audit/invariants_trained.json`.
+        path: String,
+        /// The failures, one per line.
+        list: String,
+    },
+    /// The manifests differ from those of the run being resumed.
+    #[error("the manifests differ from those of the run in {dir} (the data changed?); use a new output directory")]
+    ManifestsChanged {
+        /// The output directory.
+        dir: String,
+    },
+    /// `--workers 0`.
+    #[error("--workers must be at least 1")]
+    NoWorkers,
+    /// More workers than threads a process should start.
+    #[error("--workers {workers} is more than {MAX_WORKERS}: each worker is a thread training one job; use at most one per core")]
+    TooManyWorkers {
+        /// As given.
+        workers: usize,
+    },
+    /// A worker's thread pool could not start.
+    #[error("worker pool: {0}")]
+    WorkerPool(#[from] rayon::ThreadPoolBuildError),
+    /// A parameter-free model scored differently on two arms.
+    #[error("parameter-free model `{model}` scored differently on arms `{left}` and `{right}`: its rollouts depend on the arm, which they must not")]
+    BaselineDependsOnArm {
+        /// The model.
+        model: String,
+        /// One arm.
+        left: String,
+        /// The other.
+        right: String,
+    },
+    /// A fitted model with no `train` block (validation prevents this).
+    #[error("the design has no train block")]
+    NoTraining,
+    /// An arm without a fit set (validation prevents this).
+    #[error("arm `{arm}` has no fit set")]
+    NoFitSet {
+        /// The arm.
+        arm: String,
+    },
+    /// A job named on the command line is not in the plan.
+    #[error("no training job {job} in the design ({known})")]
+    UnknownJob {
+        /// `model/arm/seed` as asked for.
+        job: String,
+        /// The design's models, arms and seeds.
+        known: String,
+    },
+    /// `simulate` on a design whose data are not simulated.
+    #[error("{path}: the data source is not `simulated`")]
+    NotSimulated {
+        /// The design file.
+        path: String,
+    },
+    /// `--data` on a design whose data are simulated.
+    #[error("the design's data are `simulated`: --data would train on other logs under the simulated study's name; remove --data, or write a design whose data block names a `path`")]
+    DataOverride,
+    /// A relative data path that names two different directories.
+    #[error("the design's data path {path} names two different directories: {beside} (from the design's directory) and {path} (from the current directory); make it absolute or run from the design's directory")]
+    AmbiguousDataPath {
+        /// The path as written.
+        path: String,
+        /// Resolved from the design file's directory.
+        beside: String,
+    },
+    /// The design has no data path and none was given.
+    #[error("the design's data block has no `path`; pass --data DIR")]
+    NoDataPath,
+    /// The output folder is, or is inside, or holds the data folder.
+    #[error("the output folder {out} {how} {data}: what crossaudit writes there would be read back as flight logs; choose an output folder outside the data folder")]
+    OutInData {
+        /// The output folder as given.
+        out: String,
+        /// The data folder as given.
+        data: String,
+        /// "is the data folder", "is inside the data folder" or "holds the data folder".
+        how: &'static str,
+    },
+    /// Another crossaudit process holds the output folder's lock.
+    #[error("{dir} is in use by another crossaudit process (a run, train, gather or job on it has not ended); wait for it to end, or use another output folder")]
+    FolderBusy {
+        /// The folder.
+        dir: String,
+    },
+    /// The data directory does not exist.
+    #[error("data directory {dir} does not exist")]
+    NoDataDir {
+        /// The directory.
+        dir: String,
+    },
+    /// Simulated recordings could not be written.
+    #[error(transparent)]
+    Simulate(#[from] crate::sim::SimulateError),
+    /// A training curve could not be written or read.
+    #[error("{path}: {source}")]
+    Csv {
+        /// The curve file.
+        path: String,
+        /// Why.
+        source: csv::Error,
+    },
+    /// The lock file could not be read.
+    #[error(transparent)]
+    Lock(#[from] lock::LockError),
+    /// The split could not be prepared or an invariant failed.
+    #[error(transparent)]
+    Split(#[from] crate::split::SplitError),
+    /// Training or saving a network failed.
+    #[error(transparent)]
+    Net(#[from] crate::model::NetError),
+    /// A per-cell file could not be written or read back.
+    #[error(transparent)]
+    Cells(#[from] CellsError),
+    /// The finished cells could not be analysed.
+    #[error(transparent)]
+    Analysis(#[from] FileAnalysisError),
+    /// The report or its figures could not be written.
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    /// A Slurm option sbatch would misread.
+    #[error("{option} {value:?}: expected {expected}")]
+    SlurmOption {
+        /// The flag.
+        option: String,
+        /// As given.
+        value: String,
+        /// What it may be.
+        expected: String,
+    },
+    /// A path that cannot go into a Slurm script as it is.
+    #[error("{path} cannot be used in a Slurm script: {reason}; choose another directory")]
+    UnsafeClusterPath {
+        /// The path.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+    /// A directory that `run --slurm` did not prepare, or whose records disagree.
+    #[error(
+        "{dir} is not a run prepared for Slurm ({reason}); prepare it with `crossaudit run DESIGN --out {dir} --slurm`"
+    )]
+    NotPrepared {
+        /// The run directory.
+        dir: String,
+        /// What is missing or inconsistent.
+        reason: String,
+    },
+    /// An array index beyond the job list.
+    #[error("array index {index} is out of range: the study has {jobs} jobs, indices 0 to {}", jobs.saturating_sub(1))]
+    NoSuchTask {
+        /// The index asked for.
+        index: usize,
+        /// Jobs in the study.
+        jobs: usize,
+    },
+    /// Another process holds the job's lock.
+    #[error("job {job} is being run by another process (it holds {lock}); wait for it, or cancel it first")]
+    JobBusy {
+        /// `model/arm/seed`.
+        job: String,
+        /// The lock file.
+        lock: String,
+    },
+    /// The gather step found jobs without a record.
+    #[error("{missing} of {jobs} jobs in {dir} have not finished, so cells.csv and the report were not written:\n{list}resubmit with `sh {dir}/slurm/submit.sh` (finished jobs are skipped), or run the missing ones with `crossaudit job {dir} --index N`")]
+    JobsMissing {
+        /// The run directory.
+        dir: String,
+        /// How many jobs have no record.
+        missing: usize,
+        /// Jobs in the study.
+        jobs: usize,
+        /// One line per missing job: index, job, Slurm log.
+        list: String,
+    },
+    /// A level of a study with outer factors failed; its label says which.
+    #[error("{level}: {source}")]
+    InLevel {
+        /// `spec-s3 (state=onboard, tails=keep)`, `draw-2`, `split-44`.
+        level: String,
+        /// What failed.
+        source: Box<RunError>,
+    },
+    /// `split` or `train` was given a design whose study is several runs.
+    #[error("{design}: a design with choices or a draw factor is several runs; `crossaudit run` prepares and trains every one (`{command}` would do one level only)")]
+    OuterOneLevel {
+        /// The design.
+        design: String,
+        /// The command refused.
+        command: &'static str,
+    },
+    /// `analyze --cells DIR` of a multiverse needs a design with outer levels and a run directory.
+    #[error("{design}: a design with choices or a draw factor is analysed from its run directory: `crossaudit analyze DESIGN --cells RUN_DIR`")]
+    NotOuter {
+        /// The design.
+        design: String,
+    },
+    /// Submitting to Slurm failed.
+    #[error("submitting {script} failed: {reason}")]
+    Submit {
+        /// submit.sh.
+        script: String,
+        /// Why (sbatch's message).
+        reason: String,
+    },
+}
