@@ -32,16 +32,19 @@ pub fn write_multiverse(a: &MultiverseAnalysis, dir: &Path) -> Result<Vec<PathBu
     Ok(out)
 }
 
-fn verdict(a: &MultiverseAnalysis) -> String {
+/// The decision by the declared combination, as line 1 of the report
+/// (the verdict in bold) and as the line `run` and `analyze` print.
+fn sentence(a: &MultiverseAnalysis, bold: bool) -> String {
     let d = &a.decision;
     let name = d.name.to_uppercase();
     let v = if d.holds { name } else { format!("NOT {name}") };
+    let v = if bold { format!("**{v}**") } else { v };
     if a.choices.is_empty() {
         let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
-        return format!("**{v}** on the design's own draw: the rule holds in {holding} of {draws} draws.");
+        return format!("{v} on the design's own draw: the rule holds in {holding} of {draws} draws.");
     }
     format!(
-        "**{v}** {}: the rule holds in {} of {} specifications (primary: {}).",
+        "{v} {}: the rule holds in {} of {} specifications (primary: {}).",
         a.combine.describe(),
         d.specs_holding,
         d.specs,
@@ -49,8 +52,14 @@ fn verdict(a: &MultiverseAnalysis) -> String {
     )
 }
 
-fn label(a: &MultiverseAnalysis, values: &[String]) -> String {
-    a.choices.iter().zip(values).map(|(c, v)| format!("{}={v}", c.setting)).collect::<Vec<_>>().join(", ")
+fn verdict(a: &MultiverseAnalysis) -> String {
+    sentence(a, true)
+}
+
+/// The decision line `run` and `analyze` print for a multiverse or a
+/// draw-replicated study.
+pub fn decision_line(a: &MultiverseAnalysis) -> String {
+    sentence(a, false)
 }
 
 /// report.md.
@@ -412,6 +421,5 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
         key_y + 16.0
     );
     let _ = writeln!(s, "</svg>");
-    let _ = label;
     s
 }

@@ -22,6 +22,7 @@ use crate::analysis::multiverse::{analyze_multiverse, LevelInput, MultiverseAnal
 use crate::design::multiverse::run_key;
 use crate::design::Design;
 use crate::io::write_atomic;
+pub use crate::report::multiverse::decision_line;
 
 /// What an outer factor's levels are to each other, which decides how they
 /// are combined.
@@ -201,8 +202,11 @@ pub(super) fn run_levels(
         let dir = out.join(&level.id);
         let opened = open(&level_file, &plan, data, &dir, options.exploratory).map_err(in_level)?;
         let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256).map_err(in_level)?;
-        let keys: Vec<String> =
-            plan.jobs.iter().map(|j| job_key(&level.design, &plan, j, &opened.prepared, &opened.record)).collect();
+        let keys: Vec<String> = crate::split::JobManifests::for_plan(&plan, &opened.prepared.manifests)
+            .iter()
+            .zip(&plan.jobs)
+            .map(|(m, j)| job_key(&level.design, &plan, j, m, &opened.record))
+            .collect();
         let mut copied = 0;
         for (j, key) in plan.jobs.iter().zip(&keys) {
             if let (Some((from, earlier)), true) = (finished.get(key), todo.contains(j)) {
@@ -257,12 +261,9 @@ fn job_key(
     design: &Design,
     plan: &Plan,
     job: &TrainingJob,
-    prepared: &crate::split::Prepared,
+    manifests: &crate::split::JobManifests,
     record: &RunRecord,
 ) -> String {
-    let manifests = crate::split::JobManifests::for_plan(plan, &prepared.manifests)
-        .into_iter()
-        .find(|m| m.model == job.model && m.arm == job.arm && m.seed == job.seed);
     let key = serde_json::json!({
         "manifests": manifests,
         "audit_sha256": record.audit_sha256,
@@ -330,26 +331,9 @@ pub(super) fn finish_levels(
     builds: BTreeSet<String>,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
-    let plans: Vec<Plan> = levels.iter().map(|l| crate::plan::compile(&l.design)).collect();
-    let mut cells: Vec<Vec<Cell>> = Vec::new();
-    for k in 0..levels.len() {
-        cells.push(read_cells(&run_dir(out, levels, k).join("cells.csv"))?);
-    }
-    let inputs: Vec<LevelInput> = levels
-        .iter()
-        .enumerate()
-        .map(|(k, l)| LevelInput {
-            id: l.id.clone(),
-            spec: l.spec,
-            draw: l.draw,
-            shares: l.shares.map(|s| levels[s].id.clone()),
-            plan: &plans[k],
-            cells: &cells[k],
-        })
-        .collect();
     let cells_csv = out.join("multiverse_cells.csv");
     write_all_cells(&cells_csv, out, levels)?;
-    let mut a = analyze_multiverse(&file.design, &inputs).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
+    let mut a = analyze_levels(&file.design, levels, out, &cells_csv)?;
     a.shared = shared_draws(levels, splits);
     a.design_sha256 = Some(record.design_sha256.clone());
     a.exploratory = exploratory;
@@ -423,10 +407,17 @@ pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, 
     if !dir.is_dir() {
         return Err(RunError::NotOuter { design: file.path.display().to_string() });
     }
+    analyze_levels(&file.design, &levels, dir, dir)
+}
+
+/// The combined analysis of the levels of the run in `dir`: each level's
+/// plan, and its cells read from its own directory or the one it shares
+/// (errors name that file and line; an analysis error names `shown`).
+fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -> Result<MultiverseAnalysis, RunError> {
     let plans: Vec<Plan> = levels.iter().map(|l| crate::plan::compile(&l.design)).collect();
     let mut cells: Vec<Vec<Cell>> = Vec::new();
     for k in 0..levels.len() {
-        cells.push(read_cells(&run_dir(dir, &levels, k).join("cells.csv"))?);
+        cells.push(read_cells(&run_dir(dir, levels, k).join("cells.csv"))?);
     }
     let inputs: Vec<LevelInput> = levels
         .iter()
@@ -440,8 +431,7 @@ pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, 
             cells: &cells[k],
         })
         .collect();
-    let a = analyze_multiverse(&file.design, &inputs).map_err(|e| FileAnalysisError::new(dir, e))?;
-    Ok(a)
+    analyze_multiverse(design, &inputs).map_err(|e| FileAnalysisError::new(shown, e).into())
 }
 
 /// Labels an analysis with the design's hash and lock state.
@@ -451,21 +441,4 @@ pub fn label(a: &mut MultiverseAnalysis, file: &DesignFile) -> Result<(), RunErr
     a.exploratory = status.changed();
     a.preregistered = Some(matches!(status, LockStatus::LockedUnchanged { .. }));
     Ok(())
-}
-
-/// The decision line of a multiverse.
-pub fn decision_line(a: &MultiverseAnalysis) -> String {
-    let d = &a.decision;
-    let verdict = if d.holds { d.name.to_uppercase() } else { format!("NOT {}", d.name.to_uppercase()) };
-    if a.choices.is_empty() {
-        let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
-        return format!("{verdict} on the design's own draw (the rule holds in {holding} of {draws} draws)");
-    }
-    format!(
-        "{verdict} {} ({} of {} specifications meet the rule; primary: {})",
-        a.combine.describe(),
-        d.specs_holding,
-        d.specs,
-        if d.primary_holds { "met" } else { "not met" }
-    )
 }
