@@ -24,11 +24,13 @@
 //! with its Slurm log, then writes `cells.csv` and the report with the same
 //! code as a local run, so the bytes are the same.
 //!
-//! A multi-split study is one array over every split's jobs: each split is
-//! opened in `DIR/split-s` exactly as a local run opens it (its own audit,
-//! manifests, invariants and run.json), a task runs its job in its split's
-//! directory, and the gather step finishes each split, then pools them into
-//! `DIR/cells.csv` and `DIR/report`, as a local run does.
+//! A study with outer factors (splits, specifications, draws) is one array
+//! over every level's jobs: each level that trains is opened in its own
+//! directory (`DIR/split-s`, `DIR/spec-s2`, ...) exactly as a local run
+//! opens it (its own audit, manifests, invariants and run.json), a task
+//! runs its job in its level's directory, and the gather step finishes each
+//! level, then combines them by their role ([`super::outer::Role`]) into
+//! the report a local run writes.
 //!
 //! Shared-filesystem assumption: DIR, the data directory and the crossaudit
 //! binary are visible at the same absolute paths from every node. Nothing
