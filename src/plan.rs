@@ -12,8 +12,8 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::design::{
-    ActionScaling, Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, EstimatorKind, InputMap, Meters,
-    Metric, ModelKind, Role, Seed, Sensitivity, StartsPolicy, TargetKind, Training,
+    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, EstimatorKind, Meters, Metric, ModelKind, Role,
+    Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
 use crate::stats::DfRule;
 
@@ -483,17 +483,17 @@ impl Plan {
 
 fn model_text(kind: &ModelKind) -> String {
     match kind {
+        ModelKind::External { inputs, actions, history } => format!(
+            "external inputs {} actions {}{}",
+            inputs.name(),
+            actions.name(),
+            if *history > 0 { format!(" history {history}") } else { String::new() }
+        ),
         ModelKind::Mlp { widths, inputs, actions } => format!(
             "mlp({}) inputs {} actions {}",
             widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", "),
-            match inputs {
-                InputMap::World => "world",
-                InputMap::Relative => "relative",
-            },
-            match actions {
-                ActionScaling::Raw => "raw",
-                ActionScaling::Standardized => "standardized",
-            }
+            inputs.name(),
+            actions.name()
         ),
         ModelKind::Persistence => "persistence".to_string(),
         ModelKind::ConstantVelocity => "constant_velocity".to_string(),

@@ -211,6 +211,7 @@ pub enum ArmBody {
 #[derive(Debug, Clone, PartialEq)]
 pub enum ModelKind {
     Mlp { widths: Vec<Int>, inputs: Spanned<String>, actions: Option<Ident> },
+    External { inputs: Spanned<String>, actions: Option<Ident>, history: Option<Int> },
     Baseline(Spanned<String>),
 }
 

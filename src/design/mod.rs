@@ -340,6 +340,17 @@ pub enum ModelKind {
         /// How the actions enter.
         actions: ActionScaling,
     },
+    /// Fitted outside crossaudit on the windows `crossaudit export` writes;
+    /// its rollouts come back as predictions to `crossaudit score`.
+    External {
+        /// The input map of the exported inputs.
+        inputs: InputMap,
+        /// How the actions enter the exported inputs.
+        actions: ActionScaling,
+        /// Samples before every window and start exported as its history
+        /// (0: none).
+        history: usize,
+    },
     /// Predicts no change.
     Persistence,
     /// Integrates the current velocity.
@@ -359,7 +370,12 @@ pub fn mlp_supported(widths: &[usize]) -> bool {
 impl ModelKind {
     /// Whether the model has parameters to fit (one training job per arm x seed).
     pub fn trains(&self) -> bool {
-        matches!(self, ModelKind::Mlp { .. })
+        matches!(self, ModelKind::Mlp { .. } | ModelKind::External { .. })
+    }
+
+    /// Whether the model is fitted outside crossaudit (`external`).
+    pub fn is_external(&self) -> bool {
+        matches!(self, ModelKind::External { .. })
     }
 }
 
@@ -373,6 +389,16 @@ pub enum InputMap {
     Relative,
 }
 
+impl InputMap {
+    /// The language's word for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            InputMap::World => "world",
+            InputMap::Relative => "relative",
+        }
+    }
+}
+
 /// How the actions u in [0, 1] enter a network.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -381,6 +407,16 @@ pub enum ActionScaling {
     Raw,
     /// Through the model's input standardizer.
     Standardized,
+}
+
+impl ActionScaling {
+    /// The language's word for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ActionScaling::Raw => "raw",
+            ActionScaling::Standardized => "standardized",
+        }
+    }
 }
 
 /// What the network predicts.

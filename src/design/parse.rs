@@ -421,6 +421,19 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
 }
 
 fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
+    if kind.as_rule() == Rule::external {
+        let mut c = kids(kind);
+        let inputs = c.next();
+        let inputs = Spanned::new(inputs.as_str().to_string(), span_of(&inputs));
+        let (mut actions, mut history) = (None, None);
+        for p in c.0 {
+            match p.as_rule() {
+                Rule::model_actions => actions = Some(ident(kids(p).next())),
+                _ => history = Some(int(kids(p).next())?),
+            }
+        }
+        return Ok(ModelKind::External { inputs, actions, history });
+    }
     if kind.as_rule() != Rule::mlp {
         return Ok(ModelKind::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind))));
     }

@@ -45,9 +45,23 @@ pub fn rollout(
     steps: usize,
     horizon_steps: &[usize],
 ) -> Vec<Trace> {
+    trajectories(dynamics, recordings, starts, steps, &mut |_, _| {}, horizon_steps)
+}
+
+/// As [`rollout`], handing every step's states (after the exogenous
+/// overwrite and renormalisation: what the next step is fed) to `each`
+/// with the step number: the trajectories an external model's
+/// predictions replace (see [`replay`]).
+pub fn trajectories(
+    dynamics: &mut dyn Dynamics,
+    recordings: &[Recording],
+    starts: &[Window],
+    steps: usize,
+    each: &mut dyn FnMut(usize, &[State]),
+    horizon_steps: &[usize],
+) -> Vec<Trace> {
     let mut states: Vec<State> = starts.iter().map(|s| recordings[s.recording].state[s.t]).collect();
-    let mut traces: Vec<Trace> =
-        starts.iter().map(|&s| Trace { start: s, position_error: Vec::with_capacity(steps), at: Vec::new() }).collect();
+    let mut traces = new_traces(starts, steps);
     for k in 1..=steps {
         let actions: Vec<Action> = starts.iter().map(|s| recordings[s.recording].action[s.t + k - 1]).collect();
         let mut next = dynamics.step(&states, &actions);
@@ -55,13 +69,55 @@ pub fn rollout(
             let truth = &recordings[s.recording].state[s.t + k];
             n[10..14].copy_from_slice(&truth[10..14]);
             renormalize(n);
-            let e = ((n[0] - truth[0]).powi(2) + (n[1] - truth[1]).powi(2) + (n[2] - truth[2]).powi(2)).sqrt();
-            tr.position_error.push(if e.is_finite() { e } else { f64::INFINITY });
-            if horizon_steps.contains(&k) {
-                tr.at.push((k, *n, *truth));
-            }
+            score_step(tr, k, n, truth, horizon_steps);
         }
+        each(k, &next);
         states = next;
+    }
+    traces
+}
+
+fn new_traces(starts: &[Window], steps: usize) -> Vec<Trace> {
+    starts.iter().map(|&s| Trace { start: s, position_error: Vec::with_capacity(steps), at: Vec::new() }).collect()
+}
+
+/// One step of one start: its position error (infinite when not finite)
+/// and, at a horizon step, the predicted and measured states.
+fn score_step(tr: &mut Trace, k: usize, n: &State, truth: &State, horizon_steps: &[usize]) {
+    let e = ((n[0] - truth[0]).powi(2) + (n[1] - truth[1]).powi(2) + (n[2] - truth[2]).powi(2)).sqrt();
+    tr.position_error.push(if e.is_finite() { e } else { f64::INFINITY });
+    if horizon_steps.contains(&k) {
+        tr.at.push((k, *n, *truth));
+    }
+}
+
+/// Traces of trajectories predicted elsewhere (an external model's
+/// rollouts): `predicted(i, k)` is start i's predicted state at step k
+/// (1..=steps). Scored exactly as [`rollout`] scores its own states: the
+/// exogenous components are overwritten with their measured values, and
+/// the quaternion is returned to unit length unless it is within 1e-12 of
+/// it already (so a built-in model's own states, already renormalised,
+/// score bit for bit as they did). A non-finite state is divergent from
+/// that step on, as a diverged built-in rollout is.
+pub fn replay(
+    predicted: &dyn Fn(usize, usize) -> State,
+    recordings: &[Recording],
+    starts: &[Window],
+    steps: usize,
+    horizon_steps: &[usize],
+) -> Vec<Trace> {
+    let mut traces = new_traces(starts, steps);
+    for (i, (s, tr)) in starts.iter().zip(traces.iter_mut()).enumerate() {
+        for k in 1..=steps {
+            let truth = &recordings[s.recording].state[s.t + k];
+            let mut n = predicted(i, k);
+            n[10..14].copy_from_slice(&truth[10..14]);
+            let norm2 = n[6] * n[6] + n[7] * n[7] + n[8] * n[8] + n[9] * n[9];
+            if (norm2.sqrt() - 1.0).abs() > 1e-12 {
+                renormalize(&mut n);
+            }
+            score_step(tr, k, &n, truth, horizon_steps);
+        }
     }
     traces
 }

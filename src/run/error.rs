@@ -11,6 +11,51 @@ use super::MAX_WORKERS;
 /// Why a run stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// `run`, `train` or Slurm was asked to fit a model crossaudit cannot fit.
+    #[error("the design declares external models ({models}), which crossaudit does not train: write what they are fitted on with `crossaudit export DESIGN --out DIR`, fit them with your own code, write their rollouts to DIR/predictions/, then run `crossaudit score DIR` (docs/external.md)")]
+    ExternalModels {
+        /// The external models' names.
+        models: String,
+    },
+    /// `export` of a design without an external model.
+    #[error("the design declares no external model (`model NAME = external inputs world`), so there is nothing to export; `crossaudit run` trains its models itself")]
+    NoExternalModels,
+    /// `export` of a study of several runs.
+    #[error("external models are exported for a study of one run; this design has {what}: write one design per level")]
+    ExportOuter {
+        /// The outer factors.
+        what: String,
+    },
+    /// A file of `DIR/export/` is not what export wrote.
+    #[error("{path} is not what `crossaudit export` wrote for this design and data ({reason}); predictions must be made from an unedited export: export again into a new directory")]
+    ExportChanged {
+        /// The file.
+        path: String,
+        /// What differs.
+        reason: String,
+    },
+    /// A predictions file or its description is refused.
+    #[error("{path}: {reason}")]
+    BadPredictions {
+        /// The file.
+        path: String,
+        /// Why, and what is expected.
+        reason: String,
+    },
+    /// Some external jobs have no predictions yet.
+    #[error("{missing} of {jobs} external jobs have no predictions in {dir}/predictions (the {scored} present are scored and kept; cells.csv and the report are written once all are there):\n{list}")]
+    PredictionsMissing {
+        /// The run directory.
+        dir: String,
+        /// Jobs without predictions.
+        missing: usize,
+        /// External jobs.
+        jobs: usize,
+        /// Jobs scored (now or before).
+        scored: usize,
+        /// One line per missing job: the file expected.
+        list: String,
+    },
     /// The design changed after it was locked and the run was not labelled exploratory.
     #[error("{path} changed after it was locked ({reason}); rerun with --exploratory to label every output EXPLORATORY, or lock an amended design")]
     LockChanged {

@@ -188,6 +188,9 @@ pub fn run_job_with(
             standardizers = Some(features);
             (cells, epochs, Some(best), train_seconds, secs)
         }
+        ModelKind::External { .. } => {
+            return Err(RunError::ExternalModels { models: job.model.clone() });
+        }
         ModelKind::Persistence | ModelKind::ConstantVelocity => {
             let mut d = baseline(&job.kind, plan.rate_hz);
             let (e, cells, secs) = bench.score(&job.model, d.as_mut());
@@ -218,6 +221,7 @@ pub fn run_job_with(
         standardizers,
         files: JobRecord::hash_files(out, &files)?,
         crossaudit: crate::BUILD.to_string(),
+        non_finite_starts: None,
     };
     record.write(out, job)?;
     Ok(JobOutcome {

@@ -12,6 +12,7 @@
 //! below it in sequence; nothing below imports `run`.
 
 mod error;
+pub mod external;
 mod folder;
 mod grid;
 pub mod job;
@@ -128,6 +129,7 @@ pub fn run(
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     check_workers(options.workers)?;
+    refuse_external(plan)?;
     if let Some(levels) = outer::study_levels(&file.design, plan) {
         return outer::run_levels(file, plan, levels, data, out, options, observer, started);
     }
@@ -140,6 +142,14 @@ pub fn run(
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// `run`, `train` and Slurm fit only the models crossaudit trains.
+pub fn refuse_external(plan: &Plan) -> Result<(), RunError> {
+    match external::external_names(plan) {
+        Some(models) => Err(RunError::ExternalModels { models }),
+        None => Ok(()),
+    }
 }
 
 /// At least one worker, at most [`MAX_WORKERS`].
@@ -260,6 +270,8 @@ struct Opened {
     prepared: crate::split::Prepared,
     /// What `run.json` holds.
     record: RunRecord,
+    /// Warnings the report adds (external models' predictions).
+    warnings: Vec<String>,
 }
 
 /// Checks the lock, refuses a directory that holds another design or other
@@ -288,7 +300,7 @@ fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bo
     };
     let record = RunRecord::new(plan, file, data, &prepared, exploratory);
     record.write(out)?;
-    Ok(Opened { status, exploratory, prepared, record })
+    Ok(Opened { status, exploratory, prepared, record, warnings: Vec::new() })
 }
 
 /// The record of the run in `out`, if any, refusing a run of a design other
@@ -381,6 +393,7 @@ pub fn train_job(
     if !plan.splits.is_empty() {
         return Err(RunError::Split(crate::split::SplitError::SeveralSplits { splits: plan.splits.len() }));
     }
+    refuse_external(plan)?;
     let opened = open(file, plan, data, out, exploratory)?;
     if let Some(r) = JobRecord::read(out, job)? {
         r.verify(out, job, &file.sha256)?;
@@ -424,7 +437,8 @@ fn finish(
     if plan.is_family() {
         let labels = (&opened.status, opened.exploratory, record);
         let mut outcome = report_family(design_path, plan, out, cells_csv, labels, builds, |a| {
-            a.provenance.audit_sha256 = Some(record.audit_sha256.clone())
+            a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
+            a.warnings.extend(opened.warnings.iter().cloned());
         })?;
         outcome.seconds = started.elapsed().as_secs_f64();
         return Ok(outcome);
@@ -435,6 +449,7 @@ fn finish(
         analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
     }
     analysis.warnings.extend(resumed_builds(builds));
+    analysis.warnings.extend(opened.warnings.iter().cloned());
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = read_curves(plan, out)?;
@@ -502,7 +517,8 @@ struct CurvePoint {
 
 /// The validation-loss curve of every fitted job, in file-name order.
 fn read_curves(plan: &Plan, out: &Path) -> Result<Vec<Curve>, RunError> {
-    let mut jobs: Vec<&TrainingJob> = plan.jobs.iter().filter(|j| j.trains()).collect();
+    // External models' training happened elsewhere: no curve.
+    let mut jobs: Vec<&TrainingJob> = plan.jobs.iter().filter(|j| j.trains() && !j.kind.is_external()).collect();
     jobs.sort_by_key(|j| j.stem());
     let mut curves = Vec::new();
     for j in jobs {

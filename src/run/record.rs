@@ -132,6 +132,10 @@ pub struct JobRecord {
     pub files: BTreeMap<String, String>,
     /// The crossaudit build that ran it ([`crate::BUILD`]).
     pub crossaudit: String,
+    /// An external model's trajectories with a non-finite predicted state
+    /// (absent for built-in models).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub non_finite_starts: Option<usize>,
 }
 
 /// `out/jobs/STEM.json`.
@@ -185,7 +189,9 @@ impl JobRecord {
     pub fn expected_files(job: &TrainingJob) -> Vec<String> {
         let stem = job.stem();
         let mut files = vec![format!("cells/{stem}.csv")];
-        if job.trains() {
+        if job.kind.is_external() {
+            files.extend([format!("predictions/{stem}.json"), format!("predictions/{stem}.npy")]);
+        } else if job.trains() {
             files.extend([
                 format!("curves/{stem}.csv"),
                 format!("models/{stem}.json"),

@@ -84,6 +84,32 @@ pub(crate) enum Command {
         #[command(flatten)]
         slurm: SlurmArgs,
     },
+    /// Open a run directory as `run` does and write, for every external
+    /// model's job, the windows, standardizers and rollout starts its
+    /// trainer needs (DIR/export/: .npy arrays indexed by export.json).
+    Export {
+        design: PathBuf,
+        /// Data directory [default: the design's `path`].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// The run directory (DIR/export/ is written in it; predictions go in DIR/predictions/).
+        #[arg(long)]
+        out: PathBuf,
+        /// Allow a design changed after locking; every output is labelled EXPLORATORY.
+        #[arg(long)]
+        exploratory: bool,
+    },
+    /// Score the external models' predictions in DIR/predictions/
+    /// (MODEL__ARM__SEED.npy with its .json description) with the built-in
+    /// rollouts' code, run the built-in models, write cells.csv and the
+    /// report. Resumes; names the jobs still missing.
+    Score {
+        /// The run directory written by `crossaudit export`.
+        dir: PathBuf,
+        /// Parallel training workers for the built-in models, one thread each [default: one per core].
+        #[arg(long)]
+        workers: Option<usize>,
+    },
     /// Run one training job of a run prepared with `run --slurm` (what each
     /// Slurm array task runs); a finished job is verified and skipped.
     Job {

@@ -15,6 +15,7 @@ use crossaudit::{AnalyzeOptions, Error};
 #[macro_use]
 mod output;
 mod args;
+mod external;
 mod progress;
 
 use args::{AuditCommand, Cli, Command, DataCommand, SlurmArgs};
@@ -50,6 +51,8 @@ fn main() -> ExitCode {
             slurm_prepare(&design, data, &out, exploratory, slurm)
         }
         Command::Run { design, data, out, workers, exploratory, .. } => run(&design, data, &out, workers, exploratory),
+        Command::Export { design, data, out, exploratory } => external::export(&design, data, &out, exploratory),
+        Command::Score { dir, workers } => external::score(&dir, workers),
         Command::Job { dir, index } => slurm_job(&dir, index),
         Command::Gather { dir } => slurm_gather(&dir),
         Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
@@ -164,6 +167,7 @@ fn train(
         return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "train" }.into());
     }
     let plan = crossaudit::compile(&file.design);
+    crossaudit::run::refuse_external(&plan)?;
     let job = plan
         .jobs
         .iter()
@@ -211,6 +215,7 @@ fn run(
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
+    crossaudit::run::refuse_external(&plan)?;
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     crossaudit::run::check_workers(workers)?;
     // Before anything (simulated data included) is written into `out`.
@@ -245,6 +250,7 @@ fn slurm_prepare(
     use crossaudit::run::slurm;
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
+    crossaudit::run::refuse_external(&plan)?;
     let binary = std::env::current_exe().map_err(|e| crossaudit::run::RunError::Submit {
         script: "(not written)".into(),
         reason: format!("cannot locate the crossaudit binary: {e}"),

@@ -157,6 +157,12 @@ impl Validator {
                     let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
                     crate::design::ModelKind::Mlp { widths, inputs, actions }
                 }
+                ast::ModelKind::External { inputs, actions: own, history } => {
+                    let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
+                    let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
+                    let history = history.as_ref().map(|h| self.count(h, "a history length", 1, 1000)).unwrap_or(0);
+                    crate::design::ModelKind::External { inputs, actions, history: history as usize }
+                }
                 ast::ModelKind::Baseline(b) => {
                     if b.node == "persistence" {
                         crate::design::ModelKind::Persistence

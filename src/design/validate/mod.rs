@@ -499,7 +499,7 @@ impl Validator {
                 _ => None,
             },
             None => {
-                if let Some(m) = models.iter().find(|m| m.0.kind.trains()) {
+                if let Some(m) = models.iter().find(|m| matches!(m.0.kind, crate::design::ModelKind::Mlp { .. })) {
                     self.err_help(
                         "missing statement",
                         m.1,

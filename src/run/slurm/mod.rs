@@ -191,6 +191,7 @@ pub fn prepare(
     options: &SlurmOptions,
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
+    super::refuse_external(plan)?;
     check_dir(out)?;
     create_dir_all(out)?;
     let absolute = |p: &Path| p.canonicalize().map_err(|e| RunError::Write(crate::io::WriteError::new(p, e)));
@@ -338,8 +339,21 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
 /// directory, refused unless its audit and manifests are those of its
 /// run.json.
 fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::split::Prepared, RunError> {
-    let data_dir = &array.data_dir;
-    if let DataOrigin::Simulated { spec, record_sha256 } = &array.data {
+    rebuild_from(&array.data_dir, &array.data, &part.file, &part.plan, &part.dir, run)
+}
+
+/// The split of the run directory `dir` rebuilt in memory from `data_dir`
+/// (simulated data verified against its record, never generated), refused
+/// unless its audit and manifests are those of its run.json.
+pub(super) fn rebuild_from(
+    data_dir: &Path,
+    origin: &DataOrigin,
+    file: &DesignFile,
+    plan: &Plan,
+    dir: &Path,
+    run: &RunRecord,
+) -> Result<crate::split::Prepared, RunError> {
+    if let DataOrigin::Simulated { spec, record_sha256 } = origin {
         // Verify, never generate: other tasks may be reading the directory.
         if !data_dir.join(crate::sim::RECORD).is_file() {
             return Err(RunError::NoDataDir {
@@ -350,7 +364,7 @@ fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::s
         let now = ensured.record().sha256();
         if now != *record_sha256 {
             return Err(RunError::OtherData {
-                dir: part.dir.display().to_string(),
+                dir: dir.display().to_string(),
                 what: "simulation record (sha256)".into(),
                 was: record_sha256.clone(),
                 is: now,
@@ -360,10 +374,10 @@ fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::s
     if !data_dir.is_dir() {
         return Err(RunError::NoDataDir { dir: data_dir.display().to_string() });
     }
-    let prepared = crate::split::rebuild(&part.file, &part.plan, data_dir, &part.dir)?;
-    let data = Data { dir: data_dir.clone(), origin: array.data.clone() };
-    let now = RunRecord::new(&part.plan, &part.file, &data, &prepared, run.exploratory);
-    run.check_resume(&part.dir, &now)?;
+    let prepared = crate::split::rebuild(file, plan, data_dir, dir)?;
+    let data = Data { dir: data_dir.to_path_buf(), origin: origin.clone() };
+    let now = RunRecord::new(plan, file, &data, &prepared, run.exploratory);
+    run.check_resume(dir, &now)?;
     Ok(prepared)
 }
 
@@ -458,7 +472,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
         let exploratory = run.exploratory || lock.changed();
-        let opened = Opened { status: lock.clone(), exploratory, prepared, record: run };
+        let opened = Opened { status: lock.clone(), exploratory, prepared, record: run, warnings: Vec::new() };
         let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
         if let Some(level) = &part.level {
             splits.push((level.clone(), opened.prepared.split.clone()));

@@ -1,0 +1,60 @@
+//! `crossaudit export` and `crossaudit score`: models fitted outside
+//! crossaudit (`model NAME = external ...`).
+
+use std::path::{Path, PathBuf};
+
+use crossaudit::design;
+use crossaudit::run::lock_folder;
+use crossaudit::Error;
+
+use crate::progress;
+
+pub(crate) fn export(design: &Path, data: Option<PathBuf>, out: &Path, exploratory: bool) -> Result<(), Error> {
+    let file = design::load(design)?;
+    let plan = crossaudit::compile(&file.design);
+    // Before anything (simulated data included) is written into `out`.
+    crossaudit::run::external::check_exportable(&file, &plan)?;
+    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
+    let _lock = lock_folder(out, false)?;
+    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
+    let started = std::time::Instant::now();
+    let o = crossaudit::run::external::export(&file, &plan, &data, out, exploratory)?;
+    note!(
+        "exported {} external jobs in {:.1} s ({:.1} MB) to {}",
+        o.jobs,
+        started.elapsed().as_secs_f64(),
+        o.bytes as f64 / 1e6,
+        o.dir.display()
+    );
+    note!(
+        "fit each job on its arm's windows, write its rollouts to {}/predictions/MODEL__ARM__SEED.npy with a .json description, then run: crossaudit score {}",
+        out.display(),
+        out.display()
+    );
+    outln!("export sha256 {}", o.sha256);
+    Ok(())
+}
+
+pub(crate) fn score(dir: &Path, workers: Option<usize>) -> Result<(), Error> {
+    let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let progress = progress::RunProgress::new(workers, 0);
+    let result = crossaudit::run::external::score(dir, workers, &progress, &mut |line| note!("{line}"));
+    progress.finish();
+    let o = result?;
+    note!(
+        "{} external jobs scored now, {} before; {} built-in cells trained, {:.1} s; wrote {} and {}",
+        o.scored,
+        o.resumed,
+        o.run.trained,
+        o.run.seconds,
+        o.run.cells_csv.display(),
+        o.run.report_dir.display()
+    );
+    for (job, n, of) in &o.non_finite {
+        note!(
+            "warning: {job}: {n} of {of} predicted trajectories have a non-finite state (divergent from that step on)"
+        );
+    }
+    outln!("{}", o.run.analysis.decision_line());
+    Ok(())
+}

@@ -1,0 +1,56 @@
+//! NumPy `.npy` files through the `npyz` crate: float64 arrays written in C
+//! order, and predictions read back with their dtype, order and shape
+//! checked before any value is used.
+
+use super::RunError;
+
+/// The bytes of a little-endian float64 `.npy` of `shape` holding `data`
+/// (row-major).
+pub fn write(shape: &[usize], data: &[f64]) -> Result<Vec<u8>, RunError> {
+    use npyz::WriterBuilder;
+    debug_assert_eq!(shape.iter().product::<usize>(), data.len());
+    let fail = |e: std::io::Error| RunError::BadPredictions { path: "(npy writer)".into(), reason: e.to_string() };
+    let shape: Vec<u64> = shape.iter().map(|&d| d as u64).collect();
+    let mut buf = Vec::with_capacity(data.len() * 8 + 128);
+    let mut w =
+        npyz::WriteOptions::<f64>::new().default_dtype().shape(&shape).writer(&mut buf).begin_nd().map_err(fail)?;
+    w.extend(data.iter().copied()).map_err(fail)?;
+    w.finish().map_err(fail)?;
+    Ok(buf)
+}
+
+/// An array read from a `.npy`: its shape and values.
+pub struct Array {
+    /// The shape.
+    pub shape: Vec<usize>,
+    /// The values, row-major.
+    pub data: Vec<f64>,
+}
+
+/// Reads `bytes` as a float64 array of `shape`, refusing (with what was
+/// found and what is expected) anything but a little-endian `<f8` array
+/// in C order of exactly that shape.
+pub fn read(bytes: &[u8], shape: &[usize]) -> Result<Array, String> {
+    let file = npyz::NpyFile::new(bytes).map_err(|e| format!("not a NumPy .npy file ({e})"))?;
+    let dtype = match file.dtype() {
+        npyz::DType::Plain(t) => t.to_string(),
+        other => format!("{}", other.descr()),
+    };
+    if dtype != "<f8" {
+        return Err(format!(
+            "dtype {dtype}, expected <f8 (little-endian float64): write it with np.asarray(p, dtype='<f8')"
+        ));
+    }
+    if file.order() != npyz::Order::C {
+        return Err("Fortran order, expected C order: write it with np.ascontiguousarray(p)".into());
+    }
+    let found: Vec<usize> = file.shape().iter().map(|&d| d as usize).collect();
+    if found != shape {
+        return Err(format!("shape {found:?}, expected {shape:?} (starts x steps x state columns)"));
+    }
+    let data: Vec<f64> = file.into_vec().map_err(|e| format!("cannot read its values ({e})"))?;
+    if data.len() != shape.iter().product::<usize>() {
+        return Err(format!("{} values, expected {}", data.len(), shape.iter().product::<usize>()));
+    }
+    Ok(Array { shape: found, data })
+}

@@ -1,0 +1,341 @@
+//! `crossaudit score DIR`: the predictions of external models scored with
+//! the built-in rollouts' code, the built-in models run, then cells.csv,
+//! the analysis and the report written as `run` writes them.
+//!
+//! Nothing is scored until the export in `DIR/export/` is found to be,
+//! byte for byte, what the design and the data give now. Each predictions
+//! file is checked (NumPy format, `<f8`, C order, shape) and must be
+//! described by `MODEL__ARM__SEED.json` naming its job and the export's
+//! SHA-256. A scored job's record hashes its predictions, so a later
+//! change to them is refused; a rerun scores only what is new.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{build, external_jobs, npy, Built, ExportIndex, ExportJob, ExportSource, EXPORT_DIR, PREDICTIONS_DIR};
+use crate::cells::write_cells_atomic;
+use crate::design::{self, lock, DesignFile};
+use crate::io::{create_dir_all, sha256_hex};
+use crate::model::{State, EXOGENOUS, STATE};
+use crate::plan::{Plan, TrainingJob};
+use crate::rollout;
+use crate::run::record::JobRecord;
+use crate::run::{Opened, RunError, RunObserver, RunOutcome, RunRecord};
+use crate::split::{JobManifests, Prepared};
+
+/// `predictions/MODEL__ARM__SEED.json`: which job and which export a
+/// predictions file belongs to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Description {
+    /// SHA-256 of the `export/export.json` the predictions were made from.
+    pub export_sha256: String,
+    /// The model.
+    pub model: String,
+    /// The arm it was fitted on.
+    pub arm: String,
+    /// The seed it was trained with.
+    pub seed: u64,
+}
+
+/// What [`score`] did.
+#[derive(Debug)]
+pub struct ScoreOutcome {
+    /// cells.csv, the report and the analysis, as `run` returns them.
+    pub run: RunOutcome,
+    /// External jobs scored now.
+    pub scored: usize,
+    /// External jobs scored by an earlier `score` (verified, not redone).
+    pub resumed: usize,
+    /// Per external job with any: (`model/arm/seed`, trajectories with a
+    /// non-finite predicted state, trajectories).
+    pub non_finite: Vec<(String, usize, usize)>,
+}
+
+/// The run directory `dir` reopened from its export: the design copy, the
+/// plan, the prepared split rebuilt from the recorded data, and the export
+/// rebuilt in memory.
+struct Reopened {
+    source: ExportSource,
+    file: DesignFile,
+    plan: Plan,
+    run: RunRecord,
+    prepared: Prepared,
+    built: Built,
+}
+
+/// Scores the predictions in `dir/predictions`, runs the design's
+/// built-in models on `workers` workers, and writes cells.csv and the
+/// report. Predictions of every present job are scored and kept even when
+/// others are missing; then the missing ones are named (nothing else is
+/// run until all are there). `say` gets one line per job scored.
+pub fn score(
+    dir: &Path,
+    workers: usize,
+    observer: &dyn RunObserver,
+    say: &mut dyn FnMut(&str),
+) -> Result<ScoreOutcome, RunError> {
+    let started = std::time::Instant::now();
+    crate::run::check_workers(workers)?;
+    let r = reopen(dir)?;
+    let status = lock::status(&r.file)?;
+    if status.changed() && !r.run.exploratory {
+        return Err(RunError::LockChanged { path: r.source.design_path.clone(), reason: status.reason() });
+    }
+    let _folder = crate::run::lock_folder(dir, false)?;
+    check_export(dir, &r.built)?;
+    let export_sha = r.built.sha256();
+    let index = &r.built.index;
+    check_prediction_names(dir, index)?;
+
+    let jobs: Vec<&TrainingJob> = external_jobs(&r.plan);
+    let (mut scored, mut resumed, mut missing) = (0, 0, Vec::new());
+    let mut non_finite = Vec::new();
+    for (job, ej) in jobs.iter().zip(&index.jobs) {
+        let counted = match JobRecord::read(dir, job)? {
+            Some(rec) => {
+                rec.verify(dir, job, &r.file.sha256)?;
+                resumed += 1;
+                rec.non_finite_starts.unwrap_or(0)
+            }
+            None if dir.join(&ej.predictions).exists() || dir.join(&ej.description).exists() => {
+                let n = score_job(dir, &r, job, ej, &export_sha)?;
+                scored += 1;
+                say(&format!(
+                    "scored {} ({} starts x {} steps{})",
+                    job.label(),
+                    ej.shape[0],
+                    ej.shape[1],
+                    if n > 0 { format!("; {n} with a non-finite state, divergent from there") } else { String::new() }
+                ));
+                n
+            }
+            None => {
+                missing.push(format!("  {} ({})", job.label(), dir.join(&ej.predictions).display()));
+                continue;
+            }
+        };
+        if counted > 0 {
+            non_finite.push((job.label(), counted, ej.shape[0]));
+        }
+    }
+    if !missing.is_empty() {
+        return Err(RunError::PredictionsMissing {
+            dir: dir.display().to_string(),
+            missing: missing.len(),
+            jobs: jobs.len(),
+            scored: scored + resumed,
+            list: missing.join("\n"),
+        });
+    }
+
+    // The built-in models, trained and rolled out as `run` does.
+    let (todo, builds) = crate::run::pending(&r.plan, dir, &r.file.sha256)?;
+    let todo: std::collections::VecDeque<TrainingJob> = todo.into_iter().filter(|j| !j.kind.is_external()).collect();
+    observer.start(r.plan.jobs.len(), r.plan.jobs.len() - todo.len());
+    let trained = todo.len();
+    crate::run::grid::run_grid(&r.file.sha256, &r.plan, &r.prepared, dir, todo, workers, observer)?;
+
+    let mut warnings = vec![format!(
+        "models {} were fitted outside crossaudit; their rollouts were read from {PREDICTIONS_DIR}/ (made from export sha256 {export_sha}) and scored with the built-in rollouts' code",
+        super::external_names(&r.plan).unwrap_or_default()
+    )];
+    for (label, n, of) in &non_finite {
+        warnings.push(format!(
+            "external job {label}: {n} of {of} predicted trajectories have a non-finite state; each is divergent from its first non-finite step (counted in n_divergent)"
+        ));
+    }
+    let exploratory = r.run.exploratory || status.changed();
+    let opened = Opened { status, exploratory, prepared: r.prepared, record: r.run, warnings };
+    let mut outcome = crate::run::finish(&r.source.design_path, &r.plan, &opened, dir, builds)?;
+    outcome.trained = trained;
+    outcome.skipped = r.plan.jobs.len() - trained;
+    outcome.seconds = started.elapsed().as_secs_f64();
+    Ok(ScoreOutcome { run: outcome, scored, resumed, non_finite })
+}
+
+fn not_exported(dir: &Path, reason: String) -> RunError {
+    RunError::NotPrepared {
+        dir: dir.display().to_string(),
+        reason: format!("{reason}; run `crossaudit export DESIGN --out DIR` first"),
+    }
+}
+
+fn reopen(dir: &Path) -> Result<Reopened, RunError> {
+    let export = dir.join(EXPORT_DIR);
+    let source_path = export.join("source.json");
+    let bytes =
+        crate::io::read_own(&source_path).map_err(|e| not_exported(dir, format!("{}: {e}", source_path.display())))?;
+    let source: ExportSource =
+        serde_json::from_slice(&bytes).map_err(|e| not_exported(dir, format!("{}: {e}", source_path.display())))?;
+    let copy = export.join("design.design");
+    let file = design::load_copy(&copy, &source.design_file).map_err(|e| not_exported(dir, e.to_string()))?;
+    let plan = crate::plan::compile(&file.design);
+    super::check_exportable(&file, &plan)?;
+    let run_json = dir.join("run.json");
+    let run = RunRecord::read(dir)?.ok_or_else(|| not_exported(dir, format!("{} is missing", run_json.display())))?;
+    if run.design_sha256 != file.sha256 {
+        return Err(RunError::ExportChanged {
+            path: copy.display().to_string(),
+            reason: format!("design sha256 {}, run.json records {}", file.sha256, run.design_sha256),
+        });
+    }
+    let prepared = crate::run::slurm::rebuild_from(&source.data_dir, &source.data, &file, &plan, dir, &run)?;
+    let built = build(&file.sha256, &plan, &prepared)?;
+    Ok(Reopened { source, file, plan, run, prepared, built })
+}
+
+/// Refuses an export directory that is not exactly `built`: a missing,
+/// changed or extra file is named.
+fn check_export(dir: &Path, built: &Built) -> Result<(), RunError> {
+    let export = dir.join(EXPORT_DIR);
+    let mut expected: Vec<(&str, &[u8])> = built.files.iter().map(|(n, b)| (n.as_str(), b.as_slice())).collect();
+    expected.push(("export.json", &built.index_bytes));
+    for (name, bytes) in &expected {
+        let path = export.join(name);
+        let changed = |reason: String| RunError::ExportChanged { path: path.display().to_string(), reason };
+        let now = crate::io::read_own(&path).map_err(|e| changed(e.to_string()))?;
+        if now.len() != bytes.len() || sha256_hex(&now) != sha256_hex(bytes) {
+            return Err(changed(format!(
+                "sha256 {}, the export of this design and data has {}",
+                sha256_hex(&now),
+                sha256_hex(bytes)
+            )));
+        }
+    }
+    let known: BTreeSet<&str> = expected.iter().map(|(n, _)| *n).chain(["design.design", "source.json"]).collect();
+    let entries = std::fs::read_dir(&export).map_err(|e| RunError::Write(crate::io::WriteError::new(&export, e)))?;
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if !known.contains(name.as_str()) && !name.starts_with('.') {
+            return Err(RunError::ExportChanged {
+                path: entry.path().display().to_string(),
+                reason: "the export has no such file".into(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Every file in `predictions/` must be `STEM.npy` or `STEM.json` of an
+/// external job, spelled as the export spells it (one file per job).
+fn check_prediction_names(dir: &Path, index: &ExportIndex) -> Result<(), RunError> {
+    let pdir = dir.join(PREDICTIONS_DIR);
+    let Ok(entries) = std::fs::read_dir(&pdir) else { return Ok(()) };
+    let stems: BTreeSet<String> = index.jobs.iter().map(ExportJob::stem).collect();
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') {
+            continue;
+        }
+        let bad = |reason: String| RunError::BadPredictions { path: path.display().to_string(), reason };
+        if !path.is_file() {
+            return Err(bad("not a regular file; predictions/ holds only MODEL__ARM__SEED.npy and .json files".into()));
+        }
+        let stem = name.strip_suffix(".npy").or_else(|| name.strip_suffix(".json"));
+        let Some(stem) = stem else {
+            return Err(bad("predictions/ holds only MODEL__ARM__SEED.npy files and their .json descriptions".into()));
+        };
+        if stems.contains(stem) {
+            continue;
+        }
+        let same_job = index.jobs.iter().find(|j| {
+            let parts: Vec<&str> = stem.split("__").collect();
+            parts.len() == 3 && parts[0] == j.model && parts[1] == j.arm && parts[2].parse::<u64>().ok() == Some(j.seed)
+        });
+        return Err(bad(match same_job {
+            Some(j) => format!(
+                "names job {}/{}/{} again, whose file is {}: one file per job, named as export.json names it",
+                j.model, j.arm, j.seed, j.predictions
+            ),
+            None => format!(
+                "names no external job of this export (export/export.json lists {} jobs, e.g. {})",
+                index.jobs.len(),
+                index.jobs.first().map(|j| j.predictions.as_str()).unwrap_or("none")
+            ),
+        }));
+    }
+    Ok(())
+}
+
+/// Scores one external job's predictions: checks, per-cell rows and the
+/// job record (written last). Returns the trajectories with a non-finite
+/// predicted state.
+fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export_sha: &str) -> Result<usize, RunError> {
+    let path = dir.join(&ej.predictions);
+    let bad = |p: &Path, reason: String| RunError::BadPredictions { path: p.display().to_string(), reason };
+    let bytes = crate::io::read_own(&path)
+        .map_err(|e| bad(&path, format!("{e} (its description {} exists)", ej.description)))?;
+    let arr = npy::read(&bytes, &ej.shape).map_err(|reason| bad(&path, reason))?;
+    let dpath = dir.join(&ej.description);
+    let dbytes = crate::io::read_own(&dpath).map_err(|e| {
+        bad(&dpath, format!("{e}: every predictions file needs its description {{\"export_sha256\", \"model\", \"arm\", \"seed\"}} beside it"))
+    })?;
+    let d: Description =
+        serde_json::from_slice(&dbytes).map_err(|e| bad(&dpath, format!("not a predictions description: {e}")))?;
+    if d.export_sha256 != export_sha {
+        return Err(bad(
+            &dpath,
+            format!("made from export sha256 {}, but this directory's export is {export_sha}: predictions from another export", d.export_sha256),
+        ));
+    }
+    if (d.model.as_str(), d.arm.as_str(), d.seed) != (job.model.as_str(), job.arm.as_str(), job.seed.0) {
+        return Err(bad(
+            &dpath,
+            format!("describes job {}/{}/{}, but the file is that of {}", d.model, d.arm, d.seed, job.label()),
+        ));
+    }
+    let steps = ej.shape[1];
+    let predicted = |i: usize, k: usize| -> State {
+        let off = (i * steps + (k - 1)) * STATE;
+        let mut s = [0.0; STATE];
+        s.copy_from_slice(&arr.data[off..off + STATE]);
+        s
+    };
+    let non_finite = (0..ej.shape[0])
+        .filter(|&i| {
+            (1..=steps)
+                .any(|k| predicted(i, k).iter().enumerate().any(|(c, v)| !EXOGENOUS.contains(&c) && !v.is_finite()))
+        })
+        .count();
+    let (p, plan) = (&r.prepared, &r.plan);
+    let horizon_steps = rollout::horizon_steps(&job.horizons_s, plan.rate_hz);
+    let traces = rollout::replay(&predicted, &p.recordings, &p.split.starts, steps, &horizon_steps);
+    let cells =
+        rollout::cells(&job.model, &job.arm, job.seed.0, &p.split, &traces, &job.horizons_s, plan.rate_hz, plan.cap.0);
+    let cells_name = format!("cells/{}.csv", job.stem());
+    create_dir_all(&dir.join("cells"))?;
+    write_cells_atomic(&dir.join(&cells_name), &cells)?;
+    let files = [cells_name, ej.description.clone(), ej.predictions.clone()];
+    let m = &p.manifests;
+    let record = JobRecord {
+        model: job.model.clone(),
+        arm: job.arm.clone(),
+        seed: job.seed.0,
+        design_sha256: r.file.sha256.clone(),
+        manifests: JobManifests {
+            model: job.model.clone(),
+            arm: job.arm.clone(),
+            seed: job.seed,
+            evaluation_sha256: m.sha256("evaluation_recordings.csv").to_string(),
+            starts_sha256: m.sha256("evaluation_starts.csv").to_string(),
+            validation_sha256: m.sha256("validation_windows.csv").to_string(),
+            fit_sha256: m.sha256(&format!("fit_{}.csv", job.arm)).to_string(),
+        },
+        standardizers: Some(ej.standardizers.clone()),
+        files: JobRecord::hash_files(dir, &files)?,
+        crossaudit: crate::BUILD.to_string(),
+        non_finite_starts: Some(non_finite),
+    };
+    // The predictions were hashed after they were read and checked: a file
+    // replaced in between would be recorded with a hash it was not scored
+    // with, so compare.
+    if record.files.get(&ej.predictions).map(String::as_str) != Some(sha256_hex(&bytes).as_str()) {
+        return Err(bad(&path, "changed while it was being scored".into()));
+    }
+    record.write(dir, job)?;
+    Ok(non_finite)
+}
