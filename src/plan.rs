@@ -384,9 +384,15 @@ impl Plan {
         let _ = writeln!(s, "study: {}", self.study);
         let trains = self.jobs.iter().filter(|c| c.trains()).count();
         let splits = if self.splits.is_empty() { String::new() } else { format!(" x {} splits", self.splits.len()) };
+        let outside = self.jobs.iter().filter(|c| c.kind.is_external()).count();
+        let external = if outside == 0 {
+            String::new()
+        } else {
+            format!(", {outside} of them external: fitted by your own code on `crossaudit export`'s windows")
+        };
         let _ = writeln!(
             s,
-            "training cells: {} = {} models x {} arms x {} seeds{splits} ({} fitted, {} parameter-free)",
+            "training cells: {} = {} models x {} arms x {} seeds{splits} ({} fitted{external}, {} parameter-free)",
             self.jobs.len(),
             self.models.len(),
             self.arms.len(),

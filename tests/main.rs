@@ -10,6 +10,7 @@ mod coverage;
 mod data;
 mod design_errors;
 mod designs;
+mod external;
 mod family;
 mod fused;
 mod golden;

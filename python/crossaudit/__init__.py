@@ -1,0 +1,375 @@
+"""crossaudit from Python: preregistered, leakage-aware evaluation of learned
+dynamics models.
+
+A study is a ``.design`` file. This package loads and checks designs, runs
+the built-in models, exports what your own model (any framework) needs to
+be fitted under the design's locked split, scores its rollouts with the
+same failure-aware metrics and crossed statistics as the built-in models,
+reanalyses per-cell data and audits published splits.
+
+The usual loop for a model of your own (``model NAME = external inputs
+world`` in the design)::
+
+    import crossaudit
+    ex = crossaudit.export("study.design", "out/study")
+    for job in ex.jobs.itertuples():
+        fit = ex.fit(job.arm, model=job.model)        # dict of NumPy arrays
+        ...                                           # train with job.seed
+        ex.write_predictions(job.model, job.arm, job.seed, trajectories)
+    result = crossaudit.score("out/study")
+    result.estimates                                  # pandas DataFrame
+
+Every error crossaudit reports is raised as :class:`CrossauditError`
+with the command line's message (a design error names its file, line and
+column).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Union
+
+import numpy as np
+import pandas as pd
+
+from . import _native
+from ._native import CrossauditError
+
+__all__ = [
+    "CrossauditError",
+    "Design",
+    "Export",
+    "Result",
+    "analyze",
+    "audit_split",
+    "build",
+    "export",
+    "load_design",
+    "open_export",
+    "read_cells",
+    "run",
+    "score",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: The 14 state columns of every state array and prediction, in order.
+STATE_COLUMNS = ["x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "ref_x", "ref_y", "ref_z", "battery"]
+
+
+def build() -> str:
+    """The crossaudit build (version and commit) behind this package."""
+    return _native.build()
+
+
+@dataclass
+class Design:
+    """A validated design: its path, SHA-256, lock state and compiled plan."""
+
+    path: str
+    sha256: str
+    lock: str
+    plan: dict
+    plan_text: str
+    validated: dict = field(repr=False)
+
+    @property
+    def jobs(self) -> pd.DataFrame:
+        """One row per job (model x arm x seed): model, kind, arm, seed, horizons."""
+        rows = [
+            {
+                "model": j["model"],
+                "kind": j["kind"]["kind"],
+                "arm": j["arm"],
+                "seed": j["seed"],
+                "horizons_s": j["horizons_s"],
+            }
+            for j in self.plan["jobs"]
+        ]
+        return pd.DataFrame(rows, columns=["model", "kind", "arm", "seed", "horizons_s"])
+
+    @property
+    def external_models(self) -> List[str]:
+        """Names of the models fitted outside crossaudit."""
+        return [m["name"] for m in self.plan["models"] if m["kind"]["kind"] == "external"]
+
+    def __str__(self) -> str:
+        return self.plan_text
+
+
+def load_design(path: PathLike) -> Design:
+    """Loads and validates a design; raises CrossauditError with the located
+    message (``file:line:column``) if it is invalid."""
+    d = json.loads(_native.load_design(os.fspath(path)))
+    return Design(d["path"], d["sha256"], d["lock"], d["plan"], d["plan_text"], d["validated"])
+
+
+def _load(path: Path) -> np.ndarray:
+    return np.load(path, allow_pickle=False)
+
+
+class Export:
+    """An export written by :func:`export` (``DIR/export/``): the windows,
+    standardizers and rollout starts of every external job, and where its
+    predictions go."""
+
+    def __init__(self, directory: PathLike):
+        self.directory = Path(directory)
+        path = self.directory / "export" / "export.json"
+        try:
+            raw = path.read_bytes()
+        except OSError as e:
+            raise CrossauditError(f"{path}: {e}; run crossaudit.export(design, dir) first") from None
+        #: SHA-256 of export.json, which every predictions description quotes.
+        self.sha256 = hashlib.sha256(raw).hexdigest()
+        #: The index, as written.
+        self.index = json.loads(raw)
+
+    def _array(self, name: str) -> np.ndarray:
+        return _load(self.directory / "export" / name)
+
+    @property
+    def jobs(self) -> pd.DataFrame:
+        """One row per external job: model, arm, seed, inputs, actions,
+        history, steps, predictions (the file to write)."""
+        cols = ["model", "arm", "seed", "inputs", "actions", "history", "steps", "predictions"]
+        return pd.DataFrame([{c: j[c] for c in cols} for j in self.index["jobs"]], columns=cols)
+
+    def job(self, model: str, arm: str, seed: int) -> dict:
+        """The index entry of one job."""
+        for j in self.index["jobs"]:
+            if (j["model"], j["arm"], j["seed"]) == (model, arm, int(seed)):
+                return j
+        raise CrossauditError(f"no external job {model}/{arm}/{seed} in {self.directory}/export/export.json")
+
+    def _model_job(self, arm: str, model: Optional[str]) -> dict:
+        for j in self.index["jobs"]:
+            if j["arm"] == arm and (model is None or j["model"] == model):
+                return j
+        raise CrossauditError(f"no external job of arm {arm!r}" + (f" and model {model!r}" if model else ""))
+
+    def fit(self, arm: str, model: Optional[str] = None) -> Dict[str, np.ndarray]:
+        """The arm's fit windows: ``states`` (N x 14), ``actions`` (N x 4),
+        ``next_states`` (N x 14), ``history`` (N x H x 18) when declared, and
+        for ``model`` its standardized ``inputs`` (N x 18) and ``targets``
+        (N x 14)."""
+        files = self.index["fit"].get(arm)
+        if files is None:
+            raise CrossauditError(f"no arm {arm!r}; arms: {', '.join(self.index['fit'])}")
+        out = {k: self._array(v) for k, v in files.items()}
+        if model is not None:
+            j = self._model_job(arm, model)
+            out["inputs"] = self._array(j["files"]["fit_inputs"])
+            out["targets"] = self._array(j["files"]["fit_targets"])
+        return out
+
+    def validation(self, arm: Optional[str] = None, model: Optional[str] = None) -> Dict[str, np.ndarray]:
+        """The shared validation windows (as :meth:`fit`); with ``arm`` and
+        ``model``, their inputs and targets through that arm's standardizers."""
+        out = {k: self._array(v) for k, v in self.index["validation"].items()}
+        if arm is not None and model is not None:
+            j = self._model_job(arm, model)
+            out["inputs"] = self._array(j["files"]["validation_inputs"])
+            out["targets"] = self._array(j["files"]["validation_targets"])
+        return out
+
+    def starts(self) -> Dict[str, Union[np.ndarray, pd.DataFrame]]:
+        """The registered rollout starts: ``states`` (S x 14), ``actions``
+        (S x K x 4: u at steps 0..K-1), ``exogenous`` (S x K x 4: the measured
+        reference and battery at steps 1..K, which the rollout overwrites),
+        ``history`` (S x H x 18) when declared, and ``table`` (recording,
+        sample index, trajectory, speed)."""
+        out: Dict[str, Union[np.ndarray, pd.DataFrame]] = {}
+        for k, v in self.index["start_files"].items():
+            out[k] = pd.read_csv(self.directory / "export" / v) if k == "table" else self._array(v)
+        return out
+
+    def standardizers(self, model: str, arm: str) -> dict:
+        """The standardizers of ``model``'s inputs and targets on ``arm``
+        (``input``/``target`` mean and std), as a built-in MLP would fit them."""
+        return self._model_job(arm, model)["standardizers"]
+
+    def rollout_inputs(self, step: int) -> Dict[str, np.ndarray]:
+        """What an open-loop rollout feeds at ``step`` (0-based) of every start:
+        the measured action u_t and the exogenous values of the next state."""
+        s = self.starts()
+        return {"actions": s["actions"][:, step, :], "exogenous": s["exogenous"][:, step, :]}
+
+    def write_predictions(self, model: str, arm: str, seed: int, trajectories: np.ndarray) -> Path:
+        """Writes one job's predicted trajectories (starts x steps x 14 states
+        at steps 1..K, float64) with its description; checks the shape first."""
+        j = self.job(model, arm, seed)
+        p = np.ascontiguousarray(np.asarray(trajectories, dtype="<f8"))
+        if list(p.shape) != list(j["shape"]):
+            raise CrossauditError(
+                f"predictions for {model}/{arm}/{seed} have shape {list(p.shape)}, expected {j['shape']} "
+                "(starts x steps x state columns)"
+            )
+        path = self.directory / j["predictions"]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".npy.tmp")
+        with open(tmp, "wb") as f:
+            np.save(f, p, allow_pickle=False)
+        os.replace(tmp, path)
+        desc = {"export_sha256": self.sha256, "model": model, "arm": arm, "seed": int(seed)}
+        (self.directory / j["description"]).write_text(json.dumps(desc))
+        return path
+
+
+def export(design: PathLike, out: PathLike, data: Optional[PathLike] = None, exploratory: bool = False) -> Export:
+    """``crossaudit export``: opens ``out`` as a run does (lock, audit, split,
+    manifests, invariants) and writes every external job's windows,
+    standardizers and starts to ``out/export``."""
+    _native.export(os.fspath(design), os.fspath(out), None if data is None else os.fspath(data), exploratory)
+    return Export(out)
+
+
+def open_export(directory: PathLike) -> Export:
+    """An export already written into ``directory``."""
+    return Export(directory)
+
+
+@dataclass
+class Result:
+    """What :func:`score`, :func:`run` or :func:`analyze` produced."""
+
+    decision: str
+    holds: bool
+    estimates: pd.DataFrame
+    results: dict = field(repr=False)
+    cells: Optional[pd.DataFrame] = None
+    report_dir: Optional[Path] = None
+    details: dict = field(default_factory=dict, repr=False)
+
+
+def _estimates(results: dict) -> pd.DataFrame:
+    """One row per analysis unit and interaction: the crossed estimate of
+    treated - reference, its SE, df, interval, arm means and optimism (%)."""
+    rows = []
+    for u in results.get("units", []):
+        e = u["estimate"]
+        rows.append(
+            {
+                "kind": "endpoint",
+                "role": u["role"],
+                "model": u["model"],
+                "metric": u["metric"],
+                "horizon_s": u["horizon_s"],
+                "mean_treated": u["mean_treated"],
+                "mean_reference": u["mean_reference"],
+                "estimate": e.get("mean"),
+                "se": e.get("se"),
+                "df": e.get("df"),
+                "lower": e.get("lower"),
+                "upper": e.get("upper"),
+                "optimism_pct": u["optimism_pct"],
+                "rule_holds": u["rule_holds"],
+            }
+        )
+    for i in results.get("interactions", []):
+        e = i.get("estimate", {})
+        rows.append(
+            {
+                "kind": "interaction",
+                "role": "interaction",
+                "model": f"{i.get('left')} - {i.get('right')}",
+                "metric": i.get("metric"),
+                "horizon_s": i.get("horizon_s"),
+                "estimate": e.get("mean"),
+                "se": e.get("se"),
+                "df": e.get("df"),
+                "lower": e.get("lower"),
+                "upper": e.get("upper"),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def read_cells(path: PathLike) -> pd.DataFrame:
+    """A per-cell CSV (``cells.csv``) as a DataFrame, one row per model x arm
+    x seed x recording x horizon."""
+    return pd.read_csv(path)
+
+
+def _finished(d: dict) -> Result:
+    report = Path(d["report_dir"])
+    results = json.loads((report / "results.json").read_text())
+    return Result(
+        decision=d["decision"],
+        holds=d["holds"],
+        estimates=_estimates(results),
+        results=results,
+        cells=read_cells(d["cells_csv"]),
+        report_dir=report,
+        details=d,
+    )
+
+
+def score(directory: PathLike, workers: Optional[int] = None) -> Result:
+    """``crossaudit score``: checks and scores the predictions in
+    ``directory/predictions``, runs the design's built-in models, writes
+    cells.csv and the report, and returns the estimates."""
+    return _finished(json.loads(_native.score(os.fspath(directory), workers)))
+
+
+def run(
+    design: PathLike,
+    out: PathLike,
+    data: Optional[PathLike] = None,
+    workers: Optional[int] = None,
+    exploratory: bool = False,
+) -> Result:
+    """``crossaudit run``: the whole study with the built-in models."""
+    d = _native.run(os.fspath(design), os.fspath(out), None if data is None else os.fspath(data), workers, exploratory)
+    return _finished(json.loads(d))
+
+
+def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optional[PathLike] = None) -> Result:
+    """The design's preregistered analysis of per-cell data (a CSV path or a
+    DataFrame with the per-cell columns); writes the report to ``out`` if
+    given."""
+    if isinstance(cells, pd.DataFrame):
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "cells.csv"
+            cells.to_csv(path, index=False)
+            return analyze(design, path, out)
+    text, line, holds = _native.analyze(os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out))
+    results = json.loads(text)
+    return Result(
+        decision=line,
+        holds=holds,
+        estimates=_estimates(results),
+        results=results,
+        cells=read_cells(cells),
+        report_dir=None if out is None else Path(out),
+    )
+
+
+def audit_split(
+    split: PathLike,
+    data: PathLike,
+    out: PathLike,
+    design: Optional[PathLike] = None,
+    min_run: int = 50,
+) -> dict:
+    """``crossaudit audit split``: audits a published split against the flight
+    logs in ``data``; returns the audit (split_audit.json), its per-recording
+    table as ``recordings`` (a DataFrame) and ``exact_leak``."""
+    paths, leak = _native.audit_split(
+        os.fspath(split), os.fspath(data), os.fspath(out), None if design is None else os.fspath(design), min_run
+    )
+    audit: dict = {}
+    for p in map(Path, paths):
+        if p.suffix == ".json":
+            audit = json.loads(p.read_text())
+        elif p.suffix == ".csv":
+            audit["recordings"] = pd.read_csv(p)
+    audit["exact_leak"] = leak
+    audit["files"] = [str(p) for p in paths]
+    return audit

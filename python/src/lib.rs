@@ -1,0 +1,195 @@
+//! `crossaudit._native`: the Python package's bridge to the library. Each
+//! function makes the library call the command line makes and returns
+//! plain values or JSON text; `crossaudit/__init__.py` turns them into
+//! NumPy arrays and pandas DataFrames. Every library error is raised as
+//! `CrossauditError` with the message the command line prints (a design
+//! error with its file, line and column).
+
+use std::path::{Path, PathBuf};
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+
+create_exception!(_native, CrossauditError, PyException, "An error crossaudit reports: bad input, a refused run or export, a failed check.");
+
+fn fail(e: impl Into<crossaudit::Error>) -> PyErr {
+    let e: crossaudit::Error = e.into();
+    let text = match &e {
+        crossaudit::Error::Design(crossaudit::design::LoadError::Design(d)) => d.render(false),
+        other => other.to_string(),
+    };
+    CrossauditError::new_err(text.trim_end().to_string())
+}
+
+fn json(v: &impl serde::Serialize) -> PyResult<String> {
+    serde_json::to_string(v).map_err(|e| CrossauditError::new_err(e.to_string()))
+}
+
+/// Loads and validates a design; returns JSON with its path, SHA-256, lock
+/// state, compiled plan (jobs, models, arms, seeds, endpoints), the plan
+/// as `crossaudit check` prints it, and the validated design.
+#[pyfunction]
+fn load_design(path: PathBuf) -> PyResult<String> {
+    let file = crossaudit::design::load(&path).map_err(fail)?;
+    let status = crossaudit::design::lock::status(&file).map_err(fail)?;
+    let plan = crossaudit::compile(&file.design);
+    json(&serde_json::json!({
+        "path": path.display().to_string(),
+        "sha256": file.sha256,
+        "lock": status.label(),
+        "plan": plan,
+        "plan_text": plan.render_text(),
+        "validated": file.design,
+    }))
+}
+
+/// `crossaudit export DESIGN --out OUT`; returns the export's SHA-256.
+#[pyfunction]
+#[pyo3(signature = (design, out, data=None, exploratory=false))]
+fn export(py: Python<'_>, design: PathBuf, out: PathBuf, data: Option<PathBuf>, exploratory: bool) -> PyResult<String> {
+    py.detach(|| {
+        let file = crossaudit::design::load(&design).map_err(fail)?;
+        let plan = crossaudit::compile(&file.design);
+        crossaudit::run::external::check_exportable(&file, &plan).map_err(fail)?;
+        crossaudit::run::check_out_plan(&out, &plan, &file.sha256).map_err(fail)?;
+        let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
+        let data = crossaudit::run::data_dir(&file.design, &file.path, data, &out).map_err(fail)?;
+        let o = crossaudit::run::external::export(&file, &plan, &data, &out, exploratory).map_err(fail)?;
+        Ok(o.sha256)
+    })
+}
+
+/// `crossaudit score DIR`; returns JSON: cells.csv and report paths, the
+/// decision line and whether it holds, jobs scored now and before, and
+/// the non-finite trajectories per job.
+#[pyfunction]
+#[pyo3(signature = (dir, workers=None))]
+fn score(py: Python<'_>, dir: PathBuf, workers: Option<usize>) -> PyResult<String> {
+    let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let o = py.detach(|| {
+        crossaudit::run::external::score(&dir, workers, &crossaudit::run::Quiet, &mut |_| {}).map_err(fail)
+    })?;
+    json(&serde_json::json!({
+        "cells_csv": o.run.cells_csv,
+        "report_dir": o.run.report_dir,
+        "decision": o.run.analysis.decision_line(),
+        "holds": o.run.analysis.holds(),
+        "scored": o.scored,
+        "resumed": o.resumed,
+        "trained": o.run.trained,
+        "non_finite": o.non_finite,
+    }))
+}
+
+/// `crossaudit run DESIGN --out OUT` (the built-in models); returns JSON as
+/// [`score`] does.
+#[pyfunction]
+#[pyo3(signature = (design, out, data=None, workers=None, exploratory=false))]
+fn run(
+    py: Python<'_>,
+    design: PathBuf,
+    out: PathBuf,
+    data: Option<PathBuf>,
+    workers: Option<usize>,
+    exploratory: bool,
+) -> PyResult<String> {
+    let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let o = py.detach(|| {
+        let file = crossaudit::design::load(&design).map_err(fail)?;
+        let plan = crossaudit::compile(&file.design);
+        crossaudit::run::refuse_external(&plan).map_err(fail)?;
+        crossaudit::run::check_workers(workers).map_err(fail)?;
+        crossaudit::run::check_out_plan(&out, &plan, &file.sha256).map_err(fail)?;
+        let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
+        let data = crossaudit::run::data_dir(&file.design, &file.path, data, &out).map_err(fail)?;
+        let options = crossaudit::run::RunOptions { workers, exploratory };
+        crossaudit::run::run(&file, &plan, &data, &out, options, &crossaudit::run::Quiet).map_err(fail)
+    })?;
+    json(&serde_json::json!({
+        "cells_csv": o.cells_csv,
+        "report_dir": o.report_dir,
+        "decision": o.analysis.decision_line(),
+        "holds": o.analysis.holds(),
+        "trained": o.trained,
+    }))
+}
+
+/// `crossaudit analyze DESIGN --cells CELLS`: the preregistered analysis of
+/// a per-cell CSV; returns results.json's text. With `out`, the report is
+/// written there too.
+#[pyfunction]
+#[pyo3(signature = (design, cells, out=None))]
+fn analyze(py: Python<'_>, design: PathBuf, cells: PathBuf, out: Option<PathBuf>) -> PyResult<(String, String, bool)> {
+    py.detach(|| {
+        let file = crossaudit::design::load(&design).map_err(fail)?;
+        let plan = crossaudit::compile(&file.design);
+        if !plan.doses.is_empty() || !plan.splits.is_empty() || file.design.multiverse.is_some() {
+            return Err(CrossauditError::new_err(
+                "analyze() takes a single-contrast design; use the command line's `crossaudit analyze` for dose, split and multiverse designs",
+            ));
+        }
+        let analysis = crossaudit::analyze_with(&file, &plan, &cells, Default::default()).map_err(fail)?;
+        if let Some(dir) = &out {
+            crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
+            crossaudit::io::create_dir_all(dir).map_err(fail)?;
+            crossaudit::report::write_all(&analysis, dir).map_err(fail)?;
+        }
+        let line = crossaudit::report::decision_line(&analysis);
+        Ok((json(&analysis)?, line, analysis.decision.holds))
+    })
+}
+
+/// `crossaudit audit split SPLIT --data DATA --out OUT`; returns the paths
+/// written (split_audit.json, split_audit.md, split_recordings.csv) and
+/// whether exact leakage was found.
+#[pyfunction]
+#[pyo3(signature = (split, data, out, design=None, min_run=50))]
+fn audit_split(
+    py: Python<'_>,
+    split: PathBuf,
+    data: PathBuf,
+    out: PathBuf,
+    design: Option<PathBuf>,
+    min_run: usize,
+) -> PyResult<(Vec<PathBuf>, bool)> {
+    py.detach(|| {
+        let published = crossaudit::published::read(&split).map_err(fail)?;
+        let (spec, from) = match &design {
+            Some(d) => (crossaudit::design::load(d).map_err(fail)?.design.data, format!("data rules of {}", d.display())),
+            None => (crossaudit::design::DataSpec::upstream_task2(), "upstream NanoBench task-2 loader".to_string()),
+        };
+        if !Path::new(&data).is_dir() {
+            return Err(fail(crossaudit::run::RunError::NoDataDir { dir: data.display().to_string() }));
+        }
+        crossaudit::run::check_out_dir(&data, &out).map_err(fail)?;
+        let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
+        let options = crossaudit::split_audit::Options { min_run_rows: min_run };
+        let audit = crossaudit::split_audit::audit(&published, &spec, &from, &data, options).map_err(fail)?;
+        let written = audit.write(&out).map_err(fail)?;
+        Ok((written, audit.has_exact_leak()))
+    })
+}
+
+/// The crossaudit build (version and commit).
+#[pyfunction]
+fn build() -> &'static str {
+    crossaudit::BUILD
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("CrossauditError", m.py().get_type::<CrossauditError>())?;
+    for f in [
+        wrap_pyfunction!(load_design, m)?,
+        wrap_pyfunction!(export, m)?,
+        wrap_pyfunction!(score, m)?,
+        wrap_pyfunction!(run, m)?,
+        wrap_pyfunction!(analyze, m)?,
+        wrap_pyfunction!(audit_split, m)?,
+        wrap_pyfunction!(build, m)?,
+    ] {
+        m.add_function(f)?;
+    }
+    Ok(())
+}

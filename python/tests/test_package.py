@@ -1,0 +1,133 @@
+"""The Python package on the simulated quickstart, end to end with a model
+of our own: a ridge regression in NumPy, fitted on the exported windows of
+each arm, rolled out open loop from the registered starts, written as
+predictions, scored and analysed. No torch; seconds."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import crossaudit
+
+EXTERNAL = "tests/designs/quickstart_external.design"
+
+
+def ridge_fit(inputs: np.ndarray, targets: np.ndarray, lam: float = 1e-3) -> np.ndarray:
+    """Least squares with an intercept and a small ridge penalty."""
+    x = np.hstack([inputs, np.ones((len(inputs), 1))])
+    return np.linalg.solve(x.T @ x + lam * np.eye(x.shape[1]), x.T @ targets)
+
+
+def rollout(weights: np.ndarray, std: dict, starts: dict, steps: int) -> np.ndarray:
+    """Open-loop rollout of the world-frame ridge model: the standardized
+    state and raw actions in, the state-scaled increment out."""
+    mean_in, sd_in = np.array(std["input"]["mean"]), np.array(std["input"]["std"])
+    mean_t, sd_t = np.array(std["target"]["mean"]), np.array(std["target"]["std"])
+    x = starts["states"].copy()
+    out = np.empty((x.shape[0], steps, 14))
+    for k in range(steps):
+        raw = np.hstack([x, starts["actions"][:, k, :]])
+        z = np.hstack([(raw - mean_in) / sd_in, np.ones((len(x), 1))]) @ weights
+        x = x + z * sd_t + mean_t
+        x[:, 10:14] = starts["exogenous"][:, k, :]  # measured reference and battery
+        x[:, 6:10] /= np.linalg.norm(x[:, 6:10], axis=1, keepdims=True)
+        out[:, k, :] = x
+    return out
+
+
+def test_load_design_gives_the_plan_and_located_errors(tmp_path):
+    d = crossaudit.load_design(EXTERNAL)
+    assert d.external_models == ["world"]
+    jobs = d.jobs
+    assert len(jobs) == 30 and set(jobs["kind"]) == {"external", "mlp", "persistence"}
+    assert "external inputs world" in str(d)
+    bad = tmp_path / "bad.design"
+    bad.write_text(Path(EXTERNAL).read_text().replace("external inputs world", "external inputs sideways"))
+    with pytest.raises(crossaudit.CrossauditError) as e:
+        crossaudit.load_design(bad)
+    assert f"{bad}:" in str(e.value) and "sideways" in str(e.value)
+
+
+def test_a_numpy_ridge_model_through_export_score_and_analyze(tmp_path, workers):
+    out = tmp_path / "study"
+    ex = crossaudit.export(EXTERNAL, out)
+    assert len(ex.sha256) == 64
+    assert list(ex.jobs.columns[:3]) == ["model", "arm", "seed"] and len(ex.jobs) == 10
+    starts = ex.starts()
+    assert starts["states"].shape == (300, 14) and starts["actions"].shape == (300, 100, 4)
+    assert list(starts["table"].columns) == ["index", "recording", "sample_index", "trajectory", "speed"]
+    val = ex.validation("disjoint", "world")
+    assert val["inputs"].shape[1] == 18 and val["targets"].shape[1] == 14
+    for job in ex.jobs.itertuples():
+        fit = ex.fit(job.arm, model=job.model)
+        assert fit["inputs"].shape == (8000, 18) and fit["states"].shape == (8000, 14)
+        w = ridge_fit(fit["inputs"], fit["targets"])
+        traj = rollout(w, ex.standardizers(job.model, job.arm), starts, job.steps)
+        ex.write_predictions(job.model, job.arm, job.seed, traj)
+    result = crossaudit.score(out, workers=workers)
+    assert result.details["scored"] == 10 and result.details["trained"] == 10
+    assert result.decision.startswith("decision: ")
+    est = result.estimates
+    primary = est[est["role"] == "primary"].iloc[0]
+    assert primary["model"] == "world" and primary["horizon_s"] == 1.0
+    assert primary["lower"] <= primary["estimate"] <= primary["upper"]
+    # The estimate is the mean of the per-cell differences (crossed design, balanced).
+    cells = result.cells
+    w1 = cells[(cells.model == "world") & (cells.horizon_s == 1.0)]
+    piv = w1.pivot_table(index=["recording", "seed"], columns="arm", values="fa_position_rmse_m")
+    assert primary["estimate"] == pytest.approx((piv["contaminated"] - piv["disjoint"]).mean(), rel=1e-12)
+    assert (result.report_dir / "report.md").read_text().count("fitted outside crossaudit") >= 1
+
+    # The same cells analysed again give the same estimates.
+    again = crossaudit.analyze(EXTERNAL, out / "cells.csv")
+    pd.testing.assert_frame_equal(again.estimates, result.estimates)
+    assert again.decision == result.decision
+    from_frame = crossaudit.analyze(EXTERNAL, crossaudit.read_cells(out / "cells.csv"))
+    assert from_frame.estimates["estimate"].tolist() == result.estimates["estimate"].tolist()
+
+
+def test_predictions_are_checked_before_they_are_written(tmp_path):
+    ex = crossaudit.export(EXTERNAL, tmp_path / "study")
+    job = ex.jobs.iloc[0]
+    with pytest.raises(crossaudit.CrossauditError, match="expected \\[300, 100, 14\\]"):
+        ex.write_predictions(job.model, job.arm, job.seed, np.zeros((300, 99, 14)))
+    with pytest.raises(crossaudit.CrossauditError, match="no external job"):
+        ex.write_predictions("relative", job.arm, job.seed, np.zeros((300, 100, 14)))
+    # score names what is missing and keeps what is there.
+    ex.write_predictions(job.model, job.arm, job.seed, np.repeat(ex.starts()["states"][:, None, :], 100, axis=1))
+    with pytest.raises(crossaudit.CrossauditError, match="9 of 10 external jobs have no predictions"):
+        crossaudit.score(tmp_path / "study")
+    # A file edited after export is refused by name.
+    f = tmp_path / "study" / "export" / "starts_states.npy"
+    a = np.load(f)
+    a[0, 0] += 1.0
+    np.save(f, a)
+    with pytest.raises(crossaudit.CrossauditError, match="starts_states.npy"):
+        crossaudit.score(tmp_path / "study")
+
+
+def test_run_refuses_external_and_analyze_reads_example_cells(root, tmp_path):
+    with pytest.raises(crossaudit.CrossauditError, match="crossaudit export"):
+        crossaudit.run(EXTERNAL, tmp_path / "x")
+    assert not (tmp_path / "x").exists()
+    r = crossaudit.analyze("designs/nanobench_confirmatory.design", root / "examples/cells/nanobench_synthetic.csv")
+    # The decision the README quotes for this example.
+    assert r.decision.startswith("decision: NOT CONFIRMED") and not r.holds
+    committed = json.loads((root / "results/example/results.json").read_text())
+    assert r.estimates["estimate"].iloc[0] == pytest.approx(committed["units"][0]["estimate"]["mean"], rel=1e-12)
+
+
+def test_audit_split_matches_the_command_line(root, tmp_path):
+    import subprocess, os
+
+    split, data = root / "tests/fixtures/splits/nanobench_small.json", root / "tests/fixtures/splits/data"
+    a = crossaudit.audit_split(split, data, tmp_path / "py")
+    assert isinstance(a["exact_leak"], bool) and isinstance(a["recordings"], pd.DataFrame)
+    assert len(a["recordings"]) > 0
+    binary = os.environ.get("CROSSAUDIT_BIN")
+    if binary:
+        subprocess.run([binary, "audit", "split", str(split), "--data", str(data), "--out", str(tmp_path / "cli")], check=False)
+        assert (tmp_path / "cli/split_audit.json").read_bytes() == (tmp_path / "py/split_audit.json").read_bytes()

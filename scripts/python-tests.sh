@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The Python package's tests: a fresh virtual environment, the package
+# built from python/ by maturin (PEP 517, through pip) and installed with
+# its test extra, then pytest on python/tests (the simulated quickstart with
+# a NumPy ridge model through export, score and analyze; no torch).
+#
+#   bash scripts/python-tests.sh            # venv in target/python-venv
+#
+# The wheel is built with cargo's test profile, which `cargo test` has
+# already compiled the library with (CARGO_TARGET_DIR is honoured).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+target="${CARGO_TARGET_DIR:-target}"
+case "$target" in /*) ;; *) target="$PWD/$target" ;; esac
+venv="$target/python-venv"
+rm -rf "$venv"
+python3 -m venv "$venv"
+"$venv/bin/pip" install --quiet --upgrade pip
+t0=$(date +%s)
+"$venv/bin/pip" install --quiet "./python[test]"
+echo "python-tests: built and installed the package in $(( $(date +%s) - t0 )) s"
+# The command line built by `cargo test` (same profile), for comparisons.
+export CROSSAUDIT_BIN="$target/debug/crossaudit"
+[ -x "$CROSSAUDIT_BIN" ] || unset CROSSAUDIT_BIN
+"$venv/bin/python" -m pytest -q python/tests
