@@ -101,7 +101,7 @@ fn the_mlps_own_rollouts_as_predictions_score_to_the_quickstarts_cells_byte_for_
     let e = stderr(&o);
     assert!(e.contains("scored world/disjoint/1") && e.contains("10 external jobs scored now"), "{e}");
     let (x, y) = (files_under(&a.join("cells")), files_under(&b.join("cells")));
-    assert_eq!(x.len(), 30, "world, relative and persistence x 2 arms x 5 seeds");
+    assert_eq!(x.len(), 20, "world and relative x 2 arms x 5 seeds");
     assert_eq!(x.iter().map(|f| &f.0).collect::<Vec<_>>(), y.iter().map(|f| &f.0).collect::<Vec<_>>());
     for ((name, left), (_, right)) in x.iter().zip(&y) {
         assert!(left == right, "cells/{name} differs between run and score");
@@ -128,23 +128,27 @@ fn export_small(dir: &Path) -> (ExportIndex, String) {
     index(dir)
 }
 
-/// Persistence as an external model's predictions: every step the
-/// initial state; on the contaminated arm, positions offset by 1 cm per
-/// seed times the start's index modulo 3 (so the arms differ).
+/// Persistence's own rollouts (the library's baseline, renormalised as
+/// every rollout is) as an external model's predictions; on the
+/// contaminated arm, positions offset by 1 cm per seed times the start's
+/// index modulo 3 (so the arms differ).
 fn persistence(dir: &Path, job: &crossaudit::run::external::ExportJob) -> Vec<f64> {
-    let x0 = std::fs::read(dir.join("export/starts_states.npy")).unwrap();
-    let x0 = npy::read(&x0, &[job.shape[0], STATE]).unwrap().data;
+    let file = crossaudit::design::load(&root().join("tests/designs/sim_external.design")).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let prepared = crossaudit::split::rebuild(&file, &plan, &dir.join("simulated_data"), dir).unwrap();
     let [s, k, _] = job.shape;
     let mut data = vec![0.0; s * k * STATE];
-    for i in 0..s {
-        for step in 0..k {
-            let off = (i * k + step) * STATE;
-            data[off..off + STATE].copy_from_slice(&x0[i * STATE..(i + 1) * STATE]);
+    let mut keep = |step: usize, states: &[State]| {
+        for (i, x) in states.iter().enumerate() {
+            let off = (i * k + step - 1) * STATE;
+            data[off..off + STATE].copy_from_slice(x);
             if job.arm == "contaminated" {
                 data[off] += 0.01 * job.seed as f64 * (i % 3) as f64;
             }
         }
-    }
+    };
+    let mut still = crossaudit::model::baseline::Persistence;
+    crossaudit::rollout::trajectories(&mut still, &prepared.recordings, &prepared.split.starts, k, &mut keep, &[]);
     data
 }
 
