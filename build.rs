@@ -6,7 +6,10 @@
 use std::process::Command;
 
 fn git(args: &[&str]) -> Option<String> {
-    let out = Command::new("git").args(args).output().ok()?;
+    // No optional locks: a build must not take .git/index's lock from a
+    // concurrent `git commit`, nor rewrite the index (which would make
+    // the next build run this script again).
+    let out = Command::new("git").arg("--no-optional-locks").args(args).output().ok()?;
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
@@ -23,9 +26,16 @@ fn main() {
         _ => "unknown".to_string(),
     };
     println!("cargo:rustc-env=CROSSAUDIT_GIT_COMMIT={commit}");
-    // Rerun on a commit or checkout, and on any change to the sources (so a
-    // build from edited sources says `-dirty`).
-    for path in [".git/HEAD", ".git/index", ".git/refs", "src", "grammar", "Cargo.toml", "Cargo.lock", "build.rs"] {
+    // Rerun when the commit can have changed (HEAD, the branch it names,
+    // packed refs) and on any change to the sources (so a build from edited
+    // sources says `-dirty`); not on .git/index, which every checkout,
+    // commit and `git status` rewrites without changing either.
+    let mut watched = vec![".git/HEAD".to_string(), ".git/packed-refs".to_string()];
+    if let Some(branch) = std::fs::read_to_string(".git/HEAD").ok().and_then(|h| h.strip_prefix("ref: ").map(|r| r.trim().to_string())) {
+        watched.push(format!(".git/{branch}"));
+    }
+    watched.extend(["src", "grammar", "Cargo.toml", "Cargo.lock", "build.rs"].map(String::from));
+    for path in watched {
         println!("cargo:rerun-if-changed={path}");
     }
 }

@@ -6,8 +6,8 @@
 #
 #   bash scripts/python-tests.sh            # venv in target/python-venv
 #
-# The wheel is built with cargo's test profile, which `cargo test` has
-# already compiled the library with (CARGO_TARGET_DIR is honoured).
+# The wheel is built with Cargo.toml's `python` profile (CARGO_TARGET_DIR
+# is honoured); the venv lives under the target directory.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 target="${CARGO_TARGET_DIR:-target}"

@@ -36,14 +36,48 @@ macro_rules! snapshots {
 }
 
 /// The shared NanoBench logs. Tests that need them are marked
-/// `#[ignore = "needs ../shared/nanobench"]` and run with
-/// `cargo test -- --include-ignored` (the README's and CI's command); when
-/// the folder is absent they fail, so a missing folder is never green.
+/// `#[ignore = "needs ../shared/nanobench"]` (a plain `cargo test` leaves
+/// them out; the README's `cargo test -- --include-ignored` runs them) and
+/// start with [`needs_shared_logs!`]: on a machine without the folder they
+/// pass after writing a visible `SKIPPED` line, unless
+/// `CROSSAUDIT_REQUIRE_SHARED` is set (as `.ci/run` sets it), when they fail.
 #[track_caller]
 pub fn shared_logs() -> PathBuf {
     let dir = root().join("../shared/nanobench/recordings");
     assert!(dir.is_dir(), "{} is absent; this test needs the shared NanoBench recordings", dir.display());
     dir
+}
+
+/// The shared logs, or `None` after a `SKIPPED` line on standard error
+/// (written past the test harness's capture, so it shows in the output).
+#[track_caller]
+pub fn shared_logs_or_skip() -> Option<PathBuf> {
+    let dir = root().join("../shared/nanobench/recordings");
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    if std::env::var_os("CROSSAUDIT_REQUIRE_SHARED").is_some() {
+        panic!("{} is absent and CROSSAUDIT_REQUIRE_SHARED is set", dir.display());
+    }
+    let name = std::thread::current().name().unwrap_or("a test").to_string();
+    use std::io::Write;
+    let _ = writeln!(
+        std::io::stderr(),
+        "SKIPPED {name}: needs the NanoBench recordings in ../shared/nanobench/recordings (README, \"Data\")"
+    );
+    None
+}
+
+/// The shared logs' folder, or an early return (the test passes, with a
+/// SKIPPED line) when they are absent.
+#[macro_export]
+macro_rules! needs_shared_logs {
+    () => {
+        match $crate::common::shared_logs_or_skip() {
+            Some(dir) => dir,
+            None => return,
+        }
+    };
 }
 
 /// The tiny training design and its split on the shared logs.

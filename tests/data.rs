@@ -180,6 +180,7 @@ fn the_cli_writes_recordings_csv_and_a_summary() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn real_logs_under_the_papers_rule() {
+    let _logs = crate::needs_shared_logs!();
     let dir = real_logs();
     let a = audit(&paper_spec(), &dir).unwrap();
     let count = |s: Status| a.files.iter().filter(|f| f.status == s).count();
@@ -194,6 +195,7 @@ fn real_logs_under_the_papers_rule() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn real_logs_under_the_audited_rules() {
+    let _logs = crate::needs_shared_logs!();
     let dir = real_logs();
     let spec = design::load(&root().join("designs/nanobench_audited.design")).unwrap().design.data;
     assert!(spec.rules.contains(&InclusionRule::Implausible));
@@ -205,6 +207,7 @@ fn real_logs_under_the_audited_rules() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn real_gzip_equals_its_decompressed_csv() {
+    let _logs = crate::needs_shared_logs!();
     let dir = real_logs();
     let src = dir.join("B9_trefoil_slow_rep3.csv.gz");
     let tmp = tempfile::tempdir().unwrap();

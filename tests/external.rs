@@ -58,7 +58,11 @@ fn files_under(dir: &Path) -> Vec<(String, Vec<u8>)> {
 fn the_mlps_own_rollouts_as_predictions_score_to_the_quickstarts_cells_byte_for_byte() {
     let tmp = tempfile::tempdir().unwrap();
     let (a, b) = (tmp.path().join("builtin"), tmp.path().join("external"));
-    assert_ok(&crossaudit(&["run", "designs/quickstart.design", "--out", a.to_str().unwrap()]));
+    let o = crossaudit(&["run", "designs/quickstart.design", "--out", a.to_str().unwrap()]);
+    assert_ok(&o);
+    // Not a terminal: a line per finished job, with its count, on standard error.
+    let e = stderr(&o);
+    assert!(e.contains("done world/disjoint/1 (") && e.contains("(20/20)"), "{e}");
     let o = crossaudit(&["export", "tests/designs/quickstart_external.design", "--out", b.to_str().unwrap()]);
     assert_ok(&o);
     let (idx, sha) = index(&b);

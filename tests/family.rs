@@ -101,6 +101,7 @@ fn bad_dose_and_split_declarations_are_refused_where_they_are_written() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn doses_are_nested_and_a_single_dose_draw_is_unchanged() {
+    let _logs = crate::needs_shared_logs!();
     shared_logs();
     let out = tempfile::tempdir().unwrap();
     let file = design::load(&root().join("tests/designs/tiny_family.design")).unwrap();
@@ -344,6 +345,7 @@ fn simulated_multi_split_at_strength_zero_covers_zero() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn cli_runs_a_dose_by_split_study_and_resumes_it() {
+    let _logs = crate::needs_shared_logs!();
     shared_logs();
     let out = tempfile::tempdir().unwrap();
     let dir = out.path().join("run");
@@ -539,6 +541,7 @@ fn split_planner_plans_the_pooled_slope_when_the_rule_is_on_it() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn one_split_commands_refuse_a_multi_split_design() {
+    let _logs = crate::needs_shared_logs!();
     shared_logs();
     let out = tempfile::tempdir().unwrap();
     let train = ["train", "tests/designs/tiny_family.design", "--model", "world", "--arm", "disjoint", "--seed", "1"];

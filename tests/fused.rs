@@ -46,6 +46,7 @@ fn both_engines_agree(design: &str, out: &Path) -> Vec<usize> {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_fused_trainer_is_bit_identical_to_dfdx_at_the_papers_width() {
+    let _logs = crate::needs_shared_logs!();
     let out = tempfile::tempdir().unwrap();
     let epochs = both_engines_agree("tests/designs/fused_check.design", out.path());
     assert_eq!(epochs.len(), 8, "2 models x 2 arms x 2 seeds");
@@ -56,6 +57,7 @@ fn the_fused_trainer_is_bit_identical_to_dfdx_at_the_papers_width() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_fused_trainer_is_bit_identical_to_dfdx_at_a_small_width() {
+    let _logs = crate::needs_shared_logs!();
     let out = tempfile::tempdir().unwrap();
     let epochs = both_engines_agree("tests/designs/tiny_train.design", out.path());
     assert_eq!(epochs.len(), 8);

@@ -38,6 +38,22 @@ fn check_json_is_machine_readable() {
 }
 
 #[test]
+fn check_json_of_a_bad_design_is_json_too() {
+    let (code, out, err) = run(&["check", "--json", "tests/designs/errors/unknown_arm_in_contrast.design"]);
+    assert_eq!(code, 1);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {out}"));
+    assert_eq!(v["valid"], false);
+    let first = &v["errors"][0];
+    assert_eq!(first["file"], "tests/designs/errors/unknown_arm_in_contrast.design");
+    // The same line and column as the text the terminal gets.
+    let at = format!("{}:{}:{}", first["file"].as_str().unwrap(), first["line"], first["column"]);
+    assert!(err.contains(&at), "{at} in {err}");
+    assert!(first["title"].as_str().is_some_and(|t| !t.is_empty()) && first["label"].is_string());
+    let (_, good, _) = run(&["check", "--json", "designs/quickstart.design"]);
+    assert_eq!(serde_json::from_str::<serde_json::Value>(&good).unwrap()["valid"], true);
+}
+
+#[test]
 fn check_of_a_bad_design_shows_the_caret_and_fails() {
     let (code, out, err) = run(&["check", "tests/designs/errors/unknown_arm_in_contrast.design"]);
     assert_eq!(code, 1);
@@ -137,4 +153,50 @@ fn analyze_output_does_not_depend_on_the_thread_count() {
         outputs.push(std::fs::read(out_dir.join("results.json")).unwrap());
     }
     assert_eq!(outputs[0], outputs[1]);
+}
+
+#[test]
+fn every_argument_of_every_subcommand_is_described_in_its_help() {
+    let subcommands: [&[&str]; 16] = [
+        &["check"],
+        &["lock"],
+        &["audit", "split"],
+        &["data", "audit"],
+        &["split"],
+        &["train"],
+        &["run"],
+        &["export"],
+        &["score"],
+        &["job"],
+        &["gather"],
+        &["coverage"],
+        &["plan"],
+        &["mixed"],
+        &["simulate"],
+        &["analyze"],
+    ];
+    // clap lists each argument as "  NAME  description" under "Arguments:"
+    // and "Options:", a long description continuing on lines of its own.
+    let is_entry = |t: &str| {
+        t.starts_with('-') || t.starts_with('<') || (t.starts_with('[') && t[1..].starts_with(|c: char| c.is_ascii_uppercase()))
+    };
+    let mut entries = 0;
+    for sub in subcommands {
+        let mut args = sub.to_vec();
+        args.push("--help");
+        let (code, out, err) = run(&args);
+        assert_eq!(code, 0, "{sub:?}: {err}");
+        let lines: Vec<&str> = out.lines().collect();
+        for (k, line) in lines.iter().enumerate() {
+            let t = line.trim();
+            if !line.starts_with("  ") || !is_entry(t) {
+                continue;
+            }
+            entries += 1;
+            let described = t.contains("  ")
+                || lines.get(k + 1).is_some_and(|n| n.starts_with("   ") && !is_entry(n.trim()) && !n.trim().is_empty());
+            assert!(described, "crossaudit {} --help: `{t}` has no description", sub.join(" "));
+        }
+    }
+    assert!(entries > 60, "{entries} arguments seen");
 }

@@ -12,6 +12,7 @@ mod design_errors;
 mod designs;
 mod external;
 mod family;
+mod front_door;
 mod fused;
 mod golden;
 mod mixed_cli;

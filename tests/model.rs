@@ -130,6 +130,7 @@ fn standardizers_use_their_own_arm_only() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
+    let _logs = crate::needs_shared_logs!();
     let out = tempfile::tempdir().unwrap();
     let (file, plan, split) = crate::common::tiny_split(out.path());
     let mut results = Vec::new();
@@ -149,6 +150,7 @@ fn same_seed_gives_bit_identical_weights_and_cells_with_1_and_2_threads() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
+    let _logs = crate::needs_shared_logs!();
     let out = tempfile::tempdir().unwrap();
     let (file, plan, split) = crate::common::tiny_split(out.path());
     let mut baseline_fa = Vec::new();
@@ -169,6 +171,7 @@ fn a_trained_cell_records_its_own_arm_and_baselines_do_not_depend_on_the_arm() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn a_saved_cell_is_re_evaluated_without_retraining() {
+    let _logs = crate::needs_shared_logs!();
     let out = tempfile::tempdir().unwrap();
     let (file, plan, split) = crate::common::tiny_split(out.path());
     let cell = run_job(&file, &plan, &split, ("world", "disjoint", 1), out.path());

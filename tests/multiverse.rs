@@ -436,6 +436,7 @@ fn committed_multiverse_matches_r_and_lme4() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn a_trajectory_holdout_keeps_the_family_out_and_the_rest_of_the_draw() {
+    let _logs = crate::needs_shared_logs!();
     let logs = crate::common::shared_logs();
     let out = tempfile::tempdir().unwrap();
     let file = design::load(&root().join("designs/multiverse/holdout_trajectory.design")).unwrap();

@@ -40,6 +40,7 @@ fn cell_files(out: &Path) -> Vec<(String, Vec<u8>)> {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn one_and_two_workers_give_byte_identical_cells() {
+    let _logs = crate::needs_shared_logs!();
     shared_logs();
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("w1"), dir.path().join("w2"));
@@ -71,6 +72,7 @@ fn one_and_two_workers_give_byte_identical_cells() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn a_killed_run_resumes_to_byte_identical_results() {
+    let _logs = crate::needs_shared_logs!();
     shared_logs();
     let dir = tempfile::tempdir().unwrap();
     let design = "tests/designs/kill_restart.design";
@@ -113,6 +115,7 @@ fn a_killed_run_resumes_to_byte_identical_results() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn a_changed_locked_design_is_refused_unless_exploratory() {
+    let _logs = crate::needs_shared_logs!();
     shared_logs();
     let dir = tempfile::tempdir().unwrap();
     let design = dir.path().join("tiny.design");

@@ -297,6 +297,7 @@ fn treatment_audit_counts_windows_inside_evaluated_segments() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_papers_split_on_the_shared_logs_is_locked() {
+    let _logs = crate::needs_shared_logs!();
     let dir = crate::common::shared_logs();
     let file = crossaudit::design::load(&root().join("designs/nanobench_confirmatory.design")).unwrap();
     let out = tempfile::tempdir().unwrap();

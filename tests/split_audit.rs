@@ -220,6 +220,7 @@ fn reference() -> serde_json::Value {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn upstream_task2_split_matches_the_python_reference() {
+    let _logs = crate::needs_shared_logs!();
     let dir = shared_logs();
     let path = root().join("../shared/nanobench/upstream_task2_split_metadata.json");
     let split = published::read(&path).unwrap();
@@ -277,6 +278,7 @@ fn upstream_task2_split_matches_the_python_reference() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn committed_upstream_audit_is_current() {
+    let _logs = crate::needs_shared_logs!();
     let _ = shared_logs();
     let tmp = tempfile::tempdir().unwrap();
     let o = tmp.path().to_str().unwrap();
@@ -394,6 +396,7 @@ fn published_split_design_errors_are_located() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_upstream_split_design_builds_on_the_shared_logs() {
+    let _logs = crate::needs_shared_logs!();
     let dir = shared_logs();
     let file = crossaudit::design::load(&root().join("designs/nanobench_upstream_split.design")).unwrap();
     let (audit, recordings) = crossaudit::data::audit_and_load(&file.design.data, &dir).unwrap();

@@ -47,6 +47,7 @@ fn papers_table() -> BTreeMap<(String, String), usize> {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_paper_designs_evaluation_set_has_the_papers_composition() {
+    let _logs = crate::needs_shared_logs!();
     let d = paper().design;
     let (audit, split) = split_of(&d);
     let mut table: BTreeMap<(String, String), usize> = BTreeMap::new();
@@ -73,6 +74,7 @@ fn the_paper_designs_evaluation_set_has_the_papers_composition() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn without_missing_csv_allow_absent_evaluation_recordings_stop_the_study() {
+    let _logs = crate::needs_shared_logs!();
     let d = variant(|s| s.replace("missing    csv allow", "missing    csv refuse"));
     let (audit, recs) = audit_and_load(&d.data, &shared_logs()).unwrap();
     let err = crossaudit::split::build(&d, &audit, &recs).unwrap_err().to_string();
@@ -87,6 +89,7 @@ fn without_missing_csv_allow_absent_evaluation_recordings_stop_the_study() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn a_pinned_evaluation_set_is_used_as_written_and_an_unknown_name_is_located() {
+    let _logs = crate::needs_shared_logs!();
     let d = variant(|s| {
         s.replace(
             "evaluation 26 split_seed 42;",
@@ -112,6 +115,7 @@ fn a_pinned_evaluation_set_is_used_as_written_and_an_unknown_name_is_located() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn speed_labels_come_from_the_metadata_speed_or_the_file_name() {
+    let _logs = crate::needs_shared_logs!();
     let by_meta = paper().design;
     let by_name = variant(|s| s.replace("speed      from metadata slow < 1.0 <= medium", "speed from name"));
     let speeds = |d: &Design| -> BTreeMap<String, String> {
@@ -133,6 +137,7 @@ fn speed_labels_come_from_the_metadata_speed_or_the_file_name() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn pooled_motor_percentiles_keep_the_linear_ramp_that_per_column_drops() {
+    let _logs = crate::needs_shared_logs!();
     let status = |pooling: &str| {
         let d =
             variant(|s| s.replace("duplicates keep ", &format!("exclude implausible {pooling}\n  duplicates keep ")));
@@ -154,6 +159,7 @@ fn pooled_motor_percentiles_keep_the_linear_ramp_that_per_column_drops() {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn onboard_tails_are_found_kept_excluded_or_truncated() {
+    let _logs = crate::needs_shared_logs!();
     let expected: BTreeMap<String, (usize, usize, usize)> =
         std::fs::read_to_string(root().join("tests/data/onboard_tails.txt"))
             .unwrap()
@@ -196,6 +202,7 @@ fn kept_status(a: &crossaudit::data::Audit, name: &str) -> Status {
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_state_presets_read_onboard_or_motion_capture_columns() {
+    let _logs = crate::needs_shared_logs!();
     let file = shared_logs().join("B9_trefoil_slow_rep3.csv.gz");
     let mut text = String::new();
     std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(std::fs::File::open(&file).unwrap()), &mut text)

@@ -47,6 +47,28 @@ pub struct DesignError {
 }
 
 impl DesignError {
+    /// Every diagnostic as JSON, in source order: headline, file, 1-based
+    /// line and column (in characters), label and help (`crossaudit check
+    /// --json`).
+    pub fn to_json(&self) -> serde_json::Value {
+        let items: Vec<serde_json::Value> = self
+            .diagnostics
+            .iter()
+            .map(|d| {
+                let loc = locate(&self.source_text, d.span);
+                serde_json::json!({
+                    "title": d.title,
+                    "file": self.file,
+                    "line": loc.line,
+                    "column": loc.col,
+                    "label": d.label,
+                    "help": d.help,
+                })
+            })
+            .collect();
+        serde_json::Value::Array(items)
+    }
+
     /// Renders all diagnostics as plain text (`color = false`) or with ANSI
     /// colours for a terminal.
     pub fn render(&self, color: bool) -> String {

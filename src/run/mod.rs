@@ -109,12 +109,12 @@ pub struct RunOutcome {
 ///
 /// ```
 /// use std::path::Path;
-/// use crossaudit::run::{run, Data, Quiet, RunOptions};
-/// // The shared NanoBench logs beside the repository, a small version of the paper's design.
-/// let file = crossaudit::design::load(Path::new("tests/designs/tiny_train.design")).unwrap();
+/// use crossaudit::run::{data_dir, run, Quiet, RunOptions};
+/// // A small study on the built-in simulator (its logs are generated into `out`).
+/// let file = crossaudit::design::load(Path::new("tests/designs/sim_small.design")).unwrap();
 /// let plan = crossaudit::compile(&file.design);
 /// let out = tempfile::tempdir().unwrap();
-/// let data = Data::directory(Path::new("../shared/nanobench/recordings"));
+/// let data = data_dir(&file.design, &file.path, None, out.path()).unwrap();
 /// let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
 /// assert_eq!(done.trained, plan.jobs.iter().filter(|j| j.trains()).count());
 /// assert!(done.cells_csv.exists() && done.report_dir.join("report.md").exists());

@@ -49,11 +49,12 @@ fn locate(file: &DesignFile, e: SplitError) -> SplitError {
 ///
 /// ```
 /// use std::path::Path;
-/// // The shared NanoBench logs beside the repository, a small version of the paper's design.
-/// let file = crossaudit::design::load(Path::new("tests/designs/tiny_train.design")).unwrap();
+/// // A small study on the built-in simulator (its logs are generated into `out`).
+/// let file = crossaudit::design::load(Path::new("tests/designs/sim_small.design")).unwrap();
 /// let plan = crossaudit::compile(&file.design);
 /// let out = tempfile::tempdir().unwrap();
-/// let p = crossaudit::split::prepare(&file, &plan, Path::new("../shared/nanobench/recordings"), out.path()).unwrap();
+/// let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
+/// let p = crossaudit::split::prepare(&file, &plan, &data.dir, out.path()).unwrap();
 /// assert!(p.invariants.all_pass);
 /// assert_eq!(p.split.evaluation.len(), 4);
 /// assert!(out.path().join("manifests/manifests.json").exists());

@@ -16,13 +16,17 @@ pub(crate) struct Cli {
 pub(crate) enum Command {
     /// Validate a design and print its compiled plan.
     Check {
+        /// The design file (.design).
         design: PathBuf,
         /// Print the plan (and the validated design) as JSON.
         #[arg(long)]
         json: bool,
     },
     /// Record the design's SHA-256, tool version and UTC time in FILE.design.lock.
-    Lock { design: PathBuf },
+    Lock {
+        /// The design file (.design); the lock is written beside it.
+        design: PathBuf,
+    },
     /// Audits: of a benchmark's published split.
     Audit {
         #[command(subcommand)]
@@ -35,6 +39,7 @@ pub(crate) enum Command {
     },
     /// Build the shared experiment: manifests, invariants, treatment audit.
     Split {
+        /// The design file (.design).
         design: PathBuf,
         /// Data directory [default: the design's `path`].
         #[arg(long)]
@@ -45,11 +50,15 @@ pub(crate) enum Command {
     },
     /// Run one training cell end to end: split, fit, rollouts, per-cell rows.
     Train {
+        /// The design file (.design).
         design: PathBuf,
+        /// The job's model, as `crossaudit check` lists it.
         #[arg(long)]
         model: String,
+        /// The job's arm.
         #[arg(long)]
         arm: String,
+        /// The job's training seed.
         #[arg(long)]
         seed: u64,
         /// Data directory [default: the design's `path`].
@@ -69,10 +78,12 @@ pub(crate) enum Command {
     /// Run a locked design end to end: audit, manifests, invariants, every
     /// training cell, cells.csv and the report. Resumes a partial run.
     Run {
+        /// The design file (.design).
         design: PathBuf,
         /// Data directory [default: the design's `path`].
         #[arg(long)]
         data: Option<PathBuf>,
+        /// Output directory.
         #[arg(long)]
         out: PathBuf,
         /// Parallel training workers, one thread each [default: one per core].
@@ -88,6 +99,7 @@ pub(crate) enum Command {
     /// model's job, the windows, standardizers and rollout starts its
     /// trainer needs (DIR/export/: .npy arrays indexed by export.json).
     Export {
+        /// The design file (.design).
         design: PathBuf,
         /// Data directory [default: the design's `path`].
         #[arg(long)]
@@ -129,6 +141,7 @@ pub(crate) enum Command {
     /// Monte Carlo coverage of the interval estimators over a grid of crossed
     /// settings (JSON spec).
     Coverage {
+        /// The coverage spec (JSON): settings, estimators, replications.
         spec: PathBuf,
         /// Override the spec's replications per setting.
         #[arg(long)]
@@ -141,6 +154,7 @@ pub(crate) enum Command {
     /// for other numbers of recordings and seeds (and splits), from pilot
     /// per-cell data; for a dose-response design, of the slope over doses.
     Plan {
+        /// The design file (.design).
         design: PathBuf,
         /// Pilot per-cell CSV analysable under the design.
         #[arg(long)]
@@ -182,14 +196,18 @@ pub(crate) enum Command {
     },
     /// Generate the recordings of a `data simulated` design (NanoBench schema).
     Simulate {
+        /// The design file (.design).
         design: PathBuf,
+        /// Output directory.
         #[arg(long)]
         out: PathBuf,
     },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
+        /// The design file (.design).
         design: PathBuf,
-        /// The per-cell CSV (header: see README).
+        /// The per-cell CSV (its columns: docs/usage.md, "Per-cell CSV"); for a
+        /// multiverse or draw-replicated design, the run directory.
         #[arg(long)]
         cells: PathBuf,
         /// Output directory for report.md, results.json and results.tex
@@ -239,8 +257,10 @@ pub(crate) enum DataCommand {
     /// Load every recording, apply the design's inclusion rules in order,
     /// write recordings.csv and print a summary.
     Audit {
+        /// The design file (.design).
         design: PathBuf,
-        /// Data directory [default: the design's `path`, relative to the current directory].
+        /// Data directory [default: the design's `path`, read from the design file's
+        /// directory, or from the current directory when it exists only there].
         #[arg(long)]
         data: Option<PathBuf>,
         /// Output directory for recordings.csv.

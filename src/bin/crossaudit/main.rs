@@ -436,13 +436,24 @@ fn render(e: &Error, color: bool) -> String {
 }
 
 fn check(path: &Path, json: bool) -> Result<(), Error> {
-    let file = design::load(path)?;
+    let file = match design::load(path) {
+        Ok(f) => f,
+        Err(LoadError::Design(d)) if json => {
+            // The errors as JSON on standard output, the usual text on
+            // standard error, exit 1.
+            let value = serde_json::json!({"design": path.display().to_string(), "valid": false, "errors": d.to_json()});
+            out!("{}", crossaudit::io::pretty_json(&value));
+            return Err(LoadError::Design(d).into());
+        }
+        Err(e) => return Err(e.into()),
+    };
     let status = lock::status(&file)?;
     let plan = crossaudit::compile(&file.design);
     let levels = crossaudit::run::outer::levels(&file.design);
     if json {
         let mut value = serde_json::json!({
             "design": path.display().to_string(),
+            "valid": true,
             "sha256": file.sha256,
             "lock": status,
             "plan": plan,

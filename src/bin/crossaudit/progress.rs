@@ -48,19 +48,23 @@ pub fn print_job(model: &str, arm: &str, seed: u64, job: &JobOutcome, out: &std:
 }
 
 /// Progress for `run`: one overall bar and one status line per worker on a
-/// terminal; one summary line per finished job either way.
+/// terminal; one summary line per finished job (with its count) either
+/// way, printed straight to standard error when it is not a terminal
+/// (nohup, CI, Slurm logs), where the bars are hidden.
 pub struct RunProgress {
     bars: MultiProgress,
     overall: ProgressBar,
     workers: Vec<ProgressBar>,
     epochs: usize,
+    terminal: bool,
 }
 
 impl RunProgress {
     /// Bars for `workers` workers training up to `epochs` epochs.
     pub fn new(workers: usize, epochs: usize) -> RunProgress {
         let bars = MultiProgress::new();
-        if !std::io::stderr().is_terminal() {
+        let terminal = std::io::stderr().is_terminal();
+        if !terminal {
             bars.set_draw_target(ProgressDrawTarget::hidden());
         }
         let overall = bars.add(ProgressBar::new(0));
@@ -76,7 +80,16 @@ impl RunProgress {
                 b
             })
             .collect();
-        RunProgress { bars, overall, workers, epochs }
+        RunProgress { bars, overall, workers, epochs, terminal }
+    }
+
+    /// A line above the bars, or on standard error when they are hidden.
+    fn say(&self, line: String) {
+        if self.terminal {
+            let _ = self.bars.println(line);
+        } else {
+            note!("{line}");
+        }
     }
 
     /// Clears every bar.
@@ -90,14 +103,14 @@ impl RunProgress {
 
 impl RunObserver for RunProgress {
     fn level(&self, index: usize, count: usize, label: &str) {
-        let _ = self.bars.println(format!("level {index} of {count}: {label}"));
+        self.say(format!("level {index} of {count}: {label}"));
     }
 
     fn start(&self, total: usize, done: usize) {
         self.overall.set_length(total as u64);
         self.overall.set_position(done as u64);
         if done > 0 {
-            let _ = self.bars.println(format!("resuming: {done} of {total} cells already finished"));
+            self.say(format!("resuming: {done} of {total} cells already finished"));
         }
     }
 
@@ -126,9 +139,11 @@ impl RunObserver for RunProgress {
             .filter(|(who, _, _)| *who == j.model)
             .map(|(_, h, v)| format!("{h} s {v:.4} m"))
             .collect();
-        let _ = self.bars.println(format!(
-            "done {} in {secs:.1} s: {} epochs, {val}mean FA RMSE {}",
+        self.say(format!(
+            "done {} ({}/{}) in {secs:.1} s: {} epochs, {val}mean FA RMSE {}",
             j.label(),
+            self.overall.position(),
+            self.overall.length().unwrap_or(0),
             o.epochs.len(),
             fa.join(", ")
         ));

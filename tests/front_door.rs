@@ -1,0 +1,86 @@
+//! What a newcomer reads first stays true: results/INDEX.md lists every
+//! committed result folder, each has the commands that made it, and every
+//! link and source path the README and the docs name exists.
+
+use std::path::Path;
+
+use crate::common::root;
+
+fn folders(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_dir())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn every_result_folder_is_indexed_and_has_its_command() {
+    let results = root().join("results");
+    let index = std::fs::read_to_string(results.join("INDEX.md")).unwrap();
+    let listed: Vec<String> = index
+        .lines()
+        .filter_map(|l| l.strip_prefix("| `"))
+        .filter_map(|l| l.split('`').next())
+        .map(String::from)
+        .collect();
+    let present = folders(&results);
+    assert_eq!(listed, present, "results/INDEX.md must list exactly the folders under results/, in order");
+    for f in &present {
+        let dir = results.join(f);
+        if dir.join("COMMAND").is_file() {
+            continue;
+        }
+        // A group: each of its runs has its own COMMAND.
+        let subs = folders(&dir);
+        assert!(!subs.is_empty(), "results/{f} has no COMMAND");
+        for s in subs {
+            assert!(dir.join(&s).join("COMMAND").is_file(), "results/{f}/{s} has no COMMAND");
+        }
+    }
+}
+
+/// Relative link targets of `[text](target)` in Markdown, without anchors.
+fn links(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = text;
+    while let Some(k) = rest.find("](") {
+        rest = &rest[k + 2..];
+        let Some(end) = rest.find(')') else { break };
+        let target = rest[..end].split('#').next().unwrap_or("").trim().to_string();
+        if !target.is_empty() && !target.contains("://") && !target.starts_with("mailto:") && !target.contains(' ') {
+            out.push(target);
+        }
+    }
+    out
+}
+
+#[test]
+fn every_link_and_source_path_in_the_readme_and_docs_exists() {
+    let mut pages = vec![root().join("README.md"), root().join("ARCHITECTURE.md")];
+    for e in std::fs::read_dir(root().join("docs")).unwrap().filter_map(|e| e.ok()) {
+        if e.path().extension().is_some_and(|x| x == "md") {
+            pages.push(e.path());
+        }
+    }
+    let mut checked = 0;
+    for page in &pages {
+        let text = std::fs::read_to_string(page).unwrap();
+        let base = page.parent().unwrap();
+        for target in links(&text) {
+            assert!(base.join(&target).exists(), "{}: link to {target}, which does not exist", page.display());
+            checked += 1;
+        }
+        // `src/...rs` paths quoted in backticks.
+        for quoted in text.split('`').skip(1).step_by(2) {
+            if quoted.starts_with("src/") && quoted.ends_with(".rs") && !quoted.contains(' ') {
+                assert!(root().join(quoted).exists(), "{} names {quoted}, which does not exist", page.display());
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 20, "{checked} links and paths checked");
+}
