@@ -84,3 +84,32 @@ fn every_link_and_source_path_in_the_readme_and_docs_exists() {
     }
     assert!(checked > 20, "{checked} links and paths checked");
 }
+
+#[test]
+fn the_language_reference_is_the_grammar() {
+    // docs/language.md is generated from grammar/design.pest; to accept a
+    // grammar change: CROSSAUDIT_BLESS_DOCS=1 cargo test front_door
+    let page = root().join("docs/language.md");
+    let fresh = crossaudit::design::reference::markdown();
+    if std::env::var_os("CROSSAUDIT_BLESS_DOCS").is_some() {
+        std::fs::write(&page, &fresh).unwrap();
+    }
+    let committed = std::fs::read_to_string(&page).unwrap_or_default();
+    assert!(committed == fresh, "docs/language.md differs from the grammar; regenerate it with CROSSAUDIT_BLESS_DOCS=1");
+    // Every keyword of the grammar is in the reference, and every rule has a heading.
+    for k in crossaudit::design::reference::GRAMMAR.split('"').skip(1).step_by(2) {
+        assert!(fresh.contains(&format!("\"{k}\"")), "keyword {k}");
+    }
+    assert!(fresh.matches("\n### `").count() > 100, "one heading per rule");
+}
+
+#[test]
+fn the_book_lists_every_page_of_the_docs() {
+    let summary = std::fs::read_to_string(root().join("docs/SUMMARY.md")).unwrap();
+    for e in std::fs::read_dir(root().join("docs")).unwrap().filter_map(|e| e.ok()) {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.ends_with(".md") && name != "SUMMARY.md" {
+            assert!(summary.contains(&format!("({name})")), "docs/SUMMARY.md does not list {name}");
+        }
+    }
+}

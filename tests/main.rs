@@ -4,6 +4,7 @@
 mod common;
 
 mod analyze;
+mod browser;
 mod architecture;
 mod bad_inputs;
 mod coverage;

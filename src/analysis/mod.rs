@@ -345,6 +345,21 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         .collect::<Result<Vec<_>, _>>()?;
     // The plan's primary unit is the first.
     let decision = decision::decide(&plan.decision, &units[0]);
+    if decision.holds {
+        // A decision that leaving out one seed or one recording overturns
+        // is fragile, whatever its interval says: say so beside it.
+        for l in units[0].leave_one_out.iter().filter(|l| l.rule_holds < l.fits) {
+            warnings.push(format!(
+                "fragile decision: the rule holds in only {} of the {} fits that leave out one {} (Leave-one-out table)",
+                l.rule_holds,
+                l.fits,
+                match l.factor {
+                    crate::design::Factor::Seed => "seed",
+                    crate::design::Factor::Recording => "recording",
+                }
+            ));
+        }
+    }
     Ok(Analysis {
         study: plan.study.clone(),
         design_sha256: None,

@@ -11,6 +11,7 @@ mod diagnostic;
 pub mod lock;
 pub mod multiverse;
 mod parse;
+pub mod reference;
 mod validate;
 
 use std::path::Path;

@@ -106,6 +106,9 @@ fn header(a: &Analysis) -> String {
     };
     let _ = writeln!(s, "# {}: {}{}\n", a.study, verdict, tag);
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
+    for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
+        let _ = writeln!(s, "**Warning**: {w}.\n");
+    }
     let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
     let _ = writeln!(
         s,

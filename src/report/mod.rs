@@ -6,9 +6,11 @@
 //! file and imports no stage above `analysis`.
 
 pub mod charts;
+mod estimates;
 pub mod family;
 pub mod figures;
 mod format;
+pub mod html;
 mod markdown;
 pub mod multiverse;
 mod table;
@@ -20,6 +22,8 @@ use crate::analysis::Analysis;
 use crate::io::{create_dir_all, pretty_json, write_atomic, WriteError};
 
 pub use charts::{finish_svg, DrawError};
+pub use estimates::render_estimates;
+pub use html::render_html;
 pub use format::{decision_line, decision_summary, f, level_pct};
 pub use markdown::render_markdown;
 pub use table::Table;
@@ -41,14 +45,27 @@ pub fn render_json(a: &Analysis) -> String {
     pretty_json(a)
 }
 
-/// Writes report.md, results.json and results.tex into `dir` (created if
-/// needed), each atomically (temporary file + rename). Returns the paths.
+/// Writes report.md, results.json, results.tex, estimates.csv and
+/// report.html into `dir` (created if needed), each atomically (temporary
+/// file + rename). Returns the paths.
 pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    write_all_with(a, dir, &[])
+}
+
+/// As [`write_all`], with the figures report.md names inlined into
+/// report.html: (file name, SVG text), as the caller read them.
+pub fn write_all_with(a: &Analysis, dir: &Path, figures: &[(String, String)]) -> Result<Vec<PathBuf>, ReportError> {
     create_dir_all(dir)?;
     let mut out = Vec::new();
-    for (name, text) in
-        [("report.md", render_markdown(a)), ("results.json", render_json(a)), ("results.tex", render_tex(a))]
-    {
+    let markdown = render_markdown(a);
+    let html = render_html(a, &markdown, figures);
+    for (name, text) in [
+        ("report.md", markdown),
+        ("results.json", render_json(a)),
+        ("results.tex", render_tex(a)),
+        ("estimates.csv", render_estimates(a)),
+        ("report.html", html),
+    ] {
         let path = dir.join(name);
         write_atomic(&path, text.as_bytes())?;
         out.push(path);

@@ -453,10 +453,19 @@ fn finish(
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = read_curves(plan, out)?;
+    if let Some(w) = early_best_epochs(plan, &curves) {
+        analysis.warnings.push(w);
+    }
     let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
         .map_err(crate::report::ReportError::from)?;
     analysis.figures = figures.iter().filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned())).collect();
-    crate::report::write_all(&analysis, &report_dir)?;
+    // The figures as drawn, inlined into report.html (the report stage reads no file).
+    let mut svgs = Vec::new();
+    for (name, path) in analysis.figures.iter().zip(&figures) {
+        let text = std::fs::read_to_string(path).map_err(|e| RunError::Write(crate::io::WriteError::new(path, e)))?;
+        svgs.push((name.clone(), text));
+    }
+    crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
@@ -506,6 +515,29 @@ fn analyze_run(design_path: &str, plan: &Plan, cells_csv: &Path, opened: &Opened
     }
     analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
     Ok(analysis)
+}
+
+/// A warning when fitted models' best validation epoch (the weights the
+/// rollouts use) falls in the first tenth of the planned epochs: a
+/// decision that rests on barely trained models should say so.
+fn early_best_epochs(plan: &Plan, curves: &[Curve]) -> Option<String> {
+    let planned = plan.training.as_ref()?.epochs;
+    let first = planned.div_ceil(10).max(1) as f64;
+    let best: Vec<f64> = curves
+        .iter()
+        .filter_map(|c| c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a }).map(|p| p.0))
+        .collect();
+    let early: Vec<f64> = best.iter().copied().filter(|e| *e <= first).collect();
+    if early.is_empty() {
+        return None;
+    }
+    let lo = early.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = early.iter().copied().fold(0.0, f64::max);
+    Some(format!(
+        "early best epochs: {} of {} fitted models reach their best validation loss within the first {first} of {planned} epochs (epochs {lo} to {hi}); their restored weights are barely trained (training curves figure)",
+        early.len(),
+        best.len()
+    ))
 }
 
 /// The columns of a training curve the figures need.

@@ -1,0 +1,152 @@
+//! estimates.csv: every estimate of the report as one tidy table for R and
+//! pandas: one row per analysis unit (or interaction) and estimator. The
+//! preregistered estimator's row of each unit carries the arm means, the
+//! optimism (%) and whether the unit meets the decision rule; the
+//! bootstrap, the grouped sensitivity and any compared intervals follow as
+//! rows of their own. Numbers are written in full (shortest round-trip
+//! form), `Inf` and `NaN` as R and pandas read them; empty means not
+//! applicable.
+
+use std::fmt::Write as _;
+
+use crate::analysis::Analysis;
+use crate::stats::CrossedEstimate;
+
+/// The header of estimates.csv.
+pub const COLUMNS: &str = "kind,role,model,contrast,metric,unit,horizon_s,estimator,level,treated_mean,reference_mean,estimate,se,df,lower,upper,optimism_pct,rule_holds";
+
+fn num(x: f64) -> String {
+    if x.is_nan() {
+        "NaN".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "Inf" } else { "-Inf" }.into()
+    } else {
+        format!("{x}")
+    }
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(num).unwrap_or_default()
+}
+
+/// One row's values after the unit's key columns.
+struct Row<'a> {
+    estimator: &'a str,
+    means: Option<(f64, f64)>,
+    estimate: f64,
+    se: f64,
+    df: Option<f64>,
+    lower: f64,
+    upper: f64,
+    optimism: Option<f64>,
+    holds: Option<bool>,
+}
+
+fn crossed<'a>(name: &'a str, e: &CrossedEstimate) -> Row<'a> {
+    Row {
+        estimator: name,
+        means: None,
+        estimate: e.mean,
+        se: e.se,
+        df: Some(e.df),
+        lower: e.lower,
+        upper: e.upper,
+        optimism: None,
+        holds: None,
+    }
+}
+
+/// The text of estimates.csv for `a`.
+pub fn render_estimates(a: &Analysis) -> String {
+    let mut s = String::from(COLUMNS);
+    s.push('\n');
+    let contrast = format!("{} - {}", a.treated, a.reference);
+    let level = num(a.level);
+    let mut put = |key: &str, r: Row| {
+        let (t, rf) = r.means.map(|(t, rf)| (num(t), num(rf))).unwrap_or_default();
+        let holds = r.holds.map(|h| h.to_string()).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{key},{},{level},{t},{rf},{},{},{},{},{},{},{holds}",
+            r.estimator,
+            num(r.estimate),
+            num(r.se),
+            opt(r.df),
+            num(r.lower),
+            num(r.upper),
+            opt(r.optimism),
+        );
+    };
+    let preregistered = if a.units.first().is_some_and(|u| u.estimate.reml.is_some()) { "reml" } else { "crossed_mom" };
+    for u in &a.units {
+        let role = format!("{:?}", u.role).to_lowercase();
+        let key = format!("endpoint,{role},{},{contrast},{},{},{}", u.model, u.metric.name(), u.metric.unit(), num(u.horizon_s));
+        put(
+            &key,
+            Row {
+                means: Some((u.mean_treated, u.mean_reference)),
+                optimism: Some(u.optimism_pct),
+                holds: Some(u.rule_holds),
+                ..crossed(preregistered, &u.estimate)
+            },
+        );
+        if let Some(b) = &u.bootstrap {
+            let row = Row {
+                estimator: "pigeonhole_bootstrap",
+                means: None,
+                estimate: u.estimate.mean,
+                se: b.se,
+                df: None,
+                lower: b.lower,
+                upper: b.upper,
+                optimism: None,
+                holds: None,
+            };
+            put(&key, row);
+        }
+        if let Some(g) = &u.grouped {
+            put(&key, crossed("grouped_conditions", &g.estimate));
+        }
+        for iv in u.intervals.iter().flatten() {
+            let name = serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+            let row = Row {
+                estimator: &name,
+                means: None,
+                estimate: iv.estimate,
+                se: iv.se,
+                df: Some(iv.df),
+                lower: iv.lower,
+                upper: iv.upper,
+                optimism: None,
+                holds: None,
+            };
+            put(&key, row);
+        }
+    }
+    for ix in &a.interactions {
+        let key = format!(
+            "interaction,,{} - {},{contrast},{},{},{}",
+            ix.left,
+            ix.right,
+            ix.metric.name(),
+            ix.metric.unit(),
+            num(ix.horizon_s)
+        );
+        put(&key, crossed(preregistered, &ix.estimate));
+        if let Some(b) = &ix.bootstrap {
+            let row = Row {
+                estimator: "pigeonhole_bootstrap",
+                means: None,
+                estimate: ix.estimate.mean,
+                se: b.se,
+                df: None,
+                lower: b.lower,
+                upper: b.upper,
+                optimism: None,
+                holds: None,
+            };
+            put(&key, row);
+        }
+    }
+    s
+}
