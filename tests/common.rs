@@ -63,7 +63,7 @@ pub fn shared_logs_or_skip() -> Option<PathBuf> {
     use std::io::Write;
     let _ = writeln!(
         std::io::stderr(),
-        "SKIPPED {name}: needs the NanoBench recordings in ../shared/nanobench/recordings (README, \"Data\")"
+        "SKIPPED {name}: needs the NanoBench recordings in ../shared/nanobench/recordings (see the README, \"Install\")"
     );
     None
 }

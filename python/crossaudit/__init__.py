@@ -88,7 +88,7 @@ class Design:
                 "seed": j["seed"],
                 "horizons_s": j["horizons_s"],
             }
-            for j in self.plan["jobs"]
+            for j in self.plan["training_cells"]
         ]
         return pd.DataFrame(rows, columns=["model", "kind", "arm", "seed", "horizons_s"])
 
@@ -356,7 +356,7 @@ def audit_split(
     data: PathLike,
     out: PathLike,
     design: Optional[PathLike] = None,
-    min_run: int = 50,
+    min_run: int = 100,
 ) -> dict:
     """``crossaudit audit split``: audits a published split against the flight
     logs in ``data``; returns the audit (split_audit.json), its per-recording

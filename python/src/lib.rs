@@ -144,7 +144,7 @@ fn analyze(py: Python<'_>, design: PathBuf, cells: PathBuf, out: Option<PathBuf>
 /// written (split_audit.json, split_audit.md, split_recordings.csv) and
 /// whether exact leakage was found.
 #[pyfunction]
-#[pyo3(signature = (split, data, out, design=None, min_run=50))]
+#[pyo3(signature = (split, data, out, design=None, min_run=crossaudit::split_audit::DEFAULT_MIN_RUN_ROWS))]
 fn audit_split(
     py: Python<'_>,
     split: PathBuf,

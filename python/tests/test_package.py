@@ -12,7 +12,9 @@ import pytest
 
 import crossaudit
 
-EXTERNAL = "tests/designs/quickstart_external.design"
+# The quickstart with its world model external and persistence beside it
+# (no built-in training: the package's debug-level build stays quick).
+EXTERNAL = "tests/designs/quickstart_ridge.design"
 
 
 def ridge_fit(inputs: np.ndarray, targets: np.ndarray, lam: float = 1e-3) -> np.ndarray:
@@ -42,7 +44,7 @@ def test_load_design_gives_the_plan_and_located_errors(tmp_path):
     d = crossaudit.load_design(EXTERNAL)
     assert d.external_models == ["world"]
     jobs = d.jobs
-    assert len(jobs) == 30 and set(jobs["kind"]) == {"external", "mlp", "persistence"}
+    assert len(jobs) == 20 and set(jobs["kind"]) == {"external", "persistence"}
     assert "external inputs world" in str(d)
     bad = tmp_path / "bad.design"
     bad.write_text(Path(EXTERNAL).read_text().replace("external inputs world", "external inputs sideways"))
@@ -68,8 +70,8 @@ def test_a_numpy_ridge_model_through_export_score_and_analyze(tmp_path, workers)
         traj = rollout(w, ex.standardizers(job.model, job.arm), starts, job.steps)
         ex.write_predictions(job.model, job.arm, job.seed, traj)
     result = crossaudit.score(out, workers=workers)
-    assert result.details["scored"] == 10 and result.details["trained"] == 10
-    assert result.decision.startswith("decision: ")
+    assert result.details["scored"] == 10 and result.details["trained"] == 10  # persistence: 10 jobs
+    assert "decision: " in result.decision
     est = result.estimates
     primary = est[est["role"] == "primary"].iloc[0]
     assert primary["model"] == "world" and primary["horizon_s"] == 1.0
@@ -115,7 +117,7 @@ def test_run_refuses_external_and_analyze_reads_example_cells(root, tmp_path):
     assert not (tmp_path / "x").exists()
     r = crossaudit.analyze("designs/nanobench_confirmatory.design", root / "examples/cells/nanobench_synthetic.csv")
     # The decision the README quotes for this example.
-    assert r.decision.startswith("decision: NOT CONFIRMED") and not r.holds
+    assert r.decision.startswith("decision: NOT CONFIRMED") and not r.holds, r.decision
     committed = json.loads((root / "results/example/results.json").read_text())
     assert r.estimates["estimate"].iloc[0] == pytest.approx(committed["units"][0]["estimate"]["mean"], rel=1e-12)
 
