@@ -31,7 +31,9 @@ fn main() {
     // sources says `-dirty`); not on .git/index, which every checkout,
     // commit and `git status` rewrites without changing either.
     let mut watched = vec![".git/HEAD".to_string(), ".git/packed-refs".to_string()];
-    if let Some(branch) = std::fs::read_to_string(".git/HEAD").ok().and_then(|h| h.strip_prefix("ref: ").map(|r| r.trim().to_string())) {
+    if let Some(branch) =
+        std::fs::read_to_string(".git/HEAD").ok().and_then(|h| h.strip_prefix("ref: ").map(|r| r.trim().to_string()))
+    {
         watched.push(format!(".git/{branch}"));
     }
     watched.extend(["src", "grammar", "Cargo.toml", "Cargo.lock", "build.rs"].map(String::from));

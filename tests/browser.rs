@@ -56,7 +56,8 @@ fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
     let info = reader.next_frame(&mut buf).unwrap();
     let channels = info.color_type.samples();
     // RGB only, whatever the PNG's layout.
-    let rgb: Vec<u8> = buf[..info.buffer_size()].chunks(channels).flat_map(|p| [p[0], p[1 % channels], p[2 % channels]]).collect();
+    let rgb: Vec<u8> =
+        buf[..info.buffer_size()].chunks(channels).flat_map(|p| [p[0], p[1 % channels], p[2 % channels]]).collect();
     (info.width, info.height, rgb)
 }
 
@@ -75,7 +76,11 @@ fn the_quickstart_report_renders_in_a_real_browser() {
     let tmp = tempfile::tempdir().unwrap();
 
     // Load, errors and figure sizes, measured by a probe added to a copy.
-    let probed = html.replacen("<head>", &format!("<head>\n{PROBE_HEAD}"), 1).replacen("</body>", &format!("{PROBE_TAIL}\n</body>"), 1);
+    let probed = html.replacen("<head>", &format!("<head>\n{PROBE_HEAD}"), 1).replacen(
+        "</body>",
+        &format!("{PROBE_TAIL}\n</body>"),
+        1,
+    );
     let page = tmp.path().join("page.html");
     std::fs::write(&page, probed).unwrap();
     let out = browser(&bin, &tmp.path().join("profile"))
@@ -94,7 +99,12 @@ fn the_quickstart_report_renders_in_a_real_browser() {
     let figures = m["figures"].as_array().unwrap();
     let names: Vec<&str> = figures.iter().map(|f| f[0].as_str().unwrap()).collect();
     let md = std::fs::read_to_string(report.with_file_name("report.md")).unwrap();
-    let expected: Vec<&str> = md.lines().filter_map(|l| l.strip_prefix("![")).filter_map(|l| l.split_once("](")).map(|(_, f)| f.trim_end_matches(')')).collect();
+    let expected: Vec<&str> = md
+        .lines()
+        .filter_map(|l| l.strip_prefix("!["))
+        .filter_map(|l| l.split_once("]("))
+        .map(|(_, f)| f.trim_end_matches(')'))
+        .collect();
     assert_eq!(names, expected, "every figure report.md names is drawn inline");
     for f in figures {
         let (w, h) = (f[1].as_i64().unwrap(), f[2].as_i64().unwrap());
@@ -118,11 +128,16 @@ fn the_quickstart_report_renders_in_a_real_browser() {
     let (w, h, a) = decode(&shot);
     let (rw, rh, b) = decode(&reference);
     assert_eq!((w, h), (rw, rh), "screenshot size");
-    let differing = a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > 64)).count();
+    let differing =
+        a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > 64)).count();
     let share = differing as f64 / (w * h) as f64;
     if share > 0.02 {
         let keep = std::env::temp_dir().join("crossaudit_quickstart_report.png");
         let _ = std::fs::copy(&shot, &keep);
-        panic!("{:.1}% of the screenshot's pixels differ from the reference (fresh one kept at {})", 100.0 * share, keep.display());
+        panic!(
+            "{:.1}% of the screenshot's pixels differ from the reference (fresh one kept at {})",
+            100.0 * share,
+            keep.display()
+        );
     }
 }

@@ -95,7 +95,10 @@ fn the_language_reference_is_the_grammar() {
         std::fs::write(&page, &fresh).unwrap();
     }
     let committed = std::fs::read_to_string(&page).unwrap_or_default();
-    assert!(committed == fresh, "docs/language.md differs from the grammar; regenerate it with CROSSAUDIT_BLESS_DOCS=1");
+    assert!(
+        committed == fresh,
+        "docs/language.md differs from the grammar; regenerate it with CROSSAUDIT_BLESS_DOCS=1"
+    );
     // Every keyword of the grammar is in the reference, and every rule has a heading.
     for k in crossaudit::design::reference::GRAMMAR.split('"').skip(1).step_by(2) {
         assert!(fresh.contains(&format!("\"{k}\"")), "keyword {k}");
@@ -129,6 +132,10 @@ fn the_readmes_worked_example_prints_what_the_readme_quotes() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let printed = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(printed.lines().find(|l| l.starts_with("decision: ")), Some(quoted), "README quote vs the command's output");
+    assert_eq!(
+        printed.lines().find(|l| l.starts_with("decision: ")),
+        Some(quoted),
+        "README quote vs the command's output"
+    );
     assert!(tmp.path().join("example/report.html").is_file() && tmp.path().join("example/estimates.csv").is_file());
 }

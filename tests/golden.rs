@@ -178,7 +178,9 @@ fn every_argument_of_every_subcommand_is_described_in_its_help() {
     // clap lists each argument as "  NAME  description" under "Arguments:"
     // and "Options:", a long description continuing on lines of its own.
     let is_entry = |t: &str| {
-        t.starts_with('-') || t.starts_with('<') || (t.starts_with('[') && t[1..].starts_with(|c: char| c.is_ascii_uppercase()))
+        t.starts_with('-')
+            || t.starts_with('<')
+            || (t.starts_with('[') && t[1..].starts_with(|c: char| c.is_ascii_uppercase()))
     };
     let mut entries = 0;
     for sub in subcommands {
@@ -194,7 +196,9 @@ fn every_argument_of_every_subcommand_is_described_in_its_help() {
             }
             entries += 1;
             let described = t.contains("  ")
-                || lines.get(k + 1).is_some_and(|n| n.starts_with("   ") && !is_entry(n.trim()) && !n.trim().is_empty());
+                || lines
+                    .get(k + 1)
+                    .is_some_and(|n| n.starts_with("   ") && !is_entry(n.trim()) && !n.trim().is_empty());
             assert!(described, "crossaudit {} --help: `{t}` has no description", sub.join(" "));
         }
     }

@@ -4,9 +4,9 @@
 mod common;
 
 mod analyze;
-mod browser;
 mod architecture;
 mod bad_inputs;
+mod browser;
 mod coverage;
 mod data;
 mod design_errors;

@@ -11,7 +11,12 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
-create_exception!(_native, CrossauditError, PyException, "An error crossaudit reports: bad input, a refused run or export, a failed check.");
+create_exception!(
+    _native,
+    CrossauditError,
+    PyException,
+    "An error crossaudit reports: bad input, a refused run or export, a failed check."
+);
 
 fn fail(e: impl Into<crossaudit::Error>) -> PyErr {
     let e: crossaudit::Error = e.into();
@@ -156,7 +161,9 @@ fn audit_split(
     py.detach(|| {
         let published = crossaudit::published::read(&split).map_err(fail)?;
         let (spec, from) = match &design {
-            Some(d) => (crossaudit::design::load(d).map_err(fail)?.design.data, format!("data rules of {}", d.display())),
+            Some(d) => {
+                (crossaudit::design::load(d).map_err(fail)?.design.data, format!("data rules of {}", d.display()))
+            }
             None => (crossaudit::design::DataSpec::upstream_task2(), "upstream NanoBench task-2 loader".to_string()),
         };
         if !Path::new(&data).is_dir() {

@@ -30,7 +30,14 @@ pub fn markdown() -> String {
             doc.push(text.trim().to_string());
         } else if let Some(section) = t.strip_prefix("// ----") {
             let name = section.trim_start_matches('-').trim();
-            let _ = writeln!(s, "## {}\n", name.chars().next().map(|c| c.to_uppercase().collect::<String>() + &name[c.len_utf8()..]).unwrap_or_default());
+            let _ = writeln!(
+                s,
+                "## {}\n",
+                name.chars()
+                    .next()
+                    .map(|c| c.to_uppercase().collect::<String>() + &name[c.len_utf8()..])
+                    .unwrap_or_default()
+            );
         } else if let Some((rule, _)) = t.split_once('=').filter(|(r, _)| {
             let r = r.trim();
             !r.is_empty() && r.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')

@@ -80,7 +80,13 @@ pub fn render_estimates(a: &Analysis) -> String {
     let preregistered = if a.units.first().is_some_and(|u| u.estimate.reml.is_some()) { "reml" } else { "crossed_mom" };
     for u in &a.units {
         let role = format!("{:?}", u.role).to_lowercase();
-        let key = format!("endpoint,{role},{},{contrast},{},{},{}", u.model, u.metric.name(), u.metric.unit(), num(u.horizon_s));
+        let key = format!(
+            "endpoint,{role},{},{contrast},{},{},{}",
+            u.model,
+            u.metric.name(),
+            u.metric.unit(),
+            num(u.horizon_s)
+        );
         put(
             &key,
             Row {
@@ -108,7 +114,8 @@ pub fn render_estimates(a: &Analysis) -> String {
             put(&key, crossed("grouped_conditions", &g.estimate));
         }
         for iv in u.intervals.iter().flatten() {
-            let name = serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+            let name =
+                serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
             let row = Row {
                 estimator: &name,
                 means: None,

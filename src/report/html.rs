@@ -104,10 +104,8 @@ fn body(markdown: &str, figures: &[(String, String)]) -> String {
             k += 1;
         } else if t.starts_with('|') {
             let header = cells(t);
-            let align: Vec<bool> = lines
-                .get(k + 1)
-                .map(|l| cells(l).iter().map(|c| c.ends_with(':')).collect())
-                .unwrap_or_default();
+            let align: Vec<bool> =
+                lines.get(k + 1).map(|l| cells(l).iter().map(|c| c.ends_with(':')).collect()).unwrap_or_default();
             out.push_str("<table>\n<thead><tr>");
             for h in &header {
                 let _ = write!(out, "<th>{}</th>", inline(h));
@@ -142,7 +140,12 @@ fn body(markdown: &str, figures: &[(String, String)]) -> String {
             k += 1;
             while k < lines.len() {
                 let n = lines[k].trim();
-                if n.is_empty() || n.starts_with('#') || n.starts_with('|') || n.starts_with("- ") || n.starts_with("![") {
+                if n.is_empty()
+                    || n.starts_with('#')
+                    || n.starts_with('|')
+                    || n.starts_with("- ")
+                    || n.starts_with("![")
+                {
                     break;
                 }
                 para.push(' ');
@@ -197,7 +200,10 @@ mod tests {
         let figs = vec![("f.svg".to_string(), "<?xml version=\"1.0\"?>\n<svg width=\"10\"></svg>".to_string())];
         let h = body(md, &figs);
         assert!(h.contains("<h1>t: X</h1>"));
-        assert!(h.contains("<p>A <code>code</code> &amp; &lt;b&gt; <a href=\"a.md\">link</a> <strong>w</strong> 2*3.</p>"), "{h}");
+        assert!(
+            h.contains("<p>A <code>code</code> &amp; &lt;b&gt; <a href=\"a.md\">link</a> <strong>w</strong> 2*3.</p>"),
+            "{h}"
+        );
         assert!(h.contains("<th>a</th><th>b</th>") && h.contains("<td>x</td><td class=\"num\">1.0</td>"), "{h}");
         assert!(h.contains("<li>one more</li>") && h.contains("<li>two</li>"));
         assert!(h.contains("<figure data-figure=\"f.svg\" aria-label=\"f\">\n<svg width=\"10\"></svg>"), "{h}");

@@ -23,8 +23,8 @@ use crate::io::{create_dir_all, pretty_json, write_atomic, WriteError};
 
 pub use charts::{finish_svg, DrawError};
 pub use estimates::render_estimates;
-pub use html::render_html;
 pub use format::{decision_line, decision_summary, f, level_pct};
+pub use html::render_html;
 pub use markdown::render_markdown;
 pub use table::Table;
 pub use tex::render_tex;

@@ -441,7 +441,8 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
         Err(LoadError::Design(d)) if json => {
             // The errors as JSON on standard output, the usual text on
             // standard error, exit 1.
-            let value = serde_json::json!({"design": path.display().to_string(), "valid": false, "errors": d.to_json()});
+            let value =
+                serde_json::json!({"design": path.display().to_string(), "valid": false, "errors": d.to_json()});
             out!("{}", crossaudit::io::pretty_json(&value));
             return Err(LoadError::Design(d).into());
         }
