@@ -100,7 +100,9 @@ fn the_language_reference_is_the_grammar() {
         "docs/language.md differs from the grammar; regenerate it with CROSSAUDIT_BLESS_DOCS=1"
     );
     // Every keyword of the grammar is in the reference, and every rule has a heading.
-    let words = crossaudit::design::reference::GRAMMAR.split('"').filter(|w| !w.is_empty() && w.chars().all(|c| c.is_ascii_lowercase() || c == '_'));
+    let words = crossaudit::design::reference::GRAMMAR
+        .split('"')
+        .filter(|w| !w.is_empty() && w.chars().all(|c| c.is_ascii_lowercase() || c == '_'));
     let mut keywords = 0;
     for k in words {
         assert!(fresh.contains(&format!("\"{k}\"")), "keyword {k}");

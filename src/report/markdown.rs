@@ -138,6 +138,12 @@ fn header(a: &Analysis) -> String {
         a.seeds.len(),
         level_pct(a.level)
     );
+    let _ = writeln!(
+        s,
+        "d = {t} - {r} per recording x seed cell, in the metric's unit; optimism (%) = 100 ({r} mean - {t} mean) / {r} mean: how much better the {t} arm looks.",
+        t = a.treated,
+        r = a.reference
+    );
     let singular: Vec<String> = a
         .units
         .iter()
@@ -186,14 +192,33 @@ fn header(a: &Analysis) -> String {
 fn endpoints(a: &Analysis, level: &str) -> Table {
     let (t, r) = (format!("{} mean", a.treated), format!("{} mean", a.reference));
     let (ci_h, boot_h) = (format!("{level} CI"), format!("bootstrap {level} CI"));
-    let cols =
-        ["role", "model", "metric", "horizon", &t, &r, "optimism %", "d mean", "SE", "df", &ci_h, &boot_h, "rule"];
-    let mut table = Table::new(&cols, "llllrrrrrrlll");
+    let cols = [
+        "role",
+        "model",
+        "metric",
+        "horizon",
+        "unit",
+        &t,
+        &r,
+        "optimism %",
+        "d mean",
+        "SE",
+        "df",
+        &ci_h,
+        &boot_h,
+        "rule",
+    ];
+    let mut table = Table::new(&cols, "lllllrrrrrrlll");
     for u in &a.units {
         let e = &u.estimate;
         table.row([
             if u.role == Role::Primary { "primary" } else { "secondary" }.to_string(),
             unit_name(u),
+            match u.metric.unit() {
+                "" => "fraction",
+                unit => unit,
+            }
+            .to_string(),
             f(u.mean_treated, 4),
             f(u.mean_reference, 4),
             f(u.optimism_pct, 1),
