@@ -161,7 +161,7 @@ impl Validator {
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
                     let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
                     let history = history.as_ref().map(|h| self.count(h, "a history length", 1, 1000)).unwrap_or(0);
-                    crate::design::ModelKind::External { inputs, actions, history: history as usize }
+                    crate::design::ModelKind::External { inputs, actions, history }
                 }
                 ast::ModelKind::Baseline(b) => {
                     if b.node == "persistence" {

@@ -276,7 +276,8 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
 
     // Windows: fit per arm, then validation.
     let mut fit = BTreeMap::new();
-    let mut arm_triples: BTreeMap<String, (Vec<(State, Action, State)>, String)> = BTreeMap::new();
+    // Per arm: its fit windows and its fit manifest's SHA-256.
+    let mut arm_triples: BTreeMap<String, (Vec<Triple>, String)> = BTreeMap::new();
     for (arm, windows) in &split.fits {
         let prefix = format!("fit_{arm}");
         fit.insert(arm.clone(), window_files(&mut files, &mut put, &prefix, recs, windows, history)?);
@@ -397,6 +398,9 @@ fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)
         })
         .collect()
 }
+
+/// One (x_t, u_t, x_{t+1}) window.
+type Triple = (State, Action, State);
 
 type Put<'a> = dyn FnMut(&mut Vec<(String, Vec<u8>)>, String, &[usize], &[f64]) -> Result<String, RunError> + 'a;
 

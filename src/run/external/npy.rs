@@ -34,7 +34,7 @@ pub fn read(bytes: &[u8], shape: &[usize]) -> Result<Array, String> {
     let file = npyz::NpyFile::new(bytes).map_err(|e| format!("not a NumPy .npy file ({e})"))?;
     let dtype = match file.dtype() {
         npyz::DType::Plain(t) => t.to_string(),
-        other => format!("{}", other.descr()),
+        other => other.descr().to_string(),
     };
     if dtype != "<f8" {
         return Err(format!(
