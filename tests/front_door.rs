@@ -145,3 +145,150 @@ fn the_readmes_worked_example_prints_what_the_readme_quotes() {
     );
     assert!(tmp.path().join("example/report.html").is_file() && tmp.path().join("example/estimates.csv").is_file());
 }
+
+/// Every file under `dir`, relative, sorted.
+fn files_in(dir: &Path) -> Vec<String> {
+    fn walk(base: &Path, d: &Path, out: &mut Vec<String>) {
+        for e in std::fs::read_dir(d).unwrap().filter_map(|e| e.ok()) {
+            let p = e.path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                out.push(p.strip_prefix(base).unwrap().display().to_string());
+            }
+        }
+    }
+    let mut v = Vec::new();
+    walk(dir, dir, &mut v);
+    v.sort();
+    v
+}
+
+/// The crossaudit build (version and commit) changes with every commit.
+fn without_build(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes)
+        .lines()
+        .map(|l| if l.contains("(commit ") { "<build>" } else { l })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn the_fast_committed_results_regenerate_byte_for_byte() {
+    // Each folder's COMMAND, run afresh into a temporary folder; every
+    // committed file (the build line aside) must come out the same.
+    // `summary.txt` is the command's standard output. The quickstart is
+    // checked by tests/trust.rs, the slower ones by scripts/regenerate.sh.
+    let shared = crate::common::shared_logs_or_skip().is_some();
+    let cases: &[(&str, &[&str], bool)] = &[
+        (
+            "example",
+            &[
+                "analyze",
+                "designs/nanobench_confirmatory.design",
+                "--cells",
+                "examples/cells/nanobench_synthetic.csv",
+                "--compare-intervals",
+                "--out",
+            ],
+            false,
+        ),
+        (
+            "plan_audited",
+            &[
+                "plan",
+                "designs/nanobench_audited.design",
+                "--cells",
+                "results/nanobench_audited/cells.csv",
+                "--recordings",
+                "8,13,26,52",
+                "--seeds",
+                "3,5,10,20,40",
+                "--out",
+            ],
+            false,
+        ),
+        (
+            "plan_dose_response",
+            &[
+                "plan",
+                "designs/nanobench_dose_response.design",
+                "--cells",
+                "results/dose_response/cells.csv",
+                "--recordings",
+                "8,13,24,26,52",
+                "--seeds",
+                "3,5,10,20,40",
+                "--out",
+            ],
+            false,
+        ),
+        (
+            "plan_multi_split",
+            &[
+                "plan",
+                "designs/nanobench_multi_split.design",
+                "--cells",
+                "results/multi_split/cells.csv",
+                "--splits",
+                "3,5,10,20",
+                "--recordings",
+                "13,26",
+                "--seeds",
+                "5,10,20",
+                "--out",
+            ],
+            false,
+        ),
+        ("nanobench_audit", &["data", "audit", "designs/nanobench_confirmatory.design", "--out"], true),
+        ("nanobench_audit_hygiene", &["data", "audit", "designs/nanobench_audited.design", "--out"], true),
+        ("nanobench_split", &["split", "designs/nanobench_confirmatory.design", "--out"], true),
+        ("nanobench_split_audited", &["split", "designs/nanobench_audited.design", "--out"], true),
+        (
+            "upstream_split_audit",
+            &[
+                "audit",
+                "split",
+                "../shared/nanobench/upstream_task2_split_metadata.json",
+                "--data",
+                "../shared/nanobench/recordings",
+                "--out",
+            ],
+            true,
+        ),
+    ];
+    let tmp = tempfile::tempdir().unwrap();
+    let mut compared = 0;
+    for (folder, args, needs_shared) in cases {
+        if *needs_shared && !shared {
+            continue;
+        }
+        let out = tmp.path().join(folder);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+            .current_dir(root())
+            .args(*args)
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{folder}: {}", String::from_utf8_lossy(&o.stderr));
+        let committed = root().join("results").join(folder);
+        for name in files_in(&committed) {
+            if name == "COMMAND" {
+                continue;
+            }
+            let fresh = if name == "summary.txt" {
+                o.stdout.clone()
+            } else {
+                std::fs::read(out.join(&name))
+                    .unwrap_or_else(|e| panic!("results/{folder}/{name}: not regenerated ({e})"))
+            };
+            let old = std::fs::read(committed.join(&name)).unwrap();
+            assert!(
+                without_build(&fresh) == without_build(&old),
+                "results/{folder}/{name} differs from what its COMMAND gives now"
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared >= 10, "{compared} files compared");
+}
