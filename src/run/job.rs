@@ -100,16 +100,7 @@ struct Bench<'a> {
 impl Bench<'_> {
     /// The manifests this job reads, by hash.
     fn manifests(&self) -> JobManifests {
-        let m = &self.prepared.manifests;
-        JobManifests {
-            model: self.job.model.clone(),
-            arm: self.job.arm.clone(),
-            seed: self.job.seed,
-            evaluation_sha256: m.sha256("evaluation_recordings.csv").to_string(),
-            starts_sha256: m.sha256("evaluation_starts.csv").to_string(),
-            validation_sha256: m.sha256("validation_windows.csv").to_string(),
-            fit_sha256: self.fit_sha.clone(),
-        }
+        job_manifests(self.prepared, self.job)
     }
 
     /// Rolls `d` out from every start and scores it: (one-step validation
@@ -237,6 +228,21 @@ pub fn run_job_with(
         cells,
         files,
     })
+}
+
+/// The manifests `job` reads, by hash: what its record states and the
+/// trained invariants check (the built-in and the external jobs alike).
+pub(crate) fn job_manifests(prepared: &Prepared, job: &TrainingJob) -> JobManifests {
+    let m = &prepared.manifests;
+    JobManifests {
+        model: job.model.clone(),
+        arm: job.arm.clone(),
+        seed: job.seed,
+        evaluation_sha256: m.sha256("evaluation_recordings.csv").to_string(),
+        starts_sha256: m.sha256("evaluation_starts.csv").to_string(),
+        validation_sha256: m.sha256("validation_windows.csv").to_string(),
+        fit_sha256: m.sha256(&format!("fit_{}.csv", job.arm)).to_string(),
+    }
 }
 
 fn bench<'a>(plan: &'a Plan, job: &'a TrainingJob, prepared: &'a Prepared) -> Result<Bench<'a>, RunError> {

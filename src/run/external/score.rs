@@ -23,7 +23,7 @@ use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
 use crate::run::record::JobRecord;
 use crate::run::{Opened, RunError, RunObserver, RunOutcome, RunRecord};
-use crate::split::{JobManifests, Prepared};
+use crate::split::Prepared;
 
 /// `predictions/MODEL__ARM__SEED.json`: which job and which export a
 /// predictions file belongs to.
@@ -310,21 +310,12 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
     create_dir_all(&dir.join("cells"))?;
     write_cells_atomic(&dir.join(&cells_name), &cells)?;
     let files = [cells_name, ej.description.clone(), ej.predictions.clone()];
-    let m = &p.manifests;
     let record = JobRecord {
         model: job.model.clone(),
         arm: job.arm.clone(),
         seed: job.seed.0,
         design_sha256: r.file.sha256.clone(),
-        manifests: JobManifests {
-            model: job.model.clone(),
-            arm: job.arm.clone(),
-            seed: job.seed,
-            evaluation_sha256: m.sha256("evaluation_recordings.csv").to_string(),
-            starts_sha256: m.sha256("evaluation_starts.csv").to_string(),
-            validation_sha256: m.sha256("validation_windows.csv").to_string(),
-            fit_sha256: m.sha256(&format!("fit_{}.csv", job.arm)).to_string(),
-        },
+        manifests: crate::run::job::job_manifests(p, job),
         standardizers: Some(ej.standardizers.clone()),
         files: JobRecord::hash_files(dir, &files)?,
         crossaudit: crate::BUILD.to_string(),
