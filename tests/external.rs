@@ -406,6 +406,11 @@ fn run_train_and_slurm_refuse_an_external_design_before_writing_anything() {
         &["no external model"],
     );
     assert!(!out.exists());
+    // Absurd worker counts are refused at once (the progress display has a line per worker).
+    assert_fails_with(
+        &crossaudit(&["score", tmp.path().to_str().unwrap(), "--workers", "1000000000000"]),
+        &["workers"],
+    );
     // Score of a folder that was never exported.
     assert_fails_with(&crossaudit(&["score", tmp.path().to_str().unwrap()]), &["crossaudit export DESIGN --out DIR"]);
 }

@@ -193,12 +193,6 @@ class Export:
         (``input``/``target`` mean and std), as a built-in MLP would fit them."""
         return self._model_job(arm, model)["standardizers"]
 
-    def rollout_inputs(self, step: int) -> Dict[str, np.ndarray]:
-        """What an open-loop rollout feeds at ``step`` (0-based) of every start:
-        the measured action u_t and the exogenous values of the next state."""
-        s = self.starts()
-        return {"actions": s["actions"][:, step, :], "exogenous": s["exogenous"][:, step, :]}
-
     def write_predictions(self, model: str, arm: str, seed: int, trajectories: np.ndarray) -> Path:
         """Writes one job's predicted trajectories (starts x steps x 14 states
         at steps 1..K, float64) with its description; checks the shape first."""

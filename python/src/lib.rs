@@ -56,11 +56,7 @@ fn export(py: Python<'_>, design: PathBuf, out: PathBuf, data: Option<PathBuf>, 
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let plan = crossaudit::compile(&file.design);
-        crossaudit::run::external::check_exportable(&file, &plan).map_err(fail)?;
-        crossaudit::run::check_out_plan(&out, &plan, &file.sha256).map_err(fail)?;
-        let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
-        let data = crossaudit::run::data_dir(&file.design, &file.path, data, &out).map_err(fail)?;
-        let o = crossaudit::run::external::export(&file, &plan, &data, &out, exploratory).map_err(fail)?;
+        let o = crossaudit::run::external::export_into(&file, &plan, data, &out, exploratory).map_err(fail)?;
         Ok(o.sha256)
     })
 }
@@ -103,13 +99,8 @@ fn run(
     let o = py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let plan = crossaudit::compile(&file.design);
-        crossaudit::run::refuse_external(&plan).map_err(fail)?;
-        crossaudit::run::check_workers(workers).map_err(fail)?;
-        crossaudit::run::check_out_plan(&out, &plan, &file.sha256).map_err(fail)?;
-        let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
-        let data = crossaudit::run::data_dir(&file.design, &file.path, data, &out).map_err(fail)?;
         let options = crossaudit::run::RunOptions { workers, exploratory };
-        crossaudit::run::run(&file, &plan, &data, &out, options, &crossaudit::run::Quiet).map_err(fail)
+        crossaudit::run::run_into(&file, &plan, data, &out, options, &crossaudit::run::Quiet).map_err(fail)
     })?;
     json(&serde_json::json!({
         "cells_csv": o.cells_csv,

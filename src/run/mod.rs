@@ -11,6 +11,7 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
+mod curves;
 mod error;
 pub mod external;
 mod folder;
@@ -26,15 +27,12 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use serde::Deserialize;
-
 use crate::analysis::family::{analyze_family, FamilyAnalysis};
 use crate::analysis::{self, Analysis, FileAnalysisError};
 use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::create_dir_all;
 use crate::plan::{Plan, TrainingJob};
-use crate::report::figures::Curve;
 
 pub use error::RunError;
 pub use folder::{check_out_dir, lock_folder, FolderLock};
@@ -142,6 +140,27 @@ pub fn run(
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// `crossaudit run DESIGN [--data DIR] --out OUT` as the command line and
+/// the Python package make it: every check that can refuse the run (external
+/// models, workers, a folder holding another design's run) before anything
+/// is written (simulated data included), the folder locked, the data found,
+/// then [`run`].
+pub fn run_into(
+    file: &DesignFile,
+    plan: &Plan,
+    data: Option<PathBuf>,
+    out: &Path,
+    options: RunOptions,
+    observer: &dyn RunObserver,
+) -> Result<RunOutcome, RunError> {
+    refuse_external(plan)?;
+    check_workers(options.workers)?;
+    check_out_plan(out, plan, &file.sha256)?;
+    let _lock = lock_folder(out, false)?;
+    let data = data_dir(&file.design, &file.path, data, out)?;
+    run(file, plan, &data, out, options, observer)
 }
 
 /// `run`, `train` and Slurm fit only the models crossaudit trains.
@@ -452,8 +471,8 @@ fn finish(
     analysis.warnings.extend(opened.warnings.iter().cloned());
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
-    let curves = read_curves(plan, out)?;
-    if let Some(w) = early_best_epochs(plan, &curves) {
+    let curves = curves::read_curves(plan, out)?;
+    if let Some(w) = curves::early_best_epochs(plan, &curves) {
         analysis.warnings.push(w);
     }
     let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
@@ -515,56 +534,6 @@ fn analyze_run(design_path: &str, plan: &Plan, cells_csv: &Path, opened: &Opened
     }
     analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
     Ok(analysis)
-}
-
-/// A warning when fitted models' best validation epoch (the weights the
-/// rollouts use) falls in the first tenth of the planned epochs: a
-/// decision that rests on barely trained models should say so.
-fn early_best_epochs(plan: &Plan, curves: &[Curve]) -> Option<String> {
-    let planned = plan.training.as_ref()?.epochs;
-    let first = planned.div_ceil(10).max(1) as f64;
-    let best: Vec<f64> = curves
-        .iter()
-        .filter_map(|c| c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a }).map(|p| p.0))
-        .collect();
-    let early: Vec<f64> = best.iter().copied().filter(|e| *e <= first).collect();
-    if early.is_empty() {
-        return None;
-    }
-    let lo = early.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = early.iter().copied().fold(0.0, f64::max);
-    Some(format!(
-        "early best epochs: {} of {} fitted models reach their best validation loss within the first {first} of {planned} epochs (epochs {lo} to {hi}); their restored weights are barely trained (training curves figure)",
-        early.len(),
-        best.len()
-    ))
-}
-
-/// The columns of a training curve the figures need.
-#[derive(Deserialize)]
-struct CurvePoint {
-    epoch: f64,
-    val_loss: f64,
-}
-
-/// The validation-loss curve of every fitted job, in file-name order.
-fn read_curves(plan: &Plan, out: &Path) -> Result<Vec<Curve>, RunError> {
-    // External models' training happened elsewhere: no curve.
-    let mut jobs: Vec<&TrainingJob> = plan.jobs.iter().filter(|j| j.trains() && !j.kind.is_external()).collect();
-    jobs.sort_by_key(|j| j.stem());
-    let mut curves = Vec::new();
-    for j in jobs {
-        let path = out.join("curves").join(format!("{}.csv", j.stem()));
-        let csv_err = |source: csv::Error| RunError::Csv { path: path.display().to_string(), source };
-        let mut rdr = csv::Reader::from_path(&path).map_err(csv_err)?;
-        let points = rdr
-            .deserialize::<CurvePoint>()
-            .map(|p| p.map(|p| (p.epoch, p.val_loss)))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(csv_err)?;
-        curves.push(Curve { arm: j.arm.clone(), points });
-    }
-    Ok(curves)
 }
 
 /// Parameter-free models fit nothing split-dependent: their rows must be

@@ -4,7 +4,6 @@
 use std::path::{Path, PathBuf};
 
 use crossaudit::design;
-use crossaudit::run::lock_folder;
 use crossaudit::Error;
 
 use crate::progress;
@@ -12,13 +11,8 @@ use crate::progress;
 pub(crate) fn export(design: &Path, data: Option<PathBuf>, out: &Path, exploratory: bool) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    // Before anything (simulated data included) is written into `out`.
-    crossaudit::run::external::check_exportable(&file, &plan)?;
-    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
-    let _lock = lock_folder(out, false)?;
-    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let started = std::time::Instant::now();
-    let o = crossaudit::run::external::export(&file, &plan, &data, out, exploratory)?;
+    let o = crossaudit::run::external::export_into(&file, &plan, data, out, exploratory)?;
     note!(
         "exported {} external jobs in {:.1} s ({:.1} MB) to {}",
         o.jobs,
@@ -37,6 +31,8 @@ pub(crate) fn export(design: &Path, data: Option<PathBuf>, out: &Path, explorato
 
 pub(crate) fn score(dir: &Path, workers: Option<usize>) -> Result<(), Error> {
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    // Before the progress display, which has a line per worker.
+    crossaudit::run::check_workers(workers)?;
     let progress = progress::RunProgress::new(workers, 0);
     let result = crossaudit::run::external::score(dir, workers, &progress, &mut |line| note!("{line}"));
     progress.finish();

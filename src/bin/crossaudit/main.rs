@@ -215,17 +215,13 @@ fn run(
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    crossaudit::run::refuse_external(&plan)?;
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    // Before the progress display, which has a line per worker.
     crossaudit::run::check_workers(workers)?;
-    // Before anything (simulated data included) is written into `out`.
-    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
-    let _lock = lock_folder(out, false)?;
-    let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
     let options = crossaudit::run::RunOptions { workers, exploratory };
-    let result = crossaudit::run::run(&file, &plan, &data, out, options, &progress);
+    let result = crossaudit::run::run_into(&file, &plan, data, out, options, &progress);
     progress.finish();
     let o = result?;
     note!(

@@ -179,21 +179,18 @@ pub fn external_jobs(plan: &Plan) -> Vec<&TrainingJob> {
 /// Refuses a design `export` cannot serve: no external model, or outer
 /// factors (choices, draws, splits).
 pub fn check_exportable(file: &DesignFile, plan: &Plan) -> Result<(), RunError> {
-    if let Some((levels, _)) = super::outer::study_levels(&file.design, plan) {
-        let what = if !plan.splits.is_empty() {
-            format!("{} splits", plan.splits.len())
-        } else {
-            format!("{} levels (specifications or draws)", levels.len())
-        };
-        if external_jobs(plan).is_empty() {
-            return Err(RunError::NoExternalModels);
-        }
-        return Err(RunError::ExportOuter { what });
-    }
     if external_jobs(plan).is_empty() {
         return Err(RunError::NoExternalModels);
     }
-    Ok(())
+    match super::outer::study_levels(&file.design, plan) {
+        Some(_) if !plan.splits.is_empty() => {
+            Err(RunError::ExportOuter { what: format!("{} splits", plan.splits.len()) })
+        }
+        Some((levels, _)) => {
+            Err(RunError::ExportOuter { what: format!("{} levels (specifications or draws)", levels.len()) })
+        }
+        None => Ok(()),
+    }
 }
 
 /// The names of the design's external models, for refusals.
@@ -213,6 +210,24 @@ pub struct ExportOutcome {
     pub jobs: usize,
     /// Bytes written.
     pub bytes: u64,
+}
+
+/// `crossaudit export DESIGN [--data DIR] --out OUT` as the command line and
+/// the Python package make it: the design checked and `out` refused if it
+/// holds another design's run, both before anything is written (simulated
+/// data included), the folder locked, the data found, then [`export`].
+pub fn export_into(
+    file: &DesignFile,
+    plan: &Plan,
+    data: Option<PathBuf>,
+    out: &Path,
+    exploratory: bool,
+) -> Result<ExportOutcome, RunError> {
+    check_exportable(file, plan)?;
+    super::check_out_plan(out, plan, &file.sha256)?;
+    let _lock = super::lock_folder(out, false)?;
+    let data = super::data_dir(&file.design, &file.path, data, out)?;
+    export(file, plan, &data, out, exploratory)
 }
 
 /// `crossaudit export`: opens `out` as `run` does, then writes the export

@@ -197,7 +197,7 @@ fn check_export(dir: &Path, built: &Built) -> Result<(), RunError> {
         let path = export.join(name);
         let changed = |reason: String| RunError::ExportChanged { path: path.display().to_string(), reason };
         let now = crate::io::read_own(&path).map_err(|e| changed(e.to_string()))?;
-        if now.len() != bytes.len() || sha256_hex(&now) != sha256_hex(bytes) {
+        if now != *bytes {
             return Err(changed(format!(
                 "sha256 {}, the export of this design and data has {}",
                 sha256_hex(&now),
@@ -295,11 +295,12 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
         s.copy_from_slice(&arr.data[off..off + STATE]);
         s
     };
-    let non_finite = (0..ej.shape[0])
-        .filter(|&i| {
-            (1..=steps)
-                .any(|k| predicted(i, k).iter().enumerate().any(|(c, v)| !EXOGENOUS.contains(&c) && !v.is_finite()))
-        })
+    // Trajectories with a non-finite predicted state (reference and battery
+    // are overwritten, so theirs do not count).
+    let non_finite = arr
+        .data
+        .chunks((steps * STATE).max(1))
+        .filter(|t| t.chunks(STATE).any(|x| x[..EXOGENOUS.start].iter().any(|v| !v.is_finite())))
         .count();
     let (p, plan) = (&r.prepared, &r.plan);
     let horizon_steps = rollout::horizon_steps(&job.horizons_s, plan.rate_hz);
