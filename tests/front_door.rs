@@ -292,3 +292,101 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
     }
     assert!(compared >= 10, "{compared} files compared");
 }
+
+/// The cells of the markdown table whose header row is `header`, one Vec per
+/// row, header first.
+fn tables(report: &str) -> Vec<Vec<Vec<String>>> {
+    let mut out: Vec<Vec<Vec<String>>> = Vec::new();
+    let mut current: Vec<Vec<String>> = Vec::new();
+    for line in report.lines().chain([""]) {
+        if line.starts_with('|') {
+            if !line.starts_with("|---") {
+                current.push(line.trim_matches('|').split('|').map(|c| c.trim().to_string()).collect());
+            }
+        } else if !current.is_empty() {
+            out.push(std::mem::take(&mut current));
+        }
+    }
+    out
+}
+
+/// Every committed report that the fast results regenerate: each table
+/// column holding a value in the metric's unit either sits beside a `unit`
+/// column or names its unit in its header, and the report's first line is
+/// the study and its verdict.
+#[test]
+fn every_table_of_the_regenerated_reports_names_its_units() {
+    let reports = [
+        "results/quickstart/report/report.md",
+        "results/example/report.md",
+        "results/simulated_family/dose_high/report/report.md",
+        "results/simulated_family/splits_0/report/report.md",
+    ];
+    // Columns whose values carry the metric's unit.
+    let valued =
+        ["d mean", "SE", "delta mean", "mean d", "estimate", "d", "mu", "mean ref", "slope", "MS rec", "s2 rec"];
+    for path in reports {
+        let text = std::fs::read_to_string(root().join(path)).unwrap();
+        let first = text.lines().next().unwrap();
+        assert!(
+            first.starts_with("# ")
+                && [": CONFIRMED", ": NOT CONFIRMED", ": GROWS", ": NOT GROWS"].iter().any(|v| first.contains(v)),
+            "{path}: line 1 is not the verdict: {first}"
+        );
+        for table in tables(&text) {
+            let header = &table[0];
+            let has_unit = header.iter().any(|h| h == "unit");
+            for h in header.iter().filter(|h| valued.contains(&h.as_str())) {
+                assert!(has_unit, "{path}: column `{h}` has no unit (header {header:?})");
+            }
+        }
+        // The decision line states its units.
+        let line = text.lines().find(|l| l.contains("decision: ")).unwrap();
+        assert!(line.contains("%: ") || line.contains("%/pp: ") || !line.contains("optimism ="), "{path}: {line}");
+        assert!(line.contains(" m: ") || line.contains(" m/pp: "), "{path}: {line}");
+    }
+}
+
+/// The treatment-strength table of the committed quickstart and dose
+/// reports says what `audit/treatment.json` says.
+#[test]
+fn the_treatment_strength_table_is_the_treatment_audit() {
+    for run in ["results/quickstart", "results/simulated_family/dose_high"] {
+        let dir = root().join(run);
+        let audit: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("audit/treatment.json")).unwrap()).unwrap();
+        let text = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+        let table = tables(&text)
+            .into_iter()
+            .find(|t| t[0].first().map(String::as_str) == Some("arm") && t[0].len() == 6)
+            .unwrap_or_else(|| panic!("{run}: no treatment-strength table"));
+        let arms = audit["arms"].as_array().unwrap();
+        assert_eq!(table.len() - 1, arms.len(), "{run}");
+        for (row, arm) in table[1..].iter().zip(arms) {
+            assert_eq!(row[0], arm["arm"].as_str().unwrap());
+            assert_eq!(row[1], arm["contaminating_windows"].to_string());
+            assert_eq!(row[2], arm["inside_evaluated_segment"].to_string());
+            assert_eq!(row[3], format!("{:.1}", 100.0 * arm["share_inside"].as_f64().unwrap()));
+            assert_eq!(row[5], format!("{:.2}", arm["median_distance_s"].as_f64().unwrap()));
+        }
+    }
+}
+
+/// A dose-response report: report.html with the verdict and its figures
+/// inline, and the dose figure on a numeric axis with the fitted slope the
+/// report's trend table gives.
+#[test]
+fn a_dose_report_has_its_page_and_a_numeric_dose_axis_with_the_slope() {
+    let dir = root().join("results/simulated_family/dose_high/report");
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let verdict = if md.lines().next().unwrap().ends_with("NOT GROWS") { "NOT GROWS" } else { "GROWS" };
+    assert!(html.contains(&format!("<span class=\"verdict\">{verdict}</span>")), "{html}");
+    assert!(html.contains("<figure data-figure=\"optimism_by_dose.svg\"") && !html.contains("<img"), "{html}");
+    let svg = std::fs::read_to_string(dir.join("optimism_by_dose.svg")).unwrap();
+    assert!(svg.contains("dose (% of the fit windows from the evaluation recordings)"), "no numeric dose axis");
+    // The slope the figure's key quotes is the trend table's optimism slope.
+    let trend = tables(&md).into_iter().find(|t| t[0].iter().any(|h| h == "optimism slope (%/pp)")).unwrap();
+    let k = trend[0].iter().position(|h| h == "optimism slope (%/pp)").unwrap();
+    assert!(svg.contains(&format!("fitted slope {} %/pp", trend[1][k])), "slope {} not in the figure", trend[1][k]);
+}

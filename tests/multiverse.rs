@@ -121,6 +121,14 @@ fn an_analysis_only_choice_trains_no_extra_job() {
     let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
     assert!(cells.starts_with("spec,draw,model,arm,seed,"));
     assert!(dir.join("report/spec_curve.svg").exists() && dir.join("report/choice_effects.csv").exists());
+    // report.html: the verdict in the banner, the specification curve inline.
+    let html = std::fs::read_to_string(dir.join("report/report.html")).unwrap();
+    let verdict = report.lines().next().unwrap();
+    let verdict = if verdict.contains("**NOT ") { "NOT CONFIRMED" } else { "CONFIRMED" };
+    assert!(html.contains(&format!("<span class=\"verdict\">{verdict}</span>")), "{html}");
+    let curve = std::fs::read_to_string(dir.join("report/spec_curve.svg")).unwrap();
+    let body = curve.trim_start().strip_prefix("<?xml").map_or(curve.as_str(), |r| r.split_once("?>").unwrap().1);
+    assert!(html.contains("<figure data-figure=\"spec_curve.svg\"") && html.contains(body.trim()), "{html}");
     // The same study as one Slurm array (the tasks run here as the array
     // script runs them): one task per job of the levels that train, and the
     // gather step writes what the local run wrote.

@@ -34,6 +34,8 @@ pub(crate) fn decide(rule: &DecisionRule, primary: &UnitResult) -> Decision {
         name: rule.name.clone(),
         rule: rule.clone(),
         unit: format!("{} {} at {} s", primary.model, primary.metric.name(), primary.horizon_s),
+        value_unit: primary.metric.unit().to_string(),
+        optimism_unit: "%".to_string(),
         holds: conditions.iter().all(|c| c.holds),
         conditions,
     }

@@ -376,6 +376,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         warnings,
         missing_cells,
         figures: Vec::new(),
+        treatment: Vec::new(),
         provenance: Provenance::default(),
     })
 }

@@ -53,8 +53,31 @@ pub struct Analysis {
     /// Figure files (relative to the report), when a run drew them.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<String>,
+    /// How strong each treated arm's treatment is, when a run built the
+    /// split (an analysis of a per-cell CSV alone has no split to measure).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub treatment: Vec<TreatmentStrength>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
+}
+
+/// One arm's treatment strength: how close its contaminating windows (the
+/// windows drawn from the evaluation recordings) sit to the rollouts that
+/// are evaluated.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TreatmentStrength {
+    /// The arm.
+    pub arm: String,
+    /// Its windows from the evaluation recordings.
+    pub contaminating_windows: usize,
+    /// Of those, the windows whose start lies inside an evaluated segment
+    /// [start, start + horizon] of the same recording.
+    pub inside_evaluated_segment: usize,
+    /// The rollout horizon that defines a segment, in seconds.
+    pub horizon_s: f64,
+    /// Median distance from a window to the nearest rollout start of its
+    /// recording, in seconds.
+    pub median_distance_s: f64,
 }
 
 /// Where an analysis came from: reports print it beside the design hash.
@@ -292,6 +315,12 @@ pub struct Decision {
     pub rule: DecisionRule,
     /// The primary unit's label.
     pub unit: String,
+    /// The unit of the mean and the interval the rule reads: the metric's
+    /// (`m`), or per percentage point of dose for a slope (`m/pp`); empty
+    /// for a rate.
+    pub value_unit: String,
+    /// The unit of the optimism the rule reads: `%`, or `%/pp` for a slope.
+    pub optimism_unit: String,
     /// Whether every condition holds.
     pub holds: bool,
     /// Each condition with the observed value.

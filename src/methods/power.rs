@@ -84,6 +84,10 @@ pub struct PowerPlan {
     /// which; plan.json's `unit` names it).
     #[serde(skip)]
     pub estimand: String,
+    /// The unit of the SE and width (`m`, or `m/pp` for a slope), for
+    /// plan.md's headers.
+    #[serde(skip)]
+    pub value_unit: String,
     /// Pilot mean of the estimand (d, or the slope).
     pub mean_d: f64,
     /// Pilot reference-arm mean.
@@ -117,7 +121,8 @@ pub fn power_plan(
     check_counts(&[recordings, seeds])?;
     let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
     let unit = format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s);
-    crossed_plan(plan, unit, "d", &u.estimate, u.mean_reference, recordings, seeds)
+    let estimand = ("d", unit_of(u.metric.unit(), false));
+    crossed_plan(plan, unit, estimand, &u.estimate, u.mean_reference, recordings, seeds)
 }
 
 /// The planner for a single-split dose-response design: [`power_plan`]
@@ -139,7 +144,19 @@ pub fn dose_power_plan(
     let trend = split.trend.as_ref().ok_or(PowerError::NoTrend)?;
     let reference = split.doses.first().ok_or(PowerError::NoPrimary)?.mean_reference;
     let unit = format!("slope over doses of {}", family.unit);
-    crossed_plan(plan, unit, "slope (per dose point)", &trend.slope, reference, recordings, seeds)
+    let estimand = ("slope (per dose point)", unit_of(plan.primary.metric.unit(), true));
+    crossed_plan(plan, unit, estimand, &trend.slope, reference, recordings, seeds)
+}
+
+/// A metric's unit as plan.md prints it (`fraction` for a rate), per
+/// percentage point of dose for a slope.
+fn unit_of(unit: &str, per_dose: bool) -> String {
+    let unit = if unit.is_empty() { "fraction" } else { unit };
+    if per_dose {
+        format!("{unit}/pp")
+    } else {
+        unit.to_string()
+    }
 }
 
 fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
@@ -185,7 +202,7 @@ fn rule_power(plan: &Plan, mean: f64, se: f64, t: f64, mean_reference: f64) -> R
 fn crossed_plan(
     plan: &Plan,
     unit: String,
-    estimand: &str,
+    (estimand, value_unit): (&str, String),
     estimate: &crate::stats::CrossedEstimate,
     mean_reference: f64,
     recordings: &[usize],
@@ -217,6 +234,7 @@ fn crossed_plan(
     Ok(PowerPlan {
         unit,
         estimand: estimand.to_string(),
+        value_unit,
         pilot_recordings: estimate.rows,
         pilot_seeds: estimate.cols,
         mean_d: estimate.mean,
@@ -257,7 +275,9 @@ impl PowerPlan {
             self.sigma2_residual
         );
         let _ = writeln!(s, "{}\n", self.advice);
-        let cols = ["recordings I", "seeds J", "predicted SE", "interval width", "P(decision rule holds)"];
+        let (se_h, width_h) =
+            (format!("predicted SE ({})", self.value_unit), format!("interval width ({})", self.value_unit));
+        let cols = ["recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)"];
         let mut table = Table::new(&cols, "rrrrr");
         // A slope per dose point is small: three significant digits.
         let small = self.rows.iter().all(|r| r.width < 1e-2);
@@ -272,6 +292,16 @@ impl PowerPlan {
             ]);
         }
         s.push_str(&table.render());
+        let _ = write!(
+            s,
+            "\n## Assumptions\n\n\
+- The pilot's variance components (recording, seed, residual) are the true ones, and recordings and seeds added or removed are like the pilot's: SE^2 = s2_rec/I + s2_seed/J + s2_res/(IJ) on a complete I x J array (no missing cells).\n\
+- The pilot's mean {estimand} is the true effect, and the reference mean stays at the pilot's. A pilot chosen because its effect looked large makes every probability optimistic.\n\
+- The estimate is normal with that SE, taken as known: the t critical value uses the df the design's rule gives at I and J (the normal where those df need data), and the SE's own uncertainty is not propagated.\n\
+- The rule (`optimism >= c%` and `upper < 0`, or whichever of them it has) holds when the estimate is at most min(-t SE, -c m_ref / 100); P(decision rule holds) = Phi((that bound - mean) / SE).\n\
+- Nothing else varies: the model, training, split and data inclusion are the pilot's.\n",
+            estimand = self.estimand
+        );
         s
     }
 
@@ -351,6 +381,9 @@ pub struct SplitPowerPlan {
     pub mean_reference: f64,
     /// Pilot variance components: split, recording, seed, residual.
     pub variances: [f64; 4],
+    /// The unit of the SE and width, for plan.md's headers.
+    #[serde(skip)]
+    pub value_unit: String,
     /// One row per (S, I, J) asked for.
     pub rows: Vec<SplitPowerRow>,
 }
@@ -407,6 +440,7 @@ pub fn split_power_plan(
         mean_d: pooled.mean,
         mean_reference,
         variances: pooled.variances,
+        value_unit: unit_of(plan.primary.metric.unit(), on_slope),
         rows,
     })
 }
@@ -426,7 +460,9 @@ impl SplitPowerPlan {
             s,
             "SE^2 = s2_split/S + s2_rec/(S I) + s2_seed/J + s2_res/(S I J), the S x I recordings taken as distinct (recordings that recur across splits make the real SE larger); width = 2 t(S - 1) SE.\n"
         );
-        let cols = ["splits S", "recordings I", "seeds J", "predicted SE", "interval width", "P(decision rule holds)"];
+        let (se_h, width_h) =
+            (format!("predicted SE ({})", self.value_unit), format!("interval width ({})", self.value_unit));
+        let cols = ["splits S", "recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)"];
         let mut table = Table::new(&cols, "rrrrrr");
         for r in &self.rows {
             table.row([
@@ -439,6 +475,14 @@ impl SplitPowerPlan {
             ]);
         }
         s.push_str(&table.render());
+        s.push_str(
+            "\n## Assumptions\n\n\
+- The pilot's pooled variance components (split, recording, seed, residual) are the true ones, and splits, recordings and seeds added or removed are like the pilot's.\n\
+- The S x I evaluation recordings are distinct; recordings that recur across splits average out less, so the predicted SE is a lower bound when the recording pool is small.\n\
+- The pilot's pooled mean is the true effect, and the reference mean stays at the pilot's; a pilot chosen because its effect looked large makes every probability optimistic.\n\
+- The estimate is normal with that SE, taken as known; the interval uses t(S - 1), conservative when the split component is near zero.\n\
+- The rule holds when the estimate is at most min(-t SE, -c m_ref / 100); P(decision rule holds) = Phi((that bound - mean) / SE).\n",
+        );
         s
     }
 

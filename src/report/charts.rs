@@ -53,53 +53,157 @@ pub fn category_label(x: f64, labels: &[String]) -> String {
     }
 }
 
+/// The drawing area of an SVG drawn into memory.
+pub type Root<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+/// Draws an SVG of `size` pixels in memory with `draw`, writes it to
+/// `path` atomically (temporary file + rename: an interrupted run never
+/// leaves half a figure) and returns its text, so that a page can inline
+/// the figure without reading the file back.
+pub fn svg_figure(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Root) -> Result<(), DrawError>,
+) -> Result<String, DrawError> {
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err(path))?;
+        draw(&root)?;
+        root.present().map_err(draw_err(path))?;
+    }
+    crate::io::write_atomic(path, text.as_bytes())
+        .map_err(|e| DrawError { path: path.display().to_string(), message: e.to_string() })?;
+    Ok(text)
+}
+
+/// Ten colours that stay apart from each other (Tableau 10), for charts
+/// with one series per estimator or arm.
+pub const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
 /// One category of an interval chart: label, point, lower and upper ends.
 pub type IntervalRow = (String, f64, f64, f64);
 
 /// Points with vertical interval bars over categories, plus horizontal
-/// reference lines.
+/// reference lines. Returns the SVG text.
 pub fn intervals(
     path: &Path,
     title: &str,
     y_desc: &str,
     rows: &[IntervalRow],
     lines: &[(f64, RGBColor)],
-) -> Result<(), DrawError> {
+) -> Result<String, DrawError> {
     let err = draw_err(path);
-    let staged = crate::io::tmp_path(path);
-    let root = SVGBackend::new(&staged, (900, 480)).into_drawing_area();
-    root.fill(&WHITE).map_err(&err)?;
-    let (lo, hi) = span(rows.iter().flat_map(|r| [r.1, r.2, r.3]).chain(lines.iter().map(|l| l.0)));
-    let n = rows.len().max(1);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), lo..hi)
-        .map_err(&err)?;
-    let labels: Vec<String> = rows.iter().map(|r| r.0.clone()).collect();
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(n)
-        .x_label_formatter(&|x| category_label(*x, &labels))
-        .y_desc(y_desc)
-        .draw()
-        .map_err(&err)?;
-    for (y, color) in lines {
-        chart.draw_series(LineSeries::new(vec![(-0.5, *y), (n as f64 - 0.5, *y)], color)).map_err(&err)?;
-    }
-    chart
-        .draw_series(
-            rows.iter()
-                .enumerate()
-                .map(|(k, r)| PathElement::new(vec![(k as f64, r.2), (k as f64, r.3)], BLUE.stroke_width(2))),
-        )
-        .map_err(&err)?;
-    chart
-        .draw_series(rows.iter().enumerate().map(|(k, r)| Circle::new((k as f64, r.1), 5, BLUE.filled())))
-        .map_err(&err)?;
-    root.present().map_err(&err)?;
-    finish_svg(path)
+    svg_figure(path, (900, 480), |root| {
+        let (lo, hi) = span(rows.iter().flat_map(|r| [r.1, r.2, r.3]).chain(lines.iter().map(|l| l.0)));
+        let n = rows.len().max(1);
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), lo..hi)
+            .map_err(&err)?;
+        let labels: Vec<String> = rows.iter().map(|r| r.0.clone()).collect();
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n)
+            .x_label_formatter(&|x| category_label(*x, &labels))
+            .y_desc(y_desc)
+            .draw()
+            .map_err(&err)?;
+        for (y, color) in lines {
+            chart.draw_series(LineSeries::new(vec![(-0.5, *y), (n as f64 - 0.5, *y)], color)).map_err(&err)?;
+        }
+        chart
+            .draw_series(
+                rows.iter()
+                    .enumerate()
+                    .map(|(k, r)| PathElement::new(vec![(k as f64, r.2), (k as f64, r.3)], BLUE.stroke_width(2))),
+            )
+            .map_err(&err)?;
+        chart
+            .draw_series(rows.iter().enumerate().map(|(k, r)| Circle::new((k as f64, r.1), 5, BLUE.filled())))
+            .map_err(&err)?;
+        Ok(())
+    })
+}
+
+/// One dose of a dose-response chart: dose (%), point, lower and upper ends.
+pub type DoseRow = (f64, f64, f64, f64);
+
+/// Points with interval bars on a numeric dose axis from 0, the reference
+/// arm as the point (0, 0), and the fitted line `intercept + slope x dose`
+/// labelled `fit_label`. Returns the SVG text.
+pub fn dose_response(
+    path: &Path,
+    title: &str,
+    y_desc: &str,
+    rows: &[DoseRow],
+    fit: Option<(f64, f64, String)>,
+) -> Result<String, DrawError> {
+    let err = draw_err(path);
+    svg_figure(path, (900, 480), |root| {
+        let max_dose = rows.iter().map(|r| r.0).filter(|d| d.is_finite()).fold(1.0, f64::max) * 1.08;
+        let line_ends = fit.iter().flat_map(|(a, b, _)| [*a, a + b * max_dose]);
+        let (lo, hi) = span(rows.iter().flat_map(|r| [r.1, r.2, r.3]).chain([0.0]).chain(line_ends));
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-max_dose * 0.03..max_dose, lo..hi)
+            .map_err(&err)?;
+        chart
+            .configure_mesh()
+            .x_desc("dose (% of the fit windows from the evaluation recordings)")
+            .y_desc(y_desc)
+            .draw()
+            .map_err(&err)?;
+        chart.draw_series(LineSeries::new(vec![(0.0, 0.0), (max_dose, 0.0)], BLACK)).map_err(&err)?;
+        if let Some((a, b, label)) = &fit {
+            let red = PALETTE[3];
+            chart
+                .draw_series(LineSeries::new(vec![(0.0, *a), (max_dose, a + b * max_dose)], red.stroke_width(2)))
+                .map_err(&err)?
+                .label(label.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
+        }
+        let blue = PALETTE[0];
+        chart
+            .draw_series(rows.iter().map(|r| PathElement::new(vec![(r.0, r.2), (r.0, r.3)], blue.stroke_width(2))))
+            .map_err(&err)?;
+        chart
+            .draw_series(rows.iter().map(|r| Circle::new((r.0, r.1), 5, blue.filled())))
+            .map_err(&err)?
+            .label("estimate per dose, with its interval")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, blue.filled()));
+        chart
+            .draw_series(std::iter::once(Circle::new((0.0, 0.0), 5, BLACK.stroke_width(2))))
+            .map_err(&err)?
+            .label("reference arm (dose 0)")
+            .legend(|(x, y)| Circle::new((x + 10, y), 5, BLACK.stroke_width(2)));
+        // The key where the line is not: above it when optimism grows with dose.
+        let rising = fit.as_ref().is_none_or(|f| f.1 >= 0.0);
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(if rising { SeriesLabelPosition::UpperLeft } else { SeriesLabelPosition::LowerLeft })
+            .draw()
+            .map_err(&err)?;
+        Ok(())
+    })
 }

@@ -1,6 +1,7 @@
 //! The report of a dose-response or multi-split study: report.md (the
 //! decision, the estimate per split and dose, the trend, the pooled
-//! estimates), results.json, and two figures: optimism against dose with
+//! estimates), results.json, report.html (the same as one page, figures
+//! inline), and two figures: optimism against dose with
 //! intervals, and the per-split estimates beside the pooled one (a forest
 //! plot).
 
@@ -9,7 +10,8 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::{BLACK, RED};
 
-use super::charts::{intervals, DrawError, IntervalRow};
+use super::charts::{dose_response, intervals, DoseRow, DrawError, IntervalRow};
+use super::figures::Figure;
 use super::format::{decision_summary, df, f, level_pct, sci};
 use super::{ReportError, Table};
 use crate::analysis::family::{FamilyAnalysis, PooledEstimate};
@@ -35,12 +37,7 @@ pub fn family_decision_line(a: &FamilyAnalysis) -> String {
 /// report.md of a family analysis.
 pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
-    let tag = match super::format::status_tag(a.exploratory, a.preregistered) {
-        Some("NOT PREREGISTERED") => "NOT PREREGISTERED (the design was not locked): ".to_string(),
-        Some(t) => format!("{t}: "),
-        None => String::new(),
-    };
-    let _ = writeln!(s, "# {tag}{}\n", a.study);
+    let _ = writeln!(s, "# {}: {}\n", a.study, super::format::verdict(&a.decision, a.exploratory, a.preregistered));
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {
@@ -54,14 +51,18 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     }
     let _ = writeln!(s, "crossaudit {}.\n", a.provenance.crossaudit);
     let level = level_pct(a.level);
+    let unit = if a.metric_unit.is_empty() { "fraction" } else { a.metric_unit.as_str() };
+    let per_dose = format!("{unit}/pp");
+    let (u, upp) = (|h: &str| format!("{h} ({unit})"), |h: &str| format!("{h} ({per_dose})"));
 
     let _ = writeln!(s, "## Per split and dose\n");
     let _ = writeln!(
         s,
         "Each row is the crossed analysis of one contrast (its treated arm against the shared reference arm) over that split's recording x seed matrix, {level} intervals of the design's estimator. Optimism = 100 (mean reference - mean treated) / mean reference.\n"
     );
+    let (mr, mt, d_h, se_h, iv_h) = (u("mean ref"), u("mean treated"), u("d"), u("SE"), u("interval"));
     let mut t = Table::new(
-        &["split", "dose", "arm", "mean ref", "mean treated", "d", "SE", "df", "interval", "optimism %", "excludes 0"],
+        &["split", "dose", "arm", &mr, &mt, &d_h, &se_h, "df", &iv_h, "optimism %", "excludes 0"],
         "llrrrrrrrrl",
     );
     for sp in &a.splits {
@@ -84,21 +85,26 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     }
     let _ = writeln!(s, "{}", t.render());
 
+    if !a.treatment.is_empty() {
+        let _ = writeln!(s, "## Treatment strength\n\n{}\n", super::markdown::TREATMENT_NOTE);
+        let _ = writeln!(s, "{}", super::markdown::treatment(&a.treatment).render());
+    }
     if a.splits.iter().any(|sp| sp.trend.is_some()) {
         let _ = writeln!(s, "## Trend over dose\n");
         let _ = writeln!(
             s,
             "Per recording x seed cell, the least-squares slope of d over the doses with the reference arm as dose 0 (d = 0); its crossed estimate, per percentage point of dose. The dose-0 point is d = 0 by construction (no noise) and the line's intercept is free: the slope is the ordinary least-squares slope over 0 and the doses, not a fit through the origin. The optimism slope is -100 slope / mean reference (optimism points per dose point), its interval the slope's rescaled. `smallest dose excluding 0` is descriptive (no control of multiplicity over the doses); `step-down dose` is the lowest dose reached by testing from the largest dose down, stopping at the first interval that includes zero, which keeps the family-wise error at most 1 - level.\n"
         );
+        let (sl, se_h, iv_h) = (upp("slope"), upp("SE"), upp("interval"));
         let mut t = Table::new(
             &[
                 "split",
-                "slope (m/pp)",
-                "SE",
+                &sl,
+                &se_h,
                 "df",
-                "interval",
-                "optimism slope",
-                "optimism interval",
+                &iv_h,
+                "optimism slope (%/pp)",
+                "optimism interval (%/pp)",
                 "smallest dose excluding 0",
                 "step-down dose",
             ],
@@ -127,7 +133,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         let _ = writeln!(s, "## Pooled over splits\n");
         let _ = writeln!(
             s,
-            "REML fit of value = mu + split + recording + seed + residual, all three random intercepts and crossed (recordings recur across splits, seeds are shared): lme4's `lmer(d ~ 1 + (1|split) + (1|recording) + (1|seed))`. Interval mu +- t(df) SE, {level}; the df are Satterthwaite's unless the design's estimator asks for Kenward-Roger (column `df`). Split share = var(split) / total variance; SE^2 shares are phi_k dVar(mu)/dphi_k (split, recording, seed, residual).\n"
+            "REML fit of value = mu + split + recording + seed + residual, all three random intercepts and crossed (recordings recur across splits, seeds are shared): lme4's `lmer(d ~ 1 + (1|split) + (1|recording) + (1|seed))`. Interval mu +- t(df) SE, {level}; the df are Satterthwaite's unless the design's estimator asks for Kenward-Roger (column `df`). Split share = var(split) / total variance; SE^2 shares are phi_k dVar(mu)/dphi_k (split, recording, seed, residual). mu, SE and the interval are in the row's unit; the variances in its square; optimism in % (per dose point for the slope).\n"
         );
         let n = a.splits.len();
         if n < 10 {
@@ -140,6 +146,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         let mut t = Table::new(
             &[
                 "estimate",
+                "unit",
                 "n",
                 "mu",
                 "SE",
@@ -154,13 +161,14 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
                 "split share",
                 "SE^2 shares",
             ],
-            "lrrrrrrrrrrrrl",
+            "llrrrrrrrrrrrrl",
         );
         let row = |t: &mut Table, e: &PooledEstimate| {
             let slope = e.label == "slope";
             let num = |v: f64| if slope { sci(v) } else { f(v, 4) };
             t.row([
                 e.label.clone(),
+                if slope { per_dose.clone() } else { unit.to_string() },
                 e.n.to_string(),
                 num(e.mean),
                 num(e.se),
@@ -225,7 +233,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
 
 /// Draws the figures: optimism against dose (two or more doses), and the
 /// per-split estimates with the pooled one (two or more splits).
-pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, DrawError> {
+pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<Figure>, DrawError> {
     let mut written = Vec::new();
     let mut lines = vec![(0.0, BLACK)];
     if let Some(t) = a.decision.rule.optimism_threshold() {
@@ -237,27 +245,44 @@ pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBu
     let level = level_pct(a.level);
     if a.doses.len() >= 2 {
         // Pooled over splits when there are several, else the one split's.
-        let rows: Vec<IntervalRow> = match &a.pooled {
+        let rows: Vec<DoseRow> = match &a.pooled {
             Some(p) => p
                 .doses
                 .iter()
                 .zip(&a.doses)
-                .map(|(e, d)| (format!("{}%", d.percent), e.optimism_pct, e.optimism_lower, e.optimism_upper))
+                .map(|(e, d)| (d.percent, e.optimism_pct, e.optimism_lower, e.optimism_upper))
                 .collect(),
             None => a.splits[0]
                 .doses
                 .iter()
                 .map(|d| {
                     let k = -100.0 / d.mean_reference;
-                    (format!("{}%", d.percent), d.optimism_pct, d.estimate.upper * k, d.estimate.lower * k)
+                    (d.percent, d.optimism_pct, d.estimate.upper * k, d.estimate.lower * k)
                 })
                 .collect(),
         };
+        // The optimism slope (per dose point) and its interval: pooled over
+        // splits, or the one split's.
+        let slope = match &a.pooled {
+            Some(p) => p.slope.as_ref().map(|e| (e.optimism_pct, e.optimism_lower, e.optimism_upper)),
+            None => {
+                a.splits[0].trend.as_ref().map(|t| (t.optimism_slope, t.optimism_slope_lower, t.optimism_slope_upper))
+            }
+        };
+        // The least-squares line through the reference (0, 0) and the doses'
+        // points has the slope's estimate as its slope; its intercept
+        // follows from the means.
+        let fit = slope.filter(|s| s.0.is_finite()).map(|(b, lo, hi)| {
+            let n = rows.len() as f64 + 1.0;
+            let mean_x = rows.iter().map(|r| r.0).sum::<f64>() / n;
+            let mean_y = rows.iter().map(|r| r.1).sum::<f64>() / n;
+            (mean_y - b * mean_x, b, format!("fitted slope {} %/pp, {level} [{}, {}]", f(b, 3), f(lo, 3), f(hi, 3)))
+        });
         let what = if a.pooled.is_some() { "pooled over splits" } else { "crossed intervals" };
         let p = dir.join("optimism_by_dose.svg");
         let title = format!("{tag}Optimism against dose ({} vs {}), {level} {what}", a.treated, a.reference);
-        intervals(&p, &title, "optimism (%)", &rows, &[(0.0, BLACK)])?;
-        written.push(p);
+        let svg = dose_response(&p, &title, "optimism (%)", &rows, fit)?;
+        written.push((p, svg));
     }
     if let Some(p) = &a.pooled {
         for (k, d) in a.doses.iter().enumerate() {
@@ -283,8 +308,8 @@ pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBu
                 a.unit,
                 dose_name(d.percent, &d.arm)
             );
-            intervals(&path, &title, "optimism (%)", &rows, &lines)?;
-            written.push(path);
+            let svg = intervals(&path, &title, "optimism (%)", &rows, &lines)?;
+            written.push((path, svg));
         }
     }
     Ok(written)
@@ -295,9 +320,16 @@ pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBu
 pub fn write_family(a: &mut FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     create_dir_all(dir)?;
     let figures = write_family_figures(a, dir)?;
-    a.figures = figures.iter().filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned())).collect();
-    let mut out = figures;
-    for (name, text) in [("report.md", render_family_markdown(a)), ("results.json", pretty_json(a))] {
+    let svgs: Vec<(String, String)> = figures
+        .iter()
+        .filter_map(|(p, svg)| p.file_name().map(|f| (f.to_string_lossy().into_owned(), svg.clone())))
+        .collect();
+    a.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
+    let mut out: Vec<PathBuf> = figures.into_iter().map(|(p, _)| p).collect();
+    let markdown = render_family_markdown(a);
+    let banner = super::html::Banner::new(&a.decision, family_decision_line(a), a.exploratory, a.preregistered);
+    let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
+    for (name, text) in [("report.md", markdown), ("results.json", pretty_json(a)), ("report.html", html)] {
         let path = dir.join(name);
         write_atomic(&path, text.as_bytes())?;
         out.push(path);

@@ -21,8 +21,12 @@ pub struct Curve {
     pub points: Vec<(f64, f64)>,
 }
 
-/// Writes the figures into `report_dir` and returns the files written.
-pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Result<Vec<PathBuf>, DrawError> {
+/// A figure written: its file and its SVG text.
+pub type Figure = (PathBuf, String);
+
+/// Writes the figures into `report_dir` and returns the files written
+/// with their SVG text.
+pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Result<Vec<Figure>, DrawError> {
     let mut written = Vec::new();
     let mut lines = vec![(0.0, BLACK)];
     if let Some(t) = a.decision.rule.optimism_threshold() {
@@ -42,8 +46,8 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
         .collect();
     let p = report_dir.join("optimism.svg");
     let title = format!("Apparent optimism ({contrast}), {} crossed intervals", level_pct(a.level));
-    intervals(&p, &label(a, &title), "optimism (%)", &rows, &lines)?;
-    written.push(p);
+    let svg = intervals(&p, &label(a, &title), "optimism (%)", &rows, &lines)?;
+    written.push((p, svg));
 
     if let Some(first) = a.interactions.first() {
         let rows: Vec<IntervalRow> = a
@@ -53,8 +57,8 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             .collect();
         let p = report_dir.join("interaction.svg");
         let title = format!("Interaction: d({}) - d({})", first.left, first.right);
-        intervals(&p, &label(a, &title), "difference in d (m)", &rows, &[(0.0, BLACK)])?;
-        written.push(p);
+        let svg = intervals(&p, &label(a, &title), "difference in d (m)", &rows, &[(0.0, BLACK)])?;
+        written.push((p, svg));
     }
 
     if let Some(primary) = a.units.first() {
@@ -65,8 +69,8 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             .collect();
         let p = report_dir.join("per_seed_optimism.svg");
         let title = format!("Per-seed optimism, {} at {} s (red: threshold)", primary.model, primary.horizon_s);
-        intervals(&p, &label(a, &title), "optimism (%)", &rows, &lines)?;
-        written.push(p);
+        let svg = intervals(&p, &label(a, &title), "optimism (%)", &rows, &lines)?;
+        written.push((p, svg));
 
         let rows: Vec<IntervalRow> = primary
             .per_trajectory
@@ -84,14 +88,14 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             primary.model,
             primary.horizon_s
         );
-        intervals(&p, &label(a, &title), "mean d (m)", &rows, &[(0.0, BLACK)])?;
-        written.push(p);
+        let svg = intervals(&p, &label(a, &title), "mean d (m)", &rows, &[(0.0, BLACK)])?;
+        written.push((p, svg));
     }
 
     if !curves.is_empty() {
         let p = report_dir.join("training_curves.svg");
-        draw_curves(&p, a, curves)?;
-        written.push(p);
+        let svg = draw_curves(&p, a, curves)?;
+        written.push((p, svg));
     }
     Ok(written)
 }
@@ -112,27 +116,25 @@ fn capitalize(s: &str) -> String {
 }
 
 /// Every curve, the treated arm's in blue and the others in orange.
-fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<(), DrawError> {
+fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<String, DrawError> {
     let err = draw_err(path);
-    let staged = crate::io::tmp_path(path);
-    let root = SVGBackend::new(&staged, (900, 480)).into_drawing_area();
-    root.fill(&WHITE).map_err(&err)?;
-    let max_epoch = curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)).fold(1.0, f64::max);
-    let (lo, hi) = span(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
-    let title =
-        format!("Validation loss per epoch, every training cell (blue: {}, orange: {})", a.treated, a.reference);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(label(a, &title), ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..max_epoch, lo.max(0.0)..hi)
-        .map_err(&err)?;
-    chart.configure_mesh().x_desc("epoch").y_desc("validation loss (standardized MSE)").draw().map_err(&err)?;
-    for c in curves {
-        let color = if c.arm == a.treated { BLUE.mix(0.5) } else { RGBColor(230, 120, 20).mix(0.5) };
-        chart.draw_series(LineSeries::new(c.points.iter().copied(), color)).map_err(&err)?;
-    }
-    root.present().map_err(&err)?;
-    super::charts::finish_svg(path)
+    super::charts::svg_figure(path, (900, 480), |root| {
+        let max_epoch = curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)).fold(1.0, f64::max);
+        let (lo, hi) = span(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
+        let title =
+            format!("Validation loss per epoch, every training cell (blue: {}, orange: {})", a.treated, a.reference);
+        let mut chart = ChartBuilder::on(root)
+            .caption(label(a, &title), ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..max_epoch, lo.max(0.0)..hi)
+            .map_err(&err)?;
+        chart.configure_mesh().x_desc("epoch").y_desc("validation loss (standardized MSE)").draw().map_err(&err)?;
+        for c in curves {
+            let color = if c.arm == a.treated { BLUE.mix(0.5) } else { RGBColor(230, 120, 20).mix(0.5) };
+            chart.draw_series(LineSeries::new(c.points.iter().copied(), color)).map_err(&err)?;
+        }
+        Ok(())
+    })
 }

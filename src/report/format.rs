@@ -25,7 +25,21 @@ pub fn f(v: f64, decimals: usize) -> String {
     }
 }
 
-/// One line: the decision and, when it fails, which part failed.
+/// The observed value a condition reads, with its unit: optimism as a
+/// percentage with two decimals, the mean and interval ends in the metric's unit;
+/// a slope's, per percentage point of dose, in scientific notation.
+fn condition_value(d: &Decision, q: crate::design::Quantity, v: f64) -> String {
+    let slope = d.optimism_unit != "%";
+    let with_unit = |n: String, unit: &str| if unit.is_empty() { n } else { format!("{n} {unit}") };
+    match q {
+        crate::design::Quantity::Optimism => format!("{}{}", f(v, if slope { 3 } else { 2 }), d.optimism_unit),
+        _ if slope && v.is_finite() => with_unit(format!("{v:.3e}"), &d.value_unit),
+        _ => with_unit(f(v, 4), &d.value_unit),
+    }
+}
+
+/// One line: the decision and, when it fails, which part failed, each
+/// observed value with its unit.
 pub fn decision_summary(d: &Decision) -> String {
     let parts: Vec<String> = d
         .conditions
@@ -35,13 +49,26 @@ pub fn decision_summary(d: &Decision) -> String {
                 "{} ({} = {}: {})",
                 c.condition,
                 c.quantity.name(),
-                f(c.value, 4),
+                condition_value(d, c.quantity, c.value),
                 if c.holds { "met" } else { "NOT met" }
             )
         })
         .collect();
     let verdict = if d.holds { d.name.to_uppercase() } else { format!("NOT {}", d.name.to_uppercase()) };
     format!("decision: {verdict} on {}: {}", d.unit, parts.join("; "))
+}
+
+/// A report's title after the study's name, its first line: the verdict
+/// (`CONFIRMED`, `NOT CONFIRMED`) and, when the analysis is not the
+/// preregistered one, why.
+pub(crate) fn verdict(d: &Decision, exploratory: bool, preregistered: Option<bool>) -> String {
+    let name = d.name.to_uppercase();
+    let verdict = if d.holds { name } else { format!("NOT {name}") };
+    match status_tag(exploratory, preregistered) {
+        Some("NOT PREREGISTERED") => format!("{verdict} (NOT PREREGISTERED: the design was not locked)"),
+        Some(t) => format!("{verdict} ({t})"),
+        None => verdict,
+    }
 }
 
 /// The decision line as the console prints it: [`decision_summary`],

@@ -158,36 +158,73 @@ fn body(markdown: &str, figures: &[(String, String)]) -> String {
     out
 }
 
-/// The whole page: `markdown` is the report.md text of `a`; `figures` are
-/// (file name, SVG text) of the figures its images name.
-pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
-    let holds = a.decision.holds;
-    let status = if a.exploratory {
+/// What a page's banner says: the verdict (`CONFIRMED`, `NOT GROWS`),
+/// whether it holds, the decision line and the preregistration status.
+pub struct Banner {
+    /// The verdict in capitals.
+    pub verdict: String,
+    /// Whether the rule holds (the banner's colour).
+    pub holds: bool,
+    /// The decision line, with the observed values.
+    pub line: String,
+    /// The preregistration status, as a sentence.
+    pub status: &'static str,
+}
+
+impl Banner {
+    /// The banner of a decision with the analysis's lock state.
+    pub fn new(d: &crate::analysis::Decision, line: String, exploratory: bool, preregistered: Option<bool>) -> Banner {
+        let name = d.name.to_uppercase();
+        Banner {
+            verdict: if d.holds { name } else { format!("NOT {name}") },
+            holds: d.holds,
+            line,
+            status: status_sentence(exploratory, preregistered),
+        }
+    }
+}
+
+/// The preregistration status as the banner states it.
+pub fn status_sentence(exploratory: bool, preregistered: Option<bool>) -> &'static str {
+    if exploratory {
         "EXPLORATORY: the design changed after it was locked"
     } else {
-        match a.preregistered {
+        match preregistered {
             Some(true) => "Preregistered: the design was locked before this run and is unchanged",
             Some(false) => "NOT PREREGISTERED: the design was not locked before it ran",
             None => "Preregistration status not recorded (an analysis without its design's lock)",
         }
-    };
-    let verdict = if holds { "CONFIRMED" } else { "NOT CONFIRMED" };
+    }
+}
+
+/// A whole page: the banner, then `markdown` (a report.md) converted, with
+/// the `figures` its images name, (file name, SVG text), drawn inline.
+pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(String, String)]) -> String {
     let mut s = String::new();
     let _ = write!(
         s,
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}: {verdict}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
-        esc(&a.study)
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}: {}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
+        esc(study),
+        esc(&banner.verdict)
     );
     let _ = writeln!(
         s,
-        "<div class=\"banner {}\" role=\"status\"><span class=\"verdict\">{verdict}</span><span>{}</span><span class=\"status\">{}</span></div>",
-        if holds { "holds" } else { "fails" },
-        esc(&decision_line(a)),
-        esc(status)
+        "<div class=\"banner {}\" role=\"status\"><span class=\"verdict\">{}</span><span>{}</span><span class=\"status\">{}</span></div>",
+        if banner.holds { "holds" } else { "fails" },
+        esc(&banner.verdict),
+        esc(&banner.line),
+        esc(banner.status)
     );
     s.push_str(&body(markdown, figures));
     s.push_str("</body>\n</html>\n");
     s
+}
+
+/// report.html of a single-contrast analysis: `markdown` is its report.md
+/// text; `figures` are (file name, SVG text) of the figures its images name.
+pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
+    let banner = Banner::new(&a.decision, decision_line(a), a.exploratory, a.preregistered);
+    render_page(&a.study, &banner, markdown, figures)
 }
 
 #[cfg(test)]

@@ -22,6 +22,28 @@ fn unit_name(u: &UnitResult) -> String {
     format!("{} | {} | {} s", u.model, u.metric.name(), u.horizon_s)
 }
 
+/// The unit of a metric's values (`fraction` for a rate).
+fn unit_of(m: crate::design::Metric) -> &'static str {
+    match m.unit() {
+        "" => "fraction",
+        unit => unit,
+    }
+}
+
+/// `model | metric | h s | unit`: [`unit_name`] and the unit of the
+/// row's values.
+fn unit_name_in(u: &UnitResult, unit: &str) -> String {
+    format!("{} | {unit}", unit_name(u))
+}
+
+/// The unit of a variance: the metric's unit squared.
+fn squared(m: crate::design::Metric) -> String {
+    match m.unit() {
+        "" => "fraction^2".to_string(),
+        unit => format!("{unit}^2"),
+    }
+}
+
 /// A `## title` section: heading, optional note, table, blank line.
 fn section(s: &mut String, title: &str, note: &str, table: &Table) {
     let _ = writeln!(s, "## {title}\n");
@@ -36,6 +58,9 @@ pub fn render_markdown(a: &Analysis) -> String {
     let mut s = header(a);
     let level = level_pct(a.level);
     section(&mut s, "Endpoints", "", &endpoints(a, &level));
+    if !a.treatment.is_empty() {
+        section(&mut s, "Treatment strength", TREATMENT_NOTE, &treatment(&a.treatment));
+    }
     let note = if reml(a) {
         "REML estimates (no mean squares). Shares are of Var(d mean) by source, phi_k dVar/dphi_k, which add up to it; on a complete array they are s2_rec/I, s2_seed/J and s2_res/(IJ)."
     } else {
@@ -97,14 +122,7 @@ fn reml(a: &Analysis) -> bool {
 /// Title with the verdict, the decision line, the rule and the figures.
 fn header(a: &Analysis) -> String {
     let mut s = String::new();
-    let name = a.decision.name.to_uppercase();
-    let verdict = if a.decision.holds { name } else { format!("NOT {name}") };
-    let tag = match super::format::status_tag(a.exploratory, a.preregistered) {
-        Some("NOT PREREGISTERED") => " (NOT PREREGISTERED: the design was not locked)".to_string(),
-        Some(t) => format!(" ({t})"),
-        None => String::new(),
-    };
-    let _ = writeln!(s, "# {}: {}{}\n", a.study, verdict, tag);
+    let _ = writeln!(s, "# {}: {}\n", a.study, super::format::verdict(&a.decision, a.exploratory, a.preregistered));
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
         let _ = writeln!(s, "**Warning**: {w}.\n");
@@ -213,12 +231,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
         let e = &u.estimate;
         table.row([
             if u.role == Role::Primary { "primary" } else { "secondary" }.to_string(),
-            unit_name(u),
-            match u.metric.unit() {
-                "" => "fraction",
-                unit => unit,
-            }
-            .to_string(),
+            unit_name_in(u, unit_of(u.metric)),
             f(u.mean_treated, 4),
             f(u.mean_reference, 4),
             f(u.optimism_pct, 1),
@@ -238,11 +251,44 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
     table
 }
 
+/// The note above a treatment-strength table.
+pub(super) const TREATMENT_NOTE: &str = "How strong the treatment is: each arm's windows drawn from the evaluation recordings, how many start inside a segment that is evaluated (a rollout start to its horizon, same recording), and how far they sit from the nearest rollout start.";
+
+/// One row per treated arm: its treatment strength.
+pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
+    let cols = [
+        "arm",
+        "windows from evaluation recordings",
+        "inside an evaluated segment",
+        "share %",
+        "segment (s)",
+        "median distance to a start (s)",
+    ];
+    let mut table = Table::new(&cols, "lrrrrr");
+    for t in rows {
+        let share = if t.contaminating_windows == 0 {
+            f64::NAN
+        } else {
+            100.0 * t.inside_evaluated_segment as f64 / t.contaminating_windows as f64
+        };
+        table.row([
+            t.arm.clone(),
+            t.contaminating_windows.to_string(),
+            t.inside_evaluated_segment.to_string(),
+            f(share, 1),
+            f(t.horizon_s, 2),
+            f(t.median_distance_s, 2),
+        ]);
+    }
+    table
+}
+
 fn components(a: &Analysis) -> Table {
     let cols = [
         "model",
         "metric",
         "horizon",
+        "unit",
         "MS rec",
         "MS seed",
         "MS res",
@@ -253,14 +299,14 @@ fn components(a: &Analysis) -> Table {
         "share seed %",
         "share res %",
     ];
-    let mut table = Table::new(&cols, "lllrrrrrrrrr");
+    let mut table = Table::new(&cols, "llllrrrrrrrrr");
     for u in &a.units {
         let e = &u.estimate;
         let c = &e.components;
         let ms =
             |f: fn(&crate::stats::MeanSquares) -> f64| e.mean_squares.as_ref().map_or("–".to_string(), |m| sci(f(m)));
         table.row([
-            unit_name(u),
+            unit_name_in(u, &squared(u.metric)),
             ms(|m| m.ms_rows),
             ms(|m| m.ms_cols),
             ms(|m| m.ms_error),
@@ -277,14 +323,15 @@ fn components(a: &Analysis) -> Table {
 
 fn interactions(a: &Analysis, level: &str) -> Table {
     let (ci_h, boot_h) = (format!("{level} CI"), format!("bootstrap {level} CI"));
-    let cols = ["contrast", "metric", "horizon", "delta mean", "SE", "df", &ci_h, &boot_h];
-    let mut table = Table::new(&cols, "lllrrrll");
+    let cols = ["contrast", "metric", "horizon", "unit", "delta mean", "SE", "df", &ci_h, &boot_h];
+    let mut table = Table::new(&cols, "llllrrrll");
     for ix in &a.interactions {
         let e = &ix.estimate;
         table.row([
             format!("{} - {}", ix.left, ix.right),
             ix.metric.name().to_string(),
             format!("{} s", ix.horizon_s),
+            unit_of(ix.metric).to_string(),
             f(e.mean, 4),
             f(e.se, 4),
             df(e.df),
@@ -297,11 +344,19 @@ fn interactions(a: &Analysis, level: &str) -> Table {
 
 fn grouped(a: &Analysis, level: &str) -> Table {
     let ci_h = format!("{level} CI");
-    let mut table = Table::new(&["model", "metric", "horizon", "groups", "d mean", "SE", "df", &ci_h], "lllrrrrl");
+    let cols = ["model", "metric", "horizon", "unit", "groups", "d mean", "SE", "df", &ci_h];
+    let mut table = Table::new(&cols, "llllrrrrl");
     for u in &a.units {
         if let Some(g) = &u.grouped {
             let e = &g.estimate;
-            table.row([unit_name(u), g.groups.len().to_string(), f(e.mean, 4), f(e.se, 4), df(e.df), ci(e)]);
+            table.row([
+                unit_name_in(u, unit_of(u.metric)),
+                g.groups.len().to_string(),
+                f(e.mean, 4),
+                f(e.se, 4),
+                df(e.df),
+                ci(e),
+            ]);
         }
     }
     table
@@ -312,6 +367,7 @@ fn leave_one_out(a: &Analysis) -> Table {
         "model",
         "metric",
         "horizon",
+        "unit",
         "left out",
         "fits",
         "d mean range",
@@ -319,7 +375,7 @@ fn leave_one_out(a: &Analysis) -> Table {
         "optimism % range",
         "rule holds",
     ];
-    let mut table = Table::new(&cols, "llllrlllr");
+    let mut table = Table::new(&cols, "lllllrlllr");
     let range = |lo: f64, hi: f64, d: usize| format!("[{}, {}]", f(lo, d), f(hi, d));
     for u in &a.units {
         for l in &u.leave_one_out {
@@ -328,7 +384,7 @@ fn leave_one_out(a: &Analysis) -> Table {
                 Factor::Recording => "recording",
             };
             table.row([
-                unit_name(u),
+                unit_name_in(u, unit_of(u.metric)),
                 format!("one {factor}"),
                 l.fits.to_string(),
                 range(l.mean_min, l.mean_max, 4),
@@ -353,10 +409,16 @@ fn per_seed(a: &Analysis) -> Table {
 }
 
 fn per_trajectory(a: &Analysis) -> Table {
-    let mut table = Table::new(&["model", "metric", "horizon", "trajectory", "recordings", "mean d"], "llllrr");
+    let cols = ["model", "metric", "horizon", "unit", "trajectory", "recordings", "mean d"];
+    let mut table = Table::new(&cols, "lllllrr");
     for u in &a.units {
         for t in &u.per_trajectory {
-            table.row([unit_name(u), t.trajectory.clone(), t.recordings.to_string(), f(t.mean_difference, 4)]);
+            table.row([
+                unit_name_in(u, unit_of(u.metric)),
+                t.trajectory.clone(),
+                t.recordings.to_string(),
+                f(t.mean_difference, 4),
+            ]);
         }
     }
     table
@@ -365,14 +427,14 @@ fn per_trajectory(a: &Analysis) -> Table {
 fn conditional(a: &Analysis, level: &str) -> Table {
     let (t, r) = (&a.treated, &a.reference);
     let (rt, rr, dt, dr, ci_h) = (
-        format!("cond. RMSE {t}"),
-        format!("cond. RMSE {r}"),
+        format!("cond. RMSE {t} (m)"),
+        format!("cond. RMSE {r} (m)"),
         format!("divergent {t}"),
         format!("divergent {r}"),
-        format!("cond. {level} CI"),
+        format!("cond. {level} CI (m)"),
     );
     let dropped = a.units.iter().any(|u| u.conditional.pairs_dropped > 0);
-    let mut cols = vec!["model", "metric", "horizon", &rt, &rr, &dt, &dr, "cond. d mean", &ci_h];
+    let mut cols = vec!["model", "metric", "horizon", &rt, &rr, &dt, &dr, "cond. d mean (m)", &ci_h];
     if dropped {
         cols.push("pairs dropped");
     }
@@ -409,12 +471,12 @@ fn conditional(a: &Analysis, level: &str) -> Table {
 
 fn compared(a: &Analysis, level: &str) -> Table {
     let ci_h = format!("{level} CI");
-    let cols = ["model", "metric", "horizon", "method", "estimate", "SE", "df", &ci_h, "excludes 0"];
-    let mut table = Table::new(&cols, "llllrrrll");
+    let cols = ["model", "metric", "horizon", "unit", "method", "estimate", "SE", "df", &ci_h, "excludes 0"];
+    let mut table = Table::new(&cols, "lllllrrrll");
     for u in &a.units {
         for iv in u.intervals.iter().flatten() {
             table.row([
-                unit_name(u),
+                unit_name_in(u, unit_of(u.metric)),
                 iv.method.label().to_string(),
                 f(iv.estimate, 4),
                 f(iv.se, 4),

@@ -12,17 +12,22 @@ use super::{f, level_pct, ReportError};
 use crate::analysis::multiverse::MultiverseAnalysis;
 use crate::io::{create_dir_all, pretty_json, write_atomic};
 
-/// Writes report.md, multiverse.json, specs.csv, choice_effects.csv and
-/// spec_curve.svg into `dir`.
+/// Writes report.md, multiverse.json, specs.csv, choice_effects.csv,
+/// spec_curve.svg and report.html (the report as one page, the curve
+/// inline) into `dir`.
 pub fn write_multiverse(a: &MultiverseAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     create_dir_all(dir)?;
     let mut out = Vec::new();
+    let (markdown, curve) = (render_markdown(a), spec_curve_svg(a));
+    let html =
+        super::html::render_page(&a.study, &banner(a), &markdown, &[("spec_curve.svg".to_string(), curve.clone())]);
     let files = [
-        ("report.md", render_markdown(a)),
+        ("report.md", markdown),
         ("multiverse.json", pretty_json(a)),
         ("specs.csv", specs_csv(a)),
         ("choice_effects.csv", effects_csv(a)),
-        ("spec_curve.svg", spec_curve_svg(a)),
+        ("spec_curve.svg", curve),
+        ("report.html", html),
     ];
     for (name, text) in files {
         let path = dir.join(name);
@@ -54,6 +59,18 @@ fn sentence(a: &MultiverseAnalysis, bold: bool) -> String {
 
 fn verdict(a: &MultiverseAnalysis) -> String {
     sentence(a, true)
+}
+
+/// The banner of report.html: the verdict by the declared combination.
+fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
+    let d = &a.decision;
+    let name = d.name.to_uppercase();
+    super::html::Banner {
+        verdict: if d.holds { name } else { format!("NOT {name}") },
+        holds: d.holds,
+        line: decision_line(a),
+        status: super::html::status_sentence(a.exploratory, a.preregistered),
+    }
 }
 
 /// The decision line `run` and `analyze` print for a multiverse or a
@@ -105,7 +122,7 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         let level = a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95);
         let _ = writeln!(
             s,
-            "\nIntervals: the design's estimator at {} per specification. Figure: spec_curve.svg. Table: specs.csv.\n",
+            "\nIntervals: the design's estimator at {} per specification. Table: specs.csv.\n\n![spec_curve.svg](spec_curve.svg)\n",
             level_pct(level)
         );
         let _ = writeln!(s, "## Paired effect of each choice on d\n");

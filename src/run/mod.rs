@@ -458,6 +458,7 @@ fn finish(
         let mut outcome = report_family(design_path, plan, out, cells_csv, labels, builds, |a| {
             a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
             a.warnings.extend(opened.warnings.iter().cloned());
+            a.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
         })?;
         outcome.seconds = started.elapsed().as_secs_f64();
         return Ok(outcome);
@@ -469,6 +470,7 @@ fn finish(
     }
     analysis.warnings.extend(resumed_builds(builds));
     analysis.warnings.extend(opened.warnings.iter().cloned());
+    analysis.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = curves::read_curves(plan, out)?;
@@ -477,13 +479,12 @@ fn finish(
     }
     let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
         .map_err(crate::report::ReportError::from)?;
-    analysis.figures = figures.iter().filter_map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned())).collect();
-    // The figures as drawn, inlined into report.html (the report stage reads no file).
-    let mut svgs = Vec::new();
-    for (name, path) in analysis.figures.iter().zip(&figures) {
-        let text = std::fs::read_to_string(path).map_err(|e| RunError::Write(crate::io::WriteError::new(path, e)))?;
-        svgs.push((name.clone(), text));
-    }
+    // The figures as drawn, inlined into report.html.
+    let svgs: Vec<(String, String)> = figures
+        .into_iter()
+        .filter_map(|(p, svg)| p.file_name().map(|f| (f.to_string_lossy().into_owned(), svg)))
+        .collect();
+    analysis.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
     crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
     Ok(RunOutcome {
         cells_csv,
@@ -493,6 +494,20 @@ fn finish(
         skipped: plan.jobs.len(),
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// The split's treatment audit as the report shows it.
+fn treatment_strength(t: &crate::split::TreatmentAudit, rate_hz: f64) -> Vec<analysis::TreatmentStrength> {
+    t.arms
+        .iter()
+        .map(|a| analysis::TreatmentStrength {
+            arm: a.arm.clone(),
+            contaminating_windows: a.contaminating_windows,
+            inside_evaluated_segment: a.inside_evaluated_segment,
+            horizon_s: t.horizon_samples as f64 / rate_hz,
+            median_distance_s: a.median_distance_s,
+        })
+        .collect()
 }
 
 /// `out/cells/STEM.csv`: the per-cell rows of one job, present once it finished.

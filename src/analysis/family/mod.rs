@@ -58,6 +58,9 @@ pub struct FamilyAnalysis {
     pub level: f64,
     /// The primary unit, `model metric at h s`.
     pub unit: String,
+    /// The primary metric's unit (`m`; empty for a rate): d, its SE and
+    /// interval are in it, a slope per percentage point of dose.
+    pub metric_unit: String,
     /// The doses, increasing (one entry, the treated arm, without doses).
     pub doses: Vec<DoseArm>,
     /// Per split (one entry, split `None`, in a single-split study).
@@ -72,6 +75,9 @@ pub struct FamilyAnalysis {
     /// Figure files (relative to the report).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<String>,
+    /// How strong each dose arm's treatment is, when a run built the split.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub treatment: Vec<crate::analysis::TreatmentStrength>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
 }
@@ -321,7 +327,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let pooled = if split_values.len() >= 2 { Some(pool::pool(plan, &split_values, &values, &doses)?) } else { None };
     let provenance = splits[0].detail[0].provenance.clone();
     let unit = plan.primary.label();
-    let decision = decide(&plan.decision, &unit, &splits, pooled.as_ref());
+    let decision = decide(&plan.decision, (&unit, plan.primary.metric.unit()), &splits, pooled.as_ref());
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
         design_sha256: None,
@@ -331,12 +337,14 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,
         unit,
+        metric_unit: plan.primary.metric.unit().to_string(),
         doses,
         splits,
         pooled,
         decision,
         warnings,
         figures: Vec::new(),
+        treatment: Vec::new(),
         provenance,
     })
 }
@@ -447,7 +455,10 @@ fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> 
 /// The rule on its target: the primary (single split and dose), the pooled
 /// estimate (several splits, one dose) or the slope (pooled when there are
 /// several splits).
-fn decide(rule: &DecisionRule, unit: &str, splits: &[SplitResult], pooled: Option<&Pooled>) -> Decision {
+/// `unit` is the primary unit's label and its metric's unit.
+fn decide(rule: &DecisionRule, unit: (&str, &str), splits: &[SplitResult], pooled: Option<&Pooled>) -> Decision {
+    let (unit, metric_unit) = unit;
+    let slope = rule.on == DecisionTarget::Slope;
     // (label, optimism, mean, lower, upper)
     let observed: (String, f64, f64, f64, f64) = match (rule.on, pooled) {
         (DecisionTarget::Slope, Some(p)) => {
@@ -496,6 +507,8 @@ fn decide(rule: &DecisionRule, unit: &str, splits: &[SplitResult], pooled: Optio
         name: rule.name.clone(),
         rule: rule.clone(),
         unit: observed.0,
+        value_unit: if slope { format!("{metric_unit}/pp") } else { metric_unit.to_string() },
+        optimism_unit: if slope { "%/pp" } else { "%" }.to_string(),
         holds: conditions.iter().all(|c| c.holds),
         conditions,
     }
