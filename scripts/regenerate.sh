@@ -13,7 +13,7 @@ ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
 $ca analyze designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --out results/example --compare-intervals >/dev/null 2>&1
 $ca coverage specs/coverage_paper.json --out results/coverage 2>/dev/null
 $ca coverage specs/coverage_missing.json --out results/coverage_missing 2>/dev/null
-$ca plan designs/nanobench_audited.design --cells results/nanobench_audited/cells.csv --recordings 8,13,26,52 --seeds 3,5,10,20,40 --out results/plan_audited >/dev/null
+$ca plan designs/nanobench_paper_audited.design --cells results/nanobench_paper_audited/cells.csv --recordings 8,13,26,52 --seeds 3,5,10,20,40 --out results/plan_audited >/dev/null
 $ca plan designs/nanobench_dose_response.design --cells results/dose_response/cells.csv --recordings 8,13,24,26,52 --seeds 3,5,10,20,40 --out results/plan_dose_response >/dev/null
 $ca plan designs/nanobench_multi_split.design --cells results/multi_split/cells.csv --splits 3,5,10,20 --recordings 13,26 --seeds 5,10,20 --out results/plan_multi_split >/dev/null
 $ca data audit designs/nanobench_confirmatory.design --out results/nanobench_audit > results/nanobench_audit/summary.txt 2>/dev/null
@@ -29,10 +29,9 @@ $ca split designs/nanobench_audited.design --out results/nanobench_split_audited
 # (results/nanobench_paper, results/nanobench_paper_audited, the two
 # results/paper_columns and the two results/paper_hygiene runs) is rerun
 # with `bash scripts/full_run.sh DESIGN RESULTS_DIR` (each folder's COMMAND
-# names its design; 3 to 5 minutes each on this machine). The first wave's
-# two 80-job runs (nanobench_confirmatory, nanobench_audited) are stale: a
-# rerun of their designs with this build applies the paper's
-# parameterization (docs/study-nanobench.md).
+# names its design; 3 to 5 minutes each on this machine), and so are the
+# 80-job runs of nanobench_confirmatory and nanobench_audited (7 to 25
+# minutes each).
 # The multiverse runs (results/multiverse/paper, draws and holdout; 21, 6
 # and 2 minutes) are rerun with `bash scripts/full_multiverse.sh DESIGN
 # RESULTS_DIR`, which also reruns their R recomputation.

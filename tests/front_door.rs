@@ -197,9 +197,9 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
             "plan_audited",
             &[
                 "plan",
-                "designs/nanobench_audited.design",
+                "designs/nanobench_paper_audited.design",
                 "--cells",
-                "results/nanobench_audited/cells.csv",
+                "results/nanobench_paper_audited/cells.csv",
                 "--recordings",
                 "8,13,26,52",
                 "--seeds",
@@ -389,4 +389,36 @@ fn a_dose_report_has_its_page_and_a_numeric_dose_axis_with_the_slope() {
     let trend = tables(&md).into_iter().find(|t| t[0].iter().any(|h| h == "optimism slope (%/pp)")).unwrap();
     let k = trend[0].iter().position(|h| h == "optimism slope (%/pp)").unwrap();
     assert!(svg.contains(&format!("fitted slope {} %/pp", trend[1][k])), "slope {} not in the figure", trend[1][k]);
+}
+
+/// A dose-response study's estimates.csv holds the numbers its report.md
+/// prints: each dose's d and optimism, and the trend's slope.
+#[test]
+fn a_family_estimates_csv_is_its_report_in_tidy_form() {
+    let dir = root().join("results/simulated_family/dose_high/report");
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let csv = std::fs::read_to_string(dir.join("estimates.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let per_dose = tables(&md).into_iter().find(|t| t[0].iter().any(|h| h == "d (m)")).unwrap();
+    let (d_col, opt_col) = (
+        per_dose[0].iter().position(|h| h == "d (m)").unwrap(),
+        per_dose[0].iter().position(|h| h == "optimism %").unwrap(),
+    );
+    let contrasts: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "contrast").collect();
+    assert_eq!(contrasts.len(), per_dose.len() - 1);
+    for (row, printed) in contrasts.iter().zip(&per_dose[1..]) {
+        let v = |name: &str| row[col(name)].parse::<f64>().unwrap();
+        assert_eq!(format!("{:.4}", v("estimate")), printed[d_col]);
+        assert_eq!(format!("{:.1}", v("optimism")), printed[opt_col]);
+        assert_eq!(row[col("unit")], "m");
+        assert_eq!(format!("{}%", row[col("dose_pct")]), printed[1]);
+    }
+    let trend = rows.iter().find(|r| r[col("kind")] == "trend").unwrap();
+    assert_eq!(trend[col("unit")], "m/pp");
+    let slope_table = tables(&md).into_iter().find(|t| t[0].iter().any(|h| h == "optimism slope (%/pp)")).unwrap();
+    let k = slope_table[0].iter().position(|h| h == "optimism slope (%/pp)").unwrap();
+    assert_eq!(format!("{:.3}", trend[col("optimism")].parse::<f64>().unwrap()), slope_table[1][k]);
 }

@@ -404,3 +404,33 @@ fn the_planner_refuses_a_pilot_without_variance() {
     let e = crossaudit::methods::power_plan(&plan, &a, &[4, 8], &[3, 6]).unwrap_err().to_string();
     assert!(e.contains("no variance to plan from"), "{e}");
 }
+
+/// A locked design edited afterwards is refused by every command that would
+/// train or export it, before anything (its simulated data included) is
+/// written into the output folder.
+#[test]
+fn a_design_changed_after_its_lock_is_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny(dir.path(), "changed.design", 2);
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    let text = std::fs::read_to_string(&design).unwrap().replace("epochs 2 ", "epochs 3 ");
+    std::fs::write(&design, text).unwrap();
+    let out = dir.path().join("out");
+    for args in [
+        vec!["run", s(&design), "--out", s(&out)],
+        vec!["run", s(&design), "--out", s(&out), "--slurm"],
+        vec!["train", s(&design), "--model", "world", "--arm", "disjoint", "--seed", "1", "--out", s(&out)],
+    ] {
+        assert_refused(&crossaudit(&args), "changed after it was locked");
+        assert!(!out.exists(), "{args:?} wrote into {} before refusing", out.display());
+    }
+    // The external-model path: the same design with its model declared external.
+    let ext = dir.path().join("ext.design");
+    let text =
+        std::fs::read_to_string(&design).unwrap().replace("mlp(32, 32, 32) inputs world", "external inputs world");
+    std::fs::write(&ext, &text).unwrap();
+    assert_ok(&crossaudit(&["lock", s(&ext)]));
+    std::fs::write(&ext, text.replace("seed 143", "seed 144")).unwrap();
+    assert_refused(&crossaudit(&["export", s(&ext), "--out", s(&out)]), "changed after it was locked");
+    assert!(!out.exists(), "export wrote into {} before refusing", out.display());
+}

@@ -157,3 +157,125 @@ pub fn render_estimates(a: &Analysis) -> String {
     }
     s
 }
+
+/// The header of a dose-response or multi-split study's estimates.csv.
+pub const FAMILY_COLUMNS: &str =
+    "kind,split,dose_pct,arm,estimand,unit,level,treated_mean,reference_mean,estimate,se,df,lower,upper,optimism,optimism_lower,optimism_upper,optimism_unit";
+
+/// The text of a family's estimates.csv: one row per split and dose (the
+/// contrast's crossed estimate), per split's trend (the slope over doses),
+/// then the pooled estimates per dose and of the slope. Units: d in the
+/// metric's, a slope per percentage point of dose; optimism in %, or
+/// optimism points per dose point for a slope.
+pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> String {
+    let unit = if a.metric_unit.is_empty() { "fraction".to_string() } else { a.metric_unit.clone() };
+    let per_dose = format!("{unit}/pp");
+    let split = |s: Option<u64>| s.map(|s| s.to_string()).unwrap_or_default();
+    let mut s = String::from(FAMILY_COLUMNS);
+    s.push('\n');
+    let mut row = |cols: [String; 18]| {
+        let quoted: Vec<String> = cols
+            .into_iter()
+            .map(|c| if c.contains([',', '"']) { format!("\"{}\"", c.replace('"', "\"\"")) } else { c })
+            .collect();
+        let _ = writeln!(s, "{}", quoted.join(","));
+    };
+    for sp in &a.splits {
+        for d in &sp.doses {
+            let e = &d.estimate;
+            let k = -100.0 / d.mean_reference;
+            row([
+                "contrast".into(),
+                split(sp.split),
+                dose(d.percent),
+                d.arm.clone(),
+                "d".into(),
+                unit.clone(),
+                num(e.level),
+                num(d.mean_treated),
+                num(d.mean_reference),
+                num(e.mean),
+                num(e.se),
+                num(e.df),
+                num(e.lower),
+                num(e.upper),
+                num(d.optimism_pct),
+                num(e.upper * k),
+                num(e.lower * k),
+                "%".into(),
+            ]);
+        }
+        if let Some(t) = &sp.trend {
+            let e = &t.slope;
+            row([
+                "trend".into(),
+                split(sp.split),
+                String::new(),
+                String::new(),
+                "slope".into(),
+                per_dose.clone(),
+                num(e.level),
+                String::new(),
+                String::new(),
+                num(e.mean),
+                num(e.se),
+                num(e.df),
+                num(e.lower),
+                num(e.upper),
+                num(t.optimism_slope),
+                num(t.optimism_slope_lower),
+                num(t.optimism_slope_upper),
+                "%/pp".into(),
+            ]);
+        }
+    }
+    if let Some(p) = &a.pooled {
+        for (e, d) in p.doses.iter().zip(&a.doses) {
+            row(pooled(e, dose(d.percent), d.arm.clone(), "d", (&unit, "%"), a.level));
+        }
+        if let Some(e) = &p.slope {
+            row(pooled(e, String::new(), String::new(), "slope", (&per_dose, "%/pp"), a.level));
+        }
+    }
+    s
+}
+
+/// A dose in %; empty for a study of splits without doses.
+fn dose(p: f64) -> String {
+    if p.is_nan() {
+        String::new()
+    } else {
+        num(p)
+    }
+}
+
+/// A pooled estimate's row.
+fn pooled(
+    e: &crate::analysis::family::PooledEstimate,
+    dose: String,
+    arm: String,
+    estimand: &str,
+    (unit, optimism_unit): (&str, &str),
+    level: f64,
+) -> [String; 18] {
+    [
+        "pooled".into(),
+        String::new(),
+        dose,
+        arm,
+        estimand.into(),
+        unit.into(),
+        num(level),
+        String::new(),
+        String::new(),
+        num(e.mean),
+        num(e.se),
+        num(e.df),
+        num(e.lower),
+        num(e.upper),
+        num(e.optimism_pct),
+        num(e.optimism_lower),
+        num(e.optimism_upper),
+        optimism_unit.into(),
+    ]
+}

@@ -1,7 +1,8 @@
 //! The report of a dose-response or multi-split study: report.md (the
 //! decision, the estimate per split and dose, the trend, the pooled
-//! estimates), results.json, report.html (the same as one page, figures
-//! inline), and two figures: optimism against dose with
+//! estimates), results.json, estimates.csv (tidy: one row per split and
+//! dose, trend and pooled estimate), report.html (the same as one page,
+//! figures inline), and two figures: optimism against dose with
 //! intervals, and the per-split estimates beside the pooled one (a forest
 //! plot).
 
@@ -329,7 +330,13 @@ pub fn write_family(a: &mut FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, 
     let markdown = render_family_markdown(a);
     let banner = super::html::Banner::new(&a.decision, family_decision_line(a), a.exploratory, a.preregistered);
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
-    for (name, text) in [("report.md", markdown), ("results.json", pretty_json(a)), ("report.html", html)] {
+    let files = [
+        ("report.md", markdown),
+        ("results.json", pretty_json(a)),
+        ("estimates.csv", super::estimates::render_family_estimates(a)),
+        ("report.html", html),
+    ];
+    for (name, text) in files {
         let path = dir.join(name);
         write_atomic(&path, text.as_bytes())?;
         out.push(path);

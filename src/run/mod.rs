@@ -157,6 +157,7 @@ pub fn run_into(
 ) -> Result<RunOutcome, RunError> {
     refuse_external(plan)?;
     check_workers(options.workers)?;
+    check_lock(file, options.exploratory)?;
     check_out_plan(out, plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = data_dir(&file.design, &file.path, data, out)?;
@@ -299,10 +300,7 @@ struct Opened {
 /// directory that holds a run until its record (design, data, audit and
 /// manifests) is found to be this run's.
 fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bool) -> Result<Opened, RunError> {
-    let status = lock::status(file)?;
-    if status.changed() && !exploratory {
-        return Err(RunError::LockChanged { path: file.path.display().to_string(), reason: status.reason() });
-    }
+    let status = check_lock(file, exploratory)?;
     let exploratory = exploratory || status.changed();
     let previous = check_out(out, &file.sha256)?;
     create_dir_all(out)?;
@@ -320,6 +318,17 @@ fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bo
     let record = RunRecord::new(plan, file, data, &prepared, exploratory);
     record.write(out)?;
     Ok(Opened { status, exploratory, prepared, record, warnings: Vec::new() })
+}
+
+/// The design's lock state, refusing a design that changed after it was
+/// locked unless the run is labelled exploratory: checked before anything
+/// (simulated data included) is written.
+pub fn check_lock(file: &DesignFile, exploratory: bool) -> Result<LockStatus, RunError> {
+    let status = lock::status(file)?;
+    if status.changed() && !exploratory {
+        return Err(RunError::LockChanged { path: file.path.display().to_string(), reason: status.reason() });
+    }
+    Ok(status)
 }
 
 /// The record of the run in `out`, if any, refusing a run of a design other

@@ -174,6 +174,7 @@ fn train(
         .find(|j| j.model == model && j.arm == arm && j.seed.0 == seed)
         .ok_or_else(|| unknown_job(&plan, model, arm, seed))?;
     // Before anything (simulated data included) is written into `out`.
+    crossaudit::run::check_lock(&file, exploratory)?;
     crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
@@ -262,6 +263,7 @@ fn slurm_prepare(
     };
     // Before anything (simulated data included) is written into `out`.
     options.validate()?;
+    crossaudit::run::check_lock(&file, exploratory)?;
     slurm::check_dir(out)?;
     crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let lock = lock_folder(out, false)?;

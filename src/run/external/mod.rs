@@ -224,6 +224,7 @@ pub fn export_into(
     exploratory: bool,
 ) -> Result<ExportOutcome, RunError> {
     check_exportable(file, plan)?;
+    super::check_lock(file, exploratory)?;
     super::check_out_plan(out, plan, &file.sha256)?;
     let _lock = super::lock_folder(out, false)?;
     let data = super::data_dir(&file.design, &file.path, data, out)?;
