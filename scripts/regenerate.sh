@@ -75,6 +75,12 @@ for run in nanobench_paper nanobench_paper_audited; do
 done
 python3 scripts/reml_reanalysis.py > docs/reml_reanalysis.md
 rm -rf results/*/models results/*/simulated_data results/simulated_controls/*/models results/simulated_controls/*/simulated_data
-# Wall-clock columns and logs are not reproducible: keep the committed ones.
-git checkout -- results/*/curves results/simulated_controls/*/curves results/*/time.txt results/*/stdout.txt 2>/dev/null || true
+# Wall-clock columns and logs are not reproducible: keep the committed ones
+# of the folders regenerated here, and only those (a full run copied into
+# results/ but not yet committed keeps its own).
+for d in results/quickstart results/quickstart_nanobench results/simulated_controls/* results/simulated_family/*; do
+  for f in curves time.txt stdout.txt; do
+    [ -e "$d/$f" ] && { git checkout -- "$d/$f" 2>/dev/null || true; }
+  done
+done
 git status --short results/
