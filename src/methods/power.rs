@@ -148,10 +148,10 @@ pub fn dose_power_plan(
     crossed_plan(plan, unit, estimand, &trend.slope, reference, recordings, seeds)
 }
 
-/// A metric's unit as plan.md prints it (`fraction` for a rate), per
-/// percentage point of dose for a slope.
+/// A metric's unit as plan.md prints it ([`crate::report::unit_label`]),
+/// per percentage point of dose for a slope.
 fn unit_of(unit: &str, per_dose: bool) -> String {
-    let unit = if unit.is_empty() { "fraction" } else { unit };
+    let unit = crate::report::unit_label(unit);
     if per_dose {
         format!("{unit}/pp")
     } else {
@@ -320,34 +320,33 @@ impl PowerPlan {
     pub fn draw(&self, path: &Path) -> Result<(), DrawError> {
         use plotters::prelude::*;
         let e = draw_err(path);
-        let staged = crate::io::tmp_path(path);
-        let root = SVGBackend::new(&staged, (900, 480)).into_drawing_area();
-        root.fill(&WHITE).map_err(&e)?;
-        let max_j = self.rows.iter().map(|r| r.seeds).max().unwrap_or(2) as f64;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(format!("P(decision rule holds) for {}", self.unit), ("sans-serif", 18))
-            .margin(15)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..max_j, 0.0..1.0)
-            .map_err(&e)?;
-        chart.configure_mesh().x_desc("seeds J").y_desc("probability").draw().map_err(&e)?;
-        let mut recs: Vec<usize> = self.rows.iter().map(|r| r.recordings).collect();
-        recs.dedup();
-        let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
-        for (k, i) in recs.iter().enumerate() {
-            let color = palette[k % palette.len()];
-            let pts: Vec<(f64, f64)> =
-                self.rows.iter().filter(|r| r.recordings == *i).map(|r| (r.seeds as f64, r.power)).collect();
-            chart
-                .draw_series(LineSeries::new(pts, color))
-                .map_err(&e)?
-                .label(format!("I = {i}"))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
-        }
-        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&e)?;
-        root.present().map_err(&e)?;
-        crate::report::finish_svg(path)
+        crate::report::charts::svg_figure(path, (900, 480), |root| {
+            let max_j = self.rows.iter().map(|r| r.seeds).max().unwrap_or(2) as f64;
+            let mut chart = ChartBuilder::on(root)
+                .caption(format!("P(decision rule holds) for {}", self.unit), ("sans-serif", 18))
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0.0..max_j, 0.0..1.0)
+                .map_err(&e)?;
+            chart.configure_mesh().x_desc("seeds J").y_desc("probability").draw().map_err(&e)?;
+            let mut recs: Vec<usize> = self.rows.iter().map(|r| r.recordings).collect();
+            recs.dedup();
+            let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+            for (k, i) in recs.iter().enumerate() {
+                let color = palette[k % palette.len()];
+                let pts: Vec<(f64, f64)> =
+                    self.rows.iter().filter(|r| r.recordings == *i).map(|r| (r.seeds as f64, r.power)).collect();
+                chart
+                    .draw_series(LineSeries::new(pts, color))
+                    .map_err(&e)?
+                    .label(format!("I = {i}"))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
+            }
+            chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&e)?;
+            Ok(())
+        })?;
+        Ok(())
     }
 }
 

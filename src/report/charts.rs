@@ -15,14 +15,6 @@ pub struct DrawError {
     pub message: String,
 }
 
-/// Moves a finished SVG from its staging file ([`crate::io::tmp_path`]) to
-/// `path`: figures are drawn into the staging file and renamed, so that an
-/// interrupted run never leaves half a figure.
-pub fn finish_svg(path: &Path) -> Result<(), DrawError> {
-    std::fs::rename(crate::io::tmp_path(path), path)
-        .map_err(|e| DrawError { path: path.display().to_string(), message: e.to_string() })
-}
-
 /// Maps any plotters error to a [`DrawError`] for `path`.
 pub fn draw_err<E: std::fmt::Debug>(path: &Path) -> impl Fn(E) -> DrawError + '_ {
     move |e| DrawError { path: path.display().to_string(), message: format!("{e:?}") }

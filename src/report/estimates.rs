@@ -168,17 +168,15 @@ pub const FAMILY_COLUMNS: &str =
 /// metric's, a slope per percentage point of dose; optimism in %, or
 /// optimism points per dose point for a slope.
 pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> String {
-    let unit = if a.metric_unit.is_empty() { "fraction".to_string() } else { a.metric_unit.clone() };
+    // As the single-contrast estimates.csv: the metric's own unit (empty for a rate).
+    let unit = a.metric_unit.clone();
     let per_dose = format!("{unit}/pp");
     let split = |s: Option<u64>| s.map(|s| s.to_string()).unwrap_or_default();
     let mut s = String::from(FAMILY_COLUMNS);
     s.push('\n');
+    // Arm names are design identifiers: no field needs quoting.
     let mut row = |cols: [String; 18]| {
-        let quoted: Vec<String> = cols
-            .into_iter()
-            .map(|c| if c.contains([',', '"']) { format!("\"{}\"", c.replace('"', "\"\"")) } else { c })
-            .collect();
-        let _ = writeln!(s, "{}", quoted.join(","));
+        let _ = writeln!(s, "{}", cols.join(","));
     };
     for sp in &a.splits {
         for d in &sp.doses {

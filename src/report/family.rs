@@ -52,7 +52,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     }
     let _ = writeln!(s, "crossaudit {}.\n", a.provenance.crossaudit);
     let level = level_pct(a.level);
-    let unit = if a.metric_unit.is_empty() { "fraction" } else { a.metric_unit.as_str() };
+    let unit = super::format::unit_label(&a.metric_unit);
     let per_dose = format!("{unit}/pp");
     let (u, upp) = (|h: &str| format!("{h} ({unit})"), |h: &str| format!("{h} ({per_dose})"));
 
@@ -321,14 +321,12 @@ pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<Figure
 pub fn write_family(a: &mut FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     create_dir_all(dir)?;
     let figures = write_family_figures(a, dir)?;
-    let svgs: Vec<(String, String)> = figures
-        .iter()
-        .filter_map(|(p, svg)| p.file_name().map(|f| (f.to_string_lossy().into_owned(), svg.clone())))
-        .collect();
+    let mut out: Vec<PathBuf> = figures.iter().map(|(p, _)| p.clone()).collect();
+    let svgs = super::figures::by_name(figures);
     a.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
-    let mut out: Vec<PathBuf> = figures.into_iter().map(|(p, _)| p).collect();
     let markdown = render_family_markdown(a);
-    let banner = super::html::Banner::new(&a.decision, family_decision_line(a), a.exploratory, a.preregistered);
+    let d = &a.decision;
+    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), a.exploratory, a.preregistered);
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
     let files = [
         ("report.md", markdown),

@@ -24,6 +24,11 @@ pub struct Curve {
 /// A figure written: its file and its SVG text.
 pub type Figure = (PathBuf, String);
 
+/// The figures as (file name, SVG text), as a page inlines them.
+pub fn by_name(figures: Vec<Figure>) -> Vec<(String, String)> {
+    figures.into_iter().filter_map(|(p, svg)| p.file_name().map(|f| (f.to_string_lossy().into_owned(), svg))).collect()
+}
+
 /// Writes the figures into `report_dir` and returns the files written
 /// with their SVG text.
 pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Result<Vec<Figure>, DrawError> {

@@ -58,12 +58,33 @@ pub fn decision_summary(d: &Decision) -> String {
     format!("decision: {verdict} on {}: {}", d.unit, parts.join("; "))
 }
 
+/// The rule's name in capitals, `NOT` before it when the rule fails:
+/// `CONFIRMED`, `NOT GROWS`.
+pub(crate) fn verdict_word(name: &str, holds: bool) -> String {
+    let name = name.to_uppercase();
+    if holds {
+        name
+    } else {
+        format!("NOT {name}")
+    }
+}
+
+/// A metric's unit as tables and headers name it: `fraction` for a rate
+/// (whose [`crate::design::Metric::unit`] is empty, as it prints after a
+/// value).
+pub fn unit_label(unit: &str) -> &str {
+    if unit.is_empty() {
+        "fraction"
+    } else {
+        unit
+    }
+}
+
 /// A report's title after the study's name, its first line: the verdict
 /// (`CONFIRMED`, `NOT CONFIRMED`) and, when the analysis is not the
 /// preregistered one, why.
 pub(crate) fn verdict(d: &Decision, exploratory: bool, preregistered: Option<bool>) -> String {
-    let name = d.name.to_uppercase();
-    let verdict = if d.holds { name } else { format!("NOT {name}") };
+    let verdict = verdict_word(&d.name, d.holds);
     match status_tag(exploratory, preregistered) {
         Some("NOT PREREGISTERED") => format!("{verdict} (NOT PREREGISTERED: the design was not locked)"),
         Some(t) => format!("{verdict} ({t})"),

@@ -172,12 +172,12 @@ pub struct Banner {
 }
 
 impl Banner {
-    /// The banner of a decision with the analysis's lock state.
-    pub fn new(d: &crate::analysis::Decision, line: String, exploratory: bool, preregistered: Option<bool>) -> Banner {
-        let name = d.name.to_uppercase();
+    /// The banner of a rule named `name` that holds or not, with its
+    /// decision line and the analysis's lock state.
+    pub fn new(name: &str, holds: bool, line: String, exploratory: bool, preregistered: Option<bool>) -> Banner {
         Banner {
-            verdict: if d.holds { name } else { format!("NOT {name}") },
-            holds: d.holds,
+            verdict: super::format::verdict_word(name, holds),
+            holds,
             line,
             status: status_sentence(exploratory, preregistered),
         }
@@ -185,7 +185,7 @@ impl Banner {
 }
 
 /// The preregistration status as the banner states it.
-pub fn status_sentence(exploratory: bool, preregistered: Option<bool>) -> &'static str {
+fn status_sentence(exploratory: bool, preregistered: Option<bool>) -> &'static str {
     if exploratory {
         "EXPLORATORY: the design changed after it was locked"
     } else {
@@ -223,7 +223,8 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
 /// report.html of a single-contrast analysis: `markdown` is its report.md
 /// text; `figures` are (file name, SVG text) of the figures its images name.
 pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
-    let banner = Banner::new(&a.decision, decision_line(a), a.exploratory, a.preregistered);
+    let d = &a.decision;
+    let banner = Banner::new(&d.name, d.holds, decision_line(a), a.exploratory, a.preregistered);
     render_page(&a.study, &banner, markdown, figures)
 }
 

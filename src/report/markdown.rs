@@ -24,10 +24,7 @@ fn unit_name(u: &UnitResult) -> String {
 
 /// The unit of a metric's values (`fraction` for a rate).
 fn unit_of(m: crate::design::Metric) -> &'static str {
-    match m.unit() {
-        "" => "fraction",
-        unit => unit,
-    }
+    super::format::unit_label(m.unit())
 }
 
 /// `model | metric | h s | unit`: [`unit_name`] and the unit of the
@@ -38,10 +35,7 @@ fn unit_name_in(u: &UnitResult, unit: &str) -> String {
 
 /// The unit of a variance: the metric's unit squared.
 fn squared(m: crate::design::Metric) -> String {
-    match m.unit() {
-        "" => "fraction^2".to_string(),
-        unit => format!("{unit}^2"),
-    }
+    format!("{}^2", unit_of(m))
 }
 
 /// A `## title` section: heading, optional note, table, blank line.

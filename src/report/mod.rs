@@ -21,9 +21,9 @@ use std::path::{Path, PathBuf};
 use crate::analysis::Analysis;
 use crate::io::{create_dir_all, pretty_json, write_atomic, WriteError};
 
-pub use charts::{finish_svg, DrawError};
+pub use charts::DrawError;
 pub use estimates::render_estimates;
-pub use format::{decision_line, decision_summary, f, level_pct};
+pub use format::{decision_line, decision_summary, f, level_pct, unit_label};
 pub use html::render_html;
 pub use markdown::render_markdown;
 pub use table::Table;

@@ -41,8 +41,7 @@ pub fn write_multiverse(a: &MultiverseAnalysis, dir: &Path) -> Result<Vec<PathBu
 /// (the verdict in bold) and as the line `run` and `analyze` print.
 fn sentence(a: &MultiverseAnalysis, bold: bool) -> String {
     let d = &a.decision;
-    let name = d.name.to_uppercase();
-    let v = if d.holds { name } else { format!("NOT {name}") };
+    let v = super::format::verdict_word(&d.name, d.holds);
     let v = if bold { format!("**{v}**") } else { v };
     if a.choices.is_empty() {
         let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
@@ -64,13 +63,7 @@ fn verdict(a: &MultiverseAnalysis) -> String {
 /// The banner of report.html: the verdict by the declared combination.
 fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
     let d = &a.decision;
-    let name = d.name.to_uppercase();
-    super::html::Banner {
-        verdict: if d.holds { name } else { format!("NOT {name}") },
-        holds: d.holds,
-        line: decision_line(a),
-        status: super::html::status_sentence(a.exploratory, a.preregistered),
-    }
+    super::html::Banner::new(&d.name, d.holds, decision_line(a), a.exploratory, a.preregistered)
 }
 
 /// The decision line `run` and `analyze` print for a multiverse or a

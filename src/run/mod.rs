@@ -489,10 +489,7 @@ fn finish(
     let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
         .map_err(crate::report::ReportError::from)?;
     // The figures as drawn, inlined into report.html.
-    let svgs: Vec<(String, String)> = figures
-        .into_iter()
-        .filter_map(|(p, svg)| p.file_name().map(|f| (f.to_string_lossy().into_owned(), svg)))
-        .collect();
+    let svgs = crate::report::figures::by_name(figures);
     analysis.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
     crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
     Ok(RunOutcome {
