@@ -370,9 +370,22 @@ pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError>
 /// so the same values give the same bytes.
 pub fn write_cells(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
     let p = path.display().to_string();
-    let io = |source: std::io::Error| CellsError::Io { path: p.clone(), source };
+    let file = std::fs::File::create(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;
+    write_cells_to(&p, file, cells)
+}
+
+/// The bytes [`write_cells`] writes.
+pub fn cells_bytes(cells: &[Cell]) -> Vec<u8> {
+    let mut out = Vec::new();
+    // Writing to memory cannot fail.
+    let _ = write_cells_to("(memory)", &mut out, cells);
+    out
+}
+
+fn write_cells_to(p: &str, sink: impl std::io::Write, cells: &[Cell]) -> Result<(), CellsError> {
+    let io = |source: std::io::Error| CellsError::Io { path: p.to_string(), source };
     let (has_split, has_dose) = (cells.iter().any(|c| c.split.is_some()), cells.iter().any(|c| c.dose.is_some()));
-    let mut w = csv::Writer::from_path(path).map_err(|e| io(e.into()))?;
+    let mut w = csv::Writer::from_writer(sink);
     if !has_split && !has_dose {
         for c in cells {
             w.serialize(c).map_err(|e| io(e.into()))?;

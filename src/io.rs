@@ -116,9 +116,33 @@ pub const MAX_SPLIT_FILE: u64 = 256 << 20;
 /// 40 KB; a million cells is about 200 MB).
 pub const MAX_CELLS_FILE: u64 = 1 << 30;
 
-/// The most bytes read from, or decompressed out of, one flight log (a
-/// 100 Hz NanoBench log of an hour is about 150 MB).
+/// The most bytes read from one flight log file (a 100 Hz NanoBench log
+/// of an hour is about 150 MB uncompressed).
 pub const MAX_LOG_FILE: u64 = 2 << 30;
+
+/// The most bytes decompressed out of one gzipped flight log, over all
+/// its members: more than three hours of a 100 Hz NanoBench log (the
+/// largest shared log holds 2.9 MB). A gzip bomb stops here.
+pub const MAX_LOG_DECOMPRESSED: u64 = 512 << 20;
+
+/// The longest line read from a flight log: a NanoBench row is under
+/// 1 KB, so a longer line is damage, refused before it is parsed.
+pub const MAX_LOG_LINE: usize = 64 << 10;
+
+/// At most `max` characters of `s` for a message, with how much was left
+/// out: an input echoed into an error or an audit table stays readable
+/// however long it is.
+///
+/// ```
+/// assert_eq!(crossaudit::io::excerpt("abc", 5), "abc");
+/// assert_eq!(crossaudit::io::excerpt("abcdefgh", 3), "abc... (8 bytes in all)");
+/// ```
+pub fn excerpt(s: &str, max: usize) -> String {
+    match s.char_indices().nth(max) {
+        None => s.to_string(),
+        Some((end, _)) => format!("{}... ({} bytes in all)", &s[..end], s.len()),
+    }
+}
 
 /// An input file that was not read: missing, not a regular file (a FIFO
 /// would block the read forever, a device such as `/dev/zero` never ends),
@@ -324,4 +348,69 @@ pub const MAX_OWN_FILE: u64 = 1 << 30;
 /// operating system's error kind kept (a missing record is no error).
 pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
     read_input(path, MAX_OWN_FILE, "a file crossaudit wrote").map_err(ReadError::into_io)
+}
+
+// ---- Markdown text from input ------------------------------------------
+// Names from input (a study's name, recording, trajectory and role labels,
+// file names) written into a Markdown file (report.md, split_audit.md) are
+// escaped so that they are read back as the same text, never as a link,
+// an image, emphasis, raw HTML or a table's column separator.
+
+/// `s` as Markdown text: every character that could start markup is
+/// backslash-escaped (`_` only where it could open or close emphasis, so
+/// `nanobench_paper` is written as it is), and line breaks and other
+/// control characters become spaces (a name stays on its line and in its
+/// table cell).
+///
+/// ```
+/// use crossaudit::io::md_text;
+/// assert_eq!(md_text("nanobench_paper"), "nanobench_paper");
+/// assert_eq!(md_text("[x](javascript:alert(1))"), "\\[x\\]\\(javascript:alert\\(1\\)\\)");
+/// assert_eq!(md_text("a|b"), "a\\|b");
+/// assert_eq!(md_text("_x_"), "\\_x\\_");
+/// ```
+pub fn md_text(s: &str) -> String {
+    let chars: Vec<char> = s.chars().collect();
+    let mut out = String::with_capacity(s.len());
+    for (k, &c) in chars.iter().enumerate() {
+        match c {
+            '\\' | '`' | '*' | '[' | ']' | '(' | ')' | '<' | '>' | '|' | '!' | '&' | '#' | '~' | '{' | '}' => {
+                out.push('\\');
+                out.push(c);
+            }
+            '_' => {
+                let word = |j: Option<usize>| j.and_then(|j| chars.get(j)).is_some_and(|c| c.is_alphanumeric());
+                if !(word(k.checked_sub(1)) && word(Some(k + 1))) {
+                    out.push('\\');
+                }
+                out.push('_');
+            }
+            c if c.is_control() => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// `s` as a Markdown code span, with a fence longer than any run of
+/// backticks in it (backslash escapes do not work inside code spans).
+///
+/// ```
+/// use crossaudit::io::md_code;
+/// assert_eq!(md_code("a_b"), "`a_b`");
+/// assert_eq!(md_code("a`b"), "`` a`b ``");
+/// ```
+pub fn md_code(s: &str) -> String {
+    let clean: String = s.chars().map(|c| if c.is_control() { ' ' } else { c }).collect();
+    let mut longest = 0;
+    let mut run = 0;
+    for c in clean.chars() {
+        run = if c == '`' { run + 1 } else { 0 };
+        longest = longest.max(run);
+    }
+    if longest == 0 {
+        return format!("`{clean}`");
+    }
+    let fence = "`".repeat(longest + 1);
+    format!("{fence} {clean} {fence}")
 }

@@ -414,3 +414,37 @@ fn run_train_and_slurm_refuse_an_external_design_before_writing_anything() {
     // Score of a folder that was never exported.
     assert_fails_with(&crossaudit(&["score", tmp.path().to_str().unwrap()]), &["crossaudit export DESIGN --out DIR"]);
 }
+
+/// Predicted quaternions that cannot be an attitude (all zeros, which
+/// renormalising leaves at zero and scores as 180 degrees; components of
+/// 1e308, whose squares overflow and which scored as 0 degrees) are
+/// refused, naming the start and the step; a quaternion off unit length by
+/// less than the tolerance is renormalised and scored.
+#[test]
+fn predicted_quaternions_off_unit_length_are_refused_by_start_and_step() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("run");
+    let (idx, sha) = export_small(&dir);
+    write_all(&dir, &idx, &sha);
+    let d = dir.to_str().unwrap();
+    let job = &idx.jobs[0];
+    let k = job.shape[1];
+    let good = persistence(&dir, job);
+    let at = |start: usize, step: usize| (start * k + step - 1) * STATE;
+    let mut data = good.clone();
+    data[at(3, 5) + 6..at(3, 5) + 10].copy_from_slice(&[0.0; 4]);
+    data[at(7, 1) + 6..at(7, 1) + 10].copy_from_slice(&[1e308, 1e308, 0.0, 0.0]);
+    write_predictions(&dir, job, &sha, &data);
+    let e = assert_fails_with(
+        &crossaudit(&["score", d]),
+        &[&job.predictions, "2 predicted state(s) have a quaternion", "start 3, step 5: length 0e0", "start 7, step 1"],
+    );
+    assert!(e.contains("more than 0.1"), "{e}");
+    // 5% long: renormalised, scored as the unit quaternion is.
+    let mut data = good.clone();
+    for v in &mut data[at(3, 5) + 6..at(3, 5) + 10] {
+        *v *= 1.05;
+    }
+    write_predictions(&dir, job, &sha, &data);
+    assert_ok(&crossaudit(&["score", d]));
+}

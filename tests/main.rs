@@ -33,3 +33,4 @@ mod stats_stress;
 mod trust;
 mod trust3_io;
 mod trust3_provenance;
+mod trust4;

@@ -250,6 +250,19 @@ impl Ctx<'_> {
         };
         let mut leave_one_out = Vec::new();
         for &f in &self.plan.sensitivity.leave_one_out {
+            let (n, noun) = match f {
+                Factor::Seed => (a.diff.cols, "seeds"),
+                Factor::Recording => (a.diff.rows, "recordings"),
+            };
+            if n < 3 {
+                let one = noun.trim_end_matches('s');
+                return Err(AnalysisError::Degenerate {
+                    unit: label.clone(),
+                    detail: format!(
+                        "leave-one-{one}-out needs at least 3 {noun} (each fit leaves one out and a crossed estimate needs 2), found {n}; drop `{one}` from `leave_one_out`"
+                    ),
+                });
+            }
             leave_one_out.push(self.leave_one_out(&a, f).map_err(stats)?);
         }
         let per_seed_optimism = self

@@ -523,4 +523,34 @@ impl Audit {
     pub fn included(&self) -> impl Iterator<Item = &FileRow> {
         self.files.iter().filter(|f| f.status == Status::Included)
     }
+
+    /// The files excluded because they could not be read (damaged,
+    /// truncated or not a flight log), which no declared rule excluded:
+    /// `strict` data refuses them, lenient data names them on the console
+    /// and in the report.
+    pub fn unread(&self) -> impl Iterator<Item = &FileRow> {
+        self.files.iter().filter(|f| f.status == Status::Excluded && f.content_hash.is_empty())
+    }
+
+    /// One sentence naming every [`Audit::unread`] file and why (each
+    /// reason cut to 200 characters), or `None` when there is none.
+    pub fn unread_warning(&self) -> Option<String> {
+        let files: Vec<String> = self
+            .unread()
+            .map(|f| {
+                let file = if f.file.is_empty() { f.name.as_str() } else { f.file.as_str() };
+                let why =
+                    f.reason.strip_prefix(file).map(|r| r.trim_start_matches(':').trim_start()).unwrap_or(&f.reason);
+                format!("{file} ({})", crate::io::excerpt(why, 200))
+            })
+            .collect();
+        if files.is_empty() {
+            return None;
+        }
+        Some(format!(
+            "{} file(s) in the data folder could not be read and were excluded, although no declared rule excludes them (`strict` data refuses them): {}",
+            files.len(),
+            files.join("; ")
+        ))
+    }
 }

@@ -110,6 +110,18 @@ pub enum LogError {
         /// The header field found.
         found: String,
     },
+    /// A line longer than [`crate::io::MAX_LOG_LINE`] bytes.
+    #[error("{file}: line {line} is longer than {limit} bytes (it holds at least {bytes}): not a flight log row")]
+    LongLine {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Bytes in the line, up to the first past the limit.
+        bytes: usize,
+        /// The limit.
+        limit: usize,
+    },
     /// A header but no data rows.
     #[error("{file}: header only, no data rows")]
     NoRows {
@@ -175,6 +187,7 @@ impl LogError {
             LogError::Empty { .. } => "empty_file",
             LogError::Header { .. } => "bad_header",
             LogError::NoRows { .. } => "empty_file",
+            LogError::LongLine { .. } => "long_line",
             LogError::Ragged { .. } => "ragged_row",
             LogError::NonNumeric { .. } => "non_numeric",
             LogError::NonFinite { .. } => "non_finite",
@@ -202,13 +215,11 @@ pub struct Log {
     pub row_hashes: Vec<u64>,
 }
 
-/// Reads the file's bytes, decompressing `.gz`.
-///
-/// Whole-file gzip goes through libdeflate (about twice zlib's speed, and
-/// the output size is known from the gzip footer); anything it refuses
-/// (truncated, corrupt, multi-member, a footer size that is wrong) is
-/// decompressed again with flate2, whose streaming error says how far the
-/// data got.
+/// Reads the file's bytes, decompressing `.gz`: every member of a
+/// multi-member gzip (as `zcat` reads it), at most
+/// [`crate::io::MAX_LOG_DECOMPRESSED`] bytes in all (a gzip bomb stops
+/// there), and nothing after the last member (trailing bytes that are not
+/// a gzip member are an error, not ignored).
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
     let file = path.display().to_string();
     let raw = crate::io::read_input(path, crate::io::MAX_LOG_FILE, "a flight log")
@@ -216,29 +227,21 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
     if path.extension().is_none_or(|e| e != "gz") {
         return Ok(raw);
     }
-    // ISIZE: the decompressed size mod 2^32, little-endian in the last 4 bytes.
-    let isize = raw.len().checked_sub(4).map(|k| u32::from_le_bytes([raw[k], raw[k + 1], raw[k + 2], raw[k + 3]]));
-    if let Some(n) = isize.map(|n| n as usize).filter(|&n| n > 0 && n <= raw.len().saturating_mul(64)) {
-        let mut out = vec![0u8; n];
-        if let Ok(got) = libdeflater::Decompressor::new().gzip_decompress(&raw, &mut out) {
-            if got == n {
-                return Ok(out);
-            }
-        }
-    }
-    let mut out = Vec::with_capacity((raw.len() * 3).min(crate::io::MAX_LOG_FILE as usize + 1));
-    // A gzip bomb stops at the limit rather than exhausting memory.
-    let mut dec = flate2::read::MultiGzDecoder::new(&raw[..]).take(crate::io::MAX_LOG_FILE + 1);
+    let limit = crate::io::MAX_LOG_DECOMPRESSED;
+    let mut out = Vec::with_capacity((raw.len() * 6).min(limit as usize + 1));
+    let mut dec = flate2::read::MultiGzDecoder::new(&raw[..]).take(limit + 1);
     if let Err(e) = dec.read_to_end(&mut out) {
         let line = out.iter().filter(|&&b| b == b'\n').count() + 1;
         return Err(LogError::Gzip { file, bytes: out.len(), line, message: e.to_string() });
     }
-    if out.len() as u64 > crate::io::MAX_LOG_FILE {
-        let limit = crate::io::MAX_LOG_FILE;
+    if out.len() as u64 > limit {
         return Err(LogError::Io {
             file,
-            message: format!("it decompresses to more than the {limit} bytes read from a flight log"),
+            message: format!("it decompresses to more than the {limit} bytes read from a flight log (a gzip bomb?)"),
         });
+    }
+    if out.is_empty() {
+        return Err(LogError::Gzip { file, bytes: 0, line: 1, message: "no data in the gzip stream".into() });
     }
     Ok(out)
 }
@@ -292,6 +295,11 @@ fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Resul
             continue;
         }
         let start = t.i;
+        let limit = crate::io::MAX_LOG_LINE;
+        let window = &body[start..body.len().min(start + limit + 1)];
+        if window.len() > limit && !window.contains(&b'\n') {
+            return Err(LogError::LongLine { file: file.to_string(), line: t.line, bytes: window.len(), limit });
+        }
         let fields = t.row()?;
         if fields != n {
             return Err(LogError::Ragged { file: file.to_string(), line: t.line, found: fields, expected: n });
@@ -314,7 +322,11 @@ fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Resul
 
 /// Checks the header against the NanoBench schema; returns where it ends.
 fn check_header(file: &str, bytes: &[u8]) -> Result<usize, LogError> {
-    let header_end = bytes.iter().position(|&b| b == b'\n').unwrap_or(bytes.len());
+    let limit = crate::io::MAX_LOG_LINE;
+    let header_end = bytes.iter().take(limit + 1).position(|&b| b == b'\n').unwrap_or(bytes.len());
+    if header_end > limit {
+        return Err(LogError::LongLine { file: file.to_string(), line: 1, bytes: limit + 1, limit });
+    }
     let header = std::str::from_utf8(&bytes[..header_end]).unwrap_or("").trim_end_matches('\r');
     let names: Vec<&str> = header.split(',').collect();
     for (index, expected) in NANOBENCH_COLUMNS.iter().enumerate() {
@@ -324,7 +336,7 @@ fn check_header(file: &str, bytes: &[u8]) -> Result<usize, LogError> {
                 file: file.to_string(),
                 index: index + 1,
                 expected: expected.to_string(),
-                found: if found.is_empty() { "(nothing)".into() } else { found.to_string() },
+                found: if found.is_empty() { "(nothing)".into() } else { crate::io::excerpt(found, 80) },
             });
         }
     }
@@ -406,7 +418,7 @@ impl Tokenizer<'_> {
                         file: self.file.to_string(),
                         line: self.line,
                         column: NANOBENCH_COLUMNS[(col - 1).min(n - 1)].into(),
-                        value: String::from_utf8_lossy(&body[start..end]).into_owned(),
+                        value: value_excerpt(&body[start..end]),
                     });
                 }
             }
@@ -429,7 +441,7 @@ impl Tokenizer<'_> {
                     file: self.file.to_string(),
                     line: self.line,
                     column: NANOBENCH_COLUMNS[col].into(),
-                    value: String::from_utf8_lossy(&body[i..end]).into_owned(),
+                    value: value_excerpt(&body[i..end]),
                 });
             }
         };
@@ -480,8 +492,18 @@ fn scan_plain(body: &[u8], i: usize) -> (usize, bool) {
     (k, !other && digits > 0 && dots <= 1 && digits < 300)
 }
 
+/// A field as an error quotes it: at most 80 characters.
+fn value_excerpt(field: &[u8]) -> String {
+    let head = String::from_utf8_lossy(&field[..field.len().min(400)]);
+    match head.char_indices().nth(80) {
+        None if field.len() <= 400 => head.into_owned(),
+        None => format!("{head}... ({} bytes in all)", field.len()),
+        Some((end, _)) => format!("{}... ({} bytes in all)", &head[..end], field.len()),
+    }
+}
+
 fn number(file: &str, line: usize, c: usize, field: &[u8]) -> Result<f64, LogError> {
-    let text = || String::from_utf8_lossy(field).into_owned();
+    let text = || value_excerpt(field);
     match fast_float2::parse::<f64, _>(field) {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(LogError::NonFinite {

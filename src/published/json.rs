@@ -44,6 +44,13 @@ pub(super) fn from_json(path: &str, text: &str) -> Result<Read, PublishedError> 
                         let entries = names(path, items, &format!("`{key}`"))?;
                         roles.push(Role { name: role.to_string(), at: kat, entries });
                     }
+                    (Some(""), _) => {
+                        return Err(at(
+                            path,
+                            kat,
+                            "the key `_files` names no role: a NanoBench split names its roles `<role>_files` (train_files, val_files, test_files)",
+                        ))
+                    }
                     (Some(_), _) => return Err(at(path, vat, format!("`{key}` must be a list of file paths"))),
                     (None, Node::Scalar(s)) => {
                         notes.insert(key, s);

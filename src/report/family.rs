@@ -38,7 +38,12 @@ pub fn family_decision_line(a: &FamilyAnalysis) -> String {
 /// report.md of a family analysis.
 pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "# {}: {}\n", a.study, super::format::verdict(&a.decision, a.exploratory, a.preregistered));
+    let _ = writeln!(
+        s,
+        "# {}: {}\n",
+        super::md_text(&a.study),
+        super::format::verdict(&a.decision, a.exploratory, a.preregistered)
+    );
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {

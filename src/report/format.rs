@@ -123,7 +123,9 @@ pub(crate) fn status_tag(exploratory: bool, preregistered: Option<bool>) -> Opti
 
 /// Confidence level as a percentage label: 0.95 -> "95%".
 pub fn level_pct(level: f64) -> String {
-    format!("{}%", f(level * 100.0, 0))
+    let text = format!("{:.7}", level * 100.0);
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    format!("{text}%")
 }
 
 /// Degrees of freedom: `z` for the normal.

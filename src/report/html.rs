@@ -3,9 +3,12 @@
 //! sections (the same text, so the two cannot drift) with every figure
 //! drawn inline as SVG. No script, no external style sheet, no network.
 //!
-//! The Markdown converter covers what report.md uses: headings, paragraphs,
-//! pipe tables (right-aligned columns kept), bullet lists, inline code,
-//! links and images; an image of a figure it was given is inlined.
+//! report.md is parsed by pulldown-cmark (CommonMark and GitHub tables);
+//! the HTML is written here from its events, so nothing from the text
+//! reaches the page as markup: raw HTML is shown as text, only relative
+//! and http(s) links are live, and an image is a figure given inline (the
+//! page loads nothing). Names from input are also escaped for Markdown
+//! where report.md writes them ([`super::md`]).
 
 use std::fmt::Write as _;
 
@@ -26,48 +29,24 @@ fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
-/// Inline Markdown: `code`, [links](target) and plain text, escaped.
-fn inline(s: &str) -> String {
-    let mut out = String::new();
-    let mut rest = s;
-    while !rest.is_empty() {
-        if let Some(r) = rest.strip_prefix('`') {
-            if let Some(end) = r.find('`') {
-                let _ = write!(out, "<code>{}</code>", esc(&r[..end]));
-                rest = &r[end + 1..];
-                continue;
-            }
-        }
-        if let Some(r) = rest.strip_prefix("**") {
-            if let Some(end) = r.find("**") {
-                let _ = write!(out, "<strong>{}</strong>", inline(&r[..end]));
-                rest = &r[end + 2..];
-                continue;
-            }
-        }
-        if let Some(r) = rest.strip_prefix('[') {
-            if let Some(close) = r.find("](") {
-                if let Some(end) = r[close + 2..].find(')') {
-                    let (text, target) = (&r[..close], &r[close + 2..close + 2 + end]);
-                    let _ = write!(out, "<a href=\"{}\">{}</a>", esc(target), inline(text));
-                    rest = &r[close + 3 + end..];
-                    continue;
-                }
-            }
-        }
-        let next = rest.find(['`', '[', '*']).map(|k| if k == 0 { 1 } else { k }).unwrap_or(rest.len());
-        out.push_str(&esc(&rest[..next]));
-        rest = &rest[next..];
+/// Whether a link target may become a live link: `http(s)` or a relative
+/// path (no scheme, not starting with `/` or `\`, no whitespace or control
+/// characters). Anything else (`javascript:`, `data:`, `//host`, `file:`)
+/// is rendered as its text only.
+pub(crate) fn safe_link(target: &str) -> bool {
+    if target.is_empty() || target.chars().any(|c| c.is_control() || c.is_whitespace()) {
+        return false;
     }
-    out
+    let lower = target.to_ascii_lowercase();
+    if lower.starts_with("http://") || lower.starts_with("https://") {
+        return true;
+    }
+    let first_delim = target.find(['/', '?', '#']).unwrap_or(target.len());
+    !target.starts_with(['/', '\\']) && !target[..first_delim].contains(':')
 }
 
-fn cells(line: &str) -> Vec<&str> {
-    let t = line.trim().trim_start_matches('|').trim_end_matches('|');
-    t.split('|').map(str::trim).collect()
-}
-
-/// The figure inlined for `![alt](file)`, or an `<img>` of the file.
+/// The figure inlined for `![alt](file)`; a figure it was not given is
+/// named in text (the page loads nothing from elsewhere).
 fn image(alt: &str, file: &str, figures: &[(String, String)]) -> String {
     match figures.iter().find(|(name, _)| name == file) {
         Some((_, svg)) => {
@@ -78,84 +57,147 @@ fn image(alt: &str, file: &str, figures: &[(String, String)]) -> String {
             };
             format!("<figure data-figure=\"{}\" aria-label=\"{}\">\n{body}\n</figure>\n", esc(file), esc(alt))
         }
-        None => format!("<figure><img src=\"{}\" alt=\"{}\"></figure>\n", esc(file), esc(alt)),
+        None => format!("<p>[figure not included: {}]</p>\n", esc(alt)),
     }
 }
 
-/// report.md converted to HTML.
+/// report.md converted to HTML by pulldown-cmark (CommonMark with GitHub
+/// tables). Raw HTML in the text is shown as text, never passed through;
+/// a link is live only when [`safe_link`] allows its target; an image is
+/// the inline SVG of a figure given in `figures`, or its alt text.
 fn body(markdown: &str, figures: &[(String, String)]) -> String {
-    let lines: Vec<&str> = markdown.lines().collect();
+    use pulldown_cmark::{Alignment, Event, Options, Parser, Tag, TagEnd};
+    let events: Vec<Event> = Parser::new_ext(markdown, Options::ENABLE_TABLES).collect();
     let mut out = String::new();
+    let mut align: Vec<Alignment> = Vec::new();
+    let (mut in_head, mut column) = (false, 0usize);
+    // Open links: whether each was rendered live (its end closes an `<a>`).
+    let mut links: Vec<bool> = Vec::new();
     let mut k = 0;
-    while k < lines.len() {
-        let line = lines[k];
-        let t = line.trim();
-        if t.is_empty() {
-            k += 1;
-        } else if let Some(h) = t.strip_prefix("## ") {
-            let _ = writeln!(out, "<h2>{}</h2>", inline(h));
-            k += 1;
-        } else if let Some(h) = t.strip_prefix("# ") {
-            let _ = writeln!(out, "<h1>{}</h1>", inline(h));
-            k += 1;
-        } else if let Some(img) = t.strip_prefix("![") {
-            let (alt, file) = img.split_once("](").map(|(a, f)| (a, f.trim_end_matches(')'))).unwrap_or((img, ""));
-            out.push_str(&image(alt, file, figures));
-            k += 1;
-        } else if t.starts_with('|') {
-            let header = cells(t);
-            let align: Vec<bool> =
-                lines.get(k + 1).map(|l| cells(l).iter().map(|c| c.ends_with(':')).collect()).unwrap_or_default();
-            out.push_str("<table>\n<thead><tr>");
-            for h in &header {
-                let _ = write!(out, "<th>{}</th>", inline(h));
+    while k < events.len() {
+        match &events[k] {
+            Event::Start(Tag::Paragraph) => {
+                // A paragraph that is only an image is the figure itself.
+                if let Some(Event::Start(Tag::Image { .. })) = events.get(k + 1) {
+                    let close = (k + 2..events.len()).find(|&j| matches!(events[j], Event::End(TagEnd::Image)));
+                    if let Some(j) = close.filter(|&j| matches!(events.get(j + 1), Some(Event::End(TagEnd::Paragraph))))
+                    {
+                        out.push_str(&image_at(&events, k + 1, j, figures));
+                        k = j + 2;
+                        continue;
+                    }
+                }
+                out.push_str("<p>");
             }
-            out.push_str("</tr></thead>\n<tbody>\n");
-            k += 2;
-            while k < lines.len() && lines[k].trim().starts_with('|') {
+            Event::End(TagEnd::Paragraph) => out.push_str("</p>\n"),
+            Event::Start(Tag::Heading { level, .. }) => {
+                let _ = write!(out, "<{level}>");
+            }
+            Event::End(TagEnd::Heading(level)) => {
+                let _ = writeln!(out, "</{level}>");
+            }
+            Event::Start(Tag::Table(a)) => {
+                align = a.clone();
+                out.push_str("<table>\n");
+            }
+            Event::End(TagEnd::Table) => out.push_str("</tbody>\n</table>\n"),
+            Event::Start(Tag::TableHead) => {
+                in_head = true;
+                column = 0;
+                out.push_str("<thead><tr>");
+            }
+            Event::End(TagEnd::TableHead) => {
+                in_head = false;
+                out.push_str("</tr></thead>\n<tbody>\n");
+            }
+            Event::Start(Tag::TableRow) => {
+                column = 0;
                 out.push_str("<tr>");
-                for (j, c) in cells(lines[k]).iter().enumerate() {
-                    let class = if align.get(j).copied().unwrap_or(false) { " class=\"num\"" } else { "" };
-                    let _ = write!(out, "<td{class}>{}</td>", inline(c));
-                }
-                out.push_str("</tr>\n");
-                k += 1;
             }
-            out.push_str("</tbody>\n</table>\n");
-        } else if t.starts_with("- ") {
-            out.push_str("<ul>\n");
-            while k < lines.len() && lines[k].trim().starts_with("- ") {
-                let mut item = lines[k].trim()[2..].to_string();
-                k += 1;
-                while k < lines.len() && lines[k].starts_with("  ") && !lines[k].trim().starts_with("- ") {
-                    item.push(' ');
-                    item.push_str(lines[k].trim());
-                    k += 1;
-                }
-                let _ = writeln!(out, "<li>{}</li>", inline(&item));
+            Event::End(TagEnd::TableRow) => out.push_str("</tr>\n"),
+            Event::Start(Tag::TableCell) => {
+                let right = align.get(column) == Some(&Alignment::Right);
+                out.push_str(match (in_head, right) {
+                    (true, _) => "<th>",
+                    (false, true) => "<td class=\"num\">",
+                    (false, false) => "<td>",
+                });
             }
-            out.push_str("</ul>\n");
-        } else {
-            let mut para = t.to_string();
-            k += 1;
-            while k < lines.len() {
-                let n = lines[k].trim();
-                if n.is_empty()
-                    || n.starts_with('#')
-                    || n.starts_with('|')
-                    || n.starts_with("- ")
-                    || n.starts_with("![")
-                {
-                    break;
-                }
-                para.push(' ');
-                para.push_str(n);
-                k += 1;
+            Event::End(TagEnd::TableCell) => {
+                out.push_str(if in_head { "</th>" } else { "</td>" });
+                column += 1;
             }
-            let _ = writeln!(out, "<p>{}</p>", inline(&para));
+            Event::Start(Tag::List(Some(n))) if *n != 1 => {
+                let _ = writeln!(out, "<ol start=\"{n}\">");
+            }
+            Event::Start(Tag::List(Some(_))) => out.push_str("<ol>\n"),
+            Event::Start(Tag::List(None)) => out.push_str("<ul>\n"),
+            Event::End(TagEnd::List(ordered)) => out.push_str(if *ordered { "</ol>\n" } else { "</ul>\n" }),
+            Event::Start(Tag::Item) => out.push_str("<li>"),
+            Event::End(TagEnd::Item) => out.push_str("</li>\n"),
+            Event::Start(Tag::Emphasis) => out.push_str("<em>"),
+            Event::End(TagEnd::Emphasis) => out.push_str("</em>"),
+            Event::Start(Tag::Strong) => out.push_str("<strong>"),
+            Event::End(TagEnd::Strong) => out.push_str("</strong>"),
+            Event::Start(Tag::BlockQuote(_)) => out.push_str("<blockquote>\n"),
+            Event::End(TagEnd::BlockQuote(_)) => out.push_str("</blockquote>\n"),
+            Event::Start(Tag::CodeBlock(_)) => out.push_str("<pre><code>"),
+            Event::End(TagEnd::CodeBlock) => out.push_str("</code></pre>\n"),
+            Event::Start(Tag::Link { dest_url, .. }) => {
+                let live = safe_link(dest_url);
+                if live {
+                    let _ = write!(out, "<a href=\"{}\">", esc(dest_url));
+                }
+                links.push(live);
+            }
+            Event::End(TagEnd::Link) if links.pop() == Some(true) => out.push_str("</a>"),
+            Event::Start(Tag::Image { .. }) => {
+                // An image inside other text: its alt text only.
+                let close = (k + 1..events.len()).find(|&j| matches!(events[j], Event::End(TagEnd::Image)));
+                let j = close.unwrap_or(events.len() - 1);
+                out.push_str(&esc(&alt_text(&events[k + 1..j])));
+                k = j + 1;
+                continue;
+            }
+            Event::Text(t) => out.push_str(&esc(t)),
+            Event::Code(t) => {
+                let _ = write!(out, "<code>{}</code>", esc(t));
+            }
+            // Raw HTML is text here: the page carries no markup from input.
+            Event::Html(t) | Event::InlineHtml(t) => out.push_str(&esc(t)),
+            Event::Start(Tag::HtmlBlock) => out.push_str("<p>"),
+            Event::End(TagEnd::HtmlBlock) => out.push_str("</p>\n"),
+            Event::SoftBreak => out.push(' '),
+            Event::HardBreak => out.push_str("<br>\n"),
+            Event::Rule => out.push_str("<hr>\n"),
+            // Everything else (footnotes, math, task markers: none enabled)
+            // contributes its text only.
+            _ => {}
         }
+        k += 1;
     }
     out
+}
+
+/// The plain text of events (an image's alt text).
+fn alt_text(events: &[pulldown_cmark::Event]) -> String {
+    use pulldown_cmark::Event;
+    events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Text(t) | Event::Code(t) => Some(t.as_ref()),
+            Event::SoftBreak | Event::HardBreak => Some(" "),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The figure for the image whose start is `events[start]` and end `events[end]`.
+fn image_at(events: &[pulldown_cmark::Event], start: usize, end: usize, figures: &[(String, String)]) -> String {
+    let pulldown_cmark::Event::Start(pulldown_cmark::Tag::Image { dest_url, .. }) = &events[start] else {
+        return String::new();
+    };
+    image(&alt_text(&events[start + 1..end]), dest_url, figures)
 }
 
 /// What a page's banner says: the verdict (`CONFIRMED`, `NOT GROWS`),

@@ -116,7 +116,12 @@ fn reml(a: &Analysis) -> bool {
 /// Title with the verdict, the decision line, the rule and the figures.
 fn header(a: &Analysis) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "# {}: {}\n", a.study, super::format::verdict(&a.decision, a.exploratory, a.preregistered));
+    let _ = writeln!(
+        s,
+        "# {}: {}\n",
+        super::md_text(&a.study),
+        super::format::verdict(&a.decision, a.exploratory, a.preregistered)
+    );
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
         let _ = writeln!(s, "**Warning**: {w}.\n");
@@ -174,10 +179,15 @@ fn header(a: &Analysis) -> String {
     }
     let p = &a.provenance;
     if let Some(d) = &p.data {
-        let _ = writeln!(s, "Data: {d}; inclusion audit SHA-256 `{}`.", p.audit_sha256.as_deref().unwrap_or("unknown"));
+        let _ = writeln!(
+            s,
+            "Data: {}; inclusion audit SHA-256 `{}`.",
+            super::md_text(d),
+            p.audit_sha256.as_deref().unwrap_or("unknown")
+        );
     }
     if let Some((path, sha)) = &p.cells {
-        let _ = writeln!(s, "Per-cell data: `{path}` (SHA-256 `{sha}`).");
+        let _ = writeln!(s, "Per-cell data: {} (SHA-256 `{sha}`).", super::md_code(path));
     }
     let _ = writeln!(
         s,
@@ -409,7 +419,7 @@ fn per_trajectory(a: &Analysis) -> Table {
         for t in &u.per_trajectory {
             table.row([
                 unit_name_in(u, unit_of(u.metric)),
-                t.trajectory.clone(),
+                super::md_text(&t.trajectory),
                 t.recordings.to_string(),
                 f(t.mean_difference, 4),
             ]);

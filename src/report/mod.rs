@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use crate::analysis::Analysis;
 use crate::io::{create_dir_all, pretty_json, write_atomic, WriteError};
 
+pub use crate::io::{md_code, md_text};
 pub use charts::DrawError;
 pub use estimates::render_estimates;
 pub use format::{decision_line, decision_summary, f, level_pct, unit_label};

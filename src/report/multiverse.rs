@@ -69,14 +69,19 @@ fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
 /// The decision line `run` and `analyze` print for a multiverse or a
 /// draw-replicated study.
 pub fn decision_line(a: &MultiverseAnalysis) -> String {
-    sentence(a, false)
+    super::format::labelled(sentence(a, false), a.exploratory, a.preregistered)
 }
 
 /// report.md.
 pub fn render_markdown(a: &MultiverseAnalysis) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "{}\n", verdict(a));
-    let _ = writeln!(s, "# {}: {}\n", if a.choices.is_empty() { "Draw replication" } else { "Multiverse" }, a.study);
+    let _ = writeln!(
+        s,
+        "# {}: {}\n",
+        if a.choices.is_empty() { "Draw replication" } else { "Multiverse" },
+        super::md_text(&a.study)
+    );
     let status = match (a.preregistered, a.exploratory) {
         (_, true) => "EXPLORATORY: the design changed after it was locked, or the run was labelled so.",
         (Some(true), _) => "Preregistered: the design was locked before the run and is unchanged.",

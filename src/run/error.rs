@@ -126,6 +126,25 @@ pub enum RunError {
         /// The output directory.
         dir: String,
     },
+    /// A level folder that holds another level of the study (two level
+    /// folders swapped or renamed).
+    #[error("{dir} holds the run of level {was}, not of {is}: level folders were renamed or swapped; put them back or rerun")]
+    WrongLevel {
+        /// The level's folder.
+        dir: String,
+        /// The level its run.json records.
+        was: String,
+        /// The level the folder's name says.
+        is: String,
+    },
+    /// A reanalysis found a level whose files are not those its run wrote.
+    #[error("cannot reanalyse {dir}: {reason}")]
+    LevelChanged {
+        /// The level's folder.
+        dir: String,
+        /// What differs.
+        reason: String,
+    },
     /// `--workers 0`.
     #[error("--workers must be at least 1")]
     NoWorkers,
@@ -263,6 +282,14 @@ pub enum RunError {
     )]
     NotPrepared {
         /// The run directory.
+        dir: String,
+        /// What is missing or inconsistent.
+        reason: String,
+    },
+    /// `score` on a directory that `export` did not prepare.
+    #[error("{dir} is not an export of models fitted elsewhere ({reason}); `score` reads a folder written by `crossaudit export DESIGN --out {dir}`, with your predictions added to its predictions/")]
+    NotExported {
+        /// The directory.
         dir: String,
         /// What is missing or inconsistent.
         reason: String,

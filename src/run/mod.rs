@@ -131,7 +131,7 @@ pub fn run(
     if let Some(levels) = outer::study_levels(&file.design, plan) {
         return outer::run_levels(file, plan, levels, data, out, options, observer, started);
     }
-    let opened = open(file, plan, data, out, options.exploratory)?;
+    let opened = open(file, plan, data, out, options.exploratory, None)?;
     let (todo, builds) = pending(plan, out, &file.sha256)?;
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);
@@ -299,7 +299,14 @@ struct Opened {
 /// `run.json`: everything before the first job. Nothing is written into a
 /// directory that holds a run until its record (design, data, audit and
 /// manifests) is found to be this run's.
-fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bool) -> Result<Opened, RunError> {
+fn open(
+    file: &DesignFile,
+    plan: &Plan,
+    data: &Data,
+    out: &Path,
+    exploratory: bool,
+    level: Option<&str>,
+) -> Result<Opened, RunError> {
     let status = check_lock(file, exploratory)?;
     let exploratory = exploratory || status.changed();
     let previous = check_out(out, &file.sha256)?;
@@ -310,12 +317,17 @@ fn open(file: &DesignFile, plan: &Plan, data: &Data, out: &Path, exploratory: bo
             // Built in memory and compared first: a directory of another
             // data set is refused before anything in it is overwritten.
             let prepared = crate::split::rebuild(file, plan, &data.dir, out)?;
-            p.check_resume(out, &RunRecord::new(plan, file, data, &prepared, exploratory))?;
+            let now = RunRecord {
+                level: level.map(str::to_string),
+                ..RunRecord::new(plan, file, data, &prepared, exploratory)
+            };
+            p.check_resume(out, &now)?;
             crate::split::write_prepared(&prepared, out)?;
             prepared
         }
     };
-    let record = RunRecord::new(plan, file, data, &prepared, exploratory);
+    let record =
+        RunRecord { level: level.map(str::to_string), ..RunRecord::new(plan, file, data, &prepared, exploratory) };
     record.write(out)?;
     Ok(Opened { status, exploratory, prepared, record, warnings: Vec::new() })
 }
@@ -360,16 +372,68 @@ pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<()
 }
 
 /// Refuses to write a report, plan or any other output of `design_sha256`
-/// into `dir` when `dir` or its parent holds a run of another design
-/// (`analyze --out`, whose default is the `report/` beside the per-cell
-/// file, `plan --out`, ...).
+/// into `dir` when `dir` or any folder above it holds a run of another
+/// design (`analyze --out`, whose default is the `report/` beside the
+/// per-cell file, `plan --out`, ...): a folder with a `run.json`, or the
+/// top of a multiverse, draw-replicated or multi-split run, whose level
+/// folders (`spec-*`, `draw-*`, `split-*`) hold them. The path is resolved
+/// first (`..`, symbolic links), so no spelling of it gets past.
 pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError> {
-    for d in [Some(dir), dir.parent()].into_iter().flatten() {
+    for d in resolved(dir).ancestors() {
         if d.join("run.json").is_file() {
             check_out(d, design_sha256)?;
+            continue;
+        }
+        let Ok(entries) = std::fs::read_dir(d) else { continue };
+        for e in entries.flatten().take(100_000) {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let level = ["spec-", "draw-", "split-"].iter().any(|p| name.starts_with(p));
+            if level && e.path().join("run.json").is_file() {
+                if let Some(p) = RunRecord::read(&e.path()).ok().flatten() {
+                    if p.design_sha256 != design_sha256 {
+                        return Err(RunError::OtherDesign { dir: d.display().to_string(), sha256: p.design_sha256 });
+                    }
+                }
+            }
         }
     }
     Ok(())
+}
+
+/// `path` made absolute with `..` and symbolic links resolved: the longest
+/// part that exists canonicalized, the rest appended.
+fn resolved(path: &Path) -> PathBuf {
+    let absolute = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir().map(|c| c.join(path)).unwrap_or_else(|_| path.to_path_buf())
+    };
+    let mut rest: Vec<std::ffi::OsString> = Vec::new();
+    let mut head = absolute.as_path();
+    loop {
+        if let Ok(c) = head.canonicalize() {
+            let mut out = c;
+            for part in rest.iter().rev() {
+                if part == ".." {
+                    out.pop();
+                } else if part != "." {
+                    out.push(part);
+                }
+            }
+            return out;
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                head = parent;
+            }
+            (Some(parent), None) => {
+                rest.push("..".into());
+                head = parent;
+            }
+            _ => return absolute,
+        }
+    }
 }
 
 /// The jobs without a record, in plan order, and the builds that ran the
@@ -422,7 +486,7 @@ pub fn train_job(
         return Err(RunError::Split(crate::split::SplitError::SeveralSplits { splits: plan.splits.len() }));
     }
     refuse_external(plan)?;
-    let opened = open(file, plan, data, out, exploratory)?;
+    let opened = open(file, plan, data, out, exploratory, None)?;
     if let Some(r) = JobRecord::read(out, job)? {
         r.verify(out, job, &file.sha256)?;
         return Ok(TrainOutcome::AlreadyFinished);
@@ -462,10 +526,13 @@ fn finish(
     trained_invariants::check(plan, prepared, out)?;
 
     let cells_csv = gather(plan, out)?;
+    let sha = crate::cells::file_sha256(&cells_csv)?;
+    RunRecord { cells_sha256: Some(sha), ..record.clone() }.write(out)?;
     if plan.is_family() {
         let labels = (&opened.status, opened.exploratory, record);
         let mut outcome = report_family(design_path, plan, out, cells_csv, labels, builds, |a| {
             a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
+            a.warnings.extend(prepared.audit.unread_warning());
             a.warnings.extend(opened.warnings.iter().cloned());
             a.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
         })?;
@@ -474,6 +541,7 @@ fn finish(
     }
     let mut analysis = analyze_run(design_path, plan, &cells_csv, opened)?;
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
+    analysis.warnings.extend(prepared.audit.unread_warning());
     for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
         analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
     }
@@ -523,6 +591,14 @@ pub fn job_cells(out: &Path, job: &TrainingJob) -> PathBuf {
 
 /// cells.csv: every job's rows in plan order, written atomically.
 fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
+    let all = gathered(plan, out)?;
+    let cells_csv = out.join("cells.csv");
+    write_cells_atomic(&cells_csv, &all)?;
+    Ok(cells_csv)
+}
+
+/// Every job's per-cell rows, in plan order, as `cells.csv` holds them.
+pub(crate) fn gathered(plan: &Plan, out: &Path) -> Result<Vec<Cell>, RunError> {
     let mut all: Vec<Cell> = Vec::new();
     for j in &plan.jobs {
         all.extend(read_cells(&job_cells(out, j))?);
@@ -538,9 +614,7 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
             };
         }
     }
-    let cells_csv = out.join("cells.csv");
-    write_cells_atomic(&cells_csv, &all)?;
-    Ok(cells_csv)
+    Ok(all)
 }
 
 /// The preregistered analysis of the gathered cells, labelled with the

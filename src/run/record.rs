@@ -32,6 +32,18 @@ pub struct RunRecord {
     pub exploratory: bool,
     /// The crossaudit build that last wrote the directory ([`crate::BUILD`]).
     pub crossaudit: String,
+    /// The outer level this directory holds (`spec-s1`, `draw-2`,
+    /// `split-3`), for a level of a multiverse, draw-replicated or
+    /// multi-split study: a reanalysis refuses a level folder found under
+    /// another level's name. Absent for a study of one run (and in runs
+    /// written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
+    /// SHA-256 of `cells.csv` as the run gathered it from its jobs: a
+    /// reanalysis of the folder refuses a cells.csv edited since. Absent
+    /// until the run finished (and in runs written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cells_sha256: Option<String>,
 }
 
 /// Output entries that only a run writes: their presence without a
@@ -55,6 +67,8 @@ impl RunRecord {
             manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
             exploratory,
             crossaudit: crate::BUILD.to_string(),
+            level: None,
+            cells_sha256: None,
         }
     }
 
@@ -101,6 +115,11 @@ impl RunRecord {
         }
         if self.manifests_sha256 != now.manifests_sha256 {
             return Err(RunError::ManifestsChanged { dir });
+        }
+        if let (Some(was), Some(is)) = (&self.level, &now.level) {
+            if was != is {
+                return Err(RunError::WrongLevel { dir, was: was.clone(), is: is.clone() });
+            }
         }
         Ok(())
     }
@@ -233,6 +252,31 @@ impl JobRecord {
             )));
         }
         self.verify_files(out, job)
+    }
+
+    /// As [`JobRecord::verify`] for a reanalysis: the design, and the
+    /// job's per-cell file unchanged (weights and curves are not read).
+    pub fn verify_cells(&self, out: &Path, job: &TrainingJob, design_sha256: &str) -> Result<(), RunError> {
+        let path = job_record_path(out, job);
+        let bad = |reason: String| RunError::BadJobRecord { path: path.display().to_string(), reason };
+        if self.design_sha256 != design_sha256 {
+            return Err(bad(format!(
+                "it records design sha256 {}, but the run in {} is of design sha256 {design_sha256}",
+                self.design_sha256,
+                out.display()
+            )));
+        }
+        let cells = format!("cells/{}.csv", job.stem());
+        let Some(want) = self.files.get(&cells) else {
+            return Err(bad(format!("its `files` does not list {cells}")));
+        };
+        let now = sha256_file(&out.join(&cells)).map_err(|e| bad(format!("{cells}: {e}")))?;
+        if now != *want {
+            return Err(bad(format!(
+                "{cells} has sha256 {now}, but the job recorded {want}: it was edited after the run"
+            )));
+        }
+        Ok(())
     }
 
     /// Refuses a finished job whose files changed since it wrote them.

@@ -12,6 +12,16 @@ fn role_label(role: &str) -> &str {
     }
 }
 
+/// A name from input (a role, a recording, a path) as Markdown text.
+fn t(s: &str) -> String {
+    crate::io::md_text(s)
+}
+
+/// A name from input as a Markdown code span.
+fn c(s: &str) -> String {
+    crate::io::md_code(s)
+}
+
 fn distance(d: f64) -> String {
     if d.is_finite() {
         format!("{d:.3}")
@@ -24,19 +34,19 @@ impl SplitAudit {
     /// split_audit.md: the findings, then the tables behind them.
     pub fn to_markdown(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "# Split audit: {}\n", self.split_file);
+        let _ = writeln!(s, "# Split audit: {}\n", t(&self.split_file));
         let _ = writeln!(
             s,
-            "- split file: `{}` ({}), sha256 `{}`",
-            self.split_file,
+            "- split file: {} ({}), sha256 `{}`",
+            c(&self.split_file),
             self.format.label(),
             self.split_sha256
         );
         for (k, v) in &self.notes {
-            let _ = writeln!(s, "- split file `{k}`: {v}");
+            let _ = writeln!(s, "- split file {}: {}", c(k), t(v));
         }
-        let _ = writeln!(s, "- data: `{}`", self.data_dir);
-        let _ = writeln!(s, "- rules ({}): {}", self.rules_from, self.rules.join("; "));
+        let _ = writeln!(s, "- data: {}", c(&self.data_dir));
+        let _ = writeln!(s, "- rules ({}): {}", t(&self.rules_from), self.rules.join("; "));
         let _ = writeln!(
             s,
             "- identical: byte-identical data rows (XXH3-128 of everything after the header); shared runs: at least {} consecutive identical rows (XXH3-64 per row) between recordings that are not identical copies",
@@ -71,15 +81,24 @@ impl SplitAudit {
             let total = self.roles.iter().find(|r| r.role == p.role).map(|r| r.with_csv).unwrap_or(0);
             let _ = writeln!(
                 s,
-                "  - {} of {} `{}` recordings with a CSV have a byte-identical copy in `{}` ({} with both copies kept).",
-                p.identical, total, p.role, p.other, p.identical_effective
+                "  - {} of {} {} recordings with a CSV have a byte-identical copy in {} ({} with both copies kept).",
+                p.identical,
+                total,
+                c(&p.role),
+                c(&p.other),
+                p.identical_effective
             );
         }
         for r in &self.roles {
             let _ = writeln!(
                 s,
-                "- `{}`: {} declared, {} effective ({} without a CSV, {} unknown, {} dropped by the rules).",
-                r.role, r.declared, r.effective, r.metadata_only, r.unknown, r.dropped
+                "- {}: {} declared, {} effective ({} without a CSV, {} unknown, {} dropped by the rules).",
+                c(&r.role),
+                r.declared,
+                r.effective,
+                r.metadata_only,
+                r.unknown,
+                r.dropped
             );
         }
         let dropped: Vec<_> =
@@ -87,7 +106,7 @@ impl SplitAudit {
         if !dropped.is_empty() {
             let _ = writeln!(s, "- dropped by the rules (a loader applying them silently shrinks the split):");
             for r in dropped {
-                let _ = writeln!(s, "  - `{}` {}: {}", r.role, r.recording, r.reason);
+                let _ = writeln!(s, "  - {} {}: {}", c(&r.role), t(&r.recording), t(&r.reason));
             }
         }
         let _ = writeln!(
@@ -107,7 +126,7 @@ impl SplitAudit {
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                r.role,
+                t(&r.role),
                 r.declared,
                 r.with_csv,
                 r.metadata_only,
@@ -124,14 +143,14 @@ impl SplitAudit {
         if !absent.is_empty() {
             let _ = writeln!(s, "\nDeclared but not there:\n");
             for r in absent {
-                let _ = writeln!(s, "- `{}` {} (line {}): {}", r.role, r.recording, r.line, r.reason);
+                let _ = writeln!(s, "- {} {} (line {}): {}", c(&r.role), t(&r.recording), r.line, t(&r.reason));
             }
         }
         let unlisted: Vec<_> = self.recordings.iter().filter(|r| r.role.is_empty()).collect();
         if !unlisted.is_empty() {
             let _ = writeln!(s, "\nIn the data directory but in no role:\n");
             for r in unlisted {
-                let _ = writeln!(s, "- {}", r.recording);
+                let _ = writeln!(s, "- {}", t(&r.recording));
             }
         }
     }
@@ -145,7 +164,12 @@ impl SplitAudit {
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {} | {} | {} |",
-                p.role, p.other, p.identical, p.identical_effective, p.shared_run, p.same_condition
+                t(&p.role),
+                t(&p.other),
+                p.identical,
+                p.identical_effective,
+                p.shared_run,
+                p.same_condition
             );
         }
         if !self.exact.is_empty() {
@@ -156,7 +180,7 @@ impl SplitAudit {
                 let members: Vec<String> = l
                     .members
                     .iter()
-                    .map(|(role, name, kept)| format!("{role}: {name}{}", if *kept { "" } else { " *" }))
+                    .map(|(role, name, kept)| format!("{}: {}{}", t(role), t(name), if *kept { "" } else { " \\*" }))
                     .collect();
                 let hash = l.content_hash.get(..12).unwrap_or(&l.content_hash);
                 let _ = writeln!(s, "| {hash} | {} | {} |", members.join(", "), if l.effective { "yes" } else { "no" });
@@ -167,8 +191,17 @@ impl SplitAudit {
             let _ = writeln!(s, "| recording | from row | other | from row | rows |");
             let _ = writeln!(s, "|---|---:|---|---:|---:|");
             for r in &self.shared_runs {
-                let _ =
-                    writeln!(s, "| {}: {} | {} | {}: {} | {} | {} |", r.a.0, r.a.1, r.a.2, r.b.0, r.b.1, r.b.2, r.rows);
+                let _ = writeln!(
+                    s,
+                    "| {}: {} | {} | {}: {} | {} | {} |",
+                    t(&r.a.0),
+                    t(&r.a.1),
+                    r.a.2,
+                    t(&r.b.0),
+                    t(&r.b.1),
+                    r.b.2,
+                    r.rows
+                );
             }
         }
     }
@@ -176,22 +209,22 @@ impl SplitAudit {
     fn composition_tables(&self, s: &mut String) {
         let c = &self.composition;
         let _ = writeln!(s, "\n## Composition of the kept recordings (trajectory x speed)\n");
-        let roles: Vec<&str> = c.counts.iter().map(|(r, _)| r.as_str()).collect();
+        let roles: Vec<String> = c.counts.iter().map(|(r, _)| t(r)).collect();
         let _ = writeln!(s, "| trajectory | speed | {} |", roles.join(" | "));
         let _ = writeln!(s, "|---|---|{}", "---:|".repeat(roles.len()));
-        for (k, (t, sp)) in c.cells.iter().enumerate() {
+        for (k, (tr, sp)) in c.cells.iter().enumerate() {
             let counts: Vec<String> = c.counts.iter().map(|(_, v)| v[k].to_string()).collect();
-            let _ = writeln!(s, "| {t} | {sp} | {} |", counts.join(" | "));
+            let _ = writeln!(s, "| {} | {} | {} |", t(tr), t(sp), counts.join(" | "));
         }
         let totals: Vec<String> = c.counts.iter().map(|(_, v)| v.iter().sum::<usize>().to_string()).collect();
         let _ = writeln!(s, "| total | | {} |", totals.join(" | "));
         let _ =
             writeln!(s, "\nTotal-variation distance of the cell shares (0 = the same mix, 1 = no cell in common):\n");
         for (role, d) in &c.distance_from_rest {
-            let _ = writeln!(s, "- `{role}` against all other roles together: {}", distance(*d));
+            let _ = writeln!(s, "- {} against all other roles together: {}", self::c(role), distance(*d));
         }
         for (a, b, d) in &c.pairwise {
-            let _ = writeln!(s, "- `{a}` against `{b}`: {}", distance(*d));
+            let _ = writeln!(s, "- {} against {}: {}", self::c(a), self::c(b), distance(*d));
         }
     }
 

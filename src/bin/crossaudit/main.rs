@@ -106,6 +106,9 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
     let audit = crossaudit::data::audit(&file.design.data, &dir)?;
     let path = audit.write(out)?;
     out!("{}", audit.summary());
+    if let Some(w) = audit.unread_warning() {
+        note!("warning: {w}");
+    }
     note!("wrote {}", path.display());
     Ok(())
 }
@@ -144,6 +147,9 @@ fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> 
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
     let prepared = crossaudit::run::split_into(&file, &plan, &data, out)?;
     out!("{}", prepared.treatment.render_text());
+    if let Some(w) = prepared.audit.unread_warning() {
+        note!("warning: {w}");
+    }
     for i in &prepared.invariants.invariants {
         outln!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
     }

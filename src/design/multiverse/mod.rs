@@ -266,14 +266,18 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
             diags.push(Diagnostic::new("declared twice", name.span, format!("a second choice of `{}`", first.setting)));
             continue;
         }
-        let mut seen = std::collections::BTreeSet::new();
+        let mut seen: Vec<&str> = Vec::new();
         for a in &c.node.alternatives {
-            if !seen.insert(a.node.text()) {
-                diags.push(Diagnostic::new(
-                    "duplicate alternative",
-                    a.span,
-                    format!("`{}` is listed twice", a.node.text()),
-                ));
+            let text = a.node.text();
+            match seen.iter().find(|s| same_value(s, text)) {
+                Some(s) if *s == text => {
+                    diags.push(Diagnostic::new("duplicate alternative", a.span, format!("`{text}` is listed twice")))
+                }
+                Some(s) => diags.push(
+                    Diagnostic::new("duplicate alternative", a.span, format!("`{text}` is the same value as `{s}`"))
+                        .with_help("alternatives are compared as values: two spellings of one number would run one specification twice"),
+                ),
+                None => seen.push(text),
             }
         }
         let alternatives = c.node.alternatives.iter().map(|a| a.node.text().to_string()).collect();
@@ -406,7 +410,7 @@ fn primary_values(
             diags.push(Diagnostic::new("declared twice", name.span, format!("`{}` is given twice", name.node)));
             continue;
         }
-        match choices[k].0.alternatives.iter().position(|a| a == alt.node.text()) {
+        match choices[k].0.alternatives.iter().position(|a| same_value(a, alt.node.text())) {
             Some(i) => out[k] = Some(i),
             None => diags.push(
                 Diagnostic::new(
@@ -471,4 +475,16 @@ fn alternative_kinds(choices: &[(Choice, Spanned<ChoiceAst>)], diags: &mut Vec<D
             }
         }
     }
+}
+
+/// Whether two alternatives as written are the same value: the same text,
+/// or two spellings of one number (`1e-3` and `0.001`, `2` and `2.0`).
+pub(crate) fn same_value(a: &str, b: &str) -> bool {
+    let number = |s: &str| {
+        s.starts_with(|c: char| c.is_ascii_digit() || matches!(c, '.' | '+' | '-'))
+            .then(|| s.parse::<f64>().ok())
+            .flatten()
+            .filter(|v| v.is_finite())
+    };
+    a == b || matches!((number(a), number(b)), (Some(x), Some(y)) if x == y)
 }

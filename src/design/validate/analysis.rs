@@ -40,6 +40,13 @@ impl Validator {
                             format!("{} is outside (0, 1)", l.node),
                             "write the confidence level as a fraction, e.g. 0.95",
                         );
+                    } else if 1.0 - l.node < 1e-9 {
+                        self.err_help(
+                            "level out of range",
+                            l.span,
+                            format!("{} leaves {:.1e} outside the interval: its quantile would be infinite in double precision", l.node, 1.0 - l.node),
+                            "a confidence level may be at most 0.999999999",
+                        );
                     }
                     level = l.node;
                 }

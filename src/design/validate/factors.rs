@@ -125,17 +125,35 @@ impl Validator {
         })
     }
 
+    /// The seed factor: at least two seeds.
     pub(super) fn seeds(&mut self, spec: &SeedSpec, span: Span) -> Option<Vec<Seed>> {
+        let seeds = self.values(spec, "seed")?;
+        if seeds.len() < 2 {
+            self.err_help(
+                "too few seeds",
+                span,
+                format!("{} seed declared; the crossed design needs at least 2", seeds.len()),
+                "the seed factor is a random effect: its variance needs J >= 2",
+            );
+        }
+        Some(seeds)
+    }
+
+    /// The values of a seed, split or draw factor (`noun` names one in
+    /// messages), a range or a list, each checked; how many it needs is
+    /// the caller's to say.
+    pub(super) fn values(&mut self, spec: &SeedSpec, noun: &str) -> Option<Vec<Seed>> {
+        let a_noun = format!("a {noun}");
         let seeds: Vec<Seed> = match spec {
             SeedSpec::Range { first, last } => {
-                let a = self.nonneg(first, "a seed");
-                let b = self.nonneg(last, "a seed");
+                let a = self.nonneg(first, &a_noun);
+                let b = self.nonneg(last, &a_noun);
                 if first.node > last.node {
                     let range = Span { start: first.span.start, end: last.span.end };
                     self.err_help(
-                        "empty seed range",
+                        &format!("empty {noun} range"),
                         range,
-                        format!("{}..{} contains no seed", first.node, last.node),
+                        format!("{}..{} contains no {noun}", first.node, last.node),
                         "ranges are inclusive and ascending, e.g. 100..119",
                     );
                     return None;
@@ -167,21 +185,13 @@ impl Validator {
                 let mut out = Vec::new();
                 for s in list {
                     if !seen.insert(s.node) {
-                        self.err("duplicate seed", s.span, format!("seed {} is listed twice", s.node));
+                        self.err(&format!("duplicate {noun}"), s.span, format!("{noun} {} is listed twice", s.node));
                     }
-                    out.push(Seed(self.nonneg(s, "a seed")));
+                    out.push(Seed(self.nonneg(s, &a_noun)));
                 }
                 out
             }
         };
-        if seeds.len() < 2 {
-            self.err_help(
-                "too few seeds",
-                span,
-                format!("{} seed declared; the crossed design needs at least 2", seeds.len()),
-                "the seed factor is a random effect: its variance needs J >= 2",
-            );
-        }
         Some(seeds)
     }
 }

@@ -77,6 +77,11 @@ pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
     }
     let mut diags = Vec::new();
     let Some(declared) = multiverse::declared(ast, &mut diags) else {
+        if !diags.is_empty() && ast.statements.iter().any(|s| matches!(s.node, Statement::Choices(_))) {
+            // The choices could not be read: the design without them would
+            // miss the settings they supply, and say so in errors of its own.
+            return Err(diags);
+        }
         let single = validate_single(ast, base);
         return match (single, diags.is_empty()) {
             (Ok(d), true) => Ok(d),

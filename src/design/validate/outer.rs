@@ -150,10 +150,18 @@ impl Validator {
         recording: Option<&RecordingFactor>,
         published: bool,
     ) -> Option<Vec<u64>> {
-        let values: Vec<u64> = self.seeds(spec, span)?.into_iter().map(|s| s.0).collect();
+        let values: Vec<u64> = self.values(spec, "split")?.into_iter().map(|s| s.0).collect();
         if values.len() as u64 > limits::SPLITS {
             self.too_large(span, "the number of splits", values.len() as u64, limits::SPLITS);
             return None;
+        }
+        if values.len() < 2 {
+            self.err_help(
+                "one split",
+                span,
+                "split replication needs at least two splits",
+                "write `factor split = 1..5`, or drop the factor for the design's one split",
+            );
         }
         if published {
             self.err_help(
@@ -185,7 +193,7 @@ impl Validator {
         arms: &[(Arm, Span)],
         generator: Generator,
     ) -> Option<Vec<u64>> {
-        let values: Vec<u64> = self.seeds(spec, span)?.into_iter().map(|s| s.0).collect();
+        let values: Vec<u64> = self.values(spec, "draw")?.into_iter().map(|s| s.0).collect();
         if values.len() as u64 > limits::SPLITS {
             self.too_large(span, "the number of draws", values.len() as u64, limits::SPLITS);
             return None;

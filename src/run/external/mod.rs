@@ -243,7 +243,7 @@ pub fn export(
     exploratory: bool,
 ) -> Result<ExportOutcome, RunError> {
     check_exportable(file, plan)?;
-    let opened = open(file, plan, data, out, exploratory)?;
+    let opened = open(file, plan, data, out, exploratory, None)?;
     let built = build(&file.sha256, plan, &opened.prepared)?;
     let dir = out.join(EXPORT_DIR);
     create_dir_all(&dir)?;

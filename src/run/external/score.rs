@@ -157,14 +157,21 @@ pub fn score(
 }
 
 fn not_exported(dir: &Path, reason: String) -> RunError {
-    RunError::NotPrepared {
-        dir: dir.display().to_string(),
-        reason: format!("{reason}; run `crossaudit export DESIGN --out DIR` first"),
-    }
+    RunError::NotExported { dir: dir.display().to_string(), reason }
 }
 
 fn reopen(dir: &Path) -> Result<Reopened, RunError> {
     let export = dir.join(EXPORT_DIR);
+    if !export.is_dir() {
+        let what = if dir.join("run.json").is_file() {
+            "it holds a run of built-in models, made by `crossaudit run`, and no export/ folder"
+        } else if dir.is_dir() {
+            "it has no export/ folder"
+        } else {
+            "no such folder"
+        };
+        return Err(not_exported(dir, what.to_string()));
+    }
     let source_path = export.join("source.json");
     let bytes =
         crate::io::read_own(&source_path).map_err(|e| not_exported(dir, format!("{}: {e}", source_path.display())))?;
@@ -302,6 +309,7 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
         .chunks((steps * STATE).max(1))
         .filter(|t| t.chunks(STATE).any(|x| x[..EXOGENOUS.start].iter().any(|v| !v.is_finite())))
         .count();
+    check_quaternions(&arr.data, steps).map_err(|reason| bad(&path, reason))?;
     let (p, plan) = (&r.prepared, &r.plan);
     let horizon_steps = rollout::horizon_steps(&job.horizons_s, plan.rate_hz);
     let traces = rollout::replay(&predicted, &p.recordings, &p.split.starts, steps, &horizon_steps);
@@ -330,4 +338,45 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
     }
     record.write(dir, job)?;
     Ok(non_finite)
+}
+
+/// How far a predicted quaternion's length may be from 1 and still be
+/// renormalised: 10%. A model that predicts a quaternion (w, x, y, z)
+/// keeps it near unit length; one of length 0 (all zeros) or one whose
+/// components overflow when squared cannot be turned into an attitude, and
+/// renormalising it would score an arbitrary angle (180 degrees for zeros,
+/// 0 for components of 1e308).
+pub const QUATERNION_TOLERANCE: f64 = 0.1;
+
+/// Refuses predictions with a finite quaternion whose length is off 1 by
+/// more than [`QUATERNION_TOLERANCE`], naming the first few (start, step)
+/// and how many there are in all. Non-finite states are divergence, not
+/// checked here.
+fn check_quaternions(data: &[f64], steps: usize) -> Result<(), String> {
+    let mut bad: Vec<String> = Vec::new();
+    let mut count = 0usize;
+    for (k, x) in data.chunks(STATE).enumerate() {
+        let q = &x[6..10];
+        if q.iter().any(|v| !v.is_finite()) {
+            continue;
+        }
+        // The length without overflow: scaled by the largest component.
+        let big = q.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let norm = if big == 0.0 { 0.0 } else { big * q.iter().map(|v| (v / big).powi(2)).sum::<f64>().sqrt() };
+        if (norm - 1.0).abs() > QUATERNION_TOLERANCE {
+            count += 1;
+            if bad.len() < 5 {
+                let (start, step) = (k / steps.max(1), k % steps.max(1) + 1);
+                bad.push(format!("start {start}, step {step}: length {norm:e}"));
+            }
+        }
+    }
+    if count == 0 {
+        return Ok(());
+    }
+    Err(format!(
+        "{count} predicted state(s) have a quaternion (columns 6..9, w x y z) whose length is off 1 by more than {QUATERNION_TOLERANCE} ({}{}); predict unit quaternions (within that tolerance they are renormalised, as crossaudit renormalises its own rollouts)",
+        bad.join("; "),
+        if count > bad.len() { "; ..." } else { "" }
+    ))
 }

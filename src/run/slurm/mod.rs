@@ -206,7 +206,7 @@ pub fn prepare(
     }
     let mut lock = LockStatus::Unlocked;
     for part in &parts {
-        lock = open(&part.file, &part.plan, data, &part.dir, exploratory)?.status;
+        lock = open(&part.file, &part.plan, data, &part.dir, exploratory, part.level.as_deref())?.status;
     }
     let (indices, _) = unfinished(&parts)?;
     let keys: Vec<String> = study_jobs(&parts).into_iter().map(|(k, j)| parts[k].key(j)).collect();
