@@ -87,7 +87,7 @@ fn bad_dose_and_split_declarations_are_refused_where_they_are_written() {
     assert!(e.contains("has the name of another arm"), "{e}");
     // One split value, a split that shifts a seed below zero, a split of pinned recordings.
     let e = errors(&base.replace("factor split = 42..43", "factor split = 42"));
-    assert!(e.contains("too few seeds") || e.contains("at least 2"), "{e}");
+    assert!(e.contains("split replication needs at least two splits"), "{e}");
     let e = errors(&base.replace("factor split = 42..43", "factor split = 0..1"));
     assert!(e.contains("split shifts a seed out of range") && e.contains("split 0 shifts"), "{e}");
     let pinned = base.replace(

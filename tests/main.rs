@@ -11,6 +11,7 @@ mod coverage;
 mod data;
 mod design_errors;
 mod designs;
+mod draws;
 mod external;
 mod family;
 mod front_door;

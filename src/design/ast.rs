@@ -53,6 +53,8 @@ pub enum Statement {
     FactorSplit(SeedSpec),
     FactorDraw(SeedSpec),
     Draws(Ident),
+    /// `draws per seed`.
+    DrawsPerSeed,
     Choices(Vec<Spanned<ChoiceAst>>),
     PrimarySpec(Vec<(Ident, Spanned<Alternative>)>),
     Validation {
@@ -125,6 +127,7 @@ impl Statement {
             Statement::FactorSplit(_) => "factor split",
             Statement::FactorDraw(_) => "factor draw",
             Statement::Draws(_) => "draws",
+            Statement::DrawsPerSeed => "draws per seed",
             Statement::Choices(_) => "choices",
             Statement::PrimarySpec(_) => "primary specification",
             Statement::Validation { .. } => "validation",

@@ -94,6 +94,10 @@ pub struct Design {
     /// design's own draw.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub draw: Option<u64>,
+    /// `draws per seed`: seed j trains on and is evaluated with the draw
+    /// `factor draw` would number j - j0 + 1 ([`Design::seed_draws`]).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub per_seed_draws: bool,
     /// The open choices and their specifications (`choices { ... }`); this
     /// design is then the primary specification's.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -117,6 +121,25 @@ impl Design {
                 ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => *seed = shift(*seed),
             }
         }
+        d
+    }
+
+    /// Under `draws per seed`, each seed and the draw it uses (seed j:
+    /// j - j0 + 1, j0 the smallest seed); empty otherwise.
+    pub fn seed_draws(&self) -> Vec<(u64, u64)> {
+        if !self.per_seed_draws {
+            return Vec::new();
+        }
+        let j0 = self.seeds.iter().map(|s| s.0).min().unwrap_or(0);
+        self.seeds.iter().map(|s| (s.0, s.0 - j0 + 1)).collect()
+    }
+
+    /// The design one seed runs under `draws per seed`: its draw
+    /// ([`Design::for_draw`]) and that seed alone.
+    pub fn for_seed_draw(&self, seed: u64, draw: u64) -> Design {
+        let mut d = self.for_draw(draw);
+        d.per_seed_draws = false;
+        d.seeds.retain(|s| s.0 == seed);
         d
     }
 

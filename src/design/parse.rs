@@ -47,6 +47,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::factor_split
         | Rule::factor_draw
         | Rule::draws
+        | Rule::draws_per_seed
         | Rule::choices
         | Rule::primary_spec
         | Rule::validation
@@ -273,6 +274,7 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         Rule::factor_split => Statement::FactorSplit(seed_spec(k.next())?),
         Rule::factor_draw => Statement::FactorDraw(seed_spec(k.next())?),
         Rule::draws => Statement::Draws(ident(k.next())),
+        Rule::draws_per_seed => Statement::DrawsPerSeed,
         Rule::choices => Statement::Choices(spanned_items(k, choice)?),
         Rule::primary_spec => Statement::PrimarySpec(
             k.0.map(|p| {

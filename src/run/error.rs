@@ -286,6 +286,12 @@ pub enum RunError {
         /// What is missing or inconsistent.
         reason: String,
     },
+    /// `run --slurm` of a design with per-seed draws.
+    #[error("{design}: `draws per seed` is not supported on Slurm yet; run it locally with `crossaudit run`")]
+    PerSeedSlurm {
+        /// The design.
+        design: String,
+    },
     /// `score` on a directory that `export` did not prepare.
     #[error("{dir} is not an export of models fitted elsewhere ({reason}); `score` reads a folder written by `crossaudit export DESIGN --out {dir}`, with your predictions added to its predictions/")]
     NotExported {
@@ -331,7 +337,7 @@ pub enum RunError {
         source: Box<RunError>,
     },
     /// `split` or `train` was given a design whose study is several runs.
-    #[error("{design}: a design with choices or a draw factor is several runs; `crossaudit run` prepares and trains every one (`{command}` would do one level only)")]
+    #[error("{design}: a design with choices, a draw factor or per-seed draws is several runs; `crossaudit run` prepares and trains every one (`{command}` would do one level only)")]
     OuterOneLevel {
         /// The design.
         design: String,

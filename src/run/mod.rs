@@ -523,11 +523,7 @@ fn finish(
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let (prepared, record) = (&opened.prepared, &opened.record);
-    trained_invariants::check(plan, prepared, out)?;
-
-    let cells_csv = gather(plan, out)?;
-    let sha = crate::cells::file_sha256(&cells_csv)?;
-    RunRecord { cells_sha256: Some(sha), ..record.clone() }.write(out)?;
+    let cells_csv = gather_recorded(plan, opened, out)?;
     if plan.is_family() {
         let labels = (&opened.status, opened.exploratory, record);
         let mut outcome = report_family(design_path, plan, out, cells_csv, labels, builds, |a| {
@@ -594,6 +590,16 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
     let all = gathered(plan, out)?;
     let cells_csv = out.join("cells.csv");
     write_cells_atomic(&cells_csv, &all)?;
+    Ok(cells_csv)
+}
+
+/// The invariants on what the jobs recorded, then `cells.csv` gathered and
+/// its hash recorded in `run.json`.
+fn gather_recorded(plan: &Plan, opened: &Opened, out: &Path) -> Result<PathBuf, RunError> {
+    trained_invariants::check(plan, &opened.prepared, out)?;
+    let cells_csv = gather(plan, out)?;
+    let sha = crate::cells::file_sha256(&cells_csv)?;
+    RunRecord { cells_sha256: Some(sha), ..opened.record.clone() }.write(out)?;
     Ok(cells_csv)
 }
 

@@ -38,6 +38,10 @@ pub enum Role {
     /// Whole redraws of the experiment, evaluation set included (splits):
     /// pooled by REML over split, recording and seed.
     Redraw,
+    /// `draws per seed`: one level per seed, each its own draw with that
+    /// seed alone; their cells together are one crossed recording x seed
+    /// study, analysed as the design's own.
+    PerSeed,
 }
 
 /// One level of the outer factors.
@@ -92,6 +96,21 @@ pub fn study_levels(design: &Design, plan: &Plan) -> Option<(Vec<Level>, Role)> 
     if let Some(levels) = levels(design) {
         let role = if design.multiverse.is_some() { Role::Specification } else { Role::Replicate };
         return Some((levels, role));
+    }
+    if design.per_seed_draws {
+        let levels = design
+            .seed_draws()
+            .into_iter()
+            .map(|(seed, k)| Level {
+                id: format!("draw-{k}"),
+                spec: None,
+                draw: Some(k),
+                split: None,
+                design: design.for_seed_draw(seed, k),
+                shares: None,
+            })
+            .collect();
+        return Some((levels, Role::PerSeed));
     }
     if plan.splits.is_empty() {
         return None;
@@ -235,12 +254,23 @@ pub(super) fn run_levels(
             finished.entry(key).or_insert_with(|| (dir.clone(), j.clone()));
         }
         builds.extend(done_builds.iter().cloned());
-        finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds).map_err(in_level)?;
+        if role == Role::PerSeed {
+            // One seed alone is no crossed study: its cells are gathered
+            // here and analysed with every other seed's below.
+            super::gather_recorded(&plan, &opened, &dir).map_err(in_level)?;
+        } else {
+            finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds).map_err(in_level)?;
+        }
         (status, exploratory) = (opened.status.clone(), opened.exploratory);
         splits[k] = Some(opened.prepared.split.clone());
         record.get_or_insert(opened.record);
     }
     let record = record.ok_or(RunError::NoWorkers)?;
+    if role == Role::PerSeed {
+        let mut outcome = finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds)?;
+        (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
+        return Ok(outcome);
+    }
     if role == Role::Redraw {
         let path = file.path.display().to_string();
         let mut outcome = super::finish_splits(&path, study, out, &status, exploratory, &record, builds)?;
@@ -324,6 +354,65 @@ fn write_all_cells(path: &Path, out: &Path, levels: &[Level]) -> Result<(), RunE
         }
     }
     Ok(write_atomic(path, text.as_bytes())?)
+}
+
+/// After every seed's level of a `draws per seed` study finished: their
+/// cells in one `cells.csv` (seed order), the design's own analysis of
+/// them (the crossed recording x seed estimator, whose seed component now
+/// carries the draw variance) and its report in `out/report`.
+fn finish_per_seed(
+    file: &DesignFile,
+    study: &Plan,
+    levels: &[Level],
+    out: &Path,
+    (status, exploratory, record): (&LockStatus, bool, &RunRecord),
+    builds: BTreeSet<String>,
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let mut all: Vec<Cell> = Vec::new();
+    let mut curves = Vec::new();
+    for l in levels {
+        let dir = out.join(&l.id);
+        all.extend(read_cells(&dir.join("cells.csv"))?);
+        curves.extend(super::curves::read_curves(&level_plan(l, study), &dir)?);
+    }
+    let cells_csv = out.join("cells.csv");
+    crate::cells::write_cells_atomic(&cells_csv, &all)?;
+    let mut analysis =
+        crate::analysis::analyze(study, &all, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
+    analysis.record_design(&file.path.display().to_string(), &record.design_sha256, status);
+    if exploratory {
+        analysis.mark_exploratory();
+    }
+    analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(&cells_csv)?);
+    analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
+    let seeds: Vec<String> = levels
+        .iter()
+        .map(|l| format!("seed {} draw {}", l.design.seeds.first().map(|s| s.0).unwrap_or(0), l.draw.unwrap_or(1)))
+        .collect();
+    analysis.warnings.push(format!(
+        "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
+        seeds.join(", ")
+    ));
+    analysis.warnings.extend(super::resumed_builds(builds));
+    if let Some(w) = super::curves::early_best_epochs(study, &curves) {
+        analysis.warnings.push(w);
+    }
+    let report_dir = out.join("report");
+    create_dir_all(&report_dir)?;
+    let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
+        .map_err(crate::report::ReportError::from)?;
+    let svgs = crate::report::figures::by_name(figures);
+    analysis.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
+    crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis: StudyAnalysis::Single(Box::new(analysis)),
+        trained: 0,
+        skipped: 0,
+        seconds: started.elapsed().as_secs_f64(),
+    })
 }
 
 /// After every level finished: the combined cells, analysis and report.

@@ -137,7 +137,7 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
 
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
-    if crossaudit::run::outer::levels(&file.design).is_some() {
+    if crossaudit::run::outer::levels(&file.design).is_some() || file.design.per_seed_draws {
         let design = file.path.display().to_string();
         return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "split" }.into());
     }
@@ -168,7 +168,7 @@ fn train(
     (engine, exploratory): (Engine, bool),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
-    if crossaudit::run::outer::levels(&file.design).is_some() {
+    if crossaudit::run::outer::levels(&file.design).is_some() || file.design.per_seed_draws {
         let design = file.path.display().to_string();
         return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "train" }.into());
     }
@@ -475,6 +475,13 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
                 "jobs": crossaudit::run::outer::job_count(levels),
             });
         }
+        let seed_draws = file.design.seed_draws();
+        if !seed_draws.is_empty() {
+            value["seed_draws"] = serde_json::json!(seed_draws
+                .iter()
+                .map(|(seed, draw)| serde_json::json!({"seed": seed, "draw": draw, "folder": format!("draw-{draw}")}))
+                .collect::<Vec<_>>());
+        }
         out!("{}", crossaudit::io::pretty_json(&value));
     } else {
         outln!("{}: valid", path.display());
@@ -483,6 +490,14 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
         out!("{}", plan.render_text());
         if let Some(levels) = &levels {
             out!("{}", crossaudit::run::outer::render_levels(&file.design, levels));
+        }
+        let seed_draws = file.design.seed_draws();
+        if !seed_draws.is_empty() {
+            let list: Vec<String> = seed_draws.iter().map(|(s, d)| format!("seed {s}: draw {d}")).collect();
+            outln!(
+                "draws per seed: each seed its own draw after the evaluation recordings (folders draw-K); {}",
+                list.join(", ")
+            );
         }
     }
     Ok(())

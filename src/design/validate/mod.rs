@@ -93,6 +93,13 @@ pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
             }
         };
     };
+    if let Some(s) = ast.statements.iter().find(|s| matches!(s.node, Statement::DrawsPerSeed)) {
+        diags.push(
+            Diagnostic::new("per-seed draws in a multiverse", s.span, "`draws per seed` is not supported with `choices` yet")
+                .with_help("run the specifications with `factor draw = 1..K` (draw replication), or one specification with `draws per seed`"),
+        );
+        return Err(diags);
+    }
     outer::expand(ast, base, &declared, diags)
 }
 
@@ -303,6 +310,21 @@ impl Validator {
             },
             None => Some(Vec::new()),
         };
+        let per_seed_draws = match (singles.get("draws per seed"), &seeds) {
+            (Some(s), Some(seeds)) => {
+                let has_draws = draws.as_ref().is_some_and(|d| !d.is_empty());
+                self.per_seed_draws(
+                    s.span,
+                    seeds,
+                    (multi_split, dosed, has_draws),
+                    validation.as_ref(),
+                    &arms,
+                    generator,
+                );
+                true
+            }
+            _ => false,
+        };
         let decision = singles.get("decide").and_then(|s| match &s.node {
             Statement::Decide { name, on, conditions, .. } => {
                 let on = self.decision_target(on.as_ref(), name, multi_split, dosed);
@@ -338,6 +360,7 @@ impl Validator {
             coupled,
             draws: draws?,
             draw: None,
+            per_seed_draws,
             multiverse: None,
         })
     }

@@ -251,6 +251,64 @@ impl Validator {
         Some(values)
     }
 
+    /// `draws per seed`: seed j uses draw j - j0 + 1, so every declared
+    /// seed a draw shifts must stay in range for the largest; not with a
+    /// draw or split factor (they replicate whole runs) or doses.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn per_seed_draws(
+        &mut self,
+        span: Span,
+        seeds: &[Seed],
+        (multi_split, dosed, draws): (bool, bool, bool),
+        validation: Option<&ValidationSpec>,
+        arms: &[(Arm, Span)],
+        generator: Generator,
+    ) {
+        let help = "`draws per seed` gives each seed its own draw within one run; keep one of the two";
+        if draws {
+            self.err_help("per-seed draws and a draw factor", span, "`factor draw` already replicates whole draws", help);
+        }
+        if multi_split {
+            self.err_help(
+                "per-seed draws and a split factor",
+                span,
+                "`factor split` already redraws every draw with each split",
+                help,
+            );
+        }
+        if dosed {
+            self.err_help(
+                "per-seed draws with doses",
+                span,
+                "per-seed draws of a dose-response family are not supported",
+                "give the doses one draw, or study one dose with `draws per seed`",
+            );
+        }
+        let j0 = seeds.iter().map(|s| s.0).min().unwrap_or(0);
+        let last = seeds.iter().map(|s| s.0 - j0 + 1).max().unwrap_or(1);
+        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
+        let mut declared: Vec<(String, u64)> = Vec::new();
+        declared.extend(validation.map(|v| ("the validation seed".to_string(), v.seed)));
+        for (a, _) in arms {
+            match a.kind {
+                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => {
+                    declared.push((format!("arm {}'s seed", a.name), seed))
+                }
+            }
+        }
+        for (what, seed) in &declared {
+            if seed.checked_add(last - 1).is_none_or(|s| s > max) {
+                self.err_help(
+                    "draw shifts a seed out of range",
+                    span,
+                    format!("the last seed's draw ({last}) shifts {what} ({seed}) by {}", last - 1),
+                    format!("seed j uses draw j - {j0} + 1, which adds j - {j0} to each declared seed; keep every seed from 0 to {max}"),
+                );
+                return;
+            }
+        }
+    }
+
     /// Every seed a split shifts (see [`Design::for_split`]) must stay in
     /// range: at least 0, and below 2^32 under `numpy_legacy`.
     pub(super) fn shifted_seeds(

@@ -192,6 +192,9 @@ pub fn prepare(
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
     super::refuse_external(plan)?;
+    if file.design.per_seed_draws {
+        return Err(RunError::PerSeedSlurm { design: file.path.display().to_string() });
+    }
     check_dir(out)?;
     create_dir_all(out)?;
     let absolute = |p: &Path| p.canonicalize().map_err(|e| RunError::Write(crate::io::WriteError::new(p, e)));
