@@ -321,7 +321,11 @@ fn kr_steps(s: &System, theta: &[f64], sigma2: f64, rel: f64) -> Result<(Vec<(f6
                     correction += w[(i, j)] * hc[(i, j)];
                 }
             }
-            let adjusted = v - correction;
+            // The Kackar-Harville term 2 Phi (sum W (Q - P Phi P)) Phi is
+            // positive semi-definite (it is the expected variance added by
+            // estimating the variances): sum W d^2Phi is <= 0, and a
+            // computed sum above zero is the differences' rounding.
+            let adjusted = v - correction.min(0.0);
             (adjusted.max(0.0).sqrt() * s.y_scale, 2.0 * v * v / gwg)
         })
         .collect();

@@ -162,9 +162,8 @@ pub enum Inference {
     /// Satterthwaite and Kenward-Roger df and the shares (REML), as [`fit`].
     Full,
     /// Estimates, standard errors and the deviance only, as `lme4::lmer`
-    /// returns them: no df, no shares. Kenward-Roger works with q x q
-    /// matrices (q all levels together), which for tens of thousands of
-    /// observations and thousands of levels costs far more than the fit.
+    /// returns them: no df, no shares. Kenward-Roger costs a few dozen
+    /// deviance evaluations more than Satterthwaite.
     Estimates,
     /// The estimates and Satterthwaite df (REML; a few dozen deviance
     /// evaluations), without Kenward-Roger and the shares.
