@@ -28,6 +28,7 @@ mod split_audit;
 mod split_numpy;
 mod split_paper;
 mod stats_mixed;
+mod stats_mixed_df;
 mod stats_props;
 mod stats_reference;
 mod stats_stress;

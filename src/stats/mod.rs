@@ -85,6 +85,34 @@ pub fn critical_value(level: f64, df: f64) -> Result<f64, StatsError> {
     Ok(t.inverse_cdf(p))
 }
 
+/// Two-sided p-value of `t` on `df` degrees of freedom, P(|T| >= |t|),
+/// for any df, as R's `2 * pt(-|t|, df)` computes it: the normal's where
+/// `df` is infinite; above 4e5 df R's approximation (Abramowitz and Stegun
+/// 26.7.8), P(T > t) = Q(t (1 - 1/(4 df)) / sqrt(1 + t^2 / (2 df))); below
+/// that statrs's Student t, which beyond about 1e7 df loses digits (its
+/// regularized incomplete beta at x = df / (df + t^2) rounds to 1, so
+/// every p becomes 1). NaN for a NaN t or a df that is not positive.
+pub fn t_two_sided_p(t: f64, df: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    use statrs::function::erf::erfc;
+    if t.is_nan() || df.is_nan() || df <= 0.0 {
+        return f64::NAN;
+    }
+    let t = t.abs();
+    if df.is_infinite() {
+        return erfc(t / std::f64::consts::SQRT_2);
+    }
+    if df > 4e5 {
+        let v = 1.0 / (4.0 * df);
+        let z = t * (1.0 - v) / (1.0 + t * t * 2.0 * v).sqrt();
+        return erfc(z / std::f64::consts::SQRT_2);
+    }
+    match StudentsT::new(0.0, 1.0, df) {
+        Ok(dist) => (2.0 * dist.sf(t)).min(1.0),
+        Err(_) => f64::NAN,
+    }
+}
+
 /// Sample quantile by linear interpolation between order statistics
 /// (Hyndman & Fan type 7, R's default `quantile(type = 7)`). `sorted` must be
 /// ascending and non-empty.

@@ -144,6 +144,12 @@ impl MixedData {
         1 + self.columns.len()
     }
 
+    /// Levels of every factor but `factor`: the dense block with it
+    /// eliminated.
+    pub(super) fn levels_but(&self, factor: usize) -> usize {
+        self.factors.iter().enumerate().filter(|(j, _)| *j != factor).map(|(_, f)| f.levels).sum()
+    }
+
     /// Names of the fixed-effect columns, R's way.
     pub(super) fn fixed_names(&self) -> Vec<String> {
         std::iter::once("(Intercept)".to_string()).chain(self.columns.iter().map(|(n, _)| n.clone())).collect()

@@ -162,9 +162,8 @@ pub enum Inference {
     /// Satterthwaite and Kenward-Roger df and the shares (REML), as [`fit`].
     Full,
     /// Estimates, standard errors and the deviance only, as `lme4::lmer`
-    /// returns them: no df, no shares. Kenward-Roger works with q x q
-    /// matrices (q all levels together), which for tens of thousands of
-    /// observations and thousands of levels costs far more than the fit.
+    /// returns them: no df, no shares. Kenward-Roger costs a few dozen
+    /// deviance evaluations more than Satterthwaite.
     Estimates,
     /// The estimates and Satterthwaite df (REML; a few dozen deviance
     /// evaluations), without Kenward-Roger and the shares.
@@ -182,6 +181,9 @@ pub struct FixedEffect {
     pub se: f64,
     /// Satterthwaite df (REML with [`Inference::Full`]).
     pub df_satterthwaite: Option<f64>,
+    /// Whether `df_satterthwaite` is the stated fallback, the df not being
+    /// computable reliably (see [`MixedFit::notes`]).
+    pub satterthwaite_fallback: bool,
     /// Kenward-Roger SE and df (REML with [`Inference::Full`]).
     pub kenward_roger: Option<KenwardRoger>,
 }
@@ -246,6 +248,9 @@ pub struct MixedFit {
     pub shares: Vec<f64>,
     /// Every fixed-effect coefficient, the intercept first.
     pub fixed: Vec<FixedEffect>,
+    /// What the reader must know about the inference: a df that could not
+    /// be computed reliably, and the fallback used instead.
+    pub notes: Vec<String>,
     /// Why the optimum is one: the first-order conditions checked where
     /// the optimizer stopped.
     pub certificate: Certificate,
@@ -299,6 +304,9 @@ pub struct KenwardRoger {
     /// expected REML information: Satterthwaite's formula with the expected
     /// rather than the observed information.
     pub df: f64,
+    /// Whether `df` is the stated fallback, the df not being computable
+    /// reliably (see [`MixedFit::notes`]).
+    pub fallback: bool,
 }
 
 /// Fits the model by REML or ML, with every inference ([`Inference::Full`]).
@@ -445,20 +453,83 @@ fn fit_system(
     if aliased {
         return Err(MixedError::FixedEffects(format!("the columns {:?} are linearly dependent", data.fixed_names())));
     }
-    let (best, _, evaluations, certificate) = optimum(s, criterion)?;
+    let (mut best, _, evaluations, mut certificate) = optimum(s, criterion)?;
+    // The reduced system is exact in the eliminated factor whatever its
+    // variance; another factor's large variance still costs digits in the
+    // dense Cholesky factor (log10(theta^2 n) of them). Where another
+    // factor's theta dominates, the optimum is polished, certified and
+    // the inference computed with that factor eliminated instead.
+    let dominant = (0..best.len()).max_by(|&a, &b| best[a].total_cmp(&best[b])).unwrap_or(s.first);
+    let rebuilt;
+    let s = if dominant != s.first
+        && best[dominant] > 10.0
+        && best[dominant] > 2.0 * best[s.first]
+        && s.factors() > 1
+        && data.levels_but(dominant) + p <= MAX_DENSE
+    {
+        rebuilt = system::System::eliminating(data, dominant);
+        let mut dev = |theta: &[f64]| rebuilt.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY);
+        let d0 = dev(&best);
+        let (t, _, _) = optimize::newton(&mut dev, best.clone(), d0, 8);
+        best = t;
+        let d = dev(&best);
+        let c = optimize::certify(&mut dev, &best, d);
+        certificate = Certificate {
+            gradient: c.gradient,
+            predicted_decrease: c.predicted_decrease,
+            boundary: c.boundary,
+            certified: c.certified,
+            restarts: certificate.restarts,
+        };
+        &rebuilt
+    } else {
+        s
+    };
     let e = s.evaluate(&best, criterion)?;
-    let total = s.y.iter().map(|v| v * v).sum::<f64>() / (s.n - 1.0);
-    if e.sigma2 <= 1e-10 * total {
+    // The standardized response has variance 1: the total is its scale's square.
+    let total = s.y_scale * s.y_scale;
+    if e.sigma2 <= 1e-20 * total {
         return Err(MixedError::ZeroResidual { residual: e.sigma2, total });
     }
+    let mut notes = Vec::new();
+    let names = data.fixed_names();
+    // Where a df cannot be computed reliably the fit says so and uses a
+    // stated, conservative df: the fewest levels of any random factor
+    // less one (the df of the intercept's test when that factor's
+    // variance dominates, at most the containment df of any effect).
+    let fallback = (data.factors.iter().map(|f| f.levels).min().unwrap_or(2) as f64 - 1.0).max(1.0);
+    let mut resolve = |method: &str, c: usize, df: inference::Df| -> (f64, bool) {
+        match df {
+            inference::Df::Value(v) => (v, false),
+            inference::Df::NotPositiveDefinite => {
+                notes.push(format!("{method} df of {}: the Hessian of the REML criterion is not positive definite at the optimum, so the df cannot be computed; using {fallback} (the fewest levels of a random factor less one)", names[c]));
+                (fallback, true)
+            }
+            inference::Df::Unreliable(v) => {
+                notes.push(format!("{method} df of {}: the difference derivatives do not agree between step sizes (estimate {v:.4e}), so the df cannot be computed reliably; using {fallback} (the fewest levels of a random factor less one)", names[c]));
+                (fallback, true)
+            }
+        }
+    };
     let (kr, shares, df) = match (criterion, inference) {
         (Criterion::Reml, Inference::Full) => {
             let (kr, shares) = inference::kenward_roger(s, &best, e.sigma2)?;
+            let kr: Vec<Option<KenwardRoger>> = kr
+                .into_iter()
+                .enumerate()
+                .map(|(c, (kr, verdict))| {
+                    let (df, fallback) = resolve("Kenward-Roger", c, verdict);
+                    Some(KenwardRoger { se: kr.se, df, fallback })
+                })
+                .collect();
             let df = inference::satterthwaite(s, &best, e.sigma2)?;
-            (kr.into_iter().map(Some).collect(), shares, df)
+            let df = df.into_iter().enumerate().map(|(c, d)| Some(resolve("Satterthwaite", c, d))).collect();
+            (kr, shares, df)
         }
         (Criterion::Reml, Inference::Satterthwaite) => {
-            (vec![None; p], Vec::new(), inference::satterthwaite(s, &best, e.sigma2)?)
+            let df = inference::satterthwaite(s, &best, e.sigma2)?;
+            let df = df.into_iter().enumerate().map(|(c, d)| Some(resolve("Satterthwaite", c, d))).collect();
+            (vec![None; p], Vec::new(), df)
         }
         _ => (vec![None; p], Vec::new(), vec![None; p]),
     };
@@ -470,14 +541,16 @@ fn fit_system(
             name,
             estimate: e.beta[c],
             se: (e.sigma2 * e.rx_inv[(c, c)]).sqrt(),
-            df_satterthwaite: df[c],
+            df_satterthwaite: df[c].map(|d: (f64, bool)| d.0),
+            satterthwaite_fallback: df[c].is_some_and(|d| d.1),
             kenward_roger: kr[c],
         })
         .collect();
     Ok(MixedFit {
         shares,
-        df_satterthwaite: df[0],
+        df_satterthwaite: df[0].map(|d| d.0),
         kenward_roger: kr[0],
+        notes,
         criterion,
         factors: data.factors.iter().map(|f| f.name.clone()).collect(),
         levels: data.factors.iter().map(|f| f.levels).collect(),

@@ -31,13 +31,32 @@ use faer::{Auto, Mat, Par};
 use super::{Criterion, MixedData, MixedError};
 
 /// The cross-products the deviance needs, computed once.
+///
+/// The response is standardized (centred and divided by its standard
+/// deviation) and every quantity below is of the standardized response;
+/// [`System::evaluate`] returns the estimates and the deviance on the
+/// response's own scale. A shift or a rescaling of y then changes nothing
+/// but that last step, so the df and every ratio are the same for y and
+/// a + b y to rounding.
+///
+/// The eliminated factor's level means are removed exactly: the products of
+/// the other columns are kept as within-level scatter (about the eliminated
+/// factor's level means, computed from within-level deviations so that a
+/// column constant within every level, such as the intercept, has exactly
+/// zero scatter) plus the level sums. For a given theta_1 the reduced
+/// system is then W + sum_s c_s v_s v_s' with
+/// c_s = 1 / (n_s (theta_1^2 n_s + 1)) > 0: a sum of positive
+/// semi-definite terms, where the textbook form X'X - sum_s w_s v_s v_s'
+/// subtracts two numbers that agree to log10(theta_1^2 n_s) digits (all
+/// of them for a variance ratio of 1e16).
 pub(super) struct System {
     /// Observations and fixed-effect columns.
     pub n: f64,
     pub p: usize,
-    /// The response, centred at `y_mean` (the intercept is shifted back).
+    /// The response, centred at `y_mean` and divided by `y_scale`.
     pub y: Vec<f64>,
     pub y_mean: f64,
+    pub y_scale: f64,
     /// Fixed-effect design, n x p row-major; column 0 is the intercept.
     pub x: Vec<f64>,
     /// Level of each factor per observation, n x k row-major.
@@ -53,18 +72,29 @@ pub(super) struct System {
     dense_factor: Vec<usize>,
     /// Dense random-effect columns (q2).
     q2: usize,
-    /// Per level s of the eliminated factor: n_s, Z1'y, Z1'X (p each) and
-    /// the sparse row of Z1'Z2 as (dense column, count), sorted.
+    /// Per level s of the eliminated factor: n_s, its sums Z1'y and Z1'X
+    /// (p each), the mean of y and of X, and the sparse row of Z1'Z2 as
+    /// (dense column, count), sorted.
     ns: Vec<f64>,
     z1y: Vec<f64>,
     z1x: Vec<f64>,
+    ybar: Vec<f64>,
+    xbar: Vec<f64>,
     row_start: Vec<usize>,
     row: Vec<(usize, f64)>,
-    /// Z2'Z2 (q2 x q2, lower triangle used), Z2'X (q2 x p), X'X, Z2'y, X'y.
-    z2z2: Mat<f64>,
-    z2x: Mat<f64>,
+    /// Per observation: y and X less their level's means (exactly zero for
+    /// a column constant within the level).
+    ry: Vec<f64>,
+    rx: Vec<f64>,
+    /// Within-level scatter: of Z2 (q2 x q2, lower triangle used), of Z2
+    /// with X (q2 x p), of X (p x p), of Z2 and X with y.
+    wz2z2: Mat<f64>,
+    wz2x: Mat<f64>,
+    wxx: Mat<f64>,
+    wz2y: Vec<f64>,
+    wxy: Vec<f64>,
+    /// X'X and X'y (y standardized), for the rank check and the start.
     pub xtx: Mat<f64>,
-    z2y: Vec<f64>,
     xty: Vec<f64>,
     /// The dense matrix and the factorization's scratch, reused by every
     /// evaluation: allocating 10 MB afresh (InstEval) costs a third of a
@@ -72,7 +102,7 @@ pub(super) struct System {
     work: RefCell<(Mat<f64>, MemBuffer)>,
 }
 
-/// The deviance and the estimates at one theta.
+/// The deviance and the estimates at one theta, on the response's scale.
 #[derive(Debug, Clone)]
 pub(super) struct Eval {
     pub deviance: f64,
@@ -84,17 +114,37 @@ pub(super) struct Eval {
     pub log_det_rx2: f64,
     /// Penalized residual sum of squares.
     pub r2: f64,
+    /// The same of the standardized response.
+    pub r2_std: f64,
     /// (R_X'R_X)^-1 = Var(beta) / sigma^2, p x p.
     pub rx_inv: Mat<f64>,
 }
 
+/// The mean of `values`, exactly their common value when they are all equal.
+fn exact_mean(values: impl Iterator<Item = f64> + Clone) -> f64 {
+    let mut it = values.clone();
+    let Some(first) = it.next() else { return 0.0 };
+    if it.all(|v| v == first) {
+        return first;
+    }
+    let (sum, count) = values.fold((0.0, 0.0), |(s, c), v| (s + v, c + 1.0));
+    sum / count
+}
+
 impl System {
+    /// The system with the factor with the most levels eliminated.
     pub fn new(d: &MixedData) -> System {
+        let levels: Vec<usize> = d.factors.iter().map(|f| f.levels).collect();
+        let first = (0..levels.len()).max_by_key(|&j| (levels[j], std::cmp::Reverse(j))).unwrap_or(0);
+        System::eliminating(d, first)
+    }
+
+    /// The system with factor `first` eliminated.
+    pub fn eliminating(d: &MixedData, first: usize) -> System {
         let n = d.y.len();
         let k = d.factors.len();
         let p = d.p();
         let levels: Vec<usize> = d.factors.iter().map(|f| f.levels).collect();
-        let first = (0..k).max_by_key(|&j| (levels[j], std::cmp::Reverse(j))).unwrap_or(0);
         let mut dense_offset = vec![usize::MAX; k];
         let mut dense_factor = Vec::new();
         for j in (0..k).filter(|&j| j != first) {
@@ -102,43 +152,77 @@ impl System {
             dense_factor.extend(std::iter::repeat_n(j, levels[j]));
         }
         let q2 = dense_factor.len();
-        // Centring y keeps the penalized residual sum of squares from being a
-        // small difference of large sums.
         let y_mean = d.y.iter().sum::<f64>() / n as f64;
-        let y: Vec<f64> = d.y.iter().map(|v| v - y_mean).collect();
+        let centred: Vec<f64> = d.y.iter().map(|v| v - y_mean).collect();
+        let sd = (centred.iter().map(|v| v * v).sum::<f64>() / (n as f64 - 1.0).max(1.0)).sqrt();
+        let y_scale = if sd.is_finite() && sd > 0.0 { sd } else { 1.0 };
+        let y: Vec<f64> = centred.iter().map(|v| v / y_scale).collect();
         let x = d.design();
         let codes: Vec<usize> = (0..n).flat_map(|i| d.factors.iter().map(move |f| f.codes[i])).collect();
         let n1 = levels[first];
-        let (mut ns, mut z1y, mut z1x) = (vec![0.0; n1], vec![0.0; n1], vec![0.0; n1 * p]);
-        let mut rows: Vec<std::collections::BTreeMap<usize, f64>> = vec![Default::default(); n1];
-        let mut z2z2 = Mat::<f64>::zeros(q2, q2);
-        let mut z2x = Mat::<f64>::zeros(q2, p);
-        let mut xtx = Mat::<f64>::zeros(p, p);
-        let (mut z2y, mut xty) = (vec![0.0; q2], vec![0.0; p]);
-        let mut dense = Vec::with_capacity(k);
+        // Rows of each level of the eliminated factor.
+        let mut members: Vec<Vec<usize>> = vec![Vec::new(); n1];
         for i in 0..n {
-            let c = &codes[i * k..(i + 1) * k];
-            let xi = &x[i * p..(i + 1) * p];
-            let s = c[first];
-            ns[s] += 1.0;
-            z1y[s] += y[i];
-            dense.clear();
-            dense.extend((0..k).filter(|&j| j != first).map(|j| dense_offset[j] + c[j]));
-            for &a in &dense {
-                *rows[s].entry(a).or_insert(0.0) += 1.0;
-                z2y[a] += y[i];
-                for &b in &dense {
-                    z2z2[(a, b)] += 1.0;
+            members[codes[i * k + first]].push(i);
+        }
+        let (mut ns, mut z1y, mut z1x) = (vec![0.0; n1], vec![0.0; n1], vec![0.0; n1 * p]);
+        let (mut ybar, mut xbar) = (vec![0.0; n1], vec![0.0; n1 * p]);
+        let (mut ry, mut rx) = (vec![0.0; n], vec![0.0; n * p]);
+        let mut rows: Vec<std::collections::BTreeMap<usize, f64>> = vec![Default::default(); n1];
+        let mut wz2z2 = Mat::<f64>::zeros(q2, q2);
+        let mut wz2x = Mat::<f64>::zeros(q2, p);
+        let mut wxx = Mat::<f64>::zeros(p, p);
+        let mut xtx = Mat::<f64>::zeros(p, p);
+        let (mut wz2y, mut wxy, mut xty) = (vec![0.0; q2], vec![0.0; p], vec![0.0; p]);
+        let dense_of = |i: usize| (0..k).filter(move |&j| j != first).map(move |j| (j, i));
+        for (s, rows_s) in members.iter().enumerate() {
+            ns[s] = rows_s.len() as f64;
+            z1y[s] = rows_s.iter().map(|&i| y[i]).sum();
+            ybar[s] = exact_mean(rows_s.iter().map(|&i| y[i]));
+            for c in 0..p {
+                z1x[s * p + c] = rows_s.iter().map(|&i| x[i * p + c]).sum();
+                xbar[s * p + c] = exact_mean(rows_s.iter().map(|&i| x[i * p + c]));
+            }
+            let (mut sum_ry, mut sum_rx) = (0.0, vec![0.0; p]);
+            for &i in rows_s {
+                ry[i] = y[i] - ybar[s];
+                sum_ry += ry[i];
+                for c in 0..p {
+                    rx[i * p + c] = x[i * p + c] - xbar[s * p + c];
+                    sum_rx[c] += rx[i * p + c];
                 }
-                for (col, v) in xi.iter().enumerate() {
-                    z2x[(a, col)] += v;
+                let xi = &x[i * p..(i + 1) * p];
+                let rxi = &rx[i * p..(i + 1) * p];
+                for c in 0..p {
+                    xty[c] += xi[c] * y[i];
+                    wxy[c] += rxi[c] * ry[i];
+                    for c2 in 0..p {
+                        xtx[(c, c2)] += xi[c] * xi[c2];
+                        wxx[(c, c2)] += rxi[c] * rxi[c2];
+                    }
+                }
+                for (j, i) in dense_of(i) {
+                    let a = dense_offset[j] + codes[i * k + j];
+                    *rows[s].entry(a).or_insert(0.0) += 1.0;
+                    wz2y[a] += ry[i];
+                    for c in 0..p {
+                        wz2x[(a, c)] += rxi[c];
+                    }
+                    for (j2, _) in dense_of(i) {
+                        wz2z2[(a, dense_offset[j2] + codes[i * k + j2])] += 1.0;
+                    }
                 }
             }
-            for (col, v) in xi.iter().enumerate() {
-                z1x[s * p + col] += v;
-                xty[col] += v * y[i];
-                for (col2, w) in xi.iter().enumerate() {
-                    xtx[(col, col2)] += v * w;
+            // Less the level means: sum_i (z_i - zbar)(r_i) = sum_i z_i r_i -
+            // zbar sum_i r_i, and Z2's own scatter less r r' / n_s.
+            let nsf = ns[s];
+            for (&a, &cnt) in &rows[s] {
+                wz2y[a] -= cnt / nsf * sum_ry;
+                for c in 0..p {
+                    wz2x[(a, c)] -= cnt / nsf * sum_rx[c];
+                }
+                for (&b, &cnt2) in &rows[s] {
+                    wz2z2[(a, b)] -= cnt * cnt2 / nsf;
                 }
             }
         }
@@ -156,6 +240,7 @@ impl System {
             p,
             y,
             y_mean,
+            y_scale,
             x,
             codes,
             levels,
@@ -166,12 +251,18 @@ impl System {
             ns,
             z1y,
             z1x,
+            ybar,
+            xbar,
             row_start,
             row,
-            z2z2,
-            z2x,
+            ry,
+            rx,
+            wz2z2,
+            wz2x,
+            wxx,
+            wz2y,
+            wxy,
             xtx,
-            z2y,
             xty,
             work,
         }
@@ -188,26 +279,27 @@ impl System {
         let m = q2 + p;
         let t1 = theta[self.first];
         let lam: Vec<f64> = self.dense_factor.iter().map(|&j| theta[j]).collect();
-        // Lower triangle of M before the elimination, and the right side.
+        // Lower triangle of the reduced system: the within-level scatter,
+        // then each level's sums with weight c_s.
         let mut work = self.work.borrow_mut();
         let (a, buffer) = &mut *work;
         for j in 0..q2 {
             for i in j..q2 {
-                a[(i, j)] = lam[i] * self.z2z2[(i, j)] * lam[j];
+                a[(i, j)] = lam[i] * self.wz2z2[(i, j)] * lam[j];
             }
             a[(j, j)] += 1.0;
             for c in 0..p {
-                a[(q2 + c, j)] = lam[j] * self.z2x[(j, c)];
+                a[(q2 + c, j)] = lam[j] * self.wz2x[(j, c)];
             }
         }
         for c in 0..p {
             for c2 in 0..=c {
-                a[(q2 + c, q2 + c2)] = self.xtx[(c, c2)];
+                a[(q2 + c, q2 + c2)] = self.wxx[(c, c2)];
             }
         }
-        let mut rhs: Vec<f64> = (0..q2).map(|i| lam[i] * self.z2y[i]).chain(self.xty.iter().copied()).collect();
-        // Eliminate u1: M -= w_s v_s v_s', rhs -= w_s z1y_s v_s, with
-        // v_s = [Lambda2 (Z1'Z2)_s, (Z1'X)_s] and w_s = theta1^2 / D_s.
+        let mut rhs: Vec<f64> = (0..q2).map(|i| lam[i] * self.wz2y[i]).chain(self.wxy.iter().copied()).collect();
+        // M += c_s v_s v_s', rhs += c_s z1y_s v_s, with v_s = [Lambda2
+        // (Z1'Z2)_s, (Z1'X)_s] and c_s = 1 / (n_s D_s), D_s = theta1^2 n_s + 1.
         let mut log_det_d = 0.0;
         let t1sq = t1 * t1;
         let mut idx: Vec<usize> = Vec::new();
@@ -215,10 +307,7 @@ impl System {
         for s in 0..self.ns.len() {
             let ds = t1sq * self.ns[s] + 1.0;
             log_det_d += ds.ln();
-            if t1sq == 0.0 {
-                continue;
-            }
-            let w = t1sq / ds;
+            let w = 1.0 / (self.ns[s] * ds);
             idx.clear();
             val.clear();
             for &(col, cnt) in &self.row[self.row_start[s]..self.row_start[s + 1]] {
@@ -231,9 +320,9 @@ impl System {
             }
             for (e, (&i, &vi)) in idx.iter().zip(&val).enumerate() {
                 let wvi = w * vi;
-                rhs[i] -= wvi * self.z1y[s];
+                rhs[i] += wvi * self.z1y[s];
                 for (&j, &vj) in idx[..=e].iter().zip(&val[..=e]) {
-                    a[(i, j)] -= wvi * vj;
+                    a[(i, j)] += wvi * vj;
                 }
             }
         }
@@ -260,54 +349,50 @@ impl System {
         solve_lower_triangular_in_place(l, sol.as_mut(), Par::Seq);
         solve_upper_triangular_in_place(l.transpose(), sol.as_mut(), Par::Seq);
         let beta_c: Vec<f64> = (0..p).map(|c| sol[(q2 + c, 0)]).collect();
-        // Back-substitute u1 and form b = Lambda u on the data scale.
-        let mut r2 = 0.0;
-        let b1: Vec<f64> = (0..self.ns.len())
-            .map(|s| {
-                let ds = t1sq * self.ns[s] + 1.0;
-                let mut dot: f64 = self.row[self.row_start[s]..self.row_start[s + 1]]
-                    .iter()
-                    .map(|&(c, n)| lam[c] * n * sol[(c, 0)])
-                    .sum();
-                dot += (0..p).map(|c| self.z1x[s * p + c] * beta_c[c]).sum::<f64>();
-                let u1 = t1 * (self.z1y[s] - dot) / ds;
-                r2 += u1 * u1;
-                t1 * u1
-            })
-            .collect();
-        let b2: Vec<f64> = (0..q2)
-            .map(|i| {
-                let u = sol[(i, 0)];
-                r2 += u * u;
-                lam[i] * u
-            })
-            .collect();
-        for (i, yi) in self.y.iter().enumerate() {
-            let c = &self.codes[i * k..(i + 1) * k];
-            let mut fitted: f64 = self.x[i * p..(i + 1) * p].iter().zip(&beta_c).map(|(x, b)| x * b).sum();
-            for (j, &code) in c.iter().enumerate() {
-                fitted += if j == self.first { b1[code] } else { b2[self.dense_offset[j] + code] };
-            }
-            r2 += (yi - fitted).powi(2);
+        let b2: Vec<f64> = (0..q2).map(|i| lam[i] * sol[(i, 0)]).collect();
+        let mut r2: f64 = (0..q2).map(|i| sol[(i, 0)] * sol[(i, 0)]).sum();
+        // Per level: m_s, the level mean of X beta + Z2 b2, then u1 =
+        // theta1 n_s (ybar_s - m_s) / D_s. Each residual is taken as its
+        // within-level part plus what the level's mean leaves,
+        // (ybar_s - m_s) / D_s, so that nothing of the size of y is
+        // subtracted from itself.
+        let mut gap = vec![0.0; self.ns.len()];
+        for (s, gap) in gap.iter_mut().enumerate() {
+            let ds = t1sq * self.ns[s] + 1.0;
+            let z2b: f64 = self.row[self.row_start[s]..self.row_start[s + 1]].iter().map(|&(c, n)| n * b2[c]).sum();
+            let xb: f64 = (0..p).map(|c| self.xbar[s * p + c] * beta_c[c]).sum();
+            let ms = xb + z2b / self.ns[s];
+            let u1 = t1 * self.ns[s] * (self.ybar[s] - ms) / ds;
+            r2 += u1 * u1;
+            *gap = (self.ybar[s] - ms) / ds + z2b / self.ns[s];
         }
-        let r2 = r2.max(f64::MIN_POSITIVE);
+        for i in 0..self.y.len() {
+            let c = &self.codes[i * k..(i + 1) * k];
+            let s = c[self.first];
+            let xb: f64 = self.rx[i * p..(i + 1) * p].iter().zip(&beta_c).map(|(x, b)| x * b).sum();
+            let z2b: f64 = (0..k).filter(|&j| j != self.first).map(|j| b2[self.dense_offset[j] + c[j]]).sum();
+            r2 += (self.ry[i] - xb - z2b + gap[s]).powi(2);
+        }
+        let r2_std = r2.max(f64::MIN_POSITIVE);
         // (R_X'R_X)^-1 = L_X^-T L_X^-1.
         let mut rx_inv = Mat::<f64>::identity(p, p);
         let lx = l.submatrix(q2, q2, p, p);
         solve_lower_triangular_in_place(lx, rx_inv.as_mut(), Par::Seq);
         solve_upper_triangular_in_place(lx.transpose(), rx_inv.as_mut(), Par::Seq);
-        let mut beta = beta_c;
+        let scale2 = self.y_scale * self.y_scale;
+        let mut beta: Vec<f64> = beta_c.iter().map(|b| b * self.y_scale).collect();
         beta[0] += self.y_mean;
+        let r2 = r2_std * scale2;
         let two_pi = 2.0 * std::f64::consts::PI;
         let n = self.n;
         let (deviance, sigma2) = match criterion {
-            Criterion::Ml => (log_det_l2 + n * (1.0 + (two_pi * r2 / n).ln()), r2 / n),
+            Criterion::Ml => (log_det_l2 + n * (1.0 + (two_pi * r2_std / n).ln() + scale2.ln()), r2 / n),
             Criterion::Reml => {
                 let dof = n - p as f64;
-                (log_det_l2 + log_det_rx2 + dof * (1.0 + (two_pi * r2 / dof).ln()), r2 / dof)
+                (log_det_l2 + log_det_rx2 + dof * (1.0 + (two_pi * r2_std / dof).ln() + scale2.ln()), r2 / dof)
             }
         };
-        Ok(Eval { deviance, beta, sigma2, log_det_l2, log_det_rx2, r2, rx_inv })
+        Ok(Eval { deviance, beta, sigma2, log_det_l2, log_det_rx2, r2, r2_std, rx_inv })
     }
 
     /// A starting theta from one-way analyses of variance, factor by
@@ -393,36 +478,5 @@ impl System {
             Criterion::Ml => e.log_det_l2 + self.n * log_2pi_s2 + e.r2 / s2,
         };
         Ok((dev, e))
-    }
-
-    /// Z'Z over all q levels (factors in order), Z'X (q x p) and the factor
-    /// of each level: the dense products Kenward-Roger works with.
-    pub fn dense_products(&self) -> (Mat<f64>, Mat<f64>, Vec<usize>) {
-        let (k, p) = (self.factors(), self.p);
-        let offsets: Vec<usize> = self
-            .levels
-            .iter()
-            .scan(0, |acc, l| {
-                let o = *acc;
-                *acc += l;
-                Some(o)
-            })
-            .collect();
-        let q: usize = self.levels.iter().sum();
-        let mut ztz = Mat::<f64>::zeros(q, q);
-        let mut ztx = Mat::<f64>::zeros(q, p);
-        for i in 0..self.y.len() {
-            let cols: Vec<usize> = (0..k).map(|j| offsets[j] + self.codes[i * k + j]).collect();
-            for &a in &cols {
-                for &b in &cols {
-                    ztz[(a, b)] += 1.0;
-                }
-                for c in 0..p {
-                    ztx[(a, c)] += self.x[i * p + c];
-                }
-            }
-        }
-        let factor_of = (0..k).flat_map(|j| std::iter::repeat_n(j, self.levels[j])).collect();
-        (ztz, ztx, factor_of)
     }
 }

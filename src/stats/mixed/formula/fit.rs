@@ -45,6 +45,9 @@ pub struct FixedRow {
     pub df: Option<f64>,
     /// t value.
     pub t: f64,
+    /// Whether `df` is the stated fallback (the method's df could not be
+    /// computed reliably; the fit's notes say why).
+    pub df_fallback: bool,
     /// Two-sided p from t on `df`.
     pub p: Option<f64>,
 }
@@ -58,7 +61,6 @@ pub fn fit_table(
     df: DfMethod,
     profile: Option<f64>,
 ) -> Result<FormulaFit, FormulaError> {
-    use statrs::distribution::{ContinuousCDF, StudentsT};
     let formula = parse(formula_text)?;
     let data = build(&formula, table)?;
     if let Some(level) = profile {
@@ -88,10 +90,13 @@ pub fn fit_table(
                 },
             };
             let t = f.estimate / se;
-            let p = dof
-                .filter(|d| d.is_finite() && *d > 0.0)
-                .and_then(|d| StudentsT::new(0.0, 1.0, d).ok().map(|dist| 2.0 * dist.sf(t.abs())));
-            FixedRow { name: f.name.clone(), estimate: f.estimate, se, df: dof, t, p }
+            let p = dof.filter(|d| *d > 0.0).map(|d| crate::stats::t_two_sided_p(t, d)).filter(|p| !p.is_nan());
+            let df_fallback = match (reml, df) {
+                (false, _) => false,
+                (true, DfMethod::Satterthwaite) => f.satterthwaite_fallback,
+                (true, DfMethod::KenwardRoger) => f.kenward_roger.is_some_and(|kr| kr.fallback),
+            };
+            FixedRow { name: f.name.clone(), estimate: f.estimate, se, df: dof, df_fallback, t, p }
         })
         .collect();
     let profile = match profile {
@@ -153,6 +158,9 @@ impl FormulaFit {
             } else {
                 let _ = writeln!(s, "{:<width$} {:>12.6} {:>12.6} {:>9.3}", r.name, r.estimate, r.se, r.t);
             }
+        }
+        for note in &f.notes {
+            let _ = writeln!(s, "note: {note}");
         }
         if let Some((level, intervals)) = &self.profile {
             let _ = writeln!(s, "\nProfile-likelihood intervals of the standard deviations ({:.1}%):", 100.0 * level);
