@@ -177,6 +177,10 @@ pub struct Plan {
     /// The split factor's values; empty for a single-split study.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub splits: Vec<u64>,
+    /// Under `draws per seed`, each seed and the draw it uses (its run
+    /// directory `draw-K`); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seed_draws: Vec<(u64, u64)>,
     /// The doses of a dose-response contrast, increasing; empty when the
     /// treated arm is one arm.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -248,6 +252,7 @@ pub fn compile(design: &Design) -> Plan {
         rate_hz: design.data.rate_hz,
         required_rows,
         splits: design.splits.clone(),
+        seed_draws: design.seed_draws(),
         doses,
     }
 }

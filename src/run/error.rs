@@ -293,7 +293,7 @@ pub enum RunError {
         design: String,
     },
     /// `score` on a directory that `export` did not prepare.
-    #[error("{dir} is not an export of models fitted elsewhere ({reason}); `score` reads a folder written by `crossaudit export DESIGN --out {dir}`, with your predictions added to its predictions/")]
+    #[error("{dir} is not an export of models fitted elsewhere ({reason}); run `crossaudit export DESIGN --out DIR` first and add your predictions to its predictions/")]
     NotExported {
         /// The directory.
         dir: String,

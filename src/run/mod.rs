@@ -356,17 +356,21 @@ pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, R
     Ok(previous)
 }
 
-/// [`check_out`] for a plan: a multi-split study's folder holds no
-/// `run.json` of its own (its `cells.csv` and report pool the splits), so
-/// each split's folder is checked instead, and a single-split run at the
-/// top is refused as another run.
+/// [`check_out`] for a plan: a multi-split study's folder, or a per-seed
+/// draws study's, holds no `run.json` of its own (its `cells.csv` and
+/// report pool the splits or the seeds' draws), so each split's or draw's
+/// folder is checked instead, and a single-split run at the top is
+/// refused as another run.
 pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<(), RunError> {
-    if plan.splits.is_empty() {
+    if plan.splits.is_empty() && plan.seed_draws.is_empty() {
         return check_out(out, design_sha256).map(|_| ());
     }
     refuse_single_run(out)?;
     for &s in &plan.splits {
         check_out(&out.join(crate::plan::split_dir(s)), design_sha256)?;
+    }
+    for &(_, draw) in &plan.seed_draws {
+        check_out(&out.join(format!("draw-{draw}")), design_sha256)?;
     }
     Ok(())
 }

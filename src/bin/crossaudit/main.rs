@@ -254,6 +254,9 @@ fn slurm_prepare(
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
     crossaudit::run::refuse_external(&plan)?;
+    if file.design.per_seed_draws {
+        return Err(crossaudit::run::RunError::PerSeedSlurm { design: file.path.display().to_string() }.into());
+    }
     let binary = std::env::current_exe().map_err(|e| crossaudit::run::RunError::Submit {
         script: "(not written)".into(),
         reason: format!("cannot locate the crossaudit binary: {e}"),
