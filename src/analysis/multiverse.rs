@@ -148,10 +148,38 @@ pub struct JointBootstrap {
     /// Per specification: (id, bootstrap SE, simultaneous lower, upper), metres.
     pub bands: Vec<(String, f64, f64, f64)>,
     /// Share of specifications with d < 0: observed, and its bootstrap
-    /// percentile interval.
+    /// percentile interval (descriptive: the bootstrap is centred at the
+    /// observed estimates, not at the null).
     pub share_negative: (f64, f64, f64),
+    /// Simultaneous bands that exclude zero.
+    pub bands_excluding_zero: usize,
+    /// The curve under the null ([`NullTest`]).
+    pub null: NullTest,
     /// Recordings every specification shares.
     pub recordings: usize,
+}
+
+/// The specification curve under the null (Simonsohn, Simmons and Nelson
+/// 2020, "Specification curve analysis", Nature Human Behaviour 4, step 3;
+/// specr's `boot_null`): each specification's d matrix centred at zero,
+/// the same pigeonhole resample for every specification in a replicate,
+/// so a replicate's d of specification s is its resampled mean minus its
+/// observed mean. One-sided p-values in the rule's direction (d < 0: the
+/// treated arm looks better), (1 + replicates at least as extreme) /
+/// (1 + replicates).
+#[derive(Debug, Clone, Serialize)]
+pub struct NullTest {
+    /// The median d over specifications (m) and its p-value (null medians
+    /// at or below it).
+    pub median: (f64, f64),
+    /// Specifications in which the rule holds, evaluated on the shared
+    /// matrix (each specification's own interval half-widths and reference
+    /// mean, its d replaced), and the p-value (null counts at or above it).
+    pub holding: (usize, f64),
+    /// Stouffer's combined t: the sum over specifications of d / bootstrap
+    /// SE, over the square root of their number, and its p-value (null
+    /// values at or below it).
+    pub stouffer: (f64, f64),
 }
 
 /// How much the unpublished draws move one specification's result.
@@ -243,7 +271,20 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
             let seed = design.sensitivity.bootstrap.as_ref().map(|b| b.seed).unwrap_or(11);
             let reps = design.sensitivity.bootstrap.as_ref().map(|b| b.replicates).unwrap_or(1999).min(9999);
             let ids: Vec<String> = specs.iter().map(|s| s.id.clone()).collect();
-            (effects, joint_bootstrap(&ids, &diffs, reps, seed, design.estimator.level))
+            // Whether specification s's rule holds were its d `d`: its own
+            // interval half-widths and reference mean, d replaced.
+            let rule = |s: usize, d: f64| -> bool {
+                let r = &specs[s];
+                let e = CrossedEstimate {
+                    mean: d,
+                    lower: r.estimate.lower - r.estimate.mean + d,
+                    upper: r.estimate.upper - r.estimate.mean + d,
+                    ..r.estimate
+                };
+                let optimism = -100.0 * d / r.mean_reference;
+                super::decision::rule_holds(&design.decision, optimism, &e)
+            };
+            (effects, joint_bootstrap(&ids, &diffs, (reps, seed, design.estimator.level), &rule))
         }
         None => (Vec::new(), None),
     };
@@ -379,7 +420,12 @@ fn choice_effects(
 }
 
 /// One replicate's row and column draw counts, from ChaCha8 stream 7 of `seed`.
-fn joint_bootstrap(ids: &[String], diffs: &[Diff], b: usize, seed: u64, level: f64) -> Option<JointBootstrap> {
+fn joint_bootstrap(
+    ids: &[String],
+    diffs: &[Diff],
+    (b, seed, level): (usize, u64, f64),
+    rule: &dyn Fn(usize, f64) -> bool,
+) -> Option<JointBootstrap> {
     let all: Vec<&Diff> = diffs.iter().collect();
     let (recs, seeds, mats) = common(&all);
     let (rows, cols) = (recs.len(), seeds.len());
@@ -435,14 +481,19 @@ fn joint_bootstrap(ids: &[String], diffs: &[Diff], b: usize, seed: u64, level: f
     share.sort_by(f64::total_cmp);
     let alpha = 1.0 - level;
     let observed_share = observed.iter().filter(|d| **d < 0.0).count() as f64 / mats.len() as f64;
+    let null = null_test(&observed, &reps, &se, rule);
+    let bands: Vec<(String, f64, f64, f64)> = (0..mats.len())
+        .map(|s| (ids[s].clone(), se[s], observed[s] - critical * se[s], observed[s] + critical * se[s]))
+        .collect();
+    let bands_excluding_zero = bands.iter().filter(|b| b.2 > 0.0 || b.3 < 0.0).count();
     Some(JointBootstrap {
         replicates: b,
         seed,
         level,
         critical,
-        bands: (0..mats.len())
-            .map(|s| (ids[s].clone(), se[s], observed[s] - critical * se[s], observed[s] + critical * se[s]))
-            .collect(),
+        bands,
+        bands_excluding_zero,
+        null,
         share_negative: (
             observed_share,
             quantile_type7(&share, alpha / 2.0),
@@ -450,6 +501,43 @@ fn joint_bootstrap(ids: &[String], diffs: &[Diff], b: usize, seed: u64, level: f
         ),
         recordings: rows,
     })
+}
+
+/// The median, the count holding and Stouffer's t of the observed curve
+/// and of each replicate centred at zero (`reps[s][k] - observed[s]`).
+fn null_test(observed: &[f64], reps: &[Vec<f64>], se: &[f64], rule: &dyn Fn(usize, f64) -> bool) -> NullTest {
+    let n = observed.len();
+    let b = reps.first().map_or(0, Vec::len);
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        if v.len() % 2 == 1 {
+            v[v.len() / 2]
+        } else {
+            0.5 * (v[v.len() / 2 - 1] + v[v.len() / 2])
+        }
+    };
+    let stouffer = |d: &dyn Fn(usize) -> f64| -> f64 {
+        (0..n).map(|s| if se[s] > 0.0 { d(s) / se[s] } else { 0.0 }).sum::<f64>() / (n as f64).sqrt()
+    };
+    let holding = |d: &dyn Fn(usize) -> f64| (0..n).filter(|&s| rule(s, d(s))).count();
+    let med_obs = median(&mut observed.to_vec());
+    let hold_obs = holding(&|s| observed[s]);
+    let z_obs = stouffer(&|s| observed[s]);
+    let (mut at_med, mut at_hold, mut at_z) = (0usize, 0usize, 0usize);
+    for k in 0..b {
+        let null = |s: usize| reps[s][k] - observed[s];
+        if median(&mut (0..n).map(null).collect()) <= med_obs {
+            at_med += 1;
+        }
+        if holding(&null) >= hold_obs {
+            at_hold += 1;
+        }
+        if stouffer(&null) <= z_obs {
+            at_z += 1;
+        }
+    }
+    let p = |m: usize| (1 + m) as f64 / (1 + b) as f64;
+    NullTest { median: (med_obs, p(at_med)), holding: (hold_obs, p(at_hold)), stouffer: (z_obs, p(at_z)) }
 }
 
 /// Per specification with several draws: each draw's estimate and the

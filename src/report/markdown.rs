@@ -126,6 +126,11 @@ fn header(a: &Analysis) -> String {
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
         let _ = writeln!(s, "**Warning**: {w}.\n");
     }
+    // Beside the verdict: a reference arm that is not disjoint (copies of
+    // evaluation flights in its fit set, allowed by `duplicates keep`).
+    for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
+        let _ = writeln!(s, "**The reference arm is not disjoint**: {w}.\n");
+    }
     let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
     let _ = writeln!(
         s,

@@ -160,12 +160,30 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
             let (obs, lo, hi) = j.share_negative;
             let _ = writeln!(
                 s,
-                "\nShare of specifications with d < 0: {}% (bootstrap {}: [{}%, {}%]).",
+                "\n{} of {} simultaneous bands exclude zero. Share of specifications with d < 0: {}% (bootstrap {}: [{}%, {}%]; descriptive: this bootstrap is centred at the observed estimates, so it is no test of a null).",
+                j.bands_excluding_zero,
+                j.bands.len(),
                 f(100.0 * obs, 1),
                 level_pct(j.level),
                 f(100.0 * lo, 1),
                 f(100.0 * hi, 1)
             );
+            let n = &j.null;
+            let _ = writeln!(
+                s,
+                "\nThe curve under the null (Simonsohn, Simmons and Nelson 2020, step 3; specr's `boot_null`): each specification's d matrix centred at zero, the same {} resamples for every specification; one-sided p-values in the rule's direction, (1 + replicates at least as extreme) / (1 + replicates).\n",
+                j.replicates
+            );
+            let _ = writeln!(s, "| statistic | observed | p under the null |");
+            let _ = writeln!(s, "|---|---:|---:|");
+            let _ = writeln!(s, "| median d over specifications (m) | {} | {} |", f(n.median.0, 4), f(n.median.1, 4));
+            let _ = writeln!(
+                s,
+                "| specifications meeting the rule (on the shared recordings) | {} | {} |",
+                n.holding.0,
+                f(n.holding.1, 4)
+            );
+            let _ = writeln!(s, "| Stouffer's combined t | {} | {} |", f(n.stouffer.0, 3), f(n.stouffer.1, 4));
         }
     }
     if !a.shared.is_empty() {

@@ -527,7 +527,7 @@ fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> Result<Vec<S
         let changed = |reason: String| RunError::LevelChanged { dir: d.display().to_string(), reason };
         let Some(record) = RunRecord::read(&d)? else {
             return Err(changed(format!(
-                "it has no run.json: not a level of a crossaudit run of this design (level {} of {})",
+                "it has no run.json, so its cells.csv cannot be read as level {} of {}: not a level of a crossaudit run of this design",
                 level.id,
                 file.path.display()
             )));
