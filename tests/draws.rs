@@ -21,7 +21,8 @@ fn said(o: &Output) -> String {
 /// The small simulated study with three seeds, trained for two epochs.
 fn small(extra: &str) -> String {
     let base = std::fs::read_to_string(root().join("tests/designs/sim_small.design")).unwrap();
-    base.replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2").replace("factor seed = 1..2", "factor seed = 4..6")
+    base.replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2")
+        .replace("factor seed = 1..2", "factor seed = 4..6")
         + extra
 }
 
@@ -104,7 +105,11 @@ fn per_seed_draws_are_refused_where_they_cannot_apply() {
     let multiverse = small("draws per seed\nchoices { tails keep | truncate }\nprimary specification tails keep\n");
     let m = write(tmp.path(), "m.design", &multiverse);
     let o = crossaudit(&["check", &m]);
-    assert!(!o.status.success() && said(&o).contains("`draws per seed` is not supported with `choices` yet"), "{}", said(&o));
+    assert!(
+        !o.status.success() && said(&o).contains("`draws per seed` is not supported with `choices` yet"),
+        "{}",
+        said(&o)
+    );
     let per_seed = write(tmp.path(), "p.design", &small("draws per seed\n"));
     let out = tmp.path().join("slurm");
     let o = crossaudit(&["run", &per_seed, "--slurm", "--out", out.to_str().unwrap()]);

@@ -244,3 +244,120 @@ fn mixed_refuses_a_fifo_and_a_device_and_survives_a_closed_pipe() {
     let out = child.wait_with_output().unwrap();
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `"quantity","name","value"` rows of scripts/reference/mixed_inputs.out
+/// (R 4.2.2, lme4 1.1.31; the script is beside it).
+fn input_reference() -> Vec<(String, String, String)> {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_inputs.out")).unwrap();
+    r.records().map(|x| x.unwrap()).map(|x| (x[0].to_string(), x[1].to_string(), x[2].to_string())).collect()
+}
+
+/// Issue 39, task 1: a factor of a numeric column has R's levels. R's
+/// `factor()` of the numbers 1, 1.0 and 1e0 is one level labelled `1`, its
+/// levels sorted by value (1, 2, 10, not the text order 1, 10, 2); each
+/// level's label is R's `as.character` of the number.
+#[test]
+fn a_factor_of_a_numeric_column_has_rs_levels_and_labels() {
+    let r = input_reference();
+    let labels: Vec<_> = r.iter().filter(|(q, _, _)| q == "label").collect();
+    assert!(labels.len() >= 20);
+    for (_, number, label) in labels {
+        let v: f64 = number.parse().unwrap();
+        assert_eq!(crossaudit::stats::mixed::formula::r_number_label(v), *label, "as.character({number})");
+    }
+    let file = "tests/fixtures/mixed_inputs/spellings.csv";
+    let (code, stdout, stderr) = run(&["mixed", file, "--formula", "y ~ factor(d) + (1|g)", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let rows = j["fixed"].as_array().unwrap();
+    let want = |q: &str, n: &str| -> f64 {
+        r.iter().find(|(a, b, _)| a == q && b == n).unwrap_or_else(|| panic!("R has no {q} {n}")).2.parse().unwrap()
+    };
+    let names: Vec<&str> = rows.iter().map(|x| x["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["(Intercept)", "factor(d)2", "factor(d)10"], "R: levels {:?}", want("criterion", "REML"));
+    for row in rows {
+        let name = row["name"].as_str().unwrap();
+        close(name, row["estimate"].as_f64().unwrap(), want("estimate", name), 1e-6, 1e-9);
+        close(name, row["se"].as_f64().unwrap(), want("se", name), 1e-5, 0.0);
+    }
+    close("REML criterion", j["fit"]["deviance"].as_f64().unwrap(), want("criterion", "REML"), 1e-9, 0.0);
+}
+
+/// Issue 39, task 1: inputs that used to give a wrong fit or blame the
+/// wrong thing are refused with a message that names the row and column
+/// (a control character in a label, values whose sums overflow) or the
+/// formula's column (the response among the predictors).
+#[test]
+fn control_characters_the_response_as_predictor_and_overflow_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let nul = write("nul.csv", "y,d,g\n1.5,a,a\n2.5,c,a\n3.1,a\0b,b\n4.2,c,b\n2.2,a,c\n3.3,c,c\n2.9,a,a\n");
+    let (code, _, stderr) = run(&["mixed", &nul, "--formula", "y ~ d + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("row 3, field d: the value contains the control character U+0000 at character 2"),
+        "{stderr}"
+    );
+    let esc = write("esc.csv", "y,d,g\n1.5,a,a\n2.5,c,a\n3.1,a,b\n4.2,c,b\n2.2,a,c\n3.3,c,c\n2.9,a,\u{1b}a\n");
+    let (code, _, stderr) = run(&["mixed", &esc, "--formula", "y ~ d + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("row 7, field g: the value contains the control character U+001B at character 1"),
+        "{stderr}"
+    );
+    let file = "tests/fixtures/mixed_inputs/spellings.csv";
+    for (formula, column) in [("y ~ y + (1|g)", 5), ("y ~ d + factor(y) + (1|g)", 16), ("y ~ d:y + (1|g)", 7)] {
+        let (code, _, stderr) = run(&["mixed", file, "--formula", formula]);
+        assert_eq!(code, 1, "{formula}: {stderr}");
+        let want = format!("formula, column {column}: the response `y` appears among the predictors");
+        assert!(stderr.contains(&want) && !stderr.contains("random factors"), "{formula}: {stderr}");
+    }
+    let (code, _, stderr) = run(&["mixed", file, "--formula", "y ~ d + (1|y)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("column 12: the response `y` appears as a grouping factor"), "{stderr}");
+    let big = write(
+        "big.csv",
+        "y,x,g\n1e305,1,a\n1.7e305,2,a\n1.2e305,3,b\n1.5e305,4,b\n1.1e305,5,c\n1.9e305,6,c\n1.3e305,7,a\n",
+    );
+    let (code, _, stderr) = run(&["mixed", &big, "--formula", "y ~ 1 + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("column y: its values are too large for double precision: the sum of their squares overflows (largest |value| 1.9e305, row 6)")
+            && !stderr.contains("random factors"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run(&["mixed", &big, "--formula", "x ~ y + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("column y: its values are too large for double precision"), "{stderr}");
+}
+
+/// Issue 39, task 1: `crossaudit mixed ... >&-` wrote the fit nowhere and
+/// exited 0 (Rust's runtime opens /dev/null in place of a closed standard
+/// output, so every write succeeds); it must fail. `> /dev/null`, a
+/// deliberate discard, still succeeds.
+#[test]
+fn mixed_with_standard_output_closed_fails() {
+    let bin = env!("CARGO_BIN_EXE_crossaudit");
+    let args = ["mixed", "tests/fixtures/mixed_published/penicillin.csv", "--formula", "diameter ~ 1 + (1|plate)"];
+    for (redirect, ok) in [(">&-", false), ("> /dev/null", true)] {
+        let out = Command::new("sh")
+            .current_dir(root())
+            .arg("-c")
+            .arg(format!("exec \"$0\" \"$@\" {redirect}"))
+            .arg(bin)
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if ok {
+            assert_eq!(out.status.code(), Some(0), "{redirect}: {stderr}");
+        } else {
+            assert_eq!(out.status.code(), Some(1), "{redirect}: {stderr}");
+            assert!(stderr.contains("standard output is closed"), "{stderr}");
+        }
+    }
+}

@@ -418,6 +418,12 @@ fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
 
 fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, json: bool) -> Result<(), Error> {
     use crossaudit::stats::mixed::{formula::DfMethod, Criterion};
+    // The fit is written to standard output and nowhere else.
+    if output::stdout_closed() {
+        return Err(Error::Stdout(std::io::Error::other(
+            "standard output is closed, so the fit would be written nowhere; redirect it to a file (`> fit.txt`)",
+        )));
+    }
     let criterion = if ml { Criterion::Ml } else { Criterion::Reml };
     let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
     let fit = crossaudit::stats::mixed::formula::fit_file(data, formula, criterion, df, profile)?;

@@ -266,7 +266,12 @@ impl Validator {
     ) {
         let help = "`draws per seed` gives each seed its own draw within one run; keep one of the two";
         if draws {
-            self.err_help("per-seed draws and a draw factor", span, "`factor draw` already replicates whole draws", help);
+            self.err_help(
+                "per-seed draws and a draw factor",
+                span,
+                "`factor draw` already replicates whole draws",
+                help,
+            );
         }
         if multi_split {
             self.err_help(
