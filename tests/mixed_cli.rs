@@ -411,3 +411,61 @@ fn profile_intervals_agree_with_an_exact_profile() {
     }
     assert_eq!(checked, 18);
 }
+
+/// Issue 39, task 3: rank-deficient fixed effects are fitted as lme4 fits
+/// them, the aliased columns dropped (lme4's chkRank.drop.cols) and named:
+/// lme4's cake without the cell recipe C x temp 215 (`recipe *
+/// factor(temp)`: `recipeC:factor(temp)215` has no data) and R's CO2 with
+/// `Type:Treatment` without its margins (five columns of rank four).
+/// Expected: scripts/reference/mixed_rank.R (lme4 1.1.31), output
+/// committed in mixed_rank.out; REML and ML.
+#[test]
+fn rank_deficient_fixed_effects_are_dropped_as_lme4_drops_them() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_rank.out")).unwrap();
+    let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    let sets = [
+        (
+            "cake_empty_cell",
+            "tests/fixtures/mixed_rank/cake_empty_cell.csv",
+            "angle ~ recipe * factor(temp) + (1|replicate)",
+        ),
+        ("co2_no_margins", "tests/fixtures/mixed_rank/co2.csv", "uptake ~ Type:Treatment + (1|Plant)"),
+    ];
+    for (set, file, formula) in sets {
+        for criterion in ["reml", "ml"] {
+            let of = |q: &str| -> Vec<(String, String)> {
+                rows.iter()
+                    .filter(|x| x[0] == set && x[1] == criterion && x[2] == q)
+                    .map(|x| (x[3].clone(), x[4].clone()))
+                    .collect()
+            };
+            let label = |what: &str| format!("{set} {criterion} {what}");
+            let mut args = vec!["mixed", file, "--formula", formula];
+            if criterion == "ml" {
+                args.push("--ml");
+            }
+            let (code, text, stderr) = run(&args);
+            assert_eq!(code, 0, "{}: {stderr}", label("text"));
+            let message = &of("message")[0].1;
+            assert!(message.starts_with("fixed-effect model matrix is rank deficient"), "{message}");
+            let dropped: Vec<String> = of("dropped").into_iter().map(|x| x.0).collect();
+            assert!(text.contains(&format!("{message}: {}", dropped.join(", "))), "{text}");
+            args.push("--json");
+            let (code, stdout, stderr) = run(&args);
+            assert_eq!(code, 0, "{}: {stderr}", label("json"));
+            let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+            let got: Vec<&str> = j["fit"]["dropped"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect();
+            assert_eq!(got, dropped, "{}", label("dropped"));
+            let names: Vec<&str> = j["fixed"].as_array().unwrap().iter().map(|x| x["name"].as_str().unwrap()).collect();
+            let want_names: Vec<String> = of("estimate").into_iter().map(|x| x.0).collect();
+            assert_eq!(names, want_names, "{}", label("names"));
+            let want = |q: &str, n: &str| -> f64 { of(q).into_iter().find(|x| x.0 == n).unwrap().1.parse().unwrap() };
+            for row in j["fixed"].as_array().unwrap() {
+                let name = row["name"].as_str().unwrap();
+                close(&label(name), row["estimate"].as_f64().unwrap(), want("estimate", name), 1e-6, 1e-8);
+                close(&label(name), row["se"].as_f64().unwrap(), want("se", name), 1e-5, 0.0);
+            }
+            close(&label("criterion"), j["fit"]["deviance"].as_f64().unwrap(), want("criterion", ""), 1e-9, 0.0);
+        }
+    }
+}

@@ -117,6 +117,9 @@ pub fn profile_intervals(
     if level.is_nan() || level <= 0.0 || level >= 1.0 {
         return Err(MixedError::Level(level));
     }
+    // Aliased fixed-effect columns are dropped as the fit drops them.
+    let reduced = data.without_aliased();
+    let data = reduced.as_ref().map_or(data, |(d, _)| d);
     let s = System::new(data);
     let fit: MixedFit = super::fit_system(&s, data, criterion, super::Inference::Estimates)?;
     let k = s.factors();
