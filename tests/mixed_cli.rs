@@ -469,3 +469,55 @@ fn rank_deficient_fixed_effects_are_dropped_as_lme4_drops_them() {
         }
     }
 }
+
+/// Issue 39, task 4: R's names. An interaction's variables come in order
+/// of their first appearance in the formula (`Type + conc:Type` gives
+/// `TypeMississippi:conc`, `Treatment:conc:Type` after `conc + Type` gives
+/// `conc:TypeMississippi:Treatmentchilled`), and `(1|a/b)` is lme4's
+/// `(1|a) + (1|b:a)`. Expected: scripts/reference/mixed_names.R (lme4
+/// 1.1.31), output committed in mixed_names.out: fixed-effect names in R's
+/// order with their estimates, random terms with their variances.
+#[test]
+fn fixed_and_random_terms_have_rs_names() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_names.out")).unwrap();
+    let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    let mut cases: Vec<(String, String)> = rows.iter().map(|x| (x[0].clone(), x[1].clone())).collect();
+    cases.dedup();
+    assert_eq!(cases.len(), 5);
+    for (case, file) in &cases {
+        let of = |q: &str| -> Vec<(String, String)> {
+            rows.iter().filter(|x| &x[0] == case && x[2] == q).map(|x| (x[3].clone(), x[4].clone())).collect()
+        };
+        let formula = &of("formula")[0].1;
+        let (code, stdout, stderr) = run(&["mixed", file, "--formula", formula, "--json"]);
+        assert_eq!(code, 0, "{case}: {stderr}");
+        let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let fixed = j["fixed"].as_array().unwrap();
+        let names: Vec<&str> = fixed.iter().map(|x| x["name"].as_str().unwrap()).collect();
+        let want: Vec<(String, String)> = of("fixed");
+        assert_eq!(names, want.iter().map(|x| x.0.as_str()).collect::<Vec<_>>(), "{case}: fixed-effect names");
+        for (row, (name, value)) in fixed.iter().zip(&want) {
+            close(&format!("{case} {name}"), row["estimate"].as_f64().unwrap(), value.parse().unwrap(), 1e-6, 1e-9);
+        }
+        let fit = &j["fit"];
+        let residual = fit["residual"].as_f64().unwrap();
+        let random = of("random");
+        let mut factors: Vec<&str> = fit["factors"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect();
+        let mut want_factors: Vec<&str> = random.iter().map(|x| x.0.as_str()).filter(|n| *n != "Residual").collect();
+        factors.sort();
+        want_factors.sort();
+        assert_eq!(factors, want_factors, "{case}: random terms");
+        for (k, name) in fit["factors"].as_array().unwrap().iter().enumerate() {
+            let name = name.as_str().unwrap();
+            let want: f64 = random.iter().find(|x| x.0 == name).unwrap().1.parse().unwrap();
+            close(&format!("{case} {name}"), fit["variances"][k].as_f64().unwrap(), want, 1e-4, 1e-6 * residual);
+        }
+        close(
+            &format!("{case} criterion"),
+            fit["deviance"].as_f64().unwrap(),
+            of("criterion")[0].1.parse().unwrap(),
+            1e-9,
+            0.0,
+        );
+    }
+}

@@ -5,7 +5,7 @@
 //! fixed terms that are columns, `factor(col)` (a numeric column taken as
 //! categorical), interactions `a:b` and crossings `a*b` (= `a + b + a:b`);
 //! random intercepts `(1|g)`, `(1|g:h)` (the interaction factor) and
-//! `(1|g/h)` (= `(1|g) + (1|g:h)`). A column whose every value is a number
+//! `(1|g/h)` (= `(1|g) + (1|h:g)`, lme4's expansion and names). A column whose every value is a number
 //! is numeric, any other is categorical, as R's `read.csv` reads them; a
 //! categorical numeric column (`factor(d)`, a grouping column) has R's
 //! levels: by value, labelled as R prints the number ([`r_number_label`]).
@@ -15,8 +15,10 @@
 //! by treatment contrasts (the first level, sorted as R sorts them, is the
 //! reference) when the term without it is in the model (the intercept
 //! counts as the empty term), by indicators of every level otherwise; a
-//! term's columns are the products of its variables' columns, the first
-//! variable varying fastest, named as R names them (`fq:x`).
+//! term's variables are in order of their first appearance in the formula
+//! (R's `terms`: `Type + conc:Type` has the term `Type:conc`), its columns
+//! the products of its variables' columns, the first variable varying
+//! fastest, named as R names them (`TypeQuebec:conc`).
 //!
 //! Random slopes (`(x|g)`), a model without an intercept, the response
 //! among the predictors, missing values, control characters in a value and
@@ -46,7 +48,8 @@ pub struct Formula {
     /// Fixed terms beside the intercept, each a list of variables, in R's
     /// order (by degree, then as written).
     pub fixed: Vec<Vec<Variable>>,
-    /// Random-intercept grouping factors, each the columns it interacts.
+    /// Random-intercept grouping factors, each the columns it interacts,
+    /// named as lme4 names them (`(1|g/h)` gives `g` and `h:g`).
     pub random: Vec<Vec<String>>,
 }
 
@@ -282,9 +285,10 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
                         }
                         Some(Token::Sym('/')) => {
                             p.at += 1;
-                            // g/h: (1|g) + (1|g:h); the outer part stands alone.
+                            // g/h: (1|g) + (1|h:g), lme4's expansion and its
+                            // name; the outer part stands alone.
                             random.push(path.clone());
-                            path.push(p.group("a grouping column after `/`")?);
+                            path.insert(0, p.group("a grouping column after `/`")?);
                         }
                         _ => break,
                     }
@@ -336,6 +340,18 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             }
             Some(_) => return p.error("expected a term"),
         }
+    }
+    // R's terms order an interaction's variables by their first appearance
+    // in the formula (`Type + conc:Type` is `Type:conc`), whatever order
+    // the term writes them in.
+    let mut seen: Vec<Variable> = Vec::new();
+    for v in fixed.iter().flatten() {
+        if !seen.contains(v) {
+            seen.push(v.clone());
+        }
+    }
+    for t in &mut fixed {
+        t.sort_by_key(|v| seen.iter().position(|u| u == v));
     }
     // Duplicates dropped (as sets), then R's order: by degree, stably.
     let mut unique: Vec<Vec<Variable>> = Vec::new();
