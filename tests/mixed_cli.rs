@@ -521,3 +521,84 @@ fn fixed_and_random_terms_have_rs_names() {
         );
     }
 }
+
+/// Issue 39, task 5: the likelihood summary lme4 users look for, and
+/// `--compare`, lme4's `anova(m1, m2)` (both models refitted by ML), on
+/// sleepstudy (a fixed slope), Penicillin (a random term) and Machines (a
+/// fixed factor beside nested random terms). Expected:
+/// scripts/reference/mixed_compare.R (lme4 1.1.31), output committed in
+/// mixed_compare.out.
+#[test]
+fn loglik_aic_bic_and_the_likelihood_ratio_test_match_lme4() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_compare.out")).unwrap();
+    let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    let mut sets: Vec<String> = rows.iter().map(|x| x[0].clone()).collect();
+    sets.dedup();
+    assert_eq!(sets, ["sleepstudy", "penicillin", "machines"]);
+    for set in &sets {
+        let get = |q: &str, n: &str| -> String {
+            rows.iter().find(|x| &x[0] == set && x[1] == q && x[2] == n).unwrap_or_else(|| panic!("{set} {q} {n}"))[3]
+                .clone()
+        };
+        let num = |q: &str, n: &str| -> f64 { get(q, n).parse().unwrap() };
+        let file = format!("tests/fixtures/mixed_published/{set}.csv");
+        let (large, small) = (get("formula", "large"), get("formula", "small"));
+        for criterion in ["reml", "ml"] {
+            let mut args = vec!["mixed", &file, "--formula", &large, "--json"];
+            if criterion == "ml" {
+                args.push("--ml");
+            }
+            let (code, stdout, stderr) = run(&args);
+            assert_eq!(code, 0, "{set} {criterion}: {stderr}");
+            let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+            let l = &j["likelihood"];
+            let label = |what: &str| format!("{set} {criterion} {what}");
+            assert_eq!(l["npar"].as_f64().unwrap(), num(criterion, "npar"), "{}", label("npar"));
+            assert_eq!(l["df_resid"].as_f64().unwrap(), num(criterion, "df.resid"), "{}", label("df.resid"));
+            close(&label("logLik"), l["loglik"].as_f64().unwrap(), num(criterion, "logLik"), 1e-9, 0.0);
+            close(&label("AIC"), l["aic"].as_f64().unwrap(), num(criterion, "AIC"), 1e-9, 0.0);
+            close(&label("BIC"), l["bic"].as_f64().unwrap(), num(criterion, "BIC"), 1e-9, 0.0);
+            let (field, name) =
+                if criterion == "ml" { ("deviance", "deviance") } else { ("reml_criterion", "REMLcrit") };
+            close(&label(name), l[field].as_f64().unwrap(), num(criterion, name), 1e-9, 0.0);
+            // The text output prints them too (to 4 decimals, as here).
+            args.retain(|a| *a != "--json");
+            let (_, text, _) = run(&args);
+            assert!(text.contains(&format!("{:.4}", num(criterion, "AIC"))), "{}: {text}", label("text AIC"));
+            assert!(text.contains(&format!("{:.4}", num(criterion, "logLik"))), "{}: {text}", label("text logLik"));
+        }
+        let (code, stdout, stderr) = run(&["mixed", &file, "--formula", &large, "--compare", &small, "--json"]);
+        assert_eq!(code, 0, "{set} compare: {stderr}");
+        let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let models = j["models"].as_array().unwrap();
+        assert_eq!(models.len(), 2);
+        for (m, row) in models.iter().zip(["anova_small", "anova_large"]) {
+            let label = |what: &str| format!("{set} {row} {what}");
+            assert_eq!(m["npar"].as_f64().unwrap(), num(row, "npar"), "{}", label("npar"));
+            for (field, name) in [("aic", "AIC"), ("bic", "BIC"), ("loglik", "logLik"), ("deviance", "deviance")] {
+                close(&label(name), m[field].as_f64().unwrap(), num(row, name), 1e-9, 0.0);
+            }
+            if get(row, "Chisq") == "NA" {
+                assert!(m["chisq"].is_null() && m["df"].is_null() && m["p"].is_null(), "{}", label("first row"));
+            } else {
+                close(&label("Chisq"), m["chisq"].as_f64().unwrap(), num(row, "Chisq"), 1e-6, 1e-7);
+                assert_eq!(m["df"].as_f64().unwrap(), num(row, "Df"), "{}", label("Df"));
+                close(&label("p"), m["p"].as_f64().unwrap(), num(row, "Pr(>Chisq)"), 1e-5, 1e-300);
+            }
+        }
+        let (code, text, stderr) = run(&["mixed", &file, "--formula", &large, "--compare", &small]);
+        assert_eq!(code, 0, "{stderr}");
+        assert!(text.contains("Pr(>Chisq)") && text.contains(&format!("m2: {large}")), "{text}");
+    }
+    // Two different responses cannot be compared.
+    let (code, _, stderr) = run(&[
+        "mixed",
+        "tests/fixtures/mixed_published/sleepstudy.csv",
+        "--formula",
+        "Reaction ~ Days + (1|Subject)",
+        "--compare",
+        "Days ~ 1 + (1|Subject)",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("--compare: the two formulas model different responses"), "{stderr}");
+}

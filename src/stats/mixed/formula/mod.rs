@@ -28,7 +28,10 @@
 
 mod fit;
 
-pub use fit::{fit_file, fit_table, DfMethod, FileError, FixedRow, FormulaFit};
+pub use fit::{
+    compare_file, compare_table, fit_file, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow,
+    FormulaFit, Likelihood,
+};
 
 use std::collections::HashMap;
 
@@ -99,6 +102,9 @@ pub enum FormulaError {
         /// What is wrong.
         message: String,
     },
+    /// Two formulas that cannot be compared.
+    #[error("--compare: {0}")]
+    Compare(String),
     /// The file cannot be read (its own message names it).
     #[error("{0}")]
     Read(String),
