@@ -474,7 +474,8 @@ fn rank_deficient_fixed_effects_are_dropped_as_lme4_drops_them() {
 /// of their first appearance in the formula (`Type + conc:Type` gives
 /// `TypeMississippi:conc`, `Treatment:conc:Type` after `conc + Type` gives
 /// `conc:TypeMississippi:Treatmentchilled`), and `(1|a/b)` is lme4's
-/// `(1|a) + (1|b:a)`. Expected: scripts/reference/mixed_names.R (lme4
+/// `(1|a) + (1|b:a)` (`(1|a/b/c)`: `a`, `b:a`, `c:(b:a)`; `(1|a/b:c)`:
+/// `a`, `b:c:a`). Expected: scripts/reference/mixed_names.R (lme4
 /// 1.1.31), output committed in mixed_names.out: fixed-effect names in R's
 /// order with their estimates, random terms with their variances.
 #[test]
@@ -483,7 +484,7 @@ fn fixed_and_random_terms_have_rs_names() {
     let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
     let mut cases: Vec<(String, String)> = rows.iter().map(|x| (x[0].clone(), x[1].clone())).collect();
     cases.dedup();
-    assert_eq!(cases.len(), 5);
+    assert_eq!(cases.len(), 7);
     for (case, file) in &cases {
         let of = |q: &str| -> Vec<(String, String)> {
             rows.iter().filter(|x| &x[0] == case && x[2] == q).map(|x| (x[3].clone(), x[4].clone())).collect()

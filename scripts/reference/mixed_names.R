@@ -1,7 +1,8 @@
 # R's names of fixed-effect columns and random terms (issue 39, task 4):
 # an interaction's variables in order of first appearance in the formula
 # (`Type + conc:Type` gives `TypeMississippi:conc`), and lme4's expansion
-# of `(1|a/b)` into `(1|a) + (1|b:a)`. For each case: the formula, the
+# of `(1|a/b)` into `(1|a) + (1|b:a)` (`(1|a/b/c)`: a, b:a, c:(b:a); `/` binds looser than
+# `:`). For each case: the formula, the
 # fixed effects (name, estimate, in R's order), the random terms (name,
 # variance) and the REML criterion.
 # Run from the repository root (R 4.2.2, lme4 1.1.31):
@@ -12,7 +13,10 @@ cases <- list(
   list("co2_three_way", "tests/fixtures/mixed_rank/co2.csv", "uptake ~ conc + Type + Treatment:conc:Type + (1|Plant)"),
   list("co2_later_margin", "tests/fixtures/mixed_rank/co2.csv", "uptake ~ Treatment:Type + conc + (1|Plant)"),
   list("oats_nested", "tests/fixtures/mixed_published/oats.csv", "yield ~ nitro + (1|Block/Variety)"),
-  list("pastes_nested", "tests/fixtures/mixed_published/pastes.csv", "strength ~ 1 + (1|batch/cask)"))
+  list("pastes_nested", "tests/fixtures/mixed_published/pastes.csv", "strength ~ 1 + (1|batch/cask)"),
+  # Simulated: a/b/c, three nested levels (6 a, 3 b per a, 2 c per b, 3 replicates).
+  list("three_levels", "tests/fixtures/mixed_names/nested3.csv", "y ~ 1 + (1|a/b/c)"),
+  list("slash_binds_looser", "tests/fixtures/mixed_names/nested3.csv", "y ~ 1 + (1|a/b:c)"))
 cat('"case","file","quantity","name","value"\n')
 for (c in cases) {
   out <- function(q, n, v) cat(sprintf('"%s","%s","%s","%s","%s"\n', c[[1]], c[[2]], q, n, v))

@@ -51,9 +51,31 @@ pub struct Formula {
     /// Fixed terms beside the intercept, each a list of variables, in R's
     /// order (by degree, then as written).
     pub fixed: Vec<Vec<Variable>>,
-    /// Random-intercept grouping factors, each the columns it interacts,
-    /// named as lme4 names them (`(1|g/h)` gives `g` and `h:g`).
-    pub random: Vec<Vec<String>>,
+    /// Random-intercept grouping factors.
+    pub random: Vec<RandomTerm>,
+}
+
+/// A random-intercept grouping factor.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RandomTerm {
+    /// The columns it interacts.
+    pub columns: Vec<String>,
+    /// lme4's name: `g:h` as written, `(1|g/h)` gives `g` and `h:g`,
+    /// `(1|a/b/c)` gives `a`, `b:a` and `c:(b:a)`.
+    pub name: String,
+}
+
+/// The term `segment` nested in `outer` (columns and lme4's name), or
+/// `segment` alone.
+fn nest(segment: &[String], outer: Option<&(Vec<String>, String)>) -> (Vec<String>, String) {
+    let inner = segment.join(":");
+    match outer {
+        None => (segment.to_vec(), inner),
+        Some((columns, name)) => {
+            let name = if name.contains(':') { format!("{inner}:({name})") } else { format!("{inner}:{name}") };
+            (segment.iter().chain(columns).cloned().collect(), name)
+        }
+    }
 }
 
 /// A variable of a fixed term.
@@ -247,7 +269,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     p.expect('~', "after the response")?;
     // Fixed terms as written: each a set of variables (a crossing expands).
     let mut fixed: Vec<Vec<Variable>> = Vec::new();
-    let mut random: Vec<Vec<String>> = Vec::new();
+    let mut random: Vec<(Vec<String>, String)> = Vec::new();
     let mut first = true;
     loop {
         if !first {
@@ -282,25 +304,29 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
                 } else {
                     return p.error("expected `|` after `(1`");
                 }
-                let mut path = vec![p.group("a grouping column after `|`")?];
+                // `/` binds looser than `:`: a/b:c is a/(b:c). Each nested
+                // term is lme4's: a/b/c gives a, b:a and c:(b:a).
+                let mut segment = vec![p.group("a grouping column after `|`")?];
+                let mut outer: Option<(Vec<String>, String)> = None;
                 loop {
                     match p.peek() {
                         Some(Token::Sym(':')) => {
                             p.at += 1;
-                            path.push(p.group("a grouping column after `:`")?);
+                            segment.push(p.group("a grouping column after `:`")?);
                         }
                         Some(Token::Sym('/')) => {
                             p.at += 1;
-                            // g/h: (1|g) + (1|h:g), lme4's expansion and its
-                            // name; the outer part stands alone.
-                            random.push(path.clone());
-                            path.insert(0, p.group("a grouping column after `/`")?);
+                            // The outer part stands alone.
+                            let term = nest(&segment, outer.as_ref());
+                            random.push(term.clone());
+                            outer = Some(term);
+                            segment = vec![p.group("a grouping column after `/`")?];
                         }
                         _ => break,
                     }
                 }
                 p.expect(')', "to close the random term")?;
-                random.push(path);
+                random.push(nest(&segment, outer.as_ref()));
             }
             Some(Token::Name(_)) => {
                 let mut groups: Vec<Vec<Variable>> = vec![vec![p.variable()?]];
@@ -368,10 +394,10 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
         }
     }
     unique.sort_by_key(|t| t.len());
-    let mut groups: Vec<Vec<String>> = Vec::new();
-    for r in random {
-        if !groups.contains(&r) {
-            groups.push(r);
+    let mut groups: Vec<RandomTerm> = Vec::new();
+    for (columns, name) in random {
+        if !groups.iter().any(|g| g.columns.len() == columns.len() && columns.iter().all(|c| g.columns.contains(c))) {
+            groups.push(RandomTerm { columns, name });
         }
     }
     if groups.is_empty() {
@@ -597,7 +623,8 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
     };
     check_scale(&formula.response, &y, false)?;
     let mut factors = Vec::new();
-    for group in &formula.random {
+    for term in &formula.random {
+        let group = &term.columns;
         for g in group {
             present(table, g)?;
         }
@@ -610,7 +637,7 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
                 *map.entry(key).or_insert(next)
             })
             .collect();
-        factors.push((group.join(":"), codes));
+        factors.push((term.name.clone(), codes));
     }
     let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
     let in_model = |term: &[&Variable]| -> bool {
