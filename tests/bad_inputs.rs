@@ -16,7 +16,18 @@ fn run_case(dir: &Path, out: &Path) -> (Option<i32>, String) {
     let args = std::fs::read_to_string(dir.join("args")).unwrap();
     let (d, o) = (dir.display().to_string(), out.display().to_string());
     let args: Vec<String> = args.split_whitespace().map(|a| a.replace("{dir}", &d).replace("{out}", &o)).collect();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    // A case with a `stdout` file reading `closed` runs with standard
+    // output closed (`>&-`), through the shell: the one way to start a
+    // program without a descriptor 1.
+    let closed = std::fs::read_to_string(dir.join("stdout")).is_ok_and(|s| s.trim() == "closed");
+    let mut command = if closed {
+        let mut c = Command::new("sh");
+        c.arg("-c").arg("exec \"$0\" \"$@\" >&-").arg(env!("CARGO_BIN_EXE_crossaudit"));
+        c
+    } else {
+        Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    };
+    let mut child = command
         .current_dir(root())
         .args(&args)
         .env("NO_COLOR", "1")

@@ -244,3 +244,362 @@ fn mixed_refuses_a_fifo_and_a_device_and_survives_a_closed_pipe() {
     let out = child.wait_with_output().unwrap();
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `"quantity","name","value"` rows of scripts/reference/mixed_inputs.out
+/// (R 4.2.2, lme4 1.1.31; the script is beside it).
+fn input_reference() -> Vec<(String, String, String)> {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_inputs.out")).unwrap();
+    r.records().map(|x| x.unwrap()).map(|x| (x[0].to_string(), x[1].to_string(), x[2].to_string())).collect()
+}
+
+/// Issue 39, task 1: a factor of a numeric column has R's levels. R's
+/// `factor()` of the numbers 1, 1.0 and 1e0 is one level labelled `1`, its
+/// levels sorted by value (1, 2, 10, not the text order 1, 10, 2); each
+/// level's label is R's `as.character` of the number.
+#[test]
+fn a_factor_of_a_numeric_column_has_rs_levels_and_labels() {
+    let r = input_reference();
+    let labels: Vec<_> = r.iter().filter(|(q, _, _)| q == "label").collect();
+    assert!(labels.len() >= 20);
+    for (_, number, label) in labels {
+        let v: f64 = number.parse().unwrap();
+        assert_eq!(crossaudit::stats::mixed::formula::r_number_label(v), *label, "as.character({number})");
+    }
+    let file = "tests/fixtures/mixed_inputs/spellings.csv";
+    let (code, stdout, stderr) = run(&["mixed", file, "--formula", "y ~ factor(d) + (1|g)", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let rows = j["fixed"].as_array().unwrap();
+    let want = |q: &str, n: &str| -> f64 {
+        r.iter().find(|(a, b, _)| a == q && b == n).unwrap_or_else(|| panic!("R has no {q} {n}")).2.parse().unwrap()
+    };
+    let names: Vec<&str> = rows.iter().map(|x| x["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["(Intercept)", "factor(d)2", "factor(d)10"], "R: levels {:?}", want("criterion", "REML"));
+    for row in rows {
+        let name = row["name"].as_str().unwrap();
+        close(name, row["estimate"].as_f64().unwrap(), want("estimate", name), 1e-6, 1e-9);
+        close(name, row["se"].as_f64().unwrap(), want("se", name), 1e-5, 0.0);
+    }
+    close("REML criterion", j["fit"]["deviance"].as_f64().unwrap(), want("criterion", "REML"), 1e-9, 0.0);
+}
+
+/// Issue 39, task 1: inputs that used to give a wrong fit or blame the
+/// wrong thing are refused with a message that names the row and column
+/// (a control character in a label, values whose sums overflow) or the
+/// formula's column (the response among the predictors).
+#[test]
+fn control_characters_the_response_as_predictor_and_overflow_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let nul = write("nul.csv", "y,d,g\n1.5,a,a\n2.5,c,a\n3.1,a\0b,b\n4.2,c,b\n2.2,a,c\n3.3,c,c\n2.9,a,a\n");
+    let (code, _, stderr) = run(&["mixed", &nul, "--formula", "y ~ d + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("row 3, field d: the value contains the control character U+0000 at character 2"),
+        "{stderr}"
+    );
+    let esc = write("esc.csv", "y,d,g\n1.5,a,a\n2.5,c,a\n3.1,a,b\n4.2,c,b\n2.2,a,c\n3.3,c,c\n2.9,a,\u{1b}a\n");
+    let (code, _, stderr) = run(&["mixed", &esc, "--formula", "y ~ d + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("row 7, field g: the value contains the control character U+001B at character 1"),
+        "{stderr}"
+    );
+    let file = "tests/fixtures/mixed_inputs/spellings.csv";
+    for (formula, column) in [("y ~ y + (1|g)", 5), ("y ~ d + factor(y) + (1|g)", 16), ("y ~ d:y + (1|g)", 7)] {
+        let (code, _, stderr) = run(&["mixed", file, "--formula", formula]);
+        assert_eq!(code, 1, "{formula}: {stderr}");
+        let want = format!("formula, column {column}: the response `y` appears among the predictors");
+        assert!(stderr.contains(&want) && !stderr.contains("random factors"), "{formula}: {stderr}");
+    }
+    let (code, _, stderr) = run(&["mixed", file, "--formula", "y ~ d + (1|y)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("column 12: the response `y` appears as a grouping factor"), "{stderr}");
+    let big = write(
+        "big.csv",
+        "y,x,g\n1e305,1,a\n1.7e305,2,a\n1.2e305,3,b\n1.5e305,4,b\n1.1e305,5,c\n1.9e305,6,c\n1.3e305,7,a\n",
+    );
+    let (code, _, stderr) = run(&["mixed", &big, "--formula", "y ~ 1 + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("column y: its values are too large for double precision: the sum of their squares overflows (largest |value| 1.9e305, row 6)")
+            && !stderr.contains("random factors"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run(&["mixed", &big, "--formula", "x ~ y + (1|g)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("column y: its values are too large for double precision"), "{stderr}");
+}
+
+/// Issue 39, task 1: `crossaudit mixed ... >&-` wrote the fit nowhere and
+/// exited 0 (Rust's runtime opens /dev/null in place of a closed standard
+/// output, so every write succeeds); it must fail. `> /dev/null`, a
+/// deliberate discard, still succeeds.
+#[test]
+fn mixed_with_standard_output_closed_fails() {
+    let bin = env!("CARGO_BIN_EXE_crossaudit");
+    let args = ["mixed", "tests/fixtures/mixed_published/penicillin.csv", "--formula", "diameter ~ 1 + (1|plate)"];
+    for (redirect, ok) in [(">&-", false), ("> /dev/null", true)] {
+        let out = Command::new("sh")
+            .current_dir(root())
+            .arg("-c")
+            .arg(format!("exec \"$0\" \"$@\" {redirect}"))
+            .arg(bin)
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if ok {
+            assert_eq!(out.status.code(), Some(0), "{redirect}: {stderr}");
+        } else {
+            assert_eq!(out.status.code(), Some(1), "{redirect}: {stderr}");
+            assert!(stderr.contains("standard output is closed"), "{stderr}");
+        }
+    }
+}
+
+/// Issue 39, task 2: profile-likelihood intervals agree with an exact
+/// profile to 1e-5 relative, REML and ML, on nlme's Gun
+/// (`rounds ~ Method + (1|Team)`), OrchardSprays as a crossed Latin square
+/// and nlme's Assay (split-block: Block, Block:sample, Block:dilut). The
+/// exact profile is scripts/reference/mixed_profile.R: lme4's own deviance
+/// function, each point minimised by BOBYQA to rhoend 1e-12 with restarts,
+/// each limit by uniroot to 1e-13 (output: mixed_profile.out). The upper
+/// limit of the residual SD was 0.26% (REML) and 0.43% (ML) short on
+/// OrchardSprays: the inner search, restarted from a point where both
+/// factor SDs were zero, never left zero.
+#[test]
+fn profile_intervals_agree_with_an_exact_profile() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_profile.out")).unwrap();
+    let mut want: BTreeMap<(String, String, String), (f64, f64, f64)> = BTreeMap::new();
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        let v = |i: usize| rec[i].trim().parse::<f64>().unwrap();
+        want.insert((rec[0].to_string(), rec[1].to_string(), rec[2].to_string()), (v(3), v(4), v(5)));
+    }
+    assert_eq!(want.len(), 18);
+    let sets = [
+        ("gun", "rounds ~ Method + (1|Team)"),
+        ("orchardsprays", "decrease ~ treatment + (1|rowpos) + (1|colpos)"),
+        ("assay", "logDens ~ sample * factor(dilut) + (1|Block) + (1|Block:sample) + (1|Block:dilut)"),
+    ];
+    let mut checked = 0;
+    for (set, formula) in sets {
+        let file = format!("tests/fixtures/mixed_profile/{set}.csv");
+        for criterion in ["reml", "ml"] {
+            let mut args = vec!["mixed", &file, "--formula", formula, "--profile", "0.95", "--json"];
+            if criterion == "ml" {
+                args.push("--ml");
+            }
+            let (code, stdout, stderr) = run(&args);
+            assert_eq!(code, 0, "{set} {criterion}: {stderr}");
+            let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+            for i in j["profile"][1].as_array().unwrap() {
+                let name = i["name"].as_str().unwrap();
+                let (est, lower, upper) = want[&(set.to_string(), criterion.to_string(), name.to_string())];
+                let label = |what: &str| format!("{set} {criterion} {name} {what}");
+                close(&label("estimate"), i["estimate"].as_f64().unwrap(), est, 1e-4, 0.0);
+                close(&label("lower"), i["lower"].as_f64().unwrap(), lower, 1e-5, 0.0);
+                close(&label("upper"), i["upper"].as_f64().unwrap(), upper, 1e-5, 0.0);
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 18);
+}
+
+/// Issue 39, task 3: rank-deficient fixed effects are fitted as lme4 fits
+/// them, the aliased columns dropped (lme4's chkRank.drop.cols) and named:
+/// lme4's cake without the cell recipe C x temp 215 (`recipe *
+/// factor(temp)`: `recipeC:factor(temp)215` has no data) and R's CO2 with
+/// `Type:Treatment` without its margins (five columns of rank four).
+/// Expected: scripts/reference/mixed_rank.R (lme4 1.1.31), output
+/// committed in mixed_rank.out; REML and ML.
+#[test]
+fn rank_deficient_fixed_effects_are_dropped_as_lme4_drops_them() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_rank.out")).unwrap();
+    let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    let sets = [
+        (
+            "cake_empty_cell",
+            "tests/fixtures/mixed_rank/cake_empty_cell.csv",
+            "angle ~ recipe * factor(temp) + (1|replicate)",
+        ),
+        ("co2_no_margins", "tests/fixtures/mixed_rank/co2.csv", "uptake ~ Type:Treatment + (1|Plant)"),
+    ];
+    for (set, file, formula) in sets {
+        for criterion in ["reml", "ml"] {
+            let of = |q: &str| -> Vec<(String, String)> {
+                rows.iter()
+                    .filter(|x| x[0] == set && x[1] == criterion && x[2] == q)
+                    .map(|x| (x[3].clone(), x[4].clone()))
+                    .collect()
+            };
+            let label = |what: &str| format!("{set} {criterion} {what}");
+            let mut args = vec!["mixed", file, "--formula", formula];
+            if criterion == "ml" {
+                args.push("--ml");
+            }
+            let (code, text, stderr) = run(&args);
+            assert_eq!(code, 0, "{}: {stderr}", label("text"));
+            let message = &of("message")[0].1;
+            assert!(message.starts_with("fixed-effect model matrix is rank deficient"), "{message}");
+            let dropped: Vec<String> = of("dropped").into_iter().map(|x| x.0).collect();
+            assert!(text.contains(&format!("{message}: {}", dropped.join(", "))), "{text}");
+            args.push("--json");
+            let (code, stdout, stderr) = run(&args);
+            assert_eq!(code, 0, "{}: {stderr}", label("json"));
+            let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+            let got: Vec<&str> = j["fit"]["dropped"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect();
+            assert_eq!(got, dropped, "{}", label("dropped"));
+            let names: Vec<&str> = j["fixed"].as_array().unwrap().iter().map(|x| x["name"].as_str().unwrap()).collect();
+            let want_names: Vec<String> = of("estimate").into_iter().map(|x| x.0).collect();
+            assert_eq!(names, want_names, "{}", label("names"));
+            let want = |q: &str, n: &str| -> f64 { of(q).into_iter().find(|x| x.0 == n).unwrap().1.parse().unwrap() };
+            for row in j["fixed"].as_array().unwrap() {
+                let name = row["name"].as_str().unwrap();
+                close(&label(name), row["estimate"].as_f64().unwrap(), want("estimate", name), 1e-6, 1e-8);
+                close(&label(name), row["se"].as_f64().unwrap(), want("se", name), 1e-5, 0.0);
+            }
+            close(&label("criterion"), j["fit"]["deviance"].as_f64().unwrap(), want("criterion", ""), 1e-9, 0.0);
+        }
+    }
+}
+
+/// Issue 39, task 4: R's names. An interaction's variables come in order
+/// of their first appearance in the formula (`Type + conc:Type` gives
+/// `TypeMississippi:conc`, `Treatment:conc:Type` after `conc + Type` gives
+/// `conc:TypeMississippi:Treatmentchilled`), and `(1|a/b)` is lme4's
+/// `(1|a) + (1|b:a)` (`(1|a/b/c)`: `a`, `b:a`, `c:(b:a)`; `(1|a/b:c)`:
+/// `a`, `b:c:a`). Expected: scripts/reference/mixed_names.R (lme4
+/// 1.1.31), output committed in mixed_names.out: fixed-effect names in R's
+/// order with their estimates, random terms with their variances.
+#[test]
+fn fixed_and_random_terms_have_rs_names() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_names.out")).unwrap();
+    let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    let mut cases: Vec<(String, String)> = rows.iter().map(|x| (x[0].clone(), x[1].clone())).collect();
+    cases.dedup();
+    assert_eq!(cases.len(), 7);
+    for (case, file) in &cases {
+        let of = |q: &str| -> Vec<(String, String)> {
+            rows.iter().filter(|x| &x[0] == case && x[2] == q).map(|x| (x[3].clone(), x[4].clone())).collect()
+        };
+        let formula = &of("formula")[0].1;
+        let (code, stdout, stderr) = run(&["mixed", file, "--formula", formula, "--json"]);
+        assert_eq!(code, 0, "{case}: {stderr}");
+        let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let fixed = j["fixed"].as_array().unwrap();
+        let names: Vec<&str> = fixed.iter().map(|x| x["name"].as_str().unwrap()).collect();
+        let want: Vec<(String, String)> = of("fixed");
+        assert_eq!(names, want.iter().map(|x| x.0.as_str()).collect::<Vec<_>>(), "{case}: fixed-effect names");
+        for (row, (name, value)) in fixed.iter().zip(&want) {
+            close(&format!("{case} {name}"), row["estimate"].as_f64().unwrap(), value.parse().unwrap(), 1e-6, 1e-9);
+        }
+        let fit = &j["fit"];
+        let residual = fit["residual"].as_f64().unwrap();
+        let random = of("random");
+        let mut factors: Vec<&str> = fit["factors"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect();
+        let mut want_factors: Vec<&str> = random.iter().map(|x| x.0.as_str()).filter(|n| *n != "Residual").collect();
+        factors.sort();
+        want_factors.sort();
+        assert_eq!(factors, want_factors, "{case}: random terms");
+        for (k, name) in fit["factors"].as_array().unwrap().iter().enumerate() {
+            let name = name.as_str().unwrap();
+            let want: f64 = random.iter().find(|x| x.0 == name).unwrap().1.parse().unwrap();
+            close(&format!("{case} {name}"), fit["variances"][k].as_f64().unwrap(), want, 1e-4, 1e-6 * residual);
+        }
+        close(
+            &format!("{case} criterion"),
+            fit["deviance"].as_f64().unwrap(),
+            of("criterion")[0].1.parse().unwrap(),
+            1e-9,
+            0.0,
+        );
+    }
+}
+
+/// Issue 39, task 5: the likelihood summary lme4 users look for, and
+/// `--compare`, lme4's `anova(m1, m2)` (both models refitted by ML), on
+/// sleepstudy (a fixed slope), Penicillin (a random term) and Machines (a
+/// fixed factor beside nested random terms). Expected:
+/// scripts/reference/mixed_compare.R (lme4 1.1.31), output committed in
+/// mixed_compare.out.
+#[test]
+fn loglik_aic_bic_and_the_likelihood_ratio_test_match_lme4() {
+    let mut r = csv::Reader::from_path(root().join("scripts/reference/mixed_compare.out")).unwrap();
+    let rows: Vec<Vec<String>> = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    let mut sets: Vec<String> = rows.iter().map(|x| x[0].clone()).collect();
+    sets.dedup();
+    assert_eq!(sets, ["sleepstudy", "penicillin", "machines"]);
+    for set in &sets {
+        let get = |q: &str, n: &str| -> String {
+            rows.iter().find(|x| &x[0] == set && x[1] == q && x[2] == n).unwrap_or_else(|| panic!("{set} {q} {n}"))[3]
+                .clone()
+        };
+        let num = |q: &str, n: &str| -> f64 { get(q, n).parse().unwrap() };
+        let file = format!("tests/fixtures/mixed_published/{set}.csv");
+        let (large, small) = (get("formula", "large"), get("formula", "small"));
+        for criterion in ["reml", "ml"] {
+            let mut args = vec!["mixed", &file, "--formula", &large, "--json"];
+            if criterion == "ml" {
+                args.push("--ml");
+            }
+            let (code, stdout, stderr) = run(&args);
+            assert_eq!(code, 0, "{set} {criterion}: {stderr}");
+            let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+            let l = &j["likelihood"];
+            let label = |what: &str| format!("{set} {criterion} {what}");
+            assert_eq!(l["npar"].as_f64().unwrap(), num(criterion, "npar"), "{}", label("npar"));
+            assert_eq!(l["df_resid"].as_f64().unwrap(), num(criterion, "df.resid"), "{}", label("df.resid"));
+            close(&label("logLik"), l["loglik"].as_f64().unwrap(), num(criterion, "logLik"), 1e-9, 0.0);
+            close(&label("AIC"), l["aic"].as_f64().unwrap(), num(criterion, "AIC"), 1e-9, 0.0);
+            close(&label("BIC"), l["bic"].as_f64().unwrap(), num(criterion, "BIC"), 1e-9, 0.0);
+            let (field, name) =
+                if criterion == "ml" { ("deviance", "deviance") } else { ("reml_criterion", "REMLcrit") };
+            close(&label(name), l[field].as_f64().unwrap(), num(criterion, name), 1e-9, 0.0);
+            // The text output prints them too (to 4 decimals, as here).
+            args.retain(|a| *a != "--json");
+            let (_, text, _) = run(&args);
+            assert!(text.contains(&format!("{:.4}", num(criterion, "AIC"))), "{}: {text}", label("text AIC"));
+            assert!(text.contains(&format!("{:.4}", num(criterion, "logLik"))), "{}: {text}", label("text logLik"));
+        }
+        let (code, stdout, stderr) = run(&["mixed", &file, "--formula", &large, "--compare", &small, "--json"]);
+        assert_eq!(code, 0, "{set} compare: {stderr}");
+        let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let models = j["models"].as_array().unwrap();
+        assert_eq!(models.len(), 2);
+        for (m, row) in models.iter().zip(["anova_small", "anova_large"]) {
+            let label = |what: &str| format!("{set} {row} {what}");
+            assert_eq!(m["npar"].as_f64().unwrap(), num(row, "npar"), "{}", label("npar"));
+            for (field, name) in [("aic", "AIC"), ("bic", "BIC"), ("loglik", "logLik"), ("deviance", "deviance")] {
+                close(&label(name), m[field].as_f64().unwrap(), num(row, name), 1e-9, 0.0);
+            }
+            if get(row, "Chisq") == "NA" {
+                assert!(m["chisq"].is_null() && m["df"].is_null() && m["p"].is_null(), "{}", label("first row"));
+            } else {
+                close(&label("Chisq"), m["chisq"].as_f64().unwrap(), num(row, "Chisq"), 1e-6, 1e-7);
+                assert_eq!(m["df"].as_f64().unwrap(), num(row, "Df"), "{}", label("Df"));
+                close(&label("p"), m["p"].as_f64().unwrap(), num(row, "Pr(>Chisq)"), 1e-5, 1e-300);
+            }
+        }
+        let (code, text, stderr) = run(&["mixed", &file, "--formula", &large, "--compare", &small]);
+        assert_eq!(code, 0, "{stderr}");
+        assert!(text.contains("Pr(>Chisq)") && text.contains(&format!("m2: {large}")), "{text}");
+    }
+    // Two different responses cannot be compared.
+    let (code, _, stderr) = run(&[
+        "mixed",
+        "tests/fixtures/mixed_published/sleepstudy.csv",
+        "--formula",
+        "Reaction ~ Days + (1|Subject)",
+        "--compare",
+        "Days ~ 1 + (1|Subject)",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("--compare: the two formulas model different responses"), "{stderr}");
+}

@@ -410,13 +410,27 @@ fn fixed_categorical_effects_match_lme4_lmertest_and_pbkrtest() {
     }
 }
 
+/// Aliased columns are dropped as lme4 drops them (issue 39, task 3; the
+/// lme4 comparison is tests/mixed_cli.rs): Machine given twice fits as
+/// Machine once, the copy's columns named as dropped.
 #[test]
-fn aliased_fixed_effects_are_a_typed_error() {
+fn aliased_fixed_effects_are_dropped_as_lme4_drops_them() {
     // Machine given twice: the second copy's columns repeat the first's.
     let text = std::fs::read_to_string(root().join("tests/fixtures/machines.csv")).unwrap();
     let machine: Vec<String> = text.lines().skip(1).map(|l| l.split(',').nth(2).unwrap().to_string()).collect();
+    let once = fit(&machines("machines.csv"), Criterion::Reml).unwrap();
     let d = machines("machines.csv").with_fixed("Again", &machine).unwrap();
-    assert!(matches!(fit(&d, Criterion::Reml), Err(MixedError::FixedEffects(_))));
+    let twice = fit(&d, Criterion::Reml).unwrap();
+    assert_eq!(twice.dropped, ["AgainB", "AgainC"]);
+    assert!(
+        twice.notes[0].starts_with("fixed-effect model matrix is rank deficient so dropping 2 columns / coefficients")
+    );
+    assert_eq!(twice.fixed.len(), once.fixed.len());
+    assert!((twice.deviance - once.deviance).abs() < 1e-9 * once.deviance.abs());
+    for (a, b) in twice.fixed.iter().zip(&once.fixed) {
+        assert_eq!(a.name, b.name);
+        assert!((a.estimate - b.estimate).abs() < 1e-8 * b.estimate.abs().max(1.0), "{}", a.name);
+    }
     // A fixed factor with one level, or the wrong length.
     let d = machines("machines.csv");
     assert!(matches!(d.clone().with_fixed("One", &vec!["a".to_string(); 54]), Err(MixedError::TooFewLevels { .. })));

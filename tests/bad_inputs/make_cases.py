@@ -529,3 +529,20 @@ case("r4_analyze_deep_inside_a_run",
      "analyze tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/a/b/c", RUN_DIR)
 case("r4_plan_into_a_multiverse_run",
      "plan tests/designs/minimal.design --cells examples/cells/nanobench_synthetic.csv --out {dir}/mv/plan", {**OTHER_LEVEL})
+
+# ---- Round 4: mixed (issue 39, task 1) ----------------------------------------------
+# `crossaudit mixed` on a tidy CSV. A case with a file `stdout` reading
+# "closed" is run with standard output closed (`>&-`, tests/bad_inputs.rs).
+MIXED_OK = "y,d,g\n1.5,a,a\n2.5,c,a\n3.1,a,b\n4.2,c,b\n2.2,a,c\n3.3,c,c\n2.9,a,a\n"
+def mixed(name, formula, text, extra=None):
+    case(name, "mixed {dir}/data.csv --formula " + formula.replace(" ", ""), {"data.csv": text, **(extra or {})})
+
+mixed("r4_mixed_nul_in_a_label", "y ~ d + (1|g)", MIXED_OK.replace("3.1,a,b", "3.1,a\0b,b").encode())
+mixed("r4_mixed_escape_in_a_group", "y ~ d + (1|g)", MIXED_OK.replace("2.9,a,a", "2.9,a,\x1ba"))
+mixed("r4_mixed_response_among_predictors", "y ~ y + (1|g)", MIXED_OK)
+mixed("r4_mixed_response_in_factor", "y ~ d + factor(y) + (1|g)", MIXED_OK)
+mixed("r4_mixed_response_as_group", "y ~ d + (1|y)", MIXED_OK)
+BIG = "y,x,g\n1e305,1,a\n1.7e305,2,a\n1.2e305,3,b\n1.5e305,4,b\n1.1e305,5,c\n1.9e305,6,c\n1.3e305,7,a\n"
+mixed("r4_mixed_response_overflows", "y ~ 1 + (1|g)", BIG)
+mixed("r4_mixed_predictor_overflows", "x ~ y + (1|g)", BIG)
+mixed("r4_mixed_stdout_closed", "y ~ d + (1|g)", MIXED_OK, {"stdout": "closed\n"})

@@ -193,6 +193,10 @@ pub(crate) enum Command {
         /// Print every number as JSON instead of the summary.
         #[arg(long)]
         json: bool,
+        /// A second formula: print the likelihood-ratio test of the two
+        /// (nested) models, both refitted by ML, as lme4's anova(m1, m2).
+        #[arg(long, value_name = "FORMULA2", conflicts_with = "profile")]
+        compare: Option<String>,
     },
     /// Generate the recordings of a `data simulated` design (NanoBench schema).
     Simulate {

@@ -60,7 +60,10 @@ fn main() -> ExitCode {
             power(&design, &cells, (&splits, &recordings, &seeds), &out)
         }
         Command::Simulate { design, out } => simulate(&design, &out),
-        Command::Mixed { data, formula, ml, df, profile, json } => mixed(&data, &formula, ml, &df, profile, json),
+        Command::Mixed { data, formula, ml, df, profile, json, compare } => match compare {
+            Some(other) => mixed_compare(&data, &formula, &other, json),
+            None => mixed(&data, &formula, ml, &df, profile, json),
+        },
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
@@ -421,6 +424,12 @@ fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
 
 fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, json: bool) -> Result<(), Error> {
     use crossaudit::stats::mixed::{formula::DfMethod, Criterion};
+    // The fit is written to standard output and nowhere else.
+    if output::stdout_closed() {
+        return Err(Error::Stdout(std::io::Error::other(
+            "standard output is closed, so the fit would be written nowhere; redirect it to a file (`> fit.txt`)",
+        )));
+    }
     let criterion = if ml { Criterion::Ml } else { Criterion::Reml };
     let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
     let fit = crossaudit::stats::mixed::formula::fit_file(data, formula, criterion, df, profile)?;
@@ -431,6 +440,25 @@ fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, j
     }
     if !fit.fit.certificate.certified {
         note!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
+    }
+    Ok(())
+}
+
+/// `crossaudit mixed --compare`: lme4's `anova(m1, m2)`.
+fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool) -> Result<(), Error> {
+    if output::stdout_closed() {
+        return Err(Error::Stdout(std::io::Error::other(
+            "standard output is closed, so the test would be written nowhere; redirect it to a file (`> test.txt`)",
+        )));
+    }
+    let comparison = crossaudit::stats::mixed::formula::compare_file(data, formula, other)?;
+    if json {
+        out!("{}", crossaudit::io::pretty_json(&comparison));
+    } else {
+        out!("{}", comparison.summary());
+    }
+    if comparison.models.iter().any(|m| !m.certified) {
+        note!("warning: the optimizer could not certify an ML fit (see the table's warning)");
     }
     Ok(())
 }

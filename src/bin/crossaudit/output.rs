@@ -36,6 +36,26 @@ pub fn flush() -> Result<(), Error> {
     std::io::stdout().lock().flush().map_err(Error::Stdout)
 }
 
+/// Whether standard output was closed when the program started
+/// (`crossaudit mixed ... >&-`). Rust's runtime then opens /dev/null
+/// read-write as descriptor 1, so every write "succeeds" and a command
+/// whose only output is standard output would end with status 0 and its
+/// result lost. A shell's `> /dev/null` opens it write-only, so a deliberate
+/// discard is not taken for a closed descriptor. Linux only (it reads
+/// /proc); elsewhere `false`.
+pub fn stdout_closed() -> bool {
+    let Ok(target) = std::fs::read_link("/proc/self/fd/1") else { return false };
+    if target != std::path::Path::new("/dev/null") {
+        return false;
+    }
+    let Ok(info) = std::fs::read_to_string("/proc/self/fdinfo/1") else { return false };
+    // `flags:` is octal; the access mode is its lowest two bits (2: O_RDWR).
+    info.lines()
+        .find_map(|l| l.strip_prefix("flags:"))
+        .and_then(|f| u32::from_str_radix(f.trim(), 8).ok())
+        .is_some_and(|flags| flags & 0o3 == 0o2)
+}
+
 /// Writes a line to standard error, ignoring a failure.
 pub fn note(args: std::fmt::Arguments<'_>) {
     let _ = writeln!(std::io::stderr().lock(), "{args}");

@@ -113,7 +113,8 @@ impl MixedData {
     /// numeric covariate, a contrast or indicator column, a product of
     /// them for an interaction), each with its name. The intercept is
     /// always the first column and is not given here. Aliased columns are
-    /// refused when the model is fitted.
+    /// dropped when the model is fitted, as lme4 drops them
+    /// ([`MixedFit::dropped`](super::MixedFit::dropped)).
     pub fn with_columns(mut self, columns: Vec<(String, Vec<f64>)>) -> Result<MixedData, MixedError> {
         for (name, values) in columns {
             if values.len() != self.y.len() {
@@ -127,6 +128,44 @@ impl MixedData {
             self.columns.push((name, values));
         }
         Ok(self)
+    }
+
+    /// The data without the fixed-effect columns that are linear
+    /// combinations of earlier ones, and their names, as lme4's
+    /// `chkRank.drop.cols` drops them (a missing cell of `A*B`, `a:b`
+    /// without its margins): R's QR with limited column pivoting (LINPACK
+    /// `dqrdc2`, tolerance 1e-7) moves a column to the end, out of the
+    /// model, when what is left of it after the columns kept before it
+    /// has a norm below 1e-7 of its own. That residual is computed here by
+    /// Gram-Schmidt, orthogonalized twice. `None` when X has full rank.
+    pub(super) fn without_aliased(&self) -> Option<(MixedData, Vec<String>)> {
+        const TOL: f64 = 1e-7;
+        let n = self.y.len();
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let mut basis: Vec<Vec<f64>> = vec![vec![1.0 / (n as f64).sqrt(); n]];
+        let (mut kept, mut dropped) = (Vec::new(), Vec::new());
+        for (name, values) in &self.columns {
+            let norm = dot(values, values).sqrt();
+            let mut v = values.clone();
+            for _ in 0..2 {
+                for q in &basis {
+                    let d = dot(q, &v);
+                    v.iter_mut().zip(q).for_each(|(x, q)| *x -= d * q);
+                }
+            }
+            let left = dot(&v, &v).sqrt();
+            if left < TOL * if norm > 0.0 { norm } else { 1.0 } {
+                dropped.push(name.clone());
+            } else {
+                v.iter_mut().for_each(|x| *x /= left);
+                basis.push(v);
+                kept.push((name.clone(), values.clone()));
+            }
+        }
+        if dropped.is_empty() {
+            return None;
+        }
+        Some((MixedData { y: self.y.clone(), columns: kept, factors: self.factors.clone() }, dropped))
     }
 
     /// Number of observations.

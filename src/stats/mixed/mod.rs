@@ -254,6 +254,10 @@ pub struct MixedFit {
     /// Why the optimum is one: the first-order conditions checked where
     /// the optimizer stopped.
     pub certificate: Certificate,
+    /// Fixed-effect columns dropped before the fit because they are linear
+    /// combinations of earlier ones (lme4: "fixed-effect model matrix is
+    /// rank deficient so dropping 1 column / coefficient"), by R's name.
+    pub dropped: Vec<String>,
     /// Deviance evaluations used.
     pub evaluations: usize,
     /// Observations.
@@ -428,12 +432,30 @@ fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, u
 
 /// Fits the model by REML or ML, with the inference `inference` asks for.
 pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) -> Result<MixedFit, MixedError> {
+    data.check_size(inference)?;
+    // Aliased columns are dropped first, as lme4 drops them.
+    let reduced = data.without_aliased();
+    let (data, dropped) = match &reduced {
+        Some((d, names)) => (d, names.clone()),
+        None => (data, Vec::new()),
+    };
     let p = data.p();
     if data.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));
     }
-    data.check_size(inference)?;
-    fit_system(&system::System::new(data), data, criterion, inference)
+    let mut fit = fit_system(&system::System::new(data), data, criterion, inference)?;
+    if !dropped.is_empty() {
+        fit.notes.insert(0, rank_message(&dropped));
+        fit.dropped = dropped;
+    }
+    Ok(fit)
+}
+
+/// lme4's message for dropped columns, with their names.
+fn rank_message(dropped: &[String]) -> String {
+    let (k, what) =
+        if dropped.len() == 1 { (1, "column / coefficient") } else { (dropped.len(), "columns / coefficients") };
+    format!("fixed-effect model matrix is rank deficient so dropping {k} {what}: {}", dropped.join(", "))
 }
 
 /// [`fit_with`] on the products of `data` already computed.
@@ -564,6 +586,7 @@ fn fit_system(
         deviance: e.deviance,
         certificate,
         evaluations,
+        dropped: Vec::new(),
         n: data.len(),
     })
 }

@@ -30,6 +30,170 @@ pub struct FormulaFit {
     pub fixed: Vec<FixedRow>,
     /// Profile-likelihood intervals of the standard deviations, when asked.
     pub profile: Option<(f64, Vec<mixed::ProfileInterval>)>,
+    /// logLik, AIC, BIC as lme4's `logLik()`, `AIC()` and `BIC()` give
+    /// them (of the REML criterion for a REML fit).
+    pub likelihood: Likelihood,
+}
+
+/// lme4's likelihood summary of a fit: `logLik()` (with its `df`, the
+/// number of parameters: fixed effects, one theta per random term and
+/// sigma), `AIC()`, `BIC()`, the deviance (ML) or REML criterion (REML),
+/// and `df.residual()`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Likelihood {
+    /// Parameters: fixed-effect coefficients (after any dropped), random
+    /// terms, and the residual SD.
+    pub npar: usize,
+    /// The (restricted, for REML) log-likelihood at the optimum.
+    pub loglik: f64,
+    /// -2 logLik + 2 npar.
+    pub aic: f64,
+    /// -2 logLik + log(n) npar.
+    pub bic: f64,
+    /// -2 logLik of an ML fit (`None` for REML).
+    pub deviance: Option<f64>,
+    /// -2 logLik of a REML fit, the REML criterion (`None` for ML).
+    pub reml_criterion: Option<f64>,
+    /// Observations less parameters.
+    pub df_resid: i64,
+}
+
+impl Likelihood {
+    /// The summary of `fit`.
+    pub fn of(fit: &mixed::MixedFit) -> Likelihood {
+        let npar = fit.fixed.len() + fit.theta.len() + 1;
+        let reml = fit.criterion == mixed::Criterion::Reml;
+        Likelihood {
+            npar,
+            loglik: -0.5 * fit.deviance,
+            aic: fit.deviance + 2.0 * npar as f64,
+            bic: fit.deviance + (fit.n as f64).ln() * npar as f64,
+            deviance: (!reml).then_some(fit.deviance),
+            reml_criterion: reml.then_some(fit.deviance),
+            df_resid: fit.n as i64 - npar as i64,
+        }
+    }
+}
+
+/// A likelihood-ratio test of two nested models, as lme4's
+/// `anova(m1, m2)`: both fitted by ML (`anova` refits REML fits by ML),
+/// ordered by their number of parameters; the second row tests the larger
+/// model against the smaller.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Comparison {
+    /// The two models, fewer parameters first.
+    pub models: Vec<ComparedModel>,
+}
+
+/// One row of [`Comparison`].
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ComparedModel {
+    /// The formula.
+    pub formula: String,
+    /// Parameters.
+    pub npar: usize,
+    /// AIC of the ML fit.
+    pub aic: f64,
+    /// BIC of the ML fit.
+    pub bic: f64,
+    /// ML log-likelihood.
+    pub loglik: f64,
+    /// ML deviance, -2 logLik.
+    pub deviance: f64,
+    /// 2 (logLik - the previous row's logLik), at least 0 (`None` in the
+    /// first row).
+    pub chisq: Option<f64>,
+    /// Parameters more than the previous row (`None` in the first row).
+    pub df: Option<i64>,
+    /// P(chi-square on `df` > `chisq`) (`None` in the first row, or where
+    /// `df` is 0).
+    pub p: Option<f64>,
+    /// Whether the optimizer certified the ML fit.
+    pub certified: bool,
+}
+
+/// Fits `formula` and `other` to `table` by ML and tests one against the
+/// other, as lme4's `anova(m1, m2)` (see [`Comparison`]). The models must
+/// be nested for the test to mean anything; as in lme4, that is the
+/// user's to ensure, but both must model the same response.
+pub fn compare_table(formula: &str, other: &str, table: &Table) -> Result<Comparison, FormulaError> {
+    let (a, b) = (parse(formula)?, parse(other)?);
+    if a.response != b.response {
+        return Err(FormulaError::Compare(format!(
+            "the two formulas model different responses (`{}` and `{}`); a likelihood-ratio test compares models of the same response",
+            a.response, b.response
+        )));
+    }
+    let mut rows = Vec::new();
+    for text in [formula, other] {
+        let fit = fit_table(text, table, mixed::Criterion::Ml, DfMethod::Satterthwaite, None)?;
+        let l = fit.likelihood;
+        rows.push(ComparedModel {
+            formula: text.to_string(),
+            npar: l.npar,
+            aic: l.aic,
+            bic: l.bic,
+            loglik: l.loglik,
+            deviance: -2.0 * l.loglik,
+            chisq: None,
+            df: None,
+            p: None,
+            certified: fit.fit.certificate.certified,
+        });
+    }
+    rows.sort_by_key(|r| r.npar);
+    let (loglik0, npar0) = (rows[0].loglik, rows[0].npar as i64);
+    let second = &mut rows[1];
+    let chisq = (2.0 * (second.loglik - loglik0)).max(0.0);
+    let df = second.npar as i64 - npar0;
+    second.chisq = Some(chisq);
+    second.df = Some(df);
+    second.p = (df > 0).then(|| statrs::function::gamma::gamma_ur(df as f64 / 2.0, chisq / 2.0));
+    Ok(Comparison { models: rows })
+}
+
+impl Comparison {
+    /// The table as lme4's `anova()` prints it.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::from("Models (refitted by maximum likelihood):\n");
+        for (i, m) in self.models.iter().enumerate() {
+            let _ = writeln!(s, "m{}: {}", i + 1, m.formula);
+        }
+        let _ = writeln!(
+            s,
+            "   {:>5} {:>10} {:>10} {:>10} {:>10} {:>9} {:>3} {:>11}",
+            "npar", "AIC", "BIC", "logLik", "deviance", "Chisq", "Df", "Pr(>Chisq)"
+        );
+        for (i, m) in self.models.iter().enumerate() {
+            let chisq = m.chisq.map_or("".into(), |c| format!("{c:.4}"));
+            let df = m.df.map_or("".into(), |d| d.to_string());
+            let p = m.p.map_or("".into(), |p| format!("{p:.4e}"));
+            let _ = writeln!(
+                s,
+                "m{} {:>5} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>9} {:>3} {:>11}",
+                i + 1,
+                m.npar,
+                m.aic,
+                m.bic,
+                m.loglik,
+                m.deviance,
+                chisq,
+                df,
+                p
+            );
+        }
+        for (i, m) in self.models.iter().enumerate() {
+            if !m.certified {
+                let _ = writeln!(
+                    s,
+                    "warning: the optimizer could not certify the ML fit of m{}; do not use the test",
+                    i + 1
+                );
+            }
+        }
+        s
+    }
 }
 
 /// One row of the fixed-effects table.
@@ -103,7 +267,8 @@ pub fn fit_table(
         Some(level) => Some((level, mixed::profile_intervals(&data, criterion, level)?)),
         None => None,
     };
-    Ok(FormulaFit { formula: formula_text.to_string(), df_method: reml.then_some(df), fit, fixed, profile })
+    let likelihood = Likelihood::of(&fit);
+    Ok(FormulaFit { formula: formula_text.to_string(), df_method: reml.then_some(df), fit, fixed, profile, likelihood })
 }
 
 impl FormulaFit {
@@ -115,7 +280,7 @@ impl FormulaFit {
         let mut s = String::new();
         let (what, crit) = match f.criterion {
             mixed::Criterion::Reml => ("REML", "REML criterion at convergence"),
-            mixed::Criterion::Ml => ("maximum likelihood", "deviance"),
+            mixed::Criterion::Ml => ("maximum likelihood", ""),
         };
         let df = match self.df_method {
             Some(DfMethod::Satterthwaite) => ". t-tests use Satterthwaite's method",
@@ -124,7 +289,23 @@ impl FormulaFit {
         };
         let _ = writeln!(s, "Linear mixed model fit by {what}{df}");
         let _ = writeln!(s, "Formula: {}\n", self.formula);
-        let _ = writeln!(s, "{crit}: {:.4}\n", f.deviance);
+        let l = &self.likelihood;
+        match f.criterion {
+            mixed::Criterion::Reml => {
+                let _ = writeln!(s, "{crit}: {:.4}", f.deviance);
+                let _ = writeln!(s, "{:>10} {:>10} {:>10} {:>8}", "AIC", "BIC", "logLik", "df.resid");
+                let _ = writeln!(s, "{:>10.4} {:>10.4} {:>10.4} {:>8}\n", l.aic, l.bic, l.loglik, l.df_resid);
+            }
+            mixed::Criterion::Ml => {
+                let _ =
+                    writeln!(s, "{:>10} {:>10} {:>10} {:>10} {:>8}", "AIC", "BIC", "logLik", "deviance", "df.resid");
+                let _ = writeln!(
+                    s,
+                    "{:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>8}\n",
+                    l.aic, l.bic, l.loglik, f.deviance, l.df_resid
+                );
+            }
+        }
         let _ = writeln!(s, "Random effects:");
         let width = f.factors.iter().map(|n| n.len()).max().unwrap_or(0).max(8);
         let _ = writeln!(s, " {:<width$} {:<11} {:>12} {:>12}", "Groups", "Name", "Variance", "Std.Dev.");
@@ -201,6 +382,23 @@ impl FormulaFit {
     }
 }
 
+/// Reads the tidy CSV at `path` and compares two formulas on it by a
+/// likelihood-ratio test (see [`compare_table`]).
+pub fn compare_file(path: &std::path::Path, formula: &str, other: &str) -> Result<Comparison, FileError> {
+    let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
+    let table = read_file(path).map_err(fail)?;
+    compare_table(formula, other, &table).map_err(fail)
+}
+
+/// The tidy CSV at `path`, read under the rules of every input.
+fn read_file(path: &std::path::Path) -> Result<Table, FormulaError> {
+    let bytes = crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a data file")
+        .map_err(|e| FormulaError::Read(e.to_string()))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| FormulaError::Read(format!("not UTF-8 text (byte {} is not)", e.utf8_error().valid_up_to())))?;
+    read_csv(&text)
+}
+
 /// A formula fit that failed, with the data file it was on.
 #[derive(Debug, thiserror::Error)]
 #[error("{file}: {error}")]
@@ -223,11 +421,6 @@ pub fn fit_file(
     profile: Option<f64>,
 ) -> Result<FormulaFit, FileError> {
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
-    let read = |message: String| fail(FormulaError::Read(message));
-    let bytes =
-        crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a data file").map_err(|e| read(e.to_string()))?;
-    let text = String::from_utf8(bytes)
-        .map_err(|e| read(format!("not UTF-8 text (byte {} is not)", e.utf8_error().valid_up_to())))?;
-    let table = read_csv(&text).map_err(fail)?;
+    let table = read_file(path).map_err(fail)?;
     fit_table(formula, &table, criterion, df, profile).map_err(fail)
 }

@@ -5,25 +5,33 @@
 //! fixed terms that are columns, `factor(col)` (a numeric column taken as
 //! categorical), interactions `a:b` and crossings `a*b` (= `a + b + a:b`);
 //! random intercepts `(1|g)`, `(1|g:h)` (the interaction factor) and
-//! `(1|g/h)` (= `(1|g) + (1|g:h)`). A column whose every value is a number
-//! is numeric, any other is categorical, as R's `read.csv` reads them.
+//! `(1|g/h)` (= `(1|g) + (1|h:g)`, lme4's expansion and names). A column whose every value is a number
+//! is numeric, any other is categorical, as R's `read.csv` reads them; a
+//! categorical numeric column (`factor(d)`, a grouping column) has R's
+//! levels: by value, labelled as R prints the number ([`r_number_label`]).
 //!
 //! The fixed-effect design is R's `model.matrix`: terms in order of degree
 //! (as written within a degree), each categorical variable of a term coded
 //! by treatment contrasts (the first level, sorted as R sorts them, is the
 //! reference) when the term without it is in the model (the intercept
 //! counts as the empty term), by indicators of every level otherwise; a
-//! term's columns are the products of its variables' columns, the first
-//! variable varying fastest, named as R names them (`fq:x`).
+//! term's variables are in order of their first appearance in the formula
+//! (R's `terms`: `Type + conc:Type` has the term `Type:conc`), its columns
+//! the products of its variables' columns, the first variable varying
+//! fastest, named as R names them (`TypeQuebec:conc`).
 //!
-//! Random slopes (`(x|g)`), a model without an intercept, and missing
-//! values are refused with the column of the formula or the row and field
-//! of the table: R drops rows with missing values silently, crossaudit
-//! makes the user say so.
+//! Random slopes (`(x|g)`), a model without an intercept, the response
+//! among the predictors, missing values, control characters in a value and
+//! numbers whose sums overflow are refused with the column of the formula
+//! or the row and field of the table: R drops rows with missing values
+//! silently, crossaudit makes the user say so.
 
 mod fit;
 
-pub use fit::{fit_file, fit_table, DfMethod, FileError, FixedRow, FormulaFit};
+pub use fit::{
+    compare_file, compare_table, fit_file, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow,
+    FormulaFit, Likelihood,
+};
 
 use std::collections::HashMap;
 
@@ -43,8 +51,31 @@ pub struct Formula {
     /// Fixed terms beside the intercept, each a list of variables, in R's
     /// order (by degree, then as written).
     pub fixed: Vec<Vec<Variable>>,
-    /// Random-intercept grouping factors, each the columns it interacts.
-    pub random: Vec<Vec<String>>,
+    /// Random-intercept grouping factors.
+    pub random: Vec<RandomTerm>,
+}
+
+/// A random-intercept grouping factor.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RandomTerm {
+    /// The columns it interacts.
+    pub columns: Vec<String>,
+    /// lme4's name: `g:h` as written, `(1|g/h)` gives `g` and `h:g`,
+    /// `(1|a/b/c)` gives `a`, `b:a` and `c:(b:a)`.
+    pub name: String,
+}
+
+/// The term `segment` nested in `outer` (columns and lme4's name), or
+/// `segment` alone.
+fn nest(segment: &[String], outer: Option<&(Vec<String>, String)>) -> (Vec<String>, String) {
+    let inner = segment.join(":");
+    match outer {
+        None => (segment.to_vec(), inner),
+        Some((columns, name)) => {
+            let name = if name.contains(':') { format!("{inner}:({name})") } else { format!("{inner}:{name}") };
+            (segment.iter().chain(columns).cloned().collect(), name)
+        }
+    }
 }
 
 /// A variable of a fixed term.
@@ -85,6 +116,17 @@ pub enum FormulaError {
         /// What is wrong.
         message: String,
     },
+    /// A numeric column whose values overflow the model's sums.
+    #[error("column {field}: {message}")]
+    Scale {
+        /// The column (or a fixed-effect column of an interaction).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// Two formulas that cannot be compared.
+    #[error("--compare: {0}")]
+    Compare(String),
     /// The file cannot be read (its own message names it).
     #[error("{0}")]
     Read(String),
@@ -142,6 +184,8 @@ struct Parser {
     tokens: Vec<(usize, Token)>,
     at: usize,
     end: usize,
+    /// The response, which no term may use.
+    response: String,
 }
 
 impl Parser {
@@ -172,16 +216,39 @@ impl Parser {
             _ => self.error(format!("expected {what}")),
         }
     }
+    /// A term that uses the response would explain it by itself (R fits
+    /// `y ~ y` with a warning and a perfect, meaningless fit).
+    fn not_response(&self, name: &str, column: usize, role: &str) -> Result<(), FormulaError> {
+        if name == self.response {
+            return Err(FormulaError::Syntax {
+                column,
+                message: format!(
+                    "the response `{name}` appears {role}: a model cannot explain a column by itself; remove it from the right of `~`"
+                ),
+            });
+        }
+        Ok(())
+    }
+    /// A grouping column after `|`, `:` or `/`.
+    fn group(&mut self, what: &str) -> Result<String, FormulaError> {
+        let column = self.column();
+        let name = self.name(what)?;
+        self.not_response(&name, column, "as a grouping factor")?;
+        Ok(name)
+    }
     /// `name` or `factor(name)`.
     fn variable(&mut self) -> Result<Variable, FormulaError> {
         let column = self.column();
         let name = self.name("a column name")?;
         if name == "factor" && self.peek() == Some(&Token::Sym('(')) {
             self.at += 1;
+            let inner_column = self.column();
             let inner = self.name("a column name inside factor( )")?;
+            self.not_response(&inner, inner_column, "among the predictors")?;
             self.expect(')', "to close factor(")?;
             return Ok(Variable { name: inner, factor: true });
         }
+        self.not_response(&name, column, "among the predictors")?;
         if self.peek() == Some(&Token::Sym('(')) {
             return Err(FormulaError::Syntax {
                 column,
@@ -196,12 +263,13 @@ impl Parser {
 pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     let tokens = tokenize(text)?;
     let end = text.chars().count() + 1;
-    let mut p = Parser { tokens, at: 0, end };
+    let mut p = Parser { tokens, at: 0, end, response: String::new() };
     let response = p.name("the response column before `~`")?;
+    p.response = response.clone();
     p.expect('~', "after the response")?;
     // Fixed terms as written: each a set of variables (a crossing expands).
     let mut fixed: Vec<Vec<Variable>> = Vec::new();
-    let mut random: Vec<Vec<String>> = Vec::new();
+    let mut random: Vec<(Vec<String>, String)> = Vec::new();
     let mut first = true;
     loop {
         if !first {
@@ -236,24 +304,29 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
                 } else {
                     return p.error("expected `|` after `(1`");
                 }
-                let mut path = vec![p.name("a grouping column after `|`")?];
+                // `/` binds looser than `:`: a/b:c is a/(b:c). Each nested
+                // term is lme4's: a/b/c gives a, b:a and c:(b:a).
+                let mut segment = vec![p.group("a grouping column after `|`")?];
+                let mut outer: Option<(Vec<String>, String)> = None;
                 loop {
                     match p.peek() {
                         Some(Token::Sym(':')) => {
                             p.at += 1;
-                            path.push(p.name("a grouping column after `:`")?);
+                            segment.push(p.group("a grouping column after `:`")?);
                         }
                         Some(Token::Sym('/')) => {
                             p.at += 1;
-                            // g/h: (1|g) + (1|g:h); the outer part stands alone.
-                            random.push(path.clone());
-                            path.push(p.name("a grouping column after `/`")?);
+                            // The outer part stands alone.
+                            let term = nest(&segment, outer.as_ref());
+                            random.push(term.clone());
+                            outer = Some(term);
+                            segment = vec![p.group("a grouping column after `/`")?];
                         }
                         _ => break,
                     }
                 }
                 p.expect(')', "to close the random term")?;
-                random.push(path);
+                random.push(nest(&segment, outer.as_ref()));
             }
             Some(Token::Name(_)) => {
                 let mut groups: Vec<Vec<Variable>> = vec![vec![p.variable()?]];
@@ -300,6 +373,18 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             Some(_) => return p.error("expected a term"),
         }
     }
+    // R's terms order an interaction's variables by their first appearance
+    // in the formula (`Type + conc:Type` is `Type:conc`), whatever order
+    // the term writes them in.
+    let mut seen: Vec<Variable> = Vec::new();
+    for v in fixed.iter().flatten() {
+        if !seen.contains(v) {
+            seen.push(v.clone());
+        }
+    }
+    for t in &mut fixed {
+        t.sort_by_key(|v| seen.iter().position(|u| u == v));
+    }
     // Duplicates dropped (as sets), then R's order: by degree, stably.
     let mut unique: Vec<Vec<Variable>> = Vec::new();
     for t in fixed {
@@ -309,10 +394,10 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
         }
     }
     unique.sort_by_key(|t| t.len());
-    let mut groups: Vec<Vec<String>> = Vec::new();
-    for r in random {
-        if !groups.contains(&r) {
-            groups.push(r);
+    let mut groups: Vec<RandomTerm> = Vec::new();
+    for (columns, name) in random {
+        if !groups.iter().any(|g| g.columns.len() == columns.len() && columns.iter().all(|c| g.columns.contains(c))) {
+            groups.push(RandomTerm { columns, name });
         }
     }
     if groups.is_empty() {
@@ -356,9 +441,25 @@ fn is_missing(v: &str) -> bool {
     t.is_empty() || t == "NA" || t == "NaN" || t == "nan"
 }
 
-/// Checks a column has no missing value.
+/// Checks a column has no missing value and no control character (a NUL
+/// byte, a tab, an escape) in any value: such a byte is a corrupted file,
+/// not a new level.
 fn present(table: &Table, name: &str) -> Result<(), FormulaError> {
-    if let Some(row) = table.column(name)?.iter().position(|v| is_missing(v)) {
+    let col = table.column(name)?;
+    for (row, value) in col.iter().enumerate() {
+        if let Some((at, c)) = value.chars().enumerate().find(|(_, c)| c.is_control()) {
+            return Err(FormulaError::Value {
+                row: row + 1,
+                field: name.into(),
+                message: format!(
+                    "the value contains the control character U+{:04X} at character {}: a value must be printable text (a NUL or other control byte means the file is corrupted)",
+                    c as u32,
+                    at + 1
+                ),
+            });
+        }
+    }
+    if let Some(row) = col.iter().position(|v| is_missing(v)) {
         return Err(FormulaError::Value {
             row: row + 1,
             field: name.into(),
@@ -366,6 +467,74 @@ fn present(table: &Table, name: &str) -> Result<(), FormulaError> {
         });
     }
     Ok(())
+}
+
+/// R's `as.character` of a double, the label `factor()` gives a level of
+/// a numeric column: 15 significant digits, in fixed notation unless
+/// scientific is narrower (`1`, `2.5`, `1e+05`, `1e-04`, `123456`).
+pub fn r_number_label(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    if !v.is_finite() {
+        return if v.is_nan() {
+            "NaN".into()
+        } else if v > 0.0 {
+            "Inf".into()
+        } else {
+            "-Inf".into()
+        };
+    }
+    let sign = if v < 0.0 { "-" } else { "" };
+    let sci = format!("{:.14e}", v.abs());
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    let digits = mantissa.replace('.', "");
+    let digits = digits.trim_end_matches('0');
+    let sig = digits.len().max(1) as i32;
+    let fixed_width = if exp >= 0 { (exp + 1).max(sig) + i32::from(sig > exp + 1) } else { 1 - exp + sig };
+    let sci_width = sig + i32::from(sig > 1) + if exp.abs() >= 100 { 5 } else { 4 };
+    if fixed_width <= sci_width {
+        let decimals = (sig - 1 - exp).max(0) as usize;
+        format!("{sign}{:.*}", decimals, v.abs())
+    } else {
+        let mantissa = if sig > 1 { format!("{}.{}", &digits[..1], &digits[1..]) } else { digits[..1].to_string() };
+        format!("{sign}{mantissa}e{}{:02}", if exp < 0 { '-' } else { '+' }, exp.abs())
+    }
+}
+
+/// A column's labels as R's `factor()` makes them: the values as written
+/// (trimmed) for a text column; for a column numeric in every row, each
+/// value as R prints it, so that `1`, `1.0` and `1e0` are one level.
+fn labels(table: &Table, name: &str) -> Result<Vec<String>, FormulaError> {
+    Ok(match numbers(table, name)? {
+        Some(values) => values.iter().map(|v| r_number_label(*v)).collect(),
+        None => table.column(name)?.iter().map(|s| s.trim().to_string()).collect(),
+    })
+}
+
+/// Checks that a numeric column's sums and sums of squares (about its
+/// mean, and about zero where `raw`) stay finite in double precision: a
+/// column of values near 1e305 overflows where the model's products are
+/// formed, and the fit would report nonsense.
+fn check_scale(name: &str, values: &[f64], raw: bool) -> Result<(), FormulaError> {
+    let n = values.len() as f64;
+    let largest = values.iter().copied().map(f64::abs).fold(0.0, f64::max);
+    let sum: f64 = values.iter().sum();
+    let mean = sum / n;
+    let centred: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
+    let squares: f64 = if raw { values.iter().map(|v| v * v).sum() } else { 0.0 };
+    if sum.is_finite() && centred.is_finite() && squares.is_finite() {
+        return Ok(());
+    }
+    let row = values.iter().position(|v| v.abs() == largest).unwrap_or(0) + 1;
+    Err(FormulaError::Scale {
+        field: name.into(),
+        message: format!(
+            "its values are too large for double precision: {} overflows (largest |value| {largest:e}, row {row}); rescale the column (divide it by a power of ten) and fit again",
+            if sum.is_finite() { "the sum of their squares" } else { "their sum" },
+        ),
+    })
 }
 
 fn numbers(table: &Table, name: &str) -> Result<Option<Vec<f64>>, FormulaError> {
@@ -393,14 +562,24 @@ fn coded(table: &Table, v: &Variable, contrasts: bool) -> Result<Vec<(String, Ve
     match (&numeric, v.factor) {
         (Some(values), false) => Ok(vec![(v.name.clone(), values.clone())]),
         _ => {
-            let col = table.column(&v.name)?;
-            let mut levels: Vec<String> = col.iter().map(|s| s.trim().to_string()).collect();
-            levels.sort();
-            levels.dedup();
-            // R sorts a numeric vector's levels numerically.
-            if numeric.is_some() {
-                levels.sort_by(|a, b| a.parse::<f64>().unwrap_or(0.0).total_cmp(&b.parse::<f64>().unwrap_or(0.0)));
-            }
+            // R's levels: sorted as text (C locale) for a text column, by
+            // value for a numeric one, labelled as R prints the number.
+            let labels = labels(table, &v.name)?;
+            let levels: Vec<String> = match &numeric {
+                Some(values) => {
+                    let mut pairs: Vec<(f64, &String)> = values.iter().copied().zip(&labels).collect();
+                    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let mut levels: Vec<String> = pairs.into_iter().map(|(_, l)| l.clone()).collect();
+                    levels.dedup();
+                    levels
+                }
+                None => {
+                    let mut levels = labels.clone();
+                    levels.sort();
+                    levels.dedup();
+                    levels
+                }
+            };
             if levels.len() > super::MAX_DENSE {
                 return Err(MixedError::TooLarge(format!(
                     "the categorical variable {} has {} levels, over the limit of {} fixed-effect columns",
@@ -415,7 +594,7 @@ fn coded(table: &Table, v: &Variable, contrasts: bool) -> Result<Vec<(String, Ve
                 .iter()
                 .skip(skip)
                 .map(|l| {
-                    let values = col.iter().map(|s| if s.trim() == l { 1.0 } else { 0.0 }).collect();
+                    let values = labels.iter().map(|s| if s == l { 1.0 } else { 0.0 }).collect();
                     let label = if v.factor { format!("factor({}){l}", v.name) } else { format!("{}{l}", v.name) };
                     (label, values)
                 })
@@ -442,21 +621,23 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
             message: format!("the response must be a number, found `{}`", col[row]),
         });
     };
+    check_scale(&formula.response, &y, false)?;
     let mut factors = Vec::new();
-    for group in &formula.random {
+    for term in &formula.random {
+        let group = &term.columns;
         for g in group {
             present(table, g)?;
         }
-        let cols: Vec<&[String]> = group.iter().map(|g| table.column(g)).collect::<Result<_, _>>()?;
+        let cols: Vec<Vec<String>> = group.iter().map(|g| labels(table, g)).collect::<Result<_, _>>()?;
         let mut map: HashMap<Vec<&str>, usize> = HashMap::new();
         let codes = (0..y.len())
             .map(|i| {
-                let key: Vec<&str> = cols.iter().map(|c| c[i].trim()).collect();
+                let key: Vec<&str> = cols.iter().map(|c| c[i].as_str()).collect();
                 let next = map.len();
                 *map.entry(key).or_insert(next)
             })
             .collect();
-        factors.push((group.join(":"), codes));
+        factors.push((term.name.clone(), codes));
     }
     let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
     let in_model = |term: &[&Variable]| -> bool {
@@ -494,6 +675,9 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
                 }
             }
             acc = next;
+        }
+        for (name, values) in &acc {
+            check_scale(name, values, true)?;
         }
         columns.extend(acc);
     }
