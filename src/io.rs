@@ -357,15 +357,16 @@ pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
 // an image, emphasis, raw HTML or a table's column separator.
 
 /// `s` as Markdown text: every character that could start markup is
-/// backslash-escaped (`_` only where it could open or close emphasis, so
-/// `nanobench_paper` is written as it is), and line breaks and other
+/// backslash-escaped (`[` and `]`, so no link or image can form and
+/// parentheses stay as they are; `_` only where it could open or close
+/// emphasis, so `nanobench_paper` is written as it is), and line breaks and other
 /// control characters become spaces (a name stays on its line and in its
 /// table cell).
 ///
 /// ```
 /// use crossaudit::io::md_text;
 /// assert_eq!(md_text("nanobench_paper"), "nanobench_paper");
-/// assert_eq!(md_text("[x](javascript:alert(1))"), "\\[x\\]\\(javascript:alert\\(1\\)\\)");
+/// assert_eq!(md_text("[x](javascript:alert(1))"), "\\[x\\](javascript:alert(1))");
 /// assert_eq!(md_text("a|b"), "a\\|b");
 /// assert_eq!(md_text("_x_"), "\\_x\\_");
 /// ```
@@ -374,7 +375,7 @@ pub fn md_text(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for (k, &c) in chars.iter().enumerate() {
         match c {
-            '\\' | '`' | '*' | '[' | ']' | '(' | ')' | '<' | '>' | '|' | '!' | '&' | '#' | '~' | '{' | '}' => {
+            '\\' | '`' | '*' | '[' | ']' | '<' | '>' | '|' | '&' | '~' => {
                 out.push('\\');
                 out.push(c);
             }

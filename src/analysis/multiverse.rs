@@ -524,6 +524,8 @@ fn null_test(observed: &[f64], reps: &[Vec<f64>], se: &[f64], rule: &dyn Fn(usiz
     let hold_obs = holding(&|s| observed[s]);
     let z_obs = stouffer(&|s| observed[s]);
     let (mut at_med, mut at_hold, mut at_z) = (0usize, 0usize, 0usize);
+    // Replicate k is column k of every specification's row of `reps`.
+    #[allow(clippy::needless_range_loop)]
     for k in 0..b {
         let null = |s: usize| reps[s][k] - observed[s];
         if median(&mut (0..n).map(null).collect()) <= med_obs {
