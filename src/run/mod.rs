@@ -326,8 +326,13 @@ fn open(
             prepared
         }
     };
-    let record =
-        RunRecord { level: level.map(str::to_string), ..RunRecord::new(plan, file, data, &prepared, exploratory) };
+    // The hash of a cells.csv gathered earlier stays until a gather
+    // rewrites both (a `train` of one job gathers nothing).
+    let record = RunRecord {
+        level: level.map(str::to_string),
+        cells_sha256: previous.as_ref().and_then(|p| p.cells_sha256.clone()),
+        ..RunRecord::new(plan, file, data, &prepared, exploratory)
+    };
     record.write(out)?;
     Ok(Opened { status, exploratory, prepared, record, warnings: Vec::new() })
 }
