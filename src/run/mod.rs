@@ -16,6 +16,7 @@ mod error;
 pub mod external;
 mod folder;
 mod grid;
+mod guard;
 pub mod job;
 pub mod outer;
 mod record;
@@ -37,6 +38,8 @@ use crate::plan::{Plan, TrainingJob};
 pub use error::RunError;
 pub use folder::{check_out_dir, lock_folder, FolderLock};
 pub use grid::{Quiet, RunObserver};
+use guard::refuse_single_run;
+pub use guard::{check_out, check_out_plan, check_output_dir};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
@@ -179,16 +182,6 @@ pub fn check_workers(workers: usize) -> Result<(), RunError> {
         n if n > MAX_WORKERS => Err(RunError::TooManyWorkers { workers: n }),
         _ => Ok(()),
     }
-}
-
-/// A multi-split study's directory must not hold a single-split run.
-fn refuse_single_run(out: &Path) -> Result<(), RunError> {
-    if out.join("run.json").exists() {
-        if let Some(r) = RunRecord::read(out)? {
-            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: r.design_sha256 });
-        }
-    }
-    Ok(())
 }
 
 /// After every split finished: `out/cells.csv` with a `split` column and
@@ -346,103 +339,6 @@ pub fn check_lock(file: &DesignFile, exploratory: bool) -> Result<LockStatus, Ru
         return Err(RunError::LockChanged { path: file.path.display().to_string(), reason: status.reason() });
     }
     Ok(status)
-}
-
-/// The record of the run in `out`, if any, refusing a run of a design other
-/// than the one hashing to `design_sha256`: what every command that writes
-/// into a run directory calls first.
-pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, RunError> {
-    let previous = RunRecord::read(out)?;
-    if let Some(p) = &previous {
-        if p.design_sha256 != design_sha256 {
-            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: p.design_sha256.clone() });
-        }
-    }
-    Ok(previous)
-}
-
-/// [`check_out`] for a plan: a multi-split study's folder, or a per-seed
-/// draws study's, holds no `run.json` of its own (its `cells.csv` and
-/// report pool the splits or the seeds' draws), so each split's or draw's
-/// folder is checked instead, and a single-split run at the top is
-/// refused as another run.
-pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<(), RunError> {
-    if plan.splits.is_empty() && plan.seed_draws.is_empty() {
-        return check_out(out, design_sha256).map(|_| ());
-    }
-    refuse_single_run(out)?;
-    for &s in &plan.splits {
-        check_out(&out.join(crate::plan::split_dir(s)), design_sha256)?;
-    }
-    for &(_, draw) in &plan.seed_draws {
-        check_out(&out.join(format!("draw-{draw}")), design_sha256)?;
-    }
-    Ok(())
-}
-
-/// Refuses to write a report, plan or any other output of `design_sha256`
-/// into `dir` when `dir` or any folder above it holds a run of another
-/// design (`analyze --out`, whose default is the `report/` beside the
-/// per-cell file, `plan --out`, ...): a folder with a `run.json`, or the
-/// top of a multiverse, draw-replicated or multi-split run, whose level
-/// folders (`spec-*`, `draw-*`, `split-*`) hold them. The path is resolved
-/// first (`..`, symbolic links), so no spelling of it gets past.
-pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError> {
-    for d in resolved(dir).ancestors() {
-        if d.join("run.json").is_file() {
-            check_out(d, design_sha256)?;
-            continue;
-        }
-        let Ok(entries) = std::fs::read_dir(d) else { continue };
-        for e in entries.flatten().take(100_000) {
-            let name = e.file_name().to_string_lossy().into_owned();
-            let level = ["spec-", "draw-", "split-"].iter().any(|p| name.starts_with(p));
-            if level && e.path().join("run.json").is_file() {
-                if let Some(p) = RunRecord::read(&e.path()).ok().flatten() {
-                    if p.design_sha256 != design_sha256 {
-                        return Err(RunError::OtherDesign { dir: d.display().to_string(), sha256: p.design_sha256 });
-                    }
-                }
-            }
-        }
-    }
-    Ok(())
-}
-
-/// `path` made absolute with `..` and symbolic links resolved: the longest
-/// part that exists canonicalized, the rest appended.
-fn resolved(path: &Path) -> PathBuf {
-    let absolute = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir().map(|c| c.join(path)).unwrap_or_else(|_| path.to_path_buf())
-    };
-    let mut rest: Vec<std::ffi::OsString> = Vec::new();
-    let mut head = absolute.as_path();
-    loop {
-        if let Ok(c) = head.canonicalize() {
-            let mut out = c;
-            for part in rest.iter().rev() {
-                if part == ".." {
-                    out.pop();
-                } else if part != "." {
-                    out.push(part);
-                }
-            }
-            return out;
-        }
-        match (head.parent(), head.file_name()) {
-            (Some(parent), Some(name)) => {
-                rest.push(name.to_os_string());
-                head = parent;
-            }
-            (Some(parent), None) => {
-                rest.push("..".into());
-                head = parent;
-            }
-            _ => return absolute,
-        }
-    }
 }
 
 /// The jobs without a record, in plan order, and the builds that ran the

@@ -225,28 +225,15 @@ impl Validator {
                 "replicate the draws of one dose, or drop `factor draw`",
             );
         }
-        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
-        let mut declared: Vec<(String, u64)> = Vec::new();
-        declared.extend(recording.map(|r| ("the split seed (starts)".to_string(), r.split_seed)));
-        declared.extend(validation.map(|v| ("the validation seed".to_string(), v.seed)));
-        for (a, _) in arms {
-            match a.kind {
-                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => {
-                    declared.push((format!("arm {}'s seed", a.name), seed))
-                }
-            }
-        }
         let last = values.iter().copied().max().unwrap_or(1);
-        for (what, seed) in &declared {
-            if seed.checked_add(last - 1).is_none_or(|s| s > max) {
-                self.err_help(
-                    "draw shifts a seed out of range",
-                    span,
-                    format!("draw {last} shifts {what} ({seed}) by {}", last - 1),
-                    format!("draw k draws with each declared seed plus k - 1; keep every seed from 0 to {max}"),
-                );
-                return None;
-            }
+        if let Some((what, seed, max)) = shifted_out_of_range(recording, validation, arms, generator, last) {
+            self.err_help(
+                "draw shifts a seed out of range",
+                span,
+                format!("draw {last} shifts {what} ({seed}) by {}", last - 1),
+                format!("draw k draws with each declared seed plus k - 1; keep every seed from 0 to {max}"),
+            );
+            return None;
         }
         Some(values)
     }
@@ -291,26 +278,13 @@ impl Validator {
         }
         let j0 = seeds.iter().map(|s| s.0).min().unwrap_or(0);
         let last = seeds.iter().map(|s| s.0 - j0 + 1).max().unwrap_or(1);
-        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
-        let mut declared: Vec<(String, u64)> = Vec::new();
-        declared.extend(validation.map(|v| ("the validation seed".to_string(), v.seed)));
-        for (a, _) in arms {
-            match a.kind {
-                ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => {
-                    declared.push((format!("arm {}'s seed", a.name), seed))
-                }
-            }
-        }
-        for (what, seed) in &declared {
-            if seed.checked_add(last - 1).is_none_or(|s| s > max) {
-                self.err_help(
-                    "draw shifts a seed out of range",
-                    span,
-                    format!("the last seed's draw ({last}) shifts {what} ({seed}) by {}", last - 1),
-                    format!("seed j uses draw j - {j0} + 1, which adds j - {j0} to each declared seed; keep every seed from 0 to {max}"),
-                );
-                return;
-            }
+        if let Some((what, seed, max)) = shifted_out_of_range(None, validation, arms, generator, last) {
+            self.err_help(
+                "draw shifts a seed out of range",
+                span,
+                format!("the last seed's draw ({last}) shifts {what} ({seed}) by {}", last - 1),
+                format!("seed j uses draw j - {j0} + 1, which adds j - {j0} to each declared seed; keep every seed from 0 to {max}"),
+            );
         }
     }
 
@@ -358,4 +332,32 @@ impl Validator {
             }
         }
     }
+}
+
+/// The first declared seed (the split seed when `recording` is given, the
+/// validation seed, each arm's) that draw `last` (each seed plus
+/// `last - 1`) takes out of the generator's range: what it is, its value
+/// and the range's top.
+fn shifted_out_of_range(
+    recording: Option<&RecordingFactor>,
+    validation: Option<&ValidationSpec>,
+    arms: &[(Arm, Span)],
+    generator: Generator,
+    last: u64,
+) -> Option<(String, u64, u64)> {
+    let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
+    let mut declared: Vec<(String, u64)> = Vec::new();
+    declared.extend(recording.map(|r| ("the split seed (starts)".to_string(), r.split_seed)));
+    declared.extend(validation.map(|v| ("the validation seed".to_string(), v.seed)));
+    for (a, _) in arms {
+        match a.kind {
+            ArmKind::Fit { seed, .. } | ArmKind::Derived { seed, .. } => {
+                declared.push((format!("arm {}'s seed", a.name), seed))
+            }
+        }
+    }
+    declared
+        .into_iter()
+        .find(|(_, seed)| seed.checked_add(last - 1).is_none_or(|s| s > max))
+        .map(|(what, seed)| (what, seed, max))
 }

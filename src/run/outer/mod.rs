@@ -17,12 +17,15 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod verify;
+
 use super::*;
 use crate::analysis::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, SharedDraws};
 use crate::design::multiverse::run_key;
 use crate::design::Design;
 use crate::io::write_atomic;
 pub use crate::report::multiverse::decision_line;
+use verify::check_levels;
 
 /// What an outer factor's levels are to each other, which decides how they
 /// are combined.
@@ -505,88 +508,6 @@ pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, 
     let mut a = analyze_levels(&file.design, &levels, dir, dir)?;
     a.warnings.extend(warnings);
     Ok(a)
-}
-
-/// Before a reanalysis reads a run directory: every level folder it reads
-/// must hold the run of this design (its run.json's design hash), of that
-/// level (the level its run.json records, so swapped or renamed folders
-/// are refused), and the cells that run gathered: with its job records,
-/// each job's per-cell file unchanged since the job wrote it and cells.csv
-/// exactly those files gathered; without them (a folder trimmed to its
-/// per-cell data), cells.csv's hash as run.json recorded it. What cannot
-/// be checked (a run written before levels and hashes were recorded) is
-/// returned as warnings.
-fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> Result<Vec<String>, RunError> {
-    let mut unverified: Vec<String> = Vec::new();
-    let study = crate::plan::compile(&file.design);
-    for (k, level) in levels.iter().enumerate() {
-        if level.shares.is_some() {
-            continue;
-        }
-        let d = run_dir(dir, levels, k);
-        let changed = |reason: String| RunError::LevelChanged { dir: d.display().to_string(), reason };
-        let Some(record) = RunRecord::read(&d)? else {
-            return Err(changed(format!(
-                "it has no run.json, so its cells.csv cannot be read as level {} of {}: not a level of a crossaudit run of this design",
-                level.id,
-                file.path.display()
-            )));
-        };
-        if record.design_sha256 != file.sha256 {
-            return Err(changed(format!(
-                "it was run from design sha256 {}, but {} is sha256 {}: under an edited design (alternatives reordered, other values) its cells would be read as another specification's; reanalyse it with the design it ran",
-                record.design_sha256,
-                file.path.display(),
-                file.sha256
-            )));
-        }
-        match &record.level {
-            Some(was) if *was != level.id => {
-                return Err(RunError::WrongLevel {
-                    dir: d.display().to_string(),
-                    was: was.clone(),
-                    is: level.id.clone(),
-                })
-            }
-            Some(_) => {}
-            None => unverified.push(format!("{} (which level it holds)", level.id)),
-        }
-        let cells_csv = d.join("cells.csv");
-        let plan = level_plan(level, &study);
-        if d.join("jobs").is_dir() {
-            for job in &plan.jobs {
-                let Some(r) = JobRecord::read(&d, job)? else {
-                    return Err(changed(format!("job {} has no record in jobs/: the run did not finish", job.label())));
-                };
-                r.verify_cells(&d, job, &file.sha256)?;
-            }
-            let gathered = crate::cells::cells_bytes(&super::gathered(&plan, &d)?);
-            let on_disk = crate::io::read_input(&cells_csv, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
-                .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
-            if gathered != on_disk {
-                return Err(changed(
-                    "cells.csv is not the per-cell files its jobs wrote (cells/*.csv, each checked against its job record): it was edited after the run".to_string(),
-                ));
-            }
-        } else if let Some(sha) = &record.cells_sha256 {
-            let now = crate::cells::file_sha256(&cells_csv)?;
-            if now != *sha {
-                return Err(changed(format!(
-                    "cells.csv has sha256 {now}, but the run recorded {sha} when it gathered it: it was edited after the run"
-                )));
-            }
-        } else {
-            unverified.push(format!("{} (its cells.csv: no job records and no recorded hash)", level.id));
-        }
-    }
-    Ok(if unverified.is_empty() {
-        Vec::new()
-    } else {
-        vec![format!(
-            "this run was written before crossaudit recorded each level's name and cells.csv hash: not verified for {}",
-            unverified.join(", ")
-        )]
-    })
 }
 
 /// The combined analysis of the levels of the run in `dir`: each level's

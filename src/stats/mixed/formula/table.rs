@@ -1,0 +1,321 @@
+//! The table a formula is fitted to (text columns as read from a CSV
+//! file) and the model R builds from the two: `model.matrix`'s fixed
+//! design, the grouping factors, R's levels and labels.
+
+use std::collections::HashMap;
+
+use super::{Formula, FormulaError, Variable};
+use crate::stats::mixed::{MixedData, MixedError};
+
+/// A table of text columns, as read from a CSV file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Column names.
+    pub names: Vec<String>,
+    /// Columns, each a value per row.
+    pub columns: Vec<Vec<String>>,
+}
+
+impl Table {
+    fn column(&self, name: &str) -> Result<&[String], FormulaError> {
+        match self.names.iter().position(|n| n == name) {
+            Some(i) => Ok(&self.columns[i]),
+            None => Err(FormulaError::UnknownColumn { name: name.into(), available: self.names.join(", ") }),
+        }
+    }
+}
+
+fn is_missing(v: &str) -> bool {
+    let t = v.trim();
+    t.is_empty() || t == "NA" || t == "NaN" || t == "nan"
+}
+
+/// Checks a column has no missing value and no control character (a NUL
+/// byte, a tab, an escape) in any value: such a byte is a corrupted file,
+/// not a new level.
+fn present(table: &Table, name: &str) -> Result<(), FormulaError> {
+    let col = table.column(name)?;
+    for (row, value) in col.iter().enumerate() {
+        if let Some((at, c)) = value.chars().enumerate().find(|(_, c)| c.is_control()) {
+            return Err(FormulaError::Value {
+                row: row + 1,
+                field: name.into(),
+                message: format!(
+                    "the value contains the control character U+{:04X} at character {}: a value must be printable text (a NUL or other control byte means the file is corrupted)",
+                    c as u32,
+                    at + 1
+                ),
+            });
+        }
+    }
+    if let Some(row) = col.iter().position(|v| is_missing(v)) {
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: name.into(),
+            message: "missing value: crossaudit does not drop rows (lme4's na.omit would); remove the row first".into(),
+        });
+    }
+    Ok(())
+}
+
+/// R's `as.character` of a double, the label `factor()` gives a level of
+/// a numeric column: 15 significant digits, in fixed notation unless
+/// scientific is narrower (`1`, `2.5`, `1e+05`, `1e-04`, `123456`).
+pub fn r_number_label(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    if !v.is_finite() {
+        return if v.is_nan() {
+            "NaN".into()
+        } else if v > 0.0 {
+            "Inf".into()
+        } else {
+            "-Inf".into()
+        };
+    }
+    let sign = if v < 0.0 { "-" } else { "" };
+    let sci = format!("{:.14e}", v.abs());
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    let digits = mantissa.replace('.', "");
+    let digits = digits.trim_end_matches('0');
+    let sig = digits.len().max(1) as i32;
+    let fixed_width = if exp >= 0 { (exp + 1).max(sig) + i32::from(sig > exp + 1) } else { 1 - exp + sig };
+    let sci_width = sig + i32::from(sig > 1) + if exp.abs() >= 100 { 5 } else { 4 };
+    if fixed_width <= sci_width {
+        let decimals = (sig - 1 - exp).max(0) as usize;
+        format!("{sign}{:.*}", decimals, v.abs())
+    } else {
+        let mantissa = if sig > 1 { format!("{}.{}", &digits[..1], &digits[1..]) } else { digits[..1].to_string() };
+        format!("{sign}{mantissa}e{}{:02}", if exp < 0 { '-' } else { '+' }, exp.abs())
+    }
+}
+
+/// A column's labels as R's `factor()` makes them: the values as written
+/// (trimmed) for a text column; for a column numeric in every row, each
+/// value as R prints it, so that `1`, `1.0` and `1e0` are one level.
+fn labels(table: &Table, name: &str) -> Result<Vec<String>, FormulaError> {
+    Ok(match numbers(table, name)? {
+        Some(values) => values.iter().map(|v| r_number_label(*v)).collect(),
+        None => table.column(name)?.iter().map(|s| s.trim().to_string()).collect(),
+    })
+}
+
+/// Checks that a numeric column's sums and sums of squares (about its
+/// mean, and about zero where `raw`) stay finite in double precision: a
+/// column of values near 1e305 overflows where the model's products are
+/// formed, and the fit would report nonsense.
+fn check_scale(name: &str, values: &[f64], raw: bool) -> Result<(), FormulaError> {
+    let n = values.len() as f64;
+    let largest = values.iter().copied().map(f64::abs).fold(0.0, f64::max);
+    let sum: f64 = values.iter().sum();
+    let mean = sum / n;
+    let centred: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
+    let squares: f64 = if raw { values.iter().map(|v| v * v).sum() } else { 0.0 };
+    if sum.is_finite() && centred.is_finite() && squares.is_finite() {
+        return Ok(());
+    }
+    let row = values.iter().position(|v| v.abs() == largest).unwrap_or(0) + 1;
+    Err(FormulaError::Scale {
+        field: name.into(),
+        message: format!(
+            "its values are too large for double precision: {} overflows (largest |value| {largest:e}, row {row}); rescale the column (divide it by a power of ten) and fit again",
+            if sum.is_finite() { "the sum of their squares" } else { "their sum" },
+        ),
+    })
+}
+
+fn numbers(table: &Table, name: &str) -> Result<Option<Vec<f64>>, FormulaError> {
+    let col = table.column(name)?;
+    let parsed: Vec<Option<f64>> = col.iter().map(|v| v.trim().parse::<f64>().ok()).collect();
+    if parsed.iter().all(Option::is_some) {
+        let values: Vec<f64> = parsed.into_iter().flatten().collect();
+        if let Some(row) = values.iter().position(|v| !v.is_finite()) {
+            return Err(FormulaError::Value {
+                row: row + 1,
+                field: name.into(),
+                message: format!("`{}` is not a finite number", col[row]),
+            });
+        }
+        Ok(Some(values))
+    } else {
+        Ok(None)
+    }
+}
+
+/// A variable's columns in a term: (suffix per column, values per column).
+fn coded(table: &Table, v: &Variable, contrasts: bool) -> Result<Vec<(String, Vec<f64>)>, FormulaError> {
+    present(table, &v.name)?;
+    let numeric = numbers(table, &v.name)?;
+    match (&numeric, v.factor) {
+        (Some(values), false) => Ok(vec![(v.name.clone(), values.clone())]),
+        _ => {
+            // R's levels: sorted as text (C locale) for a text column, by
+            // value for a numeric one, labelled as R prints the number.
+            let labels = labels(table, &v.name)?;
+            let levels: Vec<String> = match &numeric {
+                Some(values) => {
+                    let mut pairs: Vec<(f64, &String)> = values.iter().copied().zip(&labels).collect();
+                    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let mut levels: Vec<String> = pairs.into_iter().map(|(_, l)| l.clone()).collect();
+                    levels.dedup();
+                    levels
+                }
+                None => {
+                    let mut levels = labels.clone();
+                    levels.sort();
+                    levels.dedup();
+                    levels
+                }
+            };
+            if levels.len() > crate::stats::mixed::MAX_DENSE {
+                return Err(MixedError::TooLarge(format!(
+                    "the categorical variable {} has {} levels, over the limit of {} fixed-effect columns",
+                    v.name,
+                    levels.len(),
+                    crate::stats::mixed::MAX_DENSE
+                ))
+                .into());
+            }
+            let skip = usize::from(contrasts);
+            Ok(levels
+                .iter()
+                .skip(skip)
+                .map(|l| {
+                    let values = labels.iter().map(|s| if s == l { 1.0 } else { 0.0 }).collect();
+                    let label = if v.factor { format!("factor({}){l}", v.name) } else { format!("{}{l}", v.name) };
+                    (label, values)
+                })
+                .collect())
+        }
+    }
+}
+
+/// Whether a variable is categorical in `table`.
+fn categorical(table: &Table, v: &Variable) -> Result<bool, FormulaError> {
+    Ok(v.factor || numbers(table, &v.name)?.is_none())
+}
+
+/// The model `formula` describes, on `table`: response, fixed-effect
+/// columns by R's rules, and the random factors.
+pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError> {
+    present(table, &formula.response)?;
+    let Some(y) = numbers(table, &formula.response)? else {
+        let col = table.column(&formula.response)?;
+        let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: formula.response.clone(),
+            message: format!("the response must be a number, found `{}`", col[row]),
+        });
+    };
+    check_scale(&formula.response, &y, false)?;
+    let mut factors = Vec::new();
+    for term in &formula.random {
+        let group = &term.columns;
+        for g in group {
+            present(table, g)?;
+        }
+        let cols: Vec<Vec<String>> = group.iter().map(|g| labels(table, g)).collect::<Result<_, _>>()?;
+        let mut map: HashMap<Vec<&str>, usize> = HashMap::new();
+        let codes = (0..y.len())
+            .map(|i| {
+                let key: Vec<&str> = cols.iter().map(|c| c[i].as_str()).collect();
+                let next = map.len();
+                *map.entry(key).or_insert(next)
+            })
+            .collect();
+        factors.push((term.name.clone(), codes));
+    }
+    let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
+    let in_model = |term: &[&Variable]| -> bool {
+        term.is_empty() || formula.fixed.iter().any(|t| t.len() == term.len() && term.iter().all(|v| t.contains(v)))
+    };
+    for term in &formula.fixed {
+        let mut parts: Vec<Vec<(String, Vec<f64>)>> = Vec::new();
+        for v in term {
+            let contrasts = if categorical(table, v)? {
+                let without: Vec<&Variable> = term.iter().filter(|u| *u != v).collect();
+                in_model(&without)
+            } else {
+                true
+            };
+            parts.push(coded(table, v, contrasts)?);
+        }
+        // Products, the first variable varying fastest.
+        let mut acc: Vec<(String, Vec<f64>)> = vec![(String::new(), vec![1.0; y.len()])];
+        for part in &parts {
+            let width = columns.len() + acc.len() * part.len();
+            if width > crate::stats::mixed::MAX_DENSE
+                || width.saturating_mul(y.len()) > crate::stats::mixed::MAX_DESIGN_VALUES
+            {
+                return Err(MixedError::TooLarge(format!(
+                    "the fixed effects would have {width} columns for {} observations, over the limits of {} columns and {} values",
+                    y.len(),
+                    crate::stats::mixed::MAX_DENSE,
+                    crate::stats::mixed::MAX_DESIGN_VALUES
+                ))
+                .into());
+            }
+            let mut next = Vec::new();
+            for (name_b, vb) in part {
+                for (name_a, va) in &acc {
+                    let name = if name_a.is_empty() { name_b.clone() } else { format!("{name_a}:{name_b}") };
+                    next.push((name, va.iter().zip(vb).map(|(a, b)| a * b).collect()));
+                }
+            }
+            acc = next;
+        }
+        for (name, values) in &acc {
+            check_scale(name, values, true)?;
+        }
+        columns.extend(acc);
+    }
+    Ok(MixedData::new(y, factors)?.with_columns(columns)?)
+}
+
+/// Reads a tidy CSV (a header row of names, then one row per observation)
+/// from `text`.
+pub fn read_csv(text: &str) -> Result<Table, FormulaError> {
+    // A byte-order mark (spreadsheet exports) is not part of the first name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(text.as_bytes());
+    let names: Vec<String> = match reader.headers() {
+        Ok(h) => h.iter().map(|s| s.trim().trim_matches('"').to_string()).collect(),
+        Err(e) => return Err(FormulaError::Value { row: 0, field: "header".into(), message: e.to_string() }),
+    };
+    if names.is_empty() || names.iter().all(String::is_empty) {
+        return Err(FormulaError::Value { row: 0, field: "header".into(), message: "the file has no header".into() });
+    }
+    for (i, name) in names.iter().enumerate() {
+        if names[..i].contains(name) {
+            return Err(FormulaError::Value {
+                row: 0,
+                field: name.clone(),
+                message: format!(
+                    "the header names column `{name}` twice (fields {} and {})",
+                    names[..i].iter().position(|n| n == name).unwrap_or(0) + 1,
+                    i + 1
+                ),
+            });
+        }
+    }
+    let mut columns: Vec<Vec<String>> = vec![Vec::new(); names.len()];
+    for (row, record) in reader.records().enumerate() {
+        let record = record.map_err(|e| FormulaError::Value {
+            row: row + 1,
+            field: "*".into(),
+            message: match e.kind() {
+                csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
+                    format!("{len} fields where the header has {expected_len}")
+                }
+                _ => e.to_string(),
+            },
+        })?;
+        for (c, v) in record.iter().enumerate() {
+            columns[c].push(v.to_string());
+        }
+    }
+    Ok(Table { names, columns })
+}
