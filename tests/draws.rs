@@ -100,14 +100,6 @@ fn per_seed_draws_are_refused_where_they_cannot_apply() {
     let with_draws = write(tmp.path(), "d.design", &small("draws per seed\nfactor draw = 1..2\n"));
     let o = crossaudit(&["check", &with_draws]);
     assert!(!o.status.success() && said(&o).contains("per-seed draws and a draw factor"), "{}", said(&o));
-    let multiverse = small("draws per seed\nchoices { tails keep | truncate }\nprimary specification tails keep\n");
-    let m = write(tmp.path(), "m.design", &multiverse);
-    let o = crossaudit(&["check", &m]);
-    assert!(
-        !o.status.success() && said(&o).contains("`draws per seed` is not supported with `choices` yet"),
-        "{}",
-        said(&o)
-    );
     let per_seed = write(tmp.path(), "p.design", &small("draws per seed\n"));
     let out = tmp.path().join("slurm");
     let o = crossaudit(&["run", &per_seed, "--slurm", "--out", out.to_str().unwrap()]);
@@ -126,4 +118,69 @@ fn per_seed_draws_are_refused_where_they_cannot_apply() {
         tmp.path().join("t").to_str().unwrap(),
     ]);
     assert!(!o.status.success() && said(&o).contains("per-seed draws is several runs"), "{}", said(&o));
+}
+
+/// The small study as a multiverse of two training lengths (trained) and two
+/// levels (analysis only), its draws coupled and given per seed.
+fn multiverse() -> String {
+    small("").replace("epochs 15 ", "").replace("crossed_mom level 0.95 ", "crossed_mom ")
+        + "draws per seed\ndraws coupled\nchoices {\n  epochs 15 | 12\n  level 0.95 | 0.99\n}\nprimary specification epochs 15, level 0.95\n"
+}
+
+#[test]
+fn a_multiverse_with_per_seed_draws_gives_each_seed_one_draw_in_every_specification() {
+    let tmp = tempfile::tempdir().unwrap();
+    let m = write(tmp.path(), "m.design", &multiverse());
+    let check = crossaudit(&["check", &m]);
+    let s = said(&check);
+    assert!(check.status.success(), "{s}");
+    // 2 trained specifications x 3 seeds, each seed's level 4 jobs.
+    assert!(s.contains("jobs: 24 in all"), "{s}");
+    assert!(s.contains("seed 4: draw 1, seed 5: draw 2, seed 6: draw 3"), "{s}");
+
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    run(&m, &a, "2");
+    run(&m, &b, "1");
+    let cells = std::fs::read(a.join("multiverse_cells.csv")).unwrap();
+    assert_eq!(cells, std::fs::read(b.join("multiverse_cells.csv")).unwrap(), "1 and 2 workers differ");
+    for (seed, draw) in [(4, 1), (5, 2), (6, 3)] {
+        // The same draw in both trained specifications (they differ in the
+        // number of epochs only): the same manifests, other models.
+        let manifests = |spec: &str| std::fs::read(a.join(format!("{spec}/draw-{draw}/manifests/manifests.json"))).unwrap();
+        assert_eq!(manifests("spec-s1"), manifests("spec-s3"), "seed {seed}: s1 and s3 drew differently");
+        let file = format!("draw-{draw}/cells/world__disjoint__{seed}.csv");
+        let (s1, s3) = (a.join("spec-s1").join(&file), a.join("spec-s3").join(&file));
+        assert_ne!(std::fs::read(&s1).unwrap(), std::fs::read(&s3).unwrap(), "the training length changed nothing");
+        let others = std::fs::read_dir(a.join(format!("spec-s1/draw-{draw}/cells"))).unwrap().count();
+        assert_eq!(others, 4, "spec-s1/draw-{draw} holds one seed's 4 jobs");
+    }
+    // Each specification is one crossed study of every seed, with its report.
+    for spec in ["s1", "s2", "s3", "s4"] {
+        let report = std::fs::read_to_string(a.join(format!("spec-{spec}/report/report.md"))).unwrap();
+        assert!(report.contains("over 4 recordings x 3 seeds"), "{spec}: {report}");
+        assert!(report.contains("seed 4 draw 1, seed 5 draw 2, seed 6 draw 3"), "{spec}: {report}");
+    }
+    // An analysis-only choice trains nothing of its own.
+    assert!(!a.join("spec-s2/draw-1").exists(), "spec-s2 shares spec-s1's seeds");
+    assert_eq!(
+        std::fs::read(a.join("spec-s1/cells.csv")).unwrap(),
+        std::fs::read(a.join("spec-s2/cells.csv")).unwrap()
+    );
+    let text = String::from_utf8(cells).unwrap();
+    assert!(text.starts_with("spec,draw,"), "{text}");
+    assert!(text.lines().any(|l| l.starts_with("s3,2,")), "s3's seed 5 rows carry draw 2");
+    let combined = std::fs::read_to_string(a.join("report/report.md")).unwrap();
+    for spec in ["s1", "s2", "s3", "s4"] {
+        assert!(combined.contains(&format!("| {spec} ")), "{spec} missing from the multiverse report: {combined}");
+    }
+    // The run reanalyses to the same decision, and an edited design cannot
+    // overwrite its combined report.
+    let again = crossaudit(&["analyze", &m, "--cells", a.to_str().unwrap(), "--out", tmp.path().join("r").to_str().unwrap()]);
+    assert!(again.status.success(), "{}", said(&again));
+    let edited = write(tmp.path(), "e.design", &multiverse().replace("level 0.95 | 0.99", "level 0.95 | 0.9"));
+    let o = crossaudit(&["analyze", &edited, "--cells", a.to_str().unwrap(), "--out", a.join("report").to_str().unwrap()]);
+    assert!(!o.status.success(), "an edited design replaced the run's report: {}", said(&o));
+    let resumed = run(&m, &a, "2");
+    assert!(resumed.contains("0 cells trained"), "{resumed}");
+    assert_eq!(std::fs::read(a.join("multiverse_cells.csv")).unwrap(), std::fs::read(b.join("multiverse_cells.csv")).unwrap());
 }

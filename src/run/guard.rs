@@ -56,8 +56,18 @@ pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError>
         for e in entries.flatten().take(100_000) {
             let name = e.file_name().to_string_lossy().into_owned();
             let level = ["spec-", "draw-", "split-"].iter().any(|p| name.starts_with(p));
-            if level && e.path().join("run.json").is_file() {
-                if let Some(p) = RunRecord::read(&e.path()).ok().flatten() {
+            if !level {
+                continue;
+            }
+            // A specification of per-seed draws holds its seeds' levels
+            // (`spec-ID/draw-K`), each with its run.json.
+            let mut runs = vec![e.path()];
+            if !e.path().join("run.json").is_file() {
+                let inner = std::fs::read_dir(e.path()).into_iter().flatten().flatten().take(100_000);
+                runs = inner.filter(|i| i.file_name().to_string_lossy().starts_with("draw-")).map(|i| i.path()).collect();
+            }
+            for run in runs.iter().filter(|r| r.join("run.json").is_file()) {
+                if let Some(p) = RunRecord::read(run).ok().flatten() {
                     if p.design_sha256 != design_sha256 {
                         return Err(RunError::OtherDesign { dir: d.display().to_string(), sha256: p.design_sha256 });
                     }

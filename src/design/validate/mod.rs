@@ -93,13 +93,6 @@ pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
             }
         };
     };
-    if let Some(s) = ast.statements.iter().find(|s| matches!(s.node, Statement::DrawsPerSeed)) {
-        diags.push(
-            Diagnostic::new("per-seed draws in a multiverse", s.span, "`draws per seed` is not supported with `choices` yet")
-                .with_help("run the specifications with `factor draw = 1..K` (draw replication), or one specification with `draws per seed`"),
-        );
-        return Err(diags);
-    }
     outer::expand(ast, base, &declared, diags)
 }
 

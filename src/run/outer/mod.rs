@@ -17,6 +17,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod per_seed;
 mod verify;
 
 use super::*;
@@ -75,6 +76,15 @@ pub fn levels(design: &Design) -> Option<Vec<Level>> {
     for (spec, name, d) in specs {
         let mut plain = d.clone();
         plain.multiverse = None;
+        if d.per_seed_draws && spec.is_some() {
+            // Each seed of the specification its own level, in the
+            // specification's folder: `spec-ID/draw-K` ([`per_seed::units`]).
+            for (seed, k) in d.seed_draws() {
+                let id = format!("{name}/draw-{k}");
+                out.push(Level { id, spec, draw: Some(k), split: None, design: plain.for_seed_draw(seed, k), shares: None });
+            }
+            continue;
+        }
         if d.draws.is_empty() {
             out.push(Level { id: name, spec, draw: None, split: None, design: plain, shares: None });
             continue;
@@ -257,7 +267,7 @@ pub(super) fn run_levels(
             finished.entry(key).or_insert_with(|| (dir.clone(), j.clone()));
         }
         builds.extend(done_builds.iter().cloned());
-        if role == Role::PerSeed {
+        if role == Role::PerSeed || file.design.per_seed_draws {
             // One seed alone is no crossed study: its cells are gathered
             // here and analysed with every other seed's below.
             super::gather_recorded(&plan, &opened, &dir).map_err(in_level)?;
@@ -270,7 +280,7 @@ pub(super) fn run_levels(
     }
     let record = record.ok_or(RunError::NoWorkers)?;
     if role == Role::PerSeed {
-        let mut outcome = finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds)?;
+        let mut outcome = per_seed::finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds)?;
         (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
         return Ok(outcome);
     }
@@ -279,6 +289,9 @@ pub(super) fn run_levels(
         let mut outcome = super::finish_splits(&path, study, out, &status, exploratory, &record, builds)?;
         (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
         return Ok(outcome);
+    }
+    if file.design.per_seed_draws {
+        per_seed::finish_specs(file, &levels, out, (&status, exploratory, &record), builds.clone())?;
     }
     let mut outcome = finish_levels(file, &levels, out, (&status, exploratory, &record), &splits, builds)?;
     if let StudyAnalysis::Multiverse(a) = &mut outcome.analysis {
@@ -337,9 +350,16 @@ fn run_dir(out: &Path, levels: &[Level], k: usize) -> PathBuf {
     out.join(&levels[levels[k].shares.unwrap_or(k)].id)
 }
 
-/// Every level's cells in one file, `spec` and `draw` columns first.
-fn write_all_cells(path: &Path, out: &Path, levels: &[Level]) -> Result<(), RunError> {
+/// Every unit's cells in one file, `spec` and `draw` columns first (under
+/// per-seed draws, each seed's row its own draw).
+fn write_all_cells(path: &Path, design: &Design, out: &Path, levels: &[Level]) -> Result<(), RunError> {
     let mut text = String::new();
+    let spec_id = |k: usize| -> String {
+        match (&design.multiverse, levels[k].spec) {
+            (Some(m), Some(s)) => m.specs[s].id.clone(),
+            _ => String::new(),
+        }
+    };
     for k in 0..levels.len() {
         let source = run_dir(out, levels, k).join("cells.csv");
         let body = std::fs::read_to_string(&source)
@@ -349,73 +369,12 @@ fn write_all_cells(path: &Path, out: &Path, levels: &[Level]) -> Result<(), RunE
         if k == 0 {
             text.push_str(&format!("spec,draw,{header}\n"));
         }
-        let level = &levels[k];
-        let spec = level.id.split('_').next().unwrap_or("").strip_prefix("spec-").unwrap_or("");
-        let draw = level.draw.map(|d| d.to_string()).unwrap_or_default();
+        let (spec, draw) = (spec_id(k), levels[k].draw.map(|d| d.to_string()).unwrap_or_default());
         for l in lines {
             text.push_str(&format!("{spec},{draw},{l}\n"));
         }
     }
     Ok(write_atomic(path, text.as_bytes())?)
-}
-
-/// After every seed's level of a `draws per seed` study finished: their
-/// cells in one `cells.csv` (seed order), the design's own analysis of
-/// them (the crossed recording x seed estimator, whose seed component now
-/// carries the draw variance) and its report in `out/report`.
-fn finish_per_seed(
-    file: &DesignFile,
-    study: &Plan,
-    levels: &[Level],
-    out: &Path,
-    (status, exploratory, record): (&LockStatus, bool, &RunRecord),
-    builds: BTreeSet<String>,
-) -> Result<RunOutcome, RunError> {
-    let started = Instant::now();
-    let mut all: Vec<Cell> = Vec::new();
-    let mut curves = Vec::new();
-    for l in levels {
-        let dir = out.join(&l.id);
-        all.extend(read_cells(&dir.join("cells.csv"))?);
-        curves.extend(super::curves::read_curves(&level_plan(l, study), &dir)?);
-    }
-    let cells_csv = out.join("cells.csv");
-    crate::cells::write_cells_atomic(&cells_csv, &all)?;
-    let mut analysis =
-        crate::analysis::analyze(study, &all, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
-    analysis.record_design(&file.path.display().to_string(), &record.design_sha256, status);
-    if exploratory {
-        analysis.mark_exploratory();
-    }
-    analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(&cells_csv)?);
-    analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
-    let seeds: Vec<String> = levels
-        .iter()
-        .map(|l| format!("seed {} draw {}", l.design.seeds.first().map(|s| s.0).unwrap_or(0), l.draw.unwrap_or(1)))
-        .collect();
-    analysis.warnings.push(format!(
-        "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
-        seeds.join(", ")
-    ));
-    analysis.warnings.extend(super::resumed_builds(builds));
-    if let Some(w) = super::curves::early_best_epochs(study, &curves) {
-        analysis.warnings.push(w);
-    }
-    let report_dir = out.join("report");
-    create_dir_all(&report_dir)?;
-    let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
-        .map_err(crate::report::ReportError::from)?;
-    let svgs = crate::report::figures::by_name(figures);
-    analysis.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
-    crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
-    Ok(RunOutcome {
-        cells_csv,
-        report_dir,
-        analysis: StudyAnalysis::Single(Box::new(analysis)),
-        trained: 0,
-        skipped: 0,
-        seconds: started.elapsed().as_secs_f64(),
-    })
 }
 
 /// After every level finished: the combined cells, analysis and report.
@@ -429,23 +388,22 @@ pub(super) fn finish_levels(
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let cells_csv = out.join("multiverse_cells.csv");
-    write_all_cells(&cells_csv, out, levels)?;
+    write_all_cells(&cells_csv, &file.design, out, levels)?;
     let mut a = analyze_levels(&file.design, levels, out, &cells_csv)?;
     a.shared = shared_draws(levels, splits);
     a.design_sha256 = Some(record.design_sha256.clone());
     a.exploratory = exploratory;
     a.preregistered = Some(!exploratory && matches!(status, LockStatus::LockedUnchanged { .. }));
     a.warnings.extend(resumed_builds(builds));
-    for (k, l) in levels.iter().enumerate() {
-        // A level that shares another's run gets its own report of its own analysis.
-        if let Some(s) = l.shares {
-            let dir = out.join(&l.id);
+    for (k, u) in per_seed::units(&file.design, levels).iter().enumerate() {
+        // A level that shares another's run gets its own report of its own
+        // analysis (a specification of per-seed draws has had its own).
+        if let (Some(s), false) = (&u.shares, file.design.per_seed_draws) {
+            let dir = out.join(&u.id);
             create_dir_all(&dir)?;
             let mut analysis = a.levels[k].1.as_ref().clone();
             analysis.record_design(&file.path.display().to_string(), &record.design_sha256, status);
-            analysis
-                .warnings
-                .push(format!("trained nothing: its cells are those of {} (only the analysis differs)", levels[s].id));
+            analysis.warnings.push(format!("trained nothing: its cells are those of {s} (only the analysis differs)"));
             crate::report::write_all(&analysis, &dir.join("report"))?;
         }
     }
@@ -514,19 +472,24 @@ pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, 
 /// plan, and its cells read from its own directory or the one it shares
 /// (errors name that file and line; an analysis error names `shown`).
 fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -> Result<MultiverseAnalysis, RunError> {
-    let plans: Vec<Plan> = levels.iter().map(|l| crate::plan::compile(&l.design)).collect();
+    let units = per_seed::units(design, levels);
+    let plans: Vec<Plan> = units.iter().map(|u| crate::plan::compile(&u.design)).collect();
     let mut cells: Vec<Vec<Cell>> = Vec::new();
-    for k in 0..levels.len() {
-        cells.push(read_cells(&run_dir(dir, levels, k).join("cells.csv"))?);
+    for u in &units {
+        let mut all = Vec::new();
+        for &k in &u.members {
+            all.extend(read_cells(&run_dir(dir, levels, k).join("cells.csv"))?);
+        }
+        cells.push(all);
     }
-    let inputs: Vec<LevelInput> = levels
+    let inputs: Vec<LevelInput> = units
         .iter()
         .enumerate()
-        .map(|(k, l)| LevelInput {
-            id: l.id.clone(),
-            spec: l.spec,
-            draw: l.draw,
-            shares: l.shares.map(|s| levels[s].id.clone()),
+        .map(|(k, u)| LevelInput {
+            id: u.id.clone(),
+            spec: u.spec,
+            draw: u.draw,
+            shares: u.shares.clone(),
             plan: &plans[k],
             cells: &cells[k],
         })
