@@ -354,7 +354,10 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
                     "{}\n{}\npooled {:?}",
                     per.join("\n"),
                     comp.join("\n"),
-                    d.pooled.map(|(m, se)| format!("{m:.5e} se {se:.5e}"))
+                    d.pooled.as_ref().map(|p| format!(
+                        "{:.5e} se {:.5e} df {:.4} ({}) [{:.5e}, {:.5e}] optimism {:.4} rule {}",
+                        p.mean, p.se, p.df, p.df_rule, p.lower, p.upper, p.optimism_pct, p.rule_holds
+                    ))
                 )
             })
             .collect();
@@ -419,11 +422,14 @@ fn committed_multiverse_matches_r_and_lme4() {
     let a = committed("designs/multiverse/paper_draws.design", "results/multiverse/draws");
     let rows = r_table("results/multiverse/draws/reference/draws_r.csv");
     let d = &a.draws[0];
-    let (pooled, se) = d.pooled.unwrap();
+    let p = d.pooled.as_ref().unwrap();
     // lme4 (bobyqa) and crossaudit's optimizer meet to about 1e-6 in the
-    // variances; variances at zero are compared absolutely.
-    crate::common::assert_rel(pooled, num(&rows[0], "pooled_m"), 1e-6, "pooled d");
-    crate::common::assert_rel(se, num(&rows[0], "se_m"), 1e-4, "pooled SE");
+    // variances; variances at zero are compared absolutely. The decision's
+    // SE and df are Kenward-Roger's (pbkrtest's vcovAdj and Lb_ddf).
+    crate::common::assert_rel(p.mean, num(&rows[0], "pooled_m"), 1e-6, "pooled d");
+    assert_eq!(p.df_rule, "kenward_roger");
+    crate::common::assert_rel(p.se, num(&rows[0], "kr_se_m"), 1e-4, "pooled Kenward-Roger SE");
+    crate::common::assert_rel(p.df, num(&rows[0], "kr_df"), 1e-3, "pooled Kenward-Roger df");
     for (name, column) in [
         ("recording", "var_recording"),
         ("seed", "var_seed"),

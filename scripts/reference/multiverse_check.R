@@ -15,6 +15,7 @@
 # Writes RUN_DIR/reference/specs_r.csv, choice_effects_r.csv and
 # draws_r.csv; tests/multiverse.rs compares crossaudit's analysis with them.
 suppressMessages(library(lme4))
+suppressMessages(library(pbkrtest))
 args <- commandArgs(trailingOnly = TRUE)
 dir <- args[1]
 cells <- read.csv(file.path(dir, "multiverse_cells.csv"), stringsAsFactors = FALSE,
@@ -105,7 +106,12 @@ if (first_draw != "") {
     f <- lmer(y ~ 1 + (1 | recording) + (1 | seed) + (1 | draw) + (1 | recording:draw) + (1 | seed:draw),
               data = long, REML = TRUE, control = lmerControl(optimizer = "bobyqa"))
     vc <- as.data.frame(VarCorr(f))
+    # Kenward-Roger (pbkrtest): the adjusted variance and the df, what the
+    # decision of a draw-replicated design reads.
+    vadj <- vcovAdj(f)
+    kr_df <- Lb_ddf(matrix(1, 1, 1), vcov(f), vadj)
     rows[[id]] <- data.frame(spec = id, pooled_m = fixef(f)[[1]], se_m = sqrt(vcov(f)[1, 1]),
+                             kr_se_m = sqrt(vadj[1, 1]), kr_df = kr_df,
                              var_recording = vc$vcov[vc$grp == "recording"], var_seed = vc$vcov[vc$grp == "seed"],
                              var_draw = vc$vcov[vc$grp == "draw"],
                              var_recording_draw = vc$vcov[vc$grp == "recording:draw"],

@@ -10,6 +10,7 @@ mod decision;
 pub mod family;
 mod index;
 pub mod multiverse;
+pub mod training;
 mod types;
 mod unit;
 

@@ -15,8 +15,12 @@ use crate::analysis::Analysis;
 /// One fitted job's validation loss per epoch.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Curve {
+    /// The model's name.
+    pub model: String,
     /// The arm the job was fitted on (it picks the colour).
     pub arm: String,
+    /// The training seed.
+    pub seed: u64,
     /// (epoch, validation loss).
     pub points: Vec<(f64, f64)>,
 }

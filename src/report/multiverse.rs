@@ -45,7 +45,16 @@ fn sentence(a: &MultiverseAnalysis, bold: bool) -> String {
     let v = if bold { format!("**{v}**") } else { v };
     if a.choices.is_empty() {
         let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
-        return format!("{v} on the design's own draw: the rule holds in {holding} of {draws} draws.");
+        return match a.draws.first().and_then(|x| x.pooled.as_ref()) {
+            Some(p) => format!(
+                "{v} on d pooled over {draws} draws: d = {} m [{}, {}], optimism {}% (the rule holds in {holding} of the {draws} draws alone).",
+                f(p.mean, 4),
+                f(p.lower, 4),
+                f(p.upper, 4),
+                f(p.optimism_pct, 1)
+            ),
+            None => format!("{v} on the design's own draw (no pooled fit): the rule holds in {holding} of {draws} draws."),
+        };
     }
     format!(
         "{v} {}: the rule holds in {} of {} specifications (primary: {}).",
@@ -88,6 +97,29 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         _ => "NOT PREREGISTERED: the design was never locked.",
     };
     let _ = writeln!(s, "{status}\n");
+    // Beside the verdict: a reference arm that is not disjoint (the
+    // primary specification's; under draw replication, over the draws).
+    let primary = a.specs.iter().find(|r| r.primary).map(|r| format!("spec-{}", r.id));
+    let decided: Vec<&crate::analysis::multiverse::ReferenceCopies> = a
+        .notes
+        .iter()
+        .filter(|n| a.choices.is_empty() || Some(&n.id) == primary.as_ref())
+        .filter_map(|n| n.reference_copies.as_ref())
+        .collect();
+    if !decided.is_empty() {
+        let all = crate::analysis::multiverse::ReferenceCopies {
+            fewest: decided.iter().map(|c| c.fewest).min().unwrap_or(0),
+            most: decided.iter().map(|c| c.most).max().unwrap_or(0),
+            levels_with: decided.iter().map(|c| c.levels_with).sum(),
+            levels: if a.choices.is_empty() { a.notes.len() } else { decided[0].levels },
+        };
+        let _ = writeln!(
+            s,
+            "**The reference arm is not disjoint** ({}): {}; allowed only because the design declares `duplicates keep` (table: the reference arm and the training).\n",
+            primary.as_deref().filter(|_| !a.choices.is_empty()).unwrap_or("every draw"),
+            copies_text(&all)
+        );
+    }
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`. Build: crossaudit {}.\n", crate::BUILD);
     }
@@ -95,7 +127,11 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         s,
         "Rule: `{}`, decided {}. d is the primary endpoint's treated - reference difference in metres (negative: the treated arm looks better); optimism is 100 (reference - treated) / reference, in percent.\n",
         a.rule,
-        a.combine.describe()
+        if a.choices.is_empty() && a.draws.iter().any(|d| d.pooled.is_some()) {
+            "on d pooled over the draws".to_string()
+        } else {
+            a.combine.describe()
+        }
     );
     if !a.choices.is_empty() {
         let _ = writeln!(s, "## Specifications\n");
@@ -186,6 +222,7 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
             let _ = writeln!(s, "| Stouffer's combined t | {} | {} |", f(n.stouffer.0, 3), f(n.stouffer.1, 4));
         }
     }
+    s.push_str(&notes_section(a));
     if !a.shared.is_empty() {
         let _ = writeln!(s, "\n## Draws the specifications share\n");
         let _ = writeln!(s, "| left | right | evaluation recordings | starts | reference-arm fit windows |");
@@ -221,17 +258,30 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
                     writeln!(s, "| {k} | {} | [{}, {}] | {}% | {rule} |", f(*m, 4), f(*lo, 4), f(*hi, 4), f(*opt, 1));
             }
             match (&d.pooled, &d.error) {
-                (Some((m, se)), _) => {
+                (Some(p), _) => {
                     let _ = writeln!(
                         s,
-                        "\nREML over recording x seed x draw (d ~ 1 + (1|recording) + (1|seed) + (1|draw) + (1|recording:draw) + (1|seed:draw)): pooled d = {} m (SE {} m).\n",
-                        f(*m, 4),
-                        f(*se, 4)
+                        "\nREML over recording x seed x draw (d ~ 1 + (1|recording) + (1|seed) + (1|draw) + (1|recording:draw) + (1|seed:draw)): pooled d = {} m, SE {} m, {} df {}, {} interval [{}, {}] m, optimism {}%: the rule is {} on the pooled estimate.\n",
+                        f(p.mean, 4),
+                        f(p.se, 4),
+                        if p.df_rule == "kenward_roger" { "Kenward-Roger" } else { "Satterthwaite" },
+                        f(p.df, 1),
+                        level_pct(p.level),
+                        f(p.lower, 4),
+                        f(p.upper, 4),
+                        f(p.optimism_pct, 1),
+                        if p.rule_holds { "met" } else { "not met" }
                     );
-                    let _ = writeln!(s, "| source | variance (m^2) | share of Var(pooled d) |");
-                    let _ = writeln!(s, "|---|---:|---:|");
+                    let levels: std::collections::BTreeMap<&str, usize> =
+                        p.levels.iter().map(|(n, k)| (n.as_str(), *k)).collect();
+                    let _ = writeln!(s, "| source | levels | variance (m^2) | share of Var(pooled d) |");
+                    let _ = writeln!(s, "|---|---:|---:|---:|");
                     for (n, v, sh) in &d.components {
-                        let _ = writeln!(s, "| {n} | {:.3e} | {}% |", v, f(100.0 * sh, 1));
+                        let k = levels.get(n.as_str()).map(|k| k.to_string()).unwrap_or_else(|| "-".into());
+                        let _ = writeln!(s, "| {n} | {k} | {:.3e} | {}% |", v, f(100.0 * sh, 1));
+                    }
+                    for note in &p.notes {
+                        let _ = writeln!(s, "\nNote: {note}.");
                     }
                     let _ = writeln!(s);
                 }
@@ -249,6 +299,54 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         }
     }
     let _ = writeln!(s, "\nEach level's full report (audit, treatment audit, invariants, secondary endpoints) is in its directory's report/.");
+    s
+}
+
+/// How many reference-arm fit windows come from evaluation recordings or
+/// their copies.
+fn copies_text(c: &crate::analysis::multiverse::ReferenceCopies) -> String {
+    let n = if c.fewest == c.most { c.most.to_string() } else { format!("{} to {}", c.fewest, c.most) };
+    let draws = if c.levels > 1 { format!(" (in {} of its {} draws)", c.levels_with, c.levels) } else { String::new() };
+    format!("{n} of its fit windows come from byte-identical copies of evaluation recordings{draws}")
+}
+
+/// Per unit: whether the reference arm is disjoint, and how many models
+/// reached their best epoch early, with the primary d of the seeds with
+/// and without such a model.
+fn notes_section(a: &MultiverseAnalysis) -> String {
+    if a.notes.is_empty() {
+        return String::new();
+    }
+    let mut s = String::new();
+    let _ = writeln!(s, "\n## The reference arm and the training\n");
+    let _ = writeln!(
+        s,
+        "Reference arm: windows of its fit set from evaluation recordings or their byte-identical copies (invariant 5; 0: disjoint). Early: fitted models whose best validation epoch (the weights the rollouts use) lies in the first tenth of training, per arm. Mean d: the primary d averaged over the seeds with such a model of the primary endpoint, and over the others.\n"
+    );
+    let _ = writeln!(s, "| unit | rule | reference-arm windows from evaluation copies | early best epochs | mean d, seeds with (m) | mean d, seeds without (m) |");
+    let _ = writeln!(s, "|---|---|---:|---|---:|---:|");
+    for n in &a.notes {
+        let rule = a
+            .specs
+            .iter()
+            .find(|r| format!("spec-{}", r.id) == n.id)
+            .map(|r| if r.rule_holds { "met" } else { "not met" })
+            .unwrap_or("-");
+        let copies = match &n.reference_copies {
+            Some(c) if c.fewest == c.most => c.most.to_string(),
+            Some(c) => format!("{} to {}", c.fewest, c.most),
+            None => "0".to_string(),
+        };
+        let (early, with, without) = match &n.early {
+            Some(e) => {
+                let arms: Vec<String> = e.per_arm.iter().map(|(arm, k, of)| format!("{arm} {k}/{of}")).collect();
+                let d = |x: Option<f64>, seeds: usize| x.map(|v| format!("{} ({seeds})", f(v, 4))).unwrap_or_else(|| "-".into());
+                (arms.join(", "), d(e.mean_d_with, e.seeds_with.len()), d(e.mean_d_without, e.seeds_without))
+            }
+            None => ("-".to_string(), "-".to_string(), "-".to_string()),
+        };
+        let _ = writeln!(s, "| {} | {rule} | {copies} | {early} | {with} | {without} |", n.id);
+    }
     s
 }
 

@@ -8,29 +8,26 @@ use serde::Deserialize;
 
 use super::RunError;
 use crate::plan::{Plan, TrainingJob};
+use crate::analysis::training::BestEpoch;
 use crate::report::figures::Curve;
 
 /// A warning when fitted models' best validation epoch (the weights the
 /// rollouts use) falls in the first tenth of the planned epochs: a
-/// decision that rests on barely trained models should say so.
-pub(super) fn early_best_epochs(plan: &Plan, curves: &[Curve]) -> Option<String> {
-    let planned = plan.training.as_ref()?.epochs;
-    let first = planned.div_ceil(10).max(1) as f64;
-    let best: Vec<f64> = curves
+/// decision that rests on barely trained models should say so, per arm,
+/// with the primary d of the seeds with and without such a model.
+pub(super) fn early_best_epochs(plan: &Plan, curves: &[Curve], cells: &[crate::cells::Cell]) -> Option<String> {
+    crate::analysis::training::early_training(plan, &best_epochs(curves), cells)?.warning()
+}
+
+/// Each curve's best validation epoch.
+pub(super) fn best_epochs(curves: &[Curve]) -> Vec<BestEpoch> {
+    curves
         .iter()
-        .filter_map(|c| c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a }).map(|p| p.0))
-        .collect();
-    let early: Vec<f64> = best.iter().copied().filter(|e| *e <= first).collect();
-    if early.is_empty() {
-        return None;
-    }
-    let lo = early.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = early.iter().copied().fold(0.0, f64::max);
-    Some(format!(
-        "early best epochs: {} of {} fitted models reach their best validation loss within the first {first} of {planned} epochs (epochs {lo} to {hi}); their restored weights are barely trained (training curves figure)",
-        early.len(),
-        best.len()
-    ))
+        .filter_map(|c| {
+            let best = c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?;
+            Some(BestEpoch { model: c.model.clone(), arm: c.arm.clone(), seed: c.seed, epoch: best.0 })
+        })
+        .collect()
 }
 
 /// The columns of a training curve the figures need.
@@ -55,7 +52,7 @@ pub(super) fn read_curves(plan: &Plan, out: &Path) -> Result<Vec<Curve>, RunErro
             .map(|p| p.map(|p| (p.epoch, p.val_loss)))
             .collect::<Result<Vec<_>, _>>()
             .map_err(csv_err)?;
-        curves.push(Curve { arm: j.arm.clone(), points });
+        curves.push(Curve { model: j.model.clone(), arm: j.arm.clone(), seed: j.seed.0, points });
     }
     Ok(curves)
 }

@@ -452,7 +452,7 @@ fn finish(
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = curves::read_curves(plan, out)?;
-    if let Some(w) = curves::early_best_epochs(plan, &curves) {
+    if let Some(w) = curves::early_best_epochs(plan, &curves, &read_cells(&cells_csv)?) {
         analysis.warnings.push(w);
     }
     let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)

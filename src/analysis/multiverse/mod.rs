@@ -69,6 +69,10 @@ pub struct MultiverseAnalysis {
     /// Draw replication, per specification.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub draws: Vec<DrawReplication>,
+    /// Per unit: the reference arm's disjointness and early training
+    /// (filled by the run from the level folders).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<UnitNotes>,
     /// Starts and windows each pair of specifications shares (filled by the run).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub shared: Vec<SharedDraws>,
@@ -147,11 +151,71 @@ pub struct DrawReplication {
     /// REML variance components of d over recording x seed x draw:
     /// (source, variance in m^2, share of Var(mean)).
     pub components: Vec<(String, f64, f64)>,
-    /// The pooled mean of d over draws and its SE, metres.
-    pub pooled: Option<(f64, f64)>,
+    /// The estimate pooled over draws by that REML fit, with Kenward-Roger
+    /// df (Satterthwaite where they cannot be computed): what a
+    /// draw-replicated design decides on.
+    pub pooled: Option<PooledDraws>,
     /// Why there is no pooled fit, if none.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+}
+
+/// Windows of evaluation recordings (or their byte-identical copies) in a
+/// unit's reference-arm fit sets (invariant 5, which holds only with a
+/// warning under `duplicates keep`).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ReferenceCopies {
+    /// Fewest such windows in one level's fit set.
+    pub fewest: usize,
+    /// Most.
+    pub most: usize,
+    /// Levels (draws) whose fit set holds any.
+    pub levels_with: usize,
+    /// Levels of the unit.
+    pub levels: usize,
+}
+
+/// What a unit's folders say beyond its cells (filled by the run).
+#[derive(Debug, Clone, Serialize)]
+pub struct UnitNotes {
+    /// The unit (`spec-s1`, `draw-2`).
+    pub id: String,
+    /// Whether its reference arm holds copies of evaluation recordings.
+    pub reference_copies: Option<ReferenceCopies>,
+    /// Training that ended early.
+    pub early: Option<crate::analysis::training::EarlyTraining>,
+}
+
+/// d pooled over recording x seed x draw.
+#[derive(Debug, Clone, Serialize)]
+pub struct PooledDraws {
+    /// The REML intercept, metres.
+    pub mean: f64,
+    /// Its SE (Kenward-Roger's adjusted SE with their df).
+    pub se: f64,
+    /// Denominator df.
+    #[serde(serialize_with = "crate::io::df_json")]
+    pub df: f64,
+    /// `kenward_roger` or `satterthwaite`.
+    pub df_rule: String,
+    /// The interval at the design's level: lower bound.
+    pub lower: f64,
+    /// Upper bound.
+    pub upper: f64,
+    /// The design's level.
+    pub level: f64,
+    /// The arms' means over every draw's cells, metres.
+    pub mean_treated: f64,
+    /// The reference arm's.
+    pub mean_reference: f64,
+    /// 100 (reference - treated) / reference over every draw's cells.
+    pub optimism_pct: f64,
+    /// Whether the preregistered rule holds on the pooled estimate.
+    pub rule_holds: bool,
+    /// Levels each random factor was estimated from.
+    pub levels: Vec<(String, usize)>,
+    /// Notes on the df (a fallback) and on factors with few levels.
+    pub notes: Vec<String>,
 }
 
 /// What two specifications' splits have in common.
@@ -243,7 +307,24 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         }
         None => (Vec::new(), None),
     };
-    let draws = draw_replication(levels, &analyses, mv.map(|m| m.specs.iter().map(|s| s.id.clone()).collect()));
+    let draws = draw_replication(design, levels, &analyses, mv.map(|m| m.specs.iter().map(|s| s.id.clone()).collect()));
+    // With draws, each specification is decided on its estimate pooled
+    // over them, not on one draw.
+    for d in &draws {
+        let (Some(p), Some(r)) = (&d.pooled, specs.iter_mut().find(|r| r.id == d.spec)) else { continue };
+        r.estimate = CrossedEstimate {
+            mean: p.mean,
+            se: p.se,
+            df: p.df,
+            critical: (p.upper - p.mean) / p.se,
+            lower: p.lower,
+            upper: p.upper,
+            ..r.estimate
+        };
+        (r.mean_treated, r.mean_reference) = (p.mean_treated, p.mean_reference);
+        r.optimism_pct = p.optimism_pct;
+        r.rule_holds = p.rule_holds;
+    }
     let holding = specs.iter().filter(|s| s.rule_holds).count();
     let primary_holds = specs.iter().find(|s| s.primary).map(|s| s.rule_holds).unwrap_or(false);
     let combine = mv.map(|m| m.combine).unwrap_or(Combine::Primary);
@@ -253,10 +334,22 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         Combine::AtLeast(p) => 100.0 * holding as f64 >= p * specs.len() as f64,
     };
     if !draws.is_empty() {
+        let k = levels.iter().filter_map(|l| l.draw).collect::<BTreeSet<u64>>().len();
+        let unpooled: Vec<&str> = draws.iter().filter(|d| d.pooled.is_none()).map(|d| d.spec.as_str()).collect();
         warnings.push(format!(
-            "the decision reads draw {} (the first declared draw); the other draws measure how far the unpublished draws move it",
-            first_draw.unwrap_or(1)
+            "the decision reads d pooled over the {k} draws (REML over recording, seed, draw and their interactions; Kenward-Roger df), so it includes the variance of the unpublished draws; each draw's own result is in the draw table{}",
+            if unpooled.is_empty() {
+                String::new()
+            } else {
+                format!(". No pooled fit for {}: there the decision reads draw {}", unpooled.join(", "), first_draw.unwrap_or(1))
+            }
         ));
+        if mv.is_some() {
+            warnings.push(format!(
+                "the choice effects and the joint bands use draw {} only: they do not include the draw variance (`draws per seed` puts it in every estimate)",
+                first_draw.unwrap_or(1)
+            ));
+        }
     }
     Ok(MultiverseAnalysis {
         study: design.study.clone(),
@@ -279,6 +372,7 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         joint,
         draws,
         shared: Vec::new(),
+        notes: Vec::new(),
         warnings,
         levels: analyses,
         design_sha256: None,
@@ -289,12 +383,12 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
 
 /// The primary difference d = treated - reference of one level, per
 /// (recording, seed), at the primary unit.
-struct Diff {
-    cells: BTreeMap<(String, u64), f64>,
+pub(crate) struct Diff {
+    pub(crate) cells: BTreeMap<(String, u64), f64>,
 }
 
 impl Diff {
-    fn of(plan: &Plan, cells: &[Cell]) -> Diff {
+    pub(crate) fn of(plan: &Plan, cells: &[Cell]) -> Diff {
         let u = &plan.primary;
         let value = |arm: &str| -> BTreeMap<(String, u64), f64> {
             cells
@@ -377,6 +471,7 @@ fn choice_effects(
 /// Per specification with several draws: each draw's estimate and the
 /// REML variance components of d over recording, seed and draw.
 fn draw_replication(
+    design: &Design,
     levels: &[LevelInput],
     analyses: &[(String, Box<Analysis>)],
     spec_ids: Option<Vec<String>>,
@@ -433,13 +528,16 @@ fn draw_replication(
                     .map(|((n, v), sh)| (n.clone(), *v, *sh))
                     .collect();
                 components.push(("residual".to_string(), f.residual, f.shares.last().copied().unwrap_or(0.0)));
-                out.push(DrawReplication {
-                    spec,
-                    per_draw,
-                    components,
-                    pooled: Some((f.intercept, f.se)),
-                    error: None,
-                });
+                let mean_of = |arm: fn(&crate::analysis::UnitResult) -> f64| {
+                    members.iter().map(|&k| arm(&analyses[k].1.units[0])).sum::<f64>() / members.len().max(1) as f64
+                };
+                let means = (mean_of(|u| u.mean_treated), mean_of(|u| u.mean_reference));
+                let template = &analyses[members[0]].1.units[0].estimate;
+                let (pooled, error) = match pooled_draws(design, &f, means, template) {
+                    Ok(p) => (Some(p), None),
+                    Err(e) => (None, Some(e)),
+                };
+                out.push(DrawReplication { spec, per_draw, components, pooled, error });
             }
             Err(e) => out.push(DrawReplication {
                 spec,
@@ -451,4 +549,49 @@ fn draw_replication(
         }
     }
     out
+}
+
+/// The decision's estimate from a certified REML fit over draws: Kenward-
+/// Roger's adjusted SE and df (Satterthwaite's where KR has none), the
+/// design's level, and the rule applied to it.
+fn pooled_draws(
+    design: &Design,
+    f: &crate::stats::mixed::MixedFit,
+    (mean_treated, mean_reference): (f64, f64),
+    template: &CrossedEstimate,
+) -> Result<PooledDraws, String> {
+    let (se, df, df_rule) = match (f.kenward_roger, f.df_satterthwaite) {
+        (Some(kr), _) if kr.df.is_finite() => (kr.se, kr.df, "kenward_roger"),
+        (_, Some(df)) if df.is_finite() => (f.se, df, "satterthwaite"),
+        _ => return Err("neither Kenward-Roger nor Satterthwaite df could be computed at this fit".to_string()),
+    };
+    let level = design.estimator.level;
+    let critical = crate::stats::critical_value(level, df).map_err(|e| e.to_string())?;
+    let (lower, upper) = (f.intercept - critical * se, f.intercept + critical * se);
+    let optimism_pct = -100.0 * f.intercept / mean_reference;
+    let e = CrossedEstimate { mean: f.intercept, se, df, level, critical, lower, upper, ..*template };
+    let levels: Vec<(String, usize)> = f.factors.iter().cloned().zip(f.levels.iter().copied()).collect();
+    let mut notes = f.notes.clone();
+    let few: Vec<String> = levels.iter().filter(|(_, n)| *n < 5).map(|(name, n)| format!("{name} ({n})")).collect();
+    if !few.is_empty() {
+        notes.push(format!(
+            "estimated from fewer than 5 levels: {}; such a variance component is poorly determined, and the interval's width with it",
+            few.join(", ")
+        ));
+    }
+    Ok(PooledDraws {
+        mean: f.intercept,
+        se,
+        df,
+        df_rule: df_rule.to_string(),
+        lower,
+        upper,
+        level,
+        mean_treated,
+        mean_reference,
+        optimism_pct,
+        rule_holds: super::decision::rule_holds(&design.decision, optimism_pct, &e),
+        levels,
+        notes,
+    })
 }

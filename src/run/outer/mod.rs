@@ -17,6 +17,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod notes;
 mod per_seed;
 mod verify;
 
@@ -494,7 +495,17 @@ fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -
             cells: &cells[k],
         })
         .collect();
-    analyze_multiverse(design, &inputs).map_err(|e| FileAnalysisError::new(shown, e).into())
+    let mut a = analyze_multiverse(design, &inputs).map_err(|e| FileAnalysisError::new(shown, e))?;
+    a.notes = units
+        .iter()
+        .enumerate()
+        .map(|(k, u)| {
+            let members: Vec<(Plan, PathBuf)> =
+                u.members.iter().map(|&m| (crate::plan::compile(&levels[m].design), run_dir(dir, levels, m))).collect();
+            notes::unit_notes(&u.id, &plans[k], &members, &cells[k])
+        })
+        .collect();
+    Ok(a)
 }
 
 /// Labels an analysis with the design's hash and lock state.

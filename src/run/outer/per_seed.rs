@@ -143,8 +143,10 @@ fn finish_seeds(
         "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
         seeds.join(", ")
     ));
+    let draws: Vec<(u64, PathBuf)> = levels.iter().zip(dirs).map(|(l, d)| (l.draw.unwrap_or(1), d.clone())).collect();
+    analysis.warnings.extend(super::notes::invariant_warnings(&draws));
     analysis.warnings.extend(crate::run::resumed_builds(builds));
-    if let Some(w) = crate::run::curves::early_best_epochs(study, &curves) {
+    if let Some(w) = crate::run::curves::early_best_epochs(study, &curves, &all) {
         analysis.warnings.push(w);
     }
     let report_dir = dest.join("report");

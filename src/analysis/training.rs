@@ -1,0 +1,130 @@
+//! Training that ended early: how many fitted models reached their best
+//! validation loss (the weights the rollouts use) in the first tenth of
+//! the planned epochs, per arm, and whether the seeds with such a model
+//! have a different primary d from the seeds without one.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::Serialize;
+
+use crate::cells::Cell;
+use crate::plan::Plan;
+
+/// One fitted model's best validation epoch.
+#[derive(Debug, Clone)]
+pub struct BestEpoch {
+    /// The model's name.
+    pub model: String,
+    /// Its arm.
+    pub arm: String,
+    /// Its training seed.
+    pub seed: u64,
+    /// The epoch with the lowest validation loss.
+    pub epoch: f64,
+}
+
+/// Early best epochs in one study (or one specification).
+#[derive(Debug, Clone, Serialize)]
+pub struct EarlyTraining {
+    /// The first tenth of the planned epochs (rounded up).
+    pub first_epochs: usize,
+    /// The planned epochs.
+    pub planned: usize,
+    /// Per arm (design order): models with an early best epoch, fitted models.
+    pub per_arm: Vec<(String, usize, usize)>,
+    /// The earliest and latest early best epoch.
+    pub epochs: Option<(f64, f64)>,
+    /// Seeds where a model of the primary endpoint (either arm of the
+    /// contrast) reached its best epoch early.
+    pub seeds_with: Vec<u64>,
+    /// Mean primary d over those seeds, and over the others (None for an
+    /// empty group).
+    pub mean_d_with: Option<f64>,
+    /// Mean primary d over the seeds without an early model.
+    pub mean_d_without: Option<f64>,
+    /// Seeds without such a model.
+    pub seeds_without: usize,
+}
+
+impl EarlyTraining {
+    /// Models with an early best epoch, over every arm.
+    pub fn early(&self) -> usize {
+        self.per_arm.iter().map(|a| a.1).sum()
+    }
+
+    /// The sentence the reports give, or None when no model stopped early.
+    pub fn warning(&self) -> Option<String> {
+        let (lo, hi) = self.epochs?;
+        let fitted: usize = self.per_arm.iter().map(|a| a.2).sum();
+        let arms: Vec<String> = self.per_arm.iter().map(|(a, e, n)| format!("{a} {e} of {n}")).collect();
+        let d = |x: Option<f64>| x.map(|v| format!("{v:.4}")).unwrap_or_else(|| "-".to_string());
+        Some(format!(
+            "early best epochs: {} of {fitted} fitted models reach their best validation loss within the first {} of {} epochs (epochs {lo} to {hi}; {}); their restored weights are barely trained (training curves figure). Primary d averages {} over the {} seed(s) with such a model of the primary endpoint and {} over the {} without",
+            self.early(),
+            self.first_epochs,
+            self.planned,
+            arms.join(", "),
+            d(self.mean_d_with),
+            self.seeds_with.len(),
+            d(self.mean_d_without),
+            self.seeds_without
+        ))
+    }
+}
+
+/// The early-training summary of `best` (every fitted model's best epoch)
+/// against the primary d of `cells`; None for a plan without training.
+pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option<EarlyTraining> {
+    let planned = plan.training.as_ref()?.epochs;
+    let first = planned.div_ceil(10).max(1);
+    let is_early = |b: &BestEpoch| b.epoch <= first as f64;
+    let mut arms: Vec<String> = Vec::new();
+    for b in best {
+        if !arms.contains(&b.arm) {
+            arms.push(b.arm.clone());
+        }
+    }
+    let per_arm = arms
+        .iter()
+        .map(|a| {
+            let of: Vec<&BestEpoch> = best.iter().filter(|b| &b.arm == a).collect();
+            (a.clone(), of.iter().filter(|b| is_early(b)).count(), of.len())
+        })
+        .collect();
+    let early: Vec<f64> = best.iter().filter(|b| is_early(b)).map(|b| b.epoch).collect();
+    let epochs = (!early.is_empty())
+        .then(|| (early.iter().copied().fold(f64::INFINITY, f64::min), early.iter().copied().fold(0.0, f64::max)));
+    let contrast = [&plan.contrast.treated, &plan.contrast.reference];
+    let seeds_with: BTreeSet<u64> = best
+        .iter()
+        .filter(|b| is_early(b) && b.model == plan.primary.model && contrast.contains(&&b.arm))
+        .map(|b| b.seed)
+        .collect();
+    // Mean primary d per seed.
+    let d = crate::analysis::multiverse::Diff::of(plan, cells);
+    let mut per_seed: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
+    for ((_, seed), v) in &d.cells {
+        let e = per_seed.entry(*seed).or_insert((0.0, 0));
+        e.0 += v;
+        e.1 += 1;
+    }
+    let mean = |with: bool| -> Option<f64> {
+        let ds: Vec<f64> = per_seed
+            .iter()
+            .filter(|(s, _)| seeds_with.contains(s) == with)
+            .map(|(_, (sum, n))| sum / *n as f64)
+            .collect();
+        (!ds.is_empty()).then(|| ds.iter().sum::<f64>() / ds.len() as f64)
+    };
+    let seeds_without = per_seed.keys().filter(|s| !seeds_with.contains(s)).count();
+    Some(EarlyTraining {
+        first_epochs: first,
+        planned,
+        per_arm,
+        epochs,
+        mean_d_with: mean(true),
+        mean_d_without: mean(false),
+        seeds_with: seeds_with.into_iter().collect(),
+        seeds_without,
+    })
+}
