@@ -144,7 +144,10 @@ pub fn lock_labels(path: &str, status: &LockStatus) -> (bool, bool, Option<Strin
                 "{path} was not locked: results are NOT PREREGISTERED; lock a design (`crossaudit lock`) before running it to preregister it"
             )),
         ),
-        LockStatus::LockedUnchanged { .. } => (false, true, None),
+        LockStatus::LockedUnchanged { amendments, .. } => {
+            let said: Vec<String> = amendments.iter().map(|a| a.describe()).collect();
+            (false, true, (!said.is_empty()).then(|| said.join("; ")))
+        }
         LockStatus::LockedChanged { .. } => {
             (true, false, Some("the design changed after it was locked: results are EXPLORATORY".to_string()))
         }

@@ -45,6 +45,32 @@ pub struct LockFile {
     pub tool_version: String,
     /// RFC 3339, UTC, whole seconds.
     pub locked_at_utc: String,
+    /// Earlier locks of this design that it replaced, oldest first
+    /// (`crossaudit lock DESIGN --amend REASON`): every output of a run
+    /// under an amended lock says so.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub amendments: Vec<Amendment>,
+}
+
+/// One amendment of a locked design: the lock it replaced and why.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Amendment {
+    /// The replaced lock's design hash.
+    pub previous_sha256: String,
+    /// When the replaced lock was made (RFC 3339, UTC).
+    pub previous_locked_at_utc: String,
+    /// Why the design was amended, in the researcher's words.
+    pub reason: String,
+}
+
+impl Amendment {
+    /// The sentence every report gives.
+    pub fn describe(&self) -> String {
+        format!(
+            "the design was amended after it was first locked (lock of {}, sha256 {}, replaced): {}",
+            self.previous_locked_at_utc, self.previous_sha256, self.reason
+        )
+    }
 }
 
 /// Whether a design matches its lock.
@@ -57,6 +83,9 @@ pub enum LockStatus {
     LockedUnchanged {
         /// When it was locked (RFC 3339, UTC).
         locked_at_utc: String,
+        /// The earlier locks this one replaced, if it was amended.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        amendments: Vec<Amendment>,
     },
     /// Locked, but the file changed since: analyses are exploratory.
     LockedChanged {
@@ -104,6 +133,14 @@ impl LockStatus {
             _ => String::new(),
         }
     }
+
+    /// The amendments of a lock that holds, each as the sentence reports give.
+    pub fn amendment_warnings(&self) -> Vec<String> {
+        match self {
+            LockStatus::LockedUnchanged { amendments, .. } => amendments.iter().map(Amendment::describe).collect(),
+            _ => Vec::new(),
+        }
+    }
 }
 
 /// Why a lock could not be read or written.
@@ -134,7 +171,7 @@ pub enum LockError {
         source: std::io::Error,
     },
     #[error(
-        "{path} is already locked (sha256 {sha256}, {locked_at_utc}); delete the lock to re-lock a changed design"
+        "{path} is already locked (sha256 {sha256}, {locked_at_utc}); to re-lock the changed design as an amendment that every report discloses, run `crossaudit lock DESIGN --amend \"why\"`"
     )]
     /// The design is locked already.
     AlreadyLocked {
@@ -144,6 +181,14 @@ pub enum LockError {
         sha256: String,
         /// When it was locked (RFC 3339, UTC).
         locked_at_utc: String,
+    },
+    /// `--amend` of a design that has no lock yet, or whose lock holds.
+    #[error("{path}: nothing to amend: {why}; `--amend` replaces the lock of a design changed after it was locked")]
+    NothingToAmend {
+        /// The lock file.
+        path: String,
+        /// Why.
+        why: String,
     },
     /// The design's bytes are those locked, but the lock no longer holds.
     #[error("{path} is already locked ({locked_at_utc}), but {reason}; delete the lock to re-lock the design as it now reads")]
@@ -198,7 +243,7 @@ pub fn status(file: &DesignFile) -> Result<LockStatus, LockError> {
     }
     Ok(match stale(&lock, &referenced_files(file)) {
         Some(reason) => LockStatus::LockedStale { reason, locked_at_utc: lock.locked_at_utc },
-        None => LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc },
+        None => LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc, amendments: lock.amendments },
     })
 }
 
@@ -240,10 +285,28 @@ fn stale(lock: &LockFile, files: &BTreeMap<String, String>) -> Option<String> {
 /// design is a no-op that returns the existing lock; a design with an
 /// existing lock that no longer holds is refused.
 pub fn write_lock(file: &DesignFile, now: SystemTime) -> Result<LockFile, LockError> {
+    write_lock_amended(file, now, None)
+}
+
+/// [`write_lock`], or with `amend` (the reason) the lock of a design
+/// changed after it was locked: the new lock keeps the replaced one's hash,
+/// time and the reason in its amendments, which every report states.
+pub fn write_lock_amended(file: &DesignFile, now: SystemTime, amend: Option<&str>) -> Result<LockFile, LockError> {
     let design = &file.path;
     let path = lock_path(design);
     let files = referenced_files(file);
-    if let Some(existing) = read_lock(design)? {
+    let mut amendments = Vec::new();
+    if let (Some(existing), Some(reason)) = (read_lock(design)?, amend) {
+        if existing.sha256 != file.sha256 || stale(&existing, &files).is_some() {
+            amendments = existing.amendments.clone();
+            amendments.push(Amendment {
+                previous_sha256: existing.sha256,
+                previous_locked_at_utc: existing.locked_at_utc,
+                reason: reason.to_string(),
+            });
+        }
+    }
+    if let Some(existing) = read_lock(design)?.filter(|_| amendments.is_empty()) {
         if existing.sha256 != file.sha256 {
             return Err(LockError::AlreadyLocked {
                 path: path.display().to_string(),
@@ -268,6 +331,7 @@ pub fn write_lock(file: &DesignFile, now: SystemTime) -> Result<LockFile, LockEr
         tool: env!("CARGO_PKG_NAME").to_string(),
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         locked_at_utc: humantime::format_rfc3339_seconds(now).to_string(),
+        amendments,
     };
     let text = crate::io::pretty_json(&lock);
     crate::io::write_atomic(&path, text.as_bytes())

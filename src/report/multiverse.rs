@@ -96,7 +96,12 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         (Some(true), _) => "Preregistered: the design was locked before the run and is unchanged.",
         _ => "NOT PREREGISTERED: the design was never locked.",
     };
-    let _ = writeln!(s, "{status}\n");
+    let amended = a.warnings.iter().any(|w| w.starts_with("the design was amended"));
+    let _ = writeln!(
+        s,
+        "{status}{}\n",
+        if amended { " The design was amended after it was first locked (the warnings say how and why)." } else { "" }
+    );
     // Beside the verdict: a reference arm that is not disjoint (the
     // primary specification's; under draw replication, over the draws).
     let primary = a.specs.iter().find(|r| r.primary).map(|r| format!("spec-{}", r.id));

@@ -26,6 +26,11 @@ pub(crate) enum Command {
     Lock {
         /// The design file (.design); the lock is written beside it.
         design: PathBuf,
+        /// Re-lock a design changed after it was locked, recording the
+        /// replaced lock and this reason: every report of a run under the
+        /// new lock states the amendment.
+        #[arg(long, value_name = "REASON")]
+        amend: Option<String>,
     },
     /// Audits: of a benchmark's published split.
     Audit {

@@ -40,7 +40,7 @@ fn main() -> ExitCode {
             }
         }
         Command::Check { design, json } => check(&design, json),
-        Command::Lock { design } => lock_design(&design),
+        Command::Lock { design, amend } => lock_design(&design, amend.as_deref()),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Split { design, data, out } => split(&design, data, &out),
         Command::Train { design, model, arm, seed, data, out, engine, exploratory } => {
@@ -518,6 +518,9 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
         outln!("{}: valid", path.display());
         outln!("sha256: {}", file.sha256);
         outln!("lock: {}", status.label());
+        for a in status.amendment_warnings() {
+            outln!("  {a}");
+        }
         out!("{}", plan.render_text());
         if let Some(levels) = &levels {
             out!("{}", crossaudit::run::outer::render_levels(&file.design, levels));
@@ -534,9 +537,21 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
     Ok(())
 }
 
-fn lock_design(path: &Path) -> Result<(), Error> {
+fn lock_design(path: &Path, amend: Option<&str>) -> Result<(), Error> {
     let file = design::load(path)?;
-    let lock = lock::write_lock(&file, std::time::SystemTime::now())?;
+    if let Some(reason) = amend {
+        let why = match (lock::read_lock(path)?, lock::status(&file)?) {
+            (None, _) => Some("it has no lock"),
+            (Some(_), lock::LockStatus::LockedUnchanged { .. }) => Some("its lock holds (the design is unchanged since it was locked)"),
+            _ if reason.trim().is_empty() => Some("the reason is empty"),
+            _ => None,
+        };
+        if let Some(why) = why {
+            let path = lock::lock_path(path).display().to_string();
+            return Err(lock::LockError::NothingToAmend { path, why: why.to_string() }.into());
+        }
+    }
+    let lock = lock::write_lock_amended(&file, std::time::SystemTime::now(), amend)?;
     outln!(
         "{}: locked sha256 {} at {} ({} {})",
         lock::lock_path(path).display(),
@@ -545,6 +560,9 @@ fn lock_design(path: &Path) -> Result<(), Error> {
         lock.tool,
         lock.tool_version
     );
+    if let Some(a) = lock.amendments.last().filter(|_| amend.is_some()) {
+        outln!("amendment recorded: {}", a.describe());
+    }
     Ok(())
 }
 

@@ -395,6 +395,7 @@ pub(super) fn finish_levels(
     a.design_sha256 = Some(record.design_sha256.clone());
     a.exploratory = exploratory;
     a.preregistered = Some(!exploratory && matches!(status, LockStatus::LockedUnchanged { .. }));
+    a.warnings.extend(status.amendment_warnings());
     a.warnings.extend(resumed_builds(builds));
     for (k, u) in per_seed::units(&file.design, levels).iter().enumerate() {
         // A level that shares another's run gets its own report of its own
@@ -514,5 +515,6 @@ pub fn label(a: &mut MultiverseAnalysis, file: &DesignFile) -> Result<(), RunErr
     a.design_sha256 = Some(file.sha256.clone());
     a.exploratory = status.changed();
     a.preregistered = Some(matches!(status, LockStatus::LockedUnchanged { .. }));
+    a.warnings.extend(status.amendment_warnings());
     Ok(())
 }
