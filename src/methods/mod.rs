@@ -2,6 +2,7 @@
 //! coverage study of interval estimators and the power planner.
 
 pub mod coverage;
+pub mod draw_coverage;
 pub mod power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};

@@ -358,6 +358,24 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
 }
 
 fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Error> {
+    use crossaudit::methods::draw_coverage as dc;
+    let text = std::fs::read_to_string(spec_path).unwrap_or_default();
+    if dc::is_draw_spec(&text) {
+        let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &crossaudit::io::lone_cr_to_lf(&text))?;
+        if let Some(r) = reps {
+            spec.reps = r;
+        }
+        let spec = dc::DrawCoverageSpec::from_text(spec_path, &serde_json::to_string(&spec).unwrap_or_default())?;
+        let _lock = lock_folder(out, false)?;
+        let started = std::time::Instant::now();
+        let rows = dc::run_draw_coverage(&spec, &mut |k, n, label| {
+            note!("[{k}/{n}] {label} ({:.1} s)", started.elapsed().as_secs_f64());
+        });
+        for p in dc::write_draw_coverage(out, &spec, &rows)? {
+            note!("wrote {}", p.display());
+        }
+        return Ok(());
+    }
     let mut spec = crossaudit::methods::CoverageSpec::load(spec_path)?;
     if let Some(r) = reps {
         spec.reps = r;
