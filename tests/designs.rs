@@ -86,10 +86,16 @@ fn an_amended_lock_is_disclosed_in_every_report() {
     assert!(matches!(lock::status(&file).unwrap(), LockStatus::LockedUnchanged { .. }));
     let out = dir.path().join("report");
     let cells = crate::common::write_temp_cells(dir.path(), &crate::common::minimal_cells(&file.design));
-    let o = bin().args(["analyze", p, "--cells", cells.to_str().unwrap(), "--out", out.to_str().unwrap()]).output().unwrap();
+    let o = bin()
+        .args(["analyze", p, "--cells", cells.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
     crate::common::assert_ok(&o);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("the design was amended after it was first locked"), "{report}");
     assert!(report.contains(&first.sha256) && report.contains("the level was a typo"), "{report}");
-    assert!(crate::common::stderr(&o).contains("the level was a typo") || crate::common::stdout(&o).contains("the level was a typo"));
+    assert!(
+        crate::common::stderr(&o).contains("the level was a typo")
+            || crate::common::stdout(&o).contains("the level was a typo")
+    );
 }

@@ -146,7 +146,8 @@ fn a_multiverse_with_per_seed_draws_gives_each_seed_one_draw_in_every_specificat
     for (seed, draw) in [(4, 1), (5, 2), (6, 3)] {
         // The same draw in both trained specifications (they differ in the
         // number of epochs only): the same manifests, other models.
-        let manifests = |spec: &str| std::fs::read(a.join(format!("{spec}/draw-{draw}/manifests/manifests.json"))).unwrap();
+        let manifests =
+            |spec: &str| std::fs::read(a.join(format!("{spec}/draw-{draw}/manifests/manifests.json"))).unwrap();
         assert_eq!(manifests("spec-s1"), manifests("spec-s3"), "seed {seed}: s1 and s3 drew differently");
         let file = format!("draw-{draw}/cells/world__disjoint__{seed}.csv");
         let (s1, s3) = (a.join("spec-s1").join(&file), a.join("spec-s3").join(&file));
@@ -175,12 +176,17 @@ fn a_multiverse_with_per_seed_draws_gives_each_seed_one_draw_in_every_specificat
     }
     // The run reanalyses to the same decision, and an edited design cannot
     // overwrite its combined report.
-    let again = crossaudit(&["analyze", &m, "--cells", a.to_str().unwrap(), "--out", tmp.path().join("r").to_str().unwrap()]);
+    let again =
+        crossaudit(&["analyze", &m, "--cells", a.to_str().unwrap(), "--out", tmp.path().join("r").to_str().unwrap()]);
     assert!(again.status.success(), "{}", said(&again));
     let edited = write(tmp.path(), "e.design", &multiverse().replace("level 0.95 | 0.99", "level 0.95 | 0.9"));
-    let o = crossaudit(&["analyze", &edited, "--cells", a.to_str().unwrap(), "--out", a.join("report").to_str().unwrap()]);
+    let o =
+        crossaudit(&["analyze", &edited, "--cells", a.to_str().unwrap(), "--out", a.join("report").to_str().unwrap()]);
     assert!(!o.status.success(), "an edited design replaced the run's report: {}", said(&o));
     let resumed = run(&m, &a, "2");
     assert!(resumed.contains("0 cells trained"), "{resumed}");
-    assert_eq!(std::fs::read(a.join("multiverse_cells.csv")).unwrap(), std::fs::read(b.join("multiverse_cells.csv")).unwrap());
+    assert_eq!(
+        std::fs::read(a.join("multiverse_cells.csv")).unwrap(),
+        std::fs::read(b.join("multiverse_cells.csv")).unwrap()
+    );
 }

@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use super::coverage::CoverageError;
 use crate::io::{create_dir_all, write_atomic};
 use crate::stats::mixed::{self, Criterion, MixedData};
-use crate::stats::{crossed_mom, critical_value, standard_normal, CrossedMatrix, DfRule};
+use crate::stats::{critical_value, crossed_mom, standard_normal, CrossedMatrix, DfRule};
 
 /// Variances of the model's terms (in squared units of d).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
@@ -216,7 +216,9 @@ fn replicate(s: &DrawSetting, level: f64, rng: &mut ChaCha8Rng) -> [Option<Inter
     let ac = z(v.recording_draw, i * (k + j));
     let bc = z(v.seed_draw, j * (k + j));
     let e = z(v.residual, i * j * (k + 1));
-    let d = |r: usize, sd: usize, dk: usize, noise: f64| a[r] + b[sd] + c[dk] + ac[r * (k + j) + dk] + bc[sd * (k + j) + dk] + noise;
+    let d = |r: usize, sd: usize, dk: usize, noise: f64| {
+        a[r] + b[sd] + c[dk] + ac[r * (k + j) + dk] + bc[sd * (k + j) + dk] + noise
+    };
     // Pooled: draws 0..k; the single draw is draw 0 of them.
     let mut y = Vec::with_capacity(i * j * k);
     let (mut fr, mut fs, mut fd, mut frd, mut fsd) = (vec![], vec![], vec![], vec![], vec![]);
@@ -253,7 +255,8 @@ fn replicate(s: &DrawSetting, level: f64, rng: &mut ChaCha8Rng) -> [Option<Inter
         ("recording:draw".to_string(), frd),
         ("seed:draw".to_string(), fsd),
     ];
-    let fit = MixedData::new(y, factors).and_then(|data| mixed::fit(&data, Criterion::Reml)).and_then(|f| f.certified());
+    let fit =
+        MixedData::new(y, factors).and_then(|data| mixed::fit(&data, Criterion::Reml)).and_then(|f| f.certified());
     let pooled = |kr: bool| -> Option<Interval> {
         let f = fit.as_ref().ok()?;
         let (se, df) = if kr {

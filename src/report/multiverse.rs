@@ -345,7 +345,9 @@ fn notes_section(a: &MultiverseAnalysis) -> String {
         let (early, with, without) = match &n.early {
             Some(e) => {
                 let arms: Vec<String> = e.per_arm.iter().map(|(arm, k, of)| format!("{arm} {k}/{of}")).collect();
-                let d = |x: Option<f64>, seeds: usize| x.map(|v| format!("{} ({seeds})", f(v, 4))).unwrap_or_else(|| "-".into());
+                let d = |x: Option<f64>, seeds: usize| {
+                    x.map(|v| format!("{} ({seeds})", f(v, 4))).unwrap_or_else(|| "-".into())
+                };
                 (arms.join(", "), d(e.mean_d_with, e.seeds_with.len()), d(e.mean_d_without, e.seeds_without))
             }
             None => ("-".to_string(), "-".to_string(), "-".to_string()),

@@ -7,8 +7,8 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::RunError;
-use crate::plan::{Plan, TrainingJob};
 use crate::analysis::training::BestEpoch;
+use crate::plan::{Plan, TrainingJob};
 use crate::report::figures::Curve;
 
 /// A warning when fitted models' best validation epoch (the weights the

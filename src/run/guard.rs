@@ -64,7 +64,8 @@ pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError>
             let mut runs = vec![e.path()];
             if !e.path().join("run.json").is_file() {
                 let inner = std::fs::read_dir(e.path()).into_iter().flatten().flatten().take(100_000);
-                runs = inner.filter(|i| i.file_name().to_string_lossy().starts_with("draw-")).map(|i| i.path()).collect();
+                runs =
+                    inner.filter(|i| i.file_name().to_string_lossy().starts_with("draw-")).map(|i| i.path()).collect();
             }
             for run in runs.iter().filter(|r| r.join("run.json").is_file()) {
                 if let Some(p) = RunRecord::read(run).ok().flatten() {

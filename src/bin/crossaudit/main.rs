@@ -560,7 +560,9 @@ fn lock_design(path: &Path, amend: Option<&str>) -> Result<(), Error> {
     if let Some(reason) = amend {
         let why = match (lock::read_lock(path)?, lock::status(&file)?) {
             (None, _) => Some("it has no lock"),
-            (Some(_), lock::LockStatus::LockedUnchanged { .. }) => Some("its lock holds (the design is unchanged since it was locked)"),
+            (Some(_), lock::LockStatus::LockedUnchanged { .. }) => {
+                Some("its lock holds (the design is unchanged since it was locked)")
+            }
             _ if reason.trim().is_empty() => Some("the reason is empty"),
             _ => None,
         };

@@ -82,7 +82,14 @@ pub fn levels(design: &Design) -> Option<Vec<Level>> {
             // specification's folder: `spec-ID/draw-K` ([`per_seed::units`]).
             for (seed, k) in d.seed_draws() {
                 let id = format!("{name}/draw-{k}");
-                out.push(Level { id, spec, draw: Some(k), split: None, design: plain.for_seed_draw(seed, k), shares: None });
+                out.push(Level {
+                    id,
+                    spec,
+                    draw: Some(k),
+                    split: None,
+                    design: plain.for_seed_draw(seed, k),
+                    shares: None,
+                });
             }
             continue;
         }
@@ -281,7 +288,8 @@ pub(super) fn run_levels(
     }
     let record = record.ok_or(RunError::NoWorkers)?;
     if role == Role::PerSeed {
-        let mut outcome = per_seed::finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds)?;
+        let mut outcome =
+            per_seed::finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds)?;
         (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
         return Ok(outcome);
     }

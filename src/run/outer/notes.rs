@@ -17,7 +17,10 @@ use crate::plan::Plan;
 fn warned(dir: &Path) -> Vec<Value> {
     let Ok(text) = std::fs::read_to_string(dir.join("audit/invariants.json")) else { return Vec::new() };
     let Ok(v) = serde_json::from_str::<Value>(&text) else { return Vec::new() };
-    v["invariants"].as_array().map(|a| a.iter().filter(|i| i["status"] == "warn").cloned().collect()).unwrap_or_default()
+    v["invariants"]
+        .as_array()
+        .map(|a| a.iter().filter(|i| i["status"] == "warn").cloned().collect())
+        .unwrap_or_default()
 }
 
 /// Windows of evaluation recordings or their copies an invariant counts.
