@@ -127,7 +127,11 @@ fn mixed_refuses_bad_formulas_and_tables_with_located_errors() {
         ("diameter ~ 1 + (1|plate", "column 24: expected `)` to close the random term"),
         ("diameter 1 + (1|plate)", "column 10: expected `~`"),
         ("diameter ~ 1", "a mixed model needs a random term"),
-        ("diameter ~ 1 + log(plate) + (1|plate)", "column 16: `log(...)`"),
+        ("diameter ~ 1 + log(plate) + (1|plate)", "column 16: transformations such as `log(...)` are not supported"),
+        ("log(diameter) ~ 1 + (1|plate)", "column 1: transformations such as `log(...)` are not supported"),
+        ("diameter ~ 1 + poly(sample, 2) + (1|plate)", "compute the transformed column in the CSV first"),
+        ("diameter ~ 1 + I(sample^2) + (1|plate)", "column 16: transformations such as `I(...)`"),
+        ("diameter ~ 1 + sample^2 + (1|plate)", "column 22: powers (`^`) are not supported"),
         ("plate ~ 1 + (1|sample)", "row 1, field plate: the response must be a number"),
         (
             "diameter ~ a*b*c*d*e*f*g*h*i*j*k*l + (1|plate)",

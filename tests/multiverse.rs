@@ -330,6 +330,7 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
         ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper", "paper_multiverse"),
         ("designs/multiverse/paper_draws.design", "results/multiverse/draws", "paper_draws"),
         ("designs/multiverse/holdout_trajectory.design", "results/multiverse/holdout", "holdout_trajectory"),
+        ("designs/multiverse/paper_multiverse_per_seed.design", "results/multiverse/paper_per_seed", "paper_per_seed"),
     ] {
         let a = committed(design, run);
         let specs = crossaudit::report::multiverse::specs_csv(&a);
@@ -392,6 +393,7 @@ fn committed_multiverse_matches_r_and_lme4() {
     for (design, run) in [
         ("designs/multiverse/holdout_trajectory.design", "results/multiverse/holdout"),
         ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper"),
+        ("designs/multiverse/paper_multiverse_per_seed.design", "results/multiverse/paper_per_seed"),
     ] {
         let a = committed(design, run);
         let rows = r_table(&format!("{run}/reference/specs_r.csv"));
@@ -653,6 +655,7 @@ fn the_curve_under_the_null_agrees_with_an_independent_script() {
     for (design, run) in [
         ("designs/multiverse/sim_null.design", "results/multiverse/sim_null"),
         ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper"),
+        ("designs/multiverse/paper_multiverse_per_seed.design", "results/multiverse/paper_per_seed"),
     ] {
         let a = committed(design, run);
         let j = a.joint.as_ref().unwrap();

@@ -58,6 +58,11 @@ mom <- function(w) {
   c(mean = mean(w), se = se, df = J - 1, lower = mean(w) - q * se, upper = mean(w) + q * se)
 }
 
+# Per-seed draws (`draws per seed`): each seed of a specification has one
+# draw of its own, so a specification is one crossed recording x seed
+# study and there is no draw replication to pool.
+per_spec_seed <- tapply(cells$draw, paste(cells$spec, cells$seed), function(d) length(unique(d)))
+if (length(unique(cells$draw)) > 1 && all(per_spec_seed == 1)) cells$draw <- ""
 first_draw <- if (all(cells$draw == "")) "" else as.character(min(as.integer(cells$draw)))
 ids <- specs_csv$spec
 level_of <- function(id, draw) cells[cells$spec == ifelse(id == "-", "", id) & cells$draw == draw, ]

@@ -27,12 +27,20 @@ run, model, metric, horizon, treated, reference = sys.argv[1:7]
 min_optimism, B, seed = float(sys.argv[7]), int(sys.argv[8]), int(sys.argv[9])
 horizon = float(horizon)
 
-cells = {}
 with open(f"{run}/multiverse_cells.csv") as f:
-    for r in csv.DictReader(f):
-        if r["draw"] not in ("", "1") or r["model"] != model or float(r["horizon_s"]) != horizon:
-            continue
-        cells.setdefault(r["spec"], {})[(r["arm"], r["recording"], int(r["seed"]))] = float(r[metric])
+    rows = list(csv.DictReader(f))
+# Per-seed draws (`draws per seed`): each seed of a specification has one
+# draw of its own, and every seed counts; under draw replication only the
+# first draw does.
+draws_of = {}
+for r in rows:
+    draws_of.setdefault((r["spec"], r["seed"]), set()).add(r["draw"])
+per_seed = len({r["draw"] for r in rows}) > 1 and all(len(d) == 1 for d in draws_of.values())
+cells = {}
+for r in rows:
+    if (not per_seed and r["draw"] not in ("", "1")) or r["model"] != model or float(r["horizon_s"]) != horizon:
+        continue
+    cells.setdefault(r["spec"], {})[(r["arm"], r["recording"], int(r["seed"]))] = float(r[metric])
 specs = []
 with open(f"{run}/report/specs.csv") as f:
     for r in csv.DictReader(f):

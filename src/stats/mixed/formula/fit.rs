@@ -168,7 +168,7 @@ impl Comparison {
         for (i, m) in self.models.iter().enumerate() {
             let chisq = m.chisq.map_or("".into(), |c| format!("{c:.4}"));
             let df = m.df.map_or("".into(), |d| d.to_string());
-            let p = m.p.map_or("".into(), |p| format!("{p:.4e}"));
+            let p = m.p.map_or("".into(), r_pvalue);
             let _ = writeln!(
                 s,
                 "m{} {:>5} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>9} {:>3} {:>11}",
@@ -330,7 +330,7 @@ impl FormulaFit {
         for r in &self.fixed {
             if with_df {
                 let dof = r.df.map(|d| format!("{d:.3}")).unwrap_or_else(|| "NA".into());
-                let p = r.p.map(|p| format!("{p:.3e}")).unwrap_or_else(|| "NA".into());
+                let p = r.p.map(r_pvalue).unwrap_or_else(|| "NA".into());
                 let _ = writeln!(
                     s,
                     "{:<width$} {:>12.6} {:>12.6} {:>10} {:>9.3} {:>10}",
@@ -423,4 +423,58 @@ pub fn fit_file(
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
     let table = read_file(path).map_err(fail)?;
     fit_table(formula, &table, criterion, df, profile).map_err(fail)
+}
+
+/// A p-value as R's `printCoefmat` prints it (`format.pval` with 3
+/// significant digits): fixed notation unless scientific is shorter,
+/// trailing zeros dropped, and `<2e-16` below machine epsilon.
+pub fn r_pvalue(p: f64) -> String {
+    if p.is_nan() {
+        return "NA".to_string();
+    }
+    if p < f64::EPSILON {
+        return "<2e-16".to_string();
+    }
+    let trim = |t: String| -> String {
+        if t.contains('.') {
+            t.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            t
+        }
+    };
+    // Fixed: enough decimals for 3 significant digits.
+    let magnitude = p.abs().log10().floor() as i32;
+    let decimals = (2 - magnitude).max(0) as usize;
+    let fixed = trim(format!("{p:.decimals$}"));
+    let sci = {
+        let t = format!("{p:.2e}");
+        let (mantissa, exp) = t.split_once('e').unwrap_or((&t, "0"));
+        let exp: i32 = exp.parse().unwrap_or(0);
+        format!("{}e{}{:02}", trim(mantissa.to_string()), if exp < 0 { '-' } else { '+' }, exp.abs())
+    };
+    if fixed.len() <= sci.len() {
+        fixed
+    } else {
+        sci
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::r_pvalue;
+
+    /// What R 4.x prints for these p-values: `format.pval(p, digits = 3)`,
+    /// as printCoefmat formats lmerTest's summary, run on this machine:
+    /// `Rscript -e 'for (p in c(0.15938, 0.5, 1, 0.00123, 1.234e-5,
+    /// 3.2e-12, 1e-20)) cat(format.pval(p, digits = 3), "\n")'`.
+    #[test]
+    fn p_values_print_as_r_prints_them() {
+        assert_eq!(r_pvalue(0.15938), "0.159");
+        assert_eq!(r_pvalue(0.5), "0.5");
+        assert_eq!(r_pvalue(1.0), "1");
+        assert_eq!(r_pvalue(0.00123), "0.00123");
+        assert_eq!(r_pvalue(1.234e-5), "1.23e-05");
+        assert_eq!(r_pvalue(3.2e-12), "3.2e-12");
+        assert_eq!(r_pvalue(1e-20), "<2e-16");
+    }
 }

@@ -170,9 +170,12 @@ fn tokenize(text: &str) -> Result<Vec<(usize, Token)>, FormulaError> {
                 i += 1;
             }
             out.push((column, Token::Number(chars[start..i].iter().collect())));
-        } else if "~+:*()|/-".contains(c) {
+        } else if "~+:*()|/-,".contains(c) {
             out.push((column, Token::Sym(c)));
             i += 1;
+        } else if c == '^' {
+            let message = "powers (`^`) are not supported in a formula: compute the column in the CSV first (R: `d$x2 <- d$x^2`; pandas: `df[\"x2\"] = df[\"x\"] ** 2`) and name it; for an interaction of two columns write `a:b` or `a*b`";
+            return Err(FormulaError::Syntax { column, message: message.into() });
         } else {
             return Err(FormulaError::Syntax { column, message: format!("unexpected character `{c}`") });
         }
@@ -262,6 +265,17 @@ impl Parser {
 /// Parses `response ~ terms`.
 pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     let tokens = tokenize(text)?;
+    // A name followed by `(` is a function call: R transforms a column in
+    // the formula (`log(y)`, `poly(x, 2)`, `I(x^2)`); here the column must
+    // exist in the file (factor() aside).
+    for w in tokens.windows(2) {
+        if let ((column, Token::Name(f)), (_, Token::Sym('('))) = (&w[0], &w[1]) {
+            if f == "factor" {
+                continue;
+            }
+            return Err(FormulaError::Syntax { column: *column, message: transformation(f) });
+        }
+    }
     let end = text.chars().count() + 1;
     let mut p = Parser { tokens, at: 0, end, response: String::new() };
     let response = p.name("the response column before `~`")?;
@@ -416,4 +430,11 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
         });
     }
     Ok(Formula { response, fixed: unique, random: groups })
+}
+
+/// What to say about a function call `f(...)` in a formula.
+fn transformation(f: &str) -> String {
+    format!(
+        "transformations such as `{f}(...)` are not supported in a formula (the only function it may use is factor()): compute the transformed column in the CSV first (R: `d${f}_y <- {f}(d$y)`; pandas: `df[\"{f}_y\"] = ...`) and name that column"
+    )
 }
