@@ -58,16 +58,21 @@ impl EarlyTraining {
         let fitted: usize = self.per_arm.iter().map(|a| a.2).sum();
         let arms: Vec<String> = self.per_arm.iter().map(|(a, e, n)| format!("{a} {e} of {n}")).collect();
         let d = |x: Option<f64>| x.map(|v| format!("{v:.4}")).unwrap_or_else(|| "-".to_string());
+        let seeds = match (self.seeds_with.len(), self.seeds_without) {
+            (0, _) => "no model of the primary endpoint is among them".to_string(),
+            (n, 0) => format!("every one of the {n} seeds has such a model of the primary endpoint (mean primary d {})", d(self.mean_d_with)),
+            (n, m) => format!(
+                "mean primary d {} over the {n} seed(s) with such a model of the primary endpoint, {} over the {m} without",
+                d(self.mean_d_with),
+                d(self.mean_d_without)
+            ),
+        };
         Some(format!(
-            "early best epochs: {} of {fitted} fitted models reach their best validation loss within the first {} of {} epochs (epochs {lo} to {hi}; {}); their restored weights are barely trained (training curves figure). Primary d averages {} over the {} seed(s) with such a model of the primary endpoint and {} over the {} without",
+            "early best epochs: {} of {fitted} fitted models reach their best validation loss within the first {} of {} epochs (epochs {lo} to {hi}; {}); their restored weights are barely trained (training curves figure); {seeds}",
             self.early(),
             self.first_epochs,
             self.planned,
             arms.join(", "),
-            d(self.mean_d_with),
-            self.seeds_with.len(),
-            d(self.mean_d_without),
-            self.seeds_without
         ))
     }
 }

@@ -16,6 +16,7 @@ use crossaudit::{AnalyzeOptions, Error};
 mod output;
 mod args;
 mod external;
+mod methods;
 mod progress;
 
 use args::{AuditCommand, Cli, Command, DataCommand, SlurmArgs};
@@ -55,14 +56,14 @@ fn main() -> ExitCode {
         Command::Score { dir, workers } => external::score(&dir, workers),
         Command::Job { dir, index } => slurm_job(&dir, index),
         Command::Gather { dir } => slurm_gather(&dir),
-        Command::Coverage { spec, reps, out } => coverage(&spec, reps, &out),
+        Command::Coverage { spec, reps, out } => methods::coverage(&spec, reps, &out),
         Command::Plan { design, cells, recordings, seeds, splits, out } => {
-            power(&design, &cells, (&splits, &recordings, &seeds), &out)
+            methods::power(&design, &cells, (&splits, &recordings, &seeds), &out)
         }
-        Command::Simulate { design, out } => simulate(&design, &out),
+        Command::Simulate { design, out } => methods::simulate(&design, &out),
         Command::Mixed { data, formula, ml, df, profile, json, compare } => match compare {
-            Some(other) => mixed_compare(&data, &formula, &other, json),
-            None => mixed(&data, &formula, ml, &df, profile, json),
+            Some(other) => methods::mixed_compare(&data, &formula, &other, json),
+            None => methods::mixed(&data, &formula, ml, &df, profile, json),
         },
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
@@ -357,130 +358,6 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
     Ok(())
 }
 
-fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Error> {
-    use crossaudit::methods::draw_coverage as dc;
-    let text = std::fs::read_to_string(spec_path).unwrap_or_default();
-    if dc::is_draw_spec(&text) {
-        let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &crossaudit::io::lone_cr_to_lf(&text))?;
-        if let Some(r) = reps {
-            spec.reps = r;
-        }
-        let spec = dc::DrawCoverageSpec::from_text(spec_path, &serde_json::to_string(&spec).unwrap_or_default())?;
-        let _lock = lock_folder(out, false)?;
-        let started = std::time::Instant::now();
-        let rows = dc::run_draw_coverage(&spec, &mut |k, n, label| {
-            note!("[{k}/{n}] {label} ({:.1} s)", started.elapsed().as_secs_f64());
-        });
-        for p in dc::write_draw_coverage(out, &spec, &rows)? {
-            note!("wrote {}", p.display());
-        }
-        return Ok(());
-    }
-    let mut spec = crossaudit::methods::CoverageSpec::load(spec_path)?;
-    if let Some(r) = reps {
-        spec.reps = r;
-        spec.validate(spec_path)?;
-    }
-    let _lock = lock_folder(out, false)?;
-    let started = std::time::Instant::now();
-    let rows = crossaudit::methods::run_coverage(&spec, &mut |k, n, s| {
-        note!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
-    })?;
-    for p in crossaudit::methods::coverage::write(out, &spec, &rows)? {
-        note!("wrote {}", p.display());
-    }
-    Ok(())
-}
-
-fn power(
-    design: &Path,
-    cells: &Path,
-    (splits, recordings, seeds): (&[usize], &[usize], &[usize]),
-    out: &Path,
-) -> Result<(), Error> {
-    let file = design::load(design)?;
-    crossaudit::run::check_output_dir(out, &file.sha256)?;
-    let plan = crossaudit::compile(&file.design);
-    if !plan.splits.is_empty() {
-        let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
-        let power = crossaudit::methods::split_power_plan(&plan, &family, splits, recordings, seeds)?;
-        let _lock = lock_folder(out, false)?;
-        power.write(out)?;
-        out!("{}", power.to_markdown());
-        return Ok(());
-    }
-    let power = if plan.is_family() {
-        // A dose-response design: the trend's slope is planned.
-        let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
-        crossaudit::methods::dose_power_plan(&plan, &family, recordings, seeds)?
-    } else {
-        let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
-        crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?
-    };
-    let _lock = lock_folder(out, false)?;
-    power.write(out)?;
-    out!("{}", power.to_markdown());
-    Ok(())
-}
-
-fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
-    let file = design::load(design)?;
-    crossaudit::run::check_output_dir(out, &file.sha256)?;
-    let Some(sim) = file.design.data.simulated else {
-        return Err(crossaudit::run::RunError::NotSimulated { path: design.display().to_string() }.into());
-    };
-    let _lock = lock_folder(out, false)?;
-    let record = crossaudit::sim::simulate(&sim, out)?;
-    note!(
-        "wrote {} simulated recordings (CSV + metadata) and {} to {}",
-        record.files.len() / 2,
-        crossaudit::sim::RECORD,
-        out.display()
-    );
-    Ok(())
-}
-
-fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, json: bool) -> Result<(), Error> {
-    use crossaudit::stats::mixed::{formula::DfMethod, Criterion};
-    // The fit is written to standard output and nowhere else.
-    if output::stdout_closed() {
-        return Err(Error::Stdout(std::io::Error::other(
-            "standard output is closed, so the fit would be written nowhere; redirect it to a file (`> fit.txt`)",
-        )));
-    }
-    let criterion = if ml { Criterion::Ml } else { Criterion::Reml };
-    let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
-    let fit = crossaudit::stats::mixed::formula::fit_file(data, formula, criterion, df, profile)?;
-    if json {
-        out!("{}", crossaudit::io::pretty_json(&fit));
-    } else {
-        out!("{}", fit.summary());
-    }
-    if !fit.fit.certificate.certified {
-        note!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
-    }
-    Ok(())
-}
-
-/// `crossaudit mixed --compare`: lme4's `anova(m1, m2)`.
-fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool) -> Result<(), Error> {
-    if output::stdout_closed() {
-        return Err(Error::Stdout(std::io::Error::other(
-            "standard output is closed, so the test would be written nowhere; redirect it to a file (`> test.txt`)",
-        )));
-    }
-    let comparison = crossaudit::stats::mixed::formula::compare_file(data, formula, other)?;
-    if json {
-        out!("{}", crossaudit::io::pretty_json(&comparison));
-    } else {
-        out!("{}", comparison.summary());
-    }
-    if comparison.models.iter().any(|m| !m.certified) {
-        note!("warning: the optimizer could not certify an ML fit (see the table's warning)");
-    }
-    Ok(())
-}
-
 fn render(e: &Error, color: bool) -> String {
     match e {
         Error::Design(LoadError::Design(d)) => d.render(color),
@@ -546,8 +423,13 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
         let seed_draws = file.design.seed_draws();
         if !seed_draws.is_empty() {
             let list: Vec<String> = seed_draws.iter().map(|(s, d)| format!("seed {s}: draw {d}")).collect();
+            let folders = if file.design.multiverse.is_some() {
+                "spec-ID/draw-K, shared by every specification"
+            } else {
+                "draw-K"
+            };
             outln!(
-                "draws per seed: each seed its own draw after the evaluation recordings (folders draw-K); {}",
+                "draws per seed: each seed its own draw after the evaluation recordings (folders {folders}); {}",
                 list.join(", ")
             );
         }
