@@ -113,17 +113,24 @@ fn default_b() -> usize {
     999
 }
 
+/// A coverage spec's text: a regular file of bounded size (never a device
+/// or a FIFO), UTF-8, line ends normalized.
+pub fn read_spec_text(path: &Path) -> Result<String, CoverageError> {
+    let p = path.display().to_string();
+    let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a coverage spec")
+        .map_err(|e| CoverageError::Read { path: p.clone(), source: e.into_io() })?;
+    let text = String::from_utf8(bytes).map_err(|e| CoverageError::Read {
+        path: p,
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8: {e}")),
+    })?;
+    Ok(crate::io::lone_cr_to_lf(&text).into_owned())
+}
+
 impl CoverageSpec {
     /// Reads and validates a spec file.
     pub fn load(path: &Path) -> Result<CoverageSpec, CoverageError> {
         let p = path.display().to_string();
-        let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a coverage spec")
-            .map_err(|e| CoverageError::Read { path: p.clone(), source: e.into_io() })?;
-        let text = String::from_utf8(bytes).map_err(|e| CoverageError::Read {
-            path: p.clone(),
-            source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8: {e}")),
-        })?;
-        let text = crate::io::lone_cr_to_lf(&text);
+        let text = read_spec_text(path)?;
         let spec: CoverageSpec = serde_json::from_str(&text).map_err(|source| CoverageError::Parse {
             path: p.clone(),
             line: source.line(),

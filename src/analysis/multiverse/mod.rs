@@ -193,8 +193,7 @@ pub struct PooledDraws {
     pub mean: f64,
     /// Its SE (Kenward-Roger's adjusted SE with their df).
     pub se: f64,
-    /// Denominator df.
-    #[serde(serialize_with = "crate::io::df_json")]
+    /// Denominator df (finite: a pooled fit without finite df has none).
     pub df: f64,
     /// `kenward_roger` or `satterthwaite`.
     pub df_rule: String,

@@ -9,9 +9,9 @@ use crossaudit::{AnalyzeOptions, Error};
 
 pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Error> {
     use crossaudit::methods::draw_coverage as dc;
-    let text = std::fs::read_to_string(spec_path).unwrap_or_default();
+    let text = crossaudit::methods::coverage::read_spec_text(spec_path)?;
     if dc::is_draw_spec(&text) {
-        let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &crossaudit::io::lone_cr_to_lf(&text))?;
+        let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &text)?;
         if let Some(r) = reps {
             spec.reps = r;
         }

@@ -170,12 +170,9 @@ fn tokenize(text: &str) -> Result<Vec<(usize, Token)>, FormulaError> {
                 i += 1;
             }
             out.push((column, Token::Number(chars[start..i].iter().collect())));
-        } else if "~+:*()|/-,".contains(c) {
+        } else if "~+:*()|/-,^".contains(c) {
             out.push((column, Token::Sym(c)));
             i += 1;
-        } else if c == '^' {
-            let message = "powers (`^`) are not supported in a formula: compute the column in the CSV first (R: `d$x2 <- d$x^2`; pandas: `df[\"x2\"] = df[\"x\"] ** 2`) and name it; for an interaction of two columns write `a:b` or `a*b`";
-            return Err(FormulaError::Syntax { column, message: message.into() });
         } else {
             return Err(FormulaError::Syntax { column, message: format!("unexpected character `{c}`") });
         }
@@ -275,6 +272,10 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             }
             return Err(FormulaError::Syntax { column: *column, message: transformation(f) });
         }
+    }
+    if let Some((column, _)) = tokens.iter().find(|(_, t)| *t == Token::Sym('^')) {
+        let message = "powers (`^`) are not supported in a formula: compute the column in the CSV first (R: `d$x2 <- d$x^2`; pandas: `df[\"x2\"] = df[\"x\"] ** 2`) and name it; for an interaction of two columns write `a:b` or `a*b`";
+        return Err(FormulaError::Syntax { column: *column, message: message.into() });
     }
     let end = text.chars().count() + 1;
     let mut p = Parser { tokens, at: 0, end, response: String::new() };
