@@ -128,7 +128,10 @@ fn the_mlps_own_rollouts_as_predictions_score_to_the_quickstarts_cells_byte_for_
 
 /// A fresh export of the small external design into `dir`.
 fn export_small(dir: &Path) -> (ExportIndex, String) {
-    assert_ok(&crossaudit(&["export", "tests/designs/sim_external.design", "--out", dir.to_str().unwrap()]));
+    let o = crossaudit(&["export", "tests/designs/sim_external.design", "--out", dir.to_str().unwrap()]);
+    assert_ok(&o);
+    // The design is not locked: export says so before any model is fitted.
+    assert!(stderr(&o).contains("is not locked, so the scores will be NOT PREREGISTERED"), "{}", stderr(&o));
     index(dir)
 }
 

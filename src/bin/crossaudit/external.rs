@@ -25,6 +25,13 @@ pub(crate) fn export(design: &Path, data: Option<PathBuf>, out: &Path, explorato
         out.display(),
         out.display()
     );
+    if crossaudit::design::lock::status(&file)? == crossaudit::design::LockStatus::Unlocked {
+        note!(
+            "warning: {} is not locked, so the scores will be NOT PREREGISTERED; lock it (`crossaudit lock {}`) and export again before fitting to preregister them",
+            design.display(),
+            design.display()
+        );
+    }
     outln!("export sha256 {}", o.sha256);
     Ok(())
 }
