@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use super::coverage::CoverageError;
 use crate::io::{create_dir_all, write_atomic};
 use crate::stats::mixed::{self, Criterion, MixedData};
-use crate::stats::{critical_value, crossed_mom, standard_normal, CrossedMatrix, DfRule};
+use crate::stats::{crossed_mom, standard_normal, CrossedMatrix, DfRule};
 
 /// Variances of the model's terms (in squared units of d).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
@@ -145,7 +145,14 @@ impl DrawCoverageSpec {
             column: source.column(),
             source,
         })?;
-        let bad = |message: String| Err(CoverageError::Invalid { path: p.clone(), message });
+        spec.validate(path)?;
+        Ok(spec)
+    }
+
+    /// Checks the spec (also after a command-line override of `reps`).
+    pub fn validate(&self, path: &Path) -> Result<(), CoverageError> {
+        let spec = self;
+        let bad = |message: String| Err(CoverageError::Invalid { path: path.display().to_string(), message });
         if spec.kind != "draws" {
             return bad(format!("`kind` must be \"draws\", found {:?}", spec.kind));
         }
@@ -172,7 +179,7 @@ impl DrawCoverageSpec {
                 ));
             }
         }
-        Ok(spec)
+        Ok(())
     }
 }
 
@@ -259,14 +266,10 @@ fn replicate(s: &DrawSetting, level: f64, rng: &mut ChaCha8Rng) -> [Option<Inter
         MixedData::new(y, factors).and_then(|data| mixed::fit(&data, Criterion::Reml)).and_then(|f| f.certified());
     let pooled = |kr: bool| -> Option<Interval> {
         let f = fit.as_ref().ok()?;
-        let (se, df) = if kr {
-            let x = f.kenward_roger?;
-            (x.se, x.df)
-        } else {
-            (f.se, f.df_satterthwaite?)
-        };
-        let q = critical_value(level, df).ok()?;
-        Some((f.intercept, se, df, f.intercept - q * se, f.intercept + q * se))
+        let (se, df, rule, lower, upper) = f.intercept_interval(kr, level).ok()?;
+        // A Kenward-Roger interval that fell back to Satterthwaite's is no
+        // Kenward-Roger interval: that replication failed.
+        (!kr || rule == "kenward_roger").then_some((f.intercept, se, df, lower, upper))
     };
     [single, per_seed, pooled(true), pooled(false)]
 }

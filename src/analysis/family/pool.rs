@@ -8,7 +8,7 @@ use super::{as_optimism, slopes, smallest_excluding_zero, step_down, Pooled, Poo
 use crate::analysis::AnalysisError;
 use crate::plan::{DoseArm, Plan};
 use crate::stats::mixed::{self, Criterion, MixedData};
-use crate::stats::{critical_value, DfRule, StatsError};
+use crate::stats::{DfRule, StatsError};
 
 /// The pooled REML estimates over splits.
 pub(super) fn pool(
@@ -85,19 +85,10 @@ fn pooled_estimate(
         MixedData::new(y, vec![("split".to_string(), fs), ("recording".to_string(), fr), ("seed".to_string(), fj)])
             .map_err(stats)?;
     let fit = mixed::fit(&data, Criterion::Reml).and_then(|f| f.certified()).map_err(stats)?;
-    let (se, df, df_rule) = match (plan.estimator.df, fit.kenward_roger) {
-        (DfRule::KenwardRoger, Some(kr)) => (kr.se, kr.df, "kenward_roger"),
-        _ => (fit.se, fit.df_satterthwaite.unwrap_or(f64::NAN), "satterthwaite"),
-    };
-    if !df.is_finite() {
-        return Err(AnalysisError::Stats {
-            unit: format!("pooled {label}"),
-            source: StatsError::Invalid("the Satterthwaite df are undefined at this fit".to_string()),
-        });
-    }
-    let critical = critical_value(plan.estimator.level, df)
+    let kr = plan.estimator.df == DfRule::KenwardRoger;
+    let (se, df, df_rule, lower, upper) = fit
+        .intercept_interval(kr, plan.estimator.level)
         .map_err(|e| AnalysisError::Stats { unit: format!("pooled {label}"), source: e })?;
-    let (lower, upper) = (fit.intercept - critical * se, fit.intercept + critical * se);
     let variances = [fit.variances[0], fit.variances[1], fit.variances[2], fit.residual];
     let total: f64 = variances.iter().sum();
     let (a, b) = (as_optimism(upper, mean_reference), as_optimism(lower, mean_reference));

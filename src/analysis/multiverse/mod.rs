@@ -559,14 +559,9 @@ fn pooled_draws(
     (mean_treated, mean_reference): (f64, f64),
     template: &CrossedEstimate,
 ) -> Result<PooledDraws, String> {
-    let (se, df, df_rule) = match (f.kenward_roger, f.df_satterthwaite) {
-        (Some(kr), _) if kr.df.is_finite() => (kr.se, kr.df, "kenward_roger"),
-        (_, Some(df)) if df.is_finite() => (f.se, df, "satterthwaite"),
-        _ => return Err("neither Kenward-Roger nor Satterthwaite df could be computed at this fit".to_string()),
-    };
     let level = design.estimator.level;
-    let critical = crate::stats::critical_value(level, df).map_err(|e| e.to_string())?;
-    let (lower, upper) = (f.intercept - critical * se, f.intercept + critical * se);
+    let (se, df, df_rule, lower, upper) = f.intercept_interval(true, level).map_err(|e| e.to_string())?;
+    let critical = (upper - f.intercept) / se;
     let optimism_pct = -100.0 * f.intercept / mean_reference;
     let e = CrossedEstimate { mean: f.intercept, se, df, level, critical, lower, upper, ..*template };
     let levels: Vec<(String, usize)> = f.factors.iter().cloned().zip(f.levels.iter().copied()).collect();

@@ -14,8 +14,8 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Res
         let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &text)?;
         if let Some(r) = reps {
             spec.reps = r;
+            spec.validate(spec_path)?;
         }
-        let spec = dc::DrawCoverageSpec::from_text(spec_path, &serde_json::to_string(&spec).unwrap_or_default())?;
         let _lock = lock_folder(out, false)?;
         let started = std::time::Instant::now();
         let rows = dc::run_draw_coverage(&spec, &mut |k, n, label| {

@@ -204,6 +204,28 @@ impl MixedFit {
             })
         }
     }
+
+    /// The intercept's interval at `level`: with `kenward_roger`,
+    /// Kenward-Roger's adjusted SE and df where they are finite, otherwise
+    /// the model SE with Satterthwaite's df. Returns (SE, df, the df rule
+    /// used: `kenward_roger` or `satterthwaite`, lower, upper).
+    pub fn intercept_interval(
+        &self,
+        kenward_roger: bool,
+        level: f64,
+    ) -> Result<(f64, f64, &'static str, f64, f64), crate::stats::StatsError> {
+        let (se, df, rule) = match (kenward_roger, self.kenward_roger, self.df_satterthwaite) {
+            (true, Some(kr), _) if kr.df.is_finite() => (kr.se, kr.df, "kenward_roger"),
+            (_, _, Some(df)) if df.is_finite() => (self.se, df, "satterthwaite"),
+            _ => {
+                return Err(crate::stats::StatsError::Invalid(
+                    "the Satterthwaite df are undefined at this fit".to_string(),
+                ))
+            }
+        };
+        let q = crate::stats::critical_value(level, df)?;
+        Ok((se, df, rule, self.intercept - q * se, self.intercept + q * se))
+    }
 }
 
 /// A fitted model.
