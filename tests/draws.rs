@@ -190,3 +190,135 @@ fn a_multiverse_with_per_seed_draws_gives_each_seed_one_draw_in_every_specificat
         std::fs::read(b.join("multiverse_cells.csv")).unwrap()
     );
 }
+
+/// The draw planner's variance and df are the balanced design's closed
+/// forms: on a complete I x J x K array whose REML components are all
+/// inside the parameter space, REML equals the ANOVA estimates, so the
+/// GLS SE of the intercept is sqrt(s_r/I + s_s/J + s_d/K + s_rd/(IK) +
+/// s_sd/(JK) + s_e/(IJK)) exactly, and the Satterthwaite df of the
+/// expected mean squares is the df that the REML fit's own Hessian gives
+/// (lmerTest's method, tests/stats_mixed_df.rs).
+#[test]
+fn the_draw_planner_s_closed_forms_are_those_of_a_reml_fit() {
+    use crossaudit::stats::mixed::{fit, Criterion, MixedData};
+    use rand::SeedableRng;
+    let (ni, nj, nk) = (9usize, 7usize, 4usize);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(45);
+    let mut z = |sd: f64| -> f64 { sd * crossaudit::stats::standard_normal(&mut rng) };
+    let r: Vec<f64> = (0..ni).map(|_| z(1.0)).collect();
+    let s: Vec<f64> = (0..nj).map(|_| z(0.7)).collect();
+    let d: Vec<f64> = (0..nk).map(|_| z(1.5)).collect();
+    let rd: Vec<f64> = (0..ni * nk).map(|_| z(0.6)).collect();
+    let sd: Vec<f64> = (0..nj * nk).map(|_| z(0.8)).collect();
+    let (mut y, mut fr, mut fs, mut fd, mut frd, mut fsd) = (vec![], vec![], vec![], vec![], vec![], vec![]);
+    for k in 0..nk {
+        for i in 0..ni {
+            for j in 0..nj {
+                y.push(r[i] + s[j] + d[k] + rd[i * nk + k] + sd[j * nk + k] + z(1.0));
+                fr.push(i);
+                fs.push(j);
+                fd.push(k);
+                frd.push(i * nk + k);
+                fsd.push(j * nk + k);
+            }
+        }
+    }
+    let data = MixedData::new(
+        y,
+        vec![
+            ("recording".into(), fr),
+            ("seed".into(), fs),
+            ("draw".into(), fd),
+            ("recording:draw".into(), frd),
+            ("seed:draw".into(), fsd),
+        ],
+    )
+    .unwrap();
+    let f = fit(&data, Criterion::Reml).unwrap();
+    assert!(f.theta.iter().all(|t| *t > 0.05), "a component at the boundary: {:?}", f.theta);
+    let c = crossaudit::methods::DrawComponents {
+        recording: f.variances[0],
+        seed: f.variances[1],
+        draw: f.variances[2],
+        recording_draw: f.variances[3],
+        seed_draw: f.variances[4],
+        residual: f.residual,
+    };
+    crate::common::assert_rel(c.pooled_variance(ni, nj, nk).sqrt(), f.se, 1e-8, "pooled SE = the GLS SE");
+    let sat = f.df_satterthwaite.unwrap();
+    crate::common::assert_rel(c.pooled_df(ni, nj, nk), sat, 1e-5, "pooled df = REML Satterthwaite df");
+    // Per-seed draws on the same components: the crossed closed form with
+    // the draw and seed:draw variances in the seed's.
+    let per_seed = c.per_seed_variance(ni, nj * nk);
+    let (a, b, e) = (c.recording, c.seed + c.draw + c.seed_draw, c.recording_draw + c.residual);
+    let n = (nj * nk) as f64;
+    crate::common::assert_rel(per_seed, a / ni as f64 + b / n + e / (ni as f64 * n), 1e-15, "per-seed variance");
+}
+
+/// `crossaudit plan` on the committed draw-replicated run plans d pooled
+/// over draws and with per-seed draws; at the pilot's own sizes its pooled
+/// SE is the closed form of the pilot's components.
+#[test]
+fn plan_on_a_draw_replicated_pilot_predicts_pooled_and_per_seed_designs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan");
+    let o = crossaudit(&[
+        "plan",
+        "designs/multiverse/paper_draws.design",
+        "--cells",
+        "results/multiverse/draws",
+        "--recordings",
+        "12,24",
+        "--seeds",
+        "10,20",
+        "--draws",
+        "3,6",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let s = said(&o);
+    assert!(o.status.success(), "{s}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    let (i0, j0, k0) =
+        (json["pilot"][0].as_u64().unwrap(), json["pilot"][1].as_u64().unwrap(), json["pilot"][2].as_u64().unwrap());
+    assert_eq!((i0, j0, k0), (24, 20, 3), "{s}");
+    let rows = json["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2 * 2 * 2 + 2 * 2);
+    let c = &json["components"];
+    let v = |k: &str| c[k].as_f64().unwrap();
+    let want = (v("recording") / 24.0
+        + v("seed") / 20.0
+        + v("draw") / 3.0
+        + v("recording_draw") / 72.0
+        + v("seed_draw") / 60.0
+        + v("residual") / 1440.0)
+        .sqrt();
+    let at_pilot = rows.iter().find(|r| r["recordings"] == 24 && r["seeds"] == 20 && r["draws"] == 3).unwrap();
+    crate::common::assert_rel(at_pilot["se"].as_f64().unwrap(), want, 1e-12, "pooled SE at the pilot");
+    // More draws never widen the pooled interval; per-seed rows train J models.
+    let per_seed = rows.iter().filter(|r| r["draws"].is_null()).count();
+    assert_eq!(per_seed, 4);
+    for r in rows.iter().filter(|r| r["draws"].is_null()) {
+        assert_eq!(r["models_per_arm"], r["seeds"]);
+    }
+    let md = std::fs::read_to_string(out.join("plan.md")).unwrap();
+    for needle in
+        ["## Pooled over K draws", "## Per-seed draws", "## Assumptions", "A single draw (K = 1) is not planned"]
+    {
+        assert!(md.contains(needle), "{needle} not in plan.md:\n{md}");
+    }
+    assert!(out.join("plan.svg").is_file());
+    // K = 1 is refused with the flag named.
+    let o = crossaudit(&[
+        "plan",
+        "designs/multiverse/paper_draws.design",
+        "--cells",
+        "results/multiverse/draws",
+        "--draws",
+        "1",
+        "--out",
+        dir.path().join("p1").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success() && said(&o).contains("--draws need values of at least 2, found 1"), "{}", said(&o));
+}

@@ -627,8 +627,9 @@ fn choices_and_draws_together_run_every_level() {
     let path = out.path().join("m.design");
     std::fs::write(
         &path,
-        small("choices { tails keep | truncate }\nprimary specification tails keep\nfactor draw = 1..2\ndraws coupled\nestimate crossed_mom level 0.95 df seed - 1\n")
-            .replace("factor seed = 1..2", "factor seed = 1..3"),
+        small("choices { lr 0.001 | 0.002 }\nprimary specification lr 0.001\nfactor draw = 1..2\ndraws coupled\nestimate crossed_mom level 0.95 df seed - 1\n")
+            .replace("factor seed = 1..2", "factor seed = 1..3")
+            .replace("train { adam lr 1e-3 batch", "train { batch"),
     )
     .unwrap();
     let run =
@@ -647,6 +648,61 @@ fn choices_and_draws_together_run_every_level() {
     assert!(report.contains("## Draw replication") && report.contains("### Specification s2"), "{report}");
     let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
     assert!(cells.lines().any(|l| l.starts_with("s2,2,")), "spec and draw columns");
+    // The choice effect is pooled over the draws as the specifications
+    // are: recomputed here from the levels' cells.csv files, d(s2) - d(s1)
+    // per recording, seed and draw, and one REML fit over recording, seed,
+    // draw, recording:draw and seed:draw.
+    let e = &a.choice_effects[0];
+    assert_eq!(e.pooled_draws, 2, "{e:?}");
+    let d = |level: &str| -> std::collections::BTreeMap<(String, u64), f64> {
+        let cells = crossaudit::cells::read_cells(&dir.join(level).join("cells.csv")).unwrap();
+        let at = |arm: &str| -> std::collections::BTreeMap<(String, u64), f64> {
+            cells
+                .iter()
+                .filter(|c| c.arm == arm && (c.horizon_s - 1.0).abs() < 1e-9)
+                .map(|c| ((c.recording.clone(), c.seed), c.fa_position_rmse_m))
+                .collect()
+        };
+        let (t, r) = (at("contaminated"), at("disjoint"));
+        t.iter().map(|(k, v)| (k.clone(), v - r[k])).collect()
+    };
+    let (mut y, mut rec, mut seed, mut draw, mut rd, mut sd) = (vec![], vec![], vec![], vec![], vec![], vec![]);
+    let mut names: Vec<String> = Vec::new();
+    for k in 1..=2usize {
+        let (s1, s2) = (d(&format!("spec-s1_draw-{k}")), d(&format!("spec-s2_draw-{k}")));
+        for (key, v1) in &s1 {
+            let r = names.iter().position(|n| *n == key.0).unwrap_or_else(|| {
+                names.push(key.0.clone());
+                names.len() - 1
+            });
+            y.push(s2[key] - v1);
+            rec.push(r);
+            seed.push(key.1 as usize);
+            draw.push(k);
+            rd.push(r * 10 + k);
+            sd.push(key.1 as usize * 10 + k);
+        }
+    }
+    use crossaudit::stats::mixed::{fit, Criterion, MixedData};
+    let data = MixedData::new(
+        y,
+        vec![
+            ("recording".into(), rec),
+            ("seed".into(), seed),
+            ("draw".into(), draw),
+            ("recording:draw".into(), rd),
+            ("seed:draw".into(), sd),
+        ],
+    )
+    .unwrap();
+    let f = fit(&data, Criterion::Reml).unwrap();
+    let (se, df, _, lower, upper) = f.intercept_interval(true, 0.95).unwrap();
+    let x = e.estimate.unwrap();
+    crate::common::assert_rel(x.mean, f.intercept, 1e-9, "pooled choice effect");
+    crate::common::assert_rel(x.se, se, 1e-6, "its SE");
+    crate::common::assert_rel(x.df, df, 1e-6, "its df");
+    crate::common::assert_rel(x.upper - x.lower, upper - lower, 1e-6, "its width");
+    assert!(report.contains("pooled by REML over recording, seed, draw"), "{report}");
 }
 
 /// The curve under the null (issue 45): crossaudit's p-values for the

@@ -196,20 +196,28 @@ proptest! {
             prop_assert!(kr.df.is_finite() && kr.df >= 1.0 && kr.df <= n as f64, "KR {kr:?}");
             prop_assert!(sat.is_finite() && sat >= 1.0 && sat <= n as f64, "Satterthwaite {sat}");
         }
-        // Two fits of data that differ by rounding stop at optima about
-        // 1e-8 apart, and the difference derivatives carry the criterion's
-        // rounding; with two variances 1e6 to 1e8 times the residual's over
-        // three levels each the df move by up to 1e-5. A df whose two step
+        // How far apart two fits of y and 7 - 0.003 y may be: both
+        // standardize the response, so they differ only by its rounding,
+        // but the REML criterion determines theta only as far as its own
+        // rounding allows. Where both variances are 1e6 to 1e8 times the
+        // residual's over a few levels each, the criterion (about 1e2) moves
+        // by its rounding (1e-14) over 1e-7 of theta, and the two optima
+        // are up to 1e-5 apart. A survey of 400 such designs (with the 24
+        // cases here drawn afresh each run) found the df of two fits apart
+        // by at most 8e-5 (Kenward-Roger) and 1.4e-4 (Satterthwaite), and
+        // by 1e-9 to 1e-7 where no variance exceeds 1e4 times the
+        // residual's; the df are printed to one decimal. A df whose two step
         // sizes disagree by more than 1e-4 is replaced by the stated
-        // fallback with a note; at that threshold two fits may decide
-        // differently, so the invariance is of the df both computed.
+        // fallback with a note, and at that threshold two fits may decide
+        // differently, so the invariance is of the df both computed: 1e-3.
+        // (The data of issue 43 itself are held to 1e-8 above.)
         let (kf, kg) = (f.kenward_roger.unwrap(), g.kenward_roger.unwrap());
         if !kf.fallback && !kg.fallback {
-            prop_assert!(rel(kg.df, kf.df) < 1e-4, "KR {} vs {}", kf.df, kg.df);
+            prop_assert!(rel(kg.df, kf.df) < 1e-3, "KR {} vs {}", kf.df, kg.df);
         }
         let (sf, sg) = (f.df_satterthwaite.unwrap(), g.df_satterthwaite.unwrap());
         if !f.fixed[0].satterthwaite_fallback && !g.fixed[0].satterthwaite_fallback {
-            prop_assert!(rel(sg, sf) < 1e-4, "Satterthwaite {sf} vs {sg}");
+            prop_assert!(rel(sg, sf) < 1e-3, "Satterthwaite {sf} vs {sg}");
         }
     }
 }

@@ -3,9 +3,11 @@
 
 pub mod coverage;
 pub mod draw_coverage;
+pub mod draw_power;
 pub mod power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};
+pub use draw_power::{draw_power_plan, DrawComponents, DrawPowerPlan, DrawPowerRow};
 pub use power::{
     dose_power_plan, pooled_se, power_plan, split_power_plan, PowerError, PowerPlan, PowerRow, SplitPowerPlan,
     SplitPowerRow,

@@ -23,11 +23,18 @@ pub const MAX_PLANNED: usize = 100_000;
 #[derive(Debug, thiserror::Error)]
 pub enum PowerError {
     /// Fewer than 2 recordings or seeds were asked for.
-    #[error("--recordings and --seeds need values of at least 2, found {0}")]
+    #[error("--recordings, --seeds, --splits and --draws need values of at least 2, found {0}")]
     TooFew(usize),
     /// More recordings or seeds than a design may declare.
-    #[error("--recordings and --seeds take values of at most {MAX_PLANNED}, found {0}")]
+    #[error("--recordings, --seeds, --splits and --draws take values of at most {MAX_PLANNED}, found {0}")]
     TooMany(usize),
+    /// A pilot with `factor draw` has no certified fit over its draws to
+    /// plan from.
+    #[error("the pilot has no fit pooled over its draws to plan from: {why}")]
+    NoPooledFit {
+        /// Why.
+        why: String,
+    },
     /// The pilot analysis has no primary unit.
     #[error("the analysis has no primary endpoint")]
     NoPrimary,
@@ -102,6 +109,10 @@ pub struct PowerPlan {
     pub rows: Vec<PowerRow>,
     /// Whether more recordings or more seeds reduce the SE more.
     pub advice: String,
+    /// The pilot gave each seed its own draw (`draws per seed`), so its
+    /// seed component includes the draw variance.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub draws_per_seed: bool,
 }
 
 /// Predicts SE, interval width and the probability that the decision rule
@@ -159,7 +170,7 @@ fn unit_of(unit: &str, per_dose: bool) -> String {
     }
 }
 
-fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
+pub(super) fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
     let all = || counts.iter().flat_map(|c| c.iter());
     if let Some(n) = all().find(|n| **n < 2) {
         return Err(PowerError::TooFew(*n));
@@ -173,7 +184,12 @@ fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
 /// Refuses components whose sum is not above 1e-18 times the square of the
 /// larger of the pilot's means: a relative SD under 1e-9 is rounding in the
 /// differences, not variation between recordings or seeds.
-fn refuse_degenerate(unit: &str, components: &[f64], mean: f64, mean_reference: f64) -> Result<(), PowerError> {
+pub(super) fn refuse_degenerate(
+    unit: &str,
+    components: &[f64],
+    mean: f64,
+    mean_reference: f64,
+) -> Result<(), PowerError> {
     let total: f64 = components.iter().sum();
     let scale = mean.abs().max(mean_reference.abs());
     if total > 1e-18 * scale * scale && total.is_finite() {
@@ -189,7 +205,7 @@ fn refuse_degenerate(unit: &str, components: &[f64], mean: f64, mean_reference: 
 /// P(the decision rule holds) for an estimate ~ N(mean, se^2) whose
 /// interval half-width is t se: the rule "optimism >= c% and upper < 0"
 /// holds when the estimate is at most min(-t se, -c m_ref / 100).
-fn rule_power(plan: &Plan, mean: f64, se: f64, t: f64, mean_reference: f64) -> Result<f64, PowerError> {
+pub(super) fn rule_power(plan: &Plan, mean: f64, se: f64, t: f64, mean_reference: f64) -> Result<f64, PowerError> {
     let normal = Normal::new(0.0, 1.0).map_err(|e| StatsError::Invalid(e.to_string()))?;
     let mut bound = -t * se;
     if let Some(thr) = plan.decision.optimism_threshold() {
@@ -244,6 +260,7 @@ fn crossed_plan(
         sigma2_residual: c.residual,
         rows,
         advice,
+        draws_per_seed: false,
     })
 }
 
@@ -302,6 +319,11 @@ impl PowerPlan {
 - Nothing else varies: the model, training, split and data inclusion are the pilot's.\n",
             estimand = self.estimand
         );
+        if self.draws_per_seed {
+            s.push_str("- The pilot gave each seed its own draw (`draws per seed`): its seed component includes the variance between draws, so every row's J seeds are J draws, and the interval is for the mean over draws.\n");
+        } else {
+            s.push_str("- One draw of the validation recordings, windows and rollout starts: the interval is conditional on it and leaves the variance between draws out (`draws per seed` or `factor draw` put it in; plan a design with `factor draw` to see both).\n");
+        }
         s
     }
 

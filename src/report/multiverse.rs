@@ -165,9 +165,15 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
             level_pct(level)
         );
         let _ = writeln!(s, "## Paired effect of each choice on d\n");
+        let pooled = a.choice_effects.iter().map(|e| e.pooled_draws).max().unwrap_or(0);
         let _ = writeln!(
             s,
-            "Per recording and seed: mean d over the specifications taking the alternative minus mean d over those taking the primary's; the design's crossed estimator on that matrix.\n"
+            "Per recording and seed: mean d over the specifications taking the alternative minus mean d over those taking the primary's; {}\n",
+            if pooled > 0 {
+                format!("that matrix in each of the {pooled} draws, pooled by REML over recording, seed, draw and their interactions with Kenward-Roger df, as each specification's d is.")
+            } else {
+                "the design's crossed estimator on that matrix.".to_string()
+            }
         );
         let _ = writeln!(s, "| choice | from (primary) | to | specs per side | effect on d (m) | interval (m) | df |");
         let _ = writeln!(s, "|---|---|---|---:|---:|---|---:|");

@@ -139,6 +139,15 @@ pub struct ChoiceEffect {
     pub error: Option<String>,
     /// Recordings every specification shares (the rows of the paired matrix).
     pub recordings: usize,
+    /// With `factor draw`: the draws the estimate is pooled over (REML over
+    /// recording, seed, draw and their interactions, Kenward-Roger df);
+    /// 0 when it is the first draw's crossed estimate.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub pooled_draws: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// How much the unpublished draws move one specification's result.
@@ -283,7 +292,7 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
     }
     let mut warnings = Vec::new();
     let diffs: Vec<Diff> = spec_levels.iter().map(|&k| Diff::of(levels[k].plan, levels[k].cells)).collect();
-    let (choice_effects, joint) = match mv {
+    let (mut choice_effects, joint) = match mv {
         Some(m) => {
             let effects = choice_effects(m, &diffs, &design.estimator, &mut warnings);
             let seed = design.sensitivity.bootstrap.as_ref().map(|b| b.seed).unwrap_or(11);
@@ -307,6 +316,23 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         None => (Vec::new(), None),
     };
     let draws = draw_replication(design, levels, &analyses, mv.map(|m| m.specs.iter().map(|s| s.id.clone()).collect()));
+    // With draws, each choice effect is pooled over them too.
+    let draw_ids: BTreeSet<u64> = levels.iter().filter_map(|l| l.draw).collect();
+    if let (Some(m), true) = (mv, draw_ids.len() >= 2) {
+        let per_draw: Vec<(u64, Vec<Diff>)> = draw_ids
+            .iter()
+            .map(|&k| {
+                let mut at: Vec<usize> = (0..levels.len()).filter(|&i| levels[i].draw == Some(k)).collect();
+                at.sort_by_key(|&i| levels[i].spec);
+                let at: Vec<Diff> = at.iter().map(|&i| Diff::of(levels[i].plan, levels[i].cells)).collect();
+                (k, at)
+            })
+            .filter(|(_, at)| at.len() == m.specs.len())
+            .collect();
+        if per_draw.len() >= 2 {
+            pooled_choice_effects(m, &per_draw, &mut choice_effects, design.estimator.level);
+        }
+    }
     // With draws, each specification is decided on its estimate pooled
     // over them, not on one draw.
     for d in &draws {
@@ -345,7 +371,7 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         ));
         if mv.is_some() {
             warnings.push(format!(
-                "the choice effects and the joint bands use draw {} only: they do not include the draw variance (`draws per seed` puts it in every estimate)",
+                "the choice effects are pooled over the draws as the specifications are; the joint bands and the null test use draw {} only, so they do not include the draw variance (`draws per seed` puts it in every estimate)",
                 first_draw.unwrap_or(1)
             ));
         }
@@ -421,12 +447,21 @@ fn common(diffs: &[&Diff]) -> (Vec<String>, Vec<u64>, Vec<Vec<f64>>) {
     (recs, seeds, mats)
 }
 
-fn choice_effects(
-    m: &crate::design::Multiverse,
-    diffs: &[Diff],
-    est: &Estimator,
-    warnings: &mut Vec<String>,
-) -> Vec<ChoiceEffect> {
+/// One choice effect's paired cells: per recording and seed (over the
+/// recordings and seeds every specification has), mean d over the
+/// specifications taking the alternative minus mean d over those taking
+/// the primary's.
+struct EffectCells {
+    setting: String,
+    reference: String,
+    alternative: String,
+    specs_per_side: usize,
+    recs: Vec<String>,
+    seeds: Vec<u64>,
+    values: Vec<f64>,
+}
+
+fn effect_cells(m: &crate::design::Multiverse, diffs: &[Diff], warnings: &mut Vec<String>) -> Vec<EffectCells> {
     let all: Vec<&Diff> = diffs.iter().collect();
     let (recs, seeds, mats) = common(&all);
     let total: BTreeSet<&String> = diffs.iter().flat_map(|d| d.cells.keys().map(|k| &k.0)).collect();
@@ -447,24 +482,119 @@ fn choice_effects(
             let n = recs.len() * seeds.len();
             let mean_over =
                 |idx: &[usize], cell: usize| idx.iter().map(|&s| mats[s][cell]).sum::<f64>() / idx.len() as f64;
-            let v: Vec<Option<f64>> =
-                (0..n).map(|cell| Some(mean_over(&with, cell) - mean_over(&without, cell))).collect();
-            let (estimate, error) = match super::unit::estimate_grid(est, recs.len(), seeds.len(), v) {
-                Ok(e) => (Some(e), None),
-                Err(e) => (None, Some(e.to_string())),
-            };
-            out.push(ChoiceEffect {
+            out.push(EffectCells {
                 setting: choice.setting.clone(),
                 reference: primary[c].clone(),
                 alternative: alt.clone(),
                 specs_per_side: with.len(),
-                estimate,
-                error,
-                recordings: recs.len(),
+                recs: recs.clone(),
+                seeds: seeds.clone(),
+                values: (0..n).map(|cell| mean_over(&with, cell) - mean_over(&without, cell)).collect(),
             });
         }
     }
     out
+}
+
+fn choice_effects(
+    m: &crate::design::Multiverse,
+    diffs: &[Diff],
+    est: &Estimator,
+    warnings: &mut Vec<String>,
+) -> Vec<ChoiceEffect> {
+    effect_cells(m, diffs, warnings)
+        .into_iter()
+        .map(|e| {
+            let v = e.values.iter().map(|v| Some(*v)).collect();
+            let (estimate, error) = match super::unit::estimate_grid(est, e.recs.len(), e.seeds.len(), v) {
+                Ok(x) => (Some(x), None),
+                Err(x) => (None, Some(x.to_string())),
+            };
+            ChoiceEffect {
+                setting: e.setting,
+                reference: e.reference,
+                alternative: e.alternative,
+                specs_per_side: e.specs_per_side,
+                estimate,
+                error,
+                recordings: e.recs.len(),
+                pooled_draws: 0,
+            }
+        })
+        .collect()
+}
+
+/// The choice effects of a multiverse crossed with `factor draw`, each
+/// pooled over the draws as a specification's d is: its paired cells in
+/// every draw (`per_draw`: the draw and its specifications' differences,
+/// in specification order), REML over recording, seed, draw,
+/// recording:draw and seed:draw, and the intercept's Kenward-Roger
+/// interval. An effect whose pooled fit fails keeps its first-draw
+/// estimate, with the reason.
+fn pooled_choice_effects(
+    m: &crate::design::Multiverse,
+    per_draw: &[(u64, Vec<Diff>)],
+    effects: &mut [ChoiceEffect],
+    level: f64,
+) {
+    let cells: Vec<(u64, Vec<EffectCells>)> =
+        per_draw.iter().map(|(k, diffs)| (*k, effect_cells(m, diffs, &mut Vec::new()))).collect();
+    for (e, effect) in effects.iter_mut().enumerate() {
+        let rows: Vec<(&str, u64, u64, f64)> = cells
+            .iter()
+            .filter_map(|(k, es)| es.get(e).map(|x| (k, x)))
+            .flat_map(|(k, x)| {
+                x.recs.iter().flat_map(move |r| x.seeds.iter().map(move |s| (r.as_str(), *s, *k))).zip(&x.values)
+            })
+            .map(|((r, s, k), v)| (r, s, k, *v))
+            .collect();
+        let fit = fit_over_draws(&rows).map_err(|x| x.to_string()).and_then(|f| {
+            let (se, df, _, lower, upper) = f.intercept_interval(true, level).map_err(|x| x.to_string())?;
+            Ok((f.intercept, se, df, lower, upper))
+        });
+        match (fit, effect.estimate) {
+            (Ok((mean, se, df, lower, upper)), Some(template)) => {
+                effect.estimate =
+                    Some(CrossedEstimate { mean, se, df, critical: (upper - mean) / se, lower, upper, ..template });
+                effect.pooled_draws = cells.len();
+            }
+            (Err(x), _) => {
+                effect.error = Some(format!("no fit pooled over the draws ({x}); the estimate is the first draw's"));
+            }
+            _ => {}
+        }
+    }
+}
+
+/// REML of d over recording, seed, draw, recording:draw and seed:draw,
+/// from (recording, seed, draw, d) rows; certified.
+fn fit_over_draws(
+    rows: &[(&str, u64, u64, f64)],
+) -> Result<crate::stats::mixed::MixedFit, crate::stats::mixed::MixedError> {
+    let mut names: BTreeMap<&str, usize> = BTreeMap::new();
+    let (mut y, mut rec, mut seed, mut draw, mut rec_draw, mut seed_draw) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for &(r, s, k, v) in rows {
+        let n = names.len();
+        let ri = *names.entry(r).or_insert(n);
+        let kd = k as usize;
+        y.push(v);
+        rec.push(ri);
+        seed.push(s as usize);
+        draw.push(kd);
+        rec_draw.push(ri * 100_000 + kd);
+        seed_draw.push(s as usize * 100_000 + kd);
+    }
+    let factors = vec![
+        ("recording".to_string(), rec),
+        ("seed".to_string(), seed),
+        ("draw".to_string(), draw),
+        ("recording:draw".to_string(), rec_draw),
+        ("seed:draw".to_string(), seed_draw),
+    ];
+    crate::stats::mixed::MixedData::new(y, factors)
+        .and_then(|data| crate::stats::mixed::fit(&data, crate::stats::mixed::Criterion::Reml))
+        .and_then(|f| f.certified())
 }
 
 /// Per specification with several draws: each draw's estimate and the
@@ -489,33 +619,13 @@ fn draw_replication(
                 (draw, u.estimate.mean, u.estimate.lower, u.estimate.upper, u.optimism_pct, a.decision.holds)
             })
             .collect();
-        let (mut y, mut rec, mut seed, mut draw, mut rec_draw, mut seed_draw) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let mut names: BTreeMap<String, usize> = BTreeMap::new();
-        for &k in &members {
-            let d = Diff::of(levels[k].plan, levels[k].cells);
-            let kd = levels[k].draw.unwrap_or(1) as usize;
-            for ((r, sd), v) in &d.cells {
-                let n = names.len();
-                let ri = *names.entry(r.clone()).or_insert(n);
-                y.push(*v);
-                rec.push(ri);
-                seed.push(*sd as usize);
-                draw.push(kd);
-                rec_draw.push(ri * 100_000 + kd);
-                seed_draw.push(*sd as usize * 100_000 + kd);
-            }
-        }
-        let factors = vec![
-            ("recording".to_string(), rec),
-            ("seed".to_string(), seed),
-            ("draw".to_string(), draw),
-            ("recording:draw".to_string(), rec_draw),
-            ("seed:draw".to_string(), seed_draw),
-        ];
-        let fit = crate::stats::mixed::MixedData::new(y, factors)
-            .and_then(|data| crate::stats::mixed::fit(&data, crate::stats::mixed::Criterion::Reml))
-            .and_then(|f| f.certified());
+        let diffs: Vec<(u64, Diff)> =
+            members.iter().map(|&k| (levels[k].draw.unwrap_or(1), Diff::of(levels[k].plan, levels[k].cells))).collect();
+        let rows: Vec<(&str, u64, u64, f64)> = diffs
+            .iter()
+            .flat_map(|(kd, d)| d.cells.iter().map(move |((r, sd), v)| (r.as_str(), *sd, *kd, *v)))
+            .collect();
+        let fit = fit_over_draws(&rows);
         let spec = spec_ids.as_ref().map(|ids| ids[s].clone()).unwrap_or_else(|| "-".to_string());
         match fit {
             Ok(f) => {

@@ -156,8 +156,10 @@ pub(crate) enum Command {
         out: PathBuf,
     },
     /// Predict SE, interval width and the probability the decision rule holds
-    /// for other numbers of recordings and seeds (and splits), from pilot
-    /// per-cell data; for a dose-response design, of the slope over doses.
+    /// for other numbers of recordings and seeds (and splits, or draws), from
+    /// pilot per-cell data; for a dose-response design, of the slope over
+    /// doses; for a design with `factor draw`, of d pooled over draws and
+    /// with per-seed draws.
     Plan {
         /// The design file (.design).
         design: PathBuf,
@@ -173,6 +175,10 @@ pub(crate) enum Command {
         /// Numbers of splits to consider (a design with a split factor).
         #[arg(long, value_delimiter = ',', default_value = "3,5,10")]
         splits: Vec<usize>,
+        /// Numbers of draws to pool over (a design with `factor draw`,
+        /// whose `--cells` is its run directory).
+        #[arg(long, value_delimiter = ',', default_value = "3,5,10")]
+        draws: Vec<usize>,
         /// Output directory for plan.md, plan.json, plan.svg.
         #[arg(long, default_value = "plan")]
         out: PathBuf,

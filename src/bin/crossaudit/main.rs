@@ -57,8 +57,8 @@ fn main() -> ExitCode {
         Command::Job { dir, index } => slurm_job(&dir, index),
         Command::Gather { dir } => slurm_gather(&dir),
         Command::Coverage { spec, reps, out } => methods::coverage(&spec, reps, &out),
-        Command::Plan { design, cells, recordings, seeds, splits, out } => {
-            methods::power(&design, &cells, (&splits, &recordings, &seeds), &out)
+        Command::Plan { design, cells, recordings, seeds, splits, draws, out } => {
+            methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out)
         }
         Command::Simulate { design, out } => methods::simulate(&design, &out),
         Command::Mixed { data, formula, ml, df, profile, json, compare } => match compare {

@@ -45,12 +45,22 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Res
 pub(crate) fn power(
     design: &Path,
     cells: &Path,
-    (splits, recordings, seeds): (&[usize], &[usize], &[usize]),
+    (splits, recordings, seeds, draws): (&[usize], &[usize], &[usize], &[usize]),
     out: &Path,
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     crossaudit::run::check_output_dir(out, &file.sha256)?;
     let plan = crossaudit::compile(&file.design);
+    if !file.design.draws.is_empty() {
+        // A draw-replicated pilot: `--cells` is its run directory, analysed
+        // as `analyze` analyses it, and d pooled over draws is planned.
+        let a = crossaudit::run::outer::analyze_dir(&file, cells)?;
+        let power = crossaudit::methods::draw_power_plan(&plan, &a, recordings, seeds, draws)?;
+        let _lock = lock_folder(out, false)?;
+        power.write(out)?;
+        out!("{}", power.to_markdown());
+        return Ok(());
+    }
     if !plan.splits.is_empty() {
         let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
         let power = crossaudit::methods::split_power_plan(&plan, &family, splits, recordings, seeds)?;
@@ -65,7 +75,9 @@ pub(crate) fn power(
         crossaudit::methods::dose_power_plan(&plan, &family, recordings, seeds)?
     } else {
         let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
-        crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?
+        let mut p = crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?;
+        p.draws_per_seed = file.design.per_seed_draws;
+        p
     };
     let _lock = lock_folder(out, false)?;
     power.write(out)?;
