@@ -53,7 +53,9 @@ fresh() {  # fresh DESIGN OUT
 }
 copy_parts() {  # copy_parts FROM TO: the committed parts of one run directory
   [ -f "$1/run.json" ] || return 0
-  for part in cells cells.csv report run.json audit manifests/manifests.json; do
+  for part in cells cells.csv report run.json audit manifests/manifests.json curves; do
+    # Training curves only where a folder commits them.
+    [ "$part" = curves ] && [ ! -d "$2/curves" ] && continue
     rm -rf "${2:?}/$part"; mkdir -p "$(dirname "$2/$part")"; cp -r "$1/$part" "$2/$part"
   done
 }
@@ -80,8 +82,16 @@ rm -rf results/*/models results/*/simulated_data results/simulated_controls/*/mo
 # of the folders regenerated here, and only those (a full run copied into
 # results/ but not yet committed keeps its own).
 for d in results/quickstart results/quickstart_nanobench results/simulated_controls/* results/simulated_family/*; do
-  for f in curves time.txt stdout.txt; do
+  for f in time.txt stdout.txt; do
     [ -e "$d/$f" ] && { git checkout -- "$d/$f" 2>/dev/null || true; }
+  done
+  # A training curve whose every column but the last (seconds) is the
+  # committed one's keeps the committed file; a changed curve is new.
+  find "$d" -path '*/curves/*.csv' | while read -r c; do
+    if git cat-file -e "HEAD:$c" 2>/dev/null &&
+       [ "$(git show "HEAD:$c" | sed 's/,[^,]*$//')" = "$(sed 's/,[^,]*$//' "$c")" ]; then
+      git checkout -- "$c"
+    fi
   done
 done
 git status --short results/
