@@ -337,6 +337,23 @@ fn score_refuses_what_it_cannot_trust_and_names_it() {
     assert!(!e.contains(p), "{e}");
     assert!(dir.join(format!("jobs/{}.json", job.stem())).is_file());
     assert!(!dir.join("cells.csv").exists(), "no cells.csv until every job is there");
+    // Two refused and one missing: every problem named in one run.
+    let (j1, j2) = (&idx.jobs[1], &idx.jobs[2]);
+    std::fs::write(dir.join(&j1.predictions), npy_with(&j1.shape, "<f4", false)).unwrap();
+    write_predictions_description(&dir, j1, &sha);
+    std::fs::write(dir.join(&j2.predictions), b"x,y\n").unwrap();
+    write_predictions_description(&dir, j2, &sha);
+    assert_fails_with(
+        &crossaudit(&["score", d]),
+        &[
+            "2 of 4 external jobs' predictions are refused, and 1 have none",
+            &j1.predictions,
+            "dtype <f4, expected <f8",
+            &j2.predictions,
+            "not a NumPy .npy file",
+            &idx.jobs[3].predictions,
+        ],
+    );
     write_all(&dir, &idx, &sha);
     assert_ok(&crossaudit(&["score", d]));
 }

@@ -398,7 +398,7 @@ fn a_dose_report_has_its_page_and_a_numeric_dose_axis_with_the_slope() {
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
     let verdict = if md.lines().next().unwrap().ends_with("NOT GROWS") { "NOT GROWS" } else { "GROWS" };
-    assert!(html.contains(&format!("<span class=\"verdict\">{verdict}</span>")), "{html}");
+    assert!(html.contains(&format!(": {verdict}</h1>")) && html.contains("<h1 class=\"verdict\">"), "{html}");
     assert!(html.contains("<figure data-figure=\"optimism_by_dose.svg\"") && !html.contains("<img"), "{html}");
     let svg = std::fs::read_to_string(dir.join("optimism_by_dose.svg")).unwrap();
     assert!(svg.contains("dose (% of the fit windows from the evaluation recordings)"), "no numeric dose axis");

@@ -125,7 +125,7 @@ fn an_analysis_only_choice_trains_no_extra_job() {
     let html = std::fs::read_to_string(dir.join("report/report.html")).unwrap();
     let verdict = report.lines().next().unwrap();
     let verdict = if verdict.contains("**NOT ") { "NOT CONFIRMED" } else { "CONFIRMED" };
-    assert!(html.contains(&format!("<span class=\"verdict\">{verdict}</span>")), "{html}");
+    assert!(html.contains(&format!(": {verdict}</h1>")) && html.contains("<h1 class=\"verdict\">"), "{html}");
     let curve = std::fs::read_to_string(dir.join("report/spec_curve.svg")).unwrap();
     let body = curve.trim_start().strip_prefix("<?xml").map_or(curve.as_str(), |r| r.split_once("?>").unwrap().1);
     assert!(html.contains("<figure data-figure=\"spec_curve.svg\"") && html.contains(body.trim()), "{html}");

@@ -80,6 +80,7 @@ fn assert_inert(html: &str) {
         "hr",
         "pre",
         "blockquote",
+        "nav",
         "svg",
         "g",
         "text",

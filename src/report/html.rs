@@ -22,7 +22,9 @@ const STYLE: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,
 table{border-collapse:collapse;margin:.6rem 0 1.2rem;font-size:.88rem}th,td{border:1px solid #d0d7de;padding:.25rem .5rem}\
 th{background:#f6f8fa}td.num{text-align:right;font-variant-numeric:tabular-nums}\
 code{background:#f6f8fa;padding:0 .2rem;border-radius:3px}figure{margin:1rem 0}figure svg{max-width:100%;height:auto}\
-h1{font-size:1.6rem}h2{border-bottom:1px solid #d0d7de;padding-bottom:.2rem;margin-top:2rem}";
+h1{font-size:1.6rem}h2{border-bottom:1px solid #d0d7de;padding-bottom:.2rem;margin-top:2rem}\
+.banner h1.verdict{margin:0 0 .3rem;font-size:1.5rem}.banner .warnings{margin-top:.5rem;font-size:.92rem}.banner .warnings ul{margin:.2rem 0 0;padding-left:1.2rem}\
+nav.toc{font-size:.92rem;margin:.5rem 0 1rem}nav.toc ul{columns:2;margin:.2rem 0;padding-left:1.2rem}";
 
 /// Escapes text for HTML.
 fn esc(s: &str) -> String {
@@ -91,7 +93,20 @@ fn body(markdown: &str, figures: &[(String, String)]) -> String {
             }
             Event::End(TagEnd::Paragraph) => out.push_str("</p>\n"),
             Event::Start(Tag::Heading { level, .. }) => {
-                let _ = write!(out, "<{level}>");
+                if *level == pulldown_cmark::HeadingLevel::H2 {
+                    // The heading's own text, for its anchor.
+                    let text: String = events[k + 1..]
+                        .iter()
+                        .take_while(|e| !matches!(e, Event::End(TagEnd::Heading(_))))
+                        .filter_map(|e| match e {
+                            Event::Text(t) | Event::Code(t) => Some(t.to_string()),
+                            _ => None,
+                        })
+                        .collect();
+                    let _ = write!(out, "<{level} id=\"{}\">", slug(&text));
+                } else {
+                    let _ = write!(out, "<{level}>");
+                }
             }
             Event::End(TagEnd::Heading(level)) => {
                 let _ = writeln!(out, "</{level}>");
@@ -239,9 +254,85 @@ fn status_sentence(exploratory: bool, preregistered: Option<bool>) -> &'static s
     }
 }
 
+/// report.md less what the banner says: the first level-1 heading (the
+/// study and its verdict), any verdict line above it, and the decision
+/// and preregistration paragraphs right below it.
+fn without_banner_lines(markdown: &str) -> String {
+    let Some(h1) = markdown.lines().position(|l| l.starts_with("# ")) else { return markdown.to_string() };
+    let lines: Vec<&str> = markdown.lines().collect();
+    let mut k = h1 + 1;
+    loop {
+        while k < lines.len() && lines[k].trim().is_empty() {
+            k += 1;
+        }
+        let first = lines.get(k).copied().unwrap_or("");
+        let says_banner = ["decision:", "NOT PREREGISTERED", "EXPLORATORY", "Preregistered:", "Preregistration status"]
+            .iter()
+            .any(|p| first.starts_with(p));
+        if !says_banner {
+            break;
+        }
+        while k < lines.len() && !lines[k].trim().is_empty() {
+            k += 1;
+        }
+    }
+    let mut out = lines[k..].join("\n");
+    out.push('\n');
+    out
+}
+
+/// The items of report.md's `## Warnings` section, one per bullet.
+fn warning_items(markdown: &str) -> Vec<String> {
+    let mut items: Vec<String> = Vec::new();
+    let mut inside = false;
+    for l in markdown.lines() {
+        if l.starts_with("## ") {
+            inside = l.trim() == "## Warnings";
+            continue;
+        }
+        if !inside {
+            continue;
+        }
+        if let Some(item) = l.strip_prefix("- ") {
+            items.push(item.trim().to_string());
+        } else if let (Some(last), false) = (items.last_mut(), l.trim().is_empty()) {
+            last.push(' ');
+            last.push_str(l.trim());
+        }
+    }
+    items
+}
+
+/// `text` cut at a word boundary to at most `n` characters, with an ellipsis.
+fn shorten(text: &str, n: usize) -> String {
+    let plain = text.replace('`', "");
+    if plain.chars().count() <= n {
+        return plain;
+    }
+    let cut: String = plain.chars().take(n).collect();
+    let cut = cut.rsplit_once(' ').map_or(cut.as_str(), |p| p.0);
+    format!("{cut} ...")
+}
+
+/// A section heading's anchor: lower case, letters and digits, dashes.
+fn slug(heading: &str) -> String {
+    let mut out = String::new();
+    for c in heading.chars().flat_map(char::to_lowercase) {
+        if c.is_ascii_alphanumeric() {
+            out.push(c);
+        } else if !out.ends_with('-') && !out.is_empty() {
+            out.push('-');
+        }
+    }
+    out.trim_end_matches('-').to_string()
+}
+
 /// A whole page: the banner, then `markdown` (a report.md) converted, with
 /// the `figures` its images name, (file name, SVG text), drawn inline.
 pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(String, String)]) -> String {
+    let markdown = &without_banner_lines(markdown);
+    let warnings = warning_items(markdown);
+    let sections: Vec<String> = markdown.lines().filter_map(|l| l.strip_prefix("## ")).map(str::to_string).collect();
     let mut s = String::new();
     let _ = write!(
         s,
@@ -249,14 +340,39 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
         esc(study),
         esc(&banner.verdict)
     );
-    let _ = writeln!(
+    let _ = write!(
         s,
-        "<div class=\"banner {}\" role=\"status\"><span class=\"verdict\">{}</span><span>{}</span><span class=\"status\">{}</span></div>",
+        "<div class=\"banner {}\" role=\"status\"><h1 class=\"verdict\">{}: {}</h1><span>{}</span><span class=\"status\">{}</span>",
         if banner.holds { "holds" } else { "fails" },
+        esc(study),
         esc(&banner.verdict),
         esc(&banner.line),
         esc(banner.status)
     );
+    // Every warning, shortened, in the banner; the full text is in the
+    // warnings section.
+    if !warnings.is_empty() {
+        let _ = write!(
+            s,
+            "<div class=\"warnings\"><strong>{} warning{}</strong> (<a href=\"#{}\">in full</a>):<ul>",
+            warnings.len(),
+            if warnings.len() == 1 { "" } else { "s" },
+            slug("Warnings")
+        );
+        for w in &warnings {
+            let _ = write!(s, "<li>{}</li>", esc(&shorten(w, 160)));
+        }
+        s.push_str("</ul></div>");
+    }
+    s.push_str("</div>\n");
+    // A long page gets a table of contents of its sections.
+    if sections.len() >= 4 {
+        s.push_str("<nav class=\"toc\" aria-label=\"contents\"><strong>Contents</strong><ul>");
+        for h in &sections {
+            let _ = write!(s, "<li><a href=\"#{}\">{}</a></li>", slug(h), esc(h));
+        }
+        s.push_str("</ul></nav>\n");
+    }
     s.push_str(&body(markdown, figures));
     s.push_str("</body>\n</html>\n");
     s
@@ -288,5 +404,23 @@ mod tests {
         assert!(h.contains("<li>one more</li>") && h.contains("<li>two</li>"));
         assert!(h.contains("<figure data-figure=\"f.svg\" aria-label=\"f\">\n<svg width=\"10\"></svg>"), "{h}");
         assert!(!h.contains("<?xml"));
+    }
+
+    #[test]
+    fn the_banner_says_the_verdict_once_with_every_warning_and_long_pages_get_contents() {
+        let md = "# s: CONFIRMED\n\ndecision: CONFIRMED on x\n\nRule: r.\n\n## A\n\n## B b\n\n## C\n\n## Warnings\n\n- first `one`: long\n  continued\n- second\n";
+        let banner = Banner::new("confirmed", true, "decision: CONFIRMED on x".into(), false, Some(true));
+        let page = render_page("s", &banner, md, &[]);
+        // The study, verdict and decision line once, in the banner.
+        assert_eq!(page.matches("decision: CONFIRMED on x").count(), 1, "{page}");
+        assert!(page.contains("<h1 class=\"verdict\">s: CONFIRMED</h1>") && !page.contains("<h1>s: CONFIRMED</h1>"));
+        assert!(page.contains("<p>Rule: r.</p>"), "{page}");
+        // Both warnings in the banner, linked to the section.
+        assert!(page.contains("<strong>2 warnings</strong> (<a href=\"#warnings\">in full</a>)"), "{page}");
+        assert!(page.contains("<li>first one: long continued</li><li>second</li>"), "{page}");
+        // Contents, and the anchors they point to.
+        assert!(page.contains("<a href=\"#b-b\">B b</a>") && page.contains("<h2 id=\"b-b\">B b</h2>"), "{page}");
+        assert!(page.contains("<h2 id=\"warnings\">Warnings</h2>"), "{page}");
+        assert_eq!(shorten("a b c d", 5), "a b ...");
     }
 }

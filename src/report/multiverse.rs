@@ -161,7 +161,7 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         let level = a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95);
         let _ = writeln!(
             s,
-            "\nIntervals: the design's estimator at {} per specification. Table: specs.csv.\n\n![spec_curve.svg](spec_curve.svg)\n",
+            "\nIntervals: the design's estimator at {} per specification. A point's colour says whether the specification's preregistered rule holds (blue) or not (red); it is not whether its interval excludes zero: an interval wholly below zero is red where the optimism threshold is not met. Table: specs.csv.\n\n![spec_curve.svg](spec_curve.svg)\n",
             level_pct(level)
         );
         let _ = writeln!(s, "## Paired effect of each choice on d\n");
@@ -436,7 +436,7 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     let rows: Vec<(String, String)> =
         a.choices.iter().flat_map(|c| c.alternatives.iter().map(move |v| (c.setting.clone(), v.clone()))).collect();
     let (left, top, plot_h, row_h, col_w) =
-        (230.0, 40.0, 260.0, 18.0, 34.0_f64.max(480.0 / a.specs.len().max(1) as f64));
+        (230.0, 56.0, 260.0, 18.0, 34.0_f64.max(480.0 / a.specs.len().max(1) as f64));
     let width = (left + col_w * a.specs.len() as f64 + 30.0).max(720.0);
     let height = top + plot_h + 40.0 + row_h * rows.len() as f64 + 40.0;
     let band = |id: &str| a.joint.as_ref().and_then(|j| j.bands.iter().find(|b| b.0 == id)).map(|b| (b.2, b.3));
@@ -464,6 +464,10 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
         s,
         r#"<text x="10" y="20" font-size="14">d = treated - reference (m) by specification: {} intervals; grey: joint bands</text>"#,
         level_pct(a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95))
+    );
+    let _ = writeln!(
+        s,
+        r##"<text x="10" y="38" font-size="12"><tspan fill="#1f77b4">blue: the rule holds</tspan>; <tspan fill="#d62728">red: it does not</tspan> (the colour is the rule, not whether the interval excludes 0)</text>"##
     );
     // Axis with ticks.
     let _ = writeln!(s, r#"<line x1="{left}" y1="{top}" x2="{left}" y2="{}" stroke="black"/>"#, top + plot_h);

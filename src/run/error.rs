@@ -42,6 +42,21 @@ pub enum RunError {
         /// Why, and what is expected.
         reason: String,
     },
+    /// Prediction files refused, every one named (and any jobs without
+    /// predictions), in one run.
+    #[error("{refused} of {jobs} external jobs' predictions are refused{summary}; every problem found is listed (the {scored} valid ones are scored and kept):\n{list}")]
+    PredictionsRefused {
+        /// Jobs whose predictions are refused.
+        refused: usize,
+        /// External jobs.
+        jobs: usize,
+        /// Jobs scored (now or before).
+        scored: usize,
+        /// ", and N have none" where some are missing too.
+        summary: String,
+        /// One line per problem.
+        list: String,
+    },
     /// Some external jobs have no predictions yet.
     #[error("{missing} of {jobs} external jobs have no predictions in {dir}/predictions (the {scored} present are scored and kept; cells.csv and the report are written once all are there):\n{list}")]
     PredictionsMissing {

@@ -93,6 +93,8 @@ pub fn score(
     let jobs: Vec<&TrainingJob> = external_jobs(&r.plan);
     let (mut scored, mut resumed, mut missing) = (0, 0, Vec::new());
     let mut non_finite = Vec::new();
+    // Every refused predictions file is named, not only the first.
+    let mut refused: Vec<String> = Vec::new();
     for (job, ej) in jobs.iter().zip(&index.jobs) {
         let counted = match JobRecord::read(dir, job)? {
             Some(rec) => {
@@ -101,7 +103,14 @@ pub fn score(
                 rec.non_finite_starts.unwrap_or(0)
             }
             None if dir.join(&ej.predictions).exists() || dir.join(&ej.description).exists() => {
-                let n = score_job(dir, &r, job, ej, &export_sha)?;
+                let n = match score_job(dir, &r, job, ej, &export_sha) {
+                    Ok(n) => n,
+                    Err(e @ RunError::BadPredictions { .. }) => {
+                        refused.push(format!("  {}: {e}", job.label()));
+                        continue;
+                    }
+                    Err(e) => return Err(e),
+                };
                 scored += 1;
                 say(&format!(
                     "scored {} ({} starts x {} steps{})",
@@ -120,6 +129,18 @@ pub fn score(
         if counted > 0 {
             non_finite.push((job.label(), counted, ej.shape[0]));
         }
+    }
+    if !refused.is_empty() {
+        let summary = if missing.is_empty() { String::new() } else { format!(", and {} have none", missing.len()) };
+        let mut list = refused.clone();
+        list.extend(missing.iter().map(|m| format!("{m}: no predictions")));
+        return Err(RunError::PredictionsRefused {
+            refused: refused.len(),
+            jobs: jobs.len(),
+            scored: scored + resumed,
+            summary,
+            list: list.join("\n"),
+        });
     }
     if !missing.is_empty() {
         return Err(RunError::PredictionsMissing {
