@@ -340,118 +340,6 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
     fit_with(data, criterion, Inference::Full)
 }
 
-/// The optimum of the profiled deviance: theta, its deviance, the
-/// evaluations used and its certificate.
-fn optimum(s: &system::System, criterion: Criterion) -> Result<(Vec<f64>, f64, usize, Certificate), MixedError> {
-    let k = s.factors();
-    let moments = s.moment_start();
-    // The start is evaluated directly, so that a system that cannot be
-    // factored (never, for finite data) is an error rather than an
-    // infinite deviance.
-    let f0 = s.evaluate(&moments, criterion)?.deviance;
-    let evaluations = std::cell::Cell::new(1usize);
-    let mut dev = |theta: &[f64]| -> f64 {
-        evaluations.set(evaluations.get() + 1);
-        s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
-    };
-    // Newton on difference derivatives from the moment start; where it does
-    // not converge (a Hessian not positive definite far from the optimum,
-    // an optimum on the boundary), Nelder-Mead to a relative 1e-4 and
-    // Newton again, and then Nelder-Mead restarts with smaller simplices.
-    let start = vec![1.0; k];
-    let (mut best, mut best_dev, mut converged) = optimize::newton(&mut dev, moments.clone(), f0, 20);
-    if !converged {
-        let (t, d) = optimize::nelder_mead(&mut dev, &start, 0.5, 1e-4);
-        if d < best_dev {
-            (best, best_dev) = (t, d);
-        }
-        (best, best_dev, converged) = optimize::newton(&mut dev, best, best_dev, 12);
-    }
-    if !converged {
-        for step in [0.1, 0.01, 1e-3, 1e-4] {
-            let (t, d) = optimize::nelder_mead(&mut dev, &best, step, 1e-13);
-            if d < best_dev {
-                (best, best_dev) = (t, d);
-            }
-        }
-        (best, best_dev, _) = optimize::newton(&mut dev, best, best_dev, 8);
-    }
-    // Boundary faces: a theta at exactly zero is where lme4's bounded
-    // optimizer stops when the optimum is on the boundary.
-    for j in 0..k {
-        if best[j] == 0.0 {
-            continue;
-        }
-        let mut t = best.clone();
-        t[j] = 0.0;
-        let d = dev(&t);
-        if d <= best_dev {
-            let (x, fx, _) = optimize::newton(&mut dev, t, d, 8);
-            (best, best_dev) = (x, fx);
-        }
-    }
-    // The certificate: the first-order conditions of a minimum over
-    // theta >= 0 (Karush-Kuhn-Tucker), checked where the search stopped.
-    // Newton holds a theta it clamped to zero there for good, and a
-    // clamped simplex collapses into the face it hits, so a boundary point
-    // that is not the optimum can look converged: where the certificate
-    // fails, the search leaves the boundary in the direction that lowers
-    // the deviance and restarts from several points, by Nelder-Mead over
-    // all of R^k (the deviance is even in each theta, so zero is an
-    // ordinary point for it) and Newton, until the certificate holds.
-    let mut certificate = optimize::certify(&mut dev, &best, best_dev);
-    let mut restarts = 0;
-    for _ in 0..4 {
-        if certificate.certified {
-            break;
-        }
-        let mut starts: Vec<Vec<f64>> = certificate.escapes.clone();
-        starts.push(best.clone());
-        starts.push(moments.clone());
-        starts.push(start.clone());
-        starts.push(best.iter().map(|t| t.max(0.5)).collect());
-        for from in starts {
-            restarts += 1;
-            let (t, d) = optimize::nelder_mead_even(&mut dev, &from, 0.5, 1e-12);
-            // Thetas below 1e-6 are set to zero when that is no worse: the
-            // point and its deviance stay a pair.
-            let zeroed: Vec<f64> = t.iter().map(|&v| if v < 1e-6 { 0.0 } else { v }).collect();
-            let (t, d) = if zeroed != t {
-                let dz = dev(&zeroed);
-                if dz <= d {
-                    (zeroed, dz)
-                } else {
-                    (t, d)
-                }
-            } else {
-                (t, d)
-            };
-            let (mut t, mut d, converged) = optimize::newton(&mut dev, t, d, 30);
-            if !converged {
-                for step in [0.1, 0.01, 1e-3] {
-                    let (t2, d2) = optimize::nelder_mead_even(&mut dev, &t, step, 1e-14);
-                    if d2 < d {
-                        (t, d) = (t2, d2);
-                    }
-                }
-                (t, d, _) = optimize::newton(&mut dev, t, d, 12);
-            }
-            if d < best_dev {
-                (best, best_dev) = (t, d);
-            }
-        }
-        certificate = optimize::certify(&mut dev, &best, best_dev);
-    }
-    let certificate = Certificate {
-        gradient: certificate.gradient,
-        predicted_decrease: certificate.predicted_decrease,
-        boundary: certificate.boundary,
-        certified: certificate.certified,
-        restarts,
-    };
-    Ok((best, best_dev, evaluations.get(), certificate))
-}
-
 /// Fits the model by REML or ML, with the inference `inference` asks for.
 pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) -> Result<MixedFit, MixedError> {
     data.check_size(inference)?;
@@ -497,7 +385,7 @@ fn fit_system(
     if aliased {
         return Err(MixedError::FixedEffects(format!("the columns {:?} are linearly dependent", data.fixed_names())));
     }
-    let (mut best, _, evaluations, mut certificate) = optimum(s, criterion)?;
+    let (mut best, _, evaluations, mut certificate) = optimize::optimum(s, criterion)?;
     // The reduced system is exact in the eliminated factor whatever its
     // variance; another factor's large variance still costs digits in the
     // dense Cholesky factor (log10(theta^2 n) of them). Where another
