@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::io::{f64_text, opt_f64_text};
 
@@ -170,26 +170,26 @@ pub fn read_cells_from(name: &str, mut reader: impl std::io::Read) -> Result<Vec
         });
     }
     let mut cells = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| {
-            let line = line_of(e.position());
-            CellsError::Csv { path: name.to_string(), line, message: csv_message(&e) }
-        })?;
+    // One record, reused: a row's fields are borrowed from it, not copied.
+    let mut rec = csv::StringRecord::new();
+    loop {
+        match rdr.read_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => {
+                let line = line_of(e.position());
+                return Err(CellsError::Csv { path: name.to_string(), line, message: csv_message(&e) });
+            }
+        }
         let line = line_of(rec.position());
-        // Every field is read as text by its header name, then checked here,
-        // so that an error names the field and shows the value.
-        let raw: RawRow = rec.deserialize(Some(&header)).map_err(|e| CellsError::Csv {
-            path: name.to_string(),
-            line,
-            message: e.to_string(),
-        })?;
+        let raw = RawRow::of(&rec, has_split, has_dose);
         let mut cell = parse_row(name, line, &raw)?;
         let r = Row { name, line };
         if has_split {
-            cell.split = Some(r.uint("split", raw.split.as_deref().unwrap_or(""))?);
+            cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
         }
         if has_dose {
-            let v = raw.dose.as_deref().unwrap_or("");
+            let v = raw.dose.unwrap_or("");
             let dose = r.float("dose", v)?;
             if dose > 100.0 {
                 return Err(r.fail("dose", v, "exceeds 100 (a percentage)"));
@@ -227,25 +227,55 @@ fn header_for(split: bool, dose: bool) -> Vec<&'static str> {
     h
 }
 
-/// A row as text, by column name.
-#[derive(Deserialize)]
-struct RawRow {
-    split: Option<String>,
-    dose: Option<String>,
-    model: String,
-    arm: String,
-    seed: String,
-    recording: String,
-    trajectory: String,
-    speed: String,
-    horizon_s: String,
-    n_starts: String,
-    n_divergent: String,
-    fa_position_rmse_m: String,
-    conditional_position_rmse_m: String,
-    divergence_rate: String,
-    velocity_rmse_mps: String,
-    attitude_rmse_deg: String,
+/// A row as text, by column name, borrowed from its record.
+struct RawRow<'a> {
+    split: Option<&'a str>,
+    dose: Option<&'a str>,
+    model: &'a str,
+    arm: &'a str,
+    seed: &'a str,
+    recording: &'a str,
+    trajectory: &'a str,
+    speed: &'a str,
+    horizon_s: &'a str,
+    n_starts: &'a str,
+    n_divergent: &'a str,
+    fa_position_rmse_m: &'a str,
+    conditional_position_rmse_m: &'a str,
+    divergence_rate: &'a str,
+    velocity_rmse_mps: &'a str,
+    attitude_rmse_deg: &'a str,
+}
+
+impl<'a> RawRow<'a> {
+    /// The fields of a record whose header was checked to be
+    /// `header_for(has_split, has_dose)` (and whose length the reader
+    /// checked against it).
+    fn of(rec: &'a csv::StringRecord, has_split: bool, has_dose: bool) -> RawRow<'a> {
+        let mut f = rec.iter();
+        let mut next = || f.next().unwrap_or("");
+        let split = has_split.then(&mut next);
+        let (model, arm) = (next(), next());
+        let dose = has_dose.then(&mut next);
+        RawRow {
+            split,
+            dose,
+            model,
+            arm,
+            seed: next(),
+            recording: next(),
+            trajectory: next(),
+            speed: next(),
+            horizon_s: next(),
+            n_starts: next(),
+            n_divergent: next(),
+            fa_position_rmse_m: next(),
+            conditional_position_rmse_m: next(),
+            divergence_rate: next(),
+            velocity_rmse_mps: next(),
+            attitude_rmse_deg: next(),
+        }
+    }
 }
 
 /// Checks fields of one row, naming the file, line and field on error.

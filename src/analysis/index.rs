@@ -2,14 +2,11 @@
 //! row checked against the plan: names it declares, no duplicates,
 //! consistent condition labels, and a complete crossed matrix.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use super::AnalysisError;
 use crate::cells::Cell;
 use crate::plan::Plan;
-
-/// Cells indexed by (model, arm, seed, recording, horizon bits).
-pub(crate) type Key = (String, String, u64, String, u64);
 
 /// Horizons in CSVs are written by people and tools alike; match them to the
 /// design's to a nanosecond.
@@ -18,52 +15,114 @@ fn same_horizon(a: f64, b: f64) -> bool {
 }
 
 /// The rows of a per-cell file, indexed and checked.
+///
+/// The cells sit in one dense table, a block per recording (in order of
+/// first appearance), each block models x arms x horizons x seeds of the
+/// plan's, so that indexing a million rows copies and compares no string
+/// beyond one hash of each row's recording name, and one arm's recordings
+/// x seeds grid is read from consecutive slots.
 pub(crate) struct Indexed<'a> {
-    pub(crate) cells: BTreeMap<Key, &'a Cell>,
+    table: Vec<Option<&'a Cell>>,
+    models: Vec<String>,
+    arms: Vec<String>,
+    seeds: HashMap<u64, usize>,
+    horizons: Vec<f64>,
+    recordings: HashMap<&'a str, usize>,
     /// recording -> (trajectory, speed, first line)
     pub(crate) labels: BTreeMap<String, (String, String, u64)>,
 }
 
-impl Indexed<'_> {
-    /// The cell at a key, if the data has it.
-    pub(crate) fn find(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> Option<&Cell> {
-        let k = (model.to_string(), arm.to_string(), seed, recording.to_string(), h.to_bits());
-        self.cells.get(&k).copied()
+impl<'a> Indexed<'a> {
+    fn slot(&self, recording: usize, model: usize, arm: usize, h: usize, seed: usize) -> usize {
+        (((recording * self.models.len() + model) * self.arms.len() + arm) * self.horizons.len() + h) * self.seeds.len()
+            + seed
+    }
+
+    /// The slot of the first seed of (model, arm, horizon) in `recording`'s
+    /// block, when each is the plan's; the seeds follow in the plan's order.
+    fn seeds_of(&self, model: &str, arm: &str, recording: &str, h: f64) -> Option<usize> {
+        let m = self.models.iter().position(|x| x == model)?;
+        let a = self.arms.iter().position(|x| x == arm)?;
+        let h = self.horizons.iter().position(|x| x.to_bits() == h.to_bits())?;
+        Some(self.slot(*self.recordings.get(recording)?, m, a, h, 0))
+    }
+
+    /// The cell at these names, if the data has it.
+    pub(crate) fn find(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> Option<&'a Cell> {
+        let first = self.seeds_of(model, arm, recording, h)?;
+        self.table[first + *self.seeds.get(&seed)?]
+    }
+
+    /// The cells of every plan seed, in the plan's order, at a recording:
+    /// `None` where the data lacks one.
+    pub(crate) fn row(&self, model: &str, arm: &str, recording: &str, h: f64) -> Option<&[Option<&'a Cell>]> {
+        let first = self.seeds_of(model, arm, recording, h)?;
+        Some(&self.table[first..first + self.seeds.len()])
     }
 }
 
 /// Indexes `cells`, refusing names the plan does not declare, duplicate
-/// cells and recordings labelled two ways.
+/// cells, recordings labelled two ways, and more recordings than the plan
+/// declares.
 pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, AnalysisError> {
-    let models: Vec<&str> = plan.models.iter().map(|m| m.name.as_str()).collect();
-    let arms: Vec<&str> = plan.arms.iter().map(|a| a.name.as_str()).collect();
     let mut horizons: Vec<f64> = plan.units().map(|u| u.horizon_s).collect();
     horizons.sort_by(f64::total_cmp);
     horizons.dedup();
-    let mut out = Indexed { cells: BTreeMap::new(), labels: BTreeMap::new() };
-    for c in cells {
+    let mut out = Indexed {
+        table: Vec::new(),
+        models: plan.models.iter().map(|m| m.name.clone()).collect(),
+        arms: plan.arms.iter().map(|a| a.name.clone()).collect(),
+        seeds: plan.seeds.iter().enumerate().map(|(k, s)| (s.0, k)).collect(),
+        horizons,
+        recordings: HashMap::new(),
+        labels: BTreeMap::new(),
+    };
+    let block = out.models.len() * out.arms.len() * out.horizons.len() * out.seeds.len();
+    // Per recording: its labels and the line that first gave them.
+    let mut labels: Vec<(&'a str, &'a str, u64)> = Vec::new();
+    for (row, c) in cells.iter().enumerate() {
         let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign {
             line: c.line,
             field,
             value,
             known,
         };
-        if !models.contains(&c.model.as_str()) {
-            return Err(not_in("model", c.model.clone(), format!("models: {}", models.join(", "))));
-        }
-        if !arms.contains(&c.arm.as_str()) {
-            return Err(not_in("arm", c.arm.clone(), format!("arms: {}", arms.join(", "))));
-        }
-        if !plan.seeds.iter().any(|s| s.0 == c.seed) {
+        let Some(m) = out.models.iter().position(|x| *x == c.model) else {
+            return Err(not_in("model", c.model.clone(), format!("models: {}", out.models.join(", "))));
+        };
+        let Some(a) = out.arms.iter().position(|x| *x == c.arm) else {
+            return Err(not_in("arm", c.arm.clone(), format!("arms: {}", out.arms.join(", "))));
+        };
+        let Some(&s) = out.seeds.get(&c.seed) else {
             let (a, b) = (plan.seeds[0].0, plan.seeds[plan.seeds.len() - 1].0);
             return Err(not_in("seed", c.seed.to_string(), format!("{} seeds, {a}..{b}", plan.seeds.len())));
-        }
-        let Some(&h) = horizons.iter().find(|&&h| same_horizon(h, c.horizon_s)) else {
-            let known = horizons.iter().map(|h| format!("{h} s")).collect::<Vec<_>>().join(", ");
+        };
+        let Some(h) = out.horizons.iter().position(|&h| same_horizon(h, c.horizon_s)) else {
+            let known = out.horizons.iter().map(|h| format!("{h} s")).collect::<Vec<_>>().join(", ");
             return Err(not_in("horizon_s", c.horizon_s.to_string(), format!("endpoint horizons: {known}")));
         };
-        let k = (c.model.clone(), c.arm.clone(), c.seed, c.recording.clone(), h.to_bits());
-        if let Some(first) = out.cells.get(&k) {
+        let next = out.recordings.len();
+        let r = *out.recordings.entry(c.recording.as_str()).or_insert(next);
+        if r == next {
+            // A recording beyond the declared number is an error whatever
+            // else the file holds: counted over the whole file, and no
+            // table is grown for it.
+            if next >= plan.recordings {
+                let found = next
+                    + 1
+                    + cells[row..]
+                        .iter()
+                        .filter(|x| !out.recordings.contains_key(x.recording.as_str()))
+                        .map(|x| x.recording.as_str())
+                        .collect::<std::collections::HashSet<_>>()
+                        .len();
+                return Err(AnalysisError::RecordingCount { found, declared: plan.recordings });
+            }
+            labels.push((c.trajectory.as_str(), c.speed.as_str(), c.line));
+            out.table.resize(out.table.len() + block, None);
+        }
+        let k = out.slot(r, m, a, h, s);
+        if let Some(first) = out.table[k] {
             return Err(AnalysisError::Duplicate {
                 line: c.line,
                 first_line: first.line,
@@ -71,22 +130,28 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
                 arm: c.arm.clone(),
                 seed: c.seed,
                 recording: c.recording.clone(),
-                horizon: h,
+                horizon: out.horizons[h],
             });
         }
-        out.cells.insert(k, c);
-        check_labels(&mut out.labels, c)?;
+        out.table[k] = Some(c);
+        if r != next {
+            check_labels(labels[r], c)?;
+        }
     }
+    out.labels = out
+        .recordings
+        .iter()
+        .map(|(name, &r)| {
+            let (t, s, line) = labels[r];
+            (name.to_string(), (t.to_string(), s.to_string(), line))
+        })
+        .collect();
     Ok(out)
 }
 
-/// Records a recording's labels on first sight; refuses a later row that
-/// labels it differently.
-fn check_labels(labels: &mut BTreeMap<String, (String, String, u64)>, c: &Cell) -> Result<(), AnalysisError> {
-    let Some((t, s, first_line)) = labels.get(&c.recording) else {
-        labels.insert(c.recording.clone(), (c.trajectory.clone(), c.speed.clone(), c.line));
-        return Ok(());
-    };
+/// Refuses a row that labels its recording otherwise than the line that
+/// first named it.
+fn check_labels((t, s, first_line): (&str, &str, u64), c: &Cell) -> Result<(), AnalysisError> {
     for (field, value, first) in [("trajectory", &c.trajectory, t), ("speed", &c.speed, s)] {
         if value != first {
             return Err(AnalysisError::InconsistentLabel {
@@ -94,8 +159,8 @@ fn check_labels(labels: &mut BTreeMap<String, (String, String, u64)>, c: &Cell) 
                 field,
                 recording: c.recording.clone(),
                 value: value.clone(),
-                first: first.clone(),
-                first_line: *first_line,
+                first: first.to_string(),
+                first_line,
             });
         }
     }
@@ -112,8 +177,7 @@ pub(crate) fn check_complete(plan: &Plan, data: &Indexed, recordings: &[String])
         for arm in [&plan.contrast.treated, &plan.contrast.reference] {
             for s in &plan.seeds {
                 for r in recordings {
-                    let k = (model.to_string(), arm.clone(), s.0, r.clone(), h.to_bits());
-                    if !data.cells.contains_key(&k) {
+                    if data.find(model, arm, s.0, r, h).is_none() {
                         missing.push(format!("model={model} arm={arm} seed={} recording={r} horizon={h} s", s.0));
                     }
                 }

@@ -16,8 +16,8 @@ use crate::cells::Cell;
 use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
 use crate::stats::{
-    compare_intervals, crossed_mom, crossed_reml, pigeonhole_bootstrap, reml_intervals, CrossedEstimate, CrossedMatrix,
-    DfRule, StatsError,
+    compare_intervals, crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, reml_intervals, Axis,
+    CrossedEstimate, CrossedMatrix, DfRule, StatsError,
 };
 
 /// What every unit's estimation reads: the plan, the indexed cells and the
@@ -103,6 +103,41 @@ impl Grid {
     }
 }
 
+/// A grid's sum and count of present cells, in all and per row or column
+/// of one factor, for its mean with that row or column left out.
+struct LeftOut {
+    sum: f64,
+    count: usize,
+    part: Vec<(f64, usize)>,
+}
+
+impl LeftOut {
+    fn new(g: &Grid, factor: Factor) -> LeftOut {
+        let n = if factor == Factor::Seed { g.cols } else { g.rows };
+        let mut part = vec![(0.0, 0usize); n];
+        for i in 0..g.rows {
+            for j in 0..g.cols {
+                if let Some(x) = g.get(i, j) {
+                    let p = &mut part[if factor == Factor::Seed { j } else { i }];
+                    p.0 += x;
+                    p.1 += 1;
+                }
+            }
+        }
+        LeftOut { sum: part.iter().map(|p| p.0).sum(), count: part.iter().map(|p| p.1).sum(), part }
+    }
+
+    /// The mean of the cells outside row (column) k; NaN when none are.
+    fn mean_without(&self, k: usize) -> f64 {
+        let (s, n) = self.part[k];
+        if self.count == n {
+            f64::NAN
+        } else {
+            (self.sum - s) / (self.count - n) as f64
+        }
+    }
+}
+
 /// Mean of the values; NaN when there are none.
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
     let (n, s) = values.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));
@@ -176,8 +211,9 @@ impl Ctx<'_> {
         let (rows, cols) = (self.recordings.len(), self.plan.seeds.len());
         let mut v = Vec::with_capacity(rows * cols);
         for r in self.recordings {
-            for s in &self.plan.seeds {
-                let value = match self.data.find(model, arm, s.0, &r.recording, h) {
+            let row = self.data.row(model, arm, &r.recording, h);
+            for j in 0..cols {
+                let value = match row.and_then(|row| row[j]) {
                     None => None,
                     Some(c) => match metric_value(c, metric) {
                         Some(x) => Some(x),
@@ -406,15 +442,31 @@ impl Ctx<'_> {
         Ok(Some(GroupedResult { groups, recordings_per_group: per_group, estimate }))
     }
 
+    /// Every fit with one recording (or seed) left out. The crossed MoM on
+    /// a complete array takes the closed form ([`leave_one_out_mom`], O(IJ)
+    /// for all of them); REML refits each.
     fn leave_one_out(&self, a: &ArmArrays, factor: Factor) -> Result<LeaveOneOut, StatsError> {
         let n = match factor {
             Factor::Seed => a.diff.cols,
             Factor::Recording => a.diff.rows,
         };
+        let est = &self.plan.estimator;
+        let closed = match (est.kind, a.diff.complete()) {
+            (EstimatorKind::CrossedMom, Some(m)) => {
+                let axis = if factor == Factor::Seed { Axis::Cols } else { Axis::Rows };
+                Some(leave_one_out_mom(&m?, axis, est.level, est.df)?)
+            }
+            _ => None,
+        };
+        // Each arm's mean without one row or column, from its sums.
+        let (treated, reference) = (LeftOut::new(&a.treated, factor), LeftOut::new(&a.reference, factor));
         let mut fits = Vec::with_capacity(n);
         for k in 0..n {
-            let e = self.estimate(&a.diff.without(factor, k))?;
-            let opt = optimism(a.reference.without(factor, k).mean(), a.treated.without(factor, k).mean());
+            let e = match &closed {
+                Some(all) => all[k],
+                None => self.estimate(&a.diff.without(factor, k))?,
+            };
+            let opt = optimism(reference.mean_without(k), treated.mean_without(k));
             fits.push((e.mean, e.upper, opt, rule_holds(&self.plan.decision, opt, &e)));
         }
         let min = |f: fn(&(f64, f64, f64, bool)) -> f64| fits.iter().map(f).fold(f64::INFINITY, f64::min);

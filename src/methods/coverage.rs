@@ -399,11 +399,8 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
         let (plot, side) = top.split_horizontally(width - 250);
         let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(spec.level, f64::min).max(0.0);
         let n = settings.len();
-        let mut chart = ChartBuilder::on(&plot)
-            .caption(format!("Coverage (nominal {}), 2-MCSE bars, {} reps", spec.level, spec.reps), ("sans-serif", 18))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
+        let title = format!("Coverage (nominal {}), 2-MCSE bars, {} reps", spec.level, spec.reps);
+        let mut chart = crate::report::charts::chart(&plot, &title)
             .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
             .map_err(&e)?;
         chart
@@ -411,6 +408,9 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
             .disable_x_mesh()
             .x_labels(n)
             .x_label_formatter(&|x| category_label(*x, &labels))
+            .y_label_formatter(&crate::report::charts::ticks(lo - 0.02, 1.0))
+            .label_style(crate::report::charts::TICK_FONT)
+            .axis_desc_style(crate::report::charts::AXIS_FONT)
             .x_desc("setting (numbered below)")
             .y_desc("coverage")
             .draw()

@@ -351,15 +351,16 @@ impl DrawPowerPlan {
         }
         let max_x = self.rows.iter().map(|r| r.models_per_arm).max().unwrap_or(2) as f64;
         crate::report::charts::svg_figure(path, (900, 480), |root| {
-            let mut chart = ChartBuilder::on(root)
-                .caption(format!("P(decision rule holds), {i} recordings"), ("sans-serif", 18))
-                .margin(15)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
+            use crate::report::charts::{chart, ticks, whole, AXIS_FONT, TICK_FONT};
+            let mut chart = chart(root, &format!("P(decision rule holds), {i} recordings"))
                 .build_cartesian_2d(0.0..max_x * 1.05, 0.0..1.0)
                 .map_err(&e)?;
             chart
                 .configure_mesh()
+                .x_label_formatter(&whole)
+                .y_label_formatter(&ticks(0.0, 1.0))
+                .label_style(TICK_FONT)
+                .axis_desc_style(AXIS_FONT)
                 .x_desc("models trained per arm (seeds x draws)")
                 .y_desc("P(decision rule holds)")
                 .draw()

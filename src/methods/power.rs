@@ -344,14 +344,20 @@ impl PowerPlan {
         let e = draw_err(path);
         crate::report::charts::svg_figure(path, (900, 480), |root| {
             let max_j = self.rows.iter().map(|r| r.seeds).max().unwrap_or(2) as f64;
-            let mut chart = ChartBuilder::on(root)
-                .caption(format!("P(decision rule holds) for {}", self.unit), ("sans-serif", 18))
-                .margin(15)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
+            use crate::report::charts::{chart, ticks, whole, AXIS_FONT, TICK_FONT};
+            let mut chart = chart(root, &format!("P(decision rule holds) for {}", self.unit))
                 .build_cartesian_2d(0.0..max_j, 0.0..1.0)
                 .map_err(&e)?;
-            chart.configure_mesh().x_desc("seeds J").y_desc("probability").draw().map_err(&e)?;
+            chart
+                .configure_mesh()
+                .x_label_formatter(&whole)
+                .y_label_formatter(&ticks(0.0, 1.0))
+                .label_style(TICK_FONT)
+                .axis_desc_style(AXIS_FONT)
+                .x_desc("seeds J")
+                .y_desc("probability")
+                .draw()
+                .map_err(&e)?;
             let mut recs: Vec<usize> = self.rows.iter().map(|r| r.recordings).collect();
             recs.dedup();
             let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];

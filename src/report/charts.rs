@@ -45,6 +45,50 @@ pub fn category_label(x: f64, labels: &[String]) -> String {
     }
 }
 
+/// The fonts of every chart: the caption, the tick labels and the axis
+/// descriptions, sized to be read at the page's width.
+pub const CAPTION_FONT: (&str, u32) = ("sans-serif", 22);
+/// Tick labels.
+pub const TICK_FONT: (&str, u32) = ("sans-serif", 16);
+/// Axis descriptions.
+pub const AXIS_FONT: (&str, u32) = ("sans-serif", 17);
+
+/// A chart builder on `root` with the shared caption font, margins (the
+/// right one wide enough for the last tick label) and label areas.
+pub fn chart<'a, 'b, 'c>(root: &'a Root<'c>, title: &str) -> ChartBuilder<'a, 'b, SVGBackend<'c>> {
+    let mut b = ChartBuilder::on(root);
+    b.caption(title, CAPTION_FONT).margin(15).margin_right(40).x_label_area_size(55).y_label_area_size(85);
+    b
+}
+
+/// Tick labels for an axis of whole numbers (epochs, seeds): the
+/// integers, and nothing between them.
+pub fn whole(x: &f64) -> String {
+    if (x - x.round()).abs() < 1e-9 {
+        format!("{x:.0}")
+    } else {
+        String::new()
+    }
+}
+
+/// Tick labels for an axis spanning `lo..hi`: as many decimals as a tenth
+/// of the span needs, the same on every tick, and never "-0".
+pub fn ticks(lo: f64, hi: f64) -> impl Fn(&f64) -> String {
+    // The "nice" step (1, 2 or 5 times a power of ten) plotters picks for
+    // about ten ticks, and the decimals it needs.
+    let raw = ((hi - lo).abs() / 10.0).max(1e-12);
+    let magnitude = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * magnitude).find(|s| *s >= raw * (1.0 - 1e-9)).unwrap_or(raw);
+    let decimals = (-(step.log10() + 1e-9).floor()).clamp(0.0, 8.0) as usize;
+    move |v| {
+        let s = format!("{v:.decimals$}");
+        match s.strip_prefix('-') {
+            Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_string(),
+            _ => s,
+        }
+    }
+}
+
 /// The drawing area of an SVG drawn into memory.
 pub type Root<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 
@@ -100,19 +144,16 @@ pub fn intervals(
     svg_figure(path, (900, 480), |root| {
         let (lo, hi) = span(rows.iter().flat_map(|r| [r.1, r.2, r.3]).chain(lines.iter().map(|l| l.0)));
         let n = rows.len().max(1);
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 20))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), lo..hi)
-            .map_err(&err)?;
+        let mut chart = chart(root, title).build_cartesian_2d(-0.5f64..(n as f64 - 0.5), lo..hi).map_err(&err)?;
         let labels: Vec<String> = rows.iter().map(|r| r.0.clone()).collect();
         chart
             .configure_mesh()
             .disable_x_mesh()
             .x_labels(n)
             .x_label_formatter(&|x| category_label(*x, &labels))
+            .y_label_formatter(&ticks(lo, hi))
+            .label_style(TICK_FONT)
+            .axis_desc_style(AXIS_FONT)
             .y_desc(y_desc)
             .draw()
             .map_err(&err)?;
@@ -151,15 +192,13 @@ pub fn dose_response(
         let max_dose = rows.iter().map(|r| r.0).filter(|d| d.is_finite()).fold(1.0, f64::max) * 1.08;
         let line_ends = fit.iter().flat_map(|(a, b, _)| [*a, a + b * max_dose]);
         let (lo, hi) = span(rows.iter().flat_map(|r| [r.1, r.2, r.3]).chain([0.0]).chain(line_ends));
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 20))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(-max_dose * 0.03..max_dose, lo..hi)
-            .map_err(&err)?;
+        let mut chart = chart(root, title).build_cartesian_2d(-max_dose * 0.03..max_dose, lo..hi).map_err(&err)?;
         chart
             .configure_mesh()
+            .x_label_formatter(&ticks(0.0, max_dose))
+            .y_label_formatter(&ticks(lo, hi))
+            .label_style(TICK_FONT)
+            .axis_desc_style(AXIS_FONT)
             .x_desc("dose (% of the fit windows from the evaluation recordings)")
             .y_desc(y_desc)
             .draw()
@@ -198,4 +237,23 @@ pub fn dose_response(
             .map_err(&err)?;
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ticks, whole};
+
+    #[test]
+    fn tick_labels_carry_the_steps_decimals_and_no_negative_zero() {
+        // Span 0.135 over ten ticks: step 0.02, two decimals.
+        let f = ticks(0.225, 0.36);
+        assert_eq!([f(&0.3), f(&0.34)], ["0.30", "0.34"]);
+        // Span 0.06: step 0.01 (not 0.006's three decimals).
+        let f = ticks(-0.056, 0.004);
+        assert_eq!([f(&-0.05), f(&-0.0), f(&-1e-17)], ["-0.05", "0.00", "0.00"]);
+        // Span 40: step 5, no decimals.
+        let f = ticks(-4.0, 41.0);
+        assert_eq!([f(&35.0), f(&-0.2)], ["35", "0"]);
+        assert_eq!([whole(&2.0), whole(&2.5)], ["2", ""]);
+    }
 }

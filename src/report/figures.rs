@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use super::charts::{draw_err, intervals, span, DrawError, IntervalRow};
+use super::charts::{chart, draw_err, intervals, span, ticks, whole, DrawError, IntervalRow, AXIS_FONT, TICK_FONT};
 use super::format::level_pct;
 use crate::analysis::Analysis;
 
@@ -132,14 +132,18 @@ fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<String, Dr
         let (lo, hi) = span(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
         let title =
             format!("Validation loss per epoch, every training cell (blue: {}, orange: {})", a.treated, a.reference);
-        let mut chart = ChartBuilder::on(root)
-            .caption(label(a, &title), ("sans-serif", 18))
-            .margin(15)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..max_epoch, lo.max(0.0)..hi)
+        let mut chart =
+            chart(root, &label(a, &title)).build_cartesian_2d(0.0..max_epoch, lo.max(0.0)..hi).map_err(&err)?;
+        chart
+            .configure_mesh()
+            .x_label_formatter(&whole)
+            .y_label_formatter(&ticks(lo.max(0.0), hi))
+            .label_style(TICK_FONT)
+            .axis_desc_style(AXIS_FONT)
+            .x_desc("epoch")
+            .y_desc("validation loss (standardized MSE)")
+            .draw()
             .map_err(&err)?;
-        chart.configure_mesh().x_desc("epoch").y_desc("validation loss (standardized MSE)").draw().map_err(&err)?;
         for c in curves {
             let color = if c.arm == a.treated { BLUE.mix(0.5) } else { RGBColor(230, 120, 20).mix(0.5) };
             chart.draw_series(LineSeries::new(c.points.iter().copied(), color)).map_err(&err)?;

@@ -435,8 +435,16 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     order.sort_by(|&i, &j| a.specs[i].estimate.mean.total_cmp(&a.specs[j].estimate.mean));
     let rows: Vec<(String, String)> =
         a.choices.iter().flat_map(|c| c.alternatives.iter().map(move |v| (c.setting.clone(), v.clone()))).collect();
-    let (left, top, plot_h, row_h, col_w) =
-        (230.0, 56.0, 260.0, 18.0, 34.0_f64.max(480.0 / a.specs.len().max(1) as f64));
+    // The left margin fits the longest "setting = value" label (about
+    // 7.5 px a character at 13 px).
+    let longest = rows.iter().map(|(c, v)| c.chars().count() + v.chars().count() + 3).max().unwrap_or(0);
+    let (left, top, plot_h, row_h, col_w) = (
+        (7.5 * longest as f64 + 30.0).max(230.0),
+        58.0,
+        260.0,
+        19.0,
+        34.0_f64.max(480.0 / a.specs.len().max(1) as f64),
+    );
     let width = (left + col_w * a.specs.len() as f64 + 30.0).max(720.0);
     let height = top + plot_h + 40.0 + row_h * rows.len() as f64 + 40.0;
     let band = |id: &str| a.joint.as_ref().and_then(|j| j.bands.iter().find(|b| b.0 == id)).map(|b| (b.2, b.3));
@@ -457,17 +465,17 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="12">"#
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="13">"#
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let _ = writeln!(
         s,
-        r#"<text x="10" y="20" font-size="14">d = treated - reference (m) by specification: {} intervals; grey: joint bands</text>"#,
+        r#"<text x="10" y="20" font-size="16">d = treated - reference (m) by specification: {} intervals; grey: joint bands</text>"#,
         level_pct(a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95))
     );
     let _ = writeln!(
         s,
-        r##"<text x="10" y="38" font-size="12"><tspan fill="#1f77b4">blue: the rule holds</tspan>; <tspan fill="#d62728">red: it does not</tspan> (the colour is the rule, not whether the interval excludes 0)</text>"##
+        r##"<text x="10" y="40" font-size="13"><tspan fill="#1f77b4">blue: the rule holds</tspan>; <tspan fill="#d62728">red: it does not</tspan> (the colour is the rule, not whether the interval excludes 0)</text>"##
     );
     // Axis with ticks.
     let _ = writeln!(s, r#"<line x1="{left}" y1="{top}" x2="{left}" y2="{}" stroke="black"/>"#, top + plot_h);
@@ -475,6 +483,7 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     let raw = (hi - lo) / 5.0;
     let mag = 10f64.powf(raw.log10().floor());
     let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+    let decimals = (-(step.log10() + 1e-9).floor()).clamp(0.0, 8.0) as usize;
     let ticks: Vec<f64> =
         (0..20).map(|k| (lo / step).ceil() * step + k as f64 * step).take_while(|v| *v <= hi + 1e-12).collect();
     for v in ticks {
@@ -483,7 +492,7 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
             r#"<text x="{}" y="{:.1}" text-anchor="end">{}</text><line x1="{}" y1="{:.1}" x2="{left}" y2="{:.1}" stroke="black"/>"#,
             left - 8.0,
             y(v) + 4.0,
-            f(if v.abs() < step * 1e-6 { 0.0 } else { v }, 3),
+            format!("{:.decimals$}", if v.abs() < step * 1e-6 { 0.0 } else { v }),
             left - 4.0,
             y(v),
             y(v)

@@ -199,8 +199,19 @@ pub fn mean_squares(m: &CrossedMatrix) -> MeanSquares {
 /// Crossed method-of-moments estimate of the grand mean with a two-sided
 /// interval at `level`.
 pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<CrossedEstimate, StatsError> {
-    let ms = mean_squares(m);
-    let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
+    mom_from_squares(mean_squares(m), m.rows(), m.cols(), level, df_rule)
+}
+
+/// The crossed MoM estimate from the ANOVA table of a `rows` x `cols`
+/// array (what [`crossed_mom`] computes after [`mean_squares`]).
+pub(crate) fn mom_from_squares(
+    ms: MeanSquares,
+    rows: usize,
+    cols: usize,
+    level: f64,
+    df_rule: DfRule,
+) -> Result<CrossedEstimate, StatsError> {
+    let (i_n, j_n) = (rows as f64, cols as f64);
     let sa = ((ms.ms_rows - ms.ms_error) / j_n).max(0.0);
     let sb = ((ms.ms_cols - ms.ms_error) / i_n).max(0.0);
     let components = VarianceComponents { recording: sa, seed: sb, residual: ms.ms_error };
@@ -212,12 +223,12 @@ pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<Cro
             "Kenward-Roger df need a likelihood: use crossed_reml, not the method of moments".to_string(),
         ));
     }
-    let df = df_rule.df(m.rows(), m.cols()).unwrap_or_else(|| satterthwaite(&ms, sa > 0.0, sb > 0.0, i_n, j_n));
+    let df = df_rule.df(rows, cols).unwrap_or_else(|| satterthwaite(&ms, sa > 0.0, sb > 0.0, i_n, j_n));
     let critical = critical_value(level, df)?;
     let share = |x: f64| if se2 > 0.0 { x / se2 } else { 0.0 };
     Ok(CrossedEstimate {
-        rows: m.rows(),
-        cols: m.cols(),
+        rows,
+        cols,
         mean: ms.grand_mean,
         se,
         df,

@@ -7,6 +7,7 @@ mod bootstrap;
 pub mod coverage;
 mod crossed;
 mod intervals;
+mod loo;
 mod matrix;
 pub mod mixed;
 mod rng;
@@ -16,6 +17,7 @@ pub use crossed::{
     crossed_mom, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary, VarianceComponents,
 };
 pub use intervals::{compare_intervals, one_sample_interval, reml_intervals, IntervalEstimate, IntervalMethod};
+pub use loo::{leave_one_out_mom, Axis};
 pub use matrix::CrossedMatrix;
 pub use rng::standard_normal;
 
