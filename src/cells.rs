@@ -338,46 +338,46 @@ impl Row<'_> {
 
 fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
     let r = Row { name, line };
-    let n_starts = r.uint("n_starts", &raw.n_starts)?;
+    let n_starts = r.uint("n_starts", raw.n_starts)?;
     if n_starts == 0 {
-        return Err(r.fail("n_starts", &raw.n_starts, "must be at least 1"));
+        return Err(r.fail("n_starts", raw.n_starts, "must be at least 1"));
     }
-    let n_divergent = r.uint("n_divergent", &raw.n_divergent)?;
+    let n_divergent = r.uint("n_divergent", raw.n_divergent)?;
     if n_divergent > n_starts {
-        return Err(r.fail("n_divergent", &raw.n_divergent, format!("exceeds n_starts ({n_starts})")));
+        return Err(r.fail("n_divergent", raw.n_divergent, format!("exceeds n_starts ({n_starts})")));
     }
     let all_diverged = n_divergent == n_starts;
-    let horizon_s = r.float("horizon_s", &raw.horizon_s)?;
+    let horizon_s = r.float("horizon_s", raw.horizon_s)?;
     if horizon_s <= 0.0 {
-        return Err(r.fail("horizon_s", &raw.horizon_s, "must be > 0"));
+        return Err(r.fail("horizon_s", raw.horizon_s, "must be > 0"));
     }
-    let divergence_rate = r.float("divergence_rate", &raw.divergence_rate)?;
+    let divergence_rate = r.float("divergence_rate", raw.divergence_rate)?;
     let expected = n_divergent as f64 / n_starts as f64;
     if (divergence_rate - expected).abs() > 1e-6 {
         let problem = format!("disagrees with n_divergent / n_starts = {expected}");
-        return Err(r.fail("divergence_rate", &raw.divergence_rate, problem));
+        return Err(r.fail("divergence_rate", raw.divergence_rate, problem));
     }
     Ok(Cell {
         split: None,
         dose: None,
-        model: r.label("model", &raw.model)?,
-        arm: r.label("arm", &raw.arm)?,
-        seed: r.uint("seed", &raw.seed)?,
-        recording: r.label("recording", &raw.recording)?,
-        trajectory: r.label("trajectory", &raw.trajectory)?,
-        speed: r.label("speed", &raw.speed)?,
+        model: r.label("model", raw.model)?,
+        arm: r.label("arm", raw.arm)?,
+        seed: r.uint("seed", raw.seed)?,
+        recording: r.label("recording", raw.recording)?,
+        trajectory: r.label("trajectory", raw.trajectory)?,
+        speed: r.label("speed", raw.speed)?,
         horizon_s,
         n_starts,
         n_divergent,
-        fa_position_rmse_m: r.float("fa_position_rmse_m", &raw.fa_position_rmse_m)?,
+        fa_position_rmse_m: r.float("fa_position_rmse_m", raw.fa_position_rmse_m)?,
         conditional_position_rmse_m: r.finite_only(
             "conditional_position_rmse_m",
-            &raw.conditional_position_rmse_m,
+            raw.conditional_position_rmse_m,
             all_diverged,
         )?,
         divergence_rate,
-        velocity_rmse_mps: r.finite_only("velocity_rmse_mps", &raw.velocity_rmse_mps, all_diverged)?,
-        attitude_rmse_deg: r.finite_only("attitude_rmse_deg", &raw.attitude_rmse_deg, all_diverged)?,
+        velocity_rmse_mps: r.finite_only("velocity_rmse_mps", raw.velocity_rmse_mps, all_diverged)?,
+        attitude_rmse_deg: r.finite_only("attitude_rmse_deg", raw.attitude_rmse_deg, all_diverged)?,
         line,
     })
 }

@@ -113,16 +113,11 @@ struct LeftOut {
 
 impl LeftOut {
     fn new(g: &Grid, factor: Factor) -> LeftOut {
-        let n = if factor == Factor::Seed { g.cols } else { g.rows };
-        let mut part = vec![(0.0, 0usize); n];
-        for i in 0..g.rows {
-            for j in 0..g.cols {
-                if let Some(x) = g.get(i, j) {
-                    let p = &mut part[if factor == Factor::Seed { j } else { i }];
-                    p.0 += x;
-                    p.1 += 1;
-                }
-            }
+        let by_seed = factor == Factor::Seed;
+        let mut part = vec![(0.0, 0usize); if by_seed { g.cols } else { g.rows }];
+        for (k, x) in g.v.iter().enumerate().filter_map(|(k, x)| x.map(|x| (k, x))) {
+            let p = &mut part[if by_seed { k % g.cols } else { k / g.cols }];
+            (p.0, p.1) = (p.0 + x, p.1 + 1);
         }
         LeftOut { sum: part.iter().map(|p| p.0).sum(), count: part.iter().map(|p| p.1).sum(), part }
     }

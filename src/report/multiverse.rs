@@ -489,10 +489,10 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     for v in ticks {
         let _ = writeln!(
             s,
-            r#"<text x="{}" y="{:.1}" text-anchor="end">{}</text><line x1="{}" y1="{:.1}" x2="{left}" y2="{:.1}" stroke="black"/>"#,
+            r#"<text x="{}" y="{:.1}" text-anchor="end">{:.decimals$}</text><line x1="{}" y1="{:.1}" x2="{left}" y2="{:.1}" stroke="black"/>"#,
             left - 8.0,
             y(v) + 4.0,
-            format!("{:.decimals$}", if v.abs() < step * 1e-6 { 0.0 } else { v }),
+            if v.abs() < step * 1e-6 { 0.0 } else { v },
             left - 4.0,
             y(v),
             y(v)
