@@ -175,9 +175,10 @@ pub(crate) fn check_complete(plan: &Plan, data: &Indexed, recordings: &[String])
     let mut missing = Vec::new();
     for (model, h) in plan.row_keys() {
         for arm in [&plan.contrast.treated, &plan.contrast.reference] {
-            for s in &plan.seeds {
-                for r in recordings {
-                    if data.find(model, arm, s.0, r, h).is_none() {
+            let rows: Vec<Option<&[Option<&Cell>]>> = recordings.iter().map(|r| data.row(model, arm, r, h)).collect();
+            for (j, s) in plan.seeds.iter().enumerate() {
+                for (r, row) in recordings.iter().zip(&rows) {
+                    if row.and_then(|row| row[j]).is_none() {
                         missing.push(format!("model={model} arm={arm} seed={} recording={r} horizon={h} s", s.0));
                     }
                 }

@@ -122,14 +122,11 @@ impl LeftOut {
         LeftOut { sum: part.iter().map(|p| p.0).sum(), count: part.iter().map(|p| p.1).sum(), part }
     }
 
-    /// The mean of the cells outside row (column) k; NaN when none are.
+    /// The mean of the cells outside row (column) k; NaN (exactly 0 / 0)
+    /// when none are.
     fn mean_without(&self, k: usize) -> f64 {
         let (s, n) = self.part[k];
-        if self.count == n {
-            f64::NAN
-        } else {
-            (self.sum - s) / (self.count - n) as f64
-        }
+        (self.sum - s) / (self.count - n) as f64
     }
 }
 
@@ -294,7 +291,7 @@ impl Ctx<'_> {
                     ),
                 });
             }
-            leave_one_out.push(self.leave_one_out(&a, f).map_err(stats)?);
+            leave_one_out.push(self.leave_one_out(&a, complete.as_ref(), f).map_err(stats)?);
         }
         let per_seed_optimism = self
             .plan
@@ -440,20 +437,24 @@ impl Ctx<'_> {
     /// Every fit with one recording (or seed) left out. The crossed MoM on
     /// a complete array takes the closed form ([`leave_one_out_mom`], O(IJ)
     /// for all of them); REML refits each.
-    fn leave_one_out(&self, a: &ArmArrays, factor: Factor) -> Result<LeaveOneOut, StatsError> {
+    fn leave_one_out(
+        &self,
+        a: &ArmArrays,
+        complete: Option<&CrossedMatrix>,
+        factor: Factor,
+    ) -> Result<LeaveOneOut, StatsError> {
         let n = match factor {
             Factor::Seed => a.diff.cols,
             Factor::Recording => a.diff.rows,
         };
         let est = &self.plan.estimator;
-        let closed = match (est.kind, a.diff.complete()) {
+        let closed = match (est.kind, complete) {
             (EstimatorKind::CrossedMom, Some(m)) => {
                 let axis = if factor == Factor::Seed { Axis::Cols } else { Axis::Rows };
-                Some(leave_one_out_mom(&m?, axis, est.level, est.df)?)
+                Some(leave_one_out_mom(m, axis, est.level, est.df)?)
             }
             _ => None,
         };
-        // Each arm's mean without one row or column, from its sums.
         let (treated, reference) = (LeftOut::new(&a.treated, factor), LeftOut::new(&a.reference, factor));
         let mut fits = Vec::with_capacity(n);
         for k in 0..n {
@@ -514,8 +515,9 @@ impl Ctx<'_> {
         let mut grids = [Vec::with_capacity(rows * cols), Vec::with_capacity(rows * cols)];
         for (k, arm) in arms.iter().enumerate() {
             for r in self.recordings {
-                for s in &self.plan.seeds {
-                    let c = self.data.find(&u.model, arm, s.0, &r.recording, u.horizon_s);
+                let row = self.data.row(&u.model, arm, &r.recording, u.horizon_s);
+                for j in 0..cols {
+                    let c = row.and_then(|row| row[j]);
                     if let Some(c) = c {
                         counts[k].0 += c.n_divergent;
                         counts[k].1 += c.n_starts;

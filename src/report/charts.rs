@@ -61,6 +61,18 @@ pub fn chart<'a, 'b, 'c>(root: &'a Root<'c>, title: &str) -> ChartBuilder<'a, 'b
     b
 }
 
+/// The "nice" tick step for a raw one: the smallest of 1, 2, 5 or 10 times
+/// the power of ten at or below `raw` that is at least `raw`.
+pub fn nice_step(raw: f64) -> f64 {
+    let magnitude = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * magnitude).find(|s| *s >= raw * (1.0 - 1e-9)).unwrap_or(raw)
+}
+
+/// The decimals a tick step needs (0.02: 2; 5: 0), at most 8.
+pub fn step_decimals(step: f64) -> usize {
+    (-(step.log10() + 1e-9).floor()).clamp(0.0, 8.0) as usize
+}
+
 /// Tick labels for an axis of whole numbers (epochs, seeds): the
 /// integers, and nothing between them.
 pub fn whole(x: &f64) -> String {
@@ -74,12 +86,8 @@ pub fn whole(x: &f64) -> String {
 /// Tick labels for an axis spanning `lo..hi`: as many decimals as a tenth
 /// of the span needs, the same on every tick, and never "-0".
 pub fn ticks(lo: f64, hi: f64) -> impl Fn(&f64) -> String {
-    // The "nice" step (1, 2 or 5 times a power of ten) plotters picks for
-    // about ten ticks, and the decimals it needs.
-    let raw = ((hi - lo).abs() / 10.0).max(1e-12);
-    let magnitude = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * magnitude).find(|s| *s >= raw * (1.0 - 1e-9)).unwrap_or(raw);
-    let decimals = (-(step.log10() + 1e-9).floor()).clamp(0.0, 8.0) as usize;
+    // The step plotters picks for about ten ticks.
+    let decimals = step_decimals(nice_step(((hi - lo).abs() / 10.0).max(1e-12)));
     move |v| {
         let s = format!("{v:.decimals$}");
         match s.strip_prefix('-') {

@@ -480,10 +480,8 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     // Axis with ticks.
     let _ = writeln!(s, r#"<line x1="{left}" y1="{top}" x2="{left}" y2="{}" stroke="black"/>"#, top + plot_h);
     // Round ticks: a step of 1, 2 or 5 x 10^k giving four to eight of them.
-    let raw = (hi - lo) / 5.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
-    let decimals = (-(step.log10() + 1e-9).floor()).clamp(0.0, 8.0) as usize;
+    let step = super::charts::nice_step((hi - lo) / 5.0);
+    let decimals = super::charts::step_decimals(step);
     let ticks: Vec<f64> =
         (0..20).map(|k| (lo / step).ceil() * step + k as f64 * step).take_while(|v| *v <= hi + 1e-12).collect();
     for v in ticks {
