@@ -12,6 +12,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::io::{f64_text, opt_f64_text};
+use crate::label::{Interner, Label};
 
 /// The exact header, in order.
 pub const HEADER: [&str; 14] = [
@@ -41,17 +42,17 @@ pub struct Cell {
     #[serde(skip)]
     pub dose: Option<f64>,
     /// The model's name.
-    pub model: String,
+    pub model: Label,
     /// The arm it was fitted on.
-    pub arm: String,
+    pub arm: Label,
     /// The training seed.
     pub seed: u64,
     /// The evaluation recording.
-    pub recording: String,
+    pub recording: Label,
     /// The recording's trajectory family.
-    pub trajectory: String,
+    pub trajectory: Label,
     /// The recording's speed label.
-    pub speed: String,
+    pub speed: Label,
     /// The rollout horizon in seconds.
     #[serde(serialize_with = "f64_text")]
     pub horizon_s: f64,
@@ -137,28 +138,30 @@ pub enum CellsError {
 /// belong to the analysis, which knows the design.
 pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
     let p = path.display().to_string();
-    let bytes = crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
+    let limit = crate::io::MAX_CELLS_FILE;
+    crate::io::check_regular(path, limit, "a per-cell CSV")
         .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
-    read_cells_from(&p, bytes.as_slice())
+    let file = std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;
+    read_cells_from(&p, file)
 }
 
-/// As [`read_cells`], from any reader; `name` is used in messages.
-pub fn read_cells_from(name: &str, mut reader: impl std::io::Read) -> Result<Vec<Cell>, CellsError> {
-    let mut bytes = Vec::new();
-    let limit = crate::io::MAX_CELLS_FILE;
-    std::io::Read::read_to_end(&mut std::io::Read::take(&mut reader, limit + 1), &mut bytes)
-        .map_err(|source| CellsError::Io { path: name.to_string(), source })?;
-    if bytes.len() as u64 > limit {
-        let message = format!("it holds more than the {limit} bytes read from a per-cell CSV");
-        return Err(CellsError::Io { path: name.to_string(), source: std::io::Error::other(message) });
-    }
+/// As [`read_cells`], from any reader; `name` is used in messages. The
+/// rows are parsed as they stream in: memory holds the cells, not the text.
+pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cell>, CellsError> {
     // Lines are counted here: the csv crate's count is one short after
     // each `\r\n`, the line ending Python's csv module writes.
-    let lines = crate::io::LineIndex::new(&bytes);
-    let line_of = |p: Option<&csv::Position>| p.map(|p| lines.line_of(p.byte() as usize) as u64).unwrap_or(0);
-    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(bytes.as_slice());
-    let header =
-        rdr.headers().map_err(|e| CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })?.clone();
+    let counted = crate::io::LineCounting::new(reader, crate::io::MAX_CELLS_FILE);
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(counted);
+    let io_error = |e: &csv::Error| match e.kind() {
+        csv::ErrorKind::Io(io) => {
+            Some(CellsError::Io { path: name.to_string(), source: std::io::Error::new(io.kind(), io.to_string()) })
+        }
+        _ => None,
+    };
+    let header = rdr
+        .headers()
+        .map_err(|e| io_error(&e).unwrap_or(CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() }))?
+        .clone();
     let found: Vec<&str> = header.iter().collect();
     let has_split = found.first() == Some(&"split");
     let has_dose = found.get(usize::from(has_split) + 2) == Some(&"dose");
@@ -170,20 +173,27 @@ pub fn read_cells_from(name: &str, mut reader: impl std::io::Read) -> Result<Vec
         });
     }
     let mut cells = Vec::new();
+    let mut names = Names::default();
     // One record, reused: a row's fields are borrowed from it, not copied.
     let mut rec = csv::StringRecord::new();
+    let line_of = |rdr: &csv::Reader<crate::io::LineCounting<_>>, p: Option<&csv::Position>| {
+        p.map(|p| rdr.get_ref().line_of(p.byte() as usize) as u64).unwrap_or(0)
+    };
     loop {
         match rdr.read_record(&mut rec) {
             Ok(true) => {}
             Ok(false) => break,
             Err(e) => {
-                let line = line_of(e.position());
+                if let Some(io) = io_error(&e) {
+                    return Err(io);
+                }
+                let line = line_of(&rdr, e.position());
                 return Err(CellsError::Csv { path: name.to_string(), line, message: csv_message(&e) });
             }
         }
-        let line = line_of(rec.position());
+        let line = line_of(&rdr, rec.position());
         let raw = RawRow::of(&rec, has_split, has_dose);
-        let mut cell = parse_row(name, line, &raw)?;
+        let mut cell = parse_row(name, line, &raw, &mut names)?;
         let r = Row { name, line };
         if has_split {
             cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
@@ -278,6 +288,16 @@ impl<'a> RawRow<'a> {
     }
 }
 
+/// One interner per label column: each distinct name is stored once.
+#[derive(Default)]
+struct Names {
+    model: Interner,
+    arm: Interner,
+    recording: Interner,
+    trajectory: Interner,
+    speed: Interner,
+}
+
 /// Checks fields of one row, naming the file, line and field on error.
 struct Row<'a> {
     name: &'a str,
@@ -295,12 +315,12 @@ impl Row<'_> {
         }
     }
 
-    fn label(&self, field: &'static str, v: &str) -> Result<String, CellsError> {
+    fn label(&self, field: &'static str, v: &str, names: &mut Interner) -> Result<Label, CellsError> {
         let t = v.trim();
         if t.is_empty() {
             return Err(self.fail(field, v, "is empty"));
         }
-        Ok(t.to_string())
+        Ok(names.get(t))
     }
 
     fn uint(&self, field: &'static str, v: &str) -> Result<u64, CellsError> {
@@ -336,7 +356,7 @@ impl Row<'_> {
     }
 }
 
-fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
+fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<Cell, CellsError> {
     let r = Row { name, line };
     let n_starts = r.uint("n_starts", raw.n_starts)?;
     if n_starts == 0 {
@@ -360,12 +380,12 @@ fn parse_row(name: &str, line: u64, raw: &RawRow) -> Result<Cell, CellsError> {
     Ok(Cell {
         split: None,
         dose: None,
-        model: r.label("model", raw.model)?,
-        arm: r.label("arm", raw.arm)?,
+        model: r.label("model", raw.model, &mut names.model)?,
+        arm: r.label("arm", raw.arm, &mut names.arm)?,
         seed: r.uint("seed", raw.seed)?,
-        recording: r.label("recording", raw.recording)?,
-        trajectory: r.label("trajectory", raw.trajectory)?,
-        speed: r.label("speed", raw.speed)?,
+        recording: r.label("recording", raw.recording, &mut names.recording)?,
+        trajectory: r.label("trajectory", raw.trajectory, &mut names.trajectory)?,
+        speed: r.label("speed", raw.speed, &mut names.speed)?,
         horizon_s,
         n_starts,
         n_divergent,
@@ -432,16 +452,16 @@ fn write_cells_to(p: &str, sink: impl std::io::Write, cells: &[Cell]) -> Result<
         if has_split {
             row.push(c.split.map(|s| s.to_string()).unwrap_or_default());
         }
-        row.push(c.model.clone());
-        row.push(c.arm.clone());
+        row.push(c.model.to_string());
+        row.push(c.arm.to_string());
         if has_dose {
             row.push(opt(c.dose));
         }
         row.extend([
             c.seed.to_string(),
-            c.recording.clone(),
-            c.trajectory.clone(),
-            c.speed.clone(),
+            c.recording.to_string(),
+            c.trajectory.to_string(),
+            c.speed.to_string(),
             c.horizon_s.to_string(),
             c.n_starts.to_string(),
             c.n_divergent.to_string(),

@@ -312,6 +312,77 @@ impl LineIndex {
     }
 }
 
+/// A reader that builds the [`LineIndex`] of the bytes read through it and
+/// refuses to read past `limit` bytes, so a large file can be parsed as a
+/// stream and its errors still located by line.
+pub struct LineCounting<R> {
+    inner: std::io::Take<R>,
+    starts: Vec<usize>,
+    read: usize,
+    pending_cr: bool,
+    limit: u64,
+}
+
+impl<R: std::io::Read> LineCounting<R> {
+    /// Counts lines of `inner`, reading at most `limit` bytes (a read past
+    /// it fails, naming `what` was being read).
+    pub fn new(inner: R, limit: u64) -> LineCounting<R> {
+        LineCounting { inner: inner.take(limit.saturating_add(1)), starts: vec![0], read: 0, pending_cr: false, limit }
+    }
+
+    /// The 1-based line of byte `offset`, among the bytes read so far (as
+    /// [`LineIndex::line_of`]).
+    pub fn line_of(&self, offset: usize) -> usize {
+        let k = if self.starts.binary_search(&(offset + 1)).is_ok() { offset + 1 } else { offset };
+        self.starts.partition_point(|&s| s <= k)
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for LineCounting<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        if n == 0 {
+            if std::mem::take(&mut self.pending_cr) {
+                self.starts.push(self.read);
+            }
+            return Ok(0);
+        }
+        if (self.read + n) as u64 > self.limit {
+            let message = format!("it holds more than the {} bytes read from it", self.limit);
+            return Err(std::io::Error::other(message));
+        }
+        let chunk = &buf[..n];
+        let mut from = 0;
+        if std::mem::take(&mut self.pending_cr) {
+            if chunk[0] == b'\n' {
+                self.starts.push(self.read + 1);
+                from = 1;
+            } else {
+                self.starts.push(self.read);
+            }
+        }
+        let mut skip = None;
+        for i in memchr::memchr2_iter(b'\r', b'\n', &chunk[from..]).map(|i| i + from) {
+            if skip == Some(i) {
+                continue;
+            }
+            let at = self.read + i;
+            if chunk[i] == b'\n' {
+                self.starts.push(at + 1);
+            } else if i + 1 == n {
+                self.pending_cr = true;
+            } else if chunk[i + 1] == b'\n' {
+                self.starts.push(at + 2);
+                skip = Some(i + 1);
+            } else {
+                self.starts.push(at + 1);
+            }
+        }
+        self.read += n;
+        Ok(n)
+    }
+}
+
 /// `text` with each lone `\r` (old Mac line ending) made `\n`, so parsers
 /// that count only `\n` (pest, serde_json, YAML) count those lines too.
 /// Byte offsets do not move, and `\r\n` is left as it is.
@@ -414,4 +485,54 @@ pub fn md_code(s: &str) -> String {
     }
     let fence = "`".repeat(longest + 1);
     format!("{fence} {clean} {fence}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Read;
+
+    /// Hands out at most `step` bytes per read, so line breaks (`\r\n`
+    /// above all) fall across reads.
+    struct Trickle<'a> {
+        text: &'a [u8],
+        step: usize,
+    }
+
+    impl Read for Trickle<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.step.min(buf.len()).min(self.text.len());
+            buf[..n].copy_from_slice(&self.text[..n]);
+            self.text = &self.text[n..];
+            Ok(n)
+        }
+    }
+
+    proptest::proptest! {
+        /// The streamed count agrees with the whole-text index at every
+        /// offset, however the text arrives.
+        #[test]
+        fn line_counting_agrees_with_the_line_index(
+            text in proptest::collection::vec(proptest::sample::select(vec![b'a', b',', b'\r', b'\n']), 0..60),
+            step in 1usize..5,
+        ) {
+            let whole = LineIndex::new(&text);
+            let mut counted = LineCounting::new(Trickle { text: &text, step }, 1000);
+            let mut sink = Vec::new();
+            counted.read_to_end(&mut sink).unwrap();
+            proptest::prop_assert_eq!(&sink, &text);
+            for k in 0..=text.len() {
+                proptest::prop_assert_eq!(counted.line_of(k), whole.line_of(k), "offset {}", k);
+            }
+        }
+    }
+
+    #[test]
+    fn line_counting_refuses_to_read_past_its_limit() {
+        let mut counted = LineCounting::new(&b"0123456789"[..], 9);
+        let e = counted.read_to_end(&mut Vec::new()).unwrap_err();
+        assert!(e.to_string().contains("more than the 9 bytes"), "{e}");
+        let mut exact = LineCounting::new(&b"012345678"[..], 9);
+        assert_eq!(exact.read_to_end(&mut Vec::new()).unwrap(), 9);
+    }
 }

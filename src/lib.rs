@@ -7,6 +7,7 @@ pub mod data;
 pub mod design;
 mod error;
 pub mod io;
+pub mod label;
 pub mod methods;
 pub mod model;
 pub mod plan;

@@ -423,7 +423,7 @@ fn family_analysis_refuses_cells_without_the_split_column() {
     let plan = crossaudit::compile(&d);
     let c = crossaudit::cells::Cell {
         split: None,
-        arm: "disjoint".to_string(),
+        arm: "disjoint".into(),
         ..crate::common::minimal_cells(&crate::common::minimal_design())[0].clone()
     };
     let e = analyze_family(&plan, &[c], Default::default()).unwrap_err().to_string();

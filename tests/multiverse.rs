@@ -247,7 +247,7 @@ fn planted_cells(d: &design::Design, values: &[String], spec: usize) -> Vec<Cell
                             model: model.into(),
                             arm: arm.into(),
                             seed: s.0,
-                            recording: format!("R{i:02}_circle_slow_rep1"),
+                            recording: format!("R{i:02}_circle_slow_rep1").into(),
                             trajectory: "circle".into(),
                             speed: "slow".into(),
                             horizon_s: h,
@@ -660,7 +660,7 @@ fn choices_and_draws_together_run_every_level() {
             cells
                 .iter()
                 .filter(|c| c.arm == arm && (c.horizon_s - 1.0).abs() < 1e-9)
-                .map(|c| ((c.recording.clone(), c.seed), c.fa_position_rmse_m))
+                .map(|c| ((c.recording.to_string(), c.seed), c.fa_position_rmse_m))
                 .collect()
         };
         let (t, r) = (at("contaminated"), at("disjoint"));

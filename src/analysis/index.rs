@@ -88,10 +88,10 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
             known,
         };
         let Some(m) = out.models.iter().position(|x| *x == c.model) else {
-            return Err(not_in("model", c.model.clone(), format!("models: {}", out.models.join(", "))));
+            return Err(not_in("model", c.model.to_string(), format!("models: {}", out.models.join(", "))));
         };
         let Some(a) = out.arms.iter().position(|x| *x == c.arm) else {
-            return Err(not_in("arm", c.arm.clone(), format!("arms: {}", out.arms.join(", "))));
+            return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", out.arms.join(", "))));
         };
         let Some(&s) = out.seeds.get(&c.seed) else {
             let (a, b) = (plan.seeds[0].0, plan.seeds[plan.seeds.len() - 1].0);
@@ -126,10 +126,10 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
             return Err(AnalysisError::Duplicate {
                 line: c.line,
                 first_line: first.line,
-                model: c.model.clone(),
-                arm: c.arm.clone(),
+                model: c.model.to_string(),
+                arm: c.arm.to_string(),
                 seed: c.seed,
-                recording: c.recording.clone(),
+                recording: c.recording.to_string(),
                 horizon: out.horizons[h],
             });
         }
@@ -157,8 +157,8 @@ fn check_labels((t, s, first_line): (&str, &str, u64), c: &Cell) -> Result<(), A
             return Err(AnalysisError::InconsistentLabel {
                 line: c.line,
                 field,
-                recording: c.recording.clone(),
-                value: value.clone(),
+                recording: c.recording.to_string(),
+                value: value.to_string(),
                 first: first.to_string(),
                 first_line,
             });

@@ -178,22 +178,22 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
         });
     }
-    if !plan.speed_labels.contains(&c.speed) {
+    if !plan.speed_labels.iter().any(|s| *s == c.speed) {
         return Err(AnalysisError::NotInDesign {
             line: c.line,
             field: "speed",
-            value: c.speed.clone(),
+            value: c.speed.to_string(),
             known: format!("the design's data block labels speeds {}", plan.speed_labels.join(", ")),
         });
     }
-    if !plan.pinned_recordings.is_empty() && !plan.pinned_recordings.contains(&c.recording) {
+    if !plan.pinned_recordings.is_empty() && !plan.pinned_recordings.iter().any(|r| *r == c.recording) {
         let n = plan.pinned_recordings.len();
         let shown: Vec<&str> = plan.pinned_recordings.iter().take(5).map(|r| r.as_str()).collect();
         let more = if n > 5 { format!(", ... ({n} in all)") } else { String::new() };
         return Err(AnalysisError::NotInDesign {
             line: c.line,
             field: "recording",
-            value: c.recording.clone(),
+            value: c.recording.to_string(),
             known: format!("the design pins its evaluation recordings: {}{more}", shown.join(", ")),
         });
     }

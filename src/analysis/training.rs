@@ -108,8 +108,8 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
     // Mean primary d per seed.
     let d = crate::analysis::multiverse::Diff::of(plan, cells);
     let mut per_seed: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
-    for ((_, seed), v) in &d.cells {
-        let e = per_seed.entry(*seed).or_insert((0.0, 0));
+    for (_, seed, v) in d.iter() {
+        let e = per_seed.entry(seed).or_insert((0.0, 0));
         e.0 += v;
         e.1 += 1;
     }

@@ -553,7 +553,7 @@ fn check_baselines(plan: &Plan, cells: &[Cell]) -> Result<(), RunError> {
                 .map(|c| {
                     (
                         c.seed,
-                        c.recording.clone(),
+                        c.recording.to_string(),
                         c.horizon_s.to_bits(),
                         format!("{:?}", (c.fa_position_rmse_m, c.conditional_position_rmse_m, c.n_divergent)),
                     )

@@ -15,7 +15,7 @@
 //! draw for every specification (the pigeonhole bootstrap of one contrast,
 //! applied to all at once), and gives simultaneous max-|t| bands.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use serde::Serialize;
 
@@ -30,6 +30,7 @@ use super::{analyze, Analysis, AnalysisError, AnalyzeOptions};
 use crate::cells::Cell;
 use crate::design::{Choice, Combine, DecisionRule, Design, Estimator};
 use crate::plan::Plan;
+use crate::label::Label;
 use crate::stats::CrossedEstimate;
 
 /// One outer level of a study: a specification, a draw, or both, with
@@ -264,10 +265,14 @@ pub struct MultiverseDecision {
 
 /// Analyses every level and combines them.
 pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<MultiverseAnalysis, AnalysisError> {
+    use rayon::prelude::*;
+    // Levels are analysed in parallel; the first error in level order is
+    // the one reported.
+    let each: Vec<Result<Analysis, AnalysisError>> =
+        levels.par_iter().map(|l| analyze(l.plan, l.cells, AnalyzeOptions::default())).collect();
     let mut analyses: Vec<(String, Box<Analysis>)> = Vec::new();
-    for l in levels {
-        let a = analyze(l.plan, l.cells, AnalyzeOptions::default())?;
-        analyses.push((l.id.clone(), Box::new(a)));
+    for (l, a) in levels.iter().zip(each) {
+        analyses.push((l.id.clone(), Box::new(a?)));
     }
     let mv = design.multiverse.as_ref();
     let first_draw = levels.iter().filter_map(|l| l.draw).min();
@@ -409,44 +414,88 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
 }
 
 /// The primary difference d = treated - reference of one level, per
-/// (recording, seed), at the primary unit.
+/// (recording, seed), at the primary unit: a dense recordings x seeds
+/// table, empty where either arm lacks the cell.
 pub(crate) struct Diff {
-    pub(crate) cells: BTreeMap<(String, u64), f64>,
+    /// Recordings with a cell of either arm, sorted.
+    recs: Vec<Label>,
+    /// Seeds with a cell of either arm, sorted.
+    seeds: Vec<u64>,
+    /// d per recording (row) and seed (column).
+    values: Vec<Option<f64>>,
 }
 
 impl Diff {
     pub(crate) fn of(plan: &Plan, cells: &[Cell]) -> Diff {
         let u = &plan.primary;
-        let value = |arm: &str| -> BTreeMap<(String, u64), f64> {
-            cells
-                .iter()
-                .filter(|c| c.model == u.model && c.arm == arm && (c.horizon_s - u.horizon_s).abs() < 1e-9)
-                .filter_map(|c| super::unit::value_of(c, u.metric).map(|v| ((c.recording.clone(), c.seed), v)))
-                .collect()
-        };
-        let (t, r) = (value(&plan.contrast.treated), value(&plan.contrast.reference));
-        Diff { cells: t.iter().filter_map(|(k, v)| r.get(k).map(|w| (k.clone(), v - w))).collect() }
+        let (treated, reference) = (&plan.contrast.treated, &plan.contrast.reference);
+        let ours: Vec<(&Cell, bool)> = cells
+            .iter()
+            .filter(|c| c.model == u.model && (c.horizon_s - u.horizon_s).abs() < 1e-9)
+            .filter_map(|c| {
+                let is_treated = c.arm == *treated;
+                (is_treated || c.arm == *reference).then_some((c, is_treated))
+            })
+            .collect();
+        let mut recs: Vec<Label> = ours.iter().map(|(c, _)| c.recording.clone()).collect();
+        recs.sort_unstable();
+        recs.dedup();
+        let mut seeds: Vec<u64> = ours.iter().map(|(c, _)| c.seed).collect();
+        seeds.sort_unstable();
+        seeds.dedup();
+        let n = recs.len() * seeds.len();
+        let (mut t, mut r) = (vec![None; n], vec![None; n]);
+        for (c, is_treated) in ours {
+            let Some(v) = super::unit::value_of(c, u.metric) else { continue };
+            let (Ok(i), Ok(j)) = (recs.binary_search(&c.recording), seeds.binary_search(&c.seed)) else { continue };
+            // A later row for the same cell replaces an earlier one.
+            if is_treated {
+                t[i * seeds.len() + j] = Some(v);
+            } else {
+                r[i * seeds.len() + j] = Some(v);
+            }
+        }
+        let values = t.iter().zip(&r).map(|(t, r)| Some(t.as_ref()? - r.as_ref()?)).collect();
+        Diff { recs, seeds, values }
+    }
+
+    /// d at recording row `i`, seed column `j`.
+    fn at(&self, i: usize, j: usize) -> Option<f64> {
+        self.values[i * self.seeds.len() + j]
+    }
+
+    /// Every (recording, seed, d), by recording then seed.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (&Label, u64, f64)> + '_ {
+        self.recs
+            .iter()
+            .enumerate()
+            .flat_map(move |(i, r)| (0..self.seeds.len()).filter_map(move |j| Some((r, self.seeds[j], self.at(i, j)?))))
     }
 }
 
 /// The recordings and seeds every level has a d for, and each level's
 /// recordings x seeds matrix over them.
 fn common(diffs: &[&Diff]) -> (Vec<String>, Vec<u64>, Vec<Vec<f64>>) {
-    let keys: BTreeSet<(String, u64)> = match diffs.first() {
-        Some(d) => d.cells.keys().filter(|k| diffs.iter().all(|o| o.cells.contains_key(*k))).cloned().collect(),
-        None => BTreeSet::new(),
-    };
-    let recs: BTreeSet<String> = keys.iter().map(|k| k.0.clone()).collect();
-    let seeds: BTreeSet<u64> = keys.iter().map(|k| k.1).collect();
+    let Some(first) = diffs.first() else { return (Vec::new(), Vec::new(), Vec::new()) };
+    let (nr, ns) = (first.recs.len(), first.seeds.len());
+    // Each level's row of each of the first level's recordings, and its
+    // column of each of the first's seeds.
+    let rows: Vec<Vec<Option<usize>>> =
+        diffs.iter().map(|d| first.recs.iter().map(|r| d.recs.binary_search(r).ok()).collect()).collect();
+    let cols: Vec<Vec<Option<usize>>> =
+        diffs.iter().map(|d| first.seeds.iter().map(|s| d.seeds.binary_search(s).ok()).collect()).collect();
+    let value = |k: usize, i: usize, j: usize| diffs[k].at(rows[k][i]?, cols[k][j]?);
+    // The cells every level has.
+    let shared: Vec<bool> = (0..nr * ns).map(|x| (0..diffs.len()).all(|k| value(k, x / ns, x % ns).is_some())).collect();
+    let any_row = |i: usize| (0..ns).any(|j| shared[i * ns + j]);
+    let seeds: Vec<usize> = (0..ns).filter(|&j| (0..nr).any(|i| shared[i * ns + j])).collect();
     // Only complete rows and columns: a recording every seed has.
-    let recs: Vec<String> =
-        recs.into_iter().filter(|r| seeds.iter().all(|s| keys.contains(&(r.clone(), *s)))).collect();
-    let seeds: Vec<u64> = seeds.into_iter().filter(|s| recs.iter().all(|r| keys.contains(&(r.clone(), *s)))).collect();
-    let mats = diffs
-        .iter()
-        .map(|d| recs.iter().flat_map(|r| seeds.iter().map(|s| d.cells[&(r.clone(), *s)])).collect())
+    let recs: Vec<usize> = (0..nr).filter(|&i| any_row(i) && seeds.iter().all(|&j| shared[i * ns + j])).collect();
+    let seeds: Vec<usize> = seeds.into_iter().filter(|&j| recs.iter().all(|&i| shared[i * ns + j])).collect();
+    let mats = (0..diffs.len())
+        .map(|k| recs.iter().flat_map(|&i| seeds.iter().map(move |&j| value(k, i, j).unwrap_or(f64::NAN))).collect())
         .collect();
-    (recs, seeds, mats)
+    (recs.iter().map(|&i| first.recs[i].to_string()).collect(), seeds.iter().map(|&j| first.seeds[j]).collect(), mats)
 }
 
 /// One choice effect's paired cells: per recording and seed (over the
@@ -466,7 +515,7 @@ struct EffectCells {
 fn effect_cells(m: &crate::design::Multiverse, diffs: &[Diff], warnings: &mut Vec<String>) -> Vec<EffectCells> {
     let all: Vec<&Diff> = diffs.iter().collect();
     let (recs, seeds, mats) = common(&all);
-    let total: BTreeSet<&String> = diffs.iter().flat_map(|d| d.cells.keys().map(|k| &k.0)).collect();
+    let total: BTreeSet<&Label> = diffs.iter().flat_map(|d| d.iter().map(|(r, _, _)| r)).collect();
     if recs.len() < total.len() {
         warnings.push(format!(
             "{} of {} evaluation recordings are in every specification; the paired choice effects and the joint bootstrap use those",

@@ -484,14 +484,20 @@ pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, 
 fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -> Result<MultiverseAnalysis, RunError> {
     let units = per_seed::units(design, levels);
     let plans: Vec<Plan> = units.iter().map(|u| crate::plan::compile(&u.design)).collect();
-    let mut cells: Vec<Vec<Cell>> = Vec::new();
-    for u in &units {
-        let mut all = Vec::new();
-        for &k in &u.members {
-            all.extend(read_cells(&run_dir(dir, levels, k).join("cells.csv"))?);
-        }
-        cells.push(all);
-    }
+    // Level files are read in parallel; the first error in level order is
+    // the one reported.
+    use rayon::prelude::*;
+    let read: Vec<Result<Vec<Cell>, crate::cells::CellsError>> = units
+        .par_iter()
+        .map(|u| {
+            let mut all = Vec::new();
+            for &k in &u.members {
+                all.extend(read_cells(&run_dir(dir, levels, k).join("cells.csv"))?);
+            }
+            Ok(all)
+        })
+        .collect();
+    let cells: Vec<Vec<Cell>> = read.into_iter().collect::<Result<_, _>>()?;
     let inputs: Vec<LevelInput> = units
         .iter()
         .enumerate()
