@@ -69,16 +69,56 @@ fn reml_at(s: &System, p: &[f64]) -> Result<(f64, Vec<f64>), MixedError> {
 /// the variances sigma^2 theta^2 a small component makes them
 /// ill-conditioned, in theta they are not.
 pub(super) fn satterthwaite(s: &System, theta: &[f64], sigma2: f64) -> Result<Vec<Df>, MixedError> {
+    use rayon::prelude::*;
+    use std::cell::RefCell;
+    use std::collections::HashMap;
     let sigma = sigma2.sqrt() / s.y_scale;
-    let a = satterthwaite_steps(s, theta, sigma, 4e-3)?;
-    let b = satterthwaite_steps(s, theta, sigma, 8e-3)?;
+    // First the points the differences visit are listed (the deviance
+    // stood in by zeros), then each distinct one is evaluated once, in
+    // parallel, and the differences are taken from those values: the same
+    // numbers as evaluating them one by one, in any order.
+    let visited: RefCell<Vec<Vec<f64>>> = RefCell::new(Vec::new());
+    let list = |p: &[f64]| -> Result<(f64, Vec<f64>), MixedError> {
+        visited.borrow_mut().push(p.to_vec());
+        Ok((0.0, vec![0.0; s.p]))
+    };
+    satterthwaite_steps(s, theta, sigma, 4e-3, &list)?;
+    satterthwaite_steps(s, theta, sigma, 8e-3, &list)?;
+    let bits = |p: &[f64]| -> Vec<u64> { p.iter().map(|x| x.to_bits()).collect() };
+    let mut points: Vec<Vec<f64>> = Vec::new();
+    let mut seen: HashMap<Vec<u64>, usize> = HashMap::new();
+    for p in visited.into_inner() {
+        seen.entry(bits(&p)).or_insert_with(|| {
+            points.push(p);
+            points.len() - 1
+        });
+    }
+    let values: Vec<Result<(f64, Vec<f64>), MixedError>> = points.par_iter().map(|p| reml_at(s, p)).collect();
+    let values: Vec<(f64, Vec<f64>)> = values.into_iter().collect::<Result<_, _>>()?;
+    let known = |p: &[f64]| -> Result<(f64, Vec<f64>), MixedError> {
+        match seen.get(&bits(p)) {
+            Some(&k) => Ok(values[k].clone()),
+            None => reml_at(s, p),
+        }
+    };
+    let a = satterthwaite_steps(s, theta, sigma, 4e-3, &known)?;
+    let b = satterthwaite_steps(s, theta, sigma, 8e-3, &known)?;
     Ok(a.into_iter().zip(b).map(|(a, b)| agree(a, b)).collect())
 }
+
+/// The REML deviance and Var(beta) at a parameter vector, as [`reml_at`].
+type Evaluator<'a> = dyn Fn(&[f64]) -> Result<(f64, Vec<f64>), MixedError> + 'a;
 
 /// Satterthwaite df from central differences with relative steps `rel`
 /// and `rel / 2` (of theta, or of 0.1 for theta below 0.1; of sigma),
 /// combined by Richardson extrapolation (the O(h^2) errors cancel).
-fn satterthwaite_steps(s: &System, theta: &[f64], sigma: f64, rel: f64) -> Result<Vec<Option<f64>>, MixedError> {
+fn satterthwaite_steps(
+    s: &System,
+    theta: &[f64],
+    sigma: f64,
+    rel: f64,
+    eval: &Evaluator,
+) -> Result<Vec<Option<f64>>, MixedError> {
     let mut par: Vec<f64> = theta.to_vec();
     par.push(sigma);
     // Free parameters: sigma and every theta not at zero (a singular
@@ -91,7 +131,7 @@ fn satterthwaite_steps(s: &System, theta: &[f64], sigma: f64, rel: f64) -> Resul
         for &(j, d) in delta {
             p[free[j]] += d;
         }
-        reml_at(s, &p)
+        eval(&p)
     };
     let (f0, v0) = at(&[])?;
     let derivatives = |rel: f64| -> Result<(Mat<f64>, Mat<f64>), MixedError> {

@@ -49,6 +49,7 @@
 mod data;
 pub mod formula;
 mod inference;
+mod levels;
 mod optimize;
 mod profile;
 mod system;

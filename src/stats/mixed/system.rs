@@ -21,13 +21,14 @@
 //! sum_s nnz(b_s)^2, so InstEval (2,972 students crossed with 1,128
 //! lecturers) factors a 1,129 x 1,129 matrix instead of 4,101 x 4,101.
 
-use std::cell::RefCell;
+use std::sync::Mutex;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch, LltParams};
 use faer::linalg::triangular_solve::{solve_lower_triangular_in_place, solve_upper_triangular_in_place};
 use faer::{Auto, Mat, Par};
 
+use super::levels::LevelEntries;
 use super::{Criterion, MixedData, MixedError};
 
 /// The cross-products the deviance needs, computed once.
@@ -96,11 +97,17 @@ pub(super) struct System {
     /// X'X and X'y (y standardized), for the rank check and the start.
     pub xtx: Mat<f64>,
     xty: Vec<f64>,
-    /// The dense matrix and the factorization's scratch, reused by every
-    /// evaluation: allocating 10 MB afresh (InstEval) costs a third of a
-    /// factorization in page faults.
-    work: RefCell<(Mat<f64>, MemBuffer)>,
+    /// Where each level of the eliminated factor writes, by column.
+    entries: LevelEntries,
+    /// Dense matrices and factorization scratch, reused by every evaluation
+    /// (allocating 10 MB afresh, on InstEval, costs a third of a
+    /// factorization in page faults): one per evaluation running at once,
+    /// so that evaluations may run in parallel.
+    work: Mutex<Vec<Work>>,
 }
+
+/// One evaluation's dense matrix and factorization scratch.
+type Work = (Mat<f64>, MemBuffer);
 
 /// The deviance and the estimates at one theta, on the response's scale.
 #[derive(Debug, Clone)]
@@ -226,15 +233,13 @@ impl System {
                 }
             }
         }
-        let m = q2 + p;
-        let scratch = cholesky_in_place_scratch::<f64>(m, Par::Seq, <LltParams as Auto<f64>>::auto().into());
-        let work = RefCell::new((Mat::zeros(m, m), MemBuffer::new(scratch)));
         let mut row_start = vec![0];
         let mut row = Vec::new();
         for r in rows {
             row.extend(r);
             row_start.push(row.len());
         }
+        let entries = LevelEntries::new(&row_start, &row, q2, p);
         System {
             n: n as f64,
             p,
@@ -264,8 +269,19 @@ impl System {
             wxy,
             xtx,
             xty,
-            work,
+            entries,
+            work: Mutex::new(Vec::new()),
         }
+    }
+
+    /// A dense matrix and scratch for one evaluation: a free one, or a new one.
+    fn take_work(&self) -> Work {
+        let free = self.work.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        free.unwrap_or_else(|| {
+            let m = self.q2 + self.p;
+            let scratch = cholesky_in_place_scratch::<f64>(m, Par::Seq, <LltParams as Auto<f64>>::auto().into());
+            (Mat::zeros(m, m), MemBuffer::new(scratch))
+        })
     }
 
     /// Number of random factors.
@@ -275,14 +291,19 @@ impl System {
 
     /// Solves the system at `theta` and returns the profiled deviance.
     pub fn evaluate(&self, theta: &[f64], criterion: Criterion) -> Result<Eval, MixedError> {
+        let mut work = self.take_work();
+        let out = self.evaluate_in(&mut work, theta, criterion);
+        self.work.lock().unwrap_or_else(|e| e.into_inner()).push(work);
+        out
+    }
+
+    fn evaluate_in(&self, (a, buffer): &mut Work, theta: &[f64], criterion: Criterion) -> Result<Eval, MixedError> {
         let (p, q2, k) = (self.p, self.q2, self.factors());
         let m = q2 + p;
         let t1 = theta[self.first];
         let lam: Vec<f64> = self.dense_factor.iter().map(|&j| theta[j]).collect();
         // Lower triangle of the reduced system: the within-level scatter,
         // then each level's sums with weight c_s.
-        let mut work = self.work.borrow_mut();
-        let (a, buffer) = &mut *work;
         for j in 0..q2 {
             for i in j..q2 {
                 a[(i, j)] = lam[i] * self.wz2z2[(i, j)] * lam[j];
@@ -302,30 +323,21 @@ impl System {
         // (Z1'Z2)_s, (Z1'X)_s] and c_s = 1 / (n_s D_s), D_s = theta1^2 n_s + 1.
         let mut log_det_d = 0.0;
         let t1sq = t1 * t1;
-        let mut idx: Vec<usize> = Vec::new();
-        let mut val: Vec<f64> = Vec::new();
+        let mut val: Vec<f64> = Vec::with_capacity(self.entries.len());
+        let mut wval: Vec<f64> = Vec::with_capacity(self.entries.len());
         for s in 0..self.ns.len() {
             let ds = t1sq * self.ns[s] + 1.0;
             log_det_d += ds.ln();
             let w = 1.0 / (self.ns[s] * ds);
-            idx.clear();
-            val.clear();
-            for &(col, cnt) in &self.row[self.row_start[s]..self.row_start[s + 1]] {
-                idx.push(col);
-                val.push(lam[col] * cnt);
-            }
-            for c in 0..p {
-                idx.push(q2 + c);
-                val.push(self.z1x[s * p + c]);
-            }
-            for (e, (&i, &vi)) in idx.iter().zip(&val).enumerate() {
-                let wvi = w * vi;
+            val.extend(self.row[self.row_start[s]..self.row_start[s + 1]].iter().map(|&(col, cnt)| lam[col] * cnt));
+            val.extend(&self.z1x[s * p..(s + 1) * p]);
+            let (range, cols) = self.entries.of(s);
+            wval.extend(val[range.clone()].iter().map(|&v| w * v));
+            for (&i, &wvi) in cols.iter().zip(&wval[range]) {
                 rhs[i] += wvi * self.z1y[s];
-                for (&j, &vj) in idx[..=e].iter().zip(&val[..=e]) {
-                    a[(i, j)] += wvi * vj;
-                }
             }
         }
+        self.entries.add_outer_products(a, &val, &wval);
         cholesky_in_place(
             a.as_mut(),
             Default::default(),
