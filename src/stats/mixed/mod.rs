@@ -403,7 +403,7 @@ fn fit_system(
         rebuilt = system::System::eliminating(data, dominant);
         let mut dev = |theta: &[f64]| rebuilt.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY);
         let d0 = dev(&best);
-        let (t, _, _) = optimize::newton(&mut dev, best.clone(), d0, 8);
+        let (t, _, _) = optimize::newton_one_by_one(&mut dev, best.clone(), d0, 8);
         best = t;
         let d = dev(&best);
         let c = optimize::certify(&mut dev, &best, d);

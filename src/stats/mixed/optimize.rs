@@ -18,22 +18,30 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
     // infinite deviance.
     let f0 = s.evaluate(&moments, criterion)?.deviance;
     let evaluations = std::cell::Cell::new(1usize);
+    let one = |theta: &[f64]| -> f64 { s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY) };
     let mut dev = |theta: &[f64]| -> f64 {
         evaluations.set(evaluations.get() + 1);
-        s.evaluate(theta, criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
+        one(theta)
+    };
+    // Newton's difference stencils, evaluated in parallel: each point's
+    // deviance is the same number in any order.
+    let mut batch = |thetas: &[Vec<f64>]| -> Vec<f64> {
+        use rayon::prelude::*;
+        evaluations.set(evaluations.get() + thetas.len());
+        thetas.par_iter().map(|t| one(t)).collect()
     };
     // Newton on difference derivatives from the moment start; where it does
     // not converge (a Hessian not positive definite far from the optimum,
     // an optimum on the boundary), Nelder-Mead to a relative 1e-4 and
     // Newton again, and then Nelder-Mead restarts with smaller simplices.
     let start = vec![1.0; k];
-    let (mut best, mut best_dev, mut converged) = newton(&mut dev, moments.clone(), f0, 20);
+    let (mut best, mut best_dev, mut converged) = newton(&mut batch, moments.clone(), f0, 20);
     if !converged {
         let (t, d) = nelder_mead(&mut dev, &start, 0.5, 1e-4);
         if d < best_dev {
             (best, best_dev) = (t, d);
         }
-        (best, best_dev, converged) = newton(&mut dev, best, best_dev, 12);
+        (best, best_dev, converged) = newton(&mut batch, best, best_dev, 12);
     }
     if !converged {
         for step in [0.1, 0.01, 1e-3, 1e-4] {
@@ -42,7 +50,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
                 (best, best_dev) = (t, d);
             }
         }
-        (best, best_dev, _) = newton(&mut dev, best, best_dev, 8);
+        (best, best_dev, _) = newton(&mut batch, best, best_dev, 8);
     }
     // Boundary faces: a theta at exactly zero is where lme4's bounded
     // optimizer stops when the optimum is on the boundary.
@@ -54,7 +62,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
         t[j] = 0.0;
         let d = dev(&t);
         if d <= best_dev {
-            let (x, fx, _) = newton(&mut dev, t, d, 8);
+            let (x, fx, _) = newton(&mut batch, t, d, 8);
             (best, best_dev) = (x, fx);
         }
     }
@@ -94,7 +102,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
             } else {
                 (t, d)
             };
-            let (mut t, mut d, converged) = newton(&mut dev, t, d, 30);
+            let (mut t, mut d, converged) = newton(&mut batch, t, d, 30);
             if !converged {
                 for step in [0.1, 0.01, 1e-3] {
                     let (t2, d2) = nelder_mead_even(&mut dev, &t, step, 1e-14);
@@ -102,7 +110,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
                         (t, d) = (t2, d2);
                     }
                 }
-                (t, d, _) = newton(&mut dev, t, d, 12);
+                (t, d, _) = newton(&mut batch, t, d, 12);
             }
             if d < best_dev {
                 (best, best_dev) = (t, d);
@@ -203,6 +211,19 @@ fn simplex_search(
     (simplex[best].clone(), values[best])
 }
 
+/// Evaluates a batch of points, returning one value per point in order.
+pub(super) type Batch<'a> = dyn FnMut(&[Vec<f64>]) -> Vec<f64> + 'a;
+
+/// [`newton`] on a function evaluated one point at a time.
+pub(super) fn newton_one_by_one(
+    f: &mut dyn FnMut(&[f64]) -> f64,
+    x: Vec<f64>,
+    fx: f64,
+    iterations: usize,
+) -> (Vec<f64>, f64, bool) {
+    newton(&mut |xs: &[Vec<f64>]| xs.iter().map(|x| f(x)).collect(), x, fx, iterations)
+}
+
 /// Newton steps from `x` on the coordinates not at zero, with gradient
 /// by central differences and Hessian by differences of the same points
 /// (one more point per pair of coordinates), each step taken only if the
@@ -213,12 +234,8 @@ fn simplex_search(
 /// rounding, which leaves theta about sqrt(1e-13) from the optimum; the
 /// gradient's root is a thousand times sharper. Returns the point, its
 /// value and whether it converged (a step below 1e-5 of theta taken).
-pub(super) fn newton(
-    f: &mut dyn FnMut(&[f64]) -> f64,
-    mut x: Vec<f64>,
-    mut fx: f64,
-    iterations: usize,
-) -> (Vec<f64>, f64, bool) {
+/// The points of each difference stencil go to `f` as one batch.
+pub(super) fn newton(f: &mut Batch, mut x: Vec<f64>, mut fx: f64, iterations: usize) -> (Vec<f64>, f64, bool) {
     let mut kept: Option<(Vec<usize>, Mat<f64>)> = None;
     for _ in 0..iterations {
         let free: Vec<usize> = (0..x.len()).filter(|&i| x[i] > 0.0).collect();
@@ -227,18 +244,22 @@ pub(super) fn newton(
             return (x, fx, true);
         }
         let h: Vec<f64> = free.iter().map(|&i| (1e-4 * x[i].max(1.0)).min(0.5 * x[i])).collect();
-        let at = |f: &mut dyn FnMut(&[f64]) -> f64, d: &[(usize, f64)]| {
+        let at = |d: &[(usize, f64)]| {
             let mut y = x.clone();
             for &(j, s) in d {
                 y[free[j]] += s;
             }
-            f(&y)
+            y
         };
+        // Each stencil's points are evaluated as one batch (in parallel,
+        // where the caller can).
+        let pm: Vec<Vec<f64>> = (0..m).flat_map(|a| [at(&[(a, h[a])]), at(&[(a, -h[a])])]).collect();
+        let pm = f(&pm);
         let mut g = Mat::<f64>::zeros(m, 1);
         let mut plus = vec![0.0; m];
         let mut curvature = vec![0.0; m];
         for a in 0..m {
-            let (fp, fm) = (at(f, &[(a, h[a])]), at(f, &[(a, -h[a])]));
+            let (fp, fm) = (pm[2 * a], pm[2 * a + 1]);
             g[(a, 0)] = (fp - fm) / (2.0 * h[a]);
             curvature[a] = (fp - 2.0 * fx + fm) / (h[a] * h[a]);
             plus[a] = fp;
@@ -246,11 +267,14 @@ pub(super) fn newton(
         let hess = match kept.take() {
             Some((free_then, hess)) if free_then == free => hess,
             _ => {
+                let pairs: Vec<Vec<f64>> =
+                    (0..m).flat_map(|a| (0..a).map(move |b| (a, b))).map(|(a, b)| at(&[(a, h[a]), (b, h[b])])).collect();
+                let mut pp = f(&pairs).into_iter();
                 let mut hess = Mat::<f64>::zeros(m, m);
                 for a in 0..m {
                     hess[(a, a)] = curvature[a];
                     for b in 0..a {
-                        let pp = at(f, &[(a, h[a]), (b, h[b])]);
+                        let pp = pp.next().unwrap_or(f64::NAN);
                         hess[(a, b)] = (pp - plus[a] - plus[b] + fx) / (h[a] * h[b]);
                         hess[(b, a)] = hess[(a, b)];
                     }
@@ -282,7 +306,7 @@ pub(super) fn newton(
             for (j, &i) in free.iter().enumerate() {
                 y[i] = (x[i] - scale * step[(j, 0)]).max(0.0);
             }
-            let fy = f(&y);
+            let fy = f(std::slice::from_ref(&y))[0];
             if fy <= fx {
                 (x, fx) = (y, fy);
                 taken = true;

@@ -100,7 +100,7 @@ fn profiled(
             (x, fx) = (y, fy);
         }
     }
-    let (x, fx, _) = optimize::newton(&mut f, x, fx, 12);
+    let (x, fx, _) = optimize::newton_one_by_one(&mut f, x, fx, 12);
     (x, fx)
 }
 
