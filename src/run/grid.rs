@@ -42,13 +42,31 @@ pub(crate) fn run_grid(
     workers: usize,
     observer: &dyn RunObserver,
 ) -> Result<(), RunError> {
+    let todo = todo.into_iter().map(|j| (0, j)).collect();
+    run_queue(design_sha256, &[(plan, prepared, out)], todo, workers, observer).map_err(|(_, e)| e)
+}
+
+/// One level's jobs' context: its plan, its prepared split and its folder.
+pub(crate) type LevelContext<'a> = (&'a Plan, &'a Prepared, &'a Path);
+
+/// Runs every job of `todo`, each of level `todo[i].0` of `levels`, on
+/// `workers` workers pulling from one queue: a study with several levels
+/// keeps every worker busy until the last job of the last level, not of
+/// each. An error comes with the level of the job that failed.
+pub(crate) fn run_queue(
+    design_sha256: &str,
+    levels: &[LevelContext],
+    todo: VecDeque<(usize, TrainingJob)>,
+    workers: usize,
+    observer: &dyn RunObserver,
+) -> Result<(), (usize, RunError)> {
     // No idle threads: never more workers than jobs.
     let workers = workers.min(todo.len()).max(1);
     let queue = Mutex::new(todo);
-    let first_error: Mutex<Option<RunError>> = Mutex::new(None);
-    let fail = |e: RunError| {
+    let first_error: Mutex<Option<(usize, RunError)>> = Mutex::new(None);
+    let fail = |level: usize, e: RunError| {
         if let Ok(mut slot) = first_error.lock() {
-            slot.get_or_insert(e);
+            slot.get_or_insert((level, e));
         }
     };
     std::thread::scope(|scope| {
@@ -59,13 +77,14 @@ pub(crate) fn run_grid(
                 // rayon pool.
                 let pool = match rayon::ThreadPoolBuilder::new().num_threads(1).build() {
                     Ok(p) => p,
-                    Err(e) => return fail(RunError::WorkerPool(e)),
+                    Err(e) => return fail(0, RunError::WorkerPool(e)),
                 };
                 loop {
                     if first_error.lock().map(|e| e.is_some()).unwrap_or(true) {
                         return;
                     }
-                    let Some(job) = queue.lock().ok().and_then(|mut q| q.pop_front()) else { return };
+                    let Some((level, job)) = queue.lock().ok().and_then(|mut q| q.pop_front()) else { return };
+                    let Some(&(plan, prepared, out)) = levels.get(level) else { return };
                     observer.job_started(worker, &job);
                     let t0 = Instant::now();
                     let result = pool.install(|| {
@@ -73,7 +92,7 @@ pub(crate) fn run_grid(
                     });
                     match result {
                         Ok(o) => observer.job_finished(worker, &job, &o, t0.elapsed().as_secs_f64()),
-                        Err(e) => return fail(e),
+                        Err(e) => return fail(level, e),
                     }
                 }
             });

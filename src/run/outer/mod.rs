@@ -223,9 +223,24 @@ pub(super) fn run_levels(
     let mut exploratory = options.exploratory;
     let mut splits: Vec<Option<crate::split::Split>> = vec![None; levels.len()];
     let mut record: Option<RunRecord> = None;
-    // Finished jobs by content: a later level's job with the same inputs
-    // takes their files instead of training again.
-    let mut finished: std::collections::BTreeMap<String, (PathBuf, TrainingJob)> = Default::default();
+    // Every level is opened first and its jobs queued; then one queue of
+    // every level's jobs runs on the workers (no worker waits while a level
+    // is opened or finished); then each level is finished in order.
+    struct Open {
+        label: String,
+        plan: Plan,
+        dir: PathBuf,
+        opened: Opened,
+        done_builds: BTreeSet<String>,
+        // Jobs whose inputs equal a job queued in an earlier level: copied
+        // from it once the queue has run (job, its level, that job).
+        copies: Vec<(TrainingJob, usize, TrainingJob)>,
+    }
+    let mut open_levels: Vec<(usize, Open)> = Vec::new();
+    let mut queue: std::collections::VecDeque<(usize, TrainingJob)> = Default::default();
+    // The first job with each content key: its level (in `open_levels`),
+    // the job, and whether it is queued (not yet on disk).
+    let mut first: std::collections::BTreeMap<String, (usize, TrainingJob, bool)> = Default::default();
     let mut reused: Vec<String> = Vec::new();
     for (k, level) in levels.iter().enumerate() {
         if level.shares.is_some() {
@@ -247,13 +262,22 @@ pub(super) fn run_levels(
             .zip(&plan.jobs)
             .map(|(m, j)| job_key(&level.design, &plan, j, m, &opened.record))
             .collect();
-        let mut copied = 0;
+        let here = open_levels.len();
+        let (mut copied, mut copies) = (0, Vec::new());
         for (j, key) in plan.jobs.iter().zip(&keys) {
-            if let (Some((from, earlier)), true) = (finished.get(key), todo.contains(j)) {
-                copy_job(from, earlier, &dir, j).map_err(in_level)?;
+            if let (Some((from, earlier, queued)), true) = (first.get(key), todo.contains(j)) {
+                if *queued {
+                    copies.push((j.clone(), *from, earlier.clone()));
+                } else {
+                    copy_job(&open_levels[*from].1.dir, earlier, &dir, j).map_err(in_level)?;
+                }
                 todo.retain(|t| t != j);
                 copied += 1;
             }
+        }
+        for (j, key) in plan.jobs.iter().zip(keys) {
+            let queued = todo.contains(j);
+            first.entry(key).or_insert_with(|| (here, j.clone(), queued));
         }
         if let Some(w) = opened.prepared.audit.unread_warning() {
             if !reused.contains(&w) {
@@ -268,23 +292,33 @@ pub(super) fn run_levels(
         }
         skipped += plan.jobs.len() - todo.len();
         trained += todo.len();
-        observer.start(plan.jobs.len(), plan.jobs.len() - todo.len());
-        grid::run_grid(&file.sha256, &plan, &opened.prepared, &dir, todo, options.workers, observer)
-            .map_err(in_level)?;
-        for (j, key) in plan.jobs.iter().zip(keys) {
-            finished.entry(key).or_insert_with(|| (dir.clone(), j.clone()));
+        queue.extend(todo.into_iter().map(|j| (here, j)));
+        open_levels.push((k, Open { label, plan, dir, opened, done_builds, copies }));
+    }
+    let total: usize = open_levels.iter().map(|(_, o)| o.plan.jobs.len()).sum();
+    observer.start(total, total - queue.len());
+    let contexts: Vec<grid::LevelContext> =
+        open_levels.iter().map(|(_, o)| (&o.plan, &o.opened.prepared, o.dir.as_path())).collect();
+    grid::run_queue(&file.sha256, &contexts, queue, options.workers, observer).map_err(|(at, e)| {
+        RunError::InLevel { level: open_levels[at].1.label.clone(), source: Box::new(e) }
+    })?;
+    for (k, o) in &open_levels {
+        let in_level = |e: RunError| RunError::InLevel { level: o.label.clone(), source: Box::new(e) };
+        for (j, from, earlier) in &o.copies {
+            copy_job(&open_levels[*from].1.dir, earlier, &o.dir, j).map_err(in_level)?;
         }
-        builds.extend(done_builds.iter().cloned());
+        builds.extend(o.done_builds.iter().cloned());
         if role == Role::PerSeed || file.design.per_seed_draws {
             // One seed alone is no crossed study: its cells are gathered
             // here and analysed with every other seed's below.
-            super::gather_recorded(&plan, &opened, &dir).map_err(in_level)?;
+            super::gather_recorded(&o.plan, &o.opened, &o.dir).map_err(in_level)?;
         } else {
-            finish(&file.path.display().to_string(), &plan, &opened, &dir, done_builds).map_err(in_level)?;
+            finish(&file.path.display().to_string(), &o.plan, &o.opened, &o.dir, o.done_builds.clone())
+                .map_err(in_level)?;
         }
-        (status, exploratory) = (opened.status.clone(), opened.exploratory);
-        splits[k] = Some(opened.prepared.split.clone());
-        record.get_or_insert(opened.record);
+        (status, exploratory) = (o.opened.status.clone(), o.opened.exploratory);
+        splits[*k] = Some(o.opened.prepared.split.clone());
+        record.get_or_insert(o.opened.record.clone());
     }
     let record = record.ok_or(RunError::NoWorkers)?;
     if role == Role::PerSeed {
