@@ -160,7 +160,9 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     };
     let header = rdr
         .headers()
-        .map_err(|e| io_error(&e).unwrap_or(CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() }))?
+        .map_err(|e| {
+            io_error(&e).unwrap_or(CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })
+        })?
         .clone();
     let found: Vec<&str> = header.iter().collect();
     let has_split = found.first() == Some(&"split");

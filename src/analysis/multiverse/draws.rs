@@ -106,10 +106,8 @@ pub(super) fn draw_replication(
             .collect();
         let diffs: Vec<(u64, Diff)> =
             members.iter().map(|&k| (levels[k].draw.unwrap_or(1), Diff::of(levels[k].plan, levels[k].cells))).collect();
-        let rows: Vec<(&str, u64, u64, f64)> = diffs
-            .iter()
-            .flat_map(|(kd, d)| d.iter().map(move |(r, sd, v)| (r.as_str(), sd, *kd, v)))
-            .collect();
+        let rows: Vec<(&str, u64, u64, f64)> =
+            diffs.iter().flat_map(|(kd, d)| d.iter().map(move |(r, sd, v)| (r.as_str(), sd, *kd, v))).collect();
         let fit = fit_over_draws(&rows);
         let spec = spec_ids.as_ref().map(|ids| ids[s].clone()).unwrap_or_else(|| "-".to_string());
         match fit {

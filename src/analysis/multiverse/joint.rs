@@ -255,10 +255,13 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for (rows, cols, specs, b) in [(2, 2, 1, 1), (3, 5, 2, 15), (7, 4, 3, 16), (26, 20, 8, 17), (9, 13, 5, 99)] {
             let mats: Vec<Vec<f64>> = (0..specs)
-                .map(|_| (0..rows * cols).map(|_| rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-3..3))).collect())
+                .map(|_| {
+                    (0..rows * cols).map(|_| rng.gen_range(-1.0..1.0) * 10f64.powi(rng.gen_range(-3..3))).collect()
+                })
                 .collect();
             let (new, old) = (replicate_means(&mats, (rows, cols), b, 11), one_at_a_time(&mats, rows, cols, b, 11));
-            let bits = |r: &[Vec<f64>]| r.iter().map(|v| v.iter().map(|x| x.to_bits()).collect()).collect::<Vec<Vec<u64>>>();
+            let bits =
+                |r: &[Vec<f64>]| r.iter().map(|v| v.iter().map(|x| x.to_bits()).collect()).collect::<Vec<Vec<u64>>>();
             assert_eq!(bits(&new), bits(&old), "{rows} x {cols}, {specs} specifications, B = {b}");
         }
     }

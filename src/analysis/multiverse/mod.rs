@@ -29,8 +29,8 @@ pub use joint::{JointBootstrap, NullTest};
 use super::{analyze, Analysis, AnalysisError, AnalyzeOptions};
 use crate::cells::Cell;
 use crate::design::{Choice, Combine, DecisionRule, Design, Estimator};
-use crate::plan::Plan;
 use crate::label::Label;
+use crate::plan::Plan;
 use crate::stats::CrossedEstimate;
 
 /// One outer level of a study: a specification, a draw, or both, with
@@ -486,7 +486,8 @@ fn common(diffs: &[&Diff]) -> (Vec<String>, Vec<u64>, Vec<Vec<f64>>) {
         diffs.iter().map(|d| first.seeds.iter().map(|s| d.seeds.binary_search(s).ok()).collect()).collect();
     let value = |k: usize, i: usize, j: usize| diffs[k].at(rows[k][i]?, cols[k][j]?);
     // The cells every level has.
-    let shared: Vec<bool> = (0..nr * ns).map(|x| (0..diffs.len()).all(|k| value(k, x / ns, x % ns).is_some())).collect();
+    let shared: Vec<bool> =
+        (0..nr * ns).map(|x| (0..diffs.len()).all(|k| value(k, x / ns, x % ns).is_some())).collect();
     let any_row = |i: usize| (0..ns).any(|j| shared[i * ns + j]);
     let seeds: Vec<usize> = (0..ns).filter(|&j| (0..nr).any(|i| shared[i * ns + j])).collect();
     // Only complete rows and columns: a recording every seed has.

@@ -299,9 +299,8 @@ pub(super) fn run_levels(
     observer.start(total, total - queue.len());
     let contexts: Vec<grid::LevelContext> =
         open_levels.iter().map(|(_, o)| (&o.plan, &o.opened.prepared, o.dir.as_path())).collect();
-    grid::run_queue(&file.sha256, &contexts, queue, options.workers, observer).map_err(|(at, e)| {
-        RunError::InLevel { level: open_levels[at].1.label.clone(), source: Box::new(e) }
-    })?;
+    grid::run_queue(&file.sha256, &contexts, queue, options.workers, observer)
+        .map_err(|(at, e)| RunError::InLevel { level: open_levels[at].1.label.clone(), source: Box::new(e) })?;
     for (k, o) in &open_levels {
         let in_level = |e: RunError| RunError::InLevel { level: o.label.clone(), source: Box::new(e) };
         for (j, from, earlier) in &o.copies {

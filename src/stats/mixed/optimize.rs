@@ -267,8 +267,10 @@ pub(super) fn newton(f: &mut Batch, mut x: Vec<f64>, mut fx: f64, iterations: us
         let hess = match kept.take() {
             Some((free_then, hess)) if free_then == free => hess,
             _ => {
-                let pairs: Vec<Vec<f64>> =
-                    (0..m).flat_map(|a| (0..a).map(move |b| (a, b))).map(|(a, b)| at(&[(a, h[a]), (b, h[b])])).collect();
+                let pairs: Vec<Vec<f64>> = (0..m)
+                    .flat_map(|a| (0..a).map(move |b| (a, b)))
+                    .map(|(a, b)| at(&[(a, h[a]), (b, h[b])]))
+                    .collect();
                 let mut pp = f(&pairs).into_iter();
                 let mut hess = Mat::<f64>::zeros(m, m);
                 for a in 0..m {
