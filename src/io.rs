@@ -348,7 +348,7 @@ impl<R: std::io::Read> std::io::Read for LineCounting<R> {
             return Ok(0);
         }
         if (self.read + n) as u64 > self.limit {
-            let message = format!("it holds more than the {} bytes read from it", self.limit);
+            let message = format!("it is larger than the {} bytes crossaudit reads from one such file", self.limit);
             return Err(std::io::Error::other(message));
         }
         let chunk = &buf[..n];
@@ -531,7 +531,7 @@ mod tests {
     fn line_counting_refuses_to_read_past_its_limit() {
         let mut counted = LineCounting::new(&b"0123456789"[..], 9);
         let e = counted.read_to_end(&mut Vec::new()).unwrap_err();
-        assert!(e.to_string().contains("more than the 9 bytes"), "{e}");
+        assert!(e.to_string().contains("larger than the 9 bytes"), "{e}");
         let mut exact = LineCounting::new(&b"012345678"[..], 9);
         assert_eq!(exact.read_to_end(&mut Vec::new()).unwrap(), 9);
     }
