@@ -406,7 +406,7 @@ fn fit_system(
         let (t, _, _) = optimize::newton_one_by_one(&mut dev, best.clone(), d0, 8);
         best = t;
         let d = dev(&best);
-        let c = optimize::certify(&mut dev, &best, d);
+        let c = optimize::certify(&mut |xs: &[Vec<f64>]| xs.iter().map(|x| dev(x)).collect(), &best, d);
         certificate = Certificate {
             gradient: c.gradient,
             predicted_decrease: c.predicted_decrease,

@@ -75,7 +75,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
     // the deviance and restarts from several points, by Nelder-Mead over
     // all of R^k (the deviance is even in each theta, so zero is an
     // ordinary point for it) and Newton, until the certificate holds.
-    let mut certificate = certify(&mut dev, &best, best_dev);
+    let mut certificate = certify(&mut batch, &best, best_dev);
     let mut restarts = 0;
     for _ in 0..4 {
         if certificate.certified {
@@ -116,7 +116,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, f64
                 (best, best_dev) = (t, d);
             }
         }
-        certificate = certify(&mut dev, &best, best_dev);
+        certificate = certify(&mut batch, &best, best_dev);
     }
     let certificate = Certificate {
         gradient: certificate.gradient,
@@ -358,7 +358,7 @@ const BOUNDARY: f64 = 1e-6;
 /// one-sided derivative in theta^2 from a step of 0.01, and the deviance
 /// at theta = 0.01, 0.03, 0.1, 0.3, 1 and 3 (the rest held), none lower
 /// than `fx` beyond rounding (1e-10 of the deviance).
-pub(super) fn certify(f: &mut dyn FnMut(&[f64]) -> f64, x: &[f64], fx: f64) -> Checked {
+pub(super) fn certify(f: &mut Batch, x: &[f64], fx: f64) -> Checked {
     let k = x.len();
     let tolerance = (1e-7 * fx.abs()).max(1e-6);
     let rounding = 1e-10 * fx.abs().max(1.0);
@@ -367,40 +367,50 @@ pub(super) fn certify(f: &mut dyn FnMut(&[f64]) -> f64, x: &[f64], fx: f64) -> C
     let mut boundary = vec![None; k];
     let mut escapes = Vec::new();
     let mut certified = fx.is_finite();
-    for j in 0..k {
+    // Every point the checks visit, evaluated as one batch: per coordinate
+    // at the boundary, its value at h and at each escape distance; per
+    // interior coordinate, x -+ h.
+    const H: f64 = 1e-2;
+    const ESCAPES: [f64; 6] = [0.01, 0.03, 0.1, 0.3, 1.0, 3.0];
+    let step = |j: usize| 1e-3 * x[j].max(0.1);
+    let with = |j: usize, t: f64| {
         let mut y = x.to_vec();
+        y[j] = t;
+        y
+    };
+    let points: Vec<Vec<f64>> = (0..k)
+        .flat_map(|j| -> Vec<Vec<f64>> {
+            if x[j] < BOUNDARY {
+                std::iter::once(H).chain(ESCAPES).map(|t| with(j, t)).collect()
+            } else {
+                vec![with(j, x[j] + step(j)), with(j, x[j] - step(j))]
+            }
+        })
+        .collect();
+    let values = f(&points);
+    let mut at = values.into_iter();
+    let mut next = || at.next().unwrap_or(f64::NAN);
+    for j in 0..k {
         if x[j] < BOUNDARY {
-            let mut at = |t: f64| {
-                y[j] = t;
-                f(&y)
-            };
-            let h = 1e-2;
-            let derivative = (at(h) - fx) / (h * h - x[j] * x[j]);
+            let derivative = (next() - fx) / (H * H - x[j] * x[j]);
             boundary[j] = Some(derivative);
             let mut lowest = (fx - rounding, None);
-            for t in [0.01, 0.03, 0.1, 0.3, 1.0, 3.0] {
-                let v = at(t);
+            for t in ESCAPES {
+                let v = next();
                 if v < lowest.0 {
                     lowest = (v, Some(t));
                 }
             }
             if let (_, Some(t)) = lowest {
-                let mut e = x.to_vec();
-                e[j] = t;
-                escapes.push(e);
+                escapes.push(with(j, t));
                 certified = false;
-            } else if derivative * h * h < -rounding {
-                let mut e = x.to_vec();
-                e[j] = h;
-                escapes.push(e);
+            } else if derivative * H * H < -rounding {
+                escapes.push(with(j, H));
                 certified = false;
             }
         } else {
-            let h = 1e-3 * x[j].max(0.1);
-            y[j] = x[j] + h;
-            let fp = f(&y);
-            y[j] = x[j] - h;
-            let fm = f(&y);
+            let h = step(j);
+            let (fp, fm) = (next(), next());
             let g = (fp - fm) / (2.0 * h);
             let curvature = (fp - 2.0 * fx + fm) / (h * h);
             gradient = gradient.max(g.abs());

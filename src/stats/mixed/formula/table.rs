@@ -97,7 +97,12 @@ pub fn r_number_label(v: f64) -> String {
 /// value as R prints it, so that `1`, `1.0` and `1e0` are one level.
 fn labels(table: &Table, name: &str) -> Result<Vec<String>, FormulaError> {
     Ok(match numbers(table, name)? {
-        Some(values) => values.iter().map(|v| r_number_label(*v)).collect(),
+        Some(values) => {
+            // Each distinct value is formatted once: a factor column has
+            // few levels and many rows.
+            let mut seen: HashMap<u64, String> = HashMap::new();
+            values.iter().map(|v| seen.entry(v.to_bits()).or_insert_with(|| r_number_label(*v)).clone()).collect()
+        }
         None => table.column(name)?.iter().map(|s| s.trim().to_string()).collect(),
     })
 }
@@ -218,14 +223,25 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
             present(table, g)?;
         }
         let cols: Vec<Vec<String>> = group.iter().map(|g| labels(table, g)).collect::<Result<_, _>>()?;
-        let mut map: HashMap<Vec<&str>, usize> = HashMap::new();
-        let codes = (0..y.len())
-            .map(|i| {
-                let key: Vec<&str> = cols.iter().map(|c| c[i].as_str()).collect();
-                let next = map.len();
-                *map.entry(key).or_insert(next)
-            })
-            .collect();
+        let codes = if let [col] = cols.as_slice() {
+            // One column (the usual `(1|g)`): its labels are the keys.
+            let mut map: HashMap<&str, usize> = HashMap::new();
+            col.iter()
+                .map(|label| {
+                    let next = map.len();
+                    *map.entry(label.as_str()).or_insert(next)
+                })
+                .collect()
+        } else {
+            let mut map: HashMap<Vec<&str>, usize> = HashMap::new();
+            (0..y.len())
+                .map(|i| {
+                    let key: Vec<&str> = cols.iter().map(|c| c[i].as_str()).collect();
+                    let next = map.len();
+                    *map.entry(key).or_insert(next)
+                })
+                .collect()
+        };
         factors.push((term.name.clone(), codes));
     }
     let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
