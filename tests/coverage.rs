@@ -160,6 +160,22 @@ fn performance_measures_follow_the_published_formulas() {
     // ModSE = sqrt(mean(SE^2)) = sqrt((0.04 + 0.04 + 0.09 + 0.01) / 4).
     assert_rel(p.mod_se, (0.18f64 / 4.0).sqrt(), 1e-12, "ModSE");
     assert_rel(p.mean_width, (0.8 + 0.8 + 0.8 + 0.4) / 4.0, 1e-12, "mean width");
+    // The one miss, (0.1, 0.9), lies wholly above 0.
+    assert_eq!((p.miss_below, p.miss_above), (0.0, 0.25));
+    assert_rel(p.miss_above_mcse, (0.25f64 * 0.75 / 4.0).sqrt(), 1e-12, "miss-above MCSE");
+    // MSE = mean(d^2) = (0.01 + 0.04 + 0.09 + 0) / 4 = 0.035; its MCSE
+    // sqrt(sum((d^2 - MSE)^2) / (n (n - 1))) (rsimsum's): deviations
+    // -0.025, 0.005, 0.055, -0.035, squares summing to 0.0049.
+    assert_rel(p.mse, 0.035, 1e-12, "MSE");
+    assert_rel(p.mse_mcse, (0.0049f64 / 12.0).sqrt(), 1e-12, "MSE MCSE");
+    // Bias-eliminated: the mean estimate 0.05 lies in (-0.3, 0.5),
+    // (-0.6, 0.2) and (-0.2, 0.2), not in (0.1, 0.9): 3 of 4.
+    assert_rel(p.be_coverage, 0.75, 1e-12, "bias-eliminated coverage");
+    // A replication without an interval is counted, not scored.
+    let with_nan = [est[0], est[1], est[2], est[3], (f64::NAN, f64::NAN, f64::NAN, f64::NAN)];
+    let q = crossaudit::stats::coverage::performance("hand", IntervalMethod::MomT, &with_nan, 0.0);
+    assert_eq!((q.reps, q.undefined), (4, 1));
+    assert_eq!(q.coverage.to_bits(), p.coverage.to_bits());
 }
 
 #[test]

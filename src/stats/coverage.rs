@@ -169,6 +169,28 @@ pub struct Performance {
     pub rel_error_mod_se: f64,
     /// Monte Carlo SE of the relative error.
     pub rel_error_mod_se_mcse: f64,
+    /// Replications where the estimator gave no interval (left out of
+    /// every measure above).
+    pub undefined: usize,
+    /// Share of intervals wholly below the truth (upper < truth): the
+    /// misses that make a one-sided rule `upper < 0` hold wrongly when the
+    /// truth is zero.
+    pub miss_below: f64,
+    /// Monte Carlo SE of `miss_below`.
+    pub miss_below_mcse: f64,
+    /// Share of intervals wholly above the truth (lower > truth).
+    pub miss_above: f64,
+    /// Monte Carlo SE of `miss_above`.
+    pub miss_above_mcse: f64,
+    /// Mean squared error of the estimates.
+    pub mse: f64,
+    /// Monte Carlo SE of the MSE.
+    pub mse_mcse: f64,
+    /// Bias-eliminated coverage: the share of intervals covering the mean
+    /// estimate rather than the truth.
+    pub be_coverage: f64,
+    /// Monte Carlo SE of the bias-eliminated coverage.
+    pub be_coverage_mcse: f64,
 }
 
 /// One replication's (estimate, SE, lower, upper).
@@ -178,6 +200,7 @@ pub type Estimate = (f64, f64, f64, f64);
 /// the usable replications of `est` (see [`usable`]; `reps` counts them).
 /// Monte Carlo SEs need two or more and are NaN with fewer.
 pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], truth: f64) -> Performance {
+    let all = est.len();
     let est: Vec<Estimate> = est.iter().copied().filter(usable).collect();
     let est = est.as_slice();
     let n = est.len() as f64;
@@ -196,6 +219,14 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
     let var_se2 = var(&se2);
     let mut sorted = width.clone();
     sorted.sort_by(f64::total_cmp);
+    let share = |hit: &dyn Fn(&Estimate) -> bool| est.iter().filter(|e| hit(e)).count() as f64 / n;
+    // A share's MCSE, sqrt(p (1 - p) / n); none from fewer than 2.
+    let share_mcse = |p: f64| if n >= 2.0 { (p * (1.0 - p) / n).sqrt() } else { f64::NAN };
+    let (below, above) = (share(&|e| e.3 < truth), share(&|e| e.2 > truth));
+    let mean_theta = mean(&theta);
+    let be = share(&|e| e.2 <= mean_theta && mean_theta <= e.3);
+    let sq: Vec<f64> = theta.iter().map(|t| (t - truth).powi(2)).collect();
+    let mse = mean(&sq);
     Performance {
         setting: setting.to_string(),
         method,
@@ -216,6 +247,16 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
         rel_error_mod_se_mcse: 100.0
             * (mod_se / emp)
             * (var_se2 / (4.0 * n * mod_se.powi(4)) + 1.0 / (2.0 * (n - 1.0))).sqrt(),
+        undefined: all - est.len(),
+        miss_below: below,
+        miss_below_mcse: share_mcse(below),
+        miss_above: above,
+        miss_above_mcse: share_mcse(above),
+        mse,
+        // rsimsum's: sqrt(sum((d^2 - MSE)^2) / (n (n - 1))), d = estimate - truth.
+        mse_mcse: (sq.iter().map(|d| (d - mse).powi(2)).sum::<f64>() / (n * (n - 1.0))).sqrt(),
+        be_coverage: be,
+        be_coverage_mcse: share_mcse(be),
     }
 }
 
