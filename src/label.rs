@@ -4,7 +4,7 @@
 //! of five heap strings of its own.
 
 use std::borrow::Borrow;
-use std::collections::HashMap;
+use std::collections::HashSet;
 use std::fmt;
 use std::ops::Deref;
 use std::sync::Arc;
@@ -128,7 +128,7 @@ impl serde::Serialize for Label {
 #[derive(Debug, Default)]
 pub struct Interner {
     last: Option<Label>,
-    seen: HashMap<Label, ()>,
+    seen: HashSet<Label>,
 }
 
 impl Interner {
@@ -139,11 +139,11 @@ impl Interner {
                 return l.clone();
             }
         }
-        let l = match self.seen.get_key_value(name) {
-            Some((l, ())) => l.clone(),
+        let l = match self.seen.get(name) {
+            Some(l) => l.clone(),
             None => {
                 let l = Label::from(name);
-                self.seen.insert(l.clone(), ());
+                self.seen.insert(l.clone());
                 l
             }
         };

@@ -84,7 +84,10 @@ pub(crate) fn run_queue(
                         return;
                     }
                     let Some((level, job)) = queue.lock().ok().and_then(|mut q| q.pop_front()) else { return };
-                    let Some(&(plan, prepared, out)) = levels.get(level) else { return };
+                    let Some(&(plan, prepared, out)) = levels.get(level) else {
+                        let known = format!("a job queued for level {level} of {}", levels.len());
+                        return fail(level, RunError::UnknownJob { job: job.label(), known });
+                    };
                     observer.job_started(worker, &job);
                     let t0 = Instant::now();
                     let result = pool.install(|| {
