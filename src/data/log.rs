@@ -1,5 +1,6 @@
-//! One NanoBench flight log: `.csv` or `.csv.gz` (the same bytes after
-//! decompression), 52 numeric columns, one header row.
+//! One flight log: `.csv` or `.csv.gz` (the same bytes after
+//! decompression), one header row: NanoBench's 52 numeric columns, or any
+//! header holding the columns a `data csv` block declares.
 //!
 //! The files are plain numeric CSV without quoting, so rows are split by
 //! hand (the csv crate's general quoting machinery costs more than the
@@ -165,10 +166,12 @@ pub enum LogError {
         value: String,
     },
     /// A timestamp earlier than the previous row's.
-    #[error("{file}: line {line}, column `t`: time {t} is before the previous row's {previous}")]
+    #[error("{file}: line {line}, column `{column}`: time {t} is before the previous row's {previous}")]
     NonMonotonicTime {
         /// The file, as given.
         file: String,
+        /// The time column.
+        column: String,
         /// Line number (1 = header).
         line: usize,
         /// This row's time, seconds.
@@ -176,6 +179,52 @@ pub enum LogError {
         /// The previous row's time, seconds.
         previous: f64,
     },
+    /// A declared column that the header lacks (or holds twice).
+    #[error("{file}: line 1: the design declares column `{column}`, but the header {}", missing_what(found))]
+    MissingColumn {
+        /// The file, as given.
+        file: String,
+        /// The declared column.
+        column: String,
+        /// The header's first names, or `twice`.
+        found: String,
+    },
+    /// A time column whose median step disagrees with the declared rate.
+    #[error("{file}: line {line}, column `{column}`: the median time step is {median_s} s, but `rate {rate_hz} Hz` means {expected_s} s (this is the first step more than 2% off; declare the logs' own rate)")]
+    Rate {
+        /// The file, as given.
+        file: String,
+        /// The first line whose step from the line before is more than 2% off.
+        line: usize,
+        /// The time column.
+        column: String,
+        /// The median step between rows, seconds.
+        median_s: f64,
+        /// The declared rate.
+        rate_hz: f64,
+        /// 1 / rate, seconds.
+        expected_s: f64,
+    },
+    /// An active row whose quaternion is more than 0.01 from unit length.
+    #[error("{file}: line {line}, columns {columns}: the attitude quaternion has length {norm}, not 1 (more than 0.01 off; declare the attitude's columns in their order, or Euler angles)")]
+    NotUnit {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// The quaternion's columns, as declared.
+        columns: String,
+        /// Its length on that line.
+        norm: f64,
+    },
+}
+
+fn missing_what(found: &str) -> String {
+    if found == "twice" {
+        "holds it twice".to_string()
+    } else {
+        format!("has no such column (it has: {found})")
+    }
 }
 
 impl LogError {
@@ -192,6 +241,9 @@ impl LogError {
             LogError::NonNumeric { .. } => "non_numeric",
             LogError::NonFinite { .. } => "non_finite",
             LogError::NonMonotonicTime { .. } => "non_monotonic_time",
+            LogError::MissingColumn { .. } => "missing_column",
+            LogError::Rate { .. } => "rate_mismatch",
+            LogError::NotUnit { .. } => "not_unit_quaternion",
         }
     }
 }
@@ -213,6 +265,16 @@ pub struct Log {
     /// runs of rows with them. Empty unless asked for
     /// ([`parse_with_row_hashes`]).
     pub row_hashes: Vec<u64>,
+    /// For each blank line skipped, the data row it came before: a row's
+    /// line is its index + 2 + the blank lines before it ([`Log::line_of`]).
+    pub blank_before: Vec<usize>,
+}
+
+impl Log {
+    /// The file line (1 = header) of data row `row` (0-based).
+    pub fn line_of(&self, row: usize) -> usize {
+        row + 2 + self.blank_before.partition_point(|&b| b <= row)
+    }
 }
 
 /// Reads the file's bytes, decompressing `.gz`: every member of a
@@ -256,26 +318,64 @@ pub fn column_indices(names: &[String]) -> Result<Vec<usize>, String> {
         .collect()
 }
 
+/// What a log's header must be, and which columns are read.
+#[derive(Debug, Clone)]
+pub enum Schema {
+    /// NanoBench's 52 columns exactly; every field is checked as a number.
+    /// The indices of the columns read, in the order wanted.
+    Nanobench(Vec<usize>),
+    /// Any header holding these columns (each once); only they are read
+    /// and checked. The time column, if any, is checked to never decrease.
+    Named {
+        /// The columns read, in the order wanted (a name may repeat).
+        columns: Vec<String>,
+        /// The time column.
+        time: Option<String>,
+    },
+}
+
 /// Parses and checks a whole log held in memory.
-pub fn parse(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> {
-    parse_log(file, bytes, keep, false)
+pub fn parse(file: &str, bytes: &[u8], schema: &Schema) -> Result<Log, LogError> {
+    parse_log(file, bytes, schema, false)
 }
 
 /// As [`parse`], and hashes every data row into [`Log::row_hashes`].
-pub fn parse_with_row_hashes(file: &str, bytes: &[u8], keep: &[usize]) -> Result<Log, LogError> {
-    parse_log(file, bytes, keep, true)
+pub fn parse_with_row_hashes(file: &str, bytes: &[u8], schema: &Schema) -> Result<Log, LogError> {
+    parse_log(file, bytes, schema, true)
 }
 
-fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Result<Log, LogError> {
+fn parse_log(file: &str, bytes: &[u8], schema: &Schema, hash_rows: bool) -> Result<Log, LogError> {
     // Lone `\r` line endings are read as lines (as pandas reads them), so
     // errors name the line an editor shows.
     let bytes = &*crate::io::lone_cr_to_lf_bytes(bytes);
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }
-    let header_end = check_header(file, bytes)?;
+    let (header_end, names, keep, time, check_all) = match schema {
+        Schema::Nanobench(keep) => {
+            let end = check_header(file, bytes)?;
+            (end, NANOBENCH_COLUMNS.iter().map(|c| c.to_string()).collect(), keep.clone(), Some(0), true)
+        }
+        Schema::Named { columns, time } => {
+            let (end, names) = read_header(file, bytes)?;
+            let find = |want: &String| -> Result<usize, LogError> {
+                let mut at = names.iter().enumerate().filter(|(_, n)| *n == want).map(|(k, _)| k);
+                match (at.next(), at.next()) {
+                    (Some(k), None) => Ok(k),
+                    (first, _) => Err(LogError::MissingColumn {
+                        file: file.to_string(),
+                        column: want.clone(),
+                        found: if first.is_some() { "twice".into() } else { header_excerpt(&names) },
+                    }),
+                }
+            };
+            let keep = columns.iter().map(find).collect::<Result<Vec<_>, _>>()?;
+            let time = time.as_ref().map(find).transpose()?;
+            (end, names, keep, time, false)
+        }
+    };
     let body = bytes.get(header_end + 1..).unwrap_or(&[]);
-    let n = NANOBENCH_COLUMNS.len();
+    let n = names.len();
     // Positions of each schema column in `keep` (a column may be kept
     // twice, e.g. motor 1 as an action and as the active-rule column).
     let mut slots: Vec<Vec<usize>> = vec![Vec::new(); n];
@@ -284,14 +384,27 @@ fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Resul
     }
     let estimate = body.len() / 500 + 1;
     let columns = keep.iter().map(|_| Vec::with_capacity(estimate)).collect();
-    let mut t = Tokenizer { file, body, slots, columns, previous_t: f64::NEG_INFINITY, line: 1, i: 0 };
+    let mut t = Tokenizer {
+        file,
+        body,
+        names: &names,
+        time,
+        check_all,
+        slots,
+        columns,
+        previous_t: f64::NEG_INFINITY,
+        line: 1,
+        i: 0,
+    };
     let mut rows = 0;
     let mut row_hashes = Vec::with_capacity(if hash_rows { estimate } else { 0 });
+    let mut blank_before = Vec::new();
     while t.i < body.len() {
         t.line += 1;
         // Blank line (`\n` or `\r\n`).
         if body[t.i] == b'\n' || (body[t.i] == b'\r' && body.get(t.i + 1) == Some(&b'\n')) {
             t.i += if body[t.i] == b'\r' { 2 } else { 1 };
+            blank_before.push(rows);
             continue;
         }
         let start = t.i;
@@ -317,7 +430,27 @@ fn parse_log(file: &str, bytes: &[u8], keep: &[usize], hash_rows: bool) -> Resul
         return Err(LogError::NoRows { file: file.to_string() });
     }
     let content_hash = format!("{:032x}", xxhash_rust::xxh3::xxh3_128(body));
-    Ok(Log { rows, columns: t.columns, content_hash, row_hashes })
+    Ok(Log { rows, columns: t.columns, content_hash, row_hashes, blank_before })
+}
+
+/// The header of a log of any schema: where it ends, and its names
+/// (surrounding spaces and quotes trimmed).
+fn read_header(file: &str, bytes: &[u8]) -> Result<(usize, Vec<String>), LogError> {
+    let limit = crate::io::MAX_LOG_LINE;
+    let header_end = bytes.iter().take(limit + 1).position(|&b| b == b'\n').unwrap_or(bytes.len());
+    if header_end > limit {
+        return Err(LogError::LongLine { file: file.to_string(), line: 1, bytes: limit + 1, limit });
+    }
+    let header = String::from_utf8_lossy(&bytes[..header_end]);
+    let names = header.trim_end_matches('\r').split(',').map(|n| n.trim().trim_matches('"').to_string()).collect();
+    Ok((header_end, names))
+}
+
+/// A header as an error quotes it: its first names.
+fn header_excerpt(names: &[String]) -> String {
+    let shown: Vec<&str> = names.iter().take(12).map(|n| n.as_str()).collect();
+    let more = if names.len() > 12 { format!(", ... ({} in all)", names.len()) } else { String::new() };
+    crate::io::excerpt(&format!("{}{more}", shown.join(", ")), 400)
 }
 
 /// Checks the header against the NanoBench schema; returns where it ends.
@@ -360,6 +493,12 @@ fn is_delim(b: u8) -> bool {
 struct Tokenizer<'a> {
     file: &'a str,
     body: &'a [u8],
+    /// The header's names.
+    names: &'a [String],
+    /// The time column's index, checked to never decrease.
+    time: Option<usize>,
+    /// Whether columns not read are checked as numbers too (NanoBench).
+    check_all: bool,
     /// For each schema column, its positions in `columns`.
     slots: Vec<Vec<usize>>,
     columns: Vec<Vec<f64>>,
@@ -378,7 +517,7 @@ impl Tokenizer<'_> {
 
     /// Reads one row; returns the number of fields it had.
     fn row(&mut self) -> Result<usize, LogError> {
-        let n = NANOBENCH_COLUMNS.len();
+        let n = self.names.len();
         let body = self.body;
         let mut col = 0;
         // The cursor stays in a local until the row ends.
@@ -391,8 +530,8 @@ impl Tokenizer<'_> {
                 // Not kept: check it is a plain finite number without
                 // converting it; anything unusual goes to the full parser.
                 let (end, plain) = scan_plain(body, i);
-                if col < n && !plain {
-                    number(self.file, self.line, col, &body[start..end])?;
+                if col < n && !plain && self.check_all {
+                    number(self.file, self.line, &self.names[col], &body[start..end])?;
                 }
                 i = end;
             }
@@ -417,7 +556,7 @@ impl Tokenizer<'_> {
                     return Err(LogError::NonNumeric {
                         file: self.file.to_string(),
                         line: self.line,
-                        column: NANOBENCH_COLUMNS[(col - 1).min(n - 1)].into(),
+                        column: self.names[(col - 1).min(n - 1)].clone(),
                         value: value_excerpt(&body[start..end]),
                     });
                 }
@@ -434,24 +573,25 @@ impl Tokenizer<'_> {
             Ok((v, used)) if used > 0 && (i + used == body.len() || is_delim(body[i + used])) => (v, used),
             _ => {
                 let end = self.field_end(i);
-                number(self.file, self.line, col, &body[i..end])?;
+                number(self.file, self.line, &self.names[col], &body[i..end])?;
                 // `number` accepted what parse_partial refused: unreachable
                 // in practice; report it as non-numeric all the same.
                 return Err(LogError::NonNumeric {
                     file: self.file.to_string(),
                     line: self.line,
-                    column: NANOBENCH_COLUMNS[col].into(),
+                    column: self.names[col].clone(),
                     value: value_excerpt(&body[i..end]),
                 });
             }
         };
         if !v.is_finite() {
-            number(self.file, self.line, col, &body[i..i + used])?;
+            number(self.file, self.line, &self.names[col], &body[i..i + used])?;
         }
-        if col == 0 {
+        if self.time == Some(col) {
             if v < self.previous_t {
                 return Err(LogError::NonMonotonicTime {
                     file: self.file.to_string(),
+                    column: self.names[col].clone(),
                     line: self.line,
                     t: v,
                     previous: self.previous_t,
@@ -502,20 +642,20 @@ fn value_excerpt(field: &[u8]) -> String {
     }
 }
 
-fn number(file: &str, line: usize, c: usize, field: &[u8]) -> Result<f64, LogError> {
+fn number(file: &str, line: usize, column: &str, field: &[u8]) -> Result<f64, LogError> {
     let text = || value_excerpt(field);
     match fast_float2::parse::<f64, _>(field) {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(LogError::NonFinite {
             file: file.to_string(),
             line,
-            column: NANOBENCH_COLUMNS[c].into(),
+            column: column.into(),
             value: text(),
         }),
         Err(_) => Err(LogError::NonNumeric {
             file: file.to_string(),
             line,
-            column: NANOBENCH_COLUMNS[c].into(),
+            column: column.into(),
             value: text(),
         }),
     }

@@ -1,4 +1,5 @@
-//! Stage: flight logs. NanoBench CSV(.gz) + metadata -> [`Recording`]s, and
+//! Stage: flight logs. CSV(.gz) logs in NanoBench's schema or in the
+//! columns a `data csv` block declares, + metadata -> [`Recording`]s, and
 //! the inclusion audit that decides which recordings a study may use.
 
 pub mod audit;
@@ -63,16 +64,8 @@ pub struct Tail {
     pub active: usize,
 }
 
-/// The onboard columns the tail detector reads, whatever the state columns.
-pub const ONBOARD_COLUMNS: [&str; 7] = [
-    "est_stateEstimate_vx",
-    "est_stateEstimate_vy",
-    "est_stateEstimate_vz",
-    "att_stateEstimate_qw",
-    "att_stateEstimate_qx",
-    "att_stateEstimate_qy",
-    "att_stateEstimate_qz",
-];
+/// The onboard columns NanoBench's tail detector reads, whatever the state columns.
+pub const ONBOARD_COLUMNS: [&str; 7] = crate::design::NANOBENCH_EXTRAPOLATED;
 
 /// A final straight run shorter than this (0.5 s at 100 Hz) is the ordinary
 /// end of the onboard log, not a tail.
@@ -153,17 +146,30 @@ pub fn active_rule(spec: &DataSpec) -> (String, Cmp, f64) {
         .unwrap_or_else(|| ("motor_motor_m1".to_string(), Cmp::Gt, 1000.0))
 }
 
-/// Column layout needed to load recordings under a data declaration.
+/// Column layout needed to load recordings under a data declaration: the
+/// data's [`LogFormat`] resolved into the columns one parse reads.
 #[derive(Debug, Clone)]
 pub struct Layout {
-    /// Schema indices: t, 14 state, 4 action, the active-rule column.
-    keep: Vec<usize>,
+    schema: log::Schema,
+    /// Declared rate, Hz.
+    rate_hz: f64,
+    /// The time column's name and position among the columns read.
+    time: Option<(String, usize)>,
+    /// Each state slot's position among the columns read.
+    state: Vec<Option<usize>>,
+    /// The Euler columns' positions, and whether in degrees.
+    euler: Option<([usize; 3], bool)>,
+    /// The quaternion's columns, as an error names them.
+    quaternion_names: String,
+    actions: Vec<usize>,
+    action_scale: f64,
+    active: usize,
     active_cmp: Cmp,
     active_threshold: f64,
-    /// Index within the state of the battery column, if declared.
-    battery: Option<usize>,
-    /// Whether the schema's onboard columns were kept for the tail detector.
-    onboard: bool,
+    /// The state slot whose zeros are filled.
+    fill_zeros: Option<usize>,
+    /// The extrapolated-tail columns' positions.
+    extrapolated: Vec<usize>,
     /// Whether each row is hashed ([`Recording::row_hashes`]).
     row_hashes: bool,
 }
@@ -171,18 +177,45 @@ pub struct Layout {
 impl Layout {
     /// The layout of `spec`, or why its columns cannot be loaded.
     pub fn new(spec: &DataSpec) -> Result<Layout, String> {
+        let format = spec.log_format();
         let (column, cmp, threshold) = active_rule(spec);
-        let mut names = vec!["t".to_string()];
-        names.extend(spec.state_columns.iter().cloned());
-        names.extend(spec.action_columns.iter().cloned());
-        names.push(column);
-        let onboard = spec.source == crate::design::DataSource::Nanobench;
-        if onboard {
-            names.extend(ONBOARD_COLUMNS.iter().map(|c| c.to_string()));
-        }
-        let keep = log::column_indices(&names).map_err(|e| format!("data declaration: {e}"))?;
-        let battery = spec.state_columns.iter().position(|c| c == "pwr_pm_vbat");
-        Ok(Layout { keep, active_cmp: cmp, active_threshold: threshold, battery, onboard, row_hashes: false })
+        let mut names: Vec<String> = Vec::new();
+        let mut at = |name: &str| {
+            names.push(name.to_string());
+            names.len() - 1
+        };
+        let time = format.time.as_ref().map(|t| (t.clone(), at(t)));
+        let state: Vec<Option<usize>> = format.state.iter().map(|c| c.as_deref().map(&mut at)).collect();
+        let euler = format.euler.as_ref().map(|e| ([at(&e.columns[0]), at(&e.columns[1]), at(&e.columns[2])], e.degrees));
+        let actions = format.actions.iter().map(|c| at(c)).collect();
+        let active = at(&column);
+        let extrapolated = format.extrapolated.iter().map(|c| at(c)).collect();
+        let quaternion_names = format.state[6..10]
+            .iter()
+            .map(|c| format!("`{}`", c.as_deref().unwrap_or("")))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let schema = if format.nanobench_header {
+            log::Schema::Nanobench(log::column_indices(&names).map_err(|e| format!("data declaration: {e}"))?)
+        } else {
+            log::Schema::Named { columns: names, time: format.time.clone() }
+        };
+        Ok(Layout {
+            schema,
+            rate_hz: spec.rate_hz,
+            time,
+            state,
+            euler,
+            quaternion_names,
+            actions,
+            action_scale: format.action_scale,
+            active,
+            active_cmp: cmp,
+            active_threshold: threshold,
+            fill_zeros: format.fill_zeros,
+            extrapolated,
+            row_hashes: false,
+        })
     }
 
     /// The same layout, also hashing every row (for the split audit).
@@ -191,46 +224,82 @@ impl Layout {
     }
 }
 
+/// The largest relative disagreement between the median time step and
+/// 1 / rate, and between a quaternion's length and 1.
+const RATE_TOLERANCE: f64 = 0.02;
+const UNIT_TOLERANCE: f64 = 0.01;
+
 /// Loads one recording (`.csv` or `.csv.gz`).
 pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogError> {
     let bytes = log::read_bytes(path)?;
     let file = path.display().to_string();
     let parsed = if layout.row_hashes {
-        log::parse_with_row_hashes(&file, &bytes, &layout.keep)?
+        log::parse_with_row_hashes(&file, &bytes, &layout.schema)?
     } else {
-        log::parse(&file, &bytes, &layout.keep)?
+        log::parse(&file, &bytes, &layout.schema)?
     };
-    let cols = parsed.columns;
+    let cols = &parsed.columns;
     let rows = parsed.rows;
+    let t = match &layout.time {
+        Some((name, k)) => {
+            check_rate(&file, &parsed, &cols[*k], name, layout.rate_hz)?;
+            cols[*k].clone()
+        }
+        None => (0..rows).map(|k| k as f64 / layout.rate_hz).collect(),
+    };
     let mut state = vec![[0.0; 14]; rows];
-    for (k, col) in cols[1..15].iter().enumerate() {
-        for (s, v) in state.iter_mut().zip(col) {
-            s[k] = *v;
+    for (slot, col) in layout.state.iter().enumerate() {
+        let Some(col) = col else { continue };
+        for (s, v) in state.iter_mut().zip(&cols[*col]) {
+            s[slot] = *v;
         }
     }
-    if let Some(b) = layout.battery {
+    if let Some(([r, p, y], degrees)) = layout.euler {
+        let scale = if degrees { std::f64::consts::PI / 180.0 } else { 1.0 };
+        for (k, s) in state.iter_mut().enumerate() {
+            let q = euler_zyx(cols[r][k] * scale, cols[p][k] * scale, cols[y][k] * scale);
+            s[6..10].copy_from_slice(&q);
+        }
+    }
+    if let Some(b) = layout.fill_zeros {
         fill_zeros(&mut state, b);
     }
     let mut pwm = vec![[0.0; 4]; rows];
     let mut action = vec![[0.0; 4]; rows];
-    for (k, col) in cols[15..19].iter().enumerate() {
-        for ((p, a), v) in pwm.iter_mut().zip(action.iter_mut()).zip(col) {
+    for (k, col) in layout.actions.iter().enumerate() {
+        for ((p, a), v) in pwm.iter_mut().zip(action.iter_mut()).zip(&cols[*col]) {
             p[k] = *v;
-            a[k] = (*v / PWM_FULL_SCALE).clamp(0.0, 1.0);
+            a[k] = (*v / layout.action_scale).clamp(0.0, 1.0);
         }
     }
-    let active: Vec<bool> = cols[19].iter().map(|v| layout.active_cmp.holds(*v, layout.active_threshold)).collect();
-    let tail = if layout.onboard {
-        let onboard: Vec<&[f64]> = cols[20..27].iter().map(|c| c.as_slice()).collect();
-        onboard_tail(&cols[0], &onboard, &active)
-    } else {
+    let active: Vec<bool> =
+        cols[layout.active].iter().map(|v| layout.active_cmp.holds(*v, layout.active_threshold)).collect();
+    let tail = if layout.extrapolated.is_empty() {
         None
+    } else {
+        let onboard: Vec<&[f64]> = layout.extrapolated.iter().map(|&c| cols[c].as_slice()).collect();
+        onboard_tail(&t, &onboard, &active)
     };
+    if layout.euler.is_none() {
+        // Active rows only (NanoBench's onboard estimator drifts off unit
+        // length on the ground after landing), and not the rows of an
+        // extrapolated tail: `tails` judges those.
+        let checked = tail.map_or(rows, |tail| tail.start);
+        let off = |k: usize| active[k] && (norm4(&state[k][6..10]) - 1.0).abs() > UNIT_TOLERANCE;
+        if let Some(k) = (0..checked).find(|&k| off(k)) {
+            return Err(LogError::NotUnit {
+                file,
+                line: parsed.line_of(k),
+                columns: layout.quaternion_names.clone(),
+                norm: norm4(&state[k][6..10]),
+            });
+        }
+    }
     Ok(Recording {
         name: recording_name(path),
         path: path.to_path_buf(),
         rows,
-        t: cols[0].clone(),
+        t,
         state,
         action,
         pwm,
@@ -239,6 +308,53 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         row_hashes: parsed.row_hashes,
         tail,
         rows_cut: 0,
+    })
+}
+
+fn norm4(q: &[f64]) -> f64 {
+    q.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// The unit quaternion (w, x, y, z) of roll, pitch and yaw (radians),
+/// rotations about z, then y, then x (the aerospace Z-Y-X convention).
+pub fn euler_zyx(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
+    let (sr, cr) = (roll / 2.0).sin_cos();
+    let (sp, cp) = (pitch / 2.0).sin_cos();
+    let (sy, cy) = (yaw / 2.0).sin_cos();
+    [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]
+}
+
+/// The median step of the time column must agree with 1 / rate to 2%;
+/// the error names the first step that does not.
+fn check_rate(file: &str, log: &log::Log, t: &[f64], column: &str, rate_hz: f64) -> Result<(), LogError> {
+    if t.len() < 2 {
+        return Ok(());
+    }
+    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let expected = 1.0 / rate_hz;
+    let off = |s: f64| (s / expected - 1.0).abs() > RATE_TOLERANCE;
+    let first_off = steps.iter().position(|s| off(*s));
+    steps.sort_by(f64::total_cmp);
+    let median = if steps.len() % 2 == 1 {
+        steps[steps.len() / 2]
+    } else {
+        (steps[steps.len() / 2 - 1] + steps[steps.len() / 2]) / 2.0
+    };
+    if !off(median) {
+        return Ok(());
+    }
+    Err(LogError::Rate {
+        file: file.to_string(),
+        line: log.line_of(first_off.unwrap_or(0) + 1),
+        column: column.to_string(),
+        median_s: median,
+        rate_hz,
+        expected_s: expected,
     })
 }
 

@@ -104,6 +104,13 @@ fn rule_name(rule: &Rule) -> String {
             "`in primary`, `in every specification` or `in at least P% of specifications`"
         }
         Rule::tails_policy => "a tails policy (keep, exclude, truncate)",
+        Rule::attitude_kind
+        | Rule::quaternion_wxyz
+        | Rule::quaternion_xyzw
+        | Rule::euler_radians
+        | Rule::euler_degrees => "an attitude (`quaternion wxyz`, `quaternion xyzw`, `euler radians`, `euler degrees`)",
+        Rule::col_list => "a column name",
+        Rule::fill_zeros => "`fill zeros`",
         Rule::pooling => "`pooled` or `per_column`",
         Rule::speed_name | Rule::speed_metadata | Rule::speed_step => {
             "`name` or `metadata LABEL < THRESHOLD <= LABEL ...`"
@@ -122,6 +129,13 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::strict
         | Rule::state_cols
         | Rule::action_cols
+        | Rule::time_col
+        | Rule::position_cols
+        | Rule::velocity_cols
+        | Rule::attitude_cols
+        | Rule::reference_cols
+        | Rule::extra_col
+        | Rule::extrapolated_cols
         | Rule::tails
         | Rule::speed_labels
         | Rule::universe
@@ -130,7 +144,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::sim_seed
         | Rule::sim_strength
         | Rule::sim_duration => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; recordings, seed, strength, duration for simulated data)"
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated for `data csv`; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
@@ -206,6 +220,19 @@ fn ident(pair: Pair<Rule>) -> Ident {
 
 fn strings(pair: Pair<Rule>) -> Vec<Spanned<String>> {
     pair.into_inner().map(string).collect()
+}
+
+/// A column name, bare or quoted.
+fn col(pair: Pair<Rule>) -> Ident {
+    if pair.as_rule() == Rule::string {
+        string(pair)
+    } else {
+        ident(pair)
+    }
+}
+
+fn cols(pair: Pair<Rule>) -> Vec<Ident> {
+    pair.into_inner().map(col).collect()
 }
 
 fn idents(pair: Pair<Rule>) -> Vec<Ident> {
@@ -558,7 +585,37 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         }
         Rule::strict => DataItem::Strict,
         Rule::state_cols => DataItem::State(idents(c.next())),
-        Rule::action_cols => DataItem::Action(idents(c.next())),
+        Rule::action_cols => {
+            let columns = cols(c.next());
+            let scale = c.0.next().map(number).transpose()?;
+            DataItem::Action { columns, scale }
+        }
+        Rule::time_col => DataItem::Time(col(c.next())),
+        Rule::position_cols => DataItem::Position(cols(c.next())),
+        Rule::velocity_cols => DataItem::Velocity(cols(c.next())),
+        Rule::attitude_cols => {
+            let kind = c.next();
+            let inner = kind.into_inner().next();
+            let kind = match inner {
+                Some(k) => {
+                    let name = match k.as_rule() {
+                        Rule::quaternion_wxyz => "quaternion_wxyz",
+                        Rule::quaternion_xyzw => "quaternion_xyzw",
+                        Rule::euler_radians => "euler_radians",
+                        _ => "euler_degrees",
+                    };
+                    Spanned::new(name.to_string(), span_of(&k))
+                }
+                None => return Err(Diagnostic::new("internal", text_span, "attitude without a kind")),
+            };
+            DataItem::Attitude { kind, columns: cols(c.next()) }
+        }
+        Rule::reference_cols => DataItem::Reference(cols(c.next())),
+        Rule::extra_col => {
+            let column = col(c.next());
+            DataItem::Extra { column, fill_zeros: c.0.next().is_some() }
+        }
+        Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
         Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),
         Rule::sim_seed => DataItem::SimSeed(int(c.next())?),
         Rule::sim_strength => DataItem::SimStrength(number(c.next())?),

@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use super::csv::CsvParts;
 use super::Validator;
 use crate::design::ast::*;
 use crate::design::*;
@@ -11,10 +12,32 @@ impl Validator {
     pub(super) fn data(&mut self, block: &DataBlock) -> Option<DataSpec> {
         let source = self.data_source(&block.source);
         let mut sim = SimParts::default();
+        let mut csv = CsvParts::default();
         let mut seen = BTreeMap::new();
         let mut spec = DataSpec::nanobench_defaults();
         for item in &block.items {
-            self.data_item(item, &mut seen, &mut spec, &mut sim);
+            if let Some(what) = self.csv_item(item, &mut seen, &mut csv) {
+                if source.is_some_and(|s| s != DataSource::Csv) {
+                    self.err_help(
+                        "column declaration outside `data csv`",
+                        item.span,
+                        format!("`{what}` declares a column of `data csv`; `data {}` reads NanoBench's columns", block.source.node),
+                        "use `state`/`action` to pick NanoBench columns, or switch the source to `csv` and declare every column",
+                    );
+                }
+            } else {
+                self.data_item(item, &mut seen, &mut spec, &mut sim);
+            }
+        }
+        if source == Some(DataSource::Csv) {
+            spec.format = self.csv_format(block, &seen, &mut csv, &mut spec);
+        } else if let Some(scale) = &csv.scale {
+            self.err_help(
+                "action scale outside `data csv`",
+                scale.span,
+                "NanoBench's actions are motor PWM / 65535",
+                "remove `scale`, or switch the source to `csv`",
+            );
         }
         let sim_given =
             sim.recordings.is_some() || sim.seed.is_some() || sim.strength.is_some() || sim.duration.is_some();
@@ -55,12 +78,13 @@ impl Validator {
         match source.node.as_str() {
             "nanobench" => Some(DataSource::Nanobench),
             "simulated" => Some(DataSource::Simulated),
+            "csv" => Some(DataSource::Csv),
             other => {
                 self.err_help(
                     "unknown data source",
                     source.span,
                     format!("`{other}` is not a data source"),
-                    "known sources: nanobench, simulated",
+                    "known sources: nanobench, simulated, csv",
                 );
                 None
             }
@@ -161,10 +185,21 @@ impl Validator {
                     None => self.columns(cols, 14, "state", item.span),
                 };
             }
-            DataItem::Action(cols) => {
+            DataItem::Action { columns, scale } => {
                 self.once(seen, "action", item.span);
-                spec.action_columns = self.columns(cols, 4, "action", item.span);
+                spec.action_columns = self.columns(columns, 4, "action", item.span);
+                if let Some(scale) = scale {
+                    // Refused outside `data csv` by the caller.
+                    self.positive(scale, "the action scale");
+                }
             }
+            DataItem::Time(_)
+            | DataItem::Position(_)
+            | DataItem::Velocity(_)
+            | DataItem::Attitude { .. }
+            | DataItem::Reference(_)
+            | DataItem::Extra { .. }
+            | DataItem::Extrapolated(_) => {}
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
                 let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);

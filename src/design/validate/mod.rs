@@ -4,6 +4,7 @@
 
 mod analysis;
 mod arms;
+mod csv;
 mod data;
 mod endpoints;
 mod factors;

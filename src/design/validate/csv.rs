@@ -1,0 +1,166 @@
+//! `data csv`: the columns of any CSV logs, declared clause by clause, and
+//! the [`LogFormat`] they make.
+
+use std::collections::BTreeMap;
+
+use super::Validator;
+use crate::design::ast::*;
+use crate::design::*;
+
+/// The column clauses of a `data csv` block as declared so far.
+#[derive(Default)]
+pub(super) struct CsvParts {
+    time: Option<Ident>,
+    position: Option<(Vec<Ident>, Span)>,
+    velocity: Option<(Vec<Ident>, Span)>,
+    attitude: Option<(Ident, Vec<Ident>, Span)>,
+    reference: Option<(Vec<Ident>, Span)>,
+    extra: Option<(Ident, bool)>,
+    extrapolated: Option<Vec<Ident>>,
+    /// `action ... scale N`: the scale as written.
+    pub(super) scale: Option<Number>,
+}
+
+impl Validator {
+    /// Records a column clause of `data csv` (and an action scale) in
+    /// `csv`; returns the clause's keyword when it is one only `data csv`
+    /// has, `None` for every other item (left to `data_item`).
+    pub(super) fn csv_item(
+        &mut self,
+        item: &Spanned<DataItem>,
+        seen: &mut BTreeMap<&'static str, Span>,
+        csv: &mut CsvParts,
+    ) -> Option<&'static str> {
+        let span = item.span;
+        let key = match &item.node {
+            DataItem::Action { scale, .. } => {
+                csv.scale = scale.clone();
+                return None;
+            }
+            DataItem::Time(c) => {
+                csv.time = Some(c.clone());
+                "time"
+            }
+            DataItem::Position(c) => {
+                csv.position = Some((c.clone(), span));
+                "position"
+            }
+            DataItem::Velocity(c) => {
+                csv.velocity = Some((c.clone(), span));
+                "velocity"
+            }
+            DataItem::Attitude { kind, columns } => {
+                csv.attitude = Some((kind.clone(), columns.clone(), span));
+                "attitude"
+            }
+            DataItem::Reference(c) => {
+                csv.reference = Some((c.clone(), span));
+                "reference"
+            }
+            DataItem::Extra { column, fill_zeros } => {
+                csv.extra = Some((column.clone(), *fill_zeros));
+                "extra"
+            }
+            DataItem::Extrapolated(c) => {
+                csv.extrapolated = Some(c.clone());
+                "extrapolated"
+            }
+            _ => return None,
+        };
+        self.once(seen, key, span);
+        Some(key)
+    }
+
+    /// The format a `data csv` block declares, or `None` (with errors) when
+    /// a required clause is missing or a clause has the wrong number of
+    /// columns. Sets the data's state columns to the slots' names (an
+    /// absent slot is ``).
+    pub(super) fn csv_format(
+        &mut self,
+        block: &DataBlock,
+        seen: &BTreeMap<&'static str, Span>,
+        csv: &mut CsvParts,
+        spec: &mut DataSpec,
+    ) -> Option<LogFormat> {
+        let at = block.source.span;
+        if let Some(span) = seen.get("state") {
+            self.err_help(
+                "`state` in `data csv`",
+                *span,
+                "`data csv` declares its state by meaning, not as 14 columns",
+                "declare `position`, `velocity`, `attitude` (and `reference`, `extra` if the logs have them)",
+            );
+        }
+        let missing = |v: &mut Validator, what: &str, example: &str| {
+            v.err_help("incomplete csv data", at, format!("`data csv` needs `{what}`"), format!("e.g. `{example}`"));
+        };
+        if !seen.contains_key("rate") {
+            missing(self, "rate", "rate 100 Hz");
+        }
+        if !seen.contains_key("action") {
+            missing(self, "action", "action m1, m2, m3, m4 scale 2500");
+        } else if csv.scale.is_none() {
+            missing(self, "action ... scale", "action m1, m2, m3, m4 scale 2500 (each action is value / scale, clipped to [0, 1])");
+        }
+        let three = |v: &mut Validator, part: &Option<(Vec<Ident>, Span)>, what: &str, example: &str| match part {
+            Some((cols, span)) => Some(v.columns(cols, 3, what, *span)),
+            None => {
+                if !example.is_empty() {
+                    missing(v, what, example);
+                }
+                None
+            }
+        };
+        let position = three(self, &csv.position, "position", "position x, y, z");
+        let velocity = three(self, &csv.velocity, "velocity", "velocity vx, vy, vz");
+        let reference = three(self, &csv.reference, "reference", "");
+        let (quaternion, euler) = match &csv.attitude {
+            None => {
+                missing(self, "attitude", "attitude quaternion wxyz qw, qx, qy, qz");
+                (None, None)
+            }
+            Some((kind, cols, span)) => match kind.node.as_str() {
+                "quaternion_wxyz" => (Some(self.columns(cols, 4, "quaternion", *span)), None),
+                "quaternion_xyzw" => {
+                    let c = self.columns(cols, 4, "quaternion", *span);
+                    // Stored scalar first, as the model reads it.
+                    (c.get(3).map(|w| vec![w.clone(), c[0].clone(), c[1].clone(), c[2].clone()]), None)
+                }
+                other => {
+                    let columns = self.columns(cols, 3, "Euler attitude (roll, pitch, yaw)", *span);
+                    (None, Some(Euler { columns, degrees: other == "euler_degrees" }))
+                }
+            },
+        };
+        let (position, velocity) = (position?, velocity?);
+        if quaternion.is_none() && euler.is_none() {
+            return None;
+        }
+        if position.len() != 3 || velocity.len() != 3 || quaternion.as_ref().is_some_and(|q| q.len() != 4) {
+            return None;
+        }
+        let mut state: Vec<Option<String>> = position.into_iter().chain(velocity).map(Some).collect();
+        match &quaternion {
+            Some(q) => state.extend(q.iter().cloned().map(Some)),
+            None => state.extend([None, None, None, None]),
+        }
+        match reference.filter(|r| r.len() == 3) {
+            Some(r) => state.extend(r.into_iter().map(Some)),
+            None => state.extend([None, None, None]),
+        }
+        state.push(csv.extra.as_ref().map(|(c, _)| c.node.clone()));
+        spec.state_columns = state.iter().map(|c| c.clone().unwrap_or_default()).collect();
+        spec.state_preset = None;
+        let action_scale = csv.scale.as_ref().map(|s| s.node).filter(|s| *s > 0.0 && s.is_finite())?;
+        Some(LogFormat {
+            nanobench_header: false,
+            time: csv.time.as_ref().map(|t| t.node.clone()),
+            state,
+            euler,
+            fill_zeros: csv.extra.as_ref().filter(|(_, fill)| *fill).map(|_| 13),
+            actions: spec.action_columns.clone(),
+            action_scale,
+            extrapolated: csv.extrapolated.iter().flatten().map(|c| c.node.clone()).collect(),
+        })
+    }
+}
