@@ -233,21 +233,21 @@ fn crlf_line_endings_read_the_same_as_lf() {
 
 #[test]
 fn exponent_and_signed_fields_parse_and_junk_in_unkept_columns_is_caught() {
-    use crossaudit::data::log::{parse, NANOBENCH_COLUMNS};
+    use crossaudit::data::log::{parse, Schema, NANOBENCH_COLUMNS};
     let header = NANOBENCH_COLUMNS.join(",");
     let mut row: Vec<String> = (0..52).map(|k| format!("{k}.5")).collect();
     row[1] = "-1.5e-3".into(); // px, kept in the state
     row[8] = "+2".into(); // roll, not kept
     let text = format!("{header}\n{}\n", row.join(","));
-    let log = parse("x.csv", text.as_bytes(), &[0, 1, 8]).unwrap();
+    let log = parse("x.csv", text.as_bytes(), &Schema::Nanobench(vec![0, 1, 8])).unwrap();
     assert_eq!(log.columns[1], vec![-1.5e-3]);
     assert_eq!(log.columns[2], vec![2.0]);
     row[20] = "1.2.3".into(); // imu_gyro_x, not kept
     let text = format!("{header}\n{}\n", row.join(","));
-    let e = parse("x.csv", text.as_bytes(), &[0, 1]).unwrap_err().to_string();
+    let e = parse("x.csv", text.as_bytes(), &Schema::Nanobench(vec![0, 1])).unwrap_err().to_string();
     assert_eq!(e, "x.csv: line 2, column `imu_gyro_x`: \"1.2.3\" is not a number");
     row[20] = "nan".into();
     let text = format!("{header}\n{}\n", row.join(","));
-    let e = parse("x.csv", text.as_bytes(), &[0, 1]).unwrap_err().to_string();
+    let e = parse("x.csv", text.as_bytes(), &Schema::Nanobench(vec![0, 1])).unwrap_err().to_string();
     assert_eq!(e, "x.csv: line 2, column `imu_gyro_x`: non-finite value \"nan\"");
 }

@@ -17,6 +17,7 @@ mod family;
 mod front_door;
 mod fused;
 mod golden;
+mod logs;
 mod mixed_cli;
 mod model;
 mod multiverse;

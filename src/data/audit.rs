@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::metadata::{impossible_values, parse_name, read_metadata, Metadata};
 use super::{load_recording, natural_key, recording_name, Layout, Recording};
-use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy};
+use crate::design::{DataSource, DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy};
 use crate::stats::quantile_type7;
 
 /// Upstream NanoBench plausibility bounds over active rows, each checked at
@@ -284,8 +284,14 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
     let loaded: Vec<(FileRow, Option<Recording>)> = csvs
         .par_iter()
         .map(|path| {
-            let meta = read_metadata(&meta_path(path));
-            let broken = meta.as_ref().err().filter(|_| meta_path(path).exists()).cloned();
+            let exists = meta_path(path).exists();
+            // `data csv` logs need no metadata file; NanoBench's each have one.
+            let meta = if !exists && spec.source == DataSource::Csv {
+                Ok(Metadata::default())
+            } else {
+                read_metadata(&meta_path(path))
+            };
+            let broken = meta.as_ref().err().filter(|_| exists).cloned();
             let (mut row, rec) = match load_recording(path, &layout) {
                 Ok(mut rec) => {
                     if spec.tails == TailPolicy::Truncate {

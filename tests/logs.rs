@@ -1,0 +1,346 @@
+//! Logs declared in the design (`data csv`): NanoBench's preset and the
+//! same columns written out give the same bytes; columns are found by
+//! header in any order, a quaternion in either order or Euler angles; every
+//! broken log is refused with its file, line and column.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::common::{assert_ok, root, stderr};
+use crossaudit::data::{self, load_recording, Layout, LogError, Recording, Status};
+use crossaudit::design::{self, DataSpec};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+}
+
+fn fixture(name: &str) -> PathBuf {
+    root().join("tests/fixtures/nanobench").join(name)
+}
+
+fn spec(design: &str) -> DataSpec {
+    design::from_str("columns.design", design).unwrap_or_else(|e| panic!("{e}")).data
+}
+
+/// Every file under `dir`, relative, sorted.
+fn files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().to_path_buf());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn the_nanobench_preset_and_its_columns_written_out_give_the_same_audit_split_and_cells() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |design: &str, out: &str| {
+        let o = bin()
+            .arg("run")
+            .arg(root().join("tests/designs").join(design))
+            .args(["--exploratory", "--workers", "2", "--out"])
+            .arg(tmp.path().join(out))
+            .output()
+            .unwrap();
+        assert_ok(&o);
+        tmp.path().join(out)
+    };
+    let (preset, generic) = (run("logs_preset.design", "preset"), run("logs_generic.design", "generic"));
+    let listed = files(&preset);
+    assert_eq!(listed, files(&generic), "the two runs wrote different files");
+    let mut compared = 0;
+    for f in &listed {
+        let name = f.to_string_lossy();
+        let (a, b) = (std::fs::read(preset.join(f)).unwrap(), std::fs::read(generic.join(f)).unwrap());
+        if name.starts_with("audit/")
+            || name.starts_with("cells")
+            || name.ends_with(".safetensors")
+            || (name.starts_with("manifests/") && name.ends_with(".csv"))
+            || name == "report/estimates.csv"
+        {
+            assert!(a == b, "{name} differs between the preset and the generic block");
+            compared += 1;
+        } else if name.starts_with("curves/") {
+            // Every column but the last (each epoch's wall-clock seconds).
+            let strip = |t: &[u8]| -> Vec<String> {
+                String::from_utf8_lossy(t).lines().map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a).to_string()).collect()
+            };
+            assert_eq!(strip(&a), strip(&b), "{name} differs");
+            compared += 1;
+        }
+    }
+    // audit (4), cells.csv + 4 per-cell files, 4 models, 4 manifests, 4 curves, estimates.
+    assert!(compared >= 20, "only {compared} files compared");
+    let recordings = std::fs::read_to_string(preset.join("audit/recordings.csv")).unwrap();
+    assert!(recordings.lines().count() > 4, "the audit lists the fixture recordings:\n{recordings}");
+}
+
+/// A design text over `dir` with the columns of [`rewrite`]'s files.
+fn reordered_design(dir: &Path, attitude: &str) -> String {
+    format!(
+        r#"study "columns"
+data csv {{
+  path "{}"
+  rate 100 Hz
+  time "time [s]"
+  position x, y, z
+  velocity vx, vy, vz
+  attitude {attitude}
+  reference xr, yr, zr
+  extra vbat fill zeros
+  action m1, m2, m3, m4 scale 65535
+  include active(m1 > 1000) >= 20 samples
+}}
+factor recording {{ evaluation 2 split_seed 3; starts 3 horizon 20 conditions trajectory }}
+factor seed = 1..2
+validation 60 windows from 1 recordings seed 5
+arm disjoint {{ fit 200 windows seed 1 }}
+arm contaminated {{ from disjoint replace 25% with evaluation windows exclude starts seed 2 }}
+model world = mlp(32, 32, 32) inputs world
+train {{ adam lr 1e-3 batch 32 epochs 3 cosine patience 2 action_noise 0.0 }}
+endpoint primary fa_position_rmse at 0.2 s cap 2 m model world
+contrast contaminated - disjoint
+estimate crossed_mom level 0.95 df seed - 1
+decide confirmed when optimism >= 10% and upper < 0
+"#,
+        dir.display()
+    )
+}
+
+/// The fixture log `name` rewritten in another lab's layout: other column
+/// names, another order, a text column nobody declares, the quaternion
+/// scalar last, and Euler angles (Z-Y-X, degrees) computed from it.
+fn rewrite(name: &str, out: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(fixture(name)).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let pick = [
+        ("motor_motor_m3", "m3"),
+        ("pwr_pm_vbat", "vbat"),
+        ("px", "x"),
+        ("py", "y"),
+        ("pz", "z"),
+        ("att_stateEstimate_qx", "qx"),
+        ("att_stateEstimate_qy", "qy"),
+        ("att_stateEstimate_qz", "qz"),
+        ("att_stateEstimate_qw", "qw"),
+        ("t", "time [s]"),
+        ("est_stateEstimate_vx", "vx"),
+        ("est_stateEstimate_vy", "vy"),
+        ("est_stateEstimate_vz", "vz"),
+        ("sp_ctrltarget_x", "xr"),
+        ("sp_ctrltarget_y", "yr"),
+        ("sp_ctrltarget_z", "zr"),
+        ("motor_motor_m1", "m1"),
+        ("motor_motor_m2", "m2"),
+        ("motor_motor_m4", "m4"),
+    ];
+    let mut csv = pick.iter().map(|(_, n)| *n).collect::<Vec<_>>().join(",");
+    csv.push_str(",mode,roll_deg,pitch_deg,yaw_deg\n");
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let v = |n: &str| f[col(n)].parse::<f64>().unwrap();
+        let row: Vec<&str> = pick.iter().map(|(from, _)| f[col(from)]).collect();
+        let (w, x, y, z) = (v("att_stateEstimate_qw"), v("att_stateEstimate_qx"), v("att_stateEstimate_qy"), v("att_stateEstimate_qz"));
+        // Z-Y-X Euler angles of a unit quaternion (the inverse of data::euler_zyx).
+        let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+        let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
+        let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+        let deg = |r: f64| format!("{:.17e}", r.to_degrees());
+        csv.push_str(&format!("{},flying,{},{},{}\n", row.join(","), deg(roll), deg(pitch), deg(yaw)));
+    }
+    let path = out.join(fixture(name).file_name().unwrap());
+    std::fs::write(&path, csv).unwrap();
+    path
+}
+
+fn preset_recording(name: &str) -> Recording {
+    let preset = design::load(&root().join("tests/designs/logs_preset.design")).unwrap().design.data;
+    load_recording(&fixture(name), &Layout::new(&preset).unwrap()).unwrap()
+}
+
+#[test]
+fn columns_are_found_by_name_in_any_order_with_the_quaternion_scalar_last() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = rewrite("F1_circle_slow_rep1.csv", tmp.path());
+    let generic = spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw"));
+    let got = load_recording(&path, &Layout::new(&generic).unwrap()).unwrap();
+    let want = preset_recording("F1_circle_slow_rep1.csv");
+    assert_eq!(got.rows, want.rows);
+    assert_eq!(got.t, want.t);
+    assert_eq!(got.state, want.state, "the same 14 state values in the model's order");
+    assert_eq!(got.action, want.action);
+    assert_eq!(got.active, want.active);
+}
+
+#[test]
+fn euler_angles_in_degrees_become_the_same_quaternion() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = rewrite("F3_oval_medium_rep1.csv", tmp.path());
+    let generic = spec(&reordered_design(tmp.path(), "euler degrees roll_deg, pitch_deg, yaw_deg"));
+    let got = load_recording(&path, &Layout::new(&generic).unwrap()).unwrap();
+    let want = preset_recording("F3_oval_medium_rep1.csv");
+    let mut worst: f64 = 0.0;
+    for (g, w) in got.state.iter().zip(&want.state) {
+        assert_eq!(g[..6], w[..6]);
+        assert_eq!(g[10..], w[10..]);
+        // q and -q are one rotation; the fixture's quaternions are unit to
+        // about 1e-9, the recomputed ones exactly.
+        let sign = if g[6] * w[6] + g[7] * w[7] + g[8] * w[8] + g[9] * w[9] < 0.0 { -1.0 } else { 1.0 };
+        let norm = (w[6] * w[6] + w[7] * w[7] + w[8] * w[8] + w[9] * w[9]).sqrt();
+        for k in 6..10 {
+            worst = worst.max((sign * g[k] - w[k] / norm).abs());
+        }
+    }
+    assert!(worst < 1e-12, "Euler round trip off by {worst}");
+}
+
+/// Writes a small log in the layout of [`reordered_design`] with `edit`
+/// applied to the rows after the header, and loads it.
+fn load_edited(edit: impl Fn(usize, &mut Vec<String>), header_edit: impl Fn(&mut Vec<String>)) -> LogError {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = rewrite("F1_circle_slow_rep1.csv", tmp.path());
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut header: Vec<String> = lines[0].split(',').map(String::from).collect();
+    header_edit(&mut header);
+    lines[0] = header.join(",");
+    for (k, line) in lines.iter_mut().enumerate().skip(1) {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        edit(k + 1, &mut f);
+        *line = f.join(",");
+    }
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    let generic = spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw"));
+    load_recording(&path, &Layout::new(&generic).unwrap()).expect_err("a broken log must be refused")
+}
+
+#[test]
+fn a_declared_column_the_header_lacks_is_named() {
+    let e = load_edited(|_, _| {}, |h| h[3] = "y_m".into());
+    assert!(matches!(&e, LogError::MissingColumn { column, .. } if column == "y"), "{e:?}");
+    let text = e.to_string();
+    assert!(text.contains("F1_circle_slow_rep1.csv: line 1") && text.contains("`y`") && text.contains("y_m"), "{text}");
+    let e = load_edited(|_, _| {}, |h| h[1] = "x".into());
+    assert!(e.to_string().contains("holds it twice"), "{e}");
+}
+
+#[test]
+fn a_non_numeric_declared_column_is_located_and_undeclared_text_is_not_read() {
+    // Line 40, column `vy` (the 12th field).
+    let e = load_edited(|line, f| if line == 40 { f[11] = "n/a".into() }, |_| {});
+    match &e {
+        LogError::NonNumeric { line, column, value, .. } => {
+            assert_eq!((*line, column.as_str(), value.as_str()), (40, "vy", "n/a"));
+        }
+        other => panic!("{other:?}"),
+    }
+    // The undeclared `mode` column holds text on every line and is not read.
+    let tmp = tempfile::tempdir().unwrap();
+    let path = rewrite("F1_circle_slow_rep1.csv", tmp.path());
+    let generic = spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw"));
+    assert!(load_recording(&path, &Layout::new(&generic).unwrap()).is_ok());
+}
+
+#[test]
+fn a_quaternion_off_unit_length_is_located() {
+    // Line 100 (an active row): qw doubled.
+    let e = load_edited(
+        |line, f| {
+            if line == 100 {
+                let w: f64 = f[8].parse().unwrap();
+                f[8] = format!("{}", 2.0 * w + 0.5);
+            }
+        },
+        |_| {},
+    );
+    match &e {
+        LogError::NotUnit { line, columns, norm, .. } => {
+            assert_eq!(*line, 100);
+            assert_eq!(columns, "`qw`, `qx`, `qy`, `qz`");
+            assert!(*norm > 1.01, "{norm}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Declared scalar first, the same file's quaternion is off unit length
+    // nowhere (a permutation keeps the length): the order is the user's
+    // to state, not checked. Declared as x, y, z, w it loads.
+}
+
+#[test]
+fn a_rate_that_disagrees_with_the_time_column_is_located() {
+    // Every time doubled: a 50 Hz log declared as 100 Hz.
+    let e = load_edited(
+        |_, f| {
+            let t: f64 = f[9].parse().unwrap();
+            f[9] = format!("{}", 2.0 * t);
+        },
+        |_| {},
+    );
+    match &e {
+        LogError::Rate { line, median_s, expected_s, column, .. } => {
+            assert_eq!((*line, column.as_str()), (3, "time [s]"));
+            assert!((median_s - 0.02).abs() < 1e-6 && (expected_s - 0.01).abs() < 1e-15, "{e}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(e.to_string().contains("rate 100 Hz"), "{e}");
+}
+
+#[test]
+fn the_audit_lists_a_broken_log_with_its_reason_and_strict_data_stops() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv", "F4_linear_ramp_rep1.csv"] {
+        rewrite(name, tmp.path());
+    }
+    let broken = tmp.path().join("F4_linear_ramp_rep1.csv");
+    let text = std::fs::read_to_string(&broken).unwrap().replacen("time [s]", "t", 1);
+    std::fs::write(&broken, text).unwrap();
+    let generic = spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw"));
+    let audit = data::audit(&generic, tmp.path()).unwrap();
+    let row = audit.files.iter().find(|f| f.name == "F4_linear_ramp_rep1").unwrap();
+    assert_eq!(row.status, Status::Excluded);
+    assert!(row.reason.contains("`time [s]`"), "{}", row.reason);
+    // No metadata files: `data csv` needs none, and says nothing of them.
+    assert!(audit.files.iter().all(|f| !f.reason.contains("metadata")), "{:#?}", audit.files);
+    let included: Vec<&str> = audit.included().map(|f| f.name.as_str()).collect();
+    assert_eq!(included.len(), 2, "{:#?}", audit.files);
+    let strict = DataSpec { strictness: design::Strictness::Strict, ..generic };
+    let e = data::audit(&strict, tmp.path()).expect_err("strict data stops on an unreadable log");
+    assert!(e.to_string().contains("F4_linear_ramp_rep1.csv"), "{e}");
+}
+
+#[test]
+fn a_csv_block_without_what_the_reader_needs_is_refused_with_its_place() {
+    let tmp = tempfile::tempdir().unwrap();
+    let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+        .replace(" scale 65535", "")
+        .replace("  velocity vx, vy, vz\n", "")
+        .replace("position x, y, z", "position x, y");
+    let path = tmp.path().join("bad.design");
+    std::fs::write(&path, design).unwrap();
+    let o = bin().arg("check").arg(&path).output().unwrap();
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    for needle in ["`data csv` needs `velocity`", "`data csv` needs `action ... scale`", "the position has 3 columns, 2 given", "bad.design:"] {
+        assert!(err.contains(needle), "missing {needle:?} in:\n{err}");
+    }
+    // NanoBench's preset refuses the csv clauses.
+    let preset = std::fs::read_to_string(root().join("tests/designs/logs_preset.design"))
+        .unwrap()
+        .replace("rate 100 Hz", "rate 100 Hz\n  position px, py, pz");
+    std::fs::write(&path, preset).unwrap();
+    let o = bin().arg("check").arg(&path).output().unwrap();
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("column declaration outside `data csv`"), "{}", stderr(&o));
+}
