@@ -344,3 +344,43 @@ fn a_csv_block_without_what_the_reader_needs_is_refused_with_its_place() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("column declaration outside `data csv`"), "{}", stderr(&o));
 }
+
+#[test]
+fn the_rotorpy_design_reproduces_its_committed_run() {
+    // A second simulator's logs, in its own column layout, end to end: the
+    // committed run (results/rotorpy) comes out byte for byte, the build
+    // line and the training curves' wall-clock seconds aside.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("rotorpy");
+    let o = bin().current_dir(root()).args(["run", "designs/logs/rotorpy.design", "--out"]).arg(&out).output().unwrap();
+    assert_ok(&o);
+    let committed = root().join("results/rotorpy");
+    let normalize = |name: &str, bytes: &[u8]| -> Vec<String> {
+        String::from_utf8_lossy(bytes)
+            .lines()
+            .map(|l| if l.contains("(commit ") { "<build>" } else { l })
+            .map(|l| if name.starts_with("curves/") { l.rsplit_once(',').map_or(l, |p| p.0) } else { l })
+            .map(String::from)
+            .collect()
+    };
+    let mut compared = 0;
+    for f in files(&committed) {
+        let name = f.to_string_lossy().to_string();
+        if ["COMMAND", "time.txt", "stdout.txt"].contains(&name.as_str()) {
+            continue;
+        }
+        let fresh = std::fs::read(out.join(&f)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let (a, b) = (normalize(&name, &fresh), normalize(&name, &std::fs::read(committed.join(&f)).unwrap()));
+        if let Some((k, (x, y))) = a.iter().zip(&b).enumerate().find(|(_, (x, y))| x != y) {
+            panic!("{name} differs from the committed one at line {}:\n  fresh:     {x}\n  committed: {y}", k + 1);
+        }
+        assert_eq!(a.len(), b.len(), "{name}: line counts differ");
+        compared += 1;
+    }
+    assert!(compared > 40, "{compared} files compared");
+    // RotorPy's columns were read: every flight included, none without a reason.
+    let audit = std::fs::read_to_string(committed.join("audit/recordings.csv")).unwrap();
+    assert_eq!(audit.lines().filter(|l| l.contains(",included,")).count(), 27, "{audit}");
+    let md = std::fs::read_to_string(committed.join("report/report.md")).unwrap();
+    assert!(md.contains("over 9 recordings x 5 seeds"), "{md}");
+}

@@ -371,7 +371,12 @@ fn blank(spec: &DataSpec, name: &str, file: &str, meta: Option<&Metadata>) -> Fi
         trajectory: meta.and_then(|m| m.trajectory_type.clone()).unwrap_or_else(|| parts.shape.clone()),
         speed,
         speed_mps,
-        controller: parts.controller.name().to_string(),
+        // Declared (`data csv`), or NanoBench's names: `_mell` for
+        // Mellinger, nothing for its PID.
+        controller: match spec.format.as_ref().and_then(|f| f.controller.clone()) {
+            Some(declared) => declared,
+            None => parts.controller.name().to_string(),
+        },
         // The file name's `repN` is the recording's identity; the metadata's
         // `repetition` sometimes disagrees (noted in `judged`).
         repetition: parts.repetition.or(meta.and_then(|m| m.repetition)),

@@ -174,6 +174,7 @@ pub enum DataItem {
     Reference(Vec<Ident>),
     Extra { column: Ident, fill_zeros: bool },
     Extrapolated(Vec<Ident>),
+    Controller(Ident),
     SimRecordings(Int),
     SimSeed(Int),
     SimStrength(Number),

@@ -82,6 +82,11 @@ pub struct LogFormat {
     pub action_scale: f64,
     /// Columns whose final straight run marks an extrapolated tail.
     pub extrapolated: Vec<String>,
+    /// The controller every log was flown with (`controller NAME`), for
+    /// the audit; without it, NanoBench's names: `_mell` is Mellinger,
+    /// anything else its PID.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub controller: Option<String>,
 }
 
 /// Euler-angle attitude columns.
@@ -132,6 +137,7 @@ impl DataSpec {
                 DataSource::Nanobench => NANOBENCH_EXTRAPOLATED.iter().map(|c| c.to_string()).collect(),
                 _ => Vec::new(),
             },
+            controller: None,
         }
     }
 }

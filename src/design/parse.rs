@@ -136,6 +136,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::reference_cols
         | Rule::extra_col
         | Rule::extrapolated_cols
+        | Rule::controller_name
         | Rule::tails
         | Rule::speed_labels
         | Rule::universe
@@ -144,7 +145,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::sim_seed
         | Rule::sim_strength
         | Rule::sim_duration => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated for `data csv`; recordings, seed, strength, duration for simulated data)"
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller for `data csv`; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
@@ -616,6 +617,7 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
             DataItem::Extra { column, fill_zeros: c.0.next().is_some() }
         }
         Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
+        Rule::controller_name => DataItem::Controller(ident(c.next())),
         Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),
         Rule::sim_seed => DataItem::SimSeed(int(c.next())?),
         Rule::sim_strength => DataItem::SimStrength(number(c.next())?),

@@ -17,6 +17,7 @@ pub(super) struct CsvParts {
     reference: Option<(Vec<Ident>, Span)>,
     extra: Option<(Ident, bool)>,
     extrapolated: Option<Vec<Ident>>,
+    controller: Option<Ident>,
     /// `action ... scale N`: the scale as written.
     pub(super) scale: Option<Number>,
 }
@@ -64,6 +65,10 @@ impl Validator {
             DataItem::Extrapolated(c) => {
                 csv.extrapolated = Some(c.clone());
                 "extrapolated"
+            }
+            DataItem::Controller(c) => {
+                csv.controller = Some(c.clone());
+                "controller"
             }
             _ => return None,
         };
@@ -161,6 +166,7 @@ impl Validator {
             actions: spec.action_columns.clone(),
             action_scale,
             extrapolated: csv.extrapolated.iter().flatten().map(|c| c.node.clone()).collect(),
+            controller: csv.controller.as_ref().map(|c| c.node.clone()),
         })
     }
 }

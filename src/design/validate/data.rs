@@ -199,7 +199,8 @@ impl Validator {
             | DataItem::Attitude { .. }
             | DataItem::Reference(_)
             | DataItem::Extra { .. }
-            | DataItem::Extrapolated(_) => {}
+            | DataItem::Extrapolated(_)
+            | DataItem::Controller(_) => {}
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
                 let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
