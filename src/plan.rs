@@ -506,6 +506,12 @@ fn model_text(kind: &ModelKind) -> String {
             inputs.name(),
             actions.name()
         ),
+        ModelKind::Linear { inputs, actions, ridge } => format!(
+            "linear inputs {} actions {} ridge {}",
+            inputs.name(),
+            actions.name(),
+            ridge.map_or("auto".to_string(), |r| r.to_string())
+        ),
         ModelKind::Persistence => "persistence".to_string(),
         ModelKind::ConstantVelocity => "constant_velocity".to_string(),
     }

@@ -279,3 +279,113 @@ fn raw_actions_reach_both_networks_unscaled() {
         assert!((f64::from(b[14]) - (u[0] - m) / sd).abs() < 1e-5, "{map:?}: standardized u_0");
     }
 }
+
+/// Windows whose increment is an exact affine function of (x, u): the
+/// non-exogenous state moves by A x + B u + c (A, B, c fixed, small).
+fn affine_windows(n: usize, salt: u64) -> Vec<(State, Action, State)> {
+    let mut s = salt.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut r = || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    };
+    (0..n)
+        .map(|_| {
+            let x: State = std::array::from_fn(|_| r());
+            let u: Action = std::array::from_fn(|_| r() + 0.5);
+            let mut next = x;
+            for k in 0..10 {
+                let a: f64 = (0..14).map(|j| 0.01 * ((k * 14 + j) % 7) as f64 * x[j]).sum();
+                let b: f64 = (0..4).map(|j| 0.02 * ((k + j) % 3) as f64 * u[j]).sum();
+                next[k] += a + b + 0.001 * k as f64;
+            }
+            (x, u, next)
+        })
+        .collect()
+}
+
+#[test]
+fn ridge_without_a_penalty_recovers_an_exact_linear_map() {
+    // Closed form: with Y an exact affine function of X, least squares
+    // (ridge 0) has zero residual, so every one-step prediction is exact
+    // up to the f32 standardization of inputs and outputs.
+    let (fit, val, test) = (affine_windows(400, 1), affine_windows(100, 2), affine_windows(50, 3));
+    let features = FeatureMap::fit(InputMap::World, ActionScaling::Standardized, TargetKind::Standardized, &fit, "m");
+    let mut model = crossaudit::model::linear::fit(features, &fit, &val, Some(0.0)).unwrap();
+    assert_eq!(model.validation.len(), 1);
+    assert!(model.validation[0].1 < 1e-10, "validation loss {}", model.validation[0].1);
+    let states: Vec<State> = test.iter().map(|w| w.0).collect();
+    let actions: Vec<Action> = test.iter().map(|w| w.1).collect();
+    let predicted = model.step(&states, &actions);
+    for ((p, w), x) in predicted.iter().zip(&test).zip(&states) {
+        for k in 0..10 {
+            assert!((p[k] - w.2[k]).abs() < 1e-6, "dim {k}: {} vs {}", p[k], w.2[k]);
+        }
+        // The exogenous dimensions are left as they were (the rollout overwrites them).
+        assert_eq!(p[10..], x[10..]);
+    }
+}
+
+#[test]
+fn ridge_auto_keeps_the_grid_penalty_with_the_lowest_validation_loss_and_a_huge_penalty_predicts_the_mean() {
+    let (fit, val) = (affine_windows(300, 4), affine_windows(100, 5));
+    let features = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::Standardized, &fit, "m");
+    let auto = crossaudit::model::linear::fit(features.clone(), &fit, &val, None).unwrap();
+    let grid: Vec<f64> = auto.validation.iter().map(|v| v.0).collect();
+    assert_eq!(grid, crossaudit::model::linear::RIDGE_GRID.to_vec());
+    let best = auto.validation.iter().map(|v| v.1).fold(f64::INFINITY, f64::min);
+    assert_eq!(auto.validation.iter().find(|v| v.0 == auto.lambda).unwrap().1, best);
+    // Closed form of the limit: as the penalty grows, every input weight
+    // goes to 0 and the prediction to the unpenalized intercept, the mean
+    // standardized target, which is 0 for a standardized target.
+    let mut big = crossaudit::model::linear::fit(features, &fit, &val, Some(1e12)).unwrap();
+    assert!(big.weights[..18 * 14].iter().all(|w| w.abs() < 1e-9));
+    assert!(big.weights[18 * 14..].iter().all(|w| w.abs() < 1e-6), "{:?}", &big.weights[18 * 14..]);
+    let (x, u) = (fit[0].0, fit[0].1);
+    let p = big.step(&[x], &[u])[0];
+    let mean: Vec<f64> = (0..10).map(|k| fit.iter().map(|w| w.2[k] - w.0[k]).sum::<f64>() / fit.len() as f64).collect();
+    for k in 0..10 {
+        assert!((p[k] - x[k] - mean[k]).abs() < 1e-6, "dim {k}");
+    }
+}
+
+#[test]
+#[ignore = "needs ../shared/nanobench"]
+fn the_linear_model_beside_the_paper_reproduces_its_committed_run_on_the_papers_split() {
+    let data = crate::common::shared_logs();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("linear");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(root())
+        .args(["run", "designs/nanobench_paper_linear.design", "--data"])
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    crate::common::assert_ok(&o);
+    let read = |p: std::path::PathBuf| std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let committed = root().join("results/nanobench_paper_linear");
+    assert_eq!(read(out.join("cells.csv")), read(committed.join("cells.csv")), "cells.csv differs from the committed run");
+    // The paper's split: the same audit and the same evaluation recordings as its MLP run.
+    let paper = root().join("results/nanobench_paper");
+    assert_eq!(read(out.join("audit/recordings.csv")), read(paper.join("audit/recordings.csv")));
+    let recordings = |cells: String| {
+        let mut r: Vec<String> = cells.lines().skip(1).map(|l| l.split(',').nth(3).unwrap().to_string()).collect();
+        r.sort();
+        r.dedup();
+        r
+    };
+    let linear = recordings(read(out.join("cells.csv")));
+    assert_eq!(linear.len(), 24, "the paper's 26 evaluation recordings less the 2 without a CSV");
+    assert_eq!(linear, recordings(read(paper.join("cells.csv"))));
+    // A closed-form fit: every seed gives the same cells.
+    let cells = read(out.join("cells.csv"));
+    let rows_of = |seed: &str| -> Vec<String> {
+        cells
+            .lines()
+            .filter(|l| l.split(',').nth(2) == Some(seed))
+            .map(|l| l.split(',').enumerate().filter(|(k, _)| *k != 2).map(|(_, f)| f).collect::<Vec<_>>().join(","))
+            .collect()
+    };
+    assert_eq!(rows_of("100"), rows_of("119"));
+}

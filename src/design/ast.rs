@@ -224,6 +224,8 @@ pub enum ArmBody {
 pub enum ModelKind {
     Mlp { widths: Vec<Int>, inputs: Spanned<String>, actions: Option<Ident> },
     External { inputs: Spanned<String>, actions: Option<Ident>, history: Option<Int> },
+    /// `ridge`: `None` for auto.
+    Linear { inputs: Spanned<String>, actions: Option<Ident>, ridge: Option<Number> },
     Baseline(Spanned<String>),
 }
 

@@ -375,6 +375,16 @@ pub enum ModelKind {
         /// (0: none).
         history: usize,
     },
+    /// Ridge regression on the MLP's standardized inputs and target, in
+    /// closed form (`model::linear`).
+    Linear {
+        /// The input map.
+        inputs: InputMap,
+        /// How the actions enter.
+        actions: ActionScaling,
+        /// The penalty; `None`: chosen on the validation windows.
+        ridge: Option<f64>,
+    },
     /// Predicts no change.
     Persistence,
     /// Integrates the current velocity.
@@ -394,7 +404,13 @@ pub fn mlp_supported(widths: &[usize]) -> bool {
 impl ModelKind {
     /// Whether the model has parameters to fit (one training job per arm x seed).
     pub fn trains(&self) -> bool {
-        matches!(self, ModelKind::Mlp { .. } | ModelKind::External { .. })
+        matches!(self, ModelKind::Mlp { .. } | ModelKind::External { .. } | ModelKind::Linear { .. })
+    }
+
+    /// Whether the model is trained by epochs (an MLP): it has a training
+    /// curve and weights in safetensors.
+    pub fn has_curve(&self) -> bool {
+        matches!(self, ModelKind::Mlp { .. })
     }
 
     /// Whether the model is fitted outside crossaudit (`external`).

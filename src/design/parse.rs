@@ -464,6 +464,24 @@ fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
         }
         return Ok(ModelKind::External { inputs, actions, history });
     }
+    if kind.as_rule() == Rule::linear {
+        let mut c = kids(kind);
+        let inputs = c.next();
+        let inputs = Spanned::new(inputs.as_str().to_string(), span_of(&inputs));
+        let (mut actions, mut ridge) = (None, None);
+        for p in c.0 {
+            match p.as_rule() {
+                Rule::model_actions => actions = Some(ident(kids(p).next())),
+                _ => {
+                    let value = kids(p).next();
+                    if value.as_rule() == Rule::number {
+                        ridge = Some(number(value)?);
+                    }
+                }
+            }
+        }
+        return Ok(ModelKind::Linear { inputs, actions, ridge });
+    }
     if kind.as_rule() != Rule::mlp {
         return Ok(ModelKind::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind))));
     }

@@ -1,5 +1,6 @@
 //! Stage: dynamics models. Standardizers and the world / relative input
-//! maps, the dfdx MLP and its training, and parameter-free baselines, all
+//! maps, the dfdx MLP and its training, a ridge regression fitted in
+//! closed form (`linear`), and parameter-free baselines, all
 //! behind one [`Dynamics`] trait that the rollout stage drives.
 //!
 //! Architecture Invariant: `model` imports only `design`, `stats` and `io`;
@@ -9,10 +10,12 @@ pub mod baseline;
 pub mod features;
 pub mod fused;
 mod kernel;
+pub mod linear;
 pub mod net;
 mod standardize;
 
 pub use features::{Action, FeatureMap, State, ACTION, EXOGENOUS, INPUT, STATE};
+pub use linear::{Linear, LinearError};
 pub use net::{train, train_with, Engine, EpochLog, Learned, Net, NetError};
 pub use standardize::Standardizer;
 

@@ -40,7 +40,7 @@ struct CurvePoint {
 /// The validation-loss curve of every fitted job, in file-name order.
 pub(super) fn read_curves(plan: &Plan, out: &Path) -> Result<Vec<Curve>, RunError> {
     // External models' training happened elsewhere: no curve.
-    let mut jobs: Vec<&TrainingJob> = plan.jobs.iter().filter(|j| j.trains() && !j.kind.is_external()).collect();
+    let mut jobs: Vec<&TrainingJob> = plan.jobs.iter().filter(|j| j.kind.has_curve()).collect();
     jobs.sort_by_key(|j| j.stem());
     let mut curves = Vec::new();
     for j in jobs {

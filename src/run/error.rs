@@ -261,6 +261,14 @@ pub enum RunError {
     /// Training or saving a network failed.
     #[error(transparent)]
     Net(#[from] crate::model::NetError),
+    /// A linear model could not be fitted.
+    #[error("model `{model}`: {source}")]
+    Linear {
+        /// The model.
+        model: String,
+        /// Why.
+        source: crate::model::LinearError,
+    },
     /// A per-cell file could not be written or read back.
     #[error(transparent)]
     Cells(#[from] CellsError),

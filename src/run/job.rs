@@ -13,7 +13,7 @@ use crate::data::Recording;
 use crate::design::{ActionScaling, InputMap, ModelKind, TargetKind};
 use crate::io::{create_dir_all, f64_text, write_atomic};
 use crate::model::baseline::{ConstantVelocity, Persistence};
-use crate::model::{net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
+use crate::model::{linear, net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
 use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
 use crate::split::{JobManifests, Prepared, Window};
@@ -178,6 +178,27 @@ pub fn run_job_with(
             one_step.push((job.model.clone(), e));
             standardizers = Some(features);
             (cells, epochs, Some(best), train_seconds, secs)
+        }
+        ModelKind::Linear { inputs, actions, ridge } => {
+            let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
+            let features = FeatureMap::fit(*inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
+            let t0 = std::time::Instant::now();
+            let mut model = linear::fit(features.clone(), &bench.fit, &bench.validation, *ridge)
+                .map_err(|source| RunError::Linear { model: job.model.clone(), source })?;
+            let meta = serde_json::json!({
+                "model": job.model, "arm": job.arm, "seed": job.seed.0, "kind": "linear",
+                "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "linear": &model,
+            });
+            create_dir_all(&out.join("models"))?;
+            let name = format!("models/{stem}.json");
+            write_atomic(&out.join(&name), serde_json::to_string_pretty(&meta).unwrap_or_default().as_bytes())?;
+            files.push(name);
+            let train_seconds = t0.elapsed().as_secs_f64();
+            let best = model.validation.iter().find(|(l, _)| *l == model.lambda).map(|(_, v)| *v);
+            let (e, cells, secs) = bench.score(&job.model, &mut model);
+            one_step.push((job.model.clone(), e));
+            standardizers = Some(features);
+            (cells, Vec::new(), best, train_seconds, secs)
         }
         ModelKind::External { .. } => {
             return Err(RunError::ExternalModels { models: job.model.clone() });

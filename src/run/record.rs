@@ -203,13 +203,15 @@ impl JobRecord {
     }
 
     /// The files a finished `job` writes (relative to the run directory):
-    /// always its per-cell rows; a fitted model's weights, their metadata
-    /// and its training curve too.
+    /// always its per-cell rows; an MLP's weights, their metadata and its
+    /// training curve too; a linear model's weights (one JSON file).
     pub fn expected_files(job: &TrainingJob) -> Vec<String> {
         let stem = job.stem();
         let mut files = vec![format!("cells/{stem}.csv")];
         if job.kind.is_external() {
             files.extend([format!("predictions/{stem}.json"), format!("predictions/{stem}.npy")]);
+        } else if job.trains() && !job.kind.has_curve() {
+            files.push(format!("models/{stem}.json"));
         } else if job.trains() {
             files.extend([
                 format!("curves/{stem}.csv"),

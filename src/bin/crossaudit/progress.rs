@@ -133,6 +133,8 @@ impl RunObserver for RunProgress {
         self.overall.inc(1);
         self.workers[w].set_message("idle");
         let val = o.best_val_loss.map(|v| format!("best val {v:.5}, ")).unwrap_or_default();
+        // A closed-form fit has no epochs.
+        let epochs = if j.kind.has_curve() { format!("{} epochs, ", o.epochs.len()) } else { "closed form, ".to_string() };
         let fa: Vec<String> = o
             .mean_fa_rmse
             .iter()
@@ -140,11 +142,10 @@ impl RunObserver for RunProgress {
             .map(|(_, h, v)| format!("{h} s {v:.4} m"))
             .collect();
         self.say(format!(
-            "done {} ({}/{}) in {secs:.1} s: {} epochs, {val}mean FA RMSE {}",
+            "done {} ({}/{}) in {secs:.1} s: {epochs}{val}mean FA RMSE {}",
             j.label(),
             self.overall.position(),
             self.overall.length().unwrap_or(0),
-            o.epochs.len(),
             fa.join(", ")
         ));
     }

@@ -163,6 +163,17 @@ impl Validator {
                     let history = history.as_ref().map(|h| self.count(h, "a history length", 1, 1000)).unwrap_or(0);
                     crate::design::ModelKind::External { inputs, actions, history }
                 }
+                ast::ModelKind::Linear { inputs, actions: own, ridge } => {
+                    let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
+                    let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
+                    let ridge = ridge.as_ref().map(|r| {
+                        if !(r.node >= 0.0 && r.node.is_finite()) {
+                            self.err("invalid penalty", r.span, format!("a ridge penalty is a finite number >= 0, found {}", r.node));
+                        }
+                        r.node
+                    });
+                    crate::design::ModelKind::Linear { inputs, actions, ridge }
+                }
                 ast::ModelKind::Baseline(b) => {
                     if b.node == "persistence" {
                         crate::design::ModelKind::Persistence
