@@ -75,30 +75,7 @@ fn the_mlps_own_rollouts_as_predictions_score_to_the_quickstarts_cells_byte_for_
     let plan = crossaudit::compile(&file.design);
     let prepared = crossaudit::split::rebuild(&file, &plan, &a.join("simulated_data"), &a).unwrap();
     for job in &idx.jobs {
-        let stem = job.stem();
-        let net = Net::load(&[64, 64, 64], &a.join(format!("models/{stem}.safetensors"))).unwrap();
-        let meta: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(a.join(format!("models/{stem}.json"))).unwrap()).unwrap();
-        let features: crossaudit::model::FeatureMap = serde_json::from_value(meta["features"].clone()).unwrap();
-        assert_eq!(features, job.standardizers, "{stem}: the export's standardizers are the MLP's");
-        let [s, k, _] = job.shape;
-        let mut data = vec![0.0; s * k * STATE];
-        let mut keep = |step: usize, states: &[State]| {
-            for (i, x) in states.iter().enumerate() {
-                let off = (i * k + step - 1) * STATE;
-                data[off..off + STATE].copy_from_slice(x);
-            }
-        };
-        let starts = &prepared.split.starts;
-        crossaudit::rollout::trajectories(
-            &mut Learned::new(&net, &features),
-            &prepared.recordings,
-            starts,
-            k,
-            &mut keep,
-            &[],
-        );
-        write_predictions(&b, job, &sha, &data);
+        write_predictions(&b, job, &sha, &mlp_rollouts(&a, job, &prepared, &[64, 64, 64]));
     }
     let o = crossaudit(&["score", b.to_str().unwrap()]);
     assert_ok(&o);
@@ -124,6 +101,88 @@ fn the_mlps_own_rollouts_as_predictions_score_to_the_quickstarts_cells_byte_for_
     bytes[n - 3] ^= 1;
     std::fs::write(&p, bytes).unwrap();
     assert_fails_with(&crossaudit(&["score", b.to_str().unwrap()]), &[&idx.jobs[3].predictions, "sha256"]);
+}
+
+/// The rollouts of the built-in MLP that `run` trained into `run_dir` for
+/// `job`, every step's states kept: what an external model's predictions
+/// hold (starts x steps x 14, row-major).
+fn mlp_rollouts(
+    run_dir: &Path,
+    job: &crossaudit::run::external::ExportJob,
+    prepared: &crossaudit::split::Prepared,
+    widths: &[usize],
+) -> Vec<f64> {
+    let stem = job.stem();
+    let net = Net::load(widths, &run_dir.join(format!("models/{stem}.safetensors"))).unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(run_dir.join(format!("models/{stem}.json"))).unwrap()).unwrap();
+    let features: crossaudit::model::FeatureMap = serde_json::from_value(meta["features"].clone()).unwrap();
+    assert_eq!(features, job.standardizers, "{stem}: the export's standardizers are the MLP's");
+    let [s, k, _] = job.shape;
+    let mut data = vec![0.0; s * k * STATE];
+    let mut keep = |step: usize, states: &[State]| {
+        for (i, x) in states.iter().enumerate() {
+            let off = (i * k + step - 1) * STATE;
+            data[off..off + STATE].copy_from_slice(x);
+        }
+    };
+    let mut model = Learned::new(&net, &features);
+    crossaudit::rollout::trajectories(&mut model, &prepared.recordings, &prepared.split.starts, k, &mut keep, &[]);
+    data
+}
+
+#[test]
+fn a_multiverse_with_an_external_model_is_exported_per_level_and_scores_to_the_built_in_cells() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (a, b) = (tmp.path().join("builtin"), tmp.path().join("external"));
+    assert_ok(&crossaudit(&["run", "tests/designs/sim_multiverse.design", "--exploratory", "--out", a.to_str().unwrap()]));
+    let o = crossaudit(&["export", "tests/designs/sim_multiverse_external.design", "--exploratory", "--out", b.to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(stderr(&o).contains("2 levels, each exported to"), "{}", stderr(&o));
+    let listed: serde_json::Value = serde_json::from_slice(&std::fs::read(b.join("export/levels.json")).unwrap()).unwrap();
+    let levels: Vec<String> = listed["levels"].as_array().unwrap().iter().map(|l| l["level"].as_str().unwrap().into()).collect();
+    assert_eq!(levels.len(), 2, "one export per specification: {listed}");
+
+    // Each level's split, rebuilt by the library, and the MLPs `run` trained there.
+    let file = crossaudit::design::load(&root().join("tests/designs/sim_multiverse.design")).unwrap();
+    let plan = crossaudit::compile(&file.design);
+    let (all, _) = crossaudit::run::outer::study_levels(&file.design, &plan).unwrap();
+    for id in &levels {
+        let level = all.iter().find(|l| l.id == *id).unwrap();
+        let level_file = crossaudit::design::DesignFile { design: level.design.clone(), ..file.clone() };
+        let level_plan = crossaudit::run::outer::level_plan(level, &plan);
+        let prepared = crossaudit::split::rebuild(&level_file, &level_plan, &a.join("simulated_data"), &a.join(id)).unwrap();
+        let (idx, sha) = index(&b.join(id));
+        assert_eq!(idx.jobs.len(), 4, "world x 2 arms x 2 seeds");
+        for job in &idx.jobs {
+            write_predictions(&b.join(id), job, &sha, &mlp_rollouts(&a.join(id), job, &prepared, &[32, 32, 32]));
+        }
+    }
+    // One level's predictions missing: named, by level, and nothing runs.
+    let held = b.join(&levels[1]).join("predictions");
+    std::fs::rename(&held, tmp.path().join("held")).unwrap();
+    let e = assert_fails_with(&crossaudit(&["score", b.to_str().unwrap()]), &["4 of 8", &format!("{}/world/", levels[1])]);
+    assert!(!b.join("multiverse_cells.csv").exists(), "{e}");
+    std::fs::rename(tmp.path().join("held"), &held).unwrap();
+    let o = crossaudit(&["score", b.to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(stderr(&o).contains("4 external jobs scored now, 4 before"), "{}", stderr(&o));
+    for id in &levels {
+        let (x, y) = (files_under(&a.join(id).join("cells")), files_under(&b.join(id).join("cells")));
+        assert_eq!(x.len(), 8, "world and relative x 2 arms x 2 seeds");
+        assert_eq!(x, y, "{id}: per-cell files differ between run and score");
+        let report = std::fs::read_to_string(b.join(id).join("report/report.md")).unwrap();
+        assert!(report.contains("fitted outside crossaudit"), "{id}: the level's report says so");
+    }
+    assert_eq!(
+        std::fs::read(a.join("multiverse_cells.csv")).unwrap(),
+        std::fs::read(b.join("multiverse_cells.csv")).unwrap(),
+        "the combined cells"
+    );
+    let combined = std::fs::read_to_string(b.join("report/report.md")).unwrap();
+    assert!(combined.contains("fitted outside crossaudit"), "{combined}");
+    // A level's folder alone is refused: the study is scored whole.
+    assert_fails_with(&crossaudit(&["score", b.join(&levels[0]).to_str().unwrap()]), &["score the study's folder"]);
 }
 
 /// A fresh export of the small external design into `dir`.

@@ -20,11 +20,22 @@ pub(crate) fn export(design: &Path, data: Option<PathBuf>, out: &Path, explorato
         o.bytes as f64 / 1e6,
         o.dir.display()
     );
-    note!(
-        "fit each job on its arm's windows, write its rollouts to {}/predictions/MODEL__ARM__SEED.npy with a .json description, then run: crossaudit score {}",
-        out.display(),
-        out.display()
-    );
+    if o.levels > 0 {
+        note!(
+            "{} levels, each exported to {}/LEVEL/export (listed in {}/levels.json): fit each level's jobs on that level's windows, write their rollouts to {}/LEVEL/predictions/MODEL__ARM__SEED.npy with a .json description, then run: crossaudit score {}",
+            o.levels,
+            out.display(),
+            o.dir.display(),
+            out.display(),
+            out.display()
+        );
+    } else {
+        note!(
+            "fit each job on its arm's windows, write its rollouts to {}/predictions/MODEL__ARM__SEED.npy with a .json description, then run: crossaudit score {}",
+            out.display(),
+            out.display()
+        );
+    }
     if crossaudit::design::lock::status(&file)? == crossaudit::design::LockStatus::Unlocked {
         note!(
             "warning: {} is not locked, so the scores will be NOT PREREGISTERED; lock it (`crossaudit lock {}`) and export again before fitting to preregister them",

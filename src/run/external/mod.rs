@@ -24,6 +24,7 @@
 //! ([`crate::rollout::replay`]), then runs the built-in models and writes
 //! cells.csv, the analysis and the report as `run` does.
 
+mod levels;
 pub mod npy;
 pub mod score;
 
@@ -151,6 +152,10 @@ pub struct ExportSource {
     pub data_dir: PathBuf,
     /// Where the logs came from, as run.json says.
     pub data: DataOrigin,
+    /// In a study with outer levels (choices, draws, splits): the level
+    /// this folder holds, by its folder name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
 }
 
 /// An export built in memory: file name (relative to `DIR/export`) and
@@ -176,21 +181,14 @@ pub fn external_jobs(plan: &Plan) -> Vec<&TrainingJob> {
     plan.jobs.iter().filter(|j| j.kind.is_external()).collect()
 }
 
-/// Refuses a design `export` cannot serve: no external model, or outer
-/// factors (choices, draws, splits).
-pub fn check_exportable(file: &DesignFile, plan: &Plan) -> Result<(), RunError> {
+/// Refuses a design `export` cannot serve: one without an external model.
+/// A design with outer levels (choices, draws, splits) is exported level
+/// by level (`levels`).
+pub fn check_exportable(_file: &DesignFile, plan: &Plan) -> Result<(), RunError> {
     if external_jobs(plan).is_empty() {
         return Err(RunError::NoExternalModels);
     }
-    match super::outer::study_levels(&file.design, plan) {
-        Some(_) if !plan.splits.is_empty() => {
-            Err(RunError::ExportOuter { what: format!("{} splits", plan.splits.len()) })
-        }
-        Some((levels, _)) => {
-            Err(RunError::ExportOuter { what: format!("{} levels (specifications or draws)", levels.len()) })
-        }
-        None => Ok(()),
-    }
+    Ok(())
 }
 
 /// The names of the design's external models, for refusals.
@@ -210,6 +208,8 @@ pub struct ExportOutcome {
     pub jobs: usize,
     /// Bytes written.
     pub bytes: u64,
+    /// Outer levels exported, each in `OUT/LEVEL/export` (0: a single run).
+    pub levels: usize,
 }
 
 /// `crossaudit export DESIGN [--data DIR] --out OUT` as the command line and
@@ -243,8 +243,24 @@ pub fn export(
     exploratory: bool,
 ) -> Result<ExportOutcome, RunError> {
     check_exportable(file, plan)?;
+    if let Some((levels, _)) = super::outer::study_levels(&file.design, plan) {
+        return levels::export_levels(file, plan, &levels, data, out, exploratory);
+    }
     let opened = open(file, plan, data, out, exploratory, None)?;
-    let built = build(&file.sha256, plan, &opened.prepared)?;
+    write_export(file, plan, &opened.prepared, data, out, None)
+}
+
+/// Writes `out/export/` for the prepared split of `plan` (one level's, in
+/// a study with outer levels: `level` names it in `source.json`).
+fn write_export(
+    file: &DesignFile,
+    plan: &Plan,
+    prepared: &Prepared,
+    data: &Data,
+    out: &Path,
+    level: Option<&str>,
+) -> Result<ExportOutcome, RunError> {
+    let built = build(&file.sha256, plan, prepared)?;
     let dir = out.join(EXPORT_DIR);
     create_dir_all(&dir)?;
     let mut bytes = 0u64;
@@ -266,12 +282,13 @@ pub fn export(
         design_file: absolute(&file.path)?,
         data_dir: absolute(&data.dir)?,
         data: data.origin.clone(),
+        level: level.map(String::from),
     };
     write_atomic(&dir.join("design.design"), &design_bytes)?;
     write_atomic(&dir.join("source.json"), pretty_json(&source).as_bytes())?;
     write_atomic(&dir.join("export.json"), &built.index_bytes)?;
     bytes += built.index_bytes.len() as u64;
-    Ok(ExportOutcome { dir, sha256: built.sha256(), jobs: built.index.jobs.len(), bytes })
+    Ok(ExportOutcome { dir, sha256: built.sha256(), jobs: built.index.jobs.len(), bytes, levels: 0 })
 }
 
 /// The export of `plan`'s external jobs on the prepared split, in memory.

@@ -57,13 +57,55 @@ pub struct ScoreOutcome {
 /// The run directory `dir` reopened from its export: the design copy, the
 /// plan, the prepared split rebuilt from the recorded data, and the export
 /// rebuilt in memory.
-struct Reopened {
-    source: ExportSource,
-    file: DesignFile,
-    plan: Plan,
-    run: RunRecord,
+pub(super) struct Reopened {
+    pub(super) source: ExportSource,
+    pub(super) file: DesignFile,
+    pub(super) plan: Plan,
+    pub(super) run: RunRecord,
     prepared: Prepared,
-    built: Built,
+    pub(super) built: Built,
+}
+
+/// What the predictions of one run directory gave: jobs scored now and
+/// before, trajectories with a non-finite state, and the predictions
+/// refused or missing (each a line naming the job and why).
+#[derive(Default)]
+pub(super) struct Predictions {
+    pub(super) scored: usize,
+    pub(super) resumed: usize,
+    pub(super) non_finite: Vec<(String, usize, usize)>,
+    pub(super) refused: Vec<String>,
+    pub(super) missing: Vec<String>,
+    pub(super) jobs: usize,
+}
+
+impl Predictions {
+    /// The refusal when any prediction was refused or is missing.
+    pub(super) fn check(&self, dir: &Path) -> Result<(), RunError> {
+        let (refused, missing) = (&self.refused, &self.missing);
+        if !refused.is_empty() {
+            let summary = if missing.is_empty() { String::new() } else { format!(", and {} have none", missing.len()) };
+            let mut list = refused.clone();
+            list.extend(missing.iter().map(|m| format!("{m}: no predictions")));
+            return Err(RunError::PredictionsRefused {
+                refused: refused.len(),
+                jobs: self.jobs,
+                scored: self.scored + self.resumed,
+                summary,
+                list: list.join("\n"),
+            });
+        }
+        if !missing.is_empty() {
+            return Err(RunError::PredictionsMissing {
+                dir: dir.display().to_string(),
+                missing: missing.len(),
+                jobs: self.jobs,
+                scored: self.scored + self.resumed,
+                list: missing.join("\n"),
+            });
+        }
+        Ok(())
+    }
 }
 
 /// Scores the predictions in `dir/predictions`, runs the design's
@@ -79,7 +121,16 @@ pub fn score(
 ) -> Result<ScoreOutcome, RunError> {
     let started = std::time::Instant::now();
     crate::run::check_workers(workers)?;
+    if dir.join(EXPORT_DIR).join(super::levels::LEVELS_FILE).is_file() {
+        return super::levels::score_levels(dir, workers, observer, say, started);
+    }
     let r = reopen(dir)?;
+    if let Some(level) = &r.source.level {
+        return Err(not_exported(
+            dir,
+            format!("it holds level {level} of a study with outer levels: score the study's folder, {}", dir.parent().unwrap_or(dir).display()),
+        ));
+    }
     let status = lock::status(&r.file)?;
     if status.changed() && !r.run.exploratory {
         return Err(RunError::LockChanged { path: r.source.design_path.clone(), reason: status.reason() });
@@ -87,9 +138,56 @@ pub fn score(
     let _folder = crate::run::lock_folder(dir, false)?;
     check_export(dir, &r.built)?;
     let export_sha = r.built.sha256();
+    let p = score_predictions(dir, &r, say)?;
+    p.check(dir)?;
+    let Predictions { scored, resumed, non_finite, .. } = p;
+
+    // The built-in models, trained and rolled out as `run` does.
+    let (todo, builds) = crate::run::pending(&r.plan, dir, &r.file.sha256)?;
+    let todo: std::collections::VecDeque<TrainingJob> = todo.into_iter().filter(|j| !j.kind.is_external()).collect();
+    observer.start(r.plan.jobs.len(), r.plan.jobs.len() - todo.len());
+    let trained = todo.len();
+    crate::run::grid::run_grid(&r.file.sha256, &r.plan, &r.prepared, dir, todo, workers, observer)?;
+
+    let mut warnings = vec![external_warning(&r.plan, &export_sha)];
+    for (label, n, of) in &non_finite {
+        warnings.push(non_finite_warning(label, *n, *of));
+    }
+    let exploratory = r.run.exploratory || status.changed();
+    let opened = Opened { status, exploratory, prepared: r.prepared, record: r.run, warnings };
+    let mut outcome = crate::run::finish(&r.source.design_path, &r.plan, &opened, dir, builds)?;
+    outcome.trained = trained;
+    outcome.skipped = r.plan.jobs.len() - trained;
+    outcome.seconds = started.elapsed().as_secs_f64();
+    Ok(ScoreOutcome { run: outcome, scored, resumed, non_finite })
+}
+
+/// The report's note on where the external models' rollouts came from.
+pub(super) fn external_warning(plan: &Plan, export_sha: &str) -> String {
+    format!(
+        "models {} were fitted outside crossaudit; their rollouts were read from {PREDICTIONS_DIR}/ (made from export sha256 {export_sha}) and scored with the built-in rollouts' code",
+        super::external_names(plan).unwrap_or_default()
+    )
+}
+
+/// The report's note on an external job's non-finite trajectories.
+pub(super) fn non_finite_warning(label: &str, n: usize, of: usize) -> String {
+    format!(
+        "external job {label}: {n} of {of} predicted trajectories have a non-finite state; each is divergent from its first non-finite step (counted in n_divergent)"
+    )
+}
+
+/// Scores every present predictions file of the reopened directory `dir`
+/// that no earlier `score` scored (those are verified); names each refused
+/// and each missing one (the caller refuses then: [`Predictions::check`]).
+pub(super) fn score_predictions(
+    dir: &Path,
+    r: &Reopened,
+    say: &mut dyn FnMut(&str),
+) -> Result<Predictions, RunError> {
+    let export_sha = r.built.sha256();
     let index = &r.built.index;
     check_prediction_names(dir, index)?;
-
     let jobs: Vec<&TrainingJob> = external_jobs(&r.plan);
     let (mut scored, mut resumed, mut missing) = (0, 0, Vec::new());
     let mut non_finite = Vec::new();
@@ -130,58 +228,14 @@ pub fn score(
             non_finite.push((job.label(), counted, ej.shape[0]));
         }
     }
-    if !refused.is_empty() {
-        let summary = if missing.is_empty() { String::new() } else { format!(", and {} have none", missing.len()) };
-        let mut list = refused.clone();
-        list.extend(missing.iter().map(|m| format!("{m}: no predictions")));
-        return Err(RunError::PredictionsRefused {
-            refused: refused.len(),
-            jobs: jobs.len(),
-            scored: scored + resumed,
-            summary,
-            list: list.join("\n"),
-        });
-    }
-    if !missing.is_empty() {
-        return Err(RunError::PredictionsMissing {
-            dir: dir.display().to_string(),
-            missing: missing.len(),
-            jobs: jobs.len(),
-            scored: scored + resumed,
-            list: missing.join("\n"),
-        });
-    }
-
-    // The built-in models, trained and rolled out as `run` does.
-    let (todo, builds) = crate::run::pending(&r.plan, dir, &r.file.sha256)?;
-    let todo: std::collections::VecDeque<TrainingJob> = todo.into_iter().filter(|j| !j.kind.is_external()).collect();
-    observer.start(r.plan.jobs.len(), r.plan.jobs.len() - todo.len());
-    let trained = todo.len();
-    crate::run::grid::run_grid(&r.file.sha256, &r.plan, &r.prepared, dir, todo, workers, observer)?;
-
-    let mut warnings = vec![format!(
-        "models {} were fitted outside crossaudit; their rollouts were read from {PREDICTIONS_DIR}/ (made from export sha256 {export_sha}) and scored with the built-in rollouts' code",
-        super::external_names(&r.plan).unwrap_or_default()
-    )];
-    for (label, n, of) in &non_finite {
-        warnings.push(format!(
-            "external job {label}: {n} of {of} predicted trajectories have a non-finite state; each is divergent from its first non-finite step (counted in n_divergent)"
-        ));
-    }
-    let exploratory = r.run.exploratory || status.changed();
-    let opened = Opened { status, exploratory, prepared: r.prepared, record: r.run, warnings };
-    let mut outcome = crate::run::finish(&r.source.design_path, &r.plan, &opened, dir, builds)?;
-    outcome.trained = trained;
-    outcome.skipped = r.plan.jobs.len() - trained;
-    outcome.seconds = started.elapsed().as_secs_f64();
-    Ok(ScoreOutcome { run: outcome, scored, resumed, non_finite })
+    Ok(Predictions { scored, resumed, non_finite, refused, missing, jobs: jobs.len() })
 }
 
 fn not_exported(dir: &Path, reason: String) -> RunError {
     RunError::NotExported { dir: dir.display().to_string(), reason }
 }
 
-fn reopen(dir: &Path) -> Result<Reopened, RunError> {
+pub(super) fn reopen(dir: &Path) -> Result<Reopened, RunError> {
     let export = dir.join(EXPORT_DIR);
     if !export.is_dir() {
         let what = if dir.join("run.json").is_file() {
@@ -201,6 +255,24 @@ fn reopen(dir: &Path) -> Result<Reopened, RunError> {
     let copy = export.join("design.design");
     let file = design::load_copy(&copy, &source.design_file).map_err(|e| not_exported(dir, e.to_string()))?;
     let plan = crate::plan::compile(&file.design);
+    let outer = crate::run::outer::study_levels(&file.design, &plan);
+    let (file, plan) = match (&source.level, outer) {
+        (None, None) => (file, plan),
+        (Some(id), Some((levels, _))) => {
+            let level = levels
+                .iter()
+                .find(|l| l.id == *id && l.shares.is_none())
+                .ok_or_else(|| not_exported(dir, format!("{} names level {id}, which the design has not", source_path.display())))?;
+            let plan = crate::run::outer::level_plan(level, &plan);
+            (DesignFile { design: level.design.clone(), ..file }, plan)
+        }
+        (None, Some(_)) => {
+            return Err(not_exported(dir, "the design has outer levels: score the study's folder, which holds one folder per level".into()))
+        }
+        (Some(id), None) => {
+            return Err(not_exported(dir, format!("{} names level {id}, but the design has no outer levels", source_path.display())))
+        }
+    };
     super::check_exportable(&file, &plan)?;
     let run_json = dir.join("run.json");
     let run = RunRecord::read(dir)?.ok_or_else(|| not_exported(dir, format!("{} is missing", run_json.display())))?;
@@ -217,7 +289,7 @@ fn reopen(dir: &Path) -> Result<Reopened, RunError> {
 
 /// Refuses an export directory that is not exactly `built`: a missing,
 /// changed or extra file is named.
-fn check_export(dir: &Path, built: &Built) -> Result<(), RunError> {
+pub(super) fn check_export(dir: &Path, built: &Built) -> Result<(), RunError> {
     let export = dir.join(EXPORT_DIR);
     let mut expected: Vec<(&str, &[u8])> = built.files.iter().map(|(n, b)| (n.as_str(), b.as_slice())).collect();
     expected.push(("export.json", &built.index_bytes));

@@ -152,7 +152,7 @@ pub fn study_levels(design: &Design, plan: &Plan) -> Option<(Vec<Level>, Role)> 
 }
 
 /// The plan a level runs: a split's is the study plan's jobs of that split.
-pub(super) fn level_plan(level: &Level, study: &Plan) -> Plan {
+pub fn level_plan(level: &Level, study: &Plan) -> Plan {
     match level.split {
         Some(s) => study.for_split(s),
         None => crate::plan::compile(&level.design),
@@ -204,9 +204,30 @@ pub fn render_levels(design: &Design, levels: &[Level]) -> String {
     s
 }
 
+/// What `score` says of each level's external models (by level folder),
+/// for that level's report.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ExternalNotes(pub Vec<(String, Vec<String>)>);
+
 /// Runs (or resumes) every level, then combines them by their role.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run_levels(
+    file: &DesignFile,
+    study: &Plan,
+    levels: (Vec<Level>, Role),
+    data: &Data,
+    out: &Path,
+    options: RunOptions,
+    observer: &dyn RunObserver,
+    started: Instant,
+) -> Result<RunOutcome, RunError> {
+    run_levels_with(file, study, levels, data, out, options, observer, started, &ExternalNotes::default())
+}
+
+/// As [`run_levels`], after `score` scored the external models' jobs of
+/// every level: their notes go into each level's report and the combined one.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run_levels_with(
     file: &DesignFile,
     study: &Plan,
     (levels, role): (Vec<Level>, Role),
@@ -215,6 +236,7 @@ pub(super) fn run_levels(
     options: RunOptions,
     observer: &dyn RunObserver,
     started: Instant,
+    external: &ExternalNotes,
 ) -> Result<RunOutcome, RunError> {
     refuse_single_run(out)?;
     let (mut trained, mut skipped) = (0, 0);
@@ -242,6 +264,10 @@ pub(super) fn run_levels(
     // the job, and whether it is queued (not yet on disk).
     let mut first: std::collections::BTreeMap<String, (usize, TrainingJob, bool)> = Default::default();
     let mut reused: Vec<String> = Vec::new();
+    if let Some((_, notes)) = external.0.first() {
+        // The same models in every level; each level's report names its export.
+        reused.extend(notes.first().map(|n| format!("every level: {}", n.split(" (made from export").next().unwrap_or(n))));
+    }
     for (k, level) in levels.iter().enumerate() {
         if level.shares.is_some() {
             continue;
@@ -255,7 +281,11 @@ pub(super) fn run_levels(
         let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
         let plan = level_plan(level, study);
         let dir = out.join(&level.id);
-        let opened = open(&level_file, &plan, data, &dir, options.exploratory, Some(&level.id)).map_err(in_level)?;
+        let mut opened =
+            open(&level_file, &plan, data, &dir, options.exploratory, Some(&level.id)).map_err(in_level)?;
+        if let Some((_, notes)) = external.0.iter().find(|(id, _)| *id == level.id) {
+            opened.warnings.extend(notes.iter().cloned());
+        }
         let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256).map_err(in_level)?;
         let keys: Vec<String> = crate::split::JobManifests::for_plan(&plan, &opened.prepared.manifests)
             .iter()
