@@ -13,6 +13,7 @@ mod design_errors;
 mod designs;
 mod draws;
 mod external;
+mod external_levels;
 mod family;
 mod front_door;
 mod fused;

@@ -134,7 +134,11 @@ impl RunObserver for RunProgress {
         self.workers[w].set_message("idle");
         let val = o.best_val_loss.map(|v| format!("best val {v:.5}, ")).unwrap_or_default();
         // A closed-form fit has no epochs.
-        let epochs = if j.kind.has_curve() { format!("{} epochs, ", o.epochs.len()) } else { "closed form, ".to_string() };
+        let epochs = match &j.kind {
+            k if k.has_curve() => format!("{} epochs, ", o.epochs.len()),
+            k if k.trains() => "closed form, ".to_string(),
+            _ => "parameter-free, ".to_string(),
+        };
         let fa: Vec<String> = o
             .mean_fa_rmse
             .iter()
