@@ -31,13 +31,13 @@ fn assert_fails_with(o: &Output, needles: &[&str]) -> String {
     e
 }
 
-fn index(dir: &Path) -> (ExportIndex, String) {
+pub(crate) fn index(dir: &Path) -> (ExportIndex, String) {
     let bytes = std::fs::read(dir.join("export/export.json")).unwrap();
     (serde_json::from_slice(&bytes).unwrap(), crossaudit::io::sha256_hex(&bytes))
 }
 
 /// Writes `predictions/STEM.npy` (starts x steps x 14, row-major) and its description.
-fn write_predictions(dir: &Path, job: &crossaudit::run::external::ExportJob, sha: &str, data: &[f64]) {
+pub(crate) fn write_predictions(dir: &Path, job: &crossaudit::run::external::ExportJob, sha: &str, data: &[f64]) {
     std::fs::create_dir_all(dir.join("predictions")).unwrap();
     std::fs::write(dir.join(&job.predictions), npy::write(&job.shape, data).unwrap()).unwrap();
     let d = serde_json::json!({"export_sha256": sha, "model": job.model, "arm": job.arm, "seed": job.seed});
@@ -186,7 +186,7 @@ fn a_multiverse_with_an_external_model_is_exported_per_level_and_scores_to_the_b
 }
 
 /// A fresh export of the small external design into `dir`.
-fn export_small(dir: &Path) -> (ExportIndex, String) {
+pub(crate) fn export_small(dir: &Path) -> (ExportIndex, String) {
     let o = crossaudit(&["export", "tests/designs/sim_external.design", "--out", dir.to_str().unwrap()]);
     assert_ok(&o);
     // The design is not locked: export says so before any model is fitted.
@@ -198,7 +198,7 @@ fn export_small(dir: &Path) -> (ExportIndex, String) {
 /// every rollout is) as an external model's predictions; on the
 /// contaminated arm, positions offset by 1 cm per seed times the start's
 /// index modulo 3 (so the arms differ).
-fn persistence(dir: &Path, job: &crossaudit::run::external::ExportJob) -> Vec<f64> {
+pub(crate) fn persistence(dir: &Path, job: &crossaudit::run::external::ExportJob) -> Vec<f64> {
     let file = crossaudit::design::load(&root().join("tests/designs/sim_external.design")).unwrap();
     let plan = crossaudit::compile(&file.design);
     let prepared = crossaudit::split::rebuild(&file, &plan, &dir.join("simulated_data"), dir).unwrap();
@@ -218,7 +218,7 @@ fn persistence(dir: &Path, job: &crossaudit::run::external::ExportJob) -> Vec<f6
     data
 }
 
-fn write_all(dir: &Path, idx: &ExportIndex, sha: &str) {
+pub(crate) fn write_all(dir: &Path, idx: &ExportIndex, sha: &str) {
     for job in &idx.jobs {
         write_predictions(dir, job, sha, &persistence(dir, job));
     }

@@ -25,6 +25,7 @@ mod multiverse;
 mod run;
 mod simulate;
 mod slurm;
+mod slurm_external;
 mod split;
 mod split_audit;
 mod split_numpy;

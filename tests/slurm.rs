@@ -26,7 +26,7 @@ const HOSTILE_STUDY: &str = "x'; rm -rf ~; echo '$(touch pwned) `touch pwned2` $
 /// A directory name built the same way (a double quote is legal in a path).
 const HOSTILE_DIR: &str = "run $(touch pwned) x\"; y'z `touch pwned2`";
 
-fn crossaudit_in(cwd: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+pub(crate) fn crossaudit_in(cwd: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
     c.current_dir(cwd).args(args);
     for (k, v) in env {
@@ -35,7 +35,7 @@ fn crossaudit_in(cwd: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
     c.output().unwrap()
 }
 
-fn text(o: &Output) -> String {
+pub(crate) fn text(o: &Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
 }
 
@@ -141,7 +141,7 @@ fn local_run(cwd: &Path, design: &Path, out: &Path) {
 const SPLITS_DESIGN: &str = "tests/designs/sim_splits_small.design";
 
 /// Runs `DIR/slurm/array.sbatch` with `sh` for one index, as a Slurm task would.
-fn sh_task(cwd: &Path, dir: &Path, index: usize) -> Output {
+pub(crate) fn sh_task(cwd: &Path, dir: &Path, index: usize) -> Output {
     Command::new("sh")
         .current_dir(cwd)
         .arg(dir.join("slurm/array.sbatch"))
@@ -422,7 +422,7 @@ fn slurm_missing() -> Option<String> {
 }
 
 /// A running test cluster, stopped when dropped (also when a test fails).
-struct Cluster {
+pub(crate) struct Cluster {
     conf: String,
 }
 
@@ -445,7 +445,7 @@ impl Cluster {
             .unwrap()
     }
 
-    fn env(&self) -> Vec<(&str, &str)> {
+    pub(crate) fn env(&self) -> Vec<(&str, &str)> {
         vec![("SLURM_CONF", self.conf.as_str())]
     }
 
@@ -460,7 +460,7 @@ impl Cluster {
     }
 
     /// Waits until none of `ids` is queued, at most `limit`.
-    fn wait(&self, ids: &[&str], limit: Duration, dir: &Path) {
+    pub(crate) fn wait(&self, ids: &[&str], limit: Duration, dir: &Path) {
         let t0 = Instant::now();
         while !self.queued(ids).is_empty() {
             if t0.elapsed() > limit {
@@ -477,7 +477,7 @@ impl Drop for Cluster {
     }
 }
 
-fn logs(dir: &Path) -> String {
+pub(crate) fn logs(dir: &Path) -> String {
     let mut s = String::new();
     if let Ok(rd) = std::fs::read_dir(dir.join("slurm/logs")) {
         for e in rd.filter_map(|e| e.ok()) {
@@ -492,7 +492,7 @@ fn logs(dir: &Path) -> String {
 }
 
 /// Takes the cluster, or says why the test is skipped.
-fn cluster(test: &str) -> Option<(std::sync::MutexGuard<'static, ()>, Cluster)> {
+pub(crate) fn cluster(test: &str) -> Option<(std::sync::MutexGuard<'static, ()>, Cluster)> {
     if let Some(why) = slurm_missing() {
         // Straight to the process's stderr: libtest captures eprintln! of a passing test.
         let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
@@ -503,7 +503,7 @@ fn cluster(test: &str) -> Option<(std::sync::MutexGuard<'static, ()>, Cluster)> 
 }
 
 /// The IDs `run --slurm --submit` printed: the array's (if any) and the gather job's.
-fn submitted(o: &Output) -> Vec<String> {
+pub(crate) fn submitted(o: &Output) -> Vec<String> {
     assert_ok(o);
     String::from_utf8_lossy(&o.stdout).split_whitespace().map(str::to_string).collect()
 }

@@ -257,7 +257,11 @@ fn slurm_prepare(
     use crossaudit::run::slurm;
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
-    crossaudit::run::refuse_external(&plan)?;
+    // A design with external models runs on Slurm from the folder its
+    // export and predictions are in (their jobs are scored, the rest queued).
+    if !out.join(crossaudit::run::external::EXPORT_DIR).is_dir() {
+        crossaudit::run::refuse_external(&plan)?;
+    }
     if file.design.per_seed_draws {
         return Err(crossaudit::run::RunError::PerSeedSlurm { design: file.path.display().to_string() }.into());
     }

@@ -149,3 +149,51 @@ pub(super) fn score_levels(
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(ScoreOutcome { run: outcome, scored: all.scored, resumed: all.resumed, non_finite: all.non_finite })
 }
+
+/// Scores the predictions in `out` without running anything else: for
+/// `run --slurm` on a folder that holds an export (a study's levels, or a
+/// single run) and its predictions, before the built-in models' array is
+/// prepared. Every refused or missing prediction is named, by level, and
+/// nothing is prepared then. Returns the external jobs scored now.
+pub fn score_predictions_in(out: &Path, say: &mut dyn FnMut(&str)) -> Result<usize, RunError> {
+    let index = out.join(EXPORT_DIR).join(LEVELS_FILE);
+    let dirs: Vec<(Option<String>, std::path::PathBuf)> = if index.is_file() {
+        let bytes = crate::io::read_own(&index)
+            .map_err(|e| RunError::NotExported { dir: out.display().to_string(), reason: format!("{}: {e}", index.display()) })?;
+        let listed: LevelsIndex = serde_json::from_slice(&bytes)
+            .map_err(|e| RunError::NotExported { dir: out.display().to_string(), reason: format!("{}: {e}", index.display()) })?;
+        listed.levels.iter().map(|l| (Some(l.level.clone()), out.join(&l.level))).collect()
+    } else {
+        vec![(None, out.to_path_buf())]
+    };
+    let mut all = Predictions::default();
+    for (level, dir) in &dirs {
+        let name = level.clone().unwrap_or_default();
+        let in_level = |e: RunError| match level {
+            Some(l) => RunError::InLevel { level: l.clone(), source: Box::new(e) },
+            None => e,
+        };
+        let r = reopen(dir).map_err(in_level)?;
+        super::score::check_export(dir, &r.built).map_err(in_level)?;
+        let prefix = if name.is_empty() { String::new() } else { format!("{name}: ") };
+        let p = score_predictions(dir, &r, &mut |line| say(&format!("{prefix}{line}"))).map_err(in_level)?;
+        let label = |l: &String| if name.is_empty() { l.clone() } else { format!("  {name}/{}", l.trim_start()) };
+        all.refused.extend(p.refused.iter().map(label));
+        all.missing.extend(p.missing.iter().map(label));
+        (all.scored, all.resumed, all.jobs) = (all.scored + p.scored, all.resumed + p.resumed, all.jobs + p.jobs);
+    }
+    all.check(out)?;
+    Ok(all.scored)
+}
+
+/// The reports' notes of a run directory whose external jobs were scored
+/// from `dir/export` (none without an export).
+pub fn notes_for(dir: &Path, plan: &Plan) -> Vec<String> {
+    if external_jobs(plan).is_empty() {
+        return Vec::new();
+    }
+    match crate::io::read_own(&dir.join(EXPORT_DIR).join("export.json")) {
+        Ok(bytes) => vec![external_warning(plan, &sha256_hex(&bytes))],
+        Err(_) => Vec::new(),
+    }
+}

@@ -41,6 +41,7 @@ use crate::model::{Action, FeatureMap, State, ACTION, INPUT, STATE};
 use crate::plan::{Plan, TrainingJob};
 use crate::split::{Prepared, Window};
 
+pub use levels::{notes_for, score_predictions_in, LevelExport, LevelsIndex, LEVELS_FILE};
 pub use score::{score, ScoreOutcome};
 
 /// `DIR/export`: everything the user's code reads.

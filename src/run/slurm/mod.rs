@@ -191,9 +191,16 @@ pub fn prepare(
     options: &SlurmOptions,
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
-    super::refuse_external(plan)?;
     if file.design.per_seed_draws {
         return Err(RunError::PerSeedSlurm { design: file.path.display().to_string() });
+    }
+    // External models' jobs are scored from the folder's predictions here;
+    // only the built-in models' jobs go into the array.
+    if super::external::external_names(plan).is_some() {
+        if !out.join(super::external::EXPORT_DIR).is_dir() {
+            super::refuse_external(plan)?;
+        }
+        super::external::score_predictions_in(out, &mut |_| {})?;
     }
     check_dir(out)?;
     create_dir_all(out)?;
@@ -475,7 +482,8 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
         let exploratory = run.exploratory || lock.changed();
-        let opened = Opened { status: lock.clone(), exploratory, prepared, record: run, warnings: Vec::new() };
+        let warnings = super::external::notes_for(&part.dir, &part.plan);
+        let opened = Opened { status: lock.clone(), exploratory, prepared, record: run, warnings };
         let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
         if let Some(level) = &part.level {
             splits.push((level.clone(), opened.prepared.split.clone()));
