@@ -135,12 +135,26 @@ fn mlp_rollouts(
 fn a_multiverse_with_an_external_model_is_exported_per_level_and_scores_to_the_built_in_cells() {
     let tmp = tempfile::tempdir().unwrap();
     let (a, b) = (tmp.path().join("builtin"), tmp.path().join("external"));
-    assert_ok(&crossaudit(&["run", "tests/designs/sim_multiverse.design", "--exploratory", "--out", a.to_str().unwrap()]));
-    let o = crossaudit(&["export", "tests/designs/sim_multiverse_external.design", "--exploratory", "--out", b.to_str().unwrap()]);
+    assert_ok(&crossaudit(&[
+        "run",
+        "tests/designs/sim_multiverse.design",
+        "--exploratory",
+        "--out",
+        a.to_str().unwrap(),
+    ]));
+    let o = crossaudit(&[
+        "export",
+        "tests/designs/sim_multiverse_external.design",
+        "--exploratory",
+        "--out",
+        b.to_str().unwrap(),
+    ]);
     assert_ok(&o);
     assert!(stderr(&o).contains("2 levels, each exported to"), "{}", stderr(&o));
-    let listed: serde_json::Value = serde_json::from_slice(&std::fs::read(b.join("export/levels.json")).unwrap()).unwrap();
-    let levels: Vec<String> = listed["levels"].as_array().unwrap().iter().map(|l| l["level"].as_str().unwrap().into()).collect();
+    let listed: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(b.join("export/levels.json")).unwrap()).unwrap();
+    let levels: Vec<String> =
+        listed["levels"].as_array().unwrap().iter().map(|l| l["level"].as_str().unwrap().into()).collect();
     assert_eq!(levels.len(), 2, "one export per specification: {listed}");
 
     // Each level's split, rebuilt by the library, and the MLPs `run` trained there.
@@ -151,7 +165,8 @@ fn a_multiverse_with_an_external_model_is_exported_per_level_and_scores_to_the_b
         let level = all.iter().find(|l| l.id == *id).unwrap();
         let level_file = crossaudit::design::DesignFile { design: level.design.clone(), ..file.clone() };
         let level_plan = crossaudit::run::outer::level_plan(level, &plan);
-        let prepared = crossaudit::split::rebuild(&level_file, &level_plan, &a.join("simulated_data"), &a.join(id)).unwrap();
+        let prepared =
+            crossaudit::split::rebuild(&level_file, &level_plan, &a.join("simulated_data"), &a.join(id)).unwrap();
         let (idx, sha) = index(&b.join(id));
         assert_eq!(idx.jobs.len(), 4, "world x 2 arms x 2 seeds");
         for job in &idx.jobs {
@@ -161,7 +176,8 @@ fn a_multiverse_with_an_external_model_is_exported_per_level_and_scores_to_the_b
     // One level's predictions missing: named, by level, and nothing runs.
     let held = b.join(&levels[1]).join("predictions");
     std::fs::rename(&held, tmp.path().join("held")).unwrap();
-    let e = assert_fails_with(&crossaudit(&["score", b.to_str().unwrap()]), &["4 of 8", &format!("{}/world/", levels[1])]);
+    let e =
+        assert_fails_with(&crossaudit(&["score", b.to_str().unwrap()]), &["4 of 8", &format!("{}/world/", levels[1])]);
     assert!(!b.join("multiverse_cells.csv").exists(), "{e}");
     std::fs::rename(tmp.path().join("held"), &held).unwrap();
     let o = crossaudit(&["score", b.to_str().unwrap()]);

@@ -20,7 +20,9 @@ fn crossaudit(args: &[&str]) -> Output {
 /// removed and `outer` added: draws, per-seed draws or splits.
 fn design(dir: &Path, outer: &str) -> String {
     let text = std::fs::read_to_string(root().join("tests/designs/sim_external.design")).unwrap();
-    let mut text = text.replace(" actions standardized history 3", "").replace("factor seed = 1..2", &format!("factor seed = 1..2\n{outer}"));
+    let mut text = text
+        .replace(" actions standardized history 3", "")
+        .replace("factor seed = 1..2", &format!("factor seed = 1..2\n{outer}"));
     if outer.contains("split") {
         text = text.replace("decide confirmed when", "decide confirmed on pooled when");
     }
@@ -54,8 +56,10 @@ fn export_predict_score(outer: &str, want_levels: usize) {
     let out = tmp.path().join("run");
     let o = crossaudit(&["export", &path, "--exploratory", "--out", out.to_str().unwrap()]);
     assert_ok(&o);
-    let listed: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("export/levels.json")).unwrap()).unwrap();
-    let levels: Vec<String> = listed["levels"].as_array().unwrap().iter().map(|l| l["level"].as_str().unwrap().into()).collect();
+    let listed: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("export/levels.json")).unwrap()).unwrap();
+    let levels: Vec<String> =
+        listed["levels"].as_array().unwrap().iter().map(|l| l["level"].as_str().unwrap().into()).collect();
     assert_eq!(levels.len(), want_levels, "{outer}: {listed}");
     let file = crossaudit::design::load(Path::new(&path)).unwrap();
     let plan = crossaudit::compile(&file.design);
@@ -68,10 +72,12 @@ fn export_predict_score(outer: &str, want_levels: usize) {
         let dir = out.join(id);
         let prepared = crossaudit::split::rebuild(&level_file, &level_plan, &out.join("simulated_data"), &dir).unwrap();
         let bytes = std::fs::read(dir.join("export/export.json")).unwrap();
-        let (idx, sha): (ExportIndex, String) = (serde_json::from_slice(&bytes).unwrap(), crossaudit::io::sha256_hex(&bytes));
+        let (idx, sha): (ExportIndex, String) =
+            (serde_json::from_slice(&bytes).unwrap(), crossaudit::io::sha256_hex(&bytes));
         for job in &idx.jobs {
             std::fs::create_dir_all(dir.join("predictions")).unwrap();
-            std::fs::write(dir.join(&job.predictions), npy::write(&job.shape, &persistence(&prepared, job)).unwrap()).unwrap();
+            std::fs::write(dir.join(&job.predictions), npy::write(&job.shape, &persistence(&prepared, job)).unwrap())
+                .unwrap();
             let d = serde_json::json!({"export_sha256": sha, "model": job.model, "arm": job.arm, "seed": job.seed});
             std::fs::write(dir.join(&job.description), d.to_string()).unwrap();
             jobs += 1;
@@ -89,7 +95,17 @@ fn export_predict_score(outer: &str, want_levels: usize) {
             let mut rows: Vec<String> = cells
                 .iter()
                 .filter(|c| &*c.model == model && &*c.arm == "disjoint" && c.horizon_s == 0.5)
-                .map(|c| format!("{} {} {} {} {} {:?}", c.arm, c.seed, c.recording, c.horizon_s, c.n_divergent, c.fa_position_rmse_m.to_bits()))
+                .map(|c| {
+                    format!(
+                        "{} {} {} {} {} {:?}",
+                        c.arm,
+                        c.seed,
+                        c.recording,
+                        c.horizon_s,
+                        c.n_divergent,
+                        c.fa_position_rmse_m.to_bits()
+                    )
+                })
                 .collect();
             rows.sort();
             rows

@@ -72,7 +72,10 @@ fn the_nanobench_preset_and_its_columns_written_out_give_the_same_audit_split_an
         } else if name.starts_with("curves/") {
             // Every column but the last (each epoch's wall-clock seconds).
             let strip = |t: &[u8]| -> Vec<String> {
-                String::from_utf8_lossy(t).lines().map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a).to_string()).collect()
+                String::from_utf8_lossy(t)
+                    .lines()
+                    .map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a).to_string())
+                    .collect()
             };
             assert_eq!(strip(&a), strip(&b), "{name} differs");
             compared += 1;
@@ -151,7 +154,12 @@ fn rewrite(name: &str, out: &Path) -> PathBuf {
         let f: Vec<&str> = line.split(',').collect();
         let v = |n: &str| f[col(n)].parse::<f64>().unwrap();
         let row: Vec<&str> = pick.iter().map(|(from, _)| f[col(from)]).collect();
-        let (w, x, y, z) = (v("att_stateEstimate_qw"), v("att_stateEstimate_qx"), v("att_stateEstimate_qy"), v("att_stateEstimate_qz"));
+        let (w, x, y, z) = (
+            v("att_stateEstimate_qw"),
+            v("att_stateEstimate_qx"),
+            v("att_stateEstimate_qy"),
+            v("att_stateEstimate_qz"),
+        );
         // Z-Y-X Euler angles of a unit quaternion (the inverse of data::euler_zyx).
         let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
         let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
@@ -238,7 +246,14 @@ fn a_declared_column_the_header_lacks_is_named() {
 #[test]
 fn a_non_numeric_declared_column_is_located_and_undeclared_text_is_not_read() {
     // Line 40, column `vy` (the 12th field).
-    let e = load_edited(|line, f| if line == 40 { f[11] = "n/a".into() }, |_| {});
+    let e = load_edited(
+        |line, f| {
+            if line == 40 {
+                f[11] = "n/a".into()
+            }
+        },
+        |_| {},
+    );
     match &e {
         LogError::NonNumeric { line, column, value, .. } => {
             assert_eq!((*line, column.as_str(), value.as_str()), (40, "vy", "n/a"));
@@ -332,7 +347,12 @@ fn a_csv_block_without_what_the_reader_needs_is_refused_with_its_place() {
     let o = bin().arg("check").arg(&path).output().unwrap();
     assert!(!o.status.success());
     let err = stderr(&o);
-    for needle in ["`data csv` needs `velocity`", "`data csv` needs `action ... scale`", "the position has 3 columns, 2 given", "bad.design:"] {
+    for needle in [
+        "`data csv` needs `velocity`",
+        "`data csv` needs `action ... scale`",
+        "the position has 3 columns, 2 given",
+        "bad.design:",
+    ] {
         assert!(err.contains(needle), "missing {needle:?} in:\n{err}");
     }
     // NanoBench's preset refuses the csv clauses.

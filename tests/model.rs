@@ -293,10 +293,10 @@ fn affine_windows(n: usize, salt: u64) -> Vec<(State, Action, State)> {
             let x: State = std::array::from_fn(|_| r());
             let u: Action = std::array::from_fn(|_| r() + 0.5);
             let mut next = x;
-            for k in 0..10 {
-                let a: f64 = (0..14).map(|j| 0.01 * ((k * 14 + j) % 7) as f64 * x[j]).sum();
-                let b: f64 = (0..4).map(|j| 0.02 * ((k + j) % 3) as f64 * u[j]).sum();
-                next[k] += a + b + 0.001 * k as f64;
+            for (k, n) in next.iter_mut().enumerate().take(10) {
+                let a: f64 = x.iter().enumerate().map(|(j, xj)| 0.01 * ((k * 14 + j) % 7) as f64 * xj).sum();
+                let b: f64 = u.iter().enumerate().map(|(j, uj)| 0.02 * ((k + j) % 3) as f64 * uj).sum();
+                *n += a + b + 0.001 * k as f64;
             }
             (x, u, next)
         })
@@ -317,8 +317,8 @@ fn ridge_without_a_penalty_recovers_an_exact_linear_map() {
     let actions: Vec<Action> = test.iter().map(|w| w.1).collect();
     let predicted = model.step(&states, &actions);
     for ((p, w), x) in predicted.iter().zip(&test).zip(&states) {
-        for k in 0..10 {
-            assert!((p[k] - w.2[k]).abs() < 1e-6, "dim {k}: {} vs {}", p[k], w.2[k]);
+        for (k, (got, want)) in p.iter().zip(&w.2).take(10).enumerate() {
+            assert!((got - want).abs() < 1e-6, "dim {k}: {got} vs {want}");
         }
         // The exogenous dimensions are left as they were (the rollout overwrites them).
         assert_eq!(p[10..], x[10..]);
@@ -343,8 +343,8 @@ fn ridge_auto_keeps_the_grid_penalty_with_the_lowest_validation_loss_and_a_huge_
     let (x, u) = (fit[0].0, fit[0].1);
     let p = big.step(&[x], &[u])[0];
     let mean: Vec<f64> = (0..10).map(|k| fit.iter().map(|w| w.2[k] - w.0[k]).sum::<f64>() / fit.len() as f64).collect();
-    for k in 0..10 {
-        assert!((p[k] - x[k] - mean[k]).abs() < 1e-6, "dim {k}");
+    for (k, m) in mean.iter().enumerate() {
+        assert!((p[k] - x[k] - m).abs() < 1e-6, "dim {k}");
     }
 }
 
@@ -365,7 +365,11 @@ fn the_linear_model_beside_the_paper_reproduces_its_committed_run_on_the_papers_
     crate::common::assert_ok(&o);
     let read = |p: std::path::PathBuf| std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     let committed = root().join("results/nanobench_paper_linear");
-    assert_eq!(read(out.join("cells.csv")), read(committed.join("cells.csv")), "cells.csv differs from the committed run");
+    assert_eq!(
+        read(out.join("cells.csv")),
+        read(committed.join("cells.csv")),
+        "cells.csv differs from the committed run"
+    );
     // The paper's split: the same audit and the same evaluation recordings as its MLP run.
     let paper = root().join("results/nanobench_paper");
     assert_eq!(read(out.join("audit/recordings.csv")), read(paper.join("audit/recordings.csv")));

@@ -41,7 +41,9 @@ fn run_slurm_scores_the_predictions_and_queues_only_the_built_in_jobs() {
     exported_with_predictions(&local);
     exported_with_predictions(&slurm);
     let design = root().join("tests/designs/sim_external.design");
-    let run = |dir: &Path| crossaudit_in(&root(), &["run", design.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--slurm"], &[]);
+    let run = |dir: &Path| {
+        crossaudit_in(&root(), &["run", design.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--slurm"], &[])
+    };
     // Without predictions for every job: refused, each missing job named.
     std::fs::remove_file(slurm.join("predictions/ext__disjoint__2.npy")).unwrap();
     let o = run(&slurm);
@@ -52,7 +54,8 @@ fn run_slurm_scores_the_predictions_and_queues_only_the_built_in_jobs() {
     assert_ok(&o);
     // 4 external jobs scored here; persistence's 4 are the array's.
     assert!(text(&o).contains("(4 of 8 jobs pending)"), "{}", text(&o));
-    let array: serde_json::Value = serde_json::from_slice(&std::fs::read(slurm.join("slurm/array.json")).unwrap()).unwrap();
+    let array: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(slurm.join("slurm/array.json")).unwrap()).unwrap();
     let jobs: Vec<&str> = array["jobs"].as_array().unwrap().iter().map(|j| j.as_str().unwrap()).collect();
     let pending: Vec<usize> = (0..jobs.len()).filter(|k| jobs[*k].starts_with("still__")).collect();
     assert_eq!(pending.len(), 4, "{jobs:?}");

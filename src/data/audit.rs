@@ -13,7 +13,9 @@ use serde::Serialize;
 
 use super::metadata::{impossible_values, parse_name, read_metadata, Metadata};
 use super::{load_recording, natural_key, recording_name, Layout, Recording};
-use crate::design::{DataSource, DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy};
+use crate::design::{
+    DataSource, DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy,
+};
 use crate::stats::quantile_type7;
 
 /// Upstream NanoBench plausibility bounds over active rows, each checked at

@@ -646,17 +646,7 @@ fn number(file: &str, line: usize, column: &str, field: &[u8]) -> Result<f64, Lo
     let text = || value_excerpt(field);
     match fast_float2::parse::<f64, _>(field) {
         Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(LogError::NonFinite {
-            file: file.to_string(),
-            line,
-            column: column.into(),
-            value: text(),
-        }),
-        Err(_) => Err(LogError::NonNumeric {
-            file: file.to_string(),
-            line,
-            column: column.into(),
-            value: text(),
-        }),
+        Ok(_) => Err(LogError::NonFinite { file: file.to_string(), line, column: column.into(), value: text() }),
+        Err(_) => Err(LogError::NonNumeric { file: file.to_string(), line, column: column.into(), value: text() }),
     }
 }

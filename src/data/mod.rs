@@ -186,7 +186,8 @@ impl Layout {
         };
         let time = format.time.as_ref().map(|t| (t.clone(), at(t)));
         let state: Vec<Option<usize>> = format.state.iter().map(|c| c.as_deref().map(&mut at)).collect();
-        let euler = format.euler.as_ref().map(|e| ([at(&e.columns[0]), at(&e.columns[1]), at(&e.columns[2])], e.degrees));
+        let euler =
+            format.euler.as_ref().map(|e| ([at(&e.columns[0]), at(&e.columns[1]), at(&e.columns[2])], e.degrees));
         let actions = format.actions.iter().map(|c| at(c)).collect();
         let active = at(&column);
         let extrapolated = format.extrapolated.iter().map(|c| at(c)).collect();
@@ -321,12 +322,7 @@ pub fn euler_zyx(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
     let (sr, cr) = (roll / 2.0).sin_cos();
     let (sp, cp) = (pitch / 2.0).sin_cos();
     let (sy, cy) = (yaw / 2.0).sin_cos();
-    [
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ]
+    [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
 }
 
 /// The median step of the time column must agree with 1 / rate to 2%;

@@ -156,23 +156,40 @@ pub struct DataBlock {
 pub enum DataItem {
     Path(Spanned<String>),
     Rate(Number),
-    IncludeActive { column: Ident, cmp: Spanned<Cmp>, threshold: Number, min_samples: Int },
+    IncludeActive {
+        column: Ident,
+        cmp: Spanned<Cmp>,
+        threshold: Number,
+        min_samples: Int,
+    },
     ExcludeImplausible(Option<Ident>),
     Tails(Ident),
     Speed(SpeedAst),
-    Universe { kind: Ident, order: Option<Ident> },
+    Universe {
+        kind: Ident,
+        order: Option<Ident>,
+    },
     MissingCsv(Ident),
     Duplicates(Spanned<String>),
     Strict,
     State(Vec<Ident>),
-    Action { columns: Vec<Ident>, scale: Option<Number> },
+    Action {
+        columns: Vec<Ident>,
+        scale: Option<Number>,
+    },
     Time(Ident),
     Position(Vec<Ident>),
     Velocity(Vec<Ident>),
     /// `kind`: the grammar rule's name (`quaternion_wxyz`, `euler_degrees`, ...).
-    Attitude { kind: Ident, columns: Vec<Ident> },
+    Attitude {
+        kind: Ident,
+        columns: Vec<Ident>,
+    },
     Reference(Vec<Ident>),
-    Extra { column: Ident, fill_zeros: bool },
+    Extra {
+        column: Ident,
+        fill_zeros: bool,
+    },
     Extrapolated(Vec<Ident>),
     Controller(Ident),
     SimRecordings(Int),
@@ -222,10 +239,22 @@ pub enum ArmBody {
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum ModelKind {
-    Mlp { widths: Vec<Int>, inputs: Spanned<String>, actions: Option<Ident> },
-    External { inputs: Spanned<String>, actions: Option<Ident>, history: Option<Int> },
+    Mlp {
+        widths: Vec<Int>,
+        inputs: Spanned<String>,
+        actions: Option<Ident>,
+    },
+    External {
+        inputs: Spanned<String>,
+        actions: Option<Ident>,
+        history: Option<Int>,
+    },
     /// `ridge`: `None` for auto.
-    Linear { inputs: Spanned<String>, actions: Option<Ident>, ridge: Option<Number> },
+    Linear {
+        inputs: Spanned<String>,
+        actions: Option<Ident>,
+        ridge: Option<Number>,
+    },
     Baseline(Spanned<String>),
 }
 

@@ -168,7 +168,11 @@ impl Validator {
                     let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
                     let ridge = ridge.as_ref().map(|r| {
                         if !(r.node >= 0.0 && r.node.is_finite()) {
-                            self.err("invalid penalty", r.span, format!("a ridge penalty is a finite number >= 0, found {}", r.node));
+                            self.err(
+                                "invalid penalty",
+                                r.span,
+                                format!("a ridge penalty is a finite number >= 0, found {}", r.node),
+                            );
                         }
                         r.node
                     });

@@ -105,7 +105,11 @@ impl Validator {
         if !seen.contains_key("action") {
             missing(self, "action", "action m1, m2, m3, m4 scale 2500");
         } else if csv.scale.is_none() {
-            missing(self, "action ... scale", "action m1, m2, m3, m4 scale 2500 (each action is value / scale, clipped to [0, 1])");
+            missing(
+                self,
+                "action ... scale",
+                "action m1, m2, m3, m4 scale 2500 (each action is value / scale, clipped to [0, 1])",
+            );
         }
         let three = |v: &mut Validator, part: &Option<(Vec<Ident>, Span)>, what: &str, example: &str| match part {
             Some((cols, span)) => Some(v.columns(cols, 3, what, *span)),

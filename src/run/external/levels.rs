@@ -114,7 +114,11 @@ pub(super) fn score_levels(
         let in_level = |e: RunError| RunError::InLevel { level: entry.level.clone(), source: Box::new(e) };
         let r = reopen(&ldir).map_err(in_level)?;
         if r.file.sha256 != index.design_sha256 || r.source.level.as_deref() != Some(entry.level.as_str()) {
-            return Err(bad(format!("{} lists level {}, whose export is of another design or level", path.display(), entry.level)));
+            return Err(bad(format!(
+                "{} lists level {}, whose export is of another design or level",
+                path.display(),
+                entry.level
+            )));
         }
         let s = lock::status(&r.file)?;
         if s.changed() && !r.run.exploratory {
@@ -135,8 +139,11 @@ pub(super) fn score_levels(
     }
     all.check(dir)?;
     let (source, run) = study.ok_or_else(|| bad(format!("{} lists no level", path.display())))?;
-    let file = crate::design::load_copy(&dir.join(&index.levels[0].level).join(EXPORT_DIR).join("design.design"), &source.design_file)
-        .map_err(|e| bad(e.to_string()))?;
+    let file = crate::design::load_copy(
+        &dir.join(&index.levels[0].level).join(EXPORT_DIR).join("design.design"),
+        &source.design_file,
+    )
+    .map_err(|e| bad(e.to_string()))?;
     let plan = crate::plan::compile(&file.design);
     let levels = crate::run::outer::study_levels(&file.design, &plan)
         .ok_or_else(|| bad("the exported design has no outer levels".into()))?;
@@ -158,10 +165,14 @@ pub(super) fn score_levels(
 pub fn score_predictions_in(out: &Path, say: &mut dyn FnMut(&str)) -> Result<usize, RunError> {
     let index = out.join(EXPORT_DIR).join(LEVELS_FILE);
     let dirs: Vec<(Option<String>, std::path::PathBuf)> = if index.is_file() {
-        let bytes = crate::io::read_own(&index)
-            .map_err(|e| RunError::NotExported { dir: out.display().to_string(), reason: format!("{}: {e}", index.display()) })?;
-        let listed: LevelsIndex = serde_json::from_slice(&bytes)
-            .map_err(|e| RunError::NotExported { dir: out.display().to_string(), reason: format!("{}: {e}", index.display()) })?;
+        let bytes = crate::io::read_own(&index).map_err(|e| RunError::NotExported {
+            dir: out.display().to_string(),
+            reason: format!("{}: {e}", index.display()),
+        })?;
+        let listed: LevelsIndex = serde_json::from_slice(&bytes).map_err(|e| RunError::NotExported {
+            dir: out.display().to_string(),
+            reason: format!("{}: {e}", index.display()),
+        })?;
         listed.levels.iter().map(|l| (Some(l.level.clone()), out.join(&l.level))).collect()
     } else {
         vec![(None, out.to_path_buf())]

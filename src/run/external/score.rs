@@ -128,7 +128,10 @@ pub fn score(
     if let Some(level) = &r.source.level {
         return Err(not_exported(
             dir,
-            format!("it holds level {level} of a study with outer levels: score the study's folder, {}", dir.parent().unwrap_or(dir).display()),
+            format!(
+                "it holds level {level} of a study with outer levels: score the study's folder, {}",
+                dir.parent().unwrap_or(dir).display()
+            ),
         ));
     }
     let status = lock::status(&r.file)?;
@@ -180,11 +183,7 @@ pub(super) fn non_finite_warning(label: &str, n: usize, of: usize) -> String {
 /// Scores every present predictions file of the reopened directory `dir`
 /// that no earlier `score` scored (those are verified); names each refused
 /// and each missing one (the caller refuses then: [`Predictions::check`]).
-pub(super) fn score_predictions(
-    dir: &Path,
-    r: &Reopened,
-    say: &mut dyn FnMut(&str),
-) -> Result<Predictions, RunError> {
+pub(super) fn score_predictions(dir: &Path, r: &Reopened, say: &mut dyn FnMut(&str)) -> Result<Predictions, RunError> {
     let export_sha = r.built.sha256();
     let index = &r.built.index;
     check_prediction_names(dir, index)?;
@@ -201,7 +200,7 @@ pub(super) fn score_predictions(
                 rec.non_finite_starts.unwrap_or(0)
             }
             None if dir.join(&ej.predictions).exists() || dir.join(&ej.description).exists() => {
-                let n = match score_job(dir, &r, job, ej, &export_sha) {
+                let n = match score_job(dir, r, job, ej, &export_sha) {
                     Ok(n) => n,
                     Err(e @ RunError::BadPredictions { .. }) => {
                         refused.push(format!("  {}: {e}", job.label()));
@@ -259,18 +258,23 @@ pub(super) fn reopen(dir: &Path) -> Result<Reopened, RunError> {
     let (file, plan) = match (&source.level, outer) {
         (None, None) => (file, plan),
         (Some(id), Some((levels, _))) => {
-            let level = levels
-                .iter()
-                .find(|l| l.id == *id && l.shares.is_none())
-                .ok_or_else(|| not_exported(dir, format!("{} names level {id}, which the design has not", source_path.display())))?;
+            let level = levels.iter().find(|l| l.id == *id && l.shares.is_none()).ok_or_else(|| {
+                not_exported(dir, format!("{} names level {id}, which the design has not", source_path.display()))
+            })?;
             let plan = crate::run::outer::level_plan(level, &plan);
             (DesignFile { design: level.design.clone(), ..file }, plan)
         }
         (None, Some(_)) => {
-            return Err(not_exported(dir, "the design has outer levels: score the study's folder, which holds one folder per level".into()))
+            return Err(not_exported(
+                dir,
+                "the design has outer levels: score the study's folder, which holds one folder per level".into(),
+            ))
         }
         (Some(id), None) => {
-            return Err(not_exported(dir, format!("{} names level {id}, but the design has no outer levels", source_path.display())))
+            return Err(not_exported(
+                dir,
+                format!("{} names level {id}, but the design has no outer levels", source_path.display()),
+            ))
         }
     };
     super::check_exportable(&file, &plan)?;

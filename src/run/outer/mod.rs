@@ -266,7 +266,9 @@ pub(crate) fn run_levels_with(
     let mut reused: Vec<String> = Vec::new();
     if let Some((_, notes)) = external.0.first() {
         // The same models in every level; each level's report names its export.
-        reused.extend(notes.first().map(|n| format!("every level: {}", n.split(" (made from export").next().unwrap_or(n))));
+        reused.extend(
+            notes.first().map(|n| format!("every level: {}", n.split(" (made from export").next().unwrap_or(n))),
+        );
     }
     for (k, level) in levels.iter().enumerate() {
         if level.shares.is_some() {
