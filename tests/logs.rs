@@ -404,3 +404,31 @@ fn the_rotorpy_design_reproduces_its_committed_run() {
     let md = std::fs::read_to_string(committed.join("report/report.md")).unwrap();
     assert!(md.contains("over 9 recordings x 5 seeds"), "{md}");
 }
+
+#[test]
+fn a_conditions_table_gives_trajectory_and_speed_and_every_recording_needs_a_row() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv", "F4_linear_ramp_rep1.csv"] {
+        rewrite(name, tmp.path());
+    }
+    let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+        .replace("  rate 100 Hz\n", "  rate 100 Hz\n  conditions table \"conditions.csv\"\n");
+    let table = "recording,trajectory,speed\nF1_circle_slow_rep1,lemniscate,fast\nF2_star_fast_mell_rep1,hover,slow\nF4_linear_ramp_rep1,ramp,medium\n";
+    std::fs::write(tmp.path().join("conditions.csv"), table).unwrap();
+    let generic = spec(&design);
+    let audit = data::audit(&generic, tmp.path()).unwrap();
+    assert_eq!(audit.files.len(), 3, "the table itself is not a recording: {:#?}", audit.files);
+    let f1 = audit.files.iter().find(|f| f.name == "F1_circle_slow_rep1").unwrap();
+    assert_eq!((f1.trajectory.as_str(), f1.speed.as_str()), ("lemniscate", "fast"));
+    // A recording without a row: the audit stops and names it.
+    std::fs::write(tmp.path().join("conditions.csv"), table.replace("F4_linear_ramp_rep1,ramp,medium\n", "")).unwrap();
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(e.contains("conditions.csv") && e.contains("F4_linear_ramp_rep1.csv"), "{e}");
+    // A recording listed twice, and an empty field: located.
+    std::fs::write(tmp.path().join("conditions.csv"), format!("{table}F1_circle_slow_rep1,circle,slow\n")).unwrap();
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(e.contains("line 5: recording `F1_circle_slow_rep1` is listed again (first on line 2)"), "{e}");
+    std::fs::write(tmp.path().join("conditions.csv"), table.replace("hover", "")).unwrap();
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(e.contains("line 3, column `trajectory`: empty"), "{e}");
+}

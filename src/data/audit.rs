@@ -273,7 +273,16 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
             }
         }
     }
-    let (csvs, missing) = list(dir)?;
+    let (mut csvs, missing) = list(dir)?;
+    let table = match spec.format.as_ref().and_then(|f| f.conditions_table.as_ref()) {
+        Some(name) => {
+            // The table is in the data folder, and is not a recording.
+            csvs.retain(|p| p.file_name().is_none_or(|f| f.to_string_lossy() != *name));
+            let path = dir.join(name);
+            Some((super::conditions::read_table(&path).map_err(AuditError::Layout)?, path))
+        }
+        None => None,
+    };
     let metas = csvs.iter().map(|p| meta_path(p)).chain(missing.iter().map(|n| dir.join(format!("{n}_metadata.yaml"))));
     let impossible: Vec<String> =
         metas.flat_map(|p| read_metadata(&p).map(|m| impossible_values(&p, &m)).unwrap_or_default()).collect();
@@ -314,6 +323,23 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         })
         .collect();
     let (mut files, mut recordings): (Vec<FileRow>, Vec<Option<Recording>>) = loaded.into_iter().unzip();
+    if let Some((table, path)) = &table {
+        let unlisted: Vec<&str> =
+            files.iter().filter(|f| !table.contains_key(&f.name)).map(|f| f.file.as_str()).collect();
+        if !unlisted.is_empty() {
+            return Err(AuditError::Layout(format!(
+                "{}: the conditions table has no row for {} recording file(s): {}",
+                path.display(),
+                unlisted.len(),
+                crate::io::excerpt(&unlisted.join(", "), 600)
+            )));
+        }
+        for f in files.iter_mut() {
+            let c = &table[&f.name];
+            f.trajectory = c.trajectory.clone().unwrap_or_else(|| f.trajectory.clone());
+            f.speed = c.speed.clone().unwrap_or_else(|| f.speed.clone());
+        }
+    }
     let groups = duplicates(&mut files, spec.duplicates);
     if keep == Keep::Included {
         for (f, r) in files.iter().zip(recordings.iter_mut()) {

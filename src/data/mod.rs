@@ -3,6 +3,7 @@
 //! the inclusion audit that decides which recordings a study may use.
 
 pub mod audit;
+pub mod conditions;
 pub mod log;
 pub mod metadata;
 

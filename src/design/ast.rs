@@ -192,6 +192,7 @@ pub enum DataItem {
     },
     Extrapolated(Vec<Ident>),
     Controller(Ident),
+    ConditionsTable(Spanned<String>),
     SimRecordings(Int),
     SimSeed(Int),
     SimStrength(Number),

@@ -87,6 +87,10 @@ pub struct LogFormat {
     /// anything else its PID.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub controller: Option<String>,
+    /// A CSV table in the data folder giving each recording's trajectory
+    /// and speed (`conditions table "FILE"`), instead of the file names.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conditions_table: Option<String>,
 }
 
 /// Euler-angle attitude columns.
@@ -138,6 +142,7 @@ impl DataSpec {
                 _ => Vec::new(),
             },
             controller: None,
+            conditions_table: None,
         }
     }
 }

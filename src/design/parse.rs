@@ -137,6 +137,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::extra_col
         | Rule::extrapolated_cols
         | Rule::controller_name
+        | Rule::conditions_table
         | Rule::tails
         | Rule::speed_labels
         | Rule::universe
@@ -145,7 +146,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::sim_seed
         | Rule::sim_strength
         | Rule::sim_duration => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller for `data csv`; recordings, seed, strength, duration for simulated data)"
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table for `data csv`; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
@@ -636,6 +637,7 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         }
         Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
         Rule::controller_name => DataItem::Controller(ident(c.next())),
+        Rule::conditions_table => DataItem::ConditionsTable(string(c.next())),
         Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),
         Rule::sim_seed => DataItem::SimSeed(int(c.next())?),
         Rule::sim_strength => DataItem::SimStrength(number(c.next())?),

@@ -18,6 +18,7 @@ pub(super) struct CsvParts {
     extra: Option<(Ident, bool)>,
     extrapolated: Option<Vec<Ident>>,
     controller: Option<Ident>,
+    conditions_table: Option<Spanned<String>>,
     /// `action ... scale N`: the scale as written.
     pub(super) scale: Option<Number>,
 }
@@ -69,6 +70,18 @@ impl Validator {
             DataItem::Controller(c) => {
                 csv.controller = Some(c.clone());
                 "controller"
+            }
+            DataItem::ConditionsTable(t) => {
+                if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
+                    self.err_help(
+                        "conditions table outside the data folder",
+                        t.span,
+                        format!("`{}` is not a file name", t.node),
+                        "give the name of a CSV file in the data folder, e.g. `conditions table \"conditions.csv\"`",
+                    );
+                }
+                csv.conditions_table = Some(t.clone());
+                "conditions table"
             }
             _ => return None,
         };
@@ -171,6 +184,7 @@ impl Validator {
             action_scale,
             extrapolated: csv.extrapolated.iter().flatten().map(|c| c.node.clone()).collect(),
             controller: csv.controller.as_ref().map(|c| c.node.clone()),
+            conditions_table: csv.conditions_table.as_ref().map(|t| t.node.clone()),
         })
     }
 }
