@@ -432,3 +432,30 @@ fn a_conditions_table_gives_trajectory_and_speed_and_every_recording_needs_a_row
     let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
     assert!(e.contains("line 3, column `trajectory`: empty"), "{e}");
 }
+
+#[test]
+fn actions_beyond_the_declared_scale_are_noted_in_the_audit_and_rows_default_to_k_over_rate() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv"] {
+        rewrite(name, tmp.path());
+    }
+    // A scale below the fixture's PWM commands: every such value is clipped, and said so.
+    let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw").replace("scale 65535", "scale 1000");
+    let audit = data::audit(&spec(&design), tmp.path()).unwrap();
+    let f1 = audit.files.iter().find(|f| f.name == "F1_circle_slow_rep1").unwrap();
+    assert!(
+        f1.reason.contains("clipped to [0, 1]") && f1.reason.contains("is the action `scale` right?"),
+        "{}",
+        f1.reason
+    );
+    // At the right scale, nothing is noted.
+    let audit =
+        data::audit(&spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")), tmp.path()).unwrap();
+    assert!(audit.files.iter().all(|f| !f.reason.contains("clipped")), "{:#?}", audit.files);
+    // Without a time column, row k is at k / rate.
+    let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw").replace("  time \"time [s]\"\n", "");
+    let generic = spec(&design);
+    let rec = load_recording(&tmp.path().join("F1_circle_slow_rep1.csv"), &Layout::new(&generic).unwrap()).unwrap();
+    assert_eq!(rec.t[..3], [0.0, 0.01, 0.02]);
+    assert_eq!(rec.t[rec.rows - 1], (rec.rows - 1) as f64 / 100.0);
+}

@@ -5,6 +5,7 @@
 pub mod audit;
 pub mod conditions;
 pub mod log;
+mod log_error;
 pub mod metadata;
 
 use std::path::{Path, PathBuf};
@@ -310,6 +311,16 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         row_hashes: parsed.row_hashes,
         tail,
         rows_cut: 0,
+    })
+}
+
+/// A note when actions were clipped to [0, 1]: a declared scale below the
+/// logs' largest command saturates the model's inputs without a word.
+pub fn clipped_actions(rec: &Recording, scale: f64) -> Option<String> {
+    let outside = rec.pwm.iter().flatten().filter(|v| **v < 0.0 || **v > scale).count();
+    let largest = rec.pwm.iter().flatten().fold(f64::NEG_INFINITY, |m, v| m.max(*v));
+    (outside > 0).then(|| {
+        format!("{outside} action value(s) outside [0, {scale}] clipped to [0, 1] (largest {largest}); is the action `scale` right?")
     })
 }
 

@@ -1,0 +1,184 @@
+//! Why a flight log could not be read: each error names the file and,
+//! where there is one, the line (1 = header) and column.
+
+use serde::Serialize;
+
+/// Why a log could not be read. Each names the file and, where there is
+/// one, the line (1 = header) and column.
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum LogError {
+    /// The file could not be opened or read.
+    #[error("{file}: cannot read: {message}")]
+    Io {
+        /// The file, as given.
+        file: String,
+        /// The underlying error.
+        message: String,
+    },
+    /// The gzip stream ended early or is corrupt.
+    #[error("{file}: gzip stream truncated or corrupt after {bytes} decompressed bytes (near line {line}): {message}")]
+    Gzip {
+        /// The file, as given.
+        file: String,
+        /// Bytes decompressed before the failure.
+        bytes: usize,
+        /// Line number (1 = header).
+        line: usize,
+        /// The underlying error.
+        message: String,
+    },
+    /// The file has no bytes (or no header).
+    #[error("{file}: empty file")]
+    Empty {
+        /// The file, as given.
+        file: String,
+    },
+    /// A header field differs from the NanoBench schema.
+    #[error("{file}: line 1, column {index}: expected header `{expected}`, found `{found}`")]
+    Header {
+        /// The file, as given.
+        file: String,
+        /// Column index (1-based).
+        index: usize,
+        /// The schema column expected there.
+        expected: String,
+        /// The header field found.
+        found: String,
+    },
+    /// A line longer than [`crate::io::MAX_LOG_LINE`] bytes.
+    #[error("{file}: line {line} is longer than {limit} bytes (it holds at least {bytes}): not a flight log row")]
+    LongLine {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Bytes in the line, up to the first past the limit.
+        bytes: usize,
+        /// The limit.
+        limit: usize,
+    },
+    /// A header but no data rows.
+    #[error("{file}: header only, no data rows")]
+    NoRows {
+        /// The file, as given.
+        file: String,
+    },
+    /// A row with a different number of fields than the header.
+    #[error("{file}: line {line}: {found} fields, the header has {expected}")]
+    Ragged {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Fields in the row.
+        found: usize,
+        /// Fields in the header.
+        expected: usize,
+    },
+    /// A field that does not parse as a number.
+    #[error("{file}: line {line}, column `{column}`: {value:?} is not a number")]
+    NonNumeric {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The value as found.
+        value: String,
+    },
+    /// A NaN or infinite field.
+    #[error("{file}: line {line}, column `{column}`: non-finite value {value:?}")]
+    NonFinite {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The value as found.
+        value: String,
+    },
+    /// A timestamp earlier than the previous row's.
+    #[error("{file}: line {line}, column `{column}`: time {t} is before the previous row's {previous}")]
+    NonMonotonicTime {
+        /// The file, as given.
+        file: String,
+        /// The time column.
+        column: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// This row's time, seconds.
+        t: f64,
+        /// The previous row's time, seconds.
+        previous: f64,
+    },
+    /// A declared column that the header lacks (or holds twice).
+    #[error("{file}: line 1: the design declares column `{column}`, but the header {}", missing_what(found))]
+    MissingColumn {
+        /// The file, as given.
+        file: String,
+        /// The declared column.
+        column: String,
+        /// The header's first names, or `twice`.
+        found: String,
+    },
+    /// A time column whose median step disagrees with the declared rate.
+    #[error("{file}: line {line}, column `{column}`: the median time step is {median_s} s, but `rate {rate_hz} Hz` means {expected_s} s (this is the first step more than 2% off; declare the logs' own rate)")]
+    Rate {
+        /// The file, as given.
+        file: String,
+        /// The first line whose step from the line before is more than 2% off.
+        line: usize,
+        /// The time column.
+        column: String,
+        /// The median step between rows, seconds.
+        median_s: f64,
+        /// The declared rate.
+        rate_hz: f64,
+        /// 1 / rate, seconds.
+        expected_s: f64,
+    },
+    /// An active row whose quaternion is more than 0.01 from unit length.
+    #[error("{file}: line {line}, columns {columns}: the attitude quaternion has length {norm}, not 1 (more than 0.01 off; declare the attitude's columns in their order, or Euler angles)")]
+    NotUnit {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// The quaternion's columns, as declared.
+        columns: String,
+        /// Its length on that line.
+        norm: f64,
+    },
+}
+
+fn missing_what(found: &str) -> String {
+    if found == "twice" {
+        "holds it twice".to_string()
+    } else {
+        format!("has no such column (it has: {found})")
+    }
+}
+
+impl LogError {
+    /// Short machine-readable kind for audit tables.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            LogError::Io { .. } => "unreadable",
+            LogError::Gzip { .. } => "truncated_gzip",
+            LogError::Empty { .. } => "empty_file",
+            LogError::Header { .. } => "bad_header",
+            LogError::NoRows { .. } => "empty_file",
+            LogError::LongLine { .. } => "long_line",
+            LogError::Ragged { .. } => "ragged_row",
+            LogError::NonNumeric { .. } => "non_numeric",
+            LogError::NonFinite { .. } => "non_finite",
+            LogError::NonMonotonicTime { .. } => "non_monotonic_time",
+            LogError::MissingColumn { .. } => "missing_column",
+            LogError::Rate { .. } => "rate_mismatch",
+            LogError::NotUnit { .. } => "not_unit_quaternion",
+        }
+    }
+}
