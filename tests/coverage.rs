@@ -406,3 +406,31 @@ fn the_small_study_kenward_roger_row_is_pbkrtest_s() {
     }
     assert!(compared >= 190, "only {compared} of 200 replications compared");
 }
+
+#[test]
+fn an_outlying_row_shifts_every_estimate_by_its_closed_form_and_the_report_says_so() {
+    // Closed form: the first row's effect fixed at 5 sqrt(sa) moves the mean
+    // of I rows by 5 sqrt(sa) / I; with sa = s_a I (SE of the mean 1) that
+    // is 5 sqrt(s_a / I) = 5 sqrt(0.8 / 10) = 1.414 SE.
+    let spec: crossaudit::methods::CoverageSpec = serde_json::from_str(
+        r#"{"seed": 7, "reps": 400, "bootstrap": 1, "rows": [10], "cols": [6],
+            "shares": [[0.8, 0.1, 0.1]], "distributions": ["outlying_row"]}"#,
+    )
+    .unwrap();
+    let setting = &spec.settings()[0];
+    assert_rel(setting.built_in_bias(), 5.0 * (0.8f64 / 10.0).sqrt(), 1e-12, "built-in bias");
+    let rows = crossaudit::methods::run_coverage(&spec, &mut |_, _, _| {}).unwrap();
+    for r in &rows {
+        let z = (r.bias - setting.built_in_bias()) / r.bias_mcse;
+        assert!(
+            z.abs() < 4.0,
+            "{}: bias {} ({}) against {}",
+            r.method.label(),
+            r.bias,
+            r.bias_mcse,
+            setting.built_in_bias()
+        );
+    }
+    let md = crossaudit::methods::coverage::to_markdown(&spec, &rows);
+    assert!(md.contains("5 sqrt(s2_rec) / I = 1.414 SE from the true mean 0"), "{md}");
+}

@@ -72,6 +72,17 @@ impl Setting {
         (self.shares[0] * i, self.shares[1] * j, self.shares[2] * i * j)
     }
 
+    /// What every estimator's expected value is away from the true mean 0
+    /// by construction, in SE units: `outlying_row` fixes the first row's
+    /// effect at 5 recording SDs, which moves the mean of I rows by
+    /// 5 sqrt(sa) / I = 5 sqrt(s_a / I). 0 for every other distribution.
+    pub fn built_in_bias(&self) -> f64 {
+        match self.distribution {
+            Distribution::OutlyingRow => 5.0 * self.components().0.sqrt() / self.rows as f64,
+            _ => 0.0,
+        }
+    }
+
     /// A one-line label for tables.
     pub fn label(&self) -> String {
         let missing = match self.missing {
