@@ -6,10 +6,11 @@
 //!
 //! With Gram matrix G = X'X / n and b = X'Y / n over the fit windows, the
 //! weights solve (G + lambda D) W = b, D the identity with 0 for the
-//! intercept: one 19 x 19 Cholesky (faer) for every penalty tried.
+//! intercept: one 19 x 19 Cholesky for every penalty tried. It is written
+//! out in scalar f64 (not faer's kernels, which choose SIMD paths by CPU)
+//! so that the weights, and every per-cell row, are the same bits on every
+//! machine.
 
-use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
 use serde::Serialize;
 
 use super::features::{FeatureMap, INPUT, STATE};
@@ -79,17 +80,20 @@ pub fn fit(
     }
     let (x, y) = design_rows(&features, fit);
     let n = x.len() as f64;
-    let gram = Mat::<f64>::from_fn(P, P, |i, j| x.iter().map(|r| r[i] * r[j]).sum::<f64>() / n);
-    let xty = Mat::<f64>::from_fn(P, STATE, |i, k| x.iter().zip(&y).map(|(r, t)| r[i] * t[k]).sum::<f64>() / n);
+    let gram: Vec<f64> = (0..P * P).map(|ij| x.iter().map(|r| r[ij / P] * r[ij % P]).sum::<f64>() / n).collect();
+    let xty: Vec<f64> = (0..P * STATE)
+        .map(|ik| x.iter().zip(&y).map(|(r, t)| r[ik / STATE] * t[ik % STATE]).sum::<f64>() / n)
+        .collect();
     let (vx, vy) = design_rows(&features, validation);
     let grid: Vec<f64> = ridge.map_or_else(|| RIDGE_GRID.to_vec(), |l| vec![l]);
     let mut best: Option<(f64, Vec<f64>, f64)> = None;
     let mut tried = Vec::new();
     for lambda in grid {
-        let penalized = Mat::<f64>::from_fn(P, P, |i, j| gram[(i, j)] + if i == j && i < INPUT { lambda } else { 0.0 });
-        let llt = penalized.llt(Side::Lower).map_err(|_| LinearError::Singular { lambda })?;
-        let w = llt.solve(&xty);
-        let weights: Vec<f64> = (0..P).flat_map(|i| (0..STATE).map(move |k| (i, k))).map(|(i, k)| w[(i, k)]).collect();
+        let mut penalized = gram.clone();
+        for i in 0..INPUT {
+            penalized[i * P + i] += lambda;
+        }
+        let weights = cholesky_solve(penalized, &xty).ok_or(LinearError::Singular { lambda })?;
         let loss = mse(&weights, &vx, &vy);
         tried.push((lambda, loss));
         if best.as_ref().is_none_or(|b| loss < b.2) {
@@ -98,6 +102,50 @@ pub fn fit(
     }
     let (lambda, weights, _) = best.ok_or(LinearError::NoData)?;
     Ok(Linear { features, lambda, weights, validation: tried })
+}
+
+/// Solves A W = B for symmetric positive definite A (P x P, row-major) and
+/// B (P x 14, row-major) by Cholesky, A = L L'; `None` when A is not
+/// positive definite.
+fn cholesky_solve(mut a: Vec<f64>, b: &[f64]) -> Option<Vec<f64>> {
+    // L in the lower triangle of `a`.
+    for j in 0..P {
+        let mut d = a[j * P + j];
+        for k in 0..j {
+            d -= a[j * P + k] * a[j * P + k];
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        let d = d.sqrt();
+        a[j * P + j] = d;
+        for i in j + 1..P {
+            let mut v = a[i * P + j];
+            for k in 0..j {
+                v -= a[i * P + k] * a[j * P + k];
+            }
+            a[i * P + j] = v / d;
+        }
+    }
+    let mut w = b.to_vec();
+    for c in 0..STATE {
+        // L z = b, then L' w = z, column by column.
+        for i in 0..P {
+            let mut v = w[i * STATE + c];
+            for k in 0..i {
+                v -= a[i * P + k] * w[k * STATE + c];
+            }
+            w[i * STATE + c] = v / a[i * P + i];
+        }
+        for i in (0..P).rev() {
+            let mut v = w[i * STATE + c];
+            for k in i + 1..P {
+                v -= a[k * P + i] * w[k * STATE + c];
+            }
+            w[i * STATE + c] = v / a[i * P + i];
+        }
+    }
+    Some(w)
 }
 
 /// The prediction of one standardized input row.
