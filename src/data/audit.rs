@@ -471,7 +471,7 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
         Err(e) => Some(e.clone()),
         Ok(m) => match (m.repetition, parse_name(&rec.name).repetition) {
             (Some(a), Some(b)) if a != b => Some(format!("metadata says repetition {a}, the file name rep{b}")),
-            _ => super::clipped_actions(rec, spec.log_format().action_scale),
+            _ => super::clipped_actions(rec, spec.action_scale()),
         },
     };
     if let Some(note) = note {

@@ -118,6 +118,11 @@ pub const NANOBENCH_EXTRAPOLATED: [&str; 7] = [
 pub const NANOBENCH_ACTION_SCALE: f64 = 65535.0;
 
 impl DataSpec {
+    /// Each action is the column's value / this (NanoBench's PWM: 65535).
+    pub fn action_scale(&self) -> f64 {
+        self.format.as_ref().map_or(NANOBENCH_ACTION_SCALE, |f| f.action_scale)
+    }
+
     /// The format its logs are read in: the declared one (`data csv`), or
     /// the NanoBench preset over the state and action columns (the time
     /// column `t`, the 14 state columns read as they are with the battery
@@ -134,7 +139,7 @@ impl DataSpec {
             euler: None,
             fill_zeros: self.state_columns.iter().position(|c| c == "pwr_pm_vbat"),
             actions: self.action_columns.clone(),
-            action_scale: NANOBENCH_ACTION_SCALE,
+            action_scale: self.action_scale(),
             // The simulator writes no extrapolated tails (its onboard
             // columns are still at rest after landing: straight, not a tail).
             extrapolated: match self.source {

@@ -353,6 +353,7 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
         "ModSE",
         "rel. error ModSE %",
     ];
+    let declared = spec.settings();
     for setting in settings {
         let mut table = Table::new(&cols, "lrrrrrrrr");
         for r in rows.iter().filter(|r| r.setting == setting) {
@@ -382,7 +383,7 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
             ]);
         }
         let _ = write!(s, "\n## {setting}\n\n");
-        let built_in = spec.settings().into_iter().find(|x| x.label() == setting).map_or(0.0, |x| x.built_in_bias());
+        let built_in = declared.iter().find(|x| x.label() == setting).map_or(0.0, |x| x.built_in_bias());
         if built_in > 0.0 {
             let _ = write!(
                 s,

@@ -1,0 +1,170 @@
+//! Syntax errors in the reader's words: pest's rule names replaced by what
+//! a user of the language would call them.
+
+use super::Rule;
+use crate::design::ast::Span;
+use crate::design::diagnostic::Diagnostic;
+
+/// Names users read in "expected ..." messages instead of rule names.
+fn rule_name(rule: &Rule) -> String {
+    let name = match rule {
+        Rule::EOI => "end of file",
+        Rule::statement
+        | Rule::design
+        | Rule::study
+        | Rule::data
+        | Rule::factor_recording
+        | Rule::factor_seed
+        | Rule::factor_split
+        | Rule::factor_draw
+        | Rule::draws
+        | Rule::draws_per_seed
+        | Rule::choices
+        | Rule::primary_spec
+        | Rule::validation
+        | Rule::arm
+        | Rule::model
+        | Rule::train
+        | Rule::endpoint
+        | Rule::contrast
+        | Rule::estimate
+        | Rule::sensitivity
+        | Rule::interaction
+        | Rule::decide
+        | Rule::generator
+        | Rule::published => {
+            "a statement (study, data, factor, validation, split, arm, model, train, endpoint, contrast, estimate, sensitivity, interaction, decide, generator, draws, choices, primary specification)"
+        }
+        Rule::pub_evaluation | Rule::pub_validation | Rule::pub_fit | Rule::pub_ignore | Rule::pub_leaked => {
+            "a published-split clause (evaluation, validation, fit, ignore, leaked)"
+        }
+        Rule::role_list | Rule::role_name => "a role of the split file",
+        Rule::leaked_policy => "`refuse` or `drop`",
+        Rule::ident | Rule::ident_list => "a name",
+        Rule::string | Rule::string_inner | Rule::string_list => "a quoted string",
+        Rule::int | Rule::int_list => "an integer",
+        Rule::number => "a number",
+        Rule::seconds => "a duration in seconds (e.g. `1.0 s`)",
+        Rule::cap => "`cap <metres> m`",
+        Rule::ep_models => "`model <name>` or `models <names>`",
+        Rule::rec_evaluation
+        | Rule::rec_eval_list
+        | Rule::rec_split_seed
+        | Rule::rec_starts
+        | Rule::rec_horizon
+        | Rule::rec_conditions => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions)",
+        Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
+        Rule::batch
+        | Rule::epochs
+        | Rule::schedule
+        | Rule::patience
+        | Rule::action_noise
+        | Rule::target
+        | Rule::actions => {
+            "a training clause (adam, batch, epochs, cosine, constant, patience, action_noise, target, actions)"
+        }
+        Rule::target_kind => "a target (state_scaled, standardized)",
+        Rule::action_scaling => "an action scaling (raw, standardized)",
+        Rule::model_actions => "`actions raw` or `actions standardized`",
+        Rule::generator_kind => "a generator (chacha8, numpy_legacy)",
+        Rule::draws_kind => "`coupled` or `independent`",
+        Rule::choice => "a choice (`SETTING ALTERNATIVE | ALTERNATIVE ...`)",
+        Rule::alternative | Rule::alt_contrast => "an alternative (a name, a number or `treated - reference`)",
+        Rule::spec_value => "a choice and its alternative (`state onboard`)",
+        Rule::combine | Rule::combine_primary | Rule::combine_every | Rule::combine_share => {
+            "`in primary`, `in every specification` or `in at least P% of specifications`"
+        }
+        Rule::tails_policy => "a tails policy (keep, exclude, truncate)",
+        Rule::attitude_kind
+        | Rule::quaternion_wxyz
+        | Rule::quaternion_xyzw
+        | Rule::euler_radians
+        | Rule::euler_degrees => "an attitude (`quaternion wxyz`, `quaternion xyzw`, `euler radians`, `euler degrees`)",
+        Rule::col_list => "a column name",
+        Rule::fill_zeros => "`fill zeros`",
+        Rule::pooling => "`pooled` or `per_column`",
+        Rule::speed_name | Rule::speed_metadata | Rule::speed_step => {
+            "`name` or `metadata LABEL < THRESHOLD <= LABEL ...`"
+        }
+        Rule::universe_kind => "a universe (csv, metadata)",
+        Rule::sort_order => "an order (natural, bytewise)",
+        Rule::missing_policy => "`allow` or `refuse`",
+        Rule::val_count | Rule::val_list | Rule::val_split => {
+            "`N recordings`, `recordings \"NAME\", ...` or `split`"
+        }
+        Rule::data_path
+        | Rule::data_rate
+        | Rule::include_active
+        | Rule::exclude_implausible
+        | Rule::duplicates
+        | Rule::strict
+        | Rule::state_cols
+        | Rule::action_cols
+        | Rule::time_col
+        | Rule::position_cols
+        | Rule::velocity_cols
+        | Rule::attitude_cols
+        | Rule::reference_cols
+        | Rule::extra_col
+        | Rule::extrapolated_cols
+        | Rule::controller_name
+        | Rule::conditions_table
+        | Rule::tails
+        | Rule::speed_labels
+        | Rule::universe
+        | Rule::missing_csv
+        | Rule::sim_recordings
+        | Rule::sim_seed
+        | Rule::sim_strength
+        | Rule::sim_duration => {
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table for `data csv`; recordings, seed, strength, duration for simulated data)"
+        }
+        Rule::dup_policy => "a duplicates policy (group, first, keep)",
+        Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
+        Rule::mlp | Rule::baseline => "a model kind (mlp(...), persistence, constant_velocity)",
+        Rule::input_kind => "an input map (world, relative)",
+        Rule::role => "an endpoint role (primary, secondary)",
+        Rule::est_level | Rule::est_df | Rule::est_missing => "an estimator clause (level, df, missing)",
+        Rule::df_factor_minus | Rule::df_named => "a df rule (seed - 1, recording - 1, satterthwaite, kenward_roger, z)",
+        Rule::bootstrap | Rule::grouped | Rule::leave_one_out => {
+            "a sensitivity (bootstrap, grouped, leave_one_out)"
+        }
+        Rule::condition => "a condition (e.g. `optimism >= 10%`)",
+        Rule::cmp => "a comparison (>=, <=, >, <)",
+        Rule::seed_range | Rule::seed_list => "seeds (`100..119` or `1, 2, 3`)",
+        other => return format!("{other:?}"),
+    };
+    name.to_string()
+}
+
+/// A pest error as a located diagnostic in the reader's words.
+pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
+    let span = match e.location {
+        pest::error::InputLocation::Pos(p) => Span { start: p, end: p },
+        pest::error::InputLocation::Span((s, e)) => Span { start: s, end: e },
+    };
+    let message = match &e.variant {
+        pest::error::ErrorVariant::ParsingError { positives, negatives } => {
+            // Several rules often share one reader-facing name; say each once.
+            let mut names: Vec<String> = Vec::new();
+            for r in positives {
+                let n = rule_name(r);
+                if !names.contains(&n) {
+                    names.push(n);
+                }
+            }
+            let mut text = match names.len() {
+                0 => "unexpected input".to_string(),
+                1 => format!("expected {}", names[0]),
+                n => format!("expected {}, or {}", names[..n - 1].join(", "), names[n - 1]),
+            };
+            if !negatives.is_empty() {
+                let unexpected: Vec<String> = negatives.iter().map(rule_name).collect();
+                text.push_str(&format!("; unexpected {}", unexpected.join(", ")));
+            }
+            text
+        }
+        pest::error::ErrorVariant::CustomError { message } => message.clone(),
+    };
+    Diagnostic::new("syntax error", span, message)
+}
