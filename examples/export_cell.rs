@@ -41,27 +41,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ws.iter()
             .map(|w| {
                 let r = &o.recordings[w.recording];
-                (r.state[w.t], r.action[w.t], r.state[w.t + 1])
+                (r.state[w.t].clone(), r.action[w.t].clone(), r.state[w.t + 1].clone())
             })
             .collect::<Vec<_>>()
     };
     let fit = triples(o.split.fit(arm).ok_or("no such arm")?);
     let val = triples(&o.split.validation);
     let target = file.design.training.as_ref().ok_or("no train block")?.target;
-    let fm = FeatureMap::fit(*inputs, *actions, target, &fit, "export");
+    let slots = file.design.data.slots();
+    let fm = FeatureMap::fit(slots, *inputs, *actions, target, &fit, "export");
     for (name, set) in [("fit", &fit), ("val", &val)] {
         // Raw network input before standardization (the map's raw input with
         // the clean action), raw action, standardized target.
         write_f32(
             &out.join(format!("{name}_raw_input.f32")),
-            set.iter().flat_map(|(x, u, _)| raw_input(*inputs, x, u)),
+            set.iter().flat_map(|(x, u, _)| raw_input(&slots, *inputs, x, u)),
         )?;
-        let mut z = [0f32; 14];
+        let mut z = vec![0f32; slots.state];
         let targets: Vec<f64> = set
             .iter()
             .flat_map(|(x, _, n)| {
-                fm.target.apply(&raw_target(x, n), &mut z);
-                z.map(f64::from)
+                fm.target.apply(&raw_target(&slots, x, n), &mut z);
+                z.iter().map(|v| f64::from(*v)).collect::<Vec<_>>()
             })
             .collect();
         write_f32(&out.join(format!("{name}_target.f32")), targets.into_iter())?;

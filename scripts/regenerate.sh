@@ -62,6 +62,7 @@ copy_parts() {  # copy_parts FROM TO: the committed parts of one run directory
 fresh designs/quickstart.design results/quickstart
 fresh designs/quickstart_nanobench.design results/quickstart_nanobench
 fresh designs/logs/rotorpy.design results/rotorpy
+fresh designs/logs/rotorpy_wide.design results/rotorpy_wide
 fresh designs/nanobench_paper_linear.design results/nanobench_paper_linear
 fresh designs/simulated_control_0.design results/simulated_controls/strength_0
 fresh designs/simulated_control_high.design results/simulated_controls/strength_high
@@ -91,7 +92,7 @@ rm -rf results/*/models results/*/simulated_data results/simulated_controls/*/mo
 # Wall-clock columns and logs are not reproducible: keep the committed ones
 # of the folders regenerated here, and only those (a full run copied into
 # results/ but not yet committed keeps its own).
-for d in results/quickstart results/quickstart_nanobench results/rotorpy results/nanobench_paper_linear results/simulated_controls/* results/simulated_family/*; do
+for d in results/quickstart results/quickstart_nanobench results/rotorpy results/rotorpy_wide results/nanobench_paper_linear results/simulated_controls/* results/simulated_family/*; do
   for f in time.txt stdout.txt; do
     [ -e "$d/$f" ] && { git checkout -- "$d/$f" 2>/dev/null || true; }
   done

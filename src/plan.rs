@@ -171,6 +171,13 @@ pub struct Plan {
     pub training: Option<Training>,
     /// Log rate (Hz), which turns horizons in seconds into steps.
     pub rate_hz: f64,
+    /// The state and action layout the data declares (the models' widths).
+    #[serde(skip)]
+    pub slots: crate::design::Slots,
+    /// For `data csv`: the state slots' and actions' declared column names
+    /// (a quaternion computed from Euler angles has empty names).
+    #[serde(skip)]
+    pub declared_columns: Option<(Vec<String>, Vec<String>)>,
     /// Rows the per-cell CSV must hold for the analysis: units x arms x I x J
     /// (x splits).
     pub required_rows: usize,
@@ -250,6 +257,12 @@ pub fn compile(design: &Design) -> Plan {
         decision: design.decision.clone(),
         training: design.training.clone(),
         rate_hz: design.data.rate_hz,
+        slots: design.data.slots(),
+        declared_columns: design
+            .data
+            .format
+            .as_ref()
+            .map(|_| (design.data.state_columns.clone(), design.data.action_columns.clone())),
         required_rows,
         splits: design.splits.clone(),
         seed_draws: design.seed_draws(),

@@ -62,3 +62,63 @@ fn the_fused_trainer_is_bit_identical_to_dfdx_at_a_small_width() {
     let epochs = both_engines_agree("tests/designs/tiny_train.design", out.path());
     assert_eq!(epochs.len(), 8);
 }
+
+/// The fused trainer starts any layout from dfdx's initialisation
+/// ([`Net::init`]): on NanoBench's layout it must draw dfdx's own initial
+/// weights bit for bit, at every supported width.
+#[test]
+fn the_initialisation_is_dfdxs_bit_for_bit() {
+    use crossaudit::model::{Net, Slots};
+    for width in crossaudit::design::MLP_WIDTHS {
+        for seed in [0u64, 1, 7, 123_456_789] {
+            let ours = Net::init(&Slots::NANOBENCH, width, seed);
+            let dfdx = Net::init_dfdx(width, seed).unwrap();
+            assert!(ours.flat_weights() == dfdx.flat_weights(), "width {width}, seed {seed}");
+        }
+    }
+    // Another layout: the shapes follow the slots, and the first layer's
+    // bound is 1 / sqrt(inputs).
+    let slots = Slots { state: 20, action: 6, predicted: 16, reference: true };
+    let net = Net::init(&slots, 32, 3).fused();
+    assert_eq!((net.inputs(), net.outputs()), (26, 20));
+    let b = 1.0 / 26f32.sqrt();
+    assert!(
+        net.layers[0].weight.iter().all(|w| w.abs() <= b) && net.layers[0].weight.iter().any(|w| w.abs() > 0.9 * b)
+    );
+}
+
+/// Weights are written in dfdx's safetensors layout: dfdx reads what
+/// crossaudit writes, and crossaudit reads what dfdx writes, bit for bit;
+/// another layout's file is read back with its own shapes.
+#[test]
+fn weights_files_are_dfdxs_safetensors() {
+    use crossaudit::model::{Net, Slots};
+    use dfdx::nn::{LoadFromSafetensors, SaveToSafetensors};
+    use dfdx::prelude::*;
+    type Mlp = ((Linear<18, 32>, ReLU), (Linear<32, 32>, ReLU), (Linear<32, 32>, ReLU), Linear<32, 14>);
+    let dir = tempfile::tempdir().unwrap();
+    let ours = Net::init(&Slots::NANOBENCH, 32, 5);
+    let path = dir.path().join("ours.safetensors");
+    ours.save(&path).unwrap();
+    let dev = Cpu::default();
+    let mut m = dev.build_module::<Mlp, f32>();
+    m.load_safetensors(&path).unwrap();
+    let ((a, _), (b, _), (c, _), d) = &m;
+    let theirs: Vec<f32> = [(&a.weight.as_vec(), &a.bias.as_vec()), (&b.weight.as_vec(), &b.bias.as_vec())]
+        .into_iter()
+        .chain([(&c.weight.as_vec(), &c.bias.as_vec()), (&d.weight.as_vec(), &d.bias.as_vec())])
+        .flat_map(|(w, b)| w.iter().chain(b.iter()).copied().collect::<Vec<_>>())
+        .collect();
+    assert!(theirs == ours.flat_weights(), "dfdx reads crossaudit's file");
+    let dfdx_path = dir.path().join("dfdx.safetensors");
+    let m = Cpu::seed_from_u64(9).build_module::<Mlp, f32>();
+    m.save_safetensors(&dfdx_path).unwrap();
+    let back = Net::load(&[32, 32, 32], &dfdx_path).unwrap();
+    assert!(back.flat_weights() == Net::init_dfdx(32, 9).unwrap().flat_weights(), "crossaudit reads dfdx's file");
+    let slots = Slots { state: 17, action: 8, predicted: 13, reference: false };
+    let other = Net::init(&slots, 64, 2);
+    let p = dir.path().join("other.safetensors");
+    other.save(&p).unwrap();
+    assert_eq!(Net::load(&[64, 64, 64], &p).unwrap(), other);
+    assert!(Net::load(&[32, 32, 32], &p).is_err(), "a file of another width is refused");
+}

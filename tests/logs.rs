@@ -365,16 +365,15 @@ fn a_csv_block_without_what_the_reader_needs_is_refused_with_its_place() {
     assert!(stderr(&o).contains("column declaration outside `data csv`"), "{}", stderr(&o));
 }
 
-#[test]
-fn the_rotorpy_design_reproduces_its_committed_run() {
-    // A second simulator's logs, in its own column layout, end to end: the
-    // committed run (results/rotorpy) comes out byte for byte, the build
-    // line and the training curves' wall-clock seconds aside.
+/// Runs `design` and compares every file of its committed run `results`
+/// byte for byte (the build line and the training curves' wall-clock
+/// seconds aside); returns how many files were compared.
+pub(crate) fn reproduces_committed_run(design: &str, results: &str) -> usize {
     let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("rotorpy");
-    let o = bin().current_dir(root()).args(["run", "designs/logs/rotorpy.design", "--out"]).arg(&out).output().unwrap();
+    let out = tmp.path().join("run");
+    let o = bin().current_dir(root()).args(["run", design, "--out"]).arg(&out).output().unwrap();
     assert_ok(&o);
-    let committed = root().join("results/rotorpy");
+    let committed = root().join(results);
     let normalize = |name: &str, bytes: &[u8]| -> Vec<String> {
         String::from_utf8_lossy(bytes)
             .lines()
@@ -392,12 +391,24 @@ fn the_rotorpy_design_reproduces_its_committed_run() {
         let fresh = std::fs::read(out.join(&f)).unwrap_or_else(|e| panic!("{name}: {e}"));
         let (a, b) = (normalize(&name, &fresh), normalize(&name, &std::fs::read(committed.join(&f)).unwrap()));
         if let Some((k, (x, y))) = a.iter().zip(&b).enumerate().find(|(_, (x, y))| x != y) {
-            panic!("{name} differs from the committed one at line {}:\n  fresh:     {x}\n  committed: {y}", k + 1);
+            panic!(
+                "{results}/{name} differs from the committed one at line {}:\n  fresh:     {x}\n  committed: {y}",
+                k + 1
+            );
         }
         assert_eq!(a.len(), b.len(), "{name}: line counts differ");
         compared += 1;
     }
+    compared
+}
+
+#[test]
+fn the_rotorpy_design_reproduces_its_committed_run() {
+    // A second simulator's logs, in its own column layout, end to end: the
+    // committed run (results/rotorpy) comes out byte for byte.
+    let compared = reproduces_committed_run("designs/logs/rotorpy.design", "results/rotorpy");
     assert!(compared > 40, "{compared} files compared");
+    let committed = root().join("results/rotorpy");
     // RotorPy's columns were read: every flight included, none without a reason.
     let audit = std::fs::read_to_string(committed.join("audit/recordings.csv")).unwrap();
     assert_eq!(audit.lines().filter(|l| l.contains(",included,")).count(), 27, "{audit}");

@@ -39,3 +39,4 @@ mod trust;
 mod trust3_io;
 mod trust3_provenance;
 mod trust4;
+mod wide_state;

@@ -4,12 +4,12 @@
 use crate::common::{root, run_job};
 use crossaudit::design::{ActionScaling, InputMap, TargetKind};
 use crossaudit::model::features::{raw_input, Action, State};
-use crossaudit::model::{Dynamics, FeatureMap, Learned};
+use crossaudit::model::{Dynamics, FeatureMap, Learned, Slots};
 use crossaudit::rollout::{attitude_error_deg, failure_aware, StartOutcome, Trace};
 use crossaudit::split::Window;
 
 fn state(p: [f64; 3], r: [f64; 3]) -> State {
-    let mut x = [0.0; 14];
+    let mut x = vec![0.0; 14];
     x[..3].copy_from_slice(&p);
     x[3..6].copy_from_slice(&[0.3, -0.1, 0.05]);
     x[6..10].copy_from_slice(&[0.99, 0.05, -0.08, 0.1]);
@@ -24,10 +24,10 @@ fn windows(offset: f64, n: usize) -> Vec<(State, Action, State)> {
         .map(|k| {
             let a = k as f64 * 0.05 + offset;
             let x = state([a.cos(), a.sin(), 1.0 + 0.1 * a.sin()], [a.cos() + 0.1, a.sin(), 1.0]);
-            let mut next = x;
+            let mut next = x.clone();
             next[0] += 0.01 * x[3];
             next[1] += 0.01 * x[4];
-            let u = [0.5 + 0.1 * a.sin(), 0.5, 0.52, 0.49];
+            let u = vec![0.5 + 0.1 * a.sin(), 0.5, 0.52, 0.49];
             (x, u, next)
         })
         .collect()
@@ -42,22 +42,30 @@ fn relative_inputs_ignore_a_joint_translation_and_predictions_translate_with_it(
     // Binary fractions, so that the shifted differences are exact.
     let x = state([0.25, -0.5, 1.125], [0.5, -0.25, 1.0]);
     let shift = [3.0, -7.5, 0.25];
-    let mut y = x;
+    let mut y = x.clone();
     for k in 0..3 {
         y[k] += shift[k];
         y[10 + k] += shift[k];
     }
-    let u = [0.5, 0.6, 0.55, 0.5];
-    assert_eq!(raw_input(InputMap::Relative, &x, &u), raw_input(InputMap::Relative, &y, &u));
-    assert_ne!(raw_input(InputMap::World, &x, &u), raw_input(InputMap::World, &y, &u));
+    let u = vec![0.5, 0.6, 0.55, 0.5];
+    let nb = &Slots::NANOBENCH;
+    assert_eq!(raw_input(nb, InputMap::Relative, &x, &u), raw_input(nb, InputMap::Relative, &y, &u));
+    assert_ne!(raw_input(nb, InputMap::World, &x, &u), raw_input(nb, InputMap::World, &y, &u));
     // Any weights will do: train a tiny relative net for one epoch.
     let w = windows(0.0, 300);
-    let features = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::StateScaled, &w, "manifest");
+    let features = FeatureMap::fit(
+        Slots::NANOBENCH,
+        InputMap::Relative,
+        ActionScaling::Raw,
+        TargetKind::StateScaled,
+        &w,
+        "manifest",
+    );
     let mut t = tiny_training();
     t.epochs = 1;
     let (net, _) = crossaudit::model::train(&[32, 32, 32], &features, &w, &w[..50], &t, 3, &mut |_| {}).unwrap();
     let mut model = Learned::new(&net, &features);
-    let next = model.step(&[x, y], &[u, u]);
+    let next = model.step(&[x, y], &[u.clone(), u]);
     for k in 0..3 {
         let moved = next[1][k] - next[0][k];
         assert!((moved - shift[k]).abs() < 1e-9, "predicted position moved by {moved}, origin by {}", shift[k]);
@@ -83,7 +91,7 @@ fn trace(errors: &[f64]) -> Trace {
     Trace {
         start: Window { recording: 0, t: 0 },
         position_error: errors.to_vec(),
-        at: vec![(errors.len(), [0.0; 14], [0.0; 14])],
+        at: vec![(errors.len(), vec![0.0; 14], vec![0.0; 14])],
     }
 }
 
@@ -115,13 +123,25 @@ fn failure_aware_metric_on_hand_built_rollouts() {
 fn standardizers_use_their_own_arm_only() {
     let a = windows(0.0, 400);
     let b = windows(10.0, 400);
-    let fa = FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &a, "fit_a");
-    let fb = FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &b, "fit_b");
-    let joint: Vec<_> = a.iter().chain(&b).copied().collect();
-    let fj = FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &joint, "joint");
+    let fa =
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &a, "fit_a");
+    let fb =
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &b, "fit_b");
+    let joint: Vec<_> = a.iter().chain(&b).cloned().collect();
+    let fj = FeatureMap::fit(
+        Slots::NANOBENCH,
+        InputMap::World,
+        ActionScaling::Raw,
+        TargetKind::StateScaled,
+        &joint,
+        "joint",
+    );
     assert_ne!(fa.input.mean, fb.input.mean);
     assert_ne!(fa.input.mean, fj.input.mean, "fitting on both arms would change arm A's standardizer");
-    assert_eq!(fa, FeatureMap::fit(InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &a, "fit_a"));
+    assert_eq!(
+        fa,
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &a, "fit_a")
+    );
     // Constant dimensions (quaternion components here) get SD 1, not 0.
     assert!(fa.input.std.iter().all(|s| *s > 0.0 && s.is_finite()));
 }
@@ -207,7 +227,7 @@ fn a_saved_cell_is_re_evaluated_without_retraining() {
 
 /// Population mean and SD of dimension `k` over `rows`, recomputed here
 /// from the definition (divisor n).
-fn mean_sd(rows: &[[f64; 14]], k: usize) -> (f64, f64) {
+fn mean_sd(rows: &[Vec<f64>], k: usize) -> (f64, f64) {
     let n = rows.len() as f64;
     let m = rows.iter().map(|r| r[k]).sum::<f64>() / n;
     (m, (rows.iter().map(|r| (r[k] - m).powi(2)).sum::<f64>() / n).sqrt())
@@ -228,10 +248,12 @@ fn state_scaled_target_divides_the_increment_by_the_state_sd() {
             (x, u, next)
         })
         .collect();
-    let xs: Vec<[f64; 14]> = w.iter().map(|(x, _, _)| *x).collect();
-    let paper = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::StateScaled, &w, "m");
-    let own = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::Standardized, &w, "m");
-    let (x, u, next) = w[37];
+    let xs: Vec<Vec<f64>> = w.iter().map(|(x, _, _)| x.clone()).collect();
+    let paper =
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::Relative, ActionScaling::Raw, TargetKind::StateScaled, &w, "m");
+    let own =
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::Relative, ActionScaling::Raw, TargetKind::Standardized, &w, "m");
+    let (x, u, next) = w[37].clone();
     let (mut z_paper, mut z_own) = ([0f32; 14], [0f32; 14]);
     paper.target(&x, &next, &mut z_paper);
     own.target(&x, &next, &mut z_own);
@@ -244,7 +266,7 @@ fn state_scaled_target_divides_the_increment_by_the_state_sd() {
             z_paper[k]
         );
         assert_eq!(paper.target.mean[k], 0.0, "no centring");
-        let dx: Vec<[f64; 14]> = w.iter().map(|(a, _, b)| std::array::from_fn(|j| b[j] - a[j])).collect();
+        let dx: Vec<Vec<f64>> = w.iter().map(|(a, _, b)| (0..14).map(|j| b[j] - a[j]).collect()).collect();
         let (dm, dsd) = mean_sd(&dx, k);
         let standardized = ((next[k] - x[k]) - dm) / dsd;
         assert!((f64::from(z_own[k]) - standardized).abs() < 1e-5, "dim {k}: standardized increment");
@@ -262,10 +284,10 @@ fn state_scaled_target_divides_the_increment_by_the_state_sd() {
 #[test]
 fn raw_actions_reach_both_networks_unscaled() {
     let w = windows(0.0, 400);
-    let (x, u, _) = w[11];
+    let (x, u, _) = w[11].clone();
     for map in [InputMap::World, InputMap::Relative] {
-        let raw = FeatureMap::fit(map, ActionScaling::Raw, TargetKind::StateScaled, &w, "m");
-        let std = FeatureMap::fit(map, ActionScaling::Standardized, TargetKind::StateScaled, &w, "m");
+        let raw = FeatureMap::fit(Slots::NANOBENCH, map, ActionScaling::Raw, TargetKind::StateScaled, &w, "m");
+        let std = FeatureMap::fit(Slots::NANOBENCH, map, ActionScaling::Standardized, TargetKind::StateScaled, &w, "m");
         let (mut a, mut b) = ([0f32; 18], [0f32; 18]);
         raw.input(&x, &u, &mut a);
         std.input(&x, &u, &mut b);
@@ -273,8 +295,8 @@ fn raw_actions_reach_both_networks_unscaled() {
             assert_eq!(a[14 + k], u[k] as f32, "{map:?}: raw u_{k} enters unscaled");
         }
         assert_eq!(a[..14], b[..14], "{map:?}: the state part does not depend on the action scaling");
-        let us: Vec<[f64; 14]> =
-            w.iter().map(|(_, u, _)| std::array::from_fn(|j| if j < 4 { u[j] } else { 0.0 })).collect();
+        let us: Vec<Vec<f64>> =
+            w.iter().map(|(_, u, _)| (0..14).map(|j| if j < 4 { u[j] } else { 0.0 }).collect()).collect();
         let (m, sd) = mean_sd(&us, 0);
         assert!((f64::from(b[14]) - (u[0] - m) / sd).abs() < 1e-5, "{map:?}: standardized u_0");
     }
@@ -290,9 +312,9 @@ fn affine_windows(n: usize, salt: u64) -> Vec<(State, Action, State)> {
     };
     (0..n)
         .map(|_| {
-            let x: State = std::array::from_fn(|_| r());
-            let u: Action = std::array::from_fn(|_| r() + 0.5);
-            let mut next = x;
+            let x: State = (0..14).map(|_| r()).collect();
+            let u: Action = (0..4).map(|_| r() + 0.5).collect();
+            let mut next = x.clone();
             for (k, n) in next.iter_mut().enumerate().take(10) {
                 let a: f64 = x.iter().enumerate().map(|(j, xj)| 0.01 * ((k * 14 + j) % 7) as f64 * xj).sum();
                 let b: f64 = u.iter().enumerate().map(|(j, uj)| 0.02 * ((k + j) % 3) as f64 * uj).sum();
@@ -309,12 +331,19 @@ fn ridge_without_a_penalty_recovers_an_exact_linear_map() {
     // (ridge 0) has zero residual, so every one-step prediction is exact
     // up to the f32 standardization of inputs and outputs.
     let (fit, val, test) = (affine_windows(400, 1), affine_windows(100, 2), affine_windows(50, 3));
-    let features = FeatureMap::fit(InputMap::World, ActionScaling::Standardized, TargetKind::Standardized, &fit, "m");
+    let features = FeatureMap::fit(
+        Slots::NANOBENCH,
+        InputMap::World,
+        ActionScaling::Standardized,
+        TargetKind::Standardized,
+        &fit,
+        "m",
+    );
     let mut model = crossaudit::model::linear::fit(features, &fit, &val, Some(0.0)).unwrap();
     assert_eq!(model.validation.len(), 1);
     assert!(model.validation[0].1 < 1e-10, "validation loss {}", model.validation[0].1);
-    let states: Vec<State> = test.iter().map(|w| w.0).collect();
-    let actions: Vec<Action> = test.iter().map(|w| w.1).collect();
+    let states: Vec<State> = test.iter().map(|w| w.0.clone()).collect();
+    let actions: Vec<Action> = test.iter().map(|w| w.1.clone()).collect();
     let predicted = model.step(&states, &actions);
     for ((p, w), x) in predicted.iter().zip(&test).zip(&states) {
         for (k, (got, want)) in p.iter().zip(&w.2).take(10).enumerate() {
@@ -328,7 +357,8 @@ fn ridge_without_a_penalty_recovers_an_exact_linear_map() {
 #[test]
 fn ridge_auto_keeps_the_grid_penalty_with_the_lowest_validation_loss_and_a_huge_penalty_predicts_the_mean() {
     let (fit, val) = (affine_windows(300, 4), affine_windows(100, 5));
-    let features = FeatureMap::fit(InputMap::Relative, ActionScaling::Raw, TargetKind::Standardized, &fit, "m");
+    let features =
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::Relative, ActionScaling::Raw, TargetKind::Standardized, &fit, "m");
     let auto = crossaudit::model::linear::fit(features.clone(), &fit, &val, None).unwrap();
     let grid: Vec<f64> = auto.validation.iter().map(|v| v.0).collect();
     assert_eq!(grid, crossaudit::model::linear::RIDGE_GRID.to_vec());
@@ -340,8 +370,8 @@ fn ridge_auto_keeps_the_grid_penalty_with_the_lowest_validation_loss_and_a_huge_
     let mut big = crossaudit::model::linear::fit(features, &fit, &val, Some(1e12)).unwrap();
     assert!(big.weights[..18 * 14].iter().all(|w| w.abs() < 1e-9));
     assert!(big.weights[18 * 14..].iter().all(|w| w.abs() < 1e-6), "{:?}", &big.weights[18 * 14..]);
-    let (x, u) = (fit[0].0, fit[0].1);
-    let p = big.step(&[x], &[u])[0];
+    let (x, u) = (fit[0].0.clone(), fit[0].1.clone());
+    let p = big.step(std::slice::from_ref(&x), &[u])[0].clone();
     let mean: Vec<f64> = (0..10).map(|k| fit.iter().map(|w| w.2[k] - w.0[k]).sum::<f64>() / fit.len() as f64).collect();
     for (k, m) in mean.iter().enumerate() {
         assert!((p[k] - x[k] - m).abs() < 1e-6, "dim {k}");

@@ -25,7 +25,7 @@ def ridge_fit(inputs: np.ndarray, targets: np.ndarray, lam: float = 1e-3) -> np.
     return np.linalg.solve(x.T @ x + lam * np.eye(x.shape[1]), x.T @ targets)
 
 
-def rollout(weights: np.ndarray, std: dict, starts: dict, steps: int) -> np.ndarray:
+def rollout(weights: np.ndarray, std: dict, starts: dict, steps: int, exogenous: list) -> np.ndarray:
     """Open loop from every start: the standardized state and actions in,
     the exported target (an increment) out, added to the state."""
     mean_in, sd_in = np.array(std["input"]["mean"]), np.array(std["input"]["std"])
@@ -36,7 +36,7 @@ def rollout(weights: np.ndarray, std: dict, starts: dict, steps: int) -> np.ndar
         raw = np.hstack([x, starts["actions"][:, k, :]])
         z = np.hstack([(raw - mean_in) / sd_in, np.ones((len(x), 1))]) @ weights
         x = x + z * sd_t + mean_t
-        x[:, 10:14] = starts["exogenous"][:, k, :]  # measured reference and battery
+        x[:, exogenous] = starts["exogenous"][:, k, :]  # measured (NanoBench: reference and battery)
         x[:, 6:10] /= np.linalg.norm(x[:, 6:10], axis=1, keepdims=True)  # unit quaternion
         out[:, k, :] = x
     return out
@@ -45,10 +45,11 @@ def rollout(weights: np.ndarray, std: dict, starts: dict, steps: int) -> np.ndar
 def main(out: str) -> None:
     ex = crossaudit.export(DESIGN, out)
     starts = ex.starts()
+    exogenous = ex.index["exogenous_columns"]
     for job in ex.jobs.itertuples():
         fit = ex.fit(job.arm, model=job.model)
         w = ridge_fit(fit["inputs"], fit["targets"])
-        ex.write_predictions(job.model, job.arm, job.seed, rollout(w, ex.standardizers(job.model, job.arm), starts, job.steps))
+        ex.write_predictions(job.model, job.arm, job.seed, rollout(w, ex.standardizers(job.model, job.arm), starts, job.steps, exogenous))
         print(f"fitted and rolled out {job.model}/{job.arm}/{job.seed}")
     result = crossaudit.score(out)
     print(result.decision)

@@ -57,7 +57,8 @@ __all__ = [
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-#: The 14 state columns of every state array and prediction, in order.
+#: NanoBench's 14 state columns, in order (a ``data csv`` design names its
+#: own: ``Export.index["state_columns"]``).
 STATE_COLUMNS = ["x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "ref_x", "ref_y", "ref_z", "battery"]
 
 
@@ -153,10 +154,11 @@ class Export:
         raise CrossauditError(f"no external job of arm {arm!r}" + (f" and model {model!r}" if model else ""))
 
     def fit(self, arm: str, model: Optional[str] = None) -> Dict[str, np.ndarray]:
-        """The arm's fit windows: ``states`` (N x 14), ``actions`` (N x 4),
-        ``next_states`` (N x 14), ``history`` (N x H x 18) when declared, and
-        for ``model`` its standardized ``inputs`` (N x 18) and ``targets``
-        (N x 14)."""
+        """The arm's fit windows: ``states`` (N x D), ``actions`` (N x A),
+        ``next_states`` (N x D), ``history`` (N x H x (D + A)) when declared,
+        and for ``model`` its standardized ``inputs`` (N x (D + A)) and
+        ``targets`` (N x D). D and A are the data's state and action
+        dimensions (NanoBench: 14 and 4; ``index["state_columns"]``)."""
         files = self.index["fit"].get(arm)
         if files is None:
             raise CrossauditError(f"no arm {arm!r}; arms: {', '.join(self.index['fit'])}")
@@ -178,11 +180,12 @@ class Export:
         return out
 
     def starts(self) -> Dict[str, Union[np.ndarray, pd.DataFrame]]:
-        """The registered rollout starts: ``states`` (S x 14), ``actions``
-        (S x K x 4: u at steps 0..K-1), ``exogenous`` (S x K x 4: the measured
-        reference and battery at steps 1..K, which the rollout overwrites),
-        ``history`` (S x H x 18) when declared, and ``table`` (recording,
-        sample index, trajectory, speed)."""
+        """The registered rollout starts: ``states`` (S x D), ``actions``
+        (S x K x A: u at steps 0..K-1), ``exogenous`` (S x K x E: the
+        measured exogenous state at steps 1..K, which the rollout
+        overwrites; NanoBench: reference and battery, columns
+        ``index["exogenous_columns"]``), ``history`` (S x H x (D + A)) when
+        declared, and ``table`` (recording, sample index, trajectory, speed)."""
         out: Dict[str, Union[np.ndarray, pd.DataFrame]] = {}
         for k, v in self.index["start_files"].items():
             out[k] = pd.read_csv(self.directory / "export" / v) if k == "table" else self._array(v)
@@ -194,7 +197,7 @@ class Export:
         return self._model_job(arm, model)["standardizers"]
 
     def write_predictions(self, model: str, arm: str, seed: int, trajectories: np.ndarray) -> Path:
-        """Writes one job's predicted trajectories (starts x steps x 14 states
+        """Writes one job's predicted trajectories (starts x steps x D states
         at steps 1..K, float64) with its description; checks the shape first."""
         j = self.job(model, arm, seed)
         p = np.ascontiguousarray(np.asarray(trajectories, dtype="<f8"))

@@ -497,9 +497,11 @@ fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
     ];
     match spec.plausibility {
         // Upstream: np.nanpercentile over the N x 4 array, all motors together.
-        Pooling::Pooled => {
-            checks.push(("PWM (4 motors pooled)".into(), active.iter().flat_map(|&k| rec.pwm[k]).collect(), PWM_BOUNDS))
-        }
+        Pooling::Pooled => checks.push((
+            "PWM (4 motors pooled)".into(),
+            active.iter().flat_map(|&k| rec.pwm[k].iter().copied()).collect(),
+            PWM_BOUNDS,
+        )),
         Pooling::PerColumn => {
             for m in 0..4 {
                 checks.push((format!("PWM m{}", m + 1), active.iter().map(|&k| rec.pwm[k][m]).collect(), PWM_BOUNDS));

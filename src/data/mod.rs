@@ -31,13 +31,17 @@ pub struct Recording {
     pub rows: usize,
     /// Time, seconds.
     pub t: Vec<f64>,
-    /// The 14-d state per row, in the declared column order; battery zeros
-    /// forward/back-filled.
-    pub state: Vec<[f64; 14]>,
-    /// The 4-d action per row: PWM / 65535 clipped to [0, 1].
-    pub action: Vec<[f64; 4]>,
-    /// Raw motor PWM (the action columns before scaling), for plausibility.
-    pub pwm: Vec<[f64; 4]>,
+    /// The state per row, in the declared slot order (NanoBench: 14, its
+    /// battery zeros forward/back-filled).
+    pub state: Vec<Vec<f64>>,
+    /// The action per row: the column / its scale, clipped to [0, 1]
+    /// (NanoBench: 4, PWM / 65535).
+    pub action: Vec<Vec<f64>>,
+    /// The action columns before scaling (NanoBench: motor PWM), for plausibility.
+    pub pwm: Vec<Vec<f64>>,
+    /// State slots a model predicts (the first ones; NanoBench: 10); the
+    /// rest are exogenous, written in from the log at every rollout step.
+    pub predicted: usize,
     /// Rows meeting the active rule (default: motor_motor_m1 > 1000).
     pub active: Vec<bool>,
     /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
@@ -114,6 +118,7 @@ impl Recording {
             state: Vec::new(),
             action: Vec::new(),
             pwm: Vec::new(),
+            predicted: 0,
             active: Vec::new(),
             content_hash: String::new(),
             row_hashes: Vec::new(),
@@ -168,8 +173,10 @@ pub struct Layout {
     active: usize,
     active_cmp: Cmp,
     active_threshold: f64,
-    /// The state slot whose zeros are filled.
-    fill_zeros: Option<usize>,
+    /// The state slots whose zeros are filled.
+    fill_zeros: Vec<usize>,
+    /// Predicted state slots (the first ones).
+    predicted: usize,
     /// The extrapolated-tail columns' positions.
     extrapolated: Vec<usize>,
     /// Whether each row is hashed ([`Recording::row_hashes`]).
@@ -215,7 +222,8 @@ impl Layout {
             active,
             active_cmp: cmp,
             active_threshold: threshold,
-            fill_zeros: format.fill_zeros,
+            fill_zeros: format.fill_zeros.clone(),
+            predicted: format.predicted,
             extrapolated,
             row_hashes: false,
         })
@@ -250,7 +258,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         }
         None => (0..rows).map(|k| k as f64 / layout.rate_hz).collect(),
     };
-    let mut state = vec![[0.0; 14]; rows];
+    let mut state = vec![vec![0.0; layout.state.len()]; rows];
     for (slot, col) in layout.state.iter().enumerate() {
         let Some(col) = col else { continue };
         for (s, v) in state.iter_mut().zip(&cols[*col]) {
@@ -264,11 +272,11 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
             s[6..10].copy_from_slice(&q);
         }
     }
-    if let Some(b) = layout.fill_zeros {
+    for &b in &layout.fill_zeros {
         fill_zeros(&mut state, b);
     }
-    let mut pwm = vec![[0.0; 4]; rows];
-    let mut action = vec![[0.0; 4]; rows];
+    let mut pwm = vec![vec![0.0; layout.actions.len()]; rows];
+    let mut action = vec![vec![0.0; layout.actions.len()]; rows];
     for (k, col) in layout.actions.iter().enumerate() {
         for ((p, a), v) in pwm.iter_mut().zip(action.iter_mut()).zip(&cols[*col]) {
             p[k] = *v;
@@ -306,6 +314,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         state,
         action,
         pwm,
+        predicted: layout.predicted,
         active,
         content_hash: parsed.content_hash,
         row_hashes: parsed.row_hashes,
@@ -385,7 +394,7 @@ impl Recording {
 /// Battery is logged at 10 Hz and forward-filled with zeros before the
 /// first reading: replace zeros by the previous reading, and leading zeros
 /// by the first reading.
-fn fill_zeros(state: &mut [[f64; 14]], k: usize) {
+fn fill_zeros(state: &mut [Vec<f64>], k: usize) {
     let Some(first) = state.iter().map(|s| s[k]).find(|v| *v != 0.0) else { return };
     let mut last = first;
     for s in state.iter_mut() {

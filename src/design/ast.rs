@@ -185,9 +185,11 @@ pub enum DataItem {
         kind: Ident,
         columns: Vec<Ident>,
     },
+    Rates(Vec<Ident>),
+    Predicted(Vec<Ident>),
     Reference(Vec<Ident>),
     Extra {
-        column: Ident,
+        columns: Vec<Ident>,
         fill_zeros: bool,
     },
     Extrapolated(Vec<Ident>),

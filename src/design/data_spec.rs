@@ -68,15 +68,23 @@ pub struct LogFormat {
     pub nanobench_header: bool,
     /// The time column, seconds; without one, row k is at k / rate.
     pub time: Option<String>,
-    /// The column read into each of the model's 14 state slots (position,
-    /// velocity, quaternion w x y z, reference, extra); `None` is 0, or the
-    /// quaternion computed from [`LogFormat::euler`].
+    /// The column read into each of the model's state slots: position,
+    /// velocity, quaternion w x y z, body rates and further predicted
+    /// columns (the first [`LogFormat::predicted`]), then the exogenous
+    /// reference and extra columns (NanoBench's 14: position, velocity,
+    /// quaternion, reference, battery). `None` is the quaternion computed
+    /// from [`LogFormat::euler`].
     pub state: Vec<Option<String>>,
+    /// State slots the model predicts (the first ones; NanoBench: 10).
+    pub predicted: usize,
+    /// Whether the three slots after the predicted ones are the position
+    /// reference.
+    pub reference: bool,
     /// Euler angles (roll, pitch, yaw; Z-Y-X) turned into the quaternion slots.
     pub euler: Option<Euler>,
-    /// A state slot whose zeros are filled with the reading before them.
-    pub fill_zeros: Option<usize>,
-    /// The 4 action columns.
+    /// State slots whose zeros are filled with the reading before them.
+    pub fill_zeros: Vec<usize>,
+    /// The action columns (NanoBench: 4).
     pub actions: Vec<String>,
     /// Each action is the column's value / this, clipped to [0, 1].
     pub action_scale: f64,
@@ -118,6 +126,13 @@ pub const NANOBENCH_EXTRAPOLATED: [&str; 7] = [
 pub const NANOBENCH_ACTION_SCALE: f64 = 65535.0;
 
 impl DataSpec {
+    /// The layout of the state and action the data declares: its state
+    /// columns and actions, the predicted ones first.
+    pub fn slots(&self) -> Slots {
+        let f = self.log_format();
+        Slots { state: f.state.len(), action: f.actions.len(), predicted: f.predicted, reference: f.reference }
+    }
+
     /// Each action is the column's value / this (NanoBench's PWM: 65535).
     pub fn action_scale(&self) -> f64 {
         self.format.as_ref().map_or(NANOBENCH_ACTION_SCALE, |f| f.action_scale)
@@ -137,7 +152,9 @@ impl DataSpec {
             time: Some("t".into()),
             state: self.state_columns.iter().map(|c| Some(c.clone())).collect(),
             euler: None,
-            fill_zeros: self.state_columns.iter().position(|c| c == "pwr_pm_vbat"),
+            predicted: 10,
+            reference: true,
+            fill_zeros: self.state_columns.iter().position(|c| c == "pwr_pm_vbat").into_iter().collect(),
             actions: self.action_columns.clone(),
             action_scale: self.action_scale(),
             // The simulator writes no extrapolated tails (its onboard
@@ -391,3 +408,49 @@ pub const MOTION_CAPTURE_STATE_COLUMNS: [&str; 14] = [
 
 /// NanoBench task-2 action convention: motor PWM / 65535, clipped to [0, 1].
 pub const DEFAULT_ACTION_COLUMNS: [&str; 4] = ["motor_motor_m1", "motor_motor_m2", "motor_motor_m3", "motor_motor_m4"];
+
+/// The state and action layout a model works in, read from the data
+/// declaration: slots `0..predicted` are predicted (position 0..3,
+/// velocity 3..6, quaternion w x y z 6..10, then body rates and any other
+/// declared state), slots `predicted..state` are exogenous (measured
+/// values the rollout writes in after every step: the reference first,
+/// when there is one, then any extra columns).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Slots {
+    /// State dimensions.
+    pub state: usize,
+    /// Action dimensions.
+    pub action: usize,
+    /// Predicted state dimensions (the first ones).
+    pub predicted: usize,
+    /// Whether the first three exogenous slots are the position reference
+    /// (the relative map replaces them by reference - position).
+    pub reference: bool,
+}
+
+impl Slots {
+    /// NanoBench's layout (and the simulator's): 14 state slots, the last
+    /// four (reference and battery) exogenous, and four actions.
+    pub const NANOBENCH: Slots = Slots { state: 14, action: 4, predicted: 10, reference: true };
+
+    /// Network input dimensions: state and action.
+    pub fn input(&self) -> usize {
+        self.state + self.action
+    }
+
+    /// The exogenous slots.
+    pub fn exogenous(&self) -> std::ops::Range<usize> {
+        self.predicted..self.state
+    }
+
+    /// Whether this is NanoBench's layout.
+    pub fn is_nanobench(&self) -> bool {
+        *self == Slots::NANOBENCH
+    }
+}
+
+impl Default for Slots {
+    fn default() -> Slots {
+        Slots::NANOBENCH
+    }
+}

@@ -471,9 +471,11 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
             DataItem::Attitude { kind, columns: cols(c.next()) }
         }
         Rule::reference_cols => DataItem::Reference(cols(c.next())),
+        Rule::rates_cols => DataItem::Rates(cols(c.next())),
+        Rule::predicted_cols => DataItem::Predicted(cols(c.next())),
         Rule::extra_col => {
-            let column = col(c.next());
-            DataItem::Extra { column, fill_zeros: c.0.next().is_some() }
+            let columns = cols(c.next());
+            DataItem::Extra { columns, fill_zeros: c.0.next().is_some() }
         }
         Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
         Rule::controller_name => DataItem::Controller(ident(c.next())),

@@ -23,7 +23,7 @@ impl Dynamics for ConstantVelocity {
         states
             .iter()
             .map(|x| {
-                let mut n = *x;
+                let mut n = x.clone();
                 for k in 0..3 {
                     n[k] += x[3 + k] * self.dt;
                 }

@@ -1,4 +1,5 @@
-//! The fused f32 trainer: the design's MLP (18 -> W -> W -> W -> 14, ReLU)
+//! The fused f32 trainer: the design's MLP (inputs -> W -> W -> W -> state,
+//! ReLU; 18 -> W -> W -> W -> 14 for NanoBench)
 //! trained with MSE and Adam on preallocated buffers, with no per-step
 //! allocation and no autodiff tape.
 //!
@@ -13,7 +14,7 @@
 //! initial weights come from dfdx ([`super::net`] builds the module and
 //! hands its tensors over).
 
-use super::features::{INPUT, STATE};
+use super::features::Slots;
 use super::kernel::{gemm, Strided};
 
 /// One dense layer: `out x inp` weights, row-major as dfdx stores them.
@@ -42,7 +43,7 @@ pub struct Activations {
     capacity: usize,
     /// ReLU output of every hidden layer (n x width).
     h: Vec<Vec<f32>>,
-    /// Output of the last layer (n x 14).
+    /// Output of the last layer (n x outputs).
     out: Vec<f32>,
 }
 
@@ -66,10 +67,10 @@ fn vectorized<R>(f: impl FnOnce() -> R) -> R {
 }
 
 impl FusedMlp {
-    /// An `18 -> width -> width -> width -> 14` network from its parameters
-    /// in dfdx's order (weight, bias per layer).
-    pub fn from_parts(width: usize, parts: &[(Vec<f32>, Vec<f32>)]) -> FusedMlp {
-        let dims = [(INPUT, width), (width, width), (width, width), (width, STATE)];
+    /// An `inputs -> width -> width -> width -> state` network of `slots`
+    /// from its parameters in dfdx's order (weight, bias per layer).
+    pub fn from_parts(slots: &Slots, width: usize, parts: &[(Vec<f32>, Vec<f32>)]) -> FusedMlp {
+        let dims = [(slots.input(), width), (width, width), (width, width), (width, slots.state)];
         let layers = dims
             .iter()
             .zip(parts)
@@ -81,8 +82,18 @@ impl FusedMlp {
         FusedMlp { layers }
     }
 
-    /// Forward pass of `n` rows of `x` (n x 18) into `act`; returns the
-    /// output (n x 14).
+    /// Input width (18 for NanoBench).
+    pub fn inputs(&self) -> usize {
+        self.layers[0].inp
+    }
+
+    /// Output width (14 for NanoBench).
+    pub fn outputs(&self) -> usize {
+        self.layers[self.layers.len() - 1].out
+    }
+
+    /// Forward pass of `n` rows of `x` (n x inputs) into `act`; returns the
+    /// output (n x outputs).
     ///
     /// dfdx computes `z = x * W^T` into a fresh tensor, `z + b`, then
     /// `max(z, 0)` in separate passes; here the product goes straight into
@@ -117,13 +128,13 @@ impl FusedMlp {
                 }
             });
         }
-        &act.out[..n * STATE]
+        &act.out[..n * self.outputs()]
     }
 
-    /// Predictions for `x` (n x 18, n = x.len() / 18), all rows in one
-    /// pass (as dfdx's forward on the whole batch).
+    /// Predictions for `x` (n x inputs), all rows in one pass (as dfdx's
+    /// forward on the whole batch).
     pub fn predict(&self, x: &[f32]) -> Vec<f32> {
-        let n = x.len() / INPUT;
+        let n = x.len() / self.inputs();
         let mut act = Activations::new(self, n.max(1));
         self.forward(x, n, &mut act).to_vec()
     }
@@ -177,7 +188,7 @@ impl Trainer {
         Trainer { net, state, act, grad_z, t: 0 }
     }
 
-    /// One Adam step on `n` rows (x: n x 18, y: n x 14) at learning rate
+    /// One Adam step on `n` rows (x: n x inputs, y: n x outputs) at learning rate
     /// `lr`; returns the batch's mean squared error before the step.
     pub fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32 {
         assert!(n > 0 && n <= self.act.capacity, "batch of {n} rows for a trainer of {}", self.act.capacity);
@@ -195,12 +206,13 @@ impl Trainer {
     fn loss_and_gradient(&mut self, len: usize, y: &[f32], n: usize) -> f32 {
         let last = self.net.layers.len() - 1;
         let pred = &self.act.out[..len];
-        let inv_n = (1.0 / (n * STATE) as f64) as f32;
+        let width = self.net.outputs();
+        let inv_n = (1.0 / (n * width) as f64) as f32;
         let grad = &mut self.grad_z[last][..len];
         let grad_b = &mut self.state[last].grad_b;
         grad_b.fill(0.0);
         let mut sum = 0.0f32;
-        for ((g, p), t) in grad.chunks_exact_mut(STATE).zip(pred.chunks_exact(STATE)).zip(y[..len].chunks_exact(STATE))
+        for ((g, p), t) in grad.chunks_exact_mut(width).zip(pred.chunks_exact(width)).zip(y[..len].chunks_exact(width))
         {
             for (((g, p), t), gb) in g.iter_mut().zip(p).zip(t).zip(grad_b.iter_mut()) {
                 let d = p - t;

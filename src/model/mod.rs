@@ -14,7 +14,7 @@ pub mod linear;
 pub mod net;
 mod standardize;
 
-pub use features::{Action, FeatureMap, State, ACTION, EXOGENOUS, INPUT, STATE};
+pub use features::{Action, FeatureMap, Slots, State, ACTION, EXOGENOUS, INPUT, STATE};
 pub use linear::{Linear, LinearError};
 pub use net::{train, train_with, Engine, EpochLog, Learned, Net, NetError};
 pub use standardize::Standardizer;

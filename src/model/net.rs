@@ -6,14 +6,16 @@
 //! (`results/benchmarks/torch_reference.txt`); rollouts predict through the same fused
 //! forward pass.
 //!
-//! Layer widths are types in dfdx 0.13, so the supported architectures are
-//! three hidden ReLU layers of one width from [`crate::design::MLP_WIDTHS`]: 18 -> W
-//! -> W -> W -> 14. The paper's is W = 256.
+//! The supported architectures are three hidden ReLU layers of one width
+//! from [`crate::design::MLP_WIDTHS`]: inputs -> W -> W -> W -> state (18 ->
+//! W -> W -> W -> 14 for NanoBench). The paper's is W = 256. Layer widths
+//! are types in dfdx 0.13, so its reference trainer runs NanoBench's
+//! layout only; the fused trainer takes any [`Slots`], starting from
+//! dfdx's initialisation ([`Net::init`], checked bit for bit against it).
 
 use std::path::Path;
 use std::time::Instant;
 
-use dfdx::nn::{LoadFromSafetensors, SaveToSafetensors};
 use dfdx::optim::{Adam, AdamConfig};
 use dfdx::prelude::*;
 use rand::seq::SliceRandom;
@@ -21,7 +23,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::features::{Action, FeatureMap, State, ACTION, INPUT, STATE};
+use super::features::{Action, FeatureMap, Slots, State, INPUT, STATE};
 use super::fused::{Activations, FusedMlp, Trainer};
 use super::Dynamics;
 use crate::design::{mlp_supported, Schedule, Training, MLP_WIDTHS};
@@ -30,15 +32,10 @@ use crate::stats::standard_normal;
 type Mlp<const W: usize> = ((Linear<INPUT, W>, ReLU), (Linear<W, W>, ReLU), (Linear<W, W>, ReLU), Linear<W, STATE>);
 type Built<const W: usize> = <Mlp<W> as BuildOnDevice<Cpu, f32>>::Built;
 
-/// A trained network of one of the supported widths.
-#[derive(Clone)]
-pub enum Net {
-    /// Three hidden layers of 32.
-    W32(Built<32>),
-    /// Three hidden layers of 64.
-    W64(Built<64>),
-    /// Three hidden layers of 256.
-    W256(Built<256>),
+/// A trained network: its parameters, in the fused trainer's layout.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Net {
+    mlp: FusedMlp,
 }
 
 /// One epoch of training.
@@ -76,6 +73,14 @@ pub enum NetError {
     #[error("training needs at least one fit and one validation window")]
     /// No fit or no validation windows.
     NoData,
+    #[error("dfdx's reference trainer runs NanoBench's layout (14 state, 4 action dimensions) only; this data has {state} state and {action} action dimensions")]
+    /// The reference trainer was asked for another layout.
+    ReferenceLayout {
+        /// State dimensions.
+        state: usize,
+        /// Action dimensions.
+        action: usize,
+    },
 }
 
 /// Learning rate at `epoch` (0-based) of `epochs`: cosine from lr to 0, or
@@ -97,9 +102,10 @@ fn fill_inputs(
     out: &mut [f32],
 ) {
     let mut noise = noise;
-    for (row, &k) in out.chunks_exact_mut(INPUT).zip(idx) {
-        let (s, u, _) = &windows[k];
-        let mut u = *u;
+    let mut u = vec![0.0; features.slots.action];
+    for (row, &k) in out.chunks_exact_mut(features.slots.input()).zip(idx) {
+        let (s, action, _) = &windows[k];
+        u.copy_from_slice(action);
         if let Some((sd, rng)) = noise.as_mut() {
             for a in u.iter_mut() {
                 *a = (*a + *sd * standard_normal(rng)).clamp(0.0, 1.0);
@@ -111,20 +117,20 @@ fn fill_inputs(
 
 /// Writes the standardized targets of windows `idx` into `out`.
 fn fill_targets(features: &FeatureMap, windows: &Windows, idx: &[usize], out: &mut [f32]) {
-    for (row, &k) in out.chunks_exact_mut(STATE).zip(idx) {
+    for (row, &k) in out.chunks_exact_mut(features.slots.state).zip(idx) {
         let (s, _, n) = &windows[k];
         features.target(s, n, row);
     }
 }
 
 fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option<(f64, &mut ChaCha8Rng)>) -> Vec<f32> {
-    let mut x = vec![0f32; idx.len() * INPUT];
+    let mut x = vec![0f32; idx.len() * features.slots.input()];
     fill_inputs(features, windows, idx, noise, &mut x);
     x
 }
 
 fn targets(features: &FeatureMap, windows: &Windows, idx: &[usize]) -> Vec<f32> {
-    let mut y = vec![0f32; idx.len() * STATE];
+    let mut y = vec![0f32; idx.len() * features.slots.state];
     fill_targets(features, windows, idx, &mut y);
     y
 }
@@ -175,14 +181,18 @@ pub fn train_with(
     }
     let width = widths[0];
     if engine == Engine::Fused {
-        let mut run = FusedRun::new(Net::init(width, seed).fused(), t.batch, validation.len());
+        let mut run = FusedRun::new(Net::init(&features.slots, width, seed).mlp, t.batch, validation.len());
         let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
-        return Ok((Net::from_fused(width, &run.best), logs));
+        return Ok((Net { mlp: run.best }, logs));
+    }
+    let slots = features.slots;
+    if !slots.is_nanobench() {
+        return Err(NetError::ReferenceLayout { state: slots.state, action: slots.action });
     }
     Ok(match width {
-        32 => reference::<32>(features, fit, validation, t, seed, on_epoch, Net::W32),
-        64 => reference::<64>(features, fit, validation, t, seed, on_epoch, Net::W64),
-        _ => reference::<256>(features, fit, validation, t, seed, on_epoch, Net::W256),
+        32 => reference::<32>(features, fit, validation, t, seed, on_epoch),
+        64 => reference::<64>(features, fit, validation, t, seed, on_epoch),
+        _ => reference::<256>(features, fit, validation, t, seed, on_epoch),
     })
 }
 
@@ -221,8 +231,9 @@ fn early_stopped(
     let all_val: Vec<usize> = (0..validation.len()).collect();
     let val_x = inputs(features, validation, &all_val, None);
     let val_y = targets(features, validation, &all_val);
-    let mut x = vec![0f32; t.batch * INPUT];
-    let mut y = vec![0f32; t.batch * STATE];
+    let (inputs_dim, state_dim) = (features.slots.input(), features.slots.state);
+    let mut x = vec![0f32; t.batch * inputs_dim];
+    let mut y = vec![0f32; t.batch * state_dim];
     let mut best_val = f64::INFINITY;
     let mut since_best = 0;
     let mut logs = Vec::new();
@@ -234,9 +245,9 @@ fn early_stopped(
         let mut loss_sum = 0.0;
         for batch in order.chunks(t.batch) {
             let n = batch.len();
-            fill_inputs(features, fit, batch, Some((t.action_noise, &mut noise)), &mut x[..n * INPUT]);
-            fill_targets(features, fit, batch, &mut y[..n * STATE]);
-            loss_sum += f64::from(trainer.step(&x[..n * INPUT], &y[..n * STATE], n, lr)) * n as f64;
+            fill_inputs(features, fit, batch, Some((t.action_noise, &mut noise)), &mut x[..n * inputs_dim]);
+            fill_targets(features, fit, batch, &mut y[..n * state_dim]);
+            loss_sum += f64::from(trainer.step(&x[..n * inputs_dim], &y[..n * state_dim], n, lr)) * n as f64;
         }
         let val_loss = trainer.val_loss(&val_x, &val_y);
         let log = EpochLog {
@@ -281,7 +292,7 @@ impl Minibatches for FusedRun {
         self.trainer.step(x, y, n, lr)
     }
     fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64 {
-        mse_of(self.trainer.net.forward(x, x.len() / INPUT, &mut self.val_act), y)
+        mse_of(self.trainer.net.forward(x, x.len() / self.trainer.net.inputs(), &mut self.val_act), y)
     }
     fn keep_best(&mut self) {
         self.best.clone_from(&self.trainer.net);
@@ -327,7 +338,6 @@ fn reference<const W: usize>(
     t: &Training,
     seed: u64,
     on_epoch: &mut dyn FnMut(&EpochLog),
-    wrap: fn(Built<W>) -> Net,
 ) -> (Net, Vec<EpochLog>) {
     let dev = Cpu::seed_from_u64(seed);
     let model = dev.build_module::<Mlp<W>, f32>();
@@ -336,7 +346,7 @@ fn reference<const W: usize>(
     let best = model.clone();
     let mut run = ReferenceRun { dev, model, grads, opt, best };
     let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
-    (wrap(run.best), logs)
+    (Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, W, &parts(&run.best)) }, logs)
 }
 
 fn forward<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32]) -> Vec<f32> {
@@ -371,89 +381,141 @@ fn module_from<const W: usize>(f: &FusedMlp) -> Built<W> {
     m
 }
 
+/// dfdx's name for each layer's (weight, bias) in a safetensors file:
+/// the MLP's tuple position, then the Linear's inside its (Linear, ReLU).
+const TENSOR_NAMES: [(&str, &str); 4] =
+    [("0.0.weight", "0.0.bias"), ("1.0.weight", "1.0.bias"), ("2.0.weight", "2.0.bias"), ("3.weight", "3.bias")];
+
 impl Net {
-    /// dfdx's initialisation for `seed` (the device RNG seeded with it).
-    fn init(width: usize, seed: u64) -> Net {
+    /// dfdx's initialisation for `seed`, for any layout: each layer's
+    /// weight, then its bias, drawn in storage order from Uniform(-b, b),
+    /// b = 1 / sqrt(inputs) in f32, with the device's RNG (rand's `StdRng`
+    /// seeded with `seed`), as dfdx's `Cpu::seed_from_u64(seed)` and
+    /// `build_module` do (tests/fused.rs checks it bit for bit).
+    pub fn init(slots: &Slots, width: usize, seed: u64) -> Net {
+        use rand::distributions::{Distribution, Uniform};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let dims = [(slots.input(), width), (width, width), (width, width), (width, slots.state)];
+        let parts: Vec<(Vec<f32>, Vec<f32>)> = dims
+            .iter()
+            .map(|&(inp, out)| {
+                let b = 1.0f32 / (inp as f32).sqrt();
+                let u = Uniform::new(-b, b);
+                let w = (0..inp * out).map(|_| u.sample(&mut rng)).collect();
+                let bias = (0..out).map(|_| u.sample(&mut rng)).collect();
+                (w, bias)
+            })
+            .collect();
+        Net { mlp: FusedMlp::from_parts(slots, width, &parts) }
+    }
+
+    /// dfdx's own initialisation of NanoBench's layout (the reference
+    /// [`Net::init`] is checked against).
+    pub fn init_dfdx(width: usize, seed: u64) -> Option<Net> {
         let dev = Cpu::seed_from_u64(seed);
-        match width {
-            32 => Net::W32(dev.build_module::<Mlp<32>, f32>()),
-            64 => Net::W64(dev.build_module::<Mlp<64>, f32>()),
-            _ => Net::W256(dev.build_module::<Mlp<256>, f32>()),
-        }
+        let parts = match width {
+            32 => parts(&dev.build_module::<Mlp<32>, f32>()),
+            64 => parts(&dev.build_module::<Mlp<64>, f32>()),
+            256 => parts(&dev.build_module::<Mlp<256>, f32>()),
+            _ => return None,
+        };
+        Some(Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, width, &parts) })
     }
 
-    /// The same parameters for the fused forward pass and trainer.
+    /// The parameters for the fused forward pass and trainer.
     pub fn fused(&self) -> FusedMlp {
-        match self {
-            Net::W32(m) => FusedMlp::from_parts(32, &parts(m)),
-            Net::W64(m) => FusedMlp::from_parts(64, &parts(m)),
-            Net::W256(m) => FusedMlp::from_parts(256, &parts(m)),
-        }
+        self.mlp.clone()
     }
 
-    /// The dfdx module of a width holding the fused network's parameters.
-    fn from_fused(width: usize, f: &FusedMlp) -> Net {
-        match width {
-            32 => Net::W32(module_from::<32>(f)),
-            64 => Net::W64(module_from::<64>(f)),
-            _ => Net::W256(module_from::<256>(f)),
-        }
+    /// Hidden width.
+    pub fn width(&self) -> usize {
+        self.mlp.layers[0].out
     }
 
-    /// Standardized predictions for standardized inputs (n x 18 -> n x 14)
-    /// through dfdx's forward pass (the reference; rollouts use
-    /// [`Learned`], which runs the fused one).
+    /// Standardized predictions for standardized inputs (n x inputs -> n x
+    /// state) through dfdx's forward pass (the reference; rollouts use
+    /// [`Learned`], which runs the fused one). A layout dfdx has no type
+    /// for goes through the fused pass.
     pub fn predict(&self, x: &[f32]) -> Vec<f32> {
+        if (self.mlp.inputs(), self.mlp.outputs()) != (INPUT, STATE) {
+            return self.mlp.predict(x);
+        }
         let dev = Cpu::default();
-        match self {
-            Net::W32(m) => forward(m, &dev, x),
-            Net::W64(m) => forward(m, &dev, x),
-            Net::W256(m) => forward(m, &dev, x),
+        match self.width() {
+            32 => forward(&module_from::<32>(&self.mlp), &dev, x),
+            64 => forward(&module_from::<64>(&self.mlp), &dev, x),
+            _ => forward(&module_from::<256>(&self.mlp), &dev, x),
         }
     }
 
     /// All weights, flattened in a fixed order (for bit-identity checks).
     pub fn flat_weights(&self) -> Vec<f32> {
-        self.fused().layers.into_iter().flat_map(|l| l.weight.into_iter().chain(l.bias)).collect()
+        self.mlp.layers.iter().flat_map(|l| l.weight.iter().chain(&l.bias).copied()).collect()
     }
 
-    /// Writes the weights as safetensors.
+    /// Writes the weights as safetensors, with dfdx's tensor names and
+    /// shapes (dfdx's `load_safetensors` reads them).
     pub fn save(&self, path: &Path) -> Result<(), NetError> {
+        use ::safetensors::tensor::{Dtype, TensorView};
         let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
+        let bytes = |v: &[f32]| v.iter().flat_map(|f| f.to_le_bytes()).collect::<Vec<u8>>();
+        let data: Vec<(String, Vec<usize>, Vec<u8>)> = self
+            .mlp
+            .layers
+            .iter()
+            .zip(TENSOR_NAMES)
+            .flat_map(|(l, (w, b))| {
+                [(w.to_string(), vec![l.out, l.inp], bytes(&l.weight)), (b.to_string(), vec![l.out], bytes(&l.bias))]
+            })
+            .collect();
+        let views = data
+            .iter()
+            .map(|(name, shape, d)| {
+                TensorView::new(Dtype::F32, shape.clone(), d)
+                    .map(|v| (name.clone(), v))
+                    .map_err(|e| err(format!("{e:?}")))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         // Staged and renamed, so that an interrupted save never leaves half a file.
         let tmp = crate::io::tmp_path(path);
-        match self {
-            Net::W32(m) => m.save_safetensors(&tmp).map_err(|e| err(format!("{e:?}")))?,
-            Net::W64(m) => m.save_safetensors(&tmp).map_err(|e| err(format!("{e:?}")))?,
-            Net::W256(m) => m.save_safetensors(&tmp).map_err(|e| err(format!("{e:?}")))?,
-        }
+        ::safetensors::tensor::serialize_to_file(views, &None, &tmp).map_err(|e| err(format!("{e:?}")))?;
         std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))
     }
 
-    /// Reads weights written by [`Net::save`] for an architecture of `widths`.
+    /// Reads weights written by [`Net::save`] (or dfdx) for an
+    /// architecture of `widths`; the layout is read from the shapes.
     pub fn load(widths: &[usize], path: &Path) -> Result<Net, NetError> {
         if !mlp_supported(widths) {
             return Err(NetError::Unsupported(widths.to_vec()));
         }
-        let dev = Cpu::default();
         let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
-        Ok(match widths[0] {
-            32 => {
-                let mut m = dev.build_module::<Mlp<32>, f32>();
-                m.load_safetensors(path).map_err(|e| err(format!("{e:?}")))?;
-                Net::W32(m)
+        let raw = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+        let file = ::safetensors::tensor::SafeTensors::deserialize(&raw).map_err(|e| err(format!("{e:?}")))?;
+        let tensor = |name: &str, shape: &[Option<usize>]| -> Result<(Vec<usize>, Vec<f32>), NetError> {
+            let t = file.tensor(name).map_err(|e| err(format!("{name}: {e:?}")))?;
+            let fits =
+                t.shape().len() == shape.len() && t.shape().iter().zip(shape).all(|(a, b)| b.is_none_or(|b| *a == b));
+            if t.dtype() != ::safetensors::tensor::Dtype::F32 || !fits {
+                return Err(err(format!("{name}: {:?} of shape {:?}, not the architecture's", t.dtype(), t.shape())));
             }
-            64 => {
-                let mut m = dev.build_module::<Mlp<64>, f32>();
-                m.load_safetensors(path).map_err(|e| err(format!("{e:?}")))?;
-                Net::W64(m)
-            }
-            _ => {
-                let mut m = dev.build_module::<Mlp<256>, f32>();
-                m.load_safetensors(path).map_err(|e| err(format!("{e:?}")))?;
-                Net::W256(m)
-            }
-        })
+            let v = t.data().chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+            Ok((t.shape().to_vec(), v))
+        };
+        let w = Some(widths[0]);
+        let (first, w0) = tensor(TENSOR_NAMES[0].0, &[w, None])?;
+        let (last, w3) = tensor(TENSOR_NAMES[3].0, &[None, w])?;
+        let (inputs, state) = (first[1], last[0]);
+        let shapes = [(w, Some(inputs)), (w, w), (w, w), (Some(state), w)];
+        let mut parts = vec![(w0, tensor(TENSOR_NAMES[0].1, &[w])?.1)];
+        for (k, (o, i)) in shapes.iter().enumerate().take(3).skip(1) {
+            parts.push((tensor(TENSOR_NAMES[k].0, &[*o, *i])?.1, tensor(TENSOR_NAMES[k].1, &[*o])?.1));
+        }
+        parts.push((w3, tensor(TENSOR_NAMES[3].1, &[Some(state)])?.1));
+        if inputs <= state {
+            return Err(err(format!("{inputs} inputs for {state} outputs: not a dynamics network")));
+        }
+        let slots = Slots { state, action: inputs - state, predicted: state, reference: false };
+        Ok(Net { mlp: FusedMlp::from_parts(&slots, widths[0], &parts) })
     }
 }
 
@@ -479,7 +541,7 @@ impl<'a> Learned<'a> {
     /// As [`Learned::new`], with the forward pass of `engine`.
     pub fn with(engine: Engine, net: &'a Net, features: &'a FeatureMap) -> Self {
         let forward = match engine {
-            Engine::Fused => Forward::Fused(net.fused()),
+            Engine::Fused => Forward::Fused(net.mlp.clone()),
             Engine::Reference => Forward::Reference(net),
         };
         Learned { forward, features }
@@ -488,16 +550,19 @@ impl<'a> Learned<'a> {
 
 impl Dynamics for Learned<'_> {
     fn step(&mut self, states: &[State], actions: &[Action]) -> Vec<State> {
-        let mut x = vec![0f32; states.len() * INPUT];
-        for ((row, s), u) in x.chunks_exact_mut(INPUT).zip(states).zip(actions) {
+        let inputs = self.features.slots.input();
+        let mut x = vec![0f32; states.len() * inputs];
+        for ((row, s), u) in x.chunks_exact_mut(inputs).zip(states).zip(actions) {
             self.features.input(s, u, row);
         }
         let z = match &self.forward {
             Forward::Fused(f) => f.predict(&x),
             Forward::Reference(net) => net.predict(&x),
         };
-        states.iter().zip(z.chunks_exact(STATE)).map(|(s, z)| self.features.next_state(s, z)).collect()
+        states
+            .iter()
+            .zip(z.chunks_exact(self.features.slots.state))
+            .map(|(s, z)| self.features.next_state(s, z))
+            .collect()
     }
 }
-
-const _: () = assert!(ACTION == 4);

@@ -31,8 +31,8 @@ impl StartOutcome {
         let (pred, truth): (State, State) =
             t.at.iter()
                 .find(|(k, _, _)| *k == step)
-                .map(|(_, p, m)| (*p, *m))
-                .unwrap_or(([f64::NAN; 14], [f64::NAN; 14]));
+                .map(|(_, p, m)| (p.clone(), m.clone()))
+                .unwrap_or_else(|| (vec![f64::NAN; 10], vec![f64::NAN; 10]));
         let norm3 = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
         StartOutcome {
             divergent,

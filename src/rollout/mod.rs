@@ -36,7 +36,8 @@ pub struct Trace {
 }
 
 /// Rolls every start open loop for `steps` steps: measured future actions,
-/// reference and battery overwritten with their measured next values,
+/// the exogenous state (NanoBench: reference and battery; see
+/// [`Recording::predicted`]) overwritten with its measured next values,
 /// quaternion renormalised each step.
 pub fn rollout(
     dynamics: &mut dyn Dynamics,
@@ -60,14 +61,15 @@ pub fn trajectories(
     each: &mut dyn FnMut(usize, &[State]),
     horizon_steps: &[usize],
 ) -> Vec<Trace> {
-    let mut states: Vec<State> = starts.iter().map(|s| recordings[s.recording].state[s.t]).collect();
+    let mut states: Vec<State> = starts.iter().map(|s| recordings[s.recording].state[s.t].clone()).collect();
     let mut traces = new_traces(starts, steps);
     for k in 1..=steps {
-        let actions: Vec<Action> = starts.iter().map(|s| recordings[s.recording].action[s.t + k - 1]).collect();
+        let actions: Vec<Action> = starts.iter().map(|s| recordings[s.recording].action[s.t + k - 1].clone()).collect();
         let mut next = dynamics.step(&states, &actions);
         for ((n, s), tr) in next.iter_mut().zip(starts).zip(traces.iter_mut()) {
-            let truth = &recordings[s.recording].state[s.t + k];
-            n[10..14].copy_from_slice(&truth[10..14]);
+            let rec = &recordings[s.recording];
+            let truth = &rec.state[s.t + k];
+            n[rec.predicted..].copy_from_slice(&truth[rec.predicted..]);
             renormalize(n);
             score_step(tr, k, n, truth, horizon_steps);
         }
@@ -87,7 +89,7 @@ fn score_step(tr: &mut Trace, k: usize, n: &State, truth: &State, horizon_steps:
     let e = ((n[0] - truth[0]).powi(2) + (n[1] - truth[1]).powi(2) + (n[2] - truth[2]).powi(2)).sqrt();
     tr.position_error.push(if e.is_finite() { e } else { f64::INFINITY });
     if horizon_steps.contains(&k) {
-        tr.at.push((k, *n, *truth));
+        tr.at.push((k, n.clone(), truth.clone()));
     }
 }
 
@@ -109,9 +111,10 @@ pub fn replay(
     let mut traces = new_traces(starts, steps);
     for (i, (s, tr)) in starts.iter().zip(traces.iter_mut()).enumerate() {
         for k in 1..=steps {
-            let truth = &recordings[s.recording].state[s.t + k];
+            let rec = &recordings[s.recording];
+            let truth = &rec.state[s.t + k];
             let mut n = predicted(i, k);
-            n[10..14].copy_from_slice(&truth[10..14]);
+            n[rec.predicted..].copy_from_slice(&truth[rec.predicted..]);
             let norm2 = n[6] * n[6] + n[7] * n[7] + n[8] * n[8] + n[9] * n[9];
             if (norm2.sqrt() - 1.0).abs() > 1e-12 {
                 renormalize(&mut n);

@@ -13,7 +13,7 @@ use crate::data::Recording;
 use crate::design::{ActionScaling, InputMap, ModelKind, TargetKind};
 use crate::io::{create_dir_all, f64_text, write_atomic};
 use crate::model::baseline::{ConstantVelocity, Persistence};
-use crate::model::{linear, net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State, EXOGENOUS, STATE};
+use crate::model::{linear, net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State};
 use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
 use crate::split::{JobManifests, Prepared, Window};
@@ -53,7 +53,7 @@ fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)
         .iter()
         .map(|w| {
             let r = &recs[w.recording];
-            (r.state[w.t], r.action[w.t], r.state[w.t + 1])
+            (r.state[w.t].clone(), r.action[w.t].clone(), r.state[w.t + 1].clone())
         })
         .collect()
 }
@@ -61,16 +61,17 @@ fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)
 /// Mean standardized one-step squared error over the non-exogenous
 /// components: how well `dynamics` predicts x_{t+1} from (x_t, u_t).
 pub fn one_step_error(dynamics: &mut dyn Dynamics, features: &FeatureMap, windows: &[(State, Action, State)]) -> f64 {
-    let states: Vec<State> = windows.iter().map(|w| w.0).collect();
-    let actions: Vec<Action> = windows.iter().map(|w| w.1).collect();
+    let states: Vec<State> = windows.iter().map(|w| w.0.clone()).collect();
+    let actions: Vec<Action> = windows.iter().map(|w| w.1.clone()).collect();
     let next = dynamics.step(&states, &actions);
     let mut sum = 0.0;
     let mut n = 0usize;
-    let (mut zp, mut zt) = ([0f32; STATE], [0f32; STATE]);
+    let slots = features.slots;
+    let (mut zp, mut zt) = (vec![0f32; slots.state], vec![0f32; slots.state]);
     for ((x, _, truth), pred) in windows.iter().zip(&next) {
         features.target(x, pred, &mut zp);
         features.target(x, truth, &mut zt);
-        for k in (0..STATE).filter(|k| !EXOGENOUS.contains(k)) {
+        for k in 0..slots.predicted {
             sum += f64::from(zp[k] - zt[k]).powi(2);
             n += 1;
         }
@@ -155,7 +156,8 @@ pub fn run_job_with(
             // Invariant 6 is checked after training on what the job record
             // says these were fitted on (run/trained_invariants.rs).
             let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
-            let features = FeatureMap::fit(*inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
+            let features =
+                FeatureMap::fit(bench.plan.slots, *inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
             let t0 = std::time::Instant::now();
             let (net, epochs) = net::train_with(
                 engine,
@@ -181,7 +183,8 @@ pub fn run_job_with(
         }
         ModelKind::Linear { inputs, actions, ridge } => {
             let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
-            let features = FeatureMap::fit(*inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
+            let features =
+                FeatureMap::fit(bench.plan.slots, *inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
             let t0 = std::time::Instant::now();
             let mut model = linear::fit(features.clone(), &bench.fit, &bench.validation, *ridge)
                 .map_err(|source| RunError::Linear { model: job.model.clone(), source })?;
@@ -276,8 +279,14 @@ fn bench<'a>(plan: &'a Plan, job: &'a TrainingJob, prepared: &'a Prepared) -> Re
     // errors, whatever the model.
     // (Standardized actions and increments: the first wave's scale, kept so
     // that one-step errors stay comparable across parameterizations.)
-    let yardstick =
-        FeatureMap::fit(InputMap::World, ActionScaling::Standardized, TargetKind::Standardized, &fit, &fit_sha);
+    let yardstick = FeatureMap::fit(
+        plan.slots,
+        InputMap::World,
+        ActionScaling::Standardized,
+        TargetKind::Standardized,
+        &fit,
+        &fit_sha,
+    );
     Ok(Bench {
         plan,
         job,

@@ -115,8 +115,14 @@ fn standardizers(records: &[JobRecord], prepared: &Prepared, out: &Path) -> Inva
         match windows {
             Err(e) => failures.push(format!("{job}: {e}")),
             Ok(w) => {
-                if FeatureMap::fit(recorded.map, recorded.actions, recorded.target_kind, w, &r.manifests.fit_sha256)
-                    != *recorded
+                if FeatureMap::fit(
+                    recorded.slots,
+                    recorded.map,
+                    recorded.actions,
+                    recorded.target_kind,
+                    w,
+                    &r.manifests.fit_sha256,
+                ) != *recorded
                 {
                     failures.push(format!("{job}: its standardizers differ from those fitted on {file}"));
                 }
@@ -154,7 +160,7 @@ fn fit_windows(
         if t + 1 >= data.state.len() {
             return Err(format!("{name} line {}: sample_index {t} beyond {rec}", k + 2));
         }
-        windows.push((data.state[t], data.action[t], data.state[t + 1]));
+        windows.push((data.state[t].clone(), data.action[t].clone(), data.state[t + 1].clone()));
     }
     Ok(windows)
 }

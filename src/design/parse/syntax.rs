@@ -105,6 +105,8 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::velocity_cols
         | Rule::attitude_cols
         | Rule::reference_cols
+        | Rule::rates_cols
+        | Rule::predicted_cols
         | Rule::extra_col
         | Rule::extrapolated_cols
         | Rule::controller_name

@@ -14,8 +14,10 @@ pub(super) struct CsvParts {
     position: Option<(Vec<Ident>, Span)>,
     velocity: Option<(Vec<Ident>, Span)>,
     attitude: Option<(Ident, Vec<Ident>, Span)>,
+    rates: Option<(Vec<Ident>, Span)>,
+    predicted: Option<Vec<Ident>>,
     reference: Option<(Vec<Ident>, Span)>,
-    extra: Option<(Ident, bool)>,
+    extra: Option<(Vec<Ident>, bool)>,
     extrapolated: Option<Vec<Ident>>,
     controller: Option<Ident>,
     conditions_table: Option<Spanned<String>>,
@@ -59,8 +61,16 @@ impl Validator {
                 csv.reference = Some((c.clone(), span));
                 "reference"
             }
-            DataItem::Extra { column, fill_zeros } => {
-                csv.extra = Some((column.clone(), *fill_zeros));
+            DataItem::Rates(c) => {
+                csv.rates = Some((c.clone(), span));
+                "rates"
+            }
+            DataItem::Predicted(c) => {
+                csv.predicted = Some(c.clone());
+                "predicted"
+            }
+            DataItem::Extra { columns, fill_zeros } => {
+                csv.extra = Some((columns.clone(), *fill_zeros));
                 "extra"
             }
             DataItem::Extrapolated(c) => {
@@ -91,8 +101,10 @@ impl Validator {
 
     /// The format a `data csv` block declares, or `None` (with errors) when
     /// a required clause is missing or a clause has the wrong number of
-    /// columns. Sets the data's state columns to the slots' names (an
-    /// absent slot is ``).
+    /// columns. Sets the data's state columns to the slots' names (the
+    /// quaternion's are `` when it comes from Euler angles): position,
+    /// velocity, quaternion, body rates, predicted columns, then the
+    /// exogenous reference and extra columns.
     pub(super) fn csv_format(
         &mut self,
         block: &DataBlock,
@@ -105,8 +117,8 @@ impl Validator {
             self.err_help(
                 "`state` in `data csv`",
                 *span,
-                "`data csv` declares its state by meaning, not as 14 columns",
-                "declare `position`, `velocity`, `attitude` (and `reference`, `extra` if the logs have them)",
+                "`data csv` declares its state by meaning, not as a list of columns",
+                "declare `position`, `velocity`, `attitude` (and `rates`, `predicted`, `reference`, `extra` if the logs have them)",
             );
         }
         let missing = |v: &mut Validator, what: &str, example: &str| {
@@ -136,6 +148,7 @@ impl Validator {
         let position = three(self, &csv.position, "position", "position x, y, z");
         let velocity = three(self, &csv.velocity, "velocity", "velocity vx, vy, vz");
         let reference = three(self, &csv.reference, "reference", "");
+        let rates = three(self, &csv.rates, "body rates", "");
         let (quaternion, euler) = match &csv.attitude {
             None => {
                 missing(self, "attitude", "attitude quaternion wxyz qw, qx, qy, qz");
@@ -166,11 +179,21 @@ impl Validator {
             Some(q) => state.extend(q.iter().cloned().map(Some)),
             None => state.extend([None, None, None, None]),
         }
-        match reference.filter(|r| r.len() == 3) {
-            Some(r) => state.extend(r.into_iter().map(Some)),
-            None => state.extend([None, None, None]),
+        if rates.as_ref().is_some_and(|r| r.len() != 3) || reference.as_ref().is_some_and(|r| r.len() != 3) {
+            return None;
         }
-        state.push(csv.extra.as_ref().map(|(c, _)| c.node.clone()));
+        state.extend(rates.into_iter().flatten().map(Some));
+        state.extend(csv.predicted.iter().flatten().map(|c| Some(c.node.clone())));
+        let predicted = state.len();
+        let has_reference = reference.is_some();
+        state.extend(reference.into_iter().flatten().map(Some));
+        let extra_start = state.len();
+        let extras: &[Ident] = csv.extra.as_ref().map_or(&[], |(c, _)| c.as_slice());
+        state.extend(extras.iter().map(|c| Some(c.node.clone())));
+        let fill_zeros = match &csv.extra {
+            Some((_, true)) => (extra_start..state.len()).collect(),
+            _ => Vec::new(),
+        };
         spec.state_columns = state.iter().map(|c| c.clone().unwrap_or_default()).collect();
         spec.state_preset = None;
         let action_scale = csv.scale.as_ref().map(|s| s.node).filter(|s| *s > 0.0 && s.is_finite())?;
@@ -179,7 +202,9 @@ impl Validator {
             time: csv.time.as_ref().map(|t| t.node.clone()),
             state,
             euler,
-            fill_zeros: csv.extra.as_ref().filter(|(_, fill)| *fill).map(|_| 13),
+            predicted,
+            reference: has_reference,
+            fill_zeros,
             actions: spec.action_columns.clone(),
             action_scale,
             extrapolated: csv.extrapolated.iter().flatten().map(|c| c.node.clone()).collect(),

@@ -26,7 +26,7 @@ impl Validator {
                     );
                 }
             } else {
-                self.data_item(item, &mut seen, &mut spec, &mut sim);
+                self.data_item(item, source == Some(DataSource::Csv), &mut seen, &mut spec, &mut sim);
             }
         }
         if source == Some(DataSource::Csv) {
@@ -96,6 +96,7 @@ impl Validator {
     fn data_item(
         &mut self,
         item: &Spanned<DataItem>,
+        csv: bool,
         seen: &mut BTreeMap<&'static str, Span>,
         spec: &mut DataSpec,
         sim: &mut SimParts,
@@ -187,7 +188,12 @@ impl Validator {
             }
             DataItem::Action { columns, scale } => {
                 self.once(seen, "action", item.span);
-                spec.action_columns = self.columns(columns, 4, "action", item.span);
+                spec.action_columns = if csv {
+                    // Any number of actions; the count is checked for NanoBench's four only.
+                    self.columns(columns, columns.len().max(1), "action", item.span)
+                } else {
+                    self.columns(columns, 4, "action", item.span)
+                };
                 if let Some(scale) = scale {
                     // Refused outside `data csv` by the caller.
                     self.positive(scale, "the action scale");
@@ -197,6 +203,8 @@ impl Validator {
             | DataItem::Position(_)
             | DataItem::Velocity(_)
             | DataItem::Attitude { .. }
+            | DataItem::Rates(_)
+            | DataItem::Predicted(_)
             | DataItem::Reference(_)
             | DataItem::Extra { .. }
             | DataItem::Extrapolated(_)

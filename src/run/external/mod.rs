@@ -37,7 +37,7 @@ use super::{open, Data, DataOrigin, RunError};
 use crate::data::Recording;
 use crate::design::{ActionScaling, DesignFile, InputMap, TargetKind};
 use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
-use crate::model::{Action, FeatureMap, State, ACTION, INPUT, STATE};
+use crate::model::{Action, FeatureMap, Slots, State, ACTION, STATE};
 use crate::plan::{Plan, TrainingJob};
 use crate::split::{Prepared, Window};
 
@@ -51,10 +51,10 @@ pub const PREDICTIONS_DIR: &str = "predictions";
 /// The index's format name.
 pub const FORMAT: &str = "crossaudit-export 1";
 
-/// The 14 state columns, in the order of every state array.
+/// NanoBench's 14 state columns, in the order of every state array.
 pub const STATE_COLUMNS: [&str; STATE] =
     ["x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "ref_x", "ref_y", "ref_z", "battery"];
-/// The 4 action columns (motor commands in [0, 1]).
+/// NanoBench's 4 action columns (motor commands in [0, 1]).
 pub const ACTION_COLUMNS: [&str; ACTION] = ["u1", "u2", "u3", "u4"];
 
 /// One external job of the export.
@@ -81,7 +81,8 @@ pub struct ExportJob {
     pub predictions: String,
     /// Its description, relative to the run directory.
     pub description: String,
-    /// The shape `predictions` must have: [starts, steps, 14].
+    /// The shape `predictions` must have: [starts, steps, state] (state 14
+    /// for NanoBench).
     pub shape: [usize; 3],
     /// Files of this job's inputs and targets (`fit_inputs`,
     /// `fit_targets`, `validation_inputs`, `validation_targets`).
@@ -110,12 +111,15 @@ pub struct ExportIndex {
     pub design_sha256: String,
     /// Sample rate (Hz): one step is 1 / rate_hz seconds.
     pub rate_hz: f64,
-    /// Names of the 14 state columns.
+    /// Names of the state columns (NanoBench: [`STATE_COLUMNS`]; `data
+    /// csv`: the declared columns, a quaternion from Euler angles as
+    /// `qw`, `qx`, `qy`, `qz`).
     pub state_columns: Vec<String>,
-    /// Names of the 4 action columns.
+    /// Names of the action columns (NanoBench: [`ACTION_COLUMNS`]).
     pub action_columns: Vec<String>,
     /// State columns the rollout overwrites with measured values after
-    /// every step (reference and battery): a model need not predict them.
+    /// every step (NanoBench: reference and battery): a model need not
+    /// predict them.
     pub exogenous_columns: Vec<usize>,
     /// The target of the exported `*_targets` arrays.
     pub target: TargetKind,
@@ -300,6 +304,8 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
     let history = jobs.iter().map(|j| history_of(j)).max().unwrap_or(0);
     let target = plan.training.as_ref().map(|t| t.target).unwrap_or(TargetKind::StateScaled);
     let steps = jobs.iter().map(|j| max_steps(j, plan.rate_hz)).max().unwrap_or(0);
+    let slots = plan.slots;
+    let (state_dim, action_dim, exo) = (slots.state, slots.action, slots.exogenous());
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
 
     let mut put = |files: &mut Vec<(String, Vec<u8>)>, name: String, shape: &[usize], data: &[f64]| {
@@ -314,33 +320,36 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
     let mut arm_triples: BTreeMap<String, (Vec<Triple>, String)> = BTreeMap::new();
     for (arm, windows) in &split.fits {
         let prefix = format!("fit_{arm}");
-        fit.insert(arm.clone(), window_files(&mut files, &mut put, &prefix, recs, windows, history)?);
+        fit.insert(arm.clone(), window_files(&mut files, &mut put, &prefix, recs, windows, history, &slots)?);
         let sha = prepared.manifests.sha256(&format!("fit_{arm}.csv")).to_string();
         arm_triples.insert(arm.clone(), (triples(recs, windows), sha));
     }
-    let validation = window_files(&mut files, &mut put, "validation", recs, &split.validation, history)?;
+    let validation = window_files(&mut files, &mut put, "validation", recs, &split.validation, history, &slots)?;
     let validation_triples = triples(recs, &split.validation);
 
     // Starts.
     let starts = &split.starts;
     let s = starts.len();
     let mut start_files = BTreeMap::new();
-    let states: Vec<f64> = starts.iter().flat_map(|w| recs[w.recording].state[w.t]).collect();
-    start_files.insert("states".into(), put(&mut files, "starts_states.npy".into(), &[s, STATE], &states)?);
-    let mut actions = Vec::with_capacity(s * steps * ACTION);
-    let mut exogenous = Vec::with_capacity(s * steps * 4);
+    let states: Vec<f64> = starts.iter().flat_map(|w| recs[w.recording].state[w.t].iter().copied()).collect();
+    start_files.insert("states".into(), put(&mut files, "starts_states.npy".into(), &[s, state_dim], &states)?);
+    let mut actions = Vec::with_capacity(s * steps * action_dim);
+    let mut exogenous = Vec::with_capacity(s * steps * exo.len());
     for w in starts {
         let r = &recs[w.recording];
         for k in 1..=steps {
-            actions.extend(r.action[w.t + k - 1]);
-            exogenous.extend(&r.state[w.t + k][10..14]);
+            actions.extend(&r.action[w.t + k - 1]);
+            exogenous.extend(&r.state[w.t + k][exo.clone()]);
         }
     }
-    start_files.insert("actions".into(), put(&mut files, "starts_actions.npy".into(), &[s, steps, ACTION], &actions)?);
-    start_files.insert("exogenous".into(), put(&mut files, "starts_exogenous.npy".into(), &[s, steps, 4], &exogenous)?);
+    let shape = [s, steps, action_dim];
+    start_files.insert("actions".into(), put(&mut files, "starts_actions.npy".into(), &shape, &actions)?);
+    let shape = [s, steps, exo.len()];
+    start_files.insert("exogenous".into(), put(&mut files, "starts_exogenous.npy".into(), &shape, &exogenous)?);
     if history > 0 {
         let h = histories(recs, starts, history);
-        start_files.insert("history".into(), put(&mut files, "starts_history.npy".into(), &[s, history, INPUT], &h)?);
+        let shape = [s, history, slots.input()];
+        start_files.insert("history".into(), put(&mut files, "starts_history.npy".into(), &shape, &h)?);
     }
     let mut table = String::from("index,recording,sample_index,trajectory,speed\n");
     for (i, w) in starts.iter().enumerate() {
@@ -357,7 +366,7 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
         let crate::design::ModelKind::External { inputs, actions, .. } = j.kind else { continue };
         let (fit_triples, fit_sha) =
             arm_triples.get(&j.arm).ok_or_else(|| RunError::NoFitSet { arm: j.arm.clone() })?;
-        let features = FeatureMap::fit(inputs, actions, target, fit_triples, fit_sha);
+        let features = FeatureMap::fit(slots, inputs, actions, target, fit_triples, fit_sha);
         let key = (j.model.clone(), j.arm.clone());
         if !written.contains_key(&key) {
             let mut f = BTreeMap::new();
@@ -365,8 +374,10 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
                 let n = windows.len();
                 let (x, z) = inputs_targets(&features, windows);
                 let stem = format!("{part}_{}__{}", j.arm, j.model);
-                f.insert(format!("{part}_inputs"), put(&mut files, format!("{stem}_inputs.npy"), &[n, INPUT], &x)?);
-                f.insert(format!("{part}_targets"), put(&mut files, format!("{stem}_targets.npy"), &[n, STATE], &z)?);
+                let inputs_file = put(&mut files, format!("{stem}_inputs.npy"), &[n, slots.input()], &x)?;
+                f.insert(format!("{part}_inputs"), inputs_file);
+                let targets_file = put(&mut files, format!("{stem}_targets.npy"), &[n, state_dim], &z)?;
+                f.insert(format!("{part}_targets"), targets_file);
             }
             written.insert(key.clone(), f);
         }
@@ -383,7 +394,7 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
             steps: job_steps,
             predictions: format!("{PREDICTIONS_DIR}/{stem}.npy"),
             description: format!("{PREDICTIONS_DIR}/{stem}.json"),
-            shape: [s, job_steps, STATE],
+            shape: [s, job_steps, state_dim],
             files: written[&key].clone(),
             standardizers: features,
         });
@@ -393,9 +404,9 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
         study: plan.study.clone(),
         design_sha256: design_sha256.to_string(),
         rate_hz: plan.rate_hz,
-        state_columns: STATE_COLUMNS.iter().map(|c| c.to_string()).collect(),
-        action_columns: ACTION_COLUMNS.iter().map(|c| c.to_string()).collect(),
-        exogenous_columns: crate::model::EXOGENOUS.collect(),
+        state_columns: column_names(plan).0,
+        action_columns: column_names(plan).1,
+        exogenous_columns: exo.collect(),
         target,
         history,
         starts: s,
@@ -408,6 +419,24 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
     };
     let index_bytes = pretty_json(&index).into_bytes();
     Ok(Built { files, index, index_bytes })
+}
+
+/// The names of the state and action columns in the export: NanoBench's
+/// [`STATE_COLUMNS`] and [`ACTION_COLUMNS`], or a `data csv` block's own
+/// (a quaternion computed from Euler angles as `qw`, `qx`, `qy`, `qz`).
+fn column_names(plan: &Plan) -> (Vec<String>, Vec<String>) {
+    match &plan.declared_columns {
+        None => (
+            STATE_COLUMNS.iter().map(|c| c.to_string()).collect(),
+            ACTION_COLUMNS.iter().map(|c| c.to_string()).collect(),
+        ),
+        Some((state, actions)) => {
+            let q = ["qw", "qx", "qy", "qz"];
+            let state =
+                state.iter().enumerate().map(|(k, c)| if c.is_empty() { q[k - 6].to_string() } else { c.clone() });
+            (state.collect(), actions.clone())
+        }
+    }
 }
 
 /// A job's declared history (0 for none).
@@ -428,7 +457,7 @@ fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)
         .iter()
         .map(|w| {
             let r = &recs[w.recording];
-            (r.state[w.t], r.action[w.t], r.state[w.t + 1])
+            (r.state[w.t].clone(), r.action[w.t].clone(), r.state[w.t + 1].clone())
         })
         .collect()
 }
@@ -446,19 +475,21 @@ fn window_files(
     recs: &[Recording],
     windows: &[Window],
     history: usize,
+    slots: &Slots,
 ) -> Result<BTreeMap<String, String>, RunError> {
     let n = windows.len();
     let t = triples(recs, windows);
     let mut out = BTreeMap::new();
-    let x: Vec<f64> = t.iter().flat_map(|w| w.0).collect();
-    let u: Vec<f64> = t.iter().flat_map(|w| w.1).collect();
-    let y: Vec<f64> = t.iter().flat_map(|w| w.2).collect();
-    out.insert("states".into(), put(files, format!("{prefix}_states.npy"), &[n, STATE], &x)?);
-    out.insert("actions".into(), put(files, format!("{prefix}_actions.npy"), &[n, ACTION], &u)?);
-    out.insert("next_states".into(), put(files, format!("{prefix}_next_states.npy"), &[n, STATE], &y)?);
+    let x: Vec<f64> = t.iter().flat_map(|w| w.0.iter().copied()).collect();
+    let u: Vec<f64> = t.iter().flat_map(|w| w.1.iter().copied()).collect();
+    let y: Vec<f64> = t.iter().flat_map(|w| w.2.iter().copied()).collect();
+    out.insert("states".into(), put(files, format!("{prefix}_states.npy"), &[n, slots.state], &x)?);
+    out.insert("actions".into(), put(files, format!("{prefix}_actions.npy"), &[n, slots.action], &u)?);
+    out.insert("next_states".into(), put(files, format!("{prefix}_next_states.npy"), &[n, slots.state], &y)?);
     if history > 0 {
         let h = histories(recs, windows, history);
-        out.insert("history".into(), put(files, format!("{prefix}_history.npy"), &[n, history, INPUT], &h)?);
+        let shape = [n, history, slots.input()];
+        out.insert("history".into(), put(files, format!("{prefix}_history.npy"), &shape, &h)?);
     }
     Ok(out)
 }
@@ -466,13 +497,13 @@ fn window_files(
 /// The `history` samples (state, action) before each window, oldest
 /// first; before a recording's first sample, its first sample repeated.
 fn histories(recs: &[Recording], windows: &[Window], history: usize) -> Vec<f64> {
-    let mut out = Vec::with_capacity(windows.len() * history * INPUT);
+    let mut out = Vec::new();
     for w in windows {
         let r = &recs[w.recording];
         for back in (1..=history).rev() {
             let t = w.t.saturating_sub(back);
-            out.extend(r.state[t]);
-            out.extend(r.action[t]);
+            out.extend(&r.state[t]);
+            out.extend(&r.action[t]);
         }
     }
     out
@@ -481,8 +512,9 @@ fn histories(recs: &[Recording], windows: &[Window], history: usize) -> Vec<f64>
 /// Standardized inputs and targets of `windows` (as a built-in MLP sees
 /// them, in single precision).
 fn inputs_targets(features: &FeatureMap, windows: &[(State, Action, State)]) -> (Vec<f64>, Vec<f64>) {
-    let (mut x, mut z) = (Vec::with_capacity(windows.len() * INPUT), Vec::with_capacity(windows.len() * STATE));
-    let (mut xi, mut zi) = ([0f32; INPUT], [0f32; STATE]);
+    let slots = &features.slots;
+    let (mut x, mut z) = (Vec::new(), Vec::new());
+    let (mut xi, mut zi) = (vec![0f32; slots.input()], vec![0f32; slots.state]);
     for (s, u, n) in windows {
         features.input(s, u, &mut xi);
         features.target(s, n, &mut zi);

@@ -18,7 +18,7 @@ use super::{build, external_jobs, npy, Built, ExportIndex, ExportJob, ExportSour
 use crate::cells::write_cells_atomic;
 use crate::design::{self, lock, DesignFile};
 use crate::io::{create_dir_all, sha256_hex};
-use crate::model::{State, EXOGENOUS, STATE};
+use crate::model::State;
 use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
 use crate::run::record::JobRecord;
@@ -392,21 +392,20 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
             format!("describes job {}/{}/{}, but the file is that of {}", d.model, d.arm, d.seed, job.label()),
         ));
     }
-    let steps = ej.shape[1];
+    let (steps, width) = (ej.shape[1], ej.shape[2]);
     let predicted = |i: usize, k: usize| -> State {
-        let off = (i * steps + (k - 1)) * STATE;
-        let mut s = [0.0; STATE];
-        s.copy_from_slice(&arr.data[off..off + STATE]);
-        s
+        let off = (i * steps + (k - 1)) * width;
+        arr.data[off..off + width].to_vec()
     };
-    // Trajectories with a non-finite predicted state (reference and battery
-    // are overwritten, so theirs do not count).
+    // Trajectories with a non-finite predicted state (the exogenous state
+    // is overwritten, so its values do not count).
+    let exogenous = r.plan.slots.predicted;
     let non_finite = arr
         .data
-        .chunks((steps * STATE).max(1))
-        .filter(|t| t.chunks(STATE).any(|x| x[..EXOGENOUS.start].iter().any(|v| !v.is_finite())))
+        .chunks((steps * width).max(1))
+        .filter(|t| t.chunks(width).any(|x| x[..exogenous].iter().any(|v| !v.is_finite())))
         .count();
-    check_quaternions(&arr.data, steps).map_err(|reason| bad(&path, reason))?;
+    check_quaternions(&arr.data, steps, width).map_err(|reason| bad(&path, reason))?;
     let (p, plan) = (&r.prepared, &r.plan);
     let horizon_steps = rollout::horizon_steps(&job.horizons_s, plan.rate_hz);
     let traces = rollout::replay(&predicted, &p.recordings, &p.split.starts, steps, &horizon_steps);
@@ -449,10 +448,10 @@ pub const QUATERNION_TOLERANCE: f64 = 0.1;
 /// more than [`QUATERNION_TOLERANCE`], naming the first few (start, step)
 /// and how many there are in all. Non-finite states are divergence, not
 /// checked here.
-fn check_quaternions(data: &[f64], steps: usize) -> Result<(), String> {
+fn check_quaternions(data: &[f64], steps: usize, width: usize) -> Result<(), String> {
     let mut bad: Vec<String> = Vec::new();
     let mut count = 0usize;
-    for (k, x) in data.chunks(STATE).enumerate() {
+    for (k, x) in data.chunks(width.max(10)).enumerate() {
         let q = &x[6..10];
         if q.iter().any(|v| !v.is_finite()) {
             continue;
