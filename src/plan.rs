@@ -238,12 +238,7 @@ pub fn compile(design: &Design) -> Plan {
         recordings: design.recording.evaluation,
         starts: design.recording.starts,
         pinned_recordings: design.recording.listed.iter().map(|l| l.name.clone()).collect(),
-        speed_labels: match &design.data.speed {
-            crate::design::SpeedLabels::Name => ["slow", "medium", "fast", "unknown"].map(String::from).to_vec(),
-            crate::design::SpeedLabels::Metadata { labels, .. } => {
-                labels.iter().cloned().chain(std::iter::once("unknown".to_string())).collect()
-            }
-        },
+        speed_labels: design.data.speed_labels(),
         recordings_may_be_absent: design.data.missing_csv_allowed,
         conditions: design.recording.conditions.clone(),
         contrast: design.contrast.clone(),

@@ -470,3 +470,52 @@ fn actions_beyond_the_declared_scale_are_noted_in_the_audit_and_rows_default_to_
     assert_eq!(rec.t[..3], [0.0, 0.01, 0.02]);
     assert_eq!(rec.t[rec.rows - 1], (rec.rows - 1) as f64 / 100.0);
 }
+
+#[test]
+fn a_file_name_pattern_gives_trajectory_speed_and_repetition_and_names_what_it_does_not_match() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = root().join("tests/fixtures/rotorpy/logs");
+    for (from, to) in [
+        ("R1_circle_slow_rep1", "2026-05-01_circle-slow_take1"),
+        ("R5_lissajous_medium_rep2", "2026-05-02_lissajous-medium_take12"),
+        ("R9_minsnap_fast_rep3", "2026-05-03_min_snap-fast_take3"),
+    ] {
+        std::fs::copy(logs.join(format!("{from}.csv.gz")), tmp.path().join(format!("{to}.csv.gz"))).unwrap();
+    }
+    let rotorpy = std::fs::read_to_string(root().join("designs/logs/rotorpy.design")).unwrap();
+    let design = rotorpy
+        .replace("path      \"../../tests/fixtures/rotorpy/logs\"", &format!("path \"{}\"", tmp.path().display()))
+        .replace("  controller se3\n", "  controller se3\n  conditions name \"{*}_{trajectory}-{speed}_take{rep}\"\n");
+    let generic = spec(&design);
+    let audit = data::audit(&generic, tmp.path()).unwrap();
+    let got: Vec<(&str, &str, Option<u32>)> =
+        audit.files.iter().map(|f| (f.trajectory.as_str(), f.speed.as_str(), f.repetition)).collect();
+    assert_eq!(got, [("circle", "slow", Some(1)), ("lissajous", "medium", Some(12)), ("min_snap", "fast", Some(3))]);
+    // A name the pattern does not match stops the audit and is named.
+    std::fs::copy(logs.join("R2_circle_medium_rep1.csv.gz"), tmp.path().join("R2_circle_medium_rep1.csv.gz")).unwrap();
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(e.contains("does not match 1 recording file name(s): R2_circle_medium_rep1.csv.gz"), "{e}");
+    std::fs::remove_file(tmp.path().join("R2_circle_medium_rep1.csv.gz")).unwrap();
+    // A speed the design's speed rule cannot give would be refused by the
+    // analysis after the whole run: the audit refuses it first.
+    std::fs::rename(
+        tmp.path().join("2026-05-01_circle-slow_take1.csv.gz"),
+        tmp.path().join("2026-05-01_circle-1.8mps_take1.csv.gz"),
+    )
+    .unwrap();
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(e.contains("the speed `1.8mps`") && e.contains("known: slow, medium, fast, unknown"), "{e}");
+    // Patterns that cannot work are design errors at their place.
+    for (pattern, want) in [
+        ("{*}_{shape}", "`{shape}` is not a placeholder"),
+        ("{trajectory}{speed}", "two placeholders in a row"),
+        ("{*}_take{rep}", "needs `{trajectory}` or `{speed}`"),
+    ] {
+        let bad = design.replace("{*}_{trajectory}-{speed}_take{rep}", pattern);
+        let e = design::from_str("pattern.design", &bad).unwrap_err().to_string();
+        assert!(e.contains(want) && e.contains("pattern.design:"), "{pattern}: {e}");
+    }
+    let both = design.replace("  strict\n", "  strict\n  conditions table \"conditions.csv\"\n");
+    let e = design::from_str("both.design", &both).unwrap_err().to_string();
+    assert!(e.contains("conditions declared twice"), "{e}");
+}

@@ -195,6 +195,7 @@ pub enum DataItem {
     Extrapolated(Vec<Ident>),
     Controller(Ident),
     ConditionsTable(Spanned<String>),
+    ConditionsName(Spanned<String>),
     SimRecordings(Int),
     SimSeed(Int),
     SimStrength(Number),

@@ -99,6 +99,119 @@ pub struct LogFormat {
     /// and speed (`conditions table "FILE"`), instead of the file names.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conditions_table: Option<String>,
+    /// A pattern giving each recording's trajectory and speed from its
+    /// file name (`conditions name "PATTERN"`; see [`NamePattern`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conditions_name: Option<String>,
+}
+
+/// A file-name pattern: literal text and the placeholders `{trajectory}`,
+/// `{speed}`, `{rep}` (digits) and `{*}`, each matching a non-empty part.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NamePattern {
+    pieces: Vec<NamePiece>,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum NamePiece {
+    Literal(String),
+    Trajectory,
+    Speed,
+    Rep,
+    Any,
+}
+
+/// What a file name's pattern gives.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct NameConditions {
+    /// `{trajectory}`'s part.
+    pub trajectory: Option<String>,
+    /// `{speed}`'s part.
+    pub speed: Option<String>,
+    /// `{rep}`'s digits.
+    pub repetition: Option<u32>,
+}
+
+impl NamePattern {
+    /// Parses a pattern; the error says what is wrong with it.
+    pub fn parse(text: &str) -> Result<NamePattern, String> {
+        let mut pieces = Vec::new();
+        let mut rest = text;
+        while !rest.is_empty() {
+            match rest.find('{') {
+                Some(0) => {
+                    let close = rest.find('}').ok_or_else(|| format!("`{rest}`: a `{{` without its `}}`"))?;
+                    let piece = match &rest[1..close] {
+                        "trajectory" => NamePiece::Trajectory,
+                        "speed" => NamePiece::Speed,
+                        "rep" => NamePiece::Rep,
+                        "*" => NamePiece::Any,
+                        other => {
+                            return Err(format!(
+                                "`{{{other}}}` is not a placeholder (known: {{trajectory}}, {{speed}}, {{rep}}, {{*}})"
+                            ))
+                        }
+                    };
+                    if pieces.last().is_some_and(|p| !matches!(p, NamePiece::Literal(_))) {
+                        return Err(format!(
+                            "two placeholders in a row before `{}`: put literal text between them, or the split is ambiguous",
+                            &rest[..=close]
+                        ));
+                    }
+                    if pieces.contains(&piece) && piece != NamePiece::Any {
+                        return Err(format!("`{}` appears twice", &rest[..=close]));
+                    }
+                    pieces.push(piece);
+                    rest = &rest[close + 1..];
+                }
+                found => {
+                    let end = found.unwrap_or(rest.len());
+                    if rest[..end].contains('}') {
+                        return Err(format!("`{}`: a `}}` without its `{{`", &rest[..end]));
+                    }
+                    pieces.push(NamePiece::Literal(rest[..end].to_string()));
+                    rest = &rest[end..];
+                }
+            }
+        }
+        if !pieces.iter().any(|p| matches!(p, NamePiece::Trajectory | NamePiece::Speed)) {
+            return Err("the pattern needs `{trajectory}` or `{speed}`".to_string());
+        }
+        Ok(NamePattern { pieces })
+    }
+
+    /// The conditions of `name` (a file name without `.csv[.gz]`), or
+    /// `None` when the pattern does not match it.
+    pub fn conditions(&self, name: &str) -> Option<NameConditions> {
+        let mut out = NameConditions::default();
+        self.match_from(0, name, &mut out).then_some(out)
+    }
+
+    /// Matches `pieces[k..]` against `rest`, trying every split (names are short).
+    fn match_from(&self, k: usize, rest: &str, out: &mut NameConditions) -> bool {
+        let Some(piece) = self.pieces.get(k) else { return rest.is_empty() };
+        if let NamePiece::Literal(l) = piece {
+            return rest.strip_prefix(l.as_str()).is_some_and(|r| self.match_from(k + 1, r, out));
+        }
+        for end in rest.char_indices().map(|(i, c)| i + c.len_utf8()) {
+            let part = &rest[..end];
+            if *piece == NamePiece::Rep && !part.bytes().all(|b| b.is_ascii_digit()) {
+                break;
+            }
+            let mut tried = out.clone();
+            match piece {
+                NamePiece::Trajectory => tried.trajectory = Some(part.to_string()),
+                NamePiece::Speed => tried.speed = Some(part.to_string()),
+                NamePiece::Rep => tried.repetition = part.parse().ok(),
+                _ => {}
+            }
+            if self.match_from(k + 1, &rest[end..], &mut tried) {
+                *out = tried;
+                return true;
+            }
+        }
+        false
+    }
 }
 
 /// Euler-angle attitude columns.
@@ -126,6 +239,17 @@ pub const NANOBENCH_EXTRAPOLATED: [&str; 7] = [
 pub const NANOBENCH_ACTION_SCALE: f64 = 65535.0;
 
 impl DataSpec {
+    /// Every speed label the data block can give a recording (the file
+    /// name's token, or the metadata speed's labels, and `unknown`).
+    pub fn speed_labels(&self) -> Vec<String> {
+        match &self.speed {
+            SpeedLabels::Name => ["slow", "medium", "fast", "unknown"].map(String::from).to_vec(),
+            SpeedLabels::Metadata { labels, .. } => {
+                labels.iter().cloned().chain(std::iter::once("unknown".to_string())).collect()
+            }
+        }
+    }
+
     /// The layout of the state and action the data declares: its state
     /// columns and actions, the predicted ones first.
     pub fn slots(&self) -> Slots {
@@ -165,6 +289,7 @@ impl DataSpec {
             },
             controller: None,
             conditions_table: None,
+            conditions_name: None,
         }
     }
 }

@@ -480,6 +480,7 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
         Rule::controller_name => DataItem::Controller(ident(c.next())),
         Rule::conditions_table => DataItem::ConditionsTable(string(c.next())),
+        Rule::conditions_name => DataItem::ConditionsName(string(c.next())),
         Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),
         Rule::sim_seed => DataItem::SimSeed(int(c.next())?),
         Rule::sim_strength => DataItem::SimStrength(number(c.next())?),

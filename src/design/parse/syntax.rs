@@ -111,6 +111,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::extrapolated_cols
         | Rule::controller_name
         | Rule::conditions_table
+        | Rule::conditions_name
         | Rule::tails
         | Rule::speed_labels
         | Rule::universe

@@ -21,6 +21,7 @@ pub(super) struct CsvParts {
     extrapolated: Option<Vec<Ident>>,
     controller: Option<Ident>,
     conditions_table: Option<Spanned<String>>,
+    conditions_name: Option<Spanned<String>>,
     /// `action ... scale N`: the scale as written.
     pub(super) scale: Option<Number>,
 }
@@ -90,13 +91,42 @@ impl Validator {
                         "give the name of a CSV file in the data folder, e.g. `conditions table \"conditions.csv\"`",
                     );
                 }
+                if let Some(name) = &csv.conditions_name {
+                    self.conditions_twice(t.span, name.span);
+                }
                 csv.conditions_table = Some(t.clone());
                 "conditions table"
+            }
+            DataItem::ConditionsName(p) => {
+                if let Err(e) = crate::design::NamePattern::parse(&p.node) {
+                    self.err_help(
+                        "bad conditions pattern",
+                        p.span,
+                        e,
+                        "e.g. `conditions name \"{*}-{trajectory}-{speed}-{rep}\"`",
+                    );
+                }
+                if let Some(table) = &csv.conditions_table {
+                    self.conditions_twice(p.span, table.span);
+                }
+                csv.conditions_name = Some(p.clone());
+                "conditions name"
             }
             _ => return None,
         };
         self.once(seen, key, span);
         Some(key)
+    }
+
+    /// A data block with both a conditions table and a name pattern.
+    fn conditions_twice(&mut self, span: Span, first: Span) {
+        let _ = first;
+        self.err_help(
+            "conditions declared twice",
+            span,
+            "the conditions come from a table or from the file names, not both",
+            "keep `conditions table` or `conditions name`",
+        );
     }
 
     /// The format a `data csv` block declares, or `None` (with errors) when
@@ -210,6 +240,7 @@ impl Validator {
             extrapolated: csv.extrapolated.iter().flatten().map(|c| c.node.clone()).collect(),
             controller: csv.controller.as_ref().map(|c| c.node.clone()),
             conditions_table: csv.conditions_table.as_ref().map(|t| t.node.clone()),
+            conditions_name: csv.conditions_name.as_ref().map(|t| t.node.clone()),
         })
     }
 }

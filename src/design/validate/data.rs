@@ -209,7 +209,8 @@ impl Validator {
             | DataItem::Extra { .. }
             | DataItem::Extrapolated(_)
             | DataItem::Controller(_)
-            | DataItem::ConditionsTable(_) => {}
+            | DataItem::ConditionsTable(_)
+            | DataItem::ConditionsName(_) => {}
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
                 let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
