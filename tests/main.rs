@@ -8,6 +8,7 @@ mod architecture;
 mod bad_inputs;
 mod browser;
 mod coverage;
+mod coverage_measures;
 mod data;
 mod design_errors;
 mod designs;

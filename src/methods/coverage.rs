@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
 use crate::report::charts::{category_label, draw_err, DrawError};
 use crate::report::Table;
-use crate::stats::coverage::{simulate, Distribution, Missing, Performance, Setting};
+use crate::stats::coverage::{
+    measures, setting_seed, simulate_reps, Distribution, Missing, Performance, Setting, Simulated,
+};
 use crate::stats::StatsError;
 
 /// Why a coverage study could not run or be written.
@@ -68,13 +70,21 @@ pub enum CoverageError {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoverageSpec {
-    /// Seed of the first setting (setting k uses seed + k).
+    /// The study's seed. Each setting's seed is a hash of it and the
+    /// setting's values ([`setting_seed`]).
     pub seed: u64,
     /// Replications per setting.
     pub reps: usize,
-    /// Nominal level of every interval (default 0.95).
-    #[serde(default = "default_level")]
-    pub level: f64,
+    /// Nominal level of every interval (default 0.95); or `levels`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<f64>,
+    /// Several nominal levels, each scored on the same replications.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<Vec<f64>>,
+    /// True means mu the arrays are drawn around (default [0]); each
+    /// scored on the same replications, shifted.
+    #[serde(default = "default_means")]
+    pub means: Vec<f64>,
     /// Bootstrap replicates B (default 999).
     #[serde(default = "default_b")]
     pub bootstrap: usize,
@@ -93,6 +103,10 @@ pub struct CoverageSpec {
     pub missing: Vec<Missing>,
 }
 
+fn default_means() -> Vec<f64> {
+    vec![0.0]
+}
+
 fn default_missing() -> Vec<Missing> {
     vec![Missing::Complete]
 }
@@ -104,10 +118,6 @@ const MAX_SETTINGS: usize = 10_000;
 /// The most cell visits (reps x (B + 1) x recordings x seeds, summed over
 /// the grid) a study may need.
 const MAX_WORK: f64 = 1e12;
-
-fn default_level() -> f64 {
-    0.95
-}
 
 fn default_b() -> usize {
     999
@@ -148,8 +158,26 @@ impl CoverageSpec {
         if self.reps < 2 {
             return bad(format!("`reps` must be at least 2, found {}", self.reps));
         }
-        if !(self.level > 0.0 && self.level < 1.0) {
-            return bad(format!("`level` must be in (0, 1), found {}", self.level));
+        if self.level.is_some() && self.levels.is_some() {
+            return bad("give `level` or `levels`, not both".into());
+        }
+        let levels = self.levels();
+        if levels.is_empty() || levels.len() > 20 {
+            return bad(format!("`levels` needs 1 to 20 entries, found {}", levels.len()));
+        }
+        if let Some(l) = levels.iter().find(|l| !(**l > 0.0 && **l < 1.0)) {
+            return bad(format!("every level must be in (0, 1), found {l}"));
+        }
+        if self.means.is_empty() || self.means.len() > 100 {
+            return bad(format!("`means` needs 1 to 100 entries, found {}", self.means.len()));
+        }
+        if let Some(m) = self.means.iter().find(|m| !m.is_finite()) {
+            return bad(format!("every true mean must be a finite number, found {m}"));
+        }
+        for (what, v) in [("levels", &levels), ("means", &self.means)] {
+            if v.iter().enumerate().any(|(k, x)| v[..k].contains(x)) {
+                return bad(format!("`{what}` lists a value twice: {v:?}"));
+            }
         }
         if self.bootstrap == 0 {
             return bad("`bootstrap` must be at least 1".into());
@@ -202,6 +230,27 @@ impl CoverageSpec {
         Ok(())
     }
 
+    /// The nominal levels: `levels`, or `[level]`, or `[0.95]`.
+    pub fn levels(&self) -> Vec<f64> {
+        self.levels.clone().unwrap_or_else(|| vec![self.level.unwrap_or(0.95)])
+    }
+
+    /// Whether the study is the plain one: one level, true mean 0 (its
+    /// tables are keyed by setting alone).
+    pub fn plain(&self) -> bool {
+        self.levels().len() == 1 && self.means == [0.0]
+    }
+
+    /// A row's group in the tables and the figure: its setting, with its
+    /// true mean and level unless the study is plain.
+    pub fn group(&self, r: &Performance) -> String {
+        if self.plain() {
+            r.setting.clone()
+        } else {
+            format!("{}; true mean {}, level {}", r.setting, r.true_mean, r.level)
+        }
+    }
+
     /// Every setting of the grid, rows x cols x shares x distributions x
     /// missing-cell patterns.
     pub fn settings(&self) -> Vec<Setting> {
@@ -226,24 +275,37 @@ pub fn run_coverage(
     spec: &CoverageSpec,
     on_setting: &mut dyn FnMut(usize, usize, &Setting),
 ) -> Result<Vec<Performance>, CoverageError> {
+    Ok(run_coverage_replications(spec, on_setting)?.0)
+}
+
+/// As [`run_coverage`], with every setting's replications (for
+/// [`super::coverage_tidy::replications_csv`]).
+pub fn run_coverage_replications(
+    spec: &CoverageSpec,
+    on_setting: &mut dyn FnMut(usize, usize, &Setting),
+) -> Result<(Vec<Performance>, Vec<Simulated>), CoverageError> {
     let settings = spec.settings();
-    let mut out = Vec::new();
+    let levels = spec.levels();
+    let (mut rows, mut sims) = (Vec::new(), Vec::new());
     for (k, s) in settings.iter().enumerate() {
-        // Each setting gets its own seed so adding settings leaves the others unchanged.
-        let seed = spec.seed.wrapping_add(k as u64);
-        out.extend(
-            simulate(s, spec.reps, spec.level, spec.bootstrap, seed)
-                .map_err(|source| CoverageError::Stats { setting: s.label(), source })?,
-        );
+        // Seeded by its own values: adding or reordering settings leaves the others unchanged.
+        let sim = simulate_reps(s, spec.reps, &levels, spec.bootstrap, setting_seed(spec.seed, s))
+            .map_err(|source| CoverageError::Stats { setting: s.label(), source })?;
+        rows.extend(measures(&sim, &spec.means));
+        sims.push(sim);
         on_setting(k + 1, settings.len(), s);
     }
-    Ok(out)
+    Ok((rows, sims))
 }
 
 /// One row of coverage.csv.
 #[derive(Serialize)]
 struct CsvRow<'a> {
     setting: &'a str,
+    #[serde(serialize_with = "f64_text")]
+    true_mean: f64,
+    #[serde(serialize_with = "f64_text")]
+    level: f64,
     method: String,
     reps: usize,
     #[serde(serialize_with = "f64_text")]
@@ -289,6 +351,28 @@ struct CsvRow<'a> {
     be_coverage: f64,
     #[serde(serialize_with = "f64_text")]
     be_coverage_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    rel_bias: f64,
+    #[serde(serialize_with = "f64_text")]
+    rel_bias_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    power: f64,
+    #[serde(serialize_with = "f64_text")]
+    power_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    rejection: f64,
+    #[serde(serialize_with = "f64_text")]
+    rejection_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    type_s: f64,
+    #[serde(serialize_with = "f64_text")]
+    type_s_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    rel_precision: f64,
+    #[serde(serialize_with = "f64_text")]
+    rel_precision_mcse: f64,
+    #[serde(serialize_with = "f64_text")]
+    df_median: f64,
 }
 
 /// coverage.csv: one row per setting and estimator.
@@ -297,6 +381,8 @@ pub fn to_csv(rows: &[Performance]) -> Result<String, csv::Error> {
     for r in rows {
         w.serialize(CsvRow {
             setting: &r.setting,
+            true_mean: r.true_mean,
+            level: r.level,
             method: format!("{:?}", r.method),
             reps: r.reps,
             coverage: r.coverage,
@@ -321,6 +407,17 @@ pub fn to_csv(rows: &[Performance]) -> Result<String, csv::Error> {
             mse_mcse: r.mse_mcse,
             be_coverage: r.be_coverage,
             be_coverage_mcse: r.be_coverage_mcse,
+            rel_bias: r.rel_bias,
+            rel_bias_mcse: r.rel_bias_mcse,
+            power: r.power,
+            power_mcse: r.power_mcse,
+            rejection: r.rejection,
+            rejection_mcse: r.rejection_mcse,
+            type_s: r.type_s,
+            type_s_mcse: r.type_s_mcse,
+            rel_precision: r.rel_precision,
+            rel_precision_mcse: r.rel_precision_mcse,
+            df_median: r.df_median,
         })?;
     }
     let bytes = w.into_inner().map_err(|e| csv::Error::from(e.into_error()))?;
@@ -333,13 +430,17 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
     let _ = writeln!(s, "# Coverage of interval estimators for crossed designs\n");
     let _ = writeln!(
         s,
-        "{} replications per setting, nominal level {}, pigeonhole bootstrap B = {}, seed {}. The true mean is 0, and the variance components make the SE of the complete array's mean 1 in every setting (with missing cells the true SE is larger: see EmpSE); MCSE in parentheses (Morris, White & Crowther 2019). Misses below / above: intervals wholly below / above the true mean of 0; a miss below is a false `upper < 0`. coverage.csv adds the MSE, the bias-eliminated coverage and the replications without an interval, each with its MCSE.\n",
-        spec.reps, spec.level, spec.bootstrap, spec.seed
+        "{} replications per setting, nominal level {}, pigeonhole bootstrap B = {}, seed {} (each setting's seed is a hash of it and the setting's values). The true mean is {}, and the variance components make the SE of the complete array's mean 1 in every setting (with missing cells the true SE is larger: see EmpSE); MCSE in parentheses (Morris, White & Crowther 2019). Misses below / above: intervals wholly below / above the true mean; with a true mean of 0 a miss below is a false `upper < 0`. Rejects 0: intervals that exclude 0 (the type I error rate when the true mean is 0, the power otherwise). coverage.csv adds the MSE, the bias-eliminated coverage, the relative bias, rsimsum's power (a Wald z test), the type S error, the relative precision against the first estimator with its paired MCSE, the median df and the replications without an interval, each with its MCSE.\n",
+        spec.reps,
+        spec.levels().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", "),
+        spec.bootstrap,
+        spec.seed,
+        spec.means.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", ")
     );
-    let mut settings: Vec<&str> = Vec::new();
+    let mut settings: Vec<String> = Vec::new();
     for r in rows {
-        if !settings.contains(&r.setting.as_str()) {
-            settings.push(&r.setting);
+        if !settings.contains(&spec.group(r)) {
+            settings.push(spec.group(r));
         }
     }
     let cols = [
@@ -352,11 +453,12 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
         "EmpSE",
         "ModSE",
         "rel. error ModSE %",
+        "rejects 0",
     ];
     let declared = spec.settings();
     for setting in settings {
-        let mut table = Table::new(&cols, "lrrrrrrrr");
-        for r in rows.iter().filter(|r| r.setting == setting) {
+        let mut table = Table::new(&cols, "lrrrrrrrrr");
+        for r in rows.iter().filter(|r| spec.group(r) == setting) {
             // An MCSE needs 2 or more usable replications; fewer print none.
             let pm = |v: f64, m: f64, d: usize| {
                 if r.reps < 2 {
@@ -380,10 +482,11 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
                 pm(r.emp_se, r.emp_se_mcse, 3),
                 pm(r.mod_se, r.mod_se_mcse, 3),
                 pm(r.rel_error_mod_se, r.rel_error_mod_se_mcse, 1),
+                pm(r.rejection, r.rejection_mcse, 3),
             ]);
         }
         let _ = write!(s, "\n## {setting}\n\n");
-        let built_in = declared.iter().find(|x| x.label() == setting).map_or(0.0, |x| x.built_in_bias());
+        let built_in = declared.iter().find(|x| setting.starts_with(&x.label())).map_or(0.0, |x| x.built_in_bias());
         if built_in > 0.0 {
             let _ = write!(
                 s,
@@ -402,12 +505,14 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
 pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<(), DrawError> {
     use plotters::prelude::*;
     let e = draw_err(path);
-    let mut settings: Vec<&str> = Vec::new();
+    let mut settings: Vec<String> = Vec::new();
     for r in rows {
-        if !settings.contains(&r.setting.as_str()) {
-            settings.push(&r.setting);
+        if !settings.contains(&spec.group(r)) {
+            settings.push(spec.group(r));
         }
     }
+    let nominal: Vec<f64> =
+        settings.iter().map(|g| rows.iter().find(|r| spec.group(r) == *g).map_or(f64::NAN, |r| r.level)).collect();
     let mut methods: Vec<_> = Vec::new();
     for r in rows {
         if !methods.contains(&r.method) {
@@ -443,9 +548,11 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
     crate::report::charts::svg_figure(path, (width, height), |root| {
         let (top, key) = root.split_vertically(plot_height);
         let (plot, side) = top.split_horizontally(width - 250);
-        let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(spec.level, f64::min).max(0.0);
+        let lowest = spec.levels().into_iter().fold(1.0, f64::min);
+        let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(lowest, f64::min).max(0.0);
         let n = settings.len();
-        let title = format!("Coverage (nominal {}), 2-MCSE bars, {} reps", spec.level, spec.reps);
+        let levels = spec.levels().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
+        let title = format!("Coverage (nominal {levels}), 2-MCSE bars, {} reps", spec.reps);
         let mut chart = crate::report::charts::chart(&plot, &title)
             .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
             .map_err(&e)?;
@@ -461,9 +568,21 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
             .y_desc("coverage")
             .draw()
             .map_err(&e)?;
-        chart
-            .draw_series(LineSeries::new(vec![(-0.5, spec.level), (n as f64 - 0.5, spec.level)], BLACK))
-            .map_err(&e)?;
+        // The nominal level: one line, or each group's own.
+        if nominal.iter().all(|l| *l == nominal[0]) {
+            chart
+                .draw_series(LineSeries::new(vec![(-0.5, nominal[0]), (n as f64 - 0.5, nominal[0])], BLACK))
+                .map_err(&e)?;
+        } else {
+            chart
+                .draw_series(
+                    nominal
+                        .iter()
+                        .enumerate()
+                        .map(|(k, l)| PathElement::new(vec![(k as f64 - 0.45, *l), (k as f64 + 0.45, *l)], BLACK)),
+                )
+                .map_err(&e)?;
+        }
         let palette = crate::report::charts::PALETTE;
         for (k, m) in methods.iter().enumerate() {
             let color = palette[k % palette.len()];
@@ -472,7 +591,7 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
                 .iter()
                 .filter(|r| r.method == *m && r.coverage.is_finite())
                 .map(|r| {
-                    let x = settings.iter().position(|s| *s == r.setting).unwrap_or(0) as f64 + dx;
+                    let x = settings.iter().position(|s| *s == spec.group(r)).unwrap_or(0) as f64 + dx;
                     // No bar without an MCSE (fewer than 2 usable replications).
                     (x, r.coverage, if r.coverage_mcse.is_finite() { r.coverage_mcse } else { 0.0 })
                 })

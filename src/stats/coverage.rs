@@ -202,6 +202,41 @@ pub struct Performance {
     pub be_coverage: f64,
     /// Monte Carlo SE of the bias-eliminated coverage.
     pub be_coverage_mcse: f64,
+    /// The true mean mu the arrays were drawn around.
+    pub true_mean: f64,
+    /// The intervals' nominal level.
+    pub level: f64,
+    /// Relative bias, mean((estimate - mu) / mu) (rsimsum's `rbias`); NaN
+    /// when mu = 0.
+    pub rel_bias: f64,
+    /// Monte Carlo SE of the relative bias.
+    pub rel_bias_mcse: f64,
+    /// rsimsum's power: the share with |estimate| >= z_{1 - (1 - level)/2}
+    /// SE (a Wald z test, whatever the interval).
+    pub power: f64,
+    /// Monte Carlo SE of the power.
+    pub power_mcse: f64,
+    /// The share of intervals that exclude 0 (lower > 0 or upper < 0): the
+    /// estimator's own test, the one a decision rule reads. With mu = 0,
+    /// its type I error rate.
+    pub rejection: f64,
+    /// Monte Carlo SE of the rejection rate.
+    pub rejection_mcse: f64,
+    /// Type S error (Gelman & Carlin 2014): among intervals that exclude 0,
+    /// the share on the side opposite to mu; NaN when mu = 0 or none does.
+    pub type_s: f64,
+    /// Monte Carlo SE of the type S error (over the intervals excluding 0).
+    pub type_s_mcse: f64,
+    /// Relative precision against the setting's first estimator,
+    /// 100 ((EmpSE_ref / EmpSE)^2 - 1) (rsimsum's `relprec`).
+    pub rel_precision: f64,
+    /// Its paired Monte Carlo SE, 200 (EmpSE_ref / EmpSE)^2
+    /// sqrt((1 - rho^2) / (n - 1)), rho the correlation of the two
+    /// estimators' estimates over the replications where both are defined.
+    pub rel_precision_mcse: f64,
+    /// Median df of the usable replications (NaN where no df applies:
+    /// bootstrap; infinite for the normal).
+    pub df_median: f64,
 }
 
 /// One replication's (estimate, SE, lower, upper).
@@ -209,8 +244,27 @@ pub type Estimate = (f64, f64, f64, f64);
 
 /// Morris, White & Crowther (2019), Table 6, against the true value, over
 /// the usable replications of `est` (see [`usable`]; `reps` counts them).
-/// Monte Carlo SEs need two or more and are NaN with fewer.
+/// Monte Carlo SEs need two or more and are NaN with fewer. The level,
+/// power, rejection rate and df are left NaN (see [`performance_at`]).
 pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], truth: f64) -> Performance {
+    performance_at(setting, method, est, &[], truth, f64::NAN)
+}
+
+/// As [`performance`], at a nominal level with each replication's df
+/// (`dfs`, parallel to `est`; empty for none): adds the power, the
+/// rejection rate, the type S error, the relative bias and the median df.
+/// The relative precision needs the other estimators ([`measures`]).
+pub fn performance_at(
+    setting: &str,
+    method: IntervalMethod,
+    est: &[Estimate],
+    dfs: &[f64],
+    truth: f64,
+    level: f64,
+) -> Performance {
+    let mut dfs: Vec<f64> =
+        est.iter().zip(dfs).filter(|(e, _)| usable(e)).map(|(_, d)| *d).filter(|d| !d.is_nan()).collect();
+    dfs.sort_by(f64::total_cmp);
     let all = est.len();
     let est: Vec<Estimate> = est.iter().copied().filter(usable).collect();
     let est = est.as_slice();
@@ -238,6 +292,20 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
     let be = share(&|e| e.2 <= mean_theta && mean_theta <= e.3);
     let sq: Vec<f64> = theta.iter().map(|t| (t - truth).powi(2)).collect();
     let mse = mean(&sq);
+    let z = super::critical_value(level, f64::INFINITY).unwrap_or(f64::NAN);
+    let power = share(&|e| e.0.abs() >= z * e.1);
+    let rejecting: Vec<&Estimate> = est.iter().filter(|e| e.2 > 0.0 || e.3 < 0.0).collect();
+    let rejection = rejecting.len() as f64 / n;
+    let (type_s, type_s_mcse) = if truth == 0.0 || rejecting.is_empty() {
+        (f64::NAN, f64::NAN)
+    } else {
+        let k = rejecting.len() as f64;
+        let wrong = rejecting.iter().filter(|e| (e.0 > 0.0) != (truth > 0.0)).count() as f64 / k;
+        (wrong, if k >= 2.0 { (wrong * (1.0 - wrong) / k).sqrt() } else { f64::NAN })
+    };
+    let rel: Vec<f64> = theta.iter().map(|t| (t - truth) / truth).collect();
+    let (rel_bias, rel_bias_mcse) =
+        if truth == 0.0 { (f64::NAN, f64::NAN) } else { (mean(&rel), (var(&rel) / n).sqrt()) };
     Performance {
         setting: setting.to_string(),
         method,
@@ -268,6 +336,19 @@ pub fn performance(setting: &str, method: IntervalMethod, est: &[Estimate], trut
         mse_mcse: (sq.iter().map(|d| (d - mse).powi(2)).sum::<f64>() / (n * (n - 1.0))).sqrt(),
         be_coverage: be,
         be_coverage_mcse: share_mcse(be),
+        true_mean: truth,
+        level,
+        rel_bias,
+        rel_bias_mcse,
+        power: if level.is_nan() { f64::NAN } else { power },
+        power_mcse: if level.is_nan() { f64::NAN } else { share_mcse(power) },
+        rejection,
+        rejection_mcse: share_mcse(rejection),
+        type_s,
+        type_s_mcse,
+        rel_precision: f64::NAN,
+        rel_precision_mcse: f64::NAN,
+        df_median: if dfs.is_empty() { f64::NAN } else { super::quantile_type7(&dfs, 0.5) },
     }
 }
 
@@ -282,7 +363,7 @@ fn with_missing(
     m: &CrossedMatrix,
     level: f64,
     rng: &mut ChaCha8Rng,
-) -> Result<Vec<(IntervalMethod, Estimate)>, StatsError> {
+) -> Result<Vec<(IntervalMethod, Estimate, f64)>, StatsError> {
     use super::crossed::{crossed_mom, crossed_reml_fit, reml_with};
     use super::DfRule;
     let (rows, cols) = (m.rows(), m.cols());
@@ -313,7 +394,7 @@ fn with_missing(
         (IntervalMethod::RemlT, DfRule::SeedsMinusOne),
     ] {
         let e = fit.as_ref().and_then(|f| reml_with(f, cells.len(), rows * cols, level, rule).ok());
-        out.push((method, e.map_or(nan, |e| (e.mean, e.se, e.lower, e.upper))));
+        out.push((method, e.as_ref().map_or(nan, |e| (e.mean, e.se, e.lower, e.upper)), e.map_or(f64::NAN, |e| e.df)));
     }
     let complete: Vec<usize> = (0..rows).filter(|&i| present[i * cols..(i + 1) * cols].iter().all(|c| *c)).collect();
     let listwise = if complete.len() >= 2 {
@@ -321,11 +402,12 @@ fn with_missing(
         CrossedMatrix::new(complete.len(), cols, data)
             .and_then(|sub| crossed_mom(&sub, level, DfRule::SeedsMinusOne))
             .ok()
-            .map(|e| (e.mean, e.se, e.lower, e.upper))
+            .map(|e| ((e.mean, e.se, e.lower, e.upper), e.df))
     } else {
         None
     };
-    out.push((IntervalMethod::MomTCompleteRows, listwise.unwrap_or(nan)));
+    let (listwise, df) = listwise.unwrap_or((nan, f64::NAN));
+    out.push((IntervalMethod::MomTCompleteRows, listwise, df));
     Ok(out)
 }
 
@@ -337,33 +419,141 @@ pub fn usable(e: &Estimate) -> bool {
     ![e.0, e.1, e.2, e.3].iter().any(|x| x.is_nan())
 }
 
-/// Runs `reps` replications of one setting: every estimator on every array.
-/// Replication r uses ChaCha8 stream r of `seed` for the data and stream
-/// 2^32 + r for its bootstrap. With missing cells, the estimators of
-/// `with_missing` instead; each estimator's performance is over the
-/// replications where it was defined (its `reps`).
-pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Result<Vec<Performance>, StatsError> {
-    let per_rep: Vec<Vec<(IntervalMethod, Estimate)>> = (0..reps)
+/// A setting's seed: the first 8 bytes (little-endian) of the SHA-256 of
+/// the base seed and the setting's values (I, J, the shares' bits, the
+/// distribution and the missing-cell pattern), so that adding, removing or
+/// reordering settings leaves every other setting's draws unchanged. The
+/// true mean and the level are not in it: every mean and level of a
+/// setting is scored on the same arrays.
+pub fn setting_seed(base: u64, s: &Setting) -> u64 {
+    use sha2::{Digest, Sha256};
+    let missing = match s.missing {
+        Missing::Complete => "complete".to_string(),
+        Missing::Mcar(p) => format!("mcar {:016x}", p.to_bits()),
+        Missing::RowLoss(k) => format!("row_loss {k}"),
+    };
+    let text = format!(
+        "crossaudit coverage setting seed 1|{base}|{}|{}|{:016x} {:016x} {:016x}|{:?}|{missing}",
+        s.rows,
+        s.cols,
+        s.shares[0].to_bits(),
+        s.shares[1].to_bits(),
+        s.shares[2].to_bits(),
+        s.distribution
+    );
+    let digest = Sha256::digest(text.as_bytes());
+    let mut first = [0u8; 8];
+    first.copy_from_slice(&digest[..8]);
+    u64::from_le_bytes(first)
+}
+
+/// Every replication of one setting at true mean 0: per level, per
+/// estimator, each replication's (estimate, SE, lower, upper) and df.
+#[derive(Debug, Clone)]
+pub struct Simulated {
+    /// The setting's label.
+    pub label: String,
+    /// The nominal levels, in the order of `replications`.
+    pub levels: Vec<f64>,
+    /// The estimators, in the order of each level's entries.
+    pub methods: Vec<IntervalMethod>,
+    /// `[level][method][replication]`: (estimate, SE, lower, upper), df.
+    pub replications: Vec<Vec<Vec<(Estimate, f64)>>>,
+}
+
+/// An estimate of an array shifted by `mu`: every estimator here is
+/// location-equivariant (the estimate and both interval ends move by mu,
+/// the SE and df do not), so the arrays drawn around mu are the arrays
+/// drawn around 0, plus mu (tests/coverage.rs checks it estimator by
+/// estimator).
+pub fn shifted(e: Estimate, mu: f64) -> Estimate {
+    (e.0 + mu, e.1, e.2 + mu, e.3 + mu)
+}
+
+/// Runs `reps` replications of one setting at every level: every estimator
+/// on every array. Replication r uses ChaCha8 stream r of `seed` for the
+/// data and stream 2^32 + r for its bootstrap (the same at every level).
+/// With missing cells, the estimators of `with_missing` instead, the same
+/// cells lost at every level.
+pub fn simulate_reps(s: &Setting, reps: usize, levels: &[f64], b: usize, seed: u64) -> Result<Simulated, StatsError> {
+    type PerLevel = Vec<(IntervalMethod, Estimate, f64)>;
+    let per_rep: Vec<Vec<PerLevel>> = (0..reps)
         .into_par_iter()
         .map(|r| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(r as u64);
             let m = draw_array(s, &mut rng)?;
-            if s.missing != Missing::Complete {
-                return with_missing(s, &m, level, &mut rng);
-            }
-            let iv = compare_intervals(&m, level, b, seed, (1u64 << 32) + r as u64)?;
-            Ok(iv.into_iter().map(|e| (e.method, (e.estimate, e.se, e.lower, e.upper))).collect())
+            levels
+                .iter()
+                .map(|&level| -> Result<PerLevel, StatsError> {
+                    if s.missing != Missing::Complete {
+                        let mut lost = rng.clone();
+                        return with_missing(s, &m, level, &mut lost);
+                    }
+                    let iv = compare_intervals(&m, level, b, seed, (1u64 << 32) + r as u64)?;
+                    Ok(iv.into_iter().map(|e| (e.method, (e.estimate, e.se, e.lower, e.upper), e.df)).collect())
+                })
+                .collect()
         })
         .collect::<Result<_, StatsError>>()?;
-    let methods: Vec<IntervalMethod> = per_rep.first().map(|v| v.iter().map(|x| x.0).collect()).unwrap_or_default();
-    let label = s.label();
-    Ok(methods
-        .iter()
-        .enumerate()
-        .map(|(k, &method)| {
-            let est: Vec<Estimate> = per_rep.iter().map(|v| v[k].1).collect();
-            performance(&label, method, &est, 0.0)
-        })
-        .collect())
+    let methods: Vec<IntervalMethod> =
+        per_rep.first().and_then(|v| v.first()).map(|v| v.iter().map(|x| x.0).collect()).unwrap_or_default();
+    let replications = (0..levels.len())
+        .map(|l| (0..methods.len()).map(|k| per_rep.iter().map(|v| (v[l][k].1, v[l][k].2)).collect()).collect())
+        .collect();
+    Ok(Simulated { label: s.label(), levels: levels.to_vec(), methods, replications })
+}
+
+/// The performance of every estimator at every true mean and level
+/// (means outer, then levels, then estimators), with the relative
+/// precision against the first estimator, computed as rsimsum computes it.
+pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
+    let mut out = Vec::new();
+    for &mu in means {
+        for (l, &level) in sim.levels.iter().enumerate() {
+            let reps = &sim.replications[l];
+            let theta =
+                |k: usize| -> Vec<Option<f64>> { reps[k].iter().map(|(e, _)| usable(e).then_some(e.0 + mu)).collect() };
+            let reference = theta(0);
+            let empse_ref = sample_sd(&reference.iter().flatten().copied().collect::<Vec<_>>());
+            for (k, &method) in sim.methods.iter().enumerate() {
+                let est: Vec<Estimate> = reps[k].iter().map(|(e, _)| shifted(*e, mu)).collect();
+                let dfs: Vec<f64> = reps[k].iter().map(|(_, d)| *d).collect();
+                let mut p = performance_at(&sim.label, method, &est, &dfs, mu, level);
+                let mine = theta(k);
+                let pairs: Vec<(f64, f64)> =
+                    reference.iter().zip(&mine).filter_map(|(a, b)| Some(((*a)?, (*b)?))).collect();
+                let ratio2 = (empse_ref / p.emp_se).powi(2);
+                p.rel_precision = 100.0 * (ratio2 - 1.0);
+                let rho = correlation(&pairs);
+                // Equal estimates give rho = 1 up to rounding: 1 - rho^2 is then 0, not a negative rounding error.
+                p.rel_precision_mcse = 200.0 * ratio2 * ((1.0 - rho * rho).max(0.0) / (p.reps as f64 - 1.0)).sqrt();
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// Sample SD (divisor n - 1).
+fn sample_sd(v: &[f64]) -> f64 {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+}
+
+/// Pearson's correlation (R's `cor`: centred sums, two passes).
+fn correlation(pairs: &[(f64, f64)]) -> f64 {
+    let n = pairs.len() as f64;
+    let (ma, mb) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+    let sab: f64 = pairs.iter().map(|(a, b)| (a - ma) * (b - mb)).sum();
+    let saa: f64 = pairs.iter().map(|(a, _)| (a - ma).powi(2)).sum();
+    let sbb: f64 = pairs.iter().map(|(_, b)| (b - mb).powi(2)).sum();
+    sab / (saa * sbb).sqrt()
+}
+
+/// Runs `reps` replications of one setting at one level and scores them
+/// against the true mean 0 ([`simulate_reps`], [`measures`]).
+pub fn simulate(s: &Setting, reps: usize, level: f64, b: usize, seed: u64) -> Result<Vec<Performance>, StatsError> {
+    Ok(measures(&simulate_reps(s, reps, &[level], b, seed)?, &[0.0]))
 }

@@ -154,6 +154,10 @@ pub(crate) enum Command {
         /// Output directory for coverage.csv, coverage.md, coverage.svg.
         #[arg(long, default_value = "coverage")]
         out: PathBuf,
+        /// Also write replications.csv: every replication's estimate, SE,
+        /// interval and df, tidy, as R's rsimsum reads it.
+        #[arg(long)]
+        replications: bool,
     },
     /// Predict SE, interval width and the probability the decision rule holds
     /// for other numbers of recordings and seeds (and splits, or draws), from

@@ -56,7 +56,7 @@ fn main() -> ExitCode {
         Command::Score { dir, workers } => external::score(&dir, workers),
         Command::Job { dir, index } => slurm_job(&dir, index),
         Command::Gather { dir } => slurm_gather(&dir),
-        Command::Coverage { spec, reps, out } => methods::coverage(&spec, reps, &out),
+        Command::Coverage { spec, reps, out, replications } => methods::coverage(&spec, reps, &out, replications),
         Command::Plan { design, cells, recordings, seeds, splits, draws, out } => {
             methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out)
         }

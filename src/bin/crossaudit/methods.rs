@@ -7,7 +7,7 @@ use crossaudit::design;
 use crossaudit::run::lock_folder;
 use crossaudit::{AnalyzeOptions, Error};
 
-pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Result<(), Error> {
+pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replications: bool) -> Result<(), Error> {
     use crossaudit::methods::draw_coverage as dc;
     let text = crossaudit::methods::coverage::read_spec_text(spec_path)?;
     if dc::is_draw_spec(&text) {
@@ -33,9 +33,16 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path) -> Res
     }
     let _lock = lock_folder(out, false)?;
     let started = std::time::Instant::now();
-    let rows = crossaudit::methods::run_coverage(&spec, &mut |k, n, s| {
+    let (rows, sims) = crossaudit::methods::coverage::run_coverage_replications(&spec, &mut |k, n, s| {
         note!("[{k}/{n}] {} ({:.1} s)", s.label(), started.elapsed().as_secs_f64());
     })?;
+    if replications {
+        let path = out.join("replications.csv");
+        crossaudit::io::create_dir_all(out)?;
+        let text = crossaudit::methods::coverage_tidy::replications_csv(&sims, &spec.means);
+        crossaudit::io::write_atomic(&path, text.as_bytes())?;
+        note!("wrote {}", path.display());
+    }
     for p in crossaudit::methods::coverage::write(out, &spec, &rows)? {
         note!("wrote {}", p.display());
     }
