@@ -190,3 +190,36 @@ fn means_and_levels_share_their_replications() {
         assert!(e.contains("spec.json"), "{bad}: {e}");
     }
 }
+
+/// The boundary rate against its closed form. Under normal errors
+/// MS_seed / MS_e ~ (1 + I sb / se) F(J - 1, (I - 1)(J - 1)), so the MoM
+/// truncates the seed component with probability
+/// P(F < 1 / (1 + I sb / se)). With the recording component large, its
+/// truncation (P(F(I - 1, ...) < 1 / (1 + J sa / se)) = 2e-4 here) is
+/// added (the two events rarely meet).
+#[test]
+fn the_moms_boundary_rate_is_the_f_distributions() {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    let s = spec(
+        r#"{"seed": 21, "reps": 3000, "bootstrap": 1, "rows": [10], "cols": [6],
+            "shares": [[0.9, 0.02, 0.08]], "distributions": ["normal"]}"#,
+    );
+    let setting = &s.settings()[0];
+    let (sa, sb, se) = setting.components();
+    let (i, j) = (10.0, 6.0);
+    let seed_side = FisherSnedecor::new(j - 1.0, (i - 1.0) * (j - 1.0)).unwrap().cdf(1.0 / (1.0 + i * sb / se));
+    let row_side = FisherSnedecor::new(i - 1.0, (i - 1.0) * (j - 1.0)).unwrap().cdf(1.0 / (1.0 + j * sa / se));
+    assert!(row_side < 1e-3, "{row_side}");
+    let either = seed_side + row_side;
+    let rows = crossaudit::methods::run_coverage(&s, &mut |_, _, _| {}).unwrap();
+    for r in &rows {
+        match r.method {
+            IntervalMethod::MomT | IntervalMethod::MomSatterthwaite | IntervalMethod::MomZ => {
+                let z = (r.boundary - either) / r.boundary_mcse;
+                assert!(z.abs() < 4.0, "{:?}: {} ({}) against {either}", r.method, r.boundary, r.boundary_mcse);
+            }
+            IntervalMethod::NaiveIid | IntervalMethod::PigeonholePercentile => assert_eq!(r.boundary, 0.0),
+            _ => {}
+        }
+    }
+}

@@ -373,6 +373,10 @@ struct CsvRow<'a> {
     rel_precision_mcse: f64,
     #[serde(serialize_with = "f64_text")]
     df_median: f64,
+    #[serde(serialize_with = "f64_text")]
+    boundary: f64,
+    #[serde(serialize_with = "f64_text")]
+    boundary_mcse: f64,
 }
 
 /// coverage.csv: one row per setting and estimator.
@@ -418,6 +422,8 @@ pub fn to_csv(rows: &[Performance]) -> Result<String, csv::Error> {
             rel_precision: r.rel_precision,
             rel_precision_mcse: r.rel_precision_mcse,
             df_median: r.df_median,
+            boundary: r.boundary,
+            boundary_mcse: r.boundary_mcse,
         })?;
     }
     let bytes = w.into_inner().map_err(|e| csv::Error::from(e.into_error()))?;
@@ -430,7 +436,7 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
     let _ = writeln!(s, "# Coverage of interval estimators for crossed designs\n");
     let _ = writeln!(
         s,
-        "{} replications per setting, nominal level {}, pigeonhole bootstrap B = {}, seed {} (each setting's seed is a hash of it and the setting's values). The true mean is {}, and the variance components make the SE of the complete array's mean 1 in every setting (with missing cells the true SE is larger: see EmpSE); MCSE in parentheses (Morris, White & Crowther 2019). Misses below / above: intervals wholly below / above the true mean; with a true mean of 0 a miss below is a false `upper < 0`. Rejects 0: intervals that exclude 0 (the type I error rate when the true mean is 0, the power otherwise). coverage.csv adds the MSE, the bias-eliminated coverage, the relative bias, rsimsum's power (a Wald z test), the type S error, the relative precision against the first estimator with its paired MCSE, the median df and the replications without an interval, each with its MCSE.\n",
+        "{} replications per setting, nominal level {}, pigeonhole bootstrap B = {}, seed {} (each setting's seed is a hash of it and the setting's values). The true mean is {}, and the variance components make the SE of the complete array's mean 1 in every setting (with missing cells the true SE is larger: see EmpSE); MCSE in parentheses (Morris, White & Crowther 2019). Misses below / above: intervals wholly below / above the true mean; with a true mean of 0 a miss below is a false `upper < 0`. Rejects 0: intervals that exclude 0 (the type I error rate when the true mean is 0, the power otherwise). At boundary: replications where the estimator's fit put a variance component at zero (the MoM truncated one, or REML's fit was singular), which explains most differences between the variance-component estimators. coverage.csv adds the MSE, the bias-eliminated coverage, the relative bias, rsimsum's power (a Wald z test), the type S error, the relative precision against the first estimator with its paired MCSE, the median df and the replications without an interval, each with its MCSE.\n",
         spec.reps,
         spec.levels().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", "),
         spec.bootstrap,
@@ -454,10 +460,11 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
         "ModSE",
         "rel. error ModSE %",
         "rejects 0",
+        "at boundary",
     ];
     let declared = spec.settings();
     for setting in settings {
-        let mut table = Table::new(&cols, "lrrrrrrrrr");
+        let mut table = Table::new(&cols, "lrrrrrrrrrr");
         for r in rows.iter().filter(|r| spec.group(r) == setting) {
             // An MCSE needs 2 or more usable replications; fewer print none.
             let pm = |v: f64, m: f64, d: usize| {
@@ -483,6 +490,7 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
                 pm(r.mod_se, r.mod_se_mcse, 3),
                 pm(r.rel_error_mod_se, r.rel_error_mod_se_mcse, 1),
                 pm(r.rejection, r.rejection_mcse, 3),
+                pm(r.boundary, r.boundary_mcse, 3),
             ]);
         }
         let _ = write!(s, "\n## {setting}\n\n");
@@ -644,4 +652,13 @@ pub fn write(out: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<Ve
     let svg = out.join("coverage.svg");
     draw(&svg, spec, rows)?;
     Ok(vec![csv, md, svg])
+}
+
+/// Writes `zip.svg`: the zip plot of the spec's first setting at its first
+/// true mean and level ([`super::coverage_zip::draw_zip`]).
+pub fn write_zip(out: &Path, spec: &CoverageSpec, sims: &[Simulated]) -> Result<Option<PathBuf>, CoverageError> {
+    let Some(first) = sims.first() else { return Ok(None) };
+    let zip = out.join("zip.svg");
+    super::coverage_zip::draw_zip(&zip, first, spec.means.first().copied().unwrap_or(0.0))?;
+    Ok(Some(zip))
 }

@@ -35,7 +35,7 @@ pub fn replications_csv(sims: &[Simulated], means: &[f64]) -> String {
         for &mu in means {
             for (l, &level) in sim.levels.iter().enumerate() {
                 for (k, method) in sim.methods.iter().enumerate() {
-                    for (r, (e, df)) in sim.replications[l][k].iter().enumerate() {
+                    for (r, (e, df, _)) in sim.replications[l][k].iter().enumerate() {
                         let (est, se, lower, upper, df) = if usable(e) {
                             let s = shifted(*e, mu);
                             (r_number(s.0), r_number(s.1), r_number(s.2), r_number(s.3), r_number(*df))

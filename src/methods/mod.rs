@@ -3,6 +3,7 @@
 
 pub mod coverage;
 pub mod coverage_tidy;
+pub mod coverage_zip;
 pub mod draw_coverage;
 pub mod draw_power;
 pub mod power;

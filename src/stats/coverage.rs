@@ -237,6 +237,12 @@ pub struct Performance {
     /// Median df of the usable replications (NaN where no df applies:
     /// bootstrap; infinite for the normal).
     pub df_median: f64,
+    /// Share of the scored replications whose fit put a variance component
+    /// at the boundary: the MoM truncated one at zero, or REML's fit was
+    /// singular (0 for estimators without components; set by [`measures`]).
+    pub boundary: f64,
+    /// Monte Carlo SE of `boundary`.
+    pub boundary_mcse: f64,
 }
 
 /// One replication's (estimate, SE, lower, upper).
@@ -349,6 +355,8 @@ pub fn performance_at(
         rel_precision: f64::NAN,
         rel_precision_mcse: f64::NAN,
         df_median: if dfs.is_empty() { f64::NAN } else { super::quantile_type7(&dfs, 0.5) },
+        boundary: f64::NAN,
+        boundary_mcse: f64::NAN,
     }
 }
 
@@ -363,7 +371,7 @@ fn with_missing(
     m: &CrossedMatrix,
     level: f64,
     rng: &mut ChaCha8Rng,
-) -> Result<Vec<(IntervalMethod, Estimate, f64)>, StatsError> {
+) -> Result<Vec<(IntervalMethod, Estimate, f64, bool)>, StatsError> {
     use super::crossed::{crossed_mom, crossed_reml_fit, reml_with};
     use super::DfRule;
     let (rows, cols) = (m.rows(), m.cols());
@@ -394,7 +402,9 @@ fn with_missing(
         (IntervalMethod::RemlT, DfRule::SeedsMinusOne),
     ] {
         let e = fit.as_ref().and_then(|f| reml_with(f, cells.len(), rows * cols, level, rule).ok());
-        out.push((method, e.as_ref().map_or(nan, |e| (e.mean, e.se, e.lower, e.upper)), e.map_or(f64::NAN, |e| e.df)));
+        let singular = fit.as_ref().is_some_and(|f| f.singular);
+        let estimate = e.as_ref().map_or(nan, |e| (e.mean, e.se, e.lower, e.upper));
+        out.push((method, estimate, e.map_or(f64::NAN, |e| e.df), singular));
     }
     let complete: Vec<usize> = (0..rows).filter(|&i| present[i * cols..(i + 1) * cols].iter().all(|c| *c)).collect();
     let listwise = if complete.len() >= 2 {
@@ -402,12 +412,15 @@ fn with_missing(
         CrossedMatrix::new(complete.len(), cols, data)
             .and_then(|sub| crossed_mom(&sub, level, DfRule::SeedsMinusOne))
             .ok()
-            .map(|e| ((e.mean, e.se, e.lower, e.upper), e.df))
+            .map(|e| {
+                let truncated = e.mean_squares.is_some_and(|m| m.ms_rows < m.ms_error || m.ms_cols < m.ms_error);
+                ((e.mean, e.se, e.lower, e.upper), e.df, truncated)
+            })
     } else {
         None
     };
-    let (listwise, df) = listwise.unwrap_or((nan, f64::NAN));
-    out.push((IntervalMethod::MomTCompleteRows, listwise, df));
+    let (listwise, df, truncated) = listwise.unwrap_or((nan, f64::NAN, false));
+    out.push((IntervalMethod::MomTCompleteRows, listwise, df, truncated));
     Ok(out)
 }
 
@@ -457,8 +470,9 @@ pub struct Simulated {
     pub levels: Vec<f64>,
     /// The estimators, in the order of each level's entries.
     pub methods: Vec<IntervalMethod>,
-    /// `[level][method][replication]`: (estimate, SE, lower, upper), df.
-    pub replications: Vec<Vec<Vec<(Estimate, f64)>>>,
+    /// `[level][method][replication]`: (estimate, SE, lower, upper), df,
+    /// and whether a variance component was at the boundary.
+    pub replications: Vec<Vec<Vec<(Estimate, f64, bool)>>>,
 }
 
 /// An estimate of an array shifted by `mu`: every estimator here is
@@ -476,7 +490,7 @@ pub fn shifted(e: Estimate, mu: f64) -> Estimate {
 /// With missing cells, the estimators of `with_missing` instead, the same
 /// cells lost at every level.
 pub fn simulate_reps(s: &Setting, reps: usize, levels: &[f64], b: usize, seed: u64) -> Result<Simulated, StatsError> {
-    type PerLevel = Vec<(IntervalMethod, Estimate, f64)>;
+    type PerLevel = Vec<(IntervalMethod, Estimate, f64, bool)>;
     let per_rep: Vec<Vec<PerLevel>> = (0..reps)
         .into_par_iter()
         .map(|r| {
@@ -491,7 +505,10 @@ pub fn simulate_reps(s: &Setting, reps: usize, levels: &[f64], b: usize, seed: u
                         return with_missing(s, &m, level, &mut lost);
                     }
                     let iv = compare_intervals(&m, level, b, seed, (1u64 << 32) + r as u64)?;
-                    Ok(iv.into_iter().map(|e| (e.method, (e.estimate, e.se, e.lower, e.upper), e.df)).collect())
+                    Ok(iv
+                        .into_iter()
+                        .map(|e| (e.method, (e.estimate, e.se, e.lower, e.upper), e.df, e.boundary))
+                        .collect())
                 })
                 .collect()
         })
@@ -499,7 +516,9 @@ pub fn simulate_reps(s: &Setting, reps: usize, levels: &[f64], b: usize, seed: u
     let methods: Vec<IntervalMethod> =
         per_rep.first().and_then(|v| v.first()).map(|v| v.iter().map(|x| x.0).collect()).unwrap_or_default();
     let replications = (0..levels.len())
-        .map(|l| (0..methods.len()).map(|k| per_rep.iter().map(|v| (v[l][k].1, v[l][k].2)).collect()).collect())
+        .map(|l| {
+            (0..methods.len()).map(|k| per_rep.iter().map(|v| (v[l][k].1, v[l][k].2, v[l][k].3)).collect()).collect()
+        })
         .collect();
     Ok(Simulated { label: s.label(), levels: levels.to_vec(), methods, replications })
 }
@@ -512,14 +531,20 @@ pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
     for &mu in means {
         for (l, &level) in sim.levels.iter().enumerate() {
             let reps = &sim.replications[l];
-            let theta =
-                |k: usize| -> Vec<Option<f64>> { reps[k].iter().map(|(e, _)| usable(e).then_some(e.0 + mu)).collect() };
+            let theta = |k: usize| -> Vec<Option<f64>> {
+                reps[k].iter().map(|(e, _, _)| usable(e).then_some(e.0 + mu)).collect()
+            };
             let reference = theta(0);
             let empse_ref = sample_sd(&reference.iter().flatten().copied().collect::<Vec<_>>());
             for (k, &method) in sim.methods.iter().enumerate() {
-                let est: Vec<Estimate> = reps[k].iter().map(|(e, _)| shifted(*e, mu)).collect();
-                let dfs: Vec<f64> = reps[k].iter().map(|(_, d)| *d).collect();
+                let est: Vec<Estimate> = reps[k].iter().map(|(e, _, _)| shifted(*e, mu)).collect();
+                let dfs: Vec<f64> = reps[k].iter().map(|(_, d, _)| *d).collect();
                 let mut p = performance_at(&sim.label, method, &est, &dfs, mu, level);
+                // Over the replications scored, as every other measure.
+                let at_boundary = reps[k].iter().filter(|(e, _, b)| usable(e) && *b).count() as f64;
+                let n = p.reps as f64;
+                p.boundary = at_boundary / n;
+                p.boundary_mcse = if n >= 2.0 { (p.boundary * (1.0 - p.boundary) / n).sqrt() } else { f64::NAN };
                 let mine = theta(k);
                 let pairs: Vec<(f64, f64)> =
                     reference.iter().zip(&mine).filter_map(|(a, b)| Some(((*a)?, (*b)?))).collect();

@@ -75,13 +75,18 @@ pub struct IntervalEstimate {
     pub lower: f64,
     /// Upper bound.
     pub upper: f64,
+    /// A variance component at the boundary: the MoM truncated one at
+    /// zero, or REML's fit is singular (false for estimators without
+    /// components). Not serialized: the coverage study counts it.
+    #[serde(skip)]
+    pub boundary: bool,
 }
 
 impl IntervalEstimate {
     /// An estimator undefined on this array: every field NaN.
     pub fn undefined(method: IntervalMethod) -> IntervalEstimate {
         let nan = f64::NAN;
-        IntervalEstimate { method, estimate: nan, se: nan, df: nan, lower: nan, upper: nan }
+        IntervalEstimate { method, estimate: nan, se: nan, df: nan, lower: nan, upper: nan, boundary: false }
     }
 }
 
@@ -108,6 +113,7 @@ pub fn reml_intervals(
     level: f64,
 ) -> Result<Vec<IntervalEstimate>, StatsError> {
     let fit = crossed_reml_fit(cells)?;
+    let boundary = fit.singular;
     // A df rule that is undefined on this fit (Satterthwaite where the
     // numerical Hessian is not positive definite) gives a NaN row, not the
     // loss of the other.
@@ -117,7 +123,9 @@ pub fn reml_intervals(
     ]
     .into_iter()
     .map(|(method, rule)| match reml_with(&fit, cells.len(), rows * cols, level, rule) {
-        Ok(e) => IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper },
+        Ok(e) => {
+            IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper, boundary }
+        }
         Err(_) => IntervalEstimate::undefined(method),
     })
     .collect())
@@ -139,7 +147,16 @@ pub fn compare_intervals(
         (IntervalMethod::MomZ, DfRule::Normal),
     ] {
         let e = crossed_mom(m, level, rule)?;
-        out.push(IntervalEstimate { method, estimate: e.mean, se: e.se, df: e.df, lower: e.lower, upper: e.upper });
+        let boundary = e.mean_squares.is_some_and(|m| m.ms_rows < m.ms_error || m.ms_cols < m.ms_error);
+        out.push(IntervalEstimate {
+            method,
+            estimate: e.mean,
+            se: e.se,
+            df: e.df,
+            lower: e.lower,
+            upper: e.upper,
+            boundary,
+        });
     }
     let cells: Vec<(usize, usize, f64)> =
         (0..m.rows()).flat_map(|i| (0..m.cols()).map(move |j| (i, j))).map(|(i, j)| (i, j, m.get(i, j))).collect();
@@ -159,6 +176,7 @@ pub fn compare_intervals(
         df: f64::NAN,
         lower: boot.lower,
         upper: boot.upper,
+        boundary: false,
     });
     for (method, values) in [
         (IntervalMethod::NaiveIid, m.values().to_vec()),
@@ -166,7 +184,7 @@ pub fn compare_intervals(
         (IntervalMethod::ClusterSeed, m.col_means()),
     ] {
         let (estimate, se, df, lower, upper) = one_sample_interval(&values, level)?;
-        out.push(IntervalEstimate { method, estimate, se, df, lower, upper });
+        out.push(IntervalEstimate { method, estimate, se, df, lower, upper, boundary: false });
     }
     Ok(out)
 }

@@ -43,7 +43,9 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replic
         crossaudit::io::write_atomic(&path, text.as_bytes())?;
         note!("wrote {}", path.display());
     }
-    for p in crossaudit::methods::coverage::write(out, &spec, &rows)? {
+    let written = crossaudit::methods::coverage::write(out, &spec, &rows)?;
+    let zip = crossaudit::methods::coverage::write_zip(out, &spec, &sims)?;
+    for p in written.into_iter().chain(zip) {
         note!("wrote {}", p.display());
     }
     Ok(())
