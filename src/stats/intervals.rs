@@ -36,6 +36,20 @@ pub enum IntervalMethod {
     ClusterRecording,
     /// One-way clustered by seed: the J column means, t(J - 1).
     ClusterSeed,
+    /// Cameron, Gelbach & Miller (2011) two-way cluster-robust variance,
+    /// V_row + V_col - V_cell (sandwich's `vcovCL(lm(y ~ 1), cluster =
+    /// ~ row + col)`), t(min(I, J) - 1); undefined when V <= 0 (coverage
+    /// study only).
+    TwoWayCluster,
+    /// The conservative sum-of-margins variance s2(row means) / I +
+    /// s2(column means) / J, which for the grand mean is also the row
+    /// jackknife's plus the column jackknife's; t(min(I, J) - 1)
+    /// (coverage study only).
+    SumOfMargins,
+    /// Crossed MoM without truncating a component at zero, SE^2 = (MS_r +
+    /// MS_c - MS_e) / (IJ), t(J - 1); undefined when that is <= 0
+    /// (coverage study only).
+    MomUntruncated,
 }
 
 impl IntervalMethod {
@@ -53,6 +67,9 @@ impl IntervalMethod {
             IntervalMethod::NaiveIid => "naive iid over cells, t(IJ-1)",
             IntervalMethod::ClusterRecording => "clustered by recording, t(I-1)",
             IntervalMethod::ClusterSeed => "clustered by seed, t(J-1)",
+            IntervalMethod::TwoWayCluster => "two-way cluster-robust (CGM), t(min(I,J)-1)",
+            IntervalMethod::SumOfMargins => "sum of margins (row + column jackknife), t(min(I,J)-1)",
+            IntervalMethod::MomUntruncated => "crossed MoM untruncated, t(J-1)",
         }
     }
 }
@@ -187,4 +204,50 @@ pub fn compare_intervals(
         out.push(IntervalEstimate { method, estimate, se, df, lower, upper, boundary: false });
     }
     Ok(out)
+}
+
+/// The interval of `mean` with variance `v` on `df` df, or undefined (every
+/// field NaN) when the variance is not positive.
+fn from_variance(
+    method: IntervalMethod,
+    mean: f64,
+    v: f64,
+    df: f64,
+    level: f64,
+) -> Result<IntervalEstimate, StatsError> {
+    if !(v > 0.0 && v.is_finite()) {
+        return Ok(IntervalEstimate { boundary: true, ..IntervalEstimate::undefined(method) });
+    }
+    let se = v.sqrt();
+    let q = critical_value(level, df)?;
+    Ok(IntervalEstimate { method, estimate: mean, se, df, lower: mean - q * se, upper: mean + q * se, boundary: false })
+}
+
+/// The further estimators the coverage study compares on complete arrays:
+/// two-way cluster-robust, sum of margins and the untruncated MoM (see
+/// [`IntervalMethod`]; docs/statistics.md gives their references).
+pub fn further_intervals(m: &CrossedMatrix, level: f64) -> Result<Vec<IntervalEstimate>, StatsError> {
+    let (i, j) = (m.rows() as f64, m.cols() as f64);
+    let n = i * j;
+    let mean = m.mean();
+    let rows = m.row_means();
+    let cols = m.col_means();
+    // CGM: residuals e = y - mean summed per row and per column.
+    let row_sums: f64 = rows.iter().map(|r| (j * (r - mean)).powi(2)).sum();
+    let col_sums: f64 = cols.iter().map(|c| (i * (c - mean)).powi(2)).sum();
+    let cells: f64 = m.values().iter().map(|v| (v - mean).powi(2)).sum();
+    let cgm = i / (i - 1.0) * row_sums / (n * n) + j / (j - 1.0) * col_sums / (n * n) - n / (n - 1.0) * cells / (n * n);
+    let var = |v: &[f64]| {
+        let mu = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| (x - mu).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)
+    };
+    let margins = var(&rows) / i + var(&cols) / j;
+    let small = i.min(j) - 1.0;
+    let e = crossed_mom(m, level, DfRule::SeedsMinusOne)?;
+    let untruncated = e.mean_squares.map_or(f64::NAN, |ms| (ms.ms_rows + ms.ms_cols - ms.ms_error) / n);
+    Ok(vec![
+        from_variance(IntervalMethod::TwoWayCluster, mean, cgm, small, level)?,
+        from_variance(IntervalMethod::SumOfMargins, mean, margins, small, level)?,
+        from_variance(IntervalMethod::MomUntruncated, mean, untruncated, j - 1.0, level)?,
+    ])
 }

@@ -16,7 +16,9 @@ pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval
 pub use crossed::{
     crossed_mom, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary, VarianceComponents,
 };
-pub use intervals::{compare_intervals, one_sample_interval, reml_intervals, IntervalEstimate, IntervalMethod};
+pub use intervals::{
+    compare_intervals, further_intervals, one_sample_interval, reml_intervals, IntervalEstimate, IntervalMethod,
+};
 pub use loo::{leave_one_out_mom, Axis};
 pub use matrix::CrossedMatrix;
 pub use rng::standard_normal;
