@@ -323,59 +323,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         })
         .collect();
     let (mut files, mut recordings): (Vec<FileRow>, Vec<Option<Recording>>) = loaded.into_iter().unzip();
-    if let Some(pattern) = spec.format.as_ref().and_then(|f| f.conditions_name.as_ref()) {
-        let parsed = crate::design::NamePattern::parse(pattern).map_err(AuditError::Layout)?;
-        let unmatched: Vec<&str> =
-            files.iter().filter(|f| parsed.conditions(&f.name).is_none()).map(|f| f.file.as_str()).collect();
-        if !unmatched.is_empty() {
-            return Err(AuditError::Layout(format!(
-                "{}: the conditions pattern \"{pattern}\" does not match {} recording file name(s): {}",
-                dir.display(),
-                unmatched.len(),
-                crate::io::excerpt(&unmatched.join(", "), 600)
-            )));
-        }
-        for f in files.iter_mut() {
-            let c = parsed.conditions(&f.name).unwrap_or_default();
-            f.trajectory = c.trajectory.unwrap_or_else(|| f.trajectory.clone());
-            f.speed = c.speed.unwrap_or_else(|| f.speed.clone());
-            f.repetition = c.repetition.or(f.repetition);
-        }
-    }
-    if let Some((table, path)) = &table {
-        let unlisted: Vec<&str> =
-            files.iter().filter(|f| !table.contains_key(&f.name)).map(|f| f.file.as_str()).collect();
-        if !unlisted.is_empty() {
-            return Err(AuditError::Layout(format!(
-                "{}: the conditions table has no row for {} recording file(s): {}",
-                path.display(),
-                unlisted.len(),
-                crate::io::excerpt(&unlisted.join(", "), 600)
-            )));
-        }
-        for f in files.iter_mut() {
-            let c = &table[&f.name];
-            f.trajectory = c.trajectory.clone().unwrap_or_else(|| f.trajectory.clone());
-            f.speed = c.speed.clone().unwrap_or_else(|| f.speed.clone());
-        }
-    }
-    if table.is_some() || spec.format.as_ref().is_some_and(|f| f.conditions_name.is_some()) {
-        // A table's or a pattern's speed must be one the design's speed rule
-        // can give: the analysis refuses any other label in the cells.
-        let labels = spec.speed_labels();
-        if let Some(f) = files.iter().find(|f| !labels.contains(&f.speed)) {
-            let source = match &table {
-                Some((_, path)) => format!("{}: the conditions table", path.display()),
-                None => format!("{}: the conditions pattern", dir.display()),
-            };
-            return Err(AuditError::Layout(format!(
-                "{source} gives {} the speed `{}`, which the data block's speed rule cannot give (known: {}); use those labels, or trajectory only",
-                f.file,
-                f.speed,
-                labels.join(", ")
-            )));
-        }
-    }
+    super::conditions::apply(spec, dir, &mut files, table.as_ref())?;
     let groups = duplicates(&mut files, spec.duplicates);
     if keep == Keep::Included {
         for (f, r) in files.iter().zip(recordings.iter_mut()) {

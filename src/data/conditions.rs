@@ -1,7 +1,9 @@
-//! `conditions table "FILE"` (`data csv`): each recording's trajectory and
-//! speed from one CSV table in the data folder, instead of the file names.
-//! Its header names `recording` and at least one of `trajectory` and
-//! `speed`; every recording file must have one row.
+//! Where a `data csv` recording's conditions come from when its file name
+//! is not NanoBench's: `conditions table "FILE"` (each recording's
+//! trajectory and speed from one CSV table in the data folder; its header
+//! names `recording` and at least one of `trajectory` and `speed`; every
+//! recording file must have one row) or `conditions name "PATTERN"` (a
+//! file-name pattern of the user's own, [`crate::design::NamePattern`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -61,4 +63,71 @@ pub fn read_table(path: &Path) -> Result<BTreeMap<String, Conditions>, String> {
         }
     }
     Ok(out.into_iter().map(|(k, (c, _))| (k, c)).collect())
+}
+
+/// Sets each file's trajectory, speed (and, from a pattern, repetition)
+/// from the design's `conditions name` pattern or its conditions `table`
+/// (read from `path`): a file the pattern does not match, a file without a
+/// row, or a speed the design's speed rule cannot give stops the audit.
+pub(super) fn apply(
+    spec: &crate::design::DataSpec,
+    dir: &Path,
+    files: &mut [super::FileRow],
+    table: Option<&(BTreeMap<String, Conditions>, std::path::PathBuf)>,
+) -> Result<(), super::AuditError> {
+    use super::AuditError;
+    if let Some(pattern) = spec.format.as_ref().and_then(|f| f.conditions_name.as_ref()) {
+        let parsed = crate::design::NamePattern::parse(pattern).map_err(AuditError::Layout)?;
+        let unmatched: Vec<&str> =
+            files.iter().filter(|f| parsed.conditions(&f.name).is_none()).map(|f| f.file.as_str()).collect();
+        if !unmatched.is_empty() {
+            return Err(AuditError::Layout(format!(
+                "{}: the conditions pattern \"{pattern}\" does not match {} recording file name(s): {}",
+                dir.display(),
+                unmatched.len(),
+                crate::io::excerpt(&unmatched.join(", "), 600)
+            )));
+        }
+        for f in files.iter_mut() {
+            let c = parsed.conditions(&f.name).unwrap_or_default();
+            f.trajectory = c.trajectory.unwrap_or_else(|| f.trajectory.clone());
+            f.speed = c.speed.unwrap_or_else(|| f.speed.clone());
+            f.repetition = c.repetition.or(f.repetition);
+        }
+    }
+    if let Some((table, path)) = table {
+        let unlisted: Vec<&str> =
+            files.iter().filter(|f| !table.contains_key(&f.name)).map(|f| f.file.as_str()).collect();
+        if !unlisted.is_empty() {
+            return Err(AuditError::Layout(format!(
+                "{}: the conditions table has no row for {} recording file(s): {}",
+                path.display(),
+                unlisted.len(),
+                crate::io::excerpt(&unlisted.join(", "), 600)
+            )));
+        }
+        for f in files.iter_mut() {
+            let c = &table[&f.name];
+            f.trajectory = c.trajectory.clone().unwrap_or_else(|| f.trajectory.clone());
+            f.speed = c.speed.clone().unwrap_or_else(|| f.speed.clone());
+        }
+    }
+    if table.is_some() || spec.format.as_ref().is_some_and(|f| f.conditions_name.is_some()) {
+        // A table's or a pattern's speed must be one the design's speed rule
+        // can give: the analysis refuses any other label in the cells.
+        let labels = spec.speed_labels();
+        if let Some(f) = files.iter().find(|f| !labels.contains(&f.speed)) {
+            let source = match &table {
+                Some((_, path)) => format!("{}: the conditions table", path.display()),
+                None => format!("{}: the conditions pattern", dir.display()),
+            };
+            return Err(AuditError::Layout(format!(
+                "{source} gives {} the speed `{}`, which the data block's speed rule cannot give (known: {}); use those labels, or trajectory only",
+                f.file,
+                f.speed,
+                labels.join(", ")
+            )));
+        }
+    }
+    Ok(())
 }

@@ -7,8 +7,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub use super::coverage_svg::draw;
 use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
-use crate::report::charts::{category_label, draw_err, DrawError};
+use crate::report::charts::DrawError;
 use crate::report::Table;
 use crate::stats::coverage::{
     measures, setting_seed, simulate_reps, Distribution, Missing, Performance, Setting, Simulated,
@@ -166,7 +167,8 @@ impl CoverageSpec {
             return bad(format!("`levels` needs 1 to 20 entries, found {}", levels.len()));
         }
         if let Some(l) = levels.iter().find(|l| !(**l > 0.0 && **l < 1.0)) {
-            return bad(format!("every level must be in (0, 1), found {l}"));
+            let key = if self.levels.is_some() { "every entry of `levels`" } else { "`level`" };
+            return bad(format!("{key} must be in (0, 1), found {l}"));
         }
         if self.means.is_empty() || self.means.len() > 100 {
             return bad(format!("`means` needs 1 to 100 entries, found {}", self.means.len()));
@@ -504,136 +506,6 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
         let _ = write!(s, "{}", table.render());
     }
     s
-}
-
-/// Coverage per setting and estimator with 2-MCSE bars and the nominal
-/// line. Each estimator has its own colour and marker, the key of the
-/// estimators sits beside the plot (it hides no point) and the key of the
-/// numbered settings below it.
-pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<(), DrawError> {
-    use plotters::prelude::*;
-    let e = draw_err(path);
-    let mut settings: Vec<String> = Vec::new();
-    for r in rows {
-        if !settings.contains(&spec.group(r)) {
-            settings.push(spec.group(r));
-        }
-    }
-    let nominal: Vec<f64> =
-        settings.iter().map(|g| rows.iter().find(|r| spec.group(r) == *g).map_or(f64::NAN, |r| r.level)).collect();
-    let mut methods: Vec<_> = Vec::new();
-    for r in rows {
-        if !methods.contains(&r.method) {
-            methods.push(r.method);
-        }
-    }
-    let labels: Vec<String> = (1..=settings.len()).map(|k| k.to_string()).collect();
-    // The settings' key: three columns of "k. label" lines under the plot.
-    let key_rows = settings.len().div_ceil(3);
-    let (width, plot_height) = (1100u32, 520u32);
-    let height = plot_height + 30 + 18 * key_rows as u32;
-    // `$body` with `$mk`, estimator k's marker at a point: a circle, a
-    // triangle or a square by turn, so that estimators stay apart without
-    // colour too.
-    macro_rules! with_marker {
-        ($k:expr, $style:expr, $mk:ident => $body:expr) => {
-            match $k % 3 {
-                0 => {
-                    let $mk = |p| EmptyElement::at(p) + Circle::new((0, 0), 4, $style);
-                    $body
-                }
-                1 => {
-                    let $mk = |p| EmptyElement::at(p) + TriangleMarker::new((0, 0), 5, $style);
-                    $body
-                }
-                _ => {
-                    let $mk = |p| EmptyElement::at(p) + Rectangle::new([(-4, -4), (4, 4)], $style);
-                    $body
-                }
-            }
-        };
-    }
-    crate::report::charts::svg_figure(path, (width, height), |root| {
-        let (top, key) = root.split_vertically(plot_height);
-        let (plot, side) = top.split_horizontally(width - 250);
-        let lowest = spec.levels().into_iter().fold(1.0, f64::min);
-        let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(lowest, f64::min).max(0.0);
-        let n = settings.len();
-        let levels = spec.levels().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
-        let title = format!("Coverage (nominal {levels}), 2-MCSE bars, {} reps", spec.reps);
-        let mut chart = crate::report::charts::chart(&plot, &title)
-            .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
-            .map_err(&e)?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_labels(n)
-            .x_label_formatter(&|x| category_label(*x, &labels))
-            .y_label_formatter(&crate::report::charts::ticks(lo - 0.02, 1.0))
-            .label_style(crate::report::charts::TICK_FONT)
-            .axis_desc_style(crate::report::charts::AXIS_FONT)
-            .x_desc("setting (numbered below)")
-            .y_desc("coverage")
-            .draw()
-            .map_err(&e)?;
-        // The nominal level: one line, or each group's own.
-        if nominal.iter().all(|l| *l == nominal[0]) {
-            chart
-                .draw_series(LineSeries::new(vec![(-0.5, nominal[0]), (n as f64 - 0.5, nominal[0])], BLACK))
-                .map_err(&e)?;
-        } else {
-            chart
-                .draw_series(
-                    nominal
-                        .iter()
-                        .enumerate()
-                        .map(|(k, l)| PathElement::new(vec![(k as f64 - 0.45, *l), (k as f64 + 0.45, *l)], BLACK)),
-                )
-                .map_err(&e)?;
-        }
-        let palette = crate::report::charts::PALETTE;
-        for (k, m) in methods.iter().enumerate() {
-            let color = palette[k % palette.len()];
-            let dx = (k as f64 - (methods.len() as f64 - 1.0) / 2.0) * 0.07;
-            let pts: Vec<(f64, f64, f64)> = rows
-                .iter()
-                .filter(|r| r.method == *m && r.coverage.is_finite())
-                .map(|r| {
-                    let x = settings.iter().position(|s| *s == spec.group(r)).unwrap_or(0) as f64 + dx;
-                    // No bar without an MCSE (fewer than 2 usable replications).
-                    (x, r.coverage, if r.coverage_mcse.is_finite() { r.coverage_mcse } else { 0.0 })
-                })
-                .collect();
-            chart
-                .draw_series(
-                    pts.iter().map(|(x, c, m)| PathElement::new(vec![(*x, c - 2.0 * m), (*x, c + 2.0 * m)], color)),
-                )
-                .map_err(&e)?;
-            with_marker!(k, color.filled(), mk => {
-                chart.draw_series(pts.iter().map(|(x, c, _)| mk((*x, *c)))).map(|_| ())
-            })
-            .map_err(&e)?;
-        }
-        // The estimators' key, beside the plot.
-        side.draw(&Text::new("estimator", (10, 40), ("sans-serif", 15).into_font().style(FontStyle::Bold)))
-            .map_err(&e)?;
-        for (k, m) in methods.iter().enumerate() {
-            let color = palette[k % palette.len()];
-            let y = 64 + 22 * k as i32;
-            side.draw(&PathElement::new(vec![(14, y - 8), (14, y + 8)], color)).map_err(&e)?;
-            with_marker!(k, color.filled(), mk => side.draw(&mk((14, y)))).map_err(&e)?;
-            side.draw(&Text::new(m.label().to_string(), (30, y - 7), ("sans-serif", 14))).map_err(&e)?;
-        }
-        // The settings' key, below.
-        key.draw(&Text::new("settings", (20, 6), ("sans-serif", 14).into_font().style(FontStyle::Bold))).map_err(&e)?;
-        for (k, s) in settings.iter().enumerate() {
-            let (col, row) = (k / key_rows, k % key_rows);
-            let at = (20 + 360 * col as i32, 26 + 18 * row as i32);
-            key.draw(&Text::new(format!("{}. {s}", k + 1), at, ("sans-serif", 12))).map_err(&e)?;
-        }
-        Ok(())
-    })?;
-    Ok(())
 }
 
 /// Writes coverage.csv, coverage.md (with the numbered settings) and

@@ -2,6 +2,7 @@
 //! coverage study of interval estimators and the power planner.
 
 pub mod coverage;
+pub mod coverage_svg;
 pub mod coverage_tidy;
 pub mod coverage_zip;
 pub mod draw_coverage;
