@@ -215,7 +215,7 @@ fn means_and_levels_share_their_replications() {
 fn the_moms_boundary_rate_is_the_f_distributions() {
     use statrs::distribution::{ContinuousCDF, FisherSnedecor};
     let s = spec(
-        r#"{"seed": 21, "reps": 3000, "bootstrap": 1, "rows": [10], "cols": [6],
+        r#"{"seed": 21, "reps": 2000, "bootstrap": 1, "rows": [10], "cols": [6],
             "shares": [[0.9, 0.02, 0.08]], "distributions": ["normal"]}"#,
     );
     let setting = &s.settings()[0];
