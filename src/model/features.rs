@@ -70,11 +70,34 @@ pub fn raw_input(slots: &Slots, map: InputMap, x: &[f64], u: &[f64]) -> Vec<f64>
     out
 }
 
+/// Writes the unstandardized target into `out` ([`Slots::state`] values):
+/// the increment, exogenous components zeroed.
+pub fn raw_target_into(slots: &Slots, x: &[f64], next: &[f64], out: &mut [f64]) {
+    for ((o, n), x) in out.iter_mut().zip(next).zip(x) {
+        *o = n - x;
+    }
+    out[slots.exogenous()].fill(0.0);
+}
+
 /// Unstandardized target: the increment, exogenous components zeroed.
 pub fn raw_target(slots: &Slots, x: &[f64], next: &[f64]) -> State {
-    let mut d: Vec<f64> = next.iter().zip(x).map(|(n, x)| n - x).collect();
-    d[slots.exogenous()].fill(0.0);
+    let mut d = vec![0.0; slots.state];
+    raw_target_into(slots, x, next, &mut d);
     d
+}
+
+/// Room for the unstandardized values of one row on the stack: the
+/// standardizers run for every window of every batch and every rollout
+/// step, so a row of up to this many values allocates nothing.
+const STACK_ROW: usize = 64;
+
+/// Runs `f` on a zeroed buffer of `n` values: on the stack when it fits.
+fn with_row<R>(n: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    if n <= STACK_ROW {
+        f(&mut [0.0; STACK_ROW][..n])
+    } else {
+        f(&mut vec![0.0; n])
+    }
 }
 
 /// Standardizers of one fitted model, fitted on its own arm's fit windows.
@@ -135,12 +158,18 @@ impl FeatureMap {
 
     /// Standardized input, written into `out` ([`Slots::input`] values).
     pub fn input(&self, x: &[f64], u: &[f64], out: &mut [f32]) {
-        self.input.apply(&raw_input(&self.slots, self.map, x, u), out);
+        with_row(self.slots.input(), |raw| {
+            raw_input_into(&self.slots, self.map, x, u, raw);
+            self.input.apply(raw, out);
+        });
     }
 
     /// Standardized target ([`Slots::state`] values).
     pub fn target(&self, x: &[f64], next: &[f64], out: &mut [f32]) {
-        self.target.apply(&raw_target(&self.slots, x, next), out);
+        with_row(self.slots.state, |raw| {
+            raw_target_into(&self.slots, x, next, raw);
+            self.target.apply(raw, out);
+        });
     }
 
     /// Next state from a standardized prediction: x + increment, with the

@@ -48,7 +48,8 @@ pub struct JobOutcome {
     pub files: Vec<String>,
 }
 
-fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)> {
+/// The (x_t, u_t, x_{t+1}) of each window.
+pub(crate) fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)> {
     windows
         .iter()
         .map(|w| {

@@ -276,10 +276,7 @@ pub fn performance_at(
     let est = est.as_slice();
     let n = est.len() as f64;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-    let var = |v: &[f64]| {
-        let m = mean(v);
-        v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)
-    };
+    let var = super::sample_variance;
     let theta: Vec<f64> = est.iter().map(|e| e.0).collect();
     let se2: Vec<f64> = est.iter().map(|e| e.1 * e.1).collect();
     let covered: Vec<f64> = est.iter().map(|e| f64::from(u8::from(e.2 <= truth && truth <= e.3))).collect();
@@ -536,7 +533,7 @@ pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
                 reps[k].iter().map(|(e, _, _)| usable(e).then_some(e.0 + mu)).collect()
             };
             let reference = theta(0);
-            let empse_ref = sample_sd(&reference.iter().flatten().copied().collect::<Vec<_>>());
+            let empse_ref = super::sample_variance(&reference.iter().flatten().copied().collect::<Vec<_>>()).sqrt();
             for (k, &method) in sim.methods.iter().enumerate() {
                 let est: Vec<Estimate> = reps[k].iter().map(|(e, _, _)| shifted(*e, mu)).collect();
                 let dfs: Vec<f64> = reps[k].iter().map(|(_, d, _)| *d).collect();
@@ -559,13 +556,6 @@ pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
         }
     }
     out
-}
-
-/// Sample SD (divisor n - 1).
-fn sample_sd(v: &[f64]) -> f64 {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
 }
 
 /// Pearson's correlation (R's `cor`: centred sums, two passes).

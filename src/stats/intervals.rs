@@ -237,11 +237,7 @@ pub fn further_intervals(m: &CrossedMatrix, level: f64) -> Result<Vec<IntervalEs
     let col_sums: f64 = cols.iter().map(|c| (i * (c - mean)).powi(2)).sum();
     let cells: f64 = m.values().iter().map(|v| (v - mean).powi(2)).sum();
     let cgm = i / (i - 1.0) * row_sums / (n * n) + j / (j - 1.0) * col_sums / (n * n) - n / (n - 1.0) * cells / (n * n);
-    let var = |v: &[f64]| {
-        let mu = v.iter().sum::<f64>() / v.len() as f64;
-        v.iter().map(|x| (x - mu).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)
-    };
-    let margins = var(&rows) / i + var(&cols) / j;
+    let margins = super::sample_variance(&rows) / i + super::sample_variance(&cols) / j;
     let small = i.min(j) - 1.0;
     let e = crossed_mom(m, level, DfRule::SeedsMinusOne)?;
     let untruncated = e.mean_squares.map_or(f64::NAN, |ms| (ms.ms_rows + ms.ms_cols - ms.ms_error) / n);

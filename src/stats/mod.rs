@@ -117,6 +117,13 @@ pub fn t_two_sided_p(t: f64, df: f64) -> f64 {
     }
 }
 
+/// Sample variance (divisor n - 1, R's `var`): mean first, then the
+/// squared deviations.
+pub fn sample_variance(v: &[f64]) -> f64 {
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)
+}
+
 /// Sample quantile by linear interpolation between order statistics
 /// (Hyndman & Fan type 7, R's default `quantile(type = 7)`). `sorted` must be
 /// ascending and non-empty.

@@ -39,6 +39,7 @@ use crate::design::{ActionScaling, DesignFile, InputMap, TargetKind};
 use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
 use crate::model::{Action, FeatureMap, Slots, State, ACTION, STATE};
 use crate::plan::{Plan, TrainingJob};
+use crate::run::job::triples;
 use crate::split::{Prepared, Window};
 
 pub use levels::{notes_for, score_predictions_in, LevelExport, LevelsIndex, LEVELS_FILE};
@@ -450,16 +451,6 @@ fn history_of(j: &TrainingJob) -> usize {
 /// The steps a job's predictions cover: its longest horizon.
 fn max_steps(j: &TrainingJob, rate_hz: f64) -> usize {
     crate::rollout::horizon_steps(&j.horizons_s, rate_hz).into_iter().max().unwrap_or(0)
-}
-
-fn triples(recs: &[Recording], windows: &[Window]) -> Vec<(State, Action, State)> {
-    windows
-        .iter()
-        .map(|w| {
-            let r = &recs[w.recording];
-            (r.state[w.t].clone(), r.action[w.t].clone(), r.state[w.t + 1].clone())
-        })
-        .collect()
 }
 
 /// One (x_t, u_t, x_{t+1}) window.
