@@ -175,6 +175,7 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
         });
     }
     let mut cells = Vec::new();
+    let mut emptiness = Emptiness::default();
     let mut names = Names::default();
     // One record, reused: a row's fields are borrowed from it, not copied.
     let mut rec = csv::StringRecord::new();
@@ -196,6 +197,7 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
         let line = line_of(&rdr, rec.position());
         let raw = RawRow::of(&rec, has_split, has_dose);
         let mut cell = parse_row(name, line, &raw, &mut names)?;
+        emptiness.see(&cell);
         let r = Row { name, line };
         if has_split {
             cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
@@ -213,7 +215,50 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     if cells.is_empty() {
         return Err(CellsError::Empty { path: name.to_string() });
     }
+    emptiness.check(name)?;
     Ok(cells)
+}
+
+/// Where the velocity and attitude RMSE are empty though not every start
+/// diverged, and where they have a value. A layout without a velocity (or
+/// attitude) leaves its column empty in every row; a file with values in
+/// some rows and such gaps in others is damaged.
+#[derive(Default)]
+struct Emptiness {
+    /// Per column: the first line with a value, and the first line empty
+    /// though not every start diverged.
+    seen: [(Option<u64>, Option<u64>); 2],
+}
+
+impl Emptiness {
+    const FIELDS: [&'static str; 2] = ["velocity_rmse_mps", "attitude_rmse_deg"];
+
+    fn see(&mut self, c: &Cell) {
+        let all_diverged = c.n_divergent == c.n_starts;
+        for (k, v) in [c.velocity_rmse_mps, c.attitude_rmse_deg].into_iter().enumerate() {
+            let (value, gap) = &mut self.seen[k];
+            match v {
+                Some(_) => *value = value.or(Some(c.line)),
+                None if !all_diverged => *gap = gap.or(Some(c.line)),
+                None => {}
+            }
+        }
+    }
+
+    fn check(&self, name: &str) -> Result<(), CellsError> {
+        for (k, (value, gap)) in self.seen.iter().enumerate() {
+            if let (Some(value), Some(gap)) = (value, gap) {
+                return Err(Row { name, line: *gap }.fail(
+                    Self::FIELDS[k],
+                    "",
+                    format!(
+                        "is empty, but not every start diverged and line {value} has a value (only a layout without this state leaves the column empty, in every row)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 fn csv_message(e: &csv::Error) -> String {
@@ -344,6 +389,17 @@ impl Row<'_> {
         Ok(x)
     }
 
+    /// A metric that may be empty (the velocity and attitude RMSE: empty
+    /// when every start diverged, and in every row of a layout without a
+    /// velocity or attitude; [`Emptiness`] checks which).
+    fn optional(&self, field: &'static str, v: &str) -> Result<Option<f64>, CellsError> {
+        if v.trim().is_empty() {
+            Ok(None)
+        } else {
+            self.float(field, v).map(Some)
+        }
+    }
+
     /// A metric that is empty exactly when every start diverged.
     fn finite_only(&self, field: &'static str, v: &str, all_diverged: bool) -> Result<Option<f64>, CellsError> {
         if v.trim().is_empty() {
@@ -398,8 +454,8 @@ fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<C
             all_diverged,
         )?,
         divergence_rate,
-        velocity_rmse_mps: r.finite_only("velocity_rmse_mps", raw.velocity_rmse_mps, all_diverged)?,
-        attitude_rmse_deg: r.finite_only("attitude_rmse_deg", raw.attitude_rmse_deg, all_diverged)?,
+        velocity_rmse_mps: r.optional("velocity_rmse_mps", raw.velocity_rmse_mps)?,
+        attitude_rmse_deg: r.optional("attitude_rmse_deg", raw.attitude_rmse_deg)?,
         line,
     })
 }

@@ -78,7 +78,7 @@ fn the_initialisation_is_dfdxs_bit_for_bit() {
     }
     // Another layout: the shapes follow the slots, and the first layer's
     // bound is 1 / sqrt(inputs).
-    let slots = Slots { state: 20, action: 6, predicted: 16, reference: true };
+    let slots = Slots::full(20, 6, 16, true);
     let net = Net::init(&slots, 32, 3).fused();
     assert_eq!((net.inputs(), net.outputs()), (26, 20));
     let b = 1.0 / 26f32.sqrt();
@@ -115,7 +115,7 @@ fn weights_files_are_dfdxs_safetensors() {
     m.save_safetensors(&dfdx_path).unwrap();
     let back = Net::load(&[32, 32, 32], &dfdx_path).unwrap();
     assert!(back.flat_weights() == Net::init_dfdx(32, 9).unwrap().flat_weights(), "crossaudit reads dfdx's file");
-    let slots = Slots { state: 17, action: 8, predicted: 13, reference: false };
+    let slots = Slots::full(17, 8, 13, false);
     let other = Net::init(&slots, 64, 2);
     let p = dir.path().join("other.safetensors");
     other.save(&p).unwrap();

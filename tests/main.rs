@@ -23,6 +23,7 @@ mod logs;
 mod mixed_cli;
 mod model;
 mod multiverse;
+mod position_only;
 mod run;
 mod simulate;
 mod slurm;

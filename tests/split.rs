@@ -25,7 +25,7 @@ fn recordings(n: usize, dup: &[usize]) -> Vec<Recording> {
                 state: vec![vec![0.0; 14]; rows],
                 action: vec![vec![0.5; 4]; rows],
                 pwm: vec![vec![30000.0; 4]; rows],
-                predicted: 10,
+                slots: crossaudit::model::Slots::NANOBENCH,
                 active: (0..rows).map(|i| i >= 10).collect(),
                 content_hash: hash,
                 row_hashes: (0..rows as u64).map(|i| i * 1000 + k as u64).collect(),

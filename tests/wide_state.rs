@@ -37,7 +37,7 @@ fn the_wide_rotorpy_layout_reads_every_declared_column_into_its_slot() {
     let spec = &file.design.data;
     // 17 predicted (position, velocity, quaternion, body rates, rotor
     // speeds), then the reference and the wind: exogenous.
-    assert_eq!(spec.slots(), Slots { state: 23, action: 4, predicted: 17, reference: true });
+    assert_eq!(spec.slots(), Slots::full(23, 4, 17, true));
     let path = root().join("tests/fixtures/rotorpy/logs/R5_lissajous_medium_rep2.csv.gz");
     let rec = load_recording(&path, &Layout::new(spec).unwrap()).unwrap();
     let (header, rows) = raw_columns(&path);
@@ -67,7 +67,7 @@ fn the_wide_rotorpy_layout_reads_every_declared_column_into_its_slot() {
         "windy",
         "windz",
     ];
-    assert_eq!((rec.rows, rec.predicted), (rows.len(), 17));
+    assert_eq!((rec.rows, rec.slots.predicted), (rows.len(), 17));
     for (k, row) in rows.iter().enumerate() {
         let want: Vec<f64> = slots.iter().map(|c| row[col(c)]).collect();
         assert_eq!(rec.state[k], want, "row {k}");
@@ -95,7 +95,7 @@ fn odd_windows(slots: &Slots, n: usize) -> Vec<(State, State, State)> {
 
 #[test]
 fn the_relative_map_subtracts_position_from_the_reference_wherever_it_sits() {
-    let slots = Slots { state: 19, action: 3, predicted: 14, reference: true };
+    let slots = Slots::full(19, 3, 14, true);
     let x: Vec<f64> = (0..19).map(|j| j as f64 * 0.25).collect();
     let u = vec![0.1, 0.2, 0.3];
     let raw = crossaudit::model::features::raw_input(&slots, InputMap::Relative, &x, &u);
@@ -119,7 +119,7 @@ fn the_relative_map_subtracts_position_from_the_reference_wherever_it_sits() {
 
 #[test]
 fn a_wide_layout_trains_with_the_fused_trainer_and_the_reference_trainer_refuses_it() {
-    let slots = Slots { state: 19, action: 3, predicted: 14, reference: true };
+    let slots = Slots::full(19, 3, 14, true);
     let w = odd_windows(&slots, 300);
     let features = FeatureMap::fit(slots, InputMap::World, ActionScaling::Raw, TargetKind::Standardized, &w, "m");
     assert_eq!((features.input.dim(), features.target.dim()), (22, 19));

@@ -37,6 +37,17 @@ pub enum AnalysisError {
         /// What the design declares.
         known: String,
     },
+    /// A velocity or attitude value where the design's data declare none,
+    /// or an empty one where they declare it and not every start diverged.
+    #[error("line {line}, field `{field}`: {problem}")]
+    Layout {
+        /// 1-based line of the row.
+        line: u64,
+        /// The column.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
     /// Two rows for the same cell.
     #[error("line {line}: duplicate cell (model={model} arm={arm} seed={seed} recording={recording} horizon={horizon} s), first seen on line {first_line}")]
     Duplicate {
@@ -159,7 +170,9 @@ const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
 /// Refuses values no rollout under the plan can produce (the row reader
 /// has already refused negative, non-finite and inconsistent counts): a
 /// number of starts other than the design's, a speed label its data block
-/// cannot give, a recording the design does not pin (when it pins them), position errors above the divergence cap, attitude errors above 180
+/// cannot give, a recording the design does not pin (when it pins them),
+/// a velocity or attitude error the data's layout cannot have (or lacks),
+/// position errors above the divergence cap, attitude errors above 180
 /// degrees, and a failure-aware RMSE that is not the one its conditional
 /// RMSE, divergence count and cap imply. Every non-divergent start's error
 /// is at most the cap, so with n starts, d of them divergent,
@@ -210,6 +223,22 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             v,
             format!("above the design's divergence cap of {cap} m, which no non-divergent rollout exceeds"),
         ));
+    }
+    let all_diverged = c.n_divergent == c.n_starts;
+    for (field, value, what, declared) in [
+        ("velocity_rmse_mps", c.velocity_rmse_mps, "velocity", plan.slots.velocity),
+        ("attitude_rmse_deg", c.attitude_rmse_deg, "attitude", plan.slots.attitude),
+    ] {
+        let problem = match value {
+            Some(v) if !declared => {
+                format!("is {v}, but the design's data declare no {what}: the column must be empty")
+            }
+            None if declared && !all_diverged => {
+                format!("is empty, but the design's data declare a {what} and not every start diverged")
+            }
+            _ => continue,
+        };
+        return Err(AnalysisError::Layout { line: c.line, field, problem });
     }
     if let Some(v) = c.attitude_rmse_deg.filter(|v| *v > 180.0) {
         return Err(impossible("attitude_rmse_deg", v, "an attitude error is at most 180 degrees".to_string()));

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::design::{Cmp, DataSpec, InclusionRule};
+use crate::design::{Cmp, DataSpec, InclusionRule, Slots};
 pub use audit::{audit, audit_and_hash_rows, audit_and_load, Audit, AuditError, FileRow, Status};
 pub use log::{LogError, NANOBENCH_COLUMNS};
 pub use metadata::{parse_name, Controller, Metadata, NameParts};
@@ -39,9 +39,11 @@ pub struct Recording {
     pub action: Vec<Vec<f64>>,
     /// The action columns before scaling (NanoBench: motor PWM), for plausibility.
     pub pwm: Vec<Vec<f64>>,
-    /// State slots a model predicts (the first ones; NanoBench: 10); the
-    /// rest are exogenous, written in from the log at every rollout step.
-    pub predicted: usize,
+    /// The state and action layout (NanoBench's: 14 and 4, the first 10
+    /// state slots predicted): which slots are predicted, which exogenous
+    /// (written in from the log at every rollout step), and where the
+    /// velocity and quaternion are, when declared.
+    pub slots: Slots,
     /// Rows meeting the active rule (default: motor_motor_m1 > 1000).
     pub active: Vec<bool>,
     /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
@@ -118,7 +120,7 @@ impl Recording {
             state: Vec::new(),
             action: Vec::new(),
             pwm: Vec::new(),
-            predicted: 0,
+            slots: Slots::NANOBENCH,
             active: Vec::new(),
             content_hash: String::new(),
             row_hashes: Vec::new(),
@@ -168,6 +170,8 @@ pub struct Layout {
     euler: Option<([usize; 3], bool)>,
     /// The quaternion's columns, as an error names them.
     quaternion_names: String,
+    /// The layout the columns are read into.
+    slots: Slots,
     actions: Vec<usize>,
     action_scale: f64,
     active: usize,
@@ -175,8 +179,6 @@ pub struct Layout {
     active_threshold: f64,
     /// The state slots whose zeros are filled.
     fill_zeros: Vec<usize>,
-    /// Predicted state slots (the first ones).
-    predicted: usize,
     /// The extrapolated-tail columns' positions.
     extrapolated: Vec<usize>,
     /// Whether each row is hashed ([`Recording::row_hashes`]).
@@ -200,7 +202,8 @@ impl Layout {
         let actions = format.actions.iter().map(|c| at(c)).collect();
         let active = at(&column);
         let extrapolated = format.extrapolated.iter().map(|c| at(c)).collect();
-        let quaternion_names = format.state[6..10]
+        let slots = spec.slots();
+        let quaternion_names = format.state[slots.quaternion_slots().unwrap_or(0..0)]
             .iter()
             .map(|c| format!("`{}`", c.as_deref().unwrap_or("")))
             .collect::<Vec<_>>()
@@ -217,13 +220,13 @@ impl Layout {
             state,
             euler,
             quaternion_names,
+            slots,
             actions,
             action_scale: format.action_scale,
             active,
             active_cmp: cmp,
             active_threshold: threshold,
             fill_zeros: format.fill_zeros.clone(),
-            predicted: format.predicted,
             extrapolated,
             row_hashes: false,
         })
@@ -265,11 +268,12 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
             s[slot] = *v;
         }
     }
-    if let Some(([r, p, y], degrees)) = layout.euler {
+    let quaternion = layout.slots.quaternion_slots();
+    if let (Some(([r, p, y], degrees)), Some(q_at)) = (layout.euler, quaternion.clone()) {
         let scale = if degrees { std::f64::consts::PI / 180.0 } else { 1.0 };
         for (k, s) in state.iter_mut().enumerate() {
             let q = euler_zyx(cols[r][k] * scale, cols[p][k] * scale, cols[y][k] * scale);
-            s[6..10].copy_from_slice(&q);
+            s[q_at.clone()].copy_from_slice(&q);
         }
     }
     for &b in &layout.fill_zeros {
@@ -291,18 +295,18 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         let onboard: Vec<&[f64]> = layout.extrapolated.iter().map(|&c| cols[c].as_slice()).collect();
         onboard_tail(&t, &onboard, &active)
     };
-    if layout.euler.is_none() {
+    if let (None, Some(q_at)) = (layout.euler, quaternion) {
         // Active rows only (NanoBench's onboard estimator drifts off unit
         // length on the ground after landing), and not the rows of an
         // extrapolated tail: `tails` judges those.
         let checked = tail.map_or(rows, |tail| tail.start);
-        let off = |k: usize| active[k] && (norm4(&state[k][6..10]) - 1.0).abs() > UNIT_TOLERANCE;
+        let off = |k: usize| active[k] && (norm4(&state[k][q_at.clone()]) - 1.0).abs() > UNIT_TOLERANCE;
         if let Some(k) = (0..checked).find(|&k| off(k)) {
             return Err(LogError::NotUnit {
                 file,
                 line: parsed.line_of(k),
                 columns: layout.quaternion_names.clone(),
-                norm: norm4(&state[k][6..10]),
+                norm: norm4(&state[k][q_at]),
             });
         }
     }
@@ -314,7 +318,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         state,
         action,
         pwm,
-        predicted: layout.predicted,
+        slots: layout.slots,
         active,
         content_hash: parsed.content_hash,
         row_hashes: parsed.row_hashes,

@@ -69,12 +69,19 @@ pub struct LogFormat {
     /// The time column, seconds; without one, row k is at k / rate.
     pub time: Option<String>,
     /// The column read into each of the model's state slots: position,
-    /// velocity, quaternion w x y z, body rates and further predicted
-    /// columns (the first [`LogFormat::predicted`]), then the exogenous
-    /// reference and extra columns (NanoBench's 14: position, velocity,
-    /// quaternion, reference, battery). `None` is the quaternion computed
-    /// from [`LogFormat::euler`].
+    /// velocity (when declared), quaternion w x y z (when an attitude is
+    /// declared), body rates and further predicted columns (the first
+    /// [`LogFormat::predicted`]), then the exogenous reference and extra
+    /// columns (NanoBench's 14: position, velocity, quaternion, reference,
+    /// battery). `None` is the quaternion computed from [`LogFormat::euler`].
     pub state: Vec<Option<String>>,
+    /// Whether slots 3..6 are the velocity (`velocity` declared).
+    #[serde(skip_serializing_if = "is_true")]
+    pub velocity: bool,
+    /// Whether an attitude is declared: the four slots after the velocity
+    /// (or after the position without one) are its unit quaternion.
+    #[serde(skip_serializing_if = "is_true")]
+    pub attitude: bool,
     /// State slots the model predicts (the first ones; NanoBench: 10).
     pub predicted: usize,
     /// Whether the three slots after the predicted ones are the position
@@ -254,7 +261,14 @@ impl DataSpec {
     /// columns and actions, the predicted ones first.
     pub fn slots(&self) -> Slots {
         let f = self.log_format();
-        Slots { state: f.state.len(), action: f.actions.len(), predicted: f.predicted, reference: f.reference }
+        Slots {
+            state: f.state.len(),
+            action: f.actions.len(),
+            predicted: f.predicted,
+            reference: f.reference,
+            velocity: f.velocity,
+            attitude: f.attitude,
+        }
     }
 
     /// Each action is the column's value / this (NanoBench's PWM: 65535).
@@ -275,6 +289,8 @@ impl DataSpec {
             nanobench_header: true,
             time: Some("t".into()),
             state: self.state_columns.iter().map(|c| Some(c.clone())).collect(),
+            velocity: true,
+            attitude: true,
             euler: None,
             predicted: 10,
             reference: true,
@@ -535,11 +551,12 @@ pub const MOTION_CAPTURE_STATE_COLUMNS: [&str; 14] = [
 pub const DEFAULT_ACTION_COLUMNS: [&str; 4] = ["motor_motor_m1", "motor_motor_m2", "motor_motor_m3", "motor_motor_m4"];
 
 /// The state and action layout a model works in, read from the data
-/// declaration: slots `0..predicted` are predicted (position 0..3,
-/// velocity 3..6, quaternion w x y z 6..10, then body rates and any other
-/// declared state), slots `predicted..state` are exogenous (measured
-/// values the rollout writes in after every step: the reference first,
-/// when there is one, then any extra columns).
+/// declaration: slots `0..predicted` are predicted (position 0..3, then
+/// velocity 3..6 and quaternion w x y z 6..10 when declared (see
+/// [`Slots::velocity_slots`], [`Slots::quaternion_slots`]), then body rates
+/// and any other declared state), slots `predicted..state` are exogenous
+/// (measured values the rollout writes in after every step: the reference
+/// first, when there is one, then any extra columns).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Slots {
     /// State dimensions.
@@ -551,12 +568,48 @@ pub struct Slots {
     /// Whether the first three exogenous slots are the position reference
     /// (the relative map replaces them by reference - position).
     pub reference: bool,
+    /// Whether slots 3..6 are the velocity. Without it there is no
+    /// velocity metric and no `constant_velocity` baseline.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub velocity: bool,
+    /// Whether four slots after the velocity (or the position) are a unit
+    /// quaternion, renormalised after every rollout step. Without it there
+    /// is no attitude metric.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub attitude: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl Slots {
     /// NanoBench's layout (and the simulator's): 14 state slots, the last
     /// four (reference and battery) exogenous, and four actions.
-    pub const NANOBENCH: Slots = Slots { state: 14, action: 4, predicted: 10, reference: true };
+    pub const NANOBENCH: Slots =
+        Slots { state: 14, action: 4, predicted: 10, reference: true, velocity: true, attitude: true };
+
+    /// A layout with position, velocity and quaternion (the paper's
+    /// predicted state first), `predicted` predicted slots of `state`, and
+    /// `action` actions.
+    pub const fn full(state: usize, action: usize, predicted: usize, reference: bool) -> Slots {
+        Slots { state, action, predicted, reference, velocity: true, attitude: true }
+    }
+
+    /// The velocity's slots, when declared.
+    pub fn velocity_slots(&self) -> Option<std::ops::Range<usize>> {
+        self.velocity.then_some(3..6)
+    }
+
+    /// The quaternion's slots (w, x, y, z), when an attitude is declared.
+    pub fn quaternion_slots(&self) -> Option<std::ops::Range<usize>> {
+        let start = if self.velocity { 6 } else { 3 };
+        self.attitude.then_some(start..start + 4)
+    }
 
     /// Network input dimensions: state and action.
     pub fn input(&self) -> usize {

@@ -1,8 +1,10 @@
 //! The state layout, the two input maps and the prediction target.
 //!
 //! State layout ([`Slots`]; NanoBench's task-2 order): p = `x[0..3]`, v =
-//! `x[3..6]`, q = `x[6..10]` (w, x, y, z), then any further predicted
-//! state (body rates, other declared columns); then the exogenous slots:
+//! `x[3..6]`, q = `x[6..10]` (w, x, y, z) (velocity and attitude when the
+//! data declare them: without a velocity q moves to `x[3..7]`), then any
+//! further predicted state (body rates, other declared columns); then the
+//! exogenous slots:
 //! r (position setpoint) and any extra measured columns (NanoBench: r =
 //! `x[10..13]`, battery b = `x[13]`). Action u: the declared commands in
 //! [0, 1] (NanoBench: 4 motor commands).

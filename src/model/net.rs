@@ -514,7 +514,7 @@ impl Net {
         if inputs <= state {
             return Err(err(format!("{inputs} inputs for {state} outputs: not a dynamics network")));
         }
-        let slots = Slots { state, action: inputs - state, predicted: state, reference: false };
+        let slots = Slots::full(state, inputs - state, state, false);
         Ok(Net { mlp: FusedMlp::from_parts(&slots, widths[0], &parts) })
     }
 }

@@ -17,10 +17,10 @@ pub struct StartOutcome {
     pub divergent: bool,
     /// Position error at the horizon (m).
     pub position_error: f64,
-    /// Velocity error at the horizon (m/s).
-    pub velocity_error: f64,
-    /// Attitude error at the horizon (degrees).
-    pub attitude_error_deg: f64,
+    /// Velocity error at the horizon (m/s); `None` without a declared velocity.
+    pub velocity_error: Option<f64>,
+    /// Attitude error at the horizon (degrees); `None` without a declared attitude.
+    pub attitude_error_deg: Option<f64>,
 }
 
 impl StartOutcome {
@@ -32,13 +32,13 @@ impl StartOutcome {
             t.at.iter()
                 .find(|(k, _, _)| *k == step)
                 .map(|(_, p, m)| (p.clone(), m.clone()))
-                .unwrap_or_else(|| (vec![f64::NAN; 10], vec![f64::NAN; 10]));
+                .unwrap_or_else(|| (vec![f64::NAN; t.slots.state], vec![f64::NAN; t.slots.state]));
         let norm3 = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
         StartOutcome {
             divergent,
             position_error: t.position_error[step - 1],
-            velocity_error: norm3(&pred[3..6], &truth[3..6]),
-            attitude_error_deg: attitude_error_deg(&pred[6..10], &truth[6..10]),
+            velocity_error: t.slots.velocity_slots().map(|v| norm3(&pred[v.clone()], &truth[v])),
+            attitude_error_deg: t.slots.quaternion_slots().map(|q| attitude_error_deg(&pred[q.clone()], &truth[q])),
         }
     }
 }
@@ -52,9 +52,11 @@ pub struct HorizonMetrics {
     pub fa_position_rmse: f64,
     /// RMSE over non-divergent starts; None when every start diverged.
     pub conditional_position_rmse: Option<f64>,
-    /// Velocity RMSE over non-divergent starts.
+    /// Velocity RMSE over non-divergent starts; None when every start
+    /// diverged or the layout has no velocity.
     pub velocity_rmse: Option<f64>,
-    /// Attitude RMSE (degrees) over non-divergent starts.
+    /// Attitude RMSE (degrees) over non-divergent starts; None when every
+    /// start diverged or the layout has no attitude.
     pub attitude_rmse_deg: Option<f64>,
 }
 
@@ -66,13 +68,17 @@ pub fn failure_aware(outcomes: &[StartOutcome], cap: f64) -> HorizonMetrics {
             / n)
             .sqrt();
     let finite: Vec<&StartOutcome> = outcomes.iter().filter(|o| !o.divergent).collect();
-    let rms = |f: &dyn Fn(&StartOutcome) -> f64| {
-        (!finite.is_empty()).then(|| (finite.iter().map(|o| f(o).powi(2)).sum::<f64>() / finite.len() as f64).sqrt())
+    // Empty when every start diverged, or when a start lacks the error
+    // (a layout without velocity or attitude lacks it in every start).
+    let rms = |f: &dyn Fn(&StartOutcome) -> Option<f64>| {
+        let errors: Option<Vec<f64>> = finite.iter().map(|o| f(o)).collect();
+        let errors = errors.filter(|e| !e.is_empty())?;
+        Some((errors.iter().map(|e| e.powi(2)).sum::<f64>() / errors.len() as f64).sqrt())
     };
     HorizonMetrics {
         n_divergent: outcomes.len() - finite.len(),
         fa_position_rmse: fa,
-        conditional_position_rmse: rms(&|o| o.position_error),
+        conditional_position_rmse: rms(&|o| Some(o.position_error)),
         velocity_rmse: rms(&|o| o.velocity_error),
         attitude_rmse_deg: rms(&|o| o.attitude_error_deg),
     }

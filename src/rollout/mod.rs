@@ -8,19 +8,27 @@ pub mod metrics;
 
 use crate::cells::Cell;
 use crate::data::Recording;
-use crate::model::{Action, Dynamics, State};
+use crate::model::{Action, Dynamics, Slots, State};
 use crate::split::{Split, Window};
 
 pub use metrics::{attitude_error_deg, failure_aware, HorizonMetrics, StartOutcome};
 
-/// Unit quaternion (w, x, y, z) at state[6..10]; returned to unit length
-/// after every step. A zero or non-finite quaternion is left as is, and
-/// the non-finite state is caught by the divergence check.
-pub fn renormalize(x: &mut State) {
-    let n = (x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9]).sqrt();
+/// The unit quaternion (w, x, y, z) at the layout's quaternion slots
+/// (NanoBench: state[6..10]) returned to unit length after every step; a
+/// layout without an attitude is left as is. A zero or non-finite
+/// quaternion is left as is, and the non-finite state is caught by the
+/// divergence check.
+pub fn renormalize(x: &mut State, slots: &Slots) {
+    let Some(q) = slots.quaternion_slots() else { return };
+    let n = quaternion_norm(&x[q.clone()]);
     if n.is_finite() && n > 0.0 {
-        x[6..10].iter_mut().for_each(|c| *c /= n);
+        x[q].iter_mut().for_each(|c| *c /= n);
     }
+}
+
+/// The length of a quaternion (w, x, y, z).
+fn quaternion_norm(q: &[f64]) -> f64 {
+    (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt()
 }
 
 /// Per start: position error at every step 1..=steps, and the predicted and
@@ -33,6 +41,9 @@ pub struct Trace {
     pub position_error: Vec<f64>,
     /// (step, predicted, measured) at each horizon step requested.
     pub at: Vec<(usize, State, State)>,
+    /// The recording's layout: where the velocity and quaternion are, if
+    /// declared.
+    pub slots: Slots,
 }
 
 /// Rolls every start open loop for `steps` steps: measured future actions,
@@ -62,15 +73,15 @@ pub fn trajectories(
     horizon_steps: &[usize],
 ) -> Vec<Trace> {
     let mut states: Vec<State> = starts.iter().map(|s| recordings[s.recording].state[s.t].clone()).collect();
-    let mut traces = new_traces(starts, steps);
+    let mut traces = new_traces(recordings, starts, steps);
     for k in 1..=steps {
         let actions: Vec<Action> = starts.iter().map(|s| recordings[s.recording].action[s.t + k - 1].clone()).collect();
         let mut next = dynamics.step(&states, &actions);
         for ((n, s), tr) in next.iter_mut().zip(starts).zip(traces.iter_mut()) {
             let rec = &recordings[s.recording];
             let truth = &rec.state[s.t + k];
-            n[rec.predicted..].copy_from_slice(&truth[rec.predicted..]);
-            renormalize(n);
+            n[rec.slots.predicted..].copy_from_slice(&truth[rec.slots.predicted..]);
+            renormalize(n, &rec.slots);
             score_step(tr, k, n, truth, horizon_steps);
         }
         each(k, &next);
@@ -79,8 +90,16 @@ pub fn trajectories(
     traces
 }
 
-fn new_traces(starts: &[Window], steps: usize) -> Vec<Trace> {
-    starts.iter().map(|&s| Trace { start: s, position_error: Vec::with_capacity(steps), at: Vec::new() }).collect()
+fn new_traces(recordings: &[Recording], starts: &[Window], steps: usize) -> Vec<Trace> {
+    starts
+        .iter()
+        .map(|&s| Trace {
+            start: s,
+            position_error: Vec::with_capacity(steps),
+            at: Vec::new(),
+            slots: recordings[s.recording].slots,
+        })
+        .collect()
 }
 
 /// One step of one start: its position error (infinite when not finite)
@@ -108,16 +127,15 @@ pub fn replay(
     steps: usize,
     horizon_steps: &[usize],
 ) -> Vec<Trace> {
-    let mut traces = new_traces(starts, steps);
+    let mut traces = new_traces(recordings, starts, steps);
     for (i, (s, tr)) in starts.iter().zip(traces.iter_mut()).enumerate() {
         for k in 1..=steps {
             let rec = &recordings[s.recording];
             let truth = &rec.state[s.t + k];
             let mut n = predicted(i, k);
-            n[rec.predicted..].copy_from_slice(&truth[rec.predicted..]);
-            let norm2 = n[6] * n[6] + n[7] * n[7] + n[8] * n[8] + n[9] * n[9];
-            if (norm2.sqrt() - 1.0).abs() > 1e-12 {
-                renormalize(&mut n);
+            n[rec.slots.predicted..].copy_from_slice(&truth[rec.slots.predicted..]);
+            if rec.slots.quaternion_slots().is_some_and(|q| (quaternion_norm(&n[q]) - 1.0).abs() > 1e-12) {
+                renormalize(&mut n, &rec.slots);
             }
             score_step(tr, k, &n, truth, horizon_steps);
         }

@@ -216,7 +216,10 @@ pub fn run_job_with(
     };
     let mut mean_fa_rmse: Vec<(String, f64, f64)> =
         job.horizons_s.iter().map(|h| (job.model.clone(), *h, mean_fa(&cells, *h))).collect();
-    for (name, kind) in [("persistence", ModelKind::Persistence), ("constant_velocity", ModelKind::ConstantVelocity)] {
+    // The yardsticks; constant velocity only where the data declare a velocity.
+    let yardsticks = [("persistence", ModelKind::Persistence), ("constant_velocity", ModelKind::ConstantVelocity)];
+    for (name, kind) in yardsticks.into_iter().filter(|(_, k)| plan.slots.velocity || *k != ModelKind::ConstantVelocity)
+    {
         let (e, bc, _) = bench.score(name, baseline(&kind, plan.rate_hz).as_mut());
         one_step.push((name.to_string(), e));
         mean_fa_rmse.extend(job.horizons_s.iter().map(|h| (name.to_string(), *h, mean_fa(&bc, *h))));

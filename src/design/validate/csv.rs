@@ -133,8 +133,8 @@ impl Validator {
     /// a required clause is missing or a clause has the wrong number of
     /// columns. Sets the data's state columns to the slots' names (the
     /// quaternion's are `` when it comes from Euler angles): position,
-    /// velocity, quaternion, body rates, predicted columns, then the
-    /// exogenous reference and extra columns.
+    /// velocity and quaternion when declared, body rates, predicted
+    /// columns, then the exogenous reference and extra columns.
     pub(super) fn csv_format(
         &mut self,
         block: &DataBlock,
@@ -148,7 +148,7 @@ impl Validator {
                 "`state` in `data csv`",
                 *span,
                 "`data csv` declares its state by meaning, not as a list of columns",
-                "declare `position`, `velocity`, `attitude` (and `rates`, `predicted`, `reference`, `extra` if the logs have them)",
+                "declare `position` (and `velocity`, `attitude`, `rates`, `predicted`, `reference`, `extra` if the logs have them)",
             );
         }
         let missing = |v: &mut Validator, what: &str, example: &str| {
@@ -176,14 +176,11 @@ impl Validator {
             }
         };
         let position = three(self, &csv.position, "position", "position x, y, z");
-        let velocity = three(self, &csv.velocity, "velocity", "velocity vx, vy, vz");
+        let velocity = three(self, &csv.velocity, "velocity", "");
         let reference = three(self, &csv.reference, "reference", "");
         let rates = three(self, &csv.rates, "body rates", "");
         let (quaternion, euler) = match &csv.attitude {
-            None => {
-                missing(self, "attitude", "attitude quaternion wxyz qw, qx, qy, qz");
-                (None, None)
-            }
+            None => (None, None),
             Some((kind, cols, span)) => match kind.node.as_str() {
                 "quaternion_wxyz" => (Some(self.columns(cols, 4, "quaternion", *span)), None),
                 "quaternion_xyzw" => {
@@ -197,17 +194,24 @@ impl Validator {
                 }
             },
         };
-        let (position, velocity) = (position?, velocity?);
-        if quaternion.is_none() && euler.is_none() {
+        let position = position?;
+        let attitude = csv.attitude.is_some();
+        if attitude && quaternion.is_none() && euler.is_none() {
             return None;
         }
-        if position.len() != 3 || velocity.len() != 3 || quaternion.as_ref().is_some_and(|q| q.len() != 4) {
+        if position.len() != 3
+            || velocity.as_ref().is_some_and(|v| v.len() != 3)
+            || quaternion.as_ref().is_some_and(|q| q.len() != 4)
+        {
             return None;
         }
-        let mut state: Vec<Option<String>> = position.into_iter().chain(velocity).map(Some).collect();
+        let has_velocity = velocity.is_some();
+        let mut state: Vec<Option<String>> =
+            position.into_iter().chain(velocity.into_iter().flatten()).map(Some).collect();
         match &quaternion {
             Some(q) => state.extend(q.iter().cloned().map(Some)),
-            None => state.extend([None, None, None, None]),
+            None if attitude => state.extend([None, None, None, None]),
+            None => {}
         }
         if rates.as_ref().is_some_and(|r| r.len() != 3) || reference.as_ref().is_some_and(|r| r.len() != 3) {
             return None;
@@ -231,6 +235,8 @@ impl Validator {
             nanobench_header: false,
             time: csv.time.as_ref().map(|t| t.node.clone()),
             state,
+            velocity: has_velocity,
+            attitude,
             euler,
             predicted,
             reference: has_reference,
@@ -242,5 +248,34 @@ impl Validator {
             conditions_table: csv.conditions_table.as_ref().map(|t| t.node.clone()),
             conditions_name: csv.conditions_name.as_ref().map(|t| t.node.clone()),
         })
+    }
+
+    /// Refuses what needs a velocity or an attitude the data do not
+    /// declare: the `constant_velocity` baseline, and endpoints on the
+    /// velocity or attitude RMSE.
+    pub(super) fn undeclared_state(&mut self, slots: &Slots, models: &[(Model, Span)], endpoints: &[(Endpoint, Span)]) {
+        if !slots.velocity {
+            for (m, span) in models.iter().filter(|(m, _)| m.kind == crate::design::ModelKind::ConstantVelocity) {
+                self.err_help(
+                    "constant velocity without a velocity",
+                    *span,
+                    format!("model `{}` advances the position by the velocity, and the data declare none", m.name),
+                    "declare `velocity vx, vy, vz` in the data block, or use `persistence`",
+                );
+            }
+        }
+        for (e, span) in endpoints {
+            let missing = match e.metric {
+                Metric::VelocityRmse if !slots.velocity => ("a velocity", "velocity"),
+                Metric::AttitudeRmse if !slots.attitude => ("an attitude", "attitude"),
+                _ => continue,
+            };
+            self.err_help(
+                "endpoint on an undeclared state",
+                *span,
+                format!("`{}` needs {}, and the data declare none", e.metric.name(), missing.0),
+                format!("declare `{}` in the data block, or use `fa_position_rmse`", missing.1),
+            );
+        }
     }
 }

@@ -242,6 +242,9 @@ impl Validator {
         let rate = data.as_ref().map(|d: &DataSpec| d.rate_hz).unwrap_or(100.0);
         let horizon = recording.as_ref().map(|r: &RecordingFactor| r.horizon);
         let endpoints = self.endpoints(&endpoints, &models, rate, horizon, end);
+        if let Some(d) = &data {
+            self.undeclared_state(&d.slots(), &models, &endpoints);
+        }
         let contrast = singles.get("contrast").and_then(|s| match &s.node {
             Statement::Contrast { treated, reference } => self.contrast(treated, reference, &arms),
             _ => None,

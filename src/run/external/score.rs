@@ -405,7 +405,9 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
         .chunks((steps * width).max(1))
         .filter(|t| t.chunks(width).any(|x| x[..exogenous].iter().any(|v| !v.is_finite())))
         .count();
-    check_quaternions(&arr.data, steps, width).map_err(|reason| bad(&path, reason))?;
+    if let Some(q) = r.plan.slots.quaternion_slots() {
+        check_quaternions(&arr.data, steps, width, q).map_err(|reason| bad(&path, reason))?;
+    }
     let (p, plan) = (&r.prepared, &r.plan);
     let horizon_steps = rollout::horizon_steps(&job.horizons_s, plan.rate_hz);
     let traces = rollout::replay(&predicted, &p.recordings, &p.split.starts, steps, &horizon_steps);
@@ -444,15 +446,16 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
 /// 0 for components of 1e308).
 pub const QUATERNION_TOLERANCE: f64 = 0.1;
 
-/// Refuses predictions with a finite quaternion whose length is off 1 by
-/// more than [`QUATERNION_TOLERANCE`], naming the first few (start, step)
-/// and how many there are in all. Non-finite states are divergence, not
-/// checked here.
-fn check_quaternions(data: &[f64], steps: usize, width: usize) -> Result<(), String> {
+/// Refuses predictions with a finite quaternion (in the state slots `at`)
+/// whose length is off 1 by more than [`QUATERNION_TOLERANCE`], naming
+/// the first few (start, step) and how many there are in all. Non-finite
+/// states are divergence, not checked here.
+fn check_quaternions(data: &[f64], steps: usize, width: usize, at: std::ops::Range<usize>) -> Result<(), String> {
     let mut bad: Vec<String> = Vec::new();
     let mut count = 0usize;
-    for (k, x) in data.chunks(width.max(10)).enumerate() {
-        let q = &x[6..10];
+    let columns = format!("columns {}..{}", at.start, at.end - 1);
+    for (k, x) in data.chunks(width.max(at.end)).enumerate() {
+        let Some(q) = x.get(at.clone()) else { continue };
         if q.iter().any(|v| !v.is_finite()) {
             continue;
         }
@@ -471,7 +474,7 @@ fn check_quaternions(data: &[f64], steps: usize, width: usize) -> Result<(), Str
         return Ok(());
     }
     Err(format!(
-        "{count} predicted state(s) have a quaternion (columns 6..9, w x y z) whose length is off 1 by more than {QUATERNION_TOLERANCE} ({}{}); predict unit quaternions (within that tolerance they are renormalised, as crossaudit renormalises its own rollouts)",
+        "{count} predicted state(s) have a quaternion ({columns}, w x y z) whose length is off 1 by more than {QUATERNION_TOLERANCE} ({}{}); predict unit quaternions (within that tolerance they are renormalised, as crossaudit renormalises its own rollouts)",
         bad.join("; "),
         if count > bad.len() { "; ..." } else { "" }
     ))
