@@ -82,8 +82,13 @@ fn every_estimator_is_location_equivariant() {
         for mu in [0.5, -2.25, 10.0] {
             let moved =
                 crossaudit::stats::CrossedMatrix::new(7, 5, m.values().iter().map(|v| v + mu).collect()).unwrap();
-            let (a, b) =
-                (compare_intervals(&m, 0.9, 99, 1, r).unwrap(), compare_intervals(&moved, 0.9, 99, 1, r).unwrap());
+            let every = |m: &crossaudit::stats::CrossedMatrix| {
+                let mut v = compare_intervals(m, 0.9, 99, 1, r).unwrap();
+                v.extend(crossaudit::stats::further_intervals(m, 0.9, 99, 1, r).unwrap());
+                v
+            };
+            let (a, b) = (every(&m), every(&moved));
+            assert_eq!(a.len(), 18);
             for (x, y) in a.iter().zip(&b) {
                 let want = shifted((x.estimate, x.se, x.lower, x.upper), mu);
                 // REML's variance components come from an optimizer stopped at
@@ -182,7 +187,7 @@ fn means_and_levels_share_their_replications() {
             "rows": [6], "cols": [4], "shares": [[0.5, 0.25, 0.25]], "distributions": ["normal"]}"#,
     );
     let rows = crossaudit::methods::run_coverage(&s, &mut |_, _, _| {}).unwrap();
-    let methods = 12;
+    let methods = 18;
     assert_eq!(rows.len(), 2 * 2 * methods);
     for (a, b) in rows[..2 * methods].iter().zip(&rows[2 * methods..]) {
         assert_eq!((a.true_mean, b.true_mean, a.level), (0.0, 1.5, b.level));
@@ -263,7 +268,7 @@ fn the_further_estimators_are_sandwichs_var_s_and_anova_s() {
             }
         }
         let m = crossaudit::stats::CrossedMatrix::new(10, 4, data).unwrap();
-        let ours = crossaudit::stats::further_intervals(&m, 0.95).unwrap();
+        let ours = crossaudit::stats::further_intervals(&m, 0.95, 99, 1, 1).unwrap();
         let var_of = |method: IntervalMethod| {
             let e = ours.iter().find(|e| e.method == method).unwrap();
             if e.se.is_nan() {

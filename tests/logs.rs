@@ -349,11 +349,7 @@ fn a_csv_block_without_what_the_reader_needs_is_refused_with_its_place() {
     let err = stderr(&o);
     // Velocity is optional (tests/position_only.rs): its absence is no error.
     assert!(!err.contains("needs `velocity`"), "{err}");
-    for needle in [
-        "`data csv` needs `action ... scale`",
-        "the position has 3 columns, 2 given",
-        "bad.design:",
-    ] {
+    for needle in ["`data csv` needs `action ... scale`", "the position has 3 columns, 2 given", "bad.design:"] {
         assert!(err.contains(needle), "missing {needle:?} in:\n{err}");
     }
     // NanoBench's preset refuses the csv clauses.

@@ -24,6 +24,7 @@ mod mixed_cli;
 mod model;
 mod multiverse;
 mod position_only;
+mod resampling;
 mod run;
 mod simulate;
 mod slurm;

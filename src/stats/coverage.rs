@@ -501,8 +501,9 @@ pub fn simulate_reps(s: &Setting, reps: usize, levels: &[f64], b: usize, seed: u
                         let mut lost = rng.clone();
                         return with_missing(s, &m, level, &mut lost);
                     }
-                    let mut iv = compare_intervals(&m, level, b, seed, (1u64 << 32) + r as u64)?;
-                    iv.extend(super::further_intervals(&m, level)?);
+                    let stream = (1u64 << 32) + r as u64;
+                    let mut iv = compare_intervals(&m, level, b, seed, stream)?;
+                    iv.extend(super::further_intervals(&m, level, b, seed, stream)?);
                     Ok(iv
                         .into_iter()
                         .map(|e| (e.method, (e.estimate, e.se, e.lower, e.upper), e.df, e.boundary))

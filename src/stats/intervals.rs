@@ -50,6 +50,24 @@ pub enum IntervalMethod {
     /// MS_c - MS_e) / (IJ), t(J - 1); undefined when that is <= 0
     /// (coverage study only).
     MomUntruncated,
+    /// Pigeonhole bootstrap, mean +- z SD of the replicate means (coverage
+    /// study only; the percentile interval's replicates).
+    PigeonholeSe,
+    /// Pigeonhole bootstrap-t: t* = (mean* - mean) / SE*, the crossed MoM
+    /// SE of each resampled array (coverage study only).
+    PigeonholeT,
+    /// Owen & Eckles' product weights (Exp(1) row and column weights),
+    /// mean +- z SD of the weighted means (coverage study only).
+    ProductWeightsSe,
+    /// Owen & Eckles' product weights, percentile interval (coverage study only).
+    ProductWeightsPercentile,
+    /// Parametric bootstrap-t from the crossed normal model with the MoM's
+    /// components (coverage study only).
+    ParametricT,
+    /// The ML profile-likelihood interval (lme4's `confint(method =
+    /// "profile")`, which profiles ML for a fixed effect even for a REML
+    /// fit), chi2(1) cutoff (coverage study only).
+    ProfileMl,
 }
 
 impl IntervalMethod {
@@ -70,6 +88,12 @@ impl IntervalMethod {
             IntervalMethod::TwoWayCluster => "two-way cluster-robust (CGM), t(min(I,J)-1)",
             IntervalMethod::SumOfMargins => "sum of margins (row + column jackknife), t(min(I,J)-1)",
             IntervalMethod::MomUntruncated => "crossed MoM untruncated, t(J-1)",
+            IntervalMethod::PigeonholeSe => "pigeonhole bootstrap, SE-based (z)",
+            IntervalMethod::PigeonholeT => "pigeonhole bootstrap-t (MoM SE)",
+            IntervalMethod::ProductWeightsSe => "product weights (Owen-Eckles), SE-based (z)",
+            IntervalMethod::ProductWeightsPercentile => "product weights (Owen-Eckles), percentile",
+            IntervalMethod::ParametricT => "parametric bootstrap-t (MoM components)",
+            IntervalMethod::ProfileMl => "profile likelihood (ML, lme4's confint)",
         }
     }
 }
@@ -223,10 +247,27 @@ fn from_variance(
     Ok(IntervalEstimate { method, estimate: mean, se, df, lower: mean - q * se, upper: mean + q * se, boundary: false })
 }
 
+/// Stream offsets of the further resampling intervals: the pigeonhole ones
+/// share the percentile interval's stream (and so its resamples); the
+/// product weights and the parametric bootstrap draw from their own.
+pub const PRODUCT_WEIGHTS_STREAM: u64 = 1 << 40;
+/// See [`PRODUCT_WEIGHTS_STREAM`].
+pub const PARAMETRIC_STREAM: u64 = 2 << 40;
+
 /// The further estimators the coverage study compares on complete arrays:
-/// two-way cluster-robust, sum of margins and the untruncated MoM (see
-/// [`IntervalMethod`]; docs/statistics.md gives their references).
-pub fn further_intervals(m: &CrossedMatrix, level: f64) -> Result<Vec<IntervalEstimate>, StatsError> {
+/// two-way cluster-robust, sum of margins and the untruncated MoM, then
+/// the resampling intervals of [`super::resampling`] from `b` replicates
+/// and the ML profile-likelihood interval ([`super::profile_interval`])
+/// (the pigeonhole ones on (`seed`, `stream`), the others on `stream`
+/// plus [`PRODUCT_WEIGHTS_STREAM`] and [`PARAMETRIC_STREAM`]); see
+/// [`IntervalMethod`], and docs/statistics.md for their references.
+pub fn further_intervals(
+    m: &CrossedMatrix,
+    level: f64,
+    b: usize,
+    seed: u64,
+    stream: u64,
+) -> Result<Vec<IntervalEstimate>, StatsError> {
     let (i, j) = (m.rows() as f64, m.cols() as f64);
     let n = i * j;
     let mean = m.mean();
@@ -241,9 +282,14 @@ pub fn further_intervals(m: &CrossedMatrix, level: f64) -> Result<Vec<IntervalEs
     let small = i.min(j) - 1.0;
     let e = crossed_mom(m, level, DfRule::SeedsMinusOne)?;
     let untruncated = e.mean_squares.map_or(f64::NAN, |ms| (ms.ms_rows + ms.ms_cols - ms.ms_error) / n);
-    Ok(vec![
+    let mut out = vec![
         from_variance(IntervalMethod::TwoWayCluster, mean, cgm, small, level)?,
         from_variance(IntervalMethod::SumOfMargins, mean, margins, small, level)?,
         from_variance(IntervalMethod::MomUntruncated, mean, untruncated, j - 1.0, level)?,
-    ])
+    ];
+    out.extend(super::resampling::pigeonhole_further(m, level, b, seed, stream)?);
+    out.extend(super::resampling::product_weights(m, level, b, seed, stream + PRODUCT_WEIGHTS_STREAM)?);
+    out.push(super::resampling::parametric_t(m, level, b, seed, stream + PARAMETRIC_STREAM)?);
+    out.push(super::profile_interval(m, level)?);
+    Ok(out)
 }

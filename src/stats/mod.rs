@@ -9,7 +9,9 @@ mod crossed;
 mod intervals;
 mod loo;
 mod matrix;
+mod mean_profile;
 pub mod mixed;
+pub mod resampling;
 mod rng;
 
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
@@ -21,6 +23,7 @@ pub use intervals::{
 };
 pub use loo::{leave_one_out_mom, Axis};
 pub use matrix::CrossedMatrix;
+pub use mean_profile::profile_interval;
 pub use rng::standard_normal;
 
 /// Errors from the statistics on user data.

@@ -50,7 +50,7 @@ mod data;
 pub mod formula;
 mod inference;
 mod levels;
-mod optimize;
+pub(crate) mod optimize;
 mod profile;
 mod system;
 

@@ -140,7 +140,7 @@ pub(super) fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, start: &[f64], step:
 /// theta = 0 is then an ordinary interior point, which a simplex crosses
 /// and leaves as easily as any other, where clamped reflections collapse
 /// the simplex into the face they hit. Returns |theta|.
-pub(super) fn nelder_mead_even(
+pub(crate) fn nelder_mead_even(
     f: &mut dyn FnMut(&[f64]) -> f64,
     start: &[f64],
     step: f64,
