@@ -15,9 +15,9 @@
 #   Rscript scripts/reference/resampling_coverage.R > scripts/reference/resampling_coverage.out
 # Prints per setting and estimator R's coverage and MCSE, crossaudit's,
 # and z = the difference over the combined MCSE; |z| below about 3 is
-# agreement. 1,000 replications per setting here (2,000 in crossaudit's).
+# agreement. 2,000 replications per setting, as in crossaudit's.
 set.seed(44044)
-reps <- 1000
+reps <- 2000
 B <- 999
 ours <- read.csv("results/coverage/coverage.csv", stringsAsFactors = FALSE)
 cat("# R", R.version$major, R.version$minor, "\n")
@@ -34,6 +34,8 @@ for (st in settings) {
   I <- st$I; J <- st$J; n <- I * J
   sa <- st$s[1] * I; sb <- st$s[2] * J; se <- st$s[3] * I * J
   hit <- matrix(NA, reps, length(methods), dimnames = list(NULL, methods))
+  row_of <- outer(rep(1:I, J), 1:I, "==") + 0    # n x I: cell -> its row
+  col_of <- outer(rep(1:J, each = I), 1:J, "==") + 0
   for (r in seq_len(reps)) {
     y <- outer(rnorm(I, sd = sqrt(sa)), rnorm(J, sd = sqrt(sb)), "+") + matrix(rnorm(n, sd = sqrt(se)), I, J)
     m <- mean(y); d <- y - m; rm <- rowMeans(y); cm <- colMeans(y)
@@ -41,8 +43,10 @@ for (st in settings) {
     mse <- sum((y - outer(rm, cm, "+") + m)^2) / ((I - 1) * (J - 1))
     s_hat <- sqrt(mom_se2(msr, msc, mse, I, J))
     # Pigeonhole: draw counts, rows I x B and columns J x B.
-    N <- sapply(1:B, function(b) tabulate(sample.int(I, I, replace = TRUE), I))
-    C <- sapply(1:B, function(b) tabulate(sample.int(J, J, replace = TRUE), J))
+    ri <- matrix(sample.int(I, I * B, replace = TRUE), I, B)
+    N <- matrix(tabulate(ri + I * (col(ri) - 1), I * B), I, B)
+    ci <- matrix(sample.int(J, J * B, replace = TRUE), J, B)
+    C <- matrix(tabulate(ci + J * (col(ci) - 1), J * B), J, B)
     DC <- d %*% C                                   # I x B: row sums over drawn columns
     g <- colSums(N * DC) / n
     ssr <- J * colSums(N * sweep(DC / J, 2, g)^2)
@@ -58,12 +62,13 @@ for (st in settings) {
     pw <- rowSums((W %*% d) * V) / (rowSums(W) * rowSums(V))
     # Parametric bootstrap-t, whole arrays from the MoM components.
     ca <- max(0, (msr - mse) / J); cb <- max(0, (msc - mse) / I)
-    ys <- array(rnorm(B * n, sd = sqrt(mse)), c(B, I, J)) + array(rnorm(B * I, sd = sqrt(ca)), c(B, I, J)) +
-      aperm(array(rnorm(B * J, sd = sqrt(cb)), c(B, J, I)), c(1, 3, 2))
-    gs <- apply(ys, 1, mean)
-    rms <- apply(ys, c(1, 2), mean); cms <- apply(ys, c(1, 3), mean)
+    # B x n, cell (i, j) in column i + I (j - 1).
+    ys <- matrix(rnorm(B * n, sd = sqrt(mse)), B, n) + matrix(rnorm(B * I, sd = sqrt(ca)), B, n) +
+      matrix(rnorm(B * J, sd = sqrt(cb)), B, J)[, rep(1:J, each = I)]
+    gs <- rowMeans(ys)
+    rms <- ys %*% row_of / J; cms <- ys %*% col_of / I
     ssr_p <- J * rowSums((rms - gs)^2); ssc_p <- I * rowSums((cms - gs)^2)
-    sse_p <- apply((ys - gs)^2, 1, sum) - ssr_p - ssc_p
+    sse_p <- rowSums((ys - gs)^2) - ssr_p - ssc_p
     tp <- gs / sqrt(mom_se2(ssr_p / (I - 1), ssc_p / (J - 1), sse_p / ((I - 1) * (J - 1)), I, J))
     pt <- c(m - q7(tp, 0.975) * s_hat, m - q7(tp, 0.025) * s_hat)
     covers <- function(lo, hi) lo <= 0 && 0 <= hi

@@ -205,7 +205,7 @@ pub fn pigeonhole_further(
         reps.iter().map(|r| r.0).collect(),
         level,
     )?;
-    if !(se > 0.0) {
+    if se.is_nan() || se <= 0.0 {
         return Ok([se_based, IntervalEstimate::undefined(IntervalMethod::PigeonholeT)]);
     }
     Ok([se_based, t_interval(IntervalMethod::PigeonholeT, m.mean(), se, t, level)])
@@ -340,7 +340,7 @@ pub fn parametric_t(
         return Ok(IntervalEstimate::undefined(IntervalMethod::ParametricT));
     }
     let se = mom_se2(ms.ms_rows, ms.ms_cols, ms.ms_error, m.rows() as f64, m.cols() as f64).sqrt();
-    if !(se > 0.0) {
+    if se.is_nan() || se <= 0.0 {
         return Ok(IntervalEstimate::undefined(IntervalMethod::ParametricT));
     }
     let t = parametric_replicates(m, b, seed, stream).iter().map(|(g, s)| t_stat(*g, *s)).collect();
