@@ -16,11 +16,17 @@ use crossaudit::stats::{crossed_mom, pigeonhole_bootstrap, pigeonhole_variance, 
 
 /// Array `rep` of setting 0 of the small locked study (10 x 4).
 fn fixture(rep: usize) -> CrossedMatrix {
+    small_study_array(0, rep)
+}
+
+/// Array `rep` of setting `setting` of the small locked study (10 x 4,
+/// tests/fixtures/coverage_small/arrays.csv).
+pub(crate) fn small_study_array(setting: usize, rep: usize) -> CrossedMatrix {
     let text = std::fs::read_to_string(root().join("tests/fixtures/coverage_small/arrays.csv")).unwrap();
     let mut data = vec![0.0; 40];
     for row in text.lines().skip(1) {
         let v: Vec<&str> = row.split(',').collect();
-        if v[0] == "0" && v[1].parse::<usize>().unwrap() == rep {
+        if v[0].parse::<usize>().unwrap() == setting && v[1].parse::<usize>().unwrap() == rep {
             let (i, j): (usize, usize) = (v[2].parse().unwrap(), v[3].parse().unwrap());
             data[i * 4 + j] = v[4].parse().unwrap();
         }
@@ -164,20 +170,11 @@ fn chi_square_draws_have_their_moments() {
 #[test]
 fn the_profile_likelihood_interval_is_lme4s() {
     let text = std::fs::read_to_string(root().join("scripts/reference/mean_profile.out")).unwrap();
-    let arrays = std::fs::read_to_string(root().join("tests/fixtures/coverage_small/arrays.csv")).unwrap();
     let mut compared = 0;
     for line in text.lines().filter(|l| !l.starts_with('#')) {
         let f: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
         let (k, r) = (f[0] as usize, f[1] as usize);
-        let mut data = vec![0.0; 40];
-        for row in arrays.lines().skip(1) {
-            let v: Vec<&str> = row.split(',').collect();
-            if v[0].parse::<usize>().unwrap() == k && v[1].parse::<usize>().unwrap() == r {
-                let (i, j): (usize, usize) = (v[2].parse().unwrap(), v[3].parse().unwrap());
-                data[i * 4 + j] = v[4].parse().unwrap();
-            }
-        }
-        let m = CrossedMatrix::new(10, 4, data).unwrap();
+        let m = small_study_array(k, r);
         let iv = crossaudit::stats::profile_interval(&m, 0.95).unwrap();
         let width = f[3] - f[2];
         for (what, got, want, tol) in [("lower", iv.lower, f[2], 1e-7), ("upper", iv.upper, f[3], 1e-7)] {
@@ -195,22 +192,6 @@ fn the_profile_likelihood_interval_is_lme4s() {
 /// it compared the study as committed now.
 #[test]
 fn the_resampling_intervals_coverage_agrees_with_an_independent_simulation() {
-    let root = root();
-    let out = std::fs::read_to_string(root.join("scripts/reference/resampling_coverage.out")).unwrap();
-    let mut rdr = csv::Reader::from_path(root.join("results/coverage/coverage.csv")).unwrap();
-    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-    let ours: Vec<std::collections::HashMap<String, String>> =
-        rdr.records().map(|r| header.iter().cloned().zip(r.unwrap().iter().map(String::from)).collect()).collect();
-    let mut compared = 0;
-    for line in out.lines().filter(|l| !l.starts_with('#') && l.contains(" | ")) {
-        let f: Vec<&str> = line.split(" | ").map(str::trim).collect();
-        let z: f64 = f[4].parse().unwrap();
-        assert!(z.abs() < 3.5, "{line}");
-        let committed: f64 = f[3].split_whitespace().next().unwrap().parse().unwrap();
-        let row = ours.iter().find(|r| r["setting"] == f[0] && r["method"] == f[1]).unwrap_or_else(|| panic!("{line}"));
-        let now: f64 = row["coverage"].parse().unwrap();
-        assert!((now - committed).abs() < 5e-5, "{line}: results/coverage now has {now}");
-        compared += 1;
-    }
+    let compared = crate::coverage_measures::independent_simulation_agrees("scripts/reference/resampling_coverage.out");
     assert_eq!(compared, 30);
 }
