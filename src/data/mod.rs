@@ -202,7 +202,7 @@ impl Layout {
         let actions = format.actions.iter().map(|c| at(c)).collect();
         let active = at(&column);
         let extrapolated = format.extrapolated.iter().map(|c| at(c)).collect();
-        let slots = spec.slots();
+        let slots = format.slots();
         let quaternion_names = format.state[slots.quaternion_slots().unwrap_or(0..0)]
             .iter()
             .map(|c| format!("`{}`", c.as_deref().unwrap_or("")))
@@ -337,7 +337,8 @@ pub fn clipped_actions(rec: &Recording, scale: f64) -> Option<String> {
     })
 }
 
-fn norm4(q: &[f64]) -> f64 {
+/// The Euclidean length of a quaternion (or any vector).
+pub(crate) fn norm4(q: &[f64]) -> f64 {
     q.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 

@@ -11,6 +11,7 @@ mod diagnostic;
 pub mod lock;
 mod model_spec;
 pub mod multiverse;
+mod name_pattern;
 mod parse;
 pub mod reference;
 mod validate;
@@ -26,6 +27,7 @@ pub use diagnostic::{DesignError, Diagnostic};
 pub use lock::{LockFile, LockStatus};
 pub use model_spec::*;
 pub use multiverse::{Choice, ChoiceRole, Combine, Multiverse, Specification};
+pub use name_pattern::{NameConditions, NamePattern};
 
 /// A training seed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]

@@ -7,7 +7,7 @@
 pub mod metrics;
 
 use crate::cells::Cell;
-use crate::data::Recording;
+use crate::data::{norm4, Recording};
 use crate::model::{Action, Dynamics, Slots, State};
 use crate::split::{Split, Window};
 
@@ -20,15 +20,10 @@ pub use metrics::{attitude_error_deg, failure_aware, HorizonMetrics, StartOutcom
 /// divergence check.
 pub fn renormalize(x: &mut State, slots: &Slots) {
     let Some(q) = slots.quaternion_slots() else { return };
-    let n = quaternion_norm(&x[q.clone()]);
+    let n = norm4(&x[q.clone()]);
     if n.is_finite() && n > 0.0 {
         x[q].iter_mut().for_each(|c| *c /= n);
     }
-}
-
-/// The length of a quaternion (w, x, y, z).
-fn quaternion_norm(q: &[f64]) -> f64 {
-    (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt()
 }
 
 /// Per start: position error at every step 1..=steps, and the predicted and
@@ -134,7 +129,7 @@ pub fn replay(
             let truth = &rec.state[s.t + k];
             let mut n = predicted(i, k);
             n[rec.slots.predicted..].copy_from_slice(&truth[rec.slots.predicted..]);
-            if rec.slots.quaternion_slots().is_some_and(|q| (quaternion_norm(&n[q]) - 1.0).abs() > 1e-12) {
+            if rec.slots.quaternion_slots().is_some_and(|q| (norm4(&n[q]) - 1.0).abs() > 1e-12) {
                 renormalize(&mut n, &rec.slots);
             }
             score_step(tr, k, &n, truth, horizon_steps);

@@ -82,6 +82,16 @@ pub struct VarianceComponents {
 }
 
 impl VarianceComponents {
+    /// The MoM's components of a `rows` x `cols` array from its three mean
+    /// squares, each truncated at zero.
+    pub fn mom(ms_rows: f64, ms_cols: f64, ms_error: f64, rows: f64, cols: f64) -> VarianceComponents {
+        VarianceComponents {
+            recording: ((ms_rows - ms_error) / cols).max(0.0),
+            seed: ((ms_cols - ms_error) / rows).max(0.0),
+            residual: ms_error,
+        }
+    }
+
     /// The three parts of SE^2 for an I x J array: sa/I, sb/J and se/(IJ).
     pub fn se2_parts(&self, rows: f64, cols: f64) -> [f64; 3] {
         [self.recording / rows, self.seed / cols, self.residual / (rows * cols)]
@@ -212,9 +222,8 @@ pub(crate) fn mom_from_squares(
     df_rule: DfRule,
 ) -> Result<CrossedEstimate, StatsError> {
     let (i_n, j_n) = (rows as f64, cols as f64);
-    let sa = ((ms.ms_rows - ms.ms_error) / j_n).max(0.0);
-    let sb = ((ms.ms_cols - ms.ms_error) / i_n).max(0.0);
-    let components = VarianceComponents { recording: sa, seed: sb, residual: ms.ms_error };
+    let components = VarianceComponents::mom(ms.ms_rows, ms.ms_cols, ms.ms_error, i_n, j_n);
+    let (sa, sb) = (components.recording, components.seed);
     let se2_parts = components.se2_parts(i_n, j_n);
     let se2: f64 = se2_parts.iter().sum();
     let se = se2.sqrt();

@@ -28,14 +28,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::intervals::{IntervalEstimate, IntervalMethod};
-use super::{critical_value, mean_squares, quantile_type7, standard_normal, CrossedMatrix, StatsError};
+use super::{
+    critical_value, mean_squares, quantile_type7, standard_normal, CrossedMatrix, StatsError, VarianceComponents,
+};
 
-/// The crossed MoM's SE^2 from the three mean squares of a `rows` x `cols`
+/// The crossed MoM's SE from the three mean squares of a `rows` x `cols`
 /// array, components truncated at zero (as [`super::crossed_mom`]).
-fn mom_se2(ms_rows: f64, ms_cols: f64, ms_error: f64, rows: f64, cols: f64) -> f64 {
-    let sa = ((ms_rows - ms_error) / cols).max(0.0);
-    let sb = ((ms_cols - ms_error) / rows).max(0.0);
-    sa / rows + sb / cols + ms_error / (rows * cols)
+fn mom_se(ms_rows: f64, ms_cols: f64, ms_error: f64, rows: f64, cols: f64) -> f64 {
+    VarianceComponents::mom(ms_rows, ms_cols, ms_error, rows, cols).se_at(rows, cols)
 }
 
 /// A replicate's t statistic; 0 for a replicate equal to the estimate with
@@ -89,41 +89,22 @@ fn t_interval(method: IntervalMethod, mean: f64, se: f64, mut t: Vec<f64>, level
     }
 }
 
-/// Mean +- z SD of the replicates (divisor B - 1), and the percentile
-/// interval (type-7 quantiles), of replicate deviations from the mean.
-fn se_and_percentile(
-    (se_method, pct_method): (IntervalMethod, IntervalMethod),
-    mean: f64,
-    mut dev: Vec<f64>,
-    level: f64,
-) -> Result<[IntervalEstimate; 2], StatsError> {
-    let b = dev.len() as f64;
-    let centre = dev.iter().sum::<f64>() / b;
-    let sd = (dev.iter().map(|d| (d - centre).powi(2)).sum::<f64>() / (b - 1.0)).sqrt();
+/// Mean +- z SD of the replicate deviations `dev` from the mean (divisor
+/// B - 1).
+fn se_interval(method: IntervalMethod, mean: f64, dev: &[f64], level: f64) -> Result<IntervalEstimate, StatsError> {
+    let sd = super::sample_variance(dev).sqrt();
     let z = critical_value(level, f64::INFINITY)?;
+    let (lower, upper) = (mean - z * sd, mean + z * sd);
+    Ok(IntervalEstimate { method, estimate: mean, se: sd, df: f64::INFINITY, lower, upper, boundary: false })
+}
+
+/// The percentile interval (type-7 quantiles) of the replicate deviations
+/// `dev`, reported with their SD `sd`.
+fn percentile_interval(method: IntervalMethod, mean: f64, sd: f64, mut dev: Vec<f64>, level: f64) -> IntervalEstimate {
     dev.sort_by(f64::total_cmp);
     let alpha = 1.0 - level;
-    let inf = f64::INFINITY;
-    Ok([
-        IntervalEstimate {
-            method: se_method,
-            estimate: mean,
-            se: sd,
-            df: inf,
-            lower: mean - z * sd,
-            upper: mean + z * sd,
-            boundary: false,
-        },
-        IntervalEstimate {
-            method: pct_method,
-            estimate: mean,
-            se: sd,
-            df: f64::NAN,
-            lower: mean + quantile_type7(&dev, alpha / 2.0),
-            upper: mean + quantile_type7(&dev, 1.0 - alpha / 2.0),
-            boundary: false,
-        },
-    ])
+    let (lower, upper) = (mean + quantile_type7(&dev, alpha / 2.0), mean + quantile_type7(&dev, 1.0 - alpha / 2.0));
+    IntervalEstimate { method, estimate: mean, se: sd, df: f64::NAN, lower, upper, boundary: false }
 }
 
 /// Per pigeonhole replicate: the resampled array's mean less the
@@ -175,9 +156,7 @@ pub fn pigeonhole_t_replicates(m: &CrossedMatrix, b: usize, seed: u64, stream: u
             let ss_rows = j_n * row_part.iter().map(|(n, r)| n * (r - g).powi(2)).sum::<f64>();
             let ss_cols = i_n * col_sums.iter().zip(&cc).map(|(s, c)| c * (s / i_n - g).powi(2)).sum::<f64>();
             let ss_error = (ss_total - ss_rows - ss_cols).max(0.0);
-            let se2 =
-                mom_se2(ss_rows / (i_n - 1.0), ss_cols / (j_n - 1.0), ss_error / ((i_n - 1.0) * (j_n - 1.0)), i_n, j_n);
-            (g, se2.sqrt())
+            (g, mom_se(ss_rows / (i_n - 1.0), ss_cols / (j_n - 1.0), ss_error / ((i_n - 1.0) * (j_n - 1.0)), i_n, j_n))
         })
         .collect()
 }
@@ -195,16 +174,11 @@ pub fn pigeonhole_further(
         return Ok([IntervalMethod::PigeonholeSe, IntervalMethod::PigeonholeT].map(IntervalEstimate::undefined));
     }
     let ms = mean_squares(m);
-    let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
-    let se = mom_se2(ms.ms_rows, ms.ms_cols, ms.ms_error, i_n, j_n).sqrt();
+    let se = mom_se(ms.ms_rows, ms.ms_cols, ms.ms_error, m.rows() as f64, m.cols() as f64);
     let reps = pigeonhole_t_replicates(m, b, seed, stream);
     let t: Vec<f64> = reps.iter().map(|(g, s)| t_stat(*g, *s)).collect();
-    let [se_based, _] = se_and_percentile(
-        (IntervalMethod::PigeonholeSe, IntervalMethod::PigeonholePercentile),
-        m.mean(),
-        reps.iter().map(|r| r.0).collect(),
-        level,
-    )?;
+    let dev: Vec<f64> = reps.iter().map(|r| r.0).collect();
+    let se_based = se_interval(IntervalMethod::PigeonholeSe, m.mean(), &dev, level)?;
     if se.is_nan() || se <= 0.0 {
         return Ok([se_based, IntervalEstimate::undefined(IntervalMethod::PigeonholeT)]);
     }
@@ -271,12 +245,10 @@ pub fn product_weights(
         let methods = [IntervalMethod::ProductWeightsSe, IntervalMethod::ProductWeightsPercentile];
         return Ok(methods.map(IntervalEstimate::undefined));
     }
-    se_and_percentile(
-        (IntervalMethod::ProductWeightsSe, IntervalMethod::ProductWeightsPercentile),
-        m.mean(),
-        product_weight_replicates(m, b, seed, stream),
-        level,
-    )
+    let dev = product_weight_replicates(m, b, seed, stream);
+    let se_based = se_interval(IntervalMethod::ProductWeightsSe, m.mean(), &dev, level)?;
+    let percentile = percentile_interval(IntervalMethod::ProductWeightsPercentile, m.mean(), se_based.se, dev, level);
+    Ok([se_based, percentile])
 }
 
 /// A chi-square draw with `k` df: twice a Gamma(k / 2) draw by Marsaglia &
@@ -309,11 +281,9 @@ pub fn chi_squared<R: Rng + ?Sized>(rng: &mut R, k: f64) -> f64 {
 pub fn parametric_replicates(m: &CrossedMatrix, b: usize, seed: u64, stream: u64) -> Vec<(f64, f64)> {
     let ms = mean_squares(m);
     let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
-    let sa = ((ms.ms_rows - ms.ms_error) / j_n).max(0.0);
-    let sb = ((ms.ms_cols - ms.ms_error) / i_n).max(0.0);
-    let se = ms.ms_error;
-    let sd_mean = (sa / i_n + sb / j_n + se / (i_n * j_n)).sqrt();
-    let (lr, lc) = (se + j_n * sa, se + i_n * sb);
+    let c = VarianceComponents::mom(ms.ms_rows, ms.ms_cols, ms.ms_error, i_n, j_n);
+    let sd_mean = c.se_at(i_n, j_n);
+    let (se, lr, lc) = (c.residual, c.residual + j_n * c.recording, c.residual + i_n * c.seed);
     let mut rng = rng(seed, stream);
     (0..b)
         .map(|_| {
@@ -321,7 +291,7 @@ pub fn parametric_replicates(m: &CrossedMatrix, b: usize, seed: u64, stream: u64
             let ms_rows = lr * chi_squared(&mut rng, ms.df_rows) / ms.df_rows;
             let ms_cols = lc * chi_squared(&mut rng, ms.df_cols) / ms.df_cols;
             let ms_error = se * chi_squared(&mut rng, ms.df_error) / ms.df_error;
-            (g, mom_se2(ms_rows, ms_cols, ms_error, i_n, j_n).sqrt())
+            (g, mom_se(ms_rows, ms_cols, ms_error, i_n, j_n))
         })
         .collect()
 }
@@ -339,7 +309,7 @@ pub fn parametric_t(
     if !enough(b, level)? {
         return Ok(IntervalEstimate::undefined(IntervalMethod::ParametricT));
     }
-    let se = mom_se2(ms.ms_rows, ms.ms_cols, ms.ms_error, m.rows() as f64, m.cols() as f64).sqrt();
+    let se = mom_se(ms.ms_rows, ms.ms_cols, ms.ms_error, m.rows() as f64, m.cols() as f64);
     if se.is_nan() || se <= 0.0 {
         return Ok(IntervalEstimate::undefined(IntervalMethod::ParametricT));
     }
