@@ -23,6 +23,7 @@ mod logs;
 mod mixed_cli;
 mod model;
 mod multiverse;
+mod optimism_interval;
 mod position_only;
 mod resampling;
 mod run;

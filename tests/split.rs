@@ -286,7 +286,7 @@ fn treatment_audit_counts_windows_inside_evaluated_segments() {
     // Inside [20, 120] or [150, 250]: 20, 120, 200; outside: 130, 290.
     let ts = [20, 120, 130, 200, 290];
     s.contaminating = vec![("contaminated".into(), ts.iter().map(|&t| Window { recording: r, t }).collect())];
-    let a = split::treatment_audit(&s);
+    let a = split::treatment_audit(&s, true);
     let arm = &a.arms[0];
     assert_eq!((arm.contaminating_windows, arm.inside_evaluated_segment), (5, 3));
     // Distances to the nearest start: 0, 30, 20, 50, 140 -> median 30.

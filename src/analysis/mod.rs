@@ -6,6 +6,7 @@
 //! (`plan`, `cells`, `design` types, `stats`); it knows nothing of flight
 //! logs, splits, models or files, so any per-cell CSV can be reanalysed.
 
+pub mod coverage;
 mod decision;
 pub mod family;
 mod index;
@@ -407,6 +408,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         missing_cells,
         figures: Vec::new(),
         treatment: Vec::new(),
+        coverage: None,
         provenance: Provenance::default(),
     })
 }

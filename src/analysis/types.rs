@@ -3,7 +3,7 @@
 use serde::{Serialize, Serializer};
 
 use crate::design::{DecisionCondition, DecisionRule, Factor, LockStatus, Metric, Quantity, Role};
-use crate::stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate};
+use crate::stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate, RatioInterval};
 
 /// Options of [`crate::analysis::analyze`] that are not part of the design.
 #[derive(Debug, Clone, Copy, Default)]
@@ -57,6 +57,10 @@ pub struct Analysis {
     /// split (an analysis of a per-cell CSV alone has no split to measure).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub treatment: Vec<TreatmentStrength>,
+    /// Which evaluation conditions the reference arm's fit set covers, when
+    /// a run built the split.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage: Option<super::coverage::ConditionCoverage>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
 }
@@ -185,6 +189,12 @@ pub struct UnitResult {
     pub mean_reference: f64,
     /// 100 (mean_reference - mean_treated) / mean_reference.
     pub optimism_pct: f64,
+    /// The optimism's intervals (in %): Fieller's (the estimator's test of
+    /// `optimism = x` inverted) and the delta method's, from the same
+    /// crossed estimator as `estimate`; absent (with a warning) when the
+    /// reference arm's mean or its estimate cannot give one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub optimism_interval: Option<RatioInterval>,
     /// The crossed estimate of the mean difference treated - reference.
     pub estimate: CrossedEstimate,
     /// The pigeonhole bootstrap interval, when preregistered.
@@ -328,6 +338,31 @@ pub struct Decision {
     pub holds: bool,
     /// Each condition with the observed value.
     pub conditions: Vec<ConditionOutcome>,
+    /// The conditions whose threshold lies inside the interval of the
+    /// quantity they read: the verdict stands as preregistered, but the
+    /// data do not determine on which side of that threshold the quantity
+    /// lies.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub margins: Vec<Margin>,
+    /// When the rule holds without reading any interval bound (`lower`,
+    /// `upper`) while the interval of d contains 0: that interval.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unguarded: Option<[f64; 2]>,
+}
+
+/// A condition whose threshold the data do not place on one side.
+#[derive(Debug, Clone, Serialize)]
+pub struct Margin {
+    /// The condition as written.
+    #[serde(serialize_with = "as_text")]
+    pub condition: DecisionCondition,
+    /// The interval of the quantity it reads, in its unit; `None` for a
+    /// bound the data do not give (Fieller's set unbounded).
+    pub lower: Option<f64>,
+    /// Upper bound, as `lower`.
+    pub upper: Option<f64>,
+    /// Which interval: `fieller` (optimism) or `crossed` (the mean's).
+    pub interval: &'static str,
 }
 
 /// One condition of the rule and what was observed.

@@ -16,8 +16,8 @@ use crate::cells::Cell;
 use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
 use crate::stats::{
-    compare_intervals, crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, reml_intervals, Axis,
-    CrossedEstimate, CrossedMatrix, DfRule, StatsError,
+    compare_intervals, crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, ratio_interval,
+    reml_intervals, Axis, CrossedEstimate, CrossedMatrix, DfRule, RatioInterval, StatsError,
 };
 
 /// What every unit's estimation reads: the plan, the indexed cells and the
@@ -260,6 +260,7 @@ impl Ctx<'_> {
         let est = &self.plan.estimator;
         let estimate = self.estimate(&a.diff).map_err(stats)?;
         let optimism_pct = optimism(mean_r, mean_t);
+        let optimism_interval = self.optimism_interval(&a, optimism_pct, &label, warnings);
         let complete = a.diff.complete().transpose().map_err(stats)?;
         let bootstrap = match (self.plan.sensitivity.bootstrap, &complete) {
             (Some(b), Some(m)) => {
@@ -323,6 +324,7 @@ impl Ctx<'_> {
             mean_treated: mean_t,
             mean_reference: mean_r,
             optimism_pct,
+            optimism_interval,
             estimate,
             bootstrap,
             grouped,
@@ -333,6 +335,33 @@ impl Ctx<'_> {
             rule_holds,
             intervals,
         })
+    }
+
+    /// The optimism's Fieller and delta-method intervals (in %) from the
+    /// plan's estimator on the arrays L(rho) = treated - (1 - rho)
+    /// reference (`stats::ratio_interval`); `None`, with a warning, when
+    /// the estimator cannot give them.
+    fn optimism_interval(
+        &self,
+        a: &ArmArrays,
+        optimism_pct: f64,
+        label: &str,
+        warnings: &mut Vec<String>,
+    ) -> Option<RatioInterval> {
+        let (rows, cols) = (a.treated.rows, a.treated.cols);
+        let at = |rho: f64| {
+            let v = a.treated.v.iter().zip(&a.reference.v).map(|(t, r)| Some((*t)? - (1.0 - rho) * (*r)?)).collect();
+            self.estimate(&Grid { rows, cols, v })
+        };
+        let interval =
+            self.estimate(&a.reference).and_then(|reference| ratio_interval(optimism_pct / 100.0, &reference, at));
+        match interval {
+            Ok(iv) => Some(iv.scaled(100.0)),
+            Err(e) => {
+                warnings.push(format!("{label}: no interval for the optimism: {e}"));
+                None
+            }
+        }
     }
 
     /// Refuses a unit whose treated - reference differences do not vary: the

@@ -217,6 +217,7 @@ pub enum RecordingItem {
     Starts(Int),
     Horizon(Int),
     Conditions(Vec<Ident>),
+    Stratify { conditions: Vec<Ident>, keep: Option<Int> },
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -276,6 +276,23 @@ pub struct RecordingFactor {
     pub conditions: Vec<Condition>,
     /// A pinned evaluation set (`evaluation recordings "..."`); empty when drawn.
     pub listed: Vec<ListedName>,
+    /// A stratified evaluation draw (`stratify trajectory keep 1`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stratify: Option<Stratify>,
+}
+
+/// `stratify CONDITIONS keep N`: the evaluation draw keeps, for every
+/// condition it draws, at least `keep` recordings (deployment units) of that
+/// condition outside the evaluation and validation sets, for fitting.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stratify {
+    /// The condition labels that make a condition (trajectory, speed).
+    pub conditions: Vec<Condition>,
+    /// Recordings of each drawn condition kept for fitting.
+    pub keep: usize,
+    /// Byte offset of the clause in the design source.
+    #[serde(skip)]
+    pub offset: usize,
 }
 
 /// The shared early-stopping validation set.

@@ -250,6 +250,11 @@ fn recording_item(p: Pair<Rule>) -> Result<RecordingItem, Diagnostic> {
         Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
         Rule::rec_starts => RecordingItem::Starts(int(c.next())?),
         Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),
+        Rule::rec_stratify => {
+            let conditions = idents(c.next());
+            let keep = if c.peek_rule() == Some(Rule::int) { Some(int(c.next())?) } else { None };
+            RecordingItem::Stratify { conditions, keep }
+        }
         _ => RecordingItem::Conditions(idents(c.next())),
     })
 }

@@ -2,8 +2,10 @@
 //! pandas: one row per analysis unit (or interaction) and estimator. The
 //! preregistered estimator's row of each unit carries the arm means, the
 //! optimism (%) and whether the unit meets the decision rule; the
-//! bootstrap, the grouped sensitivity and any compared intervals follow as
-//! rows of their own. Numbers are written in full (shortest round-trip
+//! bootstrap, the optimism's intervals (kind `optimism`, unit `%`:
+//! Fieller's, `fieller`, and the delta method's, `delta_method`), the
+//! grouped sensitivity and any compared intervals follow as rows of their
+//! own. Numbers are written in full (shortest round-trip
 //! form), `Inf` and `NaN` as R and pandas read them; empty means not
 //! applicable.
 
@@ -34,7 +36,7 @@ struct Row<'a> {
     estimator: &'a str,
     means: Option<(f64, f64)>,
     estimate: f64,
-    se: f64,
+    se: Option<f64>,
     df: Option<f64>,
     lower: f64,
     upper: f64,
@@ -47,7 +49,7 @@ fn crossed<'a>(name: &'a str, e: &CrossedEstimate) -> Row<'a> {
         estimator: name,
         means: None,
         estimate: e.mean,
-        se: e.se,
+        se: Some(e.se),
         df: Some(e.df),
         lower: e.lower,
         upper: e.upper,
@@ -70,7 +72,7 @@ pub fn render_estimates(a: &Analysis) -> String {
             "{key},{},{level},{t},{rf},{},{},{},{},{},{},{holds}",
             r.estimator,
             num(r.estimate),
-            num(r.se),
+            opt(r.se),
             opt(r.df),
             num(r.lower),
             num(r.upper),
@@ -101,10 +103,40 @@ pub fn render_estimates(a: &Analysis) -> String {
                 estimator: "pigeonhole_bootstrap",
                 means: None,
                 estimate: u.estimate.mean,
-                se: b.se,
+                se: Some(b.se),
                 df: None,
                 lower: b.lower,
                 upper: b.upper,
+                optimism: None,
+                holds: None,
+            };
+            put(&key, row);
+        }
+        if let Some(iv) = &u.optimism_interval {
+            // The optimism's intervals, in %: Fieller's (no SE or df of
+            // its own; empty bounds when unbounded) and the delta method's.
+            let key = format!("optimism,{role},{},{contrast},{},%,{}", u.model, u.metric.name(), num(u.horizon_s));
+            let (lower, upper) = iv.fieller.bounds().unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+            let row = Row {
+                estimator: "fieller",
+                means: None,
+                estimate: iv.estimate,
+                se: None,
+                df: Some(iv.delta_df),
+                lower,
+                upper,
+                optimism: None,
+                holds: None,
+            };
+            put(&key, row);
+            let row = Row {
+                estimator: "delta_method",
+                means: None,
+                estimate: iv.estimate,
+                se: Some(iv.delta_se),
+                df: Some(iv.delta_df),
+                lower: iv.delta_lower,
+                upper: iv.delta_upper,
                 optimism: None,
                 holds: None,
             };
@@ -120,7 +152,7 @@ pub fn render_estimates(a: &Analysis) -> String {
                 estimator: &name,
                 means: None,
                 estimate: iv.estimate,
-                se: iv.se,
+                se: Some(iv.se),
                 df: Some(iv.df),
                 lower: iv.lower,
                 upper: iv.upper,
@@ -145,7 +177,7 @@ pub fn render_estimates(a: &Analysis) -> String {
                 estimator: "pigeonhole_bootstrap",
                 means: None,
                 estimate: ix.estimate.mean,
-                se: b.se,
+                se: Some(b.se),
                 df: None,
                 lower: b.lower,
                 upper: b.upper,

@@ -45,6 +45,9 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         super::format::verdict(&a.decision, a.exploratory, a.preregistered)
     );
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
+    for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
+        let _ = writeln!(s, "{note}\n");
+    }
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {
         let _ = writeln!(s, "Design sha256: {sha}.");

@@ -38,6 +38,49 @@ fn condition_value(d: &Decision, q: crate::design::Quantity, v: f64) -> String {
     }
 }
 
+/// The sentences a report writes beside its verdict about the rule's
+/// margin: each condition whose threshold lies inside the interval of the
+/// quantity it reads, and a rule that holds without reading any interval
+/// while the interval of d contains 0. `level` is the intervals' level
+/// (`95%`). Markdown, one paragraph each.
+pub fn decision_notes(d: &Decision, level: &str) -> Vec<String> {
+    use crate::design::Quantity;
+    let mut notes = Vec::new();
+    for m in &d.margins {
+        let q = m.condition.quantity;
+        let bound = |v: Option<f64>| v.map(|v| condition_value(d, q, v));
+        let threshold = condition_value(d, q, m.condition.value);
+        let interval = match (bound(m.lower), bound(m.upper)) {
+            (Some(lo), Some(hi)) if q == Quantity::Optimism => {
+                format!("the optimism's {level} interval [{lo}, {hi}] (Fieller's, from the crossed estimator)")
+            }
+            (Some(lo), Some(hi)) => format!("the {level} interval of d, [{lo}, {hi}]"),
+            _ => format!(
+                "the optimism's {level} Fieller set, which is unbounded (the reference arm's mean is not distinguishable from 0)"
+            ),
+        };
+        notes.push(format!(
+            "**The data do not determine the side of the threshold**: the threshold {threshold} of `{}` lies inside {interval}. The verdict stands as preregistered, but an equally valid rerun could fall on either side of it.",
+            m.condition
+        ));
+    }
+    if let Some([lo, hi]) = d.unguarded {
+        notes.push(format!(
+            "**The rule reads no interval**: {} although the {level} interval of d, [{}, {}], contains 0. The rule as written compares point estimates with thresholds, so it holds without the data distinguishing the arms.",
+            verdict_word(&d.name, d.holds),
+            condition_value(d, Quantity::Mean, lo),
+            condition_value(d, Quantity::Mean, hi)
+        ));
+    }
+    notes
+}
+
+/// Whether the rule reads an interval bound (`lower`, `upper`).
+pub(crate) fn reads_interval(d: &Decision) -> bool {
+    use crate::design::Quantity;
+    d.conditions.iter().any(|c| matches!(c.quantity, Quantity::Lower | Quantity::Upper))
+}
+
 /// One line: the decision and, when it fails, which part failed, each
 /// observed value with its unit.
 pub fn decision_summary(d: &Decision) -> String {

@@ -13,6 +13,16 @@ fn ci(e: &CrossedEstimate) -> String {
     format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4))
 }
 
+/// Fieller's interval of the optimism, in %: `unbounded` when the data
+/// bound it on neither side, `-` when the analysis has none.
+fn optimism_ci(u: &UnitResult) -> String {
+    match u.optimism_interval.map(|iv| iv.fieller.bounds()) {
+        Some(Some((lo, hi))) => format!("[{}, {}]", f(lo, 1), f(hi, 1)),
+        Some(None) => "unbounded".into(),
+        None => "-".into(),
+    }
+}
+
 fn boot(b: &Option<BootstrapInterval>) -> String {
     b.map(|b| format!("[{}, {}]", f(b.lower, 4), f(b.upper, 4))).unwrap_or_else(|| "-".into())
 }
@@ -52,6 +62,7 @@ pub fn render_markdown(a: &Analysis) -> String {
     let mut s = header(a);
     let level = level_pct(a.level);
     section(&mut s, "Endpoints", "", &endpoints(a, &level));
+    super::coverage::section(a, &mut s);
     if !a.treatment.is_empty() {
         section(&mut s, "Treatment strength", TREATMENT_NOTE, &treatment(&a.treatment));
     }
@@ -123,6 +134,9 @@ fn header(a: &Analysis) -> String {
         super::format::verdict(&a.decision, a.exploratory, a.preregistered)
     );
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
+    for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
+        let _ = writeln!(s, "{note}\n");
+    }
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
         let _ = writeln!(s, "**Warning**: {w}.\n");
     }
@@ -131,13 +145,26 @@ fn header(a: &Analysis) -> String {
     for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
         let _ = writeln!(s, "**The reference arm is not disjoint**: {w}.\n");
     }
+    if let Some(c) = super::coverage::beside_verdict(a) {
+        let _ = writeln!(s, "{c}\n");
+    }
     let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
+    let level = level_pct(a.level);
+    if super::format::reads_interval(&a.decision) {
+        let _ = writeln!(
+            s,
+            "The decision uses the {level} crossed-estimator interval (the `{level} CI` column); bootstrap intervals are shown for comparison and decide nothing. Secondary endpoints are descriptive: no rule applies to them."
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "The rule reads no interval bound: it compares point estimates with its thresholds. The {level} crossed-estimator interval (the `{level} CI` column) and the bootstrap intervals are shown beside it and decide nothing. Secondary endpoints are descriptive: no rule applies to them."
+        );
+    }
     let _ = writeln!(
         s,
-        "The decision uses the {} crossed-estimator interval (the `{} CI` column); bootstrap intervals are shown for comparison and decide nothing. Secondary endpoints are descriptive: no rule applies to them.",
-        level_pct(a.level),
-        level_pct(a.level)
-    );
+        "The optimism's {level} interval (the `optimism {level} CI` column) is Fieller's: every optimism x for which the crossed estimator's interval of {t} - (1 - x/100) {r} contains 0, from the same estimator and df as d's."
+    , t = a.treated, r = a.reference);
     let estimator = match a.units.first().and_then(|u| u.estimate.reml) {
         None => "crossed method-of-moments estimator".to_string(),
         Some(r) => format!(
@@ -219,6 +246,7 @@ fn header(a: &Analysis) -> String {
 fn endpoints(a: &Analysis, level: &str) -> Table {
     let (t, r) = (format!("{} mean", a.treated), format!("{} mean", a.reference));
     let (ci_h, boot_h) = (format!("{level} CI"), format!("bootstrap {level} CI"));
+    let opt_h = format!("optimism {level} CI");
     let cols = [
         "role",
         "model",
@@ -228,6 +256,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
         &t,
         &r,
         "optimism %",
+        &opt_h,
         "d mean",
         "SE",
         "df",
@@ -235,7 +264,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
         &boot_h,
         "rule",
     ];
-    let mut table = Table::new(&cols, "lllllrrrrrrlll");
+    let mut table = Table::new(&cols, "lllllrrrlrrrlll");
     for u in &a.units {
         let e = &u.estimate;
         table.row([
@@ -244,6 +273,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
             f(u.mean_treated, 4),
             f(u.mean_reference, 4),
             f(u.optimism_pct, 1),
+            optimism_ci(u),
             f(e.mean, 4),
             f(e.se, 4),
             df(e.df),

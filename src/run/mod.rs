@@ -11,6 +11,7 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
+mod coverage;
 mod curves;
 mod error;
 pub mod external;
@@ -449,10 +450,12 @@ fn finish(
     analysis.warnings.extend(resumed_builds(builds));
     analysis.warnings.extend(opened.warnings.iter().cloned());
     analysis.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
+    let cells = read_cells(&cells_csv)?;
+    analysis.coverage = coverage::statement(plan, &cells, std::slice::from_ref(&prepared.treatment.coverage));
     let report_dir = out.join("report");
     create_dir_all(&report_dir)?;
     let curves = curves::read_curves(plan, out)?;
-    if let Some(w) = curves::early_best_epochs(plan, &curves, &read_cells(&cells_csv)?) {
+    if let Some(w) = curves::early_best_epochs(plan, &curves, &cells) {
         analysis.warnings.push(w);
     }
     let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)

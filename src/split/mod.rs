@@ -30,12 +30,14 @@
 
 mod arms;
 mod coupled;
+mod error;
 mod invariants;
 mod manifest;
 mod numpy_legacy;
 mod pinned;
 mod prepare;
 mod starts;
+mod stratify;
 mod treatment;
 
 use std::collections::BTreeSet;
@@ -54,13 +56,14 @@ use coupled::Purpose;
 
 use arms::{contaminate, draw_fit_arms, Draw};
 pub use coupled::key as coupled_key;
+pub use error::SplitError;
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
 use pinned::{pinned, published_fit, resolve};
 pub use prepare::{prepare, rebuild, write_prepared, Prepared};
 use starts::draw_starts;
-pub use treatment::{treatment_audit, Composition, TreatmentAudit};
+pub use treatment::{treatment_audit, Composition, ConditionCoverage, RecordingCoverage, TreatmentAudit};
 
 /// A one-step window or a rollout start: (recording index, row index).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
@@ -129,140 +132,6 @@ pub struct RecordingInfo {
     pub duplicate_group: Option<String>,
     /// XXH3-128 of its data rows, hex.
     pub content_hash: String,
-}
-
-/// Why the data cannot support the design.
-#[derive(Debug, thiserror::Error)]
-pub enum SplitError {
-    /// A multi-split design given where one split is prepared.
-    #[error("the design declares {splits} splits (`factor split`), and this command prepares one split (`split` and `train` do): run the study with `crossaudit run DESIGN --out DIR` (with `--slurm` for a cluster), which runs each split in its own directory DIR/split-S")]
-    SeveralSplits {
-        /// How many.
-        splits: usize,
-    },
-    /// Not enough deployment units for evaluation, validation and fitting.
-    #[error("the design needs {needed} recordings ({evaluation} evaluation + {validation} validation + at least 1 for fitting), but only {available} usable deployment units remain")]
-    TooFewRecordings {
-        /// How many the design needs.
-        needed: usize,
-        /// Evaluation recordings declared.
-        evaluation: usize,
-        /// Validation recordings declared.
-        validation: usize,
-        /// How many are available.
-        available: usize,
-    },
-    /// An evaluation recording has too few valid rollout starts.
-    #[error("evaluation recording {recording} has {valid} valid rollout starts (>= {horizon} active samples after the start), the design needs {needed}")]
-    TooFewStarts {
-        /// Recording name.
-        recording: String,
-        /// Valid rollout starts it has.
-        valid: usize,
-        /// How many the design needs.
-        needed: usize,
-        /// Rollout horizon, samples.
-        horizon: usize,
-    },
-    /// A window set cannot be drawn at the declared size.
-    #[error("{what}: the design needs {needed} windows, only {available} are available")]
-    TooFewWindows {
-        /// Which set.
-        what: String,
-        /// How many the design needs.
-        needed: usize,
-        /// How many are available.
-        available: usize,
-    },
-    /// A derived arm's percentage replaces no window.
-    #[error("arm {arm}: {percent}% of {windows} windows replaces {replaced} windows; nothing would be replaced")]
-    NothingToReplace {
-        /// Arm name.
-        arm: String,
-        /// Percentage of windows replaced.
-        percent: f64,
-        /// Number of windows.
-        windows: usize,
-        /// Windows that would be replaced.
-        replaced: usize,
-    },
-    /// The data directory could not be audited.
-    #[error(transparent)]
-    Audit(#[from] crate::data::AuditError),
-    /// A manifest or audit file could not be written.
-    #[error(transparent)]
-    Write(#[from] crate::io::WriteError),
-    /// A pinned recording is not in the universe.
-    #[error("{what} recording \"{name}\" (design byte {offset}) is not among the {available} recordings the split draws from{hint}")]
-    NotInUniverse {
-        /// `evaluation` or `validation`.
-        what: &'static str,
-        /// The name as written.
-        name: String,
-        /// Byte offset in the design source.
-        offset: usize,
-        /// Size of the universe.
-        available: usize,
-        /// Why it may be absent.
-        hint: String,
-    },
-    /// A recording pinned for evaluation is also pinned for validation
-    /// (itself, or an identical copy under `duplicates group`).
-    #[error("validation recording \"{name}\" is an evaluation recording or an identical copy of one")]
-    ListedTwice {
-        /// The name.
-        name: String,
-    },
-    /// Two pinned names are one deployment unit (identical recordings).
-    #[error(
-        "\"{first}\" and \"{second}\" are identical recordings, one deployment unit under `duplicates group`: list one"
-    )]
-    SameUnit {
-        /// The first name.
-        first: String,
-        /// The second.
-        second: String,
-    },
-    /// Drawn or pinned recordings without usable data, and the design does
-    /// not allow them.
-    #[error("the split drew or pinned {what} recordings without usable data (no CSV, or excluded by the data rules; see audit/recordings.csv): {names}; declare `missing csv allow` in the data block to proceed without them (each is then listed in manifests/absent_recordings.csv and the report)")]
-    Absent {
-        /// `evaluation` or `validation`.
-        what: &'static str,
-        /// The names, comma-separated.
-        names: String,
-    },
-    /// A published split's fit roles hold copies of evaluation or
-    /// validation recordings, and the design says `leaked refuse`.
-    #[error("the published split {file} puts {count} byte-identical cop(ies) of evaluation or validation recordings in its fit roles:\n{list}\n(`crossaudit audit split` reports every such copy; declare `leaked drop` in the `split published` statement to fit without them)")]
-    PublishedLeak {
-        /// The split file as written in the design.
-        file: String,
-        /// How many fit recordings are copies.
-        count: usize,
-        /// One line per copy.
-        list: String,
-    },
-    /// Located version of an error about a name written in the design.
-    #[error("{path}:{line}:{column}: {message}")]
-    Located {
-        /// The design file.
-        path: String,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column.
-        column: usize,
-        /// What is wrong.
-        message: String,
-    },
-    /// An invariant failed; nothing may train.
-    #[error("invariant check failed, nothing will train (see {path}):\n{list}")]
-    Invariants {
-        /// `audit/invariants.json`, which holds the details.
-        path: String,
-        /// The failed invariants, one per line.
-        list: String,
-    },
 }
 
 /// A window at row t needs rows t and t + 1 both active.
@@ -358,19 +227,43 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     }
     // E: pinned, or the first I of a shuffle of the universe (split seed).
     let mut split_rs = RandomState::new(np_seed(rf.split_seed));
+    // `stratify`: each drawable slot's condition, for the walks below.
+    let strata = rf.stratify.as_ref().map(|s| {
+        let label = |r: usize| {
+            let parts: Vec<&str> = s
+                .conditions
+                .iter()
+                .map(|c| match c {
+                    Condition::Trajectory => info[r].trajectory.as_str(),
+                    Condition::Speed => info[r].speed.as_str(),
+                })
+                .collect();
+            parts.join(" / ")
+        };
+        let of = |c: usize| match slots[c].1 {
+            Slot::Unit(u) => Some(label(units[u].members[0])),
+            Slot::Absent(_) => None,
+        };
+        stratify::Strata::new(s, (0..drawable).map(of).collect())
+    });
     let e_slots: Vec<usize> = if !rf.listed.is_empty() {
         pinned(&rf.listed, &slots, &members, "evaluation", design.data.universe.metadata)?
-    } else if numpy {
-        split_rs.choice(drawable, rf.evaluation)
-    } else if coupled {
-        let mut order = coupled::order(drawable, rf.split_seed, Purpose::Evaluation, &|c| slots[c].0.clone(), &|_| 0);
-        order.truncate(rf.evaluation);
-        order
     } else {
-        let mut order: Vec<usize> = (0..drawable).collect();
-        order.shuffle(&mut rng(rf.split_seed, 0));
-        order.truncate(rf.evaluation);
-        order
+        // The generator's shuffle of the universe (numpy: `choice(n, I)`
+        // is the first I of `permutation(n)`, the same draws).
+        let order = if numpy {
+            split_rs.permutation(drawable)
+        } else if coupled {
+            coupled::order(drawable, rf.split_seed, Purpose::Evaluation, &|c| slots[c].0.clone(), &|_| 0)
+        } else {
+            let mut order: Vec<usize> = (0..drawable).collect();
+            order.shuffle(&mut rng(rf.split_seed, 0));
+            order
+        };
+        match &strata {
+            Some(s) => s.evaluation(&order, rf.evaluation)?,
+            None => order.into_iter().take(rf.evaluation).collect(),
+        }
     };
     let (e_units, evaluation_absent) = resolve(&e_slots, &slots, "evaluation", allowed)?;
     let evaluation = sorted(e_units.iter().map(|&u| units[u].members[0]));
@@ -415,17 +308,27 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             return Err(SplitError::ListedTwice { name: val.listed[k].name.clone() });
         }
         v
-    } else if coupled {
-        let order =
-            coupled::order(rest.len(), val.seed, Purpose::ValidationRecordings, &|i| slots[rest[i]].0.clone(), &|_| 0);
-        order.into_iter().take(val.recordings).map(|i| rest[i]).collect()
-    } else if numpy {
-        val_rs.choice(rest.len(), val.recordings).into_iter().map(|k| rest[k]).collect()
     } else {
-        let mut r = rest.clone();
-        r.shuffle(&mut rng(val.seed, 0));
-        r.truncate(val.recordings);
-        r
+        let order: Vec<usize> = if coupled {
+            let order = coupled::order(
+                rest.len(),
+                val.seed,
+                Purpose::ValidationRecordings,
+                &|i| slots[rest[i]].0.clone(),
+                &|_| 0,
+            );
+            order.into_iter().map(|i| rest[i]).collect()
+        } else if numpy {
+            val_rs.permutation(rest.len()).into_iter().map(|k| rest[k]).collect()
+        } else {
+            let mut r = rest.clone();
+            r.shuffle(&mut rng(val.seed, 0));
+            r
+        };
+        match &strata {
+            Some(s) => s.validation(&order, val.recordings, &e_slots)?,
+            None => order.into_iter().take(val.recordings).collect(),
+        }
     };
     let (v_units, validation_absent) = resolve(&v_slots, &slots, "validation", allowed)?;
     let validation_recordings = sorted(v_units.iter().map(|&u| units[u].members[0]));

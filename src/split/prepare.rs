@@ -30,7 +30,10 @@ pub struct Prepared {
 
 /// Points an error about a name written in the design at its line and column.
 fn locate(file: &DesignFile, e: SplitError) -> SplitError {
-    let SplitError::NotInUniverse { offset, .. } = &e else { return e };
+    let offset = match &e {
+        SplitError::NotInUniverse { offset, .. } | SplitError::Stratify { offset, .. } => offset,
+        _ => return e,
+    };
     let before = &file.source[..(*offset).min(file.source.len())];
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
@@ -97,7 +100,7 @@ fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: b
     }
     let jobs = JobManifests::for_plan(plan, &manifests);
     let invariants = check_invariants(design, &split, &jobs);
-    let treatment = treatment_audit(&split);
+    let treatment = treatment_audit(&split, plan.conditions.contains(&crate::design::Condition::Speed));
     let audit_dir = out.join("audit");
     let inv_path = audit_dir.join("invariants.json");
     if write {

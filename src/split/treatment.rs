@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::Split;
 
@@ -38,6 +38,82 @@ pub struct TreatmentAudit {
     pub arms: Vec<ArmTreatment>,
     /// The evaluation set's trajectory x speed composition.
     pub composition: Composition,
+    /// Which evaluation conditions each arm's fit set covers.
+    pub coverage: ConditionCoverage,
+}
+
+/// Condition coverage: for each evaluation recording and each arm, how
+/// many other recordings of its condition the arm's fit windows come from.
+/// A recording the reference arm holds none of is a condition the
+/// reference arm never saw: a contrast on it mixes condition novelty with
+/// recording leakage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ConditionCoverage {
+    /// What a condition is: `trajectory`, or `trajectory x speed` when the
+    /// recording factor declares `conditions trajectory, speed`.
+    pub condition: String,
+    /// One row per evaluation recording, in evaluation order.
+    pub recordings: Vec<RecordingCoverage>,
+}
+
+/// One evaluation recording's coverage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RecordingCoverage {
+    /// The recording.
+    pub recording: String,
+    /// Its condition (`circle` or `circle / fast`).
+    pub condition: String,
+    /// Per arm: the other recordings of its condition that the arm's fit
+    /// windows come from.
+    pub fit_recordings: BTreeMap<String, usize>,
+}
+
+impl ConditionCoverage {
+    /// The evaluation recordings of whose condition `arm` fits on no other
+    /// recording.
+    pub fn uncovered(&self, arm: &str) -> Vec<&RecordingCoverage> {
+        self.recordings.iter().filter(|r| r.fit_recordings.get(arm) == Some(&0)).collect()
+    }
+}
+
+/// The condition coverage of every arm of `split`, conditions by
+/// `by_speed` (trajectory x speed) or trajectory alone.
+fn condition_coverage(split: &Split, by_speed: bool) -> ConditionCoverage {
+    let condition = |r: usize| {
+        let i = &split.recordings[r];
+        if by_speed {
+            format!("{} / {}", i.trajectory, i.speed)
+        } else {
+            i.trajectory.clone()
+        }
+    };
+    // Per arm: the recordings its fit windows come from, by condition.
+    let pools: Vec<(String, BTreeMap<String, std::collections::BTreeSet<usize>>)> = split
+        .fits
+        .iter()
+        .map(|(arm, windows)| {
+            let mut by: BTreeMap<String, std::collections::BTreeSet<usize>> = BTreeMap::new();
+            for w in windows {
+                by.entry(condition(w.recording)).or_default().insert(w.recording);
+            }
+            (arm.clone(), by)
+        })
+        .collect();
+    let recordings = split
+        .evaluation
+        .iter()
+        .map(|&r| {
+            let c = condition(r);
+            let fit_recordings = pools
+                .iter()
+                .map(|(arm, by)| {
+                    (arm.clone(), by.get(&c).map(|set| set.iter().filter(|&&x| x != r).count()).unwrap_or(0))
+                })
+                .collect();
+            RecordingCoverage { recording: split.recordings[r].name.clone(), condition: c, fit_recordings }
+        })
+        .collect();
+    ConditionCoverage { condition: if by_speed { "trajectory x speed" } else { "trajectory" }.to_string(), recordings }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -53,8 +129,10 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Summarises the treatment of every arm of `split`.
-pub fn treatment_audit(split: &Split) -> TreatmentAudit {
+/// Summarises the treatment of every arm of `split`; condition coverage by
+/// trajectory x speed when `by_speed` (the design's `conditions` name the
+/// speed), by trajectory otherwise.
+pub fn treatment_audit(split: &Split, by_speed: bool) -> TreatmentAudit {
     let mut starts_by_rec: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for s in &split.starts {
         starts_by_rec.entry(s.recording).or_default().push(s.t);
@@ -91,7 +169,12 @@ pub fn treatment_audit(split: &Split) -> TreatmentAudit {
         let i = &split.recordings[r];
         *counts.entry(i.trajectory.clone()).or_default().entry(i.speed.clone()).or_default() += 1;
     }
-    TreatmentAudit { horizon_samples: h, arms, composition: Composition { counts, total: split.evaluation.len() } }
+    TreatmentAudit {
+        horizon_samples: h,
+        arms,
+        composition: Composition { counts, total: split.evaluation.len() },
+        coverage: condition_coverage(split, by_speed),
+    }
 }
 
 impl TreatmentAudit {
@@ -123,6 +206,20 @@ impl TreatmentAudit {
                 c[3],
                 c.iter().sum::<usize>()
             );
+        }
+        for arm in self.coverage.recordings.first().map(|r| r.fit_recordings.keys()).into_iter().flatten() {
+            let uncovered = self.coverage.uncovered(arm);
+            if !uncovered.is_empty() {
+                let names: Vec<String> =
+                    uncovered.iter().map(|r| format!("{} ({})", r.recording, r.condition)).collect();
+                let _ = writeln!(
+                    s,
+                    "condition coverage, arm {arm}: fits on no other recording of the {} of {} evaluation recording(s): {}",
+                    self.coverage.condition,
+                    uncovered.len(),
+                    names.join(", ")
+                );
+            }
         }
         for a in &self.arms {
             let _ = writeln!(

@@ -11,6 +11,7 @@ mod loo;
 mod matrix;
 mod mean_profile;
 pub mod mixed;
+mod ratio;
 pub mod resampling;
 mod rng;
 
@@ -24,6 +25,7 @@ pub use intervals::{
 pub use loo::{leave_one_out_mom, Axis};
 pub use matrix::CrossedMatrix;
 pub use mean_profile::profile_interval;
+pub use ratio::{ratio_interval, FiellerSet, RatioInterval};
 pub use rng::standard_normal;
 
 /// Errors from the statistics on user data.

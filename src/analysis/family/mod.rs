@@ -503,14 +503,19 @@ fn decide(rule: &DecisionRule, unit: (&str, &str), splits: &[SplitResult], poole
             ConditionOutcome { condition: *c, quantity: c.quantity, value, holds: c.holds(value) }
         })
         .collect();
+    let holds = conditions.iter().all(|c| c.holds);
     Decision {
         name: rule.name.clone(),
         rule: rule.clone(),
         unit: observed.0,
         value_unit: if slope { format!("{metric_unit}/pp") } else { metric_unit.to_string() },
         optimism_unit: if slope { "%/pp" } else { "%" }.to_string(),
-        holds: conditions.iter().all(|c| c.holds),
+        holds,
         conditions,
+        // A family's optimism bounds hold the reference mean fixed; its
+        // margins are read on the interval of the mean (or slope) only.
+        margins: super::decision::margins(rule, None, (observed.3, observed.4)),
+        unguarded: super::decision::unguarded(rule, holds, (observed.3, observed.4)),
     }
 }
 

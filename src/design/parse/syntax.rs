@@ -52,7 +52,8 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::rec_split_seed
         | Rule::rec_starts
         | Rule::rec_horizon
-        | Rule::rec_conditions => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions)",
+        | Rule::rec_conditions
+        | Rule::rec_stratify => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions, stratify)",
         Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
         Rule::batch
         | Rule::epochs

@@ -21,6 +21,7 @@ impl Validator {
         let (mut evaluation, mut split_seed, mut starts, mut horizon) = (None, None, None, None);
         let mut conditions = Vec::new();
         let mut listed = Vec::new();
+        let mut stratify: Option<(Stratify, Span)> = None;
         for item in items {
             if published && matches!(item.node, RecordingItem::Evaluation(_) | RecordingItem::EvaluationList(_)) {
                 self.err_help(
@@ -62,19 +63,15 @@ impl Validator {
                 }
                 RecordingItem::Conditions(names) => {
                     self.once(&mut seen, "conditions", item.span);
-                    self.no_duplicate_names(names, "condition");
-                    for n in names {
-                        match n.node.as_str() {
-                            "trajectory" => conditions.push(Condition::Trajectory),
-                            "speed" => conditions.push(Condition::Speed),
-                            other => self.err_help(
-                                "unknown condition",
-                                n.span,
-                                format!("`{other}` is not a condition label"),
-                                "recordings carry the conditions: trajectory, speed",
-                            ),
-                        }
-                    }
+                    conditions = self.condition_labels(names);
+                }
+                RecordingItem::Stratify { conditions: names, keep } => {
+                    self.once(&mut seen, "stratify", item.span);
+                    let by = self.condition_labels(names);
+                    let keep =
+                        keep.as_ref().map(|k| self.count(k, "the recordings kept for fitting", 1, limits::RECORDINGS));
+                    let s = Stratify { conditions: by, keep: keep.unwrap_or(1), offset: item.span.start };
+                    stratify = Some((s, item.span));
                 }
             }
         }
@@ -103,6 +100,16 @@ impl Validator {
             return None;
         }
         conditions.dedup();
+        if let Some((_, at)) = &stratify {
+            if !listed.is_empty() {
+                self.err_help(
+                    "stratify with a fixed evaluation set",
+                    *at,
+                    "`stratify` shapes a drawn evaluation set, and this one is pinned",
+                    "remove `stratify`, or draw the evaluation recordings (`evaluation N`)",
+                );
+            }
+        }
         if let (Some(e), Some(s), Some(h)) = (evaluation, starts, horizon) {
             // Every job holds its rollouts' traces in memory.
             let steps = (e as u64).saturating_mul(s as u64).saturating_mul(h as u64);
@@ -122,7 +129,27 @@ impl Validator {
             horizon: horizon?,
             conditions,
             listed,
+            stratify: stratify.map(|(s, _)| s),
         })
+    }
+
+    /// Condition labels (`trajectory`, `speed`), each once.
+    fn condition_labels(&mut self, names: &[Ident]) -> Vec<Condition> {
+        self.no_duplicate_names(names, "condition");
+        let mut out = Vec::new();
+        for n in names {
+            match n.node.as_str() {
+                "trajectory" => out.push(Condition::Trajectory),
+                "speed" => out.push(Condition::Speed),
+                other => self.err_help(
+                    "unknown condition",
+                    n.span,
+                    format!("`{other}` is not a condition label"),
+                    "recordings carry the conditions: trajectory, speed",
+                ),
+            }
+        }
+        out
     }
 
     /// The seed factor: at least two seeds.

@@ -145,6 +145,7 @@ fn finish_seeds(
     ));
     let draws: Vec<(u64, PathBuf)> = levels.iter().zip(dirs).map(|(l, d)| (l.draw.unwrap_or(1), d.clone())).collect();
     analysis.warnings.extend(super::notes::invariant_warnings(&draws));
+    analysis.coverage = crate::run::coverage::statement_of_levels(study, &all, dirs);
     analysis.warnings.extend(crate::run::resumed_builds(builds));
     if let Some(w) = crate::run::curves::early_best_epochs(study, &curves, &all) {
         analysis.warnings.push(w);

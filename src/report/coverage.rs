@@ -1,0 +1,137 @@
+//! Condition coverage in report.md: the sentence beside the verdict and the
+//! section with the covered-only row.
+
+use std::fmt::Write as _;
+
+use super::format::{f, level_pct};
+use super::{md_text, Table};
+use crate::analysis::coverage::ConditionCoverage;
+use crate::analysis::Analysis;
+
+/// The sentence beside the verdict: what the contrast measured, given the
+/// reference arm's coverage of the evaluated conditions.
+pub(super) fn beside_verdict(a: &Analysis) -> Option<String> {
+    let c = a.coverage.as_ref()?;
+    let n = a.recordings.len();
+    if !c.mixes_novelty() {
+        return Some(format!(
+            "Condition coverage: the reference arm (`{}`) fits on other recordings of the {} of every evaluation recording{}, so the contrast is not a contrast with unseen conditions.",
+            c.arm,
+            c.condition,
+            in_draws(c.draws)
+        ));
+    }
+    let names: Vec<String> = c
+        .uncovered
+        .iter()
+        .map(|u| {
+            let draws = if c.draws > 1 { format!(", {} of {} draws", u.draws, c.draws) } else { String::new() };
+            format!("{} ({}{draws})", md_text(&u.recording), md_text(&u.condition))
+        })
+        .collect();
+    let mut s = format!(
+        "**The contrast mixes condition novelty with recording leakage**: the reference arm (`{}`) fits on no other recording of the {} of {} of {n} evaluation recordings{}: {}. They carry {}% of the summed d; on them the contaminated arm saw the condition and the reference arm never did.",
+        c.arm,
+        c.condition,
+        c.uncovered.len(),
+        if c.draws > 1 { format!(" in at least one of the {} draws (each seed's own)", c.draws) } else { String::new() },
+        names.join(", "),
+        f(100.0 * c.share_of_d, 1),
+    );
+    match (&c.covered_only, &c.covered_only_error) {
+        (Some(k), _) => {
+            let e = &k.estimate;
+            let unit = super::format::unit_label(&a.decision.value_unit);
+            let _ = write!(
+                s,
+                " Over the {} covered recordings alone: d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (table: Condition coverage).",
+                k.recordings,
+                f(e.mean, 4),
+                f(e.lower, 4),
+                f(e.upper, 4),
+                f(k.optimism_pct, 1),
+                k.optimism_interval
+                    .and_then(|iv| iv.fieller.bounds())
+                    .map(|(lo, hi)| format!(" [{}%, {}%]", f(lo, 1), f(hi, 1)))
+                    .unwrap_or_default(),
+                if k.rule_holds { "hold" } else { "fail" }
+            );
+        }
+        (None, Some(err)) => {
+            let _ =
+                write!(s, " The contrast over the covered recordings alone could not be estimated: {}.", md_text(err));
+        }
+        (None, None) => {}
+    }
+    Some(s)
+}
+
+fn in_draws(draws: usize) -> String {
+    if draws > 1 {
+        format!(" (in every one of the {draws} draws, each seed's own)")
+    } else {
+        String::new()
+    }
+}
+
+/// The Condition coverage section: the primary contrast over every
+/// recording and over the covered ones, and the uncovered recordings.
+pub(super) fn section(a: &Analysis, s: &mut String) {
+    let Some(c) = a.coverage.as_ref().filter(|c| c.mixes_novelty()) else { return };
+    let Some(u) = a.units.first() else { return };
+    let level = level_pct(a.level);
+    let _ = writeln!(s, "## Condition coverage\n");
+    let _ = writeln!(
+        s,
+        "The primary endpoint over every evaluation recording and over the recordings whose {} the reference arm (`{}`) also fits on other recordings of (the preregistered estimator; a sensitivity row, not the decision).\n",
+        c.condition, c.arm
+    );
+    let (ci, oci) = (format!("{level} CI"), format!("optimism {level} CI"));
+    let mut t = Table::new(&["recordings", "n", "d mean", &ci, "optimism %", &oci, "rule"], "lrrlrll");
+    let opt = |iv: Option<crate::stats::RatioInterval>| {
+        iv.and_then(|iv| iv.fieller.bounds())
+            .map(|(lo, hi)| format!("[{}, {}]", f(lo, 1), f(hi, 1)))
+            .unwrap_or("-".into())
+    };
+    let e = &u.estimate;
+    t.row([
+        "all".to_string(),
+        a.recordings.len().to_string(),
+        f(e.mean, 4),
+        format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
+        f(u.optimism_pct, 1),
+        opt(u.optimism_interval),
+        if u.rule_holds { "holds" } else { "fails" }.to_string(),
+    ]);
+    if let Some(k) = &c.covered_only {
+        let e = &k.estimate;
+        t.row([
+            "covered only".to_string(),
+            k.recordings.to_string(),
+            f(e.mean, 4),
+            format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
+            f(k.optimism_pct, 1),
+            opt(k.optimism_interval),
+            if k.rule_holds { "holds" } else { "fails" }.to_string(),
+        ]);
+    }
+    let _ = writeln!(s, "{}", t.render());
+    let mut list = Table::new(&["uncovered recording", "condition", "draws uncovered"], "llr");
+    for r in &c.uncovered {
+        list.row([md_text(&r.recording), md_text(&r.condition), format!("{} of {}", r.draws, c.draws)]);
+    }
+    let _ = writeln!(s, "{}", list.render());
+}
+
+/// The statement as one line for a console or a combined report.
+pub fn summary(c: &ConditionCoverage) -> Option<String> {
+    c.mixes_novelty().then(|| {
+        format!(
+            "the reference arm `{}` fits on no other recording of the {} of {} evaluation recording(s) ({}% of the summed d)",
+            c.arm,
+            c.condition,
+            c.uncovered.len(),
+            f(100.0 * c.share_of_d, 1)
+        )
+    })
+}

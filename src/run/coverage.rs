@@ -1,0 +1,43 @@
+//! The reference arm's condition coverage, from the split of each draw
+//! (`split::ConditionCoverage`, in each level's `audit/treatment.json`),
+//! turned into the analysis's statement (`analysis::coverage`).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use crate::analysis::coverage::{condition_coverage, ConditionCoverage, Uncovered};
+use crate::cells::Cell;
+use crate::plan::Plan;
+use crate::split::ConditionCoverage as SplitCoverage;
+
+/// The statement over the draws `draws` (one split's coverage each):
+/// every evaluation recording the reference arm leaves uncovered in any
+/// draw, with the number of draws it was uncovered in. `None` without a
+/// draw to read.
+pub(crate) fn statement(plan: &Plan, cells: &[Cell], draws: &[SplitCoverage]) -> Option<ConditionCoverage> {
+    let first = draws.first()?;
+    let mut count: BTreeMap<(String, String), usize> = BTreeMap::new();
+    for d in draws {
+        for r in d.uncovered(&plan.contrast.reference) {
+            *count.entry((r.recording.clone(), r.condition.clone())).or_default() += 1;
+        }
+    }
+    let uncovered =
+        count.into_iter().map(|((recording, condition), draws)| Uncovered { recording, condition, draws }).collect();
+    Some(condition_coverage(plan, cells, &first.condition, draws.len(), uncovered))
+}
+
+/// The coverage a level folder's `audit/treatment.json` records; `None`
+/// for a folder written before coverage was measured (or without one).
+pub(crate) fn read_level(dir: &Path) -> Option<SplitCoverage> {
+    let text = std::fs::read_to_string(dir.join("audit/treatment.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    serde_json::from_value(v.get("coverage")?.clone()).ok()
+}
+
+/// The statement over the level folders `dirs`, when every one of them
+/// records its coverage.
+pub(crate) fn statement_of_levels(plan: &Plan, cells: &[Cell], dirs: &[PathBuf]) -> Option<ConditionCoverage> {
+    let draws: Option<Vec<SplitCoverage>> = dirs.iter().map(|d| read_level(d)).collect();
+    statement(plan, cells, &draws?)
+}
