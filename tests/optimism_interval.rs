@@ -147,3 +147,34 @@ fn a_rule_without_an_interval_is_described_as_written() {
     assert!(head.contains("The rule reads no interval bound: it compares point estimates"), "{head}");
     assert!(!head.contains("The decision uses the 95%"), "{head}");
 }
+
+/// The closed-form linear model gives the same cell for every seed (the
+/// split does not change with the seed): its contrast is analysed over the
+/// recordings alone. The interval is the one-sample t interval of the
+/// recording means of d, computed here by hand from cells.csv, with
+/// t(0.975, 23) = 2.0687 (any t table); the report says why.
+#[test]
+fn a_model_that_does_not_vary_with_the_seed_is_analysed_over_recordings() {
+    let cells_path = Path::new("results/nanobench_paper_linear/cells.csv");
+    let a = crossaudit::analyze_files(Path::new("designs/nanobench_paper_linear.design"), cells_path, Default::default())
+        .unwrap();
+    let u = &a.units[0];
+    assert!(u.seed_invariant);
+    let e = u.estimate;
+    assert_eq!((e.rows, e.df), (24, 23.0));
+    let cells = crossaudit::cells::read_cells(cells_path).unwrap();
+    let seed = cells[0].seed;
+    let mut d: BTreeMap<String, f64> = BTreeMap::new();
+    for c in cells.iter().filter(|c| c.model.as_str() == "world" && c.horizon_s == 1.0 && c.seed == seed) {
+        let sign = if c.arm.as_str() == "contaminated" { 1.0 } else { -1.0 };
+        *d.entry(c.recording.to_string()).or_default() += sign * c.fa_position_rmse_m;
+    }
+    let n = d.len() as f64;
+    let mean = d.values().sum::<f64>() / n;
+    let sd = (d.values().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let se = sd / n.sqrt();
+    assert!((e.mean - mean).abs() < 1e-12 && (e.se - se).abs() < 1e-12, "{e:?} vs {mean} {se}");
+    assert!((e.upper - (mean + 2.0687 * se)).abs() < 1e-4 * se.max(1e-3), "{}", e.upper);
+    let md = crossaudit::report::render_markdown(&a);
+    assert!(md.contains("Analysed over recordings alone: world fa_position_rmse at 1 s"), "{md}");
+}

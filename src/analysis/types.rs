@@ -195,6 +195,12 @@ pub struct UnitResult {
     /// reference arm's mean or its estimate cannot give one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub optimism_interval: Option<RatioInterval>,
+    /// Every recording's value is the same for every seed in both arms (a
+    /// model that does not vary with the seed, such as a closed-form fit on
+    /// a split that does not change with it): the unit is analysed over the
+    /// recordings alone, with df I - 1.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub seed_invariant: bool,
     /// The crossed estimate of the mean difference treated - reference.
     pub estimate: CrossedEstimate,
     /// The pigeonhole bootstrap interval, when preregistered.

@@ -49,6 +49,13 @@ impl Grid {
         values.map(|v| CrossedMatrix::new(self.rows, self.cols, v))
     }
 
+    /// Whether every row holds one value in every column (complete, at
+    /// least 2 columns): nothing varies with the seed.
+    fn seed_invariant(&self) -> bool {
+        self.cols >= 2
+            && self.v.chunks(self.cols).all(|row| row.iter().all(|x| x.is_some() && x.map(f64::to_bits) == row[0].map(f64::to_bits)))
+    }
+
     fn missing(&self) -> usize {
         self.v.iter().filter(|x| x.is_none()).count()
     }
@@ -172,6 +179,11 @@ pub(crate) fn estimate_grid(
     v: Vec<Option<f64>>,
 ) -> Result<CrossedEstimate, StatsError> {
     let g = Grid { rows, cols, v };
+    if let Some(m) = g.complete().filter(|_| g.seed_invariant()) {
+        // Every recording's value is the same for every seed: the seeds add
+        // no variation, and the interval's df come from the recordings.
+        return crossed_mom(&m?, est.level, DfRule::RecordingsMinusOne);
+    }
     match est.kind {
         EstimatorKind::Reml => crossed_reml(&g.cells(), g.rows, g.cols, est.level, est.df),
         EstimatorKind::CrossedMom => match g.complete() {
@@ -325,6 +337,7 @@ impl Ctx<'_> {
             mean_reference: mean_r,
             optimism_pct,
             optimism_interval,
+            seed_invariant: a.treated.seed_invariant() && a.reference.seed_invariant(),
             estimate,
             bootstrap,
             grouped,

@@ -193,6 +193,20 @@ fn header(a: &Analysis) -> String {
         t = a.treated,
         r = a.reference
     );
+    let invariant: Vec<String> = a
+        .units
+        .iter()
+        .filter(|u| u.seed_invariant)
+        .map(|u| format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s))
+        .collect();
+    if !invariant.is_empty() {
+        let _ = writeln!(
+            s,
+            "Analysed over recordings alone: {}. Every recording's value is the same for every seed in both arms (a model that does not vary with the seed, as a closed-form fit on a split that does not change with it): the seeds add no variation, so these intervals take their df from the I recordings (I - 1 = {}), not from the seeds.",
+            invariant.join("; "),
+            a.recordings.len().saturating_sub(1)
+        );
+    }
     let singular: Vec<String> = a
         .units
         .iter()
