@@ -303,9 +303,16 @@ fn plan_on_a_draw_replicated_pilot_predicts_pooled_and_per_seed_designs() {
         assert_eq!(r["models_per_arm"], r["seeds"]);
     }
     let md = std::fs::read_to_string(out.join("plan.md")).unwrap();
-    for needle in
-        ["## Pooled over K draws", "## Per-seed draws", "## Assumptions", "A single draw (K = 1) is not planned"]
-    {
+    // A 3-draw pilot: its draw components rest on 2 df, and the plan says so.
+    assert!(json["warning"].as_str().unwrap().starts_with("the pilot has 3 draws: its draw components rest on 2 df"));
+    for needle in [
+        "## Pooled over K draws",
+        "## Per-seed draws",
+        "## Assumptions",
+        "A single draw (K = 1) is not planned",
+        "**Warning**: the pilot has 3 draws",
+        "or from a per-seed pilot",
+    ] {
         assert!(md.contains(needle), "{needle} not in plan.md:\n{md}");
     }
     assert!(out.join("plan.svg").is_file());

@@ -157,7 +157,15 @@ pub struct DrawPowerPlan {
     pub rows: Vec<DrawPowerRow>,
     /// What the pilot's own sizes and their doublings give.
     pub advice: String,
+    /// Why the pilot's draw variance is uncertain, when it is (fewer than
+    /// [`MIN_PILOT_DRAWS`] draws).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
 }
+
+/// Fewer draws than this give a draw variance on so few df that a plan
+/// resting on it is a guess: the planner warns.
+pub const MIN_PILOT_DRAWS: usize = 5;
 
 /// Plans a design with `factor draw` from the pooled fit of its primary
 /// specification (`a` is the pilot's analysis, as `analyze` makes it).
@@ -244,6 +252,14 @@ pub fn draw_power_plan(
         ),
         _ => advice,
     };
+    // A variance from K draws has K - 1 df for its draw component: with
+    // K = 3 its 95% interval spans a factor of about 40 (chi-square, 2 df).
+    let warning = (k0 < MIN_PILOT_DRAWS).then(|| {
+        format!(
+            "the pilot has {k0} draws: its draw components rest on {} df, so the planned SEs above may be far off. Plan from at least {MIN_PILOT_DRAWS} draws, or from a per-seed pilot (`draws per seed`, whose seed component carries the draw variance over J draws): `crossaudit plan DESIGN --cells RUN/cells.csv`",
+            k0.saturating_sub(1)
+        )
+    });
     let u = a.levels.first().and_then(|l| l.1.units.first());
     let unit = u.map_or_else(|| "d".to_string(), |u| format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s));
     Ok(DrawPowerPlan {
@@ -255,6 +271,7 @@ pub fn draw_power_plan(
         components: c,
         rows,
         advice,
+        warning,
     })
 }
 
@@ -278,6 +295,9 @@ impl DrawPowerPlan {
             c.seed_draw,
             c.residual
         );
+        if let Some(w) = &self.warning {
+            let _ = writeln!(s, "**Warning**: {w}.\n");
+        }
         let _ = writeln!(s, "{}\n", self.advice);
         let cols = [
             "draws K",
