@@ -508,11 +508,12 @@ fn model_text(kind: &ModelKind) -> String {
             actions.name(),
             if *history > 0 { format!(" history {history}") } else { String::new() }
         ),
-        ModelKind::Mlp { widths, inputs, actions } => format!(
-            "mlp({}) inputs {} actions {}",
+        ModelKind::Mlp { widths, inputs, actions, restore_final } => format!(
+            "mlp({}) inputs {} actions {}{}",
             widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", "),
             inputs.name(),
-            actions.name()
+            actions.name(),
+            if *restore_final { " restore final" } else { "" }
         ),
         ModelKind::Linear { inputs, actions, ridge } => format!(
             "linear inputs {} actions {} ridge {}",

@@ -6,6 +6,7 @@
 //! (`plan`, `cells`, `design` types, `stats`); it knows nothing of flight
 //! logs, splits, models or files, so any per-cell CSV can be reanalysed.
 
+pub mod budget;
 pub mod coverage;
 mod decision;
 pub mod family;
@@ -391,6 +392,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
             ));
         }
     }
+    let fixed_budget = budget::fixed_budget(plan, &units);
     Ok(Analysis {
         study: plan.study.clone(),
         design_sha256: None,
@@ -409,6 +411,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         figures: Vec::new(),
         treatment: Vec::new(),
         coverage: None,
+        fixed_budget,
         provenance: Provenance::default(),
     })
 }

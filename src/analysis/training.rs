@@ -44,6 +44,10 @@ pub struct EarlyTraining {
     pub mean_d_without: Option<f64>,
     /// Seeds without such a model.
     pub seeds_without: usize,
+    /// The share of the summed primary d that the seeds with such a model
+    /// carry (None when the summed d is 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub share_of_d_with: Option<f64>,
 }
 
 impl EarlyTraining {
@@ -62,9 +66,12 @@ impl EarlyTraining {
             (0, _) => "no model of the primary endpoint is among them".to_string(),
             (n, 0) => format!("every one of the {n} seeds has such a model of the primary endpoint (mean primary d {})", d(self.mean_d_with)),
             (n, m) => format!(
-                "mean primary d {} over the {n} seed(s) with such a model of the primary endpoint, {} over the {m} without",
+                "mean primary d {} over the {n} seed(s) with such a model of the primary endpoint, {} over the {m} without{}",
                 d(self.mean_d_with),
-                d(self.mean_d_without)
+                d(self.mean_d_without),
+                self.share_of_d_with
+                    .map(|s| format!("; those seeds carry {:.1}% of the summed primary d", 100.0 * s))
+                    .unwrap_or_default()
             ),
         };
         Some(format!(
@@ -122,6 +129,9 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         (!ds.is_empty()).then(|| ds.iter().sum::<f64>() / ds.len() as f64)
     };
     let seeds_without = per_seed.keys().filter(|s| !seeds_with.contains(s)).count();
+    let total: f64 = per_seed.values().map(|(s, _)| s).sum();
+    let with: f64 = per_seed.iter().filter(|(s, _)| seeds_with.contains(s)).map(|(_, (sum, _))| sum).sum();
+    let share_of_d_with = (total != 0.0 && !seeds_with.is_empty()).then(|| with / total);
     Some(EarlyTraining {
         first_epochs: first,
         planned,
@@ -131,5 +141,6 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         mean_d_without: mean(false),
         seeds_with: seeds_with.into_iter().collect(),
         seeds_without,
+        share_of_d_with,
     })
 }

@@ -61,6 +61,10 @@ pub struct Analysis {
     /// a run built the split.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coverage: Option<super::coverage::ConditionCoverage>,
+    /// The primary contrast with early stopping held fixed (the primary
+    /// model's `restore final` twin), when the design declares one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fixed_budget: Option<super::budget::FixedBudget>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
 }

@@ -248,6 +248,7 @@ pub enum ModelKind {
         widths: Vec<Int>,
         inputs: Spanned<String>,
         actions: Option<Ident>,
+        restore: Option<Ident>,
     },
     External {
         inputs: Spanned<String>,

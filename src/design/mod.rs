@@ -382,6 +382,10 @@ pub struct Training {
     pub action_noise: f64,
     /// What the networks predict.
     pub target: TargetKind,
+    /// Set by a job for a `restore final` model: train the full budget
+    /// (`patience` unused) and keep the last epoch's weights.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub restore_final: bool,
 }
 
 /// Optimizers the language accepts.

@@ -24,6 +24,10 @@ pub enum ModelKind {
         inputs: InputMap,
         /// How the actions enter.
         actions: ActionScaling,
+        /// `restore final`: trained for the full budget of epochs without
+        /// early stopping, the last epoch's weights rolled out.
+        #[serde(skip_serializing_if = "std::ops::Not::not")]
+        restore_final: bool,
     },
     /// Fitted outside crossaudit on the windows `crossaudit export` writes;
     /// its rollouts come back as predictions to `crossaudit score`.

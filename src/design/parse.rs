@@ -334,8 +334,16 @@ fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
     let mut c = kids(kind);
     let widths = c.next().into_inner().map(int).collect::<Result<_, _>>()?;
     let inputs = c.next();
-    let actions = c.0.next().map(|a| ident(kids(a).next()));
-    Ok(ModelKind::Mlp { widths, inputs: Spanned::new(inputs.as_str().to_string(), span_of(&inputs)), actions })
+    let (mut actions, mut restore) = (None, None);
+    for p in c.0 {
+        let word = kids(p.clone()).next();
+        match p.as_rule() {
+            Rule::restore => restore = Some(Spanned::new(word.as_str().to_string(), span_of(&word))),
+            _ => actions = Some(ident(word)),
+        }
+    }
+    let inputs = Spanned::new(inputs.as_str().to_string(), span_of(&inputs));
+    Ok(ModelKind::Mlp { widths, inputs, actions, restore })
 }
 
 fn train_item(p: Pair<Rule>) -> Result<TrainItem, Diagnostic> {

@@ -259,7 +259,12 @@ fn early_stopped(
         };
         on_epoch(&log);
         logs.push(log);
-        if val_loss < best_val {
+        if t.restore_final {
+            // The full budget: no early stopping, the last epoch kept.
+            if epoch + 1 == t.epochs {
+                trainer.keep_best();
+            }
+        } else if val_loss < best_val {
             best_val = val_loss;
             trainer.keep_best();
             since_best = 0;

@@ -140,6 +140,30 @@ fn header(a: &Analysis) -> String {
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
         let _ = writeln!(s, "**Warning**: {w}.\n");
     }
+    // Beside the verdict: models restored early, and the contrast with
+    // early stopping held fixed.
+    for w in a.warnings.iter().filter(|w| w.starts_with("early best epochs")) {
+        let _ = writeln!(s, "**Early stopping**: {w}.\n");
+    }
+    if let Some(b) = &a.fixed_budget {
+        let e = &b.estimate;
+        let unit = super::format::unit_label(&a.decision.value_unit);
+        let _ = writeln!(
+            s,
+            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).\n",
+            b.epochs,
+            b.model,
+            f(e.mean, 4),
+            f(e.lower, 4),
+            f(e.upper, 4),
+            f(b.optimism_pct, 1),
+            b.optimism_interval
+                .and_then(|iv| iv.fieller.bounds())
+                .map(|(lo, hi)| format!(" [{}%, {}%]", f(lo, 1), f(hi, 1)))
+                .unwrap_or_default(),
+            if b.rule_holds { "hold" } else { "fail" }
+        );
+    }
     // Beside the verdict: a reference arm that is not disjoint (copies of
     // evaluation flights in its fit set, allowed by `duplicates keep`).
     for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {

@@ -16,15 +16,25 @@ use crate::report::figures::Curve;
 /// decision that rests on barely trained models should say so, per arm,
 /// with the primary d of the seeds with and without such a model.
 pub(super) fn early_best_epochs(plan: &Plan, curves: &[Curve], cells: &[crate::cells::Cell]) -> Option<String> {
-    crate::analysis::training::early_training(plan, &best_epochs(curves), cells)?.warning()
+    crate::analysis::training::early_training(plan, &best_epochs(plan, curves), cells)?.warning()
 }
 
-/// Each curve's best validation epoch.
-pub(super) fn best_epochs(curves: &[Curve]) -> Vec<BestEpoch> {
+/// Each curve's restored epoch: the best validation epoch, or the last for
+/// a `restore final` model.
+pub(super) fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
+    let last = |model: &str| {
+        plan.models.iter().any(|m| {
+            m.name == model && matches!(m.kind, crate::design::ModelKind::Mlp { restore_final: true, .. })
+        })
+    };
     curves
         .iter()
         .filter_map(|c| {
-            let best = c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?;
+            let best = if last(&c.model) {
+                c.points.last().copied()?
+            } else {
+                c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?
+            };
             Some(BestEpoch { model: c.model.clone(), arm: c.arm.clone(), seed: c.seed, epoch: best.0 })
         })
         .collect()

@@ -153,10 +153,12 @@ pub fn run_job_with(
     let mut one_step = Vec::new();
     let mut standardizers = None;
     let (cells, epochs, best_val_loss, train_seconds, rollout_seconds) = match &job.kind {
-        ModelKind::Mlp { widths, inputs, actions } => {
+        ModelKind::Mlp { widths, inputs, actions, restore_final } => {
             // Invariant 6 is checked after training on what the job record
             // says these were fitted on (run/trained_invariants.rs).
-            let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
+            let mut training = plan.training.clone().ok_or(RunError::NoTraining)?;
+            training.restore_final = *restore_final;
+            let training = &training;
             let features =
                 FeatureMap::fit(bench.plan.slots, *inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
             let t0 = std::time::Instant::now();

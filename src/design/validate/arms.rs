@@ -132,7 +132,7 @@ impl Validator {
                 continue;
             }
             let kind = match kind {
-                ast::ModelKind::Mlp { widths: spans, inputs, actions: own } => {
+                ast::ModelKind::Mlp { widths: spans, inputs, actions: own, restore } => {
                     let widths: Vec<usize> =
                         spans.iter().map(|w| self.count(w, "a layer width", 1, u64::MAX)).collect();
                     if !mlp_supported(&widths) && widths.iter().all(|w| *w >= 1) {
@@ -155,7 +155,8 @@ impl Validator {
                     }
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
                     let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
-                    crate::design::ModelKind::Mlp { widths, inputs, actions }
+                    let restore_final = restore.as_ref().is_some_and(|r| r.node == "final");
+                    crate::design::ModelKind::Mlp { widths, inputs, actions, restore_final }
                 }
                 ast::ModelKind::External { inputs, actions: own, history } => {
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
@@ -262,6 +263,7 @@ impl Validator {
             patience: patience?,
             action_noise: noise?,
             target,
+            restore_final: false,
         })
     }
 }
