@@ -74,6 +74,20 @@ pub struct CoveredOnly {
     pub rule_holds: bool,
 }
 
+/// The reference arm's coverage over the levels of a combined study (a
+/// multiverse unit's draws, a family's split), as its report states it.
+#[derive(Debug, Clone, Serialize)]
+pub struct CoverageNote {
+    /// What a condition is: `trajectory` or `trajectory x speed`.
+    pub condition: String,
+    /// The reference arm.
+    pub arm: String,
+    /// The levels whose coverage was read.
+    pub levels: usize,
+    /// The evaluation recordings uncovered in at least one level.
+    pub uncovered: Vec<Uncovered>,
+}
+
 impl ConditionCoverage {
     /// Whether some evaluation recording is uncovered.
     pub fn mixes_novelty(&self) -> bool {

@@ -48,6 +48,9 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
         let _ = writeln!(s, "{note}\n");
     }
+    if let Some(c) = &a.coverage {
+        let _ = writeln!(s, "{}\n", super::coverage::note_sentence(c));
+    }
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {
         let _ = writeln!(s, "Design sha256: {sha}.");

@@ -125,6 +125,14 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
             copies_text(&all)
         );
     }
+    // Beside the verdict: the reference arm's condition coverage (the
+    // primary specification's, or every unit's).
+    for n in a.notes.iter().filter(|n| a.choices.is_empty() || Some(&n.id) == primary.as_ref()) {
+        if let Some(c) = &n.coverage {
+            let who = if a.notes.len() > 1 && a.choices.is_empty() { format!("{}: ", n.id) } else { String::new() };
+            let _ = writeln!(s, "{who}{}\n", super::coverage::note_sentence(c));
+        }
+    }
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`. Build: crossaudit {}.\n", crate::BUILD);
     }

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::analysis::coverage::{condition_coverage, ConditionCoverage, Uncovered};
+use crate::analysis::coverage::{condition_coverage, ConditionCoverage, CoverageNote, Uncovered};
 use crate::cells::Cell;
 use crate::plan::Plan;
 use crate::split::ConditionCoverage as SplitCoverage;
@@ -16,15 +16,31 @@ use crate::split::ConditionCoverage as SplitCoverage;
 /// draw to read.
 pub(crate) fn statement(plan: &Plan, cells: &[Cell], draws: &[SplitCoverage]) -> Option<ConditionCoverage> {
     let first = draws.first()?;
+    Some(condition_coverage(plan, cells, &first.condition, draws.len(), uncovered(plan, draws)))
+}
+
+/// The recordings the reference arm leaves uncovered in any of `draws`,
+/// with the number of draws each is uncovered in.
+fn uncovered(plan: &Plan, draws: &[SplitCoverage]) -> Vec<Uncovered> {
     let mut count: BTreeMap<(String, String), usize> = BTreeMap::new();
     for d in draws {
         for r in d.uncovered(&plan.contrast.reference) {
             *count.entry((r.recording.clone(), r.condition.clone())).or_default() += 1;
         }
     }
-    let uncovered =
-        count.into_iter().map(|((recording, condition), draws)| Uncovered { recording, condition, draws }).collect();
-    Some(condition_coverage(plan, cells, &first.condition, draws.len(), uncovered))
+    count.into_iter().map(|((recording, condition), draws)| Uncovered { recording, condition, draws }).collect()
+}
+
+/// The note of a combined report over the level folders `dirs`, when every
+/// one of them records its coverage.
+pub(crate) fn note_of_levels(plan: &Plan, dirs: &[PathBuf]) -> Option<CoverageNote> {
+    let draws: Vec<SplitCoverage> = dirs.iter().map(|d| read_level(d)).collect::<Option<_>>()?;
+    Some(CoverageNote {
+        condition: draws.first()?.condition.clone(),
+        arm: plan.contrast.reference.clone(),
+        levels: draws.len(),
+        uncovered: uncovered(plan, &draws),
+    })
 }
 
 /// The coverage a level folder's `audit/treatment.json` records; `None`

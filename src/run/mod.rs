@@ -204,11 +204,13 @@ fn finish_splits(
     }
     let cells_csv = out.join("cells.csv");
     write_cells_atomic(&cells_csv, &all)?;
+    let dirs: Vec<PathBuf> = plan.splits.iter().map(|&s| out.join(crate::plan::split_dir(s))).collect();
     let mut outcome = report_family(design_path, plan, out, cells_csv, (status, exploratory, record), builds, |a| {
         a.warnings.push(
             "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
                 .to_string(),
-        )
+        );
+        a.coverage = coverage::note_of_levels(plan, &dirs);
     })?;
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(outcome)
@@ -437,6 +439,7 @@ fn finish(
             a.warnings.extend(prepared.audit.unread_warning());
             a.warnings.extend(opened.warnings.iter().cloned());
             a.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
+            a.coverage = coverage::note_of_levels(plan, &[out.to_path_buf()]);
         })?;
         outcome.seconds = started.elapsed().as_secs_f64();
         return Ok(outcome);

@@ -78,6 +78,10 @@ pub struct FamilyAnalysis {
     /// How strong each dose arm's treatment is, when a run built the split.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub treatment: Vec<crate::analysis::TreatmentStrength>,
+    /// The reference arm's condition coverage over the splits, when a run
+    /// built them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage: Option<crate::analysis::coverage::CoverageNote>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
 }
@@ -345,6 +349,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         warnings,
         figures: Vec::new(),
         treatment: Vec::new(),
+        coverage: None,
         provenance,
     })
 }

@@ -196,6 +196,10 @@ pub struct UnitNotes {
     pub reference_copies: Option<ReferenceCopies>,
     /// Training that ended early.
     pub early: Option<crate::analysis::training::EarlyTraining>,
+    /// The reference arm's condition coverage over the unit's levels
+    /// (absent for levels written before coverage was measured).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage: Option<crate::analysis::coverage::CoverageNote>,
 }
 
 /// d pooled over recording x seed x draw.

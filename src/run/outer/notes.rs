@@ -85,6 +85,7 @@ pub(super) fn unit_notes(id: &str, plan: &Plan, level_plans: &[(Plan, PathBuf)],
     let best = crate::run::curves::best_epochs(plan, &curves);
     UnitNotes {
         id: id.to_string(),
+        coverage: crate::run::coverage::note_of_levels(plan, &dirs),
         reference_copies: reference_copies(&dirs),
         early: if best.is_empty() { None } else { early_training(plan, &best, cells) },
     }
