@@ -77,7 +77,8 @@ fn an_evaluation_set_holding_a_whole_family_is_named_beside_the_verdict() {
     // over the other five recordings that differs from the full contrast.
     let results = json(&out.join("report/results.json"));
     let c = &results["coverage"];
-    let names: Vec<&str> = c["uncovered"].as_array().unwrap().iter().map(|u| u["recording"].as_str().unwrap()).collect();
+    let names: Vec<&str> =
+        c["uncovered"].as_array().unwrap().iter().map(|u| u["recording"].as_str().unwrap()).collect();
     assert_eq!(names, ["S19_lissajous_slow_rep1", "S20_lissajous_medium_rep1", "S21_lissajous_fast_rep1"]);
     assert_eq!(c["covered_only"]["recordings"], 5);
     let full = results["units"][0]["estimate"]["mean"].as_f64().unwrap();
@@ -108,7 +109,11 @@ fn an_evaluation_set_holding_a_whole_family_is_named_beside_the_verdict() {
     let md = std::fs::read_to_string(out.join("report/report.md")).unwrap();
     let head = md.split("\n## ").next().unwrap();
     assert!(head.contains("**The contrast mixes condition novelty with recording leakage**"), "{head}");
-    assert!(head.contains("S20\\_lissajous\\_medium\\_rep1 (lissajous)") || head.contains("S20_lissajous_medium_rep1 (lissajous)"), "{head}");
+    assert!(
+        head.contains("S20\\_lissajous\\_medium\\_rep1 (lissajous)")
+            || head.contains("S20_lissajous_medium_rep1 (lissajous)"),
+        "{head}"
+    );
     assert!(head.contains("Over the 5 covered recordings alone"), "{head}");
     assert!(md.contains("## Condition coverage") && md.contains("| covered only | 5 |"), "{md}");
 }
@@ -156,7 +161,8 @@ fn a_stratified_draw_keeps_every_evaluated_condition_for_fitting() {
 fn an_impossible_stratified_draw_is_refused_at_its_line() {
     // Keeping one of each family for fitting leaves at most 5 + 5 + 5 + 5 +
     // 5 + 3 + 2 = 30 drawable (three shapes have a single flight).
-    let factor = "factor recording {\n  evaluation 31 split_seed 1\n  stratify trajectory keep 1\n  starts 10 horizon 100\n}";
+    let factor =
+        "factor recording {\n  evaluation 31 split_seed 1\n  stratify trajectory keep 1\n  starts 10 horizon 100\n}";
     let err = uncovered_after_split(factor).unwrap_err();
     assert!(err.contains("s.design:10:3"), "{err}");
     assert!(err.contains("cannot draw 31 evaluation recordings: only 30 of the 40"), "{err}");

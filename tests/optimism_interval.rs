@@ -156,8 +156,9 @@ fn a_rule_without_an_interval_is_described_as_written() {
 #[test]
 fn a_model_that_does_not_vary_with_the_seed_is_analysed_over_recordings() {
     let cells_path = Path::new("results/nanobench_paper_linear/cells.csv");
-    let a = crossaudit::analyze_files(Path::new("designs/nanobench_paper_linear.design"), cells_path, Default::default())
-        .unwrap();
+    let a =
+        crossaudit::analyze_files(Path::new("designs/nanobench_paper_linear.design"), cells_path, Default::default())
+            .unwrap();
     let u = &a.units[0];
     assert!(u.seed_invariant);
     let e = u.estimate;

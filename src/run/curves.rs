@@ -23,9 +23,9 @@ pub(super) fn early_best_epochs(plan: &Plan, curves: &[Curve], cells: &[crate::c
 /// a `restore final` model.
 pub(super) fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
     let last = |model: &str| {
-        plan.models.iter().any(|m| {
-            m.name == model && matches!(m.kind, crate::design::ModelKind::Mlp { restore_final: true, .. })
-        })
+        plan.models
+            .iter()
+            .any(|m| m.name == model && matches!(m.kind, crate::design::ModelKind::Mlp { restore_final: true, .. }))
     };
     curves
         .iter()

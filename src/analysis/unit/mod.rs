@@ -8,6 +8,8 @@
 
 use std::collections::BTreeMap;
 
+mod around;
+
 use super::decision::rule_holds;
 use super::index::Indexed;
 use super::types::*;
@@ -16,8 +18,8 @@ use crate::cells::Cell;
 use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
 use crate::stats::{
-    compare_intervals, crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, ratio_interval,
-    reml_intervals, Axis, CrossedEstimate, CrossedMatrix, DfRule, RatioInterval, StatsError,
+    compare_intervals, crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, reml_intervals, Axis,
+    CrossedEstimate, CrossedMatrix, DfRule, StatsError,
 };
 
 /// What every unit's estimation reads: the plan, the indexed cells and the
@@ -53,7 +55,10 @@ impl Grid {
     /// least 2 columns): nothing varies with the seed.
     fn seed_invariant(&self) -> bool {
         self.cols >= 2
-            && self.v.chunks(self.cols).all(|row| row.iter().all(|x| x.is_some() && x.map(f64::to_bits) == row[0].map(f64::to_bits)))
+            && self
+                .v
+                .chunks(self.cols)
+                .all(|row| row.iter().all(|x| x.is_some() && x.map(f64::to_bits) == row[0].map(f64::to_bits)))
     }
 
     fn missing(&self) -> usize {
@@ -348,73 +353,6 @@ impl Ctx<'_> {
             rule_holds,
             intervals,
         })
-    }
-
-    /// The optimism's Fieller and delta-method intervals (in %) from the
-    /// plan's estimator on the arrays L(rho) = treated - (1 - rho)
-    /// reference (`stats::ratio_interval`); `None`, with a warning, when
-    /// the estimator cannot give them.
-    fn optimism_interval(
-        &self,
-        a: &ArmArrays,
-        optimism_pct: f64,
-        label: &str,
-        warnings: &mut Vec<String>,
-    ) -> Option<RatioInterval> {
-        let (rows, cols) = (a.treated.rows, a.treated.cols);
-        let at = |rho: f64| {
-            let v = a.treated.v.iter().zip(&a.reference.v).map(|(t, r)| Some((*t)? - (1.0 - rho) * (*r)?)).collect();
-            self.estimate(&Grid { rows, cols, v })
-        };
-        let interval =
-            self.estimate(&a.reference).and_then(|reference| ratio_interval(optimism_pct / 100.0, &reference, at));
-        match interval {
-            Ok(iv) => Some(iv.scaled(100.0)),
-            Err(e) => {
-                warnings.push(format!("{label}: no interval for the optimism: {e}"));
-                None
-            }
-        }
-    }
-
-    /// Refuses a unit whose treated - reference differences do not vary: the
-    /// method of moments would give an interval of width zero around them
-    /// (and confirm any nonzero shift), REML cannot fit them at all. The
-    /// differences count as constant when their range is within 1e-9 of the
-    /// largest value in either arm, the size of rounding in the subtraction.
-    /// When every start diverged in both arms (every cell at the cap), the
-    /// message says so: the endpoint cannot tell the arms apart.
-    fn degenerate(&self, u: &AnalysisUnit, a: &ArmArrays, label: &str) -> Result<(), AnalysisError> {
-        let d: Vec<f64> = a.diff.v.iter().flatten().copied().collect();
-        let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(*x), h.max(*x)));
-        let scale = a.treated.v.iter().chain(&a.reference.v).flatten().fold(0.0f64, |m, x| m.max(x.abs()));
-        if d.len() < 2 || hi - lo > 1e-9 * scale {
-            return Ok(());
-        }
-        let all_diverged = [&self.plan.contrast.treated, &self.plan.contrast.reference].iter().all(|arm| {
-            self.recordings.iter().all(|r| {
-                self.plan.seeds.iter().all(|s| {
-                    self.data
-                        .find(&u.model, arm, s.0, &r.recording, u.horizon_s)
-                        .is_none_or(|c| c.n_divergent == c.n_starts)
-                })
-            })
-        });
-        let detail = if all_diverged && u.metric != Metric::DivergenceRate {
-            format!(
-                "every start diverged in both arms (every cell is at the divergence cap of {} m), so the endpoint cannot tell `{}` from `{}`; no optimism or interval is reported for it",
-                self.plan.cap.0, self.plan.contrast.treated, self.plan.contrast.reference
-            )
-        } else {
-            format!(
-                "every {} - {} difference is {} in all {} recording x seed pairs: with no variance there is no interval to decide on (per-cell data whose arms differ by a constant are not the output of a run)",
-                self.plan.contrast.treated,
-                self.plan.contrast.reference,
-                (lo + hi) / 2.0,
-                d.len()
-            )
-        };
-        Err(AnalysisError::Degenerate { unit: label.to_string(), detail })
     }
 
     /// Average d within condition groups (e.g. trajectory x speed), then the
