@@ -14,6 +14,7 @@ mod data;
 mod design_errors;
 mod designs;
 mod draws;
+mod early_stopping;
 mod external;
 mod external_levels;
 mod family;

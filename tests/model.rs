@@ -424,3 +424,35 @@ fn the_linear_model_beside_the_paper_reproduces_its_committed_run_on_the_papers_
     };
     assert_eq!(rows_of("100"), rows_of("119"));
 }
+
+/// `restore final` (early stopping held fixed): training runs the full
+/// budget whatever the patience, its epochs up to where early stopping
+/// would have stopped are those of the early-stopped run bit for bit, and
+/// the weights kept are the last epoch's: they equal the best-epoch
+/// weights exactly when the last epoch is the best one.
+#[test]
+fn restore_final_trains_the_full_budget_and_keeps_the_last_weights() {
+    let (fit, val) = (windows(0.0, 300), windows(0.37, 80));
+    let features =
+        FeatureMap::fit(Slots::NANOBENCH, InputMap::World, ActionScaling::Raw, TargetKind::StateScaled, &fit, "fit");
+    let mut t = tiny_training();
+    t.epochs = 14;
+    t.patience = 1;
+    let train = |t: &crossaudit::design::Training| {
+        crossaudit::model::train(&[32, 32, 32], &features, &fit, &val, t, 5, &mut |_| {}).unwrap()
+    };
+    let (_, early) = train(&t);
+    let mut full_budget = t.clone();
+    full_budget.restore_final = true;
+    let (last, full) = train(&full_budget);
+    assert_eq!(full.len(), 14);
+    let loss = |e: &[crossaudit::model::EpochLog]| e.iter().map(|e| e.val_loss.to_bits()).collect::<Vec<_>>();
+    assert_eq!(loss(&full[..early.len()]), loss(&early), "the early-stopped epochs are a prefix of the full budget");
+    // The best of the same 14 epochs, restored: patience never reached.
+    let mut best = t.clone();
+    best.patience = 14;
+    let (restored, same) = train(&best);
+    assert_eq!(loss(&same), loss(&full));
+    let argmin = full.iter().enumerate().min_by(|a, b| a.1.val_loss.total_cmp(&b.1.val_loss)).unwrap().0 + 1;
+    assert_eq!(last == restored, argmin == 14, "best epoch {argmin}");
+}
