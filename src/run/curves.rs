@@ -19,8 +19,8 @@ pub(super) fn early_best_epochs(plan: &Plan, curves: &[Curve], cells: &[crate::c
     crate::analysis::training::early_training(plan, &best_epochs(plan, curves), cells)?.warning()
 }
 
-/// Each curve's restored epoch: the best validation epoch, or the last for
-/// a `restore final` model.
+/// Each early-stopped curve's restored epoch: its best validation epoch. A
+/// `restore final` model keeps its last epoch by design and is left out.
 pub(super) fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
     let last = |model: &str| {
         plan.models
@@ -29,12 +29,9 @@ pub(super) fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
     };
     curves
         .iter()
+        .filter(|c| !last(&c.model))
         .filter_map(|c| {
-            let best = if last(&c.model) {
-                c.points.last().copied()?
-            } else {
-                c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?
-            };
+            let best = c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?;
             Some(BestEpoch { model: c.model.clone(), arm: c.arm.clone(), seed: c.seed, epoch: best.0 })
         })
         .collect()
