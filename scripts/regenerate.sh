@@ -20,6 +20,7 @@ $ca plan designs/nanobench_paper_audited.design --cells results/nanobench_paper_
 $ca plan designs/nanobench_dose_response.design --cells results/dose_response/cells.csv --recordings 8,13,24,26,52 --seeds 3,5,10,20,40 --out results/plan_dose_response >/dev/null
 $ca plan designs/nanobench_multi_split.design --cells results/multi_split/cells.csv --splits 3,5,10,20 --recordings 13,26 --seeds 5,10,20 --out results/plan_multi_split >/dev/null
 $ca plan designs/multiverse/paper_draws.design --cells results/multiverse/draws --recordings 13,24,52 --seeds 5,10,20,40 --draws 3,5,10 --out results/plan_draws >/dev/null
+$ca plan designs/multiverse/paper_per_seed.design --cells results/multiverse/per_seed/cells.csv --recordings 24,48 --seeds 20,40,60,120 --out results/plan_per_seed >/dev/null
 $ca data audit designs/nanobench_confirmatory.design --out results/nanobench_audit > results/nanobench_audit/summary.txt 2>/dev/null
 $ca audit split ../shared/nanobench/upstream_task2_split_metadata.json --data ../shared/nanobench/recordings --out results/upstream_split_audit > results/upstream_split_audit/summary.txt 2>/dev/null
 $ca data audit designs/nanobench_audited.design --out results/nanobench_audit_hygiene > results/nanobench_audit_hygiene/summary.txt 2>/dev/null
