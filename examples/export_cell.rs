@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let split_dir = out.join("split");
     let o = crossaudit::split::prepare(&file, &crossaudit::compile(&file.design), &dir, &split_dir)?;
     let m = file.design.models.iter().find(|m| m.name == *model).ok_or("no such model")?;
-    let ModelKind::Mlp { widths, inputs, actions } = &m.kind else { return Err("not an MLP".into()) };
+    let ModelKind::Mlp { widths, inputs, actions, .. } = &m.kind else { return Err("not an MLP".into()) };
     let triples = |ws: &[crossaudit::split::Window]| -> Vec<_> {
         ws.iter()
             .map(|w| {

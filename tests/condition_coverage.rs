@@ -115,7 +115,7 @@ fn an_evaluation_set_holding_a_whole_family_is_named_beside_the_verdict() {
         "{head}"
     );
     assert!(head.contains("Over the 5 covered recordings alone"), "{head}");
-    assert!(md.contains("## Condition coverage") && md.contains("| covered only | 5 |"), "{md}");
+    assert!(md.contains("## Condition coverage") && md.contains("| covered only | 5 | m |"), "{md}");
 }
 
 /// Every evaluated condition's disjoint coverage, from a prepared split.

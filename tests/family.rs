@@ -293,7 +293,7 @@ fn simulate(design: &str) -> FamilyAnalysis {
     let file = design::load(&root().join("designs").join(design)).unwrap();
     let plan = crossaudit::compile(&file.design);
     let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
-    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, ..Default::default() }, &Quiet).unwrap();
     let StudyAnalysis::Family(a) = done.analysis else { panic!("{design}: not a family analysis") };
     // The run's cells.csv is the committed one, byte for byte.
     let run_dir = design.trim_start_matches("simulated_").trim_end_matches(".design");
@@ -526,7 +526,7 @@ fn split_planner_plans_the_pooled_slope_when_the_rule_is_on_it() {
     let plan = crossaudit::compile(&file.design);
     let out = tempfile::tempdir().unwrap();
     let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
-    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, ..Default::default() }, &Quiet).unwrap();
     let StudyAnalysis::Family(a) = done.analysis else { panic!("a dose x split study is a family") };
     let slope = a.pooled.as_ref().unwrap().slope.clone().unwrap();
     let p = crossaudit::methods::split_power_plan(&plan, &a, &[2], &[4], &[2]).unwrap();

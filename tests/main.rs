@@ -28,6 +28,7 @@ mod multiverse;
 mod optimism_interval;
 mod position_only;
 mod resampling;
+mod reuse;
 mod run;
 mod simulate;
 mod slurm;

@@ -99,7 +99,7 @@ fn run(
     let o = py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let plan = crossaudit::compile(&file.design);
-        let options = crossaudit::run::RunOptions { workers, exploratory };
+        let options = crossaudit::run::RunOptions { workers, exploratory, reuse: None };
         crossaudit::run::run_into(&file, &plan, data, &out, options, &crossaudit::run::Quiet).map_err(fail)
     })?;
     json(&serde_json::json!({

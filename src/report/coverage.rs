@@ -87,7 +87,8 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         c.condition, c.arm
     );
     let (ci, oci) = (format!("{level} CI"), format!("optimism {level} CI"));
-    let mut t = Table::new(&["recordings", "n", "d mean", &ci, "optimism %", &oci, "rule"], "lrrlrll");
+    let unit = super::format::unit_label(&a.decision.value_unit).to_string();
+    let mut t = Table::new(&["recordings", "n", "unit", "d mean", &ci, "optimism %", &oci, "rule"], "lrlrlrll");
     let opt = |iv: Option<crate::stats::RatioInterval>| {
         iv.and_then(|iv| iv.fieller.bounds())
             .map(|(lo, hi)| format!("[{}, {}]", f(lo, 1), f(hi, 1)))
@@ -97,6 +98,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
     t.row([
         "all".to_string(),
         a.recordings.len().to_string(),
+        unit.clone(),
         f(e.mean, 4),
         format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
         f(u.optimism_pct, 1),
@@ -108,6 +110,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         t.row([
             "covered only".to_string(),
             k.recordings.to_string(),
+            unit.clone(),
             f(e.mean, 4),
             format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
             f(k.optimism_pct, 1),

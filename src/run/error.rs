@@ -109,6 +109,14 @@ pub enum RunError {
         /// Now.
         is: String,
     },
+    /// A run folder given to `--reuse` cannot be reused.
+    #[error("--reuse {path}: {reason}")]
+    Reuse {
+        /// The folder or file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
     /// A job record cannot be read.
     #[error("{path} cannot be read as a job record ({reason}); delete it to train that job again")]
     BadJobRecord {

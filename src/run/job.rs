@@ -243,6 +243,8 @@ pub fn run_job_with(
         files: JobRecord::hash_files(out, &files)?,
         crossaudit: crate::BUILD.to_string(),
         non_finite_starts: None,
+        key: None,
+        reused_from: None,
     };
     record.write(out, job)?;
     Ok(JobOutcome {

@@ -21,6 +21,7 @@ mod guard;
 pub mod job;
 pub mod outer;
 mod record;
+pub mod reuse;
 pub mod slurm;
 mod source;
 mod trained_invariants;
@@ -50,12 +51,15 @@ pub use trained_invariants::check as check_trained_invariants;
 pub const MAX_WORKERS: usize = 1024;
 
 /// Options of a run that are not part of the design.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Default)]
 pub struct RunOptions {
     /// Parallel training workers, one thread each.
     pub workers: usize,
     /// Run a design that changed after locking, labelling every output.
     pub exploratory: bool,
+    /// An earlier run folder whose finished jobs with identical inputs are
+    /// copied instead of trained (`run --reuse DIR`, [`reuse`]).
+    pub reuse: Option<PathBuf>,
 }
 
 /// The analysis a run wrote: one crossed contrast, or a family of them
@@ -117,7 +121,8 @@ pub struct RunOutcome {
 /// let plan = crossaudit::compile(&file.design);
 /// let out = tempfile::tempdir().unwrap();
 /// let data = data_dir(&file.design, &file.path, None, out.path()).unwrap();
-/// let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, exploratory: false }, &Quiet).unwrap();
+/// let options = RunOptions { workers: 2, ..Default::default() };
+/// let done = run(&file, &plan, &data, out.path(), options, &Quiet).unwrap();
 /// assert_eq!(done.trained, plan.jobs.iter().filter(|j| j.trains()).count());
 /// assert!(done.cells_csv.exists() && done.report_dir.join("report.md").exists());
 /// ```
@@ -135,15 +140,38 @@ pub fn run(
     if let Some(levels) = outer::study_levels(&file.design, plan) {
         return outer::run_levels(file, plan, levels, data, out, options, observer, started);
     }
-    let opened = open(file, plan, data, out, options.exploratory, None)?;
-    let (todo, builds) = pending(plan, out, &file.sha256)?;
+    let index = options.reuse.as_deref().map(reuse::ReuseIndex::read).transpose()?;
+    let mut opened = open(file, plan, data, out, options.exploratory, None)?;
+    let (mut todo, builds) = pending(plan, out, &file.sha256)?;
+    let keys = reuse::keys(&file.design, plan, &opened.prepared.manifests, &opened.record);
+    if let Some(index) = &index {
+        let mut taken = 0;
+        for (j, key) in &keys {
+            if todo.contains(j) && index.take(key, out, j, &file.sha256)? {
+                todo.retain(|t| t != j);
+                taken += 1;
+            }
+        }
+        if taken > 0 {
+            opened.warnings.push(reused_note(taken, plan.jobs.len(), index.from()));
+        }
+    }
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);
     let trained = todo.len();
     grid::run_grid(&file.sha256, plan, &opened.prepared, out, todo, options.workers, observer)?;
+    reuse::stamp(out, &keys)?;
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// The report's line for jobs copied by `run --reuse`.
+pub(crate) fn reused_note(taken: usize, of: usize, from: &Path) -> String {
+    format!(
+        "{taken} of {of} jobs were copied from the earlier run {} instead of trained (`--reuse`): their inputs (manifests, data, model, training, seed, horizons) are identical by content key, every file was checked against its recorded SHA-256, and each job record names the run it came from",
+        from.display()
+    )
 }
 
 /// `crossaudit run DESIGN [--data DIR] --out OUT` as the command line and

@@ -155,6 +155,14 @@ pub struct JobRecord {
     /// (absent for built-in models).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub non_finite_starts: Option<usize>,
+    /// The job's content key (`run::reuse`): what decides every file it
+    /// writes. Absent in records written before keys were recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key: Option<String>,
+    /// The run folder (and its design's hash) the job was copied from by
+    /// `run --reuse`; absent for a job trained in this folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reused_from: Option<String>,
 }
 
 /// `out/jobs/STEM.json`.

@@ -97,6 +97,12 @@ pub(crate) enum Command {
         /// Allow a design changed after locking; every output is labelled EXPLORATORY.
         #[arg(long)]
         exploratory: bool,
+        /// An earlier run folder: its finished jobs whose inputs are
+        /// identical (same content key, model, arm and seed) are copied
+        /// instead of trained. With `lock --amend`, this extends a locked
+        /// per-seed study with further seeds.
+        #[arg(long, conflicts_with = "slurm")]
+        reuse: Option<PathBuf>,
         #[command(flatten)]
         slurm: SlurmArgs,
     },

@@ -51,7 +51,9 @@ fn main() -> ExitCode {
         Command::Run { design, data, out, exploratory, slurm, .. } if slurm.slurm => {
             slurm_prepare(&design, data, &out, exploratory, slurm)
         }
-        Command::Run { design, data, out, workers, exploratory, .. } => run(&design, data, &out, workers, exploratory),
+        Command::Run { design, data, out, workers, exploratory, reuse, .. } => {
+            run(&design, data, &out, workers, (exploratory, reuse))
+        }
         Command::Export { design, data, out, exploratory } => external::export(&design, data, &out, exploratory),
         Command::Score { dir, workers } => external::score(&dir, workers),
         Command::Job { dir, index } => slurm_job(&dir, index),
@@ -222,7 +224,7 @@ fn run(
     data: Option<PathBuf>,
     out: &Path,
     workers: Option<usize>,
-    exploratory: bool,
+    (exploratory, reuse): (bool, Option<PathBuf>),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     let plan = crossaudit::compile(&file.design);
@@ -231,7 +233,7 @@ fn run(
     crossaudit::run::check_workers(workers)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
-    let options = crossaudit::run::RunOptions { workers, exploratory };
+    let options = crossaudit::run::RunOptions { workers, exploratory, reuse };
     let result = crossaudit::run::run_into(&file, &plan, data, out, options, &progress);
     progress.finish();
     let o = result?;

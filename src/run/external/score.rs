@@ -427,6 +427,8 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
         files: JobRecord::hash_files(dir, &files)?,
         crossaudit: crate::BUILD.to_string(),
         non_finite_starts: Some(non_finite),
+        key: None,
+        reused_from: None,
     };
     // The predictions were hashed after they were read and checked: a file
     // replaced in between would be recorded with a hash it was not scored

@@ -239,6 +239,7 @@ pub(crate) fn run_levels_with(
     external: &ExternalNotes,
 ) -> Result<RunOutcome, RunError> {
     refuse_single_run(out)?;
+    let index = options.reuse.as_deref().map(crate::run::reuse::ReuseIndex::read).transpose()?;
     let (mut trained, mut skipped) = (0, 0);
     let mut builds = BTreeSet::new();
     let mut status = LockStatus::Unlocked;
@@ -257,6 +258,8 @@ pub(crate) fn run_levels_with(
         // Jobs whose inputs equal a job queued in an earlier level: copied
         // from it once the queue has run (job, its level, that job).
         copies: Vec<(TrainingJob, usize, TrainingJob)>,
+        // Every job's content key, written into its record once it ran.
+        keyed: Vec<(TrainingJob, String)>,
     }
     let mut open_levels: Vec<(usize, Open)> = Vec::new();
     let mut queue: std::collections::VecDeque<(usize, TrainingJob)> = Default::default();
@@ -292,9 +295,21 @@ pub(crate) fn run_levels_with(
         let keys: Vec<String> = crate::split::JobManifests::for_plan(&plan, &opened.prepared.manifests)
             .iter()
             .zip(&plan.jobs)
-            .map(|(m, j)| job_key(&level.design, &plan, j, m, &opened.record))
+            .map(|(m, j)| crate::run::reuse::job_key(&level.design, &plan, j, m, &opened.record))
             .collect();
         let here = open_levels.len();
+        if let Some(index) = &index {
+            let mut taken = 0;
+            for (j, key) in plan.jobs.iter().zip(&keys) {
+                if todo.contains(j) && index.take(key, &dir, j, &file.sha256).map_err(in_level)? {
+                    todo.retain(|t| t != j);
+                    taken += 1;
+                }
+            }
+            if taken > 0 {
+                reused.push(format!("{}: {}", level.id, crate::run::reused_note(taken, plan.jobs.len(), index.from())));
+            }
+        }
         let (mut copied, mut copies) = (0, Vec::new());
         for (j, key) in plan.jobs.iter().zip(&keys) {
             if let (Some((from, earlier, queued)), true) = (first.get(key), todo.contains(j)) {
@@ -307,6 +322,7 @@ pub(crate) fn run_levels_with(
                 copied += 1;
             }
         }
+        let keyed: Vec<(TrainingJob, String)> = plan.jobs.iter().cloned().zip(keys.iter().cloned()).collect();
         for (j, key) in plan.jobs.iter().zip(keys) {
             let queued = todo.contains(j);
             first.entry(key).or_insert_with(|| (here, j.clone(), queued));
@@ -325,7 +341,7 @@ pub(crate) fn run_levels_with(
         skipped += plan.jobs.len() - todo.len();
         trained += todo.len();
         queue.extend(todo.into_iter().map(|j| (here, j)));
-        open_levels.push((k, Open { label, plan, dir, opened, done_builds, copies }));
+        open_levels.push((k, Open { label, plan, dir, opened, done_builds, copies, keyed }));
     }
     let total: usize = open_levels.iter().map(|(_, o)| o.plan.jobs.len()).sum();
     observer.start(total, total - queue.len());
@@ -338,6 +354,7 @@ pub(crate) fn run_levels_with(
         for (j, from, earlier) in &o.copies {
             copy_job(&open_levels[*from].1.dir, earlier, &o.dir, j).map_err(in_level)?;
         }
+        crate::run::reuse::stamp(&o.dir, &o.keyed).map_err(in_level)?;
         builds.extend(o.done_builds.iter().cloned());
         if role == Role::PerSeed || file.design.per_seed_draws {
             // One seed alone is no crossed study: its cells are gathered
@@ -354,7 +371,7 @@ pub(crate) fn run_levels_with(
     let record = record.ok_or(RunError::NoWorkers)?;
     if role == Role::PerSeed {
         let mut outcome =
-            per_seed::finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds)?;
+            per_seed::finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds, &reused)?;
         (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
         return Ok(outcome);
     }
@@ -376,31 +393,6 @@ pub(crate) fn run_levels_with(
     }
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
-}
-
-/// What decides every file a job writes: the manifests it reads (by hash),
-/// the data they index (the inclusion audit's hash and the data block:
-/// columns, tails, duplicates), the model, the training (fitted models
-/// only), the seed, the horizons, the cap and the rate.
-fn job_key(
-    design: &Design,
-    plan: &Plan,
-    job: &TrainingJob,
-    manifests: &crate::split::JobManifests,
-    record: &RunRecord,
-) -> String {
-    let key = serde_json::json!({
-        "manifests": manifests,
-        "audit_sha256": record.audit_sha256,
-        "data": design.data,
-        "model": job.kind,
-        "training": if job.trains() { serde_json::to_value(&plan.training).unwrap_or_default() } else { serde_json::Value::Null },
-        "seed": job.seed,
-        "horizons_s": job.horizons_s,
-        "cap": plan.cap.0,
-        "rate_hz": plan.rate_hz,
-    });
-    crate::io::sha256_hex(key.to_string().as_bytes())
 }
 
 /// Copies a finished job's files and record from the run directory `from`

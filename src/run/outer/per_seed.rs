@@ -85,9 +85,10 @@ pub(super) fn finish_per_seed(
     out: &Path,
     (status, exploratory, record): (&LockStatus, bool, &RunRecord),
     builds: BTreeSet<String>,
+    notes: &[String],
 ) -> Result<RunOutcome, RunError> {
     let dirs: Vec<PathBuf> = levels.iter().map(|l| out.join(&l.id)).collect();
-    finish_seeds(file, study, (levels, &dirs), out, (status, exploratory, record), builds)
+    finish_seeds(file, study, (levels, &dirs), out, (status, exploratory, record), (builds, notes))
 }
 
 /// Each specification of a multiverse with per-seed draws, finished as
@@ -103,7 +104,7 @@ pub(super) fn finish_specs(
         let members: Vec<Level> = u.members.iter().map(|&k| levels[k].clone()).collect();
         let dirs: Vec<PathBuf> = u.members.iter().map(|&k| run_dir(out, levels, k)).collect();
         let plan = crate::plan::compile(&u.design);
-        let finished = finish_seeds(file, &plan, (&members, &dirs), &out.join(&u.id), run, builds.clone());
+        let finished = finish_seeds(file, &plan, (&members, &dirs), &out.join(&u.id), run, (builds.clone(), &[]));
         finished.map_err(|e| RunError::InLevel { level: u.id.clone(), source: Box::new(e) })?;
     }
     Ok(())
@@ -115,7 +116,7 @@ fn finish_seeds(
     (levels, dirs): (&[Level], &[PathBuf]),
     dest: &Path,
     (status, exploratory, record): (&LockStatus, bool, &RunRecord),
-    builds: BTreeSet<String>,
+    (builds, notes): (BTreeSet<String>, &[String]),
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let mut all: Vec<Cell> = Vec::new();
@@ -147,6 +148,7 @@ fn finish_seeds(
     analysis.warnings.extend(super::notes::invariant_warnings(&draws));
     analysis.coverage = crate::run::coverage::statement_of_levels(study, &all, dirs);
     analysis.warnings.extend(crate::run::resumed_builds(builds));
+    analysis.warnings.extend(notes.iter().cloned());
     if let Some(w) = crate::run::curves::early_best_epochs(study, &curves, &all) {
         analysis.warnings.push(w);
     }
