@@ -245,10 +245,12 @@ class Result:
 
 def _estimates(results: dict) -> pd.DataFrame:
     """One row per analysis unit and interaction: the crossed estimate of
-    treated - reference, its SE, df, interval, arm means and optimism (%)."""
+    treated - reference, its SE, df, interval, arm means and optimism (%)
+    with its Fieller interval (NaN where the set is unbounded or absent)."""
     rows = []
     for u in results.get("units", []):
         e = u["estimate"]
+        fieller = (u.get("optimism_interval") or {}).get("fieller") or {}
         rows.append(
             {
                 "kind": "endpoint",
@@ -264,6 +266,8 @@ def _estimates(results: dict) -> pd.DataFrame:
                 "lower": e.get("lower"),
                 "upper": e.get("upper"),
                 "optimism_pct": u["optimism_pct"],
+                "optimism_lower": fieller.get("lower", float("nan")),
+                "optimism_upper": fieller.get("upper", float("nan")),
                 "rule_holds": u["rule_holds"],
             }
         )

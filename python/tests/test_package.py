@@ -76,6 +76,8 @@ def test_a_numpy_ridge_model_through_export_score_and_analyze(tmp_path, workers)
     primary = est[est["role"] == "primary"].iloc[0]
     assert primary["model"] == "world" and primary["horizon_s"] == 1.0
     assert primary["lower"] <= primary["estimate"] <= primary["upper"]
+    # The optimism's Fieller interval holds the optimism.
+    assert primary["optimism_lower"] <= primary["optimism_pct"] <= primary["optimism_upper"]
     # The estimate is the mean of the per-cell differences (crossed design, balanced).
     cells = result.cells
     w1 = cells[(cells.model == "world") & (cells.horizon_s == 1.0)]
