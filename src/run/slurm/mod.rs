@@ -484,6 +484,9 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         let exploratory = run.exploratory || lock.changed();
         let warnings = super::external::notes_for(&part.dir, &part.plan);
         let opened = Opened { status: lock.clone(), exploratory, prepared, record: run, warnings };
+        // Every record with its content key, as a local run leaves it.
+        let keys = super::reuse::keys(&part.file.design, &part.plan, &opened.prepared.manifests, &opened.record);
+        super::reuse::stamp(&part.dir, &keys)?;
         let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
         if let Some(level) = &part.level {
             splits.push((level.clone(), opened.prepared.split.clone()));
