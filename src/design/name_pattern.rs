@@ -77,17 +77,78 @@ impl NamePattern {
     }
 
     /// The conditions of `name` (a file name without `.csv[.gz]`), or
-    /// `None` when the pattern does not match it.
+    /// `None` when the pattern does not match it. Each placeholder takes
+    /// the shortest part that lets the rest of the pattern match (the
+    /// first split in reading order). Linear in the name's length for each
+    /// piece: which suffixes each tail of the pattern matches is tabled
+    /// once, so no split is tried twice (a search over splits is
+    /// exponential in the number of `{*}`).
     pub fn conditions(&self, name: &str) -> Option<NameConditions> {
+        // Character boundaries: index b is byte offset at[b].
+        let at: Vec<usize> = (0..=name.len()).filter(|&i| name.is_char_boundary(i)).collect();
+        let index = |byte: usize| at.binary_search(&byte).ok();
+        let m = at.len() - 1;
+        let p = self.pieces.len();
+        // digits[b]: the last boundary c >= b with name[at[b]..at[c]] all ASCII digits.
+        let mut digits = vec![0usize; m + 1];
+        for b in (0..=m).rev() {
+            digits[b] = if b < m && name.as_bytes()[at[b]].is_ascii_digit() { digits[b + 1] } else { b };
+        }
+        // ok[k][b]: pieces[k..] match name[at[b]..].
+        let mut ok = vec![vec![false; m + 1]; p + 1];
+        ok[p][m] = true;
+        for k in (0..p).rev() {
+            // next[b]: the smallest c > b with ok[k + 1][c] (m + 1: none).
+            let mut next = vec![m + 1; m + 2];
+            for b in (0..m).rev() {
+                next[b] = if ok[k + 1][b + 1] { b + 1 } else { next[b + 1] };
+            }
+            for b in 0..=m {
+                ok[k][b] = match &self.pieces[k] {
+                    NamePiece::Literal(l) => name[at[b]..]
+                        .starts_with(l.as_str())
+                        .then(|| index(at[b] + l.len()))
+                        .flatten()
+                        .is_some_and(|c| ok[k + 1][c]),
+                    NamePiece::Rep => b < m && next[b] <= digits[b],
+                    _ => b < m && next[b] <= m,
+                };
+            }
+        }
+        if !ok[0][0] {
+            return None;
+        }
+        // The first split in reading order: each placeholder's shortest part.
         let mut out = NameConditions::default();
-        self.match_from(0, name, &mut out).then_some(out)
+        let mut b = 0;
+        for (k, piece) in self.pieces.iter().enumerate() {
+            let c = match piece {
+                NamePiece::Literal(l) => index(at[b] + l.len())?,
+                _ => (b + 1..=m).find(|&c| ok[k + 1][c])?,
+            };
+            let part = &name[at[b]..at[c]];
+            match piece {
+                NamePiece::Trajectory => out.trajectory = Some(part.to_string()),
+                NamePiece::Speed => out.speed = Some(part.to_string()),
+                NamePiece::Rep => out.repetition = part.parse().ok(),
+                _ => {}
+            }
+            b = c;
+        }
+        Some(out)
     }
+}
 
-    /// Matches `pieces[k..]` against `rest`, trying every split (names are short).
-    fn match_from(&self, k: usize, rest: &str, out: &mut NameConditions) -> bool {
-        let Some(piece) = self.pieces.get(k) else { return rest.is_empty() };
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The definition the table implements: every split tried in reading
+    /// order, shortest part first (exponential; fine for short names).
+    fn by_search(p: &NamePattern, k: usize, rest: &str, out: &mut NameConditions) -> bool {
+        let Some(piece) = p.pieces.get(k) else { return rest.is_empty() };
         if let NamePiece::Literal(l) = piece {
-            return rest.strip_prefix(l.as_str()).is_some_and(|r| self.match_from(k + 1, r, out));
+            return rest.strip_prefix(l.as_str()).is_some_and(|r| by_search(p, k + 1, r, out));
         }
         for end in rest.char_indices().map(|(i, c)| i + c.len_utf8()) {
             let part = &rest[..end];
@@ -101,11 +162,57 @@ impl NamePattern {
                 NamePiece::Rep => tried.repetition = part.parse().ok(),
                 _ => {}
             }
-            if self.match_from(k + 1, &rest[end..], &mut tried) {
+            if by_search(p, k + 1, &rest[end..], &mut tried) {
                 *out = tried;
                 return true;
             }
         }
         false
+    }
+
+    #[test]
+    fn the_table_gives_the_first_split_in_reading_order() {
+        let patterns = [
+            "{trajectory}_{speed}_rep{rep}",
+            "{*}_{trajectory}-{speed}_take{rep}",
+            "{trajectory}_{*}_{speed}",
+            "{*}a{trajectory}a{*}",
+            "{speed}a{*}",
+            "x{rep}a{trajectory}",
+        ];
+        // Every name over a small alphabet up to length 7, and some UTF-8.
+        let alphabet = ['a', '_', '-', '1', '2', 'é'];
+        let mut names = vec![String::new()];
+        let mut all = Vec::new();
+        for _ in 0..6 {
+            let mut longer = Vec::new();
+            for n in &names {
+                for c in alphabet {
+                    longer.push(format!("{n}{c}"));
+                }
+            }
+            all.extend(longer.iter().cloned());
+            names = longer;
+        }
+        all.extend(["R3_circle_fast_rep2", "2026-05-02_lissajous-medium_take12", "x12circle"].map(String::from));
+        for text in patterns {
+            let p = NamePattern::parse(text).unwrap();
+            for name in &all {
+                let mut want = NameConditions::default();
+                let want = by_search(&p, 0, name, &mut want).then_some(want);
+                assert_eq!(p.conditions(name), want, "{text} on {name:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn many_wildcards_on_a_long_name_that_does_not_match() {
+        // Four `{*}a` pieces against 200 `a`s and no `_x` end: a search over
+        // splits tries about 200^4 of them.
+        let p = NamePattern::parse("{trajectory}_{*}a{*}a{*}a{*}a_x").unwrap();
+        let name = format!("t_{}b", "a".repeat(200));
+        assert_eq!(p.conditions(&name), None);
+        let hit = format!("t_{}_x", "a".repeat(200));
+        assert_eq!(p.conditions(&hit).unwrap().trajectory.as_deref(), Some("t"));
     }
 }
