@@ -179,3 +179,30 @@ fn a_model_that_does_not_vary_with_the_seed_is_analysed_over_recordings() {
     let md = crossaudit::report::render_markdown(&a);
     assert!(md.contains("Analysed over recordings alone: world fa_position_rmse at 1 s"), "{md}");
 }
+
+/// A per-cell file holding only 2 of the 4 evaluation recordings (the
+/// design allows drawn recordings without a CSV): they cannot be left out
+/// one at a time (a crossed estimate needs 2 rows), so that sensitivity is
+/// skipped with a warning, and the primary contrast is still analysed and
+/// decided (issue 56, class 9).
+#[test]
+fn too_few_recordings_for_leave_one_out_skip_it_and_keep_the_analysis() {
+    let text = std::fs::read_to_string("tests/designs/minimal.design").unwrap().replace(
+        r#"data nanobench { path "recordings" }"#,
+        r#"data nanobench { path "recordings" missing csv allow }"#,
+    );
+    let design = crossaudit::design::from_str("two.design", &text).unwrap();
+    let cells: Vec<_> = minimal_cells(&design)
+        .into_iter()
+        .filter(|c| ["R1_circle_fast_rep1", "R3_star_fast_rep1"].contains(&c.recording.as_str()))
+        .collect();
+    let a = crossaudit::analysis::analyze(&crossaudit::compile(&design), &cells, Default::default()).unwrap();
+    let u = &a.units[0];
+    assert_eq!(u.estimate.rows, 2);
+    assert_eq!(u.leave_one_out.len(), 1, "leave-one-seed-out still runs");
+    assert!(
+        a.warnings.iter().any(|w| w.contains("leave-one-recording-out skipped: it needs at least 3 recordings")),
+        "{:?}",
+        a.warnings
+    );
+}

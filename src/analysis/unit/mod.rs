@@ -301,13 +301,13 @@ impl Ctx<'_> {
                 Factor::Recording => (a.diff.rows, "recordings"),
             };
             if n < 3 {
+                // A sensitivity that cannot run does not stop the primary
+                // analysis: it is skipped, and the report says why.
                 let one = noun.trim_end_matches('s');
-                return Err(AnalysisError::Degenerate {
-                    unit: label.clone(),
-                    detail: format!(
-                        "leave-one-{one}-out needs at least 3 {noun} (each fit leaves one out and a crossed estimate needs 2), found {n}; drop `{one}` from `leave_one_out`"
-                    ),
-                });
+                warnings.push(format!(
+                    "{label}: leave-one-{one}-out skipped: it needs at least 3 {noun} (each fit leaves one out and a crossed estimate needs 2), found {n}"
+                ));
+                continue;
             }
             leave_one_out.push(self.leave_one_out(&a, complete.as_ref(), f).map_err(stats)?);
         }
