@@ -91,8 +91,35 @@ pub fn critical_value(level: f64, df: f64) -> Result<f64, StatsError> {
         return Err(StatsError::TooFew { what: "degrees of freedom", found: 0 });
     }
     let t = StudentsT::new(0.0, 1.0, df).map_err(|_| StatsError::TooFew { what: "degrees of freedom", found: 0 })?;
-    Ok(t.inverse_cdf(p))
+    if p <= EXTREME_P {
+        return Ok(t.inverse_cdf(p));
+    }
+    // Far in the tail statrs's inverse loses its digits (for 1 df it is
+    // off by a factor of 8 at level 0.999999999, and not even monotone):
+    // the closed forms for 1 and 2 df, and otherwise the lower tail's
+    // quantile, kept only when the distribution function gives its tail
+    // probability back.
+    let q = (1.0 - level) / 2.0;
+    let value = if df == 1.0 {
+        1.0 / (std::f64::consts::PI * q).tan()
+    } else if df == 2.0 {
+        (1.0 - 2.0 * q) / (2.0 * q * (1.0 - q)).sqrt()
+    } else {
+        -t.inverse_cdf(q)
+    };
+    // The closed forms are exact; the lower tail is checked.
+    let back = if df == 1.0 || df == 2.0 { q } else { t.cdf(-value) };
+    if !value.is_finite() || (back - q).abs() > 1e-6 * q {
+        return Err(StatsError::Invalid(format!(
+            "the {level} interval's t quantile on {df} df cannot be computed to working precision (its tail probability comes back as {back:e}, not {q:e}): lower the level"
+        )));
+    }
+    Ok(value)
 }
+
+/// Above this probability the t quantile is taken from its closed form or
+/// its lower tail ([`critical_value`]); below it, as always.
+const EXTREME_P: f64 = 0.9999;
 
 /// Two-sided p-value of `t` on `df` degrees of freedom, P(|T| >= |t|),
 /// for any df, as R's `2 * pt(-|t|, df)` computes it: the normal's where
@@ -141,4 +168,43 @@ pub fn quantile_type7(sorted: &[f64], p: f64) -> f64 {
     let lo = h.floor() as usize;
     let hi = (lo + 1).min(n - 1);
     sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::critical_value;
+
+    /// Far in the tail: 1 df is the Cauchy, whose upper q quantile x has
+    /// atan(1/x) = pi q; 2 df has P(T > x) = (1 - x / sqrt(2 + x^2)) / 2
+    /// = 1 / (s (s + x)) with s = sqrt(2 + x^2) (written without the
+    /// cancellation).
+    #[test]
+    fn extreme_levels_give_the_closed_form_quantiles() {
+        for level in [0.9999, 0.999999, 0.99999999, 0.999999999] {
+            let q = (1.0 - level) / 2.0;
+            let x1 = critical_value(level, 1.0).unwrap();
+            let tail1 = (1.0 / x1).atan() / std::f64::consts::PI;
+            assert!((tail1 - q).abs() < 1e-9 * q, "1 df at {level}: {x1}");
+            let x2 = critical_value(level, 2.0).unwrap();
+            let s = (2.0 + x2 * x2).sqrt();
+            let tail2 = 1.0 / (s * (s + x2));
+            assert!((tail2 - q).abs() < 1e-6 * q, "2 df at {level}: {x2}");
+        }
+    }
+
+    #[test]
+    fn quantiles_grow_with_the_level_at_any_df() {
+        let levels = [0.9, 0.95, 0.99, 0.999, 0.9999, 0.99999, 0.999999, 0.9999999, 0.99999999, 0.999999999];
+        for df in [1.0, 1.5, 2.0, 3.0, 5.0, 19.0, 1e3, f64::INFINITY] {
+            let mut last = 0.0;
+            for level in levels {
+                if let Ok(t) = critical_value(level, df) {
+                    assert!(t > last, "df {df}: {t} at {level} is not above {last}");
+                    last = t;
+                }
+            }
+        }
+        // Ordinary levels are computed as before (t table: t(0.975, 19) = 2.093).
+        assert!((critical_value(0.95, 19.0).unwrap() - 2.093024054408263).abs() < 1e-12);
+    }
 }
