@@ -524,12 +524,18 @@ impl Validator {
                 _ => None,
             },
             None => {
-                if let Some(m) = models.iter().find(|m| matches!(m.0.kind, crate::design::ModelKind::Mlp { .. })) {
+                // A linear model reads its target and actions from the
+                // train block too: without one it would fail only after the
+                // audit and the split.
+                let fitted = |k: &crate::design::ModelKind| {
+                    matches!(k, crate::design::ModelKind::Mlp { .. } | crate::design::ModelKind::Linear { .. })
+                };
+                if let Some(m) = models.iter().find(|m| fitted(&m.0.kind)) {
                     self.err_help(
                         "missing statement",
                         m.1,
                         format!("model `{}` has parameters to fit, but the design has no `train` block", m.0.name),
-                        "add `train { adam lr ... batch ... epochs ... cosine patience ... action_noise ... }`",
+                        "add `train { adam lr ... batch ... epochs ... cosine patience ... action_noise ... }` (a linear model reads its `target` and `actions` from it)",
                     );
                 }
                 None
