@@ -11,11 +11,10 @@
 //! (`split::ConditionCoverage`); this module turns it into the report's
 //! statement and sensitivity row.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use serde::Serialize;
 
-use super::unit::value_of;
 use super::{analyze, AnalysisError, AnalyzeOptions};
 use crate::cells::Cell;
 use crate::design::{Grouped, Sensitivity};
@@ -108,26 +107,10 @@ pub fn condition_coverage(
 ) -> ConditionCoverage {
     let out: BTreeSet<String> = uncovered.iter().map(|u| u.recording.clone()).collect();
     let (mut all, mut part) = (0.0, 0.0);
-    let p = &plan.primary;
-    let primary: Vec<&Cell> =
-        cells.iter().filter(|c| c.model.as_str() == p.model && (c.horizon_s - p.horizon_s).abs() < 1e-9).collect();
-    let mut pairs: BTreeMap<(&str, u64), [Option<f64>; 2]> = BTreeMap::new();
-    for c in &primary {
-        let slot = if c.arm.as_str() == plan.contrast.treated {
-            0
-        } else if c.arm.as_str() == plan.contrast.reference {
-            1
-        } else {
-            continue;
-        };
-        pairs.entry((c.recording.as_str(), c.seed)).or_default()[slot] = value_of(c, p.metric);
-    }
-    for ((rec, _), v) in &pairs {
-        if let [Some(t), Some(r)] = v {
-            all += t - r;
-            if out.contains(*rec) {
-                part += t - r;
-            }
+    for (rec, _, d) in super::multiverse::Diff::of(plan, cells).iter() {
+        all += d;
+        if out.contains(rec.as_str()) {
+            part += d;
         }
     }
     let mut coverage = ConditionCoverage {

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use super::format::{f, level_pct};
+use super::format::{f, fieller_cell, fieller_text, level_pct};
 use super::{md_text, Table};
 use crate::analysis::coverage::{ConditionCoverage, CoverageNote};
 use crate::analysis::Analysis;
@@ -50,10 +50,7 @@ pub(super) fn beside_verdict(a: &Analysis) -> Option<String> {
                 f(e.lower, 4),
                 f(e.upper, 4),
                 f(k.optimism_pct, 1),
-                k.optimism_interval
-                    .and_then(|iv| iv.fieller.bounds())
-                    .map(|(lo, hi)| format!(" [{}%, {}%]", f(lo, 1), f(hi, 1)))
-                    .unwrap_or_default(),
+                fieller_text(k.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
                 if k.rule_holds { "hold" } else { "fail" }
             );
         }
@@ -89,11 +86,6 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
     let (ci, oci) = (format!("{level} CI"), format!("optimism {level} CI"));
     let unit = super::format::unit_label(&a.decision.value_unit).to_string();
     let mut t = Table::new(&["recordings", "n", "unit", "d mean", &ci, "optimism %", &oci, "rule"], "lrlrlrll");
-    let opt = |iv: Option<crate::stats::RatioInterval>| {
-        iv.and_then(|iv| iv.fieller.bounds())
-            .map(|(lo, hi)| format!("[{}, {}]", f(lo, 1), f(hi, 1)))
-            .unwrap_or("-".into())
-    };
     let e = &u.estimate;
     t.row([
         "all".to_string(),
@@ -102,7 +94,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         f(e.mean, 4),
         format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
         f(u.optimism_pct, 1),
-        opt(u.optimism_interval),
+        fieller_cell(u.optimism_interval),
         if u.rule_holds { "holds" } else { "fails" }.to_string(),
     ]);
     if let Some(k) = &c.covered_only {
@@ -114,7 +106,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
             f(e.mean, 4),
             format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
             f(k.optimism_pct, 1),
-            opt(k.optimism_interval),
+            fieller_cell(k.optimism_interval),
             if k.rule_holds { "holds" } else { "fails" }.to_string(),
         ]);
     }

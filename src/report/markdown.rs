@@ -13,16 +13,6 @@ fn ci(e: &CrossedEstimate) -> String {
     format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4))
 }
 
-/// Fieller's interval of the optimism, in %: `unbounded` when the data
-/// bound it on neither side, `-` when the analysis has none.
-fn optimism_ci(u: &UnitResult) -> String {
-    match u.optimism_interval.map(|iv| iv.fieller.bounds()) {
-        Some(Some((lo, hi))) => format!("[{}, {}]", f(lo, 1), f(hi, 1)),
-        Some(None) => "unbounded".into(),
-        None => "-".into(),
-    }
-}
-
 fn boot(b: &Option<BootstrapInterval>) -> String {
     b.map(|b| format!("[{}, {}]", f(b.lower, 4), f(b.upper, 4))).unwrap_or_else(|| "-".into())
 }
@@ -157,10 +147,7 @@ fn header(a: &Analysis) -> String {
             f(e.lower, 4),
             f(e.upper, 4),
             f(b.optimism_pct, 1),
-            b.optimism_interval
-                .and_then(|iv| iv.fieller.bounds())
-                .map(|(lo, hi)| format!(" [{}%, {}%]", f(lo, 1), f(hi, 1)))
-                .unwrap_or_default(),
+            super::format::fieller_text(b.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
             if b.rule_holds { "hold" } else { "fail" }
         );
     }
@@ -311,7 +298,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
             f(u.mean_treated, 4),
             f(u.mean_reference, 4),
             f(u.optimism_pct, 1),
-            optimism_ci(u),
+            super::format::fieller_cell(u.optimism_interval),
             f(e.mean, 4),
             f(e.se, 4),
             df(e.df),

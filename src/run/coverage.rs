@@ -1,6 +1,8 @@
-//! The reference arm's condition coverage, from the split of each draw
-//! (`split::ConditionCoverage`, in each level's `audit/treatment.json`),
-//! turned into the analysis's statement (`analysis::coverage`).
+//! What the split's treatment audit gives the analysis: each arm's
+//! treatment strength, and the reference arm's condition coverage from
+//! the split of each draw (`split::ConditionCoverage`, in each level's
+//! `audit/treatment.json`) turned into the analysis's statement
+//! (`analysis::coverage`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -56,4 +58,21 @@ pub(crate) fn read_level(dir: &Path) -> Option<SplitCoverage> {
 pub(crate) fn statement_of_levels(plan: &Plan, cells: &[Cell], dirs: &[PathBuf]) -> Option<ConditionCoverage> {
     let draws: Option<Vec<SplitCoverage>> = dirs.iter().map(|d| read_level(d)).collect();
     statement(plan, cells, &draws?)
+}
+
+/// The split's treatment audit as the report shows it.
+pub(crate) fn treatment_strength(
+    t: &crate::split::TreatmentAudit,
+    rate_hz: f64,
+) -> Vec<crate::analysis::TreatmentStrength> {
+    t.arms
+        .iter()
+        .map(|a| crate::analysis::TreatmentStrength {
+            arm: a.arm.clone(),
+            contaminating_windows: a.contaminating_windows,
+            inside_evaluated_segment: a.inside_evaluated_segment,
+            horizon_s: t.horizon_samples as f64 / rate_hz,
+            median_distance_s: a.median_distance_s,
+        })
+        .collect()
 }

@@ -153,7 +153,7 @@ pub fn run(
             }
         }
         if taken > 0 {
-            opened.warnings.push(reused_note(taken, plan.jobs.len(), index.from()));
+            opened.warnings.push(reuse::reused_note(taken, plan.jobs.len(), index.from()));
         }
     }
     let skipped = plan.jobs.len() - todo.len();
@@ -164,14 +164,6 @@ pub fn run(
     let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
-}
-
-/// The report's line for jobs copied by `run --reuse`.
-pub(crate) fn reused_note(taken: usize, of: usize, from: &Path) -> String {
-    format!(
-        "{taken} of {of} jobs were copied from the earlier run {} instead of trained (`--reuse`): their inputs (manifests, data, model, training, seed, horizons) are identical by content key, every file was checked against its recorded SHA-256, and each job record names the run it came from",
-        from.display()
-    )
 }
 
 /// `crossaudit run DESIGN [--data DIR] --out OUT` as the command line and
@@ -466,7 +458,7 @@ fn finish(
             a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
             a.warnings.extend(prepared.audit.unread_warning());
             a.warnings.extend(opened.warnings.iter().cloned());
-            a.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
+            a.treatment = coverage::treatment_strength(&prepared.treatment, plan.rate_hz);
             a.coverage = coverage::note_of_levels(plan, &[out.to_path_buf()]);
         })?;
         outcome.seconds = started.elapsed().as_secs_f64();
@@ -480,7 +472,7 @@ fn finish(
     }
     analysis.warnings.extend(resumed_builds(builds));
     analysis.warnings.extend(opened.warnings.iter().cloned());
-    analysis.treatment = treatment_strength(&prepared.treatment, plan.rate_hz);
+    analysis.treatment = coverage::treatment_strength(&prepared.treatment, plan.rate_hz);
     let cells = read_cells(&cells_csv)?;
     analysis.coverage = coverage::statement(plan, &cells, std::slice::from_ref(&prepared.treatment.coverage));
     let report_dir = out.join("report");
@@ -503,20 +495,6 @@ fn finish(
         skipped: plan.jobs.len(),
         seconds: started.elapsed().as_secs_f64(),
     })
-}
-
-/// The split's treatment audit as the report shows it.
-fn treatment_strength(t: &crate::split::TreatmentAudit, rate_hz: f64) -> Vec<analysis::TreatmentStrength> {
-    t.arms
-        .iter()
-        .map(|a| analysis::TreatmentStrength {
-            arm: a.arm.clone(),
-            contaminating_windows: a.contaminating_windows,
-            inside_evaluated_segment: a.inside_evaluated_segment,
-            horizon_s: t.horizon_samples as f64 / rate_hz,
-            median_distance_s: a.median_distance_s,
-        })
-        .collect()
 }
 
 /// `out/cells/STEM.csv`: the per-cell rows of one job, present once it finished.

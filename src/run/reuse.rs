@@ -177,6 +177,14 @@ impl ReuseIndex {
     }
 }
 
+/// The report's line for jobs copied by `run --reuse`.
+pub(crate) fn reused_note(taken: usize, of: usize, from: &Path) -> String {
+    format!(
+        "{taken} of {of} jobs were copied from the earlier run {} instead of trained (`--reuse`): their inputs (manifests, data, model, training, seed, horizons) are identical by content key, every file was checked against its recorded SHA-256, and each job record names the run it came from",
+        from.display()
+    )
+}
+
 fn reuse_error(path: &Path, reason: String) -> RunError {
     RunError::Reuse { path: path.display().to_string(), reason }
 }

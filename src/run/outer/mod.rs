@@ -307,7 +307,11 @@ pub(crate) fn run_levels_with(
                 }
             }
             if taken > 0 {
-                reused.push(format!("{}: {}", level.id, crate::run::reused_note(taken, plan.jobs.len(), index.from())));
+                reused.push(format!(
+                    "{}: {}",
+                    level.id,
+                    crate::run::reuse::reused_note(taken, plan.jobs.len(), index.from())
+                ));
             }
         }
         let (mut copied, mut copies) = (0, Vec::new());
