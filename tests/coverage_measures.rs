@@ -319,3 +319,46 @@ pub(crate) fn independent_simulation_agrees(out: &str) -> usize {
     }
     compared
 }
+
+/// Issue 56, class 3: a coverage study at a true mean of 1e20 or 1e300
+/// scores the same intervals as at 0. Shifted by 1e20 first, an interval
+/// of width about 1 rounds to a point, and every coverage came out 1.000
+/// with width 0 (0.925 at mean 0). Coverage, misses, width, bias and the
+/// SEs do not move with the location, so they must be equal bit for bit.
+#[test]
+fn coverage_at_a_huge_true_mean_is_coverage_at_zero() {
+    let s = Setting {
+        rows: 6,
+        cols: 4,
+        shares: [0.4, 0.3, 0.3],
+        distribution: Distribution::Normal,
+        missing: Missing::Complete,
+    };
+    let sim = crossaudit::stats::coverage::simulate_reps(&s, 200, &[0.95], 19, 11).unwrap();
+    let all = crossaudit::stats::coverage::measures(&sim, &[0.0, 1e20, -1e300]);
+    let per = all.len() / 3;
+    let (zero, rest) = all.split_at(per);
+    for p in rest {
+        let z = zero.iter().find(|z| z.method == p.method).unwrap();
+        assert!(z.mean_width > 0.0 && z.coverage < 1.0, "{:?}: the study at 0 is not degenerate", z.method);
+        for (what, a, b) in [
+            ("coverage", p.coverage, z.coverage),
+            ("width", p.mean_width, z.mean_width),
+            ("below", p.miss_below, z.miss_below),
+            ("above", p.miss_above, z.miss_above),
+            ("bias", p.bias, z.bias),
+            ("empirical SE", p.emp_se, z.emp_se),
+            ("model SE", p.mod_se, z.mod_se),
+            ("relative precision", p.rel_precision, z.rel_precision),
+        ] {
+            assert!(
+                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                "{:?} at {}: {what} {a} != {b}",
+                p.method,
+                p.true_mean
+            );
+        }
+        // Relative bias is bias / mu, without cancellation.
+        assert_eq!(p.rel_bias, z.bias / p.true_mean);
+    }
+}

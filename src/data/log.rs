@@ -407,6 +407,17 @@ impl Tokenizer<'_> {
         if !v.is_finite() {
             number(self.file, self.line, &self.names[col], &body[i..i + used])?;
         }
+        // Time may be in nanoseconds since the epoch (1.7e18); no other
+        // quantity comes near 1e15 in SI units, and beyond it sums of
+        // squares over a recording could overflow.
+        if v.abs() > MAX_MAGNITUDE && self.time != Some(col) {
+            return Err(LogError::TooLarge {
+                file: self.file.to_string(),
+                line: self.line,
+                column: self.names[col].clone(),
+                value: value_excerpt(&body[i..i + used]),
+            });
+        }
         if self.time == Some(col) {
             if v < self.previous_t {
                 return Err(LogError::NonMonotonicTime {
@@ -425,6 +436,9 @@ impl Tokenizer<'_> {
         Ok(i + used)
     }
 }
+
+/// The largest magnitude a value other than time may have.
+const MAX_MAGNITUDE: f64 = 1e15;
 
 /// Finds the end of the field starting at `i` and, in the same pass,
 /// whether it is `[+-]digits[.digits]` with at least one digit (always a

@@ -100,6 +100,19 @@ pub enum LogError {
         /// The value as found.
         value: String,
     },
+    /// A value too large for the statistics to square and sum (|v| > 1e15):
+    /// its arithmetic would overflow or lose every digit.
+    #[error("{file}: line {line}, column `{column}`: {value:?} is larger in magnitude than 1e15, which no flight quantity is in SI units and whose squares the statistics cannot sum; is the column in the declared unit?")]
+    TooLarge {
+        /// The file, as given.
+        file: String,
+        /// Line number (1 = header).
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The value as found.
+        value: String,
+    },
     /// A timestamp earlier than the previous row's.
     #[error("{file}: line {line}, column `{column}`: time {t} is before the previous row's {previous}")]
     NonMonotonicTime {
@@ -175,6 +188,7 @@ impl LogError {
             LogError::Ragged { .. } => "ragged_row",
             LogError::NonNumeric { .. } => "non_numeric",
             LogError::NonFinite { .. } => "non_finite",
+            LogError::TooLarge { .. } => "too_large",
             LogError::NonMonotonicTime { .. } => "non_monotonic_time",
             LogError::MissingColumn { .. } => "missing_column",
             LogError::Rate { .. } => "rate_mismatch",

@@ -119,6 +119,11 @@ const MAX_SETTINGS: usize = 10_000;
 /// The most cell visits (reps x (B + 1) x recordings x seeds, summed over
 /// the grid) a study may need.
 const MAX_WORK: f64 = 1e12;
+/// The most replications kept (reps x settings x levels): each keeps
+/// every estimator's interval (about 3 KB), and each costs about a
+/// millisecond however small the arrays, so this bounds both memory (about
+/// 3 GB) and time (hours) before anything is allocated.
+const MAX_REPLICATIONS: f64 = 1e6;
 
 fn default_b() -> usize {
     999
@@ -214,12 +219,16 @@ impl CoverageSpec {
         if let Some(n) = self.rows.iter().chain(&self.cols).find(|n| **n > MAX_SIDE) {
             return bad(format!("`rows` and `cols` may be at most {MAX_SIDE}, found {n}"));
         }
+        // Products in f64: no list length or size can overflow them.
         let settings =
-            self.rows.len() * self.cols.len() * self.shares.len() * self.distributions.len() * self.missing.len();
-        if settings > MAX_SETTINGS {
+            [self.rows.len(), self.cols.len(), self.shares.len(), self.distributions.len(), self.missing.len()]
+                .iter()
+                .map(|&n| n as f64)
+                .product::<f64>();
+        if settings > MAX_SETTINGS as f64 {
             return bad(format!("the grid has {settings} settings; at most {MAX_SETTINGS} are allowed"));
         }
-        let cells: f64 = self.rows.iter().map(|&i| self.cols.iter().map(|&j| (i * j) as f64).sum::<f64>()).sum();
+        let cells: f64 = self.rows.iter().map(|&i| self.cols.iter().map(|&j| i as f64 * j as f64).sum::<f64>()).sum();
         let work = cells
             * (self.shares.len() * self.distributions.len() * self.missing.len()) as f64
             * self.reps as f64
@@ -227,6 +236,12 @@ impl CoverageSpec {
         if work > MAX_WORK {
             return bad(format!(
                 "reps x bootstrap x cells over the grid is {work:.3e} cell visits, more than the {MAX_WORK:.0e} allowed (hours of computing); lower `reps`, `bootstrap` or the grid"
+            ));
+        }
+        let kept = self.reps as f64 * settings * levels.len() as f64;
+        if kept > MAX_REPLICATIONS {
+            return bad(format!(
+                "reps x settings x levels is {kept:.3e} replications, more than the {MAX_REPLICATIONS:.0e} allowed (each keeps every interval in memory and takes about a millisecond); lower `reps`, the grid or `levels`"
             ));
         }
         Ok(())

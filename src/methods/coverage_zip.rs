@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use crate::report::charts::{draw_err, DrawError};
-use crate::stats::coverage::{shifted, usable, Simulated};
+use crate::stats::coverage::{usable, Simulated};
 
 /// At most this many intervals per panel, taken evenly by rank (the shape
 /// of the zip does not change; the figure stays small).
@@ -32,8 +32,11 @@ pub fn draw_zip(path: &Path, sim: &Simulated, mu: f64) -> Result<(), DrawError> 
         .clamp(1.0, 20.0);
     crate::report::charts::svg_figure(path, (width, height), |root| {
         let (title, body) = root.split_vertically(50);
+        // Drawn around 0, where the intervals were computed: shifted by a
+        // true mean of 1e20, an interval would round to a point.
+        let frame = if mu == 0.0 { "" } else { " (drawn minus mu)" };
         let text = format!(
-            "Zip plot: {}, true mean {mu}, nominal {level}: intervals ranked by |estimate - mu| / SE",
+            "Zip plot: {}, true mean {mu}, nominal {level}: intervals ranked by |estimate - mu| / SE{frame}",
             sim.label
         );
         title.draw(&Text::new(text, (20, 15), ("sans-serif", 18))).map_err(&e)?;
@@ -43,19 +46,18 @@ pub fn draw_zip(path: &Path, sim: &Simulated, mu: f64) -> Result<(), DrawError> 
             let mut ranked: Vec<(f64, f64, f64)> = sim.replications[0][k]
                 .iter()
                 .filter(|(e, _, _)| usable(e))
-                .map(|(e, _, _)| shifted(*e, mu))
-                .map(|e| ((e.0 - mu).abs() / e.1, e.2, e.3))
+                .map(|(e, _, _)| (e.0.abs() / e.1, e.2, e.3))
                 .collect();
             ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
             let n = ranked.len();
-            let covered = ranked.iter().filter(|r| r.1 <= mu && mu <= r.2).count();
+            let covered = ranked.iter().filter(|r| r.1 <= 0.0 && 0.0 <= r.2).count();
             let coverage = covered as f64 / n.max(1) as f64;
             let mut chart = ChartBuilder::on(area)
                 .caption(format!("{} ({:.3})", method.label(), coverage), ("sans-serif", 14))
                 .margin(8)
                 .x_label_area_size(25)
                 .y_label_area_size(40)
-                .build_cartesian_2d((mu - half)..(mu + half), 0.0..100.0)
+                .build_cartesian_2d(-half..half, 0.0..100.0)
                 .map_err(&e)?;
             chart
                 .configure_mesh()
@@ -71,14 +73,14 @@ pub fn draw_zip(path: &Path, sim: &Simulated, mu: f64) -> Result<(), DrawError> 
             chart
                 .draw_series(ranked.iter().enumerate().step_by(step).map(|(i, &(_, lo, hi))| {
                     let y = 100.0 * (i as f64 + 0.5) / n as f64;
-                    let color = if lo <= mu && mu <= hi { hit } else { miss };
-                    PathElement::new(vec![(lo.max(mu - half), y), (hi.min(mu + half), y)], color.stroke_width(1))
+                    let color = if lo <= 0.0 && 0.0 <= hi { hit } else { miss };
+                    PathElement::new(vec![(lo.max(-half), y), (hi.min(half), y)], color.stroke_width(1))
                 }))
                 .map_err(&e)?;
             // The truth, the nominal level (black) and the coverage (orange).
-            chart.draw_series(LineSeries::new(vec![(mu, 0.0), (mu, 100.0)], BLACK)).map_err(&e)?;
+            chart.draw_series(LineSeries::new(vec![(0.0, 0.0), (0.0, 100.0)], BLACK)).map_err(&e)?;
             for (y, color) in [(100.0 * level, BLACK), (100.0 * coverage, RGBColor(255, 127, 14))] {
-                chart.draw_series(LineSeries::new(vec![(mu - half, y), (mu + half, y)], color)).map_err(&e)?;
+                chart.draw_series(LineSeries::new(vec![(-half, y), (half, y)], color)).map_err(&e)?;
             }
         }
         Ok(())

@@ -93,6 +93,13 @@ pub struct DrawCoverageSpec {
     pub settings: Vec<DrawSetting>,
 }
 
+/// The most settings one spec may list.
+const MAX_DRAW_SETTINGS: usize = 100;
+/// The most cells fitted in all (reps x rows x cols x draws, summed over
+/// the settings): the committed study (`specs/coverage_draws.json`, 3.8e6)
+/// took 15 minutes on two cores, so this bounds a study to about 6 hours.
+const MAX_DRAW_WORK: f64 = 1e8;
+
 /// The interval methods compared.
 pub const METHODS: [&str; 4] = ["single_draw_t", "per_seed_draws_t", "pooled_reml_kr", "pooled_reml_satterthwaite"];
 
@@ -162,11 +169,14 @@ impl DrawCoverageSpec {
         if !(spec.level > 0.0 && spec.level < 1.0) {
             return bad(format!("`level` must be in (0, 1), found {}", spec.level));
         }
-        if spec.settings.is_empty() {
-            return bad("`settings` needs at least one setting".into());
+        if spec.settings.is_empty() || spec.settings.len() > MAX_DRAW_SETTINGS {
+            return bad(format!("`settings` needs 1 to {MAX_DRAW_SETTINGS} settings, found {}", spec.settings.len()));
         }
+        let mut work = 0.0;
         for s in &spec.settings {
-            if s.rows < 2 || s.cols < 2 || s.draws < 2 || s.rows * s.cols * s.draws > 200_000 {
+            // In f64: sizes near 2^64 overflow any integer product.
+            let cells = s.rows as f64 * s.cols as f64 * s.draws as f64;
+            if s.rows < 2 || s.cols < 2 || s.draws < 2 || cells > 200_000.0 {
                 return bad(format!(
                     "setting {:?}: `rows`, `cols` and `draws` must each be at least 2, with at most 200000 cells, found {} x {} x {}",
                     s.label, s.rows, s.cols, s.draws
@@ -178,14 +188,30 @@ impl DrawCoverageSpec {
                     s.label
                 ));
             }
+            work += cells * spec.reps as f64;
+        }
+        if work > MAX_DRAW_WORK {
+            return bad(format!(
+                "reps x cells over the settings is {work:.3e}, more than the {MAX_DRAW_WORK:.0e} allowed (each replication fits two REML models; about 4,000 cells a second on two cores, so this would take {:.0} hours); lower `reps` or the sizes",
+                work / 4000.0 / 3600.0
+            ));
         }
         Ok(())
     }
 }
 
-/// Whether a coverage spec's text asks for the draw study.
-pub fn is_draw_spec(text: &str) -> bool {
-    serde_json::from_str::<serde_json::Value>(text).map(|v| v.get("kind").is_some()).unwrap_or(false)
+/// Whether a coverage spec's text asks for the draw study (it has a
+/// `kind`). Text that is not JSON is refused here with the syntax error's
+/// line and column, whichever study it meant (a NaN or a missing comma was
+/// reported as the other study's "unknown field `kind`").
+pub fn is_draw_spec(path: &Path, text: &str) -> Result<bool, CoverageError> {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|source| CoverageError::Parse {
+        path: path.display().to_string(),
+        line: source.line(),
+        column: source.column(),
+        source,
+    })?;
+    Ok(value.get("kind").is_some())
 }
 
 /// The seed of a setting: FNV-1a of its JSON, mixed with the spec's seed.

@@ -87,6 +87,20 @@ pub enum RunError {
         /// The other design's hash.
         sha256: String,
     },
+    /// An analysis or plan would write into a folder a run wrote (the
+    /// run's own report, its cells, a level folder): replacing it would
+    /// lose what only the run knows (its warnings, its treatment audit).
+    #[error("{dir} is {what} of the run in {run}, which only the run itself writes (its report carries the run's warnings and audits, which a reanalysis of per-cell data does not have); write the reanalysis into a new folder, for example --out {suggest}")]
+    RunsOwnFolder {
+        /// The output directory, as given.
+        dir: String,
+        /// What it is: "the folder", "a folder".
+        what: &'static str,
+        /// The run's directory.
+        run: String,
+        /// A folder that may be used instead.
+        suggest: String,
+    },
     /// run.json cannot be read, or is missing beside a run's outputs.
     #[error("{path} cannot be read as the record of a run ({reason}), so nothing in {dir} can be verified for reuse; use a new output directory")]
     BadRunRecord {

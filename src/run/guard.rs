@@ -55,8 +55,7 @@ pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError>
         let Ok(entries) = std::fs::read_dir(d) else { continue };
         for e in entries.flatten().take(100_000) {
             let name = e.file_name().to_string_lossy().into_owned();
-            let level = ["spec-", "draw-", "split-"].iter().any(|p| name.starts_with(p));
-            if !level {
+            if !is_level(&name) {
                 continue;
             }
             // A specification of per-seed draws holds its seeds' levels
@@ -75,6 +74,86 @@ pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError>
                 }
             }
         }
+    }
+    Ok(())
+}
+
+/// The folders a run writes inside its own directory.
+const RUN_OWNED: [&str; 15] = [
+    "report",
+    "audit",
+    "cells",
+    "curves",
+    "jobs",
+    "locks",
+    "logs",
+    "manifests",
+    "models",
+    "simulated_data",
+    "slurm",
+    "sbatch",
+    "export",
+    "predictions",
+    "split",
+];
+
+/// Whether `name` is an outer level's folder (`spec-*`, `draw-*`, `split-*`).
+fn is_level(name: &str) -> bool {
+    ["spec-", "draw-", "split-"].iter().any(|p| name.starts_with(p))
+}
+
+/// Whether `dir` is the top of a run with outer levels: it holds a level
+/// folder with a run.json (or, for a specification of per-seed draws, a
+/// `draw-*` inside one that has).
+fn is_outer_top(dir: &Path) -> bool {
+    let Ok(entries) = std::fs::read_dir(dir) else { return false };
+    entries.flatten().take(100_000).any(|e| {
+        let name = e.file_name().to_string_lossy().into_owned();
+        is_level(&name)
+            && (e.path().join("run.json").is_file()
+                || std::fs::read_dir(e.path()).into_iter().flatten().flatten().take(100_000).any(|i| {
+                    i.file_name().to_string_lossy().starts_with("draw-") && i.path().join("run.json").is_file()
+                }))
+    })
+}
+
+/// Refuses to write an analysis or a plan into a folder a run wrote: the
+/// run's directory, its `report/`, `cells/`, `audit/` or any other folder
+/// of [`RUN_OWNED`], or anything inside an outer level's folder, at any
+/// depth and however spelled (the path is resolved first). Only the run
+/// writes there: a reanalysis of its per-cell file has neither its
+/// warnings nor its audits, and replacing the run's report with it made
+/// report.md and results.json disagree. `analyzing_run` is the run
+/// directory an analysis of outer levels reads (`analyze --cells RUN`): its
+/// top `report/` is what the run itself writes from its level folders, so
+/// that one is allowed.
+pub fn check_not_runs_own(dir: &Path, analyzing_run: Option<&Path>) -> Result<(), RunError> {
+    let d = resolved(dir);
+    if analyzing_run.is_some_and(|run| resolved(run).join("report") == d) {
+        return Ok(());
+    }
+    let runs: Vec<&Path> = d.ancestors().filter(|a| a.join("run.json").is_file() || is_outer_top(a)).collect();
+    for a in &runs {
+        let first = d.strip_prefix(a).ok().and_then(|r| r.components().next());
+        let what = match first {
+            None => "the folder",
+            Some(c) => {
+                let name = c.as_os_str().to_string_lossy();
+                if RUN_OWNED.contains(&name.as_ref()) || is_level(&name) {
+                    "a folder"
+                } else {
+                    continue;
+                }
+            }
+        };
+        // Suggested: beside the outermost run's own folders.
+        let outermost = runs.last().unwrap_or(a);
+        return Err(RunError::RunsOwnFolder {
+            dir: dir.display().to_string(),
+            what,
+            run: a.display().to_string(),
+            suggest: outermost.join("reanalysis").display().to_string(),
+        });
     }
     Ok(())
 }

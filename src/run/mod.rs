@@ -41,7 +41,7 @@ pub use error::RunError;
 pub use folder::{check_out_dir, lock_folder, FolderLock};
 pub use grid::{Quiet, RunObserver};
 use guard::refuse_single_run;
-pub use guard::{check_out, check_out_plan, check_output_dir};
+pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};

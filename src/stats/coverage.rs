@@ -530,15 +530,13 @@ pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
     for &mu in means {
         for (l, &level) in sim.levels.iter().enumerate() {
             let reps = &sim.replications[l];
-            let theta = |k: usize| -> Vec<Option<f64>> {
-                reps[k].iter().map(|(e, _, _)| usable(e).then_some(e.0 + mu)).collect()
-            };
+            let theta =
+                |k: usize| -> Vec<Option<f64>> { reps[k].iter().map(|(e, _, _)| usable(e).then_some(e.0)).collect() };
             let reference = theta(0);
             let empse_ref = super::sample_variance(&reference.iter().flatten().copied().collect::<Vec<_>>()).sqrt();
             for (k, &method) in sim.methods.iter().enumerate() {
-                let est: Vec<Estimate> = reps[k].iter().map(|(e, _, _)| shifted(*e, mu)).collect();
                 let dfs: Vec<f64> = reps[k].iter().map(|(_, d, _)| *d).collect();
-                let mut p = performance_at(&sim.label, method, &est, &dfs, mu, level);
+                let mut p = performance_around(&sim.label, method, &reps[k], &dfs, mu, level);
                 // Over the replications scored, as every other measure.
                 let at_boundary = reps[k].iter().filter(|(e, _, b)| usable(e) && *b).count() as f64;
                 let n = p.reps as f64;
@@ -557,6 +555,36 @@ pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
         }
     }
     out
+}
+
+/// One estimator's performance at true mean `mu`, from its intervals
+/// around 0. Every measure that does not move with the location (coverage,
+/// the misses, widths, bias, the SEs, MSE) is scored around 0, where the
+/// intervals were computed: shifted by a mean of 1e20 an interval of width
+/// 1 rounds to width 0 and would cover nothing or everything. The measures
+/// that depend on where the truth lies (power, rejection, type S, relative
+/// bias) are scored at `mu`; relative bias as mean(estimate around 0) / mu,
+/// which is the same quantity without the cancellation.
+fn performance_around(
+    setting: &str,
+    method: IntervalMethod,
+    reps: &[(Estimate, f64, bool)],
+    dfs: &[f64],
+    mu: f64,
+    level: f64,
+) -> Performance {
+    let around: Vec<Estimate> = reps.iter().map(|(e, _, _)| *e).collect();
+    let mut p = performance_at(setting, method, &around, dfs, 0.0, level);
+    p.true_mean = mu;
+    if mu != 0.0 {
+        let est: Vec<Estimate> = around.iter().map(|e| shifted(*e, mu)).collect();
+        let at = performance_at(setting, method, &est, dfs, mu, level);
+        (p.power, p.power_mcse, p.rejection, p.rejection_mcse, p.type_s, p.type_s_mcse) =
+            (at.power, at.power_mcse, at.rejection, at.rejection_mcse, at.type_s, at.type_s_mcse);
+        p.rel_bias = p.bias / mu;
+        p.rel_bias_mcse = p.bias_mcse / mu.abs();
+    }
+    p
 }
 
 /// Pearson's correlation (R's `cor`: centred sums, two passes).

@@ -546,3 +546,48 @@ BIG = "y,x,g\n1e305,1,a\n1.7e305,2,a\n1.2e305,3,b\n1.5e305,4,b\n1.1e305,5,c\n1.9
 mixed("r4_mixed_response_overflows", "y ~ 1 + (1|g)", BIG)
 mixed("r4_mixed_predictor_overflows", "x ~ y + (1|g)", BIG)
 mixed("r4_mixed_stdout_closed", "y ~ d + (1|g)", MIXED_OK, {"stdout": "closed\n"})
+
+# ---- Round 5 (issue 56) ---------------------------------------------------------------
+# Class 1: sizes whose products overflow 64 bits, and work beyond hours.
+DRAWS = json.load(open(os.path.join(ROOT, "specs/coverage_draws.json")))
+def draw_spec(name, edit, extra=""):
+    s = json.loads(json.dumps(DRAWS))
+    edit(s)
+    case(name, "coverage {dir}/spec.json --out {out}" + extra, {"spec.json": json.dumps(s, indent=1)})
+
+draw_spec("r5_draw_coverage_sizes_overflow", lambda s: s["settings"][0].update(rows=4294967296, cols=4294967296, draws=2))
+draw_spec("r5_draw_coverage_product_wraps_small", lambda s: s["settings"][0].update(rows=2**62, cols=4, draws=2))
+draw_spec("r5_draw_coverage_work_huge", lambda s: s.update(reps=100000))
+draw_spec("r5_draw_coverage_work_huge_flag", lambda s: None, " --reps 100000")
+TINY = {"seed": 1, "reps": 20, "bootstrap": 1, "rows": [2], "cols": [2], "shares": [[0.4, 0.3, 0.3]], "distributions": ["normal"]}
+case("r5_coverage_reps_huge_flag", "coverage {dir}/spec.json --out {out} --reps 50000000", {"spec.json": json.dumps(TINY)})
+case("r5_coverage_grid_lengths_overflow", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": json.dumps({**TINY, "rows": [2] * 5000, "cols": [2] * 5000})})
+
+# Class 3: values whose arithmetic overflows, refused at the input with their place.
+logs("r5_log_position_1e200", {"A1_circle_slow_rep1.csv": with_field(1, "1e200")})
+logs("r5_log_action_huge", {"A1_circle_slow_rep1.csv": with_field(23, "-3e16")})
+
+# Class 7 and 8: a flag a draw study ignored; a draw spec's syntax error or NaN
+# reported as the other study's "unknown field `kind`".
+draw_spec("r5_draw_coverage_replications_flag", lambda s: None, " --replications")
+DRAW_TEXT = json.dumps(DRAWS, indent=1)
+case("r5_draw_coverage_nan", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": DRAW_TEXT.replace('"residual": 0.003513', '"residual": NaN', 1)})
+case("r5_draw_coverage_missing_comma", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": DRAW_TEXT.replace('"reps": 500,', '"reps": 500', 1)})
+
+# Class 5: a finished run's own folders are written by the run alone, whatever the
+# design: a reanalysis of its per-cell file goes into a new folder.
+MINIMAL_BYTES = open(os.path.join(ROOT, "tests/designs/minimal.design"), "rb").read()
+SAME_RUN = json.dumps({**json.loads(OTHER_RUN), "design_sha256": sha(MINIMAL_BYTES)})
+OWN_RUN = {"run/run.json": SAME_RUN, "run/cells.csv": GOOD_CELLS_TEXT,
+           "run/report/report.md": "# the run's own report\n"}
+case("r5_analyze_into_the_runs_own_report",
+     "analyze tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/report", OWN_RUN)
+case("r5_analyze_into_the_run_folder",
+     "analyze tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/./", OWN_RUN)
+case("r5_analyze_into_the_runs_cells_folder_dotted",
+     "analyze tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/x/../cells/new", OWN_RUN)
+case("r5_plan_into_the_runs_own_report",
+     "plan tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/report", OWN_RUN)

@@ -476,10 +476,28 @@ fn lock_design(path: &Path, amend: Option<&str>) -> Result<(), Error> {
 
 fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOptions) -> Result<(), Error> {
     let file = crossaudit::design::load(design)?;
-    let dir = out.unwrap_or_else(|| cells.parent().unwrap_or(Path::new(".")).join("report"));
-    // A run's report is never replaced by another design's analysis.
+    let outer = crossaudit::run::outer::levels(&file.design).is_some();
+    let beside = cells.parent().unwrap_or(Path::new("."));
+    let dir = match out {
+        Some(dir) => dir,
+        // A per-cell file in a run's folder: its `report/` is the run's
+        // own, so the reanalysis goes beside it, into `reanalysis/`.
+        None if !outer && crossaudit::run::check_not_runs_own(&beside.join("report"), None).is_err() => {
+            let dir = beside.join("reanalysis");
+            note!(
+                "{} is the run's own report; writing the reanalysis to {}",
+                beside.join("report").display(),
+                dir.display()
+            );
+            dir
+        }
+        None => beside.join("report"),
+    };
+    // A run's report is never replaced by another design's analysis, nor
+    // by a reanalysis of its per-cell data.
     crossaudit::run::check_output_dir(&dir, &file.sha256)?;
-    if crossaudit::run::outer::levels(&file.design).is_some() {
+    crossaudit::run::check_not_runs_own(&dir, outer.then_some(cells))?;
+    if outer {
         // A multiverse or draw-replicated run: `--cells` is its run directory.
         let mut a = crossaudit::run::outer::analyze_dir(&file, cells)?;
         crossaudit::run::outer::label(&mut a, &file)?;

@@ -10,7 +10,14 @@ use crossaudit::{AnalyzeOptions, Error};
 pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replications: bool) -> Result<(), Error> {
     use crossaudit::methods::draw_coverage as dc;
     let text = crossaudit::methods::coverage::read_spec_text(spec_path)?;
-    if dc::is_draw_spec(&text) {
+    if dc::is_draw_spec(spec_path, &text)? {
+        if replications {
+            return Err(crossaudit::methods::CoverageError::Invalid {
+                path: spec_path.display().to_string(),
+                message: "`--replications` writes the tidy replications of a coverage grid for rsimsum; a draw study (`\"kind\": \"draws\"`) has none to write. Leave the flag out".into(),
+            }
+            .into());
+        }
         let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &text)?;
         if let Some(r) = reps {
             spec.reps = r;
@@ -59,6 +66,7 @@ pub(crate) fn power(
 ) -> Result<(), Error> {
     let file = design::load(design)?;
     crossaudit::run::check_output_dir(out, &file.sha256)?;
+    crossaudit::run::check_not_runs_own(out, None)?;
     let plan = crossaudit::compile(&file.design);
     if !file.design.draws.is_empty() {
         // A draw-replicated pilot: `--cells` is its run directory, analysed
