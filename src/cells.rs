@@ -367,6 +367,11 @@ impl Row<'_> {
         if t.is_empty() {
             return Err(self.fail(field, v, "is empty"));
         }
+        // A line break or a terminal escape in a name would be written
+        // into every report table and console line that names it.
+        if t.chars().any(char::is_control) {
+            return Err(self.fail(field, v, "holds a control character, which no name may"));
+        }
         Ok(names.get(t))
     }
 

@@ -21,6 +21,7 @@ mod family;
 mod front_door;
 mod fused;
 mod golden;
+mod hostile_text;
 mod logs;
 mod mixed_cli;
 mod model;

@@ -143,6 +143,15 @@ pub enum AuditError {
         /// The other.
         second: String,
     },
+    /// A log's file name holds a control character (a line break, a
+    /// terminal escape): it would become a recording name.
+    #[error("{dir}: the file name {name:?} holds a control character, which no recording name may; rename the file")]
+    ControlInName {
+        /// The directory.
+        dir: String,
+        /// The file name, escaped.
+        name: String,
+    },
     /// The declared columns are not in the NanoBench schema.
     #[error("{0}")]
     Layout(String),
@@ -198,6 +207,10 @@ fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
     for entry in std::fs::read_dir(dir).map_err(err)? {
         let path = entry.map_err(err)?.path();
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let log = name.ends_with(".csv") || name.ends_with(".csv.gz") || name.ends_with("_metadata.yaml");
+        if log && name.chars().any(char::is_control) {
+            return Err(AuditError::ControlInName { dir: dir.display().to_string(), name });
+        }
         if name.ends_with(".csv") || name.ends_with(".csv.gz") {
             csvs.push(path);
         } else if let Some(stem) = name.strip_suffix("_metadata.yaml") {

@@ -17,49 +17,73 @@ pub struct Conditions {
     pub speed: Option<String>,
 }
 
-/// Reads the table: recording name to its conditions. Errors name the
-/// file, the line and the column.
+/// Reads the table: recording name to its conditions. A CSV file (quoted
+/// fields may hold commas; a UTF-8 byte-order mark is dropped; blank lines
+/// are skipped). Errors name the file, the line and the column: a column
+/// named twice, a row of another width, an empty field, a recording listed
+/// twice, a control character in a name.
 pub fn read_table(path: &Path) -> Result<BTreeMap<String, Conditions>, String> {
     let file = path.display();
     let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a conditions table")
         .map_err(|e| format!("{file}: cannot read the conditions table: {}", e.reason()))?;
     let text = String::from_utf8(bytes).map_err(|e| format!("{file}: the conditions table is not UTF-8: {e}"))?;
     let text = crate::io::lone_cr_to_lf(&text);
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, header)) = lines.next() else {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut reader =
+        csv::ReaderBuilder::new().has_headers(false).flexible(true).trim(csv::Trim::All).from_reader(text.as_bytes());
+    let mut records = reader.records();
+    let bad = |e: csv::Error| format!("{file}: {e}");
+    let Some(header) = records.next().transpose().map_err(bad)? else {
         return Err(format!("{file}: the conditions table is empty"));
     };
-    let names: Vec<&str> = header.split(',').map(|h| h.trim().trim_matches('"')).collect();
-    let column = |want: &str| names.iter().position(|n| *n == want);
+    let names: Vec<String> = header.iter().map(String::from).collect();
+    let line_of = |r: &csv::StringRecord| r.position().map_or(0, |p| p.line() as usize);
+    let header_line = line_of(&header);
+    for (k, n) in names.iter().enumerate() {
+        if let Some(first) = names[..k].iter().position(|m| m == n) {
+            return Err(format!(
+                "{file}: line {header_line}: column `{}` is named twice (columns {} and {}); which one holds the conditions is ambiguous",
+                crate::io::one_line(n),
+                first + 1,
+                k + 1
+            ));
+        }
+    }
+    let column = |want: &str| names.iter().position(|n| n == want);
     let Some(rec) = column("recording") else {
         return Err(format!(
-            "{file}: line 1: the conditions table needs a `recording` column (it has: {})",
-            names.join(", ")
+            "{file}: line {header_line}: the conditions table needs a `recording` column (it has: {})",
+            crate::io::one_line(&names.join(", "))
         ));
     };
     let (trajectory, speed) = (column("trajectory"), column("speed"));
     if trajectory.is_none() && speed.is_none() {
         return Err(format!(
-            "{file}: line 1: the conditions table needs a `trajectory` or a `speed` column (it has: {})",
-            names.join(", ")
+            "{file}: line {header_line}: the conditions table needs a `trajectory` or a `speed` column (it has: {})",
+            crate::io::one_line(&names.join(", "))
         ));
     }
     let mut out: BTreeMap<String, (Conditions, usize)> = BTreeMap::new();
-    for (k, line) in lines {
-        let fields: Vec<&str> = line.split(',').map(|f| f.trim().trim_matches('"')).collect();
+    for record in records {
+        let fields = record.map_err(bad)?;
+        let line = line_of(&fields);
         if fields.len() != names.len() {
-            return Err(format!("{file}: line {}: {} fields, the header has {}", k + 1, fields.len(), names.len()));
+            return Err(format!("{file}: line {line}: {} fields, the header has {}", fields.len(), names.len()));
         }
         let value = |c: Option<usize>, what: &str| -> Result<Option<String>, String> {
-            match c.map(|c| fields[c]) {
-                Some("") => Err(format!("{file}: line {}, column `{what}`: empty", k + 1)),
+            match c.map(|c| &fields[c]) {
+                Some("") => Err(format!("{file}: line {line}, column `{what}`: empty")),
+                Some(v) if v.chars().any(char::is_control) => Err(format!(
+                    "{file}: line {line}, column `{what}`: {:?} holds a control character, which no name may",
+                    v
+                )),
                 other => Ok(other.map(String::from)),
             }
         };
         let name = value(Some(rec), "recording")?.unwrap_or_default();
         let conditions = Conditions { trajectory: value(trajectory, "trajectory")?, speed: value(speed, "speed")? };
-        if let Some((_, first)) = out.insert(name.clone(), (conditions, k + 1)) {
-            return Err(format!("{file}: line {}: recording `{name}` is listed again (first on line {first})", k + 1));
+        if let Some((_, first)) = out.insert(name.clone(), (conditions, line)) {
+            return Err(format!("{file}: line {line}: recording `{name}` is listed again (first on line {first})"));
         }
     }
     Ok(out.into_iter().map(|(k, (c, _))| (k, c)).collect())

@@ -153,5 +153,17 @@ pub fn impossible_values(path: &Path, m: &Metadata) -> Vec<String> {
             out.push(format!("{}: {}: `{name}` is {v}, expected {expected}", path.display(), at(key)));
         }
     }
+    // Labels become trajectory names in every table of every report.
+    for (key, value) in
+        [("trajectory_type", &m.trajectory_type), ("trajectory_id", &m.trajectory_id), ("category", &m.category)]
+    {
+        if let Some(v) = value.as_ref().filter(|v| v.chars().any(char::is_control)) {
+            out.push(format!(
+                "{}: {}: `{key}` is {v:?}, which holds a control character no label may",
+                path.display(),
+                at(key)
+            ));
+        }
+    }
     out
 }

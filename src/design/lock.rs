@@ -52,6 +52,9 @@ pub struct LockFile {
     pub amendments: Vec<Amendment>,
 }
 
+/// The most characters an amendment's reason may have.
+pub const MAX_REASON: usize = 2000;
+
 /// One amendment of a locked design: the lock it replaced and why.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Amendment {
@@ -68,7 +71,9 @@ impl Amendment {
     pub fn describe(&self) -> String {
         format!(
             "the design was amended after it was first locked (lock of {}, sha256 {}, replaced): {}",
-            self.previous_locked_at_utc, self.previous_sha256, self.reason
+            self.previous_locked_at_utc,
+            self.previous_sha256,
+            crate::io::one_line(&self.reason)
         )
     }
 }
@@ -181,6 +186,16 @@ pub enum LockError {
         sha256: String,
         /// When it was locked (RFC 3339, UTC).
         locked_at_utc: String,
+    },
+    /// An amendment's reason that cannot be recorded: too long, or with a
+    /// control character, or one that would grow the lock past what the
+    /// lock reader accepts (after which no command could use the design).
+    #[error("{path}: the amendment's reason {why}")]
+    BadReason {
+        /// The lock file.
+        path: String,
+        /// What is wrong with it.
+        why: String,
     },
     /// `--amend` of a design that has no lock yet, or whose lock holds.
     #[error("{path}: nothing to amend: {why}; `--amend` replaces the lock of a design changed after it was locked")]
@@ -296,6 +311,18 @@ pub fn write_lock_amended(file: &DesignFile, now: SystemTime, amend: Option<&str
     let path = lock_path(design);
     let files = referenced_files(file);
     let mut amendments = Vec::new();
+    if let Some(reason) = amend {
+        let bad = |why: String| LockError::BadReason { path: path.display().to_string(), why };
+        let chars = reason.chars().count();
+        if chars > MAX_REASON {
+            return Err(bad(format!(
+                "has {chars} characters, more than the {MAX_REASON} a reason may have; say why in a sentence or two, and put the details in the design's comments"
+            )));
+        }
+        if let Some(c) = reason.chars().find(|c| c.is_control() && *c != '\n' && *c != '\t') {
+            return Err(bad(format!("holds the control character {:?}; write it as plain text", c)));
+        }
+    }
     if let (Some(existing), Some(reason)) = (read_lock(design)?, amend) {
         if existing.sha256 != file.sha256 || stale(&existing, &files).is_some() {
             amendments = existing.amendments.clone();
@@ -334,6 +361,18 @@ pub fn write_lock_amended(file: &DesignFile, now: SystemTime, amend: Option<&str
         amendments,
     };
     let text = crate::io::pretty_json(&lock);
+    // Never write a lock its own reader refuses.
+    if text.len() as u64 > crate::io::MAX_SMALL_TEXT {
+        return Err(LockError::BadReason {
+            path: path.display().to_string(),
+            why: format!(
+                "would grow the lock to {} bytes, more than the {} a lock may have (it records {} amendments); the lock was left as it was",
+                text.len(),
+                crate::io::MAX_SMALL_TEXT,
+                lock.amendments.len()
+            ),
+        });
+    }
     crate::io::write_atomic(&path, text.as_bytes())
         .map_err(|e| LockError::Write { path: path.display().to_string(), source: e.source })?;
     Ok(lock)

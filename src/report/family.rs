@@ -236,7 +236,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
     if !a.warnings.is_empty() {
         let _ = writeln!(s, "## Warnings\n");
         for w in &a.warnings {
-            let _ = writeln!(s, "- {w}");
+            let _ = writeln!(s, "- {}", crate::io::md_line(w));
         }
         let _ = writeln!(s);
     }

@@ -95,14 +95,14 @@ pub fn render_markdown(a: &Analysis) -> String {
             a.missing_cells.len()
         );
         for m in &a.missing_cells {
-            let _ = writeln!(s, "- {m}");
+            let _ = writeln!(s, "- {}", crate::io::md_line(m));
         }
         let _ = writeln!(s);
     }
     if !a.warnings.is_empty() {
         let _ = writeln!(s, "## Warnings\n");
         for w in &a.warnings {
-            let _ = writeln!(s, "- {w}");
+            let _ = writeln!(s, "- {}", crate::io::md_line(w));
         }
         let _ = writeln!(s);
     }
@@ -128,12 +128,12 @@ fn header(a: &Analysis) -> String {
         let _ = writeln!(s, "{note}\n");
     }
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
-        let _ = writeln!(s, "**Warning**: {w}.\n");
+        let _ = writeln!(s, "**Warning**: {}.\n", crate::io::md_line(w));
     }
     // Beside the verdict: models restored early, and the contrast with
     // early stopping held fixed.
     for w in a.warnings.iter().filter(|w| w.starts_with("early best epochs")) {
-        let _ = writeln!(s, "**Early stopping**: {w}.\n");
+        let _ = writeln!(s, "**Early stopping**: {}.\n", crate::io::md_line(w));
     }
     if let Some(b) = &a.fixed_budget {
         let e = &b.estimate;
@@ -154,7 +154,7 @@ fn header(a: &Analysis) -> String {
     // Beside the verdict: a reference arm that is not disjoint (copies of
     // evaluation flights in its fit set, allowed by `duplicates keep`).
     for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
-        let _ = writeln!(s, "**The reference arm is not disjoint**: {w}.\n");
+        let _ = writeln!(s, "**The reference arm is not disjoint**: {}.\n", crate::io::md_line(w));
     }
     if let Some(c) = super::coverage::beside_verdict(a) {
         let _ = writeln!(s, "{c}\n");

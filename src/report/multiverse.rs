@@ -314,7 +314,7 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
     if !a.warnings.is_empty() {
         let _ = writeln!(s, "\n## Warnings\n");
         for w in &a.warnings {
-            let _ = writeln!(s, "- {w}");
+            let _ = writeln!(s, "- {}", crate::io::md_line(w));
         }
     }
     let _ = writeln!(s, "\nEach level's full report (audit, treatment audit, invariants, secondary endpoints) is in its directory's report/.");

@@ -591,3 +591,10 @@ case("r5_analyze_into_the_runs_cells_folder_dotted",
      "analyze tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/x/../cells/new", OWN_RUN)
 case("r5_plan_into_the_runs_own_report",
      "plan tests/designs/minimal.design --cells {dir}/run/cells.csv --out {dir}/run/report", OWN_RUN)
+
+# Class 6: an amendment's reason that would make the lock unreadable, or carry a
+# terminal escape into every report, is refused before the lock is written.
+CHANGED = MINIMAL + "# changed after the lock\n"
+AMEND = {"study.design": CHANGED, "study.design.lock": lock_json(MINIMAL, 1, {})}
+case("r5_lock_amend_reason_too_long", "lock {dir}/study.design --amend=" + "why" * 700, AMEND)
+case("r5_lock_amend_reason_escape", "lock {dir}/study.design --amend=fixed\x1b[2Jcleared", AMEND)

@@ -113,7 +113,7 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
     let path = audit.write(out)?;
     out!("{}", audit.summary());
     if let Some(w) = audit.unread_warning() {
-        note!("warning: {w}");
+        note!("warning: {}", crossaudit::io::one_line(&w));
     }
     note!("wrote {}", path.display());
     Ok(())
@@ -154,7 +154,7 @@ fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> 
     let prepared = crossaudit::run::split_into(&file, &plan, &data, out)?;
     out!("{}", prepared.treatment.render_text());
     if let Some(w) = prepared.audit.unread_warning() {
-        note!("warning: {w}");
+        note!("warning: {}", crossaudit::io::one_line(&w));
     }
     for i in &prepared.invariants.invariants {
         outln!("invariant {} [{:?}]: {}: {}", i.id, i.status, i.name, i.detail);
@@ -367,7 +367,7 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
 fn render(e: &Error, color: bool) -> String {
     match e {
         Error::Design(LoadError::Design(d)) => d.render(color),
-        other => format!("error: {other}\n"),
+        other => output::visible(format!("error: {other}\n")),
     }
 }
 
@@ -504,7 +504,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
         let _lock = lock_folder(&dir, false)?;
         let written = crossaudit::report::multiverse::write_multiverse(&a, &dir)?;
         for w in &a.warnings {
-            note!("warning: {w}");
+            note!("warning: {}", crossaudit::io::one_line(w));
         }
         for p in written {
             note!("wrote {}", p.display());
@@ -517,7 +517,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
         let _lock = lock_folder(&dir, false)?;
         let written = crossaudit::report::family::write_family(&mut a, &dir)?;
         for w in &a.warnings {
-            note!("warning: {w}");
+            note!("warning: {}", crossaudit::io::one_line(w));
         }
         for p in written {
             note!("wrote {}", p.display());
@@ -529,7 +529,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     let _lock = lock_folder(&dir, false)?;
     let written = crossaudit::report::write_all(&analysis, &dir)?;
     for w in &analysis.warnings {
-        note!("warning: {w}");
+        note!("warning: {}", crossaudit::io::one_line(w));
     }
     for p in written {
         note!("wrote {}", p.display());

@@ -25,9 +25,28 @@ macro_rules! note {
     ($($arg:tt)*) => { $crate::output::note(format_args!($($arg)*)) };
 }
 
+/// `text` with every control character but a line break and a tab shown
+/// as its escape: whatever user text a message quotes (a file name, a
+/// label, a reason), it cannot drive the terminal. Colored diagnostics
+/// are written by [`note_raw`], which keeps crossaudit's own escapes.
+pub(crate) fn visible(text: String) -> String {
+    if !text.chars().any(|c| c.is_control() && c != '\n' && c != '\t') {
+        return text;
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() && c != '\n' && c != '\t' {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 /// Writes to standard output.
 pub fn print(args: std::fmt::Arguments<'_>) -> Result<(), Error> {
-    std::io::stdout().lock().write_fmt(args).map_err(Error::Stdout)
+    std::io::stdout().lock().write_all(visible(args.to_string()).as_bytes()).map_err(Error::Stdout)
 }
 
 /// Flushes standard output: text written without a final newline is
@@ -58,7 +77,7 @@ pub fn stdout_closed() -> bool {
 
 /// Writes a line to standard error, ignoring a failure.
 pub fn note(args: std::fmt::Arguments<'_>) {
-    let _ = writeln!(std::io::stderr().lock(), "{args}");
+    let _ = writeln!(std::io::stderr().lock(), "{}", visible(args.to_string()));
 }
 
 /// Writes to standard error, ignoring a failure.
