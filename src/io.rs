@@ -312,29 +312,57 @@ impl LineIndex {
     }
 }
 
-/// A reader that builds the [`LineIndex`] of the bytes read through it and
+/// A reader that counts the lines of the bytes read through it and
 /// refuses to read past `limit` bytes, so a large file can be parsed as a
-/// stream and its errors still located by line.
+/// stream and its errors still located by line. It keeps the line starts
+/// of the last [`LINE_WINDOW`] bytes only (and the one before them), so
+/// its memory does not grow with the file: a 500 MB file of blank lines
+/// held 8 bytes per line.
 pub struct LineCounting<R> {
     inner: std::io::Take<R>,
-    starts: Vec<usize>,
+    starts: std::collections::VecDeque<usize>,
+    /// Line starts dropped from the front of `starts`.
+    dropped: usize,
     read: usize,
     pending_cr: bool,
     limit: u64,
 }
 
+/// How far behind the bytes read [`LineCounting::line_of`] is exact: the
+/// start of any record a parser holds (the csv crate buffers 8 KiB).
+pub const LINE_WINDOW: usize = 1 << 20;
+
 impl<R: std::io::Read> LineCounting<R> {
     /// Counts lines of `inner`, reading at most `limit` bytes (a read past
     /// it fails, naming `what` was being read).
     pub fn new(inner: R, limit: u64) -> LineCounting<R> {
-        LineCounting { inner: inner.take(limit.saturating_add(1)), starts: vec![0], read: 0, pending_cr: false, limit }
+        LineCounting {
+            inner: inner.take(limit.saturating_add(1)),
+            starts: std::collections::VecDeque::from([0]),
+            dropped: 0,
+            read: 0,
+            pending_cr: false,
+            limit,
+        }
     }
 
     /// The 1-based line of byte `offset`, among the bytes read so far (as
-    /// [`LineIndex::line_of`]).
+    /// [`LineIndex::line_of`]); exact for any offset within
+    /// [`LINE_WINDOW`] bytes of the last read, and for any offset on the
+    /// line that began before them.
     pub fn line_of(&self, offset: usize) -> usize {
         let k = if self.starts.binary_search(&(offset + 1)).is_ok() { offset + 1 } else { offset };
-        self.starts.partition_point(|&s| s <= k)
+        self.dropped + self.starts.partition_point(|&s| s <= k).max(1)
+    }
+
+    /// Drops the line starts before the window, keeping the last one
+    /// before it (the line the window begins on).
+    fn prune(&mut self) {
+        let from = self.read.saturating_sub(LINE_WINDOW);
+        while self.starts.len() > 1 && self.starts[1] <= from {
+            self.starts.pop_front();
+            self.dropped += 1;
+        }
     }
 }
 
@@ -343,7 +371,7 @@ impl<R: std::io::Read> std::io::Read for LineCounting<R> {
         let n = self.inner.read(buf)?;
         if n == 0 {
             if std::mem::take(&mut self.pending_cr) {
-                self.starts.push(self.read);
+                self.starts.push_back(self.read);
             }
             return Ok(0);
         }
@@ -355,10 +383,10 @@ impl<R: std::io::Read> std::io::Read for LineCounting<R> {
         let mut from = 0;
         if std::mem::take(&mut self.pending_cr) {
             if chunk[0] == b'\n' {
-                self.starts.push(self.read + 1);
+                self.starts.push_back(self.read + 1);
                 from = 1;
             } else {
-                self.starts.push(self.read);
+                self.starts.push_back(self.read);
             }
         }
         let mut skip = None;
@@ -368,17 +396,18 @@ impl<R: std::io::Read> std::io::Read for LineCounting<R> {
             }
             let at = self.read + i;
             if chunk[i] == b'\n' {
-                self.starts.push(at + 1);
+                self.starts.push_back(at + 1);
             } else if i + 1 == n {
                 self.pending_cr = true;
             } else if chunk[i + 1] == b'\n' {
-                self.starts.push(at + 2);
+                self.starts.push_back(at + 2);
                 skip = Some(i + 1);
             } else {
-                self.starts.push(at + 1);
+                self.starts.push_back(at + 1);
             }
         }
         self.read += n;
+        self.prune();
         Ok(n)
     }
 }
@@ -614,6 +643,22 @@ mod tests {
             for k in 0..=text.len() {
                 proptest::prop_assert_eq!(counted.line_of(k), whole.line_of(k), "offset {}", k);
             }
+        }
+    }
+
+    /// Issue 56, class 2: the count keeps the line starts of its window
+    /// only (it held 8 bytes per line of the whole file), and stays exact
+    /// within it, against the whole-text index.
+    #[test]
+    fn line_counting_holds_a_window_not_the_file() {
+        let mut text = b"\r\n".repeat(LINE_WINDOW);
+        text.extend(b"a\rb\n".repeat(LINE_WINDOW / 2));
+        let whole = LineIndex::new(&text);
+        let mut counted = LineCounting::new(Trickle { text: &text, step: 8191 }, u64::MAX);
+        std::io::copy(&mut counted, &mut std::io::sink()).unwrap();
+        assert!(counted.starts.len() <= LINE_WINDOW / 2 + 2, "{} line starts kept", counted.starts.len());
+        for k in (text.len() - LINE_WINDOW..=text.len()).step_by(997).chain([text.len()]) {
+            assert_eq!(counted.line_of(k), whole.line_of(k), "offset {k}");
         }
     }
 

@@ -68,6 +68,33 @@ pub fn shared_logs_or_skip() -> Option<PathBuf> {
     None
 }
 
+/// A committed design, or `None` after a `SKIPPED` line when it cannot
+/// load because a file it refers to beside the repository (a published
+/// split in ../shared/nanobench) is absent; any other error fails, and so
+/// does an absent file when `CROSSAUDIT_REQUIRE_SHARED` is set.
+#[track_caller]
+pub fn load_shipped_design(path: &Path) -> Option<crossaudit::DesignFile> {
+    match crossaudit::design::load(path) {
+        Ok(file) => Some(file),
+        Err(e) => {
+            let source = std::fs::read_to_string(path).unwrap_or_default();
+            let shared = root().join("../shared/nanobench");
+            let needs_shared =
+                source.lines().any(|l| l.starts_with("split published") && l.contains("shared/nanobench"));
+            if !needs_shared || shared.is_dir() || std::env::var_os("CROSSAUDIT_REQUIRE_SHARED").is_some() {
+                panic!("{}: {e}", path.display());
+            }
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "SKIPPED {}: its published split lives in ../shared/nanobench, which is absent (see the README, \"Install\")",
+                path.display()
+            );
+            None
+        }
+    }
+}
+
 /// The shared logs' folder, or an early return (the test passes, with a
 /// SKIPPED line) when they are absent.
 #[macro_export]

@@ -382,7 +382,7 @@ fn ridge_auto_keeps_the_grid_penalty_with_the_lowest_validation_loss_and_a_huge_
 #[test]
 #[ignore = "needs ../shared/nanobench"]
 fn the_linear_model_beside_the_paper_reproduces_its_committed_run_on_the_papers_split() {
-    let data = crate::common::shared_logs();
+    let data = crate::needs_shared_logs!();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("linear");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))

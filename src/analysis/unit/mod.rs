@@ -384,12 +384,12 @@ impl Ctx<'_> {
             ));
             return Ok(None);
         }
-        let index: Vec<usize> = self
-            .recordings
-            .iter()
-            .map(|r| groups.iter().position(|g| *g == name(r)).expect("group was collected"))
-            .collect();
-        let per_group = (0..groups.len()).map(|g| index.iter().filter(|&&x| x == g).count()).collect();
+        // Each recording's group by binary search, and the counts in one
+        // pass: O(I log G), where a search per group was O(I G).
+        let index: Vec<usize> =
+            self.recordings.iter().map(|r| groups.binary_search(&name(r)).unwrap_or_default()).collect();
+        let mut per_group = vec![0usize; groups.len()];
+        index.iter().for_each(|&g| per_group[g] += 1);
         let stats = |source| AnalysisError::Stats { unit: label.to_string(), source };
         let estimate = match diff.complete() {
             // Complete: the group means of the balanced array (bit for bit
@@ -400,14 +400,19 @@ impl Ctx<'_> {
                 self.estimate(&grid).map_err(stats)?
             }
             // Incomplete: each group x seed mean over the cells present.
+            // One pass over the cells, recordings in order, so each sum
+            // adds its values in the order the per-group filter did.
             None => {
-                let v = (0..groups.len())
-                    .flat_map(|g| (0..diff.cols).map(move |j| (g, j)))
-                    .map(|(g, j)| {
-                        let m = mean((0..diff.rows).filter(|&i| index[i] == g).filter_map(|i| diff.get(i, j)));
-                        (!m.is_nan()).then_some(m)
-                    })
-                    .collect();
+                let (mut sum, mut n) = (vec![0.0; groups.len() * diff.cols], vec![0usize; groups.len() * diff.cols]);
+                for (i, &g) in index.iter().enumerate() {
+                    for j in 0..diff.cols {
+                        if let Some(x) = diff.get(i, j) {
+                            sum[g * diff.cols + j] += x;
+                            n[g * diff.cols + j] += 1;
+                        }
+                    }
+                }
+                let v = sum.iter().zip(&n).map(|(s, &n)| (n > 0).then(|| s / n as f64)).collect();
                 self.estimate(&Grid { rows: groups.len(), cols: diff.cols, v }).map_err(stats)?
             }
         };
