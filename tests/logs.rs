@@ -516,3 +516,107 @@ fn a_file_name_pattern_gives_trajectory_speed_and_repetition_and_names_what_it_d
     let e = design::from_str("both.design", &both).unwrap_err().to_string();
     assert!(e.contains("conditions declared twice"), "{e}");
 }
+
+/// Issue 56, class 7: a 5 s hole inside a 100 Hz log (the median step is
+/// right, so the rate check passed) is refused at the line after it; the
+/// real NanoBench logs drop at most 4 samples in a row.
+#[test]
+fn a_time_gap_inside_a_log_is_located() {
+    let e = load_edited(
+        |line, f| {
+            if line >= 40 {
+                let t: f64 = f[9].parse().unwrap();
+                f[9] = format!("{}", t + 5.0);
+            }
+        },
+        |_| {},
+    );
+    match &e {
+        LogError::Gap { line, gap_s, column, .. } => {
+            assert_eq!((*line, column.as_str()), (40, "time [s]"));
+            assert!((gap_s - 5.01).abs() < 1e-6, "{e}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(e.to_string().contains("501 samples at 100 Hz"), "{e}");
+}
+
+/// Issue 56, class 7: Euler angles in degrees declared as radians gave
+/// a plausible quaternion of the wrong rotation; an angle beyond 2 pi is
+/// refused, at its line and column.
+#[test]
+fn euler_angles_in_degrees_declared_as_radians_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = rewrite("F3_oval_medium_rep1.csv", tmp.path());
+    // The fixture hovers level: a yaw of 45 degrees from line 30 on.
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let yaw = lines[0].split(',').position(|h| h == "yaw_deg").unwrap();
+    for line in lines.iter_mut().skip(29) {
+        let mut f: Vec<&str> = line.split(',').collect();
+        f[yaw] = "45";
+        *line = f.join(",");
+    }
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    let radians = spec(&reordered_design(tmp.path(), "euler radians roll_deg, pitch_deg, yaw_deg"));
+    let e = load_recording(&path, &Layout::new(&radians).unwrap()).expect_err("degrees read as radians");
+    assert!(matches!(&e, LogError::EulerRange { line: 30, value, .. } if *value == 45.0), "{e:?}");
+    let text = e.to_string();
+    assert!(text.contains("_deg`") && text.contains("euler degrees"), "{text}");
+}
+
+/// Issue 56, class 7: one column declared as two quantities is refused by
+/// `check` at the second declaration.
+#[test]
+fn a_column_declared_as_two_quantities_is_refused_at_its_place() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (from, to, first) in [
+        ("reference xr, yr, zr", "reference x, yr, zr", "a position"),
+        ("extra vbat fill zeros", "extra m2 fill zeros", "an action"),
+    ] {
+        let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw").replace(from, to);
+        let e = crossaudit::design::from_str("study.design", &design).expect_err("a column declared twice");
+        let text = e.to_string();
+        assert!(text.contains("column declared twice") && text.contains(first), "{text}");
+    }
+}
+
+/// Issue 56, class 8: a spreadsheet's log (a UTF-8 byte-order mark before
+/// the header, a quoted text column holding commas) reads as the plain
+/// log does, where the mark made the first column "missing" for an
+/// invisible reason and each quoted comma a field-count error.
+#[test]
+fn a_byte_order_mark_and_quoted_commas_are_read_as_a_spreadsheet_writes_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plain = rewrite("F1_circle_slow_rep1.csv", tmp.path());
+    let text = std::fs::read_to_string(&plain).unwrap();
+    let generic = spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw"));
+    let want = load_recording(&plain, &Layout::new(&generic).unwrap()).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    lines[0] = format!("\u{feff}{},note", lines[0]);
+    for l in lines.iter_mut().skip(1) {
+        l.push_str(",\"take 1, \"\"windy\"\"\"");
+    }
+    let sheet = tmp.path().join("sheet").join("F1_circle_slow_rep1.csv");
+    std::fs::create_dir_all(sheet.parent().unwrap()).unwrap();
+    std::fs::write(&sheet, lines.join("\r\n") + "\r\n").unwrap();
+    let got = load_recording(&sheet, &Layout::new(&generic).unwrap()).unwrap();
+    assert_eq!((got.t.clone(), got.state.clone(), got.action.clone()), (want.t, want.state, want.action));
+    // A quote left open is located, not read past the line.
+    lines[5] = lines[5].replace("\"take 1, \"\"windy\"\"\"", "\"take 1, windy");
+    std::fs::write(&sheet, lines.join("\n") + "\n").unwrap();
+    let e = load_recording(&sheet, &Layout::new(&generic).unwrap()).expect_err("an open quote");
+    assert!(e.to_string().contains("line 6, column `note`"), "{e}");
+}
+
+/// Issue 56, class 8: a `data csv` block without `include active(...)`
+/// fell back to NanoBench's motor column and ended in "0 usable
+/// deployment units remain"; `check` now asks for the clause.
+#[test]
+fn a_csv_block_without_include_is_refused_by_check() {
+    let tmp = tempfile::tempdir().unwrap();
+    let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+        .replace("  include active(m1 > 1000) >= 20 samples\n", "");
+    let e = crossaudit::design::from_str("study.design", &design).expect_err("no include");
+    assert!(e.to_string().contains("`data csv` needs `include active(...)`"), "{e}");
+}

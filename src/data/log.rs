@@ -168,6 +168,9 @@ fn parse_log(file: &str, bytes: &[u8], schema: &Schema, hash_rows: bool) -> Resu
     // Lone `\r` line endings are read as lines (as pandas reads them), so
     // errors name the line an editor shows.
     let bytes = &*crate::io::lone_cr_to_lf_bytes(bytes);
+    // A UTF-8 byte-order mark (Excel writes one) is not part of the first
+    // name: kept, it made that column "missing" for an invisible reason.
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }
@@ -346,6 +349,15 @@ impl Tokenizer<'_> {
             let start = i;
             if col < n && !self.slots[col].is_empty() {
                 i = self.kept(col, i)?;
+            } else if !self.check_all && body.get(i) == Some(&b'"') {
+                // Not kept and quoted (text, as a spreadsheet writes it): a
+                // comma inside the quotes is not a delimiter.
+                i = quoted_end(body, i).ok_or_else(|| LogError::NonNumeric {
+                    file: self.file.to_string(),
+                    line: self.line,
+                    column: self.names[col.min(n - 1)].clone(),
+                    value: value_excerpt(&body[start..self.field_end(start)]),
+                })?;
             } else {
                 // Not kept: check it is a plain finite number without
                 // converting it; anything unusual goes to the full parser.
@@ -434,6 +446,21 @@ impl Tokenizer<'_> {
             self.columns[k].push(v);
         }
         Ok(i + used)
+    }
+}
+
+/// The end of the quoted field opening at `i` (`""` is a quote inside
+/// it): the byte after its closing quote, or `None` when the line ends
+/// first (a field spanning lines is not a log's).
+fn quoted_end(body: &[u8], i: usize) -> Option<usize> {
+    let mut k = i + 1;
+    loop {
+        match body.get(k)? {
+            b'"' if body.get(k + 1) == Some(&b'"') => k += 2,
+            b'"' => return Some(k + 1),
+            b'\n' | b'\r' => return None,
+            _ => k += 1,
+        }
     }
 }
 

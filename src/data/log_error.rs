@@ -153,6 +153,33 @@ pub enum LogError {
         /// 1 / rate, seconds.
         expected_s: f64,
     },
+    /// A step of the time column longer than [`super::MAX_GAP_STEPS`]
+    /// samples: the log has a hole a window would step across.
+    #[error("{file}: line {line}, column `{column}`: the time jumps by {gap_s} s from the line before, {steps:.0} samples at {rate_hz} Hz (at most 10 may be missing in a row); split the log at the gap, or leave it out", steps = .gap_s * .rate_hz)]
+    Gap {
+        /// The file, as given.
+        file: String,
+        /// The line after the gap.
+        line: usize,
+        /// The time column.
+        column: String,
+        /// The step, seconds.
+        gap_s: f64,
+        /// The declared rate.
+        rate_hz: f64,
+    },
+    /// An Euler angle declared in radians beyond 2 pi.
+    #[error("{file}: line {line}, column `{column}`: the angle {value} is beyond 2 pi, so it is not in radians as the design declares; if the angles are in degrees, declare `attitude euler degrees ...`")]
+    EulerRange {
+        /// The file, as given.
+        file: String,
+        /// The line.
+        line: usize,
+        /// The column.
+        column: String,
+        /// The value.
+        value: f64,
+    },
     /// An active row whose quaternion is more than 0.01 from unit length.
     #[error("{file}: line {line}, columns {columns}: the attitude quaternion has length {norm}, not 1 (more than 0.01 off; declare the attitude's columns in their order, or Euler angles)")]
     NotUnit {
@@ -192,6 +219,8 @@ impl LogError {
             LogError::NonMonotonicTime { .. } => "non_monotonic_time",
             LogError::MissingColumn { .. } => "missing_column",
             LogError::Rate { .. } => "rate_mismatch",
+            LogError::Gap { .. } => "time_gap",
+            LogError::EulerRange { .. } => "euler_not_radians",
             LogError::NotUnit { .. } => "not_unit_quaternion",
         }
     }

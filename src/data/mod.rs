@@ -170,6 +170,8 @@ pub struct Layout {
     euler: Option<([usize; 3], bool)>,
     /// The quaternion's columns, as an error names them.
     quaternion_names: String,
+    /// The Euler columns' names (roll, pitch, yaw), when declared.
+    euler_names: Vec<String>,
     /// The layout the columns are read into.
     slots: Slots,
     actions: Vec<usize>,
@@ -220,6 +222,7 @@ impl Layout {
             state,
             euler,
             quaternion_names,
+            euler_names: format.euler.as_ref().map(|e| e.columns.to_vec()).unwrap_or_default(),
             slots,
             actions,
             action_scale: format.action_scale,
@@ -270,6 +273,20 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
     }
     let quaternion = layout.slots.quaternion_slots();
     if let (Some(([r, p, y], degrees)), Some(q_at)) = (layout.euler, quaternion.clone()) {
+        // No angle in radians is beyond 2 pi in any convention: one that is
+        // was written in degrees (a quaternion from it would be garbage).
+        if !degrees {
+            let beyond = |c: usize| cols[c].iter().position(|v| v.abs() > std::f64::consts::TAU).map(|k| (k, c));
+            if let Some((k, c)) = [r, p, y].into_iter().filter_map(beyond).min() {
+                let which = [r, p, y].iter().position(|&x| x == c).unwrap_or(0);
+                return Err(LogError::EulerRange {
+                    file,
+                    line: parsed.line_of(k),
+                    column: layout.euler_names.get(which).cloned().unwrap_or_default(),
+                    value: cols[c][k],
+                });
+            }
+        }
         let scale = if degrees { std::f64::consts::PI / 180.0 } else { 1.0 };
         for (k, s) in state.iter_mut().enumerate() {
             let q = euler_zyx(cols[r][k] * scale, cols[p][k] * scale, cols[y][k] * scale);
@@ -351,7 +368,12 @@ pub fn euler_zyx(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
     [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
 }
 
-/// The median step of the time column must agree with 1 / rate to 2%;
+/// The longest step between rows, in samples at the declared rate, that a
+/// log may have: the NanoBench logs drop at most 4 samples in a row.
+pub const MAX_GAP_STEPS: f64 = 10.0;
+
+/// The median step of the time column must agree with 1 / rate to 2%, and
+/// no step may be longer than [`MAX_GAP_STEPS`] samples;
 /// the error names the first step that does not.
 fn check_rate(file: &str, log: &log::Log, t: &[f64], column: &str, rate_hz: f64) -> Result<(), LogError> {
     if t.len() < 2 {
@@ -368,6 +390,17 @@ fn check_rate(file: &str, log: &log::Log, t: &[f64], column: &str, rate_hz: f64)
         (steps[steps.len() / 2 - 1] + steps[steps.len() / 2]) / 2.0
     };
     if !off(median) {
+        // The rate holds, but a window across a gap would join two stretches
+        // of flight as one step: refused at the step's line.
+        if let Some(k) = t.windows(2).position(|w| w[1] - w[0] > MAX_GAP_STEPS * expected) {
+            return Err(LogError::Gap {
+                file: file.to_string(),
+                line: log.line_of(k + 1),
+                column: column.to_string(),
+                gap_s: t[k + 1] - t[k],
+                rate_hz,
+            });
+        }
         return Ok(());
     }
     Err(LogError::Rate {

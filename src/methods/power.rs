@@ -25,6 +25,9 @@ pub enum PowerError {
     /// Fewer than 2 recordings or seeds were asked for.
     #[error("--recordings, --seeds, --splits and --draws need values of at least 2, found {0}")]
     TooFew(usize),
+    /// A number listed twice in one option (`--draws 5,5,3`).
+    #[error("--recordings, --seeds, --splits and --draws each list a number once, found {0} twice")]
+    Twice(usize),
     /// More recordings or seeds than a design may declare.
     #[error("--recordings, --seeds, --splits and --draws take values of at most {MAX_PLANNED}, found {0}")]
     TooMany(usize),
@@ -177,6 +180,12 @@ pub(super) fn check_counts(counts: &[&[usize]]) -> Result<(), PowerError> {
     }
     if let Some(n) = all().find(|n| **n > MAX_PLANNED) {
         return Err(PowerError::TooMany(*n));
+    }
+    // A value listed twice would plan the same row twice.
+    for c in counts {
+        if let Some(n) = c.iter().enumerate().find_map(|(k, n)| c[..k].contains(n).then_some(*n)) {
+            return Err(PowerError::Twice(n));
+        }
     }
     Ok(())
 }

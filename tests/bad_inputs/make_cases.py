@@ -598,3 +598,7 @@ CHANGED = MINIMAL + "# changed after the lock\n"
 AMEND = {"study.design": CHANGED, "study.design.lock": lock_json(MINIMAL, 1, {})}
 case("r5_lock_amend_reason_too_long", "lock {dir}/study.design --amend=" + "why" * 700, AMEND)
 case("r5_lock_amend_reason_escape", "lock {dir}/study.design --amend=fixed\x1b[2Jcleared", AMEND)
+
+# Class 7: a planner option listing a number twice wrote duplicate rows.
+case("r5_plan_seeds_listed_twice",
+     "plan designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --seeds 5,5,3 --out {out}")

@@ -24,6 +24,8 @@ pub(super) struct CsvParts {
     conditions_name: Option<Spanned<String>>,
     /// `action ... scale N`: the scale as written.
     pub(super) scale: Option<Number>,
+    /// Every column declared so far, with the clause that declared it.
+    declared: BTreeMap<String, &'static str>,
 }
 
 impl Validator {
@@ -37,6 +39,34 @@ impl Validator {
         csv: &mut CsvParts,
     ) -> Option<&'static str> {
         let span = item.span;
+        // One column is one quantity: declared as two (a position and a
+        // reference, an action and an extra), its values would be read as
+        // both, silently.
+        let columns: (&'static str, Vec<&Ident>) = match &item.node {
+            DataItem::Action { columns, .. } => ("an action", columns.iter().collect()),
+            DataItem::Time(c) => ("the time", vec![c]),
+            DataItem::Position(c) => ("a position", c.iter().collect()),
+            DataItem::Velocity(c) => ("a velocity", c.iter().collect()),
+            DataItem::Attitude { columns, .. } => ("an attitude", columns.iter().collect()),
+            DataItem::Reference(c) => ("a reference", c.iter().collect()),
+            DataItem::Rates(c) => ("a body rate", c.iter().collect()),
+            DataItem::Predicted(c) => ("a predicted column", c.iter().collect()),
+            DataItem::Extra { columns, .. } => ("an extra", columns.iter().collect()),
+            _ => ("", Vec::new()),
+        };
+        for c in columns.1 {
+            match csv.declared.get(&c.node) {
+                Some(first) => self.err_help(
+                    "column declared twice",
+                    c.span,
+                    format!("`{}` is declared as {first} and as {}", c.node, columns.0),
+                    "a column holds one quantity: declare it once, in the clause it belongs to",
+                ),
+                None => {
+                    csv.declared.insert(c.node.clone(), columns.0);
+                }
+            }
+        }
         let key = match &item.node {
             DataItem::Action { scale, .. } => {
                 csv.scale = scale.clone();
@@ -156,6 +186,15 @@ impl Validator {
         };
         if !seen.contains_key("rate") {
             missing(self, "rate", "rate 100 Hz");
+        }
+        // Without it the reader fell back to NanoBench's motor column and
+        // ended in "0 usable deployment units remain".
+        if !seen.contains_key("include") {
+            missing(
+                self,
+                "include active(...)",
+                "include active(m1 > 1000) >= 200 samples: the rows in flight, by an action column",
+            );
         }
         if !seen.contains_key("action") {
             missing(self, "action", "action m1, m2, m3, m4 scale 2500");
