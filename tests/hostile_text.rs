@@ -171,9 +171,9 @@ fn analysis_with(tmp: &Path, name: &dyn Fn(&str, usize) -> String, tag: &str) ->
         let row = row.unwrap();
         let mut row: Vec<String> = row.iter().map(str::to_string).collect();
         // Recording and trajectory names (speeds are the data block's fixed labels).
-        for k in 3..5 {
+        for (k, field) in row.iter_mut().enumerate().take(5).skip(3) {
             let n = names.len();
-            row[k] = names.entry(format!("{k}:{}", row[k])).or_insert_with(|| name(&row[k], n)).clone();
+            *field = names.entry(format!("{k}:{field}")).or_insert_with(|| name(field, n)).clone();
         }
         writer.write_record(&row).unwrap();
     }
