@@ -351,7 +351,8 @@ fn a_very_long_line_is_refused_before_it_is_parsed_and_quoted_in_part() {
     std::fs::write(logs.join("A2_circle_slow_rep1.csv"), lines.join("\n") + "\n").unwrap();
     let design = lenient_design(tmp.path());
     let out = tmp.path().join("audit");
-    ok(&audit(&design, &logs, &out));
+    // Both excluded: the audit is written, then refused (it keeps nothing).
+    refused(&audit(&design, &logs, &out), &["none of its 2 log file(s) was included", "recordings.csv"]);
     let (status, reason) = audit_row(&out, "A1_circle_slow_rep1");
     assert_eq!(status, "excluded");
     assert!(reason.contains("line 6 is longer than 65536 bytes"), "{reason}");

@@ -143,6 +143,19 @@ pub enum AuditError {
         /// The other.
         second: String,
     },
+    /// The audit kept no recording at all (it is written all the same,
+    /// with each file's reason).
+    #[error("{dir}: none of its {files} log file(s) was included; each one's reason is in {written}{hint}")]
+    NoneIncluded {
+        /// The data directory.
+        dir: String,
+        /// How many log files it holds.
+        files: usize,
+        /// Where the audit was written.
+        written: String,
+        /// What to try, where one thing is likely.
+        hint: String,
+    },
     /// A log's file name holds a control character (a line break, a
     /// terminal escape): it would become a recording name.
     #[error("{dir}: the file name {name:?} holds a control character, which no recording name may; rename the file")]

@@ -3,6 +3,14 @@
 /// Why the data cannot support the design.
 #[derive(Debug, thiserror::Error)]
 pub enum SplitError {
+    /// A condition the design uses is unknown for every recording.
+    #[error("{design}: the design's conditions include {condition}, and it is unknown for every included recording (every one would fall in one group); give it in the file names, a `conditions name` pattern, or a conditions table with a `{condition}` column, or leave it out of `conditions`")]
+    UnknownCondition {
+        /// The condition.
+        condition: String,
+        /// The design file.
+        design: String,
+    },
     /// A multi-split design given where one split is prepared.
     #[error("the design declares {splits} splits (`factor split`), and this command prepares one split (`split` and `train` do): run the study with `crossaudit run DESIGN --out DIR` (with `--slurm` for a cluster), which runs each split in its own directory DIR/split-S")]
     SeveralSplits {

@@ -93,6 +93,22 @@ fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: b
     if write {
         audit.write(&out.join("audit"))?;
     }
+    // A condition the design stratifies, groups or covers by, unknown for
+    // every recording (a conditions table whose speed column has another
+    // name): every recording would fall in one group, silently.
+    for c in &plan.conditions {
+        let (name, value): (&str, fn(&data::FileRow) -> &str) = match c {
+            crate::design::Condition::Trajectory => ("trajectory", |f| f.trajectory.as_str()),
+            crate::design::Condition::Speed => ("speed", |f| f.speed.as_str()),
+        };
+        let mut included = audit.included().peekable();
+        if included.peek().is_some() && included.all(|f| value(f).is_empty() || value(f) == "unknown") {
+            return Err(SplitError::UnknownCondition {
+                condition: name.to_string(),
+                design: file.path.display().to_string(),
+            });
+        }
+    }
     let split = super::build(design, &audit, &recordings).map_err(|e| locate(file, e))?;
     let manifests = Manifests::new(design, Some(file.sha256.clone()), &split);
     if write {

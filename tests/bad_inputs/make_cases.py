@@ -602,3 +602,13 @@ case("r5_lock_amend_reason_escape", "lock {dir}/study.design --amend=fixed\x1b[2
 # Class 7: a planner option listing a number twice wrote duplicate rows.
 case("r5_plan_seeds_listed_twice",
      "plan designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --seeds 5,5,3 --out {out}")
+
+# Issue 57 (found beside round 5): an audit that keeps nothing exits 0 no more; it is
+# written, then refused, and without --design `audit split` says to give one.
+logs("r5_data_audit_keeps_nothing", {"A1_circle_slow_rep1.csv": "\n".join([lines[0].replace(",px,", ",pos_x,")] + lines[1:]) + "\n"},
+     design=MINIMAL)
+ROTOR = open(os.path.join(ROOT, "tests/fixtures/rotorpy/logs/R1_circle_slow_rep1.csv.gz"), "rb").read()
+case("r5_audit_split_other_layout_without_design",
+     "audit split {dir}/split.csv --data {dir}/logs --out {out}",
+     {"split.csv": "recording,role\nR1_circle_slow_rep1,train\nR2_circle_slow_rep2,test\n",
+      "logs/R1_circle_slow_rep1.csv.gz": ROTOR, "logs/R2_circle_slow_rep2.csv.gz": ROTOR})

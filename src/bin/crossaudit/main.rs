@@ -116,6 +116,17 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
         note!("warning: {}", crossaudit::io::one_line(&w));
     }
     note!("wrote {}", path.display());
+    // Exit 0 with nothing kept looked like a result: refused, after the
+    // audit with every file's reason was written.
+    if audit.included().next().is_none() {
+        return Err(crossaudit::data::AuditError::NoneIncluded {
+            dir: dir.display().to_string(),
+            files: audit.files.len(),
+            written: path.display().to_string(),
+            hint: String::new(),
+        }
+        .into());
+    }
     Ok(())
 }
 
@@ -135,8 +146,29 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
     let audit = crossaudit::split_audit::audit(&published, &spec, &from, data, options)?;
     let written = audit.write(out)?;
     out!("{}", audit.summary());
-    for p in written {
+    for p in &written {
         note!("wrote {}", p.display());
+    }
+    // Every log there, dropped: an audit of nothing, refused after it was
+    // written (without --design, most often logs in another layout).
+    let present = audit.recordings.iter().filter(|r| r.presence == crossaudit::split_audit::Presence::Csv).count();
+    let kept = audit.recordings.iter().filter(|r| r.effect == crossaudit::split_audit::Effect::Kept).count();
+    if present > 0 && kept == 0 {
+        let first = audit.recordings.iter().find(|r| r.presence == crossaudit::split_audit::Presence::Csv);
+        let hint = match (design, first) {
+            (None, Some(r)) => format!(
+                " (the first: {}); without --design the logs are read as NanoBench's task-2 loader reads them: give `--design DESIGN` whose data block declares their columns",
+                crossaudit::io::one_line(&r.reason)
+            ),
+            _ => String::new(),
+        };
+        return Err(crossaudit::data::AuditError::NoneIncluded {
+            dir: data.display().to_string(),
+            files: present,
+            written: written.first().map(|p| p.display().to_string()).unwrap_or_default(),
+            hint,
+        }
+        .into());
     }
     Ok(audit.has_exact_leak())
 }
