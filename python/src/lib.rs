@@ -128,6 +128,8 @@ fn analyze(py: Python<'_>, design: PathBuf, cells: PathBuf, out: Option<PathBuf>
         let analysis = crossaudit::analyze_with(&file, &plan, &cells, Default::default()).map_err(fail)?;
         if let Some(dir) = &out {
             crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
+            // A run's own folders are written by the run alone.
+            crossaudit::run::check_not_runs_own(dir, None).map_err(fail)?;
             crossaudit::io::create_dir_all(dir).map_err(fail)?;
             crossaudit::report::write_all(&analysis, dir).map_err(fail)?;
         }
