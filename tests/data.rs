@@ -251,3 +251,34 @@ fn exponent_and_signed_fields_parse_and_junk_in_unkept_columns_is_caught() {
     let e = parse("x.csv", text.as_bytes(), &Schema::Nanobench(vec![0, 1])).unwrap_err().to_string();
     assert_eq!(e, "x.csv: line 2, column `imu_gyro_x`: non-finite value \"nan\"");
 }
+
+/// Issue 57: a crashed flight left out by name in the design
+/// (`exclude recordings`), so the lock covers the exclusion: the audit
+/// lists it with its rule, the others are judged as before, a name that
+/// is no log here stops the audit, and `check` refuses a name twice.
+#[test]
+fn recordings_excluded_by_name_are_listed_with_their_rule() {
+    let text = std::fs::read_to_string(root().join("tests/designs/fixture_data.design")).unwrap();
+    let with = |names: &str| {
+        text.replace("  exclude implausible\n", &format!("  exclude implausible\n  exclude recordings {names}\n"))
+    };
+    let spec = design::from_str("study.design", &with("\"F2_star_fast_mell_rep1\"")).unwrap().data;
+    assert!(spec.rules.contains(&InclusionRule::Named { names: vec!["F2_star_fast_mell_rep1".into()] }));
+    let a = audit(&spec, &fixtures()).unwrap();
+    let before = audit(&fixture_spec(), &fixtures()).unwrap();
+    for (f, b) in a.files.iter().zip(&before.files) {
+        if f.name == "F2_star_fast_mell_rep1" {
+            assert_eq!(b.status, Status::Included, "the fixture's F2 is otherwise included");
+            assert_eq!(f.status, Status::Excluded);
+            assert_eq!(f.reason, "`exclude recordings`: listed by name in the design");
+        } else {
+            assert_eq!((f.status, &f.reason), (b.status, &b.reason), "{}", f.name);
+        }
+    }
+    let spec = design::from_str("study.design", &with("\"F2_star_fast_mell_rep1\", \"F9_nowhere_rep1\"")).unwrap().data;
+    let e = audit(&spec, &fixtures()).expect_err("a name that is no log");
+    assert!(e.to_string().contains("\"F9_nowhere_rep1\", which is not a log in"), "{e}");
+    let e =
+        design::from_str("study.design", &with("\"F2_star_fast_mell_rep1\", \"F2_star_fast_mell_rep1\"")).unwrap_err();
+    assert!(e.to_string().contains("is listed twice"), "{e}");
+}

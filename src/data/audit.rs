@@ -196,6 +196,7 @@ fn rule_label(rule: &InclusionRule) -> String {
             format!("active({column} {} {threshold}) >= {min_samples} samples", cmp.symbol())
         }
         InclusionRule::Implausible => "plausible (upstream percentile bounds)".to_string(),
+        InclusionRule::Named { .. } => "`exclude recordings`".to_string(),
     }
 }
 
@@ -300,6 +301,18 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         }
     }
     let (mut csvs, missing) = list(dir)?;
+    // A name the design excludes that is no log here: a typo, or the
+    // wrong folder; the exclusion would silently exclude nothing.
+    for rule in &spec.rules {
+        if let InclusionRule::Named { names } = rule {
+            if let Some(n) = names.iter().find(|n| !csvs.iter().any(|p| recording_name(p) == **n)) {
+                return Err(AuditError::Layout(format!(
+                    "`exclude recordings` names {n:?}, which is not a log in {}; list the recordings by their file names without `.csv`",
+                    dir.display()
+                )));
+            }
+        }
+    }
     let table = match spec.format.as_ref().and_then(|f| f.conditions_table.as_ref()) {
         Some(name) => {
             // The table is in the data folder, and is not a recording.
@@ -459,6 +472,10 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
                 (n >= *min_samples, format!("{n} active rows"))
             }
             InclusionRule::Implausible => plausible(spec, rec),
+            InclusionRule::Named { names } => match names.contains(&rec.name) {
+                true => (false, "listed by name in the design".to_string()),
+                false => (true, "not listed".to_string()),
+            },
         };
         if !pass && row.status == Status::Included {
             row.status = Status::Excluded;

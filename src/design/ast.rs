@@ -163,6 +163,8 @@ pub enum DataItem {
         min_samples: Int,
     },
     ExcludeImplausible(Option<Ident>),
+    /// `exclude recordings "NAME", ...`.
+    ExcludeRecordings(Vec<Spanned<String>>),
     Tails(Ident),
     Speed(SpeedAst),
     Universe {

@@ -383,6 +383,11 @@ pub enum InclusionRule {
     },
     /// The upstream 0.5/99.5 percentile bounds on battery, setpoint z and PWM.
     Implausible,
+    /// Recordings left out by name (`exclude recordings`).
+    Named {
+        /// The recording names.
+        names: Vec<String>,
+    },
 }
 
 /// How byte-identical recordings (one identity group) are treated.

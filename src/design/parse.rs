@@ -431,6 +431,7 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
             min_samples: int(c.next())?,
         },
         Rule::exclude_implausible => DataItem::ExcludeImplausible(c.0.next().map(ident)),
+        Rule::exclude_recordings => DataItem::ExcludeRecordings(strings(c.next())),
         Rule::tails => DataItem::Tails(ident(c.next())),
         Rule::speed_labels => {
             let how = c.next();
