@@ -620,3 +620,40 @@ fn a_csv_block_without_include_is_refused_by_check() {
     let e = crossaudit::design::from_str("study.design", &design).expect_err("no include");
     assert!(e.to_string().contains("`data csv` needs `include active(...)`"), "{e}");
 }
+
+/// Issue 56, classes 7 and 8: a conditions table is read as CSV. A quoted
+/// name with a comma is one field (it was a field-count error), a
+/// byte-order mark is dropped, a column named twice (a second `trajectory`
+/// was ignored) and a control character in a name are refused at their
+/// line.
+#[test]
+fn a_conditions_table_is_csv_and_refuses_what_it_cannot_mean() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv", "F4_linear_ramp_rep1.csv"] {
+        rewrite(name, tmp.path());
+    }
+    let design = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+        .replace("  rate 100 Hz\n", "  rate 100 Hz\n  conditions table \"conditions.csv\"\n");
+    let generic = spec(&design);
+    let table = "recording,trajectory,speed\nF1_circle_slow_rep1,\"lemniscate, wide\",fast\nF2_star_fast_mell_rep1,hover,slow\nF4_linear_ramp_rep1,ramp,medium\n";
+    let write = |t: &str| std::fs::write(tmp.path().join("conditions.csv"), t).unwrap();
+    write(&format!("\u{feff}{table}"));
+    let audit = data::audit(&generic, tmp.path()).unwrap();
+    let f1 = audit.files.iter().find(|f| f.name == "F1_circle_slow_rep1").unwrap();
+    assert_eq!((f1.trajectory.as_str(), f1.speed.as_str()), ("lemniscate, wide", "fast"));
+    write(
+        &table
+            .replace("recording,trajectory,speed", "recording,trajectory,speed,trajectory")
+            .replace(",fast\n", ",fast,x\n")
+            .replace(",slow\n", ",slow,x\n")
+            .replace(",medium\n", ",medium,x\n"),
+    );
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(e.contains("line 1: column `trajectory` is named twice (columns 2 and 4)"), "{e}");
+    write(&table.replace("hover", "ho\u{1b}[31mver"));
+    let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
+    assert!(
+        e.contains("line 3, column `trajectory`") && e.contains("control character") && !e.contains('\u{1b}'),
+        "{e}"
+    );
+}
