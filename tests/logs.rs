@@ -657,3 +657,33 @@ fn a_conditions_table_is_csv_and_refuses_what_it_cannot_mean() {
         "{e}"
     );
 }
+
+/// Issue 57 (with round 5): a condition the design stratifies and groups by
+/// that no recording has (a file-name pattern without `{speed}` under
+/// `conditions trajectory, speed`) stops the split, where every speed
+/// silently became `unknown` and one group.
+#[test]
+fn a_condition_unknown_for_every_recording_stops_the_split() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = tmp.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let fixtures = root().join("tests/fixtures/rotorpy/logs");
+    for (from, to) in [
+        ("R1_circle_slow_rep1", "2026-05-01_circle_take1"),
+        ("R5_lissajous_medium_rep2", "2026-05-02_lissajous_take2"),
+        ("R9_minsnap_fast_rep3", "2026-05-03_minsnap_take3"),
+    ] {
+        std::fs::copy(fixtures.join(format!("{from}.csv.gz")), logs.join(format!("{to}.csv.gz"))).unwrap();
+    }
+    let rotorpy = std::fs::read_to_string(root().join("designs/logs/rotorpy.design")).unwrap();
+    let design = rotorpy
+        .replace("path      \"../../tests/fixtures/rotorpy/logs\"", &format!("path \"{}\"", logs.display()))
+        .replace("  controller se3\n", "  controller se3\n  conditions name \"{*}_{trajectory}_take{rep}\"\n");
+    assert!(design.contains("conditions trajectory, speed"), "the design groups by speed");
+    let path = tmp.path().join("d.design");
+    std::fs::write(&path, design).unwrap();
+    let o = bin().arg("split").arg(&path).arg("--out").arg(tmp.path().join("out")).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("conditions include speed, and it is unknown for every included recording"), "{err}");
+}
