@@ -2,7 +2,10 @@
 //! declared rule kept or dropped it. A corrupt or unreadable file never
 //! stops the audit (unless the design says `strict`).
 
+mod error;
 mod render;
+
+pub use error::AuditError;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -118,76 +121,6 @@ pub struct Audit {
     pub files: Vec<FileRow>,
     /// Groups of identical recordings (two or more names each).
     pub duplicate_groups: BTreeMap<String, Vec<String>>,
-}
-
-/// Why a data directory could not be audited.
-#[derive(Debug, thiserror::Error)]
-pub enum AuditError {
-    /// The directory could not be listed.
-    #[error("cannot list data directory {dir}: {message}")]
-    Dir {
-        /// The directory.
-        dir: String,
-        /// The underlying error.
-        message: String,
-    },
-    /// Two files load as recordings of the same name.
-    #[error("{dir}: {first} and {second} would both load as recording {name}; keep one of them")]
-    SameName {
-        /// The directory.
-        dir: String,
-        /// The recording name.
-        name: String,
-        /// One file.
-        first: String,
-        /// The other.
-        second: String,
-    },
-    /// The audit kept no recording at all (it is written all the same,
-    /// with each file's reason).
-    #[error("{dir}: none of its {files} log file(s) was included; each one's reason is in {written}{hint}")]
-    NoneIncluded {
-        /// The data directory.
-        dir: String,
-        /// How many log files it holds.
-        files: usize,
-        /// Where the audit was written.
-        written: String,
-        /// What to try, where one thing is likely.
-        hint: String,
-    },
-    /// A log's file name holds a control character (a line break, a
-    /// terminal escape): it would become a recording name.
-    #[error("{dir}: the file name {name:?} holds a control character, which no recording name may; rename the file")]
-    ControlInName {
-        /// The directory.
-        dir: String,
-        /// The file name, escaped.
-        name: String,
-    },
-    /// The declared columns are not in the NanoBench schema.
-    #[error("{0}")]
-    Layout(String),
-    /// `strict` data: files were excluded for reasons other than the declared rules.
-    #[error("strict data rules: {count} file(s) could not be used for reasons other than the declared rules:\n{list}")]
-    Strict {
-        /// How many files.
-        count: usize,
-        /// One line per file and reason.
-        list: String,
-    },
-    /// Metadata numbers no recording can have (a non-finite or negative
-    /// speed, say), refused whatever the design's strictness.
-    #[error("{count} metadata value(s) no recording can have:\n{list}")]
-    Metadata {
-        /// How many values.
-        count: usize,
-        /// One line per value: file, line, column and what is wrong.
-        list: String,
-    },
-    /// An audit file could not be written.
-    #[error(transparent)]
-    Write(#[from] crate::io::WriteError),
 }
 
 fn rule_label(rule: &InclusionRule) -> String {

@@ -52,25 +52,10 @@ pub fn check_output_dir(dir: &Path, design_sha256: &str) -> Result<(), RunError>
             check_out(d, design_sha256)?;
             continue;
         }
-        let Ok(entries) = std::fs::read_dir(d) else { continue };
-        for e in entries.flatten().take(100_000) {
-            let name = e.file_name().to_string_lossy().into_owned();
-            if !is_level(&name) {
-                continue;
-            }
-            // A specification of per-seed draws holds its seeds' levels
-            // (`spec-ID/draw-K`), each with its run.json.
-            let mut runs = vec![e.path()];
-            if !e.path().join("run.json").is_file() {
-                let inner = std::fs::read_dir(e.path()).into_iter().flatten().flatten().take(100_000);
-                runs =
-                    inner.filter(|i| i.file_name().to_string_lossy().starts_with("draw-")).map(|i| i.path()).collect();
-            }
-            for run in runs.iter().filter(|r| r.join("run.json").is_file()) {
-                if let Some(p) = RunRecord::read(run).ok().flatten() {
-                    if p.design_sha256 != design_sha256 {
-                        return Err(RunError::OtherDesign { dir: d.display().to_string(), sha256: p.design_sha256 });
-                    }
+        for run in level_runs(d) {
+            if let Some(p) = RunRecord::read(&run).ok().flatten() {
+                if p.design_sha256 != design_sha256 {
+                    return Err(RunError::OtherDesign { dir: d.display().to_string(), sha256: p.design_sha256 });
                 }
             }
         }
@@ -102,19 +87,34 @@ fn is_level(name: &str) -> bool {
     ["spec-", "draw-", "split-"].iter().any(|p| name.starts_with(p))
 }
 
-/// Whether `dir` is the top of a run with outer levels: it holds a level
-/// folder with a run.json (or, for a specification of per-seed draws, a
-/// `draw-*` inside one that has).
+/// The run folders of the outer levels in `dir`: each level folder
+/// (`spec-*`, `draw-*`, `split-*`) with a run.json, and for a specification
+/// of per-seed draws, the `draw-*` folders inside it that have one.
+fn level_runs(dir: &Path) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut runs = Vec::new();
+    for e in entries.flatten().take(100_000) {
+        if !is_level(&e.file_name().to_string_lossy()) {
+            continue;
+        }
+        if e.path().join("run.json").is_file() {
+            runs.push(e.path());
+            continue;
+        }
+        let inner = std::fs::read_dir(e.path()).into_iter().flatten().flatten().take(100_000);
+        runs.extend(
+            inner
+                .filter(|i| i.file_name().to_string_lossy().starts_with("draw-"))
+                .map(|i| i.path())
+                .filter(|p| p.join("run.json").is_file()),
+        );
+    }
+    runs
+}
+
+/// Whether `dir` is the top of a run with outer levels.
 fn is_outer_top(dir: &Path) -> bool {
-    let Ok(entries) = std::fs::read_dir(dir) else { return false };
-    entries.flatten().take(100_000).any(|e| {
-        let name = e.file_name().to_string_lossy().into_owned();
-        is_level(&name)
-            && (e.path().join("run.json").is_file()
-                || std::fs::read_dir(e.path()).into_iter().flatten().flatten().take(100_000).any(|i| {
-                    i.file_name().to_string_lossy().starts_with("draw-") && i.path().join("run.json").is_file()
-                }))
-    })
+    !level_runs(dir).is_empty()
 }
 
 /// Refuses to write an analysis or a plan into a folder a run wrote: the

@@ -30,18 +30,10 @@ macro_rules! note {
 /// label, a reason), it cannot drive the terminal. Colored diagnostics
 /// are written by [`note_raw`], which keeps crossaudit's own escapes.
 pub(crate) fn visible(text: String) -> String {
-    if !text.chars().any(|c| c.is_control() && c != '\n' && c != '\t') {
-        return text;
+    match crossaudit::io::escape_controls(&text, &['\n', '\t']) {
+        std::borrow::Cow::Borrowed(_) => text,
+        std::borrow::Cow::Owned(escaped) => escaped,
     }
-    let mut out = String::with_capacity(text.len() + 8);
-    for c in text.chars() {
-        if c.is_control() && c != '\n' && c != '\t' {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
 }
 
 /// Writes to standard output.

@@ -124,18 +124,9 @@ impl Validator {
             }
             DataItem::ExcludeRecordings(names) => {
                 self.once(seen, "exclude recordings", item.span);
-                for (k, n) in names.iter().enumerate() {
-                    if n.node.is_empty() || n.node.chars().any(char::is_control) {
-                        self.err(
-                            "bad recording name",
-                            n.span,
-                            "a recording name is a log's file name without `.csv`".to_string(),
-                        );
-                    } else if names[..k].iter().any(|m| m.node == n.node) {
-                        self.err("duplicate name", n.span, format!("`{}` is listed twice", n.node));
-                    }
-                }
-                spec.rules.push(InclusionRule::Named { names: names.iter().map(|n| n.node.clone()).collect() });
+                // Checked as every pinned list of names is: none empty, none twice.
+                let listed = self.listed(names, "excluded");
+                spec.rules.push(InclusionRule::Named { names: listed.into_iter().map(|n| n.name).collect() });
             }
             DataItem::ExcludeImplausible(pooling) => {
                 self.once(seen, "exclude", item.span);

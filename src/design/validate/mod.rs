@@ -429,23 +429,6 @@ impl Validator {
         }
     }
 
-    /// A pinned list of recording names: none empty, none twice.
-    fn listed(&mut self, names: &[Spanned<String>], what: &str) -> Vec<ListedName> {
-        let mut seen = std::collections::BTreeSet::new();
-        if let Some(first_over) = names.get(limits::RECORDINGS as usize) {
-            let what = format!("the number of listed {what} recordings");
-            self.too_large(first_over.span, &what, names.len() as u64, limits::RECORDINGS);
-        }
-        for n in names.iter().take(limits::RECORDINGS as usize) {
-            if n.node.trim().is_empty() {
-                self.err("empty name", n.span, format!("an empty {what} recording name"));
-            } else if !seen.insert(n.node.as_str()) {
-                self.err("duplicate name", n.span, format!("{what} recording `{}` is listed twice", n.node));
-            }
-        }
-        names.iter().map(|n| ListedName { name: n.node.clone(), offset: n.span.start, at: None }).collect()
-    }
-
     /// numpy's legacy RandomState takes seeds 0..=2^32-1 only: every seed
     /// the split draws with must fit.
     fn numpy_seeds(&mut self, ast: &Ast) {

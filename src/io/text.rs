@@ -1,0 +1,168 @@
+//! User text made safe wherever it is written: on one line with control
+//! characters escaped, and escaped for Markdown.
+
+use std::borrow::Cow;
+
+// ---- Markdown text from input ------------------------------------------
+// Names from input (a study's name, recording, trajectory and role labels,
+// file names) written into a Markdown file (report.md, split_audit.md) are
+// escaped so that they are read back as the same text, never as a link,
+// an image, emphasis, raw HTML or a table's column separator.
+
+/// `s` as Markdown text: every character that could start markup is
+/// backslash-escaped (`[` and `]`, so no link or image can form and
+/// parentheses stay as they are; `_` only where it could open or close
+/// emphasis, so `nanobench_paper` is written as it is), and line breaks and other
+/// control characters become spaces (a name stays on its line and in its
+/// table cell).
+///
+/// ```
+/// use crossaudit::io::md_text;
+/// assert_eq!(md_text("nanobench_paper"), "nanobench_paper");
+/// assert_eq!(md_text("[x](javascript:alert(1))"), "\\[x\\](javascript:alert(1))");
+/// assert_eq!(md_text("a|b"), "a\\|b");
+/// assert_eq!(md_text("_x_"), "\\_x\\_");
+/// ```
+pub fn md_text(s: &str) -> String {
+    escape_markup(s, false)
+}
+
+/// [`md_text`]'s escapes; with `code_spans`, a backtick run that a later
+/// run of the same length closes is kept with everything between them (a
+/// code span: nothing in it is markup), and any other backtick escaped.
+fn escape_markup(s: &str, code_spans: bool) -> String {
+    let chars: Vec<char> = s.chars().collect();
+    let mut out = String::with_capacity(s.len());
+    let run_at = |k: usize| chars[k..].iter().take_while(|c| **c == '`').count();
+    let mut k = 0;
+    while k < chars.len() {
+        let c = chars[k];
+        if c == '`' && code_spans {
+            let n = run_at(k);
+            // The closing run: the next run of exactly n backticks.
+            let mut j = k + n;
+            let mut close = None;
+            while j < chars.len() {
+                if chars[j] == '`' {
+                    let m = run_at(j);
+                    if m == n {
+                        close = Some(j);
+                        break;
+                    }
+                    j += m;
+                } else {
+                    j += 1;
+                }
+            }
+            if let Some(j) = close {
+                chars[k..j + n].iter().for_each(|c| out.push(if c.is_control() { ' ' } else { *c }));
+                k = j + n;
+                continue;
+            }
+        }
+        match c {
+            '\\' | '`' | '*' | '[' | ']' | '<' | '>' | '|' | '&' | '~' => {
+                out.push('\\');
+                out.push(c);
+            }
+            '_' => {
+                let word = |j: Option<usize>| j.and_then(|j| chars.get(j)).is_some_and(|c| c.is_alphanumeric());
+                if !(word(k.checked_sub(1)) && word(Some(k + 1))) {
+                    out.push('\\');
+                }
+                out.push('_');
+            }
+            c if c.is_control() => out.push(' '),
+            c => out.push(c),
+        }
+        k += 1;
+    }
+    out
+}
+
+/// `s` on one line, every control character (a line break, a terminal
+/// escape, NUL) shown as its Rust escape (`\n`, `\u{1b}`): user text
+/// (an amendment's reason, a file name, a label) embedded in a message,
+/// a warning or a report line can then neither start a line of its own
+/// nor drive the terminal.
+///
+/// ```
+/// use crossaudit::io::one_line;
+/// assert_eq!(one_line("a\nb"), "a\\nb");
+/// assert_eq!(one_line("\u{1b}[31mred"), "\\u{1b}[31mred");
+/// assert_eq!(one_line("plain"), "plain");
+/// ```
+pub fn one_line(s: &str) -> Cow<'_, str> {
+    escape_controls(s, &[])
+}
+
+/// `s` with every control character but those in `keep` shown as its Rust
+/// escape: [`one_line`] keeps none; the binary's console output keeps the
+/// line break and the tab of its own messages.
+pub fn escape_controls<'a>(s: &'a str, keep: &[char]) -> Cow<'a, str> {
+    let escaped = |c: &char| c.is_control() && !keep.contains(c);
+    if !s.chars().any(|c| escaped(&c)) {
+        return Cow::Borrowed(s);
+    }
+    let mut out = String::with_capacity(s.len() + 8);
+    for c in s.chars() {
+        if escaped(&c) {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    Cow::Owned(out)
+}
+
+/// A line of a Markdown report built by crossaudit around user text (a
+/// warning, a note): on one line ([`one_line`]), every character that
+/// could start a link, an image, emphasis or raw HTML escaped as
+/// [`md_text`] does, and a leading block marker (`#`, `>`, `-`, `+`, `=`,
+/// a fence, `1.`) escaped, so it stays one paragraph or one list item with
+/// no markup but code spans: the code spans crossaudit writes into its
+/// warnings (`` `world` ``) are kept.
+///
+/// ```
+/// use crossaudit::io::md_line;
+/// assert_eq!(md_line("# x"), "\\# x");
+/// assert_eq!(md_line("12. x"), "12\\. x");
+/// assert_eq!(md_line("a <b> `c|d_` [e](f)"), "a \\<b\\> `c|d_` \\[e\\](f)");
+/// assert_eq!(md_line("an open ` [e](f)"), "an open \\` \\[e\\](f)");
+/// ```
+pub fn md_line(s: &str) -> String {
+    let flat = escape_markup(&one_line(s), true);
+    let body = flat.trim_start();
+    let indent = &flat[..flat.len() - body.len()];
+    let digits = body.chars().take_while(char::is_ascii_digit).count();
+    if body.starts_with(['#', '-', '+', '=', '`']) {
+        format!("{indent}\\{body}")
+    } else if digits > 0 && body[digits..].starts_with(['.', ')']) {
+        format!("{indent}{}\\{}", &body[..digits], &body[digits..])
+    } else {
+        flat
+    }
+}
+
+/// `s` as a Markdown code span, with a fence longer than any run of
+/// backticks in it (backslash escapes do not work inside code spans).
+///
+/// ```
+/// use crossaudit::io::md_code;
+/// assert_eq!(md_code("a_b"), "`a_b`");
+/// assert_eq!(md_code("a`b"), "`` a`b ``");
+/// ```
+pub fn md_code(s: &str) -> String {
+    let clean: String = s.chars().map(|c| if c.is_control() { ' ' } else { c }).collect();
+    let mut longest = 0;
+    let mut run = 0;
+    for c in clean.chars() {
+        run = if c == '`' { run + 1 } else { 0 };
+        longest = longest.max(run);
+    }
+    if longest == 0 {
+        return format!("`{clean}`");
+    }
+    let fence = "`".repeat(longest + 1);
+    format!("{fence} {clean} {fence}")
+}
