@@ -73,7 +73,7 @@ fn main() {
     };
     let dims = [(18, WIDTH), (WIDTH, WIDTH), (WIDTH, WIDTH), (WIDTH, 14)];
     let parts: Vec<_> = dims.iter().map(|&(i, o)| (uniform(i * o), uniform(o))).collect();
-    let net = FusedMlp::from_parts(&crossaudit::model::Slots::NANOBENCH, WIDTH, &parts);
+    let net = FusedMlp::from_parts(&crossaudit::model::Slots::NANOBENCH, &[WIDTH; 3], &parts);
     let (x, y) = (uniform(BATCH * 18), uniform(BATCH * 14));
     let mut trainer = Trainer::new(net, BATCH);
     for _ in 0..20 {

@@ -456,3 +456,40 @@ fn restore_final_trains_the_full_budget_and_keeps_the_last_weights() {
     let argmin = full.iter().enumerate().min_by(|a, b| a.1.val_loss.total_cmp(&b.1.val_loss)).unwrap().0 + 1;
     assert_eq!(last == restored, argmin == 14, "best epoch {argmin}");
 }
+
+/// Any MLP shape, with the real binary: `check` accepts `mlp(64, 64)` and
+/// an unequal three-layer net, `run` trains both on simulated data, and
+/// each job's weights file has the declared layers.
+#[test]
+fn networks_of_any_shape_are_checked_trained_and_saved() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("tests/designs/sim_small.design"))
+        .unwrap()
+        .replace("model world    = mlp(32, 32, 32)", "model world    = mlp(64, 64)")
+        .replace("model relative = mlp(32, 32, 32)", "model relative = mlp(24, 12, 6)")
+        .replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2");
+    let design = dir.path().join("shapes.design");
+    std::fs::write(&design, text).unwrap();
+    let bin = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(args).output().unwrap();
+    let check = bin(&["check", design.to_str().unwrap()]);
+    crate::common::assert_ok(&check);
+    assert!(crate::common::stdout(&check).contains("mlp(64, 64)"), "{}", crate::common::stdout(&check));
+    let out = dir.path().join("run");
+    crate::common::assert_ok(&bin(&[
+        "run",
+        design.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--exploratory",
+        "--workers",
+        "2",
+    ]));
+    for (model, widths) in [("world", vec![64, 64]), ("relative", vec![24, 12, 6])] {
+        let net = crossaudit::model::Net::load(&widths, &out.join(format!("models/{model}__disjoint__1.safetensors")))
+            .unwrap();
+        assert_eq!(net.widths(), widths);
+        assert_eq!((net.fused().inputs(), net.fused().outputs()), (18, 14));
+    }
+    assert!(out.join("cells.csv").is_file());
+}

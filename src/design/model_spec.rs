@@ -56,14 +56,39 @@ pub enum ModelKind {
     ConstantVelocity,
 }
 
-/// Hidden-layer widths the language accepts: an `mlp(w, w, w)` of three
-/// equal widths from this list. Part of the language so that validation
-/// needs no model code; `model::net` has one network type per entry.
-pub const MLP_WIDTHS: [usize; 3] = [32, 64, 256];
+/// The most hidden layers an `mlp(...)` may have.
+pub const MLP_MAX_LAYERS: usize = 8;
+
+/// The widest hidden layer an `mlp(...)` may have.
+pub const MLP_MAX_WIDTH: usize = 4096;
+
+/// The most weights between hidden layers (the sum of the products of
+/// consecutive widths): `mlp(4096, 4096)` is the largest two-layer network.
+/// With Adam's two moments and the gradient, training holds four copies.
+pub const MLP_MAX_HIDDEN_WEIGHTS: usize = 1 << 24;
+
+/// Why `widths` is not an architecture the language accepts, or `None`:
+/// one to [`MLP_MAX_LAYERS`] hidden ReLU layers, each 1 to
+/// [`MLP_MAX_WIDTH`] wide, at most [`MLP_MAX_HIDDEN_WEIGHTS`] weights
+/// between them. Part of the language, so that validation needs no model
+/// code.
+pub fn mlp_unsupported(widths: &[usize]) -> Option<String> {
+    if widths.is_empty() || widths.len() > MLP_MAX_LAYERS {
+        return Some(format!("{} hidden layers; an mlp has 1 to {MLP_MAX_LAYERS}", widths.len()));
+    }
+    if let Some(w) = widths.iter().find(|w| **w == 0 || **w > MLP_MAX_WIDTH) {
+        return Some(format!("a hidden layer {w} wide; each is 1 to {MLP_MAX_WIDTH} wide"));
+    }
+    let between: usize = widths.windows(2).map(|p| p[0] * p[1]).sum();
+    if between > MLP_MAX_HIDDEN_WEIGHTS {
+        return Some(format!("{between} weights between hidden layers; at most {MLP_MAX_HIDDEN_WEIGHTS}"));
+    }
+    None
+}
 
 /// Whether `widths` is an architecture the language accepts.
 pub fn mlp_supported(widths: &[usize]) -> bool {
-    widths.len() == 3 && widths.iter().all(|w| *w == widths[0]) && MLP_WIDTHS.contains(&widths[0])
+    mlp_unsupported(widths).is_none()
 }
 
 impl ModelKind {

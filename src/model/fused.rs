@@ -30,7 +30,7 @@ pub struct Dense {
     pub bias: Vec<f32>,
 }
 
-/// The MLP's parameters: three hidden ReLU layers and a linear output.
+/// The MLP's parameters: hidden ReLU layers and a linear output.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FusedMlp {
     /// Input to output.
@@ -67,10 +67,19 @@ fn vectorized<R>(f: impl FnOnce() -> R) -> R {
 }
 
 impl FusedMlp {
-    /// An `inputs -> width -> width -> width -> state` network of `slots`
-    /// from its parameters in dfdx's order (weight, bias per layer).
-    pub fn from_parts(slots: &Slots, width: usize, parts: &[(Vec<f32>, Vec<f32>)]) -> FusedMlp {
-        let dims = [(slots.input(), width), (width, width), (width, width), (width, slots.state)];
+    /// Each layer's (inputs, outputs) of an `inputs -> W1 -> ... -> Wk ->
+    /// state` network of `slots` with hidden `widths`.
+    pub fn dims(slots: &Slots, widths: &[usize]) -> Vec<(usize, usize)> {
+        let sizes: Vec<usize> =
+            [slots.input()].into_iter().chain(widths.iter().copied()).chain([slots.state]).collect();
+        sizes.windows(2).map(|p| (p[0], p[1])).collect()
+    }
+
+    /// The network of `slots` with hidden `widths` from its parameters in
+    /// dfdx's order (weight, bias per layer).
+    pub fn from_parts(slots: &Slots, widths: &[usize], parts: &[(Vec<f32>, Vec<f32>)]) -> FusedMlp {
+        let dims = Self::dims(slots, widths);
+        assert_eq!(dims.len(), parts.len(), "one (weight, bias) per layer");
         let layers = dims
             .iter()
             .zip(parts)

@@ -12,11 +12,13 @@ pub mod fused;
 mod kernel;
 pub mod linear;
 pub mod net;
+mod reference;
 mod standardize;
 
 pub use features::{Action, FeatureMap, Slots, State, ACTION, EXOGENOUS, INPUT, STATE};
 pub use linear::{Linear, LinearError};
 pub use net::{train, train_with, Engine, EpochLog, Learned, Net, NetError};
+pub use reference::REFERENCE_WIDTHS;
 pub use standardize::Standardizer;
 
 /// One step of a dynamics model for a batch of states: the next states

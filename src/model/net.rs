@@ -6,31 +6,28 @@
 //! (`results/benchmarks/torch_reference.txt`); rollouts predict through the same fused
 //! forward pass.
 //!
-//! The supported architectures are three hidden ReLU layers of one width
-//! from [`crate::design::MLP_WIDTHS`]: inputs -> W -> W -> W -> state (18 ->
-//! W -> W -> W -> 14 for NanoBench). The paper's is W = 256. Layer widths
-//! are types in dfdx 0.13, so its reference trainer runs NanoBench's
-//! layout only; the fused trainer takes any [`Slots`], starting from
-//! dfdx's initialisation ([`Net::init`], checked bit for bit against it).
+//! The architectures are any hidden ReLU layers the language accepts
+//! ([`crate::design::mlp_unsupported`]): inputs -> W1 -> ... -> Wk -> state
+//! (18 -> 256 -> 256 -> 256 -> 14 for the paper on NanoBench). Layer widths
+//! are types in dfdx 0.13, so its reference trainer runs the architectures
+//! of [`REFERENCE_WIDTHS`] on NanoBench's layout only; the fused trainer
+//! takes any widths and any [`Slots`], starting from dfdx's initialisation
+//! ([`Net::init`], checked bit for bit against it).
 
 use std::path::Path;
 use std::time::Instant;
 
-use dfdx::optim::{Adam, AdamConfig};
-use dfdx::prelude::*;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::features::{Action, FeatureMap, Slots, State, INPUT, STATE};
+use super::features::{Action, FeatureMap, Slots, State};
 use super::fused::{Activations, FusedMlp, Trainer};
+use super::reference::{self, REFERENCE_WIDTHS};
 use super::Dynamics;
-use crate::design::{mlp_supported, Schedule, Training, MLP_WIDTHS};
+use crate::design::{mlp_unsupported, Schedule, Training};
 use crate::stats::standard_normal;
-
-type Mlp<const W: usize> = ((Linear<INPUT, W>, ReLU), (Linear<W, W>, ReLU), (Linear<W, W>, ReLU), Linear<W, STATE>);
-type Built<const W: usize> = <Mlp<W> as BuildOnDevice<Cpu, f32>>::Built;
 
 /// A trained network: its parameters, in the fused trainer's layout.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,9 +56,12 @@ pub type Windows = [(State, Action, State)];
 /// Why a network could not be trained, saved or loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum NetError {
-    #[error("mlp widths {0:?} are not compiled in; supported: three equal hidden widths from {MLP_WIDTHS:?}")]
-    /// Widths that have no network type.
-    Unsupported(Vec<usize>),
+    #[error("mlp widths {0:?}: {1}")]
+    /// Widths the language does not accept, and why.
+    Unsupported(Vec<usize>, String),
+    #[error("dfdx's reference trainer has no network type for mlp widths {0:?}; it has {REFERENCE_WIDTHS:?}")]
+    /// The reference trainer was asked for widths it has no type for.
+    NoReference(Vec<usize>),
     #[error("cannot save or load model weights at {path}: {message}")]
     /// Weights could not be saved or loaded.
     Io {
@@ -176,12 +176,11 @@ pub fn train_with(
     if fit.is_empty() || validation.is_empty() {
         return Err(NetError::NoData);
     }
-    if !mlp_supported(widths) {
-        return Err(NetError::Unsupported(widths.to_vec()));
+    if let Some(why) = mlp_unsupported(widths) {
+        return Err(NetError::Unsupported(widths.to_vec(), why));
     }
-    let width = widths[0];
     if engine == Engine::Fused {
-        let mut run = FusedRun::new(Net::init(&features.slots, width, seed).mlp, t.batch, validation.len());
+        let mut run = FusedRun::new(Net::init(&features.slots, widths, seed).mlp, t.batch, validation.len());
         let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
         return Ok((Net { mlp: run.best }, logs));
     }
@@ -189,20 +188,21 @@ pub fn train_with(
     if !slots.is_nanobench() {
         return Err(NetError::ReferenceLayout { state: slots.state, action: slots.action });
     }
-    Ok(match width {
-        32 => reference::<32>(features, fit, validation, t, seed, on_epoch),
-        64 => reference::<64>(features, fit, validation, t, seed, on_epoch),
-        _ => reference::<256>(features, fit, validation, t, seed, on_epoch),
+    let mut logs = Vec::new();
+    let best = reference::train(widths, t.lr, seed, &mut |run| {
+        logs = early_stopped(run, features, fit, validation, t, seed, on_epoch);
     })
+    .ok_or_else(|| NetError::NoReference(widths.to_vec()))?;
+    Ok((Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, widths, &best) }, logs))
 }
 
 /// Mean squared error of predictions against targets, in f64.
-fn mse_of(out: &[f32], y: &[f32]) -> f64 {
+pub(super) fn mse_of(out: &[f32], y: &[f32]) -> f64 {
     out.iter().zip(y).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>() / y.len() as f64
 }
 
 /// What the two trainers do differently; [`early_stopped`] does the rest.
-trait Minibatches {
+pub(super) trait Minibatches {
     /// One optimizer step on `n` rows (x: n x 18, y: n x 14) at `lr`;
     /// returns the batch loss before the step.
     fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32;
@@ -304,92 +304,17 @@ impl Minibatches for FusedRun {
     }
 }
 
-/// dfdx's own tape-based training of a module of width `W`.
-struct ReferenceRun<const W: usize> {
-    dev: Cpu,
-    model: Built<W>,
-    grads: Option<Gradients<f32, Cpu>>,
-    opt: Adam<Built<W>, f32, Cpu>,
-    best: Built<W>,
+/// dfdx's name for each layer's (weight, bias) in a safetensors file of
+/// `layers` layers: the MLP's tuple position, then the Linear's inside its
+/// (Linear, ReLU); the output layer is a bare Linear.
+fn tensor_names(layers: usize) -> Vec<(String, String)> {
+    (0..layers)
+        .map(|k| {
+            let at = if k + 1 == layers { format!("{k}") } else { format!("{k}.0") };
+            (format!("{at}.weight"), format!("{at}.bias"))
+        })
+        .collect()
 }
-
-impl<const W: usize> Minibatches for ReferenceRun<W> {
-    fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32 {
-        self.opt.cfg.lr = lr;
-        let x = self.dev.tensor_from_vec(x.to_vec(), (n, Const::<INPUT>));
-        let y = self.dev.tensor_from_vec(y.to_vec(), (n, Const::<STATE>));
-        let grads = self.grads.take().expect("gradients are returned after every step");
-        let loss = mse_loss(self.model.forward_mut(x.traced(grads)), y);
-        let value = loss.array();
-        let mut grads = loss.backward();
-        self.opt.update(&mut self.model, &grads).expect("every parameter of the model receives a gradient");
-        self.model.zero_grads(&mut grads);
-        self.grads = Some(grads);
-        value
-    }
-    fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64 {
-        mse_of(&forward(&self.model, &self.dev, x), y)
-    }
-    fn keep_best(&mut self) {
-        self.best = self.model.clone();
-    }
-}
-
-/// Trains with dfdx's own trainer (the reference) and wraps the best module.
-fn reference<const W: usize>(
-    features: &FeatureMap,
-    fit: &Windows,
-    validation: &Windows,
-    t: &Training,
-    seed: u64,
-    on_epoch: &mut dyn FnMut(&EpochLog),
-) -> (Net, Vec<EpochLog>) {
-    let dev = Cpu::seed_from_u64(seed);
-    let model = dev.build_module::<Mlp<W>, f32>();
-    let grads = Some(model.alloc_grads());
-    let opt = Adam::new(&model, AdamConfig { lr: t.lr, ..Default::default() });
-    let best = model.clone();
-    let mut run = ReferenceRun { dev, model, grads, opt, best };
-    let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
-    (Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, W, &parts(&run.best)) }, logs)
-}
-
-fn forward<const W: usize>(model: &Built<W>, dev: &Cpu, x: &[f32]) -> Vec<f32> {
-    let n = x.len() / INPUT;
-    let x = dev.tensor_from_vec(x.to_vec(), (n, Const::<INPUT>));
-    model.forward(x).as_vec()
-}
-
-/// Each layer's (weight, bias), weight row-major (out x in) as dfdx stores it.
-fn parts<const W: usize>(m: &Built<W>) -> Vec<(Vec<f32>, Vec<f32>)> {
-    let ((a, _), (b, _), (c, _), d) = m;
-    vec![
-        (a.weight.as_vec(), a.bias.as_vec()),
-        (b.weight.as_vec(), b.bias.as_vec()),
-        (c.weight.as_vec(), c.bias.as_vec()),
-        (d.weight.as_vec(), d.bias.as_vec()),
-    ]
-}
-
-/// A dfdx module holding the fused network's parameters.
-fn module_from<const W: usize>(f: &FusedMlp) -> Built<W> {
-    let mut m = Cpu::default().build_module::<Mlp<W>, f32>();
-    let ((a, _), (b, _), (c, _), d) = &mut m;
-    a.weight.copy_from(&f.layers[0].weight);
-    a.bias.copy_from(&f.layers[0].bias);
-    b.weight.copy_from(&f.layers[1].weight);
-    b.bias.copy_from(&f.layers[1].bias);
-    c.weight.copy_from(&f.layers[2].weight);
-    c.bias.copy_from(&f.layers[2].bias);
-    d.weight.copy_from(&f.layers[3].weight);
-    d.bias.copy_from(&f.layers[3].bias);
-    m
-}
-
-/// dfdx's name for each layer's (weight, bias) in a safetensors file:
-/// the MLP's tuple position, then the Linear's inside its (Linear, ReLU).
-const TENSOR_NAMES: [(&str, &str); 4] =
-    [("0.0.weight", "0.0.bias"), ("1.0.weight", "1.0.bias"), ("2.0.weight", "2.0.bias"), ("3.weight", "3.bias")];
 
 impl Net {
     /// dfdx's initialisation for `seed`, for any layout: each layer's
@@ -397,11 +322,10 @@ impl Net {
     /// b = 1 / sqrt(inputs) in f32, with the device's RNG (rand's `StdRng`
     /// seeded with `seed`), as dfdx's `Cpu::seed_from_u64(seed)` and
     /// `build_module` do (tests/fused.rs checks it bit for bit).
-    pub fn init(slots: &Slots, width: usize, seed: u64) -> Net {
+    pub fn init(slots: &Slots, widths: &[usize], seed: u64) -> Net {
         use rand::distributions::{Distribution, Uniform};
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-        let dims = [(slots.input(), width), (width, width), (width, width), (width, slots.state)];
-        let parts: Vec<(Vec<f32>, Vec<f32>)> = dims
+        let parts: Vec<(Vec<f32>, Vec<f32>)> = FusedMlp::dims(slots, widths)
             .iter()
             .map(|&(inp, out)| {
                 let b = 1.0f32 / (inp as f32).sqrt();
@@ -411,20 +335,15 @@ impl Net {
                 (w, bias)
             })
             .collect();
-        Net { mlp: FusedMlp::from_parts(slots, width, &parts) }
+        Net { mlp: FusedMlp::from_parts(slots, widths, &parts) }
     }
 
     /// dfdx's own initialisation of NanoBench's layout (the reference
-    /// [`Net::init`] is checked against).
-    pub fn init_dfdx(width: usize, seed: u64) -> Option<Net> {
-        let dev = Cpu::seed_from_u64(seed);
-        let parts = match width {
-            32 => parts(&dev.build_module::<Mlp<32>, f32>()),
-            64 => parts(&dev.build_module::<Mlp<64>, f32>()),
-            256 => parts(&dev.build_module::<Mlp<256>, f32>()),
-            _ => return None,
-        };
-        Some(Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, width, &parts) })
+    /// [`Net::init`] is checked against), for the widths of
+    /// [`REFERENCE_WIDTHS`].
+    pub fn init_dfdx(widths: &[usize], seed: u64) -> Option<Net> {
+        let parts = reference::init(widths, seed)?;
+        Some(Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, widths, &parts) })
     }
 
     /// The parameters for the fused forward pass and trainer.
@@ -432,9 +351,9 @@ impl Net {
         self.mlp.clone()
     }
 
-    /// Hidden width.
-    pub fn width(&self) -> usize {
-        self.mlp.layers[0].out
+    /// Hidden widths.
+    pub fn widths(&self) -> Vec<usize> {
+        self.mlp.layers[..self.mlp.layers.len() - 1].iter().map(|l| l.out).collect()
     }
 
     /// Standardized predictions for standardized inputs (n x inputs -> n x
@@ -442,15 +361,7 @@ impl Net {
     /// [`Learned`], which runs the fused one). A layout dfdx has no type
     /// for goes through the fused pass.
     pub fn predict(&self, x: &[f32]) -> Vec<f32> {
-        if (self.mlp.inputs(), self.mlp.outputs()) != (INPUT, STATE) {
-            return self.mlp.predict(x);
-        }
-        let dev = Cpu::default();
-        match self.width() {
-            32 => forward(&module_from::<32>(&self.mlp), &dev, x),
-            64 => forward(&module_from::<64>(&self.mlp), &dev, x),
-            _ => forward(&module_from::<256>(&self.mlp), &dev, x),
-        }
+        reference::predict(&self.widths(), &self.mlp, x).unwrap_or_else(|| self.mlp.predict(x))
     }
 
     /// All weights, flattened in a fixed order (for bit-identity checks).
@@ -468,10 +379,8 @@ impl Net {
             .mlp
             .layers
             .iter()
-            .zip(TENSOR_NAMES)
-            .flat_map(|(l, (w, b))| {
-                [(w.to_string(), vec![l.out, l.inp], bytes(&l.weight)), (b.to_string(), vec![l.out], bytes(&l.bias))]
-            })
+            .zip(tensor_names(self.mlp.layers.len()))
+            .flat_map(|(l, (w, b))| [(w, vec![l.out, l.inp], bytes(&l.weight)), (b, vec![l.out], bytes(&l.bias))])
             .collect();
         let views = data
             .iter()
@@ -490,8 +399,8 @@ impl Net {
     /// Reads weights written by [`Net::save`] (or dfdx) for an
     /// architecture of `widths`; the layout is read from the shapes.
     pub fn load(widths: &[usize], path: &Path) -> Result<Net, NetError> {
-        if !mlp_supported(widths) {
-            return Err(NetError::Unsupported(widths.to_vec()));
+        if let Some(why) = mlp_unsupported(widths) {
+            return Err(NetError::Unsupported(widths.to_vec(), why));
         }
         let err = |e: String| NetError::Io { path: path.display().to_string(), message: e };
         let raw = std::fs::read(path).map_err(|e| err(e.to_string()))?;
@@ -506,21 +415,31 @@ impl Net {
             let v = t.data().chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
             Ok((t.shape().to_vec(), v))
         };
-        let w = Some(widths[0]);
-        let (first, w0) = tensor(TENSOR_NAMES[0].0, &[w, None])?;
-        let (last, w3) = tensor(TENSOR_NAMES[3].0, &[None, w])?;
-        let (inputs, state) = (first[1], last[0]);
-        let shapes = [(w, Some(inputs)), (w, w), (w, w), (Some(state), w)];
-        let mut parts = vec![(w0, tensor(TENSOR_NAMES[0].1, &[w])?.1)];
-        for (k, (o, i)) in shapes.iter().enumerate().take(3).skip(1) {
-            parts.push((tensor(TENSOR_NAMES[k].0, &[*o, *i])?.1, tensor(TENSOR_NAMES[k].1, &[*o])?.1));
+        let names = tensor_names(widths.len() + 1);
+        if let Ok(extra) = file.tensor(&names[widths.len()].0.replace(".weight", ".0.weight")) {
+            return Err(err(format!("a hidden layer beyond mlp widths {widths:?} ({:?})", extra.shape())));
         }
-        parts.push((w3, tensor(TENSOR_NAMES[3].1, &[Some(state)])?.1));
+        // Each layer's (out, in): the first layer's inputs and the last's
+        // outputs are read from the file.
+        let mut parts = Vec::with_capacity(names.len());
+        let (mut inputs, mut state) = (0, 0);
+        for (k, (w, b)) in names.iter().enumerate() {
+            let out = widths.get(k).copied();
+            let inp = if k == 0 { None } else { Some(widths[k - 1]) };
+            let (shape, weight) = tensor(w, &[out, inp])?;
+            if k == 0 {
+                inputs = shape[1];
+            }
+            if k == widths.len() {
+                state = shape[0];
+            }
+            parts.push((weight, tensor(b, &[Some(shape[0])])?.1));
+        }
         if inputs <= state {
             return Err(err(format!("{inputs} inputs for {state} outputs: not a dynamics network")));
         }
         let slots = Slots::full(state, inputs - state, state, false);
-        Ok(Net { mlp: FusedMlp::from_parts(&slots, widths[0], &parts) })
+        Ok(Net { mlp: FusedMlp::from_parts(&slots, widths, &parts) })
     }
 }
 

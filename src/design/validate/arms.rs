@@ -134,8 +134,10 @@ impl Validator {
             let kind = match kind {
                 ast::ModelKind::Mlp { widths: spans, inputs, actions: own, restore } => {
                     let widths: Vec<usize> =
-                        spans.iter().map(|w| self.count(w, "a layer width", 1, u64::MAX)).collect();
-                    if !mlp_supported(&widths) && widths.iter().all(|w| *w >= 1) {
+                        spans.iter().map(|w| self.count(w, "a layer width", 1, MLP_MAX_WIDTH as u64)).collect();
+                    // A width out of range has its own error at its column.
+                    let widths_fit = spans.iter().all(|w| (1..=MLP_MAX_WIDTH as i64).contains(&w.node));
+                    if let Some(why) = mlp_unsupported(&widths).filter(|_| widths_fit) {
                         let span = Span {
                             start: spans.first().map(|w| w.span.start).unwrap_or(name.span.start),
                             end: spans.last().map(|w| w.span.end).unwrap_or(name.span.end),
@@ -144,12 +146,11 @@ impl Validator {
                             "unsupported architecture",
                             span,
                             format!(
-                                "mlp({}) is not compiled in",
+                                "mlp({}): {why}",
                                 widths.iter().map(|w| w.to_string()).collect::<Vec<_>>().join(", ")
                             ),
                             format!(
-                                "supported: three hidden layers of one width from {:?}, e.g. mlp(256, 256, 256)",
-                                MLP_WIDTHS
+                                "1 to {MLP_MAX_LAYERS} hidden ReLU layers, each 1 to {MLP_MAX_WIDTH} wide, e.g. mlp(64, 64) or mlp(256, 128, 64)"
                             ),
                         );
                     }
