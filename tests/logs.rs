@@ -18,7 +18,7 @@ fn fixture(name: &str) -> PathBuf {
     root().join("tests/fixtures/nanobench").join(name)
 }
 
-fn spec(design: &str) -> DataSpec {
+pub(crate) fn spec(design: &str) -> DataSpec {
     design::from_str("columns.design", design).unwrap_or_else(|e| panic!("{e}")).data
 }
 
@@ -88,7 +88,7 @@ fn the_nanobench_preset_and_its_columns_written_out_give_the_same_audit_split_an
 }
 
 /// A design text over `dir` with the columns of [`rewrite`]'s files.
-fn reordered_design(dir: &Path, attitude: &str) -> String {
+pub(crate) fn reordered_design(dir: &Path, attitude: &str) -> String {
     format!(
         r#"study "columns"
 data csv {{
@@ -122,7 +122,7 @@ decide confirmed when optimism >= 10% and upper < 0
 /// The fixture log `name` rewritten in another lab's layout: other column
 /// names, another order, a text column nobody declares, the quaternion
 /// scalar last, and Euler angles (Z-Y-X, degrees) computed from it.
-fn rewrite(name: &str, out: &Path) -> PathBuf {
+pub(crate) fn rewrite(name: &str, out: &Path) -> PathBuf {
     let text = std::fs::read_to_string(fixture(name)).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

@@ -22,6 +22,7 @@ mod front_door;
 mod fused;
 mod golden;
 mod hostile_text;
+mod lab_logs;
 mod logs;
 mod mixed_cli;
 mod model;

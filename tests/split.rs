@@ -31,6 +31,7 @@ fn recordings(n: usize, dup: &[usize]) -> Vec<Recording> {
                 row_hashes: (0..rows as u64).map(|i| i * 1000 + k as u64).collect(),
                 tail: None,
                 rows_cut: 0,
+                quaternion_deviation: None,
             }
         })
         .collect()
@@ -51,6 +52,7 @@ fn audit_of(recs: &[Recording], dup: &[usize]) -> Audit {
             speed_mps: None,
             tail: None,
             rows_cut: 0,
+            quaternion_deviation: None,
             onboard_row_counts: (None, None),
             controller: "pid".into(),
             repetition: Some(1),
@@ -70,6 +72,7 @@ fn audit_of(recs: &[Recording], dup: &[usize]) -> Audit {
         rules: Vec::new(),
         duplicates: DuplicatePolicy::Group,
         tails: crossaudit::design::TailPolicy::Keep,
+        quaternion_tolerance: None,
         files,
         duplicate_groups: Default::default(),
     }

@@ -90,6 +90,9 @@ pub struct FileRow {
     pub tail: Option<super::Tail>,
     /// Rows cut from the end (`tails truncate`).
     pub rows_cut: usize,
+    /// The largest |length - 1| of the logged quaternion over the checked
+    /// rows, before renormalisation (see [`super::Recording::quaternion_deviation`]).
+    pub quaternion_deviation: Option<f64>,
     /// Metadata row counts of the onboard estimator and attitude streams.
     pub onboard_row_counts: (Option<u64>, Option<u64>),
     /// XXH3-128 of the data rows, hex.
@@ -117,6 +120,10 @@ pub struct Audit {
     pub duplicates: DuplicatePolicy,
     /// What happens to extrapolated onboard tails.
     pub tails: TailPolicy,
+    /// The declared `norm within` of a logged quaternion: recordings.csv
+    /// then has each file's largest deviation, and the summary the largest.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quaternion_tolerance: Option<f64>,
     /// Every file seen, in natural name order.
     pub files: Vec<FileRow>,
     /// Groups of identical recordings (two or more names each).
@@ -328,6 +335,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         rules: labels(spec),
         duplicates: spec.duplicates,
         tails: spec.tails,
+        quaternion_tolerance: spec.format.as_ref().and_then(|f| f.quaternion_tolerance),
         files,
         duplicate_groups: groups,
     };
@@ -370,6 +378,7 @@ fn blank(spec: &DataSpec, name: &str, file: &str, meta: Option<&Metadata>) -> Fi
         duplicate_group: None,
         tail: None,
         rows_cut: 0,
+        quaternion_deviation: None,
         onboard_row_counts: (count("estimator"), count("attitude")),
         content_hash: String::new(),
         verdicts: Vec::new(),
@@ -394,6 +403,7 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
     let mut row = blank(spec, &rec.name, &file_name(&rec.path), meta.as_ref().ok());
     row.tail = rec.tail;
     row.rows_cut = rec.rows_cut;
+    row.quaternion_deviation = rec.quaternion_deviation;
     row.rows = rec.rows;
     row.active_rows = rec.active_rows();
     row.duration_s = rec.duration_s();

@@ -180,8 +180,9 @@ pub enum LogError {
         /// The value.
         value: f64,
     },
-    /// An active row whose quaternion is more than 0.01 from unit length.
-    #[error("{file}: line {line}, columns {columns}: the attitude quaternion has length {norm}, not 1 (more than 0.01 off; declare the attitude's columns in their order, or Euler angles)")]
+    /// An active row whose quaternion is further from unit length than
+    /// the tolerance (0.01, or the declared `norm within`).
+    #[error("{file}: line {line}, columns {columns}: the attitude quaternion has length {norm}, not 1 ({})", not_unit_hint(*tolerance, *largest, *declared))]
     NotUnit {
         /// The file, as given.
         file: String,
@@ -191,7 +192,34 @@ pub enum LogError {
         columns: String,
         /// Its length on that line.
         norm: f64,
+        /// The tolerance it broke.
+        tolerance: f64,
+        /// The file's largest |length - 1| over the checked rows.
+        largest: f64,
+        /// Whether the tolerance was declared (`norm within`).
+        declared: bool,
     },
+}
+
+/// What a quaternion off unit length means and how to declare it: a
+/// logged quaternion a little off (real estimators drift by about 1%) is
+/// accepted and renormalised with `norm within`; one far off is not a
+/// quaternion in the declared order.
+fn not_unit_hint(tolerance: f64, largest: f64, declared: bool) -> String {
+    let limit = if declared { format!("the declared `norm within {tolerance}`") } else { format!("{tolerance}") };
+    let mut s = format!("more than {limit} off; the file's largest deviation is {largest:.4}");
+    if largest <= 0.5 {
+        // The next hundredth above the largest deviation.
+        let suggested = ((largest * 100.0).floor() + 1.0) / 100.0;
+        s.push_str(&format!(
+            "; if the log's quaternion is not kept at unit length, declare `norm within {suggested}` after its columns to accept and renormalise it"
+        ));
+    } else {
+        s.push_str(
+            "; no tolerance explains that: are these the quaternion's columns, in their order (`wxyz` or `xyzw`)?",
+        );
+    }
+    s
 }
 
 fn missing_what(found: &str) -> String {

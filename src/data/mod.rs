@@ -55,6 +55,10 @@ pub struct Recording {
     pub tail: Option<Tail>,
     /// Rows cut from the end of the file (`tails truncate`).
     pub rows_cut: usize,
+    /// The largest |length - 1| of a logged quaternion over the rows it is
+    /// checked on (active rows before any extrapolated tail), before any
+    /// renormalisation; `None` without a logged quaternion.
+    pub quaternion_deviation: Option<f64>,
 }
 
 /// The rows after a log's onboard streams end: the upstream merge
@@ -126,6 +130,7 @@ impl Recording {
             row_hashes: Vec::new(),
             tail: None,
             rows_cut: 0,
+            quaternion_deviation: None,
         }
     }
 
@@ -172,6 +177,8 @@ pub struct Layout {
     quaternion_names: String,
     /// The Euler columns' names (roll, pitch, yaw), when declared.
     euler_names: Vec<String>,
+    /// `norm within T`: the quaternion's tolerance, every row renormalised.
+    quaternion_tolerance: Option<f64>,
     /// The layout the columns are read into.
     slots: Slots,
     actions: Vec<usize>,
@@ -223,6 +230,7 @@ impl Layout {
             euler,
             quaternion_names,
             euler_names: format.euler.as_ref().map(|e| e.columns.to_vec()).unwrap_or_default(),
+            quaternion_tolerance: format.quaternion_tolerance,
             slots,
             actions,
             action_scale: format.action_scale,
@@ -312,20 +320,35 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         let onboard: Vec<&[f64]> = layout.extrapolated.iter().map(|&c| cols[c].as_slice()).collect();
         onboard_tail(&t, &onboard, &active)
     };
+    let mut quaternion_deviation = None;
     if let (None, Some(q_at)) = (layout.euler, quaternion) {
         // Active rows only (NanoBench's onboard estimator drifts off unit
         // length on the ground after landing), and not the rows of an
         // extrapolated tail: `tails` judges those.
         let checked = tail.map_or(rows, |tail| tail.start);
-        let off = |k: usize| active[k] && (norm4(&state[k][q_at.clone()]) - 1.0).abs() > UNIT_TOLERANCE;
-        if let Some(k) = (0..checked).find(|&k| off(k)) {
+        let deviation = |k: usize| (norm4(&state[k][q_at.clone()]) - 1.0).abs();
+        let largest = (0..checked).filter(|&k| active[k]).map(deviation).fold(0.0, f64::max);
+        let tolerance = layout.quaternion_tolerance.unwrap_or(UNIT_TOLERANCE);
+        if let Some(k) = (0..checked).find(|&k| active[k] && deviation(k) > tolerance) {
             return Err(LogError::NotUnit {
                 file,
                 line: parsed.line_of(k),
                 columns: layout.quaternion_names.clone(),
                 norm: norm4(&state[k][q_at]),
+                tolerance,
+                largest,
+                declared: layout.quaternion_tolerance.is_some(),
             });
         }
+        if layout.quaternion_tolerance.is_some() {
+            for s in state.iter_mut() {
+                let n = norm4(&s[q_at.clone()]);
+                if n > 0.0 {
+                    s[q_at.clone()].iter_mut().for_each(|v| *v /= n);
+                }
+            }
+        }
+        quaternion_deviation = Some(largest);
     }
     Ok(Recording {
         name: recording_name(path),
@@ -341,6 +364,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         row_hashes: parsed.row_hashes,
         tail,
         rows_cut: 0,
+        quaternion_deviation,
     })
 }
 

@@ -186,6 +186,8 @@ pub enum DataItem {
     Attitude {
         kind: Ident,
         columns: Vec<Ident>,
+        /// `norm within T`: the quaternion's tolerance, renormalised.
+        norm_within: Option<Number>,
     },
     Rates(Vec<Ident>),
     Predicted(Vec<Ident>),

@@ -89,6 +89,11 @@ pub struct LogFormat {
     pub reference: bool,
     /// Euler angles (roll, pitch, yaw; Z-Y-X) turned into the quaternion slots.
     pub euler: Option<Euler>,
+    /// `norm within T`: a logged quaternion's length may be within T of 1,
+    /// and every row's quaternion is divided by its length. Without it the
+    /// length must be within 0.01 and is used as logged.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quaternion_tolerance: Option<f64>,
     /// State slots whose zeros are filled with the reading before them.
     pub fill_zeros: Vec<usize>,
     /// The action columns (NanoBench: 4).
@@ -189,6 +194,7 @@ impl DataSpec {
             velocity: true,
             attitude: true,
             euler: None,
+            quaternion_tolerance: None,
             predicted: 10,
             reference: true,
             fill_zeros: self.state_columns.iter().position(|c| c == "pwr_pm_vbat").into_iter().collect(),

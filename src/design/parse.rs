@@ -482,7 +482,9 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
                 }
                 None => return Err(Diagnostic::new("internal", text_span, "attitude without a kind")),
             };
-            DataItem::Attitude { kind, columns: cols(c.next()) }
+            let columns = cols(c.next());
+            let norm_within = c.0.next().map(|n| number(kids(n).next())).transpose()?;
+            DataItem::Attitude { kind, columns, norm_within }
         }
         Rule::reference_cols => DataItem::Reference(cols(c.next())),
         Rule::rates_cols => DataItem::Rates(cols(c.next())),

@@ -33,6 +33,11 @@ impl Audit {
         .iter()
         .map(|s| s.to_string())
         .collect();
+        // Only where a tolerance is declared, so that every other audit
+        // keeps its columns.
+        if self.quaternion_tolerance.is_some() {
+            header.push("quaternion_max_deviation".to_string());
+        }
         for (k, r) in self.rules.iter().enumerate() {
             header.push(format!("rule{}: {r}", k + 1));
         }
@@ -63,6 +68,9 @@ impl Audit {
                 f.onboard_row_counts.0.map(|c| c.to_string()).unwrap_or_default(),
                 f.onboard_row_counts.1.map(|c| c.to_string()).unwrap_or_default(),
             ];
+            if self.quaternion_tolerance.is_some() {
+                rec.push(opt(f.quaternion_deviation));
+            }
             for k in 0..self.rules.len() {
                 rec.push(match f.verdicts.get(k) {
                     Some(v) => format!("{}: {}", if v.pass { "pass" } else { "fail" }, v.detail),
@@ -120,6 +128,18 @@ impl Audit {
                 counts[3],
                 counts.iter().sum::<usize>()
             );
+        }
+        if let Some(tolerance) = self.quaternion_tolerance {
+            let largest = self
+                .included()
+                .filter_map(|f| f.quaternion_deviation.map(|d| (d, f.name.as_str())))
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((d, name)) = largest {
+                let _ = writeln!(
+                    s,
+                    "\nquaternion lengths (`norm within {tolerance}`): largest deviation from 1 among included recordings {d:.4} ({name}); every row renormalised"
+                );
+            }
         }
         let noted = self.files.iter().filter(|f| f.reason.contains("note: ")).count();
         if noted > 0 {

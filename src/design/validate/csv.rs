@@ -14,6 +14,8 @@ pub(super) struct CsvParts {
     position: Option<(Vec<Ident>, Span)>,
     velocity: Option<(Vec<Ident>, Span)>,
     attitude: Option<(Ident, Vec<Ident>, Span)>,
+    /// `norm within T` after the attitude's columns.
+    norm_within: Option<Number>,
     rates: Option<(Vec<Ident>, Span)>,
     predicted: Option<Vec<Ident>>,
     reference: Option<(Vec<Ident>, Span)>,
@@ -84,8 +86,9 @@ impl Validator {
                 csv.velocity = Some((c.clone(), span));
                 "velocity"
             }
-            DataItem::Attitude { kind, columns } => {
+            DataItem::Attitude { kind, columns, norm_within } => {
                 csv.attitude = Some((kind.clone(), columns.clone(), span));
+                csv.norm_within = norm_within.clone();
                 "attitude"
             }
             DataItem::Reference(c) => {
@@ -233,6 +236,28 @@ impl Validator {
                 }
             },
         };
+        let quaternion_tolerance = match &csv.norm_within {
+            Some(t) if euler.is_some() => {
+                self.err_help(
+                    "norm tolerance on Euler angles",
+                    t.span,
+                    "`norm within` applies to a quaternion's length; Euler angles have none",
+                    "remove `norm within`, or declare the quaternion's columns (`attitude quaternion wxyz ...`)",
+                );
+                None
+            }
+            Some(t) if !(t.node > 0.0 && t.node <= 0.5) => {
+                self.err_help(
+                    "bad norm tolerance",
+                    t.span,
+                    format!("`norm within {}`: a quaternion's length must be within (0, 0.5] of 1", t.node),
+                    "real logs are off by about 0.01 to 0.05, e.g. `norm within 0.05`",
+                );
+                None
+            }
+            Some(t) => Some(t.node),
+            None => None,
+        };
         let position = position?;
         let attitude = csv.attitude.is_some();
         if attitude && quaternion.is_none() && euler.is_none() {
@@ -277,6 +302,7 @@ impl Validator {
             velocity: has_velocity,
             attitude,
             euler,
+            quaternion_tolerance,
             predicted,
             reference: has_reference,
             fill_zeros,
