@@ -450,7 +450,11 @@ impl Plan {
                 p.file,
                 p.sha256,
                 p.evaluation_roles.join(", "),
-                p.validation_roles.join(", "),
+                if p.validation_roles.is_empty() {
+                    "drawn from the fit roles".to_string()
+                } else {
+                    p.validation_roles.join(", ")
+                },
                 p.fit_roles.join(", "),
                 p.fit.len()
             );

@@ -405,3 +405,54 @@ fn the_upstream_split_design_builds_on_the_shared_logs() {
     assert_eq!((s.evaluation.len(), s.validation_recordings.len(), s.fit_leaked.len()), (12, 13, 4));
     assert_eq!(s.evaluation_absent.len() + s.validation_absent.len() + s.fit_absent.len(), 4 + 3 + 12);
 }
+
+/// Issue 57, item 6: a lab's split of train and test alone pins, with the
+/// validation recordings drawn from the train role by the design's seed
+/// (never from test), and taken out of the fit pool.
+#[test]
+fn a_published_train_test_split_draws_validation_from_its_fit_roles() {
+    let tmp = tempfile::tempdir().unwrap();
+    let split = tmp.path().join("train_test.csv");
+    std::fs::write(
+        &split,
+        "recording,role\nS1_circle_slow_rep1,train\nS2_star_fast_rep1,train\nS3_oval_medium_rep1,train\n\
+         S4_linear_ramp_rep1,train\nS1_circle_slow_rep2,test\nS3_oval_medium_rep2,test\n",
+    )
+    .unwrap();
+    let with = |validation: &str| {
+        pinned_design(&|t| {
+            t.replace("\"../fixtures/splits/pin.json\"", &format!("{:?}", split.display().to_string()))
+                .replace("evaluation test; validation val; fit train", "evaluation test; fit train")
+                .replace("validation 100 windows from split seed 2", validation)
+        })
+    };
+    let mut drawn = std::collections::BTreeSet::new();
+    for seed in [2, 5, 11, 19] {
+        let d = with(&format!("validation 100 windows from 1 recordings seed {seed}")).unwrap_or_else(|e| panic!("{e}"));
+        assert!(d.published.as_ref().unwrap().validation_roles.is_empty());
+        let s = build_pinned(&d).unwrap_or_else(|e| panic!("{e}"));
+        let names = |rs: &[usize]| rs.iter().map(|&r| s.recordings[r].name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&s.evaluation), ["S1_circle_slow_rep2", "S3_oval_medium_rep2"]);
+        let v = names(&s.validation_recordings);
+        assert_eq!(v.len(), 1);
+        assert!(["S2_star_fast_rep1", "S3_oval_medium_rep1", "S4_linear_ramp_rep1", "S1_circle_slow_rep1"]
+            .contains(&v[0].as_str()));
+        let fit: std::collections::BTreeSet<String> =
+            s.fit("disjoint").unwrap().iter().map(|w| s.recordings[w.recording].name.clone()).collect();
+        assert!(!fit.contains(&v[0]), "seed {seed}: the validation recording {} is also fitted on", v[0]);
+        // The train role less validation, less the fit copy of a test recording.
+        let mut expected: std::collections::BTreeSet<String> =
+            ["S2_star_fast_rep1", "S3_oval_medium_rep1", "S4_linear_ramp_rep1"].map(String::from).into();
+        expected.remove(&v[0]);
+        assert_eq!(fit, expected, "seed {seed}");
+        // The same seed draws the same validation recording.
+        assert_eq!(names(&build_pinned(&d).unwrap().validation_recordings), v);
+        drawn.insert(v[0].clone());
+    }
+    assert!(drawn.len() > 1, "the validation seed chooses among the train recordings: {drawn:?}");
+    // `from split` needs a validation role; fit and evaluation roles stay required.
+    let e = with("validation 100 windows from split seed 2").unwrap_err().to_string();
+    assert!(e.contains("no validation role") && e.contains("from K recordings"), "{e}");
+    let e = pinned_design(&|t| t.replace("validation val; fit train", "validation val; ignore train")).unwrap_err();
+    assert!(e.to_string().contains("missing: fit"), "{e}");
+}

@@ -298,9 +298,19 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         })?
     };
 
-    // V: pinned, or from the rest of the universe with the validation seed.
+    // V: pinned, or from the rest of the universe with the validation seed;
+    // under a published split of train and test alone (no validation
+    // role), from its fit roles' recordings.
     let e_set: BTreeSet<usize> = e_slots.iter().copied().collect();
-    let rest: Vec<usize> = (0..drawable).filter(|c| !e_set.contains(c)).collect();
+    let from_fit_roles: Option<BTreeSet<&str>> = design
+        .published
+        .as_ref()
+        .filter(|p| p.validation_roles.is_empty())
+        .map(|p| p.fit.iter().map(|l| l.name.as_str()).collect());
+    let rest: Vec<usize> = (0..drawable)
+        .filter(|c| !e_set.contains(c))
+        .filter(|&c| from_fit_roles.as_ref().is_none_or(|fit| fit.contains(slots[c].0.as_str())))
+        .collect();
     let mut val_rs = RandomState::new(np_seed(val.seed));
     let v_slots: Vec<usize> = if !val.listed.is_empty() {
         let v = pinned(&val.listed, &slots, &members, "validation", design.data.universe.metadata)?;
@@ -365,7 +375,17 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
         }
         Some(pin) => {
             let held: Vec<usize> = evaluation_side.iter().chain(&validation_recordings).copied().collect();
-            published_fit(pin, &slots, &units, &info, &held, allowed)?
+            // Validation drawn from the fit roles leaves them: every
+            // member of a validation unit is out of the fit pool.
+            let drawn: BTreeSet<&str> = v_units
+                .iter()
+                .flat_map(|&u| units[u].members.iter().map(|&m| info[m].name.as_str()))
+                .collect();
+            let mut pin = pin.clone();
+            if pin.validation_roles.is_empty() {
+                pin.fit.retain(|l| !drawn.contains(l.name.as_str()));
+            }
+            published_fit(&pin, &slots, &units, &info, &held, allowed)?
         }
     };
     let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy, &name, (&info, &evaluation_side))?;

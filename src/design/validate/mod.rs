@@ -224,8 +224,22 @@ impl Validator {
         });
         let validation = singles.get("validation").and_then(|s| match &s.node {
             Statement::Validation { windows, recordings, seed } => {
-                let pinned = published.as_ref().map(|p| p.validation.clone());
-                Some(self.validation(windows, recordings, seed, pinned_by_split, pinned))
+                // A published split without a validation role (train and
+                // test only): validation recordings are drawn from its fit
+                // roles, or listed, as without a published split.
+                let roles = published.as_ref().filter(|p| !p.pin.validation_roles.is_empty());
+                if let (Some(p), None, ValRecordings::Split(span)) = (&published, roles, recordings) {
+                    self.err_help(
+                        "no validation role",
+                        *span,
+                        format!("the published split maps no role to validation (its fit roles are {})", p.pin.fit_roles.join(", ")),
+                        "draw validation recordings from the fit roles, `validation N windows from K recordings seed S`, or map a role: `validation val`",
+                    );
+                }
+                let pinned = roles.map(|p| p.validation.clone());
+                // (`from split` without a role was refused just above.)
+                let from_roles = roles.is_some() || matches!(recordings, ValRecordings::Split(_));
+                Some(self.validation(windows, recordings, seed, from_roles, pinned))
             }
             _ => None,
         });
