@@ -3,6 +3,7 @@
 //! NanoBench fixtures rewritten in another lab's layout (`logs::rewrite`).
 
 use std::path::Path;
+use std::process::Command;
 
 use crate::logs::{reordered_design, rewrite, spec};
 use crossaudit::data::{self, load_recording, Layout, LogError};
@@ -127,4 +128,241 @@ fn a_norm_tolerance_that_cannot_apply_is_refused_by_check() {
         assert!(text.contains(needle) && text.contains("norm within"), "{text}");
         assert!(text.contains("study.design:8:"), "located at the attitude line: {text}");
     }
+}
+
+/// One column of a Parquet file written by [`write_parquet`].
+pub(crate) enum Column {
+    /// Doubles; `None` is a missing value.
+    Double(Vec<Option<f64>>),
+    /// Float32 values.
+    Float(Vec<f32>),
+    /// UTF-8 text.
+    Text(Vec<String>),
+    /// Nanoseconds since the epoch, as a Parquet timestamp.
+    TimestampNanos(Vec<i64>),
+}
+
+/// Writes `columns` as a Parquet file (snappy, one row group), with
+/// parquet's own writer: the way a lab's pandas or polars export looks.
+pub(crate) fn write_parquet(path: &Path, columns: &[(&str, Column)]) {
+    use parquet::basic::{Compression, LogicalType, Repetition, TimeUnit, Type as Physical};
+    use parquet::column::writer::ColumnWriter;
+    use parquet::data_type::ByteArray;
+    use parquet::file::properties::WriterProperties;
+    use parquet::file::writer::SerializedFileWriter;
+    use parquet::schema::types::Type;
+    use std::sync::Arc;
+    let fields = columns
+        .iter()
+        .map(|(name, c)| {
+            let (physical, logical, repetition) = match c {
+                Column::Double(_) => (Physical::DOUBLE, None, Repetition::OPTIONAL),
+                Column::Float(_) => (Physical::FLOAT, None, Repetition::REQUIRED),
+                Column::Text(_) => (Physical::BYTE_ARRAY, Some(LogicalType::String), Repetition::REQUIRED),
+                Column::TimestampNanos(_) => {
+                    (Physical::INT64, Some(LogicalType::timestamp(true, TimeUnit::NANOS)), Repetition::REQUIRED)
+                }
+            };
+            Arc::new(
+                Type::primitive_type_builder(name, physical)
+                    .with_logical_type(logical)
+                    .with_repetition(repetition)
+                    .build()
+                    .unwrap(),
+            )
+        })
+        .collect();
+    let schema = Arc::new(Type::group_type_builder("log").with_fields(fields).build().unwrap());
+    let props = Arc::new(WriterProperties::builder().set_compression(Compression::SNAPPY).build());
+    let mut writer = SerializedFileWriter::new(std::fs::File::create(path).unwrap(), schema, props).unwrap();
+    let mut group = writer.next_row_group().unwrap();
+    let mut k = 0;
+    while let Some(mut col) = group.next_column().unwrap() {
+        match (col.untyped(), &columns[k].1) {
+            (ColumnWriter::DoubleColumnWriter(w), Column::Double(v)) => {
+                let present: Vec<f64> = v.iter().flatten().copied().collect();
+                let levels: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
+                w.write_batch(&present, Some(&levels), None).unwrap();
+            }
+            (ColumnWriter::FloatColumnWriter(w), Column::Float(v)) => {
+                w.write_batch(v, None, None).unwrap();
+            }
+            (ColumnWriter::ByteArrayColumnWriter(w), Column::Text(v)) => {
+                let v: Vec<ByteArray> = v.iter().map(|s| ByteArray::from(s.as_str())).collect();
+                w.write_batch(&v, None, None).unwrap();
+            }
+            (ColumnWriter::Int64ColumnWriter(w), Column::TimestampNanos(v)) => {
+                w.write_batch(v, None, None).unwrap();
+            }
+            _ => panic!("column {k}: writer and values disagree"),
+        }
+        col.close().unwrap();
+        k += 1;
+    }
+    group.close().unwrap();
+    writer.close().unwrap();
+}
+
+/// A CSV log's columns as doubles (every field numeric).
+fn numeric_columns(text: &str) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let mut cols = vec![Vec::new(); header.len()];
+    for line in lines.filter(|l| !l.is_empty()) {
+        for (c, f) in line.split(',').enumerate() {
+            cols[c].push(f.parse::<f64>().unwrap());
+        }
+    }
+    (header, cols)
+}
+
+/// Item 1's must-show: each NanoBench fixture log as Parquet and as the
+/// CSV text of the same values give byte-identical audits (but for the
+/// file name's extension), splits and per-cell results through the real
+/// binary, with no conversion script.
+#[test]
+fn a_parquet_log_and_the_same_log_as_csv_give_identical_audits_splits_and_cells() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fixtures = crate::common::root().join("tests/fixtures/nanobench");
+    let (pq, csv) = (tmp.path().join("parquet"), tmp.path().join("csv"));
+    std::fs::create_dir_all(&pq).unwrap();
+    std::fs::create_dir_all(&csv).unwrap();
+    let mut converted = 0;
+    for entry in std::fs::read_dir(&fixtures).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.ends_with("_metadata.yaml") {
+            std::fs::copy(&path, pq.join(&name)).unwrap();
+            std::fs::copy(&path, csv.join(&name)).unwrap();
+            continue;
+        }
+        let bytes = crossaudit::data::log::read_bytes(&path).unwrap();
+        let (header, cols) = numeric_columns(&String::from_utf8(bytes).unwrap());
+        let stem = crossaudit::data::recording_name(&path);
+        let columns: Vec<(&str, Column)> = header
+            .iter()
+            .zip(&cols)
+            .map(|(h, c)| (h.as_str(), Column::Double(c.iter().map(|v| Some(*v)).collect())))
+            .collect();
+        write_parquet(&pq.join(format!("{stem}.parquet")), &columns);
+        // The same values as CSV text: Rust's shortest round-trip form.
+        let mut text = header.join(",") + "\n";
+        for k in 0..cols[0].len() {
+            text += &(cols.iter().map(|c| format!("{:?}", c[k])).collect::<Vec<_>>().join(",") + "\n");
+        }
+        std::fs::write(csv.join(format!("{stem}.csv")), text).unwrap();
+        converted += 1;
+    }
+    assert!(converted >= 5);
+    let design = crate::common::root().join("tests/designs/logs_generic.design");
+    let run = |data: &Path, out: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+            .arg("run")
+            .arg(&design)
+            .arg("--data")
+            .arg(data)
+            .args(["--exploratory", "--workers", "2", "--out"])
+            .arg(tmp.path().join(out))
+            .output()
+            .unwrap();
+        crate::common::assert_ok(&o);
+        tmp.path().join(out)
+    };
+    let (a, b) = (run(&pq, "from_parquet"), run(&csv, "from_csv"));
+    let mut compared = 0;
+    for f in crate::logs::files(&a) {
+        let name = f.to_string_lossy().into_owned();
+        let same_bits = name.starts_with("audit/")
+            || name.starts_with("cells")
+            || name.ends_with(".safetensors")
+            || (name.starts_with("manifests/") && name.ends_with(".csv"))
+            || name == "report/estimates.csv";
+        if !same_bits {
+            continue;
+        }
+        let (x, y) = (std::fs::read(a.join(&f)).unwrap(), std::fs::read(b.join(&f)).unwrap());
+        // The audit names each file: only its extension may differ.
+        let x = match name.starts_with("audit/") {
+            true => String::from_utf8(x).unwrap().replace(".parquet", ".csv").into_bytes(),
+            false => x,
+        };
+        assert!(x == y, "{name} differs between the Parquet and the CSV logs");
+        compared += 1;
+    }
+    assert!(compared >= 15, "only {compared} files compared");
+    let recordings = std::fs::read_to_string(a.join("audit/recordings.csv")).unwrap();
+    assert!(recordings.contains(".parquet,") && recordings.lines().filter(|l| l.contains(",included,")).count() >= 4);
+}
+
+/// Parquet's types as a lab writes them: a float32 column, a timestamp in
+/// nanoseconds read as seconds, text and missing values in undeclared
+/// columns that never refuse the file; a NaN or a missing value in a
+/// declared column refused at its row and column.
+#[test]
+fn parquet_types_missing_values_and_nan_are_read_as_declared() {
+    let tmp = tempfile::tempdir().unwrap();
+    let n = 300;
+    let t0: i64 = 1_772_723_827_000_000_000;
+    let design = |dir: &Path| {
+        format!(
+            r#"study "types"
+data csv {{
+  path "{}"
+  rate 100 Hz
+  time stamp
+  position x, y, z
+  action m1 scale 1
+  include active(m1 > 0.5) >= 20 samples
+}}
+factor recording {{ evaluation 2 split_seed 3; starts 3 horizon 20 }}
+factor seed = 1..2
+validation 60 windows from 1 recordings seed 5
+arm disjoint {{ fit 100 windows seed 1 }}
+arm contaminated {{ from disjoint replace 25% with evaluation windows exclude starts seed 2 }}
+model still = persistence
+endpoint primary fa_position_rmse at 0.1 s cap 2 m model still
+contrast contaminated - disjoint
+estimate crossed_mom level 0.95 df seed - 1
+decide confirmed when optimism >= 10% and upper < 0
+"#,
+            dir.display()
+        )
+    };
+    let columns = |x_at_40: Option<f64>| -> Vec<(&'static str, Column)> {
+        let mut x: Vec<Option<f64>> = (0..n).map(|k| Some(k as f64 * 0.01)).collect();
+        x[40] = x_at_40;
+        vec![
+            ("stamp", Column::TimestampNanos((0..n).map(|k| t0 + k as i64 * 10_000_000).collect())),
+            ("x", Column::Double(x)),
+            ("y", Column::Float((0..n).map(|k| 0.1 + k as f32 * 0.001).collect())),
+            ("z", Column::Double(vec![Some(1.0); n])),
+            ("m1", Column::Double(vec![Some(0.7); n])),
+            (
+                "mode",
+                Column::Text((0..n).map(|k| if k % 2 == 0 { "hover, ok" } else { "say \"go\"" }.to_string()).collect()),
+            ),
+            ("mocap_qw", Column::Double(vec![Some(f64::NAN); n])),
+            ("battery", Column::Double((0..n).map(|k| (k % 7 != 0).then_some(4.0)).collect())),
+        ]
+    };
+    let path = tmp.path().join("run_1.parquet");
+    write_parquet(&path, &columns(Some(0.4)));
+    let spec = spec(&design(tmp.path()));
+    let rec = load(&path, &spec).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(rec.rows, n);
+    assert!((rec.t[1] - rec.t[0] - 0.01).abs() < 1e-6 && (rec.t[0] - 1_772_723_827.0).abs() < 1e-3, "seconds");
+    // The float32 column keeps its own shortest text: 0.1f32 reads as 0.1.
+    assert_eq!(rec.state[0][1], 0.1);
+    assert_eq!(rec.state[40][0], 0.4);
+    for (bad, shown) in [(Some(f64::NAN), "NaN"), (None, "\"\"")] {
+        write_parquet(&path, &columns(bad));
+        let Err(e) = load(&path, &spec) else { panic!("{shown} in a declared column accepted") };
+        let text = e.to_string();
+        // Row 41 of the file (0-based 40) is line 42 of its text.
+        assert!(text.contains("line 42") && text.contains("column `x`") && text.contains(shown), "{text}");
+    }
+    // Not a Parquet file at all.
+    std::fs::write(&path, b"PAR1 but not really").unwrap();
+    let Err(e) = load(&path, &spec) else { panic!("a broken Parquet file accepted") };
+    assert!(e.to_string().contains("run_1.parquet: not a readable Parquet file"), "{e}");
 }

@@ -428,7 +428,8 @@ fn a_published_train_test_split_draws_validation_from_its_fit_roles() {
     };
     let mut drawn = std::collections::BTreeSet::new();
     for seed in [2, 5, 11, 19] {
-        let d = with(&format!("validation 100 windows from 1 recordings seed {seed}")).unwrap_or_else(|e| panic!("{e}"));
+        let d =
+            with(&format!("validation 100 windows from 1 recordings seed {seed}")).unwrap_or_else(|e| panic!("{e}"));
         assert!(d.published.as_ref().unwrap().validation_roles.is_empty());
         let s = build_pinned(&d).unwrap_or_else(|e| panic!("{e}"));
         let names = |rs: &[usize]| rs.iter().map(|&r| s.recordings[r].name.clone()).collect::<Vec<_>>();

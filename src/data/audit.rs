@@ -161,11 +161,11 @@ fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
     for entry in std::fs::read_dir(dir).map_err(err)? {
         let path = entry.map_err(err)?.path();
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let log = name.ends_with(".csv") || name.ends_with(".csv.gz") || name.ends_with("_metadata.yaml");
+        let log = super::is_log_name(&name) || name.ends_with("_metadata.yaml");
         if log && name.chars().any(char::is_control) {
             return Err(AuditError::ControlInName { dir: dir.display().to_string(), name });
         }
-        if name.ends_with(".csv") || name.ends_with(".csv.gz") {
+        if super::is_log_name(&name) {
             csvs.push(path);
         } else if let Some(stem) = name.strip_suffix("_metadata.yaml") {
             metas.push(stem.to_string());

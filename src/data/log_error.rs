@@ -28,6 +28,14 @@ pub enum LogError {
         /// The underlying error.
         message: String,
     },
+    /// A Parquet file that cannot be read.
+    #[error("{file}: not a readable Parquet file: {message}")]
+    Parquet {
+        /// The file, as given.
+        file: String,
+        /// The Parquet reader's words.
+        message: String,
+    },
     /// The file has no bytes (or no header).
     #[error("{file}: empty file")]
     Empty {
@@ -236,6 +244,7 @@ impl LogError {
         match self {
             LogError::Io { .. } => "unreadable",
             LogError::Gzip { .. } => "truncated_gzip",
+            LogError::Parquet { .. } => "unreadable_parquet",
             LogError::Empty { .. } => "empty_file",
             LogError::Header { .. } => "bad_header",
             LogError::NoRows { .. } => "empty_file",

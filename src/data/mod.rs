@@ -7,6 +7,7 @@ pub mod conditions;
 pub mod log;
 mod log_error;
 pub mod metadata;
+pub mod parquet;
 
 use std::path::{Path, PathBuf};
 
@@ -468,10 +469,19 @@ fn fill_zeros(state: &mut [Vec<f64>], k: usize) {
     }
 }
 
-/// `dir/B9_trefoil_slow_rep3.csv.gz` -> `B9_trefoil_slow_rep3`.
+/// `dir/B9_trefoil_slow_rep3.csv.gz` -> `B9_trefoil_slow_rep3` (and
+/// `run_07.parquet` -> `run_07`).
 pub fn recording_name(path: &Path) -> String {
     let file = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
-    file.trim_end_matches(".gz").trim_end_matches(".csv").to_string()
+    match file.strip_suffix(".parquet") {
+        Some(stem) => stem.to_string(),
+        None => file.trim_end_matches(".gz").trim_end_matches(".csv").to_string(),
+    }
+}
+
+/// Whether a file name is a flight log's: `.csv`, `.csv.gz` or `.parquet`.
+pub fn is_log_name(name: &str) -> bool {
+    name.ends_with(".csv") || name.ends_with(".csv.gz") || name.ends_with(".parquet")
 }
 
 /// Orders names so that `rep2` comes before `rep10`.

@@ -12,7 +12,7 @@
 //!   `fold` columns. Fold `k` becomes role `fold<k>`.
 //!
 //! A name is matched to a recording by its file stem: directories, `.csv`
-//! and `.gz` are removed (`/x/y/B9_trefoil_slow_rep3.csv` is
+//! `.gz` and `.parquet` are removed (`/x/y/B9_trefoil_slow_rep3.csv` is
 //! `B9_trefoil_slow_rep3`), nothing else. A recording listed twice (in two
 //! roles, or twice in one) is an error naming both places; so is an entry
 //! that leaves no stem, an empty role, and a file with no roles at all.
@@ -159,9 +159,13 @@ impl PublishedSplit {
     }
 }
 
-/// `/a/b/B9_trefoil_slow_rep3.csv.gz` -> `B9_trefoil_slow_rep3`.
+/// `/a/b/B9_trefoil_slow_rep3.csv.gz` -> `B9_trefoil_slow_rep3` (and
+/// `train/run_07.parquet` -> `run_07`).
 pub fn stem(listed: &str) -> String {
     let file = listed.rsplit(['/', '\\']).next().unwrap_or(listed).trim();
+    if let Some(stem) = file.strip_suffix(".parquet") {
+        return stem.to_string();
+    }
     let file = file.strip_suffix(".gz").unwrap_or(file);
     file.strip_suffix(".csv").unwrap_or(file).to_string()
 }

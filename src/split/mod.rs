@@ -377,10 +377,8 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
             let held: Vec<usize> = evaluation_side.iter().chain(&validation_recordings).copied().collect();
             // Validation drawn from the fit roles leaves them: every
             // member of a validation unit is out of the fit pool.
-            let drawn: BTreeSet<&str> = v_units
-                .iter()
-                .flat_map(|&u| units[u].members.iter().map(|&m| info[m].name.as_str()))
-                .collect();
+            let drawn: BTreeSet<&str> =
+                v_units.iter().flat_map(|&u| units[u].members.iter().map(|&m| info[m].name.as_str())).collect();
             let mut pin = pin.clone();
             if pin.validation_roles.is_empty() {
                 pin.fit.retain(|l| !drawn.contains(l.name.as_str()));

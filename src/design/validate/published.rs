@@ -54,11 +54,8 @@ impl Validator {
         }
         // A split of train and test alone maps no validation role: the
         // design's `validation` statement draws from the fit roles.
-        let missing: Vec<&str> = [("evaluation", &evaluation), ("fit", &fit)]
-            .iter()
-            .filter(|(_, r)| r.is_none())
-            .map(|(n, _)| *n)
-            .collect();
+        let missing: Vec<&str> =
+            [("evaluation", &evaluation), ("fit", &fit)].iter().filter(|(_, r)| r.is_none()).map(|(n, _)| *n).collect();
         if !missing.is_empty() {
             self.err_help(
                 "incomplete published split",
