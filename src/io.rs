@@ -452,6 +452,7 @@ pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
 
 mod text;
 pub use text::{escape_controls, md_code, md_line, md_text, one_line};
+pub mod walk;
 
 #[cfg(test)]
 mod tests {

@@ -366,3 +366,89 @@ decide confirmed when optimism >= 10% and upper < 0
     let Err(e) = load(&path, &spec) else { panic!("a broken Parquet file accepted") };
     assert!(e.to_string().contains("run_1.parquet: not a readable Parquet file"), "{e}");
 }
+
+/// Item 1 and 6: a lab's folder as published, `train/` and `test/`, read
+/// with `folders nested` and pinned with `split published folders`: the
+/// audit shows each file's path, the test folder is the evaluation set,
+/// validation is drawn from train, and moving a file between folders
+/// makes the lock stale.
+#[test]
+fn a_lab_folder_of_train_and_test_is_read_and_split_by_its_folders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let lab = tmp.path().join("lab");
+    let fixtures = crate::common::root().join("tests/fixtures/nanobench");
+    // Distinct recordings: the fixtures, and copies of two with the
+    // position shifted by 1 mm (identical copies would be leaks).
+    let place = [
+        ("F1_circle_slow_rep1.csv", "train"),
+        ("F2_star_fast_mell_rep1.csv", "train"),
+        ("F2_star_fast_mell_rep2.csv", "train"),
+        ("F4_linear_ramp_rep1.csv", "test"),
+        ("F4_linear_ramp_rep2.csv", "test"),
+    ];
+    for (file, folder) in place {
+        std::fs::create_dir_all(lab.join(folder)).unwrap();
+        let from = fixtures.join(file.replace("_rep2", "_rep1"));
+        let text = std::fs::read_to_string(&from).unwrap();
+        let text = if file.contains("_rep2") { shift_px(&text) } else { text };
+        std::fs::write(lab.join(folder).join(file), text).unwrap();
+    }
+    let text = std::fs::read_to_string(crate::common::root().join("tests/designs/logs_generic.design"))
+        .unwrap()
+        .replace("path \"../fixtures/nanobench\"", &format!("path {:?}\n  folders nested", lab.display().to_string()))
+        .replace(
+            "factor recording { evaluation 2 split_seed 3;",
+            "split published folders { evaluation test; fit train }\nfactor recording { split_seed 3;",
+        );
+    let design = tmp.path().join("lab.design");
+    std::fs::write(&design, &text).unwrap();
+    let bin = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(args).output().unwrap();
+    let d = design.to_str().unwrap();
+    crate::common::assert_ok(&bin(&["lock", d]));
+    let out = tmp.path().join("run");
+    crate::common::assert_ok(&bin(&["run", d, "--out", out.to_str().unwrap(), "--workers", "2"]));
+    let audit = std::fs::read_to_string(out.join("audit/recordings.csv")).unwrap();
+    for (file, folder) in place {
+        assert!(audit.contains(&format!(",{folder}/{file},")), "{file} in {folder}/:\n{audit}");
+    }
+    let cells = std::fs::read_to_string(out.join("cells.csv")).unwrap();
+    let evaluated: std::collections::BTreeSet<&str> =
+        cells.lines().skip(1).filter_map(|l| l.split(',').nth(3)).collect();
+    assert_eq!(evaluated.into_iter().collect::<Vec<_>>(), ["F4_linear_ramp_rep1", "F4_linear_ramp_rep2"]);
+    let validation = std::fs::read_to_string(out.join("manifests/validation_recordings.csv"))
+        .or_else(|_| std::fs::read_to_string(out.join("manifests/validation.csv")))
+        .unwrap();
+    assert!(
+        ["F1_circle_slow_rep1", "F2_star_fast_mell_rep1", "F2_star_fast_mell_rep2"]
+            .iter()
+            .any(|n| validation.contains(n)),
+        "validation from train:\n{validation}"
+    );
+    assert!(!validation.contains("F4_linear"));
+    // The split is in the lock: a file moved from train to test is refused.
+    std::fs::rename(lab.join("train/F2_star_fast_mell_rep2.csv"), lab.join("test/F2_star_fast_mell_rep2.csv")).unwrap();
+    let again = tmp.path().join("again");
+    let o = bin(&["run", d, "--out", again.to_str().unwrap(), "--workers", "2"]);
+    assert!(!o.status.success());
+    let said = crate::common::stderr(&o);
+    assert!(said.contains("`folders of "), "{said}");
+    assert!(said.contains("`, which the design refers to, changed after the lock"), "{said}");
+    // Without `folders nested` there are no folders to split by.
+    let flat = text.replace("\n  folders nested", "");
+    let e = crossaudit::design::from_str("lab.design", &flat).unwrap_err().to_string();
+    assert!(e.contains("no folders to split by") && e.contains("folders nested"), "{e}");
+}
+
+/// A NanoBench log with every position x moved by 1 mm.
+fn shift_px(text: &str) -> String {
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let px = header.split(',').position(|h| h == "px").unwrap();
+    let mut out = format!("{header}\n");
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        f[px] = format!("{:?}", f[px].parse::<f64>().unwrap() + 0.001);
+        out += &(f.join(",") + "\n");
+    }
+    out
+}

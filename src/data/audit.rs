@@ -153,16 +153,16 @@ fn labels(spec: &DataSpec) -> Vec<String> {
     out
 }
 
-/// The CSV files and metadata-only names in `dir`.
-fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
+/// The log files and metadata-only names in `dir` (and its subfolders,
+/// with `folders nested`).
+fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
     let err = |e: std::io::Error| AuditError::Dir { dir: dir.display().to_string(), message: e.to_string() };
     let mut csvs = Vec::new();
     let mut metas = Vec::new();
-    for entry in std::fs::read_dir(dir).map_err(err)? {
-        let path = entry.map_err(err)?.path();
+    for path in crate::io::walk::files_below(dir, nested).map_err(err)? {
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let log = super::is_log_name(&name) || name.ends_with("_metadata.yaml");
-        if log && name.chars().any(char::is_control) {
+        if log && crate::io::walk::relative(dir, &path).chars().any(char::is_control) {
             return Err(AuditError::ControlInName { dir: dir.display().to_string(), name });
         }
         if super::is_log_name(&name) {
@@ -174,7 +174,7 @@ fn list(dir: &Path) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
     csvs.sort_by_key(|p| (natural_key(&recording_name(p)), p.clone()));
     let names: Vec<String> = csvs.iter().map(|p| recording_name(p)).collect();
     if let Some(k) = (1..names.len()).find(|&k| names[k] == names[k - 1]) {
-        let file = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let file = |p: &Path| crate::io::walk::relative(dir, p);
         return Err(AuditError::SameName {
             dir: dir.display().to_string(),
             name: names[k].clone(),
@@ -240,7 +240,8 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
             }
         }
     }
-    let (mut csvs, missing) = list(dir)?;
+    let nested = spec.format.as_ref().is_some_and(|f| f.nested_folders);
+    let (mut csvs, missing) = list(dir, nested)?;
     // A name the design excludes that is no log here: a typo, or the
     // wrong folder; the exclusion would silently exclude nothing.
     for rule in &spec.rules {
@@ -287,7 +288,8 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
                     if spec.tails == TailPolicy::Truncate {
                         rec.truncate_tail();
                     }
-                    let row = judged(spec, &rec, meta);
+                    let mut row = judged(spec, &rec, meta);
+                    row.file = crate::io::walk::relative(dir, path);
                     let kept = match keep {
                         Keep::None => None,
                         Keep::Included => Some(rec),
@@ -295,7 +297,11 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
                     };
                     (row, kept)
                 }
-                Err(e) => (unreadable(spec, path, meta, e.to_string()), None),
+                Err(e) => {
+                    let mut row = unreadable(spec, path, meta, e.to_string());
+                    row.file = crate::io::walk::relative(dir, path);
+                    (row, None)
+                }
             };
             row.broken_metadata = broken;
             (row, rec)

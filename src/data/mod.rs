@@ -481,7 +481,7 @@ pub fn recording_name(path: &Path) -> String {
 
 /// Whether a file name is a flight log's: `.csv`, `.csv.gz` or `.parquet`.
 pub fn is_log_name(name: &str) -> bool {
-    name.ends_with(".csv") || name.ends_with(".csv.gz") || name.ends_with(".parquet")
+    crate::io::walk::is_log_name(name)
 }
 
 /// Orders names so that `rep2` comes before `rep10`.

@@ -93,7 +93,11 @@ pub enum Statement {
     },
     Generator(Ident),
     Published {
+        /// The split file as written; `folders` for the data folder's
+        /// subfolders (`folders` set).
         file: Spanned<String>,
+        /// `split published folders`.
+        folders: bool,
         items: Vec<Spanned<PublishedItem>>,
     },
 }
@@ -198,6 +202,8 @@ pub enum DataItem {
     },
     Extrapolated(Vec<Ident>),
     Controller(Ident),
+    /// `folders nested`.
+    FoldersNested,
     ConditionsTable(Spanned<String>),
     ConditionsName(Spanned<String>),
     SimRecordings(Int),

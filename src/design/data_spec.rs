@@ -107,6 +107,10 @@ pub struct LogFormat {
     /// anything else its PID.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub controller: Option<String>,
+    /// Whether recordings are found in the data folder's subfolders too
+    /// (`folders nested`).
+    #[serde(skip_serializing_if = "is_false")]
+    pub nested_folders: bool,
     /// A CSV table in the data folder giving each recording's trajectory
     /// and speed (`conditions table "FILE"`), instead of the file names.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -207,6 +211,7 @@ impl DataSpec {
                 _ => Vec::new(),
             },
             controller: None,
+            nested_folders: false,
             conditions_table: None,
             conditions_name: None,
         }
@@ -493,6 +498,10 @@ fn yes() -> bool {
 
 fn is_true(b: &bool) -> bool {
     *b
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl Slots {

@@ -165,8 +165,10 @@ fn statement(pair: Pair<Rule>) -> Result<Statement, Diagnostic> {
         }
         Rule::generator => Statement::Generator(ident(k.next())),
         Rule::published => {
-            let file = string(k.next());
-            Statement::Published { file, items: spanned_items(k, published_item)? }
+            let first = k.next();
+            let folders = first.as_rule() == Rule::pub_folders;
+            let file = if folders { Spanned::new("folders".to_string(), span_of(&first)) } else { string(first) };
+            Statement::Published { file, folders, items: spanned_items(k, published_item)? }
         }
         Rule::arm => Statement::Arm { name: ident(k.next()), body: arm_body(k.next())? },
         Rule::model => Statement::Model { name: ident(k.next()), kind: model_kind(k.next())? },
@@ -495,6 +497,7 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         }
         Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
         Rule::controller_name => DataItem::Controller(ident(c.next())),
+        Rule::folders_nested => DataItem::FoldersNested,
         Rule::conditions_table => DataItem::ConditionsTable(string(c.next())),
         Rule::conditions_name => DataItem::ConditionsName(string(c.next())),
         Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),

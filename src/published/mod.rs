@@ -51,6 +51,9 @@ pub enum Format {
     FoldJson,
     /// A CSV of `recording,fold`.
     FoldCsv,
+    /// The folders of a data folder: each recording's role is the first
+    /// folder its file sits in (`train/run_1.parquet` is in `train`).
+    Folders,
 }
 
 impl Format {
@@ -61,6 +64,7 @@ impl Format {
             Format::RoleCsv => "CSV recording,role",
             Format::FoldJson => "JSON fold list",
             Format::FoldCsv => "CSV recording,fold",
+            Format::Folders => "the data folder's subfolders",
         }
     }
 }
@@ -199,6 +203,37 @@ pub fn read(path: &Path) -> Result<PublishedSplit, PublishedError> {
         });
     };
     let split = PublishedSplit { path: shown, sha256, format, roles, notes };
+    check(&split)?;
+    Ok(split)
+}
+
+/// The split a lab published as folders: each log under a subfolder of
+/// `dir` is in the role named by its first folder (`train/run_1.parquet`,
+/// `test/2024/run_9.csv` in `train` and `test`); logs directly in `dir` are
+/// in none. Its hash is of the listing (each log's path under `dir`, one a
+/// line), so moving a file between folders changes it; an entry's place is
+/// its line in that listing.
+pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
+    let shown = dir.display().to_string();
+    let files = crate::io::walk::files_below(dir, true)
+        .map_err(|e| PublishedError::Read { path: shown.clone(), message: e.to_string() })?;
+    let listing: Vec<String> = files
+        .iter()
+        .map(|p| crate::io::walk::relative(dir, p))
+        .filter(|r| r.contains('/') && crate::io::walk::is_log_name(r))
+        .collect();
+    let sha256 = crate::io::sha256_hex(listing.iter().map(|l| format!("{l}\n")).collect::<String>().as_bytes());
+    let mut roles: Vec<Role> = Vec::new();
+    for (k, rel) in listing.iter().enumerate() {
+        let at = Place { line: k + 1, column: 1 };
+        let folder = rel.split('/').next().unwrap_or_default().to_string();
+        let entry = Entry { name: stem(rel), listed: rel.clone(), at };
+        match roles.iter_mut().find(|r| r.name == folder) {
+            Some(r) => r.entries.push(entry),
+            None => roles.push(Role { name: folder, at, entries: vec![entry] }),
+        }
+    }
+    let split = PublishedSplit { path: shown, sha256, format: Format::Folders, roles, notes: BTreeMap::new() };
     check(&split)?;
     Ok(split)
 }

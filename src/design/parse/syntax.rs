@@ -111,6 +111,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::extra_col
         | Rule::extrapolated_cols
         | Rule::controller_name
+        | Rule::folders_nested
         | Rule::conditions_table
         | Rule::conditions_name
         | Rule::tails
@@ -121,7 +122,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::sim_seed
         | Rule::sim_strength
         | Rule::sim_duration => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table or conditions name for `data csv`; recordings, seed, strength, duration for simulated data)"
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table, conditions name or folders nested for `data csv`; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",

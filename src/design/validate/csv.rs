@@ -22,6 +22,8 @@ pub(super) struct CsvParts {
     extra: Option<(Vec<Ident>, bool)>,
     extrapolated: Option<Vec<Ident>>,
     controller: Option<Ident>,
+    /// `folders nested`.
+    nested: bool,
     conditions_table: Option<Spanned<String>>,
     conditions_name: Option<Spanned<String>>,
     /// `action ... scale N`: the scale as written.
@@ -114,6 +116,10 @@ impl Validator {
             DataItem::Controller(c) => {
                 csv.controller = Some(c.clone());
                 "controller"
+            }
+            DataItem::FoldersNested => {
+                csv.nested = true;
+                "folders nested"
             }
             DataItem::ConditionsTable(t) => {
                 if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
@@ -310,6 +316,7 @@ impl Validator {
             action_scale,
             extrapolated: csv.extrapolated.iter().flatten().map(|c| c.node.clone()).collect(),
             controller: csv.controller.as_ref().map(|c| c.node.clone()),
+            nested_folders: csv.nested,
             conditions_table: csv.conditions_table.as_ref().map(|t| t.node.clone()),
             conditions_name: csv.conditions_name.as_ref().map(|t| t.node.clone()),
         })

@@ -215,6 +215,7 @@ impl Validator {
             | DataItem::Extra { .. }
             | DataItem::Extrapolated(_)
             | DataItem::Controller(_)
+            | DataItem::FoldersNested
             | DataItem::ConditionsTable(_)
             | DataItem::ConditionsName(_) => {}
             DataItem::SimRecordings(n) => {

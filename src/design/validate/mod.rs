@@ -207,7 +207,9 @@ impl Validator {
             _ => None,
         });
         let published = singles.get("split published").and_then(|s| match &s.node {
-            Statement::Published { file, items } => self.published(file, items, s.span),
+            Statement::Published { file, folders, items } => {
+                self.published(file, *folders, data.as_ref(), items, s.span)
+            }
             _ => None,
         });
         let pinned_by_split = singles.contains_key("split published");

@@ -24,6 +24,8 @@ impl Validator {
     pub(super) fn published(
         &mut self,
         file: &Spanned<String>,
+        folders: bool,
+        data: Option<&DataSpec>,
         items: &[Spanned<PublishedItem>],
         span: Span,
     ) -> Option<Pinned> {
@@ -64,9 +66,29 @@ impl Validator {
                 "map the split file's roles: `evaluation test; fit train` (and `validation val` where it has one)",
             );
         }
-        let path =
-            if Path::new(&file.node).is_absolute() { PathBuf::from(&file.node) } else { self.base.join(&file.node) };
-        let split = match crate::published::read(&path) {
+        let resolve = |p: &str| if Path::new(p).is_absolute() { PathBuf::from(p) } else { self.base.join(p) };
+        let read = if folders {
+            let nested = data.and_then(|d| d.format.as_ref()).is_some_and(|f| f.nested_folders);
+            match data.and_then(|d| d.path.as_deref()) {
+                Some(dir) if nested => crate::published::from_folders(&resolve(dir)),
+                _ => {
+                    self.err_help(
+                        "no folders to split by",
+                        file.span,
+                        "`split published folders` takes the roles from the data folder's subfolders",
+                        "declare `data csv { path \"...\" folders nested ... }`",
+                    );
+                    return None;
+                }
+            }
+        } else {
+            crate::published::read(&resolve(&file.node))
+        };
+        let path = match (folders, data.and_then(|d| d.path.as_deref())) {
+            (true, Some(dir)) => resolve(dir),
+            _ => resolve(&file.node),
+        };
+        let split = match read {
             Ok(s) => s,
             Err(e) => {
                 self.err_help(
@@ -148,7 +170,11 @@ impl Validator {
         let roles_of =
             |what: &str| -> Vec<String> { mapped.iter().filter(|(_, w)| *w == what).map(|(n, _)| n.clone()).collect() };
         let pin = PublishedPin {
-            file: file.node.clone(),
+            // The lock records the listing's hash under this name.
+            file: match (folders, data.and_then(|d| d.path.as_deref())) {
+                (true, Some(dir)) => format!("folders of {dir}"),
+                _ => file.node.clone(),
+            },
             sha256: split.sha256.clone(),
             format: split.format,
             evaluation_roles: roles_of("evaluation"),
