@@ -452,3 +452,105 @@ fn shift_px(text: &str) -> String {
     }
     out
 }
+
+/// A 100 Hz log of a circle at 1 m/s, 6 s, actions varying, as CSV: `edit`
+/// may change each row's (t, x, y, z) before it is written.
+fn circle_log(path: &Path, edit: &dyn Fn(usize, &mut [f64; 4])) {
+    let mut text = String::from("t,x,y,z,m1\n");
+    for k in 0..600 {
+        let t = k as f64 * 0.01;
+        let mut row = [t, t.cos(), t.sin(), 1.0];
+        edit(k, &mut row);
+        let m1 = 0.6 + 0.1 * (3.0 * t).sin();
+        text += &format!("{:?},{:?},{:?},{:?},{m1:?}\n", row[0], row[1], row[2], row[3]);
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+/// Item 4: a crashed flight (motion capture frozen at 3.0 s while the
+/// motors still change, then the onboard position drifting to 17 m) is
+/// excluded by the declared rules for any layout, each exclusion in the
+/// audit with its rule and what it measured; a clean flight passes them.
+#[test]
+fn a_crashed_flight_is_excluded_by_declared_plausibility_rules() {
+    let tmp = tempfile::tempdir().unwrap();
+    circle_log(&tmp.path().join("clean_1.csv"), &|_, _| {});
+    circle_log(&tmp.path().join("clean_2.csv"), &|_, r| r[3] = 1.2);
+    circle_log(&tmp.path().join("frozen_1.csv"), &|k, r| {
+        if (300..450).contains(&k) {
+            (r[1], r[2]) = (3f64.cos(), 3f64.sin());
+        }
+    });
+    circle_log(&tmp.path().join("drift_1.csv"), &|k, r| {
+        if k >= 400 {
+            r[1] += (k - 400) as f64 * 0.085;
+        }
+    });
+    let design = format!(
+        r#"study "crash"
+data csv {{
+  path "{}"
+  rate 100 Hz
+  time t
+  position x, y, z
+  action m1 scale 1
+  include active(m1 > 0.1) >= 20 samples
+  exclude frozen position for 1 s
+  exclude beyond position 10 m
+  exclude beyond speed 5 m/s
+}}
+factor recording {{ evaluation 2 split_seed 3; starts 3 horizon 20 }}
+factor seed = 1..2
+validation 60 windows from 1 recordings seed 5
+arm disjoint {{ fit 100 windows seed 1 }}
+arm contaminated {{ from disjoint replace 25% with evaluation windows exclude starts seed 2 }}
+model still = persistence
+endpoint primary fa_position_rmse at 0.1 s cap 2 m model still
+contrast contaminated - disjoint
+estimate crossed_mom level 0.95 df seed - 1
+decide confirmed when optimism >= 10% and upper < 0
+"#,
+        tmp.path().display()
+    );
+    let audit = data::audit(&spec(&design), tmp.path()).unwrap_or_else(|e| panic!("{e}"));
+    let row = |name: &str| audit.files.iter().find(|f| f.name == name).unwrap();
+    for clean in ["clean_1", "clean_2"] {
+        assert_eq!(row(clean).status, data::Status::Included, "{}", row(clean).reason);
+        assert!(row(clean).verdicts.iter().all(|v| v.pass));
+    }
+    // Frozen from row 301 (t = 3.00 s) to row 450: 1.49 s.
+    let frozen = row("frozen_1");
+    assert_eq!(frozen.status, data::Status::Excluded);
+    assert_eq!(frozen.reason, "`exclude frozen position for 1 s`: position unchanged for 1.49 s from row 301 (t = 3.00 s) while the actions vary");
+    // The drift reaches 17.0 m at the end; its 8.5 m/s add to the circle's
+    // 1 m/s, |(8.5 - sin t, cos t)| largest (9.5) where sin t = -1, at
+    // t = 3 pi / 2 = 4.71 s (row 473).
+    let drift = row("drift_1");
+    assert_eq!(drift.status, data::Status::Excluded);
+    let v: Vec<(&str, bool, &str)> =
+        drift.verdicts.iter().map(|v| (v.rule.as_str(), v.pass, v.detail.as_str())).collect();
+    assert!(v[1].1, "not frozen: {:?}", v[1]);
+    assert_eq!(v[2].2, format!("largest |position| {:.3} m at row 600 (t = 5.99 s)", 5.99f64.cos() + 199.0 * 0.085));
+    assert!(!v[2].1);
+    assert!(!v[3].1 && v[3].2.starts_with("largest speed 9.50") && v[3].2.contains("row 473"), "{:?}", v[3]);
+    // recordings.csv carries each rule's verdict in its own column.
+    let csv = audit.to_csv();
+    assert!(csv.lines().next().unwrap().contains("rule2: `exclude frozen position for 1 s`"), "{csv}");
+    // A bound must be positive, at its place.
+    let e = crossaudit::design::from_str("crash.design", &design.replace("speed 5 m/s", "speed -5 m/s")).unwrap_err();
+    assert!(e.to_string().contains("crash.design:11:"), "{e}");
+}
+
+/// `exclude implausible` reads NanoBench's battery and setpoint columns:
+/// in a layout without them it is refused by `check` at its line, with the
+/// rules any layout can declare, where it used to pass `check` and stop
+/// the audit.
+#[test]
+fn nanobench_plausibility_on_another_layout_is_refused_by_check() {
+    let tmp = tempfile::tempdir().unwrap();
+    let design =
+        reordered_design(tmp.path(), XYZW).replace("  include active", "  exclude implausible\n  include active");
+    let e = crossaudit::design::from_str("study.design", &design).unwrap_err().to_string();
+    assert!(e.contains("implausible without NanoBench's columns") && e.contains("exclude frozen position"), "{e}");
+    assert!(e.contains("pwr_pm_vbat and sp_ctrltarget_z") && e.contains("study.design:12:3"), "{e}");
+}

@@ -2,6 +2,7 @@
 //! declared rule kept or dropped it. A corrupt or unreadable file never
 //! stops the audit (unless the design says `strict`).
 
+mod bounds;
 mod error;
 mod render;
 
@@ -137,6 +138,9 @@ fn rule_label(rule: &InclusionRule) -> String {
         }
         InclusionRule::Implausible => "plausible (upstream percentile bounds)".to_string(),
         InclusionRule::Named { .. } => "`exclude recordings`".to_string(),
+        InclusionRule::Frozen { seconds } => format!("`exclude frozen position for {seconds} s`"),
+        InclusionRule::Beyond { speed: false, limit } => format!("`exclude beyond position {limit} m`"),
+        InclusionRule::Beyond { speed: true, limit } => format!("`exclude beyond speed {limit} m/s`"),
     }
 }
 
@@ -425,6 +429,8 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
                 true => (false, "listed by name in the design".to_string()),
                 false => (true, "not listed".to_string()),
             },
+            InclusionRule::Frozen { seconds } => bounds::frozen(rec, *seconds),
+            InclusionRule::Beyond { speed, limit } => bounds::beyond(rec, *speed, *limit),
         };
         if !pass && row.status == Status::Included {
             row.status = Status::Excluded;

@@ -156,7 +156,7 @@ pub fn active_rule(spec: &DataSpec) -> (String, Cmp, f64) {
         .iter()
         .find_map(|r| match r {
             InclusionRule::Active { column, cmp, threshold, .. } => Some((column.clone(), *cmp, *threshold)),
-            InclusionRule::Implausible | InclusionRule::Named { .. } => None,
+            _ => None,
         })
         .unwrap_or_else(|| ("motor_motor_m1".to_string(), Cmp::Gt, 1000.0))
 }

@@ -169,6 +169,13 @@ pub enum DataItem {
     ExcludeImplausible(Option<Ident>),
     /// `exclude recordings "NAME", ...`.
     ExcludeRecordings(Vec<Spanned<String>>),
+    /// `exclude frozen position for T s`.
+    ExcludeFrozen(Number),
+    /// `exclude beyond position L m` (`speed`: false) or `speed L m/s`.
+    ExcludeBeyond {
+        speed: bool,
+        limit: Number,
+    },
     Tails(Ident),
     Speed(SpeedAst),
     Universe {

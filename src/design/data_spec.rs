@@ -399,6 +399,20 @@ pub enum InclusionRule {
         /// The recording names.
         names: Vec<String>,
     },
+    /// A position unchanged for `seconds` of active rows while an action
+    /// changes (`exclude frozen position for T s`).
+    Frozen {
+        /// The shortest frozen stretch that excludes, seconds.
+        seconds: f64,
+    },
+    /// An active row beyond a bound (`exclude beyond position L m`,
+    /// `exclude beyond speed L m/s`).
+    Beyond {
+        /// Speed (else a position component).
+        speed: bool,
+        /// The bound, metres or metres per second.
+        limit: f64,
+    },
 }
 
 /// How byte-identical recordings (one identity group) are treated.

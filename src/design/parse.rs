@@ -434,6 +434,12 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         },
         Rule::exclude_implausible => DataItem::ExcludeImplausible(c.0.next().map(ident)),
         Rule::exclude_recordings => DataItem::ExcludeRecordings(strings(c.next())),
+        Rule::exclude_frozen => DataItem::ExcludeFrozen(number(c.next())?),
+        Rule::exclude_beyond => {
+            let what = c.next();
+            let speed = what.as_rule() == Rule::beyond_speed;
+            DataItem::ExcludeBeyond { speed, limit: number(kids(what).next())? }
+        }
         Rule::tails => DataItem::Tails(ident(c.next())),
         Rule::speed_labels => {
             let how = c.next();

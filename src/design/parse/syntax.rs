@@ -111,6 +111,8 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::extra_col
         | Rule::extrapolated_cols
         | Rule::controller_name
+        | Rule::exclude_frozen
+        | Rule::exclude_beyond
         | Rule::folders_nested
         | Rule::conditions_table
         | Rule::conditions_name

@@ -31,6 +31,23 @@ impl Validator {
         }
         if source == Some(DataSource::Csv) {
             spec.format = self.csv_format(block, &seen, &mut csv, &mut spec);
+            // Upstream's percentile rules read NanoBench's battery and
+            // setpoint columns; a lab's layout has other names.
+            let needed = ["pwr_pm_vbat", "sp_ctrltarget_z"];
+            let lacking: Vec<&str> = needed
+                .into_iter()
+                .filter(|n| spec.format.is_some() && !spec.state_columns.iter().any(|c| c == n))
+                .collect();
+            for item in block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeImplausible(_))) {
+                if !lacking.is_empty() {
+                    self.err_help(
+                        "implausible without NanoBench's columns",
+                        item.span,
+                        format!("`exclude implausible` is NanoBench's percentile rule on {}, which this layout does not declare", lacking.join(" and ")),
+                        "for any layout: `exclude frozen position for 2 s`, `exclude beyond position 10 m`, `exclude beyond speed 5 m/s`",
+                    );
+                }
+            }
         } else if let Some(scale) = &csv.scale {
             self.err_help(
                 "action scale outside `data csv`",
@@ -127,6 +144,16 @@ impl Validator {
                 // Checked as every pinned list of names is: none empty, none twice.
                 let listed = self.listed(names, "excluded");
                 spec.rules.push(InclusionRule::Named { names: listed.into_iter().map(|n| n.name).collect() });
+            }
+            DataItem::ExcludeFrozen(t) => {
+                self.once(seen, "exclude frozen", item.span);
+                let seconds = self.positive(t, "the frozen time");
+                spec.rules.push(InclusionRule::Frozen { seconds });
+            }
+            DataItem::ExcludeBeyond { speed, limit } => {
+                self.once(seen, if *speed { "exclude beyond speed" } else { "exclude beyond position" }, item.span);
+                let limit = self.positive(limit, "the bound");
+                spec.rules.push(InclusionRule::Beyond { speed: *speed, limit });
             }
             DataItem::ExcludeImplausible(pooling) => {
                 self.once(seen, "exclude", item.span);

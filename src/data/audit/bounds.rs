@@ -1,0 +1,70 @@
+//! Plausibility rules any layout can declare: a frozen position (a lost
+//! or crashed vehicle) and bounds on position and speed, each judged over
+//! the active rows with what it measured in words.
+
+use super::super::Recording;
+
+/// `exclude frozen position for T s`: fails when the position stays
+/// exactly the same over `seconds` or more of consecutive active rows
+/// while an action changes within them (a hovering vehicle's estimate
+/// still moves; motion capture that lost it repeats its last reading).
+pub(super) fn frozen(rec: &Recording, seconds: f64) -> (bool, String) {
+    let same = |a: usize, b: usize| rec.state[a][..3] == rec.state[b][..3];
+    // The longest frozen run with varying actions: (start, end) rows.
+    let mut worst: Option<(usize, usize)> = None;
+    let mut start = 0;
+    for k in 0..=rec.rows {
+        let continues = k < rec.rows && k > start && rec.active[k] && rec.active[k - 1] && same(k, k - 1);
+        if continues {
+            continue;
+        }
+        // Rows start..k-1 hold one position.
+        if k > start + 1 {
+            let end = k - 1;
+            let acts = (start..=end).any(|r| rec.action[r] != rec.action[start]);
+            let longer = worst.is_none_or(|(a, b)| rec.t[end] - rec.t[start] > rec.t[b] - rec.t[a]);
+            if acts && rec.active[start] && longer {
+                worst = Some((start, end));
+            }
+        }
+        start = k;
+    }
+    match worst {
+        Some((a, b)) => {
+            let held = rec.t[b] - rec.t[a];
+            let at = rec.t[a] - rec.t[0];
+            let detail =
+                format!("position unchanged for {held:.2} s from row {} (t = {at:.2} s) while the actions vary", a + 1);
+            (held < seconds, detail)
+        }
+        None => (true, "the position never stays unchanged while the actions vary".into()),
+    }
+}
+
+/// `exclude beyond position L m` (`speed` false) or `exclude beyond speed
+/// L m/s`: fails when an active row is beyond the bound. Speed is the
+/// declared velocity's length, else the position's step over the time
+/// step between consecutive active rows.
+pub(super) fn beyond(rec: &Recording, speed: bool, limit: f64) -> (bool, String) {
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let values: Vec<(usize, f64)> = (0..rec.rows)
+        .filter(|&k| rec.active[k])
+        .filter_map(|k| match (speed, rec.slots.velocity) {
+            (false, _) => Some((k, rec.state[k][..3].iter().fold(0.0f64, |m, x| m.max(x.abs())))),
+            (true, true) => Some((k, norm(&rec.state[k][3..6]))),
+            (true, false) => (k > 0 && rec.active[k - 1] && rec.t[k] > rec.t[k - 1]).then(|| {
+                let step: Vec<f64> = (0..3).map(|i| rec.state[k][i] - rec.state[k - 1][i]).collect();
+                (k, norm(&step) / (rec.t[k] - rec.t[k - 1]))
+            }),
+        })
+        .collect();
+    let what = if speed { "speed" } else { "|position|" };
+    let unit = if speed { "m/s" } else { "m" };
+    match values.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        Some((k, v)) => {
+            let at = rec.t[k] - rec.t[0];
+            (v <= limit, format!("largest {what} {v:.3} {unit} at row {} (t = {at:.2} s)", k + 1))
+        }
+        None => (true, format!("no active rows to measure the {what} on")),
+    }
+}
