@@ -504,7 +504,8 @@ impl Plan {
     }
 }
 
-fn model_text(kind: &ModelKind) -> String {
+/// The model as the design writes it (`mlp(256, 256, 256) inputs world actions raw`, `constant_velocity`).
+pub fn model_text(kind: &ModelKind) -> String {
     match kind {
         ModelKind::External { inputs, actions, history } => format!(
             "external inputs {} actions {}{}",

@@ -493,3 +493,35 @@ fn networks_of_any_shape_are_checked_trained_and_saved() {
     }
     assert!(out.join("cells.csv").is_file());
 }
+
+/// Issue 57: a parameter-free model in a secondary endpoint is the same
+/// model in both arms; the report says its contrast is 0 by construction
+/// and where the model does enter (the interaction), instead of calling its
+/// per-cell data "not the output of a run".
+#[test]
+fn a_baseline_in_an_endpoint_is_reported_as_zero_by_construction() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("tests/designs/sim_small.design"))
+        .unwrap()
+        .replace("model relative = mlp(32, 32, 32) inputs relative", "model cv = constant_velocity")
+        .replace("models world, relative", "models world, cv")
+        .replace("interaction world - relative", "interaction world - cv")
+        .replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2");
+    let design = dir.path().join("cv.design");
+    std::fs::write(&design, text).unwrap();
+    let out = dir.path().join("run");
+    let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .args(["run", design.to_str().unwrap(), "--out", out.to_str().unwrap(), "--exploratory", "--workers", "2"])
+        .output()
+        .unwrap();
+    crate::common::assert_ok(&o);
+    let md = std::fs::read_to_string(out.join("report/report.md")).unwrap();
+    assert!(
+        md.contains("`cv` is parameter-free (constant_velocity): it is the same model in every arm, so `contaminated - disjoint` is 0 by construction")
+            && md.contains("the reference level of `world - cv`"),
+        "{md}"
+    );
+    assert!(!md.contains("not the output of a run"), "{md}");
+    assert!(md.contains("| world - cv |"), "the interaction is reported:\n{md}");
+}

@@ -58,7 +58,30 @@ impl Ctx<'_> {
                 })
             })
         });
-        let detail = if all_diverged && u.metric != Metric::DivergenceRate {
+        let fixed = self.plan.models.iter().find(|m| m.name == u.model && !m.kind.trains());
+        let detail = if let Some(m) = fixed {
+            // A baseline fits nothing: the same model in every arm.
+            let used: Vec<String> = self
+                .plan
+                .interactions
+                .iter()
+                .filter(|i| i.left == m.name || i.right == m.name)
+                .map(|i| format!("`{} - {}`", i.left, i.right))
+                .collect();
+            format!(
+                "`{}` is parameter-free ({}): it is the same model in every arm, so `{} - {}` is {} by construction and measures nothing about the arms; {}",
+                m.name,
+                crate::plan::model_text(&m.kind),
+                self.plan.contrast.treated,
+                self.plan.contrast.reference,
+                (lo + hi) / 2.0,
+                if used.is_empty() {
+                    "it is a reference level for an interaction, not a contrast of its own".to_string()
+                } else {
+                    format!("it enters the report as the reference level of {}", used.join(", "))
+                }
+            )
+        } else if all_diverged && u.metric != Metric::DivergenceRate {
             format!(
                 "every start diverged in both arms (every cell is at the divergence cap of {} m), so the endpoint cannot tell `{}` from `{}`; no optimism or interval is reported for it",
                 self.plan.cap.0, self.plan.contrast.treated, self.plan.contrast.reference
