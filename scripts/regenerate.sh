@@ -67,6 +67,8 @@ fresh designs/quickstart.design results/quickstart
 fresh designs/quickstart_nanobench.design results/quickstart_nanobench
 fresh designs/logs/rotorpy.design results/rotorpy
 fresh designs/logs/rotorpy_wide.design results/rotorpy_wide
+$ca simulate-lab --out designs/logs/lab_logs >/dev/null 2>&1
+fresh designs/logs/lab.design results/lab
 fresh designs/nanobench_paper_linear.design results/nanobench_paper_linear
 fresh designs/simulated_control_0.design results/simulated_controls/strength_0
 fresh designs/simulated_control_high.design results/simulated_controls/strength_high
@@ -100,7 +102,7 @@ rm -rf results/*/models results/*/simulated_data results/simulated_controls/*/mo
 # Wall-clock columns and logs are not reproducible: keep the committed ones
 # of the folders regenerated here, and only those (a full run copied into
 # results/ but not yet committed keeps its own).
-for d in results/quickstart results/quickstart_nanobench results/rotorpy results/rotorpy_wide results/nanobench_paper_linear results/simulated_controls/* results/simulated_family/*; do
+for d in results/quickstart results/quickstart_nanobench results/rotorpy results/rotorpy_wide results/lab results/nanobench_paper_linear results/simulated_controls/* results/simulated_family/*; do
   for f in time.txt stdout.txt; do
     [ -e "$d/$f" ] && { git checkout -- "$d/$f" 2>/dev/null || true; }
   done

@@ -554,3 +554,46 @@ fn nanobench_plausibility_on_another_layout_is_refused_by_check() {
     assert!(e.contains("implausible without NanoBench's columns") && e.contains("exclude frozen position"), "{e}");
     assert!(e.contains("pwr_pm_vbat and sp_ctrltarget_z") && e.contains("study.design:12:3"), "{e}");
 }
+
+/// The lab's folder of `designs/logs/lab.design`, written by
+/// `simulate-lab` (seed 7) when absent, once per test process.
+pub(crate) fn lab_logs() -> std::path::PathBuf {
+    static ONCE: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    ONCE.get_or_init(|| {
+        let dir = crate::common::root().join("designs/logs/lab_logs");
+        if !dir.join("test").is_dir() || !dir.join("train").is_dir() {
+            crossaudit::sim::simulate_lab(&dir, 7).unwrap_or_else(|e| panic!("{e}"));
+        }
+        dir
+    })
+    .clone()
+}
+
+/// Item 7: the lab's folder to a report with no conversion script. The
+/// committed run (results/lab) comes out byte for byte from the generated
+/// Parquet folder; its audit excludes the frozen flight by its rule and the
+/// stalled logger's file as unreadable at its gap, and reports the
+/// quaternions it renormalised.
+#[test]
+fn the_lab_design_reproduces_its_committed_run() {
+    let dir = lab_logs();
+    // The generator writes the same logs for the same seed.
+    let again = tempfile::tempdir().unwrap();
+    let written = crossaudit::sim::simulate_lab(again.path(), 7).unwrap();
+    assert_eq!(written.len(), 21);
+    for rel in &written {
+        assert!(std::fs::read(dir.join(rel)).unwrap() == std::fs::read(again.path().join(rel)).unwrap(), "{rel}");
+    }
+    let compared = crate::logs::reproduces_committed_run("designs/logs/lab.design", "results/lab");
+    assert!(compared > 20, "{compared} files compared");
+    let audit = std::fs::read_to_string(crate::common::root().join("results/lab/audit/recordings.csv")).unwrap();
+    let row = |name: &str| audit.lines().find(|l| l.starts_with(&format!("{name},"))).unwrap().to_string();
+    assert!(row("lab-star-take3").contains("excluded,`exclude frozen position for 2 s`: position unchanged for"));
+    assert!(row("lab-oval-take1").contains("the time jumps by 5.0"), "{}", row("lab-oval-take1"));
+    assert!(row("lab-circle-take2").contains(",test/lab-circle-take2.parquet,"));
+    assert_eq!(audit.lines().filter(|l| l.contains(",included,")).count(), 19);
+    let header: Vec<&str> = audit.lines().next().unwrap().split(',').collect();
+    let at = header.iter().position(|h| *h == "quaternion_max_deviation").unwrap();
+    let deviation: f64 = row("lab-circle-take1").split(',').nth(at).unwrap().parse().unwrap();
+    assert!((0.011..0.02).contains(&deviation), "{deviation}");
+}

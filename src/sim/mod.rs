@@ -18,6 +18,7 @@
 //! the trajectory. Everything is drawn from ChaCha8 seeded by the design.
 
 mod flight;
+pub mod lab;
 mod trajectory;
 
 use std::collections::BTreeMap;
@@ -32,6 +33,7 @@ use crate::io::{pretty_json, sha256_file, sha256_hex, write_atomic};
 
 pub use crate::design::SimSpec;
 pub use flight::fly;
+pub use lab::simulate_lab;
 pub use trajectory::{catalogue, TRAJECTORIES};
 
 /// The simulator's recordings could not be written, or a directory of

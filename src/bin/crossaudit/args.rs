@@ -227,6 +227,18 @@ pub(crate) enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Write a simulated lab's folder as a lab publishes it: 21 Parquet
+    /// logs in train/ and test/, quaternions 1.5% long, NaN motion-capture
+    /// columns, a flight whose motion capture freezes and one with a 5 s
+    /// gap (the fixture of designs/logs/lab.design and docs/own-logs.md).
+    SimulateLab {
+        /// Output directory (its train/ and test/ are written).
+        #[arg(long)]
+        out: PathBuf,
+        /// The simulator's seed.
+        #[arg(long, default_value_t = 7)]
+        seed: u64,
+    },
     /// Run the design's analysis on a per-cell CSV.
     Analyze {
         /// The design file (.design).

@@ -63,6 +63,7 @@ fn main() -> ExitCode {
             methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out)
         }
         Command::Simulate { design, out } => methods::simulate(&design, &out),
+        Command::SimulateLab { out, seed } => methods::simulate_lab(&out, seed),
         Command::Mixed { data, formula, ml, df, profile, json, compare } => match compare {
             Some(other) => methods::mixed_compare(&data, &formula, &other, json),
             None => methods::mixed(&data, &formula, ml, &df, profile, json),

@@ -119,6 +119,13 @@ pub(crate) fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
     Ok(())
 }
 
+pub(crate) fn simulate_lab(out: &Path, seed: u64) -> Result<(), Error> {
+    let _lock = lock_folder(out, false)?;
+    let files = crossaudit::sim::simulate_lab(out, seed)?;
+    note!("wrote {} Parquet logs to {} (train/ and test/)", files.len(), out.display());
+    Ok(())
+}
+
 pub(crate) fn mixed(
     data: &Path,
     formula: &str,
