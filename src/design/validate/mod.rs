@@ -240,7 +240,7 @@ impl Validator {
                 }
                 let pinned = roles.map(|p| p.validation.clone());
                 // (`from split` without a role was refused just above.)
-                let from_roles = roles.is_some() || (published.is_some() && matches!(recordings, ValRecordings::Split(_)));
+                let from_roles = roles.is_some() || (pinned_by_split && matches!(recordings, ValRecordings::Split(_)));
                 Some(self.validation(windows, recordings, seed, from_roles, pinned))
             }
             _ => None,
