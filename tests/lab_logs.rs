@@ -597,3 +597,60 @@ fn the_lab_design_reproduces_its_committed_run() {
     let deviation: f64 = row("lab-circle-take1").split(',').nth(at).unwrap().parse().unwrap();
     assert!((0.011..0.02).contains(&deviation), "{deviation}");
 }
+
+/// `exclude beyond rate L rad/s` bounds how fast the attitude turns: a log
+/// yawing at a constant 2 rad/s measures 2 rad/s (the angle between
+/// consecutive quaternions over the step, 2 acos(cos(w dt / 2)) / dt = w),
+/// so 1 rad/s excludes it and 3 rad/s keeps it; a layout without an
+/// attitude refuses the rule at its line.
+#[test]
+fn an_attitude_turning_too_fast_is_excluded_by_a_rate_bound() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut text = String::from("t,x,y,z,qw,qx,qy,qz,m1\n");
+    for k in 0..400 {
+        let t = k as f64 * 0.01;
+        let yaw = 2.0 * t;
+        let m1 = 0.6 + 0.1 * (3.0 * t).sin();
+        text +=
+            &format!("{t:?},{:?},0.0,1.0,{:?},0.0,0.0,{:?},{m1:?}\n", 0.1 * t, (yaw / 2.0).cos(), (yaw / 2.0).sin());
+    }
+    std::fs::write(tmp.path().join("yaw_1.csv"), text).unwrap();
+    let design = |bound: &str, attitude: &str| {
+        format!(
+            r#"study "rate"
+data csv {{
+  path "{}"
+  rate 100 Hz
+  time t
+  position x, y, z
+  {attitude}
+  action m1 scale 1
+  include active(m1 > 0.1) >= 20 samples
+  exclude beyond rate {bound} rad/s
+}}
+factor recording {{ evaluation 2 split_seed 3; starts 3 horizon 20 }}
+factor seed = 1..2
+validation 60 windows from 1 recordings seed 5
+arm disjoint {{ fit 100 windows seed 1 }}
+arm contaminated {{ from disjoint replace 25% with evaluation windows exclude starts seed 2 }}
+model still = persistence
+endpoint primary fa_position_rmse at 0.1 s cap 2 m model still
+contrast contaminated - disjoint
+estimate crossed_mom level 0.95 df seed - 1
+decide confirmed when optimism >= 10% and upper < 0
+"#,
+            tmp.path().display()
+        )
+    };
+    let attitude = "attitude quaternion wxyz qw, qx, qy, qz";
+    let verdict = |bound: &str| {
+        let audit = data::audit(&spec(&design(bound, attitude)), tmp.path()).unwrap_or_else(|e| panic!("{e}"));
+        let v = audit.files[0].verdicts[1].clone();
+        (v.pass, v.detail)
+    };
+    let (pass, detail) = verdict("1");
+    assert!(!pass && detail.starts_with("largest attitude rate 2.000 rad/s"), "{detail}");
+    assert!(verdict("3").0);
+    let e = crossaudit::design::from_str("rate.design", &design("1", "")).unwrap_err().to_string();
+    assert!(e.contains("rate without an attitude") && e.contains("rate.design:10:"), "{e}");
+}

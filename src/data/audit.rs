@@ -139,8 +139,10 @@ fn rule_label(rule: &InclusionRule) -> String {
         InclusionRule::Implausible => "plausible (upstream percentile bounds)".to_string(),
         InclusionRule::Named { .. } => "`exclude recordings`".to_string(),
         InclusionRule::Frozen { seconds } => format!("`exclude frozen position for {seconds} s`"),
-        InclusionRule::Beyond { speed: false, limit } => format!("`exclude beyond position {limit} m`"),
-        InclusionRule::Beyond { speed: true, limit } => format!("`exclude beyond speed {limit} m/s`"),
+        InclusionRule::Beyond { quantity, limit } => {
+            let (what, unit) = quantity.words();
+            format!("`exclude beyond {what} {limit} {unit}`")
+        }
     }
 }
 
@@ -430,7 +432,7 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
                 false => (true, "not listed".to_string()),
             },
             InclusionRule::Frozen { seconds } => bounds::frozen(rec, *seconds),
-            InclusionRule::Beyond { speed, limit } => bounds::beyond(rec, *speed, *limit),
+            InclusionRule::Beyond { quantity, limit } => bounds::beyond(rec, *quantity, *limit),
         };
         if !pass && row.status == Status::Included {
             row.status = Status::Excluded;

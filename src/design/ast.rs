@@ -171,9 +171,9 @@ pub enum DataItem {
     ExcludeRecordings(Vec<Spanned<String>>),
     /// `exclude frozen position for T s`.
     ExcludeFrozen(Number),
-    /// `exclude beyond position L m` (`speed`: false) or `speed L m/s`.
+    /// `exclude beyond position L m`, `speed L m/s` or `rate L rad/s`.
     ExcludeBeyond {
-        speed: bool,
+        quantity: crate::design::Bound,
         limit: Number,
     },
     Tails(Ident),

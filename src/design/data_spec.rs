@@ -406,13 +406,36 @@ pub enum InclusionRule {
         seconds: f64,
     },
     /// An active row beyond a bound (`exclude beyond position L m`,
-    /// `exclude beyond speed L m/s`).
+    /// `exclude beyond speed L m/s`, `exclude beyond rate L rad/s`).
     Beyond {
-        /// Speed (else a position component).
-        speed: bool,
-        /// The bound, metres or metres per second.
+        /// What is bounded.
+        quantity: Bound,
+        /// The bound, in the quantity's unit.
         limit: f64,
     },
+}
+
+/// What an `exclude beyond` rule bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Bound {
+    /// Each position component's magnitude, metres.
+    Position,
+    /// The speed, metres per second.
+    Speed,
+    /// The attitude's rate of turn, radians per second.
+    Rate,
+}
+
+impl Bound {
+    /// The keyword and unit as the design writes them.
+    pub fn words(self) -> (&'static str, &'static str) {
+        match self {
+            Bound::Position => ("position", "m"),
+            Bound::Speed => ("speed", "m/s"),
+            Bound::Rate => ("rate", "rad/s"),
+        }
+    }
 }
 
 /// How byte-identical recordings (one identity group) are treated.

@@ -437,8 +437,12 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         Rule::exclude_frozen => DataItem::ExcludeFrozen(number(c.next())?),
         Rule::exclude_beyond => {
             let what = c.next();
-            let speed = what.as_rule() == Rule::beyond_speed;
-            DataItem::ExcludeBeyond { speed, limit: number(kids(what).next())? }
+            let quantity = match what.as_rule() {
+                Rule::beyond_speed => crate::design::Bound::Speed,
+                Rule::beyond_rate => crate::design::Bound::Rate,
+                _ => crate::design::Bound::Position,
+            };
+            DataItem::ExcludeBeyond { quantity, limit: number(kids(what).next())? }
         }
         Rule::tails => DataItem::Tails(ident(c.next())),
         Rule::speed_labels => {

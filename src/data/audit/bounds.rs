@@ -3,6 +3,7 @@
 //! the active rows with what it measured in words.
 
 use super::super::Recording;
+use crate::design::Bound;
 
 /// `exclude frozen position for T s`: fails when the position stays
 /// exactly the same over `seconds` or more of consecutive active rows
@@ -41,25 +42,38 @@ pub(super) fn frozen(rec: &Recording, seconds: f64) -> (bool, String) {
     }
 }
 
-/// `exclude beyond position L m` (`speed` false) or `exclude beyond speed
-/// L m/s`: fails when an active row is beyond the bound. Speed is the
-/// declared velocity's length, else the position's step over the time
-/// step between consecutive active rows.
-pub(super) fn beyond(rec: &Recording, speed: bool, limit: f64) -> (bool, String) {
+/// `exclude beyond position L m`, `speed L m/s` or `rate L rad/s`: fails
+/// when an active row is beyond the bound. Speed is the declared
+/// velocity's length, else the position's step over the time step between
+/// consecutive active rows; the rate is the angle between consecutive
+/// quaternions, 2 acos(|q_k . q_k-1| / (|q_k| |q_k-1|)), over the time
+/// step (no rows without an attitude: `check` refuses the rule there).
+pub(super) fn beyond(rec: &Recording, quantity: Bound, limit: f64) -> (bool, String) {
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let stepped = |k: usize| k > 0 && rec.active[k - 1] && rec.t[k] > rec.t[k - 1];
+    let q = rec.slots.quaternion_slots();
     let values: Vec<(usize, f64)> = (0..rec.rows)
         .filter(|&k| rec.active[k])
-        .filter_map(|k| match (speed, rec.slots.velocity) {
-            (false, _) => Some((k, rec.state[k][..3].iter().fold(0.0f64, |m, x| m.max(x.abs())))),
-            (true, true) => Some((k, norm(&rec.state[k][3..6]))),
-            (true, false) => (k > 0 && rec.active[k - 1] && rec.t[k] > rec.t[k - 1]).then(|| {
+        .filter_map(|k| match (quantity, rec.slots.velocity) {
+            (Bound::Position, _) => Some((k, rec.state[k][..3].iter().fold(0.0f64, |m, x| m.max(x.abs())))),
+            (Bound::Speed, true) => Some((k, norm(&rec.state[k][3..6]))),
+            (Bound::Speed, false) => stepped(k).then(|| {
                 let step: Vec<f64> = (0..3).map(|i| rec.state[k][i] - rec.state[k - 1][i]).collect();
                 (k, norm(&step) / (rec.t[k] - rec.t[k - 1]))
             }),
+            (Bound::Rate, _) => q.clone().filter(|_| stepped(k)).map(|q| {
+                let (a, b) = (&rec.state[k][q.clone()], &rec.state[k - 1][q]);
+                let dot = a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>().abs() / (norm(a) * norm(b));
+                (k, 2.0 * dot.min(1.0).acos() / (rec.t[k] - rec.t[k - 1]))
+            }),
         })
         .collect();
-    let what = if speed { "speed" } else { "|position|" };
-    let unit = if speed { "m/s" } else { "m" };
+    let what = match quantity {
+        Bound::Position => "|position|",
+        Bound::Speed => "speed",
+        Bound::Rate => "attitude rate",
+    };
+    let unit = quantity.words().1;
     match values.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1)) {
         Some((k, v)) => {
             let at = rec.t[k] - rec.t[0];

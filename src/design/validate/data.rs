@@ -38,6 +38,19 @@ impl Validator {
                 .into_iter()
                 .filter(|n| spec.format.is_some() && !spec.state_columns.iter().any(|c| c == n))
                 .collect();
+            let no_attitude = spec.format.as_ref().is_some_and(|f| !f.attitude);
+            for item in
+                block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeBeyond { quantity: Bound::Rate, .. }))
+            {
+                if no_attitude {
+                    self.err_help(
+                        "rate without an attitude",
+                        item.span,
+                        "`exclude beyond rate` bounds how fast the attitude turns, and this layout declares no attitude",
+                        "declare `attitude quaternion ...` or `attitude euler ...`, or bound the position or speed instead",
+                    );
+                }
+            }
             for item in block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeImplausible(_))) {
                 if !lacking.is_empty() {
                     self.err_help(
@@ -150,10 +163,15 @@ impl Validator {
                 let seconds = self.positive(t, "the frozen time");
                 spec.rules.push(InclusionRule::Frozen { seconds });
             }
-            DataItem::ExcludeBeyond { speed, limit } => {
-                self.once(seen, if *speed { "exclude beyond speed" } else { "exclude beyond position" }, item.span);
+            DataItem::ExcludeBeyond { quantity, limit } => {
+                let key = match quantity {
+                    Bound::Position => "exclude beyond position",
+                    Bound::Speed => "exclude beyond speed",
+                    Bound::Rate => "exclude beyond rate",
+                };
+                self.once(seen, key, item.span);
                 let limit = self.positive(limit, "the bound");
-                spec.rules.push(InclusionRule::Beyond { speed: *speed, limit });
+                spec.rules.push(InclusionRule::Beyond { quantity: *quantity, limit });
             }
             DataItem::ExcludeImplausible(pooling) => {
                 self.once(seen, "exclude", item.span);
