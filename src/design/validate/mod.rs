@@ -226,20 +226,9 @@ impl Validator {
         });
         let validation = singles.get("validation").and_then(|s| match &s.node {
             Statement::Validation { windows, recordings, seed } => {
-                // A published split without a validation role (train and
-                // test only): validation recordings are drawn from its fit
-                // roles, or listed, as without a published split.
-                let roles = published.as_ref().filter(|p| !p.pin.validation_roles.is_empty());
-                if let (Some(p), None, ValRecordings::Split(span)) = (&published, roles, recordings) {
-                    self.err_help(
-                        "no validation role",
-                        *span,
-                        format!("the published split maps no role to validation (its fit roles are {})", p.pin.fit_roles.join(", ")),
-                        "draw validation recordings from the fit roles, `validation N windows from K recordings seed S`, or map a role: `validation val`",
-                    );
-                }
+                let roles = self.validation_roles(published.as_ref(), recordings);
                 let pinned = roles.map(|p| p.validation.clone());
-                // (`from split` without a role was refused just above.)
+                // (`from split` without a role is refused by validation_roles.)
                 let from_roles = roles.is_some() || (pinned_by_split && matches!(recordings, ValRecordings::Split(_)));
                 Some(self.validation(windows, recordings, seed, from_roles, pinned))
             }

@@ -186,4 +186,25 @@ impl Validator {
         };
         Some(Pinned { pin, evaluation: pinned_evaluation, validation: names("validation") })
     }
+
+    /// The published split whose validation roles give the validation
+    /// recordings, if any. A split of train and test alone has none: its
+    /// validation recordings are drawn from its fit roles (or listed), as
+    /// without a published split, and `from split` is refused.
+    pub(super) fn validation_roles<'p>(
+        &mut self,
+        published: Option<&'p Pinned>,
+        recordings: &ValRecordings,
+    ) -> Option<&'p Pinned> {
+        let roles = published.filter(|p| !p.pin.validation_roles.is_empty());
+        if let (Some(p), None, ValRecordings::Split(span)) = (published, roles, recordings) {
+            self.err_help(
+                "no validation role",
+                *span,
+                format!("the published split maps no role to validation (its fit roles are {})", p.pin.fit_roles.join(", ")),
+                "draw validation recordings from the fit roles, `validation N windows from K recordings seed S`, or map a role: `validation val`",
+            );
+        }
+        roles
+    }
 }
