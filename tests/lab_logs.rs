@@ -354,7 +354,7 @@ decide confirmed when optimism >= 10% and upper < 0
     // The float32 column keeps its own shortest text: 0.1f32 reads as 0.1.
     assert_eq!(rec.state[0][1], 0.1);
     assert_eq!(rec.state[40][0], 0.4);
-    for (bad, shown) in [(Some(f64::NAN), "NaN"), (None, "\"\"")] {
+    for (bad, shown) in [(Some(f64::NAN), "NaN"), (None, "the field is empty")] {
         write_parquet(&path, &columns(bad));
         let Err(e) = load(&path, &spec) else { panic!("{shown} in a declared column accepted") };
         let text = e.to_string();
@@ -589,9 +589,12 @@ fn the_lab_design_reproduces_its_committed_run() {
     let audit = std::fs::read_to_string(crate::common::root().join("results/lab/audit/recordings.csv")).unwrap();
     let row = |name: &str| audit.lines().find(|l| l.starts_with(&format!("{name},"))).unwrap().to_string();
     assert!(row("lab-star-take3").contains("excluded,`exclude frozen position for 2 s`: position unchanged for"));
-    assert!(row("lab-oval-take1").contains("the time jumps by 5.0"), "{}", row("lab-oval-take1"));
+    // The stalled flight is kept and cut at its gap (`gaps over 0.1 s segment`).
+    let stalled = row("lab-oval-take1");
+    assert!(stalled.contains("pass: 1 gap(s), cut there (first line 1022: the time jumps by 5.010 s)"), "{stalled}");
+    assert!(stalled.contains(",included,"), "{stalled}");
     assert!(row("lab-circle-take2").contains(",test/lab-circle-take2.parquet,"));
-    assert_eq!(audit.lines().filter(|l| l.contains(",included,")).count(), 19);
+    assert_eq!(audit.lines().filter(|l| l.contains(",included,")).count(), 20);
     let header: Vec<&str> = audit.lines().next().unwrap().split(',').collect();
     let at = header.iter().position(|h| *h == "quaternion_max_deviation").unwrap();
     let deviation: f64 = row("lab-circle-take1").split(',').nth(at).unwrap().parse().unwrap();

@@ -32,6 +32,7 @@ mod position_only;
 mod resampling;
 mod reuse;
 mod run;
+mod segments;
 mod simulate;
 mod slurm;
 mod slurm_external;

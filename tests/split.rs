@@ -32,6 +32,7 @@ fn recordings(n: usize, dup: &[usize]) -> Vec<Recording> {
                 tail: None,
                 rows_cut: 0,
                 quaternion_deviation: None,
+                cuts: Vec::new(),
             }
         })
         .collect()

@@ -545,7 +545,7 @@ fn a_relative_data_path_resolves_from_the_design_files_directory() {
     let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
     assert_ok(&o);
     assert!(
-        String::from_utf8_lossy(&o.stdout).contains("16 CSV files, 16 included"),
+        String::from_utf8_lossy(&o.stdout).contains("16 log files, 16 included"),
         "{}",
         String::from_utf8_lossy(&o.stdout)
     );

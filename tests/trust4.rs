@@ -276,6 +276,16 @@ fn damaged_logs_are_named_on_the_console_and_refused_under_strict() {
     #[cfg(unix)]
     std::os::unix::fs::symlink("/dev/zero", logs.join("B7_circle_slow_rep1.csv")).unwrap();
     let design = lenient_design(tmp.path());
+    // Seven of eight unreadable: more than half, so the audit stops after
+    // writing itself; the design accepts it by saying how few it needs.
+    let s = refused(&audit(&design, &logs, &tmp.path().join("audit0")), &["the audit kept 1 of 8 log file(s)"]);
+    assert!(s.contains("declare `require at least 1 recordings`"), "{s}");
+    assert!(tmp.path().join("audit0/recordings.csv").exists());
+    let text = std::fs::read_to_string(&design).unwrap().replace(
+        "data nanobench { path \"recordings\" }",
+        "data nanobench { path \"recordings\" require at least 1 recordings }",
+    );
+    std::fs::write(&design, text).unwrap();
     let out = tmp.path().join("audit");
     let s = ok(&audit(&design, &logs, &out));
     assert!(s.contains("7 file(s) in the data folder could not be read and were excluded"), "{s}");
@@ -289,7 +299,7 @@ fn damaged_logs_are_named_on_the_console_and_refused_under_strict() {
     // Under `strict` the same folder is an error naming them.
     let strict = std::fs::read_to_string(&design)
         .unwrap()
-        .replace("data nanobench { path \"recordings\" }", "data nanobench { path \"recordings\" strict }");
+        .replace("require at least 1 recordings }", "require at least 1 recordings strict }");
     assert!(strict.contains("strict"));
     std::fs::write(&design, strict).unwrap();
     let s = refused(&audit(&design, &logs, &tmp.path().join("audit2")), &["strict data rules: 7 file(s)"]);

@@ -4,6 +4,7 @@
 
 mod bounds;
 mod error;
+mod policies;
 mod render;
 
 pub use error::AuditError;
@@ -156,6 +157,7 @@ fn labels(spec: &DataSpec) -> Vec<String> {
             };
         }
     }
+    out.extend(policies::labels(spec));
     out
 }
 
@@ -265,7 +267,10 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
             // The table is in the data folder, and is not a recording.
             csvs.retain(|p| p.file_name().is_none_or(|f| f.to_string_lossy() != *name));
             let path = dir.join(name);
-            Some((super::conditions::read_table(&path).map_err(AuditError::Layout)?, path))
+            let format = spec.format.as_ref();
+            let columns = format.map(|f| f.conditions_columns.clone()).unwrap_or_default();
+            let folder = format.and_then(|f| f.conditions_folder);
+            Some((super::conditions::read_table(&path, &columns, folder).map_err(AuditError::Layout)?, path))
         }
         None => None,
     };
@@ -278,7 +283,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
             list: impossible.iter().map(|l| format!("  {l}")).collect::<Vec<_>>().join("\n"),
         });
     }
-    let loaded: Vec<(FileRow, Option<Recording>)> = csvs
+    let loaded: Vec<(FileRow, Option<Recording>, Option<AuditError>)> = csvs
         .par_iter()
         .map(|path| {
             let exists = meta_path(path).exists();
@@ -289,6 +294,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
                 read_metadata(&meta_path(path))
             };
             let broken = meta.as_ref().err().filter(|_| exists).cloned();
+            let mut refused = None;
             let (mut row, rec) = match load_recording(path, &layout) {
                 Ok(mut rec) => {
                     if spec.tails == TailPolicy::Truncate {
@@ -304,16 +310,26 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
                     (row, kept)
                 }
                 Err(e) => {
+                    refused = policies::refusal(spec, &e);
                     let mut row = unreadable(spec, path, meta, e.to_string());
                     row.file = crate::io::walk::relative(dir, path);
                     (row, None)
                 }
             };
             row.broken_metadata = broken;
-            (row, rec)
+            (row, rec, refused)
         })
         .collect();
-    let (mut files, mut recordings): (Vec<FileRow>, Vec<Option<Recording>>) = loaded.into_iter().unzip();
+    // A declared `refuse` stops the audit at the first file, in name order.
+    let mut files = Vec::with_capacity(loaded.len());
+    let mut recordings = Vec::with_capacity(loaded.len());
+    for (file, recording, refused) in loaded {
+        if let Some(e) = refused {
+            return Err(e);
+        }
+        files.push(file);
+        recordings.push(recording);
+    }
     super::conditions::apply(spec, dir, &mut files, table.as_ref())?;
     let groups = duplicates(&mut files, spec.duplicates);
     if keep == Keep::Included {
@@ -434,6 +450,14 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
             InclusionRule::Frozen { seconds } => bounds::frozen(rec, *seconds),
             InclusionRule::Beyond { quantity, limit } => bounds::beyond(rec, *quantity, *limit),
         };
+        if !pass && row.status == Status::Included {
+            row.status = Status::Excluded;
+            row.reason = format!("{label}: {detail}");
+        }
+        row.verdicts.push(Verdict { rule: label, pass, detail });
+    }
+    let policy_labels = labels(spec).into_iter().skip(spec.rules.len());
+    for (label, (pass, detail)) in policy_labels.zip(policies::verdicts(spec, rec)) {
         if !pass && row.status == Status::Included {
             row.status = Status::Excluded;
             row.reason = format!("{label}: {detail}");

@@ -4,6 +4,9 @@
 //! names `recording` and at least one of `trajectory` and `speed`; every
 //! recording file must have one row) or `conditions name "PATTERN"` (a
 //! file-name pattern of the user's own, [`crate::design::NamePattern`]).
+//! A table's columns may have other names (`columns speed = velocity`),
+//! and `conditions folder trajectory|speed` takes one condition from the
+//! first folder a recording sits in.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -22,7 +25,16 @@ pub struct Conditions {
 /// are skipped). Errors name the file, the line and the column: a column
 /// named twice, a row of another width, an empty field, a recording listed
 /// twice, a control character in a name.
-pub fn read_table(path: &Path) -> Result<BTreeMap<String, Conditions>, String> {
+///
+/// `columns` maps a role (`recording`, `trajectory`, `speed`) to the
+/// table's name for it; an unmapped role is its own name. A mapped column
+/// the table lacks is an error, as is a `speed` column the folder gives
+/// too (`folder`).
+pub fn read_table(
+    path: &Path,
+    columns: &BTreeMap<String, String>,
+    folder: Option<crate::design::Condition>,
+) -> Result<BTreeMap<String, Conditions>, String> {
     let file = path.display();
     let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a conditions table")
         .map_err(|e| format!("{file}: cannot read the conditions table: {}", e.reason()))?;
@@ -49,18 +61,45 @@ pub fn read_table(path: &Path) -> Result<BTreeMap<String, Conditions>, String> {
             ));
         }
     }
-    let column = |want: &str| names.iter().position(|n| n == want);
-    let Some(rec) = column("recording") else {
+    let joined = names.join(", ");
+    let has = crate::io::one_line(&joined);
+    let column = |role: &str| -> Result<Option<usize>, String> {
+        let Some(name) = columns.get(role) else { return Ok(names.iter().position(|n| n == role)) };
+        match names.iter().position(|n| n == name) {
+            Some(k) => Ok(Some(k)),
+            None => Err(format!(
+                "{file}: line {header_line}: the conditions table has no column `{}`, which the design maps to {role} (`columns {role} = {}`); it has: {has}",
+                crate::io::one_line(name),
+                crate::io::one_line(name)
+            )),
+        }
+    };
+    let Some(rec) = column("recording")? else {
         return Err(format!(
-            "{file}: line {header_line}: the conditions table needs a `recording` column (it has: {})",
-            crate::io::one_line(&names.join(", "))
+            "{file}: line {header_line}: the conditions table needs a `recording` column (it has: {has}); map another with `columns recording = NAME`"
         ));
     };
-    let (trajectory, speed) = (column("trajectory"), column("speed"));
+    let (mut trajectory, mut speed) = (column("trajectory")?, column("speed")?);
+    // The folder gives this condition; a table column of the same name
+    // would give it twice, and one of them would be silently ignored.
+    for (c, slot) in
+        [(crate::design::Condition::Trajectory, &mut trajectory), (crate::design::Condition::Speed, &mut speed)]
+    {
+        if folder == Some(c) {
+            if let Some(k) = slot.take() {
+                return Err(format!(
+                    "{file}: line {header_line}: column {} `{}` gives each recording's {} too, which `conditions folder {}` takes from its folder; keep one of them",
+                    k + 1,
+                    crate::io::one_line(&names[k]),
+                    c.name(),
+                    c.name()
+                ));
+            }
+        }
+    }
     if trajectory.is_none() && speed.is_none() {
         return Err(format!(
-            "{file}: line {header_line}: the conditions table needs a `trajectory` or a `speed` column (it has: {})",
-            crate::io::one_line(&names.join(", "))
+            "{file}: line {header_line}: the conditions table needs a `trajectory` or a `speed` column (it has: {has}); map one of another name with `columns speed = NAME`"
         ));
     }
     let mut out: BTreeMap<String, (Conditions, usize)> = BTreeMap::new();
@@ -136,14 +175,35 @@ pub(super) fn apply(
             f.speed = c.speed.clone().unwrap_or_else(|| f.speed.clone());
         }
     }
-    if table.is_some() || spec.format.as_ref().is_some_and(|f| f.conditions_name.is_some()) {
+    let folder = spec.format.as_ref().and_then(|f| f.conditions_folder);
+    if let Some(c) = folder {
+        // The first folder of the path below the data folder.
+        if let Some(f) = files.iter().find(|f| !f.file.contains('/')) {
+            return Err(AuditError::Layout(format!(
+                "{}: {} sits in no folder, and `conditions folder {}` takes each recording's {} from the folder it sits in; move it into one",
+                dir.display(),
+                f.file,
+                c.name(),
+                c.name()
+            )));
+        }
+        for f in files.iter_mut() {
+            let first = f.file.split('/').next().unwrap_or_default().to_string();
+            match c {
+                crate::design::Condition::Trajectory => f.trajectory = first,
+                crate::design::Condition::Speed => f.speed = first,
+            }
+        }
+    }
+    if table.is_some() || spec.format.as_ref().is_some_and(|f| f.conditions_name.is_some()) || folder.is_some() {
         // A table's or a pattern's speed must be one the design's speed rule
         // can give: the analysis refuses any other label in the cells.
         let labels = spec.speed_labels();
         if let Some(f) = files.iter().find(|f| !labels.contains(&f.speed)) {
-            let source = match &table {
-                Some((_, path)) => format!("{}: the conditions table", path.display()),
-                None => format!("{}: the conditions pattern", dir.display()),
+            let source = match (&table, folder) {
+                (_, Some(crate::design::Condition::Speed)) => format!("{}: `conditions folder speed`", dir.display()),
+                (Some((_, path)), _) => format!("{}: the conditions table", path.display()),
+                (None, _) => format!("{}: the conditions pattern", dir.display()),
             };
             return Err(AuditError::Layout(format!(
                 "{source} gives {} the speed `{}`, which the data block's speed rule cannot give (known: {}); use those labels, or trajectory only",

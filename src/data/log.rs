@@ -159,15 +159,29 @@ pub enum Schema {
 
 /// Parses and checks a whole log held in memory.
 pub fn parse(file: &str, bytes: &[u8], schema: &Schema) -> Result<Log, LogError> {
-    parse_log(file, bytes, schema, false)
+    parse_with(file, bytes, schema, Options::default())
 }
 
 /// As [`parse`], and hashes every data row into [`Log::row_hashes`].
 pub fn parse_with_row_hashes(file: &str, bytes: &[u8], schema: &Schema) -> Result<Log, LogError> {
-    parse_log(file, bytes, schema, true)
+    parse_with(file, bytes, schema, Options { hash_rows: true, ..Options::default() })
 }
 
-fn parse_log(file: &str, bytes: &[u8], schema: &Schema, hash_rows: bool) -> Result<Log, LogError> {
+/// How a log is parsed beyond its schema.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Options {
+    /// Hash every data row into [`Log::row_hashes`].
+    pub hash_rows: bool,
+    /// An empty or non-finite (`NaN`, `inf`) field in a column read, other
+    /// than time, is read as NaN instead of refusing the file (a declared
+    /// `missing values` policy then decides); text that is not a number is
+    /// still refused.
+    pub missing_as_nan: bool,
+}
+
+/// Parses and checks a whole log held in memory, with [`Options`].
+pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: Options) -> Result<Log, LogError> {
+    let hash_rows = options.hash_rows;
     // Lone `\r` line endings are read as lines (as pandas reads them), so
     // errors name the line an editor shows.
     let bytes = &*crate::io::lone_cr_to_lf_bytes(bytes);
@@ -216,6 +230,7 @@ fn parse_log(file: &str, bytes: &[u8], schema: &Schema, hash_rows: bool) -> Resu
         names: &names,
         time,
         check_all,
+        missing_as_nan: options.missing_as_nan,
         slots,
         columns,
         previous_t: f64::NEG_INFINITY,
@@ -325,6 +340,8 @@ struct Tokenizer<'a> {
     time: Option<usize>,
     /// Whether columns not read are checked as numbers too (NanoBench).
     check_all: bool,
+    /// [`Options::missing_as_nan`].
+    missing_as_nan: bool,
     /// For each schema column, its positions in `columns`.
     slots: Vec<Vec<usize>>,
     columns: Vec<Vec<f64>>,
@@ -404,6 +421,14 @@ impl Tokenizer<'_> {
     #[inline(always)]
     fn kept(&mut self, col: usize, i: usize) -> Result<usize, LogError> {
         let body = self.body;
+        let missing_ok = self.missing_as_nan && self.time != Some(col);
+        if missing_ok && body.get(i).is_none_or(|&b| is_delim(b)) {
+            // An empty field: missing, for the declared policy to judge.
+            for &k in &self.slots[col] {
+                self.columns[k].push(f64::NAN);
+            }
+            return Ok(i);
+        }
         let (v, used) = match fast_float2::parse_partial::<f64, _>(&body[i..]) {
             Ok((v, used)) if used > 0 && (i + used == body.len() || is_delim(body[i + used])) => (v, used),
             _ => {
@@ -420,6 +445,12 @@ impl Tokenizer<'_> {
             }
         };
         if !v.is_finite() {
+            if missing_ok {
+                for &k in &self.slots[col] {
+                    self.columns[k].push(f64::NAN);
+                }
+                return Ok(i + used);
+            }
             number(self.file, self.line, &self.names[col], &body[i..i + used])?;
         }
         // Time may be in nanoseconds since the epoch (1.7e18); no other

@@ -85,7 +85,7 @@ pub enum LogError {
         expected: usize,
     },
     /// A field that does not parse as a number.
-    #[error("{file}: line {line}, column `{column}`: {value:?} is not a number")]
+    #[error("{file}: line {line}, column `{column}`: {}", not_a_number(value))]
     NonNumeric {
         /// The file, as given.
         file: String,
@@ -97,7 +97,7 @@ pub enum LogError {
         value: String,
     },
     /// A NaN or infinite field.
-    #[error("{file}: line {line}, column `{column}`: non-finite value {value:?}")]
+    #[error("{file}: line {line}, column `{column}`: non-finite value {value:?} ({MISSING_HINT})")]
     NonFinite {
         /// The file, as given.
         file: String,
@@ -163,7 +163,7 @@ pub enum LogError {
     },
     /// A step of the time column longer than [`super::MAX_GAP_STEPS`]
     /// samples: the log has a hole a window would step across.
-    #[error("{file}: line {line}, column `{column}`: the time jumps by {gap_s} s from the line before, {steps:.0} samples at {rate_hz} Hz (at most 10 may be missing in a row); split the log at the gap, or leave it out", steps = .gap_s * .rate_hz)]
+    #[error("{file}: line {line}, column `{column}`: the time jumps by {gap_s:.3} s from the line before, {steps:.0} samples at {rate_hz} Hz, longer than {limit}; declare `gaps over T s segment` to cut the recording there, or `gaps over T s exclude` to leave it out", steps = .gap_s * .rate_hz)]
     Gap {
         /// The file, as given.
         file: String,
@@ -175,6 +175,8 @@ pub enum LogError {
         gap_s: f64,
         /// The declared rate.
         rate_hz: f64,
+        /// The longest step allowed, in words.
+        limit: String,
     },
     /// An Euler angle declared in radians beyond 2 pi.
     #[error("{file}: line {line}, column `{column}`: the angle {value} is beyond 2 pi, so it is not in radians as the design declares; if the angles are in degrees, declare `attitude euler degrees ...`")]
@@ -238,7 +240,30 @@ fn missing_what(found: &str) -> String {
     }
 }
 
+/// What a declared policy can do about a missing value.
+const MISSING_HINT: &str =
+    "a missing value: in a column the design reads, `missing values segment` or `missing values exclude` in the data block decides what it does";
+
+/// `"abc" is not a number`, or, for an empty field, that it is a missing value.
+fn not_a_number(value: &str) -> String {
+    if value.trim().is_empty() {
+        format!("the field is empty ({MISSING_HINT})")
+    } else {
+        format!("{value:?} is not a number")
+    }
+}
+
 impl LogError {
+    /// Whether this is a missing value in a column read: an empty or
+    /// non-finite field (what `missing values` declares a policy for).
+    pub fn is_missing_value(&self) -> bool {
+        match self {
+            LogError::NonFinite { .. } => true,
+            LogError::NonNumeric { value, .. } => value.trim().is_empty(),
+            _ => false,
+        }
+    }
+
     /// Short machine-readable kind for audit tables.
     pub fn kind(&self) -> &'static str {
         match self {

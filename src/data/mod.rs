@@ -4,6 +4,7 @@
 
 pub mod audit;
 pub mod conditions;
+pub mod cuts;
 pub mod log;
 mod log_error;
 pub mod metadata;
@@ -13,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::design::{Cmp, DataSpec, InclusionRule, Slots};
+use crate::design::{Cmp, CutPolicy, DataSpec, GapPolicy, InclusionRule, Slots};
 pub use audit::{audit, audit_and_hash_rows, audit_and_load, Audit, AuditError, FileRow, Status};
 pub use log::{LogError, NANOBENCH_COLUMNS};
 pub use metadata::{parse_name, Controller, Metadata, NameParts};
@@ -60,6 +61,9 @@ pub struct Recording {
     /// checked on (active rows before any extrapolated tail), before any
     /// renormalisation; `None` without a logged quaternion.
     pub quaternion_deviation: Option<f64>,
+    /// The rows a declared `missing values` or `gaps` policy cuts, in row
+    /// order (see [`cuts`]); under `segment` each is inactive.
+    pub cuts: Vec<cuts::Cut>,
 }
 
 /// The rows after a log's onboard streams end: the upstream merge
@@ -132,6 +136,7 @@ impl Recording {
             tail: None,
             rows_cut: 0,
             quaternion_deviation: None,
+            cuts: Vec::new(),
         }
     }
 
@@ -193,6 +198,12 @@ pub struct Layout {
     extrapolated: Vec<usize>,
     /// Whether each row is hashed ([`Recording::row_hashes`]).
     row_hashes: bool,
+    /// The columns read, in order (as a cut names them).
+    names: Vec<String>,
+    /// `missing values P`.
+    missing: Option<CutPolicy>,
+    /// `gaps over T s P`.
+    gaps: Option<GapPolicy>,
 }
 
 impl Layout {
@@ -221,7 +232,7 @@ impl Layout {
         let schema = if format.nanobench_header {
             log::Schema::Nanobench(log::column_indices(&names).map_err(|e| format!("data declaration: {e}"))?)
         } else {
-            log::Schema::Named { columns: names, time: format.time.clone() }
+            log::Schema::Named { columns: names.clone(), time: format.time.clone() }
         };
         Ok(Layout {
             schema,
@@ -241,6 +252,9 @@ impl Layout {
             fill_zeros: format.fill_zeros.clone(),
             extrapolated,
             row_hashes: false,
+            names,
+            missing: spec.missing_values,
+            gaps: spec.gaps,
         })
     }
 
@@ -259,20 +273,28 @@ const UNIT_TOLERANCE: f64 = 0.01;
 pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogError> {
     let bytes = log::read_bytes(path)?;
     let file = path.display().to_string();
-    let parsed = if layout.row_hashes {
-        log::parse_with_row_hashes(&file, &bytes, &layout.schema)?
-    } else {
-        log::parse(&file, &bytes, &layout.schema)?
+    let options = log::Options {
+        hash_rows: layout.row_hashes,
+        missing_as_nan: layout.missing.is_some_and(|p| p != CutPolicy::Refuse),
     };
+    let mut parsed = log::parse_with(&file, &bytes, &layout.schema, options)?;
+    let mut cut = cuts::missing_rows(&parsed.columns, &layout.names, |k| parsed.line_of(k));
+    if !cut.is_empty() {
+        cuts::fill_missing(&mut parsed.columns);
+    }
     let cols = &parsed.columns;
     let rows = parsed.rows;
     let t = match &layout.time {
         Some((name, k)) => {
-            check_rate(&file, &parsed, &cols[*k], name, layout.rate_hz)?;
+            check_rate(&file, &parsed, &cols[*k], name, layout.rate_hz, layout.gaps)?;
             cols[*k].clone()
         }
         None => (0..rows).map(|k| k as f64 / layout.rate_hz).collect(),
     };
+    if let Some(policy) = layout.gaps.filter(|g| g.policy != CutPolicy::Refuse) {
+        cut.extend(cuts::gap_rows(&t, policy, |k| parsed.line_of(k)));
+        cut.sort_by_key(|c| c.row);
+    }
     let mut state = vec![vec![0.0; layout.state.len()]; rows];
     for (slot, col) in layout.state.iter().enumerate() {
         let Some(col) = col else { continue };
@@ -313,8 +335,17 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
             a[k] = (*v / layout.action_scale).clamp(0.0, 1.0);
         }
     }
-    let active: Vec<bool> =
+    let mut active: Vec<bool> =
         cols[layout.active].iter().map(|v| layout.active_cmp.holds(*v, layout.active_threshold)).collect();
+    for c in &cut {
+        let policy = match c.why {
+            cuts::CutReason::Missing { .. } => layout.missing,
+            cuts::CutReason::Gap { .. } => layout.gaps.map(|g| g.policy),
+        };
+        if policy == Some(CutPolicy::Segment) {
+            active[c.row] = false;
+        }
+    }
     let tail = if layout.extrapolated.is_empty() {
         None
     } else {
@@ -366,6 +397,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         tail,
         rows_cut: 0,
         quaternion_deviation,
+        cuts: cut,
     })
 }
 
@@ -398,9 +430,17 @@ pub fn euler_zyx(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
 pub const MAX_GAP_STEPS: f64 = 10.0;
 
 /// The median step of the time column must agree with 1 / rate to 2%, and
-/// no step may be longer than [`MAX_GAP_STEPS`] samples;
-/// the error names the first step that does not.
-fn check_rate(file: &str, log: &log::Log, t: &[f64], column: &str, rate_hz: f64) -> Result<(), LogError> {
+/// no step may be longer than [`MAX_GAP_STEPS`] samples (or, with a
+/// declared `gaps` policy, only under `refuse` may none be longer than its
+/// length); the error names the first step that does not.
+fn check_rate(
+    file: &str,
+    log: &log::Log,
+    t: &[f64],
+    column: &str,
+    rate_hz: f64,
+    gaps: Option<GapPolicy>,
+) -> Result<(), LogError> {
     if t.len() < 2 {
         return Ok(());
     }
@@ -417,13 +457,19 @@ fn check_rate(file: &str, log: &log::Log, t: &[f64], column: &str, rate_hz: f64)
     if !off(median) {
         // The rate holds, but a window across a gap would join two stretches
         // of flight as one step: refused at the step's line.
-        if let Some(k) = t.windows(2).position(|w| w[1] - w[0] > MAX_GAP_STEPS * expected) {
+        let (longest, limit) = match gaps {
+            None => (MAX_GAP_STEPS * expected, format!("the {MAX_GAP_STEPS} samples a log may miss in a row")),
+            Some(g) if g.policy == CutPolicy::Refuse => (g.over_s, format!("the declared `gaps over {} s`", g.over_s)),
+            Some(_) => return Ok(()),
+        };
+        if let Some(k) = t.windows(2).position(|w| w[1] - w[0] > longest) {
             return Err(LogError::Gap {
                 file: file.to_string(),
                 line: log.line_of(k + 1),
                 column: column.to_string(),
                 gap_s: t[k + 1] - t[k],
                 rate_hz,
+                limit,
             });
         }
         return Ok(());

@@ -211,8 +211,23 @@ pub enum DataItem {
     Controller(Ident),
     /// `folders nested`.
     FoldersNested,
-    ConditionsTable(Spanned<String>),
+    /// `conditions table "FILE"`, with `columns ROLE = COLUMN, ...` as written.
+    ConditionsTable {
+        file: Spanned<String>,
+        columns: Vec<(Ident, Ident)>,
+    },
     ConditionsName(Spanned<String>),
+    /// `conditions folder trajectory|speed`.
+    ConditionsFolder(Ident),
+    /// `missing values refuse|exclude|segment`.
+    MissingValues(Ident),
+    /// `gaps over T s refuse|exclude|segment`.
+    Gaps {
+        over: Number,
+        policy: Ident,
+    },
+    /// `require at least N recordings`.
+    RequireKept(Int),
     SimRecordings(Int),
     SimSeed(Int),
     SimStrength(Number),

@@ -2,6 +2,7 @@
 //! recordings count, the column conventions and the simulator's settings.
 
 use super::*;
+use std::collections::BTreeMap;
 
 /// A recording name written in the design, with its byte offset there (for
 /// located errors when the data do not hold it).
@@ -56,6 +57,18 @@ pub struct DataSpec {
     /// ([`DataSpec::log_format`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub format: Option<LogFormat>,
+    /// `missing values P`: what a non-finite or empty value in a declared
+    /// column does; `None`: the file is unreadable.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub missing_values: Option<CutPolicy>,
+    /// `gaps over T s P`: what a time gap longer than T does; `None`: a
+    /// step longer than [`crate::data::MAX_GAP_STEPS`] samples makes the
+    /// file unreadable.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gaps: Option<GapPolicy>,
+    /// `require at least N recordings`: the fewest the audit may keep.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub require_kept: Option<u64>,
 }
 
 /// How a flight log's columns become a recording: the one reader behind
@@ -119,6 +132,14 @@ pub struct LogFormat {
     /// file name (`conditions name "PATTERN"`; see [`NamePattern`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conditions_name: Option<String>,
+    /// The conditions table's columns under other names
+    /// (`columns recording = run_id, ...`): role to column.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub conditions_columns: BTreeMap<String, String>,
+    /// The condition each recording's first folder gives
+    /// (`conditions folder trajectory|speed`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conditions_folder: Option<Condition>,
 }
 
 impl LogFormat {
@@ -214,6 +235,8 @@ impl DataSpec {
             nested_folders: false,
             conditions_table: None,
             conditions_name: None,
+            conditions_columns: BTreeMap::new(),
+            conditions_folder: None,
         }
     }
 }
@@ -262,6 +285,9 @@ impl DataSpec {
             missing_csv_allowed: false,
             simulated: None,
             format: None,
+            missing_values: None,
+            gaps: None,
+            require_kept: None,
         }
     }
 }
@@ -375,67 +401,6 @@ pub enum DataSource {
     Simulated,
     /// Any CSV logs whose columns the design declares.
     Csv,
-}
-
-/// A rule a recording must pass to be included.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case", tag = "rule")]
-pub enum InclusionRule {
-    /// At least `min_samples` rows with `column cmp threshold`.
-    Active {
-        /// Schema column tested.
-        column: String,
-        /// The comparison.
-        cmp: Cmp,
-        /// The threshold.
-        threshold: f64,
-        /// Minimum number of rows that must meet it.
-        min_samples: u64,
-    },
-    /// The upstream 0.5/99.5 percentile bounds on battery, setpoint z and PWM.
-    Implausible,
-    /// Recordings left out by name (`exclude recordings`).
-    Named {
-        /// The recording names.
-        names: Vec<String>,
-    },
-    /// A position unchanged for `seconds` of active rows while an action
-    /// changes (`exclude frozen position for T s`).
-    Frozen {
-        /// The shortest frozen stretch that excludes, seconds.
-        seconds: f64,
-    },
-    /// An active row beyond a bound (`exclude beyond position L m`,
-    /// `exclude beyond speed L m/s`, `exclude beyond rate L rad/s`).
-    Beyond {
-        /// What is bounded.
-        quantity: Bound,
-        /// The bound, in the quantity's unit.
-        limit: f64,
-    },
-}
-
-/// What an `exclude beyond` rule bounds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Bound {
-    /// Each position component's magnitude, metres.
-    Position,
-    /// The speed, metres per second.
-    Speed,
-    /// The attitude's rate of turn, radians per second.
-    Rate,
-}
-
-impl Bound {
-    /// The keyword and unit as the design writes them.
-    pub fn words(self) -> (&'static str, &'static str) {
-        match self {
-            Bound::Position => ("position", "m"),
-            Bound::Speed => ("speed", "m/s"),
-            Bound::Rate => ("rate", "rad/s"),
-        }
-    }
 }
 
 /// How byte-identical recordings (one identity group) are treated.

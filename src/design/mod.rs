@@ -14,6 +14,7 @@ pub mod multiverse;
 mod name_pattern;
 mod parse;
 pub mod reference;
+mod rules;
 mod validate;
 
 use std::path::Path;
@@ -28,6 +29,7 @@ pub use lock::{LockFile, LockStatus};
 pub use model_spec::*;
 pub use multiverse::{Choice, ChoiceRole, Combine, Multiverse, Specification};
 pub use name_pattern::{NameConditions, NamePattern};
+pub use rules::*;
 
 /// A training seed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]

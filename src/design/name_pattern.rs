@@ -76,6 +76,15 @@ impl NamePattern {
         Ok(NamePattern { pieces })
     }
 
+    /// Whether the pattern gives a recording's trajectory (or speed).
+    pub fn gives(&self, condition: super::Condition) -> bool {
+        let want = match condition {
+            super::Condition::Trajectory => NamePiece::Trajectory,
+            super::Condition::Speed => NamePiece::Speed,
+        };
+        self.pieces.contains(&want)
+    }
+
     /// The conditions of `name` (a file name without `.csv[.gz]`), or
     /// `None` when the pattern does not match it. Each placeholder takes
     /// the shortest part that lets the rest of the pattern match (the

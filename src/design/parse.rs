@@ -508,7 +508,28 @@ fn data_item(p: Pair<Rule>) -> Result<DataItem, Diagnostic> {
         Rule::extrapolated_cols => DataItem::Extrapolated(cols(c.next())),
         Rule::controller_name => DataItem::Controller(ident(c.next())),
         Rule::folders_nested => DataItem::FoldersNested,
-        Rule::conditions_table => DataItem::ConditionsTable(string(c.next())),
+        Rule::conditions_table => {
+            let file = string(c.next());
+            let columns = match c.0.next() {
+                Some(list) => kids(list)
+                    .0
+                    .map(|pair| {
+                        let mut m = kids(pair);
+                        let role = ident(m.next());
+                        (role, col(m.next()))
+                    })
+                    .collect(),
+                None => Vec::new(),
+            };
+            DataItem::ConditionsTable { file, columns }
+        }
+        Rule::conditions_folder => DataItem::ConditionsFolder(ident(c.next())),
+        Rule::missing_values => DataItem::MissingValues(ident(c.next())),
+        Rule::gaps => {
+            let over = number(c.next())?;
+            DataItem::Gaps { over, policy: ident(c.next()) }
+        }
+        Rule::require_kept => DataItem::RequireKept(int(c.next())?),
         Rule::conditions_name => DataItem::ConditionsName(string(c.next())),
         Rule::sim_recordings => DataItem::SimRecordings(int(c.next())?),
         Rule::sim_seed => DataItem::SimSeed(int(c.next())?),

@@ -93,6 +93,7 @@ fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: b
     if write {
         audit.write(&out.join("audit"))?;
     }
+    audit.kept_enough(&design.data, &out.join("audit").join("recordings.csv"))?;
     // A condition the design stratifies, groups or covers by, unknown for
     // every recording (a conditions table whose speed column has another
     // name): every recording would fall in one group, silently.

@@ -614,3 +614,26 @@ case("r5_audit_split_other_layout_without_design",
      "audit split {dir}/split.csv --data {dir}/logs --out {out}",
      {"split.csv": "recording,role\nR1_circle_slow_rep1,train\nR2_circle_slow_rep2,test\n",
       "logs/R1_circle_slow_rep1.csv.gz": ROTOR, "logs/R2_circle_slow_rep2.csv.gz": ROTOR})
+
+# Issue 57: declared policies for missing values and gaps stop the audit at the
+# line and column under `refuse`; an audit that loses most files to unreadable
+# logs stops after writing itself, naming the first reason and the clause.
+def policy(clauses):
+    return MINIMAL.replace('data nanobench { path "recordings" }', 'data nanobench { path "recordings" ' + clauses + ' }')
+
+logs("r5_log_missing_value_refused", {"A1_circle_slow_rep1.csv": with_field(2, "")},
+     design=policy("missing values refuse"))
+def shifted_after(k, seconds):
+    out = []
+    for i, line in enumerate(lines):
+        f = line.split(",")
+        if i > k:
+            f[0] = repr(float(f[0]) + seconds)
+        out.append(",".join(f))
+    return "\n".join(out) + "\n"
+logs("r5_log_gap_refused", {"A1_circle_slow_rep1.csv": shifted_after(40, 2.0)}, design=policy("gaps over 0.5 s refuse"))
+logs("r5_data_audit_most_unreadable",
+     {"A1_circle_slow_rep1.csv": GOOD_LOG, "A2_circle_slow_rep2.csv": with_field(1, "abc"),
+      "A3_circle_slow_rep3.csv": with_field(1, "inf")}, design=MINIMAL)
+logs("r5_data_audit_fewer_than_required", {"A1_circle_slow_rep1.csv": GOOD_LOG},
+     design=policy("require at least 2 recordings"))

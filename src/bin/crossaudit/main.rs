@@ -128,6 +128,7 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
         }
         .into());
     }
+    audit.kept_enough(&file.design.data, &path)?;
     Ok(())
 }
 

@@ -45,6 +45,31 @@ pub enum AuditError {
         /// The file name, escaped.
         name: String,
     },
+    /// The audit kept fewer recordings than the design requires, or, without
+    /// a requirement, lost more than half of the logs to unreadable files
+    /// (it is written all the same, with each file's reason).
+    #[error("{dir}: the audit kept {kept} of {found} log file(s): {why}; each file's reason is in {written}")]
+    TooFew {
+        /// The data directory.
+        dir: String,
+        /// Recordings kept.
+        kept: usize,
+        /// Log files found.
+        found: usize,
+        /// Which requirement failed, and the first unreadable file's reason.
+        why: String,
+        /// Where the audit was written.
+        written: String,
+    },
+    /// A declared `refuse` policy met what it refuses: a missing value or a
+    /// time gap, at its file, line and column.
+    #[error("{policy}: {error}")]
+    Refused {
+        /// The policy, as the design writes it.
+        policy: String,
+        /// The located error.
+        error: String,
+    },
     /// The declared columns are not in the NanoBench schema.
     #[error("{0}")]
     Layout(String),

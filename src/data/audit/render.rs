@@ -91,7 +91,7 @@ impl Audit {
         let count = |st: Status| self.files.iter().filter(|f| f.status == st).count();
         let _ = writeln!(
             s,
-            "{}: {} CSV files, {} included, {} excluded, {} listed in metadata but missing",
+            "{}: {} log files, {} included, {} excluded, {} listed in metadata but missing",
             self.data_dir,
             self.files.len() - count(Status::Missing),
             count(Status::Included),

@@ -116,6 +116,10 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::folders_nested
         | Rule::conditions_table
         | Rule::conditions_name
+        | Rule::conditions_folder
+        | Rule::missing_values
+        | Rule::gaps
+        | Rule::require_kept
         | Rule::tails
         | Rule::speed_labels
         | Rule::universe
@@ -124,7 +128,7 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::sim_seed
         | Rule::sim_strength
         | Rule::sim_duration => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table, conditions name or folders nested for `data csv`; recordings, seed, strength, duration for simulated data)"
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing, gaps, require; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table, conditions name, conditions folder or folders nested for `data csv`; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",

@@ -26,6 +26,10 @@ pub(super) struct CsvParts {
     nested: bool,
     conditions_table: Option<Spanned<String>>,
     conditions_name: Option<Spanned<String>>,
+    /// `columns ROLE = COLUMN, ...` after the conditions table.
+    conditions_columns: BTreeMap<String, String>,
+    /// `conditions folder trajectory|speed`, and where.
+    conditions_folder: Option<(Condition, Span)>,
     /// `action ... scale N`: the scale as written.
     pub(super) scale: Option<Number>,
     /// Every column declared so far, with the clause that declared it.
@@ -121,7 +125,21 @@ impl Validator {
                 csv.nested = true;
                 "folders nested"
             }
-            DataItem::ConditionsTable(t) => {
+            DataItem::ConditionsTable { file: t, columns } => {
+                let mut roles: Vec<Ident> = Vec::new();
+                for (role, column) in columns {
+                    if let Some(first) = roles.iter().find(|r| r.node == role.node) {
+                        let _ = first;
+                        self.err_help(
+                            "table column mapped twice",
+                            role.span,
+                            format!("`{}` is given a column twice", role.node),
+                            "map each of recording, trajectory and speed at most once",
+                        );
+                    }
+                    roles.push(role.clone());
+                    csv.conditions_columns.insert(role.node.clone(), column.node.clone());
+                }
                 if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
                     self.err_help(
                         "conditions table outside the data folder",
@@ -150,6 +168,11 @@ impl Validator {
                 }
                 csv.conditions_name = Some(p.clone());
                 "conditions name"
+            }
+            DataItem::ConditionsFolder(c) => {
+                let condition = if c.node == "speed" { Condition::Speed } else { Condition::Trajectory };
+                csv.conditions_folder = Some((condition, c.span));
+                "conditions folder"
             }
             _ => return None,
         };
@@ -264,6 +287,34 @@ impl Validator {
             Some(t) => Some(t.node),
             None => None,
         };
+        if let (Some((c, span)), false) = (&csv.conditions_folder, csv.nested) {
+            self.err_help(
+                "conditions folder without folders",
+                *span,
+                format!("`conditions folder {}` takes each recording's {} from the folder it sits in, and the data block reads only the data folder itself", c.name(), c.name()),
+                "add `folders nested` to the data block",
+            );
+        }
+        if let Some((c, span)) = &csv.conditions_folder {
+            let by_pattern = csv
+                .conditions_name
+                .as_ref()
+                .and_then(|p| crate::design::NamePattern::parse(&p.node).ok())
+                .is_some_and(|p| p.gives(*c));
+            let by_table = csv.conditions_columns.contains_key(c.name());
+            if by_pattern || by_table {
+                self.err_help(
+                    "condition given twice",
+                    *span,
+                    format!(
+                        "the {} comes from the folder here and from the {} too",
+                        c.name(),
+                        if by_pattern { "file-name pattern" } else { "conditions table" }
+                    ),
+                    format!("take the {} from one of them", c.name()),
+                );
+            }
+        }
         let position = position?;
         let attitude = csv.attitude.is_some();
         if attitude && quaternion.is_none() && euler.is_none() {
@@ -319,6 +370,8 @@ impl Validator {
             nested_folders: csv.nested,
             conditions_table: csv.conditions_table.as_ref().map(|t| t.node.clone()),
             conditions_name: csv.conditions_name.as_ref().map(|t| t.node.clone()),
+            conditions_columns: std::mem::take(&mut csv.conditions_columns),
+            conditions_folder: csv.conditions_folder.map(|(c, _)| c),
         })
     }
 

@@ -29,6 +29,25 @@ impl Validator {
                 self.data_item(item, source == Some(DataSource::Csv), &mut seen, &mut spec, &mut sim);
             }
         }
+        // A gap shorter than two steps at the declared rate would cut the
+        // recording at every row.
+        for item in &block.items {
+            if let (DataItem::Gaps { over, .. }, Some(g)) = (&item.node, spec.gaps) {
+                if spec.rate_hz > 0.0 && g.over_s * spec.rate_hz < 1.5 {
+                    self.err_help(
+                        "gap shorter than a step",
+                        over.span,
+                        format!(
+                            "`gaps over {} s` is shorter than 1.5 steps at {} Hz ({} s), so every step would be a gap",
+                            over.node,
+                            spec.rate_hz,
+                            1.5 / spec.rate_hz
+                        ),
+                        "give the longest step that is not a gap, e.g. `gaps over 0.1 s segment` at 100 Hz",
+                    );
+                }
+            }
+        }
         if source == Some(DataSource::Csv) {
             spec.format = self.csv_format(block, &seen, &mut csv, &mut spec);
             // Upstream's percentile rules read NanoBench's battery and
@@ -261,8 +280,22 @@ impl Validator {
             | DataItem::Extrapolated(_)
             | DataItem::Controller(_)
             | DataItem::FoldersNested
-            | DataItem::ConditionsTable(_)
-            | DataItem::ConditionsName(_) => {}
+            | DataItem::ConditionsTable { .. }
+            | DataItem::ConditionsName(_)
+            | DataItem::ConditionsFolder(_) => {}
+            DataItem::MissingValues(p) => {
+                self.once(seen, "missing values", item.span);
+                spec.missing_values = Some(cut_policy(p));
+            }
+            DataItem::Gaps { over, policy } => {
+                self.once(seen, "gaps", item.span);
+                let over_s = self.positive(over, "the longest step");
+                spec.gaps = Some(GapPolicy { over_s, policy: cut_policy(policy) });
+            }
+            DataItem::RequireKept(n) => {
+                self.once(seen, "require", item.span);
+                spec.require_kept = Some(self.count(n, "the fewest recordings kept", 1, u64::MAX) as u64);
+            }
             DataItem::SimRecordings(n) => {
                 self.once(seen, "recordings", item.span);
                 let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
@@ -335,6 +368,15 @@ impl Validator {
         }
         self.no_duplicate_names(cols, "column");
         cols.iter().map(|c| c.node.clone()).collect()
+    }
+}
+
+/// `refuse`, `exclude` or `segment`, as the grammar allows.
+fn cut_policy(p: &Ident) -> CutPolicy {
+    match p.node.as_str() {
+        "exclude" => CutPolicy::Exclude,
+        "segment" => CutPolicy::Segment,
+        _ => CutPolicy::Refuse,
     }
 }
 
