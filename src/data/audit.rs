@@ -21,7 +21,6 @@ use super::{load_recording, natural_key, recording_name, Layout, Recording};
 use crate::design::{
     DataSource, DataSpec, DuplicatePolicy, InclusionRule, Pooling, SpeedLabels, Strictness, TailPolicy,
 };
-use crate::stats::quantile_type7;
 
 /// Upstream NanoBench plausibility bounds over active rows, each checked at
 /// the 0.5th and 99.5th percentiles.
@@ -442,7 +441,7 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
                 let n = rec.active_rows() as u64;
                 (n >= *min_samples, format!("{n} active rows"))
             }
-            InclusionRule::Implausible => plausible(spec, rec),
+            InclusionRule::Implausible => bounds::plausible(spec, rec),
             InclusionRule::Named { names } => match names.contains(&rec.name) {
                 true => (false, "listed by name in the design".to_string()),
                 false => (true, "not listed".to_string()),
@@ -487,48 +486,6 @@ fn judged(spec: &DataSpec, rec: &Recording, meta: Result<Metadata, String>) -> F
             if row.reason.is_empty() { format!("note: {note}") } else { format!("{}; note: {note}", row.reason) };
     }
     row
-}
-
-/// The upstream rules: over active rows, the 0.5th and 99.5th percentiles
-/// (linear interpolation, numpy's default) of battery voltage, setpoint z
-/// and each motor's PWM must lie inside fixed bounds.
-fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
-    let active: Vec<usize> = (0..rec.rows).filter(|&k| rec.active[k]).collect();
-    if active.is_empty() {
-        return (false, "no active rows".into());
-    }
-    let col = |name: &str| spec.state_columns.iter().position(|c| c == name).expect("checked before loading");
-    let (vbat, spz) = (col("pwr_pm_vbat"), col("sp_ctrltarget_z"));
-    let mut checks: Vec<(String, Vec<f64>, (f64, f64))> = vec![
-        ("battery".into(), active.iter().map(|&k| rec.state[k][vbat]).collect(), BATTERY_BOUNDS_V),
-        ("setpoint z".into(), active.iter().map(|&k| rec.state[k][spz]).collect(), SETPOINT_Z_BOUNDS_M),
-    ];
-    match spec.plausibility {
-        // Upstream: np.nanpercentile over the N x 4 array, all motors together.
-        Pooling::Pooled => checks.push((
-            "PWM (4 motors pooled)".into(),
-            active.iter().flat_map(|&k| rec.pwm[k].iter().copied()).collect(),
-            PWM_BOUNDS,
-        )),
-        Pooling::PerColumn => {
-            for m in 0..4 {
-                checks.push((format!("PWM m{}", m + 1), active.iter().map(|&k| rec.pwm[k][m]).collect(), PWM_BOUNDS));
-            }
-        }
-    }
-    let mut failures = Vec::new();
-    for (what, mut v, (lo, hi)) in checks {
-        v.sort_by(f64::total_cmp);
-        let (p_lo, p_hi) = (quantile_type7(&v, PERCENTILES.0), quantile_type7(&v, PERCENTILES.1));
-        if p_lo < lo || p_hi > hi {
-            failures.push(format!("{what} p0.5..p99.5 = [{p_lo:.3}, {p_hi:.3}] outside [{lo}, {hi}]"));
-        }
-    }
-    if failures.is_empty() {
-        (true, "within bounds".into())
-    } else {
-        (false, failures.join("; "))
-    }
 }
 
 /// Groups identical content and applies the policy. Groups are named

@@ -1,9 +1,12 @@
-//! Plausibility rules any layout can declare: a frozen position (a lost
-//! or crashed vehicle) and bounds on position and speed, each judged over
-//! the active rows with what it measured in words.
+//! Plausibility rules: those any layout can declare (a frozen position, a
+//! lost or crashed vehicle, and bounds on position, speed and rate) and
+//! NanoBench's own percentile rule, each judged over the active rows with
+//! what it measured in words.
 
 use super::super::Recording;
-use crate::design::Bound;
+use super::{BATTERY_BOUNDS_V, PERCENTILES, PWM_BOUNDS, SETPOINT_Z_BOUNDS_M};
+use crate::design::{Bound, DataSpec, Pooling};
+use crate::stats::quantile_type7;
 
 /// `exclude frozen position for T s`: fails when the position stays
 /// exactly the same over `seconds` or more of consecutive active rows
@@ -80,5 +83,47 @@ pub(super) fn beyond(rec: &Recording, quantity: Bound, limit: f64) -> (bool, Str
             (v <= limit, format!("largest {what} {v:.3} {unit} at row {} (t = {at:.2} s)", k + 1))
         }
         None => (true, format!("no active rows to measure the {what} on")),
+    }
+}
+
+/// The upstream rules: over active rows, the 0.5th and 99.5th percentiles
+/// (linear interpolation, numpy's default) of battery voltage, setpoint z
+/// and each motor's PWM must lie inside fixed bounds.
+pub(super) fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
+    let active: Vec<usize> = (0..rec.rows).filter(|&k| rec.active[k]).collect();
+    if active.is_empty() {
+        return (false, "no active rows".into());
+    }
+    let col = |name: &str| spec.state_columns.iter().position(|c| c == name).expect("checked before loading");
+    let (vbat, spz) = (col("pwr_pm_vbat"), col("sp_ctrltarget_z"));
+    let mut checks: Vec<(String, Vec<f64>, (f64, f64))> = vec![
+        ("battery".into(), active.iter().map(|&k| rec.state[k][vbat]).collect(), BATTERY_BOUNDS_V),
+        ("setpoint z".into(), active.iter().map(|&k| rec.state[k][spz]).collect(), SETPOINT_Z_BOUNDS_M),
+    ];
+    match spec.plausibility {
+        // Upstream: np.nanpercentile over the N x 4 array, all motors together.
+        Pooling::Pooled => checks.push((
+            "PWM (4 motors pooled)".into(),
+            active.iter().flat_map(|&k| rec.pwm[k].iter().copied()).collect(),
+            PWM_BOUNDS,
+        )),
+        Pooling::PerColumn => {
+            for m in 0..4 {
+                checks.push((format!("PWM m{}", m + 1), active.iter().map(|&k| rec.pwm[k][m]).collect(), PWM_BOUNDS));
+            }
+        }
+    }
+    let mut failures = Vec::new();
+    for (what, mut v, (lo, hi)) in checks {
+        v.sort_by(f64::total_cmp);
+        let (p_lo, p_hi) = (quantile_type7(&v, PERCENTILES.0), quantile_type7(&v, PERCENTILES.1));
+        if p_lo < lo || p_hi > hi {
+            failures.push(format!("{what} p0.5..p99.5 = [{p_lo:.3}, {p_hi:.3}] outside [{lo}, {hi}]"));
+        }
+    }
+    if failures.is_empty() {
+        (true, "within bounds".into())
+    } else {
+        (false, failures.join("; "))
     }
 }
