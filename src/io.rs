@@ -90,20 +90,6 @@ pub fn opt_f64_text<S: serde::Serializer>(value: &Option<f64>, s: S) -> Result<S
     }
 }
 
-/// Degrees of freedom in JSON: a number when finite, `"infinite"` for the
-/// normal quantile (z) and `"undefined"` where no df applies (a bootstrap
-/// interval), which plain JSON numbers cannot tell apart (both would be
-/// `null`).
-pub fn df_json<S: serde::Serializer>(value: &f64, s: S) -> Result<S::Ok, S::Error> {
-    if value.is_finite() {
-        s.serialize_f64(*value)
-    } else if value.is_infinite() {
-        s.serialize_str("infinite")
-    } else {
-        s.serialize_str("undefined")
-    }
-}
-
 /// The most bytes read from a design, a lock, a metadata file or a
 /// coverage spec: far above any real one (the paper's design is 3 KB).
 pub const MAX_SMALL_TEXT: u64 = 4 << 20;

@@ -18,7 +18,7 @@ pub mod run;
 pub mod sim;
 pub mod split;
 pub mod split_audit;
-pub mod stats;
+pub use crossaudit_stats as stats;
 
 use std::path::Path;
 

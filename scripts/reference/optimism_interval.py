@@ -1,5 +1,5 @@
 """Outside reference for crossaudit's interval of the optimism
-rho = (mean_R - mean_T) / mean_R (src/stats/ratio.rs).
+rho = (mean_R - mean_T) / mean_R (crates/stats/src/ratio.rs).
 
 Written from the definitions, sharing no code with crossaudit:
 

@@ -7,6 +7,7 @@ pub mod coverage_tidy;
 pub mod coverage_zip;
 pub mod draw_coverage;
 pub mod draw_power;
+pub mod formula_file;
 pub mod power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};

@@ -143,7 +143,7 @@ pub(crate) fn mixed(
     }
     let criterion = if ml { Criterion::Ml } else { Criterion::Reml };
     let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
-    let fit = crossaudit::stats::mixed::formula::fit_file(data, formula, criterion, df, profile)?;
+    let fit = crossaudit::methods::formula_file::fit_file(data, formula, criterion, df, profile)?;
     if json {
         out!("{}", crossaudit::io::pretty_json(&fit));
     } else {
@@ -162,7 +162,7 @@ pub(crate) fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool)
             "standard output is closed, so the test would be written nowhere; redirect it to a file (`> test.txt`)",
         )));
     }
-    let comparison = crossaudit::stats::mixed::formula::compare_file(data, formula, other)?;
+    let comparison = crossaudit::methods::formula_file::compare_file(data, formula, other)?;
     if json {
         out!("{}", crossaudit::io::pretty_json(&comparison));
     } else {

@@ -1,7 +1,12 @@
 //! Crossed-design statistics, usable on their own: a balanced I x J array of
 //! differences d_ij (rows = recordings, columns = seeds) and estimators for
-//! its grand mean. Constructors validate and return [`StatsError`]; nothing
-//! here panics on user data.
+//! its grand mean, resampling, REML and `mixed` formulas checked against
+//! lme4, and the coverage measures. Constructors validate and return
+//! [`StatsError`]; nothing here panics on user data.
+//!
+//! This is the `crossaudit-stats` crate: it depends on no training,
+//! plotting or parsing crate, reads no file, and `crossaudit` re-exports
+//! it as `crossaudit::stats`. `docs/library.md` walks through it.
 
 mod bootstrap;
 pub mod coverage;
@@ -27,6 +32,20 @@ pub use matrix::CrossedMatrix;
 pub use mean_profile::profile_interval;
 pub use ratio::{ratio_interval, FiellerSet, RatioInterval};
 pub use rng::standard_normal;
+
+/// Degrees of freedom in JSON: a number when finite, `"infinite"` for the
+/// normal quantile (z) and `"undefined"` where no df applies (a bootstrap
+/// interval), which plain JSON numbers cannot tell apart (both would be
+/// `null`). For `#[serde(serialize_with = "crossaudit_stats::df_json")]`.
+pub fn df_json<S: serde::Serializer>(value: &f64, s: S) -> Result<S::Ok, S::Error> {
+    if value.is_finite() {
+        s.serialize_f64(*value)
+    } else if value.is_infinite() {
+        s.serialize_str("infinite")
+    } else {
+        s.serialize_str("undefined")
+    }
+}
 
 /// Errors from the statistics on user data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

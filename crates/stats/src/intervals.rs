@@ -110,7 +110,7 @@ pub struct IntervalEstimate {
     /// Infinite for the normal; NaN where no df applies (bootstrap) or the
     /// method is undefined on the array (every field NaN). JSON:
     /// a number, `"infinite"` or `"undefined"`.
-    #[serde(serialize_with = "crate::io::df_json")]
+    #[serde(serialize_with = "crate::df_json")]
     pub df: f64,
     /// Lower bound.
     pub lower: f64,

@@ -2,7 +2,7 @@
 //! level, scored as rsimsum scores them.
 
 use super::{performance_at, shifted, usable, Estimate, Performance, Simulated};
-use crate::stats::IntervalMethod;
+use crate::IntervalMethod;
 
 /// The performance of every estimator at every true mean and level
 /// (means outer, then levels, then estimators), with the relative
@@ -15,8 +15,7 @@ pub fn measures(sim: &Simulated, means: &[f64]) -> Vec<Performance> {
             let theta =
                 |k: usize| -> Vec<Option<f64>> { reps[k].iter().map(|(e, _, _)| usable(e).then_some(e.0)).collect() };
             let reference = theta(0);
-            let empse_ref =
-                crate::stats::sample_variance(&reference.iter().flatten().copied().collect::<Vec<_>>()).sqrt();
+            let empse_ref = crate::sample_variance(&reference.iter().flatten().copied().collect::<Vec<_>>()).sqrt();
             for (k, &method) in sim.methods.iter().enumerate() {
                 let dfs: Vec<f64> = reps[k].iter().map(|(_, d, _)| *d).collect();
                 let mut p = performance_around(&sim.label, method, &reps[k], &dfs, mu, level);

@@ -30,8 +30,7 @@ mod fit;
 mod table;
 
 pub use fit::{
-    compare_file, compare_table, fit_file, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow,
-    FormulaFit, Likelihood,
+    compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow, FormulaFit, Likelihood,
 };
 pub use table::{build, r_number_label, read_csv, Table};
 

@@ -30,7 +30,7 @@ impl DfRule {
     /// Satterthwaite and Kenward-Roger, whose df depend on the data.
     ///
     /// ```
-    /// use crossaudit::stats::DfRule;
+    /// use crossaudit_stats::DfRule;
     /// assert_eq!(DfRule::SeedsMinusOne.df(26, 20), Some(19.0));
     /// assert_eq!(DfRule::Normal.df(26, 20), Some(f64::INFINITY));
     /// assert_eq!(DfRule::Satterthwaite.df(26, 20), None);
@@ -101,7 +101,7 @@ impl VarianceComponents {
     /// sqrt(sa/I + sb/J + se/(IJ)) (the crossed design's closed form).
     ///
     /// ```
-    /// use crossaudit::stats::VarianceComponents;
+    /// use crossaudit_stats::VarianceComponents;
     /// let c = VarianceComponents { recording: 4.0, seed: 2.0, residual: 8.0 };
     /// assert_eq!(c.se_at(4.0, 2.0), (1.0f64 + 1.0 + 1.0).sqrt());
     /// ```
@@ -123,7 +123,7 @@ pub struct CrossedEstimate {
     pub se: f64,
     /// Degrees of freedom of the quantile; infinite for the normal (JSON:
     /// a number or `"infinite"`).
-    #[serde(serialize_with = "crate::io::df_json")]
+    #[serde(serialize_with = "crate::df_json")]
     pub df: f64,
     /// Confidence level.
     pub level: f64,
@@ -166,10 +166,10 @@ pub struct RemlSummary {
     /// adjustment.
     pub se_model: f64,
     /// lmerTest's Satterthwaite df.
-    #[serde(serialize_with = "crate::io::df_json")]
+    #[serde(serialize_with = "crate::df_json")]
     pub df_satterthwaite: f64,
     /// Kenward-Roger df.
-    #[serde(serialize_with = "crate::io::df_json")]
+    #[serde(serialize_with = "crate::df_json")]
     pub df_kenward_roger: f64,
     /// The Kenward-Roger adjusted SE.
     pub se_kenward_roger: f64,

@@ -11,7 +11,7 @@ use rand::Rng;
 /// use rand::SeedableRng;
 /// let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
 /// let n = 20_000;
-/// let mean = (0..n).map(|_| crossaudit::stats::standard_normal(&mut rng)).sum::<f64>() / n as f64;
+/// let mean = (0..n).map(|_| crossaudit_stats::standard_normal(&mut rng)).sum::<f64>() / n as f64;
 /// assert!(mean.abs() < 4.0 / (n as f64).sqrt()); // 4 standard errors
 /// ```
 pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {

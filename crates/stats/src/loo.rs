@@ -41,7 +41,7 @@ pub enum Axis {
 /// (column) k, to rounding. Needs at least 3 of what is deleted.
 ///
 /// ```
-/// use crossaudit::stats::{crossed_mom, leave_one_out_mom, Axis, CrossedMatrix, DfRule};
+/// use crossaudit_stats::{crossed_mom, leave_one_out_mom, Axis, CrossedMatrix, DfRule};
 /// let m = CrossedMatrix::from_rows(&[vec![1.0, 2.0, 4.0], vec![2.0, 5.0, 3.0], vec![0.5, 1.0, 3.5]]).unwrap();
 /// let fits = leave_one_out_mom(&m, Axis::Rows, 0.95, DfRule::Satterthwaite).unwrap();
 /// let refit = crossed_mom(
@@ -143,7 +143,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::stats::crossed_mom;
+    use crate::crossed_mom;
 
     /// `m` without row (or column) k, refitted from scratch on the array
     /// less `offset` (exact in floating point for these values, by

@@ -126,7 +126,7 @@ pub fn profile_intervals(
     let sigma = fit.residual.sqrt();
     let sds: Vec<f64> = fit.variances.iter().map(|v| v.sqrt()).chain([sigma]).collect();
     let d_min = deviance(&s, &fit.theta, sigma, criterion);
-    let z = crate::stats::critical_value(level, f64::INFINITY).map_err(|_| MixedError::Level(level))?;
+    let z = crate::critical_value(level, f64::INFINITY).map_err(|_| MixedError::Level(level))?;
     let cutoff = z * z;
     let scale = sds.iter().copied().fold(0.0, f64::max).max(f64::MIN_POSITIVE);
     let names: Vec<String> = fit.factors.iter().cloned().chain(["Residual".to_string()]).collect();

@@ -36,7 +36,7 @@
 //! special: the data are rows, not a matrix.
 //!
 //! ```
-//! use crossaudit::stats::mixed::{fit, Criterion, MixedData};
+//! use crossaudit_stats::mixed::{fit, Criterion, MixedData};
 //! // Two crossed factors, balanced 3 x 2, one observation per cell.
 //! let y = vec![1.0, 2.0, 2.5, 3.0, 4.0, 6.5];
 //! let rows = vec![0, 0, 1, 1, 2, 2];
@@ -214,17 +214,13 @@ impl MixedFit {
         &self,
         kenward_roger: bool,
         level: f64,
-    ) -> Result<(f64, f64, &'static str, f64, f64), crate::stats::StatsError> {
+    ) -> Result<(f64, f64, &'static str, f64, f64), crate::StatsError> {
         let (se, df, rule) = match (kenward_roger, self.kenward_roger, self.df_satterthwaite) {
             (true, Some(kr), _) if kr.df.is_finite() => (kr.se, kr.df, "kenward_roger"),
             (_, _, Some(df)) if df.is_finite() => (self.se, df, "satterthwaite"),
-            _ => {
-                return Err(crate::stats::StatsError::Invalid(
-                    "the Satterthwaite df are undefined at this fit".to_string(),
-                ))
-            }
+            _ => return Err(crate::StatsError::Invalid("the Satterthwaite df are undefined at this fit".to_string())),
         };
-        let q = crate::stats::critical_value(level, df)?;
+        let q = crate::critical_value(level, df)?;
         Ok((se, df, rule, self.intercept - q * se, self.intercept + q * se))
     }
 }

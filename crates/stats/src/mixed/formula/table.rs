@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 
 use super::{Formula, FormulaError, Variable};
-use crate::stats::mixed::{MixedData, MixedError};
+use crate::mixed::{MixedData, MixedError};
 
 /// A table of text columns, as read from a CSV file.
 #[derive(Debug, Clone, PartialEq)]
@@ -174,12 +174,12 @@ fn coded(table: &Table, v: &Variable, contrasts: bool) -> Result<Vec<(String, Ve
                     levels
                 }
             };
-            if levels.len() > crate::stats::mixed::MAX_DENSE {
+            if levels.len() > crate::mixed::MAX_DENSE {
                 return Err(MixedError::TooLarge(format!(
                     "the categorical variable {} has {} levels, over the limit of {} fixed-effect columns",
                     v.name,
                     levels.len(),
-                    crate::stats::mixed::MAX_DENSE
+                    crate::mixed::MAX_DENSE
                 ))
                 .into());
             }
@@ -263,14 +263,12 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
         let mut acc: Vec<(String, Vec<f64>)> = vec![(String::new(), vec![1.0; y.len()])];
         for part in &parts {
             let width = columns.len() + acc.len() * part.len();
-            if width > crate::stats::mixed::MAX_DENSE
-                || width.saturating_mul(y.len()) > crate::stats::mixed::MAX_DESIGN_VALUES
-            {
+            if width > crate::mixed::MAX_DENSE || width.saturating_mul(y.len()) > crate::mixed::MAX_DESIGN_VALUES {
                 return Err(MixedError::TooLarge(format!(
                     "the fixed effects would have {width} columns for {} observations, over the limits of {} columns and {} values",
                     y.len(),
-                    crate::stats::mixed::MAX_DENSE,
-                    crate::stats::mixed::MAX_DESIGN_VALUES
+                    crate::mixed::MAX_DENSE,
+                    crate::mixed::MAX_DESIGN_VALUES
                 ))
                 .into());
             }

@@ -1,8 +1,8 @@
 //! A formula fitted to a file or table, and lme4's and lmerTest's
 //! summary of it: what `crossaudit mixed` prints.
 
-use super::{build, parse, read_csv, FormulaError, Table};
-use crate::stats::mixed::{self, MixedError};
+use super::{build, parse, FormulaError, Table};
+use crate::mixed::{self, MixedError};
 
 /// Which small-sample df the summary's t tests use (REML fits).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -254,7 +254,7 @@ pub fn fit_table(
                 },
             };
             let t = f.estimate / se;
-            let p = dof.filter(|d| *d > 0.0).map(|d| crate::stats::t_two_sided_p(t, d)).filter(|p| !p.is_nan());
+            let p = dof.filter(|d| *d > 0.0).map(|d| crate::t_two_sided_p(t, d)).filter(|p| !p.is_nan());
             let df_fallback = match (reml, df) {
                 (false, _) => false,
                 (true, DfMethod::Satterthwaite) => f.satterthwaite_fallback,
@@ -382,23 +382,6 @@ impl FormulaFit {
     }
 }
 
-/// Reads the tidy CSV at `path` and compares two formulas on it by a
-/// likelihood-ratio test (see [`compare_table`]).
-pub fn compare_file(path: &std::path::Path, formula: &str, other: &str) -> Result<Comparison, FileError> {
-    let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
-    let table = read_file(path).map_err(fail)?;
-    compare_table(formula, other, &table).map_err(fail)
-}
-
-/// The tidy CSV at `path`, read under the rules of every input.
-fn read_file(path: &std::path::Path) -> Result<Table, FormulaError> {
-    let bytes = crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a data file")
-        .map_err(|e| FormulaError::Read(e.to_string()))?;
-    let text = String::from_utf8(bytes)
-        .map_err(|e| FormulaError::Read(format!("not UTF-8 text (byte {} is not)", e.utf8_error().valid_up_to())))?;
-    read_csv(&text)
-}
-
 /// A formula fit that failed, with the data file it was on.
 #[derive(Debug, thiserror::Error)]
 #[error("{file}: {error}")]
@@ -407,22 +390,6 @@ pub struct FileError {
     pub file: String,
     /// What went wrong.
     pub error: FormulaError,
-}
-
-/// Reads the tidy CSV at `path` and fits `formula` to it (see
-/// [`fit_table`]). A path that is not a regular file (a folder, a FIFO, a
-/// device) or is over 1 GiB is refused before it is read
-/// ([`crate::io::read_input`]).
-pub fn fit_file(
-    path: &std::path::Path,
-    formula: &str,
-    criterion: mixed::Criterion,
-    df: DfMethod,
-    profile: Option<f64>,
-) -> Result<FormulaFit, FileError> {
-    let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
-    let table = read_file(path).map_err(fail)?;
-    fit_table(formula, &table, criterion, df, profile).map_err(fail)
 }
 
 /// A p-value as R's `printCoefmat` prints it (`format.pval` with 3

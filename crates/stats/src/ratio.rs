@@ -73,7 +73,7 @@ pub struct RatioInterval {
     /// The delta method's SE of rho_hat.
     pub delta_se: f64,
     /// The delta method's df (those of L(rho_hat)).
-    #[serde(serialize_with = "crate::io::df_json")]
+    #[serde(serialize_with = "crate::df_json")]
     pub delta_df: f64,
     /// Lower delta-method bound.
     pub delta_lower: f64,
@@ -114,7 +114,7 @@ fn excess(e: &CrossedEstimate) -> f64 {
 /// bounded; `point` is rho_hat.
 ///
 /// ```
-/// use crossaudit::stats::{crossed_mom, ratio_interval, CrossedMatrix, DfRule};
+/// use crossaudit_stats::{crossed_mom, ratio_interval, CrossedMatrix, DfRule};
 /// // 3 recordings x 2 seeds: T is R shrunk by a third plus noise.
 /// let r = [3.0, 3.2, 2.9, 3.4, 3.1, 2.8];
 /// let t = [2.1, 2.0, 2.0, 2.3, 2.1, 1.9];
@@ -199,7 +199,7 @@ fn root(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::{crossed_mom, CrossedMatrix, DfRule};
+    use crate::{crossed_mom, CrossedMatrix, DfRule};
 
     /// Fieller's closed form on an array whose moment components stay
     /// positive: Var(L(rho)) is the quadratic a + 2 b rho + c rho^2 of the
