@@ -100,11 +100,8 @@ fn per_seed_draws_are_refused_where_they_cannot_apply() {
     let with_draws = write(tmp.path(), "d.design", &small("draws per seed\nfactor draw = 1..2\n"));
     let o = crossaudit(&["check", &with_draws]);
     assert!(!o.status.success() && said(&o).contains("per-seed draws and a draw factor"), "{}", said(&o));
+    // Per-seed draws run on Slurm (tests/slurm.rs); `train` of one job is refused.
     let per_seed = write(tmp.path(), "p.design", &small("draws per seed\n"));
-    let out = tmp.path().join("slurm");
-    let o = crossaudit(&["run", &per_seed, "--slurm", "--out", out.to_str().unwrap()]);
-    assert!(!o.status.success() && said(&o).contains("not supported on Slurm yet"), "{}", said(&o));
-    assert!(!out.exists(), "nothing is written");
     let o = crossaudit(&[
         "train",
         &per_seed,

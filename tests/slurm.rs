@@ -657,3 +657,72 @@ fn a_task_cancelled_mid_job_is_named_and_a_resubmission_gives_the_same_bytes() {
     local_run(&cwd, &design, &local);
     assert_same_run(&local, &dir);
 }
+
+/// The small simulated study with per-seed draws: three seeds, each its
+/// own level (`draw-1` to `draw-3`), 12 jobs.
+fn per_seed_design(dir: &Path) -> PathBuf {
+    let base = std::fs::read_to_string(root().join(DESIGN)).unwrap();
+    let text = base.replace("factor seed = 1..2", "factor seed = 4..6") + "draws per seed\n";
+    let path = dir.join("per_seed.design");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Per-seed draws (the design every report recommends) run as one array
+/// over every level's jobs; the gather step analyses the seeds together,
+/// as a local run does, and both write the same bytes.
+#[test]
+fn a_per_seed_draw_study_runs_as_one_array_and_matches_a_local_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cwd = tmp.path().join("cwd");
+    std::fs::create_dir_all(&cwd).unwrap();
+    let design = per_seed_design(tmp.path());
+    let dir = tmp.path().join("cluster");
+    let (ds, d) = (design.to_str().unwrap(), dir.to_str().unwrap());
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm"], &[]);
+    assert_ok(&o);
+    assert!(text(&o).contains("--array='0-11'") && text(&o).contains("12 of 12 jobs pending"), "{}", text(&o));
+    let array = std::fs::read_to_string(dir.join("slurm/array.json")).unwrap();
+    assert!(array.contains("\"draw-1/world__disjoint__4\"") && array.contains("\"draw-3/relative__contaminated__6\""));
+    for i in 0..12 {
+        let o = sh_task(&cwd, &dir, i);
+        assert_ok(&o);
+        assert!(text(&o).contains("finished in") && text(&o).contains("wrote draw-"), "{}", text(&o));
+    }
+    let o = Command::new("sh").current_dir(&cwd).arg(dir.join("slurm/gather.sbatch")).output().unwrap();
+    assert_ok(&o);
+    let report = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+    assert!(report.contains("draws per seed: each seed trained and was evaluated on its own draw"), "{report}");
+    let local = tmp.path().join("local");
+    local_run(&cwd, &design, &local);
+    assert_same_run(&local, &dir);
+}
+
+#[test]
+fn a_per_seed_draw_study_through_real_slurm_matches_a_local_run() {
+    let Some((_guard, cluster)) = cluster("a_per_seed_draw_study_through_real_slurm_matches_a_local_run") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let design = per_seed_design(tmp.path());
+    let dir = tmp.path().join("cluster");
+    let o = crossaudit_in(
+        tmp.path(),
+        &["run", design.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--slurm", "--submit"],
+        &cluster.env(),
+    );
+    let ids = submitted(&o);
+    assert_eq!(ids.len(), 2, "{}", text(&o));
+    let ids: Vec<&str> = ids.iter().map(String::as_str).collect();
+    cluster.wait(&ids, Duration::from_secs(600), &dir);
+    let gather_log = std::fs::read_to_string(dir.join("slurm/logs/gather.out")).unwrap_or_default();
+    assert!(gather_log.contains("gathered 12 jobs"), "the gather job did not finish: {}", logs(&dir));
+    for i in 0..12 {
+        let log = std::fs::read_to_string(dir.join(format!("slurm/logs/task-{i}.out"))).unwrap();
+        assert!(log.contains("job draw-") && log.contains("finished in"), "task {i}: {log}");
+        assert!(log.contains(&format!("array job {}", ids[0])), "task {i} ran outside the array: {log}");
+    }
+    let local = tmp.path().join("local");
+    local_run(tmp.path(), &design, &local);
+    assert_same_run(&local, &dir);
+}

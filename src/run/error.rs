@@ -331,12 +331,6 @@ pub enum RunError {
         /// What is missing or inconsistent.
         reason: String,
     },
-    /// `run --slurm` of a design with per-seed draws.
-    #[error("{design}: `draws per seed` is not supported on Slurm yet; run it locally with `crossaudit run`")]
-    PerSeedSlurm {
-        /// The design.
-        design: String,
-    },
     /// `score` on a directory that `export` did not prepare.
     #[error("{dir} is not an export of models fitted elsewhere ({reason}); run `crossaudit export DESIGN --out DIR` first and add your predictions to its predictions/")]
     NotExported {

@@ -298,9 +298,6 @@ fn slurm_prepare(
     if !out.join(crossaudit::run::external::EXPORT_DIR).is_dir() {
         crossaudit::run::refuse_external(&plan)?;
     }
-    if file.design.per_seed_draws {
-        return Err(crossaudit::run::RunError::PerSeedSlurm { design: file.path.display().to_string() }.into());
-    }
     let binary = std::env::current_exe().map_err(|e| crossaudit::run::RunError::Submit {
         script: "(not written)".into(),
         reason: format!("cannot locate the crossaudit binary: {e}"),

@@ -19,6 +19,7 @@ use std::time::Instant;
 
 mod notes;
 mod per_seed;
+pub(crate) use per_seed::{finish_per_seed, finish_specs};
 mod verify;
 
 use super::*;

@@ -78,7 +78,7 @@ pub(super) fn units(design: &Design, levels: &[Level]) -> Vec<Unit> {
 /// of them (the crossed recording x seed estimator, whose seed component
 /// now carries the draw variance) and its report in `dest/report`.
 /// `dirs` holds each level's folder (another's, where it shares a run).
-pub(super) fn finish_per_seed(
+pub(crate) fn finish_per_seed(
     file: &DesignFile,
     study: &Plan,
     levels: &[Level],
@@ -93,7 +93,7 @@ pub(super) fn finish_per_seed(
 
 /// Each specification of a multiverse with per-seed draws, finished as
 /// [`finish_per_seed`] finishes a single design, in `out/spec-ID`.
-pub(super) fn finish_specs(
+pub(crate) fn finish_specs(
     file: &DesignFile,
     levels: &[Level],
     out: &Path,

@@ -191,9 +191,6 @@ pub fn prepare(
     options: &SlurmOptions,
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
-    if file.design.per_seed_draws {
-        return Err(RunError::PerSeedSlurm { design: file.path.display().to_string() });
-    }
     // External models' jobs are scored from the folder's predictions here;
     // only the built-in models' jobs go into the array.
     if super::external::external_names(plan).is_some() {
@@ -446,6 +443,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let p = reopen(dir)?;
     let (todo, builds) = unfinished(p.parts.iter().map(|(part, _)| part))?;
     let jobs = p.jobs();
+    let total_jobs = jobs.len();
     if !todo.is_empty() {
         let logs = dir.join(SLURM_DIR).join("logs");
         let mut list = String::new();
@@ -478,6 +476,12 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let mut all_builds = BTreeSet::new();
     let mut last = None;
     let mut splits: Vec<(String, crate::split::Split)> = Vec::new();
+    // Per-seed draws: each seed's level is no crossed study of its own; its
+    // cells are gathered and analysed with every other seed's below, as a
+    // local run does (with the same notes: each unreadable-file warning once).
+    let per_seed = p.file.design.per_seed_draws;
+    let mut notes: Vec<String> = Vec::new();
+    let mut last_record = None;
     for ((part, run), builds) in p.parts.into_iter().zip(builds) {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
@@ -487,28 +491,45 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         // Every record with its content key, as a local run leaves it.
         let keys = super::reuse::keys(&part.file.design, &part.plan, &opened.prepared.manifests, &opened.record);
         super::reuse::stamp(&part.dir, &keys)?;
-        let outcome = finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?;
         if let Some(level) = &part.level {
             splits.push((level.clone(), opened.prepared.split.clone()));
         }
-        last = Some((outcome, opened.record));
-    }
-    let (mut outcome, record) = last.expect("a study has at least one run directory");
-    let exploratory = record.exploratory || lock.changed();
-    match p.outer {
-        None => {}
-        Some((_, outer::Role::Redraw)) => {
-            outcome =
-                super::finish_splits(&p.array.design_path, &p.plan, dir, &lock, exploratory, &record, all_builds)?;
+        if per_seed {
+            if let Some(w) = opened.prepared.audit.unread_warning() {
+                if !notes.contains(&w) {
+                    notes.push(w);
+                }
+            }
+            super::gather_recorded(&part.plan, &opened, &part.dir)?;
+        } else {
+            last = Some(finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?);
         }
-        Some((levels, _)) => {
+        last_record = Some(opened.record);
+    }
+    let record = last_record.ok_or(RunError::NoWorkers)?;
+    let exploratory = record.exploratory || lock.changed();
+    if let Some((levels, outer::Role::PerSeed)) = &p.outer {
+        let mut outcome =
+            outer::finish_per_seed(&p.file, &p.plan, levels, dir, (&lock, exploratory, &record), all_builds, &notes)?;
+        (outcome.skipped, outcome.seconds) = (total_jobs, started.elapsed().as_secs_f64());
+        return Ok(outcome);
+    }
+    if let (Some((levels, _)), true) = (&p.outer, per_seed) {
+        outer::finish_specs(&p.file, levels, dir, (&lock, exploratory, &record), all_builds.clone())?;
+    }
+    let mut outcome = match (p.outer, last) {
+        (None, Some(outcome)) => outcome,
+        (None, None) => return Err(RunError::NoWorkers),
+        (Some((_, outer::Role::Redraw)), _) => {
+            super::finish_splits(&p.array.design_path, &p.plan, dir, &lock, exploratory, &record, all_builds)?
+        }
+        (Some((levels, _)), _) => {
             // The same combined analysis a local run writes.
             let by_level: Vec<Option<crate::split::Split>> =
                 levels.iter().map(|l| splits.iter().find(|(id, _)| *id == l.id).map(|(_, s)| s.clone())).collect();
-            outcome =
-                outer::finish_levels(&p.file, &levels, dir, (&lock, exploratory, &record), &by_level, all_builds)?;
+            outer::finish_levels(&p.file, &levels, dir, (&lock, exploratory, &record), &by_level, all_builds)?
         }
-    }
+    };
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(outcome)
 }
