@@ -22,6 +22,7 @@ pub use measures::measures;
 /// declared variances).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Distribution {
     /// Normal effects and errors.
     Normal,
@@ -39,6 +40,7 @@ pub enum Distribution {
 /// Which cells of a simulated array are lost before the analysis.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Missing {
     /// Every cell present.
     #[default]

@@ -11,6 +11,7 @@ use super::{critical_value, crossed_mom, pigeonhole_bootstrap, CrossedMatrix, Df
 /// Interval methods compared by the coverage study and `--compare-intervals`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum IntervalMethod {
     /// Crossed MoM with t(J - 1).
     MomT,

@@ -20,6 +20,26 @@ mod ratio;
 pub mod resampling;
 mod rng;
 
+/// The names most uses need, in one import: `use crossaudit_stats::prelude::*;`.
+///
+/// ```
+/// use crossaudit_stats::prelude::*;
+/// let m = CrossedMatrix::from_rows(&[vec![1.0, 2.0], vec![3.0, 5.0]]).unwrap();
+/// let e = crossed_mom(&m, 0.95, DfRule::SeedsMinusOne).unwrap();
+/// assert_eq!(e.mean, 2.75); // the plain mean of the four cells
+/// assert_eq!(e.df, 1.0);
+/// ```
+pub mod prelude {
+    pub use crate::coverage::{simulate, Distribution, Missing, Performance, Setting};
+    pub use crate::mixed::formula::{compare_table, fit_table, read_csv, DfMethod, FormulaFit, Table};
+    pub use crate::mixed::Criterion;
+    pub use crate::{
+        compare_intervals, crossed_mom, crossed_reml, further_intervals, leave_one_out_mom, mean_squares,
+        pigeonhole_bootstrap, ratio_interval, Axis, CrossedEstimate, CrossedMatrix, DfRule, IntervalEstimate,
+        IntervalMethod, StatsError,
+    };
+}
+
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
 pub use crossed::{
     crossed_mom, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary, VarianceComponents,
@@ -49,6 +69,7 @@ pub fn df_json<S: serde::Serializer>(value: &f64, s: S) -> Result<S::Ok, S::Erro
 
 /// Errors from the statistics on user data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum StatsError {
     /// Fewer than two levels of a factor.
     #[error("a crossed design needs at least 2 {what}, found {found}")]

@@ -71,6 +71,7 @@ pub enum Criterion {
 
 /// Why a model cannot be fitted.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum MixedError {
     /// Fewer than two observations.
     #[error("a mixed model needs at least 2 observations, found {0}")]

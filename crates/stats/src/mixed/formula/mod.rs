@@ -88,6 +88,7 @@ pub struct Variable {
 
 /// Why a formula or a table cannot be turned into a model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum FormulaError {
     /// The formula's text, at a 1-based character column.
     #[error("formula, column {column}: {message}")]
