@@ -69,6 +69,36 @@ pub fn analyze_with(
     Ok(a)
 }
 
+/// Any study's preregistered analysis, as `crossaudit analyze` makes it:
+/// a single study's or a dose-response or multi-split family's from the
+/// per-cell file `cells`, or, for a multiverse or draw-replicated design,
+/// the combined analysis of the run directory `cells`. Write it with
+/// [`run::StudyAnalysis::write`].
+///
+/// ```
+/// use std::path::Path;
+/// let a = crossaudit::analyze_study(
+///     Path::new("designs/nanobench_confirmatory.design"),
+///     Path::new("examples/cells/nanobench_synthetic.csv"),
+///     Default::default(),
+/// )
+/// .unwrap();
+/// assert_eq!(a.kind(), "single");
+/// assert!(a.decision_line().starts_with("decision: "));
+/// ```
+pub fn analyze_study(design_path: &Path, cells: &Path, options: AnalyzeOptions) -> Result<run::StudyAnalysis, Error> {
+    let file = design::load(design_path)?;
+    if run::outer::levels(&file.design).is_some() {
+        let mut a = run::outer::analyze_dir(&file, cells)?;
+        run::outer::label(&mut a, &file)?;
+        return Ok(run::StudyAnalysis::Multiverse(Box::new(a)));
+    }
+    if compile(&file.design).is_family() {
+        return Ok(run::StudyAnalysis::Family(Box::new(analyze_family_files(design_path, cells, options)?)));
+    }
+    Ok(run::StudyAnalysis::Single(Box::new(analyze_files(design_path, cells, options)?)))
+}
+
 /// The analysis of a dose-response or multi-split design's per-cell file
 /// (with its `split` and `dose` columns), labelled with the design's hash
 /// and lock state.

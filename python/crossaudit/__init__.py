@@ -330,9 +330,13 @@ def run(
 
 
 def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optional[PathLike] = None) -> Result:
-    """The design's preregistered analysis of per-cell data (a CSV path or a
-    DataFrame with the per-cell columns); writes the report to ``out`` if
-    given."""
+    """The design's preregistered analysis of any study: per-cell data (a
+    CSV path or a DataFrame with the per-cell columns) of a single-contrast,
+    dose-response or multi-split design, or the run directory of a
+    multiverse or draw-replicated one; writes the report to ``out`` if
+    given. ``estimates`` is the single study's table of units, or the tidy
+    table the report writes (``estimates.csv`` of a family, ``specs.csv``
+    of a multiverse); ``details["kind"]`` says which."""
     if isinstance(cells, pd.DataFrame):
         import tempfile
 
@@ -340,15 +344,34 @@ def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optiona
             path = Path(tmp) / "cells.csv"
             cells.to_csv(path, index=False)
             return analyze(design, path, out)
-    text, line, holds = _native.analyze(os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out))
+    if out is None:
+        # A dose, split or multiverse study's table is the one its report
+        # writes: write the report where nobody looks, and read it.
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            r = analyze(design, cells, Path(tmp) / "report")
+            r.report_dir = None
+            return r
+    text, line, holds, kind = _native.analyze(os.fspath(design), os.fspath(cells), os.fspath(out))
     results = json.loads(text)
+    if kind == "single":
+        estimates = _estimates(results)
+    else:
+        # The same tidy table the command line writes: estimates.csv of a
+        # dose-response or multi-split family, specs.csv of a multiverse.
+        estimates = pd.read_csv(Path(out) / ("specs.csv" if kind == "multiverse" else "estimates.csv"))
+    # A multiverse is analysed from its run directory; its per-cell rows are
+    # multiverse_cells.csv there.
+    cells_path = Path(cells) / "multiverse_cells.csv" if kind == "multiverse" else Path(cells)
     return Result(
         decision=line,
         holds=holds,
-        estimates=_estimates(results),
+        estimates=estimates,
         results=results,
-        cells=read_cells(cells),
-        report_dir=None if out is None else Path(out),
+        cells=read_cells(cells_path) if cells_path.is_file() else None,
+        report_dir=Path(out),
+        details={"kind": kind},
     )
 
 

@@ -112,29 +112,31 @@ fn run(
 }
 
 /// `crossaudit analyze DESIGN --cells CELLS`: the preregistered analysis of
-/// a per-cell CSV; returns results.json's text. With `out`, the report is
-/// written there too.
+/// any study (a single contrast, a dose-response or multi-split family from
+/// its per-cell CSV, or a multiverse or draw-replicated study from its run
+/// directory); returns the analysis as JSON, the decision line, whether the
+/// decision holds, and the study's kind (`single`, `family`, `multiverse`).
+/// With `out`, the report is written there too, as the command writes it.
 #[pyfunction]
 #[pyo3(signature = (design, cells, out=None))]
-fn analyze(py: Python<'_>, design: PathBuf, cells: PathBuf, out: Option<PathBuf>) -> PyResult<(String, String, bool)> {
+fn analyze(
+    py: Python<'_>,
+    design: PathBuf,
+    cells: PathBuf,
+    out: Option<PathBuf>,
+) -> PyResult<(String, String, bool, &'static str)> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
-        let plan = crossaudit::compile(&file.design);
-        if !plan.doses.is_empty() || !plan.splits.is_empty() || file.design.multiverse.is_some() {
-            return Err(CrossauditError::new_err(
-                "analyze() takes a single-contrast design; use the command line's `crossaudit analyze` for dose, split and multiverse designs",
-            ));
-        }
-        let analysis = crossaudit::analyze_with(&file, &plan, &cells, Default::default()).map_err(fail)?;
+        let outer = crossaudit::run::outer::levels(&file.design).is_some();
+        let mut analysis = crossaudit::analyze_study(&design, &cells, Default::default()).map_err(fail)?;
         if let Some(dir) = &out {
             crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
             // A run's own folders are written by the run alone.
-            crossaudit::run::check_not_runs_own(dir, None).map_err(fail)?;
+            crossaudit::run::check_not_runs_own(dir, outer.then_some(cells.as_path())).map_err(fail)?;
             crossaudit::io::create_dir_all(dir).map_err(fail)?;
-            crossaudit::report::write_all(&analysis, dir).map_err(fail)?;
+            analysis.write(dir).map_err(fail)?;
         }
-        let line = crossaudit::report::decision_line(&analysis);
-        Ok((json(&analysis)?, line, analysis.decision.holds))
+        Ok((analysis.to_json(), analysis.decision_line(), analysis.holds(), analysis.kind()))
     })
 }
 

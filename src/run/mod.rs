@@ -92,6 +92,46 @@ impl StudyAnalysis {
             StudyAnalysis::Multiverse(a) => a.decision.holds,
         }
     }
+
+    /// The warnings the report puts beside the decision.
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            StudyAnalysis::Single(a) => &a.warnings,
+            StudyAnalysis::Family(a) => &a.warnings,
+            StudyAnalysis::Multiverse(a) => &a.warnings,
+        }
+    }
+
+    /// `single`, `family` (a dose-response or multi-split study) or
+    /// `multiverse` (a multiverse or draw-replicated study).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            StudyAnalysis::Single(_) => "single",
+            StudyAnalysis::Family(_) => "family",
+            StudyAnalysis::Multiverse(_) => "multiverse",
+        }
+    }
+
+    /// The analysis as results.json (or multiverse.json) holds it.
+    pub fn to_json(&self) -> String {
+        let value = match self {
+            StudyAnalysis::Single(a) => serde_json::to_string_pretty(a),
+            StudyAnalysis::Family(a) => serde_json::to_string_pretty(a),
+            StudyAnalysis::Multiverse(a) => serde_json::to_string_pretty(a),
+        };
+        value.unwrap_or_else(|e| format!("{{\"error\": {:?}}}", e.to_string()))
+    }
+
+    /// Writes the study's report into `dir`, as `crossaudit analyze` does;
+    /// returns the files written. Its tidy table is `estimates.csv` (a
+    /// single or family study) or `specs.csv` (a multiverse).
+    pub fn write(&mut self, dir: &Path) -> Result<Vec<PathBuf>, RunError> {
+        Ok(match self {
+            StudyAnalysis::Single(a) => crate::report::write_all(a, dir)?,
+            StudyAnalysis::Family(a) => crate::report::family::write_family(a, dir)?,
+            StudyAnalysis::Multiverse(a) => crate::report::multiverse::write_multiverse(a, dir)?,
+        })
+    }
 }
 
 /// What a finished run produced.

@@ -8,7 +8,6 @@ use std::process::ExitCode;
 use clap::Parser;
 use crossaudit::design::{self, lock, LoadError};
 use crossaudit::model::Engine;
-use crossaudit::report::decision_line;
 use crossaudit::run::lock_folder;
 use crossaudit::{AnalyzeOptions, Error};
 
@@ -528,43 +527,17 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     // by a reanalysis of its per-cell data.
     crossaudit::run::check_output_dir(&dir, &file.sha256)?;
     crossaudit::run::check_not_runs_own(&dir, outer.then_some(cells))?;
-    if outer {
-        // A multiverse or draw-replicated run: `--cells` is its run directory.
-        let mut a = crossaudit::run::outer::analyze_dir(&file, cells)?;
-        crossaudit::run::outer::label(&mut a, &file)?;
-        let _lock = lock_folder(&dir, false)?;
-        let written = crossaudit::report::multiverse::write_multiverse(&a, &dir)?;
-        for w in &a.warnings {
-            note!("warning: {}", crossaudit::io::one_line(w));
-        }
-        for p in written {
-            note!("wrote {}", p.display());
-        }
-        outln!("{}", crossaudit::run::outer::decision_line(&a));
-        return Ok(());
-    }
-    if crossaudit::compile(&file.design).is_family() {
-        let mut a = crossaudit::analyze_family_files(design, cells, options)?;
-        let _lock = lock_folder(&dir, false)?;
-        let written = crossaudit::report::family::write_family(&mut a, &dir)?;
-        for w in &a.warnings {
-            note!("warning: {}", crossaudit::io::one_line(w));
-        }
-        for p in written {
-            note!("wrote {}", p.display());
-        }
-        outln!("{}", crossaudit::report::family::family_decision_line(&a));
-        return Ok(());
-    }
-    let analysis = crossaudit::analyze_files(design, cells, options)?;
+    // Any study: a single one, a dose or split family, or (for a
+    // multiverse or draw-replicated design) the run directory `cells`.
+    let mut analysis = crossaudit::analyze_study(design, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
-    let written = crossaudit::report::write_all(&analysis, &dir)?;
-    for w in &analysis.warnings {
+    let written = analysis.write(&dir)?;
+    for w in analysis.warnings() {
         note!("warning: {}", crossaudit::io::one_line(w));
     }
     for p in written {
         note!("wrote {}", p.display());
     }
-    outln!("{}", decision_line(&analysis));
+    outln!("{}", analysis.decision_line());
     Ok(())
 }
