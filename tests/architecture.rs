@@ -186,3 +186,180 @@ fn lib_rs_declares_modules_and_conveniences_only() {
     assert!(fns.is_empty(), "lib.rs holds functions beyond the analyze conveniences: {fns:?}");
     assert!(!lib.iter().any(|l| l.contains("std::fs")), "lib.rs touches files");
 }
+
+/// The module path of a source file below `src` (`analysis::unit` for
+/// `analysis/unit/mod.rs`, empty for `lib.rs`).
+fn module_path(src: &Path, path: &Path) -> Vec<String> {
+    let rel = path.strip_prefix(src).unwrap().with_extension("");
+    let mut parts: Vec<String> = rel.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    if parts.last().is_some_and(|l| l == "mod" || l == "lib") {
+        parts.pop();
+    }
+    parts
+}
+
+/// Every path a line names through `crate::` or `super::` (groups
+/// `{a::b, c}` one level deep), each as (how many `super::`, or None for
+/// `crate::`; its segments).
+fn paths_named(line: &str) -> Vec<(Option<usize>, Vec<String>)> {
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let segments = |s: &str| -> Vec<String> {
+        s.split("::")
+            .map(|p| p.trim().chars().take_while(|c| ident(*c)).collect::<String>())
+            .take_while(|p| !p.is_empty())
+            .collect()
+    };
+    let mut out = Vec::new();
+    let mut at = 0;
+    while at < line.len() {
+        let rest = &line[at..];
+        let (Some(k), prefix) = [rest.find("crate::"), rest.find("super::")]
+            .into_iter()
+            .enumerate()
+            .filter_map(|(i, k)| k.map(|k| (k, i)))
+            .min()
+            .map_or((None, 0), |(k, i)| (Some(k), i))
+        else {
+            break;
+        };
+        if line[..at + k].chars().last().is_some_and(ident) {
+            at += k + 7;
+            continue;
+        }
+        let mut tail = &rest[k..];
+        let supers = if prefix == 1 {
+            let mut n = 0;
+            while let Some(t) = tail.strip_prefix("super::") {
+                n += 1;
+                tail = t;
+            }
+            Some(n)
+        } else {
+            tail = &tail["crate::".len()..];
+            None
+        };
+        // `a::b::{c::D, e}`: the prefix, then each item of the group.
+        let (head, group) = match tail.find('{') {
+            Some(b) if tail[..b].chars().all(|c| ident(c) || c == ':') => (&tail[..b], Some(&tail[b + 1..])),
+            _ => (tail, None),
+        };
+        let prefix = segments(head);
+        match group {
+            Some(group) => {
+                for item in group.split('}').next().unwrap_or("").split(',') {
+                    out.push((supers, prefix.iter().cloned().chain(segments(item)).collect()));
+                }
+            }
+            None => out.push((supers, prefix)),
+        }
+        at = line.len() - tail.len();
+    }
+    out
+}
+
+/// Imports between the source files of one crate (`src` its source
+/// folder): each file to the files whose items it names, by the longest
+/// module prefix of each path. `#[cfg(test)]` modules are left out (their
+/// `super::` is the file itself).
+fn file_imports(src: &Path) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let by_module: BTreeMap<Vec<String>, PathBuf> = files.iter().map(|p| (module_path(src, p), p.clone())).collect();
+    let mut out = BTreeMap::new();
+    for path in &files {
+        let me = module_path(src, path);
+        let mut named = BTreeSet::new();
+        for (_, line) in code_lines(path).into_iter().take_while(|(_, l)| !l.contains("#[cfg(test)]")) {
+            for (supers, segs) in paths_named(&line) {
+                let mut full: Vec<String> = match supers {
+                    None => Vec::new(),
+                    Some(n) => me[..me.len().saturating_sub(n)].to_vec(),
+                };
+                full.extend(segs);
+                let target = (1..=full.len()).rev().find_map(|k| by_module.get(&full[..k]));
+                if let Some(t) = target.filter(|t| *t != path) {
+                    named.insert(t.clone());
+                }
+            }
+        }
+        out.insert(path.clone(), named);
+    }
+    out
+}
+
+/// A cycle of the graph, as the files in order, if it has one.
+fn a_cycle(graph: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Option<Vec<PathBuf>> {
+    fn visit<'a>(
+        v: &'a PathBuf,
+        graph: &'a BTreeMap<PathBuf, BTreeSet<PathBuf>>,
+        state: &mut BTreeMap<&'a PathBuf, u8>,
+        stack: &mut Vec<&'a PathBuf>,
+    ) -> Option<Vec<PathBuf>> {
+        state.insert(v, 1);
+        stack.push(v);
+        for w in graph.get(v).into_iter().flatten() {
+            match state.get(w).copied().unwrap_or(0) {
+                1 => {
+                    let from = stack.iter().position(|x| *x == w).unwrap_or(0);
+                    return Some(stack[from..].iter().map(|p| (*p).clone()).collect());
+                }
+                0 => {
+                    if let Some(c) = visit(w, graph, state, stack) {
+                        return Some(c);
+                    }
+                }
+                _ => {}
+            }
+        }
+        stack.pop();
+        state.insert(v, 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for v in graph.keys() {
+        if !state.contains_key(v) {
+            if let Some(c) = visit(v, graph, &mut state, &mut Vec::new()) {
+                return Some(c);
+            }
+        }
+    }
+    None
+}
+
+#[test]
+fn the_cycle_finder_finds_a_circle_of_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp.path();
+    std::fs::create_dir_all(src.join("a")).unwrap();
+    std::fs::write(src.join("lib.rs"), "pub mod a;\n").unwrap();
+    std::fs::write(src.join("a/mod.rs"), "mod x;\nmod y;\n").unwrap();
+    std::fs::write(src.join("a/x.rs"), "use super::y::Y;\npub struct X;\n").unwrap();
+    std::fs::write(
+        src.join("a/y.rs"),
+        "use crate::a::{x::X, y};\npub struct Y;\n#[cfg(test)]\nmod tests { use super::*; }\n",
+    )
+    .unwrap();
+    let graph = file_imports(src);
+    assert_eq!(graph[&src.join("a/x.rs")], BTreeSet::from([src.join("a/y.rs")]));
+    assert_eq!(graph[&src.join("a/y.rs")], BTreeSet::from([src.join("a/x.rs")]));
+    assert!(a_cycle(&graph).is_some_and(|c| c.len() == 2));
+    std::fs::write(src.join("a/y.rs"), "pub struct Y;\n").unwrap();
+    assert_eq!(a_cycle(&file_imports(src)), None);
+}
+
+/// No two source files import each other, directly or round a longer
+/// circle, in the crate or in its statistics crate: each file can be read
+/// after the files it imports.
+#[test]
+fn no_source_files_import_each_other_round_a_circle() {
+    for src in [root().join("src"), root().join("crates/stats/src")] {
+        let graph = file_imports(&src);
+        let edges: usize = graph.values().map(BTreeSet::len).sum();
+        assert!(graph.len() > 10 && edges > graph.len(), "{}: {} files, {edges} imports", src.display(), graph.len());
+        if let Some(cycle) = a_cycle(&graph) {
+            let names: Vec<String> =
+                cycle.iter().map(|p| p.strip_prefix(root()).unwrap().display().to_string()).collect();
+            panic!("source files import each other round a circle: {} -> (back to the first)", names.join(" -> "));
+        }
+    }
+}

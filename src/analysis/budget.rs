@@ -9,31 +9,10 @@
 //! arms for the same `epochs` and rolls out the last epoch's weights, so
 //! its contrast does not depend on either arm's stopping decision.
 
-use serde::Serialize;
-
+pub use super::types::FixedBudget;
 use super::types::UnitResult;
 use crate::design::ModelKind;
 use crate::plan::Plan;
-use crate::stats::{CrossedEstimate, RatioInterval};
-
-/// The primary endpoint's contrast for the full-budget twin of the
-/// primary model.
-#[derive(Debug, Clone, Serialize)]
-pub struct FixedBudget {
-    /// The twin model (`restore final`).
-    pub model: String,
-    /// The epochs every model of it trained.
-    pub epochs: usize,
-    /// Optimism (%).
-    pub optimism_pct: f64,
-    /// Its interval (%).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub optimism_interval: Option<RatioInterval>,
-    /// The crossed estimate of d.
-    pub estimate: CrossedEstimate,
-    /// Whether the decision rule would hold on it.
-    pub rule_holds: bool,
-}
 
 /// The model that differs from `plan`'s primary model only in `restore
 /// final`, with its unit at the primary metric and horizon, when the design

@@ -13,79 +13,11 @@
 
 use std::collections::BTreeSet;
 
-use serde::Serialize;
-
+pub use super::types::{ConditionCoverage, CoverageNote, CoveredOnly, Uncovered};
 use super::{analyze, AnalysisError, AnalyzeOptions};
 use crate::cells::Cell;
 use crate::design::{Grouped, Sensitivity};
 use crate::plan::Plan;
-use crate::stats::{CrossedEstimate, RatioInterval};
-
-/// An evaluation recording whose condition the reference arm fits on no
-/// other recording of.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Uncovered {
-    /// The recording.
-    pub recording: String,
-    /// Its condition (`circle`, or `circle / fast`).
-    pub condition: String,
-    /// In how many of the study's draws it was uncovered (1 in a single
-    /// split; up to J under per-seed draws).
-    pub draws: usize,
-}
-
-/// The reference arm's condition coverage, as the report states it.
-#[derive(Debug, Clone, Serialize)]
-pub struct ConditionCoverage {
-    /// What a condition is: `trajectory` or `trajectory x speed`.
-    pub condition: String,
-    /// The reference arm.
-    pub arm: String,
-    /// The draws coverage was measured in (1, or each seed's draw).
-    pub draws: usize,
-    /// The uncovered evaluation recordings (in any draw), by name.
-    pub uncovered: Vec<Uncovered>,
-    /// Their share of the primary endpoint's summed difference d over every
-    /// cell (of sum d; NaN when sum d is 0).
-    pub share_of_d: f64,
-    /// The primary contrast over the covered recordings alone.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub covered_only: Option<CoveredOnly>,
-    /// Why the covered-only row could not be estimated.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub covered_only_error: Option<String>,
-}
-
-/// The primary contrast over the recordings every draw of the reference
-/// arm covers.
-#[derive(Debug, Clone, Serialize)]
-pub struct CoveredOnly {
-    /// Covered recordings.
-    pub recordings: usize,
-    /// Optimism (%) over them.
-    pub optimism_pct: f64,
-    /// Its interval (%).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub optimism_interval: Option<RatioInterval>,
-    /// The crossed estimate of d over them.
-    pub estimate: CrossedEstimate,
-    /// Whether the decision rule would hold on them.
-    pub rule_holds: bool,
-}
-
-/// The reference arm's coverage over the levels of a combined study (a
-/// multiverse unit's draws, a family's split), as its report states it.
-#[derive(Debug, Clone, Serialize)]
-pub struct CoverageNote {
-    /// What a condition is: `trajectory` or `trajectory x speed`.
-    pub condition: String,
-    /// The reference arm.
-    pub arm: String,
-    /// The levels whose coverage was read.
-    pub levels: usize,
-    /// The evaluation recordings uncovered in at least one level.
-    pub uncovered: Vec<Uncovered>,
-}
 
 impl ConditionCoverage {
     /// Whether some evaluation recording is uncovered.
@@ -107,7 +39,7 @@ pub fn condition_coverage(
 ) -> ConditionCoverage {
     let out: BTreeSet<String> = uncovered.iter().map(|u| u.recording.clone()).collect();
     let (mut all, mut part) = (0.0, 0.0);
-    for (rec, _, d) in super::multiverse::Diff::of(plan, cells).iter() {
+    for (rec, _, d) in super::diff::Diff::of(plan, cells).iter() {
         all += d;
         if out.contains(rec.as_str()) {
             part += d;

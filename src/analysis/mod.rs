@@ -9,6 +9,7 @@
 pub mod budget;
 pub mod coverage;
 mod decision;
+mod diff;
 pub mod family;
 mod index;
 pub mod multiverse;

@@ -113,7 +113,7 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         .map(|b| b.seed)
         .collect();
     // Mean primary d per seed.
-    let d = crate::analysis::multiverse::Diff::of(plan, cells);
+    let d = crate::analysis::diff::Diff::of(plan, cells);
     let mut per_seed: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
     for (_, seed, v) in d.iter() {
         let e = per_seed.entry(seed).or_insert((0.0, 0));

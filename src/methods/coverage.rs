@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-pub use super::coverage_svg::draw;
 use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
 use crate::report::charts::DrawError;
 use crate::report::Table;
@@ -537,7 +536,9 @@ pub fn write(out: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<Ve
     }
     write_atomic(&md, text.as_bytes())?;
     let svg = out.join("coverage.svg");
-    draw(&svg, spec, rows)?;
+    let group = |r: &Performance| spec.group(r);
+    let layout = super::coverage_svg::Layout { group: &group, levels: spec.levels(), reps: spec.reps };
+    super::coverage_svg::draw(&svg, &layout, rows)?;
     Ok(vec![csv, md, svg])
 }
 

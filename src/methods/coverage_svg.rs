@@ -3,25 +3,35 @@
 
 use std::path::Path;
 
-use super::coverage::CoverageSpec;
 use crate::report::charts::{category_label, draw_err, DrawError};
 use crate::stats::coverage::Performance;
+
+/// What the figure needs of a coverage spec: each row's setting group,
+/// the nominal levels and the replications per setting.
+pub struct Layout<'a> {
+    /// The setting group a row is plotted in.
+    pub group: &'a dyn Fn(&Performance) -> String,
+    /// The nominal levels.
+    pub levels: Vec<f64>,
+    /// Replications per setting.
+    pub reps: usize,
+}
 
 /// Coverage per setting and estimator with 2-MCSE bars and the nominal
 /// line. Each estimator has its own colour and marker, the key of the
 /// estimators sits beside the plot (it hides no point) and the key of the
 /// numbered settings below it.
-pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<(), DrawError> {
+pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), DrawError> {
     use plotters::prelude::*;
     let e = draw_err(path);
     let mut settings: Vec<String> = Vec::new();
     for r in rows {
-        if !settings.contains(&spec.group(r)) {
-            settings.push(spec.group(r));
+        if !settings.contains(&(spec.group)(r)) {
+            settings.push((spec.group)(r));
         }
     }
     let nominal: Vec<f64> =
-        settings.iter().map(|g| rows.iter().find(|r| spec.group(r) == *g).map_or(f64::NAN, |r| r.level)).collect();
+        settings.iter().map(|g| rows.iter().find(|r| (spec.group)(r) == *g).map_or(f64::NAN, |r| r.level)).collect();
     let mut methods: Vec<_> = Vec::new();
     for r in rows {
         if !methods.contains(&r.method) {
@@ -57,10 +67,10 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
     crate::report::charts::svg_figure(path, (width, height), |root| {
         let (top, key) = root.split_vertically(plot_height);
         let (plot, side) = top.split_horizontally(width - 250);
-        let lowest = spec.levels().into_iter().fold(1.0, f64::min);
+        let lowest = spec.levels.clone().into_iter().fold(1.0, f64::min);
         let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(lowest, f64::min).max(0.0);
         let n = settings.len();
-        let levels = spec.levels().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
+        let levels = spec.levels.clone().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
         let title = format!("Coverage (nominal {levels}), 2-MCSE bars, {} reps", spec.reps);
         let mut chart = crate::report::charts::chart(&plot, &title)
             .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
@@ -100,7 +110,7 @@ pub fn draw(path: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<()
                 .iter()
                 .filter(|r| r.method == *m && r.coverage.is_finite())
                 .map(|r| {
-                    let x = settings.iter().position(|s| *s == spec.group(r)).unwrap_or(0) as f64 + dx;
+                    let x = settings.iter().position(|s| *s == (spec.group)(r)).unwrap_or(0) as f64 + dx;
                     // No bar without an MCSE (fewer than 2 usable replications).
                     (x, r.coverage, if r.coverage_mcse.is_finite() { r.coverage_mcse } else { 0.0 })
                 })

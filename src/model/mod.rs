@@ -11,6 +11,7 @@ pub mod features;
 pub mod fused;
 mod kernel;
 pub mod linear;
+mod minibatch;
 pub mod net;
 mod reference;
 mod standardize;

@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use super::features::{Action, FeatureMap, Slots, State};
 use super::fused::{Activations, FusedMlp, Trainer};
+use super::minibatch::{mse_of, Minibatches};
 use super::reference::{self, REFERENCE_WIDTHS};
 use super::Dynamics;
 use crate::design::{mlp_unsupported, Schedule, Training};
@@ -194,22 +195,6 @@ pub fn train_with(
     })
     .ok_or_else(|| NetError::NoReference(widths.to_vec()))?;
     Ok((Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, widths, &best) }, logs))
-}
-
-/// Mean squared error of predictions against targets, in f64.
-pub(super) fn mse_of(out: &[f32], y: &[f32]) -> f64 {
-    out.iter().zip(y).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>() / y.len() as f64
-}
-
-/// What the two trainers do differently; [`early_stopped`] does the rest.
-pub(super) trait Minibatches {
-    /// One optimizer step on `n` rows (x: n x 18, y: n x 14) at `lr`;
-    /// returns the batch loss before the step.
-    fn step(&mut self, x: &[f32], y: &[f32], n: usize, lr: f64) -> f32;
-    /// Mean squared error of the current parameters on the validation set.
-    fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64;
-    /// Keeps the current parameters as the best so far.
-    fn keep_best(&mut self);
 }
 
 /// The training loop shared by both trainers: per-epoch learning rate,

@@ -9,7 +9,7 @@ use dfdx::prelude::*;
 
 use super::features::{INPUT, STATE};
 use super::fused::FusedMlp;
-use super::net::Minibatches;
+use super::minibatch::{mse_of, Minibatches};
 
 /// Each layer's (weight, bias), weight row-major (out x in) as dfdx stores it.
 pub(super) type Parts = Vec<(Vec<f32>, Vec<f32>)>;
@@ -170,7 +170,7 @@ where
         value
     }
     fn val_loss(&mut self, x: &[f32], y: &[f32]) -> f64 {
-        super::net::mse_of(&forward::<M>(&self.model, &self.dev, x), y)
+        mse_of(&forward::<M>(&self.model, &self.dev, x), y)
     }
     fn keep_best(&mut self) {
         self.best = self.model.clone();

@@ -11,6 +11,7 @@
 mod bootstrap;
 pub mod coverage;
 mod crossed;
+mod interval;
 mod intervals;
 mod loo;
 mod matrix;

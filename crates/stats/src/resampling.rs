@@ -27,7 +27,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::intervals::{IntervalEstimate, IntervalMethod};
+use super::interval::{IntervalEstimate, IntervalMethod};
 use super::{
     critical_value, mean_squares, quantile_type7, standard_normal, CrossedMatrix, StatsError, VarianceComponents,
 };

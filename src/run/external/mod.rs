@@ -43,7 +43,7 @@ use crate::run::job::triples;
 use crate::split::{Prepared, Window};
 
 pub use levels::{notes_for, score_predictions_in, LevelExport, LevelsIndex, LEVELS_FILE};
-pub use score::{score, ScoreOutcome};
+pub use score::ScoreOutcome;
 
 /// `DIR/export`: everything the user's code reads.
 pub const EXPORT_DIR: &str = "export";
@@ -513,4 +513,25 @@ fn inputs_targets(features: &FeatureMap, windows: &[(State, Action, State)]) -> 
         z.extend(zi.iter().map(|v| f64::from(*v)));
     }
     (x, z)
+}
+
+/// Scores the predictions in `dir/predictions`, runs the design's
+/// built-in models on `workers` workers, and writes cells.csv and the
+/// report: of one run, or of every level of a study exported level by
+/// level (`export/levels.json`). Predictions of every present job are
+/// scored and kept even when others are missing; then the missing ones are
+/// named (nothing else is run until all are there). `say` gets one line
+/// per job scored.
+pub fn score(
+    dir: &Path,
+    workers: usize,
+    observer: &dyn super::RunObserver,
+    say: &mut dyn FnMut(&str),
+) -> Result<ScoreOutcome, RunError> {
+    let started = std::time::Instant::now();
+    crate::run::check_workers(workers)?;
+    if dir.join(EXPORT_DIR).join(LEVELS_FILE).is_file() {
+        return levels::score_levels(dir, workers, observer, say, started);
+    }
+    score::score_run(dir, workers, observer, say, started)
 }

@@ -108,22 +108,14 @@ impl Predictions {
     }
 }
 
-/// Scores the predictions in `dir/predictions`, runs the design's
-/// built-in models on `workers` workers, and writes cells.csv and the
-/// report. Predictions of every present job are scored and kept even when
-/// others are missing; then the missing ones are named (nothing else is
-/// run until all are there). `say` gets one line per job scored.
-pub fn score(
+/// [`super::score`] of an export of one run (not of a study's levels).
+pub(super) fn score_run(
     dir: &Path,
     workers: usize,
     observer: &dyn RunObserver,
     say: &mut dyn FnMut(&str),
+    started: std::time::Instant,
 ) -> Result<ScoreOutcome, RunError> {
-    let started = std::time::Instant::now();
-    crate::run::check_workers(workers)?;
-    if dir.join(EXPORT_DIR).join(super::levels::LEVELS_FILE).is_file() {
-        return super::levels::score_levels(dir, workers, observer, say, started);
-    }
     let r = reopen(dir)?;
     if let Some(level) = &r.source.level {
         return Err(not_exported(
