@@ -23,6 +23,7 @@ mod fused;
 mod golden;
 mod hostile_text;
 mod lab_logs;
+mod library_use;
 mod logs;
 mod mixed_cli;
 mod model;
