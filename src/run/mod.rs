@@ -24,6 +24,7 @@ mod record;
 pub mod reuse;
 pub mod slurm;
 mod source;
+mod study;
 mod trained_invariants;
 
 use std::collections::VecDeque;
@@ -45,6 +46,7 @@ pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir}
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
+pub use study::StudyAnalysis;
 pub use trained_invariants::check as check_trained_invariants;
 
 /// The most training workers (threads) a run starts.
@@ -60,78 +62,6 @@ pub struct RunOptions {
     /// An earlier run folder whose finished jobs with identical inputs are
     /// copied instead of trained (`run --reuse DIR`, [`reuse`]).
     pub reuse: Option<PathBuf>,
-}
-
-/// The analysis a run wrote: one crossed contrast, or a family of them
-/// (several splits or doses).
-#[derive(Debug, Clone)]
-pub enum StudyAnalysis {
-    /// A single-split, single-dose study.
-    Single(Box<Analysis>),
-    /// A dose-response or multi-split study.
-    Family(Box<FamilyAnalysis>),
-    /// A multiverse or a draw-replicated study.
-    Multiverse(Box<crate::analysis::multiverse::MultiverseAnalysis>),
-}
-
-impl StudyAnalysis {
-    /// The decision line the console prints.
-    pub fn decision_line(&self) -> String {
-        match self {
-            StudyAnalysis::Single(a) => crate::report::decision_line(a),
-            StudyAnalysis::Family(a) => crate::report::family::family_decision_line(a),
-            StudyAnalysis::Multiverse(a) => outer::decision_line(a),
-        }
-    }
-
-    /// Whether the preregistered decision holds.
-    pub fn holds(&self) -> bool {
-        match self {
-            StudyAnalysis::Single(a) => a.decision.holds,
-            StudyAnalysis::Family(a) => a.decision.holds,
-            StudyAnalysis::Multiverse(a) => a.decision.holds,
-        }
-    }
-
-    /// The warnings the report puts beside the decision.
-    pub fn warnings(&self) -> &[String] {
-        match self {
-            StudyAnalysis::Single(a) => &a.warnings,
-            StudyAnalysis::Family(a) => &a.warnings,
-            StudyAnalysis::Multiverse(a) => &a.warnings,
-        }
-    }
-
-    /// `single`, `family` (a dose-response or multi-split study) or
-    /// `multiverse` (a multiverse or draw-replicated study).
-    pub fn kind(&self) -> &'static str {
-        match self {
-            StudyAnalysis::Single(_) => "single",
-            StudyAnalysis::Family(_) => "family",
-            StudyAnalysis::Multiverse(_) => "multiverse",
-        }
-    }
-
-    /// The analysis as results.json (or multiverse.json) holds it.
-    pub fn to_json(&self) -> String {
-        let value = match self {
-            StudyAnalysis::Single(a) => serde_json::to_string_pretty(a),
-            StudyAnalysis::Family(a) => serde_json::to_string_pretty(a),
-            StudyAnalysis::Multiverse(a) => serde_json::to_string_pretty(a),
-        };
-        value.unwrap_or_else(|e| format!("{{\"error\": {:?}}}", e.to_string()))
-    }
-
-    /// Writes the study's report into `dir`, as `crossaudit analyze` does;
-    /// returns the files written. Its tidy table is `estimates.csv` (a
-    /// single or family study) or `specs.csv` (a multiverse).
-    pub fn write(&mut self, dir: &Path) -> Result<Vec<PathBuf>, RunError> {
-        Ok(match self {
-            StudyAnalysis::Single(a) => crate::report::write_all(a, dir)?,
-            StudyAnalysis::Family(a) => crate::report::family::write_family(a, dir)?,
-            StudyAnalysis::Multiverse(a) => crate::report::multiverse::write_multiverse(a, dir)?,
-        })
-    }
 }
 
 /// What a finished run produced.
