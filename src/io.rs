@@ -4,6 +4,13 @@
 //!
 //! Architecture Invariant: `io` imports nothing from the crate.
 
+/// This build: the package version and the git commit it was built from
+/// (`-dirty` when tracked files differed from it, `unknown` outside a git
+/// checkout). Recorded in run.json, every job record and every report; a
+/// constant of the leaf module, so a stage reads it without reaching up to
+/// the crate root.
+pub const BUILD: &str = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("CROSSAUDIT_GIT_COMMIT"), ")");
+
 use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};

@@ -22,10 +22,8 @@ pub use crossaudit_stats as stats;
 
 use std::path::Path;
 
-/// This build: the package version and the git commit it was built from
-/// (`-dirty` when tracked files differed from it, `unknown` outside a git
-/// checkout). Recorded in run.json, every job record and every report.
-pub const BUILD: &str = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("CROSSAUDIT_GIT_COMMIT"), ")");
+/// This build ([`io::BUILD`]), re-exported for front ends.
+pub use io::BUILD;
 
 pub use analysis::{analyze, Analysis, AnalyzeOptions};
 pub use design::{Design, DesignFile};

@@ -97,13 +97,13 @@ pub struct Provenance {
     pub audit_sha256: Option<String>,
     /// The per-cell CSV analysed and its SHA-256.
     pub cells: Option<(String, String)>,
-    /// The crossaudit build that wrote the analysis ([`crate::BUILD`]).
+    /// The crossaudit build that wrote the analysis ([`crate::io::BUILD`]).
     pub crossaudit: String,
 }
 
 impl Default for Provenance {
     fn default() -> Self {
-        Provenance { data: None, audit_sha256: None, cells: None, crossaudit: crate::BUILD.to_string() }
+        Provenance { data: None, audit_sha256: None, cells: None, crossaudit: crate::io::BUILD.to_string() }
     }
 }
 

@@ -134,7 +134,7 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         }
     }
     if let Some(h) = &a.design_sha256 {
-        let _ = writeln!(s, "Design SHA-256: `{h}`. Build: crossaudit {}.\n", crate::BUILD);
+        let _ = writeln!(s, "Design SHA-256: `{h}`. Build: crossaudit {}.\n", crate::io::BUILD);
     }
     let _ = writeln!(
         s,

@@ -241,7 +241,7 @@ pub fn run_job_with(
         manifests: bench.manifests(),
         standardizers,
         files: JobRecord::hash_files(out, &files)?,
-        crossaudit: crate::BUILD.to_string(),
+        crossaudit: crate::io::BUILD.to_string(),
         non_finite_starts: None,
         key: None,
         reused_from: None,

@@ -239,11 +239,11 @@ fn report_family(
 
 /// A warning for each build other than this one that trained cells.
 fn resumed_builds(mut builds: std::collections::BTreeSet<String>) -> Vec<String> {
-    builds.remove(crate::BUILD);
+    builds.remove(crate::io::BUILD);
     builds
         .into_iter()
         .map(|b| {
-            format!("some cells were trained by crossaudit {b}; this run, which resumed them, is {}", crate::BUILD)
+            format!("some cells were trained by crossaudit {b}; this run, which resumed them, is {}", crate::io::BUILD)
         })
         .collect()
 }

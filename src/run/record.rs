@@ -30,7 +30,7 @@ pub struct RunRecord {
     pub manifests_sha256: String,
     /// Whether the run's outputs are labelled EXPLORATORY.
     pub exploratory: bool,
-    /// The crossaudit build that last wrote the directory ([`crate::BUILD`]).
+    /// The crossaudit build that last wrote the directory ([`crate::io::BUILD`]).
     pub crossaudit: String,
     /// The outer level this directory holds (`spec-s1`, `draw-2`,
     /// `split-3`), for a level of a multiverse, draw-replicated or
@@ -66,7 +66,7 @@ impl RunRecord {
             audit_sha256: crate::io::sha256_hex(prepared.audit.to_csv().as_bytes()),
             manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
             exploratory,
-            crossaudit: crate::BUILD.to_string(),
+            crossaudit: crate::io::BUILD.to_string(),
             level: None,
             cells_sha256: None,
         }
@@ -149,7 +149,7 @@ pub struct JobRecord {
     pub standardizers: Option<FeatureMap>,
     /// Every file it wrote (path relative to the run directory) and its SHA-256.
     pub files: BTreeMap<String, String>,
-    /// The crossaudit build that ran it ([`crate::BUILD`]).
+    /// The crossaudit build that ran it ([`crate::io::BUILD`]).
     pub crossaudit: String,
     /// An external model's trajectories with a non-finite predicted state
     /// (absent for built-in models).

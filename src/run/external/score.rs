@@ -417,7 +417,7 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
         manifests: crate::run::job::job_manifests(p, job),
         standardizers: Some(ej.standardizers.clone()),
         files: JobRecord::hash_files(dir, &files)?,
-        crossaudit: crate::BUILD.to_string(),
+        crossaudit: crate::io::BUILD.to_string(),
         non_finite_starts: Some(non_finite),
         key: None,
         reused_from: None,

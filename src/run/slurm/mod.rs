@@ -238,7 +238,7 @@ pub fn prepare(
         data_dir: absolute(&data.dir)?,
         data: data.origin.clone(),
         jobs: keys.clone(),
-        crossaudit: crate::BUILD.to_string(),
+        crossaudit: crate::io::BUILD.to_string(),
     };
     write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
 

@@ -168,7 +168,7 @@ pub(super) fn write_scripts(
     let task = |command: &str| {
         format!(
             "#!/bin/sh\n# Written by `crossaudit run --slurm` (crossaudit {}); submitted by submit.sh.\nset -eu\nexec {binary_q} {command}\n",
-            crate::BUILD
+            crate::io::BUILD
         )
     };
     let array_script = slurm.join("array.sbatch");
@@ -195,7 +195,7 @@ pub(super) fn write_scripts(
          # Logs: {logs}/task-INDEX.out (appended to by every attempt) and gather.out.\n\
          set -eu\n",
         dir = dir.display(),
-        build = crate::BUILD,
+        build = crate::io::BUILD,
         n = indices.len(),
         logs = logs.display(),
     );
