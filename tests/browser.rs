@@ -1,6 +1,6 @@
 //! The quickstart's and the paper multiverse's report.html in a real
 //! browser: Debian's chromium, headless, opens the committed pages (which
-//! `tests/trust.rs` and the multiverse tests reproduce byte for byte).
+//! `tests/run_integrity.rs` and the multiverse tests reproduce byte for byte).
 //! Nothing may fail to load or raise an error, every figure must render
 //! with a real size and everything drawn inside its own box (no tick label
 //! or title cut at an edge), the banner must carry the decision, and the

@@ -178,7 +178,7 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
     // Each folder's COMMAND, run afresh into a temporary folder; every
     // committed file (the build line aside) must come out the same.
     // `summary.txt` is the command's standard output. The quickstart is
-    // checked by tests/trust.rs, the slower ones by scripts/regenerate.sh.
+    // checked by tests/run_integrity.rs, the slower ones by scripts/regenerate.sh.
     let shared = crate::common::shared_logs_or_skip().is_some();
     let cases: &[(&str, &[&str], bool)] = &[
         (

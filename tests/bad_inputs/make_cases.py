@@ -333,7 +333,7 @@ design("r3b_decide_optimism_negative_fraction", MINIMAL.replace("optimism >= 10%
 # Round 3 (trust-a): limits, output, folders, split files, line numbers
 # =============================================================================
 # Issue 30, classes 4, 6, 7 and 9 (class 5, standard output, needs a closed
-# pipe or /dev/full and is tested in tests/trust3_io.rs, as are FIFOs,
+# pipe or /dev/full and is tested in tests/hostile_io.rs, as are FIFOs,
 # symlinks to /dev/zero, concurrent runs and files too large to commit).
 
 # ---- limits: values `check` accepted that a run could not survive -----------
@@ -449,7 +449,7 @@ case("r3a_cr_coverage_spec_malformed", "coverage {dir}/spec.json --out {out}",
 # Each is refused with a message that names the file (and line); the
 # lenient counterparts (named on the console and in the report, exit 0),
 # the two-member gzip that now loads whole, the gzip bomb and the 80 MB
-# line are in tests/trust4.rs (too large to commit or not failures).
+# line are in tests/hostile_inputs.rs (too large to commit or not failures).
 GZ = gzip.compress(GOOD_LOG)
 
 def corrupt(data, offset, xor=0xFF):
