@@ -75,26 +75,23 @@ pub fn analyze_with(
 ///
 /// ```
 /// use std::path::Path;
-/// let a = crossaudit::analyze_study(
-///     Path::new("designs/nanobench_confirmatory.design"),
-///     Path::new("examples/cells/nanobench_synthetic.csv"),
-///     Default::default(),
-/// )
-/// .unwrap();
+/// let file = crossaudit::design::load(Path::new("designs/nanobench_confirmatory.design")).unwrap();
+/// let a = crossaudit::analyze_study(&file, Path::new("examples/cells/nanobench_synthetic.csv"), Default::default())
+///     .unwrap();
 /// assert_eq!(a.kind(), "single");
 /// assert!(a.decision_line().starts_with("decision: "));
 /// ```
-pub fn analyze_study(design_path: &Path, cells: &Path, options: AnalyzeOptions) -> Result<run::StudyAnalysis, Error> {
-    let file = design::load(design_path)?;
+pub fn analyze_study(file: &DesignFile, cells: &Path, options: AnalyzeOptions) -> Result<run::StudyAnalysis, Error> {
     if run::outer::levels(&file.design).is_some() {
-        let mut a = run::outer::analyze_dir(&file, cells)?;
-        run::outer::label(&mut a, &file)?;
+        let mut a = run::outer::analyze_dir(file, cells)?;
+        run::outer::label(&mut a, file)?;
         return Ok(run::StudyAnalysis::Multiverse(Box::new(a)));
     }
-    if compile(&file.design).is_family() {
-        return Ok(run::StudyAnalysis::Family(Box::new(analyze_family_files(design_path, cells, options)?)));
+    let plan = compile(&file.design);
+    if plan.is_family() {
+        return Ok(run::StudyAnalysis::Family(Box::new(analyze_family_with(file, &plan, cells, options)?)));
     }
-    Ok(run::StudyAnalysis::Single(Box::new(analyze_files(design_path, cells, options)?)))
+    Ok(run::StudyAnalysis::Single(Box::new(analyze_with(file, &plan, cells, options)?)))
 }
 
 /// The analysis of a dose-response or multi-split design's per-cell file
@@ -119,9 +116,19 @@ pub fn analyze_family_files(
 ) -> Result<analysis::family::FamilyAnalysis, Error> {
     let file = design::load(design_path)?;
     let plan = compile(&file.design);
-    let status = design::lock::status(&file)?;
+    analyze_family_with(&file, &plan, cells_path, options)
+}
+
+/// As [`analyze_family_files`], for a design already loaded and compiled.
+pub fn analyze_family_with(
+    file: &DesignFile,
+    plan: &Plan,
+    cells_path: &Path,
+    options: AnalyzeOptions,
+) -> Result<analysis::family::FamilyAnalysis, Error> {
+    let status = design::lock::status(file)?;
     let cells = cells::read_cells(cells_path)?;
-    let mut a = analysis::family::analyze_family(&plan, &cells, options)
+    let mut a = analysis::family::analyze_family(plan, &cells, options)
         .map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
     a.record_design(&file.path.display().to_string(), &file.sha256, &status);
     a.record_cells(cells_path, &cells::file_sha256(cells_path)?);

@@ -179,8 +179,13 @@ fn pest_stays_inside_design_and_report_reads_no_file() {
 #[test]
 fn lib_rs_declares_modules_and_conveniences_only() {
     let lib: Vec<String> = code_lines(&root().join("src/lib.rs")).into_iter().map(|(_, l)| l).collect();
-    let conveniences =
-        ["pub fn analyze_files(", "pub fn analyze_with(", "pub fn analyze_family_files(", "pub fn analyze_study("];
+    let conveniences = [
+        "pub fn analyze_files(",
+        "pub fn analyze_with(",
+        "pub fn analyze_family_files(",
+        "pub fn analyze_family_with(",
+        "pub fn analyze_study(",
+    ];
     let fns: Vec<&String> =
         lib.iter().filter(|l| l.contains("fn ") && !conveniences.iter().any(|c| l.contains(c))).collect();
     assert!(fns.is_empty(), "lib.rs holds functions beyond the analyze conveniences: {fns:?}");

@@ -21,12 +21,9 @@ fn a_design_parsed_and_compiled_shows_its_plan() {
 /// estimate of the committed example cells, as text a reviewer reads.
 #[test]
 fn a_reanalysis_is_locked_by_a_snapshot() {
-    let a = crossaudit::analyze_study(
-        Path::new("designs/nanobench_confirmatory.design"),
-        Path::new("examples/cells/nanobench_synthetic.csv"),
-        Default::default(),
-    )
-    .unwrap();
+    let file = crossaudit::design::load(Path::new("designs/nanobench_confirmatory.design")).unwrap();
+    let a = crossaudit::analyze_study(&file, Path::new("examples/cells/nanobench_synthetic.csv"), Default::default())
+        .unwrap();
     let crossaudit::run::StudyAnalysis::Single(single) = &a else { panic!("a single study") };
     let u = &single.units[0];
     let text = format!(

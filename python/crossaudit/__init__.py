@@ -27,6 +27,7 @@ column).
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 from dataclasses import dataclass, field
@@ -344,23 +345,16 @@ def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optiona
             path = Path(tmp) / "cells.csv"
             cells.to_csv(path, index=False)
             return analyze(design, path, out)
-    if out is None:
-        # A dose, split or multiverse study's table is the one its report
-        # writes: write the report where nobody looks, and read it.
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            r = analyze(design, cells, Path(tmp) / "report")
-            r.report_dir = None
-            return r
-    text, line, holds, kind = _native.analyze(os.fspath(design), os.fspath(cells), os.fspath(out))
+    text, line, holds, kind, table = _native.analyze(
+        os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out)
+    )
     results = json.loads(text)
     if kind == "single":
         estimates = _estimates(results)
     else:
         # The same tidy table the command line writes: estimates.csv of a
         # dose-response or multi-split family, specs.csv of a multiverse.
-        estimates = pd.read_csv(Path(out) / ("specs.csv" if kind == "multiverse" else "estimates.csv"))
+        estimates = pd.read_csv(io.StringIO(table))
     # A multiverse is analysed from its run directory; its per-cell rows are
     # multiverse_cells.csv there.
     cells_path = Path(cells) / "multiverse_cells.csv" if kind == "multiverse" else Path(cells)
@@ -370,7 +364,7 @@ def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optiona
         estimates=estimates,
         results=results,
         cells=read_cells(cells_path) if cells_path.is_file() else None,
-        report_dir=Path(out),
+        report_dir=None if out is None else Path(out),
         details={"kind": kind},
     )
 

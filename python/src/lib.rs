@@ -115,7 +115,9 @@ fn run(
 /// any study (a single contrast, a dose-response or multi-split family from
 /// its per-cell CSV, or a multiverse or draw-replicated study from its run
 /// directory); returns the analysis as JSON, the decision line, whether the
-/// decision holds, and the study's kind (`single`, `family`, `multiverse`).
+/// decision holds, the study's kind (`single`, `family`, `multiverse`) and
+/// its tidy table as the report writes it (`estimates.csv`, or `specs.csv`
+/// of a multiverse).
 /// With `out`, the report is written there too, as the command writes it.
 #[pyfunction]
 #[pyo3(signature = (design, cells, out=None))]
@@ -124,11 +126,11 @@ fn analyze(
     design: PathBuf,
     cells: PathBuf,
     out: Option<PathBuf>,
-) -> PyResult<(String, String, bool, &'static str)> {
+) -> PyResult<(String, String, bool, &'static str, String)> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let outer = crossaudit::run::outer::levels(&file.design).is_some();
-        let mut analysis = crossaudit::analyze_study(&design, &cells, Default::default()).map_err(fail)?;
+        let mut analysis = crossaudit::analyze_study(&file, &cells, Default::default()).map_err(fail)?;
         if let Some(dir) = &out {
             crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
             // A run's own folders are written by the run alone.
@@ -136,7 +138,8 @@ fn analyze(
             crossaudit::io::create_dir_all(dir).map_err(fail)?;
             analysis.write(dir).map_err(fail)?;
         }
-        Ok((analysis.to_json(), analysis.decision_line(), analysis.holds(), analysis.kind()))
+        let table = analysis.tidy_table();
+        Ok((json(&analysis)?, analysis.decision_line(), analysis.holds(), analysis.kind(), table))
     })
 }
 

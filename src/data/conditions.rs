@@ -67,11 +67,12 @@ pub fn read_table(
         let Some(name) = columns.get(role) else { return Ok(names.iter().position(|n| n == role)) };
         match names.iter().position(|n| n == name) {
             Some(k) => Ok(Some(k)),
-            None => Err(format!(
-                "{file}: line {header_line}: the conditions table has no column `{}`, which the design maps to {role} (`columns {role} = {}`); it has: {has}",
-                crate::io::one_line(name),
-                crate::io::one_line(name)
-            )),
+            None => {
+                let name = crate::io::one_line(name);
+                Err(format!(
+                    "{file}: line {header_line}: the conditions table has no column `{name}`, which the design maps to {role} (`columns {role} = {name}`); it has: {has}"
+                ))
+            }
         }
     };
     let Some(rec) = column("recording")? else {

@@ -278,9 +278,13 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
         missing_as_nan: layout.missing.is_some_and(|p| p != CutPolicy::Refuse),
     };
     let mut parsed = log::parse_with(&file, &bytes, &layout.schema, options)?;
-    let mut cut = cuts::missing_rows(&parsed.columns, &layout.names, |k| parsed.line_of(k));
-    if !cut.is_empty() {
-        cuts::fill_missing(&mut parsed.columns);
+    // Only a parse that reads missing values as NaN can have any.
+    let mut cut = Vec::new();
+    if options.missing_as_nan {
+        cut = cuts::missing_rows(&parsed.columns, &layout.names, |k| parsed.line_of(k));
+        if !cut.is_empty() {
+            cuts::fill_missing(&mut parsed.columns);
+        }
     }
     let cols = &parsed.columns;
     let rows = parsed.rows;
@@ -457,12 +461,16 @@ fn check_rate(
     if !off(median) {
         // The rate holds, but a window across a gap would join two stretches
         // of flight as one step: refused at the step's line.
-        let (longest, limit) = match gaps {
-            None => (MAX_GAP_STEPS * expected, format!("the {MAX_GAP_STEPS} samples a log may miss in a row")),
-            Some(g) if g.policy == CutPolicy::Refuse => (g.over_s, format!("the declared `gaps over {} s`", g.over_s)),
+        let longest = match gaps {
+            None => MAX_GAP_STEPS * expected,
+            Some(g) if g.policy == CutPolicy::Refuse => g.over_s,
             Some(_) => return Ok(()),
         };
         if let Some(k) = t.windows(2).position(|w| w[1] - w[0] > longest) {
+            let limit = match gaps {
+                Some(g) => format!("the declared `gaps over {} s`", g.over_s),
+                None => format!("the {MAX_GAP_STEPS} samples a log may miss in a row"),
+            };
             return Err(LogError::Gap {
                 file: file.to_string(),
                 line: log.line_of(k + 1),

@@ -25,7 +25,7 @@ use crate::io::{create_dir_all, pretty_json, write_atomic, WriteError};
 pub use crate::io::{md_code, md_text};
 pub use charts::DrawError;
 pub use coverage::summary as coverage_summary;
-pub use estimates::render_estimates;
+pub use estimates::{render_estimates, render_family_estimates};
 pub use format::{decision_line, decision_summary, f, level_pct, unit_label};
 pub use html::render_html;
 pub use markdown::render_markdown;

@@ -9,9 +9,11 @@ use super::{outer, RunError};
 use crate::analysis::family::FamilyAnalysis;
 use crate::analysis::Analysis;
 
-/// The analysis a run wrote: one crossed contrast, or a family of them
-/// (several splits or doses).
-#[derive(Debug, Clone)]
+/// The analysis a run wrote: one crossed contrast, a family of them
+/// (several splits or doses), or a multiverse. It serializes as the
+/// analysis it holds (results.json's, or multiverse.json's).
+#[derive(Debug, Clone, serde::Serialize)]
+#[serde(untagged)]
 pub enum StudyAnalysis {
     /// A single-split, single-dose study.
     Single(Box<Analysis>),
@@ -59,14 +61,14 @@ impl StudyAnalysis {
         }
     }
 
-    /// The analysis as results.json (or multiverse.json) holds it.
-    pub fn to_json(&self) -> String {
-        let value = match self {
-            StudyAnalysis::Single(a) => serde_json::to_string_pretty(a),
-            StudyAnalysis::Family(a) => serde_json::to_string_pretty(a),
-            StudyAnalysis::Multiverse(a) => serde_json::to_string_pretty(a),
-        };
-        value.unwrap_or_else(|e| format!("{{\"error\": {:?}}}", e.to_string()))
+    /// The tidy table the report writes: `estimates.csv` of a single or
+    /// family study, `specs.csv` of a multiverse (as CSV text).
+    pub fn tidy_table(&self) -> String {
+        match self {
+            StudyAnalysis::Single(a) => crate::report::render_estimates(a),
+            StudyAnalysis::Family(a) => crate::report::render_family_estimates(a),
+            StudyAnalysis::Multiverse(a) => crate::report::multiverse::specs_csv(a),
+        }
     }
 
     /// Writes the study's report into `dir`, as `crossaudit analyze` does;

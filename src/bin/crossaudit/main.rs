@@ -529,7 +529,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     crossaudit::run::check_not_runs_own(&dir, outer.then_some(cells))?;
     // Any study: a single one, a dose or split family, or (for a
     // multiverse or draw-replicated design) the run directory `cells`.
-    let mut analysis = crossaudit::analyze_study(design, cells, options)?;
+    let mut analysis = crossaudit::analyze_study(&file, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
     let written = analysis.write(&dir)?;
     for w in analysis.warnings() {

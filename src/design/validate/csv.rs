@@ -126,10 +126,8 @@ impl Validator {
                 "folders nested"
             }
             DataItem::ConditionsTable { file: t, columns } => {
-                let mut roles: Vec<Ident> = Vec::new();
                 for (role, column) in columns {
-                    if let Some(first) = roles.iter().find(|r| r.node == role.node) {
-                        let _ = first;
+                    if csv.conditions_columns.insert(role.node.clone(), column.node.clone()).is_some() {
                         self.err_help(
                             "table column mapped twice",
                             role.span,
@@ -137,8 +135,6 @@ impl Validator {
                             "map each of recording, trajectory and speed at most once",
                         );
                     }
-                    roles.push(role.clone());
-                    csv.conditions_columns.insert(role.node.clone(), column.node.clone());
                 }
                 if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
                     self.err_help(

@@ -332,11 +332,7 @@ pub(crate) fn run_levels_with(
             let queued = todo.contains(j);
             first.entry(key).or_insert_with(|| (here, j.clone(), queued));
         }
-        if let Some(w) = opened.prepared.audit.unread_warning() {
-            if !reused.contains(&w) {
-                reused.push(w);
-            }
-        }
+        note_unread(&mut reused, &opened.prepared.audit);
         if copied > 0 {
             reused.push(format!(
                 "{}: {copied} job(s) whose inputs (manifests, data, model, training, seed) equal an earlier level's were not trained again: their files were copied, by content hash",
@@ -398,6 +394,13 @@ pub(crate) fn run_levels_with(
     }
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
+}
+
+/// Adds a level's unreadable-files warning to `notes` once (every level reads the same folder).
+pub(crate) fn note_unread(notes: &mut Vec<String>, audit: &crate::data::Audit) {
+    if let Some(w) = audit.unread_warning().filter(|w| !notes.contains(w)) {
+        notes.push(w);
+    }
 }
 
 /// Copies a finished job's files and record from the run directory `from`

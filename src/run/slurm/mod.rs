@@ -495,11 +495,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
             splits.push((level.clone(), opened.prepared.split.clone()));
         }
         if per_seed {
-            if let Some(w) = opened.prepared.audit.unread_warning() {
-                if !notes.contains(&w) {
-                    notes.push(w);
-                }
-            }
+            outer::note_unread(&mut notes, &opened.prepared.audit);
             super::gather_recorded(&part.plan, &opened, &part.dir)?;
         } else {
             last = Some(finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?);
