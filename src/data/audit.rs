@@ -545,8 +545,10 @@ impl Audit {
             .unread()
             .map(|f| {
                 let file = if f.file.is_empty() { f.name.as_str() } else { f.file.as_str() };
-                let why =
-                    f.reason.strip_prefix(file).map(|r| r.trim_start_matches(':').trim_start()).unwrap_or(&f.reason);
+                // The reason starts with the file's path, which the file's
+                // name already gives: cut it, so that the excerpt does not
+                // depend on where the data folder lies.
+                let why = f.reason.split_once(&format!("{file}: ")).map_or(f.reason.as_str(), |(_, r)| r);
                 format!("{file} ({})", crate::io::excerpt(why, 200))
             })
             .collect();
