@@ -28,10 +28,10 @@ pub use io::BUILD;
 pub use analysis::{analyze, Analysis, AnalyzeOptions};
 pub use design::{Design, DesignFile};
 pub use error::Error;
-pub use plan::{compile, Plan};
+pub use plan::{compile, compile_study, Plan, StudyPlan};
 
 /// Loads a design and a per-cell CSV and runs the preregistered analysis:
-/// [`design::load`], [`plan::compile`], [`cells::read_cells`] and
+/// [`design::load`], [`plan::compile_study`], [`cells::read_cells`] and
 /// [`analysis::analyze`] in one call. A design whose lock no longer matches
 /// is analysed but marked exploratory.
 ///
@@ -47,8 +47,8 @@ pub use plan::{compile, Plan};
 /// ```
 pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOptions) -> Result<Analysis, Error> {
     let file = design::load(design_path)?;
-    let plan = compile(&file.design);
-    analyze_with(&file, &plan, cells_path, options)
+    let study = compile_study(&file.design);
+    analyze_with(&file, &study.plan, cells_path, options)
 }
 
 /// As [`analyze_files`], for a design already loaded and compiled.
@@ -76,22 +76,28 @@ pub fn analyze_with(
 /// ```
 /// use std::path::Path;
 /// let file = crossaudit::design::load(Path::new("designs/nanobench_confirmatory.design")).unwrap();
-/// let a = crossaudit::analyze_study(&file, Path::new("examples/cells/nanobench_synthetic.csv"), Default::default())
-///     .unwrap();
+/// let study = crossaudit::compile_study(&file.design);
+/// let cells = Path::new("examples/cells/nanobench_synthetic.csv");
+/// let a = crossaudit::analyze_study(&file, &study, cells, Default::default()).unwrap();
 /// assert_eq!(a.kind(), "single");
 /// assert!(a.decision_line().starts_with("decision: "));
 /// ```
-pub fn analyze_study(file: &DesignFile, cells: &Path, options: AnalyzeOptions) -> Result<run::StudyAnalysis, Error> {
-    if run::outer::levels(&file.design).is_some() {
-        let mut a = run::outer::analyze_dir(file, cells)?;
+pub fn analyze_study(
+    file: &DesignFile,
+    study: &StudyPlan,
+    cells: &Path,
+    options: AnalyzeOptions,
+) -> Result<run::StudyAnalysis, Error> {
+    if study.combines_levels() {
+        let mut a = run::outer::analyze_dir(file, study, cells)?;
         run::outer::label(&mut a, file)?;
         return Ok(run::StudyAnalysis::Multiverse(Box::new(a)));
     }
-    let plan = compile(&file.design);
+    let plan = &study.plan;
     if plan.is_family() {
-        return Ok(run::StudyAnalysis::Family(Box::new(analyze_family_with(file, &plan, cells, options)?)));
+        return Ok(run::StudyAnalysis::Family(Box::new(analyze_family_with(file, plan, cells, options)?)));
     }
-    Ok(run::StudyAnalysis::Single(Box::new(analyze_with(file, &plan, cells, options)?)))
+    Ok(run::StudyAnalysis::Single(Box::new(analyze_with(file, plan, cells, options)?)))
 }
 
 /// The analysis of a dose-response or multi-split design's per-cell file
@@ -115,8 +121,8 @@ pub fn analyze_family_files(
     options: AnalyzeOptions,
 ) -> Result<analysis::family::FamilyAnalysis, Error> {
     let file = design::load(design_path)?;
-    let plan = compile(&file.design);
-    analyze_family_with(&file, &plan, cells_path, options)
+    let study = compile_study(&file.design);
+    analyze_family_with(&file, &study.plan, cells_path, options)
 }
 
 /// As [`analyze_family_files`], for a design already loaded and compiled.

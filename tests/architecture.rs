@@ -368,3 +368,83 @@ fn no_source_files_import_each_other_round_a_circle() {
         }
     }
 }
+
+/// A design is compiled in one place: `plan::compile` is called only inside
+/// `plan/` (by `compile_study`, level by level), and `compile_study` only
+/// where a design is loaded: each front end (the binary's subcommands, the
+/// Python package, lib.rs's conveniences), and the two runners that reopen
+/// a design copy they wrote (a Slurm task, a scoring of an export). Every
+/// other stage is handed the `StudyPlan` or one of its plans.
+#[test]
+fn a_design_is_compiled_only_by_the_study_stage_and_once_per_front_end() {
+    let mut files = all_sources();
+    rust_files(&root().join("python/src"), &mut files);
+    let loaders = [
+        "src/lib.rs",
+        "src/bin/crossaudit/main.rs",
+        "src/bin/crossaudit/methods.rs",
+        "src/bin/crossaudit/external.rs",
+        "python/src/lib.rs",
+        "src/run/slurm/mod.rs",
+        "src/run/external/levels.rs",
+        "src/run/external/score.rs",
+    ];
+    let (mut compiles, mut studies) = (Vec::new(), Vec::new());
+    for path in &files {
+        let rel = path.strip_prefix(root()).unwrap().to_string_lossy().replace('\\', "/");
+        let in_plan = rel.starts_with("src/plan/");
+        for (line, code) in code_lines(path) {
+            if calls_compile(&code) && !in_plan {
+                compiles.push(format!("{rel}:{line}: {}", code.trim()));
+            }
+            if code.contains("compile_study(")
+                && !code.contains("fn compile_study(")
+                && !loaders.contains(&rel.as_str())
+            {
+                studies.push(format!("{rel}:{line}: {}", code.trim()));
+            }
+        }
+    }
+    assert!(
+        compiles.is_empty(),
+        "`compile` called outside plan/ (call `compile_study` once and pass it on):\n{}",
+        compiles.join("\n")
+    );
+    assert!(studies.is_empty(), "`compile_study` called where no design is loaded:\n{}", studies.join("\n"));
+    // And each of the binary's subcommands compiles at most once: no
+    // function of a front end holds two calls.
+    for rel in &loaders[..5] {
+        let text = std::fs::read_to_string(root().join(rel)).unwrap();
+        for f in text.split("\nfn ").chain(text.split("\npub fn ")).chain(text.split("\npub(crate) fn ")) {
+            let body = f.split("\n}\n").next().unwrap_or("");
+            assert!(body.matches("compile_study(").count() <= 1, "{rel}: a function compiles twice:\n{body}");
+        }
+    }
+}
+
+/// Whether a line calls `compile(`: not preceded by an identifier
+/// character (so neither `compile_study(` nor `recompile(`), and not its
+/// definition.
+fn calls_compile(l: &str) -> bool {
+    l.match_indices("compile(")
+        .any(|(k, _)| !l[..k].ends_with(|c: char| c.is_ascii_alphanumeric() || c == '_') && !l[..k].ends_with("fn "))
+}
+
+/// The check above is not vacuous: it sees a `compile` call in stage
+/// code, however it is named, and nothing else.
+#[test]
+fn the_compile_check_would_see_a_stray_call() {
+    assert!(calls_compile("let p = crate::plan::compile(&d);"));
+    assert!(calls_compile("let p = crossaudit::compile(&file.design);"));
+    assert!(calls_compile("use crate::plan::compile; let p = compile(&d);"));
+    assert!(!calls_compile("let s = crate::plan::compile_study(&d);"));
+    assert!(!calls_compile("pub fn compile(design: &Design) -> Plan {"));
+    assert!(!calls_compile("let r = recompile(&d);"));
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("x.rs");
+    std::fs::write(&file, "/// crate::plan::compile(&d) in a doc\nfn f() { let p = crate::plan::compile(&d); }\n")
+        .unwrap();
+    let lines = code_lines(&file);
+    assert_eq!(lines.len(), 1, "the doc line is not code");
+    assert!(calls_compile(&lines[0].1));
+}

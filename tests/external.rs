@@ -159,14 +159,14 @@ fn a_multiverse_with_an_external_model_is_exported_per_level_and_scores_to_the_b
 
     // Each level's split, rebuilt by the library, and the MLPs `run` trained there.
     let file = crossaudit::design::load(&root().join("tests/designs/sim_multiverse.design")).unwrap();
-    let plan = crossaudit::compile(&file.design);
-    let (all, _) = crossaudit::run::outer::study_levels(&file.design, &plan).unwrap();
+    let study = crossaudit::compile_study(&file.design);
+    let all = study.levels();
     for id in &levels {
         let level = all.iter().find(|l| l.id == *id).unwrap();
         let level_file = crossaudit::design::DesignFile { design: level.design.clone(), ..file.clone() };
-        let level_plan = crossaudit::run::outer::level_plan(level, &plan);
+        let level_plan = &level.plan;
         let prepared =
-            crossaudit::split::rebuild(&level_file, &level_plan, &a.join("simulated_data"), &a.join(id)).unwrap();
+            crossaudit::split::rebuild(&level_file, level_plan, &a.join("simulated_data"), &a.join(id)).unwrap();
         let (idx, sha) = index(&b.join(id));
         assert_eq!(idx.jobs.len(), 4, "world x 2 arms x 2 seeds");
         for job in &idx.jobs {

@@ -62,15 +62,15 @@ fn export_predict_score(outer: &str, want_levels: usize) {
         listed["levels"].as_array().unwrap().iter().map(|l| l["level"].as_str().unwrap().into()).collect();
     assert_eq!(levels.len(), want_levels, "{outer}: {listed}");
     let file = crossaudit::design::load(Path::new(&path)).unwrap();
-    let plan = crossaudit::compile(&file.design);
-    let (all, _) = crossaudit::run::outer::study_levels(&file.design, &plan).unwrap();
+    let study = crossaudit::compile_study(&file.design);
+    let all = study.levels();
     let mut jobs = 0;
     for id in &levels {
         let level = all.iter().find(|l| l.id == *id).unwrap();
         let level_file = crossaudit::design::DesignFile { design: level.design.clone(), ..file.clone() };
-        let level_plan = crossaudit::run::outer::level_plan(level, &plan);
+        let level_plan = &level.plan;
         let dir = out.join(id);
-        let prepared = crossaudit::split::rebuild(&level_file, &level_plan, &out.join("simulated_data"), &dir).unwrap();
+        let prepared = crossaudit::split::rebuild(&level_file, level_plan, &out.join("simulated_data"), &dir).unwrap();
         let bytes = std::fs::read(dir.join("export/export.json")).unwrap();
         let (idx, sha): (ExportIndex, String) =
             (serde_json::from_slice(&bytes).unwrap(), crossaudit::io::sha256_hex(&bytes));

@@ -291,9 +291,9 @@ fn pooled_estimate_matches_lme4_on_the_committed_cells() {
 fn simulate(design: &str) -> FamilyAnalysis {
     let out = tempfile::tempdir().unwrap();
     let file = design::load(&root().join("designs").join(design)).unwrap();
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
     let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
-    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, ..Default::default() }, &Quiet).unwrap();
+    let done = run(&file, &study, &data, out.path(), RunOptions { workers: 2, ..Default::default() }, &Quiet).unwrap();
     let StudyAnalysis::Family(a) = done.analysis else { panic!("{design}: not a family analysis") };
     // The run's cells.csv is the committed one, byte for byte.
     let run_dir = design.trim_start_matches("simulated_").trim_end_matches(".design");
@@ -523,13 +523,14 @@ fn dose_planner_matches_r_on_the_committed_pilot() {
 #[test]
 fn split_planner_plans_the_pooled_slope_when_the_rule_is_on_it() {
     let file = design::load(&root().join("tests/designs/sim_splits_small.design")).unwrap();
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
     let out = tempfile::tempdir().unwrap();
     let data = crossaudit::run::data_dir(&file.design, &file.path, None, out.path()).unwrap();
-    let done = run(&file, &plan, &data, out.path(), RunOptions { workers: 2, ..Default::default() }, &Quiet).unwrap();
+    let done = run(&file, &study, &data, out.path(), RunOptions { workers: 2, ..Default::default() }, &Quiet).unwrap();
     let StudyAnalysis::Family(a) = done.analysis else { panic!("a dose x split study is a family") };
     let slope = a.pooled.as_ref().unwrap().slope.clone().unwrap();
-    let p = crossaudit::methods::split_power_plan(&plan, &a, &[2], &[4], &[2]).unwrap();
+    let p = crossaudit::methods::split_power_plan(plan, &a, &[2], &[4], &[2]).unwrap();
     assert!(p.unit.starts_with("slope over doses of"), "{}", p.unit);
     assert_eq!((p.mean_d, p.variances), (slope.mean, slope.variances));
     assert_rel(p.rows[0].se, crossaudit::methods::pooled_se(slope.variances, 2.0, 4.0, 2.0), 1e-15, "closed form");

@@ -319,7 +319,8 @@ fn planted_choice_effects_are_recovered_by_the_paired_analysis() {
 /// every level's plan from the design, its cells from its directory.
 fn committed(design: &str, run: &str) -> crossaudit::analysis::multiverse::MultiverseAnalysis {
     let file = design::load(&root().join(design)).unwrap();
-    crossaudit::run::outer::analyze_dir(&file, &root().join(run)).unwrap()
+    let study = crossaudit::compile_study(&file.design);
+    crossaudit::run::outer::analyze_dir(&file, &study, &root().join(run)).unwrap()
 }
 
 /// The committed runs' tables, recomputed from their cells, are the
@@ -640,7 +641,8 @@ fn choices_and_draws_together_run_every_level() {
     for level in ["spec-s1_draw-1", "spec-s1_draw-2", "spec-s2_draw-1", "spec-s2_draw-2"] {
         assert!(dir.join(level).join("report/report.md").exists(), "{level}");
     }
-    let a = crossaudit::run::outer::analyze_dir(&design::load(&path).unwrap(), &dir).unwrap();
+    let file = design::load(&path).unwrap();
+    let a = crossaudit::run::outer::analyze_dir(&file, &crossaudit::compile_study(&file.design), &dir).unwrap();
     assert_eq!(a.specs.len(), 2);
     assert_eq!(a.draws.len(), 2);
     assert!(a.draws.iter().all(|d| d.per_draw.len() == 2));

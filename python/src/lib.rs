@@ -38,7 +38,8 @@ fn json(v: &impl serde::Serialize) -> PyResult<String> {
 fn load_design(path: PathBuf) -> PyResult<String> {
     let file = crossaudit::design::load(&path).map_err(fail)?;
     let status = crossaudit::design::lock::status(&file).map_err(fail)?;
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
     json(&serde_json::json!({
         "path": path.display().to_string(),
         "sha256": file.sha256,
@@ -55,8 +56,8 @@ fn load_design(path: PathBuf) -> PyResult<String> {
 fn export(py: Python<'_>, design: PathBuf, out: PathBuf, data: Option<PathBuf>, exploratory: bool) -> PyResult<String> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
-        let plan = crossaudit::compile(&file.design);
-        let o = crossaudit::run::external::export_into(&file, &plan, data, &out, exploratory).map_err(fail)?;
+        let study = crossaudit::compile_study(&file.design);
+        let o = crossaudit::run::external::export_into(&file, &study, data, &out, exploratory).map_err(fail)?;
         Ok(o.sha256)
     })
 }
@@ -98,9 +99,9 @@ fn run(
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     let o = py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
-        let plan = crossaudit::compile(&file.design);
+        let study = crossaudit::compile_study(&file.design);
         let options = crossaudit::run::RunOptions { workers, exploratory, reuse: None };
-        crossaudit::run::run_into(&file, &plan, data, &out, options, &crossaudit::run::Quiet).map_err(fail)
+        crossaudit::run::run_into(&file, &study, data, &out, options, &crossaudit::run::Quiet).map_err(fail)
     })?;
     json(&serde_json::json!({
         "cells_csv": o.cells_csv,
@@ -129,8 +130,9 @@ fn analyze(
 ) -> PyResult<(String, String, bool, &'static str, String)> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
-        let outer = crossaudit::run::outer::levels(&file.design).is_some();
-        let mut analysis = crossaudit::analyze_study(&file, &cells, Default::default()).map_err(fail)?;
+        let study = crossaudit::compile_study(&file.design);
+        let outer = study.combines_levels();
+        let mut analysis = crossaudit::analyze_study(&file, &study, &cells, Default::default()).map_err(fail)?;
         if let Some(dir) = &out {
             crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
             // A run's own folders are written by the run alone.

@@ -36,7 +36,7 @@ use crate::analysis::{self, Analysis, FileAnalysisError};
 use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::create_dir_all;
-use crate::plan::{Plan, TrainingJob};
+use crate::plan::{Plan, StudyPlan, TrainingJob};
 
 pub use error::RunError;
 pub use folder::{check_out_dir, lock_folder, FolderLock};
@@ -88,27 +88,28 @@ pub struct RunOutcome {
 /// use crossaudit::run::{data_dir, run, Quiet, RunOptions};
 /// // A small study on the built-in simulator (its logs are generated into `out`).
 /// let file = crossaudit::design::load(Path::new("tests/designs/sim_small.design")).unwrap();
-/// let plan = crossaudit::compile(&file.design);
+/// let study = crossaudit::plan::compile_study(&file.design);
 /// let out = tempfile::tempdir().unwrap();
 /// let data = data_dir(&file.design, &file.path, None, out.path()).unwrap();
 /// let options = RunOptions { workers: 2, ..Default::default() };
-/// let done = run(&file, &plan, &data, out.path(), options, &Quiet).unwrap();
-/// assert_eq!(done.trained, plan.jobs.iter().filter(|j| j.trains()).count());
+/// let done = run(&file, &study, &data, out.path(), options, &Quiet).unwrap();
+/// assert_eq!(done.trained, study.plan.jobs.iter().filter(|j| j.trains()).count());
 /// assert!(done.cells_csv.exists() && done.report_dir.join("report.md").exists());
 /// ```
 pub fn run(
     file: &DesignFile,
-    plan: &Plan,
+    study: &StudyPlan,
     data: &Data,
     out: &Path,
     options: RunOptions,
     observer: &dyn RunObserver,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
+    let plan = &study.plan;
     check_workers(options.workers)?;
     refuse_external(plan)?;
-    if let Some(levels) = outer::study_levels(&file.design, plan) {
-        return outer::run_levels(file, plan, levels, data, out, options, observer, started);
+    if let Some(outer) = &study.outer {
+        return outer::run_levels(file, plan, outer, data, out, options, observer, started);
     }
     let index = options.reuse.as_deref().map(reuse::ReuseIndex::read).transpose()?;
     let mut opened = open(file, plan, data, out, options.exploratory, None)?;
@@ -143,19 +144,19 @@ pub fn run(
 /// then [`run`].
 pub fn run_into(
     file: &DesignFile,
-    plan: &Plan,
+    study: &StudyPlan,
     data: Option<PathBuf>,
     out: &Path,
     options: RunOptions,
     observer: &dyn RunObserver,
 ) -> Result<RunOutcome, RunError> {
-    refuse_external(plan)?;
+    refuse_external(&study.plan)?;
     check_workers(options.workers)?;
     check_lock(file, options.exploratory)?;
-    check_out_plan(out, plan, &file.sha256)?;
+    check_out_plan(out, &study.plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = data_dir(&file.design, &file.path, data, out)?;
-    run(file, plan, &data, out, options, observer)
+    run(file, study, &data, out, options, observer)
 }
 
 /// `run`, `train` and Slurm fit only the models crossaudit trains.

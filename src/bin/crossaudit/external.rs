@@ -10,9 +10,9 @@ use crate::progress;
 
 pub(crate) fn export(design: &Path, data: Option<PathBuf>, out: &Path, exploratory: bool) -> Result<(), Error> {
     let file = design::load(design)?;
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
     let started = std::time::Instant::now();
-    let o = crossaudit::run::external::export_into(&file, &plan, data, out, exploratory)?;
+    let o = crossaudit::run::external::export_into(&file, &study, data, out, exploratory)?;
     note!(
         "exported {} external jobs in {:.1} s ({:.1} MB) to {}",
         o.jobs,

@@ -176,11 +176,12 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
 
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
-    if crossaudit::run::outer::levels(&file.design).is_some() || file.design.per_seed_draws {
+    let study = crossaudit::compile_study(&file.design);
+    if study.combines_levels() || file.design.per_seed_draws {
         let design = file.path.display().to_string();
         return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "split" }.into());
     }
-    let plan = crossaudit::compile(&file.design);
+    let plan = study.plan;
     crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
@@ -207,11 +208,12 @@ fn train(
     (engine, exploratory): (Engine, bool),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
-    if crossaudit::run::outer::levels(&file.design).is_some() || file.design.per_seed_draws {
+    let study = crossaudit::compile_study(&file.design);
+    if study.combines_levels() || file.design.per_seed_draws {
         let design = file.path.display().to_string();
         return Err(crossaudit::run::RunError::OuterOneLevel { design, command: "train" }.into());
     }
-    let plan = crossaudit::compile(&file.design);
+    let plan = study.plan;
     crossaudit::run::refuse_external(&plan)?;
     let job = plan
         .jobs
@@ -260,14 +262,15 @@ fn run(
     (exploratory, reuse): (bool, Option<PathBuf>),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     // Before the progress display, which has a line per worker.
     crossaudit::run::check_workers(workers)?;
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
     let options = crossaudit::run::RunOptions { workers, exploratory, reuse };
-    let result = crossaudit::run::run_into(&file, &plan, data, out, options, &progress);
+    let result = crossaudit::run::run_into(&file, &study, data, out, options, &progress);
     progress.finish();
     let o = result?;
     note!(
@@ -291,11 +294,12 @@ fn slurm_prepare(
 ) -> Result<(), Error> {
     use crossaudit::run::slurm;
     let file = design::load(design)?;
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
     // A design with external models runs on Slurm from the folder its
     // export and predictions are in (their jobs are scored, the rest queued).
     if !out.join(crossaudit::run::external::EXPORT_DIR).is_dir() {
-        crossaudit::run::refuse_external(&plan)?;
+        crossaudit::run::refuse_external(plan)?;
     }
     let binary = std::env::current_exe().map_err(|e| crossaudit::run::RunError::Submit {
         script: "(not written)".into(),
@@ -314,10 +318,10 @@ fn slurm_prepare(
     options.validate()?;
     crossaudit::run::check_lock(&file, exploratory)?;
     slurm::check_dir(out)?;
-    crossaudit::run::check_out_plan(out, &plan, &file.sha256)?;
+    crossaudit::run::check_out_plan(out, plan, &file.sha256)?;
     let lock = lock_folder(out, false)?;
     let data = crossaudit::run::data_dir(&file.design, &file.path, data, out)?;
-    let prepared = slurm::prepare(&file, &plan, &data, out, exploratory, &options)?;
+    let prepared = slurm::prepare(&file, &study, &data, out, exploratory, &options)?;
     // The array's jobs take the folder's shared lock: free it before any can start.
     drop(lock);
     if a.submit {
@@ -415,8 +419,9 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
         Err(e) => return Err(e.into()),
     };
     let status = lock::status(&file)?;
-    let plan = crossaudit::compile(&file.design);
-    let levels = crossaudit::run::outer::levels(&file.design);
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
+    let levels = Some(study.levels()).filter(|_| study.combines_levels());
     if json {
         let mut value = serde_json::json!({
             "design": path.display().to_string(),
@@ -434,7 +439,7 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
                     "id": l.id,
                     "shares_run_of": l.shares.map(|s| levels[s].id.clone()),
                 })).collect::<Vec<_>>(),
-                "jobs": crossaudit::run::outer::job_count(levels),
+                "jobs": study.job_count(),
             });
         }
         let seed_draws = file.design.seed_draws();
@@ -453,9 +458,7 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
             outln!("  {a}");
         }
         out!("{}", plan.render_text());
-        if let Some(levels) = &levels {
-            out!("{}", crossaudit::run::outer::render_levels(&file.design, levels));
-        }
+        out!("{}", study.render_levels(&file.design));
         let seed_draws = file.design.seed_draws();
         if !seed_draws.is_empty() {
             let list: Vec<String> = seed_draws.iter().map(|(s, d)| format!("seed {s}: draw {d}")).collect();
@@ -506,7 +509,8 @@ fn lock_design(path: &Path, amend: Option<&str>) -> Result<(), Error> {
 
 fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOptions) -> Result<(), Error> {
     let file = crossaudit::design::load(design)?;
-    let outer = crossaudit::run::outer::levels(&file.design).is_some();
+    let study = crossaudit::compile_study(&file.design);
+    let outer = study.combines_levels();
     let beside = cells.parent().unwrap_or(Path::new("."));
     let dir = match out {
         Some(dir) => dir,
@@ -529,7 +533,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     crossaudit::run::check_not_runs_own(&dir, outer.then_some(cells))?;
     // Any study: a single one, a dose or split family, or (for a
     // multiverse or draw-replicated design) the run directory `cells`.
-    let mut analysis = crossaudit::analyze_study(&file, cells, options)?;
+    let mut analysis = crossaudit::analyze_study(&file, &study, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
     let written = analysis.write(&dir)?;
     for w in analysis.warnings() {

@@ -67,12 +67,13 @@ pub(crate) fn power(
     let file = design::load(design)?;
     crossaudit::run::check_output_dir(out, &file.sha256)?;
     crossaudit::run::check_not_runs_own(out, None)?;
-    let plan = crossaudit::compile(&file.design);
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
     if !file.design.draws.is_empty() {
         // A draw-replicated pilot: `--cells` is its run directory, analysed
         // as `analyze` analyses it, and d pooled over draws is planned.
-        let a = crossaudit::run::outer::analyze_dir(&file, cells)?;
-        let power = crossaudit::methods::draw_power_plan(&plan, &a, recordings, seeds, draws)?;
+        let a = crossaudit::run::outer::analyze_dir(&file, &study, cells)?;
+        let power = crossaudit::methods::draw_power_plan(plan, &a, recordings, seeds, draws)?;
         let _lock = lock_folder(out, false)?;
         power.write(out)?;
         out!("{}", power.to_markdown());
@@ -80,7 +81,7 @@ pub(crate) fn power(
     }
     if !plan.splits.is_empty() {
         let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
-        let power = crossaudit::methods::split_power_plan(&plan, &family, splits, recordings, seeds)?;
+        let power = crossaudit::methods::split_power_plan(plan, &family, splits, recordings, seeds)?;
         let _lock = lock_folder(out, false)?;
         power.write(out)?;
         out!("{}", power.to_markdown());
@@ -89,10 +90,10 @@ pub(crate) fn power(
     let power = if plan.is_family() {
         // A dose-response design: the trend's slope is planned.
         let family = crossaudit::analyze_family_files(design, cells, AnalyzeOptions::default())?;
-        crossaudit::methods::dose_power_plan(&plan, &family, recordings, seeds)?
+        crossaudit::methods::dose_power_plan(plan, &family, recordings, seeds)?
     } else {
-        let analysis = crossaudit::analyze_with(&file, &plan, cells, AnalyzeOptions::default())?;
-        let mut p = crossaudit::methods::power_plan(&plan, &analysis, recordings, seeds)?;
+        let analysis = crossaudit::analyze_with(&file, plan, cells, AnalyzeOptions::default())?;
+        let mut p = crossaudit::methods::power_plan(plan, &analysis, recordings, seeds)?;
         p.draws_per_seed = file.design.per_seed_draws;
         p
     };

@@ -16,8 +16,8 @@ use super::score::{external_warning, non_finite_warning, reopen, score_predictio
 use super::{external_jobs, write_export, ExportOutcome, EXPORT_DIR};
 use crate::design::{lock, DesignFile};
 use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
+use crate::plan::study::Level;
 use crate::plan::Plan;
-use crate::run::outer::{level_plan, Level};
 use crate::run::{open, Data, RunError, RunObserver, RunOptions};
 
 /// `OUT/export/levels.json`: the levels exported, in the study's order.
@@ -53,7 +53,6 @@ pub struct LevelExport {
 /// note), then writes the index.
 pub(super) fn export_levels(
     file: &DesignFile,
-    plan: &Plan,
     levels: &[Level],
     data: &Data,
     out: &Path,
@@ -64,13 +63,13 @@ pub(super) fn export_levels(
     for level in levels.iter().filter(|l| l.shares.is_none()) {
         let in_level = |e: RunError| RunError::InLevel { level: level.id.clone(), source: Box::new(e) };
         let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
-        let lplan = level_plan(level, plan);
-        if external_jobs(&lplan).is_empty() {
+        let lplan = &level.plan;
+        if external_jobs(lplan).is_empty() {
             continue;
         }
         let dir = out.join(&level.id);
-        let opened = open(&level_file, &lplan, data, &dir, exploratory, Some(&level.id)).map_err(in_level)?;
-        let o = write_export(&level_file, &lplan, &opened.prepared, data, &dir, Some(&level.id)).map_err(in_level)?;
+        let opened = open(&level_file, lplan, data, &dir, exploratory, Some(&level.id)).map_err(in_level)?;
+        let o = write_export(&level_file, lplan, &opened.prepared, data, &dir, Some(&level.id)).map_err(in_level)?;
         jobs += o.jobs;
         bytes += o.bytes;
         listed.push(LevelExport { level: level.id.clone(), export_sha256: o.sha256, jobs: o.jobs });
@@ -144,15 +143,24 @@ pub(super) fn score_levels(
         &source.design_file,
     )
     .map_err(|e| bad(e.to_string()))?;
-    let plan = crate::plan::compile(&file.design);
-    let levels = crate::run::outer::study_levels(&file.design, &plan)
-        .ok_or_else(|| bad("the exported design has no outer levels".into()))?;
+    // The exported design copy, compiled once.
+    let study = crate::plan::compile_study(&file.design);
+    let outer = study.outer.as_ref().ok_or_else(|| bad("the exported design has no outer levels".into()))?;
     let data = Data { dir: source.data_dir.clone(), origin: source.data.clone() };
     let exploratory = run.exploratory || status.is_some_and(|s| s.changed());
     let options = RunOptions { workers, exploratory, reuse: None };
     let external = crate::run::outer::ExternalNotes(warnings);
-    let mut outcome =
-        crate::run::outer::run_levels_with(&file, &plan, levels, &data, dir, options, observer, started, &external)?;
+    let mut outcome = crate::run::outer::run_levels_with(
+        &file,
+        &study.plan,
+        outer,
+        &data,
+        dir,
+        options,
+        observer,
+        started,
+        &external,
+    )?;
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(ScoreOutcome { run: outcome, scored: all.scored, resumed: all.resumed, non_finite: all.non_finite })
 }

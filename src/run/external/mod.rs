@@ -224,17 +224,17 @@ pub struct ExportOutcome {
 /// data included), the folder locked, the data found, then [`export`].
 pub fn export_into(
     file: &DesignFile,
-    plan: &Plan,
+    study: &crate::plan::StudyPlan,
     data: Option<PathBuf>,
     out: &Path,
     exploratory: bool,
 ) -> Result<ExportOutcome, RunError> {
-    check_exportable(file, plan)?;
+    check_exportable(file, &study.plan)?;
     super::check_lock(file, exploratory)?;
-    super::check_out_plan(out, plan, &file.sha256)?;
+    super::check_out_plan(out, &study.plan, &file.sha256)?;
     let _lock = super::lock_folder(out, false)?;
     let data = super::data_dir(&file.design, &file.path, data, out)?;
-    export(file, plan, &data, out, exploratory)
+    export(file, study, &data, out, exploratory)
 }
 
 /// `crossaudit export`: opens `out` as `run` does, then writes the export
@@ -243,14 +243,15 @@ pub fn export_into(
 /// bytes; a directory of another design or other data is refused.
 pub fn export(
     file: &DesignFile,
-    plan: &Plan,
+    study: &crate::plan::StudyPlan,
     data: &Data,
     out: &Path,
     exploratory: bool,
 ) -> Result<ExportOutcome, RunError> {
+    let plan = &study.plan;
     check_exportable(file, plan)?;
-    if let Some((levels, _)) = super::outer::study_levels(&file.design, plan) {
-        return levels::export_levels(file, plan, &levels, data, out, exploratory);
+    if let Some(outer) = &study.outer {
+        return levels::export_levels(file, &outer.levels, data, out, exploratory);
     }
     let opened = open(file, plan, data, out, exploratory, None)?;
     write_export(file, plan, &opened.prepared, data, out, None)

@@ -245,16 +245,15 @@ pub(super) fn reopen(dir: &Path) -> Result<Reopened, RunError> {
         serde_json::from_slice(&bytes).map_err(|e| not_exported(dir, format!("{}: {e}", source_path.display())))?;
     let copy = export.join("design.design");
     let file = design::load_copy(&copy, &source.design_file).map_err(|e| not_exported(dir, e.to_string()))?;
-    let plan = crate::plan::compile(&file.design);
-    let outer = crate::run::outer::study_levels(&file.design, &plan);
-    let (file, plan) = match (&source.level, outer) {
-        (None, None) => (file, plan),
-        (Some(id), Some((levels, _))) => {
-            let level = levels.iter().find(|l| l.id == *id && l.shares.is_none()).ok_or_else(|| {
+    // The exported design copy, compiled once.
+    let study = crate::plan::compile_study(&file.design);
+    let (file, plan) = match (&source.level, study.outer) {
+        (None, None) => (file, study.plan),
+        (Some(id), Some(outer)) => {
+            let level = outer.levels.into_iter().find(|l| l.id == *id && l.shares.is_none()).ok_or_else(|| {
                 not_exported(dir, format!("{} names level {id}, which the design has not", source_path.display()))
             })?;
-            let plan = crate::run::outer::level_plan(level, &plan);
-            (DesignFile { design: level.design.clone(), ..file }, plan)
+            (DesignFile { design: level.design, ..file }, level.plan)
         }
         (None, Some(_)) => {
             return Err(not_exported(

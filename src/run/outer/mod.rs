@@ -24,186 +24,12 @@ mod verify;
 
 use super::*;
 use crate::analysis::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, SharedDraws};
-use crate::design::multiverse::run_key;
 use crate::design::Design;
 use crate::io::write_atomic;
+pub use crate::plan::study::{Level, Outer, Role, Unit};
+use crate::plan::StudyPlan;
 pub use crate::report::multiverse::decision_line;
 use verify::check_levels;
-
-/// What an outer factor's levels are to each other, which decides how they
-/// are combined.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Role {
-    /// Alternative analyses of the same question (a multiverse's
-    /// specifications): each reported, combined by the declared rule, their
-    /// differences estimated pairwise.
-    Specification,
-    /// Replicates of the unpublished draws with the evaluation set fixed: a
-    /// variance component beside recording and seed.
-    Replicate,
-    /// Whole redraws of the experiment, evaluation set included (splits):
-    /// pooled by REML over split, recording and seed.
-    Redraw,
-    /// `draws per seed`: one level per seed, each its own draw with that
-    /// seed alone; their cells together are one crossed recording x seed
-    /// study, analysed as the design's own.
-    PerSeed,
-}
-
-/// One level of the outer factors.
-#[derive(Debug, Clone)]
-pub struct Level {
-    /// Its directory name.
-    pub id: String,
-    /// The specification's index, in a multiverse.
-    pub spec: Option<usize>,
-    /// The draw, under draw replication.
-    pub draw: Option<u64>,
-    /// The split, in a multi-split study.
-    pub split: Option<u64>,
-    /// The complete single-run design of the level.
-    pub design: Design,
-    /// The earlier level whose run it shares, if its own would train the same jobs.
-    pub shares: Option<usize>,
-}
-
-/// The outer levels of `design`, or None for a study without choices or draws.
-pub fn levels(design: &Design) -> Option<Vec<Level>> {
-    let specs: Vec<(Option<usize>, String, &Design)> = match &design.multiverse {
-        Some(m) => m.specs.iter().enumerate().map(|(k, s)| (Some(k), format!("spec-{}", s.id), &*s.design)).collect(),
-        None if !design.draws.is_empty() => vec![(None, String::new(), design)],
-        None => return None,
-    };
-    let mut out: Vec<Level> = Vec::new();
-    for (spec, name, d) in specs {
-        let mut plain = d.clone();
-        plain.multiverse = None;
-        if d.per_seed_draws && spec.is_some() {
-            // Each seed of the specification its own level, in the
-            // specification's folder: `spec-ID/draw-K` ([`per_seed::units`]).
-            for (seed, k) in d.seed_draws() {
-                let id = format!("{name}/draw-{k}");
-                out.push(Level {
-                    id,
-                    spec,
-                    draw: Some(k),
-                    split: None,
-                    design: plain.for_seed_draw(seed, k),
-                    shares: None,
-                });
-            }
-            continue;
-        }
-        if d.draws.is_empty() {
-            out.push(Level { id: name, spec, draw: None, split: None, design: plain, shares: None });
-            continue;
-        }
-        for &k in &d.draws {
-            let id = if name.is_empty() { format!("draw-{k}") } else { format!("{name}_draw-{k}") };
-            out.push(Level { id, spec, draw: Some(k), split: None, design: d.for_draw(k), shares: None });
-        }
-    }
-    let keys: Vec<String> = out.iter().map(|l| run_key(&l.design)).collect();
-    for k in 0..out.len() {
-        out[k].shares = keys[..k].iter().position(|o| *o == keys[k]);
-    }
-    Some(out)
-}
-
-/// Every outer level of a study with any outer factor, splits included, and
-/// the role that decides how its levels are combined; None for a study of
-/// one run. (A dose is not an outer factor: a dose-response family's arms
-/// are trained in one run.)
-pub fn study_levels(design: &Design, plan: &Plan) -> Option<(Vec<Level>, Role)> {
-    if let Some(levels) = levels(design) {
-        let role = if design.multiverse.is_some() { Role::Specification } else { Role::Replicate };
-        return Some((levels, role));
-    }
-    if design.per_seed_draws {
-        let levels = design
-            .seed_draws()
-            .into_iter()
-            .map(|(seed, k)| Level {
-                id: format!("draw-{k}"),
-                spec: None,
-                draw: Some(k),
-                split: None,
-                design: design.for_seed_draw(seed, k),
-                shares: None,
-            })
-            .collect();
-        return Some((levels, Role::PerSeed));
-    }
-    if plan.splits.is_empty() {
-        return None;
-    }
-    let levels = plan
-        .splits
-        .iter()
-        .map(|&s| Level {
-            id: crate::plan::split_dir(s),
-            spec: None,
-            draw: None,
-            split: Some(s),
-            design: design.for_split(s),
-            shares: None,
-        })
-        .collect();
-    Some((levels, Role::Redraw))
-}
-
-/// The plan a level runs: a split's is the study plan's jobs of that split.
-pub fn level_plan(level: &Level, study: &Plan) -> Plan {
-    match level.split {
-        Some(s) => study.for_split(s),
-        None => crate::plan::compile(&level.design),
-    }
-}
-
-/// Jobs a study with outer levels trains: those of every level that does
-/// not share another's run.
-pub fn job_count(levels: &[Level]) -> usize {
-    levels.iter().filter(|l| l.shares.is_none()).map(|l| crate::plan::compile(&l.design).jobs.len()).sum()
-}
-
-/// What `crossaudit check` prints about the outer levels: the
-/// specifications, the draws and the jobs they train.
-pub fn render_levels(design: &Design, levels: &[Level]) -> String {
-    use std::fmt::Write as _;
-    let mut s = String::new();
-    if let Some(m) = &design.multiverse {
-        let choices: Vec<String> =
-            m.choices.iter().map(|c| format!("{} ({})", c.setting, c.alternatives.join(" | "))).collect();
-        let _ = writeln!(s, "multiverse: {} specifications over {}", m.specs.len(), choices.join(", "));
-        let _ = writeln!(s, "  primary specification {}: {}", m.specs[m.primary].id, m.label(m.primary));
-        let _ = writeln!(s, "  decided {}", m.combine.describe());
-        for (k, sp) in m.specs.iter().enumerate() {
-            let _ = writeln!(s, "  {}: {}", sp.id, m.label(k));
-        }
-    }
-    if !design.draws.is_empty() {
-        let list: Vec<String> = design.draws.iter().map(|d| d.to_string()).collect();
-        let _ = writeln!(
-            s,
-            "draws: {} ({}), the evaluation set fixed; draw k shifts every other draw's seed by k - 1",
-            design.draws.len(),
-            list.join(", ")
-        );
-    }
-    let shared = levels.iter().filter(|l| l.shares.is_some()).count();
-    let _ = writeln!(
-        s,
-        "runs: {} levels, {} trained ({} share another level's cells: only their analysis differs); jobs: {} in all",
-        levels.len(),
-        levels.len() - shared,
-        shared,
-        job_count(levels)
-    );
-    if design.coupled {
-        let _ = writeln!(s, "draws coupled: priority sampling after the evaluation draw (shared starts and windows)");
-    }
-    s
-}
 
 /// What `score` says of each level's external models (by level folder),
 /// for that level's report.
@@ -215,14 +41,14 @@ pub(crate) struct ExternalNotes(pub Vec<(String, Vec<String>)>);
 pub(super) fn run_levels(
     file: &DesignFile,
     study: &Plan,
-    levels: (Vec<Level>, Role),
+    outer: &Outer,
     data: &Data,
     out: &Path,
     options: RunOptions,
     observer: &dyn RunObserver,
     started: Instant,
 ) -> Result<RunOutcome, RunError> {
-    run_levels_with(file, study, levels, data, out, options, observer, started, &ExternalNotes::default())
+    run_levels_with(file, study, outer, data, out, options, observer, started, &ExternalNotes::default())
 }
 
 /// As [`run_levels`], after `score` scored the external models' jobs of
@@ -231,7 +57,7 @@ pub(super) fn run_levels(
 pub(crate) fn run_levels_with(
     file: &DesignFile,
     study: &Plan,
-    (levels, role): (Vec<Level>, Role),
+    outer: &Outer,
     data: &Data,
     out: &Path,
     options: RunOptions,
@@ -239,6 +65,7 @@ pub(crate) fn run_levels_with(
     started: Instant,
     external: &ExternalNotes,
 ) -> Result<RunOutcome, RunError> {
+    let (levels, role) = (&outer.levels, outer.role);
     refuse_single_run(out)?;
     let index = options.reuse.as_deref().map(crate::run::reuse::ReuseIndex::read).transpose()?;
     let (mut trained, mut skipped) = (0, 0);
@@ -285,7 +112,7 @@ pub(crate) fn run_levels_with(
         observer.level(k + 1, levels.len(), &label);
         let in_level = |e: RunError| RunError::InLevel { level: label.clone(), source: Box::new(e) };
         let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
-        let plan = level_plan(level, study);
+        let plan = level.plan.clone();
         let dir = out.join(&level.id);
         let mut opened =
             open(&level_file, &plan, data, &dir, options.exploratory, Some(&level.id)).map_err(in_level)?;
@@ -372,7 +199,7 @@ pub(crate) fn run_levels_with(
     let record = record.ok_or(RunError::NoWorkers)?;
     if role == Role::PerSeed {
         let mut outcome =
-            per_seed::finish_per_seed(file, study, &levels, out, (&status, exploratory, &record), builds, &reused)?;
+            per_seed::finish_per_seed(file, study, levels, out, (&status, exploratory, &record), builds, &reused)?;
         (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
         return Ok(outcome);
     }
@@ -383,9 +210,9 @@ pub(crate) fn run_levels_with(
         return Ok(outcome);
     }
     if file.design.per_seed_draws {
-        per_seed::finish_specs(file, &levels, out, (&status, exploratory, &record), builds.clone())?;
+        per_seed::finish_specs(file, outer, out, (&status, exploratory, &record), builds.clone())?;
     }
-    let mut outcome = finish_levels(file, &levels, out, (&status, exploratory, &record), &splits, builds)?;
+    let mut outcome = finish_levels(file, outer, out, (&status, exploratory, &record), &splits, builds)?;
     if let StudyAnalysis::Multiverse(a) = &mut outcome.analysis {
         if !reused.is_empty() {
             a.warnings.extend(reused);
@@ -454,23 +281,24 @@ fn write_all_cells(path: &Path, design: &Design, out: &Path, levels: &[Level]) -
 /// After every level finished: the combined cells, analysis and report.
 pub(super) fn finish_levels(
     file: &DesignFile,
-    levels: &[Level],
+    outer: &Outer,
     out: &Path,
     (status, exploratory, record): (&LockStatus, bool, &RunRecord),
     splits: &[Option<crate::split::Split>],
     builds: BTreeSet<String>,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
+    let levels = &outer.levels;
     let cells_csv = out.join("multiverse_cells.csv");
     write_all_cells(&cells_csv, &file.design, out, levels)?;
-    let mut a = analyze_levels(&file.design, levels, out, &cells_csv)?;
+    let mut a = analyze_levels(&file.design, outer, out, &cells_csv)?;
     a.shared = shared_draws(levels, splits);
     a.design_sha256 = Some(record.design_sha256.clone());
     a.exploratory = exploratory;
     a.preregistered = Some(!exploratory && matches!(status, LockStatus::LockedUnchanged { .. }));
     a.warnings.extend(status.amendment_warnings());
     a.warnings.extend(resumed_builds(builds));
-    for (k, u) in per_seed::units(&file.design, levels).iter().enumerate() {
+    for (k, u) in outer.units.iter().enumerate() {
         // A level that shares another's run gets its own report of its own
         // analysis (a specification of per-seed draws has had its own).
         if let (Some(s), false) = (&u.shares, file.design.per_seed_draws) {
@@ -532,13 +360,14 @@ fn shared_draws(levels: &[Level], splits: &[Option<crate::split::Split>]) -> Vec
 /// `dir` (what `crossaudit analyze DESIGN --cells DIR` reads): each
 /// level's plan from `file`, its cells from `DIR/LEVEL/cells.csv` (a level
 /// sharing another's run, from that one's). Errors name the file and line.
-pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, RunError> {
-    let levels = levels(&file.design).ok_or(RunError::NotOuter { design: file.path.display().to_string() })?;
+pub fn analyze_dir(file: &DesignFile, study: &StudyPlan, dir: &Path) -> Result<MultiverseAnalysis, RunError> {
+    let not_outer = || RunError::NotOuter { design: file.path.display().to_string() };
+    let outer = study.outer.as_ref().filter(|_| study.combines_levels()).ok_or_else(not_outer)?;
     if !dir.is_dir() {
-        return Err(RunError::NotOuter { design: file.path.display().to_string() });
+        return Err(not_outer());
     }
-    let warnings = check_levels(file, &levels, dir)?;
-    let mut a = analyze_levels(&file.design, &levels, dir, dir)?;
+    let warnings = check_levels(file, &outer.levels, dir)?;
+    let mut a = analyze_levels(&file.design, outer, dir, dir)?;
     a.warnings.extend(warnings);
     Ok(a)
 }
@@ -546,9 +375,8 @@ pub fn analyze_dir(file: &DesignFile, dir: &Path) -> Result<MultiverseAnalysis, 
 /// The combined analysis of the levels of the run in `dir`: each level's
 /// plan, and its cells read from its own directory or the one it shares
 /// (errors name that file and line; an analysis error names `shown`).
-fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -> Result<MultiverseAnalysis, RunError> {
-    let units = per_seed::units(design, levels);
-    let plans: Vec<Plan> = units.iter().map(|u| crate::plan::compile(&u.design)).collect();
+fn analyze_levels(design: &Design, outer: &Outer, dir: &Path, shown: &Path) -> Result<MultiverseAnalysis, RunError> {
+    let (levels, units) = (&outer.levels, &outer.units);
     // Level files are read in parallel; the first error in level order is
     // the one reported.
     use rayon::prelude::*;
@@ -571,7 +399,7 @@ fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -
             spec: u.spec,
             draw: u.draw,
             shares: u.shares.clone(),
-            plan: &plans[k],
+            plan: &u.plan,
             cells: &cells[k],
         })
         .collect();
@@ -580,9 +408,9 @@ fn analyze_levels(design: &Design, levels: &[Level], dir: &Path, shown: &Path) -
         .iter()
         .enumerate()
         .map(|(k, u)| {
-            let members: Vec<(Plan, PathBuf)> =
-                u.members.iter().map(|&m| (crate::plan::compile(&levels[m].design), run_dir(dir, levels, m))).collect();
-            notes::unit_notes(&u.id, &plans[k], &members, &cells[k])
+            let members: Vec<(&Plan, PathBuf)> =
+                u.members.iter().map(|&m| (&levels[m].plan, run_dir(dir, levels, m))).collect();
+            notes::unit_notes(&u.id, &u.plan, &members, &cells[k])
         })
         .collect();
     Ok(a)

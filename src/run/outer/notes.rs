@@ -73,7 +73,7 @@ pub(super) fn invariant_warnings(levels: &[(u64, PathBuf)]) -> Vec<String> {
 
 /// The notes on one unit of a multiverse (a specification, or a draw):
 /// its reference arm and its training.
-pub(super) fn unit_notes(id: &str, plan: &Plan, level_plans: &[(Plan, PathBuf)], cells: &[Cell]) -> UnitNotes {
+pub(super) fn unit_notes(id: &str, plan: &Plan, level_plans: &[(&Plan, PathBuf)], cells: &[Cell]) -> UnitNotes {
     let dirs: Vec<PathBuf> = level_plans.iter().map(|(_, d)| d.clone()).collect();
     let mut curves = Vec::new();
     for (p, d) in level_plans {

@@ -11,67 +11,13 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::{level_plan, run_dir, Level};
+use super::{run_dir, Level, Outer};
 use crate::analysis::FileAnalysisError;
 use crate::cells::{read_cells, Cell};
-use crate::design::{Design, DesignFile, LockStatus};
+use crate::design::{DesignFile, LockStatus};
 use crate::io::create_dir_all;
 use crate::plan::Plan;
 use crate::run::{RunError, RunOutcome, RunRecord, StudyAnalysis};
-
-/// What the multiverse analysis treats as one level: a level, or under
-/// per-seed draws a specification's seed levels together.
-#[derive(Debug, Clone)]
-pub(super) struct Unit {
-    /// Its folder (`spec-s1`, `draw-2`, `spec-s1_draw-2`).
-    pub id: String,
-    pub spec: Option<usize>,
-    pub draw: Option<u64>,
-    /// The unit whose cells it shares, if it trained nothing of its own.
-    pub shares: Option<String>,
-    /// Its levels, by index.
-    pub members: Vec<usize>,
-    /// The design it analyses as one study.
-    pub design: Design,
-}
-
-/// The analysis units of `levels`: each level its own, except that under
-/// per-seed draws in a multiverse a specification's seeds form one.
-pub(super) fn units(design: &Design, levels: &[Level]) -> Vec<Unit> {
-    let (Some(m), true) = (&design.multiverse, design.per_seed_draws) else {
-        return levels
-            .iter()
-            .enumerate()
-            .map(|(k, l)| Unit {
-                id: l.id.clone(),
-                spec: l.spec,
-                draw: l.draw,
-                shares: l.shares.map(|s| levels[s].id.clone()),
-                members: vec![k],
-                design: l.design.clone(),
-            })
-            .collect();
-    };
-    let unit_id = |s: usize| format!("spec-{}", m.specs[s].id);
-    m.specs
-        .iter()
-        .enumerate()
-        .map(|(s, spec)| {
-            let members: Vec<usize> = (0..levels.len()).filter(|&k| levels[k].spec == Some(s)).collect();
-            // It shares a specification's cells when each of its seeds does.
-            let shared: Vec<Option<usize>> =
-                members.iter().map(|&k| levels[k].shares.and_then(|o| levels[o].spec)).collect();
-            let shares = match shared.first() {
-                Some(Some(o)) if shared.iter().all(|x| *x == Some(*o)) => Some(unit_id(*o)),
-                _ => None,
-            };
-            let mut d = (*spec.design).clone();
-            d.multiverse = None;
-            d.per_seed_draws = false;
-            Unit { id: unit_id(s), spec: Some(s), draw: None, shares, members, design: d }
-        })
-        .collect()
-}
 
 /// After every seed's level of a `draws per seed` study finished: their
 /// cells in one `dest/cells.csv` (seed order), the design's own analysis
@@ -95,16 +41,16 @@ pub(crate) fn finish_per_seed(
 /// [`finish_per_seed`] finishes a single design, in `out/spec-ID`.
 pub(crate) fn finish_specs(
     file: &DesignFile,
-    levels: &[Level],
+    outer: &Outer,
     out: &Path,
     run: (&LockStatus, bool, &RunRecord),
     builds: BTreeSet<String>,
 ) -> Result<(), RunError> {
-    for u in units(&file.design, levels) {
+    let levels = &outer.levels;
+    for u in &outer.units {
         let members: Vec<Level> = u.members.iter().map(|&k| levels[k].clone()).collect();
         let dirs: Vec<PathBuf> = u.members.iter().map(|&k| run_dir(out, levels, k)).collect();
-        let plan = crate::plan::compile(&u.design);
-        let finished = finish_seeds(file, &plan, (&members, &dirs), &out.join(&u.id), run, (builds.clone(), &[]));
+        let finished = finish_seeds(file, &u.plan, (&members, &dirs), &out.join(&u.id), run, (builds.clone(), &[]));
         finished.map_err(|e| RunError::InLevel { level: u.id.clone(), source: Box::new(e) })?;
     }
     Ok(())
@@ -123,7 +69,7 @@ fn finish_seeds(
     let mut curves = Vec::new();
     for (l, dir) in levels.iter().zip(dirs) {
         all.extend(read_cells(&dir.join("cells.csv"))?);
-        curves.extend(crate::run::curves::read_curves(&level_plan(l, study), dir)?);
+        curves.extend(crate::run::curves::read_curves(&l.plan, dir)?);
     }
     create_dir_all(dest)?;
     let cells_csv = dest.join("cells.csv");

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::{level_plan, run_dir, Level};
+use super::{run_dir, Level};
 use crate::design::DesignFile;
 use crate::run::{JobRecord, RunError, RunRecord};
 
@@ -17,7 +17,6 @@ use crate::run::{JobRecord, RunError, RunRecord};
 /// returned as warnings.
 pub(super) fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> Result<Vec<String>, RunError> {
     let mut unverified: Vec<String> = Vec::new();
-    let study = crate::plan::compile(&file.design);
     for (k, level) in levels.iter().enumerate() {
         if level.shares.is_some() {
             continue;
@@ -51,7 +50,7 @@ pub(super) fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> R
             None => unverified.push(format!("{} (which level it holds)", level.id)),
         }
         let cells_csv = d.join("cells.csv");
-        let plan = level_plan(level, &study);
+        let plan = &level.plan;
         if d.join("jobs").is_dir() {
             for job in &plan.jobs {
                 let Some(r) = JobRecord::read(&d, job)? else {
@@ -59,7 +58,7 @@ pub(super) fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> R
                 };
                 r.verify_cells(&d, job, &file.sha256)?;
             }
-            let gathered = crate::cells::cells_bytes(&crate::run::gathered(&plan, &d)?);
+            let gathered = crate::cells::cells_bytes(&crate::run::gathered(plan, &d)?);
             let on_disk = crate::io::read_input(&cells_csv, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
                 .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
             if gathered != on_disk {

@@ -48,7 +48,7 @@ use super::outer;
 use super::{finish, open, pending, Data, DataOrigin, JobRecord, Opened, RunError, RunOutcome, RunRecord};
 use crate::design::{self, DesignFile, LockStatus};
 use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
-use crate::plan::{Plan, TrainingJob};
+use crate::plan::{Plan, StudyPlan, TrainingJob};
 pub use scripts::*;
 
 /// `DIR/slurm`: everything the scheduler reads.
@@ -135,22 +135,21 @@ impl Part {
 /// The run directories of the study in `dir`: itself, or one per outer
 /// level that trains (a level sharing another's run has none), with the
 /// levels and their role.
-fn parts(file: &DesignFile, plan: &Plan, dir: &Path) -> (Vec<Part>, Option<(Vec<outer::Level>, outer::Role)>) {
-    let Some((levels, role)) = outer::study_levels(&file.design, plan) else {
-        let part = Part { level: None, file: file.clone(), plan: plan.clone(), dir: dir.to_path_buf() };
-        return (vec![part], None);
+fn parts(file: &DesignFile, study: &StudyPlan, dir: &Path) -> Vec<Part> {
+    let Some(outer) = &study.outer else {
+        return vec![Part { level: None, file: file.clone(), plan: study.plan.clone(), dir: dir.to_path_buf() }];
     };
-    let parts = levels
+    outer
+        .levels
         .iter()
         .filter(|l| l.shares.is_none())
         .map(|l| Part {
             level: Some(l.id.clone()),
             file: DesignFile { design: l.design.clone(), ..file.clone() },
-            plan: outer::level_plan(l, plan),
+            plan: l.plan.clone(),
             dir: dir.join(&l.id),
         })
-        .collect();
-    (parts, Some((levels, role)))
+        .collect()
 }
 
 /// Every job of the study by array index: (part, the job as its run
@@ -184,13 +183,14 @@ fn unfinished<'a>(parts: impl IntoIterator<Item = &'a Part>) -> Result<(Vec<usiz
 /// out of the array.
 pub fn prepare(
     file: &DesignFile,
-    plan: &Plan,
+    study: &StudyPlan,
     data: &Data,
     out: &Path,
     exploratory: bool,
     options: &SlurmOptions,
 ) -> Result<PreparedArray, RunError> {
     options.validate()?;
+    let plan = &study.plan;
     // External models' jobs are scored from the folder's predictions here;
     // only the built-in models' jobs go into the array.
     if super::external::external_names(plan).is_some() {
@@ -207,8 +207,8 @@ pub fn prepare(
     path_word(&binary)?;
     // Each split of a multi-split study is opened in its own directory, as a
     // local run opens it.
-    let (parts, outer) = parts(file, plan, &dir);
-    if outer.is_some() {
+    let parts = parts(file, study, &dir);
+    if study.outer.is_some() {
         super::refuse_single_run(&dir)?;
     }
     let mut lock = LockStatus::Unlocked;
@@ -272,10 +272,9 @@ pub enum TaskOutcome {
 struct Prepared {
     array: ArrayRecord,
     file: DesignFile,
-    plan: Plan,
+    /// The design copy compiled, with its outer levels.
+    study: StudyPlan,
     parts: Vec<(Part, RunRecord)>,
-    /// The outer levels and their role, for a study with outer factors.
-    outer: Option<(Vec<outer::Level>, outer::Role)>,
 }
 
 impl Prepared {
@@ -318,8 +317,9 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
             file.sha256, array.design_sha256
         )));
     }
-    let plan = crate::plan::compile(&file.design);
-    let (parts, outer) = parts(&file, &plan, dir);
+    // The array's own entry point: the design copy compiled once.
+    let study = crate::plan::compile_study(&file.design);
+    let parts = parts(&file, &study, dir);
     let keys: Vec<String> = study_jobs(&parts).into_iter().map(|(k, j)| parts[k].key(j)).collect();
     if keys != array.jobs {
         return Err(not_prepared("the design copy compiles to another job list than slurm/array.json".into()));
@@ -339,7 +339,7 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
         }
         opened.push((part, run));
     }
-    Ok(Prepared { array, file, plan, parts: opened, outer })
+    Ok(Prepared { array, file, study, parts: opened })
 }
 
 /// The split of one run directory rebuilt in memory from the recorded data
@@ -504,26 +504,27 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     }
     let record = last_record.ok_or(RunError::NoWorkers)?;
     let exploratory = record.exploratory || lock.changed();
-    if let Some((levels, outer::Role::PerSeed)) = &p.outer {
+    let plan = &p.study.plan;
+    if let Some(o @ outer::Outer { role: outer::Role::PerSeed, .. }) = &p.study.outer {
         let mut outcome =
-            outer::finish_per_seed(&p.file, &p.plan, levels, dir, (&lock, exploratory, &record), all_builds, &notes)?;
+            outer::finish_per_seed(&p.file, plan, &o.levels, dir, (&lock, exploratory, &record), all_builds, &notes)?;
         (outcome.skipped, outcome.seconds) = (total_jobs, started.elapsed().as_secs_f64());
         return Ok(outcome);
     }
-    if let (Some((levels, _)), true) = (&p.outer, per_seed) {
-        outer::finish_specs(&p.file, levels, dir, (&lock, exploratory, &record), all_builds.clone())?;
+    if let (Some(o), true) = (&p.study.outer, per_seed) {
+        outer::finish_specs(&p.file, o, dir, (&lock, exploratory, &record), all_builds.clone())?;
     }
-    let mut outcome = match (p.outer, last) {
+    let mut outcome = match (&p.study.outer, last) {
         (None, Some(outcome)) => outcome,
         (None, None) => return Err(RunError::NoWorkers),
-        (Some((_, outer::Role::Redraw)), _) => {
-            super::finish_splits(&p.array.design_path, &p.plan, dir, &lock, exploratory, &record, all_builds)?
+        (Some(outer::Outer { role: outer::Role::Redraw, .. }), _) => {
+            super::finish_splits(&p.array.design_path, plan, dir, &lock, exploratory, &record, all_builds)?
         }
-        (Some((levels, _)), _) => {
+        (Some(o), _) => {
             // The same combined analysis a local run writes.
             let by_level: Vec<Option<crate::split::Split>> =
-                levels.iter().map(|l| splits.iter().find(|(id, _)| *id == l.id).map(|(_, s)| s.clone())).collect();
-            outer::finish_levels(&p.file, &levels, dir, (&lock, exploratory, &record), &by_level, all_builds)?
+                o.levels.iter().map(|l| splits.iter().find(|(id, _)| *id == l.id).map(|(_, s)| s.clone())).collect();
+            outer::finish_levels(&p.file, o, dir, (&lock, exploratory, &record), &by_level, all_builds)?
         }
     };
     outcome.seconds = started.elapsed().as_secs_f64();

@@ -5,6 +5,10 @@
 //! and decision rule. No later stage looks at the design's text or
 //! re-derives any of this.
 //!
+//! A study with outer factors (specifications, draws, splits) is compiled
+//! once more, level by level, into a [`StudyPlan`] ([`study`]); front ends
+//! call [`compile_study`] and nothing else compiles.
+//!
 //! Architecture Invariant: `plan` imports only `design` and `stats`.
 
 use std::fmt::Write as _;
@@ -16,6 +20,9 @@ use crate::design::{
     Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
 use crate::stats::DfRule;
+
+pub mod study;
+pub use study::{compile_study, StudyPlan};
 
 /// One training job: a model fitted on one arm with one seed (or, for a
 /// parameter-free baseline, evaluated on it).
