@@ -244,51 +244,11 @@ class Result:
     details: dict = field(default_factory=dict, repr=False)
 
 
-def _estimates(results: dict) -> pd.DataFrame:
-    """One row per analysis unit and interaction: the crossed estimate of
-    treated - reference, its SE, df, interval, arm means and optimism (%)
-    with its Fieller interval (NaN where the set is unbounded or absent)."""
-    rows = []
-    for u in results.get("units", []):
-        e = u["estimate"]
-        fieller = (u.get("optimism_interval") or {}).get("fieller") or {}
-        rows.append(
-            {
-                "kind": "endpoint",
-                "role": u["role"],
-                "model": u["model"],
-                "metric": u["metric"],
-                "horizon_s": u["horizon_s"],
-                "mean_treated": u["mean_treated"],
-                "mean_reference": u["mean_reference"],
-                "estimate": e.get("mean"),
-                "se": e.get("se"),
-                "df": e.get("df"),
-                "lower": e.get("lower"),
-                "upper": e.get("upper"),
-                "optimism_pct": u["optimism_pct"],
-                "optimism_lower": fieller.get("lower", float("nan")),
-                "optimism_upper": fieller.get("upper", float("nan")),
-                "rule_holds": u["rule_holds"],
-            }
-        )
-    for i in results.get("interactions", []):
-        e = i.get("estimate", {})
-        rows.append(
-            {
-                "kind": "interaction",
-                "role": "interaction",
-                "model": f"{i.get('left')} - {i.get('right')}",
-                "metric": i.get("metric"),
-                "horizon_s": i.get("horizon_s"),
-                "estimate": e.get("mean"),
-                "se": e.get("se"),
-                "df": e.get("df"),
-                "lower": e.get("lower"),
-                "upper": e.get("upper"),
-            }
-        )
-    return pd.DataFrame(rows)
+def _tidy(text: str) -> pd.DataFrame:
+    """The report's tidy table (``estimates.csv``, or a multiverse's
+    ``specs.csv``) as a DataFrame: the same columns and rows the command
+    line writes, so one set of names serves R, pandas and this package."""
+    return pd.read_csv(io.StringIO(text))
 
 
 def read_cells(path: PathLike) -> pd.DataFrame:
@@ -300,10 +260,13 @@ def read_cells(path: PathLike) -> pd.DataFrame:
 def _finished(d: dict) -> Result:
     report = Path(d["report_dir"])
     results = json.loads((report / "results.json").read_text())
+    # A multiverse's report has specs.csv where a single or family study's
+    # has estimates.csv.
+    table = report / "estimates.csv" if (report / "estimates.csv").is_file() else report / "specs.csv"
     return Result(
         decision=d["decision"],
         holds=d["holds"],
-        estimates=_estimates(results),
+        estimates=_tidy(table.read_text()),
         results=results,
         cells=read_cells(d["cells_csv"]),
         report_dir=report,
@@ -335,9 +298,10 @@ def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optiona
     CSV path or a DataFrame with the per-cell columns) of a single-contrast,
     dose-response or multi-split design, or the run directory of a
     multiverse or draw-replicated one; writes the report to ``out`` if
-    given. ``estimates`` is the single study's table of units, or the tidy
-    table the report writes (``estimates.csv`` of a family, ``specs.csv``
-    of a multiverse); ``details["kind"]`` says which."""
+    given. ``estimates`` is the tidy table the report writes
+    (``estimates.csv`` of a single study or a family, ``specs.csv`` of a
+    multiverse), with the same columns and rows; ``details["kind"]`` says
+    which kind of study it is."""
     if isinstance(cells, pd.DataFrame):
         import tempfile
 
@@ -349,12 +313,7 @@ def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optiona
         os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out)
     )
     results = json.loads(text)
-    if kind == "single":
-        estimates = _estimates(results)
-    else:
-        # The same tidy table the command line writes: estimates.csv of a
-        # dose-response or multi-split family, specs.csv of a multiverse.
-        estimates = pd.read_csv(io.StringIO(table))
+    estimates = _tidy(table)
     # A multiverse is analysed from its run directory; its per-cell rows are
     # multiverse_cells.csv there.
     cells_path = Path(cells) / "multiverse_cells.csv" if kind == "multiverse" else Path(cells)

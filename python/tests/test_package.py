@@ -73,11 +73,20 @@ def test_a_numpy_ridge_model_through_export_score_and_analyze(tmp_path, workers)
     assert result.details["scored"] == 10 and result.details["trained"] == 10  # persistence: 10 jobs
     assert "decision: " in result.decision
     est = result.estimates
-    primary = est[est["role"] == "primary"].iloc[0]
+    # The report's own estimates.csv, row for row and column for column.
+    pd.testing.assert_frame_equal(est, pd.read_csv(result.report_dir / "estimates.csv"))
+    # Each endpoint's preregistered estimator's row carries the arm means.
+    endpoints = est[(est["kind"] == "endpoint") & est["treated_mean"].notna()]
+    primary = endpoints[endpoints["role"] == "primary"].iloc[0]
     assert primary["model"] == "world" and primary["horizon_s"] == 1.0
     assert primary["lower"] <= primary["estimate"] <= primary["upper"]
     # The optimism's Fieller interval holds the optimism.
-    assert primary["optimism_lower"] <= primary["optimism_pct"] <= primary["optimism_upper"]
+    fieller = est[(est["kind"] == "optimism") & (est["role"] == "primary") & (est["estimator"] == "fieller")].iloc[0]
+    assert fieller["lower"] <= primary["optimism_pct"] <= fieller["upper"]
+    # The rule decides on the primary endpoint alone: the other rows leave
+    # rule_holds empty.
+    assert endpoints[endpoints["role"] != "primary"]["rule_holds"].isna().all()
+    assert primary["rule_holds"] == result.holds
     # The estimate is the mean of the per-cell differences (crossed design, balanced).
     cells = result.cells
     w1 = cells[(cells.model == "world") & (cells.horizon_s == 1.0)]

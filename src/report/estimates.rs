@@ -1,7 +1,9 @@
 //! estimates.csv: every estimate of the report as one tidy table for R and
 //! pandas: one row per analysis unit (or interaction) and estimator. The
-//! preregistered estimator's row of each unit carries the arm means, the
-//! optimism (%) and whether the unit meets the decision rule; the
+//! preregistered estimator's row of each unit carries the arm means and
+//! the optimism (%), and the primary endpoint's (the one the decision rule
+//! is evaluated on) whether the rule holds there: on every other row
+//! `rule_holds` is empty, since no rule decides on it; the
 //! bootstrap, the optimism's intervals (kind `optimism`, unit `%`:
 //! Fieller's, `fieller`, and the delta method's, `delta_method`), the
 //! grouped sensitivity and any compared intervals follow as rows of their
@@ -94,7 +96,8 @@ pub fn render_estimates(a: &Analysis) -> String {
             Row {
                 means: Some((u.mean_treated, u.mean_reference)),
                 optimism: Some(u.optimism_pct),
-                holds: Some(u.rule_holds),
+                // The rule decides on the primary endpoint alone.
+                holds: (u.role == crate::design::Role::Primary).then_some(u.rule_holds),
                 ..crossed(preregistered, &u.estimate)
             },
         );
