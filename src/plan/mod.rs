@@ -204,7 +204,7 @@ pub struct Plan {
 /// Compiles the design's training jobs and analysis units.
 ///
 /// ```
-/// let d = crossaudit::design::from_str("t", include_str!("../tests/designs/minimal.design")).unwrap();
+/// let d = crossaudit::design::from_str("t", include_str!("../../tests/designs/minimal.design")).unwrap();
 /// let plan = crossaudit::plan::compile(&d);
 /// assert_eq!(plan.primary.role, crossaudit::design::Role::Primary);
 /// assert_eq!(plan.jobs.len(), d.models.len() * d.arms.len() * d.seeds.len());
