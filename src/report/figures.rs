@@ -50,7 +50,10 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
         .iter()
         .map(|u| {
             let k = -100.0 / u.mean_reference;
-            (format!("{} {} s", u.model, u.horizon_s), u.optimism_pct, u.estimate.upper * k, u.estimate.lower * k)
+            // The endpoint the decision rule is evaluated on is named so.
+            let primary = if u.role == crate::design::Role::Primary { " (primary)" } else { "" };
+            let name = format!("{} {} s{primary}", u.model, u.horizon_s);
+            (name, u.optimism_pct, u.estimate.upper * k, u.estimate.lower * k)
         })
         .collect();
     let p = report_dir.join("optimism.svg");

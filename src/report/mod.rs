@@ -55,6 +55,21 @@ pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> 
     write_all_with(a, dir, &[])
 }
 
+/// The whole report with its figures: the figures drawn from `a` (and,
+/// from a run, its training `curves`) into `dir`, named in `a.figures`,
+/// then [`write_all_with`] with them inlined into report.html. What a run
+/// and `crossaudit analyze` both write.
+pub fn write_with_figures(a: &mut Analysis, curves: &[figures::Curve], dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    create_dir_all(dir)?;
+    let drawn = figures::write_figures(a, curves, dir)?;
+    let paths: Vec<PathBuf> = drawn.iter().map(|(p, _)| p.clone()).collect();
+    let svgs = figures::by_name(drawn);
+    a.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
+    let mut written = write_all_with(a, dir, &svgs)?;
+    written.extend(paths);
+    Ok(written)
+}
+
 /// As [`write_all`], with the figures report.md names inlined into
 /// report.html: (file name, SVG text), as the caller read them.
 pub fn write_all_with(a: &Analysis, dir: &Path, figures: &[(String, String)]) -> Result<Vec<PathBuf>, ReportError> {

@@ -447,17 +447,11 @@ fn finish(
     let cells = read_cells(&cells_csv)?;
     analysis.coverage = coverage::statement(plan, &cells, std::slice::from_ref(&prepared.treatment.coverage));
     let report_dir = out.join("report");
-    create_dir_all(&report_dir)?;
     let curves = curves::read_curves(plan, out)?;
     if let Some(w) = curves::early_best_epochs(plan, &curves, &cells) {
         analysis.warnings.push(w);
     }
-    let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
-        .map_err(crate::report::ReportError::from)?;
-    // The figures as drawn, inlined into report.html.
-    let svgs = crate::report::figures::by_name(figures);
-    analysis.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
-    crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
+    crate::report::write_with_figures(&mut analysis, &curves, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,

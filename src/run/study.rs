@@ -76,7 +76,9 @@ impl StudyAnalysis {
     /// single or family study) or `specs.csv` (a multiverse).
     pub fn write(&mut self, dir: &Path) -> Result<Vec<PathBuf>, RunError> {
         Ok(match self {
-            StudyAnalysis::Single(a) => crate::report::write_all(a, dir)?,
+            // Figures as a run's report has them (no training curves:
+            // per-cell data has none).
+            StudyAnalysis::Single(a) => crate::report::write_with_figures(a, &[], dir)?,
             StudyAnalysis::Family(a) => crate::report::family::write_family(a, dir)?,
             StudyAnalysis::Multiverse(a) => crate::report::multiverse::write_multiverse(a, dir)?,
         })

@@ -99,12 +99,7 @@ fn finish_seeds(
         analysis.warnings.push(w);
     }
     let report_dir = dest.join("report");
-    create_dir_all(&report_dir)?;
-    let figures = crate::report::figures::write_figures(&analysis, &curves, &report_dir)
-        .map_err(crate::report::ReportError::from)?;
-    let svgs = crate::report::figures::by_name(figures);
-    analysis.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
-    crate::report::write_all_with(&analysis, &report_dir, &svgs)?;
+    crate::report::write_with_figures(&mut analysis, &curves, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
