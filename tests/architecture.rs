@@ -448,3 +448,77 @@ fn the_compile_check_would_see_a_stray_call() {
     assert_eq!(lines.len(), 1, "the doc line is not code");
     assert!(calls_compile(&lines[0].1));
 }
+
+/// Every function of the library's source (tests modules aside) with its
+/// length in lines, as `path::name`: a `fn` line up to the `}` at its own
+/// indentation (rustfmt's layout).
+fn function_lengths() -> BTreeMap<String, usize> {
+    let mut out = BTreeMap::new();
+    for path in all_sources() {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let rel = path.strip_prefix(root()).unwrap().to_string_lossy().replace('\\', "/");
+        let lines: Vec<&str> = text.lines().collect();
+        let tests_from = lines.iter().position(|l| l.trim() == "#[cfg(test)]").unwrap_or(lines.len());
+        let mut i = 0;
+        while i < tests_from {
+            let l = lines[i];
+            let body = l.trim_start();
+            let indent = &l[..l.len() - body.len()];
+            let after_vis = body
+                .strip_prefix("pub ")
+                .or_else(|| body.split_once(") ").map(|(_, r)| r).filter(|_| body.starts_with("pub(")));
+            let rest = after_vis.unwrap_or(body);
+            let rest = rest.strip_prefix("const ").unwrap_or(rest);
+            if let Some(sig) = rest.strip_prefix("fn ") {
+                let name: String = sig.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                let close = format!("{indent}}}");
+                if let Some(end) = (i + 1..lines.len()).find(|&j| lines[j] == close) {
+                    if !l.trim_end().ends_with(';') {
+                        let key = format!("{rel}::{name}");
+                        let n = end - i + 1;
+                        let e = out.entry(key).or_insert(0);
+                        *e = (*e).max(n);
+                        i = end;
+                    }
+                }
+            }
+            i += 1;
+        }
+    }
+    out
+}
+
+/// No function of the library's source grows past 80 lines: those longer
+/// today are listed with their length in `tests/long_functions.txt`, which
+/// may only shrink (a listed function that got shorter is listed at its
+/// new length, one at 80 lines or fewer leaves the list).
+#[test]
+fn no_function_grows_past_80_lines() {
+    const MAX: usize = 80;
+    let listed: BTreeMap<String, usize> = std::fs::read_to_string(root().join("tests/long_functions.txt"))
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .map(|l| {
+            let (n, f) = l.trim().split_once(' ').unwrap();
+            (f.to_string(), n.parse().unwrap())
+        })
+        .collect();
+    let now = function_lengths();
+    let mut wrong = Vec::new();
+    for (f, &n) in now.iter().filter(|(_, &n)| n > MAX) {
+        match listed.get(f) {
+            None => wrong.push(format!("{f} has {n} lines (more than {MAX}): split it")),
+            Some(&was) if n > was => wrong.push(format!("{f} grew from {was} to {n} lines: split it")),
+            Some(&was) if n < was => wrong.push(format!("{f} is {n} lines now: list it at {n}, not {was}")),
+            _ => {}
+        }
+    }
+    for (f, was) in &listed {
+        if now.get(f).is_none_or(|&n| n <= MAX) {
+            wrong.push(format!("{f} (listed at {was}) is gone or {MAX} lines or fewer: remove it from the list"));
+        }
+    }
+    assert!(wrong.is_empty(), "tests/long_functions.txt:\n{}", wrong.join("\n"));
+    assert!(now.len() > 1000, "the finder found {} functions", now.len());
+}

@@ -29,6 +29,7 @@
 //!   `choice(n_pool, k)` incoming windows. Drawn sets are stored sorted.
 
 mod arms;
+mod build;
 mod coupled;
 mod error;
 mod invariants;
@@ -42,27 +43,22 @@ mod treatment;
 
 use std::collections::BTreeSet;
 
-use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::data::{natural_key, Audit, Recording, Status};
 use crate::design::{
-    ArmKind, Condition, Design, DuplicatePolicy, Generator, LeakPolicy, ListedName, PublishedPin, RecordingFactor,
-    StartsPolicy,
+    ArmKind, Condition, Design, DuplicatePolicy, LeakPolicy, ListedName, PublishedPin, RecordingFactor,
 };
-use coupled::Purpose;
 
-use arms::{contaminate, draw_fit_arms, Draw};
+pub use build::build;
 pub use coupled::key as coupled_key;
 pub use error::SplitError;
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};
 pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
-use pinned::{pinned, published_fit, resolve};
 pub use prepare::{prepare, rebuild, write_prepared, Prepared};
-use starts::draw_starts;
 pub use treatment::{treatment_audit, Composition, ConditionCoverage, RecordingCoverage, TreatmentAudit};
 
 /// A one-step window or a rollout start: (recording index, row index).
@@ -191,262 +187,6 @@ fn universe(design: &Design, audit: &Audit, info: &[RecordingInfo], units: &[Dep
         slots.sort_by_key(|(name, _)| natural_key(name));
     }
     slots
-}
-
-/// Builds the split. `recordings` are the audit's included recordings.
-pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
-    let info = recording_info(audit, recordings);
-    let units = units(&info, design.data.duplicates);
-    let rf = &design.recording;
-    let val = &design.validation;
-    let mut slots = universe(design, audit, &info, &units);
-    let drawable = slots.len();
-    if !rf.listed.is_empty() || !val.listed.is_empty() {
-        let excluded = audit.files.iter().filter(|f| f.status == Status::Excluded);
-        slots.extend(excluded.map(|f| (f.name.clone(), Slot::Absent(f.name.clone()))));
-    }
-    // A published split may list names that have only a metadata file.
-    if design.published.is_some() && !design.data.universe.metadata {
-        let missing = audit.files.iter().filter(|f| f.status == Status::Missing);
-        slots.extend(missing.map(|f| (f.name.clone(), Slot::Absent(f.name.clone()))));
-    }
-    let members = |u: usize| -> Vec<String> { units[u].members.iter().map(|&m| info[m].name.clone()).collect() };
-    let numpy = design.generator == Generator::NumpyLegacy;
-    let coupled = design.coupled;
-    let allowed = design.data.missing_csv_allowed;
-    let needed = rf.evaluation + val.recordings + 1;
-    // Pinned names are checked one by one instead (absent ones listed, unknown ones refused).
-    let drawn = rf.listed.is_empty() || val.listed.is_empty();
-    if drawn && drawable < needed {
-        return Err(SplitError::TooFewRecordings {
-            needed,
-            evaluation: rf.evaluation,
-            validation: val.recordings,
-            available: drawable,
-        });
-    }
-    // E: pinned, or the first I of a shuffle of the universe (split seed).
-    let mut split_rs = RandomState::new(np_seed(rf.split_seed));
-    // `stratify`: each drawable slot's condition, for the walks below.
-    let strata = rf.stratify.as_ref().map(|s| {
-        let label = |r: usize| {
-            let parts: Vec<&str> = s
-                .conditions
-                .iter()
-                .map(|c| match c {
-                    Condition::Trajectory => info[r].trajectory.as_str(),
-                    Condition::Speed => info[r].speed.as_str(),
-                })
-                .collect();
-            parts.join(" / ")
-        };
-        let of = |c: usize| match slots[c].1 {
-            Slot::Unit(u) => Some(label(units[u].members[0])),
-            Slot::Absent(_) => None,
-        };
-        stratify::Strata::new(s, (0..drawable).map(of).collect())
-    });
-    let e_slots: Vec<usize> = if !rf.listed.is_empty() {
-        pinned(&rf.listed, &slots, &members, "evaluation", design.data.universe.metadata)?
-    } else {
-        // The generator's shuffle of the universe (numpy: `choice(n, I)`
-        // is the first I of `permutation(n)`, the same draws).
-        let order = if numpy {
-            split_rs.permutation(drawable)
-        } else if coupled {
-            coupled::order(drawable, rf.split_seed, Purpose::Evaluation, &|c| slots[c].0.clone(), &|_| 0)
-        } else {
-            let mut order: Vec<usize> = (0..drawable).collect();
-            order.shuffle(&mut rng(rf.split_seed, 0));
-            order
-        };
-        match &strata {
-            Some(s) => s.evaluation(&order, rf.evaluation)?,
-            None => order.into_iter().take(rf.evaluation).collect(),
-        }
-    };
-    let (e_units, evaluation_absent) = resolve(&e_slots, &slots, "evaluation", allowed)?;
-    let evaluation = sorted(e_units.iter().map(|&u| units[u].members[0]));
-    let evaluation_side = sorted(e_units.iter().flat_map(|&u| units[u].members.clone()));
-    // Draw k of a draw-replicated design redraws the starts with the
-    // evaluation set fixed: seed split_seed + k - 1 (numpy: a fresh
-    // RandomState of it; chacha8: streams 2^32 + position).
-    let redraw = design.draw.filter(|&k| k > 1).map(|k| rf.split_seed.saturating_add(k - 1));
-    let name = |r: usize| info[r].name.clone();
-    let starts = if coupled {
-        let seed = redraw.unwrap_or(rf.split_seed);
-        draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, _| {
-            coupled::draw(pool, k, seed, Purpose::Starts, &name)
-        })?
-    } else if let Some(seed) = redraw {
-        if numpy {
-            let mut rs = RandomState::new(np_seed(seed));
-            let in_order = universe_order(&e_slots, &slots, &units);
-            draw_starts(rf, &info, recordings, &in_order, &mut |pool, k, _| draw_numpy(pool, k, &mut rs))?
-        } else {
-            draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, idx| {
-                draw(pool, k, &mut rng(seed, (1 << 32) + idx as u64))
-            })?
-        }
-    } else if numpy {
-        // In universe order, continuing the split seed's RandomState.
-        let in_order = universe_order(&e_slots, &slots, &units);
-        draw_starts(rf, &info, recordings, &in_order, &mut |pool, k, _| draw_numpy(pool, k, &mut split_rs))?
-    } else {
-        draw_starts(rf, &info, recordings, &evaluation, &mut |pool, k, idx| {
-            draw(pool, k, &mut rng(rf.split_seed, 1 + idx as u64))
-        })?
-    };
-
-    // V: pinned, or from the rest of the universe with the validation seed;
-    // under a published split of train and test alone (no validation
-    // role), from its fit roles' recordings.
-    let e_set: BTreeSet<usize> = e_slots.iter().copied().collect();
-    let from_fit_roles: Option<BTreeSet<&str>> = design
-        .published
-        .as_ref()
-        .filter(|p| p.validation_roles.is_empty())
-        .map(|p| p.fit.iter().map(|l| l.name.as_str()).collect());
-    let rest: Vec<usize> = (0..drawable)
-        .filter(|c| !e_set.contains(c))
-        .filter(|&c| from_fit_roles.as_ref().is_none_or(|fit| fit.contains(slots[c].0.as_str())))
-        .collect();
-    let mut val_rs = RandomState::new(np_seed(val.seed));
-    let v_slots: Vec<usize> = if !val.listed.is_empty() {
-        let v = pinned(&val.listed, &slots, &members, "validation", design.data.universe.metadata)?;
-        if let Some(k) = v.iter().position(|c| e_set.contains(c)) {
-            return Err(SplitError::ListedTwice { name: val.listed[k].name.clone() });
-        }
-        v
-    } else {
-        let order: Vec<usize> = if coupled {
-            let order = coupled::order(
-                rest.len(),
-                val.seed,
-                Purpose::ValidationRecordings,
-                &|i| slots[rest[i]].0.clone(),
-                &|_| 0,
-            );
-            order.into_iter().map(|i| rest[i]).collect()
-        } else if numpy {
-            val_rs.permutation(rest.len()).into_iter().map(|k| rest[k]).collect()
-        } else {
-            let mut r = rest.clone();
-            r.shuffle(&mut rng(val.seed, 0));
-            r
-        };
-        match &strata {
-            Some(s) => s.validation(&order, val.recordings, &e_slots)?,
-            None => order.into_iter().take(val.recordings).collect(),
-        }
-    };
-    let (v_units, validation_absent) = resolve(&v_slots, &slots, "validation", allowed)?;
-    let validation_recordings = sorted(v_units.iter().map(|&u| units[u].members[0]));
-    let v_pool = pool_of(&validation_recordings, recordings);
-    if v_pool.len() < val.windows {
-        return Err(SplitError::TooFewWindows {
-            what: format!("validation ({} recordings with data)", validation_recordings.len()),
-            needed: val.windows,
-            available: v_pool.len(),
-        });
-    }
-    let validation = if coupled {
-        coupled::draw(&v_pool, val.windows, val.seed, Purpose::ValidationWindows, &name)
-    } else if numpy {
-        draw_numpy(&v_pool, val.windows, &mut val_rs)
-    } else {
-        draw(&v_pool, val.windows, &mut rng(val.seed, 1))
-    };
-
-    // R \ E \ V: every member of the remaining units (with `duplicates keep`
-    // each identical file is its own unit, as in the paper).
-    let v_set: BTreeSet<usize> = v_slots.iter().copied().collect();
-    let (fit_recordings, fit_absent, fit_leaked) = match &design.published {
-        None => {
-            let fit_units: Vec<usize> = rest
-                .iter()
-                .filter(|c| !v_set.contains(c))
-                .filter_map(|&c| match slots[c].1 {
-                    Slot::Unit(u) => Some(u),
-                    Slot::Absent(_) => None,
-                })
-                .collect();
-            (sorted(fit_units.iter().flat_map(|&u| units[u].members.clone())), Vec::new(), Vec::new())
-        }
-        Some(pin) => {
-            let held: Vec<usize> = evaluation_side.iter().chain(&validation_recordings).copied().collect();
-            // Validation drawn from the fit roles leaves them: every
-            // member of a validation unit is out of the fit pool.
-            let drawn: BTreeSet<&str> =
-                v_units.iter().flat_map(|&u| units[u].members.iter().map(|&m| info[m].name.as_str())).collect();
-            let mut pin = pin.clone();
-            if pin.validation_roles.is_empty() {
-                pin.fit.retain(|l| !drawn.contains(l.name.as_str()));
-            }
-            published_fit(&pin, &slots, &units, &info, &held, allowed)?
-        }
-    };
-    let mut fits = draw_fit_arms(design, &fit_recordings, recordings, numpy, &name, (&info, &evaluation_side))?;
-    let e_pool = pool_of(&evaluation, recordings);
-    let mut contaminating = Vec::new();
-    // Derived arms, a dose-response family at a time: its doses share one
-    // draw, each replacing a prefix of it, so that they are nested.
-    let mut done: BTreeSet<String> = BTreeSet::new();
-    for arm in &design.arms {
-        let ArmKind::Derived { from, starts: policy, seed, family, .. } = &arm.kind else { continue };
-        let group = family.clone().unwrap_or_else(|| arm.name.clone());
-        if !done.insert(group) {
-            continue;
-        }
-        let members: Vec<(String, f64)> = design
-            .arms
-            .iter()
-            .filter_map(|a| match &a.kind {
-                ArmKind::Derived { percent, family: f, .. }
-                    if a.name == arm.name || (family.is_some() && f == family) =>
-                {
-                    Some((a.name.clone(), *percent))
-                }
-                _ => None,
-            })
-            .collect();
-        let Some(base) = fits.iter().find(|(n, _)| n == from).map(|(_, w)| w.clone()) else { continue };
-        let pool: Vec<Window> = match policy {
-            StartsPolicy::Exclude => {
-                let start_set: BTreeSet<Window> = starts.iter().copied().collect();
-                e_pool.iter().copied().filter(|w| !start_set.contains(w)).collect()
-            }
-            StartsPolicy::Allow => e_pool.clone(),
-        };
-        let how = if coupled {
-            Draw::Coupled(&name)
-        } else if numpy {
-            Draw::Numpy
-        } else {
-            Draw::Chacha
-        };
-        for (arm_name, fit, incoming) in contaminate(&base, &members, &pool, *seed, how)? {
-            fits.push((arm_name.clone(), fit));
-            contaminating.push((arm_name, incoming));
-        }
-    }
-    Ok(Split {
-        recordings: info,
-        units,
-        evaluation,
-        evaluation_side,
-        starts,
-        validation_recordings,
-        validation,
-        fits,
-        contaminating,
-        horizon: rf.horizon,
-        rate_hz: design.data.rate_hz,
-        evaluation_absent,
-        validation_absent,
-        fit_absent,
-        fit_leaked,
-    })
 }
 
 /// The evaluation recordings in universe order (the order numpy's starts

@@ -19,6 +19,7 @@ use std::time::Instant;
 
 mod notes;
 mod per_seed;
+mod queue;
 pub(crate) use per_seed::{finish_per_seed, finish_specs};
 mod verify;
 
@@ -65,162 +66,45 @@ pub(crate) fn run_levels_with(
     started: Instant,
     external: &ExternalNotes,
 ) -> Result<RunOutcome, RunError> {
-    let (levels, role) = (&outer.levels, outer.role);
     refuse_single_run(out)?;
-    let index = options.reuse.as_deref().map(crate::run::reuse::ReuseIndex::read).transpose()?;
-    let (mut trained, mut skipped) = (0, 0);
-    let mut builds = BTreeSet::new();
-    let mut status = LockStatus::Unlocked;
-    let mut exploratory = options.exploratory;
-    let mut splits: Vec<Option<crate::split::Split>> = vec![None; levels.len()];
-    let mut record: Option<RunRecord> = None;
     // Every level is opened first and its jobs queued; then one queue of
     // every level's jobs runs on the workers (no worker waits while a level
     // is opened or finished); then each level is finished in order.
-    struct Open {
-        label: String,
-        plan: Plan,
-        dir: PathBuf,
-        opened: Opened,
-        done_builds: BTreeSet<String>,
-        // Jobs whose inputs equal a job queued in an earlier level: copied
-        // from it once the queue has run (job, its level, that job).
-        copies: Vec<(TrainingJob, usize, TrainingJob)>,
-        // Every job's content key, written into its record once it ran.
-        keyed: Vec<(TrainingJob, String)>,
-    }
-    let mut open_levels: Vec<(usize, Open)> = Vec::new();
-    let mut queue: std::collections::VecDeque<(usize, TrainingJob)> = Default::default();
-    // The first job with each content key: its level (in `open_levels`),
-    // the job, and whether it is queued (not yet on disk).
-    let mut first: std::collections::BTreeMap<String, (usize, TrainingJob, bool)> = Default::default();
-    let mut reused: Vec<String> = Vec::new();
-    if let Some((_, notes)) = external.0.first() {
-        // The same models in every level; each level's report names its export.
-        reused.extend(
-            notes.first().map(|n| format!("every level: {}", n.split(" (made from export").next().unwrap_or(n))),
-        );
-    }
-    for (k, level) in levels.iter().enumerate() {
-        if level.shares.is_some() {
-            continue;
-        }
-        let label = match (&file.design.multiverse, level.spec) {
-            (Some(m), Some(s)) => format!("{} ({})", level.id, m.label(s)),
-            _ => level.id.clone(),
-        };
-        observer.level(k + 1, levels.len(), &label);
-        let in_level = |e: RunError| RunError::InLevel { level: label.clone(), source: Box::new(e) };
-        let level_file = DesignFile { design: level.design.clone(), ..file.clone() };
-        let plan = level.plan.clone();
-        let dir = out.join(&level.id);
-        let mut opened =
-            open(&level_file, &plan, data, &dir, options.exploratory, Some(&level.id)).map_err(in_level)?;
-        if let Some((_, notes)) = external.0.iter().find(|(id, _)| *id == level.id) {
-            opened.warnings.extend(notes.iter().cloned());
-        }
-        let (mut todo, done_builds) = pending(&plan, &dir, &file.sha256).map_err(in_level)?;
-        let keys: Vec<String> = crate::split::JobManifests::for_plan(&plan, &opened.prepared.manifests)
-            .iter()
-            .zip(&plan.jobs)
-            .map(|(m, j)| crate::run::reuse::job_key(&level.design, &plan, j, m, &opened.record))
-            .collect();
-        let here = open_levels.len();
-        if let Some(index) = &index {
-            let mut taken = 0;
-            for (j, key) in plan.jobs.iter().zip(&keys) {
-                if todo.contains(j) && index.take(key, &dir, j, &file.sha256).map_err(in_level)? {
-                    todo.retain(|t| t != j);
-                    taken += 1;
-                }
-            }
-            if taken > 0 {
-                reused.push(format!(
-                    "{}: {}",
-                    level.id,
-                    crate::run::reuse::reused_note(taken, plan.jobs.len(), index.from())
-                ));
-            }
-        }
-        let (mut copied, mut copies) = (0, Vec::new());
-        for (j, key) in plan.jobs.iter().zip(&keys) {
-            if let (Some((from, earlier, queued)), true) = (first.get(key), todo.contains(j)) {
-                if *queued {
-                    copies.push((j.clone(), *from, earlier.clone()));
-                } else {
-                    copy_job(&open_levels[*from].1.dir, earlier, &dir, j).map_err(in_level)?;
-                }
-                todo.retain(|t| t != j);
-                copied += 1;
-            }
-        }
-        let keyed: Vec<(TrainingJob, String)> = plan.jobs.iter().cloned().zip(keys.iter().cloned()).collect();
-        for (j, key) in plan.jobs.iter().zip(keys) {
-            let queued = todo.contains(j);
-            first.entry(key).or_insert_with(|| (here, j.clone(), queued));
-        }
-        note_unread(&mut reused, &opened.prepared.audit);
-        if copied > 0 {
-            reused.push(format!(
-                "{}: {copied} job(s) whose inputs (manifests, data, model, training, seed) equal an earlier level's were not trained again: their files were copied, by content hash",
-                level.id
-            ));
-        }
-        skipped += plan.jobs.len() - todo.len();
-        trained += todo.len();
-        queue.extend(todo.into_iter().map(|j| (here, j)));
-        open_levels.push((k, Open { label, plan, dir, opened, done_builds, copies, keyed }));
-    }
-    let total: usize = open_levels.iter().map(|(_, o)| o.plan.jobs.len()).sum();
-    observer.start(total, total - queue.len());
+    let queued = queue::open_levels(file, outer, data, out, &options, observer, external)?;
+    let total: usize = queued.levels.iter().map(|(_, o)| o.plan.jobs.len()).sum();
+    observer.start(total, total - queued.queue.len());
     let contexts: Vec<grid::LevelContext> =
-        open_levels.iter().map(|(_, o)| (&o.plan, &o.opened.prepared, o.dir.as_path())).collect();
-    grid::run_queue(&file.sha256, &contexts, queue, options.workers, observer)
-        .map_err(|(at, e)| RunError::InLevel { level: open_levels[at].1.label.clone(), source: Box::new(e) })?;
-    for (k, o) in &open_levels {
-        let in_level = |e: RunError| RunError::InLevel { level: o.label.clone(), source: Box::new(e) };
-        for (j, from, earlier) in &o.copies {
-            copy_job(&open_levels[*from].1.dir, earlier, &o.dir, j).map_err(in_level)?;
-        }
-        crate::run::reuse::stamp(&o.dir, &o.keyed).map_err(in_level)?;
-        builds.extend(o.done_builds.iter().cloned());
-        if role == Role::PerSeed || file.design.per_seed_draws {
-            // One seed alone is no crossed study: its cells are gathered
-            // here and analysed with every other seed's below.
-            super::gather_recorded(&o.plan, &o.opened, &o.dir).map_err(in_level)?;
-        } else {
-            finish(&file.path.display().to_string(), &o.plan, &o.opened, &o.dir, o.done_builds.clone())
-                .map_err(in_level)?;
-        }
-        (status, exploratory) = (o.opened.status.clone(), o.opened.exploratory);
-        splits[*k] = Some(o.opened.prepared.split.clone());
-        record.get_or_insert(o.opened.record.clone());
-    }
-    let record = record.ok_or(RunError::NoWorkers)?;
+        queued.levels.iter().map(|(_, o)| (&o.plan, &o.opened.prepared, o.dir.as_path())).collect();
+    let (levels, role) = (&outer.levels, outer.role);
+    grid::run_queue(&file.sha256, &contexts, queued.queue, options.workers, observer)
+        .map_err(|(at, e)| RunError::InLevel { level: queued.levels[at].1.label.clone(), source: Box::new(e) })?;
+    let per_seed = role == Role::PerSeed || file.design.per_seed_draws;
+    let finished = queue::finish_levels(file, &queued.levels, levels.len(), per_seed)?;
+    let (status, exploratory, record, builds) =
+        (finished.status, finished.exploratory, finished.record, finished.builds);
+    let counts = |mut o: RunOutcome| {
+        (o.trained, o.skipped, o.seconds) = (queued.trained, queued.skipped, started.elapsed().as_secs_f64());
+        o
+    };
     if role == Role::PerSeed {
-        let mut outcome =
-            per_seed::finish_per_seed(file, study, levels, out, (&status, exploratory, &record), builds, &reused)?;
-        (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
-        return Ok(outcome);
+        let run = (&status, exploratory, &record);
+        return Ok(counts(per_seed::finish_per_seed(file, study, levels, out, run, builds, &queued.reused)?));
     }
     if role == Role::Redraw {
         let path = file.path.display().to_string();
-        let mut outcome = super::finish_splits(&path, study, out, &status, exploratory, &record, builds)?;
-        (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
-        return Ok(outcome);
+        return Ok(counts(super::finish_splits(&path, study, out, &status, exploratory, &record, builds)?));
     }
     if file.design.per_seed_draws {
         per_seed::finish_specs(file, outer, out, (&status, exploratory, &record), builds.clone())?;
     }
-    let mut outcome = finish_levels(file, outer, out, (&status, exploratory, &record), &splits, builds)?;
+    let mut outcome = finish_levels(file, outer, out, (&status, exploratory, &record), &finished.splits, builds)?;
     if let StudyAnalysis::Multiverse(a) = &mut outcome.analysis {
-        if !reused.is_empty() {
-            a.warnings.extend(reused);
+        if !queued.reused.is_empty() {
+            a.warnings.extend(queued.reused.iter().cloned());
             crate::report::multiverse::write_multiverse(a, &outcome.report_dir)?;
         }
     }
-    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
-    Ok(outcome)
+    Ok(counts(outcome))
 }
 
 /// Adds a level's unreadable-files warning to `notes` once (every level reads the same folder).
@@ -232,7 +116,7 @@ pub(crate) fn note_unread(notes: &mut Vec<String>, audit: &crate::data::Audit) {
 
 /// Copies a finished job's files and record from the run directory `from`
 /// into `to`, where `job` (the same model, arm and seed) will find it finished.
-fn copy_job(from: &Path, earlier: &TrainingJob, to: &Path, job: &TrainingJob) -> Result<(), RunError> {
+pub(super) fn copy_job(from: &Path, earlier: &TrainingJob, to: &Path, job: &TrainingJob) -> Result<(), RunError> {
     let record = JobRecord::read(from, earlier)?.ok_or_else(|| RunError::BadJobRecord {
         path: super::record::job_record_path(from, earlier).display().to_string(),
         reason: "the job it would be copied from has no record".to_string(),
