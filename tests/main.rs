@@ -13,6 +13,7 @@ mod coverage_measures;
 mod data;
 mod design_errors;
 mod designs;
+mod distance;
 mod draws;
 mod early_stopping;
 mod external;

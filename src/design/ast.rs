@@ -270,6 +270,9 @@ pub enum ArmBody {
         from: Ident,
         percents: Vec<Number>,
         exclude_starts: bool,
+        /// `at least G s` (max None) or `G1 s to G2 s from segments`, and
+        /// the clause's span.
+        distance: Option<(Number, Option<Number>, Span)>,
         seed: Int,
     },
 }

@@ -345,6 +345,10 @@ pub enum ArmKind {
         percent: f64,
         /// Whether registered starts may be used.
         starts: StartsPolicy,
+        /// How far the contaminating windows lie from the evaluated
+        /// segments (`at least 5 s from segments`); None: anywhere.
+        #[serde(skip_serializing_if = "Option::is_none", default)]
+        distance: Option<WindowDistance>,
         /// ChaCha8 seed of the draw.
         seed: u64,
         /// The dose-response family the arm belongs to (`replace 1%, 5%`
@@ -353,6 +357,40 @@ pub enum ArmKind {
         #[serde(skip_serializing_if = "Option::is_none")]
         family: Option<String>,
     },
+}
+
+/// How far from every evaluated segment of its recording (a registered
+/// rollout start to its horizon) a contaminating window must lie: the
+/// seconds between the window's nearest row and the segment's, at least
+/// `min_s` and, in a band, less than `max_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WindowDistance {
+    /// The least distance, s.
+    pub min_s: f64,
+    /// The band's end, s (exclusive); None: no upper bound.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_s: Option<f64>,
+    /// Byte offset of the clause in the design source.
+    #[serde(skip)]
+    pub offset: usize,
+}
+
+impl WindowDistance {
+    /// Whether a distance of `samples` at `rate_hz` lies in the range.
+    pub fn admits(&self, samples: usize, rate_hz: f64) -> bool {
+        // Compared in samples, exactly: the bounds rounded up to whole samples.
+        let at_least = (self.min_s * rate_hz - 1e-9).ceil().max(0.0) as usize;
+        let below = self.max_s.map(|m| (m * rate_hz - 1e-9).ceil().max(0.0) as usize);
+        samples >= at_least && below.is_none_or(|b| samples < b)
+    }
+
+    /// `at least 5 s` or `1 s to 5 s`, as written.
+    pub fn describe(&self) -> String {
+        match self.max_s {
+            None => format!("at least {} s from segments", self.min_s),
+            Some(m) => format!("{} s to {m} s from segments", self.min_s),
+        }
+    }
 }
 
 /// Whether contaminating windows may start at registered rollout starts.

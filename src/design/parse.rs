@@ -294,8 +294,18 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
     if exclude_starts {
         c.next();
     }
+    let distance = if c.peek_rule() == Some(Rule::window_distance) {
+        let clause = c.next();
+        let span = span_of(&clause);
+        let mut numbers = kids(kids(clause).next());
+        let least = number(numbers.next())?;
+        let most = if numbers.peek_rule().is_some() { Some(number(numbers.next())?) } else { None };
+        Some((least, most, span))
+    } else {
+        None
+    };
     let seed = int(c.next())?;
-    Ok(ArmBody::Derived { from, percents, exclude_starts, seed })
+    Ok(ArmBody::Derived { from, percents, exclude_starts, distance, seed })
 }
 
 fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {

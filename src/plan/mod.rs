@@ -550,9 +550,10 @@ fn arm_text(kind: &ArmKind) -> String {
                 held.join(" or ")
             )
         }
-        ArmKind::Derived { from, percent, starts, seed, .. } => format!(
-            "{from} with {percent}% replaced by evaluation windows{} (seed {seed})",
-            if *starts == StartsPolicy::Exclude { ", registered starts excluded" } else { "" }
+        ArmKind::Derived { from, percent, starts, seed, distance, .. } => format!(
+            "{from} with {percent}% replaced by evaluation windows{}{} (seed {seed})",
+            if *starts == StartsPolicy::Exclude { ", registered starts excluded" } else { "" },
+            distance.map(|d| format!(", {}", d.describe())).unwrap_or_default()
         ),
     }
 }

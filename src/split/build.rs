@@ -16,7 +16,7 @@ use super::{
     DeploymentUnit, RandomState, RecordingInfo, Slot, Split, SplitError, Window,
 };
 use crate::data::{Audit, Recording, Status};
-use crate::design::{ArmKind, Condition, Design, Generator, StartsPolicy};
+use crate::design::{ArmKind, Condition, Design, Generator, StartsPolicy, WindowDistance};
 
 /// Builds the split. `recordings` are the audit's included recordings.
 pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
@@ -333,7 +333,7 @@ impl<'a> Universe<'a> {
         let mut contaminating = Vec::new();
         let mut done: BTreeSet<String> = BTreeSet::new();
         for arm in &design.arms {
-            let ArmKind::Derived { from, starts: policy, seed, family, .. } = &arm.kind else { continue };
+            let ArmKind::Derived { from, starts: policy, seed, family, distance, .. } = &arm.kind else { continue };
             let group = family.clone().unwrap_or_else(|| arm.name.clone());
             if !done.insert(group) {
                 continue;
@@ -358,6 +358,10 @@ impl<'a> Universe<'a> {
                 }
                 StartsPolicy::Allow => e_pool.to_vec(),
             };
+            let pool = match distance {
+                Some(d) => self.at_distance(d, (&arm.name, &members, base.len()), &pool, starts, *policy)?,
+                None => pool,
+            };
             let name = |r: usize| self.name(r);
             let how = if design.coupled {
                 Draw::Coupled(&name)
@@ -373,4 +377,56 @@ impl<'a> Universe<'a> {
         }
         Ok(contaminating)
     }
+
+    /// The windows of `pool` at distance `d` from every evaluated segment
+    /// of their recording; refused, at the clause, when fewer than the
+    /// family's largest dose replaces.
+    fn at_distance(
+        &self,
+        d: &WindowDistance,
+        (arm, members, base): (&str, &[(String, f64)], usize),
+        pool: &[Window],
+        starts: &[Window],
+        policy: StartsPolicy,
+    ) -> Result<Vec<Window>, SplitError> {
+        let horizon = self.design.recording.horizon;
+        let rate = self.design.data.rate_hz;
+        let kept: Vec<Window> =
+            pool.iter().copied().filter(|w| d.admits(segment_distance(*w, starts, horizon), rate)).collect();
+        let count = |percent: f64| (percent / 100.0 * base as f64).round() as usize;
+        let needed = members.iter().map(|(_, p)| count(*p)).max().unwrap_or(0);
+        if kept.len() < needed {
+            return Err(SplitError::TooFewAtDistance {
+                arm: arm.to_string(),
+                clause: d.describe(),
+                offset: d.offset,
+                needed,
+                available: kept.len(),
+                starts: if policy == StartsPolicy::Exclude { " that are not registered starts" } else { "" },
+                pool: pool.len(),
+            });
+        }
+        Ok(kept)
+    }
+}
+
+/// Samples between the one-step window `w` (rows t and t + 1) and the
+/// nearest evaluated segment of its recording (a start s to s + horizon):
+/// 0 when they share a row; `usize::MAX` for a recording without starts.
+pub fn segment_distance(w: Window, starts: &[Window], horizon: usize) -> usize {
+    starts
+        .iter()
+        .filter(|s| s.recording == w.recording)
+        .map(|s| {
+            let end = s.t + horizon;
+            if w.t + 1 < s.t {
+                s.t - (w.t + 1)
+            } else if w.t > end {
+                w.t - end
+            } else {
+                0
+            }
+        })
+        .min()
+        .unwrap_or(usize::MAX)
 }

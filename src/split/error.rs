@@ -69,6 +69,25 @@ pub enum SplitError {
     /// A manifest or audit file could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),
+    /// The evaluation windows at the declared distance from the evaluated
+    /// segments are fewer than an arm replaces.
+    #[error("arm {arm}: {needed} contaminating windows {clause} (design byte {offset}) were asked for, but the evaluation recordings hold {available} such windows{starts} (of {pool} in all); declare a smaller distance, a lower share, or more evaluation recordings")]
+    TooFewAtDistance {
+        /// The arm (the first dose of a family that asks for the most).
+        arm: String,
+        /// The clause as written, e.g. `at least 5 s from segments`.
+        clause: String,
+        /// Byte offset of the clause in the design source.
+        offset: usize,
+        /// Windows the arm replaces.
+        needed: usize,
+        /// Windows at that distance.
+        available: usize,
+        /// ` that are not registered starts`, under `exclude starts`.
+        starts: &'static str,
+        /// Evaluation windows before the distance filter.
+        pool: usize,
+    },
     /// A pinned recording is not in the universe.
     #[error("{what} recording \"{name}\" (design byte {offset}) is not among the {available} recordings the split draws from{hint}")]
     NotInUniverse {

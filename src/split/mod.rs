@@ -52,7 +52,7 @@ use crate::design::{
     ArmKind, Condition, Design, DuplicatePolicy, LeakPolicy, ListedName, PublishedPin, RecordingFactor,
 };
 
-pub use build::build;
+pub use build::{build, segment_distance};
 pub use coupled::key as coupled_key;
 pub use error::SplitError;
 pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStatus, JobManifests};

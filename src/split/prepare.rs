@@ -31,7 +31,9 @@ pub struct Prepared {
 /// Points an error about a name written in the design at its line and column.
 fn locate(file: &DesignFile, e: SplitError) -> SplitError {
     let offset = match &e {
-        SplitError::NotInUniverse { offset, .. } | SplitError::Stratify { offset, .. } => offset,
+        SplitError::NotInUniverse { offset, .. }
+        | SplitError::Stratify { offset, .. }
+        | SplitError::TooFewAtDistance { offset, .. } => offset,
         _ => return e,
     };
     let before = &file.source[..(*offset).min(file.source.len())];

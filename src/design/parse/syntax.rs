@@ -5,6 +5,48 @@ use super::Rule;
 use crate::design::ast::Span;
 use crate::design::diagnostic::Diagnostic;
 
+/// The rules of a clause of a `data` block.
+fn data_clause(rule: &Rule) -> bool {
+    matches!(
+        rule,
+        Rule::data_path
+            | Rule::data_rate
+            | Rule::include_active
+            | Rule::exclude_implausible
+            | Rule::duplicates
+            | Rule::strict
+            | Rule::state_cols
+            | Rule::action_cols
+            | Rule::time_col
+            | Rule::position_cols
+            | Rule::velocity_cols
+            | Rule::attitude_cols
+            | Rule::reference_cols
+            | Rule::rates_cols
+            | Rule::predicted_cols
+            | Rule::extra_col
+            | Rule::extrapolated_cols
+            | Rule::controller_name
+            | Rule::exclude_frozen
+            | Rule::exclude_beyond
+            | Rule::folders_nested
+            | Rule::conditions_table
+            | Rule::conditions_name
+            | Rule::conditions_folder
+            | Rule::missing_values
+            | Rule::gaps
+            | Rule::require_kept
+            | Rule::tails
+            | Rule::speed_labels
+            | Rule::universe
+            | Rule::missing_csv
+            | Rule::sim_recordings
+            | Rule::sim_seed
+            | Rule::sim_strength
+            | Rule::sim_duration
+    )
+}
+
 /// Names users read in "expected ..." messages instead of rule names.
 fn rule_name(rule: &Rule) -> String {
     let name = match rule {
@@ -93,45 +135,14 @@ fn rule_name(rule: &Rule) -> String {
         Rule::val_count | Rule::val_list | Rule::val_split => {
             "`N recordings`, `recordings \"NAME\", ...` or `split`"
         }
-        Rule::data_path
-        | Rule::data_rate
-        | Rule::include_active
-        | Rule::exclude_implausible
-        | Rule::duplicates
-        | Rule::strict
-        | Rule::state_cols
-        | Rule::action_cols
-        | Rule::time_col
-        | Rule::position_cols
-        | Rule::velocity_cols
-        | Rule::attitude_cols
-        | Rule::reference_cols
-        | Rule::rates_cols
-        | Rule::predicted_cols
-        | Rule::extra_col
-        | Rule::extrapolated_cols
-        | Rule::controller_name
-        | Rule::exclude_frozen
-        | Rule::exclude_beyond
-        | Rule::folders_nested
-        | Rule::conditions_table
-        | Rule::conditions_name
-        | Rule::conditions_folder
-        | Rule::missing_values
-        | Rule::gaps
-        | Rule::require_kept
-        | Rule::tails
-        | Rule::speed_labels
-        | Rule::universe
-        | Rule::missing_csv
-        | Rule::sim_recordings
-        | Rule::sim_seed
-        | Rule::sim_strength
-        | Rule::sim_duration => {
+        r if data_clause(r) => {
             "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing, gaps, require; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table, conditions name, conditions folder or folders nested for `data csv`; recordings, seed, strength, duration for simulated data)"
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
+        Rule::window_distance | Rule::distance_at_least | Rule::distance_band => {
+            "a distance (`at least G s from segments` or `G1 s to G2 s from segments`)"
+        }
         Rule::mlp | Rule::baseline => "a model kind (mlp(...), persistence, constant_velocity)",
         Rule::input_kind => "an input map (world, relative)",
         Rule::role => "an endpoint role (primary, secondary)",

@@ -29,27 +29,11 @@ impl Validator {
                     };
                     out.push((Arm { name: name.node.clone(), kind }, s.span));
                 }
-                ArmBody::Derived { from, percents, exclude_starts, seed } => {
-                    if let Some(first_over) = percents.get(limits::DOSES) {
-                        let n = percents.len() as u64;
-                        self.too_large(first_over.span, "the number of doses", n, limits::DOSES as u64);
-                    }
-                    let percents = &percents[..percents.len().min(limits::DOSES)];
-                    for (k, percent) in percents.iter().enumerate() {
-                        if !(percent.node > 0.0 && percent.node <= 100.0) {
-                            self.err_help(
-                                "percentage out of range",
-                                percent.span,
-                                format!("{}% is outside (0, 100]", percent.node),
-                                "the replaced share must be more than 0% and at most 100%",
-                            );
-                        }
-                        if percents[..k].iter().any(|p| p.node == percent.node) {
-                            self.err("duplicate dose", percent.span, format!("{}% is listed twice", percent.node));
-                        }
-                    }
+                ArmBody::Derived { from, percents, exclude_starts, distance, seed } => {
+                    let percents = self.doses(percents);
                     let seed = self.nonneg(seed, "the contamination seed");
                     let starts = if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow };
+                    let distance = distance.as_ref().and_then(|d| self.window_distance(d));
                     // One share: an arm of that name. Several: a dose-response
                     // family, one arm per dose.
                     let family = (percents.len() > 1).then(|| name.node.clone());
@@ -69,6 +53,7 @@ impl Validator {
                             from: from.node.clone(),
                             percent: percent.node,
                             starts,
+                            distance,
                             seed,
                             family: family.clone(),
                         };
@@ -315,5 +300,48 @@ impl Validator {
             }
         }
         out
+    }
+
+    /// `at least G s from segments` or `G1 s to G2 s from segments`: a
+    /// distance of 0 or more, a band's end beyond its start.
+    fn window_distance(&mut self, (least, most, span): &(Number, Option<Number>, Span)) -> Option<WindowDistance> {
+        if least.node < 0.0 {
+            self.err("distance out of range", least.span, format!("{} s is negative", least.node));
+            return None;
+        }
+        if let Some(m) = most.as_ref().filter(|m| m.node <= least.node) {
+            self.err_help(
+                "distance out of range",
+                m.span,
+                format!("the band ends at {} s, not beyond its start {} s", m.node, least.node),
+                "write the band as `NEAR s to FAR s from segments`, NEAR < FAR",
+            );
+            return None;
+        }
+        Some(WindowDistance { min_s: least.node, max_s: most.as_ref().map(|m| m.node), offset: span.start })
+    }
+
+    /// The replaced shares, each in (0, 100] and listed once, at most
+    /// [`limits::DOSES`] of them (the rest refused).
+    fn doses<'p>(&mut self, percents: &'p [Number]) -> &'p [Number] {
+        if let Some(first_over) = percents.get(limits::DOSES) {
+            let n = percents.len() as u64;
+            self.too_large(first_over.span, "the number of doses", n, limits::DOSES as u64);
+        }
+        let percents = &percents[..percents.len().min(limits::DOSES)];
+        for (k, percent) in percents.iter().enumerate() {
+            if !(percent.node > 0.0 && percent.node <= 100.0) {
+                self.err_help(
+                    "percentage out of range",
+                    percent.span,
+                    format!("{}% is outside (0, 100]", percent.node),
+                    "the replaced share must be more than 0% and at most 100%",
+                );
+            }
+            if percents[..k].iter().any(|p| p.node == percent.node) {
+                self.err("duplicate dose", percent.span, format!("{}% is listed twice", percent.node));
+            }
+        }
+        percents
     }
 }
