@@ -637,3 +637,13 @@ logs("r5_data_audit_most_unreadable",
       "A3_circle_slow_rep3.csv": with_field(1, "inf")}, design=MINIMAL)
 logs("r5_data_audit_fewer_than_required", {"A1_circle_slow_rep1.csv": GOOD_LOG},
      design=policy("require at least 2 recordings"))
+
+# ---- round 5 (issue 59): contamination at a distance ------------------------
+# A band that ends before it starts is a design error at its number; a
+# distance the simulated recordings cannot supply stops the split at the clause.
+design("r5_design_distance_band_reversed",
+       MINIMAL.replace("exclude starts seed 3", "exclude starts 2 s to 1 s from segments seed 3"))
+design("r5_design_distance_without_unit",
+       MINIMAL.replace("exclude starts seed 3", "exclude starts at least 2 from segments seed 3"))
+case("r5_split_distance_too_far", "split {dir}/study.design --out {out}",
+     {"study.design": SMALL.replace("exclude starts seed 7", "exclude starts at least 12 s from segments seed 7")})
