@@ -93,6 +93,19 @@ fn contaminating_windows_lie_at_the_declared_distance_from_every_evaluated_segme
     let d = distances(&out);
     assert_eq!(d.len(), 750, "the arm still replaces 25% of 3000 windows");
     assert!(d.iter().all(|&d| d >= 200), "closest: {:?}", d.iter().min());
+    // The treatment audit's quartiles of that distance are these windows'
+    // (R's quantile type 7 of the recomputed distances, in seconds).
+    let audit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("audit/treatment.json")).unwrap()).unwrap();
+    let q = &audit["arms"][0]["segment_distance_quartiles_s"];
+    let mut s: Vec<f64> = d.iter().map(|&d| d as f64 / 100.0).collect();
+    s.sort_by(f64::total_cmp);
+    for (k, p) in [0.25, 0.5, 0.75].into_iter().enumerate() {
+        let h = (s.len() - 1) as f64 * p;
+        let want = s[h.floor() as usize] + (h - h.floor()) * (s[h.ceil() as usize] - s[h.floor() as usize]);
+        crate::common::assert_rel(q[k].as_f64().unwrap(), want, 1e-12, "a quartile of the distance to a segment");
+    }
+    assert!(q[0].as_f64().unwrap() >= 2.0);
 
     // A band: at least 0.5 s, less than 2 s (50 to 199 samples).
     let band = design_with(dir.path(), "band.design", "0.5 s to 2 s from segments");

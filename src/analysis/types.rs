@@ -86,6 +86,10 @@ pub struct TreatmentStrength {
     /// Median distance from a window to the nearest rollout start of its
     /// recording, in seconds.
     pub median_distance_s: f64,
+    /// Quartiles (first, median, third) of the distance from a window to
+    /// the nearest evaluated segment of its recording, in seconds (0 for a
+    /// window that shares a row with one).
+    pub segment_distance_quartiles_s: [f64; 3],
 }
 
 /// Where an analysis came from: reports print it beside the design hash.

@@ -316,7 +316,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
 }
 
 /// The note above a treatment-strength table.
-pub(super) const TREATMENT_NOTE: &str = "How strong the treatment is: each arm's windows drawn from the evaluation recordings, how many start inside a segment that is evaluated (a rollout start to its horizon, same recording), and how far they sit from the nearest rollout start.";
+pub(super) const TREATMENT_NOTE: &str = "How strong the treatment is: each arm's windows drawn from the evaluation recordings, how many start inside a segment that is evaluated (a rollout start to its horizon, same recording), how far they sit from the nearest rollout start, and the quartiles of their distance to the nearest evaluated segment (0: sharing a row with one; what `at least G s from segments` bounds).";
 
 /// One row per treated arm: its treatment strength.
 pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
@@ -327,8 +327,9 @@ pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
         "share %",
         "segment (s)",
         "median distance to a start (s)",
+        "distance to a segment, quartiles (s)",
     ];
-    let mut table = Table::new(&cols, "lrrrrr");
+    let mut table = Table::new(&cols, "lrrrrrr");
     for t in rows {
         let share = if t.contaminating_windows == 0 {
             f64::NAN
@@ -342,6 +343,7 @@ pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
             f(share, 1),
             f(t.horizon_s, 2),
             f(t.median_distance_s, 2),
+            t.segment_distance_quartiles_s.iter().map(|&q| f(q, 2)).collect::<Vec<_>>().join(" / "),
         ]);
     }
     table

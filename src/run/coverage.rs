@@ -73,6 +73,7 @@ pub(crate) fn treatment_strength(
             inside_evaluated_segment: a.inside_evaluated_segment,
             horizon_s: t.horizon_samples as f64 / rate_hz,
             median_distance_s: a.median_distance_s,
+            segment_distance_quartiles_s: a.segment_distance_quartiles_s,
         })
         .collect()
 }

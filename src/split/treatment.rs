@@ -18,6 +18,11 @@ pub struct ArmTreatment {
     /// Median distance to the nearest registered start in the same recording.
     pub median_distance_samples: f64,
     pub median_distance_s: f64,
+    /// Quartiles (first, median, third) of the distance from a window's
+    /// nearest row to the nearest evaluated segment of its recording, in
+    /// seconds ([`super::segment_distance`]: what `at least G s from
+    /// segments` bounds; 0 for a window that shares a row with one).
+    pub segment_distance_quartiles_s: [f64; 3],
 }
 
 /// Evaluation recordings by trajectory x speed.
@@ -116,6 +121,21 @@ fn condition_coverage(split: &Split, by_speed: bool) -> ConditionCoverage {
     ConditionCoverage { condition: if by_speed { "trajectory x speed" } else { "trajectory" }.to_string(), recordings }
 }
 
+/// The first quartile, median and third quartile of `v` (R's type 7:
+/// linear interpolation between order statistics), NaN when empty.
+fn quartiles(mut v: Vec<f64>) -> [f64; 3] {
+    if v.is_empty() {
+        return [f64::NAN; 3];
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |p: f64| {
+        let h = (v.len() - 1) as f64 * p;
+        let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+        v[lo] + (h - h.floor()) * (v[hi] - v[lo])
+    };
+    [at(0.25), at(0.5), at(0.75)]
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -154,6 +174,11 @@ pub fn treatment_audit(split: &Split, by_speed: bool) -> TreatmentAudit {
                 }
             }
             let m = median(dist);
+            let to_segment: Vec<f64> = windows
+                .iter()
+                .map(|w| super::segment_distance(*w, &split.starts, h) as f64 / split.rate_hz)
+                .filter(|d| d.is_finite())
+                .collect();
             ArmTreatment {
                 arm: arm.clone(),
                 contaminating_windows: windows.len(),
@@ -161,6 +186,7 @@ pub fn treatment_audit(split: &Split, by_speed: bool) -> TreatmentAudit {
                 share_inside: if windows.is_empty() { f64::NAN } else { inside as f64 / windows.len() as f64 },
                 median_distance_samples: m,
                 median_distance_s: m / split.rate_hz,
+                segment_distance_quartiles_s: quartiles(to_segment),
             }
         })
         .collect();
@@ -224,14 +250,17 @@ impl TreatmentAudit {
         for a in &self.arms {
             let _ = writeln!(
                 s,
-                "treatment strength, arm {}: {} contaminating windows, {} ({:.1}%) inside an evaluated {}-sample segment, median distance to the nearest start {} samples ({:.2} s)",
+                "treatment strength, arm {}: {} contaminating windows, {} ({:.1}%) inside an evaluated {}-sample segment, median distance to the nearest start {} samples ({:.2} s); distance to the nearest segment, quartiles {:.2} / {:.2} / {:.2} s",
                 a.arm,
                 a.contaminating_windows,
                 a.inside_evaluated_segment,
                 100.0 * a.share_inside,
                 self.horizon_samples,
                 a.median_distance_samples,
-                a.median_distance_s
+                a.median_distance_s,
+                a.segment_distance_quartiles_s[0],
+                a.segment_distance_quartiles_s[1],
+                a.segment_distance_quartiles_s[2]
             );
         }
         s
