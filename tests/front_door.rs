@@ -390,7 +390,7 @@ fn the_treatment_strength_table_is_the_treatment_audit() {
         let text = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
         let table = tables(&text)
             .into_iter()
-            .find(|t| t[0].first().map(String::as_str) == Some("arm") && t[0].len() == 6)
+            .find(|t| t[0].first().map(String::as_str) == Some("arm") && t[0].len() == 7)
             .unwrap_or_else(|| panic!("{run}: no treatment-strength table"));
         let arms = audit["arms"].as_array().unwrap();
         assert_eq!(table.len() - 1, arms.len(), "{run}");
@@ -400,6 +400,13 @@ fn the_treatment_strength_table_is_the_treatment_audit() {
             assert_eq!(row[2], arm["inside_evaluated_segment"].to_string());
             assert_eq!(row[3], format!("{:.1}", 100.0 * arm["share_inside"].as_f64().unwrap()));
             assert_eq!(row[5], format!("{:.2}", arm["median_distance_s"].as_f64().unwrap()));
+            let q: Vec<String> = arm["segment_distance_quartiles_s"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|q| format!("{:.2}", q.as_f64().unwrap()))
+                .collect();
+            assert_eq!(row[6], q.join(" / "));
         }
     }
 }
