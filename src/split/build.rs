@@ -421,10 +421,9 @@ pub fn segment_distance(w: Window, starts: &[Window], horizon: usize) -> usize {
             let end = s.t + horizon;
             if w.t + 1 < s.t {
                 s.t - (w.t + 1)
-            } else if w.t > end {
-                w.t - end
             } else {
-                0
+                // 0 when the window shares a row with the segment.
+                w.t.saturating_sub(end)
             }
         })
         .min()
