@@ -74,6 +74,12 @@ pub(super) fn draw_fit_arms(
 /// A derived arm's name, sorted fit set and sorted incoming evaluation windows.
 pub(super) type DerivedArm = (String, Vec<Window>, Vec<Window>);
 
+/// The windows a derived arm replaces: `percent`% of its base's `base`
+/// windows, rounded.
+pub(super) fn replaced(percent: f64, base: usize) -> usize {
+    (percent / 100.0 * base as f64).round() as usize
+}
+
 /// Derived arms of one base: each member's `percent`% of `base`'s
 /// positions replaced by windows of `pool`. The positions (stream 0 of
 /// `seed`) and the incoming windows (stream 1) are drawn once, in random
@@ -88,7 +94,7 @@ pub(super) fn contaminate(
     seed: u64,
     how: Draw<'_>,
 ) -> Result<Vec<DerivedArm>, SplitError> {
-    let count = |percent: f64| (percent / 100.0 * base.len() as f64).round() as usize;
+    let count = |percent: f64| replaced(percent, base.len());
     let mut most = 0;
     for (arm, percent) in members {
         let replaced = count(*percent);

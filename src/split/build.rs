@@ -3,11 +3,11 @@
 //! recordings and windows, fit sets, contaminating windows), each step a
 //! method of [`Universe`], the recordings a split is drawn from.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use rand::seq::SliceRandom;
 
-use super::arms::{contaminate, draw_fit_arms, Draw};
+use super::arms::{contaminate, draw_fit_arms, replaced, Draw};
 use super::coupled::{self, Purpose};
 use super::pinned::{pinned, published_fit, resolve};
 use super::starts::draw_starts;
@@ -391,10 +391,16 @@ impl<'a> Universe<'a> {
     ) -> Result<Vec<Window>, SplitError> {
         let horizon = self.design.recording.horizon;
         let rate = self.design.data.rate_hz;
-        let kept: Vec<Window> =
-            pool.iter().copied().filter(|w| d.admits(segment_distance(*w, starts, horizon), rate)).collect();
-        let count = |percent: f64| (percent / 100.0 * base as f64).round() as usize;
-        let needed = members.iter().map(|(_, p)| count(*p)).max().unwrap_or(0);
+        let by_recording = starts_by_recording(starts);
+        let kept: Vec<Window> = pool
+            .iter()
+            .copied()
+            .filter(|w| {
+                let of = by_recording.get(&w.recording).map_or(&[][..], Vec::as_slice);
+                segment_distance(w.t, of, horizon).is_some_and(|n| d.admits(n, rate))
+            })
+            .collect();
+        let needed = members.iter().map(|(_, p)| replaced(*p, base)).max().unwrap_or(0);
         if kept.len() < needed {
             return Err(SplitError::TooFewAtDistance {
                 arm: arm.to_string(),
@@ -410,22 +416,29 @@ impl<'a> Universe<'a> {
     }
 }
 
-/// Samples between the one-step window `w` (rows t and t + 1) and the
-/// nearest evaluated segment of its recording (a start s to s + horizon):
-/// 0 when they share a row; `usize::MAX` for a recording without starts.
-pub fn segment_distance(w: Window, starts: &[Window], horizon: usize) -> usize {
+/// The rows of the registered starts, by recording.
+pub(super) fn starts_by_recording(starts: &[Window]) -> BTreeMap<usize, Vec<usize>> {
+    let mut out: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for s in starts {
+        out.entry(s.recording).or_default().push(s.t);
+    }
+    out
+}
+
+/// Samples between the one-step window at row `t` (rows t and t + 1) and
+/// the nearest evaluated segment (a start s to s + horizon) among `starts`,
+/// the start rows of the window's recording: 0 when they share a row;
+/// None for a recording without starts.
+pub fn segment_distance(t: usize, starts: &[usize], horizon: usize) -> Option<usize> {
     starts
         .iter()
-        .filter(|s| s.recording == w.recording)
-        .map(|s| {
-            let end = s.t + horizon;
-            if w.t + 1 < s.t {
-                s.t - (w.t + 1)
+        .map(|&s| {
+            if t + 1 < s {
+                s - (t + 1)
             } else {
                 // 0 when the window shares a row with the segment.
-                w.t.saturating_sub(end)
+                t.saturating_sub(s + horizon)
             }
         })
         .min()
-        .unwrap_or(usize::MAX)
 }

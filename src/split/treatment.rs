@@ -153,10 +153,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// trajectory x speed when `by_speed` (the design's `conditions` name the
 /// speed), by trajectory otherwise.
 pub fn treatment_audit(split: &Split, by_speed: bool) -> TreatmentAudit {
-    let mut starts_by_rec: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for s in &split.starts {
-        starts_by_rec.entry(s.recording).or_default().push(s.t);
-    }
+    let starts_by_rec = super::build::starts_by_recording(&split.starts);
     let h = split.horizon;
     let arms = split
         .contaminating
@@ -176,8 +173,11 @@ pub fn treatment_audit(split: &Split, by_speed: bool) -> TreatmentAudit {
             let m = median(dist);
             let to_segment: Vec<f64> = windows
                 .iter()
-                .map(|w| super::segment_distance(*w, &split.starts, h) as f64 / split.rate_hz)
-                .filter(|d| d.is_finite())
+                .filter_map(|w| {
+                    let starts = starts_by_rec.get(&w.recording).map_or(&[][..], Vec::as_slice);
+                    super::segment_distance(w.t, starts, h)
+                })
+                .map(|n| n as f64 / split.rate_hz)
                 .collect();
             ArmTreatment {
                 arm: arm.clone(),

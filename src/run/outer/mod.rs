@@ -79,7 +79,7 @@ pub(crate) fn run_levels_with(
     grid::run_queue(&file.sha256, &contexts, queued.queue, options.workers, observer)
         .map_err(|(at, e)| RunError::InLevel { level: queued.levels[at].1.label.clone(), source: Box::new(e) })?;
     let per_seed = role == Role::PerSeed || file.design.per_seed_draws;
-    let finished = queue::finish_levels(file, &queued.levels, levels.len(), per_seed)?;
+    let finished = queue::finish_opened(file, &queued.levels, levels.len(), per_seed)?;
     let (status, exploratory, record, builds) =
         (finished.status, finished.exploratory, finished.record, finished.builds);
     let counts = |mut o: RunOutcome| {

@@ -174,7 +174,7 @@ pub(super) struct Finished {
 /// then its cells gathered (`per_seed`: one seed alone is no crossed
 /// study, so its cells are analysed with every other seed's later) or the
 /// level finished with its own report.
-pub(super) fn finish_levels(
+pub(super) fn finish_opened(
     file: &DesignFile,
     levels: &[(usize, Open)],
     count: usize,
