@@ -157,3 +157,194 @@ fn a_distance_the_recordings_cannot_supply_is_refused_at_its_clause() {
         assert!(crate::common::stderr(&o).contains(needle), "{clause}: {}", crate::common::stderr(&o));
     }
 }
+
+/// The windows a derived arm kept of its base: its fit manifest less its
+/// contaminating windows (the base holds no evaluation window).
+fn kept(out: &Path, arm: &str) -> Vec<(String, usize)> {
+    let incoming: std::collections::BTreeSet<(String, usize)> =
+        rows(&out.join(format!("manifests/contaminating_{arm}.csv"))).into_iter().collect();
+    let mut fit: Vec<(String, usize)> =
+        rows(&out.join(format!("manifests/fit_{arm}.csv"))).into_iter().filter(|w| !incoming.contains(w)).collect();
+    fit.sort();
+    fit
+}
+
+/// A distance-dose family (`at least 0 s, 0.5 s, 2 s from segments`): one
+/// arm per distance, each window at its own arm's distance, every arm
+/// replacing the same positions of the reference arm, and the draws
+/// coupled: a window the nearest arm drew that lies 2 s away is one the
+/// 2 s arm drew too.
+#[test]
+fn a_distance_dose_family_shares_its_positions_and_couples_its_draws() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = design_with(dir.path(), "family.design", "at least 0 s, 0.5 s, 2 s from segments");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let rule = "decide confirmed when optimism >= 10% and upper < 0";
+    assert!(text.contains(rule));
+    std::fs::write(&path, text.replace(rule, "decide fades on slope when lower > 0")).unwrap();
+    let out = dir.path().join("out");
+    assert_ok(&split(&path, &out));
+    let incoming =
+        |arm: &str| -> Vec<(String, usize)> { rows(&out.join(format!("manifests/contaminating_{arm}.csv"))) };
+    let arms = [("contaminated_0s", 0), ("contaminated_0p5s", 50), ("contaminated_2s", 200)];
+    // Each arm's every window at its distance: the scan is distances()'s,
+    // on the arm's own manifest.
+    for (arm, least) in arms {
+        let one = dir.path().join(format!("one-{arm}"));
+        std::fs::create_dir_all(one.join("manifests")).unwrap();
+        for f in ["evaluation_starts.csv"] {
+            std::fs::copy(out.join("manifests").join(f), one.join("manifests").join(f)).unwrap();
+        }
+        std::fs::copy(
+            out.join(format!("manifests/contaminating_{arm}.csv")),
+            one.join("manifests/contaminating_contaminated.csv"),
+        )
+        .unwrap();
+        let d = distances(&one);
+        assert_eq!(d.len(), 750, "{arm}: 25% of 3000");
+        assert!(d.iter().all(|&d| d >= least), "{arm}: closest {:?}, declared {least} samples", d.iter().min());
+    }
+    // The same positions of the reference replaced in every arm.
+    let base = kept(&out, "contaminated_0s");
+    assert_eq!(base.len(), 2250);
+    for (arm, _) in &arms[1..] {
+        assert!(kept(&out, arm) == base, "{arm} replaced other positions than contaminated_0s");
+    }
+    // Coupled: the nearest arm's windows at 2 s or more are the 2 s arm's.
+    let near: Vec<(String, usize)> = incoming("contaminated_0s");
+    let far: std::collections::BTreeSet<(String, usize)> = incoming("contaminated_2s").into_iter().collect();
+    let one = dir.path().join("one-contaminated_0s");
+    let far_enough: Vec<&(String, usize)> =
+        near.iter().zip(distances(&one)).filter(|(_, d)| *d >= 200).map(|(w, _)| w).collect();
+    assert!(!far_enough.is_empty(), "the unrestricted draw reaches 2 s somewhere");
+    assert!(
+        far_enough.iter().all(|w| far.contains(*w)),
+        "a window the 0 s arm drew at >= 2 s is missing from the 2 s arm"
+    );
+
+    // `check` names the family's distances; several shares at several
+    // distances are refused at the second distance.
+    let o =
+        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &path.display().to_string()]).output().unwrap();
+    assert_ok(&o);
+    let said = crate::common::stdout(&o);
+    assert!(
+        said.contains("distances of contaminated from the evaluated segments, 25% replaced in each (one draw order): at least 0 s (contaminated_0s), at least 0.5 s (contaminated_0p5s), at least 2 s (contaminated_2s)"),
+        "{said}"
+    );
+    let two = std::fs::read_to_string(&path).unwrap().replace("replace 25% with", "replace 10%, 25% with");
+    let bad = dir.path().join("two.design");
+    std::fs::write(&bad, two).unwrap();
+    let o =
+        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &bad.display().to_string()]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(crate::common::stderr(&o).contains("doses on two axes"), "{}", crate::common::stderr(&o));
+}
+
+/// A simulated distance-dose study with leakage built in only within 1 s
+/// of the evaluated segments: per cell, d at distance g is mu(g) + a_r +
+/// b_s + e (recording, seed and residual effects drawn afresh per arm),
+/// mu(g) = -0.04 m below 1 s and 0 from 1 s on. Over 300 simulated
+/// studies, the estimate beyond 1 s is zero on average, each distance's
+/// interval covers its truth and the trend's interval covers the true
+/// slope at about the nominal 95% (the closed form: the least-squares slope
+/// of mu over the distances), and step-down testing from the nearest
+/// distance stops at the last leaking one, 0.5 s.
+#[test]
+fn leakage_within_a_known_distance_fades_beyond_it_and_the_trend_covers_the_truth() {
+    use crossaudit::cells::Cell;
+    use rand::{Rng, SeedableRng};
+    let design = r#"study "distance-sim"
+data nanobench { path "recordings" }
+factor recording { evaluation 8 split_seed 1; starts 5 horizon 100 conditions trajectory }
+factor seed = 1..6
+validation 100 windows from 2 recordings seed 2
+arm disjoint     { fit 400 windows }
+arm contaminated { from disjoint replace 25% with evaluation windows exclude starts
+                   at least 0 s, 0.5 s, 1 s, 2 s, 5 s from segments seed 3 }
+model world = mlp(32, 32, 32) inputs world
+train { adam lr 1e-3 batch 64 epochs 5 cosine patience 2 action_noise 0.02 }
+endpoint primary fa_position_rmse at 1.0 s cap 2 m model world
+contrast contaminated - disjoint
+estimate crossed_mom level 0.95 df seed - 1
+decide fades on slope when lower > 0
+"#;
+    let d = crossaudit::design::from_str("distance-sim.design", design).unwrap();
+    let plan = crossaudit::compile(&d);
+    let gaps = [0.0, 0.5, 1.0, 2.0, 5.0];
+    let truth = |g: f64| if g < 1.0 { -0.04 } else { 0.0 };
+    // The true slope: sum (g - mean g)(mu(g) - mean mu) / sum (g - mean g)^2.
+    let mg = gaps.iter().sum::<f64>() / 5.0;
+    let mm = gaps.iter().map(|&g| truth(g)).sum::<f64>() / 5.0;
+    let true_slope = gaps.iter().map(|&g| (g - mg) * (truth(g) - mm)).sum::<f64>()
+        / gaps.iter().map(|&g| (g - mg) * (g - mg)).sum::<f64>();
+    let names: Vec<String> = gaps.iter().map(|g| crossaudit::design::distance_arm_name("contaminated", *g)).collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(59);
+    // Box-Muller: one standard normal draw.
+    let mut normal = move || {
+        let (u, v): (f64, f64) = (rng.gen::<f64>().max(1e-300), rng.gen());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    };
+    let template = crate::common::minimal_cells(&crate::common::minimal_design())[0].clone();
+    let reps = 300;
+    let (mut covered, mut slope_covered, mut stops_at_leak) = (vec![0usize; 5], 0usize, 0usize);
+    let mut beyond_sum = 0.0;
+    for _ in 0..reps {
+        let mut cells = Vec::new();
+        let mut push = |arm: &str, r: usize, s: u64, v: f64| {
+            cells.push(Cell {
+                arm: arm.into(),
+                seed: s,
+                recording: format!("R{r}_circle_fast_rep1").as_str().into(),
+                trajectory: "circle".into(),
+                speed: "fast".into(),
+                horizon_s: 1.0,
+                fa_position_rmse_m: v,
+                conditional_position_rmse_m: Some(v),
+                ..template.clone()
+            });
+        };
+        let base: Vec<Vec<f64>> = (0..8)
+            .map(|r| (1..=6).map(|s| 0.5 + 0.02 * r as f64 + 0.01 * s as f64 + 0.01 * normal()).collect())
+            .collect();
+        for (r, row) in base.iter().enumerate() {
+            for (s, &v) in row.iter().enumerate() {
+                push("disjoint", r, s as u64 + 1, v);
+            }
+        }
+        for (k, &g) in gaps.iter().enumerate() {
+            let a: Vec<f64> = (0..8).map(|_| 0.005 * normal()).collect();
+            let b: Vec<f64> = (0..6).map(|_| 0.01 * normal()).collect();
+            for (r, row) in base.iter().enumerate() {
+                for (s, &v) in row.iter().enumerate() {
+                    push(&names[k], r, s as u64 + 1, v + truth(g) + a[r] + b[s] + 0.01 * normal());
+                }
+            }
+        }
+        let a = crossaudit::analysis::family::analyze_family(&plan, &cells, Default::default()).unwrap();
+        let sp = &a.splits[0];
+        for (k, dose) in sp.doses.iter().enumerate() {
+            assert_eq!(dose.distance_s, Some(gaps[k]));
+            let e = &dose.estimate;
+            covered[k] += usize::from(e.lower <= truth(gaps[k]) && truth(gaps[k]) <= e.upper);
+            if gaps[k] >= 1.0 {
+                beyond_sum += e.mean;
+            }
+        }
+        let t = sp.trend.as_ref().unwrap();
+        slope_covered += usize::from(t.slope.lower <= true_slope && true_slope <= t.slope.upper);
+        stops_at_leak += usize::from(t.step_down_dose == Some(0.5));
+    }
+    // 300 studies: a 95% coverage has binomial SD 1.26 points, so 90% to
+    // 99% is about four SD either side.
+    let rate = |n: usize| n as f64 / reps as f64;
+    for (k, &c) in covered.iter().enumerate() {
+        assert!((0.90..=0.99).contains(&rate(c)), "distance {} s: coverage {}", gaps[k], rate(c));
+    }
+    assert!((0.90..=0.99).contains(&rate(slope_covered)), "trend coverage {}", rate(slope_covered));
+    // Beyond 1 s the mean estimate is zero: its SD over 900 estimates is
+    // at most 0.006 / 30 = 2e-4 m.
+    assert!((beyond_sum / (3 * reps) as f64).abs() < 6e-4, "mean beyond 1 s: {}", beyond_sum / (3 * reps) as f64);
+    assert!(rate(stops_at_leak) >= 0.85, "step-down stopped at 0.5 s in {}", rate(stops_at_leak));
+    assert!(true_slope > 0.0, "the leak fades with distance: slope {true_slope}");
+}

@@ -271,8 +271,9 @@ pub enum ArmBody {
         percents: Vec<Number>,
         exclude_starts: bool,
         /// `at least G s` (max None) or `G1 s to G2 s from segments`, and
-        /// the clause's span.
-        distance: Option<(Number, Option<Number>, Span)>,
+        /// the clause's span; several gaps (`at least 0 s, 5 s`) declare a
+        /// distance-dose family.
+        distance: Option<(Vec<Number>, Option<Number>, Span)>,
         seed: Int,
     },
 }

@@ -172,20 +172,26 @@ impl Design {
     }
 
     /// The dose-response arms of the contrast's treated family, by
-    /// increasing dose: (arm name, percent). Empty unless the treated arm
-    /// was declared with several doses.
-    pub fn doses(&self) -> Vec<(String, f64)> {
-        let mut out: Vec<(String, f64)> = self
+    /// increasing dose: (arm name, percent, distance). Empty unless the
+    /// treated arm was declared with several doses. In a distance-dose
+    /// family (`at least 0 s, 5 s from segments`) every arm replaces the
+    /// same percent and the dose is the distance, in s; otherwise the dose
+    /// is the percent and the distance None.
+    pub fn doses(&self) -> Vec<(String, f64, Option<f64>)> {
+        let mut out: Vec<(String, f64, Option<WindowDistance>)> = self
             .arms
             .iter()
             .filter_map(|a| match &a.kind {
-                ArmKind::Derived { percent, family: Some(f), .. } if *f == self.contrast.treated => {
-                    Some((a.name.clone(), *percent))
+                ArmKind::Derived { percent, family: Some(f), distance, .. } if *f == self.contrast.treated => {
+                    Some((a.name.clone(), *percent, *distance))
                 }
                 _ => None,
             })
             .collect();
-        out.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let by_distance = out.windows(2).any(|w| w[0].2.map(|d| d.min_s) != w[1].2.map(|d| d.min_s));
+        let mut out: Vec<(String, f64, Option<f64>)> =
+            out.drain(..).map(|(a, p, d)| (a, p, d.filter(|_| by_distance).map(|d| d.min_s))).collect();
+        out.sort_by(|a, b| a.2.unwrap_or(a.1).total_cmp(&b.2.unwrap_or(b.1)));
         out
     }
 }
@@ -194,6 +200,54 @@ impl Design {
 /// 5% is `contaminated_5pct`, at 2.5% `contaminated_2p5pct`.
 pub fn dose_arm_name(family: &str, percent: f64) -> String {
     format!("{family}_{}pct", percent.to_string().replace('.', "p"))
+}
+
+/// The arm name of one distance of a distance-dose family: `contaminated`
+/// at least 5 s from segments is `contaminated_5s`, at 0.5 s `contaminated_0p5s`.
+pub fn distance_arm_name(family: &str, seconds: f64) -> String {
+    format!("{family}_{}s", seconds.to_string().replace('.', "p"))
+}
+
+/// What a dose-response family varies: the share replaced, or the
+/// distance of the contaminating windows from the evaluated segments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DoseAxis {
+    /// Percent of the reference arm's windows replaced (the reference arm
+    /// is dose 0).
+    Percent,
+    /// Seconds from the evaluated segments, one share replaced (the
+    /// reference arm is off the axis: it holds no contaminating window).
+    Distance,
+}
+
+impl DoseAxis {
+    /// The axis of doses given as (percent, distance): distances where
+    /// any dose has one.
+    pub fn of_doses(distances: impl IntoIterator<Item = Option<f64>>) -> DoseAxis {
+        if distances.into_iter().any(|d| d.is_some()) {
+            DoseAxis::Distance
+        } else {
+            DoseAxis::Percent
+        }
+    }
+
+    /// The dose's unit in text: `%` or ` s`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            DoseAxis::Percent => "%",
+            DoseAxis::Distance => " s",
+        }
+    }
+
+    /// What one unit of dose is, for a slope: `percentage point of dose`
+    /// or `second of distance`.
+    pub fn per(self) -> &'static str {
+        match self {
+            DoseAxis::Percent => "percentage point of dose",
+            DoseAxis::Distance => "second of distance from the evaluated segments",
+        }
+    }
 }
 
 /// What a pinned published split does with a fit recording that is

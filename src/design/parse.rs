@@ -297,9 +297,19 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
     let distance = if c.peek_rule() == Some(Rule::window_distance) {
         let clause = c.next();
         let span = span_of(&clause);
-        let mut numbers = kids(kids(clause).next());
-        let least = number(numbers.next())?;
-        let most = if numbers.peek_rule().is_some() { Some(number(numbers.next())?) } else { None };
+        let form = kids(clause).next();
+        let band = form.as_rule() == Rule::distance_band;
+        let mut numbers = kids(form);
+        let mut least = vec![number(numbers.next())?];
+        let mut most = None;
+        while numbers.peek_rule().is_some() {
+            let n = number(numbers.next())?;
+            if band {
+                most = Some(n);
+            } else {
+                least.push(n);
+            }
+        }
         Some((least, most, span))
     } else {
         None

@@ -16,8 +16,8 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::design::{
-    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, EstimatorKind, Meters, Metric, ModelKind, Role,
-    Seed, Sensitivity, StartsPolicy, TargetKind, Training,
+    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, DoseAxis, Estimator, EstimatorKind, Meters, Metric,
+    ModelKind, Role, Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
 use crate::stats::DfRule;
 
@@ -73,10 +73,36 @@ pub fn split_dir(split: u64) -> String {
 /// One dose of a dose-response contrast: the arm that carries it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DoseArm {
-    /// The arm's name (`contaminated_5pct`).
+    /// The arm's name (`contaminated_5pct`, or `contaminated_5s` in a
+    /// distance-dose family).
     pub arm: String,
     /// Percentage of the reference arm's windows replaced.
     pub percent: f64,
+    /// In a distance-dose family, the dose: the least distance in s of
+    /// every contaminating window from the evaluated segments.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distance_s: Option<f64>,
+}
+
+/// The axis of a family's doses: distances where any dose has one.
+pub fn dose_axis(doses: &[DoseArm]) -> DoseAxis {
+    DoseAxis::of_doses(doses.iter().map(|d| d.distance_s))
+}
+
+impl DoseArm {
+    /// The dose on its axis: the distance in s in a distance-dose family,
+    /// the percent otherwise.
+    pub fn dose(&self) -> f64 {
+        self.distance_s.unwrap_or(self.percent)
+    }
+
+    /// `25%`, or `at least 5 s`.
+    pub fn label(&self) -> String {
+        match self.distance_s {
+            Some(g) => format!("at least {g} s"),
+            None => format!("{}%", self.percent),
+        }
+    }
 }
 
 /// One analysis unit: a metric at a horizon for a model, contrasted over the
@@ -225,7 +251,8 @@ pub fn compile(design: &Design) -> Plan {
             }
         }
     }
-    let doses: Vec<DoseArm> = design.doses().into_iter().map(|(arm, percent)| DoseArm { arm, percent }).collect();
+    let doses: Vec<DoseArm> =
+        design.doses().into_iter().map(|(arm, percent, distance_s)| DoseArm { arm, percent, distance_s }).collect();
     let mut units = units(design).into_iter();
     let primary = units.next().expect("a validated design has exactly one primary endpoint");
     let secondary: Vec<AnalysisUnit> = units.collect();
@@ -398,6 +425,19 @@ impl Plan {
         self.estimator.df.df(rows, cols)
     }
 
+    /// The dose line of `render_text`: the doses, nested, or the distances.
+    fn doses_text(&self) -> String {
+        let list: Vec<String> = self.doses.iter().map(|d| format!("{} ({})", d.label(), d.arm)).collect();
+        let (treated, list) = (&self.contrast.treated, list.join(", "));
+        match dose_axis(&self.doses) {
+            DoseAxis::Percent => format!("doses of {treated} (nested): {list}"),
+            DoseAxis::Distance => format!(
+                "distances of {treated} from the evaluated segments, {}% replaced in each (one draw order): {list}",
+                self.doses[0].percent
+            ),
+        }
+    }
+
     /// The plan as the text `crossaudit check` prints.
     pub fn render_text(&self) -> String {
         let mut s = String::new();
@@ -430,8 +470,7 @@ impl Plan {
             );
         }
         if !self.doses.is_empty() {
-            let list: Vec<String> = self.doses.iter().map(|d| format!("{}% ({})", d.percent, d.arm)).collect();
-            let _ = writeln!(s, "doses of {} (nested): {}", self.contrast.treated, list.join(", "));
+            let _ = writeln!(s, "{}", self.doses_text());
         }
         for m in &self.models {
             let _ = writeln!(s, "  model {}: {}", m.name, model_text(&m.kind));

@@ -191,7 +191,7 @@ pub type DoseRow = (f64, f64, f64, f64);
 pub fn dose_response(
     path: &Path,
     title: &str,
-    y_desc: &str,
+    (y_desc, x_desc): (&str, &str),
     rows: &[DoseRow],
     fit: Option<(f64, f64, String)>,
 ) -> Result<String, DrawError> {
@@ -207,7 +207,7 @@ pub fn dose_response(
             .y_label_formatter(&ticks(lo, hi))
             .label_style(TICK_FONT)
             .axis_desc_style(AXIS_FONT)
-            .x_desc("dose (% of the fit windows from the evaluation recordings)")
+            .x_desc(x_desc)
             .y_desc(y_desc)
             .draw()
             .map_err(&err)?;

@@ -14,6 +14,7 @@
 use std::fmt::Write as _;
 
 use crate::analysis::Analysis;
+use crate::design::DoseAxis;
 use crate::stats::CrossedEstimate;
 
 /// The header of estimates.csv.
@@ -201,13 +202,21 @@ pub const FAMILY_COLUMNS: &str =
 /// contrast's crossed estimate), per split's trend (the slope over doses),
 /// then the pooled estimates per dose and of the slope. Units: d in the
 /// metric's, a slope per percentage point of dose; optimism in %, or
-/// optimism points per dose point for a slope.
+/// optimism points per dose point for a slope. A distance-dose family's
+/// dose column is `distance_s` (each arm's least distance from the
+/// evaluated segments) and its slope is per second.
 pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> String {
     // As the single-contrast estimates.csv: the metric's own unit (empty for a rate).
     let unit = a.metric_unit.clone();
-    let per_dose = format!("{unit}/pp");
+    let (per_dose, per_optimism, header) = match a.dose_axis {
+        DoseAxis::Percent => (format!("{unit}/pp"), "%/pp", FAMILY_COLUMNS.to_string()),
+        DoseAxis::Distance => {
+            (format!("{unit} per s"), "% per s", FAMILY_COLUMNS.replacen("dose_pct", "distance_s", 1))
+        }
+    };
+    let dose = |percent: f64, distance: Option<f64>| dose(distance.unwrap_or(percent));
     let split = |s: Option<u64>| s.map(|s| s.to_string()).unwrap_or_default();
-    let mut s = String::from(FAMILY_COLUMNS);
+    let mut s = header;
     s.push('\n');
     // Arm names are design identifiers: no field needs quoting.
     let mut row = |cols: [String; 18]| {
@@ -220,7 +229,7 @@ pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> S
             row([
                 "contrast".into(),
                 split(sp.split),
-                dose(d.percent),
+                dose(d.percent, d.distance_s),
                 d.arm.clone(),
                 "d".into(),
                 unit.clone(),
@@ -258,16 +267,16 @@ pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> S
                 num(t.optimism_slope),
                 num(t.optimism_slope_lower),
                 num(t.optimism_slope_upper),
-                "%/pp".into(),
+                per_optimism.into(),
             ]);
         }
     }
     if let Some(p) = &a.pooled {
         for (e, d) in p.doses.iter().zip(&a.doses) {
-            row(pooled(e, dose(d.percent), d.arm.clone(), "d", (&unit, "%"), a.level));
+            row(pooled(e, dose(d.percent, d.distance_s), d.arm.clone(), "d", (&unit, "%"), a.level));
         }
         if let Some(e) = &p.slope {
-            row(pooled(e, String::new(), String::new(), "slope", (&per_dose, "%/pp"), a.level));
+            row(pooled(e, String::new(), String::new(), "slope", (&per_dose, per_optimism), a.level));
         }
     }
     s

@@ -210,7 +210,7 @@ fn finish_splits(
 /// The family analysis of `cells_csv` (labelled with the design, lock
 /// state, data and resumed builds, then `extra`), its report written in
 /// `out/report`.
-fn report_family(
+pub(crate) fn report_family(
     design_path: &str,
     plan: &Plan,
     out: &Path,
@@ -492,8 +492,9 @@ pub(crate) fn gathered(plan: &Plan, out: &Path) -> Result<Vec<Cell>, RunError> {
         all.extend(read_cells(&job_cells(out, j))?);
     }
     check_baselines(plan, &all)?;
-    if !plan.doses.is_empty() {
-        // A dose-response study's cells carry their dose: 0 for the reference.
+    if !plan.doses.is_empty() && crate::plan::dose_axis(&plan.doses) == crate::design::DoseAxis::Percent {
+        // A dose-response study's cells carry their dose: 0 for the
+        // reference. A distance-dose study's arms name their distances.
         for c in &mut all {
             c.dose = if c.arm == plan.contrast.reference {
                 Some(0.0)

@@ -146,3 +146,61 @@ pub(super) fn contaminate(
     }
     Ok(out)
 }
+
+/// A distance-dose family: every member replaces the same `percent` of
+/// `base`'s positions, each with windows at its own distance, whose
+/// admissible windows (a subset of `pool`) it names. The positions are
+/// drawn once (stream 0 of `seed`), as for one arm; the incoming windows
+/// come from one random order of the whole `pool` (stream 1), each member
+/// taking the first windows of that order that lie at its distance. So the
+/// members share their replaced positions, and a window that a nearer
+/// member drew and that also lies at a farther member's distance is one
+/// that member draws too: the distances differ, not the draws.
+pub(super) fn contaminate_at_distances(
+    base: &[Window],
+    percent: f64,
+    members: &[(String, &[Window])],
+    pool: &[Window],
+    seed: u64,
+    how: Draw<'_>,
+) -> Result<Vec<DerivedArm>, SplitError> {
+    let k = replaced(percent, base.len());
+    if let (0, Some((arm, _))) = (k, members.first()) {
+        let (arm, windows) = (arm.clone(), base.len());
+        return Err(SplitError::NothingToReplace { arm, percent, windows, replaced: k });
+    }
+    let (positions, order): (Vec<usize>, Vec<usize>) = match how {
+        Draw::Numpy => {
+            let mut rs = RandomState::new(np_seed(seed));
+            let positions = rs.choice(base.len(), k);
+            (positions, rs.choice(pool.len(), pool.len()))
+        }
+        Draw::Chacha => {
+            let positions = rand::seq::index::sample(&mut rng(seed, 0), base.len(), k).into_vec();
+            (positions, rand::seq::index::sample(&mut rng(seed, 1), pool.len(), pool.len()).into_vec())
+        }
+        Draw::Coupled(name) => {
+            let replaced = coupled::order(base.len(), seed, Purpose::Replaced, &|i| name(base[i].recording), &|i| {
+                base[i].t as u64
+            });
+            let incoming = coupled::order(pool.len(), seed, Purpose::Incoming, &|i| name(pool[i].recording), &|i| {
+                pool[i].t as u64
+            });
+            (replaced.into_iter().take(k).collect(), incoming)
+        }
+    };
+    let mut out = Vec::new();
+    for (arm, admitted) in members {
+        let admitted: std::collections::BTreeSet<&Window> = admitted.iter().collect();
+        let incoming: Vec<Window> = order.iter().map(|&i| pool[i]).filter(|w| admitted.contains(w)).take(k).collect();
+        let mut fit = base.to_vec();
+        for (&p, w) in positions.iter().zip(&incoming) {
+            fit[p] = *w;
+        }
+        fit.sort();
+        let mut taken = incoming;
+        taken.sort();
+        out.push((arm.clone(), fit, taken));
+    }
+    Ok(out)
+}

@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use rand::seq::SliceRandom;
 
-use super::arms::{contaminate, draw_fit_arms, replaced, Draw};
+use super::arms::{contaminate, contaminate_at_distances, draw_fit_arms, replaced, Draw};
 use super::coupled::{self, Purpose};
 use super::pinned::{pinned, published_fit, resolve};
 use super::starts::draw_starts;
@@ -358,10 +358,6 @@ impl<'a> Universe<'a> {
                 }
                 StartsPolicy::Allow => e_pool.to_vec(),
             };
-            let pool = match distance {
-                Some(d) => self.at_distance(d, (&arm.name, &members, base.len()), &pool, starts, *policy)?,
-                None => pool,
-            };
             let name = |r: usize| self.name(r);
             let how = if design.coupled {
                 Draw::Coupled(&name)
@@ -370,12 +366,47 @@ impl<'a> Universe<'a> {
             } else {
                 Draw::Chacha
             };
-            for (arm_name, fit, incoming) in contaminate(&base, &members, &pool, *seed, how)? {
+            let gaps = self.distance_family(family.as_deref());
+            let drawn = if gaps.len() > 1 {
+                let percent = members[0].1;
+                let mut pools = Vec::new();
+                for (arm_name, d) in &gaps {
+                    let member = [(arm_name.clone(), percent)];
+                    pools.push(self.at_distance(d, (arm_name, &member, base.len()), &pool, starts, *policy)?);
+                }
+                let members: Vec<(String, &[Window])> =
+                    gaps.iter().zip(&pools).map(|((a, _), p)| (a.clone(), p.as_slice())).collect();
+                contaminate_at_distances(&base, percent, &members, &pool, *seed, how)?
+            } else {
+                let pool = match distance {
+                    Some(d) => self.at_distance(d, (&arm.name, &members, base.len()), &pool, starts, *policy)?,
+                    None => pool,
+                };
+                contaminate(&base, &members, &pool, *seed, how)?
+            };
+            for (arm_name, fit, incoming) in drawn {
                 fits.push((arm_name.clone(), fit));
                 contaminating.push((arm_name, incoming));
             }
         }
         Ok(contaminating)
+    }
+
+    /// The arms of a distance-dose family with their distances, in the
+    /// design's order; empty for any other family or a single arm.
+    fn distance_family(&self, family: Option<&str>) -> Vec<(String, WindowDistance)> {
+        let Some(family) = family else { return Vec::new() };
+        let doses = self.design.arms.iter().filter_map(|a| match &a.kind {
+            ArmKind::Derived { family: Some(f), distance: Some(d), .. } if f == family => Some((a.name.clone(), *d)),
+            _ => None,
+        });
+        let doses: Vec<(String, WindowDistance)> = doses.collect();
+        let distinct = doses.windows(2).any(|w| w[0].1.min_s != w[1].1.min_s);
+        if distinct {
+            doses
+        } else {
+            Vec::new()
+        }
     }
 
     /// The windows of `pool` at distance `d` from every evaluated segment

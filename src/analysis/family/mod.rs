@@ -13,9 +13,16 @@
 //!   interval of the design's estimator. The slope in optimism is
 //!   -100 slope / mean(reference), percentage points of optimism per
 //!   percentage point of dose;
+//! - in a distance-dose family (one share at several distances from the
+//!   evaluated segments) the dose is the distance in s and the reference
+//!   arm, which holds no contaminating window, is off the axis: the slope
+//!   is that of d over the distances alone (the reference cancels), per
+//!   second of distance;
 //! - the smallest dose whose interval excludes zero (descriptive), and the
 //!   lowest dose reached by step-down testing from the largest dose, which
-//!   controls the family-wise error over the doses;
+//!   controls the family-wise error over the doses (over distances: the
+//!   farthest distance whose interval excludes zero, and the farthest
+//!   reached by step-down testing from the nearest);
 //! - over several splits, a pooled estimate of each dose's difference and
 //!   of the slope: REML fit of value = mu + a_split + b_recording + c_seed + e
 //!   (recordings recur across splits and seeds are shared, so all three are
@@ -33,8 +40,9 @@ use super::types::{Analysis, ConditionOutcome, Decision, Provenance};
 use super::unit::{estimate_grid, value_of};
 use super::{analyze, AnalysisError, AnalyzeOptions};
 use crate::cells::Cell;
+use crate::design::DoseAxis;
 use crate::design::{ArmKind, DecisionRule, DecisionTarget, Quantity};
-use crate::plan::{DoseArm, Plan};
+use crate::plan::{dose_axis, DoseArm, Plan};
 use crate::stats::CrossedEstimate;
 
 /// The analysis of a dose-response or multi-split study (results.json).
@@ -63,6 +71,8 @@ pub struct FamilyAnalysis {
     pub metric_unit: String,
     /// The doses, increasing (one entry, the treated arm, without doses).
     pub doses: Vec<DoseArm>,
+    /// What the doses vary: the share replaced or the distance.
+    pub dose_axis: DoseAxis,
     /// Per split (one entry, split `None`, in a single-split study).
     pub splits: Vec<SplitResult>,
     /// Pooled over splits, when there are several.
@@ -109,6 +119,10 @@ pub struct DoseResult {
     /// Percent of the reference arm's windows replaced (NaN, written null,
     /// when the treated arm is not derived from the reference).
     pub percent: f64,
+    /// In a distance-dose family, the dose: the least distance in s of the
+    /// arm's contaminating windows from the evaluated segments.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distance_s: Option<f64>,
     /// Mean of the treated arm.
     pub mean_treated: f64,
     /// Mean of the reference arm.
@@ -122,7 +136,8 @@ pub struct DoseResult {
 /// The slope of the difference over doses.
 #[derive(Debug, Clone, Serialize)]
 pub struct Trend {
-    /// Crossed estimate of the per-cell slope (metric units per percentage point).
+    /// Crossed estimate of the per-cell slope (metric units per percentage
+    /// point, or per second of distance in a distance-dose family).
     pub slope: CrossedEstimate,
     /// -100 slope / mean(reference): optimism points per dose point.
     pub optimism_slope: f64,
@@ -131,13 +146,16 @@ pub struct Trend {
     /// Its interval, from the slope's.
     pub optimism_slope_upper: f64,
     /// The smallest dose whose interval excludes zero, if any: descriptive,
-    /// with no control of multiplicity over the doses.
+    /// with no control of multiplicity over the doses. In a distance-dose
+    /// family, the farthest distance whose interval excludes zero.
     pub smallest_dose_excluding_zero: Option<f64>,
     /// The lowest dose reached by step-down (fixed-sequence) testing from
     /// the largest dose: each dose's interval is examined in decreasing
     /// order of dose, and the sequence stops at the first that includes
     /// zero. A closed testing procedure, so the family-wise error over the
-    /// doses is at most 1 - level.
+    /// doses is at most 1 - level. In a distance-dose family the sequence
+    /// runs from the nearest distance outwards and this is the farthest
+    /// distance reached.
     pub step_down_dose: Option<f64>,
 }
 
@@ -150,7 +168,8 @@ pub struct Pooled {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub slope: Option<PooledEstimate>,
     /// The smallest dose whose pooled interval excludes zero, if any
-    /// (descriptive, no multiplicity control).
+    /// (descriptive, no multiplicity control; the farthest distance in a
+    /// distance-dose family).
     pub smallest_dose_excluding_zero: Option<f64>,
     /// The lowest dose reached by step-down testing of the pooled
     /// intervals from the largest dose (family-wise error at most
@@ -220,7 +239,7 @@ pub fn contrast_doses(plan: &Plan) -> Vec<DoseArm> {
             ArmKind::Fit { .. } => None,
         })
         .unwrap_or(f64::NAN);
-    vec![DoseArm { arm: plan.contrast.treated.clone(), percent }]
+    vec![DoseArm { arm: plan.contrast.treated.clone(), percent, distance_s: None }]
 }
 
 fn fail(message: String) -> AnalysisError {
@@ -262,6 +281,12 @@ fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
             } else {
                 plan.doses.iter().find(|d| d.arm == c.arm).map(|d| d.percent)
             };
+            if dose_axis(&plan.doses) == DoseAxis::Distance {
+                return Err(fail(format!(
+                    "line {}, field `dose`: a distance-dose study's cells carry no `dose` column (each arm names its distance)",
+                    c.line
+                )));
+            }
             if let Some(e) = expected {
                 if e != dose {
                     return Err(fail(format!(
@@ -316,6 +341,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
             results.push(DoseResult {
                 arm: dose.arm.clone(),
                 percent: dose.percent,
+                distance_s: dose.distance_s,
                 mean_treated: u.mean_treated,
                 mean_reference: u.mean_reference,
                 optimism_pct: u.optimism_pct,
@@ -331,7 +357,8 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let pooled = if split_values.len() >= 2 { Some(pool::pool(plan, &split_values, &values, &doses)?) } else { None };
     let provenance = splits[0].detail[0].provenance.clone();
     let unit = plan.primary.label();
-    let decision = decide(&plan.decision, (&unit, plan.primary.metric.unit()), &splits, pooled.as_ref());
+    let axis = dose_axis(&doses);
+    let decision = decide(&plan.decision, (&unit, plan.primary.metric.unit(), axis), &splits, pooled.as_ref());
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
         design_sha256: None,
@@ -343,6 +370,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         unit,
         metric_unit: plan.primary.metric.unit().to_string(),
         doses,
+        dose_axis: axis,
         splits,
         pooled,
         decision,
@@ -398,12 +426,17 @@ fn split_values_of(plan: &Plan, cells: &[Cell], doses: &[DoseArm], a: &Analysis)
 }
 
 /// Least-squares weights of the slope over (0, doses...): the slope of
-/// (0, d_1, ..., d_K) is sum_k w_k d_k.
+/// (0, d_1, ..., d_K) is sum_k w_k d_k. Over distances the reference is
+/// off the axis: the slope of (d_1, ..., d_K) over the distances alone.
 fn slope_weights(doses: &[DoseArm]) -> Vec<f64> {
-    let x: Vec<f64> = std::iter::once(0.0).chain(doses.iter().map(|d| d.percent)).collect();
+    let reference = match dose_axis(doses) {
+        DoseAxis::Percent => Some(0.0),
+        DoseAxis::Distance => None,
+    };
+    let x: Vec<f64> = reference.into_iter().chain(doses.iter().map(DoseArm::dose)).collect();
     let mean = x.iter().sum::<f64>() / x.len() as f64;
     let sxx: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
-    doses.iter().map(|d| (d.percent - mean) / sxx).collect()
+    doses.iter().map(|d| (d.dose() - mean) / sxx).collect()
 }
 
 /// Per-cell slopes of one split (None where a dose's cell is missing).
@@ -425,8 +458,14 @@ fn as_optimism(x: f64, mean_reference: f64) -> f64 {
     -100.0 * x / mean_reference
 }
 
-fn smallest_excluding_zero<'a>(items: impl Iterator<Item = (f64, f64, f64)> + 'a) -> Option<f64> {
-    items.filter(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p).reduce(f64::min)
+/// The smallest dose whose interval excludes zero (the farthest distance
+/// over distances, where the dose orders the other way).
+fn smallest_excluding_zero<'a>(axis: DoseAxis, items: impl Iterator<Item = (f64, f64, f64)> + 'a) -> Option<f64> {
+    let excluding = items.filter(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p);
+    match axis {
+        DoseAxis::Percent => excluding.reduce(f64::min),
+        DoseAxis::Distance => excluding.reduce(f64::max),
+    }
 }
 
 /// Step-down (fixed-sequence) testing of (dose, lower, upper) from the
@@ -435,9 +474,14 @@ fn smallest_excluding_zero<'a>(items: impl Iterator<Item = (f64, f64, f64)> + 'a
 /// stopping at the first not rejected is a closed testing procedure
 /// (Maurer, Hothorn and Lehmacher 1995), so it controls the family-wise
 /// error rate without adjusting the intervals.
-fn step_down(items: impl Iterator<Item = (f64, f64, f64)>) -> Option<f64> {
+/// Over distances the sequence runs from the nearest distance (the
+/// strongest treatment) outwards.
+fn step_down(axis: DoseAxis, items: impl Iterator<Item = (f64, f64, f64)>) -> Option<f64> {
     let mut v: Vec<(f64, f64, f64)> = items.collect();
-    v.sort_by(|a, b| b.0.total_cmp(&a.0));
+    match axis {
+        DoseAxis::Percent => v.sort_by(|a, b| b.0.total_cmp(&a.0)),
+        DoseAxis::Distance => v.sort_by(|a, b| a.0.total_cmp(&b.0)),
+    }
     v.into_iter().take_while(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p).last()
 }
 
@@ -445,15 +489,15 @@ fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> 
     let slope = estimate_grid(&plan.estimator, v.recordings.len(), v.seeds.len(), slopes(v, doses))
         .map_err(|e| AnalysisError::Stats { unit: "slope over doses".to_string(), source: e })?;
     let (a, b) = (as_optimism(slope.upper, v.mean_reference), as_optimism(slope.lower, v.mean_reference));
+    let axis = dose_axis(doses);
+    let intervals = || results.iter().map(|r| (r.distance_s.unwrap_or(r.percent), r.estimate.lower, r.estimate.upper));
     Ok(Trend {
         optimism_slope: as_optimism(slope.mean, v.mean_reference),
         optimism_slope_lower: a.min(b),
         optimism_slope_upper: a.max(b),
         slope,
-        smallest_dose_excluding_zero: smallest_excluding_zero(
-            results.iter().map(|r| (r.percent, r.estimate.lower, r.estimate.upper)),
-        ),
-        step_down_dose: step_down(results.iter().map(|r| (r.percent, r.estimate.lower, r.estimate.upper))),
+        smallest_dose_excluding_zero: smallest_excluding_zero(axis, intervals()),
+        step_down_dose: step_down(axis, intervals()),
     })
 }
 
@@ -461,8 +505,17 @@ fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> 
 /// estimate (several splits, one dose) or the slope (pooled when there are
 /// several splits).
 /// `unit` is the primary unit's label and its metric's unit.
-fn decide(rule: &DecisionRule, unit: (&str, &str), splits: &[SplitResult], pooled: Option<&Pooled>) -> Decision {
-    let (unit, metric_unit) = unit;
+fn decide(
+    rule: &DecisionRule,
+    unit: (&str, &str, DoseAxis),
+    splits: &[SplitResult],
+    pooled: Option<&Pooled>,
+) -> Decision {
+    let (unit, metric_unit, axis) = unit;
+    let over = match axis {
+        DoseAxis::Percent => "slope over doses",
+        DoseAxis::Distance => "slope over distance",
+    };
     let slope = rule.on == DecisionTarget::Slope;
     // (label, optimism, mean, lower, upper)
     let observed: (String, f64, f64, f64, f64) = match (rule.on, pooled) {
@@ -474,7 +527,7 @@ fn decide(rule: &DecisionRule, unit: (&str, &str), splits: &[SplitResult], poole
                 f64::NAN,
                 f64::NAN,
             ));
-            (format!("slope over doses, pooled over {} splits: {unit}", splits.len()), s.0, s.1, s.2, s.3)
+            (format!("{over}, pooled over {} splits: {unit}", splits.len()), s.0, s.1, s.2, s.3)
         }
         (DecisionTarget::Slope, None) => {
             let t = splits[0].trend.as_ref();
@@ -484,7 +537,7 @@ fn decide(rule: &DecisionRule, unit: (&str, &str), splits: &[SplitResult], poole
                 f64::NAN,
                 f64::NAN,
             ));
-            (format!("slope over doses: {unit}"), t.0, t.1, t.2, t.3)
+            (format!("{over}: {unit}"), t.0, t.1, t.2, t.3)
         }
         (_, Some(p)) => {
             let e = &p.doses[0];
@@ -513,8 +566,17 @@ fn decide(rule: &DecisionRule, unit: (&str, &str), splits: &[SplitResult], poole
         name: rule.name.clone(),
         rule: rule.clone(),
         unit: observed.0,
-        value_unit: if slope { format!("{metric_unit}/pp") } else { metric_unit.to_string() },
-        optimism_unit: if slope { "%/pp" } else { "%" }.to_string(),
+        value_unit: match (slope, axis) {
+            (false, _) => metric_unit.to_string(),
+            (true, DoseAxis::Percent) => format!("{metric_unit}/pp"),
+            (true, DoseAxis::Distance) => format!("{metric_unit} per s of distance"),
+        },
+        optimism_unit: match (slope, axis) {
+            (false, _) => "%",
+            (true, DoseAxis::Percent) => "%/pp",
+            (true, DoseAxis::Distance) => "% per s of distance",
+        }
+        .to_string(),
         holds,
         conditions,
         // A family's optimism bounds hold the reference mean fixed; its
@@ -562,7 +624,7 @@ impl FamilyAnalysis {
 
 #[cfg(test)]
 mod tests {
-    use super::{smallest_excluding_zero, step_down};
+    use super::{smallest_excluding_zero, step_down, DoseAxis};
 
     /// Doses 1%, 5%, 10% with intervals that exclude zero at 1% and 10%
     /// but not at 5%: the descriptive rule picks 1%, while step-down
@@ -571,13 +633,13 @@ mod tests {
     #[test]
     fn step_down_stops_at_the_first_interval_that_includes_zero() {
         let intervals = [(1.0, -0.3, -0.01), (5.0, -0.2, 0.05), (10.0, -0.5, -0.2)];
-        assert_eq!(smallest_excluding_zero(intervals.iter().copied()), Some(1.0));
-        assert_eq!(step_down(intervals.iter().copied()), Some(10.0));
+        assert_eq!(smallest_excluding_zero(DoseAxis::Percent, intervals.iter().copied()), Some(1.0));
+        assert_eq!(step_down(DoseAxis::Percent, intervals.iter().copied()), Some(10.0));
         // Every interval excludes zero: both pick the smallest dose.
         let all = [(1.0, -0.3, -0.01), (5.0, -0.2, -0.05), (10.0, -0.5, -0.2)];
-        assert_eq!(step_down(all.iter().copied()), Some(1.0));
+        assert_eq!(step_down(DoseAxis::Percent, all.iter().copied()), Some(1.0));
         // The largest dose includes zero: nothing is claimed.
         let none = [(1.0, -0.3, -0.01), (10.0, -0.5, 0.2)];
-        assert_eq!(step_down(none.iter().copied()), None);
+        assert_eq!(step_down(DoseAxis::Percent, none.iter().copied()), None);
     }
 }

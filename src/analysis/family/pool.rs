@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use super::{as_optimism, slopes, smallest_excluding_zero, step_down, Pooled, PooledEstimate, Values};
 use crate::analysis::AnalysisError;
-use crate::plan::{DoseArm, Plan};
+use crate::plan::{dose_axis, DoseArm, Plan};
 use crate::stats::mixed::{self, Criterion, MixedData};
 use crate::stats::{DfRule, StatsError};
 
@@ -28,7 +28,7 @@ pub(super) fn pool(
     let mut out = Vec::new();
     for (k, dose) in doses.iter().enumerate() {
         let per: Vec<Vec<Option<f64>>> = values.iter().map(|v| v.d[k].clone()).collect();
-        let label = if dose.percent.is_nan() { dose.arm.clone() } else { format!("dose {}%", dose.percent) };
+        let label = if dose.percent.is_nan() { dose.arm.clone() } else { format!("dose {}", dose.label()) };
         let mut e = pooled_estimate(plan, &label, splits, values, &per, mean_reference)?;
         // A dose's optimism is the paper's ratio of arm means over every cell.
         let mean_d = mean_present(&per);
@@ -41,9 +41,10 @@ pub(super) fn pool(
     } else {
         None
     };
-    let intervals = || doses.iter().zip(&out).map(|(d, e)| (d.percent, e.lower, e.upper)).filter(|x| !x.0.is_nan());
-    let smallest = smallest_excluding_zero(intervals());
-    let step = step_down(intervals());
+    let intervals = || doses.iter().zip(&out).map(|(d, e)| (d.dose(), e.lower, e.upper)).filter(|x| !x.0.is_nan());
+    let axis = dose_axis(doses);
+    let smallest = smallest_excluding_zero(axis, intervals());
+    let step = step_down(axis, intervals());
     Ok(Pooled { doses: out, slope, smallest_dose_excluding_zero: smallest, step_down_dose: step })
 }
 

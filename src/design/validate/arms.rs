@@ -29,37 +29,7 @@ impl Validator {
                     };
                     out.push((Arm { name: name.node.clone(), kind }, s.span));
                 }
-                ArmBody::Derived { from, percents, exclude_starts, distance, seed } => {
-                    let percents = self.doses(percents);
-                    let seed = self.nonneg(seed, "the contamination seed");
-                    let starts = if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow };
-                    let distance = distance.as_ref().and_then(|d| self.window_distance(d));
-                    // One share: an arm of that name. Several: a dose-response
-                    // family, one arm per dose.
-                    let family = (percents.len() > 1).then(|| name.node.clone());
-                    for percent in percents {
-                        let arm_name = match &family {
-                            Some(f) => dose_arm_name(f, percent.node),
-                            None => name.node.clone(),
-                        };
-                        if out.iter().any(|(a, _)| a.name == arm_name) {
-                            self.err(
-                                "duplicate name",
-                                percent.span,
-                                format!("this dose's arm `{arm_name}` has the name of another arm"),
-                            );
-                        }
-                        let kind = ArmKind::Derived {
-                            from: from.node.clone(),
-                            percent: percent.node,
-                            starts,
-                            distance,
-                            seed,
-                            family: family.clone(),
-                        };
-                        out.push((Arm { name: arm_name, kind }, s.span));
-                    }
-                }
+                ArmBody::Derived { .. } => self.derived(name, body, s.span, &mut out),
             }
         }
         // Resolve `from` after all arms are known, so order does not matter.
@@ -102,6 +72,50 @@ impl Validator {
             }
         }
         out
+    }
+
+    /// A derived arm: one arm, or a dose-response family of one arm per
+    /// share (or per distance), appended to `out`.
+    fn derived(&mut self, name: &Ident, body: &ArmBody, span: Span, out: &mut Vec<(Arm, Span)>) {
+        let ArmBody::Derived { from, percents, exclude_starts, distance, seed } = body else { return };
+        let percents = self.doses(percents);
+        let seed = self.nonneg(seed, "the contamination seed");
+        let starts = if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow };
+        let distances = distance.as_ref().map(|d| self.window_distances(d)).unwrap_or_default();
+        if let (true, Some((gaps, _, _))) = (percents.len() > 1, distance.as_ref().filter(|d| d.0.len() > 1)) {
+            self.err_help(
+                "doses on two axes",
+                gaps[1].span,
+                "an arm declares several shares and several distances",
+                "vary one: several shares at one distance, or one share at several distances",
+            );
+        }
+        // One share at one distance: an arm of that name. Several shares (or
+        // distances): a dose-response family, one arm per dose.
+        let by_distance = distances.len() > 1;
+        let family = (percents.len() > 1 || by_distance).then(|| name.node.clone());
+        let doses: Vec<(Number, Option<WindowDistance>)> = if by_distance {
+            distances.iter().map(|&d| (percents[0].clone(), Some(d))).collect()
+        } else {
+            percents.iter().map(|p| (p.clone(), distances.first().copied())).collect()
+        };
+        for (percent, distance) in doses {
+            let arm_name = match (&family, distance) {
+                (Some(f), Some(d)) if by_distance => distance_arm_name(f, d.min_s),
+                (Some(f), _) => dose_arm_name(f, percent.node),
+                (None, _) => name.node.clone(),
+            };
+            if out.iter().any(|(a, _)| a.name == arm_name) {
+                self.err(
+                    "duplicate name",
+                    percent.span,
+                    format!("this dose's arm `{arm_name}` has the name of another arm"),
+                );
+            }
+            let from = from.node.clone();
+            let kind = ArmKind::Derived { from, percent: percent.node, starts, distance, seed, family: family.clone() };
+            out.push((Arm { name: arm_name, kind }, span));
+        }
     }
 
     /// The models; `actions` is the train block's action scaling, which a
@@ -304,21 +318,36 @@ impl Validator {
 
     /// `at least G s from segments` or `G1 s to G2 s from segments`: a
     /// distance of 0 or more, a band's end beyond its start.
-    fn window_distance(&mut self, (least, most, span): &(Number, Option<Number>, Span)) -> Option<WindowDistance> {
-        if least.node < 0.0 {
-            self.err("distance out of range", least.span, format!("{} s is negative", least.node));
-            return None;
+    /// The clause's distance ranges: one, or one per gap of a distance-dose
+    /// family (`at least 0 s, 5 s from segments`), each at least 0, listed
+    /// once, at most [`limits::DOSES`] of them.
+    fn window_distances(&mut self, (gaps, most, span): &(Vec<Number>, Option<Number>, Span)) -> Vec<WindowDistance> {
+        if let Some(first_over) = gaps.get(limits::DOSES) {
+            self.too_large(first_over.span, "the number of distances", gaps.len() as u64, limits::DOSES as u64);
         }
-        if let Some(m) = most.as_ref().filter(|m| m.node <= least.node) {
-            self.err_help(
-                "distance out of range",
-                m.span,
-                format!("the band ends at {} s, not beyond its start {} s", m.node, least.node),
-                "write the band as `NEAR s to FAR s from segments`, NEAR < FAR",
-            );
-            return None;
+        let gaps = &gaps[..gaps.len().min(limits::DOSES)];
+        let mut out = Vec::new();
+        for (k, least) in gaps.iter().enumerate() {
+            if !(least.node >= 0.0 && least.node.is_finite()) {
+                self.err("distance out of range", least.span, format!("{} s is negative", least.node));
+                continue;
+            }
+            if gaps[..k].iter().any(|g| g.node == least.node) {
+                self.err("duplicate dose", least.span, format!("{} s is listed twice", least.node));
+                continue;
+            }
+            if let Some(m) = most.as_ref().filter(|m| m.node <= least.node) {
+                self.err_help(
+                    "distance out of range",
+                    m.span,
+                    format!("the band ends at {} s, not beyond its start {} s", m.node, least.node),
+                    "write the band as `NEAR s to FAR s from segments`, NEAR < FAR",
+                );
+                continue;
+            }
+            out.push(WindowDistance { min_s: least.node, max_s: most.as_ref().map(|m| m.node), offset: span.start });
         }
-        Some(WindowDistance { min_s: least.node, max_s: most.as_ref().map(|m| m.node), offset: span.start })
+        out
     }
 
     /// The replaced shares, each in (0, 100] and listed once, at most

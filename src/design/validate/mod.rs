@@ -323,14 +323,7 @@ impl Validator {
         let per_seed_draws = match (singles.get("draws per seed"), &seeds) {
             (Some(s), Some(seeds)) => {
                 let has_draws = draws.as_ref().is_some_and(|d| !d.is_empty());
-                self.per_seed_draws(
-                    s.span,
-                    seeds,
-                    (multi_split, dosed, has_draws),
-                    validation.as_ref(),
-                    &arms,
-                    generator,
-                );
+                self.per_seed_draws(s.span, seeds, (multi_split, has_draws), validation.as_ref(), &arms, generator);
                 true
             }
             _ => false,

@@ -240,13 +240,13 @@ impl Validator {
 
     /// `draws per seed`: seed j uses draw j - j0 + 1, so every declared
     /// seed a draw shifts must stay in range for the largest; not with a
-    /// draw or split factor (they replicate whole runs) or doses.
+    /// draw or split factor (they replicate whole runs).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn per_seed_draws(
         &mut self,
         span: Span,
         seeds: &[Seed],
-        (multi_split, dosed, draws): (bool, bool, bool),
+        (multi_split, draws): (bool, bool),
         validation: Option<&ValidationSpec>,
         arms: &[(Arm, Span)],
         generator: Generator,
@@ -266,14 +266,6 @@ impl Validator {
                 span,
                 "`factor split` already redraws every draw with each split",
                 help,
-            );
-        }
-        if dosed {
-            self.err_help(
-                "per-seed draws with doses",
-                span,
-                "per-seed draws of a dose-response family are not supported",
-                "give the doses one draw, or study one dose with `draws per seed`",
             );
         }
         let j0 = seeds.iter().map(|s| s.0).min().unwrap_or(0);

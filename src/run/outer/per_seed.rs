@@ -74,6 +74,27 @@ fn finish_seeds(
     create_dir_all(dest)?;
     let cells_csv = dest.join("cells.csv");
     crate::cells::write_cells_atomic(&cells_csv, &all)?;
+    let seeds: Vec<String> = levels
+        .iter()
+        .map(|l| format!("seed {} draw {}", l.design.seeds.first().map(|s| s.0).unwrap_or(0), l.draw.unwrap_or(1)))
+        .collect();
+    let note = format!(
+        "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
+        seeds.join(", ")
+    );
+    let draws: Vec<(u64, PathBuf)> = levels.iter().zip(dirs).map(|(l, d)| (l.draw.unwrap_or(1), d.clone())).collect();
+    if !study.doses.is_empty() {
+        // A dose-response family: each dose's contrast and the trend, over
+        // the seeds' own draws.
+        let path = file.path.display().to_string();
+        let labels = (status, exploratory, record);
+        return crate::run::report_family(&path, study, dest, cells_csv, labels, builds, |a| {
+            a.warnings.push(note);
+            a.warnings.extend(super::notes::invariant_warnings(&draws));
+            a.warnings.extend(notes.iter().cloned());
+            a.coverage = crate::run::coverage::note_of_levels(study, dirs);
+        });
+    }
     let mut analysis =
         crate::analysis::analyze(study, &all, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
     analysis.record_design(&file.path.display().to_string(), &record.design_sha256, status);
@@ -82,15 +103,7 @@ fn finish_seeds(
     }
     analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(&cells_csv)?);
     analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
-    let seeds: Vec<String> = levels
-        .iter()
-        .map(|l| format!("seed {} draw {}", l.design.seeds.first().map(|s| s.0).unwrap_or(0), l.draw.unwrap_or(1)))
-        .collect();
-    analysis.warnings.push(format!(
-        "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
-        seeds.join(", ")
-    ));
-    let draws: Vec<(u64, PathBuf)> = levels.iter().zip(dirs).map(|(l, d)| (l.draw.unwrap_or(1), d.clone())).collect();
+    analysis.warnings.push(note);
     analysis.warnings.extend(super::notes::invariant_warnings(&draws));
     analysis.coverage = crate::run::coverage::statement_of_levels(study, &all, dirs);
     analysis.warnings.extend(crate::run::resumed_builds(builds));
