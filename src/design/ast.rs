@@ -246,10 +246,14 @@ pub enum RecordingItem {
     Evaluation(Int),
     EvaluationList(Vec<Spanned<String>>),
     SplitSeed(Int),
-    Starts(Int),
+    /// `starts N`, and `within first P%`.
+    Starts(Int, Option<Number>),
     Horizon(Int),
     Conditions(Vec<Ident>),
-    Stratify { conditions: Vec<Ident>, keep: Option<Int> },
+    Stratify {
+        conditions: Vec<Ident>,
+        keep: Option<Int>,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -326,6 +326,10 @@ pub struct RecordingFactor {
     pub split_seed: u64,
     /// Rollout starts per evaluation recording.
     pub starts: usize,
+    /// `within first P%`: every registered segment lies in the first P% of
+    /// its recording's rows; None: anywhere.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub starts_within_pct: Option<f64>,
     /// Rollout horizon in samples.
     pub horizon: usize,
     /// Condition labels whose groups the grouped sensitivity resamples.

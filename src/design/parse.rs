@@ -250,7 +250,11 @@ fn recording_item(p: Pair<Rule>) -> Result<RecordingItem, Diagnostic> {
         Rule::rec_evaluation => RecordingItem::Evaluation(int(c.next())?),
         Rule::rec_eval_list => RecordingItem::EvaluationList(strings(c.next())),
         Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
-        Rule::rec_starts => RecordingItem::Starts(int(c.next())?),
+        Rule::rec_starts => {
+            let n = int(c.next())?;
+            let within = if c.peek_rule().is_some() { Some(number(kids(c.next()).next())?) } else { None };
+            RecordingItem::Starts(n, within)
+        }
         Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),
         Rule::rec_stratify => {
             let conditions = idents(c.next());

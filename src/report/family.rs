@@ -126,8 +126,21 @@ pub fn distance_estimand(a: &FamilyAnalysis) -> Option<String> {
     }
     let percent = a.doses.first().map(|d| d.percent).unwrap_or(f64::NAN);
     let list: Vec<String> = a.doses.iter().map(|d| dose_value(DoseAxis::Distance, d.distance_s)).collect();
+    let sources: Vec<String> = a
+        .sources
+        .iter()
+        .map(|s| {
+            let k = if s.fewest == s.most { s.fewest.to_string() } else { format!("{} to {}", s.fewest, s.most) };
+            format!("{} from {k} of {}", s.arm, s.of)
+        })
+        .collect();
+    let sources = if sources.is_empty() {
+        String::new()
+    } else {
+        format!(" Evaluation recordings the contaminating windows came from (over the draws): {}. Where a far arm draws from fewer recordings, its contrast also measures which recordings are long enough to give windows that far.", sources.join(", "))
+    };
     Some(format!(
-        "What this measures: each arm replaces the same {percent}% of the reference arm's fit windows with windows of the evaluation recordings, drawn at least {} from every evaluated segment (a registered start to its horizon). The contrasts differ only in that distance, so the slope is the change in d per second of distance: how the optimism of seeing the same flights falls as the contaminating windows move away from the evaluated rollouts. A slope near zero with optimism at every distance says the leak is the flight itself (vehicle, battery, disturbances), not the evaluated transitions or their neighbours.",
+        "What this measures: each arm replaces the same {percent}% of the reference arm's fit windows with windows of the evaluation recordings, drawn at least {} from every evaluated segment (a registered start to its horizon). The contrasts differ only in that distance, so the slope is the change in d per second of distance: how the optimism of seeing the same flights falls as the contaminating windows move away from the evaluated rollouts. A slope near zero with optimism at every distance says the leak is the flight itself (vehicle, battery, disturbances), not the evaluated transitions or their neighbours.{sources}",
         list.join(", ")
     ))
 }

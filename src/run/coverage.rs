@@ -77,3 +77,41 @@ pub(crate) fn treatment_strength(
         })
         .collect()
 }
+
+/// Per arm of a distance-dose family, from how many evaluation recordings
+/// its contaminating windows came in the run folders `dirs` (each level's
+/// `manifests/contaminating_ARM.csv` against its
+/// `manifests/evaluation_recordings.csv`); empty for any other study or
+/// where a folder lacks its manifests.
+pub(crate) fn distance_sources(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::analysis::family::DoseSource> {
+    if crate::plan::dose_axis(&plan.doses) != crate::design::DoseAxis::Distance {
+        return Vec::new();
+    }
+    let names = |path: &Path| -> Option<Vec<String>> {
+        let mut r = csv::Reader::from_path(path).ok()?;
+        r.records().map(|row| row.ok().and_then(|row| row.get(0).map(str::to_string))).collect()
+    };
+    let mut out = Vec::new();
+    for d in &plan.doses {
+        let mut counts = Vec::new();
+        for dir in dirs {
+            let m = dir.join("manifests");
+            let (Some(windows), Some(evaluation)) =
+                (names(&m.join(format!("contaminating_{}.csv", d.arm))), names(&m.join("evaluation_recordings.csv")))
+            else {
+                return Vec::new();
+            };
+            let drawn: std::collections::BTreeSet<String> = windows.into_iter().collect();
+            counts.push((drawn.len(), evaluation.len()));
+        }
+        let (Some(fewest), Some(most), Some(of)) = (
+            counts.iter().map(|c| c.0).min(),
+            counts.iter().map(|c| c.0).max(),
+            counts.iter().map(|c| c.1).min(),
+        ) else {
+            return Vec::new();
+        };
+        out.push(crate::analysis::family::DoseSource { arm: d.arm.clone(), fewest, most, of });
+    }
+    out
+}

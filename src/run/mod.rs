@@ -431,6 +431,7 @@ fn finish(
             a.warnings.extend(opened.warnings.iter().cloned());
             a.treatment = coverage::treatment_strength(&prepared.treatment, plan.rate_hz);
             a.coverage = coverage::note_of_levels(plan, &[out.to_path_buf()]);
+            a.sources = coverage::distance_sources(plan, &[out.to_path_buf()]);
         })?;
         outcome.seconds = started.elapsed().as_secs_f64();
         return Ok(outcome);

@@ -30,7 +30,7 @@ pub enum SplitError {
         available: usize,
     },
     /// An evaluation recording has too few valid rollout starts.
-    #[error("evaluation recording {recording} has {valid} valid rollout starts (>= {horizon} active samples after the start), the design needs {needed}")]
+    #[error("evaluation recording {recording} has {valid} valid rollout starts (>= {horizon} active samples after the start{within}), the design needs {needed}")]
     TooFewStarts {
         /// Recording name.
         recording: String,
@@ -40,6 +40,8 @@ pub enum SplitError {
         needed: usize,
         /// Rollout horizon, samples.
         horizon: usize,
+        /// ` within its first P% of rows`, or empty.
+        within: String,
     },
     /// A window set cannot be drawn at the declared size.
     #[error("{what}: the design needs {needed} windows, only {available} are available")]

@@ -4,15 +4,17 @@
 
 use super::*;
 
-/// A start at row t needs t and the `horizon` rows after it all active.
-fn valid_starts(rec: &Recording, horizon: usize) -> Vec<usize> {
+/// A start at row t needs t and the `horizon` rows after it all active
+/// (and, `within first P%`, inside the first P% of the recording's rows).
+fn valid_starts(rec: &Recording, horizon: usize, within_pct: Option<f64>) -> Vec<usize> {
     let n = rec.rows;
+    let end = within_pct.map_or(n, |p| ((p / 100.0 * n as f64).floor() as usize).min(n));
     let mut run_after = vec![0usize; n + 1];
     // run_after[t] = consecutive active rows from t onward.
     for t in (0..n).rev() {
         run_after[t] = if rec.active[t] { run_after[t + 1] + 1 } else { 0 };
     }
-    (0..n).filter(|&t| run_after[t] > horizon).collect()
+    (0..n).filter(|&t| run_after[t] > horizon && t + horizon < end).collect()
 }
 
 /// Draws `k` windows of a pool for the evaluation recording at a position.
@@ -30,13 +32,14 @@ pub(super) fn draw_starts(
 ) -> Result<Vec<Window>, SplitError> {
     let mut starts = Vec::new();
     for (k, &r) in evaluation.iter().enumerate() {
-        let valid = valid_starts(&recordings[r], rf.horizon);
+        let valid = valid_starts(&recordings[r], rf.horizon, rf.starts_within_pct);
         if valid.len() < rf.starts {
             return Err(SplitError::TooFewStarts {
                 recording: info[r].name.clone(),
                 valid: valid.len(),
                 needed: rf.starts,
                 horizon: rf.horizon,
+                within: rf.starts_within_pct.map(|p| format!(" within its first {p}% of rows")).unwrap_or_default(),
             });
         }
         let pool: Vec<Window> = valid.into_iter().map(|t| Window { recording: r, t }).collect();

@@ -85,6 +85,11 @@ pub struct FamilyAnalysis {
     /// Figure files (relative to the report).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<String>,
+    /// In a distance-dose family, from how many evaluation recordings each
+    /// arm's contaminating windows came, when a run built the splits: far
+    /// from the segments, only long recordings may have windows to give.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sources: Vec<DoseSource>,
     /// How strong each dose arm's treatment is, when a run built the split.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub treatment: Vec<crate::analysis::TreatmentStrength>,
@@ -94,6 +99,20 @@ pub struct FamilyAnalysis {
     pub coverage: Option<crate::analysis::coverage::CoverageNote>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
+}
+
+/// From how many evaluation recordings one arm's contaminating windows
+/// came: the fewest and the most over the run's draws, of how many.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DoseSource {
+    /// The arm.
+    pub arm: String,
+    /// The fewest recordings it drew from in any draw.
+    pub fewest: usize,
+    /// The most.
+    pub most: usize,
+    /// Evaluation recordings (the fewest over the draws).
+    pub of: usize,
 }
 
 /// One split's contrasts.
@@ -376,6 +395,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         decision,
         warnings,
         figures: Vec::new(),
+        sources: Vec::new(),
         treatment: Vec::new(),
         coverage: None,
         provenance,

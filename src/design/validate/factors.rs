@@ -19,6 +19,7 @@ impl Validator {
     ) -> Option<RecordingFactor> {
         let mut seen = BTreeMap::new();
         let (mut evaluation, mut split_seed, mut starts, mut horizon) = (None, None, None, None);
+        let mut starts_within_pct = None;
         let mut conditions = Vec::new();
         let mut listed = Vec::new();
         let mut stratify: Option<(Stratify, Span)> = None;
@@ -53,9 +54,11 @@ impl Validator {
                     self.once(&mut seen, "split_seed", item.span);
                     split_seed = Some(self.nonneg(n, "the split seed"));
                 }
-                RecordingItem::Starts(n) => {
+                RecordingItem::Starts(n, within) => {
                     self.once(&mut seen, "starts", item.span);
                     starts = Some(self.count(n, "rollout starts per recording", 1, limits::STARTS));
+                    starts_within_pct =
+                        within.as_ref().and_then(|p| self.share(p, "the share of each recording holding starts"));
                 }
                 RecordingItem::Horizon(n) => {
                     self.once(&mut seen, "horizon", item.span);
@@ -111,26 +114,46 @@ impl Validator {
             }
         }
         if let (Some(e), Some(s), Some(h)) = (evaluation, starts, horizon) {
-            // Every job holds its rollouts' traces in memory.
-            let steps = (e as u64).saturating_mul(s as u64).saturating_mul(h as u64);
-            if steps > limits::ROLLOUT_STEPS {
-                self.err_help(
-                    "rollouts too large",
-                    span,
-                    format!("{e} recordings x {s} starts x {h} samples is {steps} model steps per job"),
-                    format!("a job's rollouts may take at most {} model steps (held in memory); lower evaluation, starts or horizon", limits::ROLLOUT_STEPS),
-                );
-            }
+            self.rollout_size((e, s, h), span);
         }
         Some(RecordingFactor {
             evaluation: evaluation?,
             split_seed: split_seed?,
             starts: starts?,
+            starts_within_pct,
             horizon: horizon?,
             conditions,
             listed,
             stratify: stratify.map(|(s, _)| s),
         })
+    }
+
+    /// Every job holds its rollouts' traces in memory: `e` recordings x `s`
+    /// starts x `h` samples at most [`limits::ROLLOUT_STEPS`].
+    fn rollout_size(&mut self, (e, s, h): (usize, usize, usize), span: Span) {
+        let steps = (e as u64).saturating_mul(s as u64).saturating_mul(h as u64);
+        if steps > limits::ROLLOUT_STEPS {
+            self.err_help(
+                "rollouts too large",
+                span,
+                format!("{e} recordings x {s} starts x {h} samples is {steps} model steps per job"),
+                format!("a job's rollouts may take at most {} model steps (held in memory); lower evaluation, starts or horizon", limits::ROLLOUT_STEPS),
+            );
+        }
+    }
+
+    /// A share in (0, 100] percent.
+    fn share(&mut self, p: &Number, what: &str) -> Option<f64> {
+        if p.node > 0.0 && p.node <= 100.0 {
+            return Some(p.node);
+        }
+        self.err_help(
+            "percentage out of range",
+            p.span,
+            format!("{what}, {}%, is outside (0, 100]", p.node),
+            "write a share such as `within first 50%`",
+        );
+        None
     }
 
     /// Condition labels (`trajectory`, `speed`), each once.

@@ -93,6 +93,7 @@ fn finish_seeds(
             a.warnings.extend(super::notes::invariant_warnings(&draws));
             a.warnings.extend(notes.iter().cloned());
             a.coverage = crate::run::coverage::note_of_levels(study, dirs);
+            a.sources = crate::run::coverage::distance_sources(study, dirs);
         });
     }
     let mut analysis =
