@@ -647,3 +647,18 @@ design("r5_design_distance_without_unit",
        MINIMAL.replace("exclude starts seed 3", "exclude starts at least 2 from segments seed 3"))
 case("r5_split_distance_too_far", "split {dir}/study.design --out {out}",
      {"study.design": SMALL.replace("exclude starts seed 7", "exclude starts at least 12 s from segments seed 7")})
+
+# Issue 59: distance doses and starts within the first part of each recording.
+# A distance listed twice, a family that varies share and distance at once, a
+# share of each recording outside (0, 100], and starts that do not fit in it.
+design("r5_design_distance_listed_twice",
+       MINIMAL.replace("exclude starts seed 3", "exclude starts at least 1 s, 1 s from segments seed 3")
+       .replace("decide confirmed when optimism >= 10% and upper < 0", "decide fades on slope when lower > 0"))
+design("r5_design_distance_and_share_doses",
+       MINIMAL.replace("replace 25% with evaluation windows exclude starts seed 3",
+                       "replace 10%, 25% with evaluation windows exclude starts at least 0 s, 1 s from segments seed 3")
+       .replace("decide confirmed when optimism >= 10% and upper < 0", "decide fades on slope when lower > 0"))
+design("r5_design_starts_within_zero",
+       MINIMAL.replace("starts 5 horizon 100", "starts 5 within first 0% horizon 100"))
+case("r5_split_starts_within_too_short", "split {dir}/study.design --out {out}",
+     {"study.design": SMALL.replace("starts 10 horizon 100", "starts 10 within first 5% horizon 100")})

@@ -94,7 +94,7 @@ impl Validator {
                     "no slope to decide on",
                     span,
                     "`on slope` needs a dose-response contrast",
-                    "declare the treated arm with several doses: `replace 1%, 5%, 25% with evaluation windows ...`",
+                    "declare the treated arm with several doses: `replace 1%, 5%, 25% with evaluation windows ...`, or distances: `... at least 0 s, 5 s from segments seed ...`",
                 );
                 DecisionTarget::Slope
             }
