@@ -14,19 +14,25 @@ cd "$(dirname "$0")/.."
 design=$1; dest=$2; ca=${3:-${CARGO_TARGET_DIR:-target}/release/crossaudit}
 tmp=/tmp/full_$(basename "$dest")
 mkdir -p "$tmp" "$dest"
-/usr/bin/time -v -o "$tmp/time.txt" "$ca" run "$design" --out "$tmp" --workers 2 > "$tmp/stdout.txt" 2>&1
+# FULL_RUN_COPY_ONLY=1 copies a finished run in $tmp without running it again.
+if [ -z "${FULL_RUN_COPY_ONLY:-}" ]; then
+  /usr/bin/time -v -o "$tmp/time.txt" "$ca" run "$design" --out "$tmp" --workers 2 > "$tmp/stdout.txt" 2>&1
+fi
 copy_run() {  # copy_run FROM TO: one run directory's committed parts
   for part in cells cells.csv report run.json audit curves; do
-    rm -rf "${2:?}/$part"; cp -r "$1/$part" "$2/$part"
+    rm -rf "${2:?}/$part"
+    [ -e "$1/$part" ] || continue   # a per-seed draw's folder has no report
+    cp -r "$1/$part" "$2/$part"
   done
   mkdir -p "$2/manifests"; cp "$1/manifests/manifests.json" "$2/manifests/manifests.json"
 }
 if [ -f "$tmp/run.json" ]; then
   copy_run "$tmp" "$dest"
 else
-  # A multi-split study: one run directory per split, then the pooled
-  # cells.csv and report at the top.
-  for split in "$tmp"/split-*; do
+  # A multi-split study (or one with per-seed draws): one run directory per
+  # split (per draw), then the pooled cells.csv and report at the top.
+  for split in "$tmp"/split-* "$tmp"/draw-*; do
+    [ -d "$split" ] || continue
     mkdir -p "$dest/$(basename "$split")"; copy_run "$split" "$dest/$(basename "$split")"
   done
   for part in cells.csv report; do

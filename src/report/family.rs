@@ -94,7 +94,7 @@ fn header(a: &FamilyAnalysis) -> String {
         super::format::verdict(&a.decision, a.exploratory, a.preregistered)
     );
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
-    if let Some(note) = distance_estimand(a) {
+    for note in distance_estimand(a).into_iter().chain(harm_note(a)) {
         let _ = writeln!(s, "{note}\n");
     }
     for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
@@ -142,6 +142,35 @@ pub fn distance_estimand(a: &FamilyAnalysis) -> Option<String> {
     Some(format!(
         "What this measures: each arm replaces the same {percent}% of the reference arm's fit windows with windows of the evaluation recordings, drawn at least {} from every evaluated segment (a registered start to its horizon). The contrasts differ only in that distance, so the slope is the change in d per second of distance: how the optimism of seeing the same flights falls as the contaminating windows move away from the evaluated rollouts. A slope near zero with optimism at every distance says the leak is the flight itself (vehicle, battery, disturbances), not the evaluated transitions or their neighbours.{sources}",
         list.join(", ")
+    ))
+}
+
+/// Beside a dose-response verdict: the doses whose treated arm is worse
+/// than the reference (an interval above zero; every metric is an error),
+/// where replacing fit windows cost more than the contaminating windows
+/// gave. A slope over such doses measures that cost as well as the leak.
+pub fn harm_note(a: &FamilyAnalysis) -> Option<String> {
+    if a.doses.len() < 2 {
+        return None;
+    }
+    let worse: Vec<String> = a
+        .splits
+        .iter()
+        .flat_map(|sp| sp.doses.iter().filter(|d| d.estimate.lower > 0.0).map(move |d| (sp.split, d)))
+        .map(|(split, d)| match split {
+            Some(s) => format!("`{}` ({}, split {s})", d.arm, dose_name(d)),
+            None => format!("`{}` ({})", d.arm, dose_name(d)),
+        })
+        .collect();
+    if worse.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "**Not only the leak**: {} worse than the reference arm (an interval above zero). There the fit windows replaced were worth more to the model than the evaluation-recording windows received, so the trend also measures that cost of replacement, not only how much the leak helps: read the per-dose estimates, not the slope alone.",
+        match worse.len() {
+            1 => format!("{} is", worse[0]),
+            _ => format!("{} are", worse.join(", ")),
+        }
     ))
 }
 
