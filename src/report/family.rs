@@ -215,7 +215,7 @@ fn per_dose_section(a: &FamilyAnalysis, unit: &str) -> String {
 fn trend_note(axis: DoseAxis) -> &'static str {
     match axis {
         DoseAxis::Percent => "Per recording x seed cell, the least-squares slope of d over the doses with the reference arm as dose 0 (d = 0); its crossed estimate, per percentage point of dose. The dose-0 point is d = 0 by construction (no noise) and the line's intercept is free: the slope is the ordinary least-squares slope over 0 and the doses, not a fit through the origin. The optimism slope is -100 slope / mean reference (optimism points per dose point), its interval the slope's rescaled. `smallest dose excluding 0` is descriptive (no control of multiplicity over the doses); `step-down dose` is the lowest dose reached by testing from the largest dose down, stopping at the first interval that includes zero, which keeps the family-wise error at most 1 - level.\n",
-        DoseAxis::Distance => "Per recording x seed cell, the least-squares slope of d over the distances (the reference arm holds no contaminating window, so it is off this axis and cancels from the slope); its crossed estimate, per second of distance. The optimism slope is -100 slope / mean reference (optimism points per second), its interval the slope's rescaled. `farthest distance excluding 0` is descriptive (no control of multiplicity over the distances); `step-down distance` is the farthest distance reached by testing from the nearest outwards, stopping at the first interval that includes zero, which keeps the family-wise error at most 1 - level.\n",
+        DoseAxis::Distance => "Per recording x seed cell, the least-squares slope of d over the distances (the reference arm holds no contaminating window, so it is off this axis and cancels from the slope); its crossed estimate, per second of distance. The optimism slope is -100 slope / mean reference (optimism points per second), its interval the slope's rescaled. `farthest distance with optimism` is the farthest distance whose interval lies below zero (the treated arm better), descriptive (no control of multiplicity over the distances); `step-down distance` is the farthest distance reached by testing from the nearest outwards, stopping at the first interval that does not lie below zero, which keeps the family-wise error at most 1 - level. An interval above zero (the treated arm worse) stops the sequence: it is no optimism surviving.\n",
     }
 }
 
@@ -226,7 +226,7 @@ fn trend_section(a: &FamilyAnalysis, per_dose: &str) -> String {
     let (title, smallest, step, opt) = match axis {
         DoseAxis::Percent => ("## Trend over dose\n", "smallest dose excluding 0", "step-down dose", "%/pp"),
         DoseAxis::Distance => {
-            ("## Trend over distance\n", "farthest distance excluding 0", "step-down distance", "% per s")
+            ("## Trend over distance\n", "farthest distance with optimism", "step-down distance", "% per s")
         }
     };
     let _ = writeln!(s, "{title}\n{}", trend_note(axis));
@@ -314,7 +314,7 @@ fn pooled_section(a: &FamilyAnalysis, p: &Pooled, (unit, per_dose): (&str, &str)
             ),
             DoseAxis::Distance => writeln!(
                 s,
-                "Farthest distance whose pooled interval excludes zero: {smallest} (descriptive, no multiplicity control). Farthest distance reached by step-down testing from the nearest (family-wise error at most 1 - level): {step}.\n"
+                "Farthest distance whose pooled interval lies below zero (optimism): {smallest} (descriptive, no multiplicity control). Farthest distance reached by step-down testing from the nearest (family-wise error at most 1 - level): {step}.\n"
             ),
         };
     }

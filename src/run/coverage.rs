@@ -104,11 +104,9 @@ pub(crate) fn distance_sources(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::anal
             let drawn: std::collections::BTreeSet<String> = windows.into_iter().collect();
             counts.push((drawn.len(), evaluation.len()));
         }
-        let (Some(fewest), Some(most), Some(of)) = (
-            counts.iter().map(|c| c.0).min(),
-            counts.iter().map(|c| c.0).max(),
-            counts.iter().map(|c| c.1).min(),
-        ) else {
+        let (Some(fewest), Some(most), Some(of)) =
+            (counts.iter().map(|c| c.0).min(), counts.iter().map(|c| c.0).max(), counts.iter().map(|c| c.1).min())
+        else {
             return Vec::new();
         };
         out.push(crate::analysis::family::DoseSource { arm: d.arm.clone(), fewest, most, of });

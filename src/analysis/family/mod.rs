@@ -166,15 +166,16 @@ pub struct Trend {
     pub optimism_slope_upper: f64,
     /// The smallest dose whose interval excludes zero, if any: descriptive,
     /// with no control of multiplicity over the doses. In a distance-dose
-    /// family, the farthest distance whose interval excludes zero.
+    /// family, the farthest distance whose interval lies below zero (the
+    /// optimism survives there).
     pub smallest_dose_excluding_zero: Option<f64>,
     /// The lowest dose reached by step-down (fixed-sequence) testing from
     /// the largest dose: each dose's interval is examined in decreasing
     /// order of dose, and the sequence stops at the first that includes
     /// zero. A closed testing procedure, so the family-wise error over the
     /// doses is at most 1 - level. In a distance-dose family the sequence
-    /// runs from the nearest distance outwards and this is the farthest
-    /// distance reached.
+    /// runs from the nearest distance outwards, an interval counting only
+    /// below zero (optimism), and this is the farthest distance reached.
     pub step_down_dose: Option<f64>,
 }
 
@@ -478,10 +479,12 @@ fn as_optimism(x: f64, mean_reference: f64) -> f64 {
     -100.0 * x / mean_reference
 }
 
-/// The smallest dose whose interval excludes zero (the farthest distance
-/// over distances, where the dose orders the other way).
+/// The smallest dose whose interval excludes zero. Over distances, the
+/// farthest distance whose interval lies below zero: where optimism (the
+/// treated arm better) survives; an arm made worse by its far windows is
+/// no leak surviving (the report says so beside the verdict).
 fn smallest_excluding_zero<'a>(axis: DoseAxis, items: impl Iterator<Item = (f64, f64, f64)> + 'a) -> Option<f64> {
-    let excluding = items.filter(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p);
+    let excluding = items.filter(|&(_, lo, hi)| rejects(axis, lo, hi)).map(|(p, _, _)| p);
     match axis {
         DoseAxis::Percent => excluding.reduce(f64::min),
         DoseAxis::Distance => excluding.reduce(f64::max),
@@ -495,14 +498,23 @@ fn smallest_excluding_zero<'a>(axis: DoseAxis, items: impl Iterator<Item = (f64,
 /// (Maurer, Hothorn and Lehmacher 1995), so it controls the family-wise
 /// error rate without adjusting the intervals.
 /// Over distances the sequence runs from the nearest distance (the
-/// strongest treatment) outwards.
+/// strongest treatment) outwards, and an interval counts only below zero.
 fn step_down(axis: DoseAxis, items: impl Iterator<Item = (f64, f64, f64)>) -> Option<f64> {
     let mut v: Vec<(f64, f64, f64)> = items.collect();
     match axis {
         DoseAxis::Percent => v.sort_by(|a, b| b.0.total_cmp(&a.0)),
         DoseAxis::Distance => v.sort_by(|a, b| a.0.total_cmp(&b.0)),
     }
-    v.into_iter().take_while(|(_, lo, hi)| *lo > 0.0 || *hi < 0.0).map(|(p, _, _)| p).last()
+    v.into_iter().take_while(|&(_, lo, hi)| rejects(axis, lo, hi)).map(|(p, _, _)| p).last()
+}
+
+/// Whether an interval [lo, hi] rejects zero on the axis: on either side
+/// for a share, only below zero (optimism) for a distance.
+fn rejects(axis: DoseAxis, lo: f64, hi: f64) -> bool {
+    match axis {
+        DoseAxis::Percent => lo > 0.0 || hi < 0.0,
+        DoseAxis::Distance => hi < 0.0,
+    }
 }
 
 fn trend(plan: &Plan, v: &Values, doses: &[DoseArm], results: &[DoseResult]) -> Result<Trend, AnalysisError> {
@@ -661,5 +673,22 @@ mod tests {
         // The largest dose includes zero: nothing is claimed.
         let none = [(1.0, -0.3, -0.01), (10.0, -0.5, 0.2)];
         assert_eq!(step_down(DoseAxis::Percent, none.iter().copied()), None);
+    }
+
+    /// Over distances the sequence runs outwards from the nearest, and only
+    /// an interval below zero (the treated arm better) counts: at 0 s and
+    /// 1 s the optimism survives, at 5 s the treated arm is worse: both
+    /// rules name 1 s. With 1 s including zero, step-down stops at 0 s
+    /// while the descriptive rule finds the farthest below zero, 5 s.
+    #[test]
+    fn over_distances_only_optimism_counts_and_the_sequence_runs_outwards() {
+        let worse_far = [(0.0, -0.3, -0.1), (1.0, -0.2, -0.01), (5.0, 0.1, 0.3)];
+        assert_eq!(step_down(DoseAxis::Distance, worse_far.iter().copied()), Some(1.0));
+        assert_eq!(smallest_excluding_zero(DoseAxis::Distance, worse_far.iter().copied()), Some(1.0));
+        // As shares, 5% would count: its interval excludes zero.
+        assert_eq!(smallest_excluding_zero(DoseAxis::Percent, worse_far.iter().copied()), Some(0.0));
+        let gap = [(0.0, -0.3, -0.1), (1.0, -0.2, 0.05), (5.0, -0.2, -0.01)];
+        assert_eq!(step_down(DoseAxis::Distance, gap.iter().copied()), Some(0.0));
+        assert_eq!(smallest_excluding_zero(DoseAxis::Distance, gap.iter().copied()), Some(5.0));
     }
 }
