@@ -232,6 +232,11 @@ impl DoseAxis {
         }
     }
 
+    /// Whether the doses are shares.
+    pub fn is_percent(&self) -> bool {
+        *self == DoseAxis::Percent
+    }
+
     /// The dose's unit in text: `%` or ` s`.
     pub fn unit(self) -> &'static str {
         match self {

@@ -9,6 +9,7 @@ use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::analysis::Analysis;
+use crate::design::DoseAxis;
 use crate::io::{create_dir_all, write_atomic, WriteError};
 use crate::plan::Plan;
 use crate::report::charts::{draw_err, DrawError};
@@ -135,7 +136,7 @@ pub fn power_plan(
     check_counts(&[recordings, seeds])?;
     let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
     let unit = format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s);
-    let estimand = ("d", unit_of(u.metric.unit(), false));
+    let estimand = ("d", unit_of(u.metric.unit(), None));
     crossed_plan(plan, unit, estimand, &u.estimate, u.mean_reference, recordings, seeds)
 }
 
@@ -157,19 +158,32 @@ pub fn dose_power_plan(
     let split = family.splits.first().ok_or(PowerError::NoPrimary)?;
     let trend = split.trend.as_ref().ok_or(PowerError::NoTrend)?;
     let reference = split.doses.first().ok_or(PowerError::NoPrimary)?.mean_reference;
-    let unit = format!("slope over doses of {}", family.unit);
-    let estimand = ("slope (per dose point)", unit_of(plan.primary.metric.unit(), true));
+    let unit = format!("{} of {}", slope_name(family), family.unit);
+    let estimand = match family.dose_axis {
+        DoseAxis::Percent => ("slope (per dose point)", unit_of(plan.primary.metric.unit(), Some(DoseAxis::Percent))),
+        DoseAxis::Distance => {
+            ("slope (per second of distance)", unit_of(plan.primary.metric.unit(), Some(DoseAxis::Distance)))
+        }
+    };
     crossed_plan(plan, unit, estimand, &trend.slope, reference, recordings, seeds)
 }
 
 /// A metric's unit as plan.md prints it ([`crate::report::unit_label`]),
-/// per percentage point of dose for a slope.
-fn unit_of(unit: &str, per_dose: bool) -> String {
+/// for a slope per percentage point of dose or per second of distance.
+fn unit_of(unit: &str, slope: Option<DoseAxis>) -> String {
     let unit = crate::report::unit_label(unit);
-    if per_dose {
-        format!("{unit}/pp")
-    } else {
-        unit.to_string()
+    match slope {
+        None => unit.to_string(),
+        Some(DoseAxis::Percent) => format!("{unit}/pp"),
+        Some(DoseAxis::Distance) => format!("{unit} per s"),
+    }
+}
+
+/// `slope over doses`, or `slope over distance` in a distance-dose family.
+fn slope_name(family: &crate::analysis::family::FamilyAnalysis) -> &'static str {
+    match family.dose_axis {
+        DoseAxis::Percent => "slope over doses",
+        DoseAxis::Distance => "slope over distance",
     }
 }
 
@@ -471,12 +485,12 @@ pub fn split_power_plan(
         }
     }
     Ok(SplitPowerPlan {
-        unit: if on_slope { format!("slope over doses of {}", family.unit) } else { family.unit.clone() },
+        unit: if on_slope { format!("{} of {}", slope_name(family), family.unit) } else { family.unit.clone() },
         pilot: (family.splits.len(), first.estimate.rows, first.estimate.cols),
         mean_d: pooled.mean,
         mean_reference,
         variances: pooled.variances,
-        value_unit: unit_of(plan.primary.metric.unit(), on_slope),
+        value_unit: unit_of(plan.primary.metric.unit(), on_slope.then_some(family.dose_axis)),
         rows,
     })
 }

@@ -71,7 +71,9 @@ pub struct FamilyAnalysis {
     pub metric_unit: String,
     /// The doses, increasing (one entry, the treated arm, without doses).
     pub doses: Vec<DoseArm>,
-    /// What the doses vary: the share replaced or the distance.
+    /// What the doses vary: the share replaced or the distance (written
+    /// only for distances: a results.json without it is of shares).
+    #[serde(skip_serializing_if = "DoseAxis::is_percent")]
     pub dose_axis: DoseAxis,
     /// Per split (one entry, split `None`, in a single-split study).
     pub splits: Vec<SplitResult>,
