@@ -192,9 +192,8 @@ fn a_distance_dose_family_shares_its_positions_and_couples_its_draws() {
     for (arm, least) in arms {
         let one = dir.path().join(format!("one-{arm}"));
         std::fs::create_dir_all(one.join("manifests")).unwrap();
-        for f in ["evaluation_starts.csv"] {
-            std::fs::copy(out.join("manifests").join(f), one.join("manifests").join(f)).unwrap();
-        }
+        let starts = "manifests/evaluation_starts.csv";
+        std::fs::copy(out.join(starts), one.join(starts)).unwrap();
         std::fs::copy(
             out.join(format!("manifests/contaminating_{arm}.csv")),
             one.join("manifests/contaminating_contaminated.csv"),

@@ -252,7 +252,7 @@ fn recording_item(p: Pair<Rule>) -> Result<RecordingItem, Diagnostic> {
         Rule::rec_split_seed => RecordingItem::SplitSeed(int(c.next())?),
         Rule::rec_starts => {
             let n = int(c.next())?;
-            let within = if c.peek_rule().is_some() { Some(number(kids(c.next()).next())?) } else { None };
+            let within = if c.peek_rule().is_some() { Some(number(c.next())?) } else { None };
             RecordingItem::Starts(n, within)
         }
         Rule::rec_horizon => RecordingItem::Horizon(int(c.next())?),

@@ -9,9 +9,8 @@ use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use crate::analysis::Analysis;
-use crate::design::DoseAxis;
 use crate::io::{create_dir_all, write_atomic, WriteError};
-use crate::plan::Plan;
+use crate::plan::{DoseAxis, Plan};
 use crate::report::charts::{draw_err, DrawError};
 use crate::report::Table;
 use crate::stats::{critical_value, StatsError};

@@ -16,10 +16,14 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::design::{
-    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, DoseAxis, Estimator, EstimatorKind, Meters, Metric,
-    ModelKind, Role, Seed, Sensitivity, StartsPolicy, TargetKind, Training,
+    Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, EstimatorKind, Meters, Metric, ModelKind, Role,
+    Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
 use crate::stats::DfRule;
+
+/// What a dose-response family varies (re-exported for the stages after
+/// the plan).
+pub use crate::design::DoseAxis;
 
 pub mod study;
 pub use study::{compile_study, StudyPlan};

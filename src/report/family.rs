@@ -55,7 +55,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         DoseAxis::Percent => format!("{unit}/pp"),
         DoseAxis::Distance => format!("{unit} per s"),
     };
-    s.push_str(&per_dose_section(a, &unit));
+    s.push_str(&per_dose_section(a, unit));
     if !a.treatment.is_empty() {
         let _ = writeln!(s, "## Treatment strength\n\n{}\n", super::markdown::TREATMENT_NOTE);
         let _ = writeln!(s, "{}", super::markdown::treatment(&a.treatment).render());
@@ -64,7 +64,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         s.push_str(&trend_section(a, &per_dose));
     }
     if let Some(p) = &a.pooled {
-        s.push_str(&pooled_section(a, p, (&unit, &per_dose)));
+        s.push_str(&pooled_section(a, p, (unit, &per_dose)));
     }
     if !a.figures.is_empty() {
         let _ = writeln!(s, "## Figures\n");

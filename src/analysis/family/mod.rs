@@ -332,55 +332,15 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let mut values = Vec::new();
     let mut warnings = Vec::new();
     for &split in &split_values {
-        let sub_plan = match split {
-            Some(s) => plan.for_split(s),
-            None => plan.clone(),
-        };
-        let mine: Vec<Cell> = cells.iter().filter(|c| c.split == split).cloned().collect();
-        let mut detail = Vec::new();
-        let mut results = Vec::new();
-        for dose in &doses {
-            let dose_plan = if plan.doses.is_empty() { sub_plan.clone() } else { sub_plan.for_dose(dose) };
-            let arms = [dose.arm.as_str(), plan.contrast.reference.as_str()];
-            let subset: Vec<Cell> = mine
-                .iter()
-                .filter(|c| arms.contains(&c.arm.as_str()))
-                .map(|c| Cell { split: None, dose: None, ..c.clone() })
-                .collect();
-            let a = analyze(&dose_plan, &subset, options).map_err(|e| match split {
-                Some(s) => fail(format!("split {s}, arm {}: {e}", dose.arm)),
-                None if !plan.doses.is_empty() => fail(format!("arm {}: {e}", dose.arm)),
-                None => e,
-            })?;
-            let u = &a.units[0];
-            for w in &a.warnings {
-                let at = match split {
-                    Some(s) => format!("split {s}, arm {}", dose.arm),
-                    None => format!("arm {}", dose.arm),
-                };
-                warnings.push(format!("{at}: {w}"));
-            }
-            results.push(DoseResult {
-                arm: dose.arm.clone(),
-                percent: dose.percent,
-                distance_s: dose.distance_s,
-                mean_treated: u.mean_treated,
-                mean_reference: u.mean_reference,
-                optimism_pct: u.optimism_pct,
-                estimate: u.estimate,
-            });
-            detail.push(a);
-        }
-        let v = split_values_of(plan, &mine, &doses, &detail[0])?;
-        let trend = if doses.len() >= 2 { Some(trend(plan, &v, &doses, &results)?) } else { None };
-        splits.push(SplitResult { split, doses: results, trend, detail });
+        let (result, v) = analyze_split(plan, split, cells, &doses, options, &mut warnings)?;
+        splits.push(result);
         values.push(v);
     }
     let pooled = if split_values.len() >= 2 { Some(pool::pool(plan, &split_values, &values, &doses)?) } else { None };
     let provenance = splits[0].detail[0].provenance.clone();
     let unit = plan.primary.label();
-    let axis = dose_axis(&doses);
-    let decision = decide(&plan.decision, (&unit, plan.primary.metric.unit(), axis), &splits, pooled.as_ref());
+    let (axis, metric_unit) = (dose_axis(&doses), plan.primary.metric.unit());
+    let decision = decide(&plan.decision, (&unit, metric_unit, axis), &splits, pooled.as_ref());
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
         design_sha256: None,
@@ -390,7 +350,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,
         unit,
-        metric_unit: plan.primary.metric.unit().to_string(),
+        metric_unit: metric_unit.to_string(),
         doses,
         dose_axis: axis,
         splits,
@@ -403,6 +363,61 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         coverage: None,
         provenance,
     })
+}
+
+/// One split's contrasts (each dose against the reference, analysed as a
+/// single-dose study), its trend, and the values the pooled fit needs; the
+/// dose analyses' warnings join `warnings`, labelled.
+fn analyze_split(
+    plan: &Plan,
+    split: Option<u64>,
+    cells: &[Cell],
+    doses: &[DoseArm],
+    options: AnalyzeOptions,
+    warnings: &mut Vec<String>,
+) -> Result<(SplitResult, Values), AnalysisError> {
+    let sub_plan = match split {
+        Some(s) => plan.for_split(s),
+        None => plan.clone(),
+    };
+    let mine: Vec<Cell> = cells.iter().filter(|c| c.split == split).cloned().collect();
+    let mut detail = Vec::new();
+    let mut results = Vec::new();
+    for dose in doses {
+        let dose_plan = if plan.doses.is_empty() { sub_plan.clone() } else { sub_plan.for_dose(dose) };
+        let arms = [dose.arm.as_str(), plan.contrast.reference.as_str()];
+        let subset: Vec<Cell> = mine
+            .iter()
+            .filter(|c| arms.contains(&c.arm.as_str()))
+            .map(|c| Cell { split: None, dose: None, ..c.clone() })
+            .collect();
+        let a = analyze(&dose_plan, &subset, options).map_err(|e| match split {
+            Some(s) => fail(format!("split {s}, arm {}: {e}", dose.arm)),
+            None if !plan.doses.is_empty() => fail(format!("arm {}: {e}", dose.arm)),
+            None => e,
+        })?;
+        let u = &a.units[0];
+        for w in &a.warnings {
+            let at = match split {
+                Some(s) => format!("split {s}, arm {}", dose.arm),
+                None => format!("arm {}", dose.arm),
+            };
+            warnings.push(format!("{at}: {w}"));
+        }
+        results.push(DoseResult {
+            arm: dose.arm.clone(),
+            percent: dose.percent,
+            distance_s: dose.distance_s,
+            mean_treated: u.mean_treated,
+            mean_reference: u.mean_reference,
+            optimism_pct: u.optimism_pct,
+            estimate: u.estimate,
+        });
+        detail.push(a);
+    }
+    let v = split_values_of(plan, &mine, doses, &detail[0])?;
+    let trend = if doses.len() >= 2 { Some(trend(plan, &v, doses, &results)?) } else { None };
+    Ok((SplitResult { split, doses: results, trend, detail }, v))
 }
 
 /// The primary metric's differences of one split, per dose, in the row and

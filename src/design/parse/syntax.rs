@@ -93,7 +93,6 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::rec_eval_list
         | Rule::rec_split_seed
         | Rule::rec_starts
-        | Rule::starts_within
         | Rule::rec_horizon
         | Rule::rec_conditions
         | Rule::rec_stratify => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions, stratify)",
