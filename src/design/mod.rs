@@ -236,23 +236,6 @@ impl DoseAxis {
     pub fn is_percent(&self) -> bool {
         *self == DoseAxis::Percent
     }
-
-    /// The dose's unit in text: `%` or ` s`.
-    pub fn unit(self) -> &'static str {
-        match self {
-            DoseAxis::Percent => "%",
-            DoseAxis::Distance => " s",
-        }
-    }
-
-    /// What one unit of dose is, for a slope: `percentage point of dose`
-    /// or `second of distance`.
-    pub fn per(self) -> &'static str {
-        match self {
-            DoseAxis::Percent => "percentage point of dose",
-            DoseAxis::Distance => "second of distance from the evaluated segments",
-        }
-    }
 }
 
 /// What a pinned published split does with a fit recording that is
