@@ -347,3 +347,53 @@ decide fades on slope when lower > 0
     assert!(rate(stops_at_leak) >= 0.85, "step-down stopped at 0.5 s in {}", rate(stops_at_leak));
     assert!(true_slope > 0.0, "the leak fades with distance: slope {true_slope}");
 }
+
+/// A distance-dose family with per-seed draws runs end to end through the
+/// real CLI: one draw per seed, the family analysis over the seeds' draws,
+/// the estimand note and the recordings each arm drew from beside the
+/// verdict, and the treatment table's values the medians over the draws'
+/// own audits (recomputed here from each draw's audit/treatment.json).
+#[test]
+fn a_distance_family_with_per_seed_draws_reports_what_it_measured() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = design_with(dir.path(), "seeds.design", "at least 0 s, 0.5 s, 1.5 s from segments");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let text = text
+        .replace("decide confirmed when optimism >= 10% and upper < 0", "decide fades on slope when lower > 0")
+        .replace("factor seed = 1..2", "factor seed = 1..3\ndraws per seed")
+        .replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .args(["run", &path.display().to_string(), "--out", &out.display().to_string(), "--workers", "2"])
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    assert_ok(&o);
+    let report = std::fs::read_to_string(out.join("report/report.md")).unwrap();
+    let verdict = report.find("**decision:").unwrap();
+    let measures = report.find("What this measures: each arm replaces the same 25%").expect("the estimand note");
+    assert!(measures > verdict && measures < report.find("## Per split and dose").unwrap(), "beside the verdict");
+    assert!(report.contains("contaminated_0s from 4 of 4"), "{report}");
+    // Each treatment value is the median over the three draws' own.
+    let draws: Vec<serde_json::Value> = (1..=3)
+        .map(|k| {
+            let t = std::fs::read_to_string(out.join(format!("draw-{k}/audit/treatment.json"))).unwrap();
+            serde_json::from_str(&t).unwrap()
+        })
+        .collect();
+    for (i, arm) in ["contaminated_0s", "contaminated_0p5s", "contaminated_1p5s"].iter().enumerate() {
+        let mut inside: Vec<u64> =
+            draws.iter().map(|d| d["arms"][i]["inside_evaluated_segment"].as_u64().unwrap()).collect();
+        let mut q2: Vec<f64> =
+            draws.iter().map(|d| d["arms"][i]["segment_distance_quartiles_s"][1].as_f64().unwrap()).collect();
+        assert_eq!(draws[0]["arms"][i]["arm"], *arm);
+        inside.sort();
+        q2.sort_by(f64::total_cmp);
+        let row = report.lines().find(|l| l.starts_with(&format!("| {arm} | 750 |"))).expect("the arm's row");
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        assert_eq!(cells[3], inside[1].to_string(), "{row}");
+        assert!(cells[7].contains(&format!(" / {:.2} / ", q2[1])), "{row}: median of {q2:?}");
+    }
+    assert!(report.contains("the median over the 3 draws"), "{report}");
+}

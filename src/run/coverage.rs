@@ -113,3 +113,65 @@ pub(crate) fn distance_sources(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::anal
     }
     out
 }
+
+/// Each arm's treatment strength over the level folders `dirs` (each
+/// level's `audit/treatment.json`): per field, the median over the draws
+/// (for an even count, the mean of the middle two). Empty where a folder
+/// lacks its audit or an arm is missing from one.
+pub(crate) fn treatment_over_levels(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::analysis::TreatmentStrength> {
+    let mut per_level = Vec::new();
+    for dir in dirs {
+        let Some(v) = std::fs::read_to_string(dir.join("audit/treatment.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        else {
+            return Vec::new();
+        };
+        let horizon = v.get("horizon_samples").and_then(|h| h.as_f64()).unwrap_or(f64::NAN) / plan.rate_hz;
+        let arms = v.get("arms").and_then(|a| a.as_array()).cloned().unwrap_or_default();
+        per_level.push((horizon, arms));
+    }
+    let Some((_, first)) = per_level.first() else { return Vec::new() };
+    let median = |mut x: Vec<f64>| -> f64 {
+        x.sort_by(f64::total_cmp);
+        let n = x.len();
+        if n % 2 == 1 {
+            x[n / 2]
+        } else {
+            (x[n / 2 - 1] + x[n / 2]) / 2.0
+        }
+    };
+    let mut out = Vec::new();
+    for arm in first.iter().filter_map(|a| a.get("arm").and_then(|n| n.as_str())) {
+        let mut fields: Vec<Vec<f64>> = vec![Vec::new(); 7];
+        for (horizon, arms) in &per_level {
+            let Some(a) = arms.iter().find(|a| a.get("arm").and_then(|n| n.as_str()) == Some(arm)) else {
+                return Vec::new();
+            };
+            let num = |k: &str| a.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
+            let q = |k: usize| a["segment_distance_quartiles_s"].get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
+            let values = [
+                num("contaminating_windows"),
+                num("inside_evaluated_segment"),
+                *horizon,
+                num("median_distance_s"),
+                q(0),
+                q(1),
+                q(2),
+            ];
+            for (f, v) in fields.iter_mut().zip(values) {
+                f.push(v);
+            }
+        }
+        let m: Vec<f64> = fields.into_iter().map(median).collect();
+        out.push(crate::analysis::TreatmentStrength {
+            arm: arm.to_string(),
+            contaminating_windows: m[0].round() as usize,
+            inside_evaluated_segment: m[1].round() as usize,
+            horizon_s: m[2],
+            median_distance_s: m[3],
+            segment_distance_quartiles_s: [m[4], m[5], m[6]],
+        });
+    }
+    out
+}

@@ -94,6 +94,13 @@ fn finish_seeds(
             a.warnings.extend(notes.iter().cloned());
             a.coverage = crate::run::coverage::note_of_levels(study, dirs);
             a.sources = crate::run::coverage::distance_sources(study, dirs);
+            a.treatment = crate::run::coverage::treatment_over_levels(study, dirs);
+            if !a.treatment.is_empty() {
+                a.warnings.push(format!(
+                    "treatment strength: each value is the median over the {} draws of that draw's own (each draw's audit/treatment.json)",
+                    dirs.len()
+                ));
+            }
         });
     }
     let mut analysis =
