@@ -4,7 +4,8 @@
 
 use std::collections::BTreeMap;
 
-use super::{as_optimism, slopes, smallest_excluding_zero, step_down, Pooled, PooledEstimate, Values};
+use super::trend::{as_optimism, slopes, smallest_excluding_zero, step_down};
+use super::{Pooled, PooledEstimate, Values};
 use crate::analysis::AnalysisError;
 use crate::plan::{dose_axis, DoseArm, Plan};
 use crate::stats::mixed::{self, Criterion, MixedData};
