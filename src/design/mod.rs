@@ -178,21 +178,41 @@ impl Design {
     /// same percent and the dose is the distance, in s; otherwise the dose
     /// is the percent and the distance None.
     pub fn doses(&self) -> Vec<(String, f64, Option<f64>)> {
-        let mut out: Vec<(String, f64, Option<WindowDistance>)> = self
+        let treated = &self.contrast.treated;
+        let by_distance = !self.distance_doses(treated).is_empty();
+        let mut out: Vec<(String, f64, Option<f64>)> = self
             .arms
             .iter()
             .filter_map(|a| match &a.kind {
-                ArmKind::Derived { percent, family: Some(f), distance, .. } if *f == self.contrast.treated => {
-                    Some((a.name.clone(), *percent, *distance))
+                ArmKind::Derived { percent, family: Some(f), distance, .. } if f == treated => {
+                    Some((a.name.clone(), *percent, distance.filter(|_| by_distance).map(|d| d.min_s)))
                 }
                 _ => None,
             })
             .collect();
-        let by_distance = out.windows(2).any(|w| w[0].2.map(|d| d.min_s) != w[1].2.map(|d| d.min_s));
-        let mut out: Vec<(String, f64, Option<f64>)> =
-            out.drain(..).map(|(a, p, d)| (a, p, d.filter(|_| by_distance).map(|d| d.min_s))).collect();
         out.sort_by(|a, b| a.2.unwrap_or(a.1).total_cmp(&b.2.unwrap_or(b.1)));
         out
+    }
+
+    /// The arms of `family` with their distances, in the design's order,
+    /// when it is a distance-dose family (its arms at different
+    /// distances); empty for a family of shares or a single arm.
+    pub fn distance_doses(&self, family: &str) -> Vec<(String, WindowDistance)> {
+        let doses: Vec<(String, WindowDistance)> = self
+            .arms
+            .iter()
+            .filter_map(|a| match &a.kind {
+                ArmKind::Derived { family: Some(f), distance: Some(d), .. } if f == family => {
+                    Some((a.name.clone(), *d))
+                }
+                _ => None,
+            })
+            .collect();
+        if doses.windows(2).any(|w| w[0].1.min_s != w[1].1.min_s) {
+            doses
+        } else {
+            Vec::new()
+        }
     }
 }
 

@@ -65,17 +65,19 @@ pub(crate) fn treatment_strength(
     t: &crate::split::TreatmentAudit,
     rate_hz: f64,
 ) -> Vec<crate::analysis::TreatmentStrength> {
-    t.arms
-        .iter()
-        .map(|a| crate::analysis::TreatmentStrength {
-            arm: a.arm.clone(),
-            contaminating_windows: a.contaminating_windows,
-            inside_evaluated_segment: a.inside_evaluated_segment,
-            horizon_s: t.horizon_samples as f64 / rate_hz,
-            median_distance_s: a.median_distance_s,
-            segment_distance_quartiles_s: a.segment_distance_quartiles_s,
-        })
-        .collect()
+    t.arms.iter().map(|a| strength(a, t.horizon_samples as f64 / rate_hz)).collect()
+}
+
+/// One arm's treatment audit as the analysis reports it.
+fn strength(a: &crate::split::ArmTreatment, horizon_s: f64) -> crate::analysis::TreatmentStrength {
+    crate::analysis::TreatmentStrength {
+        arm: a.arm.clone(),
+        contaminating_windows: a.contaminating_windows,
+        inside_evaluated_segment: a.inside_evaluated_segment,
+        horizon_s,
+        median_distance_s: a.median_distance_s,
+        segment_distance_quartiles_s: a.segment_distance_quartiles_s,
+    }
 }
 
 /// Per arm of a distance-dose family, from how many evaluation recordings
@@ -91,18 +93,18 @@ pub(crate) fn distance_sources(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::anal
         let mut r = csv::Reader::from_path(path).ok()?;
         r.records().map(|row| row.ok().and_then(|row| row.get(0).map(str::to_string))).collect()
     };
+    let evaluated: Option<Vec<usize>> =
+        dirs.iter().map(|d| names(&d.join("manifests/evaluation_recordings.csv")).map(|e| e.len())).collect();
+    let Some(evaluated) = evaluated else { return Vec::new() };
     let mut out = Vec::new();
     for d in &plan.doses {
         let mut counts = Vec::new();
-        for dir in dirs {
-            let m = dir.join("manifests");
-            let (Some(windows), Some(evaluation)) =
-                (names(&m.join(format!("contaminating_{}.csv", d.arm))), names(&m.join("evaluation_recordings.csv")))
-            else {
+        for (dir, &evaluation) in dirs.iter().zip(&evaluated) {
+            let Some(windows) = names(&dir.join(format!("manifests/contaminating_{}.csv", d.arm))) else {
                 return Vec::new();
             };
             let drawn: std::collections::BTreeSet<String> = windows.into_iter().collect();
-            counts.push((drawn.len(), evaluation.len()));
+            counts.push((drawn.len(), evaluation));
         }
         let (Some(fewest), Some(most), Some(of)) =
             (counts.iter().map(|c| c.0).min(), counts.iter().map(|c| c.0).max(), counts.iter().map(|c| c.1).min())
@@ -116,61 +118,32 @@ pub(crate) fn distance_sources(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::anal
 
 /// Each arm's treatment strength over the level folders `dirs` (each
 /// level's `audit/treatment.json`): per field, the median over the draws
-/// (for an even count, the mean of the middle two). Empty where a folder
-/// lacks its audit or an arm is missing from one.
+/// ([`crate::split::median`]). Empty where a folder lacks its audit or an
+/// arm is missing from one.
 pub(crate) fn treatment_over_levels(plan: &Plan, dirs: &[PathBuf]) -> Vec<crate::analysis::TreatmentStrength> {
-    let mut per_level = Vec::new();
-    for dir in dirs {
-        let Some(v) = std::fs::read_to_string(dir.join("audit/treatment.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        else {
-            return Vec::new();
-        };
-        let horizon = v.get("horizon_samples").and_then(|h| h.as_f64()).unwrap_or(f64::NAN) / plan.rate_hz;
-        let arms = v.get("arms").and_then(|a| a.as_array()).cloned().unwrap_or_default();
-        per_level.push((horizon, arms));
-    }
-    let Some((_, first)) = per_level.first() else { return Vec::new() };
-    let median = |mut x: Vec<f64>| -> f64 {
-        x.sort_by(f64::total_cmp);
-        let n = x.len();
-        if n % 2 == 1 {
-            x[n / 2]
-        } else {
-            (x[n / 2 - 1] + x[n / 2]) / 2.0
-        }
+    let read = |dir: &PathBuf| -> Option<(f64, Vec<crate::split::ArmTreatment>)> {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("audit/treatment.json")).ok()?).ok()?;
+        let horizon_s = v.get("horizon_samples")?.as_f64()? / plan.rate_hz;
+        Some((horizon_s, serde_json::from_value(v.get("arms")?.clone()).ok()?))
     };
+    let Some(levels) = dirs.iter().map(read).collect::<Option<Vec<_>>>() else { return Vec::new() };
+    let Some((_, first)) = levels.first() else { return Vec::new() };
     let mut out = Vec::new();
-    for arm in first.iter().filter_map(|a| a.get("arm").and_then(|n| n.as_str())) {
-        let mut fields: Vec<Vec<f64>> = vec![Vec::new(); 7];
-        for (horizon, arms) in &per_level {
-            let Some(a) = arms.iter().find(|a| a.get("arm").and_then(|n| n.as_str()) == Some(arm)) else {
-                return Vec::new();
-            };
-            let num = |k: &str| a.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
-            let q = |k: usize| a["segment_distance_quartiles_s"].get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
-            let values = [
-                num("contaminating_windows"),
-                num("inside_evaluated_segment"),
-                *horizon,
-                num("median_distance_s"),
-                q(0),
-                q(1),
-                q(2),
-            ];
-            for (f, v) in fields.iter_mut().zip(values) {
-                f.push(v);
-            }
-        }
-        let m: Vec<f64> = fields.into_iter().map(median).collect();
+    for arm in first {
+        let per: Option<Vec<crate::analysis::TreatmentStrength>> =
+            levels.iter().map(|(h, arms)| arms.iter().find(|a| a.arm == arm.arm).map(|a| strength(a, *h))).collect();
+        let Some(per) = per else { return Vec::new() };
+        let m =
+            |f: &dyn Fn(&crate::analysis::TreatmentStrength) -> f64| crate::split::median(per.iter().map(f).collect());
+        let q = |k: usize| m(&|t| t.segment_distance_quartiles_s[k]);
         out.push(crate::analysis::TreatmentStrength {
-            arm: arm.to_string(),
-            contaminating_windows: m[0].round() as usize,
-            inside_evaluated_segment: m[1].round() as usize,
-            horizon_s: m[2],
-            median_distance_s: m[3],
-            segment_distance_quartiles_s: [m[4], m[5], m[6]],
+            arm: arm.arm.clone(),
+            contaminating_windows: m(&|t| t.contaminating_windows as f64).round() as usize,
+            inside_evaluated_segment: m(&|t| t.inside_evaluated_segment as f64).round() as usize,
+            horizon_s: m(&|t| t.horizon_s),
+            median_distance_s: m(&|t| t.median_distance_s),
+            segment_distance_quartiles_s: [q(0), q(1), q(2)],
         });
     }
     out

@@ -366,7 +366,7 @@ impl<'a> Universe<'a> {
             } else {
                 Draw::Chacha
             };
-            let gaps = self.distance_family(family.as_deref());
+            let gaps = family.as_deref().map(|f| design.distance_doses(f)).unwrap_or_default();
             let drawn = if gaps.len() > 1 {
                 let percent = members[0].1;
                 let mut pools = Vec::new();
@@ -390,23 +390,6 @@ impl<'a> Universe<'a> {
             }
         }
         Ok(contaminating)
-    }
-
-    /// The arms of a distance-dose family with their distances, in the
-    /// design's order; empty for any other family or a single arm.
-    fn distance_family(&self, family: Option<&str>) -> Vec<(String, WindowDistance)> {
-        let Some(family) = family else { return Vec::new() };
-        let doses = self.design.arms.iter().filter_map(|a| match &a.kind {
-            ArmKind::Derived { family: Some(f), distance: Some(d), .. } if f == family => Some((a.name.clone(), *d)),
-            _ => None,
-        });
-        let doses: Vec<(String, WindowDistance)> = doses.collect();
-        let distinct = doses.windows(2).any(|w| w[0].1.min_s != w[1].1.min_s);
-        if distinct {
-            doses
-        } else {
-            Vec::new()
-        }
     }
 
     /// The windows of `pool` at distance `d` from every evaluated segment

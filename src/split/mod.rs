@@ -59,7 +59,9 @@ pub use invariants::{check_invariants, Invariant, InvariantReport, InvariantStat
 pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
 pub use prepare::{prepare, rebuild, write_prepared, Prepared};
-pub use treatment::{treatment_audit, Composition, ConditionCoverage, RecordingCoverage, TreatmentAudit};
+pub use treatment::{
+    median, treatment_audit, ArmTreatment, Composition, ConditionCoverage, RecordingCoverage, TreatmentAudit,
+};
 
 /// A one-step window or a rollout start: (recording index, row index).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]

@@ -7,16 +7,21 @@ use serde::{Deserialize, Serialize};
 
 use super::Split;
 
-#[derive(Debug, Clone, Serialize)]
+/// One arm's treatment strength, as `audit/treatment.json` holds it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ArmTreatment {
+    /// The arm.
     pub arm: String,
+    /// Its windows from the evaluation recordings.
     pub contaminating_windows: usize,
     /// Windows inside at least one evaluated segment [start, start + horizon]
     /// of the same recording.
     pub inside_evaluated_segment: usize,
+    /// inside_evaluated_segment / contaminating_windows.
     pub share_inside: f64,
     /// Median distance to the nearest registered start in the same recording.
     pub median_distance_samples: f64,
+    /// The same, in seconds.
     pub median_distance_s: f64,
     /// Quartiles (first, median, third) of the distance from a window's
     /// nearest row to the nearest evaluated segment of its recording, in
@@ -136,7 +141,9 @@ fn quartiles(mut v: Vec<f64>) -> [f64; 3] {
     [at(0.25), at(0.5), at(0.75)]
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median (the mean of the middle two for an even count); NaN when
+/// empty.
+pub fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

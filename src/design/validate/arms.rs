@@ -316,8 +316,6 @@ impl Validator {
         out
     }
 
-    /// `at least G s from segments` or `G1 s to G2 s from segments`: a
-    /// distance of 0 or more, a band's end beyond its start.
     /// The clause's distance ranges: one, or one per gap of a distance-dose
     /// family (`at least 0 s, 5 s from segments`), each at least 0, listed
     /// once, at most [`limits::DOSES`] of them.
