@@ -19,7 +19,13 @@ python3 -m venv "$venv"
 t0=$(date +%s)
 "$venv/bin/pip" install --quiet "./python[test]"
 echo "python-tests: built and installed the package in $(( $(date +%s) - t0 )) s"
-# The command line built by `cargo test` (same profile), for comparisons.
-export CROSSAUDIT_BIN="$target/debug/crossaudit"
-[ -x "$CROSSAUDIT_BIN" ] || unset CROSSAUDIT_BIN
+# The command line built by `cargo test`, for comparisons: the newer of the
+# debug and release builds (an older one may predate the package's source).
+unset CROSSAUDIT_BIN
+for b in "$target/debug/crossaudit" "$target/release/crossaudit"; do
+  if [ -x "$b" ] && { [ -z "${CROSSAUDIT_BIN:-}" ] || [ "$b" -nt "$CROSSAUDIT_BIN" ]; }; then
+    CROSSAUDIT_BIN="$b"
+  fi
+done
+[ -n "${CROSSAUDIT_BIN:-}" ] && export CROSSAUDIT_BIN
 "$venv/bin/python" -m pytest -q python/tests

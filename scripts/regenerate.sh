@@ -23,6 +23,10 @@ $ca plan designs/multiverse/paper_draws.design --cells results/multiverse/draws 
 $ca plan designs/multiverse/paper_per_seed.design --cells results/multiverse/per_seed/cells.csv --recordings 24,48 --seeds 20,40,60,120 --out results/plan_per_seed >/dev/null
 $ca data audit designs/nanobench_confirmatory.design --out results/nanobench_audit > results/nanobench_audit/summary.txt 2>/dev/null
 $ca audit split ../shared/nanobench/upstream_task2_split_metadata.json --data ../shared/nanobench/recordings --out results/upstream_split_audit > results/upstream_split_audit/summary.txt 2>/dev/null
+python3 scripts/window_splits.py ../shared/nanobench/recordings results/nanobench_window_split/splits >/dev/null
+for k in random chronological embargo; do
+  $ca audit split results/nanobench_window_split/splits/$k.csv --data ../shared/nanobench/recordings --out results/nanobench_window_split/$k > results/nanobench_window_split/$k/summary.txt 2>/dev/null
+done
 $ca data audit designs/nanobench_audited.design --out results/nanobench_audit_hygiene > results/nanobench_audit_hygiene/summary.txt 2>/dev/null
 $ca split designs/nanobench_confirmatory.design --out results/nanobench_split > results/nanobench_split/summary.txt 2>/dev/null
 $ca split designs/nanobench_audited.design --out results/nanobench_split_audited > results/nanobench_split_audited/summary.txt 2>/dev/null

@@ -46,6 +46,7 @@ mod split;
 mod split_audit;
 mod split_numpy;
 mod split_paper;
+mod split_windows;
 mod stats_mixed;
 mod stats_mixed_df;
 mod stats_props;

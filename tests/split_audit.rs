@@ -131,7 +131,7 @@ fn folds_are_roles_and_copies_inside_one_fold_do_not_leak() {
 fn a_shorter_minimum_run_finds_nothing_new_and_a_longer_one_drops_the_partial_copy() {
     let split = published::read(&fixture("nanobench_small.json")).unwrap();
     let run = |n| {
-        let o = split_audit::Options { min_run_rows: n };
+        let o = split_audit::Options { min_run_rows: n, ..Default::default() };
         split_audit::audit(&split, &DataSpec::upstream_task2(), "upstream", &fixture("data"), o).unwrap().shared_runs
     };
     assert_eq!(run(150).len(), 1);
@@ -292,7 +292,7 @@ fn committed_upstream_audit_is_current() {
         o,
     ]);
     assert_eq!(code, Some(0), "{stderr}");
-    for f in ["split_audit.md", "split_audit.json", "split_recordings.csv"] {
+    for f in ["split_audit.md", "split_audit.json", "split_recordings.csv", "split_windows.csv"] {
         let committed = std::fs::read_to_string(root().join("results/upstream_split_audit").join(f)).unwrap();
         let fresh = std::fs::read_to_string(Path::new(o).join(f)).unwrap();
         assert_eq!(

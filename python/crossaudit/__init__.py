@@ -334,19 +334,28 @@ def audit_split(
     out: PathLike,
     design: Optional[PathLike] = None,
     min_run: int = 100,
+    gap: float = 1.0,
 ) -> dict:
-    """``crossaudit audit split``: audits a published split against the flight
-    logs in ``data``; returns the audit (split_audit.json), its per-recording
-    table as ``recordings`` (a DataFrame) and ``exact_leak``."""
-    paths, leak = _native.audit_split(
-        os.fspath(split), os.fspath(data), os.fspath(out), None if design is None else os.fspath(design), min_run
+    """``crossaudit audit split``: audits a published split (whole recordings
+    or windows) against the flight logs in ``data``; returns the audit
+    (split_audit.json), its per-recording table as ``recordings`` and each
+    window's nearest window of another role as ``windows`` (DataFrames),
+    ``exact_leak`` (copies or overlapping windows across roles) and
+    ``gap_violation`` (a window within ``gap`` seconds of another role's)."""
+    paths, leak, close = _native.audit_split(
+        os.fspath(split), os.fspath(data), os.fspath(out), None if design is None else os.fspath(design), min_run, gap
     )
     audit: dict = {}
+    tables = {}
     for p in map(Path, paths):
         if p.suffix == ".json":
             audit = json.loads(p.read_text())
-        elif p.suffix == ".csv":
-            audit["recordings"] = pd.read_csv(p)
+        elif p.name == "split_recordings.csv":
+            tables["recordings"] = pd.read_csv(p)
+        elif p.name == "split_windows.csv":
+            tables["windows"] = pd.read_csv(p)
+    audit.update(tables)
     audit["exact_leak"] = leak
+    audit["gap_violation"] = close
     audit["files"] = [str(p) for p in paths]
     return audit

@@ -149,7 +149,7 @@ fn analyze(
 /// written (split_audit.json, split_audit.md, split_recordings.csv) and
 /// whether exact leakage was found.
 #[pyfunction]
-#[pyo3(signature = (split, data, out, design=None, min_run=crossaudit::split_audit::DEFAULT_MIN_RUN_ROWS))]
+#[pyo3(signature = (split, data, out, design=None, min_run=crossaudit::split_audit::DEFAULT_MIN_RUN_ROWS, gap=crossaudit::split_audit::DEFAULT_GAP_S))]
 fn audit_split(
     py: Python<'_>,
     split: PathBuf,
@@ -157,7 +157,8 @@ fn audit_split(
     out: PathBuf,
     design: Option<PathBuf>,
     min_run: usize,
-) -> PyResult<(Vec<PathBuf>, bool)> {
+    gap: f64,
+) -> PyResult<(Vec<PathBuf>, bool, bool)> {
     py.detach(|| {
         let published = crossaudit::published::read(&split).map_err(fail)?;
         let (spec, from) = match &design {
@@ -171,10 +172,13 @@ fn audit_split(
         }
         crossaudit::run::check_out_dir(&data, &out).map_err(fail)?;
         let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
-        let options = crossaudit::split_audit::Options { min_run_rows: min_run };
+        if !(gap.is_finite() && gap > 0.0) {
+            return Err(CrossauditError::new_err(format!("gap {gap} is not a number of seconds above 0")));
+        }
+        let options = crossaudit::split_audit::Options { min_run_rows: min_run, gap_s: gap };
         let audit = crossaudit::split_audit::audit(&published, &spec, &from, &data, options).map_err(fail)?;
         let written = audit.write(&out).map_err(fail)?;
-        Ok((written, audit.has_exact_leak()))
+        Ok((written, audit.has_exact_leak(), audit.has_gap_violation()))
     })
 }
 

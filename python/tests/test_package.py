@@ -146,6 +146,22 @@ def test_audit_split_matches_the_command_line(root, tmp_path):
         assert (tmp_path / "cli/split_audit.json").read_bytes() == (tmp_path / "py/split_audit.json").read_bytes()
 
 
+def test_audit_split_reads_a_per_window_split(root, tmp_path):
+    """tests/fixtures/splits/windows.csv, whose distances tests/split_windows.rs
+    works out by hand: of 5 test windows, 4 share a recording with train, 1
+    overlaps a train window, 3 lie within 1 s (2 within 0.4 s)."""
+    split, data = root / "tests/fixtures/splits/windows.csv", root / "tests/fixtures/splits/data"
+    a = crossaudit.audit_split(split, data, tmp_path / "w", gap=0.4)
+    assert a["windowed"] and a["exact_leak"] and a["gap_violation"]
+    test = next(d for d in a["distances"] if d["role"] == "test")
+    assert (test["windows"], test["in_shared_recording"], test["overlapping"], test["within_gap"]) == (5, 4, 1, 2)
+    w = a["windows"]
+    assert list(w[w.role == "test"].distance_s) == [0.0, 0.5, 0.0, 1.5]
+    assert len(a["recordings"]) == 10 and "listed_as" in a["recordings"].columns
+    with pytest.raises(crossaudit.CrossauditError, match="above 0"):
+        crossaudit.audit_split(split, data, tmp_path / "w2", gap=0.0)
+
+
 def test_analyze_takes_every_kind_of_study_and_matches_the_committed_reports(root, tmp_path):
     """A dose-response family's per-cell file, a multiverse's run folder and a
     per-seed-draw run's per-cell file, each analysed by the package as the

@@ -81,55 +81,60 @@ def speed(name):
     return "unknown"
 
 
-split = json.load(open(os.path.join(NB, "upstream_task2_split_metadata.json")))
-roles = {r[:-len("_files")]: [os.path.basename(p)[:-len(".csv")] for p in split[r]]
-         for r in split if r.endswith("_files")}
-loaded = {n: load(n) for names in roles.values() for n in names}
-role_of = {n: r for r, names in roles.items() for n in names}
-out = {"roles": {}, "identical_pairs": [], "shared_run_pairs": [], "tv_distance": {}}
-for r, names in roles.items():
-    present = [n for n in names if loaded[n] is not None]
-    out["roles"][r] = {
-        "declared": len(names),
-        "with_csv": len(present),
-        "metadata_only": sorted(n for n in names if loaded[n] is None
-                                and os.path.exists(os.path.join(REC, n + "_metadata.yaml"))),
-        "dropped": sorted(n for n in present if not loaded[n]["keep"]),
-        "effective": sum(1 for n in present if loaded[n]["keep"]),
-    }
-names = sorted(n for n in loaded if loaded[n] is not None)
-windows = {}
-for n in names:
-    h = loaded[n]["lines"]
-    for p in range(len(h) - RUN + 1):
-        windows.setdefault(hash(tuple(h[p:p + RUN])), set()).add(n)
-shared = set()
-for members in windows.values():
-    for a in members:
-        for b in members:
-            if a < b and role_of[a] != role_of[b] and loaded[a]["sha"] != loaded[b]["sha"]:
-                shared.add((a, b))
-for i, a in enumerate(names):
-    for b in names[i + 1:]:
-        if role_of[a] != role_of[b] and loaded[a]["sha"] == loaded[b]["sha"]:
-            out["identical_pairs"].append(sorted([[role_of[a], a], [role_of[b], b]]))
-out["shared_run_pairs"] = sorted(list(p) for p in shared)
+def main():
+    split = json.load(open(os.path.join(NB, "upstream_task2_split_metadata.json")))
+    roles = {r[:-len("_files")]: [os.path.basename(p)[:-len(".csv")] for p in split[r]]
+             for r in split if r.endswith("_files")}
+    loaded = {n: load(n) for names in roles.values() for n in names}
+    role_of = {n: r for r, names in roles.items() for n in names}
+    out = {"roles": {}, "identical_pairs": [], "shared_run_pairs": [], "tv_distance": {}}
+    for r, names in roles.items():
+        present = [n for n in names if loaded[n] is not None]
+        out["roles"][r] = {
+            "declared": len(names),
+            "with_csv": len(present),
+            "metadata_only": sorted(n for n in names if loaded[n] is None
+                                    and os.path.exists(os.path.join(REC, n + "_metadata.yaml"))),
+            "dropped": sorted(n for n in present if not loaded[n]["keep"]),
+            "effective": sum(1 for n in present if loaded[n]["keep"]),
+        }
+    names = sorted(n for n in loaded if loaded[n] is not None)
+    windows = {}
+    for n in names:
+        h = loaded[n]["lines"]
+        for p in range(len(h) - RUN + 1):
+            windows.setdefault(hash(tuple(h[p:p + RUN])), set()).add(n)
+    shared = set()
+    for members in windows.values():
+        for a in members:
+            for b in members:
+                if a < b and role_of[a] != role_of[b] and loaded[a]["sha"] != loaded[b]["sha"]:
+                    shared.add((a, b))
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if role_of[a] != role_of[b] and loaded[a]["sha"] == loaded[b]["sha"]:
+                out["identical_pairs"].append(sorted([[role_of[a], a], [role_of[b], b]]))
+    out["shared_run_pairs"] = sorted(list(p) for p in shared)
 
 
-def cells(r):
-    c = {}
-    for n in roles[r]:
-        if loaded[n] is not None and loaded[n]["keep"]:
-            key = trajectory(n) + "/" + speed(n)
-            c[key] = c.get(key, 0) + 1
-    return c
+    def cells(r):
+        c = {}
+        for n in roles[r]:
+            if loaded[n] is not None and loaded[n]["keep"]:
+                key = trajectory(n) + "/" + speed(n)
+                c[key] = c.get(key, 0) + 1
+        return c
 
 
-for a in roles:
-    for b in roles:
-        if a < b:
-            ca, cb = cells(a), cells(b)
-            na, nb = sum(ca.values()), sum(cb.values())
-            keys = set(ca) | set(cb)
-            out["tv_distance"][a + "/" + b] = 0.5 * sum(abs(ca.get(k, 0) / na - cb.get(k, 0) / nb) for k in keys)
-print(json.dumps(out, indent=1, sort_keys=True))
+    for a in roles:
+        for b in roles:
+            if a < b:
+                ca, cb = cells(a), cells(b)
+                na, nb = sum(ca.values()), sum(cb.values())
+                keys = set(ca) | set(cb)
+                out["tv_distance"][a + "/" + b] = 0.5 * sum(abs(ca.get(k, 0) / na - cb.get(k, 0) / nb) for k in keys)
+    print(json.dumps(out, indent=1, sort_keys=True))
+
+
+if __name__ == "__main__":
+    main()

@@ -150,7 +150,7 @@ fn names(path: &str, items: Vec<(Place, Node)>, what: &str) -> Result<Vec<Entry>
     items
         .into_iter()
         .map(|(place, item)| match item {
-            Node::Str(listed) => Ok(Entry { name: stem(&listed), listed, at: place }),
+            Node::Str(listed) => Ok(Entry { name: stem(&listed), listed, at: place, window: None }),
             _ => Err(at(path, place, format!("{what}: every entry must be a recording name or path (a string)"))),
         })
         .collect()

@@ -10,6 +10,12 @@
 //! - A scikit-learn-style fold list: a JSON array of arrays of names (or an
 //!   object whose `folds` key holds one), or a CSV with `recording` and
 //!   `fold` columns. Fold `k` becomes role `fold<k>`.
+//! - A per-window split: either CSV with `start_s` and `end_s` columns too.
+//!   Each row is then one window `[start_s, end_s)` of its recording, in
+//!   seconds from the recording's first timestamp, and one recording may
+//!   have windows in several roles (the split the audit measures the
+//!   distance in time between). The same window twice in one role is an
+//!   error; a per-window split declares at most [`MAX_WINDOW_ROLES`] roles.
 //!
 //! A name is matched to a recording by its file stem: directories, `.csv`
 //! `.gz` and `.parquet` are removed (`/x/y/B9_trefoil_slow_rep3.csv` is
@@ -38,6 +44,10 @@ use json::from_json;
 /// compares every ordered pair of roles, so its reports grow with the
 /// square (a 2,000-fold list would write about a gigabyte).
 pub const MAX_ROLES: usize = 200;
+
+/// The most roles a per-window split may declare: its audit writes each
+/// window's nearest window in every other role.
+pub const MAX_WINDOW_ROLES: usize = 20;
 
 /// The form a split file was read as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -84,8 +94,18 @@ impl fmt::Display for Place {
     }
 }
 
-/// One listed recording.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+/// A stretch `[start_s, end_s)` of one recording, in seconds from its
+/// first timestamp.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Window {
+    /// Start, seconds (at least 0).
+    pub start_s: f64,
+    /// End, seconds (after the start).
+    pub end_s: f64,
+}
+
+/// One listed recording, or one window of it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Entry {
     /// The file stem it matches, e.g. `B9_trefoil_slow_rep3`.
     pub name: String,
@@ -93,10 +113,13 @@ pub struct Entry {
     pub listed: String,
     /// Where it was written.
     pub at: Place,
+    /// The window it declares, in a per-window split; `None` for the whole
+    /// recording.
+    pub window: Option<Window>,
 }
 
 /// A role and the recordings declared in it, in file order.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Role {
     /// Role name, e.g. `test`.
     pub name: String,
@@ -160,6 +183,27 @@ impl PublishedSplit {
     /// Every declared entry with its role, in file order of the roles.
     pub fn entries(&self) -> impl Iterator<Item = (&Role, &Entry)> {
         self.roles.iter().flat_map(|r| r.entries.iter().map(move |e| (r, e)))
+    }
+
+    /// The split itself where every entry is a whole recording; a
+    /// per-window split is refused at its first window (a design's
+    /// `split published` assigns recordings, not windows).
+    pub fn whole_recordings(self) -> Result<PublishedSplit, PublishedError> {
+        let first = self.entries().find(|(_, e)| e.window.is_some()).map(|(_, e)| e.at);
+        match first {
+            Some(place) => Err(at(
+                &self.path,
+                place,
+                "this split assigns windows (`start_s`, `end_s`), not whole recordings: a design's `split published` takes whole recordings; measure this one with `crossaudit audit split`",
+            )),
+            None => Ok(self),
+        }
+    }
+
+    /// Whether the file splits by window (`start_s`, `end_s`) rather than
+    /// by whole recording.
+    pub fn is_windowed(&self) -> bool {
+        self.entries().any(|(_, e)| e.window.is_some())
     }
 }
 
@@ -227,7 +271,7 @@ pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
     for (k, rel) in listing.iter().enumerate() {
         let at = Place { line: k + 1, column: 1 };
         let folder = rel.split('/').next().unwrap_or_default().to_string();
-        let entry = Entry { name: stem(rel), listed: rel.clone(), at };
+        let entry = Entry { name: stem(rel), listed: rel.clone(), at, window: None };
         match roles.iter_mut().find(|r| r.name == folder) {
             Some(r) => r.entries.push(entry),
             None => roles.push(Role { name: folder, at, entries: vec![entry] }),
@@ -242,23 +286,29 @@ fn at(path: &str, place: Place, message: impl Into<String>) -> PublishedError {
     PublishedError::At { path: path.to_string(), line: place.line, column: place.column, message: message.into() }
 }
 
-/// No role empty, no recording twice, no entry without a stem.
+/// No role empty, no recording twice (no window twice in one role, in a
+/// per-window split), no entry without a stem.
 fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
     let path = &split.path;
     if split.roles.is_empty() {
         return Err(at(path, Place { line: 1, column: 1 }, "the split declares no roles"));
     }
-    if let Some(role) = split.roles.get(MAX_ROLES) {
+    let windowed = split.is_windowed();
+    let (cap, why) = if windowed {
+        (
+            MAX_WINDOW_ROLES,
+            "a per-window split may declare, since its audit finds each window's nearest in every other role",
+        )
+    } else {
+        (MAX_ROLES, "the audit compares pairwise")
+    };
+    if let Some(role) = split.roles.get(cap) {
         return Err(at(
             path,
             role.at,
-            format!(
-                "the split declares {} roles (or folds), more than the {MAX_ROLES} the audit compares pairwise",
-                split.roles.len()
-            ),
+            format!("the split declares {} roles (or folds), more than the {cap} {why}", split.roles.len()),
         ));
     }
-    let mut seen: BTreeMap<&str, (&Role, &Entry)> = BTreeMap::new();
     let mut named: BTreeMap<&str, &Role> = BTreeMap::new();
     for role in &split.roles {
         if let Some(first) = named.insert(&role.name, role) {
@@ -272,33 +322,74 @@ fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
         if role.entries.is_empty() {
             return Err(at(path, role.at, format!("role `{}` lists no recordings", role.name)));
         }
-        for e in &role.entries {
-            if e.name.is_empty() {
-                return Err(at(path, e.at, format!("entry \"{}\" names no recording file", e.listed)));
-            }
-            if let Some((r0, e0)) = seen.get(e.name.as_str()) {
-                let how = if r0.name == role.name {
-                    format!("twice in role `{}`", role.name)
-                } else {
-                    format!("in two roles, `{}` and `{}`", r0.name, role.name)
-                };
-                let same = if e0.listed == e.listed { String::new() } else { format!(" as \"{}\"", e0.listed) };
-                return Err(at(
-                    path,
-                    e.at,
-                    format!(
-                        "recording {} is listed {how} (first at line {}, column {}{same})",
-                        e.name, e0.at.line, e0.at.column
-                    ),
-                ));
-            }
-            seen.insert(&e.name, (role, e));
+        if let Some(e) = role.entries.iter().find(|e| e.name.is_empty()) {
+            return Err(at(path, e.at, format!("entry \"{}\" names no recording file", e.listed)));
+        }
+    }
+    if windowed {
+        check_windows(split)
+    } else {
+        check_recordings(split)
+    }
+}
+
+/// A whole recording is in one role, once.
+fn check_recordings(split: &PublishedSplit) -> Result<(), PublishedError> {
+    let mut seen: BTreeMap<&str, (&Role, &Entry)> = BTreeMap::new();
+    for (role, e) in split.entries() {
+        if let Some((r0, e0)) = seen.get(e.name.as_str()) {
+            let how = if r0.name == role.name {
+                format!("twice in role `{}`", role.name)
+            } else {
+                format!("in two roles, `{}` and `{}`", r0.name, role.name)
+            };
+            let same = if e0.listed == e.listed { String::new() } else { format!(" as \"{}\"", e0.listed) };
+            return Err(at(
+                &split.path,
+                e.at,
+                format!(
+                    "recording {} is listed {how} (first at line {}, column {}{same})",
+                    e.name, e0.at.line, e0.at.column
+                ),
+            ));
+        }
+        seen.insert(&e.name, (role, e));
+    }
+    Ok(())
+}
+
+/// A window is in a role once; the same window in two roles is what the
+/// audit reports (an overlap), not an error of the file.
+fn check_windows(split: &PublishedSplit) -> Result<(), PublishedError> {
+    let mut seen: BTreeMap<(&str, &str, u64, u64), Place> = BTreeMap::new();
+    for (role, e) in split.entries() {
+        let w = e.window.unwrap_or(Window { start_s: 0.0, end_s: 0.0 });
+        let key = (e.name.as_str(), role.name.as_str(), w.start_s.to_bits(), w.end_s.to_bits());
+        if let Some(first) = seen.insert(key, e.at) {
+            return Err(at(
+                &split.path,
+                e.at,
+                format!(
+                    "window [{}, {}) s of recording {} is listed twice in role `{}` (first at line {}, column {})",
+                    w.start_s, w.end_s, e.name, role.name, first.line, first.column
+                ),
+            ));
         }
     }
     Ok(())
 }
 
 // ------------------------------------------------------------------ CSV
+
+/// Where a split CSV's columns are.
+struct Columns {
+    format: Format,
+    recording: usize,
+    /// `role` or `fold`.
+    key: usize,
+    /// `start_s` and `end_s`, in a per-window split.
+    window: Option<(usize, usize)>,
+}
 
 fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedError> {
     // Lines are counted here: the csv crate's count is one short after
@@ -311,6 +402,53 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
         .iter()
         .map(|h| h.trim().to_string())
         .collect::<Vec<_>>();
+    let cols = csv_columns(path, text, &header)?;
+    let mut roles: Vec<Role> = Vec::new();
+    // Role name -> index in `roles`, so a long file reads in linear time.
+    let mut index: BTreeMap<String, usize> = BTreeMap::new();
+    for row in reader.records() {
+        let row = row.map_err(|e| csv_error(path, &lines, &e))?;
+        let start = row.position().map(|p| skip_breaks(text, p.byte() as usize)).unwrap_or(0);
+        let line = lines.line_of(start);
+        let place = |field: usize| Place { line, column: column_of(text, start, field) };
+        let listed = row.get(cols.recording).unwrap_or("").trim().to_string();
+        let value = row.get(cols.key).unwrap_or("").trim();
+        if listed.is_empty() {
+            return Err(at(path, place(cols.recording), "empty `recording`"));
+        }
+        let role = match cols.format {
+            Format::FoldCsv => match value.parse::<u32>() {
+                Ok(k) => format!("fold{k}"),
+                Err(_) => {
+                    return Err(at(
+                        path,
+                        place(cols.key),
+                        format!("fold \"{value}\" is not a fold number (0, 1, 2, ...)"),
+                    ))
+                }
+            },
+            _ if value.is_empty() => return Err(at(path, place(cols.key), "empty `role`")),
+            _ => value.to_string(),
+        };
+        let window = match cols.window {
+            Some((s, e)) => Some(window_of(path, &row, (s, place(s)), (e, place(e)))?),
+            None => None,
+        };
+        let entry = Entry { name: stem(&listed), listed, at: place(cols.recording), window };
+        match index.get(&role) {
+            Some(&k) => roles[k].entries.push(entry),
+            None => {
+                index.insert(role.clone(), roles.len());
+                roles.push(Role { name: role, at: place(cols.key), entries: vec![entry] });
+            }
+        }
+    }
+    Ok((cols.format, roles))
+}
+
+/// The header's columns: `recording`, one of `role` and `fold`, and
+/// `start_s` with `end_s` or neither; nothing else, nothing twice.
+fn csv_columns(path: &str, text: &str, header: &[String]) -> Result<Columns, PublishedError> {
     let first = Place { line: 1, column: 1 };
     let header_at = |k: usize| Place { line: 1, column: column_of(text, 0, k) };
     let mut columns: BTreeMap<&str, usize> = BTreeMap::new();
@@ -323,7 +461,7 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             ));
         }
     }
-    let find = |name: &str| header.iter().position(|h| h == name);
+    let find = |name: &str| columns.get(name).copied();
     let recording = find("recording")
         .ok_or_else(|| at(path, first, format!("the header ({}) has no `recording` column", header.join(","))))?;
     let (format, key) = match (find("role"), find("fold")) {
@@ -338,52 +476,54 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             ))
         }
     };
+    let expected = "a split CSV has the columns `recording` and `role` (or `fold`), and for a per-window split `start_s` and `end_s`, nothing else";
     for (k, h) in header.iter().enumerate() {
-        if !matches!(h.as_str(), "recording" | "role" | "fold") {
+        if !matches!(h.as_str(), "recording" | "role" | "fold" | "start_s" | "end_s") {
             return Err(at(
                 path,
                 header_at(k),
                 if h.is_empty() && k == 0 {
-                    "an unnamed first column (pandas writes its index there unless `to_csv(..., index=False)`): a split CSV has the columns `recording` and `role` (or `fold`), nothing else".to_string()
+                    format!("an unnamed first column (pandas writes its index there unless `to_csv(..., index=False)`): {expected}")
                 } else {
-                    format!("unknown column `{h}`: a split CSV has the columns `recording` and `role` (or `fold`), nothing else")
+                    format!("unknown column `{h}`: {expected}")
                 },
             ));
         }
     }
-    let mut roles: Vec<Role> = Vec::new();
-    // Role name -> index in `roles`, so a long file reads in linear time.
-    let mut index: BTreeMap<String, usize> = BTreeMap::new();
-    for row in reader.records() {
-        let row = row.map_err(|e| csv_error(path, &lines, &e))?;
-        let start = row.position().map(|p| skip_breaks(text, p.byte() as usize)).unwrap_or(0);
-        let line = lines.line_of(start);
-        let place = |field: usize| Place { line, column: column_of(text, start, field) };
-        let listed = row.get(recording).unwrap_or("").trim().to_string();
-        let value = row.get(key).unwrap_or("").trim();
-        if listed.is_empty() {
-            return Err(at(path, place(recording), "empty `recording`"));
-        }
-        let role = match format {
-            Format::FoldCsv => match value.parse::<u32>() {
-                Ok(k) => format!("fold{k}"),
-                Err(_) => {
-                    return Err(at(path, place(key), format!("fold \"{value}\" is not a fold number (0, 1, 2, ...)")))
-                }
-            },
-            _ if value.is_empty() => return Err(at(path, place(key), "empty `role`")),
-            _ => value.to_string(),
+    let window =
+        match (find("start_s"), find("end_s")) {
+            (Some(s), Some(e)) => Some((s, e)),
+            (None, None) => None,
+            (Some(k), None) | (None, Some(k)) => return Err(at(
+                path,
+                header_at(k),
+                "a per-window split gives both `start_s` and `end_s` (seconds from the recording's first timestamp)",
+            )),
         };
-        let entry = Entry { name: stem(&listed), listed, at: place(recording) };
-        match index.get(&role) {
-            Some(&k) => roles[k].entries.push(entry),
-            None => {
-                index.insert(role.clone(), roles.len());
-                roles.push(Role { name: role, at: place(key), entries: vec![entry] });
-            }
+    Ok(Columns { format, recording, key, window })
+}
+
+/// `[start_s, end_s)` of one row: numbers, the start at least 0, the end
+/// after it.
+fn window_of(
+    path: &str,
+    row: &csv::StringRecord,
+    (s, s_at): (usize, Place),
+    (e, e_at): (usize, Place),
+) -> Result<Window, PublishedError> {
+    let number = |k: usize, place: Place, name: &str| -> Result<f64, PublishedError> {
+        let v = row.get(k).unwrap_or("").trim();
+        match v.parse::<f64>() {
+            Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+            _ if v.is_empty() => Err(at(path, place, format!("empty `{name}`"))),
+            _ => Err(at(path, place, format!("`{name}` \"{v}\" is not a time in seconds (a number, 0 or more)"))),
         }
+    };
+    let (start_s, end_s) = (number(s, s_at, "start_s")?, number(e, e_at, "end_s")?);
+    if end_s <= start_s {
+        return Err(at(path, e_at, format!("the window ends at {end_s} s, not after its start at {start_s} s")));
     }
-    Ok((format, roles))
+    Ok(Window { start_s, end_s })
 }
 
 fn csv_error(path: &str, lines: &crate::io::LineIndex, e: &csv::Error) -> PublishedError {

@@ -15,9 +15,16 @@
 //! - each role's trajectory x speed composition and its total-variation
 //!   distance from the others.
 //!
+//! - distance in time: for each window of a role, the nearest window of
+//!   another role in the same recording (or a byte-identical copy), and
+//!   the share within a declared gap (see [`distance`]). A per-window split
+//!   lists one recording in several roles; comparisons of copies and
+//!   conditions above are between different recordings.
+//!
 //! Recordings in the data directory that no role lists are reported as
 //! unlisted.
 
+pub mod distance;
 mod render;
 mod runs;
 
@@ -29,20 +36,24 @@ use serde::Serialize;
 use crate::data::{self, AuditError, FileRow, Status};
 use crate::design::DataSpec;
 use crate::published::{Format, PublishedSplit};
+pub use distance::{PairDistance, WindowDistance, DEFAULT_GAP_S};
 
 /// Shared runs shorter than this many rows (1 s at 100 Hz) are not reported.
 pub const DEFAULT_MIN_RUN_ROWS: usize = 100;
 
 /// Knobs of the audit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Options {
     /// The shortest run of identical rows reported as near-leakage.
     pub min_run_rows: usize,
+    /// The declared gap, seconds: a window whose nearest window of another
+    /// role is closer than this is counted as within it.
+    pub gap_s: f64,
 }
 
 impl Default for Options {
     fn default() -> Options {
-        Options { min_run_rows: DEFAULT_MIN_RUN_ROWS }
+        Options { min_run_rows: DEFAULT_MIN_RUN_ROWS, gap_s: DEFAULT_GAP_S }
     }
 }
 
@@ -83,6 +94,9 @@ pub struct RecordingRow {
     pub line: usize,
     /// Its column in the split file.
     pub column: usize,
+    /// Windows the role lists of it, in a per-window split (line and
+    /// column are the first's); 0 where the entry is the whole recording.
+    pub windows: usize,
     /// Whether the data directory holds it.
     pub presence: Presence,
     /// Kept, dropped or absent under the audit's rules.
@@ -97,6 +111,8 @@ pub struct RecordingRow {
     pub rows: usize,
     /// Active rows.
     pub active_rows: usize,
+    /// First to last timestamp, seconds.
+    pub duration_s: f64,
     /// XXH3-128 of its data rows.
     pub content_hash: String,
     /// Byte-identical recordings in other roles, as `role:name`.
@@ -135,8 +151,13 @@ pub struct SharedRun {
 pub struct RoleSummary {
     /// Role name.
     pub role: String,
-    /// Entries the file declares.
+    /// Recordings the file declares in it.
     pub declared: usize,
+    /// Windows it declares, in a per-window split (0: whole recordings).
+    pub windows: usize,
+    /// Of its windows in kept recordings, those that end more than one
+    /// sample interval after the recording's last timestamp.
+    pub windows_past_end: usize,
     /// Entries with a CSV.
     pub with_csv: usize,
     /// Entries with only a metadata file.
@@ -216,6 +237,14 @@ pub struct SplitAudit {
     pub shared_runs: Vec<SharedRun>,
     /// Composition of the kept recordings.
     pub composition: Composition,
+    /// Whether the split assigns windows rather than whole recordings.
+    pub windowed: bool,
+    /// Distance in time, every ordered pair of distinct roles.
+    pub distances: Vec<PairDistance>,
+    /// Each window's nearest window in each other role where they share a
+    /// recording (split_windows.csv; not in the JSON).
+    #[serde(skip)]
+    pub windows: Vec<WindowDistance>,
     /// Every declared entry, then every unlisted recording.
     pub recordings: Vec<RecordingRow>,
 }
@@ -232,12 +261,20 @@ pub enum SplitAuditError {
 }
 
 impl SplitAudit {
-    /// Whether two roles hold byte-identical recordings (CSV present on both sides).
+    /// Whether two roles hold byte-identical recordings (CSV present on
+    /// both sides), or, in a per-window split, windows that share rows.
     pub fn has_exact_leak(&self) -> bool {
-        !self.exact.is_empty()
+        !self.exact.is_empty() || self.distances.iter().any(|d| d.overlapping > 0)
     }
 
-    /// Writes split_audit.md, split_audit.json and split_recordings.csv into `dir`.
+    /// Whether a window of one role lies within the declared gap of a
+    /// window of another.
+    pub fn has_gap_violation(&self) -> bool {
+        self.distances.iter().any(|d| d.within_gap > 0)
+    }
+
+    /// Writes split_audit.md, split_audit.json, split_recordings.csv and
+    /// split_windows.csv into `dir`.
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, SplitAuditError> {
         crate::io::create_dir_all(dir)?;
         let mut out = Vec::new();
@@ -245,6 +282,7 @@ impl SplitAudit {
             ("split_audit.md", self.to_markdown()),
             ("split_audit.json", crate::io::pretty_json(self)),
             ("split_recordings.csv", self.to_csv()),
+            ("split_windows.csv", self.windows_csv()),
         ] {
             let path = dir.join(name);
             crate::io::write_atomic(&path, text.as_bytes())?;
@@ -274,17 +312,24 @@ pub fn audit(
     let (data_audit, loaded) = data::audit_and_hash_rows(spec, dir)?;
     let by_name: BTreeMap<&str, usize> =
         data_audit.files.iter().enumerate().map(|(k, f)| (f.name.as_str(), k)).collect();
-    let mut rows: Vec<RecordingRow> = split
-        .entries()
-        .map(|(role, e)| {
-            let file = by_name.get(e.name.as_str()).map(|&k| &data_audit.files[k]);
-            let mut row = row_of(&e.name, file);
-            row.role = role.name.clone();
-            row.listed_as = e.listed.clone();
-            (row.line, row.column) = (e.at.line, e.at.column);
-            row
-        })
-        .collect();
+    // One row per role and recording: a per-window split lists a
+    // recording once per window.
+    let mut rows: Vec<RecordingRow> = Vec::new();
+    let mut row_at: BTreeMap<(&str, &str), usize> = BTreeMap::new();
+    for (role, e) in split.entries() {
+        if let Some(&k) = row_at.get(&(role.name.as_str(), e.name.as_str())) {
+            rows[k].windows += 1;
+            continue;
+        }
+        let file = by_name.get(e.name.as_str()).map(|&k| &data_audit.files[k]);
+        let mut row = row_of(&e.name, file);
+        row.role = role.name.clone();
+        row.listed_as = e.listed.clone();
+        (row.line, row.column) = (e.at.line, e.at.column);
+        row.windows = usize::from(e.window.is_some());
+        row_at.insert((&role.name, &e.name), rows.len());
+        rows.push(row);
+    }
     let declared: BTreeSet<&str> = split.entries().map(|(_, e)| e.name.as_str()).collect();
     for f in data_audit.files.iter().filter(|f| !declared.contains(f.name.as_str())) {
         rows.push(row_of(&f.name, Some(f)));
@@ -296,7 +341,11 @@ pub fn audit(
     let shared_runs = shared_runs(&mut rows, &hashed, options.min_run_rows);
     same_conditions(&mut rows);
     let role_names: Vec<String> = split.roles.iter().map(|r| r.name.clone()).collect();
-    let roles = role_names.iter().map(|r| summary(r, &rows)).collect();
+    let found = distance::distances(split, &rows, options.gap_s);
+    let mut roles: Vec<RoleSummary> = role_names.iter().map(|r| summary(r, &rows)).collect();
+    for r in &mut roles {
+        r.windows_past_end = found.past_end.get(&r.role).copied().unwrap_or(0);
+    }
     let pairs = pair_counts(&role_names, &rows, &shared_runs);
     let composition = composition(&role_names, &rows);
     Ok(SplitAudit {
@@ -313,6 +362,9 @@ pub fn audit(
         exact,
         shared_runs,
         composition,
+        windowed: split.is_windowed(),
+        distances: found.pairs,
+        windows: found.windows,
         recordings: rows,
     })
 }
@@ -325,6 +377,7 @@ fn row_of(name: &str, file: Option<&FileRow>) -> RecordingRow {
         listed_as: String::new(),
         line: 0,
         column: 0,
+        windows: 0,
         presence: Presence::Unknown,
         effect: Effect::Absent,
         reason: "no CSV and no metadata file of this name in the data directory".into(),
@@ -332,6 +385,7 @@ fn row_of(name: &str, file: Option<&FileRow>) -> RecordingRow {
         speed: parts.speed,
         rows: 0,
         active_rows: 0,
+        duration_s: 0.0,
         content_hash: String::new(),
         identical_in_other_roles: Vec::new(),
         longest_shared_run: None,
@@ -342,6 +396,7 @@ fn row_of(name: &str, file: Option<&FileRow>) -> RecordingRow {
     row.speed = f.speed.clone();
     row.rows = f.rows;
     row.active_rows = f.active_rows;
+    row.duration_s = f.duration_s;
     row.content_hash = f.content_hash.clone();
     // Notes (`note: ...`) on kept files are the data audit's, not a reason to drop.
     let reason = f.reason.split("; note: ").next().unwrap_or("").to_string();
@@ -353,7 +408,16 @@ fn row_of(name: &str, file: Option<&FileRow>) -> RecordingRow {
     row
 }
 
-/// Groups listed recordings by content; a group spanning two roles is a leak.
+/// Whether `b` is another recording in another role: copies and shared
+/// conditions are counted between such pairs only (in a per-window split
+/// a recording sits in several roles; its windows' distance is measured
+/// in [`distance`]).
+fn elsewhere(a: &RecordingRow, b: &RecordingRow) -> bool {
+    !b.role.is_empty() && a.role != b.role && a.recording != b.recording
+}
+
+/// Groups listed recordings by content; a group holding two recordings in
+/// two roles is a leak.
 fn exact_leaks(rows: &mut [RecordingRow]) -> Vec<ExactLeak> {
     let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     for (k, r) in rows.iter().enumerate() {
@@ -363,20 +427,25 @@ fn exact_leaks(rows: &mut [RecordingRow]) -> Vec<ExactLeak> {
     }
     let mut leaks = Vec::new();
     for (hash, members) in groups {
-        let roles: BTreeSet<&str> = members.iter().map(|&k| rows[k].role.as_str()).collect();
-        if roles.len() < 2 {
+        let spans = |kept: bool| {
+            members.iter().any(|&i| {
+                members.iter().any(|&j| {
+                    elsewhere(&rows[i], &rows[j])
+                        && (!kept || (rows[i].effect == Effect::Kept && rows[j].effect == Effect::Kept))
+                })
+            })
+        };
+        if !spans(false) {
             continue;
         }
+        let effective = spans(true);
         for &k in &members {
             rows[k].identical_in_other_roles = members
                 .iter()
-                .filter(|&&j| rows[j].role != rows[k].role)
+                .filter(|&&j| elsewhere(&rows[k], &rows[j]))
                 .map(|&j| format!("{}:{}", rows[j].role, rows[j].recording))
                 .collect();
         }
-        let kept_roles: BTreeSet<&str> =
-            members.iter().filter(|&&k| rows[k].effect == Effect::Kept).map(|&k| rows[k].role.as_str()).collect();
-        let effective = kept_roles.len() >= 2;
         let members = members
             .iter()
             .map(|&k| (rows[k].role.clone(), rows[k].recording.clone(), rows[k].effect == Effect::Kept))
@@ -419,14 +488,21 @@ fn shared_runs(rows: &mut [RecordingRow], hashed: &[(usize, &[u64])], min_rows: 
 /// For each kept listed recording: kept recordings of other roles with the
 /// same trajectory and speed.
 fn same_conditions(rows: &mut [RecordingRow]) {
-    let kept: Vec<(String, String, String)> = rows
+    let kept = |r: &RecordingRow| !r.role.is_empty() && r.effect == Effect::Kept;
+    let counts: Vec<usize> = rows
         .iter()
-        .filter(|r| !r.role.is_empty() && r.effect == Effect::Kept)
-        .map(|r| (r.role.clone(), r.trajectory.clone(), r.speed.clone()))
+        .map(|r| {
+            let same =
+                |o: &&RecordingRow| kept(o) && elsewhere(r, o) && o.trajectory == r.trajectory && o.speed == r.speed;
+            if kept(r) {
+                rows.iter().filter(same).count()
+            } else {
+                0
+            }
+        })
         .collect();
-    for r in rows.iter_mut().filter(|r| !r.role.is_empty() && r.effect == Effect::Kept) {
-        r.same_condition_in_other_roles =
-            kept.iter().filter(|(role, t, s)| *role != r.role && *t == r.trajectory && *s == r.speed).count();
+    for (r, n) in rows.iter_mut().zip(counts) {
+        r.same_condition_in_other_roles = n;
     }
 }
 
@@ -436,13 +512,13 @@ fn summary(role: &str, rows: &[RecordingRow]) -> RoleSummary {
     let kept_hashes: BTreeSet<&str> =
         mine.iter().filter(|r| r.effect == Effect::Kept).map(|r| r.content_hash.as_str()).collect();
     let kept_elsewhere = |r: &RecordingRow| {
-        rows.iter().any(|o| {
-            !o.role.is_empty() && o.role != r.role && o.effect == Effect::Kept && o.content_hash == r.content_hash
-        })
+        rows.iter().any(|o| elsewhere(r, o) && o.effect == Effect::Kept && o.content_hash == r.content_hash)
     };
     RoleSummary {
         role: role.to_string(),
         declared: mine.len(),
+        windows: mine.iter().map(|r| r.windows).sum(),
+        windows_past_end: 0,
         with_csv: count(&|r| r.presence == Presence::Csv),
         metadata_only: count(&|r| r.presence == Presence::MetadataOnly),
         unknown: count(&|r| r.presence == Presence::Unknown),
@@ -463,7 +539,10 @@ fn pair_counts(roles: &[String], rows: &[RecordingRow], runs: &[SharedRun]) -> V
                 !r.content_hash.is_empty()
                     && (!kept || r.effect == Effect::Kept)
                     && rows.iter().any(|o| {
-                        &o.role == other && o.content_hash == r.content_hash && (!kept || o.effect == Effect::Kept)
+                        &o.role == other
+                            && o.recording != r.recording
+                            && o.content_hash == r.content_hash
+                            && (!kept || o.effect == Effect::Kept)
                     })
             };
             let identical = mine.iter().filter(|r| copies(r, false)).count();
@@ -474,14 +553,16 @@ fn pair_counts(roles: &[String], rows: &[RecordingRow], runs: &[SharedRun]) -> V
                 .filter(|(me, them)| &me.0 == role && &them.0 == other)
                 .map(|(me, _)| me.1.as_str())
                 .collect();
-            let cells: BTreeSet<(&str, &str)> = rows
-                .iter()
-                .filter(|o| &o.role == other && o.effect == Effect::Kept)
-                .map(|o| (o.trajectory.as_str(), o.speed.as_str()))
-                .collect();
+            let theirs: Vec<&RecordingRow> =
+                rows.iter().filter(|o| &o.role == other && o.effect == Effect::Kept).collect();
             let same_condition = mine
                 .iter()
-                .filter(|r| r.effect == Effect::Kept && cells.contains(&(r.trajectory.as_str(), r.speed.as_str())))
+                .filter(|r| {
+                    r.effect == Effect::Kept
+                        && theirs
+                            .iter()
+                            .any(|o| o.recording != r.recording && o.trajectory == r.trajectory && o.speed == r.speed)
+                })
                 .count();
             out.push(PairCounts {
                 role: role.clone(),

@@ -22,6 +22,17 @@ fn c(s: &str) -> String {
     crate::io::md_code(s)
 }
 
+/// Seconds with up to three decimals, trailing zeros dropped.
+fn seconds(x: f64) -> String {
+    let v = format!("{x:.3}");
+    let v = v.trim_end_matches('0').trim_end_matches('.');
+    if v == "-0" {
+        "0".into()
+    } else {
+        v.to_string()
+    }
+}
+
 fn distance(d: f64) -> String {
     if d.is_finite() {
         format!("{d:.3}")
@@ -56,6 +67,7 @@ impl SplitAudit {
         self.findings(&mut s);
         self.membership(&mut s);
         self.leak_tables(&mut s);
+        self.distance_table(&mut s);
         self.composition_tables(&mut s);
         s
     }
@@ -114,20 +126,22 @@ impl SplitAudit {
             "- shared runs of identical rows between non-identical recordings across roles: {} pair(s).",
             self.shared_runs.len()
         );
+        self.distance_findings(s);
         let unlisted = self.recordings.iter().filter(|r| r.role.is_empty()).count();
         let _ = writeln!(s, "- recordings in the data directory that no role lists: {unlisted}.");
     }
 
     fn membership(&self, s: &mut String) {
         let _ = writeln!(s, "\n## Declared and effective membership\n");
-        let _ = writeln!(s, "| role | declared | with CSV | metadata only | unknown | dropped | effective | distinct contents | identical copy in another role | kept, with a kept copy elsewhere |");
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(s, "| role | declared | windows | with CSV | metadata only | unknown | dropped | effective | distinct contents | identical copy in another role | kept, with a kept copy elsewhere |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         for r in &self.roles {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 t(&r.role),
                 r.declared,
+                if self.windowed { r.windows.to_string() } else { "whole".to_string() },
                 r.with_csv,
                 r.metadata_only,
                 r.unknown,
@@ -204,6 +218,115 @@ impl SplitAudit {
                 );
             }
         }
+    }
+
+    fn distance_findings(&self, s: &mut String) {
+        let gap = self.options.gap_s;
+        if !self.windowed {
+            let shared: std::collections::BTreeSet<(&str, &str)> =
+                self.windows.iter().map(|w| (w.role.as_str(), w.recording.as_str())).collect();
+            let _ = writeln!(
+                s,
+                "- distance in time: the split assigns whole recordings, so roles meet only through byte-identical copies, which overlap entirely: {} kept recording(s) have a kept copy in another role. A per-window split (`start_s`, `end_s`) is measured window by window.",
+                shared.len()
+            );
+            return;
+        }
+        for d in &self.distances {
+            let median = d.quantiles_s.map(|q| format!("; median distance {} s", seconds(q[2]))).unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "- distance in time, {} against {}: {} of {} windows share a recording with one of {}; {} overlap one (rows in both roles); {} lie within the {} s gap{median}.",
+                c(&d.role),
+                c(&d.other),
+                d.in_shared_recording,
+                d.windows,
+                c(&d.other),
+                d.overlapping,
+                d.within_gap,
+                seconds(gap),
+            );
+        }
+        for r in self.roles.iter().filter(|r| r.windows_past_end > 0) {
+            let _ = writeln!(
+                s,
+                "- {} {} window(s) end after their recording's last timestamp: they name time the log does not hold (split_windows.csv, `past_end`).",
+                r.windows_past_end,
+                c(&r.role)
+            );
+        }
+    }
+
+    fn distance_table(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Distance in time between roles\n");
+        let _ = writeln!(
+            s,
+            "For each window of `role`, the nearest window of `other` in the same recording or a byte-identical copy of it: `max(0, b0 - a1, a0 - b1)` seconds between `[a0, a1)` and `[b0, b1)`, 0 where they touch; they overlap where they share time. A whole-recording entry is the window from its first to its last timestamp. The gap is {} s (`--gap`): a window closer than that to one of `other` is within it. Quantiles are R's `quantile` type 7, over the windows in a shared recording; each window's nearest is in split_windows.csv.\n",
+            seconds(self.options.gap_s)
+        );
+        let _ = writeln!(
+            s,
+            "| role | other | windows | in a shared recording | overlapping | within gap | min s | q1 s | median s | q3 s | max s |"
+        );
+        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for d in &self.distances {
+            let q = match d.quantiles_s {
+                Some(q) => q.map(seconds).join(" | "),
+                None => ["n/a"; 5].join(" | "),
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {q} |",
+                t(&d.role),
+                t(&d.other),
+                d.windows,
+                d.in_shared_recording,
+                d.overlapping,
+                d.within_gap
+            );
+        }
+    }
+
+    /// split_windows.csv: each window's nearest window in each other role
+    /// that shares its recording (or a byte-identical copy).
+    pub fn windows_csv(&self) -> String {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        let _ = w.write_record([
+            "role",
+            "recording",
+            "start_s",
+            "end_s",
+            "line",
+            "other",
+            "nearest_recording",
+            "nearest_start_s",
+            "nearest_end_s",
+            "nearest_line",
+            "distance_s",
+            "overlaps",
+            "within_gap",
+            "past_end",
+        ]);
+        for d in &self.windows {
+            let (rec, win, line) = &d.nearest;
+            let _ = w.write_record([
+                d.role.clone(),
+                d.recording.clone(),
+                d.window.start_s.to_string(),
+                d.window.end_s.to_string(),
+                d.line.to_string(),
+                d.other.clone(),
+                rec.clone(),
+                win.start_s.to_string(),
+                win.end_s.to_string(),
+                line.to_string(),
+                d.distance_s.to_string(),
+                d.overlaps.to_string(),
+                (d.distance_s < self.options.gap_s).to_string(),
+                d.past_end.to_string(),
+            ]);
+        }
+        String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
     }
 
     fn composition_tables(&self, s: &mut String) {

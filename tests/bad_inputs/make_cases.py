@@ -662,3 +662,15 @@ design("r5_design_starts_within_zero",
        MINIMAL.replace("starts 5 horizon 100", "starts 5 within first 0% horizon 100"))
 case("r5_split_starts_within_too_short", "split {dir}/study.design --out {out}",
      {"study.design": SMALL.replace("starts 10 horizon 100", "starts 10 within first 5% horizon 100")})
+
+# Issue 59: per-window split files. A window that ends before it starts, a
+# start with no end column, a negative start, and the same window twice in
+# one role are errors at their line and column.
+split_case("r5_split_window_ends_before_start", "split.csv",
+           "recording,role,start_s,end_s\nS1_circle_slow_rep1,train,0,1\nS1_circle_slow_rep1,test,2,1.5\n")
+split_case("r5_split_window_start_without_end", "split.csv",
+           "recording,role,start_s\nS1_circle_slow_rep1,train,0\n")
+split_case("r5_split_window_negative_start", "split.csv",
+           "recording,role,start_s,end_s\nS1_circle_slow_rep1,train,-0.5,1\n")
+split_case("r5_split_window_twice_in_role", "split.csv",
+           "recording,role,start_s,end_s\nS1_circle_slow_rep1,train,0,1\nS1_circle_slow_rep1,test,1,2\nS1_circle_slow_rep1.csv,train,0,1\n")

@@ -309,9 +309,11 @@ pub(crate) enum DataCommand {
 #[derive(Subcommand)]
 pub(crate) enum AuditCommand {
     /// Audit a published split (NanoBench split_metadata.json, a
-    /// recording,role CSV, or a fold list): declared vs effective
-    /// membership, identical recordings across roles, shared runs of rows,
-    /// and each role's trajectory x speed composition.
+    /// recording,role CSV, a fold list, or a per-window CSV with start_s and
+    /// end_s): declared vs effective membership, identical recordings
+    /// across roles, shared runs of rows, each window's distance in time to
+    /// the nearest window of another role in the same recording, and each
+    /// role's trajectory x speed composition.
     Split {
         /// The split file (.json or .csv).
         split: PathBuf,
@@ -322,16 +324,33 @@ pub(crate) enum AuditCommand {
         /// loader's: active motor_motor_m1 > 1000, plausibility bounds pooled].
         #[arg(long)]
         design: Option<PathBuf>,
-        /// Output directory for split_audit.md, split_audit.json, split_recordings.csv.
+        /// Output directory for split_audit.md, split_audit.json,
+        /// split_recordings.csv, split_windows.csv.
         #[arg(long, default_value = "split_audit")]
         out: PathBuf,
         /// Shortest run of identical rows reported between non-identical recordings.
         #[arg(long, default_value_t = crossaudit::split_audit::DEFAULT_MIN_RUN_ROWS,
               value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
         min_run: usize,
+        /// The gap, in seconds, a window should keep from every window of
+        /// another role in the same recording; the audit counts the windows
+        /// closer than that.
+        #[arg(long, default_value_t = crossaudit::split_audit::DEFAULT_GAP_S, value_name = "SECONDS",
+              value_parser = positive_seconds)]
+        gap: f64,
         /// `leak`: exit with status 3 when two roles hold byte-identical
-        /// recordings (after writing every output), for a benchmark's CI.
-        #[arg(long, value_parser = ["leak"])]
+        /// recordings or overlapping windows; `gap`: also when a window
+        /// lies within `--gap` of another role's (after writing every
+        /// output), for a benchmark's CI.
+        #[arg(long, value_parser = ["leak", "gap"])]
         fail_on: Option<String>,
     },
+}
+
+/// A gap in seconds: a finite number above 0.
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("\"{s}\" is not a number of seconds above 0")),
+    }
 }

@@ -27,10 +27,12 @@ fn main() -> ExitCode {
         Err(e) => return clap_exit(&e, color),
     };
     let result = match cli.command {
-        Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, fail_on } } => {
-            match audit_split(&split, &data, design.as_deref(), &out, min_run) {
-                Ok(true) if fail_on.is_some() => {
-                    note!("exact leakage found: exiting with status 3 (--fail-on leak)");
+        Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, gap, fail_on } } => {
+            let options = crossaudit::split_audit::Options { min_run_rows: min_run, gap_s: gap };
+            match audit_split(&split, &data, design.as_deref(), &out, options) {
+                Ok((leak, close)) if (leak && fail_on.is_some()) || (close && fail_on.as_deref() == Some("gap")) => {
+                    let what = if leak { "exact leakage found" } else { "windows within the gap found" };
+                    note!("{what}: exiting with status 3 (--fail-on {})", fail_on.as_deref().unwrap_or_default());
                     if let Err(e) = output::flush() {
                         output::note_raw(&render(&e, color));
                     }
@@ -131,8 +133,15 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
     Ok(())
 }
 
-/// Returns whether exact leakage was found.
-fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min_run: usize) -> Result<bool, Error> {
+/// Returns whether exact leakage (copies or overlapping windows across
+/// roles) was found, and whether a window lies within the gap.
+fn audit_split(
+    split: &Path,
+    data: &Path,
+    design: Option<&Path>,
+    out: &Path,
+    options: crossaudit::split_audit::Options,
+) -> Result<(bool, bool), Error> {
     let published = crossaudit::published::read(split)?;
     let (spec, from) = match design {
         Some(d) => (design::load(d)?.design.data, format!("data rules of {}", d.display())),
@@ -143,7 +152,6 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
     }
     crossaudit::run::check_out_dir(data, out)?;
     let _lock = lock_folder(out, false)?;
-    let options = crossaudit::split_audit::Options { min_run_rows: min_run };
     let audit = crossaudit::split_audit::audit(&published, &spec, &from, data, options)?;
     let written = audit.write(out)?;
     out!("{}", audit.summary());
@@ -171,7 +179,7 @@ fn audit_split(split: &Path, data: &Path, design: Option<&Path>, out: &Path, min
         }
         .into());
     }
-    Ok(audit.has_exact_leak())
+    Ok((audit.has_exact_leak(), audit.has_gap_violation()))
 }
 
 fn split(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Error> {

@@ -88,7 +88,7 @@ impl Validator {
             (true, Some(dir)) => resolve(dir),
             _ => resolve(&file.node),
         };
-        let split = match read {
+        let split = match read.and_then(crate::published::PublishedSplit::whole_recordings) {
             Ok(s) => s,
             Err(e) => {
                 self.err_help(
