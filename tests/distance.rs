@@ -129,6 +129,48 @@ fn contaminating_windows_lie_at_the_declared_distance_from_every_evaluated_segme
     );
 }
 
+/// `after segments`: every contaminating window lies after the last
+/// evaluated segment of its recording, recomputed from the manifests; with
+/// the starts in the first 40% of each recording the rest supplies them;
+/// with starts anywhere, too few are left and the split is refused at the
+/// clause.
+#[test]
+fn after_segments_draws_only_from_the_part_past_the_last_segment() {
+    const HORIZON: usize = 100;
+    let dir = tempfile::tempdir().unwrap();
+    let path = design_with(dir.path(), "after.design", "after segments");
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(&path, text.replace("starts 10 horizon 100", "starts 10 within first 40% horizon 100")).unwrap();
+    let out = dir.path().join("after");
+    assert_ok(&split(&path, &out));
+    let mut last: BTreeMap<String, usize> = BTreeMap::new();
+    for (r, s) in rows(&out.join("manifests/evaluation_starts.csv")) {
+        let e = last.entry(r).or_default();
+        *e = (*e).max(s);
+    }
+    let windows = rows(&out.join("manifests/contaminating_contaminated.csv"));
+    assert_eq!(windows.len(), 750);
+    for (r, t) in &windows {
+        assert!(*t > last[r] + HORIZON, "{r} row {t}: not after the last segment, which ends at {}", last[r] + HORIZON);
+    }
+    assert!(
+        windows.iter().map(|(r, _)| r).collect::<std::collections::BTreeSet<_>>().len() == 4,
+        "from every recording"
+    );
+    let o =
+        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &path.display().to_string()]).output().unwrap();
+    assert_ok(&o);
+    assert!(crate::common::stdout(&o).contains("registered starts excluded, after segments (seed 7)"));
+
+    // Starts anywhere in the 15 s recordings leave too little after the
+    // last segment for 60% of the 3,000 fit windows.
+    let everywhere = design_with(dir.path(), "everywhere.design", "after segments");
+    let text = std::fs::read_to_string(&everywhere).unwrap();
+    std::fs::write(&everywhere, text.replace("replace 25%", "replace 60%")).unwrap();
+    let o = split(&everywhere, &dir.path().join("everywhere"));
+    assert_refused(&o, "contaminating windows after segments");
+}
+
 #[test]
 fn a_distance_the_recordings_cannot_supply_is_refused_at_its_clause() {
     let dir = tempfile::tempdir().unwrap();

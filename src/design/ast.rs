@@ -274,12 +274,24 @@ pub enum ArmBody {
         from: Ident,
         percents: Vec<Number>,
         exclude_starts: bool,
-        /// `at least G s` (max None) or `G1 s to G2 s from segments`, and
-        /// the clause's span; several gaps (`at least 0 s, 5 s`) declare a
-        /// distance-dose family.
-        distance: Option<(Vec<Number>, Option<Number>, Span)>,
+        distance: Option<DistanceClause>,
         seed: Int,
     },
+}
+
+/// `at least G s from segments` (`most` None), `G1 s to G2 s from
+/// segments`, or `after segments`, as written; several gaps (`at least 0
+/// s, 5 s`) declare a distance-dose family.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DistanceClause {
+    /// The least distances (empty for `after segments`).
+    pub least: Vec<Number>,
+    /// A band's end.
+    pub most: Option<Number>,
+    /// `after segments`.
+    pub after: bool,
+    /// The clause.
+    pub span: Span,
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -303,18 +303,22 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
         let span = span_of(&clause);
         let form = kids(clause).next();
         let band = form.as_rule() == Rule::distance_band;
-        let mut numbers = kids(form);
-        let mut least = vec![number(numbers.next())?];
-        let mut most = None;
-        while numbers.peek_rule().is_some() {
-            let n = number(numbers.next())?;
-            if band {
-                most = Some(n);
-            } else {
-                least.push(n);
+        if form.as_rule() == Rule::distance_after {
+            Some(DistanceClause { least: Vec::new(), most: None, after: true, span })
+        } else {
+            let mut numbers = kids(form);
+            let mut least = vec![number(numbers.next())?];
+            let mut most = None;
+            while numbers.peek_rule().is_some() {
+                let n = number(numbers.next())?;
+                if band {
+                    most = Some(n);
+                } else {
+                    least.push(n);
+                }
             }
+            Some(DistanceClause { least, most, after: false, span })
         }
-        Some((least, most, span))
     } else {
         None
     };

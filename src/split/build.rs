@@ -411,7 +411,12 @@ impl<'a> Universe<'a> {
             .copied()
             .filter(|w| {
                 let of = by_recording.get(&w.recording).map_or(&[][..], Vec::as_slice);
-                segment_distance(w.t, of, horizon).is_some_and(|n| d.admits(n, rate))
+                if d.after_segments {
+                    // Sharing no row with any segment, and after the last.
+                    !of.is_empty() && of.iter().all(|&s| w.t > s + horizon)
+                } else {
+                    segment_distance(w.t, of, horizon).is_some_and(|n| d.admits(n, rate))
+                }
             })
             .collect();
         let needed = members.iter().map(|(_, p)| replaced(*p, base)).max().unwrap_or(0);

@@ -73,7 +73,7 @@ pub enum SplitError {
     Write(#[from] crate::io::WriteError),
     /// The evaluation windows at the declared distance from the evaluated
     /// segments are fewer than an arm replaces.
-    #[error("arm {arm}: {needed} contaminating windows {clause} (design byte {offset}) were asked for, but the evaluation recordings hold {available} such windows{starts} (of {pool} in all); declare a smaller distance, a lower share, or more evaluation recordings")]
+    #[error("arm {arm}: {needed} contaminating windows {clause} (design byte {offset}) were asked for, but the evaluation recordings hold {available} such windows{starts} (of {pool} in all); declare a smaller distance, a lower share, more evaluation recordings, or (for `after segments`) starts within a first part of each recording")]
     TooFewAtDistance {
         /// The arm (the first dose of a family that asks for the most).
         arm: String,

@@ -674,3 +674,6 @@ split_case("r5_split_window_negative_start", "split.csv",
            "recording,role,start_s,end_s\nS1_circle_slow_rep1,train,-0.5,1\n")
 split_case("r5_split_window_twice_in_role", "split.csv",
            "recording,role,start_s,end_s\nS1_circle_slow_rep1,train,0,1\nS1_circle_slow_rep1,test,1,2\nS1_circle_slow_rep1.csv,train,0,1\n")
+# `after segments` spelled wrong names the distance forms.
+design("r5_design_distance_after_segment_typo",
+       MINIMAL.replace("exclude starts seed 3", "exclude starts after segment seed 3"))

@@ -140,8 +140,8 @@ fn rule_name(rule: &Rule) -> String {
         }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
         Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
-        Rule::window_distance | Rule::distance_at_least | Rule::distance_band => {
-            "a distance (`at least G s from segments` or `G1 s to G2 s from segments`)"
+        Rule::window_distance | Rule::distance_at_least | Rule::distance_band | Rule::distance_after => {
+            "a distance (`at least G s from segments`, `G1 s to G2 s from segments` or `after segments`)"
         }
         Rule::mlp | Rule::baseline => "a model kind (mlp(...), persistence, constant_velocity)",
         Rule::input_kind => "an input map (world, relative)",

@@ -82,7 +82,9 @@ impl Validator {
         let seed = self.nonneg(seed, "the contamination seed");
         let starts = if *exclude_starts { StartsPolicy::Exclude } else { StartsPolicy::Allow };
         let distances = distance.as_ref().map(|d| self.window_distances(d)).unwrap_or_default();
-        if let (true, Some((gaps, _, _))) = (percents.len() > 1, distance.as_ref().filter(|d| d.0.len() > 1)) {
+        if let (true, Some(DistanceClause { least: gaps, .. })) =
+            (percents.len() > 1, distance.as_ref().filter(|d| d.least.len() > 1))
+        {
             self.err_help(
                 "doses on two axes",
                 gaps[1].span,
@@ -319,7 +321,11 @@ impl Validator {
     /// The clause's distance ranges: one, or one per gap of a distance-dose
     /// family (`at least 0 s, 5 s from segments`), each at least 0, listed
     /// once, at most [`limits::DOSES`] of them.
-    fn window_distances(&mut self, (gaps, most, span): &(Vec<Number>, Option<Number>, Span)) -> Vec<WindowDistance> {
+    fn window_distances(&mut self, clause: &DistanceClause) -> Vec<WindowDistance> {
+        let DistanceClause { least: gaps, most, after, span } = clause;
+        if *after {
+            return vec![WindowDistance { min_s: 0.0, max_s: None, after_segments: true, offset: span.start }];
+        }
         if let Some(first_over) = gaps.get(limits::DOSES) {
             self.too_large(first_over.span, "the number of distances", gaps.len() as u64, limits::DOSES as u64);
         }
@@ -343,7 +349,12 @@ impl Validator {
                 );
                 continue;
             }
-            out.push(WindowDistance { min_s: least.node, max_s: most.as_ref().map(|m| m.node), offset: span.start });
+            out.push(WindowDistance {
+                min_s: least.node,
+                max_s: most.as_ref().map(|m| m.node),
+                after_segments: false,
+                offset: span.start,
+            });
         }
         out
     }
