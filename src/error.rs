@@ -38,6 +38,9 @@ pub enum Error {
     /// A coverage study failed.
     #[error(transparent)]
     Coverage(#[from] crate::methods::CoverageError),
+    /// A replications file could not be summarised.
+    #[error(transparent)]
+    Simsum(#[from] crate::methods::simsum::SimsumFileError),
     /// The power planner failed.
     #[error(transparent)]
     Power(#[from] crate::methods::PowerError),

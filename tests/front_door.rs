@@ -277,6 +277,25 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
         ("nanobench_split", &["split", "designs/nanobench_confirmatory.design", "--out"], true),
         ("nanobench_split_audited", &["split", "designs/nanobench_audited.design", "--out"], true),
         (
+            "simsum_rsimsum",
+            &[
+                "simsum",
+                "results/coverage_rsimsum/replications.csv",
+                "--by",
+                "setting",
+                "--true",
+                "true_mean",
+                "--level",
+                "level",
+                "--ci",
+                "ci_lower,ci_upper",
+                "--rep",
+                "rep",
+                "--out",
+            ],
+            false,
+        ),
+        (
             "upstream_split_audit",
             &[
                 "audit",

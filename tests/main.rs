@@ -39,6 +39,7 @@ mod reuse;
 mod run;
 mod run_integrity;
 mod segments;
+mod simsum;
 mod simulate;
 mod slurm;
 mod slurm_external;

@@ -9,6 +9,7 @@ pub mod draw_coverage;
 pub mod draw_power;
 pub mod formula_file;
 pub mod power;
+pub mod simsum;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};
 pub use draw_power::{draw_power_plan, DrawComponents, DrawPowerPlan, DrawPowerRow};

@@ -677,3 +677,12 @@ split_case("r5_split_window_twice_in_role", "split.csv",
 # `after segments` spelled wrong names the distance forms.
 design("r5_design_distance_after_segment_typo",
        MINIMAL.replace("exclude starts seed 3", "exclude starts after segment seed 3"))
+
+# Issue 60: `crossaudit simsum` on someone's replications. A field that is
+# not a number, a column that is not there, and a level outside (0, 1).
+case("r5_simsum_estimate_not_a_number", "simsum {dir}/reps.csv --true 0 --out {out}",
+     {"reps.csv": "method,rep,estimate,se\nA,1,0.1,0.2\nA,2,1e,0.2\n"})
+case("r5_simsum_no_true_column", "simsum {dir}/reps.csv --true theta --out {out}",
+     {"reps.csv": "method,rep,estimate,se\nA,1,0.1,0.2\n"})
+case("r5_simsum_level_out_of_range", "simsum {dir}/reps.csv --true 0 --level 95 --out {out}",
+     {"reps.csv": "method,rep,estimate,se\nA,1,0.1,0.2\n"})

@@ -20,6 +20,7 @@ pub mod mixed;
 mod ratio;
 pub mod resampling;
 mod rng;
+pub mod simsum;
 
 /// The names most uses need, in one import: `use crossaudit_stats::prelude::*;`.
 ///

@@ -165,6 +165,12 @@ pub(crate) enum Command {
         #[arg(long)]
         replications: bool,
     },
+    /// Anyone's simulation study in: rsimsum's performance measures with
+    /// their Monte Carlo SEs from a replications CSV (one row per method
+    /// and replication), methods paired by replication id, and each method
+    /// against the reference with paired MCSEs. Writes simsum.csv (tidy, as
+    /// rsimsum's `tidy()`) and simsum.md.
+    Simsum(SimsumArgs),
     /// Predict SE, interval width and the probability the decision rule holds
     /// for other numbers of recordings and seeds (and splits, or draws), from
     /// pilot per-cell data; for a dose-response design, of the slope over
@@ -353,4 +359,46 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
         Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
         _ => Err(format!("\"{s}\" is not a number of seconds above 0")),
     }
+}
+
+/// `crossaudit simsum`'s arguments.
+#[derive(clap::Args)]
+pub(crate) struct SimsumArgs {
+    /// The replications CSV.
+    pub(crate) file: PathBuf,
+    /// The estimate column.
+    #[arg(long, default_value = "estimate")]
+    pub(crate) estimate: String,
+    /// The standard-error column.
+    #[arg(long, default_value = "se")]
+    pub(crate) se: String,
+    /// The method column.
+    #[arg(long, default_value = "method")]
+    pub(crate) method: String,
+    /// The replication-id column (methods are paired by it; without
+    /// one, by row order within each group, as rsimsum pairs them).
+    #[arg(long)]
+    pub(crate) rep: Option<String>,
+    /// By-factor columns, comma-separated: one group per combination.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) by: Vec<String>,
+    /// The true value: a number, or the column holding it.
+    #[arg(long = "true", value_name = "VALUE|COLUMN")]
+    pub(crate) truth: String,
+    /// The intervals' level: a number, or the column holding it.
+    #[arg(long, default_value = "0.95", value_name = "VALUE|COLUMN")]
+    pub(crate) level: String,
+    /// Interval-limit columns, `LOWER,UPPER` [default: estimate +/- the
+    /// t (with --df) or normal quantile times the SE].
+    #[arg(long, value_name = "LOWER,UPPER")]
+    pub(crate) ci: Option<String>,
+    /// The df column (for intervals computed from the SE).
+    #[arg(long)]
+    pub(crate) df: Option<String>,
+    /// The reference method [default: each group's first].
+    #[arg(long = "ref")]
+    pub(crate) reference: Option<String>,
+    /// Output directory for simsum.csv and simsum.md.
+    #[arg(long, default_value = "simsum")]
+    pub(crate) out: PathBuf,
 }

@@ -60,6 +60,7 @@ fn main() -> ExitCode {
         Command::Job { dir, index } => slurm_job(&dir, index),
         Command::Gather { dir } => slurm_gather(&dir),
         Command::Coverage { spec, reps, out, replications } => methods::coverage(&spec, reps, &out, replications),
+        Command::Simsum(args) => methods::simsum(args),
         Command::Plan { design, cells, recordings, seeds, splits, draws, out } => {
             methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out)
         }

@@ -174,3 +174,42 @@ pub(crate) fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool)
     }
     Ok(())
 }
+
+/// `crossaudit simsum`: reads, scores and writes a replications file.
+pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
+    use crossaudit::methods::simsum as ss;
+    let (file, out) = (a.file.as_path(), a.out.as_path());
+    let mut cols = ss::Columns {
+        estimate: a.estimate,
+        se: a.se,
+        method: a.method,
+        rep: a.rep,
+        by: a.by,
+        truth: a.truth,
+        level: a.level,
+        ci: None,
+        df: a.df,
+        reference: a.reference,
+    };
+    if let Some(ci) = a.ci.as_deref() {
+        match ci.split_once(',') {
+            Some((l, u)) if !l.trim().is_empty() && !u.trim().is_empty() && !u.contains(',') => {
+                cols.ci = Some((l.trim().to_string(), u.trim().to_string()))
+            }
+            _ => {
+                return Err(ss::SimsumFileError::Read {
+                    path: file.display().to_string(),
+                    message: format!("--ci \"{ci}\": give the two interval-limit columns as LOWER,UPPER"),
+                }
+                .into())
+            }
+        }
+    }
+    let _lock = lock_folder(out, false)?;
+    let groups = ss::summarise(file, &cols)?;
+    out!("{}", ss::summary(&groups));
+    for p in ss::write(&groups, &cols.by, &file.display().to_string(), out)? {
+        note!("wrote {}", p.display());
+    }
+    Ok(())
+}

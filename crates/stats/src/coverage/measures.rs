@@ -70,7 +70,7 @@ fn performance_around(
 }
 
 /// Pearson's correlation (R's `cor`: centred sums, two passes).
-fn correlation(pairs: &[(f64, f64)]) -> f64 {
+pub(crate) fn correlation(pairs: &[(f64, f64)]) -> f64 {
     let n = pairs.len() as f64;
     let (ma, mb) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
     let sab: f64 = pairs.iter().map(|(a, b)| (a - ma) * (b - mb)).sum();

@@ -1,0 +1,279 @@
+//! rsimsum's performance measures on anyone's replications: a simulation
+//! study's estimates (with SEs, and optionally interval limits and df)
+//! per method, replication and group of by-factors, scored as R's rsimsum
+//! 0.13 (`simsum`, White 2010; Morris, White & Crowther 2019, Table 6)
+//! scores them, with two differences, both said in the output:
+//!
+//! - methods are paired **by replication id**, not by row order, for the
+//!   relative precision's correlation and for the paired differences; a
+//!   file without ids is paired by order within each group, as rsimsum
+//!   does, and [`Group::paired_by`] says so;
+//! - each method is also compared with the reference method replication
+//!   by replication: the difference in coverage, bias and mean interval
+//!   width with its **paired** Monte Carlo SE (the SD of the per-replication
+//!   differences over sqrt(n)), which two separate MCSEs overstate when
+//!   the methods are correlated.
+//!
+//! Where no interval limits are given, the interval is estimate +/- c SE,
+//! c the t quantile at the row's df where given, else the normal's
+//! (rsimsum's rule); power is always |estimate| >= z SE (rsimsum's
+//! default). A replication with a missing estimate, SE or limit is left
+//! out of its method's measures and counted in `undefined`.
+//!
+//! ```
+//! use crossaudit_stats::simsum::{simsum, Replication};
+//! let reps: Vec<Replication> = (0..4)
+//!     .flat_map(|r| {
+//!         ["A", "B"].into_iter().map(move |m| Replication {
+//!             by: vec![],
+//!             method: m.to_string(),
+//!             rep: Some(r.to_string()),
+//!             estimate: 1.0 + 0.1 * r as f64 + if m == "B" { 0.05 } else { 0.0 },
+//!             se: 0.2,
+//!             limits: None,
+//!             df: None,
+//!             truth: 1.0,
+//!             level: 0.95,
+//!         })
+//!     })
+//!     .collect();
+//! let groups = simsum(&reps, Some("A")).unwrap();
+//! let b = &groups[0].methods[1];
+//! assert_eq!(b.method, "B");
+//! // B is A shifted by 0.05 in every replication: the paired bias
+//! // difference is exact, its paired MCSE 0.
+//! let d = b.versus_reference.as_ref().unwrap();
+//! assert!((d.bias_diff - 0.05).abs() < 1e-12 && d.bias_diff_mcse.abs() < 1e-12);
+//! ```
+
+use std::collections::BTreeMap;
+
+use crate::coverage::{performance_at, Estimate, Performance};
+use crate::IntervalMethod;
+
+/// One method's result in one replication.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Replication {
+    /// The values of the by-factors (the same order in every replication).
+    pub by: Vec<String>,
+    /// The method.
+    pub method: String,
+    /// The replication id; `None` where the file has none.
+    pub rep: Option<String>,
+    /// The estimate (NaN: missing).
+    pub estimate: f64,
+    /// Its standard error (NaN: missing).
+    pub se: f64,
+    /// Interval limits, where the file gives them.
+    pub limits: Option<(f64, f64)>,
+    /// Degrees of freedom, where given (NaN: infinite).
+    pub df: Option<f64>,
+    /// The true value.
+    pub truth: f64,
+    /// The intervals' nominal level.
+    pub level: f64,
+}
+
+/// How a group's methods were paired.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pairing {
+    /// By replication id.
+    Id,
+    /// By order within the group (no ids): rsimsum's rule.
+    Order,
+}
+
+/// A method against the reference method, replication by replication.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Paired {
+    /// Replications where both are usable.
+    pub pairs: usize,
+    /// Coverage of this method minus the reference's.
+    pub coverage_diff: f64,
+    /// Its paired Monte Carlo SE.
+    pub coverage_diff_mcse: f64,
+    /// Bias (equally: mean estimate) of this method minus the reference's.
+    pub bias_diff: f64,
+    /// Its paired Monte Carlo SE.
+    pub bias_diff_mcse: f64,
+    /// Mean interval width of this method minus the reference's.
+    pub width_diff: f64,
+    /// Its paired Monte Carlo SE.
+    pub width_diff_mcse: f64,
+}
+
+/// One method's measures in one group.
+#[derive(Debug, Clone)]
+pub struct MethodPerformance {
+    /// The method.
+    pub method: String,
+    /// rsimsum's measures (and crossaudit's further ones: widths, misses,
+    /// rejection, type S) with their MCSEs; `setting` holds the group's
+    /// by-values, `method` is a placeholder (the name is [`Self::method`]).
+    pub performance: Performance,
+    /// Against the reference method (None for the reference itself).
+    pub versus_reference: Option<Paired>,
+}
+
+/// One group: one combination of by-values, true value and level.
+#[derive(Debug, Clone)]
+pub struct Group {
+    /// The by-values.
+    pub by: Vec<String>,
+    /// The true value.
+    pub truth: f64,
+    /// The nominal level.
+    pub level: f64,
+    /// The reference method (relative precision and paired differences).
+    pub reference: String,
+    /// How methods were paired.
+    pub paired_by: Pairing,
+    /// Every method, in the order first seen.
+    pub methods: Vec<MethodPerformance>,
+}
+
+/// Why replications cannot be summarised.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimsumError {
+    /// No replications.
+    #[error("no replications")]
+    Empty,
+    /// The reference method does not occur in a group.
+    #[error("the reference method `{reference}` has no replications in group {group}")]
+    NoReference {
+        /// The method asked for.
+        reference: String,
+        /// The group, as by-values.
+        group: String,
+    },
+    /// A replication id occurs twice for one method in one group.
+    #[error("replication {rep} of method `{method}` occurs twice in group {group}")]
+    DuplicateRep {
+        /// The id.
+        rep: String,
+        /// The method.
+        method: String,
+        /// The group.
+        group: String,
+    },
+}
+
+type Key = (Vec<String>, u64, u64);
+
+/// The measures of every method in every group (by-values, true value and
+/// level), groups in the order first seen. `reference` names the method
+/// others are compared with; by default each group's first.
+pub fn simsum(reps: &[Replication], reference: Option<&str>) -> Result<Vec<Group>, SimsumError> {
+    if reps.is_empty() {
+        return Err(SimsumError::Empty);
+    }
+    let mut order: Vec<Key> = Vec::new();
+    let mut groups: BTreeMap<Key, Vec<&Replication>> = BTreeMap::new();
+    for r in reps {
+        let key = (r.by.clone(), r.truth.to_bits(), r.level.to_bits());
+        let g = groups.entry(key.clone()).or_default();
+        if g.is_empty() {
+            order.push(key);
+        }
+        g.push(r);
+    }
+    order.iter().map(|key| group(&groups[key], reference)).collect()
+}
+
+fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, SimsumError> {
+    let first = rows[0];
+    let label = if first.by.is_empty() { "(all)".to_string() } else { first.by.join(" / ") };
+    let mut methods: Vec<&str> = Vec::new();
+    for r in rows {
+        if !methods.contains(&r.method.as_str()) {
+            methods.push(&r.method);
+        }
+    }
+    let reference = reference.unwrap_or(methods[0]).to_string();
+    if !methods.contains(&reference.as_str()) {
+        return Err(SimsumError::NoReference { reference, group: label });
+    }
+    let paired_by = if rows.iter().all(|r| r.rep.is_some()) { Pairing::Id } else { Pairing::Order };
+    // Per method: replications keyed by id (or position), in file order.
+    let mut by_method: Vec<(&str, Vec<(String, Estimate)>)> = Vec::new();
+    for &m in &methods {
+        let mut seen = BTreeMap::new();
+        let mut list = Vec::new();
+        for (k, r) in rows.iter().filter(|r| r.method == m).enumerate() {
+            let id = match (&r.rep, paired_by) {
+                (Some(id), Pairing::Id) => id.clone(),
+                _ => k.to_string(),
+            };
+            if seen.insert(id.clone(), ()).is_some() {
+                return Err(SimsumError::DuplicateRep { rep: id, method: m.to_string(), group: label });
+            }
+            list.push((id, interval(r)));
+        }
+        by_method.push((m, list));
+    }
+    let reference_reps = &by_method.iter().find(|(m, _)| *m == reference).map(|(_, l)| l.clone()).unwrap_or_default();
+    let usable_theta = |l: &[(String, Estimate)]| -> Vec<f64> {
+        l.iter().filter(|(_, e)| crate::coverage::usable(e)).map(|(_, e)| e.0).collect()
+    };
+    let empse_ref = crate::sample_variance(&usable_theta(reference_reps)).sqrt();
+    let mut out = Vec::new();
+    for (m, list) in &by_method {
+        let est: Vec<Estimate> = list.iter().map(|(_, e)| *e).collect();
+        let mut p = performance_at(&label, IntervalMethod::MomT, &est, &[], first.truth, first.level);
+        let pairs = paired(reference_reps, list);
+        let ratio2 = (empse_ref / p.emp_se).powi(2);
+        p.rel_precision = 100.0 * (ratio2 - 1.0);
+        let rho = crate::coverage::correlation(&pairs.iter().map(|(a, b)| (a.0, b.0)).collect::<Vec<_>>());
+        p.rel_precision_mcse = 200.0 * ratio2 * ((1.0 - rho * rho).max(0.0) / (p.reps as f64 - 1.0)).sqrt();
+        let versus_reference = (*m != reference).then(|| differences(&pairs, first.truth));
+        out.push(MethodPerformance { method: m.to_string(), performance: p, versus_reference });
+    }
+    Ok(Group { by: first.by.clone(), truth: first.truth, level: first.level, reference, paired_by, methods: out })
+}
+
+/// A replication as (estimate, SE, lower, upper): its limits, or estimate
+/// +/- c SE with c the t quantile at its df (the normal's without one).
+fn interval(r: &Replication) -> Estimate {
+    let (lower, upper) = match r.limits {
+        Some(l) => l,
+        None => {
+            let df = r.df.unwrap_or(f64::INFINITY);
+            let df = if df.is_nan() { f64::INFINITY } else { df };
+            let c = crate::critical_value(r.level, df).unwrap_or(f64::NAN);
+            (r.estimate - c * r.se, r.estimate + c * r.se)
+        }
+    };
+    (r.estimate, r.se, lower, upper)
+}
+
+/// The replications both methods estimated, matched by id.
+fn paired(reference: &[(String, Estimate)], mine: &[(String, Estimate)]) -> Vec<(Estimate, Estimate)> {
+    let theirs: BTreeMap<&str, &Estimate> = reference.iter().map(|(id, e)| (id.as_str(), e)).collect();
+    mine.iter()
+        .filter_map(|(id, e)| theirs.get(id.as_str()).map(|r| (**r, *e)))
+        .filter(|(a, b)| crate::coverage::usable(a) && crate::coverage::usable(b))
+        .collect()
+}
+
+fn differences(pairs: &[(Estimate, Estimate)], truth: f64) -> Paired {
+    let n = pairs.len() as f64;
+    let mean_and_mcse = |d: Vec<f64>| -> (f64, f64) {
+        let mean = d.iter().sum::<f64>() / n;
+        let mcse = if d.len() >= 2 { (crate::sample_variance(&d) / n).sqrt() } else { f64::NAN };
+        (mean, mcse)
+    };
+    let covers = |e: &Estimate| f64::from(u8::from(e.2 <= truth && truth <= e.3));
+    let (coverage_diff, coverage_diff_mcse) = mean_and_mcse(pairs.iter().map(|(a, b)| covers(b) - covers(a)).collect());
+    let (bias_diff, bias_diff_mcse) = mean_and_mcse(pairs.iter().map(|(a, b)| b.0 - a.0).collect());
+    let (width_diff, width_diff_mcse) = mean_and_mcse(pairs.iter().map(|(a, b)| (b.3 - b.2) - (a.3 - a.2)).collect());
+    Paired {
+        pairs: pairs.len(),
+        coverage_diff,
+        coverage_diff_mcse,
+        bias_diff,
+        bias_diff_mcse,
+        width_diff,
+        width_diff_mcse,
+    }
+}

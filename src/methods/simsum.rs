@@ -1,0 +1,394 @@
+//! `crossaudit simsum`: anyone's simulation study in. A replications CSV
+//! (one row per method and replication: estimate, SE, optionally interval
+//! limits, df, a replication id and by-factors; the true value and the
+//! level as numbers or columns) is read with every bad field located at
+//! its line and column, scored by [`crate::stats::simsum`] (rsimsum's
+//! measures with their MCSEs, methods paired by replication id), and
+//! written as `simsum.csv` (tidy: one row per group, method and measure,
+//! as rsimsum's `tidy()`) and `simsum.md`.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::stats::simsum::{simsum, Group, Pairing, Replication};
+
+/// Which columns hold what; `truth` and `level` are a number or a column.
+#[derive(Debug, Clone)]
+pub struct Columns {
+    /// The estimate column.
+    pub estimate: String,
+    /// The SE column.
+    pub se: String,
+    /// The method column.
+    pub method: String,
+    /// The replication-id column, if any.
+    pub rep: Option<String>,
+    /// By-factor columns.
+    pub by: Vec<String>,
+    /// The true value: a number, or the column holding it.
+    pub truth: String,
+    /// The level: a number, or the column holding it.
+    pub level: String,
+    /// Lower and upper interval-limit columns, if any.
+    pub ci: Option<(String, String)>,
+    /// The df column, if any.
+    pub df: Option<String>,
+    /// The reference method; by default each group's first.
+    pub reference: Option<String>,
+}
+
+/// Why a replications file cannot be summarised.
+#[derive(Debug, thiserror::Error)]
+pub enum SimsumFileError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {message}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        message: String,
+    },
+    /// Something at a place in the file is wrong.
+    #[error("{path}:{line}:{column}: {message}")]
+    At {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column (the field's number).
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A command-line value is out of range.
+    #[error("{0}")]
+    Flag(String),
+    /// The replications cannot be summarised.
+    #[error("{path}: {source}")]
+    Summary {
+        /// The file.
+        path: String,
+        /// Why.
+        source: crate::stats::simsum::SimsumError,
+    },
+    /// An output could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::WriteError),
+}
+
+/// Reads `path` and scores it.
+pub fn summarise(path: &Path, cols: &Columns) -> Result<Vec<Group>, SimsumFileError> {
+    let shown = path.display().to_string();
+    let reps = read(path, cols)?;
+    simsum(&reps, cols.reference.as_deref()).map_err(|source| SimsumFileError::Summary { path: shown, source })
+}
+
+/// Where each declared column is; the true value and level as a number
+/// (`Ok`) or a column (`Err(index)`).
+struct Located {
+    estimate: usize,
+    se: usize,
+    method: usize,
+    rep: Option<usize>,
+    by: Vec<usize>,
+    ci: Option<(usize, usize)>,
+    df: Option<usize>,
+    truth: Result<f64, usize>,
+    level: Result<f64, usize>,
+    level_column: usize,
+}
+
+type At<'a> = &'a dyn Fn(usize, usize, String) -> SimsumFileError;
+
+fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFileError> {
+    let find = |name: &str, flag: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| at(1, 1, format!("no column `{name}` ({flag}); the header has {}", header.join(","))))
+    };
+    let number_or_column = |v: &str, flag: &str| -> Result<Result<f64, usize>, SimsumFileError> {
+        match v.parse::<f64>() {
+            Ok(x) => Ok(Ok(x)),
+            Err(_) => find(v, flag).map(Err),
+        }
+    };
+    let ci = match &cols.ci {
+        Some((l, u)) => Some((find(l, "--ci")?, find(u, "--ci")?)),
+        None => None,
+    };
+    let level = number_or_column(&cols.level, "--level")?;
+    if let Ok(x) = level.as_ref().copied() {
+        if !(x > 0.0 && x < 1.0) {
+            return Err(SimsumFileError::Flag(format!("--level {x} is not between 0 and 1 (0.95 is a 95% interval)")));
+        }
+    }
+    Ok(Located {
+        estimate: find(&cols.estimate, "--estimate")?,
+        se: find(&cols.se, "--se")?,
+        method: find(&cols.method, "--method")?,
+        rep: cols.rep.as_deref().map(|r| find(r, "--rep")).transpose()?,
+        by: cols.by.iter().map(|b| find(b, "--by")).collect::<Result<_, _>>()?,
+        ci,
+        df: cols.df.as_deref().map(|d| find(d, "--df")).transpose()?,
+        truth: number_or_column(&cols.truth, "--true")?,
+        level_column: level.err().map_or(1, |k| k + 1),
+        level,
+    })
+}
+
+fn read(path: &Path, cols: &Columns) -> Result<Vec<Replication>, SimsumFileError> {
+    let shown = path.display().to_string();
+    let bytes = crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a replications file")
+        .map_err(|e| SimsumFileError::Read { path: shown.clone(), message: e.reason() })?;
+    let at = |line: usize, column: usize, message: String| SimsumFileError::At {
+        path: shown.clone(),
+        line,
+        column,
+        message,
+    };
+    let text = String::from_utf8(bytes).map_err(|_| at(1, 1, "not UTF-8".into()))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let lines = crate::io::LineIndex::new(text.as_bytes());
+    let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(text.as_bytes());
+    let header: Vec<String> =
+        reader.headers().map_err(|e| at(1, 1, e.to_string()))?.iter().map(|h| h.trim().to_string()).collect();
+    let loc = locate(&header, cols, &at)?;
+    let mut out = Vec::new();
+    for row in reader.records() {
+        let row = row.map_err(|e| {
+            let line = e.position().map(|p| lines.line_of(p.byte() as usize)).unwrap_or(1);
+            at(line, 1, e.to_string())
+        })?;
+        let line = row.position().map(|p| lines.line_of(p.byte() as usize)).unwrap_or(1);
+        out.push(replication(&row, line, &loc, &at)?);
+    }
+    if out.is_empty() {
+        return Err(at(1, 1, "the file holds a header and no replications".into()));
+    }
+    Ok(out)
+}
+
+/// One row as a replication; a bad field is an error at its column.
+fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> Result<Replication, SimsumFileError> {
+    let field = |k: usize| row.get(k).unwrap_or("").trim();
+    // A missing value (empty, NA, NaN) is NaN; anything else must be a number.
+    let value = |k: usize, what: &str| -> Result<f64, SimsumFileError> {
+        match field(k) {
+            "" | "NA" | "NaN" | "nan" => Ok(f64::NAN),
+            v => v.parse::<f64>().ok().filter(|x| !x.is_infinite() || what == "df").ok_or_else(|| {
+                at(line, k + 1, format!("{what} \"{v}\" is not a number (write NA for a missing value)"))
+            }),
+        }
+    };
+    let given = |v: &Result<f64, usize>, what: &str| -> Result<f64, SimsumFileError> {
+        match v {
+            Ok(x) => Ok(*x),
+            Err(k) => match value(*k, what)? {
+                x if x.is_finite() => Ok(x),
+                _ => Err(at(line, k + 1, format!("the {what} is missing"))),
+            },
+        }
+    };
+    let truth = given(&loc.truth, "true value")?;
+    let level = given(&loc.level, "level")?;
+    if !(level > 0.0 && level < 1.0) {
+        return Err(at(line, loc.level_column, format!("level {level} is not between 0 and 1")));
+    }
+    if field(loc.method).is_empty() {
+        return Err(at(line, loc.method + 1, "empty method".into()));
+    }
+    let limits = match loc.ci {
+        Some((l, u)) => Some((value(l, "lower limit")?, value(u, "upper limit")?)),
+        None => None,
+    };
+    Ok(Replication {
+        by: loc.by.iter().map(|&k| field(k).to_string()).collect(),
+        method: field(loc.method).to_string(),
+        rep: loc.rep.map(|k| field(k).to_string()),
+        estimate: value(loc.estimate, "estimate")?,
+        se: value(loc.se, "SE")?,
+        limits,
+        df: loc.df.map(|k| value(k, "df")).transpose()?,
+        truth,
+        level,
+    })
+}
+
+/// The measures written, in rsimsum's names and order, then crossaudit's.
+const STATS: [&str; 14] = [
+    "nsim",
+    "bias",
+    "rbias",
+    "empse",
+    "mse",
+    "relprec",
+    "modelse",
+    "relerror",
+    "cover",
+    "becover",
+    "power",
+    "width",
+    "undefined",
+    "rejection",
+];
+
+fn stat(p: &crate::stats::coverage::Performance, name: &str) -> (f64, f64) {
+    match name {
+        "nsim" => (p.reps as f64, f64::NAN),
+        "bias" => (p.bias, p.bias_mcse),
+        "rbias" => (p.rel_bias, p.rel_bias_mcse),
+        "empse" => (p.emp_se, p.emp_se_mcse),
+        "mse" => (p.mse, p.mse_mcse),
+        "relprec" => (p.rel_precision, p.rel_precision_mcse),
+        "modelse" => (p.mod_se, p.mod_se_mcse),
+        "relerror" => (p.rel_error_mod_se, p.rel_error_mod_se_mcse),
+        "cover" => (p.coverage, p.coverage_mcse),
+        "becover" => (p.be_coverage, p.be_coverage_mcse),
+        "power" => (p.power, p.power_mcse),
+        "width" => (p.mean_width, p.mean_width_mcse),
+        "undefined" => (p.undefined as f64, f64::NAN),
+        _ => (p.rejection, p.rejection_mcse),
+    }
+}
+
+fn num(x: f64) -> String {
+    if x.is_nan() {
+        "NA".into()
+    } else {
+        format!("{x}")
+    }
+}
+
+/// simsum.csv: by-columns, true, level, method, stat, est, mcse; then the
+/// paired differences against the reference as stats `cover_diff`,
+/// `bias_diff`, `width_diff`.
+pub fn to_csv(groups: &[Group], by: &[String]) -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut head: Vec<String> = by.to_vec();
+    head.extend(["true", "level", "method", "stat", "est", "mcse"].map(String::from));
+    let _ = w.write_record(&head);
+    for g in groups {
+        for m in &g.methods {
+            let mut rows: Vec<(&str, f64, f64)> =
+                STATS.iter().map(|s| (*s, stat(&m.performance, s))).map(|(s, (e, c))| (s, e, c)).collect();
+            if let Some(d) = &m.versus_reference {
+                rows.push(("cover_diff", d.coverage_diff, d.coverage_diff_mcse));
+                rows.push(("bias_diff", d.bias_diff, d.bias_diff_mcse));
+                rows.push(("width_diff", d.width_diff, d.width_diff_mcse));
+            }
+            for (s, e, c) in rows {
+                let mut rec = g.by.clone();
+                rec.extend([num(g.truth), num(g.level), m.method.clone(), s.to_string(), num(e), num(c)]);
+                let _ = w.write_record(&rec);
+            }
+        }
+    }
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+}
+
+/// simsum.md: per group, each method's main measures as `est (MCSE)`, and
+/// each method against the reference with paired MCSEs.
+pub fn to_markdown(groups: &[Group], by: &[String], source: &str) -> String {
+    let mut s = format!("# Simulation study: {}\n\n", crate::io::md_text(source));
+    let by_id = groups.iter().all(|g| g.paired_by == Pairing::Id);
+    let _ = writeln!(
+        s,
+        "Measures as R's rsimsum 0.13 computes them (Monte Carlo SEs in brackets). Methods are paired {} for the relative precision and the paired differences{}.\n",
+        if by_id { "by replication id" } else { "by order within each group" },
+        if by_id { "" } else { " (the file has no replication ids, or some rows lack one: rsimsum's rule, which pairs wrongly if rows are not in the same order for every method)" }
+    );
+    let f = |e: f64, c: f64| if c.is_nan() { num(e) } else { format!("{} ({})", fmt4(e), fmt4(c)) };
+    for g in groups {
+        let label: Vec<String> = by
+            .iter()
+            .zip(&g.by)
+            .map(|(n, v)| format!("{} = {}", crate::io::md_text(n), crate::io::md_text(v)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "## {}true {}, level {}\n",
+            if label.is_empty() { String::new() } else { format!("{}, ", label.join(", ")) },
+            num(g.truth),
+            num(g.level)
+        );
+        let _ = writeln!(s, "| method | n | bias | empirical SE | model SE | relative error (%) | coverage | bias-eliminated coverage | power | relative precision vs {} (%) |", crate::io::md_text(&g.reference));
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for m in &g.methods {
+            let p = &m.performance;
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                crate::io::md_text(&m.method),
+                p.reps,
+                f(p.bias, p.bias_mcse),
+                f(p.emp_se, p.emp_se_mcse),
+                f(p.mod_se, p.mod_se_mcse),
+                f(p.rel_error_mod_se, p.rel_error_mod_se_mcse),
+                f(p.coverage, p.coverage_mcse),
+                f(p.be_coverage, p.be_coverage_mcse),
+                f(p.power, p.power_mcse),
+                f(p.rel_precision, p.rel_precision_mcse),
+            );
+        }
+        let _ =
+            writeln!(s, "\nAgainst {}, replication by replication (paired MCSEs):\n", crate::io::md_text(&g.reference));
+        let _ = writeln!(s, "| method | pairs | coverage difference | bias difference | width difference |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+        for m in &g.methods {
+            if let Some(d) = &m.versus_reference {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} |",
+                    crate::io::md_text(&m.method),
+                    d.pairs,
+                    f(d.coverage_diff, d.coverage_diff_mcse),
+                    f(d.bias_diff, d.bias_diff_mcse),
+                    f(d.width_diff, d.width_diff_mcse)
+                );
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+fn fmt4(x: f64) -> String {
+    if x.is_nan() {
+        "NA".into()
+    } else if x != 0.0 && x.abs() < 1e-3 {
+        format!("{x:.2e}")
+    } else {
+        format!("{x:.4}")
+    }
+}
+
+/// Writes simsum.csv and simsum.md into `out`.
+pub fn write(groups: &[Group], by: &[String], source: &str, out: &Path) -> Result<Vec<PathBuf>, SimsumFileError> {
+    crate::io::create_dir_all(out)?;
+    let mut written = Vec::new();
+    for (name, text) in [("simsum.csv", to_csv(groups, by)), ("simsum.md", to_markdown(groups, by, source))] {
+        let p = out.join(name);
+        crate::io::write_atomic(&p, text.as_bytes())?;
+        written.push(p);
+    }
+    Ok(written)
+}
+
+/// The groups' count per pairing, for the console.
+pub fn summary(groups: &[Group]) -> String {
+    let methods: BTreeMap<&str, ()> =
+        groups.iter().flat_map(|g| g.methods.iter().map(|m| (m.method.as_str(), ()))).collect();
+    let by_order = groups.iter().filter(|g| g.paired_by == Pairing::Order).count();
+    format!(
+        "{} group(s), {} method(s){}\n",
+        groups.len(),
+        methods.len(),
+        if by_order > 0 {
+            format!("; {by_order} group(s) paired by row order (no replication ids)")
+        } else {
+            String::new()
+        }
+    )
+}

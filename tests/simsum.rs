@@ -1,0 +1,206 @@
+//! `crossaudit simsum`: anyone's replications in. Every measure and MCSE
+//! against rsimsum 0.13 (scripts/reference/simsum_check.R, its values
+//! committed in simsum_check.csv; rsimsum's own MIsim and relhaz studies
+//! are compared there too, see simsum_check.out), pairing by replication
+//! id, the paired MCSEs against a hand computation, and bad files refused
+//! at their line and column.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+use crate::common::{assert_ok, assert_refused, root};
+
+fn simsum(file: &Path, args: &[&str], out: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(root())
+        .arg("simsum")
+        .arg(file)
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+const OWN: [&str; 10] =
+    ["--by", "setting", "--true", "true_mean", "--level", "level", "--ci", "ci_lower,ci_upper", "--rep", "rep"];
+
+/// setting, true, level, method, stat.
+type Key = (String, String, String, String, String);
+
+/// (group and method, stat) -> (est, mcse) from a simsum.csv-shaped file.
+fn table(path: &Path) -> BTreeMap<Key, (f64, f64)> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let num = |s: &str| if s == "NA" { f64::NAN } else { s.parse::<f64>().unwrap() };
+    r.records()
+        .map(|row| {
+            let row = row.unwrap();
+            let key = (
+                row[0].to_string(),
+                num(&row[1]).to_string(),
+                num(&row[2]).to_string(),
+                row[3].to_string(),
+                row[4].to_string(),
+            );
+            (key, (num(&row[5]), num(&row[6])))
+        })
+        .collect()
+}
+
+#[test]
+fn every_measure_matches_rsimsum_on_the_committed_replications() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = simsum(&root().join("results/coverage_rsimsum/replications.csv"), &OWN, tmp.path());
+    assert_ok(&o);
+    let ours = table(&tmp.path().join("simsum.csv"));
+    let theirs = table(&root().join("scripts/reference/simsum_check.csv"));
+    assert_eq!(theirs.len(), 1936);
+    let undefined = |key: &Key| {
+        let k = (key.0.clone(), key.1.clone(), key.2.clone(), key.3.clone(), "undefined".to_string());
+        ours[&k].0
+    };
+    let mut rsimsum_na = 0;
+    for (key, (e, m)) in &theirs {
+        let (oe, om) = ours.get(key).unwrap_or_else(|| panic!("{key:?} missing"));
+        // rsimsum's rbias MCSE is sd(...) / sqrt(nsim) without na.rm: NA
+        // whenever one replication lacks an estimate. Here it is computed
+        // over the replications scored, as every other MCSE.
+        if key.4 == "rbias" && m.is_nan() && om.is_finite() {
+            assert!(undefined(key) > 0.0, "{key:?}");
+            rsimsum_na += 1;
+            continue;
+        }
+        // A method with the reference's very estimates: rho = 1, so the
+        // relative precision's MCSE is 0; rsimsum's cor() lands a rounding
+        // below 1 and the square root of 1 - rho^2 lifts it to ~1e-7.
+        let rounding = key.4 == "relprec" && *om == 0.0 && *m < 1e-6;
+        for (a, b, what) in [(oe, e, "est"), (om, m, "mcse")] {
+            if rounding && what == "mcse" {
+                continue;
+            }
+            let same = (a.is_nan() && b.is_nan()) || (a - b).abs() <= 1e-10 * b.abs().max(1.0);
+            assert!(same, "{key:?} {what}: {a} here, {b} in rsimsum");
+        }
+    }
+    assert!(rsimsum_na > 0 && rsimsum_na < 20, "{rsimsum_na}");
+    let report = std::fs::read_to_string(root().join("scripts/reference/simsum_check.out")).unwrap();
+    assert!(report.contains("MIsim: 63 values compared") && report.contains("relhaz: 252 values compared"), "{report}");
+}
+
+/// Two methods over six replications, written by hand (truth 0). B is A
+/// plus 0.1 in replications 1-3 and minus 0.1 in 4-6, its intervals 0.2 wider
+/// throughout. A covers 0 in replications 3, 4, 5; B in 2, 3, 4. So the
+/// per-replication differences (B - A) are: coverage (0, 1, 0, 0, -1, 0),
+/// mean 0, sample variance 2 / 5 = 0.4, paired MCSE sqrt(0.4 / 6); bias
+/// (.1, .1, .1, -.1, -.1, -.1), mean 0, variance 6 (0.01) / 5 = 0.012,
+/// MCSE sqrt(0.012 / 6); width 0.2 each, MCSE 0.
+const HAND: &str = "method,rep,estimate,se,lower,upper
+A,1,0.5,0.3,0.2,0.8
+A,2,0.5,0.3,0.1,0.9
+A,3,-0.2,0.3,-0.5,0.1
+A,4,0.1,0.3,-0.2,0.4
+A,5,0.0,0.3,-0.3,0.3
+A,6,0.4,0.3,0.1,0.7
+B,1,0.6,0.3,0.2,1.0
+B,2,0.6,0.3,0.0,1.0
+B,3,-0.1,0.3,-0.5,0.3
+B,4,0.0,0.3,-0.4,0.4
+B,5,-0.1,0.3,0.05,0.85
+B,6,0.3,0.3,0.1,0.9
+";
+
+#[test]
+fn paired_differences_and_their_mcses_by_hand() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("hand.csv");
+    std::fs::write(&file, HAND).unwrap();
+    let o = simsum(&file, &["--true", "0", "--ci", "lower,upper", "--rep", "rep"], &tmp.path().join("out"));
+    assert_ok(&o);
+    let rows: BTreeMap<String, (f64, f64)> = csv::Reader::from_path(tmp.path().join("out/simsum.csv"))
+        .unwrap()
+        .records()
+        .map(|r| r.unwrap())
+        .filter(|r| &r[2] == "B")
+        .map(|r| (r[3].to_string(), (r[4].parse().unwrap_or(f64::NAN), r[5].parse().unwrap_or(f64::NAN))))
+        .collect();
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    let (c, cm) = rows["cover_diff"];
+    assert!(close(c, 0.0) && close(cm, (0.4f64 / 6.0).sqrt()), "{c} {cm}");
+    let (b, bm) = rows["bias_diff"];
+    assert!(close(b, 0.0) && close(bm, (0.012f64 / 6.0).sqrt()), "{b} {bm}");
+    let (w, wm) = rows["width_diff"];
+    assert!(close(w, 0.2) && wm.abs() < 1e-12, "{w} {wm}");
+    // Each coverage is 1/2 with MCSE sqrt(0.25 / 6) = 0.204: two unpaired
+    // MCSEs combine to sqrt(2) 0.204 = 0.289, the paired one is 0.258.
+    let (cov, cov_mcse) = rows["cover"];
+    assert!(close(cov, 0.5) && close(cov_mcse, (0.25f64 / 6.0).sqrt()), "{cov} {cov_mcse}");
+}
+
+/// Rows of one method in another order: pairing by id gives the same
+/// result; without ids (rsimsum's pairing by order) the relative
+/// precision's MCSE changes, and the report says how it paired.
+#[test]
+fn methods_are_paired_by_replication_id_not_row_order() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut lines: Vec<&str> = HAND.lines().collect();
+    lines[7..].reverse();
+    let shuffled = tmp.path().join("shuffled.csv");
+    std::fs::write(&shuffled, lines.join("\n") + "\n").unwrap();
+    let plain = tmp.path().join("plain.csv");
+    std::fs::write(&plain, HAND).unwrap();
+    let run = |file: &Path, rep: bool, out: &str| {
+        let mut args = vec!["--true", "0", "--ci", "lower,upper"];
+        if rep {
+            args.extend(["--rep", "rep"]);
+        }
+        assert_ok(&simsum(file, &args, &tmp.path().join(out)));
+        std::fs::read_to_string(tmp.path().join(out).join("simsum.csv")).unwrap()
+    };
+    // The same numbers but for the last bits of sums taken in another order.
+    let same = |x: &str, y: &str| {
+        x.lines().zip(y.lines()).all(|(a, b)| {
+            a.split(',').zip(b.split(',')).all(|(u, v)| match (u.parse::<f64>(), v.parse::<f64>()) {
+                (Ok(p), Ok(q)) => (p - q).abs() <= 1e-12 * p.abs().max(1.0),
+                _ => u == v,
+            })
+        })
+    };
+    assert!(same(&run(&plain, true, "a"), &run(&shuffled, true, "b")));
+    assert!(!same(&run(&plain, false, "c"), &run(&shuffled, false, "d")));
+    let md = std::fs::read_to_string(tmp.path().join("d/simsum.md")).unwrap();
+    assert!(md.contains("paired by order within each group"), "{md}");
+    let md = std::fs::read_to_string(tmp.path().join("b/simsum.md")).unwrap();
+    assert!(md.contains("paired by replication id"), "{md}");
+}
+
+#[test]
+fn bad_replication_files_are_refused_where_they_are() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cases: [(&str, &[&str], &str); 6] = [
+        ("method,estimate,se\nA,x,1\n", &["--true", "0"], "bad.csv:2:2: estimate \"x\" is not a number"),
+        ("method,estimate,se\nA,1,1\n", &["--true", "truth"], "no column `truth` (--true)"),
+        (
+            "method,estimate,se,lvl\nA,1,1,95\n",
+            &["--true", "0", "--level", "lvl"],
+            "bad.csv:2:4: level 95 is not between 0 and 1",
+        ),
+        (
+            "method,estimate,se\nA,1,1\n",
+            &["--true", "0", "--ci", "lower"],
+            "give the two interval-limit columns as LOWER,UPPER",
+        ),
+        (
+            "method,rep,estimate,se\nA,1,1,1\nA,1,2,1\n",
+            &["--true", "0", "--rep", "rep"],
+            "replication 1 of method `A` occurs twice",
+        ),
+        ("method,estimate,se\nA,1,1\n", &["--true", "0", "--ref", "B"], "the reference method `B` has no replications"),
+    ];
+    for (k, (text, args, needle)) in cases.iter().enumerate() {
+        let file = tmp.path().join("bad.csv");
+        std::fs::write(&file, text).unwrap();
+        let o = simsum(&file, args, &tmp.path().join(format!("out{k}")));
+        assert_refused(&o, needle);
+    }
+}
