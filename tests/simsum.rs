@@ -135,11 +135,41 @@ fn paired_differences_and_their_mcses_by_hand() {
     // MCSEs combine to sqrt(2) 0.204 = 0.289, the paired one is 0.258.
     let (cov, cov_mcse) = rows["cover"];
     assert!(close(cov, 0.5) && close(cov_mcse, (0.25f64 / 6.0).sqrt()), "{cov} {cov_mcse}");
+    // Agresti-Coull: 3 of 6 cover, (3 + 2) / (6 + 4) = 0.5, SE sqrt(0.25 / 10).
+    let (ac, ac_mcse) = rows["cover_ac"];
+    assert!(close(ac, 0.5) && close(ac_mcse, 0.025f64.sqrt()), "{ac} {ac_mcse}");
+    // Interval scores at alpha = 0.05 (width + 40 x the miss), by hand:
+    // A: 0.6 + 8, 0.8 + 4, 0.6, 0.6, 0.6, 0.6 + 4; B: 0.8 + 8, 1.0, 0.8,
+    // 0.8, 0.8 + 2, 0.8 + 4. B - A: 0.2, -3.8, 0.2, 0.2, 2.2, 0.2.
+    let b_scores = [8.8, 1.0, 0.8, 0.8, 2.8, 4.8];
+    let diffs = [0.2, -3.8, 0.2, 0.2, 2.2, 0.2];
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let mcse = |v: &[f64]| (v.iter().map(|x| (x - mean(v)).powi(2)).sum::<f64>() / 5.0 / 6.0).sqrt();
+    let (is, is_mcse) = rows["interval_score"];
+    assert!(close(is, mean(&b_scores)) && close(is_mcse, mcse(&b_scores)), "{is} {is_mcse}");
+    let (isd, isd_mcse) = rows["interval_score_diff"];
+    assert!(close(isd, mean(&diffs)) && close(isd_mcse, mcse(&diffs)), "{isd} {isd_mcse}");
 }
 
 /// Rows of one method in another order: pairing by id gives the same
 /// result; without ids (rsimsum's pairing by order) the relative
 /// precision's MCSE changes, and the report says how it paired.
+/// Every interval covers: rsimsum's MCSE is 0, Agresti and Coull's is
+/// sqrt(0.8 x 0.2 / 10) for 6 of 6 ((6 + 2) / (6 + 4) = 0.8).
+#[test]
+fn a_coverage_of_one_still_has_an_mcse() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("all.csv");
+    let rows: String = (1..=6).map(|r| format!("A,{r},0.1,0.3,-0.5,0.7\n")).collect();
+    std::fs::write(&file, format!("method,rep,estimate,se,lower,upper\n{rows}")).unwrap();
+    assert_ok(&simsum(&file, &["--true", "0", "--ci", "lower,upper", "--rep", "rep"], &tmp.path().join("out")));
+    let text = std::fs::read_to_string(tmp.path().join("out/simsum.csv")).unwrap();
+    assert!(text.contains("\n0,0.95,A,cover,1,0\n"), "{text}");
+    let ac = text.lines().find(|l| l.contains(",cover_ac,")).unwrap();
+    let mcse: f64 = ac.rsplit(',').next().unwrap().parse().unwrap();
+    assert!((mcse - (0.8f64 * 0.2 / 10.0).sqrt()).abs() < 1e-15, "{ac}");
+}
+
 #[test]
 fn methods_are_paired_by_replication_id_not_row_order() {
     let tmp = tempfile::tempdir().unwrap();

@@ -261,9 +261,10 @@ fn num(x: f64) -> String {
     }
 }
 
-/// simsum.csv: by-columns, true, level, method, stat, est, mcse; then the
-/// paired differences against the reference as stats `cover_diff`,
-/// `bias_diff`, `width_diff`.
+/// simsum.csv: by-columns, true, level, method, stat, est, mcse: rsimsum's
+/// measures, then `cover_ac` (the coverage with Agresti and Coull's MCSE),
+/// `interval_score`, and the paired differences against the reference as
+/// `cover_diff`, `bias_diff`, `width_diff`, `interval_score_diff`.
 pub fn to_csv(groups: &[Group], by: &[String]) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut head: Vec<String> = by.to_vec();
@@ -273,10 +274,13 @@ pub fn to_csv(groups: &[Group], by: &[String]) -> String {
         for m in &g.methods {
             let mut rows: Vec<(&str, f64, f64)> =
                 STATS.iter().map(|s| (*s, stat(&m.performance, s))).map(|(s, (e, c))| (s, e, c)).collect();
+            rows.push(("cover_ac", m.performance.coverage, m.coverage_mcse_adjusted));
+            rows.push(("interval_score", m.interval_score.0, m.interval_score.1));
             if let Some(d) = &m.versus_reference {
                 rows.push(("cover_diff", d.coverage_diff, d.coverage_diff_mcse));
                 rows.push(("bias_diff", d.bias_diff, d.bias_diff_mcse));
                 rows.push(("width_diff", d.width_diff, d.width_diff_mcse));
+                rows.push(("interval_score_diff", d.score_diff, d.score_diff_mcse));
             }
             for (s, e, c) in rows {
                 let mut rec = g.by.clone();
@@ -313,13 +317,13 @@ pub fn to_markdown(groups: &[Group], by: &[String], source: &str) -> String {
             num(g.truth),
             num(g.level)
         );
-        let _ = writeln!(s, "| method | n | bias | empirical SE | model SE | relative error (%) | coverage | bias-eliminated coverage | power | relative precision vs {} (%) |", crate::io::md_text(&g.reference));
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(s, "| method | n | bias | empirical SE | model SE | relative error (%) | coverage | coverage MCSE (Agresti-Coull) | bias-eliminated coverage | power | relative precision vs {} (%) | interval score |", crate::io::md_text(&g.reference));
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         for m in &g.methods {
             let p = &m.performance;
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 crate::io::md_text(&m.method),
                 p.reps,
                 f(p.bias, p.bias_mcse),
@@ -327,25 +331,31 @@ pub fn to_markdown(groups: &[Group], by: &[String], source: &str) -> String {
                 f(p.mod_se, p.mod_se_mcse),
                 f(p.rel_error_mod_se, p.rel_error_mod_se_mcse),
                 f(p.coverage, p.coverage_mcse),
+                fmt4(m.coverage_mcse_adjusted),
                 f(p.be_coverage, p.be_coverage_mcse),
                 f(p.power, p.power_mcse),
                 f(p.rel_precision, p.rel_precision_mcse),
+                f(m.interval_score.0, m.interval_score.1),
             );
         }
         let _ =
             writeln!(s, "\nAgainst {}, replication by replication (paired MCSEs):\n", crate::io::md_text(&g.reference));
-        let _ = writeln!(s, "| method | pairs | coverage difference | bias difference | width difference |");
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+        let _ = writeln!(
+            s,
+            "| method | pairs | coverage difference | bias difference | width difference | interval score difference |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
         for m in &g.methods {
             if let Some(d) = &m.versus_reference {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} |",
                     crate::io::md_text(&m.method),
                     d.pairs,
                     f(d.coverage_diff, d.coverage_diff_mcse),
                     f(d.bias_diff, d.bias_diff_mcse),
-                    f(d.width_diff, d.width_diff_mcse)
+                    f(d.width_diff, d.width_diff_mcse),
+                    f(d.score_diff, d.score_diff_mcse)
                 );
             }
         }

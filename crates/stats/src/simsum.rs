@@ -9,10 +9,20 @@
 //!   file without ids is paired by order within each group, as rsimsum
 //!   does, and [`Group::paired_by`] says so;
 //! - each method is also compared with the reference method replication
-//!   by replication: the difference in coverage, bias and mean interval
-//!   width with its **paired** Monte Carlo SE (the SD of the per-replication
-//!   differences over sqrt(n)), which two separate MCSEs overstate when
-//!   the methods are correlated.
+//!   by replication: the difference in coverage, bias, mean interval
+//!   width and interval score with its **paired** Monte Carlo SE (the SD of
+//!   the per-replication differences over sqrt(n)), which two separate
+//!   MCSEs overstate when the methods are correlated.
+//!
+//! Two measures rsimsum lacks: the interval score (Gneiting & Raftery
+//! 2007, eq. 43: width plus 2 / alpha times the distance by which the
+//! interval misses the truth, alpha = 1 - level; lower is better, and it
+//! rewards narrow intervals only while they cover), and a coverage MCSE
+//! that is not 0 at coverage 0 or 1: Agresti and Coull's, the SE of
+//! (x + 2) / (n + 4) for x covering intervals out of n. rsimsum's
+//! sqrt(p (1 - p) / n) says a coverage of 100 out of 100 is known exactly;
+//! the adjusted one says how far it could be from 1, and +/- 1.96 of it
+//! about the adjusted share is Agresti and Coull's 95% interval.
 //!
 //! Where no interval limits are given, the interval is estimate +/- c SE,
 //! c the t quantile at the row's df where given, else the normal's
@@ -101,6 +111,10 @@ pub struct Paired {
     pub width_diff: f64,
     /// Its paired Monte Carlo SE.
     pub width_diff_mcse: f64,
+    /// Mean interval score of this method minus the reference's.
+    pub score_diff: f64,
+    /// Its paired Monte Carlo SE.
+    pub score_diff_mcse: f64,
 }
 
 /// One method's measures in one group.
@@ -112,6 +126,10 @@ pub struct MethodPerformance {
     /// rejection, type S) with their MCSEs; `setting` holds the group's
     /// by-values, `method` is a placeholder (the name is [`Self::method`]).
     pub performance: Performance,
+    /// Mean interval score (Gneiting & Raftery 2007) and its MCSE.
+    pub interval_score: (f64, f64),
+    /// Agresti and Coull's MCSE of the coverage: the SE of (x + 2) / (n + 4).
+    pub coverage_mcse_adjusted: f64,
     /// Against the reference method (None for the reference itself).
     pub versus_reference: Option<Paired>,
 }
@@ -226,8 +244,20 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
         p.rel_precision = 100.0 * (ratio2 - 1.0);
         let rho = crate::coverage::correlation(&pairs.iter().map(|(a, b)| (a.0, b.0)).collect::<Vec<_>>());
         p.rel_precision_mcse = 200.0 * ratio2 * ((1.0 - rho * rho).max(0.0) / (p.reps as f64 - 1.0)).sqrt();
-        let versus_reference = (*m != reference).then(|| differences(&pairs, first.truth));
-        out.push(MethodPerformance { method: m.to_string(), performance: p, versus_reference });
+        let versus_reference = (*m != reference).then(|| differences(&pairs, first.truth, first.level));
+        let scores: Vec<f64> =
+            est.iter().filter(|e| crate::coverage::usable(e)).map(|e| score(e, first.truth, first.level)).collect();
+        let interval_score = mean_and_mcse(&scores);
+        let (n, x) = (p.reps as f64, p.coverage * p.reps as f64);
+        let adjusted = (x.round() + 2.0) / (n + 4.0);
+        let coverage_mcse_adjusted = (adjusted * (1.0 - adjusted) / (n + 4.0)).sqrt();
+        out.push(MethodPerformance {
+            method: m.to_string(),
+            performance: p,
+            interval_score,
+            coverage_mcse_adjusted,
+            versus_reference,
+        });
     }
     Ok(Group { by: first.by.clone(), truth: first.truth, level: first.level, reference, paired_by, methods: out })
 }
@@ -256,17 +286,30 @@ fn paired(reference: &[(String, Estimate)], mine: &[(String, Estimate)]) -> Vec<
         .collect()
 }
 
-fn differences(pairs: &[(Estimate, Estimate)], truth: f64) -> Paired {
-    let n = pairs.len() as f64;
-    let mean_and_mcse = |d: Vec<f64>| -> (f64, f64) {
-        let mean = d.iter().sum::<f64>() / n;
-        let mcse = if d.len() >= 2 { (crate::sample_variance(&d) / n).sqrt() } else { f64::NAN };
-        (mean, mcse)
+/// The interval score of `[lower, upper]` at `truth`, alpha = 1 - level
+/// (Gneiting & Raftery 2007, eq. 43).
+fn score(e: &Estimate, truth: f64, level: f64) -> f64 {
+    let alpha = 1.0 - level;
+    (e.3 - e.2) + 2.0 / alpha * ((e.2 - truth).max(0.0) + (truth - e.3).max(0.0))
+}
+
+/// The mean and its MCSE, SD / sqrt(n) (NaN from fewer than 2).
+fn mean_and_mcse(d: &[f64]) -> (f64, f64) {
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let mcse = if d.len() >= 2 { (crate::sample_variance(d) / n).sqrt() } else { f64::NAN };
+    (mean, mcse)
+}
+
+fn differences(pairs: &[(Estimate, Estimate)], truth: f64, level: f64) -> Paired {
+    let of = |f: &dyn Fn(&Estimate, &Estimate) -> f64| -> (f64, f64) {
+        mean_and_mcse(&pairs.iter().map(|(a, b)| f(a, b)).collect::<Vec<_>>())
     };
     let covers = |e: &Estimate| f64::from(u8::from(e.2 <= truth && truth <= e.3));
-    let (coverage_diff, coverage_diff_mcse) = mean_and_mcse(pairs.iter().map(|(a, b)| covers(b) - covers(a)).collect());
-    let (bias_diff, bias_diff_mcse) = mean_and_mcse(pairs.iter().map(|(a, b)| b.0 - a.0).collect());
-    let (width_diff, width_diff_mcse) = mean_and_mcse(pairs.iter().map(|(a, b)| (b.3 - b.2) - (a.3 - a.2)).collect());
+    let (coverage_diff, coverage_diff_mcse) = of(&|a, b| covers(b) - covers(a));
+    let (bias_diff, bias_diff_mcse) = of(&|a, b| b.0 - a.0);
+    let (width_diff, width_diff_mcse) = of(&|a, b| (b.3 - b.2) - (a.3 - a.2));
+    let (score_diff, score_diff_mcse) = of(&|a, b| score(b, truth, level) - score(a, truth, level));
     Paired {
         pairs: pairs.len(),
         coverage_diff,
@@ -275,5 +318,7 @@ fn differences(pairs: &[(Estimate, Estimate)], truth: f64) -> Paired {
         bias_diff_mcse,
         width_diff,
         width_diff_mcse,
+        score_diff,
+        score_diff_mcse,
     }
 }
