@@ -291,6 +291,8 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
                 "ci_lower,ci_upper",
                 "--rep",
                 "rep",
+                "--target-mcse",
+                "cover=0.005,bias=0.02",
                 "--out",
             ],
             false,

@@ -154,6 +154,36 @@ fn paired_differences_and_their_mcses_by_hand() {
 /// Rows of one method in another order: pairing by id gives the same
 /// result; without ids (rsimsum's pairing by order) the relative
 /// precision's MCSE changes, and the report says how it paired.
+/// The replications planner against closed forms on the hand-written
+/// study: B's coverage is 1/2, so an MCSE of 0.01 needs p (1 - p) / 0.01^2
+/// = 2,500 replications; its bias MCSE is SD / sqrt(n), so 0.01 needs
+/// var(estimates) / 0.01^2, here with the variance computed from B's six
+/// estimates.
+#[test]
+fn replications_for_a_target_mcse_match_the_closed_forms() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("hand.csv");
+    std::fs::write(&file, HAND).unwrap();
+    let args = ["--true", "0", "--ci", "lower,upper", "--rep", "rep", "--target-mcse", "cover=0.01,bias=0.01"];
+    assert_ok(&simsum(&file, &args, &tmp.path().join("out")));
+    let text = std::fs::read_to_string(tmp.path().join("out/simsum.csv")).unwrap();
+    let get = |stat: &str| -> f64 {
+        let l = text.lines().find(|l| l.starts_with("0,0.95,B,") && l.contains(&format!(",{stat},"))).unwrap();
+        l.split(',').nth(4).unwrap().parse().unwrap()
+    };
+    assert_eq!(get("reps_for_cover_mcse_0.01"), 2500.0);
+    let b = [0.6, 0.6, -0.1, 0.0, -0.1, 0.3];
+    let mean = b.iter().sum::<f64>() / 6.0;
+    let var = b.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / 5.0;
+    assert_eq!(get("reps_for_bias_mcse_0.01"), (var / 1e-4).ceil());
+    let md = std::fs::read_to_string(tmp.path().join("out/simsum.md")).unwrap();
+    assert!(md.contains("| method | cover to 0.01 | bias to 0.01 |"), "{md}");
+    let o = simsum(&file, &["--true", "0", "--target-mcse", "coverage=0.01"], &tmp.path().join("bad"));
+    assert_refused(&o, "`coverage` is not a measure with an MCSE");
+    let o = simsum(&file, &["--true", "0", "--target-mcse", "cover=0"], &tmp.path().join("bad"));
+    assert_refused(&o, "the target is not a number above 0");
+}
+
 /// Every interval covers: rsimsum's MCSE is 0, Agresti and Coull's is
 /// sqrt(0.8 x 0.2 / 10) for 6 of 6 ((6 + 2) / (6 + 4) = 0.8).
 #[test]

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::stats::simsum::{simsum, Group, Pairing, Replication};
+use crate::stats::simsum::{simsum, Group, MethodPerformance, Pairing, Replication};
 
 /// Which columns hold what; `truth` and `level` are a number or a column.
 #[derive(Debug, Clone)]
@@ -36,6 +36,64 @@ pub struct Columns {
     pub df: Option<String>,
     /// The reference method; by default each group's first.
     pub reference: Option<String>,
+    /// Target MCSEs (`cover`, 0.005): the replications each needs.
+    pub targets: Vec<(String, f64)>,
+}
+
+/// The measures a target MCSE may name.
+pub const PLANNABLE: [&str; 12] = [
+    "bias",
+    "rbias",
+    "empse",
+    "mse",
+    "relprec",
+    "modelse",
+    "relerror",
+    "cover",
+    "becover",
+    "power",
+    "cover_ac",
+    "interval_score",
+];
+
+/// Reads `cover=0.005,bias=0.01`: each name one of [`PLANNABLE`], each
+/// target a number above 0.
+pub fn parse_targets(text: &str) -> Result<Vec<(String, f64)>, SimsumFileError> {
+    text.split(',')
+        .map(|item| {
+            let (name, value) = item.split_once('=').unwrap_or((item, ""));
+            let (name, value) = (name.trim(), value.trim());
+            if !PLANNABLE.contains(&name) {
+                return Err(SimsumFileError::Flag(format!(
+                    "--target-mcse: `{name}` is not a measure with an MCSE; give MEASURE=VALUE with MEASURE one of {}",
+                    PLANNABLE.join(", ")
+                )));
+            }
+            match value.parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok((name.to_string(), v)),
+                _ => Err(SimsumFileError::Flag(format!(
+                    "--target-mcse: {name}={value}: the target is not a number above 0"
+                ))),
+            }
+        })
+        .collect()
+}
+
+/// The replications a measure needs for its MCSE to fall to `target`:
+/// every MCSE here shrinks as 1 / sqrt(n), so n (MCSE / target)^2, rounded
+/// up (for the coverage this is p (1 - p) / target^2, the closed form).
+/// None where the pilot gives no MCSE.
+pub fn reps_needed(m: &MethodPerformance, measure: &str, target: f64) -> Option<u64> {
+    let p = &m.performance;
+    let (n, mcse) = match measure {
+        "cover_ac" => (p.reps as f64 + 4.0, m.coverage_mcse_adjusted),
+        "interval_score" => (p.reps as f64, m.interval_score.1),
+        _ => (p.reps as f64, stat(p, measure).1),
+    };
+    // Rounded up, but not past a whole number that rounding lifted by an ulp.
+    let needed = (n * (mcse / target).powi(2) * (1.0 - 1e-12)).ceil();
+    let needed = if measure == "cover_ac" { needed - 4.0 } else { needed };
+    (needed.is_finite() && mcse.is_finite()).then_some(needed.max(2.0) as u64)
 }
 
 /// Why a replications file cannot be summarised.
@@ -264,8 +322,9 @@ fn num(x: f64) -> String {
 /// simsum.csv: by-columns, true, level, method, stat, est, mcse: rsimsum's
 /// measures, then `cover_ac` (the coverage with Agresti and Coull's MCSE),
 /// `interval_score`, and the paired differences against the reference as
-/// `cover_diff`, `bias_diff`, `width_diff`, `interval_score_diff`.
-pub fn to_csv(groups: &[Group], by: &[String]) -> String {
+/// `cover_diff`, `bias_diff`, `width_diff`, `interval_score_diff`; for each
+/// target MCSE, `reps_for_MEASURE_mcse_TARGET` (the replications needed).
+pub fn to_csv(groups: &[Group], by: &[String], targets: &[(String, f64)]) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut head: Vec<String> = by.to_vec();
     head.extend(["true", "level", "method", "stat", "est", "mcse"].map(String::from));
@@ -276,15 +335,22 @@ pub fn to_csv(groups: &[Group], by: &[String]) -> String {
                 STATS.iter().map(|s| (*s, stat(&m.performance, s))).map(|(s, (e, c))| (s, e, c)).collect();
             rows.push(("cover_ac", m.performance.coverage, m.coverage_mcse_adjusted));
             rows.push(("interval_score", m.interval_score.0, m.interval_score.1));
+            let planned: Vec<(String, f64)> = targets
+                .iter()
+                .map(|(name, t)| {
+                    (format!("reps_for_{name}_mcse_{t}"), reps_needed(m, name, *t).map_or(f64::NAN, |n| n as f64))
+                })
+                .collect();
             if let Some(d) = &m.versus_reference {
                 rows.push(("cover_diff", d.coverage_diff, d.coverage_diff_mcse));
                 rows.push(("bias_diff", d.bias_diff, d.bias_diff_mcse));
                 rows.push(("width_diff", d.width_diff, d.width_diff_mcse));
                 rows.push(("interval_score_diff", d.score_diff, d.score_diff_mcse));
             }
-            for (s, e, c) in rows {
+            let rows = rows.into_iter().map(|(s, e, c)| (s.to_string(), e, c));
+            for (s, e, c) in rows.chain(planned.into_iter().map(|(s, n)| (s, n, f64::NAN))) {
                 let mut rec = g.by.clone();
-                rec.extend([num(g.truth), num(g.level), m.method.clone(), s.to_string(), num(e), num(c)]);
+                rec.extend([num(g.truth), num(g.level), m.method.clone(), s, num(e), num(c)]);
                 let _ = w.write_record(&rec);
             }
         }
@@ -294,7 +360,7 @@ pub fn to_csv(groups: &[Group], by: &[String]) -> String {
 
 /// simsum.md: per group, each method's main measures as `est (MCSE)`, and
 /// each method against the reference with paired MCSEs.
-pub fn to_markdown(groups: &[Group], by: &[String], source: &str) -> String {
+pub fn to_markdown(groups: &[Group], by: &[String], source: &str, targets: &[(String, f64)]) -> String {
     let mut s = format!("# Simulation study: {}\n\n", crate::io::md_text(source));
     let by_id = groups.iter().all(|g| g.paired_by == Pairing::Id);
     let _ = writeln!(
@@ -359,9 +425,29 @@ pub fn to_markdown(groups: &[Group], by: &[String], source: &str) -> String {
                 );
             }
         }
+        if !targets.is_empty() {
+            plan_table(&mut s, g, targets);
+        }
         s.push('\n');
     }
     s
+}
+
+/// Replications each method needs for each target MCSE.
+fn plan_table(s: &mut String, g: &Group, targets: &[(String, f64)]) {
+    let names: Vec<String> = targets.iter().map(|(m, t)| format!("{m} to {t}")).collect();
+    let _ = writeln!(
+        s,
+        "\nReplications for the target MCSEs (n (MCSE / target)^2, from these {} replications):\n",
+        g.methods.first().map_or(0, |m| m.performance.reps)
+    );
+    let _ = writeln!(s, "| method | {} |", names.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---:|".repeat(names.len()));
+    for m in &g.methods {
+        let cells: Vec<String> =
+            targets.iter().map(|(n, t)| reps_needed(m, n, *t).map_or("NA".into(), |k| k.to_string())).collect();
+        let _ = writeln!(s, "| {} | {} |", crate::io::md_text(&m.method), cells.join(" | "));
+    }
 }
 
 fn fmt4(x: f64) -> String {
@@ -375,10 +461,13 @@ fn fmt4(x: f64) -> String {
 }
 
 /// Writes simsum.csv and simsum.md into `out`.
-pub fn write(groups: &[Group], by: &[String], source: &str, out: &Path) -> Result<Vec<PathBuf>, SimsumFileError> {
+pub fn write(groups: &[Group], cols: &Columns, source: &str, out: &Path) -> Result<Vec<PathBuf>, SimsumFileError> {
     crate::io::create_dir_all(out)?;
     let mut written = Vec::new();
-    for (name, text) in [("simsum.csv", to_csv(groups, by)), ("simsum.md", to_markdown(groups, by, source))] {
+    let (by, targets) = (&cols.by, &cols.targets);
+    for (name, text) in
+        [("simsum.csv", to_csv(groups, by, targets)), ("simsum.md", to_markdown(groups, by, source, targets))]
+    {
         let p = out.join(name);
         crate::io::write_atomic(&p, text.as_bytes())?;
         written.push(p);

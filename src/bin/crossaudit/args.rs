@@ -398,6 +398,11 @@ pub(crate) struct SimsumArgs {
     /// The reference method [default: each group's first].
     #[arg(long = "ref")]
     pub(crate) reference: Option<String>,
+    /// Target MCSEs, `MEASURE=VALUE,...` (e.g. `cover=0.005,bias=0.01`):
+    /// the replications each method needs for each, n (MCSE / target)^2
+    /// from these replications as a pilot.
+    #[arg(long, value_name = "MEASURE=VALUE,...")]
+    pub(crate) target_mcse: Option<String>,
     /// Output directory for simsum.csv and simsum.md.
     #[arg(long, default_value = "simsum")]
     pub(crate) out: PathBuf,

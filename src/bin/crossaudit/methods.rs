@@ -190,6 +190,10 @@ pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
         ci: None,
         df: a.df,
         reference: a.reference,
+        targets: match a.target_mcse.as_deref() {
+            Some(t) => ss::parse_targets(t)?,
+            None => Vec::new(),
+        },
     };
     if let Some(ci) = a.ci.as_deref() {
         match ci.split_once(',') {
@@ -208,7 +212,7 @@ pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
     let _lock = lock_folder(out, false)?;
     let groups = ss::summarise(file, &cols)?;
     out!("{}", ss::summary(&groups));
-    for p in ss::write(&groups, &cols.by, &file.display().to_string(), out)? {
+    for p in ss::write(&groups, &cols, &file.display().to_string(), out)? {
         note!("wrote {}", p.display());
     }
     Ok(())
