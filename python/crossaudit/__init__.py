@@ -32,7 +32,7 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Optional, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import pandas as pd
@@ -47,6 +47,7 @@ __all__ = [
     "Result",
     "analyze",
     "audit_split",
+    "simsum",
     "build",
     "export",
     "load_design",
@@ -359,3 +360,34 @@ def audit_split(
     audit["gap_violation"] = close
     audit["files"] = [str(p) for p in paths]
     return audit
+
+
+def simsum(
+    file: PathLike,
+    out: PathLike,
+    true: Union[float, str],
+    estimate: str = "estimate",
+    se: str = "se",
+    method: str = "method",
+    rep: Optional[str] = None,
+    by: Sequence[str] = (),
+    level: Union[float, str] = 0.95,
+    ci: Optional[Tuple[str, str]] = None,
+    df: Optional[str] = None,
+    ref: Optional[str] = None,
+    target_mcse: Optional[dict] = None,
+) -> pd.DataFrame:
+    """``crossaudit simsum``: every rsimsum measure with its Monte Carlo SE
+    from a replications CSV (one row per method and replication), methods
+    paired by replication id (``rep``), paired MCSEs against the reference
+    method, the interval score, an Agresti-Coull coverage MCSE and, with
+    ``target_mcse={"cover": 0.005}``, the replications each measure needs.
+    ``true`` and ``level`` are numbers or column names. Writes simsum.csv
+    and simsum.md into ``out``; returns simsum.csv as a DataFrame (as
+    rsimsum's ``tidy()``: by-columns, true, level, method, stat, est, mcse)."""
+    targets = None if not target_mcse else ",".join(f"{k}={v}" for k, v in target_mcse.items())
+    paths = _native.simsum(
+        os.fspath(file), os.fspath(out), str(true), estimate, se, method, rep, list(by), str(level),
+        None if ci is None else (ci[0], ci[1]), df, ref, targets,
+    )
+    return pd.read_csv(paths[0], keep_default_na=True)

@@ -182,6 +182,41 @@ fn audit_split(
     })
 }
 
+/// `crossaudit simsum`: scores a replications CSV as rsimsum does (methods
+/// paired by replication id); returns the paths written (simsum.csv, then
+/// simsum.md).
+#[pyfunction]
+#[pyo3(signature = (file, out, truth, estimate="estimate".to_string(), se="se".to_string(), method="method".to_string(), rep=None, by=Vec::new(), level="0.95".to_string(), ci=None, df=None, reference=None, target_mcse=None))]
+#[allow(clippy::too_many_arguments)]
+fn simsum(
+    py: Python<'_>,
+    file: PathBuf,
+    out: PathBuf,
+    truth: String,
+    estimate: String,
+    se: String,
+    method: String,
+    rep: Option<String>,
+    by: Vec<String>,
+    level: String,
+    ci: Option<(String, String)>,
+    df: Option<String>,
+    reference: Option<String>,
+    target_mcse: Option<String>,
+) -> PyResult<Vec<PathBuf>> {
+    use crossaudit::methods::simsum as ss;
+    py.detach(|| {
+        let targets = match target_mcse.as_deref() {
+            Some(t) => ss::parse_targets(t).map_err(fail)?,
+            None => Vec::new(),
+        };
+        let cols = ss::Columns { estimate, se, method, rep, by, truth, level, ci, df, reference, targets };
+        let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
+        let groups = ss::summarise(&file, &cols).map_err(fail)?;
+        ss::write(&groups, &cols, &file.display().to_string(), &out).map_err(fail)
+    })
+}
+
 /// The crossaudit build (version and commit).
 #[pyfunction]
 fn build() -> &'static str {
@@ -198,6 +233,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(run, m)?,
         wrap_pyfunction!(analyze, m)?,
         wrap_pyfunction!(audit_split, m)?,
+        wrap_pyfunction!(simsum, m)?,
         wrap_pyfunction!(build, m)?,
     ] {
         m.add_function(f)?;

@@ -193,3 +193,21 @@ def test_analyze_takes_every_kind_of_study_and_matches_the_committed_reports(roo
     committed = json.loads((root / "results/multiverse/per_seed/report/results.json").read_text())
     assert per_seed.estimates["estimate"].iloc[0] == pytest.approx(committed["units"][0]["estimate"]["mean"], rel=1e-12)
     assert per_seed.holds == committed["decision"]["holds"]
+
+
+def test_simsum_matches_the_command_line_and_rsimsum(root, tmp_path):
+    """crossaudit's own replications through the package: the same
+    simsum.csv as the committed results/simsum_rsimsum (which
+    tests/simsum.rs checks against rsimsum 0.13), and a bad column named."""
+    reps = root / "results/coverage_rsimsum/replications.csv"
+    t = crossaudit.simsum(reps, tmp_path / "s", true="true_mean", level="level", by=["setting"],
+                          ci=("ci_lower", "ci_upper"), rep="rep", target_mcse={"cover": 0.005, "bias": 0.02})
+    assert list(t.columns) == ["setting", "true", "level", "method", "stat", "est", "mcse"]
+    committed = (root / "results/simsum_rsimsum/simsum.csv").read_bytes()
+    assert (tmp_path / "s/simsum.csv").read_bytes() == committed
+    cover = t[(t.method == "MomT") & (t.stat == "cover")]
+    raw = pd.read_csv(reps)
+    groups = raw[raw.method == "MomT"][["setting", "true_mean", "level"]].drop_duplicates()
+    assert len(cover) == len(groups) > 0 and cover.est.between(0, 1).all()
+    with pytest.raises(crossaudit.CrossauditError, match="no column `theta`"):
+        crossaudit.simsum(reps, tmp_path / "bad", true="theta")
