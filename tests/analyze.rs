@@ -116,7 +116,14 @@ fn compare_intervals_lists_every_estimator() {
     )
     .unwrap();
     let iv = a.units[0].intervals.as_ref().unwrap();
-    assert_eq!(iv.len(), 9);
+    // Nine of the analysis, then the coverage study's nine further ones.
+    assert_eq!(iv.len(), 18);
+    // The further intervals on the same array, computed directly.
+    let e = &a.units[0].estimate;
+    for x in &iv[9..] {
+        assert!((x.estimate - e.mean).abs() < 1e-12, "{:?}", x.method);
+        assert!(x.lower < x.estimate && x.estimate < x.upper, "{:?}", x.method);
+    }
     // The MoM t(J-1) row is the primary estimate itself.
     assert_eq!(iv[0].lower, a.units[0].estimate.lower);
     assert_eq!(iv[0].upper, a.units[0].estimate.upper);
@@ -388,6 +395,39 @@ fn a_singular_reml_fit_is_named_in_the_report() {
     for u in singular {
         assert!(report.contains(&format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s)), "{report}");
     }
+}
+
+/// `--compare-intervals` on an array with no recording or seed effect
+/// (the hand-built cells): the two-way cluster-robust variance V_row +
+/// V_col - V_cell is then not positive, so that interval is undefined,
+/// and the report names it and why rather than printing NaN.
+#[test]
+fn an_interval_undefined_on_the_array_is_named_with_its_reason() {
+    let d = minimal_design();
+    let a =
+        analyze(&crossaudit::compile(&d), &minimal_cells(&d), crossaudit::AnalyzeOptions { compare_intervals: true })
+            .unwrap();
+    let iv = a.units[0].intervals.as_ref().unwrap();
+    let cgm = iv.iter().find(|e| e.method == crossaudit::stats::IntervalMethod::TwoWayCluster).unwrap();
+    // By hand: d_ij = -0.06 + 0.005 ((3i + 7j) mod 5), i < 4, j < 3; CGM's
+    // variance (Cameron, Gelbach & Miller 2011) with e = d - mean summed per
+    // row and per column, I / (I-1) sum_i (row sum)^2 / n^2 + J / (J-1)
+    // sum_j (column sum)^2 / n^2 - n / (n-1) sum e^2 / n^2, is below zero.
+    let d_ij = |i: usize, j: usize| -0.06 + 0.005 * ((3 * i + 7 * j) % 5) as f64;
+    let n = 12.0;
+    let mean = (0..4).flat_map(|i| (0..3).map(move |j| d_ij(i, j))).sum::<f64>() / n;
+    let rows: f64 = (0..4).map(|i| (0..3).map(|j| d_ij(i, j) - mean).sum::<f64>().powi(2)).sum();
+    let cols: f64 = (0..3).map(|j| (0..4).map(|i| d_ij(i, j) - mean).sum::<f64>().powi(2)).sum();
+    let cells: f64 = (0..4).flat_map(|i| (0..3).map(move |j| (d_ij(i, j) - mean).powi(2))).sum();
+    let v = (4.0 / 3.0 * rows + 3.0 / 2.0 * cols - n / (n - 1.0) * cells) / (n * n);
+    assert!(v <= 0.0, "{v}");
+    assert!(cgm.lower.is_nan(), "{cgm:?}");
+    let report = crossaudit::report::render_markdown(&a);
+    assert!(
+        report.contains("two-way cluster-robust (CGM), t(min(I,J)-1) | - | - | - | undefined: its variance V_row + V_col - V_cell is not positive on this array"),
+        "{report}"
+    );
+    assert!(!report.contains("NaN"), "{report}");
 }
 
 /// A secondary endpoint whose arms cannot differ (here the relative model's

@@ -535,12 +535,35 @@ fn conditional(a: &Analysis, level: &str) -> Table {
     table
 }
 
+/// Why an interval can be undefined on an array.
+fn undefined_because(method: crate::stats::IntervalMethod) -> &'static str {
+    use crate::stats::IntervalMethod as M;
+    match method {
+        M::TwoWayCluster => "its variance V_row + V_col - V_cell is not positive on this array",
+        M::MomUntruncated => "its variance (MS_row + MS_col - MS_error) / IJ is not positive on this array",
+        M::RemlSatterthwaite | M::RemlKenwardRoger => "REML does not fit this array (a residual of exactly zero)",
+        _ => "the array does not allow it (too few rows or columns, or no variation)",
+    }
+}
+
 fn compared(a: &Analysis, level: &str) -> Table {
     let ci_h = format!("{level} CI");
     let cols = ["model", "metric", "horizon", "unit", "method", "estimate", "SE", "df", &ci_h, "excludes 0"];
     let mut table = Table::new(&cols, "lllllrrrll");
     for u in &a.units {
         for iv in u.intervals.iter().flatten() {
+            if iv.lower.is_nan() || iv.upper.is_nan() {
+                table.row([
+                    unit_name_in(u, unit_of(u.metric)),
+                    iv.method.label().to_string(),
+                    "-".into(),
+                    "-".into(),
+                    "-".into(),
+                    format!("undefined: {}", undefined_because(iv.method)),
+                    "-".into(),
+                ]);
+                continue;
+            }
             table.row([
                 unit_name_in(u, unit_of(u.metric)),
                 iv.method.label().to_string(),

@@ -327,7 +327,11 @@ impl Ctx<'_> {
             let b = self.plan.sensitivity.bootstrap.map(|b| (b.replicates, b.seed)).unwrap_or((9999, 0));
             let d = &a.diff;
             Some(match &complete {
-                Some(m) => compare_intervals(m, est.level, b.0, b.1, stream).map_err(stats)?,
+                Some(m) => {
+                    let mut all = compare_intervals(m, est.level, b.0, b.1, stream).map_err(stats)?;
+                    all.extend(further(m, est.level, b, stream));
+                    all
+                }
                 None => reml_intervals(&d.cells(), d.rows, d.cols, est.level).map_err(stats)?,
             })
         } else {
@@ -581,4 +585,31 @@ impl Ctx<'_> {
             bootstrap,
         })
     }
+}
+
+/// The coverage study's further intervals on a unit's complete array
+/// (`stats::further_intervals`); where the array does not allow them, each
+/// is a row of NaN, which the report names as undefined.
+fn further(
+    m: &crate::stats::CrossedMatrix,
+    level: f64,
+    (b, seed): (usize, u64),
+    stream: u64,
+) -> Vec<crate::stats::IntervalEstimate> {
+    use crate::stats::IntervalMethod as M;
+    crate::stats::further_intervals(m, level, b, seed, stream).unwrap_or_else(|_| {
+        [
+            M::TwoWayCluster,
+            M::SumOfMargins,
+            M::MomUntruncated,
+            M::PigeonholeSe,
+            M::PigeonholeT,
+            M::ProductWeightsSe,
+            M::ProductWeightsPercentile,
+            M::ParametricT,
+            M::ProfileMl,
+        ]
+        .map(crate::stats::IntervalEstimate::undefined)
+        .to_vec()
+    })
 }
