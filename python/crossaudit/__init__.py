@@ -294,7 +294,12 @@ def run(
     return _finished(json.loads(d))
 
 
-def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optional[PathLike] = None) -> Result:
+def analyze(
+    design: PathLike,
+    cells: Union[PathLike, pd.DataFrame],
+    out: Optional[PathLike] = None,
+    compare_intervals: bool = False,
+) -> Result:
     """The design's preregistered analysis of any study: per-cell data (a
     CSV path or a DataFrame with the per-cell columns) of a single-contrast,
     dose-response or multi-split design, or the run directory of a
@@ -302,16 +307,18 @@ def analyze(design: PathLike, cells: Union[PathLike, pd.DataFrame], out: Optiona
     given. ``estimates`` is the tidy table the report writes
     (``estimates.csv`` of a single study or a family, ``specs.csv`` of a
     multiverse), with the same columns and rows; ``details["kind"]`` says
-    which kind of study it is."""
+    which kind of study it is. ``compare_intervals=True`` adds every interval
+    estimator for each contrast, as ``--compare-intervals`` does (rows of
+    ``estimates``; one the array does not allow has NaN limits)."""
     if isinstance(cells, pd.DataFrame):
         import tempfile
 
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "cells.csv"
             cells.to_csv(path, index=False)
-            return analyze(design, path, out)
+            return analyze(design, path, out, compare_intervals)
     text, line, holds, kind, table = _native.analyze(
-        os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out)
+        os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out), compare_intervals
     )
     results = json.loads(text)
     estimates = _tidy(table)

@@ -119,20 +119,23 @@ fn run(
 /// decision holds, the study's kind (`single`, `family`, `multiverse`) and
 /// its tidy table as the report writes it (`estimates.csv`, or `specs.csv`
 /// of a multiverse).
-/// With `out`, the report is written there too, as the command writes it.
+/// With `out`, the report is written there too, as the command writes it;
+/// `compare_intervals` is the command's `--compare-intervals`.
 #[pyfunction]
-#[pyo3(signature = (design, cells, out=None))]
+#[pyo3(signature = (design, cells, out=None, compare_intervals=false))]
 fn analyze(
     py: Python<'_>,
     design: PathBuf,
     cells: PathBuf,
     out: Option<PathBuf>,
+    compare_intervals: bool,
 ) -> PyResult<(String, String, bool, &'static str, String)> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let study = crossaudit::compile_study(&file.design);
         let outer = study.combines_levels();
-        let mut analysis = crossaudit::analyze_study(&file, &study, &cells, Default::default()).map_err(fail)?;
+        let options = crossaudit::AnalyzeOptions { compare_intervals };
+        let mut analysis = crossaudit::analyze_study(&file, &study, &cells, options).map_err(fail)?;
         if let Some(dir) = &out {
             crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
             // A run's own folders are written by the run alone.

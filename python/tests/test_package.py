@@ -211,3 +211,17 @@ def test_simsum_matches_the_command_line_and_rsimsum(root, tmp_path):
     assert len(cover) == len(groups) > 0 and cover.est.between(0, 1).all()
     with pytest.raises(crossaudit.CrossauditError, match="no column `theta`"):
         crossaudit.simsum(reps, tmp_path / "bad", true="theta")
+
+
+def test_analyze_compares_every_interval_as_the_command_line_does(root, tmp_path):
+    """results/example was written by ``analyze --compare-intervals``: the
+    package's estimates with ``compare_intervals=True`` are its
+    estimates.csv, every further interval included."""
+    r = crossaudit.analyze(root / "designs/nanobench_confirmatory.design",
+                           root / "examples/cells/nanobench_synthetic.csv", compare_intervals=True)
+    committed = pd.read_csv(root / "results/example/estimates.csv")
+    assert len(r.estimates) == len(committed)
+    assert list(r.estimates["estimator"]) == list(committed["estimator"])
+    numeric = ["estimate", "se", "lower", "upper"]
+    pd.testing.assert_frame_equal(r.estimates[numeric], committed[numeric], rtol=1e-12)
+    assert (committed["estimator"] == "profile_ml").any() and (committed["estimator"] == "two_way_cluster").any()

@@ -249,6 +249,30 @@ impl Ctx<'_> {
         Ok(ArmArrays { treated: treated.masked(&diff), reference: reference.masked(&diff), diff })
     }
 
+    /// `--compare-intervals`: every interval estimator on the unit's
+    /// array, the coverage study's further ones on a complete array; None
+    /// without the option.
+    fn compared(
+        &self,
+        diff: &Grid,
+        complete: Option<&crate::stats::CrossedMatrix>,
+        stream: u64,
+    ) -> Result<Option<Vec<crate::stats::IntervalEstimate>>, crate::stats::StatsError> {
+        if !self.options.compare_intervals {
+            return Ok(None);
+        }
+        let level = self.plan.estimator.level;
+        let b = self.plan.sensitivity.bootstrap.map(|b| (b.replicates, b.seed)).unwrap_or((9999, 0));
+        Ok(Some(match complete {
+            Some(m) => {
+                let mut all = compare_intervals(m, level, b.0, b.1, stream)?;
+                all.extend(further(m, level, b, stream));
+                all
+            }
+            None => reml_intervals(&diff.cells(), diff.rows, diff.cols, level)?,
+        }))
+    }
+
     pub(crate) fn unit(
         &self,
         u: &AnalysisUnit,
@@ -323,20 +347,7 @@ impl Ctx<'_> {
         let per_trajectory = self.per_trajectory(&a.diff);
         let conditional = self.conditional(u, &label)?;
         let rule_holds = rule_holds(&self.plan.decision, optimism_pct, &estimate);
-        let intervals = if self.options.compare_intervals {
-            let b = self.plan.sensitivity.bootstrap.map(|b| (b.replicates, b.seed)).unwrap_or((9999, 0));
-            let d = &a.diff;
-            Some(match &complete {
-                Some(m) => {
-                    let mut all = compare_intervals(m, est.level, b.0, b.1, stream).map_err(stats)?;
-                    all.extend(further(m, est.level, b, stream));
-                    all
-                }
-                None => reml_intervals(&d.cells(), d.rows, d.cols, est.level).map_err(stats)?,
-            })
-        } else {
-            None
-        };
+        let intervals = self.compared(&a.diff, complete.as_ref(), stream).map_err(stats)?;
         Ok(UnitResult {
             role: u.role,
             model: u.model.clone(),
