@@ -230,7 +230,8 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
         }
         by_method.push((m, list));
     }
-    let reference_reps = &by_method.iter().find(|(m, _)| *m == reference).map(|(_, l)| l.clone()).unwrap_or_default();
+    let reference_reps: &[(String, Estimate)] =
+        by_method.iter().find(|(m, _)| *m == reference).map_or(&[], |(_, l)| l.as_slice());
     let usable_theta = |l: &[(String, Estimate)]| -> Vec<f64> {
         l.iter().filter(|(_, e)| crate::coverage::usable(e)).map(|(_, e)| e.0).collect()
     };

@@ -9,6 +9,7 @@
 use std::collections::BTreeMap;
 
 mod around;
+mod compared;
 
 use super::decision::rule_holds;
 use super::index::Indexed;
@@ -18,8 +19,8 @@ use crate::cells::Cell;
 use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
 use crate::stats::{
-    compare_intervals, crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, reml_intervals, Axis,
-    CrossedEstimate, CrossedMatrix, DfRule, StatsError,
+    crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, Axis, CrossedEstimate, CrossedMatrix, DfRule,
+    StatsError,
 };
 
 /// What every unit's estimation reads: the plan, the indexed cells and the
@@ -247,30 +248,6 @@ impl Ctx<'_> {
         let reference = self.grid(model, &self.plan.contrast.reference, metric, h, label)?;
         let diff = treated.minus(&reference);
         Ok(ArmArrays { treated: treated.masked(&diff), reference: reference.masked(&diff), diff })
-    }
-
-    /// `--compare-intervals`: every interval estimator on the unit's
-    /// array, the coverage study's further ones on a complete array; None
-    /// without the option.
-    fn compared(
-        &self,
-        diff: &Grid,
-        complete: Option<&crate::stats::CrossedMatrix>,
-        stream: u64,
-    ) -> Result<Option<Vec<crate::stats::IntervalEstimate>>, crate::stats::StatsError> {
-        if !self.options.compare_intervals {
-            return Ok(None);
-        }
-        let level = self.plan.estimator.level;
-        let b = self.plan.sensitivity.bootstrap.map(|b| (b.replicates, b.seed)).unwrap_or((9999, 0));
-        Ok(Some(match complete {
-            Some(m) => {
-                let mut all = compare_intervals(m, level, b.0, b.1, stream)?;
-                all.extend(further(m, level, b, stream));
-                all
-            }
-            None => reml_intervals(&diff.cells(), diff.rows, diff.cols, level)?,
-        }))
     }
 
     pub(crate) fn unit(
@@ -596,31 +573,4 @@ impl Ctx<'_> {
             bootstrap,
         })
     }
-}
-
-/// The coverage study's further intervals on a unit's complete array
-/// (`stats::further_intervals`); where the array does not allow them, each
-/// is a row of NaN, which the report names as undefined.
-fn further(
-    m: &crate::stats::CrossedMatrix,
-    level: f64,
-    (b, seed): (usize, u64),
-    stream: u64,
-) -> Vec<crate::stats::IntervalEstimate> {
-    use crate::stats::IntervalMethod as M;
-    crate::stats::further_intervals(m, level, b, seed, stream).unwrap_or_else(|_| {
-        [
-            M::TwoWayCluster,
-            M::SumOfMargins,
-            M::MomUntruncated,
-            M::PigeonholeSe,
-            M::PigeonholeT,
-            M::ProductWeightsSe,
-            M::ProductWeightsPercentile,
-            M::ParametricT,
-            M::ProfileMl,
-        ]
-        .map(crate::stats::IntervalEstimate::undefined)
-        .to_vec()
-    })
 }
