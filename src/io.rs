@@ -443,6 +443,9 @@ pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
     read_input(path, MAX_OWN_FILE, "a file crossaudit wrote").map_err(ReadError::into_io)
 }
 
+mod input;
+pub use input::{read_text, Text, TextError};
+pub mod parquet;
 mod text;
 pub use text::{escape_controls, md_code, md_line, md_text, one_line};
 pub mod walk;

@@ -110,7 +110,8 @@ fn stata_references_and_the_nlp_pairing_as_the_r_script_found_them() {
                 l if l.starts_with("relprec mcse x") => assert!(v < 1e-6, "{line}"),
                 // sqrt(999/998) - 1 and sqrt(99/98) - 1, to 2 digits.
                 l if l.starts_with("relprec mcse") => {
-                    let expected = if study == "MIsim" { (999f64 / 998.0).sqrt() - 1.0 } else { (99f64 / 98.0).sqrt() - 1.0 };
+                    let expected =
+                        if study == "MIsim" { (999f64 / 998.0).sqrt() - 1.0 } else { (99f64 / 98.0).sqrt() - 1.0 };
                     assert!((v / expected - 1.0).abs() < 0.02, "{line}: expected about {expected}");
                 }
                 l if l.starts_with("relerror est") => assert!(v < 2e-6, "{line}"),
@@ -120,7 +121,8 @@ fn stata_references_and_the_nlp_pairing_as_the_r_script_found_them() {
     }
     let line = |prefix: &str| report.lines().find(|l| l.starts_with(prefix)).unwrap_or_else(|| panic!("{prefix}"));
     let order = line("part 4: nlp: 150 settings; paired by row order");
-    let diff: f64 = order.split("largest absolute difference ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    let diff: f64 =
+        order.split("largest absolute difference ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     assert!(diff < 1e-10, "{order}");
     let by_id = line("part 4: nlp: paired by replication id");
     let diff: f64 = by_id.split("largest difference ").nth(1).unwrap().trim_end_matches(')').parse().unwrap();
@@ -306,4 +308,107 @@ fn bad_replication_files_are_refused_where_they_are() {
         let o = simsum(&file, args, &tmp.path().join(format!("out{k}")));
         assert_refused(&o, needle);
     }
+}
+
+/// One column of a Parquet file written by [`write_parquet`]: text or
+/// doubles, either with nulls.
+enum ParquetColumn {
+    Text(Vec<Option<String>>),
+    Double(Vec<Option<f64>>),
+}
+
+/// Writes `columns` as a Parquet file of OPTIONAL columns (a null where a
+/// value is `None`), with the parquet crate's own writer.
+fn write_parquet(path: &Path, columns: &[(String, ParquetColumn)]) {
+    use parquet::basic::{LogicalType, Repetition, Type as Physical};
+    use parquet::column::writer::ColumnWriter;
+    use parquet::data_type::ByteArray;
+    use parquet::file::properties::WriterProperties;
+    use parquet::file::writer::SerializedFileWriter;
+    use parquet::schema::types::Type;
+    use std::sync::Arc;
+    let fields = columns
+        .iter()
+        .map(|(name, c)| {
+            let (physical, logical) = match c {
+                ParquetColumn::Double(_) => (Physical::DOUBLE, None),
+                ParquetColumn::Text(_) => (Physical::BYTE_ARRAY, Some(LogicalType::String)),
+            };
+            Arc::new(
+                Type::primitive_type_builder(name, physical)
+                    .with_logical_type(logical)
+                    .with_repetition(Repetition::OPTIONAL)
+                    .build()
+                    .unwrap(),
+            )
+        })
+        .collect();
+    let schema = Arc::new(Type::group_type_builder("replications").with_fields(fields).build().unwrap());
+    let file = std::fs::File::create(path).unwrap();
+    let mut writer = SerializedFileWriter::new(file, schema, Arc::new(WriterProperties::builder().build())).unwrap();
+    let mut group = writer.next_row_group().unwrap();
+    let mut k = 0;
+    while let Some(mut col) = group.next_column().unwrap() {
+        let levels = |present: Vec<bool>| present.into_iter().map(i16::from).collect::<Vec<_>>();
+        match (col.untyped(), &columns[k].1) {
+            (ColumnWriter::DoubleColumnWriter(w), ParquetColumn::Double(v)) => {
+                let values: Vec<f64> = v.iter().flatten().copied().collect();
+                w.write_batch(&values, Some(&levels(v.iter().map(Option::is_some).collect())), None).unwrap()
+            }
+            (ColumnWriter::ByteArrayColumnWriter(w), ParquetColumn::Text(v)) => {
+                let values: Vec<ByteArray> = v.iter().flatten().map(|s| ByteArray::from(s.as_str())).collect();
+                w.write_batch(&values, Some(&levels(v.iter().map(Option::is_some).collect())), None).unwrap()
+            }
+            _ => unreachable!("column {k}: type and writer disagree"),
+        };
+        col.close().unwrap();
+        k += 1;
+    }
+    group.close().unwrap();
+    writer.close().unwrap();
+}
+
+/// The committed replications written as Parquet (text columns as
+/// strings, numbers as doubles, every `NA` a null) give the same
+/// simsum.csv, byte for byte, as the CSV: Parquet's doubles are read back
+/// as the shortest text that round-trips, so every value is the same bits.
+#[test]
+fn a_parquet_replications_file_gives_what_its_csv_twin_gives() {
+    let tmp = tempfile::tempdir().unwrap();
+    let csv_path = root().join("results/coverage_rsimsum/replications.csv");
+    let mut reader = csv::Reader::from_path(&csv_path).unwrap();
+    let header: Vec<String> = reader.headers().unwrap().iter().map(str::to_string).collect();
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+    let columns: Vec<(String, ParquetColumn)> = header
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let cells = rows.iter().map(|r| Some(r[c].to_string()).filter(|v| v != "NA" && !v.is_empty()));
+            let column = if matches!(name.as_str(), "setting" | "method") {
+                ParquetColumn::Text(cells.collect())
+            } else {
+                ParquetColumn::Double(cells.map(|v| v.map(|v| v.parse::<f64>().unwrap())).collect())
+            };
+            (name.clone(), column)
+        })
+        .collect();
+    let nulls = columns.iter().filter_map(|(_, c)| match c {
+        ParquetColumn::Double(v) => Some(v.iter().filter(|x| x.is_none()).count()),
+        ParquetColumn::Text(_) => None,
+    });
+    assert!(nulls.sum::<usize>() > 100, "the file should hold missing values");
+    let parquet = tmp.path().join("replications.parquet");
+    write_parquet(&parquet, &columns);
+    let (from_csv, from_parquet) = (tmp.path().join("csv"), tmp.path().join("parquet"));
+    assert_ok(&simsum(&csv_path, &OWN, &from_csv));
+    assert_ok(&simsum(&parquet, &OWN, &from_parquet));
+    let a = std::fs::read(from_csv.join("simsum.csv")).unwrap();
+    assert!(a.len() > 10_000);
+    assert!(a == std::fs::read(from_parquet.join("simsum.csv")).unwrap(), "simsum.csv differs between CSV and Parquet");
+    // A damaged Parquet file is refused by name, not read as CSV.
+    let damaged = tmp.path().join("damaged.parquet");
+    std::fs::write(&damaged, b"PAR1 not really").unwrap();
+    let o = simsum(&damaged, &OWN, &tmp.path().join("damaged"));
+    assert_refused(&o, "damaged.parquet");
+    assert_refused(&o, "not a readable Parquet file");
 }

@@ -106,8 +106,9 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
     let file = path.display().to_string();
     let raw = crate::io::read_input(path, crate::io::MAX_LOG_FILE, "a flight log")
         .map_err(|e| LogError::Io { file: file.clone(), message: e.reason() })?;
-    if super::parquet::is_parquet(path) {
-        return super::parquet::to_csv_text(&file, raw, crate::io::MAX_LOG_DECOMPRESSED);
+    if crate::io::parquet::is_parquet(path) {
+        return crate::io::parquet::to_csv_text(raw, crate::io::MAX_LOG_DECOMPRESSED, "a flight log")
+            .map_err(|message| LogError::Parquet { file, message });
     }
     if path.extension().is_none_or(|e| e != "gz") {
         return Ok(raw);

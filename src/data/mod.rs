@@ -8,7 +8,6 @@ pub mod cuts;
 pub mod log;
 mod log_error;
 pub mod metadata;
-pub mod parquet;
 
 use std::path::{Path, PathBuf};
 

@@ -1,4 +1,5 @@
 //! `crossaudit simsum`: anyone's simulation study in. A replications CSV
+//! or Parquet file (`io::read_text` turns Parquet into its CSV text)
 //! (one row per method and replication: estimate, SE, optionally interval
 //! limits, df, a replication id and by-factors; the true value and the
 //! level as numbers or columns) is read with every bad field located at
@@ -198,16 +199,17 @@ fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFi
 
 fn read(path: &Path, cols: &Columns) -> Result<Vec<Replication>, SimsumFileError> {
     let shown = path.display().to_string();
-    let bytes = crate::io::read_input(path, crate::io::MAX_CELLS_FILE, "a replications file")
-        .map_err(|e| SimsumFileError::Read { path: shown.clone(), message: e.reason() })?;
     let at = |line: usize, column: usize, message: String| SimsumFileError::At {
         path: shown.clone(),
         line,
         column,
         message,
     };
-    let text = String::from_utf8(bytes).map_err(|_| at(1, 1, "not UTF-8".into()))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let text = crate::io::read_text(path, crate::io::MAX_CELLS_FILE, "a replications file").map_err(|e| match e {
+        crate::io::TextError::NotUtf8 { line, column } => at(line, column, "not UTF-8".into()),
+        other => SimsumFileError::Read { path: shown.clone(), message: other.reason() },
+    })?;
+    let text = text.text.as_str();
     let lines = crate::io::LineIndex::new(text.as_bytes());
     let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(text.as_bytes());
     let header: Vec<String> =

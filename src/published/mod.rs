@@ -227,13 +227,9 @@ pub fn stem(listed: &str) -> String {
 /// ```
 pub fn read(path: &Path) -> Result<PublishedSplit, PublishedError> {
     let shown = path.display().to_string();
-    let bytes = crate::io::read_input(path, crate::io::MAX_SPLIT_FILE, "a split file")
+    let crate::io::Text { text, sha256, .. } = crate::io::read_text(path, crate::io::MAX_SPLIT_FILE, "a split file")
         .map_err(|e| PublishedError::Read { path: shown.clone(), message: e.reason() })?;
-    let sha256 = crate::io::sha256_hex(&bytes);
-    let text = String::from_utf8(bytes)
-        .map_err(|e| PublishedError::Read { path: shown.clone(), message: format!("not UTF-8: {e}") })?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    let text = &*crate::io::lone_cr_to_lf(text);
+    let text = &*crate::io::lone_cr_to_lf(&text);
     let name = path.file_name().map(|n| n.to_string_lossy().to_lowercase()).unwrap_or_default();
     let (format, roles, notes) = if name.ends_with(".json") {
         from_json(&shown, text)?

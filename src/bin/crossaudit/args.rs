@@ -166,7 +166,7 @@ pub(crate) enum Command {
         replications: bool,
     },
     /// Anyone's simulation study in: rsimsum's performance measures with
-    /// their Monte Carlo SEs from a replications CSV (one row per method
+    /// their Monte Carlo SEs from a replications CSV or Parquet file (one row per method
     /// and replication), methods paired by replication id, and each method
     /// against the reference with paired MCSEs. Writes simsum.csv (tidy, as
     /// rsimsum's `tidy()`) and simsum.md.
@@ -364,7 +364,8 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
 /// `crossaudit simsum`'s arguments.
 #[derive(clap::Args)]
 pub(crate) struct SimsumArgs {
-    /// The replications CSV.
+    /// The replications file: CSV, or Parquet (`.parquet`, read as its
+    /// CSV twin: a null is a missing value).
     pub(crate) file: PathBuf,
     /// The estimate column.
     #[arg(long, default_value = "estimate")]

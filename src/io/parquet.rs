@@ -1,8 +1,10 @@
-//! Parquet flight logs, read natively: every row of the file becomes a line
-//! of the CSV text crossaudit would write for it, and that text goes
-//! through the one CSV reader. So a Parquet log and its CSV twin give the
-//! same columns, errors, content hash and row hashes, byte for byte; line
-//! L of a Parquet log is its row L - 1 (the header is line 1).
+//! Parquet files, read natively: every row of the file becomes a line of
+//! the CSV text crossaudit would write for it, and that text goes through
+//! the reader of its CSV twin (a flight log's, `data::log`; a replications
+//! file's, `methods::simsum`). So a Parquet file and its CSV twin give the
+//! same columns, errors and (for a flight log) content hash and row hashes,
+//! byte for byte; line L of a Parquet file is its row L - 1 (the header is
+//! line 1).
 //!
 //! Each top-level column is one CSV column, named as in the file. Values
 //! are written as text without losing a bit: a double as Rust's shortest
@@ -18,22 +20,20 @@ use parquet::basic::{LogicalType, TimeUnit, TimestampType};
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::record::Field;
 
-use super::log_error::LogError;
-
-/// Whether `path` names a Parquet log (`.parquet`).
+/// Whether `path` names a Parquet file (`.parquet`).
 pub fn is_parquet(path: &std::path::Path) -> bool {
     path.extension().is_some_and(|e| e == "parquet")
 }
 
-/// The CSV text of the Parquet file `raw` (named `file` in errors), at
-/// most `limit` bytes of it.
-pub fn to_csv_text(file: &str, raw: Vec<u8>, limit: u64) -> Result<Vec<u8>, LogError> {
-    let err = |message: String| LogError::Parquet { file: file.to_string(), message };
-    let reader = SerializedFileReader::new(Bytes::from(raw)).map_err(|e| err(e.to_string()))?;
+/// The CSV text of the Parquet file `raw`, at most `limit` bytes of it
+/// (`what` names the file's kind in that error: "a flight log"); an error
+/// is the reason alone, for the caller to place.
+pub fn to_csv_text(raw: Vec<u8>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
+    let reader = SerializedFileReader::new(Bytes::from(raw)).map_err(|e| e.to_string())?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let fields = schema.root_schema().get_fields();
     if fields.is_empty() {
-        return Err(err("it has no columns".into()));
+        return Err("it has no columns".into());
     }
     // Seconds per unit of each column stored as a timestamp.
     let per_second: Vec<Option<f64>> = fields
@@ -51,9 +51,9 @@ pub fn to_csv_text(file: &str, raw: Vec<u8>, limit: u64) -> Result<Vec<u8>, LogE
     let names: Vec<String> = fields.iter().map(|f| quoted(f.name())).collect();
     out.extend_from_slice(names.join(",").as_bytes());
     out.push(b'\n');
-    let rows = reader.get_row_iter(None).map_err(|e| err(e.to_string()))?;
+    let rows = reader.get_row_iter(None).map_err(|e| e.to_string())?;
     for (k, row) in rows.enumerate() {
-        let row = row.map_err(|e| err(format!("row {}: {e}", k + 1)))?;
+        let row = row.map_err(|e| format!("row {}: {e}", k + 1))?;
         for (c, (_, field)) in row.get_column_iter().enumerate() {
             if c > 0 {
                 out.push(b',');
@@ -62,7 +62,7 @@ pub fn to_csv_text(file: &str, raw: Vec<u8>, limit: u64) -> Result<Vec<u8>, LogE
         }
         out.push(b'\n');
         if out.len() as u64 > limit {
-            return Err(err(format!("its rows as text exceed the {limit} bytes read from a flight log")));
+            return Err(format!("its rows as text exceed the {limit} bytes read from {what}"));
         }
     }
     Ok(out)
