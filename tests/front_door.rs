@@ -258,6 +258,24 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
             false,
         ),
         (
+            "plan_paper_declared",
+            &[
+                "plan",
+                "designs/nanobench_paper.design",
+                "--components",
+                "recording=0.00791883,seed=6.98702e-05,residual=0.00495443",
+                "--effect=-0.0362",
+                "--reference-mean",
+                "0.299",
+                "--recordings",
+                "26,52,104,208",
+                "--seeds",
+                "5,10,20,40",
+                "--out",
+            ],
+            false,
+        ),
+        (
             "plan_per_seed",
             &[
                 "plan",

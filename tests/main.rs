@@ -32,6 +32,7 @@ mod mixed_cli;
 mod model;
 mod multiverse;
 mod optimism_interval;
+mod plan_declared;
 mod position_only;
 mod provenance;
 mod resampling;

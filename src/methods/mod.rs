@@ -10,10 +10,11 @@ pub mod draw_power;
 pub mod formula_file;
 pub mod power;
 pub mod simsum;
+pub mod split_power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};
 pub use draw_power::{draw_power_plan, DrawComponents, DrawPowerPlan, DrawPowerRow};
 pub use power::{
-    dose_power_plan, pooled_se, power_plan, split_power_plan, PowerError, PowerPlan, PowerRow, SplitPowerPlan,
-    SplitPowerRow,
+    declared_power_plan, dose_power_plan, parse_components, power_plan, Declared, PowerError, PowerPlan, PowerRow,
 };
+pub use split_power::{pooled_se, split_power_plan, SplitPowerPlan, SplitPowerRow};

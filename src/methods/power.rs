@@ -38,6 +38,10 @@ pub enum PowerError {
         /// Why.
         why: String,
     },
+    /// Declared components, effect or reference mean that cannot be
+    /// planned from.
+    #[error("{0}")]
+    Declared(String),
     /// The pilot analysis has no primary unit.
     #[error("the analysis has no primary endpoint")]
     NoPrimary,
@@ -116,6 +120,58 @@ pub struct PowerPlan {
     /// seed component includes the draw variance.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub draws_per_seed: bool,
+    /// The components, effect and reference mean were declared (`plan
+    /// --components`), not estimated from a pilot; `pilot_recordings` and
+    /// `pilot_seeds` are then the first I and J asked for, where the
+    /// advice compares doubling each.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub declared: bool,
+}
+
+/// Variance components, effect and reference mean declared by the user
+/// (`plan --components recording=V,seed=V,residual=V --effect D
+/// --reference-mean M`), planned from as a pilot's would be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Declared {
+    /// The components: SE^2 = recording/I + seed/J + residual/(IJ).
+    pub components: crate::stats::VarianceComponents,
+    /// The true effect (d, in the endpoint's unit).
+    pub effect: f64,
+    /// The reference arm's mean.
+    pub reference_mean: f64,
+}
+
+/// Reads `recording=V,seed=V,residual=V`: each name once, each value a
+/// finite number at least 0.
+pub fn parse_components(text: &str) -> Result<crate::stats::VarianceComponents, PowerError> {
+    let bad = |why: String| PowerError::Declared(format!("--components {text:?}: {why}"));
+    let mut found: [Option<f64>; 3] = [None; 3];
+    const NAMES: [&str; 3] = ["recording", "seed", "residual"];
+    for part in text.split(',') {
+        let (name, value) = part
+            .split_once('=')
+            .ok_or_else(|| bad(format!("{part:?} is not NAME=VALUE (NAME one of recording, seed, residual)")))?;
+        let k = NAMES
+            .iter()
+            .position(|n| *n == name.trim())
+            .ok_or_else(|| bad(format!("{:?} is not a component: give recording, seed and residual", name.trim())))?;
+        let v: f64 = value.trim().parse().map_err(|_| bad(format!("{:?} is not a number", value.trim())))?;
+        if !v.is_finite() || v < 0.0 {
+            return Err(bad(format!("{} = {v}: a variance is a finite number at least 0", NAMES[k])));
+        }
+        if found[k].replace(v).is_some() {
+            return Err(bad(format!("{} is given twice", NAMES[k])));
+        }
+    }
+    match found {
+        [Some(recording), Some(seed), Some(residual)] => {
+            Ok(crate::stats::VarianceComponents { recording, seed, residual })
+        }
+        _ => {
+            let missing: Vec<&str> = NAMES.iter().zip(found).filter(|(_, v)| v.is_none()).map(|(n, _)| *n).collect();
+            Err(bad(format!("{} missing: give all three", missing.join(" and "))))
+        }
+    }
 }
 
 /// Predicts SE, interval width and the probability that the decision rule
@@ -136,7 +192,56 @@ pub fn power_plan(
     let u = analysis.units.first().ok_or(PowerError::NoPrimary)?;
     let unit = format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s);
     let estimand = ("d", unit_of(u.metric.unit(), None));
-    crossed_plan(plan, unit, estimand, &u.estimate, u.mean_reference, recordings, seeds)
+    crossed_plan(plan, unit, estimand, &Pilot::of(&u.estimate, u.mean_reference), recordings, seeds)
+}
+
+/// [`power_plan`] from declared components, effect and reference mean
+/// instead of a pilot's: the same rows a pilot with those values gives
+/// (`tests/plan_declared.rs` checks both against the closed form).
+pub fn declared_power_plan(
+    plan: &Plan,
+    declared: &Declared,
+    recordings: &[usize],
+    seeds: &[usize],
+) -> Result<PowerPlan, PowerError> {
+    check_counts(&[recordings, seeds])?;
+    if !declared.effect.is_finite() || !declared.reference_mean.is_finite() {
+        return Err(PowerError::Declared(format!(
+            "--effect {} and --reference-mean {} must be finite numbers",
+            declared.effect, declared.reference_mean
+        )));
+    }
+    let p = &plan.primary;
+    let unit = format!("{} {} at {} s", p.model, p.metric.name(), p.horizon_s);
+    let estimand = ("d", unit_of(p.metric.unit(), None));
+    let base = (recordings.first().copied().unwrap_or(2), seeds.first().copied().unwrap_or(2));
+    let pilot =
+        Pilot { components: declared.components, mean: declared.effect, mean_reference: declared.reference_mean, base };
+    let mut out = crossed_plan(plan, unit, estimand, &pilot, recordings, seeds)?;
+    out.declared = true;
+    out.advice = out.advice.replacen("From the pilot's", "At the declared components, from", 1);
+    Ok(out)
+}
+
+/// What a crossed plan is made from: a pilot's estimate, or declared
+/// values.
+struct Pilot {
+    components: crate::stats::VarianceComponents,
+    mean: f64,
+    mean_reference: f64,
+    /// The (I, J) the advice doubles from: the pilot's.
+    base: (usize, usize),
+}
+
+impl Pilot {
+    fn of(estimate: &crate::stats::CrossedEstimate, mean_reference: f64) -> Pilot {
+        Pilot {
+            components: estimate.components,
+            mean: estimate.mean,
+            mean_reference,
+            base: (estimate.rows, estimate.cols),
+        }
+    }
 }
 
 /// The planner for a single-split dose-response design: [`power_plan`]
@@ -145,7 +250,7 @@ pub fn power_plan(
 /// rule `optimism >= c%` on the slope holds when the slope is at most
 /// -c m_ref / 100, as for d, since the optimism slope is -100 slope / m_ref.
 ///
-/// A multi-split design goes to [`split_power_plan`], which plans the
+/// A multi-split design goes to [`super::split_power::split_power_plan`], which plans the
 /// pooled slope when the rule is on it.
 pub fn dose_power_plan(
     plan: &Plan,
@@ -164,12 +269,12 @@ pub fn dose_power_plan(
             ("slope (per second of distance)", unit_of(plan.primary.metric.unit(), Some(DoseAxis::Distance)))
         }
     };
-    crossed_plan(plan, unit, estimand, &trend.slope, reference, recordings, seeds)
+    crossed_plan(plan, unit, estimand, &Pilot::of(&trend.slope, reference), recordings, seeds)
 }
 
 /// A metric's unit as plan.md prints it ([`crate::report::unit_label`]),
 /// for a slope per percentage point of dose or per second of distance.
-fn unit_of(unit: &str, slope: Option<DoseAxis>) -> String {
+pub(super) fn unit_of(unit: &str, slope: Option<DoseAxis>) -> String {
     let unit = crate::report::unit_label(unit);
     match slope {
         None => unit.to_string(),
@@ -179,7 +284,7 @@ fn unit_of(unit: &str, slope: Option<DoseAxis>) -> String {
 }
 
 /// `slope over doses`, or `slope over distance` in a distance-dose family.
-fn slope_name(family: &crate::analysis::family::FamilyAnalysis) -> &'static str {
+pub(super) fn slope_name(family: &crate::analysis::family::FamilyAnalysis) -> &'static str {
     match family.dose_axis {
         DoseAxis::Percent => "slope over doses",
         DoseAxis::Distance => "slope over distance",
@@ -241,13 +346,13 @@ fn crossed_plan(
     plan: &Plan,
     unit: String,
     (estimand, value_unit): (&str, String),
-    estimate: &crate::stats::CrossedEstimate,
-    mean_reference: f64,
+    pilot: &Pilot,
     recordings: &[usize],
     seeds: &[usize],
 ) -> Result<PowerPlan, PowerError> {
-    let c = &estimate.components;
-    refuse_degenerate(&unit, &[c.recording, c.seed, c.residual], estimate.mean, mean_reference)?;
+    let c = &pilot.components;
+    let mean_reference = pilot.mean_reference;
+    refuse_degenerate(&unit, &[c.recording, c.seed, c.residual], pilot.mean, mean_reference)?;
     let mut rows = Vec::new();
     for &i in recordings {
         for &j in seeds {
@@ -255,11 +360,11 @@ fn crossed_plan(
             // Satterthwaite's df need data; the planner uses the normal there.
             let df = plan.df(i, j).unwrap_or(f64::INFINITY);
             let t = critical_value(plan.estimator.level, df)?;
-            let power = rule_power(plan, estimate.mean, se, t, mean_reference)?;
+            let power = rule_power(plan, pilot.mean, se, t, mean_reference)?;
             rows.push(PowerRow { recordings: i, seeds: j, se, width: 2.0 * t * se, power });
         }
     }
-    let (i0, j0) = (estimate.rows as f64, estimate.cols as f64);
+    let (i0, j0) = (pilot.base.0 as f64, pilot.base.1 as f64);
     let (base, more_rec, more_seed) = (c.se_at(i0, j0), c.se_at(2.0 * i0, j0), c.se_at(i0, 2.0 * j0));
     let digits = if base.abs() < 1e-3 { 3 } else { 4 };
     let advice = format!(
@@ -273,9 +378,9 @@ fn crossed_plan(
         unit,
         estimand: estimand.to_string(),
         value_unit,
-        pilot_recordings: estimate.rows,
-        pilot_seeds: estimate.cols,
-        mean_d: estimate.mean,
+        pilot_recordings: pilot.base.0,
+        pilot_seeds: pilot.base.1,
+        mean_d: pilot.mean,
         mean_reference,
         sigma2_recording: c.recording,
         sigma2_seed: c.seed,
@@ -283,6 +388,7 @@ fn crossed_plan(
         rows,
         advice,
         draws_per_seed: false,
+        declared: false,
     })
 }
 
@@ -301,11 +407,14 @@ impl PowerPlan {
     pub fn to_markdown(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "# Design planner: {}\n", self.unit);
+        let source = if self.declared {
+            "Declared (`--components`, `--effect`, `--reference-mean`; no pilot)".to_string()
+        } else {
+            format!("Pilot: {} recordings x {} seeds", self.pilot_recordings, self.pilot_seeds)
+        };
         let _ = writeln!(
             s,
-            "Pilot: {} recordings x {} seeds; mean {} {}, reference mean {:.5}; sigma^2 recording {:.3e}, seed {:.3e}, residual {:.3e}.\n",
-            self.pilot_recordings,
-            self.pilot_seeds,
+            "{source}; mean {} {}, reference mean {:.5}; sigma^2 recording {:.3e}, seed {:.3e}, residual {:.3e}.\n",
             self.estimand,
             if self.mean_d.abs() < 1e-3 { format!("{:.4e}", self.mean_d) } else { format!("{:.5}", self.mean_d) },
             self.mean_reference,
@@ -341,7 +450,14 @@ impl PowerPlan {
 - Nothing else varies: the model, training, split and data inclusion are the pilot's.\n",
             estimand = self.estimand
         );
-        if self.draws_per_seed {
+        if self.declared {
+            s = s
+                .replace("- The pilot's variance components (recording, seed, residual) are the true ones, and recordings and seeds added or removed are like the pilot's:", "- The declared variance components (recording, seed, residual) are the true ones for the recordings and seeds planned:")
+                .replace("- The pilot's mean", "- The declared mean")
+                .replace("the reference mean stays at the pilot's. A pilot chosen because its effect looked large makes every probability optimistic.", "the reference mean is the declared one. An effect declared from a study chosen because its effect looked large makes every probability optimistic.")
+                .replace("inclusion are the pilot's.", "inclusion are those the components describe.");
+            s.push_str("- The draws: as the declared components describe them (a seed component measured with `draws per seed` includes the variance between draws; one measured on one draw leaves it out).\n");
+        } else if self.draws_per_seed {
             s.push_str("- The pilot gave each seed its own draw (`draws per seed`): its seed component includes the variance between draws, so every row's J seeds are J draws, and the interval is for the mean over draws.\n");
         } else {
             s.push_str("- One draw of the validation recordings, windows and rollout starts: the interval is conditional on it and leaves the variance between draws out (`draws per seed` or `factor draw` put it in; plan a design with `factor draw` to see both).\n");
@@ -396,151 +512,6 @@ impl PowerPlan {
             chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&e)?;
             Ok(())
         })?;
-        Ok(())
-    }
-}
-
-/// One row of the multi-split planner.
-#[derive(Debug, Clone, Serialize)]
-pub struct SplitPowerRow {
-    /// Splits S.
-    pub splits: usize,
-    /// Evaluation recordings per split I.
-    pub recordings: usize,
-    /// Seeds J (shared by the splits).
-    pub seeds: usize,
-    /// Predicted SE of the pooled estimate.
-    pub se: f64,
-    /// Predicted interval width, 2 t(S - 1) SE.
-    pub width: f64,
-    /// P(the decision rule holds on the pooled estimate), normal approximation.
-    pub power: f64,
-}
-
-/// The multi-split planner's answer for one design and pilot.
-#[derive(Debug, Clone, Serialize)]
-pub struct SplitPowerPlan {
-    /// The primary unit's label.
-    pub unit: String,
-    /// Splits, recordings per split and seeds in the pilot.
-    pub pilot: (usize, usize, usize),
-    /// Pilot pooled mean d.
-    pub mean_d: f64,
-    /// Pilot reference-arm mean.
-    pub mean_reference: f64,
-    /// Pilot variance components: split, recording, seed, residual.
-    pub variances: [f64; 4],
-    /// The unit of the SE and width, for plan.md's headers.
-    #[serde(skip)]
-    pub value_unit: String,
-    /// One row per (S, I, J) asked for.
-    pub rows: Vec<SplitPowerRow>,
-}
-
-/// SE of the pooled mean with S splits of I recordings and J shared seeds,
-/// treating the S x I evaluation recordings as distinct:
-/// sqrt(s2_split/S + s2_rec/(S I) + s2_seed/J + s2_res/(S I J)). Recordings
-/// that recur across splits average out less, so this is a lower bound on
-/// the SE when the recording pool is small.
-pub fn pooled_se(variances: [f64; 4], splits: f64, recordings: f64, seeds: f64) -> f64 {
-    let [vs, vr, vj, ve] = variances;
-    (vs / splits + vr / (splits * recordings) + vj / seeds + ve / (splits * recordings * seeds)).sqrt()
-}
-
-/// The planner for a multi-split design: from a pilot's pooled variance
-/// components (the first dose's pooled fit), the SE ([`pooled_se`]), the
-/// interval width 2 t(S - 1) SE (the split count limits the df; with a
-/// split component near zero this is conservative) and the probability
-/// that the decision rule holds, as [`power_plan`] computes it, for each
-/// number of splits, recordings per split and seeds.
-pub fn split_power_plan(
-    plan: &Plan,
-    family: &crate::analysis::family::FamilyAnalysis,
-    splits: &[usize],
-    recordings: &[usize],
-    seeds: &[usize],
-) -> Result<SplitPowerPlan, PowerError> {
-    check_counts(&[splits, recordings, seeds])?;
-    // The pooled estimate the rule is on: the slope, or the first dose's.
-    let pooled = family.pooled.as_ref().ok_or(PowerError::NoPrimary)?;
-    let on_slope = plan.rule_on_slope();
-    let pooled = if on_slope {
-        pooled.slope.as_ref().ok_or(PowerError::NoTrend)?
-    } else {
-        pooled.doses.first().ok_or(PowerError::NoPrimary)?
-    };
-    let first = family.splits.first().and_then(|s| s.doses.first()).ok_or(PowerError::NoPrimary)?;
-    let mean_reference = first.mean_reference;
-    refuse_degenerate(&family.unit, &pooled.variances, pooled.mean, mean_reference)?;
-    let mut rows = Vec::new();
-    for &s in splits {
-        for &i in recordings {
-            for &j in seeds {
-                let se = pooled_se(pooled.variances, s as f64, i as f64, j as f64);
-                let t = critical_value(plan.estimator.level, (s - 1) as f64)?;
-                let power = rule_power(plan, pooled.mean, se, t, mean_reference)?;
-                rows.push(SplitPowerRow { splits: s, recordings: i, seeds: j, se, width: 2.0 * t * se, power });
-            }
-        }
-    }
-    Ok(SplitPowerPlan {
-        unit: if on_slope { format!("{} of {}", slope_name(family), family.unit) } else { family.unit.clone() },
-        pilot: (family.splits.len(), first.estimate.rows, first.estimate.cols),
-        mean_d: pooled.mean,
-        mean_reference,
-        variances: pooled.variances,
-        value_unit: unit_of(plan.primary.metric.unit(), on_slope.then_some(family.dose_axis)),
-        rows,
-    })
-}
-
-impl SplitPowerPlan {
-    /// plan.md.
-    pub fn to_markdown(&self) -> String {
-        let mut s = String::new();
-        let _ = writeln!(s, "# Multi-split planner: {}\n", self.unit);
-        let [vs, vr, vj, ve] = self.variances;
-        let _ = writeln!(
-            s,
-            "Pilot: {} splits x {} recordings x {} seeds; pooled mean d {:.5}, reference mean {:.5}; sigma^2 split {vs:.3e}, recording {vr:.3e}, seed {vj:.3e}, residual {ve:.3e}.\n",
-            self.pilot.0, self.pilot.1, self.pilot.2, self.mean_d, self.mean_reference
-        );
-        let _ = writeln!(
-            s,
-            "SE^2 = s2_split/S + s2_rec/(S I) + s2_seed/J + s2_res/(S I J), the S x I recordings taken as distinct (recordings that recur across splits make the real SE larger); width = 2 t(S - 1) SE.\n"
-        );
-        let (se_h, width_h) =
-            (format!("predicted SE ({})", self.value_unit), format!("interval width ({})", self.value_unit));
-        let cols = ["splits S", "recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)"];
-        let mut table = Table::new(&cols, "rrrrrr");
-        for r in &self.rows {
-            table.row([
-                r.splits.to_string(),
-                r.recordings.to_string(),
-                r.seeds.to_string(),
-                format!("{:.5}", r.se),
-                format!("{:.5}", r.width),
-                format!("{:.3}", r.power),
-            ]);
-        }
-        s.push_str(&table.render());
-        s.push_str(
-            "\n## Assumptions\n\n\
-- The pilot's pooled variance components (split, recording, seed, residual) are the true ones, and splits, recordings and seeds added or removed are like the pilot's.\n\
-- The S x I evaluation recordings are distinct; recordings that recur across splits average out less, so the predicted SE is a lower bound when the recording pool is small.\n\
-- The pilot's pooled mean is the true effect, and the reference mean stays at the pilot's; a pilot chosen because its effect looked large makes every probability optimistic.\n\
-- The estimate is normal with that SE, taken as known; the interval uses t(S - 1), conservative when the split component is near zero.\n\
-- The rule holds when the estimate is at most min(-t SE, -c m_ref / 100); P(decision rule holds) = Phi((that bound - mean) / SE).\n",
-        );
-        s
-    }
-
-    /// Writes plan.md and plan.json into `out`.
-    pub fn write(&self, out: &Path) -> Result<(), PowerError> {
-        create_dir_all(out)?;
-        write_atomic(&out.join("plan.md"), self.to_markdown().as_bytes())?;
-        let json = serde_json::to_string_pretty(self).unwrap_or_default();
-        write_atomic(&out.join("plan.json"), json.as_bytes())?;
         Ok(())
     }
 }

@@ -175,13 +175,29 @@ pub(crate) enum Command {
     /// for other numbers of recordings and seeds (and splits, or draws), from
     /// pilot per-cell data; for a dose-response design, of the slope over
     /// doses; for a design with `factor draw`, of d pooled over draws and
-    /// with per-seed draws.
+    /// with per-seed draws. Or, with no pilot, from declared variance
+    /// components (`--components`, `--effect`, `--reference-mean`).
     Plan {
         /// The design file (.design).
         design: PathBuf,
-        /// Pilot per-cell CSV analysable under the design.
-        #[arg(long)]
-        cells: PathBuf,
+        /// Pilot per-cell CSV analysable under the design (or, for a
+        /// design with `factor draw`, its run directory).
+        #[arg(long, required_unless_present = "components", conflicts_with = "components")]
+        cells: Option<PathBuf>,
+        /// Plan from declared variance components instead of a pilot:
+        /// `recording=V,seed=V,residual=V`, the components of the primary
+        /// contrast d, SE^2 = recording/I + seed/J + residual/(IJ) (as
+        /// plan.json's sigma2_recording, sigma2_seed, sigma2_residual). A
+        /// single crossed contrast only.
+        #[arg(long, requires_all = ["effect", "reference_mean"])]
+        components: Option<String>,
+        /// With --components: the true effect d, in the endpoint's unit.
+        #[arg(long, allow_negative_numbers = true, requires = "components")]
+        effect: Option<f64>,
+        /// With --components: the reference arm's mean, for an
+        /// `optimism >= c%` rule.
+        #[arg(long, allow_negative_numbers = true, requires = "components")]
+        reference_mean: Option<f64>,
         /// Numbers of recordings to consider.
         #[arg(long, value_delimiter = ',', default_value = "13,26,52")]
         recordings: Vec<usize>,

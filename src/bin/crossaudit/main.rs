@@ -61,8 +61,15 @@ fn main() -> ExitCode {
         Command::Gather { dir } => slurm_gather(&dir),
         Command::Coverage { spec, reps, out, replications } => methods::coverage(&spec, reps, &out, replications),
         Command::Simsum(args) => methods::simsum(args),
-        Command::Plan { design, cells, recordings, seeds, splits, draws, out } => {
-            methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out)
+        Command::Plan { design, cells, components, effect, reference_mean, recordings, seeds, splits, draws, out } => {
+            match (cells, components, effect, reference_mean) {
+                (Some(cells), ..) => methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out),
+                (None, Some(components), Some(effect), Some(reference_mean)) => {
+                    methods::declared_power(&design, (&components, effect, reference_mean), (&recordings, &seeds), &out)
+                }
+                // clap requires --cells, or --components with both values.
+                _ => unreachable!("clap requires --cells or --components with --effect and --reference-mean"),
+            }
         }
         Command::Simulate { design, out } => methods::simulate(&design, &out),
         Command::SimulateLab { out, seed } => methods::simulate_lab(&out, seed),

@@ -103,6 +103,48 @@ pub(crate) fn power(
     Ok(())
 }
 
+/// `plan --components`: the crossed planner from declared components, for
+/// a design whose primary is a single crossed contrast.
+pub(crate) fn declared_power(
+    design: &Path,
+    (components, effect, reference_mean): (&str, f64, f64),
+    (recordings, seeds): (&[usize], &[usize]),
+    out: &Path,
+) -> Result<(), Error> {
+    let file = design::load(design)?;
+    crossaudit::run::check_output_dir(out, &file.sha256)?;
+    crossaudit::run::check_not_runs_own(out, None)?;
+    let study = crossaudit::compile_study(&file.design);
+    let plan = &study.plan;
+    let kind = if !file.design.draws.is_empty() {
+        Some("`factor draw`")
+    } else if !plan.splits.is_empty() {
+        Some("a split factor")
+    } else if plan.is_family() {
+        Some("doses")
+    } else {
+        None
+    };
+    if let Some(kind) = kind {
+        return Err(crossaudit::methods::PowerError::Declared(format!(
+            "{}: the design has {kind}; --components plans a single crossed contrast (recording x seed). Plan this design from a pilot with --cells",
+            design.display()
+        ))
+        .into());
+    }
+    let declared = crossaudit::methods::Declared {
+        components: crossaudit::methods::parse_components(components)?,
+        effect,
+        reference_mean,
+    };
+    let mut power = crossaudit::methods::declared_power_plan(plan, &declared, recordings, seeds)?;
+    power.draws_per_seed = file.design.per_seed_draws;
+    let _lock = lock_folder(out, false)?;
+    power.write(out)?;
+    out!("{}", power.to_markdown());
+    Ok(())
+}
+
 pub(crate) fn simulate(design: &Path, out: &Path) -> Result<(), Error> {
     let file = design::load(design)?;
     crossaudit::run::check_output_dir(out, &file.sha256)?;
