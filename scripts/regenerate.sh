@@ -12,6 +12,7 @@ ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
 [ -x "$ca" ] || { echo "regenerate.sh: no binary at $ca after cargo build" >&2; exit 1; }
 $ca analyze designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --out results/example --compare-intervals >/dev/null 2>&1
 $ca coverage specs/coverage_paper.json --out results/coverage 2>/dev/null
+$ca coverage specs/coverage_decision.json --out results/coverage_decision 2>/dev/null
 $ca coverage specs/coverage_missing.json --out results/coverage_missing 2>/dev/null
 $ca coverage specs/coverage_power_paper.json --out results/coverage_power_paper 2>/dev/null
 # rsimsum's check of this one (scripts/reference/rsimsum_check.R) needs R and rsimsum: rerun it by hand.

@@ -444,3 +444,66 @@ fn an_outlying_row_shifts_every_estimate_by_its_closed_form_and_the_report_says_
     let md = crossaudit::methods::coverage::to_markdown(&spec, &rows);
     assert!(md.contains("5 sqrt(s2_rec) / I = 1.414 SE from the true mean 0"), "{md}");
 }
+
+/// The decision's coverage study (`"kind": "decision"`): the committed
+/// ratio rows agree with an independent Python simulation of the same model
+/// (scripts/reference/decision_coverage_reference.py, its own generator
+/// and a closed-form MoM for Fieller's set) within 3 combined MCSEs; the
+/// study gives the same bytes on one thread and on two; bad specs are
+/// refused by name.
+#[test]
+fn the_decision_coverage_study_agrees_with_an_independent_simulation_and_refuses_bad_specs() {
+    let root = crate::common::root();
+    let out = std::fs::read_to_string(root.join("scripts/reference/decision_coverage_reference.out")).unwrap();
+    let verdicts: Vec<&str> = out.lines().filter(|l| l.contains("within 3 combined MCSEs")).collect();
+    assert_eq!(verdicts.len(), 4, "{out}");
+    assert!(verdicts.iter().all(|l| l.ends_with(": agree within 3 combined MCSEs")), "{out}");
+    // The committed ratio.csv is what the reference compared with.
+    let mut reader = csv::Reader::from_path(root.join("results/coverage_decision/ratio.csv")).unwrap();
+    let k = reader.headers().unwrap().iter().position(|h| h == "coverage").unwrap();
+    let coverages: Vec<f64> = reader.records().map(|r| r.unwrap()[k].parse().unwrap()).collect();
+    assert_eq!(coverages.len(), 4);
+    for line in &verdicts {
+        let ours: f64 = line.split("crossaudit ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(coverages.iter().any(|c| (c - ours).abs() < 5e-5), "{ours} not in ratio.csv {coverages:?}");
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |threads: &str, out: &std::path::Path, spec: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+            .current_dir(&root)
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["coverage"])
+            .arg(spec)
+            .args(["--reps", "60", "--out"])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let spec = root.join("specs/coverage_decision.json");
+    let (one, two) = (tmp.path().join("one"), tmp.path().join("two"));
+    crate::common::assert_ok(&run("1", &one, &spec));
+    crate::common::assert_ok(&run("2", &two, &spec));
+    for f in ["interaction.csv", "ratio.csv", "coverage.md"] {
+        assert!(std::fs::read(one.join(f)).unwrap() == std::fs::read(two.join(f)).unwrap(), "{f} depends on threads");
+    }
+    let text = std::fs::read_to_string(&spec).unwrap();
+    for (from, to, needle) in [
+        ("\"kind\": \"decision\"", "\"kind\": \"decisions\"", "`kind` must be \"draws\""),
+        ("\"residual\": -0.6812}},\n    {", "\"residual\": 1.6812}},\n    {", "every correlation must be in [-1, 1]"),
+        ("\"mean_reference\": 0.299", "\"mean_reference\": 0", "`mean_reference` must be finite and not 0"),
+        ("\"bootstrap\": 999", "\"bootstrap\": 3", "`bootstrap` must be from 19 to 99999"),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let bad = tmp.path().join("bad.json");
+        std::fs::write(&bad, text.replacen(from, to, 1)).unwrap();
+        let o = run("2", &tmp.path().join("bad"), &bad);
+        crate::common::assert_refused(&o, needle);
+    }
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        .current_dir(&root)
+        .args(["coverage", "specs/coverage_decision.json", "--replications", "--out"])
+        .arg(tmp.path().join("r"))
+        .output()
+        .unwrap();
+    crate::common::assert_refused(&o, "a `\"kind\": \"decision\"` study has none to write");
+}

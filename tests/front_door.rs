@@ -193,6 +193,7 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
             ],
             false,
         ),
+        ("coverage_decision", &["coverage", "specs/coverage_decision.json", "--out"], false),
         (
             "plan_audited",
             &[

@@ -131,14 +131,12 @@ fn default_b() -> usize {
 /// A coverage spec's text: a regular file of bounded size (never a device
 /// or a FIFO), UTF-8, line ends normalized.
 pub fn read_spec_text(path: &Path) -> Result<String, CoverageError> {
-    let p = path.display().to_string();
-    let bytes = crate::io::read_input(path, crate::io::MAX_SMALL_TEXT, "a coverage spec")
-        .map_err(|e| CoverageError::Read { path: p.clone(), source: e.into_io() })?;
-    let text = String::from_utf8(bytes).map_err(|e| CoverageError::Read {
-        path: p,
-        source: std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8: {e}")),
-    })?;
-    Ok(crate::io::lone_cr_to_lf(&text).into_owned())
+    let text =
+        crate::io::read_text(path, crate::io::MAX_SMALL_TEXT, "a coverage spec").map_err(|e| CoverageError::Read {
+            path: path.display().to_string(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.reason()),
+        })?;
+    Ok(crate::io::lone_cr_to_lf(&text.text).into_owned())
 }
 
 impl CoverageSpec {

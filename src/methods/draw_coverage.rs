@@ -200,18 +200,29 @@ impl DrawCoverageSpec {
     }
 }
 
-/// Whether a coverage spec's text asks for the draw study (it has a
-/// `kind`). Text that is not JSON is refused here with the syntax error's
-/// line and column, whichever study it meant (a NaN or a missing comma was
-/// reported as the other study's "unknown field `kind`").
-pub fn is_draw_spec(path: &Path, text: &str) -> Result<bool, CoverageError> {
+/// The study a coverage spec's text asks for: its `kind` (`"draws"`,
+/// `"decision"`), or `None` for the grid, which has none. Text that is not
+/// JSON is refused here with the syntax error's line and column, whichever
+/// study it meant (a NaN or a missing comma was reported as the other
+/// study's "unknown field `kind`"); a `kind` that names no study is
+/// refused with the kinds there are.
+pub fn spec_kind(path: &Path, text: &str) -> Result<Option<String>, CoverageError> {
     let value: serde_json::Value = serde_json::from_str(text).map_err(|source| CoverageError::Parse {
         path: path.display().to_string(),
         line: source.line(),
         column: source.column(),
         source,
     })?;
-    Ok(value.get("kind").is_some())
+    match value.get("kind") {
+        None => Ok(None),
+        Some(serde_json::Value::String(k)) if k == "draws" || k == "decision" => Ok(Some(k.clone())),
+        Some(other) => Err(CoverageError::Invalid {
+            path: path.display().to_string(),
+            message: format!(
+                "`kind` must be \"draws\" (coverage with a draw component) or \"decision\" (the interaction and the optimism), or absent (the grid of settings), found {other}"
+            ),
+        }),
+    }
 }
 
 /// The seed of a setting: FNV-1a of its JSON, mixed with the spec's seed.

@@ -5,6 +5,7 @@ pub mod coverage;
 pub mod coverage_svg;
 pub mod coverage_tidy;
 pub mod coverage_zip;
+pub mod decision_coverage;
 pub mod draw_coverage;
 pub mod draw_power;
 pub mod formula_file;

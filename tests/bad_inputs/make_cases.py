@@ -686,3 +686,23 @@ case("r5_simsum_no_true_column", "simsum {dir}/reps.csv --true theta --out {out}
      {"reps.csv": "method,rep,estimate,se\nA,1,0.1,0.2\n"})
 case("r5_simsum_level_out_of_range", "simsum {dir}/reps.csv --true 0 --level 95 --out {out}",
      {"reps.csv": "method,rep,estimate,se\nA,1,0.1,0.2\n"})
+# A Parquet replications file that is not Parquet, and one not UTF-8 at a
+# place; `plan --components` missing a term or with a negative variance;
+# a coverage spec of a kind there is not, and a decision spec whose
+# correlation is outside [-1, 1].
+case("r5_simsum_parquet_damaged", "simsum {dir}/reps.parquet --true 0 --out {out}",
+     {"reps.parquet": b"PAR1 this is not a parquet file"})
+case("r5_simsum_not_utf8", "simsum {dir}/reps.csv --true 0 --out {out}",
+     {"reps.csv": b"method,rep,estimate,se\nA,1,0.1,0.2\nA,2,0.\xff3,0.2\n"})
+case("r5_plan_components_missing_residual",
+     "plan designs/nanobench_confirmatory.design --components recording=1e-3,seed=1e-4 --effect=-0.03 --reference-mean 0.3 --out {out}")
+case("r5_plan_components_negative",
+     "plan designs/nanobench_confirmatory.design --components recording=1e-3,seed=-1e-4,residual=1e-3 --effect=-0.03 --reference-mean 0.3 --out {out}")
+case("r5_coverage_unknown_kind", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": '{"kind": "ratio", "seed": 1, "reps": 10, "level": 0.95}\n'})
+case("r5_coverage_decision_bad_correlation", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": '{"kind": "decision", "seed": 1, "reps": 10, "level": 0.95, "ratio": [\n'
+                   '  {"label": "x", "rows": 4, "cols": 3, "mean_reference": 1, "mean_d": -0.1,\n'
+                   '   "reference": {"recording": 1, "seed": 1, "residual": 1},\n'
+                   '   "d": {"recording": 1, "seed": 1, "residual": 1},\n'
+                   '   "correlation": {"recording": 0, "seed": 2, "residual": 0}}]}\n'})

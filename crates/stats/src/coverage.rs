@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::{compare_intervals, CrossedMatrix, IntervalMethod, StatsError};
 
 mod measures;
+pub mod ratio;
 pub(crate) use measures::correlation;
 pub use measures::measures;
 

@@ -7,17 +7,41 @@ use crossaudit::design;
 use crossaudit::run::lock_folder;
 use crossaudit::{AnalyzeOptions, Error};
 
+/// `coverage` of a `"kind": "decision"` spec: the interaction and the
+/// optimism's intervals.
+fn decision_coverage(spec_path: &Path, text: &str, reps: Option<usize>, out: &Path) -> Result<(), Error> {
+    use crossaudit::methods::decision_coverage as dc;
+    let mut spec = dc::DecisionCoverageSpec::from_text(spec_path, text)?;
+    if let Some(r) = reps {
+        spec.reps = r;
+        spec.validate(spec_path)?;
+    }
+    let _lock = lock_folder(out, false)?;
+    let started = std::time::Instant::now();
+    let (interaction, ratio) = dc::run_decision_coverage(&spec, &mut |k, n, label| {
+        note!("[{k}/{n}] {label} ({:.1} s)", started.elapsed().as_secs_f64());
+    })?;
+    for p in dc::write_decision_coverage(out, &spec, (&interaction, &ratio))? {
+        note!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
 pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replications: bool) -> Result<(), Error> {
     use crossaudit::methods::draw_coverage as dc;
     let text = crossaudit::methods::coverage::read_spec_text(spec_path)?;
-    if dc::is_draw_spec(spec_path, &text)? {
-        if replications {
-            return Err(crossaudit::methods::CoverageError::Invalid {
-                path: spec_path.display().to_string(),
-                message: "`--replications` writes the tidy replications of a coverage grid for rsimsum; a draw study (`\"kind\": \"draws\"`) has none to write. Leave the flag out".into(),
-            }
-            .into());
+    let kind = dc::spec_kind(spec_path, &text)?;
+    if let (Some(kind), true) = (&kind, replications) {
+        return Err(crossaudit::methods::CoverageError::Invalid {
+            path: spec_path.display().to_string(),
+            message: format!("`--replications` writes the tidy replications of a coverage grid for rsimsum; a `\"kind\": \"{kind}\"` study has none to write. Leave the flag out"),
         }
+        .into());
+    }
+    if kind.as_deref() == Some("decision") {
+        return decision_coverage(spec_path, &text, reps, out);
+    }
+    if kind.is_some() {
         let mut spec = dc::DrawCoverageSpec::from_text(spec_path, &text)?;
         if let Some(r) = reps {
             spec.reps = r;
