@@ -412,3 +412,37 @@ fn a_parquet_replications_file_gives_what_its_csv_twin_gives() {
     assert_refused(&o, "damaged.parquet");
     assert_refused(&o, "not a readable Parquet file");
 }
+
+/// simsum.svg: each group's coverage per method, as coverage.svg draws a
+/// coverage study; names from the file are text in it, never markup, and
+/// a file with more groups than one figure's key holds says so instead.
+#[test]
+fn the_coverage_figure_draws_every_method_and_keeps_names_as_text() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("reps.csv");
+    std::fs::write(
+        &file,
+        "method,rep,estimate,se\n\"<b>&x\",1,0.1,0.2\n\"<b>&x\",2,-0.3,0.2\n\"<b>&x\",3,0.2,0.25\nB\u{1},1,0.1,0.3\nB\u{1},2,0.2,0.3\nB\u{1},3,-0.1,0.3\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    assert_ok(&simsum(&file, &["--true", "0", "--rep", "rep"], &out));
+    let svg = std::fs::read_to_string(out.join("simsum.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains("&lt;b&gt;&amp;x") && !svg.contains("<b>"), "a name became markup");
+    assert!(svg.contains("B\\u{1}") && !svg.contains('\u{1}'), "a control character reached the figure");
+    assert!(svg.contains("true 0, level 0.95"), "the group's key");
+    // 61 groups: no figure, and simsum.md says why.
+    let mut many = String::from("method,g,rep,estimate,se\n");
+    for g in 0..61 {
+        for r in 1..=3 {
+            many.push_str(&format!("A,{g},{r},0.{r},0.2\n"));
+        }
+    }
+    std::fs::write(&file, many).unwrap();
+    let out = tmp.path().join("many");
+    assert_ok(&simsum(&file, &["--true", "0", "--rep", "rep", "--by", "g"], &out));
+    assert!(!out.join("simsum.svg").exists());
+    let md = std::fs::read_to_string(out.join("simsum.md")).unwrap();
+    assert!(md.contains("simsum.svg is not drawn: 61 groups, more than the 60"), "{md}");
+}

@@ -1,5 +1,5 @@
-//! coverage.svg: coverage per setting and estimator with 2-MCSE bars and
-//! each row's nominal level.
+//! coverage.svg (and simsum.svg): coverage per setting and estimator with
+//! 2-MCSE bars and each row's nominal level.
 
 use std::path::Path;
 
@@ -17,25 +17,58 @@ pub struct Layout<'a> {
     pub reps: usize,
 }
 
-/// Coverage per setting and estimator with 2-MCSE bars and the nominal
-/// line. Each estimator has its own colour and marker, the key of the
-/// estimators sits beside the plot (it hides no point) and the key of the
-/// numbered settings below it.
+/// One point of the figure.
+#[derive(Debug, Clone)]
+pub struct Point {
+    /// The setting (group) it is plotted in.
+    pub group: String,
+    /// The estimator (method), one colour and marker each.
+    pub method: String,
+    /// The coverage.
+    pub coverage: f64,
+    /// Its MCSE (no bar when not finite).
+    pub mcse: f64,
+    /// The group's nominal level.
+    pub level: f64,
+}
+
+/// Coverage per setting and estimator of a coverage grid
+/// ([`draw_points`]).
 pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), DrawError> {
+    let points: Vec<Point> = rows
+        .iter()
+        .map(|r| Point {
+            group: (spec.group)(r),
+            method: r.method.label().to_string(),
+            coverage: r.coverage,
+            mcse: r.coverage_mcse,
+            level: r.level,
+        })
+        .collect();
+    let levels = spec.levels.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
+    let title = format!("Coverage (nominal {levels}), 2-MCSE bars, {} reps", spec.reps);
+    draw_points(path, &title, &spec.levels, &points)
+}
+
+/// Coverage per group and method with 2-MCSE bars and the nominal line.
+/// Each method has its own colour and marker, the key of the methods sits
+/// beside the plot (it hides no point) and the key of the numbered groups
+/// below it.
+pub fn draw_points(path: &Path, title: &str, levels: &[f64], rows: &[Point]) -> Result<(), DrawError> {
     use plotters::prelude::*;
     let e = draw_err(path);
     let mut settings: Vec<String> = Vec::new();
     for r in rows {
-        if !settings.contains(&(spec.group)(r)) {
-            settings.push((spec.group)(r));
+        if !settings.contains(&r.group) {
+            settings.push(r.group.clone());
         }
     }
     let nominal: Vec<f64> =
-        settings.iter().map(|g| rows.iter().find(|r| (spec.group)(r) == *g).map_or(f64::NAN, |r| r.level)).collect();
-    let mut methods: Vec<_> = Vec::new();
+        settings.iter().map(|g| rows.iter().find(|r| r.group == *g).map_or(f64::NAN, |r| r.level)).collect();
+    let mut methods: Vec<&str> = Vec::new();
     for r in rows {
-        if !methods.contains(&r.method) {
-            methods.push(r.method);
+        if !methods.contains(&r.method.as_str()) {
+            methods.push(&r.method);
         }
     }
     let labels: Vec<String> = (1..=settings.len()).map(|k| k.to_string()).collect();
@@ -67,12 +100,15 @@ pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), 
     crate::report::charts::svg_figure(path, (width, height), |root| {
         let (top, key) = root.split_vertically(plot_height);
         let (plot, side) = top.split_horizontally(width - 250);
-        let lowest = spec.levels.clone().into_iter().fold(1.0, f64::min);
-        let lo = rows.iter().map(|r| r.coverage - 2.0 * r.coverage_mcse).fold(lowest, f64::min).max(0.0);
+        let lowest = levels.iter().copied().fold(1.0, f64::min);
+        let lo = rows
+            .iter()
+            .map(|r| r.coverage - 2.0 * if r.mcse.is_finite() { r.mcse } else { 0.0 })
+            .filter(|x| x.is_finite())
+            .fold(lowest, f64::min)
+            .max(0.0);
         let n = settings.len();
-        let levels = spec.levels.clone().iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
-        let title = format!("Coverage (nominal {levels}), 2-MCSE bars, {} reps", spec.reps);
-        let mut chart = crate::report::charts::chart(&plot, &title)
+        let mut chart = crate::report::charts::chart(&plot, title)
             .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
             .map_err(&e)?;
         chart
@@ -110,9 +146,9 @@ pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), 
                 .iter()
                 .filter(|r| r.method == *m && r.coverage.is_finite())
                 .map(|r| {
-                    let x = settings.iter().position(|s| *s == (spec.group)(r)).unwrap_or(0) as f64 + dx;
+                    let x = settings.iter().position(|s| *s == r.group).unwrap_or(0) as f64 + dx;
                     // No bar without an MCSE (fewer than 2 usable replications).
-                    (x, r.coverage, if r.coverage_mcse.is_finite() { r.coverage_mcse } else { 0.0 })
+                    (x, r.coverage, if r.mcse.is_finite() { r.mcse } else { 0.0 })
                 })
                 .collect();
             chart
@@ -133,7 +169,7 @@ pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), 
             let y = 64 + 22 * k as i32;
             side.draw(&PathElement::new(vec![(14, y - 8), (14, y + 8)], color)).map_err(&e)?;
             with_marker!(k, color.filled(), mk => side.draw(&mk((14, y)))).map_err(&e)?;
-            side.draw(&Text::new(m.label().to_string(), (30, y - 7), ("sans-serif", 14))).map_err(&e)?;
+            side.draw(&Text::new(m.to_string(), (30, y - 7), ("sans-serif", 14))).map_err(&e)?;
         }
         // The settings' key, below.
         key.draw(&Text::new("settings", (20, 6), ("sans-serif", 14).into_font().style(FontStyle::Bold))).map_err(&e)?;

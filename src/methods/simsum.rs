@@ -134,6 +134,9 @@ pub enum SimsumFileError {
     /// An output could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),
+    /// simsum.svg could not be drawn.
+    #[error(transparent)]
+    Draw(#[from] crate::report::charts::DrawError),
 }
 
 /// Reads `path` and scores it.
@@ -462,19 +465,61 @@ fn fmt4(x: f64) -> String {
     }
 }
 
-/// Writes simsum.csv and simsum.md into `out`.
+/// The most groups simsum.svg draws: more do not fit one figure's key.
+pub const MAX_FIGURE_GROUPS: usize = 60;
+
+/// Writes simsum.csv, simsum.md and (with at most [`MAX_FIGURE_GROUPS`]
+/// groups) simsum.svg into `out`.
 pub fn write(groups: &[Group], cols: &Columns, source: &str, out: &Path) -> Result<Vec<PathBuf>, SimsumFileError> {
     crate::io::create_dir_all(out)?;
     let mut written = Vec::new();
     let (by, targets) = (&cols.by, &cols.targets);
-    for (name, text) in
-        [("simsum.csv", to_csv(groups, by, targets)), ("simsum.md", to_markdown(groups, by, source, targets))]
-    {
+    let mut md = to_markdown(groups, by, source, targets);
+    if groups.len() > MAX_FIGURE_GROUPS {
+        let _ = writeln!(
+            md,
+            "\nsimsum.svg is not drawn: {} groups, more than the {MAX_FIGURE_GROUPS} one figure's key holds; simsum.csv has every coverage.",
+            groups.len()
+        );
+    }
+    for (name, text) in [("simsum.csv", to_csv(groups, by, targets)), ("simsum.md", md)] {
         let p = out.join(name);
         crate::io::write_atomic(&p, text.as_bytes())?;
         written.push(p);
     }
+    if groups.len() <= MAX_FIGURE_GROUPS {
+        let p = out.join("simsum.svg");
+        draw(groups, by, &p)?;
+        written.push(p);
+    }
     Ok(written)
+}
+
+/// simsum.svg: each group's coverage per method with 2-MCSE bars and the
+/// group's nominal level, as coverage.svg draws a coverage study.
+fn draw(groups: &[Group], by: &[String], path: &Path) -> Result<(), crate::report::charts::DrawError> {
+    use super::coverage_svg::{draw_points, Point};
+    let mut points = Vec::new();
+    for g in groups {
+        let mut label: Vec<String> = by.iter().zip(&g.by).map(|(n, v)| format!("{n} = {v}")).collect();
+        label.push(format!("true {}, level {}", num(g.truth), num(g.level)));
+        // Whole, not cut: two groups (or methods) cut to the same text would
+        // be drawn as one.
+        let group = crate::io::one_line(&label.join(", ")).into_owned();
+        for m in &g.methods {
+            points.push(Point {
+                group: group.clone(),
+                method: crate::io::one_line(&m.method).into_owned(),
+                coverage: m.performance.coverage,
+                mcse: m.performance.coverage_mcse,
+                level: g.level,
+            });
+        }
+    }
+    let mut levels: Vec<f64> = groups.iter().map(|g| g.level).collect();
+    levels.sort_by(f64::total_cmp);
+    levels.dedup();
+    draw_points(path, "Coverage, 2-MCSE bars (rsimsum's MCSE)", &levels, &points)
 }
 
 /// The groups' count per pairing, for the console.

@@ -169,7 +169,8 @@ pub(crate) enum Command {
     /// their Monte Carlo SEs from a replications CSV or Parquet file (one row per method
     /// and replication), methods paired by replication id, and each method
     /// against the reference with paired MCSEs. Writes simsum.csv (tidy, as
-    /// rsimsum's `tidy()`) and simsum.md.
+    /// rsimsum's `tidy()`), simsum.md and simsum.svg (coverage per group and
+    /// method with 2-MCSE bars).
     Simsum(SimsumArgs),
     /// Predict SE, interval width and the probability the decision rule holds
     /// for other numbers of recordings and seeds (and splits, or draws), from
