@@ -50,6 +50,28 @@ pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), 
     draw_points(path, &title, &spec.levels, &points)
 }
 
+// `$body` with `$mk`, estimator k's marker at a point: a circle, a
+// triangle or a square by turn, so that estimators stay apart without
+// colour too.
+macro_rules! with_marker {
+    ($k:expr, $style:expr, $mk:ident => $body:expr) => {
+        match $k % 3 {
+            0 => {
+                let $mk = |p| EmptyElement::at(p) + Circle::new((0, 0), 4, $style);
+                $body
+            }
+            1 => {
+                let $mk = |p| EmptyElement::at(p) + TriangleMarker::new((0, 0), 5, $style);
+                $body
+            }
+            _ => {
+                let $mk = |p| EmptyElement::at(p) + Rectangle::new([(-4, -4), (4, 4)], $style);
+                $body
+            }
+        }
+    };
+}
+
 /// Coverage per group and method with 2-MCSE bars and the nominal line.
 /// Each method has its own colour and marker, the key of the methods sits
 /// beside the plot (it hides no point) and the key of the numbered groups
@@ -57,46 +79,15 @@ pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), 
 pub fn draw_points(path: &Path, title: &str, levels: &[f64], rows: &[Point]) -> Result<(), DrawError> {
     use plotters::prelude::*;
     let e = draw_err(path);
-    let mut settings: Vec<String> = Vec::new();
-    for r in rows {
-        if !settings.contains(&r.group) {
-            settings.push(r.group.clone());
-        }
-    }
+    let settings = first_seen(rows.iter().map(|r| r.group.as_str()));
     let nominal: Vec<f64> =
         settings.iter().map(|g| rows.iter().find(|r| r.group == *g).map_or(f64::NAN, |r| r.level)).collect();
-    let mut methods: Vec<&str> = Vec::new();
-    for r in rows {
-        if !methods.contains(&r.method.as_str()) {
-            methods.push(&r.method);
-        }
-    }
+    let methods = first_seen(rows.iter().map(|r| r.method.as_str()));
     let labels: Vec<String> = (1..=settings.len()).map(|k| k.to_string()).collect();
     // The settings' key: three columns of "k. label" lines under the plot.
     let key_rows = settings.len().div_ceil(3);
     let (width, plot_height) = (1100u32, 520u32);
     let height = plot_height + 30 + 18 * key_rows as u32;
-    // `$body` with `$mk`, estimator k's marker at a point: a circle, a
-    // triangle or a square by turn, so that estimators stay apart without
-    // colour too.
-    macro_rules! with_marker {
-        ($k:expr, $style:expr, $mk:ident => $body:expr) => {
-            match $k % 3 {
-                0 => {
-                    let $mk = |p| EmptyElement::at(p) + Circle::new((0, 0), 4, $style);
-                    $body
-                }
-                1 => {
-                    let $mk = |p| EmptyElement::at(p) + TriangleMarker::new((0, 0), 5, $style);
-                    $body
-                }
-                _ => {
-                    let $mk = |p| EmptyElement::at(p) + Rectangle::new([(-4, -4), (4, 4)], $style);
-                    $body
-                }
-            }
-        };
-    }
     crate::report::charts::svg_figure(path, (width, height), |root| {
         let (top, key) = root.split_vertically(plot_height);
         let (plot, side) = top.split_horizontally(width - 250);
@@ -161,24 +152,47 @@ pub fn draw_points(path: &Path, title: &str, levels: &[f64], rows: &[Point]) -> 
             })
             .map_err(&e)?;
         }
-        // The estimators' key, beside the plot.
-        side.draw(&Text::new("estimator", (10, 40), ("sans-serif", 15).into_font().style(FontStyle::Bold)))
-            .map_err(&e)?;
-        for (k, m) in methods.iter().enumerate() {
-            let color = palette[k % palette.len()];
-            let y = 64 + 22 * k as i32;
-            side.draw(&PathElement::new(vec![(14, y - 8), (14, y + 8)], color)).map_err(&e)?;
-            with_marker!(k, color.filled(), mk => side.draw(&mk((14, y)))).map_err(&e)?;
-            side.draw(&Text::new(m.to_string(), (30, y - 7), ("sans-serif", 14))).map_err(&e)?;
-        }
-        // The settings' key, below.
-        key.draw(&Text::new("settings", (20, 6), ("sans-serif", 14).into_font().style(FontStyle::Bold))).map_err(&e)?;
-        for (k, s) in settings.iter().enumerate() {
-            let (col, row) = (k / key_rows, k % key_rows);
-            let at = (20 + 360 * col as i32, 26 + 18 * row as i32);
-            key.draw(&Text::new(format!("{}. {s}", k + 1), at, ("sans-serif", 12))).map_err(&e)?;
-        }
-        Ok(())
+        draw_keys(&side, &key, &methods, &settings, key_rows).map_err(&e)
     })?;
+    Ok(())
+}
+
+/// The distinct values in the order first seen.
+fn first_seen<'a>(values: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut out: Vec<&str> = Vec::new();
+    for v in values {
+        if !out.contains(&v) {
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// The methods' key beside the plot (each one's colour and marker) and
+/// the numbered settings' key below it, in `key_rows` rows of three
+/// columns.
+fn draw_keys(
+    side: &crate::report::charts::Root,
+    key: &crate::report::charts::Root,
+    methods: &[&str],
+    settings: &[&str],
+    key_rows: usize,
+) -> Result<(), plotters::drawing::DrawingAreaErrorKind<std::io::Error>> {
+    use plotters::prelude::*;
+    let palette = crate::report::charts::PALETTE;
+    side.draw(&Text::new("estimator", (10, 40), ("sans-serif", 15).into_font().style(FontStyle::Bold)))?;
+    for (k, m) in methods.iter().enumerate() {
+        let color = palette[k % palette.len()];
+        let y = 64 + 22 * k as i32;
+        side.draw(&PathElement::new(vec![(14, y - 8), (14, y + 8)], color))?;
+        with_marker!(k, color.filled(), mk => side.draw(&mk((14, y))))?;
+        side.draw(&Text::new(m.to_string(), (30, y - 7), ("sans-serif", 14)))?;
+    }
+    key.draw(&Text::new("settings", (20, 6), ("sans-serif", 14).into_font().style(FontStyle::Bold)))?;
+    for (k, s) in settings.iter().enumerate() {
+        let (col, row) = (k / key_rows, k % key_rows);
+        let at = (20 + 360 * col as i32, 26 + 18 * row as i32);
+        key.draw(&Text::new(format!("{}. {s}", k + 1), at, ("sans-serif", 12)))?;
+    }
     Ok(())
 }

@@ -254,81 +254,99 @@ fn markdown(spec: &DecisionCoverageSpec, interaction: &[InteractionPerformance],
         let _ = writeln!(s, "Components: {}\n", crate::io::md_line(&spec.source));
     }
     for set in &spec.interaction {
-        let c = set.components;
-        let _ = writeln!(
-            s,
-            "## Interaction: {}\n\n{} recordings x {} seeds; components of the interaction's array: recording {:.3e}, seed {:.3e}, residual {:.3e} (true SE {:.4}). Every estimator of the coverage grid ({} bootstrap replicates); the widths are in the components' unit.\n",
-            crate::io::md_text(&set.label),
-            set.rows,
-            set.cols,
-            c.recording,
-            c.seed,
-            c.residual,
-            set.true_se(),
-            spec.bootstrap
-        );
-        let _ = writeln!(s, "| estimator | coverage (MCSE) | below | above | mean width | rel. error of ModSE % | median df | undefined |");
-        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|");
-        for r in interaction.iter().filter(|r| r.setting == set.label) {
-            let _ = writeln!(
-                s,
-                "| {} | {:.3} ({:.3}) | {:.3} | {:.3} | {:.4} | {:.1} | {} | {} |",
-                r.method.label(),
-                r.coverage,
-                r.coverage_mcse,
-                r.miss_below,
-                r.miss_above,
-                r.mean_width,
-                r.rel_error_mod_se,
-                if r.df_median.is_finite() { format!("{:.1}", r.df_median) } else { "-".into() },
-                r.undefined
-            );
-        }
-        let _ = writeln!(s);
+        interaction_section(&mut s, spec, set, interaction);
     }
     for set in &spec.ratio {
-        let (r, d, c) = (set.reference, set.d, set.correlation);
-        let _ = writeln!(
-            s,
-            "## Optimism: {}\n\n{} recordings x {} seeds; reference mean {}, contrast mean {} (true optimism {:.2}%). Components (recording, seed, residual): reference {:.3e}, {:.3e}, {:.3e}; contrast {:.3e}, {:.3e}, {:.3e}; their correlations {:.3}, {:.3}, {:.3}. The crossed method of moments with t(J - 1), as the paper; widths and bias in percentage points; an unbounded Fieller set counts as covering.\n",
-            crate::io::md_text(&set.label),
-            set.rows,
-            set.cols,
-            set.mean_reference,
-            set.mean_d,
-            100.0 * set.optimism(),
-            r.recording,
-            r.seed,
-            r.residual,
-            d.recording,
-            d.seed,
-            d.residual,
-            c.recording,
-            c.seed,
-            c.residual
-        );
-        let _ = writeln!(s, "| interval | coverage (MCSE) | below | above | unbounded | mean width (bounded) | bias | empirical SE | delta SE | failed |");
-        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-        for p in ratio.iter().filter(|p| p.setting == set.label) {
-            let _ = writeln!(
-                s,
-                "| {} | {:.3} ({:.3}) | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} | {:.2} | {:.2} | {} |",
-                p.method,
-                p.coverage,
-                p.coverage_mcse,
-                p.miss_below,
-                p.miss_above,
-                p.unbounded,
-                p.mean_width,
-                p.bias,
-                p.empirical_se,
-                p.model_se,
-                p.failed
-            );
-        }
-        let _ = writeln!(s);
+        ratio_section(&mut s, set, ratio);
     }
     s
+}
+
+/// coverage.md's table of one interaction setting.
+fn interaction_section(
+    s: &mut String,
+    spec: &DecisionCoverageSpec,
+    set: &InteractionSetting,
+    interaction: &[InteractionPerformance],
+) {
+    let c = set.components;
+    let _ = writeln!(
+        s,
+        "## Interaction: {}\n\n{} recordings x {} seeds; components of the interaction's array: recording {:.3e}, seed {:.3e}, residual {:.3e} (true SE {:.4}). Every estimator of the coverage grid ({} bootstrap replicates); the widths are in the components' unit.\n",
+        crate::io::md_text(&set.label),
+        set.rows,
+        set.cols,
+        c.recording,
+        c.seed,
+        c.residual,
+        set.true_se(),
+        spec.bootstrap
+    );
+    let _ = writeln!(
+        s,
+        "| estimator | coverage (MCSE) | below | above | mean width | rel. error of ModSE % | median df | undefined |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|");
+    for r in interaction.iter().filter(|r| r.setting == set.label) {
+        let _ = writeln!(
+            s,
+            "| {} | {:.3} ({:.3}) | {:.3} | {:.3} | {:.4} | {:.1} | {} | {} |",
+            r.method.label(),
+            r.coverage,
+            r.coverage_mcse,
+            r.miss_below,
+            r.miss_above,
+            r.mean_width,
+            r.rel_error_mod_se,
+            if r.df_median.is_finite() { format!("{:.1}", r.df_median) } else { "-".into() },
+            r.undefined
+        );
+    }
+    let _ = writeln!(s);
+}
+
+/// coverage.md's table of one optimism setting.
+fn ratio_section(s: &mut String, set: &RatioSetting, ratio: &[RatioPerformance]) {
+    let (r, d, c) = (set.reference, set.d, set.correlation);
+    let _ = writeln!(
+        s,
+        "## Optimism: {}\n\n{} recordings x {} seeds; reference mean {}, contrast mean {} (true optimism {:.2}%). Components (recording, seed, residual): reference {:.3e}, {:.3e}, {:.3e}; contrast {:.3e}, {:.3e}, {:.3e}; their correlations {:.3}, {:.3}, {:.3}. The crossed method of moments with t(J - 1), as the paper; widths and bias in percentage points; an unbounded Fieller set counts as covering.\n",
+        crate::io::md_text(&set.label),
+        set.rows,
+        set.cols,
+        set.mean_reference,
+        set.mean_d,
+        100.0 * set.optimism(),
+        r.recording,
+        r.seed,
+        r.residual,
+        d.recording,
+        d.seed,
+        d.residual,
+        c.recording,
+        c.seed,
+        c.residual
+    );
+    let _ = writeln!(s, "| interval | coverage (MCSE) | below | above | unbounded | mean width (bounded) | bias | empirical SE | delta SE | failed |");
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for p in ratio.iter().filter(|p| p.setting == set.label) {
+        let _ = writeln!(
+            s,
+            "| {} | {:.3} ({:.3}) | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} | {:.2} | {:.2} | {} |",
+            p.method,
+            p.coverage,
+            p.coverage_mcse,
+            p.miss_below,
+            p.miss_above,
+            p.unbounded,
+            p.mean_width,
+            p.bias,
+            p.empirical_se,
+            p.model_se,
+            p.failed
+        );
+    }
+    let _ = writeln!(s);
 }
 
 #[cfg(test)]
