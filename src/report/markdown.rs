@@ -123,6 +123,17 @@ fn header(a: &Analysis) -> String {
         super::md_text(&a.study),
         super::format::verdict(&a.decision, a.exploratory, a.preregistered)
     );
+    beside_verdict(&mut s, a);
+    rule_and_contrast(&mut s, a);
+    estimator_notes(&mut s, a);
+    provenance_and_figures(&mut s, a);
+    s
+}
+
+/// What stands beside the verdict: the decision's summary and notes, a
+/// fragile decision, early stopping and its held-fixed contrast, a
+/// reference arm that is not disjoint, condition coverage.
+fn beside_verdict(s: &mut String, a: &Analysis) {
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
     for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
         let _ = writeln!(s, "{note}\n");
@@ -159,6 +170,10 @@ fn header(a: &Analysis) -> String {
     if let Some(c) = super::coverage::beside_verdict(a) {
         let _ = writeln!(s, "{c}\n");
     }
+}
+
+/// The rule, what it reads, the optimism's interval and the contrast.
+fn rule_and_contrast(s: &mut String, a: &Analysis) {
     let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
     let level = level_pct(a.level);
     if super::format::reads_interval(&a.decision) {
@@ -204,6 +219,10 @@ fn header(a: &Analysis) -> String {
         t = a.treated,
         r = a.reference
     );
+}
+
+/// Units analysed over recordings alone, and singular REML fits.
+fn estimator_notes(s: &mut String, a: &Analysis) {
     let invariant: Vec<String> = a
         .units
         .iter()
@@ -231,6 +250,11 @@ fn header(a: &Analysis) -> String {
             singular.join("; ")
         );
     }
+}
+
+/// The design's hash, the data, the per-cell file, the build, and the
+/// figures.
+fn provenance_and_figures(s: &mut String, a: &Analysis) {
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`.");
     }
@@ -265,7 +289,6 @@ fn header(a: &Analysis) -> String {
             let _ = writeln!(s, "![{f}]({f})\n");
         }
     }
-    s
 }
 
 fn endpoints(a: &Analysis, level: &str) -> Table {
