@@ -48,17 +48,17 @@ struct Row<'a> {
 }
 
 fn crossed<'a>(name: &'a str, e: &CrossedEstimate) -> Row<'a> {
-    Row {
-        estimator: name,
-        means: None,
-        estimate: e.mean,
-        se: Some(e.se),
-        df: Some(e.df),
-        lower: e.lower,
-        upper: e.upper,
-        optimism: None,
-        holds: None,
-    }
+    interval(name, e.mean, Some(e.se), Some(e.df), (e.lower, e.upper))
+}
+
+/// A row of an interval alone: no arm means, optimism or rule.
+fn interval(estimator: &str, estimate: f64, se: Option<f64>, df: Option<f64>, (lower, upper): (f64, f64)) -> Row<'_> {
+    Row { estimator, means: None, estimate, se, df, lower, upper, optimism: None, holds: None }
+}
+
+/// The pigeonhole bootstrap's row about the point estimate `mean`.
+fn bootstrap(mean: f64, b: &crate::stats::BootstrapInterval) -> Row<'static> {
+    interval("pigeonhole_bootstrap", mean, Some(b.se), None, (b.lower, b.upper))
 }
 
 /// The text of estimates.csv for `a`.
@@ -103,48 +103,16 @@ pub fn render_estimates(a: &Analysis) -> String {
             },
         );
         if let Some(b) = &u.bootstrap {
-            let row = Row {
-                estimator: "pigeonhole_bootstrap",
-                means: None,
-                estimate: u.estimate.mean,
-                se: Some(b.se),
-                df: None,
-                lower: b.lower,
-                upper: b.upper,
-                optimism: None,
-                holds: None,
-            };
-            put(&key, row);
+            put(&key, bootstrap(u.estimate.mean, b));
         }
         if let Some(iv) = &u.optimism_interval {
             // The optimism's intervals, in %: Fieller's (no SE or df of
             // its own; empty bounds when unbounded) and the delta method's.
             let key = format!("optimism,{role},{},{contrast},{},%,{}", u.model, u.metric.name(), num(u.horizon_s));
-            let (lower, upper) = iv.fieller.bounds().unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
-            let row = Row {
-                estimator: "fieller",
-                means: None,
-                estimate: iv.estimate,
-                se: None,
-                df: Some(iv.delta_df),
-                lower,
-                upper,
-                optimism: None,
-                holds: None,
-            };
-            put(&key, row);
-            let row = Row {
-                estimator: "delta_method",
-                means: None,
-                estimate: iv.estimate,
-                se: Some(iv.delta_se),
-                df: Some(iv.delta_df),
-                lower: iv.delta_lower,
-                upper: iv.delta_upper,
-                optimism: None,
-                holds: None,
-            };
-            put(&key, row);
+            let bounds = iv.fieller.bounds().unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+            put(&key, interval("fieller", iv.estimate, None, Some(iv.delta_df), bounds));
+            let delta = (iv.delta_lower, iv.delta_upper);
+            put(&key, interval("delta_method", iv.estimate, Some(iv.delta_se), Some(iv.delta_df), delta));
         }
         if let Some(g) = &u.grouped {
             put(&key, crossed("grouped_conditions", &g.estimate));
@@ -152,18 +120,7 @@ pub fn render_estimates(a: &Analysis) -> String {
         for iv in u.intervals.iter().flatten() {
             let name =
                 serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
-            let row = Row {
-                estimator: &name,
-                means: None,
-                estimate: iv.estimate,
-                se: Some(iv.se),
-                df: Some(iv.df),
-                lower: iv.lower,
-                upper: iv.upper,
-                optimism: None,
-                holds: None,
-            };
-            put(&key, row);
+            put(&key, interval(&name, iv.estimate, Some(iv.se), Some(iv.df), (iv.lower, iv.upper)));
         }
     }
     for ix in &a.interactions {
@@ -177,18 +134,7 @@ pub fn render_estimates(a: &Analysis) -> String {
         );
         put(&key, crossed(preregistered, &ix.estimate));
         if let Some(b) = &ix.bootstrap {
-            let row = Row {
-                estimator: "pigeonhole_bootstrap",
-                means: None,
-                estimate: ix.estimate.mean,
-                se: Some(b.se),
-                df: None,
-                lower: b.lower,
-                upper: b.upper,
-                optimism: None,
-                holds: None,
-            };
-            put(&key, row);
+            put(&key, bootstrap(ix.estimate.mean, b));
         }
     }
     s
