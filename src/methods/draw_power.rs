@@ -219,39 +219,12 @@ pub fn draw_power_plan(
             power,
         })
     };
-    let mut rows = Vec::new();
-    for &k in draws {
-        for &i in recordings {
-            for &j in seeds {
-                rows.push(row(i, j, Some(k))?);
-            }
-        }
-    }
-    for &i in recordings {
-        for &j in seeds {
-            rows.push(row(i, j, None)?);
-        }
-    }
-    let (i0, j0, k0) = pilot;
-    let se = |i: usize, j: usize, k: usize| c.pooled_variance(i.max(1), j.max(1), k.max(1)).sqrt();
-    let same_cost = c.per_seed_variance(i0.max(1), (j0 * k0).max(1)).sqrt();
-    let advice = format!(
-        "From the pilot's {i0} recordings x {j0} seeds x {k0} draws (SE {:.4} m pooled): doubling the recordings gives SE {:.4}, the seeds {:.4}, the draws {:.4}. At the pilot's cost ({} models per arm), {} seeds with per-seed draws give SE {:.4}.",
-        se(i0, j0, k0),
-        se(2 * i0, j0, k0),
-        se(i0, 2 * j0, k0),
-        se(i0, j0, 2 * k0),
-        j0 * k0,
-        j0 * k0,
-        same_cost
-    );
-    let advice = match plan.decision.optimism_threshold() {
-        Some(thr) if -100.0 * pooled.mean / pooled.mean_reference < thr => format!(
-            "{advice} The pilot's optimism ({:.1}%) is below the rule's threshold ({thr}%): taken as the true effect, it makes the rule less likely to hold the more precise the estimate.",
-            -100.0 * pooled.mean / pooled.mean_reference
-        ),
-        _ => advice,
-    };
+    // Every (I, J) pooled over each K draws, then with per-seed draws.
+    let grid = |k: Option<usize>| recordings.iter().flat_map(move |&i| seeds.iter().map(move |&j| (i, j, k)));
+    let sizes = draws.iter().flat_map(|&k| grid(Some(k))).chain(grid(None));
+    let rows = sizes.map(|(i, j, k)| row(i, j, k)).collect::<Result<Vec<_>, _>>()?;
+    let advice = advice(plan, &c, (pooled.mean, pooled.mean_reference), pilot);
+    let k0 = pilot.2;
     // A variance from K draws has K - 1 df for its draw component: with
     // K = 3 its 95% interval spans a factor of about 40 (chi-square, 2 df).
     let warning = (k0 < MIN_PILOT_DRAWS).then(|| {
@@ -404,5 +377,31 @@ impl DrawPowerPlan {
             Ok(())
         })?;
         Ok(())
+    }
+}
+
+/// The planner's advice: what doubling each factor gives from the pilot's
+/// sizes, the per-seed design at the pilot's cost, and a pilot optimism
+/// under the rule's threshold.
+fn advice(plan: &Plan, c: &DrawComponents, (mean, mean_reference): (f64, f64), pilot: (usize, usize, usize)) -> String {
+    let (i0, j0, k0) = pilot;
+    let se = |i: usize, j: usize, k: usize| c.pooled_variance(i.max(1), j.max(1), k.max(1)).sqrt();
+    let same_cost = c.per_seed_variance(i0.max(1), (j0 * k0).max(1)).sqrt();
+    let advice = format!(
+        "From the pilot's {i0} recordings x {j0} seeds x {k0} draws (SE {:.4} m pooled): doubling the recordings gives SE {:.4}, the seeds {:.4}, the draws {:.4}. At the pilot's cost ({} models per arm), {} seeds with per-seed draws give SE {:.4}.",
+        se(i0, j0, k0),
+        se(2 * i0, j0, k0),
+        se(i0, 2 * j0, k0),
+        se(i0, j0, 2 * k0),
+        j0 * k0,
+        j0 * k0,
+        same_cost
+    );
+    match plan.decision.optimism_threshold() {
+        Some(thr) if -100.0 * mean / mean_reference < thr => format!(
+            "{advice} The pilot's optimism ({:.1}%) is below the rule's threshold ({thr}%): taken as the true effect, it makes the rule less likely to hold the more precise the estimate.",
+            -100.0 * mean / mean_reference
+        ),
+        _ => advice,
     }
 }
