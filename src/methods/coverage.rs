@@ -186,12 +186,18 @@ impl CoverageSpec {
         if self.bootstrap == 0 {
             return bad("`bootstrap` must be at least 1".into());
         }
+        self.check_grid().and_then(|()| self.check_size(levels.len())).or_else(bad)
+    }
+
+    /// The grid's lists: sizes at least 2, shares summing to 1, every list
+    /// non-empty, missing-cell patterns that leave an array.
+    fn check_grid(&self) -> Result<(), String> {
         if let Some(r) = self.rows.iter().chain(&self.cols).find(|n| **n < 2) {
-            return bad(format!("`rows` and `cols` must be at least 2, found {r}"));
+            return Err(format!("`rows` and `cols` must be at least 2, found {r}"));
         }
         for s in &self.shares {
             if s.iter().any(|x| *x < 0.0 || !x.is_finite()) || (s.iter().sum::<f64>() - 1.0).abs() > 1e-6 {
-                return bad(format!("each `shares` entry is three non-negative shares summing to 1, found {s:?}"));
+                return Err(format!("each `shares` entry is three non-negative shares summing to 1, found {s:?}"));
             }
         }
         if self.rows.is_empty()
@@ -200,21 +206,27 @@ impl CoverageSpec {
             || self.distributions.is_empty()
             || self.missing.is_empty()
         {
-            return bad("`rows`, `cols`, `shares`, `distributions` and `missing` each need at least one entry".into());
+            return Err("`rows`, `cols`, `shares`, `distributions` and `missing` each need at least one entry".into());
         }
         for m in &self.missing {
             match *m {
                 Missing::Mcar(p) if !(0.0..1.0).contains(&p) => {
-                    return bad(format!("`mcar` is a probability in [0, 1), found {p}"));
+                    return Err(format!("`mcar` is a probability in [0, 1), found {p}"));
                 }
                 Missing::RowLoss(k) if self.rows.iter().any(|&i| k + 2 > i) => {
-                    return bad(format!("`row_loss` {k} must leave at least 2 of every `rows` entry"));
+                    return Err(format!("`row_loss` {k} must leave at least 2 of every `rows` entry"));
                 }
                 _ => {}
             }
         }
+        Ok(())
+    }
+
+    /// The grid's size: sides, settings, work and replications kept within
+    /// their limits.
+    fn check_size(&self, levels: usize) -> Result<(), String> {
         if let Some(n) = self.rows.iter().chain(&self.cols).find(|n| **n > MAX_SIDE) {
-            return bad(format!("`rows` and `cols` may be at most {MAX_SIDE}, found {n}"));
+            return Err(format!("`rows` and `cols` may be at most {MAX_SIDE}, found {n}"));
         }
         // Products in f64: no list length or size can overflow them.
         let settings =
@@ -223,7 +235,7 @@ impl CoverageSpec {
                 .map(|&n| n as f64)
                 .product::<f64>();
         if settings > MAX_SETTINGS as f64 {
-            return bad(format!("the grid has {settings} settings; at most {MAX_SETTINGS} are allowed"));
+            return Err(format!("the grid has {settings} settings; at most {MAX_SETTINGS} are allowed"));
         }
         let cells: f64 = self.rows.iter().map(|&i| self.cols.iter().map(|&j| i as f64 * j as f64).sum::<f64>()).sum();
         let work = cells
@@ -231,13 +243,13 @@ impl CoverageSpec {
             * self.reps as f64
             * (self.bootstrap as f64 + 1.0);
         if work > MAX_WORK {
-            return bad(format!(
+            return Err(format!(
                 "reps x bootstrap x cells over the grid is {work:.3e} cell visits, more than the {MAX_WORK:.0e} allowed (hours of computing); lower `reps`, `bootstrap` or the grid"
             ));
         }
-        let kept = self.reps as f64 * settings * levels.len() as f64;
+        let kept = self.reps as f64 * settings * levels as f64;
         if kept > MAX_REPLICATIONS {
-            return bad(format!(
+            return Err(format!(
                 "reps x settings x levels is {kept:.3e} replications, more than the {MAX_REPLICATIONS:.0e} allowed (each keeps every interval in memory and takes about a millisecond); lower `reps`, the grid or `levels`"
             ));
         }
