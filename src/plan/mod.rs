@@ -401,6 +401,14 @@ impl Plan {
     pub fn render_text(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "study: {}", self.study);
+        self.training_text(&mut s);
+        self.analysis_text(&mut s);
+        s
+    }
+
+    /// `check`'s lines on what is trained: the cells, splits, doses,
+    /// models, target, arms and a published split.
+    fn training_text(&self, s: &mut String) {
         let trains = self.jobs.iter().filter(|c| c.trains()).count();
         let splits = if self.splits.is_empty() { String::new() } else { format!(" x {} splits", self.splits.len()) };
         let outside = self.jobs.iter().filter(|c| c.kind.is_external()).count();
@@ -464,6 +472,11 @@ impl Plan {
                 p.fit.len()
             );
         }
+    }
+
+    /// `check`'s lines on the analysis: seeds, contrast, endpoints,
+    /// interactions, estimator, bootstrap, required rows and decision.
+    fn analysis_text(&self, s: &mut String) {
         let seeds = &self.seeds;
         let (first, last) = (seeds.first().map(|x| x.0).unwrap_or(0), seeds.last().map(|x| x.0).unwrap_or(0));
         let _ = writeln!(s, "seeds: {} ({first}..{last})", seeds.len());
@@ -505,7 +518,6 @@ impl Plan {
         }
         let _ = writeln!(s, "per-cell rows required: {}", self.required_rows);
         let _ = writeln!(s, "decision: {}", self.decision);
-        s
     }
 }
 
