@@ -3,11 +3,11 @@
 
 use std::fmt::Write as _;
 
-use super::format::{decision_summary, df, f, level_pct, sci};
+use super::format::{df, f, level_pct, sci};
 use super::Table;
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::{Factor, Role};
-use crate::stats::{BootstrapInterval, CrossedEstimate, DfRule};
+use crate::stats::{BootstrapInterval, CrossedEstimate};
 
 fn ci(e: &CrossedEstimate) -> String {
     format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4))
@@ -49,7 +49,7 @@ fn section(s: &mut String, title: &str, note: &str, table: &Table) {
 
 /// The whole report.md.
 pub fn render_markdown(a: &Analysis) -> String {
-    let mut s = header(a);
+    let mut s = super::header::header(a);
     let level = level_pct(a.level);
     section(&mut s, "Endpoints", "", &endpoints(a, &level));
     super::coverage::section(a, &mut s);
@@ -112,183 +112,6 @@ pub fn render_markdown(a: &Analysis) -> String {
 /// Whether the analysis used REML (its estimates carry the fit's summary).
 fn reml(a: &Analysis) -> bool {
     a.units.first().is_some_and(|u| u.estimate.reml.is_some())
-}
-
-/// Title with the verdict, the decision line, the rule and the figures.
-fn header(a: &Analysis) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# {}: {}\n",
-        super::md_text(&a.study),
-        super::format::verdict(&a.decision, a.exploratory, a.preregistered)
-    );
-    beside_verdict(&mut s, a);
-    rule_and_contrast(&mut s, a);
-    estimator_notes(&mut s, a);
-    provenance_and_figures(&mut s, a);
-    s
-}
-
-/// What stands beside the verdict: the decision's summary and notes, a
-/// fragile decision, early stopping and its held-fixed contrast, a
-/// reference arm that is not disjoint, condition coverage.
-fn beside_verdict(s: &mut String, a: &Analysis) {
-    let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
-    for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
-        let _ = writeln!(s, "{note}\n");
-    }
-    for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
-        let _ = writeln!(s, "**Warning**: {}.\n", crate::io::md_line(w));
-    }
-    // Beside the verdict: models restored early, and the contrast with
-    // early stopping held fixed.
-    for w in a.warnings.iter().filter(|w| w.starts_with("early best epochs")) {
-        let _ = writeln!(s, "**Early stopping**: {}.\n", crate::io::md_line(w));
-    }
-    if let Some(b) = &a.fixed_budget {
-        let e = &b.estimate;
-        let unit = super::format::unit_label(&a.decision.value_unit);
-        let _ = writeln!(
-            s,
-            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).\n",
-            b.epochs,
-            b.model,
-            f(e.mean, 4),
-            f(e.lower, 4),
-            f(e.upper, 4),
-            f(b.optimism_pct, 1),
-            super::format::fieller_text(b.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
-            if b.rule_holds { "hold" } else { "fail" }
-        );
-    }
-    // Beside the verdict: a reference arm that is not disjoint (copies of
-    // evaluation flights in its fit set, allowed by `duplicates keep`).
-    for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
-        let _ = writeln!(s, "**The reference arm is not disjoint**: {}.\n", crate::io::md_line(w));
-    }
-    if let Some(c) = super::coverage::beside_verdict(a) {
-        let _ = writeln!(s, "{c}\n");
-    }
-}
-
-/// The rule, what it reads, the optimism's interval and the contrast.
-fn rule_and_contrast(s: &mut String, a: &Analysis) {
-    let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
-    let level = level_pct(a.level);
-    if super::format::reads_interval(&a.decision) {
-        let _ = writeln!(
-            s,
-            "The decision uses the {level} crossed-estimator interval (the `{level} CI` column); bootstrap intervals are shown for comparison and decide nothing. Secondary endpoints are descriptive: no rule applies to them."
-        );
-    } else {
-        let _ = writeln!(
-            s,
-            "The rule reads no interval bound: it compares point estimates with its thresholds. The {level} crossed-estimator interval (the `{level} CI` column) and the bootstrap intervals are shown beside it and decide nothing. Secondary endpoints are descriptive: no rule applies to them."
-        );
-    }
-    let _ = writeln!(
-        s,
-        "The optimism's {level} interval (the `optimism {level} CI` column) is Fieller's: every optimism x for which the crossed estimator's interval of {t} - (1 - x/100) {r} contains 0, from the same estimator and df as d's."
-    , t = a.treated, r = a.reference);
-    let estimator = match a.units.first().and_then(|u| u.estimate.reml) {
-        None => "crossed method-of-moments estimator".to_string(),
-        Some(r) => format!(
-            "REML estimator (random intercepts for recording and seed, lme4's model), {} df",
-            match r.df_rule {
-                DfRule::KenwardRoger => "Kenward-Roger SE and",
-                DfRule::Satterthwaite => "Satterthwaite",
-                DfRule::SeedsMinusOne => "J - 1",
-                DfRule::RecordingsMinusOne => "I - 1",
-                DfRule::Normal => "normal (infinite)",
-            }
-        ),
-    };
-    let _ = writeln!(
-        s,
-        "Contrast `{} - {}` over {} recordings x {} seeds; {estimator}, {} intervals.",
-        a.treated,
-        a.reference,
-        a.recordings.len(),
-        a.seeds.len(),
-        level_pct(a.level)
-    );
-    let _ = writeln!(
-        s,
-        "d = {t} - {r} per recording x seed cell, in the metric's unit; optimism (%) = 100 ({r} mean - {t} mean) / {r} mean: how much better the {t} arm looks.",
-        t = a.treated,
-        r = a.reference
-    );
-}
-
-/// Units analysed over recordings alone, and singular REML fits.
-fn estimator_notes(s: &mut String, a: &Analysis) {
-    let invariant: Vec<String> = a
-        .units
-        .iter()
-        .filter(|u| u.seed_invariant)
-        .map(|u| format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s))
-        .collect();
-    if !invariant.is_empty() {
-        let _ = writeln!(
-            s,
-            "Analysed over recordings alone: {}. Every recording's value is the same for every seed in both arms (a model that does not vary with the seed, as a closed-form fit on a split that does not change with it): the seeds add no variation, so these intervals take their df from the I recordings (I - 1 = {}), not from the seeds.",
-            invariant.join("; "),
-            a.recordings.len().saturating_sub(1)
-        );
-    }
-    let singular: Vec<String> = a
-        .units
-        .iter()
-        .filter(|u| u.estimate.reml.is_some_and(|r| r.singular))
-        .map(|u| format!("{} {} at {} s", u.model, u.metric.name(), u.horizon_s))
-        .collect();
-    if !singular.is_empty() {
-        let _ = writeln!(
-            s,
-            "Singular REML fit (a variance component estimated at zero, as lme4's isSingular says) for {}. There Satterthwaite's df hold the zero component fixed while Kenward-Roger's keep it through a generalized inverse, so the two df differ.",
-            singular.join("; ")
-        );
-    }
-}
-
-/// The design's hash, the data, the per-cell file, the build, and the
-/// figures.
-fn provenance_and_figures(s: &mut String, a: &Analysis) {
-    if let Some(h) = &a.design_sha256 {
-        let _ = writeln!(s, "Design SHA-256: `{h}`.");
-    }
-    let p = &a.provenance;
-    if let Some(d) = &p.data {
-        let _ = writeln!(
-            s,
-            "Data: {}; inclusion audit SHA-256 `{}`.",
-            super::md_text(d),
-            p.audit_sha256.as_deref().unwrap_or("unknown")
-        );
-    }
-    if let Some((path, sha)) = &p.cells {
-        let _ = writeln!(s, "Per-cell data: {} (SHA-256 `{sha}`).", super::md_code(path));
-    }
-    let _ = writeln!(
-        s,
-        "Analysed by crossaudit {}{}.",
-        p.crossaudit,
-        if a.exploratory {
-            "; EXPLORATORY: not the preregistered analysis"
-        } else if a.preregistered == Some(false) {
-            "; NOT PREREGISTERED: the design was not locked before it ran"
-        } else {
-            ""
-        }
-    );
-    let _ = writeln!(s);
-    if !a.figures.is_empty() {
-        let _ = writeln!(s, "## Figures\n");
-        for f in &a.figures {
-            let _ = writeln!(s, "![{f}]({f})\n");
-        }
-    }
 }
 
 fn endpoints(a: &Analysis, level: &str) -> Table {
