@@ -128,6 +128,17 @@ fn default_b() -> usize {
     999
 }
 
+/// A coverage spec's JSON as `T` (any study's spec, or a `Value`), a
+/// syntax or type error placed at its line and column.
+pub fn parse_spec<T: serde::de::DeserializeOwned>(path: &Path, text: &str) -> Result<T, CoverageError> {
+    serde_json::from_str(text).map_err(|source| CoverageError::Parse {
+        path: path.display().to_string(),
+        line: source.line(),
+        column: source.column(),
+        source,
+    })
+}
+
 /// A coverage spec's text: a regular file of bounded size (never a device
 /// or a FIFO), UTF-8, line ends normalized.
 pub fn read_spec_text(path: &Path) -> Result<String, CoverageError> {
@@ -142,14 +153,7 @@ pub fn read_spec_text(path: &Path) -> Result<String, CoverageError> {
 impl CoverageSpec {
     /// Reads and validates a spec file.
     pub fn load(path: &Path) -> Result<CoverageSpec, CoverageError> {
-        let p = path.display().to_string();
-        let text = read_spec_text(path)?;
-        let spec: CoverageSpec = serde_json::from_str(&text).map_err(|source| CoverageError::Parse {
-            path: p.clone(),
-            line: source.line(),
-            column: source.column(),
-            source,
-        })?;
+        let spec: CoverageSpec = parse_spec(path, &read_spec_text(path)?)?;
         spec.validate(path)?;
         Ok(spec)
     }

@@ -125,12 +125,7 @@ pub struct InteractionPerformance {
 impl DecisionCoverageSpec {
     /// Reads and checks a spec (`kind` must be `decision`).
     pub fn from_text(path: &Path, text: &str) -> Result<DecisionCoverageSpec, CoverageError> {
-        let spec: DecisionCoverageSpec = serde_json::from_str(text).map_err(|source| CoverageError::Parse {
-            path: path.display().to_string(),
-            line: source.line(),
-            column: source.column(),
-            source,
-        })?;
+        let spec: DecisionCoverageSpec = super::coverage::parse_spec(path, text)?;
         spec.validate(path)?;
         Ok(spec)
     }
@@ -157,7 +152,8 @@ impl DecisionCoverageSpec {
         for s in &self.interaction {
             let c = s.components;
             let ok = [c.recording, c.seed, c.residual].iter().all(|v| v.is_finite() && *v >= 0.0) && c.residual > 0.0;
-            if s.rows < 2 || s.cols < 2 || s.rows * s.cols > 100_000 || !ok {
+            // In f64: sizes near 2^64 overflow any integer product.
+            if s.rows < 2 || s.cols < 2 || s.rows as f64 * s.cols as f64 > 100_000.0 || !ok {
                 return bad(format!(
                     "interaction setting {:?}: `rows` and `cols` at least 2 with at most 100000 cells, every component finite and at least 0, the residual above 0",
                     s.label

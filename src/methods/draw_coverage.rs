@@ -145,13 +145,7 @@ type Interval = (f64, f64, f64, f64, f64);
 impl DrawCoverageSpec {
     /// Reads and checks a spec (`kind` must be `draws`).
     pub fn from_text(path: &Path, text: &str) -> Result<DrawCoverageSpec, CoverageError> {
-        let p = path.display().to_string();
-        let spec: DrawCoverageSpec = serde_json::from_str(text).map_err(|source| CoverageError::Parse {
-            path: p.clone(),
-            line: source.line(),
-            column: source.column(),
-            source,
-        })?;
+        let spec: DrawCoverageSpec = super::coverage::parse_spec(path, text)?;
         spec.validate(path)?;
         Ok(spec)
     }
@@ -207,12 +201,7 @@ impl DrawCoverageSpec {
 /// study's "unknown field `kind`"); a `kind` that names no study is
 /// refused with the kinds there are.
 pub fn spec_kind(path: &Path, text: &str) -> Result<Option<String>, CoverageError> {
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|source| CoverageError::Parse {
-        path: path.display().to_string(),
-        line: source.line(),
-        column: source.column(),
-        source,
-    })?;
+    let value: serde_json::Value = super::coverage::parse_spec(path, text)?;
     match value.get("kind") {
         None => Ok(None),
         Some(serde_json::Value::String(k)) if k == "draws" || k == "decision" => Ok(Some(k.clone())),

@@ -706,3 +706,8 @@ case("r5_coverage_decision_bad_correlation", "coverage {dir}/spec.json --out {ou
                    '   "reference": {"recording": 1, "seed": 1, "residual": 1},\n'
                    '   "d": {"recording": 1, "seed": 1, "residual": 1},\n'
                    '   "correlation": {"recording": 0, "seed": 2, "residual": 0}}]}\n'})
+# Sizes whose product overflows an integer: refused, not a panic.
+case("r5_coverage_decision_huge_sides", "coverage {dir}/spec.json --out {out}",
+     {"spec.json": '{"kind": "decision", "seed": 1, "reps": 10, "level": 0.95, "interaction": [\n'
+                   '  {"label": "x", "rows": 10000000000, "cols": 10000000000,\n'
+                   '   "components": {"recording": 1, "seed": 1, "residual": 1}}]}\n'})
