@@ -216,7 +216,7 @@ pub(crate) fn mixed(
     } else {
         out!("{}", fit.summary());
     }
-    if !fit.fit.certificate.certified {
+    if !fit.fit.certified() {
         note!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
     }
     Ok(())

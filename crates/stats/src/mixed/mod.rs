@@ -52,6 +52,7 @@ mod inference;
 mod levels;
 pub(crate) mod optimize;
 mod profile;
+pub mod slopes;
 mod system;
 
 use serde::Serialize;

@@ -150,6 +150,17 @@ pub(crate) fn nelder_mead_even(
     (x.into_iter().map(f64::abs).collect(), fx)
 }
 
+/// Nelder-Mead over all of R^k, for a function with no boundary (the
+/// random-slope deviance), returning the point as found.
+pub(super) fn nelder_mead_free(
+    f: &mut dyn FnMut(&[f64]) -> f64,
+    start: &[f64],
+    step: f64,
+    tol: f64,
+) -> (Vec<f64>, f64) {
+    simplex_search(f, start, step, tol, false)
+}
+
 fn simplex_search(
     f: &mut dyn FnMut(&[f64]) -> f64,
     start: &[f64],

@@ -1,7 +1,8 @@
 //! A formula fitted to a file or table, and lme4's and lmerTest's
 //! summary of it: what `crossaudit mixed` prints.
 
-use super::{build, parse, FormulaError, Table};
+use super::{build_model, parse, FormulaError, Model, Table};
+use crate::mixed::slopes::SlopeFit;
 use crate::mixed::{self, MixedError};
 
 /// Which small-sample df the summary's t tests use (REML fits).
@@ -24,7 +25,7 @@ pub struct FormulaFit {
     /// summarises with t values only).
     pub df_method: Option<DfMethod>,
     /// The fit.
-    pub fit: mixed::MixedFit,
+    pub fit: Fitted,
     /// Per fixed effect: name, estimate, SE (Kenward-Roger's adjusted SE
     /// under that method), df, t and two-sided p.
     pub fixed: Vec<FixedRow>,
@@ -33,6 +34,43 @@ pub struct FormulaFit {
     /// logLik, AIC, BIC as lme4's `logLik()`, `AIC()` and `BIC()` give
     /// them (of the REML criterion for a REML fit).
     pub likelihood: Likelihood,
+}
+
+/// A fit of random intercepts or of random slopes.
+#[derive(Debug, Clone, serde::Serialize)]
+#[serde(untagged)]
+#[non_exhaustive]
+pub enum Fitted {
+    /// Every random term `(1|g)`.
+    Intercepts(mixed::MixedFit),
+    /// Some random term with slopes.
+    Slopes(SlopeFit),
+}
+
+impl Fitted {
+    /// Whether the optimizer certified its point as the optimum.
+    pub fn certified(&self) -> bool {
+        match self {
+            Fitted::Intercepts(f) => f.certificate.certified,
+            Fitted::Slopes(f) => f.certificate.certified,
+        }
+    }
+
+    /// The random-intercept fit, if it is one.
+    pub fn intercepts(&self) -> Option<&mixed::MixedFit> {
+        match self {
+            Fitted::Intercepts(f) => Some(f),
+            Fitted::Slopes(_) => None,
+        }
+    }
+
+    /// The random-slope fit, if it is one.
+    pub fn slopes(&self) -> Option<&SlopeFit> {
+        match self {
+            Fitted::Slopes(f) => Some(f),
+            Fitted::Intercepts(_) => None,
+        }
+    }
 }
 
 /// lme4's likelihood summary of a fit: `logLik()` (with its `df`, the
@@ -61,16 +99,26 @@ pub struct Likelihood {
 impl Likelihood {
     /// The summary of `fit`.
     pub fn of(fit: &mixed::MixedFit) -> Likelihood {
-        let npar = fit.fixed.len() + fit.theta.len() + 1;
-        let reml = fit.criterion == mixed::Criterion::Reml;
+        Likelihood::with(fit.fixed.len() + fit.theta.len() + 1, fit.deviance, fit.n, fit.criterion)
+    }
+
+    /// The summary of a random-slope fit.
+    pub fn of_slopes(fit: &SlopeFit) -> Likelihood {
+        Likelihood::with(fit.fixed.len() + fit.theta.len() + 1, fit.deviance, fit.n, fit.criterion)
+    }
+
+    /// The summary of a fit with `npar` parameters and `deviance` on `n`
+    /// observations.
+    fn with(npar: usize, deviance: f64, n: usize, criterion: mixed::Criterion) -> Likelihood {
+        let reml = criterion == mixed::Criterion::Reml;
         Likelihood {
             npar,
-            loglik: -0.5 * fit.deviance,
-            aic: fit.deviance + 2.0 * npar as f64,
-            bic: fit.deviance + (fit.n as f64).ln() * npar as f64,
-            deviance: (!reml).then_some(fit.deviance),
-            reml_criterion: reml.then_some(fit.deviance),
-            df_resid: fit.n as i64 - npar as i64,
+            loglik: -0.5 * deviance,
+            aic: deviance + 2.0 * npar as f64,
+            bic: deviance + (n as f64).ln() * npar as f64,
+            deviance: (!reml).then_some(deviance),
+            reml_criterion: reml.then_some(deviance),
+            df_resid: n as i64 - npar as i64,
         }
     }
 }
@@ -138,7 +186,7 @@ pub fn compare_table(formula: &str, other: &str, table: &Table) -> Result<Compar
             chisq: None,
             df: None,
             p: None,
-            certified: fit.fit.certificate.certified,
+            certified: fit.fit.certified(),
         });
     }
     rows.sort_by_key(|r| r.npar);
@@ -226,12 +274,15 @@ pub fn fit_table(
     profile: Option<f64>,
 ) -> Result<FormulaFit, FormulaError> {
     let formula = parse(formula_text)?;
-    let data = build(&formula, table)?;
     if let Some(level) = profile {
         if level.is_nan() || level <= 0.0 || level >= 1.0 {
             return Err(MixedError::Level(level).into());
         }
     }
+    let data = match build_model(&formula, table)? {
+        Model::Intercepts(data) => data,
+        Model::Slopes(data) => return super::slopes_fit::fit_slopes_table(formula_text, &data, criterion, df, profile),
+    };
     // Kenward-Roger (and the shares) need the q x q matrices over every
     // level; Satterthwaite needs only deviance evaluations.
     let inference = match (criterion, df) {
@@ -253,14 +304,12 @@ pub fn fit_table(
                     None => (f.se, None),
                 },
             };
-            let t = f.estimate / se;
-            let p = dof.filter(|d| *d > 0.0).map(|d| crate::t_two_sided_p(t, d)).filter(|p| !p.is_nan());
             let df_fallback = match (reml, df) {
                 (false, _) => false,
                 (true, DfMethod::Satterthwaite) => f.satterthwaite_fallback,
                 (true, DfMethod::KenwardRoger) => f.kenward_roger.is_some_and(|kr| kr.fallback),
             };
-            FixedRow { name: f.name.clone(), estimate: f.estimate, se, df: dof, df_fallback, t, p }
+            FixedRow::new(&f.name, f.estimate, se, dof, df_fallback)
         })
         .collect();
     let profile = match profile {
@@ -268,17 +317,34 @@ pub fn fit_table(
         None => None,
     };
     let likelihood = Likelihood::of(&fit);
-    Ok(FormulaFit { formula: formula_text.to_string(), df_method: reml.then_some(df), fit, fixed, profile, likelihood })
+    Ok(FormulaFit {
+        formula: formula_text.to_string(),
+        df_method: reml.then_some(df),
+        fit: Fitted::Intercepts(fit),
+        fixed,
+        profile,
+        likelihood,
+    })
+}
+
+impl FixedRow {
+    /// The row of a coefficient: t = estimate / se, and the two-sided p
+    /// on `df` where there is one.
+    pub(super) fn new(name: &str, estimate: f64, se: f64, df: Option<f64>, df_fallback: bool) -> FixedRow {
+        let t = estimate / se;
+        let p = df.filter(|d| *d > 0.0).map(|d| crate::t_two_sided_p(t, d)).filter(|p| !p.is_nan());
+        FixedRow { name: name.to_string(), estimate, se, df, df_fallback, t, p }
+    }
 }
 
 impl FormulaFit {
-    /// The summary as lme4 and lmerTest print it, with the optimizer's
-    /// certificate and any warning on their own lines.
-    pub fn summary(&self) -> String {
+
+    /// The summary's first lines: the method, the formula and the
+    /// likelihood table.
+    pub(super) fn header(&self, criterion: mixed::Criterion, deviance: f64) -> String {
         use std::fmt::Write;
-        let f = &self.fit;
         let mut s = String::new();
-        let (what, crit) = match f.criterion {
+        let (what, crit) = match criterion {
             mixed::Criterion::Reml => ("REML", "REML criterion at convergence"),
             mixed::Criterion::Ml => ("maximum likelihood", ""),
         };
@@ -290,9 +356,9 @@ impl FormulaFit {
         let _ = writeln!(s, "Linear mixed model fit by {what}{df}");
         let _ = writeln!(s, "Formula: {}\n", self.formula);
         let l = &self.likelihood;
-        match f.criterion {
+        match criterion {
             mixed::Criterion::Reml => {
-                let _ = writeln!(s, "{crit}: {:.4}", f.deviance);
+                let _ = writeln!(s, "{crit}: {deviance:.4}");
                 let _ = writeln!(s, "{:>10} {:>10} {:>10} {:>8}", "AIC", "BIC", "logLik", "df.resid");
                 let _ = writeln!(s, "{:>10.4} {:>10.4} {:>10.4} {:>8}\n", l.aic, l.bic, l.loglik, l.df_resid);
             }
@@ -302,19 +368,17 @@ impl FormulaFit {
                 let _ = writeln!(
                     s,
                     "{:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>8}\n",
-                    l.aic, l.bic, l.loglik, f.deviance, l.df_resid
+                    l.aic, l.bic, l.loglik, deviance, l.df_resid
                 );
             }
         }
-        let _ = writeln!(s, "Random effects:");
-        let width = f.factors.iter().map(|n| n.len()).max().unwrap_or(0).max(8);
-        let _ = writeln!(s, " {:<width$} {:<11} {:>12} {:>12}", "Groups", "Name", "Variance", "Std.Dev.");
-        for (name, v) in f.factors.iter().zip(&f.variances) {
-            let _ = writeln!(s, " {:<width$} {:<11} {:>12.6} {:>12.6}", name, "(Intercept)", v, v.sqrt());
-        }
-        let _ = writeln!(s, " {:<width$} {:<11} {:>12.6} {:>12.6}", "Residual", "", f.residual, f.residual.sqrt());
-        let groups: Vec<String> = f.factors.iter().zip(&f.levels).map(|(n, l)| format!("{n}, {l}")).collect();
-        let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
+        s
+    }
+
+    /// The fixed-effects table, as lmerTest (REML) or lme4 (ML) prints it.
+    pub(super) fn fixed_table(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
         let _ = writeln!(s, "Fixed effects:");
         let width = self.fixed.iter().map(|r| r.name.len()).max().unwrap_or(0).max(11);
         let with_df = self.df_method.is_some();
@@ -340,6 +404,27 @@ impl FormulaFit {
                 let _ = writeln!(s, "{:<width$} {:>12.6} {:>12.6} {:>9.3}", r.name, r.estimate, r.se, r.t);
             }
         }
+        s
+    }
+    /// The summary as lme4 and lmerTest print it, with the optimizer's
+    /// certificate and any warning on their own lines.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let f = match &self.fit {
+            Fitted::Intercepts(f) => f,
+            Fitted::Slopes(f) => return super::slopes_fit::summary(self, f),
+        };
+        let mut s = self.header(f.criterion, f.deviance);
+        let _ = writeln!(s, "Random effects:");
+        let width = f.factors.iter().map(|n| n.len()).max().unwrap_or(0).max(8);
+        let _ = writeln!(s, " {:<width$} {:<11} {:>12} {:>12}", "Groups", "Name", "Variance", "Std.Dev.");
+        for (name, v) in f.factors.iter().zip(&f.variances) {
+            let _ = writeln!(s, " {:<width$} {:<11} {:>12.6} {:>12.6}", name, "(Intercept)", v, v.sqrt());
+        }
+        let _ = writeln!(s, " {:<width$} {:<11} {:>12.6} {:>12.6}", "Residual", "", f.residual, f.residual.sqrt());
+        let groups: Vec<String> = f.factors.iter().zip(&f.levels).map(|(n, l)| format!("{n}, {l}")).collect();
+        let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
+        s.push_str(&self.fixed_table());
         for note in &f.notes {
             let _ = writeln!(s, "note: {note}");
         }

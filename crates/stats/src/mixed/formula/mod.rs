@@ -27,12 +27,13 @@
 //! silently, crossaudit makes the user say so.
 
 mod fit;
+mod slopes_fit;
 mod table;
 
 pub use fit::{
-    compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow, FormulaFit, Likelihood,
+    compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow, Fitted, FormulaFit, Likelihood,
 };
-pub use table::{build, r_number_label, read_csv, Table};
+pub use table::{build, build_model, r_number_label, read_csv, Model, Table};
 
 use super::MixedError;
 
@@ -54,14 +55,35 @@ pub struct Formula {
     pub random: Vec<RandomTerm>,
 }
 
-/// A random-intercept grouping factor.
+/// A random-effect term: the grouping factor and what varies over its
+/// levels (an intercept, and slopes).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RandomTerm {
-    /// The columns it interacts.
+    /// The columns the grouping factor interacts.
     pub columns: Vec<String>,
     /// lme4's name: `g:h` as written, `(1|g/h)` gives `g` and `h:g`,
     /// `(1|a/b/c)` gives `a`, `b:a` and `c:(b:a)`.
     pub name: String,
+    /// Whether the term has an intercept (`(x|g)` and `(1 + x|g)` do,
+    /// `(0 + x|g)` does not).
+    pub intercept: bool,
+    /// The slopes: terms of the left of `|`, as fixed terms are, in R's
+    /// order (by degree, then as written). Empty for `(1|g)`.
+    pub slopes: Vec<Vec<Variable>>,
+}
+
+impl RandomTerm {
+    /// Whether the term has only an intercept, `(1|g)`.
+    pub fn intercept_only(&self) -> bool {
+        self.intercept && self.slopes.is_empty()
+    }
+
+    /// Whether `other` is the same term: the same grouping columns (as a
+    /// set), intercept and slopes.
+    fn same(&self, other: &RandomTerm) -> bool {
+        let set = |a: &[String], b: &[String]| a.len() == b.len() && a.iter().all(|c| b.contains(c));
+        set(&self.columns, &other.columns) && self.intercept == other.intercept && self.slopes == other.slopes
+    }
 }
 
 /// The term `segment` nested in `outer` (columns and lme4's name), or
@@ -127,6 +149,10 @@ pub enum FormulaError {
     /// Two formulas that cannot be compared.
     #[error("--compare: {0}")]
     Compare(String),
+    /// What the model asks for that is not computed for it (its own
+    /// message says what is).
+    #[error("{0}")]
+    Unsupported(String),
     /// The file cannot be read (its own message names it).
     #[error("{0}")]
     Read(String),
@@ -259,6 +285,159 @@ impl Parser {
     }
 }
 
+impl Parser {
+    /// A fixed term as written, `a:b * c`, expanded into its terms: every
+    /// non-empty union of the crossed parts.
+    fn crossed_terms(&mut self) -> Result<Vec<Vec<Variable>>, FormulaError> {
+        let mut groups: Vec<Vec<Variable>> = vec![vec![self.variable()?]];
+        loop {
+            match self.peek() {
+                Some(Token::Sym(':')) => {
+                    self.at += 1;
+                    let v = self.variable()?;
+                    groups.last_mut().expect("one group at least").push(v);
+                }
+                Some(Token::Sym('*')) => {
+                    self.at += 1;
+                    groups.push(vec![self.variable()?]);
+                }
+                _ => break,
+            }
+        }
+        if groups.len() > MAX_CROSSED {
+            return self.error(format!(
+                "{} variables crossed with `*` make {} terms; at most {MAX_CROSSED} may be crossed",
+                groups.len(),
+                if groups.len() < 64 { ((1u64 << groups.len()) - 1).to_string() } else { "more than 2^63".into() }
+            ));
+        }
+        let mut terms = Vec::new();
+        for mask in 1..(1u32 << groups.len()) {
+            let mut term: Vec<Variable> = Vec::new();
+            for (g, part) in groups.iter().enumerate() {
+                if mask & (1 << g) != 0 {
+                    for v in part {
+                        if !term.contains(v) {
+                            term.push(v.clone());
+                        }
+                    }
+                }
+            }
+            terms.push(term);
+        }
+        Ok(terms)
+    }
+
+    /// The left of `|` in a random term: whether it has an intercept (`1`,
+    /// implied unless `0` is written) and its slopes, in R's order.
+    fn random_effects(&mut self) -> Result<(bool, Vec<Vec<Variable>>), FormulaError> {
+        let (mut intercept, mut slopes) = (true, Vec::new());
+        let mut first = true;
+        loop {
+            if !first {
+                match self.peek() {
+                    Some(Token::Sym('+')) => self.at += 1,
+                    Some(Token::Sym('|')) => break,
+                    Some(Token::Sym('-')) => {
+                        return self.error("removing terms (`-`) is not supported; write `0 + x` for a term without an intercept")
+                    }
+                    _ => return self.error("expected `+` or `|` in the random term"),
+                }
+            }
+            first = false;
+            match self.peek().cloned() {
+                Some(Token::Number(n)) if n == "1" => self.at += 1,
+                Some(Token::Number(n)) if n == "0" => {
+                    self.at += 1;
+                    intercept = false;
+                }
+                Some(Token::Name(_)) => slopes.extend(self.crossed_terms()?),
+                Some(Token::Sym('-')) => {
+                    return self.error("removing terms (`-`) is not supported; write `0 + x` for a term without an intercept")
+                }
+                _ => return self.error("expected `1`, `0` or a column before `|` in the random term"),
+            }
+        }
+        if !intercept && slopes.is_empty() {
+            return self.error("a random term needs an intercept or a slope: `(0|g)` has neither");
+        }
+        Ok((intercept, canonical(slopes)))
+    }
+
+    /// A random term after its `(`: `1 + x | g`, `x || g`, `0 + x | g/h`,
+    /// to its `)`. `(e || g)` is lme4's `(1|g) + (0 + x|g) + ...`, one
+    /// term per part of `e`; `(e | g/h)` is `(e|g) + (e|h:g)`.
+    fn random_term(&mut self) -> Result<Vec<RandomTerm>, FormulaError> {
+        let (intercept, slopes) = self.random_effects()?;
+        self.expect('|', "after the random term's effects")?;
+        let uncorrelated = self.peek() == Some(&Token::Sym('|'));
+        if uncorrelated {
+            self.at += 1;
+        }
+        // `/` binds looser than `:`: a/b:c is a/(b:c). Each nested term is
+        // lme4's: a/b/c gives a, b:a and c:(b:a).
+        let mut groups: Vec<(Vec<String>, String)> = Vec::new();
+        let mut segment = vec![self.group("a grouping column after `|`")?];
+        let mut outer: Option<(Vec<String>, String)> = None;
+        loop {
+            match self.peek() {
+                Some(Token::Sym(':')) => {
+                    self.at += 1;
+                    segment.push(self.group("a grouping column after `:`")?);
+                }
+                Some(Token::Sym('/')) => {
+                    self.at += 1;
+                    let term = nest(&segment, outer.as_ref());
+                    groups.push(term.clone());
+                    outer = Some(term);
+                    segment = vec![self.group("a grouping column after `/`")?];
+                }
+                _ => break,
+            }
+        }
+        self.expect(')', "to close the random term")?;
+        groups.push(nest(&segment, outer.as_ref()));
+        let parts: Vec<(bool, Vec<Vec<Variable>>)> = if uncorrelated {
+            let own = intercept.then(|| (true, Vec::new()));
+            own.into_iter().chain(slopes.into_iter().map(|t| (false, vec![t]))).collect()
+        } else {
+            vec![(intercept, slopes)]
+        };
+        Ok(groups
+            .into_iter()
+            .flat_map(|(columns, name)| {
+                parts.iter().map(move |(intercept, slopes)| RandomTerm {
+                    columns: columns.clone(),
+                    name: name.clone(),
+                    intercept: *intercept,
+                    slopes: slopes.clone(),
+                })
+            })
+            .collect())
+    }
+}
+
+/// Terms in R's order: each interaction's variables by their first
+/// appearance, duplicates (as sets) dropped, then by degree, stably.
+fn canonical(terms: Vec<Vec<Variable>>) -> Vec<Vec<Variable>> {
+    let mut seen: Vec<Variable> = Vec::new();
+    for v in terms.iter().flatten() {
+        if !seen.contains(v) {
+            seen.push(v.clone());
+        }
+    }
+    let mut unique: Vec<Vec<Variable>> = Vec::new();
+    for mut t in terms {
+        t.sort_by_key(|v| seen.iter().position(|u| u == v));
+        let same = |u: &Vec<Variable>| u.len() == t.len() && t.iter().all(|v| u.contains(v));
+        if !unique.iter().any(same) {
+            unique.push(t);
+        }
+    }
+    unique.sort_by_key(|t| t.len());
+    unique
+}
+
 /// Parses `response ~ terms`.
 pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     let tokens = tokenize(text)?;
@@ -284,7 +463,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     p.expect('~', "after the response")?;
     // Fixed terms as written: each a set of variables (a crossing expands).
     let mut fixed: Vec<Vec<Variable>> = Vec::new();
-    let mut random: Vec<(Vec<String>, String)> = Vec::new();
+    let mut random: Vec<RandomTerm> = Vec::new();
     let mut first = true;
     loop {
         if !first {
@@ -305,114 +484,22 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             Some(Token::Number(n)) => return p.error(format!("`{n}`: a term is a column name, 1, or (1|group)")),
             Some(Token::Sym('(')) => {
                 p.at += 1;
-                match p.peek() {
-                    Some(Token::Number(n)) if n == "1" => p.at += 1,
-                    Some(Token::Name(_)) | Some(Token::Number(_)) => {
-                        return p.error("random slopes are not supported: only random intercepts (1|group)");
-                    }
-                    _ => return p.error("expected `1|group` inside the parentheses"),
-                }
-                if p.peek() == Some(&Token::Sym('|')) {
-                    p.at += 1;
-                } else if p.peek() == Some(&Token::Sym('+')) {
-                    return p.error("random slopes are not supported: only random intercepts (1|group)");
-                } else {
-                    return p.error("expected `|` after `(1`");
-                }
-                // `/` binds looser than `:`: a/b:c is a/(b:c). Each nested
-                // term is lme4's: a/b/c gives a, b:a and c:(b:a).
-                let mut segment = vec![p.group("a grouping column after `|`")?];
-                let mut outer: Option<(Vec<String>, String)> = None;
-                loop {
-                    match p.peek() {
-                        Some(Token::Sym(':')) => {
-                            p.at += 1;
-                            segment.push(p.group("a grouping column after `:`")?);
-                        }
-                        Some(Token::Sym('/')) => {
-                            p.at += 1;
-                            // The outer part stands alone.
-                            let term = nest(&segment, outer.as_ref());
-                            random.push(term.clone());
-                            outer = Some(term);
-                            segment = vec![p.group("a grouping column after `/`")?];
-                        }
-                        _ => break,
-                    }
-                }
-                p.expect(')', "to close the random term")?;
-                random.push(nest(&segment, outer.as_ref()));
+                random.extend(p.random_term()?);
             }
-            Some(Token::Name(_)) => {
-                let mut groups: Vec<Vec<Variable>> = vec![vec![p.variable()?]];
-                loop {
-                    match p.peek() {
-                        Some(Token::Sym(':')) => {
-                            p.at += 1;
-                            let v = p.variable()?;
-                            groups.last_mut().expect("one group at least").push(v);
-                        }
-                        Some(Token::Sym('*')) => {
-                            p.at += 1;
-                            groups.push(vec![p.variable()?]);
-                        }
-                        _ => break,
-                    }
-                }
-                // a:b * c:d = every non-empty union of the crossed parts.
-                if groups.len() > MAX_CROSSED {
-                    return p.error(format!(
-                        "{} variables crossed with `*` make {} terms; at most {MAX_CROSSED} may be crossed",
-                        groups.len(),
-                        if groups.len() < 64 {
-                            ((1u64 << groups.len()) - 1).to_string()
-                        } else {
-                            "more than 2^63".into()
-                        }
-                    ));
-                }
-                for mask in 1..(1u32 << groups.len()) {
-                    let mut term: Vec<Variable> = Vec::new();
-                    for (g, part) in groups.iter().enumerate() {
-                        if mask & (1 << g) != 0 {
-                            for v in part {
-                                if !term.contains(v) {
-                                    term.push(v.clone());
-                                }
-                            }
-                        }
-                    }
-                    fixed.push(term);
-                }
-            }
+            Some(Token::Name(_)) => fixed.extend(p.crossed_terms()?),
             Some(_) => return p.error("expected a term"),
         }
     }
     // R's terms order an interaction's variables by their first appearance
     // in the formula (`Type + conc:Type` is `Type:conc`), whatever order
     // the term writes them in.
-    let mut seen: Vec<Variable> = Vec::new();
-    for v in fixed.iter().flatten() {
-        if !seen.contains(v) {
-            seen.push(v.clone());
-        }
-    }
-    for t in &mut fixed {
-        t.sort_by_key(|v| seen.iter().position(|u| u == v));
-    }
-    // Duplicates dropped (as sets), then R's order: by degree, stably.
-    let mut unique: Vec<Vec<Variable>> = Vec::new();
-    for t in fixed {
-        let same = |u: &Vec<Variable>| u.len() == t.len() && t.iter().all(|v| u.contains(v));
-        if !unique.iter().any(same) {
-            unique.push(t);
-        }
-    }
-    unique.sort_by_key(|t| t.len());
+    let unique = canonical(fixed);
+    // The same term twice is one term (lme4 would fit it twice, with
+    // variances it cannot tell apart).
     let mut groups: Vec<RandomTerm> = Vec::new();
-    for (columns, name) in random {
-        if !groups.iter().any(|g| g.columns.len() == columns.len() && columns.iter().all(|c| g.columns.contains(c))) {
-            groups.push(RandomTerm { columns, name });
+    for term in random {
+        if !groups.iter().any(|g| g.same(&term)) {
+            groups.push(term);
         }
     }
     if groups.is_empty() {

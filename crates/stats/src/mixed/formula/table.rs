@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 
 use super::{Formula, FormulaError, Variable};
+use crate::mixed::slopes::{SlopeData, Term};
 use crate::mixed::{MixedData, MixedError};
 
 /// A table of text columns, as read from a CSV file.
@@ -202,9 +203,32 @@ fn categorical(table: &Table, v: &Variable) -> Result<bool, FormulaError> {
     Ok(v.factor || numbers(table, &v.name)?.is_none())
 }
 
-/// The model `formula` describes, on `table`: response, fixed-effect
-/// columns by R's rules, and the random factors.
+/// The model a formula describes: random intercepts only, or with slopes.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Model {
+    /// Every random term `(1|g)`: [`crate::mixed::fit`] fits it.
+    Intercepts(MixedData),
+    /// Some term with slopes or without an intercept:
+    /// [`crate::mixed::slopes::fit_slopes`] fits it.
+    Slopes(SlopeData),
+}
+
+/// The model `formula` describes, on `table`, when every random term is a
+/// random intercept (see [`build_model`] for any formula).
 pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError> {
+    match build_model(formula, table)? {
+        Model::Intercepts(data) => Ok(data),
+        Model::Slopes(_) => Err(FormulaError::Syntax {
+            column: 1,
+            message: "the formula has random slopes; build it with build_model".into(),
+        }),
+    }
+}
+
+/// The model `formula` describes, on `table`: response, fixed-effect
+/// columns by R's rules, and the random terms.
+pub fn build_model(formula: &Formula, table: &Table) -> Result<Model, FormulaError> {
     present(table, &formula.response)?;
     let Some(y) = numbers(table, &formula.response)? else {
         let col = table.column(&formula.response)?;
@@ -216,57 +240,105 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
         });
     };
     check_scale(&formula.response, &y, false)?;
-    let mut factors = Vec::new();
+    let n = y.len();
+    // One factor per grouping (a group with an intercept and a slope term
+    // is one factor of the response's data).
+    let mut factors: Vec<(String, Vec<usize>)> = Vec::new();
     for term in &formula.random {
-        let group = &term.columns;
-        for g in group {
-            present(table, g)?;
+        if !factors.iter().any(|(name, _)| *name == term.name) {
+            factors.push((term.name.clone(), group_codes(table, &term.columns, n)?));
         }
-        let cols: Vec<Vec<String>> = group.iter().map(|g| labels(table, g)).collect::<Result<_, _>>()?;
-        let codes = if let [col] = cols.as_slice() {
-            // One column (the usual `(1|g)`): its labels are the keys.
-            let mut map: HashMap<&str, usize> = HashMap::new();
-            col.iter()
-                .map(|label| {
-                    let next = map.len();
-                    *map.entry(label.as_str()).or_insert(next)
-                })
-                .collect()
-        } else {
-            let mut map: HashMap<Vec<&str>, usize> = HashMap::new();
-            (0..y.len())
-                .map(|i| {
-                    let key: Vec<&str> = cols.iter().map(|c| c[i].as_str()).collect();
-                    let next = map.len();
-                    *map.entry(key).or_insert(next)
-                })
-                .collect()
-        };
-        factors.push((term.name.clone(), codes));
     }
+    let columns = term_columns(&formula.fixed, true, table, n)?;
+    let base = MixedData::new(y, factors.clone())?.with_columns(columns)?;
+    if formula.random.iter().all(|t| t.intercept_only()) {
+        return Ok(Model::Intercepts(base));
+    }
+    let mut terms = Vec::new();
+    for term in &formula.random {
+        let codes = factors.iter().find(|(name, _)| *name == term.name).map(|(_, c)| c.clone()).unwrap_or_default();
+        let levels = codes.iter().max().map_or(0, |m| m + 1);
+        let mut coded: Vec<(String, Vec<f64>)> = Vec::new();
+        if term.intercept {
+            coded.push(("(Intercept)".to_string(), vec![1.0; n]));
+        }
+        coded.extend(term_columns(&term.slopes, term.intercept, table, n)?);
+        let (names, columns) = coded.into_iter().unzip();
+        terms.push(Term { group: term.name.clone(), factor: term.name.clone(), codes, levels, names, columns });
+    }
+    Ok(Model::Slopes(SlopeData::new(base, terms)?))
+}
+
+/// The level code of each row of the grouping `columns` (their
+/// interaction), numbered by first appearance.
+fn group_codes(table: &Table, group: &[String], n: usize) -> Result<Vec<usize>, FormulaError> {
+    for g in group {
+        present(table, g)?;
+    }
+    let cols: Vec<Vec<String>> = group.iter().map(|g| labels(table, g)).collect::<Result<_, _>>()?;
+    Ok(if let [col] = cols.as_slice() {
+        // One column (the usual `(1|g)`): its labels are the keys.
+        let mut map: HashMap<&str, usize> = HashMap::new();
+        col.iter()
+            .map(|label| {
+                let next = map.len();
+                *map.entry(label.as_str()).or_insert(next)
+            })
+            .collect()
+    } else {
+        let mut map: HashMap<Vec<&str>, usize> = HashMap::new();
+        (0..n)
+            .map(|i| {
+                let key: Vec<&str> = cols.iter().map(|c| c[i].as_str()).collect();
+                let next = map.len();
+                *map.entry(key).or_insert(next)
+            })
+            .collect()
+    })
+}
+
+/// The design columns of `terms` (beside the intercept, when `intercept`)
+/// by R's `model.matrix`: a categorical variable is coded by treatment
+/// contrasts when the term without it is in the model (the intercept is
+/// the empty term), by indicators of every level otherwise; without an
+/// intercept, R codes the first categorical main effect by indicators and
+/// the rest as if the intercept were there.
+fn term_columns(
+    terms: &[Vec<Variable>],
+    intercept: bool,
+    table: &Table,
+    n: usize,
+) -> Result<Vec<(String, Vec<f64>)>, FormulaError> {
     let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
-    let in_model = |term: &[&Variable]| -> bool {
-        term.is_empty() || formula.fixed.iter().any(|t| t.len() == term.len() && term.iter().all(|v| t.contains(v)))
+    let mut empty_in_model = intercept;
+    let in_model = |term: &[&Variable], empty: bool| -> bool {
+        if term.is_empty() {
+            return empty;
+        }
+        terms.iter().any(|t| t.len() == term.len() && term.iter().all(|v| t.contains(v)))
     };
-    for term in &formula.fixed {
+    for term in terms {
         let mut parts: Vec<Vec<(String, Vec<f64>)>> = Vec::new();
         for v in term {
             let contrasts = if categorical(table, v)? {
                 let without: Vec<&Variable> = term.iter().filter(|u| *u != v).collect();
-                in_model(&without)
+                let coded_by_contrasts = in_model(&without, empty_in_model);
+                if without.is_empty() {
+                    empty_in_model = true;
+                }
+                coded_by_contrasts
             } else {
                 true
             };
             parts.push(coded(table, v, contrasts)?);
         }
         // Products, the first variable varying fastest.
-        let mut acc: Vec<(String, Vec<f64>)> = vec![(String::new(), vec![1.0; y.len()])];
+        let mut acc: Vec<(String, Vec<f64>)> = vec![(String::new(), vec![1.0; n])];
         for part in &parts {
             let width = columns.len() + acc.len() * part.len();
-            if width > crate::mixed::MAX_DENSE || width.saturating_mul(y.len()) > crate::mixed::MAX_DESIGN_VALUES {
+            if width > crate::mixed::MAX_DENSE || width.saturating_mul(n) > crate::mixed::MAX_DESIGN_VALUES {
                 return Err(MixedError::TooLarge(format!(
-                    "the fixed effects would have {width} columns for {} observations, over the limits of {} columns and {} values",
-                    y.len(),
+                    "the fixed effects would have {width} columns for {n} observations, over the limits of {} columns and {} values",
                     crate::mixed::MAX_DENSE,
                     crate::mixed::MAX_DESIGN_VALUES
                 ))
@@ -286,7 +358,7 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
         }
         columns.extend(acc);
     }
-    Ok(MixedData::new(y, factors)?.with_columns(columns)?)
+    Ok(columns)
 }
 
 /// Reads a tidy CSV (a header row of names, then one row per observation)

@@ -1,0 +1,109 @@
+//! A formula with random slopes fitted to a table, and its summary as lme4
+//! and lmerTest print it (the random effects with their correlations).
+
+use std::fmt::Write;
+
+use super::fit::{FixedRow, Fitted, FormulaFit, Likelihood};
+use super::{DfMethod, FormulaError};
+use crate::mixed::slopes::{fit_slopes, SlopeData, SlopeFit};
+use crate::mixed::Criterion;
+
+/// Fits a random-slope model; Satterthwaite df for REML fits. Kenward-Roger
+/// df and profile intervals are computed for random-intercept models only,
+/// and asking for them here is refused by name.
+pub(super) fn fit_slopes_table(
+    formula: &str,
+    data: &SlopeData,
+    criterion: Criterion,
+    df: DfMethod,
+    profile: Option<f64>,
+) -> Result<FormulaFit, FormulaError> {
+    if df == DfMethod::KenwardRoger && criterion == Criterion::Reml {
+        return Err(FormulaError::Unsupported(
+            "--df kenward-roger is computed for random-intercept models only; a model with random slopes gets Satterthwaite df (the default)".into(),
+        ));
+    }
+    if profile.is_some() {
+        return Err(FormulaError::Unsupported(
+            "--profile is computed for random-intercept models only; a model with random slopes gets its standard deviations and correlations without profile intervals".into(),
+        ));
+    }
+    let reml = criterion == Criterion::Reml;
+    let fit = fit_slopes(data, criterion, reml)?;
+    let fixed = fit
+        .fixed
+        .iter()
+        .map(|f| FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false))
+        .collect();
+    let likelihood = Likelihood::of_slopes(&fit);
+    Ok(FormulaFit {
+        formula: formula.to_string(),
+        df_method: reml.then_some(DfMethod::Satterthwaite),
+        fit: Fitted::Slopes(fit),
+        fixed,
+        profile: None,
+        likelihood,
+    })
+}
+
+/// The summary of a random-slope fit: lme4's header, its random-effects
+/// table (variance, standard deviation and correlations of each term's
+/// columns), the fixed effects, and the optimizer's certificate.
+pub(super) fn summary(formula: &FormulaFit, f: &SlopeFit) -> String {
+    let mut s = formula.header(f.criterion, f.deviance);
+    let _ = writeln!(s, "Random effects:");
+    let width = f.terms.iter().map(|t| t.group.len()).max().unwrap_or(0).max(8);
+    let name_width = f.terms.iter().flat_map(|t| t.names.iter().map(String::len)).max().unwrap_or(0).max(11);
+    let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12} {:>12} Corr", "Groups", "Name", "Variance", "Std.Dev.");
+    for t in &f.terms {
+        let k = t.names.len();
+        let mut corr = t.correlations.iter();
+        for (i, name) in t.names.iter().enumerate() {
+            let group = if i == 0 { t.group.as_str() } else { "" };
+            let variance = t.covariance[i * k + i];
+            let mut line = format!(" {group:<width$} {name:<name_width$} {variance:>12.6} {:>12.6}", t.sd[i]);
+            for _ in 0..i {
+                match corr.next() {
+                    Some(Some(r)) => line.push_str(&format!(" {r:>6.3}")),
+                    _ => line.push_str("    NaN"),
+                }
+            }
+            let _ = writeln!(s, "{line}");
+        }
+    }
+    let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12.6} {:>12.6}", "Residual", "", f.residual, f.residual.sqrt());
+    let mut groups: Vec<String> = Vec::new();
+    for t in &f.terms {
+        let g = format!("{}, {}", t.factor, t.levels);
+        if !groups.contains(&g) {
+            groups.push(g);
+        }
+    }
+    let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
+    s.push_str(&formula.fixed_table());
+    for note in &f.notes {
+        let _ = writeln!(s, "note: {note}");
+    }
+    let c = &f.certificate;
+    let _ = writeln!(
+        s,
+        "\noptimizer: {} ({} deviance evaluations, {} restarts); max |gradient| {:.2e}, predicted decrease {:.2e}, smallest curvature {:.2e} of the largest",
+        if c.certified { "optimum certified" } else { "NOT CERTIFIED" },
+        f.evaluations,
+        c.restarts,
+        c.gradient,
+        c.predicted_decrease,
+        c.smallest_curvature
+    );
+    let _ = writeln!(s, "theta: {}", f.theta.iter().map(|t| format!("{t:.6}")).collect::<Vec<_>>().join(" "));
+    if !c.certified {
+        let _ = writeln!(s, "warning: the optimizer could not certify this point as the optimum; do not use it");
+    }
+    if f.singular {
+        let _ = writeln!(
+            s,
+            "boundary (singular) fit: a diagonal entry of theta is estimated at (or within 1e-4 of) zero (a variance at zero or a correlation of +-1), as lme4's isSingular says"
+        );
+    }
+    s
+}

@@ -1,0 +1,152 @@
+//! Random-slope models against lme4 and lmerTest: every fit of
+//! `scripts/reference/mixed_slopes.R` (its output committed as
+//! `mixed_slopes.out`), on data sets of R's own packages (lme4's
+//! sleepstudy and cake, nlme's Orthodont, Machines, Oxboys, MathAchieve,
+//! Oats and Pixel, datasets' ChickWeight) and two simulated designs, one
+//! crossed and one singular, written by the script to
+//! `tests/fixtures/slopes_*.csv`.
+//!
+//! For each fit: crossaudit's deviance at lme4's theta is lme4's criterion
+//! (the same function, in the same parameterization and term order); the
+//! optimum crossaudit finds is no higher than lme4's; theta, the variance
+//! components and correlations, the fixed effects, their standard errors
+//! and (REML) lmerTest's Satterthwaite df agree; the singular flag is
+//! lme4's `isSingular`.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use crossaudit_stats::mixed::formula::{build_model, fit_table, parse, read_csv, DfMethod, Model};
+use crossaudit_stats::mixed::slopes::deviance_at;
+use crossaudit_stats::mixed::Criterion;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// One fit of the reference: its lines, by what they give.
+#[derive(Default, Debug)]
+struct Reference {
+    formula: String,
+    reml: bool,
+    criterion: f64,
+    theta: Vec<f64>,
+    /// (grp, var1, var2) -> (vcov, sdcor).
+    vc: BTreeMap<(String, String, String), (f64, f64)>,
+    /// name -> (estimate, se).
+    fixef: BTreeMap<String, (f64, f64)>,
+    df: BTreeMap<String, f64>,
+    singular: bool,
+}
+
+fn references() -> BTreeMap<String, Reference> {
+    let text = std::fs::read_to_string(root().join("scripts/reference/mixed_slopes.out")).unwrap();
+    let mut out: BTreeMap<String, Reference> = BTreeMap::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let (name, rest) = line.split_once(' ').unwrap();
+        let (what, values) = rest.split_once(' ').unwrap();
+        let r = out.entry(name.to_string()).or_default();
+        let words: Vec<&str> = values.split_whitespace().collect();
+        let num = |w: &str| w.parse::<f64>().unwrap();
+        match what {
+            "formula" => r.formula = values.trim().to_string(),
+            "reml" => r.reml = values.trim() == "TRUE",
+            "criterion" => r.criterion = num(words[0]),
+            "theta" => r.theta = words.iter().map(|w| num(w)).collect(),
+            "vc" => {
+                let key = (words[0].to_string(), words[1].to_string(), words[2].to_string());
+                r.vc.insert(key, (num(words[3]), num(words[4])));
+            }
+            "fixef" => {
+                r.fixef.insert(words[0].to_string(), (num(words[1]), num(words[2])));
+            }
+            "df" => {
+                r.df.insert(words[0].to_string(), num(words[1]));
+            }
+            "singular" => r.singular = values.trim() == "TRUE",
+            other => panic!("unknown line kind {other}"),
+        }
+    }
+    out
+}
+
+/// The fixture a fit's data are in: `slopes_<first word of its name>.csv`.
+fn fixture(fit: &str) -> String {
+    let stem = fit.split('_').next().unwrap();
+    std::fs::read_to_string(root().join(format!("tests/fixtures/slopes_{stem}.csv"))).unwrap()
+}
+
+fn close(what: &str, ours: f64, theirs: f64, rel: f64, abs: f64, failures: &mut Vec<String>) {
+    let diff = (ours - theirs).abs();
+    if !(diff <= rel * theirs.abs() + abs) {
+        failures.push(format!("{what}: crossaudit {ours:.12e}, lme4 {theirs:.12e} (difference {diff:.2e})"));
+    }
+}
+
+#[test]
+fn random_slope_fits_match_lme4_and_lmertest() {
+    let refs = references();
+    assert!(refs.len() >= 16, "{} reference fits", refs.len());
+    let mut failures = Vec::new();
+    for (name, r) in &refs {
+        let table = read_csv(&fixture(name)).unwrap();
+        let criterion = if r.reml { Criterion::Reml } else { Criterion::Ml };
+        let formula = parse(&r.formula).unwrap();
+        let Model::Slopes(data) = build_model(&formula, &table).unwrap() else {
+            panic!("{name}: not a random-slope model")
+        };
+        // The same function: crossaudit's deviance at lme4's theta.
+        let at_lme4 = deviance_at(&data, &r.theta, criterion).unwrap();
+        close(&format!("{name} deviance at lme4's theta"), at_lme4, r.criterion, 1e-11, 0.0, &mut failures);
+        let fit = fit_table(&r.formula, &table, criterion, DfMethod::Satterthwaite, None).unwrap();
+        let f = fit.fit.slopes().unwrap();
+        assert!(f.certificate.certified, "{name}: {}", fit.summary());
+        if f.deviance > r.criterion + 1e-9 * r.criterion.abs() {
+            failures.push(format!("{name}: crossaudit's optimum {:.12} is above lme4's {:.12}", f.deviance, r.criterion));
+        }
+        close(&format!("{name} criterion"), f.deviance, r.criterion, 1e-10, 0.0, &mut failures);
+        assert_eq!(f.theta.len(), r.theta.len(), "{name}");
+        for (j, (a, b)) in f.theta.iter().zip(&r.theta).enumerate() {
+            close(&format!("{name} theta[{j}]"), *a, *b, 1e-4, 1e-4, &mut failures);
+        }
+        assert_eq!(f.singular, r.singular, "{name}: singular");
+        // Variance components and correlations, by lme4's names.
+        let mut seen = 0;
+        for t in &f.terms {
+            let k = t.names.len();
+            for i in 0..k {
+                let key = (t.group.clone(), t.names[i].clone(), "NA".to_string());
+                let (vcov, sd) = r.vc.get(&key).unwrap_or_else(|| panic!("{name}: no lme4 row {key:?}"));
+                close(&format!("{name} var {key:?}"), t.covariance[i * k + i], *vcov, 1e-4, 1e-6, &mut failures);
+                close(&format!("{name} sd {key:?}"), t.sd[i], *sd, 1e-4, 1e-6, &mut failures);
+                seen += 1;
+                for j in 0..i {
+                    let key = (t.group.clone(), t.names[j].clone(), t.names[i].clone());
+                    let (cov, cor) = r.vc.get(&key).unwrap_or_else(|| panic!("{name}: no lme4 row {key:?}"));
+                    close(&format!("{name} cov {key:?}"), t.covariance[i * k + j], *cov, 1e-4, 1e-6, &mut failures);
+                    let ours = t.correlations[i * (i - 1) / 2 + j].unwrap_or(f64::NAN);
+                    close(&format!("{name} cor {key:?}"), ours, *cor, 1e-4, 1e-4, &mut failures);
+                    seen += 1;
+                }
+            }
+        }
+        let (vcov, _) = r.vc[&("Residual".to_string(), "NA".to_string(), "NA".to_string())];
+        close(&format!("{name} residual"), f.residual, vcov, 1e-6, 0.0, &mut failures);
+        assert_eq!(seen + 1, r.vc.len(), "{name}: every lme4 component compared");
+        assert_eq!(fit.fixed.len(), r.fixef.len(), "{name}");
+        for row in &fit.fixed {
+            let (est, se) = r.fixef[&row.name];
+            close(&format!("{name} {} estimate", row.name), row.estimate, est, 1e-6, 1e-8, &mut failures);
+            close(&format!("{name} {} se", row.name), row.se, se, 1e-5, 0.0, &mut failures);
+            match (row.df, r.df.get(&row.name)) {
+                (Some(ours), Some(theirs)) => {
+                    close(&format!("{name} {} df", row.name), ours, *theirs, 1e-4, 0.0, &mut failures)
+                }
+                (None, None) => {}
+                (ours, theirs) => failures.push(format!("{name} {} df: crossaudit {ours:?}, lmerTest {theirs:?}", row.name)),
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{} disagreements:\n{}", failures.len(), failures.join("\n"));
+}
+
