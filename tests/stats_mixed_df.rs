@@ -135,7 +135,7 @@ fn kenward_roger_and_satterthwaite_match_pbkrtest_and_lmertest_where_they_comput
         let text = std::fs::read_to_string(root().join(format!("tests/fixtures/mixed_dominant/{name}.csv"))).unwrap();
         let table = read_csv(&text).unwrap();
         let f = fit_table("y ~ 1 + (1|a) + (1|b)", &table, Criterion::Reml, DfMethod::KenwardRoger, None).unwrap();
-        let kr = f.fit.kenward_roger.unwrap();
+        let kr = f.fit.intercepts().unwrap().kenward_roger.unwrap();
         let converged = get(name, "converged") == "TRUE";
         match get(name, "kr_df").parse::<f64>() {
             Ok(want) if converged && want.is_finite() => {
@@ -149,7 +149,7 @@ fn kenward_roger_and_satterthwaite_match_pbkrtest_and_lmertest_where_they_comput
                 let se: f64 = get(name, "kr_se").parse().unwrap();
                 assert!(rel(kr.se, se) < 1e-5, "{name}: KR SE ours {}, pbkrtest {se}", kr.se);
                 let sat: f64 = get(name, "satterthwaite_df").parse().unwrap();
-                let ours = f.fit.df_satterthwaite.unwrap();
+                let ours = f.fit.intercepts().unwrap().df_satterthwaite.unwrap();
                 // lmerTest's Hessian is numDeriv's Richardson differences
                 // of the deviance in (theta, sigma): 1e-6 on ordinary
                 // data, 1e-5 where a variance is 1e4 times the residual's.

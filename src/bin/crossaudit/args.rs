@@ -216,13 +216,20 @@ pub(crate) enum Command {
         #[arg(long, default_value = "plan")]
         out: PathBuf,
     },
-    /// Fit a linear mixed model with random intercepts (crossed or nested)
-    /// to any tidy CSV, as lme4's lmer with lmerTest's and pbkrtest's
-    /// small-sample df: `y ~ 1 + x + f + (1|a) + (1|b) + (1|a:c)`.
+    /// Fit a linear mixed model with random intercepts and slopes (crossed
+    /// or nested) to any tidy CSV, as lme4's lmer with lmerTest's and
+    /// pbkrtest's small-sample df: `y ~ 1 + x + f + (1|a) + (1|b) + (1|a:c)`,
+    /// `y ~ x + (x | g)`.
     Mixed {
         /// The CSV file: a header row of column names, one row per observation.
         data: PathBuf,
-        /// The model, in lme4's formula language (random intercepts only).
+        /// The model, in lme4's formula language. Random terms: `(1|g)`,
+        /// `(1|g:h)`, `(1|g/h)`; slopes `(x|g)` = `(1 + x|g)` (intercept
+        /// and slope correlated), `(x||g)` (uncorrelated: `(1|g) +
+        /// (0 + x|g)`), `(0 + x|g)` (slope only), for numeric and
+        /// categorical x (a factor's columns), up to 8 columns per term.
+        /// Kenward-Roger df and --profile are for random intercepts only;
+        /// generalized models (binomial, Poisson) are not fitted.
         #[arg(long)]
         formula: String,
         /// Maximum likelihood instead of REML.

@@ -338,7 +338,6 @@ impl FixedRow {
 }
 
 impl FormulaFit {
-
     /// The summary's first lines: the method, the formula and the
     /// likelihood table.
     pub(super) fn header(&self, criterion: mixed::Criterion, deviance: f64) -> String {

@@ -1,4 +1,4 @@
-//! lme4's formula language for random-intercept models, and the model it
+//! lme4's formula language for linear mixed models, and the model it
 //! describes built from a table of columns, the way R builds it.
 //!
 //! `y ~ 1 + x + f + f:x + (1|a) + (1|b) + (1|a:c)`: a numeric response;
@@ -20,7 +20,11 @@
 //! the products of its variables' columns, the first variable varying
 //! fastest, named as R names them (`TypeQuebec:conc`).
 //!
-//! Random slopes (`(x|g)`), a model without an intercept, the response
+//! Random slopes: `(x|g)` (= `(1 + x|g)`), `(0 + x|g)`, `(x||g)` (lme4's
+//! `(1|g) + (0 + x|g)`), their left side coded as a fixed part is (a
+//! factor's columns), fitted by [`crate::mixed::slopes`].
+//!
+//! A model without a fixed intercept, the response
 //! among the predictors, missing values, control characters in a value and
 //! numbers whose sums overflow are refused with the column of the formula
 //! or the row and field of the table: R drops rows with missing values
@@ -31,7 +35,7 @@ mod slopes_fit;
 mod table;
 
 pub use fit::{
-    compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, FixedRow, Fitted, FormulaFit, Likelihood,
+    compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, Fitted, FixedRow, FormulaFit, Likelihood,
 };
 pub use table::{build, build_model, r_number_label, read_csv, Model, Table};
 
@@ -339,7 +343,9 @@ impl Parser {
                     Some(Token::Sym('+')) => self.at += 1,
                     Some(Token::Sym('|')) => break,
                     Some(Token::Sym('-')) => {
-                        return self.error("removing terms (`-`) is not supported; write `0 + x` for a term without an intercept")
+                        return self.error(
+                            "removing terms (`-`) is not supported; write `0 + x` for a term without an intercept",
+                        )
                     }
                     _ => return self.error("expected `+` or `|` in the random term"),
                 }
@@ -353,7 +359,8 @@ impl Parser {
                 }
                 Some(Token::Name(_)) => slopes.extend(self.crossed_terms()?),
                 Some(Token::Sym('-')) => {
-                    return self.error("removing terms (`-`) is not supported; write `0 + x` for a term without an intercept")
+                    return self
+                        .error("removing terms (`-`) is not supported; write `0 + x` for a term without an intercept")
                 }
                 _ => return self.error("expected `1`, `0` or a column before `|` in the random term"),
             }

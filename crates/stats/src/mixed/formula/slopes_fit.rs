@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use super::fit::{FixedRow, Fitted, FormulaFit, Likelihood};
+use super::fit::{Fitted, FixedRow, FormulaFit, Likelihood};
 use super::{DfMethod, FormulaError};
 use crate::mixed::slopes::{fit_slopes, SlopeData, SlopeFit};
 use crate::mixed::Criterion;
@@ -30,11 +30,7 @@ pub(super) fn fit_slopes_table(
     }
     let reml = criterion == Criterion::Reml;
     let fit = fit_slopes(data, criterion, reml)?;
-    let fixed = fit
-        .fixed
-        .iter()
-        .map(|f| FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false))
-        .collect();
+    let fixed = fit.fixed.iter().map(|f| FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false)).collect();
     let likelihood = Likelihood::of_slopes(&fit);
     Ok(FormulaFit {
         formula: formula.to_string(),

@@ -155,7 +155,8 @@ fn varcorr_names(terms: &[Term]) -> Vec<String> {
     let valid: Vec<String> = groups
         .iter()
         .map(|g| {
-            let name: String = g.chars().map(|c| if c.is_alphanumeric() || c == '.' || c == '_' { c } else { '.' }).collect();
+            let name: String =
+                g.chars().map(|c| if c.is_alphanumeric() || c == '.' || c == '_' { c } else { '.' }).collect();
             let first = name.chars().next();
             let second = name.chars().nth(1);
             let needs_x = match first {
@@ -369,7 +370,15 @@ fn term_fits(terms: &[Term], theta: &[f64], sigma2: f64) -> Vec<TermFit> {
                 .flat_map(|i| (0..i).map(move |j| (i, j)))
                 .map(|(i, j)| (sd[i] > 0.0 && sd[j] > 0.0).then(|| covariance[i * k + j] / (sd[i] * sd[j])))
                 .collect();
-            TermFit { group: t.group.clone(), factor: t.factor.clone(), levels: t.levels, names: t.names.clone(), sd, correlations, covariance }
+            TermFit {
+                group: t.group.clone(),
+                factor: t.factor.clone(),
+                levels: t.levels,
+                names: t.names.clone(),
+                sd,
+                correlations,
+                covariance,
+            }
         })
         .collect()
 }

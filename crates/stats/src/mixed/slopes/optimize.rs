@@ -28,9 +28,8 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, usi
     // factored is an error rather than an infinite deviance.
     let f0 = s.evaluate(&unscaled(&start), criterion)?.deviance;
     let evaluations = std::cell::Cell::new(1usize);
-    let one = |theta: &[f64]| -> f64 {
-        s.evaluate(&unscaled(theta), criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY)
-    };
+    let one =
+        |theta: &[f64]| -> f64 { s.evaluate(&unscaled(theta), criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY) };
     let mut dev = |theta: &[f64]| -> f64 {
         evaluations.set(evaluations.get() + 1);
         one(theta)
@@ -58,7 +57,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, usi
         }
         for from in starts {
             restarts += 1;
-            let step = 0.1f64.powi(round as i32) * 0.5;
+            let step = 0.1f64.powi(round) * 0.5;
             let (t, d) = nelder_mead_free(&mut dev, &from, step, 1e-12);
             let (t, d, _) = newton(&mut batch, t, d, 40);
             if d < best_dev {

@@ -311,9 +311,7 @@ impl System {
             Criterion::Reml => {
                 let df = (n - p) as f64;
                 (
-                    log_det_l2
-                        + log_det_rx2
-                        + df * (1.0 + (2.0 * std::f64::consts::PI * r2_std * scale2 / df).ln()),
+                    log_det_l2 + log_det_rx2 + df * (1.0 + (2.0 * std::f64::consts::PI * r2_std * scale2 / df).ln()),
                     r2_std * scale2 / df,
                 )
             }
