@@ -9,6 +9,9 @@ use crate::design::ast::*;
 use crate::design::*;
 
 impl Validator {
+    /// The data block: its items read one by one, then the checks that
+    /// need them all (gaps against the rate, rules against a csv layout,
+    /// the simulator's settings).
     pub(super) fn data(&mut self, block: &DataBlock) -> Option<DataSpec> {
         let source = self.data_source(&block.source);
         let mut sim = SimParts::default();
@@ -29,8 +32,25 @@ impl Validator {
                 self.data_item(item, source == Some(DataSource::Csv), &mut seen, &mut spec, &mut sim);
             }
         }
-        // A gap shorter than two steps at the declared rate would cut the
-        // recording at every row.
+        self.gaps_against_rate(block, &spec);
+        if source == Some(DataSource::Csv) {
+            spec.format = self.csv_format(block, &seen, &mut csv, &mut spec);
+            self.rules_against_layout(block, &spec);
+        } else if let Some(scale) = &csv.scale {
+            self.err_help(
+                "action scale outside `data csv`",
+                scale.span,
+                "NanoBench's actions are motor PWM / 65535",
+                "remove `scale`, or switch the source to `csv`",
+            );
+        }
+        self.simulated(block, source, &sim, &mut spec);
+        source.map(|source| DataSpec { source, ..spec })
+    }
+
+    /// A gap shorter than two steps at the declared rate would cut the
+    /// recording at every row: refused.
+    fn gaps_against_rate(&mut self, block: &DataBlock, spec: &DataSpec) {
         for item in &block.items {
             if let (DataItem::Gaps { over, .. }, Some(g)) = (&item.node, spec.gaps) {
                 if spec.rate_hz > 0.0 && g.over_s * spec.rate_hz < 1.5 {
@@ -48,46 +68,48 @@ impl Validator {
                 }
             }
         }
-        if source == Some(DataSource::Csv) {
-            spec.format = self.csv_format(block, &seen, &mut csv, &mut spec);
-            // Upstream's percentile rules read NanoBench's battery and
-            // setpoint columns; a lab's layout has other names.
-            let needed = ["pwr_pm_vbat", "sp_ctrltarget_z"];
-            let lacking: Vec<&str> = needed
-                .into_iter()
-                .filter(|n| spec.format.is_some() && !spec.state_columns.iter().any(|c| c == n))
-                .collect();
-            let no_attitude = spec.format.as_ref().is_some_and(|f| !f.attitude);
-            for item in
-                block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeBeyond { quantity: Bound::Rate, .. }))
-            {
-                if no_attitude {
-                    self.err_help(
-                        "rate without an attitude",
-                        item.span,
-                        "`exclude beyond rate` bounds how fast the attitude turns, and this layout declares no attitude",
-                        "declare `attitude quaternion ...` or `attitude euler ...`, or bound the position or speed instead",
-                    );
-                }
+    }
+
+    /// The inclusion rules a `data csv` layout cannot serve: a bound on the
+    /// rate without an attitude, NanoBench's percentile rule without its
+    /// columns.
+    fn rules_against_layout(&mut self, block: &DataBlock, spec: &DataSpec) {
+        // Upstream's percentile rules read NanoBench's battery and
+        // setpoint columns; a lab's layout has other names.
+        let needed = ["pwr_pm_vbat", "sp_ctrltarget_z"];
+        let lacking: Vec<&str> = needed
+            .into_iter()
+            .filter(|n| spec.format.is_some() && !spec.state_columns.iter().any(|c| c == n))
+            .collect();
+        let no_attitude = spec.format.as_ref().is_some_and(|f| !f.attitude);
+        for item in
+            block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeBeyond { quantity: Bound::Rate, .. }))
+        {
+            if no_attitude {
+                self.err_help(
+                    "rate without an attitude",
+                    item.span,
+                    "`exclude beyond rate` bounds how fast the attitude turns, and this layout declares no attitude",
+                    "declare `attitude quaternion ...` or `attitude euler ...`, or bound the position or speed instead",
+                );
             }
-            for item in block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeImplausible(_))) {
-                if !lacking.is_empty() {
-                    self.err_help(
-                        "implausible without NanoBench's columns",
-                        item.span,
-                        format!("`exclude implausible` is NanoBench's percentile rule on {}, which this layout does not declare", lacking.join(" and ")),
-                        "for any layout: `exclude frozen position for 2 s`, `exclude beyond position 10 m`, `exclude beyond speed 5 m/s`",
-                    );
-                }
-            }
-        } else if let Some(scale) = &csv.scale {
-            self.err_help(
-                "action scale outside `data csv`",
-                scale.span,
-                "NanoBench's actions are motor PWM / 65535",
-                "remove `scale`, or switch the source to `csv`",
-            );
         }
+        for item in block.items.iter().filter(|i| matches!(i.node, DataItem::ExcludeImplausible(_))) {
+            if !lacking.is_empty() {
+                self.err_help(
+                    "implausible without NanoBench's columns",
+                    item.span,
+                    format!("`exclude implausible` is NanoBench's percentile rule on {}, which this layout does not declare", lacking.join(" and ")),
+                    "for any layout: `exclude frozen position for 2 s`, `exclude beyond position 10 m`, `exclude beyond speed 5 m/s`",
+                );
+            }
+        }
+    }
+
+    /// The simulator's settings: all four for `data simulated` (within
+    /// [`MAX_SIM_SECONDS`] of flight), recorded in `spec`; none for
+    /// NanoBench's data.
+    fn simulated(&mut self, block: &DataBlock, source: Option<DataSource>, sim: &SimParts, spec: &mut DataSpec) {
         let sim_given =
             sim.recordings.is_some() || sim.seed.is_some() || sim.strength.is_some() || sim.duration.is_some();
         match source {
@@ -120,7 +142,6 @@ impl Validator {
             ),
             _ => {}
         }
-        source.map(|source| DataSpec { source, ..spec })
     }
 
     fn data_source(&mut self, source: &Ident) -> Option<DataSource> {
@@ -150,124 +171,36 @@ impl Validator {
         spec: &mut DataSpec,
         sim: &mut SimParts,
     ) {
+        if let Some(key) = once_key(&item.node) {
+            self.once(seen, key, item.span);
+        }
         match &item.node {
             DataItem::Path(p) => {
-                self.once(seen, "path", item.span);
                 if p.node.is_empty() {
                     self.err("empty path", p.span, "the data path is empty");
                 }
                 spec.path = Some(p.node.clone());
             }
-            DataItem::Rate(r) => {
-                self.once(seen, "rate", item.span);
-                spec.rate_hz = self.positive(r, "the sample rate");
-            }
-            DataItem::IncludeActive { column, cmp, threshold, min_samples } => {
-                self.once(seen, "include", item.span);
-                spec.rules.push(InclusionRule::Active {
-                    column: column.node.clone(),
-                    cmp: cmp.node,
-                    threshold: threshold.node,
-                    min_samples: self.count(min_samples, "the active-sample minimum", 1, u64::MAX) as u64,
-                });
-            }
-            DataItem::ExcludeRecordings(names) => {
-                self.once(seen, "exclude recordings", item.span);
-                // Checked as every pinned list of names is: none empty, none twice.
-                let listed = self.listed(names, "excluded");
-                spec.rules.push(InclusionRule::Named { names: listed.into_iter().map(|n| n.name).collect() });
-            }
-            DataItem::ExcludeFrozen(t) => {
-                self.once(seen, "exclude frozen", item.span);
-                let seconds = self.positive(t, "the frozen time");
-                spec.rules.push(InclusionRule::Frozen { seconds });
-            }
-            DataItem::ExcludeBeyond { quantity, limit } => {
-                let key = match quantity {
-                    Bound::Position => "exclude beyond position",
-                    Bound::Speed => "exclude beyond speed",
-                    Bound::Rate => "exclude beyond rate",
-                };
-                self.once(seen, key, item.span);
-                let limit = self.positive(limit, "the bound");
-                spec.rules.push(InclusionRule::Beyond { quantity: *quantity, limit });
-            }
-            DataItem::ExcludeImplausible(pooling) => {
-                self.once(seen, "exclude", item.span);
-                spec.rules.push(InclusionRule::Implausible);
-                if pooling.as_ref().is_some_and(|p| p.node == "per_column") {
-                    spec.plausibility = Pooling::PerColumn;
-                }
-            }
-            DataItem::Tails(p) => {
-                self.once(seen, "tails", item.span);
-                spec.tails = match p.node.as_str() {
-                    "exclude" => TailPolicy::Exclude,
-                    "truncate" => TailPolicy::Truncate,
-                    _ => TailPolicy::Keep,
-                };
-            }
-            DataItem::Speed(how) => {
-                self.once(seen, "speed", item.span);
-                spec.speed = self.speed_labels(how);
-            }
+            DataItem::Rate(r) => spec.rate_hz = self.positive(r, "the sample rate"),
+            DataItem::IncludeActive { .. }
+            | DataItem::ExcludeRecordings(_)
+            | DataItem::ExcludeFrozen(_)
+            | DataItem::ExcludeBeyond { .. }
+            | DataItem::ExcludeImplausible(_) => self.inclusion_rule(&item.node, spec),
+            DataItem::Tails(p) => spec.tails = tail_policy(p),
+            DataItem::Speed(how) => spec.speed = self.speed_labels(how),
             DataItem::Universe { kind, order } => {
-                self.once(seen, "universe", item.span);
                 spec.universe = Universe {
                     metadata: kind.node == "metadata",
                     bytewise: order.as_ref().is_some_and(|o| o.node == "bytewise"),
                 };
             }
-            DataItem::MissingCsv(p) => {
-                self.once(seen, "missing", item.span);
-                spec.missing_csv_allowed = p.node == "allow";
-            }
-            DataItem::Duplicates(p) => {
-                self.once(seen, "duplicates", item.span);
-                spec.duplicates = match p.node.as_str() {
-                    "group" => DuplicatePolicy::Group,
-                    "first" => DuplicatePolicy::First,
-                    _ => DuplicatePolicy::Keep,
-                };
-            }
-            DataItem::Strict => {
-                self.once(seen, "strict", item.span);
-                spec.strictness = Strictness::Strict;
-            }
-            DataItem::State(cols) => {
-                self.once(seen, "state", item.span);
-                let preset = match cols.as_slice() {
-                    [one] if one.node == "onboard" => Some(StatePreset::Onboard),
-                    [one] if one.node == "motion_capture" => Some(StatePreset::MotionCapture),
-                    _ => None,
-                };
-                spec.state_preset = preset;
-                spec.state_columns = match preset {
-                    Some(p) => p.columns().iter().map(|c| c.to_string()).collect(),
-                    None if cols.len() == 1 => {
-                        self.err_help(
-                            "unknown state preset",
-                            cols[0].span,
-                            format!("`{}` is not a state preset", cols[0].node),
-                            "presets: onboard, motion_capture; or list the 14 columns",
-                        );
-                        Vec::new()
-                    }
-                    None => self.columns(cols, 14, "state", item.span),
-                };
-            }
+            DataItem::MissingCsv(p) => spec.missing_csv_allowed = p.node == "allow",
+            DataItem::Duplicates(p) => spec.duplicates = duplicate_policy(p),
+            DataItem::Strict => spec.strictness = Strictness::Strict,
+            DataItem::State(cols) => self.state(cols, item.span, spec),
             DataItem::Action { columns, scale } => {
-                self.once(seen, "action", item.span);
-                spec.action_columns = if csv {
-                    // Any number of actions; the count is checked for NanoBench's four only.
-                    self.columns(columns, columns.len().max(1), "action", item.span)
-                } else {
-                    self.columns(columns, 4, "action", item.span)
-                };
-                if let Some(scale) = scale {
-                    // Refused outside `data csv` by the caller.
-                    self.positive(scale, "the action scale");
-                }
+                spec.action_columns = self.action_columns(columns, scale.as_ref(), csv, item.span);
             }
             DataItem::Time(_)
             | DataItem::Position(_)
@@ -283,58 +216,127 @@ impl Validator {
             | DataItem::ConditionsTable { .. }
             | DataItem::ConditionsName(_)
             | DataItem::ConditionsFolder(_) => {}
-            DataItem::MissingValues(p) => {
-                self.once(seen, "missing values", item.span);
-                spec.missing_values = Some(cut_policy(p));
-            }
+            DataItem::MissingValues(p) => spec.missing_values = Some(cut_policy(p)),
             DataItem::Gaps { over, policy } => {
-                self.once(seen, "gaps", item.span);
                 let over_s = self.positive(over, "the longest step");
                 spec.gaps = Some(GapPolicy { over_s, policy: cut_policy(policy) });
             }
             DataItem::RequireKept(n) => {
-                self.once(seen, "require", item.span);
                 spec.require_kept = Some(self.count(n, "the fewest recordings kept", 1, u64::MAX) as u64);
             }
-            DataItem::SimRecordings(n) => {
-                self.once(seen, "recordings", item.span);
-                let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
-                if count > MAX_SIM_RECORDINGS {
-                    let message = format!("at most {MAX_SIM_RECORDINGS} recordings can be simulated, found {count}");
-                    self.err("too many recordings", n.span, message);
-                }
-                sim.recordings = Some(count);
-            }
-            DataItem::SimSeed(n) => {
-                self.once(seen, "seed", item.span);
-                sim.seed = Some(self.nonneg(n, "the simulation seed"));
-            }
-            DataItem::SimStrength(x) => {
-                self.once(seen, "strength", item.span);
-                if x.node < 0.0 {
-                    self.err("negative value", x.span, format!("strength must be >= 0, found {}", x.node));
-                } else if x.node > MAX_SIM_STRENGTH {
-                    let found = if x.node >= 1e6 { format!("{:e}", x.node) } else { x.node.to_string() };
-                    self.err_help(
-                        "value too large",
-                        x.span,
-                        format!("strength must be at most {MAX_SIM_STRENGTH}, found {found}"),
-                        "above it the simulated wind and biases leave too few flyable samples (at 1000 every rollout diverges)",
-                    );
-                }
-                sim.strength = Some(x.node);
-            }
-            DataItem::SimDuration(x) => {
-                self.once(seen, "duration", item.span);
-                let duration = self.positive(x, "the simulated duration");
-                if duration > MAX_SIM_DURATION_S {
-                    let message =
-                        format!("a simulated recording lasts at most {MAX_SIM_DURATION_S} s, found {duration}");
-                    self.err("duration too long", x.span, message);
-                }
-                sim.duration = Some(duration);
-            }
+            DataItem::SimRecordings(n) => sim.recordings = Some(self.sim_recordings(n)),
+            DataItem::SimSeed(n) => sim.seed = Some(self.nonneg(n, "the simulation seed")),
+            DataItem::SimStrength(x) => sim.strength = Some(self.sim_strength(x)),
+            DataItem::SimDuration(x) => sim.duration = Some(self.sim_duration(x)),
         }
+    }
+
+    /// An inclusion rule (`include active`, `exclude ...`), added to the
+    /// data's rules; every other item is left to `data_item`.
+    fn inclusion_rule(&mut self, item: &DataItem, spec: &mut DataSpec) {
+        let rule = match item {
+            DataItem::IncludeActive { column, cmp, threshold, min_samples } => InclusionRule::Active {
+                column: column.node.clone(),
+                cmp: cmp.node,
+                threshold: threshold.node,
+                min_samples: self.count(min_samples, "the active-sample minimum", 1, u64::MAX) as u64,
+            },
+            DataItem::ExcludeRecordings(names) => {
+                // Checked as every pinned list of names is: none empty, none twice.
+                let listed = self.listed(names, "excluded");
+                InclusionRule::Named { names: listed.into_iter().map(|n| n.name).collect() }
+            }
+            DataItem::ExcludeFrozen(t) => InclusionRule::Frozen { seconds: self.positive(t, "the frozen time") },
+            DataItem::ExcludeBeyond { quantity, limit } => {
+                InclusionRule::Beyond { quantity: *quantity, limit: self.positive(limit, "the bound") }
+            }
+            DataItem::ExcludeImplausible(pooling) => {
+                if pooling.as_ref().is_some_and(|p| p.node == "per_column") {
+                    spec.plausibility = Pooling::PerColumn;
+                }
+                InclusionRule::Implausible
+            }
+            _ => return,
+        };
+        spec.rules.push(rule);
+    }
+
+    /// `state onboard|motion_capture` (a preset) or the 14 state columns,
+    /// recorded in `spec`.
+    fn state(&mut self, cols: &[Ident], span: Span, spec: &mut DataSpec) {
+        let preset = match cols {
+            [one] if one.node == "onboard" => Some(StatePreset::Onboard),
+            [one] if one.node == "motion_capture" => Some(StatePreset::MotionCapture),
+            _ => None,
+        };
+        spec.state_preset = preset;
+        spec.state_columns = match preset {
+            Some(p) => p.columns().iter().map(|c| c.to_string()).collect(),
+            None if cols.len() == 1 => {
+                self.err_help(
+                    "unknown state preset",
+                    cols[0].span,
+                    format!("`{}` is not a state preset", cols[0].node),
+                    "presets: onboard, motion_capture; or list the 14 columns",
+                );
+                Vec::new()
+            }
+            None => self.columns(cols, 14, "state", span),
+        };
+    }
+
+    /// `action COLUMN, ... [scale N]`: NanoBench's four action columns, or
+    /// any number in `data csv`, and a positive scale.
+    fn action_columns(&mut self, columns: &[Ident], scale: Option<&Number>, csv: bool, span: Span) -> Vec<String> {
+        let columns = if csv {
+            // Any number of actions; the count is checked for NanoBench's four only.
+            self.columns(columns, columns.len().max(1), "action", span)
+        } else {
+            self.columns(columns, 4, "action", span)
+        };
+        if let Some(scale) = scale {
+            // Refused outside `data csv` by the caller.
+            self.positive(scale, "the action scale");
+        }
+        columns
+    }
+
+    /// `recordings N` of `data simulated`: at least 2, at most
+    /// [`MAX_SIM_RECORDINGS`].
+    fn sim_recordings(&mut self, n: &Int) -> usize {
+        let count = self.count(n, "the number of simulated recordings", 2, u64::MAX);
+        if count > MAX_SIM_RECORDINGS {
+            let message = format!("at most {MAX_SIM_RECORDINGS} recordings can be simulated, found {count}");
+            self.err("too many recordings", n.span, message);
+        }
+        count
+    }
+
+    /// `strength X` of `data simulated`: from 0 to [`MAX_SIM_STRENGTH`].
+    fn sim_strength(&mut self, x: &Number) -> f64 {
+        if x.node < 0.0 {
+            self.err("negative value", x.span, format!("strength must be >= 0, found {}", x.node));
+        } else if x.node > MAX_SIM_STRENGTH {
+            let found = if x.node >= 1e6 { format!("{:e}", x.node) } else { x.node.to_string() };
+            self.err_help(
+                "value too large",
+                x.span,
+                format!("strength must be at most {MAX_SIM_STRENGTH}, found {found}"),
+                "above it the simulated wind and biases leave too few flyable samples (at 1000 every rollout diverges)",
+            );
+        }
+        x.node
+    }
+
+    /// `duration T s` of `data simulated`: positive, at most
+    /// [`MAX_SIM_DURATION_S`].
+    fn sim_duration(&mut self, x: &Number) -> f64 {
+        let duration = self.positive(x, "the simulated duration");
+        if duration > MAX_SIM_DURATION_S {
+            let message = format!("a simulated recording lasts at most {MAX_SIM_DURATION_S} s, found {duration}");
+            self.err("duration too long", x.span, message);
+        }
+        duration
     }
 
     /// `speed from metadata a < t1 <= b < t2 <= c`: thresholds ascending,
@@ -368,6 +370,69 @@ impl Validator {
         }
         self.no_duplicate_names(cols, "column");
         cols.iter().map(|c| c.node.clone()).collect()
+    }
+}
+
+/// The key under which a data item may be given only once (`None` for
+/// the column clauses of `data csv`, which `csv_item` counts).
+fn once_key(item: &DataItem) -> Option<&'static str> {
+    Some(match item {
+        DataItem::Path(_) => "path",
+        DataItem::Rate(_) => "rate",
+        DataItem::IncludeActive { .. } => "include",
+        DataItem::ExcludeRecordings(_) => "exclude recordings",
+        DataItem::ExcludeFrozen(_) => "exclude frozen",
+        DataItem::ExcludeBeyond { quantity: Bound::Position, .. } => "exclude beyond position",
+        DataItem::ExcludeBeyond { quantity: Bound::Speed, .. } => "exclude beyond speed",
+        DataItem::ExcludeBeyond { quantity: Bound::Rate, .. } => "exclude beyond rate",
+        DataItem::ExcludeImplausible(_) => "exclude",
+        DataItem::Tails(_) => "tails",
+        DataItem::Speed(_) => "speed",
+        DataItem::Universe { .. } => "universe",
+        DataItem::MissingCsv(_) => "missing",
+        DataItem::Duplicates(_) => "duplicates",
+        DataItem::Strict => "strict",
+        DataItem::State(_) => "state",
+        DataItem::Action { .. } => "action",
+        DataItem::MissingValues(_) => "missing values",
+        DataItem::Gaps { .. } => "gaps",
+        DataItem::RequireKept(_) => "require",
+        DataItem::SimRecordings(_) => "recordings",
+        DataItem::SimSeed(_) => "seed",
+        DataItem::SimStrength(_) => "strength",
+        DataItem::SimDuration(_) => "duration",
+        DataItem::Time(_)
+        | DataItem::Position(_)
+        | DataItem::Velocity(_)
+        | DataItem::Attitude { .. }
+        | DataItem::Rates(_)
+        | DataItem::Predicted(_)
+        | DataItem::Reference(_)
+        | DataItem::Extra { .. }
+        | DataItem::Extrapolated(_)
+        | DataItem::Controller(_)
+        | DataItem::FoldersNested
+        | DataItem::ConditionsTable { .. }
+        | DataItem::ConditionsName(_)
+        | DataItem::ConditionsFolder(_) => return None,
+    })
+}
+
+/// `exclude`, `truncate` or `keep`, as the grammar allows.
+fn tail_policy(p: &Ident) -> TailPolicy {
+    match p.node.as_str() {
+        "exclude" => TailPolicy::Exclude,
+        "truncate" => TailPolicy::Truncate,
+        _ => TailPolicy::Keep,
+    }
+}
+
+/// `group`, `first` or `keep`, as the grammar allows.
+fn duplicate_policy(p: &Spanned<String>) -> DuplicatePolicy {
+    match p.node.as_str() {
+        "group" => DuplicatePolicy::Group,
+        "first" => DuplicatePolicy::First,
+        _ => DuplicatePolicy::Keep,
     }
 }
 
