@@ -21,7 +21,7 @@ const EIGEN_TOL: f64 = 1e-8;
 /// at `par` = (theta times [`System::scales`], sigma).
 fn at(s: &System, par: &[f64]) -> Result<(f64, Vec<f64>), MixedError> {
     let m = par.len() - 1;
-    let theta: Vec<f64> = par[..m].iter().zip(s.scales()).map(|(v, d)| v / d).collect();
+    let theta: Vec<f64> = par[..m].iter().zip(s.structure.scales()).map(|(v, d)| v / d).collect();
     let e = s.evaluate(&theta, Criterion::Reml)?;
     let sigma2 = par[m] * par[m];
     let r2 = e.r2_std * s.y_scale * s.y_scale;
@@ -36,7 +36,7 @@ fn at(s: &System, par: &[f64]) -> Result<(f64, Vec<f64>), MixedError> {
 pub(super) fn satterthwaite(s: &System, theta: &[f64], sigma2: f64) -> Result<Result<Vec<f64>, String>, MixedError> {
     // The differences are taken in the scaled theta (see
     // `optimize::optimum`) and carried to lmerTest's by the chain rule.
-    let mut par: Vec<f64> = theta.iter().zip(s.scales()).map(|(v, d)| v * d).collect();
+    let mut par: Vec<f64> = theta.iter().zip(s.structure.scales()).map(|(v, d)| v * d).collect();
     par.push(sigma2.sqrt());
     let a = df_with_step(s, &par, 2e-3)?;
     let b = df_with_step(s, &par, 4e-3)?;
@@ -106,7 +106,7 @@ fn df_with_step(s: &System, par: &[f64], rel: f64) -> Result<Option<Vec<f64>>, M
     let (g1, h1) = derivatives(rel)?;
     let (g2, h2) = derivatives(rel / 2.0)?;
     // d/dtheta = scale d/d(scaled theta); sigma's scale is 1.
-    let scale = |i: usize| s.scales().get(i).copied().unwrap_or(1.0);
+    let scale = |i: usize| s.structure.scales().get(i).copied().unwrap_or(1.0);
     let grad = Mat::<f64>::from_fn(m, pc, |i, j| scale(i) * (4.0 * g2[(i, j)] - g1[(i, j)]) / 3.0);
     let hess = Mat::<f64>::from_fn(m, m, |i, j| scale(i) * scale(j) * (4.0 * h2[(i, j)] - h1[(i, j)]) / 3.0);
     let Ok(evd) = hess.self_adjoint_eigen(Side::Lower) else { return Ok(None) };

@@ -32,7 +32,8 @@
 //! general case, with the dense system over every level of every term.
 
 mod inference;
-mod optimize;
+pub(crate) mod optimize;
+pub(crate) mod structure;
 mod system;
 
 use serde::Serialize;
@@ -318,7 +319,7 @@ pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -
         })
         .collect();
     let terms = term_fits(&data.terms, &theta, e.sigma2);
-    let singular = s.diagonal().iter().any(|&j| theta[j] < 1e-4);
+    let singular = s.structure.diagonal().iter().any(|&j| theta[j] < 1e-4);
     Ok(SlopeFit {
         criterion,
         theta,
@@ -343,8 +344,12 @@ pub fn deviance_at(data: &SlopeData, theta: &[f64], criterion: Criterion) -> Res
         None => data.base.clone(),
     };
     let s = system::System::new(&base, &data.terms)?;
-    if theta.len() != s.parameters() {
-        return Err(MixedError::Length { factor: "theta".into(), found: theta.len(), expected: s.parameters() });
+    if theta.len() != s.structure.parameters() {
+        return Err(MixedError::Length {
+            factor: "theta".into(),
+            found: theta.len(),
+            expected: s.structure.parameters(),
+        });
     }
     Ok(s.evaluate(theta, criterion)?.deviance)
 }
@@ -357,7 +362,7 @@ fn term_fits(terms: &[Term], theta: &[f64], sigma2: f64) -> Vec<TermFit> {
         .iter()
         .map(|t| {
             let k = t.columns.len();
-            let lower = system::lower_triangle(&theta[at..at + k * (k + 1) / 2], k);
+            let lower = structure::lower_triangle(&theta[at..at + k * (k + 1) / 2], k);
             at += k * (k + 1) / 2;
             let covariance: Vec<f64> = (0..k * k)
                 .map(|ij| {

@@ -16,20 +16,35 @@ type Batch<'a> = dyn FnMut(&[Vec<f64>]) -> Vec<f64> + 'a;
 /// evaluations used and the certificate.
 ///
 /// The search and the certificate work in the scaled parameters (theta
-/// times [`System::scales`]), in which a step of 1e-4 means as much for a
-/// slope in a column of large values as for an intercept; lme4's theta is
-/// the point found divided by the scales.
+/// times [`super::structure::Structure::scales`]), in which a step of 1e-4 means as much for
+/// a slope in a column of large values as for an intercept; lme4's theta
+/// is the point found divided by the scales.
 pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, usize, SlopeCertificate), MixedError> {
-    let scales = s.scales().to_vec();
+    let st = &s.structure;
+    let scales = st.scales().to_vec();
     let unscaled = |t: &[f64]| -> Vec<f64> { t.iter().zip(&scales).map(|(v, d)| v / d).collect() };
     // lme4's start, T = I, in the scaled parameters.
-    let start: Vec<f64> = s.start();
+    let start: Vec<f64> = st.start();
     // The start is evaluated directly, so that a system that cannot be
     // factored is an error rather than an infinite deviance.
-    let f0 = s.evaluate(&unscaled(&start), criterion)?.deviance;
-    let evaluations = std::cell::Cell::new(1usize);
+    s.evaluate(&unscaled(&start), criterion)?;
     let one =
         |theta: &[f64]| -> f64 { s.evaluate(&unscaled(theta), criterion).map(|e| e.deviance).unwrap_or(f64::INFINITY) };
+    let (best, _, evaluations, certificate) = minimize(&one, start);
+    Ok((st.normalized(&unscaled(&best)), evaluations, certificate))
+}
+
+/// Minimises `one` over all of R^m from `start`: Nelder-Mead, then Newton
+/// on difference derivatives, then the certificate, with restarts from
+/// where it fails (directions of negative curvature, the point, `start`)
+/// with smaller simplices, up to three rounds. Returns the point, its
+/// value, the evaluations used and the certificate. Points are evaluated
+/// in parallel batches: the same values in any order.
+pub(crate) fn minimize(
+    one: &(dyn Fn(&[f64]) -> f64 + Sync),
+    start: Vec<f64>,
+) -> (Vec<f64>, f64, usize, SlopeCertificate) {
+    let evaluations = std::cell::Cell::new(0usize);
     let mut dev = |theta: &[f64]| -> f64 {
         evaluations.set(evaluations.get() + 1);
         one(theta)
@@ -39,8 +54,9 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, usi
         evaluations.set(evaluations.get() + thetas.len());
         thetas.par_iter().map(|t| one(t)).collect()
     };
+    let f0 = dev(&start);
     let (mut best, mut best_dev) = nelder_mead_free(&mut dev, &start, 0.5, 1e-8);
-    if best_dev > f0 {
+    if !(best_dev <= f0) {
         (best, best_dev) = (start.clone(), f0);
     }
     (best, best_dev, _) = newton(&mut batch, best, best_dev, 40);
@@ -68,7 +84,7 @@ pub(super) fn optimum(s: &System, criterion: Criterion) -> Result<(Vec<f64>, usi
     }
     let Checked { gradient, predicted_decrease, smallest_curvature, certified, .. } = checked;
     let certificate = SlopeCertificate { gradient, predicted_decrease, smallest_curvature, certified, restarts };
-    Ok((s.normalized(&unscaled(&best)), evaluations.get(), certificate))
+    (best, best_dev, evaluations.get(), certificate)
 }
 
 /// Central-difference steps at `x`.

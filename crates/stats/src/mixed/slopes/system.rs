@@ -14,6 +14,7 @@
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
+use super::structure::Structure;
 use super::Term;
 use crate::mixed::{Criterion, MixedData, MixedError};
 
@@ -21,21 +22,13 @@ use crate::mixed::{Criterion, MixedData, MixedError};
 pub(super) struct System {
     pub n: usize,
     pub p: usize,
-    /// Random effects over every level of every term.
-    q: usize,
     pub y_mean: f64,
     pub y_scale: f64,
     /// The standardized response and the design, n x p row-major.
     y: Vec<f64>,
     x: Vec<f64>,
-    /// Per term: columns k, first column in u, and the block of each level
-    /// starts at offset + level * k.
-    blocks: Vec<(usize, usize)>,
-    /// Per theta parameter, the root mean square of the column of Z its
-    /// row of T multiplies (1 for an intercept).
-    scales: Vec<f64>,
-    /// Per observation, its nonzero entries of Z as (column, value).
-    z_rows: Vec<Vec<(usize, f64)>>,
+    /// Z and the layout of Lambda.
+    pub structure: Structure,
     ztz: Mat<f64>,
     ztx: Mat<f64>,
     xtx: Mat<f64>,
@@ -57,20 +50,6 @@ pub(super) struct Eval {
     pub rx_inv: Mat<f64>,
 }
 
-/// The k x k lower triangular block, row-major, from its entries column
-/// by column (lme4's theta order).
-pub(super) fn lower_triangle(theta: &[f64], k: usize) -> Vec<f64> {
-    let mut t = vec![0.0; k * k];
-    let mut at = 0;
-    for j in 0..k {
-        for i in j..k {
-            t[i * k + j] = theta[at];
-            at += 1;
-        }
-    }
-    t
-}
-
 impl System {
     /// The products of `base` (response and fixed effects) and `terms`.
     pub fn new(base: &MixedData, terms: &[Term]) -> Result<System, MixedError> {
@@ -81,46 +60,13 @@ impl System {
         let y_scale = if sd.is_finite() && sd > 0.0 { sd } else { 1.0 };
         let y: Vec<f64> = base.y.iter().map(|v| (v - y_mean) / y_scale).collect();
         let x = base.design();
-        let mut blocks = Vec::new();
-        let mut q = 0;
-        let mut scales = Vec::new();
-        for t in terms {
-            let k = t.columns.len();
-            blocks.push((k, q));
-            q += t.levels * k;
-            let rms: Vec<f64> = t
-                .columns
-                .iter()
-                .map(|c| {
-                    let r = (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
-                    if r.is_finite() && r > 0.0 {
-                        r
-                    } else {
-                        1.0
-                    }
-                })
-                .collect();
-            for j in 0..k {
-                scales.extend(rms[j..].iter().copied());
-            }
-        }
-        let z_rows: Vec<Vec<(usize, f64)>> = (0..n)
-            .map(|i| {
-                terms
-                    .iter()
-                    .zip(&blocks)
-                    .flat_map(|(t, &(k, offset))| {
-                        let start = offset + t.codes[i] * k;
-                        t.columns.iter().enumerate().map(move |(j, c)| (start + j, c[i]))
-                    })
-                    .collect()
-            })
-            .collect();
+        let structure = Structure::new(terms, n);
+        let q = structure.q;
         let mut ztz = Mat::<f64>::zeros(q, q);
         let mut ztx = Mat::<f64>::zeros(q, p);
         let mut xtx = Mat::<f64>::zeros(p, p);
         let (mut zty, mut xty) = (vec![0.0; q], vec![0.0; p]);
-        for (i, row) in z_rows.iter().enumerate() {
+        for (i, row) in structure.z_rows.iter().enumerate() {
             let xi = &x[i * p..(i + 1) * p];
             for &(a, va) in row {
                 zty[a] += va * y[i];
@@ -141,118 +87,24 @@ impl System {
         if !ztz.norm_l2().is_finite() || !xtx.norm_l2().is_finite() {
             return Err(MixedError::TooLarge("the random-effect columns' products overflow double precision".into()));
         }
-        Ok(System { n, p, q, y_mean, y_scale, y, x, blocks, scales, z_rows, ztz, ztx, xtx, zty, xty })
-    }
-
-    /// Per theta parameter, its scale: theta_k times its scale is the
-    /// entry of T for the column of Z divided by its root mean square, a
-    /// parameterization in which every entry is of the order of the
-    /// standard deviations' ratio whatever the columns' units (a slope in
-    /// a temperature of 200 has an entry 200 times smaller than its
-    /// intercept's in lme4's theta).
-    pub fn scales(&self) -> &[f64] {
-        &self.scales
-    }
-
-    /// Number of theta parameters.
-    pub fn parameters(&self) -> usize {
-        self.blocks.iter().map(|(k, _)| k * (k + 1) / 2).sum()
-    }
-
-    /// The positions in theta of the diagonal entries (lme4's lower bound
-    /// 0, the ones `isSingular` reads).
-    pub fn diagonal(&self) -> Vec<usize> {
-        let mut out = Vec::new();
-        let mut at = 0;
-        for &(k, _) in &self.blocks {
-            for j in 0..k {
-                out.push(at);
-                at += k - j;
-            }
-        }
-        out
-    }
-
-    /// `theta` with each column of each T whose diagonal entry is negative
-    /// negated: the same T T', in lme4's parameterization.
-    pub fn normalized(&self, theta: &[f64]) -> Vec<f64> {
-        let mut out = theta.to_vec();
-        let mut at = 0;
-        for &(k, _) in &self.blocks {
-            for j in 0..k {
-                let column = at..at + (k - j);
-                if out[at] < 0.0 {
-                    out[column].iter_mut().for_each(|v| *v = -*v);
-                }
-                at += k - j;
-            }
-        }
-        out
-    }
-
-    /// lme4's start: every diagonal entry 1, the rest 0.
-    pub fn start(&self) -> Vec<f64> {
-        let mut theta = vec![0.0; self.parameters()];
-        for j in self.diagonal() {
-            theta[j] = 1.0;
-        }
-        theta
-    }
-
-    /// Each term's block T, row-major.
-    fn lambda(&self, theta: &[f64]) -> Vec<Vec<f64>> {
-        let mut at = 0;
-        self.blocks
-            .iter()
-            .map(|&(k, _)| {
-                let t = lower_triangle(&theta[at..at + k * (k + 1) / 2], k);
-                at += k * (k + 1) / 2;
-                t
-            })
-            .collect()
-    }
-
-    /// Right-multiplies the rows of `m` (q columns) by the block diagonal
-    /// matrix of `blocks` (one per term, row-major, repeated over its
-    /// levels), in place.
-    fn times_lambda(&self, m: &mut Mat<f64>, lambda: &[Vec<f64>], levels_of: impl Fn(usize) -> usize) {
-        let rows = m.nrows();
-        for (b, &(k, offset)) in self.blocks.iter().enumerate() {
-            let t = &lambda[b];
-            let mut tmp = vec![0.0; k];
-            for level in 0..levels_of(b) {
-                let c0 = offset + level * k;
-                for r in 0..rows {
-                    for (jj, out) in tmp.iter_mut().enumerate() {
-                        *out = (0..k).map(|j| m[(r, c0 + j)] * t[j * k + jj]).sum();
-                    }
-                    for (jj, v) in tmp.iter().enumerate() {
-                        m[(r, c0 + jj)] = *v;
-                    }
-                }
-            }
-        }
+        Ok(System { n, p, y_mean, y_scale, y, x, structure, ztz, ztx, xtx, zty, xty })
     }
 
     /// The deviance and estimates at `theta`.
     pub fn evaluate(&self, theta: &[f64], criterion: Criterion) -> Result<Eval, MixedError> {
-        let (q, p, n) = (self.q, self.p, self.n);
-        let lambda = self.lambda(theta);
-        let levels = |b: usize| {
-            let (k, offset) = self.blocks[b];
-            let end = self.blocks.get(b + 1).map_or(q, |&(_, o)| o);
-            (end - offset) / k
-        };
+        let st = &self.structure;
+        let (q, p, n) = (st.q, self.p, self.n);
+        let lambda = st.lambda(theta);
         // Lambda' Z'Z Lambda: columns, then (by symmetry) rows.
         let mut a = self.ztz.clone();
-        self.times_lambda(&mut a, &lambda, levels);
+        st.times_lambda(&mut a, &lambda);
         let mut a = a.transpose().to_owned();
-        self.times_lambda(&mut a, &lambda, levels);
+        st.times_lambda(&mut a, &lambda);
         // Lambda' Z'X and Lambda' Z'y: columns of their transposes.
         let mut bt = self.ztx.transpose().to_owned();
-        self.times_lambda(&mut bt, &lambda, levels);
+        st.times_lambda(&mut bt, &lambda);
         let mut cu = Mat::<f64>::from_fn(1, q, |_, j| self.zty[j]);
-        self.times_lambda(&mut cu, &lambda, levels);
+        st.times_lambda(&mut cu, &lambda);
         let mut m = Mat::<f64>::zeros(q + p, q + p);
         for i in 0..q {
             for j in 0..=i {
@@ -280,16 +132,11 @@ impl System {
         let u: Vec<f64> = (0..q).map(|i| sol[(i, 0)]).collect();
         let beta_std: Vec<f64> = (0..p).map(|c| sol[(q + c, 0)]).collect();
         // b = Lambda u, then the residuals row by row.
-        let mut b = Mat::<f64>::from_fn(1, q, |_, j| u[j]);
-        let mut lambda_t = lambda.clone();
-        for (t, &(k, _)) in lambda_t.iter_mut().zip(&self.blocks) {
-            *t = (0..k * k).map(|ij| t[(ij % k) * k + ij / k]).collect();
-        }
-        self.times_lambda(&mut b, &lambda_t, levels);
+        let b = st.lambda_times(&lambda, &u);
         let mut r2_std: f64 = u.iter().map(|v| v * v).sum();
         for i in 0..n {
             let fitted: f64 = (0..p).map(|c| self.x[i * p + c] * beta_std[c]).sum::<f64>()
-                + self.z_rows[i].iter().map(|&(j, v)| v * b[(0, j)]).sum::<f64>();
+                + st.z_rows[i].iter().map(|&(j, v)| v * b[j]).sum::<f64>();
             r2_std += (self.y[i] - fitted).powi(2);
         }
         // (R_X'R_X)^-1 = L_X^-T L_X^-1, L_X the fixed-effect block of the
