@@ -86,6 +86,20 @@ impl MixedData {
         Ok(MixedData { y, columns: Vec::new(), factors: out })
     }
 
+    /// The response and fixed-effect columns of a generalized model, whose
+    /// random terms are held apart (a factor with as many levels as
+    /// observations is allowed there: an observation-level effect).
+    pub(super) fn fixed_only(y: Vec<f64>, columns: Vec<(String, Vec<f64>)>) -> Result<MixedData, MixedError> {
+        let n = y.len();
+        if n < 2 {
+            return Err(MixedError::TooFewObservations(n));
+        }
+        if let Some((row, &value)) = y.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(MixedError::NonFinite { row, value });
+        }
+        MixedData { y, columns: Vec::new(), factors: Vec::new() }.with_columns(columns)
+    }
+
     /// Adds a categorical fixed effect with one label per observation. Its
     /// levels are sorted bytewise (R's order for ASCII labels in the C
     /// locale) and coded by treatment contrasts: the first level is the

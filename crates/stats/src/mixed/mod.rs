@@ -48,6 +48,7 @@
 
 mod data;
 pub mod formula;
+pub mod glmm;
 mod inference;
 mod levels;
 pub(crate) mod optimize;
@@ -150,6 +151,9 @@ pub enum MixedError {
         /// Its number of levels.
         levels: usize,
     },
+    /// A generalized model's data or fit (its own message says what).
+    #[error("{0}")]
+    Glmm(String),
     /// The penalized system could not be factored (it is positive definite
     /// for every theta, so this means non-finite input slipped through).
     #[error("the penalized least-squares system is not positive definite at theta = {theta:?}")]

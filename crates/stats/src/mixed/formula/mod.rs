@@ -31,12 +31,14 @@
 //! silently, crossaudit makes the user say so.
 
 mod fit;
+mod glmm_fit;
 mod slopes_fit;
 mod table;
 
 pub use fit::{
     compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, Fitted, FixedRow, FormulaFit, Likelihood,
 };
+pub use glmm_fit::{build_glmm, fit_glmm_table, GlmmFormulaFit};
 pub use table::{build, build_model, r_number_label, read_csv, Model, Table};
 
 use super::MixedError;
@@ -50,8 +52,10 @@ pub const MAX_RANDOM: usize = 16;
 /// A parsed formula.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Formula {
-    /// The response column.
+    /// The response column (the successes of `cbind(successes, failures)`).
     pub response: String,
+    /// The failures of a binomial response `cbind(successes, failures)`.
+    pub failures: Option<String>,
     /// Fixed terms beside the intercept, each a list of variables, in R's
     /// order (by degree, then as written).
     pub fixed: Vec<Vec<Variable>>,
@@ -216,6 +220,8 @@ struct Parser {
     end: usize,
     /// The response, which no term may use.
     response: String,
+    /// The failures of a binomial response, which no term may use either.
+    failures: Option<String>,
 }
 
 impl Parser {
@@ -249,7 +255,7 @@ impl Parser {
     /// A term that uses the response would explain it by itself (R fits
     /// `y ~ y` with a warning and a perfect, meaningless fit).
     fn not_response(&self, name: &str, column: usize, role: &str) -> Result<(), FormulaError> {
-        if name == self.response {
+        if name == self.response || self.failures.as_deref() == Some(name) {
             return Err(FormulaError::Syntax {
                 column,
                 message: format!(
@@ -290,6 +296,21 @@ impl Parser {
 }
 
 impl Parser {
+    /// The response: a column, or `cbind(successes, failures)` (two
+    /// columns of a binomial response).
+    fn response(&mut self) -> Result<(String, Option<String>), FormulaError> {
+        let name = self.name("the response column before `~`")?;
+        if name != "cbind" || self.peek() != Some(&Token::Sym('(')) {
+            return Ok((name, None));
+        }
+        self.at += 1;
+        let successes = self.name("the successes' column inside cbind( )")?;
+        self.expect(',', "between the successes' and the failures' columns of cbind( )")?;
+        let failures = self.name("the failures' column inside cbind( ) (a column: compute `size - successes` in the CSV first)")?;
+        self.expect(')', "to close cbind( ) (its two arguments are columns: compute `size - successes` in the CSV first)")?;
+        Ok((successes, Some(failures)))
+    }
+
     /// A fixed term as written, `a:b * c`, expanded into its terms: every
     /// non-empty union of the crossed parts.
     fn crossed_terms(&mut self) -> Result<Vec<Vec<Variable>>, FormulaError> {
@@ -451,9 +472,9 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     // A name followed by `(` is a function call: R transforms a column in
     // the formula (`log(y)`, `poly(x, 2)`, `I(x^2)`); here the column must
     // exist in the file (factor() aside).
-    for w in tokens.windows(2) {
+    for (at, w) in tokens.windows(2).enumerate() {
         if let ((column, Token::Name(f)), (_, Token::Sym('('))) = (&w[0], &w[1]) {
-            if f == "factor" {
+            if f == "factor" || (f == "cbind" && at == 0) {
                 continue;
             }
             return Err(FormulaError::Syntax { column: *column, message: transformation(f) });
@@ -464,9 +485,10 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
         return Err(FormulaError::Syntax { column: *column, message: message.into() });
     }
     let end = text.chars().count() + 1;
-    let mut p = Parser { tokens, at: 0, end, response: String::new() };
-    let response = p.name("the response column before `~`")?;
+    let mut p = Parser { tokens, at: 0, end, response: String::new(), failures: None };
+    let (response, failures) = p.response()?;
     p.response = response.clone();
+    p.failures = failures.clone();
     p.expect('~', "after the response")?;
     // Fixed terms as written: each a set of variables (a crossing expands).
     let mut fixed: Vec<Vec<Variable>> = Vec::new();
@@ -524,7 +546,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             ),
         });
     }
-    Ok(Formula { response, fixed: unique, random: groups })
+    Ok(Formula { response, failures, fixed: unique, random: groups })
 }
 
 /// What to say about a function call `f(...)` in a formula.

@@ -18,7 +18,7 @@ pub struct Table {
 }
 
 impl Table {
-    fn column(&self, name: &str) -> Result<&[String], FormulaError> {
+    pub(super) fn column(&self, name: &str) -> Result<&[String], FormulaError> {
         match self.names.iter().position(|n| n == name) {
             Some(i) => Ok(&self.columns[i]),
             None => Err(FormulaError::UnknownColumn { name: name.into(), available: self.names.join(", ") }),
@@ -34,7 +34,7 @@ fn is_missing(v: &str) -> bool {
 /// Checks a column has no missing value and no control character (a NUL
 /// byte, a tab, an escape) in any value: such a byte is a corrupted file,
 /// not a new level.
-fn present(table: &Table, name: &str) -> Result<(), FormulaError> {
+pub(super) fn present(table: &Table, name: &str) -> Result<(), FormulaError> {
     let col = table.column(name)?;
     for (row, value) in col.iter().enumerate() {
         if let Some((at, c)) = value.chars().enumerate().find(|(_, c)| c.is_control()) {
@@ -132,7 +132,7 @@ fn check_scale(name: &str, values: &[f64], raw: bool) -> Result<(), FormulaError
     })
 }
 
-fn numbers(table: &Table, name: &str) -> Result<Option<Vec<f64>>, FormulaError> {
+pub(super) fn numbers(table: &Table, name: &str) -> Result<Option<Vec<f64>>, FormulaError> {
     let col = table.column(name)?;
     let parsed: Vec<Option<f64>> = col.iter().map(|v| v.trim().parse::<f64>().ok()).collect();
     if parsed.iter().all(Option::is_some) {
@@ -254,6 +254,19 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<Model, FormulaErr
     if formula.random.iter().all(|t| t.intercept_only()) {
         return Ok(Model::Intercepts(base));
     }
+    let terms = random_terms(formula, table, &factors, n)?;
+    Ok(Model::Slopes(SlopeData::new(base, terms)?))
+}
+
+/// Every random term of `formula` with its columns (`(Intercept)` and
+/// the slopes' columns, coded as `model.matrix` codes the left of `|`),
+/// its grouping factor's codes taken from `factors`.
+pub(super) fn random_terms(
+    formula: &Formula,
+    table: &Table,
+    factors: &[(String, Vec<usize>)],
+    n: usize,
+) -> Result<Vec<Term>, FormulaError> {
     let mut terms = Vec::new();
     for term in &formula.random {
         let codes = factors.iter().find(|(name, _)| *name == term.name).map(|(_, c)| c.clone()).unwrap_or_default();
@@ -266,12 +279,12 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<Model, FormulaErr
         let (names, columns) = coded.into_iter().unzip();
         terms.push(Term { group: term.name.clone(), factor: term.name.clone(), codes, levels, names, columns });
     }
-    Ok(Model::Slopes(SlopeData::new(base, terms)?))
+    Ok(terms)
 }
 
 /// The level code of each row of the grouping `columns` (their
 /// interaction), numbered by first appearance.
-fn group_codes(table: &Table, group: &[String], n: usize) -> Result<Vec<usize>, FormulaError> {
+pub(super) fn group_codes(table: &Table, group: &[String], n: usize) -> Result<Vec<usize>, FormulaError> {
     for g in group {
         present(table, g)?;
     }
@@ -303,7 +316,7 @@ fn group_codes(table: &Table, group: &[String], n: usize) -> Result<Vec<usize>, 
 /// the empty term), by indicators of every level otherwise; without an
 /// intercept, R codes the first categorical main effect by indicators and
 /// the rest as if the intercept were there.
-fn term_columns(
+pub(super) fn term_columns(
     terms: &[Vec<Variable>],
     intercept: bool,
     table: &Table,

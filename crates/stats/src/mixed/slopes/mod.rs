@@ -109,25 +109,7 @@ impl SlopeData {
                 });
             }
         }
-        let levels: Vec<usize> = terms.iter().map(|t| t.levels).collect();
-        let mut terms = terms;
-        if levels.windows(2).any(|w| w[1] > w[0]) {
-            let mut order: Vec<usize> = (0..levels.len()).collect();
-            order.sort_by_key(|&i| levels[i]);
-            order.reverse();
-            terms = order.into_iter().map(|i| terms[i].clone()).collect();
-        }
-        let names = varcorr_names(&terms);
-        for (t, name) in terms.iter_mut().zip(names) {
-            t.group = name;
-        }
-        let q: usize = terms.iter().map(|t| t.levels * t.columns.len()).sum();
-        let (p, dense) = (base.p(), q + base.p());
-        if dense > MAX_SLOPE_DENSE {
-            return Err(MixedError::TooLarge(format!(
-                "the random terms have {q} effects over their levels and there are {p} fixed-effect columns: the dense system would be {dense} x {dense}, over the limit of {MAX_SLOPE_DENSE} for a model with random slopes"
-            )));
-        }
+        let terms = ordered(terms, base.p())?;
         Ok(SlopeData { base, terms })
     }
 
@@ -140,6 +122,33 @@ impl SlopeData {
     pub fn terms(&self) -> &[Term] {
         &self.terms
     }
+}
+
+/// `terms` in lme4's order (by decreasing number of levels when they
+/// are not in it already: `mkReTrms`'s `rev(order(nl))`, which reverses
+/// ties), named as `VarCorr` names them, once the dense system with `p`
+/// fixed-effect columns is known to fit.
+pub(crate) fn ordered(terms: Vec<Term>, p: usize) -> Result<Vec<Term>, MixedError> {
+    let levels: Vec<usize> = terms.iter().map(|t| t.levels).collect();
+    let mut terms = terms;
+    if levels.windows(2).any(|w| w[1] > w[0]) {
+        let mut order: Vec<usize> = (0..levels.len()).collect();
+        order.sort_by_key(|&i| levels[i]);
+        order.reverse();
+        terms = order.into_iter().map(|i| terms[i].clone()).collect();
+    }
+    let names = varcorr_names(&terms);
+    for (t, name) in terms.iter_mut().zip(names) {
+        t.group = name;
+    }
+    let q: usize = terms.iter().map(|t| t.levels * t.columns.len()).sum();
+    let dense = q + p;
+    if dense > MAX_SLOPE_DENSE {
+        return Err(MixedError::TooLarge(format!(
+            "the random terms have {q} effects over their levels and there are {p} fixed-effect columns: the dense system would be {dense} x {dense}, over the limit of {MAX_SLOPE_DENSE} for a model with random slopes or a generalized model"
+        )));
+    }
+    Ok(terms)
 }
 
 /// lme4's names of the terms in `VarCorr`: the grouping factors' names,
@@ -356,7 +365,7 @@ pub fn deviance_at(data: &SlopeData, theta: &[f64], criterion: Criterion) -> Res
 
 /// Each term's covariance sigma^2 T T', standard deviations and
 /// correlations.
-fn term_fits(terms: &[Term], theta: &[f64], sigma2: f64) -> Vec<TermFit> {
+pub(crate) fn term_fits(terms: &[Term], theta: &[f64], sigma2: f64) -> Vec<TermFit> {
     let mut at = 0;
     terms
         .iter()

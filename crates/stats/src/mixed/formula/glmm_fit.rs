@@ -1,0 +1,184 @@
+//! A generalized formula (`family binomial` or `poisson`) fitted to a
+//! table, and its summary as lme4's `glmer` prints it.
+
+use std::fmt::Write;
+
+use super::fit::r_pvalue;
+use super::table::{group_codes, numbers, present, random_terms, term_columns};
+use super::{parse, FormulaError, Table};
+use crate::mixed::glmm::{fit_glmm, Family, GlmmData, GlmmFit};
+
+/// A GLMM fitted from a formula and a table.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct GlmmFormulaFit {
+    /// The formula as given.
+    pub formula: String,
+    /// The fit.
+    pub fit: GlmmFit,
+}
+
+/// The data `formula` describes on `table` for `family`: the response
+/// `cbind(successes, failures)` or a 0/1 column (binomial), or a count
+/// column (Poisson); the fixed and random terms as for a linear model.
+pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<GlmmData, FormulaError> {
+    let formula = parse(formula_text)?;
+    let whole = |name: &str| -> Result<Vec<f64>, FormulaError> {
+        present(table, name)?;
+        let col = table.column(name)?;
+        let values = numbers(table, name)?;
+        let bad = |row: usize, what: &str| FormulaError::Value {
+            row: row + 1,
+            field: name.to_string(),
+            message: format!("`{}` is not {what}", col[row].trim()),
+        };
+        let Some(values) = values else {
+            let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
+            return Err(bad(row, "a whole number of at least 0"));
+        };
+        if let Some(row) = values.iter().position(|v| v.fract() != 0.0 || *v < 0.0 || *v > 1e15) {
+            return Err(bad(row, "a whole number of at least 0"));
+        }
+        Ok(values)
+    };
+    let k = whole(&formula.response)?;
+    let n = k.len();
+    let trials = match (family, &formula.failures) {
+        (Family::Binomial, Some(f)) => {
+            let failures = whole(f)?;
+            let trials: Vec<f64> = k.iter().zip(&failures).map(|(a, b)| a + b).collect();
+            if let Some(row) = trials.iter().position(|t| *t < 1.0) {
+                return Err(FormulaError::Value {
+                    row: row + 1,
+                    field: f.clone(),
+                    message: "no successes and no failures: an observation needs at least one trial".into(),
+                });
+            }
+            trials
+        }
+        (Family::Binomial, None) => {
+            if let Some(row) = k.iter().position(|v| *v > 1.0) {
+                return Err(FormulaError::Value {
+                    row: row + 1,
+                    field: formula.response.clone(),
+                    message: format!(
+                        "`{}`: a binomial response of one column is 0 or 1; for counts of successes write cbind(successes, failures)",
+                        k[row]
+                    ),
+                });
+            }
+            vec![1.0; n]
+        }
+        (Family::Poisson, Some(_)) => {
+            return Err(FormulaError::Unsupported(
+                "cbind(successes, failures) is a binomial response; a Poisson response is one column of counts".into(),
+            ))
+        }
+        (Family::Poisson, None) => vec![1.0; n],
+    };
+    let mut factors: Vec<(String, Vec<usize>)> = Vec::new();
+    for term in &formula.random {
+        if !factors.iter().any(|(name, _)| *name == term.name) {
+            factors.push((term.name.clone(), group_codes(table, &term.columns, n)?));
+        }
+    }
+    let columns = term_columns(&formula.fixed, true, table, n)?;
+    let terms = random_terms(&formula, table, &factors, n)?;
+    Ok(match family {
+        Family::Binomial => GlmmData::binomial(k, trials, columns, terms)?,
+        Family::Poisson => GlmmData::poisson(k, columns, terms)?,
+    })
+}
+
+/// Fits `formula` to `table` as a GLMM of `family` (maximum likelihood,
+/// Laplace approximation).
+pub fn fit_glmm_table(formula: &str, table: &Table, family: Family) -> Result<GlmmFormulaFit, FormulaError> {
+    let data = build_glmm(formula, table, family)?;
+    Ok(GlmmFormulaFit { formula: formula.to_string(), fit: fit_glmm(&data)? })
+}
+
+impl GlmmFormulaFit {
+    /// The summary as lme4's `glmer` prints it, with the optimizer's
+    /// certificate.
+    pub fn summary(&self) -> String {
+        let f = &self.fit;
+        let mut s = String::new();
+        let _ = writeln!(s, "Generalized linear mixed model fit by maximum likelihood (Laplace Approximation)");
+        let _ = writeln!(s, " Family: {}", f.family.label());
+        let _ = writeln!(s, "Formula: {}\n", self.formula);
+        let _ = writeln!(s, "{:>10} {:>10} {:>10} {:>10} {:>8}", "AIC", "BIC", "logLik", "deviance", "df.resid");
+        let _ = writeln!(
+            s,
+            "{:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>8}\n",
+            f.aic,
+            f.bic,
+            f.loglik,
+            f.deviance,
+            f.n as i64 - f.npar as i64
+        );
+        let _ = writeln!(s, "Random effects:");
+        let width = f.terms.iter().map(|t| t.group.len()).max().unwrap_or(0).max(8);
+        let name_width = f.terms.iter().flat_map(|t| t.names.iter().map(String::len)).max().unwrap_or(0).max(11);
+        let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12} {:>12} Corr", "Groups", "Name", "Variance", "Std.Dev.");
+        for t in &f.terms {
+            let k = t.names.len();
+            let mut corr = t.correlations.iter();
+            for (i, name) in t.names.iter().enumerate() {
+                let group = if i == 0 { t.group.as_str() } else { "" };
+                let mut line =
+                    format!(" {group:<width$} {name:<name_width$} {:>12.6} {:>12.6}", t.covariance[i * k + i], t.sd[i]);
+                for _ in 0..i {
+                    match corr.next() {
+                        Some(Some(r)) => line.push_str(&format!(" {r:>6.3}")),
+                        _ => line.push_str("    NaN"),
+                    }
+                }
+                let _ = writeln!(s, "{line}");
+            }
+        }
+        let mut groups: Vec<String> = Vec::new();
+        for t in &f.terms {
+            let g = format!("{}, {}", t.factor, t.levels);
+            if !groups.contains(&g) {
+                groups.push(g);
+            }
+        }
+        let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
+        let _ = writeln!(s, "Fixed effects:");
+        let width = f.fixed.iter().map(|r| r.name.len()).max().unwrap_or(0).max(11);
+        let _ = writeln!(s, "{:<width$} {:>12} {:>12} {:>9} {:>10}", "", "Estimate", "Std. Error", "z value", "Pr(>|z|)");
+        for r in &f.fixed {
+            let _ = writeln!(
+                s,
+                "{:<width$} {:>12.6} {:>12.6} {:>9.3} {:>10}",
+                r.name,
+                r.estimate,
+                r.se,
+                r.z,
+                r_pvalue(r.p)
+            );
+        }
+        for note in &f.notes {
+            let _ = writeln!(s, "note: {note}");
+        }
+        if !f.dropped.is_empty() {
+            let _ = writeln!(s, "note: fixed-effect columns dropped as aliased: {}", f.dropped.join(", "));
+        }
+        let c = &f.certificate;
+        let _ = writeln!(
+            s,
+            "\noptimizer: {} ({} evaluations of the Laplace deviance, {} restarts); max |gradient| {:.2e}, predicted decrease {:.2e}",
+            if c.certified { "optimum certified" } else { "NOT CERTIFIED" },
+            f.evaluations,
+            c.restarts,
+            c.gradient,
+            c.predicted_decrease
+        );
+        if !c.certified {
+            let _ = writeln!(s, "warning: the optimizer could not certify this point as the optimum; do not use it");
+        }
+        if f.singular {
+            let _ = writeln!(s, "boundary (singular) fit: a diagonal entry of theta is estimated at (or within 1e-4 of) zero, as lme4's isSingular says");
+        }
+        s
+    }
+}
