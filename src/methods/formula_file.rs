@@ -6,7 +6,8 @@
 
 use crate::stats::mixed;
 use crate::stats::mixed::formula::{
-    compare_table, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit, Table,
+    compare_table, fit_glmm_table, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
+    GlmmFormulaFit, Table,
 };
 
 /// Reads the tidy CSV at `path` and compares two formulas on it by a
@@ -40,4 +41,16 @@ pub fn fit_file(
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
     let table = read_file(path).map_err(fail)?;
     fit_table(formula, &table, criterion, df, profile).map_err(fail)
+}
+
+/// Reads the tidy CSV at `path` and fits `formula` to it as a generalized
+/// linear mixed model of `family` (see [`fit_glmm_table`]).
+pub fn fit_glmm_file(
+    path: &std::path::Path,
+    formula: &str,
+    family: mixed::glmm::Family,
+) -> Result<GlmmFormulaFit, FileError> {
+    let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
+    let table = read_file(path).map_err(fail)?;
+    fit_glmm_table(formula, &table, family).map_err(fail)
 }

@@ -99,7 +99,8 @@ fn glmm_fits_match_lme4s_glmer() {
         let f = &fit.fit;
         assert!(f.certificate.certified, "{name}: {}", fit.summary());
         if f.deviance > r.criterion + 5e-8 * r.criterion.abs() {
-            failures.push(format!("{name}: crossaudit's optimum {:.12} is above lme4's {:.12}", f.deviance, r.criterion));
+            failures
+                .push(format!("{name}: crossaudit's optimum {:.12} is above lme4's {:.12}", f.deviance, r.criterion));
         }
         close(&format!("{name} -2 logLik"), f.deviance, r.criterion, 5e-8, 0.0, &mut failures);
         assert_eq!(f.theta.len(), r.theta.len(), "{name}");
@@ -146,30 +147,4 @@ fn glmm_fits_match_lme4s_glmer() {
         }
     }
     assert!(failures.is_empty(), "{} disagreements:\n{}", failures.len(), failures.join("\n"));
-}
-
-#[test]
-#[ignore]
-fn debug_one() {
-    let name = std::env::var("FIT").unwrap();
-    let refs = references();
-    let r = &refs[&name];
-    let table = read_csv(&fixture(&name)).unwrap();
-    let family = if r.family == "binomial" { Family::Binomial } else { Family::Poisson };
-    let data = build_glmm(&r.formula, &table, family).unwrap();
-    for t in data.terms() {
-        println!("{} {} {:?} {}", t.group, t.levels, t.names, t.columns.len());
-    }
-    if let Ok(point) = std::env::var("POINT") {
-        let v: Vec<f64> = point.split(',').map(|x| x.parse().unwrap()).collect();
-        let nt = r.theta.len();
-        println!("at point {:.12}", laplace_at(&data, &v[..nt], &v[nt..]).unwrap().0);
-        return;
-    }
-    let fit = fit_glmm_table(&r.formula, &table, family).unwrap();
-    println!("{}", fit.summary());
-    println!("ours {:.12} lme4 {:.12}", fit.fit.deviance, r.criterion);
-    let beta: Vec<f64> = fit.fit.fixed.iter().map(|f| f.estimate).collect();
-    println!("theta {:?}\nbeta {:?}", fit.fit.theta, beta);
-    println!("at ours {:.12}", laplace_at(&data, &fit.fit.theta, &beta).unwrap().0);
 }

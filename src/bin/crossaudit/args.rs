@@ -228,11 +228,19 @@ pub(crate) enum Command {
         /// and slope correlated), `(x||g)` (uncorrelated: `(1|g) +
         /// (0 + x|g)`), `(0 + x|g)` (slope only), for numeric and
         /// categorical x (a factor's columns), up to 8 columns per term.
-        /// Kenward-Roger df and --profile are for random intercepts only;
-        /// generalized models (binomial, Poisson) are not fitted.
+        /// Kenward-Roger df and --profile are for random intercepts only.
+        /// A binomial response is `cbind(successes, failures)` (two columns)
+        /// or one 0/1 column.
         #[arg(long)]
         formula: String,
-        /// Maximum likelihood instead of REML.
+        /// The response's family: gaussian (a linear mixed model, lmer),
+        /// binomial (logit link) or poisson (log link), generalized models
+        /// fitted by maximum likelihood under the Laplace approximation as
+        /// lme4's glmer fits them (nAGQ = 1), with Wald z tests.
+        #[arg(long, default_value = "gaussian", value_parser = ["gaussian", "binomial", "poisson"])]
+        family: String,
+        /// Maximum likelihood instead of REML (a generalized model is
+        /// always fitted by maximum likelihood).
         #[arg(long)]
         ml: bool,
         /// Denominator df of the fixed-effect t tests (REML fits).

@@ -222,6 +222,44 @@ pub(crate) fn mixed(
     Ok(())
 }
 
+/// `crossaudit mixed --family binomial|poisson`: lme4's `glmer`. An option
+/// computed for linear models only (`refused`) is refused by name.
+pub(crate) fn mixed_glmm(
+    data: &Path,
+    formula: &str,
+    family: &str,
+    refused: Option<&str>,
+    json: bool,
+) -> Result<(), Error> {
+    use crossaudit::stats::mixed::formula::{FileError, FormulaError};
+    use crossaudit::stats::mixed::glmm::Family;
+    if let Some(option) = refused {
+        return Err(FileError {
+            file: data.display().to_string(),
+            error: FormulaError::Unsupported(format!(
+                "{option} is computed for linear mixed models only; a {family} model reports Wald z tests of its fixed effects"
+            )),
+        }
+        .into());
+    }
+    if crate::output::stdout_closed() {
+        return Err(Error::Stdout(std::io::Error::other(
+            "standard output is closed, so the fit would be written nowhere; redirect it to a file (`> fit.txt`)",
+        )));
+    }
+    let family = if family == "binomial" { Family::Binomial } else { Family::Poisson };
+    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family)?;
+    if json {
+        out!("{}", crossaudit::io::pretty_json(&fit));
+    } else {
+        out!("{}", fit.summary());
+    }
+    if !fit.fit.certificate.certified {
+        note!("warning: the optimizer could not certify its point as the optimum (see the optimizer line)");
+    }
+    Ok(())
+}
+
 /// `crossaudit mixed --compare`: lme4's `anova(m1, m2)`.
 pub(crate) fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool) -> Result<(), Error> {
     if crate::output::stdout_closed() {

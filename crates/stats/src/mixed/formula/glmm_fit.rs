@@ -145,7 +145,8 @@ impl GlmmFormulaFit {
         let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
         let _ = writeln!(s, "Fixed effects:");
         let width = f.fixed.iter().map(|r| r.name.len()).max().unwrap_or(0).max(11);
-        let _ = writeln!(s, "{:<width$} {:>12} {:>12} {:>9} {:>10}", "", "Estimate", "Std. Error", "z value", "Pr(>|z|)");
+        let _ =
+            writeln!(s, "{:<width$} {:>12} {:>12} {:>9} {:>10}", "", "Estimate", "Std. Error", "z value", "Pr(>|z|)");
         for r in &f.fixed {
             let _ = writeln!(
                 s,

@@ -306,8 +306,12 @@ impl Parser {
         self.at += 1;
         let successes = self.name("the successes' column inside cbind( )")?;
         self.expect(',', "between the successes' and the failures' columns of cbind( )")?;
-        let failures = self.name("the failures' column inside cbind( ) (a column: compute `size - successes` in the CSV first)")?;
-        self.expect(')', "to close cbind( ) (its two arguments are columns: compute `size - successes` in the CSV first)")?;
+        let failures =
+            self.name("the failures' column inside cbind( ) (a column: compute `size - successes` in the CSV first)")?;
+        self.expect(
+            ')',
+            "to close cbind( ) (its two arguments are columns: compute `size - successes` in the CSV first)",
+        )?;
         Ok((successes, Some(failures)))
     }
 

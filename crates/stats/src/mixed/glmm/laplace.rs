@@ -85,7 +85,13 @@ impl Model {
 
     /// The Laplace approximation at (theta, beta), PIRLS starting from
     /// `start` (zeros where `None`); with `vcov`, Var(beta) from R_X too.
-    pub fn evaluate(&self, theta: &[f64], beta: &[f64], start: Option<&[f64]>, vcov: bool) -> Result<Laplace, MixedError> {
+    pub fn evaluate(
+        &self,
+        theta: &[f64],
+        beta: &[f64],
+        start: Option<&[f64]>,
+        vcov: bool,
+    ) -> Result<Laplace, MixedError> {
         let (n, q, p) = (self.n, self.structure.q, self.p);
         let lambda = self.structure.lambda(theta);
         let mut zl: Vec<Vec<(usize, f64)>> = Vec::with_capacity(n);

@@ -84,7 +84,11 @@ impl GlmmData {
     }
 
     /// Poisson data: a count per observation.
-    pub fn poisson(counts: Vec<f64>, columns: Vec<(String, Vec<f64>)>, terms: Vec<Term>) -> Result<GlmmData, MixedError> {
+    pub fn poisson(
+        counts: Vec<f64>,
+        columns: Vec<(String, Vec<f64>)>,
+        terms: Vec<Term>,
+    ) -> Result<GlmmData, MixedError> {
         if let Some(i) = counts.iter().position(|&k| !(k.is_finite() && k.fract() == 0.0 && k >= 0.0)) {
             return Err(MixedError::Glmm(format!(
                 "observation {}: {} is not a count; a Poisson response is a whole number of at least 0",
@@ -325,7 +329,13 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
 /// parameters, value `fx`) by central differences with Richardson
 /// extrapolation, carried back to beta's own scale; `None` where H is not
 /// positive definite.
-fn hessian_vcov(one: &(dyn Fn(&[f64]) -> f64 + Sync), x: &[f64], fx: f64, scales: &[f64], nt: usize) -> Option<Vec<f64>> {
+fn hessian_vcov(
+    one: &(dyn Fn(&[f64]) -> f64 + Sync),
+    x: &[f64],
+    fx: f64,
+    scales: &[f64],
+    nt: usize,
+) -> Option<Vec<f64>> {
     use rayon::prelude::*;
     let m = x.len();
     let hessian = |rel: f64| -> faer::Mat<f64> {

@@ -56,7 +56,7 @@ pub(crate) fn minimize(
     };
     let f0 = dev(&start);
     let (mut best, mut best_dev) = nelder_mead_free(&mut dev, &start, 0.5, 1e-8);
-    if !(best_dev <= f0) {
+    if best_dev.is_nan() || best_dev > f0 {
         (best, best_dev) = (start.clone(), f0);
     }
     (best, best_dev, _) = newton(&mut batch, best, best_dev, 40);
