@@ -50,31 +50,8 @@ impl Validator {
         // One column is one quantity: declared as two (a position and a
         // reference, an action and an extra), its values would be read as
         // both, silently.
-        let columns: (&'static str, Vec<&Ident>) = match &item.node {
-            DataItem::Action { columns, .. } => ("an action", columns.iter().collect()),
-            DataItem::Time(c) => ("the time", vec![c]),
-            DataItem::Position(c) => ("a position", c.iter().collect()),
-            DataItem::Velocity(c) => ("a velocity", c.iter().collect()),
-            DataItem::Attitude { columns, .. } => ("an attitude", columns.iter().collect()),
-            DataItem::Reference(c) => ("a reference", c.iter().collect()),
-            DataItem::Rates(c) => ("a body rate", c.iter().collect()),
-            DataItem::Predicted(c) => ("a predicted column", c.iter().collect()),
-            DataItem::Extra { columns, .. } => ("an extra", columns.iter().collect()),
-            _ => ("", Vec::new()),
-        };
-        for c in columns.1 {
-            match csv.declared.get(&c.node) {
-                Some(first) => self.err_help(
-                    "column declared twice",
-                    c.span,
-                    format!("`{}` is declared as {first} and as {}", c.node, columns.0),
-                    "a column holds one quantity: declare it once, in the clause it belongs to",
-                ),
-                None => {
-                    csv.declared.insert(c.node.clone(), columns.0);
-                }
-            }
-        }
+        let (what, columns) = declared_columns(&item.node);
+        self.declare_columns(what, &columns, csv);
         let key = match &item.node {
             DataItem::Action { scale, .. } => {
                 csv.scale = scale.clone();
@@ -125,44 +102,12 @@ impl Validator {
                 csv.nested = true;
                 "folders nested"
             }
-            DataItem::ConditionsTable { file: t, columns } => {
-                for (role, column) in columns {
-                    if csv.conditions_columns.insert(role.node.clone(), column.node.clone()).is_some() {
-                        self.err_help(
-                            "table column mapped twice",
-                            role.span,
-                            format!("`{}` is given a column twice", role.node),
-                            "map each of recording, trajectory and speed at most once",
-                        );
-                    }
-                }
-                if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
-                    self.err_help(
-                        "conditions table outside the data folder",
-                        t.span,
-                        format!("`{}` is not a file name", t.node),
-                        "give the name of a CSV file in the data folder, e.g. `conditions table \"conditions.csv\"`",
-                    );
-                }
-                if let Some(name) = &csv.conditions_name {
-                    self.conditions_twice(t.span, name.span);
-                }
-                csv.conditions_table = Some(t.clone());
+            DataItem::ConditionsTable { file, columns } => {
+                self.conditions_table(file, columns, csv);
                 "conditions table"
             }
             DataItem::ConditionsName(p) => {
-                if let Err(e) = crate::design::NamePattern::parse(&p.node) {
-                    self.err_help(
-                        "bad conditions pattern",
-                        p.span,
-                        e,
-                        "e.g. `conditions name \"{*}-{trajectory}-{speed}-{rep}\"`",
-                    );
-                }
-                if let Some(table) = &csv.conditions_table {
-                    self.conditions_twice(p.span, table.span);
-                }
-                csv.conditions_name = Some(p.clone());
+                self.conditions_name(p, csv);
                 "conditions name"
             }
             DataItem::ConditionsFolder(c) => {
@@ -174,6 +119,68 @@ impl Validator {
         };
         self.once(seen, key, span);
         Some(key)
+    }
+
+    /// Records each column of a clause as declared by it (`what`: "a
+    /// position", ...); one declared by an earlier clause is refused.
+    fn declare_columns(&mut self, what: &'static str, columns: &[&Ident], csv: &mut CsvParts) {
+        for c in columns {
+            match csv.declared.get(&c.node) {
+                Some(first) => self.err_help(
+                    "column declared twice",
+                    c.span,
+                    format!("`{}` is declared as {first} and as {what}", c.node),
+                    "a column holds one quantity: declare it once, in the clause it belongs to",
+                ),
+                None => {
+                    csv.declared.insert(c.node.clone(), what);
+                }
+            }
+        }
+    }
+
+    /// `conditions table "FILE" columns ROLE = COLUMN, ...`: each role
+    /// mapped once, a file name in the data folder, no name pattern too.
+    fn conditions_table(&mut self, t: &Spanned<String>, columns: &[(Ident, Ident)], csv: &mut CsvParts) {
+        for (role, column) in columns {
+            if csv.conditions_columns.insert(role.node.clone(), column.node.clone()).is_some() {
+                self.err_help(
+                    "table column mapped twice",
+                    role.span,
+                    format!("`{}` is given a column twice", role.node),
+                    "map each of recording, trajectory and speed at most once",
+                );
+            }
+        }
+        if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
+            self.err_help(
+                "conditions table outside the data folder",
+                t.span,
+                format!("`{}` is not a file name", t.node),
+                "give the name of a CSV file in the data folder, e.g. `conditions table \"conditions.csv\"`",
+            );
+        }
+        if let Some(name) = &csv.conditions_name {
+            self.conditions_twice(t.span, name.span);
+        }
+        csv.conditions_table = Some(t.clone());
+    }
+
+    /// `conditions name "PATTERN"`: a pattern that parses, no conditions
+    /// table too.
+    fn conditions_name(&mut self, p: &Spanned<String>, csv: &mut CsvParts) {
+        if let Err(e) = crate::design::NamePattern::parse(&p.node) {
+            self.err_help(
+                "bad conditions pattern",
+                p.span,
+                e,
+                "e.g. `conditions name \"{*}-{trajectory}-{speed}-{rep}\"`",
+            );
+        }
+        if let Some(table) = &csv.conditions_table {
+            self.conditions_twice(p.span, table.span);
+        }
+        csv.conditions_name = Some(p.clone());
     }
 
     /// A data block with both a conditions table and a name pattern.
@@ -201,116 +208,14 @@ impl Validator {
         spec: &mut DataSpec,
     ) -> Option<LogFormat> {
         let at = block.source.span;
-        if let Some(span) = seen.get("state") {
-            self.err_help(
-                "`state` in `data csv`",
-                *span,
-                "`data csv` declares its state by meaning, not as a list of columns",
-                "declare `position` (and `velocity`, `attitude`, `rates`, `predicted`, `reference`, `extra` if the logs have them)",
-            );
-        }
-        let missing = |v: &mut Validator, what: &str, example: &str| {
-            v.err_help("incomplete csv data", at, format!("`data csv` needs `{what}`"), format!("e.g. `{example}`"));
-        };
-        if !seen.contains_key("rate") {
-            missing(self, "rate", "rate 100 Hz");
-        }
-        // Without it the reader fell back to NanoBench's motor column and
-        // ended in "0 usable deployment units remain".
-        if !seen.contains_key("include") {
-            missing(
-                self,
-                "include active(...)",
-                "include active(m1 > 1000) >= 200 samples: the rows in flight, by an action column",
-            );
-        }
-        if !seen.contains_key("action") {
-            missing(self, "action", "action m1, m2, m3, m4 scale 2500");
-        } else if csv.scale.is_none() {
-            missing(
-                self,
-                "action ... scale",
-                "action m1, m2, m3, m4 scale 2500 (each action is value / scale, clipped to [0, 1])",
-            );
-        }
-        let three = |v: &mut Validator, part: &Option<(Vec<Ident>, Span)>, what: &str, example: &str| match part {
-            Some((cols, span)) => Some(v.columns(cols, 3, what, *span)),
-            None => {
-                if !example.is_empty() {
-                    missing(v, what, example);
-                }
-                None
-            }
-        };
-        let position = three(self, &csv.position, "position", "position x, y, z");
-        let velocity = three(self, &csv.velocity, "velocity", "");
-        let reference = three(self, &csv.reference, "reference", "");
-        let rates = three(self, &csv.rates, "body rates", "");
-        let (quaternion, euler) = match &csv.attitude {
-            None => (None, None),
-            Some((kind, cols, span)) => match kind.node.as_str() {
-                "quaternion_wxyz" => (Some(self.columns(cols, 4, "quaternion", *span)), None),
-                "quaternion_xyzw" => {
-                    let c = self.columns(cols, 4, "quaternion", *span);
-                    // Stored scalar first, as the model reads it.
-                    (c.get(3).map(|w| vec![w.clone(), c[0].clone(), c[1].clone(), c[2].clone()]), None)
-                }
-                other => {
-                    let columns = self.columns(cols, 3, "Euler attitude (roll, pitch, yaw)", *span);
-                    (None, Some(Euler { columns, degrees: other == "euler_degrees" }))
-                }
-            },
-        };
-        let quaternion_tolerance = match &csv.norm_within {
-            Some(t) if euler.is_some() => {
-                self.err_help(
-                    "norm tolerance on Euler angles",
-                    t.span,
-                    "`norm within` applies to a quaternion's length; Euler angles have none",
-                    "remove `norm within`, or declare the quaternion's columns (`attitude quaternion wxyz ...`)",
-                );
-                None
-            }
-            Some(t) if !(t.node > 0.0 && t.node <= 0.5) => {
-                self.err_help(
-                    "bad norm tolerance",
-                    t.span,
-                    format!("`norm within {}`: a quaternion's length must be within (0, 0.5] of 1", t.node),
-                    "real logs are off by about 0.01 to 0.05, e.g. `norm within 0.05`",
-                );
-                None
-            }
-            Some(t) => Some(t.node),
-            None => None,
-        };
-        if let (Some((c, span)), false) = (&csv.conditions_folder, csv.nested) {
-            self.err_help(
-                "conditions folder without folders",
-                *span,
-                format!("`conditions folder {}` takes each recording's {} from the folder it sits in, and the data block reads only the data folder itself", c.name(), c.name()),
-                "add `folders nested` to the data block",
-            );
-        }
-        if let Some((c, span)) = &csv.conditions_folder {
-            let by_pattern = csv
-                .conditions_name
-                .as_ref()
-                .and_then(|p| crate::design::NamePattern::parse(&p.node).ok())
-                .is_some_and(|p| p.gives(*c));
-            let by_table = csv.conditions_columns.contains_key(c.name());
-            if by_pattern || by_table {
-                self.err_help(
-                    "condition given twice",
-                    *span,
-                    format!(
-                        "the {} comes from the folder here and from the {} too",
-                        c.name(),
-                        if by_pattern { "file-name pattern" } else { "conditions table" }
-                    ),
-                    format!("take the {} from one of them", c.name()),
-                );
-            }
-        }
+        self.csv_required(at, seen, csv);
+        let position = self.three_columns(at, &csv.position, "position", "position x, y, z");
+        let velocity = self.three_columns(at, &csv.velocity, "velocity", "");
+        let reference = self.three_columns(at, &csv.reference, "reference", "");
+        let rates = self.three_columns(at, &csv.rates, "body rates", "");
+        let (quaternion, euler) = self.csv_attitude(csv);
+        let quaternion_tolerance = self.quaternion_tolerance(csv, euler.is_some());
+        self.conditions_folder(csv);
         let position = position?;
         let attitude = csv.attitude.is_some();
         if attitude && quaternion.is_none() && euler.is_none() {
@@ -371,6 +276,146 @@ impl Validator {
         })
     }
 
+    /// The clauses every `data csv` block needs (`rate`, `include
+    /// active(...)`, `action ... scale`), and no `state` list.
+    fn csv_required(&mut self, at: Span, seen: &BTreeMap<&'static str, Span>, csv: &CsvParts) {
+        if let Some(span) = seen.get("state") {
+            self.err_help(
+                "`state` in `data csv`",
+                *span,
+                "`data csv` declares its state by meaning, not as a list of columns",
+                "declare `position` (and `velocity`, `attitude`, `rates`, `predicted`, `reference`, `extra` if the logs have them)",
+            );
+        }
+        if !seen.contains_key("rate") {
+            self.csv_missing(at, "rate", "rate 100 Hz");
+        }
+        // Without it the reader fell back to NanoBench's motor column and
+        // ended in "0 usable deployment units remain".
+        if !seen.contains_key("include") {
+            self.csv_missing(
+                at,
+                "include active(...)",
+                "include active(m1 > 1000) >= 200 samples: the rows in flight, by an action column",
+            );
+        }
+        if !seen.contains_key("action") {
+            self.csv_missing(at, "action", "action m1, m2, m3, m4 scale 2500");
+        } else if csv.scale.is_none() {
+            self.csv_missing(
+                at,
+                "action ... scale",
+                "action m1, m2, m3, m4 scale 2500 (each action is value / scale, clipped to [0, 1])",
+            );
+        }
+    }
+
+    /// A clause `data csv` needs and the block lacks, with an example.
+    fn csv_missing(&mut self, at: Span, what: &str, example: &str) {
+        self.err_help("incomplete csv data", at, format!("`data csv` needs `{what}`"), format!("e.g. `{example}`"));
+    }
+
+    /// A clause of three columns (a position, velocity, reference or body
+    /// rates) as declared; when absent, `None`, missing if `example` is
+    /// given (the clause is required).
+    fn three_columns(
+        &mut self,
+        at: Span,
+        part: &Option<(Vec<Ident>, Span)>,
+        what: &str,
+        example: &str,
+    ) -> Option<Vec<String>> {
+        match part {
+            Some((cols, span)) => Some(self.columns(cols, 3, what, *span)),
+            None => {
+                if !example.is_empty() {
+                    self.csv_missing(at, what, example);
+                }
+                None
+            }
+        }
+    }
+
+    /// The attitude's columns: a quaternion (stored scalar first) or Euler
+    /// angles, neither when none is declared.
+    fn csv_attitude(&mut self, csv: &CsvParts) -> (Option<Vec<String>>, Option<Euler>) {
+        match &csv.attitude {
+            None => (None, None),
+            Some((kind, cols, span)) => match kind.node.as_str() {
+                "quaternion_wxyz" => (Some(self.columns(cols, 4, "quaternion", *span)), None),
+                "quaternion_xyzw" => {
+                    let c = self.columns(cols, 4, "quaternion", *span);
+                    // Stored scalar first, as the model reads it.
+                    (c.get(3).map(|w| vec![w.clone(), c[0].clone(), c[1].clone(), c[2].clone()]), None)
+                }
+                other => {
+                    let columns = self.columns(cols, 3, "Euler attitude (roll, pitch, yaw)", *span);
+                    (None, Some(Euler { columns, degrees: other == "euler_degrees" }))
+                }
+            },
+        }
+    }
+
+    /// `norm within T`: a quaternion's tolerance in (0, 0.5], refused on
+    /// Euler angles.
+    fn quaternion_tolerance(&mut self, csv: &CsvParts, euler: bool) -> Option<f64> {
+        match &csv.norm_within {
+            Some(t) if euler => {
+                self.err_help(
+                    "norm tolerance on Euler angles",
+                    t.span,
+                    "`norm within` applies to a quaternion's length; Euler angles have none",
+                    "remove `norm within`, or declare the quaternion's columns (`attitude quaternion wxyz ...`)",
+                );
+                None
+            }
+            Some(t) if !(t.node > 0.0 && t.node <= 0.5) => {
+                self.err_help(
+                    "bad norm tolerance",
+                    t.span,
+                    format!("`norm within {}`: a quaternion's length must be within (0, 0.5] of 1", t.node),
+                    "real logs are off by about 0.01 to 0.05, e.g. `norm within 0.05`",
+                );
+                None
+            }
+            Some(t) => Some(t.node),
+            None => None,
+        }
+    }
+
+    /// `conditions folder ...`: only with `folders nested`, and a condition
+    /// the name pattern or the conditions table does not give too.
+    fn conditions_folder(&mut self, csv: &CsvParts) {
+        if let (Some((c, span)), false) = (&csv.conditions_folder, csv.nested) {
+            self.err_help(
+                "conditions folder without folders",
+                *span,
+                format!("`conditions folder {}` takes each recording's {} from the folder it sits in, and the data block reads only the data folder itself", c.name(), c.name()),
+                "add `folders nested` to the data block",
+            );
+        }
+        if let Some((c, span)) = &csv.conditions_folder {
+            let by_pattern = csv
+                .conditions_name
+                .as_ref()
+                .and_then(|p| crate::design::NamePattern::parse(&p.node).ok())
+                .is_some_and(|p| p.gives(*c));
+            let by_table = csv.conditions_columns.contains_key(c.name());
+            if by_pattern || by_table {
+                self.err_help(
+                    "condition given twice",
+                    *span,
+                    format!(
+                        "the {} comes from the folder here and from the {} too",
+                        c.name(),
+                        if by_pattern { "file-name pattern" } else { "conditions table" }
+                    ),
+                    format!("take the {} from one of them", c.name()),
+                );
+            }
+        }
+    }
+
     /// Refuses what needs a velocity or an attitude the data do not
     /// declare: the `constant_velocity` baseline, and endpoints on the
     /// velocity or attitude RMSE.
@@ -398,5 +443,22 @@ impl Validator {
                 format!("declare `{}` in the data block, or use `fa_position_rmse`", missing.1),
             );
         }
+    }
+}
+
+/// The columns a clause declares, with what it declares them as ("a
+/// position", ...); none for an item that declares no column.
+fn declared_columns(item: &DataItem) -> (&'static str, Vec<&Ident>) {
+    match item {
+        DataItem::Action { columns, .. } => ("an action", columns.iter().collect()),
+        DataItem::Time(c) => ("the time", vec![c]),
+        DataItem::Position(c) => ("a position", c.iter().collect()),
+        DataItem::Velocity(c) => ("a velocity", c.iter().collect()),
+        DataItem::Attitude { columns, .. } => ("an attitude", columns.iter().collect()),
+        DataItem::Reference(c) => ("a reference", c.iter().collect()),
+        DataItem::Rates(c) => ("a body rate", c.iter().collect()),
+        DataItem::Predicted(c) => ("a predicted column", c.iter().collect()),
+        DataItem::Extra { columns, .. } => ("an extra", columns.iter().collect()),
+        _ => ("", Vec::new()),
     }
 }

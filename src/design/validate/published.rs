@@ -20,6 +20,16 @@ pub(super) struct Pinned {
 
 type Roles = Option<Vec<Spanned<String>>>;
 
+/// The items of a `split published` block: the roles mapped to each part
+/// of the design, those ignored, and the policy on leaked recordings.
+struct RoleItems {
+    evaluation: Roles,
+    validation: Roles,
+    fit: Roles,
+    ignore: Vec<Spanned<String>>,
+    leaked: LeakPolicy,
+}
+
 impl Validator {
     pub(super) fn published(
         &mut self,
@@ -29,119 +39,15 @@ impl Validator {
         items: &[Spanned<PublishedItem>],
         span: Span,
     ) -> Option<Pinned> {
-        let mut seen = BTreeMap::new();
-        let (mut evaluation, mut validation, mut fit): (Roles, Roles, Roles) = (None, None, None);
-        let mut ignore = Vec::new();
-        let mut leaked = LeakPolicy::Refuse;
-        for item in items {
-            match &item.node {
-                PublishedItem::Evaluation(r) => {
-                    self.once(&mut seen, "evaluation", item.span);
-                    evaluation = Some(r.clone());
-                }
-                PublishedItem::Validation(r) => {
-                    self.once(&mut seen, "validation", item.span);
-                    validation = Some(r.clone());
-                }
-                PublishedItem::Fit(r) => {
-                    self.once(&mut seen, "fit", item.span);
-                    fit = Some(r.clone());
-                }
-                PublishedItem::Ignore(r) => ignore.extend(r.iter().cloned()),
-                PublishedItem::Leaked(p) => {
-                    self.once(&mut seen, "leaked", item.span);
-                    leaked = if p.node == "drop" { LeakPolicy::Drop } else { LeakPolicy::Refuse };
-                }
-            }
-        }
-        // A split of train and test alone maps no validation role: the
-        // design's `validation` statement draws from the fit roles.
-        let missing: Vec<&str> =
-            [("evaluation", &evaluation), ("fit", &fit)].iter().filter(|(_, r)| r.is_none()).map(|(n, _)| *n).collect();
-        if !missing.is_empty() {
-            self.err_help(
-                "incomplete published split",
-                span,
-                format!("missing: {}", missing.join(", ")),
-                "map the split file's roles: `evaluation test; fit train` (and `validation val` where it has one)",
-            );
-        }
-        let resolve = |p: &str| if Path::new(p).is_absolute() { PathBuf::from(p) } else { self.base.join(p) };
-        let read = if folders {
-            let nested = data.and_then(|d| d.format.as_ref()).is_some_and(|f| f.nested_folders);
-            match data.and_then(|d| d.path.as_deref()) {
-                Some(dir) if nested => crate::published::from_folders(&resolve(dir)),
-                _ => {
-                    self.err_help(
-                        "no folders to split by",
-                        file.span,
-                        "`split published folders` takes the roles from the data folder's subfolders",
-                        "declare `data csv { path \"...\" folders nested ... }`",
-                    );
-                    return None;
-                }
-            }
-        } else {
-            crate::published::read(&resolve(&file.node))
-        };
-        let path = match (folders, data.and_then(|d| d.path.as_deref())) {
-            (true, Some(dir)) => resolve(dir),
-            _ => resolve(&file.node),
-        };
-        let split = match read.and_then(crate::published::PublishedSplit::whole_recordings) {
-            Ok(s) => s,
-            Err(e) => {
-                self.err_help(
-                    "cannot use the published split",
-                    file.span,
-                    e.to_string(),
-                    "a relative path is read from the design file's folder",
-                );
-                return None;
-            }
-        };
-        let known = split.roles.iter().map(|r| format!("`{}`", r.name)).collect::<Vec<_>>().join(", ");
-        let mut mapped: Vec<(String, &'static str)> = Vec::new();
+        let RoleItems { evaluation, validation, fit, ignore, leaked } = self.role_items(items, span);
+        let (split, path) = self.read_published(file, folders, data)?;
         let groups: [(&'static str, &[Spanned<String>]); 4] = [
             ("evaluation", evaluation.as_deref().unwrap_or(&[])),
             ("validation", validation.as_deref().unwrap_or(&[])),
             ("fit", fit.as_deref().unwrap_or(&[])),
             ("ignore", &ignore),
         ];
-        for (what, roles) in groups {
-            for r in roles {
-                if split.role(&r.node).is_none() {
-                    self.err_help(
-                        "unknown role",
-                        r.span,
-                        format!("{} has no role `{}`", path.display(), r.node),
-                        format!("its roles are {known}"),
-                    );
-                } else if let Some((_, first)) = mapped.iter().find(|(n, _)| *n == r.node) {
-                    self.err("role mapped twice", r.span, format!("role `{}` is already mapped to {first}", r.node));
-                } else {
-                    mapped.push((r.node.clone(), what));
-                }
-            }
-        }
-        for role in &split.roles {
-            if !mapped.iter().any(|(n, _)| *n == role.name) {
-                self.err_help(
-                    "unmapped role",
-                    file.span,
-                    format!(
-                        "role `{}` of {} ({} recordings) is not mapped",
-                        role.name,
-                        path.display(),
-                        role.entries.len()
-                    ),
-                    format!(
-                        "map it with `evaluation`, `validation` or `fit`, or leave it out with `ignore {}`",
-                        role.name
-                    ),
-                );
-            }
-        }
+        let mapped = self.map_roles(&split, &path, groups, file.span);
         let shown = path.display().to_string();
         let names = |what: &str| -> Vec<ListedName> {
             split
@@ -185,6 +91,146 @@ impl Validator {
             fit: names("fit"),
         };
         Some(Pinned { pin, evaluation: pinned_evaluation, validation: names("validation") })
+    }
+
+    /// The block's items, each mapping given once; the evaluation and fit
+    /// roles are required.
+    fn role_items(&mut self, items: &[Spanned<PublishedItem>], span: Span) -> RoleItems {
+        let mut seen = BTreeMap::new();
+        let mut roles =
+            RoleItems { evaluation: None, validation: None, fit: None, ignore: Vec::new(), leaked: LeakPolicy::Refuse };
+        for item in items {
+            match &item.node {
+                PublishedItem::Evaluation(r) => {
+                    self.once(&mut seen, "evaluation", item.span);
+                    roles.evaluation = Some(r.clone());
+                }
+                PublishedItem::Validation(r) => {
+                    self.once(&mut seen, "validation", item.span);
+                    roles.validation = Some(r.clone());
+                }
+                PublishedItem::Fit(r) => {
+                    self.once(&mut seen, "fit", item.span);
+                    roles.fit = Some(r.clone());
+                }
+                PublishedItem::Ignore(r) => roles.ignore.extend(r.iter().cloned()),
+                PublishedItem::Leaked(p) => {
+                    self.once(&mut seen, "leaked", item.span);
+                    roles.leaked = if p.node == "drop" { LeakPolicy::Drop } else { LeakPolicy::Refuse };
+                }
+            }
+        }
+        // A split of train and test alone maps no validation role: the
+        // design's `validation` statement draws from the fit roles.
+        let missing: Vec<&str> = [("evaluation", &roles.evaluation), ("fit", &roles.fit)]
+            .iter()
+            .filter(|(_, r)| r.is_none())
+            .map(|(n, _)| *n)
+            .collect();
+        if !missing.is_empty() {
+            self.err_help(
+                "incomplete published split",
+                span,
+                format!("missing: {}", missing.join(", ")),
+                "map the split file's roles: `evaluation test; fit train` (and `validation val` where it has one)",
+            );
+        }
+        roles
+    }
+
+    /// The split file (or, with `folders`, the data folder's subfolders)
+    /// read as whole recordings, with the path it was read from; `None`
+    /// with an error when it cannot be.
+    fn read_published(
+        &mut self,
+        file: &Spanned<String>,
+        folders: bool,
+        data: Option<&DataSpec>,
+    ) -> Option<(crate::published::PublishedSplit, PathBuf)> {
+        let resolve = |p: &str| if Path::new(p).is_absolute() { PathBuf::from(p) } else { self.base.join(p) };
+        let read = if folders {
+            let nested = data.and_then(|d| d.format.as_ref()).is_some_and(|f| f.nested_folders);
+            match data.and_then(|d| d.path.as_deref()) {
+                Some(dir) if nested => crate::published::from_folders(&resolve(dir)),
+                _ => {
+                    self.err_help(
+                        "no folders to split by",
+                        file.span,
+                        "`split published folders` takes the roles from the data folder's subfolders",
+                        "declare `data csv { path \"...\" folders nested ... }`",
+                    );
+                    return None;
+                }
+            }
+        } else {
+            crate::published::read(&resolve(&file.node))
+        };
+        let path = match (folders, data.and_then(|d| d.path.as_deref())) {
+            (true, Some(dir)) => resolve(dir),
+            _ => resolve(&file.node),
+        };
+        match read.and_then(crate::published::PublishedSplit::whole_recordings) {
+            Ok(s) => Some((s, path)),
+            Err(e) => {
+                self.err_help(
+                    "cannot use the published split",
+                    file.span,
+                    e.to_string(),
+                    "a relative path is read from the design file's folder",
+                );
+                None
+            }
+        }
+    }
+
+    /// Each role named in the block (`groups`: the roles mapped to each
+    /// part) checked against the split's roles, as (role, part): a role the
+    /// split lacks, one mapped twice and one the block leaves unmapped are
+    /// refused.
+    fn map_roles(
+        &mut self,
+        split: &crate::published::PublishedSplit,
+        path: &Path,
+        groups: [(&'static str, &[Spanned<String>]); 4],
+        file: Span,
+    ) -> Vec<(String, &'static str)> {
+        let known = split.roles.iter().map(|r| format!("`{}`", r.name)).collect::<Vec<_>>().join(", ");
+        let mut mapped: Vec<(String, &'static str)> = Vec::new();
+        for (what, roles) in groups {
+            for r in roles {
+                if split.role(&r.node).is_none() {
+                    self.err_help(
+                        "unknown role",
+                        r.span,
+                        format!("{} has no role `{}`", path.display(), r.node),
+                        format!("its roles are {known}"),
+                    );
+                } else if let Some((_, first)) = mapped.iter().find(|(n, _)| *n == r.node) {
+                    self.err("role mapped twice", r.span, format!("role `{}` is already mapped to {first}", r.node));
+                } else {
+                    mapped.push((r.node.clone(), what));
+                }
+            }
+        }
+        for role in &split.roles {
+            if !mapped.iter().any(|(n, _)| *n == role.name) {
+                self.err_help(
+                    "unmapped role",
+                    file,
+                    format!(
+                        "role `{}` of {} ({} recordings) is not mapped",
+                        role.name,
+                        path.display(),
+                        role.entries.len()
+                    ),
+                    format!(
+                        "map it with `evaluation`, `validation` or `fit`, or leave it out with `ignore {}`",
+                        role.name
+                    ),
+                );
+            }
+        }
+        mapped
     }
 
     /// The published split whose validation roles give the validation
