@@ -8,20 +8,9 @@ use crate::design::ast::*;
 use crate::design::*;
 
 impl Validator {
+    /// `estimate KIND { level L; df RULE; missing allow|refuse }`.
     pub(super) fn estimator(&mut self, kind: &Ident, items: &[Spanned<EstimateItem>]) -> Option<Estimator> {
-        let estimator = match kind.node.as_str() {
-            "crossed_mom" => EstimatorKind::CrossedMom,
-            "reml" => EstimatorKind::Reml,
-            _ => {
-                self.err_help(
-                    "unknown estimator",
-                    kind.span,
-                    format!("`{}` is not an estimator", kind.node),
-                    "known estimators: crossed_mom, reml",
-                );
-                EstimatorKind::CrossedMom
-            }
-        };
+        let estimator = self.estimator_kind(kind);
         let mut seen = BTreeMap::new();
         let mut level = 0.95;
         let mut df = match estimator {
@@ -33,22 +22,7 @@ impl Validator {
             match &item.node {
                 EstimateItem::Level(l) => {
                     self.once(&mut seen, "level", item.span);
-                    if !(l.node > 0.0 && l.node < 1.0) {
-                        self.err_help(
-                            "level out of range",
-                            l.span,
-                            format!("{} is outside (0, 1)", l.node),
-                            "write the confidence level as a fraction, e.g. 0.95",
-                        );
-                    } else if 1.0 - l.node < 1e-9 {
-                        self.err_help(
-                            "level out of range",
-                            l.span,
-                            format!("{} leaves {:.1e} outside the interval: its quantile would be infinite in double precision", l.node, 1.0 - l.node),
-                            "a confidence level may be at most 0.999999999",
-                        );
-                    }
-                    level = l.node;
+                    level = self.confidence_level(l);
                 }
                 EstimateItem::DfFactorMinus { factor, minus } => {
                     self.once(&mut seen, "df", item.span);
@@ -99,6 +73,50 @@ impl Validator {
         Some(Estimator { kind: estimator, level, df, missing_allowed })
     }
 
+    /// `crossed_mom` or `reml` (an unknown name is refused, read as
+    /// `crossed_mom`).
+    fn estimator_kind(&mut self, kind: &Ident) -> EstimatorKind {
+        match kind.node.as_str() {
+            "crossed_mom" => EstimatorKind::CrossedMom,
+            "reml" => EstimatorKind::Reml,
+            _ => {
+                self.err_help(
+                    "unknown estimator",
+                    kind.span,
+                    format!("`{}` is not an estimator", kind.node),
+                    "known estimators: crossed_mom, reml",
+                );
+                EstimatorKind::CrossedMom
+            }
+        }
+    }
+
+    /// `level L`: a confidence level in (0, 1), not so close to 1 that its
+    /// quantile is infinite.
+    fn confidence_level(&mut self, l: &Number) -> f64 {
+        if !(l.node > 0.0 && l.node < 1.0) {
+            self.err_help(
+                "level out of range",
+                l.span,
+                format!("{} is outside (0, 1)", l.node),
+                "write the confidence level as a fraction, e.g. 0.95",
+            );
+        } else if 1.0 - l.node < 1e-9 {
+            self.err_help(
+                "level out of range",
+                l.span,
+                format!(
+                    "{} leaves {:.1e} outside the interval: its quantile would be infinite in double precision",
+                    l.node,
+                    1.0 - l.node
+                ),
+                "a confidence level may be at most 0.999999999",
+            );
+        }
+        l.node
+    }
+
+    /// `sensitivity { bootstrap ...; grouped; leave_one_out ... }`.
     pub(super) fn sensitivity(
         &mut self,
         items: &[Spanned<SensitivityItem>],
@@ -112,34 +130,7 @@ impl Validator {
             match &item.node {
                 SensitivityItem::Bootstrap { kind, replicates, seed } => {
                     self.once(&mut seen, "bootstrap", item.span);
-                    if kind.node != "pigeonhole" {
-                        self.err_help(
-                            "unknown bootstrap",
-                            kind.span,
-                            format!("`{}` is not a bootstrap scheme", kind.node),
-                            "known schemes: pigeonhole (rows and columns resampled independently)",
-                        );
-                    }
-                    let reps = self.count(replicates, "bootstrap replicates", 1, limits::BOOTSTRAP);
-                    if let (Some(s), Some(r)) = (n_seeds, recording) {
-                        let work = (reps as u64).saturating_mul(s as u64).saturating_mul(r.evaluation as u64);
-                        if work > limits::BOOTSTRAP_WORK {
-                            self.err_help(
-                                "bootstrap too large",
-                                replicates.span,
-                                format!(
-                                    "{reps} replicates of {} recordings x {s} seeds is {work} resampled cells",
-                                    r.evaluation
-                                ),
-                                format!(
-                                    "the bootstrap may resample at most {} cells in all; lower the replicates",
-                                    limits::BOOTSTRAP_WORK
-                                ),
-                            );
-                        }
-                    }
-                    out.bootstrap =
-                        Some(BootstrapSpec { replicates: reps, seed: self.nonneg(seed, "the bootstrap seed") });
+                    out.bootstrap = Some(self.bootstrap(kind, replicates, seed, n_seeds, recording));
                 }
                 SensitivityItem::Grouped => {
                     self.once(&mut seen, "grouped", item.span);
@@ -156,41 +147,89 @@ impl Validator {
                 SensitivityItem::LeaveOneOut(factors) => {
                     self.once(&mut seen, "leave_one_out", item.span);
                     self.no_duplicate_names(factors, "factor");
-                    for f in factors {
-                        let factor = match f.node.as_str() {
-                            "seed" => Factor::Seed,
-                            "recording" => Factor::Recording,
-                            other => {
-                                self.err_help(
-                                    "unknown factor",
-                                    f.span,
-                                    format!("`{other}` is not a factor"),
-                                    "leave_one_out takes: seed, recording",
-                                );
-                                continue;
-                            }
-                        };
-                        let n = match factor {
-                            Factor::Seed => n_seeds,
-                            Factor::Recording => recording.map(|r| r.evaluation),
-                        };
-                        if let Some(n) = n {
-                            if n < 3 {
-                                self.err(
-                                    "too few levels to leave one out",
-                                    f.span,
-                                    format!("leaving one of {n} {}s out leaves fewer than 2", f.node),
-                                );
-                            }
-                        }
-                        if !out.leave_one_out.contains(&factor) {
-                            out.leave_one_out.push(factor);
-                        }
-                    }
+                    self.leave_one_out(factors, n_seeds, recording, &mut out.leave_one_out);
                 }
             }
         }
         Some(out)
+    }
+
+    /// `bootstrap pigeonhole R seed S`, its work (replicates x recordings
+    /// x seeds) within [`limits::BOOTSTRAP_WORK`].
+    fn bootstrap(
+        &mut self,
+        kind: &Ident,
+        replicates: &Int,
+        seed: &Int,
+        n_seeds: Option<usize>,
+        recording: Option<&RecordingFactor>,
+    ) -> BootstrapSpec {
+        if kind.node != "pigeonhole" {
+            self.err_help(
+                "unknown bootstrap",
+                kind.span,
+                format!("`{}` is not a bootstrap scheme", kind.node),
+                "known schemes: pigeonhole (rows and columns resampled independently)",
+            );
+        }
+        let reps = self.count(replicates, "bootstrap replicates", 1, limits::BOOTSTRAP);
+        if let (Some(s), Some(r)) = (n_seeds, recording) {
+            let work = (reps as u64).saturating_mul(s as u64).saturating_mul(r.evaluation as u64);
+            if work > limits::BOOTSTRAP_WORK {
+                self.err_help(
+                    "bootstrap too large",
+                    replicates.span,
+                    format!("{reps} replicates of {} recordings x {s} seeds is {work} resampled cells", r.evaluation),
+                    format!(
+                        "the bootstrap may resample at most {} cells in all; lower the replicates",
+                        limits::BOOTSTRAP_WORK
+                    ),
+                );
+            }
+        }
+        BootstrapSpec { replicates: reps, seed: self.nonneg(seed, "the bootstrap seed") }
+    }
+
+    /// `leave_one_out seed, recording`: each factor known and with at
+    /// least 3 levels, added to `out` once.
+    fn leave_one_out(
+        &mut self,
+        factors: &[Ident],
+        n_seeds: Option<usize>,
+        recording: Option<&RecordingFactor>,
+        out: &mut Vec<Factor>,
+    ) {
+        for f in factors {
+            let factor = match f.node.as_str() {
+                "seed" => Factor::Seed,
+                "recording" => Factor::Recording,
+                other => {
+                    self.err_help(
+                        "unknown factor",
+                        f.span,
+                        format!("`{other}` is not a factor"),
+                        "leave_one_out takes: seed, recording",
+                    );
+                    continue;
+                }
+            };
+            let n = match factor {
+                Factor::Seed => n_seeds,
+                Factor::Recording => recording.map(|r| r.evaluation),
+            };
+            if let Some(n) = n {
+                if n < 3 {
+                    self.err(
+                        "too few levels to leave one out",
+                        f.span,
+                        format!("leaving one of {n} {}s out leaves fewer than 2", f.node),
+                    );
+                }
+            }
+            if !out.contains(&factor) {
+                out.push(factor);
+            }
+        }
     }
 
     pub(super) fn interaction(

@@ -5,6 +5,8 @@ use crate::design::ast::*;
 use crate::design::*;
 
 impl Validator {
+    /// The endpoint statements, each with its metric, horizons, cap and
+    /// models; exactly one primary, and every model in some endpoint.
     pub(super) fn endpoints(
         &mut self,
         stmts: &[&Spanned<Statement>],
@@ -49,24 +51,51 @@ impl Validator {
                 self.primary(e, s.span, &mut primaries);
             }
             if let Some(metric) = metric {
-                for h in &horizons {
-                    for m in &names {
-                        let key = (metric, (h.0 * 1e9).round() as u64, m.clone());
-                        if !seen_cells.insert(key) {
-                            self.err(
-                                "duplicate endpoint",
-                                s.span,
-                                format!("{} at {} s for model `{}` is already an endpoint", metric.name(), h.0, m),
-                            );
-                        }
-                    }
-                }
+                self.duplicate_cells(metric, &horizons, &names, s.span, &mut seen_cells);
                 let cap = Meters(e.cap.as_ref().map(|c| c.node).or(primary_cap).unwrap_or(f64::NAN));
                 out.push((Endpoint { role, metric, horizons, cap, models: names }, s.span));
             }
         }
-        // A model no endpoint names would be trained and never scored: its
-        // jobs would write per-cell files without rows.
+        self.unscored_models(stmts, models, &out);
+        if primaries.is_empty() && !stmts.is_empty() {
+            self.err_help(
+                "no primary endpoint",
+                end,
+                "the design ends here without a primary endpoint",
+                "mark exactly one endpoint `endpoint primary ...`",
+            );
+        }
+        out
+    }
+
+    /// Each (metric, horizon, model) cell of an endpoint, refused when an
+    /// earlier endpoint already has it (`seen`: the cells so far).
+    fn duplicate_cells(
+        &mut self,
+        metric: Metric,
+        horizons: &[Seconds],
+        names: &[String],
+        span: Span,
+        seen: &mut std::collections::BTreeSet<(Metric, u64, String)>,
+    ) {
+        for h in horizons {
+            for m in names {
+                let key = (metric, (h.0 * 1e9).round() as u64, m.clone());
+                if !seen.insert(key) {
+                    self.err(
+                        "duplicate endpoint",
+                        span,
+                        format!("{} at {} s for model `{}` is already an endpoint", metric.name(), h.0, m),
+                    );
+                }
+            }
+        }
+    }
+
+    /// A model no endpoint names would be trained and never scored: its
+    /// jobs would write per-cell files without rows. Checked when every
+    /// endpoint statement was read.
+    fn unscored_models(&mut self, stmts: &[&Spanned<Statement>], models: &[(Model, Span)], out: &[(Endpoint, Span)]) {
         for (m, span) in models {
             let all_read = !stmts.is_empty() && out.len() == stmts.len();
             if all_read && !out.iter().any(|(e, _)| e.models.contains(&m.name)) {
@@ -78,15 +107,6 @@ impl Validator {
                 );
             }
         }
-        if primaries.is_empty() && !stmts.is_empty() {
-            self.err_help(
-                "no primary endpoint",
-                end,
-                "the design ends here without a primary endpoint",
-                "mark exactly one endpoint `endpoint primary ...`",
-            );
-        }
-        out
     }
 
     /// The horizons of one endpoint, each checked against the rate and the rollout.

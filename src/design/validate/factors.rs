@@ -17,67 +17,16 @@ impl Validator {
         published: bool,
         pinned: Option<Vec<ListedName>>,
     ) -> Option<RecordingFactor> {
-        let mut seen = BTreeMap::new();
-        let (mut evaluation, mut split_seed, mut starts, mut horizon) = (None, None, None, None);
-        let mut starts_within_pct = None;
-        let mut conditions = Vec::new();
-        let mut listed = Vec::new();
-        let mut stratify: Option<(Stratify, Span)> = None;
-        for item in items {
-            if published && matches!(item.node, RecordingItem::Evaluation(_) | RecordingItem::EvaluationList(_)) {
-                self.err_help(
-                    "evaluation recordings given twice",
-                    item.span,
-                    "the published split's evaluation roles give the evaluation recordings",
-                    "remove this clause: with `split published` the recording factor declares split_seed, starts, horizon and conditions",
-                );
-                continue;
-            }
-            match &item.node {
-                RecordingItem::Evaluation(n) => {
-                    self.once(&mut seen, "evaluation", item.span);
-                    evaluation = Some(self.count(n, "the number of evaluation recordings", 2, limits::RECORDINGS));
-                }
-                RecordingItem::EvaluationList(names) => {
-                    self.once(&mut seen, "evaluation", item.span);
-                    listed = self.listed(names, "evaluation");
-                    evaluation = Some(listed.len());
-                    if listed.len() < 2 {
-                        self.err(
-                            "too few recordings",
-                            item.span,
-                            "a crossed design needs at least 2 evaluation recordings",
-                        );
-                    }
-                }
-                RecordingItem::SplitSeed(n) => {
-                    self.once(&mut seen, "split_seed", item.span);
-                    split_seed = Some(self.nonneg(n, "the split seed"));
-                }
-                RecordingItem::Starts(n, within) => {
-                    self.once(&mut seen, "starts", item.span);
-                    starts = Some(self.count(n, "rollout starts per recording", 1, limits::STARTS));
-                    starts_within_pct =
-                        within.as_ref().and_then(|p| self.share(p, "the share of each recording holding starts"));
-                }
-                RecordingItem::Horizon(n) => {
-                    self.once(&mut seen, "horizon", item.span);
-                    horizon = Some(self.count(n, "the rollout horizon (samples)", 1, limits::HORIZON_SAMPLES));
-                }
-                RecordingItem::Conditions(names) => {
-                    self.once(&mut seen, "conditions", item.span);
-                    conditions = self.condition_labels(names);
-                }
-                RecordingItem::Stratify { conditions: names, keep } => {
-                    self.once(&mut seen, "stratify", item.span);
-                    let by = self.condition_labels(names);
-                    let keep =
-                        keep.as_ref().map(|k| self.count(k, "the recordings kept for fitting", 1, limits::RECORDINGS));
-                    let s = Stratify { conditions: by, keep: keep.unwrap_or(1), offset: item.span.start };
-                    stratify = Some((s, item.span));
-                }
-            }
-        }
+        let RecordingParts {
+            mut evaluation,
+            split_seed,
+            starts,
+            starts_within_pct,
+            horizon,
+            mut conditions,
+            mut listed,
+            stratify,
+        } = self.recording_items(items, published);
         if published {
             listed = pinned.unwrap_or_default();
             if listed.len() as u64 > limits::RECORDINGS {
@@ -126,6 +75,71 @@ impl Validator {
             listed,
             stratify: stratify.map(|(s, _)| s),
         })
+    }
+
+    /// The recording factor's clauses, each given once; with a published
+    /// split, the evaluation recordings are its own and a clause giving
+    /// them is refused.
+    fn recording_items(&mut self, items: &[Spanned<RecordingItem>], published: bool) -> RecordingParts {
+        let mut seen = BTreeMap::new();
+        let mut parts = RecordingParts::default();
+        for item in items {
+            if published && matches!(item.node, RecordingItem::Evaluation(_) | RecordingItem::EvaluationList(_)) {
+                self.err_help(
+                    "evaluation recordings given twice",
+                    item.span,
+                    "the published split's evaluation roles give the evaluation recordings",
+                    "remove this clause: with `split published` the recording factor declares split_seed, starts, horizon and conditions",
+                );
+                continue;
+            }
+            match &item.node {
+                RecordingItem::Evaluation(n) => {
+                    self.once(&mut seen, "evaluation", item.span);
+                    parts.evaluation =
+                        Some(self.count(n, "the number of evaluation recordings", 2, limits::RECORDINGS));
+                }
+                RecordingItem::EvaluationList(names) => {
+                    self.once(&mut seen, "evaluation", item.span);
+                    parts.listed = self.listed(names, "evaluation");
+                    parts.evaluation = Some(parts.listed.len());
+                    if parts.listed.len() < 2 {
+                        self.err(
+                            "too few recordings",
+                            item.span,
+                            "a crossed design needs at least 2 evaluation recordings",
+                        );
+                    }
+                }
+                RecordingItem::SplitSeed(n) => {
+                    self.once(&mut seen, "split_seed", item.span);
+                    parts.split_seed = Some(self.nonneg(n, "the split seed"));
+                }
+                RecordingItem::Starts(n, within) => {
+                    self.once(&mut seen, "starts", item.span);
+                    parts.starts = Some(self.count(n, "rollout starts per recording", 1, limits::STARTS));
+                    parts.starts_within_pct =
+                        within.as_ref().and_then(|p| self.share(p, "the share of each recording holding starts"));
+                }
+                RecordingItem::Horizon(n) => {
+                    self.once(&mut seen, "horizon", item.span);
+                    parts.horizon = Some(self.count(n, "the rollout horizon (samples)", 1, limits::HORIZON_SAMPLES));
+                }
+                RecordingItem::Conditions(names) => {
+                    self.once(&mut seen, "conditions", item.span);
+                    parts.conditions = self.condition_labels(names);
+                }
+                RecordingItem::Stratify { conditions: names, keep } => {
+                    self.once(&mut seen, "stratify", item.span);
+                    let by = self.condition_labels(names);
+                    let keep =
+                        keep.as_ref().map(|k| self.count(k, "the recordings kept for fitting", 1, limits::RECORDINGS));
+                    let s = Stratify { conditions: by, keep: keep.unwrap_or(1), offset: item.span.start };
+                    parts.stratify = Some((s, item.span));
+                }
+            }
+        }
+        parts
     }
 
     /// Every job holds its rollouts' traces in memory: `e` recordings x `s`
@@ -261,4 +275,17 @@ impl Validator {
         }
         names.iter().map(|n| ListedName { name: n.node.clone(), offset: n.span.start, at: None }).collect()
     }
+}
+
+/// The clauses of a recording factor as declared.
+#[derive(Default)]
+struct RecordingParts {
+    evaluation: Option<usize>,
+    split_seed: Option<u64>,
+    starts: Option<usize>,
+    starts_within_pct: Option<f64>,
+    horizon: Option<usize>,
+    conditions: Vec<Condition>,
+    listed: Vec<ListedName>,
+    stratify: Option<(Stratify, Span)>,
 }
