@@ -49,6 +49,15 @@ fn data_clause(rule: &Rule) -> bool {
 
 /// Names users read in "expected ..." messages instead of rule names.
 fn rule_name(rule: &Rule) -> String {
+    match clause_name(rule).or_else(|| value_name(rule)) {
+        Some(name) => name.to_string(),
+        None => format!("{rule:?}"),
+    }
+}
+
+/// The reader's name of a statement or of a clause inside one (and of the
+/// end of the file).
+fn clause_name(rule: &Rule) -> Option<&'static str> {
     let name = match rule {
         Rule::EOI => "end of file",
         Rule::statement
@@ -80,15 +89,6 @@ fn rule_name(rule: &Rule) -> String {
         Rule::pub_evaluation | Rule::pub_validation | Rule::pub_fit | Rule::pub_ignore | Rule::pub_leaked => {
             "a published-split clause (evaluation, validation, fit, ignore, leaked)"
         }
-        Rule::role_list | Rule::role_name => "a role of the split file",
-        Rule::leaked_policy => "`refuse` or `drop`",
-        Rule::ident | Rule::ident_list => "a name",
-        Rule::string | Rule::string_inner | Rule::string_list => "a quoted string",
-        Rule::int | Rule::int_list => "an integer",
-        Rule::number => "a number",
-        Rule::seconds => "a duration in seconds (e.g. `1.0 s`)",
-        Rule::cap => "`cap <metres> m`",
-        Rule::ep_models => "`model <name>` or `models <names>`",
         Rule::rec_evaluation
         | Rule::rec_eval_list
         | Rule::rec_split_seed
@@ -96,7 +96,6 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::rec_horizon
         | Rule::rec_conditions
         | Rule::rec_stratify => "a recording factor clause (evaluation, split_seed, starts, horizon, conditions, stratify)",
-        Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
         Rule::batch
         | Rule::epochs
         | Rule::schedule
@@ -106,17 +105,47 @@ fn rule_name(rule: &Rule) -> String {
         | Rule::actions => {
             "a training clause (adam, batch, epochs, cosine, constant, patience, action_noise, target, actions)"
         }
+        Rule::choice => "a choice (`SETTING ALTERNATIVE | ALTERNATIVE ...`)",
+        Rule::combine | Rule::combine_primary | Rule::combine_every | Rule::combine_share => {
+            "`in primary`, `in every specification` or `in at least P% of specifications`"
+        }
+        Rule::val_count | Rule::val_list | Rule::val_split => {
+            "`N recordings`, `recordings \"NAME\", ...` or `split`"
+        }
+        r if data_clause(r) => {
+            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing, gaps, require; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table, conditions name, conditions folder or folders nested for `data csv`; recordings, seed, strength, duration for simulated data)"
+        }
+        Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
+        Rule::est_level | Rule::est_df | Rule::est_missing => "an estimator clause (level, df, missing)",
+        Rule::bootstrap | Rule::grouped | Rule::leave_one_out => {
+            "a sensitivity (bootstrap, grouped, leave_one_out)"
+        }
+        _ => return None,
+    };
+    Some(name)
+}
+
+/// The reader's name of a value a clause takes: a name, a number, a kind,
+/// a policy.
+fn value_name(rule: &Rule) -> Option<&'static str> {
+    let name = match rule {
+        Rule::role_list | Rule::role_name => "a role of the split file",
+        Rule::leaked_policy => "`refuse` or `drop`",
+        Rule::ident | Rule::ident_list => "a name",
+        Rule::string | Rule::string_inner | Rule::string_list => "a quoted string",
+        Rule::int | Rule::int_list => "an integer",
+        Rule::number => "a number",
+        Rule::seconds => "a duration in seconds (e.g. `1.0 s`)",
+        Rule::cap => "`cap <metres> m`",
+        Rule::ep_models => "`model <name>` or `models <names>`",
+        Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
         Rule::target_kind => "a target (state_scaled, standardized)",
         Rule::action_scaling => "an action scaling (raw, standardized)",
         Rule::model_actions => "`actions raw` or `actions standardized`",
         Rule::generator_kind => "a generator (chacha8, numpy_legacy)",
         Rule::draws_kind => "`coupled` or `independent`",
-        Rule::choice => "a choice (`SETTING ALTERNATIVE | ALTERNATIVE ...`)",
         Rule::alternative | Rule::alt_contrast => "an alternative (a name, a number or `treated - reference`)",
         Rule::spec_value => "a choice and its alternative (`state onboard`)",
-        Rule::combine | Rule::combine_primary | Rule::combine_every | Rule::combine_share => {
-            "`in primary`, `in every specification` or `in at least P% of specifications`"
-        }
         Rule::tails_policy => "a tails policy (keep, exclude, truncate)",
         Rule::attitude_kind
         | Rule::quaternion_wxyz
@@ -132,31 +161,22 @@ fn rule_name(rule: &Rule) -> String {
         Rule::universe_kind => "a universe (csv, metadata)",
         Rule::sort_order => "an order (natural, bytewise)",
         Rule::missing_policy => "`allow` or `refuse`",
-        Rule::val_count | Rule::val_list | Rule::val_split => {
-            "`N recordings`, `recordings \"NAME\", ...` or `split`"
-        }
-        r if data_clause(r) => {
-            "a data clause (path, rate, include, exclude, duplicates, strict, state, action, tails, speed, universe, missing, gaps, require; time, position, velocity, attitude, reference, extra, extrapolated, controller, conditions table, conditions name, conditions folder or folders nested for `data csv`; recordings, seed, strength, duration for simulated data)"
-        }
         Rule::dup_policy => "a duplicates policy (group, first, keep)",
-        Rule::arm_fit | Rule::arm_derived => "an arm body (`fit N windows` or `from ARM replace P% ...`)",
         Rule::window_distance | Rule::distance_at_least | Rule::distance_band | Rule::distance_after => {
             "a distance (`at least G s from segments`, `G1 s to G2 s from segments` or `after segments`)"
         }
         Rule::mlp | Rule::baseline => "a model kind (mlp(...), persistence, constant_velocity)",
         Rule::input_kind => "an input map (world, relative)",
         Rule::role => "an endpoint role (primary, secondary)",
-        Rule::est_level | Rule::est_df | Rule::est_missing => "an estimator clause (level, df, missing)",
-        Rule::df_factor_minus | Rule::df_named => "a df rule (seed - 1, recording - 1, satterthwaite, kenward_roger, z)",
-        Rule::bootstrap | Rule::grouped | Rule::leave_one_out => {
-            "a sensitivity (bootstrap, grouped, leave_one_out)"
+        Rule::df_factor_minus | Rule::df_named => {
+            "a df rule (seed - 1, recording - 1, satterthwaite, kenward_roger, z)"
         }
         Rule::condition => "a condition (e.g. `optimism >= 10%`)",
         Rule::cmp => "a comparison (>=, <=, >, <)",
         Rule::seed_range | Rule::seed_list => "seeds (`100..119` or `1, 2, 3`)",
-        other => return format!("{other:?}"),
+        _ => return None,
     };
-    name.to_string()
+    Some(name)
 }
 
 /// A pest error as a located diagnostic in the reader's words.
