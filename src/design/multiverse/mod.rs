@@ -226,18 +226,7 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
         }
     }
     let Some((list, span)) = choices_stmt else {
-        if let Some((_, span)) = primary_stmt {
-            diags.push(
-                Diagnostic::new("no choices", span, "a primary specification needs a `choices { ... }` block")
-                    .with_help("declare the open choices, or drop `primary specification`"),
-            );
-        }
-        if let Some(c) = combine.filter(|c| c.node != CombineAst::Primary) {
-            diags.push(
-                Diagnostic::new("no choices", c.span, "there is one specification to decide in")
-                    .with_help("declare the open choices with `choices { ... }`, or drop this clause"),
-            );
-        }
+        no_choices(primary_stmt.map(|(_, span)| span), combine, diags);
         return None;
     };
     let before = diags.len();
@@ -266,20 +255,7 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
             diags.push(Diagnostic::new("declared twice", name.span, format!("a second choice of `{}`", first.setting)));
             continue;
         }
-        let mut seen: Vec<&str> = Vec::new();
-        for a in &c.node.alternatives {
-            let text = a.node.text();
-            match seen.iter().find(|s| same_value(s, text)) {
-                Some(s) if *s == text => {
-                    diags.push(Diagnostic::new("duplicate alternative", a.span, format!("`{text}` is listed twice")))
-                }
-                Some(s) => diags.push(
-                    Diagnostic::new("duplicate alternative", a.span, format!("`{text}` is the same value as `{s}`"))
-                        .with_help("alternatives are compared as values: two spellings of one number would run one specification twice"),
-                ),
-                None => seen.push(text),
-            }
-        }
+        duplicate_alternatives(&c.node.alternatives, diags);
         let alternatives = c.node.alternatives.iter().map(|a| a.node.text().to_string()).collect();
         out.push((Choice { setting: name.node.clone(), alternatives, role }, c.clone()));
     }
@@ -293,7 +269,53 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
     alternative_kinds(&out, diags);
     declared_elsewhere(ast, &out, diags);
     let primary = primary_values(&out, primary_stmt, span, diags);
-    let combine = match combine.map(|c| c.node) {
+    let combine = combination(combine, diags);
+    if diags.len() > before {
+        return None;
+    }
+    Some(Declared { choices: out, primary: primary?, combine })
+}
+
+/// A design without choices: a `primary specification` (at `primary`)
+/// or a combination other than `in primary` has nothing to refer to.
+fn no_choices(primary: Option<Span>, combine: Option<Spanned<CombineAst>>, diags: &mut Vec<Diagnostic>) {
+    if let Some(span) = primary {
+        diags.push(
+            Diagnostic::new("no choices", span, "a primary specification needs a `choices { ... }` block")
+                .with_help("declare the open choices, or drop `primary specification`"),
+        );
+    }
+    if let Some(c) = combine.filter(|c| c.node != CombineAst::Primary) {
+        diags.push(
+            Diagnostic::new("no choices", c.span, "there is one specification to decide in")
+                .with_help("declare the open choices with `choices { ... }`, or drop this clause"),
+        );
+    }
+}
+
+/// A choice's alternatives compared as values: one listed twice, or two
+/// spellings of one number, is refused.
+fn duplicate_alternatives(alternatives: &[Spanned<Alternative>], diags: &mut Vec<Diagnostic>) {
+    let mut seen: Vec<&str> = Vec::new();
+    for a in alternatives {
+        let text = a.node.text();
+        match seen.iter().find(|s| same_value(s, text)) {
+            Some(s) if *s == text => {
+                diags.push(Diagnostic::new("duplicate alternative", a.span, format!("`{text}` is listed twice")))
+            }
+            Some(s) => diags.push(
+                Diagnostic::new("duplicate alternative", a.span, format!("`{text}` is the same value as `{s}`"))
+                    .with_help("alternatives are compared as values: two spellings of one number would run one specification twice"),
+            ),
+            None => seen.push(text),
+        }
+    }
+}
+
+/// The decision's combination over specifications (`in primary` when none
+/// is given); a share outside (0, 100]% is refused.
+fn combination(combine: Option<Spanned<CombineAst>>, diags: &mut Vec<Diagnostic>) -> Combine {
+    match combine.map(|c| c.node) {
         None | Some(CombineAst::Primary) => Combine::Primary,
         Some(CombineAst::Every) => Combine::Every,
         Some(CombineAst::AtLeast(p)) => {
@@ -306,11 +328,7 @@ pub(super) fn declared(ast: &Ast, diags: &mut Vec<Diagnostic>) -> Option<Declare
             }
             Combine::AtLeast(p.node)
         }
-    };
-    if diags.len() > before {
-        return None;
     }
-    Some(Declared { choices: out, primary: primary?, combine })
 }
 
 /// A setting that is a choice must not also be written in the design.
