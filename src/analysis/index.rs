@@ -47,6 +47,32 @@ impl<'a> Indexed<'a> {
         Some(self.slot(*self.recordings.get(recording)?, m, a, h, 0))
     }
 
+    /// A row's model, arm, seed and horizon as positions in the plan's
+    /// lists; a name the plan does not declare is refused.
+    fn positions(&self, plan: &Plan, c: &Cell) -> Result<(usize, usize, usize, usize), AnalysisError> {
+        let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign {
+            line: c.line,
+            field,
+            value,
+            known,
+        };
+        let Some(m) = self.models.iter().position(|x| *x == c.model) else {
+            return Err(not_in("model", c.model.to_string(), format!("models: {}", self.models.join(", "))));
+        };
+        let Some(a) = self.arms.iter().position(|x| *x == c.arm) else {
+            return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", self.arms.join(", "))));
+        };
+        let Some(&s) = self.seeds.get(&c.seed) else {
+            let (a, b) = (plan.seeds[0].0, plan.seeds[plan.seeds.len() - 1].0);
+            return Err(not_in("seed", c.seed.to_string(), format!("{} seeds, {a}..{b}", plan.seeds.len())));
+        };
+        let Some(h) = self.horizons.iter().position(|&h| same_horizon(h, c.horizon_s)) else {
+            let known = self.horizons.iter().map(|h| format!("{h} s")).collect::<Vec<_>>().join(", ");
+            return Err(not_in("horizon_s", c.horizon_s.to_string(), format!("endpoint horizons: {known}")));
+        };
+        Ok((m, a, s, h))
+    }
+
     /// The cell at these names, if the data has it.
     pub(crate) fn find(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> Option<&'a Cell> {
         let first = self.seeds_of(model, arm, recording, h)?;
@@ -81,26 +107,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     // Per recording: its labels and the line that first gave them.
     let mut labels: Vec<(&'a str, &'a str, u64)> = Vec::new();
     for (row, c) in cells.iter().enumerate() {
-        let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign {
-            line: c.line,
-            field,
-            value,
-            known,
-        };
-        let Some(m) = out.models.iter().position(|x| *x == c.model) else {
-            return Err(not_in("model", c.model.to_string(), format!("models: {}", out.models.join(", "))));
-        };
-        let Some(a) = out.arms.iter().position(|x| *x == c.arm) else {
-            return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", out.arms.join(", "))));
-        };
-        let Some(&s) = out.seeds.get(&c.seed) else {
-            let (a, b) = (plan.seeds[0].0, plan.seeds[plan.seeds.len() - 1].0);
-            return Err(not_in("seed", c.seed.to_string(), format!("{} seeds, {a}..{b}", plan.seeds.len())));
-        };
-        let Some(h) = out.horizons.iter().position(|&h| same_horizon(h, c.horizon_s)) else {
-            let known = out.horizons.iter().map(|h| format!("{h} s")).collect::<Vec<_>>().join(", ");
-            return Err(not_in("horizon_s", c.horizon_s.to_string(), format!("endpoint horizons: {known}")));
-        };
+        let (m, a, s, h) = out.positions(plan, c)?;
         let next = out.recordings.len();
         let r = *out.recordings.entry(c.recording.as_str()).or_insert(next);
         if r == next {
