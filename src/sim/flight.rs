@@ -239,6 +239,43 @@ pub fn fly(
     (text, tr.v0, craft.vbat, n_log)
 }
 
+/// One step's noisy sensor readings: motion capture, IMU and the onboard
+/// estimate.
+struct Readings {
+    /// Motion capture: position, attitude, velocity and body rates.
+    pv: Vector3<f64>,
+    qn: UnitQuaternion<f64>,
+    vv: Vector3<f64>,
+    wv: Vector3<f64>,
+    /// IMU: specific force (in g) and gyro.
+    acc: Vector3<f64>,
+    gyro: Vector3<f64>,
+    /// The onboard estimate: position, velocity and attitude.
+    est_p: Vector3<f64>,
+    est_v: Vector3<f64>,
+    est_q: UnitQuaternion<f64>,
+}
+
+/// The sensors' readings of the craft's state, their noise drawn in a
+/// fixed order (the onboard velocity error `est_v_err` is carried from
+/// step to step).
+fn readings(craft: &Vehicle, tr: &Truth, rng: &mut ChaCha8Rng, est_v_err: &mut Vector3<f64>) -> Readings {
+    let (p, q, vel, omega, accel) = (craft.p, craft.q, craft.vel, craft.omega, craft.accel);
+    let mut noisy = |sd: f64| sd * normal(rng);
+    let pv = p + tr.pos_bias + Vector3::new(noisy(5e-4), noisy(5e-4), noisy(5e-4));
+    let qn = q * UnitQuaternion::from_scaled_axis(Vector3::new(noisy(2e-3), noisy(2e-3), noisy(2e-3)));
+    let vv = vel + Vector3::new(noisy(0.01), noisy(0.01), noisy(0.01));
+    let wv = omega + Vector3::new(noisy(0.02), noisy(0.02), noisy(0.02));
+    let specific = q.inverse() * (accel + Vector3::new(0.0, 0.0, G)) / G;
+    let acc = specific + Vector3::new(noisy(0.01), noisy(0.01), noisy(0.01));
+    let gyro = omega + tr.gyro_bias + Vector3::new(noisy(0.005), noisy(0.005), noisy(0.005));
+    let est_p = p + Vector3::new(noisy(2e-3), noisy(2e-3), noisy(2e-3));
+    *est_v_err = *est_v_err * 0.95 + Vector3::new(noisy(0.004), noisy(0.004), noisy(0.004));
+    let est_v = vel + *est_v_err;
+    let est_q = q * UnitQuaternion::from_scaled_axis(Vector3::new(noisy(5e-3), noisy(5e-3), noisy(5e-3)));
+    Readings { pv, qn, vv, wv, acc, gyro, est_p, est_v, est_q }
+}
+
 /// The 52 logged columns of one row: noisy motion capture, IMU, onboard
 /// estimate, setpoint, controller output and battery.
 fn sense(
@@ -250,20 +287,9 @@ fn sense(
     t: f64,
     logged_v: f64,
 ) -> [f64; 52] {
-    let (p, q, vel, omega, accel) = (craft.p, craft.q, craft.vel, craft.omega, craft.accel);
-    let mut noisy = |sd: f64| sd * normal(rng);
-    let pv = p + tr.pos_bias + Vector3::new(noisy(5e-4), noisy(5e-4), noisy(5e-4));
-    let qn = q * UnitQuaternion::from_scaled_axis(Vector3::new(noisy(2e-3), noisy(2e-3), noisy(2e-3)));
+    let Readings { pv, qn, vv, wv, acc, gyro, est_p, est_v, est_q } = readings(craft, tr, rng, est_v_err);
+    let accel = craft.accel;
     let (roll, pitch, yaw) = qn.euler_angles();
-    let vv = vel + Vector3::new(noisy(0.01), noisy(0.01), noisy(0.01));
-    let wv = omega + Vector3::new(noisy(0.02), noisy(0.02), noisy(0.02));
-    let specific = q.inverse() * (accel + Vector3::new(0.0, 0.0, G)) / G;
-    let acc = specific + Vector3::new(noisy(0.01), noisy(0.01), noisy(0.01));
-    let gyro = omega + tr.gyro_bias + Vector3::new(noisy(0.005), noisy(0.005), noisy(0.005));
-    let est_p = p + Vector3::new(noisy(2e-3), noisy(2e-3), noisy(2e-3));
-    *est_v_err = *est_v_err * 0.95 + Vector3::new(noisy(0.004), noisy(0.004), noisy(0.004));
-    let est_v = vel + *est_v_err;
-    let est_q = q * UnitQuaternion::from_scaled_axis(Vector3::new(noisy(5e-3), noisy(5e-3), noisy(5e-3)));
     let (er, ep, ey) = est_q.euler_angles();
     let qv = qn.quaternion();
     let eq = est_q.quaternion();
