@@ -51,6 +51,45 @@ pub fn read_table(
     let names: Vec<String> = header.iter().map(String::from).collect();
     let line_of = |r: &csv::StringRecord| r.position().map_or(0, |p| p.line() as usize);
     let header_line = line_of(&header);
+    let (rec, trajectory, speed) = condition_columns(path, header_line, &names, columns, folder)?;
+    let mut out: BTreeMap<String, (Conditions, usize)> = BTreeMap::new();
+    for record in records {
+        let fields = record.map_err(bad)?;
+        let line = line_of(&fields);
+        if fields.len() != names.len() {
+            return Err(format!("{file}: line {line}: {} fields, the header has {}", fields.len(), names.len()));
+        }
+        let value = |c: Option<usize>, what: &str| -> Result<Option<String>, String> {
+            match c.map(|c| &fields[c]) {
+                Some("") => Err(format!("{file}: line {line}, column `{what}`: empty")),
+                Some(v) if v.chars().any(char::is_control) => Err(format!(
+                    "{file}: line {line}, column `{what}`: {:?} holds a control character, which no name may",
+                    v
+                )),
+                other => Ok(other.map(String::from)),
+            }
+        };
+        let name = value(Some(rec), "recording")?.unwrap_or_default();
+        let conditions = Conditions { trajectory: value(trajectory, "trajectory")?, speed: value(speed, "speed")? };
+        if let Some((_, first)) = out.insert(name.clone(), (conditions, line)) {
+            return Err(format!("{file}: line {line}: recording `{name}` is listed again (first on line {first})"));
+        }
+    }
+    Ok(out.into_iter().map(|(k, (c, _))| (k, c)).collect())
+}
+
+/// The table's recording, trajectory and speed columns, found by name in
+/// the header (or by the design's `columns ROLE = NAME`): each header name
+/// once, a recording column, a trajectory or a speed column, and none that
+/// the folder (`conditions folder`) gives too.
+fn condition_columns(
+    path: &Path,
+    header_line: usize,
+    names: &[String],
+    columns: &BTreeMap<String, String>,
+    folder: Option<crate::design::Condition>,
+) -> Result<(usize, Option<usize>, Option<usize>), String> {
+    let file = path.display();
     for (k, n) in names.iter().enumerate() {
         if let Some(first) = names[..k].iter().position(|m| m == n) {
             return Err(format!(
@@ -103,30 +142,7 @@ pub fn read_table(
             "{file}: line {header_line}: the conditions table needs a `trajectory` or a `speed` column (it has: {has}); map one of another name with `columns speed = NAME`"
         ));
     }
-    let mut out: BTreeMap<String, (Conditions, usize)> = BTreeMap::new();
-    for record in records {
-        let fields = record.map_err(bad)?;
-        let line = line_of(&fields);
-        if fields.len() != names.len() {
-            return Err(format!("{file}: line {line}: {} fields, the header has {}", fields.len(), names.len()));
-        }
-        let value = |c: Option<usize>, what: &str| -> Result<Option<String>, String> {
-            match c.map(|c| &fields[c]) {
-                Some("") => Err(format!("{file}: line {line}, column `{what}`: empty")),
-                Some(v) if v.chars().any(char::is_control) => Err(format!(
-                    "{file}: line {line}, column `{what}`: {:?} holds a control character, which no name may",
-                    v
-                )),
-                other => Ok(other.map(String::from)),
-            }
-        };
-        let name = value(Some(rec), "recording")?.unwrap_or_default();
-        let conditions = Conditions { trajectory: value(trajectory, "trajectory")?, speed: value(speed, "speed")? };
-        if let Some((_, first)) = out.insert(name.clone(), (conditions, line)) {
-            return Err(format!("{file}: line {line}: recording `{name}` is listed again (first on line {first})"));
-        }
-    }
-    Ok(out.into_iter().map(|(k, (c, _))| (k, c)).collect())
+    Ok((rec, trajectory, speed))
 }
 
 /// Sets each file's trajectory, speed (and, from a pattern, repetition)
@@ -139,62 +155,15 @@ pub(super) fn apply(
     files: &mut [super::FileRow],
     table: Option<&(BTreeMap<String, Conditions>, std::path::PathBuf)>,
 ) -> Result<(), super::AuditError> {
-    use super::AuditError;
     if let Some(pattern) = spec.format.as_ref().and_then(|f| f.conditions_name.as_ref()) {
-        let parsed = crate::design::NamePattern::parse(pattern).map_err(AuditError::Layout)?;
-        let unmatched: Vec<&str> =
-            files.iter().filter(|f| parsed.conditions(&f.name).is_none()).map(|f| f.file.as_str()).collect();
-        if !unmatched.is_empty() {
-            return Err(AuditError::Layout(format!(
-                "{}: the conditions pattern \"{pattern}\" does not match {} recording file name(s): {}",
-                dir.display(),
-                unmatched.len(),
-                crate::io::excerpt(&unmatched.join(", "), 600)
-            )));
-        }
-        for f in files.iter_mut() {
-            let c = parsed.conditions(&f.name).unwrap_or_default();
-            f.trajectory = c.trajectory.unwrap_or_else(|| f.trajectory.clone());
-            f.speed = c.speed.unwrap_or_else(|| f.speed.clone());
-            f.repetition = c.repetition.or(f.repetition);
-        }
+        from_pattern(pattern, dir, files)?;
     }
     if let Some((table, path)) = table {
-        let unlisted: Vec<&str> =
-            files.iter().filter(|f| !table.contains_key(&f.name)).map(|f| f.file.as_str()).collect();
-        if !unlisted.is_empty() {
-            return Err(AuditError::Layout(format!(
-                "{}: the conditions table has no row for {} recording file(s): {}",
-                path.display(),
-                unlisted.len(),
-                crate::io::excerpt(&unlisted.join(", "), 600)
-            )));
-        }
-        for f in files.iter_mut() {
-            let c = &table[&f.name];
-            f.trajectory = c.trajectory.clone().unwrap_or_else(|| f.trajectory.clone());
-            f.speed = c.speed.clone().unwrap_or_else(|| f.speed.clone());
-        }
+        from_table(table, path, files)?;
     }
     let folder = spec.format.as_ref().and_then(|f| f.conditions_folder);
     if let Some(c) = folder {
-        // The first folder of the path below the data folder.
-        if let Some(f) = files.iter().find(|f| !f.file.contains('/')) {
-            return Err(AuditError::Layout(format!(
-                "{}: {} sits in no folder, and `conditions folder {}` takes each recording's {} from the folder it sits in; move it into one",
-                dir.display(),
-                f.file,
-                c.name(),
-                c.name()
-            )));
-        }
-        for f in files.iter_mut() {
-            let first = f.file.split('/').next().unwrap_or_default().to_string();
-            match c {
-                crate::design::Condition::Trajectory => f.trajectory = first,
-                crate::design::Condition::Speed => f.speed = first,
-            }
-        }
+        from_folder(c, dir, files)?;
     }
     if table.is_some() || spec.format.as_ref().is_some_and(|f| f.conditions_name.is_some()) || folder.is_some() {
         // A table's or a pattern's speed must be one the design's speed rule
@@ -206,12 +175,85 @@ pub(super) fn apply(
                 (Some((_, path)), _) => format!("{}: the conditions table", path.display()),
                 (None, _) => format!("{}: the conditions pattern", dir.display()),
             };
-            return Err(AuditError::Layout(format!(
+            return Err(super::AuditError::Layout(format!(
                 "{source} gives {} the speed `{}`, which the data block's speed rule cannot give (known: {}); use those labels, or trajectory only",
                 f.file,
                 f.speed,
                 labels.join(", ")
             )));
+        }
+    }
+    Ok(())
+}
+
+/// Each file's trajectory, speed and repetition from the design's
+/// `conditions name` pattern, which must match every file name.
+fn from_pattern(pattern: &str, dir: &Path, files: &mut [super::FileRow]) -> Result<(), super::AuditError> {
+    use super::AuditError;
+    let parsed = crate::design::NamePattern::parse(pattern).map_err(AuditError::Layout)?;
+    let unmatched: Vec<&str> =
+        files.iter().filter(|f| parsed.conditions(&f.name).is_none()).map(|f| f.file.as_str()).collect();
+    if !unmatched.is_empty() {
+        return Err(AuditError::Layout(format!(
+            "{}: the conditions pattern \"{pattern}\" does not match {} recording file name(s): {}",
+            dir.display(),
+            unmatched.len(),
+            crate::io::excerpt(&unmatched.join(", "), 600)
+        )));
+    }
+    for f in files.iter_mut() {
+        let c = parsed.conditions(&f.name).unwrap_or_default();
+        f.trajectory = c.trajectory.unwrap_or_else(|| f.trajectory.clone());
+        f.speed = c.speed.unwrap_or_else(|| f.speed.clone());
+        f.repetition = c.repetition.or(f.repetition);
+    }
+    Ok(())
+}
+
+/// Each file's trajectory and speed from the conditions table (read from
+/// `path`), which must have a row for every file.
+fn from_table(
+    table: &BTreeMap<String, Conditions>,
+    path: &Path,
+    files: &mut [super::FileRow],
+) -> Result<(), super::AuditError> {
+    use super::AuditError;
+    let unlisted: Vec<&str> = files.iter().filter(|f| !table.contains_key(&f.name)).map(|f| f.file.as_str()).collect();
+    if !unlisted.is_empty() {
+        return Err(AuditError::Layout(format!(
+            "{}: the conditions table has no row for {} recording file(s): {}",
+            path.display(),
+            unlisted.len(),
+            crate::io::excerpt(&unlisted.join(", "), 600)
+        )));
+    }
+    for f in files.iter_mut() {
+        let c = &table[&f.name];
+        f.trajectory = c.trajectory.clone().unwrap_or_else(|| f.trajectory.clone());
+        f.speed = c.speed.clone().unwrap_or_else(|| f.speed.clone());
+    }
+    Ok(())
+}
+
+/// Each file's trajectory or speed (`c`) from the first folder of its path
+/// below the data folder `dir`; a file in no folder is refused.
+fn from_folder(c: crate::design::Condition, dir: &Path, files: &mut [super::FileRow]) -> Result<(), super::AuditError> {
+    use super::AuditError;
+    // The first folder of the path below the data folder.
+    if let Some(f) = files.iter().find(|f| !f.file.contains('/')) {
+        return Err(AuditError::Layout(format!(
+            "{}: {} sits in no folder, and `conditions folder {}` takes each recording's {} from the folder it sits in; move it into one",
+            dir.display(),
+            f.file,
+            c.name(),
+            c.name()
+        )));
+    }
+    for f in files.iter_mut() {
+        let first = f.file.split('/').next().unwrap_or_default().to_string();
+        match c {
+            crate::design::Condition::Trajectory => f.trajectory = first,
+            crate::design::Condition::Speed => f.speed = first,
         }
     }
     Ok(())

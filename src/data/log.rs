@@ -192,29 +192,7 @@ pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: Options) -
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(LogError::Empty { file: file.to_string() });
     }
-    let (header_end, names, keep, time, check_all) = match schema {
-        Schema::Nanobench(keep) => {
-            let end = check_header(file, bytes)?;
-            (end, NANOBENCH_COLUMNS.iter().map(|c| c.to_string()).collect(), keep.clone(), Some(0), true)
-        }
-        Schema::Named { columns, time } => {
-            let (end, names) = read_header(file, bytes)?;
-            let find = |want: &String| -> Result<usize, LogError> {
-                let mut at = names.iter().enumerate().filter(|(_, n)| *n == want).map(|(k, _)| k);
-                match (at.next(), at.next()) {
-                    (Some(k), None) => Ok(k),
-                    (first, _) => Err(LogError::MissingColumn {
-                        file: file.to_string(),
-                        column: want.clone(),
-                        found: if first.is_some() { "twice".into() } else { header_excerpt(&names) },
-                    }),
-                }
-            };
-            let keep = columns.iter().map(find).collect::<Result<Vec<_>, _>>()?;
-            let time = time.as_ref().map(find).transpose()?;
-            (end, names, keep, time, false)
-        }
-    };
+    let Header { end: header_end, names, keep, time, check_all } = header(file, bytes, schema)?;
     let body = bytes.get(header_end + 1..).unwrap_or(&[]);
     let n = names.len();
     // Positions of each schema column in `keep` (a column may be kept
@@ -273,6 +251,49 @@ pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: Options) -
     }
     let content_hash = format!("{:032x}", xxhash_rust::xxh3::xxh3_128(body));
     Ok(Log { rows, columns: t.columns, content_hash, row_hashes, blank_before })
+}
+
+/// What a log's header gives the parser under a schema.
+struct Header {
+    /// Where the header line ends.
+    end: usize,
+    /// Every column's name.
+    names: Vec<String>,
+    /// The columns read, in the order wanted.
+    keep: Vec<usize>,
+    /// The time column.
+    time: Option<usize>,
+    /// Whether columns not read are checked as numbers too (NanoBench).
+    check_all: bool,
+}
+
+/// The header of a log, read as the schema says: NanoBench's exact
+/// header, or any header holding the named columns once each.
+fn header(file: &str, bytes: &[u8], schema: &Schema) -> Result<Header, LogError> {
+    Ok(match schema {
+        Schema::Nanobench(keep) => {
+            let end = check_header(file, bytes)?;
+            let names = NANOBENCH_COLUMNS.iter().map(|c| c.to_string()).collect();
+            Header { end, names, keep: keep.clone(), time: Some(0), check_all: true }
+        }
+        Schema::Named { columns, time } => {
+            let (end, names) = read_header(file, bytes)?;
+            let find = |want: &String| -> Result<usize, LogError> {
+                let mut at = names.iter().enumerate().filter(|(_, n)| *n == want).map(|(k, _)| k);
+                match (at.next(), at.next()) {
+                    (Some(k), None) => Ok(k),
+                    (first, _) => Err(LogError::MissingColumn {
+                        file: file.to_string(),
+                        column: want.clone(),
+                        found: if first.is_some() { "twice".into() } else { header_excerpt(&names) },
+                    }),
+                }
+            };
+            let keep = columns.iter().map(find).collect::<Result<Vec<_>, _>>()?;
+            let time = time.as_ref().map(find).transpose()?;
+            Header { end, names, keep, time, check_all: false }
+        }
+    })
 }
 
 /// The header of a log of any schema: where it ends, and its names

@@ -102,6 +102,46 @@ impl Audit {
             let failed = self.files.iter().filter(|f| f.verdicts.get(k).is_some_and(|v| !v.pass)).count();
             let _ = writeln!(s, "rule {}: {r}: {failed} file(s) fail", k + 1);
         }
+        self.condition_table(&mut s);
+        if let Some(tolerance) = self.quaternion_tolerance {
+            let largest = self
+                .included()
+                .filter_map(|f| f.quaternion_deviation.map(|d| (d, f.name.as_str())))
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((d, name)) = largest {
+                let _ = writeln!(
+                    s,
+                    "\nquaternion lengths (`norm within {tolerance}`): largest deviation from 1 among included recordings {d:.4} ({name}); every row renormalised"
+                );
+            }
+        }
+        let noted = self.files.iter().filter(|f| f.reason.contains("note: ")).count();
+        if noted > 0 {
+            let _ = writeln!(s, "\n{noted} file(s) carry a note in recordings.csv (metadata disagreeing with the file name, unreadable metadata)");
+        }
+        let excluded: Vec<&FileRow> = self.files.iter().filter(|f| f.status != Status::Included).collect();
+        if !excluded.is_empty() {
+            let _ = writeln!(s, "\nexcluded or missing:");
+            for f in excluded {
+                let _ = writeln!(s, "  {}: {}", f.name, f.reason);
+            }
+        }
+        self.tails_section(&mut s);
+        if !self.duplicate_groups.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nduplicate groups (identical content; policy `{}`):",
+                format!("{:?}", self.duplicates).to_lowercase()
+            );
+            for (id, names) in &self.duplicate_groups {
+                let _ = writeln!(s, "  {id}: {}", names.join(", "));
+            }
+        }
+        s
+    }
+
+    /// The summary's table of included recordings by trajectory x speed.
+    fn condition_table(&self, s: &mut String) {
         let _ = writeln!(s, "\nincluded recordings by trajectory x speed:");
         let mut table: BTreeMap<(String, String), usize> = BTreeMap::new();
         for f in self.included() {
@@ -129,29 +169,10 @@ impl Audit {
                 counts.iter().sum::<usize>()
             );
         }
-        if let Some(tolerance) = self.quaternion_tolerance {
-            let largest = self
-                .included()
-                .filter_map(|f| f.quaternion_deviation.map(|d| (d, f.name.as_str())))
-                .max_by(|a, b| a.0.total_cmp(&b.0));
-            if let Some((d, name)) = largest {
-                let _ = writeln!(
-                    s,
-                    "\nquaternion lengths (`norm within {tolerance}`): largest deviation from 1 among included recordings {d:.4} ({name}); every row renormalised"
-                );
-            }
-        }
-        let noted = self.files.iter().filter(|f| f.reason.contains("note: ")).count();
-        if noted > 0 {
-            let _ = writeln!(s, "\n{noted} file(s) carry a note in recordings.csv (metadata disagreeing with the file name, unreadable metadata)");
-        }
-        let excluded: Vec<&FileRow> = self.files.iter().filter(|f| f.status != Status::Included).collect();
-        if !excluded.is_empty() {
-            let _ = writeln!(s, "\nexcluded or missing:");
-            for f in excluded {
-                let _ = writeln!(s, "  {}: {}", f.name, f.reason);
-            }
-        }
+    }
+
+    /// The summary's list of extrapolated onboard tails, when any file has one.
+    fn tails_section(&self, s: &mut String) {
         let tails: Vec<&FileRow> = self.files.iter().filter(|f| f.tail.is_some()).collect();
         if !tails.is_empty() {
             let policy = format!("{:?}", self.tails).to_lowercase();
@@ -173,17 +194,6 @@ impl Audit {
                 );
             }
         }
-        if !self.duplicate_groups.is_empty() {
-            let _ = writeln!(
-                s,
-                "\nduplicate groups (identical content; policy `{}`):",
-                format!("{:?}", self.duplicates).to_lowercase()
-            );
-            for (id, names) in &self.duplicate_groups {
-                let _ = writeln!(s, "  {id}: {}", names.join(", "));
-            }
-        }
-        s
     }
 
     /// Writes recordings.csv (atomically) into `dir`.
