@@ -285,6 +285,28 @@ impl Prepared {
 }
 
 impl Prepared {
+    /// The error of a gather with unfinished tasks (`todo`, by array
+    /// index): each task with the last line of its Slurm log.
+    fn jobs_missing(&self, dir: &Path, todo: &[usize]) -> RunError {
+        let jobs = self.jobs();
+        let logs = dir.join(SLURM_DIR).join("logs");
+        let mut list = String::new();
+        for &index in todo {
+            let (k, job) = jobs[index];
+            let log = logs.join(format!("task-{index}.out"));
+            let last = std::fs::read_to_string(&log).ok().and_then(|t| {
+                t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())
+            });
+            let status = match last {
+                Some(line) => format!("Slurm log {} (last line: {line})", log.display()),
+                None if log.exists() => format!("Slurm log {} (empty)", log.display()),
+                None => format!("no Slurm log at {}: the task never started", log.display()),
+            };
+            writeln!(list, "  task {index} ({}): {status}", self.parts[k].0.label(job)).ok();
+        }
+        RunError::JobsMissing { dir: dir.display().to_string(), missing: todo.len(), jobs: jobs.len(), list }
+    }
+
     /// The design's lock state now: the design copy (with the files it
     /// refers to) against the lock beside the original design.
     fn lock_now(&self) -> Result<LockStatus, RunError> {
@@ -442,30 +464,9 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let started = std::time::Instant::now();
     let p = reopen(dir)?;
     let (todo, builds) = unfinished(p.parts.iter().map(|(part, _)| part))?;
-    let jobs = p.jobs();
-    let total_jobs = jobs.len();
+    let total_jobs = p.jobs().len();
     if !todo.is_empty() {
-        let logs = dir.join(SLURM_DIR).join("logs");
-        let mut list = String::new();
-        for &index in &todo {
-            let (k, job) = jobs[index];
-            let log = logs.join(format!("task-{index}.out"));
-            let last = std::fs::read_to_string(&log).ok().and_then(|t| {
-                t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())
-            });
-            let status = match last {
-                Some(line) => format!("Slurm log {} (last line: {line})", log.display()),
-                None if log.exists() => format!("Slurm log {} (empty)", log.display()),
-                None => format!("no Slurm log at {}: the task never started", log.display()),
-            };
-            writeln!(list, "  task {index} ({}): {status}", p.parts[k].0.label(job)).ok();
-        }
-        return Err(RunError::JobsMissing {
-            dir: dir.display().to_string(),
-            missing: todo.len(),
-            jobs: jobs.len(),
-            list,
-        });
+        return Err(p.jobs_missing(dir, &todo));
     }
     // Each run directory is finished as a local run finishes it; a
     // multi-split study then pools its splits, as a local run does.
