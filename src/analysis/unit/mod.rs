@@ -295,23 +295,7 @@ impl Ctx<'_> {
         } else {
             None
         };
-        let mut leave_one_out = Vec::new();
-        for &f in &self.plan.sensitivity.leave_one_out {
-            let (n, noun) = match f {
-                Factor::Seed => (a.diff.cols, "seeds"),
-                Factor::Recording => (a.diff.rows, "recordings"),
-            };
-            if n < 3 {
-                // A sensitivity that cannot run does not stop the primary
-                // analysis: it is skipped, and the report says why.
-                let one = noun.trim_end_matches('s');
-                warnings.push(format!(
-                    "{label}: leave-one-{one}-out skipped: it needs at least 3 {noun} (each fit leaves one out and a crossed estimate needs 2), found {n}"
-                ));
-                continue;
-            }
-            leave_one_out.push(self.leave_one_out(&a, complete.as_ref(), f).map_err(stats)?);
-        }
+        let leave_one_out = self.leave_one_out_all(&a, complete.as_ref(), &label, warnings)?;
         let per_seed_optimism = self
             .plan
             .seeds
@@ -409,6 +393,36 @@ impl Ctx<'_> {
             }
         };
         Ok(Some(GroupedResult { groups, recordings_per_group: per_group, estimate }))
+    }
+
+    /// The design's leave-one-out sensitivities, each factor's in turn; one
+    /// with fewer than 3 levels is skipped with a warning.
+    fn leave_one_out_all(
+        &self,
+        a: &ArmArrays,
+        complete: Option<&CrossedMatrix>,
+        label: &str,
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<LeaveOneOut>, AnalysisError> {
+        let mut out = Vec::new();
+        for &f in &self.plan.sensitivity.leave_one_out {
+            let (n, noun) = match f {
+                Factor::Seed => (a.diff.cols, "seeds"),
+                Factor::Recording => (a.diff.rows, "recordings"),
+            };
+            if n < 3 {
+                // A sensitivity that cannot run does not stop the primary
+                // analysis: it is skipped, and the report says why.
+                let one = noun.trim_end_matches('s');
+                warnings.push(format!(
+                    "{label}: leave-one-{one}-out skipped: it needs at least 3 {noun} (each fit leaves one out and a crossed estimate needs 2), found {n}"
+                ));
+                continue;
+            }
+            let fit = self.leave_one_out(a, complete, f);
+            out.push(fit.map_err(|source| AnalysisError::Stats { unit: label.to_string(), source })?);
+        }
+        Ok(out)
     }
 
     /// Every fit with one recording (or seed) left out. The crossed MoM on
