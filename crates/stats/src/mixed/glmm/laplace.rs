@@ -22,9 +22,9 @@
 //! up to about 1e-8 of the objective (grouseticks, whose observation-level
 //! effects make the mode's last digits slow to settle).
 
-use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
+use faer::Mat;
 
+use super::reduced::Reduced;
 use super::Family;
 use crate::mixed::slopes::structure::Structure;
 use crate::mixed::MixedError;
@@ -108,28 +108,25 @@ impl Model {
         let mut eta = eta_at(&u);
         let mut value = self.penalized(&eta, &u);
         let not_pd = || MixedError::NotPositiveDefinite { theta: theta.to_vec() };
-        let system = |eta: &[f64]| -> (Mat<f64>, Vec<f64>) {
-            let mut a = Mat::<f64>::identity(q, q);
+        let n1 = self.structure.first_intercept_levels();
+        let weights = |eta: &[f64]| -> (Vec<f64>, Vec<f64>) {
+            let mut w = vec![0.0; n];
             let mut score = vec![0.0; q];
             for i in 0..n {
-                let (w, r, _) = self.observation(i, eta[i]);
-                for &(ja, va) in &zl[i] {
-                    score[ja] += r * va;
-                    for &(jb, vb) in &zl[i] {
-                        if jb <= ja {
-                            a[(ja, jb)] += w * va * vb;
-                        }
-                    }
+                let (wi, r, _) = self.observation(i, eta[i]);
+                w[i] = wi;
+                for &(j, v) in &zl[i] {
+                    score[j] += r * v;
                 }
             }
-            (a, score)
+            (w, score)
         };
         for _ in 0..100 {
-            let (a, score) = system(&eta);
-            let rhs = Mat::<f64>::from_fn(q, 1, |j, _| score[j] - u[j]);
-            let llt = a.llt(Side::Lower).map_err(|_| not_pd())?;
-            let delta = llt.solve(&rhs);
-            let decrement: f64 = (0..q).map(|j| delta[(j, 0)] * rhs[(j, 0)]).sum();
+            let (w, score) = weights(&eta);
+            let rhs: Vec<f64> = (0..q).map(|j| score[j] - u[j]).collect();
+            let system = Reduced::new(&zl, &w, q, n1, None).ok_or_else(not_pd)?;
+            let delta = system.solve(&rhs);
+            let decrement: f64 = delta.iter().zip(&rhs).map(|(a, b)| a * b).sum();
             if !decrement.is_finite() {
                 return Err(not_pd());
             }
@@ -141,7 +138,7 @@ impl Model {
             let mut scale = 1.0;
             let mut moved = false;
             for _ in 0..30 {
-                let trial: Vec<f64> = (0..q).map(|j| u[j] + scale * delta[(j, 0)]).collect();
+                let trial: Vec<f64> = (0..q).map(|j| u[j] + scale * delta[j]).collect();
                 let trial_eta = eta_at(&trial);
                 let trial_value = self.penalized(&trial_eta, &trial);
                 if trial_value <= value {
@@ -155,43 +152,19 @@ impl Model {
                 break;
             }
         }
-        let (a, _) = system(&eta);
-        let llt = a.llt(Side::Lower).map_err(|_| not_pd())?;
-        let l = llt.L();
-        let log_det: f64 = (0..q).map(|j| 2.0 * l[(j, j)].ln()).sum();
+        let (w, _) = weights(&eta);
+        let log_det = Reduced::new(&zl, &w, q, n1, None).ok_or_else(not_pd)?.log_det(q);
         let objective = value + log_det;
         if !objective.is_finite() {
             return Err(not_pd());
         }
-        let rx_vcov = if vcov { Some(self.rx_vcov(&zl, &eta, &a)?) } else { None };
+        let rx_vcov = if vcov {
+            let bordered = Reduced::new(&zl, &w, q, n1, Some((&self.x, p)));
+            let bordered = bordered.ok_or_else(|| MixedError::FixedEffects("X'WX is singular at the mode".into()))?;
+            Some(bordered.rx_vcov(p))
+        } else {
+            None
+        };
         Ok(Laplace { objective, rx_vcov })
-    }
-
-    /// (R_X'R_X)^-1: the inverse of X'WX - X'WZ Lambda A^-1 Lambda'Z'WX.
-    fn rx_vcov(&self, zl: &[Vec<(usize, f64)>], eta: &[f64], a: &Mat<f64>) -> Result<Mat<f64>, MixedError> {
-        let (n, q, p) = (self.n, self.structure.q, self.p);
-        let mut full = Mat::<f64>::zeros(q + p, q + p);
-        for r in 0..q {
-            for c in 0..=r {
-                full[(r, c)] = a[(r, c)];
-            }
-        }
-        for i in 0..n {
-            let w = self.observation(i, eta[i]).0;
-            let xi = &self.x[i * p..(i + 1) * p];
-            for (c, xc) in xi.iter().enumerate() {
-                for &(j, v) in &zl[i] {
-                    full[(q + c, j)] += w * xc * v;
-                }
-                for d in 0..=c {
-                    full[(q + c, q + d)] += w * xc * xi[d];
-                }
-            }
-        }
-        let llt = full.llt(Side::Lower).map_err(|_| MixedError::FixedEffects("X'WX is singular at the mode".into()))?;
-        let lx = llt.L().submatrix(q, q, p, p).to_owned();
-        let mut w = Mat::<f64>::identity(p, p);
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(lx.as_ref(), w.as_mut(), faer::Par::Seq);
-        Ok(w.transpose() * &w)
     }
 }

@@ -20,6 +20,7 @@
 //! beside it. Wald z tests use the first.
 
 mod laplace;
+mod reduced;
 
 use faer::linalg::solvers::Solve;
 use serde::Serialize;

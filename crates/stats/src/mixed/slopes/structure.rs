@@ -145,6 +145,15 @@ impl Structure {
             .collect()
     }
 
+    /// The levels of the first term when it is a random intercept (one
+    /// column: its block of Lambda'Z'WZ Lambda is diagonal), else 0.
+    pub fn first_intercept_levels(&self) -> usize {
+        match self.blocks.first() {
+            Some(&(1, _)) => self.levels(0),
+            _ => 0,
+        }
+    }
+
     /// Levels of term `b`.
     fn levels(&self, b: usize) -> usize {
         let (k, offset) = self.blocks[b];
