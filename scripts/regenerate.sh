@@ -11,6 +11,7 @@ cargo build --release --quiet
 ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
 [ -x "$ca" ] || { echo "regenerate.sh: no binary at $ca after cargo build" >&2; exit 1; }
 $ca analyze designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --out results/example --compare-intervals >/dev/null 2>&1
+$ca analyze designs/nanobench_divergence.design --cells results/nanobench_confirmatory/cells.csv --out results/nanobench_divergence >/dev/null 2>&1
 $ca coverage specs/coverage_paper.json --out results/coverage 2>/dev/null
 $ca coverage specs/coverage_decision.json --out results/coverage_decision 2>/dev/null
 $ca coverage specs/coverage_missing.json --out results/coverage_missing 2>/dev/null

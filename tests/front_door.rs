@@ -195,6 +195,17 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
         ),
         ("coverage_decision", &["coverage", "specs/coverage_decision.json", "--out"], false),
         (
+            "nanobench_divergence",
+            &[
+                "analyze",
+                "designs/nanobench_divergence.design",
+                "--cells",
+                "results/nanobench_confirmatory/cells.csv",
+                "--out",
+            ],
+            false,
+        ),
+        (
             "plan_audited",
             &[
                 "plan",

@@ -14,6 +14,7 @@ mod data;
 mod design_errors;
 mod designs;
 mod distance;
+mod divergence_glmm;
 mod draws;
 mod early_stopping;
 mod external;

@@ -377,7 +377,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         .map(|(k, ix)| ctx.interaction(ix, (all.len() + k) as u64))
         .collect::<Result<Vec<_>, _>>()?;
     // The plan's primary unit is the first.
-    let decision = decision::decide(&plan.decision, &units[0]);
+    let decision = decision::study_decision(&plan.decision, &units, &plan.contrast)?;
     if decision.holds {
         // A decision that leaving out one seed or one recording overturns
         // is fragile, whatever its interval says: say so beside it.

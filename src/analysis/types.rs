@@ -227,6 +227,70 @@ pub struct UnitResult {
     pub rule_holds: bool,
     /// Every interval estimator side by side (`--compare-intervals`).
     pub intervals: Option<Vec<IntervalEstimate>>,
+    /// The crossed binomial GLMM of the unit's diverged starts, when its
+    /// endpoint declares `glmm binomial`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glmm: Option<GlmmEndpoint>,
+}
+
+/// The crossed binomial GLMM of a divergence endpoint: each cell's
+/// diverged starts out of its starts, the arm fixed, recording, seed and
+/// recording x seed random intercepts (lme4's `glmer`, Laplace).
+#[derive(Debug, Clone, Serialize)]
+pub struct GlmmEndpoint {
+    /// The model, in lme4's formula language.
+    pub model: String,
+    /// Diverged starts and starts, treated arm.
+    pub diverged_treated: u64,
+    /// All starts, treated arm.
+    pub starts_treated: u64,
+    /// Diverged starts, reference arm.
+    pub diverged_reference: u64,
+    /// All starts, reference arm.
+    pub starts_reference: u64,
+    /// The arm's effect, when it is estimable.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimate: Option<GlmmContrast>,
+    /// Why it is not (no divergence, or every start diverged, in an arm;
+    /// or the fit failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_estimable: Option<String>,
+}
+
+/// The treated arm's effect on the odds that a rollout diverges, within
+/// recording and seed (a conditional odds ratio, not a ratio of rates).
+#[derive(Debug, Clone, Serialize)]
+pub struct GlmmContrast {
+    /// log odds ratio, treated over reference.
+    pub log_odds_ratio: f64,
+    /// Its standard error (lme4's default: the Hessian in theta and beta).
+    pub se: f64,
+    /// Wald z.
+    pub z: f64,
+    /// Two-sided p of z.
+    pub p: f64,
+    /// Wald interval of the log odds ratio at the estimate's level.
+    pub lower: f64,
+    /// Its upper bound.
+    pub upper: f64,
+    /// exp(log odds ratio).
+    pub odds_ratio: f64,
+    /// exp(lower).
+    pub odds_ratio_lower: f64,
+    /// exp(upper).
+    pub odds_ratio_upper: f64,
+    /// Standard deviation of the recordings' intercepts (log odds).
+    pub sd_recording: f64,
+    /// Of the seeds'.
+    pub sd_seed: f64,
+    /// Of the recording x seed cells'.
+    pub sd_recording_seed: f64,
+    /// -2 log-likelihood (Laplace).
+    pub deviance: f64,
+    /// Whether the optimizer certified its optimum.
+    pub certified: bool,
+    /// Whether a variance is estimated at zero.
+    pub singular: bool,
 }
 
 /// The crossed estimate after averaging recordings within condition groups.

@@ -85,6 +85,12 @@ pub struct Endpoint {
     pub cap: Meters,
     /// The models it is reported for.
     pub models: Vec<String>,
+    /// `glmm binomial` (on `divergence_rate`): the diverged starts of each
+    /// cell analysed as failures out of its starts by a crossed binomial
+    /// GLMM (arm fixed; recording, seed and recording x seed random
+    /// intercepts), beside the crossed estimate of the rate.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub glmm: bool,
 }
 
 /// `treated - reference`, e.g. contaminated - disjoint.
@@ -229,6 +235,7 @@ impl std::fmt::Display for DecisionRule {
             DecisionTarget::Primary => write!(f, "{} when ", self.name)?,
             DecisionTarget::Pooled => write!(f, "{} on pooled when ", self.name)?,
             DecisionTarget::Slope => write!(f, "{} on slope when ", self.name)?,
+            DecisionTarget::Divergence => write!(f, "{} on divergence when ", self.name)?,
         }
         for (k, c) in self.conditions.iter().enumerate() {
             if k > 0 {
@@ -253,6 +260,11 @@ pub enum DecisionTarget {
     /// slope of the difference per percentage point of dose, `optimism`
     /// the slope of optimism in percentage points per percentage point.
     Slope,
+    /// The binomial GLMM of the divergence endpoint declared `glmm
+    /// binomial` (`decide NAME on divergence when ...`): `mean`, `lower`
+    /// and `upper` are the log odds ratio of a diverged rollout, treated
+    /// arm over reference, and its Wald interval at the estimate's level.
+    Divergence,
 }
 
 impl DecisionTarget {

@@ -335,6 +335,8 @@ pub struct EndpointStmt {
     pub horizons: Vec<Number>,
     pub cap: Option<Number>,
     pub models: Vec<Ident>,
+    /// `glmm binomial`: the family of the endpoint's GLMM.
+    pub glmm: Option<Ident>,
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -409,7 +409,8 @@ fn endpoint(mut k: Kids<'_>) -> Result<EndpointStmt, Diagnostic> {
         None
     };
     let models = idents(k.next().into_inner().next().expect("models has a list"));
-    Ok(EndpointStmt { role, metric, horizons, cap, models })
+    let glmm = (k.peek_rule() == Some(Rule::ep_glmm)).then(|| ident(kids(k.next()).next()));
+    Ok(EndpointStmt { role, metric, horizons, cap, models, glmm })
 }
 
 fn estimate_item(p: Pair<Rule>) -> Result<EstimateItem, Diagnostic> {

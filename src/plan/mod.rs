@@ -89,6 +89,10 @@ pub struct AnalysisUnit {
     pub horizon_s: f64,
     /// The model whose contrast this is.
     pub model: String,
+    /// Whether the unit's diverged starts are also analysed by the crossed
+    /// binomial GLMM (`glmm binomial`).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub glmm: bool,
 }
 
 impl AnalysisUnit {
@@ -291,7 +295,8 @@ fn units(design: &Design) -> Vec<AnalysisUnit> {
     for e in &design.endpoints {
         for h in &e.horizons {
             for m in &e.models {
-                out.push(AnalysisUnit { role: e.role, metric: e.metric, horizon_s: h.0, model: m.clone() });
+                let (role, metric, model) = (e.role, e.metric, m.clone());
+                out.push(AnalysisUnit { role, metric, horizon_s: h.0, model, glmm: e.glmm });
             }
         }
     }

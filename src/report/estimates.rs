@@ -82,6 +82,7 @@ pub fn render_estimates(a: &Analysis) -> String {
             opt(r.optimism),
         );
     };
+    let on_divergence = a.decision.rule.on == crate::design::DecisionTarget::Divergence;
     let preregistered = if a.units.first().is_some_and(|u| u.estimate.reml.is_some()) { "reml" } else { "crossed_mom" };
     for u in &a.units {
         let role = format!("{:?}", u.role).to_lowercase();
@@ -97,8 +98,9 @@ pub fn render_estimates(a: &Analysis) -> String {
             Row {
                 means: Some((u.mean_treated, u.mean_reference)),
                 optimism: Some(u.optimism_pct),
-                // The rule decides on the primary endpoint alone.
-                holds: (u.role == crate::design::Role::Primary).then_some(u.rule_holds),
+                // The rule decides on the primary endpoint alone (or on the
+                // divergence GLMM's row below).
+                holds: (u.role == crate::design::Role::Primary && !on_divergence).then_some(u.rule_holds),
                 ..crossed(preregistered, &u.estimate)
             },
         );
@@ -121,6 +123,12 @@ pub fn render_estimates(a: &Analysis) -> String {
             let name =
                 serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
             put(&key, interval(&name, iv.estimate, Some(iv.se), Some(iv.df), (iv.lower, iv.upper)));
+        }
+        if let Some(e) = u.glmm.as_ref().and_then(|g| g.estimate.as_ref()) {
+            // The log odds ratio of a diverged rollout and its Wald interval.
+            let key = format!("glmm,{role},{},{contrast},{},log OR,{}", u.model, u.metric.name(), num(u.horizon_s));
+            let row = interval("binomial_glmm", e.log_odds_ratio, Some(e.se), None, (e.lower, e.upper));
+            put(&key, Row { holds: on_divergence.then_some(a.decision.holds), ..row });
         }
     }
     for ix in &a.interactions {

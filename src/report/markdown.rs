@@ -52,6 +52,7 @@ pub fn render_markdown(a: &Analysis) -> String {
     let mut s = super::header::header(a);
     let level = level_pct(a.level);
     section(&mut s, "Endpoints", "", &endpoints(a, &level));
+    super::glmm::section(a, &mut s);
     super::coverage::section(a, &mut s);
     if !a.treatment.is_empty() {
         section(&mut s, "Treatment strength", TREATMENT_NOTE, &treatment(&a.treatment));

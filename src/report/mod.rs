@@ -11,6 +11,7 @@ mod estimates;
 pub mod family;
 pub mod figures;
 mod format;
+mod glmm;
 mod header;
 pub mod html;
 mod markdown;

@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 
 mod around;
 mod compared;
+pub(crate) mod glmm;
 
 use super::decision::rule_holds;
 use super::index::Indexed;
@@ -296,15 +297,7 @@ impl Ctx<'_> {
             None
         };
         let leave_one_out = self.leave_one_out_all(&a, complete.as_ref(), &label, warnings)?;
-        let per_seed_optimism = self
-            .plan
-            .seeds
-            .iter()
-            .enumerate()
-            .map(|(j, s)| (s, a.treated.col_mean(j), a.reference.col_mean(j)))
-            .filter(|(_, t, _)| !t.is_nan())
-            .map(|(s, t, r)| SeedOptimism { seed: s.0, optimism_pct: optimism(r, t) })
-            .collect();
+        let per_seed_optimism = self.per_seed_optimism(&a);
         let per_trajectory = self.per_trajectory(&a.diff);
         let conditional = self.conditional(u, &label)?;
         let rule_holds = rule_holds(&self.plan.decision, optimism_pct, &estimate);
@@ -328,7 +321,19 @@ impl Ctx<'_> {
             conditional,
             rule_holds,
             intervals,
+            glmm: u.glmm.then(|| self.glmm(u)),
         })
+    }
+
+    /// Optimism within each seed (its column of both arms), for the seeds
+    /// with a value.
+    fn per_seed_optimism(&self, a: &ArmArrays) -> Vec<SeedOptimism> {
+        let seeds = self.plan.seeds.iter().enumerate();
+        seeds
+            .map(|(j, s)| (s, a.treated.col_mean(j), a.reference.col_mean(j)))
+            .filter(|(_, t, _)| !t.is_nan())
+            .map(|(s, t, r)| SeedOptimism { seed: s.0, optimism_pct: optimism(r, t) })
+            .collect()
     }
 
     /// Average d within condition groups (e.g. trajectory x speed), then the

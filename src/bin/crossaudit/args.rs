@@ -220,43 +220,7 @@ pub(crate) enum Command {
     /// or nested) to any tidy CSV, as lme4's lmer with lmerTest's and
     /// pbkrtest's small-sample df: `y ~ 1 + x + f + (1|a) + (1|b) + (1|a:c)`,
     /// `y ~ x + (x | g)`.
-    Mixed {
-        /// The CSV file: a header row of column names, one row per observation.
-        data: PathBuf,
-        /// The model, in lme4's formula language. Random terms: `(1|g)`,
-        /// `(1|g:h)`, `(1|g/h)`; slopes `(x|g)` = `(1 + x|g)` (intercept
-        /// and slope correlated), `(x||g)` (uncorrelated: `(1|g) +
-        /// (0 + x|g)`), `(0 + x|g)` (slope only), for numeric and
-        /// categorical x (a factor's columns), up to 8 columns per term.
-        /// Kenward-Roger df and --profile are for random intercepts only.
-        /// A binomial response is `cbind(successes, failures)` (two columns)
-        /// or one 0/1 column.
-        #[arg(long)]
-        formula: String,
-        /// The response's family: gaussian (a linear mixed model, lmer),
-        /// binomial (logit link) or poisson (log link), generalized models
-        /// fitted by maximum likelihood under the Laplace approximation as
-        /// lme4's glmer fits them (nAGQ = 1), with Wald z tests.
-        #[arg(long, default_value = "gaussian", value_parser = ["gaussian", "binomial", "poisson"])]
-        family: String,
-        /// Maximum likelihood instead of REML (a generalized model is
-        /// always fitted by maximum likelihood).
-        #[arg(long)]
-        ml: bool,
-        /// Denominator df of the fixed-effect t tests (REML fits).
-        #[arg(long, default_value = "satterthwaite", value_parser = ["satterthwaite", "kenward-roger"])]
-        df: String,
-        /// Profile-likelihood intervals of the standard deviations at this level (e.g. 0.95).
-        #[arg(long)]
-        profile: Option<f64>,
-        /// Print every number as JSON instead of the summary.
-        #[arg(long)]
-        json: bool,
-        /// A second formula: print the likelihood-ratio test of the two
-        /// (nested) models, both refitted by ML, as lme4's anova(m1, m2).
-        #[arg(long, value_name = "FORMULA2", conflicts_with = "profile")]
-        compare: Option<String>,
-    },
+    Mixed(MixedArgs),
     /// Generate the recordings of a `data simulated` design (NanoBench schema).
     Simulate {
         /// The design file (.design).
@@ -439,4 +403,44 @@ pub(crate) struct SimsumArgs {
     /// Output directory for simsum.csv and simsum.md.
     #[arg(long, default_value = "simsum")]
     pub(crate) out: PathBuf,
+}
+
+/// `crossaudit mixed`'s arguments.
+#[derive(clap::Args)]
+pub(crate) struct MixedArgs {
+    /// The CSV file: a header row of column names, one row per observation.
+    pub(crate) data: PathBuf,
+    /// The model, in lme4's formula language. Random terms: `(1|g)`,
+    /// `(1|g:h)`, `(1|g/h)`; slopes `(x|g)` = `(1 + x|g)` (intercept
+    /// and slope correlated), `(x||g)` (uncorrelated: `(1|g) +
+    /// (0 + x|g)`), `(0 + x|g)` (slope only), for numeric and
+    /// categorical x (a factor's columns), up to 8 columns per term.
+    /// Kenward-Roger df and --profile are for random intercepts only.
+    /// A binomial response is `cbind(successes, failures)` (two columns)
+    /// or one 0/1 column.
+    #[arg(long)]
+    pub(crate) formula: String,
+    /// The response's family: gaussian (a linear mixed model, lmer),
+    /// binomial (logit link) or poisson (log link), generalized models
+    /// fitted by maximum likelihood under the Laplace approximation as
+    /// lme4's glmer fits them (nAGQ = 1), with Wald z tests.
+    #[arg(long, default_value = "gaussian", value_parser = ["gaussian", "binomial", "poisson"])]
+    pub(crate) family: String,
+    /// Maximum likelihood instead of REML (a generalized model is
+    /// always fitted by maximum likelihood).
+    #[arg(long)]
+    pub(crate) ml: bool,
+    /// Denominator df of the fixed-effect t tests (REML fits).
+    #[arg(long, default_value = "satterthwaite", value_parser = ["satterthwaite", "kenward-roger"])]
+    pub(crate) df: String,
+    /// Profile-likelihood intervals of the standard deviations at this level (e.g. 0.95).
+    #[arg(long)]
+    pub(crate) profile: Option<f64>,
+    /// Print every number as JSON instead of the summary.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// A second formula: print the likelihood-ratio test of the two
+    /// (nested) models, both refitted by ML, as lme4's anova(m1, m2).
+    #[arg(long, value_name = "FORMULA2", conflicts_with = "profile")]
+    pub(crate) compare: Option<String>,
 }

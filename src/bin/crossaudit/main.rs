@@ -73,22 +73,7 @@ fn main() -> ExitCode {
         }
         Command::Simulate { design, out } => methods::simulate(&design, &out),
         Command::SimulateLab { out, seed } => methods::simulate_lab(&out, seed),
-        Command::Mixed { data, formula, family, ml, df, profile, json, compare } => match (family.as_str(), compare) {
-            ("gaussian", Some(other)) => methods::mixed_compare(&data, &formula, &other, json),
-            ("gaussian", None) => methods::mixed(&data, &formula, ml, &df, profile, json),
-            (family, other) => {
-                let refused = if other.is_some() {
-                    Some("--compare")
-                } else if profile.is_some() {
-                    Some("--profile")
-                } else if df == "kenward-roger" {
-                    Some("--df kenward-roger")
-                } else {
-                    None
-                };
-                methods::mixed_glmm(&data, &formula, family, refused, json)
-            }
-        },
+        Command::Mixed(args) => methods::mixed_command(args),
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }

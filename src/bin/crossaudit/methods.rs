@@ -193,14 +193,7 @@ pub(crate) fn simulate_lab(out: &Path, seed: u64) -> Result<(), Error> {
     Ok(())
 }
 
-pub(crate) fn mixed(
-    data: &Path,
-    formula: &str,
-    ml: bool,
-    df: &str,
-    profile: Option<f64>,
-    json: bool,
-) -> Result<(), Error> {
+fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, json: bool) -> Result<(), Error> {
     use crossaudit::stats::mixed::{formula::DfMethod, Criterion};
     // The fit is written to standard output and nowhere else.
     if crate::output::stdout_closed() {
@@ -222,15 +215,31 @@ pub(crate) fn mixed(
     Ok(())
 }
 
+/// `crossaudit mixed`: a linear mixed model (or two compared), or a
+/// generalized one (`--family binomial|poisson`).
+pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
+    let (data, formula) = (a.data.as_path(), a.formula.as_str());
+    match (a.family.as_str(), a.compare) {
+        ("gaussian", Some(other)) => mixed_compare(data, formula, &other, a.json),
+        ("gaussian", None) => mixed(data, formula, a.ml, &a.df, a.profile, a.json),
+        (family, other) => {
+            let refused = if other.is_some() {
+                Some("--compare")
+            } else if a.profile.is_some() {
+                Some("--profile")
+            } else if a.df == "kenward-roger" {
+                Some("--df kenward-roger")
+            } else {
+                None
+            };
+            mixed_glmm(data, formula, family, refused, a.json)
+        }
+    }
+}
+
 /// `crossaudit mixed --family binomial|poisson`: lme4's `glmer`. An option
 /// computed for linear models only (`refused`) is refused by name.
-pub(crate) fn mixed_glmm(
-    data: &Path,
-    formula: &str,
-    family: &str,
-    refused: Option<&str>,
-    json: bool,
-) -> Result<(), Error> {
+fn mixed_glmm(data: &Path, formula: &str, family: &str, refused: Option<&str>, json: bool) -> Result<(), Error> {
     use crossaudit::stats::mixed::formula::{FileError, FormulaError};
     use crossaudit::stats::mixed::glmm::Family;
     if let Some(option) = refused {
@@ -261,7 +270,7 @@ pub(crate) fn mixed_glmm(
 }
 
 /// `crossaudit mixed --compare`: lme4's `anova(m1, m2)`.
-pub(crate) fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool) -> Result<(), Error> {
+fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool) -> Result<(), Error> {
     if crate::output::stdout_closed() {
         return Err(Error::Stdout(std::io::Error::other(
             "standard output is closed, so the test would be written nowhere; redirect it to a file (`> test.txt`)",

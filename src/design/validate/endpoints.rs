@@ -5,6 +5,40 @@ use crate::design::ast::*;
 use crate::design::*;
 
 impl Validator {
+    /// `glmm binomial`: only on a secondary `divergence_rate` endpoint,
+    /// whose cells count their diverged starts out of their starts.
+    fn glmm(&mut self, e: &EndpointStmt, role: Role, metric: Option<Metric>) -> bool {
+        let Some(family) = &e.glmm else { return false };
+        if family.node != "binomial" {
+            self.err_help(
+                "unknown GLMM family",
+                family.span,
+                format!("`{}` is not a family of an endpoint's GLMM", family.node),
+                "write `glmm binomial`: diverged starts out of the cell's starts",
+            );
+            return false;
+        }
+        if metric.is_some_and(|m| m != Metric::DivergenceRate) {
+            self.err_help(
+                "GLMM on a continuous metric",
+                family.span,
+                format!("`glmm binomial` analyses failures out of trials; `{}` is not a count", e.metric.node),
+                "declare it on `divergence_rate`, whose cells count diverged starts out of their starts",
+            );
+            return false;
+        }
+        if role == Role::Primary {
+            self.err_help(
+                "GLMM on the primary endpoint",
+                family.span,
+                "the primary endpoint is the crossed contrast every report and sensitivity reads",
+                "declare the GLMM on a secondary endpoint (`endpoint secondary divergence_rate at 1.0 s model world glmm binomial`) and decide on it with `decide NAME on divergence when ...`",
+            );
+            return false;
+        }
+        true
+    }
+
     /// The endpoint statements, each with its metric, horizons, cap and
     /// models; exactly one primary, and every model in some endpoint.
     pub(super) fn endpoints(
@@ -45,6 +79,7 @@ impl Validator {
                 );
             }
             let horizons = self.horizons(&e.horizons, rate, horizon_samples);
+            let glmm = self.glmm(e, role, metric);
             self.cap(e.cap.as_ref(), role, primary_cap);
             let names = self.endpoint_models(&e.models, models);
             if role == Role::Primary {
@@ -53,7 +88,7 @@ impl Validator {
             if let Some(metric) = metric {
                 self.duplicate_cells(metric, &horizons, &names, s.span, &mut seen_cells);
                 let cap = Meters(e.cap.as_ref().map(|c| c.node).or(primary_cap).unwrap_or(f64::NAN));
-                out.push((Endpoint { role, metric, horizons, cap, models: names }, s.span));
+                out.push((Endpoint { role, metric, horizons, cap, models: names, glmm }, s.span));
             }
         }
         self.unscored_models(stmts, models, &out);

@@ -330,8 +330,8 @@ impl Validator {
         };
         let decision = singles.get("decide").and_then(|s| match &s.node {
             Statement::Decide { name, on, conditions, .. } => {
-                let on = self.decision_target(on.as_ref(), name, multi_split, dosed);
-                self.decision(name, conditions).map(|d| DecisionRule { on, ..d })
+                let on = self.decision_target(on.as_ref(), name, (multi_split, dosed), outer::glmm_units(&endpoints));
+                self.decision(name, conditions).map(|d| self.divergence_rule(DecisionRule { on, ..d }, conditions))
             }
             _ => None,
         });

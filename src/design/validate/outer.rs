@@ -76,18 +76,44 @@ pub(super) fn expand(
     Ok(design)
 }
 
+/// Endpoint units (horizons x models) declared `glmm binomial`.
+pub(super) fn glmm_units(endpoints: &[(Endpoint, Span)]) -> usize {
+    endpoints.iter().filter(|(e, _)| e.glmm).map(|(e, _)| e.horizons.len() * e.models.len()).sum()
+}
+
 impl Validator {
     /// The estimate a decision is on: the pooled one in a multi-split
     /// design, the slope in a dose-response design, which the design must
-    /// say (`decide NAME on pooled|slope when ...`); the primary otherwise.
+    /// say (`decide NAME on pooled|slope when ...`); the divergence GLMM
+    /// where the design says `on divergence` (of its `glmm_units`
+    /// endpoint units, which must be one); the primary otherwise.
     pub(super) fn decision_target(
         &mut self,
         on: Option<&Ident>,
         name: &Ident,
-        multi_split: bool,
-        dosed: bool,
+        (multi_split, dosed): (bool, bool),
+        glmm_units: usize,
     ) -> DecisionTarget {
         match on.map(|o| o.node.as_str()) {
+            Some("divergence") => {
+                let span = on.map(|o| o.span).unwrap_or(name.span);
+                if multi_split || dosed {
+                    self.err_help(
+                        "divergence decision in a family of estimates",
+                        span,
+                        "`on divergence` reads one binomial GLMM, of a single split and dose",
+                        "decide on the pooled estimate or the slope, and report the GLMM beside it",
+                    );
+                } else if glmm_units != 1 {
+                    self.err_help(
+                        "no single divergence GLMM",
+                        span,
+                        format!("`on divergence` reads the one endpoint declared `glmm binomial`, at one horizon for one model; the design has {glmm_units} such"),
+                        "declare exactly one: `endpoint secondary divergence_rate at 1.0 s model world glmm binomial`",
+                    );
+                }
+                DecisionTarget::Divergence
+            }
             Some("slope") if !dosed => {
                 let span = on.map(|o| o.span).unwrap_or(name.span);
                 self.err_help(
@@ -140,6 +166,24 @@ impl Validator {
             }
             None => DecisionTarget::Primary,
         }
+    }
+
+    /// A rule on the divergence GLMM reads its log odds ratio: `optimism`
+    /// has no meaning there.
+    pub(super) fn divergence_rule(&mut self, rule: DecisionRule, conditions: &[Spanned<ConditionAst>]) -> DecisionRule {
+        if rule.on == DecisionTarget::Divergence {
+            for (c, ast) in rule.conditions.iter().zip(conditions) {
+                if c.quantity == Quantity::Optimism {
+                    self.err_help(
+                        "optimism of a divergence GLMM",
+                        ast.span,
+                        "a rule `on divergence` reads the log odds ratio of a diverged rollout, which has no optimism",
+                        "use mean, lower or upper (log odds ratio, treated over reference): `upper < 0` says the treated arm diverges less",
+                    );
+                }
+            }
+        }
+        rule
     }
 
     /// `factor split = ...`: at least 2 distinct values, on a drawn split.

@@ -286,7 +286,7 @@ pub fn fit_table(
     }
     let data = match build_model(&formula, table)? {
         Model::Intercepts(data) => data,
-        Model::Slopes(data) => return super::slopes_fit::fit_slopes_table(formula_text, &data, criterion, df, profile),
+        Model::Slopes(data) => return slopes_table(formula_text, &data, criterion, df, profile),
     };
     // Kenward-Roger (and the shares) need the q x q matrices over every
     // level; Satterthwaite needs only deviance evaluations.
@@ -332,10 +332,32 @@ pub fn fit_table(
     })
 }
 
+/// [`fit_table`] of a model with random slopes (Satterthwaite df).
+fn slopes_table(
+    formula: &str,
+    data: &crate::mixed::slopes::SlopeData,
+    criterion: mixed::Criterion,
+    df: DfMethod,
+    profile: Option<f64>,
+) -> Result<FormulaFit, FormulaError> {
+    let fit = super::slopes_fit::fit_checked(data, criterion, df == DfMethod::KenwardRoger, profile)?;
+    let fixed = fit.fixed.iter().map(|f| FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false)).collect();
+    let reml = criterion == mixed::Criterion::Reml;
+    let likelihood = Likelihood::of_slopes(&fit);
+    Ok(FormulaFit {
+        formula: formula.to_string(),
+        df_method: reml.then_some(DfMethod::Satterthwaite),
+        fit: Fitted::Slopes(fit),
+        fixed,
+        profile: None,
+        likelihood,
+    })
+}
+
 impl FixedRow {
     /// The row of a coefficient: t = estimate / se, and the two-sided p
     /// on `df` where there is one.
-    pub(super) fn new(name: &str, estimate: f64, se: f64, df: Option<f64>, df_fallback: bool) -> FixedRow {
+    fn new(name: &str, estimate: f64, se: f64, df: Option<f64>, df_fallback: bool) -> FixedRow {
         let t = estimate / se;
         let p = df.filter(|d| *d > 0.0).map(|d| crate::t_two_sided_p(t, d)).filter(|p| !p.is_nan());
         FixedRow { name: name.to_string(), estimate, se, df, df_fallback, t, p }
@@ -345,7 +367,7 @@ impl FixedRow {
 impl FormulaFit {
     /// The summary's first lines: the method, the formula and the
     /// likelihood table.
-    pub(super) fn header(&self, criterion: mixed::Criterion, deviance: f64) -> String {
+    fn header(&self, criterion: mixed::Criterion, deviance: f64) -> String {
         use std::fmt::Write;
         let mut s = String::new();
         let (what, crit) = match criterion {
@@ -380,7 +402,7 @@ impl FormulaFit {
     }
 
     /// The fixed-effects table, as lmerTest (REML) or lme4 (ML) prints it.
-    pub(super) fn fixed_table(&self) -> String {
+    fn fixed_table(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
         let _ = writeln!(s, "Fixed effects:");
@@ -416,7 +438,16 @@ impl FormulaFit {
         use std::fmt::Write;
         let f = match &self.fit {
             Fitted::Intercepts(f) => f,
-            Fitted::Slopes(f) => return super::slopes_fit::summary(self, f),
+            Fitted::Slopes(f) => {
+                let mut s = self.header(f.criterion, f.deviance);
+                s.push_str(&super::slopes_fit::random_effects(f));
+                s.push_str(&self.fixed_table());
+                for note in &f.notes {
+                    let _ = writeln!(s, "note: {note}");
+                }
+                s.push_str(&super::slopes_fit::optimizer_lines(f));
+                return s;
+            }
         };
         let mut s = self.header(f.criterion, f.deviance);
         let _ = writeln!(s, "Random effects:");

@@ -3,22 +3,20 @@
 
 use std::fmt::Write;
 
-use super::fit::{Fitted, FixedRow, FormulaFit, Likelihood};
-use super::{DfMethod, FormulaError};
+use super::FormulaError;
 use crate::mixed::slopes::{fit_slopes, SlopeData, SlopeFit};
 use crate::mixed::Criterion;
 
 /// Fits a random-slope model; Satterthwaite df for REML fits. Kenward-Roger
 /// df and profile intervals are computed for random-intercept models only,
 /// and asking for them here is refused by name.
-pub(super) fn fit_slopes_table(
-    formula: &str,
+pub(super) fn fit_checked(
     data: &SlopeData,
     criterion: Criterion,
-    df: DfMethod,
+    kenward_roger: bool,
     profile: Option<f64>,
-) -> Result<FormulaFit, FormulaError> {
-    if df == DfMethod::KenwardRoger && criterion == Criterion::Reml {
+) -> Result<SlopeFit, FormulaError> {
+    if kenward_roger && criterion == Criterion::Reml {
         return Err(FormulaError::Unsupported(
             "--df kenward-roger is computed for random-intercept models only; a model with random slopes gets Satterthwaite df (the default)".into(),
         ));
@@ -28,25 +26,14 @@ pub(super) fn fit_slopes_table(
             "--profile is computed for random-intercept models only; a model with random slopes gets its standard deviations and correlations without profile intervals".into(),
         ));
     }
-    let reml = criterion == Criterion::Reml;
-    let fit = fit_slopes(data, criterion, reml)?;
-    let fixed = fit.fixed.iter().map(|f| FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false)).collect();
-    let likelihood = Likelihood::of_slopes(&fit);
-    Ok(FormulaFit {
-        formula: formula.to_string(),
-        df_method: reml.then_some(DfMethod::Satterthwaite),
-        fit: Fitted::Slopes(fit),
-        fixed,
-        profile: None,
-        likelihood,
-    })
+    Ok(fit_slopes(data, criterion, criterion == Criterion::Reml)?)
 }
 
-/// The summary of a random-slope fit: lme4's header, its random-effects
-/// table (variance, standard deviation and correlations of each term's
-/// columns), the fixed effects, and the optimizer's certificate.
-pub(super) fn summary(formula: &FormulaFit, f: &SlopeFit) -> String {
-    let mut s = formula.header(f.criterion, f.deviance);
+/// lme4's random-effects table of a random-slope fit (variance, standard
+/// deviation and correlations of each term's columns, the residual) and
+/// its line of observations and groups.
+pub(super) fn random_effects(f: &SlopeFit) -> String {
+    let mut s = String::new();
     let _ = writeln!(s, "Random effects:");
     let width = f.terms.iter().map(|t| t.group.len()).max().unwrap_or(0).max(8);
     let name_width = f.terms.iter().flat_map(|t| t.names.iter().map(String::len)).max().unwrap_or(0).max(11);
@@ -76,10 +63,12 @@ pub(super) fn summary(formula: &FormulaFit, f: &SlopeFit) -> String {
         }
     }
     let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
-    s.push_str(&formula.fixed_table());
-    for note in &f.notes {
-        let _ = writeln!(s, "note: {note}");
-    }
+    s
+}
+
+/// The optimizer's certificate, theta, and the singular-fit flag.
+pub(super) fn optimizer_lines(f: &SlopeFit) -> String {
+    let mut s = String::new();
     let c = &f.certificate;
     let _ = writeln!(
         s,
