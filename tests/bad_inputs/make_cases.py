@@ -711,3 +711,34 @@ case("r5_coverage_decision_huge_sides", "coverage {dir}/spec.json --out {out}",
      {"spec.json": '{"kind": "decision", "seed": 1, "reps": 10, "level": 0.95, "interaction": [\n'
                    '  {"label": "x", "rows": 10000000000, "cols": 10000000000,\n'
                    '   "components": {"recording": 1, "seed": 1, "residual": 1}}]}\n'})
+
+# ---- Issue 61: random slopes and generalized models ---------------------------------
+# A slope term with as many effects as observations; a binomial response
+# given to a linear model; a binomial 0/1 column holding a 2; negative
+# failures; a count that is not whole; a count past 1e15; no success at
+# all; `(0|g)`; cbind with one column; a family with --profile; a GLMM
+# endpoint on a continuous metric and a rule on a divergence GLMM the
+# design does not declare.
+SLOPES = "y,x,g\n1.5,1,a\n2.5,2,a\n3.1,1,b\n4.2,2,b\n2.2,1,c\n3.3,2,c\n"
+mixed("r6_mixed_slopes_as_many_effects_as_rows", "y ~ x + (x|g)", SLOPES)
+COUNTS = "k,f,x,g\n1,3,0.1,a\n2,2,0.4,a\n0,4,0.2,b\n3,1,0.9,b\n1,3,0.5,c\n2,2,0.3,c\n1,3,0.7,a\n"
+mixed("r6_mixed_cbind_without_family", "cbind(k, f) ~ x + (1|g)", COUNTS)
+def glmm(name, family, formula, text, extra=""):
+    case(name, "mixed {dir}/data.csv --family " + family + " --formula " + formula.replace(" ", "") + extra,
+         {"data.csv": text})
+glmm("r6_glmm_binomial_not_zero_one", "binomial", "k ~ x + (1|g)", COUNTS)
+glmm("r6_glmm_negative_failures", "binomial", "cbind(k, f) ~ x + (1|g)", COUNTS.replace("0,4,0.2,b", "0,-4,0.2,b"))
+glmm("r6_glmm_count_not_whole", "poisson", "k ~ x + (1|g)", COUNTS.replace("3,1,0.9,b", "3.5,1,0.9,b"))
+glmm("r6_glmm_count_past_1e15", "poisson", "k ~ x + (1|g)", COUNTS.replace("3,1,0.9,b", "1e300,1,0.9,b"))
+glmm("r6_glmm_no_success", "binomial", "cbind(k, f) ~ x + (1|g)",
+     "k,f,x,g\n0,3,0.1,a\n0,2,0.4,a\n0,4,0.2,b\n0,1,0.9,b\n0,3,0.5,c\n0,2,0.3,c\n")
+glmm("r6_glmm_zero_random_term", "poisson", "k ~ x + (0|g)", COUNTS)
+glmm("r6_glmm_cbind_one_column", "binomial", "cbind(k) ~ x + (1|g)", COUNTS)
+glmm("r6_glmm_with_profile", "binomial", "cbind(k, f) ~ x + (1|g)", COUNTS, " --profile 0.95")
+DIVERGENCE = open(os.path.join(ROOT, "designs/nanobench_divergence.design")).read()
+case("r6_design_glmm_on_rmse", "check {dir}/d.design",
+     {"d.design": DIVERGENCE.replace("divergence_rate at 1.0 s model world glmm binomial",
+                                     "fa_position_rmse at 1.5 s model world glmm binomial")})
+case("r6_design_divergence_rule_without_glmm", "check {dir}/d.design",
+     {"d.design": DIVERGENCE.replace(" glmm binomial", "").replace(
+         "decide confirmed when optimism >= 10% and upper < 0", "decide fewer on divergence when upper < 0")})

@@ -8,6 +8,16 @@ use super::table::{group_codes, numbers, present, random_terms, term_columns};
 use super::{parse, FormulaError, Table};
 use crate::mixed::glmm::{fit_glmm, Family, GlmmData, GlmmFit};
 
+/// Six decimals, or four significant digits in scientific notation for a
+/// number below 1e-3 that six decimals would print as zero.
+fn six(v: f64) -> String {
+    if v != 0.0 && v.abs() < 1e-3 {
+        format!("{v:.4e}")
+    } else {
+        format!("{v:.6}")
+    }
+}
+
 /// A GLMM fitted from a formula and a table.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct GlmmFormulaFit {
@@ -150,10 +160,10 @@ impl GlmmFormulaFit {
         for r in &f.fixed {
             let _ = writeln!(
                 s,
-                "{:<width$} {:>12.6} {:>12.6} {:>9.3} {:>10}",
+                "{:<width$} {:>12} {:>12} {:>9.3} {:>10}",
                 r.name,
-                r.estimate,
-                r.se,
+                six(r.estimate),
+                six(r.se),
                 r.z,
                 r_pvalue(r.p)
             );

@@ -120,10 +120,16 @@ impl GlmmData {
         }
         // Every observation a failure (or a zero count) leaves the
         // intercept at minus infinity.
-        if y.iter().all(|v| *v == 0.0) || (family == Family::Binomial && y.iter().all(|v| *v == 1.0)) {
+        let all = |v: f64| y.iter().all(|y| *y == v);
+        let degenerate = match family {
+            Family::Binomial if all(0.0) => Some("no trial is a success"),
+            Family::Binomial if all(1.0) => Some("every trial is a success"),
+            Family::Poisson if all(0.0) => Some("every count is 0"),
+            _ => None,
+        };
+        if let Some(what) = degenerate {
             return Err(MixedError::Glmm(format!(
-                "every observation is {}: the fixed intercept's estimate is infinite",
-                if y[0] == 0.0 { "a zero" } else { "a success" }
+                "{what}, so the fixed intercept's maximum-likelihood estimate is infinite and the model has no fit"
             )));
         }
         for t in &terms {
@@ -292,6 +298,22 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     let hessian_vcov = hessian_vcov(&one, &best_scaled, objective, &scales, nt);
     if hessian_vcov.is_none() {
         notes.push("the Hessian of the objective in (theta, beta) is not positive definite at the optimum, so the standard errors are R_X's (lme4's use.hessian = FALSE)".into());
+    }
+    // Separation: a coefficient that moves the linear predictor by more
+    // than 25 (odds or rates of e^25) over one root mean square of its
+    // column is the optimizer running towards an infinite estimate on a
+    // flat deviance (R's glm: "fitted probabilities numerically 0 or 1
+    // occurred"); its estimate and SE are not estimates.
+    let runaway: Vec<&str> =
+        (0..m.p).filter(|&c| (beta[c] * x_rms[c]).abs() > 25.0).map(|c| names[c].as_str()).collect();
+    let mut certificate = certificate;
+    if !runaway.is_empty() {
+        certificate.certified = false;
+        notes.push(format!(
+            "the estimate of {} is running to infinity (the data separate it: a level or a side of the predictor with no {} or none else), so it and its standard error are not estimates; remove or merge what separates the data",
+            runaway.join(", "),
+            if data.family == Family::Binomial { "success" } else { "count" }
+        ));
     }
     let fixed = names
         .into_iter()
