@@ -13,7 +13,7 @@
 
 use std::fmt::Write as _;
 
-use crate::analysis::Analysis;
+use crate::analysis::{Analysis, UnitResult};
 use crate::design::DoseAxis;
 use crate::stats::CrossedEstimate;
 
@@ -59,6 +59,16 @@ fn interval(estimator: &str, estimate: f64, se: Option<f64>, df: Option<f64>, (l
 /// The pigeonhole bootstrap's row about the point estimate `mean`.
 fn bootstrap(mean: f64, b: &crate::stats::BootstrapInterval) -> Row<'static> {
     interval("pigeonhole_bootstrap", mean, Some(b.se), None, (b.lower, b.upper))
+}
+
+/// The row of a unit's divergence GLMM, when it has an estimate: the log
+/// odds ratio of a diverged rollout and its Wald interval; `holds` where
+/// the rule decides on it.
+fn glmm_row(u: &UnitResult, role: &str, contrast: &str, holds: Option<bool>) -> Option<(String, Row<'static>)> {
+    let e = u.glmm.as_ref()?.estimate.as_ref()?;
+    let key = format!("glmm,{role},{},{contrast},{},log OR,{}", u.model, u.metric.name(), num(u.horizon_s));
+    let row = interval("binomial_glmm", e.log_odds_ratio, Some(e.se), None, (e.lower, e.upper));
+    Some((key, Row { holds, ..row }))
 }
 
 /// The text of estimates.csv for `a`.
@@ -124,11 +134,8 @@ pub fn render_estimates(a: &Analysis) -> String {
                 serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
             put(&key, interval(&name, iv.estimate, Some(iv.se), Some(iv.df), (iv.lower, iv.upper)));
         }
-        if let Some(e) = u.glmm.as_ref().and_then(|g| g.estimate.as_ref()) {
-            // The log odds ratio of a diverged rollout and its Wald interval.
-            let key = format!("glmm,{role},{},{contrast},{},log OR,{}", u.model, u.metric.name(), num(u.horizon_s));
-            let row = interval("binomial_glmm", e.log_odds_ratio, Some(e.se), None, (e.lower, e.upper));
-            put(&key, Row { holds: on_divergence.then_some(a.decision.holds), ..row });
+        if let Some((key, row)) = glmm_row(u, &role, &contrast, on_divergence.then_some(a.decision.holds)) {
+            put(&key, row);
         }
     }
     for ix in &a.interactions {
