@@ -161,9 +161,12 @@ fn mixed_fits_random_slopes_and_refuses_what_it_does_not_compute_for_them() {
 /// A binomial GLMM through the real binary: lme4's
 /// `glmer(cbind(incidence, size - incidence) ~ period + (1 | herd), cbpp,
 /// binomial)` prints deviance 184.1 and herd's variance 0.4123
-/// (scripts/reference/glmm_reference.R gives every digit); what a GLMM
-/// does not compute, and a binomial response given to a linear model, are
-/// refused by name, and a response that is not 0/1 by its row and field.
+/// (scripts/reference/glmm_reference.R gives every digit), and with
+/// `--profile` lme4's profile intervals of its fixed effects
+/// (scripts/reference/glmm_profile.R: period2 in [-1.6167, -0.4078]); what
+/// a GLMM does not compute, and a binomial response given to a linear
+/// model, are refused by name, and a response that is not 0/1 by its row
+/// and field.
 #[test]
 fn mixed_fits_a_binomial_glmm_and_refuses_what_it_does_not_compute() {
     let file = "tests/fixtures/glmm_cbpp.csv";
@@ -174,8 +177,16 @@ fn mixed_fits_a_binomial_glmm_and_refuses_what_it_does_not_compute() {
     assert!(stdout.contains("  184.0526 "), "{stdout}");
     assert!(stdout.contains("0.412"), "{stdout}");
     assert!(stdout.contains("optimum certified"), "{stdout}");
+    let (code, stdout, stderr) =
+        run(&["mixed", file, "--formula", formula, "--family", "binomial", "--profile", "0.95"]);
+    assert_eq!(code, 0, "{stderr}");
+    let line = stdout.lines().find(|l| l.trim_start().starts_with("factor(period)2 [")).unwrap_or("");
+    assert!(line.contains("[-1.616") && line.contains(", -0.407"), "{stdout}");
     for (args, message) in [
-        (vec!["--family", "binomial", "--profile", "0.95"], "--profile is computed for linear mixed models only"),
+        (
+            vec!["--family", "binomial", "--df", "kenward-roger"],
+            "--df kenward-roger is computed for linear mixed models only",
+        ),
         (
             vec!["--family", "poisson", "--compare", "incidence ~ 1 + (1|herd)"],
             "--compare is computed for linear mixed models only",

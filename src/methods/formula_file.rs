@@ -49,8 +49,9 @@ pub fn fit_glmm_file(
     path: &std::path::Path,
     formula: &str,
     family: mixed::glmm::Family,
+    profile: Option<f64>,
 ) -> Result<GlmmFormulaFit, FileError> {
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
     let table = read_file(path).map_err(fail)?;
-    fit_glmm_table(formula, &table, family).map_err(fail)
+    fit_glmm_table(formula, &table, family, profile).map_err(fail)
 }

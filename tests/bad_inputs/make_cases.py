@@ -716,7 +716,7 @@ case("r5_coverage_decision_huge_sides", "coverage {dir}/spec.json --out {out}",
 # A slope term with as many effects as observations; a binomial response
 # given to a linear model; a binomial 0/1 column holding a 2; negative
 # failures; a count that is not whole; a count past 1e15; no success at
-# all; `(0|g)`; cbind with one column; a family with --profile; a GLMM
+# all; `(0|g)`; cbind with one column; a profile level of 1.5; a GLMM
 # endpoint on a continuous metric and a rule on a divergence GLMM the
 # design does not declare.
 SLOPES = "y,x,g\n1.5,1,a\n2.5,2,a\n3.1,1,b\n4.2,2,b\n2.2,1,c\n3.3,2,c\n"
@@ -734,7 +734,7 @@ glmm("r6_glmm_no_success", "binomial", "cbind(k, f) ~ x + (1|g)",
      "k,f,x,g\n0,3,0.1,a\n0,2,0.4,a\n0,4,0.2,b\n0,1,0.9,b\n0,3,0.5,c\n0,2,0.3,c\n")
 glmm("r6_glmm_zero_random_term", "poisson", "k ~ x + (0|g)", COUNTS)
 glmm("r6_glmm_cbind_one_column", "binomial", "cbind(k) ~ x + (1|g)", COUNTS)
-glmm("r6_glmm_with_profile", "binomial", "cbind(k, f) ~ x + (1|g)", COUNTS, " --profile 0.95")
+glmm("r6_glmm_profile_level_out_of_range", "binomial", "cbind(k, f) ~ x + (1|g)", COUNTS, " --profile 1.5")
 DIVERGENCE = open(os.path.join(ROOT, "designs/nanobench_divergence.design")).read()
 case("r6_design_glmm_on_rmse", "check {dir}/d.design",
      {"d.design": DIVERGENCE.replace("divergence_rate at 1.0 s model world glmm binomial",

@@ -33,7 +33,10 @@ pub mod simsum;
 /// ```
 pub mod prelude {
     pub use crate::coverage::{simulate, Distribution, Missing, Performance, Setting};
-    pub use crate::mixed::formula::{compare_table, fit_table, read_csv, DfMethod, FormulaFit, Table};
+    pub use crate::mixed::formula::{
+        compare_table, fit_glmm_table, fit_table, read_csv, DfMethod, FormulaFit, GlmmFormulaFit, Table,
+    };
+    pub use crate::mixed::glmm::Family;
     pub use crate::mixed::Criterion;
     pub use crate::{
         compare_intervals, crossed_mom, crossed_reml, further_intervals, leave_one_out_mom, mean_squares,

@@ -95,7 +95,7 @@ fn glmm_fits_match_lme4s_glmer() {
         let (at_lme4, se_rx_at_lme4) = laplace_at(&data, &r.theta, &r.beta).unwrap();
         close(&format!("{name} objective at lme4's optimum"), at_lme4, r.objective, 5e-8, 0.0, &mut failures);
         close(&format!("{name} lme4's -2 logLik"), r.criterion, r.objective, 1e-13, 0.0, &mut failures);
-        let fit = fit_glmm_table(&r.formula, &table, family).unwrap();
+        let fit = fit_glmm_table(&r.formula, &table, family, None).unwrap();
         let f = &fit.fit;
         assert!(f.certificate.certified, "{name}: {}", fit.summary());
         if f.deviance > r.criterion + 5e-8 * r.criterion.abs() {
@@ -147,4 +147,38 @@ fn glmm_fits_match_lme4s_glmer() {
         }
     }
     assert!(failures.is_empty(), "{} disagreements:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// Profile-likelihood intervals of the fixed effects against lme4's
+/// `confint(method = "profile")` (scripts/reference/glmm_profile.R, its
+/// output committed as glmm_profile.out) on cbpp, bacteria and epil: each
+/// bound within 1e-3 of the interval's width (lme4 interpolates a spline
+/// through its profile grid; crossaudit solves for the bound).
+#[test]
+fn glmm_profile_intervals_match_lme4s_confint() {
+    let refs = references();
+    let text = std::fs::read_to_string(root().join("scripts/reference/glmm_profile.out")).unwrap();
+    let mut want: BTreeMap<String, BTreeMap<String, (f64, f64)>> = BTreeMap::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        want.entry(w[0].to_string())
+            .or_default()
+            .insert(w[1].to_string(), (w[2].parse().unwrap(), w[3].parse().unwrap()));
+    }
+    assert_eq!(want.len(), 3);
+    for (name, bounds) in &want {
+        let r = &refs[name];
+        let table = read_csv(&fixture(name)).unwrap();
+        let family = if r.family == "binomial" { Family::Binomial } else { Family::Poisson };
+        let fit = fit_glmm_table(&r.formula, &table, family, Some(0.95)).unwrap();
+        let (level, intervals) = fit.profile.unwrap();
+        assert_eq!(level, 0.95);
+        assert_eq!(intervals.len(), bounds.len(), "{name}");
+        for i in &intervals {
+            let (lo, hi) = bounds[&i.name];
+            let width = hi - lo;
+            assert!((i.lower - lo).abs() < 1e-3 * width, "{name} {}: lower {} vs lme4 {lo}", i.name, i.lower);
+            assert!((i.upper - hi).abs() < 1e-3 * width, "{name} {}: upper {} vs lme4 {hi}", i.name, i.upper);
+        }
+    }
 }

@@ -415,7 +415,8 @@ pub(crate) struct MixedArgs {
     /// and slope correlated), `(x||g)` (uncorrelated: `(1|g) +
     /// (0 + x|g)`), `(0 + x|g)` (slope only), for numeric and
     /// categorical x (a factor's columns), up to 8 columns per term.
-    /// Kenward-Roger df and --profile are for random intercepts only.
+    /// Kenward-Roger df are for random intercepts only; --profile for
+    /// random intercepts and generalized models.
     /// A binomial response is `cbind(successes, failures)` (two columns)
     /// or one 0/1 column.
     #[arg(long)]
@@ -433,7 +434,9 @@ pub(crate) struct MixedArgs {
     /// Denominator df of the fixed-effect t tests (REML fits).
     #[arg(long, default_value = "satterthwaite", value_parser = ["satterthwaite", "kenward-roger"])]
     pub(crate) df: String,
-    /// Profile-likelihood intervals of the standard deviations at this level (e.g. 0.95).
+    /// Profile-likelihood intervals at this level (e.g. 0.95): of the
+    /// standard deviations (random intercepts), of the fixed effects (a
+    /// generalized model, as lme4's confint(method = "profile")).
     #[arg(long)]
     pub(crate) profile: Option<f64>,
     /// Print every number as JSON instead of the summary.

@@ -225,14 +225,12 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
         (family, other) => {
             let refused = if other.is_some() {
                 Some("--compare")
-            } else if a.profile.is_some() {
-                Some("--profile")
             } else if a.df == "kenward-roger" {
                 Some("--df kenward-roger")
             } else {
                 None
             };
-            mixed_glmm(data, formula, family, refused, a.json)
+            mixed_glmm(data, formula, (family, a.profile), refused, a.json)
         }
     }
 }
@@ -257,7 +255,7 @@ fn mixed_glmm(data: &Path, formula: &str, family: &str, refused: Option<&str>, j
         )));
     }
     let family = if family == "binomial" { Family::Binomial } else { Family::Poisson };
-    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family)?;
+    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family, profile)?;
     if json {
         out!("{}", crossaudit::io::pretty_json(&fit));
     } else {

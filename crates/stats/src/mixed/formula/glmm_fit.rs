@@ -6,7 +6,7 @@ use std::fmt::Write;
 use super::fit::r_pvalue;
 use super::table::{group_codes, numbers, present, random_terms, term_columns};
 use super::{parse, FormulaError, Table};
-use crate::mixed::glmm::{fit_glmm, Family, GlmmData, GlmmFit};
+use crate::mixed::glmm::{fit_glmm, profile_fixed, Family, FixedProfile, GlmmData, GlmmFit};
 
 /// Six decimals, or four significant digits in scientific notation for a
 /// number below 1e-3 that six decimals would print as zero.
@@ -25,6 +25,9 @@ pub struct GlmmFormulaFit {
     pub formula: String,
     /// The fit.
     pub fit: GlmmFit,
+    /// Profile-likelihood intervals of the fixed effects, when asked: the
+    /// level and one interval per fixed effect.
+    pub profile: Option<(f64, Vec<FixedProfile>)>,
 }
 
 /// The data `formula` describes on `table` for `family`: the response
@@ -100,10 +103,26 @@ pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<G
 }
 
 /// Fits `formula` to `table` as a GLMM of `family` (maximum likelihood,
-/// Laplace approximation).
-pub fn fit_glmm_table(formula: &str, table: &Table, family: Family) -> Result<GlmmFormulaFit, FormulaError> {
+/// Laplace approximation), with `profile`, the fixed effects'
+/// profile-likelihood intervals at that level.
+pub fn fit_glmm_table(
+    formula: &str,
+    table: &Table,
+    family: Family,
+    profile: Option<f64>,
+) -> Result<GlmmFormulaFit, FormulaError> {
+    if let Some(level) = profile {
+        if !(level > 0.0 && level < 1.0) {
+            return Err(crate::mixed::MixedError::Level(level).into());
+        }
+    }
     let data = build_glmm(formula, table, family)?;
-    Ok(GlmmFormulaFit { formula: formula.to_string(), fit: fit_glmm(&data)? })
+    let fit = fit_glmm(&data)?;
+    let profile = match profile {
+        Some(level) => Some((level, profile_fixed(&data, &fit, level)?)),
+        None => None,
+    };
+    Ok(GlmmFormulaFit { formula: formula.to_string(), fit, profile })
 }
 
 impl GlmmFormulaFit {
@@ -170,6 +189,12 @@ impl GlmmFormulaFit {
         }
         for note in &f.notes {
             let _ = writeln!(s, "note: {note}");
+        }
+        if let Some((level, intervals)) = &self.profile {
+            let _ = writeln!(s, "\nProfile-likelihood intervals of the fixed effects ({:.1}%):", 100.0 * level);
+            for i in &intervals[..] {
+                let _ = writeln!(s, " {:<width$} [{}, {}]", i.name, six(i.lower), six(i.upper));
+            }
         }
         if !f.dropped.is_empty() {
             let _ = writeln!(s, "note: fixed-effect columns dropped as aliased: {}", f.dropped.join(", "));

@@ -18,9 +18,32 @@
 //! the uncertainty of theta; the R_X form (`use.hessian = FALSE`, the
 //! linear model's formula with the GLM weights at the mode) is reported
 //! beside it. Wald z tests use the first.
+//!
+//! ```
+//! use crossaudit_stats::prelude::*;
+//! // Failures out of 20 starts in 10 recordings x 4 seeds, two arms.
+//! let mut csv = String::from("failed,held,arm,recording,seed\n");
+//! for r in 0..10 {
+//!     for s in 0..4 {
+//!         for (arm, extra) in [("clean", 0), ("leaky", 2)] {
+//!             let failed = (r * 3 + s * 5) % 6 + extra;
+//!             csv.push_str(&format!("{failed},{},{arm},r{r},s{s}\n", 20 - failed));
+//!         }
+//!     }
+//! }
+//! let table = read_csv(&csv).unwrap();
+//! let formula = "cbind(failed, held) ~ arm + (1 | recording) + (1 | seed)";
+//! let f = fit_glmm_table(formula, &table, Family::Binomial, None).unwrap();
+//! assert!(f.fit.certificate.certified);
+//! assert_eq!(f.fit.fixed[1].name, "armleaky");
+//! assert!(f.fit.fixed[1].estimate > 0.0); // the leaky arm fails more often
+//! ```
 
 mod laplace;
+mod profile;
 mod reduced;
+
+pub use profile::{profile_fixed, FixedProfile};
 
 use faer::linalg::solvers::Solve;
 use serde::Serialize;
@@ -258,6 +281,20 @@ pub fn laplace_at(data: &GlmmData, theta: &[f64], beta: &[f64]) -> Result<(f64, 
     Ok((l.objective, se))
 }
 
+/// The search's parameters, as scales of (theta, beta): theta times its
+/// [`Structure::scales`], beta times its column's root mean square.
+fn search_scales(m: &Model) -> Vec<f64> {
+    let x_rms = (0..m.p).map(|c| {
+        let r = ((0..m.n).map(|i| m.x[i * m.p + c].powi(2)).sum::<f64>() / m.n as f64).sqrt();
+        if r.is_finite() && r > 0.0 {
+            r
+        } else {
+            1.0
+        }
+    });
+    m.structure.scales().iter().copied().chain(x_rms).collect()
+}
+
 /// Fits the model by maximum likelihood under the Laplace approximation.
 pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     let (m, names, dropped) = model(data);
@@ -265,19 +302,8 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
         return Err(MixedError::FixedEffects(format!("{} observations for {} fixed-effect columns", m.n, m.p)));
     }
     let nt = m.structure.parameters();
-    // The search's parameters: theta times its scales, beta times its
-    // column's root mean square.
-    let x_rms: Vec<f64> = (0..m.p)
-        .map(|c| {
-            let r = ((0..m.n).map(|i| m.x[i * m.p + c].powi(2)).sum::<f64>() / m.n as f64).sqrt();
-            if r.is_finite() && r > 0.0 {
-                r
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let scales: Vec<f64> = m.structure.scales().iter().copied().chain(x_rms.iter().copied()).collect();
+    let scales = search_scales(&m);
+    let x_rms = scales[nt..].to_vec();
     let unscaled = |t: &[f64]| -> Vec<f64> { t.iter().zip(&scales).map(|(v, d)| v / d).collect() };
     let start_beta = glm_start(&m);
     let mut start: Vec<f64> = m.structure.start();

@@ -27,6 +27,25 @@
 //! lme4's parameterization (diagonal >= 0) of the same covariance. A
 //! diagonal entry below 1e-4 makes the fit singular, as `isSingular` says.
 //!
+//! ```
+//! use crossaudit_stats::prelude::*;
+//! // 8 subjects x 6 days, each subject with its own intercept and slope.
+//! let mut csv = String::from("y,day,subject\n");
+//! for s in 0..8 {
+//!     for d in 0..6 {
+//!         let (a, b) = (((s * 7) % 5) as f64 - 2.0, ((s * 3) % 4) as f64 * 0.5);
+//!         let noise = (((s * 6 + d) * 37) % 11) as f64 / 10.0 - 0.5;
+//!         csv.push_str(&format!("{},{d},s{s}\n", 10.0 + a + (1.0 + b) * d as f64 + noise));
+//!     }
+//! }
+//! let table = read_csv(&csv).unwrap();
+//! let f = fit_table("y ~ day + (day | subject)", &table, Criterion::Reml, DfMethod::Satterthwaite, None).unwrap();
+//! let slopes = f.fit.slopes().unwrap();
+//! assert!(slopes.certificate.certified);
+//! assert_eq!(slopes.terms[0].names, ["(Intercept)", "day"]);
+//! assert_eq!(slopes.theta.len(), 3); // lme4's theta: the lower triangle of T
+//! ```
+//!
 //! The random-intercept models (every term `(1|g)`) are fitted by
 //! [`super::fit`], which eliminates the largest factor; this module is the
 //! general case, with the dense system over every level of every term.
