@@ -31,7 +31,9 @@ impl Ctx<'_> {
                     k.push(c.n_divergent as f64);
                     m.push(c.n_starts as f64);
                     arm.push(if a == 0 { 1.0 } else { 0.0 });
-                    (rec.push(i), seed.push(j), pair.push(i * cols + j));
+                    rec.push(i);
+                    seed.push(j);
+                    pair.push(i * cols + j);
                 }
             }
         }

@@ -237,7 +237,13 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
 
 /// `crossaudit mixed --family binomial|poisson`: lme4's `glmer`. An option
 /// computed for linear models only (`refused`) is refused by name.
-fn mixed_glmm(data: &Path, formula: &str, family: &str, refused: Option<&str>, json: bool) -> Result<(), Error> {
+fn mixed_glmm(
+    data: &Path,
+    formula: &str,
+    (family, profile): (&str, Option<f64>),
+    refused: Option<&str>,
+    json: bool,
+) -> Result<(), Error> {
     use crossaudit::stats::mixed::formula::{FileError, FormulaError};
     use crossaudit::stats::mixed::glmm::Family;
     if let Some(option) = refused {
