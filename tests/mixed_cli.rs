@@ -121,8 +121,9 @@ fn mixed_summary_reads_like_lme4s_and_flags_a_singular_fit() {
 /// `lmer(Reaction ~ Days + (Days | Subject), sleepstudy)` prints "REML
 /// criterion at convergence: 1743.6", Subject's variances 612.09 and
 /// 35.07 with correlation 0.066, and lmerTest's df 17 for both fixed
-/// effects (scripts/reference/mixed_slopes.R gives every digit); what is
-/// computed for random intercepts only is refused by name.
+/// effects, and pbkrtest's Kenward-Roger df 17 too
+/// (scripts/reference/mixed_slopes.R gives every digit); what is computed
+/// for random intercepts only is refused by name.
 #[test]
 fn mixed_fits_random_slopes_and_refuses_what_it_does_not_compute_for_them() {
     let file = "tests/fixtures/slopes_sleepstudy.csv";
@@ -146,10 +147,13 @@ fn mixed_fits_random_slopes_and_refuses_what_it_does_not_compute_for_them() {
     assert_eq!(v["fit"]["terms"][0]["names"][1], "Days");
     let df = v["fixed"][1]["df"].as_f64().unwrap();
     assert!((df - 17.0).abs() < 1e-3, "{df}");
-    for (args, message) in [
-        (vec!["--df", "kenward-roger"], "--df kenward-roger is computed for random-intercept models only"),
-        (vec!["--profile", "0.95"], "--profile is computed for random-intercept models only"),
-    ] {
+    // pbkrtest: Kenward-Roger df 17 for both (scripts/reference/mixed_slopes.R).
+    let (code, json, _) = run(&["mixed", file, "--formula", formula, "--df", "kenward-roger", "--json"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let df = v["fixed"][1]["df"].as_f64().unwrap();
+    assert!((df - 17.0).abs() < 1e-3, "{df}");
+    for (args, message) in [(vec!["--profile", "0.95"], "--profile is computed for random-intercept models only")] {
         let mut all = vec!["mixed", file, "--formula", formula];
         all.extend(args);
         let (code, _, stderr) = run(&all);

@@ -11,18 +11,21 @@
 #   formula, criterion (REML criterion or ML deviance), theta, vc (grp var1
 #   var2 vcov sdcor, as as.data.frame(VarCorr) gives them; var2 NA for a
 #   variance), fixef (name estimate se), df (name Satterthwaite df, REML
-#   fits, lmerTest), singular.
+#   fits, lmerTest), kr (name, Kenward-Roger SE and df, REML fits of at
+#   most 1,000 observations: pbkrtest's vcovAdj and Lb_ddf), singular.
 # BOBYQA is run to a tight tolerance so that the optimum, not the optimizer,
 # is compared.
 suppressMessages({
   library(lme4)
   library(lmerTest)
   library(nlme)
+  library(pbkrtest)
 })
 ctl <- lmerControl(optimizer = "bobyqa", optCtrl = list(rhoend = 1e-12, maxfun = 1e6),
                    check.conv.singular = "ignore", check.conv.grad = "ignore",
                    check.conv.hess = "ignore")
 cat("# lme4", as.character(packageVersion("lme4")), "lmerTest", as.character(packageVersion("lmerTest")),
+    "pbkrtest", as.character(packageVersion("pbkrtest")),
     "R", R.version$major, R.version$minor, "\n")
 fmt <- function(x) format(x, digits = 17)
 show_fit <- function(name, formula, data, reml = TRUE) {
@@ -40,6 +43,13 @@ show_fit <- function(name, formula, data, reml = TRUE) {
   for (i in seq_len(nrow(co))) {
     cat(name, "fixef", rownames(co)[i], fmt(co[i, "Estimate"]), fmt(co[i, "Std. Error"]), "\n")
     if (reml) cat(name, "df", rownames(co)[i], fmt(co[i, "df"]), "\n")
+  }
+  if (reml && nrow(data) <= 1000) {
+    V <- vcovAdj(m)
+    for (i in seq_len(nrow(co))) {
+      L <- matrix(0, nrow = 1, ncol = nrow(co)); L[1, i] <- 1
+      cat(name, "kr", rownames(co)[i], fmt(sqrt(as.matrix(V)[i, i])), fmt(Lb_ddf(L, as.matrix(vcov(m)), V)), "\n")
+    }
   }
   cat(name, "singular", isSingular(m), "\n")
 }

@@ -415,8 +415,8 @@ pub(crate) struct MixedArgs {
     /// and slope correlated), `(x||g)` (uncorrelated: `(1|g) +
     /// (0 + x|g)`), `(0 + x|g)` (slope only), for numeric and
     /// categorical x (a factor's columns), up to 8 columns per term.
-    /// Kenward-Roger df are for random intercepts only; --profile for
-    /// random intercepts and generalized models.
+    /// --profile is for random intercepts and generalized models; a
+    /// generalized model reports Wald z tests, without df.
     /// A binomial response is `cbind(successes, failures)` (two columns)
     /// or one 0/1 column.
     #[arg(long)]

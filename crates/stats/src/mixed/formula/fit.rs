@@ -341,12 +341,16 @@ fn slopes_table(
     profile: Option<f64>,
 ) -> Result<FormulaFit, FormulaError> {
     let fit = super::slopes_fit::fit_checked(data, criterion, df == DfMethod::KenwardRoger, profile)?;
-    let fixed = fit.fixed.iter().map(|f| FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false)).collect();
+    let row = |f: &crate::mixed::slopes::SlopeFixed| match f.kenward_roger {
+        Some(kr) => FixedRow::new(&f.name, f.estimate, kr.se, Some(kr.df), false),
+        None => FixedRow::new(&f.name, f.estimate, f.se, f.df_satterthwaite, false),
+    };
+    let fixed = fit.fixed.iter().map(row).collect();
     let reml = criterion == mixed::Criterion::Reml;
     let likelihood = Likelihood::of_slopes(&fit);
     Ok(FormulaFit {
         formula: formula.to_string(),
-        df_method: reml.then_some(DfMethod::Satterthwaite),
+        df_method: reml.then_some(df),
         fit: Fitted::Slopes(fit),
         fixed,
         profile: None,

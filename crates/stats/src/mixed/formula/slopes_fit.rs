@@ -4,29 +4,27 @@
 use std::fmt::Write;
 
 use super::FormulaError;
-use crate::mixed::slopes::{fit_slopes, SlopeData, SlopeFit};
+use crate::mixed::slopes::{fit_slopes, with_kenward_roger, SlopeData, SlopeFit};
 use crate::mixed::Criterion;
 
-/// Fits a random-slope model; Satterthwaite df for REML fits. Kenward-Roger
-/// df and profile intervals are computed for random-intercept models only,
-/// and asking for them here is refused by name.
+/// Fits a random-slope model; Satterthwaite or (`kenward_roger`)
+/// Kenward-Roger df for REML fits. Profile intervals are computed for
+/// random-intercept models only, and asking for them here is refused by
+/// name.
 pub(super) fn fit_checked(
     data: &SlopeData,
     criterion: Criterion,
     kenward_roger: bool,
     profile: Option<f64>,
 ) -> Result<SlopeFit, FormulaError> {
-    if kenward_roger && criterion == Criterion::Reml {
-        return Err(FormulaError::Unsupported(
-            "--df kenward-roger is computed for random-intercept models only; a model with random slopes gets Satterthwaite df (the default)".into(),
-        ));
-    }
     if profile.is_some() {
         return Err(FormulaError::Unsupported(
             "--profile is computed for random-intercept models only; a model with random slopes gets its standard deviations and correlations without profile intervals".into(),
         ));
     }
-    Ok(fit_slopes(data, criterion, criterion == Criterion::Reml)?)
+    let reml = criterion == Criterion::Reml;
+    let fit = fit_slopes(data, criterion, reml && !kenward_roger)?;
+    Ok(if reml && kenward_roger { with_kenward_roger(data, fit)? } else { fit })
 }
 
 /// lme4's random-effects table of a random-slope fit (variance, standard

@@ -51,6 +51,7 @@
 //! general case, with the dense system over every level of every term.
 
 mod inference;
+mod kenward_roger;
 pub(crate) mod optimize;
 pub(crate) mod structure;
 mod system;
@@ -247,6 +248,8 @@ pub struct SlopeFixed {
     pub se: f64,
     /// Satterthwaite df (REML fits, when asked).
     pub df_satterthwaite: Option<f64>,
+    /// Kenward-Roger's adjusted SE and df (REML fits, when asked).
+    pub kenward_roger: Option<super::KenwardRoger>,
 }
 
 /// The optimizer's certificate for an unconstrained minimum: the
@@ -344,6 +347,7 @@ pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -
             estimate: e.beta[c],
             se: (e.sigma2 * e.rx_inv[(c, c)]).sqrt(),
             df_satterthwaite: df[c],
+            kenward_roger: None,
         })
         .collect();
     let terms = term_fits(&data.terms, &theta, e.sigma2);
@@ -362,6 +366,24 @@ pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -
         evaluations,
         n: base.len(),
     })
+}
+
+/// Adds Kenward-Roger's adjusted SE and df (pbkrtest's) to every fixed
+/// effect of `fit`, a REML fit of `data`.
+pub fn with_kenward_roger(data: &SlopeData, mut fit: SlopeFit) -> Result<SlopeFit, MixedError> {
+    if fit.criterion != Criterion::Reml {
+        return Ok(fit);
+    }
+    let base = match data.base.without_aliased() {
+        Some((d, _)) => d,
+        None => data.base.clone(),
+    };
+    let covariances: Vec<Vec<f64>> = fit.terms.iter().map(|t| t.covariance.clone()).collect();
+    let kr = kenward_roger::kenward_roger(&base, &data.terms, &covariances, fit.residual)?;
+    for (f, (se, df)) in fit.fixed.iter_mut().zip(kr) {
+        f.kenward_roger = Some(super::KenwardRoger { se, df, fallback: false });
+    }
+    Ok(fit)
 }
 
 /// The deviance (REML criterion or ML deviance) of `data` at `theta`, in
