@@ -138,6 +138,7 @@ fn value_name(rule: &Rule) -> Option<&'static str> {
         Rule::seconds => "a duration in seconds (e.g. `1.0 s`)",
         Rule::cap => "`cap <metres> m`",
         Rule::ep_models => "`model <name>` or `models <names>`",
+        Rule::ep_glmm => "`glmm binomial`",
         Rule::optimizer | Rule::optimizer_kind => "an optimizer (`adam lr <rate>`)",
         Rule::target_kind => "a target (state_scaled, standardized)",
         Rule::action_scaling => "an action scaling (raw, standardized)",
