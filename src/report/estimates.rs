@@ -71,27 +71,22 @@ fn glmm_row(u: &UnitResult, role: &str, contrast: &str, holds: Option<bool>) -> 
     Some((key, Row { holds, ..row }))
 }
 
+/// One line of estimates.csv: the row's key columns, the level, then its
+/// values.
+fn line(key: &str, level: &str, r: &Row) -> String {
+    let (t, rf) = r.means.map(|(t, rf)| (num(t), num(rf))).unwrap_or_default();
+    let holds = r.holds.map(|h| h.to_string()).unwrap_or_default();
+    let (estimate, se, df, lower, upper) = (num(r.estimate), opt(r.se), opt(r.df), num(r.lower), num(r.upper));
+    format!("{key},{},{level},{t},{rf},{estimate},{se},{df},{lower},{upper},{},{holds}\n", r.estimator, opt(r.optimism))
+}
+
 /// The text of estimates.csv for `a`.
 pub fn render_estimates(a: &Analysis) -> String {
     let mut s = String::from(COLUMNS);
     s.push('\n');
     let contrast = format!("{} - {}", a.treated, a.reference);
     let level = num(a.level);
-    let mut put = |key: &str, r: Row| {
-        let (t, rf) = r.means.map(|(t, rf)| (num(t), num(rf))).unwrap_or_default();
-        let holds = r.holds.map(|h| h.to_string()).unwrap_or_default();
-        let _ = writeln!(
-            s,
-            "{key},{},{level},{t},{rf},{},{},{},{},{},{},{holds}",
-            r.estimator,
-            num(r.estimate),
-            opt(r.se),
-            opt(r.df),
-            num(r.lower),
-            num(r.upper),
-            opt(r.optimism),
-        );
-    };
+    let mut put = |key: &str, r: Row| s.push_str(&line(key, &level, &r));
     let on_divergence = a.decision.rule.on == crate::design::DecisionTarget::Divergence;
     let preregistered = if a.units.first().is_some_and(|u| u.estimate.reml.is_some()) { "reml" } else { "crossed_mom" };
     for u in &a.units {
