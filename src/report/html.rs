@@ -68,79 +68,32 @@ fn image(alt: &str, file: &str, figures: &[(String, String)]) -> String {
 /// a link is live only when [`safe_link`] allows its target; an image is
 /// the inline SVG of a figure given in `figures`, or its alt text.
 fn body(markdown: &str, figures: &[(String, String)]) -> String {
-    use pulldown_cmark::{Alignment, Event, Options, Parser, Tag, TagEnd};
+    use pulldown_cmark::{Event, Options, Parser, Tag, TagEnd};
     let events: Vec<Event> = Parser::new_ext(markdown, Options::ENABLE_TABLES).collect();
     let mut out = String::new();
-    let mut align: Vec<Alignment> = Vec::new();
-    let (mut in_head, mut column) = (false, 0usize);
+    let mut table = TableState::default();
     // Open links: whether each was rendered live (its end closes an `<a>`).
     let mut links: Vec<bool> = Vec::new();
     let mut k = 0;
     while k < events.len() {
+        if table.event(&events[k], &mut out) {
+            k += 1;
+            continue;
+        }
         match &events[k] {
             Event::Start(Tag::Paragraph) => {
                 // A paragraph that is only an image is the figure itself.
-                if let Some(Event::Start(Tag::Image { .. })) = events.get(k + 1) {
-                    let close = (k + 2..events.len()).find(|&j| matches!(events[j], Event::End(TagEnd::Image)));
-                    if let Some(j) = close.filter(|&j| matches!(events.get(j + 1), Some(Event::End(TagEnd::Paragraph))))
-                    {
-                        out.push_str(&image_at(&events, k + 1, j, figures));
-                        k = j + 2;
-                        continue;
-                    }
+                if let Some(j) = lone_image(&events, k) {
+                    out.push_str(&image_at(&events, k + 1, j, figures));
+                    k = j + 2;
+                    continue;
                 }
                 out.push_str("<p>");
             }
             Event::End(TagEnd::Paragraph) => out.push_str("</p>\n"),
-            Event::Start(Tag::Heading { level, .. }) => {
-                if *level == pulldown_cmark::HeadingLevel::H2 {
-                    // The heading's own text, for its anchor.
-                    let text: String = events[k + 1..]
-                        .iter()
-                        .take_while(|e| !matches!(e, Event::End(TagEnd::Heading(_))))
-                        .filter_map(|e| match e {
-                            Event::Text(t) | Event::Code(t) => Some(t.to_string()),
-                            _ => None,
-                        })
-                        .collect();
-                    let _ = write!(out, "<{level} id=\"{}\">", slug(&text));
-                } else {
-                    let _ = write!(out, "<{level}>");
-                }
-            }
+            Event::Start(Tag::Heading { level, .. }) => out.push_str(&heading_open(*level, &events[k + 1..])),
             Event::End(TagEnd::Heading(level)) => {
                 let _ = writeln!(out, "</{level}>");
-            }
-            Event::Start(Tag::Table(a)) => {
-                align = a.clone();
-                out.push_str("<table>\n");
-            }
-            Event::End(TagEnd::Table) => out.push_str("</tbody>\n</table>\n"),
-            Event::Start(Tag::TableHead) => {
-                in_head = true;
-                column = 0;
-                out.push_str("<thead><tr>");
-            }
-            Event::End(TagEnd::TableHead) => {
-                in_head = false;
-                out.push_str("</tr></thead>\n<tbody>\n");
-            }
-            Event::Start(Tag::TableRow) => {
-                column = 0;
-                out.push_str("<tr>");
-            }
-            Event::End(TagEnd::TableRow) => out.push_str("</tr>\n"),
-            Event::Start(Tag::TableCell) => {
-                let right = align.get(column) == Some(&Alignment::Right);
-                out.push_str(match (in_head, right) {
-                    (true, _) => "<th>",
-                    (false, true) => "<td class=\"num\">",
-                    (false, false) => "<td>",
-                });
-            }
-            Event::End(TagEnd::TableCell) => {
-                out.push_str(if in_head { "</th>" } else { "</td>" });
-                column += 1;
             }
             Event::Start(Tag::List(Some(n))) if *n != 1 => {
                 let _ = writeln!(out, "<ol start=\"{n}\">");
@@ -192,6 +145,89 @@ fn body(markdown: &str, figures: &[(String, String)]) -> String {
         k += 1;
     }
     out
+}
+
+/// Where a table's rendering stands: its columns' alignments, whether in
+/// its head, and the cell's column.
+#[derive(Default)]
+struct TableState {
+    align: Vec<pulldown_cmark::Alignment>,
+    in_head: bool,
+    column: usize,
+}
+
+impl TableState {
+    /// Writes a table's event (the table, its head, a row, a cell) to
+    /// `out`; false for every other event, left to [`body`].
+    fn event(&mut self, event: &pulldown_cmark::Event, out: &mut String) -> bool {
+        use pulldown_cmark::{Alignment, Event, Tag, TagEnd};
+        match event {
+            Event::Start(Tag::Table(a)) => {
+                self.align = a.clone();
+                out.push_str("<table>\n");
+            }
+            Event::End(TagEnd::Table) => out.push_str("</tbody>\n</table>\n"),
+            Event::Start(Tag::TableHead) => {
+                self.in_head = true;
+                self.column = 0;
+                out.push_str("<thead><tr>");
+            }
+            Event::End(TagEnd::TableHead) => {
+                self.in_head = false;
+                out.push_str("</tr></thead>\n<tbody>\n");
+            }
+            Event::Start(Tag::TableRow) => {
+                self.column = 0;
+                out.push_str("<tr>");
+            }
+            Event::End(TagEnd::TableRow) => out.push_str("</tr>\n"),
+            Event::Start(Tag::TableCell) => {
+                let right = self.align.get(self.column) == Some(&Alignment::Right);
+                out.push_str(match (self.in_head, right) {
+                    (true, _) => "<th>",
+                    (false, true) => "<td class=\"num\">",
+                    (false, false) => "<td>",
+                });
+            }
+            Event::End(TagEnd::TableCell) => {
+                out.push_str(if self.in_head { "</th>" } else { "</td>" });
+                self.column += 1;
+            }
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// Where the image ends when the paragraph starting at `k` is that image
+/// alone.
+fn lone_image(events: &[pulldown_cmark::Event], k: usize) -> Option<usize> {
+    use pulldown_cmark::{Event, Tag, TagEnd};
+    if let Some(Event::Start(Tag::Image { .. })) = events.get(k + 1) {
+        let close = (k + 2..events.len()).find(|&j| matches!(events[j], Event::End(TagEnd::Image)));
+        return close.filter(|&j| matches!(events.get(j + 1), Some(Event::End(TagEnd::Paragraph))));
+    }
+    None
+}
+
+/// A heading's opening tag; an `h2` carries an anchor made of its own
+/// text (`rest`: the events after its start).
+fn heading_open(level: pulldown_cmark::HeadingLevel, rest: &[pulldown_cmark::Event]) -> String {
+    use pulldown_cmark::{Event, TagEnd};
+    if level == pulldown_cmark::HeadingLevel::H2 {
+        // The heading's own text, for its anchor.
+        let text: String = rest
+            .iter()
+            .take_while(|e| !matches!(e, Event::End(TagEnd::Heading(_))))
+            .filter_map(|e| match e {
+                Event::Text(t) | Event::Code(t) => Some(t.to_string()),
+                _ => None,
+            })
+            .collect();
+        format!("<{level} id=\"{}\">", slug(&text))
+    } else {
+        format!("<{level}>")
+    }
 }
 
 /// The plain text of events (an image's alt text).
