@@ -472,7 +472,12 @@ fn function_lengths() -> BTreeMap<String, usize> {
             if let Some(sig) = rest.strip_prefix("fn ") {
                 let name: String = sig.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
                 let close = format!("{indent}}}");
-                if let Some(end) = (i + 1..lines.len()).find(|&j| lines[j] == close) {
+                // A body on the signature's line (`fn start(&self) {}`) is
+                // one line: its closing brace is not a later line's.
+                let one_line = l.trim_end().ends_with('}') && l.contains('{');
+                if one_line {
+                    out.entry(format!("{rel}::{name}")).or_insert(1);
+                } else if let Some(end) = (i + 1..lines.len()).find(|&j| lines[j] == close) {
                     if !l.trim_end().ends_with(';') {
                         let key = format!("{rel}::{name}");
                         let n = end - i + 1;
