@@ -144,34 +144,7 @@ impl GlmmFormulaFit {
             f.deviance,
             f.n as i64 - f.npar as i64
         );
-        let _ = writeln!(s, "Random effects:");
-        let width = f.terms.iter().map(|t| t.group.len()).max().unwrap_or(0).max(8);
-        let name_width = f.terms.iter().flat_map(|t| t.names.iter().map(String::len)).max().unwrap_or(0).max(11);
-        let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12} {:>12} Corr", "Groups", "Name", "Variance", "Std.Dev.");
-        for t in &f.terms {
-            let k = t.names.len();
-            let mut corr = t.correlations.iter();
-            for (i, name) in t.names.iter().enumerate() {
-                let group = if i == 0 { t.group.as_str() } else { "" };
-                let mut line =
-                    format!(" {group:<width$} {name:<name_width$} {:>12.6} {:>12.6}", t.covariance[i * k + i], t.sd[i]);
-                for _ in 0..i {
-                    match corr.next() {
-                        Some(Some(r)) => line.push_str(&format!(" {r:>6.3}")),
-                        _ => line.push_str("    NaN"),
-                    }
-                }
-                let _ = writeln!(s, "{line}");
-            }
-        }
-        let mut groups: Vec<String> = Vec::new();
-        for t in &f.terms {
-            let g = format!("{}, {}", t.factor, t.levels);
-            if !groups.contains(&g) {
-                groups.push(g);
-            }
-        }
-        let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
+        s.push_str(&super::slopes_fit::terms_table(&f.terms, None, f.n));
         let _ = writeln!(s, "Fixed effects:");
         let width = f.fixed.iter().map(|r| r.name.len()).max().unwrap_or(0).max(11);
         let _ =

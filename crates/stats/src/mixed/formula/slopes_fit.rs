@@ -4,7 +4,7 @@
 use std::fmt::Write;
 
 use super::FormulaError;
-use crate::mixed::slopes::{fit_slopes, with_kenward_roger, SlopeData, SlopeFit};
+use crate::mixed::slopes::{fit_slopes, with_kenward_roger, SlopeData, SlopeFit, TermFit};
 use crate::mixed::Criterion;
 
 /// Fits a random-slope model; Satterthwaite or (`kenward_roger`)
@@ -31,12 +31,19 @@ pub(super) fn fit_checked(
 /// deviation and correlations of each term's columns, the residual) and
 /// its line of observations and groups.
 pub(super) fn random_effects(f: &SlopeFit) -> String {
+    terms_table(&f.terms, Some(f.residual), f.n)
+}
+
+/// lme4's random-effects table of `terms` (with the residual's row where
+/// the model has one; a GLMM has none) and its line of observations and
+/// groups, shared by the linear and the generalized models' summaries.
+pub(super) fn terms_table(terms: &[TermFit], residual: Option<f64>, n: usize) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "Random effects:");
-    let width = f.terms.iter().map(|t| t.group.len()).max().unwrap_or(0).max(8);
-    let name_width = f.terms.iter().flat_map(|t| t.names.iter().map(String::len)).max().unwrap_or(0).max(11);
+    let width = terms.iter().map(|t| t.group.len()).max().unwrap_or(0).max(8);
+    let name_width = terms.iter().flat_map(|t| t.names.iter().map(String::len)).max().unwrap_or(0).max(11);
     let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12} {:>12} Corr", "Groups", "Name", "Variance", "Std.Dev.");
-    for t in &f.terms {
+    for t in terms {
         let k = t.names.len();
         let mut corr = t.correlations.iter();
         for (i, name) in t.names.iter().enumerate() {
@@ -52,15 +59,17 @@ pub(super) fn random_effects(f: &SlopeFit) -> String {
             let _ = writeln!(s, "{line}");
         }
     }
-    let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12.6} {:>12.6}", "Residual", "", f.residual, f.residual.sqrt());
+    if let Some(residual) = residual {
+        let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12.6} {:>12.6}", "Residual", "", residual, residual.sqrt());
+    }
     let mut groups: Vec<String> = Vec::new();
-    for t in &f.terms {
+    for t in terms {
         let g = format!("{}, {}", t.factor, t.levels);
         if !groups.contains(&g) {
             groups.push(g);
         }
     }
-    let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
+    let _ = writeln!(s, "Number of obs: {n}, groups:  {}\n", groups.join("; "));
     s
 }
 

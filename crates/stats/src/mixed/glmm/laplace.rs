@@ -61,7 +61,7 @@ fn softplus(x: f64) -> f64 {
 impl Model {
     /// The mean, the GLM weight, the score term and log p(y_i) of
     /// observation i at linear predictor eta.
-    fn observation(&self, i: usize, eta: f64) -> (f64, f64, f64) {
+    pub(super) fn observation(&self, i: usize, eta: f64) -> (f64, f64, f64) {
         let (k, m) = (self.k[i], self.m[i]);
         match self.family {
             Family::Binomial => {

@@ -387,38 +387,10 @@ fn hessian_vcov(
 ) -> Option<Vec<f64>> {
     use rayon::prelude::*;
     let m = x.len();
-    let hessian = |rel: f64| -> faer::Mat<f64> {
+    let mut batch = |points: &[Vec<f64>]| -> Vec<f64> { points.par_iter().map(|p| one(p)).collect() };
+    let mut hessian = |rel: f64| -> faer::Mat<f64> {
         let h: Vec<f64> = x.iter().map(|v| rel * v.abs().max(0.1)).collect();
-        let shifted = |d: &[(usize, f64)]| {
-            let mut p = x.to_vec();
-            for &(j, s) in d {
-                p[j] += s;
-            }
-            p
-        };
-        let mut points = Vec::new();
-        for a in 0..m {
-            points.push(shifted(&[(a, h[a])]));
-            points.push(shifted(&[(a, -h[a])]));
-            for b in 0..a {
-                for (sa, sb) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
-                    points.push(shifted(&[(a, sa * h[a]), (b, sb * h[b])]));
-                }
-            }
-        }
-        let values: Vec<f64> = points.par_iter().map(|p| one(p)).collect();
-        let mut next = values.into_iter();
-        let mut hess = faer::Mat::<f64>::zeros(m, m);
-        for a in 0..m {
-            let (fp, fm) = (next.next().unwrap_or(f64::NAN), next.next().unwrap_or(f64::NAN));
-            hess[(a, a)] = (fp - 2.0 * fx + fm) / (h[a] * h[a]);
-            for b in 0..a {
-                let four: Vec<f64> = (0..4).map(|_| next.next().unwrap_or(f64::NAN)).collect();
-                hess[(a, b)] = (four[0] - four[1] - four[2] + four[3]) / (4.0 * h[a] * h[b]);
-                hess[(b, a)] = hess[(a, b)];
-            }
-        }
-        hess
+        slopes::optimize::derivatives(&mut batch, x, fx, &h).1
     };
     let (h1, h2) = (hessian(2e-3), hessian(1e-3));
     let hess = faer::Mat::<f64>::from_fn(m, m, |i, j| (4.0 * h2[(i, j)] - h1[(i, j)]) / 3.0);
@@ -448,15 +420,10 @@ fn glm_start(m: &Model) -> Vec<f64> {
         for i in 0..n {
             let xi = &m.x[i * p..(i + 1) * p];
             let eta: f64 = xi.iter().zip(&beta).map(|(a, b)| a * b).sum();
-            let (mu_m, w) = match m.family {
-                Family::Binomial => {
-                    let mu = 1.0 / (1.0 + (-eta).exp());
-                    (m.m[i] * mu, m.m[i] * mu * (1.0 - mu))
-                }
-                Family::Poisson => (eta.exp(), eta.exp()),
-            };
+            // The GLM weight and score term of the Laplace's PIRLS.
+            let (w, r, _) = m.observation(i, eta);
             for c in 0..p {
-                score[(c, 0)] += xi[c] * (m.k[i] - mu_m);
+                score[(c, 0)] += xi[c] * r;
                 for d in 0..=c {
                     xtwx[(c, d)] += w * xi[c] * xi[d];
                 }

@@ -10,7 +10,7 @@ use crate::mixed::optimize::nelder_mead_free;
 use crate::mixed::{Criterion, MixedError};
 
 /// Evaluates a batch of points, one value per point in order.
-type Batch<'a> = dyn FnMut(&[Vec<f64>]) -> Vec<f64> + 'a;
+pub(crate) type Batch<'a> = dyn FnMut(&[Vec<f64>]) -> Vec<f64> + 'a;
 
 /// The optimum: lme4's theta (diagonal entries non-negative), the
 /// evaluations used and the certificate.
@@ -94,7 +94,7 @@ fn steps(x: &[f64], relative: f64) -> Vec<f64> {
 
 /// The gradient and Hessian of `f` at `x` (value `fx`) by central
 /// differences (four points per pair for the off-diagonal terms).
-fn derivatives(f: &mut Batch, x: &[f64], fx: f64, h: &[f64]) -> (Vec<f64>, Mat<f64>) {
+pub(crate) fn derivatives(f: &mut Batch, x: &[f64], fx: f64, h: &[f64]) -> (Vec<f64>, Mat<f64>) {
     let m = x.len();
     let at = |d: &[(usize, f64)]| {
         let mut y = x.to_vec();
