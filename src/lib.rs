@@ -71,7 +71,8 @@ pub fn analyze_with(
 /// a single study's or a dose-response or multi-split family's from the
 /// per-cell file `cells`, or, for a multiverse or draw-replicated design,
 /// the combined analysis of the run directory `cells`. Write it with
-/// [`run::StudyAnalysis::write`].
+/// [`report::write_study`]; its decision line is
+/// [`report::study_decision_line`].
 ///
 /// ```
 /// use std::path::Path;
@@ -80,24 +81,24 @@ pub fn analyze_with(
 /// let cells = Path::new("examples/cells/nanobench_synthetic.csv");
 /// let a = crossaudit::analyze_study(&file, &study, cells, Default::default()).unwrap();
 /// assert_eq!(a.kind(), "single");
-/// assert!(a.decision_line().starts_with("decision: "));
+/// assert!(crossaudit::report::study_decision_line(&a).starts_with("decision: "));
 /// ```
 pub fn analyze_study(
     file: &DesignFile,
     study: &StudyPlan,
     cells: &Path,
     options: AnalyzeOptions,
-) -> Result<run::StudyAnalysis, Error> {
+) -> Result<analysis::StudyAnalysis, Error> {
     if study.combines_levels() {
         let mut a = run::outer::analyze_dir(file, study, cells)?;
         run::outer::label(&mut a, file)?;
-        return Ok(run::StudyAnalysis::Multiverse(Box::new(a)));
+        return Ok(analysis::StudyAnalysis::Multiverse(Box::new(a)));
     }
     let plan = &study.plan;
     if plan.is_family() {
-        return Ok(run::StudyAnalysis::Family(Box::new(analyze_family_with(file, plan, cells, options)?)));
+        return Ok(analysis::StudyAnalysis::Family(Box::new(analyze_family_with(file, plan, cells, options)?)));
     }
-    Ok(run::StudyAnalysis::Single(Box::new(analyze_with(file, plan, cells, options)?)))
+    Ok(analysis::StudyAnalysis::Single(Box::new(analyze_with(file, plan, cells, options)?)))
 }
 
 /// The analysis of a dose-response or multi-split design's per-cell file

@@ -7,9 +7,10 @@ use std::fmt::Write as _;
 use std::process::Command;
 
 use crossaudit::analysis::family::{analyze_family, FamilyAnalysis};
+use crossaudit::analysis::StudyAnalysis;
 use crossaudit::cells::{read_cells, read_cells_from, write_cells};
 use crossaudit::design::{self, ArmKind};
-use crossaudit::run::{run, Quiet, RunOptions, StudyAnalysis};
+use crossaudit::run::{run, Quiet, RunOptions};
 
 use crate::common::{assert_rel, root, shared_logs};
 

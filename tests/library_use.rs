@@ -27,11 +27,11 @@ fn a_reanalysis_is_locked_by_a_snapshot() {
     let study = crossaudit::compile_study(&file.design);
     let cells = Path::new("examples/cells/nanobench_synthetic.csv");
     let a = crossaudit::analyze_study(&file, &study, cells, Default::default()).unwrap();
-    let crossaudit::run::StudyAnalysis::Single(single) = &a else { panic!("a single study") };
+    let crossaudit::analysis::StudyAnalysis::Single(single) = &a else { panic!("a single study") };
     let u = &single.units[0];
     let text = format!(
         "{}\nprimary: d = {:.6} (SE {:.6}, df {}), 95% CI [{:.6}, {:.6}]",
-        a.decision_line(),
+        crossaudit::report::study_decision_line(&a),
         u.estimate.mean,
         u.estimate.se,
         u.estimate.df,

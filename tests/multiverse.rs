@@ -368,7 +368,7 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
         let o = bin().args(["analyze", design, "--cells", run, "--out"]).arg(out.path()).output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let line = String::from_utf8_lossy(&o.stdout).trim().to_string();
-        assert_eq!(line, crossaudit::run::outer::decision_line(&a));
+        assert_eq!(line, crossaudit::report::multiverse::decision_line(&a));
         assert_eq!(std::fs::read_to_string(out.path().join("specs.csv")).unwrap(), specs);
         crate::snapshots!({ insta::assert_snapshot!(name, format!("{specs}\n{effects}\n{draws}")) });
     }

@@ -75,7 +75,7 @@ fn score(py: Python<'_>, dir: PathBuf, workers: Option<usize>) -> PyResult<Strin
     json(&serde_json::json!({
         "cells_csv": o.run.cells_csv,
         "report_dir": o.run.report_dir,
-        "decision": o.run.analysis.decision_line(),
+        "decision": crossaudit::report::study_decision_line(&o.run.analysis),
         "holds": o.run.analysis.holds(),
         "scored": o.scored,
         "resumed": o.resumed,
@@ -106,7 +106,7 @@ fn run(
     json(&serde_json::json!({
         "cells_csv": o.cells_csv,
         "report_dir": o.report_dir,
-        "decision": o.analysis.decision_line(),
+        "decision": crossaudit::report::study_decision_line(&o.analysis),
         "holds": o.analysis.holds(),
         "trained": o.trained,
     }))
@@ -141,10 +141,11 @@ fn analyze(
             // A run's own folders are written by the run alone.
             crossaudit::run::check_not_runs_own(dir, outer.then_some(cells.as_path())).map_err(fail)?;
             crossaudit::io::create_dir_all(dir).map_err(fail)?;
-            analysis.write(dir).map_err(fail)?;
+            crossaudit::report::write_study(&mut analysis, &[], dir).map_err(fail)?;
         }
-        let table = analysis.tidy_table();
-        Ok((json(&analysis)?, analysis.decision_line(), analysis.holds(), analysis.kind(), table))
+        let (line, table) =
+            (crossaudit::report::study_decision_line(&analysis), crossaudit::report::study_table(&analysis));
+        Ok((json(&analysis)?, line, analysis.holds(), analysis.kind(), table))
     })
 }
 

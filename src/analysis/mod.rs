@@ -13,6 +13,7 @@ mod diff;
 pub mod family;
 mod index;
 pub mod multiverse;
+pub mod study;
 pub mod training;
 mod types;
 mod unit;
@@ -23,6 +24,7 @@ use crate::cells::Cell;
 use crate::plan::Plan;
 use crate::stats::StatsError;
 
+pub use study::StudyAnalysis;
 pub use types::*;
 
 /// Why per-cell data cannot be analysed under a plan.

@@ -24,7 +24,6 @@ mod record;
 pub mod reuse;
 pub mod slurm;
 mod source;
-mod study;
 mod trained_invariants;
 
 use std::collections::VecDeque;
@@ -32,7 +31,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::analysis::family::{analyze_family, FamilyAnalysis};
-use crate::analysis::{self, Analysis, FileAnalysisError};
+use crate::analysis::{self, Analysis, FileAnalysisError, StudyAnalysis};
 use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::create_dir_all;
@@ -46,7 +45,6 @@ pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir}
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
-pub use study::StudyAnalysis;
 pub use trained_invariants::check as check_trained_invariants;
 
 /// The most training workers (threads) a run starts.
@@ -227,11 +225,12 @@ pub(crate) fn report_family(
     extra(&mut a);
     a.warnings.extend(resumed_builds(builds));
     let report_dir = out.join("report");
-    crate::report::family::write_family(&mut a, &report_dir)?;
+    let mut analysis = StudyAnalysis::Family(Box::new(a));
+    crate::report::write_study(&mut analysis, &[], &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
-        analysis: StudyAnalysis::Family(Box::new(a)),
+        analysis,
         trained: 0,
         skipped: plan.jobs.len(),
         seconds: started.elapsed().as_secs_f64(),
@@ -452,11 +451,12 @@ fn finish(
     if let Some(w) = curves::early_best_epochs(plan, &curves, &cells) {
         analysis.warnings.push(w);
     }
-    crate::report::write_with_figures(&mut analysis, &curves, &report_dir)?;
+    let mut analysis = StudyAnalysis::Single(Box::new(analysis));
+    crate::report::write_study(&mut analysis, &curves, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
-        analysis: StudyAnalysis::Single(Box::new(analysis)),
+        analysis,
         trained: 0,
         skipped: plan.jobs.len(),
         seconds: started.elapsed().as_secs_f64(),

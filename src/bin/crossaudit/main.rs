@@ -294,7 +294,7 @@ fn run(
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    outln!("{}", o.analysis.decision_line());
+    outln!("{}", crossaudit::report::study_decision_line(&o.analysis));
     Ok(())
 }
 
@@ -407,7 +407,7 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    outln!("{}", o.analysis.decision_line());
+    outln!("{}", crossaudit::report::study_decision_line(&o.analysis));
     Ok(())
 }
 
@@ -548,13 +548,13 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     // multiverse or draw-replicated design) the run directory `cells`.
     let mut analysis = crossaudit::analyze_study(&file, &study, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
-    let written = analysis.write(&dir)?;
+    let written = crossaudit::report::write_study(&mut analysis, &[], &dir)?;
     for w in analysis.warnings() {
         note!("warning: {}", crossaudit::io::one_line(w));
     }
     for p in written {
         note!("wrote {}", p.display());
     }
-    outln!("{}", analysis.decision_line());
+    outln!("{}", crossaudit::report::study_decision_line(&analysis));
     Ok(())
 }

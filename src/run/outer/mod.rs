@@ -29,7 +29,6 @@ use crate::design::Design;
 use crate::io::write_atomic;
 pub use crate::plan::study::{Level, Outer, Role, Unit};
 use crate::plan::StudyPlan;
-pub use crate::report::multiverse::decision_line;
 use verify::check_levels;
 
 /// What `score` says of each level's external models (by level folder),
@@ -98,11 +97,9 @@ pub(crate) fn run_levels_with(
         per_seed::finish_specs(file, outer, out, (&status, exploratory, &record), builds.clone())?;
     }
     let mut outcome = finish_levels(file, outer, out, (&status, exploratory, &record), &finished.splits, builds)?;
-    if let StudyAnalysis::Multiverse(a) = &mut outcome.analysis {
-        if !queued.reused.is_empty() {
-            a.warnings.extend(queued.reused.iter().cloned());
-            crate::report::multiverse::write_multiverse(a, &outcome.report_dir)?;
-        }
+    if matches!(outcome.analysis, StudyAnalysis::Multiverse(_)) && !queued.reused.is_empty() {
+        outcome.analysis.warnings_mut().extend(queued.reused.iter().cloned());
+        crate::report::write_study(&mut outcome.analysis, &[], &outcome.report_dir)?;
     }
     Ok(counts(outcome))
 }
@@ -195,15 +192,9 @@ pub(super) fn finish_levels(
         }
     }
     let report_dir = out.join("report");
-    crate::report::multiverse::write_multiverse(&a, &report_dir)?;
-    Ok(RunOutcome {
-        cells_csv,
-        report_dir,
-        analysis: StudyAnalysis::Multiverse(Box::new(a)),
-        trained: 0,
-        skipped: 0,
-        seconds: started.elapsed().as_secs_f64(),
-    })
+    let mut analysis = StudyAnalysis::Multiverse(Box::new(a));
+    crate::report::write_study(&mut analysis, &[], &report_dir)?;
+    Ok(RunOutcome { cells_csv, report_dir, analysis, trained: 0, skipped: 0, seconds: started.elapsed().as_secs_f64() })
 }
 
 /// For each pair of levels with a split of their own (at the first draw):

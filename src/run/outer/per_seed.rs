@@ -13,11 +13,12 @@ use std::time::Instant;
 
 use super::{run_dir, Level, Outer};
 use crate::analysis::FileAnalysisError;
+use crate::analysis::StudyAnalysis;
 use crate::cells::{read_cells, Cell};
 use crate::design::{DesignFile, LockStatus};
 use crate::io::create_dir_all;
 use crate::plan::Plan;
-use crate::run::{RunError, RunOutcome, RunRecord, StudyAnalysis};
+use crate::run::{RunError, RunOutcome, RunRecord};
 
 /// After every seed's level of a `draws per seed` study finished: their
 /// cells in one `dest/cells.csv` (seed order), the design's own analysis
@@ -120,13 +121,7 @@ fn finish_seeds(
         analysis.warnings.push(w);
     }
     let report_dir = dest.join("report");
-    crate::report::write_with_figures(&mut analysis, &curves, &report_dir)?;
-    Ok(RunOutcome {
-        cells_csv,
-        report_dir,
-        analysis: StudyAnalysis::Single(Box::new(analysis)),
-        trained: 0,
-        skipped: 0,
-        seconds: started.elapsed().as_secs_f64(),
-    })
+    let mut analysis = StudyAnalysis::Single(Box::new(analysis));
+    crate::report::write_study(&mut analysis, &curves, &report_dir)?;
+    Ok(RunOutcome { cells_csv, report_dir, analysis, trained: 0, skipped: 0, seconds: started.elapsed().as_secs_f64() })
 }

@@ -1,0 +1,40 @@
+//! One writer and one decision line for any study
+//! ([`crate::analysis::StudyAnalysis`]): what a run, `crossaudit analyze`
+//! and the Python package all write and print.
+
+use std::path::{Path, PathBuf};
+
+use super::figures::Curve;
+use super::ReportError;
+use crate::analysis::StudyAnalysis;
+
+/// The decision line the console prints for any study.
+pub fn study_decision_line(a: &StudyAnalysis) -> String {
+    match a {
+        StudyAnalysis::Single(a) => super::format::decision_line(a),
+        StudyAnalysis::Family(a) => super::family::family_decision_line(a),
+        StudyAnalysis::Multiverse(a) => super::multiverse::decision_line(a),
+    }
+}
+
+/// The study's tidy table as CSV text: `estimates.csv` of a single or
+/// family study, `specs.csv` of a multiverse.
+pub fn study_table(a: &StudyAnalysis) -> String {
+    match a {
+        StudyAnalysis::Single(a) => super::estimates::render_estimates(a),
+        StudyAnalysis::Family(a) => super::estimates::render_family_estimates(a),
+        StudyAnalysis::Multiverse(a) => super::multiverse::specs_csv(a),
+    }
+}
+
+/// Writes the report of any study into `dir` and returns the files
+/// written: with its figures (and, from a run of a single study, its
+/// training `curves`; a family or multiverse has none, nor has per-cell
+/// data), the figure names recorded in the analysis.
+pub fn write_study(a: &mut StudyAnalysis, curves: &[Curve], dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    match a {
+        StudyAnalysis::Single(a) => super::write_with_figures(a, curves, dir),
+        StudyAnalysis::Family(a) => super::family::write_family(a, dir),
+        StudyAnalysis::Multiverse(a) => super::multiverse::write_multiverse(a, dir),
+    }
+}
