@@ -482,7 +482,9 @@ fn a_dose_report_has_its_page_and_a_numeric_dose_axis_with_the_slope() {
 }
 
 /// A dose-response study's estimates.csv holds the numbers its report.md
-/// prints: each dose's d and optimism, and the trend's slope.
+/// prints (each dose's d and optimism, and the trend's slope) under the
+/// single study's column names, with `rule_holds` on the one row the rule
+/// decides (`on slope`: the trend) and empty elsewhere.
 #[test]
 fn a_family_estimates_csv_is_its_report_in_tidy_form() {
     let dir = root().join("results/simulated_family/dose_high/report");
@@ -490,6 +492,12 @@ fn a_family_estimates_csv_is_its_report_in_tidy_form() {
     let csv = std::fs::read_to_string(dir.join("estimates.csv")).unwrap();
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    // The single study's columns (a dose's own report beside it), with the
+    // split and the dose after the kind.
+    let single = std::fs::read_to_string(dir.join("contaminated_5pct/estimates.csv")).unwrap();
+    let single: Vec<&str> = single.lines().next().unwrap().split(',').collect();
+    assert_eq!([&header[..1], &header[3..]].concat(), single);
+    assert_eq!(header[1..3], ["split", "dose_pct"]);
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     let per_dose = tables(&md).into_iter().find(|t| t[0].iter().any(|h| h == "d (m)")).unwrap();
@@ -497,18 +505,25 @@ fn a_family_estimates_csv_is_its_report_in_tidy_form() {
         per_dose[0].iter().position(|h| h == "d (m)").unwrap(),
         per_dose[0].iter().position(|h| h == "optimism %").unwrap(),
     );
-    let contrasts: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "contrast").collect();
-    assert_eq!(contrasts.len(), per_dose.len() - 1);
-    for (row, printed) in contrasts.iter().zip(&per_dose[1..]) {
+    let endpoints: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "endpoint").collect();
+    let optimisms: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "optimism").collect();
+    assert_eq!((endpoints.len(), optimisms.len()), (per_dose.len() - 1, per_dose.len() - 1));
+    for ((row, optimism), printed) in endpoints.iter().zip(&optimisms).zip(&per_dose[1..]) {
         let v = |name: &str| row[col(name)].parse::<f64>().unwrap();
         assert_eq!(format!("{:.4}", v("estimate")), printed[d_col]);
-        assert_eq!(format!("{:.1}", v("optimism")), printed[opt_col]);
-        assert_eq!(row[col("unit")], "m");
+        assert_eq!(format!("{:.1}", v("optimism_pct")), printed[opt_col]);
+        assert_eq!(optimism[col("estimate")], row[col("optimism_pct")]);
+        assert_eq!((row[col("unit")], optimism[col("unit")]), ("m", "%"));
         assert_eq!(format!("{}%", row[col("dose_pct")]), printed[1]);
+        assert_eq!(row[col("contrast")], format!("{} - disjoint", printed[2].trim_matches('`')));
     }
     let trend = rows.iter().find(|r| r[col("kind")] == "trend").unwrap();
     assert_eq!(trend[col("unit")], "m/pp");
+    let decided: Vec<&str> = rows.iter().filter(|r| !r[col("rule_holds")].is_empty()).map(|r| r[col("kind")]).collect();
+    assert_eq!(decided, ["trend"]);
+    let slope = rows.iter().find(|r| r[col("kind")] == "trend_optimism").unwrap();
+    assert_eq!(slope[col("unit")], "%/pp");
     let slope_table = tables(&md).into_iter().find(|t| t[0].iter().any(|h| h == "optimism slope (%/pp)")).unwrap();
     let k = slope_table[0].iter().position(|h| h == "optimism slope (%/pp)").unwrap();
-    assert_eq!(format!("{:.3}", trend[col("optimism")].parse::<f64>().unwrap()), slope_table[1][k]);
+    assert_eq!(format!("{:.3}", slope[col("estimate")].parse::<f64>().unwrap()), slope_table[1][k]);
 }

@@ -11,8 +11,7 @@
 //! form), `Inf` and `NaN` as R and pandas read them; empty means not
 //! applicable.
 
-use std::fmt::Write as _;
-
+use crate::analysis::family::PooledEstimate;
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::DoseAxis;
 use crate::stats::CrossedEstimate;
@@ -150,130 +149,186 @@ pub fn render_estimates(a: &Analysis) -> String {
     s
 }
 
-/// The header of a dose-response or multi-split study's estimates.csv.
-pub const FAMILY_COLUMNS: &str =
-    "kind,split,dose_pct,arm,estimand,unit,level,treated_mean,reference_mean,estimate,se,df,lower,upper,optimism,optimism_lower,optimism_upper,optimism_unit";
+/// The header of a dose-response or multi-split study's estimates.csv: the
+/// single study's columns, with the split and the dose (`distance_s` in a
+/// distance-dose family) after the kind.
+pub const FAMILY_COLUMNS: &str = "kind,split,dose_pct,role,model,contrast,metric,unit,horizon_s,estimator,level,treated_mean,reference_mean,estimate,se,df,lower,upper,optimism_pct,rule_holds";
 
-/// The text of a family's estimates.csv: one row per split and dose (the
-/// contrast's crossed estimate), per split's trend (the slope over doses),
-/// then the pooled estimates per dose and of the slope. Units: d in the
-/// metric's, a slope per percentage point of dose; optimism in %, or
-/// optimism points per dose point for a slope. A distance-dose family's
-/// dose column is `distance_s` (each arm's least distance from the
-/// evaluated segments) and its slope is per second.
+/// The text of a family's estimates.csv, with the single study's names:
+/// per split, each dose's crossed estimate of the primary endpoint (kind
+/// `endpoint`, the design's estimator) and its optimism (kind `optimism`,
+/// in %), then the trend's slope over the doses (kind `trend`, per
+/// percentage point of dose, or per second of distance) and the slope in
+/// optimism (kind `trend_optimism`); over several splits, the same
+/// estimates pooled by REML (estimator `pooled_reml`, split empty). An
+/// optimism row's bounds are the interval of d (or of the slope) times
+/// -100 / the reference mean, the reference mean held fixed (estimator
+/// `fixed_reference`, or `pooled_fixed_reference`). `rule_holds` is
+/// filled on the one row the rule decides on and empty elsewhere.
 pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> String {
-    // As the single-contrast estimates.csv: the metric's own unit (empty for a rate).
-    let unit = a.metric_unit.clone();
-    let (per_dose, per_optimism, header) = match a.dose_axis {
-        DoseAxis::Percent => (format!("{unit}/pp"), "%/pp", FAMILY_COLUMNS.to_string()),
-        DoseAxis::Distance => {
-            (format!("{unit} per s"), "% per s", FAMILY_COLUMNS.replacen("dose_pct", "distance_s", 1))
-        }
+    let mut out = match a.dose_axis {
+        DoseAxis::Percent => FAMILY_COLUMNS.to_string(),
+        DoseAxis::Distance => FAMILY_COLUMNS.replacen("dose_pct", "distance_s", 1),
     };
-    let dose = |percent: f64, distance: Option<f64>| dose(distance.unwrap_or(percent));
-    let split = |s: Option<u64>| s.map(|s| s.to_string()).unwrap_or_default();
-    let mut s = header;
-    s.push('\n');
-    // Arm names are design identifiers: no field needs quoting.
-    let mut row = |cols: [String; 18]| {
-        let _ = writeln!(s, "{}", cols.join(","));
-    };
-    for sp in &a.splits {
-        for d in &sp.doses {
-            let e = &d.estimate;
-            let k = -100.0 / d.mean_reference;
-            row([
-                "contrast".into(),
-                split(sp.split),
-                dose(d.percent, d.distance_s),
-                d.arm.clone(),
-                "d".into(),
-                unit.clone(),
-                num(e.level),
-                num(d.mean_treated),
-                num(d.mean_reference),
-                num(e.mean),
-                num(e.se),
-                num(e.df),
-                num(e.lower),
-                num(e.upper),
-                num(d.optimism_pct),
-                num(e.upper * k),
-                num(e.lower * k),
-                "%".into(),
-            ]);
+    out.push('\n');
+    let family = Family::new(a);
+    let decided = family.decided();
+    for (k, sp) in a.splits.iter().enumerate() {
+        let split = sp.split.map(|s| s.to_string()).unwrap_or_default();
+        for (j, d) in sp.doses.iter().enumerate() {
+            let holds = (decided == Decided::Dose(k, j)).then_some(a.decision.holds);
+            let at = (split.as_str(), dose(d.distance_s.unwrap_or(d.percent)), d.arm.as_str());
+            out.push_str(&family.dose_rows(at, d, holds));
         }
         if let Some(t) = &sp.trend {
-            let e = &t.slope;
-            row([
-                "trend".into(),
-                split(sp.split),
-                String::new(),
-                String::new(),
-                "slope".into(),
-                per_dose.clone(),
-                num(e.level),
-                String::new(),
-                String::new(),
-                num(e.mean),
-                num(e.se),
-                num(e.df),
-                num(e.lower),
-                num(e.upper),
-                num(t.optimism_slope),
-                num(t.optimism_slope_lower),
-                num(t.optimism_slope_upper),
-                per_optimism.into(),
-            ]);
+            let holds = (decided == Decided::Trend(k)).then_some(a.decision.holds);
+            let optimism = (t.optimism_slope, t.optimism_slope_lower, t.optimism_slope_upper);
+            out.push_str(&family.trend_rows(&split, &t.slope, optimism, holds));
         }
     }
     if let Some(p) = &a.pooled {
-        for (e, d) in p.doses.iter().zip(&a.doses) {
-            row(pooled(e, dose(d.percent, d.distance_s), d.arm.clone(), "d", (&unit, "%"), a.level));
+        for (j, (e, d)) in p.doses.iter().zip(&a.doses).enumerate() {
+            let holds = (decided == Decided::PooledDose(j)).then_some(a.decision.holds);
+            out.push_str(&family.pooled_dose_rows(dose(d.distance_s.unwrap_or(d.percent)), &d.arm, e, holds));
         }
         if let Some(e) = &p.slope {
-            row(pooled(e, String::new(), String::new(), "slope", (&per_dose, per_optimism), a.level));
+            let holds = (decided == Decided::PooledTrend).then_some(a.decision.holds);
+            out.push_str(&family.pooled_trend_rows(e, holds));
         }
     }
-    s
+    out
 }
 
-/// A dose in %; empty for a study of splits without doses.
+/// The row the family's rule decides on (see `analysis::family`'s
+/// `decide`): the slope (pooled when pooled) under `on slope`, else the
+/// first dose (pooled when pooled).
+#[derive(PartialEq)]
+enum Decided {
+    Dose(usize, usize),
+    Trend(usize),
+    PooledDose(usize),
+    PooledTrend,
+}
+
+/// What every row of a family's table shares: the primary endpoint's key
+/// columns and the units of d, the slope and its optimism.
+struct Family<'a> {
+    a: &'a crate::analysis::family::FamilyAnalysis,
+    role: String,
+    model: String,
+    metric: String,
+    horizon: String,
+    per_dose: String,
+    optimism_per_dose: &'static str,
+    level: String,
+}
+
+impl<'a> Family<'a> {
+    fn new(a: &'a crate::analysis::family::FamilyAnalysis) -> Self {
+        let primary = a.splits.iter().flat_map(|s| s.detail.first()).flat_map(|d| d.units.first()).next();
+        let (role, model, metric, horizon) = primary
+            .map(|u| (format!("{:?}", u.role).to_lowercase(), u.model.clone(), u.metric.name().to_string(), num(u.horizon_s)))
+            .unwrap_or_default();
+        let unit = &a.metric_unit;
+        let (per_dose, optimism_per_dose) = match a.dose_axis {
+            DoseAxis::Percent => (format!("{unit}/pp"), "%/pp"),
+            DoseAxis::Distance => (format!("{unit} per s"), "% per s"),
+        };
+        Family { a, role, model, metric, horizon, per_dose, optimism_per_dose, level: num(a.level) }
+    }
+
+    fn decided(&self) -> Decided {
+        let slope = self.a.decision.rule.on == crate::design::DecisionTarget::Slope;
+        match (slope, self.a.pooled.is_some()) {
+            (true, true) => Decided::PooledTrend,
+            (true, false) => Decided::Trend(0),
+            (false, true) => Decided::PooledDose(0),
+            (false, false) => Decided::Dose(0, 0),
+        }
+    }
+
+    /// A line: the kind, split and dose, the endpoint's key with `contrast`
+    /// and `unit`, then the row's values.
+    fn line(&self, (kind, split, dose): (&str, &str, &str), (contrast, unit): (&str, &str), r: &Row) -> String {
+        let key = format!(
+            "{kind},{split},{dose},{},{},{contrast},{},{unit},{}",
+            self.role, self.model, self.metric, self.horizon
+        );
+        line(&key, &self.level, r)
+    }
+
+    fn estimator(e: &CrossedEstimate) -> &'static str {
+        if e.reml.is_some() {
+            "reml"
+        } else {
+            "crossed_mom"
+        }
+    }
+
+    /// One dose's crossed estimate and its optimism in one split.
+    fn dose_rows(
+        &self,
+        (split, dose, arm): (&str, String, &str),
+        d: &crate::analysis::family::DoseResult,
+        holds: Option<bool>,
+    ) -> String {
+        let e = &d.estimate;
+        let contrast = format!("{arm} - {}", self.a.reference);
+        let k = -100.0 / d.mean_reference;
+        let row = Row {
+            means: Some((d.mean_treated, d.mean_reference)),
+            optimism: Some(d.optimism_pct),
+            holds,
+            ..crossed(Self::estimator(e), e)
+        };
+        let optimism = interval("fixed_reference", d.optimism_pct, None, Some(e.df), (e.upper * k, e.lower * k));
+        self.line(("endpoint", split, &dose), (&contrast, &self.a.metric_unit), &row)
+            + &self.line(("optimism", split, &dose), (&contrast, "%"), &optimism)
+    }
+
+    /// One split's slope over the doses and the slope in optimism.
+    fn trend_rows(&self, split: &str, e: &CrossedEstimate, (o, lo, hi): (f64, f64, f64), holds: Option<bool>) -> String {
+        let contrast = format!("{} - {}", self.a.treated, self.a.reference);
+        let row = Row { holds, ..crossed(Self::estimator(e), e) };
+        let optimism = interval("fixed_reference", o, None, Some(e.df), (lo, hi));
+        self.line(("trend", split, ""), (&contrast, &self.per_dose), &row)
+            + &self.line(("trend_optimism", split, ""), (&contrast, self.optimism_per_dose), &optimism)
+    }
+
+    /// A dose's estimate pooled over the splits, and its optimism.
+    fn pooled_dose_rows(&self, dose: String, arm: &str, e: &PooledEstimate, holds: Option<bool>) -> String {
+        let contrast = format!("{arm} - {}", self.a.reference);
+        let row = Row { optimism: Some(e.optimism_pct), holds, ..pooled(e) };
+        let optimism = pooled_optimism(e);
+        self.line(("endpoint", "", &dose), (&contrast, &self.a.metric_unit), &row)
+            + &self.line(("optimism", "", &dose), (&contrast, "%"), &optimism)
+    }
+
+    /// The slope pooled over the splits, and its slope in optimism.
+    fn pooled_trend_rows(&self, e: &PooledEstimate, holds: Option<bool>) -> String {
+        let contrast = format!("{} - {}", self.a.treated, self.a.reference);
+        let row = Row { holds, ..pooled(e) };
+        self.line(("trend", "", ""), (&contrast, &self.per_dose), &row)
+            + &self.line(("trend_optimism", "", ""), (&contrast, self.optimism_per_dose), &pooled_optimism(e))
+    }
+}
+
+/// A pooled REML estimate's interval row.
+fn pooled(e: &PooledEstimate) -> Row<'static> {
+    interval("pooled_reml", e.mean, Some(e.se), Some(e.df), (e.lower, e.upper))
+}
+
+/// A pooled estimate's optimism: its interval times -100 / the reference
+/// mean.
+fn pooled_optimism(e: &PooledEstimate) -> Row<'static> {
+    interval("pooled_fixed_reference", e.optimism_pct, None, Some(e.df), (e.optimism_lower, e.optimism_upper))
+}
+
+/// A dose in % or s; empty for a study of splits without doses.
 fn dose(p: f64) -> String {
     if p.is_nan() {
         String::new()
     } else {
         num(p)
     }
-}
-
-/// A pooled estimate's row.
-fn pooled(
-    e: &crate::analysis::family::PooledEstimate,
-    dose: String,
-    arm: String,
-    estimand: &str,
-    (unit, optimism_unit): (&str, &str),
-    level: f64,
-) -> [String; 18] {
-    [
-        "pooled".into(),
-        String::new(),
-        dose,
-        arm,
-        estimand.into(),
-        unit.into(),
-        num(level),
-        String::new(),
-        String::new(),
-        num(e.mean),
-        num(e.se),
-        num(e.df),
-        num(e.lower),
-        num(e.upper),
-        num(e.optimism_pct),
-        num(e.optimism_lower),
-        num(e.optimism_upper),
-        optimism_unit.into(),
-    ]
 }
