@@ -227,7 +227,9 @@ impl<'a> Family<'a> {
     fn new(a: &'a crate::analysis::family::FamilyAnalysis) -> Self {
         let primary = a.splits.iter().flat_map(|s| s.detail.first()).flat_map(|d| d.units.first()).next();
         let (role, model, metric, horizon) = primary
-            .map(|u| (format!("{:?}", u.role).to_lowercase(), u.model.clone(), u.metric.name().to_string(), num(u.horizon_s)))
+            .map(|u| {
+                (format!("{:?}", u.role).to_lowercase(), u.model.clone(), u.metric.name().to_string(), num(u.horizon_s))
+            })
             .unwrap_or_default();
         let unit = &a.metric_unit;
         let (per_dose, optimism_per_dose) = match a.dose_axis {
@@ -287,7 +289,13 @@ impl<'a> Family<'a> {
     }
 
     /// One split's slope over the doses and the slope in optimism.
-    fn trend_rows(&self, split: &str, e: &CrossedEstimate, (o, lo, hi): (f64, f64, f64), holds: Option<bool>) -> String {
+    fn trend_rows(
+        &self,
+        split: &str,
+        e: &CrossedEstimate,
+        (o, lo, hi): (f64, f64, f64),
+        holds: Option<bool>,
+    ) -> String {
         let contrast = format!("{} - {}", self.a.treated, self.a.reference);
         let row = Row { holds, ..crossed(Self::estimator(e), e) };
         let optimism = interval("fixed_reference", o, None, Some(e.df), (lo, hi));

@@ -14,15 +14,14 @@
 //! (lme4's default from the finite-difference Hessian, and R_X's) agree;
 //! the singular flag is lme4's `isSingular`.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+
+use common::{close, compare_varcorr, fixture, root, VarCorr};
 
 use crossaudit_stats::mixed::formula::{build_glmm, fit_glmm_table, read_csv};
 use crossaudit_stats::mixed::glmm::{laplace_at, Family};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 #[derive(Default, Debug)]
 struct Reference {
@@ -32,7 +31,7 @@ struct Reference {
     objective: f64,
     theta: Vec<f64>,
     beta: Vec<f64>,
-    vc: BTreeMap<(String, String, String), (f64, f64)>,
+    vc: VarCorr,
     /// name -> (estimate, se, se_rx).
     fixef: BTreeMap<String, (f64, f64, f64)>,
     singular: bool,
@@ -69,25 +68,13 @@ fn references() -> BTreeMap<String, Reference> {
     out
 }
 
-fn fixture(fit: &str) -> String {
-    let stem = fit.split('_').next().unwrap();
-    std::fs::read_to_string(root().join(format!("tests/fixtures/glmm_{stem}.csv"))).unwrap()
-}
-
-fn close(what: &str, ours: f64, theirs: f64, rel: f64, abs: f64, failures: &mut Vec<String>) {
-    let diff = (ours - theirs).abs();
-    if diff.is_nan() || diff > rel * theirs.abs() + abs {
-        failures.push(format!("{what}: crossaudit {ours:.12e}, lme4 {theirs:.12e} (difference {diff:.2e})"));
-    }
-}
-
 #[test]
 fn glmm_fits_match_lme4s_glmer() {
     let refs = references();
     assert!(refs.len() >= 11, "{} reference fits", refs.len());
     let mut failures = Vec::new();
     for (name, r) in &refs {
-        let table = read_csv(&fixture(name)).unwrap();
+        let table = read_csv(&fixture("glmm", name)).unwrap();
         let family = if r.family == "binomial" { Family::Binomial } else { Family::Poisson };
         let data = build_glmm(&r.formula, &table, family).unwrap();
         // The same objective: crossaudit's at lme4's optimum, and R_X's
@@ -108,25 +95,7 @@ fn glmm_fits_match_lme4s_glmer() {
             close(&format!("{name} theta[{j}]"), *a, *b, 5e-4, 1e-4, &mut failures);
         }
         assert_eq!(f.singular, r.singular, "{name}: singular");
-        let mut seen = 0;
-        for t in &f.terms {
-            let k = t.names.len();
-            for i in 0..k {
-                let key = (t.group.clone(), t.names[i].clone(), "NA".to_string());
-                let (vcov, sd) = r.vc.get(&key).unwrap_or_else(|| panic!("{name}: no lme4 row {key:?}"));
-                close(&format!("{name} var {key:?}"), t.covariance[i * k + i], *vcov, 5e-4, 1e-6, &mut failures);
-                close(&format!("{name} sd {key:?}"), t.sd[i], *sd, 5e-4, 1e-6, &mut failures);
-                seen += 1;
-                for j in 0..i {
-                    let key = (t.group.clone(), t.names[j].clone(), t.names[i].clone());
-                    let (cov, cor) = r.vc.get(&key).unwrap_or_else(|| panic!("{name}: no lme4 row {key:?}"));
-                    close(&format!("{name} cov {key:?}"), t.covariance[i * k + j], *cov, 5e-4, 1e-6, &mut failures);
-                    let ours = t.correlations[i * (i - 1) / 2 + j].unwrap_or(f64::NAN);
-                    close(&format!("{name} cor {key:?}"), ours, *cor, 1e-4, 1e-4, &mut failures);
-                    seen += 1;
-                }
-            }
-        }
+        let seen = compare_varcorr(name, &f.terms, &r.vc, 5e-4, &mut failures);
         assert_eq!(seen, r.vc.len(), "{name}: every lme4 component compared");
         assert_eq!(f.fixed.len(), r.fixef.len(), "{name}");
         // lme4's default SE comes from a central difference (step 1e-4)
@@ -168,7 +137,7 @@ fn glmm_profile_intervals_match_lme4s_confint() {
     assert_eq!(want.len(), 3);
     for (name, bounds) in &want {
         let r = &refs[name];
-        let table = read_csv(&fixture(name)).unwrap();
+        let table = read_csv(&fixture("glmm", name)).unwrap();
         let family = if r.family == "binomial" { Family::Binomial } else { Family::Poisson };
         let fit = fit_glmm_table(&r.formula, &table, family, Some(0.95)).unwrap();
         let (level, intervals) = fit.profile.unwrap();

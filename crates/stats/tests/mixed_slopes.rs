@@ -13,16 +13,15 @@
 //! and (REML) lmerTest's Satterthwaite df agree; the singular flag is
 //! lme4's `isSingular`.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+
+use common::{close, compare_varcorr, fixture, root, VarCorr};
 
 use crossaudit_stats::mixed::formula::{build_model, fit_table, parse, read_csv, DfMethod, Model};
 use crossaudit_stats::mixed::slopes::deviance_at;
 use crossaudit_stats::mixed::Criterion;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 /// One fit of the reference: its lines, by what they give.
 #[derive(Default, Debug)]
@@ -32,7 +31,7 @@ struct Reference {
     criterion: f64,
     theta: Vec<f64>,
     /// (grp, var1, var2) -> (vcov, sdcor).
-    vc: BTreeMap<(String, String, String), (f64, f64)>,
+    vc: VarCorr,
     /// name -> (estimate, se).
     fixef: BTreeMap<String, (f64, f64)>,
     df: BTreeMap<String, f64>,
@@ -75,26 +74,13 @@ fn references() -> BTreeMap<String, Reference> {
     out
 }
 
-/// The fixture a fit's data are in: `slopes_<first word of its name>.csv`.
-fn fixture(fit: &str) -> String {
-    let stem = fit.split('_').next().unwrap();
-    std::fs::read_to_string(root().join(format!("tests/fixtures/slopes_{stem}.csv"))).unwrap()
-}
-
-fn close(what: &str, ours: f64, theirs: f64, rel: f64, abs: f64, failures: &mut Vec<String>) {
-    let diff = (ours - theirs).abs();
-    if diff.is_nan() || diff > rel * theirs.abs() + abs {
-        failures.push(format!("{what}: crossaudit {ours:.12e}, lme4 {theirs:.12e} (difference {diff:.2e})"));
-    }
-}
-
 #[test]
 fn random_slope_fits_match_lme4_and_lmertest() {
     let refs = references();
     assert!(refs.len() >= 16, "{} reference fits", refs.len());
     let mut failures = Vec::new();
     for (name, r) in &refs {
-        let table = read_csv(&fixture(name)).unwrap();
+        let table = read_csv(&fixture("slopes", name)).unwrap();
         let criterion = if r.reml { Criterion::Reml } else { Criterion::Ml };
         let formula = parse(&r.formula).unwrap();
         let Model::Slopes(data) = build_model(&formula, &table).unwrap() else {
@@ -117,25 +103,7 @@ fn random_slope_fits_match_lme4_and_lmertest() {
         }
         assert_eq!(f.singular, r.singular, "{name}: singular");
         // Variance components and correlations, by lme4's names.
-        let mut seen = 0;
-        for t in &f.terms {
-            let k = t.names.len();
-            for i in 0..k {
-                let key = (t.group.clone(), t.names[i].clone(), "NA".to_string());
-                let (vcov, sd) = r.vc.get(&key).unwrap_or_else(|| panic!("{name}: no lme4 row {key:?}"));
-                close(&format!("{name} var {key:?}"), t.covariance[i * k + i], *vcov, 1e-4, 1e-6, &mut failures);
-                close(&format!("{name} sd {key:?}"), t.sd[i], *sd, 1e-4, 1e-6, &mut failures);
-                seen += 1;
-                for j in 0..i {
-                    let key = (t.group.clone(), t.names[j].clone(), t.names[i].clone());
-                    let (cov, cor) = r.vc.get(&key).unwrap_or_else(|| panic!("{name}: no lme4 row {key:?}"));
-                    close(&format!("{name} cov {key:?}"), t.covariance[i * k + j], *cov, 1e-4, 1e-6, &mut failures);
-                    let ours = t.correlations[i * (i - 1) / 2 + j].unwrap_or(f64::NAN);
-                    close(&format!("{name} cor {key:?}"), ours, *cor, 1e-4, 1e-4, &mut failures);
-                    seen += 1;
-                }
-            }
-        }
+        let seen = compare_varcorr(name, &f.terms, &r.vc, 1e-4, &mut failures);
         let (vcov, _) = r.vc[&("Residual".to_string(), "NA".to_string(), "NA".to_string())];
         close(&format!("{name} residual"), f.residual, vcov, 1e-6, 0.0, &mut failures);
         assert_eq!(seen + 1, r.vc.len(), "{name}: every lme4 component compared");
@@ -170,7 +138,7 @@ fn random_slope_kenward_roger_matches_pbkrtest() {
     let mut failures = Vec::new();
     let mut compared = 0;
     for (name, r) in refs.iter().filter(|(_, r)| !r.kr.is_empty()) {
-        let table = read_csv(&fixture(name)).unwrap();
+        let table = read_csv(&fixture("slopes", name)).unwrap();
         let fit = fit_table(&r.formula, &table, Criterion::Reml, DfMethod::KenwardRoger, None).unwrap();
         let df_tolerance = if r.singular { 2e-3 } else { 1e-4 };
         for row in &fit.fixed {

@@ -144,6 +144,16 @@ impl MixedData {
         Ok(self)
     }
 
+    /// The data with full-rank fixed effects, and the names of the columns
+    /// dropped to get there ([`Self::without_aliased`]; borrowed, with no
+    /// names, when X already has full rank).
+    pub(super) fn full_rank(&self) -> (std::borrow::Cow<'_, MixedData>, Vec<String>) {
+        match self.without_aliased() {
+            Some((d, names)) => (std::borrow::Cow::Owned(d), names),
+            None => (std::borrow::Cow::Borrowed(self), Vec::new()),
+        }
+    }
+
     /// The data without the fixed-effect columns that are linear
     /// combinations of earlier ones, and their names, as lme4's
     /// `chkRank.drop.cols` drops them (a missing cell of `A*B`, `a:b`

@@ -347,11 +347,8 @@ pub fn fit(data: &MixedData, criterion: Criterion) -> Result<MixedFit, MixedErro
 pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) -> Result<MixedFit, MixedError> {
     data.check_size(inference)?;
     // Aliased columns are dropped first, as lme4 drops them.
-    let reduced = data.without_aliased();
-    let (data, dropped) = match &reduced {
-        Some((d, names)) => (d, names.clone()),
-        None => (data, Vec::new()),
-    };
+    let (data, dropped) = data.full_rank();
+    let data: &MixedData = &data;
     let p = data.p();
     if data.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));

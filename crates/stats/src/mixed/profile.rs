@@ -118,8 +118,8 @@ pub fn profile_intervals(
         return Err(MixedError::Level(level));
     }
     // Aliased fixed-effect columns are dropped as the fit drops them.
-    let reduced = data.without_aliased();
-    let data = reduced.as_ref().map_or(data, |(d, _)| d);
+    let (data, _) = data.full_rank();
+    let data: &MixedData = &data;
     let s = System::new(data);
     let fit: MixedFit = super::fit_system(&s, data, criterion, super::Inference::Estimates)?;
     let k = s.factors();

@@ -230,10 +230,7 @@ pub struct GlmmFit {
 
 /// The evaluation model of `data`, its aliased fixed columns dropped.
 fn model(data: &GlmmData) -> (laplace::Model, Vec<String>, Vec<String>) {
-    let (base, dropped) = match data.base.without_aliased() {
-        Some((d, names)) => (d, names),
-        None => (data.base.clone(), Vec::new()),
-    };
+    let (base, dropped) = data.base.full_rank();
     let n = base.len();
     let k: Vec<f64> = base.y.iter().zip(&data.trials).map(|(y, m)| (y * m).round()).collect();
     let constant = match data.family {

@@ -307,11 +307,8 @@ pub struct SlopeFit {
 /// `satterthwaite`.
 pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -> Result<SlopeFit, MixedError> {
     data.base.check_size(super::Inference::Estimates)?;
-    let reduced = data.base.without_aliased();
-    let (base, dropped) = match &reduced {
-        Some((d, names)) => (d, names.clone()),
-        None => (&data.base, Vec::new()),
-    };
+    let (base, dropped) = data.base.full_rank();
+    let base: &MixedData = &base;
     let p = base.p();
     if base.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", base.len())));
@@ -374,10 +371,7 @@ pub fn with_kenward_roger(data: &SlopeData, mut fit: SlopeFit) -> Result<SlopeFi
     if fit.criterion != Criterion::Reml {
         return Ok(fit);
     }
-    let base = match data.base.without_aliased() {
-        Some((d, _)) => d,
-        None => data.base.clone(),
-    };
+    let (base, _) = data.base.full_rank();
     let covariances: Vec<Vec<f64>> = fit.terms.iter().map(|t| t.covariance.clone()).collect();
     let kr = kenward_roger::kenward_roger(&base, &data.terms, &covariances, fit.residual)?;
     for (f, (se, df)) in fit.fixed.iter_mut().zip(kr) {
@@ -389,10 +383,7 @@ pub fn with_kenward_roger(data: &SlopeData, mut fit: SlopeFit) -> Result<SlopeFi
 /// The deviance (REML criterion or ML deviance) of `data` at `theta`, in
 /// lme4's parameterization: what lme4's `devfun` returns there.
 pub fn deviance_at(data: &SlopeData, theta: &[f64], criterion: Criterion) -> Result<f64, MixedError> {
-    let base = match data.base.without_aliased() {
-        Some((d, _)) => d,
-        None => data.base.clone(),
-    };
+    let (base, _) = data.base.full_rank();
     let s = system::System::new(&base, &data.terms)?;
     if theta.len() != s.structure.parameters() {
         return Err(MixedError::Length {
