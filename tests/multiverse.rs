@@ -115,9 +115,10 @@ fn an_analysis_only_choice_trains_no_extra_job() {
     let rows: Vec<&str> = specs.lines().collect();
     assert_eq!(rows.len(), 3);
     // Same cells, same estimate; the 99% interval is wider.
-    let field = |row: &str, k: usize| row.split(',').nth(k).unwrap().parse::<f64>().unwrap();
-    assert_eq!(field(rows[1], 3), field(rows[2], 3));
-    assert!(field(rows[2], 6) - field(rows[2], 7) < field(rows[1], 6) - field(rows[1], 7));
+    let col = |name: &str| rows[0].split(',').position(|h| h == name).unwrap();
+    let field = |row: &str, name: &str| row.split(',').nth(col(name)).unwrap().parse::<f64>().unwrap();
+    assert_eq!(field(rows[1], "estimate"), field(rows[2], "estimate"));
+    assert!(field(rows[2], "lower") - field(rows[2], "upper") < field(rows[1], "lower") - field(rows[1], "upper"));
     let cells = std::fs::read_to_string(dir.join("multiverse_cells.csv")).unwrap();
     assert!(cells.starts_with("spec,draw,model,arm,seed,"));
     assert!(dir.join("report/spec_curve.svg").exists() && dir.join("report/choice_effects.csv").exists());
@@ -266,6 +267,55 @@ fn planted_cells(d: &design::Design, values: &[String], spec: usize) -> Vec<Cell
         }
     }
     out
+}
+
+/// A multiverse on a metric that is not in metres names its own unit
+/// everywhere: specs.csv's and choice_effects.csv's `unit` column, every
+/// heading and value of report.md and the curve's axis (velocity RMSE:
+/// m/s).
+#[test]
+fn a_multiverse_on_another_metric_names_its_unit() {
+    let text = small(
+        "choices {\n  state motion_capture | onboard\n}\nprimary specification state motion_capture\nestimate crossed_mom level 0.95 df seed - 1\n",
+    )
+    .replace("endpoint primary   fa_position_rmse at 1.0 s cap 2 m", "endpoint primary   velocity_rmse at 1.0 s cap 2 m")
+    .replace("factor seed = 1..2", "factor seed = 1..10")
+    .replace("evaluation 4 split_seed 42", "evaluation 30 split_seed 42");
+    let d = design::from_str("m.design", &text).unwrap();
+    let m = d.multiverse.as_ref().unwrap();
+    let plans: Vec<crossaudit::Plan> = m.specs.iter().map(|s| crossaudit::compile(&s.design)).collect();
+    let cells: Vec<Vec<Cell>> = m
+        .specs
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let mut cells = planted_cells(&s.design, &s.values, k);
+            cells.iter_mut().for_each(|c| c.velocity_rmse_mps = Some(c.fa_position_rmse_m));
+            cells
+        })
+        .collect();
+    let levels: Vec<LevelInput> = (0..m.specs.len())
+        .map(|k| LevelInput {
+            id: format!("spec-{}", m.specs[k].id),
+            spec: Some(k),
+            draw: None,
+            shares: None,
+            plan: &plans[k],
+            cells: &cells[k],
+        })
+        .collect();
+    let a = analyze_multiverse(&d, &levels).unwrap();
+    let specs = crossaudit::report::multiverse::specs_csv(&a);
+    let header: Vec<&str> = specs.lines().next().unwrap().split(',').collect();
+    let unit = header.iter().position(|h| *h == "unit").unwrap();
+    assert!(specs.lines().skip(1).all(|r| r.split(',').nth(unit) == Some("m/s")), "{specs}");
+    let effects = crossaudit::report::multiverse::effects_csv(&a);
+    assert!(effects.lines().nth(1).unwrap().contains(",m/s,"), "{effects}");
+    let md = crossaudit::report::multiverse::render_markdown(&a);
+    assert!(md.contains("| d (m/s) | interval (m/s) |") && md.contains("effect on d (m/s)"), "{md}");
+    assert!(!md.contains("(m)") && !md.contains(" m,") && !md.contains(" m "), "{md}");
+    let svg = crossaudit::report::multiverse::spec_curve_svg(&a);
+    assert!(svg.contains("d (m/s)") && !svg.contains("(m)"), "{svg}");
 }
 
 #[test]

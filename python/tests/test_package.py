@@ -182,7 +182,7 @@ def test_analyze_takes_every_kind_of_study_and_matches_the_committed_reports(roo
     assert multiverse.details["kind"] == "multiverse" and multiverse.report_dir is None
     committed = pd.read_csv(root / "results/multiverse/paper/report/specs.csv")
     assert list(multiverse.estimates["spec"]) == list(committed["spec"])
-    for column in ["d_m", "se_m", "lower_m", "upper_m"]:
+    for column in ["estimate", "se", "lower", "upper"]:
         assert multiverse.estimates[column].tolist() == pytest.approx(committed[column].tolist(), rel=1e-12)
     assert len(multiverse.cells) > 0
 

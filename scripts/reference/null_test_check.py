@@ -68,9 +68,9 @@ for b in range(B):
 se = reps.std(axis=0, ddof=1)
 null = reps - observed  # each replicate's d of the centred matrices
 
-half_lo = np.array([float(s["d_m"]) - float(s["lower_m"]) for s in specs])
-half_hi = np.array([float(s["upper_m"]) - float(s["d_m"]) for s in specs])
-ref_mean = np.array([float(s["mean_reference_m"]) for s in specs])
+half_lo = np.array([float(s["estimate"]) - float(s["lower"]) for s in specs])
+half_hi = np.array([float(s["upper"]) - float(s["estimate"]) for s in specs])
+ref_mean = np.array([float(s["reference_mean"]) for s in specs])
 
 def holding(d):
     upper = d + half_hi

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::super::{f, level_pct};
-use super::verdict;
+use super::{label, verdict};
 use crate::analysis::multiverse::MultiverseAnalysis;
 
 /// report.md.
@@ -14,7 +14,7 @@ pub fn render_markdown(a: &MultiverseAnalysis) -> String {
         specifications(&mut s, a);
         choice_effects(&mut s, a);
         if let Some(j) = &a.joint {
-            joint(&mut s, j);
+            joint(&mut s, j, label(a));
         }
     }
     s.push_str(&notes_section(a));
@@ -109,7 +109,8 @@ fn specifications(s: &mut String, a: &MultiverseAnalysis) {
     let _ = writeln!(s, "## Specifications\n");
     let mut header = vec!["spec".to_string()];
     header.extend(a.choices.iter().map(|c| c.setting.clone()));
-    header.extend(["d (m)", "interval (m)", "optimism", "rule", "trained"].map(String::from));
+    let u = label(a);
+    header.extend([format!("d ({u})"), format!("interval ({u})"), "optimism".into(), "rule".into(), "trained".into()]);
     let _ = writeln!(s, "| {} |", header.join(" | "));
     let _ = writeln!(s, "|{}", "---|".repeat(header.len()));
     for r in &a.specs {
@@ -146,7 +147,8 @@ fn choice_effects(s: &mut String, a: &MultiverseAnalysis) {
             "the design's crossed estimator on that matrix.".to_string()
         }
     );
-    let _ = writeln!(s, "| choice | from (primary) | to | specs per side | effect on d (m) | interval (m) | df |");
+    let u = label(a);
+    let _ = writeln!(s, "| choice | from (primary) | to | specs per side | effect on d ({u}) | interval ({u}) | df |");
     let _ = writeln!(s, "|---|---|---|---:|---:|---|---:|");
     for e in &a.choice_effects {
         let (est, int, df) = match &e.estimate {
@@ -162,7 +164,7 @@ fn choice_effects(s: &mut String, a: &MultiverseAnalysis) {
 }
 
 /// The joint bootstrap over the curve and the curve under the null.
-fn joint(s: &mut String, j: &crate::analysis::multiverse::JointBootstrap) {
+fn joint(s: &mut String, j: &crate::analysis::multiverse::JointBootstrap, u: &str) {
     let _ = writeln!(s, "\n## Joint inference over the curve\n");
     let _ = writeln!(
         s,
@@ -173,7 +175,7 @@ fn joint(s: &mut String, j: &crate::analysis::multiverse::JointBootstrap) {
         level_pct(j.level),
         f(j.critical, 3)
     );
-    let _ = writeln!(s, "| spec | bootstrap SE (m) | simultaneous band (m) |");
+    let _ = writeln!(s, "| spec | bootstrap SE ({u}) | simultaneous band ({u}) |");
     let _ = writeln!(s, "|---|---:|---|");
     for (id, se, lo, hi) in &j.bands {
         let _ = writeln!(s, "| {id} | {} | [{}, {}] |", f(*se, 4), f(*lo, 4), f(*hi, 4));
@@ -197,7 +199,7 @@ fn joint(s: &mut String, j: &crate::analysis::multiverse::JointBootstrap) {
     );
     let _ = writeln!(s, "| statistic | observed | p under the null |");
     let _ = writeln!(s, "|---|---:|---:|");
-    let _ = writeln!(s, "| median d over specifications (m) | {} | {} |", f(n.median.0, 4), f(n.median.1, 4));
+    let _ = writeln!(s, "| median d over specifications ({u}) | {} | {} |", f(n.median.0, 4), f(n.median.1, 4));
     let _ = writeln!(
         s,
         "| specifications meeting the rule (on the shared recordings) | {} | {} |",
@@ -237,7 +239,8 @@ fn draw_replication(s: &mut String, a: &MultiverseAnalysis) {
         if d.spec != "-" {
             let _ = writeln!(s, "### Specification {}\n", d.spec);
         }
-        let _ = writeln!(s, "| draw | d (m) | interval (m) | optimism | rule |");
+        let u = label(a);
+        let _ = writeln!(s, "| draw | d ({u}) | interval ({u}) | optimism | rule |");
         let _ = writeln!(s, "|---:|---:|---|---:|---|");
         for (k, m, lo, hi, opt, holds) in &d.per_draw {
             let rule = if *holds { "met" } else { "not met" };
@@ -247,7 +250,7 @@ fn draw_replication(s: &mut String, a: &MultiverseAnalysis) {
             (Some(p), _) => {
                 let _ = writeln!(
                     s,
-                    "\nREML over recording x seed x draw (d ~ 1 + (1|recording) + (1|seed) + (1|draw) + (1|recording:draw) + (1|seed:draw)): pooled d = {} m, SE {} m, {} df {}, {} interval [{}, {}] m, optimism {}%: the rule is {} on the pooled estimate.\n",
+                    "\nREML over recording x seed x draw (d ~ 1 + (1|recording) + (1|seed) + (1|draw) + (1|recording:draw) + (1|seed:draw)): pooled d = {} {u}, SE {} {u}, {} df {}, {} interval [{}, {}] {u}, optimism {}%: the rule is {} on the pooled estimate.\n",
                     f(p.mean, 4),
                     f(p.se, 4),
                     if p.df_rule == "kenward_roger" { "Kenward-Roger" } else { "Satterthwaite" },
@@ -300,7 +303,8 @@ fn notes_section(a: &MultiverseAnalysis) -> String {
         s,
         "Reference arm: windows of its fit set from evaluation recordings or their byte-identical copies (invariant 5; 0: disjoint). Early: fitted models whose best validation epoch (the weights the rollouts use) lies in the first tenth of training, per arm. Mean d: the primary d averaged over the seeds with such a model of the primary endpoint, and over the others.\n"
     );
-    let _ = writeln!(s, "| unit | rule | reference-arm windows from evaluation copies | early best epochs | mean d, seeds with (m) | mean d, seeds without (m) |");
+    let u = label(a);
+    let _ = writeln!(s, "| unit | rule | reference-arm windows from evaluation copies | early best epochs | mean d, seeds with ({u}) | mean d, seeds without ({u}) |");
     let _ = writeln!(s, "|---|---|---:|---|---:|---:|");
     for n in &a.notes {
         let rule = a

@@ -51,8 +51,9 @@ fn sentence(a: &MultiverseAnalysis, bold: bool) -> String {
         let (holding, draws) = d.draws_holding.unwrap_or((0, 0));
         return match a.draws.first().and_then(|x| x.pooled.as_ref()) {
             Some(p) => format!(
-                "{v} on d pooled over {draws} draws: d = {} m [{}, {}], optimism {}% (the rule holds in {holding} of the {draws} draws alone).",
+                "{v} on d pooled over {draws} draws: d = {} {} [{}, {}], optimism {}% (the rule holds in {holding} of the {draws} draws alone).",
                 f(p.mean, 4),
+                label(a),
                 f(p.lower, 4),
                 f(p.upper, 4),
                 f(p.optimism_pct, 1)
@@ -85,13 +86,26 @@ pub fn decision_line(a: &MultiverseAnalysis) -> String {
     super::format::labelled(sentence(a, false), a.exploratory, a.preregistered)
 }
 
-/// specs.csv: one row per specification.
+/// The primary metric's unit as estimates.csv writes it (`m`; empty for
+/// a rate), from the levels' analyses.
+fn metric_unit(a: &MultiverseAnalysis) -> &'static str {
+    a.levels.iter().find_map(|(_, l)| l.units.first()).map_or("", |u| u.metric.unit())
+}
+
+/// The primary metric's unit as the report prints it after a value or in
+/// a column's heading (`fraction` for a rate).
+pub(super) fn label(a: &MultiverseAnalysis) -> &'static str {
+    super::format::unit_label(metric_unit(a))
+}
+
+/// specs.csv: one row per specification, with estimates.csv's names for
+/// the same quantities (`unit` the primary metric's).
 pub fn specs_csv(a: &MultiverseAnalysis) -> String {
     let mut s = String::from("spec");
     for c in &a.choices {
         let _ = write!(s, ",{}", c.setting);
     }
-    s.push_str(",primary,d_m,se_m,df,lower_m,upper_m,mean_treated_m,mean_reference_m,optimism_pct,rule_holds,joint_lower_m,joint_upper_m,trained\n");
+    s.push_str(",primary,unit,estimate,se,df,lower,upper,treated_mean,reference_mean,optimism_pct,rule_holds,joint_lower,joint_upper,trained\n");
     for r in &a.specs {
         let _ = write!(s, "{}", r.id);
         for v in &r.values {
@@ -101,8 +115,9 @@ pub fn specs_csv(a: &MultiverseAnalysis) -> String {
         let e = &r.estimate;
         let _ = writeln!(
             s,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.primary,
+            metric_unit(a),
             e.mean,
             e.se,
             e.df,
@@ -120,21 +135,23 @@ pub fn specs_csv(a: &MultiverseAnalysis) -> String {
     s
 }
 
-/// choice_effects.csv.
+/// choice_effects.csv, with estimates.csv's names (`estimate` the
+/// effect on d, in `unit`).
 pub fn effects_csv(a: &MultiverseAnalysis) -> String {
     let mut s =
-        String::from("choice,reference,alternative,specs_per_side,recordings,effect_m,se_m,df,lower_m,upper_m\n");
+        String::from("choice,reference,alternative,specs_per_side,recordings,unit,estimate,se,df,lower,upper\n");
     for e in &a.choice_effects {
         let x = e.estimate.as_ref();
         let v = |g: fn(&crate::stats::CrossedEstimate) -> f64| x.map(|x| g(x).to_string()).unwrap_or_default();
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             e.setting,
             e.reference,
             e.alternative,
             e.specs_per_side,
             e.recordings,
+            metric_unit(a),
             v(|x| x.mean),
             v(|x| x.se),
             v(|x| x.df),
@@ -192,7 +209,8 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let _ = writeln!(
         s,
-        r#"<text x="10" y="20" font-size="16">d = treated - reference (m) by specification: {} intervals; grey: joint bands</text>"#,
+        r#"<text x="10" y="20" font-size="16">d = treated - reference ({}) by specification: {} intervals; grey: joint bands</text>"#,
+        label(a),
         level_pct(a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95))
     );
     let _ = writeln!(
@@ -220,9 +238,10 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     }
     let _ = writeln!(
         s,
-        r#"<text x="20" y="{:.1}" transform="rotate(-90 20 {:.1})" text-anchor="middle">d (m)</text>"#,
+        r#"<text x="20" y="{:.1}" transform="rotate(-90 20 {:.1})" text-anchor="middle">d ({})</text>"#,
         top + plot_h / 2.0,
-        top + plot_h / 2.0
+        top + plot_h / 2.0,
+        label(a)
     );
     if lo < 0.0 && hi > 0.0 {
         let _ = writeln!(
