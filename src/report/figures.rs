@@ -69,7 +69,8 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             .collect();
         let p = report_dir.join("interaction.svg");
         let title = format!("Interaction: d({}) - d({})", first.left, first.right);
-        let svg = intervals(&p, &label(a, &title), "difference in d (m)", &rows, &[(0.0, BLACK)])?;
+        let axis = format!("difference in d ({})", super::format::unit_label(first.metric.unit()));
+        let svg = intervals(&p, &label(a, &title), &axis, &rows, &[(0.0, BLACK)])?;
         written.push((p, svg));
     }
 
@@ -100,7 +101,8 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
             primary.model,
             primary.horizon_s
         );
-        let svg = intervals(&p, &label(a, &title), "mean d (m)", &rows, &[(0.0, BLACK)])?;
+        let axis = format!("mean d ({})", super::format::unit_label(primary.metric.unit()));
+        let svg = intervals(&p, &label(a, &title), &axis, &rows, &[(0.0, BLACK)])?;
         written.push((p, svg));
     }
 
