@@ -311,13 +311,16 @@ fn excluded_names_exist(spec: &DataSpec, dir: &Path, csvs: &[PathBuf]) -> Result
     Ok(())
 }
 
+/// A conditions table, by recording name, and the file it was read from.
+type ConditionsTable = (BTreeMap<String, super::conditions::Conditions>, PathBuf);
+
 /// The declared conditions table, read, and its path; it is in the data
 /// folder, and is taken out of the logs `csvs`.
 fn conditions_table(
     spec: &DataSpec,
     dir: &Path,
     csvs: &mut Vec<PathBuf>,
-) -> Result<Option<(BTreeMap<String, super::conditions::Conditions>, PathBuf)>, AuditError> {
+) -> Result<Option<ConditionsTable>, AuditError> {
     let Some(name) = spec.format.as_ref().and_then(|f| f.conditions_table.as_ref()) else { return Ok(None) };
     csvs.retain(|p| p.file_name().is_none_or(|f| f.to_string_lossy() != *name));
     let path = dir.join(name);
