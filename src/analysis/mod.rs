@@ -293,25 +293,7 @@ impl FileAnalysisError {
 /// assert_eq!(a.decision.rule.to_string(), "confirmed when optimism >= 10% and upper < 0");
 /// ```
 pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<Analysis, AnalysisError> {
-    if let Some(c) = cells.iter().find(|c| c.split.is_some() && plan.splits.is_empty()) {
-        return Err(AnalysisError::Family {
-            message: format!("line {}: the file has a `split` column, but the design has no split factor", c.line),
-        });
-    }
-    if let Some(c) = cells.iter().find(|c| c.dose.is_some() && plan.doses.is_empty()) {
-        return Err(AnalysisError::Family {
-            message: format!(
-                "line {}: the file has a `dose` column, but the design has no dose-response contrast",
-                c.line
-            ),
-        });
-    }
-    if plan.is_family() {
-        return Err(AnalysisError::Family {
-            message: "the design has several splits or doses: analyse it with analysis::family::analyze_family"
-                .to_string(),
-        });
-    }
+    check_single_run(plan, cells)?;
     for c in cells {
         check_values(plan, c)?;
     }
@@ -329,19 +311,6 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
     let missing_cells = index::check_complete(plan, &data, &names)?;
 
     let ctx = unit::Ctx { plan, data: &data, recordings: &recordings, options };
-    // Units are independent (each has its own bootstrap stream), so they
-    // run in parallel; results and warnings are collected in plan order, so
-    // the output does not depend on the thread count.
-    let all: Vec<_> = plan.units().collect();
-    let per_unit: Vec<Result<(UnitResult, Vec<String>), AnalysisError>> = all
-        .par_iter()
-        .enumerate()
-        .map(|(k, unit)| {
-            let mut w = Vec::new();
-            ctx.unit(unit, k as u64, &mut w).map(|u| (u, w))
-        })
-        .collect();
-    let mut units = Vec::new();
     let mut warnings = Vec::new();
     if fewer_allowed {
         warnings.push(format!(
@@ -356,44 +325,18 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
             missing_cells.len()
         ));
     }
-    for (unit, r) in all.iter().zip(per_unit) {
-        // A secondary endpoint whose arms cannot differ (every rollout
-        // diverged in both, or a baseline model that fits nothing) has no
-        // interval: it is left out with a warning, and the primary endpoint
-        // is still decided. A degenerate primary endpoint decides nothing:
-        // that is an error.
-        let (u, w) = match r {
-            Err(AnalysisError::Degenerate { unit: label, detail }) if unit.role != crate::design::Role::Primary => {
-                warnings.push(format!("{label}: {detail}; this secondary endpoint is left out of the report"));
-                continue;
-            }
-            r => r?,
-        };
-        units.push(u);
-        warnings.extend(w);
-    }
+    let units = analyze_units(&ctx, &mut warnings)?;
+    let n_units = plan.units().count();
     let interactions = plan
         .interactions
         .par_iter()
         .enumerate()
-        .map(|(k, ix)| ctx.interaction(ix, (all.len() + k) as u64))
+        .map(|(k, ix)| ctx.interaction(ix, (n_units + k) as u64))
         .collect::<Result<Vec<_>, _>>()?;
     // The plan's primary unit is the first.
     let decision = decision::study_decision(&plan.decision, &units, &plan.contrast)?;
     if decision.holds {
-        // A decision that leaving out one seed or one recording overturns
-        // is fragile, whatever its interval says: say so beside it.
-        for l in units[0].leave_one_out.iter().filter(|l| l.rule_holds < l.fits) {
-            warnings.push(format!(
-                "fragile decision: the rule holds in only {} of the {} fits that leave out one {} (Leave-one-out table)",
-                l.rule_holds,
-                l.fits,
-                match l.factor {
-                    crate::design::Factor::Seed => "seed",
-                    crate::design::Factor::Recording => "recording",
-                }
-            ));
-        }
+        fragile_warnings(&units[0], &mut warnings);
     }
     let fixed_budget = budget::fixed_budget(plan, &units);
     Ok(Analysis {
@@ -417,4 +360,80 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         fixed_budget,
         provenance: Provenance::default(),
     })
+}
+
+/// The plan and the cells are of one run: no `split` or `dose` column the
+/// design does not declare, and no split or dose factor (those are
+/// analysed by `analysis::family::analyze_family`).
+fn check_single_run(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
+    if let Some(c) = cells.iter().find(|c| c.split.is_some() && plan.splits.is_empty()) {
+        return Err(AnalysisError::Family {
+            message: format!("line {}: the file has a `split` column, but the design has no split factor", c.line),
+        });
+    }
+    if let Some(c) = cells.iter().find(|c| c.dose.is_some() && plan.doses.is_empty()) {
+        return Err(AnalysisError::Family {
+            message: format!(
+                "line {}: the file has a `dose` column, but the design has no dose-response contrast",
+                c.line
+            ),
+        });
+    }
+    if plan.is_family() {
+        return Err(AnalysisError::Family {
+            message: "the design has several splits or doses: analyse it with analysis::family::analyze_family"
+                .to_string(),
+        });
+    }
+    Ok(())
+}
+
+/// Every unit of the plan analysed, in plan order, their warnings added
+/// to `warnings`. Units are independent (each has its own bootstrap
+/// stream), so they run in parallel; results and warnings are collected in
+/// plan order, so the output does not depend on the thread count.
+fn analyze_units(ctx: &unit::Ctx, warnings: &mut Vec<String>) -> Result<Vec<UnitResult>, AnalysisError> {
+    let all: Vec<_> = ctx.plan.units().collect();
+    let per_unit: Vec<Result<(UnitResult, Vec<String>), AnalysisError>> = all
+        .par_iter()
+        .enumerate()
+        .map(|(k, unit)| {
+            let mut w = Vec::new();
+            ctx.unit(unit, k as u64, &mut w).map(|u| (u, w))
+        })
+        .collect();
+    let mut units = Vec::new();
+    for (unit, r) in all.iter().zip(per_unit) {
+        // A secondary endpoint whose arms cannot differ (every rollout
+        // diverged in both, or a baseline model that fits nothing) has no
+        // interval: it is left out with a warning, and the primary endpoint
+        // is still decided. A degenerate primary endpoint decides nothing:
+        // that is an error.
+        let (u, w) = match r {
+            Err(AnalysisError::Degenerate { unit: label, detail }) if unit.role != crate::design::Role::Primary => {
+                warnings.push(format!("{label}: {detail}; this secondary endpoint is left out of the report"));
+                continue;
+            }
+            r => r?,
+        };
+        units.push(u);
+        warnings.extend(w);
+    }
+    Ok(units)
+}
+
+/// A decision that leaving out one seed or one recording overturns is
+/// fragile, whatever its interval says: say so beside it.
+fn fragile_warnings(primary: &UnitResult, warnings: &mut Vec<String>) {
+    for l in primary.leave_one_out.iter().filter(|l| l.rule_holds < l.fits) {
+        warnings.push(format!(
+            "fragile decision: the rule holds in only {} of the {} fits that leave out one {} (Leave-one-out table)",
+            l.rule_holds,
+            l.fits,
+            match l.factor {
+                crate::design::Factor::Seed => "seed",
+                crate::design::Factor::Recording => "recording",
+            }
+        ));
+    }
 }

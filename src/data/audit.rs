@@ -4,16 +4,17 @@
 
 mod bounds;
 mod error;
+mod files;
 mod policies;
 mod render;
 
 pub use error::AuditError;
+use files::load_files;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use super::metadata::{impossible_values, parse_name, read_metadata, Metadata};
@@ -237,98 +238,18 @@ enum Keep {
     RowHashes,
 }
 
+/// The audit of `dir` under `spec`, and the recordings `keep` asks for
+/// (entry `k` belongs to the audit's row `k`).
 fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Option<Recording>>), AuditError> {
     let layout = Layout::new(spec).map_err(AuditError::Layout)?;
     let layout = if keep == Keep::RowHashes { layout.with_row_hashes() } else { layout };
-    if spec.rules.contains(&InclusionRule::Implausible) {
-        for needed in ["pwr_pm_vbat", "sp_ctrltarget_z"] {
-            if !spec.state_columns.iter().any(|c| c == needed) {
-                return Err(AuditError::Layout(format!("`exclude implausible` needs `{needed}` in the state columns")));
-            }
-        }
-    }
+    implausible_columns(spec)?;
     let nested = spec.format.as_ref().is_some_and(|f| f.nested_folders);
     let (mut csvs, missing) = list(dir, nested)?;
-    // A name the design excludes that is no log here: a typo, or the
-    // wrong folder; the exclusion would silently exclude nothing.
-    for rule in &spec.rules {
-        if let InclusionRule::Named { names } = rule {
-            if let Some(n) = names.iter().find(|n| !csvs.iter().any(|p| recording_name(p) == **n)) {
-                return Err(AuditError::Layout(format!(
-                    "`exclude recordings` names {n:?}, which is not a log in {}; list the recordings by their file names without `.csv`",
-                    dir.display()
-                )));
-            }
-        }
-    }
-    let table = match spec.format.as_ref().and_then(|f| f.conditions_table.as_ref()) {
-        Some(name) => {
-            // The table is in the data folder, and is not a recording.
-            csvs.retain(|p| p.file_name().is_none_or(|f| f.to_string_lossy() != *name));
-            let path = dir.join(name);
-            let format = spec.format.as_ref();
-            let columns = format.map(|f| f.conditions_columns.clone()).unwrap_or_default();
-            let folder = format.and_then(|f| f.conditions_folder);
-            Some((super::conditions::read_table(&path, &columns, folder).map_err(AuditError::Layout)?, path))
-        }
-        None => None,
-    };
-    let metas = csvs.iter().map(|p| meta_path(p)).chain(missing.iter().map(|n| dir.join(format!("{n}_metadata.yaml"))));
-    let impossible: Vec<String> =
-        metas.flat_map(|p| read_metadata(&p).map(|m| impossible_values(&p, &m)).unwrap_or_default()).collect();
-    if !impossible.is_empty() {
-        return Err(AuditError::Metadata {
-            count: impossible.len(),
-            list: impossible.iter().map(|l| format!("  {l}")).collect::<Vec<_>>().join("\n"),
-        });
-    }
-    let loaded: Vec<(FileRow, Option<Recording>, Option<AuditError>)> = csvs
-        .par_iter()
-        .map(|path| {
-            let exists = meta_path(path).exists();
-            // `data csv` logs need no metadata file; NanoBench's each have one.
-            let meta = if !exists && spec.source == DataSource::Csv {
-                Ok(Metadata::default())
-            } else {
-                read_metadata(&meta_path(path))
-            };
-            let broken = meta.as_ref().err().filter(|_| exists).cloned();
-            let mut refused = None;
-            let (mut row, rec) = match load_recording(path, &layout) {
-                Ok(mut rec) => {
-                    if spec.tails == TailPolicy::Truncate {
-                        rec.truncate_tail();
-                    }
-                    let mut row = judged(spec, &rec, meta);
-                    row.file = crate::io::walk::relative(dir, path);
-                    let kept = match keep {
-                        Keep::None => None,
-                        Keep::Included => Some(rec),
-                        Keep::RowHashes => Some(Recording { row_hashes: rec.row_hashes, ..Recording::empty() }),
-                    };
-                    (row, kept)
-                }
-                Err(e) => {
-                    refused = policies::refusal(spec, &e);
-                    let mut row = unreadable(spec, path, meta, e.to_string());
-                    row.file = crate::io::walk::relative(dir, path);
-                    (row, None)
-                }
-            };
-            row.broken_metadata = broken;
-            (row, rec, refused)
-        })
-        .collect();
-    // A declared `refuse` stops the audit at the first file, in name order.
-    let mut files = Vec::with_capacity(loaded.len());
-    let mut recordings = Vec::with_capacity(loaded.len());
-    for (file, recording, refused) in loaded {
-        if let Some(e) = refused {
-            return Err(e);
-        }
-        files.push(file);
-        recordings.push(recording);
-    }
+    excluded_names_exist(spec, dir, &csvs)?;
+    let table = conditions_table(spec, dir, &mut csvs)?;
+    possible_metadata(dir, &csvs, &missing)?;
+    let (mut files, mut recordings) = load_files(spec, dir, &csvs, &layout, keep)?;
     super::conditions::apply(spec, dir, &mut files, table.as_ref())?;
     let groups = duplicates(&mut files, spec.duplicates);
     if keep == Keep::Included {
@@ -347,15 +268,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         recordings.push(None);
     }
     if spec.strictness == Strictness::Strict {
-        let mut bad: Vec<String> = files
-            .iter()
-            .filter(|f| f.status == Status::Excluded && f.verdicts.is_empty())
-            .map(|f| format!("  {}", f.reason))
-            .collect();
-        bad.extend(files.iter().filter_map(|f| f.broken_metadata.as_ref()).map(|m| format!("  {m}")));
-        if !bad.is_empty() {
-            return Err(AuditError::Strict { count: bad.len(), list: bad.join("\n") });
-        }
+        strict(&files)?;
     }
     let audit = Audit {
         data_dir: dir.display().to_string(),
@@ -367,6 +280,84 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         duplicate_groups: groups,
     };
     Ok((audit, recordings))
+}
+
+/// `exclude implausible` reads the battery and the setpoint's z: both
+/// must be state columns.
+fn implausible_columns(spec: &DataSpec) -> Result<(), AuditError> {
+    if spec.rules.contains(&InclusionRule::Implausible) {
+        for needed in ["pwr_pm_vbat", "sp_ctrltarget_z"] {
+            if !spec.state_columns.iter().any(|c| c == needed) {
+                return Err(AuditError::Layout(format!("`exclude implausible` needs `{needed}` in the state columns")));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A name the design excludes that is no log here: a typo, or the wrong
+/// folder; the exclusion would silently exclude nothing.
+fn excluded_names_exist(spec: &DataSpec, dir: &Path, csvs: &[PathBuf]) -> Result<(), AuditError> {
+    for rule in &spec.rules {
+        if let InclusionRule::Named { names } = rule {
+            if let Some(n) = names.iter().find(|n| !csvs.iter().any(|p| recording_name(p) == **n)) {
+                return Err(AuditError::Layout(format!(
+                    "`exclude recordings` names {n:?}, which is not a log in {}; list the recordings by their file names without `.csv`",
+                    dir.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A conditions table, by recording name, and the file it was read from.
+type ConditionsTable = (BTreeMap<String, super::conditions::Conditions>, PathBuf);
+
+/// The declared conditions table, read, and its path; it is in the data
+/// folder, and is taken out of the logs `csvs`.
+fn conditions_table(
+    spec: &DataSpec,
+    dir: &Path,
+    csvs: &mut Vec<PathBuf>,
+) -> Result<Option<ConditionsTable>, AuditError> {
+    let Some(name) = spec.format.as_ref().and_then(|f| f.conditions_table.as_ref()) else { return Ok(None) };
+    csvs.retain(|p| p.file_name().is_none_or(|f| f.to_string_lossy() != *name));
+    let path = dir.join(name);
+    let format = spec.format.as_ref();
+    let columns = format.map(|f| f.conditions_columns.clone()).unwrap_or_default();
+    let folder = format.and_then(|f| f.conditions_folder);
+    Ok(Some((super::conditions::read_table(&path, &columns, folder).map_err(AuditError::Layout)?, path)))
+}
+
+/// No metadata file, of a log here or of one listed as missing, holds an
+/// impossible value: all of them are named at once.
+fn possible_metadata(dir: &Path, csvs: &[PathBuf], missing: &[String]) -> Result<(), AuditError> {
+    let metas = csvs.iter().map(|p| meta_path(p)).chain(missing.iter().map(|n| dir.join(format!("{n}_metadata.yaml"))));
+    let impossible: Vec<String> =
+        metas.flat_map(|p| read_metadata(&p).map(|m| impossible_values(&p, &m)).unwrap_or_default()).collect();
+    if !impossible.is_empty() {
+        return Err(AuditError::Metadata {
+            count: impossible.len(),
+            list: impossible.iter().map(|l| format!("  {l}")).collect::<Vec<_>>().join("\n"),
+        });
+    }
+    Ok(())
+}
+
+/// Under `strict`, any file excluded for being unreadable (no rule's
+/// verdict) or with broken metadata stops the audit, all named at once.
+fn strict(files: &[FileRow]) -> Result<(), AuditError> {
+    let mut bad: Vec<String> = files
+        .iter()
+        .filter(|f| f.status == Status::Excluded && f.verdicts.is_empty())
+        .map(|f| format!("  {}", f.reason))
+        .collect();
+    bad.extend(files.iter().filter_map(|f| f.broken_metadata.as_ref()).map(|m| format!("  {m}")));
+    if !bad.is_empty() {
+        return Err(AuditError::Strict { count: bad.len(), list: bad.join("\n") });
+    }
+    Ok(())
 }
 
 fn meta_path(csv: &Path) -> PathBuf {

@@ -149,62 +149,13 @@ pub fn run_job_with(
 ) -> Result<JobOutcome, RunError> {
     let bench = bench(plan, job, prepared)?;
     let stem = job.stem();
-    let mut files = Vec::new();
-    let mut one_step = Vec::new();
-    let mut standardizers = None;
-    let (cells, epochs, best_val_loss, train_seconds, rollout_seconds) = match &job.kind {
+    let fitted = match &job.kind {
         ModelKind::Mlp { widths, inputs, actions, restore_final } => {
-            // Invariant 6 is checked after training on what the job record
-            // says these were fitted on (run/trained_invariants.rs).
-            let mut training = plan.training.clone().ok_or(RunError::NoTraining)?;
-            training.restore_final = *restore_final;
-            let training = &training;
-            let features =
-                FeatureMap::fit(bench.plan.slots, *inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
-            let t0 = std::time::Instant::now();
-            let (net, epochs) = net::train_with(
-                engine,
-                widths,
-                &features,
-                &bench.fit,
-                &bench.validation,
-                training,
-                job.seed.0,
-                on_epoch,
-            )?;
-            let meta = serde_json::json!({
-                "model": job.model, "arm": job.arm, "seed": job.seed.0, "widths": widths,
-                "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "features": features,
-            });
-            files.extend(save_model(out, &stem, &net, &meta)?);
-            let train_seconds = t0.elapsed().as_secs_f64();
-            let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
-            let (e, cells, secs) = bench.score(&job.model, &mut Learned::with(engine, &net, &features));
-            one_step.push((job.model.clone(), e));
-            standardizers = Some(features);
-            (cells, epochs, Some(best), train_seconds, secs)
+            let mlp = (widths.as_slice(), *inputs, *actions, *restore_final);
+            train_mlp(&bench, engine, design_sha256, out, on_epoch, mlp)?
         }
         ModelKind::Linear { inputs, actions, ridge } => {
-            let training = plan.training.as_ref().ok_or(RunError::NoTraining)?;
-            let features =
-                FeatureMap::fit(bench.plan.slots, *inputs, *actions, training.target, &bench.fit, &bench.fit_sha);
-            let t0 = std::time::Instant::now();
-            let mut model = linear::fit(features.clone(), &bench.fit, &bench.validation, *ridge)
-                .map_err(|source| RunError::Linear { model: job.model.clone(), source })?;
-            let meta = serde_json::json!({
-                "model": job.model, "arm": job.arm, "seed": job.seed.0, "kind": "linear",
-                "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "linear": &model,
-            });
-            create_dir_all(&out.join("models"))?;
-            let name = format!("models/{stem}.json");
-            write_atomic(&out.join(&name), serde_json::to_string_pretty(&meta).unwrap_or_default().as_bytes())?;
-            files.push(name);
-            let train_seconds = t0.elapsed().as_secs_f64();
-            let best = model.validation.iter().find(|(l, _)| *l == model.lambda).map(|(_, v)| *v);
-            let (e, cells, secs) = bench.score(&job.model, &mut model);
-            one_step.push((job.model.clone(), e));
-            standardizers = Some(features);
-            (cells, Vec::new(), best, train_seconds, secs)
+            fit_linear(&bench, design_sha256, out, (*inputs, *actions, *ridge))?
         }
         ModelKind::External { .. } => {
             return Err(RunError::ExternalModels { models: job.model.clone() });
@@ -212,20 +163,15 @@ pub fn run_job_with(
         ModelKind::Persistence | ModelKind::ConstantVelocity => {
             let mut d = baseline(&job.kind, plan.rate_hz);
             let (e, cells, secs) = bench.score(&job.model, d.as_mut());
-            one_step.push((job.model.clone(), e));
-            (cells, Vec::new(), None, 0.0, secs)
+            Fitted::parameter_free(e, cells, secs)
         }
     };
+    let Fitted { cells, epochs, best_val_loss, train_seconds, rollout_seconds, one_step, standardizers, mut files } =
+        fitted;
+    let mut one_step = vec![(job.model.clone(), one_step)];
     let mut mean_fa_rmse: Vec<(String, f64, f64)> =
         job.horizons_s.iter().map(|h| (job.model.clone(), *h, mean_fa(&cells, *h))).collect();
-    // The yardsticks; constant velocity only where the data declare a velocity.
-    let yardsticks = [("persistence", ModelKind::Persistence), ("constant_velocity", ModelKind::ConstantVelocity)];
-    for (name, kind) in yardsticks.into_iter().filter(|(_, k)| plan.slots.velocity || *k != ModelKind::ConstantVelocity)
-    {
-        let (e, bc, _) = bench.score(name, baseline(&kind, plan.rate_hz).as_mut());
-        one_step.push((name.to_string(), e));
-        mean_fa_rmse.extend(job.horizons_s.iter().map(|h| (name.to_string(), *h, mean_fa(&bc, *h))));
-    }
+    score_yardsticks(&bench, &mut one_step, &mut mean_fa_rmse);
     if !epochs.is_empty() {
         files.push(write_curve(out, &stem, &epochs)?);
     }
@@ -260,6 +206,129 @@ pub fn run_job_with(
         cells,
         files,
     })
+}
+
+/// What fitting and scoring a job's own model gave.
+struct Fitted {
+    /// Its per-cell rows.
+    cells: Vec<Cell>,
+    /// Every epoch's losses (empty unless trained by epochs).
+    epochs: Vec<EpochLog>,
+    best_val_loss: Option<f64>,
+    train_seconds: f64,
+    rollout_seconds: f64,
+    /// Its one-step validation error.
+    one_step: f64,
+    /// The standardizers it was fitted with, for the job record.
+    standardizers: Option<FeatureMap>,
+    /// The model files written, relative to the run directory.
+    files: Vec<String>,
+}
+
+impl Fitted {
+    /// A model with nothing to fit (a baseline): scored only.
+    fn parameter_free(one_step: f64, cells: Vec<Cell>, rollout_seconds: f64) -> Fitted {
+        Fitted {
+            cells,
+            epochs: Vec::new(),
+            best_val_loss: None,
+            train_seconds: 0.0,
+            rollout_seconds,
+            one_step,
+            standardizers: None,
+            files: Vec::new(),
+        }
+    }
+}
+
+/// An MLP (`widths`, input map, action scaling, `restore final`) trained
+/// with `engine` on the bench's fit windows, saved under `models/`, and
+/// scored.
+fn train_mlp(
+    bench: &Bench,
+    engine: Engine,
+    design_sha256: &str,
+    out: &Path,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+    (widths, inputs, actions, restore_final): (&[usize], InputMap, ActionScaling, bool),
+) -> Result<Fitted, RunError> {
+    let job = bench.job;
+    // Invariant 6 is checked after training on what the job record
+    // says these were fitted on (run/trained_invariants.rs).
+    let mut training = bench.plan.training.clone().ok_or(RunError::NoTraining)?;
+    training.restore_final = restore_final;
+    let training = &training;
+    let features = FeatureMap::fit(bench.plan.slots, inputs, actions, training.target, &bench.fit, &bench.fit_sha);
+    let t0 = std::time::Instant::now();
+    let (net, epochs) =
+        net::train_with(engine, widths, &features, &bench.fit, &bench.validation, training, job.seed.0, on_epoch)?;
+    let meta = serde_json::json!({
+        "model": job.model, "arm": job.arm, "seed": job.seed.0, "widths": widths,
+        "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "features": features,
+    });
+    let files = save_model(out, &job.stem(), &net, &meta)?.to_vec();
+    let train_seconds = t0.elapsed().as_secs_f64();
+    let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
+    let (e, cells, secs) = bench.score(&job.model, &mut Learned::with(engine, &net, &features));
+    Ok(Fitted {
+        cells,
+        epochs,
+        best_val_loss: Some(best),
+        train_seconds,
+        rollout_seconds: secs,
+        one_step: e,
+        standardizers: Some(features),
+        files,
+    })
+}
+
+/// A linear model (input map, action scaling, ridge penalty) fitted on
+/// the bench's fit windows, saved as `models/STEM.json`, and scored.
+fn fit_linear(
+    bench: &Bench,
+    design_sha256: &str,
+    out: &Path,
+    (inputs, actions, ridge): (InputMap, ActionScaling, Option<f64>),
+) -> Result<Fitted, RunError> {
+    let job = bench.job;
+    let training = bench.plan.training.as_ref().ok_or(RunError::NoTraining)?;
+    let features = FeatureMap::fit(bench.plan.slots, inputs, actions, training.target, &bench.fit, &bench.fit_sha);
+    let t0 = std::time::Instant::now();
+    let mut model = linear::fit(features.clone(), &bench.fit, &bench.validation, ridge)
+        .map_err(|source| RunError::Linear { model: job.model.clone(), source })?;
+    let meta = serde_json::json!({
+        "model": job.model, "arm": job.arm, "seed": job.seed.0, "kind": "linear",
+        "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "linear": &model,
+    });
+    create_dir_all(&out.join("models"))?;
+    let name = format!("models/{}.json", job.stem());
+    write_atomic(&out.join(&name), serde_json::to_string_pretty(&meta).unwrap_or_default().as_bytes())?;
+    let train_seconds = t0.elapsed().as_secs_f64();
+    let best = model.validation.iter().find(|(l, _)| *l == model.lambda).map(|(_, v)| *v);
+    let (e, cells, secs) = bench.score(&job.model, &mut model);
+    Ok(Fitted {
+        cells,
+        epochs: Vec::new(),
+        best_val_loss: best,
+        train_seconds,
+        rollout_seconds: secs,
+        one_step: e,
+        standardizers: Some(features),
+        files: vec![name],
+    })
+}
+
+/// The yardsticks' one-step errors and mean failure-aware RMSEs, after the
+/// model's; constant velocity only where the data declare a velocity.
+fn score_yardsticks(bench: &Bench, one_step: &mut Vec<(String, f64)>, mean_fa_rmse: &mut Vec<(String, f64, f64)>) {
+    let (plan, job) = (bench.plan, bench.job);
+    let yardsticks = [("persistence", ModelKind::Persistence), ("constant_velocity", ModelKind::ConstantVelocity)];
+    for (name, kind) in yardsticks.into_iter().filter(|(_, k)| plan.slots.velocity || *k != ModelKind::ConstantVelocity)
+    {
+        let (e, bc, _) = bench.score(name, baseline(&kind, plan.rate_hz).as_mut());
+        one_step.push((name.to_string(), e));
+        mean_fa_rmse.extend(job.horizons_s.iter().map(|h| (name.to_string(), *h, mean_fa(&bc, *h))));
+    }
 }
 
 /// The manifests `job` reads, by hash: what its record states and the

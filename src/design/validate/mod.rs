@@ -4,6 +4,7 @@
 
 mod analysis;
 mod arms;
+mod assemble;
 mod csv;
 mod data;
 mod endpoints;
@@ -195,179 +196,6 @@ impl Validator {
         }
     }
 
-    fn design(&mut self, ast: &Ast) -> Option<Design> {
-        let end = ast.statements.last().map(|s| Span { start: s.span.end, end: s.span.end }).unwrap_or_default();
-        let Statements { singles, arms, models, endpoints } = self.statements(ast, end);
-        let study = singles.get("study").and_then(|s| match &s.node {
-            Statement::Study(name) => self.study(name),
-            _ => None,
-        });
-        let data = singles.get("data").and_then(|s| match &s.node {
-            Statement::Data(block) => self.data(block),
-            _ => None,
-        });
-        let published = singles.get("split published").and_then(|s| match &s.node {
-            Statement::Published { file, folders, items } => {
-                self.published(file, *folders, data.as_ref(), items, s.span)
-            }
-            _ => None,
-        });
-        let pinned_by_split = singles.contains_key("split published");
-        let recording = singles.get("factor recording").and_then(|s| match &s.node {
-            Statement::FactorRecording(items) => {
-                let pinned = published.as_ref().map(|p| p.evaluation.clone());
-                self.recording(items, s.span, pinned_by_split, pinned)
-            }
-            _ => None,
-        });
-        let seeds = singles.get("factor seed").and_then(|s| match &s.node {
-            Statement::FactorSeed(spec) => self.seeds(spec, s.span),
-            _ => None,
-        });
-        let validation = singles.get("validation").and_then(|s| match &s.node {
-            Statement::Validation { windows, recordings, seed } => {
-                let roles = self.validation_roles(published.as_ref(), recordings);
-                let pinned = roles.map(|p| p.validation.clone());
-                // (`from split` without a role is refused by validation_roles.)
-                let from_roles = roles.is_some() || (pinned_by_split && matches!(recordings, ValRecordings::Split(_)));
-                Some(self.validation(windows, recordings, seed, from_roles, pinned))
-            }
-            _ => None,
-        });
-        let generator = match singles.get("generator").map(|s| &s.node) {
-            Some(Statement::Generator(g)) if g.node == "numpy_legacy" => Generator::NumpyLegacy,
-            _ => Generator::Chacha8,
-        };
-        if generator == Generator::NumpyLegacy {
-            self.numpy_seeds(ast);
-        }
-        let arms = self.arms(&arms);
-        let models = self.models(&models, arms::declared_actions(singles.get("train").copied()));
-        let training = self.train_block(singles.get("train").copied(), &models);
-        let rate = data.as_ref().map(|d: &DataSpec| d.rate_hz).unwrap_or(100.0);
-        let horizon = recording.as_ref().map(|r: &RecordingFactor| r.horizon);
-        let endpoints = self.endpoints(&endpoints, &models, rate, horizon, end);
-        if let Some(d) = &data {
-            self.undeclared_state(&d.slots(), &models, &endpoints);
-        }
-        let contrast = singles.get("contrast").and_then(|s| match &s.node {
-            Statement::Contrast { treated, reference } => self.contrast(treated, reference, &arms),
-            _ => None,
-        });
-        let n_seeds = seeds.as_ref().map(|s: &Vec<Seed>| s.len());
-        let estimator = match singles.get("estimate") {
-            Some(s) => match &s.node {
-                Statement::Estimate { kind, items } => self.estimator(kind, items),
-                _ => None,
-            },
-            None => Some(Estimator {
-                kind: EstimatorKind::CrossedMom,
-                level: 0.95,
-                df: DfRule::SeedsMinusOne,
-                missing_allowed: false,
-            }),
-        };
-        let conditions = recording.as_ref().map(|r| r.conditions.clone()).unwrap_or_default();
-        let sensitivity = match singles.get("sensitivity") {
-            Some(s) => match &s.node {
-                // A published split that could not be read leaves the number
-                // of evaluation recordings unknown: no check counts them (its
-                // own error says why; a count of 0 would add a second one).
-                Statement::Sensitivity(items) => self.sensitivity(
-                    items,
-                    &conditions,
-                    n_seeds,
-                    recording.as_ref().filter(|_| !pinned_by_split || published.is_some()),
-                ),
-                _ => None,
-            },
-            None => Some(Sensitivity { bootstrap: None, grouped: Grouped::Off, leave_one_out: Vec::new() }),
-        };
-        let interaction = match singles.get("interaction") {
-            Some(s) => match &s.node {
-                Statement::Interaction { left, right } => self.interaction(left, right, &models, &endpoints),
-                _ => None,
-            },
-            None => None,
-        };
-        let splits = match singles.get("factor split") {
-            Some(s) => match &s.node {
-                Statement::FactorSplit(spec) => self.splits(spec, s.span, recording.as_ref(), published.is_some()),
-                _ => None,
-            },
-            None => Some(Vec::new()),
-        };
-        if let (Some(splits), Some(rf), Some(val)) = (&splits, &recording, &validation) {
-            let span = singles.get("factor split").map(|s| s.span).unwrap_or_default();
-            self.shifted_seeds(splits, rf, val, &arms, generator, span);
-        }
-        let dosed = contrast.as_ref().is_some_and(|c: &Contrast| {
-            arms.iter().any(|(a, _)| matches!(&a.kind, ArmKind::Derived { family: Some(f), .. } if *f == c.treated))
-        });
-        let multi_split = splits.as_ref().is_some_and(|s| !s.is_empty());
-        let coupled = matches!(singles.get("draws").map(|s| &s.node), Some(Statement::Draws(d)) if d.node == "coupled");
-        let draws = match singles.get("factor draw") {
-            Some(s) => match &s.node {
-                Statement::FactorDraw(spec) => self.draw_factor(
-                    spec,
-                    s.span,
-                    (multi_split, dosed),
-                    (recording.as_ref(), validation.as_ref()),
-                    &arms,
-                    generator,
-                ),
-                _ => None,
-            },
-            None => Some(Vec::new()),
-        };
-        let per_seed_draws = match (singles.get("draws per seed"), &seeds) {
-            (Some(s), Some(seeds)) => {
-                let has_draws = draws.as_ref().is_some_and(|d| !d.is_empty());
-                self.per_seed_draws(s.span, seeds, (multi_split, has_draws), validation.as_ref(), &arms, generator);
-                true
-            }
-            _ => false,
-        };
-        let decision = singles.get("decide").and_then(|s| match &s.node {
-            Statement::Decide { name, on, conditions, .. } => {
-                let on = self.decision_target(on.as_ref(), name, (multi_split, dosed), outer::glmm_units(&endpoints));
-                self.decision(name, conditions).map(|d| self.divergence_rule(DecisionRule { on, ..d }, conditions))
-            }
-            _ => None,
-        });
-
-        if let (Some(seeds), Some(rf), Some(splits)) = (&seeds, &recording, &splits) {
-            let span = singles.get("factor seed").map(|s| s.span).unwrap_or(end);
-            let horizons: usize = endpoints.iter().map(|(e, _)| e.horizons.len() * e.models.len()).sum();
-            let outer = splits.len().max(1) * draws.as_ref().map_or(1, |d| d.len().max(1));
-            self.cells_limit(span, [arms.len(), seeds.len(), outer, rf.evaluation, horizons]);
-        }
-        Some(Design {
-            study: study?,
-            data: data?,
-            recording: recording?,
-            seeds: seeds?,
-            validation: validation?,
-            arms: arms.into_iter().map(|a| a.0).collect(),
-            models: models.into_iter().map(|m| m.0).collect(),
-            training,
-            endpoints: endpoints.into_iter().map(|e| e.0).collect(),
-            contrast: contrast?,
-            estimator: estimator?,
-            sensitivity: sensitivity?,
-            interaction,
-            decision: decision?,
-            generator,
-            published: published.map(|p| p.pin),
-            splits: splits?,
-            coupled,
-            draws: draws?,
-            draw: None,
-            per_seed_draws,
-            multiverse: None,
-        })
-    }
-
     /// `validation N windows from (K recordings | recordings "A", ... | split) seed S`.
     fn validation(
         &mut self,
@@ -455,49 +283,6 @@ impl Validator {
         }
     }
 
-    /// Sorts the statements into single ones (by keyword) and the repeated
-    /// arms, models and endpoints, reporting duplicates and missing ones.
-    fn statements<'a>(&mut self, ast: &'a Ast, end: Span) -> Statements<'a> {
-        let mut st =
-            Statements { singles: BTreeMap::new(), arms: Vec::new(), models: Vec::new(), endpoints: Vec::new() };
-        for s in &ast.statements {
-            match &s.node {
-                Statement::Arm { .. } => st.arms.push(s),
-                Statement::Model { .. } => st.models.push(s),
-                Statement::Endpoint(_) => st.endpoints.push(s),
-                other => {
-                    let key = other.keyword();
-                    if st.singles.contains_key(key) {
-                        self.err_help(
-                            "declared twice",
-                            s.span,
-                            format!("a second `{key}` statement"),
-                            format!("a design has one `{key}` statement"),
-                        );
-                    } else {
-                        st.singles.insert(key, s);
-                    }
-                }
-            }
-        }
-        for key in ["study", "data", "factor recording", "factor seed", "validation", "contrast", "decide"] {
-            if !st.singles.contains_key(key) {
-                self.err_help(
-                    "missing statement",
-                    end,
-                    format!("the design ends here without a `{key}` statement"),
-                    format!("every design declares `{key}`"),
-                );
-            }
-        }
-        for (list, what) in [(&st.arms, "arm"), (&st.models, "model"), (&st.endpoints, "endpoint")] {
-            if list.is_empty() {
-                self.err("missing statement", end, format!("the design ends here without any `{what}`"));
-            }
-        }
-        st
-    }
-
     fn study(&mut self, name: &Spanned<String>) -> Option<String> {
         if name.node.trim().is_empty() {
             self.err("empty study name", name.span, "the study needs a name");
@@ -577,12 +362,4 @@ fn known<'a>(what: &str, names: impl Iterator<Item = &'a str>) -> String {
     } else {
         format!("declared {what}: {}", names.join(", "))
     }
-}
-
-/// A design's statements sorted by kind.
-struct Statements<'a> {
-    singles: BTreeMap<&'static str, &'a Spanned<Statement>>,
-    arms: Vec<&'a Spanned<Statement>>,
-    models: Vec<&'a Spanned<Statement>>,
-    endpoints: Vec<&'a Spanned<Statement>>,
 }

@@ -174,34 +174,96 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     order.sort_by(|&i, &j| a.specs[i].estimate.mean.total_cmp(&a.specs[j].estimate.mean));
     let rows: Vec<(String, String)> =
         a.choices.iter().flat_map(|c| c.alternatives.iter().map(move |v| (c.setting.clone(), v.clone()))).collect();
-    // The left margin fits the longest "setting = value" label (about
-    // 7.5 px a character at 13 px).
-    let longest = rows.iter().map(|(c, v)| c.chars().count() + v.chars().count() + 3).max().unwrap_or(0);
-    let (left, top, plot_h, row_h, col_w) = (
-        (7.5 * longest as f64 + 30.0).max(230.0),
-        58.0,
-        260.0,
-        19.0,
-        34.0_f64.max(480.0 / a.specs.len().max(1) as f64),
+    let l = Layout::new(a, &rows);
+    let mut s = String::new();
+    curve_header(&mut s, a, &l);
+    curve_axis(&mut s, &l);
+    curve_estimates(&mut s, a, &l, &order);
+    curve_choices(&mut s, a, &l, &order, &rows);
+    let key_y = l.height - 24.0;
+    let _ = writeln!(
+        s,
+        r##"<text x="10" y="{key_y:.1}">Blue: the rule is met; red: not met. Square: the primary specification.</text>"##
     );
-    let width = (left + col_w * a.specs.len() as f64 + 30.0).max(720.0);
-    let height = top + plot_h + 40.0 + row_h * rows.len() as f64 + 40.0;
-    let band = |id: &str| a.joint.as_ref().and_then(|j| j.bands.iter().find(|b| b.0 == id)).map(|b| (b.2, b.3));
+    let _ = writeln!(
+        s,
+        r##"<text x="10" y="{:.1}">Below: a filled dot marks the alternative each specification takes.</text>"##,
+        key_y + 16.0
+    );
+    let _ = writeln!(s, "</svg>");
+    s
+}
+
+/// Where the curve's parts lie: the left margin (fitting the longest
+/// choice label), the plot's top and height, a choice row's height, a
+/// specification's column width, the picture's size and the value range
+/// of the axis.
+struct Layout {
+    left: f64,
+    top: f64,
+    plot_h: f64,
+    row_h: f64,
+    col_w: f64,
+    width: f64,
+    height: f64,
+    lo: f64,
+    hi: f64,
+}
+
+impl Layout {
+    /// The layout for `a`'s specifications over its choice `rows`.
+    fn new(a: &MultiverseAnalysis, rows: &[(String, String)]) -> Layout {
+        // The left margin fits the longest "setting = value" label (about
+        // 7.5 px a character at 13 px).
+        let longest = rows.iter().map(|(c, v)| c.chars().count() + v.chars().count() + 3).max().unwrap_or(0);
+        let (left, top, plot_h, row_h, col_w) = (
+            (7.5 * longest as f64 + 30.0).max(230.0),
+            58.0,
+            260.0,
+            19.0,
+            34.0_f64.max(480.0 / a.specs.len().max(1) as f64),
+        );
+        let width = (left + col_w * a.specs.len() as f64 + 30.0).max(720.0);
+        let height = top + plot_h + 40.0 + row_h * rows.len() as f64 + 40.0;
+        let (lo, hi) = value_range(a);
+        Layout { left, top, plot_h, row_h, col_w, width, height, lo, hi }
+    }
+
+    /// The height of value `v` on the axis.
+    fn y(&self, v: f64) -> f64 {
+        self.top + self.plot_h * (self.hi - v) / (self.hi - self.lo)
+    }
+
+    /// The middle of the `k`th specification's column.
+    fn x(&self, k: usize) -> f64 {
+        self.left + self.col_w * (k as f64 + 0.5)
+    }
+}
+
+/// The joint band of specification `id`, if the analysis has one.
+fn band(a: &MultiverseAnalysis, id: &str) -> Option<(f64, f64)> {
+    a.joint.as_ref().and_then(|j| j.bands.iter().find(|b| b.0 == id)).map(|b| (b.2, b.3))
+}
+
+/// The axis's range: every interval and joint band, and 0, padded by 5%.
+fn value_range(a: &MultiverseAnalysis) -> (f64, f64) {
     let mut lo = 0.0f64;
     let mut hi = 0.0f64;
     for r in &a.specs {
         lo = lo.min(r.estimate.lower);
         hi = hi.max(r.estimate.upper);
-        if let Some((l, h)) = band(&r.id) {
+        if let Some((l, h)) = band(a, &r.id) {
             lo = lo.min(l);
             hi = hi.max(h);
         }
     }
     let pad = 0.05 * (hi - lo).max(1e-9);
-    let (lo, hi) = (lo - pad, hi + pad);
-    let y = |v: f64| top + plot_h * (hi - v) / (hi - lo);
-    let x = |k: usize| left + col_w * (k as f64 + 0.5);
-    let mut s = String::new();
+    (lo - pad, hi + pad)
+}
+
+/// The picture's opening tag, its white ground and the two title lines.
+fn curve_header(s: &mut String, a: &MultiverseAnalysis, l: &Layout) {
+    let (width, height) = (l.width, l.height);
     let _ = writeln!(
         s,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="13">"#
@@ -217,7 +279,12 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
         s,
         r##"<text x="10" y="40" font-size="13"><tspan fill="#1f77b4">blue: the rule holds</tspan>; <tspan fill="#d62728">red: it does not</tspan> (the colour is the rule, not whether the interval excludes 0)</text>"##
     );
-    // Axis with ticks.
+}
+
+/// The value axis with its ticks and label, and a dashed line at 0 where
+/// the range spans it.
+fn curve_axis(s: &mut String, l: &Layout) {
+    let Layout { left, top, plot_h, lo, hi, width, .. } = *l;
     let _ = writeln!(s, r#"<line x1="{left}" y1="{top}" x2="{left}" y2="{}" stroke="black"/>"#, top + plot_h);
     // Round ticks: a step of 1, 2 or 5 x 10^k giving four to eight of them.
     let step = super::charts::nice_step((hi - lo) / 5.0);
@@ -229,11 +296,11 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
             s,
             r#"<text x="{}" y="{:.1}" text-anchor="end">{:.decimals$}</text><line x1="{}" y1="{:.1}" x2="{left}" y2="{:.1}" stroke="black"/>"#,
             left - 8.0,
-            y(v) + 4.0,
+            l.y(v) + 4.0,
             if v.abs() < step * 1e-6 { 0.0 } else { v },
             left - 4.0,
-            y(v),
-            y(v)
+            l.y(v),
+            l.y(v)
         );
     }
     let _ = writeln!(
@@ -247,55 +314,66 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
         let _ = writeln!(
             s,
             r#"<line x1="{left}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="grey" stroke-dasharray="4 3"/>"#,
-            y(0.0),
+            l.y(0.0),
             width - 30.0,
-            y(0.0)
+            l.y(0.0)
         );
     }
+}
+
+/// Each specification in `order`: its joint band in grey, its interval
+/// and estimate in the rule's colour (a square for the primary) and its
+/// id under the plot.
+fn curve_estimates(s: &mut String, a: &MultiverseAnalysis, l: &Layout, order: &[usize]) {
     for (k, &i) in order.iter().enumerate() {
         let r = &a.specs[i];
-        if let Some((l, h)) = band(&r.id) {
+        if let Some((lo, hi)) = band(a, &r.id) {
             let _ = writeln!(
                 s,
                 r##"<line x1="{0:.1}" y1="{1:.1}" x2="{0:.1}" y2="{2:.1}" stroke="#bbbbbb" stroke-width="7"/>"##,
-                x(k),
-                y(l),
-                y(h)
+                l.x(k),
+                l.y(lo),
+                l.y(hi)
             );
         }
         let colour = if r.rule_holds { "#1f77b4" } else { "#d62728" };
         let _ = writeln!(
             s,
             r##"<line x1="{0:.1}" y1="{1:.1}" x2="{0:.1}" y2="{2:.1}" stroke="{colour}" stroke-width="2"/>"##,
-            x(k),
-            y(r.estimate.lower),
-            y(r.estimate.upper)
+            l.x(k),
+            l.y(r.estimate.lower),
+            l.y(r.estimate.upper)
         );
         let shape = if r.primary {
             format!(
                 r#"<rect x="{:.1}" y="{:.1}" width="9" height="9" fill="{colour}"/>"#,
-                x(k) - 4.5,
-                y(r.estimate.mean) - 4.5
+                l.x(k) - 4.5,
+                l.y(r.estimate.mean) - 4.5
             )
         } else {
-            format!(r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{colour}"/>"#, x(k), y(r.estimate.mean))
+            format!(r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{colour}"/>"#, l.x(k), l.y(r.estimate.mean))
         };
         let _ = writeln!(s, "{shape}");
         let _ = writeln!(
             s,
             r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-            x(k),
-            top + plot_h + 16.0,
+            l.x(k),
+            l.top + l.plot_h + 16.0,
             esc(&r.id)
         );
     }
-    let base = top + plot_h + 34.0;
+}
+
+/// One row per alternative under the plot: its label, and for each
+/// specification in `order` a dot, filled where it takes the alternative.
+fn curve_choices(s: &mut String, a: &MultiverseAnalysis, l: &Layout, order: &[usize], rows: &[(String, String)]) {
+    let base = l.top + l.plot_h + 34.0;
     for (row, (setting, value)) in rows.iter().enumerate() {
-        let yy = base + row_h * row as f64;
+        let yy = base + l.row_h * row as f64;
         let _ = writeln!(
             s,
             r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"#,
-            left - 8.0,
+            l.left - 8.0,
             yy + 4.0,
             esc(&format!("{setting} = {value}"))
         );
@@ -303,19 +381,7 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
         for (k, &i) in order.iter().enumerate() {
             let takes = a.specs[i].values.get(c) == Some(value);
             let fill = if takes { "black" } else { "white" };
-            let _ = writeln!(s, r#"<circle cx="{:.1}" cy="{yy:.1}" r="4" fill="{fill}" stroke="black"/>"#, x(k));
+            let _ = writeln!(s, r#"<circle cx="{:.1}" cy="{yy:.1}" r="4" fill="{fill}" stroke="black"/>"#, l.x(k));
         }
     }
-    let key_y = height - 24.0;
-    let _ = writeln!(
-        s,
-        r##"<text x="10" y="{key_y:.1}">Blue: the rule is met; red: not met. Square: the primary specification.</text>"##
-    );
-    let _ = writeln!(
-        s,
-        r##"<text x="10" y="{:.1}">Below: a filled dot marks the alternative each specification takes.</text>"##,
-        key_y + 16.0
-    );
-    let _ = writeln!(s, "</svg>");
-    s
 }

@@ -307,14 +307,7 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
     let target = plan.training.as_ref().map(|t| t.target).unwrap_or(TargetKind::StateScaled);
     let steps = jobs.iter().map(|j| max_steps(j, plan.rate_hz)).max().unwrap_or(0);
     let slots = plan.slots;
-    let (state_dim, action_dim, exo) = (slots.state, slots.action, slots.exogenous());
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
-
-    let mut put = |files: &mut Vec<(String, Vec<u8>)>, name: String, shape: &[usize], data: &[f64]| {
-        let bytes = npy::write(shape, data)?;
-        files.push((name.clone(), bytes));
-        Ok::<String, RunError>(name)
-    };
 
     // Windows: fit per arm, then validation.
     let mut fit = BTreeMap::new();
@@ -322,19 +315,56 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
     let mut arm_triples: BTreeMap<String, (Vec<Triple>, String)> = BTreeMap::new();
     for (arm, windows) in &split.fits {
         let prefix = format!("fit_{arm}");
-        fit.insert(arm.clone(), window_files(&mut files, &mut put, &prefix, recs, windows, history, &slots)?);
+        fit.insert(arm.clone(), window_files(&mut files, &prefix, recs, windows, history, &slots)?);
         let sha = prepared.manifests.sha256(&format!("fit_{arm}.csv")).to_string();
         arm_triples.insert(arm.clone(), (triples(recs, windows), sha));
     }
-    let validation = window_files(&mut files, &mut put, "validation", recs, &split.validation, history, &slots)?;
+    let validation = window_files(&mut files, "validation", recs, &split.validation, history, &slots)?;
     let validation_triples = triples(recs, &split.validation);
 
-    // Starts.
+    let start_files = start_files(&mut files, prepared, steps, history, &slots)?;
+    let windows = (&arm_triples, validation_triples.as_slice());
+    let out_jobs = export_jobs(&mut files, plan, &jobs, windows, target, split.starts.len())?;
+    let index = ExportIndex {
+        format: FORMAT.to_string(),
+        study: plan.study.clone(),
+        design_sha256: design_sha256.to_string(),
+        rate_hz: plan.rate_hz,
+        state_columns: column_names(plan).0,
+        action_columns: column_names(plan).1,
+        exogenous_columns: slots.exogenous().collect(),
+        target,
+        history,
+        starts: split.starts.len(),
+        steps,
+        fit,
+        validation,
+        start_files,
+        jobs: out_jobs,
+        files: files.iter().map(|(n, b)| (n.clone(), sha256_hex(b))).collect(),
+    };
+    let index_bytes = pretty_json(&index).into_bytes();
+    Ok(Built { files, index, index_bytes })
+}
+
+/// The starts' files: their states, the `steps` actions and exogenous
+/// values after each, their histories (when a job declares one) and the
+/// table naming each start's recording and sample.
+fn start_files(
+    files: &mut Vec<(String, Vec<u8>)>,
+    prepared: &Prepared,
+    steps: usize,
+    history: usize,
+    slots: &Slots,
+) -> Result<BTreeMap<String, String>, RunError> {
+    let recs = &prepared.recordings;
+    let split = &prepared.split;
+    let (state_dim, action_dim, exo) = (slots.state, slots.action, slots.exogenous());
     let starts = &split.starts;
     let s = starts.len();
     let mut start_files = BTreeMap::new();
     let states: Vec<f64> = starts.iter().flat_map(|w| recs[w.recording].state[w.t].iter().copied()).collect();
-    start_files.insert("states".into(), put(&mut files, "starts_states.npy".into(), &[s, state_dim], &states)?);
+    start_files.insert("states".into(), put(files, "starts_states.npy".into(), &[s, state_dim], &states)?);
     let mut actions = Vec::with_capacity(s * steps * action_dim);
     let mut exogenous = Vec::with_capacity(s * steps * exo.len());
     for w in starts {
@@ -345,13 +375,13 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
         }
     }
     let shape = [s, steps, action_dim];
-    start_files.insert("actions".into(), put(&mut files, "starts_actions.npy".into(), &shape, &actions)?);
+    start_files.insert("actions".into(), put(files, "starts_actions.npy".into(), &shape, &actions)?);
     let shape = [s, steps, exo.len()];
-    start_files.insert("exogenous".into(), put(&mut files, "starts_exogenous.npy".into(), &shape, &exogenous)?);
+    start_files.insert("exogenous".into(), put(files, "starts_exogenous.npy".into(), &shape, &exogenous)?);
     if history > 0 {
         let h = histories(recs, starts, history);
         let shape = [s, history, slots.input()];
-        start_files.insert("history".into(), put(&mut files, "starts_history.npy".into(), &shape, &h)?);
+        start_files.insert("history".into(), put(files, "starts_history.npy".into(), &shape, &h)?);
     }
     let mut table = String::from("index,recording,sample_index,trajectory,speed\n");
     for (i, w) in starts.iter().enumerate() {
@@ -360,27 +390,36 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
     }
     files.push(("starts.csv".into(), table.into_bytes()));
     start_files.insert("table".into(), "starts.csv".into());
+    Ok(start_files)
+}
 
-    // Per external job: standardizers, inputs and targets of its (model, arm).
+/// Per arm, its fit windows and its fit manifest's SHA-256; and the
+/// validation windows.
+type Windows<'a> = (&'a BTreeMap<String, (Vec<Triple>, String)>, &'a [Triple]);
+
+/// Per external job: its standardizers, fitted on its arm's fit windows,
+/// and its entry of the index; the inputs and targets of each (model, arm)
+/// written once. `starts`: the number of registered starts.
+fn export_jobs(
+    files: &mut Vec<(String, Vec<u8>)>,
+    plan: &Plan,
+    jobs: &[&TrainingJob],
+    (arm_triples, validation_triples): Windows<'_>,
+    target: TargetKind,
+    starts: usize,
+) -> Result<Vec<ExportJob>, RunError> {
+    let slots = plan.slots;
     let mut out_jobs = Vec::new();
     let mut written: BTreeMap<(String, String), BTreeMap<String, String>> = BTreeMap::new();
-    for j in &jobs {
+    for j in jobs {
         let crate::design::ModelKind::External { inputs, actions, .. } = j.kind else { continue };
         let (fit_triples, fit_sha) =
             arm_triples.get(&j.arm).ok_or_else(|| RunError::NoFitSet { arm: j.arm.clone() })?;
         let features = FeatureMap::fit(slots, inputs, actions, target, fit_triples, fit_sha);
         let key = (j.model.clone(), j.arm.clone());
         if !written.contains_key(&key) {
-            let mut f = BTreeMap::new();
-            for (part, windows) in [("fit", fit_triples), ("validation", &validation_triples)] {
-                let n = windows.len();
-                let (x, z) = inputs_targets(&features, windows);
-                let stem = format!("{part}_{}__{}", j.arm, j.model);
-                let inputs_file = put(&mut files, format!("{stem}_inputs.npy"), &[n, slots.input()], &x)?;
-                f.insert(format!("{part}_inputs"), inputs_file);
-                let targets_file = put(&mut files, format!("{stem}_targets.npy"), &[n, state_dim], &z)?;
-                f.insert(format!("{part}_targets"), targets_file);
-            }
+            let f =
+                model_files(files, j, (&features, &slots), [("fit", fit_triples), ("validation", validation_triples)])?;
             written.insert(key.clone(), f);
         }
         let job_steps = max_steps(j, plan.rate_hz);
@@ -396,31 +435,34 @@ pub fn build(design_sha256: &str, plan: &Plan, prepared: &Prepared) -> Result<Bu
             steps: job_steps,
             predictions: format!("{PREDICTIONS_DIR}/{stem}.npy"),
             description: format!("{PREDICTIONS_DIR}/{stem}.json"),
-            shape: [s, job_steps, state_dim],
+            shape: [starts, job_steps, slots.state],
             files: written[&key].clone(),
             standardizers: features,
         });
     }
-    let index = ExportIndex {
-        format: FORMAT.to_string(),
-        study: plan.study.clone(),
-        design_sha256: design_sha256.to_string(),
-        rate_hz: plan.rate_hz,
-        state_columns: column_names(plan).0,
-        action_columns: column_names(plan).1,
-        exogenous_columns: exo.collect(),
-        target,
-        history,
-        starts: s,
-        steps,
-        fit,
-        validation,
-        start_files,
-        jobs: out_jobs,
-        files: files.iter().map(|(n, b)| (n.clone(), sha256_hex(b))).collect(),
-    };
-    let index_bytes = pretty_json(&index).into_bytes();
-    Ok(Built { files, index, index_bytes })
+    Ok(out_jobs)
+}
+
+/// The standardized inputs and targets (by `features`) of job `j`'s
+/// (model, arm) on each part's windows (`fit`, `validation`), as `PART_ARM__MODEL_inputs.npy`
+/// and `_targets.npy`.
+fn model_files(
+    files: &mut Vec<(String, Vec<u8>)>,
+    j: &TrainingJob,
+    (features, slots): (&FeatureMap, &Slots),
+    parts: [(&str, &[Triple]); 2],
+) -> Result<BTreeMap<String, String>, RunError> {
+    let mut f = BTreeMap::new();
+    for (part, windows) in parts {
+        let n = windows.len();
+        let (x, z) = inputs_targets(features, windows);
+        let stem = format!("{part}_{}__{}", j.arm, j.model);
+        let inputs_file = put(files, format!("{stem}_inputs.npy"), &[n, slots.input()], &x)?;
+        f.insert(format!("{part}_inputs"), inputs_file);
+        let targets_file = put(files, format!("{stem}_targets.npy"), &[n, slots.state], &z)?;
+        f.insert(format!("{part}_targets"), targets_file);
+    }
+    Ok(f)
 }
 
 /// The names of the state and action columns in the export: NanoBench's
@@ -457,12 +499,17 @@ fn max_steps(j: &TrainingJob, rate_hz: f64) -> usize {
 /// One (x_t, u_t, x_{t+1}) window.
 type Triple = (State, Action, State);
 
-type Put<'a> = dyn FnMut(&mut Vec<(String, Vec<u8>)>, String, &[usize], &[f64]) -> Result<String, RunError> + 'a;
+/// Adds `data`, of `shape`, to `files` as the `.npy` file `name`; the
+/// name back, for the index.
+fn put(files: &mut Vec<(String, Vec<u8>)>, name: String, shape: &[usize], data: &[f64]) -> Result<String, RunError> {
+    let bytes = npy::write(shape, data)?;
+    files.push((name.clone(), bytes));
+    Ok(name)
+}
 
 /// `PREFIX_states.npy`, `_actions`, `_next_states` (and `_history`).
 fn window_files(
     files: &mut Vec<(String, Vec<u8>)>,
-    put: &mut Put<'_>,
     prefix: &str,
     recs: &[Recording],
     windows: &[Window],
