@@ -177,7 +177,7 @@ pub fn spec_curve_svg(a: &MultiverseAnalysis) -> String {
     let l = Layout::new(a, &rows);
     let mut s = String::new();
     curve_header(&mut s, a, &l);
-    curve_axis(&mut s, &l);
+    curve_axis(&mut s, &l, label(a));
     curve_estimates(&mut s, a, &l, &order);
     curve_choices(&mut s, a, &l, &order, &rows);
     let key_y = l.height - 24.0;
@@ -281,9 +281,9 @@ fn curve_header(s: &mut String, a: &MultiverseAnalysis, l: &Layout) {
     );
 }
 
-/// The value axis with its ticks and label, and a dashed line at 0 where
-/// the range spans it.
-fn curve_axis(s: &mut String, l: &Layout) {
+/// The value axis with its ticks and its label in `unit`, and a dashed
+/// line at 0 where the range spans it.
+fn curve_axis(s: &mut String, l: &Layout, unit: &str) {
     let Layout { left, top, plot_h, lo, hi, width, .. } = *l;
     let _ = writeln!(s, r#"<line x1="{left}" y1="{top}" x2="{left}" y2="{}" stroke="black"/>"#, top + plot_h);
     // Round ticks: a step of 1, 2 or 5 x 10^k giving four to eight of them.
@@ -308,7 +308,7 @@ fn curve_axis(s: &mut String, l: &Layout) {
         r#"<text x="20" y="{:.1}" transform="rotate(-90 20 {:.1})" text-anchor="middle">d ({})</text>"#,
         top + plot_h / 2.0,
         top + plot_h / 2.0,
-        label(a)
+        unit
     );
     if lo < 0.0 && hi > 0.0 {
         let _ = writeln!(
