@@ -15,7 +15,7 @@ import sys
 def transform(text: str) -> str:
     rows = list(csv.reader(io.StringIO(text)))
     if not rows or "rule_holds" not in rows[0] or "role" not in rows[0]:
-        return text  # a family's estimates.csv has no rule_holds column
+        return text  # not an estimates.csv (a family's, every row of the primary endpoint, passes through unchanged)
     role, holds = rows[0].index("role"), rows[0].index("rule_holds")
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")

@@ -313,7 +313,8 @@ fn a_multiverse_on_another_metric_names_its_unit() {
     assert!(effects.lines().nth(1).unwrap().contains(",m/s,"), "{effects}");
     let md = crossaudit::report::multiverse::render_markdown(&a);
     assert!(md.contains("| d (m/s) | interval (m/s) |") && md.contains("effect on d (m/s)"), "{md}");
-    assert!(!md.contains("(m)") && !md.contains(" m,") && !md.contains(" m "), "{md}");
+    assert!(!md.contains("(m)") && !md.contains(" m,") && !md.contains(" m ") && !md.contains("metres"), "{md}");
+    assert!(md.contains("difference in m/s"), "{md}");
     let svg = crossaudit::report::multiverse::spec_curve_svg(&a);
     assert!(svg.contains("d (m/s)") && !svg.contains("(m)"), "{svg}");
 }

@@ -21,7 +21,7 @@ pub struct JointBootstrap {
     pub level: f64,
     /// The max-|t| quantile multiplying each specification's bootstrap SE.
     pub critical: f64,
-    /// Per specification: (id, bootstrap SE, simultaneous lower, upper), metres.
+    /// Per specification: (id, bootstrap SE, simultaneous lower, upper), in the primary metric's unit.
     pub bands: Vec<(String, f64, f64, f64)>,
     /// Share of specifications with d < 0: observed, and its bootstrap
     /// percentile interval (descriptive: the bootstrap is centred at the
@@ -45,7 +45,7 @@ pub struct JointBootstrap {
 /// (1 + replicates).
 #[derive(Debug, Clone, Serialize)]
 pub struct NullTest {
-    /// The median d over specifications (m) and its p-value (null medians
+    /// The median d over specifications (the primary metric's unit) and its p-value (null medians
     /// at or below it).
     pub median: (f64, f64),
     /// Specifications in which the rule holds, evaluated on the shared

@@ -111,11 +111,11 @@ pub struct SpecResult {
     pub primary: bool,
     /// The level whose run it shares, when only the analysis differs.
     pub shares_run_of: Option<String>,
-    /// The primary crossed estimate of d (treated - reference), metres.
+    /// The primary crossed estimate of d (treated - reference), in the primary metric's unit.
     pub estimate: CrossedEstimate,
-    /// Mean of the treated arm, metres.
+    /// Mean of the treated arm, in the primary metric's unit.
     pub mean_treated: f64,
-    /// Mean of the reference arm, metres.
+    /// Mean of the reference arm, in the primary metric's unit.
     pub mean_reference: f64,
     /// 100 (reference - treated) / reference.
     pub optimism_pct: f64,
@@ -136,7 +136,7 @@ pub struct ChoiceEffect {
     pub alternative: String,
     /// Specifications on each side.
     pub specs_per_side: usize,
-    /// The crossed estimate of mean d(alternative) - mean d(reference), metres.
+    /// The crossed estimate of mean d(alternative) - mean d(reference), in the primary metric's unit.
     pub estimate: Option<CrossedEstimate>,
     /// Why there is no estimate, if there is none.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -206,7 +206,7 @@ pub struct UnitNotes {
 /// d pooled over recording x seed x draw.
 #[derive(Debug, Clone, Serialize)]
 pub struct PooledDraws {
-    /// The REML intercept, metres.
+    /// The REML intercept, in the primary metric's unit.
     pub mean: f64,
     /// Its SE (Kenward-Roger's adjusted SE with their df).
     pub se: f64,
@@ -220,7 +220,7 @@ pub struct PooledDraws {
     pub upper: f64,
     /// The design's level.
     pub level: f64,
-    /// The arms' means over every draw's cells, metres.
+    /// The arms' means over every draw's cells, in the primary metric's unit.
     pub mean_treated: f64,
     /// The reference arm's.
     pub mean_reference: f64,

@@ -93,12 +93,17 @@ fn header(a: &MultiverseAnalysis) -> String {
     }
     let _ = writeln!(
         s,
-        "Rule: `{}`, decided {}. d is the primary endpoint's treated - reference difference in metres (negative: the treated arm looks better); optimism is 100 (reference - treated) / reference, in percent.\n",
+        "Rule: `{}`, decided {}. d is the primary endpoint's treated - reference difference in {} (negative: the treated arm looks better); optimism is 100 (reference - treated) / reference, in percent.\n",
         a.rule,
         if a.choices.is_empty() && a.draws.iter().any(|d| d.pooled.is_some()) {
             "on d pooled over the draws".to_string()
         } else {
             a.combine.describe()
+        },
+        // Metres spelled out, as before; any other unit as the tables write it.
+        match label(a) {
+            "m" => "metres",
+            other => other,
         }
     );
     s
@@ -263,7 +268,7 @@ fn draw_replication(s: &mut String, a: &MultiverseAnalysis) {
                 );
                 let levels: std::collections::BTreeMap<&str, usize> =
                     p.levels.iter().map(|(n, k)| (n.as_str(), *k)).collect();
-                let _ = writeln!(s, "| source | levels | variance (m^2) | share of Var(pooled d) |");
+                let _ = writeln!(s, "| source | levels | variance ({u}^2) | share of Var(pooled d) |");
                 let _ = writeln!(s, "|---|---:|---:|---:|");
                 for (n, v, sh) in &d.components {
                     let k = levels.get(n.as_str()).map(|k| k.to_string()).unwrap_or_else(|| "-".into());
