@@ -269,19 +269,10 @@ fn planted_cells(d: &design::Design, values: &[String], spec: usize) -> Vec<Cell
     out
 }
 
-/// A multiverse on a metric that is not in metres names its own unit
-/// everywhere: specs.csv's and choice_effects.csv's `unit` column, every
-/// heading and value of report.md and the curve's axis (velocity RMSE:
-/// m/s).
-#[test]
-fn a_multiverse_on_another_metric_names_its_unit() {
-    let text = small(
-        "choices {\n  state motion_capture | onboard\n}\nprimary specification state motion_capture\nestimate crossed_mom level 0.95 df seed - 1\n",
-    )
-    .replace("endpoint primary   fa_position_rmse at 1.0 s cap 2 m", "endpoint primary   velocity_rmse at 1.0 s cap 2 m")
-    .replace("factor seed = 1..2", "factor seed = 1..10")
-    .replace("evaluation 4 split_seed 42", "evaluation 30 split_seed 42");
-    let d = design::from_str("m.design", &text).unwrap();
+/// The multiverse analysis of design `text` on each specification's
+/// [`planted_cells`], each cell changed by `edit` first.
+fn planted_multiverse(text: &str, edit: impl Fn(&mut Cell)) -> crossaudit::analysis::multiverse::MultiverseAnalysis {
+    let d = design::from_str("m.design", text).unwrap();
     let m = d.multiverse.as_ref().unwrap();
     let plans: Vec<crossaudit::Plan> = m.specs.iter().map(|s| crossaudit::compile(&s.design)).collect();
     let cells: Vec<Vec<Cell>> = m
@@ -290,7 +281,7 @@ fn a_multiverse_on_another_metric_names_its_unit() {
         .enumerate()
         .map(|(k, s)| {
             let mut cells = planted_cells(&s.design, &s.values, k);
-            cells.iter_mut().for_each(|c| c.velocity_rmse_mps = Some(c.fa_position_rmse_m));
+            cells.iter_mut().for_each(&edit);
             cells
         })
         .collect();
@@ -304,7 +295,22 @@ fn a_multiverse_on_another_metric_names_its_unit() {
             cells: &cells[k],
         })
         .collect();
-    let a = analyze_multiverse(&d, &levels).unwrap();
+    analyze_multiverse(&d, &levels).unwrap()
+}
+
+/// A multiverse on a metric that is not in metres names its own unit
+/// everywhere: specs.csv's and choice_effects.csv's `unit` column, every
+/// heading and value of report.md and the curve's axis (velocity RMSE:
+/// m/s).
+#[test]
+fn a_multiverse_on_another_metric_names_its_unit() {
+    let text = small(
+        "choices {\n  state motion_capture | onboard\n}\nprimary specification state motion_capture\nestimate crossed_mom level 0.95 df seed - 1\n",
+    )
+    .replace("endpoint primary   fa_position_rmse at 1.0 s cap 2 m", "endpoint primary   velocity_rmse at 1.0 s cap 2 m")
+    .replace("factor seed = 1..2", "factor seed = 1..10")
+    .replace("evaluation 4 split_seed 42", "evaluation 30 split_seed 42");
+    let a = planted_multiverse(&text, |c| c.velocity_rmse_mps = Some(c.fa_position_rmse_m));
     let specs = crossaudit::report::multiverse::specs_csv(&a);
     let header: Vec<&str> = specs.lines().next().unwrap().split(',').collect();
     let unit = header.iter().position(|h| *h == "unit").unwrap();
@@ -326,22 +332,7 @@ fn planted_choice_effects_are_recovered_by_the_paired_analysis() {
     )
     .replace("factor seed = 1..2", "factor seed = 1..10")
     .replace("evaluation 4 split_seed 42", "evaluation 30 split_seed 42");
-    let d = design::from_str("m.design", &text).unwrap();
-    let m = d.multiverse.as_ref().unwrap();
-    let plans: Vec<crossaudit::Plan> = m.specs.iter().map(|s| crossaudit::compile(&s.design)).collect();
-    let cells: Vec<Vec<Cell>> =
-        m.specs.iter().enumerate().map(|(k, s)| planted_cells(&s.design, &s.values, k)).collect();
-    let levels: Vec<LevelInput> = (0..m.specs.len())
-        .map(|k| LevelInput {
-            id: format!("spec-{}", m.specs[k].id),
-            spec: Some(k),
-            draw: None,
-            shares: None,
-            plan: &plans[k],
-            cells: &cells[k],
-        })
-        .collect();
-    let a = analyze_multiverse(&d, &levels).unwrap();
+    let a = planted_multiverse(&text, |_| {});
     let effect = |setting: &str| a.choice_effects.iter().find(|e| e.setting == setting).unwrap().estimate.unwrap();
     let state = effect("state");
     assert!(state.lower < -0.05 && state.upper > -0.05 && state.upper < 0.0, "state: {state:?}");

@@ -40,15 +40,6 @@ impl StudyAnalysis {
         }
     }
 
-    /// The warnings, to add to before the report is written.
-    pub fn warnings_mut(&mut self) -> &mut Vec<String> {
-        match self {
-            StudyAnalysis::Single(a) => &mut a.warnings,
-            StudyAnalysis::Family(a) => &mut a.warnings,
-            StudyAnalysis::Multiverse(a) => &mut a.warnings,
-        }
-    }
-
     /// `single`, `family` (a dose-response or multi-split study) or
     /// `multiverse` (a multiverse or draw-replicated study).
     pub fn kind(&self) -> &'static str {

@@ -11,7 +11,7 @@
 //! form), `Inf` and `NaN` as R and pandas read them; empty means not
 //! applicable.
 
-use crate::analysis::family::PooledEstimate;
+use crate::analysis::family::{PooledEstimate, RuleReads};
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::DoseAxis;
 use crate::stats::CrossedEstimate;
@@ -44,6 +44,15 @@ struct Row<'a> {
     upper: f64,
     optimism: Option<f64>,
     holds: Option<bool>,
+}
+
+/// The name of the design's estimator that made `e`.
+fn estimator(e: &CrossedEstimate) -> &'static str {
+    if e.reml.is_some() {
+        "reml"
+    } else {
+        "crossed_mom"
+    }
 }
 
 fn crossed<'a>(name: &'a str, e: &CrossedEstimate) -> Row<'a> {
@@ -87,7 +96,7 @@ pub fn render_estimates(a: &Analysis) -> String {
     let level = num(a.level);
     let mut put = |key: &str, r: Row| s.push_str(&line(key, &level, &r));
     let on_divergence = a.decision.rule.on == crate::design::DecisionTarget::Divergence;
-    let preregistered = if a.units.first().is_some_and(|u| u.estimate.reml.is_some()) { "reml" } else { "crossed_mom" };
+    let preregistered = a.units.first().map_or("crossed_mom", |u| estimator(&u.estimate));
     for u in &a.units {
         let role = format!("{:?}", u.role).to_lowercase();
         let key = format!(
@@ -172,42 +181,31 @@ pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> S
     };
     out.push('\n');
     let family = Family::new(a);
-    let decided = family.decided();
+    let reads = a.rule_reads();
     for (k, sp) in a.splits.iter().enumerate() {
         let split = sp.split.map(|s| s.to_string()).unwrap_or_default();
         for (j, d) in sp.doses.iter().enumerate() {
-            let holds = (decided == Decided::Dose(k, j)).then_some(a.decision.holds);
+            let holds = (reads == RuleReads::Dose && (k, j) == (0, 0)).then_some(a.decision.holds);
             let at = (split.as_str(), dose(d.distance_s.unwrap_or(d.percent)), d.arm.as_str());
             out.push_str(&family.dose_rows(at, d, holds));
         }
         if let Some(t) = &sp.trend {
-            let holds = (decided == Decided::Trend(k)).then_some(a.decision.holds);
+            let holds = (reads == RuleReads::Trend && k == 0).then_some(a.decision.holds);
             let optimism = (t.optimism_slope, t.optimism_slope_lower, t.optimism_slope_upper);
             out.push_str(&family.trend_rows(&split, &t.slope, optimism, holds));
         }
     }
     if let Some(p) = &a.pooled {
         for (j, (e, d)) in p.doses.iter().zip(&a.doses).enumerate() {
-            let holds = (decided == Decided::PooledDose(j)).then_some(a.decision.holds);
+            let holds = (reads == RuleReads::PooledDose && j == 0).then_some(a.decision.holds);
             out.push_str(&family.pooled_dose_rows(dose(d.distance_s.unwrap_or(d.percent)), &d.arm, e, holds));
         }
         if let Some(e) = &p.slope {
-            let holds = (decided == Decided::PooledTrend).then_some(a.decision.holds);
+            let holds = (reads == RuleReads::PooledTrend).then_some(a.decision.holds);
             out.push_str(&family.pooled_trend_rows(e, holds));
         }
     }
     out
-}
-
-/// The row the family's rule decides on (see `analysis::family`'s
-/// `decide`): the slope (pooled when pooled) under `on slope`, else the
-/// first dose (pooled when pooled).
-#[derive(PartialEq)]
-enum Decided {
-    Dose(usize, usize),
-    Trend(usize),
-    PooledDose(usize),
-    PooledTrend,
 }
 
 /// What every row of a family's table shares: the primary endpoint's key
@@ -239,16 +237,6 @@ impl<'a> Family<'a> {
         Family { a, role, model, metric, horizon, per_dose, optimism_per_dose, level: num(a.level) }
     }
 
-    fn decided(&self) -> Decided {
-        let slope = self.a.decision.rule.on == crate::design::DecisionTarget::Slope;
-        match (slope, self.a.pooled.is_some()) {
-            (true, true) => Decided::PooledTrend,
-            (true, false) => Decided::Trend(0),
-            (false, true) => Decided::PooledDose(0),
-            (false, false) => Decided::Dose(0, 0),
-        }
-    }
-
     /// A line: the kind, split and dose, the endpoint's key with `contrast`
     /// and `unit`, then the row's values.
     fn line(&self, (kind, split, dose): (&str, &str, &str), (contrast, unit): (&str, &str), r: &Row) -> String {
@@ -257,14 +245,6 @@ impl<'a> Family<'a> {
             self.role, self.model, self.metric, self.horizon
         );
         line(&key, &self.level, r)
-    }
-
-    fn estimator(e: &CrossedEstimate) -> &'static str {
-        if e.reml.is_some() {
-            "reml"
-        } else {
-            "crossed_mom"
-        }
     }
 
     /// One dose's crossed estimate and its optimism in one split.
@@ -281,7 +261,7 @@ impl<'a> Family<'a> {
             means: Some((d.mean_treated, d.mean_reference)),
             optimism: Some(d.optimism_pct),
             holds,
-            ..crossed(Self::estimator(e), e)
+            ..crossed(estimator(e), e)
         };
         let optimism = interval("fixed_reference", d.optimism_pct, None, Some(e.df), (e.upper * k, e.lower * k));
         self.line(("endpoint", split, &dose), (&contrast, &self.a.metric_unit), &row)
@@ -297,7 +277,7 @@ impl<'a> Family<'a> {
         holds: Option<bool>,
     ) -> String {
         let contrast = format!("{} - {}", self.a.treated, self.a.reference);
-        let row = Row { holds, ..crossed(Self::estimator(e), e) };
+        let row = Row { holds, ..crossed(estimator(e), e) };
         let optimism = interval("fixed_reference", o, None, Some(e.df), (lo, hi));
         self.line(("trend", split, ""), (&contrast, &self.per_dose), &row)
             + &self.line(("trend_optimism", split, ""), (&contrast, self.optimism_per_dose), &optimism)

@@ -466,6 +466,31 @@ fn split_values_of(plan: &Plan, cells: &[Cell], doses: &[DoseArm], a: &Analysis)
     Ok(Values { recordings, seeds, d, mean_reference: ref_sum / ref_n.max(1) as f64 })
 }
 
+/// The estimate a family's rule reads, the one row of estimates.csv it
+/// decides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RuleReads {
+    /// The first split's first dose (a single split and dose).
+    Dose,
+    /// The first split's slope over the doses (`on slope`, one split).
+    Trend,
+    /// The first dose pooled over the splits.
+    PooledDose,
+    /// The slope pooled over the splits (`on slope`).
+    PooledTrend,
+}
+
+impl RuleReads {
+    fn of(rule: &DecisionRule, pooled: bool) -> Self {
+        match (rule.on == DecisionTarget::Slope, pooled) {
+            (true, true) => RuleReads::PooledTrend,
+            (true, false) => RuleReads::Trend,
+            (false, true) => RuleReads::PooledDose,
+            (false, false) => RuleReads::Dose,
+        }
+    }
+}
+
 /// The rule on its target: the primary (single split and dose), the pooled
 /// estimate (several splits, one dose) or the slope (pooled when there are
 /// several splits).
@@ -483,8 +508,8 @@ fn decide(
     };
     let slope = rule.on == DecisionTarget::Slope;
     // (label, optimism, mean, lower, upper)
-    let observed: (String, f64, f64, f64, f64) = match (rule.on, pooled) {
-        (DecisionTarget::Slope, Some(p)) => {
+    let observed: (String, f64, f64, f64, f64) = match (RuleReads::of(rule, pooled.is_some()), pooled) {
+        (RuleReads::PooledTrend, Some(p)) => {
             let s = p.slope.as_ref();
             let s = s.map(|s| (s.optimism_pct, s.mean, s.lower, s.upper)).unwrap_or((
                 f64::NAN,
@@ -494,7 +519,7 @@ fn decide(
             ));
             (format!("{over}, pooled over {} splits: {unit}", splits.len()), s.0, s.1, s.2, s.3)
         }
-        (DecisionTarget::Slope, None) => {
+        (RuleReads::Trend, _) => {
             let t = splits[0].trend.as_ref();
             let t = t.map(|t| (t.optimism_slope, t.slope.mean, t.slope.lower, t.slope.upper)).unwrap_or((
                 f64::NAN,
@@ -504,11 +529,11 @@ fn decide(
             ));
             (format!("{over}: {unit}"), t.0, t.1, t.2, t.3)
         }
-        (_, Some(p)) => {
+        (RuleReads::PooledDose, Some(p)) => {
             let e = &p.doses[0];
             (format!("pooled over {} splits: {unit}", splits.len()), e.optimism_pct, e.mean, e.lower, e.upper)
         }
-        (_, None) => {
+        _ => {
             let d = &splits[0].doses[0];
             (unit.to_string(), d.optimism_pct, d.estimate.mean, d.estimate.lower, d.estimate.upper)
         }
@@ -552,6 +577,11 @@ fn decide(
 }
 
 impl FamilyAnalysis {
+    /// The estimate the rule reads.
+    pub fn rule_reads(&self) -> RuleReads {
+        RuleReads::of(&self.decision.rule, self.pooled.is_some())
+    }
+
     /// Records the per-cell file analysed and its SHA-256.
     pub fn record_cells(&mut self, path: &std::path::Path, sha256: &str) {
         self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));

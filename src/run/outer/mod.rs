@@ -96,12 +96,8 @@ pub(crate) fn run_levels_with(
     if file.design.per_seed_draws {
         per_seed::finish_specs(file, outer, out, (&status, exploratory, &record), builds.clone())?;
     }
-    let mut outcome = finish_levels(file, outer, out, (&status, exploratory, &record), &finished.splits, builds)?;
-    if matches!(outcome.analysis, StudyAnalysis::Multiverse(_)) && !queued.reused.is_empty() {
-        outcome.analysis.warnings_mut().extend(queued.reused.iter().cloned());
-        crate::report::write_study(&mut outcome.analysis, &[], &outcome.report_dir)?;
-    }
-    Ok(counts(outcome))
+    let run = (&status, exploratory, &record);
+    Ok(counts(finish_levels(file, outer, out, run, &finished.splits, (builds, &queued.reused))?))
 }
 
 /// Adds a level's unreadable-files warning to `notes` once (every level reads the same folder).
@@ -159,14 +155,16 @@ fn write_all_cells(path: &Path, design: &Design, out: &Path, levels: &[Level]) -
     Ok(write_atomic(path, text.as_bytes())?)
 }
 
-/// After every level finished: the combined cells, analysis and report.
+/// After every level finished: the combined cells, analysis and report,
+/// with the notes of the resumed `builds` and of the jobs `reused` from an
+/// earlier run among its warnings.
 pub(super) fn finish_levels(
     file: &DesignFile,
     outer: &Outer,
     out: &Path,
     (status, exploratory, record): (&LockStatus, bool, &RunRecord),
     splits: &[Option<crate::split::Split>],
-    builds: BTreeSet<String>,
+    (builds, reused): (BTreeSet<String>, &[String]),
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let levels = &outer.levels;
@@ -179,6 +177,7 @@ pub(super) fn finish_levels(
     a.preregistered = Some(!exploratory && matches!(status, LockStatus::LockedUnchanged { .. }));
     a.warnings.extend(status.amendment_warnings());
     a.warnings.extend(resumed_builds(builds));
+    a.warnings.extend(reused.iter().cloned());
     for (k, u) in outer.units.iter().enumerate() {
         // A level that shares another's run gets its own report of its own
         // analysis (a specification of per-seed draws has had its own).

@@ -525,7 +525,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
             // The same combined analysis a local run writes.
             let by_level: Vec<Option<crate::split::Split>> =
                 o.levels.iter().map(|l| splits.iter().find(|(id, _)| *id == l.id).map(|(_, s)| s.clone())).collect();
-            outer::finish_levels(&p.file, o, dir, (&lock, exploratory, &record), &by_level, all_builds)?
+            outer::finish_levels(&p.file, o, dir, (&lock, exploratory, &record), &by_level, (all_builds, &[]))?
         }
     };
     outcome.seconds = started.elapsed().as_secs_f64();
