@@ -49,7 +49,7 @@ pub enum Error {
     Simulate(#[from] crate::sim::SimulateError),
     /// A mixed model could not be fitted from a formula and a CSV file.
     #[error(transparent)]
-    Mixed(#[from] crate::stats::mixed::formula::FileError),
+    Mixed(#[from] crossaudit_stats::mixed::formula::FileError),
     /// A file could not be written.
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),

@@ -51,20 +51,24 @@ pub fn analyze_files(design_path: &Path, cells_path: &Path, options: AnalyzeOpti
     analyze_with(&file, &study.plan, cells_path, options)
 }
 
-/// As [`analyze_files`], for a design already loaded and compiled.
+/// As [`analyze_files`], for a design already loaded and compiled: the
+/// per-cell file read as a record ([`run::read_record`]: with its run
+/// folder's evidence when it is a run's own `cells.csv`) and analysed by
+/// [`analysis::analyze_study`].
 pub fn analyze_with(
     file: &DesignFile,
     plan: &Plan,
     cells_path: &Path,
     options: AnalyzeOptions,
 ) -> Result<Analysis, Error> {
-    let status = design::lock::status(file)?;
-    let cells = cells::read_cells(cells_path)?;
-    let mut a =
-        analysis::analyze(plan, &cells, options).map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
-    a.record_design(&file.path.display().to_string(), &file.sha256, &status);
-    a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
-    Ok(a)
+    let record = run::read_record(file, plan, cells_path)?;
+    match analysis::analyze_study(plan, &record, options)? {
+        analysis::StudyAnalysis::Single(a) => Ok(*a),
+        _ => {
+            let message = "the design has several splits or doses: analyse it with analyze_family_with".to_string();
+            Err(analysis::FileAnalysisError::new(cells_path, analysis::AnalysisError::Family { message }).into())
+        }
+    }
 }
 
 /// Any study's preregistered analysis, as `crossaudit analyze` makes it:
@@ -94,11 +98,8 @@ pub fn analyze_study(
         run::outer::label(&mut a, file)?;
         return Ok(analysis::StudyAnalysis::Multiverse(Box::new(a)));
     }
-    let plan = &study.plan;
-    if plan.is_family() {
-        return Ok(analysis::StudyAnalysis::Family(Box::new(analyze_family_with(file, plan, cells, options)?)));
-    }
-    Ok(analysis::StudyAnalysis::Single(Box::new(analyze_with(file, plan, cells, options)?)))
+    let record = run::read_record(file, &study.plan, cells)?;
+    Ok(analysis::analyze_study(&study.plan, &record, options)?)
 }
 
 /// The analysis of a dose-response or multi-split design's per-cell file
@@ -133,11 +134,12 @@ pub fn analyze_family_with(
     cells_path: &Path,
     options: AnalyzeOptions,
 ) -> Result<analysis::family::FamilyAnalysis, Error> {
-    let status = design::lock::status(file)?;
-    let cells = cells::read_cells(cells_path)?;
-    let mut a = analysis::family::analyze_family(plan, &cells, options)
-        .map_err(|e| analysis::FileAnalysisError::new(cells_path, e))?;
-    a.record_design(&file.path.display().to_string(), &file.sha256, &status);
-    a.record_cells(cells_path, &cells::file_sha256(cells_path)?);
-    Ok(a)
+    let record = run::read_record(file, plan, cells_path)?;
+    match analysis::analyze_study(plan, &record, options)? {
+        analysis::StudyAnalysis::Family(a) => Ok(*a),
+        _ => {
+            let message = "the design has one split and one dose: analyse it with analyze_with".to_string();
+            Err(analysis::FileAnalysisError::new(cells_path, analysis::AnalysisError::Family { message }).into())
+        }
+    }
 }

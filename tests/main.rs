@@ -36,6 +36,7 @@ mod optimism_interval;
 mod plan_declared;
 mod position_only;
 mod provenance;
+mod reanalysis;
 mod resampling;
 mod reuse;
 mod run;

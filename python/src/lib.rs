@@ -141,7 +141,7 @@ fn analyze(
             // A run's own folders are written by the run alone.
             crossaudit::run::check_not_runs_own(dir, outer.then_some(cells.as_path())).map_err(fail)?;
             crossaudit::io::create_dir_all(dir).map_err(fail)?;
-            crossaudit::report::write_study(&mut analysis, &[], dir).map_err(fail)?;
+            crossaudit::report::write_study(&mut analysis, dir).map_err(fail)?;
         }
         let (line, table) =
             (crossaudit::report::study_decision_line(&analysis), crossaudit::report::study_table(&analysis));

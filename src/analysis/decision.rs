@@ -3,7 +3,7 @@
 
 use super::types::{ConditionOutcome, Decision, Margin, UnitResult};
 use crate::design::{DecisionRule, DecisionTarget, Quantity};
-use crate::stats::{CrossedEstimate, FiellerSet};
+use crossaudit_stats::{CrossedEstimate, FiellerSet};
 
 /// The observed value of a quantity a rule may name.
 pub(crate) fn quantity(q: Quantity, optimism_pct: f64, e: &CrossedEstimate) -> f64 {

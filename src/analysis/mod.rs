@@ -10,9 +10,11 @@ pub mod budget;
 pub mod coverage;
 mod decision;
 mod diff;
+pub mod evidence;
 pub mod family;
 mod index;
 pub mod multiverse;
+pub mod record;
 pub mod study;
 pub mod training;
 mod types;
@@ -22,8 +24,9 @@ use rayon::prelude::*;
 
 use crate::cells::Cell;
 use crate::plan::Plan;
-use crate::stats::StatsError;
+use crossaudit_stats::StatsError;
 
+pub use evidence::analyze_study;
 pub use study::StudyAnalysis;
 pub use types::*;
 
@@ -359,6 +362,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         coverage: None,
         fixed_budget,
         provenance: Provenance::default(),
+        curves: Vec::new(),
     })
 }
 

@@ -3,7 +3,7 @@
 use serde::{Serialize, Serializer};
 
 use crate::design::{DecisionCondition, DecisionRule, Factor, LockStatus, Metric, Quantity, Role};
-use crate::stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate, RatioInterval};
+use crossaudit_stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate, RatioInterval};
 
 /// Options of [`crate::analysis::analyze`] that are not part of the design.
 #[derive(Debug, Clone, Copy, Default)]
@@ -67,6 +67,11 @@ pub struct Analysis {
     pub fixed_budget: Option<FixedBudget>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
+    /// The fitted jobs' validation-loss curves the run folder holds (the
+    /// training curves figure; none for a per-cell file alone). Not in
+    /// results.json.
+    #[serde(skip)]
+    pub curves: Vec<super::record::Curve>,
 }
 
 /// One arm's treatment strength: how close its contaminating windows (the

@@ -532,24 +532,35 @@ impl Audit {
     /// One sentence naming every [`Audit::unread`] file and why (each
     /// reason cut to 200 characters), or `None` when there is none.
     pub fn unread_warning(&self) -> Option<String> {
-        let files: Vec<String> = self
+        let files: Vec<(String, String)> = self
             .unread()
-            .map(|f| {
-                let file = if f.file.is_empty() { f.name.as_str() } else { f.file.as_str() };
-                // The reason starts with the file's path, which the file's
-                // name already gives: cut it, so that the excerpt does not
-                // depend on where the data folder lies.
-                let why = f.reason.split_once(&format!("{file}: ")).map_or(f.reason.as_str(), |(_, r)| r);
-                format!("{file} ({})", crate::io::excerpt(why, 200))
-            })
+            .map(|f| (if f.file.is_empty() { f.name.clone() } else { f.file.clone() }, f.reason.clone()))
             .collect();
-        if files.is_empty() {
-            return None;
-        }
-        Some(format!(
-            "{} file(s) in the data folder could not be read and were excluded, although no declared rule excludes them (`strict` data refuses them): {}",
-            files.len(),
-            files.join("; ")
-        ))
+        unread_sentence(&files)
     }
+}
+
+/// One sentence naming every unread log `(file, reason)` (each reason cut
+/// to 200 characters), or `None` when there is none: what
+/// [`Audit::unread_warning`] says, and what a reanalysis reads back from
+/// `audit/recordings.csv`.
+pub fn unread_sentence(files: &[(String, String)]) -> Option<String> {
+    if files.is_empty() {
+        return None;
+    }
+    let named: Vec<String> = files
+        .iter()
+        .map(|(file, reason)| {
+            // The reason starts with the file's path, which the file's
+            // name already gives: cut it, so that the excerpt does not
+            // depend on where the data folder lies.
+            let why = reason.split_once(&format!("{file}: ")).map_or(reason.as_str(), |(_, r)| r);
+            format!("{file} ({})", crate::io::excerpt(why, 200))
+        })
+        .collect();
+    Some(format!(
+        "{} file(s) in the data folder could not be read and were excluded, although no declared rule excludes them (`strict` data refuses them): {}",
+        named.len(),
+        named.join("; ")
+    ))
 }

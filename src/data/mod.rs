@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::design::{Cmp, CutPolicy, DataSpec, GapPolicy, InclusionRule, Slots};
-pub use audit::{audit, audit_and_hash_rows, audit_and_load, Audit, AuditError, FileRow, Status};
+pub use audit::{audit, audit_and_hash_rows, audit_and_load, unread_sentence, Audit, AuditError, FileRow, Status};
 pub use load::load_recording;
 pub use log::{LogError, NANOBENCH_COLUMNS};
 pub use metadata::{parse_name, Controller, Metadata, NameParts};

@@ -122,12 +122,12 @@ pub struct Estimator {
 pub enum EstimatorKind {
     /// Two-way crossed random effects, method of moments (ANOVA).
     CrossedMom,
-    /// The same model by restricted maximum likelihood ([`crate::stats::mixed`]):
+    /// The same model by restricted maximum likelihood ([`crossaudit_stats::mixed`]):
     /// unbalanced arrays, Kenward-Roger or Satterthwaite df.
     Reml,
 }
 
-pub use crate::stats::DfRule;
+pub use crossaudit_stats::DfRule;
 
 /// Sensitivity analyses around the primary interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]

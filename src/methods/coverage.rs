@@ -10,10 +10,10 @@ use serde::{Deserialize, Serialize};
 use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
 use crate::report::charts::DrawError;
 use crate::report::Table;
-use crate::stats::coverage::{
+use crossaudit_stats::coverage::{
     measures, setting_seed, simulate_reps, Distribution, Missing, Performance, Setting, Simulated,
 };
-use crate::stats::StatsError;
+use crossaudit_stats::StatsError;
 
 /// Why a coverage study could not run or be written.
 #[derive(Debug, thiserror::Error)]

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use crate::report::charts::{category_label, draw_err, DrawError};
-use crate::stats::coverage::Performance;
+use crossaudit_stats::coverage::Performance;
 
 /// What the figure needs of a coverage spec: each row's setting group,
 /// the nominal levels and the replications per setting.

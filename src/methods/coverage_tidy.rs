@@ -9,7 +9,7 @@
 
 use std::fmt::Write as _;
 
-use crate::stats::coverage::{shifted, usable, Simulated};
+use crossaudit_stats::coverage::{shifted, usable, Simulated};
 
 /// R's text for a number: the shortest text that reads back to the same
 /// bits, `Inf` / `-Inf`, and `NA` for NaN.

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use crate::report::charts::{draw_err, DrawError};
-use crate::stats::coverage::{usable, Simulated};
+use crossaudit_stats::coverage::{usable, Simulated};
 
 /// At most this many intervals per panel, taken evenly by rank (the shape
 /// of the zip does not change; the figure stays small).

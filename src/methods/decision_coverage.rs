@@ -5,12 +5,12 @@
 //! - the interaction of two models' contrasts, an I x J array of its own
 //!   (d of one model minus d of the other, cell by cell), scored with
 //!   every interval estimator of the coverage grid
-//!   ([`crate::stats::coverage::simulate_reps`]) at the shares of SE^2 its
+//!   ([`crossaudit_stats::coverage::simulate_reps`]) at the shares of SE^2 its
 //!   components give. Every estimator is location- and scale-equivariant,
 //!   so only I, J and the shares matter; widths are given in the
 //!   components' unit;
 //! - the optimism's intervals, Fieller's set and the delta method's, from
-//!   the paper's estimator ([`crate::stats::coverage::ratio`]), on a
+//!   the paper's estimator ([`crossaudit_stats::coverage::ratio`]), on a
 //!   reference array and a contrast drawn jointly.
 
 use std::fmt::Write as _;
@@ -20,8 +20,8 @@ use serde::{Deserialize, Serialize};
 
 use super::coverage::CoverageError;
 use crate::io::{create_dir_all, write_atomic};
-use crate::stats::coverage::ratio::{simulate_ratio, RatioPerformance, RatioSetting, Terms};
-use crate::stats::coverage::{measures, setting_seed, simulate_reps, Distribution, Missing, Setting};
+use crossaudit_stats::coverage::ratio::{simulate_ratio, RatioPerformance, RatioSetting, Terms};
+use crossaudit_stats::coverage::{measures, setting_seed, simulate_reps, Distribution, Missing, Setting};
 
 /// One interaction setting: sizes and the components of the interaction's
 /// array.
@@ -97,7 +97,7 @@ pub struct InteractionPerformance {
     /// The setting's label.
     pub setting: String,
     /// The estimator.
-    pub method: crate::stats::IntervalMethod,
+    pub method: crossaudit_stats::IntervalMethod,
     /// The true SE of the array's mean.
     pub true_se: f64,
     /// Replications with an interval.

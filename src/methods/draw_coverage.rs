@@ -31,8 +31,8 @@ use serde::{Deserialize, Serialize};
 
 use super::coverage::CoverageError;
 use crate::io::{create_dir_all, write_atomic};
-use crate::stats::mixed::{self, Criterion, MixedData};
-use crate::stats::{crossed_mom, standard_normal, CrossedMatrix, DfRule};
+use crossaudit_stats::mixed::{self, Criterion, MixedData};
+use crossaudit_stats::{crossed_mom, standard_normal, CrossedMatrix, DfRule};
 
 /// Variances of the model's terms (in squared units of d).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]

@@ -17,7 +17,7 @@ use crate::io::{create_dir_all, write_atomic};
 use crate::plan::Plan;
 use crate::report::charts::{draw_err, DrawError};
 use crate::report::Table;
-use crate::stats::critical_value;
+use crossaudit_stats::critical_value;
 
 /// The REML variance components of d over recording x seed x draw, m^2.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]

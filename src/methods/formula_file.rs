@@ -1,11 +1,11 @@
 //! `crossaudit mixed`: a `mixed` formula fitted to a tidy CSV file, or
 //! two compared on it, the file read under the rules of every input (a
 //! regular file of at most 1 GiB, [`crate::io::read_input`]). The fit
-//! itself is the statistics crate's ([`crate::stats::mixed::formula`]),
+//! itself is the statistics crate's ([`crossaudit_stats::mixed::formula`]),
 //! which reads no file.
 
-use crate::stats::mixed;
-use crate::stats::mixed::formula::{
+use crossaudit_stats::mixed;
+use crossaudit_stats::mixed::formula::{
     compare_table, fit_glmm_table, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
     GlmmFormulaFit, Table,
 };

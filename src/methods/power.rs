@@ -13,7 +13,7 @@ use crate::io::{create_dir_all, write_atomic, WriteError};
 use crate::plan::{DoseAxis, Plan};
 use crate::report::charts::{draw_err, DrawError};
 use crate::report::Table;
-use crate::stats::{critical_value, StatsError};
+use crossaudit_stats::{critical_value, StatsError};
 
 /// The most recordings or seeds the planner considers (a design declares
 /// at most 100,000 seeds).
@@ -134,7 +134,7 @@ pub struct PowerPlan {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Declared {
     /// The components: SE^2 = recording/I + seed/J + residual/(IJ).
-    pub components: crate::stats::VarianceComponents,
+    pub components: crossaudit_stats::VarianceComponents,
     /// The true effect (d, in the endpoint's unit).
     pub effect: f64,
     /// The reference arm's mean.
@@ -143,7 +143,7 @@ pub struct Declared {
 
 /// Reads `recording=V,seed=V,residual=V`: each name once, each value a
 /// finite number at least 0.
-pub fn parse_components(text: &str) -> Result<crate::stats::VarianceComponents, PowerError> {
+pub fn parse_components(text: &str) -> Result<crossaudit_stats::VarianceComponents, PowerError> {
     let bad = |why: String| PowerError::Declared(format!("--components {text:?}: {why}"));
     let mut found: [Option<f64>; 3] = [None; 3];
     const NAMES: [&str; 3] = ["recording", "seed", "residual"];
@@ -165,7 +165,7 @@ pub fn parse_components(text: &str) -> Result<crate::stats::VarianceComponents, 
     }
     match found {
         [Some(recording), Some(seed), Some(residual)] => {
-            Ok(crate::stats::VarianceComponents { recording, seed, residual })
+            Ok(crossaudit_stats::VarianceComponents { recording, seed, residual })
         }
         _ => {
             let missing: Vec<&str> = NAMES.iter().zip(found).filter(|(_, v)| v.is_none()).map(|(n, _)| *n).collect();
@@ -226,7 +226,7 @@ pub fn declared_power_plan(
 /// What a crossed plan is made from: a pilot's estimate, or declared
 /// values.
 struct Pilot {
-    components: crate::stats::VarianceComponents,
+    components: crossaudit_stats::VarianceComponents,
     mean: f64,
     mean_reference: f64,
     /// The (I, J) the advice doubles from: the pilot's.
@@ -234,7 +234,7 @@ struct Pilot {
 }
 
 impl Pilot {
-    fn of(estimate: &crate::stats::CrossedEstimate, mean_reference: f64) -> Pilot {
+    fn of(estimate: &crossaudit_stats::CrossedEstimate, mean_reference: f64) -> Pilot {
         Pilot {
             components: estimate.components,
             mean: estimate.mean,

@@ -3,7 +3,7 @@
 //! (one row per method and replication: estimate, SE, optionally interval
 //! limits, df, a replication id and by-factors; the true value and the
 //! level as numbers or columns) is read with every bad field located at
-//! its line and column, scored by [`crate::stats::simsum`] (rsimsum's
+//! its line and column, scored by [`crossaudit_stats::simsum`] (rsimsum's
 //! measures with their MCSEs, methods paired by replication id), and
 //! written as `simsum.csv` (tidy: one row per group, method and measure,
 //! as rsimsum's `tidy()`) and `simsum.md`.
@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::stats::simsum::{simsum, Group, MethodPerformance, Pairing, Replication};
+use crossaudit_stats::simsum::{simsum, Group, MethodPerformance, Pairing, Replication};
 
 /// Which columns hold what; `truth` and `level` are a number or a column.
 #[derive(Debug, Clone)]
@@ -129,7 +129,7 @@ pub enum SimsumFileError {
         /// The file.
         path: String,
         /// Why.
-        source: crate::stats::simsum::SimsumError,
+        source: crossaudit_stats::simsum::SimsumError,
     },
     /// An output could not be written.
     #[error(transparent)]
@@ -297,7 +297,7 @@ const STATS: [&str; 14] = [
     "rejection",
 ];
 
-fn stat(p: &crate::stats::coverage::Performance, name: &str) -> (f64, f64) {
+fn stat(p: &crossaudit_stats::coverage::Performance, name: &str) -> (f64, f64) {
     match name {
         "nsim" => (p.reps as f64, f64::NAN),
         "bias" => (p.bias, p.bias_mcse),

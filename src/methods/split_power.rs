@@ -11,7 +11,7 @@ use super::power::{check_counts, refuse_degenerate, rule_power, slope_name, unit
 use crate::io::{create_dir_all, write_atomic};
 use crate::plan::Plan;
 use crate::report::Table;
-use crate::stats::critical_value;
+use crossaudit_stats::critical_value;
 
 /// One row of the multi-split planner.
 #[derive(Debug, Clone, Serialize)]

@@ -28,7 +28,7 @@ use super::minibatch::{mse_of, Minibatches};
 use super::reference::{self, REFERENCE_WIDTHS};
 use super::Dynamics;
 use crate::design::{mlp_unsupported, Schedule, Training};
-use crate::stats::standard_normal;
+use crossaudit_stats::standard_normal;
 
 /// A trained network: its parameters, in the fused trainer's layout.
 #[derive(Debug, Clone, PartialEq)]

@@ -19,7 +19,7 @@ use crate::design::{
     Arm, ArmKind, Condition, Contrast, DecisionRule, Design, Estimator, EstimatorKind, Meters, Metric, ModelKind, Role,
     Seed, Sensitivity, StartsPolicy, TargetKind, Training,
 };
-use crate::stats::DfRule;
+use crossaudit_stats::DfRule;
 
 /// What a dose-response family varies (re-exported for the stages after
 /// the plan).

@@ -14,7 +14,7 @@
 use crate::analysis::family::{PooledEstimate, RuleReads};
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::DoseAxis;
-use crate::stats::CrossedEstimate;
+use crossaudit_stats::CrossedEstimate;
 
 /// The header of estimates.csv.
 pub const COLUMNS: &str = "kind,role,model,contrast,metric,unit,horizon_s,estimator,level,treated_mean,reference_mean,estimate,se,df,lower,upper,optimism_pct,rule_holds";
@@ -65,7 +65,7 @@ fn interval(estimator: &str, estimate: f64, se: Option<f64>, df: Option<f64>, (l
 }
 
 /// The pigeonhole bootstrap's row about the point estimate `mean`.
-fn bootstrap(mean: f64, b: &crate::stats::BootstrapInterval) -> Row<'static> {
+fn bootstrap(mean: f64, b: &crossaudit_stats::BootstrapInterval) -> Row<'static> {
     interval("pigeonhole_bootstrap", mean, Some(b.se), None, (b.lower, b.upper))
 }
 

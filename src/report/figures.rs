@@ -12,18 +12,8 @@ use super::charts::{chart, draw_err, intervals, span, ticks, whole, DrawError, I
 use super::format::level_pct;
 use crate::analysis::Analysis;
 
-/// One fitted job's validation loss per epoch.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Curve {
-    /// The model's name.
-    pub model: String,
-    /// The arm the job was fitted on (it picks the colour).
-    pub arm: String,
-    /// The training seed.
-    pub seed: u64,
-    /// (epoch, validation loss).
-    pub points: Vec<(f64, f64)>,
-}
+/// One fitted job's validation loss per epoch (the run folder's record holds them).
+pub use crate::analysis::record::Curve;
 
 /// A figure written: its file and its SVG text.
 pub type Figure = (PathBuf, String);

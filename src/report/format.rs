@@ -77,13 +77,13 @@ pub fn decision_notes(d: &Decision, level: &str) -> Vec<String> {
 
 /// Fieller's bounds of an optimism when the data bound it, one decimal:
 /// `[lo{unit}, hi{unit}]`.
-pub(crate) fn fieller_text(iv: Option<crate::stats::RatioInterval>, unit: &str) -> Option<String> {
+pub(crate) fn fieller_text(iv: Option<crossaudit_stats::RatioInterval>, unit: &str) -> Option<String> {
     iv?.fieller.bounds().map(|(lo, hi)| format!("[{}{unit}, {}{unit}]", f(lo, 1), f(hi, 1)))
 }
 
 /// The same in a table cell: `unbounded` when the data bound it on neither
 /// side, `-` when the analysis has none.
-pub(crate) fn fieller_cell(iv: Option<crate::stats::RatioInterval>) -> String {
+pub(crate) fn fieller_cell(iv: Option<crossaudit_stats::RatioInterval>) -> String {
     match iv {
         None => "-".into(),
         Some(_) => fieller_text(iv, "").unwrap_or_else(|| "unbounded".into()),

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use super::format::{decision_summary, f, level_pct};
 use crate::analysis::Analysis;
-use crate::stats::DfRule;
+use crossaudit_stats::DfRule;
 
 /// Title with the verdict, the decision line, the rule and the figures.
 pub(super) fn header(a: &Analysis) -> String {

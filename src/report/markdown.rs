@@ -7,7 +7,7 @@ use super::format::{df, f, level_pct, sci};
 use super::Table;
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::{Factor, Role};
-use crate::stats::{BootstrapInterval, CrossedEstimate};
+use crossaudit_stats::{BootstrapInterval, CrossedEstimate};
 
 fn ci(e: &CrossedEstimate) -> String {
     format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4))
@@ -216,8 +216,9 @@ fn components(a: &Analysis) -> Table {
     for u in &a.units {
         let e = &u.estimate;
         let c = &e.components;
-        let ms =
-            |f: fn(&crate::stats::MeanSquares) -> f64| e.mean_squares.as_ref().map_or("–".to_string(), |m| sci(f(m)));
+        let ms = |f: fn(&crossaudit_stats::MeanSquares) -> f64| {
+            e.mean_squares.as_ref().map_or("–".to_string(), |m| sci(f(m)))
+        };
         table.row([
             unit_name_in(u, &squared(u.metric)),
             ms(|m| m.ms_rows),
@@ -383,8 +384,8 @@ fn conditional(a: &Analysis, level: &str) -> Table {
 }
 
 /// Why an interval can be undefined on an array.
-fn undefined_because(method: crate::stats::IntervalMethod) -> &'static str {
-    use crate::stats::IntervalMethod as M;
+fn undefined_because(method: crossaudit_stats::IntervalMethod) -> &'static str {
+    use crossaudit_stats::IntervalMethod as M;
     match method {
         M::TwoWayCluster => "its variance V_row + V_col - V_cell is not positive on this array",
         M::MomUntruncated => "its variance (MS_row + MS_col - MS_error) / IJ is not positive on this array",

@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use super::figures::Curve;
 use super::ReportError;
 use crate::analysis::StudyAnalysis;
 
@@ -28,12 +27,18 @@ pub fn study_table(a: &StudyAnalysis) -> String {
 }
 
 /// Writes the report of any study into `dir` and returns the files
-/// written: with its figures (and, from a run of a single study, its
-/// training `curves`; a family or multiverse has none, nor has per-cell
-/// data), the figure names recorded in the analysis.
-pub fn write_study(a: &mut StudyAnalysis, curves: &[Curve], dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+/// written: with its figures (and, for a single study read from a run
+/// folder, the training curves its analysis carries; a family or
+/// multiverse has none, nor has a per-cell file alone), the figure names
+/// recorded in the analysis.
+pub fn write_study(a: &mut StudyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     match a {
-        StudyAnalysis::Single(a) => super::write_with_figures(a, curves, dir),
+        StudyAnalysis::Single(a) => {
+            let curves = std::mem::take(&mut a.curves);
+            let written = super::write_with_figures(a, &curves, dir);
+            a.curves = curves;
+            written
+        }
         StudyAnalysis::Family(a) => super::family::write_family(a, dir),
         StudyAnalysis::Multiverse(a) => super::multiverse::write_multiverse(a, dir),
     }

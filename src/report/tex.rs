@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use super::f;
 use crate::analysis::Analysis;
 use crate::design::Factor;
-use crate::stats::CrossedEstimate;
+use crossaudit_stats::CrossedEstimate;
 
 /// LaTeX macro names are letters only: digits become words, other
 /// characters split words, and each word is capitalised.

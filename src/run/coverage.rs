@@ -60,14 +60,6 @@ pub(crate) fn statement_of_levels(plan: &Plan, cells: &[Cell], dirs: &[PathBuf])
     statement(plan, cells, &draws?)
 }
 
-/// The split's treatment audit as the report shows it.
-pub(crate) fn treatment_strength(
-    t: &crate::split::TreatmentAudit,
-    rate_hz: f64,
-) -> Vec<crate::analysis::TreatmentStrength> {
-    t.arms.iter().map(|a| strength(a, t.horizon_samples as f64 / rate_hz)).collect()
-}
-
 /// One arm's treatment audit as the analysis reports it.
 fn strength(a: &crate::split::ArmTreatment, horizon_s: f64) -> crate::analysis::TreatmentStrength {
     crate::analysis::TreatmentStrength {

@@ -7,7 +7,6 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::RunError;
-use crate::analysis::training::BestEpoch;
 use crate::plan::{Plan, TrainingJob};
 use crate::report::figures::Curve;
 
@@ -16,25 +15,8 @@ use crate::report::figures::Curve;
 /// decision that rests on barely trained models should say so, per arm,
 /// with the primary d of the seeds with and without such a model.
 pub(super) fn early_best_epochs(plan: &Plan, curves: &[Curve], cells: &[crate::cells::Cell]) -> Option<String> {
-    crate::analysis::training::early_training(plan, &best_epochs(plan, curves), cells)?.warning()
-}
-
-/// Each early-stopped curve's restored epoch: its best validation epoch. A
-/// `restore final` model keeps its last epoch by design and is left out.
-pub(super) fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
-    let last = |model: &str| {
-        plan.models
-            .iter()
-            .any(|m| m.name == model && matches!(m.kind, crate::design::ModelKind::Mlp { restore_final: true, .. }))
-    };
-    curves
-        .iter()
-        .filter(|c| !last(&c.model))
-        .filter_map(|c| {
-            let best = c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?;
-            Some(BestEpoch { model: c.model.clone(), arm: c.arm.clone(), seed: c.seed, epoch: best.0 })
-        })
-        .collect()
+    crate::analysis::training::early_training(plan, &crate::analysis::evidence::best_epochs(plan, curves), cells)?
+        .warning()
 }
 
 /// The columns of a training curve the figures need.

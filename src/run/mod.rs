@@ -20,6 +20,7 @@ mod grid;
 mod guard;
 pub mod job;
 pub mod outer;
+mod read;
 mod record;
 pub mod reuse;
 pub mod slurm;
@@ -31,7 +32,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::analysis::family::{analyze_family, FamilyAnalysis};
-use crate::analysis::{self, Analysis, FileAnalysisError, StudyAnalysis};
+use crate::analysis::{self, FileAnalysisError, StudyAnalysis};
 use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::create_dir_all;
@@ -43,6 +44,7 @@ pub use grid::{Quiet, RunObserver};
 use guard::refuse_single_run;
 pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir};
 pub use job::{run_job, run_job_with, JobOutcome};
+pub use read::{read_folder, read_record};
 pub use record::{job_record_path, JobRecord, RunRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;
@@ -226,7 +228,7 @@ pub(crate) fn report_family(
     a.warnings.extend(resumed_builds(builds));
     let report_dir = out.join("report");
     let mut analysis = StudyAnalysis::Family(Box::new(a));
-    crate::report::write_study(&mut analysis, &[], &report_dir)?;
+    crate::report::write_study(&mut analysis, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
@@ -409,9 +411,11 @@ pub fn split_into(file: &DesignFile, plan: &Plan, data: &Data, out: &Path) -> Re
 }
 
 /// Everything after the last job: the invariants on what the jobs recorded,
-/// cells.csv, the analysis and the report. `design_path` is the design as
-/// the user named it (the report quotes it); `builds` are the builds that
-/// trained cells, of which any but this one is reported.
+/// cells.csv (with the builds that trained it and the run's notes in
+/// run.json), then the folder read back as a record, analysed and
+/// reported, exactly as `crossaudit analyze DESIGN --cells OUT` does.
+/// `design_path` is the design as the user named it (the report quotes
+/// it); `builds` are the builds that trained cells.
 fn finish(
     design_path: &str,
     plan: &Plan,
@@ -420,39 +424,16 @@ fn finish(
     builds: std::collections::BTreeSet<String>,
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
-    let (prepared, record) = (&opened.prepared, &opened.record);
-    let cells_csv = gather_recorded(plan, opened, out)?;
-    if plan.is_family() {
-        let labels = (&opened.status, opened.exploratory, record);
-        let mut outcome = report_family(design_path, plan, out, cells_csv, labels, builds, |a| {
-            a.provenance.audit_sha256 = Some(record.audit_sha256.clone());
-            a.warnings.extend(prepared.audit.unread_warning());
-            a.warnings.extend(opened.warnings.iter().cloned());
-            a.treatment = coverage::treatment_strength(&prepared.treatment, plan.rate_hz);
-            a.coverage = coverage::note_of_levels(plan, &[out.to_path_buf()]);
-            a.sources = coverage::distance_sources(plan, &[out.to_path_buf()]);
-        })?;
-        outcome.seconds = started.elapsed().as_secs_f64();
-        return Ok(outcome);
-    }
-    let mut analysis = analyze_run(design_path, plan, &cells_csv, opened)?;
-    analysis.record_provenance(&record.data.describe(), &record.audit_sha256);
-    analysis.warnings.extend(prepared.audit.unread_warning());
-    for i in prepared.invariants.invariants.iter().filter(|i| i.status == crate::split::InvariantStatus::Warn) {
-        analysis.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
-    }
-    analysis.warnings.extend(resumed_builds(builds));
-    analysis.warnings.extend(opened.warnings.iter().cloned());
-    analysis.treatment = coverage::treatment_strength(&prepared.treatment, plan.rate_hz);
-    let cells = read_cells(&cells_csv)?;
-    analysis.coverage = coverage::statement(plan, &cells, std::slice::from_ref(&prepared.treatment.coverage));
+    let cells_csv = gather_recorded(plan, opened, out, &builds)?;
+    let design = analysis::record::DesignLabel {
+        path: design_path.to_string(),
+        sha256: opened.record.design_sha256.clone(),
+        status: opened.status.clone(),
+    };
+    let record = read::read_folder(design, plan, out)?;
+    let mut analysis = analysis::analyze_study(plan, &record, Default::default())?;
     let report_dir = out.join("report");
-    let curves = curves::read_curves(plan, out)?;
-    if let Some(w) = curves::early_best_epochs(plan, &curves, &cells) {
-        analysis.warnings.push(w);
-    }
-    let mut analysis = StudyAnalysis::Single(Box::new(analysis));
-    crate::report::write_study(&mut analysis, &curves, &report_dir)?;
+    crate::report::write_study(&mut analysis, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
@@ -477,12 +458,20 @@ fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
 }
 
 /// The invariants on what the jobs recorded, then `cells.csv` gathered and
-/// its hash recorded in `run.json`.
-fn gather_recorded(plan: &Plan, opened: &Opened, out: &Path) -> Result<PathBuf, RunError> {
+/// its hash recorded in `run.json`, with the builds other than this one
+/// among `builds` (those that trained cells) and the run's notes.
+fn gather_recorded(
+    plan: &Plan,
+    opened: &Opened,
+    out: &Path,
+    builds: &std::collections::BTreeSet<String>,
+) -> Result<PathBuf, RunError> {
     trained_invariants::check(plan, &opened.prepared, out)?;
     let cells_csv = gather(plan, out)?;
     let sha = crate::cells::file_sha256(&cells_csv)?;
-    RunRecord { cells_sha256: Some(sha), ..opened.record.clone() }.write(out)?;
+    let resumed_from = builds.iter().filter(|b| *b != crate::io::BUILD).cloned().collect();
+    let notes = opened.warnings.clone();
+    RunRecord { cells_sha256: Some(sha), resumed_from, notes, ..opened.record.clone() }.write(out)?;
     Ok(cells_csv)
 }
 
@@ -505,20 +494,6 @@ pub(crate) fn gathered(plan: &Plan, out: &Path) -> Result<Vec<Cell>, RunError> {
         }
     }
     Ok(all)
-}
-
-/// The preregistered analysis of the gathered cells, labelled with the
-/// design's hash and lock state.
-fn analyze_run(design_path: &str, plan: &Plan, cells_csv: &Path, opened: &Opened) -> Result<Analysis, RunError> {
-    let cells = read_cells(cells_csv)?;
-    let mut analysis =
-        analysis::analyze(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(cells_csv, e))?;
-    analysis.record_design(design_path, &opened.record.design_sha256, &opened.status);
-    if opened.exploratory {
-        analysis.mark_exploratory();
-    }
-    analysis.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
-    Ok(analysis)
 }
 
 /// Parameter-free models fit nothing split-dependent: their rows must be

@@ -44,6 +44,16 @@ pub struct RunRecord {
     /// until the run finished (and in runs written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cells_sha256: Option<String>,
+    /// Builds other than `crossaudit` that trained some of the cells (a
+    /// resumed run), recorded when cells.csv is gathered: the report says
+    /// so, and a reanalysis of the folder reads it here.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeSet::is_empty")]
+    pub resumed_from: std::collections::BTreeSet<String>,
+    /// What the run noted beyond its files (jobs reused from an earlier
+    /// run, external models' predictions), recorded when cells.csv is
+    /// gathered, for the report and any reanalysis of the folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 /// Output entries that only a run writes: their presence without a
@@ -69,6 +79,8 @@ impl RunRecord {
             crossaudit: crate::io::BUILD.to_string(),
             level: None,
             cells_sha256: None,
+            resumed_from: Default::default(),
+            notes: Vec::new(),
         }
     }
 

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::trajectory::Profile;
 use crate::data::NANOBENCH_COLUMNS;
-use crate::stats::standard_normal as normal;
+use crossaudit_stats::standard_normal as normal;
 
 const G: f64 = 9.81;
 const MASS: f64 = 0.034;

@@ -156,7 +156,7 @@ fn quantiles(v: &mut [f64]) -> Option<[f64; 5]> {
         return None;
     }
     v.sort_by(f64::total_cmp);
-    Some([0.0, 0.25, 0.5, 0.75, 1.0].map(|p| crate::stats::quantile_type7(v, p)))
+    Some([0.0, 0.25, 0.5, 0.75, 1.0].map(|p| crossaudit_stats::quantile_type7(v, p)))
 }
 
 /// One role's windows by content, sorted by start, with the running

@@ -46,7 +46,7 @@ use crate::cells::Cell;
 use crate::design::DoseAxis;
 use crate::design::{ArmKind, DecisionRule, DecisionTarget, Quantity};
 use crate::plan::{dose_axis, DoseArm, Plan};
-use crate::stats::CrossedEstimate;
+use crossaudit_stats::CrossedEstimate;
 
 /// The analysis of a dose-response or multi-split study (results.json).
 #[derive(Debug, Clone, Serialize)]

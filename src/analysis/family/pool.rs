@@ -8,8 +8,8 @@ use super::trend::{as_optimism, slopes, smallest_excluding_zero, step_down};
 use super::{Pooled, PooledEstimate, Values};
 use crate::analysis::AnalysisError;
 use crate::plan::{dose_axis, DoseArm, Plan};
-use crate::stats::mixed::{self, Criterion, MixedData};
-use crate::stats::{DfRule, StatsError};
+use crossaudit_stats::mixed::{self, Criterion, MixedData};
+use crossaudit_stats::{DfRule, StatsError};
 
 /// The pooled REML estimates over splits.
 pub(super) fn pool(

@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use super::{effect_cells, ChoiceEffect, Diff, DrawReplication, EffectCells, LevelInput, PooledDraws};
 use crate::analysis::Analysis;
 use crate::design::Design;
-use crate::stats::CrossedEstimate;
+use crossaudit_stats::CrossedEstimate;
 
 /// The choice effects of a multiverse crossed with `factor draw`, each
 /// pooled over the draws as a specification's d is: its paired cells in
@@ -55,7 +55,7 @@ pub(super) fn pooled_choice_effects(
 /// from (recording, seed, draw, d) rows; certified.
 fn fit_over_draws(
     rows: &[(&str, u64, u64, f64)],
-) -> Result<crate::stats::mixed::MixedFit, crate::stats::mixed::MixedError> {
+) -> Result<crossaudit_stats::mixed::MixedFit, crossaudit_stats::mixed::MixedError> {
     let mut names: BTreeMap<&str, usize> = BTreeMap::new();
     let (mut y, mut rec, mut seed, mut draw, mut rec_draw, mut seed_draw) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -77,8 +77,8 @@ fn fit_over_draws(
         ("recording:draw".to_string(), rec_draw),
         ("seed:draw".to_string(), seed_draw),
     ];
-    crate::stats::mixed::MixedData::new(y, factors)
-        .and_then(|data| crate::stats::mixed::fit(&data, crate::stats::mixed::Criterion::Reml))
+    crossaudit_stats::mixed::MixedData::new(y, factors)
+        .and_then(|data| crossaudit_stats::mixed::fit(&data, crossaudit_stats::mixed::Criterion::Reml))
         .and_then(|f| f.certified())
 }
 
@@ -148,7 +148,7 @@ pub(super) fn draw_replication(
 /// design's level, and the rule applied to it.
 fn pooled_draws(
     design: &Design,
-    f: &crate::stats::mixed::MixedFit,
+    f: &crossaudit_stats::mixed::MixedFit,
     (mean_treated, mean_reference): (f64, f64),
     template: &CrossedEstimate,
 ) -> Result<PooledDraws, String> {

@@ -8,7 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::{common, Diff};
-use crate::stats::quantile_type7;
+use crossaudit_stats::quantile_type7;
 
 /// The joint pigeonhole bootstrap over every specification.
 #[derive(Debug, Clone, Serialize)]

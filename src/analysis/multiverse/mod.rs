@@ -32,7 +32,7 @@ use crate::cells::Cell;
 use crate::design::{Choice, Combine, DecisionRule, Design, Estimator, Multiverse};
 use crate::label::Label;
 use crate::plan::Plan;
-use crate::stats::CrossedEstimate;
+use crossaudit_stats::CrossedEstimate;
 
 /// One outer level of a study: a specification, a draw, or both, with
 /// its compiled plan and its cells.

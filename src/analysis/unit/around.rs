@@ -5,7 +5,7 @@ use super::{ArmArrays, Ctx, Grid};
 use crate::analysis::AnalysisError;
 use crate::design::Metric;
 use crate::plan::AnalysisUnit;
-use crate::stats::{ratio_interval, RatioInterval};
+use crossaudit_stats::{ratio_interval, RatioInterval};
 
 impl Ctx<'_> {
     /// The optimism's Fieller and delta-method intervals (in %) from the

@@ -2,7 +2,7 @@
 //! array, the coverage study's further ones on a complete array.
 
 use super::{Ctx, Grid};
-use crate::stats::{compare_intervals, reml_intervals, CrossedMatrix, IntervalEstimate, StatsError};
+use crossaudit_stats::{compare_intervals, reml_intervals, CrossedMatrix, IntervalEstimate, StatsError};
 
 impl Ctx<'_> {
     /// `--compare-intervals`: every interval estimator on the unit's
@@ -34,13 +34,13 @@ impl Ctx<'_> {
 /// (`stats::further_intervals`); where the array does not allow them, each
 /// is a row of NaN, which the report names as undefined.
 fn further(
-    m: &crate::stats::CrossedMatrix,
+    m: &crossaudit_stats::CrossedMatrix,
     level: f64,
     (b, seed): (usize, u64),
     stream: u64,
-) -> Vec<crate::stats::IntervalEstimate> {
-    use crate::stats::IntervalMethod as M;
-    crate::stats::further_intervals(m, level, b, seed, stream).unwrap_or_else(|_| {
+) -> Vec<crossaudit_stats::IntervalEstimate> {
+    use crossaudit_stats::IntervalMethod as M;
+    crossaudit_stats::further_intervals(m, level, b, seed, stream).unwrap_or_else(|_| {
         [
             M::TwoWayCluster,
             M::SumOfMargins,
@@ -52,7 +52,7 @@ fn further(
             M::ParametricT,
             M::ProfileMl,
         ]
-        .map(crate::stats::IntervalEstimate::undefined)
+        .map(crossaudit_stats::IntervalEstimate::undefined)
         .to_vec()
     })
 }

@@ -2,13 +2,13 @@
 //! each cell's diverged starts as failures out of its starts, the arm as a
 //! fixed effect, recording, seed and recording x seed as random
 //! intercepts, fitted as lme4's `glmer` fits it
-//! ([`crate::stats::mixed::glmm`]).
+//! ([`crossaudit_stats::mixed::glmm`]).
 
 use super::Ctx;
 use crate::analysis::types::{GlmmContrast, GlmmEndpoint};
 use crate::plan::AnalysisUnit;
-use crate::stats::mixed::glmm::{fit_glmm, GlmmData, GlmmFit};
-use crate::stats::mixed::slopes::Term;
+use crossaudit_stats::mixed::glmm::{fit_glmm, GlmmData, GlmmFit};
+use crossaudit_stats::mixed::slopes::Term;
 
 /// The model, in lme4's formula language.
 pub(crate) const FORMULA: &str =

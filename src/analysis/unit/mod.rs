@@ -19,7 +19,7 @@ use super::AnalysisError;
 use crate::cells::Cell;
 use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
-use crate::stats::{
+use crossaudit_stats::{
     crossed_mom, crossed_reml, leave_one_out_mom, pigeonhole_bootstrap, Axis, CrossedEstimate, CrossedMatrix, DfRule,
     StatsError,
 };

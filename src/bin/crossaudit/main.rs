@@ -524,7 +524,8 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     let file = crossaudit::design::load(design)?;
     let study = crossaudit::compile_study(&file.design);
     let outer = study.combines_levels();
-    let beside = cells.parent().unwrap_or(Path::new("."));
+    // A run folder given whole: its reanalysis goes into it, beside its report.
+    let beside = if !outer && cells.is_dir() { cells } else { cells.parent().unwrap_or(Path::new(".")) };
     let dir = match out {
         Some(dir) => dir,
         // A per-cell file in a run's folder: its `report/` is the run's
@@ -548,7 +549,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     // multiverse or draw-replicated design) the run directory `cells`.
     let mut analysis = crossaudit::analyze_study(&file, &study, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
-    let written = crossaudit::report::write_study(&mut analysis, &[], &dir)?;
+    let written = crossaudit::report::write_study(&mut analysis, &dir)?;
     for w in analysis.warnings() {
         note!("warning: {}", crossaudit::io::one_line(w));
     }

@@ -6,7 +6,7 @@
 use super::super::Recording;
 use super::{BATTERY_BOUNDS_V, PERCENTILES, PWM_BOUNDS, SETPOINT_Z_BOUNDS_M};
 use crate::design::{Bound, DataSpec, Pooling};
-use crate::stats::quantile_type7;
+use crossaudit_stats::quantile_type7;
 
 /// `exclude frozen position for T s`: fails when the position stays
 /// exactly the same over `seconds` or more of consecutive active rows

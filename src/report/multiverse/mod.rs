@@ -142,7 +142,7 @@ pub fn effects_csv(a: &MultiverseAnalysis) -> String {
         String::from("choice,reference,alternative,specs_per_side,recordings,unit,estimate,se,df,lower,upper\n");
     for e in &a.choice_effects {
         let x = e.estimate.as_ref();
-        let v = |g: fn(&crate::stats::CrossedEstimate) -> f64| x.map(|x| g(x).to_string()).unwrap_or_default();
+        let v = |g: fn(&crossaudit_stats::CrossedEstimate) -> f64| x.map(|x| g(x).to_string()).unwrap_or_default();
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{}",

@@ -82,7 +82,7 @@ pub(super) fn unit_notes(id: &str, plan: &Plan, level_plans: &[(&Plan, PathBuf)]
             curves.extend(c);
         }
     }
-    let best = crate::run::curves::best_epochs(plan, &curves);
+    let best = crate::analysis::evidence::best_epochs(plan, &curves);
     UnitNotes {
         id: id.to_string(),
         coverage: crate::run::coverage::note_of_levels(plan, &dirs),

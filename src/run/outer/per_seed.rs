@@ -121,7 +121,8 @@ fn finish_seeds(
         analysis.warnings.push(w);
     }
     let report_dir = dest.join("report");
+    analysis.curves = curves;
     let mut analysis = StudyAnalysis::Single(Box::new(analysis));
-    crate::report::write_study(&mut analysis, &curves, &report_dir)?;
+    crate::report::write_study(&mut analysis, &report_dir)?;
     Ok(RunOutcome { cells_csv, report_dir, analysis, trained: 0, skipped: 0, seconds: started.elapsed().as_secs_f64() })
 }

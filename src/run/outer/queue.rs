@@ -192,7 +192,7 @@ pub(super) fn finish_opened(
         crate::run::reuse::stamp(&o.dir, &o.keyed).map_err(in_level)?;
         builds.extend(o.done_builds.iter().cloned());
         if per_seed {
-            gather_recorded(&o.plan, &o.opened, &o.dir).map_err(in_level)?;
+            gather_recorded(&o.plan, &o.opened, &o.dir, &o.done_builds).map_err(in_level)?;
         } else {
             finish(&file.path.display().to_string(), &o.plan, &o.opened, &o.dir, o.done_builds.clone())
                 .map_err(in_level)?;

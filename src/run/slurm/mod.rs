@@ -368,46 +368,7 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
 /// directory, refused unless its audit and manifests are those of its
 /// run.json.
 fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::split::Prepared, RunError> {
-    rebuild_from(&array.data_dir, &array.data, &part.file, &part.plan, &part.dir, run)
-}
-
-/// The split of the run directory `dir` rebuilt in memory from `data_dir`
-/// (simulated data verified against its record, never generated), refused
-/// unless its audit and manifests are those of its run.json.
-pub(super) fn rebuild_from(
-    data_dir: &Path,
-    origin: &DataOrigin,
-    file: &DesignFile,
-    plan: &Plan,
-    dir: &Path,
-    run: &RunRecord,
-) -> Result<crate::split::Prepared, RunError> {
-    if let DataOrigin::Simulated { spec, record_sha256 } = origin {
-        // Verify, never generate: other tasks may be reading the directory.
-        if !data_dir.join(crate::sim::RECORD).is_file() {
-            return Err(RunError::NoDataDir {
-                dir: format!("{} (its simulation record is missing)", data_dir.display()),
-            });
-        }
-        let ensured = crate::sim::ensure(spec, data_dir)?;
-        let now = ensured.record().sha256();
-        if now != *record_sha256 {
-            return Err(RunError::OtherData {
-                dir: dir.display().to_string(),
-                what: "simulation record (sha256)".into(),
-                was: record_sha256.clone(),
-                is: now,
-            });
-        }
-    }
-    if !data_dir.is_dir() {
-        return Err(RunError::NoDataDir { dir: data_dir.display().to_string() });
-    }
-    let prepared = crate::split::rebuild(file, plan, data_dir, dir)?;
-    let data = Data { dir: data_dir.to_path_buf(), origin: origin.clone() };
-    let now = RunRecord::new(plan, file, &data, &prepared, run.exploratory);
-    run.check_resume(dir, &now)?;
-    Ok(prepared)
+    super::source::rebuild_from(&array.data_dir, &array.data, &part.file, &part.plan, &part.dir, run)
 }
 
 /// Runs the job at array `index` of the run prepared in `dir`, on one
@@ -497,7 +458,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         }
         if per_seed {
             outer::note_unread(&mut notes, &opened.prepared.audit);
-            super::gather_recorded(&part.plan, &opened, &part.dir)?;
+            super::gather_recorded(&part.plan, &opened, &part.dir, &builds)?;
         } else {
             last = Some(finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?);
         }
