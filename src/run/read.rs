@@ -29,23 +29,19 @@ pub fn read_record(file: &DesignFile, plan: &Plan, cells: &Path) -> Result<Recor
     if cells.is_dir() {
         return read_folder(design, plan, cells);
     }
+    // Read (and so checked to be a regular file) before it is hashed.
+    let rows = read_cells(cells)?;
     let sha = crate::cells::file_sha256(cells)?;
     let shown = cells.display().to_string();
     let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let own = cells.file_name().is_some_and(|n| n == "cells.csv")
         && matches!(RunRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256.as_deref() == Some(&sha));
     if own {
-        let mut record = read_folder(design, plan, beside)?;
-        record.cells_file.0 = shown;
+        let mut record = folder_record(design, plan, beside, (rows, sha))?;
+        (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
         return Ok(record);
     }
-    Ok(Record {
-        design,
-        cells: read_cells(cells)?,
-        cells_path: cells.to_path_buf(),
-        cells_file: (shown, sha),
-        run: None,
-    })
+    Ok(Record { design, cells: rows, cells_path: cells.to_path_buf(), cells_file: (shown, sha), run: None })
 }
 
 /// The record of the run folder `dir` of a study of one run, labelled
@@ -64,6 +60,7 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
         return Err(RunError::OtherDesign { dir: shown, sha256: run.design_sha256 });
     }
     let cells_path = dir.join("cells.csv");
+    let cells = read_cells(&cells_path)?;
     let sha = crate::cells::file_sha256(&cells_path)?;
     if let Some(recorded) = run.cells_sha256.as_ref().filter(|r| **r != sha) {
         return Err(RunError::LevelChanged {
@@ -73,7 +70,33 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
             ),
         });
     }
-    let cells = read_cells(&cells_path)?;
+    Ok(with_evidence(design, plan, dir, run, (cells, sha)))
+}
+
+/// As [`read_folder`], for the folder's `cells.csv` already read and hashed.
+fn folder_record(
+    design: DesignLabel,
+    plan: &Plan,
+    dir: &Path,
+    cells: (Vec<crate::cells::Cell>, String),
+) -> Result<Record, RunError> {
+    let run = RunRecord::read(dir)?.ok_or_else(|| RunError::BadRunRecord {
+        path: dir.join("run.json").display().to_string(),
+        dir: dir.display().to_string(),
+        reason: "it is missing".to_string(),
+    })?;
+    Ok(with_evidence(design, plan, dir, run, cells))
+}
+
+/// The record of a run folder whose run.json is `run` and whose cells are
+/// `(cells, sha256)`: the evidence beside them read.
+fn with_evidence(
+    design: DesignLabel,
+    plan: &Plan,
+    dir: &Path,
+    run: RunRecord,
+    (cells, sha): (Vec<crate::cells::Cell>, String),
+) -> Record {
     let mut missing = Vec::new();
     let level = read_level(plan, dir, String::new(), &mut missing);
     let evidence = RunEvidence {
@@ -86,7 +109,8 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
         levels: vec![level],
         missing,
     };
-    Ok(Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(evidence) })
+    let cells_path = dir.join("cells.csv");
+    Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(evidence) }
 }
 
 /// What one run folder holds beyond its cells; each absent or unreadable
