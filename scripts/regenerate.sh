@@ -58,7 +58,7 @@ fresh() {  # fresh DESIGN OUT
   for split in "$tmp"/split-*; do
     [ -d "$split" ] && copy_parts "$split" "$2/$(basename "$split")"
   done
-  for part in cells.csv report; do
+  for part in cells.csv report study.json; do
     [ -e "$tmp/$part" ] && { rm -rf "${2:?}/$part"; cp -r "$tmp/$part" "$2/$part"; }
   done
   rm -rf "$tmp"

@@ -61,7 +61,7 @@ pub fn analyze_with(
     cells_path: &Path,
     options: AnalyzeOptions,
 ) -> Result<Analysis, Error> {
-    let record = run::read_record(file, plan, cells_path)?;
+    let record = run::read_record(file, &compile_study(&file.design), cells_path)?;
     match analysis::analyze_study(plan, &record, options)? {
         analysis::StudyAnalysis::Single(a) => Ok(*a),
         _ => {
@@ -94,11 +94,10 @@ pub fn analyze_study(
     options: AnalyzeOptions,
 ) -> Result<analysis::StudyAnalysis, Error> {
     if study.combines_levels() {
-        let mut a = run::outer::analyze_dir(file, study, cells)?;
-        run::outer::label(&mut a, file)?;
+        let a = run::outer::analyze_dir(file, study, cells)?;
         return Ok(analysis::StudyAnalysis::Multiverse(Box::new(a)));
     }
-    let record = run::read_record(file, &study.plan, cells)?;
+    let record = run::read_record(file, study, cells)?;
     Ok(analysis::analyze_study(&study.plan, &record, options)?)
 }
 
@@ -134,7 +133,7 @@ pub fn analyze_family_with(
     cells_path: &Path,
     options: AnalyzeOptions,
 ) -> Result<analysis::family::FamilyAnalysis, Error> {
-    let record = run::read_record(file, plan, cells_path)?;
+    let record = run::read_record(file, &compile_study(&file.design), cells_path)?;
     match analysis::analyze_study(plan, &record, options)? {
         analysis::StudyAnalysis::Family(a) => Ok(*a),
         _ => {

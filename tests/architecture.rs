@@ -61,7 +61,8 @@ fn code_lines(path: &Path) -> Vec<(usize, String)> {
             _ => out.push((k + 1, code.clone())),
         }
         let line = &out.last().map(|x| x.1.clone()).unwrap_or_default();
-        open = line.contains("crate::") && line.matches('{').count() > line.matches('}').count();
+        let import = line.contains("crate::") || line.trim_start().starts_with("use ") || line.contains(" use ");
+        open = import && line.matches('{').count() > line.matches('}').count();
     }
     out
 }
@@ -218,7 +219,7 @@ fn paths_named(line: &str) -> Vec<(Option<usize>, Vec<String>)> {
     let mut at = 0;
     while at < line.len() {
         let rest = &line[at..];
-        let (Some(k), prefix) = [rest.find("crate::"), rest.find("super::")]
+        let (Some(k), prefix) = [rest.find("crate::"), rest.find("super::"), rest.find("self::")]
             .into_iter()
             .enumerate()
             .filter_map(|(i, k)| k.map(|k| (k, i)))
@@ -228,7 +229,7 @@ fn paths_named(line: &str) -> Vec<(Option<usize>, Vec<String>)> {
             break;
         };
         if line[..at + k].chars().last().is_some_and(ident) {
-            at += k + 7;
+            at += k + 5;
             continue;
         }
         let mut tail = &rest[k..];
@@ -239,6 +240,9 @@ fn paths_named(line: &str) -> Vec<(Option<usize>, Vec<String>)> {
                 tail = t;
             }
             Some(n)
+        } else if prefix == 2 {
+            tail = &tail["self::".len()..];
+            Some(0)
         } else {
             tail = &tail["crate::".len()..];
             None
@@ -262,34 +266,249 @@ fn paths_named(line: &str) -> Vec<(Option<usize>, Vec<String>)> {
     out
 }
 
+/// The child modules a file declares (`mod x;`, `pub(crate) mod x;`).
+fn children(path: &Path) -> BTreeSet<String> {
+    code_lines(path)
+        .into_iter()
+        .filter_map(|(_, l)| {
+            let l = l.trim();
+            let rest = l.strip_prefix("mod ").or_else(|| l.split_once(" mod ").map(|(_, r)| r))?;
+            let name = rest.strip_suffix(';')?;
+            name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_').then(|| name.to_string())
+        })
+        .collect()
+}
+
+/// `line` with every path that starts at a child module (`record::X`, as
+/// a parent names its children's items) written from `self::`.
+fn with_self(line: &str, children: &BTreeSet<String>) -> String {
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let mut out = String::new();
+    let mut at = 0;
+    while at < line.len() {
+        let rest = &line[at..];
+        let starts = !line[..at].chars().last().is_some_and(|c| ident(c) || c == ':');
+        let child = children.iter().find(|c| rest.starts_with(&format!("{c}::")));
+        match (starts, child) {
+            (true, Some(c)) => {
+                out.push_str("self::");
+                out.push_str(c);
+                at += c.len();
+            }
+            _ => {
+                let ch = rest.chars().next().unwrap_or(' ');
+                out.push(ch);
+                at += ch.len_utf8();
+            }
+        }
+    }
+    out
+}
+
+/// A crate's modules: each module path's file, the child modules each
+/// file declares, and what each module re-exports (`pub use`, of any
+/// visibility): the item's name to the absolute path it names.
+struct Modules {
+    files: BTreeMap<Vec<String>, PathBuf>,
+    children: BTreeMap<PathBuf, BTreeSet<String>>,
+    reexports: BTreeMap<Vec<String>, BTreeMap<String, Vec<String>>>,
+    /// The items each module's file defines at its top level.
+    items: BTreeMap<Vec<String>, BTreeSet<String>>,
+}
+
+/// Whether a code line re-exports (`pub use`, of any visibility).
+fn re_exports(line: &str) -> bool {
+    let t = line.trim_start();
+    t.starts_with("pub use ") || t.starts_with("pub(crate) use ") || t.starts_with("pub(super) use ")
+}
+
+/// The name of the item a top-level line defines (`pub fn f(`, `struct S`).
+fn item_defined(line: &str) -> Option<String> {
+    if line.starts_with(char::is_whitespace) {
+        return None;
+    }
+    let mut words = line.split_whitespace().skip_while(|w| w.starts_with("pub") || *w == "async" || *w == "unsafe");
+    match words.next()? {
+        "fn" | "struct" | "enum" | "const" | "static" | "type" | "trait" | "union" => {}
+        _ => return None,
+    }
+    let name: String = words.next()?.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+    (!name.is_empty()).then_some(name)
+}
+
+impl Modules {
+    fn read(src: &Path) -> Modules {
+        let mut files = Vec::new();
+        rust_files(src, &mut files);
+        let mut m = Modules {
+            files: BTreeMap::new(),
+            children: BTreeMap::new(),
+            reexports: BTreeMap::new(),
+            items: BTreeMap::new(),
+        };
+        for p in &files {
+            m.files.insert(module_path(src, p), p.clone());
+            m.children.insert(p.clone(), children(p));
+        }
+        for p in &files {
+            let me = module_path(src, p);
+            for (_, line) in m.lines(p) {
+                if let Some(item) = item_defined(&line) {
+                    m.items.entry(me.clone()).or_default().insert(item);
+                }
+                if !re_exports(&line) {
+                    continue;
+                }
+                for full in paths_of(&me, &line) {
+                    if let Some(item) = full.last() {
+                        m.reexports.entry(me.clone()).or_default().insert(item.clone(), full.clone());
+                    }
+                }
+            }
+        }
+        m
+    }
+
+    /// A file's code lines, its children's paths written from `self::`,
+    /// `#[cfg(test)]` modules left out (their `super::` is the file itself).
+    fn lines(&self, path: &Path) -> Vec<(usize, String)> {
+        let none = BTreeSet::new();
+        let children = self.children.get(path).unwrap_or(&none);
+        code_lines(path)
+            .into_iter()
+            .take_while(|(_, l)| !l.contains("#[cfg(test)]"))
+            .map(|(k, l)| (k, with_self(&l, children)))
+            .collect()
+    }
+
+    /// The file that defines what the absolute path `full` names: the file
+    /// of its longest module prefix, or, where that module re-exports the
+    /// next segment, the file the re-export names (followed up to 8 times).
+    fn resolve(&self, full: &[String], depth: usize) -> Option<&PathBuf> {
+        let k = (1..=full.len()).rev().find(|&k| self.files.contains_key(&full[..k]))?;
+        let via = full.get(k).and_then(|item| self.reexports.get(&full[..k])?.get(item));
+        match via {
+            Some(target) if depth < 8 && target.as_slice() != full => {
+                let next: Vec<String> = target.iter().chain(&full[k + 1..]).cloned().collect();
+                self.resolve(&next, depth + 1).or_else(|| self.files.get(&full[..k]))
+            }
+            _ => self.files.get(&full[..k]),
+        }
+    }
+}
+
+/// The absolute paths (from the crate root) a line of module `me` names.
+fn paths_of(me: &[String], line: &str) -> Vec<Vec<String>> {
+    paths_named(line)
+        .into_iter()
+        .map(|(supers, segs)| {
+            let mut full: Vec<String> = match supers {
+                None => Vec::new(),
+                Some(n) => me[..me.len().saturating_sub(n)].to_vec(),
+            };
+            full.extend(segs);
+            full
+        })
+        .collect()
+}
+
 /// Imports between the source files of one crate (`src` its source
-/// folder): each file to the files whose items it names, by the longest
-/// module prefix of each path. `#[cfg(test)]` modules are left out (their
-/// `super::` is the file itself).
+/// folder): each file to the files that define the items it names (a
+/// path through a re-export followed to the file that defines the item;
+/// a parent's `child::` paths read as its children's).
 fn file_imports(src: &Path) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
-    let mut files = Vec::new();
-    rust_files(src, &mut files);
-    let by_module: BTreeMap<Vec<String>, PathBuf> = files.iter().map(|p| (module_path(src, p), p.clone())).collect();
+    let modules = Modules::read(src);
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
     let mut out = BTreeMap::new();
-    for path in &files {
-        let me = module_path(src, path);
+    for (me, path) in &modules.files {
         let mut named = BTreeSet::new();
-        for (_, line) in code_lines(path).into_iter().take_while(|(_, l)| !l.contains("#[cfg(test)]")) {
-            for (supers, segs) in paths_named(&line) {
-                let mut full: Vec<String> = match supers {
-                    None => Vec::new(),
-                    Some(n) => me[..me.len().saturating_sub(n)].to_vec(),
+        let lines = modules.lines(path);
+        // Every word of the file, for what a glob import (`use super::*`) takes.
+        let words: BTreeSet<&str> = lines.iter().flat_map(|(_, l)| l.split(|c: char| !ident(c))).collect();
+        for (_, line) in &lines {
+            // A re-export is no use of the item: its users import its file.
+            if re_exports(line) {
+                continue;
+            }
+            for full in paths_of(me, line) {
+                let glob = line.contains(&format!("{}::*", full.last().map(String::as_str).unwrap_or("")))
+                    && modules.files.contains_key(&full);
+                let targets: Vec<Vec<String>> = if glob {
+                    // The glob's module's items that the file names.
+                    let none = BTreeSet::new();
+                    let items = modules.items.get(&full).unwrap_or(&none);
+                    let re: BTreeSet<String> =
+                        modules.reexports.get(&full).map(|r| r.keys().cloned().collect()).unwrap_or_default();
+                    items
+                        .iter()
+                        .chain(&re)
+                        .filter(|i| words.contains(i.as_str()))
+                        .map(|i| full.iter().cloned().chain([i.clone()]).collect())
+                        .collect()
+                } else {
+                    vec![full]
                 };
-                full.extend(segs);
-                let target = (1..=full.len()).rev().find_map(|k| by_module.get(&full[..k]));
-                if let Some(t) = target.filter(|t| *t != path) {
-                    named.insert(t.clone());
+                for t in targets {
+                    if let Some(t) = modules.resolve(&t, 0).filter(|t| *t != path) {
+                        named.insert(t.clone());
+                    }
                 }
             }
         }
         out.insert(path.clone(), named);
     }
     out
+}
+
+/// The graph's circles: each set of files that all reach each other
+/// (a strongly connected component of more than one file), by Tarjan's
+/// algorithm.
+fn circles(graph: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Vec<Vec<PathBuf>> {
+    struct T<'a> {
+        graph: &'a BTreeMap<PathBuf, BTreeSet<PathBuf>>,
+        index: BTreeMap<&'a PathBuf, (usize, usize)>,
+        stack: Vec<&'a PathBuf>,
+        on: BTreeSet<&'a PathBuf>,
+        out: Vec<Vec<PathBuf>>,
+    }
+    fn visit<'a>(t: &mut T<'a>, v: &'a PathBuf) {
+        let n = t.index.len();
+        t.index.insert(v, (n, n));
+        t.stack.push(v);
+        t.on.insert(v);
+        let graph = t.graph;
+        for w in graph.get(v).into_iter().flatten() {
+            if !t.index.contains_key(w) {
+                visit(t, w);
+                let low = t.index[w].1.min(t.index[v].1);
+                t.index.get_mut(v).unwrap().1 = low;
+            } else if t.on.contains(w) {
+                let low = t.index[w].0.min(t.index[v].1);
+                t.index.get_mut(v).unwrap().1 = low;
+            }
+        }
+        if t.index[v].0 == t.index[v].1 {
+            let mut c = Vec::new();
+            while let Some(w) = t.stack.pop() {
+                t.on.remove(w);
+                c.push(w.clone());
+                if w == v {
+                    break;
+                }
+            }
+            if c.len() > 1 {
+                c.sort();
+                t.out.push(c);
+            }
+        }
+    }
+    let mut t = T { graph, index: BTreeMap::new(), stack: Vec::new(), on: BTreeSet::new(), out: Vec::new() };
+    for v in graph.keys() {
+        if !t.index.contains_key(v) {
+            visit(&mut t, v);
+        }
+    }
+    t.out
 }
 
 /// A cycle of the graph, as the files in order, if it has one.
@@ -352,6 +571,35 @@ fn the_cycle_finder_finds_a_circle_of_files() {
     assert_eq!(a_cycle(&file_imports(src)), None);
 }
 
+/// The finder sees a circle through a re-export (`super::Y` named where
+/// the parent only re-exports `y::Y`) and through a parent's `child::`
+/// path, and sees none where the re-export leads away from the circle.
+#[test]
+fn the_cycle_finder_follows_re_exports_and_a_parent_s_child_paths() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = tmp.path();
+    std::fs::create_dir_all(src.join("a")).unwrap();
+    std::fs::write(src.join("lib.rs"), "pub mod a;\npub mod b;\n").unwrap();
+    std::fs::write(src.join("b.rs"), "pub struct B;\n").unwrap();
+    std::fs::write(src.join("a/mod.rs"), "mod x;\nmod y;\npub use y::{\n    Y,\n};\npub use crate::b::B;\n").unwrap();
+    std::fs::write(src.join("a/x.rs"), "use super::Y;\npub struct X;\n").unwrap();
+    std::fs::write(src.join("a/y.rs"), "pub struct Y(super::x::X);\n").unwrap();
+    let graph = file_imports(src);
+    assert_eq!(graph[&src.join("a/x.rs")], BTreeSet::from([src.join("a/y.rs")]));
+    assert!(a_cycle(&graph).is_some_and(|c| c.len() == 2), "{graph:?}");
+    // A parent naming its child's item by `child::` imports that file.
+    std::fs::write(src.join("a/y.rs"), "pub struct Y;\n").unwrap();
+    std::fs::write(src.join("a/x.rs"), "use super::B;\npub fn g() {}\n").unwrap();
+    let graph = file_imports(src);
+    assert_eq!(graph[&src.join("a/x.rs")], BTreeSet::from([src.join("b.rs")]));
+    assert_eq!(a_cycle(&graph), None);
+    std::fs::write(src.join("a/mod.rs"), "mod x;\nmod y;\npub use y::Y;\npub fn f() { x::g() }\n").unwrap();
+    std::fs::write(src.join("a/x.rs"), "pub fn g() { super::f() }\n").unwrap();
+    let graph = file_imports(src);
+    assert!(graph[&src.join("a/mod.rs")].contains(&src.join("a/x.rs")), "{graph:?}");
+    assert!(a_cycle(&graph).is_some_and(|c| c.len() == 2), "{graph:?}");
+}
+
 /// No two source files import each other, directly or round a longer
 /// circle, in the crate or in its statistics crate: each file can be read
 /// after the files it imports.
@@ -361,11 +609,46 @@ fn no_source_files_import_each_other_round_a_circle() {
         let graph = file_imports(&src);
         let edges: usize = graph.values().map(BTreeSet::len).sum();
         assert!(graph.len() > 10 && edges > graph.len(), "{}: {} files, {edges} imports", src.display(), graph.len());
-        if let Some(cycle) = a_cycle(&graph) {
-            let names: Vec<String> =
-                cycle.iter().map(|p| p.strip_prefix(root()).unwrap().display().to_string()).collect();
-            panic!("source files import each other round a circle: {} -> (back to the first)", names.join(" -> "));
-        }
+        let circles = circles(&graph);
+        let shown: Vec<String> = circles
+            .iter()
+            .map(|c| {
+                let names: Vec<String> =
+                    c.iter().map(|p| p.strip_prefix(root()).unwrap().display().to_string()).collect();
+                let one = a_cycle(
+                    &graph
+                        .iter()
+                        .filter(|(k, _)| c.contains(k))
+                        .map(|(k, v)| (k.clone(), v.iter().filter(|w| c.contains(w)).cloned().collect()))
+                        .collect(),
+                );
+                let round: Vec<String> = one
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|p| p.strip_prefix(root()).unwrap().display().to_string())
+                    .collect();
+                let rel = |p: &PathBuf| p.strip_prefix(root()).unwrap().display().to_string();
+                let arrows: Vec<String> = c
+                    .iter()
+                    .flat_map(|a| {
+                        graph[a].iter().filter(|b| c.contains(b)).map(move |b| format!("{} -> {}", rel(a), rel(b)))
+                    })
+                    .collect();
+                format!(
+                    "{} files: {}\n  e.g. {} -> (back to the first)\n  arrows: {}",
+                    c.len(),
+                    names.join(", "),
+                    round.join(" -> "),
+                    arrows.join("; ")
+                )
+            })
+            .collect();
+        assert!(
+            shown.is_empty(),
+            "source files import each other round {} circle(s):\n{}",
+            shown.len(),
+            shown.join("\n")
+        );
     }
 }
 

@@ -1,5 +1,6 @@
-//! A reanalysis is the run: for every committed run folder of a study of
-//! one run, `crossaudit analyze DESIGN --cells RUN_DIR` (the real binary)
+//! A reanalysis is the run: for every committed run folder (of a study of
+//! one run, or the top folder of a study of several level folders),
+//! `crossaudit analyze DESIGN --cells RUN_DIR` (the real binary)
 //! reads the folder back as a record and writes its report again, and
 //! every file of the committed `report/` must come out byte for byte (the
 //! build line aside). A per-cell file alone gives the same numbers and
@@ -58,18 +59,33 @@ fn find(dir: &Path, name: &str, out: &mut Vec<PathBuf>) {
 fn committed_run_folders() -> Vec<PathBuf> {
     let mut records = Vec::new();
     find(&root().join("results"), "run.json", &mut records);
+    let level = |d: &Path| {
+        let name = d.file_name().unwrap().to_string_lossy().into_owned();
+        ["split-", "draw-", "spec-"].iter().any(|p| name.starts_with(p))
+    };
     let mut out: Vec<PathBuf> = records
         .into_iter()
         .filter(|r| !std::fs::read_to_string(r).unwrap().contains("\"level\""))
         .map(|r| r.parent().unwrap().to_path_buf())
         .filter(|d| d.join("report").is_dir())
         // The level folders of an outer study (older ones record no level).
-        .filter(|d| {
-            let name = d.file_name().unwrap().to_string_lossy();
-            !["split-", "draw-", "spec-"].iter().any(|p| name.starts_with(p))
-        })
-        .map(|d| d.strip_prefix(root()).unwrap().to_path_buf())
+        .filter(|d| !level(d))
         .collect();
+    // And the folders of studies of several levels: their level folders'
+    // parent, beside a report/ (a multiverse of per-seed draws: the top).
+    let mut parents: Vec<PathBuf> = Vec::new();
+    find(&root().join("results"), "run.json", &mut parents);
+    for r in parents {
+        let mut d = r.parent().unwrap().to_path_buf();
+        while level(&d) {
+            d = d.parent().unwrap().to_path_buf();
+        }
+        let top = d.join("report").is_dir() && !d.join("run.json").exists() && !level(&d);
+        if top && !out.contains(&d) {
+            out.push(d);
+        }
+    }
+    let mut out: Vec<PathBuf> = out.into_iter().map(|d| d.strip_prefix(root()).unwrap().to_path_buf()).collect();
     out.sort();
     out
 }
@@ -102,7 +118,16 @@ fn differing(want: &Path, got: &Path) -> Vec<String> {
 /// against today's analysis, whatever the reader does.
 const STALE: &str = "a report written by an older build (before the Fieller interval, the early-stopping and \
     non-disjoint-reference paragraphs and the unit columns); regenerated only by retraining (scripts/regenerate.sh)";
+const NO_STUDY_RECORD: &str = "a study of several level folders written by an older build, before study.json (the run's \
+    notes, the combined cells' hash) was recorded, and before its report had the later sections; regenerated only by \
+    retraining (its COMMAND)";
 const NOT_YET: &[(&str, &str)] = &[
+    ("results/multi_split", NO_STUDY_RECORD),
+    ("results/multiverse/per_seed", NO_STUDY_RECORD),
+    ("results/multiverse/per_seed_budget", NO_STUDY_RECORD),
+    ("results/multiverse/per_seed_uncoupled", NO_STUDY_RECORD),
+    ("results/nanobench_distance", NO_STUDY_RECORD),
+    ("results/nanobench_distance_grouped", NO_STUDY_RECORD),
     ("results/nanobench_audited", STALE),
     ("results/nanobench_confirmatory", STALE),
     ("results/nanobench_paper", STALE),
@@ -125,7 +150,10 @@ const NOT_YET: &[(&str, &str)] = &[
 const NEEDS_DATA: &[(&str, &str)] = &[("results/lab", "designs/logs/lab_logs")];
 
 /// Run folders whose COMMAND names no `run` (the design they ran).
-const DESIGNS: &[(&str, &str)] = &[("results/external_models", "designs/external/paper_external.design")];
+const DESIGNS: &[(&str, &str)] = &[
+    ("results/external_models", "designs/external/paper_external.design"),
+    ("results/multiverse/per_seed_uncoupled", "designs/multiverse/paper_per_seed_uncoupled.design"),
+];
 
 #[test]
 fn every_committed_run_folder_is_reproduced_by_its_reanalysis() {
@@ -242,4 +270,69 @@ fn a_folder_that_is_not_a_run_or_of_another_design_is_refused() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("results/quickstart") && err.contains("752b51800a0c"), "{err}");
+}
+
+/// The small simulated study (tests/designs/sim_small.design) with `extra`.
+fn small(extra: &str) -> String {
+    std::fs::read_to_string(root().join("tests/designs/sim_small.design")).unwrap() + extra
+}
+
+/// A study of every kind whose run writes several level folders (per-seed
+/// draws, whole splits, a multiverse with trained and analysis-only
+/// choices, draw replication, a multiverse of per-seed draws) is run by
+/// the real binary, then its folder is analysed again: the combined
+/// report comes out byte for byte (the build line aside), its warnings
+/// (levels, invariants, notes) included, because both read the same
+/// record. The run's study.json records the combined cells' hash: an
+/// edited cells.csv is refused.
+#[test]
+fn a_study_of_several_level_folders_is_reproduced_by_its_reanalysis() {
+    let tmp = tempfile::tempdir().unwrap();
+    let kinds: [(&str, String); 5] = [
+        ("per_seed", small("draws per seed\n")),
+        (
+            "splits",
+            small("factor split = 42..43\n").replace("decide confirmed when", "decide confirmed on pooled when"),
+        ),
+        (
+            "multiverse",
+            small("").replace("epochs 15 ", "").replace("crossed_mom level 0.95 ", "crossed_mom ")
+                + "choices {\n  epochs 15 | 12\n  level 0.95 | 0.99\n}\nprimary specification epochs 15, level 0.95\n",
+        ),
+        ("draws", small("factor draw = 1..2\n")),
+        (
+            "per_seed_multiverse",
+            small("").replace("epochs 15 ", "").replace("crossed_mom level 0.95 ", "crossed_mom ")
+                + "draws per seed\ndraws coupled\nchoices {\n  epochs 15 | 12\n  level 0.95 | 0.99\n}\nprimary specification epochs 15, level 0.95\n",
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, text) in &kinds {
+        let design = tmp.path().join(format!("{name}.design"));
+        std::fs::write(&design, text).unwrap();
+        let (run, again) = (tmp.path().join(format!("{name}_run")), tmp.path().join(format!("{name}_again")));
+        let d = design.to_str().unwrap();
+        let o = crossaudit(&["run", d, "--out", run.to_str().unwrap(), "--workers", "2"]);
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(run.join("study.json").is_file(), "{name}: the run wrote no study.json");
+        let o = crossaudit(&["analyze", d, "--cells", run.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        let differ = differing(&run.join("report"), &again);
+        if !differ.is_empty() {
+            failures.push(format!("{name}: {} differ", differ.join(", ")));
+        }
+        if *name == "per_seed" {
+            // The run's own notes are the reanalysis's: the levels' note.
+            let md = std::fs::read_to_string(again.join("report.md")).unwrap();
+            assert!(md.contains("draws per seed: each seed trained"), "{md}");
+            // The combined cells.csv is verified against study.json.
+            let cells = run.join("cells.csv");
+            let text = std::fs::read_to_string(&cells).unwrap();
+            std::fs::write(&cells, text.replacen(",1,", ",2,", 1)).unwrap();
+            let o = crossaudit(&["analyze", d, "--cells", run.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!o.status.success() && err.contains("study.json") && err.contains("edited"), "{err}");
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -11,7 +11,8 @@ use std::collections::BTreeMap;
 
 use super::coverage::{condition_coverage, ConditionCoverage, CoverageNote, Uncovered};
 use super::family::{analyze_family, DoseSource, FamilyAnalysis};
-use super::record::{Curve, LevelEvidence, Record, RunEvidence};
+use super::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, ReferenceCopies, UnitNotes};
+use super::record::{Curve, DesignLabel, InvariantEntry, LevelEvidence, MultiverseRecord, Record, RunEvidence};
 use super::training::{early_training, BestEpoch};
 use super::{analyze, Analysis, AnalyzeOptions, FileAnalysisError, StudyAnalysis, TreatmentStrength};
 use crate::design::{DoseAxis, ModelKind};
@@ -54,7 +55,7 @@ impl Labelled for Analysis {
         (&mut self.design_sha256, &mut self.exploratory, &mut self.preregistered, &mut self.warnings)
     }
     fn cells(&mut self, name: &str, sha256: &str) {
-        self.record_cells(std::path::Path::new(name), sha256);
+        self.provenance.cells = Some((name.to_string(), sha256.to_string()));
     }
 }
 
@@ -63,7 +64,7 @@ impl Labelled for FamilyAnalysis {
         (&mut self.design_sha256, &mut self.exploratory, &mut self.preregistered, &mut self.warnings)
     }
     fn cells(&mut self, name: &str, sha256: &str) {
-        self.record_cells(std::path::Path::new(name), sha256);
+        self.provenance.cells = Some((name.to_string(), sha256.to_string()));
     }
     fn propagate(&mut self) {
         let (sha, exploratory, preregistered) = (self.design_sha256.clone(), self.exploratory, self.preregistered);
@@ -79,8 +80,14 @@ impl Labelled for FamilyAnalysis {
 /// preregistered (locked and unchanged, and the cells not from a run
 /// labelled EXPLORATORY), and the lock's warning; then the per-cell file.
 pub fn label(a: &mut impl Labelled, record: &Record) {
-    let design = &record.design;
     let run_exploratory = record.run.as_ref().is_some_and(|r| r.exploratory);
+    label_design(a, &record.design, run_exploratory);
+    a.cells(&record.cells_file.0.clone(), &record.cells_file.1.clone());
+}
+
+/// Labels `a` with `design` (its hash, lock state and warning), EXPLORATORY
+/// when the design changed after its lock or the run was labelled so.
+fn label_design(a: &mut impl Labelled, design: &DesignLabel, run_exploratory: bool) {
     {
         let (sha, exploratory, preregistered, warnings) = a.header();
         *sha = Some(design.sha256.clone());
@@ -90,7 +97,73 @@ pub fn label(a: &mut impl Labelled, record: &Record) {
         warnings.extend(warning);
     }
     a.propagate();
-    a.cells(&record.cells_file.0.clone(), &record.cells_file.1.clone());
+}
+
+impl Labelled for MultiverseAnalysis {
+    fn header(&mut self) -> (&mut Option<String>, &mut bool, &mut Option<bool>, &mut Vec<String>) {
+        (&mut self.design_sha256, &mut self.exploratory, &mut self.preregistered, &mut self.warnings)
+    }
+    fn cells(&mut self, _name: &str, _sha256: &str) {}
+    fn propagate(&mut self) {
+        let (sha, exploratory, preregistered) = (self.design_sha256.clone(), self.exploratory, self.preregistered);
+        for (_, a) in &mut self.levels {
+            a.design_sha256.clone_from(&sha);
+            a.exploratory |= exploratory;
+            a.preregistered = preregistered;
+        }
+    }
+}
+
+/// The combined analysis of a multiverse or draw-replicated run from its
+/// record: `inputs` are its units (their plans, and their cells from
+/// `record`), labelled with the design, with each unit's notes from its
+/// level folders, the splits the specifications share, and the run's
+/// warnings; a unit that shares another's run says so in its own analysis.
+pub fn analyze_multiverse_record(
+    design: &crate::design::Design,
+    inputs: &[LevelInput],
+    record: &MultiverseRecord,
+) -> Result<MultiverseAnalysis, FileAnalysisError> {
+    let mut a = analyze_multiverse(design, inputs).map_err(|e| FileAnalysisError::new(&record.dir, e))?;
+    label_design(&mut a, &record.design, record.run.exploratory);
+    for (k, u) in inputs.iter().enumerate() {
+        if let (Some(s), Some((_, level))) = (&u.shares, a.levels.get_mut(k)) {
+            level.warnings.push(format!("trained nothing: its cells are those of {s} (only the analysis differs)"));
+        }
+    }
+    a.notes =
+        inputs.iter().zip(&record.units).map(|(u, (cells, levels))| unit_notes(&u.id, u.plan, levels, cells)).collect();
+    a.shared = record.shared.clone();
+    let run = &record.run;
+    let mut warnings: Vec<String> = resumed(run).into_iter().chain(run.notes.iter().cloned()).collect();
+    warnings.extend(run.missing.iter().cloned());
+    let mut seen: std::collections::BTreeSet<String> = a.warnings.iter().cloned().collect();
+    a.warnings.extend(warnings.into_iter().filter(|w| seen.insert(w.clone())));
+    Ok(a)
+}
+
+/// The notes on one unit of a multiverse (a specification, or a draw)
+/// from its level folders: its reference arm's coverage and copies of
+/// evaluation recordings, and its training.
+fn unit_notes(id: &str, plan: &Plan, levels: &[LevelEvidence], cells: &[crate::cells::Cell]) -> UnitNotes {
+    let copies: Vec<usize> = levels
+        .iter()
+        .filter_map(|l| l.warned.iter().find(|i| i.id == 5).map(InvariantEntry::from_evaluation))
+        .collect();
+    let reference_copies = match (copies.iter().min(), copies.iter().max()) {
+        (Some(&fewest), Some(&most)) => {
+            Some(ReferenceCopies { fewest, most, levels_with: copies.len(), levels: levels.len() })
+        }
+        _ => None,
+    };
+    let curves: Vec<Curve> = levels.iter().flat_map(|l| l.curves.iter().cloned()).collect();
+    let best = best_epochs(plan, &curves);
+    UnitNotes {
+        id: id.to_string(),
+        coverage: note(plan, levels),
+        reference_copies,
+        early: if best.is_empty() { None } else { early_training(plan, &best, cells) },
+    }
 }
 
 /// The sentence a per-cell file alone gets in place of the run's evidence.
@@ -100,8 +173,8 @@ fn absent(sections: &str) -> String {
     )
 }
 
-/// A single study's statements from the run folder, in the order its
-/// report gives them.
+/// A single study's statements from the run folder (or, under per-seed
+/// draws, its level folders), in the order its report gives them.
 fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
     let Some(run) = &record.run else {
         a.warnings.push(absent(
@@ -109,18 +182,11 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
         ));
         return;
     };
-    a.record_provenance(&run.data, &run.audit_sha256);
-    a.warnings.extend(run.levels.iter().filter_map(|l| l.unread.clone()));
-    for l in &run.levels {
-        for i in &l.warned {
-            a.warnings.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
-        }
-    }
-    a.warnings.extend(resumed(run));
-    a.warnings.extend(run.notes.iter().cloned());
-    if let [level] = run.levels.as_slice() {
-        a.treatment = level.treatment.as_ref().map(|t| strengths(t, plan.rate_hz)).unwrap_or_default();
-    }
+    a.provenance.data = Some(run.data.clone());
+    a.provenance.audit_sha256 = Some(run.audit_sha256.clone());
+    let mut warnings = run_warnings(plan, run);
+    a.treatment = treatment(plan, &run.levels, &mut warnings);
+    a.warnings.extend(warnings);
     a.coverage = statement(plan, &record.cells, &run.levels);
     a.curves = run.curves();
     if let Some(w) = early_training(plan, &best_epochs(plan, &a.curves), &record.cells).and_then(|e| e.warning()) {
@@ -129,7 +195,8 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
     a.warnings.extend(run.missing.iter().cloned());
 }
 
-/// A dose-response family's statements from the run folder.
+/// A dose-response family's statements from the run folder (or its
+/// level folders: whole splits, or per-seed draws).
 fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
     let Some(run) = &record.run else {
         a.warnings.push(absent("the data's provenance, treatment strength and condition coverage"));
@@ -137,15 +204,125 @@ fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
     };
     a.provenance.data = Some(run.data.clone());
     a.provenance.audit_sha256 = Some(run.audit_sha256.clone());
-    a.warnings.extend(run.levels.iter().filter_map(|l| l.unread.clone()));
-    a.warnings.extend(run.notes.iter().cloned());
-    if let [level] = run.levels.as_slice() {
-        a.treatment = level.treatment.as_ref().map(|t| strengths(t, plan.rate_hz)).unwrap_or_default();
-    }
+    let mut warnings = run_warnings(plan, run);
+    a.treatment = treatment(plan, &run.levels, &mut warnings);
+    a.warnings.extend(warnings);
     a.coverage = note(plan, &run.levels);
     a.sources = sources(plan, &run.levels);
-    a.warnings.extend(resumed(run));
     a.warnings.extend(run.missing.iter().cloned());
+}
+
+/// The run's warnings, in report order, each once: what its level folders
+/// are, the logs it could not read, the split's invariants that hold with
+/// a warning, the builds that resumed it, and the run's own notes.
+fn run_warnings(plan: &Plan, run: &RunEvidence) -> Vec<String> {
+    let mut out = Vec::new();
+    let outer = run.levels.len() > 1 || run.levels.iter().any(|l| !l.id.is_empty());
+    if outer {
+        out.push(levels_note(plan, &run.levels));
+    }
+    out.extend(run.levels.iter().filter_map(|l| l.unread.clone()));
+    if outer {
+        out.extend(invariants_over_levels(&run.levels));
+    } else {
+        for i in run.levels.iter().flat_map(|l| &l.warned) {
+            out.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
+        }
+    }
+    out.extend(resumed(run));
+    out.extend(run.notes.iter().cloned());
+    let mut seen = std::collections::BTreeSet::new();
+    out.retain(|w| seen.insert(w.clone()));
+    out
+}
+
+/// What the level folders of a study of several are.
+fn levels_note(plan: &Plan, levels: &[LevelEvidence]) -> String {
+    if !plan.splits.is_empty() {
+        return "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
+            .to_string();
+    }
+    let seeds: Vec<String> =
+        levels.iter().map(|l| format!("seed {} draw {}", l.seed.unwrap_or(0), l.draw.unwrap_or(1))).collect();
+    format!(
+        "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
+        seeds.join(", ")
+    )
+}
+
+/// A level as the warnings name it: `draw 3`, `split 42`.
+fn level_name(l: &LevelEvidence) -> String {
+    match l.draw {
+        Some(d) => format!("draw {d}"),
+        None => l.id.replacen('-', " ", 1),
+    }
+}
+
+/// One warning per invariant that holds with a warning in any level, with
+/// the range of its counts over the levels and the first level's detail.
+fn invariants_over_levels(levels: &[LevelEvidence]) -> Vec<String> {
+    let mut by_id: BTreeMap<u64, Vec<(&LevelEvidence, &InvariantEntry)>> = BTreeMap::new();
+    for l in levels {
+        for i in &l.warned {
+            by_id.entry(i.id).or_default().push((l, i));
+        }
+    }
+    let kind = |l: &LevelEvidence| if l.draw.is_some() { "draws" } else { "splits" };
+    by_id
+        .into_iter()
+        .map(|(id, found)| {
+            let counts: Vec<usize> = found.iter().map(|(_, i)| i.from_evaluation()).collect();
+            let (lo, hi) = (counts.iter().min().copied().unwrap_or(0), counts.iter().max().copied().unwrap_or(0));
+            let (first_level, first) = found[0];
+            let per = kind(first_level).trim_end_matches('s');
+            format!(
+                "invariant {id} ({}) holds with a warning in {} of {} {}: {lo} to {hi} windows per {per} from evaluation recordings or byte-identical copies of them; {}: {}",
+                first.name,
+                found.len(),
+                levels.len(),
+                kind(first_level),
+                level_name(first_level),
+                first.detail
+            )
+        })
+        .collect()
+}
+
+/// Each arm's treatment strength: one level's own, or over several, per
+/// field the median over the levels (with a warning in `warnings` saying
+/// so). Empty where a level lacks its audit or an arm is missing from one.
+fn treatment(plan: &Plan, levels: &[LevelEvidence], warnings: &mut Vec<String>) -> Vec<TreatmentStrength> {
+    let per: Option<Vec<Vec<TreatmentStrength>>> =
+        levels.iter().map(|l| l.treatment.as_ref().and_then(|t| strengths(t, plan.rate_hz))).collect();
+    let per = per.unwrap_or_default();
+    match per.as_slice() {
+        [] => Vec::new(),
+        [one] => one.clone(),
+        [first, ..] => {
+            let mut out = Vec::new();
+            for arm in first {
+                let of: Option<Vec<&TreatmentStrength>> =
+                    per.iter().map(|level| level.iter().find(|t| t.arm == arm.arm)).collect();
+                let Some(of) = of else { return Vec::new() };
+                let m =
+                    |f: &dyn Fn(&TreatmentStrength) -> f64| crossaudit_stats::median(of.iter().map(|t| f(t)).collect());
+                let q = |k: usize| m(&|t| t.segment_distance_quartiles_s[k]);
+                out.push(TreatmentStrength {
+                    arm: arm.arm.clone(),
+                    contaminating_windows: m(&|t| t.contaminating_windows as f64).round() as usize,
+                    inside_evaluated_segment: m(&|t| t.inside_evaluated_segment as f64).round() as usize,
+                    horizon_s: m(&|t| t.horizon_s),
+                    median_distance_s: m(&|t| t.median_distance_s),
+                    segment_distance_quartiles_s: [q(0), q(1), q(2)],
+                });
+            }
+            let (n, one) = (levels.len(), if plan.splits.is_empty() { "draw" } else { "split" });
+            warnings.push(format!(
+                "treatment strength: each value is the median over the {n} {one}s of that {one}'s own (each {one}'s audit/treatment.json)"
+            ));
+            out
+        }
+    }
 }
 
 /// A warning for each build other than the run's that trained cells.
@@ -157,18 +334,21 @@ fn resumed(run: &RunEvidence) -> Vec<String> {
         .collect()
 }
 
-/// The split's treatment audit as the report shows it.
-pub fn strengths(t: &super::record::Treatment, rate_hz: f64) -> Vec<TreatmentStrength> {
+/// The split's treatment audit as the report shows it; `None` for an
+/// audit written before the distance quartiles were measured.
+pub fn strengths(t: &super::record::Treatment, rate_hz: f64) -> Option<Vec<TreatmentStrength>> {
     let horizon_s = t.horizon_samples as f64 / rate_hz;
     t.arms
         .iter()
-        .map(|a| TreatmentStrength {
-            arm: a.arm.clone(),
-            contaminating_windows: a.contaminating_windows,
-            inside_evaluated_segment: a.inside_evaluated_segment,
-            horizon_s,
-            median_distance_s: a.median_distance_s,
-            segment_distance_quartiles_s: a.segment_distance_quartiles_s,
+        .map(|a| {
+            Some(TreatmentStrength {
+                arm: a.arm.clone(),
+                contaminating_windows: a.contaminating_windows,
+                inside_evaluated_segment: a.inside_evaluated_segment,
+                horizon_s,
+                median_distance_s: a.median_distance_s,
+                segment_distance_quartiles_s: a.segment_distance_quartiles_s?,
+            })
         })
         .collect()
 }

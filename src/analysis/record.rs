@@ -45,6 +45,25 @@ pub struct Record {
     pub run: Option<RunEvidence>,
 }
 
+/// The run folder of a multiverse or draw-replicated study, read: each
+/// unit's cells and level evidence, and what the run recorded beside them.
+#[derive(Debug, Clone)]
+pub struct MultiverseRecord {
+    /// The design it is analysed under.
+    pub design: DesignLabel,
+    /// The run folder (analysis errors name it).
+    pub dir: std::path::PathBuf,
+    /// Per unit of the study (in the plan's unit order): its cells (its
+    /// levels' in level order) and each level's evidence.
+    pub units: Vec<(Vec<Cell>, Vec<LevelEvidence>)>,
+    /// What the run recorded beside its levels; its `levels` is empty
+    /// (each unit's are above).
+    pub run: RunEvidence,
+    /// Starts and windows each pair of specifications' splits share, as
+    /// the run recorded them in `study.json`.
+    pub shared: Vec<super::multiverse::SharedDraws>,
+}
+
 /// What a run folder holds beyond its cells.
 #[derive(Debug, Clone, Default)]
 pub struct RunEvidence {
@@ -76,6 +95,8 @@ pub struct LevelEvidence {
     pub id: String,
     /// Its draw, under per-seed draws.
     pub draw: Option<u64>,
+    /// Its one training seed, under per-seed draws.
+    pub seed: Option<u64>,
     /// `audit/treatment.json`.
     pub treatment: Option<Treatment>,
     /// The split's invariants that hold with a warning (`audit/invariants.json`).
@@ -130,8 +151,10 @@ pub struct ArmStrength {
     pub inside_evaluated_segment: usize,
     /// Median distance to the nearest registered start, seconds.
     pub median_distance_s: f64,
-    /// Quartiles of the distance to the nearest evaluated segment, seconds.
-    pub segment_distance_quartiles_s: [f64; 3],
+    /// Quartiles of the distance to the nearest evaluated segment, seconds
+    /// (absent in audits written before they were measured).
+    #[serde(default)]
+    pub segment_distance_quartiles_s: Option<[f64; 3]>,
 }
 
 /// Each arm's fit coverage of the evaluation conditions

@@ -116,40 +116,6 @@ impl Default for Provenance {
     }
 }
 
-impl Analysis {
-    /// Records the data a run computed the cells from.
-    pub fn record_provenance(&mut self, data: &str, audit_sha256: &str) {
-        self.provenance.data = Some(data.to_string());
-        self.provenance.audit_sha256 = Some(audit_sha256.to_string());
-    }
-
-    /// Records the per-cell file analysed and its SHA-256.
-    pub fn record_cells(&mut self, path: &std::path::Path, sha256: &str) {
-        self.provenance.cells = Some((path.display().to_string(), sha256.to_string()));
-    }
-
-    /// Records the design the analysis ran under (`path` as the user named
-    /// it): its hash, whether it is preregistered, and, when it changed
-    /// after it was locked, an EXPLORATORY label, or, when it was never
-    /// locked, a NOT PREREGISTERED one, each with a warning.
-    pub fn record_design(&mut self, path: &str, sha256: &str, status: &LockStatus) {
-        self.design_sha256 = Some(sha256.to_string());
-        let (exploratory, preregistered, warning) = lock_labels(path, status);
-        self.exploratory |= exploratory;
-        self.preregistered = Some(preregistered && !self.exploratory);
-        self.warnings.extend(warning);
-    }
-
-    /// Labels the analysis EXPLORATORY (a run of a changed design, allowed
-    /// with `--exploratory`): it is then not the preregistered one.
-    pub fn mark_exploratory(&mut self) {
-        self.exploratory = true;
-        if self.preregistered.is_some() {
-            self.preregistered = Some(false);
-        }
-    }
-}
-
 /// What a design's lock state makes of an analysis: (exploratory,
 /// preregistered, the warning to give).
 pub fn lock_labels(path: &str, status: &LockStatus) -> (bool, bool, Option<String>) {

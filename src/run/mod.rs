@@ -11,8 +11,6 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
-mod coverage;
-mod curves;
 mod error;
 pub mod external;
 mod folder;
@@ -31,8 +29,7 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::analysis::family::{analyze_family, FamilyAnalysis};
-use crate::analysis::{self, FileAnalysisError, StudyAnalysis};
+use crate::analysis::{self, StudyAnalysis};
 use crate::cells::{read_cells, write_cells_atomic, Cell, CellsError};
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::create_dir_all;
@@ -44,8 +41,8 @@ pub use grid::{Quiet, RunObserver};
 use guard::refuse_single_run;
 pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir};
 pub use job::{run_job, run_job_with, JobOutcome};
-pub use read::{read_folder, read_record};
-pub use record::{job_record_path, JobRecord, RunRecord};
+pub use read::{read_folder, read_levels, read_record, LevelFolder};
+pub use record::{job_record_path, JobRecord, RunRecord, StudyRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;
 
@@ -176,58 +173,56 @@ pub fn check_workers(workers: usize) -> Result<(), RunError> {
     }
 }
 
-/// After every split finished: `out/cells.csv` with a `split` column and
-/// the family analysis in `out/report`.
-fn finish_splits(
-    design_path: &str,
+/// After every split finished: `out/cells.csv` with a `split` column, then
+/// the folder finished as [`finish_combined`] finishes it (the family
+/// analysis in `out/report`).
+pub(crate) fn finish_splits(
+    design: analysis::record::DesignLabel,
     plan: &Plan,
+    outer: &outer::Outer,
     out: &Path,
-    status: &LockStatus,
-    exploratory: bool,
-    record: &RunRecord,
-    builds: std::collections::BTreeSet<String>,
+    notes: &[String],
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
+    let levels = LevelFolder::of(outer, out);
     let mut all: Vec<Cell> = Vec::new();
-    for &s in &plan.splits {
-        let dir = out.join(crate::plan::split_dir(s));
-        all.extend(read_cells(&dir.join("cells.csv"))?.into_iter().map(|c| Cell { split: Some(s), ..c }));
+    for (l, level) in levels.iter().zip(&outer.levels) {
+        let split = level.split;
+        all.extend(read_cells(&l.dir.join("cells.csv"))?.into_iter().map(|c| Cell { split, ..c }));
     }
-    let cells_csv = out.join("cells.csv");
-    write_cells_atomic(&cells_csv, &all)?;
-    let dirs: Vec<PathBuf> = plan.splits.iter().map(|&s| out.join(crate::plan::split_dir(s))).collect();
-    let mut outcome = report_family(design_path, plan, out, cells_csv, (status, exploratory, record), builds, |a| {
-        a.warnings.push(
-            "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
-                .to_string(),
-        );
-        a.coverage = coverage::note_of_levels(plan, &dirs);
-    })?;
+    write_cells_atomic(&out.join("cells.csv"), &all)?;
+    let mut outcome = finish_combined(design, plan, out, &levels, notes)?;
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(outcome)
 }
 
-/// The family analysis of `cells_csv` (labelled with the design, lock
-/// state, data and resumed builds, then `extra`), its report written in
-/// `out/report`.
-pub(crate) fn report_family(
-    design_path: &str,
+/// The folder `dir` of a study of several level folders `levels`, once its
+/// combined `cells.csv` is written: `study.json` (the levels, the cells'
+/// hash, the run's `notes`), then the folder read back as a record,
+/// analysed and reported in `dir/report`, exactly as `crossaudit analyze
+/// DESIGN --cells DIR` does.
+pub(crate) fn finish_combined(
+    design: analysis::record::DesignLabel,
     plan: &Plan,
-    out: &Path,
-    cells_csv: PathBuf,
-    (status, exploratory, record): (&LockStatus, bool, &RunRecord),
-    builds: std::collections::BTreeSet<String>,
-    extra: impl FnOnce(&mut FamilyAnalysis),
+    dir: &Path,
+    levels: &[LevelFolder],
+    notes: &[String],
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
-    let cells = read_cells(&cells_csv)?;
-    let mut a = analyze_family(plan, &cells, Default::default()).map_err(|e| FileAnalysisError::new(&cells_csv, e))?;
-    label_family(&mut a, design_path, status, exploratory, &record.design_sha256, &cells_csv)?;
-    a.provenance.data = Some(record.data.describe());
-    extra(&mut a);
-    a.warnings.extend(resumed_builds(builds));
-    let report_dir = out.join("report");
-    let mut analysis = StudyAnalysis::Family(Box::new(a));
+    let cells_csv = dir.join("cells.csv");
+    StudyRecord {
+        study: plan.study.clone(),
+        design_sha256: design.sha256.clone(),
+        crossaudit: crate::io::BUILD.to_string(),
+        levels: levels.iter().map(|l| l.id.clone()).collect(),
+        cells_sha256: crate::cells::file_sha256(&cells_csv)?,
+        notes: notes.to_vec(),
+        shared: Vec::new(),
+    }
+    .write(dir)?;
+    let record = read::read_levels(design, dir, levels)?;
+    let mut analysis = analysis::analyze_study(plan, &record, Default::default())?;
+    let report_dir = dir.join("report");
     crate::report::write_study(&mut analysis, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
@@ -239,41 +234,11 @@ pub(crate) fn report_family(
     })
 }
 
-/// A warning for each build other than this one that trained cells.
-fn resumed_builds(mut builds: std::collections::BTreeSet<String>) -> Vec<String> {
-    builds.remove(crate::io::BUILD);
-    builds
-        .into_iter()
-        .map(|b| {
-            format!("some cells were trained by crossaudit {b}; this run, which resumed them, is {}", crate::io::BUILD)
-        })
-        .collect()
-}
-
-/// The design hash, lock state and cells of a family analysis.
-fn label_family(
-    a: &mut FamilyAnalysis,
-    design_path: &str,
-    status: &LockStatus,
-    exploratory: bool,
-    sha256: &str,
-    cells_csv: &Path,
-) -> Result<(), RunError> {
-    a.record_design(design_path, sha256, status);
-    if exploratory {
-        a.mark_exploratory();
-    }
-    a.record_cells(Path::new("cells.csv"), &crate::cells::file_sha256(cells_csv)?);
-    Ok(())
-}
-
 /// A run directory made ready for its jobs: the lock state it runs under,
 /// the prepared split and the record written to `run.json`.
 struct Opened {
     /// The design's lock state when the run was opened.
     status: LockStatus,
-    /// Whether every output is labelled EXPLORATORY.
-    exploratory: bool,
     /// The split every job reads.
     prepared: crate::split::Prepared,
     /// What `run.json` holds.
@@ -322,7 +287,7 @@ fn open(
         ..RunRecord::new(plan, file, data, &prepared, exploratory)
     };
     record.write(out)?;
-    Ok(Opened { status, exploratory, prepared, record, warnings: Vec::new() })
+    Ok(Opened { status, prepared, record, warnings: Vec::new() })
 }
 
 /// The design's lock state, refusing a design that changed after it was

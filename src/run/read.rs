@@ -13,27 +13,50 @@ use std::path::{Path, PathBuf};
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
 
-use super::{RunError, RunRecord};
+use super::{RunError, RunRecord, StudyRecord};
 use crate::analysis::record::{Curve, DesignLabel, InvariantsFile, LevelEvidence, Record, RunEvidence, Treatment};
 use crate::cells::read_cells;
 use crate::design::{lock, DesignFile};
-use crate::plan::Plan;
+use crate::plan::study::Role;
+use crate::plan::{Plan, StudyPlan};
 
 /// The record of `cells` for the design `file` compiled as `plan`: a run
 /// folder (its `cells.csv` and its evidence), a run's own `cells.csv`
 /// (read with its folder's evidence when the folder's run.json records
 /// this design and this file's hash), or any other per-cell file alone.
-pub fn read_record(file: &DesignFile, plan: &Plan, cells: &Path) -> Result<Record, RunError> {
+pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result<Record, RunError> {
+    let plan = &study.plan;
     let design =
         DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: lock::status(file)? };
+    let outer = study.outer.as_ref().filter(|o| matches!(o.role, Role::PerSeed | Role::Redraw));
     if cells.is_dir() {
-        return read_folder(design, plan, cells);
+        return match outer {
+            Some(o) => read_levels(design, cells, &LevelFolder::of(o, cells)),
+            None => read_folder(design, plan, cells),
+        };
     }
     // Read (and so checked to be a regular file) before it is hashed.
     let rows = read_cells(cells)?;
     let sha = crate::cells::file_sha256(cells)?;
     let shown = cells.display().to_string();
     let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if let Some(o) = outer {
+        // A study's own combined cells.csv: read with its level folders.
+        let own = cells.file_name().is_some_and(|n| n == "cells.csv")
+            && matches!(StudyRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256 == sha);
+        if own {
+            let mut record = levels_record(design, beside, &LevelFolder::of(o, beside), (rows, sha))?;
+            (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
+            return Ok(record);
+        }
+        return Ok(Record {
+            design,
+            cells: rows,
+            cells_path: cells.to_path_buf(),
+            cells_file: (shown, sha),
+            run: None,
+        });
+    }
     let own = cells.file_name().is_some_and(|n| n == "cells.csv")
         && matches!(RunRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256.as_deref() == Some(&sha));
     if own {
@@ -98,7 +121,10 @@ fn with_evidence(
     (cells, sha): (Vec<crate::cells::Cell>, String),
 ) -> Record {
     let mut missing = Vec::new();
-    let level = read_level(plan, dir, String::new(), &mut missing);
+    let (curves, strength) = (!plan.is_family(), true);
+    let here =
+        LevelFolder { id: String::new(), draw: None, seed: None, plan, dir: dir.to_path_buf(), curves, strength };
+    let level = read_level(&here, &mut missing);
     let evidence = RunEvidence {
         data: run.data.describe(),
         audit_sha256: run.audit_sha256.clone(),
@@ -113,23 +139,202 @@ fn with_evidence(
     Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(evidence) }
 }
 
+/// One level folder of a study of several: its name, draw and seed (under
+/// per-seed draws), its plan and where it is.
+pub struct LevelFolder<'a> {
+    /// The level's folder name (`draw-3`, `split-42`).
+    pub id: String,
+    /// Its draw, under per-seed draws.
+    pub draw: Option<u64>,
+    /// Its one training seed, under per-seed draws.
+    pub seed: Option<u64>,
+    /// The level's own plan.
+    pub plan: &'a Plan,
+    /// Its folder.
+    pub dir: PathBuf,
+    /// Whether its training curves are read (a family's report draws none
+    /// and checks none).
+    pub curves: bool,
+    /// Whether the report gives the treatment strength table (a
+    /// multiverse's combined report does not).
+    pub strength: bool,
+}
+
+impl<'a> LevelFolder<'a> {
+    /// The levels of `outer` as folders of `dir` (a level sharing
+    /// another's run, that one's folder).
+    pub fn of(outer: &'a crate::plan::study::Outer, dir: &Path) -> Vec<LevelFolder<'a>> {
+        let levels = &outer.levels;
+        let family = outer.role == Role::Redraw;
+        (0..levels.len())
+            .map(|k| LevelFolder::at(&levels[k], dir.join(&levels[levels[k].shares.unwrap_or(k)].id)))
+            .map(|l| LevelFolder { curves: l.curves && !family, ..l })
+            .collect()
+    }
+
+    /// The level `l` in the folder `dir`.
+    pub fn at(l: &'a crate::plan::study::Level, dir: PathBuf) -> LevelFolder<'a> {
+        let seed = if l.draw.is_some() { l.design.seeds.first().map(|s| s.0) } else { None };
+        LevelFolder {
+            id: l.id.clone(),
+            draw: l.draw,
+            seed,
+            plan: &l.plan,
+            dir,
+            curves: !l.plan.is_family(),
+            strength: true,
+        }
+    }
+}
+
+/// The record of the folder `dir` of a study of several level folders
+/// (`draws per seed`, or a family of whole splits): its combined
+/// `cells.csv`, verified against its `study.json`, and each level's
+/// evidence from its own folder.
+pub fn read_levels(design: DesignLabel, dir: &Path, levels: &[LevelFolder]) -> Result<Record, RunError> {
+    let cells_path = dir.join("cells.csv");
+    let cells = read_cells(&cells_path)?;
+    let sha = crate::cells::file_sha256(&cells_path)?;
+    levels_record(design, dir, levels, (cells, sha))
+}
+
+/// As [`read_levels`], for the combined `cells.csv` already read and hashed.
+fn levels_record(
+    design: DesignLabel,
+    dir: &Path,
+    levels: &[LevelFolder],
+    (cells, sha): (Vec<crate::cells::Cell>, String),
+) -> Result<Record, RunError> {
+    let shown = dir.display().to_string();
+    let mut missing = Vec::new();
+    let study = StudyRecord::read(dir)?;
+    match &study {
+        Some(s) if s.design_sha256 != design.sha256 => {
+            return Err(RunError::OtherDesign { dir: shown, sha256: s.design_sha256.clone() })
+        }
+        Some(s) if s.cells_sha256 != sha => {
+            return Err(RunError::LevelChanged {
+                dir: shown,
+                reason: format!(
+                    "cells.csv has sha256 {sha}, but the run recorded {} in study.json when it combined its levels: it was edited after the run",
+                    s.cells_sha256
+                ),
+            })
+        }
+        Some(_) => {}
+        None => missing.push(format!(
+            "{} is absent (a folder written before it was recorded): the run's notes (jobs reused or copied, external models) not reported, and cells.csv not verified against the run",
+            dir.join("study.json").display()
+        )),
+    }
+    let mut runs = Vec::new();
+    for l in levels {
+        match RunRecord::read(&l.dir)? {
+            Some(r) if r.design_sha256 != design.sha256 => {
+                return Err(RunError::OtherDesign { dir: l.dir.display().to_string(), sha256: r.design_sha256 })
+            }
+            Some(r) => runs.push(r),
+            None => missing.push(format!(
+                "{} is absent: the level's data provenance, exploratory label and resumed builds not reported",
+                l.dir.join("run.json").display()
+            )),
+        }
+    }
+    let first = runs.first();
+    let build = study.as_ref().map(|s| s.crossaudit.clone()).or_else(|| first.map(|r| r.crossaudit.clone()));
+    let evidence = RunEvidence {
+        data: first.map(|r| r.data.describe()).unwrap_or_default(),
+        audit_sha256: first.map(|r| r.audit_sha256.clone()).unwrap_or_default(),
+        exploratory: runs.iter().any(|r| r.exploratory),
+        build: build.unwrap_or_default(),
+        resumed_from: runs.iter().flat_map(|r| r.resumed_from.iter().cloned()).collect(),
+        notes: study.map(|s| s.notes).unwrap_or_default(),
+        levels: read_each(levels, &mut missing),
+        missing,
+    };
+    Ok(Record {
+        design,
+        cells,
+        cells_path: dir.join("cells.csv"),
+        cells_file: ("cells.csv".to_string(), sha),
+        run: Some(evidence),
+    })
+}
+
+/// Every level's evidence, in order; what the levels lack is said once
+/// for all the levels that lack it ([`said_once`]).
+pub fn read_each(levels: &[LevelFolder], missing: &mut Vec<String>) -> Vec<LevelEvidence> {
+    let mut each = Vec::new();
+    let read = levels
+        .iter()
+        .map(|l| {
+            let mut lacks = Vec::new();
+            let evidence = read_level(l, &mut lacks);
+            each.push((l, lacks));
+            evidence
+        })
+        .collect();
+    missing.extend(said_once(&each));
+    read
+}
+
+/// The sentences of `each` level (what it lacks), each said once: a
+/// sentence that several levels share but for their folder's name is
+/// said once with `LEVEL` in place of the name, and the levels it holds for.
+fn said_once(each: &[(&LevelFolder, Vec<String>)]) -> Vec<String> {
+    let mut order: Vec<String> = Vec::new();
+    let mut by: BTreeMap<String, Vec<&str>> = BTreeMap::new();
+    for (l, lacks) in each {
+        let name = l.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let shown = l.dir.display().to_string();
+        let generic = shown.strip_suffix(&name).map(|parent| format!("{parent}LEVEL")).unwrap_or_else(|| shown.clone());
+        for s in lacks {
+            let key = if name.is_empty() { s.clone() } else { s.replace(&shown, &generic) };
+            if !by.contains_key(&key) {
+                order.push(key.clone());
+            }
+            by.entry(key).or_default().push(&l.id);
+        }
+    }
+    order
+        .into_iter()
+        .map(|key| {
+            let ids = &by[&key];
+            match ids.as_slice() {
+                [one] => key.replace("LEVEL", one),
+                _ if ids.len() == each.len() => format!("in all {} level folders: {key}", ids.len()),
+                _ => format!("in {} of {} level folders ({}): {key}", ids.len(), each.len(), ids.join(", ")),
+            }
+        })
+        .collect()
+}
+
 /// What one run folder holds beyond its cells; each absent or unreadable
 /// file a sentence in `missing`.
-pub fn read_level(plan: &Plan, dir: &Path, id: String, missing: &mut Vec<String>) -> LevelEvidence {
+pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEvidence {
+    let (plan, dir) = (level.plan, level.dir.as_path());
     let audit = dir.join("audit");
     let treatment: Option<Treatment> =
         evidence(&audit.join("treatment.json"), "treatment strength and condition coverage", missing);
+    let old = |t: &Treatment| t.arms.iter().any(|a| a.segment_distance_quartiles_s.is_none());
+    if level.strength && treatment.as_ref().is_some_and(old) {
+        missing.push(format!(
+            "{} was written by an older build, without the distance quartiles: the treatment strength table not reported",
+            audit.join("treatment.json").display()
+        ));
+    }
     let invariants: Option<InvariantsFile> =
         evidence(&audit.join("invariants.json"), "the split's invariants that hold with a warning", missing);
     let warned = invariants.map(|f| f.invariants.into_iter().filter(|i| i.status == "warn").collect());
     LevelEvidence {
-        id,
-        draw: None,
+        id: level.id.clone(),
+        draw: level.draw,
+        seed: level.seed,
         treatment,
         warned: warned.unwrap_or_default(),
         unread: unread(&audit.join("recordings.csv"), missing),
         // A family's report draws no training curves.
-        curves: if plan.is_family() { Vec::new() } else { curves(plan, dir, missing) },
+        curves: if level.curves { curves(plan, dir, missing) } else { Vec::new() },
         sources: sources(plan, dir, missing),
     }
 }
@@ -200,10 +405,11 @@ fn curves(plan: &Plan, dir: &Path, missing: &mut Vec<String>) -> Vec<Curve> {
         }
     }
     if !lost.is_empty() {
+        let more = if lost.len() > 3 { format!("; and {} more", lost.len() - 3) } else { String::new() };
         missing.push(format!(
-            "{} training curve(s) absent or unreadable, left out of the training curves figure and of the early-stopping check: {}",
+            "{} training curve(s) absent or unreadable, left out of the training curves figure and of the early-stopping check: {}{more}",
             lost.len(),
-            lost.join("; ")
+            lost[..lost.len().min(3)].join("; ")
         ));
     }
     out

@@ -144,6 +144,56 @@ impl RunRecord {
     }
 }
 
+/// study.json: what the folder of a study of several level folders (a
+/// `draws per seed` study, a family of whole splits, a multiverse)
+/// records beside its combined cells, for a reanalysis of the folder to
+/// read: the levels it combined, the hash of the combined cells file, the
+/// run's notes and, for a multiverse, what its specifications' splits share. Each level's own evidence is in its level folder's run.json.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StudyRecord {
+    /// The study's name.
+    pub study: String,
+    /// SHA-256 of the design file.
+    pub design_sha256: String,
+    /// The crossaudit build that combined the levels ([`crate::io::BUILD`]).
+    pub crossaudit: String,
+    /// The level folders combined, in order (relative to this folder).
+    pub levels: Vec<String>,
+    /// SHA-256 of the combined `cells.csv` as the run wrote it.
+    pub cells_sha256: String,
+    /// What the run noted beyond its files (jobs reused from an earlier
+    /// run or copied between levels, external models' predictions).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+    /// For a multiverse: the evaluation recordings, starts and reference
+    /// fit windows each pair of specifications' splits share.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shared: Vec<crate::analysis::multiverse::SharedDraws>,
+}
+
+impl StudyRecord {
+    /// `dir/study.json`: `None` where absent (a folder written before it
+    /// was recorded), an error naming the file where unreadable.
+    pub fn read(dir: &Path) -> Result<Option<StudyRecord>, RunError> {
+        let path = dir.join("study.json");
+        let unreadable = |reason: String| RunError::BadRunRecord {
+            path: path.display().to_string(),
+            dir: dir.display().to_string(),
+            reason,
+        };
+        match crate::io::read_own(&path) {
+            Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| unreadable(e.to_string())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(unreadable(e.to_string())),
+        }
+    }
+
+    /// Writes `dir/study.json` atomically.
+    pub fn write(&self, dir: &Path) -> Result<(), RunError> {
+        Ok(write_atomic(&dir.join("study.json"), pretty_json(self).as_bytes())?)
+    }
+}
+
 /// `jobs/STEM.json`: what one finished job trained on and wrote.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JobRecord {

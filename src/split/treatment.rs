@@ -141,20 +141,7 @@ fn quartiles(mut v: Vec<f64>) -> [f64; 3] {
     [at(0.25), at(0.5), at(0.75)]
 }
 
-/// The median (the mean of the middle two for an even count); NaN when
-/// empty.
-pub fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }
-}
+pub use crossaudit_stats::median;
 
 /// Summarises the treatment of every arm of `split`; condition coverage by
 /// trajectory x speed when `by_speed` (the design's `conditions` name the

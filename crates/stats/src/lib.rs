@@ -58,6 +58,27 @@ pub use mean_profile::profile_interval;
 pub use ratio::{ratio_interval, FiellerSet, RatioInterval};
 pub use rng::standard_normal;
 
+/// The median (the mean of the middle two for an even count); NaN when
+/// empty.
+///
+/// ```
+/// assert_eq!(crossaudit_stats::median(vec![3.0, 1.0, 2.0]), 2.0);
+/// assert_eq!(crossaudit_stats::median(vec![4.0, 1.0, 2.0, 3.0]), 2.5);
+/// assert!(crossaudit_stats::median(Vec::new()).is_nan());
+/// ```
+pub fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
 /// Degrees of freedom in JSON: a number when finite, `"infinite"` for the
 /// normal quantile (z) and `"undefined"` where no df applies (a bootstrap
 /// interval), which plain JSON numbers cannot tell apart (both would be

@@ -30,7 +30,6 @@
 //!   (1|seed)`), with the interval mu +- t(df) SE, df Satterthwaite's
 //!   (Kenward-Roger's SE and df when the design's estimator uses them).
 
-mod labels;
 mod pool;
 mod trend;
 

@@ -235,7 +235,7 @@ pub struct PooledDraws {
 }
 
 /// What two specifications' splits have in common.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct SharedDraws {
     /// The two specifications.
     pub left: String,

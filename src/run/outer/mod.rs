@@ -17,19 +17,19 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-mod notes;
 mod per_seed;
 mod queue;
 pub(crate) use per_seed::{finish_per_seed, finish_specs};
+mod read;
 mod verify;
 
 use super::*;
-use crate::analysis::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, SharedDraws};
+use crate::analysis::multiverse::{MultiverseAnalysis, SharedDraws};
+use crate::analysis::record::DesignLabel;
 use crate::design::Design;
 use crate::io::write_atomic;
 pub use crate::plan::study::{Level, Outer, Role, Unit};
 use crate::plan::StudyPlan;
-use verify::check_levels;
 
 /// What `score` says of each level's external models (by level folder),
 /// for that level's report.
@@ -79,25 +79,23 @@ pub(crate) fn run_levels_with(
         .map_err(|(at, e)| RunError::InLevel { level: queued.levels[at].1.label.clone(), source: Box::new(e) })?;
     let per_seed = role == Role::PerSeed || file.design.per_seed_draws;
     let finished = queue::finish_opened(file, &queued.levels, levels.len(), per_seed)?;
-    let (status, exploratory, record, builds) =
-        (finished.status, finished.exploratory, finished.record, finished.builds);
     let counts = |mut o: RunOutcome| {
         (o.trained, o.skipped, o.seconds) = (queued.trained, queued.skipped, started.elapsed().as_secs_f64());
         o
     };
+    let status = &finished.status;
     if role == Role::PerSeed {
-        let run = (&status, exploratory, &record);
-        return Ok(counts(per_seed::finish_per_seed(file, study, levels, out, run, builds, &queued.reused)?));
+        return Ok(counts(per_seed::finish_per_seed(file, study, outer, out, status, &queued.reused)?));
     }
     if role == Role::Redraw {
-        let path = file.path.display().to_string();
-        return Ok(counts(super::finish_splits(&path, study, out, &status, exploratory, &record, builds)?));
+        let design =
+            DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: status.clone() };
+        return Ok(counts(super::finish_splits(design, study, outer, out, &queued.reused)?));
     }
     if file.design.per_seed_draws {
-        per_seed::finish_specs(file, outer, out, (&status, exploratory, &record), builds.clone())?;
+        per_seed::finish_specs(file, outer, out, status)?;
     }
-    let run = (&status, exploratory, &record);
-    Ok(counts(finish_levels(file, outer, out, run, &finished.splits, (builds, &queued.reused))?))
+    Ok(counts(finish_levels(file, outer, out, status, &finished.splits, &queued.reused)?))
 }
 
 /// Adds a level's unreadable-files warning to `notes` once (every level reads the same folder).
@@ -155,39 +153,44 @@ fn write_all_cells(path: &Path, design: &Design, out: &Path, levels: &[Level]) -
     Ok(write_atomic(path, text.as_bytes())?)
 }
 
-/// After every level finished: the combined cells, analysis and report,
-/// with the notes of the resumed `builds` and of the jobs `reused` from an
-/// earlier run among its warnings.
-pub(super) fn finish_levels(
+/// After every level finished: the combined cells and `study.json` (the
+/// run's notes `reused`, what the specifications' splits share), then the
+/// folder read back as a record, analysed and reported, exactly as
+/// `crossaudit analyze DESIGN --cells OUT` does; a level that shares
+/// another's run gets its own report of its own analysis.
+pub(crate) fn finish_levels(
     file: &DesignFile,
     outer: &Outer,
     out: &Path,
-    (status, exploratory, record): (&LockStatus, bool, &RunRecord),
+    status: &LockStatus,
     splits: &[Option<crate::split::Split>],
-    (builds, reused): (BTreeSet<String>, &[String]),
+    reused: &[String],
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let levels = &outer.levels;
     let cells_csv = out.join("multiverse_cells.csv");
     write_all_cells(&cells_csv, &file.design, out, levels)?;
-    let mut a = analyze_levels(&file.design, outer, out, &cells_csv)?;
-    a.shared = shared_draws(levels, splits);
-    a.design_sha256 = Some(record.design_sha256.clone());
-    a.exploratory = exploratory;
-    a.preregistered = Some(!exploratory && matches!(status, LockStatus::LockedUnchanged { .. }));
-    a.warnings.extend(status.amendment_warnings());
-    a.warnings.extend(resumed_builds(builds));
-    a.warnings.extend(reused.iter().cloned());
+    StudyRecord {
+        study: file.design.study.clone(),
+        design_sha256: file.sha256.clone(),
+        crossaudit: crate::io::BUILD.to_string(),
+        levels: levels.iter().map(|l| l.id.clone()).collect(),
+        cells_sha256: crate::cells::file_sha256(&cells_csv)?,
+        notes: reused.to_vec(),
+        shared: shared_draws(levels, splits),
+    }
+    .write(out)?;
+    let design =
+        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: status.clone() };
+    let record = read::read_multiverse(design, file, outer, out)?;
+    let a = read::analyze(&file.design, outer, &record)?;
     for (k, u) in outer.units.iter().enumerate() {
         // A level that shares another's run gets its own report of its own
         // analysis (a specification of per-seed draws has had its own).
-        if let (Some(s), false) = (&u.shares, file.design.per_seed_draws) {
+        if let (Some(_), false) = (&u.shares, file.design.per_seed_draws) {
             let dir = out.join(&u.id);
             create_dir_all(&dir)?;
-            let mut analysis = a.levels[k].1.as_ref().clone();
-            analysis.record_design(&file.path.display().to_string(), &record.design_sha256, status);
-            analysis.warnings.push(format!("trained nothing: its cells are those of {s} (only the analysis differs)"));
-            crate::report::write_all(&analysis, &dir.join("report"))?;
+            crate::report::write_all(&a.levels[k].1, &dir.join("report"))?;
         }
     }
     let report_dir = out.join("report");
@@ -231,71 +234,19 @@ fn shared_draws(levels: &[Level], splits: &[Option<crate::split::Split>]) -> Vec
 }
 
 /// The analysis of a finished multiverse or draw-replicated run directory
-/// `dir` (what `crossaudit analyze DESIGN --cells DIR` reads): each
-/// level's plan from `file`, its cells from `DIR/LEVEL/cells.csv` (a level
-/// sharing another's run, from that one's). Errors name the file and line.
+/// `dir` (what `crossaudit analyze DESIGN --cells DIR` reads): the folder
+/// read back as a record ([`read::read_multiverse`]: each level's plan
+/// from `file`, its cells from `DIR/LEVEL/cells.csv`, a level sharing
+/// another's run from that one's), labelled with the design's lock state
+/// now. Errors name the file and line.
 pub fn analyze_dir(file: &DesignFile, study: &StudyPlan, dir: &Path) -> Result<MultiverseAnalysis, RunError> {
     let not_outer = || RunError::NotOuter { design: file.path.display().to_string() };
     let outer = study.outer.as_ref().filter(|_| study.combines_levels()).ok_or_else(not_outer)?;
     if !dir.is_dir() {
         return Err(not_outer());
     }
-    let warnings = check_levels(file, &outer.levels, dir)?;
-    let mut a = analyze_levels(&file.design, outer, dir, dir)?;
-    a.warnings.extend(warnings);
-    Ok(a)
-}
-
-/// The combined analysis of the levels of the run in `dir`: each level's
-/// plan, and its cells read from its own directory or the one it shares
-/// (errors name that file and line; an analysis error names `shown`).
-fn analyze_levels(design: &Design, outer: &Outer, dir: &Path, shown: &Path) -> Result<MultiverseAnalysis, RunError> {
-    let (levels, units) = (&outer.levels, &outer.units);
-    // Level files are read in parallel; the first error in level order is
-    // the one reported.
-    use rayon::prelude::*;
-    let read: Vec<Result<Vec<Cell>, crate::cells::CellsError>> = units
-        .par_iter()
-        .map(|u| {
-            let mut all = Vec::new();
-            for &k in &u.members {
-                all.extend(read_cells(&run_dir(dir, levels, k).join("cells.csv"))?);
-            }
-            Ok(all)
-        })
-        .collect();
-    let cells: Vec<Vec<Cell>> = read.into_iter().collect::<Result<_, _>>()?;
-    let inputs: Vec<LevelInput> = units
-        .iter()
-        .enumerate()
-        .map(|(k, u)| LevelInput {
-            id: u.id.clone(),
-            spec: u.spec,
-            draw: u.draw,
-            shares: u.shares.clone(),
-            plan: &u.plan,
-            cells: &cells[k],
-        })
-        .collect();
-    let mut a = analyze_multiverse(design, &inputs).map_err(|e| FileAnalysisError::new(shown, e))?;
-    a.notes = units
-        .iter()
-        .enumerate()
-        .map(|(k, u)| {
-            let members: Vec<(&Plan, PathBuf)> =
-                u.members.iter().map(|&m| (&levels[m].plan, run_dir(dir, levels, m))).collect();
-            notes::unit_notes(&u.id, &u.plan, &members, &cells[k])
-        })
-        .collect();
-    Ok(a)
-}
-
-/// Labels an analysis with the design's hash and lock state.
-pub fn label(a: &mut MultiverseAnalysis, file: &DesignFile) -> Result<(), RunError> {
-    let status = lock::status(file)?;
-    a.design_sha256 = Some(file.sha256.clone());
-    a.exploratory = status.changed();
-    a.preregistered = Some(matches!(status, LockStatus::LockedUnchanged { .. }));
-    a.warnings.extend(status.amendment_warnings());
-    Ok(())
+    let design =
+        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: lock::status(file)? };
+    let record = read::read_multiverse(design, file, outer, dir)?;
+    read::analyze(&file.design, outer, &record)
 }

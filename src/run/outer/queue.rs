@@ -14,7 +14,7 @@ use crate::design::{DesignFile, LockStatus};
 use crate::plan::study::Level;
 use crate::plan::{Plan, TrainingJob};
 use crate::run::reuse::ReuseIndex;
-use crate::run::{finish, gather_recorded, open, pending, Data, Opened, RunError, RunObserver, RunOptions, RunRecord};
+use crate::run::{finish, gather_recorded, open, pending, Data, Opened, RunError, RunObserver, RunOptions};
 
 /// One level opened for the queue.
 pub(super) struct Open {
@@ -159,13 +159,8 @@ fn queue_level(
 
 /// What finishing the levels gathered for the combined analysis.
 pub(super) struct Finished {
-    /// The lock state and exploratory flag of the last level opened.
+    /// The lock state of the last level opened.
     pub status: LockStatus,
-    pub exploratory: bool,
-    /// The first level's run record.
-    pub record: RunRecord,
-    /// Builds that trained any level's cells.
-    pub builds: BTreeSet<String>,
     /// Each study level's split (None for a level sharing another's run).
     pub splits: Vec<Option<crate::split::Split>>,
 }
@@ -180,27 +175,22 @@ pub(super) fn finish_opened(
     count: usize,
     per_seed: bool,
 ) -> Result<Finished, RunError> {
-    let mut builds = BTreeSet::new();
-    let (mut status, mut exploratory) = (LockStatus::Unlocked, false);
+    let mut status = None;
     let mut splits: Vec<Option<crate::split::Split>> = vec![None; count];
-    let mut record: Option<RunRecord> = None;
     for (k, o) in levels {
         let in_level = |e: RunError| RunError::InLevel { level: o.label.clone(), source: Box::new(e) };
         for (j, from, earlier) in &o.copies {
             copy_job(&levels[*from].1.dir, earlier, &o.dir, j).map_err(in_level)?;
         }
         crate::run::reuse::stamp(&o.dir, &o.keyed).map_err(in_level)?;
-        builds.extend(o.done_builds.iter().cloned());
         if per_seed {
             gather_recorded(&o.plan, &o.opened, &o.dir, &o.done_builds).map_err(in_level)?;
         } else {
             finish(&file.path.display().to_string(), &o.plan, &o.opened, &o.dir, o.done_builds.clone())
                 .map_err(in_level)?;
         }
-        (status, exploratory) = (o.opened.status.clone(), o.opened.exploratory);
+        status = Some(o.opened.status.clone());
         splits[*k] = Some(o.opened.prepared.split.clone());
-        record.get_or_insert(o.opened.record.clone());
     }
-    let record = record.ok_or(RunError::NoWorkers)?;
-    Ok(Finished { status, exploratory, record, builds, splits })
+    Ok(Finished { status: status.ok_or(RunError::NoWorkers)?, splits })
 }

@@ -447,9 +447,8 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     for ((part, run), builds) in p.parts.into_iter().zip(builds) {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
-        let exploratory = run.exploratory || lock.changed();
         let warnings = super::external::notes_for(&part.dir, &part.plan);
-        let opened = Opened { status: lock.clone(), exploratory, prepared, record: run, warnings };
+        let opened = Opened { status: lock.clone(), prepared, record: run, warnings };
         // Every record with its content key, as a local run leaves it.
         let keys = super::reuse::keys(&part.file.design, &part.plan, &opened.prepared.manifests, &opened.record);
         super::reuse::stamp(&part.dir, &keys)?;
@@ -464,29 +463,32 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         }
         last_record = Some(opened.record);
     }
-    let record = last_record.ok_or(RunError::NoWorkers)?;
-    let exploratory = record.exploratory || lock.changed();
+    last_record.ok_or(RunError::NoWorkers)?;
     let plan = &p.study.plan;
     if let Some(o @ outer::Outer { role: outer::Role::PerSeed, .. }) = &p.study.outer {
-        let mut outcome =
-            outer::finish_per_seed(&p.file, plan, &o.levels, dir, (&lock, exploratory, &record), all_builds, &notes)?;
+        let mut outcome = outer::finish_per_seed(&p.file, plan, o, dir, &lock, &notes)?;
         (outcome.skipped, outcome.seconds) = (total_jobs, started.elapsed().as_secs_f64());
         return Ok(outcome);
     }
     if let (Some(o), true) = (&p.study.outer, per_seed) {
-        outer::finish_specs(&p.file, o, dir, (&lock, exploratory, &record), all_builds.clone())?;
+        outer::finish_specs(&p.file, o, dir, &lock)?;
     }
     let mut outcome = match (&p.study.outer, last) {
         (None, Some(outcome)) => outcome,
         (None, None) => return Err(RunError::NoWorkers),
-        (Some(outer::Outer { role: outer::Role::Redraw, .. }), _) => {
-            super::finish_splits(&p.array.design_path, plan, dir, &lock, exploratory, &record, all_builds)?
+        (Some(o @ outer::Outer { role: outer::Role::Redraw, .. }), _) => {
+            let design = crate::analysis::record::DesignLabel {
+                path: p.array.design_path.clone(),
+                sha256: p.file.sha256.clone(),
+                status: lock.clone(),
+            };
+            super::finish_splits(design, plan, o, dir, &notes)?
         }
         (Some(o), _) => {
             // The same combined analysis a local run writes.
             let by_level: Vec<Option<crate::split::Split>> =
                 o.levels.iter().map(|l| splits.iter().find(|(id, _)| *id == l.id).map(|(_, s)| s.clone())).collect();
-            outer::finish_levels(&p.file, o, dir, (&lock, exploratory, &record), &by_level, (all_builds, &[]))?
+            outer::finish_levels(&p.file, o, dir, &lock, &by_level, &notes)?
         }
     };
     outcome.seconds = started.elapsed().as_secs_f64();
