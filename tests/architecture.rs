@@ -306,8 +306,9 @@ fn with_self(line: &str, children: &BTreeSet<String>) -> String {
 }
 
 /// A crate's modules: each module path's file, the child modules each
-/// file declares, and what each module re-exports (`pub use`, of any
-/// visibility): the item's name to the absolute path it names.
+/// file declares, and what each module imports (`use`, of any visibility,
+/// which its children see too): the item's name to the absolute path it
+/// names.
 struct Modules {
     files: BTreeMap<Vec<String>, PathBuf>,
     children: BTreeMap<PathBuf, BTreeSet<String>>,
@@ -356,7 +357,10 @@ impl Modules {
                 if let Some(item) = item_defined(&line) {
                     m.items.entry(me.clone()).or_default().insert(item);
                 }
-                if !re_exports(&line) {
+                // Any `use` names its item in this module (a child sees
+                // its parent's private imports too).
+                let t = line.trim_start();
+                if !(re_exports(&line) || t.starts_with("use ")) {
                     continue;
                 }
                 for full in paths_of(&me, &line) {

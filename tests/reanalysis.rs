@@ -118,7 +118,8 @@ fn differing(want: &Path, got: &Path) -> Vec<String> {
 /// against today's analysis, whatever the reader does.
 const STALE: &str = "a report written by an older build (before the Fieller interval, the early-stopping and \
     non-disjoint-reference paragraphs and the unit columns); regenerated only by retraining (scripts/regenerate.sh)";
-const NO_STUDY_RECORD: &str = "a study of several level folders written by an older build, before study.json (the run's \
+const NO_STUDY_RECORD: &str =
+    "a study of several level folders written by an older build, before study.json (the run's \
     notes, the combined cells' hash) was recorded, and before its report had the later sections; regenerated only by \
     retraining (its COMMAND)";
 const NOT_YET: &[(&str, &str)] = &[

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use super::*;
+use super::types::*;
 
 /// A JSON value with the place of each node (the text has already been
 /// accepted by serde_json, so this reader can be simple).

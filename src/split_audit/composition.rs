@@ -3,7 +3,7 @@
 
 use std::collections::BTreeSet;
 
-use super::{Composition, Effect, RecordingRow};
+use super::rows::{Composition, Effect, RecordingRow};
 
 /// Total-variation distance between two count vectors' shares.
 fn tv_distance(a: &[usize], b: &[usize]) -> f64 {

@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::{Effect, RecordingRow};
+use super::rows::{Effect, RecordingRow};
 use crate::published::{PublishedSplit, Window};
 
 /// The gap checked when none is declared: 1 s.

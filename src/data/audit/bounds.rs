@@ -4,7 +4,6 @@
 //! what it measured in words.
 
 use super::super::Recording;
-use super::{BATTERY_BOUNDS_V, PERCENTILES, PWM_BOUNDS, SETPOINT_Z_BOUNDS_M};
 use crate::design::{Bound, DataSpec, Pooling};
 use crossaudit_stats::quantile_type7;
 
@@ -127,3 +126,13 @@ pub(super) fn plausible(spec: &DataSpec, rec: &Recording) -> (bool, String) {
         (false, failures.join("; "))
     }
 }
+
+/// Upstream NanoBench plausibility bounds over active rows, each checked at
+/// the 0.5th and 99.5th percentiles.
+pub const BATTERY_BOUNDS_V: (f64, f64) = (2.5, 4.5);
+/// Setpoint z bounds, metres.
+pub const SETPOINT_Z_BOUNDS_M: (f64, f64) = (-0.2, 3.0);
+/// Motor PWM bounds.
+pub const PWM_BOUNDS: (f64, f64) = (0.0, 65535.0);
+/// The lower and upper percentiles at which every bound is checked.
+pub const PERCENTILES: (f64, f64) = (0.005, 0.995);

@@ -2,9 +2,17 @@
 //! by the rules, or excluded as unreadable, with its metadata's state and
 //! the recording the caller keeps.
 
+use std::path::{Path, PathBuf};
+
 use rayon::prelude::*;
 
-use super::*;
+use super::judge::{judged, meta_path, unreadable};
+use super::policies;
+use super::row::{FileRow, Keep};
+use super::AuditError;
+use crate::data::metadata::{read_metadata, Metadata};
+use crate::data::{load_recording, Layout, Recording};
+use crate::design::{DataSource, DataSpec, TailPolicy};
 
 /// Every log loaded (in parallel) and given its row, with the recording
 /// `keep` asks for; a declared `refuse` stops the audit at the first file,

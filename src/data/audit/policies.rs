@@ -2,7 +2,13 @@
 //! values` and `gaps` (each a rule column of recordings.csv when declared),
 //! and how few recordings it may keep.
 
-use super::*;
+use std::path::Path;
+
+use super::row::{Audit, FileRow, Status};
+use super::AuditError;
+use crate::data::Recording;
+use crate::design::DataSpec;
+
 use crate::data::cuts::{self, Cut, CutReason};
 use crate::design::CutPolicy;
 
