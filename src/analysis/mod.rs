@@ -10,6 +10,7 @@ pub mod budget;
 pub mod coverage;
 mod decision;
 mod diff;
+mod error;
 pub mod evidence;
 pub mod family;
 mod index;
@@ -24,152 +25,11 @@ use rayon::prelude::*;
 
 use crate::cells::Cell;
 use crate::plan::Plan;
-use crossaudit_stats::StatsError;
 
+pub use error::{AnalysisError, FileAnalysisError};
 pub use evidence::analyze_study;
 pub use study::StudyAnalysis;
 pub use types::*;
-
-/// Why per-cell data cannot be analysed under a plan.
-#[derive(Debug, thiserror::Error)]
-pub enum AnalysisError {
-    /// A row names a model, arm, seed or horizon the design does not declare.
-    #[error("line {line}, field `{field}`: {value:?} is not in the design ({known})")]
-    NotInDesign {
-        /// 1-based line of the row.
-        line: u64,
-        /// The column.
-        field: &'static str,
-        /// The value found.
-        value: String,
-        /// What the design declares.
-        known: String,
-    },
-    /// A velocity or attitude value where the design's data declare none,
-    /// or an empty one where they declare it and not every start diverged.
-    #[error("line {line}, field `{field}`: {problem}")]
-    Layout {
-        /// 1-based line of the row.
-        line: u64,
-        /// The column.
-        field: &'static str,
-        /// What is wrong.
-        problem: String,
-    },
-    /// Two rows for the same cell.
-    #[error("line {line}: duplicate cell (model={model} arm={arm} seed={seed} recording={recording} horizon={horizon} s), first seen on line {first_line}")]
-    Duplicate {
-        /// 1-based line of the second row.
-        line: u64,
-        /// 1-based line of the first row.
-        first_line: u64,
-        /// The cell's model.
-        model: String,
-        /// The cell's arm.
-        arm: String,
-        /// The cell's seed.
-        seed: u64,
-        /// The cell's recording.
-        recording: String,
-        /// The cell's horizon (s).
-        horizon: f64,
-    },
-    /// A recording labelled with two trajectories or speeds.
-    #[error("line {line}, field `{field}`: recording {recording} is labelled {value:?} here but {first:?} on line {first_line}")]
-    InconsistentLabel {
-        /// 1-based line of the disagreeing row.
-        line: u64,
-        /// `trajectory` or `speed`.
-        field: &'static str,
-        /// The recording.
-        recording: String,
-        /// The label here.
-        value: String,
-        /// The label first seen.
-        first: String,
-        /// Where it was first seen.
-        first_line: u64,
-    },
-    /// Cells of the crossed matrix are missing.
-    #[error(
-        "{count} missing cell(s); the crossed method of moments needs every model x arm x seed x recording x horizon (a design with `estimate reml ... missing allow` analyses incomplete data):\n{list}"
-    )]
-    Missing {
-        /// How many.
-        count: usize,
-        /// The first ten, one per line.
-        list: String,
-    },
-    /// The data has a different number of evaluation recordings than declared.
-    #[error("the per-cell data has {found} recording(s); the design declares `evaluation {declared}`")]
-    RecordingCount {
-        /// Recordings in the data.
-        found: usize,
-        /// Recordings the design declares.
-        declared: usize,
-    },
-    /// A value the metric cannot take under the design.
-    #[error("line {line}, field `{field}`: {} is impossible: {problem}", show(*.value))]
-    Impossible {
-        /// 1-based line of the row.
-        line: u64,
-        /// The metric column.
-        field: &'static str,
-        /// The value found.
-        value: f64,
-        /// Why it cannot be.
-        problem: String,
-    },
-    /// A metric an analysis unit needs is empty.
-    #[error("line {line}, field `{field}`: empty, but {unit} needs a value here")]
-    EmptyMetric {
-        /// 1-based line of the row.
-        line: u64,
-        /// The metric column.
-        field: &'static str,
-        /// The unit needing it.
-        unit: String,
-    },
-    /// Optimism is a percentage of a zero mean.
-    #[error("{unit}: the {arm} arm's mean is zero, so optimism (a percentage of it) is undefined")]
-    ZeroReferenceMean {
-        /// The unit.
-        unit: String,
-        /// The reference arm.
-        arm: String,
-    },
-    /// The unit's data have no variance to estimate an interval from.
-    #[error("{unit}: {detail}")]
-    Degenerate {
-        /// The unit.
-        unit: String,
-        /// What is degenerate about it.
-        detail: String,
-    },
-    /// The statistics refused the unit's matrix.
-    #[error("{unit}: {source}")]
-    Stats {
-        /// The unit.
-        unit: String,
-        /// Why.
-        source: StatsError,
-    },
-    /// A dose-response or multi-split study's cells do not fit its design.
-    #[error("{message}")]
-    Family {
-        /// What is wrong, with the line.
-        message: String,
-    },
-}
-
-/// A value as a reader would write it: scientific notation when very large.
-fn show(v: f64) -> String {
-    if v.abs() >= 1e6 {
-        format!("{v:e}")
-    } else {
-        v.to_string()
-    }
-}
 
 /// Tolerance of the failure-aware identity, in metres: absolute plus
 /// relative, wide enough for per-cell files written with 3 decimals.
@@ -265,23 +125,6 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
         ));
     }
     Ok(())
-}
-
-/// An [`AnalysisError`] with the per-cell file it concerns.
-#[derive(Debug, thiserror::Error)]
-#[error("{path}: {source}")]
-pub struct FileAnalysisError {
-    /// The per-cell file.
-    pub path: String,
-    /// Why it cannot be analysed.
-    pub source: Box<AnalysisError>,
-}
-
-impl FileAnalysisError {
-    /// `source`, located in the file at `path`.
-    pub fn new(path: &std::path::Path, source: AnalysisError) -> FileAnalysisError {
-        FileAnalysisError { path: path.display().to_string(), source: Box::new(source) }
-    }
 }
 
 /// Runs the analysis the plan preregistered on per-cell data.

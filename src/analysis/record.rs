@@ -13,7 +13,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::cells::Cell;
 use crate::design::LockStatus;
@@ -61,7 +61,7 @@ pub struct MultiverseRecord {
     pub run: RunEvidence,
     /// Starts and windows each pair of specifications' splits share, as
     /// the run recorded them in `study.json`.
-    pub shared: Vec<super::multiverse::SharedDraws>,
+    pub shared: Vec<SharedDraws>,
 }
 
 /// What a run folder holds beyond its cells.
@@ -242,4 +242,19 @@ impl Record {
     pub fn curves(&self) -> Vec<Curve> {
         self.run.as_ref().map(RunEvidence::curves).unwrap_or_default()
     }
+}
+
+/// What two specifications' splits have in common.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SharedDraws {
+    /// The two specifications.
+    pub left: String,
+    /// The other.
+    pub right: String,
+    /// Shared evaluation recordings / of the left's.
+    pub recordings: (usize, usize),
+    /// Shared rollout starts (recording name and row) / of the left's.
+    pub starts: (usize, usize),
+    /// Shared fit windows of the reference arm / of the left's.
+    pub fit_windows: (usize, usize),
 }

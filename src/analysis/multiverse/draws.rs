@@ -4,7 +4,9 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{effect_cells, ChoiceEffect, Diff, DrawReplication, EffectCells, LevelInput, PooledDraws};
+use super::effects::{effect_cells, EffectCells};
+use super::types::{ChoiceEffect, DrawReplication, LevelInput, PooledDraws};
+use crate::analysis::diff::Diff;
 use crate::analysis::Analysis;
 use crate::design::Design;
 use crossaudit_stats::CrossedEstimate;
