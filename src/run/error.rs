@@ -6,8 +6,6 @@ use crate::cells::CellsError;
 use crate::design::lock;
 use crate::io::WriteError;
 
-use super::MAX_WORKERS;
-
 /// Why a run stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -186,10 +184,14 @@ pub enum RunError {
     #[error("--workers must be at least 1")]
     NoWorkers,
     /// More workers than threads a process should start.
-    #[error("--workers {workers} is more than {MAX_WORKERS}: each worker is a thread training one job; use at most one per core")]
+    #[error(
+        "--workers {workers} is more than {max}: each worker is a thread training one job; use at most one per core"
+    )]
     TooManyWorkers {
         /// As given.
         workers: usize,
+        /// The most a run starts ([`super::MAX_WORKERS`]).
+        max: usize,
     },
     /// A worker's thread pool could not start.
     #[error("worker pool: {0}")]

@@ -276,7 +276,7 @@ pub(super) fn reopen(dir: &Path) -> Result<Reopened, RunError> {
             reason: format!("design sha256 {}, run.json records {}", file.sha256, run.design_sha256),
         });
     }
-    let prepared = crate::run::source::rebuild_from(&source.data_dir, &source.data, &file, &plan, dir, &run)?;
+    let prepared = crate::run::rebuild::rebuild_from(&source.data_dir, &source.data, &file, &plan, dir, &run)?;
     let built = build(&file.sha256, &plan, &prepared)?;
     Ok(Reopened { source, file, plan, run, prepared, built })
 }

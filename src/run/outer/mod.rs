@@ -14,27 +14,30 @@
 //! analysis into `out/multiverse_cells.csv` and `out/report`.
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
+mod folders;
 mod per_seed;
 mod queue;
 pub(crate) use per_seed::{finish_per_seed, finish_specs};
 mod read;
 mod verify;
 
-use super::*;
 use crate::analysis::multiverse::{MultiverseAnalysis, SharedDraws};
 use crate::analysis::record::DesignLabel;
+use crate::analysis::StudyAnalysis;
+use crate::cells::CellsError;
 use crate::design::Design;
+use crate::design::{lock, DesignFile, LockStatus};
+use crate::io::create_dir_all;
 use crate::io::write_atomic;
 pub use crate::plan::study::{Level, Outer, Role, Unit};
+use crate::plan::Plan;
 use crate::plan::StudyPlan;
-
-/// What `score` says of each level's external models (by level folder),
-/// for that level's report.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct ExternalNotes(pub Vec<(String, Vec<String>)>);
+use crate::run::guard::refuse_single_run;
+use crate::run::{grid, Data, RunError, RunObserver, RunOptions, RunOutcome, StudyRecord};
+pub(crate) use folders::{copy_job, note_unread, run_dir, ExternalNotes};
 
 /// Runs (or resumes) every level, then combines them by their role.
 #[allow(clippy::too_many_arguments)]
@@ -96,34 +99,6 @@ pub(crate) fn run_levels_with(
         per_seed::finish_specs(file, outer, out, status)?;
     }
     Ok(counts(finish_levels(file, outer, out, status, &finished.splits, &queued.reused)?))
-}
-
-/// Adds a level's unreadable-files warning to `notes` once (every level reads the same folder).
-pub(crate) fn note_unread(notes: &mut Vec<String>, audit: &crate::data::Audit) {
-    if let Some(w) = audit.unread_warning().filter(|w| !notes.contains(w)) {
-        notes.push(w);
-    }
-}
-
-/// Copies a finished job's files and record from the run directory `from`
-/// into `to`, where `job` (the same model, arm and seed) will find it finished.
-pub(super) fn copy_job(from: &Path, earlier: &TrainingJob, to: &Path, job: &TrainingJob) -> Result<(), RunError> {
-    let record = JobRecord::read(from, earlier)?.ok_or_else(|| RunError::BadJobRecord {
-        path: super::record::job_record_path(from, earlier).display().to_string(),
-        reason: "the job it would be copied from has no record".to_string(),
-    })?;
-    for name in record.files.keys() {
-        let target = to.join(name);
-        create_dir_all(target.parent().unwrap_or(to))?;
-        let bytes = std::fs::read(from.join(name)).map_err(|e| crate::io::WriteError::new(&from.join(name), e))?;
-        write_atomic(&target, &bytes)?;
-    }
-    record.write(to, job)
-}
-
-/// The directory holding level `k`'s cells: its own, or the one it shares.
-fn run_dir(out: &Path, levels: &[Level], k: usize) -> PathBuf {
-    out.join(&levels[levels[k].shares.unwrap_or(k)].id)
 }
 
 /// Every unit's cells in one file, `spec` and `draw` columns first (under

@@ -368,7 +368,7 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
 /// directory, refused unless its audit and manifests are those of its
 /// run.json.
 fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::split::Prepared, RunError> {
-    super::source::rebuild_from(&array.data_dir, &array.data, &part.file, &part.plan, &part.dir, run)
+    super::rebuild::rebuild_from(&array.data_dir, &array.data, &part.file, &part.plan, &part.dir, run)
 }
 
 /// Runs the job at array `index` of the run prepared in `dir`, on one

@@ -1,0 +1,192 @@
+//! Everything after a run's last job: the invariants on what the jobs
+//! recorded, the cells gathered, and the folder read back as a record,
+//! analysed and reported (a study of one run: `finish`; of several level
+//! folders: `finish_combined`).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::open::{Opened, RunOutcome};
+use super::{read, trained_invariants, LevelFolder, RunError, RunRecord, StudyRecord};
+use crate::analysis;
+use crate::cells::{read_cells, write_cells_atomic, Cell};
+use crate::plan::study::Outer;
+use crate::plan::{Plan, TrainingJob};
+
+/// After every split finished: `out/cells.csv` with a `split` column, then
+/// the folder finished as [`finish_combined`] finishes it (the family
+/// analysis in `out/report`).
+pub(crate) fn finish_splits(
+    design: analysis::record::DesignLabel,
+    plan: &Plan,
+    outer: &Outer,
+    out: &Path,
+    notes: &[String],
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let levels = LevelFolder::of(outer, out);
+    let mut all: Vec<Cell> = Vec::new();
+    for (l, level) in levels.iter().zip(&outer.levels) {
+        let split = level.split;
+        all.extend(read_cells(&l.dir.join("cells.csv"))?.into_iter().map(|c| Cell { split, ..c }));
+    }
+    write_cells_atomic(&out.join("cells.csv"), &all)?;
+    let mut outcome = finish_combined(design, plan, out, &levels, notes)?;
+    outcome.seconds = started.elapsed().as_secs_f64();
+    Ok(outcome)
+}
+
+/// The folder `dir` of a study of several level folders `levels`, once its
+/// combined `cells.csv` is written: `study.json` (the levels, the cells'
+/// hash, the run's `notes`), then the folder read back as a record,
+/// analysed and reported in `dir/report`, exactly as `crossaudit analyze
+/// DESIGN --cells DIR` does.
+pub(crate) fn finish_combined(
+    design: analysis::record::DesignLabel,
+    plan: &Plan,
+    dir: &Path,
+    levels: &[LevelFolder],
+    notes: &[String],
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let cells_csv = dir.join("cells.csv");
+    StudyRecord {
+        study: plan.study.clone(),
+        design_sha256: design.sha256.clone(),
+        crossaudit: crate::io::BUILD.to_string(),
+        levels: levels.iter().map(|l| l.id.clone()).collect(),
+        cells_sha256: crate::cells::file_sha256(&cells_csv)?,
+        notes: notes.to_vec(),
+        shared: Vec::new(),
+    }
+    .write(dir)?;
+    let record = read::read_levels(design, dir, levels)?;
+    let mut analysis = analysis::analyze_study(plan, &record, Default::default())?;
+    let report_dir = dir.join("report");
+    crate::report::write_study(&mut analysis, &report_dir)?;
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis,
+        trained: 0,
+        skipped: plan.jobs.len(),
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Everything after the last job: the invariants on what the jobs recorded,
+/// cells.csv (with the builds that trained it and the run's notes in
+/// run.json), then the folder read back as a record, analysed and
+/// reported, exactly as `crossaudit analyze DESIGN --cells OUT` does.
+/// `design_path` is the design as the user named it (the report quotes
+/// it); `builds` are the builds that trained cells.
+pub(crate) fn finish(
+    design_path: &str,
+    plan: &Plan,
+    opened: &Opened,
+    out: &Path,
+    builds: std::collections::BTreeSet<String>,
+) -> Result<RunOutcome, RunError> {
+    let started = Instant::now();
+    let cells_csv = gather_recorded(plan, opened, out, &builds)?;
+    let design = analysis::record::DesignLabel {
+        path: design_path.to_string(),
+        sha256: opened.record.design_sha256.clone(),
+        status: opened.status.clone(),
+    };
+    let record = read::read_folder(design, plan, out)?;
+    let mut analysis = analysis::analyze_study(plan, &record, Default::default())?;
+    let report_dir = out.join("report");
+    crate::report::write_study(&mut analysis, &report_dir)?;
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis,
+        trained: 0,
+        skipped: plan.jobs.len(),
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// `out/cells/STEM.csv`: the per-cell rows of one job, present once it finished.
+pub fn job_cells(out: &Path, job: &TrainingJob) -> PathBuf {
+    out.join("cells").join(format!("{}.csv", job.stem()))
+}
+
+/// cells.csv: every job's rows in plan order, written atomically.
+fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
+    let all = gathered(plan, out)?;
+    let cells_csv = out.join("cells.csv");
+    write_cells_atomic(&cells_csv, &all)?;
+    Ok(cells_csv)
+}
+
+/// The invariants on what the jobs recorded, then `cells.csv` gathered and
+/// its hash recorded in `run.json`, with the builds other than this one
+/// among `builds` (those that trained cells) and the run's notes.
+pub(crate) fn gather_recorded(
+    plan: &Plan,
+    opened: &Opened,
+    out: &Path,
+    builds: &std::collections::BTreeSet<String>,
+) -> Result<PathBuf, RunError> {
+    trained_invariants::check(plan, &opened.prepared, out)?;
+    let cells_csv = gather(plan, out)?;
+    let sha = crate::cells::file_sha256(&cells_csv)?;
+    let resumed_from = builds.iter().filter(|b| *b != crate::io::BUILD).cloned().collect();
+    let notes = opened.warnings.clone();
+    RunRecord { cells_sha256: Some(sha), resumed_from, notes, ..opened.record.clone() }.write(out)?;
+    Ok(cells_csv)
+}
+
+/// Every job's per-cell rows, in plan order, as `cells.csv` holds them.
+pub(crate) fn gathered(plan: &Plan, out: &Path) -> Result<Vec<Cell>, RunError> {
+    let mut all: Vec<Cell> = Vec::new();
+    for j in &plan.jobs {
+        all.extend(read_cells(&job_cells(out, j))?);
+    }
+    check_baselines(plan, &all)?;
+    if !plan.doses.is_empty() && crate::plan::dose_axis(&plan.doses) == crate::design::DoseAxis::Percent {
+        // A dose-response study's cells carry their dose: 0 for the
+        // reference. A distance-dose study's arms name their distances.
+        for c in &mut all {
+            c.dose = if c.arm == plan.contrast.reference {
+                Some(0.0)
+            } else {
+                plan.doses.iter().find(|d| d.arm == c.arm).map(|d| d.percent)
+            };
+        }
+    }
+    Ok(all)
+}
+
+/// Parameter-free models fit nothing split-dependent: their rows must be
+/// identical across arms.
+fn check_baselines(plan: &Plan, cells: &[Cell]) -> Result<(), RunError> {
+    for m in plan.models.iter().filter(|m| !m.kind.trains()) {
+        let rows = |arm: &str| -> Vec<(u64, String, u64, String)> {
+            cells
+                .iter()
+                .filter(|c| c.model == m.name && c.arm == arm)
+                .map(|c| {
+                    (
+                        c.seed,
+                        c.recording.to_string(),
+                        c.horizon_s.to_bits(),
+                        format!("{:?}", (c.fa_position_rmse_m, c.conditional_position_rmse_m, c.n_divergent)),
+                    )
+                })
+                .collect()
+        };
+        for w in plan.arms.windows(2) {
+            if rows(&w[0].name) != rows(&w[1].name) {
+                return Err(RunError::BaselineDependsOnArm {
+                    model: m.name.clone(),
+                    left: w[0].name.clone(),
+                    right: w[1].name.clone(),
+                });
+            }
+        }
+    }
+    Ok(())
+}
