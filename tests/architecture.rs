@@ -315,12 +315,17 @@ struct Modules {
     reexports: BTreeMap<Vec<String>, BTreeMap<String, Vec<String>>>,
     /// The items each module's file defines at its top level.
     items: BTreeMap<Vec<String>, BTreeSet<String>>,
+    /// The modules each module imports whole (`use x::*`).
+    globs: BTreeMap<Vec<String>, Vec<Vec<String>>>,
 }
 
 /// Whether a code line re-exports (`pub use`, of any visibility).
 fn re_exports(line: &str) -> bool {
     let t = line.trim_start();
-    t.starts_with("pub use ") || t.starts_with("pub(crate) use ") || t.starts_with("pub(super) use ")
+    t.starts_with("pub use ")
+        || t.starts_with("pub(crate) use ")
+        || t.starts_with("pub(super) use ")
+        || (t.starts_with("pub(in ") && t.contains(") use "))
 }
 
 /// The name of the item a top-level line defines (`pub fn f(`, `struct S`).
@@ -346,6 +351,7 @@ impl Modules {
             children: BTreeMap::new(),
             reexports: BTreeMap::new(),
             items: BTreeMap::new(),
+            globs: BTreeMap::new(),
         };
         for p in &files {
             m.files.insert(module_path(src, p), p.clone());
@@ -364,7 +370,10 @@ impl Modules {
                     continue;
                 }
                 for full in paths_of(&me, &line) {
-                    if let Some(item) = full.last() {
+                    let Some(item) = full.last() else { continue };
+                    if line.contains("::*") && m.files.contains_key(&full) {
+                        m.globs.entry(me.clone()).or_default().push(full.clone());
+                    } else {
                         m.reexports.entry(me.clone()).or_default().insert(item.clone(), full.clone());
                     }
                 }
@@ -390,7 +399,19 @@ impl Modules {
     /// next segment, the file the re-export names (followed up to 8 times).
     fn resolve(&self, full: &[String], depth: usize) -> Option<&PathBuf> {
         let k = (1..=full.len()).rev().find(|&k| self.files.contains_key(&full[..k]))?;
-        let via = full.get(k).and_then(|item| self.reexports.get(&full[..k])?.get(item));
+        let named = |m: &[String], item: &String| {
+            self.items.get(m).is_some_and(|i| i.contains(item))
+                || self.reexports.get(m).is_some_and(|r| r.contains_key(item))
+        };
+        let through_glob = |item: &String| -> Option<Vec<String>> {
+            let globs = self.globs.get(&full[..k])?;
+            let g = globs.iter().find(|g| named(g, item))?;
+            Some(g.iter().chain([item]).cloned().collect())
+        };
+        let via = full.get(k).and_then(|item| {
+            self.reexports.get(&full[..k]).and_then(|r| r.get(item)).cloned().or_else(|| through_glob(item))
+        });
+        let via = via.as_ref();
         match via {
             Some(target) if depth < 8 && target.as_slice() != full => {
                 let next: Vec<String> = target.iter().chain(&full[k + 1..]).cloned().collect();
@@ -427,26 +448,49 @@ fn file_imports(src: &Path) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
     for (me, path) in &modules.files {
         let mut named = BTreeSet::new();
         let lines = modules.lines(path);
-        // Every word of the file, for what a glob import (`use super::*`) takes.
-        let words: BTreeSet<&str> = lines.iter().flat_map(|(_, l)| l.split(|c: char| !ident(c))).collect();
+        // Every word of the file that can name an imported item (not a
+        // method, `.f(`, nor a path's later segment, `a::f`), for what a
+        // glob import (`use super::*`) takes.
+        let words: BTreeSet<&str> = lines
+            .iter()
+            .flat_map(|(_, l)| {
+                let mut out = Vec::new();
+                let mut start = None;
+                for (k, c) in l.char_indices().chain([(l.len(), ' ')]) {
+                    match (ident(c), start) {
+                        (true, None) => start = Some(k),
+                        (false, Some(b)) => {
+                            let before = &l[..b];
+                            if !before.ends_with('.') && !before.ends_with("::") {
+                                out.push(&l[b..k]);
+                            }
+                            start = None;
+                        }
+                        _ => {}
+                    }
+                }
+                out
+            })
+            .collect();
         for (_, line) in &lines {
             // A re-export is no use of the item: its users import its file.
             if re_exports(line) {
                 continue;
             }
             for full in paths_of(me, line) {
-                let glob = line.contains(&format!("{}::*", full.last().map(String::as_str).unwrap_or("")))
-                    && modules.files.contains_key(&full);
+                let glob = line.contains("::*") && modules.files.contains_key(&full);
                 let targets: Vec<Vec<String>> = if glob {
                     // The glob's module's items that the file names.
                     let none = BTreeSet::new();
                     let items = modules.items.get(&full).unwrap_or(&none);
                     let re: BTreeSet<String> =
                         modules.reexports.get(&full).map(|r| r.keys().cloned().collect()).unwrap_or_default();
+                    // A name the file defines itself shadows the glob's.
+                    let own = modules.items.get(me).cloned().unwrap_or_default();
                     items
                         .iter()
                         .chain(&re)
-                        .filter(|i| words.contains(i.as_str()))
+                        .filter(|i| words.contains(i.as_str()) && !own.contains(*i))
                         .map(|i| full.iter().cloned().chain([i.clone()]).collect())
                         .collect()
                 } else {

@@ -4,6 +4,8 @@
 
 use std::ops::Range;
 
+pub use super::rules::Cmp;
+
 /// A byte range in the design source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Span {
@@ -352,45 +354,6 @@ pub enum SensitivityItem {
     Bootstrap { kind: Ident, replicates: Int, seed: Int },
     Grouped,
     LeaveOneOut(Vec<Ident>),
-}
-
-/// A comparison operator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub enum Cmp {
-    /// `>=`
-    #[serde(rename = ">=")]
-    Ge,
-    /// `<=`
-    #[serde(rename = "<=")]
-    Le,
-    /// `>`
-    #[serde(rename = ">")]
-    Gt,
-    /// `<`
-    #[serde(rename = "<")]
-    Lt,
-}
-
-impl Cmp {
-    /// Whether `lhs <op> rhs`.
-    pub fn holds(self, lhs: f64, rhs: f64) -> bool {
-        match self {
-            Cmp::Ge => lhs >= rhs,
-            Cmp::Le => lhs <= rhs,
-            Cmp::Gt => lhs > rhs,
-            Cmp::Lt => lhs < rhs,
-        }
-    }
-
-    /// The operator as written.
-    pub fn symbol(self) -> &'static str {
-        match self {
-            Cmp::Ge => ">=",
-            Cmp::Le => "<=",
-            Cmp::Gt => ">",
-            Cmp::Lt => "<",
-        }
-    }
 }
 
 #[derive(Debug, Clone, PartialEq)]

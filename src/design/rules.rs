@@ -2,7 +2,7 @@
 //! rules applied in order, and the declared policies for missing values
 //! and time gaps.
 
-use super::*;
+use serde::Serialize;
 
 /// A rule a recording must pass to be included.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -96,4 +96,43 @@ pub struct GapPolicy {
     pub over_s: f64,
     /// What a longer one does.
     pub policy: CutPolicy,
+}
+
+/// A comparison operator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Cmp {
+    /// `>=`
+    #[serde(rename = ">=")]
+    Ge,
+    /// `<=`
+    #[serde(rename = "<=")]
+    Le,
+    /// `>`
+    #[serde(rename = ">")]
+    Gt,
+    /// `<`
+    #[serde(rename = "<")]
+    Lt,
+}
+
+impl Cmp {
+    /// Whether `lhs <op> rhs`.
+    pub fn holds(self, lhs: f64, rhs: f64) -> bool {
+        match self {
+            Cmp::Ge => lhs >= rhs,
+            Cmp::Le => lhs <= rhs,
+            Cmp::Gt => lhs > rhs,
+            Cmp::Lt => lhs < rhs,
+        }
+    }
+
+    /// The operator as written.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Cmp::Ge => ">=",
+            Cmp::Le => "<=",
+            Cmp::Gt => ">",
+            Cmp::Lt => "<",
+        }
+    }
 }

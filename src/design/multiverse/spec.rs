@@ -3,7 +3,8 @@
 //! alternative written where its setting belongs.
 
 use super::super::ast::*;
-use super::{setting, Choice, Declared, Target};
+use super::settings::{setting, Declared, Target};
+use crate::design::types::Choice;
 
 /// Every combination of alternatives, the first choice varying slowest.
 pub(in crate::design) fn combinations(choices: &[Choice]) -> Vec<Vec<usize>> {

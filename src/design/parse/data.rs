@@ -2,7 +2,7 @@
 
 use pest::iterators::Pair;
 
-use super::{cmp, col, cols, ident, idents, int, kids, number, span_of, string, strings, Kids, Rule};
+use super::pairs::{cmp, col, cols, ident, idents, int, kids, number, span_of, string, strings, Kids, Rule};
 use crate::design::ast::*;
 use crate::design::diagnostic::Diagnostic;
 

@@ -1,7 +1,7 @@
 //! Syntax errors in the reader's words: pest's rule names replaced by what
 //! a user of the language would call them.
 
-use super::Rule;
+use super::pairs::Rule;
 use crate::design::ast::Span;
 use crate::design::diagnostic::Diagnostic;
 

@@ -12,12 +12,13 @@ mod factors;
 mod outer;
 mod published;
 
+pub use outer::validate;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::ast::*;
 use super::diagnostic::Diagnostic;
-use super::multiverse;
 use super::*;
 
 /// More training seeds than anyone will train; bounds the memory a seed
@@ -69,34 +70,6 @@ pub(super) mod limits {
 
 /// Tolerance for "this many seconds is a whole number of samples".
 const SAMPLE_EPS: f64 = 1e-9;
-
-pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
-    if let Some(s) = ast.statements.get(limits::STATEMENTS) {
-        let mut v = Validator::default();
-        let n = ast.statements.len();
-        v.too_large(s.span, "the number of statements", n as u64, limits::STATEMENTS as u64);
-        return Err(v.diags);
-    }
-    let mut diags = Vec::new();
-    let Some(declared) = multiverse::declared(ast, &mut diags) else {
-        if !diags.is_empty() && ast.statements.iter().any(|s| matches!(s.node, Statement::Choices(_))) {
-            // The choices could not be read: the design without them would
-            // miss the settings they supply, and say so in errors of its own.
-            return Err(diags);
-        }
-        let single = validate_single(ast, base);
-        return match (single, diags.is_empty()) {
-            (Ok(d), true) => Ok(d),
-            (Ok(_), false) => Err(diags),
-            (Err(mut more), _) => {
-                diags.append(&mut more);
-                diags.sort_by_key(|d| d.span.start);
-                Err(diags)
-            }
-        };
-    };
-    outer::expand(ast, base, &declared, diags)
-}
 
 /// One specification: the design as written, every choice already in place.
 fn validate_single(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {

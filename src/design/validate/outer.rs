@@ -4,11 +4,42 @@
 
 use std::path::Path;
 
+use super::super::ast::Statement;
 use super::super::ast::*;
 use super::super::diagnostic::Diagnostic;
 use super::super::multiverse;
 use super::super::*;
 use super::{limits, validate_single, Validator};
+
+/// Validates a design: a single study, or a multiverse expanded into its
+/// specifications (each validated as a single study).
+pub fn validate(ast: &Ast, base: &Path) -> Result<Design, Vec<Diagnostic>> {
+    if let Some(s) = ast.statements.get(limits::STATEMENTS) {
+        let mut v = Validator::default();
+        let n = ast.statements.len();
+        v.too_large(s.span, "the number of statements", n as u64, limits::STATEMENTS as u64);
+        return Err(v.diags);
+    }
+    let mut diags = Vec::new();
+    let Some(declared) = multiverse::declared(ast, &mut diags) else {
+        if !diags.is_empty() && ast.statements.iter().any(|s| matches!(s.node, Statement::Choices(_))) {
+            // The choices could not be read: the design without them would
+            // miss the settings they supply, and say so in errors of its own.
+            return Err(diags);
+        }
+        let single = validate_single(ast, base);
+        return match (single, diags.is_empty()) {
+            (Ok(d), true) => Ok(d),
+            (Ok(_), false) => Err(diags),
+            (Err(mut more), _) => {
+                diags.append(&mut more);
+                diags.sort_by_key(|d| d.span.start);
+                Err(diags)
+            }
+        };
+    };
+    expand(ast, base, &declared, diags)
+}
 
 /// Every specification of a multiverse, validated as a design of its own,
 /// and the primary's design carrying the multiverse.
