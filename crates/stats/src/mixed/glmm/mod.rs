@@ -39,10 +39,12 @@
 //! assert!(f.fit.fixed[1].estimate > 0.0); // the leaky arm fails more often
 //! ```
 
+mod family;
 mod laplace;
 mod profile;
 mod reduced;
 
+pub use family::Family;
 pub use profile::{profile_fixed, FixedProfile};
 
 use faer::linalg::solvers::Solve;
@@ -51,27 +53,6 @@ use serde::Serialize;
 use super::slopes::structure::Structure;
 use super::slopes::{self, SlopeCertificate, Term, TermFit};
 use super::{MixedData, MixedError};
-
-/// The response's distribution, with its canonical link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-#[non_exhaustive]
-pub enum Family {
-    /// Successes out of trials (or 0/1), logit link.
-    Binomial,
-    /// Counts, log link.
-    Poisson,
-}
-
-impl Family {
-    /// R's name and link, as `glmer`'s summary prints them.
-    pub fn label(self) -> &'static str {
-        match self {
-            Family::Binomial => "binomial  ( logit )",
-            Family::Poisson => "poisson  ( log )",
-        }
-    }
-}
 
 /// A GLMM's data: the fixed effects (as [`MixedData`] holds them, its
 /// response the proportion of successes or the count), the trials, and
