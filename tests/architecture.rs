@@ -858,3 +858,113 @@ fn no_function_grows_past_80_lines() {
     assert!(wrong.is_empty(), "tests/long_functions.txt:\n{}", wrong.join("\n"));
     assert!(now.len() > 1000, "the finder found {} functions", now.len());
 }
+
+/// The fields of the analysis types (`Analysis`, `FamilyAnalysis`,
+/// `MultiverseAnalysis` and their parts: every struct of their files)
+/// that no struct outside `analysis/` also has.
+fn analysis_fields() -> BTreeSet<String> {
+    let field = |l: &str| -> Option<String> {
+        let rest = l.strip_prefix("    ")?;
+        let rest = match rest.strip_prefix("pub") {
+            Some(r) if r.starts_with('(') => r.split_once(") ")?.1,
+            Some(r) => r.strip_prefix(' ')?,
+            None => rest,
+        };
+        let name: String = rest.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+        // Names of one or two letters (`d`, `z`) are too common to trace.
+        (rest[name.len()..].starts_with(':') && name.len() > 2).then_some(name)
+    };
+    let fields_of = |path: &Path| -> BTreeSet<String> {
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut inside = false;
+        let mut out = BTreeSet::new();
+        for l in text.lines() {
+            if l.contains("struct ") && l.ends_with('{') && !l.starts_with(' ') {
+                inside = true;
+            } else if l == "}" {
+                inside = false;
+            } else if inside {
+                out.extend(field(l));
+            }
+        }
+        out
+    };
+    let src = root().join("src");
+    let mut ours = BTreeSet::new();
+    for f in ["analysis/types.rs", "analysis/family/types.rs", "analysis/multiverse/types.rs"] {
+        ours.extend(fields_of(&src.join(f)));
+    }
+    for path in all_sources().into_iter().filter(|p| !p.starts_with(src.join("analysis"))) {
+        for f in fields_of(&path) {
+            ours.remove(&f);
+        }
+    }
+    ours
+}
+
+/// The lines of `text` that assign to, or mutate in place, one of
+/// `fields` (`x.field = `, `x.field.push(`, `x.field.extend(` ...), or
+/// take an analysis by `&mut`.
+fn analysis_mutations(text: &str, fields: &BTreeSet<String>) -> Vec<String> {
+    let mutators = ["push(", "extend(", "insert(", "retain(", "clear(", "append(", "splice(", "truncate(", "sort"];
+    let mut out = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let code = line.split("//").next().unwrap_or("");
+        for f in fields {
+            for (at, _) in code.match_indices(&format!(".{f}")) {
+                let rest = &code[at + f.len() + 1..];
+                if rest.starts_with(|c: char| c.is_ascii_alphanumeric() || c == '_') {
+                    continue;
+                }
+                let assigned = rest.trim_start().starts_with('=') && !rest.trim_start().starts_with("==");
+                let mutated = rest.strip_prefix('.').is_some_and(|m| mutators.iter().any(|x| m.starts_with(x)));
+                let compound = ["+=", "-=", "|=", "&="].iter().any(|op| rest.trim_start().starts_with(op));
+                if assigned || mutated || compound {
+                    out.push(format!("{}: {}", k + 1, code.trim()));
+                }
+            }
+        }
+        for t in ["&mut Analysis", "&mut FamilyAnalysis", "&mut MultiverseAnalysis", "&mut StudyAnalysis"] {
+            if code.contains(t) && !code.contains(&format!("{t}Error")) {
+                out.push(format!("{}: {}", k + 1, code.trim()));
+            }
+        }
+        // An analysis held mutably: `let mut x = ...analyze...(` or a
+        // wrapped one (`StudyAnalysis::Single(...)`).
+        let held = code.trim_start().strip_prefix("let mut ").is_some_and(|r| {
+            let value = r.split_once('=').map_or("", |(_, v)| v);
+            value.contains("analyze") || value.contains("Analysis::")
+        });
+        if held {
+            out.push(format!("{}: {}", k + 1, code.trim()));
+        }
+    }
+    out
+}
+
+/// The analysis is computed in `analysis/` alone: no file outside it (the
+/// run, the report, the binary, the Python package) assigns to a field of
+/// an analysis type or takes one by `&mut`; a run and a reanalysis
+/// therefore report the same analysis.
+#[test]
+fn no_analysis_field_is_assigned_outside_analysis() {
+    let fields = analysis_fields();
+    // (Fields that a struct outside analysis/ also has, `coverage` or
+    // `decision`, are left to the `&mut` and `let mut` checks.)
+    for f in ["warnings", "figures", "preregistered", "provenance", "margins", "covered_only", "sources"] {
+        assert!(fields.contains(f), "`{f}` is not read as an analysis field: {fields:?}");
+    }
+    let mut files = all_sources();
+    rust_files(&root().join("python/src"), &mut files);
+    let mut found = Vec::new();
+    for path in files.iter().filter(|p| !p.starts_with(root().join("src/analysis"))) {
+        let text = std::fs::read_to_string(path).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap_or("");
+        let rel = path.strip_prefix(root()).unwrap().display().to_string();
+        found.extend(analysis_mutations(code, &fields).into_iter().map(|l| format!("{rel}:{l}")));
+    }
+    assert!(found.is_empty(), "analysis fields assigned outside analysis/:\n{}", found.join("\n"));
+    // The check sees what it looks for.
+    let planted = "fn f(a: &mut Analysis) {\n    a.warnings.push(w);\n    a.preregistered = None;\n    x.figures.len();\n    let mut b = analysis::analyze(p, c, o)?;\n}\n";
+    assert_eq!(analysis_mutations(planted, &fields).len(), 4, "{:?}", analysis_mutations(planted, &fields));
+}

@@ -135,13 +135,13 @@ fn analyze(
         let study = crossaudit::compile_study(&file.design);
         let outer = study.combines_levels();
         let options = crossaudit::AnalyzeOptions { compare_intervals };
-        let mut analysis = crossaudit::analyze_study(&file, &study, &cells, options).map_err(fail)?;
+        let analysis = crossaudit::analyze_study(&file, &study, &cells, options).map_err(fail)?;
         if let Some(dir) = &out {
             crossaudit::run::check_output_dir(dir, &file.sha256).map_err(fail)?;
             // A run's own folders are written by the run alone.
             crossaudit::run::check_not_runs_own(dir, outer.then_some(cells.as_path())).map_err(fail)?;
             crossaudit::io::create_dir_all(dir).map_err(fail)?;
-            crossaudit::report::write_study(&mut analysis, dir).map_err(fail)?;
+            crossaudit::report::write_study(&analysis, dir).map_err(fail)?;
         }
         let (line, table) =
             (crossaudit::report::study_decision_line(&analysis), crossaudit::report::study_table(&analysis));

@@ -116,6 +116,14 @@ impl Default for Provenance {
     }
 }
 
+impl Analysis {
+    /// The analysis as its report gives it, naming the figures drawn
+    /// beside it (`figures`, file names in report order).
+    pub fn with_figures(&self, figures: Vec<String>) -> Analysis {
+        Analysis { figures, ..self.clone() }
+    }
+}
+
 /// What a design's lock state makes of an analysis: (exploratory,
 /// preregistered, the warning to give).
 pub fn lock_labels(path: &str, status: &LockStatus) -> (bool, bool, Option<String>) {

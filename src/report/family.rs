@@ -448,12 +448,12 @@ fn dose_figure(a: &FamilyAnalysis, dir: &Path, tag: &str) -> Result<Figure, Draw
 
 /// Writes report.md, results.json and the figures into `dir`; the figures'
 /// names are recorded in the analysis first.
-pub fn write_family(a: &mut FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     create_dir_all(dir)?;
     let figures = write_family_figures(a, dir)?;
     let mut out: Vec<PathBuf> = figures.iter().map(|(p, _)| p.clone()).collect();
     let svgs = super::figures::by_name(figures);
-    a.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
+    let a = &a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
     let markdown = render_family_markdown(a);
     let d = &a.decision;
     let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), a.exploratory, a.preregistered);

@@ -63,17 +63,13 @@ pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> 
 /// from a run, its training `curves`) into `dir`, named in `a.figures`,
 /// then [`write_all_with`] with them inlined into report.html. What a run
 /// and `crossaudit analyze` both write.
-pub fn write_with_figures(
-    a: &mut Analysis,
-    curves: &[figures::Curve],
-    dir: &Path,
-) -> Result<Vec<PathBuf>, ReportError> {
+pub fn write_with_figures(a: &Analysis, curves: &[figures::Curve], dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     create_dir_all(dir)?;
     let drawn = figures::write_figures(a, curves, dir)?;
     let paths: Vec<PathBuf> = drawn.iter().map(|(p, _)| p.clone()).collect();
     let svgs = figures::by_name(drawn);
-    a.figures = svgs.iter().map(|(name, _)| name.clone()).collect();
-    let mut written = write_all_with(a, dir, &svgs)?;
+    let a = a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
+    let mut written = write_all_with(&a, dir, &svgs)?;
     written.extend(paths);
     Ok(written)
 }

@@ -31,14 +31,9 @@ pub fn study_table(a: &StudyAnalysis) -> String {
 /// folder, the training curves its analysis carries; a family or
 /// multiverse has none, nor has a per-cell file alone), the figure names
 /// recorded in the analysis.
-pub fn write_study(a: &mut StudyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+pub fn write_study(a: &StudyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     match a {
-        StudyAnalysis::Single(a) => {
-            let curves = std::mem::take(&mut a.curves);
-            let written = super::write_with_figures(a, &curves, dir);
-            a.curves = curves;
-            written
-        }
+        StudyAnalysis::Single(a) => super::write_with_figures(a, &a.curves, dir),
         StudyAnalysis::Family(a) => super::family::write_family(a, dir),
         StudyAnalysis::Multiverse(a) => super::multiverse::write_multiverse(a, dir),
     }

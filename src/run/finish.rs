@@ -61,9 +61,9 @@ pub(crate) fn finish_combined(
     }
     .write(dir)?;
     let record = read::read_levels(design, dir, levels)?;
-    let mut analysis = analysis::analyze_study(plan, &record, Default::default())?;
+    let analysis = analysis::analyze_study(plan, &record, Default::default())?;
     let report_dir = dir.join("report");
-    crate::report::write_study(&mut analysis, &report_dir)?;
+    crate::report::write_study(&analysis, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
@@ -95,9 +95,9 @@ pub(crate) fn finish(
         status: opened.status.clone(),
     };
     let record = read::read_folder(design, plan, out)?;
-    let mut analysis = analysis::analyze_study(plan, &record, Default::default())?;
+    let analysis = analysis::analyze_study(plan, &record, Default::default())?;
     let report_dir = out.join("report");
-    crate::report::write_study(&mut analysis, &report_dir)?;
+    crate::report::write_study(&analysis, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,
         report_dir,
@@ -134,7 +134,7 @@ pub(crate) fn gather_recorded(
     let cells_csv = gather(plan, out)?;
     let sha = crate::cells::file_sha256(&cells_csv)?;
     let resumed_from = builds.iter().filter(|b| *b != crate::io::BUILD).cloned().collect();
-    let notes = opened.warnings.clone();
+    let notes = opened.notes.clone();
     RunRecord { cells_sha256: Some(sha), resumed_from, notes, ..opened.record.clone() }.write(out)?;
     Ok(cells_csv)
 }

@@ -92,7 +92,7 @@ pub fn run(
             }
         }
         if taken > 0 {
-            opened.warnings.push(reuse::reused_note(taken, plan.jobs.len(), index.from()));
+            opened.notes.push(reuse::reused_note(taken, plan.jobs.len(), index.from()));
         }
     }
     let skipped = plan.jobs.len() - todo.len();

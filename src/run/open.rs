@@ -62,8 +62,9 @@ pub(crate) struct Opened {
     pub(crate) prepared: crate::split::Prepared,
     /// What `run.json` holds.
     pub(crate) record: RunRecord,
-    /// Warnings the report adds (external models' predictions).
-    pub(crate) warnings: Vec<String>,
+    /// The run's notes, which run.json records and the report gives (jobs
+    /// reused, external models' predictions).
+    pub(crate) notes: Vec<String>,
 }
 
 /// Checks the lock, refuses a directory that holds another design or other
@@ -106,7 +107,7 @@ pub(crate) fn open(
         ..RunRecord::new(plan, file, data, &prepared, exploratory)
     };
     record.write(out)?;
-    Ok(Opened { status, prepared, record, warnings: Vec::new() })
+    Ok(Opened { status, prepared, record, notes: Vec::new() })
 }
 
 /// The design's lock state, refusing a design that changed after it was

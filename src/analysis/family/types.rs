@@ -209,3 +209,11 @@ pub(super) struct Values {
     pub(super) d: Vec<Vec<Option<f64>>>,
     pub(super) mean_reference: f64,
 }
+
+impl FamilyAnalysis {
+    /// The analysis as its report gives it, naming the figures drawn
+    /// beside it (`figures`, file names in report order).
+    pub fn with_figures(&self, figures: Vec<String>) -> FamilyAnalysis {
+        FamilyAnalysis { figures, ..self.clone() }
+    }
+}

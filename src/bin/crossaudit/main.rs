@@ -547,9 +547,9 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     crossaudit::run::check_not_runs_own(&dir, outer.then_some(cells))?;
     // Any study: a single one, a dose or split family, or (for a
     // multiverse or draw-replicated design) the run directory `cells`.
-    let mut analysis = crossaudit::analyze_study(&file, &study, cells, options)?;
+    let analysis = crossaudit::analyze_study(&file, &study, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
-    let written = crossaudit::report::write_study(&mut analysis, &dir)?;
+    let written = crossaudit::report::write_study(&analysis, &dir)?;
     for w in analysis.warnings() {
         note!("warning: {}", crossaudit::io::one_line(w));
     }

@@ -148,7 +148,7 @@ pub(super) fn score_run(
     for (label, n, of) in &non_finite {
         warnings.push(non_finite_warning(label, *n, *of));
     }
-    let opened = Opened { status, prepared: r.prepared, record: r.run, warnings };
+    let opened = Opened { status, prepared: r.prepared, record: r.run, notes: warnings };
     let mut outcome = crate::run::finish(&r.source.design_path, &r.plan, &opened, dir, builds)?;
     outcome.trained = trained;
     outcome.skipped = r.plan.jobs.len() - trained;

@@ -169,8 +169,8 @@ pub(crate) fn finish_levels(
         }
     }
     let report_dir = out.join("report");
-    let mut analysis = StudyAnalysis::Multiverse(Box::new(a));
-    crate::report::write_study(&mut analysis, &report_dir)?;
+    let analysis = StudyAnalysis::Multiverse(Box::new(a));
+    crate::report::write_study(&analysis, &report_dir)?;
     Ok(RunOutcome { cells_csv, report_dir, analysis, trained: 0, skipped: 0, seconds: started.elapsed().as_secs_f64() })
 }
 

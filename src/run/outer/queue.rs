@@ -81,7 +81,7 @@ pub(super) fn open_levels(
         let mut opened =
             open(&level_file, &level.plan, data, &dir, options.exploratory, Some(&level.id)).map_err(in_level)?;
         if let Some((_, notes)) = external.0.iter().find(|(id, _)| *id == level.id) {
-            opened.warnings.extend(notes.iter().cloned());
+            opened.notes.extend(notes.iter().cloned());
         }
         let (todo, done_builds) = pending(&level.plan, &dir, &file.sha256).map_err(in_level)?;
         let keys: Vec<String> = crate::split::JobManifests::for_plan(&level.plan, &opened.prepared.manifests)

@@ -448,7 +448,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         all_builds.extend(builds.iter().cloned());
         let prepared = rebuild(&p.array, &part, &run)?;
         let warnings = super::external::notes_for(&part.dir, &part.plan);
-        let opened = Opened { status: lock.clone(), prepared, record: run, warnings };
+        let opened = Opened { status: lock.clone(), prepared, record: run, notes: warnings };
         // Every record with its content key, as a local run leaves it.
         let keys = super::reuse::keys(&part.file.design, &part.plan, &opened.prepared.manifests, &opened.record);
         super::reuse::stamp(&part.dir, &keys)?;
