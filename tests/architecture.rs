@@ -785,7 +785,9 @@ fn the_compile_check_would_see_a_stray_call() {
 /// indentation (rustfmt's layout).
 fn function_lengths() -> BTreeMap<String, usize> {
     let mut out = BTreeMap::new();
-    for path in all_sources() {
+    let mut files = all_sources();
+    rust_files(&root().join("crates/stats/src"), &mut files);
+    for path in files {
         let text = std::fs::read_to_string(&path).unwrap();
         let rel = path.strip_prefix(root()).unwrap().to_string_lossy().replace('\\', "/");
         let lines: Vec<&str> = text.lines().collect();
@@ -824,8 +826,9 @@ fn function_lengths() -> BTreeMap<String, usize> {
     out
 }
 
-/// No function of the library's source grows past 80 lines: those longer
-/// today are listed with their length in `tests/long_functions.txt`, which
+/// No function of the library's source (or the statistics crate's) grows
+/// past 80 lines: those longer are listed with their length and why in
+/// `tests/long_functions.txt`, which
 /// may only shrink (a listed function that got shorter is listed at its
 /// new length, one at 80 lines or fewer leaves the list).
 #[test]
@@ -836,8 +839,10 @@ fn no_function_grows_past_80_lines() {
         .lines()
         .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
         .map(|l| {
-            let (n, f) = l.trim().split_once(' ').unwrap();
-            (f.to_string(), n.parse().unwrap())
+            // `LENGTH PATH::FUNCTION  # why`
+            let entry = l.split('#').next().unwrap_or("").trim();
+            let (n, f) = entry.split_once(' ').unwrap();
+            (f.trim().to_string(), n.parse().unwrap())
         })
         .collect();
     let now = function_lengths();

@@ -220,3 +220,22 @@ pub fn assert_refused(o: &std::process::Output, needle: &str) {
     assert!(stderr(o).contains(needle), "expected {needle:?} in: {}", stderr(o));
     assert!(!stderr(o).contains("panicked"), "{}", stderr(o));
 }
+
+/// The real `crossaudit` binary, run in the repository root with `args`
+/// (colours off), its output collected: the one runner every CLI test uses.
+pub fn crossaudit(args: &[&str]) -> std::process::Output {
+    bin().env("NO_COLOR", "1").args(args).output().unwrap()
+}
+
+/// The real `crossaudit` binary as a command to configure further, run in
+/// the repository root.
+pub fn bin() -> std::process::Command {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"));
+    c.current_dir(root());
+    c
+}
+
+/// Everything a command printed: standard output, then standard error.
+pub fn said(o: &std::process::Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}

@@ -6,9 +6,8 @@
 //! refuses, at its line, a request the data cannot meet.
 
 use std::path::Path;
-use std::process::Command;
 
-use crate::common::root;
+use crate::common::crossaudit;
 
 /// The quickstart's simulated flights (40: six each of circle, figure
 /// eight, helix, oval and star, four trefoil, three lissajous, one each of
@@ -37,10 +36,6 @@ decide confirmed when optimism >= 10% and upper < 0
     )
 }
 
-fn cli(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
-
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -57,7 +52,7 @@ fn an_evaluation_set_holding_a_whole_family_is_named_beside_the_verdict() {
 }"#;
     std::fs::write(&path, design(factor)).unwrap();
     let out = dir.path().join("run");
-    let o = cli(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--workers", "2"]);
+    let o = crossaudit(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--workers", "2"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
     // The audit: the three lissajous flights are all in evaluation, so the
@@ -124,7 +119,7 @@ fn uncovered_after_split(factor: &str) -> Result<Vec<String>, String> {
     let path = dir.path().join("s.design");
     std::fs::write(&path, design(factor)).unwrap();
     let out = dir.path().join("split");
-    let o = cli(&["split", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = crossaudit(&["split", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     if !o.status.success() {
         return Err(String::from_utf8_lossy(&o.stderr).into_owned());
     }

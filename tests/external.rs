@@ -5,16 +5,13 @@
 //! count as divergence; every refusal names what is wrong.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use crossaudit::model::{Learned, Net, State, STATE};
 use crossaudit::run::external::{npy, ExportIndex};
 
+use crate::common::crossaudit;
 use crate::common::{assert_ok, root};
-
-fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

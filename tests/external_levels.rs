@@ -5,16 +5,12 @@
 //! model's rows in every level, bit for bit.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use crossaudit::model::{State, STATE};
 use crossaudit::run::external::{npy, ExportIndex, ExportJob};
 
+use crate::common::crossaudit;
 use crate::common::{assert_ok, root};
-
-fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
 
 /// tests/designs/sim_external.design with its `ext` model's history
 /// removed and `outer` added: draws, per-seed draws or splits.

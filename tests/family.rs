@@ -4,7 +4,6 @@
 //! the real CLI end to end.
 
 use std::fmt::Write as _;
-use std::process::Command;
 
 use crossaudit::analysis::family::{analyze_family, FamilyAnalysis};
 use crossaudit::analysis::StudyAnalysis;
@@ -12,13 +11,8 @@ use crossaudit::cells::{read_cells, read_cells_from, write_cells};
 use crossaudit::design::{self, ArmKind};
 use crossaudit::run::{run, Quiet, RunOptions};
 
+use crate::common::bin;
 use crate::common::{assert_rel, root, shared_logs};
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
-    c.current_dir(root());
-    c
-}
 
 /// The diagnostics a design text gets, joined.
 fn errors(text: &str) -> String {

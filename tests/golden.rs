@@ -1,15 +1,8 @@
 //! Golden tests of the real `crossaudit` binary on real files.
 
-use std::process::Command;
-
+use crate::common::bin;
 use crate::common::{confirmatory_design, example_cells, minimal_cells, minimal_design, root, write_temp_cells};
 use crate::snapshots;
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
-    c.current_dir(root());
-    c
-}
 
 fn run(args: &[&str]) -> (i32, String, String) {
     let out = bin().args(args).output().expect("run crossaudit");

@@ -9,17 +9,10 @@
 
 use std::io::Write as _;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use crate::common::root;
-
-fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).env("NO_COLOR", "1").args(args).output().unwrap()
-}
-
-fn said(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
+use crate::common::{crossaudit, said};
 
 #[track_caller]
 fn ok(o: &Output) -> String {

@@ -4,15 +4,11 @@
 //! broken log is refused with its file, line and column.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
+use crate::common::bin;
 use crate::common::{assert_ok, root, stderr};
 use crossaudit::data::{self, load_recording, Layout, LogError, Recording, Status};
 use crossaudit::design::{self, DataSpec};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-}
 
 fn fixture(name: &str) -> PathBuf {
     root().join("tests/fixtures/nanobench").join(name)
@@ -439,6 +435,46 @@ fn a_conditions_table_gives_trajectory_and_speed_and_every_recording_needs_a_row
     std::fs::write(tmp.path().join("conditions.csv"), table.replace("hover", "")).unwrap();
     let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();
     assert!(e.contains("line 3, column `trajectory`: empty"), "{e}");
+}
+
+/// Issue 72: the lock covers the conditions table a design names, which
+/// decides every recording's condition (and so coverage, groups and the
+/// stratified draw): editing it after locking makes the lock no longer
+/// hold, naming the table, so the next run is refused unless labelled
+/// EXPLORATORY; restoring it restores the lock.
+#[test]
+fn editing_a_locked_designs_conditions_table_makes_the_run_exploratory() {
+    use crossaudit::design::lock::{status, write_lock};
+    use crossaudit::design::LockStatus;
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv"] {
+        rewrite(name, tmp.path());
+    }
+    let text = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+        .replace("  rate 100 Hz\n", "  rate 100 Hz\n  conditions table \"conditions.csv\"\n");
+    let table = "recording,trajectory,speed\nF1_circle_slow_rep1,circle,slow\nF2_star_fast_mell_rep1,star,fast\n";
+    std::fs::write(tmp.path().join("conditions.csv"), table).unwrap();
+    let path = tmp.path().join("locked.design");
+    std::fs::write(&path, &text).unwrap();
+    let load = || crossaudit::design::load(&path).unwrap();
+    let lock = write_lock(&load(), std::time::SystemTime::now()).unwrap();
+    let table_path = tmp.path().join("conditions.csv").display().to_string();
+    assert!(lock.files.as_ref().is_some_and(|f| f.contains_key(&table_path)), "{lock:?}");
+    assert!(matches!(status(&load()).unwrap(), LockStatus::LockedUnchanged { .. }));
+    // The same design bytes, another table: the lock no longer holds.
+    std::fs::write(tmp.path().join("conditions.csv"), table.replace("star,fast", "circle,fast")).unwrap();
+    match status(&load()).unwrap() {
+        LockStatus::LockedStale { reason, .. } => {
+            assert!(reason.contains("conditions.csv") && reason.contains("changed after the lock"), "{reason}")
+        }
+        other => panic!("{other:?}"),
+    }
+    let o =
+        crate::common::crossaudit(&["run", path.to_str().unwrap(), "--out", tmp.path().join("run").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("conditions.csv"), "{err}");
+    std::fs::write(tmp.path().join("conditions.csv"), table).unwrap();
+    assert!(matches!(status(&load()).unwrap(), LockStatus::LockedUnchanged { .. }));
 }
 
 #[test]

@@ -6,17 +6,13 @@
 //! endpoint) is refused in the design with its place.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use crossaudit::cells::{read_cells, read_cells_from, HEADER};
 use crossaudit::data::{load_recording, Layout};
 use crossaudit::model::Slots;
 
+use crate::common::crossaudit;
 use crate::common::{assert_ok, root, stderr};
-
-fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
 
 const VELOCITY: &str = "  velocity  mocap_xdot, mocap_ydot, mocap_zdot\n";
 const ATTITUDE: &str = "  attitude  quaternion xyzw mocap_qx, mocap_qy, mocap_qz, mocap_qw\n";

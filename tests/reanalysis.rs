@@ -7,13 +7,9 @@
 //! names the sections it cannot give.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
+use crate::common::crossaudit;
 use crate::common::root;
-
-fn crossaudit(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
 
 /// The design a committed run folder ran: the first `run X.design` its
 /// own COMMAND names, or else the line of a parent folder's COMMAND whose

@@ -4,9 +4,8 @@
 //! together; a folder that cannot be reused is refused before anything runs.
 
 use std::path::Path;
-use std::process::Command;
 
-use crate::common::root;
+use crate::common::crossaudit;
 
 fn design(seeds: &str) -> String {
     format!(
@@ -33,10 +32,6 @@ decide confirmed when optimism >= 10% and upper < 0
     )
 }
 
-fn cli(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
-
 fn said(o: &std::process::Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
 }
@@ -60,18 +55,27 @@ fn an_amended_per_seed_study_trains_only_its_new_seeds() {
     let path = dir.path().join("study.design");
     let p = path.to_str().unwrap();
     std::fs::write(&path, design("1..2")).unwrap();
-    assert!(cli(&["lock", p]).status.success());
+    assert!(crossaudit(&["lock", p]).status.success());
     let first = dir.path().join("first");
-    let o = cli(&["run", p, "--out", first.to_str().unwrap(), "--workers", "2"]);
+    let o = crossaudit(&["run", p, "--out", first.to_str().unwrap(), "--workers", "2"]);
     assert!(o.status.success(), "{}", said(&o));
     assert!(said(&o).contains("4 cells trained, 0 resumed"), "{}", said(&o));
 
     // The amendment: two more seeds (two more draws), the first two kept.
     std::fs::write(&path, design("1..4")).unwrap();
-    let o = cli(&["lock", p, "--amend", "two more seeds of the same protocol"]);
+    let o = crossaudit(&["lock", p, "--amend", "two more seeds of the same protocol"]);
     assert!(o.status.success(), "{}", said(&o));
     let second = dir.path().join("second");
-    let o = cli(&["run", p, "--out", second.to_str().unwrap(), "--workers", "2", "--reuse", first.to_str().unwrap()]);
+    let o = crossaudit(&[
+        "run",
+        p,
+        "--out",
+        second.to_str().unwrap(),
+        "--workers",
+        "2",
+        "--reuse",
+        first.to_str().unwrap(),
+    ]);
     let s = said(&o);
     assert!(o.status.success(), "{s}");
     assert!(s.contains("4 cells trained, 4 resumed"), "only the new seeds train: {s}");
@@ -97,7 +101,14 @@ fn a_folder_that_cannot_be_reused_is_refused_before_anything_runs() {
     let empty = dir.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
     let out = dir.path().join("out");
-    let o = cli(&["run", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--reuse", empty.to_str().unwrap()]);
+    let o = crossaudit(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--reuse",
+        empty.to_str().unwrap(),
+    ]);
     assert!(!o.status.success());
     assert!(said(&o).contains("it holds no finished job"), "{}", said(&o));
     assert!(!out.join("draw-1/cells.csv").exists());

@@ -9,13 +9,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::common::crossaudit;
 use crate::common::{assert_ok, assert_refused, root, stderr};
 
 const DESIGN: &str = "tests/designs/sim_small.design";
-
-fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
 
 /// `crossaudit run` of the design into `out` (two workers unless `extra` says).
 fn run(out: &Path, extra: &[&str]) -> Output {

@@ -5,18 +5,14 @@
 
 use std::io::Read;
 use std::path::Path;
-use std::process::{Command, Output};
 
 use crossaudit::data::{load_recording, Layout};
 use crossaudit::design::{ActionScaling, InputMap, TargetKind};
 use crossaudit::model::{Engine, FeatureMap, NetError, Slots, State};
 use crossaudit::run::external::{npy, ExportIndex, ExportJob};
 
+use crate::common::crossaudit;
 use crate::common::{assert_ok, root, stderr};
-
-fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap()
-}
 
 const WIDE: &str = "designs/logs/rotorpy_wide.design";
 

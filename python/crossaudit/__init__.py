@@ -240,6 +240,10 @@ class Result:
     holds: bool
     estimates: pd.DataFrame
     results: dict = field(repr=False)
+    #: What the report gives beside the verdict (condition coverage, early
+    #: stopping, a reference arm that is not disjoint, a fragile decision),
+    #: one paragraph each, as the console prints them under the decision.
+    guards: list = field(default_factory=list)
     cells: Optional[pd.DataFrame] = None
     report_dir: Optional[Path] = None
     details: dict = field(default_factory=dict, repr=False)
@@ -269,6 +273,7 @@ def _finished(d: dict) -> Result:
         holds=d["holds"],
         estimates=_tidy(table.read_text()),
         results=results,
+        guards=d.get("guards", []),
         cells=read_cells(d["cells_csv"]),
         report_dir=report,
         details=d,
@@ -317,7 +322,7 @@ def analyze(
             path = Path(tmp) / "cells.csv"
             cells.to_csv(path, index=False)
             return analyze(design, path, out, compare_intervals)
-    text, line, holds, kind, table = _native.analyze(
+    text, line, holds, kind, table, guards = _native.analyze(
         os.fspath(design), os.fspath(cells), None if out is None else os.fspath(out), compare_intervals
     )
     results = json.loads(text)
@@ -330,6 +335,7 @@ def analyze(
         holds=holds,
         estimates=estimates,
         results=results,
+        guards=guards,
         cells=read_cells(cells_path) if cells_path.is_file() else None,
         report_dir=None if out is None else Path(out),
         details={"kind": kind},

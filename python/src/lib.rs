@@ -76,6 +76,7 @@ fn score(py: Python<'_>, dir: PathBuf, workers: Option<usize>) -> PyResult<Strin
         "cells_csv": o.run.cells_csv,
         "report_dir": o.run.report_dir,
         "decision": crossaudit::report::study_decision_line(&o.run.analysis),
+        "guards": crossaudit::report::study_guards(&o.run.analysis),
         "holds": o.run.analysis.holds(),
         "scored": o.scored,
         "resumed": o.resumed,
@@ -107,6 +108,7 @@ fn run(
         "cells_csv": o.cells_csv,
         "report_dir": o.report_dir,
         "decision": crossaudit::report::study_decision_line(&o.analysis),
+        "guards": crossaudit::report::study_guards(&o.analysis),
         "holds": o.analysis.holds(),
         "trained": o.trained,
     }))
@@ -129,7 +131,7 @@ fn analyze(
     cells: PathBuf,
     out: Option<PathBuf>,
     compare_intervals: bool,
-) -> PyResult<(String, String, bool, &'static str, String)> {
+) -> PyResult<(String, String, bool, &'static str, String, Vec<String>)> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let study = crossaudit::compile_study(&file.design);
@@ -145,7 +147,8 @@ fn analyze(
         }
         let (line, table) =
             (crossaudit::report::study_decision_line(&analysis), crossaudit::report::study_table(&analysis));
-        Ok((json(&analysis)?, line, analysis.holds(), analysis.kind(), table))
+        let guards = crossaudit::report::study_guards(&analysis);
+        Ok((json(&analysis)?, line, analysis.holds(), analysis.kind(), table, guards))
     })
 }
 

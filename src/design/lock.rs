@@ -1,5 +1,5 @@
 //! `FILE.design.lock`: the design's SHA-256, the SHA-256 of every file it
-//! refers to (a `split published` file), the version of the language's
+//! refers to (a `split published` file, a conditions table), the version of the language's
 //! defaults it was written under, the tool version and the UTC time it was
 //! locked. A run of a locked design checks all of them.
 
@@ -239,10 +239,27 @@ pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
         .map_err(|source| LockError::Parse { path: path.display().to_string(), source })
 }
 
-/// Every file `file`'s design refers to, as written in it, and its SHA-256
-/// when the design was loaded.
+/// Every file `file`'s design refers to, as written in it, and its SHA-256:
+/// a `split published` file (hashed when the design was loaded), and a
+/// conditions table (`conditions table "FILE"`, in the design's data
+/// folder: hashed now, or named unreadable), which decides every
+/// recording's condition and so the verdict's coverage and groups.
 pub fn referenced_files(file: &DesignFile) -> BTreeMap<String, String> {
-    file.design.published.iter().map(|p| (p.file.clone(), p.sha256.clone())).collect()
+    let mut out: BTreeMap<String, String> =
+        file.design.published.iter().map(|p| (p.file.clone(), p.sha256.clone())).collect();
+    let data = &file.design.data;
+    let table = data.format.as_ref().and_then(|f| f.conditions_table.as_ref());
+    if let (Some(table), Some(dir)) = (table, &data.path) {
+        let shown = Path::new(dir).join(table);
+        // The data folder as a run finds it: beside the design, else as written.
+        let beside = file.path.parent().unwrap_or(Path::new("")).join(&shown);
+        let path = if beside.exists() || shown.is_absolute() { beside } else { shown.clone() };
+        let sha = crate::io::read_input(&path, crate::io::MAX_SMALL_TEXT, "a conditions table")
+            .map(|bytes| crate::io::sha256_hex(&bytes))
+            .unwrap_or_else(|e| format!("unreadable: {}", e.reason()));
+        out.insert(shown.display().to_string(), sha);
+    }
+    out
 }
 
 /// Whether the design in `file` matches its lock: the design's bytes, the

@@ -24,28 +24,35 @@ pub(super) fn header(a: &Analysis) -> String {
     s
 }
 
-/// What stands beside the verdict: the decision's summary and notes, a
-/// fragile decision, early stopping and its held-fixed contrast, a
-/// reference arm that is not disjoint, condition coverage.
+/// What stands beside the verdict: the decision's summary, then its
+/// guards ([`guards`]).
 fn beside_verdict(s: &mut String, a: &Analysis) {
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
-    for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
-        let _ = writeln!(s, "{note}\n");
+    for g in guards(a) {
+        let _ = writeln!(s, "{g}\n");
     }
+}
+
+/// The guards of the verdict, each a Markdown paragraph, in the order the
+/// report gives them beside it: the decision's notes (a threshold inside
+/// the interval, a rule that reads no interval), a fragile decision, early
+/// stopping and its held-fixed contrast, a reference arm that is not
+/// disjoint, condition coverage. The console and the Python result give
+/// the same paragraphs ([`super::study_guards`]).
+pub(super) fn guards(a: &Analysis) -> Vec<String> {
+    let mut out: Vec<String> = super::format::decision_notes(&a.decision, &level_pct(a.level));
     for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
-        let _ = writeln!(s, "**Warning**: {}.\n", crate::io::md_line(w));
+        out.push(format!("**Warning**: {}.", crate::io::md_line(w)));
     }
-    // Beside the verdict: models restored early, and the contrast with
-    // early stopping held fixed.
+    // Models restored early, and the contrast with early stopping held fixed.
     for w in a.warnings.iter().filter(|w| w.starts_with("early best epochs")) {
-        let _ = writeln!(s, "**Early stopping**: {}.\n", crate::io::md_line(w));
+        out.push(format!("**Early stopping**: {}.", crate::io::md_line(w)));
     }
     if let Some(b) = &a.fixed_budget {
         let e = &b.estimate;
         let unit = super::format::unit_label(&a.decision.value_unit);
-        let _ = writeln!(
-            s,
-            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).\n",
+        out.push(format!(
+            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).",
             b.epochs,
             b.model,
             f(e.mean, 4),
@@ -54,16 +61,15 @@ fn beside_verdict(s: &mut String, a: &Analysis) {
             f(b.optimism_pct, 1),
             super::format::fieller_text(b.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
             if b.rule_holds { "hold" } else { "fail" }
-        );
+        ));
     }
-    // Beside the verdict: a reference arm that is not disjoint (copies of
-    // evaluation flights in its fit set, allowed by `duplicates keep`).
+    // A reference arm that is not disjoint (copies of evaluation flights in
+    // its fit set, allowed by `duplicates keep`).
     for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
-        let _ = writeln!(s, "**The reference arm is not disjoint**: {}.\n", crate::io::md_line(w));
+        out.push(format!("**The reference arm is not disjoint**: {}.", crate::io::md_line(w)));
     }
-    if let Some(c) = super::coverage::beside_verdict(a) {
-        let _ = writeln!(s, "{c}\n");
-    }
+    out.extend(super::coverage::beside_verdict(a));
+    out
 }
 
 /// The rule, what it reads, the optimism's interval and the contrast.

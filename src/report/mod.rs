@@ -32,7 +32,7 @@ pub use estimates::{render_estimates, render_family_estimates};
 pub use format::{decision_line, decision_summary, f, level_pct, unit_label};
 pub use html::render_html;
 pub use markdown::render_markdown;
-pub use study::{study_decision_line, study_table, write_study};
+pub use study::{study_decision_line, study_guards, study_table, write_study};
 pub use table::Table;
 pub use tex::render_tex;
 

@@ -16,6 +16,23 @@ pub fn study_decision_line(a: &StudyAnalysis) -> String {
     }
 }
 
+/// The guards beside the study's verdict, as plain text (one paragraph
+/// each, Markdown emphasis removed): what the report gives beside the
+/// verdict, for the console and the Python result. For a family or a
+/// multiverse, the reference arm's condition coverage over its levels.
+pub fn study_guards(a: &StudyAnalysis) -> Vec<String> {
+    let paragraphs = match a {
+        StudyAnalysis::Single(a) => super::header::guards(a),
+        StudyAnalysis::Family(a) => a.coverage.iter().map(super::coverage::note_sentence).collect(),
+        StudyAnalysis::Multiverse(a) => a
+            .notes
+            .iter()
+            .filter_map(|n| n.coverage.as_ref().map(|c| format!("{}: {}", n.id, super::coverage::note_sentence(c))))
+            .collect(),
+    };
+    paragraphs.into_iter().map(|p| p.replace("**", "")).collect()
+}
+
 /// The study's tidy table as CSV text: `estimates.csv` of a single or
 /// family study, `specs.csv` of a multiverse.
 pub fn study_table(a: &StudyAnalysis) -> String {

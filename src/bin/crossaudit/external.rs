@@ -69,6 +69,6 @@ pub(crate) fn score(dir: &Path, workers: Option<usize>) -> Result<(), Error> {
             "warning: {job}: {n} of {of} predicted trajectories have a non-finite state (divergent from that step on)"
         );
     }
-    outln!("{}", crossaudit::report::study_decision_line(&o.run.analysis));
+    crate::output::verdict(&o.run.analysis)?;
     Ok(())
 }

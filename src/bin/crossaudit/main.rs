@@ -294,7 +294,7 @@ fn run(
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    outln!("{}", crossaudit::report::study_decision_line(&o.analysis));
+    output::verdict(&o.analysis)?;
     Ok(())
 }
 
@@ -407,7 +407,7 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
         o.cells_csv.display(),
         o.report_dir.display()
     );
-    outln!("{}", crossaudit::report::study_decision_line(&o.analysis));
+    output::verdict(&o.analysis)?;
     Ok(())
 }
 
@@ -556,6 +556,6 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     for p in written {
         note!("wrote {}", p.display());
     }
-    outln!("{}", crossaudit::report::study_decision_line(&analysis));
+    output::verdict(&analysis)?;
     Ok(())
 }

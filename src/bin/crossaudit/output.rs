@@ -76,3 +76,15 @@ pub fn note(args: std::fmt::Arguments<'_>) {
 pub fn note_raw(text: &str) {
     let _ = std::io::stderr().lock().write_all(text.as_bytes());
 }
+
+/// The study's decision line, then each guard the report gives beside the
+/// verdict (condition coverage, early stopping, a reference arm that is
+/// not disjoint, a fragile decision), one indented line each: the console
+/// says what the verdict's contrast measured, as the report does.
+pub fn verdict(a: &crossaudit::analysis::StudyAnalysis) -> Result<(), Error> {
+    print(format_args!("{}\n", crossaudit::report::study_decision_line(a)))?;
+    for g in crossaudit::report::study_guards(a) {
+        print(format_args!("  {}\n", visible(g)))?;
+    }
+    Ok(())
+}

@@ -10,9 +10,9 @@ use rand::SeedableRng;
 use statrs::distribution::Normal;
 
 use crate::common::root;
-use crossaudit::stats::mixed::formula::{fit_table, read_csv, DfMethod};
-use crossaudit::stats::mixed::{fit, Criterion, MixedData, MixedFit};
-use crossaudit::stats::t_two_sided_p;
+use crossaudit_stats::mixed::formula::{fit_table, read_csv, DfMethod};
+use crossaudit_stats::mixed::{fit, Criterion, MixedData, MixedFit};
+use crossaudit_stats::t_two_sided_p;
 
 /// y = 1e6 + a_i + b_j + e over `n` rows, a ~ N(0, sa^2) over `la`
 /// levels, b ~ N(0, sb^2) over `lb`, e ~ N(0, se^2), levels at random.

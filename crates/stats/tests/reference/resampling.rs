@@ -8,11 +8,12 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::common::{assert_rel, root};
-use crossaudit::stats::resampling::{
+use crate::assert_rel;
+use crate::common::root;
+use crossaudit_stats::resampling::{
     chi_squared, parametric_replicates, pigeonhole_t_replicates, product_weight_replicates,
 };
-use crossaudit::stats::{crossed_mom, pigeonhole_bootstrap, pigeonhole_variance, CrossedMatrix, DfRule};
+use crossaudit_stats::{crossed_mom, pigeonhole_bootstrap, pigeonhole_variance, CrossedMatrix, DfRule};
 
 /// Array `rep` of setting 0 of the small locked study (10 x 4).
 fn fixture(rep: usize) -> CrossedMatrix {
@@ -79,7 +80,7 @@ fn the_pigeonhole_variance_is_its_closed_form() {
         let (v, mcse) = variance(&devs);
         let want = pigeonhole_variance(&m);
         assert!((v - want).abs() < 4.0 * mcse, "array {rep}: {v} vs {want} (MCSE {mcse})");
-        let iv = crossaudit::stats::resampling::pigeonhole_further(&m, 0.95, 2000, 11, 3).unwrap();
+        let iv = crossaudit_stats::resampling::pigeonhole_further(&m, 0.95, 2000, 11, 3).unwrap();
         let se = iv[0].se;
         assert_rel(iv[0].upper - iv[0].estimate, 1.959963984540054 * se, 1e-12, "z SD");
         assert_rel(iv[0].estimate - iv[0].lower, 1.959963984540054 * se, 1e-12, "z SD");
@@ -108,7 +109,7 @@ fn the_product_weight_variance_agrees_with_an_independent_simulation() {
         let (want, want_mcse) = r_reference(rep)[0];
         let z = (v - want) / (mcse * mcse + want_mcse * want_mcse).sqrt();
         assert!(z.abs() < 4.0, "array {rep}: {v} vs R's {want}: z = {z:.2}");
-        let exact = crossaudit::stats::resampling::product_weight_variance(&m);
+        let exact = crossaudit_stats::resampling::product_weight_variance(&m);
         assert!((v - exact).abs() < 4.0 * mcse, "array {rep}: {v} vs the closed form {exact} (MCSE {mcse})");
         // Narrower than the pigeonhole's, as the closed forms say.
         assert!(exact < pigeonhole_variance(&m), "array {rep}");
@@ -130,7 +131,7 @@ fn the_parametric_bootstrap_t_agrees_with_whole_arrays_drawn_in_r() {
         assert!((v - se * se).abs() < 4.0 * mcse, "array {rep}: Var(mean*) {v} vs SE^2 {}", se * se);
         let mut t: Vec<f64> = reps.iter().map(|(g, s)| g / s).collect();
         t.sort_by(f64::total_cmp);
-        let q = |p: f64| crossaudit::stats::quantile_type7(&t, p);
+        let q = |p: f64| crossaudit_stats::quantile_type7(&t, p);
         let reference = r_reference(rep);
         for (p, (want, want_mcse)) in [(0.025, reference[1]), (0.975, reference[2])] {
             // Ours has the same Monte Carlo SE as R's (the same B).
@@ -175,7 +176,7 @@ fn the_profile_likelihood_interval_is_lme4s() {
         let f: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
         let (k, r) = (f[0] as usize, f[1] as usize);
         let m = small_study_array(k, r);
-        let iv = crossaudit::stats::profile_interval(&m, 0.95).unwrap();
+        let iv = crossaudit_stats::profile_interval(&m, 0.95).unwrap();
         let width = f[3] - f[2];
         for (what, got, want, tol) in [("lower", iv.lower, f[2], 1e-7), ("upper", iv.upper, f[3], 1e-7)] {
             assert!((got - want).abs() < tol * width, "setting {k} rep {r}: {what} {got} vs {want}");
@@ -185,13 +186,45 @@ fn the_profile_likelihood_interval_is_lme4s() {
     assert_eq!(compared, 50);
 }
 
-/// An independent simulation of the resampling intervals' coverage, with
-/// R's own bootstrap code and random numbers
-/// (scripts/reference/resampling_coverage.R, committed output), agrees with
-/// the committed study within Monte Carlo error in all six settings, and
-/// it compared the study as committed now.
+/// The further estimators' variances on the 200 arrays of the small locked
+/// study equal those computed by other code (scripts/reference/
+/// further_intervals.R: sandwich's vcovCL for the two-way cluster-robust
+/// variance, R's var() for the sum of margins and an explicit delete-one
+/// row and column jackknife, anova()'s mean squares for the untruncated
+/// MoM) to 1e-12; the jackknife and the sum of margins are the same
+/// number.
 #[test]
-fn the_resampling_intervals_coverage_agrees_with_an_independent_simulation() {
-    let compared = crate::coverage_measures::independent_simulation_agrees("scripts/reference/resampling_coverage.out");
-    assert_eq!(compared, 30);
+fn the_further_estimators_are_sandwichs_var_s_and_anova_s() {
+    let root = root();
+    let reference = std::fs::read_to_string(root.join("scripts/reference/further_intervals.out")).unwrap();
+    let mut compared = 0;
+    for line in reference.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
+        let (k, r) = (f[0] as usize, f[1] as usize);
+        let m = small_study_array(k, r);
+        let ours = crossaudit_stats::further_intervals(&m, 0.95, 99, 1, 1).unwrap();
+        let var_of = |method: crossaudit_stats::IntervalMethod| {
+            let e = ours.iter().find(|e| e.method == method).unwrap();
+            if e.se.is_nan() {
+                f64::NAN
+            } else {
+                e.se * e.se
+            }
+        };
+        let (cgm, margins, jackknife, untruncated) = (f[2], f[3], f[4], f[5]);
+        for (what, got, want) in [
+            ("two-way cluster-robust", var_of(crossaudit_stats::IntervalMethod::TwoWayCluster), cgm),
+            ("sum of margins", var_of(crossaudit_stats::IntervalMethod::SumOfMargins), margins),
+            ("row + column jackknife", var_of(crossaudit_stats::IntervalMethod::SumOfMargins), jackknife),
+            ("untruncated MoM", var_of(crossaudit_stats::IntervalMethod::MomUntruncated), untruncated),
+        ] {
+            if want > 0.0 {
+                assert_rel(got, want, 1e-12, &format!("setting {k} rep {r}: {what}"));
+            } else {
+                assert!(got.is_nan(), "setting {k} rep {r}: {what} is {want} in R, so undefined here");
+            }
+        }
+        compared += 1;
+    }
+    assert_eq!(compared, 200);
 }

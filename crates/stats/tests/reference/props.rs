@@ -2,8 +2,8 @@
 
 use proptest::prelude::*;
 
-use crate::common::{assert_rel, rel_close};
-use crossaudit::stats::{crossed_mom, pigeonhole_bootstrap, pigeonhole_variance, CrossedMatrix, DfRule};
+use crate::{assert_rel, rel_close};
+use crossaudit_stats::{crossed_mom, pigeonhole_bootstrap, pigeonhole_variance, CrossedMatrix, DfRule};
 
 fn matrix() -> impl Strategy<Value = CrossedMatrix> {
     (2usize..7, 2usize..7).prop_flat_map(|(i, j)| {
@@ -114,7 +114,7 @@ fn bootstrap_is_deterministic_per_seed_and_stream() {
 
 #[test]
 fn constructors_reject_bad_input_without_panicking() {
-    use crossaudit::stats::StatsError;
+    use crossaudit_stats::StatsError;
     assert!(matches!(CrossedMatrix::new(1, 5, vec![0.0; 5]), Err(StatsError::TooFew { .. })));
     assert!(matches!(CrossedMatrix::new(2, 1, vec![0.0; 2]), Err(StatsError::TooFew { .. })));
     assert!(matches!(CrossedMatrix::new(2, 2, vec![0.0; 3]), Err(StatsError::Shape { .. })));
@@ -137,9 +137,9 @@ fn naive_iid_interval_collapses_where_the_recording_component_dominates() {
     let a = [0.5, -1.0, 2.0, 0.0, -0.7];
     let vals: Vec<f64> = a.iter().flat_map(|x| std::iter::repeat_n(*x, 10)).collect();
     let m = CrossedMatrix::new(5, 10, vals).unwrap();
-    let iv = crossaudit::stats::compare_intervals(&m, 0.95, 199, 1, 0).unwrap();
+    let iv = crossaudit_stats::compare_intervals(&m, 0.95, 199, 1, 0).unwrap();
     let se = |method| iv.iter().find(|e| e.method == method).unwrap().se;
-    use crossaudit::stats::IntervalMethod::*;
+    use crossaudit_stats::IntervalMethod::*;
     assert_rel(se(MomT), se(ClusterRecording), 1e-12, "MoM SE equals the recording-cluster SE");
     assert!(se(NaiveIid) < se(MomT) / 2.5, "naive iid SE {} vs MoM {}", se(NaiveIid), se(MomT));
 }

@@ -13,8 +13,8 @@ use std::collections::BTreeMap;
 use std::io::Read;
 
 use crate::common::root;
-use crossaudit::stats::mixed::formula::{build, parse, Table};
-use crossaudit::stats::mixed::{fit_with, Criterion, Inference};
+use crossaudit_stats::mixed::formula::{build, parse, Table};
+use crossaudit_stats::mixed::{fit_with, Criterion, Inference};
 
 struct Reference {
     formula: String,
