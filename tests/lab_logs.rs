@@ -140,6 +140,10 @@ pub(crate) enum Column {
     Text(Vec<String>),
     /// Nanoseconds since the epoch, as a Parquet timestamp.
     TimestampNanos(Vec<i64>),
+    /// Days since 1970-01-01, as a Parquet date.
+    Date(Vec<i32>),
+    /// Microseconds since midnight, as a Parquet time of day.
+    TimeMicros(Vec<i64>),
 }
 
 /// Writes `columns` as a Parquet file (snappy, one row group), with
@@ -161,6 +165,10 @@ pub(crate) fn write_parquet(path: &Path, columns: &[(&str, Column)]) {
                 Column::Text(_) => (Physical::BYTE_ARRAY, Some(LogicalType::String), Repetition::REQUIRED),
                 Column::TimestampNanos(_) => {
                     (Physical::INT64, Some(LogicalType::timestamp(true, TimeUnit::NANOS)), Repetition::REQUIRED)
+                }
+                Column::Date(_) => (Physical::INT32, Some(LogicalType::Date), Repetition::REQUIRED),
+                Column::TimeMicros(_) => {
+                    (Physical::INT64, Some(LogicalType::time(true, TimeUnit::MICROS)), Repetition::REQUIRED)
                 }
             };
             Arc::new(
@@ -191,7 +199,10 @@ pub(crate) fn write_parquet(path: &Path, columns: &[(&str, Column)]) {
                 let v: Vec<ByteArray> = v.iter().map(|s| ByteArray::from(s.as_str())).collect();
                 w.write_batch(&v, None, None).unwrap();
             }
-            (ColumnWriter::Int64ColumnWriter(w), Column::TimestampNanos(v)) => {
+            (ColumnWriter::Int64ColumnWriter(w), Column::TimestampNanos(v) | Column::TimeMicros(v)) => {
+                w.write_batch(v, None, None).unwrap();
+            }
+            (ColumnWriter::Int32ColumnWriter(w), Column::Date(v)) => {
                 w.write_batch(v, None, None).unwrap();
             }
             _ => panic!("column {k}: writer and values disagree"),
@@ -656,4 +667,32 @@ decide confirmed when optimism >= 10% and upper < 0
     assert!(verdict("3").0);
     let e = crossaudit::design::from_str("rate.design", &design("1", "")).unwrap_err().to_string();
     assert!(e.contains("rate without an attitude") && e.contains("rate.design:10:"), "{e}");
+}
+
+/// Issue 77, class 1: an undeclared Parquet date or time-of-day column
+/// holding a value no calendar can show (a date of day i32::MAX, a time of
+/// i64::MAX microseconds) panicked inside the Parquet reader, which
+/// rendered it as a calendar date to build the CSV text. Every such value
+/// is now written as the number it stores (days since 1970-01-01; seconds
+/// since midnight): the log is read, and the extreme values are the
+/// numbers they are.
+#[test]
+fn an_extreme_parquet_date_or_time_is_read_as_its_number_without_a_panic() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("extreme.parquet");
+    write_parquet(
+        &path,
+        &[
+            ("x", Column::Double(vec![Some(1.0), Some(2.0)])),
+            ("day", Column::Date(vec![i32::MAX, 19_000])),
+            ("clock", Column::TimeMicros(vec![i64::MAX, 1_500_000])),
+        ],
+    );
+    let bytes = std::fs::read(&path).unwrap();
+    let text = crossaudit::io::parquet::to_csv_text(bytes, 1 << 20, "a log").unwrap();
+    let text = String::from_utf8(text).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "x,day,clock", "{text}");
+    assert_eq!(lines[1], format!("1.0,{},{:?}", i32::MAX, i64::MAX as f64 / 1e6), "{text}");
+    assert_eq!(lines[2], "2.0,19000,1.5", "{text}");
 }

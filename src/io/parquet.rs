@@ -89,8 +89,19 @@ fn text(field: &Field, per_second: Option<f64>, out: &mut Vec<u8>) {
         },
         Field::TimestampMillis(v) => write!(out, "{:?}", *v as f64 / 1e3),
         Field::TimestampMicros(v) => write!(out, "{:?}", *v as f64 / 1e6),
+        // Dates and times of day as the numbers they store (days since
+        // 1970-01-01, seconds since midnight): parquet's own rendering as a
+        // calendar date panics on a value no calendar can show.
+        Field::Date(v) => write!(out, "{v}"),
+        Field::TimeMillis(v) => write!(out, "{:?}", f64::from(*v) / 1e3),
+        Field::TimeMicros(v) => write!(out, "{:?}", *v as f64 / 1e6),
         Field::Bool(v) => write!(out, "{v}"),
         Field::Str(s) => out.write_all(quoted(s).as_bytes()),
+        // A list, map or group renders its members, dates among them: it
+        // is named, not rendered (no log column is one).
+        Field::Group(_) | Field::ListInternal(_) | Field::MapInternal(_) => {
+            out.write_all(quoted("a nested value (list, map or group)").as_bytes())
+        }
         other => out.write_all(quoted(&other.to_string()).as_bytes()),
     };
 }
