@@ -114,6 +114,11 @@ fn run(
     }))
 }
 
+/// What [`analyze`] returns to the Python side: the analysis as JSON, the
+/// decision line, whether the rule holds, the study's kind, its tidy table
+/// as CSV text, and the guards beside the verdict.
+type Analyzed = (String, String, bool, &'static str, String, Vec<String>);
+
 /// `crossaudit analyze DESIGN --cells CELLS`: the preregistered analysis of
 /// any study (a single contrast, a dose-response or multi-split family from
 /// its per-cell CSV, or a multiverse or draw-replicated study from its run
@@ -131,7 +136,7 @@ fn analyze(
     cells: PathBuf,
     out: Option<PathBuf>,
     compare_intervals: bool,
-) -> PyResult<(String, String, bool, &'static str, String, Vec<String>)> {
+) -> PyResult<Analyzed> {
     py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let study = crossaudit::compile_study(&file.design);
