@@ -127,7 +127,16 @@ fn the_book_lists_every_page_of_the_docs() {
 fn the_readmes_worked_example_prints_what_the_readme_quotes() {
     let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
     assert!(readme.contains("--cells examples/cells/nanobench_synthetic.csv --out out/example"));
-    let quoted = readme.lines().find(|l| l.starts_with("decision: ")).expect("the README quotes a decision line");
+    // The decision line and the guard lines indented under it.
+    let start = readme.lines().position(|l| l.starts_with("decision: ")).expect("the README quotes a decision line");
+    let quoted: Vec<&str> = readme
+        .lines()
+        .skip(start)
+        .enumerate()
+        .take_while(|(k, l)| *k == 0 || l.starts_with("  "))
+        .map(|(_, l)| l)
+        .collect();
+    assert!(quoted.len() >= 2, "the README quotes the guards under the decision: {quoted:?}");
     let tmp = tempfile::tempdir().unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
         .current_dir(root())
@@ -138,11 +147,7 @@ fn the_readmes_worked_example_prints_what_the_readme_quotes() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let printed = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        printed.lines().find(|l| l.starts_with("decision: ")),
-        Some(quoted),
-        "README quote vs the command's output"
-    );
+    assert_eq!(printed.lines().collect::<Vec<_>>(), quoted, "README quote vs the command's output");
     assert!(tmp.path().join("example/report.html").is_file() && tmp.path().join("example/estimates.csv").is_file());
 }
 

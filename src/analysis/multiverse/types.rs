@@ -51,10 +51,11 @@ pub struct MultiverseAnalysis {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub draws: Vec<DrawReplication>,
     /// Per unit: the reference arm's disjointness and early training
-    /// (filled by the run from the level folders).
+    /// (from the record's level folders: `analysis::evidence`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<UnitNotes>,
-    /// Starts and windows each pair of specifications shares (filled by the run).
+    /// Starts and windows each pair of specifications shares (as the run
+    /// recorded them in study.json).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub shared: Vec<SharedDraws>,
     /// The decision by the declared combination.
@@ -65,7 +66,7 @@ pub struct MultiverseAnalysis {
     /// is in its level's report).
     #[serde(skip)]
     pub levels: Vec<(String, Box<Analysis>)>,
-    /// SHA-256 of the design, lock state: filled by the run.
+    /// SHA-256 of the design (the labelling routine, `analysis::evidence::label`).
     pub design_sha256: Option<String>,
     /// Whether the design was locked and unchanged.
     pub preregistered: Option<bool>,
@@ -165,7 +166,7 @@ pub struct ReferenceCopies {
     pub levels: usize,
 }
 
-/// What a unit's folders say beyond its cells (filled by the run).
+/// What a unit's folders say beyond its cells (from its record).
 #[derive(Debug, Clone, Serialize)]
 pub struct UnitNotes {
     /// The unit (`spec-s1`, `draw-2`).
