@@ -51,7 +51,7 @@ fn a_reanalysis_is_locked_by_a_snapshot() {
 fn a_study_plan_holds_every_level_compiled_once() {
     let file = crossaudit::design::load(Path::new("designs/multiverse/paper_multiverse_per_seed.design")).unwrap();
     let study = crossaudit::compile_study(&file.design);
-    assert_eq!(study.role(), Some(crossaudit::plan::study::Role::Specification));
+    assert_eq!(study.role(), Some(crossaudit::plan::study::LevelRole::Specification));
     assert!(study.combines_levels());
     let levels = study.levels();
     assert_eq!(levels.len(), 8 * 20);

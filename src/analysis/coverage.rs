@@ -8,7 +8,7 @@
 //! condition on other recordings. Where it has not, the contaminated arm's
 //! advantage mixes "saw this recording" with "saw this kind of flight at
 //! all" (condition novelty). The run measures coverage from the split
-//! (`split::ConditionCoverage`); this module turns it into the report's
+//! (`split::FitCoverage`); this module turns it into the report's
 //! statement and sensitivity row.
 
 use std::collections::BTreeSet;

@@ -3,7 +3,7 @@
 //! condition coverage, warned invariants, unread logs, training curves,
 //! the builds that trained the cells, the run's own notes, provenance).
 //! `run::read` fills it from disk, each file through one of the serde
-//! types below; the analysis ([`super::analyze_record`]) is a pure
+//! types below; the analysis ([`super::evidence::analyze_study`]) is a pure
 //! function of it, so a run and a reanalysis of its folder give the same
 //! report.
 //!

@@ -23,7 +23,7 @@ use crate::design::Design;
 /// are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Role {
+pub enum LevelRole {
     /// Alternative analyses of the same question (a multiverse's
     /// specifications): each reported, combined by the declared rule, their
     /// differences estimated pairwise.
@@ -83,7 +83,7 @@ pub struct Unit {
 #[derive(Debug, Clone)]
 pub struct Outer {
     /// How the levels are combined.
-    pub role: Role,
+    pub role: LevelRole,
     /// Every level, in folder order.
     pub levels: Vec<Level>,
     /// The units of the multiverse analysis (each level its own, except a
@@ -109,14 +109,14 @@ impl StudyPlan {
     }
 
     /// The outer factors' role, or None for a study of one run.
-    pub fn role(&self) -> Option<Role> {
+    pub fn role(&self) -> Option<LevelRole> {
         self.outer.as_ref().map(|o| o.role)
     }
 
     /// True when the levels are combined by the multiverse analysis
     /// (specifications or replicate draws) into `multiverse_cells.csv`.
     pub fn combines_levels(&self) -> bool {
-        matches!(self.role(), Some(Role::Specification | Role::Replicate))
+        matches!(self.role(), Some(LevelRole::Specification | LevelRole::Replicate))
     }
 
     /// The jobs the study trains: those of every level that does not share
@@ -180,7 +180,7 @@ impl StudyPlan {
 /// use std::path::Path;
 /// let file = crossaudit::design::load(Path::new("designs/multiverse/paper_per_seed.design")).unwrap();
 /// let study = crossaudit::plan::compile_study(&file.design);
-/// assert_eq!(study.role(), Some(crossaudit::plan::study::Role::PerSeed));
+/// assert_eq!(study.role(), Some(crossaudit::plan::study::LevelRole::PerSeed));
 /// assert_eq!(study.levels().len(), file.design.seeds.len());
 /// ```
 pub fn compile_study(design: &Design) -> StudyPlan {
@@ -191,14 +191,14 @@ pub fn compile_study(design: &Design) -> StudyPlan {
 
 fn outer(design: &Design, plan: &Plan) -> Option<Outer> {
     let (levels, role) = if let Some(levels) = combined_levels(design) {
-        (levels, if design.multiverse.is_some() { Role::Specification } else { Role::Replicate })
+        (levels, if design.multiverse.is_some() { LevelRole::Specification } else { LevelRole::Replicate })
     } else if design.per_seed_draws {
         let levels = design
             .seed_draws()
             .into_iter()
             .map(|(seed, k)| level(format!("draw-{k}"), None, Some(k), design.for_seed_draw(seed, k)))
             .collect();
-        (levels, Role::PerSeed)
+        (levels, LevelRole::PerSeed)
     } else if !plan.splits.is_empty() {
         let levels = plan
             .splits
@@ -213,7 +213,7 @@ fn outer(design: &Design, plan: &Plan) -> Option<Outer> {
                 shares: None,
             })
             .collect();
-        (levels, Role::Redraw)
+        (levels, LevelRole::Redraw)
     } else {
         return None;
     };

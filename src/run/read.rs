@@ -17,7 +17,7 @@ use super::{RunError, RunRecord, StudyRecord};
 use crate::analysis::record::{Curve, DesignLabel, InvariantsFile, LevelEvidence, Record, RunEvidence, Treatment};
 use crate::cells::read_cells;
 use crate::design::{lock, DesignFile};
-use crate::plan::study::Role;
+use crate::plan::study::LevelRole;
 use crate::plan::{Plan, StudyPlan};
 
 /// The record of `cells` for the design `file` compiled as `plan`: a run
@@ -28,7 +28,7 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
     let plan = &study.plan;
     let design =
         DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: lock::status(file)? };
-    let outer = study.outer.as_ref().filter(|o| matches!(o.role, Role::PerSeed | Role::Redraw));
+    let outer = study.outer.as_ref().filter(|o| matches!(o.role, LevelRole::PerSeed | LevelRole::Redraw));
     if cells.is_dir() {
         return match outer {
             Some(o) => read_levels(design, cells, &LevelFolder::of(o, cells)),
@@ -165,7 +165,7 @@ impl<'a> LevelFolder<'a> {
     /// another's run, that one's folder).
     pub fn of(outer: &'a crate::plan::study::Outer, dir: &Path) -> Vec<LevelFolder<'a>> {
         let levels = &outer.levels;
-        let family = outer.role == Role::Redraw;
+        let family = outer.role == LevelRole::Redraw;
         (0..levels.len())
             .map(|k| LevelFolder::at(&levels[k], dir.join(&levels[levels[k].shares.unwrap_or(k)].id)))
             .map(|l| LevelFolder { curves: l.curves && !family, ..l })

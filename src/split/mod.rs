@@ -60,7 +60,7 @@ pub use manifest::{write_split, ManifestSummary, Manifests};
 pub use numpy_legacy::RandomState;
 pub use prepare::{prepare, rebuild, write_prepared, Prepared};
 pub use treatment::{
-    median, treatment_audit, ArmTreatment, Composition, ConditionCoverage, RecordingCoverage, TreatmentAudit,
+    median, treatment_audit, ArmTreatment, Composition, FitCoverage, RecordingCoverage, TreatmentAudit,
 };
 
 /// A one-step window or a rollout start: (recording index, row index).

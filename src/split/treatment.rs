@@ -49,7 +49,7 @@ pub struct TreatmentAudit {
     /// The evaluation set's trajectory x speed composition.
     pub composition: Composition,
     /// Which evaluation conditions each arm's fit set covers.
-    pub coverage: ConditionCoverage,
+    pub coverage: FitCoverage,
 }
 
 /// Condition coverage: for each evaluation recording and each arm, how
@@ -58,7 +58,7 @@ pub struct TreatmentAudit {
 /// reference arm never saw: a contrast on it mixes condition novelty with
 /// recording leakage.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ConditionCoverage {
+pub struct FitCoverage {
     /// What a condition is: `trajectory`, or `trajectory x speed` when the
     /// recording factor declares `conditions trajectory, speed`.
     pub condition: String,
@@ -78,7 +78,7 @@ pub struct RecordingCoverage {
     pub fit_recordings: BTreeMap<String, usize>,
 }
 
-impl ConditionCoverage {
+impl FitCoverage {
     /// The evaluation recordings of whose condition `arm` fits on no other
     /// recording.
     pub fn uncovered(&self, arm: &str) -> Vec<&RecordingCoverage> {
@@ -88,7 +88,7 @@ impl ConditionCoverage {
 
 /// The condition coverage of every arm of `split`, conditions by
 /// `by_speed` (trajectory x speed) or trajectory alone.
-fn condition_coverage(split: &Split, by_speed: bool) -> ConditionCoverage {
+fn condition_coverage(split: &Split, by_speed: bool) -> FitCoverage {
     let condition = |r: usize| {
         let i = &split.recordings[r];
         if by_speed {
@@ -123,7 +123,7 @@ fn condition_coverage(split: &Split, by_speed: bool) -> ConditionCoverage {
             RecordingCoverage { recording: split.recordings[r].name.clone(), condition: c, fit_recordings }
         })
         .collect();
-    ConditionCoverage { condition: if by_speed { "trajectory x speed" } else { "trajectory" }.to_string(), recordings }
+    FitCoverage { condition: if by_speed { "trajectory x speed" } else { "trajectory" }.to_string(), recordings }
 }
 
 /// The first quartile, median and third quartile of `v` (R's type 7:

@@ -8,7 +8,7 @@
 //! reads, and `decide ... in every specification` (or `in at least P% of
 //! specifications`) says how the others enter it.
 //!
-//! Specifications are expanded at validation ([`expand`]) so that each one
+//! Specifications are expanded at validation (`validate::outer::expand`) so that each one
 //! is checked exactly as a single-specification design with those lines
 //! would be, and every error points at the choice that produced it.
 

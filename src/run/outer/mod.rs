@@ -8,7 +8,7 @@
 //! one's (a choice that changes only the analysis) trains nothing and is
 //! analysed on that level's cells, and a job whose inputs equal an earlier
 //! one's is copied by content hash. What follows depends on the factors'
-//! role, not on their names ([`Role`]): whole redraws (splits) are pooled
+//! role, not on their names ([`LevelRole`]): whole redraws (splits) are pooled
 //! by the family analysis into `out/cells.csv` and `out/report`;
 //! specifications and replicate draws are combined by the multiverse
 //! analysis into `out/multiverse_cells.csv` and `out/report`.
@@ -32,7 +32,7 @@ use crate::design::Design;
 use crate::design::{lock, DesignFile, LockStatus};
 use crate::io::create_dir_all;
 use crate::io::write_atomic;
-pub use crate::plan::study::{Level, Outer, Role, Unit};
+pub use crate::plan::study::{Level, LevelRole, Outer, Unit};
 use crate::plan::Plan;
 use crate::plan::StudyPlan;
 use crate::run::guard::refuse_single_run;
@@ -80,17 +80,17 @@ pub(crate) fn run_levels_with(
     let (levels, role) = (&outer.levels, outer.role);
     grid::run_queue(&file.sha256, &contexts, queued.queue, options.workers, observer)
         .map_err(|(at, e)| RunError::InLevel { level: queued.levels[at].1.label.clone(), source: Box::new(e) })?;
-    let per_seed = role == Role::PerSeed || file.design.per_seed_draws;
+    let per_seed = role == LevelRole::PerSeed || file.design.per_seed_draws;
     let finished = queue::finish_opened(file, &queued.levels, levels.len(), per_seed)?;
     let counts = |mut o: RunOutcome| {
         (o.trained, o.skipped, o.seconds) = (queued.trained, queued.skipped, started.elapsed().as_secs_f64());
         o
     };
     let status = &finished.status;
-    if role == Role::PerSeed {
+    if role == LevelRole::PerSeed {
         return Ok(counts(per_seed::finish_per_seed(file, study, outer, out, status, &queued.reused)?));
     }
-    if role == Role::Redraw {
+    if role == LevelRole::Redraw {
         let design =
             DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: status.clone() };
         return Ok(counts(super::finish_splits(design, study, outer, out, &queued.reused)?));

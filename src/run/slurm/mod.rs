@@ -29,7 +29,7 @@
 //! directory (`DIR/split-s`, `DIR/spec-s2`, ...) exactly as a local run
 //! opens it (its own audit, manifests, invariants and run.json), a task
 //! runs its job in its level's directory, and the gather step finishes each
-//! level, then combines them by their role ([`super::outer::Role`]) into
+//! level, then combines them by their role ([`super::outer::LevelRole`]) into
 //! the report a local run writes.
 //!
 //! Shared-filesystem assumption: DIR, the data directory and the crossaudit
@@ -465,7 +465,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     }
     last_record.ok_or(RunError::NoWorkers)?;
     let plan = &p.study.plan;
-    if let Some(o @ outer::Outer { role: outer::Role::PerSeed, .. }) = &p.study.outer {
+    if let Some(o @ outer::Outer { role: outer::LevelRole::PerSeed, .. }) = &p.study.outer {
         let mut outcome = outer::finish_per_seed(&p.file, plan, o, dir, &lock, &notes)?;
         (outcome.skipped, outcome.seconds) = (total_jobs, started.elapsed().as_secs_f64());
         return Ok(outcome);
@@ -476,7 +476,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
     let mut outcome = match (&p.study.outer, last) {
         (None, Some(outcome)) => outcome,
         (None, None) => return Err(RunError::NoWorkers),
-        (Some(o @ outer::Outer { role: outer::Role::Redraw, .. }), _) => {
+        (Some(o @ outer::Outer { role: outer::LevelRole::Redraw, .. }), _) => {
             let design = crate::analysis::record::DesignLabel {
                 path: p.array.design_path.clone(),
                 sha256: p.file.sha256.clone(),
