@@ -264,7 +264,10 @@ def read_cells(path: PathLike) -> pd.DataFrame:
 
 def _finished(d: dict) -> Result:
     report = Path(d["report_dir"])
-    results = json.loads((report / "results.json").read_text())
+    # A multiverse's (or draw replication's) combined report is
+    # multiverse.json where a single or family study's is results.json.
+    results_json = report / "results.json" if (report / "results.json").is_file() else report / "multiverse.json"
+    results = json.loads(results_json.read_text())
     # A multiverse's report has specs.csv where a single or family study's
     # has estimates.csv.
     table = report / "estimates.csv" if (report / "estimates.csv").is_file() else report / "specs.csv"

@@ -230,3 +230,19 @@ def test_analyze_compares_every_interval_as_the_command_line_does(root, tmp_path
     numeric = ["estimate", "se", "lower", "upper"]
     pd.testing.assert_frame_equal(r.estimates[numeric], committed[numeric], rtol=1e-12)
     assert (committed["estimator"] == "profile_ml").any() and (committed["estimator"] == "two_way_cluster").any()
+
+
+def test_run_of_a_multiverse_returns_its_combined_report(root, tmp_path, workers):
+    """Issue 73: ``run()`` of a multiverse trained everything and then
+    raised FileNotFoundError on report/results.json; its combined report is
+    multiverse.json and specs.csv, which the result now carries."""
+    text = (root / "tests/designs/sim_small.design").read_text()
+    text = text.replace("epochs 15 ", "").replace("crossed_mom level 0.95 ", "crossed_mom ")
+    text += "choices {\n  epochs 15 | 12\n}\nprimary specification epochs 15\n"
+    design = tmp_path / "m.design"
+    design.write_text(text)
+    r = crossaudit.run(design, tmp_path / "run", workers=workers)
+    assert r.results["decision"]["name"] == "confirmed", r.results["decision"]
+    assert list(r.estimates["spec"]) == ["s1", "s2"], r.estimates
+    assert len(r.cells) > 0 and "spec" in r.cells.columns
+    assert r.decision.startswith(("decision:", "NOT PREREGISTERED")), r.decision
