@@ -446,3 +446,23 @@ fn the_coverage_figure_draws_every_method_and_keeps_names_as_text() {
     let md = std::fs::read_to_string(out.join("simsum.md")).unwrap();
     assert!(md.contains("simsum.svg is not drawn: 61 groups, more than the 60"), "{md}");
 }
+
+/// Issue 75: a negative true value is taken as written (`--true -1`, as
+/// `--true=-1`), and `--df` beside `--ci` is refused (the given limits
+/// would leave the df unread; rsimsum refuses the pair too).
+#[test]
+fn a_negative_truth_is_taken_and_df_beside_ci_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("hand.csv");
+    std::fs::write(&file, HAND).unwrap();
+    let (spaced, joined) = (tmp.path().join("spaced"), tmp.path().join("joined"));
+    assert_ok(&simsum(&file, &["--true", "-1", "--ci", "lower,upper", "--rep", "rep"], &spaced));
+    assert_ok(&simsum(&file, &["--true=-1", "--ci", "lower,upper", "--rep", "rep"], &joined));
+    let read = |d: &Path| std::fs::read_to_string(d.join("simsum.csv")).unwrap();
+    assert_eq!(read(&spaced), read(&joined));
+    assert!(read(&spaced).lines().skip(1).all(|l| l.starts_with("-1,")), "{}", read(&spaced));
+    let o = simsum(&file, &["--true", "0", "--ci", "lower,upper", "--df", "rep"], &tmp.path().join("bad"));
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--df") && err.contains("--ci"), "{err}");
+}

@@ -379,8 +379,9 @@ pub(crate) struct SimsumArgs {
     /// By-factor columns, comma-separated: one group per combination.
     #[arg(long, value_delimiter = ',')]
     pub(crate) by: Vec<String>,
-    /// The true value: a number, or the column holding it.
-    #[arg(long = "true", value_name = "VALUE|COLUMN")]
+    /// The true value: a number (negative ones too: `--true -1`), or the
+    /// column holding it.
+    #[arg(long = "true", value_name = "VALUE|COLUMN", allow_negative_numbers = true)]
     pub(crate) truth: String,
     /// The intervals' level: a number, or the column holding it.
     #[arg(long, default_value = "0.95", value_name = "VALUE|COLUMN")]
@@ -389,8 +390,9 @@ pub(crate) struct SimsumArgs {
     /// t (with --df) or normal quantile times the SE].
     #[arg(long, value_name = "LOWER,UPPER")]
     pub(crate) ci: Option<String>,
-    /// The df column (for intervals computed from the SE).
-    #[arg(long)]
+    /// The df column (for intervals computed from the SE; refused with
+    /// --ci, whose limits are given, as rsimsum refuses the pair).
+    #[arg(long, conflicts_with = "ci")]
     pub(crate) df: Option<String>,
     /// The reference method [default: each group's first].
     #[arg(long = "ref")]
