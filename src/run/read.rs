@@ -365,12 +365,15 @@ struct AuditRow {
 /// read every one, or, with a sentence in `missing`, when the audit is
 /// absent or unreadable).
 fn unread(path: &Path, missing: &mut Vec<String>) -> Option<String> {
-    let rows = csv::Reader::from_path(path)
-        .and_then(|mut r| r.deserialize::<AuditRow>().collect::<Result<Vec<_>, _>>())
-        .map_err(|e| {
-            missing.push(format!("{} is unreadable ({e}): logs it could not read not reported", path.display()))
-        })
-        .ok()?;
+    let read =
+        csv::Reader::from_path(path).and_then(|mut r| r.deserialize::<AuditRow>().collect::<Result<Vec<_>, _>>());
+    let rows = match read {
+        Ok(rows) => rows,
+        Err(e) => {
+            missing.push(format!("{} is unreadable ({e}): logs it could not read not reported", path.display()));
+            return None;
+        }
+    };
     let files: Vec<(String, String)> = rows
         .into_iter()
         .filter(|r| r.status == "excluded" && r.content_hash.is_empty())
