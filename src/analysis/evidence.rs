@@ -182,11 +182,7 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
         ));
         return;
     };
-    a.provenance.data = Some(run.data.clone());
-    a.provenance.audit_sha256 = Some(run.audit_sha256.clone());
-    let mut warnings = run_warnings(plan, run);
-    a.treatment = treatment(plan, &run.levels, &mut warnings);
-    a.warnings.extend(warnings);
+    a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = statement(plan, &record.cells, &run.levels);
     a.curves = run.curves();
     if let Some(w) = early_training(plan, &best_epochs(plan, &a.curves), &record.cells).and_then(|e| e.warning()) {
@@ -202,14 +198,27 @@ fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
         a.warnings.push(absent("the data's provenance, treatment strength and condition coverage"));
         return;
     };
-    a.provenance.data = Some(run.data.clone());
-    a.provenance.audit_sha256 = Some(run.audit_sha256.clone());
-    let mut warnings = run_warnings(plan, run);
-    a.treatment = treatment(plan, &run.levels, &mut warnings);
-    a.warnings.extend(warnings);
+    a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = note(plan, &run.levels);
     a.sources = sources(plan, &run.levels);
     a.warnings.extend(run.missing.iter().cloned());
+}
+
+/// What every study of a run folder states first: the data's provenance,
+/// the run's warnings ([`run_warnings`]) and each arm's treatment strength
+/// (returned, its note among the warnings).
+fn provenance_and_warnings(
+    provenance: &mut super::Provenance,
+    warnings: &mut Vec<String>,
+    plan: &Plan,
+    run: &RunEvidence,
+) -> Vec<TreatmentStrength> {
+    provenance.data = Some(run.data.clone());
+    provenance.audit_sha256 = Some(run.audit_sha256.clone());
+    let mut said = run_warnings(plan, run);
+    let strengths = treatment(plan, &run.levels, &mut said);
+    warnings.extend(said);
+    strengths
 }
 
 /// The run's warnings, in report order, each once: what its level folders

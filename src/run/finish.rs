@@ -61,17 +61,7 @@ pub(crate) fn finish_combined(
     }
     .write(dir)?;
     let record = read::read_levels(design, dir, levels)?;
-    let analysis = analysis::analyze_study(plan, &record, Default::default())?;
-    let report_dir = dir.join("report");
-    crate::report::write_study(&analysis, &report_dir)?;
-    Ok(RunOutcome {
-        cells_csv,
-        report_dir,
-        analysis,
-        trained: 0,
-        skipped: plan.jobs.len(),
-        seconds: started.elapsed().as_secs_f64(),
-    })
+    report(plan, &record, dir, cells_csv, started)
 }
 
 /// Everything after the last job: the invariants on what the jobs recorded,
@@ -95,8 +85,20 @@ pub(crate) fn finish(
         status: opened.status.clone(),
     };
     let record = read::read_folder(design, plan, out)?;
-    let analysis = analysis::analyze_study(plan, &record, Default::default())?;
-    let report_dir = out.join("report");
+    report(plan, &record, out, cells_csv, started)
+}
+
+/// The record of the run folder `dir` analysed and its report written in
+/// `dir/report`: the last step of every finish.
+fn report(
+    plan: &Plan,
+    record: &analysis::record::Record,
+    dir: &Path,
+    cells_csv: PathBuf,
+    started: Instant,
+) -> Result<RunOutcome, RunError> {
+    let analysis = analysis::analyze_study(plan, record, Default::default())?;
+    let report_dir = dir.join("report");
     crate::report::write_study(&analysis, &report_dir)?;
     Ok(RunOutcome {
         cells_csv,

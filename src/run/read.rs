@@ -240,18 +240,8 @@ fn levels_record(
             )),
         }
     }
-    let first = runs.first();
-    let build = study.as_ref().map(|s| s.crossaudit.clone()).or_else(|| first.map(|r| r.crossaudit.clone()));
-    let evidence = RunEvidence {
-        data: first.map(|r| r.data.describe()).unwrap_or_default(),
-        audit_sha256: first.map(|r| r.audit_sha256.clone()).unwrap_or_default(),
-        exploratory: runs.iter().any(|r| r.exploratory),
-        build: build.unwrap_or_default(),
-        resumed_from: runs.iter().flat_map(|r| r.resumed_from.iter().cloned()).collect(),
-        notes: study.map(|s| s.notes).unwrap_or_default(),
-        levels: read_each(levels, &mut missing),
-        missing,
-    };
+    let levels = read_each(levels, &mut missing);
+    let evidence = RunEvidence { levels, ..levels_evidence(&runs, study.as_ref(), missing) };
     Ok(Record {
         design,
         cells,
@@ -259,6 +249,25 @@ fn levels_record(
         cells_file: ("cells.csv".to_string(), sha),
         run: Some(evidence),
     })
+}
+
+/// What the run.json of each level (`runs`) and the study's `study.json`
+/// say of a study of several level folders: the data and audit of the
+/// first level, EXPLORATORY when any level is, the build that combined
+/// them, every level's resumed builds, the run's notes; no level's
+/// evidence yet (`levels` empty), and what is `missing`.
+pub(crate) fn levels_evidence(runs: &[RunRecord], study: Option<&StudyRecord>, missing: Vec<String>) -> RunEvidence {
+    let first = runs.first();
+    RunEvidence {
+        data: first.map(|r| r.data.describe()).unwrap_or_default(),
+        audit_sha256: first.map(|r| r.audit_sha256.clone()).unwrap_or_default(),
+        exploratory: runs.iter().any(|r| r.exploratory),
+        build: study.map(|s| s.crossaudit.clone()).or_else(|| first.map(|r| r.crossaudit.clone())).unwrap_or_default(),
+        resumed_from: runs.iter().flat_map(|r| r.resumed_from.iter().cloned()).collect(),
+        notes: study.map(|s| s.notes.clone()).unwrap_or_default(),
+        levels: Vec::new(),
+        missing,
+    }
 }
 
 /// Every level's evidence, in order; what the levels lack is said once

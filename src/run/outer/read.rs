@@ -11,10 +11,10 @@ use std::path::Path;
 use super::verify::check_levels;
 use super::{run_dir, Outer};
 use crate::analysis::multiverse::{LevelInput, MultiverseAnalysis};
-use crate::analysis::record::{DesignLabel, MultiverseRecord, RunEvidence};
+use crate::analysis::record::{DesignLabel, MultiverseRecord};
 use crate::cells::{read_cells, Cell};
 use crate::design::{Design, DesignFile};
-use crate::run::read::{read_each, LevelFolder};
+use crate::run::read::{levels_evidence, read_each, LevelFolder};
 use crate::run::{RunError, RunRecord, StudyRecord};
 
 /// The record of the run folder `dir` of `file`'s multiverse or
@@ -65,21 +65,7 @@ pub(crate) fn read_multiverse(
             dir.join("study.json").display()
         )),
     }
-    let first = runs.first();
-    let run = RunEvidence {
-        data: first.map(|r| r.data.describe()).unwrap_or_default(),
-        audit_sha256: first.map(|r| r.audit_sha256.clone()).unwrap_or_default(),
-        exploratory: runs.iter().any(|r| r.exploratory),
-        build: study
-            .as_ref()
-            .map(|s| s.crossaudit.clone())
-            .or_else(|| first.map(|r| r.crossaudit.clone()))
-            .unwrap_or_default(),
-        resumed_from: runs.iter().flat_map(|r| r.resumed_from.iter().cloned()).collect(),
-        notes: study.as_ref().map(|s| s.notes.clone()).unwrap_or_default(),
-        levels: Vec::new(),
-        missing,
-    };
+    let run = levels_evidence(&runs, study.as_ref(), missing);
     let shared = study.map(|s| s.shared).unwrap_or_default();
     Ok(MultiverseRecord { design, dir: dir.to_path_buf(), units: out, run, shared })
 }
