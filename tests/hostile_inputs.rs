@@ -174,7 +174,12 @@ fn names_from_input_reach_the_report_as_text_only() {
 #[test]
 fn the_page_renders_markdown_with_no_live_markup_from_the_text() {
     use crossaudit::report::html::{render_page, Banner};
-    let banner = Banner::new("confirmed", true, "decision".into(), false, Some(true));
+    let banner = Banner::new(
+        "confirmed",
+        true,
+        "decision".into(),
+        &crossaudit::analysis::Standing::Preregistered { amended: false },
+    );
     let md = "# t\n\n[a](javascript:alert(1)) [b](JAVASCRIPT:x) [c](data:text/html,x) [d](//host/x) [e](vbscript:x) \
               [ok](audit/recordings.csv) [web](https://example.org/x)\n\n<script>alert(1)</script>\n\n\
               <a href=\"javascript:x\">raw</a> ![ext](http://host/x.png) ![local](other.svg)\n\n\

@@ -345,7 +345,7 @@ fn an_unlocked_design_says_not_preregistered_wherever_a_locked_one_is() {
     let o = analyze(&unlocked);
     assert_ok(&o);
     assert!(stdout(&o).starts_with("NOT PREREGISTERED decision:"), "{}", stdout(&o));
-    assert!(stderr(&o).contains("was not locked: results are NOT PREREGISTERED"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("NOT PREREGISTERED: the design was never locked"), "{}", stderr(&o));
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(unlocked.join("results.json")).unwrap()).unwrap();
     assert_eq!((json["preregistered"].clone(), json["exploratory"].clone()), (false.into(), false.into()));
@@ -367,6 +367,71 @@ fn an_unlocked_design_says_not_preregistered_wherever_a_locked_one_is() {
     // A run of an unlocked design says so on its decision line too.
     let (_, _, first) = reference();
     assert!(first.starts_with("NOT PREREGISTERED decision:"), "{first}");
+}
+
+#[test]
+fn every_view_gives_the_one_true_label_of_each_state() {
+    // Issue 72: a never-locked design run with --exploratory said "the
+    // design changed after it was locked"; post hoc designs carried the
+    // "Preregistered" banner.
+    let dir = tempfile::tempdir().unwrap();
+    let design = dir.path().join("minimal.design");
+    std::fs::copy(root().join("tests/designs/minimal.design"), &design).unwrap();
+    let cells = root().join("fuzz/seeds_cells/minimal_complete.csv");
+    let analyze = |name: &str| {
+        let report = dir.path().join(name);
+        let o = crossaudit(&["analyze", s(&design), "--cells", s(&cells), "--out", s(&report)]);
+        assert_ok(&o);
+        let read = |f: &str| std::fs::read_to_string(report.join(f)).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&read("results.json")).unwrap();
+        (stdout(&o), read("report.md"), read("report.html"), json)
+    };
+
+    // Marked post hoc (locking it): every view says POST HOC, none says preregistered.
+    let why = "written after the pilot's results were known";
+    assert_ok(&crossaudit(&["lock", s(&design), "--posthoc", why]));
+    let (line, md, html, json) = analyze("posthoc");
+    assert!(line.starts_with("POST HOC decision:"), "{line}");
+    assert!(md.lines().next().unwrap().contains("(POST HOC: the design was written after results were known)"), "{md}");
+    assert!(
+        html.contains("POST HOC: the design was written after results were known (written after the pilot"),
+        "{html}"
+    );
+    assert!(!html.contains("Preregistered:") && !md.contains("Preregistered:"), "{html}");
+    assert_eq!((json["preregistered"].clone(), json["exploratory"].clone()), (false.into(), false.into()));
+    assert!(json["standing"].as_str().unwrap().contains(why), "{}", json["standing"]);
+    // The same reason again is a no-op; another is refused; an amendment keeps the mark.
+    assert_ok(&crossaudit(&["lock", s(&design), "--posthoc", why]));
+    let o = crossaudit(&["lock", s(&design), "--posthoc", "another reason"]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("differs from the lock's own post hoc reason"),
+        "{}",
+        stderr(&o)
+    );
+    let mut text = std::fs::read_to_string(&design).unwrap();
+    text.push_str("\n# amended\n");
+    std::fs::write(&design, text).unwrap();
+    assert_ok(&crossaudit(&["lock", s(&design), "--amend", "a comment"]));
+    let (line, ..) = analyze("amended");
+    assert!(line.starts_with("POST HOC decision:"), "{line}");
+    // A post hoc mark on a lock that no longer holds is refused.
+    std::fs::write(&design, std::fs::read_to_string(&design).unwrap() + "# again\n").unwrap();
+    let o = crossaudit(&["lock", s(&design), "--posthoc", why]);
+    assert!(!o.status.success() && stderr(&o).contains("no longer holds"), "{}", stderr(&o));
+
+    // A never-locked design run with --exploratory: NOT PREREGISTERED, and never "changed after it was locked".
+    let copy = copy_of_reference(dir.path());
+    let (_, tiny_design, _) = reference();
+    let o = crossaudit(&["run", s(tiny_design), "--out", s(&copy), "--exploratory", "--workers", "1"]);
+    assert_ok(&o);
+    let md = std::fs::read_to_string(copy.join("report/report.md")).unwrap();
+    let html = std::fs::read_to_string(copy.join("report/report.html")).unwrap();
+    assert!(stdout(&o).starts_with("NOT PREREGISTERED decision:"), "{}", stdout(&o));
+    assert!(md.lines().next().unwrap().contains("(NOT PREREGISTERED: the design was never locked)"), "{md}");
+    assert!(html.contains("the design was never locked, and the run was labelled exploratory"), "{html}");
+    for text in [&md, &html, &stdout(&o), &stderr(&o)] {
+        assert!(!text.contains("changed after it was locked"), "{text}");
+    }
 }
 
 #[test]

@@ -41,9 +41,8 @@ pub fn analyze_study(
 /// What every analysis type carries in its header: the design, the lock
 /// state, the cells and the warnings. One labelling routine for all.
 pub trait Labelled {
-    /// The design hash, the EXPLORATORY flag, the preregistered flag and
-    /// the warnings.
-    fn header(&mut self) -> (&mut Option<String>, &mut bool, &mut Option<bool>, &mut Vec<String>);
+    /// The design hash, the preregistration standing and the warnings.
+    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>);
     /// Records the per-cell file and its SHA-256.
     fn cells(&mut self, name: &str, sha256: &str);
     /// Passes the labels on to the analyses it holds (a family's splits).
@@ -51,8 +50,8 @@ pub trait Labelled {
 }
 
 impl Labelled for Analysis {
-    fn header(&mut self) -> (&mut Option<String>, &mut bool, &mut Option<bool>, &mut Vec<String>) {
-        (&mut self.design_sha256, &mut self.exploratory, &mut self.preregistered, &mut self.warnings)
+    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>) {
+        (&mut self.design_sha256, &mut self.standing, &mut self.warnings)
     }
     fn cells(&mut self, name: &str, sha256: &str) {
         self.provenance.cells = Some((name.to_string(), sha256.to_string()));
@@ -60,18 +59,16 @@ impl Labelled for Analysis {
 }
 
 impl Labelled for FamilyAnalysis {
-    fn header(&mut self) -> (&mut Option<String>, &mut bool, &mut Option<bool>, &mut Vec<String>) {
-        (&mut self.design_sha256, &mut self.exploratory, &mut self.preregistered, &mut self.warnings)
+    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>) {
+        (&mut self.design_sha256, &mut self.standing, &mut self.warnings)
     }
     fn cells(&mut self, name: &str, sha256: &str) {
         self.provenance.cells = Some((name.to_string(), sha256.to_string()));
     }
     fn propagate(&mut self) {
-        let (sha, exploratory, preregistered) = (self.design_sha256.clone(), self.exploratory, self.preregistered);
         for a in self.splits.iter_mut().flat_map(|s| s.detail.iter_mut()) {
-            a.design_sha256.clone_from(&sha);
-            a.exploratory |= exploratory;
-            a.preregistered = preregistered;
+            a.design_sha256.clone_from(&self.design_sha256);
+            a.standing.clone_from(&self.standing);
         }
     }
 }
@@ -85,31 +82,30 @@ pub fn label(a: &mut impl Labelled, record: &Record) {
     a.cells(&record.cells_file.0.clone(), &record.cells_file.1.clone());
 }
 
-/// Labels `a` with `design` (its hash, lock state and warning), EXPLORATORY
-/// when the design changed after its lock or the run was labelled so.
+/// Labels `a` with `design`: its hash, its standing ([`super::Standing::of`]
+/// its lock state, post hoc mark and the run's label) and the
+/// warnings they give (a standing that is not the preregistered one, the
+/// lock's amendments).
 fn label_design(a: &mut impl Labelled, design: &DesignLabel, run_exploratory: bool) {
     {
-        let (sha, exploratory, preregistered, warnings) = a.header();
+        let (sha, standing, warnings) = a.header();
         *sha = Some(design.sha256.clone());
-        let (changed, locked, warning) = super::lock_labels(&design.path, &design.status);
-        *exploratory |= changed || run_exploratory;
-        *preregistered = Some(locked && !*exploratory);
-        warnings.extend(warning);
+        *standing = super::Standing::of(&design.status, run_exploratory);
+        warnings.extend(standing.warning(&design.path));
+        warnings.extend(design.status.amendment_warnings());
     }
     a.propagate();
 }
 
 impl Labelled for MultiverseAnalysis {
-    fn header(&mut self) -> (&mut Option<String>, &mut bool, &mut Option<bool>, &mut Vec<String>) {
-        (&mut self.design_sha256, &mut self.exploratory, &mut self.preregistered, &mut self.warnings)
+    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>) {
+        (&mut self.design_sha256, &mut self.standing, &mut self.warnings)
     }
     fn cells(&mut self, _name: &str, _sha256: &str) {}
     fn propagate(&mut self) {
-        let (sha, exploratory, preregistered) = (self.design_sha256.clone(), self.exploratory, self.preregistered);
         for (_, a) in &mut self.levels {
-            a.design_sha256.clone_from(&sha);
-            a.exploratory |= exploratory;
-            a.preregistered = preregistered;
+            a.design_sha256.clone_from(&self.design_sha256);
+            a.standing.clone_from(&self.standing);
         }
     }
 }

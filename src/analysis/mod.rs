@@ -16,6 +16,7 @@ pub mod family;
 mod index;
 pub mod multiverse;
 pub mod record;
+mod standing;
 pub mod study;
 pub mod training;
 mod types;
@@ -28,6 +29,7 @@ use crate::plan::Plan;
 
 pub use error::{AnalysisError, FileAnalysisError};
 pub use evidence::analyze_study;
+pub use standing::Standing;
 pub use study::StudyAnalysis;
 pub use types::*;
 
@@ -188,8 +190,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
     Ok(Analysis {
         study: plan.study.clone(),
         design_sha256: None,
-        exploratory: false,
-        preregistered: None,
+        standing: Standing::Unrecorded,
         treated: plan.contrast.treated.clone(),
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,

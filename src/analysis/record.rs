@@ -29,6 +29,13 @@ pub struct DesignLabel {
     pub status: LockStatus,
 }
 
+impl DesignLabel {
+    /// The label of design file `file` in lock state `status`.
+    pub fn new(file: &crate::design::DesignFile, status: LockStatus) -> DesignLabel {
+        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status }
+    }
+}
+
 /// A per-cell file or a run folder, read.
 #[derive(Debug, Clone)]
 pub struct Record {

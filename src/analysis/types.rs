@@ -2,7 +2,7 @@
 
 use serde::{Serialize, Serializer};
 
-use crate::design::{DecisionCondition, DecisionRule, Factor, LockStatus, Metric, Quantity, Role};
+use crate::design::{DecisionCondition, DecisionRule, Factor, Metric, Quantity, Role};
 use crossaudit_stats::{BootstrapInterval, CrossedEstimate, IntervalEstimate, RatioInterval};
 
 /// Options of [`crate::analysis::analyze`] that are not part of the design.
@@ -19,15 +19,10 @@ pub struct Analysis {
     pub study: String,
     /// SHA-256 of the design file, when the analysis came from one.
     pub design_sha256: Option<String>,
-    /// True when the design changed after locking (or the run was labelled so).
-    pub exploratory: bool,
-    /// Whether the design was locked before this analysis and is unchanged
-    /// since, with the run not labelled exploratory: `false` for a design
-    /// that was never locked, whose outputs all say NOT PREREGISTERED.
-    /// `None` when the analysis was not given a design's lock state (an
-    /// in-memory analysis, or one split's or dose's part of a family).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub preregistered: Option<bool>,
+    /// Where the analysis stands with its preregistration (results.json:
+    /// `exploratory`, `preregistered` and the `standing` sentence).
+    #[serde(flatten)]
+    pub standing: super::Standing,
     /// The treated arm of the contrast.
     pub treated: String,
     /// The reference arm of the contrast.
@@ -121,30 +116,6 @@ impl Analysis {
     /// beside it (`figures`, file names in report order).
     pub fn with_figures(&self, figures: Vec<String>) -> Analysis {
         Analysis { figures, ..self.clone() }
-    }
-}
-
-/// What a design's lock state makes of an analysis: (exploratory,
-/// preregistered, the warning to give).
-pub fn lock_labels(path: &str, status: &LockStatus) -> (bool, bool, Option<String>) {
-    match status {
-        LockStatus::Unlocked => (
-            false,
-            false,
-            Some(format!(
-                "{path} was not locked: results are NOT PREREGISTERED; lock a design (`crossaudit lock`) before running it to preregister it"
-            )),
-        ),
-        LockStatus::LockedUnchanged { amendments, .. } => {
-            let said: Vec<String> = amendments.iter().map(|a| a.describe()).collect();
-            (false, true, (!said.is_empty()).then(|| said.join("; ")))
-        }
-        LockStatus::LockedChanged { .. } => {
-            (true, false, Some("the design changed after it was locked: results are EXPLORATORY".to_string()))
-        }
-        LockStatus::LockedStale { reason, .. } => {
-            (true, false, Some(format!("the design's lock no longer holds ({reason}): results are EXPLORATORY")))
-        }
     }
 }
 
@@ -396,7 +367,7 @@ pub struct Decision {
     /// Each condition with the observed value.
     pub conditions: Vec<ConditionOutcome>,
     /// The conditions whose threshold lies inside the interval of the
-    /// quantity they read: the verdict stands as preregistered, but the
+    /// quantity they read: the verdict is the rule's, but the
     /// data do not determine on which side of that threshold the quantity
     /// lies.
     #[serde(skip_serializing_if = "Vec::is_empty")]

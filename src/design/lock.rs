@@ -50,6 +50,12 @@ pub struct LockFile {
     /// under an amended lock says so.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub amendments: Vec<Amendment>,
+    /// Why the design was written (or locked) after results were known
+    /// (`crossaudit lock DESIGN --posthoc REASON`): every output of a run
+    /// under this lock says POST HOC, never preregistered. Kept by every
+    /// later amendment; no command removes it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub posthoc: Option<String>,
 }
 
 /// The most characters an amendment's reason may have.
@@ -91,6 +97,10 @@ pub enum LockStatus {
         /// The earlier locks this one replaced, if it was amended.
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         amendments: Vec<Amendment>,
+        /// Why the design was written after results were known, when its
+        /// lock says so ([`LockFile::posthoc`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        posthoc: Option<String>,
     },
     /// Locked, but the file changed since: analyses are exploratory.
     LockedChanged {
@@ -275,7 +285,11 @@ pub fn status(file: &DesignFile) -> Result<LockStatus, LockError> {
     }
     Ok(match stale(&lock, &referenced_files(file)) {
         Some(reason) => LockStatus::LockedStale { reason, locked_at_utc: lock.locked_at_utc },
-        None => LockStatus::LockedUnchanged { locked_at_utc: lock.locked_at_utc, amendments: lock.amendments },
+        None => LockStatus::LockedUnchanged {
+            locked_at_utc: lock.locked_at_utc,
+            amendments: lock.amendments,
+            posthoc: lock.posthoc,
+        },
     })
 }
 
@@ -320,6 +334,57 @@ pub fn write_lock(file: &DesignFile, now: SystemTime) -> Result<LockFile, LockEr
     write_lock_amended(file, now, None)
 }
 
+/// Marks the design in `file` post hoc (`why`: when and why it was written
+/// after results were known), locking it now if it has no lock: a lock
+/// that holds keeps its hashes and time and gains the mark. Refused where
+/// the lock no longer holds (amend it first) or already says another
+/// reason; the same reason again is a no-op.
+pub fn mark_posthoc(file: &DesignFile, now: SystemTime, why: &str) -> Result<LockFile, LockError> {
+    let path = lock_path(&file.path);
+    check_reason(&path, why)?;
+    let bad = |why: String| LockError::BadReason { path: path.display().to_string(), why };
+    if why.trim().is_empty() {
+        return Err(bad("is empty: say when and why the design was written after results were known".into()));
+    }
+    let mut lock = match read_lock(&file.path)? {
+        None => write_lock(file, now)?,
+        Some(_) => {
+            if let s @ (LockStatus::LockedChanged { .. } | LockStatus::LockedStale { .. }) = status(file)? {
+                return Err(bad(format!(
+                    "cannot mark a lock that no longer holds ({}); amend the lock first (`--amend`)",
+                    s.reason()
+                )));
+            }
+            write_lock(file, now)?
+        }
+    };
+    match &lock.posthoc {
+        Some(existing) if existing == why => return Ok(lock),
+        Some(existing) => {
+            return Err(bad(format!("differs from the lock's own post hoc reason, which stays: {existing}")))
+        }
+        None => lock.posthoc = Some(why.to_string()),
+    }
+    write_lock_file(&path, &lock)?;
+    Ok(lock)
+}
+
+/// Refuses a reason the lock cannot record: too long, or holding a
+/// control character.
+fn check_reason(path: &Path, reason: &str) -> Result<(), LockError> {
+    let bad = |why: String| LockError::BadReason { path: path.display().to_string(), why };
+    let chars = reason.chars().count();
+    if chars > MAX_REASON {
+        return Err(bad(format!(
+            "has {chars} characters, more than the {MAX_REASON} a reason may have; say why in a sentence or two, and put the details in the design's comments"
+        )));
+    }
+    if let Some(c) = reason.chars().find(|c| c.is_control() && *c != '\n' && *c != '\t') {
+        return Err(bad(format!("holds the control character {:?}; write it as plain text", c)));
+    }
+    Ok(())
+}
+
 /// [`write_lock`], or with `amend` (the reason) the lock of a design
 /// changed after it was locked: the new lock keeps the replaced one's hash,
 /// time and the reason in its amendments, which every report states.
@@ -328,21 +393,14 @@ pub fn write_lock_amended(file: &DesignFile, now: SystemTime, amend: Option<&str
     let path = lock_path(design);
     let files = referenced_files(file);
     let mut amendments = Vec::new();
+    let mut posthoc = None;
     if let Some(reason) = amend {
-        let bad = |why: String| LockError::BadReason { path: path.display().to_string(), why };
-        let chars = reason.chars().count();
-        if chars > MAX_REASON {
-            return Err(bad(format!(
-                "has {chars} characters, more than the {MAX_REASON} a reason may have; say why in a sentence or two, and put the details in the design's comments"
-            )));
-        }
-        if let Some(c) = reason.chars().find(|c| c.is_control() && *c != '\n' && *c != '\t') {
-            return Err(bad(format!("holds the control character {:?}; write it as plain text", c)));
-        }
+        check_reason(&path, reason)?;
     }
     if let (Some(existing), Some(reason)) = (read_lock(design)?, amend) {
         if existing.sha256 != file.sha256 || stale(&existing, &files).is_some() {
             amendments = existing.amendments.clone();
+            posthoc.clone_from(&existing.posthoc);
             amendments.push(Amendment {
                 previous_sha256: existing.sha256,
                 previous_locked_at_utc: existing.locked_at_utc,
@@ -376,8 +434,15 @@ pub fn write_lock_amended(file: &DesignFile, now: SystemTime, amend: Option<&str
         tool_version: env!("CARGO_PKG_VERSION").to_string(),
         locked_at_utc: humantime::format_rfc3339_seconds(now).to_string(),
         amendments,
+        posthoc,
     };
-    let text = crate::io::pretty_json(&lock);
+    write_lock_file(&path, &lock)?;
+    Ok(lock)
+}
+
+/// Writes `lock` to `path` atomically, never one its own reader refuses.
+fn write_lock_file(path: &Path, lock: &LockFile) -> Result<(), LockError> {
+    let text = crate::io::pretty_json(lock);
     // Never write a lock its own reader refuses.
     if text.len() as u64 > crate::io::MAX_SMALL_TEXT {
         return Err(LockError::BadReason {
@@ -390,7 +455,6 @@ pub fn write_lock_amended(file: &DesignFile, now: SystemTime, amend: Option<&str
             ),
         });
     }
-    crate::io::write_atomic(&path, text.as_bytes())
-        .map_err(|e| LockError::Write { path: path.display().to_string(), source: e.source })?;
-    Ok(lock)
+    crate::io::write_atomic(path, text.as_bytes())
+        .map_err(|e| LockError::Write { path: path.display().to_string(), source: e.source })
 }

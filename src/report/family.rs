@@ -44,7 +44,7 @@ fn dose_value(axis: DoseAxis, v: Option<f64>) -> String {
 
 /// The decision line as the console prints it.
 pub fn family_decision_line(a: &FamilyAnalysis) -> String {
-    super::format::labelled(decision_summary(&a.decision), a.exploratory, a.preregistered)
+    super::format::labelled(decision_summary(&a.decision), &a.standing)
 }
 
 /// report.md of a family analysis.
@@ -87,12 +87,7 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
 /// contrast measures, and the provenance lines.
 fn header(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# {}: {}\n",
-        super::md_text(&a.study),
-        super::format::verdict(&a.decision, a.exploratory, a.preregistered)
-    );
+    let _ = writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.standing));
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
     for note in distance_estimand(a).into_iter().chain(harm_note(a)) {
         let _ = writeln!(s, "{note}\n");
@@ -356,7 +351,7 @@ pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<Figure
             lines.push((t, RED));
         }
     }
-    let tag = if a.exploratory { "EXPLORATORY: " } else { "" };
+    let tag = if a.standing.exploratory() { "EXPLORATORY: " } else { "" };
     let level = level_pct(a.level);
     if a.doses.len() >= 2 {
         written.push(dose_figure(a, dir, tag)?);
@@ -456,7 +451,7 @@ pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, Repo
     let a = &a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
     let markdown = render_family_markdown(a);
     let d = &a.decision;
-    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), a.exploratory, a.preregistered);
+    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.standing);
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
     let files = [
         ("report.md", markdown),

@@ -1,6 +1,6 @@
 //! Number formatting shared by every table and summary line.
 
-use crate::analysis::Decision;
+use crate::analysis::{Decision, Standing};
 
 /// Fixed-point formatting used in every table; NaN prints as "NA". A
 /// negative number that rounds to zero keeps its sign (a rule such as
@@ -60,7 +60,7 @@ pub fn decision_notes(d: &Decision, level: &str) -> Vec<String> {
             ),
         };
         notes.push(format!(
-            "**The data do not determine the side of the threshold**: the threshold {threshold} of `{}` lies inside {interval}. The verdict stands as preregistered, but an equally valid rerun could fall on either side of it.",
+            "**The data do not determine the side of the threshold**: the threshold {threshold} of `{}` lies inside {interval}. The verdict is the rule's as the design states it, but an equally valid rerun could fall on either side of it.",
             m.condition
         ));
     }
@@ -140,42 +140,28 @@ pub fn unit_label(unit: &str) -> &str {
 
 /// A report's title after the study's name, its first line: the verdict
 /// (`CONFIRMED`, `NOT CONFIRMED`) and, when the analysis is not the
-/// preregistered one, why.
-pub(crate) fn verdict(d: &Decision, exploratory: bool, preregistered: Option<bool>) -> String {
+/// preregistered one, its standing ([`Standing::short`]).
+pub(crate) fn verdict(d: &Decision, standing: &Standing) -> String {
     let verdict = verdict_word(&d.name, d.holds);
-    match status_tag(exploratory, preregistered) {
-        Some("NOT PREREGISTERED") => format!("{verdict} (NOT PREREGISTERED: the design was not locked)"),
-        Some(t) => format!("{verdict} ({t})"),
+    match standing.short() {
+        Some(why) => format!("{verdict} ({why})"),
         None => verdict,
     }
 }
 
 /// The decision line as the console prints it: [`decision_summary`],
-/// prefixed `EXPLORATORY` when the design changed after it was locked, or
-/// `NOT PREREGISTERED` when it was never locked.
+/// prefixed with the standing's tag (`EXPLORATORY`, `NOT PREREGISTERED`,
+/// `POST HOC`) when the analysis is not the preregistered one.
 pub fn decision_line(a: &crate::analysis::Analysis) -> String {
-    labelled(decision_summary(&a.decision), a.exploratory, a.preregistered)
+    labelled(decision_summary(&a.decision), &a.standing)
 }
 
-/// `line` prefixed with the analysis's preregistration status, when it is
-/// not the preregistered analysis.
-pub(crate) fn labelled(line: String, exploratory: bool, preregistered: Option<bool>) -> String {
-    match status_tag(exploratory, preregistered) {
+/// `line` prefixed with the analysis's standing tag, when it is not the
+/// preregistered analysis.
+pub(crate) fn labelled(line: String, standing: &Standing) -> String {
+    match standing.tag() {
         Some(tag) => format!("{tag} {line}"),
         None => line,
-    }
-}
-
-/// `EXPLORATORY` (the design changed after it was locked), `NOT
-/// PREREGISTERED` (it was never locked) or nothing (the preregistered
-/// analysis, or one given no lock state).
-pub(crate) fn status_tag(exploratory: bool, preregistered: Option<bool>) -> Option<&'static str> {
-    if exploratory {
-        Some("EXPLORATORY")
-    } else if preregistered == Some(false) {
-        Some("NOT PREREGISTERED")
-    } else {
-        None
     }
 }
 

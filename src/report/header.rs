@@ -11,12 +11,7 @@ use crossaudit_stats::DfRule;
 /// Title with the verdict, the decision line, the rule and the figures.
 pub(super) fn header(a: &Analysis) -> String {
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# {}: {}\n",
-        super::md_text(&a.study),
-        super::format::verdict(&a.decision, a.exploratory, a.preregistered)
-    );
+    let _ = writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.standing));
     beside_verdict(&mut s, a);
     rule_and_contrast(&mut s, a);
     estimator_notes(&mut s, a);
@@ -174,13 +169,7 @@ fn provenance_and_figures(s: &mut String, a: &Analysis) {
         s,
         "Analysed by crossaudit {}{}.",
         p.crossaudit,
-        if a.exploratory {
-            "; EXPLORATORY: not the preregistered analysis"
-        } else if a.preregistered == Some(false) {
-            "; NOT PREREGISTERED: the design was not locked before it ran"
-        } else {
-            ""
-        }
+        a.standing.short().map(|s| format!("; {s}")).unwrap_or_default()
     );
     let _ = writeln!(s);
     if !a.figures.is_empty() {

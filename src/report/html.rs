@@ -261,32 +261,14 @@ pub struct Banner {
     /// The decision line, with the observed values.
     pub line: String,
     /// The preregistration status, as a sentence.
-    pub status: &'static str,
+    pub status: String,
 }
 
 impl Banner {
     /// The banner of a rule named `name` that holds or not, with its
     /// decision line and the analysis's lock state.
-    pub fn new(name: &str, holds: bool, line: String, exploratory: bool, preregistered: Option<bool>) -> Banner {
-        Banner {
-            verdict: super::format::verdict_word(name, holds),
-            holds,
-            line,
-            status: status_sentence(exploratory, preregistered),
-        }
-    }
-}
-
-/// The preregistration status as the banner states it.
-fn status_sentence(exploratory: bool, preregistered: Option<bool>) -> &'static str {
-    if exploratory {
-        "EXPLORATORY: the design changed after it was locked"
-    } else {
-        match preregistered {
-            Some(true) => "Preregistered: the design was locked before this run and is unchanged",
-            Some(false) => "NOT PREREGISTERED: the design was not locked before it ran",
-            None => "Preregistration status not recorded (an analysis without its design's lock)",
-        }
+    pub fn new(name: &str, holds: bool, line: String, standing: &crate::analysis::Standing) -> Banner {
+        Banner { verdict: super::format::verdict_word(name, holds), holds, line, status: standing.sentence() }
     }
 }
 
@@ -302,9 +284,10 @@ fn without_banner_lines(markdown: &str) -> String {
             k += 1;
         }
         let first = lines.get(k).copied().unwrap_or("");
-        let says_banner = ["decision:", "NOT PREREGISTERED", "EXPLORATORY", "Preregistered:", "Preregistration status"]
-            .iter()
-            .any(|p| first.starts_with(p));
+        let says_banner =
+            ["decision:", "NOT PREREGISTERED", "EXPLORATORY", "POST HOC", "Preregistered:", "Preregistration status"]
+                .iter()
+                .any(|p| first.starts_with(p));
         if !says_banner {
             break;
         }
@@ -383,7 +366,7 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
         esc(study),
         esc(&banner.verdict),
         esc(&banner.line),
-        esc(banner.status)
+        esc(&banner.status)
     );
     // Every warning, shortened, in the banner; the full text is in the
     // warnings section.
@@ -418,7 +401,7 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
 /// text; `figures` are (file name, SVG text) of the figures its images name.
 pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
     let d = &a.decision;
-    let banner = Banner::new(&d.name, d.holds, decision_line(a), a.exploratory, a.preregistered);
+    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.standing);
     render_page(&a.study, &banner, markdown, figures)
 }
 
@@ -445,7 +428,12 @@ mod tests {
     #[test]
     fn the_banner_says_the_verdict_once_with_every_warning_and_long_pages_get_contents() {
         let md = "# s: CONFIRMED\n\ndecision: CONFIRMED on x\n\nRule: r.\n\n## A\n\n## B b\n\n## C\n\n## Warnings\n\n- first `one`: long\n  continued\n- second\n";
-        let banner = Banner::new("confirmed", true, "decision: CONFIRMED on x".into(), false, Some(true));
+        let banner = Banner::new(
+            "confirmed",
+            true,
+            "decision: CONFIRMED on x".into(),
+            &crate::analysis::Standing::Preregistered { amended: false },
+        );
         let page = render_page("s", &banner, md, &[]);
         // The study, verdict and decision line once, in the banner.
         assert_eq!(page.matches("decision: CONFIRMED on x").count(), 1, "{page}");

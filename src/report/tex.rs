@@ -79,10 +79,8 @@ fn with<'a>(prefix: &[&'a str], q: &'a str) -> Vec<&'a str> {
 pub fn render_tex(a: &Analysis) -> String {
     let mut m = Macros { text: String::new(), names: Vec::new() };
     let _ = writeln!(m.text, "% crossaudit results for study \"{}\"; \\input this file.", a.study);
-    if a.exploratory {
-        let _ = writeln!(m.text, "% EXPLORATORY: the design changed after it was locked.");
-    } else if a.preregistered == Some(false) {
-        let _ = writeln!(m.text, "% NOT PREREGISTERED: the design was not locked.");
+    if let Some(s) = a.standing.short() {
+        let _ = writeln!(m.text, "% {s}.");
     }
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(m.text, "% design sha256 {h}");
@@ -96,8 +94,8 @@ pub fn render_tex(a: &Analysis) -> String {
         let _ = writeln!(m.text, "% per-cell data: {path} (sha256 {sha})");
     }
     let _ = writeln!(m.text, "% crossaudit {}", p.crossaudit);
-    m.add(&["exploratory"], if a.exploratory { "yes".to_string() } else { "no".to_string() });
-    if let Some(p) = a.preregistered {
+    m.add(&["exploratory"], if a.standing.exploratory() { "yes".to_string() } else { "no".to_string() });
+    if let Some(p) = a.standing.preregistered() {
         m.add(&["preregistered"], if p { "yes".to_string() } else { "no".to_string() });
     }
     m.add(&["decision"], if a.decision.holds { a.decision.name.clone() } else { format!("not {}", a.decision.name) });

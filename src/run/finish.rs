@@ -71,7 +71,7 @@ pub(crate) fn finish_combined(
 /// `design_path` is the design as the user named it (the report quotes
 /// it); `builds` are the builds that trained cells.
 pub(crate) fn finish(
-    design_path: &str,
+    design: analysis::record::DesignLabel,
     plan: &Plan,
     opened: &Opened,
     out: &Path,
@@ -79,11 +79,6 @@ pub(crate) fn finish(
 ) -> Result<RunOutcome, RunError> {
     let started = Instant::now();
     let cells_csv = gather_recorded(plan, opened, out, &builds)?;
-    let design = analysis::record::DesignLabel {
-        path: design_path.to_string(),
-        sha256: opened.record.design_sha256.clone(),
-        status: opened.status.clone(),
-    };
     let record = read::read_folder(design, plan, out)?;
     report(plan, &record, out, cells_csv, started)
 }

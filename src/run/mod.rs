@@ -100,7 +100,8 @@ pub fn run(
     let trained = todo.len();
     grid::run_grid(&file.sha256, plan, &opened.prepared, out, todo, options.workers, observer)?;
     reuse::stamp(out, &keys)?;
-    let mut outcome = finish(&file.path.display().to_string(), plan, &opened, out, builds)?;
+    let mut outcome =
+        finish(crate::analysis::record::DesignLabel::new(file, opened.status.clone()), plan, &opened, out, builds)?;
     (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
     Ok(outcome)
 }

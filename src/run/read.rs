@@ -26,8 +26,7 @@ use crate::plan::{Plan, StudyPlan};
 /// this design and this file's hash), or any other per-cell file alone.
 pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result<Record, RunError> {
     let plan = &study.plan;
-    let design =
-        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: lock::status(file)? };
+    let design = DesignLabel::new(file, lock::status(file)?);
     let outer = study.outer.as_ref().filter(|o| matches!(o.role, LevelRole::PerSeed | LevelRole::Redraw));
     if cells.is_dir() {
         return match outer {

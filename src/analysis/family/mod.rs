@@ -145,8 +145,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
         design_sha256: None,
-        exploratory: false,
-        preregistered: None,
+        standing: crate::analysis::Standing::Unrecorded,
         treated: plan.contrast.treated.clone(),
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,

@@ -15,12 +15,9 @@ pub struct FamilyAnalysis {
     pub study: String,
     /// SHA-256 of the design file, when the analysis came from one.
     pub design_sha256: Option<String>,
-    /// True when the design changed after locking (or the run was labelled so).
-    pub exploratory: bool,
-    /// Whether the design was locked before this analysis and is unchanged
-    /// since (see [`super::Analysis::preregistered`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub preregistered: Option<bool>,
+    /// Where the analysis stands with its preregistration.
+    #[serde(flatten)]
+    pub standing: crate::analysis::Standing,
     /// The treated arm (or dose-response family) of the contrast.
     pub treated: String,
     /// The reference arm.

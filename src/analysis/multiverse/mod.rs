@@ -73,8 +73,7 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         warnings,
         levels: analyses,
         design_sha256: None,
-        preregistered: None,
-        exploratory: false,
+        standing: crate::analysis::Standing::Unrecorded,
     })
 }
 

@@ -68,10 +68,9 @@ pub struct MultiverseAnalysis {
     pub levels: Vec<(String, Box<Analysis>)>,
     /// SHA-256 of the design (the labelling routine, `analysis::evidence::label`).
     pub design_sha256: Option<String>,
-    /// Whether the design was locked and unchanged.
-    pub preregistered: Option<bool>,
-    /// Whether every output is labelled EXPLORATORY.
-    pub exploratory: bool,
+    /// Where the analysis stands with its preregistration.
+    #[serde(flatten)]
+    pub standing: crate::analysis::Standing,
 }
 
 fn as_text<S: serde::Serializer, T: std::fmt::Display>(v: &T, s: S) -> Result<S::Ok, S::Error> {

@@ -31,6 +31,12 @@ pub(crate) enum Command {
         /// new lock states the amendment.
         #[arg(long, value_name = "REASON")]
         amend: Option<String>,
+        /// Mark the design post hoc: written (or locked) after results were
+        /// known, with this reason. Every report of a run under the lock
+        /// says POST HOC, never preregistered; locks the design if it has
+        /// no lock, and no command removes the mark.
+        #[arg(long, value_name = "REASON", conflicts_with = "amend")]
+        posthoc: Option<String>,
     },
     /// Audits: of a benchmark's published split.
     Audit {

@@ -42,7 +42,8 @@ fn main() -> ExitCode {
             }
         }
         Command::Check { design, json } => check(&design, json),
-        Command::Lock { design, amend } => lock_design(&design, amend.as_deref()),
+        Command::Lock { design, amend, posthoc: None } => lock_design(&design, amend.as_deref()),
+        Command::Lock { design, posthoc: Some(why), .. } => mark_posthoc(&design, &why),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
         Command::Split { design, data, out } => split(&design, data, &out),
         Command::Train { design, model, arm, seed, data, out, engine, exploratory } => {
@@ -486,6 +487,21 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
             );
         }
     }
+    Ok(())
+}
+
+/// `crossaudit lock DESIGN --posthoc REASON`.
+fn mark_posthoc(path: &Path, why: &str) -> Result<(), Error> {
+    let file = design::load(path)?;
+    let lock = lock::mark_posthoc(&file, std::time::SystemTime::now(), why)?;
+    outln!(
+        "{}: locked sha256 {} at {}, marked post hoc: {}",
+        lock::lock_path(path).display(),
+        lock.sha256,
+        lock.locked_at_utc,
+        crossaudit::io::one_line(why)
+    );
+    outln!("every report of a run under this lock says POST HOC, never preregistered");
     Ok(())
 }
 

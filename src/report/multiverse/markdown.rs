@@ -46,17 +46,7 @@ fn header(a: &MultiverseAnalysis) -> String {
         if a.choices.is_empty() { "Draw replication" } else { "Multiverse" },
         super::super::md_text(&a.study)
     );
-    let status = match (a.preregistered, a.exploratory) {
-        (_, true) => "EXPLORATORY: the design changed after it was locked, or the run was labelled so.",
-        (Some(true), _) => "Preregistered: the design was locked before the run and is unchanged.",
-        _ => "NOT PREREGISTERED: the design was never locked.",
-    };
-    let amended = a.warnings.iter().any(|w| w.starts_with("the design was amended"));
-    let _ = writeln!(
-        s,
-        "{status}{}\n",
-        if amended { " The design was amended after it was first locked (the warnings say how and why)." } else { "" }
-    );
+    let _ = writeln!(s, "{}.\n", a.standing.sentence());
     // Beside the verdict: a reference arm that is not disjoint (the
     // primary specification's; under draw replication, over the draws).
     let primary = a.specs.iter().find(|r| r.primary).map(|r| format!("spec-{}", r.id));

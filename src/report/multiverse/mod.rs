@@ -77,13 +77,13 @@ pub(super) fn verdict(a: &MultiverseAnalysis) -> String {
 /// The banner of report.html: the verdict by the declared combination.
 fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
     let d = &a.decision;
-    super::html::Banner::new(&d.name, d.holds, decision_line(a), a.exploratory, a.preregistered)
+    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.standing)
 }
 
 /// The decision line `run` and `analyze` print for a multiverse or a
 /// draw-replicated study.
 pub fn decision_line(a: &MultiverseAnalysis) -> String {
-    super::format::labelled(sentence(a, false), a.exploratory, a.preregistered)
+    super::format::labelled(sentence(a, false), &a.standing)
 }
 
 /// The primary metric's unit as estimates.csv writes it (`m`; empty for

@@ -149,7 +149,16 @@ pub(super) fn score_run(
         warnings.push(non_finite_warning(label, *n, *of));
     }
     let opened = Opened { status, prepared: r.prepared, record: r.run, notes: warnings };
-    let mut outcome = crate::run::finish(&r.source.design_path, &r.plan, &opened, dir, builds)?;
+    let mut outcome = crate::run::finish(
+        crate::analysis::record::DesignLabel {
+            path: r.source.design_path.clone(),
+            ..crate::analysis::record::DesignLabel::new(&r.file, opened.status.clone())
+        },
+        &r.plan,
+        &opened,
+        dir,
+        builds,
+    )?;
     outcome.trained = trained;
     outcome.skipped = r.plan.jobs.len() - trained;
     outcome.seconds = started.elapsed().as_secs_f64();

@@ -91,8 +91,7 @@ pub(crate) fn run_levels_with(
         return Ok(counts(per_seed::finish_per_seed(file, study, outer, out, status, &queued.reused)?));
     }
     if role == LevelRole::Redraw {
-        let design =
-            DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: status.clone() };
+        let design = DesignLabel::new(file, status.clone());
         return Ok(counts(super::finish_splits(design, study, outer, out, &queued.reused)?));
     }
     if file.design.per_seed_draws {
@@ -155,8 +154,7 @@ pub(crate) fn finish_levels(
         shared: shared_draws(levels, splits),
     }
     .write(out)?;
-    let design =
-        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: status.clone() };
+    let design = DesignLabel::new(file, status.clone());
     let record = read::read_multiverse(design, file, outer, out)?;
     let a = read::analyze(&file.design, outer, &record)?;
     for (k, u) in outer.units.iter().enumerate() {
@@ -220,8 +218,7 @@ pub fn analyze_dir(file: &DesignFile, study: &StudyPlan, dir: &Path) -> Result<M
     if !dir.is_dir() {
         return Err(not_outer());
     }
-    let design =
-        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: lock::status(file)? };
+    let design = DesignLabel::new(file, lock::status(file)?);
     let record = read::read_multiverse(design, file, outer, dir)?;
     read::analyze(&file.design, outer, &record)
 }

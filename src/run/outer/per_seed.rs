@@ -65,7 +65,6 @@ fn finish_seeds(
     }
     create_dir_all(dest)?;
     crate::cells::write_cells_atomic(&dest.join("cells.csv"), &all)?;
-    let design =
-        DesignLabel { path: file.path.display().to_string(), sha256: file.sha256.clone(), status: status.clone() };
+    let design = DesignLabel::new(file, status.clone());
     crate::run::finish_combined(design, study, dest, levels, notes)
 }

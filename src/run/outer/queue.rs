@@ -186,8 +186,14 @@ pub(super) fn finish_opened(
         if per_seed {
             gather_recorded(&o.plan, &o.opened, &o.dir, &o.done_builds).map_err(in_level)?;
         } else {
-            finish(&file.path.display().to_string(), &o.plan, &o.opened, &o.dir, o.done_builds.clone())
-                .map_err(in_level)?;
+            finish(
+                crate::analysis::record::DesignLabel::new(file, o.opened.status.clone()),
+                &o.plan,
+                &o.opened,
+                &o.dir,
+                o.done_builds.clone(),
+            )
+            .map_err(in_level)?;
         }
         status = Some(o.opened.status.clone());
         splits[*k] = Some(o.opened.prepared.split.clone());

@@ -459,7 +459,16 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
             outer::note_unread(&mut notes, &opened.prepared.audit);
             super::gather_recorded(&part.plan, &opened, &part.dir, &builds)?;
         } else {
-            last = Some(finish(&p.array.design_path, &part.plan, &opened, &part.dir, builds)?);
+            last = Some(finish(
+                crate::analysis::record::DesignLabel {
+                    path: p.array.design_path.clone(),
+                    ..crate::analysis::record::DesignLabel::new(&p.file, lock.clone())
+                },
+                &part.plan,
+                &opened,
+                &part.dir,
+                builds,
+            )?);
         }
         last_record = Some(opened.record);
     }
@@ -479,8 +488,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         (Some(o @ outer::Outer { role: outer::LevelRole::Redraw, .. }), _) => {
             let design = crate::analysis::record::DesignLabel {
                 path: p.array.design_path.clone(),
-                sha256: p.file.sha256.clone(),
-                status: lock.clone(),
+                ..crate::analysis::record::DesignLabel::new(&p.file, lock.clone())
             };
             super::finish_splits(design, plan, o, dir, &notes)?
         }
