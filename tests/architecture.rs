@@ -956,7 +956,7 @@ fn no_analysis_field_is_assigned_outside_analysis() {
     let fields = analysis_fields();
     // (Fields that a struct outside analysis/ also has, `coverage` or
     // `decision`, are left to the `&mut` and `let mut` checks.)
-    for f in ["warnings", "figures", "preregistered", "provenance", "margins", "covered_only", "sources"] {
+    for f in ["warnings", "figures", "standing", "guards", "provenance", "margins", "covered_only", "sources"] {
         assert!(fields.contains(f), "`{f}` is not read as an analysis field: {fields:?}");
     }
     let mut files = all_sources();

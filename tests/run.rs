@@ -140,7 +140,11 @@ fn a_changed_locked_design_is_refused_unless_exploratory() {
         .unwrap();
     assert!(explored.status.success(), "{}", String::from_utf8_lossy(&explored.stderr));
     let md = std::fs::read_to_string(out.join("report/report.md")).unwrap();
-    assert!(md.lines().next().unwrap().contains("(EXPLORATORY)"), "{}", md.lines().next().unwrap());
+    assert!(
+        md.lines().next().unwrap().contains("(EXPLORATORY: the design changed after it was locked)"),
+        "{}",
+        md.lines().next().unwrap()
+    );
     let tex = std::fs::read_to_string(out.join("report/results.tex")).unwrap();
     assert!(tex.contains("EXPLORATORY"));
 }

@@ -35,6 +35,7 @@ pub fn analyze_study(
     let mut a = analyze(plan, &record.cells, options).map_err(err)?;
     label(&mut a, record);
     single_evidence(&mut a, plan, record);
+    a.guards = super::guards::guards(&a);
     Ok(StudyAnalysis::Single(Box::new(a)))
 }
 

@@ -13,6 +13,7 @@ mod diff;
 mod error;
 pub mod evidence;
 pub mod family;
+pub mod guards;
 mod index;
 pub mod multiverse;
 pub mod record;
@@ -21,6 +22,7 @@ pub mod study;
 pub mod training;
 mod types;
 mod unit;
+pub(crate) mod words;
 
 use rayon::prelude::*;
 
@@ -187,7 +189,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         fragile_warnings(&units[0], &mut warnings);
     }
     let fixed_budget = budget::fixed_budget(plan, &units);
-    Ok(Analysis {
+    let mut a = Analysis {
         study: plan.study.clone(),
         design_sha256: None,
         standing: Standing::Unrecorded,
@@ -207,7 +209,10 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         fixed_budget,
         provenance: Provenance::default(),
         curves: Vec::new(),
-    })
+        guards: Vec::new(),
+    };
+    a.guards = guards::guards(&a);
+    Ok(a)
 }
 
 /// The plan and the cells are of one run: no `split` or `dose` column the

@@ -62,6 +62,9 @@ pub struct Analysis {
     pub fixed_budget: Option<FixedBudget>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
+    /// The guards of the verdict, computed from everything above
+    /// (by the analysis's guards module); every view gives them beside it.
+    pub guards: Vec<Guard>,
     /// The fitted jobs' validation-loss curves the run folder holds (the
     /// training curves figure; none for a per-cell file alone). Not in
     /// results.json.
@@ -116,6 +119,49 @@ impl Analysis {
     /// beside it (`figures`, file names in report order).
     pub fn with_figures(&self, figures: Vec<String>) -> Analysis {
         Analysis { figures, ..self.clone() }
+    }
+}
+
+/// What a guard is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GuardKind {
+    /// A rule threshold inside the interval of the quantity it reads.
+    Margin,
+    /// A rule that reads no interval bound holds while d's interval holds 0.
+    NoInterval,
+    /// The rule does not hold in every leave-one-out fit.
+    Fragile,
+    /// Models restored at an early best epoch.
+    EarlyStopping,
+    /// The primary contrast with early stopping held fixed.
+    FixedBudget,
+    /// The reference arm fits on copies of evaluation flights.
+    NotDisjoint,
+    /// Which evaluated conditions the reference arm covers.
+    Coverage,
+}
+
+/// One guard: its kind and its statement, a Markdown paragraph (a bold
+/// heading, code spans for names).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Guard {
+    /// What it is about.
+    pub kind: GuardKind,
+    /// The paragraph report.md gives beside the verdict.
+    pub text: String,
+}
+
+impl Guard {
+    /// A guard of kind `kind` stating `text` (Markdown).
+    pub fn new(kind: GuardKind, text: String) -> Guard {
+        Guard { kind, text }
+    }
+
+    /// The statement as plain text (the Markdown emphasis removed), as the
+    /// console, the banner and Python give it.
+    pub fn plain(&self) -> String {
+        self.text.replace("**", "")
     }
 }
 

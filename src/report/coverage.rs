@@ -3,73 +3,10 @@
 
 use std::fmt::Write as _;
 
-use super::format::{f, fieller_cell, fieller_text, level_pct};
+use super::format::{f, fieller_cell, level_pct};
 use super::{md_text, Table};
 use crate::analysis::coverage::{ConditionCoverage, CoverageNote};
 use crate::analysis::Analysis;
-
-/// The sentence beside the verdict: what the contrast measured, given the
-/// reference arm's coverage of the evaluated conditions.
-pub(super) fn beside_verdict(a: &Analysis) -> Option<String> {
-    let c = a.coverage.as_ref()?;
-    let n = a.recordings.len();
-    if !c.mixes_novelty() {
-        return Some(format!(
-            "Condition coverage: the reference arm (`{}`) fits on other recordings of the {} of every evaluation recording{}, so the contrast is not a contrast with unseen conditions.",
-            c.arm,
-            c.condition,
-            in_draws(c.draws)
-        ));
-    }
-    let names: Vec<String> = c
-        .uncovered
-        .iter()
-        .map(|u| {
-            let draws = if c.draws > 1 { format!(", {} of {} draws", u.draws, c.draws) } else { String::new() };
-            format!("{} ({}{draws})", md_text(&u.recording), md_text(&u.condition))
-        })
-        .collect();
-    let mut s = format!(
-        "**The contrast mixes condition novelty with recording leakage**: the reference arm (`{}`) fits on no other recording of the {} of {} of {n} evaluation recordings{}: {}. They carry {}% of the summed d; on them the contaminated arm saw the condition and the reference arm never did.",
-        c.arm,
-        c.condition,
-        c.uncovered.len(),
-        if c.draws > 1 { format!(" in at least one of the {} draws (each seed's own)", c.draws) } else { String::new() },
-        names.join(", "),
-        f(100.0 * c.share_of_d, 1),
-    );
-    match (&c.covered_only, &c.covered_only_error) {
-        (Some(k), _) => {
-            let e = &k.estimate;
-            let unit = super::format::unit_label(&a.decision.value_unit);
-            let _ = write!(
-                s,
-                " Over the {} covered recordings alone: d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (table: Condition coverage).",
-                k.recordings,
-                f(e.mean, 4),
-                f(e.lower, 4),
-                f(e.upper, 4),
-                f(k.optimism_pct, 1),
-                fieller_text(k.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
-                if k.rule_holds { "hold" } else { "fail" }
-            );
-        }
-        (None, Some(err)) => {
-            let _ =
-                write!(s, " The contrast over the covered recordings alone could not be estimated: {}.", md_text(err));
-        }
-        (None, None) => {}
-    }
-    Some(s)
-}
-
-fn in_draws(draws: usize) -> String {
-    if draws > 1 {
-        format!(" (in every one of the {draws} draws, each seed's own)")
-    } else {
-        String::new()
-    }
-}
 
 /// The Condition coverage section: the primary contrast over every
 /// recording and over the covered ones, and the uncovered recordings.

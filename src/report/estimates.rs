@@ -7,7 +7,10 @@
 //! bootstrap, the optimism's intervals (kind `optimism`, unit `%`:
 //! Fieller's, `fieller`, and the delta method's, `delta_method`), the
 //! grouped sensitivity and any compared intervals follow as rows of their
-//! own. Numbers are written in full (shortest round-trip
+//! own. Where the reference arm leaves an evaluated condition uncovered,
+//! the coverage guard's rows (kind `coverage`) follow the units: the share
+//! of d the uncovered recordings carry and the contrast over the covered
+//! recordings alone. Numbers are written in full (shortest round-trip
 //! form), `Inf` and `NaN` as R and pandas read them; empty means not
 //! applicable.
 
@@ -40,8 +43,8 @@ struct Row<'a> {
     estimate: f64,
     se: Option<f64>,
     df: Option<f64>,
-    lower: f64,
-    upper: f64,
+    /// The interval; `None` for a number that has none (a share).
+    bounds: Option<(f64, f64)>,
     optimism: Option<f64>,
     holds: Option<bool>,
 }
@@ -61,7 +64,7 @@ fn crossed<'a>(name: &'a str, e: &CrossedEstimate) -> Row<'a> {
 
 /// A row of an interval alone: no arm means, optimism or rule.
 fn interval(estimator: &str, estimate: f64, se: Option<f64>, df: Option<f64>, (lower, upper): (f64, f64)) -> Row<'_> {
-    Row { estimator, means: None, estimate, se, df, lower, upper, optimism: None, holds: None }
+    Row { estimator, means: None, estimate, se, df, bounds: Some((lower, upper)), optimism: None, holds: None }
 }
 
 /// The pigeonhole bootstrap's row about the point estimate `mean`.
@@ -84,8 +87,31 @@ fn glmm_row(u: &UnitResult, role: &str, contrast: &str, holds: Option<bool>) -> 
 fn line(key: &str, level: &str, r: &Row) -> String {
     let (t, rf) = r.means.map(|(t, rf)| (num(t), num(rf))).unwrap_or_default();
     let holds = r.holds.map(|h| h.to_string()).unwrap_or_default();
-    let (estimate, se, df, lower, upper) = (num(r.estimate), opt(r.se), opt(r.df), num(r.lower), num(r.upper));
+    let (estimate, se, df) = (num(r.estimate), opt(r.se), opt(r.df));
+    let (lower, upper) = r.bounds.map(|(lo, hi)| (num(lo), num(hi))).unwrap_or_default();
     format!("{key},{},{level},{t},{rf},{estimate},{se},{df},{lower},{upper},{},{holds}\n", r.estimator, opt(r.optimism))
+}
+
+/// The coverage guard's rows (kind `coverage`), where the reference arm
+/// leaves an evaluated condition uncovered: the share of the primary
+/// endpoint's summed d the uncovered recordings carry (estimator
+/// `uncovered_share_of_d`, in %), and the primary contrast over the
+/// covered recordings alone (estimator `covered_only`: the design's
+/// estimator, with the arm means and optimism; `rule_holds` empty, since
+/// no rule decides on it), then its optimism's Fieller interval.
+fn coverage_rows(a: &Analysis, contrast: &str, put: &mut impl FnMut(&str, Row)) {
+    let (Some(c), Some(u)) = (a.coverage.as_ref().filter(|c| c.mixes_novelty()), a.units.first()) else { return };
+    let at =
+        |unit: &str| format!("coverage,primary,{},{contrast},{},{unit},{}", u.model, u.metric.name(), num(u.horizon_s));
+    // A share has no interval: its bounds are empty.
+    let share = interval("uncovered_share_of_d", 100.0 * c.share_of_d, None, None, (0.0, 0.0));
+    put(&at("%"), Row { bounds: None, ..share });
+    if let Some(k) = &c.covered_only {
+        put(&at(u.metric.unit()), Row { optimism: Some(k.optimism_pct), ..crossed("covered_only", &k.estimate) });
+        if let Some((lo, hi)) = k.optimism_interval.and_then(|iv| iv.fieller.bounds()) {
+            put(&at("%"), interval("covered_only_fieller", k.optimism_pct, None, None, (lo, hi)));
+        }
+    }
 }
 
 /// The text of estimates.csv for `a`.
@@ -141,6 +167,7 @@ pub fn render_estimates(a: &Analysis) -> String {
             put(&key, row);
         }
     }
+    coverage_rows(a, &contrast, &mut put);
     for ix in &a.interactions {
         let key = format!(
             "interaction,,{} - {},{contrast},{},{},{}",

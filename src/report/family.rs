@@ -89,14 +89,8 @@ fn header(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.standing));
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
-    for note in distance_estimand(a).into_iter().chain(harm_note(a)) {
+    for note in family_guards(a) {
         let _ = writeln!(s, "{note}\n");
-    }
-    for note in super::format::decision_notes(&a.decision, &level_pct(a.level)) {
-        let _ = writeln!(s, "{note}\n");
-    }
-    if let Some(c) = &a.coverage {
-        let _ = writeln!(s, "{}\n", super::coverage::note_sentence(c));
     }
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {
@@ -110,6 +104,15 @@ fn header(a: &FamilyAnalysis) -> String {
     }
     let _ = writeln!(s, "crossaudit {}.\n", a.provenance.crossaudit);
     s
+}
+
+/// The paragraphs beside a family's verdict: what a distance-dose family's
+/// contrast measures, a harm, the rule's margin, condition coverage.
+pub(super) fn family_guards(a: &FamilyAnalysis) -> Vec<String> {
+    let mut out: Vec<String> = distance_estimand(a).into_iter().chain(harm_note(a)).collect();
+    out.extend(super::format::decision_notes(&a.decision, &level_pct(a.level)));
+    out.extend(a.coverage.iter().map(super::coverage::note_sentence));
+    out
 }
 
 /// What a distance-dose family measures, beside its verdict: every arm
@@ -451,7 +454,8 @@ pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, Repo
     let a = &a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
     let markdown = render_family_markdown(a);
     let d = &a.decision;
-    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.standing);
+    let banner =
+        super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.standing).with_guards(family_guards(a));
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
     let files = [
         ("report.md", markdown),

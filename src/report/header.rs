@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::format::{decision_summary, f, level_pct};
+use super::format::{decision_summary, level_pct};
 use crate::analysis::Analysis;
 use crossaudit_stats::DfRule;
 
@@ -20,51 +20,12 @@ pub(super) fn header(a: &Analysis) -> String {
 }
 
 /// What stands beside the verdict: the decision's summary, then its
-/// guards ([`guards`]).
+/// guards ([`crate::analysis::guards`]).
 fn beside_verdict(s: &mut String, a: &Analysis) {
     let _ = writeln!(s, "{}\n", decision_summary(&a.decision));
-    for g in guards(a) {
-        let _ = writeln!(s, "{g}\n");
+    for g in &a.guards {
+        let _ = writeln!(s, "{}\n", g.text);
     }
-}
-
-/// The guards of the verdict, each a Markdown paragraph, in the order the
-/// report gives them beside it: the decision's notes (a threshold inside
-/// the interval, a rule that reads no interval), a fragile decision, early
-/// stopping and its held-fixed contrast, a reference arm that is not
-/// disjoint, condition coverage. The console and the Python result give
-/// the same paragraphs ([`super::study_guards`]).
-pub(super) fn guards(a: &Analysis) -> Vec<String> {
-    let mut out: Vec<String> = super::format::decision_notes(&a.decision, &level_pct(a.level));
-    for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
-        out.push(format!("**Warning**: {}.", crate::io::md_line(w)));
-    }
-    // Models restored early, and the contrast with early stopping held fixed.
-    for w in a.warnings.iter().filter(|w| w.starts_with("early best epochs")) {
-        out.push(format!("**Early stopping**: {}.", crate::io::md_line(w)));
-    }
-    if let Some(b) = &a.fixed_budget {
-        let e = &b.estimate;
-        let unit = super::format::unit_label(&a.decision.value_unit);
-        out.push(format!(
-            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).",
-            b.epochs,
-            b.model,
-            f(e.mean, 4),
-            f(e.lower, 4),
-            f(e.upper, 4),
-            f(b.optimism_pct, 1),
-            super::format::fieller_text(b.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
-            if b.rule_holds { "hold" } else { "fail" }
-        ));
-    }
-    // A reference arm that is not disjoint (copies of evaluation flights in
-    // its fit set, allowed by `duplicates keep`).
-    for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
-        out.push(format!("**The reference arm is not disjoint**: {}.", crate::io::md_line(w)));
-    }
-    out.extend(super::coverage::beside_verdict(a));
-    out
 }
 
 /// The rule, what it reads, the optimism's interval and the contrast.

@@ -23,7 +23,7 @@ table{border-collapse:collapse;margin:.6rem 0 1.2rem;font-size:.88rem}th,td{bord
 th{background:#f6f8fa}td.num{text-align:right;font-variant-numeric:tabular-nums}\
 code{background:#f6f8fa;padding:0 .2rem;border-radius:3px}figure{margin:1rem 0}figure svg{max-width:100%;height:auto}\
 h1{font-size:1.6rem}h2{border-bottom:1px solid #d0d7de;padding-bottom:.2rem;margin-top:2rem}\
-.banner h1.verdict{margin:0 0 .3rem;font-size:1.5rem}.banner .warnings{margin-top:.5rem;font-size:.92rem}.banner .warnings ul{margin:.2rem 0 0;padding-left:1.2rem}\
+.banner h1.verdict{margin:0 0 .3rem;font-size:1.5rem}.banner .warnings{margin-top:.5rem;font-size:.92rem}.banner .guards p{margin:.4rem 0 0}.banner .warnings ul{margin:.2rem 0 0;padding-left:1.2rem}\
 nav.toc{font-size:.92rem;margin:.5rem 0 1rem}nav.toc ul{columns:2;margin:.2rem 0;padding-left:1.2rem}";
 
 /// Escapes text for HTML.
@@ -262,20 +262,34 @@ pub struct Banner {
     pub line: String,
     /// The preregistration status, as a sentence.
     pub status: String,
+    /// The verdict's guards, each a Markdown paragraph: the banner gives
+    /// them in full, and the page's body no longer repeats them.
+    pub guards: Vec<String>,
 }
 
 impl Banner {
     /// The banner of a rule named `name` that holds or not, with its
     /// decision line and the analysis's lock state.
     pub fn new(name: &str, holds: bool, line: String, standing: &crate::analysis::Standing) -> Banner {
-        Banner { verdict: super::format::verdict_word(name, holds), holds, line, status: standing.sentence() }
+        Banner {
+            verdict: super::format::verdict_word(name, holds),
+            holds,
+            line,
+            status: standing.sentence(),
+            guards: Vec::new(),
+        }
+    }
+
+    /// The banner with the verdict's guards (Markdown paragraphs).
+    pub fn with_guards(self, guards: Vec<String>) -> Banner {
+        Banner { guards, ..self }
     }
 }
 
 /// report.md less what the banner says: the first level-1 heading (the
-/// study and its verdict), any verdict line above it, and the decision
-/// and preregistration paragraphs right below it.
-fn without_banner_lines(markdown: &str) -> String {
+/// study and its verdict), any verdict line above it, and the decision,
+/// preregistration and guard paragraphs right below it.
+fn without_banner_lines(markdown: &str, guards: &[String]) -> String {
     let Some(h1) = markdown.lines().position(|l| l.starts_with("# ")) else { return markdown.to_string() };
     let lines: Vec<&str> = markdown.lines().collect();
     let mut k = h1 + 1;
@@ -284,10 +298,13 @@ fn without_banner_lines(markdown: &str) -> String {
             k += 1;
         }
         let first = lines.get(k).copied().unwrap_or("");
+        let end = lines[k..].iter().position(|l| l.trim().is_empty()).map_or(lines.len(), |n| k + n);
+        let paragraph = lines[k..end].join("\n");
         let says_banner =
             ["decision:", "NOT PREREGISTERED", "EXPLORATORY", "POST HOC", "Preregistered:", "Preregistration status"]
                 .iter()
-                .any(|p| first.starts_with(p));
+                .any(|p| first.starts_with(p))
+                || guards.iter().any(|g| g.trim() == paragraph.trim());
         if !says_banner {
             break;
         }
@@ -349,7 +366,7 @@ fn slug(heading: &str) -> String {
 /// A whole page: the banner, then `markdown` (a report.md) converted, with
 /// the `figures` its images name, (file name, SVG text), drawn inline.
 pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(String, String)]) -> String {
-    let markdown = &without_banner_lines(markdown);
+    let markdown = &without_banner_lines(markdown, &banner.guards);
     let warnings = warning_items(markdown);
     let sections: Vec<String> = markdown.lines().filter_map(|l| l.strip_prefix("## ")).map(str::to_string).collect();
     let mut s = String::new();
@@ -368,6 +385,14 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
         esc(&banner.line),
         esc(&banner.status)
     );
+    // The verdict's guards, in full: what its contrast may have measured.
+    if !banner.guards.is_empty() {
+        s.push_str("<div class=\"guards\">");
+        for g in &banner.guards {
+            s.push_str(&body(g, &[]));
+        }
+        s.push_str("</div>");
+    }
     // Every warning, shortened, in the banner; the full text is in the
     // warnings section.
     if !warnings.is_empty() {
@@ -401,7 +426,8 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
 /// text; `figures` are (file name, SVG text) of the figures its images name.
 pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
     let d = &a.decision;
-    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.standing);
+    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.standing)
+        .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
     render_page(&a.study, &banner, markdown, figures)
 }
 

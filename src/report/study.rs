@@ -17,18 +17,13 @@ pub fn study_decision_line(a: &StudyAnalysis) -> String {
 }
 
 /// The guards beside the study's verdict, as plain text (one paragraph
-/// each, Markdown emphasis removed): what the report gives beside the
-/// verdict, for the console and the Python result. For a family or a
-/// multiverse, the reference arm's condition coverage over its levels.
+/// each, Markdown emphasis removed): what the report and its banner give
+/// beside the verdict, for the console and the Python result.
 pub fn study_guards(a: &StudyAnalysis) -> Vec<String> {
-    let paragraphs = match a {
-        StudyAnalysis::Single(a) => super::header::guards(a),
-        StudyAnalysis::Family(a) => a.coverage.iter().map(super::coverage::note_sentence).collect(),
-        StudyAnalysis::Multiverse(a) => a
-            .notes
-            .iter()
-            .filter_map(|n| n.coverage.as_ref().map(|c| format!("{}: {}", n.id, super::coverage::note_sentence(c))))
-            .collect(),
+    let paragraphs: Vec<String> = match a {
+        StudyAnalysis::Single(a) => a.guards.iter().map(|g| g.text.clone()).collect(),
+        StudyAnalysis::Family(a) => super::family::family_guards(a),
+        StudyAnalysis::Multiverse(a) => super::multiverse::guards(a),
     };
     paragraphs.into_iter().map(|p| p.replace("**", "")).collect()
 }

@@ -113,8 +113,10 @@ fn spec_results(
             mean_treated: u.mean_treated,
             mean_reference: u.mean_reference,
             optimism_pct: u.optimism_pct,
+            optimism_interval: u.optimism_interval,
             rule_holds: a.decision.holds,
             recordings: u.estimate.rows,
+            guards: a.guards.clone(),
         });
     }
     specs

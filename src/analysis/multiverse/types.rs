@@ -96,10 +96,18 @@ pub struct SpecResult {
     pub mean_reference: f64,
     /// 100 (reference - treated) / reference.
     pub optimism_pct: f64,
+    /// The optimism's intervals (in %), as the specification's own
+    /// analysis gives them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub optimism_interval: Option<crossaudit_stats::RatioInterval>,
     /// Whether the preregistered rule holds in this specification.
     pub rule_holds: bool,
     /// Evaluation recordings analysed.
     pub recordings: usize,
+    /// The guards of the specification's own verdict (its rule's margin, a
+    /// fragile decision, early stopping held fixed).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub guards: Vec<crate::analysis::Guard>,
 }
 
 /// One alternative of a choice against the primary's alternative.

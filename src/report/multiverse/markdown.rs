@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 
 use super::super::{f, level_pct};
+use super::guards::guards;
 use super::{label, verdict};
 use crate::analysis::multiverse::MultiverseAnalysis;
 
@@ -47,36 +48,8 @@ fn header(a: &MultiverseAnalysis) -> String {
         super::super::md_text(&a.study)
     );
     let _ = writeln!(s, "{}.\n", a.standing.sentence());
-    // Beside the verdict: a reference arm that is not disjoint (the
-    // primary specification's; under draw replication, over the draws).
-    let primary = a.specs.iter().find(|r| r.primary).map(|r| format!("spec-{}", r.id));
-    let decided: Vec<&crate::analysis::multiverse::ReferenceCopies> = a
-        .notes
-        .iter()
-        .filter(|n| a.choices.is_empty() || Some(&n.id) == primary.as_ref())
-        .filter_map(|n| n.reference_copies.as_ref())
-        .collect();
-    if !decided.is_empty() {
-        let all = crate::analysis::multiverse::ReferenceCopies {
-            fewest: decided.iter().map(|c| c.fewest).min().unwrap_or(0),
-            most: decided.iter().map(|c| c.most).max().unwrap_or(0),
-            levels_with: decided.iter().map(|c| c.levels_with).sum(),
-            levels: if a.choices.is_empty() { a.notes.len() } else { decided[0].levels },
-        };
-        let _ = writeln!(
-            s,
-            "**The reference arm is not disjoint** ({}): {}; allowed only because the design declares `duplicates keep` (table: the reference arm and the training).\n",
-            primary.as_deref().filter(|_| !a.choices.is_empty()).unwrap_or("every draw"),
-            copies_text(&all)
-        );
-    }
-    // Beside the verdict: the reference arm's condition coverage (the
-    // primary specification's, or every unit's).
-    for n in a.notes.iter().filter(|n| a.choices.is_empty() || Some(&n.id) == primary.as_ref()) {
-        if let Some(c) = &n.coverage {
-            let who = if a.notes.len() > 1 && a.choices.is_empty() { format!("{}: ", n.id) } else { String::new() };
-            let _ = writeln!(s, "{who}{}\n", super::super::coverage::note_sentence(c));
-        }
+    for g in guards(a) {
+        let _ = writeln!(s, "{g}\n");
     }
     if let Some(h) = &a.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`. Build: crossaudit {}.\n", crate::io::BUILD);
@@ -105,7 +78,15 @@ fn specifications(s: &mut String, a: &MultiverseAnalysis) {
     let mut header = vec!["spec".to_string()];
     header.extend(a.choices.iter().map(|c| c.setting.clone()));
     let u = label(a);
-    header.extend([format!("d ({u})"), format!("interval ({u})"), "optimism".into(), "rule".into(), "trained".into()]);
+    let level = level_pct(a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95));
+    header.extend([
+        format!("d ({u})"),
+        format!("interval ({u})"),
+        "optimism".into(),
+        format!("optimism {level} CI"),
+        "rule".into(),
+        "trained".into(),
+    ]);
     let _ = writeln!(s, "| {} |", header.join(" | "));
     let _ = writeln!(s, "|{}", "---|".repeat(header.len()));
     for r in &a.specs {
@@ -114,6 +95,10 @@ fn specifications(s: &mut String, a: &MultiverseAnalysis) {
         row.push(f(r.estimate.mean, 4));
         row.push(format!("[{}, {}]", f(r.estimate.lower, 4), f(r.estimate.upper, 4)));
         row.push(format!("{}%", f(r.optimism_pct, 1)));
+        row.push(match r.optimism_interval {
+            None => "-".to_string(),
+            iv => crate::report::format::fieller_text(iv, "%").unwrap_or_else(|| "unbounded".into()),
+        });
         row.push(if r.rule_holds { "met" } else { "not met" }.to_string());
         row.push(match &r.shares_run_of {
             Some(o) => format!("no (cells of {o})"),
@@ -121,12 +106,32 @@ fn specifications(s: &mut String, a: &MultiverseAnalysis) {
         });
         let _ = writeln!(s, "| {} |", row.join(" | "));
     }
-    let level = a.specs.first().map(|r| r.estimate.level).unwrap_or(0.95);
     let _ = writeln!(
         s,
-        "\nIntervals: the design's estimator at {} per specification. A point's colour says whether the specification's preregistered rule holds (blue) or not (red); it is not whether its interval excludes zero: an interval wholly below zero is red where the optimism threshold is not met. Table: specs.csv.\n\n![spec_curve.svg](spec_curve.svg)\n",
-        level_pct(level)
+        "\nIntervals: the design's estimator at {level} per specification; the optimism's is Fieller's, from the same estimator. A point's colour says whether the specification's preregistered rule holds (blue) or not (red); it is not whether its interval excludes zero: an interval wholly below zero is red where the optimism threshold is not met. Table: specs.csv.\n\n![spec_curve.svg](spec_curve.svg)\n",
     );
+    spec_guards(s, a);
+}
+
+/// Each specification's own guards: its rule's margin, a fragile
+/// decision, early stopping held fixed (the reference arm and early
+/// training are in their own table).
+fn spec_guards(s: &mut String, a: &MultiverseAnalysis) {
+    if a.specs.iter().all(|r| r.guards.is_empty()) {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "### Beside each specification's verdict
+"
+    );
+    for r in a.specs.iter().filter(|r| !r.guards.is_empty()) {
+        let _ = writeln!(s, "- **{}** ({}):", r.id, if r.rule_holds { "met" } else { "not met" });
+        for g in &r.guards {
+            let _ = writeln!(s, "  - {}", g.text);
+        }
+    }
+    let _ = writeln!(s);
 }
 
 /// Each choice's paired effect on d.
@@ -275,14 +280,6 @@ fn draw_replication(s: &mut String, a: &MultiverseAnalysis) {
             _ => {}
         }
     }
-}
-
-/// How many reference-arm fit windows come from evaluation recordings or
-/// their copies.
-fn copies_text(c: &crate::analysis::multiverse::ReferenceCopies) -> String {
-    let n = if c.fewest == c.most { c.most.to_string() } else { format!("{} to {}", c.fewest, c.most) };
-    let draws = if c.levels > 1 { format!(" (in {} of its {} draws)", c.levels_with, c.levels) } else { String::new() };
-    format!("{n} of its fit windows come from byte-identical copies of evaluation recordings{draws}")
 }
 
 /// Per unit: whether the reference arm is disjoint, and how many models

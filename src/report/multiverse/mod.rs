@@ -8,8 +8,10 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+mod guards;
 mod markdown;
 
+pub(super) use guards::guards;
 pub use markdown::render_markdown;
 
 use super::{f, level_pct, ReportError};
@@ -77,7 +79,7 @@ pub(super) fn verdict(a: &MultiverseAnalysis) -> String {
 /// The banner of report.html: the verdict by the declared combination.
 fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
     let d = &a.decision;
-    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.standing)
+    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.standing).with_guards(guards(a))
 }
 
 /// The decision line `run` and `analyze` print for a multiverse or a
@@ -105,7 +107,7 @@ pub fn specs_csv(a: &MultiverseAnalysis) -> String {
     for c in &a.choices {
         let _ = write!(s, ",{}", c.setting);
     }
-    s.push_str(",primary,unit,estimate,se,df,lower,upper,treated_mean,reference_mean,optimism_pct,rule_holds,joint_lower,joint_upper,trained\n");
+    s.push_str(",primary,unit,estimate,se,df,lower,upper,treated_mean,reference_mean,optimism_pct,rule_holds,joint_lower,joint_upper,trained,optimism_lower,optimism_upper,guards\n");
     for r in &a.specs {
         let _ = write!(s, "{}", r.id);
         for v in &r.values {
@@ -113,9 +115,21 @@ pub fn specs_csv(a: &MultiverseAnalysis) -> String {
         }
         let band = a.joint.as_ref().and_then(|j| j.bands.iter().find(|b| b.0 == r.id));
         let e = &r.estimate;
+        // Fieller's bounds of the optimism (empty where unbounded or absent),
+        // and the kinds of the specification's guards.
+        let (olo, ohi) = r
+            .optimism_interval
+            .and_then(|iv| iv.fieller.bounds())
+            .map(|(lo, hi)| (lo.to_string(), hi.to_string()))
+            .unwrap_or_default();
+        let kinds: Vec<String> = r
+            .guards
+            .iter()
+            .filter_map(|g| serde_json::to_value(g.kind).ok().and_then(|v| v.as_str().map(String::from)))
+            .collect();
         let _ = writeln!(
             s,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{olo},{ohi},{}",
             r.primary,
             metric_unit(a),
             e.mean,
@@ -129,7 +143,8 @@ pub fn specs_csv(a: &MultiverseAnalysis) -> String {
             r.rule_holds,
             band.map(|b| b.2.to_string()).unwrap_or_default(),
             band.map(|b| b.3.to_string()).unwrap_or_default(),
-            r.shares_run_of.is_none()
+            r.shares_run_of.is_none(),
+            kinds.join(";")
         );
     }
     s

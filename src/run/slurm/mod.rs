@@ -418,6 +418,14 @@ pub fn run_task(
     Ok(TaskOutcome::Ran { job: label, outcome })
 }
 
+/// The design as the array names it, in lock state `lock`.
+fn design_label(array: &ArrayRecord, file: &DesignFile, lock: &LockStatus) -> crate::analysis::record::DesignLabel {
+    crate::analysis::record::DesignLabel {
+        path: array.design_path.clone(),
+        ..crate::analysis::record::DesignLabel::new(file, lock.clone())
+    }
+}
+
 /// The gather step: refuses while any job has no record (naming each with
 /// its array index and Slurm log), then writes cells.csv and the report
 /// with the code a local run uses.
@@ -459,16 +467,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
             outer::note_unread(&mut notes, &opened.prepared.audit);
             super::gather_recorded(&part.plan, &opened, &part.dir, &builds)?;
         } else {
-            last = Some(finish(
-                crate::analysis::record::DesignLabel {
-                    path: p.array.design_path.clone(),
-                    ..crate::analysis::record::DesignLabel::new(&p.file, lock.clone())
-                },
-                &part.plan,
-                &opened,
-                &part.dir,
-                builds,
-            )?);
+            last = Some(finish(design_label(&p.array, &p.file, &lock), &part.plan, &opened, &part.dir, builds)?);
         }
         last_record = Some(opened.record);
     }
@@ -486,11 +485,7 @@ pub fn gather(dir: &Path) -> Result<RunOutcome, RunError> {
         (None, Some(outcome)) => outcome,
         (None, None) => return Err(RunError::NoWorkers),
         (Some(o @ outer::Outer { role: outer::LevelRole::Redraw, .. }), _) => {
-            let design = crate::analysis::record::DesignLabel {
-                path: p.array.design_path.clone(),
-                ..crate::analysis::record::DesignLabel::new(&p.file, lock.clone())
-            };
-            super::finish_splits(design, plan, o, dir, &notes)?
+            super::finish_splits(design_label(&p.array, &p.file, &lock), plan, o, dir, &notes)?
         }
         (Some(o), _) => {
             // The same combined analysis a local run writes.

@@ -1,0 +1,119 @@
+//! The guards of a verdict: what its contrast may have measured besides
+//! what it is named after (DESIGN.md, "What a verdict must guard"),
+//! computed by the analysis from its own results and evidence and worded
+//! once. Every view reads them from the analysis: report.md and the HTML
+//! banner, the console line, results.json, estimates.csv and Python.
+
+use std::fmt::Write as _;
+
+use super::words::{decision_notes, f, fieller_text, level_pct, unit_label};
+use super::{Analysis, Guard, GuardKind};
+use crate::io::{md_line, md_text};
+
+/// The guards of `a`'s verdict in the order the report gives them beside
+/// it: the decision's notes (a threshold inside the interval, a rule that
+/// reads no interval), a fragile decision, early stopping and its
+/// held-fixed contrast, a reference arm that is not disjoint, condition
+/// coverage.
+pub fn guards(a: &Analysis) -> Vec<Guard> {
+    let mut out: Vec<Guard> = decision_notes(&a.decision, &level_pct(a.level))
+        .into_iter()
+        .map(|n| {
+            let kind =
+                if n.starts_with("**The rule reads no interval**") { GuardKind::NoInterval } else { GuardKind::Margin };
+            Guard::new(kind, n)
+        })
+        .collect();
+    for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
+        out.push(Guard::new(GuardKind::Fragile, format!("**Warning**: {}.", md_line(w))));
+    }
+    // Models restored early, and the contrast with early stopping held fixed.
+    for w in a.warnings.iter().filter(|w| w.starts_with("early best epochs")) {
+        out.push(Guard::new(GuardKind::EarlyStopping, format!("**Early stopping**: {}.", md_line(w))));
+    }
+    if let Some(b) = &a.fixed_budget {
+        let e = &b.estimate;
+        let unit = unit_label(&a.decision.value_unit);
+        out.push(Guard::new(GuardKind::FixedBudget, format!(
+            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).",
+            b.epochs,
+            b.model,
+            f(e.mean, 4),
+            f(e.lower, 4),
+            f(e.upper, 4),
+            f(b.optimism_pct, 1),
+            fieller_text(b.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
+            if b.rule_holds { "hold" } else { "fail" }
+        )));
+    }
+    // A reference arm that is not disjoint (copies of evaluation flights in
+    // its fit set, allowed by `duplicates keep`).
+    for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
+        out.push(Guard::new(GuardKind::NotDisjoint, format!("**The reference arm is not disjoint**: {}.", md_line(w))));
+    }
+    out.extend(coverage(a).map(|t| Guard::new(GuardKind::Coverage, t)));
+    out
+}
+
+/// The coverage guard: what the contrast measured, given the reference
+/// arm's coverage of the evaluated conditions.
+fn coverage(a: &Analysis) -> Option<String> {
+    let c = a.coverage.as_ref()?;
+    let n = a.recordings.len();
+    if !c.mixes_novelty() {
+        return Some(format!(
+            "Condition coverage: the reference arm (`{}`) fits on other recordings of the {} of every evaluation recording{}, so the contrast is not a contrast with unseen conditions.",
+            c.arm,
+            c.condition,
+            in_draws(c.draws)
+        ));
+    }
+    let names: Vec<String> = c
+        .uncovered
+        .iter()
+        .map(|u| {
+            let draws = if c.draws > 1 { format!(", {} of {} draws", u.draws, c.draws) } else { String::new() };
+            format!("{} ({}{draws})", md_text(&u.recording), md_text(&u.condition))
+        })
+        .collect();
+    let mut s = format!(
+        "**The contrast mixes condition novelty with recording leakage**: the reference arm (`{}`) fits on no other recording of the {} of {} of {n} evaluation recordings{}: {}. They carry {}% of the summed d; on them the contaminated arm saw the condition and the reference arm never did.",
+        c.arm,
+        c.condition,
+        c.uncovered.len(),
+        if c.draws > 1 { format!(" in at least one of the {} draws (each seed's own)", c.draws) } else { String::new() },
+        names.join(", "),
+        f(100.0 * c.share_of_d, 1),
+    );
+    match (&c.covered_only, &c.covered_only_error) {
+        (Some(k), _) => {
+            let e = &k.estimate;
+            let unit = unit_label(&a.decision.value_unit);
+            let _ = write!(
+                s,
+                " Over the {} covered recordings alone: d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (table: Condition coverage).",
+                k.recordings,
+                f(e.mean, 4),
+                f(e.lower, 4),
+                f(e.upper, 4),
+                f(k.optimism_pct, 1),
+                fieller_text(k.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
+                if k.rule_holds { "hold" } else { "fail" }
+            );
+        }
+        (None, Some(err)) => {
+            let _ =
+                write!(s, " The contrast over the covered recordings alone could not be estimated: {}.", md_text(err));
+        }
+        (None, None) => {}
+    }
+    Some(s)
+}
+
+fn in_draws(draws: usize) -> String {
+    if draws > 1 {
+        format!(" (in every one of the {draws} draws, each seed's own)")
+    } else {
+        String::new()
+    }
+}
