@@ -110,6 +110,15 @@ fn a_rule_on_divergence_reads_the_glmms_odds_ratio() {
     assert!(d["unit"].as_str().unwrap().contains("log odds ratio of a diverged rollout, contaminated over disjoint"));
     // No unit's crossed estimate is decided by it.
     assert!(json["units"].as_array().unwrap().iter().all(|u| u["rule_holds"] == false));
+    // Issue 72: beside the verdict, the recordings that hold the events.
+    // Counted from the cells (n_divergent of world at 1 s, both arms):
+    // 830 on B9_trefoil_fast_rep15 and 508 on B9_trefoil_fast_rep5 of 1340.
+    let guard = json["guards"].as_array().unwrap().iter().find(|g| g["kind"] == "concentrated").expect("guard");
+    let text = guard["text"].as_str().unwrap();
+    assert!(text.contains("1338 of the 1340 diverged starts"), "{text}");
+    assert!(text.contains("B9_trefoil_fast_rep15 (830), B9_trefoil_fast_rep5 (508)"), "{text}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("**The diverged rollouts come from few recordings**"), "{md}");
 }
 
 #[test]

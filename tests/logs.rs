@@ -437,6 +437,39 @@ fn a_conditions_table_gives_trajectory_and_speed_and_every_recording_needs_a_row
     assert!(e.contains("line 3, column `trajectory`: empty"), "{e}");
 }
 
+/// Issue 72: a conditions table may live outside the data folder (a path
+/// from it, or an absolute one), so that the folder holds logs alone and a
+/// design that reads it by a name pattern is not disturbed by the table;
+/// the lock hashes it there.
+#[test]
+fn a_conditions_table_outside_the_data_folder_is_read_and_locked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = tmp.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv"] {
+        rewrite(name, &logs);
+    }
+    let table = "recording,trajectory,speed\nF1_circle_slow_rep1,lemniscate,fast\nF2_star_fast_mell_rep1,hover,slow\n";
+    std::fs::create_dir_all(tmp.path().join("tables")).unwrap();
+    std::fs::write(tmp.path().join("tables/conditions.csv"), table).unwrap();
+    let absolute = tmp.path().join("tables/conditions.csv");
+    for written in ["../tables/conditions.csv".to_string(), absolute.display().to_string()] {
+        let text = reordered_design(&logs, "quaternion xyzw qx, qy, qz, qw")
+            .replace("  rate 100 Hz\n", &format!("  rate 100 Hz\n  conditions table \"{written}\"\n"));
+        let audit = data::audit(&spec(&text), &logs).unwrap();
+        let f1 = audit.files.iter().find(|f| f.name == "F1_circle_slow_rep1").unwrap();
+        assert_eq!((f1.trajectory.as_str(), f1.speed.as_str()), ("lemniscate", "fast"), "{written}");
+        assert_eq!(audit.files.len(), 2);
+        let path = tmp.path().join("outside.design");
+        std::fs::write(&path, &text).unwrap();
+        let _ = std::fs::remove_file(tmp.path().join("outside.design.lock"));
+        let file = crossaudit::design::load(&path).unwrap();
+        let lock = crossaudit::design::lock::write_lock(&file, std::time::SystemTime::now()).unwrap();
+        assert!(lock.files.as_ref().is_some_and(|f| f.keys().any(|k| k.ends_with("conditions.csv"))), "{lock:?}");
+        assert!(!lock.files.unwrap().values().any(|sha| sha.starts_with("unreadable")), "{written}");
+    }
+}
+
 /// Issue 72: the lock covers the conditions table a design names, which
 /// decides every recording's condition (and so coverage, groups and the
 /// stratified draw): editing it after locking makes the lock no longer

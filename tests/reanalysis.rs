@@ -266,7 +266,7 @@ fn a_folder_that_is_not_a_run_or_of_another_design_is_refused() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("results/quickstart") && err.contains("752b51800a0c"), "{err}");
+    assert!(err.contains("results/quickstart") && err.contains("961d4a76e4f5"), "{err}");
 }
 
 /// The small simulated study (tests/designs/sim_small.design) with `extra`.

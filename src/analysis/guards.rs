@@ -52,7 +52,31 @@ pub fn guards(a: &Analysis) -> Vec<Guard> {
         out.push(Guard::new(GuardKind::NotDisjoint, format!("**The reference arm is not disjoint**: {}.", md_line(w))));
     }
     out.extend(coverage(a).map(|t| Guard::new(GuardKind::Coverage, t)));
+    out.extend(concentrated(a).map(|t| Guard::new(GuardKind::Concentrated, t)));
     out
+}
+
+/// A rule decided on the divergence GLMM whose diverged starts few
+/// recordings hold: its odds ratio is theirs more than the study's.
+fn concentrated(a: &Analysis) -> Option<String> {
+    if a.decision.rule.on != crate::design::DecisionTarget::Divergence {
+        return None;
+    }
+    // The unit the rule reads: the one with a binomial GLMM.
+    let g = a.units.iter().find_map(|u| u.glmm.as_ref())?;
+    if g.concentrated.is_empty() {
+        return None;
+    }
+    let total = g.diverged_treated + g.diverged_reference;
+    let held: u64 = g.concentrated.iter().map(|(_, n)| n).sum();
+    let names: Vec<String> = g.concentrated.iter().map(|(r, n)| format!("{} ({n})", md_text(r))).collect();
+    Some(format!(
+        "**The diverged rollouts come from few recordings**: {held} of the {total} diverged starts ({}%) are on {} of the {} evaluation recordings: {}. The odds ratio the rule reads is decided by them, not spread over the study.",
+        f(100.0 * held as f64 / total.max(1) as f64, 1),
+        g.concentrated.len(),
+        a.recordings.len(),
+        names.join(", ")
+    ))
 }
 
 /// The coverage guard: what the contrast measured, given the reference

@@ -185,9 +185,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         .collect::<Result<Vec<_>, _>>()?;
     // The plan's primary unit is the first.
     let decision = decision::study_decision(&plan.decision, &units, &plan.contrast)?;
-    if decision.holds {
-        fragile_warnings(&units[0], &mut warnings);
-    }
+    fragile_warnings(&units[0], decision.holds, &mut warnings);
     let fixed_budget = budget::fixed_budget(plan, &units);
     let mut a = Analysis {
         study: plan.study.clone(),
@@ -277,16 +275,26 @@ fn analyze_units(ctx: &unit::Ctx, warnings: &mut Vec<String>) -> Result<Vec<Unit
 
 /// A decision that leaving out one seed or one recording overturns is
 /// fragile, whatever its interval says: say so beside it.
-fn fragile_warnings(primary: &UnitResult, warnings: &mut Vec<String>) {
-    for l in primary.leave_one_out.iter().filter(|l| l.rule_holds < l.fits) {
-        warnings.push(format!(
-            "fragile decision: the rule holds in only {} of the {} fits that leave out one {} (Leave-one-out table)",
-            l.rule_holds,
-            l.fits,
-            match l.factor {
-                crate::design::Factor::Seed => "seed",
-                crate::design::Factor::Recording => "recording",
-            }
-        ));
+fn fragile_warnings(primary: &UnitResult, holds: bool, warnings: &mut Vec<String>) {
+    for l in primary.leave_one_out.iter().filter(|l| !l.moves_verdict.is_empty()) {
+        let one = match l.factor {
+            crate::design::Factor::Seed => "seed",
+            crate::design::Factor::Recording => "recording",
+        };
+        let names = match l.moves_verdict.len() {
+            1 => format!("{one} {} is left out", l.moves_verdict[0]),
+            _ => format!("each of the {one}s {} is left out", l.moves_verdict.join(", ")),
+        };
+        warnings.push(if holds {
+            format!(
+                "fragile decision: the rule holds in only {} of the {} fits that leave out one {one} (Leave-one-out table); it fails when {names}",
+                l.rule_holds, l.fits
+            )
+        } else {
+            format!(
+                "fragile decision: the rule fails, but holds in {} of the {} fits that leave out one {one} (Leave-one-out table): when {names}",
+                l.rule_holds, l.fits
+            )
+        });
     }
 }

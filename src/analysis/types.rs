@@ -140,6 +140,8 @@ pub enum GuardKind {
     NotDisjoint,
     /// Which evaluated conditions the reference arm covers.
     Coverage,
+    /// A divergence endpoint's events held by few recordings.
+    Concentrated,
 }
 
 /// One guard: its kind and its statement, a Markdown paragraph (a bold
@@ -251,6 +253,11 @@ pub struct GlmmEndpoint {
     /// or the fit failed).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub not_estimable: Option<String>,
+    /// The fewest recordings that hold nine tenths of the diverged starts
+    /// (both arms) and how many each holds, most first, when they are at
+    /// most a fifth of the recordings; empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub concentrated: Vec<(String, u64)>,
 }
 
 /// The treated arm's effect on the odds that a rollout diverges, within
@@ -321,6 +328,11 @@ pub struct LeaveOneOut {
     pub optimism_max: f64,
     /// Fits in which the decision rule still holds.
     pub rule_holds: usize,
+    /// The levels (recording names, or seeds) whose leaving-out moves the
+    /// verdict: the rule fails without them where it holds on every level,
+    /// or holds without them where it fails.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub moves_verdict: Vec<String>,
 }
 
 /// Optimism within one seed.

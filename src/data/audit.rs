@@ -166,16 +166,21 @@ fn excluded_names_exist(spec: &DataSpec, dir: &Path, csvs: &[PathBuf]) -> Result
 /// A conditions table, by recording name, and the file it was read from.
 type ConditionsTable = (BTreeMap<String, super::conditions::Conditions>, PathBuf);
 
-/// The declared conditions table, read, and its path; it is in the data
-/// folder, and is taken out of the logs `csvs`.
+/// The declared conditions table, read, and its path: a path from the data
+/// folder (a bare name lies in it) or an absolute one; where it lies among
+/// the logs `csvs`, it is taken out of them.
 fn conditions_table(
     spec: &DataSpec,
     dir: &Path,
     csvs: &mut Vec<PathBuf>,
 ) -> Result<Option<ConditionsTable>, AuditError> {
     let Some(name) = spec.format.as_ref().and_then(|f| f.conditions_table.as_ref()) else { return Ok(None) };
-    csvs.retain(|p| p.file_name().is_none_or(|f| f.to_string_lossy() != *name));
     let path = dir.join(name);
+    let same = |p: &PathBuf| match (std::fs::canonicalize(p), std::fs::canonicalize(&path)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => *p == path,
+    };
+    csvs.retain(|p| !same(p));
     let format = spec.format.as_ref();
     let columns = format.map(|f| f.conditions_columns.clone()).unwrap_or_default();
     let folder = format.and_then(|f| f.conditions_folder);

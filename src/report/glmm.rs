@@ -39,7 +39,21 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         "optimizer",
     ];
     let mut table = Table::new(&cols, "lllrrrlrrrrrl");
+    let mut few = Vec::new();
     for (u, g) in units {
+        if !g.concentrated.is_empty() {
+            let held: u64 = g.concentrated.iter().map(|(_, n)| n).sum();
+            let names: Vec<String> =
+                g.concentrated.iter().map(|(r, n)| format!("{} ({n})", super::md_text(r))).collect();
+            few.push(format!(
+                "- {} {} at {} s: {held} of the {} diverged starts are on {}.",
+                u.model,
+                u.metric.name(),
+                u.horizon_s,
+                g.diverged_treated + g.diverged_reference,
+                names.join(", ")
+            ));
+        }
         let head = format!("{} | {} | {} s", u.model, u.metric.name(), u.horizon_s);
         let counts = [
             format!("{}/{}", g.diverged_treated, g.starts_treated),
@@ -70,4 +84,11 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         table.row(std::iter::once(head).chain(counts).chain(rest));
     }
     let _ = writeln!(s, "{}", table.render());
+    if !few.is_empty() {
+        let _ = writeln!(
+            s,
+            "Diverged starts held by few recordings (at most a fifth of them hold nine tenths): each such odds ratio is decided by those recordings, not spread over the study.\n\n{}\n",
+            few.join("\n")
+        );
+    }
 }

@@ -16,16 +16,39 @@ pub(crate) const FORMULA: &str =
 
 impl Ctx<'_> {
     /// The unit's GLMM, or why it has none.
+    /// The fewest recordings that hold at least nine tenths of the diverged
+    /// starts (both arms), most first, when they are at most a fifth of the
+    /// recordings: the events that decide the odds ratio are theirs.
+    fn concentrated(&self, by_recording: &[u64]) -> Vec<(String, u64)> {
+        let total: u64 = by_recording.iter().sum();
+        let mut order: Vec<usize> = (0..by_recording.len()).collect();
+        order.sort_by(|&a, &b| by_recording[b].cmp(&by_recording[a]).then(a.cmp(&b)));
+        let (mut held, mut out) = (0u64, Vec::new());
+        for i in order {
+            if total == 0 || 10 * held >= 9 * total {
+                break;
+            }
+            held += by_recording[i];
+            out.push((self.recordings[i].recording.clone(), by_recording[i]));
+        }
+        if out.len() * 5 > by_recording.len() {
+            out.clear();
+        }
+        out
+    }
+
     pub(super) fn glmm(&self, u: &AnalysisUnit) -> GlmmEndpoint {
         let arms = [&self.plan.contrast.treated, &self.plan.contrast.reference];
         let cols = self.plan.seeds.len();
         let (mut k, mut m, mut arm, mut rec, mut seed, mut pair) = (vec![], vec![], vec![], vec![], vec![], vec![]);
         let mut totals = [(0u64, 0u64); 2];
+        let mut by_recording = vec![0u64; self.recordings.len()];
         for (a, name) in arms.iter().enumerate() {
             for (i, r) in self.recordings.iter().enumerate() {
                 let Some(row) = self.data.row(&u.model, name, &r.recording, u.horizon_s) else { continue };
                 for (j, c) in row.iter().enumerate() {
                     let Some(c) = c else { continue };
+                    by_recording[i] += c.n_divergent;
                     totals[a].0 += c.n_divergent;
                     totals[a].1 += c.n_starts;
                     k.push(c.n_divergent as f64);
@@ -46,6 +69,7 @@ impl Ctx<'_> {
             starts_reference: sr,
             estimate: None,
             not_estimable: None,
+            concentrated: self.concentrated(&by_recording),
         };
         let separated = |d: u64, s: u64, name: &str| -> Option<String> {
             (d == 0 || d == s).then(|| {

@@ -296,11 +296,11 @@ impl Ctx<'_> {
         } else {
             None
         };
-        let leave_one_out = self.leave_one_out_all(&a, complete.as_ref(), &label, warnings)?;
+        let rule_holds = rule_holds(&self.plan.decision, optimism_pct, &estimate);
+        let leave_one_out = self.leave_one_out_all(&a, complete.as_ref(), (&label, rule_holds), warnings)?;
         let per_seed_optimism = self.per_seed_optimism(&a);
         let per_trajectory = self.per_trajectory(&a.diff);
         let conditional = self.conditional(u, &label)?;
-        let rule_holds = rule_holds(&self.plan.decision, optimism_pct, &estimate);
         let intervals = self.compared(&a.diff, complete.as_ref(), stream).map_err(stats)?;
         Ok(UnitResult {
             role: u.role,
@@ -406,7 +406,7 @@ impl Ctx<'_> {
         &self,
         a: &ArmArrays,
         complete: Option<&CrossedMatrix>,
-        label: &str,
+        (label, holds): (&str, bool),
         warnings: &mut Vec<String>,
     ) -> Result<Vec<LeaveOneOut>, AnalysisError> {
         let mut out = Vec::new();
@@ -424,7 +424,7 @@ impl Ctx<'_> {
                 ));
                 continue;
             }
-            let fit = self.leave_one_out(a, complete, f);
+            let fit = self.leave_one_out(a, complete, f, holds);
             out.push(fit.map_err(|source| AnalysisError::Stats { unit: label.to_string(), source })?);
         }
         Ok(out)
@@ -432,12 +432,14 @@ impl Ctx<'_> {
 
     /// Every fit with one recording (or seed) left out. The crossed MoM on
     /// a complete array takes the closed form ([`leave_one_out_mom`], O(IJ)
-    /// for all of them); REML refits each.
+    /// for all of them); REML refits each. `holds`: the rule on every level,
+    /// against which the levels that move the verdict are named.
     fn leave_one_out(
         &self,
         a: &ArmArrays,
         complete: Option<&CrossedMatrix>,
         factor: Factor,
+        holds: bool,
     ) -> Result<LeaveOneOut, StatsError> {
         let n = match factor {
             Factor::Seed => a.diff.cols,
@@ -473,7 +475,16 @@ impl Ctx<'_> {
             optimism_min: min(|x| x.2),
             optimism_max: max(|x| x.2),
             rule_holds: fits.iter().filter(|x| x.3).count(),
+            moves_verdict: (0..n).filter(|&k| fits[k].3 != holds).map(|k| self.level_name(factor, k)).collect(),
         })
+    }
+
+    /// The name of row (recording) or column (seed) `k`.
+    fn level_name(&self, factor: Factor, k: usize) -> String {
+        match factor {
+            Factor::Recording => self.recordings.get(k).map(|r| r.recording.clone()).unwrap_or_else(|| k.to_string()),
+            Factor::Seed => self.plan.seeds.get(k).map(|s| s.0.to_string()).unwrap_or_else(|| k.to_string()),
+        }
     }
 
     fn per_trajectory(&self, diff: &Grid) -> Vec<TrajectoryMean> {

@@ -140,7 +140,8 @@ impl Validator {
     }
 
     /// `conditions table "FILE" columns ROLE = COLUMN, ...`: each role
-    /// mapped once, a file name in the data folder, no name pattern too.
+    /// mapped once, a file (a path from the data folder, or absolute), no
+    /// name pattern too.
     fn conditions_table(&mut self, t: &Spanned<String>, columns: &[(Ident, Ident)], csv: &mut CsvParts) {
         for (role, column) in columns {
             if csv.conditions_columns.insert(role.node.clone(), column.node.clone()).is_some() {
@@ -152,12 +153,12 @@ impl Validator {
                 );
             }
         }
-        if t.node.is_empty() || t.node.contains('/') || t.node.contains('\\') {
+        if t.node.trim().is_empty() {
             self.err_help(
-                "conditions table outside the data folder",
+                "empty conditions table",
                 t.span,
-                format!("`{}` is not a file name", t.node),
-                "give the name of a CSV file in the data folder, e.g. `conditions table \"conditions.csv\"`",
+                "no file named",
+                "give a CSV file: a name in the data folder (`conditions table \"conditions.csv\"`), or a path from it (`\"../conditions.csv\"`) or an absolute one",
             );
         }
         if let Some(name) = &csv.conditions_name {
