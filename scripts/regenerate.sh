@@ -25,6 +25,7 @@ $ca plan designs/nanobench_multi_split.design --cells results/multi_split/cells.
 $ca plan designs/multiverse/paper_draws.design --cells results/multiverse/draws --recordings 13,24,52 --seeds 5,10,20,40 --draws 3,5,10 --out results/plan_draws >/dev/null
 $ca plan designs/multiverse/paper_per_seed.design --cells results/multiverse/per_seed/cells.csv --recordings 24,48 --seeds 20,40,60,120 --out results/plan_per_seed >/dev/null
 $ca plan designs/nanobench_paper.design --components recording=0.00791883,seed=6.98702e-05,residual=0.00495443 --effect=-0.0362 --reference-mean 0.299 --recordings 26,52,104,208 --seeds 5,10,20,40 --out results/plan_paper_declared >/dev/null
+$ca plan designs/multiverse/paper_per_seed.design --components recording=0.00791883,seed=0.00183295,residual=0.00495443 --effect=-0.0362 --reference-mean 0.299 --recordings 26,52,104,208 --seeds 5,10,20,40 --out results/plan_paper_per_seed_declared >/dev/null
 $ca data audit designs/nanobench_confirmatory.design --out results/nanobench_audit > results/nanobench_audit/summary.txt 2>/dev/null
 $ca audit split ../shared/nanobench/upstream_task2_split_metadata.json --data ../shared/nanobench/recordings --out results/upstream_split_audit > results/upstream_split_audit/summary.txt 2>/dev/null
 python3 scripts/window_splits.py ../shared/nanobench/recordings results/nanobench_window_split/splits >/dev/null

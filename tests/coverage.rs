@@ -221,7 +221,9 @@ fn the_planner_reproduces_the_pilot_se_and_the_closed_form_power() {
     let u = &a.units[0];
     let bound = (-u.estimate.critical * u.estimate.se).min(-0.10 * u.mean_reference);
     let expected = Normal::new(0.0, 1.0).unwrap().cdf((bound - u.estimate.mean) / u.estimate.se);
-    assert_rel(at_pilot.power, expected, 1e-12, "power");
+    assert_rel(at_pilot.power_known_se, expected, 1e-12, "power with the SE known");
+    // With the SE estimated (20,000 simulated studies, df 19): close to it here.
+    assert!((at_pilot.power - expected).abs() < 0.02, "{} against {expected}", at_pilot.power);
     // More of either factor never increases the SE.
     let se = |i, j| p.rows.iter().find(|r| r.recordings == i && r.seeds == j).unwrap().se;
     assert!(se(52, 20) <= se(26, 20) && se(26, 20) <= se(26, 5));

@@ -81,9 +81,20 @@ pub struct PowerRow {
     pub se: f64,
     /// Predicted interval width, 2 t SE.
     pub width: f64,
-    /// P(the decision rule holds), normal approximation.
+    /// P(the decision rule holds) with the SE and df estimated, as a study
+    /// of that size would: the share of [`SIMULATED`] studies drawn from
+    /// the estimator's exact sampling distribution
+    /// ([`crossaudit_stats::crossed_mom_draws`]) in which the rule holds.
     pub power: f64,
+    /// The same with the SE taken as known (the normal approximation
+    /// Phi((min(-t SE, -c m_ref / 100) - mean) / SE)), which overstates
+    /// or understates it where the SE rests on few seeds.
+    pub power_known_se: f64,
 }
+
+/// Simulated studies per planned size: the probability's Monte Carlo SE
+/// is at most 0.5 / sqrt(20,000) = 0.0035.
+pub const SIMULATED: usize = 20_000;
 
 /// The planner's answer for one design and pilot.
 #[derive(Debug, Clone, Serialize)]
@@ -341,6 +352,35 @@ pub(super) fn rule_power(plan: &Plan, mean: f64, se: f64, t: f64, mean_reference
     Ok(if se > 0.0 { normal.cdf((bound - mean) / se) } else { f64::from(u8::from(mean <= bound)) })
 }
 
+/// P(the decision rule holds) at `i` recordings x `j` seeds with the SE
+/// and df estimated: the share of [`SIMULATED`] crossed MoM estimates,
+/// drawn from their exact sampling distribution at the pilot's mean and
+/// components (seeded by the size, so a plan is reproducible), whose
+/// estimate is at most min(-t SE, -c m_ref / 100) with that estimate's own
+/// SE and t. The reference mean is held at the pilot's.
+fn simulated_rule_power(plan: &Plan, pilot: &Pilot, (i, j): (usize, usize)) -> Result<f64, PowerError> {
+    let est = &plan.estimator;
+    // A REML estimator's df rule applied to the MoM's draws (on a complete
+    // array with positive components the two estimates agree).
+    let df_rule = match est.df {
+        crossaudit_stats::DfRule::KenwardRoger => crossaudit_stats::DfRule::Satterthwaite,
+        other => other,
+    };
+    let seed = ((i as u64) << 32) ^ j as u64;
+    let draws = crossaudit_stats::crossed_mom_draws(
+        pilot.mean,
+        pilot.components,
+        (i, j),
+        (est.level, df_rule),
+        SIMULATED,
+        seed,
+    )?;
+    let threshold = plan.decision.optimism_threshold().map(|c| -c * pilot.mean_reference / 100.0);
+    let holds =
+        draws.iter().filter(|e| e.mean <= threshold.map_or(-e.critical * e.se, |b| b.min(-e.critical * e.se))).count();
+    Ok(holds as f64 / SIMULATED as f64)
+}
+
 /// The rows and advice of a crossed (recording x seed) plan for `estimate`.
 fn crossed_plan(
     plan: &Plan,
@@ -360,8 +400,9 @@ fn crossed_plan(
             // Satterthwaite's df need data; the planner uses the normal there.
             let df = plan.df(i, j).unwrap_or(f64::INFINITY);
             let t = critical_value(plan.estimator.level, df)?;
-            let power = rule_power(plan, pilot.mean, se, t, mean_reference)?;
-            rows.push(PowerRow { recordings: i, seeds: j, se, width: 2.0 * t * se, power });
+            let power_known_se = rule_power(plan, pilot.mean, se, t, mean_reference)?;
+            let power = simulated_rule_power(plan, pilot, (i, j))?;
+            rows.push(PowerRow { recordings: i, seeds: j, se, width: 2.0 * t * se, power, power_known_se });
         }
     }
     let (i0, j0) = (pilot.base.0 as f64, pilot.base.1 as f64);
@@ -423,10 +464,17 @@ impl PowerPlan {
             self.sigma2_residual
         );
         let _ = writeln!(s, "{}\n", self.advice);
+        if self.declared && self.draws_per_seed {
+            let _ = writeln!(
+                s,
+                "**The seed variance assumed**: sigma^2 seed = {:.3e}, as declared. This design gives each seed its own draw (`draws per seed`), so its seed component must carry the variance between draws: one measured by a per-seed run. A seed component from a study of one draw (a single-draw pilot, a paper's table) leaves that variance out and makes every SE too small and every probability too high (on NanoBench the per-seed runs measure one 26 times the single draw's).\n",
+                self.sigma2_seed
+            );
+        }
         let (se_h, width_h) =
             (format!("predicted SE ({})", self.value_unit), format!("interval width ({})", self.value_unit));
-        let cols = ["recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)"];
-        let mut table = Table::new(&cols, "rrrrr");
+        let cols = ["recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)", "P with the SE known"];
+        let mut table = Table::new(&cols, "rrrrrr");
         // A slope per dose point is small: three significant digits.
         let small = self.rows.iter().all(|r| r.width < 1e-2);
         let num = |v: f64| if small { format!("{v:.3e}") } else { format!("{v:.5}") };
@@ -437,6 +485,7 @@ impl PowerPlan {
                 num(r.se),
                 num(r.width),
                 format!("{:.3}", r.power),
+                format!("{:.3}", r.power_known_se),
             ]);
         }
         s.push_str(&table.render());
@@ -445,8 +494,7 @@ impl PowerPlan {
             "\n## Assumptions\n\n\
 - The pilot's variance components (recording, seed, residual) are the true ones, and recordings and seeds added or removed are like the pilot's: SE^2 = s2_rec/I + s2_seed/J + s2_res/(IJ) on a complete I x J array (no missing cells).\n\
 - The pilot's mean {estimand} is the true effect, and the reference mean stays at the pilot's. A pilot chosen because its effect looked large makes every probability optimistic.\n\
-- The estimate is normal with that SE, taken as known: the t critical value uses the df the design's rule gives at I and J (the normal where those df need data), and the SE's own uncertainty is not propagated.\n\
-- The rule (`optimism >= c%` and `upper < 0`, or whichever of them it has) holds when the estimate is at most min(-t SE, -c m_ref / 100); P(decision rule holds) = Phi((that bound - mean) / SE).\n\
+- The rule (`optimism >= c%` and `upper < 0`, or whichever of them it has) holds when the estimate is at most min(-t SE, -c m_ref / 100), with the SE and t the study itself estimates. P(decision rule holds) is the share of 20,000 simulated studies in which it holds (Monte Carlo SE at most 0.0035): each draws the crossed estimate's mean and its three mean squares from their exact distributions under the normal crossed model (the grand mean normal, each mean square a scaled chi-square), and computes the SE, the variance components (truncated at zero) and the df as the design's estimator does (Satterthwaite's for a REML estimator). With few seeds the SE is itself uncertain, and that changes the probability: \"P with the SE known\" is the normal approximation Phi((min(-t SE, -c m_ref / 100) - mean) / SE) with the true SE, for comparison.\n\
 - Nothing else varies: the model, training, split and data inclusion are the pilot's.\n",
             estimand = self.estimand
         );

@@ -254,6 +254,77 @@ pub(crate) fn mom_from_squares(
     })
 }
 
+/// `draws` crossed MoM estimates of a complete `rows` x `cols` array, at
+/// confidence `level` with df by `df_rule`, drawn
+/// from their exact sampling distribution under the normal crossed model
+/// with grand mean `mean` and variance components `truth`: the grand mean
+/// ~ N(mean, SE^2) and, independent of it, SS_rows / (se + J sa) ~
+/// chi^2(I - 1), SS_cols / (se + I sb) ~ chi^2(J - 1) and SS_error / se ~
+/// chi^2((I - 1)(J - 1)), each estimate then computed from its mean
+/// squares as [`crossed_mom`] computes it (components truncated at zero,
+/// the df `df_rule` gives or Satterthwaite's). A planner's probability that
+/// a rule holds then accounts for the estimated SE and df, not the true
+/// SE alone. Deterministic in `seed` (ChaCha8).
+///
+/// ```
+/// use crossaudit_stats::{crossed_mom_draws, DfRule, VarianceComponents};
+/// let truth = VarianceComponents { recording: 0.004, seed: 0.001, residual: 0.002 };
+/// let draws = crossed_mom_draws(-0.03, truth, (13, 3), (0.95, DfRule::SeedsMinusOne), 4000, 7).unwrap();
+/// let mean = draws.iter().map(|e| e.mean).sum::<f64>() / 4000.0;
+/// assert!((mean + 0.03).abs() < 4.0 * truth.se_at(13.0, 3.0) / 4000f64.sqrt());
+/// assert!(draws.iter().all(|e| e.df == 2.0));
+/// ```
+pub fn crossed_mom_draws(
+    mean: f64,
+    truth: VarianceComponents,
+    (rows, cols): (usize, usize),
+    (level, df_rule): (f64, DfRule),
+    draws: usize,
+    seed: u64,
+) -> Result<Vec<CrossedEstimate>, StatsError> {
+    use rand::SeedableRng;
+    use statrs::distribution::ChiSquared;
+    if rows < 2 || cols < 2 {
+        return Err(StatsError::Invalid(format!("a crossed array needs at least 2 x 2 cells, not {rows} x {cols}")));
+    }
+    let bad = |what: &str, v: f64| StatsError::Invalid(format!("{what} must be finite and not negative, found {v}"));
+    for (what, v) in
+        [("sigma^2 recording", truth.recording), ("sigma^2 seed", truth.seed), ("sigma^2 residual", truth.residual)]
+    {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(bad(what, v));
+        }
+    }
+    let (i_n, j_n) = (rows as f64, cols as f64);
+    let (df_r, df_c, df_e) = (i_n - 1.0, j_n - 1.0, (i_n - 1.0) * (j_n - 1.0));
+    let chi = |df: f64| ChiSquared::new(df).map_err(|e| StatsError::Invalid(e.to_string()));
+    let (chi_r, chi_c, chi_e) = (chi(df_r)?, chi(df_c)?, chi(df_e)?);
+    let (e_r, e_c, e_e) = (truth.residual + j_n * truth.recording, truth.residual + i_n * truth.seed, truth.residual);
+    let se = truth.se_at(i_n, j_n);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..draws)
+        .map(|_| {
+            use rand::distributions::Distribution;
+            let grand_mean = mean + se * crate::standard_normal(&mut rng);
+            let (ss_rows, ss_cols, ss_error) =
+                (e_r * chi_r.sample(&mut rng), e_c * chi_c.sample(&mut rng), e_e * chi_e.sample(&mut rng));
+            let ms = MeanSquares {
+                grand_mean,
+                ss_rows,
+                ss_cols,
+                ss_error,
+                df_rows: df_r,
+                df_cols: df_c,
+                df_error: df_e,
+                ms_rows: ss_rows / df_r,
+                ms_cols: ss_cols / df_c,
+                ms_error: ss_error / df_e,
+            };
+            mom_from_squares(ms, rows, cols, level, df_rule)
+        })
+        .collect()
+}
+
 /// REML estimate of the grand mean of a crossed rows x cols array with
 /// cells missing: `cells` holds (row, col, value) for the cells present.
 /// The model is the crossed MoM's, y = mu + a_row + b_col + e, fitted by

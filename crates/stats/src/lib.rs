@@ -47,7 +47,8 @@ pub mod prelude {
 
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
 pub use crossed::{
-    crossed_mom, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary, VarianceComponents,
+    crossed_mom, crossed_mom_draws, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary,
+    VarianceComponents,
 };
 pub use intervals::{
     compare_intervals, further_intervals, one_sample_interval, reml_intervals, IntervalEstimate, IntervalMethod,
