@@ -209,8 +209,8 @@ def settled_section(p):
     if len(clear) < len(grouped):
         p("- **Whether a truly disjoint reference arm clears the threshold.** The point")
         p(f"  estimates do: {disjoint_text} But only {len(clear)} of the {len(grouped)} intervals")
-        p("  lie wholly above 10%, and early stopping was not held fixed in these")
-        p("  readings, so the threshold is cleared by point estimates alone.")
+        p(f"  lie wholly above 10% ({', '.join(sp['id'] for sp in clear) or 'none'}); the others clear it by their")
+        p("  point estimates alone, and early stopping was not held fixed in any of them.")
     p(f"- **Which side of 10% the paper's own reading falls on.** Two equally valid")
     p(f"  sets of 20 draws give {u['optimism_pct']:.1f}% (NOT CONFIRMED) and {unc['optimism_pct']:.1f}% (CONFIRMED);")
     p(f"  the 40 together give {uc['optimism_pct']:.1f}%, with the optimism's 95% interval {fci(uc)}")

@@ -409,8 +409,15 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
         let out = tempfile::tempdir().unwrap();
         let o = bin().args(["analyze", design, "--cells", run, "--out"]).arg(out.path()).output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let line = String::from_utf8_lossy(&o.stdout).trim().to_string();
-        assert_eq!(line, crossaudit::report::multiverse::decision_line(&a));
+        // The decision line, then each guard beside the verdict on an
+        // indented line of its own.
+        let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+        let mut lines = stdout.lines();
+        assert_eq!(lines.next().unwrap_or(""), crossaudit::report::multiverse::decision_line(&a));
+        let guards =
+            crossaudit::report::study_guards(&crossaudit::analysis::StudyAnalysis::Multiverse(Box::new(a.clone())));
+        let printed: Vec<String> = lines.map(|l| l.trim().to_string()).filter(|l| !l.is_empty()).collect();
+        assert_eq!(printed, guards);
         assert_eq!(std::fs::read_to_string(out.path().join("specs.csv")).unwrap(), specs);
         crate::snapshots!({ insta::assert_snapshot!(name, format!("{specs}\n{effects}\n{draws}")) });
     }

@@ -9,6 +9,23 @@ use super::format::{f, level_pct};
 use super::Table;
 use crate::analysis::Analysis;
 
+/// A unit's diverged starts held by few recordings, as a list item.
+fn concentrated(u: &crate::analysis::UnitResult, g: &crate::analysis::GlmmEndpoint) -> Option<String> {
+    if g.concentrated.is_empty() {
+        return None;
+    }
+    let held: u64 = g.concentrated.iter().map(|(_, n)| n).sum();
+    let names: Vec<String> = g.concentrated.iter().map(|(r, n)| format!("{} ({n})", super::md_text(r))).collect();
+    Some(format!(
+        "- {} {} at {} s: {held} of the {} diverged starts are on {}.",
+        u.model,
+        u.metric.name(),
+        u.horizon_s,
+        g.diverged_treated + g.diverged_reference,
+        names.join(", ")
+    ))
+}
+
 /// The section, when some unit has a GLMM.
 pub(super) fn section(a: &Analysis, s: &mut String) {
     let units: Vec<_> = a.units.iter().filter_map(|u| u.glmm.as_ref().map(|g| (u, g))).collect();
@@ -39,21 +56,8 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         "optimizer",
     ];
     let mut table = Table::new(&cols, "lllrrrlrrrrrl");
-    let mut few = Vec::new();
+    let few: Vec<String> = units.iter().filter_map(|(u, g)| concentrated(u, g)).collect();
     for (u, g) in units {
-        if !g.concentrated.is_empty() {
-            let held: u64 = g.concentrated.iter().map(|(_, n)| n).sum();
-            let names: Vec<String> =
-                g.concentrated.iter().map(|(r, n)| format!("{} ({n})", super::md_text(r))).collect();
-            few.push(format!(
-                "- {} {} at {} s: {held} of the {} diverged starts are on {}.",
-                u.model,
-                u.metric.name(),
-                u.horizon_s,
-                g.diverged_treated + g.diverged_reference,
-                names.join(", ")
-            ));
-        }
         let head = format!("{} | {} | {} s", u.model, u.metric.name(), u.horizon_s);
         let counts = [
             format!("{}/{}", g.diverged_treated, g.starts_treated),
