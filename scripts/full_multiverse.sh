@@ -40,7 +40,7 @@ for level in "$tmp"/run/*/; do
   copy_level "$level" "$dest/$name"
 done
 rm -rf "$dest/report"; cp -r "$tmp/run/report" "$dest/report"
-for top in multiverse_cells.csv cells.csv; do
+for top in multiverse_cells.csv cells.csv study.json; do
   [ -f "$tmp/run/$top" ] && cp "$tmp/run/$top" "$dest/"
 done
 cp "$tmp/stdout.txt" "$tmp/time.txt" "$dest/"

@@ -470,6 +470,36 @@ fn a_conditions_table_outside_the_data_folder_is_read_and_locked() {
     }
 }
 
+/// Issue 77, class 4: `stratify speed` where every recording's speed is
+/// unknown (a conditions table with no speed column) would draw an
+/// unstratified set without a word; it is refused at the clause's line.
+#[test]
+fn stratifying_by_a_condition_no_recording_has_is_refused_at_its_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv", "F4_linear_ramp_rep1.csv"] {
+        rewrite(name, tmp.path());
+    }
+    let table =
+        "recording,trajectory\nF1_circle_slow_rep1,circle\nF2_star_fast_mell_rep1,star\nF4_linear_ramp_rep1,ramp\n";
+    std::fs::write(tmp.path().join("conditions.csv"), table).unwrap();
+    let text = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+        .replace("  rate 100 Hz\n", "  rate 100 Hz\n  conditions table \"conditions.csv\"\n")
+        .replace("evaluation 2 split_seed 3;", "evaluation 1 split_seed 3; stratify speed keep 1;");
+    let path = tmp.path().join("stratified.design");
+    std::fs::write(&path, &text).unwrap();
+    let line = text.lines().position(|l| l.contains("stratify speed")).unwrap() + 1;
+    let o = crate::common::crossaudit(&[
+        "split",
+        path.to_str().unwrap(),
+        "--out",
+        tmp.path().join("split").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains(&format!("stratified.design:{line}:")), "{err}");
+    assert!(err.contains("every recording's speed is unknown"), "{err}");
+}
+
 /// Issue 72: the lock covers the conditions table a design names, which
 /// decides every recording's condition (and so coverage, groups and the
 /// stratified draw): editing it after locking makes the lock no longer

@@ -157,6 +157,20 @@ fn bad_declarations_are_refused_by_name() {
     assert_refused(&with("recording=1e-3,seed=lots,residual=1"), "\"lots\" is not a number");
     assert_refused(&with("recording=inf,seed=0,residual=1"), "a variance is a finite number");
     assert_refused(&with("recording=0,seed=0,residual=0"), "no variance to plan from");
+    // Issue 77, class 4: a reference mean at which the optimism is undefined.
+    for m in ["0", "-0.3"] {
+        let o = plan(
+            &[
+                design,
+                "--components",
+                "recording=1e-3,seed=1e-4,residual=1e-3",
+                "--effect=-0.03",
+                &format!("--reference-mean={m}"),
+            ],
+            &out,
+        );
+        assert_refused(&o, "must be above 0: the rule reads the optimism");
+    }
     // Without --effect and --reference-mean, or with --cells too: usage errors.
     let o = plan(&[design, "--components", "recording=1,seed=1,residual=1"], &out);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));

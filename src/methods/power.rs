@@ -222,6 +222,12 @@ pub fn declared_power_plan(
             declared.effect, declared.reference_mean
         )));
     }
+    if declared.reference_mean <= 0.0 && plan.decision.optimism_threshold().is_some() {
+        return Err(PowerError::Declared(format!(
+            "--reference-mean {} must be above 0: the rule reads the optimism, 100 (reference - treated) / reference, which is undefined at 0 and changes sign below it (a metric's mean error is positive)",
+            declared.reference_mean
+        )));
+    }
     let p = &plan.primary;
     let unit = format!("{} {} at {} s", p.model, p.metric.name(), p.horizon_s);
     let estimand = ("d", unit_of(p.metric.unit(), None));

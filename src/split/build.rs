@@ -25,7 +25,7 @@ pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result
     let (rf, allowed) = (&design.recording, design.data.missing_csv_allowed);
     // E: pinned, or the first I of a shuffle of the universe (split seed).
     let mut split_rs = RandomState::new(np_seed(rf.split_seed));
-    let strata = u.strata();
+    let strata = u.strata()?;
     let e_slots = u.evaluation_slots(strata.as_ref(), &mut split_rs)?;
     let (e_units, evaluation_absent) = resolve(&e_slots, &u.slots, "evaluation", allowed)?;
     let evaluation = sorted(e_units.iter().map(|&k| u.units[k].members[0]));
@@ -124,9 +124,32 @@ impl<'a> Universe<'a> {
         Ok(())
     }
 
-    /// `stratify`: each drawable slot's condition, for the walks below.
-    fn strata(&self) -> Option<stratify::Strata<'_>> {
-        self.design.recording.stratify.as_ref().map(|s| {
+    /// `stratify`: each drawable slot's condition, for the walks below;
+    /// refused, at the clause, where a condition it names is `unknown` for
+    /// every recording (it would draw an unstratified set without a word).
+    fn strata(&self) -> Result<Option<stratify::Strata<'_>>, SplitError> {
+        let Some(s) = self.design.recording.stratify.as_ref() else { return Ok(None) };
+        for c in &s.conditions {
+            let value = |r: usize| match c {
+                Condition::Trajectory => self.info[r].trajectory.as_str(),
+                Condition::Speed => self.info[r].speed.as_str(),
+            };
+            let members = (0..self.drawable).filter_map(|k| match self.slots[k].1 {
+                Slot::Unit(u) => Some(self.units[u].members[0]),
+                Slot::Absent(_) => None,
+            });
+            if members.into_iter().all(|r| value(r) == "unknown") {
+                return Err(SplitError::Stratify {
+                    detail: format!(
+                        "`stratify` names {}, but every recording's {} is unknown, so the draw could not be stratified by it; say how the logs give it (a name pattern, a conditions table, `speed from metadata`) or stratify by the conditions they have",
+                        c.name(),
+                        c.name()
+                    ),
+                    offset: s.offset,
+                });
+            }
+        }
+        Ok(Some({
             let label = |r: usize| {
                 let parts: Vec<&str> = s
                     .conditions
@@ -143,7 +166,7 @@ impl<'a> Universe<'a> {
                 Slot::Absent(_) => None,
             };
             stratify::Strata::new(s, (0..self.drawable).map(of).collect())
-        })
+        }))
     }
 
     /// The evaluation slots: pinned, or the first I of the generator's
