@@ -407,6 +407,29 @@ fn the_rotorpy_design_reproduces_its_committed_run() {
     assert_eq!(audit.lines().filter(|l| l.contains(",included,")).count(), 27, "{audit}");
     let md = std::fs::read_to_string(committed.join("report/report.md")).unwrap();
     assert!(md.contains("over 9 recordings x 5 seeds"), "{md}");
+    // Issue 72: its evaluation draw leaves conditions uncovered, and every
+    // view says so: the HTML banner, estimates.csv's coverage rows, the
+    // console line of a reanalysis of the folder.
+    let html = std::fs::read_to_string(committed.join("report/report.html")).unwrap();
+    let banner = html.split("<nav").next().unwrap();
+    assert!(banner.contains("class=\"guards\"") && banner.contains("mixes condition novelty"), "{banner}");
+    let estimates = std::fs::read_to_string(committed.join("report/estimates.csv")).unwrap();
+    for row in [",uncovered_share_of_d,", ",covered_only,", ",covered_only_fieller,"] {
+        assert!(estimates.lines().any(|l| l.starts_with("coverage,primary,") && l.contains(row)), "{row}: {estimates}");
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("again");
+    let o = crate::common::crossaudit(&[
+        "analyze",
+        "designs/logs/rotorpy.design",
+        "--cells",
+        "results/rotorpy",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_ok(&o);
+    let console = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(console.lines().any(|l| l.starts_with("  The contrast mixes condition novelty")), "{console}");
 }
 
 #[test]

@@ -121,7 +121,6 @@ const NO_STUDY_RECORD: &str =
 const NOT_YET: &[(&str, &str)] = &[
     ("results/multi_split", NO_STUDY_RECORD),
     ("results/multiverse/per_seed", NO_STUDY_RECORD),
-    ("results/multiverse/per_seed_budget", NO_STUDY_RECORD),
     ("results/multiverse/per_seed_uncoupled", NO_STUDY_RECORD),
     ("results/nanobench_distance", NO_STUDY_RECORD),
     ("results/nanobench_distance_grouped", NO_STUDY_RECORD),
