@@ -499,15 +499,18 @@ fn a_conditions_table_outside_the_data_folder_is_read_and_locked() {
 #[test]
 fn stratifying_by_a_condition_no_recording_has_is_refused_at_its_line() {
     let tmp = tempfile::tempdir().unwrap();
-    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv", "F4_linear_ramp_rep1.csv"] {
-        rewrite(name, tmp.path());
+    let logs = tmp.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let names = ["F1_circle_slow_rep1", "F2_star_fast_mell_rep1", "F3_oval_medium_rep1", "F4_linear_ramp_rep1"];
+    let mut table = String::from("recording,trajectory,speed\n");
+    for name in names {
+        rewrite(&format!("{name}.csv"), &logs);
+        table.push_str(&format!("{name},{},unknown\n", name.split('_').nth(1).unwrap()));
     }
-    let table =
-        "recording,trajectory\nF1_circle_slow_rep1,circle\nF2_star_fast_mell_rep1,star\nF4_linear_ramp_rep1,ramp\n";
-    std::fs::write(tmp.path().join("conditions.csv"), table).unwrap();
-    let text = reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")
+    std::fs::write(logs.join("conditions.csv"), table).unwrap();
+    let text = reordered_design(&logs, "quaternion xyzw qx, qy, qz, qw")
         .replace("  rate 100 Hz\n", "  rate 100 Hz\n  conditions table \"conditions.csv\"\n")
-        .replace("evaluation 2 split_seed 3;", "evaluation 1 split_seed 3; stratify speed keep 1;");
+        .replace("evaluation 2 split_seed 3;", "evaluation 2 split_seed 3; stratify speed keep 1;");
     let path = tmp.path().join("stratified.design");
     std::fs::write(&path, &text).unwrap();
     let line = text.lines().position(|l| l.contains("stratify speed")).unwrap() + 1;

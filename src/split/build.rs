@@ -21,11 +21,12 @@ use crate::design::{ArmKind, Condition, Design, Generator, StartsPolicy, WindowD
 /// Builds the split. `recordings` are the audit's included recordings.
 pub fn build(design: &Design, audit: &Audit, recordings: &[Recording]) -> Result<Split, SplitError> {
     let u = Universe::new(design, audit, recordings);
+    // A stratification the logs cannot give is said first.
+    let strata = u.strata()?;
     u.check_enough()?;
     let (rf, allowed) = (&design.recording, design.data.missing_csv_allowed);
     // E: pinned, or the first I of a shuffle of the universe (split seed).
     let mut split_rs = RandomState::new(np_seed(rf.split_seed));
-    let strata = u.strata()?;
     let e_slots = u.evaluation_slots(strata.as_ref(), &mut split_rs)?;
     let (e_units, evaluation_absent) = resolve(&e_slots, &u.slots, "evaluation", allowed)?;
     let evaluation = sorted(e_units.iter().map(|&k| u.units[k].members[0]));
