@@ -332,3 +332,32 @@ fn a_study_of_several_level_folders_is_reproduced_by_its_reanalysis() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Issue 72: a validation set that holds copies of evaluation flights
+/// steers early stopping by them, and the verdict says so in every view.
+/// The per-seed budget run's draws, counted from their own
+/// `audit/invariants.json` (invariant 3 with status `warn`), against its
+/// results.json guard and its report beside the verdict.
+#[test]
+fn validation_copies_of_evaluation_flights_are_a_guard_counted_per_draw() {
+    let dir = root().join("results/multiverse/per_seed_budget");
+    let mut warned = 0;
+    let mut draws = 0;
+    for k in 1..=20 {
+        let text = std::fs::read_to_string(dir.join(format!("draw-{k}/audit/invariants.json"))).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        draws += 1;
+        let three = v["invariants"].as_array().unwrap().iter().find(|i| i["id"] == 3).unwrap();
+        if three["status"] == "warn" {
+            warned += 1;
+        }
+    }
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report/results.json")).unwrap()).unwrap();
+    let guard = results["guards"].as_array().unwrap().iter().find(|g| g["kind"] == "validation_copies").unwrap();
+    let text = guard["text"].as_str().unwrap();
+    assert!(text.contains(&format!("holds with a warning in {warned} of {draws} draws")), "{text}");
+    let md = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+    let head = md.split("\n## ").next().unwrap();
+    assert!(head.contains("**Validation holds copies of evaluation flights**"), "{head}");
+}

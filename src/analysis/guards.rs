@@ -13,8 +13,9 @@ use crate::io::{md_line, md_text};
 /// The guards of `a`'s verdict in the order the report gives them beside
 /// it: the decision's notes (a threshold inside the interval, a rule that
 /// reads no interval), a fragile decision, early stopping and its
-/// held-fixed contrast, a reference arm that is not disjoint, condition
-/// coverage.
+/// held-fixed contrast, a reference arm that is not disjoint, a validation
+/// set that holds copies of evaluation flights, condition coverage, a
+/// divergence rule's events held by few recordings.
 pub fn guards(a: &Analysis) -> Vec<Guard> {
     let mut out: Vec<Guard> = decision_notes(&a.decision, &level_pct(a.level))
         .into_iter()
@@ -50,6 +51,17 @@ pub fn guards(a: &Analysis) -> Vec<Guard> {
     // its fit set, allowed by `duplicates keep`).
     for w in a.warnings.iter().filter(|w| w.starts_with("invariant 5 ")) {
         out.push(Guard::new(GuardKind::NotDisjoint, format!("**The reference arm is not disjoint**: {}.", md_line(w))));
+    }
+    // A validation set that holds copies of evaluation flights: every
+    // arm's early stopping is then steered by those flights themselves.
+    for w in a.warnings.iter().filter(|w| w.starts_with("invariant 3 ")) {
+        out.push(Guard::new(
+            GuardKind::ValidationCopies,
+            format!(
+                "**Validation holds copies of evaluation flights**: {}. Early stopping (the epoch each model is restored to) is then steered by the evaluation flights themselves, through their copies.",
+                md_line(w)
+            ),
+        ));
     }
     out.extend(coverage(a).map(|t| Guard::new(GuardKind::Coverage, t)));
     out.extend(concentrated(a).map(|t| Guard::new(GuardKind::Concentrated, t)));

@@ -138,6 +138,9 @@ pub enum GuardKind {
     FixedBudget,
     /// The reference arm fits on copies of evaluation flights.
     NotDisjoint,
+    /// The validation set holds copies of evaluation flights (invariant
+    /// 3 with a warning): early stopping is steered by those flights.
+    ValidationCopies,
     /// Which evaluated conditions the reference arm covers.
     Coverage,
     /// A divergence endpoint's events held by few recordings.
