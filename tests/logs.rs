@@ -812,3 +812,31 @@ fn a_condition_unknown_for_every_recording_stops_the_split() {
     assert!(!o.status.success(), "{err}");
     assert!(err.contains("conditions include speed, and it is unknown for every included recording"), "{err}");
 }
+
+/// Issue 77, class 2: logs in subfolders with `folders nested` forgotten
+/// gave "none of its 0 log file(s) was included" and no hint. The audit
+/// now names what lies below and the clause that reads it.
+#[test]
+fn logs_only_in_subfolders_without_folders_nested_get_the_hint() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = tmp.path().join("logs");
+    let sub = logs.join("day1");
+    std::fs::create_dir_all(&sub).unwrap();
+    for name in ["F1_circle_slow_rep1.csv", "F2_star_fast_mell_rep1.csv"] {
+        rewrite(name, &sub);
+    }
+    let text = reordered_design(&logs, "quaternion xyzw qx, qy, qz, qw");
+    let path = tmp.path().join("flat.design");
+    std::fs::write(&path, &text).unwrap();
+    let out = tmp.path().join("audit");
+    let o = crate::common::crossaudit(&["data", "audit", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("its subfolders hold 2 (the first: day1/F1_circle_slow_rep1.csv)"), "{err}");
+    assert!(err.contains("declare `folders nested`"), "{err}");
+    // `run` says the same before any count of recordings.
+    let o =
+        crate::common::crossaudit(&["run", path.to_str().unwrap(), "--out", tmp.path().join("run").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("declare `folders nested`"), "{err}");
+}

@@ -43,6 +43,31 @@ pub fn files_below(dir: &Path, nested: bool) -> std::io::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
+/// Where `dir` holds no flight log at its top level but its subfolders do
+/// (a design that forgot `folders nested`): the hint to read them, with
+/// how many there are and the first, relative to `dir`; `csv` when the
+/// design reads them with a `data csv` block (which `folders nested`
+/// extends), else the preset's way.
+pub fn nested_logs_hint(dir: &Path, csv: bool) -> Option<String> {
+    let is_log = |p: &PathBuf| p.file_name().is_some_and(|n| is_log_name(&n.to_string_lossy()));
+    if files_below(dir, false).ok()?.iter().any(is_log) {
+        return None;
+    }
+    let below = files_below(dir, true).ok()?;
+    let logs: Vec<&PathBuf> = below.iter().filter(|p| is_log(p)).collect();
+    let first = logs.first()?;
+    let advice = if csv {
+        "declare `folders nested` in the data block to read them"
+    } else {
+        "`data nanobench` reads the folder's top level only: move the logs there, or read them with a `data csv` block that declares `folders nested`"
+    };
+    Some(format!(
+        "; the folder holds no flight log at its top level, but its subfolders hold {} (the first: {}): {advice}",
+        logs.len(),
+        relative(dir, first)
+    ))
+}
+
 /// `path` relative to `dir`, with `/` between folders, as an audit shows it.
 pub fn relative(dir: &Path, path: &Path) -> String {
     let rel = path.strip_prefix(dir).unwrap_or(path);

@@ -95,7 +95,20 @@ fn prepare_into(file: &DesignFile, plan: &Plan, dir: &Path, out: &Path, write: b
     if write {
         audit.write(&out.join("audit"))?;
     }
-    audit.kept_enough(&design.data, &out.join("audit").join("recordings.csv"))?;
+    let written = out.join("audit").join("recordings.csv");
+    // No log at the top of the data folder, but some below it: the
+    // `folders nested` the design forgot, said before any count.
+    let nested = design.data.format.as_ref().is_some_and(|f| f.nested_folders);
+    if let Some(hint) = (audit.files.is_empty() && !nested)
+        .then(|| crate::io::walk::nested_logs_hint(dir, design.data.format.is_some()))
+        .flatten()
+    {
+        let dir = dir.display().to_string();
+        return Err(
+            data::AuditError::NoneIncluded { dir, files: 0, written: written.display().to_string(), hint }.into()
+        );
+    }
+    audit.kept_enough(&design.data, &written)?;
     // A condition the design stratifies, groups or covers by, unknown for
     // every recording (a conditions table whose speed column has another
     // name): every recording would fall in one group, silently.

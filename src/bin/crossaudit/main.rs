@@ -127,11 +127,14 @@ fn data_audit(design: &Path, data: Option<PathBuf>, out: &Path) -> Result<(), Er
     // Exit 0 with nothing kept looked like a result: refused, after the
     // audit with every file's reason was written.
     if audit.included().next().is_none() {
+        let nested = file.design.data.format.as_ref().is_some_and(|f| f.nested_folders);
+        let hint =
+            if nested { None } else { crossaudit::io::walk::nested_logs_hint(&dir, file.design.data.format.is_some()) };
         return Err(crossaudit::data::AuditError::NoneIncluded {
             dir: dir.display().to_string(),
             files: audit.files.len(),
             written: path.display().to_string(),
-            hint: String::new(),
+            hint: hint.unwrap_or_default(),
         }
         .into());
     }
