@@ -33,19 +33,14 @@ pub fn guards(a: &Analysis) -> Vec<Guard> {
         out.push(Guard::new(GuardKind::EarlyStopping, format!("**Early stopping**: {}.", md_line(w))));
     }
     if let Some(b) = &a.fixed_budget {
-        let e = &b.estimate;
-        let unit = unit_label(&a.decision.value_unit);
-        out.push(Guard::new(GuardKind::FixedBudget, format!(
-            "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (its row in Endpoints).",
-            b.epochs,
-            b.model,
-            f(e.mean, 4),
-            f(e.lower, 4),
-            f(e.upper, 4),
-            f(b.optimism_pct, 1),
-            fieller_text(b.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
-            if b.rule_holds { "hold" } else { "fail" }
-        )));
+        let contrast = contrast_text(a, &b.estimate, (b.optimism_pct, b.optimism_interval), b.rule_holds);
+        out.push(Guard::new(
+            GuardKind::FixedBudget,
+            format!(
+                "**Early stopping held fixed**: the same network trained for the full {} epochs in both arms, its last weights rolled out (model `{}`): {contrast} (its row in Endpoints).",
+                b.epochs, b.model
+            ),
+        ));
     }
     // A reference arm that is not disjoint (copies of evaluation flights in
     // its fit set, allowed by `duplicates keep`).
@@ -123,18 +118,11 @@ fn coverage(a: &Analysis) -> Option<String> {
     );
     match (&c.covered_only, &c.covered_only_error) {
         (Some(k), _) => {
-            let e = &k.estimate;
-            let unit = unit_label(&a.decision.value_unit);
+            let contrast = contrast_text(a, &k.estimate, (k.optimism_pct, k.optimism_interval), k.rule_holds);
             let _ = write!(
                 s,
-                " Over the {} covered recordings alone: d = {} {unit} [{}, {}], optimism {}%{}; the rule would {} there (table: Condition coverage).",
-                k.recordings,
-                f(e.mean, 4),
-                f(e.lower, 4),
-                f(e.upper, 4),
-                f(k.optimism_pct, 1),
-                fieller_text(k.optimism_interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
-                if k.rule_holds { "hold" } else { "fail" }
+                " Over the {} covered recordings alone: {contrast} (table: Condition coverage).",
+                k.recordings
             );
         }
         (None, Some(err)) => {
@@ -144,6 +132,26 @@ fn coverage(a: &Analysis) -> Option<String> {
         (None, None) => {}
     }
     Some(s)
+}
+
+/// A sensitivity contrast as a guard states it: `d = X unit [lo, hi],
+/// optimism Y% [Fieller's]; the rule would hold|fail there`.
+fn contrast_text(
+    a: &Analysis,
+    e: &crossaudit_stats::CrossedEstimate,
+    (optimism, interval): (f64, Option<crossaudit_stats::RatioInterval>),
+    holds: bool,
+) -> String {
+    format!(
+        "d = {} {} [{}, {}], optimism {}%{}; the rule would {} there",
+        f(e.mean, 4),
+        unit_label(&a.decision.value_unit),
+        f(e.lower, 4),
+        f(e.upper, 4),
+        f(optimism, 1),
+        fieller_text(interval, "%").map(|t| format!(" {t}")).unwrap_or_default(),
+        if holds { "hold" } else { "fail" }
+    )
 }
 
 fn in_draws(draws: usize) -> String {
