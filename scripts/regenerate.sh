@@ -84,6 +84,12 @@ fresh designs/simulated_control_high.design results/simulated_controls/strength_
 for d in dose_0 dose_high splits_0 splits_high; do
   fresh designs/simulated_$d.design results/simulated_family/$d
 done
+# Every committed run folder's report/ rewritten by its reanalysis (the
+# analysis is a pure function of the folder: what the run writes from the
+# same cells and evidence); the golden test tests/reanalysis.rs then checks
+# them against the current build.
+CROSSAUDIT_REWRITE_REPORTS=1 cargo test -p crossaudit --test main --quiet -- \
+    reanalysis::every_committed_run_folder_is_reproduced_by_its_reanalysis --exact >/dev/null 2>&1
 # The pages built from committed full runs (docs/paper_comparison.md reads
 # results/nanobench_paper*, results/paper_columns and results/paper_hygiene).
 python3 scripts/paper_columns.py results/paper_columns > results/paper_columns/decision.md

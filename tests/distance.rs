@@ -417,6 +417,11 @@ fn a_distance_family_with_per_seed_draws_reports_what_it_measured() {
     let measures = report.find("What this measures: each arm replaces the same 25%").expect("the estimand note");
     assert!(measures > verdict && measures < report.find("## Per split and dose").unwrap(), "beside the verdict");
     assert!(report.contains("contaminated_0s from 4 of 4"), "{report}");
+    // results.json carries the note as the family's guard of kind distance.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report/results.json")).unwrap()).unwrap();
+    let guard = json["guards"].as_array().unwrap().iter().find(|g| g["kind"] == "distance").expect("the guard");
+    assert!(report[measures..].starts_with(guard["text"].as_str().unwrap()), "{guard}");
     // Each treatment value is the median over the three draws' own.
     let draws: Vec<serde_json::Value> = (1..=3)
         .map(|k| {

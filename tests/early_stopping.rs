@@ -65,3 +65,45 @@ fn the_report_states_what_the_verdict_measured() {
         assert!(head.contains(needle), "{needle} is not beside the verdict:\n{head}");
     }
 }
+
+/// A model whose lowest validation loss is at the last epoch it trained
+/// ran out of budget still improving: the warning counts them per arm, as
+/// recounted here from the quickstart's committed training curves
+/// (`results/quickstart/curves`, one CSV per model).
+#[test]
+fn models_whose_best_epoch_is_their_last_are_counted_per_arm() {
+    let dir = Path::new("results/quickstart/curves");
+    let mut per_arm: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        let name = p.file_stem().unwrap().to_string_lossy().into_owned();
+        let arm = name.split("__").nth(1).unwrap().to_string();
+        let text = std::fs::read_to_string(&p).unwrap();
+        let rows: Vec<(f64, f64)> = text
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+                (f[0], f[3])
+            })
+            .collect();
+        let best = rows.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a }).unwrap();
+        let last = rows.last().unwrap().0;
+        let e = per_arm.entry(arm).or_default();
+        e.0 += usize::from(best.0 == last);
+        e.1 += 1;
+    }
+    let at_last: usize = per_arm.values().map(|v| v.0).sum();
+    assert!(at_last > 0, "the quickstart has such a model: {per_arm:?}");
+    let report = std::fs::read_to_string("results/quickstart/report/report.md").unwrap();
+    let (c, d) = (per_arm["contaminated"], per_arm["disjoint"]);
+    let want = format!(
+        "best epoch = last epoch: {at_last} of {} fitted models reach their lowest validation loss at the last epoch they trained (contaminated {} of {}, disjoint {} of {}; a budget of 30 epochs)",
+        c.1 + d.1,
+        c.0,
+        c.1,
+        d.0,
+        d.1
+    );
+    assert!(report.contains(&want), "{want}\nnot in\n{report}");
+}

@@ -575,3 +575,41 @@ fn every_dose_report_of_a_family_carries_its_preregistration_labels() {
         assert!(v["design_sha256"].is_string(), "{}", path.display());
     }
 }
+
+/// A family reports every endpoint its design declares: the multi-split
+/// study's secondaries (world at 0.5 s and 2.0 s) per split, each with the
+/// arms' plain means recomputed here from cells.csv (the crossed estimate
+/// of a complete array's mean is its mean), in results.json, report.md and
+/// estimates.csv alike.
+#[test]
+fn a_family_reports_its_declared_secondary_endpoints() {
+    let a = committed("nanobench_multi_split.design", "multi_split");
+    let text = std::fs::read_to_string(root().join("results/multi_split/cells.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (split, model, arm, h, v) =
+        (col("split"), col("model"), col("arm"), col("horizon_s"), col("fa_position_rmse_m"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let mean = |s: u64, m: &str, r: &str, at: f64| {
+        let x: Vec<f64> = rows
+            .iter()
+            .filter(|c| c[split] == s.to_string() && c[model] == m && c[arm] == r && c[h].parse::<f64>().unwrap() == at)
+            .map(|c| c[v].parse().unwrap())
+            .collect();
+        x.iter().sum::<f64>() / x.len() as f64
+    };
+    assert_eq!(a.secondary.len(), 5 * 2, "5 splits x 2 secondary horizons: {:?}", a.secondary.len());
+    for r in &a.secondary {
+        let s = r.split.unwrap();
+        let (t, rf) = (mean(s, &r.model, &r.arm, r.horizon_s), mean(s, &r.model, &a.reference, r.horizon_s));
+        assert!((r.mean_treated - t).abs() < 1e-12 && (r.mean_reference - rf).abs() < 1e-12, "{r:?}");
+        assert!((r.estimate.mean - (t - rf)).abs() < 1e-12, "{r:?}");
+        assert!([0.5, 2.0].contains(&r.horizon_s), "{r:?}");
+    }
+    let table = crossaudit::report::study_table(&crossaudit::analysis::StudyAnalysis::Family(Box::new(a.clone())));
+    let secondary: Vec<&str> = table.lines().filter(|l| l.contains(",secondary,")).collect();
+    assert_eq!(secondary.len(), 2 * a.secondary.len(), "an endpoint and an optimism row each");
+    let md = crossaudit::report::family::render_family_markdown(&a);
+    assert!(md.contains("## Secondary endpoints"), "{md}");
+}

@@ -20,6 +20,7 @@ mod early_stopping;
 mod external;
 mod external_levels;
 mod family;
+mod figures;
 mod front_door;
 mod fused;
 mod golden;

@@ -525,3 +525,42 @@ fn a_baseline_in_an_endpoint_is_reported_as_zero_by_construction() {
     assert!(!md.contains("not the output of a run"), "{md}");
     assert!(md.contains("| world - cv |"), "the interaction is reported:\n{md}");
 }
+
+/// A seed-invariant contrast (the paper's closed-form linear models: every
+/// seed gives the same cells) takes its df from the recordings in every
+/// sensitivity as in its primary fit: leaving one seed out changes nothing,
+/// so each leave-one-seed-out fit is the primary fit itself (the closed
+/// form: mean of the per-recording d, SE = sd / sqrt(I), df = I - 1), and a
+/// leave-one-recording-out fit has df I - 2. Before, the closed form used
+/// the design's `df seed - 1` there, with an upper bound that moved.
+#[test]
+fn a_seed_invariant_contrast_keeps_recording_df_when_a_seed_is_left_out() {
+    let a = crossaudit::analyze_files(
+        std::path::Path::new("designs/nanobench_paper_linear.design"),
+        &root().join("results/nanobench_paper_linear/cells.csv"),
+        Default::default(),
+    )
+    .unwrap();
+    let mut checked = 0;
+    for u in a.units.iter().filter(|u| u.seed_invariant) {
+        let seed = u.leave_one_out.iter().find(|l| l.factor == crossaudit::design::Factor::Seed).unwrap();
+        assert_eq!(u.estimate.df, (a.recordings.len() - 1) as f64, "{}", u.model);
+        assert!(
+            (seed.upper_min - u.estimate.upper).abs() < 1e-12,
+            "{}: {} vs {}",
+            u.model,
+            seed.upper_min,
+            u.estimate.upper
+        );
+        assert!(
+            (seed.upper_max - u.estimate.upper).abs() < 1e-12,
+            "{}: {} vs {}",
+            u.model,
+            seed.upper_max,
+            u.estimate.upper
+        );
+        assert!((seed.mean_min - u.estimate.mean).abs() < 1e-12 && (seed.mean_max - u.estimate.mean).abs() < 1e-12);
+        checked += 1;
+    }
+    assert!(checked >= 1, "no seed-invariant unit");
+}

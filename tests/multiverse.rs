@@ -418,6 +418,19 @@ fn committed_multiverse_and_draw_analyses_are_locked() {
             crossaudit::report::study_guards(&crossaudit::analysis::StudyAnalysis::Multiverse(Box::new(a.clone())));
         let printed: Vec<String> = lines.map(|l| l.trim().to_string()).filter(|l| !l.is_empty()).collect();
         assert_eq!(printed, guards);
+        // multiverse.json carries the same guards, each with its kind.
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.path().join("multiverse.json")).unwrap()).unwrap();
+        let written: Vec<String> = json["guards"]
+            .as_array()
+            .expect("multiverse.json's guards")
+            .iter()
+            .map(|g| {
+                assert!(g["kind"].is_string(), "{g}");
+                g["text"].as_str().unwrap().replace("**", "")
+            })
+            .collect();
+        assert_eq!(written, guards, "{run}");
         assert_eq!(std::fs::read_to_string(out.path().join("specs.csv")).unwrap(), specs);
         crate::snapshots!({ insta::assert_snapshot!(name, format!("{specs}\n{effects}\n{draws}")) });
     }

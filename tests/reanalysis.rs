@@ -86,6 +86,20 @@ fn committed_run_folders() -> Vec<PathBuf> {
     out
 }
 
+/// Copies the files of `from` (and its folders) into `to`.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        let target = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_dir(&p, &target);
+        } else {
+            std::fs::copy(&p, &target).unwrap();
+        }
+    }
+}
+
 /// A file's text with the lines naming the build (`... (commit abc)`) blanked.
 fn without_build(text: &str) -> String {
     text.lines().map(|l| if l.contains("(commit ") { "<build>" } else { l }).collect::<Vec<_>>().join("\n")
@@ -93,9 +107,13 @@ fn without_build(text: &str) -> String {
 
 /// The files of `want` that `got` does not reproduce, the build line aside.
 fn differing(want: &Path, got: &Path) -> Vec<String> {
-    let mut names: Vec<String> =
-        std::fs::read_dir(want).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    // Every file of either: a file only one of them has differs too.
+    let mut names: Vec<String> = [want, got]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()))
+        .collect();
     names.sort();
+    names.dedup();
     names
         .into_iter()
         .filter(|n| {
@@ -104,41 +122,6 @@ fn differing(want: &Path, got: &Path) -> Vec<String> {
         })
         .collect()
 }
-
-/// Committed run folders whose report a reanalysis cannot yet reproduce,
-/// each with why. The test fails when one of them comes out the same
-/// (take it off the list), so the list can only shrink.
-/// The real-data runs below are reports of older builds (their report
-/// names the commit); their folders are rewritten only by retraining on
-/// the NanoBench logs (scripts/regenerate.sh), so their reports are stale
-/// against today's analysis, whatever the reader does.
-const STALE: &str = "a report written by an older build (before the Fieller interval, the early-stopping and \
-    non-disjoint-reference paragraphs and the unit columns); regenerated only by retraining (scripts/regenerate.sh)";
-const NO_STUDY_RECORD: &str =
-    "a study of several level folders written by an older build, before study.json (the run's \
-    notes, the combined cells' hash) was recorded, and before its report had the later sections; regenerated only by \
-    retraining (its COMMAND)";
-const NOT_YET: &[(&str, &str)] = &[
-    ("results/multi_split", NO_STUDY_RECORD),
-    ("results/multiverse/per_seed", NO_STUDY_RECORD),
-    ("results/multiverse/per_seed_uncoupled", NO_STUDY_RECORD),
-    ("results/nanobench_distance", NO_STUDY_RECORD),
-    ("results/nanobench_distance_grouped", NO_STUDY_RECORD),
-    ("results/nanobench_audited", STALE),
-    ("results/nanobench_confirmatory", STALE),
-    ("results/nanobench_paper", STALE),
-    ("results/nanobench_paper_audited", STALE),
-    ("results/paper_columns/world_motion_capture", STALE),
-    ("results/paper_columns/world_onboard", STALE),
-    ("results/paper_hygiene/world_grouped", STALE),
-    ("results/paper_hygiene/world_grouped_plausible", STALE),
-    ("results/external_models", STALE),
-    (
-        "results/dose_response",
-        "its audit/treatment.json was written by an older build without segment_distance_quartiles_s: the \
-         reader names it unreadable, where the run's report had the table from memory",
-    ),
-];
 
 /// Run folders whose design reads a data folder that is not committed
 /// (`crossaudit simulate-lab` writes it, as tests/lab_logs.rs does):
@@ -168,21 +151,21 @@ fn every_committed_run_folder_is_reproduced_by_its_reanalysis() {
             design_of(folder).unwrap_or_else(|| panic!("no COMMAND names the design {} ran", folder.display()));
         let out = tmp.path().join(k.to_string());
         let o = crossaudit(&["analyze", &design, "--cells", folder.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-        let known = NOT_YET.iter().find(|(f, _)| Path::new(f) == folder);
         if !o.status.success() {
-            if known.is_some() {
-                continue;
-            }
             failures.push(format!("{}: analyze failed: {}", folder.display(), String::from_utf8_lossy(&o.stderr)));
             continue;
         }
+        if std::env::var_os("CROSSAUDIT_REWRITE_REPORTS").is_some() {
+            // scripts/regenerate.sh: the committed report becomes the
+            // reanalysis's (the analysis is a pure function of the folder:
+            // what a rerun of the same cells and evidence would write).
+            let report = root().join(folder).join("report");
+            std::fs::remove_dir_all(&report).unwrap();
+            copy_dir(&out, &report);
+        }
         let differ = differing(&root().join(folder).join("report"), &out);
-        match (differ.is_empty(), known) {
-            (true, Some((_, why))) => {
-                failures.push(format!("{} is reproduced now: take it off NOT_YET ({why})", folder.display()))
-            }
-            (false, None) => failures.push(format!("{}: {} differ", folder.display(), differ.join(", "))),
-            _ => {}
+        if !differ.is_empty() {
+            failures.push(format!("{}: {} differ", folder.display(), differ.join(", ")));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

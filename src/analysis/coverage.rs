@@ -17,7 +17,36 @@ pub use super::types::{ConditionCoverage, CoverageNote, CoveredOnly, Uncovered};
 use super::{analyze, AnalysisError, AnalyzeOptions};
 use crate::cells::Cell;
 use crate::design::{Grouped, Sensitivity};
+use crate::io::md_text;
 use crate::plan::Plan;
+
+impl CoverageNote {
+    /// The sentence beside a combined report's verdict (Markdown).
+    pub fn sentence(&self) -> String {
+        let c = self;
+        let levels = if c.levels > 1 { format!(" in at least one of its {} levels", c.levels) } else { String::new() };
+        if c.uncovered.is_empty() {
+            return format!(
+                "Condition coverage: the reference arm (`{}`) fits on other recordings of the {} of every evaluation recording{}.",
+                c.arm,
+                c.condition,
+                if c.levels > 1 { format!(" in all {} levels", c.levels) } else { String::new() }
+            );
+        }
+        let names: Vec<String> = c
+            .uncovered
+            .iter()
+            .map(|u| format!("{} ({}, {} of {})", md_text(&u.recording), md_text(&u.condition), u.draws, c.levels))
+            .collect();
+        format!(
+            "**The contrast mixes condition novelty with recording leakage**: the reference arm (`{}`) fits on no other recording of the {} of {} evaluation recording(s){levels}: {}.",
+            c.arm,
+            c.condition,
+            c.uncovered.len(),
+            names.join(", ")
+        )
+    }
+}
 
 impl ConditionCoverage {
     /// Whether some evaluation recording is uncovered.

@@ -13,7 +13,7 @@ use super::coverage::{condition_coverage, ConditionCoverage, CoverageNote, Uncov
 use super::family::{analyze_family, DoseSource, FamilyAnalysis};
 use super::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, ReferenceCopies, UnitNotes};
 use super::record::{Curve, DesignLabel, InvariantEntry, LevelEvidence, MultiverseRecord, Record, RunEvidence};
-use super::training::{early_training, BestEpoch};
+use super::training::{budget_training, early_training, BestEpoch};
 use super::{analyze, Analysis, AnalyzeOptions, FileAnalysisError, StudyAnalysis, TreatmentStrength};
 use crate::design::{DoseAxis, ModelKind};
 use crate::plan::Plan;
@@ -30,6 +30,7 @@ pub fn analyze_study(
         let mut a = analyze_family(plan, &record.cells, options).map_err(err)?;
         label(&mut a, record);
         family_evidence(&mut a, plan, record);
+        a.guards = super::family::guards(&a);
         return Ok(StudyAnalysis::Family(Box::new(a)));
     }
     let mut a = analyze(plan, &record.cells, options).map_err(err)?;
@@ -131,6 +132,7 @@ pub fn analyze_multiverse_record(
     a.notes =
         inputs.iter().zip(&record.units).map(|(u, (cells, levels))| unit_notes(&u.id, u.plan, levels, cells)).collect();
     a.shared = record.shared.clone();
+    a.guards = super::multiverse::guards(&a);
     let run = &record.run;
     let mut warnings: Vec<String> = resumed(run).into_iter().chain(run.notes.iter().cloned()).collect();
     warnings.extend(run.missing.iter().cloned());
@@ -182,9 +184,11 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = statement(plan, &record.cells, &run.levels);
     a.curves = run.curves();
-    if let Some(w) = early_training(plan, &best_epochs(plan, &a.curves), &record.cells).and_then(|e| e.warning()) {
+    let best = best_epochs(plan, &a.curves);
+    if let Some(w) = early_training(plan, &best, &record.cells).and_then(|e| e.warning()) {
         a.warnings.push(w);
     }
+    a.warnings.extend(budget_training(plan, &best));
     a.warnings.extend(run.missing.iter().cloned());
 }
 
@@ -299,7 +303,7 @@ fn invariants_over_levels(levels: &[LevelEvidence]) -> Vec<String> {
 /// so). Empty where a level lacks its audit or an arm is missing from one.
 fn treatment(plan: &Plan, levels: &[LevelEvidence], warnings: &mut Vec<String>) -> Vec<TreatmentStrength> {
     let per: Option<Vec<Vec<TreatmentStrength>>> =
-        levels.iter().map(|l| l.treatment.as_ref().and_then(|t| strengths(t, plan.rate_hz))).collect();
+        levels.iter().map(|l| l.treatment.as_ref().map(|t| strengths(t, plan.rate_hz))).collect();
     let per = per.unwrap_or_default();
     match per.as_slice() {
         [] => Vec::new(),
@@ -312,14 +316,18 @@ fn treatment(plan: &Plan, levels: &[LevelEvidence], warnings: &mut Vec<String>) 
                 let Some(of) = of else { return Vec::new() };
                 let m =
                     |f: &dyn Fn(&TreatmentStrength) -> f64| crossaudit_stats::median(of.iter().map(|t| f(t)).collect());
-                let q = |k: usize| m(&|t| t.segment_distance_quartiles_s[k]);
+                // The quartiles' medians where every level measured them.
+                let quartiles = of.iter().all(|t| t.segment_distance_quartiles_s.is_some()).then(|| {
+                    let q = |k: usize| m(&|t| t.segment_distance_quartiles_s.map_or(f64::NAN, |q| q[k]));
+                    [q(0), q(1), q(2)]
+                });
                 out.push(TreatmentStrength {
                     arm: arm.arm.clone(),
                     contaminating_windows: m(&|t| t.contaminating_windows as f64).round() as usize,
                     inside_evaluated_segment: m(&|t| t.inside_evaluated_segment as f64).round() as usize,
                     horizon_s: m(&|t| t.horizon_s),
                     median_distance_s: m(&|t| t.median_distance_s),
-                    segment_distance_quartiles_s: [q(0), q(1), q(2)],
+                    segment_distance_quartiles_s: quartiles,
                 });
             }
             let (n, one) = (levels.len(), if plan.splits.is_empty() { "draw" } else { "split" });
@@ -340,21 +348,19 @@ fn resumed(run: &RunEvidence) -> Vec<String> {
         .collect()
 }
 
-/// The split's treatment audit as the report shows it; `None` for an
-/// audit written before the distance quartiles were measured.
-pub fn strengths(t: &super::record::Treatment, rate_hz: f64) -> Option<Vec<TreatmentStrength>> {
+/// The split's treatment audit as the report shows it (without distance
+/// quartiles where an older build wrote the audit).
+pub fn strengths(t: &super::record::Treatment, rate_hz: f64) -> Vec<TreatmentStrength> {
     let horizon_s = t.horizon_samples as f64 / rate_hz;
     t.arms
         .iter()
-        .map(|a| {
-            Some(TreatmentStrength {
-                arm: a.arm.clone(),
-                contaminating_windows: a.contaminating_windows,
-                inside_evaluated_segment: a.inside_evaluated_segment,
-                horizon_s,
-                median_distance_s: a.median_distance_s,
-                segment_distance_quartiles_s: a.segment_distance_quartiles_s?,
-            })
+        .map(|a| TreatmentStrength {
+            arm: a.arm.clone(),
+            contaminating_windows: a.contaminating_windows,
+            inside_evaluated_segment: a.inside_evaluated_segment,
+            horizon_s,
+            median_distance_s: a.median_distance_s,
+            segment_distance_quartiles_s: a.segment_distance_quartiles_s,
         })
         .collect()
 }
@@ -421,7 +427,8 @@ pub fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
         .filter(|c| !last(&c.model))
         .filter_map(|c| {
             let best = c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?;
-            Some(BestEpoch { model: c.model.clone(), arm: c.arm.clone(), seed: c.seed, epoch: best.0 })
+            let last = c.points.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+            Some(BestEpoch { model: c.model.clone(), arm: c.arm.clone(), seed: c.seed, epoch: best.0, last })
         })
         .collect()
 }

@@ -21,6 +21,9 @@ pub struct BestEpoch {
     pub seed: u64,
     /// The epoch with the lowest validation loss.
     pub epoch: f64,
+    /// The last epoch it trained (the budget, or where early stopping
+    /// ended it).
+    pub last: f64,
 }
 
 /// Early best epochs in one study (or one specification).
@@ -143,4 +146,35 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         seeds_without,
         share_of_d_with,
     })
+}
+
+/// The warning for models whose best epoch is the last one they trained:
+/// training ran to the end of its budget still improving, so the budget,
+/// not early stopping, chose their weights; per arm, in design order.
+/// None when no model did.
+pub fn budget_training(plan: &Plan, best: &[BestEpoch]) -> Option<String> {
+    let planned = plan.training.as_ref()?.epochs;
+    let at_last = |b: &BestEpoch| b.epoch >= b.last;
+    let n = best.iter().filter(|b| at_last(b)).count();
+    if n == 0 {
+        return None;
+    }
+    let mut arms: Vec<&str> = Vec::new();
+    for b in best {
+        if !arms.contains(&b.arm.as_str()) {
+            arms.push(&b.arm);
+        }
+    }
+    let per_arm: Vec<String> = arms
+        .iter()
+        .map(|a| {
+            let of: Vec<&BestEpoch> = best.iter().filter(|b| b.arm == *a).collect();
+            format!("{a} {} of {}", of.iter().filter(|b| at_last(b)).count(), of.len())
+        })
+        .collect();
+    Some(format!(
+        "best epoch = last epoch: {n} of {} fitted models reach their lowest validation loss at the last epoch they trained ({}; a budget of {planned} epochs): the epoch budget, not early stopping, chose their weights, and a larger budget might change them (training curves figure)",
+        best.len(),
+        per_arm.join(", ")
+    ))
 }

@@ -91,8 +91,10 @@ pub struct TreatmentStrength {
     pub median_distance_s: f64,
     /// Quartiles (first, median, third) of the distance from a window to
     /// the nearest evaluated segment of its recording, in seconds (0 for a
-    /// window that shares a row with one).
-    pub segment_distance_quartiles_s: [f64; 3],
+    /// window that shares a row with one); `None` where the split's audit
+    /// was written by a build that did not measure them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub segment_distance_quartiles_s: Option<[f64; 3]>,
 }
 
 /// Where an analysis came from: reports print it beside the design hash.
@@ -145,6 +147,31 @@ pub enum GuardKind {
     Coverage,
     /// A divergence endpoint's events held by few recordings.
     Concentrated,
+    /// What a distance-dose family's contrasts measure (every arm
+    /// replaces the same share; only the distance differs).
+    Distance,
+    /// Doses whose treated arm is worse than the reference: the trend
+    /// also measures the cost of the fit windows replaced.
+    Harm,
+}
+
+impl GuardKind {
+    /// The kind's name as results.json and the CSV tables write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            GuardKind::Margin => "margin",
+            GuardKind::NoInterval => "no_interval",
+            GuardKind::Fragile => "fragile",
+            GuardKind::EarlyStopping => "early_stopping",
+            GuardKind::FixedBudget => "fixed_budget",
+            GuardKind::NotDisjoint => "not_disjoint",
+            GuardKind::ValidationCopies => "validation_copies",
+            GuardKind::Coverage => "coverage",
+            GuardKind::Concentrated => "concentrated",
+            GuardKind::Distance => "distance",
+            GuardKind::Harm => "harm",
+        }
+    }
 }
 
 /// One guard: its kind and its statement, a Markdown paragraph (a bold
@@ -555,4 +582,30 @@ pub struct CoverageNote {
     pub levels: usize,
     /// The evaluation recordings uncovered in at least one level.
     pub uncovered: Vec<Uncovered>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GuardKind;
+
+    /// The CSV tables' kind names are the ones results.json serializes.
+    #[test]
+    fn a_guard_kind_is_named_as_serde_writes_it() {
+        use GuardKind::*;
+        for k in [
+            Margin,
+            NoInterval,
+            Fragile,
+            EarlyStopping,
+            FixedBudget,
+            NotDisjoint,
+            ValidationCopies,
+            Coverage,
+            Concentrated,
+            Distance,
+            Harm,
+        ] {
+            assert_eq!(serde_json::to_value(k).unwrap(), serde_json::Value::String(k.name().into()));
+        }
+    }
 }

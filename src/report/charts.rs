@@ -83,17 +83,27 @@ pub fn whole(x: &f64) -> String {
     }
 }
 
-/// Tick labels for an axis spanning `lo..hi`: as many decimals as a tenth
-/// of the span needs, the same on every tick, and never "-0".
+/// How many labels a mesh asks plotters for on each axis (its default).
+pub const LABELS: usize = 11;
+
+/// Tick labels for an axis whose range is `lo..hi` (the range the chart
+/// is built on): the values plotters labels there (its own key points for
+/// [`LABELS`] labels), each with the fewest decimals, the same on every
+/// tick, that keep neighbouring labels apart; never "-0".
 pub fn ticks(lo: f64, hi: f64) -> impl Fn(&f64) -> String {
-    // The step plotters picks for about ten ticks.
-    let decimals = step_decimals(nice_step(((hi - lo).abs() / 10.0).max(1e-12)));
-    move |v| {
-        let s = format!("{v:.decimals$}");
-        match s.strip_prefix('-') {
-            Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_string(),
-            _ => s,
-        }
+    use plotters::coord::ranged1d::Ranged;
+    let points = plotters::coord::types::RangedCoordf64::from(lo..hi).key_points(LABELS);
+    let decimals =
+        (0..=12).find(|&d| points.windows(2).all(|w| tick_label(w[0], d) != tick_label(w[1], d))).unwrap_or(12);
+    move |v| tick_label(*v, decimals)
+}
+
+/// `v` with `decimals` decimals, a negative zero without its sign.
+fn tick_label(v: f64, decimals: usize) -> String {
+    let s = format!("{v:.decimals$}");
+    match s.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_string(),
+        _ => s,
     }
 }
 
@@ -203,7 +213,7 @@ pub fn dose_response(
         let mut chart = chart(root, title).build_cartesian_2d(-max_dose * 0.03..max_dose, lo..hi).map_err(&err)?;
         chart
             .configure_mesh()
-            .x_label_formatter(&ticks(0.0, max_dose))
+            .x_label_formatter(&ticks(-max_dose * 0.03, max_dose))
             .y_label_formatter(&ticks(lo, hi))
             .label_style(TICK_FONT)
             .axis_desc_style(AXIS_FONT)
@@ -253,15 +263,36 @@ mod tests {
 
     #[test]
     fn tick_labels_carry_the_steps_decimals_and_no_negative_zero() {
-        // Span 0.135 over ten ticks: step 0.02, two decimals.
+        // Span 0.135: plotters labels every 0.02 (0.24, 0.26, ...): two decimals.
         let f = ticks(0.225, 0.36);
         assert_eq!([f(&0.3), f(&0.34)], ["0.30", "0.34"]);
-        // Span 0.06: step 0.01 (not 0.006's three decimals).
+        // Span 0.06: every 0.01 (not 0.006's three decimals).
         let f = ticks(-0.056, 0.004);
         assert_eq!([f(&-0.05), f(&-0.0), f(&-1e-17)], ["-0.05", "0.00", "0.00"]);
-        // Span 40: step 5, no decimals.
+        // Span 45: every 5, no decimals.
         let f = ticks(-4.0, 41.0);
         assert_eq!([f(&35.0), f(&-0.2)], ["35", "0"]);
         assert_eq!([whole(&2.0), whole(&2.5)], ["2", ""]);
+    }
+
+    /// A range plotters labels every 0.005 (the lab study's interaction
+    /// axis, -0.034 to 0.021): three decimals, every neighbour distinct,
+    /// where a step guessed from a tenth of the span (0.01) gave
+    /// `-0.03, -0.03, -0.02, -0.02, ...`.
+    #[test]
+    fn neighbouring_tick_labels_differ_at_every_precision() {
+        use plotters::coord::ranged1d::Ranged;
+        for (lo, hi) in
+            [(-0.034, 0.021), (-0.0562, -0.0041), (0.0, 1.0), (0.2101, 0.2102), (-4.0, 41.0), (1e5, 1e5 + 3.0)]
+        {
+            let points = plotters::coord::types::RangedCoordf64::from(lo..hi).key_points(super::LABELS);
+            let f = ticks(lo, hi);
+            let labels: Vec<String> = points.iter().map(|p| f(p)).collect();
+            assert!(labels.len() >= 3, "{lo}..{hi}: {labels:?}");
+            assert!(labels.windows(2).all(|w| w[0] != w[1]), "{lo}..{hi}: {labels:?}");
+        }
+        let points = plotters::coord::types::RangedCoordf64::from(-0.034..0.021).key_points(super::LABELS);
+        assert!(points.windows(2).any(|w| (w[1] - w[0] - 0.005).abs() < 1e-12), "{points:?}");
+        assert_eq!(ticks(-0.034, 0.021)(&-0.025), "-0.025");
     }
 }

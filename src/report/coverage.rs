@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::format::{f, fieller_cell, level_pct};
 use super::{md_text, Table};
-use crate::analysis::coverage::{ConditionCoverage, CoverageNote};
+use crate::analysis::coverage::ConditionCoverage;
 use crate::analysis::Analysis;
 
 /// The Condition coverage section: the primary contrast over every
@@ -66,29 +66,4 @@ pub fn summary(c: &ConditionCoverage) -> Option<String> {
             f(100.0 * c.share_of_d, 1)
         )
     })
-}
-
-/// The sentence beside a combined report's verdict.
-pub(super) fn note_sentence(c: &CoverageNote) -> String {
-    let levels = if c.levels > 1 { format!(" in at least one of its {} levels", c.levels) } else { String::new() };
-    if c.uncovered.is_empty() {
-        return format!(
-            "Condition coverage: the reference arm (`{}`) fits on other recordings of the {} of every evaluation recording{}.",
-            c.arm,
-            c.condition,
-            if c.levels > 1 { format!(" in all {} levels", c.levels) } else { String::new() }
-        );
-    }
-    let names: Vec<String> = c
-        .uncovered
-        .iter()
-        .map(|u| format!("{} ({}, {} of {})", md_text(&u.recording), md_text(&u.condition), u.draws, c.levels))
-        .collect();
-    format!(
-        "**The contrast mixes condition novelty with recording leakage**: the reference arm (`{}`) fits on no other recording of the {} of {} evaluation recording(s){levels}: {}.",
-        c.arm,
-        c.condition,
-        c.uncovered.len(),
-        names.join(", ")
-    )
 }

@@ -200,7 +200,9 @@ pub const FAMILY_COLUMNS: &str = "kind,split,dose_pct,role,model,contrast,metric
 /// optimism row's bounds are the interval of d (or of the slope) times
 /// -100 / the reference mean, the reference mean held fixed (estimator
 /// `fixed_reference`, or `pooled_fixed_reference`). `rule_holds` is
-/// filled on the one row the rule decides on and empty elsewhere.
+/// filled on the one row the rule decides on and empty elsewhere. Each
+/// declared secondary endpoint's rows (role `secondary`, kinds `endpoint`
+/// and `optimism`) follow the primary endpoint's, per split and dose.
 pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> String {
     let mut out = match a.dose_axis {
         DoseAxis::Percent => FAMILY_COLUMNS.to_string(),
@@ -221,6 +223,9 @@ pub fn render_family_estimates(a: &crate::analysis::family::FamilyAnalysis) -> S
             let optimism = (t.optimism_slope, t.optimism_slope_lower, t.optimism_slope_upper);
             out.push_str(&family.trend_rows(&split, &t.slope, optimism, holds));
         }
+    }
+    for r in &a.secondary {
+        out.push_str(&family.secondary_rows(r));
     }
     if let Some(p) = &a.pooled {
         for (j, (e, d)) in p.doses.iter().zip(&a.doses).enumerate() {
@@ -293,6 +298,32 @@ impl<'a> Family<'a> {
         let optimism = interval("fixed_reference", d.optimism_pct, None, Some(e.df), (e.upper * k, e.lower * k));
         self.line(("endpoint", split, &dose), (&contrast, &self.a.metric_unit), &row)
             + &self.line(("optimism", split, &dose), (&contrast, "%"), &optimism)
+    }
+
+    /// A secondary endpoint's crossed estimate at one dose of one split, and
+    /// its optimism (role `secondary`; no rule reads them).
+    fn secondary_rows(&self, r: &crate::analysis::family::SecondaryDose) -> String {
+        let e = &r.estimate;
+        let contrast = format!("{} - {}", r.arm, self.a.reference);
+        let split = r.split.map(|s| s.to_string()).unwrap_or_default();
+        let dose = dose(r.distance_s.unwrap_or(r.percent));
+        let key = |kind: &str, unit: &str| {
+            format!(
+                "{kind},{split},{dose},secondary,{},{contrast},{},{unit},{}",
+                r.model,
+                r.metric.name(),
+                num(r.horizon_s)
+            )
+        };
+        let row = Row {
+            means: Some((r.mean_treated, r.mean_reference)),
+            optimism: Some(r.optimism_pct),
+            ..crossed(estimator(e), e)
+        };
+        let k = -100.0 / r.mean_reference;
+        let optimism = interval("fixed_reference", r.optimism_pct, None, Some(e.df), (e.upper * k, e.lower * k));
+        line(&key("endpoint", r.metric.unit()), &self.level, &row)
+            + &line(&key("optimism", "%"), &self.level, &optimism)
     }
 
     /// One split's slope over the doses and the slope in optimism.

@@ -15,31 +15,12 @@ use super::charts::{dose_response, intervals, DoseRow, DrawError, IntervalRow};
 use super::figures::Figure;
 use super::format::{decision_summary, df, f, level_pct, sci};
 use super::{ReportError, Table};
-use crate::analysis::family::{DoseResult, FamilyAnalysis, Pooled, PooledEstimate};
+use crate::analysis::family::{dose_name, dose_value, FamilyAnalysis, Pooled, PooledEstimate};
 use crate::design::DoseAxis;
 use crate::io::{create_dir_all, pretty_json, write_atomic};
 
 fn split_name(s: Option<u64>) -> String {
     s.map(|s| s.to_string()).unwrap_or_else(|| "-".to_string())
-}
-
-/// A dose as its rows name it: `25%`, `at least 5 s`, or the treated arm
-/// where it is not derived from the reference.
-fn dose_name(d: &DoseResult) -> String {
-    match d.distance_s {
-        Some(g) => format!("at least {g} s"),
-        None if d.percent.is_nan() => d.arm.clone(),
-        None => format!("{}%", d.percent),
-    }
-}
-
-/// A dose value on the axis (`25%`, `5 s`), or `none`.
-fn dose_value(axis: DoseAxis, v: Option<f64>) -> String {
-    match (v, axis) {
-        (None, _) => "none".into(),
-        (Some(p), DoseAxis::Percent) => format!("{p}%"),
-        (Some(g), DoseAxis::Distance) => format!("{g} s"),
-    }
 }
 
 /// The decision line as the console prints it.
@@ -56,6 +37,9 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
         DoseAxis::Distance => format!("{unit} per s"),
     };
     s.push_str(&per_dose_section(a, unit));
+    if !a.secondary.is_empty() {
+        s.push_str(&secondary_section(a));
+    }
     if !a.treatment.is_empty() {
         let _ = writeln!(s, "## Treatment strength\n\n{}\n", super::markdown::TREATMENT_NOTE);
         let _ = writeln!(s, "{}", super::markdown::treatment(&a.treatment).render());
@@ -89,8 +73,8 @@ fn header(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.standing));
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
-    for note in family_guards(a) {
-        let _ = writeln!(s, "{note}\n");
+    for g in &a.guards {
+        let _ = writeln!(s, "{}\n", g.text);
     }
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
     if let Some(sha) = &a.design_sha256 {
@@ -100,76 +84,10 @@ fn header(a: &FamilyAnalysis) -> String {
         let _ = writeln!(s, "Per-cell data: {path} (sha256 {sha}).");
     }
     if let Some(d) = &a.provenance.data {
-        let _ = writeln!(s, "Data: {d}.");
+        let _ = writeln!(s, "Data: {}.", crate::io::md_line(d));
     }
     let _ = writeln!(s, "crossaudit {}.\n", a.provenance.crossaudit);
     s
-}
-
-/// The paragraphs beside a family's verdict: what a distance-dose family's
-/// contrast measures, a harm, the rule's margin, condition coverage.
-pub(super) fn family_guards(a: &FamilyAnalysis) -> Vec<String> {
-    let mut out: Vec<String> = distance_estimand(a).into_iter().chain(harm_note(a)).collect();
-    out.extend(super::format::decision_notes(&a.decision, &level_pct(a.level)));
-    out.extend(a.coverage.iter().map(super::coverage::note_sentence));
-    out
-}
-
-/// What a distance-dose family measures, beside its verdict: every arm
-/// replaces the same share, so the contrasts differ only in where in the
-/// evaluation recordings the contaminating windows lie.
-pub fn distance_estimand(a: &FamilyAnalysis) -> Option<String> {
-    if a.dose_axis != DoseAxis::Distance {
-        return None;
-    }
-    let percent = a.doses.first().map(|d| d.percent).unwrap_or(f64::NAN);
-    let list: Vec<String> = a.doses.iter().map(|d| dose_value(DoseAxis::Distance, d.distance_s)).collect();
-    let sources: Vec<String> = a
-        .sources
-        .iter()
-        .map(|s| {
-            let k = if s.fewest == s.most { s.fewest.to_string() } else { format!("{} to {}", s.fewest, s.most) };
-            format!("{} from {k} of {}", s.arm, s.of)
-        })
-        .collect();
-    let sources = if sources.is_empty() {
-        String::new()
-    } else {
-        format!(" Evaluation recordings the contaminating windows came from (over the draws): {}. Where a far arm draws from fewer recordings, its contrast also measures which recordings are long enough to give windows that far.", sources.join(", "))
-    };
-    Some(format!(
-        "What this measures: each arm replaces the same {percent}% of the reference arm's fit windows with windows of the evaluation recordings, drawn at least {} from every evaluated segment (a registered start to its horizon). The contrasts differ only in that distance, so the slope is the change in d per second of distance: how the optimism of seeing the same flights falls as the contaminating windows move away from the evaluated rollouts. A slope near zero with optimism at every distance says the leak is the flight itself (vehicle, battery, disturbances), not the evaluated transitions or their neighbours.{sources}",
-        list.join(", ")
-    ))
-}
-
-/// Beside a dose-response verdict: the doses whose treated arm is worse
-/// than the reference (an interval above zero; every metric is an error),
-/// where replacing fit windows cost more than the contaminating windows
-/// gave. A slope over such doses measures that cost as well as the leak.
-pub fn harm_note(a: &FamilyAnalysis) -> Option<String> {
-    if a.doses.len() < 2 {
-        return None;
-    }
-    let worse: Vec<String> = a
-        .splits
-        .iter()
-        .flat_map(|sp| sp.doses.iter().filter(|d| d.estimate.lower > 0.0).map(move |d| (sp.split, d)))
-        .map(|(split, d)| match split {
-            Some(s) => format!("`{}` ({}, split {s})", d.arm, dose_name(d)),
-            None => format!("`{}` ({})", d.arm, dose_name(d)),
-        })
-        .collect();
-    if worse.is_empty() {
-        return None;
-    }
-    Some(format!(
-        "**Not only the leak**: {} worse than the reference arm (an interval above zero). There the fit windows replaced were worth more to the model than the evaluation-recording windows received, so the trend also measures that cost of replacement, not only how much the leak helps: read the per-dose estimates, not the slope alone.",
-        match worse.len() {
-            1 => format!("{} is", worse[0]),
-            _ => format!("{} are", worse.join(", ")),
-        }
-    ))
 }
 
 /// The table of every split's and dose's crossed contrast.
@@ -204,6 +122,66 @@ fn per_dose_section(a: &FamilyAnalysis, unit: &str) -> String {
                 if e.lower > 0.0 || e.upper < 0.0 { "yes".into() } else { "no".into() },
             ]);
         }
+    }
+    let _ = writeln!(s, "{}", t.render());
+    s
+}
+
+/// Each declared secondary endpoint's contrast per split and dose.
+fn secondary_section(a: &FamilyAnalysis) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "## Secondary endpoints
+"
+    );
+    let _ = writeln!(
+        s,
+        "Descriptive: each secondary endpoint the design declares, as the per-dose table (its treated arm against the shared reference arm over that split's recording x seed matrix, {} intervals). No rule reads them; the trend and the pooled fit are the primary endpoint's.\n",
+        level_pct(a.level)
+    );
+    let mut t = Table::new(
+        &[
+            "split",
+            "dose",
+            "arm",
+            "model",
+            "metric",
+            "horizon",
+            "unit",
+            "mean ref",
+            "mean treated",
+            "d",
+            "SE",
+            "df",
+            "interval",
+            "optimism %",
+        ],
+        "llllllrrrrrrrr",
+    );
+    for r in &a.secondary {
+        let e = &r.estimate;
+        let dose = match r.distance_s {
+            Some(g) => format!("at least {g} s"),
+            None if r.percent.is_nan() => r.arm.clone(),
+            None => format!("{}%", r.percent),
+        };
+        t.row([
+            split_name(r.split),
+            dose,
+            r.arm.clone(),
+            r.model.clone(),
+            r.metric.name().to_string(),
+            format!("{} s", r.horizon_s),
+            super::format::unit_label(r.metric.unit()).to_string(),
+            f(r.mean_reference, 4),
+            f(r.mean_treated, 4),
+            f(e.mean, 4),
+            f(e.se, 4),
+            df(e.df),
+            format!("[{}, {}]", f(e.lower, 4), f(e.upper, 4)),
+            f(r.optimism_pct, 1),
+        ]);
     }
     let _ = writeln!(s, "{}", t.render());
     s
@@ -454,8 +432,8 @@ pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, Repo
     let a = &a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
     let markdown = render_family_markdown(a);
     let d = &a.decision;
-    let banner =
-        super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.standing).with_guards(family_guards(a));
+    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.standing)
+        .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
     let files = [
         ("report.md", markdown),

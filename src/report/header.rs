@@ -119,7 +119,7 @@ fn provenance_and_figures(s: &mut String, a: &Analysis) {
         let _ = writeln!(
             s,
             "Data: {}; inclusion audit SHA-256 `{}`.",
-            super::md_text(d),
+            crate::io::md_line(d),
             p.audit_sha256.as_deref().unwrap_or("unknown")
         );
     }

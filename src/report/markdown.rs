@@ -190,7 +190,10 @@ pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
             f(share, 1),
             f(t.horizon_s, 2),
             f(t.median_distance_s, 2),
-            t.segment_distance_quartiles_s.iter().map(|&q| f(q, 2)).collect::<Vec<_>>().join(" / "),
+            match t.segment_distance_quartiles_s {
+                Some(q) => q.iter().map(|&q| f(q, 2)).collect::<Vec<_>>().join(" / "),
+                None => "not recorded".into(),
+            },
         ]);
     }
     table

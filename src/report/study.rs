@@ -20,12 +20,12 @@ pub fn study_decision_line(a: &StudyAnalysis) -> String {
 /// each, Markdown emphasis removed): what the report and its banner give
 /// beside the verdict, for the console and the Python result.
 pub fn study_guards(a: &StudyAnalysis) -> Vec<String> {
-    let paragraphs: Vec<String> = match a {
-        StudyAnalysis::Single(a) => a.guards.iter().map(|g| g.text.clone()).collect(),
-        StudyAnalysis::Family(a) => super::family::family_guards(a),
-        StudyAnalysis::Multiverse(a) => super::multiverse::guards(a),
+    let guards = match a {
+        StudyAnalysis::Single(a) => &a.guards,
+        StudyAnalysis::Family(a) => &a.guards,
+        StudyAnalysis::Multiverse(a) => &a.guards,
     };
-    paragraphs.into_iter().map(|p| p.replace("**", "")).collect()
+    guards.iter().map(|g| g.plain()).collect()
 }
 
 /// The study's tidy table as CSV text: `estimates.csv` of a single or

@@ -327,7 +327,7 @@ pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEviden
     let old = |t: &Treatment| t.arms.iter().any(|a| a.segment_distance_quartiles_s.is_none());
     if level.strength && treatment.as_ref().is_some_and(old) {
         missing.push(format!(
-            "{} was written by an older build, without the distance quartiles: the treatment strength table not reported",
+            "{} was written by an older build, without the distance quartiles: the treatment strength table gives them as not recorded",
             audit.join("treatment.json").display()
         ));
     }

@@ -30,13 +30,16 @@
 //!   (1|seed)`), with the interval mu +- t(df) SE, df Satterthwaite's
 //!   (Kenward-Roger's SE and df when the design's estimator uses them).
 
+mod guards;
 mod pool;
 mod trend;
 mod types;
 
+pub use guards::guards;
+pub(crate) use guards::{dose_name, dose_value};
 use trend::trend;
 use types::Values;
-pub use types::{DoseResult, DoseSource, FamilyAnalysis, Pooled, PooledEstimate, SplitResult, Trend};
+pub use types::{DoseResult, DoseSource, FamilyAnalysis, Pooled, PooledEstimate, SecondaryDose, SplitResult, Trend};
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -142,6 +145,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let unit = plan.primary.label();
     let (axis, metric_unit) = (dose_axis(&doses), plan.primary.metric.unit());
     let decision = decide(&plan.decision, (&unit, metric_unit, axis), &splits, pooled.as_ref());
+    let secondary = secondary(&splits, &doses);
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
         design_sha256: None,
@@ -162,7 +166,35 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         treatment: Vec::new(),
         coverage: None,
         provenance,
+        guards: Vec::new(),
+        secondary,
     })
+}
+
+/// Each declared secondary endpoint's contrast, per split and dose, from
+/// the dose analyses (every unit but the primary one, in design order).
+fn secondary(splits: &[SplitResult], doses: &[DoseArm]) -> Vec<SecondaryDose> {
+    let mut out = Vec::new();
+    for sp in splits {
+        for (a, dose) in sp.detail.iter().zip(doses) {
+            for u in a.units.iter().filter(|u| u.role == crate::design::Role::Secondary) {
+                out.push(SecondaryDose {
+                    split: sp.split,
+                    arm: dose.arm.clone(),
+                    percent: dose.percent,
+                    distance_s: dose.distance_s,
+                    model: u.model.clone(),
+                    metric: u.metric,
+                    horizon_s: u.horizon_s,
+                    mean_treated: u.mean_treated,
+                    mean_reference: u.mean_reference,
+                    optimism_pct: u.optimism_pct,
+                    estimate: u.estimate,
+                });
+            }
+        }
+    }
+    out
 }
 
 /// One split's contrasts (each dose against the reference, analysed as a

@@ -61,6 +61,43 @@ pub struct FamilyAnalysis {
     pub coverage: Option<crate::analysis::coverage::CoverageNote>,
     /// Which data, which cells and which build produced this analysis.
     pub provenance: Provenance,
+    /// The guards of the verdict, computed from everything above (by the
+    /// family's guards module); every view gives them beside it.
+    pub guards: Vec<crate::analysis::Guard>,
+    /// Each declared secondary endpoint's contrast per split and dose
+    /// (descriptive: no rule reads them; the trend and the pooled fit are
+    /// the primary endpoint's).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub secondary: Vec<SecondaryDose>,
+}
+
+/// One secondary endpoint's crossed contrast at one dose of one split.
+#[derive(Debug, Clone, Serialize)]
+pub struct SecondaryDose {
+    /// The split value (`None` in a single-split study).
+    pub split: Option<u64>,
+    /// The treated arm.
+    pub arm: String,
+    /// Percent of the reference arm's windows replaced (NaN, written null,
+    /// when the treated arm is not derived from the reference).
+    pub percent: f64,
+    /// In a distance-dose family, the arm's least distance in s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distance_s: Option<f64>,
+    /// The model.
+    pub model: String,
+    /// The metric.
+    pub metric: crate::design::Metric,
+    /// The horizon in seconds.
+    pub horizon_s: f64,
+    /// Mean of the treated arm.
+    pub mean_treated: f64,
+    /// Mean of the reference arm.
+    pub mean_reference: f64,
+    /// 100 (mean_reference - mean_treated) / mean_reference.
+    pub optimism_pct: f64,
+    /// Crossed estimate of treated - reference, in the metric's unit.
+    pub estimate: CrossedEstimate,
 }
 
 /// From how many evaluation recordings one arm's contaminating windows

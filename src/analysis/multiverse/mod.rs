@@ -21,10 +21,12 @@ mod draws;
 mod joint;
 
 mod effects;
+mod guards;
 mod types;
 
 use draws::{draw_replication, pooled_choice_effects};
 use effects::effect_cells;
+pub use guards::guards;
 use joint::joint_bootstrap;
 pub use joint::{JointBootstrap, NullTest};
 pub use types::*;
@@ -70,6 +72,7 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         draws,
         shared: Vec::new(),
         notes: Vec::new(),
+        guards: Vec::new(),
         warnings,
         levels: analyses,
         design_sha256: None,

@@ -54,6 +54,9 @@ pub struct MultiverseAnalysis {
     /// (from the record's level folders: `analysis::evidence`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<UnitNotes>,
+    /// The guards beside the combined verdict (a reference arm that is
+    /// not disjoint, condition coverage), computed from the notes.
+    pub guards: Vec<crate::analysis::Guard>,
     /// Starts and windows each pair of specifications shares (as the run
     /// recorded them in study.json).
     #[serde(skip_serializing_if = "Vec::is_empty")]

@@ -7,7 +7,7 @@ use crate::analysis::decision::rule_holds;
 use crate::analysis::types::LeaveOneOut;
 use crate::analysis::AnalysisError;
 use crate::design::{EstimatorKind, Factor};
-use crossaudit_stats::{leave_one_out_mom, Axis, CrossedMatrix, StatsError};
+use crossaudit_stats::{leave_one_out_mom, Axis, CrossedMatrix, DfRule, StatsError};
 
 /// A grid's sum and count of present cells, in all and per row or column
 /// of one factor, for its mean with that row or column left out.
@@ -83,10 +83,13 @@ impl Ctx<'_> {
             Factor::Recording => a.diff.rows,
         };
         let est = &self.plan.estimator;
+        // A seed-invariant contrast takes its df from the recordings, in
+        // every fit as in the primary one (`estimate_grid`).
+        let df = if a.diff.seed_invariant() { DfRule::RecordingsMinusOne } else { est.df };
         let closed = match (est.kind, complete) {
             (EstimatorKind::CrossedMom, Some(m)) => {
                 let axis = if factor == Factor::Seed { Axis::Cols } else { Axis::Rows };
-                Some(leave_one_out_mom(m, axis, est.level, est.df)?)
+                Some(leave_one_out_mom(m, axis, est.level, df)?)
             }
             _ => None,
         };

@@ -86,8 +86,10 @@ pub(crate) enum Command {
         #[arg(long)]
         exploratory: bool,
     },
-    /// Run a locked design end to end: audit, manifests, invariants, every
-    /// training cell, cells.csv and the report. Resumes a partial run.
+    /// Run a design end to end: audit, manifests, invariants, every training
+    /// cell, cells.csv and the report. Resumes a partial run. Lock the design
+    /// first (`crossaudit lock`) for a preregistered run; a design never
+    /// locked runs labelled as not preregistered.
     Run {
         /// The design file (.design).
         design: PathBuf,
@@ -247,12 +249,15 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 7)]
         seed: u64,
     },
-    /// Run the design's analysis on a per-cell CSV.
+    /// Run the design's analysis on a run folder (its cells and the evidence
+    /// beside them: the same report the run wrote) or on a per-cell CSV alone.
     Analyze {
         /// The design file (.design).
         design: PathBuf,
-        /// The per-cell CSV (its columns: docs/usage.md, "Per-cell CSV"); for a
-        /// multiverse or draw-replicated design, the run directory.
+        /// The run folder (a run's --out), or a per-cell CSV alone (its
+        /// columns: docs/usage.md, "Per-cell CSV"; the report then names the
+        /// evidence only a run folder holds). A multiverse or draw-replicated
+        /// design needs its run folder.
         #[arg(long)]
         cells: PathBuf,
         /// Output directory for report.md, results.json and results.tex

@@ -4,7 +4,6 @@
 use std::fmt::Write as _;
 
 use super::super::{f, level_pct};
-use super::guards::guards;
 use super::{label, verdict};
 use crate::analysis::multiverse::MultiverseAnalysis;
 
@@ -48,7 +47,7 @@ fn header(a: &MultiverseAnalysis) -> String {
         super::super::md_text(&a.study)
     );
     let _ = writeln!(s, "{}.\n", a.standing.sentence());
-    for g in guards(a) {
+    for g in a.guards.iter().map(|g| &g.text) {
         let _ = writeln!(s, "{g}\n");
     }
     if let Some(h) = &a.design_sha256 {

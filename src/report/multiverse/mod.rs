@@ -8,10 +8,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-mod guards;
 mod markdown;
 
-pub(super) use guards::guards;
 pub use markdown::render_markdown;
 
 use super::{f, level_pct, ReportError};
@@ -79,7 +77,8 @@ pub(super) fn verdict(a: &MultiverseAnalysis) -> String {
 /// The banner of report.html: the verdict by the declared combination.
 fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
     let d = &a.decision;
-    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.standing).with_guards(guards(a))
+    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.standing)
+        .with_guards(a.guards.iter().map(|g| g.text.clone()).collect())
 }
 
 /// The decision line `run` and `analyze` print for a multiverse or a
@@ -122,11 +121,13 @@ pub fn specs_csv(a: &MultiverseAnalysis) -> String {
             .and_then(|iv| iv.fieller.bounds())
             .map(|(lo, hi)| (lo.to_string(), hi.to_string()))
             .unwrap_or_default();
-        let kinds: Vec<String> = r
-            .guards
-            .iter()
-            .filter_map(|g| serde_json::to_value(g.kind).ok().and_then(|v| v.as_str().map(String::from)))
-            .collect();
+        // Each kind once, in the order the guards give them.
+        let mut kinds: Vec<&str> = Vec::new();
+        for g in &r.guards {
+            if !kinds.contains(&g.kind.name()) {
+                kinds.push(g.kind.name());
+            }
+        }
         let _ = writeln!(
             s,
             ",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{olo},{ohi},{}",

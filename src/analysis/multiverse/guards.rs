@@ -1,41 +1,47 @@
-//! The paragraphs beside a multiverse's verdict, as its report, its
-//! banner, the console and Python give them.
+//! The guards beside a multiverse's verdict: a reference arm that is not
+//! disjoint and its condition coverage (the primary specification's, or
+//! over the draws). Computed with the combined analysis and worded once;
+//! its report, banner, console line, multiverse.json and Python read them
+//! from [`MultiverseAnalysis::guards`]. Each specification's own guards
+//! (its margin, a fragile decision, early stopping) are its own
+//! [`super::SpecResult::guards`].
 
-use crate::analysis::multiverse::MultiverseAnalysis;
+use super::{MultiverseAnalysis, ReferenceCopies};
+use crate::analysis::{Guard, GuardKind};
 
-/// The paragraphs beside a multiverse's verdict: a reference arm that is
-/// not disjoint and its condition coverage (the primary specification's,
-/// or over the draws), then each specification's margin where it has one.
-pub(in crate::report) fn guards(a: &MultiverseAnalysis) -> Vec<String> {
+/// The guards beside a multiverse's verdict: a reference arm that is not
+/// disjoint, then its condition coverage (the primary specification's, or
+/// every unit's).
+pub fn guards(a: &MultiverseAnalysis) -> Vec<Guard> {
     let mut out = Vec::new();
     // Beside the verdict: a reference arm that is not disjoint (the
     // primary specification's; under draw replication, over the draws).
     let primary = a.specs.iter().find(|r| r.primary).map(|r| format!("spec-{}", r.id));
-    let decided: Vec<&crate::analysis::multiverse::ReferenceCopies> = a
+    let decided: Vec<&ReferenceCopies> = a
         .notes
         .iter()
         .filter(|n| a.choices.is_empty() || Some(&n.id) == primary.as_ref())
         .filter_map(|n| n.reference_copies.as_ref())
         .collect();
     if !decided.is_empty() {
-        let all = crate::analysis::multiverse::ReferenceCopies {
+        let all = ReferenceCopies {
             fewest: decided.iter().map(|c| c.fewest).min().unwrap_or(0),
             most: decided.iter().map(|c| c.most).max().unwrap_or(0),
             levels_with: decided.iter().map(|c| c.levels_with).sum(),
             levels: if a.choices.is_empty() { a.notes.len() } else { decided[0].levels },
         };
-        out.push(format!(
+        out.push(Guard::new(GuardKind::NotDisjoint, format!(
             "**The reference arm is not disjoint** ({}): {}; allowed only because the design declares `duplicates keep` (table: the reference arm and the training).",
             primary.as_deref().filter(|_| !a.choices.is_empty()).unwrap_or("every draw"),
             copies_text(&all)
-        ));
+        )));
     }
     // Beside the verdict: the reference arm's condition coverage (the
     // primary specification's, or every unit's).
     for n in a.notes.iter().filter(|n| a.choices.is_empty() || Some(&n.id) == primary.as_ref()) {
         if let Some(c) = &n.coverage {
             let who = if a.notes.len() > 1 && a.choices.is_empty() { format!("{}: ", n.id) } else { String::new() };
-            out.push(format!("{who}{}", super::super::coverage::note_sentence(c)));
+            out.push(Guard::new(GuardKind::Coverage, format!("{who}{}", c.sentence())));
         }
     }
     out
@@ -43,7 +49,7 @@ pub(in crate::report) fn guards(a: &MultiverseAnalysis) -> Vec<String> {
 
 /// How many reference-arm fit windows come from evaluation recordings or
 /// their copies.
-fn copies_text(c: &crate::analysis::multiverse::ReferenceCopies) -> String {
+fn copies_text(c: &ReferenceCopies) -> String {
     let n = if c.fewest == c.most { c.most.to_string() } else { format!("{} to {}", c.fewest, c.most) };
     let draws = if c.levels > 1 { format!(" (in {} of its {} draws)", c.levels_with, c.levels) } else { String::new() };
     format!("{n} of its fit windows come from byte-identical copies of evaluation recordings{draws}")
