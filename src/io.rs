@@ -447,7 +447,7 @@ mod input;
 pub use input::{read_text, Text, TextError};
 pub mod parquet;
 mod text;
-pub use text::{escape_controls, md_code, md_line, md_text, one_line};
+pub use text::{escape_controls, md_code, md_line, md_text, one_line, spreadsheet_text};
 pub mod walk;
 
 #[cfg(test)]

@@ -505,3 +505,62 @@ fn a_degenerate_secondary_endpoint_is_left_out_and_the_primary_still_decides() {
     let e = crossaudit::analyze_files(&path, &file, Default::default()).unwrap_err().to_string();
     assert!(e.contains("world fa_position_rmse at 1 s"), "{e}");
 }
+
+/// A secondary endpoint the data cannot estimate is "not estimable", with
+/// its reason, and the primary endpoint is decided as without it: an
+/// attitude endpoint with a cell whose starts all diverged (its field
+/// empty in cells.csv), and a divergence-rate endpoint whose reference arm
+/// never diverges (optimism, a percentage of its mean 0, undefined).
+/// Before, either stopped the whole analysis and no report was written.
+#[test]
+fn a_secondary_endpoint_the_data_cannot_estimate_is_named_not_estimable() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = std::fs::read_to_string(confirmatory_design()).unwrap().replace(
+        "endpoint primary   fa_position_rmse at 1.0 s cap 2 m  model world",
+        "endpoint primary   fa_position_rmse at 1.0 s cap 2 m  model world\nendpoint secondary attitude_rmse at 0.5 s model relative\nendpoint secondary divergence_rate at 2.0 s model relative",
+    );
+    let design_path = dir.path().join("d.design");
+    std::fs::write(&design_path, design).unwrap();
+    let text = std::fs::read_to_string(example_cells()).unwrap();
+    let mut blanked = false;
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            let mut f: Vec<String> = l.split(',').map(String::from).collect();
+            if k > 0 && f[0] == "relative" && f[6] == "0.5" && !blanked {
+                // One cell whose every start diverged: its divergence rate is
+                // 1 and the conditional, velocity and attitude errors empty.
+                f[8] = f[7].clone();
+                f[11] = "1".into();
+                f[9] = "2".into(); // the failure-aware RMSE at the cap
+                for k in [10, 12, 13] {
+                    f[k].clear();
+                }
+                blanked = true;
+            }
+            if k > 0 && f[0] == "relative" && f[1] == "disjoint" && f[6] == "2" {
+                // The reference never diverges: no diverged start, so its
+                // failure-aware RMSE is its conditional one.
+                f[8] = "0".into();
+                f[11] = "0".into();
+                f[9] = f[10].clone();
+            }
+            f.join(",")
+        })
+        .collect();
+    assert!(text.lines().nth(1).unwrap().split(',').count() == 14 && blanked);
+    let cells = dir.path().join("cells.csv");
+    std::fs::write(&cells, lines.join("\n") + "\n").unwrap();
+    let a = crossaudit::analyze_files(&design_path, &cells, Default::default()).unwrap();
+    let said: Vec<&String> = a.warnings.iter().filter(|w| w.contains("not estimable")).collect();
+    assert_eq!(said.len(), 2, "{:#?}", a.warnings);
+    let of = |label: &str| *said.iter().find(|w| w.starts_with(label)).unwrap_or_else(|| panic!("{label}: {said:?}"));
+    assert!(of("relative attitude_rmse at 0.5 s: not estimable (line").contains("empty"), "{said:?}");
+    let rate = of("relative divergence_rate at 2 s: not estimable (the disjoint arm's mean is zero");
+    assert!(rate.contains("optimism (a percentage of it) is undefined"), "{rate}");
+    // The primary endpoint's decision is the one without them.
+    let plain = example();
+    assert_eq!(a.decision.holds, plain.decision.holds);
+    assert_eq!(a.units[0].estimate.mean, plain.units[0].estimate.mean);
+}

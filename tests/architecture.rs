@@ -973,3 +973,26 @@ fn no_analysis_field_is_assigned_outside_analysis() {
     let planted = "fn f(a: &mut Analysis) {\n    a.warnings.push(w);\n    a.standing = Standing::Unrecorded;\n    x.figures.len();\n    let mut b = analysis::analyze(p, c, o)?;\n}\n";
     assert_eq!(analysis_mutations(planted, &fields).len(), 4, "{:?}", analysis_mutations(planted, &fields));
 }
+
+/// The public types (`pub struct`, `pub enum`) of `src/` and the statistics
+/// crate, each name once over both: two things are never both called
+/// `Role` or `Prepared`, so a reader who sees a name knows which it is.
+#[test]
+fn every_public_type_has_a_name_of_its_own() {
+    let mut files = all_sources();
+    rust_files(&root().join("crates/stats/src"), &mut files);
+    let mut seen: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for f in &files {
+        for l in std::fs::read_to_string(f).unwrap().lines() {
+            let Some(rest) = l.strip_prefix("pub struct ").or_else(|| l.strip_prefix("pub enum ")) else {
+                continue;
+            };
+            let name: String = rest.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+            seen.entry(name).or_default().push(f.strip_prefix(root()).unwrap().display().to_string());
+        }
+    }
+    assert!(seen.len() > 200, "only {} public types found", seen.len());
+    let twice: Vec<String> =
+        seen.iter().filter(|(_, at)| at.len() > 1).map(|(n, at)| format!("{n}: {}", at.join(", "))).collect();
+    assert!(twice.is_empty(), "public types sharing a name:\n{}", twice.join("\n"));
+}

@@ -25,7 +25,7 @@ fn run_case(dir: &Path, out: &Path) -> (Option<i32>, String) {
         c.arg("-c").arg("exec \"$0\" \"$@\" >&-").arg(env!("CARGO_BIN_EXE_crossaudit"));
         c
     } else {
-        Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        crate::common::bin()
     };
     let mut child = command
         .current_dir(root())

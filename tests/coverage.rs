@@ -471,7 +471,7 @@ fn the_decision_coverage_study_agrees_with_an_independent_simulation_and_refuses
     }
     let tmp = tempfile::tempdir().unwrap();
     let run = |threads: &str, out: &std::path::Path, spec: &std::path::Path| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        crate::common::bin()
             .current_dir(&root)
             .env("RAYON_NUM_THREADS", threads)
             .args(["coverage"])
@@ -501,7 +501,7 @@ fn the_decision_coverage_study_agrees_with_an_independent_simulation_and_refuses
         let o = run("2", &tmp.path().join("bad"), &bad);
         crate::common::assert_refused(&o, needle);
     }
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let o = crate::common::bin()
         .current_dir(&root)
         .args(["coverage", "specs/coverage_decision.json", "--replications", "--out"])
         .arg(tmp.path().join("r"))

@@ -3,8 +3,6 @@
 //! seeds that follow a setting's values, and the tidy replications that R's
 //! rsimsum reproduces.
 
-use std::process::Command;
-
 use crate::common::{assert_ok, assert_rel, root};
 use crossaudit::methods::CoverageSpec;
 use crossaudit::stats::coverage::{draw_array, performance_at, setting_seed, shifted, Distribution, Missing, Setting};
@@ -23,7 +21,7 @@ fn spec(text: &str) -> CoverageSpec {
 fn rsimsum_reproduces_every_measure_of_the_committed_study() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("cov");
-    let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let o = crate::common::bin()
         .current_dir(root())
         .args(["coverage", "specs/coverage_rsimsum.json", "--replications", "--out"])
         .arg(&out)

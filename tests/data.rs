@@ -158,7 +158,7 @@ fn strict_turns_corruption_into_an_error() {
 #[test]
 fn the_cli_writes_recordings_csv_and_a_summary() {
     let dir = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let out = crate::common::bin()
         .current_dir(root())
         .args(["data", "audit", "tests/designs/fixture_data.design", "--out", dir.path().to_str().unwrap()])
         .output()
@@ -168,7 +168,7 @@ fn the_cli_writes_recordings_csv_and_a_summary() {
     assert!(stdout.contains("5 log files, 3 included, 2 excluded, 1 listed in metadata but missing"), "{stdout}");
     assert!(stdout.contains("dup01: F1_circle_slow_rep1, F1_circle_slow_rep2"), "{stdout}");
     assert!(dir.path().join("recordings.csv").exists());
-    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let bad = crate::common::bin()
         .current_dir(root())
         .args(["data", "audit", "tests/designs/fixture_data.design", "--data", "no/such/dir"])
         .output()
@@ -277,8 +277,35 @@ fn recordings_excluded_by_name_are_listed_with_their_rule() {
     }
     let spec = design::from_str("study.design", &with("\"F2_star_fast_mell_rep1\", \"F9_nowhere_rep1\"")).unwrap().data;
     let e = audit(&spec, &fixtures()).expect_err("a name that is no log");
-    assert!(e.to_string().contains("\"F9_nowhere_rep1\", which is not a log in"), "{e}");
+    assert!(e.to_string().contains("\"F9_nowhere_rep1\", which is not a recording in"), "{e}");
+    // A file name given for a recording's name: told how names are formed.
+    let spec = design::from_str("study.design", &with("\"F2_star_fast_mell_rep1.csv\"")).unwrap().data;
+    let e = audit(&spec, &fixtures()).expect_err("a file name, not a recording name").to_string();
+    assert!(e.contains("without the suffix (.csv, .csv.gz or .parquet): write `F2_star_fast_mell_rep1`"), "{e}");
     let e =
         design::from_str("study.design", &with("\"F2_star_fast_mell_rep1\", \"F2_star_fast_mell_rep1\"")).unwrap_err();
     assert!(e.to_string().contains("is listed twice"), "{e}");
+}
+
+/// A file that looks like a flight log but that no reader reads as named
+/// (`x.PARQUET`, a suffix in capitals; `x.parquet.gz`, a compressed
+/// Parquet file; `x.csv.zst`) is named with why, not passed over: the audit
+/// refuses, listing each; any other stray file (a README) is no log.
+#[test]
+fn files_that_look_like_logs_but_are_not_read_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    for e in std::fs::read_dir(fixtures()).unwrap() {
+        let p = e.unwrap().path();
+        std::fs::copy(&p, dir.path().join(p.file_name().unwrap())).unwrap();
+    }
+    std::fs::write(dir.path().join("README.txt"), "notes").unwrap();
+    assert!(audit(&fixture_spec(), dir.path()).is_ok(), "a stray non-log file is no log");
+    for name in ["X1_circle_slow_rep1.PARQUET", "X2_circle_slow_rep1.parquet.gz", "X3_circle_slow_rep1.csv.zst"] {
+        std::fs::write(dir.path().join(name), "x").unwrap();
+    }
+    let e = audit(&fixture_spec(), dir.path()).unwrap_err().to_string();
+    assert!(e.contains("3 file(s) look like flight logs but are not read as named"), "{e}");
+    assert!(e.contains("X1_circle_slow_rep1.PARQUET (a log's suffix is lower case)"), "{e}");
+    assert!(e.contains("X2_circle_slow_rep1.parquet.gz (a Parquet file compresses inside itself"), "{e}");
+    assert!(e.contains("X3_circle_slow_rep1.csv.zst (only gzip is read"), "{e}");
 }

@@ -85,3 +85,27 @@ fn inputs_found_by_fuzzing_do_not_panic() {
     let e = crossaudit::design::from_str("big.design", big).unwrap_err();
     assert!(e.diagnostics.iter().any(|d| d.title == "seed range too large"), "{}", e.render(false));
 }
+
+/// A raw control character in a design (ESC, which a terminal obeys) is
+/// quoted in the error as its visible picture, never sent: the snippet of
+/// `check` holds no ESC byte, colour on or off, and keeps its columns.
+#[test]
+fn control_characters_in_a_design_are_shown_not_sent() {
+    let src = std::fs::read_to_string(crate::common::minimal_design_path()).unwrap();
+    let src = format!("{src}\nbogus \u{1b}[2J\u{7}clause\n");
+    let err = crossaudit::design::from_str("esc.design", &src).expect_err("a syntax error");
+    for color in [false, true] {
+        let text = err.render(color);
+        let quoted = text.lines().find(|l| l.contains("bogus")).expect("the quoted line");
+        // Colour adds crossaudit's own escapes; the design's ESC and BEL
+        // never reach the terminal.
+        assert!(!quoted.contains("\u{1b}[2J") && !quoted.contains('\u{7}'), "{quoted:?}");
+        assert!(quoted.contains("bogus \u{241b}[2J\u{2407}clause"), "{quoted:?}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("esc.design");
+    std::fs::write(&path, &src).unwrap();
+    let o = crate::common::crossaudit(&["check", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!o.stderr.contains(&0x1b), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -64,7 +64,7 @@ fn an_amended_lock_is_disclosed_in_every_report() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("study.design");
     std::fs::copy(crate::common::minimal_design_path(), &path).unwrap();
-    let bin = || std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"));
+    let bin = || crate::common::bin();
     let p = path.to_str().unwrap();
     let o = bin().args(["lock", p, "--amend", "nothing changed"]).output().unwrap();
     crate::common::assert_refused(&o, "nothing to amend: it has no lock");

@@ -7,7 +7,6 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
 
 use crate::common::{assert_ok, assert_refused, root};
 
@@ -24,7 +23,7 @@ fn design_with(dir: &Path, name: &str, clause: &str) -> std::path::PathBuf {
 }
 
 fn split(design: &Path, out: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    crate::common::bin()
         .args(["split", &design.display().to_string(), "--out", &out.display().to_string()])
         .env("NO_COLOR", "1")
         .output()
@@ -119,8 +118,7 @@ fn contaminating_windows_lie_at_the_declared_distance_from_every_evaluated_segme
     assert!(d.iter().all(|&d| (50..200).contains(&d)), "range: {:?} to {:?}", d.iter().min(), d.iter().max());
 
     // `check` prints the clause with the arm.
-    let o =
-        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &gap.display().to_string()]).output().unwrap();
+    let o = crate::common::bin().args(["check", &gap.display().to_string()]).output().unwrap();
     assert_ok(&o);
     assert!(
         crate::common::stdout(&o).contains("registered starts excluded, at least 2 s from segments (seed 7)"),
@@ -157,8 +155,7 @@ fn after_segments_draws_only_from_the_part_past_the_last_segment() {
         windows.iter().map(|(r, _)| r).collect::<std::collections::BTreeSet<_>>().len() == 4,
         "from every recording"
     );
-    let o =
-        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &path.display().to_string()]).output().unwrap();
+    let o = crate::common::bin().args(["check", &path.display().to_string()]).output().unwrap();
     assert_ok(&o);
     assert!(crate::common::stdout(&o).contains("registered starts excluded, after segments (seed 7)"));
 
@@ -191,10 +188,7 @@ fn a_distance_the_recordings_cannot_supply_is_refused_at_its_clause() {
     for (clause, needle) in [("2 s to 1 s from segments", "not beyond its start"), ("at least -1 s from segments", "")]
     {
         let path = design_with(dir.path(), "bad.design", clause);
-        let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-            .args(["check", &path.display().to_string()])
-            .output()
-            .unwrap();
+        let o = crate::common::bin().args(["check", &path.display().to_string()]).output().unwrap();
         assert_eq!(o.status.code(), Some(1), "{clause}: {}", crate::common::stderr(&o));
         assert!(crate::common::stderr(&o).contains(needle), "{clause}: {}", crate::common::stderr(&o));
     }
@@ -265,8 +259,7 @@ fn a_distance_dose_family_shares_its_positions_and_couples_its_draws() {
 
     // `check` names the family's distances; several shares at several
     // distances are refused at the second distance.
-    let o =
-        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &path.display().to_string()]).output().unwrap();
+    let o = crate::common::bin().args(["check", &path.display().to_string()]).output().unwrap();
     assert_ok(&o);
     let said = crate::common::stdout(&o);
     assert!(
@@ -276,8 +269,7 @@ fn a_distance_dose_family_shares_its_positions_and_couples_its_draws() {
     let two = std::fs::read_to_string(&path).unwrap().replace("replace 25% with", "replace 10%, 25% with");
     let bad = dir.path().join("two.design");
     std::fs::write(&bad, two).unwrap();
-    let o =
-        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["check", &bad.display().to_string()]).output().unwrap();
+    let o = crate::common::bin().args(["check", &bad.display().to_string()]).output().unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(crate::common::stderr(&o).contains("doses on two axes"), "{}", crate::common::stderr(&o));
 }
@@ -406,7 +398,7 @@ fn a_distance_family_with_per_seed_draws_reports_what_it_measured() {
         .replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2");
     std::fs::write(&path, text).unwrap();
     let out = dir.path().join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let o = crate::common::bin()
         .args(["run", &path.display().to_string(), "--out", &out.display().to_string(), "--workers", "2"])
         .env("NO_COLOR", "1")
         .output()
@@ -443,4 +435,24 @@ fn a_distance_family_with_per_seed_draws_reports_what_it_measured() {
         assert!(cells[7].contains(&format!(" / {:.2} / ", q2[1])), "{row}: median of {q2:?}");
     }
     assert!(report.contains("the median over the 3 draws"), "{report}");
+}
+
+/// A distance that is not a whole number of samples (0.005 s at the
+/// design's 100 Hz: half a sample) is refused by `check` at its clause,
+/// with the multiple to write; it would otherwise act as one sample.
+#[test]
+fn a_distance_between_samples_is_refused_by_check() {
+    let dir = tempfile::tempdir().unwrap();
+    for (clause, bad) in [
+        ("at least 0.005 s from segments", "0.005 s is 0.5 samples at 100 Hz"),
+        ("0.5 s to 1.234 s from segments", "1.234 s is 123.4"),
+    ] {
+        let path = design_with(dir.path(), "half.design", clause);
+        let o = crate::common::crossaudit(&["check", path.to_str().unwrap()]);
+        crate::common::assert_refused(&o, "distance not a whole number of samples");
+        let e = crate::common::stderr(&o);
+        assert!(e.contains(bad) && e.contains("write a multiple of 0.01 s"), "{e}");
+    }
+    let ok = design_with(dir.path(), "whole.design", "at least 0.01 s from segments");
+    crate::common::assert_ok(&crate::common::crossaudit(&["check", ok.to_str().unwrap()]));
 }

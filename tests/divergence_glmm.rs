@@ -6,12 +6,10 @@
 //! a rule `on divergence` reads that odds ratio; and what the GLMM cannot
 //! be declared on, or decided by, is refused at its line and column.
 
-use std::process::Command;
-
 use crate::common::root;
 
 fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap();
+    let out = crate::common::bin().current_dir(root()).args(args).output().unwrap();
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into_owned(),

@@ -138,7 +138,7 @@ fn the_readmes_worked_example_prints_what_the_readme_quotes() {
         .collect();
     assert!(quoted.len() >= 2, "the README quotes the guards under the decision: {quoted:?}");
     let tmp = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let out = crate::common::bin()
         .current_dir(root())
         .args(["analyze", "designs/nanobench_confirmatory.design", "--cells", "examples/cells/nanobench_synthetic.csv"])
         .arg("--out")
@@ -352,12 +352,7 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
             continue;
         }
         let out = tmp.path().join(folder);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-            .current_dir(root())
-            .args(*args)
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = crate::common::bin().current_dir(root()).args(*args).arg(&out).output().unwrap();
         assert!(o.status.success(), "{folder}: {}", String::from_utf8_lossy(&o.stderr));
         let committed = root().join("results").join(folder);
         for name in files_in(&committed) {
@@ -515,8 +510,14 @@ fn a_family_estimates_csv_is_its_report_in_tidy_form() {
         per_dose[0].iter().position(|h| h == "d (m)").unwrap(),
         per_dose[0].iter().position(|h| h == "optimism %").unwrap(),
     );
-    let endpoints: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "endpoint").collect();
-    let optimisms: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "optimism").collect();
+    // The primary endpoint's rows (each declared secondary has its own,
+    // role `secondary`, as the report's "Secondary endpoints" table).
+    let primary = |r: &&Vec<&str>| r[col("role")] == "primary";
+    let endpoints: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "endpoint").filter(primary).collect();
+    let optimisms: Vec<&Vec<&str>> = rows.iter().filter(|r| r[col("kind")] == "optimism").filter(primary).collect();
+    let secondary = rows.iter().filter(|r| r[col("role")] == "secondary").count();
+    assert_eq!(secondary, 2 * (per_dose.len() - 1), "the design's one secondary endpoint, per dose");
+    assert!(md.contains("## Secondary endpoints"));
     assert_eq!((endpoints.len(), optimisms.len()), (per_dose.len() - 1, per_dose.len() - 1));
     for ((row, optimism), printed) in endpoints.iter().zip(&optimisms).zip(&per_dose[1..]) {
         let v = |name: &str| row[col(name)].parse::<f64>().unwrap();

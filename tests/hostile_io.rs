@@ -17,7 +17,7 @@ const CELLS: &str = "fuzz/seeds_cells/minimal_complete.csv";
 
 /// The binary with `args`, run from the repository root; stderr piped.
 fn spawn(args: &[&str], stdout: Stdio) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    crate::common::bin()
         .current_dir(root())
         .args(args)
         .env("NO_COLOR", "1")

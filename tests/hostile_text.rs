@@ -10,7 +10,6 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
 
 use crate::common::root;
 
@@ -94,12 +93,7 @@ fn console_structure(text: &str) -> (usize, Vec<char>) {
 }
 
 fn crossaudit(args: &[&str], cwd: &Path) -> (String, String, bool) {
-    let out = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-        .args(args)
-        .current_dir(cwd)
-        .env("NO_COLOR", "1")
-        .output()
-        .unwrap();
+    let out = crate::common::bin().args(args).current_dir(cwd).env("NO_COLOR", "1").output().unwrap();
     (
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),

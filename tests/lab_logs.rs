@@ -3,7 +3,6 @@
 //! NanoBench fixtures rewritten in another lab's layout (`logs::rewrite`).
 
 use std::path::Path;
-use std::process::Command;
 
 use crate::logs::{reordered_design, rewrite, spec};
 use crossaudit::data::{self, load_recording, Layout, LogError};
@@ -267,7 +266,7 @@ fn a_parquet_log_and_the_same_log_as_csv_give_identical_audits_splits_and_cells(
     assert!(converted >= 5);
     let design = crate::common::root().join("tests/designs/logs_generic.design");
     let run = |data: &Path, out: &str| {
-        let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        let o = crate::common::bin()
             .arg("run")
             .arg(&design)
             .arg("--data")
@@ -413,7 +412,7 @@ fn a_lab_folder_of_train_and_test_is_read_and_split_by_its_folders() {
         );
     let design = tmp.path().join("lab.design");
     std::fs::write(&design, &text).unwrap();
-    let bin = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(args).output().unwrap();
+    let bin = |args: &[&str]| crate::common::bin().args(args).output().unwrap();
     let d = design.to_str().unwrap();
     crate::common::assert_ok(&bin(&["lock", d]));
     let out = tmp.path().join("run");
@@ -695,4 +694,47 @@ fn an_extreme_parquet_date_or_time_is_read_as_its_number_without_a_panic() {
     assert_eq!(lines[0], "x,day,clock", "{text}");
     assert_eq!(lines[1], format!("1.0,{},{:?}", i32::MAX, i64::MAX as f64 / 1e6), "{text}");
     assert_eq!(lines[2], "2.0,19000,1.5", "{text}");
+}
+
+/// Undeclared columns never refuse or exclude anything, whatever their
+/// names and values: the fixture logs as Parquet, one with an undeclared
+/// text column named with a comma and one whose text holds a line break,
+/// audit exactly as without them (every recording's status and reason).
+#[test]
+fn undeclared_columns_with_commas_and_line_breaks_decide_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fixtures = crate::common::root().join("tests/fixtures/nanobench");
+    let (plain, noted) = (tmp.path().join("plain"), tmp.path().join("noted"));
+    std::fs::create_dir_all(&plain).unwrap();
+    std::fs::create_dir_all(&noted).unwrap();
+    for entry in std::fs::read_dir(&fixtures).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.ends_with("_metadata.yaml") {
+            continue;
+        }
+        let bytes = crossaudit::data::log::read_bytes(&path).unwrap();
+        let (header, cols) = numeric_columns(&String::from_utf8(bytes).unwrap());
+        let stem = crossaudit::data::recording_name(&path);
+        let n = cols[0].len();
+        let mut columns: Vec<(&str, Column)> = header
+            .iter()
+            .zip(&cols)
+            .map(|(h, c)| (h.as_str(), Column::Double(c.iter().map(|v| Some(*v)).collect())))
+            .collect();
+        write_parquet(&plain.join(format!("{stem}.parquet")), &columns);
+        columns.push(("note, pilot's", Column::Text(vec!["calm, no wind".to_string(); n])));
+        columns.push(("remark", Column::Text((0..n).map(|k| format!("row {k}\nsecond line\r\n")).collect())));
+        write_parquet(&noted.join(format!("{stem}.parquet")), &columns);
+    }
+    let spec =
+        crossaudit::design::load(&crate::common::root().join("tests/designs/logs_generic.design")).unwrap().design.data;
+    let status = |dir: &Path| -> Vec<String> {
+        let a = crossaudit::data::audit(&spec, dir).unwrap();
+        let at = dir.display().to_string();
+        a.files.iter().map(|f| format!("{} {:?} {}", f.name, f.status, f.reason.replace(&at, "DIR"))).collect()
+    };
+    let (a, b) = (status(&plain), status(&noted));
+    assert!(a.len() >= 5, "{a:?}");
+    assert_eq!(a, b);
 }

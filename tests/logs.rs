@@ -447,6 +447,18 @@ fn a_conditions_table_gives_trajectory_and_speed_and_every_recording_needs_a_row
     assert_eq!(audit.files.len(), 3, "the table itself is not a recording: {:#?}", audit.files);
     let f1 = audit.files.iter().find(|f| f.name == "F1_circle_slow_rep1").unwrap();
     assert_eq!((f1.trajectory.as_str(), f1.speed.as_str()), ("lemniscate", "fast"));
+    // A table that lists the files (`.csv`, `.csv.gz`, `.parquet`) names the
+    // same recordings: the same audit.
+    let files = table
+        .replace("F1_circle_slow_rep1,", "F1_circle_slow_rep1.csv.gz,")
+        .replace("F2_star_fast_mell_rep1,", "F2_star_fast_mell_rep1.csv,")
+        .replace("F4_linear_ramp_rep1,", "F4_linear_ramp_rep1.parquet,");
+    std::fs::write(tmp.path().join("conditions.csv"), files).unwrap();
+    let by_file = data::audit(&generic, tmp.path()).unwrap();
+    let rows = |a: &data::Audit| {
+        a.files.iter().map(|f| (f.name.clone(), f.trajectory.clone(), f.speed.clone())).collect::<Vec<_>>()
+    };
+    assert_eq!(rows(&by_file), rows(&audit));
     // A recording without a row: the audit stops and names it.
     std::fs::write(tmp.path().join("conditions.csv"), table.replace("F4_linear_ramp_rep1,ramp,medium\n", "")).unwrap();
     let e = data::audit(&generic, tmp.path()).unwrap_err().to_string();

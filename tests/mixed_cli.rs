@@ -29,7 +29,7 @@ fn formulas() -> Vec<(String, String)> {
 }
 
 fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap();
+    let out = crate::common::bin().current_dir(root()).args(args).output().unwrap();
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -330,7 +330,7 @@ fn mixed_refuses_a_fifo_and_a_device_and_survives_a_closed_pipe() {
     let (code, _, stderr) = run(&["mixed", zero.to_str().unwrap(), "--formula", "y ~ 1 + (1|a)"]);
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("/dev/zero"), "{stderr}");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let mut child = crate::common::bin()
         .current_dir(root())
         .args(["mixed", "tests/fixtures/mixed_published/penicillin.csv", "--formula", "diameter ~ 1 + (1|plate)"])
         .stdout(std::process::Stdio::piped())

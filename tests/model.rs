@@ -385,7 +385,7 @@ fn the_linear_model_beside_the_paper_reproduces_its_committed_run_on_the_papers_
     let data = crate::needs_shared_logs!();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("linear");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let o = crate::common::bin()
         .current_dir(root())
         .args(["run", "designs/nanobench_paper_linear.design", "--data"])
         .arg(&data)
@@ -462,7 +462,6 @@ fn restore_final_trains_the_full_budget_and_keeps_the_last_weights() {
 /// each job's weights file has the declared layers.
 #[test]
 fn networks_of_any_shape_are_checked_trained_and_saved() {
-    use std::process::Command;
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(root().join("tests/designs/sim_small.design"))
         .unwrap()
@@ -471,7 +470,7 @@ fn networks_of_any_shape_are_checked_trained_and_saved() {
         .replace("epochs 15 cosine patience 15", "epochs 2 cosine patience 2");
     let design = dir.path().join("shapes.design");
     std::fs::write(&design, text).unwrap();
-    let bin = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(args).output().unwrap();
+    let bin = |args: &[&str]| crate::common::bin().args(args).output().unwrap();
     let check = bin(&["check", design.to_str().unwrap()]);
     crate::common::assert_ok(&check);
     assert!(crate::common::stdout(&check).contains("mlp(64, 64)"), "{}", crate::common::stdout(&check));
@@ -500,7 +499,6 @@ fn networks_of_any_shape_are_checked_trained_and_saved() {
 /// per-cell data "not the output of a run".
 #[test]
 fn a_baseline_in_an_endpoint_is_reported_as_zero_by_construction() {
-    use std::process::Command;
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(root().join("tests/designs/sim_small.design"))
         .unwrap()
@@ -511,7 +509,7 @@ fn a_baseline_in_an_endpoint_is_reported_as_zero_by_construction() {
     let design = dir.path().join("cv.design");
     std::fs::write(&design, text).unwrap();
     let out = dir.path().join("run");
-    let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let o = crate::common::bin()
         .args(["run", design.to_str().unwrap(), "--out", out.to_str().unwrap(), "--exploratory", "--workers", "2"])
         .output()
         .unwrap();

@@ -12,7 +12,7 @@ use crossaudit::design;
 use crate::common::root;
 
 fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
+    let mut c = crate::common::bin();
     c.current_dir(root());
     c
 }

@@ -8,21 +8,13 @@
 //! bad declarations are refused by name.
 
 use std::path::Path;
-use std::process::Command;
 
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
 use crate::common::{assert_ok, assert_refused, confirmatory_design, example_cells, root, stderr};
 
 fn plan(args: &[&str], out: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-        .current_dir(root())
-        .arg("plan")
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .output()
-        .unwrap()
+    crate::common::bin().current_dir(root()).arg("plan").args(args).arg("--out").arg(out).output().unwrap()
 }
 
 fn json(path: &Path) -> serde_json::Value {

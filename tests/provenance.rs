@@ -12,7 +12,7 @@
 //! epochs) written by the tests, so none needs data beside the repository.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use crate::common::{assert_ok, assert_refused, root, stderr, stdout};
 
@@ -40,7 +40,7 @@ decide confirmed when optimism >= 10% and upper < 0
 "#;
 
 fn crossaudit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).env("NO_COLOR", "1").output().unwrap()
+    crate::common::bin().current_dir(root()).args(args).env("NO_COLOR", "1").output().unwrap()
 }
 
 /// Writes the tiny design with `epochs` into `dir/NAME`.

@@ -3,13 +3,12 @@
 //! results; 1 and 2 workers must give byte-identical cells.csv.
 
 use std::path::Path;
-use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crate::common::{root, shared_logs};
 
 fn run(design: &str, out: &Path, workers: &str) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    crate::common::bin()
         .current_dir(root())
         .args(["run", design, "--out", out.to_str().unwrap(), "--workers", workers])
         .output()
@@ -83,7 +82,7 @@ fn a_killed_run_resumes_to_byte_identical_results() {
     assert_eq!(total, 8);
 
     let killed = dir.path().join("killed");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let mut child = crate::common::bin()
         .current_dir(root())
         .args(["run", design, "--out", killed.to_str().unwrap(), "--workers", "2"])
         .stdout(std::process::Stdio::null())
@@ -121,8 +120,7 @@ fn a_changed_locked_design_is_refused_unless_exploratory() {
     let design = dir.path().join("tiny.design");
     let text = std::fs::read_to_string(root().join("tests/designs/tiny_train.design")).unwrap();
     std::fs::write(&design, text.replace("../shared", &format!("{}/../shared", root().display()))).unwrap();
-    let lock =
-        Command::new(env!("CARGO_BIN_EXE_crossaudit")).args(["lock", design.to_str().unwrap()]).output().unwrap();
+    let lock = crate::common::bin().args(["lock", design.to_str().unwrap()]).output().unwrap();
     assert!(lock.status.success());
     std::fs::write(&design, std::fs::read_to_string(&design).unwrap() + "# amended after locking\n").unwrap();
     let out = dir.path().join("out");
@@ -133,7 +131,7 @@ fn a_changed_locked_design_is_refused_unless_exploratory() {
         "{}",
         String::from_utf8_lossy(&refused.stderr)
     );
-    let explored = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let explored = crate::common::bin()
         .current_dir(root())
         .args(["run", design.to_str().unwrap(), "--out", out.to_str().unwrap(), "--exploratory"])
         .output()

@@ -6,7 +6,7 @@
 //! repository.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::common::crossaudit;
@@ -229,7 +229,7 @@ fn runs_killed_at_every_phase_resume_to_identical_results() {
     let mut killed: std::collections::BTreeMap<&str, usize> = Default::default();
     for (k, (phase, reached)) in kill_points().into_iter().enumerate() {
         let out = dir.path().join(format!("kill{k}"));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+        let mut child = crate::common::bin()
             .current_dir(root())
             .args(["run", DESIGN, "--out", out.to_str().unwrap(), "--workers", "2"])
             .stdout(Stdio::null())

@@ -5,7 +5,6 @@
 //! log is written here as CSV with its defect at a known row.
 
 use std::path::Path;
-use std::process::Command;
 
 use crossaudit::data::{self, Status};
 
@@ -192,13 +191,7 @@ fn an_audit_keeping_too_few_recordings_stops_after_writing_itself() {
         let path = tmp.path().join("d.design");
         std::fs::write(&path, design(&data, extra)).unwrap();
         let out = tmp.path().join(format!("out{}", extra.len()));
-        let o = Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-            .args(["data", "audit"])
-            .arg(&path)
-            .arg("--out")
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = crate::common::bin().args(["data", "audit"]).arg(&path).arg("--out").arg(&out).output().unwrap();
         (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned(), out.join("recordings.csv").exists())
     };
     let (code, err, written) = audit_cli("");

@@ -7,20 +7,11 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
 
 use crate::common::{assert_ok, assert_refused, root};
 
 fn simsum(file: &Path, args: &[&str], out: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_crossaudit"))
-        .current_dir(root())
-        .arg("simsum")
-        .arg(file)
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .output()
-        .unwrap()
+    crate::common::bin().current_dir(root()).arg("simsum").arg(file).args(args).arg("--out").arg(out).output().unwrap()
 }
 
 const OWN: [&str; 10] =
@@ -465,4 +456,75 @@ fn a_negative_truth_is_taken_and_df_beside_ci_is_refused() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--df") && err.contains("--ci"), "{err}");
+}
+
+/// A method or group named like a spreadsheet formula (`=HYPERLINK(...)`,
+/// `@SUM(...)`) is written into simsum.csv as text a spreadsheet shows,
+/// with a leading `'` (OWASP's advice), while numbers keep their sign.
+#[test]
+fn names_that_a_spreadsheet_would_run_are_written_as_text() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("formula.csv");
+    let text = HAND
+        .replace("\nA,", "\n\"=HYPERLINK(\"\"http://x\"\")\",")
+        .replace("method,rep", "grp,method,rep")
+        .lines()
+        .enumerate()
+        .map(|(k, l)| if k == 0 { l.to_string() } else { format!("@SUM(A1),{l}") })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&file, text).unwrap();
+    let o =
+        simsum(&file, &["--by", "grp", "--true=-1", "--ci", "lower,upper", "--rep", "rep"], &tmp.path().join("out"));
+    assert_ok(&o);
+    let csv = std::fs::read_to_string(tmp.path().join("out/simsum.csv")).unwrap();
+    let mut rows = csv::Reader::from_reader(csv.as_bytes());
+    let mut methods = std::collections::BTreeSet::new();
+    for r in rows.records() {
+        let r = r.unwrap();
+        assert_eq!(&r[0], "'@SUM(A1)");
+        assert_eq!(&r[1], "-1", "a number keeps its sign");
+        methods.insert(r[3].to_string());
+    }
+    assert_eq!(methods.into_iter().collect::<Vec<_>>(), ["'=HYPERLINK(\"http://x\")", "B"]);
+}
+
+/// Numbers the measures cannot use are refused at their row and column,
+/// not scored: a negative SE, df of 0 or below, a lower limit above the
+/// upper (a negative width), an estimate whose square overflows. A method
+/// with a single usable replication has no empirical SE (NA, as R's `var`
+/// of one value), not 0.
+#[test]
+fn numbers_that_are_not_usable_are_refused_where_they_are() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ci = ["--true", "0", "--ci", "lower,upper", "--rep", "rep"];
+    let df = ["--true", "0", "--df", "df", "--rep", "rep"];
+    let cases = [
+        ("A,1,0.5,-0.3,0.2,0.8,5", &ci, ":2:4: ", "SE -0.3 is negative"),
+        ("A,1,0.5,0.3,0.2,0.8,0", &df, ":2:7: ", "df 0 is not positive"),
+        ("A,1,0.5,0.3,0.8,0.2,5", &ci, ":2:5: ", "lower limit 0.8 is above the upper limit 0.2"),
+        ("A,1,1e300,0.3,0.2,0.8,5", &ci, ":2:3: ", "would overflow"),
+    ];
+    for (k, (row, args, at, why)) in cases.iter().enumerate() {
+        let file = tmp.path().join(format!("bad{k}.csv"));
+        std::fs::write(&file, format!("method,rep,estimate,se,lower,upper,df\n{row}\nA,2,0.5,0.3,0.2,0.8,5\n"))
+            .unwrap();
+        let o = simsum(&file, &args[..], &tmp.path().join("o"));
+        crate::common::assert_refused(&o, why);
+        assert!(crate::common::stderr(&o).contains(at), "{at}: {}", crate::common::stderr(&o));
+    }
+    let file = tmp.path().join("one.csv");
+    std::fs::write(&file, "method,rep,estimate,se\nA,1,0.5,0.3\nA,2,NA,0.3\nB,1,0.4,0.3\nB,2,0.6,0.3\n").unwrap();
+    let o = simsum(&file, &["--true", "0", "--rep", "rep"], &tmp.path().join("one"));
+    assert_ok(&o);
+    let empse: Vec<(String, String)> = csv::Reader::from_path(tmp.path().join("one/simsum.csv"))
+        .unwrap()
+        .records()
+        .map(|r| r.unwrap())
+        .filter(|r| &r[3] == "empse")
+        .map(|r| (r[2].to_string(), r[4].to_string()))
+        .collect();
+    assert_eq!(empse[0], ("A".to_string(), "NA".to_string()));
+    assert_eq!(empse[1].0, "B");
+    assert!((empse[1].1.parse::<f64>().unwrap() - 0.02f64.sqrt()).abs() < 1e-15, "{empse:?}");
 }

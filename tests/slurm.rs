@@ -27,7 +27,7 @@ const HOSTILE_STUDY: &str = "x'; rm -rf ~; echo '$(touch pwned) `touch pwned2` $
 const HOSTILE_DIR: &str = "run $(touch pwned) x\"; y'z `touch pwned2`";
 
 pub(crate) fn crossaudit_in(cwd: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_crossaudit"));
+    let mut c = crate::common::bin();
     c.current_dir(cwd).args(args);
     for (k, v) in env {
         c.env(k, v);

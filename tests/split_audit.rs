@@ -4,7 +4,6 @@
 //! task-2 split against an independent Python reference.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use crate::common::{root, shared_logs};
 use crate::snapshots;
@@ -131,7 +130,7 @@ fn folds_are_roles_and_copies_inside_one_fold_do_not_leak() {
 fn a_shorter_minimum_run_finds_nothing_new_and_a_longer_one_drops_the_partial_copy() {
     let split = published::read(&fixture("nanobench_small.json")).unwrap();
     let run = |n| {
-        let o = split_audit::Options { min_run_rows: n, ..Default::default() };
+        let o = split_audit::AuditOptions { min_run_rows: n, ..Default::default() };
         split_audit::audit(&split, &DataSpec::upstream_task2(), "upstream", &fixture("data"), o).unwrap().shared_runs
     };
     assert_eq!(run(150).len(), 1);
@@ -140,7 +139,7 @@ fn a_shorter_minimum_run_finds_nothing_new_and_a_longer_one_drops_the_partial_co
 }
 
 fn cli(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap();
+    let out = crate::common::bin().current_dir(root()).args(args).output().unwrap();
     (
         out.status.code(),
         String::from_utf8_lossy(&out.stdout).into_owned(),

@@ -19,12 +19,12 @@ fn fixture(name: &str) -> PathBuf {
 
 fn audit_file(path: &Path, gap_s: f64) -> SplitAudit {
     let split = published::read(path).unwrap();
-    let options = split_audit::Options { gap_s, ..Default::default() };
+    let options = split_audit::AuditOptions { gap_s, ..Default::default() };
     split_audit::audit(&split, &DataSpec::upstream_task2(), "upstream", &fixture("data"), options).unwrap()
 }
 
 fn cli(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_crossaudit")).current_dir(root()).args(args).output().unwrap();
+    let out = crate::common::bin().current_dir(root()).args(args).output().unwrap();
     (
         out.status.code(),
         String::from_utf8_lossy(&out.stdout).into_owned(),

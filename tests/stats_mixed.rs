@@ -222,7 +222,7 @@ fn reml_on_deleted_cells(run: &str) {
     std::fs::write(&cells, kept.join("\n") + "\n").unwrap();
     let design = root().join(format!("designs/reanalysis/{run}_reml.design"));
     let out = dir.path().join("report");
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_crossaudit"))
+    let status = crate::common::bin()
         .args(["analyze", design.to_str().unwrap(), "--cells", cells.to_str().unwrap(), "--out"])
         .arg(&out)
         .output()

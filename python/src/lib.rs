@@ -187,7 +187,7 @@ fn audit_split(
         if !(gap.is_finite() && gap > 0.0) {
             return Err(CrossauditError::new_err(format!("gap {gap} is not a number of seconds above 0")));
         }
-        let options = crossaudit::split_audit::Options { min_run_rows: min_run, gap_s: gap };
+        let options = crossaudit::split_audit::AuditOptions { min_run_rows: min_run, gap_s: gap };
         let audit = crossaudit::split_audit::audit(&published, &spec, &from, &data, options).map_err(fail)?;
         let written = audit.write(&out).map_err(fail)?;
         Ok((written, audit.has_exact_leak(), audit.has_gap_violation()))

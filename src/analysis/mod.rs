@@ -255,14 +255,29 @@ fn analyze_units(ctx: &unit::Ctx, warnings: &mut Vec<String>) -> Result<Vec<Unit
         .collect();
     let mut units = Vec::new();
     for (unit, r) in all.iter().zip(per_unit) {
-        // A secondary endpoint whose arms cannot differ (every rollout
-        // diverged in both, or a baseline model that fits nothing) has no
-        // interval: it is left out with a warning, and the primary endpoint
-        // is still decided. A degenerate primary endpoint decides nothing:
-        // that is an error.
+        // A secondary endpoint the data cannot estimate (arms that cannot
+        // differ: every rollout diverged in both, or a baseline that fits
+        // nothing; a cell whose starts all diverged, so the metric is empty
+        // there; a reference arm whose mean is 0, so optimism is undefined;
+        // an array the estimator refuses) is not estimable: it is left out
+        // with its reason, and the primary endpoint is still decided. The
+        // primary endpoint not estimable decides nothing: that is an error.
+        let secondary = unit.role != crate::design::Role::Primary;
         let (u, w) = match r {
-            Err(AnalysisError::Degenerate { unit: label, detail }) if unit.role != crate::design::Role::Primary => {
+            Err(AnalysisError::Degenerate { unit: label, detail }) if secondary => {
                 warnings.push(format!("{label}: {detail}; this secondary endpoint is left out of the report"));
+                continue;
+            }
+            Err(
+                e @ (AnalysisError::EmptyMetric { .. }
+                | AnalysisError::ZeroReferenceMean { .. }
+                | AnalysisError::Stats { .. }),
+            ) if secondary => {
+                let label = unit.label();
+                let text = e.to_string();
+                let why = text.strip_prefix(&format!("{label}: ")).unwrap_or(&text);
+                warnings
+                    .push(format!("{label}: not estimable ({why}); this secondary endpoint is left out of the report"));
                 continue;
             }
             r => r?,

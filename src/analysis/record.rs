@@ -144,7 +144,7 @@ pub struct Treatment {
     /// Which evaluation conditions each arm's fit set covers (absent in
     /// folders written before coverage was measured).
     #[serde(default)]
-    pub coverage: Option<FitCoverage>,
+    pub coverage: Option<CoverageRecord>,
 }
 
 /// One arm's treatment strength in `audit/treatment.json`.
@@ -167,7 +167,7 @@ pub struct ArmStrength {
 /// Each arm's fit coverage of the evaluation conditions
 /// (`audit/treatment.json`'s `coverage`).
 #[derive(Debug, Clone, Deserialize)]
-pub struct FitCoverage {
+pub struct CoverageRecord {
     /// What a condition is: `trajectory` or `trajectory x speed`.
     pub condition: String,
     /// One row per evaluation recording.
@@ -185,7 +185,7 @@ pub struct FitRow {
     pub fit_recordings: BTreeMap<String, usize>,
 }
 
-impl FitCoverage {
+impl CoverageRecord {
     /// The evaluation recordings of whose condition `arm` fits on no other
     /// recording.
     pub fn uncovered(&self, arm: &str) -> impl Iterator<Item = &FitRow> {

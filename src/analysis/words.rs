@@ -31,12 +31,45 @@ pub fn f(v: f64, decimals: usize) -> String {
 /// percentage with two decimals, the mean and interval ends in the metric's unit;
 /// a slope's, per percentage point of dose, in scientific notation.
 fn condition_value(d: &Decision, q: crate::design::Quantity, v: f64) -> String {
+    condition_value_against(d, q, v, None)
+}
+
+/// [`condition_value`], with as many more digits as it takes for the
+/// printed value to lie on `threshold`'s side that `v` lies on (a bound of
+/// -0.00001 m against `upper < 0` is `-1.0000e-5 m`, not `0.0000 m`; an
+/// optimism of 9.999% against `>= 10%` is `9.999%`, not `10.00%`).
+fn condition_value_against(d: &Decision, q: crate::design::Quantity, v: f64, threshold: Option<f64>) -> String {
     let slope = d.optimism_unit != "%";
     let with_unit = |n: String, unit: &str| if unit.is_empty() { n } else { format!("{n} {unit}") };
+    let (mut digits, scientific) = match q {
+        crate::design::Quantity::Optimism => (if slope { 3 } else { 2 }, false),
+        _ if slope && v.is_finite() => (3, true),
+        _ => (4, false),
+    };
+    let show = |digits: usize| if scientific { format!("{v:.digits$e}") } else { f(v, digits) };
+    // The printed value's side of the threshold must be v's: more digits
+    // (scientific below 0.001 in magnitude) until it is, at most 12.
+    if let Some(t) = threshold.filter(|t| v.is_finite() && t.is_finite() && v != *t) {
+        let side = |s: &str| s.parse::<f64>().map(|x| (x - t).signum() * f64::from(u8::from(x != t)));
+        let want = (v - t).signum();
+        let mut sci = scientific;
+        while digits < 12 && side(&if sci { format!("{v:.digits$e}") } else { f(v, digits) }) != Ok(want) {
+            if !sci && v.abs() < 1e-3 {
+                sci = true;
+                digits = 4;
+            } else {
+                digits += 1;
+            }
+        }
+        let text = if sci { format!("{v:.digits$e}") } else { f(v, digits) };
+        return match q {
+            crate::design::Quantity::Optimism => format!("{text}{}", d.optimism_unit),
+            _ => with_unit(text, &d.value_unit),
+        };
+    }
     match q {
-        crate::design::Quantity::Optimism => format!("{}{}", f(v, if slope { 3 } else { 2 }), d.optimism_unit),
-        _ if slope && v.is_finite() => with_unit(format!("{v:.3e}"), &d.value_unit),
-        _ => with_unit(f(v, 4), &d.value_unit),
+        crate::design::Quantity::Optimism => format!("{}{}", show(digits), d.optimism_unit),
+        _ => with_unit(show(digits), &d.value_unit),
     }
 }
 
@@ -109,7 +142,7 @@ pub fn decision_summary(d: &Decision) -> String {
                 "{} ({} = {}: {})",
                 c.condition,
                 c.quantity.name(),
-                condition_value(d, c.quantity, c.value),
+                condition_value_against(d, c.quantity, c.value, Some(c.condition.value)),
                 if c.holds { "met" } else { "NOT met" }
             )
         })
@@ -189,5 +222,55 @@ pub(crate) fn sci(v: f64) -> String {
         "0".into()
     } else {
         format!("{v:.3e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decision_summary;
+    use crate::analysis::{ConditionOutcome, Decision};
+    use crate::design::{Cmp, DecisionCondition, DecisionRule, DecisionTarget, Quantity};
+
+    fn decision(conditions: &[(Quantity, Cmp, f64, f64)]) -> Decision {
+        let outcomes: Vec<ConditionOutcome> = conditions
+            .iter()
+            .map(|&(quantity, cmp, threshold, value)| {
+                let condition = DecisionCondition { quantity, cmp, value: threshold };
+                ConditionOutcome { holds: condition.holds(value), condition, quantity, value }
+            })
+            .collect();
+        Decision {
+            name: "confirmed".into(),
+            rule: DecisionRule {
+                name: "confirmed".into(),
+                on: DecisionTarget::Primary,
+                conditions: outcomes.iter().map(|c| c.condition).collect(),
+            },
+            unit: "world fa_position_rmse at 1 s".into(),
+            value_unit: "m".into(),
+            optimism_unit: "%".into(),
+            holds: outcomes.iter().all(|c| c.holds),
+            conditions: outcomes,
+            margins: Vec::new(),
+            unguarded: None,
+        }
+    }
+
+    /// Every number that decides is printed on its side of the threshold:
+    /// a micrometre bound against `upper < 0`, an optimism a thousandth
+    /// below 10%, where the default digits printed `0.0000 m`-like values
+    /// on the threshold itself.
+    #[test]
+    fn a_deciding_number_shows_its_side_of_the_threshold() {
+        let line = decision_summary(&decision(&[(Quantity::Upper, Cmp::Lt, 0.0, -0.00001)]));
+        assert!(line.contains("upper = -1.0000e-5 m: met"), "{line}");
+        let line = decision_summary(&decision(&[(Quantity::Optimism, Cmp::Ge, 10.0, 9.999)]));
+        assert!(line.contains("optimism = 9.999%: NOT met"), "{line}");
+        // Values that already show their side keep the usual digits.
+        let line = decision_summary(&decision(&[
+            (Quantity::Upper, Cmp::Lt, 0.0, -0.0323),
+            (Quantity::Optimism, Cmp::Ge, 10.0, 13.2862),
+        ]));
+        assert!(line.contains("upper = -0.0323 m: met") && line.contains("optimism = 13.29%: met"), "{line}");
     }
 }

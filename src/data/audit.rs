@@ -31,6 +31,7 @@ fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditEr
     let err = |e: std::io::Error| AuditError::Dir { dir: dir.display().to_string(), message: e.to_string() };
     let mut csvs = Vec::new();
     let mut metas = Vec::new();
+    let mut unread = Vec::new();
     for path in crate::io::walk::files_below(dir, nested).map_err(err)? {
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let log = super::is_log_name(&name) || name.ends_with("_metadata.yaml");
@@ -41,7 +42,12 @@ fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditEr
             csvs.push(path);
         } else if let Some(stem) = name.strip_suffix("_metadata.yaml") {
             metas.push(stem.to_string());
+        } else if let Some(why) = not_read(&name) {
+            unread.push(format!("{} ({why})", crate::io::walk::relative(dir, &path)));
         }
+    }
+    if !unread.is_empty() {
+        return Err(AuditError::NotRead { dir: dir.display().to_string(), files: unread });
     }
     csvs.sort_by_key(|p| (natural_key(&recording_name(p)), p.clone()));
     let names: Vec<String> = csvs.iter().map(|p| recording_name(p)).collect();
@@ -57,6 +63,26 @@ fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditEr
     let mut missing: Vec<String> = metas.into_iter().filter(|m| !names.contains(m)).collect();
     missing.sort_by_key(|n| natural_key(n));
     Ok((csvs, missing))
+}
+
+/// Why a file that looks like a flight log is not read as named: a log's
+/// suffix in other letters' case (`x.PARQUET`, `x.Csv`), or a compressed
+/// form only `.csv.gz` has (`x.parquet.gz`, `x.csv.zst`); `None` for any
+/// other file.
+fn not_read(name: &str) -> Option<&'static str> {
+    let lower = name.to_lowercase();
+    if super::is_log_name(&lower) {
+        return Some("a log's suffix is lower case");
+    }
+    let compressed = [".gz", ".bz2", ".xz", ".zst", ".zip", ".7z"];
+    let inner = compressed.iter().find_map(|z| lower.strip_suffix(z))?;
+    if inner.ends_with(".parquet") {
+        Some("a Parquet file compresses inside itself: decompress it to .parquet")
+    } else if inner.ends_with(".csv") {
+        Some("only gzip is read (.csv.gz): recompress it with gzip or decompress it to .csv")
+    } else {
+        None
+    }
 }
 
 /// Loads every recording in `dir` and applies the declared rules in order.
@@ -153,8 +179,15 @@ fn excluded_names_exist(spec: &DataSpec, dir: &Path, csvs: &[PathBuf]) -> Result
     for rule in &spec.rules {
         if let InclusionRule::Named { names } = rule {
             if let Some(n) = names.iter().find(|n| !csvs.iter().any(|p| recording_name(p) == **n)) {
+                let stem = recording_name(Path::new(n.as_str()));
+                let hint = if super::is_log_name(n) && csvs.iter().any(|p| recording_name(p) == stem) {
+                    format!("a recording is named by its file name without the suffix (.csv, .csv.gz or .parquet): write `{stem}`")
+                } else {
+                    "a recording is named by its log's file name without the suffix (.csv, .csv.gz or .parquet)"
+                        .to_string()
+                };
                 return Err(AuditError::Layout(format!(
-                    "`exclude recordings` names {n:?}, which is not a log in {}; list the recordings by their file names without `.csv`",
+                    "`exclude recordings` names {n:?}, which is not a recording in {}; {hint}",
                     dir.display()
                 )));
             }

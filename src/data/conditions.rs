@@ -69,7 +69,10 @@ pub fn read_table(
                 other => Ok(other.map(String::from)),
             }
         };
+        // A recording is named by its file name without the log's suffix; a
+        // table that lists the files (`f01.csv.gz`, `f01.parquet`) names them.
         let name = value(Some(rec), "recording")?.unwrap_or_default();
+        let name = if super::is_log_name(&name) { super::recording_name(Path::new(&name)) } else { name };
         let conditions = Conditions { trajectory: value(trajectory, "trajectory")?, speed: value(speed, "speed")? };
         if let Some((_, first)) = out.insert(name.clone(), (conditions, line)) {
             return Err(format!("{file}: line {line}: recording `{name}` is listed again (first on line {first})"));

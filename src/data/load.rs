@@ -70,7 +70,7 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
 /// missing values as NaN can have any.
 fn parse_log(path: &Path, file: &str, layout: &Layout) -> Result<(log::Log, Vec<cuts::Cut>), LogError> {
     let bytes = log::read_bytes(path)?;
-    let options = log::Options {
+    let options = log::ParseOptions {
         hash_rows: layout.row_hashes,
         missing_as_nan: layout.missing.is_some_and(|p| p != CutPolicy::Refuse),
     };

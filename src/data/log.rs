@@ -160,17 +160,17 @@ pub enum Schema {
 
 /// Parses and checks a whole log held in memory.
 pub fn parse(file: &str, bytes: &[u8], schema: &Schema) -> Result<Log, LogError> {
-    parse_with(file, bytes, schema, Options::default())
+    parse_with(file, bytes, schema, ParseOptions::default())
 }
 
 /// As [`parse`], and hashes every data row into [`Log::row_hashes`].
 pub fn parse_with_row_hashes(file: &str, bytes: &[u8], schema: &Schema) -> Result<Log, LogError> {
-    parse_with(file, bytes, schema, Options { hash_rows: true, ..Options::default() })
+    parse_with(file, bytes, schema, ParseOptions { hash_rows: true, ..ParseOptions::default() })
 }
 
 /// How a log is parsed beyond its schema.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Options {
+pub struct ParseOptions {
     /// Hash every data row into [`Log::row_hashes`].
     pub hash_rows: bool,
     /// An empty or non-finite (`NaN`, `inf`) field in a column read, other
@@ -180,8 +180,8 @@ pub struct Options {
     pub missing_as_nan: bool,
 }
 
-/// Parses and checks a whole log held in memory, with [`Options`].
-pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: Options) -> Result<Log, LogError> {
+/// Parses and checks a whole log held in memory, with [`ParseOptions`].
+pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: ParseOptions) -> Result<Log, LogError> {
     let hash_rows = options.hash_rows;
     // Lone `\r` line endings are read as lines (as pandas reads them), so
     // errors name the line an editor shows.
@@ -305,8 +305,29 @@ fn read_header(file: &str, bytes: &[u8]) -> Result<(usize, Vec<String>), LogErro
         return Err(LogError::LongLine { file: file.to_string(), line: 1, bytes: limit + 1, limit });
     }
     let header = String::from_utf8_lossy(&bytes[..header_end]);
-    let names = header.trim_end_matches('\r').split(',').map(|n| n.trim().trim_matches('"').to_string()).collect();
-    Ok((header_end, names))
+    Ok((header_end, header_names(header.trim_end_matches('\r'))))
+}
+
+/// A header line's names, CSV-quoted names read whole (`"a,b"` is one
+/// name, `""` a quote inside it), surrounding spaces trimmed.
+fn header_names(header: &str) -> Vec<String> {
+    let mut names = Vec::new();
+    let mut name = String::new();
+    let mut quoted = false;
+    let mut chars = header.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                name.push('"');
+                chars.next();
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => names.push(std::mem::take(&mut name).trim().to_string()),
+            _ => name.push(c),
+        }
+    }
+    names.push(name.trim().to_string());
+    names
 }
 
 /// A header as an error quotes it: its first names.
@@ -362,7 +383,7 @@ struct Tokenizer<'a> {
     time: Option<usize>,
     /// Whether columns not read are checked as numbers too (NanoBench).
     check_all: bool,
-    /// [`Options::missing_as_nan`].
+    /// [`ParseOptions::missing_as_nan`].
     missing_as_nan: bool,
     /// For each schema column, its positions in `columns`.
     slots: Vec<Vec<usize>>,

@@ -70,7 +70,7 @@ pub enum Statement {
     },
     Model {
         name: Ident,
-        kind: ModelKind,
+        kind: ModelSyntax,
     },
     Train(Vec<Spanned<TrainItem>>),
     Endpoint(EndpointStmt),
@@ -297,7 +297,7 @@ pub struct DistanceClause {
 }
 
 #[derive(Debug, Clone, PartialEq)]
-pub enum ModelKind {
+pub enum ModelSyntax {
     Mlp {
         widths: Vec<Int>,
         inputs: Spanned<String>,

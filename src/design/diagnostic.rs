@@ -133,6 +133,28 @@ fn floor_char_boundary(s: &str, mut k: usize) -> usize {
     k
 }
 
+/// `text` with each control character but a tab replaced by one visible
+/// character (its Unicode control picture, `␛` for ESC; `�` for the C1
+/// controls), so a quoted line keeps its columns and sends the terminal
+/// nothing.
+///
+/// ```
+/// # use crossaudit::design::diagnostic_visible as visible;
+/// assert_eq!(visible("a\u{1b}[2Jb\tc"), "a\u{241b}[2Jb\tc");
+/// assert_eq!(visible("x\u{7f}\u{9b}"), "x\u{2421}\u{fffd}");
+/// ```
+pub fn visible(text: &str) -> String {
+    text.chars()
+        .map(|c| match c {
+            '\t' => c,
+            '\u{0}'..='\u{1f}' => char::from_u32(0x2400 + c as u32).unwrap_or('\u{fffd}'),
+            '\u{7f}' => '\u{2421}',
+            '\u{80}'..='\u{9f}' => '\u{fffd}',
+            _ => c,
+        })
+        .collect()
+}
+
 fn render_one(out: &mut String, file: &str, source: &str, d: &Diagnostic, color: bool) {
     use fmt::Write as _;
     let paint = |code: &str, text: &str| {
@@ -148,14 +170,16 @@ fn render_one(out: &mut String, file: &str, source: &str, d: &Diagnostic, color:
     let _ = writeln!(out, "{}: {}", paint("1;31", "error"), paint("1", &d.title));
     let _ = writeln!(out, "{gutter}{} {file}:{}:{}", paint("1;34", "-->"), loc.line, loc.col);
     let _ = writeln!(out, "{gutter} {bar}");
-    let _ = writeln!(out, "{} {bar} {}", paint("1;34", &loc.line.to_string()), loc.text);
+    // The quoted line with its control characters shown, never sent: a
+    // raw ESC in a design must not drive the terminal.
+    let _ = writeln!(out, "{} {bar} {}", paint("1;34", &loc.line.to_string()), visible(&loc.text));
     // Keep tabs under tabs so the caret lines up however tabs are shown.
     let pad: String = loc.text.chars().take(loc.shown_col - 1).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
     let carets = "^".repeat(loc.end_col - loc.shown_col);
-    let _ = writeln!(out, "{gutter} {bar} {pad}{} {}", paint("1;31", &carets), paint("1;31", &d.label));
+    let _ = writeln!(out, "{gutter} {bar} {pad}{} {}", paint("1;31", &carets), paint("1;31", &visible(&d.label)));
     if let Some(help) = &d.help {
         let _ = writeln!(out, "{gutter} {bar}");
-        let _ = writeln!(out, "{gutter} = help: {help}");
+        let _ = writeln!(out, "{gutter} = help: {}", visible(help));
     }
     out.push('\n');
 }

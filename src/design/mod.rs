@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 pub use analysis_spec::*;
 pub use ast::{Ast, Cmp, Span};
 pub use data_spec::*;
-pub use diagnostic::{DesignError, Diagnostic};
+pub use diagnostic::{visible as diagnostic_visible, DesignError, Diagnostic};
 pub use lock::{LockFile, LockStatus};
 pub use model_spec::*;
 pub use multiverse::{Choice, ChoiceRole, Combine, Multiverse, Specification};

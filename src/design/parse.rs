@@ -234,7 +234,7 @@ fn arm_body(body: Pair<Rule>) -> Result<ArmBody, Diagnostic> {
     Ok(ArmBody::Derived { from, percents, exclude_starts, distance, seed })
 }
 
-fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
+fn model_kind(kind: Pair<Rule>) -> Result<ModelSyntax, Diagnostic> {
     if kind.as_rule() == Rule::external {
         let mut c = kids(kind);
         let inputs = c.next();
@@ -246,7 +246,7 @@ fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
                 _ => history = Some(int(kids(p).next())?),
             }
         }
-        return Ok(ModelKind::External { inputs, actions, history });
+        return Ok(ModelSyntax::External { inputs, actions, history });
     }
     if kind.as_rule() == Rule::linear {
         let mut c = kids(kind);
@@ -264,10 +264,10 @@ fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
                 }
             }
         }
-        return Ok(ModelKind::Linear { inputs, actions, ridge });
+        return Ok(ModelSyntax::Linear { inputs, actions, ridge });
     }
     if kind.as_rule() != Rule::mlp {
-        return Ok(ModelKind::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind))));
+        return Ok(ModelSyntax::Baseline(Spanned::new(kind.as_str().to_string(), span_of(&kind))));
     }
     let mut c = kids(kind);
     let widths = c.next().into_inner().map(int).collect::<Result<_, _>>()?;
@@ -281,7 +281,7 @@ fn model_kind(kind: Pair<Rule>) -> Result<ModelKind, Diagnostic> {
         }
     }
     let inputs = Spanned::new(inputs.as_str().to_string(), span_of(&inputs));
-    Ok(ModelKind::Mlp { widths, inputs, actions, restore })
+    Ok(ModelSyntax::Mlp { widths, inputs, actions, restore })
 }
 
 fn train_item(p: Pair<Rule>) -> Result<TrainItem, Diagnostic> {

@@ -12,8 +12,10 @@
 //! form (what a CSV export of a float32 column writes), integers as
 //! integers, a timestamp as seconds since the epoch (the time column is
 //! read in seconds), a missing value as an empty field, and text quoted
-//! where CSV needs it. Undeclared columns of any type are carried as text
-//! and never read as numbers, so they never refuse a file.
+//! where CSV needs it, a line break in it (or in a column's name) carried
+//! as a space, since a row is one line. Undeclared columns of any type are
+//! carried as text and never read as numbers, so they never refuse or
+//! exclude a file, whatever their names and values.
 
 use bytes::Bytes;
 use parquet::basic::{LogicalType, TimeUnit, TimestampType};
@@ -106,12 +108,15 @@ fn text(field: &Field, per_second: Option<f64>, out: &mut Vec<u8>) {
     };
 }
 
-/// `s` as one CSV field: quoted, with its quotes doubled, where it holds a
-/// comma, a quote or a line break.
+/// `s` as one CSV field on one line: a line break becomes a space (a log's
+/// row is one line, and a text column is never read as a number, so an
+/// undeclared note with a line break excludes nothing), and the field is
+/// quoted, with its quotes doubled, where it holds a comma or a quote.
 fn quoted(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
+    let s = s.replace(['\n', '\r'], " ");
+    if s.contains([',', '"']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
-        s.to_string()
+        s
     }
 }

@@ -166,3 +166,26 @@ pub fn md_code(s: &str) -> String {
     let fence = "`".repeat(longest + 1);
     format!("{fence} {clean} {fence}")
 }
+
+/// A text cell of a CSV file that people open in a spreadsheet, written so
+/// that the spreadsheet shows it as text: a cell that begins with `=`,
+/// `+`, `-`, `@`, a tab or a carriage return, and is not a number, gets a
+/// leading `'` (OWASP's advice against CSV injection), so that
+/// `=HYPERLINK(...)` is not a formula. Numbers (`-0.5`, `+3`) stay as
+/// they are.
+///
+/// ```
+/// use crossaudit::io::spreadsheet_text;
+/// assert_eq!(spreadsheet_text("=HYPERLINK(\"x\")"), "'=HYPERLINK(\"x\")");
+/// assert_eq!(spreadsheet_text("@SUM(A1)"), "'@SUM(A1)");
+/// assert_eq!(spreadsheet_text("-0.5"), "-0.5");
+/// assert_eq!(spreadsheet_text("mom_t"), "mom_t");
+/// ```
+pub fn spreadsheet_text(s: &str) -> Cow<'_, str> {
+    let risky = s.starts_with(['=', '+', '-', '@', '\t', '\r']);
+    if risky && s.trim().parse::<f64>().is_err() {
+        Cow::Owned(format!("'{s}"))
+    } else {
+        Cow::Borrowed(s)
+    }
+}

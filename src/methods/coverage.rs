@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::io::{create_dir_all, f64_text, write_atomic, WriteError};
 use crate::report::charts::DrawError;
-use crate::report::Table;
+use crate::report::MdTable;
 use crossaudit_stats::coverage::{
     measures, setting_seed, simulate_reps, Distribution, Missing, Performance, Setting, Simulated,
 };
@@ -494,7 +494,7 @@ pub fn to_markdown(spec: &CoverageSpec, rows: &[Performance]) -> String {
     ];
     let declared = spec.settings();
     for setting in settings {
-        let mut table = Table::new(&cols, "lrrrrrrrrrr");
+        let mut table = MdTable::new(&cols, "lrrrrrrrrrr");
         for r in rows.iter().filter(|r| spec.group(r) == setting) {
             // An MCSE needs 2 or more usable replications; fewer print none.
             let pm = |v: f64, m: f64, d: usize| {
@@ -551,7 +551,7 @@ pub fn write(out: &Path, spec: &CoverageSpec, rows: &[Performance]) -> Result<Ve
     write_atomic(&md, text.as_bytes())?;
     let svg = out.join("coverage.svg");
     let group = |r: &Performance| spec.group(r);
-    let layout = super::coverage_svg::Layout { group: &group, levels: spec.levels(), reps: spec.reps };
+    let layout = super::coverage_svg::PanelLayout { group: &group, levels: spec.levels(), reps: spec.reps };
     super::coverage_svg::draw(&svg, &layout, rows)?;
     Ok(vec![csv, md, svg])
 }

@@ -8,7 +8,7 @@ use crossaudit_stats::coverage::Performance;
 
 /// What the figure needs of a coverage spec: each row's setting group,
 /// the nominal levels and the replications per setting.
-pub struct Layout<'a> {
+pub struct PanelLayout<'a> {
     /// The setting group a row is plotted in.
     pub group: &'a dyn Fn(&Performance) -> String,
     /// The nominal levels.
@@ -34,7 +34,7 @@ pub struct Point {
 
 /// Coverage per setting and estimator of a coverage grid
 /// ([`draw_points`]).
-pub fn draw(path: &Path, spec: &Layout<'_>, rows: &[Performance]) -> Result<(), DrawError> {
+pub fn draw(path: &Path, spec: &PanelLayout<'_>, rows: &[Performance]) -> Result<(), DrawError> {
     let points: Vec<Point> = rows
         .iter()
         .map(|r| Point {

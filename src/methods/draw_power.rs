@@ -16,7 +16,7 @@ use crate::analysis::multiverse::{DrawReplication, MultiverseAnalysis};
 use crate::io::{create_dir_all, write_atomic};
 use crate::plan::Plan;
 use crate::report::charts::{draw_err, DrawError};
-use crate::report::Table;
+use crate::report::MdTable;
 use crossaudit_stats::critical_value;
 
 /// The REML variance components of d over recording x seed x draw, m^2.
@@ -284,7 +284,7 @@ impl DrawPowerPlan {
         ];
         for (title, per_seed) in [("Pooled over K draws", false), ("Per-seed draws (seed j uses draw j)", true)] {
             let _ = writeln!(s, "## {title}\n");
-            let mut table = Table::new(&cols, "lrrrrrrr");
+            let mut table = MdTable::new(&cols, "lrrrrrrr");
             for r in self.rows.iter().filter(|r| r.draws.is_none() == per_seed) {
                 table.row([
                     r.draws.map_or_else(|| "per seed".to_string(), |k| k.to_string()),

@@ -12,7 +12,7 @@ use crate::analysis::Analysis;
 use crate::io::{create_dir_all, write_atomic, WriteError};
 use crate::plan::{DoseAxis, Plan};
 use crate::report::charts::{draw_err, DrawError};
-use crate::report::Table;
+use crate::report::MdTable;
 use crossaudit_stats::{critical_value, StatsError};
 
 /// The most recordings or seeds the planner considers (a design declares
@@ -480,7 +480,7 @@ impl PowerPlan {
         let (se_h, width_h) =
             (format!("predicted SE ({})", self.value_unit), format!("interval width ({})", self.value_unit));
         let cols = ["recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)", "P with the SE known"];
-        let mut table = Table::new(&cols, "rrrrrr");
+        let mut table = MdTable::new(&cols, "rrrrrr");
         // A slope per dose point is small: three significant digits.
         let small = self.rows.iter().all(|r| r.width < 1e-2);
         let num = |v: f64| if small { format!("{v:.3e}") } else { format!("{v:.5}") };

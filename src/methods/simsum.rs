@@ -266,18 +266,49 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
         Some((l, u)) => Some((value(l, "lower limit")?, value(u, "upper limit")?)),
         None => None,
     };
+    // Values the measures cannot use: squared (MSE, SEs) they must stay
+    // finite; an SE is not negative, df are positive, an interval's lower
+    // limit is not above its upper.
+    let sized = |k: usize, what: &str, x: f64| -> Result<f64, SimsumFileError> {
+        if x.abs() > MAX_MAGNITUDE {
+            return Err(at(line, k + 1, format!("{what} {x:e} is beyond +-1e150: its square, which the measures and their Monte Carlo SEs use, would overflow; rescale the column")));
+        }
+        Ok(x)
+    };
+    let estimate = sized(loc.estimate, "estimate", value(loc.estimate, "estimate")?)?;
+    let se = sized(loc.se, "SE", value(loc.se, "SE")?)?;
+    if se < 0.0 {
+        return Err(at(line, loc.se + 1, format!("SE {se} is negative")));
+    }
+    if let (Some((l, u)), Some((lo, hi))) = (loc.ci, limits) {
+        sized(l, "lower limit", lo)?;
+        sized(u, "upper limit", hi)?;
+        if lo > hi {
+            return Err(at(line, l + 1, format!("lower limit {lo} is above the upper limit {hi}")));
+        }
+    }
+    let df = loc.df.map(|k| value(k, "df")).transpose()?;
+    if let (Some(k), Some(d)) = (loc.df, df) {
+        if d <= 0.0 {
+            return Err(at(line, k + 1, format!("df {d} is not positive")));
+        }
+    }
     Ok(Replication {
         by: loc.by.iter().map(|&k| field(k).to_string()).collect(),
         method: field(loc.method).to_string(),
         rep: loc.rep.map(|k| field(k).to_string()),
-        estimate: value(loc.estimate, "estimate")?,
-        se: value(loc.se, "SE")?,
+        estimate,
+        se,
         limits,
-        df: loc.df.map(|k| value(k, "df")).transpose()?,
+        df,
         truth,
         level,
     })
 }
+
+/// The largest magnitude of an estimate, SE or limit: its square stays
+/// far inside f64's range (1.8e308).
+const MAX_MAGNITUDE: f64 = 1e150;
 
 /// The measures written, in rsimsum's names and order, then crossaudit's.
 const STATS: [&str; 14] = [
@@ -331,7 +362,10 @@ fn num(x: f64) -> String {
 /// target MCSE, `reps_for_MEASURE_mcse_TARGET` (the replications needed).
 pub fn to_csv(groups: &[Group], by: &[String], targets: &[(String, f64)]) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
-    let mut head: Vec<String> = by.to_vec();
+    // The file's own text (by-column names and values, methods) as a
+    // spreadsheet shows text: never a formula.
+    let text = |s: &str| crate::io::spreadsheet_text(s).into_owned();
+    let mut head: Vec<String> = by.iter().map(|b| text(b)).collect();
     head.extend(["true", "level", "method", "stat", "est", "mcse"].map(String::from));
     let _ = w.write_record(&head);
     for g in groups {
@@ -354,8 +388,8 @@ pub fn to_csv(groups: &[Group], by: &[String], targets: &[(String, f64)]) -> Str
             }
             let rows = rows.into_iter().map(|(s, e, c)| (s.to_string(), e, c));
             for (s, e, c) in rows.chain(planned.into_iter().map(|(s, n)| (s, n, f64::NAN))) {
-                let mut rec = g.by.clone();
-                rec.extend([num(g.truth), num(g.level), m.method.clone(), s, num(e), num(c)]);
+                let mut rec: Vec<String> = g.by.iter().map(|b| text(b)).collect();
+                rec.extend([num(g.truth), num(g.level), text(&m.method), s, num(e), num(c)]);
                 let _ = w.write_record(&rec);
             }
         }

@@ -10,7 +10,7 @@ use serde::Serialize;
 use super::power::{check_counts, refuse_degenerate, rule_power, slope_name, unit_of, PowerError};
 use crate::io::{create_dir_all, write_atomic};
 use crate::plan::Plan;
-use crate::report::Table;
+use crate::report::MdTable;
 use crossaudit_stats::critical_value;
 
 /// One row of the multi-split planner.
@@ -125,7 +125,7 @@ impl SplitPowerPlan {
         let (se_h, width_h) =
             (format!("predicted SE ({})", self.value_unit), format!("interval width ({})", self.value_unit));
         let cols = ["splits S", "recordings I", "seeds J", &se_h, &width_h, "P(decision rule holds)"];
-        let mut table = Table::new(&cols, "rrrrrr");
+        let mut table = MdTable::new(&cols, "rrrrrr");
         for r in &self.rows {
             table.row([
                 r.splits.to_string(),

@@ -18,7 +18,7 @@ enum Node {
 }
 
 /// The form, roles and scalar notes of a split file.
-type Read = (Format, Vec<Role>, BTreeMap<String, String>);
+type Read = (Format, Vec<DeclaredRole>, BTreeMap<String, String>);
 
 pub(super) fn from_json(path: &str, text: &str) -> Result<Read, PublishedError> {
     if let Err(e) = serde_json::from_str::<serde_json::Value>(text) {
@@ -42,7 +42,7 @@ pub(super) fn from_json(path: &str, text: &str) -> Result<Read, PublishedError> 
                 match (key.strip_suffix("_files"), v) {
                     (Some(role), Node::Arr(items)) if !role.is_empty() => {
                         let entries = names(path, items, &format!("`{key}`"))?;
-                        roles.push(Role { name: role.to_string(), at: kat, entries });
+                        roles.push(DeclaredRole { name: role.to_string(), at: kat, entries });
                     }
                     (Some(""), _) => {
                         return Err(at(
@@ -133,14 +133,16 @@ fn no_duplicate_keys(path: &str, node: &Node) -> Result<(), PublishedError> {
     }
 }
 
-fn fold_roles(path: &str, folds: Vec<(Place, Node)>) -> Result<Vec<Role>, PublishedError> {
+fn fold_roles(path: &str, folds: Vec<(Place, Node)>) -> Result<Vec<DeclaredRole>, PublishedError> {
     folds
         .into_iter()
         .enumerate()
         .map(|(k, (place, fold))| match fold {
-            Node::Arr(items) => {
-                Ok(Role { name: format!("fold{k}"), at: place, entries: names(path, items, &format!("fold {k}"))? })
-            }
+            Node::Arr(items) => Ok(DeclaredRole {
+                name: format!("fold{k}"),
+                at: place,
+                entries: names(path, items, &format!("fold {k}"))?,
+            }),
             _ => Err(at(path, place, format!("fold {k} must be a list of recording names"))),
         })
         .collect()

@@ -39,7 +39,8 @@ use std::path::Path;
 use json::from_json;
 use types::at;
 pub use types::{
-    stem, Entry, Format, Place, PublishedError, PublishedSplit, Role, Window, MAX_ROLES, MAX_WINDOW_ROLES,
+    stem, DeclaredRole, DeclaredWindow, Entry, Format, Place, PublishedError, PublishedSplit, MAX_ROLES,
+    MAX_WINDOW_ROLES,
 };
 
 /// Reads a split file; the form is chosen by its extension (`.json` or
@@ -87,14 +88,14 @@ pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
         .filter(|r| r.contains('/') && crate::io::walk::is_log_name(r))
         .collect();
     let sha256 = crate::io::sha256_hex(listing.iter().map(|l| format!("{l}\n")).collect::<String>().as_bytes());
-    let mut roles: Vec<Role> = Vec::new();
+    let mut roles: Vec<DeclaredRole> = Vec::new();
     for (k, rel) in listing.iter().enumerate() {
         let at = Place { line: k + 1, column: 1 };
         let folder = rel.split('/').next().unwrap_or_default().to_string();
         let entry = Entry { name: stem(rel), listed: rel.clone(), at, window: None };
         match roles.iter_mut().find(|r| r.name == folder) {
             Some(r) => r.entries.push(entry),
-            None => roles.push(Role { name: folder, at, entries: vec![entry] }),
+            None => roles.push(DeclaredRole { name: folder, at, entries: vec![entry] }),
         }
     }
     let split = PublishedSplit { path: shown, sha256, format: Format::Folders, roles, notes: BTreeMap::new() };
@@ -125,7 +126,7 @@ fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
             format!("the split declares {} roles (or folds), more than the {cap} {why}", split.roles.len()),
         ));
     }
-    let mut named: BTreeMap<&str, &Role> = BTreeMap::new();
+    let mut named: BTreeMap<&str, &DeclaredRole> = BTreeMap::new();
     for role in &split.roles {
         if let Some(first) = named.insert(&role.name, role) {
             let (line, column) = (first.at.line, first.at.column);
@@ -151,7 +152,7 @@ fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
 
 /// A whole recording is in one role, once.
 fn check_recordings(split: &PublishedSplit) -> Result<(), PublishedError> {
-    let mut seen: BTreeMap<&str, (&Role, &Entry)> = BTreeMap::new();
+    let mut seen: BTreeMap<&str, (&DeclaredRole, &Entry)> = BTreeMap::new();
     for (role, e) in split.entries() {
         if let Some((r0, e0)) = seen.get(e.name.as_str()) {
             let how = if r0.name == role.name {
@@ -179,7 +180,7 @@ fn check_recordings(split: &PublishedSplit) -> Result<(), PublishedError> {
 fn check_windows(split: &PublishedSplit) -> Result<(), PublishedError> {
     let mut seen: BTreeMap<(&str, &str, u64, u64), Place> = BTreeMap::new();
     for (role, e) in split.entries() {
-        let w = e.window.unwrap_or(Window { start_s: 0.0, end_s: 0.0 });
+        let w = e.window.unwrap_or(DeclaredWindow { start_s: 0.0, end_s: 0.0 });
         let key = (e.name.as_str(), role.name.as_str(), w.start_s.to_bits(), w.end_s.to_bits());
         if let Some(first) = seen.insert(key, e.at) {
             return Err(at(
@@ -207,7 +208,7 @@ struct Columns {
     window: Option<(usize, usize)>,
 }
 
-fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedError> {
+fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<DeclaredRole>), PublishedError> {
     // Lines are counted here: the csv crate's count is one short after
     // each `\r\n`, the line ending Python's csv module writes.
     let lines = crate::io::LineIndex::new(text.as_bytes());
@@ -219,7 +220,7 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
         .map(|h| h.trim().to_string())
         .collect::<Vec<_>>();
     let cols = csv_columns(path, text, &header)?;
-    let mut roles: Vec<Role> = Vec::new();
+    let mut roles: Vec<DeclaredRole> = Vec::new();
     // Role name -> index in `roles`, so a long file reads in linear time.
     let mut index: BTreeMap<String, usize> = BTreeMap::new();
     for row in reader.records() {
@@ -255,7 +256,7 @@ fn from_csv(path: &str, text: &str) -> Result<(Format, Vec<Role>), PublishedErro
             Some(&k) => roles[k].entries.push(entry),
             None => {
                 index.insert(role.clone(), roles.len());
-                roles.push(Role { name: role, at: place(cols.key), entries: vec![entry] });
+                roles.push(DeclaredRole { name: role, at: place(cols.key), entries: vec![entry] });
             }
         }
     }
@@ -326,7 +327,7 @@ fn window_of(
     row: &csv::StringRecord,
     (s, s_at): (usize, Place),
     (e, e_at): (usize, Place),
-) -> Result<Window, PublishedError> {
+) -> Result<DeclaredWindow, PublishedError> {
     let number = |k: usize, place: Place, name: &str| -> Result<f64, PublishedError> {
         let v = row.get(k).unwrap_or("").trim();
         match v.parse::<f64>() {
@@ -339,7 +340,7 @@ fn window_of(
     if end_s <= start_s {
         return Err(at(path, e_at, format!("the window ends at {end_s} s, not after its start at {start_s} s")));
     }
-    Ok(Window { start_s, end_s })
+    Ok(DeclaredWindow { start_s, end_s })
 }
 
 fn csv_error(path: &str, lines: &crate::io::LineIndex, e: &csv::Error) -> PublishedError {

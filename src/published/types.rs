@@ -64,7 +64,7 @@ impl fmt::Display for Place {
 /// A stretch `[start_s, end_s)` of one recording, in seconds from its
 /// first timestamp.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Window {
+pub struct DeclaredWindow {
     /// Start, seconds (at least 0).
     pub start_s: f64,
     /// End, seconds (after the start).
@@ -82,12 +82,12 @@ pub struct Entry {
     pub at: Place,
     /// The window it declares, in a per-window split; `None` for the whole
     /// recording.
-    pub window: Option<Window>,
+    pub window: Option<DeclaredWindow>,
 }
 
 /// A role and the recordings declared in it, in file order.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Role {
+pub struct DeclaredRole {
     /// Role name, e.g. `test`.
     pub name: String,
     /// Where the role was first named.
@@ -106,7 +106,7 @@ pub struct PublishedSplit {
     /// The form it was read as.
     pub format: Format,
     /// Roles in the order the file first names them.
-    pub roles: Vec<Role>,
+    pub roles: Vec<DeclaredRole>,
     /// Scalar keys of a NanoBench JSON (e.g. `seed`), as written.
     pub notes: BTreeMap<String, String>,
 }
@@ -138,17 +138,17 @@ pub enum PublishedError {
 
 impl PublishedSplit {
     /// The role a recording is declared in, if any.
-    pub fn role_of(&self, name: &str) -> Option<&Role> {
+    pub fn role_of(&self, name: &str) -> Option<&DeclaredRole> {
         self.roles.iter().find(|r| r.entries.iter().any(|e| e.name == name))
     }
 
     /// The role called `name`.
-    pub fn role(&self, name: &str) -> Option<&Role> {
+    pub fn role(&self, name: &str) -> Option<&DeclaredRole> {
         self.roles.iter().find(|r| r.name == name)
     }
 
     /// Every declared entry with its role, in file order of the roles.
-    pub fn entries(&self) -> impl Iterator<Item = (&Role, &Entry)> {
+    pub fn entries(&self) -> impl Iterator<Item = (&DeclaredRole, &Entry)> {
         self.roles.iter().flat_map(|r| r.entries.iter().map(move |e| (r, e)))
     }
 

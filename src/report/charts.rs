@@ -287,7 +287,7 @@ mod tests {
         {
             let points = plotters::coord::types::RangedCoordf64::from(lo..hi).key_points(super::LABELS);
             let f = ticks(lo, hi);
-            let labels: Vec<String> = points.iter().map(|p| f(p)).collect();
+            let labels: Vec<String> = points.iter().map(&f).collect();
             assert!(labels.len() >= 3, "{lo}..{hi}: {labels:?}");
             assert!(labels.windows(2).all(|w| w[0] != w[1]), "{lo}..{hi}: {labels:?}");
         }

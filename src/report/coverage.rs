@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::format::{f, fieller_cell, level_pct};
-use super::{md_text, Table};
+use super::{md_text, MdTable};
 use crate::analysis::coverage::ConditionCoverage;
 use crate::analysis::Analysis;
 
@@ -22,7 +22,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
     );
     let (ci, oci) = (format!("{level} CI"), format!("optimism {level} CI"));
     let unit = super::format::unit_label(&a.decision.value_unit).to_string();
-    let mut t = Table::new(&["recordings", "n", "unit", "d mean", &ci, "optimism %", &oci, "rule"], "lrlrlrll");
+    let mut t = MdTable::new(&["recordings", "n", "unit", "d mean", &ci, "optimism %", &oci, "rule"], "lrlrlrll");
     let e = &u.estimate;
     t.row([
         "all".to_string(),
@@ -48,7 +48,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         ]);
     }
     let _ = writeln!(s, "{}", t.render());
-    let mut list = Table::new(&["uncovered recording", "condition", "draws uncovered"], "llr");
+    let mut list = MdTable::new(&["uncovered recording", "condition", "draws uncovered"], "llr");
     for r in &c.uncovered {
         list.row([md_text(&r.recording), md_text(&r.condition), format!("{} of {}", r.draws, c.draws)]);
     }

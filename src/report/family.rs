@@ -14,7 +14,7 @@ use plotters::prelude::{BLACK, RED};
 use super::charts::{dose_response, intervals, DoseRow, DrawError, IntervalRow};
 use super::figures::Figure;
 use super::format::{decision_summary, df, f, level_pct, sci};
-use super::{ReportError, Table};
+use super::{MdTable, ReportError};
 use crate::analysis::family::{dose_name, dose_value, FamilyAnalysis, Pooled, PooledEstimate};
 use crate::design::DoseAxis;
 use crate::io::{create_dir_all, pretty_json, write_atomic};
@@ -101,7 +101,7 @@ fn per_dose_section(a: &FamilyAnalysis, unit: &str) -> String {
         "Each row is the crossed analysis of one contrast (its treated arm against the shared reference arm) over that split's recording x seed matrix, {level} intervals of the design's estimator. Optimism = 100 (mean reference - mean treated) / mean reference.\n"
     );
     let (mr, mt, d_h, se_h, iv_h) = (u("mean ref"), u("mean treated"), u("d"), u("SE"), u("interval"));
-    let mut t = Table::new(
+    let mut t = MdTable::new(
         &["split", "dose", "arm", &mr, &mt, &d_h, &se_h, "df", &iv_h, "optimism %", "excludes 0"],
         "llrrrrrrrrl",
     );
@@ -140,7 +140,7 @@ fn secondary_section(a: &FamilyAnalysis) -> String {
         "Descriptive: each secondary endpoint the design declares, as the per-dose table (its treated arm against the shared reference arm over that split's recording x seed matrix, {} intervals). No rule reads them; the trend and the pooled fit are the primary endpoint's.\n",
         level_pct(a.level)
     );
-    let mut t = Table::new(
+    let mut t = MdTable::new(
         &[
             "split",
             "dose",
@@ -209,7 +209,7 @@ fn trend_section(a: &FamilyAnalysis, per_dose: &str) -> String {
     let upp = |h: &str| format!("{h} ({per_dose})");
     let (sl, se_h, iv_h) = (upp("slope"), upp("SE"), upp("interval"));
     let (os, oi) = (format!("optimism slope ({opt})"), format!("optimism interval ({opt})"));
-    let mut t = Table::new(&["split", &sl, &se_h, "df", &iv_h, &os, &oi, smallest, step], "lrrrrrrrr");
+    let mut t = MdTable::new(&["split", &sl, &se_h, "df", &iv_h, &os, &oi, smallest, step], "lrrrrrrrr");
     for sp in &a.splits {
         if let Some(tr) = &sp.trend {
             let e = &tr.slope;
@@ -247,7 +247,7 @@ fn pooled_section(a: &FamilyAnalysis, p: &Pooled, (unit, per_dose): (&str, &str)
             n - 1
         );
     }
-    let mut t = Table::new(
+    let mut t = MdTable::new(
         &[
             "estimate",
             "unit",
@@ -298,7 +298,7 @@ fn pooled_section(a: &FamilyAnalysis, p: &Pooled, (unit, per_dose): (&str, &str)
 }
 
 /// One pooled estimate's row, in `unit`.
-fn pooled_row(t: &mut Table, e: &PooledEstimate, unit: &str) {
+fn pooled_row(t: &mut MdTable, e: &PooledEstimate, unit: &str) {
     let slope = e.label == "slope";
     let num = |v: f64| if slope { sci(v) } else { f(v, 4) };
     let digits = if slope { 3 } else { 1 };

@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 
 use super::format::{f, level_pct};
-use super::Table;
+use super::MdTable;
 use crate::analysis::Analysis;
 
 /// A unit's diverged starts held by few recordings, as a list item.
@@ -55,7 +55,7 @@ pub(super) fn section(a: &Analysis, s: &mut String) {
         "SD recording x seed",
         "optimizer",
     ];
-    let mut table = Table::new(&cols, "lllrrrlrrrrrl");
+    let mut table = MdTable::new(&cols, "lllrrrlrrrrrl");
     let few: Vec<String> = units.iter().filter_map(|(u, g)| concentrated(u, g)).collect();
     for (u, g) in units {
         let head = format!("{} | {} | {} s", u.model, u.metric.name(), u.horizon_s);

@@ -1,10 +1,10 @@
 //! report.md: the decision first, then one section per analysis, each a
-//! [`Table`].
+//! [`MdTable`].
 
 use std::fmt::Write as _;
 
 use super::format::{df, f, level_pct, sci};
-use super::Table;
+use super::MdTable;
 use crate::analysis::{Analysis, UnitResult};
 use crate::design::{Factor, Role};
 use crossaudit_stats::{BootstrapInterval, CrossedEstimate};
@@ -39,7 +39,7 @@ fn squared(m: crate::design::Metric) -> String {
 }
 
 /// A `## title` section: heading, optional note, table, blank line.
-fn section(s: &mut String, title: &str, note: &str, table: &Table) {
+fn section(s: &mut String, title: &str, note: &str, table: &MdTable) {
     let _ = writeln!(s, "## {title}\n");
     if !note.is_empty() {
         let _ = writeln!(s, "{note}\n");
@@ -115,7 +115,7 @@ fn reml(a: &Analysis) -> bool {
     a.units.first().is_some_and(|u| u.estimate.reml.is_some())
 }
 
-fn endpoints(a: &Analysis, level: &str) -> Table {
+fn endpoints(a: &Analysis, level: &str) -> MdTable {
     let (t, r) = (format!("{} mean", a.treated), format!("{} mean", a.reference));
     let (ci_h, boot_h) = (format!("{level} CI"), format!("bootstrap {level} CI"));
     let opt_h = format!("optimism {level} CI");
@@ -136,7 +136,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
         &boot_h,
         "rule",
     ];
-    let mut table = Table::new(&cols, "lllllrrrlrrrlll");
+    let mut table = MdTable::new(&cols, "lllllrrrlrrrlll");
     for u in &a.units {
         let e = &u.estimate;
         table.row([
@@ -166,7 +166,7 @@ fn endpoints(a: &Analysis, level: &str) -> Table {
 pub(super) const TREATMENT_NOTE: &str = "How strong the treatment is: each arm's windows drawn from the evaluation recordings, how many start inside a segment that is evaluated (a rollout start to its horizon, same recording), how far they sit from the nearest rollout start, and the quartiles of their distance to the nearest evaluated segment (0: sharing a row with one; what `at least G s from segments` bounds).";
 
 /// One row per treated arm: its treatment strength.
-pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
+pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> MdTable {
     let cols = [
         "arm",
         "windows from evaluation recordings",
@@ -176,7 +176,7 @@ pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
         "median distance to a start (s)",
         "distance to a segment, quartiles (s)",
     ];
-    let mut table = Table::new(&cols, "lrrrrrr");
+    let mut table = MdTable::new(&cols, "lrrrrrr");
     for t in rows {
         let share = if t.contaminating_windows == 0 {
             f64::NAN
@@ -199,7 +199,7 @@ pub(super) fn treatment(rows: &[crate::analysis::TreatmentStrength]) -> Table {
     table
 }
 
-fn components(a: &Analysis) -> Table {
+fn components(a: &Analysis) -> MdTable {
     let cols = [
         "model",
         "metric",
@@ -215,7 +215,7 @@ fn components(a: &Analysis) -> Table {
         "share seed %",
         "share res %",
     ];
-    let mut table = Table::new(&cols, "llllrrrrrrrrr");
+    let mut table = MdTable::new(&cols, "llllrrrrrrrrr");
     for u in &a.units {
         let e = &u.estimate;
         let c = &e.components;
@@ -238,10 +238,10 @@ fn components(a: &Analysis) -> Table {
     table
 }
 
-fn interactions(a: &Analysis, level: &str) -> Table {
+fn interactions(a: &Analysis, level: &str) -> MdTable {
     let (ci_h, boot_h) = (format!("{level} CI"), format!("bootstrap {level} CI"));
     let cols = ["contrast", "metric", "horizon", "unit", "delta mean", "SE", "df", &ci_h, &boot_h];
-    let mut table = Table::new(&cols, "llllrrrll");
+    let mut table = MdTable::new(&cols, "llllrrrll");
     for ix in &a.interactions {
         let e = &ix.estimate;
         table.row([
@@ -259,10 +259,10 @@ fn interactions(a: &Analysis, level: &str) -> Table {
     table
 }
 
-fn grouped(a: &Analysis, level: &str) -> Table {
+fn grouped(a: &Analysis, level: &str) -> MdTable {
     let ci_h = format!("{level} CI");
     let cols = ["model", "metric", "horizon", "unit", "groups", "d mean", "SE", "df", &ci_h];
-    let mut table = Table::new(&cols, "llllrrrrl");
+    let mut table = MdTable::new(&cols, "llllrrrrl");
     for u in &a.units {
         if let Some(g) = &u.grouped {
             let e = &g.estimate;
@@ -279,7 +279,7 @@ fn grouped(a: &Analysis, level: &str) -> Table {
     table
 }
 
-fn leave_one_out(a: &Analysis) -> Table {
+fn leave_one_out(a: &Analysis) -> MdTable {
     let cols = [
         "model",
         "metric",
@@ -292,7 +292,7 @@ fn leave_one_out(a: &Analysis) -> Table {
         "optimism % range",
         "rule holds",
     ];
-    let mut table = Table::new(&cols, "lllllrlllr");
+    let mut table = MdTable::new(&cols, "lllllrlllr");
     let range = |lo: f64, hi: f64, d: usize| format!("[{}, {}]", f(lo, d), f(hi, d));
     for u in &a.units {
         for l in &u.leave_one_out {
@@ -314,8 +314,8 @@ fn leave_one_out(a: &Analysis) -> Table {
     table
 }
 
-fn per_seed(a: &Analysis) -> Table {
-    let mut table = Table::new(&["model", "metric", "horizon", "min %", "max %", "seeds below 0"], "lllrrr");
+fn per_seed(a: &Analysis) -> MdTable {
+    let mut table = MdTable::new(&["model", "metric", "horizon", "min %", "max %", "seeds below 0"], "lllrrr");
     for u in &a.units {
         let v: Vec<f64> = u.per_seed_optimism.iter().map(|p| p.optimism_pct).collect();
         let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -325,9 +325,9 @@ fn per_seed(a: &Analysis) -> Table {
     table
 }
 
-fn per_trajectory(a: &Analysis) -> Table {
+fn per_trajectory(a: &Analysis) -> MdTable {
     let cols = ["model", "metric", "horizon", "unit", "trajectory", "recordings", "mean d"];
-    let mut table = Table::new(&cols, "lllllrr");
+    let mut table = MdTable::new(&cols, "lllllrr");
     for u in &a.units {
         for t in &u.per_trajectory {
             table.row([
@@ -341,7 +341,7 @@ fn per_trajectory(a: &Analysis) -> Table {
     table
 }
 
-fn conditional(a: &Analysis, level: &str) -> Table {
+fn conditional(a: &Analysis, level: &str) -> MdTable {
     let (t, r) = (&a.treated, &a.reference);
     let (rt, rr, dt, dr, ci_h) = (
         format!("cond. RMSE {t} (m)"),
@@ -355,7 +355,7 @@ fn conditional(a: &Analysis, level: &str) -> Table {
     if dropped {
         cols.push("pairs dropped");
     }
-    let mut table = Table::new(&cols, if dropped { "lllrrrrrlr" } else { "lllrrrrrl" });
+    let mut table = MdTable::new(&cols, if dropped { "lllrrrrrlr" } else { "lllrrrrrl" });
     for u in &a.units {
         let c = &u.conditional;
         let opt = |v: Option<f64>| v.map(|x| f(x, 4)).unwrap_or_else(|| "NA".into());
@@ -397,10 +397,10 @@ fn undefined_because(method: crossaudit_stats::IntervalMethod) -> &'static str {
     }
 }
 
-fn compared(a: &Analysis, level: &str) -> Table {
+fn compared(a: &Analysis, level: &str) -> MdTable {
     let ci_h = format!("{level} CI");
     let cols = ["model", "metric", "horizon", "unit", "method", "estimate", "SE", "df", &ci_h, "excludes 0"];
-    let mut table = Table::new(&cols, "lllllrrrll");
+    let mut table = MdTable::new(&cols, "lllllrrrll");
     for u in &a.units {
         for iv in u.intervals.iter().flatten() {
             if iv.lower.is_nan() || iv.upper.is_nan() {

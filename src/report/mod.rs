@@ -33,7 +33,7 @@ pub use format::{decision_line, decision_summary, f, level_pct, unit_label};
 pub use html::render_html;
 pub use markdown::render_markdown;
 pub use study::{study_decision_line, study_guards, study_table, write_study};
-pub use table::Table;
+pub use table::MdTable;
 pub use tex::render_tex;
 
 /// Why a report could not be written.

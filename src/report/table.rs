@@ -5,23 +5,23 @@ use std::fmt::Write as _;
 /// A Markdown (GitHub) table.
 ///
 /// ```
-/// let mut t = crossaudit::report::Table::new(&["model", "mean"], "lr");
+/// let mut t = crossaudit::report::MdTable::new(&["model", "mean"], "lr");
 /// t.row(["world".to_string(), "0.1".to_string()]);
 /// assert_eq!(t.render(), "| model | mean |\n|---|---:|\n| world | 0.1 |\n");
 /// ```
 #[derive(Debug, Clone)]
-pub struct Table {
+pub struct MdTable {
     header: String,
     rule: String,
     rows: Vec<String>,
 }
 
-impl Table {
+impl MdTable {
     /// A table with these column names; `align` has one letter per column,
     /// `l` (left) or `r` (right).
-    pub fn new(columns: &[&str], align: &str) -> Table {
+    pub fn new(columns: &[&str], align: &str) -> MdTable {
         let rule: String = align.chars().map(|a| if a == 'r' { "---:|" } else { "---|" }).collect();
-        Table { header: format!("| {} |", columns.join(" | ")), rule: format!("|{rule}"), rows: Vec::new() }
+        MdTable { header: format!("| {} |", columns.join(" | ")), rule: format!("|{rule}"), rows: Vec::new() }
     }
 
     /// Appends a row; a cell may itself hold `a | b` to fill several columns.

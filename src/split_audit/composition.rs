@@ -3,7 +3,7 @@
 
 use std::collections::BTreeSet;
 
-use super::rows::{Composition, Effect, RecordingRow};
+use super::rows::{Effect, RecordingRow, RoleComposition};
 
 /// Total-variation distance between two count vectors' shares.
 fn tv_distance(a: &[usize], b: &[usize]) -> f64 {
@@ -14,7 +14,7 @@ fn tv_distance(a: &[usize], b: &[usize]) -> f64 {
     0.5 * a.iter().zip(b).map(|(&x, &y)| (x as f64 / na - y as f64 / nb).abs()).sum::<f64>()
 }
 
-pub(super) fn composition(roles: &[String], rows: &[RecordingRow]) -> Composition {
+pub(super) fn composition(roles: &[String], rows: &[RecordingRow]) -> RoleComposition {
     let kept = || rows.iter().filter(|r| !r.role.is_empty() && r.effect == Effect::Kept);
     let cells: Vec<(String, String)> =
         kept().map(|r| (r.trajectory.clone(), r.speed.clone())).collect::<BTreeSet<_>>().into_iter().collect();
@@ -34,5 +34,5 @@ pub(super) fn composition(roles: &[String], rows: &[RecordingRow]) -> Compositio
             pairwise.push((a.clone(), b.clone(), tv_distance(ca, cb)));
         }
     }
-    Composition { cells, counts, distance_from_rest, pairwise }
+    RoleComposition { cells, counts, distance_from_rest, pairwise }
 }

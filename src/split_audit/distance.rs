@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::rows::{Effect, RecordingRow};
-use crate::published::{PublishedSplit, Window};
+use crate::published::{DeclaredWindow, PublishedSplit};
 
 /// The gap checked when none is declared: 1 s.
 pub const DEFAULT_GAP_S: f64 = 1.0;
@@ -44,20 +44,20 @@ pub struct PairDistance {
 
 /// One window's nearest window in another role.
 #[derive(Debug, Clone, Serialize)]
-pub struct WindowDistance {
+pub struct RoleWindowDistance {
     /// Its role.
     pub role: String,
     /// Its recording.
     pub recording: String,
     /// The window, seconds from the recording's first timestamp.
-    pub window: Window,
+    pub window: DeclaredWindow,
     /// Its line in the split file.
     pub line: usize,
     /// The other role.
     pub other: String,
     /// The nearest window of `other`: its recording (itself, or a
     /// byte-identical copy), the window, and its line.
-    pub nearest: (String, Window, usize),
+    pub nearest: (String, DeclaredWindow, usize),
     /// Seconds between them (0 where they touch or overlap).
     pub distance_s: f64,
     /// Whether they share rows.
@@ -72,7 +72,7 @@ struct Placed<'a> {
     role: &'a str,
     recording: &'a str,
     content: &'a str,
-    window: Window,
+    window: DeclaredWindow,
     line: usize,
     past_end: bool,
 }
@@ -80,7 +80,7 @@ struct Placed<'a> {
 /// What [`distances`] finds.
 pub(super) struct Found {
     pub pairs: Vec<PairDistance>,
-    pub windows: Vec<WindowDistance>,
+    pub windows: Vec<RoleWindowDistance>,
     /// Per role, its windows that end past their recording's last timestamp.
     pub past_end: BTreeMap<String, usize>,
 }
@@ -97,7 +97,7 @@ pub(super) fn distances(split: &PublishedSplit, rows: &[RecordingRow], gap_s: f6
         .entries()
         .filter_map(|(role, e)| {
             let r = kept.get(&(role.name.as_str(), e.name.as_str()))?;
-            let window = e.window.unwrap_or(Window { start_s: 0.0, end_s: r.duration_s });
+            let window = e.window.unwrap_or(DeclaredWindow { start_s: 0.0, end_s: r.duration_s });
             let step = if r.rows > 1 { r.duration_s / (r.rows - 1) as f64 } else { 0.0 };
             let past_end = window.end_s > r.duration_s + step + 1e-9;
             Some(Placed {
@@ -125,7 +125,7 @@ pub(super) fn distances(split: &PublishedSplit, rows: &[RecordingRow], gap_s: f6
                 let Some((b, distance_s, overlaps)) = index.nearest(p.content, p.window) else { continue };
                 found.push(distance_s);
                 overlapping += usize::from(overlaps);
-                each.push(WindowDistance {
+                each.push(RoleWindowDistance {
                     role: role.name.clone(),
                     recording: p.recording.to_string(),
                     window: p.window,
@@ -198,7 +198,7 @@ impl<'a> Index<'a> {
 
     /// The nearest window of the same content to `w`, its distance, and
     /// whether they overlap; `None` where no window shares the content.
-    fn nearest(&self, content: &str, w: Window) -> Option<(&'a Placed<'a>, f64, bool)> {
+    fn nearest(&self, content: &str, w: DeclaredWindow) -> Option<(&'a Placed<'a>, f64, bool)> {
         let s = self.by_content.get(content)?;
         // Windows before `j` start before `w` ends.
         let j = s.windows.partition_point(|b| b.window.start_s < w.end_s);

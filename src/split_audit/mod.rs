@@ -38,15 +38,15 @@ use serde::Serialize;
 use crate::data::{self, AuditError, FileRow, Status};
 use crate::design::DataSpec;
 use crate::published::{Format, PublishedSplit};
-pub use distance::{PairDistance, WindowDistance, DEFAULT_GAP_S};
-pub use rows::{Composition, Effect, Presence, RecordingRow};
+pub use distance::{PairDistance, RoleWindowDistance, DEFAULT_GAP_S};
+pub use rows::{Effect, Presence, RecordingRow, RoleComposition};
 
 /// Shared runs shorter than this many rows (1 s at 100 Hz) are not reported.
 pub const DEFAULT_MIN_RUN_ROWS: usize = 100;
 
 /// Knobs of the audit.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Options {
+pub struct AuditOptions {
     /// The shortest run of identical rows reported as near-leakage.
     pub min_run_rows: usize,
     /// The declared gap, seconds: a window whose nearest window of another
@@ -54,9 +54,9 @@ pub struct Options {
     pub gap_s: f64,
 }
 
-impl Default for Options {
-    fn default() -> Options {
-        Options { min_run_rows: DEFAULT_MIN_RUN_ROWS, gap_s: DEFAULT_GAP_S }
+impl Default for AuditOptions {
+    fn default() -> AuditOptions {
+        AuditOptions { min_run_rows: DEFAULT_MIN_RUN_ROWS, gap_s: DEFAULT_GAP_S }
     }
 }
 
@@ -148,7 +148,7 @@ pub struct SplitAudit {
     /// The inclusion rules applied, in order.
     pub rules: Vec<String>,
     /// The knobs.
-    pub options: Options,
+    pub options: AuditOptions,
     /// Roles in file order.
     pub roles: Vec<RoleSummary>,
     /// Every ordered pair of distinct roles.
@@ -158,7 +158,7 @@ pub struct SplitAudit {
     /// Shared runs across roles, longest first.
     pub shared_runs: Vec<SharedRun>,
     /// Composition of the kept recordings.
-    pub composition: Composition,
+    pub composition: RoleComposition,
     /// Whether the split assigns windows rather than whole recordings.
     pub windowed: bool,
     /// Distance in time, every ordered pair of distinct roles.
@@ -166,7 +166,7 @@ pub struct SplitAudit {
     /// Each window's nearest window in each other role where they share a
     /// recording (split_windows.csv; not in the JSON).
     #[serde(skip)]
-    pub windows: Vec<WindowDistance>,
+    pub windows: Vec<RoleWindowDistance>,
     /// Every declared entry, then every unlisted recording.
     pub recordings: Vec<RecordingRow>,
 }
@@ -229,7 +229,7 @@ pub fn audit(
     spec: &DataSpec,
     rules_from: &str,
     dir: &Path,
-    options: Options,
+    options: AuditOptions,
 ) -> Result<SplitAudit, SplitAuditError> {
     let (data_audit, loaded) = data::audit_and_hash_rows(spec, dir)?;
     let by_name: BTreeMap<&str, usize> =

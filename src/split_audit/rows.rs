@@ -73,7 +73,7 @@ pub struct RecordingRow {
 
 /// The trajectory x speed make-up of each role's kept recordings.
 #[derive(Debug, Clone, Serialize)]
-pub struct Composition {
+pub struct RoleComposition {
     /// The (trajectory, speed) cells, sorted.
     pub cells: Vec<(String, String)>,
     /// Per role, the count in each cell.

@@ -217,8 +217,17 @@ pub fn t_two_sided_p(t: f64, df: f64) -> f64 {
 }
 
 /// Sample variance (divisor n - 1, R's `var`): mean first, then the
-/// squared deviations.
+/// squared deviations; NaN (R's `NA`) from fewer than 2 values.
+///
+/// ```
+/// use crossaudit_stats::sample_variance;
+/// assert_eq!(sample_variance(&[1.0, 2.0, 3.0]), 1.0);
+/// assert!(sample_variance(&[]).is_nan() && sample_variance(&[4.0]).is_nan());
+/// ```
 pub fn sample_variance(v: &[f64]) -> f64 {
+    if v.len() < 2 {
+        return f64::NAN;
+    }
     let m = v.iter().sum::<f64>() / v.len() as f64;
     v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)
 }

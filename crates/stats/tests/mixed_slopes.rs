@@ -19,7 +19,7 @@ use std::collections::BTreeMap;
 
 use common::{close, compare_varcorr, fixture, root, VarCorr};
 
-use crossaudit_stats::mixed::formula::{build_model, fit_table, parse, read_csv, DfMethod, Model};
+use crossaudit_stats::mixed::formula::{build_model, fit_table, parse, read_csv, DfMethod, FormulaModel};
 use crossaudit_stats::mixed::slopes::deviance_at;
 use crossaudit_stats::mixed::Criterion;
 
@@ -83,7 +83,7 @@ fn random_slope_fits_match_lme4_and_lmertest() {
         let table = read_csv(&fixture("slopes", name)).unwrap();
         let criterion = if r.reml { Criterion::Reml } else { Criterion::Ml };
         let formula = parse(&r.formula).unwrap();
-        let Model::Slopes(data) = build_model(&formula, &table).unwrap() else {
+        let FormulaModel::Slopes(data) = build_model(&formula, &table).unwrap() else {
             panic!("{name}: not a random-slope model")
         };
         // The same function: crossaudit's deviance at lme4's theta.

@@ -28,7 +28,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, gap, fail_on } } => {
-            let options = crossaudit::split_audit::Options { min_run_rows: min_run, gap_s: gap };
+            let options = crossaudit::split_audit::AuditOptions { min_run_rows: min_run, gap_s: gap };
             match audit_split(&split, &data, design.as_deref(), &out, options) {
                 Ok((leak, close)) if (leak && fail_on.is_some()) || (close && fail_on.as_deref() == Some("gap")) => {
                     let what = if leak { "exact leakage found" } else { "windows within the gap found" };
@@ -149,7 +149,7 @@ fn audit_split(
     data: &Path,
     design: Option<&Path>,
     out: &Path,
-    options: crossaudit::split_audit::Options,
+    options: crossaudit::split_audit::AuditOptions,
 ) -> Result<(bool, bool), Error> {
     let published = crossaudit::published::read(split)?;
     let (spec, from) = match design {

@@ -36,6 +36,16 @@ pub enum AuditError {
         /// What to try, where one thing is likely.
         hint: String,
     },
+    /// Files that look like flight logs but that no reader reads as
+    /// named (a suffix in capitals, a compressed Parquet file): never
+    /// passed over without a word.
+    #[error("{dir}: {} file(s) look like flight logs but are not read as named: {}; rename or move them (a log ends in .csv, .csv.gz or .parquet, in lower case)", .files.len(), .files.join("; "))]
+    NotRead {
+        /// The directory.
+        dir: String,
+        /// Each file, relative to the directory, with why it is not read.
+        files: Vec<String>,
+    },
     /// A log's file name holds a control character (a line break, a
     /// terminal escape): it would become a recording name.
     #[error("{dir}: the file name {name:?} holds a control character, which no recording name may; rename the file")]

@@ -133,7 +133,7 @@ impl Validator {
                 continue;
             }
             let kind = match kind {
-                ast::ModelKind::Mlp { widths: spans, inputs, actions: own, restore } => {
+                ast::ModelSyntax::Mlp { widths: spans, inputs, actions: own, restore } => {
                     let widths: Vec<usize> =
                         spans.iter().map(|w| self.count(w, "a layer width", 1, MLP_MAX_WIDTH as u64)).collect();
                     // A width out of range has its own error at its column.
@@ -160,13 +160,13 @@ impl Validator {
                     let restore_final = restore.as_ref().is_some_and(|r| r.node == "final");
                     crate::design::ModelKind::Mlp { widths, inputs, actions, restore_final }
                 }
-                ast::ModelKind::External { inputs, actions: own, history } => {
+                ast::ModelSyntax::External { inputs, actions: own, history } => {
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
                     let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
                     let history = history.as_ref().map(|h| self.count(h, "a history length", 1, 1000)).unwrap_or(0);
                     crate::design::ModelKind::External { inputs, actions, history }
                 }
-                ast::ModelKind::Linear { inputs, actions: own, ridge } => {
+                ast::ModelSyntax::Linear { inputs, actions: own, ridge } => {
                     let inputs = if inputs.node == "world" { InputMap::World } else { InputMap::Relative };
                     let actions = own.as_ref().map(|a| action_scaling(&a.node)).unwrap_or(actions);
                     let ridge = ridge.as_ref().map(|r| {
@@ -181,7 +181,7 @@ impl Validator {
                     });
                     crate::design::ModelKind::Linear { inputs, actions, ridge }
                 }
-                ast::ModelKind::Baseline(b) => {
+                ast::ModelSyntax::Baseline(b) => {
                     if b.node == "persistence" {
                         crate::design::ModelKind::Persistence
                     } else {

@@ -174,12 +174,33 @@ impl Validator {
         let models = self.models(&st.models, arms::declared_actions(train));
         let training = self.train_block(train, &models);
         let rate = sampling.data.as_ref().map(|d: &DataSpec| d.rate_hz).unwrap_or(100.0);
+        self.whole_sample_distances(&arms, rate);
         let horizon = sampling.recording.as_ref().map(|r: &RecordingFactor| r.horizon);
         let endpoints = self.endpoints(&st.endpoints, &models, rate, horizon, end);
         if let Some(d) = &sampling.data {
             self.undeclared_state(&d.slots(), &models, &endpoints);
         }
         Treatments { arms, models, training, endpoints }
+    }
+
+    /// Every `from segments` distance a whole number of samples at `rate`:
+    /// windows lie sample by sample, so 0.005 s at 100 Hz would act as
+    /// one sample (0.01 s) without a word.
+    fn whole_sample_distances(&mut self, arms: &[(Arm, Span)], rate: f64) {
+        for (arm, _) in arms {
+            let ArmKind::Derived { distance: Some(d), .. } = &arm.kind else { continue };
+            for s in std::iter::once(d.min_s).chain(d.max_s) {
+                let samples = s * rate;
+                if rate > 0.0 && (samples - samples.round()).abs() > 1e-6 {
+                    self.err_help(
+                        "distance not a whole number of samples",
+                        Span { start: d.offset, end: d.offset + 1 },
+                        format!("{s} s is {} samples at {rate} Hz", (samples * 1e3).round() / 1e3),
+                        format!("windows lie sample by sample: write a multiple of {} s", 1.0 / rate),
+                    );
+                }
+            }
+        }
     }
 
     /// The contrast, estimate, sensitivity and interaction statements (the

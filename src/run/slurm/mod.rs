@@ -269,7 +269,7 @@ pub enum TaskOutcome {
 /// step: its records, the design copy and the plan, each checked against
 /// what `prepare` recorded, and its run directories (one per split in a
 /// multi-split study) with their run.json.
-struct Prepared {
+struct OpenedArray {
     array: ArrayRecord,
     file: DesignFile,
     /// The design copy compiled, with its outer levels.
@@ -277,14 +277,14 @@ struct Prepared {
     parts: Vec<(Part, RunRecord)>,
 }
 
-impl Prepared {
+impl OpenedArray {
     /// Every job by array index: (part, job).
     fn jobs(&self) -> Vec<(usize, &TrainingJob)> {
         self.parts.iter().enumerate().flat_map(|(k, (p, _))| p.plan.jobs.iter().map(move |j| (k, j))).collect()
     }
 }
 
-impl Prepared {
+impl OpenedArray {
     /// The error of a gather with unfinished tasks (`todo`, by array
     /// index): each task with the last line of its Slurm log.
     fn jobs_missing(&self, dir: &Path, todo: &[usize]) -> RunError {
@@ -328,7 +328,7 @@ impl Prepared {
     }
 }
 
-fn reopen(dir: &Path) -> Result<Prepared, RunError> {
+fn reopen(dir: &Path) -> Result<OpenedArray, RunError> {
     let array = ArrayRecord::read(dir)?;
     let not_prepared = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
     let copy = dir.join(SLURM_DIR).join("design.design");
@@ -361,7 +361,7 @@ fn reopen(dir: &Path) -> Result<Prepared, RunError> {
         }
         opened.push((part, run));
     }
-    Ok(Prepared { array, file, study, parts: opened })
+    Ok(OpenedArray { array, file, study, parts: opened })
 }
 
 /// The split of one run directory rebuilt in memory from the recorded data

@@ -1,7 +1,7 @@
 //! A formula fitted to a file or table, and lme4's and lmerTest's
 //! summary of it: what `crossaudit mixed` prints.
 
-use super::{build_model, parse, FormulaError, Model, Table};
+use super::{build_model, parse, FormulaError, FormulaModel, Table};
 use crate::mixed::slopes::SlopeFit;
 use crate::mixed::{self, MixedError};
 
@@ -285,8 +285,8 @@ pub fn fit_table(
         }
     }
     let data = match build_model(&formula, table)? {
-        Model::Intercepts(data) => data,
-        Model::Slopes(data) => return slopes_table(formula_text, &data, criterion, df, profile),
+        FormulaModel::Intercepts(data) => data,
+        FormulaModel::Slopes(data) => return slopes_table(formula_text, &data, criterion, df, profile),
     };
     // Kenward-Roger (and the shares) need the q x q matrices over every
     // level; Satterthwaite needs only deviance evaluations.

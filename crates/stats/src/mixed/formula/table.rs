@@ -206,7 +206,7 @@ fn categorical(table: &Table, v: &Variable) -> Result<bool, FormulaError> {
 /// The model a formula describes: random intercepts only, or with slopes.
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
-pub enum Model {
+pub enum FormulaModel {
     /// Every random term `(1|g)`: [`crate::mixed::fit`] fits it.
     Intercepts(MixedData),
     /// Some term with slopes or without an intercept:
@@ -218,8 +218,8 @@ pub enum Model {
 /// random intercept (see [`build_model`] for any formula).
 pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError> {
     match build_model(formula, table)? {
-        Model::Intercepts(data) => Ok(data),
-        Model::Slopes(_) => Err(FormulaError::Syntax {
+        FormulaModel::Intercepts(data) => Ok(data),
+        FormulaModel::Slopes(_) => Err(FormulaError::Syntax {
             column: 1,
             message: "the formula has random slopes; build it with build_model".into(),
         }),
@@ -228,7 +228,7 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
 
 /// The model `formula` describes, on `table`: response, fixed-effect
 /// columns by R's rules, and the random terms.
-pub fn build_model(formula: &Formula, table: &Table) -> Result<Model, FormulaError> {
+pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, FormulaError> {
     present(table, &formula.response)?;
     let Some(y) = numbers(table, &formula.response)? else {
         let col = table.column(&formula.response)?;
@@ -252,10 +252,10 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<Model, FormulaErr
     let columns = term_columns(&formula.fixed, true, table, n)?;
     let base = MixedData::new(y, factors.clone())?.with_columns(columns)?;
     if formula.random.iter().all(|t| t.intercept_only()) {
-        return Ok(Model::Intercepts(base));
+        return Ok(FormulaModel::Intercepts(base));
     }
     let terms = random_terms(formula, table, &factors, n)?;
-    Ok(Model::Slopes(SlopeData::new(base, terms)?))
+    Ok(FormulaModel::Slopes(SlopeData::new(base, terms)?))
 }
 
 /// Every random term of `formula` with its columns (`(Intercept)` and
