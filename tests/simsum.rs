@@ -528,3 +528,29 @@ fn numbers_that_are_not_usable_are_refused_where_they_are() {
     assert_eq!(empse[1].0, "B");
     assert!((empse[1].1.parse::<f64>().unwrap() - 0.02f64.sqrt()).abs() < 1e-15, "{empse:?}");
 }
+
+/// A study with very many methods (50,000, one replication each) is
+/// summarised in one pass over its rows (methods found by name, the
+/// reference indexed once: before, each method rescanned every row and the
+/// key drew every method, minutes at 100,000), and simsum.md says why
+/// simsum.svg is not drawn.
+#[test]
+fn a_study_of_very_many_methods_is_summarised_and_says_why_there_is_no_figure() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("many.csv");
+    let mut text = String::from("method,rep,estimate,se\n");
+    for m in 0..50_000 {
+        text += &format!("m{m},1,{},1\n", (m % 7) as f64 / 10.0);
+    }
+    std::fs::write(&file, text).unwrap();
+    let o = simsum(&file, &["--true", "0", "--rep", "rep"], &tmp.path().join("out"));
+    assert_ok(&o);
+    let md = std::fs::read_to_string(tmp.path().join("out/simsum.md")).unwrap();
+    assert!(md.contains("simsum.svg is not drawn: 50000 methods in a group"), "{}", &md[md.len() - 300..]);
+    assert!(!tmp.path().join("out/simsum.svg").exists());
+    let csv = std::fs::read_to_string(tmp.path().join("out/simsum.csv")).unwrap();
+    let bias: Vec<&str> = csv.lines().filter(|l| l.contains(",bias,")).collect();
+    assert_eq!(bias.len(), 50_000);
+    // m3's estimate 0.3 against the truth 0: bias 0.3.
+    assert!(bias.iter().any(|l| l.starts_with("0,0.95,m3,bias,0.3,")), "{:?}", &bias[..4]);
+}

@@ -502,6 +502,10 @@ fn fmt4(x: f64) -> String {
 /// The most groups simsum.svg draws: more do not fit one figure's key.
 pub const MAX_FIGURE_GROUPS: usize = 60;
 
+/// The most methods simsum.svg draws: more do not fit one figure's key
+/// (and drawing 100,000 of them would take minutes).
+pub const MAX_FIGURE_METHODS: usize = 60;
+
 /// Writes simsum.csv, simsum.md and (with at most [`MAX_FIGURE_GROUPS`]
 /// groups) simsum.svg into `out`.
 pub fn write(groups: &[Group], cols: &Columns, source: &str, out: &Path) -> Result<Vec<PathBuf>, SimsumFileError> {
@@ -509,11 +513,18 @@ pub fn write(groups: &[Group], cols: &Columns, source: &str, out: &Path) -> Resu
     let mut written = Vec::new();
     let (by, targets) = (&cols.by, &cols.targets);
     let mut md = to_markdown(groups, by, source, targets);
+    let methods = groups.iter().map(|g| g.methods.len()).max().unwrap_or(0);
+    let drawn = groups.len() <= MAX_FIGURE_GROUPS && methods <= MAX_FIGURE_METHODS;
     if groups.len() > MAX_FIGURE_GROUPS {
         let _ = writeln!(
             md,
             "\nsimsum.svg is not drawn: {} groups, more than the {MAX_FIGURE_GROUPS} one figure's key holds; simsum.csv has every coverage.",
             groups.len()
+        );
+    } else if methods > MAX_FIGURE_METHODS {
+        let _ = writeln!(
+            md,
+            "\nsimsum.svg is not drawn: {methods} methods in a group, more than the {MAX_FIGURE_METHODS} one figure's key holds; simsum.csv has every coverage."
         );
     }
     for (name, text) in [("simsum.csv", to_csv(groups, by, targets)), ("simsum.md", md)] {
@@ -521,7 +532,7 @@ pub fn write(groups: &[Group], cols: &Columns, source: &str, out: &Path) -> Resu
         crate::io::write_atomic(&p, text.as_bytes())?;
         written.push(p);
     }
-    if groups.len() <= MAX_FIGURE_GROUPS {
+    if drawn {
         let p = out.join("simsum.svg");
         draw(groups, by, &p)?;
         written.push(p);

@@ -202,36 +202,35 @@ pub fn simsum(reps: &[Replication], reference: Option<&str>) -> Result<Vec<Group
 fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, SimsumError> {
     let first = rows[0];
     let label = if first.by.is_empty() { "(all)".to_string() } else { first.by.join(" / ") };
-    let mut methods: Vec<&str> = Vec::new();
-    for r in rows {
-        if !methods.contains(&r.method.as_str()) {
-            methods.push(&r.method);
-        }
-    }
-    let reference = reference.unwrap_or(methods[0]).to_string();
-    if !methods.contains(&reference.as_str()) {
-        return Err(SimsumError::NoReference { reference, group: label });
-    }
     let paired_by = if rows.iter().all(|r| r.rep.is_some()) { Pairing::Id } else { Pairing::Order };
-    // Per method: replications keyed by id (or position), in file order.
+    // Per method, in the order first seen: replications keyed by id (or
+    // position), in file order. One pass over the rows, each method found
+    // by its name's index: linear however many methods there are.
+    let mut index: BTreeMap<&str, usize> = BTreeMap::new();
     let mut by_method: Vec<(&str, Vec<(String, Estimate)>)> = Vec::new();
-    for &m in &methods {
-        let mut seen = BTreeMap::new();
-        let mut list = Vec::new();
-        for (k, r) in rows.iter().filter(|r| r.method == m).enumerate() {
-            let id = match (&r.rep, paired_by) {
-                (Some(id), Pairing::Id) => id.clone(),
-                _ => k.to_string(),
-            };
-            if seen.insert(id.clone(), ()).is_some() {
-                return Err(SimsumError::DuplicateRep { rep: id, method: m.to_string(), group: label });
-            }
-            list.push((id, interval(r)));
+    let mut seen: Vec<std::collections::BTreeSet<String>> = Vec::new();
+    for r in rows {
+        let m = r.method.as_str();
+        let k = *index.entry(m).or_insert_with(|| {
+            by_method.push((m, Vec::new()));
+            seen.push(Default::default());
+            by_method.len() - 1
+        });
+        let id = match (&r.rep, paired_by) {
+            (Some(id), Pairing::Id) => id.clone(),
+            _ => by_method[k].1.len().to_string(),
+        };
+        if !seen[k].insert(id.clone()) {
+            return Err(SimsumError::DuplicateRep { rep: id, method: m.to_string(), group: label });
         }
-        by_method.push((m, list));
+        by_method[k].1.push((id, interval(r)));
     }
-    let reference_reps: &[(String, Estimate)] =
-        by_method.iter().find(|(m, _)| *m == reference).map_or(&[], |(_, l)| l.as_slice());
+    let reference = reference.unwrap_or(by_method[0].0).to_string();
+    let Some(&at) = index.get(reference.as_str()) else {
+        return Err(SimsumError::NoReference { reference, group: label });
+    };
+    let reference_reps: &[(String, Estimate)] = &by_method[at].1;
+    let reference_by_id: BTreeMap<&str, &Estimate> = reference_reps.iter().map(|(id, e)| (id.as_str(), e)).collect();
     let usable_theta = |l: &[(String, Estimate)]| -> Vec<f64> {
         l.iter().filter(|(_, e)| crate::coverage::usable(e)).map(|(_, e)| e.0).collect()
     };
@@ -240,7 +239,7 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
     for (m, list) in &by_method {
         let est: Vec<Estimate> = list.iter().map(|(_, e)| *e).collect();
         let mut p = performance_at(&label, IntervalMethod::MomT, &est, &[], first.truth, first.level);
-        let pairs = paired(reference_reps, list);
+        let pairs = paired(&reference_by_id, list);
         let ratio2 = (empse_ref / p.emp_se).powi(2);
         p.rel_precision = 100.0 * (ratio2 - 1.0);
         let rho = crate::coverage::correlation(&pairs.iter().map(|(a, b)| (a.0, b.0)).collect::<Vec<_>>());
@@ -279,8 +278,7 @@ fn interval(r: &Replication) -> Estimate {
 }
 
 /// The replications both methods estimated, matched by id.
-fn paired(reference: &[(String, Estimate)], mine: &[(String, Estimate)]) -> Vec<(Estimate, Estimate)> {
-    let theirs: BTreeMap<&str, &Estimate> = reference.iter().map(|(id, e)| (id.as_str(), e)).collect();
+fn paired(theirs: &BTreeMap<&str, &Estimate>, mine: &[(String, Estimate)]) -> Vec<(Estimate, Estimate)> {
     mine.iter()
         .filter_map(|(id, e)| theirs.get(id.as_str()).map(|r| (**r, *e)))
         .filter(|(a, b)| crate::coverage::usable(a) && crate::coverage::usable(b))
