@@ -280,3 +280,16 @@ fn the_folder_a_recording_sits_in_is_a_condition() {
         assert_eq!(e.diagnostics[0].title, title, "{}", e.render(false));
     }
 }
+
+/// A `gaps` policy in a block with no time column could never find a gap
+/// (row k is at k / rate): refused at its line, with the fix.
+#[test]
+fn a_gaps_policy_without_a_time_column_is_refused_at_its_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = design(tmp.path(), "  gaps over 0.5 s segment").replace("  time t\n", "");
+    let e = crossaudit::design::from_str("holes.design", &text).unwrap_err().render(false);
+    assert!(e.contains("error: gaps without a time column"), "{e}");
+    assert!(e.contains("holes.design:8:3") && e.contains("declare the time column (`time COLUMN`)"), "{e}");
+    // With the time column it stands.
+    assert!(crossaudit::design::from_str("holes.design", &design(tmp.path(), "  gaps over 0.5 s segment")).is_ok());
+}

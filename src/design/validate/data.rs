@@ -32,7 +32,6 @@ impl Validator {
                 self.data_item(item, source == Some(DataSource::Csv), &mut seen, &mut spec, &mut sim);
             }
         }
-        self.gaps_against_rate(block, &spec);
         if source == Some(DataSource::Csv) {
             spec.format = self.csv_format(block, &seen, &mut csv, &mut spec);
             self.rules_against_layout(block, &spec);
@@ -44,6 +43,7 @@ impl Validator {
                 "remove `scale`, or switch the source to `csv`",
             );
         }
+        self.gaps_against_rate(block, &spec);
         self.simulated(block, source, &sim, &mut spec);
         source.map(|source| DataSpec { source, ..spec })
     }
@@ -52,6 +52,17 @@ impl Validator {
     /// recording at every row: refused.
     fn gaps_against_rate(&mut self, block: &DataBlock, spec: &DataSpec) {
         for item in &block.items {
+            // Gaps are read from the time column: a layout without one
+            // places row k at k / rate, where there is no gap to find.
+            if let (DataItem::Gaps { .. }, None) = (&item.node, spec.log_format().time) {
+                self.err_help(
+                    "gaps without a time column",
+                    item.span,
+                    "`gaps` finds gaps in the time column, and this block declares none: row k is at k / rate, so no gap could ever be found",
+                    "declare the time column (`time COLUMN`), or remove the `gaps` clause",
+                );
+                continue;
+            }
             if let (DataItem::Gaps { over, .. }, Some(g)) = (&item.node, spec.gaps) {
                 if spec.rate_hz > 0.0 && g.over_s * spec.rate_hz < 1.5 {
                     self.err_help(
