@@ -700,3 +700,35 @@ fn loglik_aic_bic_and_the_likelihood_ratio_test_match_lme4() {
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("--compare: the two formulas model different responses"), "{stderr}");
 }
+
+/// A random term whose variances cannot be identified is refused, naming
+/// the term and the column: a slope on a constant column (the intercept
+/// again), two collinear slopes, a factor slope with one level. Before,
+/// each was certified and printed one arbitrary set of variances.
+#[test]
+fn a_random_term_whose_columns_cannot_be_told_apart_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("d.csv");
+    let mut text = String::from("y,x,x2,c,f,g\n");
+    for g in 0..8 {
+        for k in 0..6 {
+            let x = k as f64;
+            let y = 1.0 + 0.5 * x + (g as f64) * 0.3 + ((g * 7 + k * 3) % 5) as f64 * 0.1;
+            text += &format!("{y},{x},{},3,only,g{g}\n", 2.0 * x + 1.0);
+        }
+    }
+    std::fs::write(&path, text).unwrap();
+    let p = path.to_str().unwrap();
+    for (formula, needle) in [
+        ("y ~ x + (c | g)", "random term (1 + c | g): its column c is constant (3 in every row)"),
+        ("y ~ x + (x + x2 | g)", "random term (1 + x + x2 | g): its column x2 is a linear combination"),
+        ("y ~ x + (f | g)", "its slope gives no column (a factor with one level)"),
+    ] {
+        let (code, _, err) = run(&["mixed", p, "--formula", formula]);
+        assert_eq!(code, 1, "{formula}: {err}");
+        assert!(err.contains(needle), "{formula}: {err}");
+    }
+    // The identified model fits.
+    let (code, _, err) = run(&["mixed", p, "--formula", "y ~ x + (x | g)"]);
+    assert_eq!(code, 0, "{err}");
+}

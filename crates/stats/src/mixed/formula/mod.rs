@@ -154,6 +154,16 @@ pub enum FormulaError {
         /// What is wrong.
         message: String,
     },
+    /// A random term whose columns cannot be told apart (a slope on a
+    /// constant column, two collinear slopes, a factor with one level):
+    /// its variances would not be identified.
+    #[error("random term ({term}): {message}")]
+    RandomTerm {
+        /// The term as its columns and group: `1 + x | g`.
+        term: String,
+        /// Which column depends on which.
+        message: String,
+    },
     /// Two formulas that cannot be compared.
     #[error("--compare: {0}")]
     Compare(String),

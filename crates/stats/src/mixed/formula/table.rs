@@ -275,11 +275,55 @@ pub(super) fn random_terms(
         if term.intercept {
             coded.push(("(Intercept)".to_string(), vec![1.0; n]));
         }
-        coded.extend(term_columns(&term.slopes, term.intercept, table, n)?);
+        let slopes = term_columns(&term.slopes, term.intercept, table, n)?;
+        if !term.slopes.is_empty() && slopes.is_empty() {
+            return Err(FormulaError::RandomTerm {
+                term: format!("... | {}", term.name),
+                message: "its slope gives no column (a factor with one level): the term is its intercept alone; remove the slope".into(),
+            });
+        }
+        coded.extend(slopes);
+        independent_columns(&coded, &term.name)?;
         let (names, columns) = coded.into_iter().unzip();
         terms.push(Term { group: term.name.clone(), factor: term.name.clone(), codes, levels, names, columns });
     }
     Ok(terms)
+}
+
+/// A random term's columns (its intercept and slopes over every row) are
+/// linearly independent, or the term is refused naming the first column
+/// that depends on those before it: a constant slope (the intercept
+/// again), a column of zeros (a factor with one level), or a combination
+/// of the others (two collinear slopes). Gram-Schmidt, relative tolerance
+/// 1e-9: a term has a handful of columns.
+fn independent_columns(coded: &[(String, Vec<f64>)], group: &str) -> Result<(), FormulaError> {
+    let term = || {
+        let names: Vec<&str> = coded.iter().map(|(n, _)| if n == "(Intercept)" { "1" } else { n.as_str() }).collect();
+        format!("{} | {group}", names.join(" + "))
+    };
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for (name, column) in coded {
+        let norm = column.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let mut rest = column.clone();
+        for b in &basis {
+            let dot: f64 = rest.iter().zip(b).map(|(x, y)| x * y).sum();
+            rest.iter_mut().zip(b).for_each(|(x, y)| *x -= dot * y);
+        }
+        let left = rest.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm == 0.0 || left <= 1e-9 * norm {
+            let first = column.first().copied().unwrap_or(0.0);
+            let message = if norm == 0.0 {
+                format!("its column {name} is 0 in every row (a factor with one level?): its variance cannot be estimated; remove it")
+            } else if column.iter().all(|x| *x == first) {
+                format!("its column {name} is constant ({first} in every row): a slope on it is the intercept again, and their variances cannot be told apart; remove it")
+            } else {
+                format!("its column {name} is a linear combination of the term's columns before it (collinear slopes): their variances cannot be told apart; remove one")
+            };
+            return Err(FormulaError::RandomTerm { term: term(), message });
+        }
+        basis.push(rest.into_iter().map(|x| x / left).collect());
+    }
+    Ok(())
 }
 
 /// The level code of each row of the grouping `columns` (their
