@@ -456,3 +456,43 @@ fn a_published_train_test_split_draws_validation_from_its_fit_roles() {
     let e = pinned_design(&|t| t.replace("validation val; fit train", "validation val; ignore train")).unwrap_err();
     assert!(e.to_string().contains("missing: fit"), "{e}");
 }
+
+/// A split published as folders (`train/`, `test/`) is read by `audit
+/// split` given the folder; where none of the recordings it lists has a
+/// log where the audit looks (its logs lie in subfolders, and no design
+/// says `folders nested`), the audit could classify nothing: it exits
+/// non-zero with the hint, not 0 with every recording "unknown". With a
+/// design that reads the subfolders it classifies every one.
+#[test]
+fn a_folder_split_is_read_and_an_audit_that_found_nothing_fails_with_the_hint() {
+    let tmp = tempfile::tempdir().unwrap();
+    let lab = tmp.path().join("lab");
+    let mut n = 0;
+    for e in std::fs::read_dir(crate::common::root().join("tests/fixtures/nanobench")).unwrap() {
+        let p = e.unwrap().path();
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if !name.ends_with(".csv") {
+            continue;
+        }
+        let role = if n % 3 == 0 { "test" } else { "train" };
+        std::fs::create_dir_all(lab.join(role)).unwrap();
+        std::fs::copy(&p, lab.join(role).join(&name)).unwrap();
+        n += 1;
+    }
+    assert!(n >= 4);
+    let (l, out) = (lab.to_str().unwrap(), tmp.path().join("out"));
+    let (code, _, err) = cli(&["audit", "split", l, "--data", l, "--out", out.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains(&format!("none of the {n} recording(s) the split lists has a log here")), "{err}");
+    assert!(err.contains("its subfolders hold"), "{err}");
+    // A design whose data block reads the subfolders classifies them all.
+    let design = tmp.path().join("nested.design");
+    let text = std::fs::read_to_string(crate::common::root().join("tests/designs/logs_generic.design")).unwrap();
+    std::fs::write(&design, text.replace("  rate 100 Hz\n", "  rate 100 Hz\n  folders nested\n")).unwrap();
+    let out2 = tmp.path().join("out2");
+    let (code, stdout, err) =
+        cli(&["audit", "split", l, "--data", l, "--design", design.to_str().unwrap(), "--out", out2.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{err}");
+    let unknown = stdout.matches(" unknown").count();
+    assert!(unknown >= 2 && stdout.matches(" 0 unknown").count() == unknown, "{stdout}");
+}

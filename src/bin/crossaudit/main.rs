@@ -151,7 +151,9 @@ fn audit_split(
     out: &Path,
     options: crossaudit::split_audit::AuditOptions,
 ) -> Result<(bool, bool), Error> {
-    let published = crossaudit::published::read(split)?;
+    // A split published as folders (train/, test/ under one folder) or as a file.
+    let published =
+        if split.is_dir() { crossaudit::published::from_folders(split)? } else { crossaudit::published::read(split)? };
     let (spec, from) = match design {
         Some(d) => (design::load(d)?.design.data, format!("data rules of {}", d.display())),
         None => (crossaudit::design::DataSpec::upstream_task2(), "upstream NanoBench task-2 loader".to_string()),
@@ -166,6 +168,26 @@ fn audit_split(
     out!("{}", audit.summary());
     for p in &written {
         note!("wrote {}", p.display());
+    }
+    // No listed recording found: an audit that classified nothing, refused
+    // after it was written (most often logs in subfolders not read).
+    let listed = audit.recordings.iter().filter(|r| !r.role.is_empty()).count();
+    let found = audit
+        .recordings
+        .iter()
+        .filter(|r| !r.role.is_empty() && r.presence == crossaudit::split_audit::Presence::Csv)
+        .count();
+    if listed > 0 && found == 0 {
+        let hint = crossaudit::io::walk::nested_logs_hint(data, design.is_some()).unwrap_or_else(|| {
+            "; a recording is named by its log's file name without the suffix (.csv, .csv.gz or .parquet)".into()
+        });
+        return Err(crossaudit::data::AuditError::NoneListedFound {
+            dir: data.display().to_string(),
+            listed,
+            written: written.first().map(|p| p.display().to_string()).unwrap_or_default(),
+            hint,
+        }
+        .into());
     }
     // Every log there, dropped: an audit of nothing, refused after it was
     // written (without --design, most often logs in another layout).

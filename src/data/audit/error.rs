@@ -36,6 +36,19 @@ pub enum AuditError {
         /// What to try, where one thing is likely.
         hint: String,
     },
+    /// A split audit that found a log for none of the recordings the split
+    /// lists: it could classify nothing (it is written all the same).
+    #[error("{dir}: none of the {listed} recording(s) the split lists has a log here, so nothing could be classified; the audit is in {written}{hint}")]
+    NoneListedFound {
+        /// The data directory.
+        dir: String,
+        /// How many recordings the split lists.
+        listed: usize,
+        /// Where the audit was written.
+        written: String,
+        /// What to try, where one thing is likely.
+        hint: String,
+    },
     /// Files that look like flight logs but that no reader reads as
     /// named (a suffix in capitals, a compressed Parquet file): never
     /// passed over without a word.
