@@ -732,3 +732,20 @@ fn a_random_term_whose_columns_cannot_be_told_apart_is_refused() {
     let (code, _, err) = run(&["mixed", p, "--formula", "y ~ x + (x | g)"]);
     assert_eq!(code, 0, "{err}");
 }
+
+/// A Poisson count above 1e15 is named as too large for an exact
+/// likelihood, not as "not a whole number".
+#[test]
+fn a_count_beyond_exact_doubles_is_named_as_too_large() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.csv");
+    let mut text = String::from("y,g\n");
+    for k in 0..12 {
+        text += &format!("{},g{}\n", if k == 5 { "1.002e15".to_string() } else { (k % 4).to_string() }, k % 3);
+    }
+    std::fs::write(&path, text).unwrap();
+    let (code, _, err) = run(&["mixed", path.to_str().unwrap(), "--formula", "y ~ 1 + (1 | g)", "--family", "poisson"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("row 6, field y: `1.002e15` is larger than 1e15"), "{err}");
+    assert!(!err.contains("not a whole number"), "{err}");
+}

@@ -200,3 +200,23 @@ fn bad_declarations_are_refused_by_name() {
     assert_refused(&o, "the design has `factor draw`; --components plans a single crossed contrast");
     assert!(!out.join("plan.json").exists());
 }
+
+/// Declared components that are all zero are refused as the declaration's,
+/// not as "the pilot's variance components" (there is no pilot).
+#[test]
+fn zero_declared_components_are_named_as_declared() {
+    let out = tempfile::tempdir().unwrap();
+    let o = crate::common::crossaudit(&[
+        "plan",
+        "designs/nanobench_paper.design",
+        "--components",
+        "recording=0,seed=0,residual=0",
+        "--effect=-0.0362",
+        "--reference-mean",
+        "0.299",
+        "--out",
+        out.path().to_str().unwrap(),
+    ]);
+    crate::common::assert_refused(&o, "the declared variance components of world fa_position_rmse at 1 s are 0.000e0");
+    assert!(!crate::common::stderr(&o).contains("pilot"), "{}", crate::common::stderr(&o));
+}

@@ -554,3 +554,14 @@ fn a_study_of_very_many_methods_is_summarised_and_says_why_there_is_no_figure() 
     // m3's estimate 0.3 against the truth 0: bias 0.3.
     assert!(bias.iter().any(|l| l.starts_with("0,0.95,m3,bias,0.3,")), "{:?}", &bias[..4]);
 }
+
+/// With `--rep`, a row without a replication id is refused at its row and
+/// column, not reported as "an empty id occurring twice".
+#[test]
+fn an_empty_replication_id_is_refused_where_it_is() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("ids.csv");
+    std::fs::write(&file, "method,rep,estimate,se\nA,1,0.5,0.3\nA,,0.4,0.3\nA,,0.6,0.3\n").unwrap();
+    let o = simsum(&file, &["--true", "0", "--rep", "rep"], &tmp.path().join("out"));
+    crate::common::assert_refused(&o, ":3:2: the replication id is empty");
+}

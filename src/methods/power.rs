@@ -234,7 +234,13 @@ pub fn declared_power_plan(
     let base = (recordings.first().copied().unwrap_or(2), seeds.first().copied().unwrap_or(2));
     let pilot =
         Pilot { components: declared.components, mean: declared.effect, mean_reference: declared.reference_mean, base };
-    let mut out = crossed_plan(plan, unit, estimand, &pilot, recordings, seeds)?;
+    let mut out = crossed_plan(plan, unit, estimand, &pilot, recordings, seeds).map_err(|e| match e {
+        // The components are the user's declaration, not a pilot's.
+        PowerError::Degenerate { unit, components, .. } => PowerError::Declared(format!(
+            "the declared variance components of {unit} are {components}: there is no variance to plan from, so every predicted SE would be 0 and every P(rule holds) 0 or 1; declare components above 0 (--components recording=...,seed=...,residual=...)"
+        )),
+        other => other,
+    })?;
     out.declared = true;
     out.advice = out.advice.replacen("From the pilot's", "At the declared components, from", 1);
     Ok(out)

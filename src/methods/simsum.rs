@@ -287,6 +287,13 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
             return Err(at(line, l + 1, format!("lower limit {lo} is above the upper limit {hi}")));
         }
     }
+    if let Some(k) = loc.rep.filter(|&k| field(k).is_empty()) {
+        return Err(at(
+            line,
+            k + 1,
+            "the replication id is empty: with --rep every row needs one (leave --rep out to pair methods by their rows' order, rsimsum's rule)".into(),
+        ));
+    }
     let df = loc.df.map(|k| value(k, "df")).transpose()?;
     if let (Some(k), Some(d)) = (loc.df, df) {
         if d <= 0.0 {

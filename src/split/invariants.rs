@@ -121,7 +121,7 @@ fn leak_status(own: usize, dup: usize, policy: DuplicatePolicy) -> InvariantStat
 
 fn keep_note(names: &BTreeSet<String>) -> String {
     format!(
-        " ({}); allowed only because the design declares `duplicates keep`",
+        " ({}); allowed only because duplicates are kept (`duplicates keep`, declared or the default)",
         names.iter().cloned().collect::<Vec<_>>().join(", ")
     )
 }

@@ -31,7 +31,7 @@ pub fn guards(a: &MultiverseAnalysis) -> Vec<Guard> {
             levels: if a.choices.is_empty() { a.notes.len() } else { decided[0].levels },
         };
         out.push(Guard::new(GuardKind::NotDisjoint, format!(
-            "**The reference arm is not disjoint** ({}): {}; allowed only because the design declares `duplicates keep` (table: the reference arm and the training).",
+            "**The reference arm is not disjoint** ({}): {}; allowed only because duplicates are kept (`duplicates keep`; table: the reference arm and the training).",
             primary.as_deref().filter(|_| !a.choices.is_empty()).unwrap_or("every draw"),
             copies_text(&all)
         )));

@@ -48,8 +48,20 @@ pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<G
             let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
             return Err(bad(row, "a whole number of at least 0"));
         };
-        if let Some(row) = values.iter().position(|v| v.fract() != 0.0 || *v < 0.0 || *v > 1e15) {
+        if let Some(row) = values.iter().position(|v| v.fract() != 0.0 || *v < 0.0) {
             return Err(bad(row, "a whole number of at least 0"));
+        }
+        // A whole count so large that its log-likelihood's terms lose
+        // their integer precision: named as too large, not as a fraction.
+        if let Some(row) = values.iter().position(|v| *v > 1e15) {
+            return Err(FormulaError::Value {
+                row: row + 1,
+                field: name.to_string(),
+                message: format!(
+                    "`{}` is larger than 1e15, beyond the counts the likelihood computes exactly (doubles hold whole numbers exactly to 9e15, their sums less)",
+                    col[row].trim()
+                ),
+            });
         }
         Ok(values)
     };
