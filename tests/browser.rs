@@ -11,7 +11,6 @@
 //! it). To accept a changed page: `CROSSAUDIT_BLESS_SCREENSHOT=1 cargo test
 //! browser` rewrites the reference, which is then reviewed and committed.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -76,7 +75,7 @@ fn chromium_or_skip() -> Option<PathBuf> {
             std::env::var_os("CROSSAUDIT_REQUIRE_BROWSER").is_none(),
             "chromium is not installed and CROSSAUDIT_REQUIRE_BROWSER is set"
         );
-        let _ = writeln!(std::io::stderr(), "SKIPPED browser test: needs Debian's chromium (apt-get install chromium)");
+        crate::common::skip("chromium", "browser test: needs Debian's chromium (apt-get install chromium)");
     }
     bin
 }

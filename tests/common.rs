@@ -48,6 +48,25 @@ pub fn shared_logs() -> PathBuf {
     dir
 }
 
+/// Where each skipped test is recorded (`KIND<TAB>LINE`, one a line), for
+/// the summary `scripts/test.sh` prints after the run.
+pub fn skips_file() -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("skipped.txt")
+}
+
+/// Says that the running test is skipped and why: a `SKIPPED` line on
+/// standard error (written past the test harness's capture, so it shows)
+/// and a line in [`skips_file`] under `kind` (what it needs: `nanobench`,
+/// `slurm`, `chromium`, `lab data`), which the test command's summary counts.
+pub fn skip(kind: &str, line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "SKIPPED {line}");
+    let _ = std::fs::create_dir_all(env!("CARGO_TARGET_TMPDIR"));
+    if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open(skips_file()) {
+        let _ = writeln!(f, "{kind}\t{}", line.replace(['\n', '\t'], " "));
+    }
+}
+
 /// The shared logs, or `None` after a `SKIPPED` line on standard error
 /// (written past the test harness's capture, so it shows in the output).
 #[track_caller]
@@ -60,10 +79,11 @@ pub fn shared_logs_or_skip() -> Option<PathBuf> {
         panic!("{} is absent and CROSSAUDIT_REQUIRE_SHARED is set", dir.display());
     }
     let name = std::thread::current().name().unwrap_or("a test").to_string();
-    use std::io::Write;
-    let _ = writeln!(
-        std::io::stderr(),
-        "SKIPPED {name}: needs the NanoBench recordings in ../shared/nanobench/recordings (see the README, \"Install\")"
+    skip(
+        "nanobench",
+        &format!(
+            "{name}: needs the NanoBench recordings in ../shared/nanobench/recordings (see the README, \"Install\")"
+        ),
     );
     None
 }
@@ -84,11 +104,12 @@ pub fn load_shipped_design(path: &Path) -> Option<crossaudit::DesignFile> {
             if !needs_shared || shared.is_dir() || std::env::var_os("CROSSAUDIT_REQUIRE_SHARED").is_some() {
                 panic!("{}: {e}", path.display());
             }
-            use std::io::Write;
-            let _ = writeln!(
-                std::io::stderr(),
-                "SKIPPED {}: its published split lives in ../shared/nanobench, which is absent (see the README, \"Install\")",
-                path.display()
+            skip(
+                "nanobench",
+                &format!(
+                    "{}: its published split lives in ../shared/nanobench, which is absent (see the README, \"Install\")",
+                    path.display()
+                ),
             );
             None
         }

@@ -538,3 +538,16 @@ fn a_family_estimates_csv_is_its_report_in_tidy_form() {
     let k = slope_table[0].iter().position(|h| h == "optimism slope (%/pp)").unwrap();
     assert_eq!(format!("{:.3}", slope[col("estimate")].parse::<f64>().unwrap()), slope_table[1][k]);
 }
+
+/// CI runs the README's test command, the one that ends with the summary
+/// of passed, failed and SKIPPED tests.
+#[test]
+fn ci_runs_the_readmes_test_command() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let ci = std::fs::read_to_string(root().join(".ci/run")).unwrap();
+    assert!(readme.lines().any(|l| l == "bash scripts/test.sh"), "the README's test command");
+    assert!(ci.lines().any(|l| l == "bash scripts/test.sh"), ".ci/run runs it");
+    let script = std::fs::read_to_string(root().join("scripts/test.sh")).unwrap();
+    assert!(script.contains("cargo test -p crossaudit -p crossaudit-stats -- --include-ignored"));
+    assert!(script.contains("only printed SKIPPED"));
+}

@@ -143,7 +143,10 @@ fn every_committed_run_folder_is_reproduced_by_its_reanalysis() {
     for (k, folder) in folders.iter().enumerate() {
         if let Some((_, data)) = NEEDS_DATA.iter().find(|(f, _)| Path::new(f) == folder) {
             if !root().join(data).is_dir() {
-                println!("SKIPPED {}: its design's data folder {data} is absent", folder.display());
+                crate::common::skip(
+                    "lab data",
+                    &format!("{}: its design's data folder {data} is absent", folder.display()),
+                );
                 continue;
             }
         }

@@ -495,7 +495,7 @@ pub(crate) fn logs(dir: &Path) -> String {
 pub(crate) fn cluster(test: &str) -> Option<(std::sync::MutexGuard<'static, ()>, Cluster)> {
     if let Some(why) = slurm_missing() {
         // Straight to the process's stderr: libtest captures eprintln! of a passing test.
-        let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
+        crate::common::skip("slurm", &format!("{test}: {why}"));
         return None;
     }
     let guard = SLURM.lock().unwrap_or_else(|e| e.into_inner());
