@@ -447,6 +447,17 @@ fn a_lab_folder_of_train_and_test_is_read_and_split_by_its_folders() {
     let flat = text.replace("\n  folders nested", "");
     let e = crossaudit::design::from_str("lab.design", &flat).unwrap_err().to_string();
     assert!(e.contains("no folders to split by") && e.contains("folders nested"), "{e}");
+    // A log beside the role folders is in no role: refused by `check`,
+    // named, where it was audited and silently never used.
+    std::fs::copy(fixtures.join("F1_circle_slow_rep1.csv"), lab.join("stray_rep9.csv")).unwrap();
+    let o = bin(&["check", d]);
+    crate::common::assert_refused(&o, "logs in no role folder");
+    assert!(
+        crate::common::stderr(&o)
+            .contains("1 log(s) lie in the data folder itself, in no role folder of the split (stray_rep9.csv)"),
+        "{}",
+        crate::common::stderr(&o)
+    );
 }
 
 /// A NanoBench log with every position x moved by 1 mm.

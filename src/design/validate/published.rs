@@ -151,7 +151,30 @@ impl Validator {
         let read = if folders {
             let nested = data.and_then(|d| d.format.as_ref()).is_some_and(|f| f.nested_folders);
             match data.and_then(|d| d.path.as_deref()) {
-                Some(dir) if nested => crate::published::from_folders(&resolve(dir)),
+                Some(dir) if nested => {
+                    // A log beside the role folders is in no role: it would
+                    // be audited and never used, without a word.
+                    let loose: Vec<String> = crate::io::walk::files_below(&resolve(dir), false)
+                        .unwrap_or_default()
+                        .iter()
+                        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+                        .filter(|n| crate::io::walk::is_log_name(n))
+                        .collect();
+                    if !loose.is_empty() {
+                        self.err_help(
+                            "logs in no role folder",
+                            file.span,
+                            format!(
+                                "{} log(s) lie in the data folder itself, in no role folder of the split ({}): the split would never use them",
+                                loose.len(),
+                                crate::io::excerpt(&loose.join(", "), 300)
+                            ),
+                            "move each into a role folder (train/, test/, ...), or out of the data folder",
+                        );
+                        return None;
+                    }
+                    crate::published::from_folders(&resolve(dir))
+                }
                 _ => {
                     self.err_help(
                         "no folders to split by",
