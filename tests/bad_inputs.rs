@@ -95,3 +95,47 @@ fn copy_tree(from: &Path, to: &Path) {
         }
     }
 }
+
+/// `run` cases of the corpus refused for a command-line choice (a flag's
+/// value, the output folder), not for the design or what it names: `check`
+/// sees no flags and no output folder. Each with why.
+const RUN_ONLY: &[(&str, &str)] = &[
+    ("cli_data_on_simulated", "the --data flag on a simulated design"),
+    ("cli_workers_zero", "the --workers flag"),
+    ("r3a_cli_slurm_cpus_huge", "the --cpus flag"),
+    ("r3a_cli_slurm_throttle_huge", "the --throttle flag"),
+    ("r3a_cli_workers_huge", "the --workers flag"),
+    ("r3a_run_out_is_data_folder", "the --out folder"),
+    ("r3b_run_into_other_designs_run", "the --out folder"),
+    ("r3b_slurm_into_other_designs_run", "the --out folder"),
+];
+
+/// `check` is the run's validator: for every `run` case of the corpus that
+/// `run` refuses for the design or the files it names (its lock state
+/// included), `check` of the same design refuses it too or says that `run`
+/// refuses it, before anyone runs; the cases refused for a flag or an output
+/// folder are listed in [`RUN_ONLY`] with why.
+#[test]
+fn check_says_first_what_run_refuses_about_a_design() {
+    let corpus = root().join("tests/bad_inputs");
+    let mut checked = 0;
+    let mut only_run = Vec::new();
+    for e in std::fs::read_dir(&corpus).unwrap() {
+        let dir = e.unwrap().path();
+        let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+        let Ok(args) = std::fs::read_to_string(dir.join("args")) else { continue };
+        let words: Vec<String> =
+            args.split_whitespace().map(|a| a.replace("{dir}", &dir.display().to_string())).collect();
+        if words.first().map(String::as_str) != Some("run") || RUN_ONLY.iter().any(|(n, _)| *n == name) {
+            continue;
+        }
+        let o = crate::common::crossaudit(&["check", &words[1]]);
+        let said = crate::common::said(&o);
+        if o.status.success() && !said.contains("run refuses this design as it stands") {
+            only_run.push(format!("{name}: check {} passes without a word:\n{said}", words[1]));
+        }
+        checked += 1;
+    }
+    assert!(checked >= 5, "only {checked} run cases");
+    assert!(only_run.is_empty(), "refused only by run:\n{}", only_run.join("\n"));
+}

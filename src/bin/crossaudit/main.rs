@@ -496,6 +496,13 @@ fn check(path: &Path, json: bool) -> Result<(), Error> {
         for a in status.amendment_warnings() {
             outln!("  {a}");
         }
+        // What `run` would refuse about the lock, said here first.
+        if status.changed() {
+            outln!(
+                "  run refuses this design as it stands: it changed after it was locked ({}); `lock --amend` records the change, or `run --exploratory` labels every output EXPLORATORY",
+                crossaudit::io::one_line(&status.reason())
+            );
+        }
         out!("{}", plan.render_text());
         out!("{}", study.render_levels(&file.design));
         let seed_draws = file.design.seed_draws();
