@@ -168,7 +168,7 @@ pub fn active_rule(spec: &DataSpec) -> (String, Cmp, f64) {
 }
 
 /// Column layout needed to load recordings under a data declaration: the
-/// data's [`LogFormat`] resolved into the columns one parse reads.
+/// data's `LogFormat` resolved into the columns one parse reads.
 #[derive(Debug, Clone)]
 pub struct Layout {
     schema: log::Schema,

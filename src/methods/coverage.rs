@@ -81,7 +81,7 @@ pub struct CoverageSpec {
     /// Several nominal levels, each scored on the same replications.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub levels: Option<Vec<f64>>,
-    /// True means mu the arrays are drawn around (default [0]); each
+    /// True means mu the arrays are drawn around (default `[0]`); each
     /// scored on the same replications, shifted.
     #[serde(default = "default_means")]
     pub means: Vec<f64>,

@@ -88,7 +88,7 @@ impl DrawComponents {
     }
 
     /// Satterthwaite's df of that variance written as the signed sum of
-    /// the expected mean squares ([`Self::mean_squares`]):
+    /// the expected mean squares (`Self::mean_squares`):
     /// (sum c M)^2 / sum M^2 / df, at least 1.
     pub fn pooled_df(&self, i: usize, j: usize, k: usize) -> f64 {
         let ms = self.mean_squares(i as f64, j as f64, k as f64);

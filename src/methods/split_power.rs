@@ -64,7 +64,7 @@ pub fn pooled_se(variances: [f64; 4], splits: f64, recordings: f64, seeds: f64) 
 /// components (the first dose's pooled fit), the SE ([`pooled_se`]), the
 /// interval width 2 t(S - 1) SE (the split count limits the df; with a
 /// split component near zero this is conservative) and the probability
-/// that the decision rule holds, as [`power_plan`] computes it, for each
+/// that the decision rule holds, as `power_plan` computes it, for each
 /// number of splits, recordings per split and seeds.
 pub fn split_power_plan(
     plan: &Plan,

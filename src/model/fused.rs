@@ -6,7 +6,7 @@
 //! It is bit-identical to the dfdx reference trainer in [`super::net`]
 //! because it performs the same floating-point operations in the same
 //! order: every matrix product goes to `gemm` with the arguments dfdx 0.13
-//! passes (see [`super::kernel`]); the bias add, ReLU and its derivative,
+//! passes (see `super::kernel`); the bias add, ReLU and its derivative,
 //! the loss and its gradient, the bias gradient (a sum over rows in row
 //! order) and Adam are written as dfdx's CPU kernels compute them,
 //! including dfdx's accumulation of each gradient into a zeroed buffer

@@ -8,7 +8,7 @@
 //! reaches the page as markup: raw HTML is shown as text, only relative
 //! and http(s) links are live, and an image is a figure given inline (the
 //! page loads nothing). Names from input are also escaped for Markdown
-//! where report.md writes them ([`super::md`]).
+//! where report.md writes them (`super::md`).
 
 use std::fmt::Write as _;
 

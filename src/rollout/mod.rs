@@ -43,7 +43,7 @@ pub struct Trace {
 
 /// Rolls every start open loop for `steps` steps: measured future actions,
 /// the exogenous state (NanoBench: reference and battery; see
-/// [`Recording::predicted`]) overwritten with its measured next values,
+/// `Recording::predicted`) overwritten with its measured next values,
 /// quaternion renormalised each step.
 pub fn rollout(
     dynamics: &mut dyn Dynamics,

@@ -119,7 +119,7 @@ fn is_outer_top(dir: &Path) -> bool {
 
 /// Refuses to write an analysis or a plan into a folder a run wrote: the
 /// run's directory, its `report/`, `cells/`, `audit/` or any other folder
-/// of [`RUN_OWNED`], or anything inside an outer level's folder, at any
+/// of `RUN_OWNED`, or anything inside an outer level's folder, at any
 /// depth and however spelled (the path is resolved first). Only the run
 /// writes there: a reanalysis of its per-cell file has neither its
 /// warnings nor its audits, and replacing the run's report with it made

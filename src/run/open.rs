@@ -23,7 +23,7 @@ pub struct RunOptions {
     /// Run a design that changed after locking, labelling every output.
     pub exploratory: bool,
     /// An earlier run folder whose finished jobs with identical inputs are
-    /// copied instead of trained (`run --reuse DIR`, [`reuse`]).
+    /// copied instead of trained (`run --reuse DIR`, `reuse`).
     pub reuse: Option<PathBuf>,
 }
 

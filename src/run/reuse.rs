@@ -5,7 +5,7 @@
 //! as `--reuse`, and only the new seeds train; the analysis then covers
 //! every seed.
 //!
-//! A job's content key ([`job_key`]) hashes everything that decides the
+//! A job's content key (`job_key`) hashes everything that decides the
 //! files it writes: the manifests it reads (by hash), the inclusion audit's
 //! hash, the data block, the model, the training, the seed, the horizons,
 //! the cap and the rate. Every job record carries its key; a job of the new

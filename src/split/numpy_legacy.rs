@@ -92,7 +92,7 @@ impl RandomState {
         }
     }
 
-    /// `shuffle(x)` in place: for i from len-1 down to 1, swap x[i] with
+    /// `shuffle(x)` in place: for i from len-1 down to 1, swap `x[i]` with
     /// x[interval(i)].
     pub fn shuffle<T>(&mut self, x: &mut [T]) {
         for i in (1..x.len()).rev() {

@@ -136,7 +136,7 @@ pub const PARAMETRIC_STREAM: u64 = 2 << 40;
 /// the resampling intervals of [`super::resampling`] from `b` replicates
 /// and the ML profile-likelihood interval ([`super::profile_interval`])
 /// (the pigeonhole ones on (`seed`, `stream`), the others on `stream`
-/// plus [`PRODUCT_WEIGHTS_STREAM`] and [`PARAMETRIC_STREAM`]); see
+/// plus `PRODUCT_WEIGHTS_STREAM` and `PARAMETRIC_STREAM`); see
 /// [`IntervalMethod`], and docs/statistics.md for their references.
 pub fn further_intervals(
     m: &CrossedMatrix,

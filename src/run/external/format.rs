@@ -175,7 +175,7 @@ pub fn external_names(plan: &Plan) -> Option<String> {
     (!names.is_empty()).then(|| names.join(", "))
 }
 
-/// What [`export`] wrote.
+/// What `export` wrote.
 #[derive(Debug, Clone)]
 pub struct ExportOutcome {
     /// `DIR/export`.

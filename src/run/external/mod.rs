@@ -16,7 +16,7 @@
 //!   rollout overwrites after every step, and histories. Nothing else of
 //!   the evaluation recordings.
 //!
-//! [`score`](score::score) rebuilds the export from the design and the data,
+//! `score::score` rebuilds the export from the design and the data,
 //! refuses any file that differs, reads `predictions/MODEL__ARM__SEED.npy`
 //! (starts x steps x 14 state columns, float64, C order) with its
 //! description `predictions/MODEL__ARM__SEED.json`, and scores every

@@ -40,7 +40,7 @@ pub struct Description {
     pub seed: u64,
 }
 
-/// What [`score`] did.
+/// What `score` did.
 #[derive(Debug)]
 pub struct ScoreOutcome {
     /// cells.csv, the report and the analysis, as `run` returns them.

@@ -208,7 +208,7 @@ fn shared_draws(levels: &[Level], splits: &[Option<crate::split::Split>]) -> Vec
 
 /// The analysis of a finished multiverse or draw-replicated run directory
 /// `dir` (what `crossaudit analyze DESIGN --cells DIR` reads): the folder
-/// read back as a record ([`read::read_multiverse`]: each level's plan
+/// read back as a record (`read::read_multiverse`: each level's plan
 /// from `file`, its cells from `DIR/LEVEL/cells.csv`, a level sharing
 /// another's run from that one's), labelled with the design's lock state
 /// now. Errors name the file and line.

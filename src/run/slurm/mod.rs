@@ -1,7 +1,7 @@
 //! The bridge to a cluster scheduler: a study as a Slurm job array.
 //!
 //! [`prepare`] does once, on the submitting machine, everything before the
-//! first job (the same [`super::open`] as a local run: audit, manifests,
+//! first job (the same `super::open` as a local run: audit, manifests,
 //! invariants, `run.json`), then writes under `DIR/slurm/`:
 //!
 //! - `design.design`: a verbatim copy of the design, which every task runs;

@@ -103,7 +103,7 @@ pub fn shell_quote(s: &str) -> String {
 }
 
 /// Refuses a run directory that Slurm or a script would misread (see
-/// [`prepare`]); worth calling before anything is written into it.
+/// `prepare`); worth calling before anything is written into it.
 pub fn check_dir(out: &Path) -> Result<(), RunError> {
     path_word(out).map(|_| ())
 }

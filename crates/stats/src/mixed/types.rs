@@ -106,10 +106,10 @@ pub enum MixedError {
     },
 }
 
-/// How much inference [`fit_with`] computes beyond the estimates.
+/// How much inference `fit_with` computes beyond the estimates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Inference {
-    /// Satterthwaite and Kenward-Roger df and the shares (REML), as [`fit`].
+    /// Satterthwaite and Kenward-Roger df and the shares (REML), as `fit`.
     Full,
     /// Estimates, standard errors and the deviance only, as `lme4::lmer`
     /// returns them: no df, no shares. Kenward-Roger costs a few dozen
