@@ -749,3 +749,19 @@ fn undeclared_columns_with_commas_and_line_breaks_decide_nothing() {
     assert!(a.len() >= 5, "{a:?}");
     assert_eq!(a, b);
 }
+
+/// A lab's file names (`lab-circle-take1`) are not NanoBench's
+/// (`B9_trefoil_slow_mell_rep3`): they say nothing of the controller, so
+/// the audit says `unknown` where it once defaulted to NanoBench's PID.
+#[test]
+fn a_foreign_name_says_nothing_of_the_controller() {
+    let audit = std::fs::read_to_string(crate::common::root().join("results/lab/audit/recordings.csv")).unwrap();
+    let mut rows = csv::Reader::from_reader(audit.as_bytes());
+    let at = rows.headers().unwrap().iter().position(|h| h == "controller").unwrap();
+    let mut n = 0;
+    for r in rows.records() {
+        assert_eq!(&r.unwrap()[at], "unknown");
+        n += 1;
+    }
+    assert!(n >= 20, "{n} lab recordings");
+}

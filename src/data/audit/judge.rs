@@ -59,10 +59,12 @@ pub(crate) fn blank(spec: &DataSpec, name: &str, file: &str, meta: Option<&Metad
         trajectory: meta.and_then(|m| m.trajectory_type.clone()).unwrap_or_else(|| parts.shape.clone()),
         speed,
         speed_mps,
-        // Declared (`data csv`), or NanoBench's names: `_mell` for
-        // Mellinger, nothing for its PID.
+        // Declared (`data csv`), or read from a name in NanoBench's form
+        // (`B9_trefoil_slow_mell_rep3`): `_mell` for Mellinger, nothing
+        // for its PID; a name of another form says nothing of it.
         controller: match spec.format.as_ref().and_then(|f| f.controller.clone()) {
             Some(declared) => declared,
+            None if parts.id.is_empty() || parts.repetition.is_none() => "unknown".to_string(),
             None => parts.controller.name().to_string(),
         },
         // The file name's `repN` is the recording's identity; the metadata's
