@@ -496,3 +496,19 @@ fn a_folder_split_is_read_and_an_audit_that_found_nothing_fails_with_the_hint() 
     let unknown = stdout.matches(" unknown").count();
     assert!(unknown >= 2 && stdout.matches(" 0 unknown").count() == unknown, "{stdout}");
 }
+
+/// A role folder that is a symbolic link is named as one (not followed,
+/// since a link cycle would never end), not refused as an unknown role.
+#[test]
+fn a_linked_role_folder_is_named_as_a_link() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (lab, real) = (tmp.path().join("lab"), tmp.path().join("elsewhere"));
+    std::fs::create_dir_all(lab.join("train")).unwrap();
+    std::fs::create_dir_all(&real).unwrap();
+    let fixtures = crate::common::root().join("tests/fixtures/nanobench");
+    std::fs::copy(fixtures.join("F1_circle_slow_rep1.csv"), lab.join("train/F1_circle_slow_rep1.csv")).unwrap();
+    std::fs::copy(fixtures.join("F4_linear_ramp_rep1.csv"), real.join("F4_linear_ramp_rep1.csv")).unwrap();
+    std::os::unix::fs::symlink(&real, lab.join("test")).unwrap();
+    let e = published::from_folders(&lab).unwrap_err().to_string();
+    assert!(e.contains("test is a symbolic link to a folder, which crossaudit does not follow"), "{e}");
+}

@@ -82,6 +82,19 @@ pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
     let shown = dir.display().to_string();
     let files = crate::io::walk::files_below(dir, true)
         .map_err(|e| PublishedError::Read { path: shown.clone(), message: e.to_string() })?;
+    // A role folder that is a symbolic link is not followed (a link cycle
+    // would never end): named, not taken for a role with no logs.
+    let linked: Vec<String> =
+        files.iter().filter(|p| p.is_symlink() && p.is_dir()).map(|p| crate::io::walk::relative(dir, p)).collect();
+    if !linked.is_empty() {
+        return Err(PublishedError::Read {
+            path: shown,
+            message: format!(
+                "{} is a symbolic link to a folder, which crossaudit does not follow (a link cycle would never end): copy or move the folder there",
+                linked.join(", ")
+            ),
+        });
+    }
     let listing: Vec<String> = files
         .iter()
         .map(|p| crate::io::walk::relative(dir, p))
