@@ -109,3 +109,23 @@ fn control_characters_in_a_design_are_shown_not_sent() {
     assert_eq!(o.status.code(), Some(1));
     assert!(!o.stderr.contains(&0x1b), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// A keyword one or two letters off (`relativ`, `cosin`) is named with
+/// the one meant, after what was expected; a word far from every keyword
+/// gets no guess.
+#[test]
+fn a_misspelt_keyword_is_told_the_one_meant() {
+    let src = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    for (from, to, meant) in [
+        ("inputs relative", "inputs relativ", "did you mean `relative`?"),
+        ("epochs 30 cosine", "epochs 30 cosin", "did you mean `cosine`?"),
+    ] {
+        let text = src.replace(from, to);
+        let e = crossaudit::design::from_str("q.design", &text).unwrap_err().render(false);
+        assert!(e.contains(meant), "{to}: {e}");
+    }
+    let e = crossaudit::design::from_str("q.design", &src.replace("inputs relative", "inputs zzzzzz"))
+        .unwrap_err()
+        .render(false);
+    assert!(!e.contains("did you mean"), "{e}");
+}

@@ -180,6 +180,53 @@ fn value_name(rule: &Rule) -> Option<&'static str> {
     Some(name)
 }
 
+/// The word the parser stopped at: letters, digits and `_` from the error's
+/// column of its line.
+fn found_word(line: &str, at: pest::error::LineColLocation) -> String {
+    let col = match at {
+        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
+    };
+    line.chars().skip(col.saturating_sub(1)).take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect()
+}
+
+/// A keyword the expected names list (`an input map (world, relative)`,
+/// `` `cosine` ``) within two edits of `found` but not equal to it: a typo
+/// such as `relativ` for `relative`.
+fn did_you_mean(names: &[String], found: String) -> Option<String> {
+    if found.len() < 3 {
+        return None;
+    }
+    let mut words: Vec<String> = Vec::new();
+    for n in names {
+        let listed = n.split_once('(').map(|(_, r)| r.split(')').next().unwrap_or("")).unwrap_or("");
+        words.extend(listed.split(", ").map(|w| w.trim().to_string()));
+        words.extend(n.split('`').skip(1).step_by(2).map(|w| w.split_whitespace().next().unwrap_or("").to_string()));
+    }
+    words
+        .into_iter()
+        .filter(|w| !w.is_empty() && w.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') && *w != found)
+        .map(|w| (edits(&w, &found), w))
+        .filter(|(d, _)| *d <= 2)
+        .min()
+        .map(|(_, w)| w)
+}
+
+/// Levenshtein distance between two short words.
+fn edits(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != *cb)).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
 /// A pest error as a located diagnostic in the reader's words.
 pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
     let span = match e.location {
@@ -204,6 +251,9 @@ pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
             if !negatives.is_empty() {
                 let unexpected: Vec<String> = negatives.iter().map(rule_name).collect();
                 text.push_str(&format!("; unexpected {}", unexpected.join(", ")));
+            }
+            if let Some(word) = did_you_mean(&names, found_word(e.line(), e.line_col.clone())) {
+                text.push_str(&format!("; did you mean `{word}`?"));
             }
             text
         }
