@@ -512,3 +512,22 @@ fn a_linked_role_folder_is_named_as_a_link() {
     let e = published::from_folders(&lab).unwrap_err().to_string();
     assert!(e.contains("test is a symbolic link to a folder, which crossaudit does not follow"), "{e}");
 }
+
+/// Issue 77, class 8: a fit file of the published split that the design
+/// excludes by name (`exclude recordings`, a crashed flight) is dropped from
+/// the fit roles as the design says, without `missing csv allow` (it has a
+/// log; the design left it out), and named: the split's absent fit
+/// recordings (manifests/absent_recordings.csv) list it.
+#[test]
+fn a_published_fit_file_excluded_by_name_is_dropped_and_named() {
+    let d = pinned_design(&|t| {
+        t.replace("  duplicates keep\n", "  duplicates keep\n  exclude recordings \"S4_linear_ramp_rep1\"\n")
+            .replace("fit 400 windows", "fit 200 windows")
+    })
+    .unwrap();
+    let split = build_pinned(&d).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(split.fit_absent, ["S4_linear_ramp_rep1"]);
+    let fit: std::collections::BTreeSet<String> =
+        split.fit("disjoint").unwrap().iter().map(|w| split.recordings[w.recording].name.clone()).collect();
+    assert_eq!(fit.into_iter().collect::<Vec<_>>(), ["S3_oval_medium_rep1"]);
+}

@@ -339,7 +339,25 @@ impl<'a> Universe<'a> {
         if pin.validation_roles.is_empty() {
             pin.fit.retain(|l| !drawn.contains(l.name.as_str()));
         }
-        published_fit(&pin, &self.slots, &self.units, &self.info, held, self.design.data.missing_csv_allowed)
+        // The recordings the design excludes by name: left out of the fit
+        // roles as the design says, with or without `missing csv allow`.
+        let named: Vec<&str> = self
+            .design
+            .data
+            .rules
+            .iter()
+            .filter_map(|r| match r {
+                crate::design::InclusionRule::Named { names } => Some(names.iter().map(String::as_str)),
+                _ => None,
+            })
+            .flatten()
+            .collect();
+        published_fit(
+            &pin,
+            (&self.slots, &self.units, &self.info),
+            held,
+            (self.design.data.missing_csv_allowed, &named),
+        )
     }
 
     /// Derived arms, a dose-response family at a time: its doses share one

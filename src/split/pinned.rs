@@ -85,22 +85,29 @@ pub(super) fn resolve(
 pub(super) type PublishedFit = (Vec<usize>, Vec<String>, Vec<(String, String)>);
 
 /// The fit recordings of a published split: its fit roles' names, without
-/// the ones that have no usable data (an error unless `missing csv allow`)
+/// the ones the design excludes by name (`exclude recordings`: listed as
+/// absent), without the ones that have no usable data (an error unless
+/// `missing csv allow`)
 /// and, under `leaked drop`, without copies of a held-out recording (an
 /// error under `leaked refuse`). Returns the recordings, the absent names
 /// and the dropped (copy, held-out original) pairs.
 pub(super) fn published_fit(
     pin: &PublishedPin,
-    slots: &[(String, Slot)],
-    units: &[DeploymentUnit],
-    info: &[RecordingInfo],
+    (slots, units, info): (&[(String, Slot)], &[DeploymentUnit], &[RecordingInfo]),
     held: &[usize],
-    allowed: bool,
+    (allowed, excluded): (bool, &[&str]),
 ) -> Result<PublishedFit, SplitError> {
     let mut recordings = BTreeSet::new();
     let mut absent = Vec::new();
     let mut leaked = Vec::new();
+    // Fit files the design excludes by name: absent as it says, and named
+    // with the other absent fit recordings, without `missing csv allow`.
+    let mut left_out = Vec::new();
     for l in &pin.fit {
+        if excluded.contains(&l.name.as_str()) {
+            left_out.push(l.name.clone());
+            continue;
+        }
         let unit = slots.iter().find_map(|(_, slot)| match slot {
             Slot::Unit(u) if units[*u].members.iter().any(|&m| info[m].name == l.name) => Some(*u),
             _ => None,
@@ -134,6 +141,8 @@ pub(super) fn published_fit(
     if !absent.is_empty() && !allowed {
         return Err(SplitError::Absent { what: "fit", names: absent.join(", ") });
     }
+    absent.extend(left_out);
+    absent.sort();
     if !leaked.is_empty() && pin.leaked == LeakPolicy::Refuse {
         let list =
             leaked.iter().map(|(c, h)| format!("  {c} (fit) is identical to {h}")).collect::<Vec<_>>().join("\n");
