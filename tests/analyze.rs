@@ -564,3 +564,24 @@ fn a_secondary_endpoint_the_data_cannot_estimate_is_named_not_estimable() {
     assert_eq!(a.decision.holds, plain.decision.holds);
     assert_eq!(a.units[0].estimate.mean, plain.units[0].estimate.mean);
 }
+
+/// The CSV tables' guard-kind names are the ones results.json serializes.
+#[test]
+fn a_guard_kind_is_named_as_serde_writes_it() {
+    use crossaudit::analysis::GuardKind::*;
+    for k in [
+        Margin,
+        NoInterval,
+        Fragile,
+        EarlyStopping,
+        FixedBudget,
+        NotDisjoint,
+        ValidationCopies,
+        Coverage,
+        Concentrated,
+        Distance,
+        Harm,
+    ] {
+        assert_eq!(serde_json::to_value(k).unwrap(), serde_json::Value::String(k.name().into()));
+    }
+}

@@ -583,29 +583,3 @@ pub struct CoverageNote {
     /// The evaluation recordings uncovered in at least one level.
     pub uncovered: Vec<Uncovered>,
 }
-
-#[cfg(test)]
-mod tests {
-    use super::GuardKind;
-
-    /// The CSV tables' kind names are the ones results.json serializes.
-    #[test]
-    fn a_guard_kind_is_named_as_serde_writes_it() {
-        use GuardKind::*;
-        for k in [
-            Margin,
-            NoInterval,
-            Fragile,
-            EarlyStopping,
-            FixedBudget,
-            NotDisjoint,
-            ValidationCopies,
-            Coverage,
-            Concentrated,
-            Distance,
-            Harm,
-        ] {
-            assert_eq!(serde_json::to_value(k).unwrap(), serde_json::Value::String(k.name().into()));
-        }
-    }
-}

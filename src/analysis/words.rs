@@ -40,36 +40,29 @@ fn condition_value(d: &Decision, q: crate::design::Quantity, v: f64) -> String {
 /// optimism of 9.999% against `>= 10%` is `9.999%`, not `10.00%`).
 fn condition_value_against(d: &Decision, q: crate::design::Quantity, v: f64, threshold: Option<f64>) -> String {
     let slope = d.optimism_unit != "%";
-    let with_unit = |n: String, unit: &str| if unit.is_empty() { n } else { format!("{n} {unit}") };
-    let (mut digits, scientific) = match q {
+    let (mut digits, mut sci) = match q {
         crate::design::Quantity::Optimism => (if slope { 3 } else { 2 }, false),
         _ if slope && v.is_finite() => (3, true),
         _ => (4, false),
     };
-    let show = |digits: usize| if scientific { format!("{v:.digits$e}") } else { f(v, digits) };
+    let show = |sci: bool, digits: usize| if sci { format!("{v:.digits$e}") } else { f(v, digits) };
     // The printed value's side of the threshold must be v's: more digits
     // (scientific below 0.001 in magnitude) until it is, at most 12.
     if let Some(t) = threshold.filter(|t| v.is_finite() && t.is_finite() && v != *t) {
         let side = |s: &str| s.parse::<f64>().map(|x| (x - t).signum() * f64::from(u8::from(x != t)));
-        let want = (v - t).signum();
-        let mut sci = scientific;
-        while digits < 12 && side(&if sci { format!("{v:.digits$e}") } else { f(v, digits) }) != Ok(want) {
+        while digits < 12 && side(&show(sci, digits)) != Ok((v - t).signum()) {
             if !sci && v.abs() < 1e-3 {
-                sci = true;
-                digits = 4;
+                (sci, digits) = (true, 4);
             } else {
                 digits += 1;
             }
         }
-        let text = if sci { format!("{v:.digits$e}") } else { f(v, digits) };
-        return match q {
-            crate::design::Quantity::Optimism => format!("{text}{}", d.optimism_unit),
-            _ => with_unit(text, &d.value_unit),
-        };
     }
+    let text = show(sci, digits);
     match q {
-        crate::design::Quantity::Optimism => format!("{}{}", show(digits), d.optimism_unit),
-        _ => with_unit(show(digits), &d.value_unit),
+        crate::design::Quantity::Optimism => format!("{text}{}", d.optimism_unit),
+        _ if d.value_unit.is_empty() => text,
+        _ => format!("{text} {}", d.value_unit),
     }
 }
 

@@ -15,7 +15,7 @@ use super::charts::{dose_response, intervals, DoseRow, DrawError, IntervalRow};
 use super::figures::Figure;
 use super::format::{decision_summary, df, f, level_pct, sci};
 use super::{MdTable, ReportError};
-use crate::analysis::family::{dose_name, dose_value, FamilyAnalysis, Pooled, PooledEstimate};
+use crate::analysis::family::{dose_label, dose_name, dose_value, FamilyAnalysis, Pooled, PooledEstimate};
 use crate::design::DoseAxis;
 use crate::io::{create_dir_all, pretty_json, write_atomic};
 
@@ -161,14 +161,9 @@ fn secondary_section(a: &FamilyAnalysis) -> String {
     );
     for r in &a.secondary {
         let e = &r.estimate;
-        let dose = match r.distance_s {
-            Some(g) => format!("at least {g} s"),
-            None if r.percent.is_nan() => r.arm.clone(),
-            None => format!("{}%", r.percent),
-        };
         t.row([
             split_name(r.split),
-            dose,
+            dose_label(r.distance_s, r.percent, &r.arm),
             r.arm.clone(),
             r.model.clone(),
             r.metric.name().to_string(),

@@ -26,10 +26,15 @@ pub fn guards(a: &FamilyAnalysis) -> Vec<Guard> {
 /// A dose as its rows name it: `25%`, `at least 5 s`, or the treated arm
 /// where it is not derived from the reference.
 pub(crate) fn dose_name(d: &DoseResult) -> String {
-    match d.distance_s {
+    dose_label(d.distance_s, d.percent, &d.arm)
+}
+
+/// [`dose_name`] from a dose's parts (a secondary endpoint's row has them too).
+pub(crate) fn dose_label(distance_s: Option<f64>, percent: f64, arm: &str) -> String {
+    match distance_s {
         Some(g) => format!("at least {g} s"),
-        None if d.percent.is_nan() => d.arm.clone(),
-        None => format!("{}%", d.percent),
+        None if percent.is_nan() => arm.to_string(),
+        None => format!("{percent}%"),
     }
 }
 

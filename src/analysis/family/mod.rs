@@ -36,7 +36,7 @@ mod trend;
 mod types;
 
 pub use guards::guards;
-pub(crate) use guards::{dose_name, dose_value};
+pub(crate) use guards::{dose_label, dose_name, dose_value};
 use trend::trend;
 use types::Values;
 pub use types::{DoseResult, DoseSource, FamilyAnalysis, Pooled, PooledEstimate, SecondaryDose, SplitResult, Trend};
