@@ -110,9 +110,9 @@ for pair in "paper_multiverse paper" "paper_draws draws" "holdout_trajectory hol
       --out "results/multiverse/$2/report" >/dev/null 2>&1
 done
 # The two committed 20-draw sets of the per-seed protocol as one 40-seed study.
-python3 scripts/combine_seed_sets.py > results/multiverse/per_seed_combined/cells.csv
-$ca analyze designs/multiverse/paper_per_seed_combined.design --cells results/multiverse/per_seed_combined/cells.csv \
-    --out results/multiverse/per_seed_combined/report >/dev/null 2>&1
+$ca combine designs/multiverse/paper_per_seed_combined.design --out results/multiverse/per_seed_combined \
+    --from designs/multiverse/paper_per_seed.design results/multiverse/per_seed 0 \
+    --from designs/multiverse/paper_per_seed_uncoupled.design results/multiverse/per_seed_uncoupled 20 >/dev/null 2>&1
 rm -rf results/*/models results/*/simulated_data results/simulated_controls/*/models results/simulated_controls/*/simulated_data
 # Wall-clock columns and logs are not reproducible: keep the committed ones
 # of the folders regenerated here, and only those (a full run copied into

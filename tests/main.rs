@@ -7,6 +7,7 @@ mod analyze;
 mod architecture;
 mod bad_inputs;
 mod browser;
+mod combine;
 mod condition_coverage;
 mod coverage;
 mod coverage_measures;

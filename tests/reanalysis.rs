@@ -23,7 +23,8 @@ fn design_of(folder: &Path) -> Option<String> {
         text.lines()
             .filter_map(|line| {
                 let words: Vec<&str> = line.split_whitespace().collect();
-                let r = words.windows(2).position(|w| w[0] == "run" && w[1].ends_with(".design"))?;
+                let r =
+                    words.windows(2).position(|w| (w[0] == "run" || w[0] == "combine") && w[1].ends_with(".design"))?;
                 let design = words[r + 1].to_string();
                 let out =
                     words.iter().position(|x| *x == "--out").and_then(|o| words.get(o + 1)).map(|o| o.to_string());
@@ -51,7 +52,8 @@ fn find(dir: &Path, name: &str, out: &mut Vec<PathBuf>) {
 }
 
 /// The committed folders a run of one study wrote: a `run.json` of no
-/// outer level, beside a `report/`.
+/// outer level, beside a `report/`; the tops of studies of several level
+/// folders; the folders `crossaudit combine` wrote.
 fn committed_run_folders() -> Vec<PathBuf> {
     let mut records = Vec::new();
     find(&root().join("results"), "run.json", &mut records);
@@ -81,6 +83,10 @@ fn committed_run_folders() -> Vec<PathBuf> {
             out.push(d);
         }
     }
+    // And the folders `crossaudit combine` wrote.
+    let mut combined = Vec::new();
+    find(&root().join("results"), "combined.json", &mut combined);
+    out.extend(combined.into_iter().map(|c| c.parent().unwrap().to_path_buf()).filter(|d| d.join("report").is_dir()));
     let mut out: Vec<PathBuf> = out.into_iter().map(|d| d.strip_prefix(root()).unwrap().to_path_buf()).collect();
     out.sort();
     out

@@ -109,6 +109,15 @@ pub enum RunError {
         /// Why.
         reason: String,
     },
+    /// Runs that cannot be combined, or a combined folder whose sources
+    /// changed.
+    #[error("{path}: {reason}")]
+    Combine {
+        /// The file or folder at fault.
+        path: String,
+        /// Why.
+        reason: String,
+    },
     /// The run being resumed used other data.
     #[error("{dir} holds a run on other data: its {what} was {was}, now {is}; use a new output directory")]
     OtherData {

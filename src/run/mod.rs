@@ -11,6 +11,7 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
+pub mod combine;
 mod error;
 pub mod external;
 mod finish;
@@ -21,6 +22,7 @@ pub mod job;
 mod open;
 pub mod outer;
 mod read;
+mod reader;
 mod rebuild;
 mod record;
 pub mod reuse;
@@ -44,7 +46,8 @@ pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir}
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use open::{check_lock, check_workers, RunOptions, RunOutcome, MAX_WORKERS};
 pub(crate) use open::{open, pending, Opened};
-pub use read::{read_folder, read_levels, read_record, LevelFolder};
+pub use read::{read_folder, read_levels, LevelFolder};
+pub use reader::read_record;
 pub use record::{job_record_path, JobRecord, RunRecord, StudyRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;

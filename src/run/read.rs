@@ -16,55 +16,8 @@ use serde::Deserialize;
 use super::{RunError, RunRecord, StudyRecord};
 use crate::analysis::record::{Curve, DesignLabel, InvariantsFile, LevelEvidence, Record, RunEvidence, Treatment};
 use crate::cells::read_cells;
-use crate::design::{lock, DesignFile};
 use crate::plan::study::LevelRole;
-use crate::plan::{Plan, StudyPlan};
-
-/// The record of `cells` for the design `file` compiled as `plan`: a run
-/// folder (its `cells.csv` and its evidence), a run's own `cells.csv`
-/// (read with its folder's evidence when the folder's run.json records
-/// this design and this file's hash), or any other per-cell file alone.
-pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result<Record, RunError> {
-    let plan = &study.plan;
-    let design = DesignLabel::new(file, lock::status(file)?);
-    let outer = study.outer.as_ref().filter(|o| matches!(o.role, LevelRole::PerSeed | LevelRole::Redraw));
-    if cells.is_dir() {
-        return match outer {
-            Some(o) => read_levels(design, cells, &LevelFolder::of(o, cells)),
-            None => read_folder(design, plan, cells),
-        };
-    }
-    // Read (and so checked to be a regular file) before it is hashed.
-    let rows = read_cells(cells)?;
-    let sha = crate::cells::file_sha256(cells)?;
-    let shown = cells.display().to_string();
-    let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    if let Some(o) = outer {
-        // A study's own combined cells.csv: read with its level folders.
-        let own = cells.file_name().is_some_and(|n| n == "cells.csv")
-            && matches!(StudyRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256 == sha);
-        if own {
-            let mut record = levels_record(design, beside, &LevelFolder::of(o, beside), (rows, sha))?;
-            (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
-            return Ok(record);
-        }
-        return Ok(Record {
-            design,
-            cells: rows,
-            cells_path: cells.to_path_buf(),
-            cells_file: (shown, sha),
-            run: None,
-        });
-    }
-    let own = cells.file_name().is_some_and(|n| n == "cells.csv")
-        && matches!(RunRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256.as_deref() == Some(&sha));
-    if own {
-        let mut record = folder_record(design, plan, beside, (rows, sha))?;
-        (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
-        return Ok(record);
-    }
-    Ok(Record { design, cells: rows, cells_path: cells.to_path_buf(), cells_file: (shown, sha), run: None })
-}
+use crate::plan::Plan;
 
 /// The record of the run folder `dir` of a study of one run, labelled
 /// with `design` (a run passes the lock state it opened under).
@@ -96,7 +49,7 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
 }
 
 /// As [`read_folder`], for the folder's `cells.csv` already read and hashed.
-fn folder_record(
+pub(crate) fn folder_record(
     design: DesignLabel,
     plan: &Plan,
     dir: &Path,
@@ -198,7 +151,7 @@ pub fn read_levels(design: DesignLabel, dir: &Path, levels: &[LevelFolder]) -> R
 }
 
 /// As [`read_levels`], for the combined `cells.csv` already read and hashed.
-fn levels_record(
+pub(crate) fn levels_record(
     design: DesignLabel,
     dir: &Path,
     levels: &[LevelFolder],
@@ -324,12 +277,20 @@ pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEviden
     let audit = dir.join("audit");
     let treatment: Option<Treatment> =
         evidence(&audit.join("treatment.json"), "treatment strength and condition coverage", missing);
-    let old = |t: &Treatment| t.arms.iter().any(|a| a.segment_distance_quartiles_s.is_none());
-    if level.strength && treatment.as_ref().is_some_and(old) {
-        missing.push(format!(
-            "{} was written by an older build, without the distance quartiles: the treatment strength table gives them as not recorded",
-            audit.join("treatment.json").display()
-        ));
+    // What an older build's treatment audit lacks (every build since
+    // writes both).
+    let lacks = |t: &Treatment| {
+        let quartiles = level.strength && t.arms.iter().any(|a| a.segment_distance_quartiles_s.is_none());
+        match (quartiles, t.coverage.is_none()) {
+            (true, true) => Some("the distance quartiles and the condition coverage: the treatment strength table gives the quartiles as not recorded, and the coverage of the evaluation conditions by each arm is not reported"),
+            (true, false) => Some("the distance quartiles: the treatment strength table gives them as not recorded"),
+            (false, true) => Some("the condition coverage: the coverage of the evaluation conditions by each arm is not reported"),
+            (false, false) => None,
+        }
+    };
+    if let Some(what) = treatment.as_ref().and_then(lacks) {
+        missing
+            .push(format!("{} was written by an older build, without {what}", audit.join("treatment.json").display()));
     }
     let invariants: Option<InvariantsFile> =
         evidence(&audit.join("invariants.json"), "the split's invariants that hold with a warning", missing);

@@ -268,6 +268,23 @@ pub(crate) enum Command {
         #[arg(long)]
         compare_intervals: bool,
     },
+    /// Analyse finished runs of one protocol as one study (for example two
+    /// sets of per-seed draws), with every run's evidence: writes
+    /// OUT/cells.csv (each run's seeds shifted), OUT/combined.json (the runs
+    /// and their hashes) and OUT/report. `analyze DESIGN --cells OUT`
+    /// reads the folder back, verifying every run again.
+    Combine {
+        /// The combined design: the runs' protocol, with `factor seed`
+        /// declaring the shifted seeds (docs/usage.md, "Combining runs").
+        design: PathBuf,
+        /// A run to combine: its design, its run folder and the number
+        /// added to each of its seeds (0 for none); once per run.
+        #[arg(long = "from", num_args = 3, value_names = ["DESIGN", "RUN_DIR", "SEED_SHIFT"], action = clap::ArgAction::Append, required = true, allow_negative_numbers = true)]
+        from: Vec<String>,
+        /// The combined folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 /// `run --slurm`: prepare the run directory for a Slurm job array.

@@ -79,6 +79,7 @@ fn main() -> ExitCode {
         Command::Analyze { design, cells, out, compare_intervals } => {
             analyze(&design, &cells, out, AnalyzeOptions { compare_intervals })
         }
+        Command::Combine { design, from, out } => combine(&design, &from, &out),
     };
     // Text printed without a final newline is still buffered.
     let result = result.and_then(|()| output::flush());
@@ -435,6 +436,38 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
         o.report_dir.display()
     );
     output::verdict(&o.analysis)?;
+    Ok(())
+}
+
+/// `crossaudit combine`: the runs `from` (design, run folder, seed shift,
+/// three words each) combined into `out` and analysed there.
+fn combine(design: &Path, from: &[String], out: &Path) -> Result<(), Error> {
+    let file = crossaudit::design::load(design)?;
+    let study = crossaudit::compile_study(&file.design);
+    let mut sources = Vec::new();
+    for w in from.chunks(3) {
+        let [d, run, shift] = w else { unreachable!("clap gives --from three values") };
+        let seed_shift = shift.parse::<u64>().map_err(|_| crossaudit::run::RunError::Combine {
+            path: run.clone(),
+            reason: format!("seed shift {shift:?} is not a whole number of 0 or more"),
+        })?;
+        sources.push(crossaudit::run::combine::Source { design: d.into(), run: run.into(), seed_shift });
+    }
+    let _lock = lock_folder(out, false)?;
+    let record = crossaudit::run::combine::combine(&file, &study, &sources, out)?;
+    note!("combined {} runs into {} ({} cells)", sources.len(), out.join("cells.csv").display(), record.cells.len());
+    let analysis = crossaudit::analysis::analyze_study(&study.plan, &record, AnalyzeOptions::default())
+        .map_err(crossaudit::run::RunError::from)?;
+    let dir = out.join("report");
+    crossaudit::run::check_output_dir(&dir, &file.sha256)?;
+    let written = crossaudit::report::write_study(&analysis, &dir)?;
+    for w in analysis.warnings() {
+        note!("warning: {}", crossaudit::io::one_line(w));
+    }
+    for p in written {
+        note!("wrote {}", p.display());
+    }
+    output::verdict(&analysis)?;
     Ok(())
 }
 

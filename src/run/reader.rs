@@ -1,0 +1,71 @@
+//! The one reader of what an analysis reads: a per-cell file, a run
+//! folder (of a study of one run or of several level folders) or a folder
+//! `crossaudit combine` wrote, each turned into one typed
+//! [`Record`] by the readers of `read` and `combine`.
+
+use std::path::Path;
+
+use super::combine::{read_combined, CombinedRecord};
+use super::read::{folder_record, levels_record, read_folder, read_levels, LevelFolder};
+use super::{RunError, RunRecord, StudyRecord};
+use crate::analysis::record::{DesignLabel, Record};
+use crate::cells::read_cells;
+use crate::design::{lock, DesignFile};
+use crate::plan::study::LevelRole;
+use crate::plan::StudyPlan;
+
+/// The record of `cells` for the design `file` compiled as `plan`: a run
+/// folder (its `cells.csv` and its evidence), a run's own `cells.csv`
+/// (read with its folder's evidence when the folder's run.json records
+/// this design and this file's hash), or any other per-cell file alone.
+pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result<Record, RunError> {
+    let plan = &study.plan;
+    let design = DesignLabel::new(file, lock::status(file)?);
+    let outer = study.outer.as_ref().filter(|o| matches!(o.role, LevelRole::PerSeed | LevelRole::Redraw));
+    if cells.is_dir() && cells.join("combined.json").exists() {
+        return read_combined(design, study, cells);
+    }
+    if cells.is_dir() {
+        return match outer {
+            Some(o) => read_levels(design, cells, &LevelFolder::of(o, cells)),
+            None => read_folder(design, plan, cells),
+        };
+    }
+    // Read (and so checked to be a regular file) before it is hashed.
+    let rows = read_cells(cells)?;
+    let sha = crate::cells::file_sha256(cells)?;
+    let shown = cells.display().to_string();
+    let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let combined = cells.file_name().is_some_and(|n| n == "cells.csv")
+        && matches!(CombinedRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256 == sha);
+    if combined {
+        let mut record = read_combined(design, study, beside)?;
+        (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
+        return Ok(record);
+    }
+    if let Some(o) = outer {
+        // A study's own combined cells.csv: read with its level folders.
+        let own = cells.file_name().is_some_and(|n| n == "cells.csv")
+            && matches!(StudyRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256 == sha);
+        if own {
+            let mut record = levels_record(design, beside, &LevelFolder::of(o, beside), (rows, sha))?;
+            (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
+            return Ok(record);
+        }
+        return Ok(Record {
+            design,
+            cells: rows,
+            cells_path: cells.to_path_buf(),
+            cells_file: (shown, sha),
+            run: None,
+        });
+    }
+    let own = cells.file_name().is_some_and(|n| n == "cells.csv")
+        && matches!(RunRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256.as_deref() == Some(&sha));
+    if own {
+        let mut record = folder_record(design, plan, beside, (rows, sha))?;
+        (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
+        return Ok(record);
+    }
+    Ok(Record { design, cells: rows, cells_path: cells.to_path_buf(), cells_file: (shown, sha), run: None })
+}
