@@ -139,3 +139,55 @@ fn check_says_first_what_run_refuses_about_a_design() {
     assert!(checked >= 5, "only {checked} run cases");
     assert!(only_run.is_empty(), "refused only by run:\n{}", only_run.join("\n"));
 }
+
+/// `data audit` and `split` cases refused for the output folder, not for
+/// the design or its data.
+const OUT_FOLDER_ONLY: &[&str] = &[
+    "r3a_data_inside_out_folder",
+    "r3a_out_inside_data_folder",
+    "r3a_out_is_data_folder",
+    "r3a_out_is_data_folder_dotted",
+    "r3a_split_out_is_data_folder",
+    "r3b_data_audit_into_other_designs_run",
+    "r3b_split_into_other_designs_run",
+];
+
+/// `check` reads the data too: for every `data audit` and `split` case of
+/// the corpus (each refused for its logs, its conditions or its split),
+/// `check` of the same design on the same data refuses, before anyone
+/// locks, where it used to say "valid" (issue 73: an unmapped speed column
+/// of a conditions table surfaced only at `run`).
+#[test]
+fn check_refuses_first_what_run_refuses_about_the_data() {
+    let corpus = root().join("tests/bad_inputs");
+    let mut checked = Vec::new();
+    let mut passed = Vec::new();
+    for e in std::fs::read_dir(&corpus).unwrap() {
+        let dir = e.unwrap().path();
+        let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+        let Ok(args) = std::fs::read_to_string(dir.join("args")) else { continue };
+        let words: Vec<String> =
+            args.split_whitespace().map(|a| a.replace("{dir}", &dir.display().to_string())).collect();
+        let design = match words.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+            ["data", "audit", d, ..] | ["split", d, ..] => d.to_string(),
+            _ => continue,
+        };
+        if OUT_FOLDER_ONLY.contains(&name.as_str()) {
+            continue;
+        }
+        let mut check = vec!["check".to_string(), design];
+        if let Some(k) = words.iter().position(|w| w == "--data") {
+            check.extend(["--data".to_string(), words[k + 1].clone()]);
+        }
+        let check: Vec<&str> = check.iter().map(String::as_str).collect();
+        let o = crate::common::crossaudit(&check);
+        let said = crate::common::said(&o);
+        assert!(!said.contains("panicked"), "{name}: {said}");
+        if o.status.success() {
+            passed.push(format!("{name}: {} passes:\n{said}", check.join(" ")));
+        }
+        checked.push(name);
+    }
+    assert!(checked.len() >= 40, "only {} data cases: {checked:?}", checked.len());
+    assert!(passed.is_empty(), "check passes what run refuses about the data:\n{}", passed.join("\n"));
+}

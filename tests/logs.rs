@@ -526,6 +526,14 @@ fn stratifying_by_a_condition_no_recording_has_is_refused_at_its_line() {
     let path = tmp.path().join("stratified.design");
     std::fs::write(&path, &text).unwrap();
     let line = text.lines().position(|l| l.contains("stratify speed")).unwrap() + 1;
+    // `check` reads the data and says it first, before anyone locks
+    // (issue 73: it used to say "valid").
+    let o = crate::common::crossaudit(&["check", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("run refuses this design on the data in"), "{err}");
+    assert!(err.contains(&format!("stratified.design:{line}:")), "{err}");
+    assert!(err.contains("every recording's speed is unknown"), "{err}");
     let o = crate::common::crossaudit(&[
         "split",
         path.to_str().unwrap(),

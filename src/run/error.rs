@@ -109,6 +109,14 @@ pub enum RunError {
         /// Why.
         reason: String,
     },
+    /// What `check` found `run` would refuse about the data.
+    #[error("run refuses this design on {data}: {source}")]
+    DataRefused {
+        /// The logs, in words (`the data in DIR`, `its simulated data`).
+        data: String,
+        /// The refusal.
+        source: Box<RunError>,
+    },
     /// Runs that cannot be combined, or a combined folder whose sources
     /// changed.
     #[error("{path}: {reason}")]

@@ -11,6 +11,7 @@
 //! Architecture Invariant: `run` is the only stage that calls the stages
 //! below it in sequence; nothing below imports `run`.
 
+mod check_data;
 pub mod combine;
 mod error;
 pub mod external;
@@ -36,6 +37,7 @@ use std::time::Instant;
 use crate::design::DesignFile;
 use crate::plan::{Plan, StudyPlan, TrainingJob};
 
+pub use check_data::{check_data, DataChecked};
 pub use error::RunError;
 pub use finish::job_cells;
 pub(crate) use finish::{finish, finish_combined, finish_splits, gather_recorded, gathered};

@@ -21,6 +21,11 @@ pub(crate) enum Command {
         /// Print the plan (and the validated design) as JSON.
         #[arg(long)]
         json: bool,
+        /// Read these logs instead of the design's data `path`: the
+        /// inclusion audit and each level's split are built as `run` builds
+        /// them, writing nothing.
+        #[arg(long)]
+        data: Option<PathBuf>,
     },
     /// Record the design's SHA-256, tool version and UTC time in FILE.design.lock.
     Lock {

@@ -42,7 +42,7 @@ fn main() -> ExitCode {
                 other => other.map(|_| ()),
             }
         }
-        Command::Check { design, json } => design_file::check(&design, json),
+        Command::Check { design, json, data } => design_file::check(&design, json, data),
         Command::Lock { design, amend, posthoc: None } => design_file::lock_design(&design, amend.as_deref()),
         Command::Lock { design, posthoc: Some(why), .. } => design_file::mark_posthoc(&design, &why),
         Command::Data { command: DataCommand::Audit { design, data, out } } => data_audit(&design, data, &out),
