@@ -227,6 +227,26 @@ fn edits(a: &str, b: &str) -> usize {
     row[b.len()]
 }
 
+/// Where `cap` is written with another unit than metres (`cap 50 cm`),
+/// the cap in metres to write instead; empty otherwise.
+fn cap_unit_hint(line: &str, at: pest::error::LineColLocation) -> String {
+    let col = match at {
+        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
+    };
+    let rest: String = line.chars().skip(col.saturating_sub(1)).collect();
+    let words: Vec<&str> = rest.split_whitespace().collect();
+    let ["cap", value, unit, ..] = words.as_slice() else { return String::new() };
+    let positive = "; a cap is a positive distance in metres, as `cap 0.5 m`".to_string();
+    let Some(x) = value.parse::<f64>().ok().filter(|x| *x > 0.0 && x.is_finite()) else { return positive };
+    let metres = match *unit {
+        "cm" => x / 100.0,
+        "mm" => x / 1000.0,
+        "km" => x * 1000.0,
+        _ => return positive,
+    };
+    format!("; a cap is written in metres: `cap {metres} m` for {value} {unit}")
+}
+
 /// A pest error as a located diagnostic in the reader's words.
 pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
     let span = match e.location {
@@ -254,6 +274,9 @@ pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
             }
             if let Some(word) = did_you_mean(&names, found_word(e.line(), e.line_col.clone())) {
                 text.push_str(&format!("; did you mean `{word}`?"));
+            }
+            if names.iter().any(|n| n == &rule_name(&Rule::cap)) {
+                text.push_str(&cap_unit_hint(e.line(), e.line_col.clone()));
             }
             text
         }
