@@ -43,8 +43,8 @@ pub fn analyze_study(
 /// What every analysis type carries in its header: the design, the lock
 /// state, the cells and the warnings. One labelling routine for all.
 pub trait Labelled {
-    /// The design hash, the preregistration standing and the warnings.
-    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>);
+    /// The header (design hash, preregistration standing) and the warnings.
+    fn header(&mut self) -> (&mut super::AnalysisHeader, &mut Vec<String>);
     /// Records the per-cell file and its SHA-256.
     fn cells(&mut self, name: &str, sha256: &str);
     /// Passes the labels on to the analyses it holds (a family's splits).
@@ -52,8 +52,8 @@ pub trait Labelled {
 }
 
 impl Labelled for Analysis {
-    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>) {
-        (&mut self.design_sha256, &mut self.standing, &mut self.warnings)
+    fn header(&mut self) -> (&mut super::AnalysisHeader, &mut Vec<String>) {
+        (&mut self.header, &mut self.warnings)
     }
     fn cells(&mut self, name: &str, sha256: &str) {
         self.provenance.cells = Some((name.to_string(), sha256.to_string()));
@@ -61,16 +61,15 @@ impl Labelled for Analysis {
 }
 
 impl Labelled for FamilyAnalysis {
-    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>) {
-        (&mut self.design_sha256, &mut self.standing, &mut self.warnings)
+    fn header(&mut self) -> (&mut super::AnalysisHeader, &mut Vec<String>) {
+        (&mut self.header, &mut self.warnings)
     }
     fn cells(&mut self, name: &str, sha256: &str) {
         self.provenance.cells = Some((name.to_string(), sha256.to_string()));
     }
     fn propagate(&mut self) {
         for a in self.splits.iter_mut().flat_map(|s| s.detail.iter_mut()) {
-            a.design_sha256.clone_from(&self.design_sha256);
-            a.standing.clone_from(&self.standing);
+            a.header.clone_from(&self.header);
         }
     }
 }
@@ -90,24 +89,23 @@ pub fn label(a: &mut impl Labelled, record: &Record) {
 /// lock's amendments).
 fn label_design(a: &mut impl Labelled, design: &DesignLabel, run_exploratory: bool) {
     {
-        let (sha, standing, warnings) = a.header();
-        *sha = Some(design.sha256.clone());
-        *standing = super::Standing::of(&design.status, run_exploratory);
-        warnings.extend(standing.warning(&design.path));
+        let (header, warnings) = a.header();
+        header.design_sha256 = Some(design.sha256.clone());
+        header.standing = super::Standing::of(&design.status, run_exploratory);
+        warnings.extend(header.standing.warning(&design.path));
         warnings.extend(design.status.amendment_warnings());
     }
     a.propagate();
 }
 
 impl Labelled for MultiverseAnalysis {
-    fn header(&mut self) -> (&mut Option<String>, &mut super::Standing, &mut Vec<String>) {
-        (&mut self.design_sha256, &mut self.standing, &mut self.warnings)
+    fn header(&mut self) -> (&mut super::AnalysisHeader, &mut Vec<String>) {
+        (&mut self.header, &mut self.warnings)
     }
     fn cells(&mut self, _name: &str, _sha256: &str) {}
     fn propagate(&mut self) {
         for (_, a) in &mut self.levels {
-            a.design_sha256.clone_from(&self.design_sha256);
-            a.standing.clone_from(&self.standing);
+            a.header.clone_from(&self.header);
         }
     }
 }

@@ -31,7 +31,7 @@ use crate::plan::Plan;
 
 pub use error::{AnalysisError, FileAnalysisError};
 pub use evidence::analyze_study;
-pub use standing::Standing;
+pub use standing::{AnalysisHeader, Standing};
 pub use study::StudyAnalysis;
 pub use types::*;
 
@@ -189,8 +189,7 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
     let fixed_budget = budget::fixed_budget(plan, &units);
     let mut a = Analysis {
         study: plan.study.clone(),
-        design_sha256: None,
-        standing: Standing::Unrecorded,
+        header: AnalysisHeader::default(),
         treated: plan.contrast.treated.clone(),
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,

@@ -198,3 +198,23 @@ mod tests {
         assert!(serde_json::to_value(Standing::Unrecorded).unwrap().get("preregistered").is_none());
     }
 }
+
+/// The header every analysis type carries (a single study's, a family's, a
+/// multiverse's): the design it ran under and where it stands with its
+/// preregistration, set by the one labelling routine
+/// (`analysis::evidence::label`) and flattened into results.json
+/// (`design_sha256`, then `exploratory`, `preregistered`, `standing`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AnalysisHeader {
+    /// SHA-256 of the design file, when the analysis came from one.
+    pub design_sha256: Option<String>,
+    /// Where the analysis stands with its preregistration.
+    #[serde(flatten)]
+    pub standing: Standing,
+}
+
+impl Default for AnalysisHeader {
+    fn default() -> Self {
+        AnalysisHeader { design_sha256: None, standing: Standing::Unrecorded }
+    }
+}

@@ -17,12 +17,11 @@ pub struct AnalyzeOptions {
 pub struct Analysis {
     /// The study's name.
     pub study: String,
-    /// SHA-256 of the design file, when the analysis came from one.
-    pub design_sha256: Option<String>,
-    /// Where the analysis stands with its preregistration (results.json:
-    /// `exploratory`, `preregistered` and the `standing` sentence).
+    /// The design and where the analysis stands with its preregistration
+    /// (results.json: `design_sha256`, `exploratory`, `preregistered` and
+    /// the `standing` sentence).
     #[serde(flatten)]
-    pub standing: super::Standing,
+    pub header: crate::analysis::AnalysisHeader,
     /// The treated arm of the contrast.
     pub treated: String,
     /// The reference arm of the contrast.

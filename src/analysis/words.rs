@@ -181,7 +181,7 @@ pub(crate) fn verdict(d: &Decision, standing: &Standing) -> String {
 /// prefixed with the standing's tag (`EXPLORATORY`, `NOT PREREGISTERED`,
 /// `POST HOC`) when the analysis is not the preregistered one.
 pub fn decision_line(a: &crate::analysis::Analysis) -> String {
-    labelled(decision_summary(&a.decision), &a.standing)
+    labelled(decision_summary(&a.decision), &a.header.standing)
 }
 
 /// `line` prefixed with the analysis's standing tag, when it is not the

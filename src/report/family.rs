@@ -25,7 +25,7 @@ fn split_name(s: Option<u64>) -> String {
 
 /// The decision line as the console prints it.
 pub fn family_decision_line(a: &FamilyAnalysis) -> String {
-    super::format::labelled(decision_summary(&a.decision), &a.standing)
+    super::format::labelled(decision_summary(&a.decision), &a.header.standing)
 }
 
 /// report.md of a family analysis.
@@ -71,13 +71,14 @@ pub fn render_family_markdown(a: &FamilyAnalysis) -> String {
 /// contrast measures, and the provenance lines.
 fn header(a: &FamilyAnalysis) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.standing));
+    let _ =
+        writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.header.standing));
     let _ = writeln!(s, "**{}**\n", decision_summary(&a.decision));
     for g in &a.guards {
         let _ = writeln!(s, "{}\n", g.text);
     }
     let _ = writeln!(s, "Primary endpoint: {}; contrast {} - {}.", a.unit, a.treated, a.reference);
-    if let Some(sha) = &a.design_sha256 {
+    if let Some(sha) = &a.header.design_sha256 {
         let _ = writeln!(s, "Design sha256: {sha}.");
     }
     if let Some((path, sha)) = &a.provenance.cells {
@@ -327,7 +328,7 @@ pub fn write_family_figures(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<Figure
             lines.push((t, RED));
         }
     }
-    let tag = if a.standing.exploratory() { "EXPLORATORY: " } else { "" };
+    let tag = if a.header.standing.exploratory() { "EXPLORATORY: " } else { "" };
     let level = level_pct(a.level);
     if a.doses.len() >= 2 {
         written.push(dose_figure(a, dir, tag)?);
@@ -427,7 +428,7 @@ pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, Repo
     let a = &a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
     let markdown = render_family_markdown(a);
     let d = &a.decision;
-    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.standing)
+    let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.header.standing)
         .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
     let files = [

@@ -107,7 +107,7 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
 /// A figure title, prefixed `EXPLORATORY:` when the analysis is not the
 /// preregistered one.
 fn label(a: &Analysis, title: &str) -> String {
-    if a.standing.exploratory() {
+    if a.header.standing.exploratory() {
         format!("EXPLORATORY: {title}")
     } else {
         title.to_string()

@@ -11,7 +11,8 @@ use crossaudit_stats::DfRule;
 /// Title with the verdict, the decision line, the rule and the figures.
 pub(super) fn header(a: &Analysis) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.standing));
+    let _ =
+        writeln!(s, "# {}: {}\n", super::md_text(&a.study), super::format::verdict(&a.decision, &a.header.standing));
     beside_verdict(&mut s, a);
     rule_and_contrast(&mut s, a);
     estimator_notes(&mut s, a);
@@ -111,7 +112,7 @@ fn estimator_notes(s: &mut String, a: &Analysis) {
 /// The design's hash, the data, the per-cell file, the build, and the
 /// figures.
 fn provenance_and_figures(s: &mut String, a: &Analysis) {
-    if let Some(h) = &a.design_sha256 {
+    if let Some(h) = &a.header.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`.");
     }
     let p = &a.provenance;
@@ -130,7 +131,7 @@ fn provenance_and_figures(s: &mut String, a: &Analysis) {
         s,
         "Analysed by crossaudit {}{}.",
         p.crossaudit,
-        a.standing.short().map(|s| format!("; {s}")).unwrap_or_default()
+        a.header.standing.short().map(|s| format!("; {s}")).unwrap_or_default()
     );
     let _ = writeln!(s);
     if !a.figures.is_empty() {

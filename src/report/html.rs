@@ -426,7 +426,7 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
 /// text; `figures` are (file name, SVG text) of the figures its images name.
 pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
     let d = &a.decision;
-    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.standing)
+    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.header.standing)
         .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
     render_page(&a.study, &banner, markdown, figures)
 }

@@ -79,10 +79,10 @@ fn with<'a>(prefix: &[&'a str], q: &'a str) -> Vec<&'a str> {
 pub fn render_tex(a: &Analysis) -> String {
     let mut m = Macros { text: String::new(), names: Vec::new() };
     let _ = writeln!(m.text, "% crossaudit results for study \"{}\"; \\input this file.", a.study);
-    if let Some(s) = a.standing.short() {
+    if let Some(s) = a.header.standing.short() {
         let _ = writeln!(m.text, "% {s}.");
     }
-    if let Some(h) = &a.design_sha256 {
+    if let Some(h) = &a.header.design_sha256 {
         let _ = writeln!(m.text, "% design sha256 {h}");
     }
     let p = &a.provenance;
@@ -94,8 +94,8 @@ pub fn render_tex(a: &Analysis) -> String {
         let _ = writeln!(m.text, "% per-cell data: {path} (sha256 {sha})");
     }
     let _ = writeln!(m.text, "% crossaudit {}", p.crossaudit);
-    m.add(&["exploratory"], if a.standing.exploratory() { "yes".to_string() } else { "no".to_string() });
-    if let Some(p) = a.standing.preregistered() {
+    m.add(&["exploratory"], if a.header.standing.exploratory() { "yes".to_string() } else { "no".to_string() });
+    if let Some(p) = a.header.standing.preregistered() {
         m.add(&["preregistered"], if p { "yes".to_string() } else { "no".to_string() });
     }
     m.add(&["decision"], if a.decision.holds { a.decision.name.clone() } else { format!("not {}", a.decision.name) });

@@ -148,8 +148,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let secondary = secondary(&splits, &doses);
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
-        design_sha256: None,
-        standing: crate::analysis::Standing::Unrecorded,
+        header: crate::analysis::AnalysisHeader::default(),
         treated: plan.contrast.treated.clone(),
         reference: plan.contrast.reference.clone(),
         level: plan.estimator.level,

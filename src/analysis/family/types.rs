@@ -13,11 +13,11 @@ use crossaudit_stats::CrossedEstimate;
 pub struct FamilyAnalysis {
     /// The study's name.
     pub study: String,
-    /// SHA-256 of the design file, when the analysis came from one.
-    pub design_sha256: Option<String>,
-    /// Where the analysis stands with its preregistration.
+    /// The design and where the analysis stands with its preregistration
+    /// (results.json: `design_sha256`, `exploratory`, `preregistered` and
+    /// the `standing` sentence).
     #[serde(flatten)]
-    pub standing: crate::analysis::Standing,
+    pub header: crate::analysis::AnalysisHeader,
     /// The treated arm (or dose-response family) of the contrast.
     pub treated: String,
     /// The reference arm.

@@ -75,8 +75,7 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         guards: Vec::new(),
         warnings,
         levels: analyses,
-        design_sha256: None,
-        standing: crate::analysis::Standing::Unrecorded,
+        header: crate::analysis::AnalysisHeader::default(),
     })
 }
 

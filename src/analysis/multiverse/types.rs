@@ -69,11 +69,11 @@ pub struct MultiverseAnalysis {
     /// is in its level's report).
     #[serde(skip)]
     pub levels: Vec<(String, Box<Analysis>)>,
-    /// SHA-256 of the design (the labelling routine, `analysis::evidence::label`).
-    pub design_sha256: Option<String>,
-    /// Where the analysis stands with its preregistration.
+    /// The design and where the analysis stands with its preregistration
+    /// (results.json: `design_sha256`, `exploratory`, `preregistered` and
+    /// the `standing` sentence).
     #[serde(flatten)]
-    pub standing: crate::analysis::Standing,
+    pub header: crate::analysis::AnalysisHeader,
 }
 
 fn as_text<S: serde::Serializer, T: std::fmt::Display>(v: &T, s: S) -> Result<S::Ok, S::Error> {

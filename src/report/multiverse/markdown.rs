@@ -46,11 +46,11 @@ fn header(a: &MultiverseAnalysis) -> String {
         if a.choices.is_empty() { "Draw replication" } else { "Multiverse" },
         super::super::md_text(&a.study)
     );
-    let _ = writeln!(s, "{}.\n", a.standing.sentence());
+    let _ = writeln!(s, "{}.\n", a.header.standing.sentence());
     for g in a.guards.iter().map(|g| &g.text) {
         let _ = writeln!(s, "{g}\n");
     }
-    if let Some(h) = &a.design_sha256 {
+    if let Some(h) = &a.header.design_sha256 {
         let _ = writeln!(s, "Design SHA-256: `{h}`. Build: crossaudit {}.\n", crate::io::BUILD);
     }
     let _ = writeln!(

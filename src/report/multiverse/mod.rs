@@ -77,14 +77,14 @@ pub(super) fn verdict(a: &MultiverseAnalysis) -> String {
 /// The banner of report.html: the verdict by the declared combination.
 fn banner(a: &MultiverseAnalysis) -> super::html::Banner {
     let d = &a.decision;
-    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.standing)
+    super::html::Banner::new(&d.name, d.holds, decision_line(a), &a.header.standing)
         .with_guards(a.guards.iter().map(|g| g.text.clone()).collect())
 }
 
 /// The decision line `run` and `analyze` print for a multiverse or a
 /// draw-replicated study.
 pub fn decision_line(a: &MultiverseAnalysis) -> String {
-    super::format::labelled(sentence(a, false), &a.standing)
+    super::format::labelled(sentence(a, false), &a.header.standing)
 }
 
 /// The primary metric's unit as estimates.csv writes it (`m`; empty for
