@@ -51,8 +51,13 @@ const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
 /// FA^2 n = COND^2 (n - d) + CAP^2 d exactly (rollout/metrics.rs); a file
 /// with one arm in millimetres, or from another cap, breaks it.
 fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
-    let cap = plan.cap.0;
-    let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line, field, value, problem };
+    check_labels(plan, c)?;
+    check_errors(plan, c)
+}
+
+/// A cell's labels against the design: its starts, its speed label and,
+/// where the design pins them, its recording.
+fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     // Every evaluation recording gets exactly `starts` rollout starts
     // (split/mod.rs, draw_starts), in every arm.
     if c.n_starts != plan.starts as u64 {
@@ -82,6 +87,16 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             known: format!("the design pins its evaluation recordings: {}{more}", shown.join(", ")),
         });
     }
+    Ok(())
+}
+
+/// A cell's errors against the design and each other: within the cap,
+/// present exactly where the design's data declare them, an attitude error
+/// of at most 180 degrees, and the failure-aware RMSE implied by the
+/// conditional one and the divergent starts.
+fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
+    let cap = plan.cap.0;
+    let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line, field, value, problem };
     if c.fa_position_rmse_m > cap {
         return Err(impossible(
             "fa_position_rmse_m",

@@ -330,42 +330,8 @@ fn decide(
     pooled: Option<&Pooled>,
 ) -> Decision {
     let (unit, metric_unit, axis) = unit;
-    let over = match axis {
-        DoseAxis::Percent => "slope over doses",
-        DoseAxis::Distance => "slope over distance",
-    };
     let slope = rule.on == DecisionTarget::Slope;
-    // (label, optimism, mean, lower, upper)
-    let observed: (String, f64, f64, f64, f64) = match (RuleReads::of(rule, pooled.is_some()), pooled) {
-        (RuleReads::PooledTrend, Some(p)) => {
-            let s = p.slope.as_ref();
-            let s = s.map(|s| (s.optimism_pct, s.mean, s.lower, s.upper)).unwrap_or((
-                f64::NAN,
-                f64::NAN,
-                f64::NAN,
-                f64::NAN,
-            ));
-            (format!("{over}, pooled over {} splits: {unit}", splits.len()), s.0, s.1, s.2, s.3)
-        }
-        (RuleReads::Trend, _) => {
-            let t = splits[0].trend.as_ref();
-            let t = t.map(|t| (t.optimism_slope, t.slope.mean, t.slope.lower, t.slope.upper)).unwrap_or((
-                f64::NAN,
-                f64::NAN,
-                f64::NAN,
-                f64::NAN,
-            ));
-            (format!("{over}: {unit}"), t.0, t.1, t.2, t.3)
-        }
-        (RuleReads::PooledDose, Some(p)) => {
-            let e = &p.doses[0];
-            (format!("pooled over {} splits: {unit}", splits.len()), e.optimism_pct, e.mean, e.lower, e.upper)
-        }
-        _ => {
-            let d = &splits[0].doses[0];
-            (unit.to_string(), d.optimism_pct, d.estimate.mean, d.estimate.lower, d.estimate.upper)
-        }
-    };
+    let observed = observed(rule, (unit, axis), splits, pooled);
     let conditions: Vec<ConditionOutcome> = rule
         .conditions
         .iter()
@@ -401,6 +367,53 @@ fn decide(
         // margins are read on the interval of the mean (or slope) only.
         margins: super::decision::margins(rule, None, (observed.3, observed.4)),
         unguarded: super::decision::unguarded(rule, holds, (observed.3, observed.4)),
+    }
+}
+
+/// What the rule reads, labelled: (label, optimism, mean, lower, upper) of
+/// the slope (pooled over splits when there are several), the pooled dose,
+/// or the single split's primary. `unit` is the primary unit's label and
+/// the dose axis.
+fn observed(
+    rule: &DecisionRule,
+    unit: (&str, DoseAxis),
+    splits: &[SplitResult],
+    pooled: Option<&Pooled>,
+) -> (String, f64, f64, f64, f64) {
+    let (unit, axis) = unit;
+    let over = match axis {
+        DoseAxis::Percent => "slope over doses",
+        DoseAxis::Distance => "slope over distance",
+    };
+    match (RuleReads::of(rule, pooled.is_some()), pooled) {
+        (RuleReads::PooledTrend, Some(p)) => {
+            let s = p.slope.as_ref();
+            let s = s.map(|s| (s.optimism_pct, s.mean, s.lower, s.upper)).unwrap_or((
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+            ));
+            (format!("{over}, pooled over {} splits: {unit}", splits.len()), s.0, s.1, s.2, s.3)
+        }
+        (RuleReads::Trend, _) => {
+            let t = splits[0].trend.as_ref();
+            let t = t.map(|t| (t.optimism_slope, t.slope.mean, t.slope.lower, t.slope.upper)).unwrap_or((
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+                f64::NAN,
+            ));
+            (format!("{over}: {unit}"), t.0, t.1, t.2, t.3)
+        }
+        (RuleReads::PooledDose, Some(p)) => {
+            let e = &p.doses[0];
+            (format!("pooled over {} splits: {unit}", splits.len()), e.optimism_pct, e.mean, e.lower, e.upper)
+        }
+        _ => {
+            let d = &splits[0].doses[0];
+            (unit.to_string(), d.optimism_pct, d.estimate.mean, d.estimate.lower, d.estimate.upper)
+        }
     }
 }
 
