@@ -18,7 +18,7 @@ $ca coverage specs/coverage_missing.json --out results/coverage_missing 2>/dev/n
 $ca coverage specs/coverage_power_paper.json --out results/coverage_power_paper 2>/dev/null
 # rsimsum's check of this one (scripts/reference/rsimsum_check.R) needs R and rsimsum: rerun it by hand.
 $ca coverage specs/coverage_rsimsum.json --out results/coverage_rsimsum --replications 2>/dev/null
-$ca simsum results/coverage_rsimsum/replications.csv --by setting --true true_mean --level level --ci ci_lower,ci_upper --rep rep --target-mcse cover=0.005,bias=0.02 --out results/simsum_rsimsum > results/simsum_rsimsum/summary.txt 2>/dev/null
+$ca simsum results/coverage_rsimsum/replications.csv --by setting,true_mean --true true_mean --level level --ci ci_lower,ci_upper --rep rep --target-mcse cover=0.005,bias=0.02 --out results/simsum_rsimsum > results/simsum_rsimsum/summary.txt 2>/dev/null
 $ca plan designs/nanobench_paper_audited.design --cells results/nanobench_paper_audited/cells.csv --recordings 8,13,26,52 --seeds 3,5,10,20,40 --out results/plan_audited >/dev/null
 $ca plan designs/nanobench_dose_response.design --cells results/dose_response/cells.csv --recordings 8,13,24,26,52 --seeds 3,5,10,20,40 --out results/plan_dose_response >/dev/null
 $ca plan designs/nanobench_multi_split.design --cells results/multi_split/cells.csv --splits 3,5,10,20 --recordings 13,26 --seeds 5,10,20 --out results/plan_multi_split >/dev/null

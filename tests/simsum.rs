@@ -14,8 +14,21 @@ fn simsum(file: &Path, args: &[&str], out: &Path) -> std::process::Output {
     crate::common::bin().current_dir(root()).arg("simsum").arg(file).args(args).arg("--out").arg(out).output().unwrap()
 }
 
-const OWN: [&str; 10] =
-    ["--by", "setting", "--true", "true_mean", "--level", "level", "--ci", "ci_lower,ci_upper", "--rep", "rep"];
+/// The committed replications hold several true means per setting, each
+/// its own data-generating mechanism: as in rsimsum, the true value's
+/// column names no groups, so it is among the by-factors too.
+const OWN: [&str; 10] = [
+    "--by",
+    "setting,true_mean",
+    "--true",
+    "true_mean",
+    "--level",
+    "level",
+    "--ci",
+    "ci_lower,ci_upper",
+    "--rep",
+    "rep",
+];
 
 /// setting, true, level, method, stat.
 type Key = (String, String, String, String, String);
@@ -24,17 +37,22 @@ type Key = (String, String, String, String, String);
 fn table(path: &Path) -> BTreeMap<Key, (f64, f64)> {
     let mut r = csv::Reader::from_path(path).unwrap();
     let num = |s: &str| if s == "NA" { f64::NAN } else { s.parse::<f64>().unwrap() };
+    // Columns by name: ours has the by-factors (setting, true_mean) first.
+    let header = r.headers().unwrap().clone();
+    let at = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name}"));
+    let (setting, truth, level, method, stat, est, mcse) =
+        (at("setting"), at("true"), at("level"), at("method"), at("stat"), at("est"), at("mcse"));
     r.records()
         .map(|row| {
             let row = row.unwrap();
             let key = (
-                row[0].to_string(),
-                num(&row[1]).to_string(),
-                num(&row[2]).to_string(),
-                row[3].to_string(),
-                row[4].to_string(),
+                row[setting].to_string(),
+                num(&row[truth]).to_string(),
+                num(&row[level]).to_string(),
+                row[method].to_string(),
+                row[stat].to_string(),
             );
-            (key, (num(&row[5]), num(&row[6])))
+            (key, (num(&row[est]), num(&row[mcse])))
         })
         .collect()
 }
@@ -564,4 +582,52 @@ fn an_empty_replication_id_is_refused_where_it_is() {
     std::fs::write(&file, "method,rep,estimate,se\nA,1,0.5,0.3\nA,,0.4,0.3\nA,,0.6,0.3\n").unwrap();
     let o = simsum(&file, &["--true", "0", "--rep", "rep"], &tmp.path().join("out"));
     crate::common::assert_refused(&o, ":3:2: the replication id is empty");
+}
+
+/// Issue 77, class 5: a true value that differs between replications
+/// (rsimsum's `true` as a column) is each replication's own in one group,
+/// as rsimsum groups by `by` only; it used to split the study into one
+/// group per replication. Expected values: scripts/reference/simsum_truth_column.py,
+/// rsimsum's formulas (R/performance.R) computed independently in Python,
+/// its output committed in scripts/reference/simsum_truth_column.out.
+#[test]
+fn a_true_value_that_varies_by_replication_is_each_replications_own_in_one_group() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o =
+        simsum(&root().join("tests/fixtures/simsum_truth_column.csv"), &["--true", "true_value", "--rep", "rep"], &out);
+    assert_ok(&o);
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(said.contains("the true value differs between this group's replications"), "{said}");
+    let mut r = csv::Reader::from_path(out.join("simsum.csv")).unwrap();
+    let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
+    // One group: every row's true value is NA (no one value).
+    assert!(rows.iter().all(|row| &row[0] == "NA"), "{rows:?}");
+    let ours = |method: &str, stat: &str| -> (f64, f64) {
+        let row = rows.iter().find(|row| &row[2] == method && &row[3] == stat).unwrap();
+        let num = |s: &str| if s == "NA" { f64::NAN } else { s.parse::<f64>().unwrap() };
+        (num(&row[4]), num(&row[5]))
+    };
+    let reference = std::fs::read_to_string(root().join("scripts/reference/simsum_truth_column.out")).unwrap();
+    let mut compared = 0;
+    for line in reference.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let (want, want_mcse): (f64, f64) = (f[2].parse().unwrap(), f[3].parse().unwrap());
+        let (got, got_mcse) = ours(f[0], f[1]);
+        assert!((got - want).abs() <= 1e-12 * want.abs().max(1.0), "{} {}: {got} against {want}", f[0], f[1]);
+        if want_mcse.is_nan() {
+            assert!(got_mcse.is_nan(), "{} {} MCSE: {got_mcse}", f[0], f[1]);
+        } else {
+            assert!(
+                (got_mcse - want_mcse).abs() <= 1e-12 * want_mcse.abs().max(1.0),
+                "{} {} MCSE: {got_mcse} against {want_mcse}",
+                f[0],
+                f[1]
+            );
+        }
+        compared += 1;
+    }
+    assert_eq!(compared, 18);
+    let md = std::fs::read_to_string(out.join("simsum.md")).unwrap();
+    assert!(md.contains("true value each replication's own") && md.contains("add their column to `--by`"), "{md}");
 }

@@ -210,9 +210,9 @@ def test_simsum_matches_the_command_line_and_rsimsum(root, tmp_path):
     simsum.csv as the committed results/simsum_rsimsum (which
     tests/simsum.rs checks against rsimsum 0.13), and a bad column named."""
     reps = root / "results/coverage_rsimsum/replications.csv"
-    t = crossaudit.simsum(reps, tmp_path / "s", true="true_mean", level="level", by=["setting"],
+    t = crossaudit.simsum(reps, tmp_path / "s", true="true_mean", level="level", by=["setting", "true_mean"],
                           ci=("ci_lower", "ci_upper"), rep="rep", target_mcse={"cover": 0.005, "bias": 0.02})
-    assert list(t.columns) == ["setting", "true", "level", "method", "stat", "est", "mcse"]
+    assert list(t.columns) == ["setting", "true_mean", "true", "level", "method", "stat", "est", "mcse"]
     committed = (root / "results/simsum_rsimsum/simsum.csv").read_bytes()
     assert (tmp_path / "s/simsum.csv").read_bytes() == committed
     cover = t[(t.method == "MomT") & (t.stat == "cover")]

@@ -354,6 +354,31 @@ fn stat(p: &crossaudit_stats::coverage::Performance, name: &str) -> (f64, f64) {
     }
 }
 
+/// What a group whose true value differs between replications is told.
+pub const TRUTH_VARIES: &str = "the true value differs between this group's replications: each measure uses each replication's own (bias, relative bias, MSE, coverage), as rsimsum does with `true` as a column; the empirical SE is the SD of the estimates. If the true values mark different data-generating mechanisms, add their column to `--by` to summarise each on its own.";
+
+/// The groups whose true value differs between replications, named, each
+/// with [`TRUTH_VARIES`] (what the console says).
+pub fn truth_notes(groups: &[Group], by: &[String]) -> Vec<String> {
+    groups
+        .iter()
+        .filter(|g| g.truth.is_none())
+        .map(|g| {
+            let label: Vec<String> = by.iter().zip(&g.by).map(|(n, v)| format!("{n} = {v}")).collect();
+            let name = if label.is_empty() { "the study".to_string() } else { format!("group {}", label.join(", ")) };
+            format!("{}: {TRUTH_VARIES}", crate::io::one_line(&name))
+        })
+        .collect()
+}
+
+/// A group's true value in words: `true 0.5`, or each replication's own.
+fn truth_label(g: &Group) -> String {
+    match g.truth {
+        Some(t) => format!("true {}", num(t)),
+        None => "true value each replication's own".to_string(),
+    }
+}
+
 fn num(x: f64) -> String {
     if x.is_nan() {
         "NA".into()
@@ -396,7 +421,8 @@ pub fn to_csv(groups: &[Group], by: &[String], targets: &[(String, f64)]) -> Str
             let rows = rows.into_iter().map(|(s, e, c)| (s.to_string(), e, c));
             for (s, e, c) in rows.chain(planned.into_iter().map(|(s, n)| (s, n, f64::NAN))) {
                 let mut rec: Vec<String> = g.by.iter().map(|b| text(b)).collect();
-                rec.extend([num(g.truth), num(g.level), text(&m.method), s, num(e), num(c)]);
+                // A truth that varies by replication has no one value: NA.
+                rec.extend([num(g.truth.unwrap_or(f64::NAN)), num(g.level), text(&m.method), s, num(e), num(c)]);
                 let _ = w.write_record(&rec);
             }
         }
@@ -424,11 +450,14 @@ pub fn to_markdown(groups: &[Group], by: &[String], source: &str, targets: &[(St
             .collect();
         let _ = writeln!(
             s,
-            "## {}true {}, level {}\n",
+            "## {}{}, level {}\n",
             if label.is_empty() { String::new() } else { format!("{}, ", label.join(", ")) },
-            num(g.truth),
+            truth_label(g),
             num(g.level)
         );
+        if g.truth.is_none() {
+            let _ = writeln!(s, "The {}\n", TRUTH_VARIES.trim_start_matches("the "));
+        }
         let _ = writeln!(s, "| method | n | bias | empirical SE | model SE | relative error (%) | coverage | coverage MCSE (Agresti-Coull) | bias-eliminated coverage | power | relative precision vs {} (%) | interval score |", crate::io::md_text(&g.reference));
         let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         for m in &g.methods {
@@ -554,7 +583,7 @@ fn draw(groups: &[Group], by: &[String], path: &Path) -> Result<(), crate::repor
     let mut points = Vec::new();
     for g in groups {
         let mut label: Vec<String> = by.iter().zip(&g.by).map(|(n, v)| format!("{n} = {v}")).collect();
-        label.push(format!("true {}, level {}", num(g.truth), num(g.level)));
+        label.push(format!("{}, level {}", truth_label(g), num(g.level)));
         // Whole, not cut: two groups (or methods) cut to the same text would
         // be drawn as one.
         let group = crate::io::one_line(&label.join(", ")).into_owned();

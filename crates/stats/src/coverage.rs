@@ -275,47 +275,61 @@ pub fn performance_at(
     truth: f64,
     level: f64,
 ) -> Performance {
-    let mut dfs: Vec<f64> =
-        est.iter().zip(dfs).filter(|(e, _)| usable(e)).map(|(_, d)| *d).filter(|d| !d.is_nan()).collect();
-    dfs.sort_by(f64::total_cmp);
+    performance_each(setting, method, est, dfs, Truth::One(truth), level)
+}
+
+/// The true value of a set of replications: one for all, or each
+/// replication's own (parallel to the estimates), as rsimsum takes `true`
+/// as a number or a column.
+#[derive(Debug, Clone, Copy)]
+pub enum Truth<'a> {
+    /// The same for every replication.
+    One(f64),
+    /// Each replication's, parallel to the estimates.
+    Each(&'a [f64]),
+}
+
+/// As [`performance_at`], against each replication's own true value where
+/// `truth` gives one per replication (rsimsum's `true` as a column): the
+/// bias, relative bias, MSE, coverage, misses and type S error use each
+/// replication's truth (rsimsum 0.13's formulas, `R/performance.R`); the
+/// empirical SE, the bias's MCSE (the SD of the estimates over sqrt(n)),
+/// the power and the bias-eliminated coverage do not involve it, and
+/// `true_mean` is NaN. With one truth the numbers are [`performance_at`]'s
+/// to the bit.
+pub fn performance_each(
+    setting: &str,
+    method: IntervalMethod,
+    est: &[Estimate],
+    dfs: &[f64],
+    truth: Truth,
+    level: f64,
+) -> Performance {
     let all = est.len();
-    let est: Vec<Estimate> = est.iter().copied().filter(usable).collect();
+    let Usable { est, truths, dfs, one } = Usable::of(est, dfs, truth);
     let est = est.as_slice();
     let n = est.len() as f64;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let var = super::sample_variance;
     let theta: Vec<f64> = est.iter().map(|e| e.0).collect();
     let se2: Vec<f64> = est.iter().map(|e| e.1 * e.1).collect();
-    let covered: Vec<f64> = est.iter().map(|e| f64::from(u8::from(e.2 <= truth && truth <= e.3))).collect();
-    let width: Vec<f64> = est.iter().map(|e| e.3 - e.2).collect();
+    let covered: Vec<f64> = est.iter().zip(&truths).map(|(e, &t)| f64::from(u8::from(e.2 <= t && t <= e.3))).collect();
     let cov = mean(&covered);
     let emp = var(&theta).sqrt();
-    let mod_se = mean(&se2).sqrt();
-    let var_se2 = var(&se2);
-    let mut sorted = width.clone();
-    sorted.sort_by(f64::total_cmp);
+    let (mod_se, mod_se_mcse, rel_error_mod_se, rel_error_mod_se_mcse) = model_se(&se2, emp);
+    let (mean_width, mean_width_mcse, median_width) = widths(est);
     let share = |hit: &dyn Fn(&Estimate) -> bool| est.iter().filter(|e| hit(e)).count() as f64 / n;
     // A share's MCSE, sqrt(p (1 - p) / n); none from fewer than 2.
     let share_mcse = |p: f64| if n >= 2.0 { (p * (1.0 - p) / n).sqrt() } else { f64::NAN };
-    let (below, above) = (share(&|e| e.3 < truth), share(&|e| e.2 > truth));
+    let (below, above) = misses(est, &truths);
     let mean_theta = mean(&theta);
     let be = share(&|e| e.2 <= mean_theta && mean_theta <= e.3);
-    let sq: Vec<f64> = theta.iter().map(|t| (t - truth).powi(2)).collect();
-    let mse = mean(&sq);
+    let (mse, mse_mcse) = mse(&theta, &truths);
     let z = super::critical_value(level, f64::INFINITY).unwrap_or(f64::NAN);
     let power = share(&|e| e.0.abs() >= z * e.1);
-    let rejecting: Vec<&Estimate> = est.iter().filter(|e| e.2 > 0.0 || e.3 < 0.0).collect();
-    let rejection = rejecting.len() as f64 / n;
-    let (type_s, type_s_mcse) = if truth == 0.0 || rejecting.is_empty() {
-        (f64::NAN, f64::NAN)
-    } else {
-        let k = rejecting.len() as f64;
-        let wrong = rejecting.iter().filter(|e| (e.0 > 0.0) != (truth > 0.0)).count() as f64 / k;
-        (wrong, if k >= 2.0 { (wrong * (1.0 - wrong) / k).sqrt() } else { f64::NAN })
-    };
-    let rel: Vec<f64> = theta.iter().map(|t| (t - truth) / truth).collect();
-    let (rel_bias, rel_bias_mcse) =
-        if truth == 0.0 { (f64::NAN, f64::NAN) } else { (mean(&rel), (var(&rel) / n).sqrt()) };
+    let rejection = share(&|e| e.2 > 0.0 || e.3 < 0.0);
+    let (type_s, type_s_mcse) = type_s(est, &truths);
+    let (rel_bias, rel_bias_mcse) = relative_bias(&theta, &truths);
     Performance {
         setting: setting.to_string(),
         method,
@@ -323,30 +337,27 @@ pub fn performance_at(
         coverage: cov,
         // No Monte Carlo SE from fewer than 2 replications: NaN, not 0.
         coverage_mcse: if n >= 2.0 { (cov * (1.0 - cov) / n).sqrt() } else { f64::NAN },
-        mean_width: mean(&width),
-        mean_width_mcse: (var(&width) / n).sqrt(),
-        median_width: if sorted.is_empty() { f64::NAN } else { super::quantile_type7(&sorted, 0.5) },
-        bias: mean(&theta) - truth,
+        mean_width,
+        mean_width_mcse,
+        median_width,
+        bias: bias(&theta, &truths, one),
         bias_mcse: (var(&theta) / n).sqrt(),
         emp_se: emp,
         emp_se_mcse: emp / (2.0 * (n - 1.0)).sqrt(),
         mod_se,
-        mod_se_mcse: (var_se2 / (4.0 * n * mod_se * mod_se)).sqrt(),
-        rel_error_mod_se: 100.0 * (mod_se / emp - 1.0),
-        rel_error_mod_se_mcse: 100.0
-            * (mod_se / emp)
-            * (var_se2 / (4.0 * n * mod_se.powi(4)) + 1.0 / (2.0 * (n - 1.0))).sqrt(),
+        mod_se_mcse,
+        rel_error_mod_se,
+        rel_error_mod_se_mcse,
         undefined: all - est.len(),
         miss_below: below,
         miss_below_mcse: share_mcse(below),
         miss_above: above,
         miss_above_mcse: share_mcse(above),
         mse,
-        // rsimsum's: sqrt(sum((d^2 - MSE)^2) / (n (n - 1))), d = estimate - truth.
-        mse_mcse: (sq.iter().map(|d| (d - mse).powi(2)).sum::<f64>() / (n * (n - 1.0))).sqrt(),
+        mse_mcse,
         be_coverage: be,
         be_coverage_mcse: share_mcse(be),
-        true_mean: truth,
+        true_mean: one.unwrap_or(f64::NAN),
         level,
         rel_bias,
         rel_bias_mcse,
@@ -362,6 +373,108 @@ pub fn performance_at(
         boundary: f64::NAN,
         boundary_mcse: f64::NAN,
     }
+}
+
+/// The usable replications (see [`usable`]) with their true values and
+/// their df (NaN ones left out, sorted), and the one truth where there is
+/// one.
+struct Usable {
+    est: Vec<Estimate>,
+    truths: Vec<f64>,
+    dfs: Vec<f64>,
+    one: Option<f64>,
+}
+
+impl Usable {
+    fn of(est: &[Estimate], dfs: &[f64], truth: Truth) -> Usable {
+        let mut dfs: Vec<f64> =
+            est.iter().zip(dfs).filter(|(e, _)| usable(e)).map(|(_, d)| *d).filter(|d| !d.is_nan()).collect();
+        dfs.sort_by(f64::total_cmp);
+        let (truths, one) = match truth {
+            Truth::One(t) => (vec![t; est.len()], Some(t)),
+            Truth::Each(t) => (t.to_vec(), None),
+        };
+        let (est, truths) = est.iter().copied().zip(truths).filter(|(e, _)| usable(e)).unzip();
+        Usable { est, truths, dfs, one }
+    }
+}
+
+/// The model-based SE, sqrt(mean(SE^2)), and its MCSE; the relative error
+/// of the model SE against the empirical SE `emp`, and its MCSE (Morris,
+/// White & Crowther 2019, Table 6), from the squared SEs `se2`.
+fn model_se(se2: &[f64], emp: f64) -> (f64, f64, f64, f64) {
+    let n = se2.len() as f64;
+    let mod_se = (se2.iter().sum::<f64>() / n).sqrt();
+    let var_se2 = super::sample_variance(se2);
+    (
+        mod_se,
+        (var_se2 / (4.0 * n * mod_se * mod_se)).sqrt(),
+        100.0 * (mod_se / emp - 1.0),
+        100.0 * (mod_se / emp) * (var_se2 / (4.0 * n * mod_se.powi(4)) + 1.0 / (2.0 * (n - 1.0))).sqrt(),
+    )
+}
+
+/// The intervals' mean width, its MCSE and the median width.
+fn widths(est: &[Estimate]) -> (f64, f64, f64) {
+    let width: Vec<f64> = est.iter().map(|e| e.3 - e.2).collect();
+    let n = width.len() as f64;
+    let mut sorted = width.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = if sorted.is_empty() { f64::NAN } else { super::quantile_type7(&sorted, 0.5) };
+    (width.iter().sum::<f64>() / n, (super::sample_variance(&width) / n).sqrt(), median)
+}
+
+/// The shares of intervals entirely below and entirely above their
+/// replication's truth.
+fn misses(est: &[Estimate], truths: &[f64]) -> (f64, f64) {
+    let n = est.len() as f64;
+    let share =
+        |hit: &dyn Fn(&Estimate, f64) -> bool| est.iter().zip(truths).filter(|(e, t)| hit(e, **t)).count() as f64 / n;
+    (share(&|e, t| e.3 < t), share(&|e, t| e.2 > t))
+}
+
+/// The mean squared error and rsimsum's MCSE of it,
+/// sqrt(sum((d^2 - MSE)^2) / (n (n - 1))), d = estimate - truth.
+fn mse(theta: &[f64], truths: &[f64]) -> (f64, f64) {
+    let sq: Vec<f64> = theta.iter().zip(truths).map(|(x, t)| (x - t).powi(2)).collect();
+    let n = sq.len() as f64;
+    let mse = sq.iter().sum::<f64>() / n;
+    (mse, (sq.iter().map(|d| (d - mse).powi(2)).sum::<f64>() / (n * (n - 1.0))).sqrt())
+}
+
+/// The bias, mean(estimate - truth); with one truth, mean(estimate) -
+/// truth (the bits every earlier result was computed with).
+fn bias(theta: &[f64], truths: &[f64], one: Option<f64>) -> f64 {
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    match one {
+        Some(t) => mean(theta) - t,
+        None => mean(&theta.iter().zip(truths).map(|(x, t)| x - t).collect::<Vec<_>>()),
+    }
+}
+
+/// The type S error: among the intervals that exclude 0, the share whose
+/// estimate has the other sign than its replication's truth, with its
+/// MCSE; NaN where none excludes 0 or a truth is 0 (no sign to get wrong).
+fn type_s(est: &[Estimate], truths: &[f64]) -> (f64, f64) {
+    let rejecting: Vec<(&Estimate, f64)> =
+        est.iter().zip(truths).filter(|(e, _)| e.2 > 0.0 || e.3 < 0.0).map(|(e, t)| (e, *t)).collect();
+    if truths.contains(&0.0) || rejecting.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let k = rejecting.len() as f64;
+    let wrong = rejecting.iter().filter(|(e, t)| (e.0 > 0.0) != (*t > 0.0)).count() as f64 / k;
+    (wrong, if k >= 2.0 { (wrong * (1.0 - wrong) / k).sqrt() } else { f64::NAN })
+}
+
+/// The relative bias, mean((estimate - truth) / truth), and its MCSE, the
+/// SD of those ratios over sqrt(n) (rsimsum's); NaN where a truth is 0.
+fn relative_bias(theta: &[f64], truths: &[f64]) -> (f64, f64) {
+    if truths.contains(&0.0) {
+        return (f64::NAN, f64::NAN);
+    }
+    let rel: Vec<f64> = theta.iter().zip(truths).map(|(x, t)| (x - t) / t).collect();
+    let n = rel.len() as f64;
+    (rel.iter().sum::<f64>() / n, (super::sample_variance(&rel) / n).sqrt())
 }
 
 /// The estimators that work with missing cells, on one array with the

@@ -58,7 +58,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::coverage::{performance_at, Estimate, Performance};
+use crate::coverage::{performance_each, Estimate, Performance, Truth};
 use crate::IntervalMethod;
 
 /// One method's result in one replication.
@@ -78,7 +78,8 @@ pub struct Replication {
     pub limits: Option<(f64, f64)>,
     /// Degrees of freedom, where given (NaN: infinite).
     pub df: Option<f64>,
-    /// The true value.
+    /// The true value (it may differ between replications: rsimsum's
+    /// `true` as a column).
     pub truth: f64,
     /// The intervals' nominal level.
     pub level: f64,
@@ -134,13 +135,16 @@ pub struct MethodPerformance {
     pub versus_reference: Option<Paired>,
 }
 
-/// One group: one combination of by-values, true value and level.
+/// One group: one combination of by-values and level (the true value may
+/// differ between its replications, as rsimsum allows).
 #[derive(Debug, Clone)]
 pub struct Group {
     /// The by-values.
     pub by: Vec<String>,
-    /// The true value.
-    pub truth: f64,
+    /// The true value, where every replication of the group has the same;
+    /// `None` where each has its own (each measure then uses each
+    /// replication's, as rsimsum does).
+    pub truth: Option<f64>,
     /// The nominal level.
     pub level: f64,
     /// The reference method (relative precision and paired differences).
@@ -177,10 +181,11 @@ pub enum SimsumError {
     },
 }
 
-type Key = (Vec<String>, u64, u64);
+type Key = (Vec<String>, u64);
 
-/// The measures of every method in every group (by-values, true value and
-/// level), groups in the order first seen. `reference` names the method
+/// The measures of every method in every group (by-values and level; a
+/// true value that varies between replications is each replication's, as
+/// in rsimsum, not a group of its own), groups in the order first seen. `reference` names the method
 /// others are compared with; by default each group's first.
 pub fn simsum(reps: &[Replication], reference: Option<&str>) -> Result<Vec<Group>, SimsumError> {
     if reps.is_empty() {
@@ -189,7 +194,7 @@ pub fn simsum(reps: &[Replication], reference: Option<&str>) -> Result<Vec<Group
     let mut order: Vec<Key> = Vec::new();
     let mut groups: BTreeMap<Key, Vec<&Replication>> = BTreeMap::new();
     for r in reps {
-        let key = (r.by.clone(), r.truth.to_bits(), r.level.to_bits());
+        let key = (r.by.clone(), r.level.to_bits());
         let g = groups.entry(key.clone()).or_default();
         if g.is_empty() {
             order.push(key);
@@ -208,11 +213,13 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
     // by its name's index: linear however many methods there are.
     let mut index: BTreeMap<&str, usize> = BTreeMap::new();
     let mut by_method: Vec<(&str, Vec<(String, Estimate)>)> = Vec::new();
+    let mut truths: Vec<Vec<f64>> = Vec::new();
     let mut seen: Vec<std::collections::BTreeSet<String>> = Vec::new();
     for r in rows {
         let m = r.method.as_str();
         let k = *index.entry(m).or_insert_with(|| {
             by_method.push((m, Vec::new()));
+            truths.push(Vec::new());
             seen.push(Default::default());
             by_method.len() - 1
         });
@@ -224,29 +231,41 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
             return Err(SimsumError::DuplicateRep { rep: id, method: m.to_string(), group: label });
         }
         by_method[k].1.push((id, interval(r)));
+        truths[k].push(r.truth);
     }
     let reference = reference.unwrap_or(by_method[0].0).to_string();
     let Some(&at) = index.get(reference.as_str()) else {
         return Err(SimsumError::NoReference { reference, group: label });
     };
     let reference_reps: &[(String, Estimate)] = &by_method[at].1;
-    let reference_by_id: BTreeMap<&str, &Estimate> = reference_reps.iter().map(|(id, e)| (id.as_str(), e)).collect();
+    let reference_by_id: BTreeMap<&str, (&Estimate, f64)> =
+        reference_reps.iter().zip(&truths[at]).map(|((id, e), t)| (id.as_str(), (e, *t))).collect();
+    // One truth for the group, or each replication's own.
+    let one = rows.iter().all(|r| r.truth.to_bits() == first.truth.to_bits()).then_some(first.truth);
     let usable_theta = |l: &[(String, Estimate)]| -> Vec<f64> {
         l.iter().filter(|(_, e)| crate::coverage::usable(e)).map(|(_, e)| e.0).collect()
     };
     let empse_ref = crate::sample_variance(&usable_theta(reference_reps)).sqrt();
     let mut out = Vec::new();
-    for (m, list) in &by_method {
+    for ((m, list), own) in by_method.iter().zip(&truths) {
         let est: Vec<Estimate> = list.iter().map(|(_, e)| *e).collect();
-        let mut p = performance_at(&label, IntervalMethod::MomT, &est, &[], first.truth, first.level);
-        let pairs = paired(&reference_by_id, list);
+        let truth = match one {
+            Some(t) => Truth::One(t),
+            None => Truth::Each(own),
+        };
+        let mut p = performance_each(&label, IntervalMethod::MomT, &est, &[], truth, first.level);
+        let pairs = paired(&reference_by_id, list, own);
         let ratio2 = (empse_ref / p.emp_se).powi(2);
         p.rel_precision = 100.0 * (ratio2 - 1.0);
-        let rho = crate::coverage::correlation(&pairs.iter().map(|(a, b)| (a.0, b.0)).collect::<Vec<_>>());
+        let rho = crate::coverage::correlation(&pairs.iter().map(|((a, _), (b, _))| (a.0, b.0)).collect::<Vec<_>>());
         p.rel_precision_mcse = 200.0 * ratio2 * ((1.0 - rho * rho).max(0.0) / (p.reps as f64 - 1.0)).sqrt();
-        let versus_reference = (*m != reference).then(|| differences(&pairs, first.truth, first.level));
-        let scores: Vec<f64> =
-            est.iter().filter(|e| crate::coverage::usable(e)).map(|e| score(e, first.truth, first.level)).collect();
+        let versus_reference = (*m != reference).then(|| differences(&pairs, first.level));
+        let scores: Vec<f64> = est
+            .iter()
+            .zip(own)
+            .filter(|(e, _)| crate::coverage::usable(e))
+            .map(|(e, t)| score(e, *t, first.level))
+            .collect();
         let interval_score = mean_and_mcse(&scores);
         let (n, x) = (p.reps as f64, p.coverage * p.reps as f64);
         let adjusted = (x.round() + 2.0) / (n + 4.0);
@@ -259,7 +278,7 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
             versus_reference,
         });
     }
-    Ok(Group { by: first.by.clone(), truth: first.truth, level: first.level, reference, paired_by, methods: out })
+    Ok(Group { by: first.by.clone(), truth: one, level: first.level, reference, paired_by, methods: out })
 }
 
 /// A replication as (estimate, SE, lower, upper): its limits, or estimate
@@ -277,11 +296,20 @@ fn interval(r: &Replication) -> Estimate {
     (r.estimate, r.se, lower, upper)
 }
 
-/// The replications both methods estimated, matched by id.
-fn paired(theirs: &BTreeMap<&str, &Estimate>, mine: &[(String, Estimate)]) -> Vec<(Estimate, Estimate)> {
+/// An estimate and the true value of its replication.
+type AtTruth = (Estimate, f64);
+
+/// The replications both methods estimated, matched by id, each with its
+/// own replication's truth (`mine_truths` parallel to `mine`).
+fn paired(
+    theirs: &BTreeMap<&str, (&Estimate, f64)>,
+    mine: &[(String, Estimate)],
+    mine_truths: &[f64],
+) -> Vec<(AtTruth, AtTruth)> {
     mine.iter()
-        .filter_map(|(id, e)| theirs.get(id.as_str()).map(|r| (**r, *e)))
-        .filter(|(a, b)| crate::coverage::usable(a) && crate::coverage::usable(b))
+        .zip(mine_truths)
+        .filter_map(|((id, e), t)| theirs.get(id.as_str()).map(|(r, rt)| ((**r, *rt), (*e, *t))))
+        .filter(|((a, _), (b, _))| crate::coverage::usable(a) && crate::coverage::usable(b))
         .collect()
 }
 
@@ -300,15 +328,17 @@ fn mean_and_mcse(d: &[f64]) -> (f64, f64) {
     (mean, mcse)
 }
 
-fn differences(pairs: &[(Estimate, Estimate)], truth: f64, level: f64) -> Paired {
-    let of = |f: &dyn Fn(&Estimate, &Estimate) -> f64| -> (f64, f64) {
+fn differences(pairs: &[(AtTruth, AtTruth)], level: f64) -> Paired {
+    let of = |f: &dyn Fn(&AtTruth, &AtTruth) -> f64| -> (f64, f64) {
         mean_and_mcse(&pairs.iter().map(|(a, b)| f(a, b)).collect::<Vec<_>>())
     };
-    let covers = |e: &Estimate| f64::from(u8::from(e.2 <= truth && truth <= e.3));
+    let covers = |(e, t): &AtTruth| f64::from(u8::from(e.2 <= *t && *t <= e.3));
     let (coverage_diff, coverage_diff_mcse) = of(&|a, b| covers(b) - covers(a));
-    let (bias_diff, bias_diff_mcse) = of(&|a, b| b.0 - a.0);
-    let (width_diff, width_diff_mcse) = of(&|a, b| (b.3 - b.2) - (a.3 - a.2));
-    let (score_diff, score_diff_mcse) = of(&|a, b| score(b, truth, level) - score(a, truth, level));
+    // Bias difference: (b - tb) - (a - ta); with one truth, b - a.
+    let (bias_diff, bias_diff_mcse) =
+        of(&|(a, ta), (b, tb)| if ta.to_bits() == tb.to_bits() { b.0 - a.0 } else { (b.0 - tb) - (a.0 - ta) });
+    let (width_diff, width_diff_mcse) = of(&|(a, _), (b, _)| (b.3 - b.2) - (a.3 - a.2));
+    let (score_diff, score_diff_mcse) = of(&|(a, ta), (b, tb)| score(b, *tb, level) - score(a, *ta, level));
     Paired {
         pairs: pairs.len(),
         coverage_diff,

@@ -329,6 +329,9 @@ pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
     let _lock = lock_folder(out, false)?;
     let groups = ss::summarise(file, &cols)?;
     out!("{}", ss::summary(&groups));
+    for n in ss::truth_notes(&groups, &cols.by) {
+        note!("note: {n}");
+    }
     for p in ss::write(&groups, &cols, &file.display().to_string(), out)? {
         note!("wrote {}", p.display());
     }
