@@ -193,6 +193,21 @@ fn cells_reference(run: &str, key: &str) -> f64 {
 /// pbkrtest on the same 454 pairs (scripts/reference/mixed_cells_reference.R).
 fn reml_on_deleted_cells(run: &str) {
     let dir = tempfile::tempdir().unwrap();
+    let (cells, deleted) = deleted_cells(run, dir.path());
+    let design = root().join(format!("designs/reanalysis/{run}_reml.design"));
+    let out = dir.path().join("report");
+    let status = crate::common::bin()
+        .args(["analyze", design.to_str().unwrap(), "--cells", cells.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    reml_checked(run, &status, &out, &deleted);
+}
+
+/// The committed run's cells.csv written into `dir` without the rows R
+/// deleted at random (tests/fixtures/deleted_cells_RUN.csv); its path and
+/// the deleted (recording, seed, arm).
+fn deleted_cells(run: &str, dir: &std::path::Path) -> (std::path::PathBuf, Vec<(String, String, String)>) {
     let deleted = std::fs::read_to_string(root().join(format!("tests/fixtures/deleted_cells_{run}.csv"))).unwrap();
     let deleted: Vec<(String, String, String)> = deleted
         .lines()
@@ -218,15 +233,14 @@ fn reml_on_deleted_cells(run: &str) {
         }
     }
     assert_eq!(removed, 26);
-    let cells = dir.path().join("cells.csv");
+    let cells = dir.join("cells.csv");
     std::fs::write(&cells, kept.join("\n") + "\n").unwrap();
-    let design = root().join(format!("designs/reanalysis/{run}_reml.design"));
-    let out = dir.path().join("report");
-    let status = crate::common::bin()
-        .args(["analyze", design.to_str().unwrap(), "--cells", cells.to_str().unwrap(), "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    (cells, deleted)
+}
+
+/// The REML analysis of the deleted cells (in `out`) against lme4,
+/// lmerTest and pbkrtest, every deleted cell listed.
+fn reml_checked(run: &str, status: &std::process::Output, out: &std::path::Path, deleted: &[(String, String, String)]) {
     assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
@@ -256,9 +270,81 @@ fn reml_on_deleted_cells(run: &str) {
     // Every deleted cell is listed in the report.
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("## Missing cells"));
-    for (r, s, a) in &deleted {
+    for (r, s, a) in deleted {
         assert!(report.contains(&format!("arm={a} seed={s} recording={r} horizon=1 s")), "{r} {s} {a} not listed");
     }
+}
+
+/// Issue 75, item 4: `--compare-intervals` on an incomplete array gives
+/// every interval the array allows and names each other with its reason.
+/// REML as above (lme4); the naive iid interval and the one-way
+/// cluster-robust ones by recording and by seed against their closed forms
+/// computed here from the per-cell d (naive: SD / sqrt(N); CR1, as
+/// sandwich::vcovCL(type = "HC1") for an intercept-only model: V = G / (G
+/// - 1) sum_g (sum of the cluster's residuals)^2 / N^2, Cameron & Miller
+/// 2015, eq. 11 with its small-sample factor).
+#[test]
+fn compared_intervals_on_an_incomplete_array_give_what_it_allows_and_name_the_rest() {
+    let run = "nanobench_paper";
+    let dir = tempfile::tempdir().unwrap();
+    let (cells, deleted) = deleted_cells(run, dir.path());
+    let design = root().join(format!("designs/reanalysis/{run}_reml.design"));
+    let out = dir.path().join("report");
+    let status = crate::common::bin()
+        .args(["analyze", design.to_str().unwrap(), "--cells", cells.to_str().unwrap(), "--compare-intervals", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    // The REML analysis is what it is without the option.
+    reml_checked(run, &status, &out, &deleted);
+    // d per (recording, seed) where both arms are present: world, 1 s.
+    let text = std::fs::read_to_string(&cells).unwrap();
+    let mut arms: BTreeMap<(String, String), (Option<f64>, Option<f64>)> = BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[0] != "world" || f[6] != "1" {
+            continue;
+        }
+        let e = arms.entry((f[3].to_string(), f[2].to_string())).or_default();
+        let v: f64 = f[9].parse().unwrap();
+        match f[1] {
+            "contaminated" => e.0 = Some(v),
+            "disjoint" => e.1 = Some(v),
+            other => panic!("arm {other}"),
+        }
+    }
+    let d: Vec<((String, String), f64)> = arms.into_iter().filter_map(|(k, (c, r))| Some((k, c? - r?))).collect();
+    let n = d.len() as f64;
+    let mean = d.iter().map(|x| x.1).sum::<f64>() / n;
+    let naive = (d.iter().map(|x| (x.1 - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    let cr1 = |key: &dyn Fn(&(String, String)) -> String| {
+        let mut sums: BTreeMap<String, f64> = BTreeMap::new();
+        for (k, v) in &d {
+            *sums.entry(key(k)).or_default() += v - mean;
+        }
+        let g = sums.len() as f64;
+        ((g / (g - 1.0)) * sums.values().map(|s| s * s).sum::<f64>() / (n * n)).sqrt()
+    };
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let intervals = json["units"][0]["intervals"].as_array().unwrap();
+    assert_eq!(intervals.len(), 18, "every method has its row");
+    let row = |m: &str| intervals.iter().find(|i| i["method"] == m).unwrap_or_else(|| panic!("no {m}"));
+    let se = |m: &str| row(m)["se"].as_f64().unwrap();
+    for (m, want) in
+        [("naive_iid", naive), ("cluster_recording", cr1(&|k| k.0.clone())), ("cluster_seed", cr1(&|k| k.1.clone()))]
+    {
+        assert!((se(m) - want).abs() <= 1e-12 * want, "{m}: {} against {want}", se(m));
+        assert!((row(m)["estimate"].as_f64().unwrap() - mean).abs() <= 1e-12 * mean.abs());
+    }
+    assert_eq!(row("cluster_recording")["df"].as_f64().unwrap(), 23.0);
+    assert_eq!(row("cluster_seed")["df"].as_f64().unwrap(), 19.0);
+    // Every other one is named in report.md with its reason.
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    // (Only the primary unit's cells were deleted: the others are complete
+    // and give all 18.)
+    let named = report.matches("undefined: it needs a complete recording x seed array").count();
+    assert_eq!(named, 13, "{report}");
 }
 
 #[test]

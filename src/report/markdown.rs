@@ -386,9 +386,18 @@ fn conditional(a: &Analysis, level: &str) -> MdTable {
     table
 }
 
-/// Why an interval can be undefined on an array.
-fn undefined_because(method: crossaudit_stats::IntervalMethod) -> &'static str {
+/// Why an interval can be undefined on an array (`incomplete`: cells of
+/// it are missing, which only REML, the naive and the one-way clustered
+/// intervals allow).
+fn undefined_because(method: crossaudit_stats::IntervalMethod, incomplete: bool) -> &'static str {
     use crossaudit_stats::IntervalMethod as M;
+    let allowed = matches!(
+        method,
+        M::RemlSatterthwaite | M::RemlKenwardRoger | M::NaiveIid | M::ClusterRecording | M::ClusterSeed
+    );
+    if incomplete && !allowed {
+        return "it needs a complete recording x seed array, and this one has missing cells (listed under Missing cells)";
+    }
     match method {
         M::TwoWayCluster => "its variance V_row + V_col - V_cell is not positive on this array",
         M::MomUntruncated => "its variance (MS_row + MS_col - MS_error) / IJ is not positive on this array",
@@ -402,6 +411,13 @@ fn compared(a: &Analysis, level: &str) -> MdTable {
     let cols = ["model", "metric", "horizon", "unit", "method", "estimate", "SE", "df", &ci_h, "excludes 0"];
     let mut table = MdTable::new(&cols, "lllllrrrll");
     for u in &a.units {
+        // A unit whose array lacks cells: the crossed MoM, given on every
+        // complete array, is undefined there.
+        let incomplete = !a.missing_cells.is_empty()
+            && u.intervals
+                .iter()
+                .flatten()
+                .any(|iv| iv.method == crossaudit_stats::IntervalMethod::MomT && iv.lower.is_nan());
         for iv in u.intervals.iter().flatten() {
             if iv.lower.is_nan() || iv.upper.is_nan() {
                 table.row([
@@ -410,7 +426,7 @@ fn compared(a: &Analysis, level: &str) -> MdTable {
                     "-".into(),
                     "-".into(),
                     "-".into(),
-                    format!("undefined: {}", undefined_because(iv.method)),
+                    format!("undefined: {}", undefined_because(iv.method, incomplete)),
                     "-".into(),
                 ]);
                 continue;

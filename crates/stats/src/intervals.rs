@@ -22,6 +22,92 @@ pub fn one_sample_interval(values: &[f64], level: f64) -> Result<(f64, f64, f64,
     Ok((mean, se, df, mean - q * se, mean + q * se))
 }
 
+/// Every interval of [`compare_intervals`] and [`further_intervals`] on a
+/// rows x cols array with cells missing (`cells`: row, column, value of
+/// those present), in their order: the two REML intervals, the naive iid
+/// interval over the present cells, and the one-way cluster-robust
+/// intervals by row and by column (intercept-only CR1, as R's
+/// `sandwich::vcovCL(type = "HC1")`: V = G / (G - 1) sum_g (sum of the
+/// residuals in cluster g)^2 / N^2, on G - 1 df; on a complete array this
+/// is the one-sample interval of the cluster means that
+/// [`compare_intervals`] gives). Every other method needs a complete
+/// array and is a row of NaN ([`IntervalEstimate::undefined`]).
+pub fn incomplete_intervals(
+    cells: &[(usize, usize, f64)],
+    rows: usize,
+    cols: usize,
+    level: f64,
+) -> Result<Vec<IntervalEstimate>, StatsError> {
+    use IntervalMethod as M;
+    let mut out: Vec<IntervalEstimate> =
+        [M::MomT, M::MomSatterthwaite, M::MomZ].map(IntervalEstimate::undefined).to_vec();
+    match reml_intervals(cells, rows, cols, level) {
+        Ok(rows) => out.extend(rows),
+        Err(_) => out.extend([M::RemlSatterthwaite, M::RemlKenwardRoger].map(IntervalEstimate::undefined)),
+    }
+    out.push(IntervalEstimate::undefined(M::PigeonholePercentile));
+    let values: Vec<f64> = cells.iter().map(|c| c.2).collect();
+    let (estimate, se, df, lower, upper) = one_sample_interval(&values, level)?;
+    out.push(IntervalEstimate { method: M::NaiveIid, estimate, se, df, lower, upper, boundary: false });
+    out.push(one_way_cluster(cells, rows, |c| c.0, M::ClusterRecording, level));
+    out.push(one_way_cluster(cells, cols, |c| c.1, M::ClusterSeed, level));
+    out.extend(
+        [
+            M::TwoWayCluster,
+            M::SumOfMargins,
+            M::MomUntruncated,
+            M::PigeonholeSe,
+            M::PigeonholeT,
+            M::ProductWeightsSe,
+            M::ProductWeightsPercentile,
+            M::ParametricT,
+            M::ProfileMl,
+        ]
+        .map(IntervalEstimate::undefined),
+    );
+    Ok(out)
+}
+
+/// The intercept-only CR1 interval of the mean of `cells`, clustered by
+/// `cluster` (one of `groups` clusters; those without a cell do not
+/// count): NaN where fewer than two clusters hold a cell or the variance
+/// is not positive.
+fn one_way_cluster(
+    cells: &[(usize, usize, f64)],
+    groups: usize,
+    cluster: impl Fn(&(usize, usize, f64)) -> usize,
+    method: IntervalMethod,
+    level: f64,
+) -> IntervalEstimate {
+    let n = cells.len() as f64;
+    let mean = cells.iter().map(|c| c.2).sum::<f64>() / n;
+    let mut sums = vec![0.0; groups];
+    let mut held = vec![false; groups];
+    for c in cells {
+        let g = cluster(c);
+        sums[g] += c.2 - mean;
+        held[g] = true;
+    }
+    let g = held.iter().filter(|h| **h).count() as f64;
+    let v = g / (g - 1.0) * sums.iter().map(|s| s * s).sum::<f64>() / (n * n);
+    let df = g - 1.0;
+    match critical_value(level, df) {
+        Ok(q) if g >= 2.0 && v > 0.0 => {
+            let se = v.sqrt();
+            IntervalEstimate {
+                method,
+                estimate: mean,
+                se,
+                df,
+                lower: mean - q * se,
+                upper: mean + q * se,
+                boundary: false,
+            }
+        }
+        _ => IntervalEstimate::undefined(method),
+    }
+}
+
 /// The two REML intervals of a rows x cols array with cells missing
 /// (`cells`: row, column, value of those present).
 pub fn reml_intervals(

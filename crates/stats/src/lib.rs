@@ -51,7 +51,8 @@ pub use crossed::{
     VarianceComponents,
 };
 pub use intervals::{
-    compare_intervals, further_intervals, one_sample_interval, reml_intervals, IntervalEstimate, IntervalMethod,
+    compare_intervals, further_intervals, incomplete_intervals, one_sample_interval, reml_intervals, IntervalEstimate,
+    IntervalMethod,
 };
 pub use loo::{leave_one_out_mom, Axis};
 pub use matrix::CrossedMatrix;

@@ -2,12 +2,14 @@
 //! array, the coverage study's further ones on a complete array.
 
 use super::{Ctx, Grid};
-use crossaudit_stats::{compare_intervals, reml_intervals, CrossedMatrix, IntervalEstimate, StatsError};
+use crossaudit_stats::{compare_intervals, incomplete_intervals, CrossedMatrix, IntervalEstimate, StatsError};
 
 impl Ctx<'_> {
     /// `--compare-intervals`: every interval estimator on the unit's
-    /// array, the coverage study's further ones on a complete array; None
-    /// without the option.
+    /// array, the coverage study's further ones on a complete array; on an
+    /// incomplete one, those it allows (REML, naive, one-way clustered) and
+    /// a row of NaN for each other, which the report names with its
+    /// reason; None without the option.
     pub(super) fn compared(
         &self,
         diff: &Grid,
@@ -25,7 +27,7 @@ impl Ctx<'_> {
                 all.extend(further(m, level, b, stream));
                 all
             }
-            None => reml_intervals(&diff.cells(), diff.rows, diff.cols, level)?,
+            None => incomplete_intervals(&diff.cells(), diff.rows, diff.cols, level)?,
         }))
     }
 }

@@ -143,3 +143,28 @@ fn naive_iid_interval_collapses_where_the_recording_component_dominates() {
     assert_rel(se(MomT), se(ClusterRecording), 1e-12, "MoM SE equals the recording-cluster SE");
     assert!(se(NaiveIid) < se(MomT) / 2.5, "naive iid SE {} vs MoM {}", se(NaiveIid), se(MomT));
 }
+
+proptest! {
+    /// On a complete array, the intervals `incomplete_intervals` computes
+    /// for arrays with missing cells (naive iid, and the intercept-only CR1
+    /// one-way cluster-robust ones) are those `compare_intervals` gives: CR1
+    /// with equal cluster sizes J is G / (G - 1) sum_g (J (mean_g -
+    /// mean))^2 / (G J)^2, the one-sample variance of the cluster means.
+    #[test]
+    fn the_incomplete_arrays_intervals_are_the_complete_ones_on_a_complete_array(m in matrix()) {
+        use crossaudit_stats::{compare_intervals, incomplete_intervals, IntervalMethod as M};
+        let cells: Vec<(usize, usize, f64)> =
+            (0..m.rows()).flat_map(|i| (0..m.cols()).map(move |j| (i, j))).map(|(i, j)| (i, j, m.get(i, j))).collect();
+        let full = compare_intervals(&m, 0.95, 99, 1, 0).unwrap();
+        let part = incomplete_intervals(&cells, m.rows(), m.cols(), 0.95).unwrap();
+        prop_assert_eq!(part.len(), 18);
+        for method in [M::NaiveIid, M::ClusterRecording, M::ClusterSeed] {
+            let a = full.iter().find(|e| e.method == method).unwrap();
+            let b = part.iter().find(|e| e.method == method).unwrap();
+            if a.se > 0.0 {
+                prop_assert!(close(a.estimate, b.estimate) && close(a.se, b.se) && close(a.df, b.df), "{method:?}: {a:?} {b:?}");
+                prop_assert!(close(a.lower, b.lower) && close(a.upper, b.upper), "{method:?}: {a:?} {b:?}");
+            }
+        }
+    }
+}
