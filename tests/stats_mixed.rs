@@ -280,9 +280,9 @@ fn reml_checked(run: &str, status: &std::process::Output, out: &std::path::Path,
 /// REML as above (lme4); the naive iid interval and the one-way
 /// cluster-robust ones by recording and by seed against their closed forms
 /// computed here from the per-cell d (naive: SD / sqrt(N); CR1, as
-/// sandwich::vcovCL(type = "HC1") for an intercept-only model: V = G / (G
-/// - 1) sum_g (sum of the cluster's residuals)^2 / N^2, Cameron & Miller
-/// 2015, eq. 11 with its small-sample factor).
+/// sandwich::vcovCL(type = "HC1") for an intercept-only model:
+/// V = G / (G - 1) sum_g (sum of the cluster's residuals)^2 / N^2,
+/// Cameron & Miller 2015, eq. 11 with its small-sample factor).
 #[test]
 fn compared_intervals_on_an_incomplete_array_give_what_it_allows_and_name_the_rest() {
     let run = "nanobench_paper";
