@@ -331,8 +331,13 @@ def analyze(
     results = json.loads(text)
     estimates = _tidy(table)
     # A multiverse is analysed from its run directory; its per-cell rows are
-    # multiverse_cells.csv there.
-    cells_path = Path(cells) / "multiverse_cells.csv" if kind == "multiverse" else Path(cells)
+    # multiverse_cells.csv there. Any other run folder's are its cells.csv.
+    if kind == "multiverse":
+        cells_path = Path(cells) / "multiverse_cells.csv"
+    elif Path(cells).is_dir():
+        cells_path = Path(cells) / "cells.csv"
+    else:
+        cells_path = Path(cells)
     return Result(
         decision=line,
         holds=holds,

@@ -141,6 +141,12 @@ def test_run_refuses_external_and_analyze_reads_example_cells(root, tmp_path):
     # quickstart's stratified draw covers every evaluated condition).
     q = crossaudit.analyze(root / "designs/quickstart.design", root / "results/quickstart")
     assert any(g.startswith("Condition coverage: the reference arm") for g in q.guards), q.guards
+    assert q.cells is not None and len(q.cells) > 0, "a run folder's cells.csv is read"
+    # A folder `crossaudit combine` wrote: both runs' guards (issue 72).
+    c = crossaudit.analyze(root / "designs/multiverse/paper_per_seed_combined.design",
+                           root / "results/multiverse/per_seed_combined")
+    assert any(g.startswith("The reference arm is not disjoint") for g in c.guards), c.guards
+    assert any(g.startswith("Early stopping") for g in c.guards), c.guards
 
 
 def test_audit_split_matches_the_command_line(root, tmp_path):
