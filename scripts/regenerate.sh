@@ -8,6 +8,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
+# The reanalysis step below runs the golden test: its binary is built now,
+# from the committed tree, or its build label would say -dirty (the steps
+# before it rewrite results/).
+cargo test -p crossaudit --test main --no-run --quiet
 ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
 [ -x "$ca" ] || { echo "regenerate.sh: no binary at $ca after cargo build" >&2; exit 1; }
 $ca analyze designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --out results/example --compare-intervals >/dev/null 2>&1

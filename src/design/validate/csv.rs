@@ -52,52 +52,20 @@ impl Validator {
         // both, silently.
         let (what, columns) = declared_columns(&item.node);
         self.declare_columns(what, &columns, csv);
-        let key = match &item.node {
-            DataItem::Action { scale, .. } => {
-                csv.scale = scale.clone();
-                return None;
-            }
-            DataItem::Time(c) => {
-                csv.time = Some(c.clone());
-                "time"
-            }
-            DataItem::Position(c) => {
-                csv.position = Some((c.clone(), span));
-                "position"
-            }
-            DataItem::Velocity(c) => {
-                csv.velocity = Some((c.clone(), span));
-                "velocity"
-            }
-            DataItem::Attitude { kind, columns, norm_within } => {
-                csv.attitude = Some((kind.clone(), columns.clone(), span));
-                csv.norm_within = norm_within.clone();
-                "attitude"
-            }
-            DataItem::Reference(c) => {
-                csv.reference = Some((c.clone(), span));
-                "reference"
-            }
-            DataItem::Rates(c) => {
-                csv.rates = Some((c.clone(), span));
-                "rates"
-            }
-            DataItem::Predicted(c) => {
-                csv.predicted = Some(c.clone());
-                "predicted"
-            }
-            DataItem::Extra { columns, fill_zeros } => {
-                csv.extra = Some((columns.clone(), *fill_zeros));
-                "extra"
-            }
-            DataItem::Extrapolated(c) => {
-                csv.extrapolated = Some(c.clone());
-                "extrapolated"
-            }
-            DataItem::Controller(c) => {
-                csv.controller = Some(c.clone());
-                "controller"
-            }
+        if let DataItem::Action { scale, .. } = &item.node {
+            csv.scale = scale.clone();
+            return None;
+        }
+        let key = column_clause(item, csv).or_else(|| self.layout_clause(&item.node, csv))?;
+        self.once(seen, key, span);
+        Some(key)
+    }
+
+    /// A clause of `data csv` on the folder's layout (nested folders, the
+    /// conditions table, name pattern or folder) recorded in `csv`: its
+    /// keyword, or `None` for any other item.
+    fn layout_clause(&mut self, item: &DataItem, csv: &mut CsvParts) -> Option<&'static str> {
+        Some(match item {
             DataItem::FoldersNested => {
                 csv.nested = true;
                 "folders nested"
@@ -116,9 +84,7 @@ impl Validator {
                 "conditions folder"
             }
             _ => return None,
-        };
-        self.once(seen, key, span);
-        Some(key)
+        })
     }
 
     /// Records each column of a clause as declared by it (`what`: "a
@@ -462,4 +428,55 @@ fn declared_columns(item: &DataItem) -> (&'static str, Vec<&Ident>) {
         DataItem::Extra { columns, .. } => ("an extra", columns.iter().collect()),
         _ => ("", Vec::new()),
     }
+}
+
+/// A column clause of `data csv` (time, position, velocity, attitude,
+/// reference, rates, predicted, extra, extrapolated, controller) recorded
+/// in `csv`: its keyword, or `None` for any other item.
+fn column_clause(item: &Spanned<DataItem>, csv: &mut CsvParts) -> Option<&'static str> {
+    let span = item.span;
+    Some(match &item.node {
+        DataItem::Time(c) => {
+            csv.time = Some(c.clone());
+            "time"
+        }
+        DataItem::Position(c) => {
+            csv.position = Some((c.clone(), span));
+            "position"
+        }
+        DataItem::Velocity(c) => {
+            csv.velocity = Some((c.clone(), span));
+            "velocity"
+        }
+        DataItem::Attitude { kind, columns, norm_within } => {
+            csv.attitude = Some((kind.clone(), columns.clone(), span));
+            csv.norm_within = norm_within.clone();
+            "attitude"
+        }
+        DataItem::Reference(c) => {
+            csv.reference = Some((c.clone(), span));
+            "reference"
+        }
+        DataItem::Rates(c) => {
+            csv.rates = Some((c.clone(), span));
+            "rates"
+        }
+        DataItem::Predicted(c) => {
+            csv.predicted = Some(c.clone());
+            "predicted"
+        }
+        DataItem::Extra { columns, fill_zeros } => {
+            csv.extra = Some((columns.clone(), *fill_zeros));
+            "extra"
+        }
+        DataItem::Extrapolated(c) => {
+            csv.extrapolated = Some(c.clone());
+            "extrapolated"
+        }
+        DataItem::Controller(c) => {
+            csv.controller = Some(c.clone());
+            "controller"
+        }
+        _ => return None,
+    })
 }

@@ -127,23 +127,7 @@ impl Validator {
     ) -> DecisionTarget {
         match on.map(|o| o.node.as_str()) {
             Some("divergence") => {
-                let span = on.map(|o| o.span).unwrap_or(name.span);
-                if multi_split || dosed {
-                    self.err_help(
-                        "divergence decision in a family of estimates",
-                        span,
-                        "`on divergence` reads one binomial GLMM, of a single split and dose",
-                        "decide on the pooled estimate or the slope, and report the GLMM beside it",
-                    );
-                } else if glmm_units != 1 {
-                    self.err_help(
-                        "no single divergence GLMM",
-                        span,
-                        format!("`on divergence` reads the one endpoint declared `glmm binomial`, at one horizon for one model; the design has {glmm_units} such"),
-                        "declare exactly one: `endpoint secondary divergence_rate at 1.0 s model world glmm binomial`",
-                    );
-                }
-                DecisionTarget::Divergence
+                self.divergence_target(on.map(|o| o.span).unwrap_or(name.span), multi_split || dosed, glmm_units)
             }
             Some("slope") if !dosed => {
                 let span = on.map(|o| o.span).unwrap_or(name.span);
@@ -177,25 +161,53 @@ impl Validator {
                 DecisionTarget::Pooled
             }
             Some(_) => DecisionTarget::Pooled,
-            None if dosed => {
-                self.err_help(
-                    "decision target missing",
-                    name.span,
-                    "a dose-response design has one estimate per dose: say which the rule is on",
-                    "write `decide NAME on slope when ...` (the trend over doses)",
-                );
-                DecisionTarget::Slope
-            }
-            None if multi_split => {
-                self.err_help(
-                    "decision target missing",
-                    name.span,
-                    "a multi-split design has one estimate per split: say which the rule is on",
-                    "write `decide NAME on pooled when ...` (the pooled estimate over splits)",
-                );
-                DecisionTarget::Pooled
-            }
-            None => DecisionTarget::Primary,
+            None => self.unstated_target(name, (multi_split, dosed)),
+        }
+    }
+
+    /// `on divergence` at `span`: one binomial GLMM endpoint
+    /// (`glmm_units` of them) of a single split and dose (`family`: the
+    /// design has several).
+    fn divergence_target(&mut self, span: Span, family: bool, glmm_units: usize) -> DecisionTarget {
+        if family {
+            self.err_help(
+                "divergence decision in a family of estimates",
+                span,
+                "`on divergence` reads one binomial GLMM, of a single split and dose",
+                "decide on the pooled estimate or the slope, and report the GLMM beside it",
+            );
+        } else if glmm_units != 1 {
+            self.err_help(
+                "no single divergence GLMM",
+                span,
+                format!("`on divergence` reads the one endpoint declared `glmm binomial`, at one horizon for one model; the design has {glmm_units} such"),
+                "declare exactly one: `endpoint secondary divergence_rate at 1.0 s model world glmm binomial`",
+            );
+        }
+        DecisionTarget::Divergence
+    }
+
+    /// A decision that names no estimate: the primary, unless the design
+    /// has one estimate per dose or per split, where it must say which.
+    fn unstated_target(&mut self, name: &Ident, (multi_split, dosed): (bool, bool)) -> DecisionTarget {
+        if dosed {
+            self.err_help(
+                "decision target missing",
+                name.span,
+                "a dose-response design has one estimate per dose: say which the rule is on",
+                "write `decide NAME on slope when ...` (the trend over doses)",
+            );
+            DecisionTarget::Slope
+        } else if multi_split {
+            self.err_help(
+                "decision target missing",
+                name.span,
+                "a multi-split design has one estimate per split: say which the rule is on",
+                "write `decide NAME on pooled when ...` (the pooled estimate over splits)",
+            );
+            DecisionTarget::Pooled
+        } else {
+            DecisionTarget::Primary
         }
     }
 
