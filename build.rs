@@ -13,10 +13,17 @@ fn git(args: &[&str]) -> Option<String> {
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
+/// The paths a build reads: a change to one makes its label `-dirty`.
+const SOURCES: [&str; 6] = ["src", "grammar", "crates", "Cargo.toml", "Cargo.lock", "build.rs"];
+
 fn main() {
     let commit = match git(&["rev-parse", "--short=12", "HEAD"]) {
         Some(c) if !c.is_empty() => {
-            let dirty = git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+            // Only the files the build reads: a regenerated result (a report
+            // under results/) does not make a binary's sources differ.
+            let mut args = vec!["status", "--porcelain", "--untracked-files=no", "--"];
+            args.extend(SOURCES);
+            let dirty = git(&args).is_some_and(|s| !s.is_empty());
             if dirty {
                 format!("{c}-dirty")
             } else {
@@ -36,8 +43,10 @@ fn main() {
     {
         watched.push(format!(".git/{branch}"));
     }
-    watched.extend(["src", "grammar", "Cargo.toml", "Cargo.lock", "build.rs"].map(String::from));
-    for path in watched {
+    watched.extend(SOURCES.map(String::from));
+    // A path that does not exist (.git/packed-refs in a fresh clone) would
+    // make cargo rerun this script, and rebuild the crate, on every command.
+    for path in watched.into_iter().filter(|p| std::path::Path::new(p).exists()) {
         println!("cargo:rerun-if-changed={path}");
     }
 }
