@@ -1,5 +1,5 @@
 //! Records the git commit the binary is built from (`CROSSAUDIT_GIT_COMMIT`),
-//! with `-dirty` when tracked files differ from it, for the provenance
+//! with `-dirty` when the files it reads (`SOURCES`) differ from it, for the provenance
 //! written into run.json and every report. Outside a git checkout (a
 //! packaged crate) the commit is `unknown`.
 
