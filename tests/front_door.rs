@@ -317,7 +317,7 @@ fn the_fast_committed_results_regenerate_byte_for_byte() {
                 "simsum",
                 "results/coverage_rsimsum/replications.csv",
                 "--by",
-                "setting",
+                "setting,true_mean",
                 "--true",
                 "true_mean",
                 "--level",

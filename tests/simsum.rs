@@ -631,3 +631,18 @@ fn a_true_value_that_varies_by_replication_is_each_replications_own_in_one_group
     let md = std::fs::read_to_string(out.join("simsum.md")).unwrap();
     assert!(md.contains("true value each replication's own") && md.contains("add their column to `--by`"), "{md}");
 }
+
+/// A replication id twice in a group whose rows have different true
+/// values: the refusal says how rsimsum would have the study written (the
+/// true value's column among the by-factors).
+#[test]
+fn ids_repeated_across_true_values_are_told_to_group_by_the_true_value() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut args = OWN;
+    args[1] = "setting";
+    let o = simsum(&root().join("results/coverage_rsimsum/replications.csv"), &args, &tmp.path().join("out"));
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("occurs twice in group") && e.contains("with different true values"), "{e}");
+    assert!(e.contains("add the true value's column to the by-factors"), "{e}");
+}

@@ -170,7 +170,7 @@ pub enum SimsumError {
         group: String,
     },
     /// A replication id occurs twice for one method in one group.
-    #[error("replication {rep} of method `{method}` occurs twice in group {group}")]
+    #[error("replication {rep} of method `{method}` occurs twice in group {group}{}", if *.truths_differ { " (with different true values: where each true value is a data-generating mechanism of its own, add the true value's column to the by-factors, as rsimsum's `by`)" } else { "" })]
     DuplicateRep {
         /// The id.
         rep: String,
@@ -178,6 +178,8 @@ pub enum SimsumError {
         method: String,
         /// The group.
         group: String,
+        /// Whether the two rows have different true values.
+        truths_differ: bool,
     },
 }
 
@@ -228,7 +230,9 @@ fn group(rows: &[&Replication], reference: Option<&str>) -> Result<Group, Simsum
             _ => by_method[k].1.len().to_string(),
         };
         if !seen[k].insert(id.clone()) {
-            return Err(SimsumError::DuplicateRep { rep: id, method: m.to_string(), group: label });
+            let earlier = rows.iter().find(|o| o.method == r.method && o.rep.as_deref() == Some(id.as_str()));
+            let truths_differ = earlier.is_some_and(|o| o.truth.to_bits() != r.truth.to_bits());
+            return Err(SimsumError::DuplicateRep { rep: id, method: m.to_string(), group: label, truths_differ });
         }
         by_method[k].1.push((id, interval(r)));
         truths[k].push(r.truth);
