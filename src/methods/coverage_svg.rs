@@ -91,13 +91,7 @@ pub fn draw_points(path: &Path, title: &str, levels: &[f64], rows: &[Point]) -> 
     crate::report::charts::svg_figure(path, (width, height), |root| {
         let (top, key) = root.split_vertically(plot_height);
         let (plot, side) = top.split_horizontally(width - 250);
-        let lowest = levels.iter().copied().fold(1.0, f64::min);
-        let lo = rows
-            .iter()
-            .map(|r| r.coverage - 2.0 * if r.mcse.is_finite() { r.mcse } else { 0.0 })
-            .filter(|x| x.is_finite())
-            .fold(lowest, f64::min)
-            .max(0.0);
+        let lo = lowest_shown(rows, levels);
         let n = settings.len();
         let mut chart = crate::report::charts::chart(&plot, title)
             .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (lo - 0.02)..1.0)
@@ -133,15 +127,7 @@ pub fn draw_points(path: &Path, title: &str, levels: &[f64], rows: &[Point]) -> 
         for (k, m) in methods.iter().enumerate() {
             let color = palette[k % palette.len()];
             let dx = (k as f64 - (methods.len() as f64 - 1.0) / 2.0) * 0.07;
-            let pts: Vec<(f64, f64, f64)> = rows
-                .iter()
-                .filter(|r| r.method == *m && r.coverage.is_finite())
-                .map(|r| {
-                    let x = settings.iter().position(|s| *s == r.group).unwrap_or(0) as f64 + dx;
-                    // No bar without an MCSE (fewer than 2 usable replications).
-                    (x, r.coverage, if r.mcse.is_finite() { r.mcse } else { 0.0 })
-                })
-                .collect();
+            let pts = method_points(rows, &settings, m, dx);
             chart
                 .draw_series(
                     pts.iter().map(|(x, c, m)| PathElement::new(vec![(*x, c - 2.0 * m), (*x, c + 2.0 * m)], color)),
@@ -195,4 +181,28 @@ fn draw_keys(
         key.draw(&Text::new(format!("{}. {s}", k + 1), at, ("sans-serif", 12)))?;
     }
     Ok(())
+}
+
+/// The lowest coverage the plot shows: the lowest nominal level or 2 MCSEs
+/// below the lowest coverage, whichever is lower, and not below 0.
+fn lowest_shown(rows: &[Point], levels: &[f64]) -> f64 {
+    let lowest = levels.iter().copied().fold(1.0, f64::min);
+    rows.iter()
+        .map(|r| r.coverage - 2.0 * if r.mcse.is_finite() { r.mcse } else { 0.0 })
+        .filter(|x| x.is_finite())
+        .fold(lowest, f64::min)
+        .max(0.0)
+}
+
+/// The method `m`'s points as (x, coverage, MCSE): at its setting's place
+/// shifted by `dx`, an MCSE of 0 (no bar) where it has none (fewer than 2
+/// usable replications).
+fn method_points(rows: &[Point], settings: &[&str], m: &str, dx: f64) -> Vec<(f64, f64, f64)> {
+    rows.iter()
+        .filter(|r| r.method == m && r.coverage.is_finite())
+        .map(|r| {
+            let x = settings.iter().position(|s| *s == r.group).unwrap_or(0) as f64 + dx;
+            (x, r.coverage, if r.mcse.is_finite() { r.mcse } else { 0.0 })
+        })
+        .collect()
 }

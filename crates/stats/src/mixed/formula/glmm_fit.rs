@@ -5,7 +5,7 @@ use std::fmt::Write;
 
 use super::fit::r_pvalue;
 use super::table::{group_codes, numbers, present, random_terms, term_columns};
-use super::{parse, FormulaError, Table};
+use super::{parse, Formula, FormulaError, Table};
 use crate::mixed::glmm::{fit_glmm, profile_fixed, Family, FixedProfile, GlmmData, GlmmFit};
 
 /// Six decimals, or four significant digits in scientific notation for a
@@ -35,71 +35,9 @@ pub struct GlmmFormulaFit {
 /// column (Poisson); the fixed and random terms as for a linear model.
 pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<GlmmData, FormulaError> {
     let formula = parse(formula_text)?;
-    let whole = |name: &str| -> Result<Vec<f64>, FormulaError> {
-        present(table, name)?;
-        let col = table.column(name)?;
-        let values = numbers(table, name)?;
-        let bad = |row: usize, what: &str| FormulaError::Value {
-            row: row + 1,
-            field: name.to_string(),
-            message: format!("`{}` is not {what}", col[row].trim()),
-        };
-        let Some(values) = values else {
-            let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
-            return Err(bad(row, "a whole number of at least 0"));
-        };
-        if let Some(row) = values.iter().position(|v| v.fract() != 0.0 || *v < 0.0) {
-            return Err(bad(row, "a whole number of at least 0"));
-        }
-        // A whole count so large that its log-likelihood's terms lose
-        // their integer precision: named as too large, not as a fraction.
-        if let Some(row) = values.iter().position(|v| *v > 1e15) {
-            return Err(FormulaError::Value {
-                row: row + 1,
-                field: name.to_string(),
-                message: format!(
-                    "`{}` is larger than 1e15, beyond the counts the likelihood computes exactly (doubles hold whole numbers exactly to 9e15, their sums less)",
-                    col[row].trim()
-                ),
-            });
-        }
-        Ok(values)
-    };
-    let k = whole(&formula.response)?;
+    let k = whole_counts(table, &formula.response)?;
     let n = k.len();
-    let trials = match (family, &formula.failures) {
-        (Family::Binomial, Some(f)) => {
-            let failures = whole(f)?;
-            let trials: Vec<f64> = k.iter().zip(&failures).map(|(a, b)| a + b).collect();
-            if let Some(row) = trials.iter().position(|t| *t < 1.0) {
-                return Err(FormulaError::Value {
-                    row: row + 1,
-                    field: f.clone(),
-                    message: "no successes and no failures: an observation needs at least one trial".into(),
-                });
-            }
-            trials
-        }
-        (Family::Binomial, None) => {
-            if let Some(row) = k.iter().position(|v| *v > 1.0) {
-                return Err(FormulaError::Value {
-                    row: row + 1,
-                    field: formula.response.clone(),
-                    message: format!(
-                        "`{}`: a binomial response of one column is 0 or 1; for counts of successes write cbind(successes, failures)",
-                        k[row]
-                    ),
-                });
-            }
-            vec![1.0; n]
-        }
-        (Family::Poisson, Some(_)) => {
-            return Err(FormulaError::Unsupported(
-                "cbind(successes, failures) is a binomial response; a Poisson response is one column of counts".into(),
-            ))
-        }
-        (Family::Poisson, None) => vec![1.0; n],
-    };
+    let trials = trials(family, &formula, table, &k)?;
     let mut factors: Vec<(String, Vec<usize>)> = Vec::new();
     for term in &formula.random {
         if !factors.iter().any(|(name, _)| *name == term.name) {
@@ -202,4 +140,78 @@ impl GlmmFormulaFit {
         }
         s
     }
+}
+
+/// The column `name` of `table` as whole counts of at least 0 (and at most
+/// 1e15, where the likelihood's terms still count exactly), or an error at
+/// the first row that is not one.
+fn whole_counts(table: &Table, name: &str) -> Result<Vec<f64>, FormulaError> {
+    present(table, name)?;
+    let col = table.column(name)?;
+    let values = numbers(table, name)?;
+    let bad = |row: usize, what: &str| FormulaError::Value {
+        row: row + 1,
+        field: name.to_string(),
+        message: format!("`{}` is not {what}", col[row].trim()),
+    };
+    let Some(values) = values else {
+        let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
+        return Err(bad(row, "a whole number of at least 0"));
+    };
+    if let Some(row) = values.iter().position(|v| v.fract() != 0.0 || *v < 0.0) {
+        return Err(bad(row, "a whole number of at least 0"));
+    }
+    // A whole count so large that its log-likelihood's terms lose
+    // their integer precision: named as too large, not as a fraction.
+    if let Some(row) = values.iter().position(|v| *v > 1e15) {
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: name.to_string(),
+            message: format!(
+                "`{}` is larger than 1e15, beyond the counts the likelihood computes exactly (doubles hold whole numbers exactly to 9e15, their sums less)",
+                col[row].trim()
+            ),
+        });
+    }
+    Ok(values)
+}
+
+/// Each observation's number of trials: successes plus failures for
+/// `cbind(successes, failures)`, 1 for a binomial 0/1 column (whose
+/// values `k` must be 0 or 1) and for a Poisson count.
+fn trials(family: Family, formula: &Formula, table: &Table, k: &[f64]) -> Result<Vec<f64>, FormulaError> {
+    let n = k.len();
+    Ok(match (family, &formula.failures) {
+        (Family::Binomial, Some(f)) => {
+            let failures = whole_counts(table, f)?;
+            let trials: Vec<f64> = k.iter().zip(&failures).map(|(a, b)| a + b).collect();
+            if let Some(row) = trials.iter().position(|t| *t < 1.0) {
+                return Err(FormulaError::Value {
+                    row: row + 1,
+                    field: f.clone(),
+                    message: "no successes and no failures: an observation needs at least one trial".into(),
+                });
+            }
+            trials
+        }
+        (Family::Binomial, None) => {
+            if let Some(row) = k.iter().position(|v| *v > 1.0) {
+                return Err(FormulaError::Value {
+                row: row + 1,
+                field: formula.response.clone(),
+                message: format!(
+                    "`{}`: a binomial response of one column is 0 or 1; for counts of successes write cbind(successes, failures)",
+                    k[row]
+                ),
+            });
+            }
+            vec![1.0; n]
+        }
+        (Family::Poisson, Some(_)) => {
+            return Err(FormulaError::Unsupported(
+                "cbind(successes, failures) is a binomial response; a Poisson response is one column of counts".into(),
+            ))
+        }
+        (Family::Poisson, None) => vec![1.0; n],
+    })
 }
