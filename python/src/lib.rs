@@ -225,7 +225,7 @@ fn simsum(
         let cols = ss::Columns { estimate, se, method, rep, by, truth, level, ci, df, reference, targets };
         let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
         let groups = ss::summarise(&file, &cols).map_err(fail)?;
-        ss::write(&groups, &cols, &file.display().to_string(), &out).map_err(fail)
+        crossaudit::methods::simsum_report::write(&groups, &cols, &file.display().to_string(), &out).map_err(fail)
     })
 }
 

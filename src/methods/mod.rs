@@ -11,6 +11,7 @@ pub mod draw_power;
 pub mod formula_file;
 pub mod power;
 pub mod simsum;
+pub mod simsum_report;
 pub mod split_power;
 
 pub use coverage::{run_coverage, CoverageError, CoverageSpec};

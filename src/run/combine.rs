@@ -217,8 +217,25 @@ pub fn combine(file: &DesignFile, study: &StudyPlan, sources: &[Source], out: &P
     crate::io::create_dir_all(out)?;
     crate::io::write_atomic(&out.join("cells.csv"), &bytes)?;
     crate::io::write_atomic(&out.join("combined.json"), crate::io::pretty_json(&record).as_bytes())?;
+    // The runs were read and verified above: the folder's record from them.
     let design = DesignLabel::new(file, crate::design::lock::status(file)?);
-    read_combined(design, study, out)
+    folder_record(design, out, &record, &read)
+}
+
+/// The record of the combined folder `dir` whose `combined.json` is
+/// `combined` and whose runs `read` were verified against it: its
+/// `cells.csv` and the runs' evidence.
+fn folder_record(
+    design: DesignLabel,
+    dir: &Path,
+    combined: &CombinedRecord,
+    read: &[(Source, ReadSource)],
+) -> Result<Record, RunError> {
+    let cells_path = dir.join("cells.csv");
+    let cells = crate::cells::read_cells(&cells_path)?;
+    let run = evidence(combined, read.iter().map(|(s, r)| (s, &r.record)).collect());
+    let sha = combined.cells_sha256.clone();
+    Ok(Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(run) })
 }
 
 impl CombinedRecord {
@@ -267,17 +284,14 @@ pub fn read_combined(design: DesignLabel, study: &StudyPlan, dir: &Path) -> Resu
         read.push((s, r));
     }
     let bytes = combined_cells(study, &read)?;
-    let cells_path = dir.join("cells.csv");
-    let cells = crate::cells::read_cells(&cells_path)?;
-    let sha = crate::cells::file_sha256(&cells_path)?;
+    let sha = crate::cells::file_sha256(&dir.join("cells.csv"))?;
     if sha != combined.cells_sha256 || crate::io::sha256_hex(&bytes) != sha {
         return Err(RunError::LevelChanged {
             dir: shown,
             reason: "cells.csv is not the combined runs' cells with their seeds shifted, as combined.json records them: it was edited after combining; combine again".to_string(),
         });
     }
-    let run = evidence(&combined, read.iter().map(|(s, r)| (s, &r.record)).collect());
-    Ok(Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(run) })
+    folder_record(design, dir, &combined, &read)
 }
 
 /// The combined evidence of the source records: every run's levels in

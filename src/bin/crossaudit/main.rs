@@ -446,7 +446,10 @@ fn combine(design: &Path, from: &[String], out: &Path) -> Result<(), Error> {
     let study = crossaudit::compile_study(&file.design);
     let mut sources = Vec::new();
     for w in from.chunks(3) {
-        let [d, run, shift] = w else { unreachable!("clap gives --from three values") };
+        let [d, run, shift] = w else {
+            let reason = "--from takes three values: DESIGN RUN_DIR SEED_SHIFT".to_string();
+            return Err(crossaudit::run::RunError::Combine { path: w.join(" "), reason }.into());
+        };
         let seed_shift = shift.parse::<u64>().map_err(|_| crossaudit::run::RunError::Combine {
             path: run.clone(),
             reason: format!("seed shift {shift:?} is not a whole number of 0 or more"),

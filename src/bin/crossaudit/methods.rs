@@ -295,6 +295,7 @@ fn mixed_compare(data: &Path, formula: &str, other: &str, json: bool) -> Result<
 /// `crossaudit simsum`: reads, scores and writes a replications file.
 pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
     use crossaudit::methods::simsum as ss;
+    use crossaudit::methods::simsum_report as sr;
     let (file, out) = (a.file.as_path(), a.out.as_path());
     let mut cols = ss::Columns {
         estimate: a.estimate,
@@ -328,11 +329,11 @@ pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
     }
     let _lock = lock_folder(out, false)?;
     let groups = ss::summarise(file, &cols)?;
-    out!("{}", ss::summary(&groups));
-    for n in ss::truth_notes(&groups, &cols.by) {
+    out!("{}", sr::summary(&groups));
+    for n in sr::truth_notes(&groups, &cols.by) {
         note!("note: {n}");
     }
-    for p in ss::write(&groups, &cols, &file.display().to_string(), out)? {
+    for p in sr::write(&groups, &cols, &file.display().to_string(), out)? {
         note!("wrote {}", p.display());
     }
     Ok(())
