@@ -6,7 +6,7 @@
 #
 #   bash scripts/python-tests.sh            # venv in target/python-venv
 #
-# The wheel is built with Cargo.toml's `python` profile (CARGO_TARGET_DIR
+# The wheel is built with the release profile, sharing scripts/test.sh's build (CARGO_TARGET_DIR
 # is honoured); the venv lives under the target directory.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -11,7 +11,7 @@ cargo build --release --quiet
 # The reanalysis step below runs the golden test: its binary is built now,
 # from the committed tree, or its build label would say -dirty (the steps
 # before it rewrite results/).
-cargo test -p crossaudit --test main --no-run --quiet
+cargo test --release -p crossaudit --test main --no-run --quiet
 ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
 [ -x "$ca" ] || { echo "regenerate.sh: no binary at $ca after cargo build" >&2; exit 1; }
 $ca analyze designs/nanobench_confirmatory.design --cells examples/cells/nanobench_synthetic.csv --out results/example --compare-intervals >/dev/null 2>&1
@@ -92,7 +92,7 @@ done
 # analysis is a pure function of the folder: what the run writes from the
 # same cells and evidence); the golden test tests/reanalysis.rs then checks
 # them against the current build.
-CROSSAUDIT_REWRITE_REPORTS=1 cargo test -p crossaudit --test main --quiet -- \
+CROSSAUDIT_REWRITE_REPORTS=1 cargo test --release -p crossaudit --test main --quiet -- \
     reanalysis::every_committed_run_folder_is_reproduced_by_its_reanalysis --exact >/dev/null 2>&1
 # The pages built from committed full runs (docs/paper_comparison.md reads
 # results/nanobench_paper*, results/paper_columns and results/paper_hygiene).

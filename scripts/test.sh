@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
 # The README's test command (CI runs it too): every test of both crates,
-# the ones marked `#[ignore = "needs ../shared/nanobench"]` included, then
+# the ones marked `#[ignore = "needs ../shared/nanobench"]` included, built
+# with the release profile, so that it shares every compiled dependency
+# and the crate itself with `cargo install --path .` and the README's
+# `cargo run --release` (one build for the first day; docs/usage.md,
+# "Tests", gives the measured costs), then
 # one summary line: how many tests passed and failed, and how many of the
 # passed only printed SKIPPED because something they need is absent (the
 # NanoBench recordings, Slurm, chromium, a generated data folder), by what
@@ -14,7 +18,7 @@ skips="$target/tmp/skipped.txt"
 log="$target/test-output.txt"
 mkdir -p "$target/tmp"
 rm -f "$skips"
-cargo test -p crossaudit -p crossaudit-stats -- --include-ignored "$@" 2>&1 | tee "$log"
+cargo test --release -p crossaudit -p crossaudit-stats -- --include-ignored "$@" 2>&1 | tee "$log"
 rc=${PIPESTATUS[0]}
 sum() { grep -oE "test result: [A-Za-z]+\. [0-9]+ passed; [0-9]+ failed" "$log" | awk -v k="$1" '{s += $k} END {print s + 0}'; }
 passed=$(sum 4)

@@ -391,6 +391,13 @@ impl Row<'_> {
         if x < 0.0 {
             return Err(self.fail(field, v, "is negative"));
         }
+        if x != 0.0 && x < crate::io::MIN_MAGNITUDE {
+            return Err(self.fail(
+                field,
+                v,
+                "is below 1e-60 but not 0: the variances of values this small underflow double precision and the interval would collapse to a point; write the metric in a smaller unit",
+            ));
+        }
         Ok(x)
     }
 

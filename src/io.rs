@@ -105,6 +105,14 @@ pub const MAX_SMALL_TEXT: u64 = 4 << 20;
 /// is about 10 MB).
 pub const MAX_SPLIT_FILE: u64 = 256 << 20;
 
+/// The smallest nonzero magnitude a reader accepts for a value that the
+/// analyses square and square again (per-cell metrics, replications,
+/// declared components): below it a variance's own variance underflows
+/// double precision (2.2e-308) and an interval collapses to a point, a
+/// plausible-looking wrong answer. Such a value is refused with its place
+/// and the advice to rescale (another unit).
+pub const MIN_MAGNITUDE: f64 = 1e-60;
+
 /// The most bytes read from a per-cell CSV (the paper's study writes about
 /// 40 KB; a million cells is about 200 MB).
 pub const MAX_CELLS_FILE: u64 = 1 << 30;
@@ -447,7 +455,7 @@ mod input;
 pub use input::{read_text, Text, TextError};
 pub mod parquet;
 mod text;
-pub use text::{escape_controls, md_code, md_line, md_text, one_line, spreadsheet_text};
+pub use text::{escape_controls, formula_like, md_code, md_line, md_text, one_line, spreadsheet_text};
 pub mod walk;
 
 #[cfg(test)]

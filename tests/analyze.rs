@@ -506,12 +506,48 @@ fn a_degenerate_secondary_endpoint_is_left_out_and_the_primary_still_decides() {
     assert!(e.contains("world fa_position_rmse at 1 s"), "{e}");
 }
 
+/// The example cells with one cell of the relative model at 0.5 s whose
+/// every start diverged (its divergence rate 1, the failure-aware RMSE at
+/// the cap, the conditional, velocity and attitude errors empty), and, with
+/// `never`, a reference arm that never diverges at 2 s. Returns the lines
+/// and the blanked cell's (arm, recording, seed).
+fn with_a_diverged_cell(never: bool) -> (Vec<String>, (String, String, String)) {
+    let text = std::fs::read_to_string(example_cells()).unwrap();
+    let mut blanked = None;
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            let mut f: Vec<String> = l.split(',').map(String::from).collect();
+            if k > 0 && f[0] == "relative" && f[6] == "0.5" && blanked.is_none() {
+                f[8] = f[7].clone();
+                f[11] = "1".into();
+                f[9] = "2".into();
+                for k in [10, 12, 13] {
+                    f[k].clear();
+                }
+                blanked = Some((f[1].clone(), f[3].clone(), f[2].clone()));
+            }
+            if never && k > 0 && f[0] == "relative" && f[1] == "disjoint" && f[6] == "2" {
+                // No diverged start: the failure-aware RMSE is the conditional one.
+                f[8] = "0".into();
+                f[11] = "0".into();
+                f[9] = f[10].clone();
+            }
+            f.join(",")
+        })
+        .collect();
+    assert!(text.lines().nth(1).unwrap().split(',').count() == 14);
+    (lines, blanked.unwrap())
+}
+
 /// A secondary endpoint the data cannot estimate is "not estimable", with
-/// its reason, and the primary endpoint is decided as without it: an
-/// attitude endpoint with a cell whose starts all diverged (its field
-/// empty in cells.csv), and a divergence-rate endpoint whose reference arm
-/// never diverges (optimism, a percentage of its mean 0, undefined).
-/// Before, either stopped the whole analysis and no report was written.
+/// its reason, and the primary endpoint is decided as without it: a
+/// divergence-rate endpoint whose reference arm never diverges (optimism,
+/// a percentage of its mean 0, undefined). An attitude endpoint with a cell
+/// whose starts all diverged (its field empty in cells.csv) is estimable:
+/// paired over the other pairs, as the conditional RMSE is. Before, either
+/// stopped the whole analysis and no report was written.
 #[test]
 fn a_secondary_endpoint_the_data_cannot_estimate_is_named_not_estimable() {
     let dir = tempfile::tempdir().unwrap();
@@ -521,48 +557,88 @@ fn a_secondary_endpoint_the_data_cannot_estimate_is_named_not_estimable() {
     );
     let design_path = dir.path().join("d.design");
     std::fs::write(&design_path, design).unwrap();
-    let text = std::fs::read_to_string(example_cells()).unwrap();
-    let mut blanked = false;
-    let lines: Vec<String> = text
-        .lines()
-        .enumerate()
-        .map(|(k, l)| {
-            let mut f: Vec<String> = l.split(',').map(String::from).collect();
-            if k > 0 && f[0] == "relative" && f[6] == "0.5" && !blanked {
-                // One cell whose every start diverged: its divergence rate is
-                // 1 and the conditional, velocity and attitude errors empty.
-                f[8] = f[7].clone();
-                f[11] = "1".into();
-                f[9] = "2".into(); // the failure-aware RMSE at the cap
-                for k in [10, 12, 13] {
-                    f[k].clear();
-                }
-                blanked = true;
-            }
-            if k > 0 && f[0] == "relative" && f[1] == "disjoint" && f[6] == "2" {
-                // The reference never diverges: no diverged start, so its
-                // failure-aware RMSE is its conditional one.
-                f[8] = "0".into();
-                f[11] = "0".into();
-                f[9] = f[10].clone();
-            }
-            f.join(",")
-        })
-        .collect();
-    assert!(text.lines().nth(1).unwrap().split(',').count() == 14 && blanked);
+    let (lines, _) = with_a_diverged_cell(true);
     let cells = dir.path().join("cells.csv");
     std::fs::write(&cells, lines.join("\n") + "\n").unwrap();
     let a = crossaudit::analyze_files(&design_path, &cells, Default::default()).unwrap();
     let said: Vec<&String> = a.warnings.iter().filter(|w| w.contains("not estimable")).collect();
-    assert_eq!(said.len(), 2, "{:#?}", a.warnings);
-    let of = |label: &str| *said.iter().find(|w| w.starts_with(label)).unwrap_or_else(|| panic!("{label}: {said:?}"));
-    assert!(of("relative attitude_rmse at 0.5 s: not estimable (line").contains("empty"), "{said:?}");
-    let rate = of("relative divergence_rate at 2 s: not estimable (the disjoint arm's mean is zero");
+    assert_eq!(said.len(), 1, "{:#?}", a.warnings);
+    let rate = said[0];
+    assert!(
+        rate.starts_with("relative divergence_rate at 2 s: not estimable (the disjoint arm's mean is zero"),
+        "{rate}"
+    );
     assert!(rate.contains("optimism (a percentage of it) is undefined"), "{rate}");
+    let attitude = a.units.iter().find(|u| u.metric == crossaudit::design::Metric::AttitudeRmse).unwrap();
+    assert!(attitude.estimate.reml.is_some(), "paired and estimated by REML");
     // The primary endpoint's decision is the one without them.
     let plain = example();
     assert_eq!(a.decision.holds, plain.decision.holds);
     assert_eq!(a.units[0].estimate.mean, plain.units[0].estimate.mean);
+}
+
+/// A primary endpoint over finite rollouts (attitude) with a cell whose
+/// every start diverged, under the crossed MoM (which needs every cell):
+/// the contrast stays paired, over the recording x seed pairs where both
+/// arms have a value, and is decided on REML with Kenward-Roger df, which
+/// the report says beside it. Before, the analysis stopped ("empty, but ...
+/// needs a value here") after every job had trained, and no report was
+/// written. The estimate is `stats::crossed_reml` on the pairs left, built
+/// here from the per-cell file on its own (REML itself is checked against
+/// lme4 in tests/stats_mixed.rs).
+#[test]
+fn a_primary_endpoint_with_a_diverged_cell_is_decided_on_the_pairs_left() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = std::fs::read_to_string(confirmatory_design()).unwrap().replace(
+        "endpoint primary   fa_position_rmse at 1.0 s cap 2 m  model world",
+        "endpoint primary   attitude_rmse at 0.5 s cap 2 m  model relative",
+    );
+    assert!(design.contains("estimate crossed_mom"));
+    let design_path = dir.path().join("d.design");
+    std::fs::write(&design_path, design).unwrap();
+    let (lines, (arm, recording, seed)) = with_a_diverged_cell(false);
+    let cells = dir.path().join("cells.csv");
+    std::fs::write(&cells, lines.join("\n") + "\n").unwrap();
+    let a = crossaudit::analyze_files(&design_path, &cells, Default::default()).unwrap();
+    let w =
+        a.warnings.iter().find(|w| w.contains("recording x seed pairs lack a value")).expect("the dropped pair named");
+    assert!(
+        w.starts_with("relative attitude_rmse at 0.5 s: 1 of ") && w.contains("by REML with Kenward-Roger df"),
+        "{w}"
+    );
+    // d per (recording, seed) from the file itself, the blanked pair left out.
+    let mut value: std::collections::BTreeMap<(String, String, String), f64> = Default::default();
+    for l in lines.iter().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        if f[0] == "relative" && f[6] == "0.5" && !f[13].is_empty() {
+            value.insert((f[1].to_string(), f[3].to_string(), f[2].to_string()), f[13].parse().unwrap());
+        }
+    }
+    assert!(!value.contains_key(&(arm, recording.clone(), seed.clone())));
+    let recs: Vec<String> =
+        value.keys().map(|k| k.1.clone()).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let seeds: Vec<String> =
+        value.keys().map(|k| k.2.clone()).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let mut d = Vec::new();
+    for (i, r) in recs.iter().enumerate() {
+        for (j, s) in seeds.iter().enumerate() {
+            let get = |arm: &str| value.get(&(arm.to_string(), r.clone(), s.clone())).copied();
+            if let (Some(t), Some(u)) = (get("contaminated"), get("disjoint")) {
+                d.push((i, j, t - u));
+            }
+        }
+    }
+    assert_eq!(d.len(), recs.len() * seeds.len() - 1);
+    let want =
+        crossaudit::stats::crossed_reml(&d, recs.len(), seeds.len(), 0.95, crossaudit::stats::DfRule::KenwardRoger)
+            .unwrap();
+    let got = &a.units[0].estimate;
+    assert!(got.reml.is_some());
+    for (g, w) in [(got.mean, want.mean), (got.se, want.se), (got.df, want.df), (got.upper, want.upper)] {
+        assert!((g - w).abs() <= 1e-9 * w.abs().max(1e-12), "{g} against {w}");
+    }
+    // The design's rule: optimism >= 10% and upper < 0, read on that estimate.
+    assert_eq!(a.decision.holds, a.units[0].optimism_pct >= 10.0 && got.upper < 0.0);
 }
 
 /// The CSV tables' guard-kind names are the ones results.json serializes.

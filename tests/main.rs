@@ -54,4 +54,5 @@ mod split_paper;
 mod split_windows;
 mod stats_mixed;
 mod stats_reference;
+mod trust_round6;
 mod wide_state;

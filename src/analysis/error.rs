@@ -93,16 +93,6 @@ pub enum AnalysisError {
         /// Why it cannot be.
         problem: String,
     },
-    /// A metric an analysis unit needs is empty.
-    #[error("line {line}, field `{field}`: empty, but {unit} needs a value here")]
-    EmptyMetric {
-        /// 1-based line of the row.
-        line: u64,
-        /// The metric column.
-        field: &'static str,
-        /// The unit needing it.
-        unit: String,
-    },
     /// Optimism is a percentage of a zero mean.
     #[error("{unit}: the {arm} arm's mean is zero, so optimism (a percentage of it) is undefined")]
     ZeroReferenceMean {

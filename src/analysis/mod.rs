@@ -271,9 +271,8 @@ fn analyze_units(ctx: &unit::Ctx, warnings: &mut Vec<String>) -> Result<Vec<Unit
     for (unit, r) in all.iter().zip(per_unit) {
         // A secondary endpoint the data cannot estimate (arms that cannot
         // differ: every rollout diverged in both, or a baseline that fits
-        // nothing; a cell whose starts all diverged, so the metric is empty
-        // there; a reference arm whose mean is 0, so optimism is undefined;
-        // an array the estimator refuses) is not estimable: it is left out
+        // nothing; a reference arm whose mean is 0, so optimism is
+        // undefined; an array the estimator refuses) is not estimable: it is left out
         // with its reason, and the primary endpoint is still decided. The
         // primary endpoint not estimable decides nothing: that is an error.
         let secondary = unit.role != crate::design::Role::Primary;
@@ -282,11 +281,7 @@ fn analyze_units(ctx: &unit::Ctx, warnings: &mut Vec<String>) -> Result<Vec<Unit
                 warnings.push(format!("{label}: {detail}; this secondary endpoint is left out of the report"));
                 continue;
             }
-            Err(
-                e @ (AnalysisError::EmptyMetric { .. }
-                | AnalysisError::ZeroReferenceMean { .. }
-                | AnalysisError::Stats { .. }),
-            ) if secondary => {
+            Err(e @ (AnalysisError::ZeroReferenceMean { .. } | AnalysisError::Stats { .. })) if secondary => {
                 let label = unit.label();
                 let text = e.to_string();
                 let why = text.strip_prefix(&format!("{label}: ")).unwrap_or(&text);

@@ -38,6 +38,9 @@ fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditEr
         if log && crate::io::walk::relative(dir, &path).chars().any(char::is_control) {
             return Err(AuditError::ControlInName { dir: dir.display().to_string(), name });
         }
+        if super::is_log_name(&name) && crate::io::formula_like(&recording_name(&path)) {
+            return Err(AuditError::FormulaName { dir: dir.display().to_string(), name });
+        }
         if super::is_log_name(&name) {
             csvs.push(path);
         } else if let Some(stem) = name.strip_suffix("_metadata.yaml") {
@@ -156,8 +159,22 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         quaternion_tolerance: spec.format.as_ref().and_then(|f| f.quaternion_tolerance),
         files,
         duplicate_groups: groups,
+        not_read_below: (!nested).then(|| not_read_below(dir, spec.format.is_some())).flatten(),
     };
     Ok((audit, recordings))
+}
+
+/// Flight logs below the top level of `dir`, which a design without
+/// `folders nested` does not read, in words; `csv` when the design reads a
+/// `data csv` block (which `folders nested` extends).
+fn not_read_below(dir: &Path, csv: bool) -> Option<String> {
+    let (n, first) = crate::io::walk::logs_in_subfolders(dir)?;
+    let advice = if csv {
+        "declare `folders nested` in the data block to read them, or move them out of the data folder"
+    } else {
+        "`data nanobench` reads the folder's top level only: move them there to read them, or out of the data folder"
+    };
+    Some(format!("{n} flight log(s) in subfolders are not read (the first: {first}): {advice}"))
 }
 
 /// `exclude implausible` reads the battery and the setpoint's z: both

@@ -66,6 +66,10 @@ pub fn read_table(
                     "{file}: line {line}, column `{what}`: {:?} holds a control character, which no name may",
                     v
                 )),
+                Some(v) if crate::io::formula_like(v) => Err(format!(
+                    "{file}: line {line}, column `{what}`: {v:?} begins with `{}`, which a spreadsheet opening any CSV that names it would read as a formula; no name may",
+                    v.chars().next().unwrap_or('=')
+                )),
                 other => Ok(other.map(String::from)),
             }
         };

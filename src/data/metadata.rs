@@ -163,6 +163,13 @@ pub fn impossible_values(path: &Path, m: &Metadata) -> Vec<String> {
                 path.display(),
                 at(key)
             ));
+        } else if let Some(v) = value.as_ref().filter(|v| crate::io::formula_like(v)) {
+            out.push(format!(
+                "{}: {}: `{key}` is {v:?}, which a spreadsheet opening any CSV that names it would read as a formula (it begins with `{}`); no label may",
+                path.display(),
+                at(key),
+                v.chars().next().unwrap_or('=')
+            ));
         }
     }
     out

@@ -61,6 +61,13 @@ impl Metric {
         }
     }
 
+    /// Whether it is taken over finite rollouts only, and so is empty in a
+    /// cell whose every start diverged (conditional position, velocity and
+    /// attitude errors).
+    pub fn over_finite_rollouts(self) -> bool {
+        matches!(self, Metric::ConditionalPositionRmse | Metric::VelocityRmse | Metric::AttitudeRmse)
+    }
+
     /// The unit printed after a value (empty for a rate).
     pub fn unit(self) -> &'static str {
         match self {

@@ -161,6 +161,19 @@ impl LockStatus {
 /// Why a lock could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum LockError {
+    /// A time the lock records is not one `lock` writes, or is after now:
+    /// the lock was edited by hand.
+    #[error("lock file {path}: `{field}` \"{value}\" {why}; a lock is written by `crossaudit lock`, never by hand: restore it from version control, or delete it and lock again (which makes every run before that unpreregistered)")]
+    Time {
+        /// The lock file.
+        path: String,
+        /// The field.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What is wrong with it.
+        why: &'static str,
+    },
     /// The lock file exists but could not be read.
     #[error("cannot read lock file {path}: {source}")]
     Read {
@@ -244,9 +257,33 @@ pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
         Err(source) => return Err(LockError::Read { path: path.display().to_string(), source }),
     };
     let text = String::from_utf8_lossy(&bytes);
-    serde_json::from_str(&text)
-        .map(Some)
-        .map_err(|source| LockError::Parse { path: path.display().to_string(), source })
+    let lock: LockFile =
+        serde_json::from_str(&text).map_err(|source| LockError::Parse { path: path.display().to_string(), source })?;
+    check_times(&path, &lock, SystemTime::now())?;
+    Ok(Some(lock))
+}
+
+/// Every time a lock records is a UTC time as `lock` writes it, and none
+/// lies after `now` (a day of clock difference allowed): a lock whose time
+/// was edited by hand would otherwise stand as "locked before this run".
+fn check_times(path: &Path, lock: &LockFile, now: SystemTime) -> Result<(), LockError> {
+    let times = std::iter::once(("locked_at_utc", &lock.locked_at_utc))
+        .chain(lock.amendments.iter().map(|a| ("previous_locked_at_utc", &a.previous_locked_at_utc)));
+    let latest = now + std::time::Duration::from_secs(86_400);
+    for (field, t) in times {
+        let why = match humantime::parse_rfc3339(t) {
+            Err(_) => "is not a UTC time as `crossaudit lock` writes it (2026-12-05T09:57:33Z)",
+            Ok(at) if at > latest => "lies in the future",
+            Ok(_) => continue,
+        };
+        return Err(LockError::Time {
+            path: path.display().to_string(),
+            field,
+            value: crate::io::one_line(t).into_owned(),
+            why,
+        });
+    }
+    Ok(())
 }
 
 /// Every file `file`'s design refers to, as written in it, and its SHA-256:

@@ -15,7 +15,26 @@ use pairs::{cmp, ident, idents, int, kids, number, span_of, string, strings, Des
 use syntax::syntax;
 
 /// Parses design text into an [`Ast`]; the error is a located diagnostic.
+/// A design file is text: a control character other than a line break, a
+/// carriage return or a tab (an escape sequence, a bell, a NUL) would reach
+/// the study's name, the reports and the terminal as structure, so the
+/// first one is refused where it stands.
+fn control_character(source: &str) -> Option<Diagnostic> {
+    let (at, c) = source.char_indices().find(|(_, c)| c.is_control() && !matches!(c, '\n' | '\r' | '\t'))?;
+    Some(
+        Diagnostic::new(
+            "control character in the design",
+            Span { start: at, end: at + c.len_utf8() },
+            format!("U+{:04X} is a control character, which a design file may not hold", c as u32),
+        )
+        .with_help("a design is plain text: delete the character (an editor may show it as ^[ or as nothing)"),
+    )
+}
+
 pub fn parse(source: &str) -> Result<Ast, Vec<Diagnostic>> {
+    if let Some(d) = control_character(source) {
+        return Err(vec![d]);
+    }
     let mut pairs = DesignParser::parse(Rule::design, source).map_err(|e| vec![syntax(e)])?;
     let design = pairs.next().expect("the design rule always yields one pair");
     let mut statements = Vec::new();

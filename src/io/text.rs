@@ -168,24 +168,43 @@ pub fn md_code(s: &str) -> String {
 }
 
 /// A text cell of a CSV file that people open in a spreadsheet, written so
-/// that the spreadsheet shows it as text: a cell that begins with `=`,
-/// `+`, `-`, `@`, a tab or a carriage return, and is not a number, gets a
-/// leading `'` (OWASP's advice against CSV injection), so that
-/// `=HYPERLINK(...)` is not a formula. Numbers (`-0.5`, `+3`) stay as
-/// they are.
+/// that the spreadsheet shows it as text: control characters are shown as
+/// their escapes (as [`one_line`]), and a cell that then begins with `=`,
+/// `+`, `-` or `@` and is not a finite number gets a leading `'` (OWASP's
+/// advice against CSV injection), so that `=HYPERLINK(...)` is not a
+/// formula. Finite numbers (`-0.5`, `+3`) stay as they are; `-inf` and
+/// `-NaN`, which a spreadsheet does not read as numbers, do not.
 ///
 /// ```
 /// use crossaudit::io::spreadsheet_text;
 /// assert_eq!(spreadsheet_text("=HYPERLINK(\"x\")"), "'=HYPERLINK(\"x\")");
 /// assert_eq!(spreadsheet_text("@SUM(A1)"), "'@SUM(A1)");
 /// assert_eq!(spreadsheet_text("-0.5"), "-0.5");
+/// assert_eq!(spreadsheet_text("-inf"), "'-inf");
+/// assert_eq!(spreadsheet_text("\u{1b}[31mred"), "\\u{1b}[31mred");
+/// assert_eq!(spreadsheet_text("\t=1+1"), "\\t=1+1");
 /// assert_eq!(spreadsheet_text("mom_t"), "mom_t");
 /// ```
 pub fn spreadsheet_text(s: &str) -> Cow<'_, str> {
-    let risky = s.starts_with(['=', '+', '-', '@', '\t', '\r']);
-    if risky && s.trim().parse::<f64>().is_err() {
-        Cow::Owned(format!("'{s}"))
-    } else {
-        Cow::Borrowed(s)
+    if formula_like(s) {
+        return Cow::Owned(format!("'{}", one_line(s)));
     }
+    one_line(s)
+}
+
+/// Whether a spreadsheet would read `s` as a formula: it begins (once its
+/// control characters are escaped) with `=`, `+`, `-` or `@` and is not a
+/// finite number. Names that the tool writes into CSV files it also reads
+/// back (recordings, trajectory and speed labels) are refused where they
+/// come from when this holds; text it only writes is given a leading `'`
+/// ([`spreadsheet_text`]).
+///
+/// ```
+/// use crossaudit::io::formula_like;
+/// assert!(formula_like("=1+1") && formula_like("-cmd") && formula_like("@SUM(A1)"));
+/// assert!(!formula_like("-0.5") && !formula_like("B9_trefoil_fast_rep2"));
+/// ```
+pub fn formula_like(s: &str) -> bool {
+    let shown = one_line(s);
+    shown.starts_with(['=', '+', '-', '@']) && !shown.trim().parse::<f64>().is_ok_and(f64::is_finite)
 }

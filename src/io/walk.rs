@@ -68,6 +68,15 @@ pub fn nested_logs_hint(dir: &Path, csv: bool) -> Option<String> {
     ))
 }
 
+/// The flight logs in `dir`'s subfolders, which a design without `folders
+/// nested` does not read: how many, and the first relative to `dir`.
+pub fn logs_in_subfolders(dir: &Path) -> Option<(usize, String)> {
+    let is_log = |p: &&PathBuf| p.file_name().is_some_and(|n| is_log_name(&n.to_string_lossy()));
+    let below = files_below(dir, true).ok()?;
+    let logs: Vec<&PathBuf> = below.iter().filter(|p| p.parent() != Some(dir)).filter(is_log).collect();
+    Some((logs.len(), relative(dir, logs.first()?)))
+}
+
 /// `path` relative to `dir`, with `/` between folders, as an audit shows it.
 pub fn relative(dir: &Path, path: &Path) -> String {
     let rel = path.strip_prefix(dir).unwrap_or(path);

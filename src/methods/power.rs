@@ -152,8 +152,16 @@ pub struct Declared {
     pub reference_mean: f64,
 }
 
+/// The smallest nonzero magnitude of a declared effect or reference mean
+/// (a variance: its square), as every reader's ([`crate::io::MIN_MAGNITUDE`]).
+const MIN_MAGNITUDE: f64 = crate::io::MIN_MAGNITUDE;
+
+/// The largest magnitude of a declared effect or reference mean (a
+/// variance: its square): the planner's sums of squares stay finite.
+const MAX_DECLARED: f64 = 1e75;
+
 /// Reads `recording=V,seed=V,residual=V`: each name once, each value a
-/// finite number at least 0.
+/// finite number at least 0, and 0 or between 1e-120 and 1e150.
 pub fn parse_components(text: &str) -> Result<crossaudit_stats::VarianceComponents, PowerError> {
     let bad = |why: String| PowerError::Declared(format!("--components {text:?}: {why}"));
     let mut found: [Option<f64>; 3] = [None; 3];
@@ -169,6 +177,12 @@ pub fn parse_components(text: &str) -> Result<crossaudit_stats::VarianceComponen
         let v: f64 = value.trim().parse().map_err(|_| bad(format!("{:?} is not a number", value.trim())))?;
         if !v.is_finite() || v < 0.0 {
             return Err(bad(format!("{} = {v}: a variance is a finite number at least 0", NAMES[k])));
+        }
+        if v != 0.0 && !(MIN_MAGNITUDE * MIN_MAGNITUDE..=MAX_DECLARED * MAX_DECLARED).contains(&v) {
+            return Err(bad(format!(
+                "{} = {v:e}: a variance must be 0 or between 1e-120 and 1e150 (an SD between 1e-60 and 1e75), where the planner's sums and squares stay inside double precision; rescale (another unit)",
+                NAMES[k]
+            )));
         }
         if found[k].replace(v).is_some() {
             return Err(bad(format!("{} is given twice", NAMES[k])));
@@ -216,9 +230,10 @@ pub fn declared_power_plan(
     seeds: &[usize],
 ) -> Result<PowerPlan, PowerError> {
     check_counts(&[recordings, seeds])?;
-    if !declared.effect.is_finite() || !declared.reference_mean.is_finite() {
+    let scaled = |x: f64| x == 0.0 || (MIN_MAGNITUDE..=MAX_DECLARED).contains(&x.abs());
+    if !scaled(declared.effect) || !scaled(declared.reference_mean) {
         return Err(PowerError::Declared(format!(
-            "--effect {} and --reference-mean {} must be finite numbers",
+            "--effect {:e} and --reference-mean {:e} must be finite numbers, each 0 or between 1e-60 and 1e75 in magnitude, the scale of the components' SDs; rescale (another unit)",
             declared.effect, declared.reference_mean
         )));
     }

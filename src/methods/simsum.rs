@@ -178,6 +178,15 @@ fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFi
         Some((l, u)) => Some((find(l, "--ci")?, find(u, "--ci")?)),
         None => None,
     };
+    let truth = number_or_column(&cols.truth, "--true")?;
+    if let Ok(x) = truth.as_ref().copied() {
+        if !x.is_finite() || (x != 0.0 && x.abs() < MIN_MAGNITUDE) || x.abs() > MAX_MAGNITUDE {
+            return Err(SimsumFileError::Flag(format!(
+                "--true {x} is not a finite number between 1e-60 and 1e150 in magnitude (or 0): bias, coverage and the MSE would be {} (a true value that varies is a column: --true COLUMN)",
+                if x.is_nan() { "undefined" } else { "wrong" }
+            )));
+        }
+    }
     let level = number_or_column(&cols.level, "--level")?;
     if let Ok(x) = level.as_ref().copied() {
         if !(x > 0.0 && x < 1.0) {
@@ -192,7 +201,7 @@ fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFi
         by: cols.by.iter().map(|b| find(b, "--by")).collect::<Result<_, _>>()?,
         ci,
         df: cols.df.as_deref().map(|d| find(d, "--df")).transpose()?,
-        truth: number_or_column(&cols.truth, "--true")?,
+        truth,
         level_column: level.err().map_or(1, |k| k + 1),
         level,
     })
@@ -271,9 +280,15 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
         if x.abs() > MAX_MAGNITUDE {
             return Err(at(line, k + 1, format!("{what} {x:e} is beyond +-1e150: its square, which the measures and their Monte Carlo SEs use, would overflow; rescale the column")));
         }
+        if x != 0.0 && x.abs() < MIN_MAGNITUDE {
+            return Err(at(line, k + 1, format!("{what} {x:e} is below 1e-60 in magnitude: the fourth powers that the Monte Carlo SEs use would underflow double precision and the measures come out wrong; rescale the column (multiply it by a power of ten)")));
+        }
         Ok(x)
     };
     let estimate = sized(loc.estimate, "estimate", value(loc.estimate, "estimate")?)?;
+    if let Err(k) = loc.truth {
+        sized(k, "true value", truth)?;
+    }
     let se = sized(loc.se, "SE", value(loc.se, "SE")?)?;
     if se < 0.0 {
         return Err(at(line, loc.se + 1, format!("SE {se} is negative")));
@@ -314,6 +329,11 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
 /// The largest magnitude of an estimate, SE or limit: its square stays
 /// far inside f64's range (1.8e308).
 const MAX_MAGNITUDE: f64 = 1e150;
+
+/// The smallest nonzero magnitude of an estimate, SE, limit or true value:
+/// its fourth power (the MSE's Monte Carlo SE) stays a normal double
+/// (above 2.2e-308).
+const MIN_MAGNITUDE: f64 = crate::io::MIN_MAGNITUDE;
 
 /// The measures written, in rsimsum's names and order, then crossaudit's.
 pub(crate) const STATS: [&str; 14] = [

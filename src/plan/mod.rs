@@ -518,6 +518,19 @@ impl Plan {
         if self.estimator.missing_allowed {
             let _ = writeln!(s, "missing cells: allowed (each is listed in the report)");
         }
+        let finite: Vec<String> = self
+            .units()
+            .filter(|u| u.metric.over_finite_rollouts())
+            .map(|u| format!("{} at {} s", u.metric.name(), u.horizon_s))
+            .collect();
+        if !finite.is_empty() && self.estimator.kind == EstimatorKind::CrossedMom {
+            let _ = writeln!(
+                s,
+                "note: {} {} over finite rollouts, empty in a cell whose every start diverged; the contrast then stays paired (the pairs with a value in both arms) and is estimated by REML with Kenward-Roger df, since the crossed MoM needs every cell; the report says so",
+                finite.join(", "),
+                if finite.len() == 1 { "is" } else { "are" }
+            );
+        }
         if let Some(b) = self.sensitivity.bootstrap {
             let _ = writeln!(s, "bootstrap: pigeonhole, B = {}, seed {}", b.replicates, b.seed);
         }

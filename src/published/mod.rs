@@ -155,6 +155,17 @@ fn check(split: &PublishedSplit) -> Result<(), PublishedError> {
         if let Some(e) = role.entries.iter().find(|e| e.name.is_empty()) {
             return Err(at(path, e.at, format!("entry \"{}\" names no recording file", e.listed)));
         }
+        // Role names and entries become cells and lines of the audit's
+        // files: a control character there would be structure, not text.
+        let controls = |s: &str| s.chars().any(char::is_control);
+        if controls(&role.name) {
+            let name = crate::io::one_line(&role.name);
+            return Err(at(path, role.at, format!("role \"{name}\" holds a control character, which no name may")));
+        }
+        if let Some(e) = role.entries.iter().find(|e| controls(&e.listed)) {
+            let listed = crate::io::one_line(&e.listed);
+            return Err(at(path, e.at, format!("entry \"{listed}\" holds a control character, which no name may")));
+        }
     }
     if windowed {
         check_windows(split)

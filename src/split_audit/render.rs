@@ -309,7 +309,7 @@ impl SplitAudit {
         ]);
         for d in &self.windows {
             let (rec, win, line) = &d.nearest;
-            let _ = w.write_record([
+            let _ = w.write_record(spreadsheet_cells([
                 d.role.clone(),
                 d.recording.clone(),
                 d.window.start_s.to_string(),
@@ -324,7 +324,7 @@ impl SplitAudit {
                 d.overlaps.to_string(),
                 (d.distance_s < self.options.gap_s).to_string(),
                 d.past_end.to_string(),
-            ]);
+            ]));
         }
         String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
     }
@@ -384,7 +384,7 @@ impl SplitAudit {
                 Some((n, who)) => (n.to_string(), who.clone()),
                 None => (String::new(), String::new()),
             };
-            let _ = w.write_record([
+            let _ = w.write_record(spreadsheet_cells([
                 r.recording.clone(),
                 role_label(&r.role).to_string(),
                 r.listed_as.clone(),
@@ -402,8 +402,15 @@ impl SplitAudit {
                 run,
                 with,
                 r.same_condition_in_other_roles.to_string(),
-            ]);
+            ]));
         }
         String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
     }
+}
+
+/// A row of a CSV that people open in a spreadsheet: every cell through
+/// [`crate::io::spreadsheet_text`] (role names and listed entries come from
+/// the split file as written; numbers pass unchanged).
+fn spreadsheet_cells<const N: usize>(row: [String; N]) -> [String; N] {
+    row.map(|c| crate::io::spreadsheet_text(&c).into_owned())
 }

@@ -177,6 +177,18 @@ pub(crate) fn estimate_grid(
     }
 }
 
+/// The estimator of a contrast whose array `diff` lacks pairs, where the
+/// plan's cannot take it: REML with Kenward-Roger df in place of the
+/// crossed MoM, which needs every cell ([`Ctx::unit`]'s warning says so).
+fn paired_estimator(est: &Estimator, diff: &Grid) -> Option<Estimator> {
+    (est.kind == EstimatorKind::CrossedMom && diff.missing() > 0).then_some(Estimator {
+        kind: EstimatorKind::Reml,
+        df: DfRule::KenwardRoger,
+        missing_allowed: true,
+        ..*est
+    })
+}
+
 /// The value of `metric` in a cell, if it has one.
 pub(crate) fn value_of(c: &Cell, metric: Metric) -> Option<f64> {
     metric_value(c, metric)
@@ -189,39 +201,47 @@ impl Ctx<'_> {
         estimate_grid(&self.plan.estimator, g.rows, g.cols, g.v.clone())
     }
 
-    /// One arm's grid of `metric`; a cell without a value is missing when
-    /// the design allows missing cells, an error otherwise.
-    fn grid(&self, model: &str, arm: &str, metric: Metric, h: f64, label: &str) -> Result<Grid, AnalysisError> {
+    /// One arm's grid of `metric`. A cell is missing where the per-cell
+    /// file has none (which the index allows only under `missing allow`)
+    /// and where the metric is empty: the conditional position, velocity
+    /// and attitude errors are over finite rollouts, so a cell whose every
+    /// start diverged has none (the cells reader checks exactly that).
+    fn grid(&self, model: &str, arm: &str, metric: Metric, h: f64) -> Grid {
         let (rows, cols) = (self.recordings.len(), self.plan.seeds.len());
         let mut v = Vec::with_capacity(rows * cols);
         for r in self.recordings {
             let row = self.data.row(model, arm, &r.recording, h);
-            for j in 0..cols {
-                let value = match row.and_then(|row| row[j]) {
-                    None => None,
-                    Some(c) => match metric_value(c, metric) {
-                        Some(x) => Some(x),
-                        None if self.plan.estimator.missing_allowed => None,
-                        None => {
-                            return Err(AnalysisError::EmptyMetric {
-                                line: c.line,
-                                field: metric.column(),
-                                unit: label.to_string(),
-                            })
-                        }
-                    },
-                };
-                v.push(value);
-            }
+            v.extend((0..cols).map(|j| row.and_then(|row| row[j]).and_then(|c| metric_value(c, metric))));
         }
-        Ok(Grid { rows, cols, v })
+        Grid { rows, cols, v }
     }
 
-    fn arrays(&self, model: &str, metric: Metric, h: f64, label: &str) -> Result<ArmArrays, AnalysisError> {
-        let treated = self.grid(model, &self.plan.contrast.treated, metric, h, label)?;
-        let reference = self.grid(model, &self.plan.contrast.reference, metric, h, label)?;
+    fn arrays(&self, model: &str, metric: Metric, h: f64) -> ArmArrays {
+        let treated = self.grid(model, &self.plan.contrast.treated, metric, h);
+        let reference = self.grid(model, &self.plan.contrast.reference, metric, h);
         let diff = treated.minus(&reference);
-        Ok(ArmArrays { treated: treated.masked(&diff), reference: reference.masked(&diff), diff })
+        ArmArrays { treated: treated.masked(&diff), reference: reference.masked(&diff), diff }
+    }
+
+    /// The context in which a contrast whose array `diff` has is estimated:
+    /// this one, unless pairs are missing (a cell whose every start
+    /// diverged has no finite-rollout error) under the crossed MoM, which
+    /// needs every cell. Then the contrast stays paired, over the pairs
+    /// where both arms have a value, and every estimate of it is REML with
+    /// Kenward-Roger df, as the conditional RMSE's is; the warning says so.
+    fn paired(&self, diff: &Grid, label: &str, warnings: &mut Vec<String>) -> Option<Plan> {
+        let dropped = diff.missing();
+        if dropped == 0 {
+            return None;
+        }
+        let mom = self.plan.estimator.kind == EstimatorKind::CrossedMom;
+        warnings.push(format!(
+            "{label}: {dropped} of {} recording x seed pairs lack a value in one arm or both (every start of a cell diverged, so its finite-rollout error is empty, or the cell is missing); every estimate of this unit uses the other {}{}",
+            diff.v.len(),
+            diff.v.len() - dropped,
+            if mom { ", by REML with Kenward-Roger df: the crossed method of moments needs every cell" } else { "" }
+        ));
+        paired_estimator(&self.plan.estimator, diff).map(|estimator| Plan { estimator, ..self.plan.clone() })
     }
 
     pub(crate) fn unit(
@@ -231,16 +251,24 @@ impl Ctx<'_> {
         warnings: &mut Vec<String>,
     ) -> Result<UnitResult, AnalysisError> {
         let label = u.label();
-        let stats = |source| AnalysisError::Stats { unit: label.clone(), source };
-        let a = self.arrays(&u.model, u.metric, u.horizon_s, &label)?;
-        let dropped = a.diff.missing();
-        if dropped > 0 {
-            warnings.push(format!(
-                "{label}: {dropped} of {} recording x seed pairs lack a value in one arm or both; every estimate of this unit uses the other {}",
-                a.diff.v.len(),
-                a.diff.v.len() - dropped
-            ));
+        let a = self.arrays(&u.model, u.metric, u.horizon_s);
+        match self.paired(&a.diff, &label, warnings) {
+            Some(plan) => Ctx { plan: &plan, ..*self }.unit_of(u, a, &label, stream, warnings),
+            None => self.unit_of(u, a, &label, stream, warnings),
         }
+    }
+
+    /// [`Ctx::unit`] on its arrays `a`, under this context's estimator.
+    fn unit_of(
+        &self,
+        u: &AnalysisUnit,
+        a: ArmArrays,
+        label: &str,
+        stream: u64,
+        warnings: &mut Vec<String>,
+    ) -> Result<UnitResult, AnalysisError> {
+        let label = label.to_string();
+        let stats = |source| AnalysisError::Stats { unit: label.clone(), source };
         let (mean_t, mean_r) = (a.treated.mean(), a.reference.mean());
         if mean_r == 0.0 {
             return Err(AnalysisError::ZeroReferenceMean {
@@ -469,11 +497,13 @@ impl Ctx<'_> {
     pub(crate) fn interaction(&self, ix: &InteractionUnit, stream: u64) -> Result<InteractionResult, AnalysisError> {
         let label = format!("interaction {} - {} at {} s", ix.left, ix.right, ix.horizon_s);
         let stats = |source| AnalysisError::Stats { unit: label.clone(), source };
-        let l = self.arrays(&ix.left, ix.metric, ix.horizon_s, &label)?;
-        let r = self.arrays(&ix.right, ix.metric, ix.horizon_s, &label)?;
+        let l = self.arrays(&ix.left, ix.metric, ix.horizon_s);
+        let r = self.arrays(&ix.right, ix.metric, ix.horizon_s);
         let delta = l.diff.minus(&r.diff);
-        let est = &self.plan.estimator;
-        let estimate = self.estimate(&delta).map_err(stats)?;
+        // Pairs without a finite-rollout error: paired, as each model's unit.
+        let paired = paired_estimator(&self.plan.estimator, &delta);
+        let est = paired.as_ref().unwrap_or(&self.plan.estimator);
+        let estimate = estimate_grid(est, delta.rows, delta.cols, delta.v.clone()).map_err(stats)?;
         let bootstrap = match (self.plan.sensitivity.bootstrap, delta.complete()) {
             (Some(b), Some(m)) => {
                 Some(pigeonhole_bootstrap(&m.map_err(stats)?, b.replicates, est.level, b.seed, stream).map_err(stats)?)

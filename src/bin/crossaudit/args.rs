@@ -206,11 +206,11 @@ pub(crate) enum Command {
         #[arg(long, requires_all = ["effect", "reference_mean"])]
         components: Option<String>,
         /// With --components: the true effect d, in the endpoint's unit.
-        #[arg(long, allow_negative_numbers = true, requires = "components")]
+        #[arg(long, allow_hyphen_values = true, requires = "components")]
         effect: Option<f64>,
         /// With --components: the reference arm's mean, for an
         /// `optimism >= c%` rule.
-        #[arg(long, allow_negative_numbers = true, requires = "components")]
+        #[arg(long, allow_hyphen_values = true, requires = "components")]
         reference_mean: Option<f64>,
         /// Numbers of recordings to consider.
         #[arg(long, value_delimiter = ',', default_value = "13,26,52")]
@@ -284,7 +284,7 @@ pub(crate) enum Command {
         design: PathBuf,
         /// A run to combine: its design, its run folder and the number
         /// added to each of its seeds (0 for none); once per run.
-        #[arg(long = "from", num_args = 3, value_names = ["DESIGN", "RUN_DIR", "SEED_SHIFT"], action = clap::ArgAction::Append, required = true, allow_negative_numbers = true)]
+        #[arg(long = "from", num_args = 3, value_names = ["DESIGN", "RUN_DIR", "SEED_SHIFT"], action = clap::ArgAction::Append, required = true, allow_hyphen_values = true)]
         from: Vec<String>,
         /// The combined folder.
         #[arg(long)]
@@ -371,7 +371,7 @@ pub(crate) enum AuditCommand {
         /// another role in the same recording; the audit counts the windows
         /// closer than that.
         #[arg(long, default_value_t = crossaudit::split_audit::DEFAULT_GAP_S, value_name = "SECONDS",
-              value_parser = positive_seconds)]
+              value_parser = positive_seconds, allow_hyphen_values = true)]
         gap: f64,
         /// `leak`: exit with status 3 when two roles hold byte-identical
         /// recordings or overlapping windows; `gap`: also when a window
@@ -414,7 +414,7 @@ pub(crate) struct SimsumArgs {
     pub(crate) by: Vec<String>,
     /// The true value: a number (negative ones too: `--true -1`), or the
     /// column holding it.
-    #[arg(long = "true", value_name = "VALUE|COLUMN", allow_negative_numbers = true)]
+    #[arg(long = "true", value_name = "VALUE|COLUMN", allow_hyphen_values = true)]
     pub(crate) truth: String,
     /// The intervals' level: a number, or the column holding it.
     #[arg(long, default_value = "0.95", value_name = "VALUE|COLUMN")]

@@ -59,6 +59,15 @@ pub enum AuditError {
         /// Each file, relative to the directory, with why it is not read.
         files: Vec<String>,
     },
+    /// A log's file name begins with `=`, `+`, `-` or `@`: its recording
+    /// name, in every CSV that names it, would be a spreadsheet formula.
+    #[error("{dir}: the file name {name:?} begins with `{}`, so its recording name would be read as a formula by a spreadsheet opening any CSV that names it (cells.csv, the manifests, the audit); rename the file", .name.chars().next().unwrap_or('='))]
+    FormulaName {
+        /// The directory.
+        dir: String,
+        /// The file name.
+        name: String,
+    },
     /// A log's file name holds a control character (a line break, a
     /// terminal escape): it would become a recording name.
     #[error("{dir}: the file name {name:?} holds a control character, which no recording name may; rename the file")]

@@ -115,6 +115,9 @@ impl Audit {
                 );
             }
         }
+        if let Some(below) = &self.not_read_below {
+            let _ = writeln!(s, "\nnot read: {below}");
+        }
         let noted = self.files.iter().filter(|f| f.reason.contains("note: ")).count();
         if noted > 0 {
             let _ = writeln!(s, "\n{noted} file(s) carry a note in recordings.csv (metadata disagreeing with the file name, unreadable metadata)");

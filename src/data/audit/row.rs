@@ -106,6 +106,11 @@ pub struct Audit {
     pub files: Vec<FileRow>,
     /// Groups of identical recordings (two or more names each).
     pub duplicate_groups: BTreeMap<String, Vec<String>>,
+    /// The flight logs in the folder's subfolders, which a design without
+    /// `folders nested` does not read: named in the summary (how many, the
+    /// first, the clause that reads them), never left out without a word.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_read_below: Option<String>,
 }
 
 /// The row hashes of one file of an audit, if it could be read.

@@ -84,6 +84,7 @@ impl Validator {
             let names = self.endpoint_models(&e.models, models);
             if role == Role::Primary {
                 self.primary(e, s.span, &mut primaries);
+                self.primary_model_trains(e, models);
             }
             if let Some(metric) = metric {
                 self.duplicate_cells(metric, &horizons, &names, s.span, &mut seen_cells);
@@ -268,6 +269,30 @@ impl Validator {
                 format!("{} horizons x {} models", e.horizons.len(), e.models.len()),
                 "the primary endpoint names exactly one horizon and one model",
             );
+        }
+    }
+
+    /// The primary endpoint's model is fitted in each arm: a parameter-free
+    /// baseline (persistence, constant velocity) is the same model in every
+    /// arm, so its contrast is 0 by construction, which `run` would find
+    /// only after training every job.
+    fn primary_model_trains(&mut self, e: &EndpointStmt, models: &[(Model, Span)]) {
+        for name in &e.models {
+            if let Some((m, _)) = models.iter().find(|(m, _)| m.name == name.node).filter(|(m, _)| !m.kind.trains()) {
+                self.err_help(
+                    "parameter-free primary model",
+                    name.span,
+                    format!(
+                        "`{}` is {}: it fits nothing, so it is the same model in every arm and `treated - reference` is 0 by construction",
+                        m.name,
+                        match m.kind {
+                            ModelKind::ConstantVelocity => "constant velocity",
+                            _ => "persistence",
+                        }
+                    ),
+                    "decide on a model the arms train (an `mlp`, `linear` or `external` model); a baseline is the reference level of an interaction (`interaction MODEL - BASELINE`) or a secondary endpoint",
+                );
+            }
         }
     }
 

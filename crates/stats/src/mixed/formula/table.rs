@@ -119,6 +119,19 @@ fn check_scale(name: &str, values: &[f64], raw: bool) -> Result<(), FormulaError
     let mean = sum / n;
     let centred: f64 = values.iter().map(|v| (v - mean).powi(2)).sum();
     let squares: f64 = if raw { values.iter().map(|v| v * v).sum() } else { 0.0 };
+    // Values below 1e-60 (not 0): their squares' squares, which the
+    // variances' derivatives and df use, underflow double precision, and
+    // the fit reports a residual of 0 or p < 2e-16 for nothing.
+    if let Some(row) = values.iter().position(|v| *v != 0.0 && v.abs() < 1e-60) {
+        return Err(FormulaError::Scale {
+            field: name.into(),
+            message: format!(
+                "its values are too small for double precision: {:e} (row {}) is below 1e-60 in magnitude, where the squares of squares the fit uses underflow; rescale the column (multiply it by a power of ten) and fit again",
+                values[row],
+                row + 1
+            ),
+        });
+    }
     if sum.is_finite() && centred.is_finite() && squares.is_finite() {
         return Ok(());
     }

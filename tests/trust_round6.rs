@@ -1,0 +1,283 @@
+//! Issue 77, the round after the hostile corpus: each class a hostile
+//! tester found short in the newest surface, tested through the real
+//! binary. Every test here failed on the code before its fix (the outputs
+//! it checks against are quoted in each test's comment).
+
+use std::path::Path;
+
+use crate::common::{assert_ok, assert_refused, crossaudit, root, said, stderr};
+
+/// The quickstart's committed cells with every metric multiplied by
+/// `factor` (empty fields kept empty), written to `dir/cells.csv`.
+fn scaled_cells(dir: &Path, factor: f64) -> String {
+    let text = std::fs::read_to_string(root().join("results/quickstart/cells.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let metric = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let cols =
+        ["fa_position_rmse_m", "conditional_position_rmse_m", "velocity_rmse_mps", "attitude_rmse_deg"].map(metric);
+    let mut out = vec![header.join(",")];
+    for l in lines {
+        let mut f: Vec<String> = l.split(',').map(String::from).collect();
+        for &k in &cols {
+            if !f[k].is_empty() {
+                f[k] = format!("{:e}", f[k].parse::<f64>().unwrap() * factor);
+            }
+        }
+        out.push(f.join(","));
+    }
+    let path = dir.join("cells.csv");
+    std::fs::write(&path, out.join("\n") + "\n").unwrap();
+    path.display().to_string()
+}
+
+/// Class 1 (wrong answers at extreme scales). The quickstart's cells times
+/// 1e-160 gave CONFIRMED under `upper < 0` (the variances underflowed to 0,
+/// the interval to a point) where the same cells unscaled give NOT
+/// CONFIRMED; `mixed` on a response of 1e-160 reported p < 2e-16 and a
+/// certified optimum; `simsum --true NaN` scored coverage 0 with MCSE 0;
+/// `plan --components` of 1e308 said "there is no variance to plan from".
+/// Each reader now refuses a nonzero value below 1e-60 (or a declared
+/// value outside the range its squares stay in) at its place, with the
+/// advice to rescale.
+#[test]
+fn values_whose_squares_leave_double_precision_are_refused_where_they_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let cells = scaled_cells(dir.path(), 1e-160);
+    let out = dir.path().join("out");
+    let o = crossaudit(&["analyze", "designs/quickstart.design", "--cells", &cells, "--out", out.to_str().unwrap()]);
+    assert_refused(&o, "line 2, field `fa_position_rmse_m`: is below 1e-60 but not 0");
+    assert!(!out.join("report.md").exists());
+    // The same cells at 1e-20 are analysed as the unscaled ones are.
+    let cells = scaled_cells(dir.path(), 1e-20);
+    let o = crossaudit(&["analyze", "designs/quickstart.design", "--cells", &cells, "--out", out.to_str().unwrap()]);
+    assert_ok(&o);
+
+    let table = dir.path().join("mixed.csv");
+    let rows: Vec<String> = (0..60).map(|i| format!("{},{i},g{},h{}", 1e-160 * (i % 7) as f64, i % 6, i % 5)).collect();
+    std::fs::write(&table, format!("y,x,g,h\n{}\n", rows.join("\n"))).unwrap();
+    let o = crossaudit(&["mixed", table.to_str().unwrap(), "--formula", "y ~ x + (1|g) + (1|h)"]);
+    assert_refused(&o, "column y: its values are too small for double precision");
+
+    let reps = dir.path().join("reps.csv");
+    let mut text = String::from("rep,method,estimate,se\n");
+    for r in 1..=20 {
+        for (m, e) in [("A", 0.5 + 0.01 * r as f64), ("B", 0.45 + 0.012 * r as f64)] {
+            text.push_str(&format!("{r},{m},{e},0.1\n"));
+        }
+    }
+    std::fs::write(&reps, &text).unwrap();
+    let simsum_out = dir.path().join("simsum");
+    let s = simsum_out.to_str().unwrap();
+    for truth in ["NaN", "inf", "-inf", "1e-200"] {
+        let o = crossaudit(&["simsum", reps.to_str().unwrap(), "--rep", "rep", &format!("--true={truth}"), "--out", s]);
+        assert_refused(&o, "is not a finite number between 1e-60 and 1e150");
+    }
+    let tiny = text.replace(",0.1\n", ",1e-70\n");
+    std::fs::write(&reps, tiny).unwrap();
+    let o = crossaudit(&["simsum", reps.to_str().unwrap(), "--rep", "rep", "--true", "0.5", "--out", s]);
+    assert_refused(&o, "SE 1e-70 is below 1e-60 in magnitude");
+
+    let o = crossaudit(&[
+        "plan",
+        "designs/quickstart.design",
+        "--components",
+        "recording=1e308,seed=1e308,residual=1e308",
+        "--effect",
+        "-0.02",
+        "--reference-mean",
+        "0.3",
+        "--out",
+        dir.path().join("plan").to_str().unwrap(),
+    ]);
+    assert_refused(&o, "a variance must be 0 or between 1e-120 and 1e150");
+}
+
+/// Class 8: a negative value with a decimal point or an exponent, given
+/// as its own argument, was taken for an option by the argument parser
+/// ("unexpected argument '-1' found; tip: ... use '-- -1'", which does not
+/// work); `audit split --gap -1` said "unexpected argument".
+#[test]
+fn negative_numbers_are_values_as_users_type_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let reps = dir.path().join("reps.csv");
+    let mut text = String::from("rep,method,estimate,se\n");
+    for r in 1..=10 {
+        text.push_str(&format!("{r},A,{},0.1\n", -0.001 + 0.0001 * r as f64));
+    }
+    std::fs::write(&reps, &text).unwrap();
+    let out = dir.path().join("simsum");
+    for truth in ["-1e-3", "-.5", "-1E-3"] {
+        let o = crossaudit(&[
+            "simsum",
+            reps.to_str().unwrap(),
+            "--rep",
+            "rep",
+            "--true",
+            truth,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_ok(&o);
+    }
+    let o = crossaudit(&[
+        "audit",
+        "split",
+        "../shared/nanobench/upstream_task2_split_metadata.json",
+        "--data",
+        "../shared/nanobench/recordings",
+        "--gap",
+        "-1",
+        "--out",
+        dir.path().join("audit").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("\"-1\" is not a number of seconds above 0"), "{}", stderr(&o));
+}
+
+/// Class 4 / `check` first: a primary endpoint on a parameter-free model
+/// (persistence) passed `check` and `run` trained every job before the
+/// analysis refused the contrast as 0 by construction, blaming cells.csv.
+#[test]
+fn a_parameter_free_primary_model_is_refused_by_check_at_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let edited = text.replace("model world    = mlp(64, 64, 64) inputs world", "model world = persistence");
+    assert_ne!(edited, text);
+    let path = dir.path().join("q.design");
+    std::fs::write(&path, edited).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_refused(&o, "parameter-free primary model");
+    assert!(stderr(&o).contains("`world` is persistence: it fits nothing"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("q.design:"), "located: {}", stderr(&o));
+}
+
+/// Class 6: a control character in a design (an escape sequence in the
+/// study's name) was accepted and written raw into report.html and
+/// results.tex. Refused at its line and column.
+#[test]
+fn a_control_character_in_a_design_is_refused_where_it_stands() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let edited = text.replacen("study \"", "study \"\u{1b}[2J\u{7}", 1);
+    assert_ne!(edited, text);
+    let path = dir.path().join("q.design");
+    std::fs::write(&path, edited).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_refused(&o, "control character in the design");
+    assert!(stderr(&o).contains("U+001B is a control character"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains('\u{1b}'), "the escape itself is not sent to the terminal");
+}
+
+/// Class 6: names that a spreadsheet reads as formulas. A log file named
+/// `=cmd-...` became a recording written raw into every CSV that names it
+/// (cells.csv, the manifests, the audit), which the tool also reads back:
+/// refused at its source, with the file named. Text the tool only writes
+/// (a published split's role names, simsum's methods) gets a leading `'`,
+/// with control characters shown as escapes, `-inf` included.
+#[test]
+fn names_a_spreadsheet_would_run_are_refused_at_their_source_or_neutralised() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = dir.path().join("lab_logs");
+    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    std::fs::rename(logs.join("train/lab-circle-take1.parquet"), logs.join("train/=cmd-circle-take1.parquet")).unwrap();
+    let design = dir.path().join("lab.design");
+    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
+    let o = crossaudit(&["check", design.to_str().unwrap()]);
+    assert_refused(&o, "the file name \"=cmd-circle-take1.parquet\" begins with `=`");
+
+    let reps = dir.path().join("reps.csv");
+    let mut text = String::from("rep,method,estimate,se\n");
+    for r in 1..=10 {
+        text.push_str(&format!(
+            "{r},=HYPERLINK(\"x\"),{},0.1\n{r},\u{1b}[31mred,{},0.1\n{r},-inf,{},0.1\n",
+            0.5, 0.4, 0.45
+        ));
+    }
+    std::fs::write(&reps, &text).unwrap();
+    let out = dir.path().join("simsum");
+    assert_ok(&crossaudit(&[
+        "simsum",
+        reps.to_str().unwrap(),
+        "--rep",
+        "rep",
+        "--true",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let csv = std::fs::read_to_string(out.join("simsum.csv")).unwrap();
+    assert!(!csv.contains('\u{1b}'), "raw escape in simsum.csv");
+    for line in csv.lines().skip(1) {
+        for cell in line.split(',') {
+            let cell = cell.trim_matches('"');
+            assert!(!crossaudit::io::formula_like(cell), "a formula cell {cell:?} in: {line}");
+        }
+    }
+    assert!(csv.contains("'-inf") && csv.contains("\\u{1b}[31mred"), "{csv}");
+}
+
+/// Class 6: a published split whose entry holds a control character (a NUL
+/// in a JSON string) was counted "unknown" and the NUL written into
+/// split_recordings.csv; refused at the entry.
+#[test]
+fn a_split_entry_with_a_control_character_is_refused_at_its_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let split = dir.path().join("split.csv");
+    std::fs::write(&split, "recording,role\nF1_circle_slow_rep1,train\nF2_star\u{0}_rep1,test\n").unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    let o = crossaudit(&[
+        "audit",
+        "split",
+        split.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--out",
+        dir.path().join("audit").to_str().unwrap(),
+    ]);
+    assert_refused(&o, "holds a control character, which no name may");
+    assert!(stderr(&o).contains("split.csv:3:"), "located: {}", stderr(&o));
+}
+
+/// Class 4: a lock whose time was edited by hand ("not a time", or a date
+/// in the future) stood as "locked before this run" and the run was
+/// labelled preregistered.
+#[test]
+fn a_lock_whose_time_was_edited_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = dir.path().join("q.design");
+    std::fs::copy(root().join("designs/quickstart.design"), &design).unwrap();
+    let lock = dir.path().join("q.design.lock");
+    let committed = std::fs::read_to_string(root().join("designs/quickstart.design.lock")).unwrap();
+    let value: serde_json::Value = serde_json::from_str(&committed).unwrap();
+    let at = value["locked_at_utc"].as_str().unwrap().to_string();
+    std::fs::write(&lock, &committed).unwrap();
+    assert_ok(&crossaudit(&["check", design.to_str().unwrap()]));
+    for (edited, why) in [("not a time", "is not a UTC time"), ("2099-12-05T09:57:33Z", "lies in the future")] {
+        std::fs::write(&lock, committed.replace(&at, edited)).unwrap();
+        let o = crossaudit(&["check", design.to_str().unwrap()]);
+        assert_refused(&o, why);
+        assert!(stderr(&o).contains("`locked_at_utc`"), "{}", stderr(&o));
+    }
+}
+
+/// Class 2: logs in a subfolder were left out without a word whenever the
+/// data folder's top level held any log. The audit names them, with the
+/// clause that reads them.
+#[test]
+fn logs_in_subfolders_that_are_not_read_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = dir.path().join("lab_logs");
+    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    // The published folder split's design reads below with `folders
+    // nested`; without it, the logs below its top level are not read.
+    let design = dir.path().join("flat.design");
+    let text = std::fs::read_to_string(root().join("designs/logs/lab.design")).unwrap();
+    std::fs::write(&design, text.replace("  folders nested\n", "")).unwrap();
+    std::fs::copy(logs.join("train/lab-circle-take1.parquet"), logs.join("lab-circle-take9.parquet")).unwrap();
+    let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
+    let all = said(&o);
+    assert!(all.contains("flight log(s) in subfolders are not read"), "{all}");
+    assert!(all.contains("declare `folders nested` in the data block"), "{all}");
+}
