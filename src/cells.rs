@@ -261,8 +261,19 @@ impl Emptiness {
     }
 }
 
+/// A value as an error quotes it: at most 64 characters, then how long it is.
+fn shortened(value: &str) -> String {
+    match value.char_indices().nth(64) {
+        None => value.to_string(),
+        Some((at, _)) => format!("{}... ({} characters)", &value[..at], value.chars().count()),
+    }
+}
+
 fn csv_message(e: &csv::Error) -> String {
     match e.kind() {
+        csv::ErrorKind::UnequalLengths { expected_len, len, .. } if len < expected_len => format!(
+            "row has {len} fields, the header has {expected_len} (a field that opens a quote `\"` and never closes it joins every line after it into one field)"
+        ),
         csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
             format!("row has {len} fields, the header has {expected_len}")
         }
@@ -357,7 +368,7 @@ impl Row<'_> {
             path: self.name.to_string(),
             line: self.line,
             field,
-            value: value.to_string(),
+            value: shortened(value),
             problem: problem.into(),
         }
     }

@@ -281,3 +281,43 @@ fn logs_in_subfolders_that_are_not_read_are_named() {
     assert!(all.contains("flight log(s) in subfolders are not read"), "{all}");
     assert!(all.contains("declare `folders nested` in the data block"), "{all}");
 }
+
+/// Class 3: columns whose names say what they hold (`rep`, `level`) but
+/// that no flag names were ignored without a word, and simsum.md then said
+/// "the file has no replication ids" of a file with a `rep` column. Each
+/// is named, on the console and in simsum.md, with the flag that reads it.
+#[test]
+fn simsum_names_the_columns_it_does_not_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let reps = dir.path().join("reps.csv");
+    let mut text = String::from("rep,method,estimate,se,level,true\n");
+    for r in 1..=12 {
+        for (m, e) in [("A", 0.5 + 0.01 * r as f64), ("B", 0.47 + 0.02 * r as f64)] {
+            text.push_str(&format!("{r},{m},{e},0.1,0.9,0.55\n"));
+        }
+    }
+    std::fs::write(&reps, &text).unwrap();
+    let out = dir.path().join("simsum");
+    let o = crossaudit(&["simsum", reps.to_str().unwrap(), "--true", "0.5", "--out", out.to_str().unwrap()]);
+    assert_ok(&o);
+    let md = std::fs::read_to_string(out.join("simsum.md")).unwrap();
+    for (column, flag) in [("rep", "--rep rep"), ("level", "--level level"), ("true", "--true true")] {
+        assert!(said(&o).contains(&format!("column `{column}` is not read")), "{}", said(&o));
+        assert!(md.contains(&format!("column `{column}` is not read")) && md.contains(flag), "{md}");
+    }
+    // Declared, nothing is said.
+    let o = crossaudit(&[
+        "simsum",
+        reps.to_str().unwrap(),
+        "--rep",
+        "rep",
+        "--level",
+        "level",
+        "--true",
+        "true",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_ok(&o);
+    assert!(!said(&o).contains("is not read"), "{}", said(&o));
+}

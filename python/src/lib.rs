@@ -224,8 +224,9 @@ fn simsum(
         };
         let cols = ss::Columns { estimate, se, method, rep, by, truth, level, ci, df, reference, targets };
         let _lock = crossaudit::run::lock_folder(&out, false).map_err(fail)?;
-        let groups = ss::summarise(&file, &cols).map_err(fail)?;
-        crossaudit::methods::simsum_report::write(&groups, &cols, &file.display().to_string(), &out).map_err(fail)
+        let (groups, unused) = ss::summarise(&file, &cols).map_err(fail)?;
+        crossaudit::methods::simsum_report::write(&groups, &cols, &file.display().to_string(), &unused, &out)
+            .map_err(fail)
     })
 }
 

@@ -213,7 +213,7 @@ pub enum LockError {
     /// An amendment's reason that cannot be recorded: too long, or with a
     /// control character, or one that would grow the lock past what the
     /// lock reader accepts (after which no command could use the design).
-    #[error("{path}: the amendment's reason {why}")]
+    #[error("{path}: the reason given {why}")]
     BadReason {
         /// The lock file.
         path: String,

@@ -138,10 +138,48 @@ pub enum SimsumFileError {
 }
 
 /// Reads `path` and scores it.
-pub fn summarise(path: &Path, cols: &Columns) -> Result<Vec<Group>, SimsumFileError> {
+pub fn summarise(path: &Path, cols: &Columns) -> Result<(Vec<Group>, Vec<String>), SimsumFileError> {
     let shown = path.display().to_string();
-    let reps = read(path, cols)?;
-    simsum(&reps, cols.reference.as_deref()).map_err(|source| SimsumFileError::Summary { path: shown, source })
+    let (reps, notes) = read(path, cols)?;
+    let groups =
+        simsum(&reps, cols.reference.as_deref()).map_err(|source| SimsumFileError::Summary { path: shown, source })?;
+    Ok((groups, notes))
+}
+
+/// A column whose name says what it holds (`rep`, `level`, `true`, `df`,
+/// `lower`/`upper`) but that no flag names is not read: said in words,
+/// with what is used instead and the flag that reads it, so that a file's
+/// own replication ids or levels are never ignored without a word.
+fn unused_columns(header: &[String], cols: &Columns) -> Vec<String> {
+    let has = |names: &[&str]| header.iter().find(|h| names.contains(&h.to_ascii_lowercase().as_str())).cloned();
+    let mut out = Vec::new();
+    if let (None, Some(c)) = (&cols.rep, has(&["rep", "repetition", "replication", "rep_id"])) {
+        out.push(format!("column `{c}` is not read (no --rep): methods are paired by their rows' order within each group; give --rep {c} to pair them by replication id"));
+    }
+    if let Some(c) = has(&["level", "conf_level"]).filter(|c| cols.level != *c) {
+        out.push(format!(
+            "column `{c}` is not read: every interval's level is --level {}; give --level {c} to read each row's",
+            cols.level
+        ));
+    }
+    if let Some(c) = has(&["true", "truth", "true_value", "theta"]).filter(|c| cols.truth != *c) {
+        out.push(format!(
+            "column `{c}` is not read: the true value is --true {}; give --true {c} to read each row's",
+            cols.truth
+        ));
+    }
+    // With --ci the file's own limits are scored and df do not enter.
+    if let (None, None, Some(c)) = (&cols.df, &cols.ci, has(&["df"])) {
+        out.push(format!("column `{c}` is not read (no --df): intervals from estimate and SE use the normal quantile; give --df {c} for t quantiles"));
+    }
+    if cols.ci.is_none() {
+        let lo = has(&["lower", "lower_limit", "ci_lower", "lo"]);
+        let hi = has(&["upper", "upper_limit", "ci_upper", "hi"]);
+        if let (Some(l), Some(u)) = (lo, hi) {
+            out.push(format!("columns `{l}` and `{u}` are not read (no --ci): intervals are the estimate plus or minus the quantile times the SE; give --ci {l},{u} to score the file's own"));
+        }
+    }
+    out
 }
 
 /// Where each declared column is; the true value and level as a number
@@ -207,7 +245,7 @@ fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFi
     })
 }
 
-fn read(path: &Path, cols: &Columns) -> Result<Vec<Replication>, SimsumFileError> {
+fn read(path: &Path, cols: &Columns) -> Result<(Vec<Replication>, Vec<String>), SimsumFileError> {
     let shown = path.display().to_string();
     let at = |line: usize, column: usize, message: String| SimsumFileError::At {
         path: shown.clone(),
@@ -225,6 +263,7 @@ fn read(path: &Path, cols: &Columns) -> Result<Vec<Replication>, SimsumFileError
     let header: Vec<String> =
         reader.headers().map_err(|e| at(1, 1, e.to_string()))?.iter().map(|h| h.trim().to_string()).collect();
     let loc = locate(&header, cols, &at)?;
+    let notes = unused_columns(&header, cols);
     let mut out = Vec::new();
     for row in reader.records() {
         let row = row.map_err(|e| {
@@ -237,7 +276,7 @@ fn read(path: &Path, cols: &Columns) -> Result<Vec<Replication>, SimsumFileError
     if out.is_empty() {
         return Err(at(1, 1, "the file holds a header and no replications".into()));
     }
-    Ok(out)
+    Ok((out, notes))
 }
 
 /// One row as a replication; a bad field is an error at its column.

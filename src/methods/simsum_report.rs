@@ -198,13 +198,23 @@ pub const MAX_FIGURE_GROUPS: usize = 60;
 /// (and drawing 100,000 of them would take minutes).
 pub const MAX_FIGURE_METHODS: usize = 60;
 
-/// Writes simsum.csv, simsum.md and (with at most [`MAX_FIGURE_GROUPS`]
-/// groups) simsum.svg into `out`.
-pub fn write(groups: &[Group], cols: &Columns, source: &str, out: &Path) -> Result<Vec<PathBuf>, SimsumFileError> {
+/// Writes simsum.csv, simsum.md (with `notes`, the file's columns that no
+/// flag reads) and (with at most [`MAX_FIGURE_GROUPS`] groups) simsum.svg
+/// into `out`.
+pub fn write(
+    groups: &[Group],
+    cols: &Columns,
+    source: &str,
+    notes: &[String],
+    out: &Path,
+) -> Result<Vec<PathBuf>, SimsumFileError> {
     crate::io::create_dir_all(out)?;
     let mut written = Vec::new();
     let (by, targets) = (&cols.by, &cols.targets);
     let mut md = to_markdown(groups, by, source, targets);
+    for n in notes {
+        let _ = writeln!(md, "\nNote: {}", crate::io::md_text(n));
+    }
     let methods = groups.iter().map(|g| g.methods.len()).max().unwrap_or(0);
     let drawn = groups.len() <= MAX_FIGURE_GROUPS && methods <= MAX_FIGURE_METHODS;
     if groups.len() > MAX_FIGURE_GROUPS {

@@ -87,8 +87,8 @@ pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
     let linked: Vec<String> =
         files.iter().filter(|p| p.is_symlink() && p.is_dir()).map(|p| crate::io::walk::relative(dir, p)).collect();
     if !linked.is_empty() {
-        return Err(PublishedError::Read {
-            path: shown,
+        return Err(PublishedError::Folders {
+            dir: shown,
             message: format!(
                 "{} is a symbolic link to a folder, which crossaudit does not follow (a link cycle would never end): copy or move the folder there",
                 linked.join(", ")
@@ -109,6 +109,21 @@ pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
         match roles.iter_mut().find(|r| r.name == folder) {
             Some(r) => r.entries.push(entry),
             None => roles.push(DeclaredRole { name: folder, at, entries: vec![entry] }),
+        }
+    }
+    // A recording is named by its file's stem: two files with one stem
+    // (in two role folders, or two subfolders of one) are named with both
+    // paths, not as a split file's line.
+    let mut seen: BTreeMap<String, &String> = BTreeMap::new();
+    for rel in &listing {
+        if let Some(first) = seen.insert(stem(rel), rel) {
+            return Err(PublishedError::Folders {
+                dir: shown,
+                message: format!(
+                    "`{first}` and `{rel}` are one recording, `{}` (a recording is named by its file name without the log's suffix): rename or remove one",
+                    stem(rel)
+                ),
+            });
         }
     }
     let split = PublishedSplit { path: shown, sha256, format: Format::Folders, roles, notes: BTreeMap::new() };

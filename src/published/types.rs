@@ -122,6 +122,14 @@ pub enum PublishedError {
         /// The underlying error.
         message: String,
     },
+    /// A split published as folders cannot be used as it lies.
+    #[error("{dir} (a split published as folders): {message}")]
+    Folders {
+        /// The data folder.
+        dir: String,
+        /// What is wrong, naming the files.
+        message: String,
+    },
     /// Something at a place in the file is wrong.
     #[error("{path}:{line}:{column}: {message}")]
     At {

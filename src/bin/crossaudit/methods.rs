@@ -328,12 +328,12 @@ pub(crate) fn simsum(a: crate::args::SimsumArgs) -> Result<(), Error> {
         }
     }
     let _lock = lock_folder(out, false)?;
-    let groups = ss::summarise(file, &cols)?;
+    let (groups, unused) = ss::summarise(file, &cols)?;
     out!("{}", sr::summary(&groups));
-    for n in sr::truth_notes(&groups, &cols.by) {
-        note!("note: {n}");
+    for n in sr::truth_notes(&groups, &cols.by).iter().chain(&unused) {
+        note!("note: {}", crossaudit::io::one_line(n));
     }
-    for p in sr::write(&groups, &cols, &file.display().to_string(), out)? {
+    for p in sr::write(&groups, &cols, &file.display().to_string(), &unused, out)? {
         note!("wrote {}", p.display());
     }
     Ok(())

@@ -58,9 +58,13 @@ pub(super) fn idents(pair: Pair<Rule>) -> Vec<Ident> {
 pub(super) fn int(pair: Pair<Rule>) -> Result<Int, Diagnostic> {
     let span = span_of(&pair);
     let text: String = pair.as_str().chars().filter(|c| *c != '_').collect();
-    text.parse::<i64>()
-        .map(|v| Spanned::new(v, span))
-        .map_err(|_| Diagnostic::new("integer out of range", span, "does not fit in a 64-bit integer"))
+    text.parse::<i64>().map(|v| Spanned::new(v, span)).map_err(|_| {
+        Diagnostic::new("integer out of range", span, "does not fit in a 64-bit signed integer").with_help(format!(
+            "a design's integers run from {} to {}",
+            i64::MIN,
+            i64::MAX
+        ))
+    })
 }
 
 pub(super) fn number(pair: Pair<Rule>) -> Result<Number, Diagnostic> {

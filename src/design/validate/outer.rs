@@ -386,7 +386,8 @@ impl Validator {
                 "draw them instead: `validation N windows from K recordings seed S`",
             );
         }
-        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
+        // A seed is written as a design integer (at most i64::MAX).
+        let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { i64::MAX as u64 };
         let mut declared = vec![("the validation seed".to_string(), val.seed)];
         for (a, _) in arms {
             match a.kind {
@@ -424,7 +425,8 @@ fn shifted_out_of_range(
     generator: Generator,
     last: u64,
 ) -> Option<(String, u64, u64)> {
-    let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { u64::MAX };
+    // A seed is written as a design integer (at most i64::MAX).
+    let max = if generator == Generator::NumpyLegacy { u64::from(u32::MAX) } else { i64::MAX as u64 };
     let mut declared: Vec<(String, u64)> = Vec::new();
     declared.extend(recording.map(|r| ("the split seed (starts)".to_string(), r.split_seed)));
     declared.extend(validation.map(|v| ("the validation seed".to_string(), v.seed)));

@@ -195,11 +195,17 @@ impl Validator {
         match read.and_then(crate::published::PublishedSplit::whole_recordings) {
             Ok(s) => Some((s, path)),
             Err(e) => {
+                let help = match e {
+                    crate::published::PublishedError::Folders { .. } => {
+                        "the role of each log is the first folder it lies in under the data folder"
+                    }
+                    _ => "a relative path is read from the design file's folder",
+                };
                 self.err_help(
                     "cannot use the published split",
                     file.span,
                     e.to_string(),
-                    "a relative path is read from the design file's folder",
+                    help,
                 );
                 None
             }
