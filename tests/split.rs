@@ -76,6 +76,7 @@ fn audit_of(recs: &[Recording], dup: &[usize]) -> Audit {
         quaternion_tolerance: None,
         files,
         duplicate_groups: Default::default(),
+        not_read: Vec::new(),
     }
 }
 

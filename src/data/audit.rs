@@ -27,13 +27,22 @@ use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Strictness};
 
 /// The log files and metadata-only names in `dir` (and its subfolders,
 /// with `folders nested`).
-fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditError> {
+/// The third list names the hidden files that look like logs (a name
+/// beginning with `.`, as macOS's `._` copies are), which are not read.
+fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>, Option<String>), AuditError> {
     let err = |e: std::io::Error| AuditError::Dir { dir: dir.display().to_string(), message: e.to_string() };
     let mut csvs = Vec::new();
     let mut metas = Vec::new();
     let mut unread = Vec::new();
+    let mut hidden = Vec::new();
     for path in crate::io::walk::files_below(dir, nested).map_err(err)? {
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        if name.starts_with('.') {
+            if super::is_log_name(&name) || name.ends_with("_metadata.yaml") {
+                hidden.push(crate::io::walk::relative(dir, &path));
+            }
+            continue;
+        }
         let log = super::is_log_name(&name) || name.ends_with("_metadata.yaml");
         if log && crate::io::walk::relative(dir, &path).chars().any(char::is_control) {
             return Err(AuditError::ControlInName { dir: dir.display().to_string(), name });
@@ -65,7 +74,14 @@ fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>), AuditEr
     }
     let mut missing: Vec<String> = metas.into_iter().filter(|m| !names.contains(m)).collect();
     missing.sort_by_key(|n| natural_key(n));
-    Ok((csvs, missing))
+    let hidden = (!hidden.is_empty()).then(|| {
+        format!(
+            "{} hidden file(s) named like logs or metadata (the first: {}): a name beginning with `.` is hidden, as the `._` copies macOS leaves beside files are; rename one to read it",
+            hidden.len(),
+            hidden[0]
+        )
+    });
+    Ok((csvs, missing, hidden))
 }
 
 /// Why a file that looks like a flight log is not read as named: a log's
@@ -126,7 +142,7 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
     let layout = if keep == Keep::RowHashes { layout.with_row_hashes() } else { layout };
     implausible_columns(spec)?;
     let nested = spec.format.as_ref().is_some_and(|f| f.nested_folders);
-    let (mut csvs, missing) = list(dir, nested)?;
+    let (mut csvs, missing, hidden) = list(dir, nested)?;
     excluded_names_exist(spec, dir, &csvs)?;
     let table = conditions_table(spec, dir, &mut csvs)?;
     possible_metadata(dir, &csvs, &missing)?;
@@ -159,7 +175,12 @@ fn audit_with(spec: &DataSpec, dir: &Path, keep: Keep) -> Result<(Audit, Vec<Opt
         quaternion_tolerance: spec.format.as_ref().and_then(|f| f.quaternion_tolerance),
         files,
         duplicate_groups: groups,
-        not_read_below: (!nested).then(|| not_read_below(dir, spec.format.is_some())).flatten(),
+        not_read: (!nested)
+            .then(|| not_read_below(dir, spec.format.is_some()))
+            .flatten()
+            .into_iter()
+            .chain(hidden)
+            .collect(),
     };
     Ok((audit, recordings))
 }

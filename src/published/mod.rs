@@ -98,7 +98,11 @@ pub fn from_folders(dir: &Path) -> Result<PublishedSplit, PublishedError> {
     let listing: Vec<String> = files
         .iter()
         .map(|p| crate::io::walk::relative(dir, p))
-        .filter(|r| r.contains('/') && crate::io::walk::is_log_name(r))
+        // A hidden file (`._x.parquet`, macOS's copy) is not a log: the
+        // data audit names it and reads nothing from it.
+        .filter(|r| {
+            r.contains('/') && crate::io::walk::is_log_name(r) && !r.rsplit('/').next().unwrap_or("").starts_with('.')
+        })
         .collect();
     let sha256 = crate::io::sha256_hex(listing.iter().map(|l| format!("{l}\n")).collect::<String>().as_bytes());
     let mut roles: Vec<DeclaredRole> = Vec::new();

@@ -115,8 +115,8 @@ impl Audit {
                 );
             }
         }
-        if let Some(below) = &self.not_read_below {
-            let _ = writeln!(s, "\nnot read: {below}");
+        for n in &self.not_read {
+            let _ = writeln!(s, "\nnot read: {n}");
         }
         let noted = self.files.iter().filter(|f| f.reason.contains("note: ")).count();
         if noted > 0 {

@@ -106,11 +106,13 @@ pub struct Audit {
     pub files: Vec<FileRow>,
     /// Groups of identical recordings (two or more names each).
     pub duplicate_groups: BTreeMap<String, Vec<String>>,
-    /// The flight logs in the folder's subfolders, which a design without
-    /// `folders nested` does not read: named in the summary (how many, the
-    /// first, the clause that reads them), never left out without a word.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub not_read_below: Option<String>,
+    /// Files that look like flight logs but are not read, in words: the
+    /// logs in the folder's subfolders, which a design without `folders
+    /// nested` does not read (how many, the first, the clause that reads
+    /// them), and hidden files (a name beginning with `.`, as macOS's `._`
+    /// copies are). Named in the summary, never left out without a word.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub not_read: Vec<String>,
 }
 
 /// The row hashes of one file of an audit, if it could be read.

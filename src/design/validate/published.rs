@@ -201,12 +201,7 @@ impl Validator {
                     }
                     _ => "a relative path is read from the design file's folder",
                 };
-                self.err_help(
-                    "cannot use the published split",
-                    file.span,
-                    e.to_string(),
-                    help,
-                );
+                self.err_help("cannot use the published split", file.span, e.to_string(), help);
                 None
             }
         }
