@@ -9,14 +9,25 @@
 #      nothing: `cargo install --path` builds in the clone's target/ with the
 #      release profile, which `cargo run --release` reuses;
 #   3. the installed `crossaudit` writes the same cells.csv as `cargo run`;
-#   4. with --python, `pip install ./python` (the optional package) is timed.
+#   4. with --python, `pip install ./python` (the optional package) is timed;
+#   5. with --tests, the README's test command, `bash scripts/test.sh`, is
+#      timed from the same clone (its build shares the release profile with
+#      step 1), with ../shared linked beside the clone when this checkout
+#      has it, so the tests that need the NanoBench logs run.
 # Prints each step's wall time and the CPU, for results/install/.
 #
-#   bash scripts/fresh_clone.sh [--python] > results/install/fresh_clone.txt
+#   bash scripts/fresh_clone.sh [--python] [--tests] > results/install/fresh_clone.txt
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 python=no
-[ "${1:-}" = "--python" ] && python=yes
+tests=no
+for a in "$@"; do
+  case "$a" in
+    --python) python=yes ;;
+    --tests) tests=yes ;;
+    *) echo "fresh_clone.sh: unknown option $a" >&2; exit 2 ;;
+  esac
+done
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 unset CARGO_TARGET_DIR
@@ -58,7 +69,17 @@ if [ "$python" = yes ]; then
   t0=$(date +%s)
   "$work/venv/bin/pip" install --quiet ./python || fail "pip install ./python"
   t1=$(date +%s)
-  echo "pip install ./python (compiles the crate with maturin): $((t1 - t0)) s"
+  echo "pip install ./python (maturin, the release profile cargo install built): $((t1 - t0)) s"
   "$work/venv/bin/python" -c 'import crossaudit; print("import crossaudit: build", crossaudit.build())'
+fi
+if [ "$tests" = yes ]; then
+  [ -d "$repo/../shared" ] && ln -s "$(cd "$repo/../shared" && pwd)" "$work/shared"
+  t0=$(date +%s)
+  bash scripts/test.sh > "$work/test.out" 2>&1 || { tail -30 "$work/test.out"; fail "bash scripts/test.sh"; }
+  t1=$(date +%s)
+  built=$(grep -c '^ *Compiling ' "$work/test.out" || true)
+  build_s=$(grep -oE 'Finished .* in [0-9.]+(s|m [0-9]+s)' "$work/test.out" | head -1)
+  echo "bash scripts/test.sh (build and run): $((t1 - t0)) s, $built crates compiled ($build_s)"
+  tail -1 "$work/test.out"
 fi
 echo "fresh_clone.sh: OK"

@@ -270,12 +270,19 @@ fn logs_in_subfolders_that_are_not_read_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let logs = dir.path().join("lab_logs");
     assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
-    // The published folder split's design reads below with `folders
-    // nested`; without it, the logs below its top level are not read.
+    // The lab's design reads its folder's top level only once `folders
+    // nested` and the split published as folders are gone (the split then
+    // drawn by the recording factor), with one log moved to the top.
     let design = dir.path().join("flat.design");
     let text = std::fs::read_to_string(root().join("designs/logs/lab.design")).unwrap();
-    std::fs::write(&design, text.replace("  folders nested\n", "")).unwrap();
-    std::fs::copy(logs.join("train/lab-circle-take1.parquet"), logs.join("lab-circle-take9.parquet")).unwrap();
+    let flat = text
+        .replace("  folders nested\n", "")
+        .replace("split published folders { evaluation test; fit train }\n", "")
+        .replace("  require at least 18 recordings\n", "")
+        .replace("factor recording { split_seed 1;", "factor recording { evaluation 3; split_seed 1;");
+    assert!(!flat.contains("folders"), "{flat}");
+    std::fs::write(&design, flat).unwrap();
+    std::fs::rename(logs.join("train/lab-circle-take1.parquet"), logs.join("lab-circle-take1.parquet")).unwrap();
     let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
     let all = said(&o);
     assert!(all.contains("flight log(s) in subfolders are not read"), "{all}");
@@ -320,4 +327,34 @@ fn simsum_names_the_columns_it_does_not_read() {
     ]);
     assert_ok(&o);
     assert!(!said(&o).contains("is not read"), "{}", said(&o));
+}
+
+/// Class 2: a hidden file named like a log (`._x.parquet`, which macOS
+/// leaves beside copied files) was read as a recording; two files of one
+/// recording in a published folder split were reported as a split file's
+/// error "at line 1, column 1" of a file that does not exist. The hidden
+/// file is named and not read; the two files are named with both paths.
+#[test]
+fn hidden_logs_and_one_recording_in_two_folders_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = dir.path().join("lab_logs");
+    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    let design = dir.path().join("lab.design");
+    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
+    let take1 = logs.join("train/lab-circle-take1.parquet");
+    std::fs::copy(&take1, logs.join("train/._lab-circle-take1.parquet")).unwrap();
+    let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(
+        said(&o).contains("1 hidden file(s) named like logs or metadata (the first: train/._lab-circle-take1.parquet)"),
+        "{}",
+        said(&o)
+    );
+    let csv = std::fs::read_to_string(dir.path().join("a/recordings.csv")).unwrap();
+    assert!(!csv.contains("._lab"), "{csv}");
+
+    std::fs::copy(&take1, logs.join("test/lab-circle-take1.parquet")).unwrap();
+    let o = crossaudit(&["check", design.to_str().unwrap()]);
+    assert_refused(&o, "`test/lab-circle-take1.parquet` and `train/lab-circle-take1.parquet` are one recording");
+    assert!(!stderr(&o).contains("line 1, column 1"), "{}", stderr(&o));
 }

@@ -213,7 +213,7 @@ pub fn write(
     let (by, targets) = (&cols.by, &cols.targets);
     let mut md = to_markdown(groups, by, source, targets);
     for n in notes {
-        let _ = writeln!(md, "\nNote: {}", crate::io::md_text(n));
+        let _ = writeln!(md, "\nNote: {}", crate::io::md_line(n));
     }
     let methods = groups.iter().map(|g| g.methods.len()).max().unwrap_or(0);
     let drawn = groups.len() <= MAX_FIGURE_GROUPS && methods <= MAX_FIGURE_METHODS;
