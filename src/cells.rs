@@ -271,9 +271,6 @@ fn shortened(value: &str) -> String {
 
 fn csv_message(e: &csv::Error) -> String {
     match e.kind() {
-        csv::ErrorKind::UnequalLengths { expected_len, len, .. } if len < expected_len => format!(
-            "row has {len} fields, the header has {expected_len} (a field that opens a quote `\"` and never closes it joins every line after it into one field)"
-        ),
         csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
             format!("row has {len} fields, the header has {expected_len}")
         }

@@ -548,6 +548,6 @@ fn ci_runs_the_readmes_test_command() {
     assert!(readme.lines().any(|l| l == "bash scripts/test.sh"), "the README's test command");
     assert!(ci.lines().any(|l| l == "bash scripts/test.sh"), ".ci/run runs it");
     let script = std::fs::read_to_string(root().join("scripts/test.sh")).unwrap();
-    assert!(script.contains("cargo test -p crossaudit -p crossaudit-stats -- --include-ignored"));
+    assert!(script.contains("cargo test --release -p crossaudit -p crossaudit-stats -- --include-ignored"));
     assert!(script.contains("only printed SKIPPED"));
 }

@@ -58,8 +58,9 @@ factor seed = 1..2
 validation 60 windows from 1 recordings seed 5
 arm disjoint {{ fit 1000 windows seed 1 }}
 arm contaminated {{ from disjoint replace 25% with evaluation windows exclude starts seed 2 }}
-model still = persistence
-endpoint primary fa_position_rmse at 0.1 s cap 2 m model still
+train {{ adam lr 1e-3 batch 64 epochs 2 cosine patience 2 action_noise 0 }}
+model world = mlp(32, 32) inputs world
+endpoint primary fa_position_rmse at 0.1 s cap 2 m model world
 contrast contaminated - disjoint
 estimate crossed_mom level 0.95 df seed - 1
 decide confirmed when optimism >= 10% and upper < 0

@@ -315,15 +315,7 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
     // Values the measures cannot use: squared (MSE, SEs) they must stay
     // finite; an SE is not negative, df are positive, an interval's lower
     // limit is not above its upper.
-    let sized = |k: usize, what: &str, x: f64| -> Result<f64, SimsumFileError> {
-        if x.abs() > MAX_MAGNITUDE {
-            return Err(at(line, k + 1, format!("{what} {x:e} is beyond +-1e150: its square, which the measures and their Monte Carlo SEs use, would overflow; rescale the column")));
-        }
-        if x != 0.0 && x.abs() < MIN_MAGNITUDE {
-            return Err(at(line, k + 1, format!("{what} {x:e} is below 1e-60 in magnitude: the fourth powers that the Monte Carlo SEs use would underflow double precision and the measures come out wrong; rescale the column (multiply it by a power of ten)")));
-        }
-        Ok(x)
-    };
+    let sized = |k: usize, what: &str, x: f64| sized(x, what).map_err(|m| at(line, k + 1, m));
     let estimate = sized(loc.estimate, "estimate", value(loc.estimate, "estimate")?)?;
     if let Err(k) = loc.truth {
         sized(k, "true value", truth)?;
@@ -363,6 +355,19 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
         truth,
         level,
     })
+}
+
+/// `x` unless the measures cannot use it: beyond +-1e150 its square
+/// overflows, below 1e-60 (not 0) its fourth power underflows. `what` names
+/// it in the message.
+fn sized(x: f64, what: &str) -> Result<f64, String> {
+    if x.abs() > MAX_MAGNITUDE {
+        return Err(format!("{what} {x:e} is beyond +-1e150: its square, which the measures and their Monte Carlo SEs use, would overflow; rescale the column"));
+    }
+    if x != 0.0 && x.abs() < MIN_MAGNITUDE {
+        return Err(format!("{what} {x:e} is below 1e-60 in magnitude: the fourth powers that the Monte Carlo SEs use would underflow double precision and the measures come out wrong; rescale the column (multiply it by a power of ten)"));
+    }
+    Ok(x)
 }
 
 /// The largest magnitude of an estimate, SE or limit: its square stays
