@@ -27,9 +27,12 @@ use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Strictness};
 
 /// The log files and metadata-only names in `dir` (and its subfolders,
 /// with `folders nested`).
-/// The third list names the hidden files that look like logs (a name
-/// beginning with `.`, as macOS's `._` copies are), which are not read.
-fn list(dir: &Path, nested: bool) -> Result<(Vec<PathBuf>, Vec<String>, Option<String>), AuditError> {
+/// What [`list`] finds: the log files, the metadata-only names, and in
+/// words the hidden files that look like logs (a name beginning with `.`,
+/// as macOS's `._` copies are), which are not read.
+type Listed = (Vec<PathBuf>, Vec<String>, Option<String>);
+
+fn list(dir: &Path, nested: bool) -> Result<Listed, AuditError> {
     let err = |e: std::io::Error| AuditError::Dir { dir: dir.display().to_string(), message: e.to_string() };
     let mut csvs = Vec::new();
     let mut metas = Vec::new();
