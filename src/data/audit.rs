@@ -25,13 +25,13 @@ use super::metadata::{impossible_values, read_metadata};
 use super::{natural_key, recording_name, Layout, Recording};
 use crate::design::{DataSpec, DuplicatePolicy, InclusionRule, Strictness};
 
-/// The log files and metadata-only names in `dir` (and its subfolders,
-/// with `folders nested`).
 /// What [`list`] finds: the log files, the metadata-only names, and in
 /// words the hidden files that look like logs (a name beginning with `.`,
 /// as macOS's `._` copies are), which are not read.
 type Listed = (Vec<PathBuf>, Vec<String>, Option<String>);
 
+/// The log files and metadata-only names in `dir` (and its subfolders,
+/// with `folders nested`), and the hidden files named like logs.
 fn list(dir: &Path, nested: bool) -> Result<Listed, AuditError> {
     let err = |e: std::io::Error| AuditError::Dir { dir: dir.display().to_string(), message: e.to_string() };
     let mut csvs = Vec::new();
