@@ -36,9 +36,34 @@ impl WriteError {
 /// half a file and an interrupted write never replaces a finished one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     let err = |source| WriteError::new(path, source);
+    if is_protected_input(path) {
+        return Err(err(std::io::Error::other(
+            "it is an input of this command, which writing here would replace: give another --out",
+        )));
+    }
     let tmp = tmp_path(path);
     std::fs::write(&tmp, bytes).map_err(err)?;
     std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// The files a command was given to read (`simsum FILE`, `analyze
+/// --cells FILE`, `audit split SPLIT`, a design), canonical: no output of
+/// that command may replace one ([`write_atomic`] refuses, naming it).
+static PROTECTED_INPUTS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Marks the file `path` as an input of this command, so that no output
+/// written through [`write_atomic`] replaces it (an `--out` folder that
+/// holds the input under an output's name would have lost it). A path
+/// that is not a file is ignored.
+pub fn protect_input(path: &Path) {
+    if let (true, Ok(c)) = (path.is_file(), path.canonicalize()) {
+        PROTECTED_INPUTS.lock().unwrap_or_else(|e| e.into_inner()).push(c);
+    }
+}
+
+fn is_protected_input(path: &Path) -> bool {
+    let Ok(c) = path.canonicalize() else { return false };
+    PROTECTED_INPUTS.lock().unwrap_or_else(|e| e.into_inner()).contains(&c)
 }
 
 /// `path` with `.tmp` appended: where [`write_atomic`] stages a file.

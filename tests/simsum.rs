@@ -164,6 +164,33 @@ B,5,-0.1,0.3,0.05,0.85
 B,6,0.3,0.3,0.1,0.9
 ";
 
+/// Issue 75: where no pair of replications disagrees on covering, the SD
+/// of the paired differences is 0 and the MCSE was 0. It is Agresti and
+/// Min's (2005, Statistics in Medicine 24:729) half a pair in each cell of
+/// the paired 2 x 2 table: sqrt((b + c) - (b - c)^2 / n) / n at b = c =
+/// 1/2 and n + 2 pairs, 1 / (n + 2) (here 1 / 8).
+#[test]
+fn a_coverage_difference_no_pair_disagrees_on_has_agresti_and_mins_mcse() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("agree.csv");
+    // A and B cover in replications 1-4 and miss in 5-6, both.
+    let rows: Vec<String> = (1..=6)
+        .flat_map(|r| {
+            let (lo, hi) = if r <= 4 { (-0.5, 0.5) } else { (0.5, 0.9) };
+            ["A", "B"].map(|m| format!("{m},{r},0.1,0.3,{lo},{hi}"))
+        })
+        .collect();
+    std::fs::write(&file, format!("method,rep,estimate,se,lower,upper\n{}\n", rows.join("\n"))).unwrap();
+    let o = simsum(&file, &["--true", "0", "--ci", "lower,upper", "--rep", "rep"], &tmp.path().join("out"));
+    assert_ok(&o);
+    let text = std::fs::read_to_string(tmp.path().join("out/simsum.csv")).unwrap();
+    let row = text.lines().find(|l| l.starts_with("0,0.95,B,cover_diff,") || l.contains(",B,cover_diff,")).unwrap();
+    let f: Vec<&str> = row.split(',').collect();
+    let (est, mcse): (f64, f64) = (f[f.len() - 2].parse().unwrap(), f[f.len() - 1].parse().unwrap());
+    assert_eq!(est, 0.0, "{row}");
+    assert!((mcse - 1.0 / 8.0).abs() < 1e-15, "{row}");
+}
+
 #[test]
 fn paired_differences_and_their_mcses_by_hand() {
     let tmp = tempfile::tempdir().unwrap();

@@ -71,7 +71,7 @@ fn values_whose_squares_leave_double_precision_are_refused_where_they_are_read()
     let s = simsum_out.to_str().unwrap();
     for truth in ["NaN", "inf", "-inf", "1e-200"] {
         let o = crossaudit(&["simsum", reps.to_str().unwrap(), "--rep", "rep", &format!("--true={truth}"), "--out", s]);
-        assert_refused(&o, "is not a finite number between 1e-60 and 1e150");
+        assert_refused(&o, "is not a finite number between 1e-60 and 1e75");
     }
     let tiny = text.replace(",0.1\n", ",1e-70\n");
     std::fs::write(&reps, tiny).unwrap();
@@ -357,4 +357,128 @@ fn hidden_logs_and_one_recording_in_two_folders_are_named() {
     let o = crossaudit(&["check", design.to_str().unwrap()]);
     assert_refused(&o, "`test/lab-circle-take1.parquet` and `train/lab-circle-take1.parquet` are one recording");
     assert!(!stderr(&o).contains("line 1, column 1"), "{}", stderr(&o));
+}
+
+/// The second replay's shortest cases. An output never replaces its own
+/// input: `simsum DIR/simsum.csv --out DIR` rewrote the file it read (and
+/// `analyze --cells DIR/estimates.csv --out DIR` likewise).
+#[test]
+fn an_output_never_replaces_the_input_it_was_made_from() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let input = out.join("simsum.csv");
+    let mut text = String::from("rep,method,estimate,se\n");
+    for r in 1..=10 {
+        text.push_str(&format!("{r},A,{},0.1\n", 0.5 + 0.01 * r as f64));
+    }
+    std::fs::write(&input, &text).unwrap();
+    let o = crossaudit(&[
+        "simsum",
+        input.to_str().unwrap(),
+        "--rep",
+        "rep",
+        "--true",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_refused(&o, "it is an input of this command, which writing here would replace");
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), text, "the input is as it was");
+}
+
+/// A `df` column of 1e8 ran without end (statrs's inverse searching); of
+/// 1e-60 it scored every interval a miss (a quantile of no width). The
+/// first is the normal quantile with its Cornish-Fisher terms; the second
+/// cannot be computed, so no interval is scored (undefined, counted).
+#[test]
+fn extreme_degrees_of_freedom_end_and_are_not_scored_as_misses() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("reps.csv");
+    let out = dir.path().join("out");
+    for (df, cover) in [("1e8", "1"), ("1e300", "1"), ("1e-60", "NA")] {
+        let rows: Vec<String> = (1..=10).map(|r| format!("{r},A,{},0.1,{df}", 0.5 + 0.001 * r as f64)).collect();
+        std::fs::write(&file, format!("rep,method,estimate,se,df\n{}\n", rows.join("\n"))).unwrap();
+        let o = crossaudit(&[
+            "simsum",
+            file.to_str().unwrap(),
+            "--rep",
+            "rep",
+            "--true",
+            "0.5",
+            "--df",
+            "df",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_ok(&o);
+        let csv = std::fs::read_to_string(out.join("simsum.csv")).unwrap();
+        let row = csv.lines().find(|l| l.contains(",A,cover,")).unwrap();
+        assert_eq!(row.split(',').nth_back(1), Some(cover), "df {df}: {row}");
+    }
+    // The t quantile at 1e8 df: the normal's z = 1.959963984540054 plus
+    // Abramowitz and Stegun 26.7.5's first term (z^3 + z) / (4 df); the
+    // next is below 1e-15.
+    let z = 1.959_963_984_540_054_f64;
+    let want = z + (z * z * z + z) / 4e8;
+    let c = crossaudit::stats::critical_value(0.95, 1e8).unwrap();
+    assert!((c - want).abs() < 1e-14, "{c} against {want}");
+}
+
+/// A value whose fourth power overflows (an estimate of 1e100) gave an MSE
+/// MCSE of inf, written as a number.
+#[test]
+fn simsum_refuses_values_whose_fourth_power_overflows() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("reps.csv");
+    let rows: Vec<String> = (1..=10).map(|r| format!("{r},A,{:e},1e99", 1e100 * (1.0 + 0.01 * r as f64))).collect();
+    std::fs::write(&file, format!("rep,method,estimate,se\n{}\n", rows.join("\n"))).unwrap();
+    let o = crossaudit(&[
+        "simsum",
+        file.to_str().unwrap(),
+        "--rep",
+        "rep",
+        "--true",
+        "0",
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    assert_refused(&o, "is beyond +-1e75: its fourth power");
+}
+
+/// `check` says what it found beside the design: the files it does not
+/// read (`check --data` was silent where `data audit` named them), and a
+/// lock's post hoc mark ("locked/unchanged" alone hid it).
+#[test]
+fn check_names_unread_logs_and_a_post_hoc_mark() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = dir.path().join("lab_logs");
+    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    std::fs::copy(logs.join("train/lab-circle-take1.parquet"), logs.join("train/._lab-circle-take1.parquet")).unwrap();
+    let design = dir.path().join("lab.design");
+    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
+    let o = crossaudit(&["check", design.to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(said(&o).contains("not read: 1 hidden file(s)"), "{}", said(&o));
+    assert_ok(&crossaudit(&["lock", design.to_str().unwrap(), "--posthoc", "written after the pilot's results"]));
+    let o = crossaudit(&["check", design.to_str().unwrap()]);
+    assert!(said(&o).contains("marked POST HOC: written after the pilot's results"), "{}", said(&o));
+}
+
+/// A design's text shows what it says: a bidirectional override (U+202E)
+/// in the study's name reached every report; a threshold written 1e-400
+/// was read as 0 (`upper < 1e-400` decided as `upper < 0`).
+#[test]
+fn a_design_that_would_read_other_than_it_shows_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let path = dir.path().join("q.design");
+    std::fs::write(&path, text.replacen("study \"", "study \"x\u{202E}", 1)).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_refused(&o, "U+202E is a bidirectional override");
+    let edited = text.replace("upper < 0", "upper < 1e-400");
+    assert_ne!(edited, text);
+    std::fs::write(&path, edited).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_refused(&o, "is too small for double precision: it would be read as 0");
 }

@@ -270,6 +270,17 @@ fn check_times(path: &Path, lock: &LockFile, now: SystemTime) -> Result<(), Lock
     let times = std::iter::once(("locked_at_utc", &lock.locked_at_utc))
         .chain(lock.amendments.iter().map(|a| ("previous_locked_at_utc", &a.previous_locked_at_utc)));
     let latest = now + std::time::Duration::from_secs(86_400);
+    // The post hoc mark reaches every report's banner: a hand-edited one
+    // holds no control character, as `lock --posthoc` refuses one.
+    if let Some(why) = lock.posthoc.as_deref().filter(|w| w.chars().any(|c| c.is_control() && c != '\n' && c != '\t')) {
+        return Err(LockError::BadReason {
+            path: path.display().to_string(),
+            why: format!(
+                "in its `posthoc` mark, \"{}\", holds a control character; write it as plain text",
+                crate::io::one_line(why)
+            ),
+        });
+    }
     for (field, t) in times {
         let why = match humantime::parse_rfc3339(t) {
             Err(_) => "is not a UTC time as `crossaudit lock` writes it (2026-12-05T09:57:33Z)",

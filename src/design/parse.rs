@@ -20,12 +20,18 @@ use syntax::syntax;
 /// the study's name, the reports and the terminal as structure, so the
 /// first one is refused where it stands.
 fn control_character(source: &str) -> Option<Diagnostic> {
-    let (at, c) = source.char_indices().find(|(_, c)| c.is_control() && !matches!(c, '\n' | '\r' | '\t'))?;
+    // The bidirectional overrides and isolates (U+202A-U+202E,
+    // U+2066-U+2069) reorder what a reader sees: text that shows one
+    // thing and says another.
+    let bidi = |c: char| matches!(c, '\u{202A}'..='\u{202E}' | '\u{2066}'..='\u{2069}');
+    let (at, c) =
+        source.char_indices().find(|(_, c)| (c.is_control() && !matches!(c, '\n' | '\r' | '\t')) || bidi(*c))?;
+    let what = if bidi(c) { "a bidirectional override" } else { "a control character" };
     Some(
         Diagnostic::new(
             "control character in the design",
             Span { start: at, end: at + c.len_utf8() },
-            format!("U+{:04X} is a control character, which a design file may not hold", c as u32),
+            format!("U+{:04X} is {what}, which a design file may not hold", c as u32),
         )
         .with_help("a design is plain text: delete the character (an editor may show it as ^[ or as nothing)"),
     )

@@ -220,7 +220,7 @@ fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFi
     if let Ok(x) = truth.as_ref().copied() {
         if !x.is_finite() || (x != 0.0 && x.abs() < MIN_MAGNITUDE) || x.abs() > MAX_MAGNITUDE {
             return Err(SimsumFileError::Flag(format!(
-                "--true {x} is not a finite number between 1e-60 and 1e150 in magnitude (or 0): bias, coverage and the MSE would be {} (a true value that varies is a column: --true COLUMN)",
+                "--true {x} is not a finite number between 1e-60 and 1e75 in magnitude (or 0): bias, coverage and the MSE would be {} (a true value that varies is a column: --true COLUMN)",
                 if x.is_nan() { "undefined" } else { "wrong" }
             )));
         }
@@ -357,12 +357,12 @@ fn replication(row: &csv::StringRecord, line: usize, loc: &Located, at: At) -> R
     })
 }
 
-/// `x` unless the measures cannot use it: beyond +-1e150 its square
-/// overflows, below 1e-60 (not 0) its fourth power underflows. `what` names
+/// `x` unless the measures cannot use it: beyond +-1e75 its fourth power
+/// overflows, below 1e-60 (not 0) it underflows. `what` names
 /// it in the message.
 fn sized(x: f64, what: &str) -> Result<f64, String> {
     if x.abs() > MAX_MAGNITUDE {
-        return Err(format!("{what} {x:e} is beyond +-1e150: its square, which the measures and their Monte Carlo SEs use, would overflow; rescale the column"));
+        return Err(format!("{what} {x:e} is beyond +-1e75: its fourth power, which the Monte Carlo SEs use, would overflow; rescale the column (divide it by a power of ten)"));
     }
     if x != 0.0 && x.abs() < MIN_MAGNITUDE {
         return Err(format!("{what} {x:e} is below 1e-60 in magnitude: the fourth powers that the Monte Carlo SEs use would underflow double precision and the measures come out wrong; rescale the column (multiply it by a power of ten)"));
@@ -370,9 +370,10 @@ fn sized(x: f64, what: &str) -> Result<f64, String> {
     Ok(x)
 }
 
-/// The largest magnitude of an estimate, SE or limit: its square stays
-/// far inside f64's range (1.8e308).
-const MAX_MAGNITUDE: f64 = 1e150;
+/// The largest magnitude of an estimate, SE, limit or true value: its
+/// fourth power (the MSE's Monte Carlo SE) stays inside f64's range
+/// (1.8e308).
+const MAX_MAGNITUDE: f64 = 1e75;
 
 /// The smallest nonzero magnitude of an estimate, SE, limit or true value:
 /// its fourth power (the MSE's Monte Carlo SE) stays a normal double

@@ -136,7 +136,7 @@ pub fn to_markdown(groups: &[Group], by: &[String], source: &str, targets: &[(St
             );
         }
         let _ =
-            writeln!(s, "\nAgainst {}, replication by replication (paired MCSEs):\n", crate::io::md_text(&g.reference));
+            writeln!(s, "\nAgainst {}, replication by replication (paired MCSEs; where no pair disagrees on covering, the coverage difference's is Agresti and Min's 1 / (pairs + 2), not 0):\n", crate::io::md_text(&g.reference));
         let _ = writeln!(
             s,
             "| method | pairs | coverage difference | bias difference | width difference | interval score difference |"

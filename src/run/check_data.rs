@@ -37,6 +37,8 @@ pub enum DataChecked {
         built: usize,
         /// Levels of the study (1 for a study of one run).
         levels: usize,
+        /// Files named like logs that the audit does not read, in words.
+        not_read: Vec<String>,
     },
 }
 
@@ -60,7 +62,7 @@ pub fn check_data(file: &DesignFile, study: &StudyPlan, data: Option<PathBuf>) -
         (None, _, Some(sim)) => {
             let scratch = Scratch::new()?;
             crate::sim::simulate(sim, &scratch.0)?;
-            let (included, built, levels) = build(file, study, &scratch.0, "its simulated data")?;
+            let (included, built, levels, _) = build(file, study, &scratch.0, "its simulated data")?;
             return Ok(DataChecked::Simulated { included, built, levels });
         }
         (Some(d), _, None) if !d.is_dir() => return Err(RunError::NoDataDir { dir: d.display().to_string() }),
@@ -75,8 +77,8 @@ pub fn check_data(file: &DesignFile, study: &StudyPlan, data: Option<PathBuf>) -
     if !dir.is_dir() {
         return Ok(DataChecked::Absent { dir: dir.display().to_string() });
     }
-    let (included, built, levels) = build(file, study, &dir, &format!("the data in {}", dir.display()))?;
-    Ok(DataChecked::Built { dir, included, built, levels })
+    let (included, built, levels, not_read) = build(file, study, &dir, &format!("the data in {}", dir.display()))?;
+    Ok(DataChecked::Built { dir, included, built, levels, not_read })
 }
 
 /// A folder of its own under the system's temporary folder, removed when
@@ -103,29 +105,35 @@ impl Drop for Scratch {
 /// specification) from the logs in `dir`: the recordings the first audit
 /// included, the levels built and the study's levels; `data` names the
 /// logs in a refusal.
-fn build(file: &DesignFile, study: &StudyPlan, dir: &Path, data: &str) -> Result<(usize, usize, usize), RunError> {
+fn build(file: &DesignFile, study: &StudyPlan, dir: &Path, data: &str) -> Result<Built, RunError> {
     // Nothing is written: the folder only names where a run would write.
     let out = Path::new("OUT");
     let levels: Vec<&crate::plan::study::Level> = study.levels().iter().filter(|l| l.shares.is_none()).collect();
     if levels.is_empty() {
         let prepared = crate::split::rebuild(file, &study.plan, dir, out).map_err(|e| refused(data, None, e.into()))?;
-        return Ok((prepared.recordings.len(), 1, 1));
+        return Ok((prepared.recordings.len(), 1, 1, prepared.audit.not_read));
     }
     // The first level of each specification: the others differ only in
     // their draws or split seeds, and each costs a split.
     let mut seen_specs = std::collections::BTreeSet::new();
     let chosen: Vec<_> = levels.iter().copied().filter(|l| seen_specs.insert(l.spec)).collect();
-    let mut included = 0;
+    let (mut included, mut not_read) = (0, Vec::new());
     for (k, l) in chosen.iter().enumerate() {
         let level_file = DesignFile { design: l.design.clone(), ..file.clone() };
         let prepared = crate::split::rebuild(&level_file, &l.plan, dir, &out.join(&l.id))
             .map_err(|e| refused(data, Some(&l.id), e.into()))?;
         if k == 0 {
             included = prepared.recordings.len();
+            not_read = prepared.audit.not_read;
         }
     }
-    Ok((included, chosen.len(), study.levels().len()))
+    Ok((included, chosen.len(), study.levels().len(), not_read))
 }
+
+/// What [`build`] found: the recordings the first level's audit included,
+/// the levels built, the study's levels, and the files named like logs
+/// that the audit does not read, in words.
+type Built = (usize, usize, usize, Vec<String>);
 
 impl DataChecked {
     /// The line `check` prints.
@@ -150,10 +158,11 @@ impl DataChecked {
             DataChecked::Absent { dir } => format!(
                 "data: not read: no folder at {dir}; run refuses until it is there (check --data DIR reads another)"
             ),
-            DataChecked::Built { dir, included, built, levels } => format!(
-                "data: {}: {included} recordings included; {} (nothing written)",
+            DataChecked::Built { dir, included, built, levels, not_read } => format!(
+                "data: {}: {included} recordings included; {} (nothing written){}",
                 dir.display(),
-                splits(*built, *levels)
+                splits(*built, *levels),
+                not_read.iter().map(|n| format!("\nnot read: {n}")).collect::<String>()
             ),
         }
     }

@@ -158,9 +158,31 @@ pub fn critical_value(level: f64, df: f64) -> Result<f64, StatsError> {
     if df.is_nan() || df <= 0.0 {
         return Err(StatsError::TooFew { what: "degrees of freedom", found: 0 });
     }
+    if df > LARGE_DF {
+        // statrs's inverse searches without end beyond about 1e8 df; the
+        // Cornish-Fisher expansion about the normal quantile (Abramowitz
+        // and Stegun 26.7.5) is exact to rounding here (its next term is
+        // of order df^-4 < 1e-24).
+        let z = Normal::new(0.0, 1.0).expect("standard normal parameters are valid").inverse_cdf(p);
+        let (z2, n) = (z * z, df);
+        let g1 = (z2 + 1.0) * z / 4.0;
+        let g2 = ((5.0 * z2 + 16.0) * z2 + 3.0) * z / 96.0;
+        let g3 = (((3.0 * z2 + 19.0) * z2 + 17.0) * z2 - 15.0) * z / 384.0;
+        return Ok(z + g1 / n + g2 / (n * n) + g3 / (n * n * n));
+    }
     let t = StudentsT::new(0.0, 1.0, df).map_err(|_| StatsError::TooFew { what: "degrees of freedom", found: 0 })?;
     if p <= EXTREME_P {
-        return Ok(t.inverse_cdf(p));
+        // Checked as the tail is below: at df near 0 (1e-60) statrs's
+        // inverse returns a small finite number, an interval of no width.
+        let value = t.inverse_cdf(p);
+        let back = t.cdf(-value);
+        if value.is_finite() && (back - (1.0 - p)).abs() <= 1e-6 * (1.0 - p) {
+            return Ok(value);
+        }
+        return Err(StatsError::Invalid(format!(
+            "the {level} interval's t quantile on {df} df cannot be computed to working precision (its tail probability comes back as {back:e}, not {:e})",
+            1.0 - p
+        )));
     }
     // Far in the tail statrs's inverse loses its digits (for 1 df it is
     // off by a factor of 8 at level 0.999999999, and not even monotone):
@@ -184,6 +206,10 @@ pub fn critical_value(level: f64, df: f64) -> Result<f64, StatsError> {
     }
     Ok(value)
 }
+
+/// Above this many df the t quantile is the normal's with its
+/// Cornish-Fisher terms ([`critical_value`]).
+const LARGE_DF: f64 = 1e6;
 
 /// Above this probability the t quantile is taken from its closed form or
 /// its lower tail ([`critical_value`]); below it, as always.

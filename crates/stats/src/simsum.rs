@@ -102,7 +102,8 @@ pub struct Paired {
     pub pairs: usize,
     /// Coverage of this method minus the reference's.
     pub coverage_diff: f64,
-    /// Its paired Monte Carlo SE.
+    /// Its paired Monte Carlo SE; where no pair disagrees, Agresti & Min's
+    /// (2005) 1 / (pairs + 2) instead of 0.
     pub coverage_diff_mcse: f64,
     /// Bias (equally: mean estimate) of this method minus the reference's.
     pub bias_diff: f64,
@@ -337,7 +338,15 @@ fn differences(pairs: &[(AtTruth, AtTruth)], level: f64) -> Paired {
         mean_and_mcse(&pairs.iter().map(|(a, b)| f(a, b)).collect::<Vec<_>>())
     };
     let covers = |(e, t): &AtTruth| f64::from(u8::from(e.2 <= *t && *t <= e.3));
-    let (coverage_diff, coverage_diff_mcse) = of(&|a, b| covers(b) - covers(a));
+    let (coverage_diff, mut coverage_diff_mcse) = of(&|a, b| covers(b) - covers(a));
+    // No pair disagrees: the SD of the differences is 0, and an MCSE of 0
+    // would claim the two coverages equal without error. Agresti & Min's
+    // (2005) half a pair added to each cell of the 2 x 2 table gives the
+    // paired difference's SE at b = c = 1/2 of n + 2 pairs:
+    // sqrt((b + c) - (b - c)^2 / n) / n = 1 / (n + 2).
+    if !pairs.is_empty() && pairs.iter().all(|(a, b)| covers(a) == covers(b)) {
+        coverage_diff_mcse = 1.0 / (pairs.len() as f64 + 2.0);
+    }
     // Bias difference: (b - tb) - (a - ta); with one truth, b - a.
     let (bias_diff, bias_diff_mcse) =
         of(&|(a, ta), (b, tb)| if ta.to_bits() == tb.to_bits() { b.0 - a.0 } else { (b.0 - tb) - (a.0 - ta) });

@@ -84,6 +84,12 @@ fn check_text(
     outln!("{}: valid", path.display());
     outln!("sha256: {}", file.sha256);
     outln!("lock: {}", status.label());
+    if let lock::LockStatus::LockedUnchanged { posthoc: Some(why), .. } = status {
+        outln!(
+            "  marked POST HOC: {} (every report of a run under this lock says POST HOC, never preregistered)",
+            crossaudit::io::one_line(why)
+        );
+    }
     for a in status.amendment_warnings() {
         outln!("  {a}");
     }

@@ -27,6 +27,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return clap_exit(&e, color),
     };
+    protect_inputs(&cli.command);
     let result = match cli.command {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, gap, fail_on } } => {
             let options = crossaudit::split_audit::AuditOptions { min_run_rows: min_run, gap_s: gap };
@@ -93,6 +94,30 @@ fn main() -> ExitCode {
             output::note_raw(&render(&e, color));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// The files a command reads that its outputs must never replace (an
+/// `--out` folder holding one under an output's name).
+fn protect_inputs(command: &Command) {
+    let files: Vec<&std::path::Path> = match command {
+        Command::Audit { command: AuditCommand::Split { split, design, .. } } => {
+            std::iter::once(split.as_path()).chain(design.as_deref()).collect()
+        }
+        Command::Analyze { design, cells, .. } => vec![design, cells],
+        Command::Plan { design, cells, .. } => std::iter::once(design.as_path()).chain(cells.as_deref()).collect(),
+        Command::Simsum(args) => vec![&args.file],
+        Command::Mixed(args) => vec![&args.data],
+        Command::Coverage { spec, .. } => vec![spec],
+        Command::Data { command: DataCommand::Audit { design, .. } }
+        | Command::Split { design, .. }
+        | Command::Run { design, .. }
+        | Command::Export { design, .. }
+        | Command::Combine { design, .. } => vec![design],
+        _ => Vec::new(),
+    };
+    for f in files {
+        crossaudit::io::protect_input(f);
     }
 }
 

@@ -69,7 +69,15 @@ pub(super) fn int(pair: Pair<Rule>) -> Result<Int, Diagnostic> {
 
 pub(super) fn number(pair: Pair<Rule>) -> Result<Number, Diagnostic> {
     let span = span_of(&pair);
-    match pair.as_str().parse::<f64>() {
+    let text = pair.as_str();
+    let mantissa = text.split(['e', 'E']).next().unwrap_or(text);
+    match text.parse::<f64>() {
+        // 1e-400 is read as 0: a threshold written nonzero would decide as 0.
+        Ok(v) if v == 0.0 && mantissa.chars().any(|c| ('1'..='9').contains(&c)) => Err(Diagnostic::new(
+            "number out of range",
+            span,
+            "is too small for double precision: it would be read as 0",
+        )),
         Ok(v) if v.is_finite() => Ok(Spanned::new(v, span)),
         _ => Err(Diagnostic::new("number out of range", span, "is not a finite number")),
     }
