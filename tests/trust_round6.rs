@@ -482,3 +482,66 @@ fn a_design_that_would_read_other_than_it_shows_is_refused() {
     let o = crossaudit(&["check", path.to_str().unwrap()]);
     assert_refused(&o, "is too small for double precision: it would be read as 0");
 }
+
+/// Declarations that cannot do what they say: an action noise of 1e308
+/// passed `check` (and would make every loss NaN); `patience` at or above
+/// `epochs` passed without a word, though early stopping can then never
+/// stop a model.
+#[test]
+fn training_settings_that_cannot_act_are_refused_or_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let path = dir.path().join("q.design");
+    let noisy = text.replace("action_noise 0.02", "action_noise 1e308");
+    assert_ne!(noisy, text);
+    std::fs::write(&path, noisy).unwrap();
+    assert_refused(&crossaudit(&["check", path.to_str().unwrap()]), "action noise sd 1e308 is above 1e6");
+    let patient = regex_like_replace(&text, "patience ", "patience 500");
+    std::fs::write(&path, patient).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(said(&o).contains("note: patience 500 is at least the"), "{}", said(&o));
+}
+
+/// `text` with the number after the first `word` replaced by `with`.
+fn regex_like_replace(text: &str, word: &str, with: &str) -> String {
+    let at = text.find(word).unwrap();
+    let end = at + word.len() + text[at + word.len()..].find(|c: char| !c.is_ascii_digit()).unwrap();
+    format!("{}{with}{}", &text[..at], &text[end..])
+}
+
+/// A log whose recording name ends in a space was read as a recording
+/// that prints as another's name; refused, naming the file.
+#[test]
+fn a_recording_name_with_a_trailing_space_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = dir.path().join("lab_logs");
+    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    std::fs::rename(logs.join("train/lab-circle-take1.parquet"), logs.join("train/lab-circle-take1 .parquet")).unwrap();
+    let design = dir.path().join("lab.design");
+    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
+    let o = crossaudit(&["check", design.to_str().unwrap()]);
+    assert_refused(&o, "begins or ends with a space");
+}
+
+/// `mixed` printed every variance, estimate and SE of a response near
+/// 1e-7 as 0.000000 beside a t of 21 and p < 2e-16: a nonzero value the
+/// six-decimal table would show as 0 is written in scientific notation.
+#[test]
+fn mixed_never_prints_a_nonzero_value_as_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("small.csv");
+    let rows: Vec<String> = (0..60)
+        .map(|i| format!("{:e},{i},g{}", 1e-7 * (1.0 + 0.01 * i as f64 + 0.3 * ((i * 7) % 5) as f64), i % 6))
+        .collect();
+    std::fs::write(&table, format!("y,x,g\n{}\n", rows.join("\n"))).unwrap();
+    let o = crossaudit(&["mixed", table.to_str().unwrap(), "--formula", "y ~ x + (1|g)"]);
+    assert_ok(&o);
+    let out = crate::common::stdout(&o);
+    let x = out.lines().find(|l| l.starts_with("x ")).unwrap_or_else(|| panic!("{out}"));
+    let estimate = x.split_whitespace().nth(1).unwrap();
+    assert!(estimate.contains('e') && estimate.parse::<f64>().unwrap() > 0.0, "{x}");
+    // Zero only where the fit's value is 0 (here g's variance, a singular fit).
+    let residual = out.lines().find(|l| l.trim_start().starts_with("Residual")).unwrap();
+    assert!(!residual.contains("0.000000"), "{residual}");
+}

@@ -53,6 +53,9 @@ fn list(dir: &Path, nested: bool) -> Result<Listed, AuditError> {
         if super::is_log_name(&name) && crate::io::formula_like(&recording_name(&path)) {
             return Err(AuditError::FormulaName { dir: dir.display().to_string(), name });
         }
+        if super::is_log_name(&name) && recording_name(&path).trim() != recording_name(&path) {
+            return Err(AuditError::SpaceInName { dir: dir.display().to_string(), name });
+        }
         if super::is_log_name(&name) {
             csvs.push(path);
         } else if let Some(stem) = name.strip_suffix("_metadata.yaml") {

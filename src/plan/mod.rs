@@ -453,6 +453,13 @@ impl Plan {
                 TargetKind::Standardized => "standardized increment (its own mean and SD)",
             };
             let _ = writeln!(s, "  target: {target}");
+            if t.patience >= t.epochs {
+                let _ = writeln!(
+                    s,
+                    "  note: patience {} is at least the {} epochs, so early stopping never stops a model before its last epoch; the best epoch's weights are still restored",
+                    t.patience, t.epochs
+                );
+            }
         }
         for a in &self.arms {
             let _ = writeln!(s, "  arm {}: {}", a.name, arm_text(&a.kind));

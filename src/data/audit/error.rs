@@ -59,6 +59,15 @@ pub enum AuditError {
         /// Each file, relative to the directory, with why it is not read.
         files: Vec<String>,
     },
+    /// A log's recording name (its file name without the suffix) begins
+    /// or ends with a space: a name that prints the same as another.
+    #[error("{dir}: the file name {name:?} gives a recording name that begins or ends with a space, which prints as the name without it and parses into other conditions; rename the file")]
+    SpaceInName {
+        /// The directory.
+        dir: String,
+        /// The file name.
+        name: String,
+    },
     /// A log's file name begins with `=`, `+`, `-` or `@`: its recording
     /// name, in every CSV that names it, would be a spreadsheet formula.
     #[error("{dir}: the file name {name:?} begins with `{}`, so its recording name would be read as a formula by a spreadsheet opening any CSV that names it (cells.csv, the manifests, the audit); rename the file", .name.chars().next().unwrap_or('='))]

@@ -225,6 +225,13 @@ impl Validator {
                     self.once(&mut seen, "action_noise", item.span);
                     if x.node < 0.0 {
                         self.err("negative value", x.span, format!("action noise sd must be >= 0, found {}", x.node));
+                    } else if x.node > 1e6 {
+                        self.err_help(
+                            "value out of range",
+                            x.span,
+                            format!("action noise sd {:e} is above 1e6, in the actions' own units", x.node),
+                            "noise this large would drown every action a flight log holds (and past 1e154 its square overflows the loss); write it in the units of the actions as the model sees them",
+                        );
                     }
                     noise = Some(x.node);
                 }

@@ -427,11 +427,16 @@ impl FormulaFit {
                 let p = r.p.map(r_pvalue).unwrap_or_else(|| "NA".into());
                 let _ = writeln!(
                     s,
-                    "{:<width$} {:>12.6} {:>12.6} {:>10} {:>9.3} {:>10}",
-                    r.name, r.estimate, r.se, dof, r.t, p
+                    "{:<width$} {:>12} {:>12} {:>10} {:>9.3} {:>10}",
+                    r.name,
+                    Six(r.estimate),
+                    Six(r.se),
+                    dof,
+                    r.t,
+                    p
                 );
             } else {
-                let _ = writeln!(s, "{:<width$} {:>12.6} {:>12.6} {:>9.3}", r.name, r.estimate, r.se, r.t);
+                let _ = writeln!(s, "{:<width$} {:>12} {:>12} {:>9.3}", r.name, Six(r.estimate), Six(r.se), r.t);
             }
         }
         s
@@ -458,9 +463,10 @@ impl FormulaFit {
         let width = f.factors.iter().map(|n| n.len()).max().unwrap_or(0).max(8);
         let _ = writeln!(s, " {:<width$} {:<11} {:>12} {:>12}", "Groups", "Name", "Variance", "Std.Dev.");
         for (name, v) in f.factors.iter().zip(&f.variances) {
-            let _ = writeln!(s, " {:<width$} {:<11} {:>12.6} {:>12.6}", name, "(Intercept)", v, v.sqrt());
+            let _ = writeln!(s, " {:<width$} {:<11} {:>12} {:>12}", name, "(Intercept)", Six(*v), Six(v.sqrt()));
         }
-        let _ = writeln!(s, " {:<width$} {:<11} {:>12.6} {:>12.6}", "Residual", "", f.residual, f.residual.sqrt());
+        let _ =
+            writeln!(s, " {:<width$} {:<11} {:>12} {:>12}", "Residual", "", Six(f.residual), Six(f.residual.sqrt()));
         let groups: Vec<String> = f.factors.iter().zip(&f.levels).map(|(n, l)| format!("{n}, {l}")).collect();
         let _ = writeln!(s, "Number of obs: {}, groups:  {}\n", f.n, groups.join("; "));
         s.push_str(&self.fixed_table());
@@ -567,5 +573,19 @@ mod tests {
         assert_eq!(r_pvalue(1.234e-5), "1.23e-05");
         assert_eq!(r_pvalue(3.2e-12), "3.2e-12");
         assert_eq!(r_pvalue(1e-20), "<2e-16");
+    }
+}
+
+/// A number as the summaries print it: six decimals, as lme4's tables,
+/// except a nonzero value those would show as 0.000000 (below 5e-7 in
+/// magnitude), which is written with four significant decimals in
+/// scientific notation; the width and alignment of the format are kept.
+pub(super) struct Six(pub(super) f64);
+
+impl std::fmt::Display for Six {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        let text = if x != 0.0 && x.abs() < 5e-7 { format!("{x:.4e}") } else { format!("{x:.6}") };
+        f.pad(&text)
     }
 }

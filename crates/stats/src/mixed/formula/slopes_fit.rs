@@ -49,7 +49,11 @@ pub(super) fn terms_table(terms: &[TermFit], residual: Option<f64>, n: usize) ->
         for (i, name) in t.names.iter().enumerate() {
             let group = if i == 0 { t.group.as_str() } else { "" };
             let variance = t.covariance[i * k + i];
-            let mut line = format!(" {group:<width$} {name:<name_width$} {variance:>12.6} {:>12.6}", t.sd[i]);
+            let mut line = format!(
+                " {group:<width$} {name:<name_width$} {:>12} {:>12}",
+                super::fit::Six(variance),
+                super::fit::Six(t.sd[i])
+            );
             for _ in 0..i {
                 match corr.next() {
                     Some(Some(r)) => line.push_str(&format!(" {r:>6.3}")),
@@ -60,7 +64,14 @@ pub(super) fn terms_table(terms: &[TermFit], residual: Option<f64>, n: usize) ->
         }
     }
     if let Some(residual) = residual {
-        let _ = writeln!(s, " {:<width$} {:<name_width$} {:>12.6} {:>12.6}", "Residual", "", residual, residual.sqrt());
+        let _ = writeln!(
+            s,
+            " {:<width$} {:<name_width$} {:>12} {:>12}",
+            "Residual",
+            "",
+            super::fit::Six(residual),
+            super::fit::Six(residual.sqrt())
+        );
     }
     let mut groups: Vec<String> = Vec::new();
     for t in terms {
