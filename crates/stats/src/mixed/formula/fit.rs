@@ -556,6 +556,20 @@ pub fn r_pvalue(p: f64) -> String {
     }
 }
 
+/// A number as the summaries print it: six decimals, as lme4's tables,
+/// except a nonzero value those would show as 0.000000 (below 5e-7 in
+/// magnitude), which is written with four significant decimals in
+/// scientific notation; the width and alignment of the format are kept.
+pub(super) struct Six(pub(super) f64);
+
+impl std::fmt::Display for Six {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        let text = if x != 0.0 && x.abs() < 5e-7 { format!("{x:.4e}") } else { format!("{x:.6}") };
+        f.pad(&text)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::r_pvalue;
@@ -573,19 +587,5 @@ mod tests {
         assert_eq!(r_pvalue(1.234e-5), "1.23e-05");
         assert_eq!(r_pvalue(3.2e-12), "3.2e-12");
         assert_eq!(r_pvalue(1e-20), "<2e-16");
-    }
-}
-
-/// A number as the summaries print it: six decimals, as lme4's tables,
-/// except a nonzero value those would show as 0.000000 (below 5e-7 in
-/// magnitude), which is written with four significant decimals in
-/// scientific notation; the width and alignment of the format are kept.
-pub(super) struct Six(pub(super) f64);
-
-impl std::fmt::Display for Six {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let x = self.0;
-        let text = if x != 0.0 && x.abs() < 5e-7 { format!("{x:.4e}") } else { format!("{x:.6}") };
-        f.pad(&text)
     }
 }
