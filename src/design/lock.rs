@@ -267,9 +267,6 @@ pub fn read_lock(design: &Path) -> Result<Option<LockFile>, LockError> {
 /// lies after `now` (a day of clock difference allowed): a lock whose time
 /// was edited by hand would otherwise stand as "locked before this run".
 fn check_times(path: &Path, lock: &LockFile, now: SystemTime) -> Result<(), LockError> {
-    let times = std::iter::once(("locked_at_utc", &lock.locked_at_utc))
-        .chain(lock.amendments.iter().map(|a| ("previous_locked_at_utc", &a.previous_locked_at_utc)));
-    let latest = now + std::time::Duration::from_secs(86_400);
     // The post hoc mark reaches every report's banner: a hand-edited one
     // holds no control character, as `lock --posthoc` refuses one.
     if let Some(why) = lock.posthoc.as_deref().filter(|w| w.chars().any(|c| c.is_control() && c != '\n' && c != '\t')) {
@@ -281,18 +278,42 @@ fn check_times(path: &Path, lock: &LockFile, now: SystemTime) -> Result<(), Lock
             ),
         });
     }
+    let bad = |field: &'static str, value: &str, why: &'static str| LockError::Time {
+        path: path.display().to_string(),
+        field,
+        value: crate::io::one_line(value).into_owned(),
+        why,
+    };
+    // A hash is 64 lower-case hex digits, as `lock` writes it.
+    let hashes = std::iter::once(("sha256", &lock.sha256))
+        .chain(lock.amendments.iter().map(|a| ("previous_sha256", &a.previous_sha256)));
+    for (field, h) in hashes {
+        if h.len() != 64 || !h.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)) {
+            return Err(bad(field, h, "is not a SHA-256 as `crossaudit lock` writes it (64 lower-case hex digits)"));
+        }
+    }
+    // The amendments in the order they were made, each before the lock
+    // that replaced it; the lock's own time last, and none after now.
+    let times = lock
+        .amendments
+        .iter()
+        .map(|a| ("previous_locked_at_utc", &a.previous_locked_at_utc))
+        .chain(std::iter::once(("locked_at_utc", &lock.locked_at_utc)));
+    let latest = now + std::time::Duration::from_secs(86_400);
+    let mut before: Option<SystemTime> = None;
     for (field, t) in times {
         let why = match humantime::parse_rfc3339(t) {
             Err(_) => "is not a UTC time as `crossaudit lock` writes it (2026-12-05T09:57:33Z)",
             Ok(at) if at > latest => "lies in the future",
-            Ok(_) => continue,
+            Ok(at) if before.is_some_and(|b| at < b) => {
+                "is earlier than a lock it replaced (amendments are recorded in the order they were made)"
+            }
+            Ok(at) => {
+                before = Some(at);
+                continue;
+            }
         };
-        return Err(LockError::Time {
-            path: path.display().to_string(),
-            field,
-            value: crate::io::one_line(t).into_owned(),
-            why,
-        });
+        return Err(bad(field, t, why));
     }
     Ok(())
 }

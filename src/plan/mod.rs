@@ -446,6 +446,13 @@ impl Plan {
         }
         for m in &self.models {
             let _ = writeln!(s, "  model {}: {}", m.name, model_text(&m.kind));
+            if !m.kind.trains() && self.units().any(|u| u.model == m.name) {
+                let _ = writeln!(
+                    s,
+                    "  note: `{}` is parameter-free, the same model in every arm: its endpoints' contrast is 0 by construction, and the report leaves them out as not estimable (it is a reference level for an interaction)",
+                    m.name
+                );
+            }
         }
         if let Some(t) = &self.training {
             let target = match t.target {

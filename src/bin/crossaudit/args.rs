@@ -219,12 +219,14 @@ pub(crate) enum Command {
         #[arg(long, value_delimiter = ',', default_value = "3,5,10,20,40")]
         seeds: Vec<usize>,
         /// Numbers of splits to consider (a design with a split factor).
-        #[arg(long, value_delimiter = ',', default_value = "3,5,10")]
-        splits: Vec<usize>,
+        /// [default: 3,5,10]
+        #[arg(long, value_delimiter = ',')]
+        splits: Option<Vec<usize>>,
         /// Numbers of draws to pool over (a design with `factor draw`,
         /// whose `--cells` is its run directory).
-        #[arg(long, value_delimiter = ',', default_value = "3,5,10")]
-        draws: Vec<usize>,
+        /// [default: 3,5,10]
+        #[arg(long, value_delimiter = ',')]
+        draws: Option<Vec<usize>>,
         /// Output directory for plan.md, plan.json, plan.svg.
         #[arg(long, default_value = "plan")]
         out: PathBuf,

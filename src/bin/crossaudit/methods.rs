@@ -82,6 +82,31 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replic
     Ok(())
 }
 
+/// `plan --splits` or `--draws` on a design without that factor would be
+/// ignored without a word: refused, naming what the design plans.
+pub(crate) fn plan_factors(design: &Path, splits: bool, draws: bool) -> Result<(), Error> {
+    if !splits && !draws {
+        return Ok(());
+    }
+    let file = design::load(design)?;
+    let study = crossaudit::compile_study(&file.design);
+    let why = if splits && study.plan.splits.is_empty() {
+        Some("--splits plans a design with a split factor (`factor split = ...`), and this one has none")
+    } else if draws && file.design.draws.is_empty() {
+        Some("--draws plans a design with `factor draw`, and this one has none")
+    } else {
+        None
+    };
+    match why {
+        Some(why) => Err(crossaudit::methods::PowerError::Declared(format!(
+            "{}: {why}; it plans its recordings and seeds (--recordings, --seeds): leave the option out",
+            design.display()
+        ))
+        .into()),
+        None => Ok(()),
+    }
+}
+
 pub(crate) fn power(
     design: &Path,
     cells: &Path,
