@@ -545,3 +545,81 @@ fn mixed_never_prints_a_nonzero_value_as_zero() {
     let residual = out.lines().find(|l| l.trim_start().starts_with("Residual")).unwrap();
     assert!(!residual.contains("0.000000"), "{residual}");
 }
+
+/// `plan --splits` (or `--draws`) on a design without that factor planned
+/// its recordings and seeds and said nothing of the option.
+#[test]
+fn plan_options_for_factors_the_design_lacks_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = [
+        "plan",
+        "designs/quickstart.design",
+        "--components",
+        "recording=1e-3,seed=1e-4,residual=2e-4",
+        "--effect=-0.02",
+        "--reference-mean",
+        "0.3",
+        "--out",
+    ];
+    let out = dir.path().join("plan");
+    for (flag, why) in [("--splits", "has none"), ("--draws", "`factor draw`")] {
+        let mut args: Vec<&str> = base.to_vec();
+        args.extend([out.to_str().unwrap(), flag, "7,9"]);
+        let o = crossaudit(&args);
+        assert_refused(&o, why);
+    }
+}
+
+/// A lock edited by hand: a hash that is not one, and an amendment dated
+/// after the lock that replaced it, stood as "locked/unchanged".
+#[test]
+fn a_lock_with_a_malformed_hash_or_amendments_out_of_order_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = dir.path().join("q.design");
+    std::fs::copy(root().join("designs/quickstart.design"), &design).unwrap();
+    let lock_path = dir.path().join("q.design.lock");
+    let committed = std::fs::read_to_string(root().join("designs/quickstart.design.lock")).unwrap();
+    let mut lock: serde_json::Value = serde_json::from_str(&committed).unwrap();
+    let at = lock["locked_at_utc"].as_str().unwrap().to_string();
+    let sha = lock["sha256"].as_str().unwrap().to_string();
+    let amendment = |previous_sha: &str, previous_at: &str| serde_json::json!([{"previous_sha256": previous_sha, "previous_locked_at_utc": previous_at, "reason": "why"}]);
+    for (amendments, field, why) in [
+        (amendment("zz", "2026-01-01T00:00:00Z"), "previous_sha256", "is not a SHA-256"),
+        (amendment(&sha, "2099-01-01T00:00:00Z"), "previous_locked_at_utc", "lies in the future"),
+        (amendment(&sha, &at), "locked_at_utc", "unused"),
+    ] {
+        lock["amendments"] = amendments;
+        if why == "unused" {
+            // Amended after the lock it replaced: in order, accepted; then
+            // the lock's own time moved before the amendment's.
+            std::fs::write(&lock_path, serde_json::to_string_pretty(&lock).unwrap()).unwrap();
+            assert_ok(&crossaudit(&["check", design.to_str().unwrap()]));
+            lock["locked_at_utc"] = serde_json::json!("2020-01-01T00:00:00Z");
+            std::fs::write(&lock_path, serde_json::to_string_pretty(&lock).unwrap()).unwrap();
+            let o = crossaudit(&["check", design.to_str().unwrap()]);
+            assert_refused(&o, "is earlier than a lock it replaced");
+            assert!(stderr(&o).contains(&format!("`{field}`")), "{}", stderr(&o));
+            continue;
+        }
+        std::fs::write(&lock_path, serde_json::to_string_pretty(&lock).unwrap()).unwrap();
+        let o = crossaudit(&["check", design.to_str().unwrap()]);
+        assert_refused(&o, why);
+        assert!(stderr(&o).contains(&format!("`{field}`")), "{}", stderr(&o));
+    }
+}
+
+/// A parameter-free model read by secondary endpoints and an interaction
+/// passed `check` without a word, while `analyze` later warned that its
+/// contrasts are 0 by construction: `check` says so first.
+#[test]
+fn check_names_a_parameter_free_model_an_endpoint_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let edited = text.replace("model relative = mlp(64, 64, 64) inputs relative", "model relative = persistence");
+    assert_ne!(edited, text);
+    let path = dir.path().join("q.design");
+    std::fs::write(&path, edited).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_ok(&o);
+    assert!(said(&o).contains("note: `relative` is parameter-free"), "{}", said(&o));
+}
