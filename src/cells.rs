@@ -384,7 +384,19 @@ impl Row<'_> {
     }
 
     fn uint(&self, field: &'static str, v: &str) -> Result<u64, CellsError> {
-        v.trim().parse::<u64>().map_err(|_| self.fail(field, v, "is not a non-negative integer"))
+        let t = v.trim();
+        t.parse::<u64>().map_err(|_| {
+            let digits = !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+            self.fail(
+                field,
+                v,
+                if digits {
+                    "is larger than 18446744073709551615, the largest integer a cell holds"
+                } else {
+                    "is not a non-negative integer"
+                },
+            )
+        })
     }
 
     fn float(&self, field: &'static str, v: &str) -> Result<f64, CellsError> {

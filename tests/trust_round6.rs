@@ -623,3 +623,35 @@ fn check_names_a_parameter_free_model_an_endpoint_reads() {
     assert_ok(&o);
     assert!(said(&o).contains("note: `relative` is parameter-free"), "{}", said(&o));
 }
+
+/// Refusals that named the wrong cause: inclusion rules that keep no
+/// recording were blamed on `stratify` ("every recording's trajectory is
+/// unknown"); `--true 1e400` was echoed as `inf`.
+#[test]
+fn refusals_name_their_own_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let strict = text.replace(">= 200 samples", ">= 1000000 samples");
+    assert_ne!(strict, text);
+    assert!(strict.contains("stratify trajectory, speed"));
+    let path = dir.path().join("q.design");
+    std::fs::write(&path, strict).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_refused(&o, "only 0 usable deployment units remain");
+    assert!(!stderr(&o).contains("stratify"), "{}", stderr(&o));
+
+    let reps = dir.path().join("reps.csv");
+    std::fs::write(&reps, "rep,method,estimate,se\n1,A,0.5,0.1\n2,A,0.4,0.1\n").unwrap();
+    let out = dir.path().join("o");
+    let o = crossaudit(&[
+        "simsum",
+        reps.to_str().unwrap(),
+        "--rep",
+        "rep",
+        "--true",
+        "1e400",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_refused(&o, "--true 1e400 is not a finite number");
+}

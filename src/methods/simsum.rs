@@ -220,7 +220,12 @@ fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFi
     if let Ok(x) = truth.as_ref().copied() {
         if !x.is_finite() || (x != 0.0 && x.abs() < MIN_MAGNITUDE) || x.abs() > MAX_MAGNITUDE {
             return Err(SimsumFileError::Flag(format!(
-                "--true {x} is not a finite number between 1e-60 and 1e75 in magnitude (or 0): bias, coverage and the MSE would be {} (a true value that varies is a column: --true COLUMN)",
+                "--true {} is not a finite number between 1e-60 and 1e75 in magnitude (or 0): bias, coverage and the MSE would be {} (a true value that varies is a column: --true COLUMN)",
+                crate::io::one_line(&if cols.truth.chars().count() > 64 {
+                    format!("{}...", cols.truth.chars().take(64).collect::<String>())
+                } else {
+                    cols.truth.clone()
+                }),
                 if x.is_nan() { "undefined" } else { "wrong" }
             )));
         }

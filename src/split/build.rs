@@ -135,11 +135,15 @@ impl<'a> Universe<'a> {
                 Condition::Trajectory => self.info[r].trajectory.as_str(),
                 Condition::Speed => self.info[r].speed.as_str(),
             };
-            let members = (0..self.drawable).filter_map(|k| match self.slots[k].1 {
-                Slot::Unit(u) => Some(self.units[u].members[0]),
-                Slot::Absent(_) => None,
-            });
-            if members.into_iter().all(|r| value(r) == "unknown") {
+            let members: Vec<usize> = (0..self.drawable)
+                .filter_map(|k| match self.slots[k].1 {
+                    Slot::Unit(u) => Some(self.units[u].members[0]),
+                    Slot::Absent(_) => None,
+                })
+                .collect();
+            // No recording to draw is the draw's own refusal (too few units
+            // remain), not the stratification's.
+            if !members.is_empty() && members.iter().all(|&r| value(r) == "unknown") {
                 return Err(SplitError::Stratify {
                     detail: format!(
                         "`stratify` names {}, but every recording's {} is unknown, so the draw could not be stratified by it; say how the logs give it (a name pattern, a conditions table, `speed from metadata`) or stratify by the conditions they have",

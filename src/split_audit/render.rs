@@ -121,9 +121,20 @@ impl SplitAudit {
                 let _ = writeln!(s, "  - {} {}: {}", c(&r.role), t(&r.recording), t(&r.reason));
             }
         }
+        // A run longer than every recording cannot be found: 0 would say
+        // nothing about the split.
+        let longest = self.recordings.iter().map(|r| r.rows).max().unwrap_or(0);
+        let cannot = if longest < self.options.min_run_rows {
+            format!(
+                " (none can be found: the longest recording has {longest} rows, fewer than --min-run {}; lower it to look for runs)",
+                self.options.min_run_rows
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "- shared runs of identical rows between non-identical recordings across roles: {} pair(s).",
+            "- shared runs of identical rows between non-identical recordings across roles: {} pair(s){cannot}.",
             self.shared_runs.len()
         );
         self.distance_findings(s);

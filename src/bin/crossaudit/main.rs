@@ -65,20 +65,12 @@ fn main() -> ExitCode {
         Command::Coverage { spec, reps, out, replications } => methods::coverage(&spec, reps, &out, replications),
         Command::Simsum(args) => methods::simsum(args),
         Command::Plan { design, cells, components, effect, reference_mean, recordings, seeds, splits, draws, out } => {
-            if let Err(e) = methods::plan_factors(&design, splits.is_some(), draws.is_some()) {
-                output::note_raw(&render(&e, color));
-                return ExitCode::FAILURE;
-            }
-            let default = || vec![3, 5, 10];
-            let (splits, draws) = (splits.unwrap_or_else(default), draws.unwrap_or_else(default));
-            match (cells, components, effect, reference_mean) {
-                (Some(cells), ..) => methods::power(&design, &cells, (&splits, &recordings, &seeds, &draws), &out),
-                (None, Some(components), Some(effect), Some(reference_mean)) => {
-                    methods::declared_power(&design, (&components, effect, reference_mean), (&recordings, &seeds), &out)
-                }
-                // clap requires --cells, or --components with both values.
-                _ => unreachable!("clap requires --cells or --components with --effect and --reference-mean"),
-            }
+            methods::plan_command(
+                &design,
+                (cells, components, effect, reference_mean),
+                (recordings, seeds, splits, draws),
+                &out,
+            )
         }
         Command::Simulate { design, out } => methods::simulate(&design, &out),
         Command::SimulateLab { out, seed } => methods::simulate_lab(&out, seed),

@@ -82,9 +82,35 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replic
     Ok(())
 }
 
+/// What `plan` plans from: a pilot's `--cells`, or declared components
+/// with the effect and the reference mean.
+type PlanFrom = (Option<std::path::PathBuf>, Option<String>, Option<f64>, Option<f64>);
+
+/// `crossaudit plan`: the sizes to consider (`--splits` and `--draws` only
+/// for a design with that factor), then the plan from a pilot or from
+/// declared components.
+pub(crate) fn plan_command(
+    design: &Path,
+    from: PlanFrom,
+    (recordings, seeds, splits, draws): (Vec<usize>, Vec<usize>, Option<Vec<usize>>, Option<Vec<usize>>),
+    out: &Path,
+) -> Result<(), Error> {
+    plan_factors(design, splits.is_some(), draws.is_some())?;
+    let default = || vec![3, 5, 10];
+    let (splits, draws) = (splits.unwrap_or_else(default), draws.unwrap_or_else(default));
+    match from {
+        (Some(cells), ..) => power(design, &cells, (&splits, &recordings, &seeds, &draws), out),
+        (None, Some(components), Some(effect), Some(reference_mean)) => {
+            declared_power(design, (&components, effect, reference_mean), (&recordings, &seeds), out)
+        }
+        // clap requires --cells, or --components with both values.
+        _ => unreachable!("clap requires --cells or --components with --effect and --reference-mean"),
+    }
+}
+
 /// `plan --splits` or `--draws` on a design without that factor would be
 /// ignored without a word: refused, naming what the design plans.
-pub(crate) fn plan_factors(design: &Path, splits: bool, draws: bool) -> Result<(), Error> {
+fn plan_factors(design: &Path, splits: bool, draws: bool) -> Result<(), Error> {
     if !splits && !draws {
         return Ok(());
     }

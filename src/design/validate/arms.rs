@@ -194,6 +194,22 @@ impl Validator {
         out
     }
 
+    /// The action noise's SD: at least 0, and at most 1e6 in the actions'
+    /// own units (beyond it, noise drowns every action).
+    fn action_noise(&mut self, x: &Number) -> f64 {
+        if x.node < 0.0 {
+            self.err("negative value", x.span, format!("action noise sd must be >= 0, found {}", x.node));
+        } else if x.node > 1e6 {
+            self.err_help(
+                "value out of range",
+                x.span,
+                format!("action noise sd {:e} is above 1e6, in the actions' own units", x.node),
+                "noise this large would drown every action a flight log holds (and past 1e154 its square overflows the loss); write it in the units of the actions as the model sees them",
+            );
+        }
+        x.node
+    }
+
     pub(super) fn training(&mut self, items: &[Spanned<TrainItem>], span: Span) -> Option<Training> {
         let mut seen = BTreeMap::new();
         let (mut lr, mut batch, mut epochs, mut schedule, mut patience, mut noise) =
@@ -223,17 +239,7 @@ impl Validator {
                 }
                 TrainItem::ActionNoise(x) => {
                     self.once(&mut seen, "action_noise", item.span);
-                    if x.node < 0.0 {
-                        self.err("negative value", x.span, format!("action noise sd must be >= 0, found {}", x.node));
-                    } else if x.node > 1e6 {
-                        self.err_help(
-                            "value out of range",
-                            x.span,
-                            format!("action noise sd {:e} is above 1e6, in the actions' own units", x.node),
-                            "noise this large would drown every action a flight log holds (and past 1e154 its square overflows the loss); write it in the units of the actions as the model sees them",
-                        );
-                    }
-                    noise = Some(x.node);
+                    noise = Some(self.action_noise(x));
                 }
                 TrainItem::Target(t) => {
                     self.once(&mut seen, "target", item.span);

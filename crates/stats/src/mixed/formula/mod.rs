@@ -32,6 +32,7 @@
 
 mod fit;
 mod glmm_fit;
+mod number;
 mod slopes_fit;
 mod table;
 

@@ -1,6 +1,7 @@
 //! A formula with random slopes fitted to a table, and its summary as lme4
 //! and lmerTest print it (the random effects with their correlations).
 
+use super::number::Six;
 use std::fmt::Write;
 
 use super::FormulaError;
@@ -49,11 +50,7 @@ pub(super) fn terms_table(terms: &[TermFit], residual: Option<f64>, n: usize) ->
         for (i, name) in t.names.iter().enumerate() {
             let group = if i == 0 { t.group.as_str() } else { "" };
             let variance = t.covariance[i * k + i];
-            let mut line = format!(
-                " {group:<width$} {name:<name_width$} {:>12} {:>12}",
-                super::fit::Six(variance),
-                super::fit::Six(t.sd[i])
-            );
+            let mut line = format!(" {group:<width$} {name:<name_width$} {:>12} {:>12}", Six(variance), Six(t.sd[i]));
             for _ in 0..i {
                 match corr.next() {
                     Some(Some(r)) => line.push_str(&format!(" {r:>6.3}")),
@@ -69,8 +66,8 @@ pub(super) fn terms_table(terms: &[TermFit], residual: Option<f64>, n: usize) ->
             " {:<width$} {:<name_width$} {:>12} {:>12}",
             "Residual",
             "",
-            super::fit::Six(residual),
-            super::fit::Six(residual.sqrt())
+            Six(residual),
+            Six(residual.sqrt())
         );
     }
     let mut groups: Vec<String> = Vec::new();
