@@ -86,13 +86,17 @@ pub(crate) fn coverage(spec_path: &Path, reps: Option<usize>, out: &Path, replic
 /// with the effect and the reference mean.
 type PlanFrom = (Option<std::path::PathBuf>, Option<String>, Option<f64>, Option<f64>);
 
+/// The sizes `plan` considers: recordings and seeds, and the splits and
+/// draws the user gave (each only for a design with that factor).
+type PlanSizes = (Vec<usize>, Vec<usize>, Option<Vec<usize>>, Option<Vec<usize>>);
+
 /// `crossaudit plan`: the sizes to consider (`--splits` and `--draws` only
 /// for a design with that factor), then the plan from a pilot or from
 /// declared components.
 pub(crate) fn plan_command(
     design: &Path,
     from: PlanFrom,
-    (recordings, seeds, splits, draws): (Vec<usize>, Vec<usize>, Option<Vec<usize>>, Option<Vec<usize>>),
+    (recordings, seeds, splits, draws): PlanSizes,
     out: &Path,
 ) -> Result<(), Error> {
     plan_factors(design, splits.is_some(), draws.is_some())?;
