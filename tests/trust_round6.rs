@@ -654,4 +654,19 @@ fn refusals_name_their_own_cause() {
         out.to_str().unwrap(),
     ]);
     assert_refused(&o, "--true 1e400 is not a finite number");
+    // A target MCSE no simulation could reach gave NA without a word, under
+    // a column named by a 300-digit decimal.
+    let o = crossaudit(&[
+        "simsum",
+        reps.to_str().unwrap(),
+        "--rep",
+        "rep",
+        "--true",
+        "0.5",
+        "--target-mcse",
+        "cover=1e-300",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_refused(&o, "a target below 1e-12 needs more replications than any simulation runs");
 }

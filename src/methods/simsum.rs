@@ -69,7 +69,12 @@ pub fn parse_targets(text: &str) -> Result<Vec<(String, f64)>, SimsumFileError> 
                 )));
             }
             match value.parse::<f64>() {
-                Ok(v) if v.is_finite() && v > 0.0 => Ok((name.to_string(), v)),
+                Ok(v) if v.is_finite() && v >= 1e-12 => Ok((name.to_string(), v)),
+                // The replications needed grow as 1 / target^2: a coverage
+                // MCSE of 1e-12 already needs about 1e23.
+                Ok(v) if v > 0.0 => Err(SimsumFileError::Flag(format!(
+                    "--target-mcse: {name}={value}: a target below 1e-12 needs more replications than any simulation runs (a coverage MCSE of 1e-12 needs about 1e23); give a larger one"
+                ))),
                 _ => Err(SimsumFileError::Flag(format!(
                     "--target-mcse: {name}={value}: the target is not a number above 0"
                 ))),
