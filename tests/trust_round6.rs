@@ -670,3 +670,19 @@ fn refusals_name_their_own_cause() {
     ]);
     assert_refused(&o, "a target below 1e-12 needs more replications than any simulation runs");
 }
+
+/// A declaration that could change nothing: `missing csv allow` under
+/// `data simulated` (the simulator writes every log it lists) passed
+/// `check` without a word.
+#[test]
+fn missing_csv_allow_on_simulated_data_is_refused_at_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let edited = text.replacen("data simulated {", "data simulated {\n  missing csv allow", 1);
+    assert_ne!(edited, text);
+    let path = dir.path().join("q.design");
+    std::fs::write(&path, edited).unwrap();
+    let o = crossaudit(&["check", path.to_str().unwrap()]);
+    assert_refused(&o, "declaration that cannot apply");
+    assert!(stderr(&o).contains("q.design:40:3"), "{}", stderr(&o));
+}

@@ -137,6 +137,7 @@ impl Validator {
                         );
                     }
                     spec.simulated = Some(SimSpec { recordings, seed, strength, duration_s });
+                    self.no_missing_csv_in_simulated(block);
                 }
                 _ => self.err_help(
                     "incomplete simulated data",
@@ -152,6 +153,23 @@ impl Validator {
                 "remove them, or switch the source to `simulated`",
             ),
             _ => {}
+        }
+    }
+
+    /// `missing csv allow` lets a recording that metadata lists go without
+    /// its log; simulated data write every log they list, so the clause
+    /// could change nothing: refused at its line rather than accepted as
+    /// if it did something.
+    fn no_missing_csv_in_simulated(&mut self, block: &DataBlock) {
+        for item in &block.items {
+            if matches!(&item.node, DataItem::MissingCsv(p) if p.node == "allow") {
+                self.err_help(
+                    "declaration that cannot apply",
+                    item.span,
+                    "`missing csv allow` under `data simulated`: the simulator writes every log it lists, so no recording can be missing",
+                    "remove the clause (it applies to real logs whose metadata lists a recording without its file)",
+                );
+            }
         }
     }
 
