@@ -31,6 +31,16 @@ fn scaled_cells(dir: &Path, factor: f64) -> String {
     path.display().to_string()
 }
 
+/// The simulated lab's Parquet folder (`simulate-lab`) in `dir/lab_logs`
+/// and its design, designs/logs/lab.design, copied beside it.
+fn lab_folder(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let logs = dir.join("lab_logs");
+    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    let design = dir.join("lab.design");
+    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
+    (logs, design)
+}
+
 /// Class 1 (wrong answers at extreme scales). The quickstart's cells times
 /// 1e-160 gave CONFIRMED under `upper < 0` (the variances underflowed to 0,
 /// the interval to a point) where the same cells unscaled give NOT
@@ -178,11 +188,8 @@ fn a_control_character_in_a_design_is_refused_where_it_stands() {
 #[test]
 fn names_a_spreadsheet_would_run_are_refused_at_their_source_or_neutralised() {
     let dir = tempfile::tempdir().unwrap();
-    let logs = dir.path().join("lab_logs");
-    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    let (logs, design) = lab_folder(dir.path());
     std::fs::rename(logs.join("train/lab-circle-take1.parquet"), logs.join("train/=cmd-circle-take1.parquet")).unwrap();
-    let design = dir.path().join("lab.design");
-    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
     let o = crossaudit(&["check", design.to_str().unwrap()]);
     assert_refused(&o, "the file name \"=cmd-circle-take1.parquet\" begins with `=`");
 
@@ -268,8 +275,7 @@ fn a_lock_whose_time_was_edited_is_refused() {
 #[test]
 fn logs_in_subfolders_that_are_not_read_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let logs = dir.path().join("lab_logs");
-    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    let (logs, _) = lab_folder(dir.path());
     // The lab's design reads its folder's top level only once `folders
     // nested` and the split published as folders are gone (the split then
     // drawn by the recording factor), with one log moved to the top.
@@ -337,10 +343,7 @@ fn simsum_names_the_columns_it_does_not_read() {
 #[test]
 fn hidden_logs_and_one_recording_in_two_folders_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let logs = dir.path().join("lab_logs");
-    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
-    let design = dir.path().join("lab.design");
-    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
+    let (logs, design) = lab_folder(dir.path());
     let take1 = logs.join("train/lab-circle-take1.parquet");
     std::fs::copy(&take1, logs.join("train/._lab-circle-take1.parquet")).unwrap();
     let o = crossaudit(&["data", "audit", design.to_str().unwrap(), "--out", dir.path().join("a").to_str().unwrap()]);
@@ -452,11 +455,8 @@ fn simsum_refuses_values_whose_fourth_power_overflows() {
 #[test]
 fn check_names_unread_logs_and_a_post_hoc_mark() {
     let dir = tempfile::tempdir().unwrap();
-    let logs = dir.path().join("lab_logs");
-    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    let (logs, design) = lab_folder(dir.path());
     std::fs::copy(logs.join("train/lab-circle-take1.parquet"), logs.join("train/._lab-circle-take1.parquet")).unwrap();
-    let design = dir.path().join("lab.design");
-    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
     let o = crossaudit(&["check", design.to_str().unwrap()]);
     assert_ok(&o);
     assert!(said(&o).contains("not read: 1 hidden file(s)"), "{}", said(&o));
@@ -515,11 +515,8 @@ fn regex_like_replace(text: &str, word: &str, with: &str) -> String {
 #[test]
 fn a_recording_name_with_a_trailing_space_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let logs = dir.path().join("lab_logs");
-    assert_ok(&crossaudit(&["simulate-lab", "--out", logs.to_str().unwrap()]));
+    let (logs, design) = lab_folder(dir.path());
     std::fs::rename(logs.join("train/lab-circle-take1.parquet"), logs.join("train/lab-circle-take1 .parquet")).unwrap();
-    let design = dir.path().join("lab.design");
-    std::fs::copy(root().join("designs/logs/lab.design"), &design).unwrap();
     let o = crossaudit(&["check", design.to_str().unwrap()]);
     assert_refused(&o, "begins or ends with a space");
 }

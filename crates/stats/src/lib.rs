@@ -151,18 +151,14 @@ pub fn critical_value(level: f64, df: f64) -> Result<f64, StatsError> {
         return Err(StatsError::Level(level));
     }
     let p = 0.5 + level / 2.0;
-    if df.is_infinite() {
-        let n = Normal::new(0.0, 1.0).expect("standard normal parameters are valid");
-        return Ok(n.inverse_cdf(p));
-    }
     if df.is_nan() || df <= 0.0 {
         return Err(StatsError::TooFew { what: "degrees of freedom", found: 0 });
     }
     if df > LARGE_DF {
-        // statrs's inverse searches without end beyond about 1e8 df; the
-        // Cornish-Fisher expansion about the normal quantile (Abramowitz
-        // and Stegun 26.7.5) is exact to rounding here (its next term is
-        // of order df^-4 < 1e-24).
+        // The normal quantile, with (below infinite df, where each term is
+        // 0) its Cornish-Fisher terms (Abramowitz and Stegun 26.7.5): exact
+        // to rounding here, the next term of order df^-4 < 1e-24; statrs's
+        // inverse searches without end beyond about 1e8 df.
         let z = Normal::new(0.0, 1.0).expect("standard normal parameters are valid").inverse_cdf(p);
         let (z2, n) = (z * z, df);
         let g1 = (z2 + 1.0) * z / 4.0;
