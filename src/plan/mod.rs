@@ -396,7 +396,7 @@ impl Plan {
     }
 
     /// The fixed df of the interval for an I x J matrix, when the rule
-    /// fixes them (see [`DfRule::df`]).
+    /// fixes them (see [`crossaudit_stats::DfRule::df`]).
     pub fn df(&self, rows: usize, cols: usize) -> Option<f64> {
         self.estimator.df.df(rows, cols)
     }
