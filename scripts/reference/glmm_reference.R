@@ -70,10 +70,16 @@ write_fixture <- function(d, file) {
 # period, with and without an observation-level effect (lme4's example).
 cb <- data.frame(incidence = cbpp$incidence, healthy = cbpp$size - cbpp$incidence,
                  period = as.integer(as.character(cbpp$period)), herd = as.character(cbpp$herd),
-                 obs = seq_len(nrow(cbpp)))
+                 obs = seq_len(nrow(cbpp)), size = cbpp$size)
 write_fixture(cb, "glmm_cbpp.csv")
 show_fit("cbpp_herd", cbind(incidence, healthy) ~ factor(period) + (1 | herd), cb, "binomial")
 show_fit("cbpp_obs", cbind(incidence, healthy) ~ factor(period) + (1 | herd) + (1 | obs), cb, "binomial")
+# glmer's formulas (issue 75): the failures as arithmetic in cbind( ), and
+# the herd sizes as a Poisson exposure, offset(log(size)) (cases per
+# animal), with and without an observation-level effect.
+show_fit("cbpp_trials", cbind(incidence, size - incidence) ~ factor(period) + (1 | herd), cb, "binomial")
+show_fit("cbpp_exposure", incidence ~ factor(period) + offset(log(size)) + (1 | herd), cb, "poisson")
+show_fit("cbpp_exposureobs", incidence ~ factor(period) + offset(log(size)) + (1 | herd) + (1 | obs), cb, "poisson")
 
 # 2. lme4's grouseticks: ticks on grouse chicks, an observation-level
 # effect inside broods inside locations (crossed in the data's coding).

@@ -54,11 +54,13 @@ mod levels;
 pub(crate) mod optimize;
 mod profile;
 pub mod slopes;
+pub(crate) mod sparse;
 mod system;
 mod types;
 
 pub use data::{MixedData, MAX_DENSE, MAX_DESIGN_VALUES};
 pub use profile::{profile_intervals, ProfileInterval};
+pub use sparse::MAX_FACTOR_NONZEROS;
 pub use types::{Certificate, Criterion, FixedEffect, Inference, KenwardRoger, MixedError, MixedFit};
 
 /// Fits the model by REML or ML, with every inference ([`Inference::Full`]).

@@ -46,9 +46,14 @@ pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<G
     }
     let columns = term_columns(&formula.fixed, true, table, n)?;
     let terms = random_terms(&formula, table, &factors, n)?;
-    Ok(match family {
+    let offset = super::table::offset_values(&formula, table)?;
+    let data = match family {
         Family::Binomial => GlmmData::binomial(k, trials, columns, terms)?,
         Family::Poisson => GlmmData::poisson(k, columns, terms)?,
+    };
+    Ok(match offset {
+        Some(o) => data.with_offset(o)?,
+        None => data,
     })
 }
 
@@ -181,6 +186,25 @@ fn whole_counts(table: &Table, name: &str) -> Result<Vec<f64>, FormulaError> {
 /// values `k` must be 0 or 1) and for a Poisson count.
 fn trials(family: Family, formula: &Formula, table: &Table, k: &[f64]) -> Result<Vec<f64>, FormulaError> {
     let n = k.len();
+    if let Some(size) = &formula.trials {
+        if family != Family::Binomial {
+            return Err(FormulaError::Unsupported(format!(
+                "cbind(successes, {size} - successes) is a binomial response; a Poisson response is one column of counts"
+            )));
+        }
+        let trials = whole_counts(table, size)?;
+        if let Some(row) = (0..n).find(|&i| k[i] > trials[i] || trials[i] < 1.0) {
+            return Err(FormulaError::Value {
+                row: row + 1,
+                field: size.clone(),
+                message: format!(
+                    "{} trials for {} successes: the trials are at least 1 and at least the successes",
+                    trials[row], k[row]
+                ),
+            });
+        }
+        return Ok(trials);
+    }
     Ok(match (family, &formula.failures) {
         (Family::Binomial, Some(f)) => {
             let failures = whole_counts(table, f)?;

@@ -57,6 +57,12 @@ pub struct Formula {
     pub response: String,
     /// The failures of a binomial response `cbind(successes, failures)`.
     pub failures: Option<String>,
+    /// The trials of a binomial response written `cbind(successes,
+    /// trials - successes)`: the failures are the difference.
+    pub trials: Option<String>,
+    /// `offset(col)` or `offset(log(col))`: a term of the linear predictor
+    /// with its coefficient fixed at 1.
+    pub offset: Option<Offset>,
     /// Fixed terms beside the intercept, each a list of variables, in R's
     /// order (by degree, then as written).
     pub fixed: Vec<Vec<Variable>>,
@@ -106,6 +112,16 @@ fn nest(segment: &[String], outer: Option<&(Vec<String>, String)>) -> (Vec<Strin
             (segment.iter().chain(columns).cloned().collect(), name)
         }
     }
+}
+
+/// An offset: a column, or its natural logarithm (`offset(log(t))`, an
+/// exposure of a Poisson rate).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Offset {
+    /// The column.
+    pub column: String,
+    /// Written `log(column)`.
+    pub log: bool,
 }
 
 /// A variable of a fixed term.
@@ -309,21 +325,66 @@ impl Parser {
 impl Parser {
     /// The response: a column, or `cbind(successes, failures)` (two
     /// columns of a binomial response).
-    fn response(&mut self) -> Result<(String, Option<String>), FormulaError> {
+    /// The response: a column, `cbind(successes, failures)` (two columns
+    /// of a binomial response) or `cbind(successes, trials - successes)`;
+    /// the second of the pair is the failures' column, the third the
+    /// trials' column.
+    fn response(&mut self) -> Result<(String, Option<String>, Option<String>), FormulaError> {
         let name = self.name("the response column before `~`")?;
         if name != "cbind" || self.peek() != Some(&Token::Sym('(')) {
-            return Ok((name, None));
+            return Ok((name, None, None));
         }
         self.at += 1;
         let successes = self.name("the successes' column inside cbind( )")?;
         self.expect(',', "between the successes' and the failures' columns of cbind( )")?;
-        let failures =
-            self.name("the failures' column inside cbind( ) (a column: compute `size - successes` in the CSV first)")?;
+        let second = self.name("the failures' column (or `trials - successes`) inside cbind( )")?;
+        let mut trials = None;
+        if self.peek() == Some(&Token::Sym('-')) {
+            self.at += 1;
+            let column = self.column();
+            let subtracted = self.name("the successes' column after `-` inside cbind( )")?;
+            if subtracted != successes {
+                return Err(FormulaError::Syntax {
+                    column,
+                    message: format!(
+                        "cbind({successes}, {second} - {subtracted}): the failures are the trials less the successes, `{second} - {successes}`; for any other arithmetic compute the column in the CSV first"
+                    ),
+                });
+            }
+            trials = Some(second.clone());
+        }
         self.expect(
             ')',
-            "to close cbind( ) (its two arguments are columns: compute `size - successes` in the CSV first)",
+            "to close cbind( ) (its arguments are the successes and the failures, or `trials - successes`)",
         )?;
-        Ok((successes, Some(failures)))
+        Ok(match trials {
+            Some(t) => (successes, None, Some(t)),
+            None => (successes, Some(second), None),
+        })
+    }
+
+    /// `offset(col)` or `offset(log(col))`, after its name.
+    fn offset(&mut self) -> Result<Offset, FormulaError> {
+        self.expect('(', "after offset")?;
+        let column = self.column();
+        let name = self.name("a column name inside offset( )")?;
+        let (name, log, column) = if name == "log" && self.peek() == Some(&Token::Sym('(')) {
+            self.at += 1;
+            let column = self.column();
+            let inner = self.name("a column name inside offset(log( ))")?;
+            self.expect(')', "to close log(")?;
+            (inner, true, column)
+        } else {
+            (name, false, column)
+        };
+        if self.peek() == Some(&Token::Sym('(')) {
+            return self.error(format!(
+                "`{name}(...)` inside offset( ): an offset is a column or log(column); compute any other transformation in the CSV first"
+            ));
+        }
+        self.not_response(&name, column, "in the offset")?;
+        self.expect(')', "to close offset( ) (an offset is a column or log(column))")?;
+        Ok(Offset { column: name, log })
     }
 
     /// A fixed term as written, `a:b * c`, expanded into its terms: every
@@ -489,7 +550,11 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     // exist in the file (factor() aside).
     for (at, w) in tokens.windows(2).enumerate() {
         if let ((column, Token::Name(f)), (_, Token::Sym('('))) = (&w[0], &w[1]) {
-            if f == "factor" || (f == "cbind" && at == 0) {
+            if f == "factor" || (f == "cbind" && at == 0) || f == "offset" {
+                continue;
+            }
+            // log( ) directly inside offset( ).
+            if f == "log" && at >= 2 && tokens[at - 2].1 == Token::Name("offset".into()) {
                 continue;
             }
             return Err(FormulaError::Syntax { column: *column, message: transformation(f) });
@@ -501,13 +566,14 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     }
     let end = text.chars().count() + 1;
     let mut p = Parser { tokens, at: 0, end, response: String::new(), failures: None };
-    let (response, failures) = p.response()?;
+    let (response, failures, trials) = p.response()?;
     p.response = response.clone();
-    p.failures = failures.clone();
+    p.failures = failures.clone().or_else(|| trials.clone());
     p.expect('~', "after the response")?;
     // Fixed terms as written: each a set of variables (a crossing expands).
     let mut fixed: Vec<Vec<Variable>> = Vec::new();
     let mut random: Vec<RandomTerm> = Vec::new();
+    let mut offset: Option<Offset> = None;
     let mut first = true;
     loop {
         if !first {
@@ -529,6 +595,18 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             Some(Token::Sym('(')) => {
                 p.at += 1;
                 random.extend(p.random_term()?);
+            }
+            Some(Token::Name(n)) if n == "offset" && p.tokens.get(p.at + 1).map(|t| &t.1) == Some(&Token::Sym('(')) => {
+                let column = p.column();
+                p.at += 1;
+                let o = p.offset()?;
+                if offset.is_some() {
+                    return Err(FormulaError::Syntax {
+                        column,
+                        message: "a second offset( ): compute their sum in the CSV first".into(),
+                    });
+                }
+                offset = Some(o);
             }
             Some(Token::Name(_)) => fixed.extend(p.crossed_terms()?),
             Some(_) => return p.error("expected a term"),
@@ -561,7 +639,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             ),
         });
     }
-    Ok(Formula { response, failures, fixed: unique, random: groups })
+    Ok(Formula { response, failures, trials, offset, fixed: unique, random: groups })
 }
 
 /// What to say about a function call `f(...)` in a formula.

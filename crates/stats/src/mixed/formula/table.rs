@@ -253,6 +253,16 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, For
         });
     };
     check_scale(&formula.response, &y, false)?;
+    // An offset of a linear model moves the response: y - o has the same
+    // likelihood in the other parameters (lmer's offset).
+    let y = match offset_values(formula, table)? {
+        Some(o) => {
+            let moved: Vec<f64> = y.iter().zip(&o).map(|(a, b)| a - b).collect();
+            check_scale(&formula.response, &moved, false)?;
+            moved
+        }
+        None => y,
+    };
     let n = y.len();
     // One factor per grouping (a group with an intercept and a slope term
     // is one factor of the response's data).
@@ -269,6 +279,37 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, For
     }
     let terms = random_terms(formula, table, &factors, n)?;
     Ok(FormulaModel::Slopes(SlopeData::new(base, terms)?))
+}
+
+/// The values of `formula`'s offset (the column, or its logarithm), or
+/// an error at the first row where one is missing, not a number or (under
+/// `log`) not above 0.
+pub(super) fn offset_values(formula: &Formula, table: &Table) -> Result<Option<Vec<f64>>, FormulaError> {
+    let Some(offset) = &formula.offset else { return Ok(None) };
+    let name = &offset.column;
+    present(table, name)?;
+    let col = table.column(name)?;
+    let Some(values) = numbers(table, name)? else {
+        let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: name.clone(),
+            message: format!("the offset must be a number, found `{}`", col[row].trim()),
+        });
+    };
+    let out: Vec<f64> = if offset.log { values.iter().map(|v| v.ln()).collect() } else { values };
+    if let Some(row) = out.iter().position(|v| !v.is_finite()) {
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: name.clone(),
+            message: if offset.log {
+                format!("offset(log({name})): `{}` has no finite logarithm (an exposure is above 0)", col[row].trim())
+            } else {
+                format!("the offset `{}` is not finite", col[row].trim())
+            },
+        });
+    }
+    Ok(Some(out))
 }
 
 /// Every random term of `formula` with its columns (`(Intercept)` and

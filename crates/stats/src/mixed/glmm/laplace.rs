@@ -24,14 +24,18 @@
 
 use faer::Mat;
 
-use super::reduced::Reduced;
 use super::Family;
 use crate::mixed::slopes::structure::Structure;
+use crate::mixed::sparse::Sparse;
 use crate::mixed::MixedError;
 
 /// A GLMM's data in the form the evaluations use.
 pub(super) struct Model {
     pub structure: Structure,
+    /// The pattern of Lambda'Z'W Z Lambda + I, alone and bordered with
+    /// the fixed effects.
+    pub sparse: Sparse,
+    pub bordered: Sparse,
     pub family: Family,
     pub n: usize,
     pub p: usize,
@@ -41,6 +45,8 @@ pub(super) struct Model {
     pub k: Vec<f64>,
     /// Trials (binomial); 1 for Poisson.
     pub m: Vec<f64>,
+    /// The offset of each linear predictor.
+    pub offset: Vec<f64>,
     /// sum log C(m, k) (binomial) or -sum log k! (Poisson).
     pub constant: f64,
 }
@@ -100,7 +106,8 @@ impl Model {
             self.structure.z_lambda_row(i, &lambda, &mut row);
             zl.push(row.clone());
         }
-        let fixed: Vec<f64> = (0..n).map(|i| (0..p).map(|c| self.x[i * p + c] * beta[c]).sum()).collect();
+        let fixed: Vec<f64> =
+            (0..n).map(|i| self.offset[i] + (0..p).map(|c| self.x[i * p + c] * beta[c]).sum::<f64>()).collect();
         let eta_at = |u: &[f64]| -> Vec<f64> {
             (0..n).map(|i| fixed[i] + zl[i].iter().map(|&(j, v)| v * u[j]).sum::<f64>()).collect()
         };
@@ -108,7 +115,10 @@ impl Model {
         let mut eta = eta_at(&u);
         let mut value = self.penalized(&eta, &u);
         let not_pd = || MixedError::NotPositiveDefinite { theta: theta.to_vec() };
-        let n1 = self.structure.first_intercept_levels();
+        let copy = |i: usize, out: &mut Vec<(usize, f64)>| {
+            out.clear();
+            out.extend_from_slice(&zl[i]);
+        };
         let weights = |eta: &[f64]| -> (Vec<f64>, Vec<f64>) {
             let mut w = vec![0.0; n];
             let mut score = vec![0.0; q];
@@ -124,8 +134,8 @@ impl Model {
         for _ in 0..100 {
             let (w, score) = weights(&eta);
             let rhs: Vec<f64> = (0..q).map(|j| score[j] - u[j]).collect();
-            let system = Reduced::new(&zl, &w, q, n1, None).ok_or_else(not_pd)?;
-            let delta = system.solve(&rhs);
+            let system = self.sparse.factor(n, copy, Some(&w), &[]).ok_or_else(not_pd)?;
+            let delta = system.solve_vec(&rhs);
             let decrement: f64 = delta.iter().zip(&rhs).map(|(a, b)| a * b).sum();
             if !decrement.is_finite() {
                 return Err(not_pd());
@@ -153,15 +163,15 @@ impl Model {
             }
         }
         let (w, _) = weights(&eta);
-        let log_det = Reduced::new(&zl, &w, q, n1, None).ok_or_else(not_pd)?.log_det(q);
+        let log_det = self.sparse.factor(n, copy, Some(&w), &[]).ok_or_else(not_pd)?.log_det_random();
         let objective = value + log_det;
         if !objective.is_finite() {
             return Err(not_pd());
         }
         let rx_vcov = if vcov {
-            let bordered = Reduced::new(&zl, &w, q, n1, Some((&self.x, p)));
+            let bordered = self.bordered.factor(n, copy, Some(&w), &self.x);
             let bordered = bordered.ok_or_else(|| MixedError::FixedEffects("X'WX is singular at the mode".into()))?;
-            Some(bordered.rx_vcov(p))
+            Some(bordered.rx_inv())
         } else {
             None
         };

@@ -42,7 +42,7 @@
 mod family;
 mod laplace;
 mod profile;
-mod reduced;
+mod separation;
 
 pub use family::Family;
 pub use profile::{profile_fixed, FixedProfile};
@@ -52,6 +52,7 @@ use serde::Serialize;
 
 use super::slopes::structure::Structure;
 use super::slopes::{self, SlopeCertificate, Term, TermFit};
+use super::sparse::Sparse;
 use super::{MixedData, MixedError};
 
 /// A GLMM's data: the fixed effects (as [`MixedData`] holds them, its
@@ -61,6 +62,9 @@ use super::{MixedData, MixedError};
 pub struct GlmmData {
     base: MixedData,
     trials: Vec<f64>,
+    /// A term of the linear predictor with its coefficient fixed at 1
+    /// (zeros without one).
+    offset: Vec<f64>,
     terms: Vec<Term>,
     family: Family,
 }
@@ -142,8 +146,28 @@ impl GlmmData {
             }
         }
         let base = MixedData::fixed_only(y, columns)?;
-        let terms = slopes::ordered(terms, base.p())?;
-        Ok(GlmmData { base, trials, terms, family })
+        let terms = slopes::ordered(terms);
+        let offset = vec![0.0; n];
+        Ok(GlmmData { base, trials, offset, terms, family })
+    }
+
+    /// The data with `offset` added to the linear predictor (glmer's
+    /// `offset(o)`: `offset(log(t))` makes a Poisson model one of rates
+    /// per unit of t).
+    pub fn with_offset(mut self, offset: Vec<f64>) -> Result<GlmmData, MixedError> {
+        let n = self.trials.len();
+        if offset.len() != n {
+            return Err(MixedError::Length { factor: "offset".into(), found: offset.len(), expected: n });
+        }
+        if let Some(i) = offset.iter().position(|v| !v.is_finite() || v.abs() > 700.0) {
+            return Err(MixedError::Glmm(format!(
+                "observation {}: the offset {} is not finite or beyond +-700, where e^offset overflows",
+                i + 1,
+                offset[i]
+            )));
+        }
+        self.offset = offset;
+        Ok(self)
     }
 
     /// The family.
@@ -201,6 +225,9 @@ pub struct GlmmFit {
     pub certificate: SlopeCertificate,
     /// Fixed-effect columns dropped as aliased.
     pub dropped: Vec<String>,
+    /// The fixed effects whose estimates are infinite (the data separate
+    /// them; [`separation`]), empty where every estimate is finite.
+    pub separated: Vec<String>,
     /// Notes on the inference.
     pub notes: Vec<String>,
     /// Objective evaluations.
@@ -210,7 +237,7 @@ pub struct GlmmFit {
 }
 
 /// The evaluation model of `data`, its aliased fixed columns dropped.
-fn model(data: &GlmmData) -> (laplace::Model, Vec<String>, Vec<String>) {
+fn model(data: &GlmmData) -> Result<(laplace::Model, Vec<String>, Vec<String>), MixedError> {
     let (base, dropped) = data.base.full_rank();
     let n = base.len();
     let k: Vec<f64> = base.y.iter().zip(&data.trials).map(|(y, m)| (y * m).round()).collect();
@@ -225,17 +252,24 @@ fn model(data: &GlmmData) -> (laplace::Model, Vec<String>, Vec<String>) {
             .sum(),
         Family::Poisson => -k.iter().map(|&k| statrs::function::gamma::ln_gamma(k + 1.0)).sum::<f64>(),
     };
+    let structure = Structure::new(&data.terms, n);
+    let p = base.p();
+    let sparse = Sparse::new(&structure.z_rows, structure.q, 0)?;
+    let bordered = Sparse::new(&structure.z_rows, structure.q, p)?;
     let m = Model {
-        structure: Structure::new(&data.terms, n),
+        structure,
+        sparse,
+        bordered,
         family: data.family,
         n,
-        p: base.p(),
+        p,
         x: base.design(),
         k,
         m: data.trials.clone(),
+        offset: data.offset.clone(),
         constant,
     };
-    (m, base.fixed_names(), dropped)
+    Ok((m, base.fixed_names(), dropped))
 }
 
 use laplace::Model;
@@ -246,7 +280,7 @@ use laplace::Model;
 /// c(theta, beta), and the fixed effects' standard errors from R_X there
 /// (lme4's `vcov(use.hessian = FALSE)`).
 pub fn laplace_at(data: &GlmmData, theta: &[f64], beta: &[f64]) -> Result<(f64, Vec<f64>), MixedError> {
-    let (m, _, _) = model(data);
+    let (m, _, _) = model(data)?;
     if theta.len() != m.structure.parameters() || beta.len() != m.p {
         return Err(MixedError::Length {
             factor: "theta and beta".into(),
@@ -275,7 +309,7 @@ fn search_scales(m: &Model) -> Vec<f64> {
 
 /// Fits the model by maximum likelihood under the Laplace approximation.
 pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
-    let (m, names, dropped) = model(data);
+    let (m, names, dropped) = model(data)?;
     if m.n <= m.p {
         return Err(MixedError::FixedEffects(format!("{} observations for {} fixed-effect columns", m.n, m.p)));
     }
@@ -303,20 +337,25 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     if hessian_vcov.is_none() {
         notes.push("the Hessian of the objective in (theta, beta) is not positive definite at the optimum, so the standard errors are R_X's (lme4's use.hessian = FALSE)".into());
     }
-    // Separation: a coefficient that moves the linear predictor by more
-    // than 25 (odds or rates of e^25) over one root mean square of its
-    // column is the optimizer running towards an infinite estimate on a
-    // flat deviance (R's glm: "fitted probabilities numerically 0 or 1
-    // occurred"); its estimate and SE are not estimates.
-    let runaway: Vec<&str> =
-        (0..m.p).filter(|&c| (beta[c] * x_rms[c]).abs() > 25.0).map(|c| names[c].as_str()).collect();
+    // Separation, from the data: the fixed effects the likelihood runs
+    // to infinity along. Where the programs did not finish, a coefficient
+    // that moves the linear predictor by more than 25 (odds or rates of
+    // e^25) over one root mean square of its column is the optimizer
+    // running towards an infinite estimate.
+    let separated: Vec<String> = match separation::infinite(&m.x, m.p, &m.k, &m.m, data.family) {
+        Some(found) => found.iter().map(|&(c, _)| names[c].clone()).collect(),
+        None => (0..m.p).filter(|&c| (beta[c] * x_rms[c]).abs() > 25.0).map(|c| names[c].clone()).collect(),
+    };
     let mut certificate = certificate;
-    if !runaway.is_empty() {
+    if !separated.is_empty() {
         certificate.certified = false;
         notes.push(format!(
-            "the estimate of {} is running to infinity (the data separate it: a level or a side of the predictor with no {} or none else), so it and its standard error are not estimates; remove or merge what separates the data",
-            runaway.join(", "),
-            if data.family == Family::Binomial { "success" } else { "count" }
+            "the data separate {}: the likelihood rises without bound as {} along a direction where no observation's fit gets worse (a level or a side of a predictor with no {} or none else), so {} and {} standard error are not estimates; remove or merge what separates the data",
+            separated.join(", "),
+            if separated.len() == 1 { "it runs" } else { "they run together" },
+            if data.family == Family::Binomial { "success" } else { "count" },
+            if separated.len() == 1 { "its estimate" } else { "their estimates" },
+            if separated.len() == 1 { "its" } else { "their" },
         ));
     }
     let fixed = names
@@ -346,6 +385,7 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
         singular,
         certificate,
         dropped,
+        separated,
         notes,
         evaluations,
         n: m.n,
@@ -388,16 +428,20 @@ fn glm_start(m: &Model) -> Vec<f64> {
     let total_m: f64 = m.m.iter().sum();
     let rate = (total_k / total_m).clamp(1e-6, 1.0 - 1e-6);
     let mut beta = vec![0.0; p];
+    // With an offset, the rate per unit of e^offset (Poisson) or the
+    // pooled log odds less the offset's mean (binomial).
+    let mean_offset = m.offset.iter().sum::<f64>() / n as f64;
+    let exposure: f64 = m.offset.iter().map(|o| (o - mean_offset).exp()).sum();
     beta[0] = match m.family {
-        Family::Binomial => (rate / (1.0 - rate)).ln(),
-        Family::Poisson => (total_k / n as f64).max(1e-6).ln(),
+        Family::Binomial => (rate / (1.0 - rate)).ln() - mean_offset,
+        Family::Poisson => (total_k / exposure).max(1e-6).ln() - mean_offset,
     };
     for _ in 0..25 {
         let mut xtwx = faer::Mat::<f64>::zeros(p, p);
         let mut score = faer::Mat::<f64>::zeros(p, 1);
         for i in 0..n {
             let xi = &m.x[i * p..(i + 1) * p];
-            let eta: f64 = xi.iter().zip(&beta).map(|(a, b)| a * b).sum();
+            let eta: f64 = m.offset[i] + xi.iter().zip(&beta).map(|(a, b)| a * b).sum::<f64>();
             // The GLM weight and score term of the Laplace's PIRLS.
             let (w, r, _) = m.observation(i, eta);
             for c in 0..p {

@@ -32,7 +32,13 @@ pub fn profile_fixed(data: &GlmmData, fit: &GlmmFit, level: f64) -> Result<Vec<F
     if !(level > 0.0 && level < 1.0) {
         return Err(MixedError::Level(level));
     }
-    let (m, names, _) = model(data);
+    if !fit.separated.is_empty() {
+        return Err(MixedError::Profile(format!(
+            "the data separate {}, so the profile of the deviance does not reach a bound on their side (the likelihood rises without bound); no profile interval is computed",
+            fit.separated.join(", ")
+        )));
+    }
+    let (m, names, _) = model(data)?;
     let nt = m.structure.parameters();
     let scales = search_scales(&m);
     let optimum: Vec<f64> = fit

@@ -59,7 +59,7 @@ mod types;
 
 use super::{Criterion, MixedData, MixedError};
 pub(crate) use types::ordered;
-pub use types::{SlopeCertificate, SlopeData, SlopeFit, SlopeFixed, Term, TermFit, MAX_SLOPE_DENSE, MAX_TERM_COLUMNS};
+pub use types::{SlopeCertificate, SlopeData, SlopeFit, SlopeFixed, Term, TermFit, MAX_TERM_COLUMNS};
 
 /// Fits the model, with Satterthwaite df for REML fits when
 /// `satterthwaite`.

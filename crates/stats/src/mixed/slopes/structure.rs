@@ -4,8 +4,6 @@
 //! use). Shared by the linear models (`system`) and the generalized ones
 //! (`crate::mixed::glmm`).
 
-use faer::Mat;
-
 use super::Term;
 
 /// Z and the layout of Lambda.
@@ -145,42 +143,11 @@ impl Structure {
             .collect()
     }
 
-    /// The levels of the first term when it is a random intercept (one
-    /// column: its block of Lambda'Z'WZ Lambda is diagonal), else 0.
-    pub fn first_intercept_levels(&self) -> usize {
-        match self.blocks.first() {
-            Some(&(1, _)) => self.levels(0),
-            _ => 0,
-        }
-    }
-
     /// Levels of term `b`.
     fn levels(&self, b: usize) -> usize {
         let (k, offset) = self.blocks[b];
         let end = self.blocks.get(b + 1).map_or(self.q, |&(_, o)| o);
         (end - offset) / k
-    }
-
-    /// Right-multiplies the rows of `m` (q columns) by the block diagonal
-    /// matrix of `lambda` (one block per term, row-major, repeated over its
-    /// levels), in place.
-    pub fn times_lambda(&self, m: &mut Mat<f64>, lambda: &[Vec<f64>]) {
-        let rows = m.nrows();
-        for (b, &(k, offset)) in self.blocks.iter().enumerate() {
-            let t = &lambda[b];
-            let mut tmp = vec![0.0; k];
-            for level in 0..self.levels(b) {
-                let c0 = offset + level * k;
-                for r in 0..rows {
-                    for (jj, out) in tmp.iter_mut().enumerate() {
-                        *out = (0..k).map(|j| m[(r, c0 + j)] * t[j * k + jj]).sum();
-                    }
-                    for (jj, v) in tmp.iter().enumerate() {
-                        m[(r, c0 + jj)] = *v;
-                    }
-                }
-            }
-        }
     }
 
     /// Row i of Z Lambda as (column, value): each term's entries of the

@@ -1,21 +1,20 @@
 //! The penalized least-squares system of a random-slope model at one
-//! theta, over every level of every term, factored densely.
-//!
-//! The cross-products Z'Z, Z'X, X'X, Z'y and X'y are formed once, of the
+//! theta, over every level of every term, held sparse
+//! ([`crate::mixed::sparse`]): its pattern, ordering and symbolic factor
+//! are found once; at each theta the system
+//! [Lambda'Z'Z Lambda + I, Lambda'Z'X; X'Z Lambda, X'X] of the
 //! standardized response (centred, divided by its standard deviation, as
-//! the random-intercept system does); at each theta the system
-//! [Lambda'Z'Z Lambda + I, Lambda'Z'X; X'Z Lambda, X'X] is formed block by
-//! block (Lambda is block diagonal with one k_t x k_t block per level) and
-//! factored as [L 0; R' R_X'], so that log|L|^2 and log|R_X|^2 are sums
-//! of the logarithms of its diagonal. The penalized residual sum of
-//! squares is computed from the solution itself,
+//! the random-intercept system does) is added up observation by
+//! observation and factored as [L 0; R' R_X'], so that log|L|^2 and
+//! log|R_X|^2 are sums of the logarithms of its pivots. The penalized
+//! residual sum of squares is computed from the solution itself,
 //! |y - X beta - Z Lambda u|^2 + |u|^2, not as a difference of squares.
 
-use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
+use faer::Mat;
 
 use super::structure::Structure;
 use super::Term;
+use crate::mixed::sparse::Sparse;
 use crate::mixed::{Criterion, MixedData, MixedError};
 
 /// The products a deviance evaluation needs, computed once.
@@ -29,10 +28,8 @@ pub(super) struct System {
     x: Vec<f64>,
     /// Z and the layout of Lambda.
     pub structure: Structure,
-    ztz: Mat<f64>,
-    ztx: Mat<f64>,
-    xtx: Mat<f64>,
-    zty: Vec<f64>,
+    /// The pattern and symbolic factor of the bordered system.
+    sparse: Sparse,
     xty: Vec<f64>,
 }
 
@@ -61,33 +58,14 @@ impl System {
         let y: Vec<f64> = base.y.iter().map(|v| (v - y_mean) / y_scale).collect();
         let x = base.design();
         let structure = Structure::new(terms, n);
-        let q = structure.q;
-        let mut ztz = Mat::<f64>::zeros(q, q);
-        let mut ztx = Mat::<f64>::zeros(q, p);
-        let mut xtx = Mat::<f64>::zeros(p, p);
-        let (mut zty, mut xty) = (vec![0.0; q], vec![0.0; p]);
-        for (i, row) in structure.z_rows.iter().enumerate() {
-            let xi = &x[i * p..(i + 1) * p];
-            for &(a, va) in row {
-                zty[a] += va * y[i];
-                for &(b, vb) in row {
-                    ztz[(a, b)] += va * vb;
-                }
-                for (c, xc) in xi.iter().enumerate() {
-                    ztx[(a, c)] += va * xc;
-                }
-            }
-            for (c, xc) in xi.iter().enumerate() {
-                xty[c] += xc * y[i];
-                for (d, xd) in xi.iter().enumerate() {
-                    xtx[(c, d)] += xc * xd;
-                }
-            }
-        }
-        if !ztz.norm_l2().is_finite() || !xtx.norm_l2().is_finite() {
+        let z2: f64 = structure.z_rows.iter().flatten().map(|(_, v)| v * v).sum();
+        let x2: f64 = x.iter().map(|v| v * v).sum();
+        if !z2.is_finite() || !x2.is_finite() {
             return Err(MixedError::TooLarge("the random-effect columns' products overflow double precision".into()));
         }
-        Ok(System { n, p, y_mean, y_scale, y, x, structure, ztz, ztx, xtx, zty, xty })
+        let xty: Vec<f64> = (0..p).map(|c| (0..n).map(|i| x[i * p + c] * y[i]).sum()).collect();
+        let sparse = Sparse::new(&structure.z_rows, structure.q, p)?;
+        Ok(System { n, p, y_mean, y_scale, y, x, structure, sparse, xty })
     }
 
     /// The deviance and estimates at `theta`.
@@ -95,42 +73,32 @@ impl System {
         let st = &self.structure;
         let (q, p, n) = (st.q, self.p, self.n);
         let lambda = st.lambda(theta);
-        // Lambda' Z'Z Lambda: columns, then (by symmetry) rows.
-        let mut a = self.ztz.clone();
-        st.times_lambda(&mut a, &lambda);
-        let mut a = a.transpose().to_owned();
-        st.times_lambda(&mut a, &lambda);
-        // Lambda' Z'X and Lambda' Z'y: columns of their transposes.
-        let mut bt = self.ztx.transpose().to_owned();
-        st.times_lambda(&mut bt, &lambda);
-        let mut cu = Mat::<f64>::from_fn(1, q, |_, j| self.zty[j]);
-        st.times_lambda(&mut cu, &lambda);
-        let mut m = Mat::<f64>::zeros(q + p, q + p);
-        for i in 0..q {
-            for j in 0..=i {
-                m[(i, j)] = 0.5 * (a[(i, j)] + a[(j, i)]) + if i == j { 1.0 } else { 0.0 };
-            }
-        }
-        for c in 0..p {
-            for j in 0..q {
-                m[(q + c, j)] = bt[(c, j)];
-            }
-            for d in 0..=c {
-                m[(q + c, q + d)] = self.xtx[(c, d)];
-            }
-        }
+        // The system and, on the way, Lambda'Z'y.
+        let mut rhs = Mat::<f64>::zeros(q + p, 1);
+        let factor = self.sparse.factor(
+            n,
+            |i, out| {
+                st.z_lambda_row(i, &lambda, out);
+                for &(j, v) in out.iter() {
+                    rhs[(j, 0)] += v * self.y[i];
+                }
+            },
+            None,
+            &self.x,
+        );
         let not_pd = || MixedError::NotPositiveDefinite { theta: theta.to_vec() };
-        let llt = m.llt(Side::Lower).map_err(|_| not_pd())?;
-        let l = llt.L();
-        let log_det_l2: f64 = (0..q).map(|i| 2.0 * l[(i, i)].ln()).sum();
-        let log_det_rx2: f64 = (q..q + p).map(|i| 2.0 * l[(i, i)].ln()).sum();
+        let factor = factor.ok_or_else(not_pd)?;
+        let log_det_l2 = factor.log_det_random();
+        let log_det_rx2 = factor.log_det_fixed();
         if !log_det_l2.is_finite() || !log_det_rx2.is_finite() {
             return Err(not_pd());
         }
-        let rhs = Mat::<f64>::from_fn(q + p, 1, |i, _| if i < q { cu[(0, i)] } else { self.xty[i - q] });
-        let sol = llt.solve(&rhs);
-        let u: Vec<f64> = (0..q).map(|i| sol[(i, 0)]).collect();
-        let beta_std: Vec<f64> = (0..p).map(|c| sol[(q + c, 0)]).collect();
+        for c in 0..p {
+            rhs[(q + c, 0)] = self.xty[c];
+        }
+        factor.solve(&mut rhs);
+        let u: Vec<f64> = (0..q).map(|i| rhs[(i, 0)]).collect();
+        let beta_std: Vec<f64> = (0..p).map(|c| rhs[(q + c, 0)]).collect();
         // b = Lambda u, then the residuals row by row.
         let b = st.lambda_times(&lambda, &u);
         let mut r2_std: f64 = u.iter().map(|v| v * v).sum();
@@ -139,13 +107,9 @@ impl System {
                 + st.z_rows[i].iter().map(|&(j, v)| v * b[j]).sum::<f64>();
             r2_std += (self.y[i] - fitted).powi(2);
         }
-        // (R_X'R_X)^-1 = L_X^-T L_X^-1, L_X the fixed-effect block of the
-        // factor (Var(beta) / sigma^2 on either scale: both scale by the
-        // same factor).
-        let mut w = Mat::<f64>::identity(p, p);
-        let lx = l.submatrix(q, q, p, p);
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(lx, w.as_mut(), faer::Par::Seq);
-        let rx_inv = w.transpose() * &w;
+        // (R_X'R_X)^-1 (Var(beta) / sigma^2 on either scale: both scale by
+        // the same factor).
+        let rx_inv = factor.rx_inv();
         let scale2 = self.y_scale * self.y_scale;
         let (deviance, sigma2) = match criterion {
             Criterion::Ml => {

@@ -7,11 +7,6 @@ use serde::Serialize;
 
 use crate::mixed::{Criterion, MixedData, MixedError};
 
-/// The most columns of the dense penalized system (random effects over
-/// every level of every term, plus the fixed effects): 4,000 square is
-/// 128 MB.
-pub const MAX_SLOPE_DENSE: usize = 4_000;
-
 /// The most columns one random-effect term may have (a factor's levels
 /// with `(f | g)`): 8 columns are 36 covariance parameters.
 pub const MAX_TERM_COLUMNS: usize = 8;
@@ -76,7 +71,7 @@ impl SlopeData {
                 });
             }
         }
-        let terms = ordered(terms, base.p())?;
+        let terms = ordered(terms);
         Ok(SlopeData { base, terms })
     }
 
@@ -93,9 +88,8 @@ impl SlopeData {
 
 /// `terms` in lme4's order (by decreasing number of levels when they
 /// are not in it already: `mkReTrms`'s `rev(order(nl))`, which reverses
-/// ties), named as `VarCorr` names them, once the dense system with `p`
-/// fixed-effect columns is known to fit.
-pub(crate) fn ordered(terms: Vec<Term>, p: usize) -> Result<Vec<Term>, MixedError> {
+/// ties), named as `VarCorr` names them.
+pub(crate) fn ordered(terms: Vec<Term>) -> Vec<Term> {
     let levels: Vec<usize> = terms.iter().map(|t| t.levels).collect();
     let mut terms = terms;
     if levels.windows(2).any(|w| w[1] > w[0]) {
@@ -108,14 +102,7 @@ pub(crate) fn ordered(terms: Vec<Term>, p: usize) -> Result<Vec<Term>, MixedErro
     for (t, name) in terms.iter_mut().zip(names) {
         t.group = name;
     }
-    let q: usize = terms.iter().map(|t| t.levels * t.columns.len()).sum();
-    let dense = q + p;
-    if dense > MAX_SLOPE_DENSE {
-        return Err(MixedError::TooLarge(format!(
-            "the random terms have {q} effects over their levels and there are {p} fixed-effect columns: the dense system would be {dense} x {dense}, over the limit of {MAX_SLOPE_DENSE} for a model with random slopes or a generalized model"
-        )));
-    }
-    Ok(terms)
+    terms
 }
 
 /// lme4's names of the terms in `VarCorr`: the grouping factors' names,
