@@ -330,13 +330,6 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     let best = unscaled(&best);
     let theta = m.structure.normalized(&best[..nt]);
     let beta = best[nt..].to_vec();
-    let at = m.evaluate(&theta, &beta, None, true)?;
-    let rx = at.rx_vcov.clone().unwrap_or_else(|| faer::Mat::zeros(m.p, m.p));
-    let mut notes = Vec::new();
-    let hessian_vcov = hessian_vcov(&one, &best_scaled, objective, &scales, nt);
-    if hessian_vcov.is_none() {
-        notes.push("the Hessian of the objective in (theta, beta) is not positive definite at the optimum, so the standard errors are R_X's (lme4's use.hessian = FALSE)".into());
-    }
     // Separation, from the data: the fixed effects the likelihood runs
     // to infinity along. Where the programs did not finish, a coefficient
     // that moves the linear predictor by more than 25 (odds or rates of
@@ -346,16 +339,28 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
         Some(found) => found.iter().map(|&(c, _)| names[c].clone()).collect(),
         None => (0..m.p).filter(|&c| (beta[c] * x_rms[c]).abs() > 25.0).map(|c| names[c].clone()).collect(),
     };
+    // Separated data leave X'WX singular at the optimum (weights of 0 where
+    // the fitted probabilities reach 0 or 1): the fit is still reported,
+    // named as separated, its standard errors not a number.
+    let at = match m.evaluate(&theta, &beta, None, true) {
+        Err(MixedError::FixedEffects(_)) if !separated.is_empty() => m.evaluate(&theta, &beta, None, false)?,
+        other => other?,
+    };
+    let rx = at.rx_vcov.clone().unwrap_or_else(|| faer::Mat::from_fn(m.p, m.p, |_, _| f64::NAN));
+    let mut notes = Vec::new();
+    let hessian_vcov = hessian_vcov(&one, &best_scaled, objective, &scales, nt);
+    if hessian_vcov.is_none() {
+        notes.push("the Hessian of the objective in (theta, beta) is not positive definite at the optimum, so the standard errors are R_X's (lme4's use.hessian = FALSE)".into());
+    }
     let mut certificate = certificate;
     if !separated.is_empty() {
         certificate.certified = false;
         notes.push(format!(
-            "the data separate {}: the likelihood rises without bound as {} along a direction where no observation's fit gets worse (a level or a side of a predictor with no {} or none else), so {} and {} standard error are not estimates; remove or merge what separates the data",
+            "the data separate {}: the likelihood rises without bound as {} along a direction where no observation's fit gets worse (a level or a side of a predictor with no {} or none else), so the estimates and standard errors of {} are not estimates; remove or merge what separates the data",
             separated.join(", "),
             if separated.len() == 1 { "it runs" } else { "they run together" },
             if data.family == Family::Binomial { "success" } else { "count" },
-            if separated.len() == 1 { "its estimate" } else { "their estimates" },
-            if separated.len() == 1 { "its" } else { "their" },
+            separated.join(", "),
         ));
     }
     let fixed = names
