@@ -282,7 +282,8 @@ fn reml_checked(run: &str, status: &std::process::Output, out: &std::path::Path,
 /// computed here from the per-cell d (naive: SD / sqrt(N); CR1, as
 /// sandwich::vcovCL(type = "HC1") for an intercept-only model:
 /// V = G / (G - 1) sum_g (sum of the cluster's residuals)^2 / N^2,
-/// Cameron & Miller 2015, eq. 11 with its small-sample factor).
+/// Cameron & Miller 2015, eq. 11 with its small-sample factor), and the
+/// two-way one (Cameron, Gelbach & Miller 2011) likewise.
 #[test]
 fn compared_intervals_on_an_incomplete_array_give_what_it_allows_and_name_the_rest() {
     let run = "nanobench_paper";
@@ -339,12 +340,27 @@ fn compared_intervals_on_an_incomplete_array_give_what_it_allows_and_name_the_re
     }
     assert_eq!(row("cluster_recording")["df"].as_f64().unwrap(), 23.0);
     assert_eq!(row("cluster_seed")["df"].as_f64().unwrap(), 19.0);
+    // Two-way (CGM, sandwich::vcovCL(lm(d ~ 1), cluster = ~ recording +
+    // seed)): V_recording + V_seed - V_cell, each with its G / (G - 1).
+    let mut by: [BTreeMap<String, f64>; 2] = Default::default();
+    for (k, v) in &d {
+        *by[0].entry(k.0.clone()).or_default() += v - mean;
+        *by[1].entry(k.1.clone()).or_default() += v - mean;
+    }
+    let part = |m: &BTreeMap<String, f64>| {
+        let g = m.len() as f64;
+        g / (g - 1.0) * m.values().map(|s| s * s).sum::<f64>() / (n * n)
+    };
+    let cells_part = n / (n - 1.0) * d.iter().map(|x| (x.1 - mean).powi(2)).sum::<f64>() / (n * n);
+    let cgm = (part(&by[0]) + part(&by[1]) - cells_part).sqrt();
+    assert!((se("two_way_cluster") - cgm).abs() <= 1e-12 * cgm, "two-way: {} against {cgm}", se("two_way_cluster"));
+    assert_eq!(row("two_way_cluster")["df"].as_f64().unwrap(), 19.0);
     // Every other one is named in report.md with its reason.
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     // (Only the primary unit's cells were deleted: the others are complete
     // and give all 18.)
     let named = report.matches("undefined: it needs a complete recording x seed array").count();
-    assert_eq!(named, 13, "{report}");
+    assert_eq!(named, 12, "{report}");
 }
 
 #[test]

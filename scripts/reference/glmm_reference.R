@@ -32,17 +32,20 @@ fmt <- function(x) format(x, digits = 17)
 # to tight tolerances, and the fit with the lower -2 logLik is reported
 # (they differ on grouseticks, where lme4's BOBYQA stops 4e-3 above the
 # optimum).
-show_fit <- function(name, formula, data, family) {
+show_fit <- function(name, formula, data, family, weights = NULL) {
   optimizers <- c("bobyqa", "nloptwrap")
+  w <- if (is.null(weights)) NULL else data[[weights]]
   fits <- lapply(optimizers, function(o) {
     ctl <- make_control(o)
-    glmer(formula, data, family = family, control = ctl)
+    # do.call passes the weights' values (glmer looks a name up in data).
+    do.call(glmer, list(formula, data = data, family = family, control = ctl, weights = w))
   })
   best <- which.min(sapply(fits, function(f) -2 * as.numeric(logLik(f))))
   m <- fits[[best]]
   ctl <- make_control(optimizers[best])
   cat(name, "formula", deparse(formula, width.cutoff = 500L), "\n")
   cat(name, "family", family, "\n")
+  if (!is.null(weights)) cat(name, "weights", weights, "\n")
   cat(name, "criterion", fmt(-2 * as.numeric(logLik(m))), "\n")
   dd <- update(m, devFunOnly = TRUE, control = ctl)
   cat(name, "optimizer", optimizers[best], "\n")
@@ -70,7 +73,7 @@ write_fixture <- function(d, file) {
 # period, with and without an observation-level effect (lme4's example).
 cb <- data.frame(incidence = cbpp$incidence, healthy = cbpp$size - cbpp$incidence,
                  period = as.integer(as.character(cbpp$period)), herd = as.character(cbpp$herd),
-                 obs = seq_len(nrow(cbpp)), size = cbpp$size)
+                 obs = seq_len(nrow(cbpp)), size = cbpp$size, prop = cbpp$incidence / cbpp$size)
 write_fixture(cb, "glmm_cbpp.csv")
 show_fit("cbpp_herd", cbind(incidence, healthy) ~ factor(period) + (1 | herd), cb, "binomial")
 show_fit("cbpp_obs", cbind(incidence, healthy) ~ factor(period) + (1 | herd) + (1 | obs), cb, "binomial")
@@ -79,6 +82,9 @@ show_fit("cbpp_obs", cbind(incidence, healthy) ~ factor(period) + (1 | herd) + (
 # animal), with and without an observation-level effect.
 show_fit("cbpp_trials", cbind(incidence, size - incidence) ~ factor(period) + (1 | herd), cb, "binomial")
 show_fit("cbpp_exposure", incidence ~ factor(period) + offset(log(size)) + (1 | herd), cb, "poisson")
+# lme4's own example of prior weights: the proportion of cases with the
+# herd sizes as weights (the trials).
+show_fit("cbpp_weights", prop ~ factor(period) + (1 | herd), cb, "binomial", weights = "size")
 show_fit("cbpp_exposureobs", incidence ~ factor(period) + offset(log(size)) + (1 | herd) + (1 | obs), cb, "poisson")
 
 # 2. lme4's grouseticks: ticks on grouse chicks, an observation-level

@@ -64,6 +64,8 @@ show_fit("sleepstudy_reml", Reaction ~ Days + (Days | Subject), sleep)
 show_fit("sleepstudy_ml", Reaction ~ Days + (Days | Subject), sleep, reml = FALSE)
 show_fit("sleepstudy_uncorrelated", Reaction ~ Days + (Days || Subject), sleep)
 show_fit("sleepstudy_slope_only", Reaction ~ Days + (0 + Days | Subject), sleep)
+# An offset (issue 75): a term with its coefficient fixed at 1.
+show_fit("sleepstudy_offset", Reaction ~ Days + offset(Days) + (Days | Subject), sleep)
 
 # 2. nlme's Orthodont: growth of 27 children, with a fixed effect of sex.
 orth <- data.frame(distance = Orthodont$distance, age = Orthodont$age,

@@ -6,7 +6,7 @@
 
 use crossaudit_stats::mixed;
 use crossaudit_stats::mixed::formula::{
-    compare_table, fit_glmm_table, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
+    compare_table, fit_glmm_weighted, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
     GlmmFormulaFit, Table,
 };
 
@@ -44,14 +44,16 @@ pub fn fit_file(
 }
 
 /// Reads the tidy CSV at `path` and fits `formula` to it as a generalized
-/// linear mixed model of `family` (see [`fit_glmm_table`]).
+/// linear mixed model of `family`, with binomial prior `weights` (see
+/// [`fit_glmm_weighted`]).
 pub fn fit_glmm_file(
     path: &std::path::Path,
     formula: &str,
     family: mixed::glmm::Family,
     profile: Option<f64>,
+    weights: Option<&str>,
 ) -> Result<GlmmFormulaFit, FileError> {
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
     let table = read_file(path).map_err(fail)?;
-    fit_glmm_table(formula, &table, family, profile).map_err(fail)
+    fit_glmm_weighted(formula, &table, family, profile, weights).map_err(fail)
 }

@@ -387,13 +387,18 @@ fn conditional(a: &Analysis, level: &str) -> MdTable {
 }
 
 /// Why an interval can be undefined on an array (`incomplete`: cells of
-/// it are missing, which only REML, the naive and the one-way clustered
-/// intervals allow).
+/// it are missing, which only REML, the naive and the one- and two-way
+/// clustered intervals allow).
 fn undefined_because(method: crossaudit_stats::IntervalMethod, incomplete: bool) -> &'static str {
     use crossaudit_stats::IntervalMethod as M;
     let allowed = matches!(
         method,
-        M::RemlSatterthwaite | M::RemlKenwardRoger | M::NaiveIid | M::ClusterRecording | M::ClusterSeed
+        M::RemlSatterthwaite
+            | M::RemlKenwardRoger
+            | M::NaiveIid
+            | M::ClusterRecording
+            | M::ClusterSeed
+            | M::TwoWayCluster
     );
     if incomplete && !allowed {
         return "it needs a complete recording x seed array, and this one has missing cells (listed under Missing cells)";

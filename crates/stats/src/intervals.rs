@@ -51,9 +51,9 @@ pub fn incomplete_intervals(
     out.push(IntervalEstimate { method: M::NaiveIid, estimate, se, df, lower, upper, boundary: false });
     out.push(one_way_cluster(cells, rows, |c| c.0, M::ClusterRecording, level));
     out.push(one_way_cluster(cells, cols, |c| c.1, M::ClusterSeed, level));
+    out.push(two_way_cluster(cells, rows, cols, level)?);
     out.extend(
         [
-            M::TwoWayCluster,
             M::SumOfMargins,
             M::MomUntruncated,
             M::PigeonholeSe,
@@ -106,6 +106,44 @@ fn one_way_cluster(
         }
         _ => IntervalEstimate::undefined(method),
     }
+}
+
+/// The two-way cluster-robust interval (Cameron, Gelbach & Miller 2011)
+/// of the mean of the cells present, as on a complete array: with e the
+/// residuals about their mean and G_r, G_c the rows and columns that hold
+/// a cell, V = G_r / (G_r - 1) sum_r (row sum of e)^2 / n^2 + G_c / (G_c -
+/// 1) sum_c (column sum of e)^2 / n^2 - n / (n - 1) sum e^2 / n^2
+/// (sandwich::vcovCL(lm(d ~ 1), cluster = ~ row + col), type HC1), on
+/// t(min(G_r, G_c) - 1); undefined (a boundary row) where V is not
+/// positive.
+fn two_way_cluster(
+    cells: &[(usize, usize, f64)],
+    rows: usize,
+    cols: usize,
+    level: f64,
+) -> Result<IntervalEstimate, StatsError> {
+    let n = cells.len() as f64;
+    let mean = cells.iter().map(|c| c.2).sum::<f64>() / n;
+    let (mut row_sums, mut col_sums) = (vec![0.0; rows], vec![0.0; cols]);
+    let (mut row_held, mut col_held) = (vec![false; rows], vec![false; cols]);
+    let mut squares = 0.0;
+    for &(r, c, v) in cells {
+        let e = v - mean;
+        row_sums[r] += e;
+        col_sums[c] += e;
+        row_held[r] = true;
+        col_held[c] = true;
+        squares += e * e;
+    }
+    let gr = row_held.iter().filter(|h| **h).count() as f64;
+    let gc = col_held.iter().filter(|h| **h).count() as f64;
+    if gr < 2.0 || gc < 2.0 {
+        return Ok(IntervalEstimate::undefined(IntervalMethod::TwoWayCluster));
+    }
+    let sum_sq = |s: &[f64]| s.iter().map(|v| v * v).sum::<f64>();
+    let v =
+        (gr / (gr - 1.0) * sum_sq(&row_sums) + gc / (gc - 1.0) * sum_sq(&col_sums) - n / (n - 1.0) * squares) / (n * n);
+    from_variance(IntervalMethod::TwoWayCluster, mean, v, gr.min(gc) - 1.0, level)
 }
 
 /// The two REML intervals of a rows x cols array with cells missing

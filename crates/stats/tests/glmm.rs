@@ -12,7 +12,10 @@
 //! the same parameterization); the optimum crossaudit finds is no higher
 //! than lme4's; theta, beta, the variance components, the standard errors
 //! (lme4's default from the finite-difference Hessian, and R_X's) agree;
-//! the singular flag is lme4's `isSingular`.
+//! the singular flag is lme4's `isSingular`. Among them, glmer's formulas
+//! beyond columns (issue 75): `cbind(incidence, size - incidence)`,
+//! `offset(log(size))` of a Poisson model, and a response of proportions
+//! with the herd sizes as prior `weights`, all on lme4's cbpp.
 
 mod common;
 
@@ -20,13 +23,15 @@ use std::collections::BTreeMap;
 
 use common::{close, compare_varcorr, fixture, root, VarCorr};
 
-use crossaudit_stats::mixed::formula::{build_glmm, fit_glmm_table, read_csv};
+use crossaudit_stats::mixed::formula::{build_glmm_weighted, fit_glmm_table, fit_glmm_weighted, read_csv};
 use crossaudit_stats::mixed::glmm::{laplace_at, Family};
 
 #[derive(Default, Debug)]
 struct Reference {
     formula: String,
     family: String,
+    /// glmer's prior weights (a column), where the fit has them.
+    weights: Option<String>,
     criterion: f64,
     objective: f64,
     theta: Vec<f64>,
@@ -49,6 +54,7 @@ fn references() -> BTreeMap<String, Reference> {
         match what {
             "formula" => r.formula = values.trim().to_string(),
             "family" => r.family = values.trim().to_string(),
+            "weights" => r.weights = Some(values.trim().to_string()),
             "criterion" => r.criterion = num(words[0]),
             "objective" => r.objective = num(words[0]),
             "theta" => r.theta = words.iter().map(|w| num(w)).collect(),
@@ -76,13 +82,13 @@ fn glmm_fits_match_lme4s_glmer() {
     for (name, r) in &refs {
         let table = read_csv(&fixture("glmm", name)).unwrap();
         let family = if r.family == "binomial" { Family::Binomial } else { Family::Poisson };
-        let data = build_glmm(&r.formula, &table, family).unwrap();
+        let data = build_glmm_weighted(&r.formula, &table, family, r.weights.as_deref()).unwrap();
         // The same objective: crossaudit's at lme4's optimum, and R_X's
         // standard errors there.
         let (at_lme4, se_rx_at_lme4) = laplace_at(&data, &r.theta, &r.beta).unwrap();
         close(&format!("{name} objective at lme4's optimum"), at_lme4, r.objective, 5e-8, 0.0, &mut failures);
         close(&format!("{name} lme4's -2 logLik"), r.criterion, r.objective, 1e-13, 0.0, &mut failures);
-        let fit = fit_glmm_table(&r.formula, &table, family, None).unwrap();
+        let fit = fit_glmm_weighted(&r.formula, &table, family, None, r.weights.as_deref()).unwrap();
         let f = &fit.fit;
         assert!(f.certificate.certified, "{name}: {}", fit.summary());
         if f.deviance > r.criterion + 5e-8 * r.criterion.abs() {

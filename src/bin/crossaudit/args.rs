@@ -454,8 +454,11 @@ pub(crate) struct MixedArgs {
     /// categorical x (a factor's columns), up to 8 columns per term.
     /// --profile is for random intercepts and generalized models; a
     /// generalized model reports Wald z tests, without df.
-    /// A binomial response is `cbind(successes, failures)` (two columns)
-    /// or one 0/1 column.
+    /// A binomial response is `cbind(successes, failures)` (two columns),
+    /// `cbind(successes, trials - successes)` or one 0/1 column (or a
+    /// proportion with --weights). `offset(col)` or `offset(log(col))`
+    /// adds a term with its coefficient fixed at 1 (a Poisson exposure:
+    /// `offset(log(t))`).
     #[arg(long)]
     pub(crate) formula: String,
     /// The response's family: gaussian (a linear mixed model, lmer),
@@ -483,4 +486,14 @@ pub(crate) struct MixedArgs {
     /// (nested) models, both refitted by ML, as lme4's anova(m1, m2).
     #[arg(long, value_name = "FORMULA2", conflicts_with = "profile")]
     pub(crate) compare: Option<String>,
+    /// A column added to the linear predictor with its coefficient fixed
+    /// at 1, as `offset(COL)` in the formula (of both formulas with
+    /// --compare).
+    #[arg(long, value_name = "COL")]
+    pub(crate) offset: Option<String>,
+    /// glmer's prior weights for a binomial model: the trials behind a
+    /// response of proportions (each proportion x weight a whole number
+    /// of successes).
+    #[arg(long, value_name = "COL")]
+    pub(crate) weights: Option<String>,
 }

@@ -273,8 +273,35 @@ fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, j
 /// `crossaudit mixed`: a linear mixed model (or two compared), or a
 /// generalized one (`--family binomial|poisson`).
 pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
-    let (data, formula) = (a.data.as_path(), a.formula.as_str());
-    match (a.family.as_str(), a.compare) {
+    use crossaudit::stats::mixed::formula::{parse, FileError, FormulaError};
+    let data = a.data.as_path();
+    let refuse = |message: String| -> Error {
+        FileError { file: data.display().to_string(), error: FormulaError::Unsupported(message) }.into()
+    };
+    // --offset COL is offset(`COL`) in the formula (and in the second).
+    let with_offset = |formula: &str| -> Result<String, Error> {
+        let Some(column) = &a.offset else { return Ok(formula.to_string()) };
+        if parse(formula).is_ok_and(|f| f.offset.is_some()) {
+            return Err(refuse(format!(
+                "--offset {column} and an offset( ) in the formula `{formula}`: give the offset once"
+            )));
+        }
+        if column.contains('`') {
+            return Err(refuse(format!(
+                "--offset {column}: a column name with a backquote cannot be named in a formula"
+            )));
+        }
+        Ok(format!("{formula} + offset(`{column}`)"))
+    };
+    let formula = with_offset(&a.formula)?;
+    let compare = a.compare.as_deref().map(with_offset).transpose()?;
+    let formula = formula.as_str();
+    if a.weights.is_some() && a.family == "gaussian" {
+        return Err(refuse(
+            "--weights: a linear mixed model's prior weights are not supported; --weights gives the trials of a binomial response of proportions".into(),
+        ));
+    }
+    match (a.family.as_str(), compare) {
         ("gaussian", Some(other)) => mixed_compare(data, formula, &other, a.json),
         ("gaussian", None) => mixed(data, formula, a.ml, &a.df, a.profile, a.json),
         (family, other) => {
@@ -285,7 +312,7 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
             } else {
                 None
             };
-            mixed_glmm(data, formula, (family, a.profile), refused, a.json)
+            mixed_glmm(data, formula, (family, a.profile, a.weights.as_deref()), refused, a.json)
         }
     }
 }
@@ -295,7 +322,7 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
 fn mixed_glmm(
     data: &Path,
     formula: &str,
-    (family, profile): (&str, Option<f64>),
+    (family, profile, weights): (&str, Option<f64>, Option<&str>),
     refused: Option<&str>,
     json: bool,
 ) -> Result<(), Error> {
@@ -316,7 +343,7 @@ fn mixed_glmm(
         )));
     }
     let family = if family == "binomial" { Family::Binomial } else { Family::Poisson };
-    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family, profile)?;
+    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family, profile, weights)?;
     if json {
         out!("{}", crossaudit::io::pretty_json(&fit));
     } else {

@@ -34,10 +34,29 @@ pub struct GlmmFormulaFit {
 /// `cbind(successes, failures)` or a 0/1 column (binomial), or a count
 /// column (Poisson); the fixed and random terms as for a linear model.
 pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<GlmmData, FormulaError> {
+    build_glmm_weighted(formula_text, table, family, None)
+}
+
+/// [`build_glmm`] with glmer's prior `weights`: for a binomial model, the
+/// column of trials behind a response of proportions (successes =
+/// proportion x weight, a whole number); refused for a Poisson model
+/// (whose exposure is an offset, `offset(log(t))`).
+pub fn build_glmm_weighted(
+    formula_text: &str,
+    table: &Table,
+    family: Family,
+    weights: Option<&str>,
+) -> Result<GlmmData, FormulaError> {
     let formula = parse(formula_text)?;
-    let k = whole_counts(table, &formula.response)?;
+    let (k, trials) = match weights {
+        Some(w) => weighted(family, &formula, table, w)?,
+        None => {
+            let k = whole_counts(table, &formula.response)?;
+            let trials = trials(family, &formula, table, &k)?;
+            (k, trials)
+        }
+    };
     let n = k.len();
-    let trials = trials(family, &formula, table, &k)?;
     let mut factors: Vec<(String, Vec<usize>)> = Vec::new();
     for term in &formula.random {
         if !factors.iter().any(|(name, _)| *name == term.name) {
@@ -66,12 +85,23 @@ pub fn fit_glmm_table(
     family: Family,
     profile: Option<f64>,
 ) -> Result<GlmmFormulaFit, FormulaError> {
+    fit_glmm_weighted(formula, table, family, profile, None)
+}
+
+/// [`fit_glmm_table`] with prior `weights` (see [`build_glmm_weighted`]).
+pub fn fit_glmm_weighted(
+    formula: &str,
+    table: &Table,
+    family: Family,
+    profile: Option<f64>,
+    weights: Option<&str>,
+) -> Result<GlmmFormulaFit, FormulaError> {
     if let Some(level) = profile {
         if !(level > 0.0 && level < 1.0) {
             return Err(crate::mixed::MixedError::Level(level).into());
         }
     }
-    let data = build_glmm(formula, table, family)?;
+    let data = build_glmm_weighted(formula, table, family, weights)?;
     let fit = fit_glmm(&data)?;
     let profile = match profile {
         Some(level) => Some((level, profile_fixed(&data, &fit, level)?)),
@@ -179,6 +209,55 @@ fn whole_counts(table: &Table, name: &str) -> Result<Vec<f64>, FormulaError> {
         });
     }
     Ok(values)
+}
+
+/// Successes and trials of a binomial response of proportions with
+/// prior weights `w` (glmer's `weights`: the trials): each proportion
+/// between 0 and 1, each weight a whole number of at least 1, their
+/// product a whole number of successes (glmer warns of a non-integer one
+/// and fits it anyway; crossaudit refuses it at its row).
+fn weighted(family: Family, formula: &Formula, table: &Table, w: &str) -> Result<(Vec<f64>, Vec<f64>), FormulaError> {
+    if family != Family::Binomial {
+        return Err(FormulaError::Unsupported(format!(
+            "--weights {w}: prior weights are the trials of a binomial response of proportions; a Poisson model's exposure is an offset, `offset(log({w}))`, and a linear model's weights are not supported"
+        )));
+    }
+    if formula.failures.is_some() || formula.trials.is_some() {
+        return Err(FormulaError::Unsupported(format!(
+            "--weights {w} with cbind( ): the trials are given twice; write the proportion as the response with --weights, or cbind( ) alone"
+        )));
+    }
+    let trials = whole_counts(table, w)?;
+    present(table, &formula.response)?;
+    let col = table.column(&formula.response)?;
+    let Some(y) = numbers(table, &formula.response)? else {
+        let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: formula.response.clone(),
+            message: format!("`{}` is not a proportion between 0 and 1", col[row].trim()),
+        });
+    };
+    let mut k = Vec::with_capacity(y.len());
+    for (row, (&p, &m)) in y.iter().zip(&trials).enumerate() {
+        let bad =
+            |field: &str, message: String| FormulaError::Value { row: row + 1, field: field.to_string(), message };
+        if !(0.0..=1.0).contains(&p) {
+            return Err(bad(&formula.response, format!("`{}` is not a proportion between 0 and 1", col[row].trim())));
+        }
+        if m < 1.0 {
+            return Err(bad(w, "a weight of 0: an observation needs at least one trial".into()));
+        }
+        let successes = p * m;
+        if (successes - successes.round()).abs() > 1e-8 * m.max(1.0) {
+            return Err(bad(
+                &formula.response,
+                format!("the proportion {p} of {m} trials is {successes} successes, not a whole number"),
+            ));
+        }
+        k.push(successes.round());
+    }
+    Ok((k, trials))
 }
 
 /// Each observation's number of trials: successes plus failures for

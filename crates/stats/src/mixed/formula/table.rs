@@ -278,6 +278,19 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, For
         return Ok(FormulaModel::Intercepts(base));
     }
     let terms = random_terms(formula, table, &factors, n)?;
+    // lmer's check.nobs.vs.nRE: a term with as many random effects as
+    // observations leaves them and the residual variance unidentifiable.
+    if let Some(t) = terms.iter().find(|t| t.levels * t.columns.len() >= n) {
+        return Err(FormulaError::RandomTerm {
+            term: format!("{} | {}", t.names.iter().map(|n| if n == "(Intercept)" { "1" } else { n.as_str() }).collect::<Vec<_>>().join(" + "), t.factor),
+            message: format!(
+                "it has {} random effects ({} levels x {} columns) for {n} observations: they and the residual variance cannot be told apart (lme4 stops: number of observations <= number of random effects); fit fewer slopes or collect more observations per level",
+                t.levels * t.columns.len(),
+                t.levels,
+                t.columns.len()
+            ),
+        });
+    }
     Ok(FormulaModel::Slopes(SlopeData::new(base, terms)?))
 }
 
@@ -341,7 +354,44 @@ pub(super) fn random_terms(
         let (names, columns) = coded.into_iter().unzip();
         terms.push(Term { group: term.name.clone(), factor: term.name.clone(), codes, levels, names, columns });
     }
+    separable_terms(&terms)?;
     Ok(terms)
+}
+
+/// The terms of one grouping factor (`(x || g)` is `(1|g) + (0 + x|g)`)
+/// have linearly independent columns between them too, or their variances
+/// cannot be told apart: `(f || g)` with a factor f gives `(1|g)` and
+/// `(0 + f|g)`, whose columns (every level's indicator) add up to the
+/// intercept, and lme4 fits it with the warning that the model is nearly
+/// unidentifiable. Refused, naming the terms and what to write instead.
+fn separable_terms(terms: &[Term]) -> Result<(), FormulaError> {
+    for (i, t) in terms.iter().enumerate() {
+        let same: Vec<&Term> = terms[..i].iter().filter(|u| u.factor == t.factor).collect();
+        if same.is_empty() {
+            continue;
+        }
+        let mut coded: Vec<(String, Vec<f64>)> = Vec::new();
+        for u in same.iter().copied().chain(std::iter::once(t)) {
+            coded.extend(u.names.iter().cloned().zip(u.columns.iter().cloned()));
+        }
+        if independent_columns(&coded, &t.factor).is_err() {
+            let show = |u: &Term| {
+                let names: Vec<&str> =
+                    u.names.iter().map(|n| if n == "(Intercept)" { "1" } else { n.as_str() }).collect();
+                let zero = if u.names.first().map(String::as_str) == Some("(Intercept)") { "" } else { "0 + " };
+                format!("({zero}{} | {})", names.join(" + "), u.factor)
+            };
+            let earlier: Vec<String> = same.iter().map(|u| show(u)).collect();
+            return Err(FormulaError::RandomTerm {
+                term: format!("{} and {}", earlier.join(", "), show(t)),
+                message: format!(
+                    "these terms of the grouping factor {} have columns that depend on each other (a factor's level indicators add up to the intercept, as in `(f || g)` with a categorical f), so their variances cannot be told apart (lme4 fits it and warns that the model is nearly unidentifiable); write `(f | g)` for correlated effects, or `(1 | g) + (1 | g:f)`",
+                    t.factor
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// A random term's columns (its intercept and slopes over every row) are
