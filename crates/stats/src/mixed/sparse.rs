@@ -111,34 +111,7 @@ impl Sparse {
             }
             pair_start.push(pair_pos.len());
         }
-        // The fill-reducing ordering of the random effects' block; the
-        // fixed effects keep the last places.
-        let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-        if q > 0 {
-            let random_nnz = col_ptr[q] - q * p;
-            let mut random_ptr = Vec::with_capacity(q + 1);
-            let mut random_idx = Vec::with_capacity(random_nnz);
-            random_ptr.push(0);
-            for b in 0..q {
-                random_idx.extend_from_slice(&row_idx[col_ptr[b]..col_ptr[b + 1] - p]);
-                random_ptr.push(random_idx.len());
-            }
-            let pattern = SymbolicSparseColMatRef::new_checked(q, q, &random_ptr, None, &random_idx);
-            let mut buffer = MemBuffer::try_new(amd::order_scratch::<usize>(q, random_nnz))
-                .map_err(|_| too_large(format!("the ordering of {q} random effects does not fit in memory")))?;
-            amd::order(
-                &mut forward[..q],
-                &mut inverse[..q],
-                pattern,
-                amd::Control::default(),
-                MemStack::new(&mut buffer),
-            )
-            .map_err(|e| too_large(format!("the ordering of {q} random effects failed: {e:?}")))?;
-        }
-        for j in q..n {
-            forward[j] = j;
-            inverse[j] = j;
-        }
+        let (forward, inverse) = ordering(&col_ptr, &row_idx, q, p)?;
         let perm = PermRef::new_checked(&forward, &inverse, n);
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
         let symbolic = factorize_symbolic_cholesky(
@@ -231,6 +204,34 @@ impl Sparse {
         }
         Some(Factor { sparse: self, values: factor_values, diagonal })
     }
+}
+
+/// The fill-reducing ordering (forward, inverse) of the system whose
+/// lower triangle is (`col_ptr`, `row_idx`): AMD's of the random effects'
+/// block, the `p` fixed effects keeping the last places.
+fn ordering(col_ptr: &[usize], row_idx: &[usize], q: usize, p: usize) -> Result<(Vec<usize>, Vec<usize>), MixedError> {
+    let n = q + p;
+    let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
+    if q > 0 {
+        let random_nnz = col_ptr[q] - q * p;
+        let mut random_ptr = Vec::with_capacity(q + 1);
+        let mut random_idx = Vec::with_capacity(random_nnz);
+        random_ptr.push(0);
+        for b in 0..q {
+            random_idx.extend_from_slice(&row_idx[col_ptr[b]..col_ptr[b + 1] - p]);
+            random_ptr.push(random_idx.len());
+        }
+        let pattern = SymbolicSparseColMatRef::new_checked(q, q, &random_ptr, None, &random_idx);
+        let mut buffer = MemBuffer::try_new(amd::order_scratch::<usize>(q, random_nnz))
+            .map_err(|_| MixedError::TooLarge(format!("the ordering of {q} random effects does not fit in memory")))?;
+        amd::order(&mut forward[..q], &mut inverse[..q], pattern, amd::Control::default(), MemStack::new(&mut buffer))
+            .map_err(|e| MixedError::TooLarge(format!("the ordering of {q} random effects failed: {e:?}")))?;
+    }
+    for j in q..n {
+        forward[j] = j;
+        inverse[j] = j;
+    }
+    Ok((forward, inverse))
 }
 
 /// The diagonal of a numeric factor, in its order.

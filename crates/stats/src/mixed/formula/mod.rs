@@ -542,6 +542,59 @@ fn canonical(terms: Vec<Vec<Variable>>) -> Vec<Vec<Variable>> {
     unique
 }
 
+impl Parser {
+    /// The terms after `~`: fixed terms as written (each a set of
+    /// variables; a crossing expands), random terms and the offset.
+    fn terms(&mut self) -> Result<(Vec<Vec<Variable>>, Vec<RandomTerm>, Option<Offset>), FormulaError> {
+        let mut fixed: Vec<Vec<Variable>> = Vec::new();
+        let mut random: Vec<RandomTerm> = Vec::new();
+        let mut offset: Option<Offset> = None;
+        let mut first = true;
+        loop {
+            if !first {
+                match self.peek() {
+                    None => break,
+                    Some(Token::Sym('+')) => self.at += 1,
+                    Some(Token::Sym('-')) => return self.error("removing terms (`-`) is not supported"),
+                    _ => return self.error("expected `+` between terms"),
+                }
+            }
+            first = false;
+            match self.peek().cloned() {
+                None => return self.error("expected a term"),
+                Some(Token::Number(n)) if n == "1" => self.at += 1,
+                Some(Token::Number(n)) if n == "0" => {
+                    return self.error("a model without an intercept (`0`) is not supported");
+                }
+                Some(Token::Number(n)) => {
+                    return self.error(format!("`{n}`: a term is a column name, 1, or (1|group)"))
+                }
+                Some(Token::Sym('(')) => {
+                    self.at += 1;
+                    random.extend(self.random_term()?);
+                }
+                Some(Token::Name(n))
+                    if n == "offset" && self.tokens.get(self.at + 1).map(|t| &t.1) == Some(&Token::Sym('(')) =>
+                {
+                    let column = self.column();
+                    self.at += 1;
+                    let o = self.offset()?;
+                    if offset.is_some() {
+                        return Err(FormulaError::Syntax {
+                            column,
+                            message: "a second offset( ): compute their sum in the CSV first".into(),
+                        });
+                    }
+                    offset = Some(o);
+                }
+                Some(Token::Name(_)) => fixed.extend(self.crossed_terms()?),
+                Some(_) => return self.error("expected a term"),
+            }
+        }
+        Ok((fixed, random, offset))
+    }
+}
+
 /// Parses `response ~ terms`.
 pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     let tokens = tokenize(text)?;
@@ -570,48 +623,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     p.response = response.clone();
     p.failures = failures.clone().or_else(|| trials.clone());
     p.expect('~', "after the response")?;
-    // Fixed terms as written: each a set of variables (a crossing expands).
-    let mut fixed: Vec<Vec<Variable>> = Vec::new();
-    let mut random: Vec<RandomTerm> = Vec::new();
-    let mut offset: Option<Offset> = None;
-    let mut first = true;
-    loop {
-        if !first {
-            match p.peek() {
-                None => break,
-                Some(Token::Sym('+')) => p.at += 1,
-                Some(Token::Sym('-')) => return p.error("removing terms (`-`) is not supported"),
-                _ => return p.error("expected `+` between terms"),
-            }
-        }
-        first = false;
-        match p.peek().cloned() {
-            None => return p.error("expected a term"),
-            Some(Token::Number(n)) if n == "1" => p.at += 1,
-            Some(Token::Number(n)) if n == "0" => {
-                return p.error("a model without an intercept (`0`) is not supported");
-            }
-            Some(Token::Number(n)) => return p.error(format!("`{n}`: a term is a column name, 1, or (1|group)")),
-            Some(Token::Sym('(')) => {
-                p.at += 1;
-                random.extend(p.random_term()?);
-            }
-            Some(Token::Name(n)) if n == "offset" && p.tokens.get(p.at + 1).map(|t| &t.1) == Some(&Token::Sym('(')) => {
-                let column = p.column();
-                p.at += 1;
-                let o = p.offset()?;
-                if offset.is_some() {
-                    return Err(FormulaError::Syntax {
-                        column,
-                        message: "a second offset( ): compute their sum in the CSV first".into(),
-                    });
-                }
-                offset = Some(o);
-            }
-            Some(Token::Name(_)) => fixed.extend(p.crossed_terms()?),
-            Some(_) => return p.error("expected a term"),
-        }
-    }
+    let (fixed, random, offset) = p.terms()?;
     // R's terms order an interaction's variables by their first appearance
     // in the formula (`Type + conc:Type` is `Type:conc`), whatever order
     // the term writes them in.

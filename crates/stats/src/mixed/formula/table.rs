@@ -278,19 +278,6 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, For
         return Ok(FormulaModel::Intercepts(base));
     }
     let terms = random_terms(formula, table, &factors, n)?;
-    // lmer's check.nobs.vs.nRE: a term with as many random effects as
-    // observations leaves them and the residual variance unidentifiable.
-    if let Some(t) = terms.iter().find(|t| t.levels * t.columns.len() >= n) {
-        return Err(FormulaError::RandomTerm {
-            term: format!("{} | {}", t.names.iter().map(|n| if n == "(Intercept)" { "1" } else { n.as_str() }).collect::<Vec<_>>().join(" + "), t.factor),
-            message: format!(
-                "it has {} random effects ({} levels x {} columns) for {n} observations: they and the residual variance cannot be told apart (lme4 stops: number of observations <= number of random effects); fit fewer slopes or collect more observations per level",
-                t.levels * t.columns.len(),
-                t.levels,
-                t.columns.len()
-            ),
-        });
-    }
     Ok(FormulaModel::Slopes(SlopeData::new(base, terms)?))
 }
 

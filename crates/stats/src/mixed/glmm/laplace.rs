@@ -83,6 +83,21 @@ impl Model {
         }
     }
 
+    /// The GLM weight of every observation and the score Z Lambda' r at
+    /// the linear predictors `eta` (rows of Z Lambda `zl`).
+    fn weights(&self, zl: &[Vec<(usize, f64)>], eta: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mut w = vec![0.0; self.n];
+        let mut score = vec![0.0; self.structure.q];
+        for i in 0..self.n {
+            let (wi, r, _) = self.observation(i, eta[i]);
+            w[i] = wi;
+            for &(j, v) in &zl[i] {
+                score[j] += r * v;
+            }
+        }
+        (w, score)
+    }
+
     /// -2 log p(y | u) + |u|^2 at the linear predictors `eta`.
     fn penalized(&self, eta: &[f64], u: &[f64]) -> f64 {
         let log_p: f64 = (0..self.n).map(|i| self.observation(i, eta[i]).2).sum();
@@ -119,18 +134,7 @@ impl Model {
             out.clear();
             out.extend_from_slice(&zl[i]);
         };
-        let weights = |eta: &[f64]| -> (Vec<f64>, Vec<f64>) {
-            let mut w = vec![0.0; n];
-            let mut score = vec![0.0; q];
-            for i in 0..n {
-                let (wi, r, _) = self.observation(i, eta[i]);
-                w[i] = wi;
-                for &(j, v) in &zl[i] {
-                    score[j] += r * v;
-                }
-            }
-            (w, score)
-        };
+        let weights = |eta: &[f64]| self.weights(&zl, eta);
         for _ in 0..100 {
             let (w, score) = weights(&eta);
             let rhs: Vec<f64> = (0..q).map(|j| score[j] - u[j]).collect();
@@ -170,8 +174,7 @@ impl Model {
         }
         let rx_vcov = if vcov {
             let bordered = self.bordered.factor(n, copy, Some(&w), &self.x);
-            let bordered = bordered.ok_or_else(|| MixedError::FixedEffects("X'WX is singular at the mode".into()))?;
-            Some(bordered.rx_inv())
+            Some(bordered.ok_or_else(|| MixedError::FixedEffects("X'WX is singular at the mode".into()))?.rx_inv())
         } else {
             None
         };

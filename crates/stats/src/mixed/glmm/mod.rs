@@ -330,15 +330,7 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     let best = unscaled(&best);
     let theta = m.structure.normalized(&best[..nt]);
     let beta = best[nt..].to_vec();
-    // Separation, from the data: the fixed effects the likelihood runs
-    // to infinity along. Where the programs did not finish, a coefficient
-    // that moves the linear predictor by more than 25 (odds or rates of
-    // e^25) over one root mean square of its column is the optimizer
-    // running towards an infinite estimate.
-    let separated: Vec<String> = match separation::infinite(&m.x, m.p, &m.k, &m.m, data.family) {
-        Some(found) => found.iter().map(|&(c, _)| names[c].clone()).collect(),
-        None => (0..m.p).filter(|&c| (beta[c] * x_rms[c]).abs() > 25.0).map(|c| names[c].clone()).collect(),
-    };
+    let separated = separated(&m, &names, &beta, &x_rms, data.family);
     // Separated data leave X'WX singular at the optimum (weights of 0 where
     // the fitted probabilities reach 0 or 1): the fit is still reported,
     // named as separated, its standard errors not a number.
@@ -355,13 +347,7 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     let mut certificate = certificate;
     if !separated.is_empty() {
         certificate.certified = false;
-        notes.push(format!(
-            "the data separate {}: the likelihood rises without bound as {} along a direction where no observation's fit gets worse (a level or a side of a predictor with no {} or none else), so the estimates and standard errors of {} are not estimates; remove or merge what separates the data",
-            separated.join(", "),
-            if separated.len() == 1 { "it runs" } else { "they run together" },
-            if data.family == Family::Binomial { "success" } else { "count" },
-            separated.join(", "),
-        ));
+        notes.push(separation_note(&separated, data.family));
     }
     let fixed = names
         .into_iter()
@@ -395,6 +381,29 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
         evaluations,
         n: m.n,
     })
+}
+
+/// The fixed effects the likelihood runs to infinity along, from the data
+/// ([`separation::infinite`]). Where the programs did not finish, a
+/// coefficient that moves the linear predictor by more than 25 (odds or
+/// rates of e^25) over one root mean square of its column is the
+/// optimizer running towards an infinite estimate.
+fn separated(m: &Model, names: &[String], beta: &[f64], x_rms: &[f64], family: Family) -> Vec<String> {
+    match separation::infinite(&m.x, m.p, &m.k, &m.m, family) {
+        Some(found) => found.iter().map(|&(c, _)| names[c].clone()).collect(),
+        None => (0..m.p).filter(|&c| (beta[c] * x_rms[c]).abs() > 25.0).map(|c| names[c].clone()).collect(),
+    }
+}
+
+/// What a fit says of its `separated` fixed effects.
+fn separation_note(separated: &[String], family: Family) -> String {
+    format!(
+        "the data separate {}: the likelihood rises without bound as {} along a direction where no observation's fit gets worse (a level or a side of a predictor with no {} or none else), so the estimates and standard errors of {} are not estimates; remove or merge what separates the data",
+        separated.join(", "),
+        if separated.len() == 1 { "it runs" } else { "they run together" },
+        if family == Family::Binomial { "success" } else { "count" },
+        separated.join(", "),
+    )
 }
 
 /// The beta block of 2 H^-1, H the Hessian of `one` at `x` (scaled

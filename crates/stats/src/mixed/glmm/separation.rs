@@ -154,20 +154,26 @@ fn simplex(columns: &[Vec<f64>], c: &[f64]) -> Option<f64> {
             values[s] -= step * direction[s];
         }
         values[r] = step;
-        let pivot = direction[r];
-        let row: Vec<f64> = inverse[r].iter().map(|v| v / pivot).collect();
-        for s in 0..p {
-            if s != r {
-                let f = direction[s];
-                for t in 0..p {
-                    inverse[s][t] -= f * row[t];
-                }
-            }
-        }
-        inverse[r] = row;
+        pivot(&mut inverse, &direction, r);
         basis[r] = entering;
     }
     None
+}
+
+/// Updates the basis inverse for the column whose direction (its image
+/// under the old inverse) is `direction` entering at row `r`.
+fn pivot(inverse: &mut [Vec<f64>], direction: &[f64], r: usize) {
+    let p = inverse.len();
+    let row: Vec<f64> = inverse[r].iter().map(|v| v / direction[r]).collect();
+    for s in 0..p {
+        if s != r {
+            let f = direction[s];
+            for t in 0..p {
+                inverse[s][t] -= f * row[t];
+            }
+        }
+    }
+    inverse[r] = row;
 }
 
 #[cfg(test)]
