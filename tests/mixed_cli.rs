@@ -913,3 +913,45 @@ fn a_random_slope_over_thousands_of_groups_fits() {
     assert!(stdout.contains("Number of obs: 50000, groups:  g, 2500"), "{stdout}");
     assert!(stdout.contains("optimizer: optimum certified"), "{stdout}");
 }
+
+/// Issue 75, item 6: `--nagq N` fits by adaptive Gauss-Hermite quadrature
+/// (checked against glmer's nAGQ 9 and 25 in crates/stats/tests/glmm.rs)
+/// and says so in the summary's first line; it is refused, as glmer
+/// refuses it, for a model with more than one scalar random effect, and
+/// for a linear model, whose likelihood needs no quadrature.
+#[test]
+fn quadrature_is_named_and_refused_where_glmer_refuses_it() {
+    let cbpp = "tests/fixtures/glmm_cbpp.csv";
+    let (code, stdout, stderr) = run(&[
+        "mixed",
+        cbpp,
+        "--family",
+        "binomial",
+        "--nagq",
+        "9",
+        "--formula",
+        "cbind(incidence, healthy) ~ factor(period) + (1|herd)",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.starts_with(
+            "Generalized linear mixed model fit by maximum likelihood (Adaptive Gauss-Hermite Quadrature, nAGQ = 9)"
+        ),
+        "{stdout}"
+    );
+    let (code, _, stderr) = run(&[
+        "mixed",
+        cbpp,
+        "--family",
+        "binomial",
+        "--nagq",
+        "9",
+        "--formula",
+        "cbind(incidence, healthy) ~ factor(period) + (1|herd) + (1|obs)",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("nAGQ = 9 is defined for one scalar random effect"), "{stderr}");
+    let (code, _, stderr) = run(&["mixed", cbpp, "--nagq", "5", "--formula", "incidence ~ factor(period) + (1|herd)"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("quadrature is for a generalized model"), "{stderr}");
+}

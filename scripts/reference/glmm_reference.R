@@ -32,13 +32,13 @@ fmt <- function(x) format(x, digits = 17)
 # to tight tolerances, and the fit with the lower -2 logLik is reported
 # (they differ on grouseticks, where lme4's BOBYQA stops 4e-3 above the
 # optimum).
-show_fit <- function(name, formula, data, family, weights = NULL) {
+show_fit <- function(name, formula, data, family, weights = NULL, nAGQ = 1L) {
   optimizers <- c("bobyqa", "nloptwrap")
   w <- if (is.null(weights)) NULL else data[[weights]]
   fits <- lapply(optimizers, function(o) {
     ctl <- make_control(o)
     # do.call passes the weights' values (glmer looks a name up in data).
-    do.call(glmer, list(formula, data = data, family = family, control = ctl, weights = w))
+    do.call(glmer, list(formula, data = data, family = family, control = ctl, weights = w, nAGQ = nAGQ))
   })
   best <- which.min(sapply(fits, function(f) -2 * as.numeric(logLik(f))))
   m <- fits[[best]]
@@ -46,6 +46,7 @@ show_fit <- function(name, formula, data, family, weights = NULL) {
   cat(name, "formula", deparse(formula, width.cutoff = 500L), "\n")
   cat(name, "family", family, "\n")
   if (!is.null(weights)) cat(name, "weights", weights, "\n")
+  if (nAGQ > 1) cat(name, "nagq", nAGQ, "\n")
   cat(name, "criterion", fmt(-2 * as.numeric(logLik(m))), "\n")
   dd <- update(m, devFunOnly = TRUE, control = ctl)
   cat(name, "optimizer", optimizers[best], "\n")
@@ -84,6 +85,7 @@ show_fit("cbpp_trials", cbind(incidence, size - incidence) ~ factor(period) + (1
 show_fit("cbpp_exposure", incidence ~ factor(period) + offset(log(size)) + (1 | herd), cb, "poisson")
 # lme4's own example of prior weights: the proportion of cases with the
 # herd sizes as weights (the trials).
+show_fit("cbpp_agq", cbind(incidence, healthy) ~ factor(period) + (1 | herd), cb, "binomial", nAGQ = 9L)
 show_fit("cbpp_weights", prop ~ factor(period) + (1 | herd), cb, "binomial", weights = "size")
 show_fit("cbpp_exposureobs", incidence ~ factor(period) + offset(log(size)) + (1 | herd) + (1 | obs), cb, "poisson")
 
@@ -120,6 +122,8 @@ ba <- data.frame(y = as.integer(bacteria$y == "y"), trt = as.character(bacteria$
                  ID = as.character(bacteria$ID))
 write_fixture(ba, "glmm_bacteria.csv")
 show_fit("bacteria_binomial", y ~ trt + week + (1 | ID), ba, "binomial")
+# Adaptive Gauss-Hermite quadrature (glmer's nAGQ), for one scalar term.
+show_fit("bacteria_agq", y ~ trt + week + (1 | ID), ba, "binomial", nAGQ = 25L)
 
 # 7. mlmRev's Contraception: use by 1,934 women in 60 districts, with a
 # random slope of urban residence per district (correlated).

@@ -6,8 +6,8 @@
 
 use crossaudit_stats::mixed;
 use crossaudit_stats::mixed::formula::{
-    compare_table, fit_glmm_weighted, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
-    GlmmFormulaFit, Table,
+    compare_table, fit_glmm_with, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
+    GlmmFormulaFit, GlmmOptions, Table,
 };
 
 /// Reads the tidy CSV at `path` and compares two formulas on it by a
@@ -44,16 +44,16 @@ pub fn fit_file(
 }
 
 /// Reads the tidy CSV at `path` and fits `formula` to it as a generalized
-/// linear mixed model of `family`, with binomial prior `weights` (see
-/// [`fit_glmm_weighted`]).
+/// linear mixed model of `family`, with glmer's prior weights and nAGQ
+/// (see [`fit_glmm_with`]).
 pub fn fit_glmm_file(
     path: &std::path::Path,
     formula: &str,
     family: mixed::glmm::Family,
     profile: Option<f64>,
-    weights: Option<&str>,
+    options: &GlmmOptions,
 ) -> Result<GlmmFormulaFit, FileError> {
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
     let table = read_file(path).map_err(fail)?;
-    fit_glmm_weighted(formula, &table, family, profile, weights).map_err(fail)
+    fit_glmm_with(formula, &table, family, profile, options).map_err(fail)
 }

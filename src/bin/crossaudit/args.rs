@@ -496,4 +496,10 @@ pub(crate) struct MixedArgs {
     /// of successes).
     #[arg(long, value_name = "COL")]
     pub(crate) weights: Option<String>,
+    /// Quadrature nodes per level for a generalized model with one scalar
+    /// random effect `(1|g)`: glmer's nAGQ, adaptive Gauss-Hermite
+    /// quadrature (1, the default, is the Laplace approximation; at most
+    /// 25).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub(crate) nagq: usize,
 }

@@ -273,7 +273,7 @@ fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, j
 /// `crossaudit mixed`: a linear mixed model (or two compared), or a
 /// generalized one (`--family binomial|poisson`).
 pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
-    use crossaudit::stats::mixed::formula::{parse, FileError, FormulaError};
+    use crossaudit::stats::mixed::formula::{parse, FileError, FormulaError, GlmmOptions};
     let data = a.data.as_path();
     let refuse = |message: String| -> Error {
         FileError { file: data.display().to_string(), error: FormulaError::Unsupported(message) }.into()
@@ -296,6 +296,12 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
     let formula = with_offset(&a.formula)?;
     let compare = a.compare.as_deref().map(with_offset).transpose()?;
     let formula = formula.as_str();
+    if a.nagq != 1 && a.family == "gaussian" {
+        return Err(refuse(format!(
+            "--nagq {}: quadrature is for a generalized model (--family binomial or poisson); a linear mixed model's likelihood is exact",
+            a.nagq
+        )));
+    }
     if a.weights.is_some() && a.family == "gaussian" {
         return Err(refuse(
             "--weights: a linear mixed model's prior weights are not supported; --weights gives the trials of a binomial response of proportions".into(),
@@ -312,7 +318,8 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
             } else {
                 None
             };
-            mixed_glmm(data, formula, (family, a.profile, a.weights.as_deref()), refused, a.json)
+            let options = GlmmOptions { weights: a.weights.clone(), nagq: a.nagq };
+            mixed_glmm(data, formula, (family, a.profile, &options), refused, a.json)
         }
     }
 }
@@ -322,7 +329,7 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
 fn mixed_glmm(
     data: &Path,
     formula: &str,
-    (family, profile, weights): (&str, Option<f64>, Option<&str>),
+    (family, profile, options): (&str, Option<f64>, &crossaudit::stats::mixed::formula::GlmmOptions),
     refused: Option<&str>,
     json: bool,
 ) -> Result<(), Error> {
@@ -343,7 +350,7 @@ fn mixed_glmm(
         )));
     }
     let family = if family == "binomial" { Family::Binomial } else { Family::Poisson };
-    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family, profile, weights)?;
+    let fit = crossaudit::methods::formula_file::fit_glmm_file(data, formula, family, profile, options)?;
     if json {
         out!("{}", crossaudit::io::pretty_json(&fit));
     } else {

@@ -34,21 +34,32 @@ pub struct GlmmFormulaFit {
 /// `cbind(successes, failures)` or a 0/1 column (binomial), or a count
 /// column (Poisson); the fixed and random terms as for a linear model.
 pub fn build_glmm(formula_text: &str, table: &Table, family: Family) -> Result<GlmmData, FormulaError> {
-    build_glmm_weighted(formula_text, table, family, None)
+    build_glmm_with(formula_text, table, family, &GlmmOptions::default())
 }
 
-/// [`build_glmm`] with glmer's prior `weights`: for a binomial model, the
-/// column of trials behind a response of proportions (successes =
-/// proportion x weight, a whole number); refused for a Poisson model
-/// (whose exposure is an offset, `offset(log(t))`).
-pub fn build_glmm_weighted(
+/// What glmer takes beside the formula and the data.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GlmmOptions {
+    /// Prior weights (a column): the trials of a binomial response of
+    /// proportions.
+    pub weights: Option<String>,
+    /// Quadrature nodes per level (glmer's `nAGQ`); 0 or 1: the Laplace
+    /// approximation.
+    pub nagq: usize,
+}
+
+/// [`build_glmm`] with glmer's prior `weights` (for a binomial model, the
+/// column of trials behind a response of proportions: successes =
+/// proportion x weight, a whole number; refused for a Poisson model, whose
+/// exposure is an offset, `offset(log(t))`) and `nagq`.
+pub fn build_glmm_with(
     formula_text: &str,
     table: &Table,
     family: Family,
-    weights: Option<&str>,
+    options: &GlmmOptions,
 ) -> Result<GlmmData, FormulaError> {
     let formula = parse(formula_text)?;
-    let (k, trials) = match weights {
+    let (k, trials) = match options.weights.as_deref() {
         Some(w) => weighted(family, &formula, table, w)?,
         None => {
             let k = whole_counts(table, &formula.response)?;
@@ -70,10 +81,11 @@ pub fn build_glmm_weighted(
         Family::Binomial => GlmmData::binomial(k, trials, columns, terms)?,
         Family::Poisson => GlmmData::poisson(k, columns, terms)?,
     };
-    Ok(match offset {
+    let data = match offset {
         Some(o) => data.with_offset(o)?,
         None => data,
-    })
+    };
+    Ok(data.with_nagq(options.nagq.max(1))?)
 }
 
 /// Fits `formula` to `table` as a GLMM of `family` (maximum likelihood,
@@ -85,23 +97,24 @@ pub fn fit_glmm_table(
     family: Family,
     profile: Option<f64>,
 ) -> Result<GlmmFormulaFit, FormulaError> {
-    fit_glmm_weighted(formula, table, family, profile, None)
+    fit_glmm_with(formula, table, family, profile, &GlmmOptions::default())
 }
 
-/// [`fit_glmm_table`] with prior `weights` (see [`build_glmm_weighted`]).
-pub fn fit_glmm_weighted(
+/// [`fit_glmm_table`] with glmer's prior weights and nAGQ (see
+/// [`build_glmm_with`]).
+pub fn fit_glmm_with(
     formula: &str,
     table: &Table,
     family: Family,
     profile: Option<f64>,
-    weights: Option<&str>,
+    options: &GlmmOptions,
 ) -> Result<GlmmFormulaFit, FormulaError> {
     if let Some(level) = profile {
         if !(level > 0.0 && level < 1.0) {
             return Err(crate::mixed::MixedError::Level(level).into());
         }
     }
-    let data = build_glmm_weighted(formula, table, family, weights)?;
+    let data = build_glmm_with(formula, table, family, options)?;
     let fit = fit_glmm(&data)?;
     let profile = match profile {
         Some(level) => Some((level, profile_fixed(&data, &fit, level)?)),
@@ -116,7 +129,15 @@ impl GlmmFormulaFit {
     pub fn summary(&self) -> String {
         let f = &self.fit;
         let mut s = String::new();
-        let _ = writeln!(s, "Generalized linear mixed model fit by maximum likelihood (Laplace Approximation)");
+        if self.fit.nagq > 1 {
+            let _ = writeln!(
+                s,
+                "Generalized linear mixed model fit by maximum likelihood (Adaptive Gauss-Hermite Quadrature, nAGQ = {})",
+                self.fit.nagq
+            );
+        } else {
+            let _ = writeln!(s, "Generalized linear mixed model fit by maximum likelihood (Laplace Approximation)");
+        }
         let _ = writeln!(s, " Family: {}", f.family.label());
         let _ = writeln!(s, "Formula: {}\n", self.formula);
         let _ = writeln!(s, "{:>10} {:>10} {:>10} {:>10} {:>8}", "AIC", "BIC", "logLik", "deviance", "df.resid");

@@ -47,6 +47,8 @@ pub(super) struct Model {
     pub m: Vec<f64>,
     /// The offset of each linear predictor.
     pub offset: Vec<f64>,
+    /// The quadrature rule (one node at 0 of weight 1: Laplace).
+    pub nodes: Vec<(f64, f64)>,
     /// sum log C(m, k) (binomial) or -sum log k! (Poisson).
     pub constant: f64,
 }
@@ -96,6 +98,40 @@ impl Model {
             }
         }
         (w, score)
+    }
+
+    /// sum_g log M_g, the adaptive Gauss-Hermite correction of the Laplace
+    /// value (`super::quadrature`) of a model with one scalar term (each
+    /// row of `zl` one entry), at the mode `u` with linear predictors
+    /// `eta` and GLM weights `w`.
+    fn quadrature(&self, zl: &[Vec<(usize, f64)>], eta: &[f64], u: &[f64], w: &[f64]) -> f64 {
+        let q = self.structure.q;
+        let (mut l2, mut h0) = (vec![1.0; q], vec![0.0; q]);
+        for i in 0..self.n {
+            let (g, v) = zl[i][0];
+            l2[g] += w[i] * v * v;
+            h0[g] -= 2.0 * self.observation(i, eta[i]).2;
+        }
+        for g in 0..q {
+            h0[g] += u[g] * u[g];
+        }
+        let mut sums = vec![0.0; q];
+        for &(z, weight) in &self.nodes {
+            if z == 0.0 {
+                sums.iter_mut().for_each(|m| *m += weight);
+                continue;
+            }
+            let shift: Vec<f64> = l2.iter().map(|l| z / l.sqrt()).collect();
+            let mut h: Vec<f64> = (0..q).map(|g| (u[g] + shift[g]).powi(2)).collect();
+            for i in 0..self.n {
+                let (g, v) = zl[i][0];
+                h[g] -= 2.0 * self.observation(i, eta[i] + v * shift[g]).2;
+            }
+            for g in 0..q {
+                sums[g] += weight * (-0.5 * (h[g] - h0[g]) + 0.5 * z * z).exp();
+            }
+        }
+        sums.iter().map(|m| m.ln()).sum()
     }
 
     /// -2 log p(y | u) + |u|^2 at the linear predictors `eta`.
@@ -168,7 +204,10 @@ impl Model {
         }
         let (w, _) = weights(&eta);
         let log_det = self.sparse.factor(n, copy, Some(&w), &[]).ok_or_else(not_pd)?.log_det_random();
-        let objective = value + log_det;
+        let mut objective = value + log_det;
+        if self.nodes.len() > 1 {
+            objective -= 2.0 * self.quadrature(&zl, &eta, &u, &w);
+        }
         if !objective.is_finite() {
             return Err(not_pd());
         }

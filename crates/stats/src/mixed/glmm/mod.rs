@@ -42,6 +42,7 @@
 mod family;
 mod laplace;
 mod profile;
+mod quadrature;
 mod separation;
 
 pub use family::Family;
@@ -65,6 +66,9 @@ pub struct GlmmData {
     /// A term of the linear predictor with its coefficient fixed at 1
     /// (zeros without one).
     offset: Vec<f64>,
+    /// Quadrature nodes per level (glmer's nAGQ): 1 is the Laplace
+    /// approximation.
+    nagq: usize,
     terms: Vec<Term>,
     family: Family,
 }
@@ -148,7 +152,7 @@ impl GlmmData {
         let base = MixedData::fixed_only(y, columns)?;
         let terms = slopes::ordered(terms);
         let offset = vec![0.0; n];
-        Ok(GlmmData { base, trials, offset, terms, family })
+        Ok(GlmmData { base, trials, offset, nagq: 1, terms, family })
     }
 
     /// The data with `offset` added to the linear predictor (glmer's
@@ -167,6 +171,27 @@ impl GlmmData {
             )));
         }
         self.offset = offset;
+        Ok(self)
+    }
+
+    /// The data fitted by adaptive Gauss-Hermite quadrature with `nagq`
+    /// nodes per level (glmer's `nAGQ`), which glmer allows for one scalar
+    /// random-effect term only (`(1|g)`); 1 is the Laplace approximation.
+    pub fn with_nagq(mut self, nagq: usize) -> Result<GlmmData, MixedError> {
+        if !(1..=quadrature::MAX_NAGQ).contains(&nagq) {
+            return Err(MixedError::Glmm(format!(
+                "nAGQ = {nagq}: the quadrature has 1 to {} nodes (1 is the Laplace approximation)",
+                quadrature::MAX_NAGQ
+            )));
+        }
+        if nagq > 1 && !(self.terms.len() == 1 && self.terms[0].columns.len() == 1) {
+            return Err(MixedError::Glmm(format!(
+                "nAGQ = {nagq} is defined for one scalar random effect, a single term (1|g), as glmer allows it; this model has {} random-effect terms with {} columns",
+                self.terms.len(),
+                self.terms.iter().map(|t| t.columns.len()).sum::<usize>()
+            )));
+        }
+        self.nagq = nagq;
         Ok(self)
     }
 
@@ -203,6 +228,8 @@ pub struct GlmmFixed {
 pub struct GlmmFit {
     /// The family.
     pub family: Family,
+    /// Quadrature nodes per level: 1 for the Laplace approximation.
+    pub nagq: usize,
     /// lme4's theta (diagonal entries non-negative).
     pub theta: Vec<f64>,
     /// Per term, its covariance T T' (a GLMM has no residual variance).
@@ -267,6 +294,7 @@ fn model(data: &GlmmData) -> Result<(laplace::Model, Vec<String>, Vec<String>), 
         k,
         m: data.trials.clone(),
         offset: data.offset.clone(),
+        nodes: quadrature::rule(data.nagq),
         constant,
     };
     Ok((m, base.fixed_names(), dropped))
@@ -365,6 +393,7 @@ pub fn fit_glmm(data: &GlmmData) -> Result<GlmmFit, MixedError> {
     let singular = m.structure.diagonal().iter().any(|&j| theta[j] < 1e-4);
     Ok(GlmmFit {
         family: data.family,
+        nagq: data.nagq,
         theta,
         terms,
         fixed,
