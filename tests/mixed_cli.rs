@@ -269,10 +269,13 @@ fn unidentifiable_random_factors_are_refused() {
     assert!(stderr.contains("factor a:obs is not identifiable"), "{stderr}");
 }
 
-/// Models whose dense matrices would not fit in memory are refused before
-/// anything is allocated: two crossed factors of 30,000 levels each (the
-/// dense system would be 30,001 square, 7.2 GB), and a categorical fixed
-/// effect with 30,000 levels.
+/// Two crossed factors of 30,000 levels each (the intercept engine's dense
+/// reduced system would be 30,001 square, 7.2 GB) are fitted by the sparse
+/// factor instead, as lme4 fits them, with a note that says so (issue 75),
+/// to lmer's REML criterion, intercept and SE
+/// (scripts/reference/mixed_sparse_intercepts.R);
+/// Kenward-Roger df over every level and a categorical fixed effect with
+/// 30,000 levels are still refused before anything is allocated.
 #[test]
 fn a_model_too_large_for_memory_is_refused_up_front() {
     let dir = tempfile::tempdir().unwrap();
@@ -283,7 +286,26 @@ fn a_model_too_large_for_memory_is_refused_up_front() {
     }
     std::fs::write(&file, text).unwrap();
     let f = file.to_str().unwrap();
-    let (code, _, stderr) = run(&["mixed", f, "--formula", "y ~ 1 + (1|a) + (1|b)"]);
+    let (code, stdout, stderr) = run(&["mixed", f, "--formula", "y ~ 1 + (1|a) + (1|b)"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("so the model is fitted with the sparse Cholesky factor over every level"), "{stdout}");
+    assert!(stdout.contains("Number of obs: 60000, groups:  a, 30000; b, 30000"), "{stdout}");
+    // Against lmer on the same data (scripts/reference/mixed_sparse_intercepts.R).
+    let reference = std::fs::read_to_string(root().join("scripts/reference/mixed_sparse_intercepts.out")).unwrap();
+    let line = |key: &str| -> Vec<f64> {
+        let l = reference.lines().find(|l| l.starts_with(&format!("{key} "))).unwrap();
+        l.split_whitespace().skip(1).map(|w| w.parse().unwrap()).collect()
+    };
+    let (code, json, stderr) = run(&["mixed", f, "--json", "--formula", "y ~ 1 + (1|a) + (1|b)"]);
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let reml = json["likelihood"]["reml_criterion"].as_f64().unwrap();
+    assert!(reml <= line("reml")[0] * (1.0 + 1e-12), "{reml} above lmer's {}", line("reml")[0]);
+    close("REML criterion", reml, line("reml")[0], 1e-10, 0.0);
+    let fixed = &json["fixed"][0];
+    close("intercept", fixed["estimate"].as_f64().unwrap(), line("intercept")[0], 1e-9, 0.0);
+    close("intercept SE", fixed["se"].as_f64().unwrap(), line("intercept")[1], 1e-5, 0.0);
+    let (code, _, stderr) = run(&["mixed", f, "--formula", "y ~ 1 + (1|a) + (1|b)", "--df", "kenward-roger"]);
     assert_eq!(code, 1, "{stderr}");
     assert!(
         stderr.contains("the model is too large: the random factors but the largest have 30000 levels"),

@@ -1,4 +1,5 @@
-# Profile-likelihood intervals of GLMM fixed effects, by lme4's
+# Profile-likelihood intervals of GLMM fixed effects and random-effect
+# standard deviations, by lme4's
 # confint(method = "profile"), on three fits of glmm_reference.R (cbpp,
 # bacteria, epil), read from the fixtures that script writes. Run from the
 # repository root:
@@ -14,7 +15,9 @@ cat("# lme4", as.character(packageVersion("lme4")), "R", R.version$major, R.vers
 show <- function(name, formula, file, family) {
   d <- read.csv(file.path("tests/fixtures", file))
   m <- glmer(formula, d, family = family, control = ctl)
-  ci <- suppressMessages(confint(m, method = "profile", parm = "beta_", level = 0.95))
+  # The standard deviations first (oldNames = FALSE: sd_(Intercept)|herd),
+  # then the fixed effects, as confint lists them.
+  ci <- suppressMessages(confint(m, method = "profile", level = 0.95, oldNames = FALSE))
   for (i in seq_len(nrow(ci))) {
     cat(name, rownames(ci)[i], format(ci[i, 1], digits = 17), format(ci[i, 2], digits = 17), "\n")
   }

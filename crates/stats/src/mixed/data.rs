@@ -241,6 +241,28 @@ pub const MAX_DENSE: usize = 20_000;
 pub const MAX_DESIGN_VALUES: usize = 100_000_000;
 
 impl MixedData {
+    /// Whether the intercept engine's dense reduced system (every factor's
+    /// levels but the largest's, plus the fixed effects) is within
+    /// [`MAX_DENSE`].
+    pub(crate) fn dense_fits(&self) -> bool {
+        let levels: Vec<usize> = self.factors.iter().map(|f| f.levels).collect();
+        let largest = levels.iter().copied().max().unwrap_or(0);
+        levels.iter().sum::<usize>() - largest + self.p() <= MAX_DENSE
+    }
+
+    /// Refuses an n x p design over [`MAX_DESIGN_VALUES`] values (what the
+    /// sparse engine holds densely besides its factor).
+    pub(crate) fn check_design(&self) -> Result<(), MixedError> {
+        if self.len().saturating_mul(self.p()) > MAX_DESIGN_VALUES {
+            return Err(MixedError::TooLarge(format!(
+                "{} observations x {} fixed-effect columns is over the limit of {MAX_DESIGN_VALUES} values",
+                self.len(),
+                self.p()
+            )));
+        }
+        Ok(())
+    }
+
     /// Refuses a model whose dense matrices would not fit in memory, before
     /// any is allocated: the penalized system (every factor's levels but
     /// the largest's, plus the fixed effects), the n x p design, and for
@@ -258,13 +280,7 @@ impl MixedData {
                 self.p()
             ));
         }
-        if self.len().saturating_mul(self.p()) > MAX_DESIGN_VALUES {
-            return too_large(format!(
-                "{} observations x {} fixed-effect columns is over the limit of {MAX_DESIGN_VALUES} values",
-                self.len(),
-                self.p()
-            ));
-        }
+        self.check_design()?;
         if inference == Inference::Full && q + self.p() > MAX_DENSE {
             return too_large(format!(
                 "Kenward-Roger works with matrices over every level ({q} levels, {} fixed-effect columns), over the limit of {MAX_DENSE}; use Satterthwaite df",

@@ -44,7 +44,8 @@ pub struct FormulaFit {
 pub enum Fitted {
     /// Every random term `(1|g)`.
     Intercepts(mixed::MixedFit),
-    /// Some random term with slopes.
+    /// Some random term with slopes (or intercepts whose crossed factors
+    /// are too many for the intercept engine's dense reduced system).
     Slopes(SlopeFit),
 }
 
@@ -285,16 +286,26 @@ pub fn fit_table(
             return Err(MixedError::Level(level).into());
         }
     }
-    let data = match build_model(&formula, table)? {
-        FormulaModel::Intercepts(data) => data,
-        FormulaModel::Slopes(data) => return slopes_table(formula_text, &data, criterion, df, profile),
-    };
     // Kenward-Roger (and the shares) need the q x q matrices over every
     // level; Satterthwaite needs only deviance evaluations.
     let inference = match (criterion, df) {
         (mixed::Criterion::Reml, DfMethod::KenwardRoger) => mixed::Inference::Full,
         (mixed::Criterion::Reml, DfMethod::Satterthwaite) => mixed::Inference::Satterthwaite,
         (mixed::Criterion::Ml, _) => mixed::Inference::Estimates,
+    };
+    let data = match build_model(&formula, table)? {
+        // Crossed factors too many for the dense reduced system (every
+        // factor's levels but the largest's): the same model by the sparse
+        // factor of the slope engine, as lme4 fits every model. Its
+        // profile intervals and Kenward-Roger df stay the intercept
+        // engine's, which refuses them by size.
+        FormulaModel::Intercepts(data)
+            if !data.dense_fits() && profile.is_none() && inference != mixed::Inference::Full =>
+        {
+            return sparse_intercepts(formula_text, &formula, table, criterion, df);
+        }
+        FormulaModel::Intercepts(data) => data,
+        FormulaModel::Slopes(data) => return slopes_table(formula_text, &data, criterion, df, profile),
     };
     let fit = mixed::fit_with(&data, criterion, inference)?;
     let reml = criterion == mixed::Criterion::Reml;
@@ -331,6 +342,29 @@ pub fn fit_table(
         profile,
         likelihood,
     })
+}
+
+/// [`fit_table`] of a random-intercept model whose crossed factors are too
+/// many for the intercept engine's dense reduced system: the same model
+/// by the slope engine's sparse factor, with a note that says so.
+fn sparse_intercepts(
+    formula_text: &str,
+    formula: &super::Formula,
+    table: &Table,
+    criterion: mixed::Criterion,
+    df: DfMethod,
+) -> Result<FormulaFit, FormulaError> {
+    let FormulaModel::Slopes(sparse) = super::table::build_model_as(formula, table, true)? else {
+        unreachable!("build_model_as(.., true) gives the slope engine's terms")
+    };
+    let mut fit = slopes_table(formula_text, &sparse, criterion, df, None)?;
+    if let Fitted::Slopes(f) = &mut fit.fit {
+        f.notes.push(format!(
+            "the random factors but the largest have more than {} levels, over the dense reduced system's limit, so the model is fitted with the sparse Cholesky factor over every level (the same model and criterion, as lme4 fits it)",
+            mixed::MAX_DENSE
+        ));
+    }
+    Ok(fit)
 }
 
 /// [`fit_table`] of a model with random slopes (Satterthwaite df).

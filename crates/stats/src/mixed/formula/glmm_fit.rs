@@ -89,8 +89,9 @@ pub fn build_glmm_with(
 }
 
 /// Fits `formula` to `table` as a GLMM of `family` (maximum likelihood,
-/// Laplace approximation), with `profile`, the fixed effects'
-/// profile-likelihood intervals at that level.
+/// Laplace approximation), with `profile`, the profile-likelihood
+/// intervals of the scalar random effects' standard deviations and of the
+/// fixed effects at that level.
 pub fn fit_glmm_table(
     formula: &str,
     table: &Table,
@@ -170,7 +171,11 @@ impl GlmmFormulaFit {
             let _ = writeln!(s, "note: {note}");
         }
         if let Some((level, intervals)) = &self.profile {
-            let _ = writeln!(s, "\nProfile-likelihood intervals of the fixed effects ({:.1}%):", 100.0 * level);
+            let _ = writeln!(
+                s,
+                "\nProfile-likelihood intervals of the random effects' standard deviations and the fixed effects ({:.1}%):",
+                100.0 * level
+            );
             for i in &intervals[..] {
                 let _ = writeln!(s, " {:<width$} [{}, {}]", i.name, six(i.lower), six(i.upper));
             }

@@ -242,6 +242,14 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
 /// The model `formula` describes, on `table`: response, fixed-effect
 /// columns by R's rules, and the random terms.
 pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, FormulaError> {
+    build_model_as(formula, table, false)
+}
+
+/// [`build_model`], with a random-intercept model given as the random-slope
+/// engine's terms when `sparse` (the same model, fitted with the sparse
+/// factor where the intercept engine's dense reduced system would not
+/// fit).
+pub(super) fn build_model_as(formula: &Formula, table: &Table, sparse: bool) -> Result<FormulaModel, FormulaError> {
     present(table, &formula.response)?;
     let Some(y) = numbers(table, &formula.response)? else {
         let col = table.column(&formula.response)?;
@@ -274,7 +282,7 @@ pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, For
     }
     let columns = term_columns(&formula.fixed, true, table, n)?;
     let base = MixedData::new(y, factors.clone())?.with_columns(columns)?;
-    if formula.random.iter().all(|t| t.intercept_only()) {
+    if !sparse && formula.random.iter().all(|t| t.intercept_only()) {
         return Ok(FormulaModel::Intercepts(base));
     }
     let terms = random_terms(formula, table, &factors, n)?;

@@ -1,4 +1,5 @@
-//! Profile-likelihood intervals of a GLMM's fixed effects, as lme4's
+//! Profile-likelihood intervals of a GLMM's fixed effects and of its
+//! scalar random effects' standard deviations, as lme4's
 //! `confint(m, method = "profile")` defines them: the values b of beta_c
 //! at which the Laplace deviance minimised over every other parameter
 //! (theta and the other fixed effects) exceeds its minimum by the
@@ -7,7 +8,9 @@
 //! dev_min), which is nearly linear in b, each profile point minimised by
 //! the model's own search (warm-started from the last point). lme4
 //! interpolates a spline through a grid of profile points; crossaudit
-//! solves for the bound itself.
+//! solves for the bound itself. A standard deviation is theta itself (a
+//! GLMM has no residual scale), profiled the same way with its lower bound
+//! at 0 where the deviance there stays under the threshold.
 
 use serde::Serialize;
 
@@ -26,8 +29,9 @@ pub struct FixedProfile {
     pub upper: f64,
 }
 
-/// Profile intervals at `level` of every fixed effect of `fit` (a fit of
-/// `data` by [`super::fit_glmm`]).
+/// Profile intervals at `level` of every scalar random effect's standard
+/// deviation and every fixed effect of `fit` (a fit of `data` by
+/// [`super::fit_glmm`]), in lme4's order.
 pub fn profile_fixed(data: &GlmmData, fit: &GlmmFit, level: f64) -> Result<Vec<FixedProfile>, MixedError> {
     if !(level > 0.0 && level < 1.0) {
         return Err(MixedError::Level(level));
@@ -55,7 +59,7 @@ pub fn profile_fixed(data: &GlmmData, fit: &GlmmFit, level: f64) -> Result<Vec<F
         let par: Vec<f64> = par.iter().zip(&scales).map(|(v, s)| v / s).collect();
         m.evaluate(&par[..nt], &par[nt..], None, false).map(|l| l.objective).unwrap_or(f64::INFINITY)
     };
-    let mut out = Vec::new();
+    let mut out = sd_profiles(&objective, &optimum, fit, (&scales, root))?;
     for (c, name) in names.iter().enumerate() {
         let j = nt + c;
         let se = fit.fixed[c].se * scales[j];
@@ -65,6 +69,52 @@ pub fn profile_fixed(data: &GlmmData, fit: &GlmmFit, level: f64) -> Result<Vec<F
             bounds[k] = b / scales[j];
         }
         out.push(FixedProfile { name: name.clone(), lower: bounds[0], upper: bounds[1] });
+    }
+    Ok(out)
+}
+
+/// The profile intervals of the standard deviations of the scalar random
+/// effects `(1|g)` (theta itself: a GLMM has no residual scale), named as
+/// lme4's `confint(..., oldNames = FALSE)` names them
+/// (`sd_(Intercept)|g`), first as lme4 lists them. The deviance is even in
+/// theta, so the lower bound is 0 where the deviance at 0 stays within the
+/// level's threshold (lme4 reports 0 there too), and otherwise the bound's
+/// absolute value. A term with more columns (correlations) gets no
+/// interval: refused by name.
+fn sd_profiles(
+    objective: &(dyn Fn(&[f64]) -> f64 + Sync),
+    optimum: &[f64],
+    fit: &GlmmFit,
+    (scales, root): (&[f64], f64),
+) -> Result<Vec<FixedProfile>, MixedError> {
+    let mut out = Vec::new();
+    for (j, term) in fit.terms.iter().enumerate() {
+        if term.names.len() != 1 || fit.terms.iter().any(|t| t.names.len() != 1) {
+            return Err(MixedError::Profile(format!(
+                "profile intervals of a GLMM's standard deviations are computed for scalar random effects (1|g); the term of {} has {} columns (and correlations)",
+                term.group,
+                term.names.len()
+            )));
+        }
+        let name = format!("sd_{}|{}", term.names[0], term.group);
+        let centre = optimum[j];
+        // The first step: a tenth of the SD, at least 0.05 (scaled).
+        let step = (0.1 * centre.abs()).max(0.05) / root;
+        // The deviance at theta_j = 0, minimised over the rest.
+        let with_zero = |x: &[f64]| {
+            let mut full = x.to_vec();
+            full.insert(j, 0.0);
+            full
+        };
+        let others: Vec<f64> = optimum.iter().enumerate().filter(|(i, _)| *i != j).map(|(_, v)| *v).collect();
+        let (_, at_zero, _, _) = minimize(&|x: &[f64]| objective(&with_zero(x)), others);
+        let lower = if at_zero - fit.deviance <= root * root {
+            0.0
+        } else {
+            bound(objective, optimum, j, fit.deviance, (-1.0, root, step))?.abs() / scales[j]
+        };
+        let upper = bound(objective, optimum, j, fit.deviance, (1.0, root, step))? / scales[j];
+        out.push(FixedProfile { name, lower, upper });
     }
     Ok(out)
 }

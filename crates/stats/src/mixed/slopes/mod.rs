@@ -64,7 +64,7 @@ pub use types::{SlopeCertificate, SlopeData, SlopeFit, SlopeFixed, Term, TermFit
 /// Fits the model, with Satterthwaite df for REML fits when
 /// `satterthwaite`.
 pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -> Result<SlopeFit, MixedError> {
-    data.base.check_size(super::Inference::Estimates)?;
+    data.base.check_design()?;
     let (base, dropped) = data.base.full_rank();
     let base: &MixedData = &base;
     let p = base.p();
