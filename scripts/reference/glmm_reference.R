@@ -87,6 +87,9 @@ show_fit("cbpp_exposure", incidence ~ factor(period) + offset(log(size)) + (1 | 
 # herd sizes as weights (the trials).
 show_fit("cbpp_agq", cbind(incidence, healthy) ~ factor(period) + (1 | herd), cb, "binomial", nAGQ = 9L)
 show_fit("cbpp_weights", prop ~ factor(period) + (1 | herd), cb, "binomial", weights = "size")
+# ... and as lme4's example writes it, the proportion as arithmetic in the
+# response.
+show_fit("cbpp_ratio", incidence / size ~ factor(period) + (1 | herd), cb, "binomial", weights = "size")
 show_fit("cbpp_exposureobs", incidence ~ factor(period) + offset(log(size)) + (1 | herd) + (1 | obs), cb, "poisson")
 
 # 2. lme4's grouseticks: ticks on grouse chicks, an observation-level

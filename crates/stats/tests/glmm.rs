@@ -15,7 +15,8 @@
 //! the singular flag is lme4's `isSingular`. Among them, glmer's formulas
 //! beyond columns (issue 75): `cbind(incidence, size - incidence)`,
 //! `offset(log(size))` of a Poisson model, and a response of proportions
-//! with the herd sizes as prior `weights`, all on lme4's cbpp; and
+//! with the herd sizes as prior `weights` (also written as lme4's example
+//! writes it, `incidence / size`), all on lme4's cbpp; and
 //! adaptive Gauss-Hermite quadrature (`nAGQ` 9 and 25) on cbpp and
 //! bacteria.
 

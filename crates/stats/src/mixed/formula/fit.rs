@@ -276,10 +276,13 @@ pub fn fit_table(
     profile: Option<f64>,
 ) -> Result<FormulaFit, FormulaError> {
     let formula = parse(formula_text)?;
-    if formula.failures.is_some() {
+    if formula.failures.is_some() || formula.trials.is_some() {
         return Err(FormulaError::Unsupported(
             "cbind(successes, failures) is the response of a binomial model: add --family binomial".into(),
         ));
+    }
+    if formula.divisor.is_some() {
+        return Err(super::divided_response(&formula));
     }
     if let Some(level) = profile {
         if level.is_nan() || level <= 0.0 || level >= 1.0 {

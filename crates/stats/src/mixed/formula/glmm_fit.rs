@@ -61,6 +61,7 @@ pub fn build_glmm_with(
     let formula = parse(formula_text)?;
     let (k, trials) = match options.weights.as_deref() {
         Some(w) => weighted(family, &formula, table, w)?,
+        None if formula.divisor.is_some() => return Err(super::divided_response(&formula)),
         None => {
             let k = whole_counts(table, &formula.response)?;
             let trials = trials(family, &formula, table, &k)?;
@@ -256,7 +257,7 @@ fn weighted(family: Family, formula: &Formula, table: &Table, w: &str) -> Result
     let trials = whole_counts(table, w)?;
     present(table, &formula.response)?;
     let col = table.column(&formula.response)?;
-    let Some(y) = numbers(table, &formula.response)? else {
+    let Some(mut y) = numbers(table, &formula.response)? else {
         let row = col.iter().position(|v| v.trim().parse::<f64>().is_err()).unwrap_or(0);
         return Err(FormulaError::Value {
             row: row + 1,
@@ -264,6 +265,23 @@ fn weighted(family: Family, formula: &Formula, table: &Table, w: &str) -> Result
             message: format!("`{}` is not a proportion between 0 and 1", col[row].trim()),
         });
     };
+    // `a / b`: the proportion computed here (glmer's `incidence / size`).
+    if let Some(d) = &formula.divisor {
+        present(table, d)?;
+        let dcol = table.column(d)?;
+        let denominators = numbers(table, d)?;
+        for (row, p) in y.iter_mut().enumerate() {
+            let b = denominators.as_ref().map_or(f64::NAN, |v| v[row]);
+            if !(b.is_finite() && b > 0.0) {
+                return Err(FormulaError::Value {
+                    row: row + 1,
+                    field: d.clone(),
+                    message: format!("`{}` is not a denominator above 0", dcol[row].trim()),
+                });
+            }
+            *p /= b;
+        }
+    }
     let mut k = Vec::with_capacity(y.len());
     for (row, (&p, &m)) in y.iter().zip(&trials).enumerate() {
         let bad =

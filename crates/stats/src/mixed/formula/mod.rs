@@ -63,6 +63,10 @@ pub struct Formula {
     /// `offset(col)` or `offset(log(col))`: a term of the linear predictor
     /// with its coefficient fixed at 1.
     pub offset: Option<Offset>,
+    /// The denominator of a response written `a / b` (a binomial model's
+    /// proportion with `--weights b`, glmer's `incidence / size` with
+    /// `weights = size`).
+    pub divisor: Option<String>,
     /// Fixed terms beside the intercept, each a list of variables, in R's
     /// order (by degree, then as written).
     pub fixed: Vec<Vec<Variable>>,
@@ -334,6 +338,26 @@ impl Parser {
         if name != "cbind" || self.peek() != Some(&Token::Sym('(')) {
             return Ok((name, None, None));
         }
+        self.cbind()
+    }
+
+    /// The denominator of a response `a / b`, after the response's name.
+    fn divisor(&mut self) -> Result<Option<String>, FormulaError> {
+        if self.peek() != Some(&Token::Sym('/')) {
+            return Ok(None);
+        }
+        self.at += 1;
+        let column = self.column();
+        let name = self.name("the denominator's column after `/` in the response")?;
+        if self.peek() == Some(&Token::Sym('(')) {
+            return Err(FormulaError::Syntax { column, message: transformation(&name) });
+        }
+        Ok(Some(name))
+    }
+
+    /// `cbind(successes, failures)` or `cbind(successes, trials -
+    /// successes)`, after `cbind`.
+    fn cbind(&mut self) -> Result<(String, Option<String>, Option<String>), FormulaError> {
         self.at += 1;
         let successes = self.name("the successes' column inside cbind( )")?;
         self.expect(',', "between the successes' and the failures' columns of cbind( )")?;
@@ -620,6 +644,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     let end = text.chars().count() + 1;
     let mut p = Parser { tokens, at: 0, end, response: String::new(), failures: None };
     let (response, failures, trials) = p.response()?;
+    let divisor = if failures.is_none() && trials.is_none() { p.divisor()? } else { None };
     p.response = response.clone();
     p.failures = failures.clone().or_else(|| trials.clone());
     p.expect('~', "after the response")?;
@@ -651,7 +676,18 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             ),
         });
     }
-    Ok(Formula { response, failures, trials, offset, fixed: unique, random: groups })
+    Ok(Formula { response, failures, trials, offset, divisor, fixed: unique, random: groups })
+}
+
+/// Why a response `a / b` is refused where it is not a binomial
+/// proportion with prior weights.
+fn divided_response(formula: &Formula) -> FormulaError {
+    FormulaError::Unsupported(format!(
+        "the response {} / {} is a binomial model's proportion with its trials as --weights (glmer's `incidence / size` with `weights = size`: --family binomial --weights {}); for any other ratio compute the column in the CSV first",
+        formula.response,
+        formula.divisor.as_deref().unwrap_or(""),
+        formula.divisor.as_deref().unwrap_or("")
+    ))
 }
 
 /// What to say about a function call `f(...)` in a formula.
