@@ -854,8 +854,8 @@ fn unidentifiable_random_structures_are_refused_by_name() {
 
 /// Issue 75, item 2: `--offset COL` is `offset(COL)` in the formula (the
 /// same fit, byte for byte), an offset given twice is refused, and
-/// `--weights` is refused where it has no meaning (a linear model; a
-/// Poisson exposure is an offset). The fits themselves are checked against
+/// `--weights` is refused where it has no meaning (a Poisson exposure is an
+/// offset) or no interval (a weighted linear model's profile). The fits themselves are checked against
 /// lmer and glmer in crates/stats/tests (sleepstudy_offset, cbpp_exposure,
 /// cbpp_weights, cbpp_trials).
 #[test]
@@ -879,10 +879,21 @@ fn offset_and_weights_options_are_the_formulas_and_refused_where_meaningless() {
     let (code, _, stderr) = run(&args("incidence ~ factor(period) + (1|herd)", &["--weights", "size"]));
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("offset(log(size))"), "{stderr}");
-    let (code, _, stderr) =
-        run(&["mixed", cbpp, "--formula", "incidence ~ factor(period) + (1|herd)", "--weights", "size"]);
+    let (code, _, stderr) = run(&[
+        "mixed",
+        cbpp,
+        "--formula",
+        "incidence ~ factor(period) + (1|herd)",
+        "--weights",
+        "size",
+        "--profile",
+        "0.95",
+    ]);
     assert_eq!(code, 1, "{stderr}");
-    assert!(stderr.contains("a linear mixed model's prior weights are not supported"), "{stderr}");
+    assert!(
+        stderr.contains("a weighted linear mixed model is fitted with Satterthwaite df and no profile intervals"),
+        "{stderr}"
+    );
     // A proportion times its weight that is not a whole number of
     // successes is refused at its row.
     let dir = tempfile::tempdir().unwrap();

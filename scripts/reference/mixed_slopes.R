@@ -28,10 +28,13 @@ cat("# lme4", as.character(packageVersion("lme4")), "lmerTest", as.character(pac
     "pbkrtest", as.character(packageVersion("pbkrtest")),
     "R", R.version$major, R.version$minor, "\n")
 fmt <- function(x) format(x, digits = 17)
-show_fit <- function(name, formula, data, reml = TRUE) {
-  m <- lmerTest::lmer(formula, data, REML = reml, control = ctl)
+show_fit <- function(name, formula, data, reml = TRUE, weights = NULL) {
+  w <- if (is.null(weights)) NULL else data[[weights]]
+  # do.call passes the weights' values (lmer looks a name up in data).
+  m <- do.call(lmerTest::lmer, list(formula, data = data, REML = reml, control = ctl, weights = w))
   cat(name, "formula", deparse(formula, width.cutoff = 500L), "\n")
   cat(name, "reml", reml, "\n")
+  if (!is.null(weights)) cat(name, "weights", weights, "\n")
   crit <- if (reml) m@devcomp$cmp[["REML"]] else deviance(m)
   cat(name, "criterion", fmt(crit), "\n")
   cat(name, "theta", fmt(getME(m, "theta")), "\n")
@@ -44,7 +47,7 @@ show_fit <- function(name, formula, data, reml = TRUE) {
     cat(name, "fixef", rownames(co)[i], fmt(co[i, "Estimate"]), fmt(co[i, "Std. Error"]), "\n")
     if (reml) cat(name, "df", rownames(co)[i], fmt(co[i, "df"]), "\n")
   }
-  if (reml && nrow(data) <= 1000) {
+  if (reml && nrow(data) <= 1000 && is.null(weights)) {
     V <- vcovAdj(m)
     for (i in seq_len(nrow(co))) {
       L <- matrix(0, nrow = 1, ncol = nrow(co)); L[1, i] <- 1
@@ -58,7 +61,8 @@ write_fixture <- function(d, file) {
 }
 
 # 1. lme4's sleepstudy: reaction times over 10 days of sleep deprivation.
-sleep <- data.frame(Reaction = sleepstudy$Reaction, Days = sleepstudy$Days, Subject = sleepstudy$Subject)
+sleep <- data.frame(Reaction = sleepstudy$Reaction, Days = sleepstudy$Days, Subject = sleepstudy$Subject,
+                    w = 1 + sleepstudy$Days %% 3)
 write_fixture(sleep, "slopes_sleepstudy.csv")
 show_fit("sleepstudy_reml", Reaction ~ Days + (Days | Subject), sleep)
 show_fit("sleepstudy_ml", Reaction ~ Days + (Days | Subject), sleep, reml = FALSE)
@@ -66,6 +70,9 @@ show_fit("sleepstudy_uncorrelated", Reaction ~ Days + (Days || Subject), sleep)
 show_fit("sleepstudy_slope_only", Reaction ~ Days + (0 + Days | Subject), sleep)
 # An offset (issue 75): a term with its coefficient fixed at 1.
 show_fit("sleepstudy_offset", Reaction ~ Days + offset(Days) + (Days | Subject), sleep)
+# Prior weights (issue 75): residual variance sigma^2 / w.
+show_fit("sleepstudy_weights", Reaction ~ Days + (Days | Subject), sleep, weights = "w")
+show_fit("sleepstudy_weightsml", Reaction ~ Days + (Days | Subject), sleep, reml = FALSE, weights = "w")
 
 # 2. nlme's Orthodont: growth of 27 children, with a fixed effect of sex.
 orth <- data.frame(distance = Orthodont$distance, age = Orthodont$age,

@@ -6,8 +6,8 @@
 
 use crossaudit_stats::mixed;
 use crossaudit_stats::mixed::formula::{
-    compare_table, fit_glmm_with, fit_table, read_csv, Comparison, DfMethod, FileError, FormulaError, FormulaFit,
-    GlmmFormulaFit, GlmmOptions, Table,
+    compare_table, fit_glmm_with, fit_table_weighted, read_csv, Comparison, DfMethod, FileError, FormulaError,
+    FormulaFit, GlmmFormulaFit, GlmmOptions, Table,
 };
 
 /// Reads the tidy CSV at `path` and compares two formulas on it by a
@@ -37,10 +37,11 @@ pub fn fit_file(
     criterion: mixed::Criterion,
     df: DfMethod,
     profile: Option<f64>,
+    weights: Option<&str>,
 ) -> Result<FormulaFit, FileError> {
     let fail = |error: FormulaError| FileError { file: path.display().to_string(), error };
     let table = read_file(path).map_err(fail)?;
-    fit_table(formula, &table, criterion, df, profile).map_err(fail)
+    fit_table_weighted(formula, &table, criterion, df, profile, weights).map_err(fail)
 }
 
 /// Reads the tidy CSV at `path` and fits `formula` to it as a generalized

@@ -11,7 +11,8 @@
 //! optimum crossaudit finds is no higher than lme4's; theta, the variance
 //! components and correlations, the fixed effects, their standard errors
 //! and (REML) lmerTest's Satterthwaite df agree; the singular flag is
-//! lme4's `isSingular`.
+//! lme4's `isSingular`. Among them an offset and lmer's prior weights
+//! (sleepstudy, REML and ML; issue 75).
 
 mod common;
 
@@ -19,7 +20,9 @@ use std::collections::BTreeMap;
 
 use common::{close, compare_varcorr, fixture, root, VarCorr};
 
-use crossaudit_stats::mixed::formula::{build_model, fit_table, parse, read_csv, DfMethod, FormulaModel};
+use crossaudit_stats::mixed::formula::{
+    build_model, fit_table, fit_table_weighted, parse, read_csv, DfMethod, FormulaModel,
+};
 use crossaudit_stats::mixed::slopes::deviance_at;
 use crossaudit_stats::mixed::Criterion;
 
@@ -28,6 +31,8 @@ use crossaudit_stats::mixed::Criterion;
 struct Reference {
     formula: String,
     reml: bool,
+    /// lmer's prior weights (a column), where the fit has them.
+    weights: Option<String>,
     criterion: f64,
     theta: Vec<f64>,
     /// (grp, var1, var2) -> (vcov, sdcor).
@@ -52,6 +57,7 @@ fn references() -> BTreeMap<String, Reference> {
         match what {
             "formula" => r.formula = values.trim().to_string(),
             "reml" => r.reml = values.trim() == "TRUE",
+            "weights" => r.weights = Some(values.trim().to_string()),
             "criterion" => r.criterion = num(words[0]),
             "theta" => r.theta = words.iter().map(|w| num(w)).collect(),
             "vc" => {
@@ -74,22 +80,36 @@ fn references() -> BTreeMap<String, Reference> {
     out
 }
 
+/// The numbers of column `name` of the CSV `text`.
+fn column(text: &str, name: &str) -> Vec<f64> {
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let at = header.iter().position(|h| *h == name).unwrap();
+    text.lines().skip(1).map(|l| l.split(',').nth(at).unwrap().parse().unwrap()).collect()
+}
+
 #[test]
 fn random_slope_fits_match_lme4_and_lmertest() {
     let refs = references();
     assert!(refs.len() >= 16, "{} reference fits", refs.len());
     let mut failures = Vec::new();
     for (name, r) in &refs {
-        let table = read_csv(&fixture("slopes", name)).unwrap();
+        let text = fixture("slopes", name);
+        let table = read_csv(&text).unwrap();
         let criterion = if r.reml { Criterion::Reml } else { Criterion::Ml };
         let formula = parse(&r.formula).unwrap();
         let FormulaModel::Slopes(data) = build_model(&formula, &table).unwrap() else {
             panic!("{name}: not a random-slope model")
         };
+        let data = match &r.weights {
+            Some(w) => data.with_weights(column(&text, w)).unwrap(),
+            None => data,
+        };
         // The same function: crossaudit's deviance at lme4's theta.
         let at_lme4 = deviance_at(&data, &r.theta, criterion).unwrap();
         close(&format!("{name} deviance at lme4's theta"), at_lme4, r.criterion, 1e-11, 0.0, &mut failures);
-        let fit = fit_table(&r.formula, &table, criterion, DfMethod::Satterthwaite, None).unwrap();
+        let fit =
+            fit_table_weighted(&r.formula, &table, criterion, DfMethod::Satterthwaite, None, r.weights.as_deref())
+                .unwrap();
         let f = fit.fit.slopes().unwrap();
         assert!(f.certificate.certified, "{name}: {}", fit.summary());
         if f.deviance > r.criterion + 1e-9 * r.criterion.abs() {

@@ -491,9 +491,10 @@ pub(crate) struct MixedArgs {
     /// --compare).
     #[arg(long, value_name = "COL")]
     pub(crate) offset: Option<String>,
-    /// glmer's prior weights for a binomial model: the trials behind a
-    /// response of proportions (each proportion x weight a whole number
-    /// of successes).
+    /// Prior weights: lmer's for a linear model (observation i's residual
+    /// variance sigma^2 / w_i; Satterthwaite df, no --profile), glmer's for
+    /// a binomial model (the trials behind a response of proportions, each
+    /// proportion x weight a whole number of successes).
     #[arg(long, value_name = "COL")]
     pub(crate) weights: Option<String>,
     /// Quadrature nodes per level for a generalized model with one scalar

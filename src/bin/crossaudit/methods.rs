@@ -248,7 +248,12 @@ pub(crate) fn simulate_lab(out: &Path, seed: u64) -> Result<(), Error> {
     Ok(())
 }
 
-fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, json: bool) -> Result<(), Error> {
+fn mixed(
+    data: &Path,
+    formula: &str,
+    (ml, df, profile, weights): (bool, &str, Option<f64>, Option<&str>),
+    json: bool,
+) -> Result<(), Error> {
     use crossaudit::stats::mixed::{formula::DfMethod, Criterion};
     // The fit is written to standard output and nowhere else.
     if crate::output::stdout_closed() {
@@ -258,7 +263,7 @@ fn mixed(data: &Path, formula: &str, ml: bool, df: &str, profile: Option<f64>, j
     }
     let criterion = if ml { Criterion::Ml } else { Criterion::Reml };
     let df = if df == "kenward-roger" { DfMethod::KenwardRoger } else { DfMethod::Satterthwaite };
-    let fit = crossaudit::methods::formula_file::fit_file(data, formula, criterion, df, profile)?;
+    let fit = crossaudit::methods::formula_file::fit_file(data, formula, criterion, df, profile, weights)?;
     if json {
         out!("{}", crossaudit::io::pretty_json(&fit));
     } else {
@@ -302,14 +307,12 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
             a.nagq
         )));
     }
-    if a.weights.is_some() && a.family == "gaussian" {
-        return Err(refuse(
-            "--weights: a linear mixed model's prior weights are not supported; --weights gives the trials of a binomial response of proportions".into(),
-        ));
+    if a.weights.is_some() && a.compare.is_some() {
+        return Err(refuse("--weights with --compare: the likelihood-ratio test is of unweighted models".into()));
     }
     match (a.family.as_str(), compare) {
         ("gaussian", Some(other)) => mixed_compare(data, formula, &other, a.json),
-        ("gaussian", None) => mixed(data, formula, a.ml, &a.df, a.profile, a.json),
+        ("gaussian", None) => mixed(data, formula, (a.ml, &a.df, a.profile, a.weights.as_deref()), a.json),
         (family, other) => {
             let refused = if other.is_some() {
                 Some("--compare")

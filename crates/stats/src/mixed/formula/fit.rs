@@ -275,7 +275,25 @@ pub fn fit_table(
     df: DfMethod,
     profile: Option<f64>,
 ) -> Result<FormulaFit, FormulaError> {
+    fit_table_weighted(formula_text, table, criterion, df, profile, None)
+}
+
+/// [`fit_table`] with lmer's prior `weights` (a column: observation i's
+/// residual variance is sigma^2 / w_i), fitted by the sparse engine over
+/// every level (random intercepts too) with Satterthwaite df; profile
+/// intervals and Kenward-Roger df are refused with weights.
+pub fn fit_table_weighted(
+    formula_text: &str,
+    table: &Table,
+    criterion: mixed::Criterion,
+    df: DfMethod,
+    profile: Option<f64>,
+    weights: Option<&str>,
+) -> Result<FormulaFit, FormulaError> {
     let formula = parse(formula_text)?;
+    if let Some(w) = weights {
+        return weighted_table(formula_text, &formula, table, (criterion, df, profile), w);
+    }
     if formula.failures.is_some() || formula.trials.is_some() {
         return Err(FormulaError::Unsupported(
             "cbind(successes, failures) is the response of a binomial model: add --family binomial".into(),
@@ -345,6 +363,44 @@ pub fn fit_table(
         profile,
         likelihood,
     })
+}
+
+/// [`fit_table_weighted`] with its weights' column `w`.
+fn weighted_table(
+    formula_text: &str,
+    formula: &super::Formula,
+    table: &Table,
+    (criterion, df, profile): (mixed::Criterion, DfMethod, Option<f64>),
+    w: &str,
+) -> Result<FormulaFit, FormulaError> {
+    if profile.is_some() || df == DfMethod::KenwardRoger {
+        return Err(FormulaError::Unsupported(format!(
+            "--weights {w} with {}: a weighted linear mixed model is fitted with Satterthwaite df and no profile intervals",
+            if profile.is_some() { "--profile" } else { "--df kenward-roger" }
+        )));
+    }
+    if formula.failures.is_some() || formula.trials.is_some() || formula.divisor.is_some() {
+        return Err(FormulaError::Unsupported(
+            "cbind( ) or a / b with --weights is a binomial model's response: add --family binomial".into(),
+        ));
+    }
+    let FormulaModel::Slopes(data) = super::table::build_model_as(formula, table, true)? else {
+        unreachable!("build_model_as(.., true) gives the slope engine's terms")
+    };
+    super::table::present(table, w)?;
+    let col = table.column(w)?;
+    let values = super::table::numbers(table, w)?.unwrap_or_default();
+    if let Some(row) = (0..col.len()).find(|&i| values.get(i).is_none_or(|v| !(v.is_finite() && *v > 0.0))) {
+        return Err(FormulaError::Value {
+            row: row + 1,
+            field: w.to_string(),
+            message: format!(
+                "`{}` is not a weight above 0 (a weight of 0 drops its row: remove the row instead)",
+                col[row].trim()
+            ),
+        });
+    }
+    slopes_table(formula_text, &data.with_weights(values)?, criterion, df, None)
 }
 
 /// [`fit_table`] of a random-intercept model whose crossed factors are too

@@ -37,7 +37,8 @@ mod slopes_fit;
 mod table;
 
 pub use fit::{
-    compare_table, fit_table, ComparedModel, Comparison, DfMethod, FileError, Fitted, FixedRow, FormulaFit, Likelihood,
+    compare_table, fit_table, fit_table_weighted, ComparedModel, Comparison, DfMethod, FileError, Fitted, FixedRow,
+    FormulaFit, Likelihood,
 };
 pub use glmm_fit::{build_glmm, build_glmm_with, fit_glmm_table, fit_glmm_with, GlmmFormulaFit, GlmmOptions};
 pub use table::{build, build_model, r_number_label, read_csv, FormulaModel, Table};

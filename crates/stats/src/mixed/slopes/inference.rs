@@ -26,7 +26,7 @@ fn at(s: &System, par: &[f64]) -> Result<(f64, Vec<f64>), MixedError> {
     let sigma2 = par[m] * par[m];
     let r2 = e.r2_std * s.y_scale * s.y_scale;
     let log2pis = (2.0 * std::f64::consts::PI * sigma2).ln();
-    let dev = e.log_det_l2 + r2 / sigma2 + s.n as f64 * log2pis + e.log_det_rx2 - s.p as f64 * log2pis;
+    let dev = e.log_det_l2 + r2 / sigma2 + s.n as f64 * log2pis + e.log_det_rx2 - s.p as f64 * log2pis - s.log_w;
     Ok((dev, (0..s.p).map(|c| sigma2 * e.rx_inv[(c, c)]).collect()))
 }
 

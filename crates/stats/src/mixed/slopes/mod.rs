@@ -71,7 +71,7 @@ pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -
     if base.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", base.len())));
     }
-    let s = system::System::new(base, &data.terms)?;
+    let s = system::System::new(base, &data.terms, data.weights.as_deref())?;
     let (theta, evaluations, certificate) = optimize::optimum(&s, criterion)?;
     let e = s.evaluate(&theta, criterion)?;
     let total = s.y_scale * s.y_scale;
@@ -129,6 +129,11 @@ pub fn with_kenward_roger(data: &SlopeData, mut fit: SlopeFit) -> Result<SlopeFi
     if fit.criterion != Criterion::Reml {
         return Ok(fit);
     }
+    if data.weighted() {
+        return Err(MixedError::FixedEffects(
+            "Kenward-Roger df with prior weights are not computed (pbkrtest's vcovAdj does not take them either); use Satterthwaite df".into(),
+        ));
+    }
     let (base, _) = data.base.full_rank();
     let covariances: Vec<Vec<f64>> = fit.terms.iter().map(|t| t.covariance.clone()).collect();
     let kr = kenward_roger::kenward_roger(&base, &data.terms, &covariances, fit.residual)?;
@@ -142,7 +147,7 @@ pub fn with_kenward_roger(data: &SlopeData, mut fit: SlopeFit) -> Result<SlopeFi
 /// lme4's parameterization: what lme4's `devfun` returns there.
 pub fn deviance_at(data: &SlopeData, theta: &[f64], criterion: Criterion) -> Result<f64, MixedError> {
     let (base, _) = data.base.full_rank();
-    let s = system::System::new(&base, &data.terms)?;
+    let s = system::System::new(&base, &data.terms, data.weights.as_deref())?;
     if theta.len() != s.structure.parameters() {
         return Err(MixedError::Length {
             factor: "theta".into(),

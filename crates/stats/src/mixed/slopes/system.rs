@@ -9,6 +9,8 @@
 //! log|R_X|^2 are sums of the logarithms of its pivots. The penalized
 //! residual sum of squares is computed from the solution itself,
 //! |y - X beta - Z Lambda u|^2 + |u|^2, not as a difference of squares.
+//! Prior weights W (lmer's `weights`) weight the system and the residuals,
+//! and the deviance subtracts log|W| as lme4's does.
 
 use faer::Mat;
 
@@ -30,6 +32,10 @@ pub(super) struct System {
     pub structure: Structure,
     /// The pattern and symbolic factor of the bordered system.
     sparse: Sparse,
+    /// Prior weights (all 1 without them) and the sum of their logarithms
+    /// (lme4's ldW, which the deviance subtracts).
+    w: Vec<f64>,
+    pub log_w: f64,
     xty: Vec<f64>,
 }
 
@@ -49,7 +55,7 @@ pub(super) struct Eval {
 
 impl System {
     /// The products of `base` (response and fixed effects) and `terms`.
-    pub fn new(base: &MixedData, terms: &[Term]) -> Result<System, MixedError> {
+    pub fn new(base: &MixedData, terms: &[Term], weights: Option<&[f64]>) -> Result<System, MixedError> {
         let n = base.len();
         let p = base.p();
         let y_mean = base.y.iter().sum::<f64>() / n as f64;
@@ -63,9 +69,11 @@ impl System {
         if !z2.is_finite() || !x2.is_finite() {
             return Err(MixedError::TooLarge("the random-effect columns' products overflow double precision".into()));
         }
-        let xty: Vec<f64> = (0..p).map(|c| (0..n).map(|i| x[i * p + c] * y[i]).sum()).collect();
+        let w: Vec<f64> = weights.map_or_else(|| vec![1.0; n], <[f64]>::to_vec);
+        let log_w: f64 = w.iter().map(|v| v.ln()).sum();
+        let xty: Vec<f64> = (0..p).map(|c| (0..n).map(|i| x[i * p + c] * w[i] * y[i]).sum()).collect();
         let sparse = Sparse::new(&structure.z_rows, structure.q, p)?;
-        Ok(System { n, p, y_mean, y_scale, y, x, structure, sparse, xty })
+        Ok(System { n, p, y_mean, y_scale, y, x, structure, sparse, w, log_w, xty })
     }
 
     /// The deviance and estimates at `theta`.
@@ -79,11 +87,12 @@ impl System {
             n,
             |i, out| {
                 st.z_lambda_row(i, &lambda, out);
+                let wy = self.w[i] * self.y[i];
                 for &(j, v) in out.iter() {
-                    rhs[(j, 0)] += v * self.y[i];
+                    rhs[(j, 0)] += v * wy;
                 }
             },
-            None,
+            Some(&self.w),
             &self.x,
         );
         let not_pd = || MixedError::NotPositiveDefinite { theta: theta.to_vec() };
@@ -105,7 +114,7 @@ impl System {
         for i in 0..n {
             let fitted: f64 = (0..p).map(|c| self.x[i * p + c] * beta_std[c]).sum::<f64>()
                 + st.z_rows[i].iter().map(|&(j, v)| v * b[j]).sum::<f64>();
-            r2_std += (self.y[i] - fitted).powi(2);
+            r2_std += self.w[i] * (self.y[i] - fitted).powi(2);
         }
         // (R_X'R_X)^-1 (Var(beta) / sigma^2 on either scale: both scale by
         // the same factor).
@@ -115,14 +124,15 @@ impl System {
             Criterion::Ml => {
                 let nf = n as f64;
                 (
-                    log_det_l2 + nf * (1.0 + (2.0 * std::f64::consts::PI * r2_std * scale2 / nf).ln()),
+                    log_det_l2 - self.log_w + nf * (1.0 + (2.0 * std::f64::consts::PI * r2_std * scale2 / nf).ln()),
                     r2_std * scale2 / nf,
                 )
             }
             Criterion::Reml => {
                 let df = (n - p) as f64;
                 (
-                    log_det_l2 + log_det_rx2 + df * (1.0 + (2.0 * std::f64::consts::PI * r2_std * scale2 / df).ln()),
+                    log_det_l2 + log_det_rx2 - self.log_w
+                        + df * (1.0 + (2.0 * std::f64::consts::PI * r2_std * scale2 / df).ln()),
                     r2_std * scale2 / df,
                 )
             }

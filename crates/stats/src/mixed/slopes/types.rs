@@ -36,6 +36,9 @@ pub struct Term {
 pub struct SlopeData {
     pub(super) base: MixedData,
     pub(super) terms: Vec<Term>,
+    /// Prior weights (lmer's `weights`: observation i's residual variance
+    /// is sigma^2 / w_i); `None`: all 1.
+    pub(super) weights: Option<Vec<f64>>,
 }
 
 impl SlopeData {
@@ -72,7 +75,31 @@ impl SlopeData {
             }
         }
         let terms = ordered(terms);
-        Ok(SlopeData { base, terms })
+        Ok(SlopeData { base, terms, weights: None })
+    }
+
+    /// The data with lmer's prior `weights`: observation i's residual
+    /// variance is sigma^2 / w_i. Each weight is finite and above 0 (a
+    /// weight of 0 would drop the row: remove it instead).
+    pub fn with_weights(mut self, weights: Vec<f64>) -> Result<SlopeData, MixedError> {
+        let n = self.base.len();
+        if weights.len() != n {
+            return Err(MixedError::Length { factor: "weights".into(), found: weights.len(), expected: n });
+        }
+        if let Some(i) = weights.iter().position(|w| !(w.is_finite() && *w > 0.0 && *w < 1e150)) {
+            return Err(MixedError::FixedEffects(format!(
+                "observation {}: the weight {} is not a number above 0 (a weight of 0 drops its row: remove the row instead)",
+                i + 1,
+                weights[i]
+            )));
+        }
+        self.weights = Some(weights);
+        Ok(self)
+    }
+
+    /// Whether the data carry prior weights.
+    pub fn weighted(&self) -> bool {
+        self.weights.is_some()
     }
 
     /// Number of covariance parameters (theta).
