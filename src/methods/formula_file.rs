@@ -27,10 +27,10 @@ fn read_file(path: &std::path::Path) -> Result<Table, FormulaError> {
     read_csv(&text)
 }
 
-/// Reads the tidy CSV at `path` and fits `formula` to it (see
-/// [`fit_table`]). A path that is not a regular file (a folder, a FIFO, a
-/// device) or is over 1 GiB is refused before it is read
-/// ([`crate::io::read_input`]).
+/// Reads the tidy CSV at `path` and fits `formula` to it, with lmer's
+/// prior `weights` where given (see [`fit_table_weighted`]). A path that is
+/// not a regular file (a folder, a FIFO, a device) or is over 1 GiB is
+/// refused before it is read ([`crate::io::read_input`]).
 pub fn fit_file(
     path: &std::path::Path,
     formula: &str,

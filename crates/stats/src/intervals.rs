@@ -111,8 +111,8 @@ fn one_way_cluster(
 /// The two-way cluster-robust interval (Cameron, Gelbach & Miller 2011)
 /// of the mean of the cells present, as on a complete array: with e the
 /// residuals about their mean and G_r, G_c the rows and columns that hold
-/// a cell, V = G_r / (G_r - 1) sum_r (row sum of e)^2 / n^2 + G_c / (G_c -
-/// 1) sum_c (column sum of e)^2 / n^2 - n / (n - 1) sum e^2 / n^2
+/// a cell, V = [G_r / (G_r - 1) sum_r (row sum of e)^2 + G_c / (G_c - 1)
+/// sum_c (column sum of e)^2 - n / (n - 1) sum e^2] / n^2
 /// (sandwich::vcovCL(lm(d ~ 1), cluster = ~ row + col), type HC1), on
 /// t(min(G_r, G_c) - 1); undefined (a boundary row) where V is not
 /// positive.

@@ -330,8 +330,26 @@ pub fn fit_table_weighted(
     };
     let fit = mixed::fit_with(&data, criterion, inference)?;
     let reml = criterion == mixed::Criterion::Reml;
-    let fixed = fit
-        .fixed
+    let fixed = fixed_rows(&fit, reml, df);
+    let profile = match profile {
+        Some(level) => Some((level, mixed::profile_intervals(&data, criterion, level)?)),
+        None => None,
+    };
+    let likelihood = Likelihood::of(&fit);
+    Ok(FormulaFit {
+        formula: formula_text.to_string(),
+        df_method: reml.then_some(df),
+        fit: Fitted::Intercepts(fit),
+        fixed,
+        profile,
+        likelihood,
+    })
+}
+
+/// The fixed-effect table of an intercept-engine fit: Satterthwaite or
+/// Kenward-Roger SE and df for a REML fit, none for ML.
+fn fixed_rows(fit: &mixed::MixedFit, reml: bool, df: DfMethod) -> Vec<FixedRow> {
+    fit.fixed
         .iter()
         .map(|f| {
             let (se, dof) = match (reml, df) {
@@ -349,20 +367,7 @@ pub fn fit_table_weighted(
             };
             FixedRow::new(&f.name, f.estimate, se, dof, df_fallback)
         })
-        .collect();
-    let profile = match profile {
-        Some(level) => Some((level, mixed::profile_intervals(&data, criterion, level)?)),
-        None => None,
-    };
-    let likelihood = Likelihood::of(&fit);
-    Ok(FormulaFit {
-        formula: formula_text.to_string(),
-        df_method: reml.then_some(df),
-        fit: Fitted::Intercepts(fit),
-        fixed,
-        profile,
-        likelihood,
-    })
+        .collect()
 }
 
 /// [`fit_table_weighted`] with its weights' column `w`.

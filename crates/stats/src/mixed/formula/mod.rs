@@ -567,10 +567,14 @@ fn canonical(terms: Vec<Vec<Variable>>) -> Vec<Vec<Variable>> {
     unique
 }
 
+/// The terms after `~`: fixed (each a set of variables), random, and the
+/// offset.
+type Terms = (Vec<Vec<Variable>>, Vec<RandomTerm>, Option<Offset>);
+
 impl Parser {
     /// The terms after `~`: fixed terms as written (each a set of
     /// variables; a crossing expands), random terms and the offset.
-    fn terms(&mut self) -> Result<(Vec<Vec<Variable>>, Vec<RandomTerm>, Option<Offset>), FormulaError> {
+    fn terms(&mut self) -> Result<Terms, FormulaError> {
         let mut fixed: Vec<Vec<Variable>> = Vec::new();
         let mut random: Vec<RandomTerm> = Vec::new();
         let mut offset: Option<Offset> = None;

@@ -253,7 +253,8 @@ pub struct GlmmFit {
     /// Fixed-effect columns dropped as aliased.
     pub dropped: Vec<String>,
     /// The fixed effects whose estimates are infinite (the data separate
-    /// them; [`separation`]), empty where every estimate is finite.
+    /// them: found by linear programming from the data), empty where
+    /// every estimate is finite.
     pub separated: Vec<String>,
     /// Notes on the inference.
     pub notes: Vec<String>,
