@@ -133,12 +133,25 @@ pub enum CellsError {
     },
 }
 
-/// Reads and checks every row of a per-cell CSV. Checks here are the ones a
-/// row can fail on its own; cross-row checks (missing or duplicate cells)
+/// Reads and checks every row of a per-cell CSV (or its Parquet twin, a
+/// `.parquet` file with the same columns). Checks here are the ones a row
+/// can fail on its own; cross-row checks (missing or duplicate cells)
 /// belong to the analysis, which knows the design.
 pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
     let p = path.display().to_string();
     let limit = crate::io::MAX_CELLS_FILE;
+    // A Parquet file (`.parquet`) with the same columns: its rows as the
+    // CSV text crossaudit would write for them, read by the same reader,
+    // so its errors name the same rows and fields (row L of the file is
+    // line L + 1).
+    if crate::io::parquet::is_parquet(path) {
+        let raw = crate::io::read_input(path, limit, "a per-cell Parquet file")
+            .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
+        let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {
+            CellsError::Csv { path: p.clone(), line: 1, message: format!("not a readable Parquet file: {message}") }
+        })?;
+        return read_cells_from(&p, text.as_slice());
+    }
     crate::io::check_regular(path, limit, "a per-cell CSV")
         .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
     let file = std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;

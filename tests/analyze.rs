@@ -661,3 +661,111 @@ fn a_guard_kind_is_named_as_serde_writes_it() {
         assert_eq!(serde_json::to_value(k).unwrap(), serde_json::Value::String(k.name().into()));
     }
 }
+
+/// Issue 76, item 3 (the reading half): `--cells` accepts a Parquet file
+/// with the per-cell CSV's columns. A twin of the committed quickstart
+/// cells written here with typed columns (text, 64-bit integers, doubles,
+/// as pandas' `to_parquet` writes them) is analysed to the same report as
+/// the CSV, apart from the line naming the file and its hash.
+#[test]
+fn a_parquet_cells_file_is_analysed_as_its_csv_twin() {
+    use parquet::basic::{LogicalType, Repetition, Type as Physical};
+    use parquet::column::writer::ColumnWriter;
+    use parquet::data_type::ByteArray;
+    use parquet::file::properties::WriterProperties;
+    use parquet::file::writer::SerializedFileWriter;
+    use parquet::schema::types::Type;
+    use std::sync::Arc;
+
+    let root = crate::common::root();
+    let csv_path = root.join("results/quickstart/cells.csv");
+    let text = std::fs::read_to_string(&csv_path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    // Each column as the narrowest type every value fits: integer, double,
+    // else text.
+    let kind = |c: usize| -> u8 {
+        if rows.iter().all(|r| r[c].parse::<i64>().is_ok()) {
+            0
+        } else if rows.iter().all(|r| r[c].parse::<f64>().is_ok()) {
+            1
+        } else {
+            2
+        }
+    };
+    let kinds: Vec<u8> = (0..header.len()).map(kind).collect();
+    assert_eq!(kinds.iter().filter(|k| **k == 2).count(), 5, "{header:?} {kinds:?}");
+    let fields = header
+        .iter()
+        .zip(&kinds)
+        .map(|(name, k)| {
+            let builder = match k {
+                0 => Type::primitive_type_builder(name, Physical::INT64),
+                1 => Type::primitive_type_builder(name, Physical::DOUBLE),
+                _ => Type::primitive_type_builder(name, Physical::BYTE_ARRAY)
+                    .with_logical_type(Some(LogicalType::String)),
+            };
+            Arc::new(builder.with_repetition(Repetition::REQUIRED).build().unwrap())
+        })
+        .collect();
+    let schema = Arc::new(Type::group_type_builder("cells").with_fields(fields).build().unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let parquet_path = dir.path().join("cells.parquet");
+    let file = std::fs::File::create(&parquet_path).unwrap();
+    let mut writer = SerializedFileWriter::new(file, schema, Arc::new(WriterProperties::builder().build())).unwrap();
+    let mut group = writer.next_row_group().unwrap();
+    let mut c = 0;
+    while let Some(mut col) = group.next_column().unwrap() {
+        match col.untyped() {
+            ColumnWriter::Int64ColumnWriter(w) => {
+                let v: Vec<i64> = rows.iter().map(|r| r[c].parse().unwrap()).collect();
+                w.write_batch(&v, None, None).unwrap();
+            }
+            ColumnWriter::DoubleColumnWriter(w) => {
+                let v: Vec<f64> = rows.iter().map(|r| r[c].parse().unwrap()).collect();
+                w.write_batch(&v, None, None).unwrap();
+            }
+            ColumnWriter::ByteArrayColumnWriter(w) => {
+                let v: Vec<ByteArray> = rows.iter().map(|r| ByteArray::from(r[c])).collect();
+                w.write_batch(&v, None, None).unwrap();
+            }
+            _ => panic!("column {c}"),
+        }
+        col.close().unwrap();
+        c += 1;
+    }
+    group.close().unwrap();
+    writer.close().unwrap();
+    let design = root.join("designs/quickstart.design");
+    let report = |cells: &std::path::Path, out: &std::path::Path| -> String {
+        let o = crate::common::bin()
+            .args(["analyze", design.to_str().unwrap(), "--cells", cells.to_str().unwrap(), "--out"])
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+        md.lines().filter(|l| !l.starts_with("Per-cell data:")).collect::<Vec<_>>().join("\n")
+    };
+    // Both bare files (a run folder's cells.csv would bring its record's
+    // evidence).
+    let bare_csv = dir.path().join("cells.csv");
+    std::fs::copy(&csv_path, &bare_csv).unwrap();
+    let from_csv = report(&bare_csv, &dir.path().join("csv"));
+    let from_parquet = report(&parquet_path, &dir.path().join("parquet"));
+    assert!(from_csv.contains("## "), "{from_csv}");
+    let differ: Vec<(&str, &str)> = from_csv.lines().zip(from_parquet.lines()).filter(|(a, b)| a != b).collect();
+    assert!(differ.is_empty() && from_csv.lines().count() == from_parquet.lines().count(), "{differ:#?}");
+    // A damaged Parquet file is named as such, at its path.
+    let broken = dir.path().join("broken.parquet");
+    std::fs::write(&broken, b"PAR1 not really").unwrap();
+    let o = crate::common::bin()
+        .args(["analyze", design.to_str().unwrap(), "--cells", broken.to_str().unwrap(), "--out"])
+        .arg(dir.path().join("broken"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("broken.parquet") && stderr.contains("not a readable Parquet file"), "{stderr}");
+}
