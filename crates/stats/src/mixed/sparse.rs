@@ -23,7 +23,6 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, supernodal, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
@@ -53,7 +52,50 @@ pub(crate) struct Sparse {
     /// [`Sparse::factor`] walks them.
     pair_start: Vec<usize>,
     pair_pos: Vec<usize>,
+    /// The fill-reducing ordering: position i of the factor is column
+    /// `forward[i]` of the system (the fixed effects last, unmoved).
+    forward: Vec<usize>,
+    /// The pattern in that order, and where each value goes.
+    permuted: Permuted,
     symbolic: SymbolicCholesky<usize>,
+}
+
+/// A system's pattern in the factor's order: one triangle, column
+/// compressed, and the position there of each value of the original
+/// lower triangle.
+struct Permuted {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    side: Side,
+    map: Vec<usize>,
+}
+
+/// The lower triangle (`col_ptr`, `row_idx`) renumbered by `inverse`
+/// (original column -> position), as the lower triangle or (`upper`) the
+/// upper one, rows sorted.
+fn permute(col_ptr: &[usize], row_idx: &[usize], inverse: &[usize], upper: bool) -> Permuted {
+    let n = col_ptr.len() - 1;
+    let mut entries: Vec<(usize, usize, usize)> = Vec::with_capacity(row_idx.len());
+    for c in 0..n {
+        for (k, &r) in row_idx.iter().enumerate().take(col_ptr[c + 1]).skip(col_ptr[c]) {
+            let (a, b) = (inverse[r], inverse[c]);
+            let (row, col) = if upper { (a.min(b), a.max(b)) } else { (a.max(b), a.min(b)) };
+            entries.push((col, row, k));
+        }
+    }
+    entries.sort_unstable();
+    let mut out_ptr = vec![0usize; n + 1];
+    let mut out_idx = Vec::with_capacity(entries.len());
+    let mut map = vec![0usize; entries.len()];
+    for (at, &(col, row, k)) in entries.iter().enumerate() {
+        out_ptr[col + 1] += 1;
+        out_idx.push(row);
+        map[k] = at;
+    }
+    for c in 0..n {
+        out_ptr[c + 1] += out_ptr[c];
+    }
+    Permuted { col_ptr: out_ptr, row_idx: out_idx, side: if upper { Side::Upper } else { Side::Lower }, map }
 }
 
 /// One numeric factor of a [`Sparse`] system.
@@ -112,22 +154,34 @@ impl Sparse {
             pair_start.push(pair_pos.len());
         }
         let (forward, inverse) = ordering(&col_ptr, &row_idx, q, p)?;
-        let perm = PermRef::new_checked(&forward, &inverse, n);
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic = factorize_symbolic_cholesky(
-            pattern,
-            Side::Lower,
-            SymmetricOrdering::Custom(perm),
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| too_large(format!("the symbolic factor of the {n} x {n} system failed: {e:?}")))?;
+        // The system is stored already permuted (so that no factorization
+        // permutes it again): its lower triangle, or its upper one where
+        // the factor is simplicial (faer's simplicial factor reads the
+        // upper triangle, its supernodal one the lower).
+        let symbolic_of = |upper: bool| -> Result<(Permuted, SymbolicCholesky<usize>), MixedError> {
+            let permuted = permute(&col_ptr, &row_idx, &inverse, upper);
+            let pattern = SymbolicSparseColMatRef::new_checked(n, n, &permuted.col_ptr, None, &permuted.row_idx);
+            let side = if upper { Side::Upper } else { Side::Lower };
+            let symbolic = factorize_symbolic_cholesky(
+                pattern,
+                side,
+                SymmetricOrdering::Identity,
+                CholeskySymbolicParams::default(),
+            )
+            .map_err(|e| too_large(format!("the symbolic factor of the {n} x {n} system failed: {e:?}")))?;
+            Ok((permuted, symbolic))
+        };
+        let (mut permuted, mut symbolic) = symbolic_of(false)?;
+        if matches!(symbolic.raw(), SymbolicCholeskyRaw::Simplicial(_)) {
+            (permuted, symbolic) = symbolic_of(true)?;
+        }
         if symbolic.len_val() > MAX_FACTOR_NONZEROS {
             return Err(too_large(format!(
                 "the Cholesky factor of the {n} x {n} penalized system would hold {} nonzeros, over the limit of {MAX_FACTOR_NONZEROS}",
                 symbolic.len_val()
             )));
         }
-        Ok(Sparse { q, p, col_ptr, row_idx, pair_start, pair_pos, symbolic })
+        Ok(Sparse { q, p, col_ptr, row_idx, pair_start, pair_pos, forward, permuted, symbolic })
     }
 
     /// Adds up and factors the system for the rows of Z Lambda that `row`
@@ -182,8 +236,13 @@ impl Sparse {
             }
         }
         let n_all = q + p;
-        let symbolic_a = SymbolicSparseColMatRef::new_checked(n_all, n_all, &self.col_ptr, None, &self.row_idx);
-        let a = SparseColMatRef::new(symbolic_a, &values);
+        let mut ordered = vec![0.0; values.len()];
+        for (k, v) in values.iter().enumerate() {
+            ordered[self.permuted.map[k]] = *v;
+        }
+        let symbolic_a =
+            SymbolicSparseColMatRef::new_checked(n_all, n_all, &self.permuted.col_ptr, None, &self.permuted.row_idx);
+        let a = SparseColMatRef::new(symbolic_a, &ordered);
         let mut factor_values = vec![0.0; self.symbolic.len_val()];
         let mut buffer =
             MemBuffer::new(self.symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
@@ -191,7 +250,7 @@ impl Sparse {
             .factorize_numeric_llt(
                 &mut factor_values,
                 a,
-                Side::Lower,
+                self.permuted.side,
                 LltRegularization::default(),
                 Par::Seq,
                 MemStack::new(&mut buffer),
@@ -274,14 +333,20 @@ impl Factor<'_> {
 
     /// Solves the system for the columns of `rhs` (q + p rows), in place.
     pub fn solve(&self, rhs: &mut Mat<f64>) {
-        let symbolic = &self.sparse.symbolic;
+        let (symbolic, forward) = (&self.sparse.symbolic, &self.sparse.forward);
+        let mut x = Mat::<f64>::from_fn(rhs.nrows(), rhs.ncols(), |i, j| rhs[(forward[i], j)]);
         let mut buffer = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(rhs.ncols(), Par::Seq));
         LltRef::new(symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
-            rhs.as_mut(),
+            x.as_mut(),
             Par::Seq,
             MemStack::new(&mut buffer),
         );
+        for j in 0..rhs.ncols() {
+            for (i, &f) in forward.iter().enumerate() {
+                rhs[(f, j)] = x[(i, j)];
+            }
+        }
     }
 
     /// Solves the system for one right-hand side.

@@ -85,13 +85,30 @@ impl Model {
         }
     }
 
+    /// The GLM weight and the score term of observation i at linear
+    /// predictor eta: [`Model::observation`] without the log-likelihood
+    /// (whose logarithms PIRLS's weights do not need).
+    fn weight_score(&self, i: usize, eta: f64) -> (f64, f64) {
+        let (k, m) = (self.k[i], self.m[i]);
+        match self.family {
+            Family::Binomial => {
+                let mu = 1.0 / (1.0 + (-eta).exp());
+                (m * mu * (1.0 - mu), k - m * mu)
+            }
+            Family::Poisson => {
+                let mu = eta.exp();
+                (mu, k - mu)
+            }
+        }
+    }
+
     /// The GLM weight of every observation and the score Z Lambda' r at
     /// the linear predictors `eta` (rows of Z Lambda `zl`).
     fn weights(&self, zl: &[Vec<(usize, f64)>], eta: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let mut w = vec![0.0; self.n];
         let mut score = vec![0.0; self.structure.q];
         for i in 0..self.n {
-            let (wi, r, _) = self.observation(i, eta[i]);
+            let (wi, r) = self.weight_score(i, eta[i]);
             w[i] = wi;
             for &(j, v) in &zl[i] {
                 score[j] += r * v;
