@@ -389,9 +389,7 @@ fn weighted_table(
             "cbind( ) or a / b with --weights is a binomial model's response: add --family binomial".into(),
         ));
     }
-    let FormulaModel::Slopes(data) = super::table::build_model_as(formula, table, true)? else {
-        unreachable!("build_model_as(.., true) gives the slope engine's terms")
-    };
+    let data = super::table::build_sparse(formula, table)?;
     super::table::present(table, w)?;
     let col = table.column(w)?;
     let values = super::table::numbers(table, w)?.unwrap_or_default();
@@ -418,9 +416,7 @@ fn sparse_intercepts(
     criterion: mixed::Criterion,
     df: DfMethod,
 ) -> Result<FormulaFit, FormulaError> {
-    let FormulaModel::Slopes(sparse) = super::table::build_model_as(formula, table, true)? else {
-        unreachable!("build_model_as(.., true) gives the slope engine's terms")
-    };
+    let sparse = super::table::build_sparse(formula, table)?;
     let mut fit = slopes_table(formula_text, &sparse, criterion, df, None)?;
     if let Fitted::Slopes(f) = &mut fit.fit {
         f.notes.push(format!(

@@ -242,14 +242,40 @@ pub fn build(formula: &Formula, table: &Table) -> Result<MixedData, FormulaError
 /// The model `formula` describes, on `table`: response, fixed-effect
 /// columns by R's rules, and the random terms.
 pub fn build_model(formula: &Formula, table: &Table) -> Result<FormulaModel, FormulaError> {
-    build_model_as(formula, table, false)
+    let (base, factors) = response_and_fixed(formula, table)?;
+    if formula.random.iter().all(|t| t.intercept_only()) {
+        return Ok(FormulaModel::Intercepts(base));
+    }
+    Ok(FormulaModel::Slopes(slope_data(formula, table, base, &factors)?))
 }
 
-/// [`build_model`], with a random-intercept model given as the random-slope
-/// engine's terms when `sparse` (the same model, fitted with the sparse
-/// factor where the intercept engine's dense reduced system would not
-/// fit).
-pub(super) fn build_model_as(formula: &Formula, table: &Table, sparse: bool) -> Result<FormulaModel, FormulaError> {
+/// The model as the random-slope engine's data, random intercepts
+/// included (the same model, fitted with the sparse factor where the
+/// intercept engine's dense reduced system would not fit, or with prior
+/// weights).
+pub(super) fn build_sparse(formula: &Formula, table: &Table) -> Result<SlopeData, FormulaError> {
+    let (base, factors) = response_and_fixed(formula, table)?;
+    slope_data(formula, table, base, &factors)
+}
+
+/// `base` with the random terms of `formula` over its grouping `factors`.
+fn slope_data(
+    formula: &Formula,
+    table: &Table,
+    base: MixedData,
+    factors: &[(String, Vec<usize>)],
+) -> Result<SlopeData, FormulaError> {
+    let terms = random_terms(formula, table, factors, base.len())?;
+    Ok(SlopeData::new(base, terms)?)
+}
+
+/// A model's response and fixed effects, and its grouping factors (name,
+/// codes).
+type Grouped = (MixedData, Vec<(String, Vec<usize>)>);
+
+/// The response (less its offset) and fixed effects of `formula`, with
+/// one grouping factor per random term's group.
+fn response_and_fixed(formula: &Formula, table: &Table) -> Result<Grouped, FormulaError> {
     present(table, &formula.response)?;
     let Some(y) = numbers(table, &formula.response)? else {
         let col = table.column(&formula.response)?;
@@ -282,11 +308,7 @@ pub(super) fn build_model_as(formula: &Formula, table: &Table, sparse: bool) -> 
     }
     let columns = term_columns(&formula.fixed, true, table, n)?;
     let base = MixedData::new(y, factors.clone())?.with_columns(columns)?;
-    if !sparse && formula.random.iter().all(|t| t.intercept_only()) {
-        return Ok(FormulaModel::Intercepts(base));
-    }
-    let terms = random_terms(formula, table, &factors, n)?;
-    Ok(FormulaModel::Slopes(SlopeData::new(base, terms)?))
+    Ok((base, factors))
 }
 
 /// The values of `formula`'s offset (the column, or its logarithm), or
