@@ -76,47 +76,75 @@ const BATCH: usize = 16;
 /// rows it did not draw. Every replicate's arithmetic is therefore the
 /// same, operation for operation, as computing it alone.
 pub fn replicate_means(m: &CrossedMatrix, b: usize, seed: u64, stream: u64) -> Vec<f64> {
-    let (rows, cols) = (m.rows(), m.cols());
+    use rayon::prelude::*;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(stream);
-    let norm = (rows * cols) as f64;
-    // Draw counts of the batch: rows x BATCH and cols x BATCH, replicate
-    // k in lane k.
-    let mut rc = vec![[0u32; BATCH]; rows];
-    let mut cc = vec![[0.0f64; BATCH]; cols];
     let mut out = Vec::with_capacity(b);
     while out.len() < b {
-        let lanes = (b - out.len()).min(BATCH);
-        rc.iter_mut().for_each(|c| *c = [0; BATCH]);
-        cc.iter_mut().for_each(|c| *c = [0.0; BATCH]);
-        for k in 0..lanes {
-            for _ in 0..rows {
-                rc[rng.gen_range(0..rows)][k] += 1;
-            }
-            for _ in 0..cols {
-                cc[rng.gen_range(0..cols)][k] += 1.0;
-            }
+        // A wave of batches: their draws in stream order, then their sums
+        // in parallel. Each batch's arithmetic is its own, so the wave's
+        // size and the thread count change no bit.
+        let mut wave = Vec::with_capacity(WAVE);
+        let mut drawn = out.len();
+        while drawn < b && wave.len() < WAVE {
+            let lanes = (b - drawn).min(BATCH);
+            wave.push(draw_batch(&mut rng, m.rows(), m.cols(), lanes));
+            drawn += lanes;
         }
-        let mut total = [0.0f64; BATCH];
-        for (i, n) in rc.iter().enumerate() {
-            if n.iter().all(|&x| x == 0) {
-                continue;
-            }
-            let mut acc = [-0.0f64; BATCH];
-            for (v, c) in m.row(i).iter().zip(&cc) {
-                for k in 0..BATCH {
-                    acc[k] += v * c[k];
-                }
-            }
-            for k in 0..lanes {
-                if n[k] != 0 {
-                    total[k] += f64::from(n[k]) * acc[k];
-                }
-            }
-        }
-        out.extend(total[..lanes].iter().map(|t| t / norm));
+        let means: Vec<Vec<f64>> = wave.par_iter().map(|d| batch_means(m, d)).collect();
+        out.extend(means.into_iter().flatten());
     }
     out
+}
+
+/// Batches drawn before their sums are computed together: a bound on the
+/// draw counts held at once.
+const WAVE: usize = 32;
+
+/// The draw counts of one batch: rows x BATCH and cols x BATCH, replicate
+/// k in lane k, for its first `lanes` lanes.
+struct Draws {
+    lanes: usize,
+    rows: Vec<[u32; BATCH]>,
+    cols: Vec<[f64; BATCH]>,
+}
+
+/// Draws a batch's replicates in order from `rng`: each its I row
+/// indices, then its J column indices.
+fn draw_batch(rng: &mut ChaCha8Rng, rows: usize, cols: usize, lanes: usize) -> Draws {
+    let mut d = Draws { lanes, rows: vec![[0u32; BATCH]; rows], cols: vec![[0.0f64; BATCH]; cols] };
+    for k in 0..lanes {
+        for _ in 0..rows {
+            d.rows[rng.gen_range(0..rows)][k] += 1;
+        }
+        for _ in 0..cols {
+            d.cols[rng.gen_range(0..cols)][k] += 1.0;
+        }
+    }
+    d
+}
+
+/// The means of one batch's replicates.
+fn batch_means(m: &CrossedMatrix, d: &Draws) -> Vec<f64> {
+    let norm = (m.rows() * m.cols()) as f64;
+    let mut total = [0.0f64; BATCH];
+    for (i, n) in d.rows.iter().enumerate() {
+        if n.iter().all(|&x| x == 0) {
+            continue;
+        }
+        let mut acc = [-0.0f64; BATCH];
+        for (v, c) in m.row(i).iter().zip(&d.cols) {
+            for k in 0..BATCH {
+                acc[k] += v * c[k];
+            }
+        }
+        for k in 0..d.lanes {
+            if n[k] != 0 {
+                total[k] += f64::from(n[k]) * acc[k];
+            }
+        }
+    }
+    total[..d.lanes].iter().map(|t| t / norm).collect()
 }
 
 /// The exact variance of one pigeonhole replicate mean given the data.

@@ -178,15 +178,27 @@ pub struct RemlSummary {
 /// The two-way ANOVA of an I x J array without replication.
 pub fn mean_squares(m: &CrossedMatrix) -> MeanSquares {
     let (i_n, j_n) = (m.rows() as f64, m.cols() as f64);
-    let mu = m.mean();
-    let rm = m.row_means();
-    let cm = m.col_means();
+    // The grand, row and column sums in one pass, each added in the order
+    // of `CrossedMatrix::{mean, row_means, col_means}`, so bit for bit
+    // their values.
+    let (mut total, mut rm, mut cm) = (-0.0, Vec::with_capacity(m.rows()), vec![0.0; m.cols()]);
+    for i in 0..m.rows() {
+        let mut row = -0.0;
+        for (acc, &x) in cm.iter_mut().zip(m.row(i)) {
+            total += x;
+            row += x;
+            *acc += x;
+        }
+        rm.push(row / j_n);
+    }
+    cm.iter_mut().for_each(|c| *c /= i_n);
+    let mu = total / m.values().len() as f64;
     let ss_rows = j_n * rm.iter().map(|r| (r - mu).powi(2)).sum::<f64>();
     let ss_cols = i_n * cm.iter().map(|c| (c - mu).powi(2)).sum::<f64>();
     let mut ss_error = 0.0;
     for (i, r) in rm.iter().enumerate() {
-        for (j, c) in cm.iter().enumerate() {
-            ss_error += (m.get(i, j) - r - c + mu).powi(2);
+        for (x, c) in m.row(i).iter().zip(&cm) {
+            ss_error += (x - r - c + mu).powi(2);
         }
     }
     let df_rows = i_n - 1.0;

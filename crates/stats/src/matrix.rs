@@ -66,6 +66,11 @@ impl CrossedMatrix {
         self.data.iter().sum::<f64>() / self.data.len() as f64
     }
 
+    /// The values, row-major, given back (for a buffer to be reused).
+    pub fn into_values(self) -> Vec<f64> {
+        self.data
+    }
+
     /// Mean of each row.
     pub fn row_means(&self) -> Vec<f64> {
         (0..self.rows).map(|i| self.row(i).iter().sum::<f64>() / self.cols as f64).collect()

@@ -129,7 +129,7 @@ fn excess(e: &CrossedEstimate) -> f64 {
 pub fn ratio_interval(
     point: f64,
     reference: &CrossedEstimate,
-    estimate: impl Fn(f64) -> Result<CrossedEstimate, StatsError>,
+    estimate: impl Fn(f64) -> Result<CrossedEstimate, StatsError> + Sync,
 ) -> Result<RatioInterval, StatsError> {
     if !point.is_finite() || !reference.mean.is_finite() || reference.mean == 0.0 {
         return Err(StatsError::Invalid(format!(
@@ -143,7 +143,10 @@ pub fn ratio_interval(
         FiellerSet::Unbounded
     } else {
         let step = if delta_se > 0.0 { delta_se } else { 1e-6 * point.abs().max(1e-6) };
-        match (root(point, -step, &estimate)?, root(point, step, &estimate)?) {
+        // The two edges are searched at once, each its own sequence of
+        // evaluations: the same numbers at any thread count.
+        let (lower, upper) = rayon::join(|| root(point, -step, &estimate), || root(point, step, &estimate));
+        match (lower?, upper?) {
             (Some(lower), Some(upper)) => FiellerSet::Bounded { lower, upper },
             _ => FiellerSet::Unbounded,
         }

@@ -1,7 +1,7 @@
 //! The checks and intervals of one unit around its estimate: a unit
 //! whose differences do not vary is refused, and the optimism's interval.
 
-use super::{ArmArrays, Ctx, Grid};
+use super::{estimate_complete, ArmArrays, Ctx, Grid};
 use crate::analysis::AnalysisError;
 use crate::design::Metric;
 use crate::plan::AnalysisUnit;
@@ -20,12 +20,21 @@ impl Ctx<'_> {
         warnings: &mut Vec<String>,
     ) -> Option<RatioInterval> {
         let (rows, cols) = (a.treated.rows, a.treated.cols);
-        let at = |rho: f64| {
-            let v = a.treated.v.iter().zip(&a.reference.v).map(|(t, r)| Some((*t)? - (1.0 - rho) * (*r)?)).collect();
-            self.estimate(&Grid { rows, cols, v })
-        };
-        let interval =
-            self.estimate(&a.reference).and_then(|reference| ratio_interval(optimism_pct / 100.0, &reference, at));
+        let complete = |g: &Grid| g.v.iter().copied().collect::<Option<Vec<f64>>>();
+        let interval = self.estimate(&a.reference).and_then(|reference| {
+            let point = optimism_pct / 100.0;
+            match (complete(&a.treated), complete(&a.reference)) {
+                // Every cell present: each L(rho) built as plain values.
+                (Some(t), Some(r)) => ratio_interval(point, &reference, |rho: f64| {
+                    let v = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
+                    estimate_complete(&self.plan.estimator, rows, cols, v)
+                }),
+                _ => ratio_interval(point, &reference, |rho: f64| {
+                    let v = a.treated.v.iter().zip(&a.reference.v);
+                    self.estimate(&Grid { rows, cols, v: v.map(|(t, r)| Some((*t)? - (1.0 - rho) * (*r)?)).collect() })
+                }),
+            }
+        });
         match interval {
             Ok(iv) => Some(iv.scaled(100.0)),
             Err(e) => {

@@ -21,7 +21,8 @@ use crate::cells::Cell;
 use crate::design::{Condition, Estimator, EstimatorKind, Factor, Grouped, Metric};
 use crate::plan::{AnalysisUnit, InteractionUnit, Plan};
 use crossaudit_stats::{
-    crossed_mom, crossed_reml, pigeonhole_bootstrap, CrossedEstimate, CrossedMatrix, DfRule, StatsError,
+    crossed_mom, crossed_reml, pigeonhole_bootstrap, BootstrapInterval, CrossedEstimate, CrossedMatrix, DfRule,
+    StatsError,
 };
 
 /// What every unit's estimation reads: the plan, the indexed cells and the
@@ -177,6 +178,18 @@ pub(crate) fn estimate_grid(
     }
 }
 
+/// [`estimate_grid`] of a grid with every cell present, given as its
+/// values: bit for bit the same estimate, without the grid of options (the
+/// optimism's interval estimates a million-cell array a hundred times).
+fn estimate_complete(est: &Estimator, rows: usize, cols: usize, v: Vec<f64>) -> Result<CrossedEstimate, StatsError> {
+    let invariant = cols >= 2 && v.chunks(cols).all(|row| row.iter().all(|x| x.to_bits() == row[0].to_bits()));
+    match est.kind {
+        _ if invariant => crossed_mom(&CrossedMatrix::new(rows, cols, v)?, est.level, DfRule::RecordingsMinusOne),
+        EstimatorKind::CrossedMom => crossed_mom(&CrossedMatrix::new(rows, cols, v)?, est.level, est.df),
+        EstimatorKind::Reml => estimate_grid(est, rows, cols, v.into_iter().map(Some).collect()),
+    }
+}
+
 /// The estimator of a contrast whose array `diff` lacks pairs, where the
 /// plan's cannot take it: REML with Kenward-Roger df in place of the
 /// crossed MoM, which needs every cell ([`Ctx::unit`]'s warning says so).
@@ -277,32 +290,44 @@ impl Ctx<'_> {
             });
         }
         self.degenerate(u, &a, &label)?;
-        let est = &self.plan.estimator;
         let estimate = self.estimate(&a.diff).map_err(stats)?;
         let optimism_pct = optimism(mean_r, mean_t);
-        let optimism_interval = self.optimism_interval(&a, optimism_pct, &label, warnings);
         let complete = a.diff.complete().transpose().map_err(stats)?;
-        let bootstrap = match (self.plan.sensitivity.bootstrap, &complete) {
-            (Some(b), Some(m)) => {
-                Some(pigeonhole_bootstrap(m, b.replicates, est.level, b.seed, stream).map_err(stats)?)
-            }
-            (Some(_), None) => {
-                warnings.push(format!("{label}: pigeonhole bootstrap skipped: it resamples a complete array"));
-                None
-            }
-            (None, _) => None,
-        };
-        let grouped = if self.plan.sensitivity.grouped == Grouped::ByConditions {
-            self.grouped(&a.diff, &label, warnings)?
-        } else {
-            None
-        };
         let rule_holds = rule_holds(&self.plan.decision, optimism_pct, &estimate);
-        let leave_one_out = self.leave_one_out_all(&a, complete.as_ref(), (&label, rule_holds), warnings)?;
+        // The sensitivities are independent of each other: they run at
+        // once, each with its own warnings, taken (as errors are) in the
+        // order the report gives them, whatever the thread count.
+        let mut w: [Vec<String>; 4] = Default::default();
+        let [w_ratio, w_boot, w_grouped, w_loo] = &mut w;
+        let ((optimism_interval, bootstrap), ((grouped, leave_one_out), (conditional, intervals))) = rayon::join(
+            || {
+                rayon::join(
+                    || self.optimism_interval(&a, optimism_pct, &label, w_ratio),
+                    || self.bootstrap(complete.as_ref(), stream, &label, w_boot),
+                )
+            },
+            || {
+                rayon::join(
+                    || {
+                        rayon::join(
+                            || self.grouped(&a.diff, &label, w_grouped),
+                            || self.leave_one_out_all(&a, complete.as_ref(), (&label, rule_holds), w_loo),
+                        )
+                    },
+                    || {
+                        rayon::join(
+                            || self.conditional(u, &label),
+                            || self.compared(&a.diff, complete.as_ref(), stream),
+                        )
+                    },
+                )
+            },
+        );
+        let (bootstrap, grouped, leave_one_out) = (bootstrap.map_err(stats)?, grouped?, leave_one_out?);
+        let (conditional, intervals) = (conditional?, intervals.map_err(stats)?);
+        warnings.extend(w.into_iter().flatten());
         let per_seed_optimism = self.per_seed_optimism(&a);
         let per_trajectory = self.per_trajectory(&a.diff);
-        let conditional = self.conditional(u, &label)?;
-        let intervals = self.compared(&a.diff, complete.as_ref(), stream).map_err(stats)?;
         Ok(UnitResult {
             role: u.role,
             model: u.model.clone(),
@@ -326,6 +351,27 @@ impl Ctx<'_> {
         })
     }
 
+    /// The preregistered pigeonhole bootstrap of a unit's complete array
+    /// of differences; skipped, with a warning, when pairs are missing.
+    fn bootstrap(
+        &self,
+        complete: Option<&CrossedMatrix>,
+        stream: u64,
+        label: &str,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<BootstrapInterval>, StatsError> {
+        match (self.plan.sensitivity.bootstrap, complete) {
+            (Some(b), Some(m)) => {
+                pigeonhole_bootstrap(m, b.replicates, self.plan.estimator.level, b.seed, stream).map(Some)
+            }
+            (Some(_), None) => {
+                warnings.push(format!("{label}: pigeonhole bootstrap skipped: it resamples a complete array"));
+                Ok(None)
+            }
+            (None, _) => Ok(None),
+        }
+    }
+
     /// Optimism within each seed (its column of both arms), for the seeds
     /// with a value.
     fn per_seed_optimism(&self, a: &ArmArrays) -> Vec<SeedOptimism> {
@@ -338,13 +384,17 @@ impl Ctx<'_> {
     }
 
     /// Average d within condition groups (e.g. trajectory x speed), then the
-    /// same crossed estimator on the groups x seeds array.
+    /// same crossed estimator on the groups x seeds array, where the design
+    /// asks for it.
     fn grouped(
         &self,
         diff: &Grid,
         label: &str,
         warnings: &mut Vec<String>,
     ) -> Result<Option<GroupedResult>, AnalysisError> {
+        if self.plan.sensitivity.grouped != Grouped::ByConditions {
+            return Ok(None);
+        }
         let name = |r: &RecordingLabels| -> String {
             self.plan
                 .conditions
