@@ -150,12 +150,42 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
         let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {
             CellsError::Csv { path: p.clone(), line: 1, message: format!("not a readable Parquet file: {message}") }
         })?;
-        return read_cells_from(&p, text.as_slice());
+        return match read_chunked(&p, text.as_slice(), crate::io::chunked::CHUNK) {
+            Some(cells) => Ok(cells),
+            None => read_cells_from(&p, text.as_slice()),
+        };
     }
     crate::io::check_regular(path, limit, "a per-cell CSV")
         .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
-    let file = std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;
-    read_cells_from(&p, file)
+    let open = || std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source });
+    // On every core where it can; where it cannot, or the file has an
+    // error, the reference reader reads it and says where.
+    if let Some(cells) = read_chunked(&p, open()?, crate::io::chunked::CHUNK) {
+        return Ok(cells);
+    }
+    read_cells_from(&p, open()?)
+}
+
+/// The cells of the per-cell CSV `reader` (named `name`), read on every
+/// core by `io::chunked` in chunks of about `chunk` bytes; `None` where
+/// [`read_cells_from`] must read it (and, for a file with an error, say
+/// where).
+fn read_chunked(name: &str, reader: impl std::io::Read, chunk: usize) -> Option<Vec<Cell>> {
+    let header = |h: &csv::StringRecord| {
+        let found: Vec<&str> = h.iter().collect();
+        let has_split = found.first() == Some(&"split");
+        let has_dose = found.get(usize::from(has_split) + 2) == Some(&"dose");
+        (found == header_for(has_split, has_dose)).then_some((has_split, has_dose))
+    };
+    let row = |&(split, dose): &(bool, bool), line, rec: &csv::StringRecord, (names, seen): &mut (Names, Emptiness)| {
+        let cell = cell_of(name, line, rec, split, dose, names).ok()?;
+        seen.see(&cell);
+        Some(cell)
+    };
+    let (cells, states) = crate::io::chunked::read(reader, (crate::io::MAX_CELLS_FILE, chunk), header, row)?;
+    let mut emptiness = Emptiness::default();
+    states.iter().for_each(|(_, seen)| emptiness.merge(seen));
+    (!cells.is_empty() && emptiness.check(name).is_ok()).then_some(cells)
 }
 
 /// As [`read_cells`], from any reader; `name` is used in messages. The
@@ -208,21 +238,8 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
             }
         }
         let line = line_of(&rdr, rec.position());
-        let raw = RawRow::of(&rec, has_split, has_dose);
-        let mut cell = parse_row(name, line, &raw, &mut names)?;
+        let cell = cell_of(name, line, &rec, has_split, has_dose, &mut names)?;
         emptiness.see(&cell);
-        let r = Row { name, line };
-        if has_split {
-            cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
-        }
-        if has_dose {
-            let v = raw.dose.unwrap_or("");
-            let dose = r.float("dose", v)?;
-            if dose > 100.0 {
-                return Err(r.fail("dose", v, "exceeds 100 (a percentage)"));
-            }
-            cell.dose = Some(dose);
-        }
         cells.push(cell);
     }
     if cells.is_empty() {
@@ -230,6 +247,33 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     }
     emptiness.check(name)?;
     Ok(cells)
+}
+
+/// The cell of the record `rec` on line `line`, whose fields are those of
+/// `header_for(has_split, has_dose)`.
+fn cell_of(
+    name: &str,
+    line: u64,
+    rec: &csv::StringRecord,
+    has_split: bool,
+    has_dose: bool,
+    names: &mut Names,
+) -> Result<Cell, CellsError> {
+    let raw = RawRow::of(rec, has_split, has_dose);
+    let mut cell = parse_row(name, line, &raw, names)?;
+    let r = Row { name, line };
+    if has_split {
+        cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
+    }
+    if has_dose {
+        let v = raw.dose.unwrap_or("");
+        let dose = r.float("dose", v)?;
+        if dose > 100.0 {
+            return Err(r.fail("dose", v, "exceeds 100 (a percentage)"));
+        }
+        cell.dose = Some(dose);
+    }
+    Ok(cell)
 }
 
 /// Where the velocity and attitude RMSE are empty though not every start
@@ -255,6 +299,14 @@ impl Emptiness {
                 None if !all_diverged => *gap = gap.or(Some(c.line)),
                 None => {}
             }
+        }
+    }
+
+    /// Adds what `later`, the rows after these, saw.
+    fn merge(&mut self, later: &Emptiness) {
+        for (mine, theirs) in self.seen.iter_mut().zip(&later.seen) {
+            mine.0 = mine.0.or(theirs.0);
+            mine.1 = mine.1.or(theirs.1);
         }
     }
 
@@ -577,4 +629,78 @@ fn write_cells_to(p: &str, sink: impl std::io::Write, cells: &[Cell]) -> Result<
         w.write_record(&row).map_err(|e| io(e.into()))?;
     }
     w.flush().map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed per-cell files of every layout: plain, with `split`,
+    /// with `dose`, with empty optional columns.
+    fn committed() -> Vec<(String, Vec<u8>)> {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        [
+            "examples/cells/nanobench_synthetic.csv",
+            "results/quickstart/cells.csv",
+            "results/dose_response/cells.csv",
+            "results/multi_split/cells.csv",
+            "results/lab/cells.csv",
+            "results/rotorpy/cells.csv",
+        ]
+        .iter()
+        .filter_map(|f| std::fs::read(root.join(f)).ok().map(|b| (f.to_string(), b)))
+        .collect()
+    }
+
+    /// The chunked reader gives the reference reader's cells, lines
+    /// included, at any chunk size, with `\n` or `\r\n` line breaks,
+    /// blank lines, and no line break at the end.
+    #[test]
+    fn chunks_read_what_the_reference_reader_reads() {
+        let files = committed();
+        assert_eq!(files.len(), 6, "the committed per-cell files are read");
+        for (name, bytes) in files {
+            let crlf: Vec<u8> = String::from_utf8(bytes.clone()).unwrap().replace('\n', "\r\n").into_bytes();
+            let blank: Vec<u8> = String::from_utf8(bytes.clone()).unwrap().replacen("\n", "\n\n", 7).into_bytes();
+            let bare = bytes.strip_suffix(b"\n").unwrap_or(&bytes).to_vec();
+            for text in [&bytes, &crlf, &blank, &bare] {
+                let reference = read_cells_from(&name, text.as_slice()).unwrap();
+                for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
+                    let cells =
+                        read_chunked(&name, text.as_slice(), chunk).unwrap_or_else(|| panic!("{name} at {chunk}"));
+                    assert_eq!(cells, reference, "{name}, chunks of {chunk} bytes");
+                }
+            }
+        }
+    }
+
+    /// On damaged files the chunked reader gives up or agrees: it never
+    /// returns cells the reference reader refuses, or other cells.
+    #[test]
+    fn chunks_never_accept_what_the_reference_reader_refuses() {
+        let (name, bytes) = committed().swap_remove(0);
+        let bytes = bytes[..bytes.len().min(20_000)].to_vec();
+        // A 64-bit LCG (Knuth's MMIX constants): positions and bytes.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as usize
+        };
+        let alphabet = b",\n\r\"x0.-9 e";
+        let (mut refused, mut gave_up) = (0, 0);
+        for _ in 0..400 {
+            let mut text = bytes.clone();
+            for _ in 0..1 + next() % 3 {
+                let at = next() % text.len();
+                text[at] = alphabet[next() % alphabet.len()];
+            }
+            let reference = read_cells_from(&name, text.as_slice());
+            refused += usize::from(reference.is_err());
+            match read_chunked(&name, text.as_slice(), 1 + next() % 3000) {
+                Some(cells) => assert_eq!(cells, reference.unwrap(), "accepted: {:?}", String::from_utf8_lossy(&text)),
+                None => gave_up += 1,
+            }
+        }
+        assert!(refused > 100 && gave_up >= refused, "{refused} refused, {gave_up} given up");
+    }
 }

@@ -476,6 +476,7 @@ pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
     read_input(path, MAX_OWN_FILE, "a file crossaudit wrote").map_err(ReadError::into_io)
 }
 
+pub mod chunked;
 mod input;
 pub use input::{read_text, Text, TextError};
 pub mod parquet;

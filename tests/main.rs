@@ -54,5 +54,6 @@ mod split_paper;
 mod split_windows;
 mod stats_mixed;
 mod stats_reference;
+mod threads;
 mod trust_round6;
 mod wide_state;

@@ -31,9 +31,14 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
             None => read_folder(design, plan, cells),
         };
     }
-    // Read (and so checked to be a regular file) before it is hashed.
-    let rows = read_cells(cells)?;
-    let sha = crate::cells::file_sha256(cells)?;
+    // Read (and so checked to be a regular file) before it is hashed; a
+    // regular file is hashed as it is read.
+    let (rows, sha) = if std::fs::metadata(cells).is_ok_and(|m| m.is_file()) {
+        let (rows, sha) = rayon::join(|| read_cells(cells), || crate::cells::file_sha256(cells));
+        (rows?, sha?)
+    } else {
+        (read_cells(cells)?, crate::cells::file_sha256(cells)?)
+    };
     let shown = cells.display().to_string();
     let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let combined = cells.file_name().is_some_and(|n| n == "cells.csv")

@@ -28,6 +28,13 @@ fn main() -> ExitCode {
         Err(e) => return clap_exit(&e, color),
     };
     protect_inputs(&cli.command);
+    if let Some(n) = cli.threads {
+        // The first use of the global pool: it cannot have been built yet.
+        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global() {
+            output::note_raw(&output::visible(format!("error: --threads {n}: {e}\n")));
+            return ExitCode::FAILURE;
+        }
+    }
     let result = match cli.command {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, gap, fail_on } } => {
             let options = crossaudit::split_audit::AuditOptions { min_run_rows: min_run, gap_s: gap };

@@ -1,0 +1,79 @@
+//! `--threads`: the analysis and the readers run on every core, and the
+//! same inputs give the same bytes at any thread count.
+
+use std::path::Path;
+
+use crate::common::{crossaudit, said};
+
+/// Every file under `dir`, by its path below it, with its bytes.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((p.strip_prefix(dir).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The reports of `analyze DESIGN --cells CELLS` at 1, 2 and 8 threads.
+fn reports(design: &str, cells: &str) -> Vec<Vec<(String, Vec<u8>)>> {
+    let tmp = tempfile::tempdir().unwrap();
+    [1, 2, 8]
+        .iter()
+        .map(|n| {
+            let out = tmp.path().join(format!("threads-{n}"));
+            let threads = n.to_string();
+            let o = crossaudit(&[
+                "--threads",
+                &threads,
+                "analyze",
+                design,
+                "--cells",
+                cells,
+                "--out",
+                out.to_str().unwrap(),
+            ]);
+            assert!(o.status.success(), "{}", said(&o));
+            files(&out)
+        })
+        .collect()
+}
+
+/// The confirmatory analysis (B = 9,999 pigeonhole replicates, grouped,
+/// leave-one-out both ways, the optimism's Fieller interval) and the
+/// 32-specification multiverse (each specification analysed in parallel)
+/// give the same report files, byte for byte, at 1, 2 and 8 threads.
+#[test]
+fn the_reports_are_the_same_at_1_2_and_8_threads() {
+    for (design, cells) in [
+        ("designs/nanobench_confirmatory.design", "examples/cells/nanobench_synthetic.csv"),
+        ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper"),
+    ] {
+        let r = reports(design, cells);
+        assert!(r[0].len() >= 5, "{design}: {:?}", r[0].iter().map(|f| &f.0).collect::<Vec<_>>());
+        assert!(r[0].iter().any(|(name, _)| name.ends_with(".csv")), "{design}: a table is written");
+        for (k, n) in [(1, 2), (2, 8)] {
+            for (a, b) in r[0].iter().zip(&r[k]) {
+                assert_eq!(a.0, b.0, "{design}: the same files at 1 and {n} threads");
+                assert!(a.1 == b.1, "{design}: {} differs between 1 and {n} threads", a.0);
+            }
+            assert_eq!(r[0].len(), r[k].len());
+        }
+    }
+}
+
+/// Zero threads is refused by the argument parser, naming the option.
+#[test]
+fn zero_threads_are_refused() {
+    let o = crossaudit(&["--threads", "0", "check", "designs/nanobench_confirmatory.design"]);
+    assert_eq!(o.status.code(), Some(2), "{}", said(&o));
+    assert!(said(&o).contains("--threads"), "{}", said(&o));
+}
