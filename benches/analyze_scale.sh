@@ -1,22 +1,32 @@
 #!/usr/bin/env bash
-# Analysis at scale: `crossaudit analyze` of a 1,000,000-row per-cell file
-# (benches/scale/scale.design: 2,000 recordings x 250 seeds x 2 arms, one
-# endpoint, B = 1,999 pigeonhole replicates, grouped by conditions,
-# leave-one-out of every recording and every seed), whole process, wall
-# time and peak memory, beside pandas reading the same file and grouping it
-# by recording x seed x arm, in the same run. Median and min of RUNS each.
+# Analysis at scale: `crossaudit analyze` of a per-cell file of
+# I x J x 2 rows (benches/scale/scale.design: by default 2,000 recordings x
+# 250 seeds x 2 arms = 1,000,000 rows, one endpoint, B = 1,999 pigeonhole
+# replicates, grouped by conditions, leave-one-out of every recording and
+# every seed), whole process, wall time, CPU share and peak memory, at
+# each thread count (`--threads`), beside, in the same run and at the same
+# thread counts:
+#   - pandas reading the file and grouping it by recording x seed x arm,
+#     with its C engine (one thread) and with engine="pyarrow"
+#     (pyarrow.set_cpu_count and set_io_thread_count to the thread count);
+#   - polars read_csv + group_by (POLARS_MAX_THREADS, in its own process).
+# Median and min of RUNS each. Also checks that every thread count wrote
+# the same report bytes.
 #
-#   bash benches/analyze_scale.sh [RUNS] [I] [J]
+#   bash benches/analyze_scale.sh [RUNS] [I] [J] [THREADS...]
 #
-# Installs pandas into .venv-bench (PyPI) on first use.
+# Installs pandas, pyarrow and polars into .venv-bench (PyPI) on first use.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-5}
 rec=${2:-2000}
 seeds=${3:-250}
-if [ ! -x .venv-bench/bin/python ]; then
+shift $(($# < 3 ? $# : 3))
+threads=("$@")
+[ ${#threads[@]} -gt 0 ] || threads=(1 $(nproc))
+if [ ! -x .venv-bench/bin/python ] || ! .venv-bench/bin/python -c "import pandas, pyarrow, polars" 2>/dev/null; then
   python3 -m venv .venv-bench
-  .venv-bench/bin/pip install -q pandas
+  .venv-bench/bin/pip install -q pandas pyarrow polars
 fi
 cargo build --release -q
 ca=${CARGO_TARGET_DIR:-target}/release/crossaudit
@@ -30,29 +40,65 @@ fi
 python3 benches/scale/cells.py "$work/cells.csv" "$rec" "$seeds"
 echo "machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores, avx512f: $(grep -qo avx512f /proc/cpuinfo && echo yes || echo no); commit $(git rev-parse --short HEAD)"
 echo "file: $(($(wc -l < "$work/cells.csv") - 1)) rows, $(du -m "$work/cells.csv" | cut -f1) MB ($rec recordings x $seeds seeds x 2 arms)"
-.venv-bench/bin/python - "$runs" "$ca" "$design" "$work" <<'PY'
-import statistics, subprocess, sys, time
-import pandas as pd
+.venv-bench/bin/python - "$runs" "$ca" "$design" "$work" "${threads[@]}" <<'PY'
+import filecmp, os, statistics, subprocess, sys, time
+import pandas as pd, pyarrow, polars
 runs, ca, design, work = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4]
+threads = [int(t) for t in sys.argv[5:]]
 cells = f"{work}/cells.csv"
-def crossaudit():
-    r = subprocess.run(["/usr/bin/time", "-f", "%M", ca, "analyze", design, "--cells", cells, "--out", f"{work}/report"],
-                       check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    return int(r.stderr.strip().splitlines()[-1]), r.stdout.strip().splitlines()[-1]
-def pandas():
-    df = pd.read_csv(cells)
-    return df.groupby(["recording", "seed", "arm"])["fa_position_rmse_m"].mean().unstack("arm")
+def crossaudit(n):
+    def run():
+        r = subprocess.run(["/usr/bin/time", "-f", "%M %P", ca, "--threads", str(n), "analyze", design, "--cells", cells,
+                            "--out", f"{work}/report-{n}"], check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        kb, cpu = r.stderr.strip().splitlines()[-1].split()
+        return int(kb), cpu, r.stdout.strip().splitlines()[-1]
+    return run
+def pandas(engine, n):
+    def run():
+        if engine == "pyarrow":
+            pyarrow.set_cpu_count(n); pyarrow.set_io_thread_count(n)
+        df = pd.read_csv(cells, engine=engine)
+        return df.groupby(["recording", "seed", "arm"])["fa_position_rmse_m"].mean().unstack("arm")
+    return run
+POLARS = """
+import sys, time, polars as pl
+t0 = time.perf_counter()
+df = pl.read_csv(sys.argv[1])
+g = df.group_by(["recording", "seed", "arm"]).agg(pl.col("fa_position_rmse_m").mean())
+print(time.perf_counter() - t0, pl.thread_pool_size())
+"""
+def polars_in(n):
+    def run():
+        r = subprocess.run([sys.executable, "-c", POLARS, cells], env={**os.environ, "POLARS_MAX_THREADS": str(n)},
+                           check=True, stdout=subprocess.PIPE, text=True)
+        t, size = r.stdout.split()
+        assert int(size) == n, (size, n)
+        return float(t)
+    return run
 def timed(fn):
     t0 = time.perf_counter(); out = fn(); return time.perf_counter() - t0, out
-crossaudit(); pandas()  # warm the page cache
-ca_runs = [timed(crossaudit) for _ in range(runs)]
-pd_runs = [timed(pandas) for _ in range(runs)]
-ca_t = [t for t, _ in ca_runs]
-pd_t = [t for t, _ in pd_runs]
-mem = max(m for _, (m, _) in ca_runs)
-print(f"{runs} runs each (median, min):")
-print(f"  crossaudit analyze (whole process: read, full sensitivity set, reports): {statistics.median(ca_t):.2f} s, {min(ca_t):.2f} s; peak RSS {mem / 1024:.0f} MB")
-print(f"  pandas {pd.__version__}: read_csv + groupby(recording, seed, arm).mean():    {statistics.median(pd_t):.2f} s, {min(pd_t):.2f} s")
-print(f"  ratio (crossaudit / pandas, median): {statistics.median(ca_t) / statistics.median(pd_t):.2f}")
-print(f"  {ca_runs[0][1][1]}")
+print(f"{runs} runs each (median, min); crossaudit and polars as whole processes, pandas in one process")
+for n in threads:
+    crossaudit(n)(); pandas("pyarrow", n)()  # warm the page cache
+    ca_runs = [timed(crossaudit(n)) for _ in range(runs)]
+    pa_runs = [timed(pandas("pyarrow", n))[0] for _ in range(runs)]
+    pc_runs = [timed(pandas("c", n))[0] for _ in range(runs)] if n == threads[0] else None
+    pl_runs = [polars_in(n)() for _ in range(runs)]
+    ca_t = [t for t, _ in ca_runs]
+    mem = max(m for _, (m, _, _) in ca_runs)
+    cpu = statistics.median(int(c.rstrip("%")) for _, (_, c, _) in ca_runs)
+    med = statistics.median
+    print(f"{n} thread(s):")
+    print(f"  crossaudit analyze --threads {n} (read, full sensitivity set, reports): {med(ca_t):.2f} s, {min(ca_t):.2f} s; CPU {cpu}%; peak RSS {mem / 1024:.0f} MB")
+    print(f"  pandas {pd.__version__} engine=pyarrow ({pyarrow.__version__}), read_csv + groupby mean: {med(pa_runs):.2f} s, {min(pa_runs):.2f} s")
+    if pc_runs:
+        print(f"  pandas {pd.__version__} C engine (one thread), read_csv + groupby mean:      {med(pc_runs):.2f} s, {min(pc_runs):.2f} s")
+    print(f"  polars {polars.__version__} read_csv + group_by mean (own process):            {med(pl_runs):.2f} s, {min(pl_runs):.2f} s")
+    print(f"  ratio crossaudit / pandas-pyarrow: {med(ca_t) / med(pa_runs):.2f}; crossaudit / polars: {med(ca_t) / med(pl_runs):.2f}")
+print(f"  {ca_runs[0][1][2]}")
+first = f"{work}/report-{threads[0]}"
+for n in threads[1:]:
+    d = filecmp.dircmp(first, f"{work}/report-{n}")
+    same = not d.left_only and not d.right_only and all(filecmp.cmp(f"{first}/{f}", f"{work}/report-{n}/{f}", shallow=False) for f in d.common_files)
+    print(f"  report at {threads[0]} and {n} thread(s): {'byte-identical' if same else 'DIFFERENT'}")
 PY

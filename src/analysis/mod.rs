@@ -159,8 +159,9 @@ fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
 /// ```
 pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<Analysis, AnalysisError> {
     check_single_run(plan, cells)?;
-    for c in cells {
-        check_values(plan, c)?;
+    // Checked on every core; the first refused row in file order is named.
+    if let Some(k) = cells.par_iter().position_first(|c| check_values(plan, c).is_err()) {
+        check_values(plan, &cells[k])?;
     }
     let data = index::index(plan, cells)?;
     let recordings: Vec<RecordingLabels> = data
