@@ -34,8 +34,12 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 design=benches/scale/scale.design
 if [ "$rec" != 2000 ] || [ "$seeds" != 250 ]; then
-  sed -e "s/evaluation 2000/evaluation $rec/" -e "s/seed = 1..250/seed = 1..$seeds/" "$design" > "$work/scale.design"
+  # At most the design limit of 2e9 resampled cells: B x I x J.
+  b=$(( 2000000000 / (rec * seeds) < 1999 ? 2000000000 / (rec * seeds) : 1999 ))
+  sed -e "s/evaluation 2000/evaluation $rec/" -e "s/seed = 1..250/seed = 1..$seeds/" \
+    -e "s/pigeonhole 1999/pigeonhole $b/" "$design" > "$work/scale.design"
   design=$work/scale.design
+  echo "B = $b pigeonhole replicates (the design limit of 2e9 resampled cells)"
 fi
 python3 benches/scale/cells.py "$work/cells.csv" "$rec" "$seeds"
 echo "machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores, avx512f: $(grep -qo avx512f /proc/cpuinfo && echo yes || echo no); commit $(git rev-parse --short HEAD)"

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 pub const CHUNK: usize = 1 << 20;
 
 /// Chunks read before they are parsed together: a bound on the text held.
-const WAVE: usize = 64;
+const WAVE: usize = 16;
 
 /// The rows of the CSV `reader` (at most `limit` bytes), parsed in chunks
 /// of about `chunk` bytes, with what each chunk's rows left in their state
