@@ -27,7 +27,9 @@ with open(out, "w") as f:
             seed = j + 1
             for i, (rec, traj, speed) in enumerate(recs):
                 d = shift + (a[i] + b[j] + rng.gauss(0.0, 0.05) if shift else 0.0)
-                v = max(0.05, level[i] + d + rng.gauss(0.0, 0.02))
+                # Within the design's 2 m divergence cap (only files of more
+                # than 2,000 recordings reach it).
+                v = min(1.99, max(0.05, level[i] + d + rng.gauss(0.0, 0.02)))
                 lines.append(f"world,{arm},{seed},{rec},{traj},{speed},1,5,0,{v:.6f},{v:.6f},0,{v * 1.1:.6f},{v * 4:.6f}\n")
             if len(lines) > 50000:
                 f.writelines(lines)
