@@ -768,3 +768,61 @@ fn a_foreign_name_says_nothing_of_the_controller() {
     }
     assert!(n >= 20, "{n} lab recordings");
 }
+
+/// Parquet read by column gives the text of parquet's record API, byte for
+/// byte: the simulated lab's 21 logs (doubles with NaN, floats, text,
+/// nanosecond timestamps), and a file with nulls, a float32 column and
+/// text holding commas, quotes and line breaks. A file with a column the
+/// columns do not read (a date) is left to the record API, and reads the
+/// same.
+#[test]
+fn parquet_read_by_column_gives_the_record_apis_text() {
+    use crossaudit::io::parquet::{columns_to_csv_text, rows_to_csv_text, to_csv_text};
+    let tmp = tempfile::tempdir().unwrap();
+    crossaudit::sim::lab::simulate_lab(tmp.path(), 7).unwrap();
+    let mut files: Vec<std::path::PathBuf> = ["train", "test"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(tmp.path().join(d)).unwrap().map(|e| e.unwrap().path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "parquet"))
+        .collect();
+    assert_eq!(files.len(), 21, "{files:?}");
+    let mixed = tmp.path().join("mixed.parquet");
+    write_parquet(
+        &mixed,
+        &[
+            (
+                "t",
+                Column::TimestampNanos(vec![
+                    1_700_000_000_000_000_000,
+                    1_700_000_000_010_000_000,
+                    1_700_000_000_020_000_000,
+                ]),
+            ),
+            ("x", Column::Double(vec![Some(0.1), None, Some(-1e-7)])),
+            ("g", Column::Float(vec![1.5, f32::NAN, 3.25e-5])),
+            ("note, quoted", Column::Text(vec!["a,b".into(), "say \"hi\"".into(), "two\nlines".into()])),
+        ],
+    );
+    files.push(mixed);
+    for f in &files {
+        let raw = std::fs::read(f).unwrap();
+        let columns = columns_to_csv_text(bytes::Bytes::from(raw.clone()), u64::MAX)
+            .unwrap_or_else(|| panic!("{} is read by column", f.display()));
+        let rows = rows_to_csv_text(bytes::Bytes::from(raw), u64::MAX, "a log").unwrap();
+        assert!(
+            columns == rows,
+            "{}: by column\n{}\nby record\n{}",
+            f.display(),
+            String::from_utf8_lossy(&columns),
+            String::from_utf8_lossy(&rows)
+        );
+    }
+    let dated = tmp.path().join("dated.parquet");
+    write_parquet(&dated, &[("x", Column::Double(vec![Some(1.0)])), ("day", Column::Date(vec![19_000]))]);
+    let raw = std::fs::read(&dated).unwrap();
+    assert!(columns_to_csv_text(bytes::Bytes::from(raw.clone()), u64::MAX).is_none(), "a date is the record API's");
+    assert_eq!(to_csv_text(raw.clone(), u64::MAX, "a log").unwrap(), b"x,day\n1.0,19000\n");
+    // Past the limit: the record API words the refusal.
+    let e = to_csv_text(raw, 8, "a log").unwrap_err();
+    assert!(e.contains("exceed the 8 bytes read from a log"), "{e}");
+}

@@ -72,13 +72,16 @@ where
         let breaks: Vec<Option<u64>> = ranges.par_iter().map(|&(a, b)| line_breaks(&text[a..b])).collect();
         let mut first = Vec::with_capacity(ranges.len());
         for b in breaks {
-            first.push(lines_before);
-            lines_before += b?;
+            let b = b?;
+            first.push((lines_before, b));
+            lines_before += b;
         }
         let parsed: Vec<Option<(Vec<T>, S)>> = ranges
             .par_iter()
             .zip(first)
-            .map(|(&(a, b), before)| parse(&text[a..b], before, *fields, |line, rec, s| row(h, line, rec, s)))
+            .map(|(&(a, b), (before, breaks))| {
+                parse(&text[a..b], (before, breaks), *fields, |line, rec, s| row(h, line, rec, s))
+            })
             .collect();
         let parsed: Vec<(Vec<T>, S)> = parsed.into_iter().collect::<Option<_>>()?;
         rows.reserve(parsed.iter().map(|p| p.0.len()).sum());
@@ -119,18 +122,19 @@ fn split(text: &[u8], mut from: usize, chunk: usize) -> Vec<(usize, usize)> {
     ranges
 }
 
-/// The rows of one chunk of whole lines, `before` lines into the file,
-/// each of `fields` fields, and the state they left; `None` at the first
-/// row refused.
+/// The rows of one chunk of whole lines, `before` lines into the file and
+/// holding `breaks` line breaks, each of `fields` fields, and the state
+/// they left; `None` at the first row refused.
 fn parse<S: Default, T>(
     text: &[u8],
-    before: u64,
+    (before, breaks): (u64, u64),
     fields: usize,
     row: impl Fn(u64, &csv::StringRecord, &mut S) -> Option<T>,
 ) -> Option<(Vec<T>, S)> {
     let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(text);
     let mut rec = csv::StringRecord::new();
-    let (mut rows, mut state) = (Vec::new(), S::default());
+    // At most one row per line (one more without a final line break).
+    let (mut rows, mut state) = (Vec::with_capacity(breaks as usize + 1), S::default());
     // The line of the record being read, and the byte its line breaks
     // were counted up to.
     let (mut line, mut counted) = (before + 1, 0usize);

@@ -18,9 +18,12 @@
 //! exclude a file, whatever their names and values.
 
 use bytes::Bytes;
-use parquet::basic::{LogicalType, TimeUnit, TimestampType};
+use parquet::basic::{IntType, LogicalType, TimeUnit, TimestampType};
+use parquet::column::reader::{ColumnReader, ColumnReaderImpl};
+use parquet::data_type::{ByteArray, DataType};
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::record::Field;
+use parquet::schema::types::ColumnDescriptor;
 
 /// Whether `path` names a Parquet file (`.parquet`).
 pub fn is_parquet(path: &std::path::Path) -> bool {
@@ -30,8 +33,24 @@ pub fn is_parquet(path: &std::path::Path) -> bool {
 /// The CSV text of the Parquet file `raw`, at most `limit` bytes of it
 /// (`what` names the file's kind in that error: "a flight log"); an error
 /// is the reason alone, for the caller to place.
+///
+/// A file of flat columns of the common types (doubles, floats, signed
+/// integers, timestamps, booleans, UTF-8 text, each with or without
+/// nulls) is decoded column by column ([`columns_to_csv_text`]); any other
+/// file, or any problem, goes through parquet's record API
+/// ([`rows_to_csv_text`], the reference the columns are tested against,
+/// byte for byte), which also words every error.
 pub fn to_csv_text(raw: Vec<u8>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
-    let reader = SerializedFileReader::new(Bytes::from(raw)).map_err(|e| e.to_string())?;
+    let bytes = Bytes::from(raw);
+    if let Some(text) = columns_to_csv_text(bytes.clone(), limit) {
+        return Ok(text);
+    }
+    rows_to_csv_text(bytes, limit, what)
+}
+
+/// [`to_csv_text`] through parquet's record API, a row at a time.
+pub fn rows_to_csv_text(raw: Bytes, limit: u64, what: &str) -> Result<Vec<u8>, String> {
+    let reader = SerializedFileReader::new(raw).map_err(|e| e.to_string())?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let fields = schema.root_schema().get_fields();
     if fields.is_empty() {
@@ -68,6 +87,144 @@ pub fn to_csv_text(raw: Vec<u8>, limit: u64, what: &str) -> Result<Vec<u8>, Stri
         }
     }
     Ok(out)
+}
+
+/// One column's values, decoded, and how [`text`] writes each.
+enum Values {
+    Bool(Vec<bool>),
+    Int32(Vec<i32>),
+    /// With the seconds per unit of a timestamp.
+    Int64(Vec<i64>, Option<f64>),
+    Float(Vec<f32>),
+    Double(Vec<f64>),
+    Text(Vec<ByteArray>),
+}
+
+/// A column decoded: its values and, for a column that may hold nulls,
+/// each row's definition level (0: null, 1: a value).
+struct Column {
+    values: Values,
+    levels: Option<Vec<i16>>,
+    /// The next row and the next value to write.
+    row: usize,
+    next: usize,
+}
+
+/// The text [`rows_to_csv_text`] gives, decoded column by column; `None`
+/// for a file with another type, nesting or repetition, a decoding error,
+/// text that is not UTF-8 or text past `limit`, which the record API reads
+/// (and words).
+pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
+    let reader = SerializedFileReader::new(raw).ok()?;
+    let schema = reader.metadata().file_metadata().schema_descr_ptr();
+    let fields = schema.root_schema().get_fields();
+    if fields.is_empty() || fields.len() != schema.num_columns() || fields.iter().any(|f| !f.is_primitive()) {
+        return None;
+    }
+    let mut out = Vec::new();
+    let names: Vec<String> = fields.iter().map(|f| quoted(f.name())).collect();
+    out.extend_from_slice(names.join(",").as_bytes());
+    out.push(b'\n');
+    for g in 0..reader.num_row_groups() {
+        let group = reader.get_row_group(g).ok()?;
+        let rows = usize::try_from(group.metadata().num_rows()).ok()?;
+        let mut columns = Vec::with_capacity(fields.len());
+        for c in 0..fields.len() {
+            columns.push(decode(group.get_column_reader(c).ok()?, &schema.column(c), rows)?);
+        }
+        for _ in 0..rows {
+            for (c, column) in columns.iter_mut().enumerate() {
+                if c > 0 {
+                    out.push(b',');
+                }
+                column.write_next(&mut out)?;
+            }
+            out.push(b'\n');
+            if out.len() as u64 > limit {
+                return None;
+            }
+        }
+    }
+    Some(out)
+}
+
+/// Every value of one column chunk of `rows` rows, where its type is one
+/// [`columns_to_csv_text`] writes.
+fn decode(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> Option<Column> {
+    use parquet::basic::ConvertedType as C;
+    if desc.max_rep_level() != 0 || desc.max_def_level() > 1 {
+        return None;
+    }
+    let (logical, converted) = (desc.logical_type_ref(), desc.converted_type());
+    let plain = logical.is_none() && converted == C::NONE;
+    let signed = plain || matches!(logical, Some(LogicalType::Integer(IntType { is_signed: true, .. })));
+    let per_second = match logical {
+        Some(LogicalType::Timestamp(TimestampType { unit, .. })) => Some(match unit {
+            TimeUnit::MILLIS => 1e3,
+            TimeUnit::MICROS => 1e6,
+            TimeUnit::NANOS => 1e9,
+        }),
+        _ => None,
+    };
+    let text = matches!(logical, Some(LogicalType::String)) || (logical.is_none() && converted == C::UTF8);
+    let mut levels = Vec::with_capacity(rows);
+    let nullable = desc.max_def_level() == 1;
+    let lv = nullable.then_some(&mut levels);
+    let values = match reader {
+        ColumnReader::BoolColumnReader(r) if plain => Values::Bool(read_all(r, rows, lv)?),
+        ColumnReader::Int32ColumnReader(r) if signed => Values::Int32(read_all(r, rows, lv)?),
+        ColumnReader::Int64ColumnReader(r) if signed || per_second.is_some() => {
+            Values::Int64(read_all(r, rows, lv)?, per_second)
+        }
+        ColumnReader::FloatColumnReader(r) if plain => Values::Float(read_all(r, rows, lv)?),
+        ColumnReader::DoubleColumnReader(r) if plain => Values::Double(read_all(r, rows, lv)?),
+        ColumnReader::ByteArrayColumnReader(r) if text => Values::Text(read_all(r, rows, lv)?),
+        _ => return None,
+    };
+    Some(Column { values, levels: nullable.then_some(levels), row: 0, next: 0 })
+}
+
+/// Every value (and, for a column with nulls, every level) of `rows` rows.
+fn read_all<T: DataType>(
+    mut reader: ColumnReaderImpl<T>,
+    rows: usize,
+    mut levels: Option<&mut Vec<i16>>,
+) -> Option<Vec<T::T>> {
+    let mut values = Vec::with_capacity(rows);
+    let mut read = 0;
+    while read < rows {
+        let (records, _, _) = reader.read_records(rows - read, levels.as_deref_mut(), None, &mut values).ok()?;
+        if records == 0 {
+            return None;
+        }
+        read += records;
+    }
+    let levels_read = levels.as_ref().map_or(rows, |l| l.len());
+    (levels_read == rows).then_some(values)
+}
+
+impl Column {
+    /// Writes the next row's value (nothing for a null) as [`text`] does.
+    fn write_next(&mut self, out: &mut Vec<u8>) -> Option<()> {
+        use std::io::Write as _;
+        let row = self.row;
+        self.row += 1;
+        if self.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
+            return Some(());
+        }
+        let k = self.next;
+        self.next += 1;
+        let _ = match &self.values {
+            Values::Bool(v) => write!(out, "{}", v.get(k)?),
+            Values::Int32(v) => write!(out, "{}", v.get(k)?),
+            Values::Int64(v, None) => write!(out, "{}", v.get(k)?),
+            Values::Int64(v, Some(s)) => write!(out, "{:?}", *v.get(k)? as f64 / s),
+            Values::Float(v) => write!(out, "{:?}", v.get(k)?),
+            Values::Double(v) => write!(out, "{:?}", v.get(k)?),
+            Values::Text(v) => out.write_all(quoted(std::str::from_utf8(v.get(k)?.data()).ok()?).as_bytes()),
+        };
+        Some(())
+    }
 }
 
 /// Writes one value as CSV text.
