@@ -63,14 +63,14 @@ fresh() {  # fresh DESIGN OUT
   for split in "$tmp"/split-*; do
     [ -d "$split" ] && copy_parts "$split" "$2/$(basename "$split")"
   done
-  for part in cells.csv report study.json; do
+  for part in cells.csv cells.parquet report study.json; do
     [ -e "$tmp/$part" ] && { rm -rf "${2:?}/$part"; cp -r "$tmp/$part" "$2/$part"; }
   done
   rm -rf "$tmp"
 }
 copy_parts() {  # copy_parts FROM TO: the committed parts of one run directory
   [ -f "$1/run.json" ] || return 0
-  for part in cells cells.csv report run.json audit manifests/manifests.json curves; do
+  for part in cells cells.csv cells.parquet report run.json audit manifests/manifests.json curves; do
     # Training curves only where a folder commits them.
     [ "$part" = curves ] && [ ! -d "$2/curves" ] && continue
     rm -rf "${2:?}/$part"; mkdir -p "$(dirname "$2/$part")"; cp -r "$1/$part" "$2/$part"

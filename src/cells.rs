@@ -578,6 +578,18 @@ pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError>
     std::fs::rename(&tmp, path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
 }
 
+/// [`write_cells_atomic`], and the same table as `cells.parquet` beside
+/// `path` (typed columns, `io::parquet::csv_to_parquet`: names as text,
+/// counts and seeds as 64-bit integers, metrics as doubles, an empty
+/// field a null), for pandas, polars and R's arrow; what a run writes.
+pub fn write_cells_and_parquet(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
+    write_cells_atomic(path, cells)?;
+    let twin = path.with_extension("parquet");
+    let io = |source| CellsError::Io { path: twin.display().to_string(), source };
+    let bytes = crate::io::parquet::csv_to_parquet(&cells_bytes(cells)).map_err(|e| io(std::io::Error::other(e)))?;
+    crate::io::write_atomic(&twin, &bytes).map_err(|e| io(e.source))
+}
+
 /// Writes cells with the exact header, and the `split` and `dose` columns
 /// when the cells carry them. Floats use Rust's shortest round-trip form,
 /// so the same values give the same bytes.

@@ -769,3 +769,61 @@ fn a_parquet_cells_file_is_analysed_as_its_csv_twin() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("broken.parquet") && stderr.contains("not a readable Parquet file"), "{stderr}");
 }
+
+/// The Parquet tables a run and a report write hold their CSV tables'
+/// values with types: for the quickstart's cells and the example's
+/// estimates, every column's Parquet type is the narrowest its values fit
+/// (names text, seeds and counts INT64, metrics DOUBLE, `rule_holds`
+/// BOOLEAN), an empty field is a null, and every value reads back as the
+/// CSV's (the same number, or the same text).
+#[test]
+fn the_parquet_tables_hold_the_csv_tables_values_typed() {
+    use crossaudit::io::parquet::{columns_to_csv_text, csv_to_parquet};
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let root = crate::common::root();
+    let tmp = tempfile::tempdir().unwrap();
+    let o = crate::common::crossaudit(&[
+        "analyze",
+        "designs/nanobench_confirmatory.design",
+        "--cells",
+        "examples/cells/nanobench_synthetic.csv",
+        "--out",
+        tmp.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", crate::common::said(&o));
+    let estimates = std::fs::read(tmp.path().join("estimates.csv")).unwrap();
+    let written = std::fs::read(tmp.path().join("estimates.parquet")).unwrap();
+    assert_eq!(written, csv_to_parquet(&estimates).unwrap(), "the report's estimates.parquet is its estimates.csv");
+    let cells = std::fs::read(root.join("results/quickstart/cells.csv")).unwrap();
+    let mut nulls = 0;
+    for (csv, types) in [
+        (
+            &cells,
+            vec![("model", "BYTE_ARRAY"), ("seed", "INT64"), ("n_starts", "INT64"), ("fa_position_rmse_m", "DOUBLE")],
+        ),
+        (&estimates, vec![("kind", "BYTE_ARRAY"), ("estimate", "DOUBLE"), ("rule_holds", "BOOLEAN")]),
+    ] {
+        let parquet = csv_to_parquet(csv).unwrap();
+        let reader = SerializedFileReader::new(bytes::Bytes::from(parquet.clone())).unwrap();
+        let schema = reader.metadata().file_metadata().schema_descr_ptr();
+        for (name, physical) in types {
+            let c = (0..schema.num_columns()).find(|&c| schema.column(c).name() == name).unwrap();
+            assert_eq!(schema.column(c).physical_type().to_string(), physical, "{name}");
+        }
+        let back = columns_to_csv_text(bytes::Bytes::from(parquet), u64::MAX).unwrap();
+        let records = |t: &[u8]| -> Vec<Vec<String>> {
+            let mut r = csv::ReaderBuilder::new().has_headers(false).from_reader(t);
+            r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect()
+        };
+        let (want, got) = (records(csv), records(&back));
+        assert_eq!(want.len(), got.len());
+        for (w, g) in want.iter().zip(&got) {
+            for (a, b) in w.iter().zip(g) {
+                nulls += usize::from(a.is_empty());
+                let same = a == b || matches!((a.parse::<f64>(), b.parse::<f64>()), (Ok(x), Ok(y)) if x == y);
+                assert!(same, "{a:?} read back as {b:?}");
+            }
+        }
+    }
+    assert!(nulls > 0, "the estimates have empty fields, read back as nulls");
+}

@@ -51,6 +51,12 @@ fn one_and_two_workers_give_byte_identical_cells() {
         std::fs::read(a.join("report/results.json")).unwrap(),
         std::fs::read(b.join("report/results.json")).unwrap()
     );
+    // cells.parquet beside cells.csv: the same bytes from either worker
+    // count, read back as the same cells, line numbers included.
+    assert_eq!(std::fs::read(a.join("cells.parquet")).unwrap(), std::fs::read(b.join("cells.parquet")).unwrap());
+    let from_parquet = crossaudit::cells::read_cells(&a.join("cells.parquet")).unwrap();
+    assert_eq!(from_parquet, crossaudit::cells::read_cells(&a.join("cells.csv")).unwrap());
+    assert!(a.join("report/estimates.parquet").is_file());
     let cells = std::fs::read_to_string(a.join("cells.csv")).unwrap();
     // 2 models x 2 arms x 2 seeds; world at 0.5 and 1 s, relative at 0.5 s; 4 recordings.
     assert_eq!(cells.lines().count(), 1 + (2 * 2 * 4 + 2 * 2 * 4) + 2 * 2 * 4);

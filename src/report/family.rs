@@ -431,10 +431,12 @@ pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, Repo
     let banner = super::html::Banner::new(&d.name, d.holds, family_decision_line(a), &a.header.standing)
         .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
     let html = super::html::render_page(&a.study, &banner, &markdown, &svgs);
+    let estimates = super::estimates::render_family_estimates(a);
+    out.push(super::write_parquet_twin(dir, &estimates)?);
     let files = [
         ("report.md", markdown),
         ("results.json", pretty_json(a)),
-        ("estimates.csv", super::estimates::render_family_estimates(a)),
+        ("estimates.csv", estimates),
         ("report.html", html),
     ];
     for (name, text) in files {

@@ -45,6 +45,25 @@ pub enum ReportError {
     /// A figure could not be drawn.
     #[error(transparent)]
     Draw(#[from] DrawError),
+    /// A table could not be written as Parquet.
+    #[error("cannot write {path} as Parquet: {reason}")]
+    Parquet {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// estimates.parquet beside estimates.csv: the same table with typed
+/// columns (`io::parquet::csv_to_parquet`), for pandas, polars and R's
+/// arrow.
+fn write_parquet_twin(dir: &Path, csv: &str) -> Result<PathBuf, ReportError> {
+    let path = dir.join("estimates.parquet");
+    let bytes = crate::io::parquet::csv_to_parquet(csv.as_bytes())
+        .map_err(|reason| ReportError::Parquet { path: path.display().to_string(), reason })?;
+    write_atomic(&path, &bytes)?;
+    Ok(path)
 }
 
 /// results.json: the analysis as pretty JSON.
@@ -52,8 +71,8 @@ pub fn render_json(a: &Analysis) -> String {
     pretty_json(a)
 }
 
-/// Writes report.md, results.json, results.tex, estimates.csv and
-/// report.html into `dir` (created if needed), each atomically (temporary
+/// Writes report.md, results.json, results.tex, estimates.csv (and its
+/// typed twin estimates.parquet) and report.html into `dir` (created if needed), each atomically (temporary
 /// file + rename). Returns the paths.
 pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     write_all_with(a, dir, &[])
@@ -81,11 +100,13 @@ pub fn write_all_with(a: &Analysis, dir: &Path, figures: &[(String, String)]) ->
     let mut out = Vec::new();
     let markdown = render_markdown(a);
     let html = render_html(a, &markdown, figures);
+    let estimates = render_estimates(a);
+    out.push(write_parquet_twin(dir, &estimates)?);
     for (name, text) in [
         ("report.md", markdown),
         ("results.json", render_json(a)),
         ("results.tex", render_tex(a)),
-        ("estimates.csv", render_estimates(a)),
+        ("estimates.csv", estimates),
         ("report.html", html),
     ] {
         let path = dir.join(name);

@@ -9,7 +9,7 @@ use std::time::Instant;
 use super::open::{Opened, RunOutcome};
 use super::{read, trained_invariants, LevelFolder, RunError, RunRecord, StudyRecord};
 use crate::analysis;
-use crate::cells::{read_cells, write_cells_atomic, Cell};
+use crate::cells::{read_cells, write_cells_and_parquet, Cell};
 use crate::plan::study::Outer;
 use crate::plan::{Plan, TrainingJob};
 
@@ -30,7 +30,7 @@ pub(crate) fn finish_splits(
         let split = level.split;
         all.extend(read_cells(&l.dir.join("cells.csv"))?.into_iter().map(|c| Cell { split, ..c }));
     }
-    write_cells_atomic(&out.join("cells.csv"), &all)?;
+    write_cells_and_parquet(&out.join("cells.csv"), &all)?;
     let mut outcome = finish_combined(design, plan, out, &levels, notes)?;
     outcome.seconds = started.elapsed().as_secs_f64();
     Ok(outcome)
@@ -114,7 +114,7 @@ pub fn job_cells(out: &Path, job: &TrainingJob) -> PathBuf {
 fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
     let all = gathered(plan, out)?;
     let cells_csv = out.join("cells.csv");
-    write_cells_atomic(&cells_csv, &all)?;
+    write_cells_and_parquet(&cells_csv, &all)?;
     Ok(cells_csv)
 }
 
