@@ -45,7 +45,10 @@ pub fn analyze_multiverse(design: &Design, levels: &[LevelInput]) -> Result<Mult
         (0..levels.len()).filter(|&k| levels[k].draw.is_none() || levels[k].draw == first_draw).collect();
     let mut specs = spec_results(mv, levels, &analyses, &spec_levels);
     let mut warnings = Vec::new();
-    let diffs: Vec<Diff> = spec_levels.iter().map(|&k| Diff::of(levels[k].plan, levels[k].cells)).collect();
+    let diffs: Vec<Diff> = {
+        use rayon::prelude::*;
+        spec_levels.par_iter().map(|&k| Diff::of(levels[k].plan, levels[k].cells)).collect()
+    };
     let (mut choice_effects, joint) = match mv {
         Some(m) => curve_inference(design, m, &specs, &diffs, &mut warnings),
         None => (Vec::new(), None),

@@ -16,11 +16,30 @@ use crate::run::{JobRecord, RunError, RunRecord};
 /// be checked (a run written before levels and hashes were recorded) is
 /// returned as warnings.
 pub(super) fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> Result<Vec<String>, RunError> {
+    // The levels are checked in parallel; the first error in level order
+    // is the one reported, as when they were checked one by one.
+    use rayon::prelude::*;
+    let checked: Vec<Result<Vec<String>, RunError>> =
+        (0..levels.len()).into_par_iter().map(|k| check_level(file, levels, k, dir)).collect();
     let mut unverified: Vec<String> = Vec::new();
-    for (k, level) in levels.iter().enumerate() {
-        if level.shares.is_some() {
-            continue;
-        }
+    for c in checked {
+        unverified.extend(c?);
+    }
+    Ok(if unverified.is_empty() {
+        Vec::new()
+    } else {
+        vec![format!(
+            "this run was written before crossaudit recorded each level's name and cells.csv hash: not verified for {}",
+            unverified.join(", ")
+        )]
+    })
+}
+
+/// [`check_levels`] for level `k`: what of it cannot be checked.
+fn check_level(file: &DesignFile, levels: &[Level], k: usize, dir: &Path) -> Result<Vec<String>, RunError> {
+    let mut unverified: Vec<String> = Vec::new();
+    let level = &levels[k];
+    if level.shares.is_none() {
         let d = run_dir(dir, levels, k);
         let changed = |reason: String| RunError::LevelChanged { dir: d.display().to_string(), reason };
         let Some(record) = RunRecord::read(&d)? else {
@@ -77,12 +96,5 @@ pub(super) fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> R
             unverified.push(format!("{} (its cells.csv: no job records and no recorded hash)", level.id));
         }
     }
-    Ok(if unverified.is_empty() {
-        Vec::new()
-    } else {
-        vec![format!(
-            "this run was written before crossaudit recorded each level's name and cells.csv hash: not verified for {}",
-            unverified.join(", ")
-        )]
-    })
+    Ok(unverified)
 }
