@@ -177,8 +177,8 @@ fn read_chunked(name: &str, reader: impl std::io::Read, chunk: usize) -> Option<
         let has_dose = found.get(usize::from(has_split) + 2) == Some(&"dose");
         (found == header_for(has_split, has_dose)).then_some((has_split, has_dose))
     };
-    let row = |&(split, dose): &(bool, bool), line, rec: &csv::StringRecord, (names, seen): &mut (Names, Emptiness)| {
-        let cell = cell_of(name, line, rec, split, dose, names).ok()?;
+    let row = |&(split, dose): &(bool, bool), line, fields: &[&str], (names, seen): &mut (Names, Emptiness)| {
+        let cell = cell_of(name, line, fields, split, dose, names).ok()?;
         seen.see(&cell);
         Some(cell)
     };
@@ -238,7 +238,8 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
             }
         }
         let line = line_of(&rdr, rec.position());
-        let cell = cell_of(name, line, &rec, has_split, has_dose, &mut names)?;
+        let fields: Vec<&str> = rec.iter().collect();
+        let cell = cell_of(name, line, &fields, has_split, has_dose, &mut names)?;
         emptiness.see(&cell);
         cells.push(cell);
     }
@@ -249,17 +250,17 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     Ok(cells)
 }
 
-/// The cell of the record `rec` on line `line`, whose fields are those of
-/// `header_for(has_split, has_dose)`.
+/// The cell of the record on line `line` whose fields are `fields`, those
+/// of `header_for(has_split, has_dose)`.
 fn cell_of(
     name: &str,
     line: u64,
-    rec: &csv::StringRecord,
+    fields: &[&str],
     has_split: bool,
     has_dose: bool,
     names: &mut Names,
 ) -> Result<Cell, CellsError> {
-    let raw = RawRow::of(rec, has_split, has_dose);
+    let raw = RawRow::of(fields, has_split, has_dose);
     let mut cell = parse_row(name, line, &raw, names)?;
     let r = Row { name, line };
     if has_split {
@@ -381,9 +382,9 @@ impl<'a> RawRow<'a> {
     /// The fields of a record whose header was checked to be
     /// `header_for(has_split, has_dose)` (and whose length the reader
     /// checked against it).
-    fn of(rec: &'a csv::StringRecord, has_split: bool, has_dose: bool) -> RawRow<'a> {
-        let mut f = rec.iter();
-        let mut next = || f.next().unwrap_or("");
+    fn of(fields: &[&'a str], has_split: bool, has_dose: bool) -> RawRow<'a> {
+        let mut f = fields.iter();
+        let mut next = || f.next().copied().unwrap_or("");
         let split = has_split.then(&mut next);
         let (model, arm) = (next(), next());
         let dose = has_dose.then(&mut next);

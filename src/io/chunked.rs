@@ -23,14 +23,14 @@ const WAVE: usize = 16;
 /// of about `chunk` bytes, with what each chunk's rows left in their state
 /// (in file order); `None` where a reference reader must read it.
 /// `header` reads the header record (`None`: a header this file's reader
-/// refuses); `row` reads the record on 1-based line `line`, with its
-/// chunk's state (`None`: a row it refuses). Every row has the header's
-/// number of fields.
+/// refuses); `row` reads the fields of the record on 1-based line `line`,
+/// with its chunk's state (`None`: a row it refuses). Every row has the
+/// header's number of fields.
 pub fn read<H, S, T>(
     reader: impl Read,
     (limit, chunk): (u64, usize),
     header: impl FnOnce(&csv::StringRecord) -> Option<H>,
-    row: impl Fn(&H, u64, &csv::StringRecord, &mut S) -> Option<T> + Sync,
+    row: impl Fn(&H, u64, &[&str], &mut S) -> Option<T> + Sync,
 ) -> Option<(Vec<T>, Vec<S>)>
 where
     H: Sync,
@@ -124,30 +124,41 @@ fn split(text: &[u8], mut from: usize, chunk: usize) -> Vec<(usize, usize)> {
 
 /// The rows of one chunk of whole lines, `before` lines into the file and
 /// holding `breaks` line breaks, each of `fields` fields, and the state
-/// they left; `None` at the first row refused.
+/// they left; `None` at the first row refused. A chunk holds no quote and
+/// no lone `\r`, so its records are its lines split at commas, as the csv
+/// crate splits them: a blank line is no record, text that is not UTF-8
+/// is refused.
 fn parse<S: Default, T>(
     text: &[u8],
     (before, breaks): (u64, u64),
     fields: usize,
-    row: impl Fn(u64, &csv::StringRecord, &mut S) -> Option<T>,
+    row: impl Fn(u64, &[&str], &mut S) -> Option<T>,
 ) -> Option<(Vec<T>, S)> {
-    let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(text);
-    let mut rec = csv::StringRecord::new();
+    let text = std::str::from_utf8(text).ok()?;
     // At most one row per line (one more without a final line break).
     let (mut rows, mut state) = (Vec::with_capacity(breaks as usize + 1), S::default());
-    // The line of the record being read, and the byte its line breaks
-    // were counted up to.
-    let (mut line, mut counted) = (before + 1, 0usize);
-    while rdr.read_record(&mut rec).ok()? {
-        if rec.len() != fields {
+    let mut record: Vec<&str> = Vec::with_capacity(fields);
+    let mut start = 0;
+    let ends = memchr::memchr_iter(b'\n', text.as_bytes()).chain((!text.ends_with('\n')).then_some(text.len()));
+    for (k, end) in ends.enumerate() {
+        let line = &text[start..end];
+        start = end + 1;
+        let line = line.strip_suffix('\r').unwrap_or(line);
+        if line.is_empty() {
+            continue;
+        }
+        record.clear();
+        let mut from = 0;
+        // Commas and line breaks are ASCII: every cut is a char boundary.
+        for comma in memchr::memchr_iter(b',', line.as_bytes()) {
+            record.push(&line[from..comma]);
+            from = comma + 1;
+        }
+        record.push(&line[from..]);
+        if record.len() != fields {
             return None;
         }
-        // The csv crate places a record that follows `\r\n` on its `\n`.
-        let at = rec.position()?.byte() as usize;
-        let at = if text.get(at) == Some(&b'\n') { at + 1 } else { at };
-        line += memchr::memchr_iter(b'\n', &text[counted..at]).count() as u64;
-        counted = at;
-        rows.push(row(line, &rec, &mut state)?);
+        rows.push(row(before + 1 + k as u64, &record, &mut state)?);
     }
     Some((rows, state))
 }
