@@ -45,7 +45,7 @@ python3 benches/scale/cells.py "$work/cells.csv" "$rec" "$seeds"
 echo "machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores, avx512f: $(grep -qo avx512f /proc/cpuinfo && echo yes || echo no); commit $(git rev-parse --short HEAD)"
 echo "file: $(($(wc -l < "$work/cells.csv") - 1)) rows, $(du -m "$work/cells.csv" | cut -f1) MB ($rec recordings x $seeds seeds x 2 arms)"
 .venv-bench/bin/python - "$runs" "$ca" "$design" "$work" "${threads[@]}" <<'PY'
-import filecmp, os, statistics, subprocess, sys, time
+import os, statistics, subprocess, sys, time
 import pandas as pd, pyarrow, polars
 runs, ca, design, work = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4]
 threads = [int(t) for t in sys.argv[5:]]
@@ -100,9 +100,5 @@ for n in threads:
     print(f"  polars {polars.__version__} read_csv + group_by mean (own process):            {med(pl_runs):.2f} s, {min(pl_runs):.2f} s")
     print(f"  ratio crossaudit / pandas-pyarrow: {med(ca_t) / med(pa_runs):.2f}; crossaudit / polars: {med(ca_t) / med(pl_runs):.2f}")
 print(f"  {ca_runs[0][1][2]}")
-first = f"{work}/report-{threads[0]}"
-for n in threads[1:]:
-    d = filecmp.dircmp(first, f"{work}/report-{n}")
-    same = not d.left_only and not d.right_only and all(filecmp.cmp(f"{first}/{f}", f"{work}/report-{n}/{f}", shallow=False) for f in d.common_files)
-    print(f"  report at {threads[0]} and {n} thread(s): {'byte-identical' if same else 'DIFFERENT'}")
 PY
+python3 benches/scale/same_reports.py "$work" "${threads[@]}"

@@ -24,7 +24,7 @@ python3 benches/scale/multiverse.py "$work/run" benches/scale/multiverse.design
 echo "machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores, avx512f: $(grep -qo avx512f /proc/cpuinfo && echo yes || echo no); commit $(git rev-parse --short HEAD)"
 echo "run: $(ls -d "$work"/run/spec-* | wc -l) specifications, $(cat "$work"/run/spec-*/cells.csv | grep -vc '^model,') cells, $(du -sm "$work/run" | cut -f1) MB"
 python3 - "$runs" "$ca" "$work" "${threads[@]}" <<'PY'
-import filecmp, statistics, subprocess, sys, time
+import statistics, subprocess, sys, time
 runs, ca, work = int(sys.argv[1]), sys.argv[2], sys.argv[3]
 threads = [int(t) for t in sys.argv[4:]]
 def once(n):
@@ -45,9 +45,5 @@ for n in threads:
           f"{statistics.median(ts):.2f} s, {min(ts):.2f} s; peak RSS {max(o[1] for o in out) // 1024} MB; CPU {out[-1][2]}")
 print(f"  speed-up at {threads[-1]} threads over {threads[0]}: {medians[threads[0]] / medians[threads[-1]]:.2f}x")
 print(f"  {out[-1][3]}")
-first = f"{work}/report-{threads[0]}"
-for n in threads[1:]:
-    d = filecmp.dircmp(first, f"{work}/report-{n}")
-    same = not d.left_only and not d.right_only and all(filecmp.cmp(f"{first}/{f}", f"{work}/report-{n}/{f}", shallow=False) for f in d.common_files)
-    print(f"  report at {threads[0]} and {n} thread(s): {'byte-identical' if same else 'DIFFERENT'}")
 PY
+python3 benches/scale/same_reports.py "$work" "${threads[@]}"

@@ -7,20 +7,8 @@ use crate::common::{crossaudit, said};
 
 /// Every file under `dir`, by its path below it, with its bytes.
 fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((p.strip_prefix(dir).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
+    let read = |f: std::path::PathBuf| (f.display().to_string(), std::fs::read(dir.join(&f)).unwrap());
+    crate::logs::files(dir).into_iter().map(read).collect()
 }
 
 /// The reports of `analyze DESIGN --cells CELLS` at 1, 2 and 8 threads.

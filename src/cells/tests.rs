@@ -1,0 +1,101 @@
+//! The per-cell readers against each other: the chunked reader against
+//! the streaming reference, and fast-float2 against `str::parse`.
+
+use super::*;
+
+/// The committed per-cell files of every layout: plain, with `split`,
+/// with `dose`, with empty optional columns.
+fn committed() -> Vec<(String, Vec<u8>)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    [
+        "examples/cells/nanobench_synthetic.csv",
+        "results/quickstart/cells.csv",
+        "results/dose_response/cells.csv",
+        "results/multi_split/cells.csv",
+        "results/lab/cells.csv",
+        "results/rotorpy/cells.csv",
+    ]
+    .iter()
+    .filter_map(|f| std::fs::read(root.join(f)).ok().map(|b| (f.to_string(), b)))
+    .collect()
+}
+
+/// The chunked reader gives the reference reader's cells, lines
+/// included, at any chunk size, with `\n` or `\r\n` line breaks,
+/// blank lines, and no line break at the end.
+#[test]
+fn chunks_read_what_the_reference_reader_reads() {
+    let files = committed();
+    assert_eq!(files.len(), 6, "the committed per-cell files are read");
+    for (name, bytes) in files {
+        let crlf: Vec<u8> = String::from_utf8(bytes.clone()).unwrap().replace('\n', "\r\n").into_bytes();
+        let blank: Vec<u8> = String::from_utf8(bytes.clone()).unwrap().replacen("\n", "\n\n", 7).into_bytes();
+        let bare = bytes.strip_suffix(b"\n").unwrap_or(&bytes).to_vec();
+        for text in [&bytes, &crlf, &blank, &bare] {
+            let reference = read_cells_from(&name, text.as_slice()).unwrap();
+            for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
+                let cells = read_chunked(&name, text.as_slice(), chunk).unwrap_or_else(|| panic!("{name} at {chunk}"));
+                assert_eq!(cells, reference, "{name}, chunks of {chunk} bytes");
+            }
+        }
+    }
+}
+
+/// fast-float2 and Rust's own parser read the same numbers to the same
+/// values: random strings over the characters of numbers, infinities
+/// and NaN, and the shortest round-trip text of random doubles.
+#[test]
+fn numbers_are_read_as_rusts_parser_reads_them() {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state >> 11
+    };
+    let alphabet = b"0123456789012345678901234567890123456789..eE+-_ infatyINFATYx";
+    let (mut read, mut checked) = (0, 0);
+    for _ in 0..300_000 {
+        let len = 1 + next() % 12;
+        let s: String = (0..len).map(|_| alphabet[next() as usize % alphabet.len()] as char).collect();
+        let (ours, std) = (number(&s), s.parse::<f64>().ok());
+        assert_eq!(ours.map(f64::to_bits), std.map(f64::to_bits), "{s:?}");
+        read += usize::from(std.is_some());
+        checked += 1;
+    }
+    for _ in 0..100_000 {
+        let x = f64::from_bits(next() << 11 ^ next());
+        for s in [format!("{x:?}"), format!("{x}"), format!("{x:e}"), format!("{:.6}", x)] {
+            assert_eq!(number(&s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{s:?}");
+        }
+    }
+    assert!(read > 30_000 && checked == 300_000, "{read} of {checked} random strings were numbers");
+}
+
+/// On damaged files the chunked reader gives up or agrees: it never
+/// returns cells the reference reader refuses, or other cells.
+#[test]
+fn chunks_never_accept_what_the_reference_reader_refuses() {
+    let (name, bytes) = committed().swap_remove(0);
+    let bytes = bytes[..bytes.len().min(20_000)].to_vec();
+    // A 64-bit LCG (Knuth's MMIX constants): positions and bytes.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 33) as usize
+    };
+    let alphabet = b",\n\r\"x0.-9 e";
+    let (mut refused, mut gave_up) = (0, 0);
+    for _ in 0..400 {
+        let mut text = bytes.clone();
+        for _ in 0..1 + next() % 3 {
+            let at = next() % text.len();
+            text[at] = alphabet[next() % alphabet.len()];
+        }
+        let reference = read_cells_from(&name, text.as_slice());
+        refused += usize::from(reference.is_err());
+        match read_chunked(&name, text.as_slice(), 1 + next() % 3000) {
+            Some(cells) => assert_eq!(cells, reference.unwrap(), "accepted: {:?}", String::from_utf8_lossy(&text)),
+            None => gave_up += 1,
+        }
+    }
+    assert!(refused > 100 && gave_up >= refused, "{refused} refused, {gave_up} given up");
+}
