@@ -156,7 +156,7 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
         let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {
             CellsError::Csv { path: p.clone(), line: 1, message: format!("not a readable Parquet file: {message}") }
         })?;
-        return match read_chunked(&p, text.as_slice(), crate::io::chunked::CHUNK) {
+        return match read_chunked(&p, (text.as_slice(), text.len() as u64), crate::io::chunked::CHUNK, |_| {}) {
             Some(cells) => Ok(cells),
             None => read_cells_from(&p, text.as_slice()),
         };
@@ -166,7 +166,8 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
     let open = || std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source });
     // On every core where it can; where it cannot, or the file has an
     // error, the reference reader reads it and says where.
-    if let Some(cells) = read_chunked(&p, open()?, crate::io::chunked::CHUNK) {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    if let Some(cells) = read_chunked(&p, (open()?, size), crate::io::chunked::CHUNK, |_| {}) {
         return Ok(cells);
     }
     read_cells_from(&p, open()?)
@@ -176,7 +177,12 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
 /// core by `io::chunked` in chunks of about `chunk` bytes; `None` where
 /// [`read_cells_from`] must read it (and, for a file with an error, say
 /// where).
-fn read_chunked(name: &str, reader: impl std::io::Read, chunk: usize) -> Option<Vec<Cell>> {
+fn read_chunked(
+    name: &str,
+    (reader, size): (impl std::io::Read, u64),
+    chunk: usize,
+    seen: impl FnMut(&[u8]) + Send,
+) -> Option<Vec<Cell>> {
     let header = |h: &csv::StringRecord| {
         let found: Vec<&str> = h.iter().collect();
         let has_split = found.first() == Some(&"split");
@@ -188,7 +194,8 @@ fn read_chunked(name: &str, reader: impl std::io::Read, chunk: usize) -> Option<
         seen.see(&cell);
         Some(cell)
     };
-    let (cells, states) = crate::io::chunked::read(reader, (crate::io::MAX_CELLS_FILE, chunk), header, row)?;
+    let (cells, states) =
+        crate::io::chunked::read(reader, (crate::io::MAX_CELLS_FILE, size, chunk), header, row, seen)?;
     let mut emptiness = Emptiness::default();
     states.iter().for_each(|(_, seen)| emptiness.merge(seen));
     (!cells.is_empty() && emptiness.check(name).is_ok()).then_some(cells)
@@ -575,4 +582,24 @@ fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<C
 /// SHA-256 of a per-cell file, for the provenance of its analysis.
 pub fn file_sha256(path: &Path) -> Result<String, CellsError> {
     crate::io::sha256_file(path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
+}
+
+/// [`read_cells`] and [`file_sha256`] of one reading: a per-cell CSV is
+/// hashed as it is read (one core hashes each block while the others
+/// parse it), so the hash is of the bytes the cells came from. A file the
+/// parallel reader gives up on is read and hashed again.
+pub fn read_cells_hashed(path: &Path) -> Result<(Vec<Cell>, String), CellsError> {
+    use sha2::Digest;
+    let p = path.display().to_string();
+    if !crate::io::parquet::is_parquet(path) {
+        crate::io::check_regular(path, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
+            .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
+        let file = std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;
+        let size = file.metadata().map_or(0, |m| m.len());
+        let mut hasher = sha2::Sha256::new();
+        if let Some(cells) = read_chunked(&p, (file, size), crate::io::chunked::CHUNK, |bytes| hasher.update(bytes)) {
+            return Ok((cells, crate::io::hex(&hasher.finalize())));
+        }
+    }
+    Ok((read_cells(path)?, file_sha256(path)?))
 }

@@ -96,7 +96,11 @@ pub fn pretty_json<T: serde::Serialize + ?Sized>(value: &T) -> String {
 /// );
 /// ```
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    let digest = Sha256::digest(bytes);
+    hex(&Sha256::digest(bytes))
+}
+
+/// A SHA-256 digest in lowercase hex.
+pub fn hex(digest: &[u8]) -> String {
     digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
@@ -104,7 +108,17 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// reuses is checked against its record.
 pub fn sha256_file(path: &Path) -> std::io::Result<String> {
     check_regular(path, u64::MAX, "a recorded file").map_err(ReadError::into_io)?;
-    Ok(sha256_hex(&std::fs::read(path)?))
+    // Streamed: memory holds a block, not the file.
+    let mut file = std::fs::File::open(path)?;
+    let (mut hasher, mut block) = (Sha256::new(), vec![0u8; 1 << 20]);
+    loop {
+        match std::io::Read::read(&mut file, &mut block) {
+            Ok(0) => return Ok(hex(&hasher.finalize())),
+            Ok(n) => hasher.update(&block[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
 }
 
 /// Serializes an `f64` in Rust's shortest round-trip `Display` form (`1`,

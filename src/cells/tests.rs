@@ -34,7 +34,8 @@ fn chunks_read_what_the_reference_reader_reads() {
         for text in [&bytes, &crlf, &blank, &bare] {
             let reference = read_cells_from(&name, text.as_slice()).unwrap();
             for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
-                let cells = read_chunked(&name, text.as_slice(), chunk).unwrap_or_else(|| panic!("{name} at {chunk}"));
+                let cells = read_chunked(&name, (text.as_slice(), text.len() as u64), chunk, |_| {})
+                    .unwrap_or_else(|| panic!("{name} at {chunk}"));
                 assert_eq!(cells, reference, "{name}, chunks of {chunk} bytes");
             }
         }
@@ -92,10 +93,40 @@ fn chunks_never_accept_what_the_reference_reader_refuses() {
         }
         let reference = read_cells_from(&name, text.as_slice());
         refused += usize::from(reference.is_err());
-        match read_chunked(&name, text.as_slice(), 1 + next() % 3000) {
+        match read_chunked(&name, (text.as_slice(), text.len() as u64), 1 + next() % 3000, |_| {}) {
             Some(cells) => assert_eq!(cells, reference.unwrap(), "accepted: {:?}", String::from_utf8_lossy(&text)),
             None => gave_up += 1,
         }
     }
     assert!(refused > 100 && gave_up >= refused, "{refused} refused, {gave_up} given up");
+}
+
+/// The chunked reader shows its observer every byte of the file once, in
+/// order, whatever the chunk size; and a file read and hashed at once
+/// has the hash of its bytes, on the parallel path and on the
+/// reference reader's (a quoted field).
+#[test]
+fn a_file_is_hashed_as_it_is_read() {
+    let (name, bytes) = committed().swap_remove(0);
+    for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
+        let mut seen = Vec::new();
+        let cells = read_chunked(&name, (bytes.as_slice(), 0), chunk, |b| seen.extend_from_slice(b));
+        assert!(cells.is_some(), "{name} at {chunk}");
+        assert!(seen == bytes, "{name} at {chunk}: {} bytes seen of {}", seen.len(), bytes.len());
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // The first row's model name in quotes: the same cells, read by the
+    // reference reader.
+    let text = String::from_utf8(bytes.clone()).unwrap();
+    let (head, rest) = text.split_once('\n').unwrap();
+    let (model, rest) = rest.split_once(',').unwrap();
+    let quoted = format!("{head}\n\"{model}\",{rest}");
+    assert!(read_chunked(&name, (quoted.as_bytes(), 0), 4096, |_| {}).is_none());
+    for (file, text) in [("plain.csv", bytes.clone()), ("quoted.csv", quoted.into_bytes())] {
+        let path = dir.path().join(file);
+        std::fs::write(&path, &text).unwrap();
+        let (cells, sha) = read_cells_hashed(&path).unwrap();
+        assert_eq!(sha, crate::io::sha256_hex(&text), "{file}");
+        assert_eq!(cells, read_cells(&path).unwrap(), "{file}");
+    }
 }

@@ -15,7 +15,7 @@ use serde::Deserialize;
 
 use super::{RunError, RunRecord, StudyRecord};
 use crate::analysis::record::{Curve, DesignLabel, InvariantsFile, LevelEvidence, Record, RunEvidence, Treatment};
-use crate::cells::read_cells;
+use crate::cells::read_cells_hashed;
 use crate::plan::study::LevelRole;
 use crate::plan::Plan;
 
@@ -35,8 +35,7 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
         return Err(RunError::OtherDesign { dir: shown, sha256: run.design_sha256 });
     }
     let cells_path = dir.join("cells.csv");
-    let cells = read_cells(&cells_path)?;
-    let sha = crate::cells::file_sha256(&cells_path)?;
+    let (cells, sha) = read_cells_hashed(&cells_path)?;
     if let Some(recorded) = run.cells_sha256.as_ref().filter(|r| **r != sha) {
         return Err(RunError::LevelChanged {
             dir: shown,
@@ -145,8 +144,7 @@ impl<'a> LevelFolder<'a> {
 /// evidence from its own folder.
 pub fn read_levels(design: DesignLabel, dir: &Path, levels: &[LevelFolder]) -> Result<Record, RunError> {
     let cells_path = dir.join("cells.csv");
-    let cells = read_cells(&cells_path)?;
-    let sha = crate::cells::file_sha256(&cells_path)?;
+    let (cells, sha) = read_cells_hashed(&cells_path)?;
     levels_record(design, dir, levels, (cells, sha))
 }
 

@@ -9,7 +9,7 @@ use super::combine::{read_combined, CombinedRecord};
 use super::read::{folder_record, levels_record, read_folder, read_levels, LevelFolder};
 use super::{RunError, RunRecord, StudyRecord};
 use crate::analysis::record::{DesignLabel, Record};
-use crate::cells::read_cells;
+use crate::cells::read_cells_hashed;
 use crate::design::{lock, DesignFile};
 use crate::plan::study::LevelRole;
 use crate::plan::StudyPlan;
@@ -31,14 +31,8 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
             None => read_folder(design, plan, cells),
         };
     }
-    // Read (and so checked to be a regular file) before it is hashed; a
-    // regular file is hashed as it is read.
-    let (rows, sha) = if std::fs::metadata(cells).is_ok_and(|m| m.is_file()) {
-        let (rows, sha) = rayon::join(|| read_cells(cells), || crate::cells::file_sha256(cells));
-        (rows?, sha?)
-    } else {
-        (read_cells(cells)?, crate::cells::file_sha256(cells)?)
-    };
+    // Hashed as it is read: the hash is of the bytes the rows came from.
+    let (rows, sha) = read_cells_hashed(cells)?;
     let shown = cells.display().to_string();
     let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let combined = cells.file_name().is_some_and(|n| n == "cells.csv")
