@@ -491,6 +491,7 @@ pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
 }
 
 pub mod chunked;
+pub mod float_text;
 mod input;
 pub use input::{read_text, Text, TextError};
 pub mod parquet;

@@ -1,65 +1,143 @@
-//! [`Label`]: a shared, immutable name (a model, arm, recording, trajectory
-//! or speed in a per-cell row). A million rows name a few thousand distinct
-//! things; each row holds a pointer to one shared copy of its name instead
-//! of five heap strings of its own.
+//! [`Label`]: an interned, immutable name (a model, arm, recording,
+//! trajectory or speed in a per-cell row). A million rows name a few
+//! thousand distinct things; each row holds a pointer to the one copy of
+//! its name instead of five heap strings of its own.
+//!
+//! Every name is interned once per process, in a table every thread
+//! shares (and each thread caches), and kept for the life of the
+//! process: a label is a plain pointer, copied without a reference count
+//! and dropped without work, and two labels are equal when they point to
+//! the same name. The table holds each distinct name once, so what it
+//! keeps is bounded by the distinct names read, not by the rows.
 
 use std::borrow::Borrow;
+use std::cell::RefCell;
+use std::cmp::Ordering;
 use std::collections::HashSet;
 use std::fmt;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::{BuildHasher, BuildHasherDefault, Hash, Hasher};
 use std::ops::Deref;
-use std::sync::Arc;
+use std::sync::{Mutex, OnceLock};
 
 /// A name shared between every row that carries it. It reads as a `str`:
 /// it derefs to one, compares equal to one, and prints and serializes as
 /// one.
-#[derive(Clone, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
-pub struct Label(Arc<Box<str>>);
+#[derive(Clone, Copy)]
+pub struct Label(&'static &'static str);
 
 // One pointer: a row holds five.
 const _: () = assert!(std::mem::size_of::<Label>() == std::mem::size_of::<usize>());
 
 impl Label {
     /// The name as a `str`.
-    pub fn as_str(&self) -> &str {
-        &self.0
+    pub fn as_str(&self) -> &'static str {
+        self.0
+    }
+}
+
+/// The labels of every thread, in shards chosen by the name's hash.
+type Shard = Mutex<HashSet<Label, BuildHasherDefault<NameHasher>>>;
+const SHARDS: usize = 64;
+static TABLE: OnceLock<Vec<Shard>> = OnceLock::new();
+
+thread_local! {
+    /// The labels this thread has used: most lookups take no lock.
+    static CACHE: RefCell<HashSet<Label, BuildHasherDefault<NameHasher>>> = RefCell::default();
+}
+
+/// The one label of `name`.
+fn intern(name: &str) -> Label {
+    if let Some(l) = CACHE.with(|c| c.borrow().get(name).copied()) {
+        return l;
+    }
+    let table = TABLE.get_or_init(|| (0..SHARDS).map(|_| Shard::default()).collect());
+    let hash = BuildHasherDefault::<NameHasher>::default().hash_one(name);
+    let mut shard = table[hash as usize % SHARDS].lock().unwrap_or_else(|e| e.into_inner());
+    let l = match shard.get(name) {
+        Some(l) => *l,
+        None => {
+            // Kept for the life of the process: see the module's notes.
+            let l = Label(Box::leak(Box::new(&*Box::leak(Box::from(name)))));
+            shard.insert(l);
+            l
+        }
+    };
+    drop(shard);
+    CACHE.with(|c| c.borrow_mut().insert(l));
+    l
+}
+
+impl PartialEq for Label {
+    fn eq(&self, other: &Label) -> bool {
+        // One label per name: the same name is the same pointer.
+        std::ptr::eq(self.0, other.0)
+    }
+}
+
+impl Eq for Label {}
+
+impl Hash for Label {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        // As the `str` it borrows as.
+        self.as_str().hash(state)
+    }
+}
+
+impl PartialOrd for Label {
+    fn partial_cmp(&self, other: &Label) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Label {
+    fn cmp(&self, other: &Label) -> Ordering {
+        if self == other {
+            return Ordering::Equal;
+        }
+        self.as_str().cmp(other.as_str())
+    }
+}
+
+impl Default for Label {
+    fn default() -> Label {
+        intern("")
     }
 }
 
 impl Deref for Label {
     type Target = str;
     fn deref(&self) -> &str {
-        &self.0
+        self.0
     }
 }
 
 impl AsRef<str> for Label {
     fn as_ref(&self) -> &str {
-        &self.0
+        self.0
     }
 }
 
 impl Borrow<str> for Label {
     fn borrow(&self) -> &str {
-        &self.0
+        self.0
     }
 }
 
 impl From<&str> for Label {
     fn from(s: &str) -> Label {
-        Label(Arc::new(Box::from(s)))
+        intern(s)
     }
 }
 
 impl From<String> for Label {
     fn from(s: String) -> Label {
-        Label(Arc::new(Box::from(s)))
+        intern(&s)
     }
 }
 
 impl From<&String> for Label {
     fn from(s: &String) -> Label {
-        Label(Arc::new(Box::from(s.as_str())))
+        intern(s)
     }
 }
 
@@ -123,13 +201,12 @@ impl serde::Serialize for Label {
     }
 }
 
-/// Hands out one [`Label`] per distinct name. The last name asked for is
+/// Hands out the [`Label`] of each name. The last name asked for is
 /// checked first: rows of a per-cell file come grouped, so most lookups
 /// repeat the row before.
 #[derive(Debug, Default)]
 pub struct Interner {
     last: Option<Label>,
-    seen: HashSet<Label, BuildHasherDefault<NameHasher>>,
 }
 
 /// A multiply-rotate hash of a name's bytes, 8 at a time (the Fx hash of
@@ -167,23 +244,12 @@ impl Hasher for NameHasher {
 }
 
 impl Interner {
-    /// The shared label for `name`.
+    /// The label for `name`.
     pub fn get(&mut self, name: &str) -> Label {
-        if let Some(l) = &self.last {
-            if l.as_str() == name {
-                return l.clone();
-            }
+        match self.last {
+            Some(l) if l.as_str() == name => l,
+            _ => *self.last.insert(intern(name)),
         }
-        let l = match self.seen.get(name) {
-            Some(l) => l.clone(),
-            None => {
-                let l = Label::from(name);
-                self.seen.insert(l.clone());
-                l
-            }
-        };
-        self.last = Some(l.clone());
-        l
     }
 }
 
@@ -195,15 +261,15 @@ mod tests {
     fn labels_read_as_strings_and_intern_to_one_copy() {
         let mut names = Interner::default();
         let (a, b, c) = (names.get("r01"), names.get("r02"), names.get("r01"));
-        assert!(Arc::ptr_eq(&a.0, &c.0));
-        assert!(!Arc::ptr_eq(&a.0, &b.0));
+        assert!(std::ptr::eq(a.0, c.0) && std::ptr::eq(a.0, Label::from("r01").0));
+        assert!(!std::ptr::eq(a.0, b.0) && a != b);
         assert_eq!(a, "r01");
         assert_eq!("r02", b);
         assert_eq!(a, "r01".to_string());
         assert!(a < b);
         assert_eq!(format!("{a} {a:?}"), "r01 \"r01\"");
         assert_eq!(serde_json::to_string(&b).unwrap(), "\"r02\"");
-        let m: std::collections::BTreeMap<Label, u8> = [(a.clone(), 1)].into();
+        let m: std::collections::BTreeMap<Label, u8> = [(a, 1)].into();
         assert_eq!(m.get("r01"), Some(&1));
     }
 }

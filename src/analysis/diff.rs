@@ -30,7 +30,7 @@ impl Diff {
                 (is_treated || c.arm == *reference).then_some((c, is_treated))
             })
             .collect();
-        let mut recs: Vec<Label> = ours.iter().map(|(c, _)| c.recording.clone()).collect();
+        let mut recs: Vec<Label> = ours.iter().map(|(c, _)| c.recording).collect();
         recs.sort_unstable();
         recs.dedup();
         let mut seeds: Vec<u64> = ours.iter().map(|(c, _)| c.seed).collect();

@@ -73,15 +73,7 @@ where
         }
         let (h, fields) = head.as_ref()?;
         let ranges = split(&text[..cut], from, chunk);
-        // Each chunk's line breaks, counted at once, give the line of its
-        // first row.
-        let breaks: Vec<Option<u64>> = ranges.par_iter().map(|&(a, b)| line_breaks(&text[a..b])).collect();
-        let mut first = Vec::with_capacity(ranges.len());
-        for b in breaks {
-            let b = b?;
-            first.push((lines_before, b));
-            lines_before += b;
-        }
+        let first = first_lines(&text, &ranges, &mut lines_before)?;
         // The new bytes are seen on one core while the others parse.
         let ((), parsed) = rayon::join(
             || seen(&text[old..]),
@@ -97,7 +89,7 @@ where
         );
         let parsed: Vec<(Vec<T>, S)> = parsed.into_iter().collect::<Option<_>>()?;
         let n: usize = parsed.iter().map(|p| p.0.len()).sum();
-        if rows.is_empty() && !at_end && cut > 0 {
+        if rows.is_empty() && !at_end {
             // The rest at this block's rows per byte, and 1/16 more: one
             // allocation, not a doubling and a copy (at 10M rows, 1 GB
             // and seconds).
@@ -114,6 +106,20 @@ where
             return Some((rows, states));
         }
     }
+}
+
+/// For each range of `text`, the line breaks before it (from
+/// `lines_before`, which it advances) and in it, counted at once; `None`
+/// where a range's records are not one line each.
+fn first_lines(text: &[u8], ranges: &[(usize, usize)], lines_before: &mut u64) -> Option<Vec<(u64, u64)>> {
+    let breaks: Vec<Option<u64>> = ranges.par_iter().map(|&(a, b)| line_breaks(&text[a..b])).collect();
+    let mut first = Vec::with_capacity(ranges.len());
+    for b in breaks {
+        let b = b?;
+        first.push((*lines_before, b));
+        *lines_before += b;
+    }
+    Some(first)
 }
 
 /// The line breaks of `text`; `None` where its records are not one line

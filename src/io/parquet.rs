@@ -206,7 +206,6 @@ fn read_all<T: DataType>(
 impl Column {
     /// Writes the next row's value (nothing for a null) as [`text`] does.
     fn write_next(&mut self, out: &mut Vec<u8>) -> Option<()> {
-        use std::io::Write as _;
         let row = self.row;
         self.row += 1;
         if self.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
@@ -214,15 +213,16 @@ impl Column {
         }
         let k = self.next;
         self.next += 1;
-        let _ = match &self.values {
-            Values::Bool(v) => write!(out, "{}", v.get(k)?),
-            Values::Int32(v) => write!(out, "{}", v.get(k)?),
-            Values::Int64(v, None) => write!(out, "{}", v.get(k)?),
-            Values::Int64(v, Some(s)) => write!(out, "{:?}", *v.get(k)? as f64 / s),
-            Values::Float(v) => write!(out, "{:?}", v.get(k)?),
-            Values::Double(v) => write!(out, "{:?}", v.get(k)?),
-            Values::Text(v) => out.write_all(quoted(std::str::from_utf8(v.get(k)?.data()).ok()?).as_bytes()),
-        };
+        use crate::io::float_text::{debug_f32, debug_f64};
+        match &self.values {
+            Values::Bool(v) => out.extend_from_slice(if *v.get(k)? { b"true" } else { b"false" }),
+            Values::Int32(v) => out.extend_from_slice(itoa::Buffer::new().format(*v.get(k)?).as_bytes()),
+            Values::Int64(v, None) => out.extend_from_slice(itoa::Buffer::new().format(*v.get(k)?).as_bytes()),
+            Values::Int64(v, Some(s)) => debug_f64(*v.get(k)? as f64 / s, out),
+            Values::Float(v) => debug_f32(*v.get(k)?, out),
+            Values::Double(v) => debug_f64(*v.get(k)?, out),
+            Values::Text(v) => out.extend_from_slice(quoted(std::str::from_utf8(v.get(k)?.data()).ok()?).as_bytes()),
+        }
         Some(())
     }
 }

@@ -82,10 +82,11 @@ impl Grid {
         Grid { rows: self.rows, cols: self.cols, v }
     }
 
-    /// self where `mask` is present.
-    fn masked(&self, mask: &Grid) -> Grid {
-        let v = self.v.iter().zip(&mask.v).map(|(a, m)| m.and(*a)).collect();
-        Grid { rows: self.rows, cols: self.cols, v }
+    /// self where `mask` is present, in place: at 10M cells a grid is
+    /// 80 MB.
+    fn masked(mut self, mask: &Grid) -> Grid {
+        self.v.iter_mut().zip(&mask.v).for_each(|(a, m)| *a = m.and(*a));
+        self
     }
 
     fn mean(&self) -> f64 {

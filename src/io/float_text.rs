@@ -1,0 +1,241 @@
+//! Numbers as text, fast: `f64` and `f32` exactly as Rust's `{:?}` writes
+//! them, from ryu's shortest round-trip digits. Both give the shortest
+//! digit string that reads back to the same value, the one nearest it;
+//! they differ only in a tie (two shortest strings equally near, as for
+//! the float 171404.625: ryu takes the even last digit, Rust the one
+//! above), which needs a value whose exact decimal is one digit longer
+//! than its shortest string, so there (and for integers past 2^53) Rust
+//! writes it. The layout is Rust's: decimal, with at least one digit
+//! after the point, for magnitudes in [1e-4, 1e16) and zero, exponential
+//! otherwise (`1e-7`, `1.5e16`), `NaN`, `inf` and `-inf`. Tested equal to
+//! `format!("{x:?}")` on millions of random values and every boundary.
+
+/// Appends `x` as `format!("{x:?}")` writes it.
+pub fn debug_f64(x: f64, out: &mut Vec<u8>) {
+    let bits = x.to_bits();
+    let (exp, frac) = ((bits >> 52) & 0x7ff, bits & ((1 << 52) - 1));
+    let (m, e) = if exp == 0 { (frac, -1074) } else { (frac | 1 << 52, exp as i32 - 1075) };
+    let a = x.abs();
+    let exact = a < 9_007_199_254_740_992.0;
+    // ryu's layout is Rust's but in [1e-5, 1e-4), which ryu writes as a
+    // decimal.
+    let (relayout, exponential) = ((1e-5..1e-4).contains(&a), x != 0.0 && !(1e-4..1e16).contains(&a));
+    let spacing = f64::from_bits(a.to_bits().wrapping_add(1)) - a;
+    let layout = Layout { relayout, exponential, spacing };
+    write(x.is_finite(), ryu::Buffer::new().format_finite(x), (m, e, exact), layout, out)
+        .unwrap_or_else(|| out.extend_from_slice(format!("{x:?}").as_bytes()));
+}
+
+/// Appends `x` as `format!("{x:?}")` writes it.
+pub fn debug_f32(x: f32, out: &mut Vec<u8>) {
+    let bits = x.to_bits();
+    let (exp, frac) = ((bits >> 23) & 0xff, bits & ((1 << 23) - 1));
+    let (m, e) = if exp == 0 { (frac, -149) } else { (frac | 1 << 23, exp as i32 - 150) };
+    let a = x.abs();
+    let exact = a < 16_777_216.0;
+    // ryu writes an f32 as a decimal in [1e-6, 1e13), Rust in [1e-4, 1e16).
+    let relayout = (1e-6..1e-4).contains(&a) || (1e13..1e16).contains(&a);
+    let exponential = x != 0.0 && !(1e-4..1e16).contains(&a);
+    let spacing = f64::from(f32::from_bits(a.to_bits().wrapping_add(1)) - a);
+    let layout = Layout { relayout, exponential, spacing };
+    write(x.is_finite(), ryu::Buffer::new().format_finite(x), (u64::from(m), e, exact), layout, out)
+        .unwrap_or_else(|| out.extend_from_slice(format!("{x:?}").as_bytes()));
+}
+
+/// How Rust lays out a value: `exponential` or not; `relayout`: where
+/// ryu's layout is not that one; `spacing`: the gap to the next value up.
+struct Layout {
+    relayout: bool,
+    exponential: bool,
+    spacing: f64,
+}
+
+/// Writes ryu's text of the value m x 2^e (`exact`: an integer its type
+/// holds exactly) laid out as Rust's `{:?}`; `None` where Rust must write
+/// it: not finite, or a possible tie (checked from the digits where the
+/// binary form cannot rule one out: a unit of the last digit more than
+/// twice the value's spacing does).
+fn write(finite: bool, ryu: &str, (m, e, exact): (u64, i32, bool), layout: Layout, out: &mut Vec<u8>) -> Option<()> {
+    if !finite {
+        return None;
+    }
+    let tie = tie_possible(m, e, exact);
+    if !tie && !layout.relayout {
+        out.extend_from_slice(ryu.as_bytes());
+        return Some(());
+    }
+    let d = Digits::of(ryu);
+    if tie && d.unit() <= 2.0 * layout.spacing {
+        return None;
+    }
+    d.write(layout.exponential, out);
+    Some(())
+}
+
+/// Whether m x 2^e might be a tie: a value exactly midway between two
+/// shortest strings of n digits, so that its exact decimal has n + 1 <=
+/// 18 significant digits. An integer held exactly is its own shortest
+/// string (no tie). Otherwise, with m odd and e < 0, the exact decimal
+/// has floor(log10 |x|) + 1 - e significant digits, and |x| >= 2^top.
+fn tie_possible(m: u64, e: i32, exact: bool) -> bool {
+    if m == 0 {
+        return false;
+    }
+    let top = e + 63 - m.leading_zeros() as i32;
+    let e = e + m.trailing_zeros() as i32;
+    if e >= 0 {
+        return !exact;
+    }
+    // One less than floor(top log10 2), for rounding in the product.
+    let digits = (f64::from(top) * std::f64::consts::LOG10_2).floor() as i32 - e;
+    digits <= 18
+}
+
+/// A finite number as its sign and significant digits D: the value is
+/// 0.D x 10^k (no digits: zero).
+struct Digits {
+    negative: bool,
+    digits: [u8; 40],
+    n: usize,
+    k: i32,
+}
+
+impl Digits {
+    /// The digits of ryu's text of a finite number (`-1.5e-7`, `123.0`,
+    /// `0.001`).
+    fn of(ryu: &str) -> Digits {
+        let (negative, ryu) = match ryu.strip_prefix('-') {
+            Some(rest) => (true, rest),
+            None => (false, ryu),
+        };
+        let (mantissa, e) = match ryu.split_once(['e', 'E']) {
+            Some((m, e)) => (m, e.parse::<i32>().unwrap_or(0)),
+            None => (ryu, 0),
+        };
+        let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+        let mut d = Digits { negative, digits: [0u8; 40], n: 0, k: int.len() as i32 + e };
+        for &b in int.as_bytes().iter().chain(frac.as_bytes()) {
+            if d.n == 0 && b == b'0' {
+                d.k -= 1;
+            } else if d.n < d.digits.len() {
+                d.digits[d.n] = b;
+                d.n += 1;
+            }
+        }
+        while d.n > 0 && d.digits[d.n - 1] == b'0' {
+            d.n -= 1;
+        }
+        d
+    }
+
+    /// The value of one unit in the last digit: a tie is half a unit from
+    /// each string, within half the value's spacing, so a unit of more
+    /// than twice the spacing (the margin for `powi`) rules one out.
+    fn unit(&self) -> f64 {
+        10f64.powi(self.k - self.n as i32)
+    }
+
+    /// Writes the number laid out as Rust's `{:?}`.
+    fn write(&self, exponential: bool, out: &mut Vec<u8>) {
+        let (d, k) = (&self.digits[..self.n], self.k);
+        if self.negative {
+            out.push(b'-');
+        }
+        if d.is_empty() {
+            out.extend_from_slice(b"0.0");
+        } else if exponential {
+            out.push(d[0]);
+            if d.len() > 1 {
+                out.push(b'.');
+                out.extend_from_slice(&d[1..]);
+            }
+            out.push(b'e');
+            out.extend_from_slice(itoa::Buffer::new().format(k - 1).as_bytes());
+        } else if k <= 0 {
+            out.extend_from_slice(b"0.");
+            out.resize(out.len() + k.unsigned_abs() as usize, b'0');
+            out.extend_from_slice(d);
+        } else if (k as usize) < d.len() {
+            out.extend_from_slice(&d[..k as usize]);
+            out.push(b'.');
+            out.extend_from_slice(&d[k as usize..]);
+        } else {
+            out.extend_from_slice(d);
+            out.resize(out.len() + (k as usize - d.len()), b'0');
+            out.extend_from_slice(b".0");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tie_possible_f64(x: f64) -> bool {
+        let bits = x.to_bits();
+        let (exp, frac) = ((bits >> 52) & 0x7ff, bits & ((1 << 52) - 1));
+        let (m, e) = if exp == 0 { (frac, -1074) } else { (frac | 1 << 52, exp as i32 - 1075) };
+        tie_possible(m, e, x.abs() < 9_007_199_254_740_992.0)
+    }
+
+    fn ours64(x: f64) -> String {
+        let mut out = Vec::new();
+        debug_f64(x, &mut out);
+        String::from_utf8(out).unwrap()
+    }
+
+    fn ours32(x: f32) -> String {
+        let mut out = Vec::new();
+        debug_f32(x, &mut out);
+        String::from_utf8(out).unwrap()
+    }
+
+    /// Equal to Rust's `{:?}` (the reference) on random bit patterns of
+    /// every exponent, on values with few digits (as logs hold), and at
+    /// every boundary of the layout.
+    #[test]
+    fn numbers_are_written_as_rusts_debug_writes_them() {
+        // A 64-bit LCG (Knuth's MMIX constants).
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state
+        };
+        let mut edges = vec![0.0, -0.0, 1.0, -1.0, 0.1, 1e-4, -1e-4, 1e16, -1e16, 1e15, 1e21, 1e-7, 5e-324];
+        edges.extend([f64::MAX, f64::MIN, f64::MIN_POSITIVE, f64::EPSILON, f64::NAN, f64::INFINITY, f64::NEG_INFINITY]);
+        for e in [1e-4f64, 1e16] {
+            edges.extend([e, f64::from_bits(e.to_bits() - 1), f64::from_bits(e.to_bits() + 1)]);
+        }
+        for k in -30..30 {
+            edges.push(10f64.powi(k));
+            edges.push(1.5 * 10f64.powi(k));
+        }
+        // A tie: ryu writes -171404.62, Rust -171404.63.
+        edges.push(f64::from(f32::from_bits(0xc8276328)));
+        for x in edges {
+            assert_eq!(ours64(x), format!("{x:?}"), "{x:e}");
+            assert_eq!(ours32(x as f32), format!("{:?}", x as f32), "{x:e} as f32");
+        }
+        let mut fast = 0;
+        for _ in 0..1_000_000 {
+            let bits = next();
+            let x = f64::from_bits(bits);
+            assert_eq!(ours64(x), format!("{x:?}"), "bits {bits:#x}");
+            let y = f32::from_bits((bits >> 32) as u32);
+            assert_eq!(ours32(y), format!("{y:?}"), "bits {:#x}", bits >> 32);
+            // A log's values: few digits, at a scale of 1e-6 to 1e6.
+            let z = (next() % 2_000_000) as f64 / 10f64.powi((next() % 13) as i32) - 1e3;
+            assert_eq!(ours64(z), format!("{z:?}"), "{z:e}");
+            // Short exact decimals, where ties are: an integer over a
+            // small power of two.
+            let t = (next() >> (next() % 64)) as f64 / f64::from(1u32 << (next() % 24));
+            assert_eq!(ours64(t), format!("{t:?}"), "{t:e}");
+            assert_eq!(ours32(t as f32), format!("{:?}", t as f32), "{t:e} as f32");
+            fast += usize::from(z == 0.0 || !tie_possible_f64(z));
+        }
+        // Nearly every value a log holds is ruled out as a tie from its
+        // binary form alone (the rest, short exact decimals such as
+        // 999.5, from their digits).
+        assert!(fast > 970_000, "{fast} of 1,000,000 ruled out from the binary form");
+    }
+}
