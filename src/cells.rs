@@ -452,20 +452,22 @@ impl Row<'_> {
     }
 
     fn label(&self, field: &'static str, v: &str, names: &mut Interner) -> Result<Label, CellsError> {
-        let t = v.trim();
+        let t = trim(v);
         if t.is_empty() {
             return Err(self.fail(field, v, "is empty"));
         }
         // A line break or a terminal escape in a name would be written
-        // into every report table and console line that names it.
-        if t.chars().any(char::is_control) {
+        // into every report table and console line that names it. (Text of
+        // printable ASCII holds none.)
+        let printable = t.bytes().all(|b| (0x20..0x7f).contains(&b));
+        if !printable && t.chars().any(char::is_control) {
             return Err(self.fail(field, v, "holds a control character, which no name may"));
         }
         Ok(names.get(t))
     }
 
     fn uint(&self, field: &'static str, v: &str) -> Result<u64, CellsError> {
-        let t = v.trim();
+        let t = trim(v);
         t.parse::<u64>().map_err(|_| {
             let digits = !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
             self.fail(
@@ -481,7 +483,7 @@ impl Row<'_> {
     }
 
     fn float(&self, field: &'static str, v: &str) -> Result<f64, CellsError> {
-        let t = v.trim();
+        let t = trim(v);
         if t.is_empty() {
             return Err(self.fail(field, v, "is empty"));
         }
@@ -506,7 +508,7 @@ impl Row<'_> {
     /// when every start diverged, and in every row of a layout without a
     /// velocity or attitude; [`Emptiness`] checks which).
     fn optional(&self, field: &'static str, v: &str) -> Result<Option<f64>, CellsError> {
-        if v.trim().is_empty() {
+        if trim(v).is_empty() {
             Ok(None)
         } else {
             self.float(field, v).map(Some)
@@ -515,7 +517,7 @@ impl Row<'_> {
 
     /// A metric that is empty exactly when every start diverged.
     fn finite_only(&self, field: &'static str, v: &str, all_diverged: bool) -> Result<Option<f64>, CellsError> {
-        if v.trim().is_empty() {
+        if trim(v).is_empty() {
             if all_diverged {
                 Ok(None)
             } else {
@@ -531,6 +533,17 @@ impl Row<'_> {
 /// reference): fast-float2 first, which reads every decimal number to the
 /// same correctly rounded value, then the reference for anything it
 /// refuses (a test checks the two agree on every string they accept).
+/// `v.trim()`, at once where `v` begins and ends with a printable ASCII
+/// character (as nearly every field does).
+fn trim(v: &str) -> &str {
+    let solid = |b: Option<&u8>| b.is_some_and(|&b| (0x21..0x7f).contains(&b));
+    if solid(v.as_bytes().first()) && solid(v.as_bytes().last()) {
+        v
+    } else {
+        v.trim()
+    }
+}
+
 fn number(t: &str) -> Option<f64> {
     fast_float2::parse::<f64, _>(t).ok().or_else(|| t.parse().ok())
 }

@@ -130,3 +130,20 @@ fn a_file_is_hashed_as_it_is_read() {
         assert_eq!(cells, read_cells(&path).unwrap(), "{file}");
     }
 }
+
+/// The fast trim is `str::trim`: on random strings of ASCII, Unicode
+/// spaces (U+00A0, U+2003, U+3000), control characters and accents.
+#[test]
+fn fields_are_trimmed_as_str_trim_trims() {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 33) as usize
+    };
+    let alphabet =
+        ['a', 'Z', '0', '.', ' ', '\t', '\n', '\u{a0}', '\u{2003}', '\u{3000}', '\u{85}', 'é', '~', '\u{7f}'];
+    for _ in 0..200_000 {
+        let s: String = (0..next() % 6).map(|_| alphabet[next() % alphabet.len()]).collect();
+        assert_eq!(trim(&s), s.trim(), "{s:?}");
+    }
+}
