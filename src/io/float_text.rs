@@ -12,34 +12,40 @@
 
 /// Appends `x` as `format!("{x:?}")` writes it.
 pub fn debug_f64(x: f64, out: &mut Vec<u8>) {
-    let bits = x.to_bits();
-    let (exp, frac) = ((bits >> 52) & 0x7ff, bits & ((1 << 52) - 1));
-    let (m, e) = if exp == 0 { (frac, -1074) } else { (frac | 1 << 52, exp as i32 - 1075) };
     let a = x.abs();
-    let exact = a < 9_007_199_254_740_992.0;
+    let binary = binary(x.to_bits(), (11, 52), a < 9_007_199_254_740_992.0);
     // ryu's layout is Rust's but in [1e-5, 1e-4), which ryu writes as a
     // decimal.
     let (relayout, exponential) = ((1e-5..1e-4).contains(&a), x != 0.0 && !(1e-4..1e16).contains(&a));
     let spacing = f64::from_bits(a.to_bits().wrapping_add(1)) - a;
     let layout = Layout { relayout, exponential, spacing };
-    write(x.is_finite(), ryu::Buffer::new().format_finite(x), (m, e, exact), layout, out)
+    write(x.is_finite(), ryu::Buffer::new().format_finite(x), binary, layout, out)
         .unwrap_or_else(|| out.extend_from_slice(format!("{x:?}").as_bytes()));
 }
 
 /// Appends `x` as `format!("{x:?}")` writes it.
 pub fn debug_f32(x: f32, out: &mut Vec<u8>) {
-    let bits = x.to_bits();
-    let (exp, frac) = ((bits >> 23) & 0xff, bits & ((1 << 23) - 1));
-    let (m, e) = if exp == 0 { (frac, -149) } else { (frac | 1 << 23, exp as i32 - 150) };
     let a = x.abs();
-    let exact = a < 16_777_216.0;
+    let binary = binary(u64::from(x.to_bits()), (8, 23), a < 16_777_216.0);
     // ryu writes an f32 as a decimal in [1e-6, 1e13), Rust in [1e-4, 1e16).
     let relayout = (1e-6..1e-4).contains(&a) || (1e13..1e16).contains(&a);
     let exponential = x != 0.0 && !(1e-4..1e16).contains(&a);
     let spacing = f64::from(f32::from_bits(a.to_bits().wrapping_add(1)) - a);
     let layout = Layout { relayout, exponential, spacing };
-    write(x.is_finite(), ryu::Buffer::new().format_finite(x), (u64::from(m), e, exact), layout, out)
+    write(x.is_finite(), ryu::Buffer::new().format_finite(x), binary, layout, out)
         .unwrap_or_else(|| out.extend_from_slice(format!("{x:?}").as_bytes()));
+}
+
+/// The IEEE 754 number `bits` (an `exponent`-bit exponent and a
+/// `fraction`-bit fraction) as (m, e, `exact`): its magnitude is
+/// m x 2^e (for a finite number).
+fn binary(bits: u64, (exponent, fraction): (u32, u32), exact: bool) -> (u64, i32, bool) {
+    let biased = ((bits >> fraction) & ((1 << exponent) - 1)) as i32;
+    let frac = bits & ((1 << fraction) - 1);
+    // The bias, counted from a whole significand.
+    let bias = (1 << (exponent - 1)) - 1 + fraction as i32;
+    let (m, e) = if biased == 0 { (frac, 1 - bias) } else { (frac | 1 << fraction, biased - bias) };
+    (m, e, exact)
 }
 
 /// How Rust lays out a value: `exponential` or not; `relayout`: where
@@ -172,10 +178,8 @@ mod tests {
     use super::*;
 
     fn tie_possible_f64(x: f64) -> bool {
-        let bits = x.to_bits();
-        let (exp, frac) = ((bits >> 52) & 0x7ff, bits & ((1 << 52) - 1));
-        let (m, e) = if exp == 0 { (frac, -1074) } else { (frac | 1 << 52, exp as i32 - 1075) };
-        tie_possible(m, e, x.abs() < 9_007_199_254_740_992.0)
+        let (m, e, exact) = binary(x.to_bits(), (11, 52), x.abs() < 9_007_199_254_740_992.0);
+        tie_possible(m, e, exact)
     }
 
     fn ours64(x: f64) -> String {
