@@ -47,7 +47,8 @@ thread_local! {
 
 /// The one label of `name`.
 fn intern(name: &str) -> Label {
-    if let Some(l) = CACHE.with(|c| c.borrow().get(name).copied()) {
+    // (No cache while the thread's own storage is torn down.)
+    if let Ok(Some(l)) = CACHE.try_with(|c| c.borrow().get(name).copied()) {
         return l;
     }
     let table = TABLE.get_or_init(|| (0..SHARDS).map(|_| Shard::default()).collect());
@@ -63,7 +64,7 @@ fn intern(name: &str) -> Label {
         }
     };
     drop(shard);
-    CACHE.with(|c| c.borrow_mut().insert(l));
+    let _ = CACHE.try_with(|c| c.borrow_mut().insert(l));
     l
 }
 
@@ -271,5 +272,33 @@ mod tests {
         assert_eq!(serde_json::to_string(&b).unwrap(), "\"r02\"");
         let m: std::collections::BTreeMap<Label, u8> = [(a, 1)].into();
         assert_eq!(m.get("r01"), Some(&1));
+    }
+
+    /// Threads interning the same names at once get the same labels: one
+    /// copy per name, whichever thread made it.
+    #[test]
+    fn threads_share_one_label_per_name() {
+        let names: Vec<String> = (0..2000).map(|k| format!("thread-test-{k}")).collect();
+        let per_thread: Vec<Vec<Label>> = std::thread::scope(|s| {
+            let handles: Vec<_> = (0..8)
+                .map(|t| {
+                    let names = &names;
+                    // Each thread in its own order.
+                    s.spawn(move || {
+                        (0..names.len())
+                            .map(|k| Label::from(names[(k * 7 + t * 13) % names.len()].as_str()))
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        for (t, labels) in per_thread.iter().enumerate() {
+            for (k, l) in labels.iter().enumerate() {
+                let name = &names[(k * 7 + t * 13) % names.len()];
+                assert_eq!(l.as_str(), name);
+                assert!(std::ptr::eq(l.0, Label::from(name.as_str()).0), "{name} in thread {t}");
+            }
+        }
     }
 }
