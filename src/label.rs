@@ -216,7 +216,11 @@ pub struct Interner {
 /// than the lookup. A file that makes its names collide only slows its
 /// own reading.
 #[derive(Default)]
-struct NameHasher(u64);
+pub(crate) struct NameHasher(u64);
+
+/// Hash maps keyed by names or numbers read from a file, with
+/// [`NameHasher`].
+pub(crate) type NameHash = BuildHasherDefault<NameHasher>;
 
 impl NameHasher {
     fn add(&mut self, word: u64) {

@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::AnalysisError;
 use crate::cells::Cell;
+use crate::label::{Label, NameHash};
 use crate::plan::Plan;
 
 /// Horizons in CSVs are written by people and tools alike; match them to the
@@ -19,15 +20,18 @@ fn same_horizon(a: f64, b: f64) -> bool {
 /// The cells sit in one dense table, a block per recording (in order of
 /// first appearance), each block models x arms x horizons x seeds of the
 /// plan's, so that indexing a million rows copies and compares no string
-/// beyond one hash of each row's recording name, and one arm's recordings
+/// beyond one hash of each row's recording name (names are interned
+/// labels: the same name is the same pointer), and one arm's recordings
 /// x seeds grid is read from consecutive slots.
 pub(crate) struct Indexed<'a> {
     table: Vec<Option<&'a Cell>>,
     models: Vec<String>,
     arms: Vec<String>,
-    seeds: HashMap<u64, usize>,
+    /// The models and arms as labels, matched by pointer.
+    names: (Vec<Label>, Vec<Label>),
+    seeds: HashMap<u64, usize, NameHash>,
     horizons: Vec<f64>,
-    recordings: HashMap<&'a str, usize>,
+    recordings: HashMap<&'a str, usize, NameHash>,
     /// recording -> (trajectory, speed, first line)
     pub(crate) labels: BTreeMap<String, (String, String, u64)>,
 }
@@ -56,10 +60,10 @@ impl<'a> Indexed<'a> {
             value,
             known,
         };
-        let Some(m) = self.models.iter().position(|x| *x == c.model) else {
+        let Some(m) = self.names.0.iter().position(|x| *x == c.model) else {
             return Err(not_in("model", c.model.to_string(), format!("models: {}", self.models.join(", "))));
         };
-        let Some(a) = self.arms.iter().position(|x| *x == c.arm) else {
+        let Some(a) = self.names.1.iter().position(|x| *x == c.arm) else {
             return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", self.arms.join(", "))));
         };
         let Some(&s) = self.seeds.get(&c.seed) else {
@@ -98,14 +102,18 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
         table: Vec::new(),
         models: plan.models.iter().map(|m| m.name.clone()).collect(),
         arms: plan.arms.iter().map(|a| a.name.clone()).collect(),
+        names: (
+            plan.models.iter().map(|m| Label::from(&m.name)).collect(),
+            plan.arms.iter().map(|a| Label::from(&a.name)).collect(),
+        ),
         seeds: plan.seeds.iter().enumerate().map(|(k, s)| (s.0, k)).collect(),
         horizons,
-        recordings: HashMap::new(),
+        recordings: HashMap::default(),
         labels: BTreeMap::new(),
     };
     let block = out.models.len() * out.arms.len() * out.horizons.len() * out.seeds.len();
     // Per recording: its labels and the line that first gave them.
-    let mut labels: Vec<(&'a str, &'a str, u64)> = Vec::new();
+    let mut labels: Vec<(Label, Label, u64)> = Vec::new();
     for (row, c) in cells.iter().enumerate() {
         let (m, a, s, h) = out.positions(plan, c)?;
         let next = out.recordings.len();
@@ -125,7 +133,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
                         .len();
                 return Err(AnalysisError::RecordingCount { found, declared: plan.recordings });
             }
-            labels.push((c.trajectory.as_str(), c.speed.as_str(), c.line));
+            labels.push((c.trajectory, c.speed, c.line));
             out.table.resize(out.table.len() + block, None);
         }
         let k = out.slot(r, m, a, h, s);
@@ -158,8 +166,8 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
 
 /// Refuses a row that labels its recording otherwise than the line that
 /// first named it.
-fn check_labels((t, s, first_line): (&str, &str, u64), c: &Cell) -> Result<(), AnalysisError> {
-    for (field, value, first) in [("trajectory", &c.trajectory, t), ("speed", &c.speed, s)] {
+fn check_labels((t, s, first_line): (Label, Label, u64), c: &Cell) -> Result<(), AnalysisError> {
+    for (field, value, first) in [("trajectory", c.trajectory, t), ("speed", c.speed, s)] {
         if value != first {
             return Err(AnalysisError::InconsistentLabel {
                 line: c.line,
