@@ -20,10 +20,9 @@ impl Ctx<'_> {
         warnings: &mut Vec<String>,
     ) -> Option<RatioInterval> {
         let (rows, cols) = (a.treated.rows, a.treated.cols);
-        let complete = |g: &Grid| g.v.iter().copied().collect::<Option<Vec<f64>>>();
         let interval = self.estimate(&a.reference).and_then(|reference| {
             let point = optimism_pct / 100.0;
-            match (complete(&a.treated), complete(&a.reference)) {
+            match (a.treated.values(), a.reference.values()) {
                 // Every cell present: each L(rho) built as plain values.
                 (Some(t), Some(r)) => ratio_interval(point, &reference, |rho: f64| {
                     let v = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
