@@ -19,10 +19,11 @@ pub const CHUNK: usize = 1 << 20;
 /// Chunks read before they are parsed together: a bound on the text held.
 const WAVE: usize = 16;
 
-/// The rows of the CSV `reader` (at most `limit` bytes, about `size`
-/// bytes expected, 0 where unknown: room for its rows is taken once, from the rows of its
-/// first block), parsed in chunks of about `chunk` bytes, with what each chunk's rows left in their state
-/// (in file order); `None` where a reference reader must read it.
+/// The rows of the CSV `reader` (at most `limit` bytes; about `size`
+/// bytes expected, 0 where unknown: room for its rows is taken once, from
+/// the rows of its first block), parsed in chunks of about `chunk` bytes,
+/// with what each chunk's rows left in their state (in file order);
+/// `None` where a reference reader must read it.
 /// `header` reads the header record (`None`: a header this file's reader
 /// refuses); `row` reads the fields of the record on 1-based line `line`,
 /// with its chunk's state (`None`: a row it refuses). Every row has the
