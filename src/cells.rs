@@ -146,6 +146,14 @@ pub enum CellsError {
 /// can fail on its own; cross-row checks (missing or duplicate cells)
 /// belong to the analysis, which knows the design.
 pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
+    read_cells_with(path, false).map(|(cells, _)| cells)
+}
+
+/// [`read_cells`], and with `hash`, the SHA-256 of the file's bytes taken
+/// as they were read (`None` where the reference reader read them, which
+/// hashes nothing).
+fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>), CellsError> {
+    use sha2::Digest;
     let p = path.display().to_string();
     let limit = crate::io::MAX_CELLS_FILE;
     // A Parquet file (`.parquet`) with the same columns: its rows as the
@@ -155,24 +163,29 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>, CellsError> {
     if crate::io::parquet::is_parquet(path) {
         let raw = crate::io::read_input(path, limit, "a per-cell Parquet file")
             .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
+        let sha = hash.then(|| crate::io::sha256_hex(&raw));
         let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {
             CellsError::Csv { path: p.clone(), line: 1, message: format!("not a readable Parquet file: {message}") }
         })?;
-        return match read_chunked(&p, (text.as_slice(), text.len() as u64), crate::io::chunked::CHUNK, |_| {}) {
-            Some(cells) => Ok(cells),
-            None => read_cells_from(&p, text.as_slice()),
+        let cells = match read_chunked(&p, (text.as_slice(), text.len() as u64), crate::io::chunked::CHUNK, |_| {}) {
+            Some(cells) => cells,
+            None => read_cells_from(&p, text.as_slice())?,
         };
+        return Ok((cells, sha));
     }
     crate::io::check_regular(path, limit, "a per-cell CSV")
         .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
     let open = || std::fs::File::open(path).map_err(|source| CellsError::Io { path: p.clone(), source });
     // On every core where it can; where it cannot, or the file has an
     // error, the reference reader reads it and says where.
-    let size = std::fs::metadata(path).map_or(0, |m| m.len());
-    if let Some(cells) = read_chunked(&p, (open()?, size), crate::io::chunked::CHUNK, |_| {}) {
-        return Ok(cells);
+    let file = open()?;
+    let size = file.metadata().map_or(0, |m| m.len());
+    let mut hasher = hash.then(sha2::Sha256::new);
+    let seen = |bytes: &[u8]| hasher.iter_mut().for_each(|h| h.update(bytes));
+    if let Some(cells) = read_chunked(&p, (file, size), crate::io::chunked::CHUNK, seen) {
+        return Ok((cells, hasher.map(|h| crate::io::hex(&h.finalize()))));
     }
-    read_cells_from(&p, open()?)
+    Ok((read_cells_from(&p, open()?)?, None))
 }
 
 /// The cells of the per-cell CSV `reader` (named `name`), read on every
@@ -529,10 +542,6 @@ impl Row<'_> {
     }
 }
 
-/// The number `t` writes, as Rust's `str::parse::<f64>` reads it (the
-/// reference): fast-float2 first, which reads every decimal number to the
-/// same correctly rounded value, then the reference for anything it
-/// refuses (a test checks the two agree on every string they accept).
 /// `v.trim()`, at once where `v` begins and ends with a printable ASCII
 /// character (as nearly every field does).
 fn trim(v: &str) -> &str {
@@ -544,6 +553,10 @@ fn trim(v: &str) -> &str {
     }
 }
 
+/// The number `t` writes, as Rust's `str::parse::<f64>` reads it (the
+/// reference): fast-float2 first, which reads every decimal number to the
+/// same correctly rounded value, then the reference for anything it
+/// refuses (a test checks the two agree on every string they accept).
 fn number(t: &str) -> Option<f64> {
     fast_float2::parse::<f64, _>(t).ok().or_else(|| t.parse().ok())
 }

@@ -25,10 +25,9 @@ fn same_horizon(a: f64, b: f64) -> bool {
 /// x seeds grid is read from consecutive slots.
 pub(crate) struct Indexed<'a> {
     table: Vec<Option<&'a Cell>>,
-    models: Vec<String>,
-    arms: Vec<String>,
-    /// The models and arms as labels, matched by pointer.
-    names: (Vec<Label>, Vec<Label>),
+    /// The plan's models and arms, matched to a row's by pointer.
+    models: Vec<Label>,
+    arms: Vec<Label>,
     seeds: HashMap<u64, usize, NameHash>,
     horizons: Vec<f64>,
     recordings: HashMap<&'a str, usize, NameHash>,
@@ -45,8 +44,8 @@ impl<'a> Indexed<'a> {
     /// The slot of the first seed of (model, arm, horizon) in `recording`'s
     /// block, when each is the plan's; the seeds follow in the plan's order.
     fn seeds_of(&self, model: &str, arm: &str, recording: &str, h: f64) -> Option<usize> {
-        let m = self.models.iter().position(|x| x == model)?;
-        let a = self.arms.iter().position(|x| x == arm)?;
+        let m = self.models.iter().position(|x| *x == *model)?;
+        let a = self.arms.iter().position(|x| *x == *arm)?;
         let h = self.horizons.iter().position(|x| x.to_bits() == h.to_bits())?;
         Some(self.slot(*self.recordings.get(recording)?, m, a, h, 0))
     }
@@ -60,11 +59,11 @@ impl<'a> Indexed<'a> {
             value,
             known,
         };
-        let Some(m) = self.names.0.iter().position(|x| *x == c.model) else {
-            return Err(not_in("model", c.model.to_string(), format!("models: {}", self.models.join(", "))));
+        let Some(m) = self.models.iter().position(|x| *x == c.model) else {
+            return Err(not_in("model", c.model.to_string(), format!("models: {}", joined(&self.models))));
         };
-        let Some(a) = self.names.1.iter().position(|x| *x == c.arm) else {
-            return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", self.arms.join(", "))));
+        let Some(a) = self.arms.iter().position(|x| *x == c.arm) else {
+            return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", joined(&self.arms))));
         };
         let Some(&s) = self.seeds.get(&c.seed) else {
             let (a, b) = (plan.seeds[0].0, plan.seeds[plan.seeds.len() - 1].0);
@@ -100,12 +99,8 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     horizons.dedup();
     let mut out = Indexed {
         table: Vec::new(),
-        models: plan.models.iter().map(|m| m.name.clone()).collect(),
-        arms: plan.arms.iter().map(|a| a.name.clone()).collect(),
-        names: (
-            plan.models.iter().map(|m| Label::from(&m.name)).collect(),
-            plan.arms.iter().map(|a| Label::from(&a.name)).collect(),
-        ),
+        models: plan.models.iter().map(|m| Label::from(&m.name)).collect(),
+        arms: plan.arms.iter().map(|a| Label::from(&a.name)).collect(),
         seeds: plan.seeds.iter().enumerate().map(|(k, s)| (s.0, k)).collect(),
         horizons,
         recordings: HashMap::default(),
@@ -162,6 +157,11 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
         })
         .collect();
     Ok(out)
+}
+
+/// Names as a message lists them.
+fn joined(names: &[Label]) -> String {
+    names.iter().map(Label::as_str).collect::<Vec<_>>().join(", ")
 }
 
 /// Refuses a row that labels its recording otherwise than the line that

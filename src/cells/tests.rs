@@ -103,8 +103,8 @@ fn chunks_never_accept_what_the_reference_reader_refuses() {
 
 /// The chunked reader shows its observer every byte of the file once, in
 /// order, whatever the chunk size; and a file read and hashed at once
-/// has the hash of its bytes, on the parallel path and on the
-/// reference reader's (a quoted field).
+/// has the hash of its bytes, on the parallel path, on the reference
+/// reader's (a quoted field) and as Parquet.
 #[test]
 fn a_file_is_hashed_as_it_is_read() {
     let (name, bytes) = committed().swap_remove(0);
@@ -122,7 +122,9 @@ fn a_file_is_hashed_as_it_is_read() {
     let (model, rest) = rest.split_once(',').unwrap();
     let quoted = format!("{head}\n\"{model}\",{rest}");
     assert!(read_chunked(&name, (quoted.as_bytes(), 0), 4096, |_| {}).is_none());
-    for (file, text) in [("plain.csv", bytes.clone()), ("quoted.csv", quoted.into_bytes())] {
+    let parquet = crate::io::parquet::csv_to_parquet(&bytes).unwrap();
+    for (file, text) in [("plain.csv", bytes.clone()), ("quoted.csv", quoted.into_bytes()), ("cells.parquet", parquet)]
+    {
         let path = dir.path().join(file);
         std::fs::write(&path, &text).unwrap();
         let (cells, sha) = read_cells_hashed(&path).unwrap();

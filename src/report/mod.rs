@@ -72,8 +72,8 @@ pub fn render_json(a: &Analysis) -> String {
 }
 
 /// Writes report.md, results.json, results.tex, estimates.csv (and its
-/// typed twin estimates.parquet) and report.html into `dir` (created if needed), each atomically (temporary
-/// file + rename). Returns the paths.
+/// typed twin estimates.parquet) and report.html into `dir` (created if
+/// needed), each atomically (temporary file + rename). Returns the paths.
 pub fn write_all(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     write_all_with(a, dir, &[])
 }

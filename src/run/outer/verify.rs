@@ -37,64 +37,62 @@ pub(super) fn check_levels(file: &DesignFile, levels: &[Level], dir: &Path) -> R
 
 /// [`check_levels`] for level `k`: what of it cannot be checked.
 fn check_level(file: &DesignFile, levels: &[Level], k: usize, dir: &Path) -> Result<Vec<String>, RunError> {
-    let mut unverified: Vec<String> = Vec::new();
     let level = &levels[k];
-    if level.shares.is_none() {
-        let d = run_dir(dir, levels, k);
-        let changed = |reason: String| RunError::LevelChanged { dir: d.display().to_string(), reason };
-        let Some(record) = RunRecord::read(&d)? else {
+    // A level that shares another's folder is checked there.
+    if level.shares.is_some() {
+        return Ok(Vec::new());
+    }
+    let mut unverified: Vec<String> = Vec::new();
+    let d = run_dir(dir, levels, k);
+    let changed = |reason: String| RunError::LevelChanged { dir: d.display().to_string(), reason };
+    let Some(record) = RunRecord::read(&d)? else {
+        return Err(changed(format!(
+            "it has no run.json, so its cells.csv cannot be read as level {} of {}: not a level of a crossaudit run of this design",
+            level.id,
+            file.path.display()
+        )));
+    };
+    if record.design_sha256 != file.sha256 {
+        return Err(changed(format!(
+            "it was run from design sha256 {}, but {} is sha256 {}: under an edited design (alternatives reordered, other values) its cells would be read as another specification's; reanalyse it with the design it ran",
+            record.design_sha256,
+            file.path.display(),
+            file.sha256
+        )));
+    }
+    match &record.level {
+        Some(was) if *was != level.id => {
+            return Err(RunError::WrongLevel { dir: d.display().to_string(), was: was.clone(), is: level.id.clone() })
+        }
+        Some(_) => {}
+        None => unverified.push(format!("{} (which level it holds)", level.id)),
+    }
+    let cells_csv = d.join("cells.csv");
+    let plan = &level.plan;
+    if d.join("jobs").is_dir() {
+        for job in &plan.jobs {
+            let Some(r) = JobRecord::read(&d, job)? else {
+                return Err(changed(format!("job {} has no record in jobs/: the run did not finish", job.label())));
+            };
+            r.verify_cells(&d, job, &file.sha256)?;
+        }
+        let gathered = crate::cells::cells_bytes(&crate::run::gathered(plan, &d)?);
+        let on_disk = crate::io::read_input(&cells_csv, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
+            .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
+        if gathered != on_disk {
+            return Err(changed(
+                "cells.csv is not the per-cell files its jobs wrote (cells/*.csv, each checked against its job record): it was edited after the run".to_string(),
+            ));
+        }
+    } else if let Some(sha) = &record.cells_sha256 {
+        let now = crate::cells::file_sha256(&cells_csv)?;
+        if now != *sha {
             return Err(changed(format!(
-                "it has no run.json, so its cells.csv cannot be read as level {} of {}: not a level of a crossaudit run of this design",
-                level.id,
-                file.path.display()
-            )));
-        };
-        if record.design_sha256 != file.sha256 {
-            return Err(changed(format!(
-                "it was run from design sha256 {}, but {} is sha256 {}: under an edited design (alternatives reordered, other values) its cells would be read as another specification's; reanalyse it with the design it ran",
-                record.design_sha256,
-                file.path.display(),
-                file.sha256
+                "cells.csv has sha256 {now}, but the run recorded {sha} when it gathered it: it was edited after the run"
             )));
         }
-        match &record.level {
-            Some(was) if *was != level.id => {
-                return Err(RunError::WrongLevel {
-                    dir: d.display().to_string(),
-                    was: was.clone(),
-                    is: level.id.clone(),
-                })
-            }
-            Some(_) => {}
-            None => unverified.push(format!("{} (which level it holds)", level.id)),
-        }
-        let cells_csv = d.join("cells.csv");
-        let plan = &level.plan;
-        if d.join("jobs").is_dir() {
-            for job in &plan.jobs {
-                let Some(r) = JobRecord::read(&d, job)? else {
-                    return Err(changed(format!("job {} has no record in jobs/: the run did not finish", job.label())));
-                };
-                r.verify_cells(&d, job, &file.sha256)?;
-            }
-            let gathered = crate::cells::cells_bytes(&crate::run::gathered(plan, &d)?);
-            let on_disk = crate::io::read_input(&cells_csv, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
-                .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
-            if gathered != on_disk {
-                return Err(changed(
-                    "cells.csv is not the per-cell files its jobs wrote (cells/*.csv, each checked against its job record): it was edited after the run".to_string(),
-                ));
-            }
-        } else if let Some(sha) = &record.cells_sha256 {
-            let now = crate::cells::file_sha256(&cells_csv)?;
-            if now != *sha {
-                return Err(changed(format!(
-                    "cells.csv has sha256 {now}, but the run recorded {sha} when it gathered it: it was edited after the run"
-                )));
-            }
-        } else {
-            unverified.push(format!("{} (its cells.csv: no job records and no recorded hash)", level.id));
-        }
+    } else {
+        unverified.push(format!("{} (its cells.csv: no job records and no recorded hash)", level.id));
     }
     Ok(unverified)
 }
