@@ -6,6 +6,7 @@ mod common;
 mod analyze;
 mod architecture;
 mod bad_inputs;
+mod batched;
 mod browser;
 mod combine;
 mod condition_coverage;

@@ -19,7 +19,7 @@ fn state(p: [f64; 3], r: [f64; 3]) -> State {
 }
 
 /// Windows with some spread, enough to fit standardizers and a tiny net.
-fn windows(offset: f64, n: usize) -> Vec<(State, Action, State)> {
+pub(crate) fn windows(offset: f64, n: usize) -> Vec<(State, Action, State)> {
     (0..n)
         .map(|k| {
             let a = k as f64 * 0.05 + offset;
@@ -33,7 +33,7 @@ fn windows(offset: f64, n: usize) -> Vec<(State, Action, State)> {
         .collect()
 }
 
-fn tiny_training() -> crossaudit::design::Training {
+pub(crate) fn tiny_training() -> crossaudit::design::Training {
     crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap().design.training.unwrap()
 }
 

@@ -101,7 +101,7 @@ fn run(
     let o = py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let study = crossaudit::compile_study(&file.design);
-        let options = crossaudit::run::RunOptions { workers, exploratory, reuse: None };
+        let options = crossaudit::run::RunOptions { workers, exploratory, reuse: None, device: Default::default() };
         crossaudit::run::run_into(&file, &study, data, &out, options, &crossaudit::run::Quiet).map_err(fail)
     })?;
     json(&serde_json::json!({

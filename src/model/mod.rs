@@ -7,18 +7,26 @@
 //! it knows nothing of recordings, splits or rollouts.
 
 pub mod baseline;
+pub mod batch;
+#[cfg(feature = "cuda")]
+mod cuda;
+pub mod device;
 pub mod features;
 pub mod fused;
 mod kernel;
 pub mod linear;
+mod lockstep;
 mod minibatch;
 pub mod net;
 mod reference;
 mod standardize;
 
+pub use batch::train_batch;
+pub use device::{Device, DeviceChoice, DeviceError, Gpu};
 pub use features::{Action, FeatureMap, Slots, State, ACTION, EXOGENOUS, INPUT, STATE};
 pub use linear::{Linear, LinearError};
-pub use net::{train, train_with, Engine, EpochLog, Learned, Net, NetError};
+pub use lockstep::{BackendError, BatchJob};
+pub use net::{train, train_lockstep, train_with, Engine, EpochLog, Learned, Net, NetError};
 pub use reference::REFERENCE_WIDTHS;
 pub use standardize::Standardizer;
 

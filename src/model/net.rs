@@ -15,44 +15,23 @@
 //! ([`Net::init`], checked bit for bit against it).
 
 use std::path::Path;
-use std::time::Instant;
 
-use rand::seq::SliceRandom;
 use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
 
 use super::features::{Action, FeatureMap, Slots, State};
 use super::fused::{Activations, FusedMlp, Trainer};
+pub use super::lockstep::{learning_rate, EpochLog, Windows};
+use super::lockstep::{lockstep, BatchJob, PerJob};
 use super::minibatch::{mse_of, Minibatches};
 use super::reference::{self, REFERENCE_WIDTHS};
 use super::Dynamics;
-use crate::design::{mlp_unsupported, Schedule, Training};
-use crossaudit_stats::standard_normal;
+use crate::design::{mlp_unsupported, Training};
 
 /// A trained network: its parameters, in the fused trainer's layout.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Net {
     mlp: FusedMlp,
 }
-
-/// One epoch of training.
-#[derive(Debug, Clone, Serialize)]
-pub struct EpochLog {
-    /// 1-based epoch.
-    pub epoch: usize,
-    /// Learning rate of the epoch.
-    pub lr: f64,
-    /// Mean standardized MSE over the epoch's batches (with action noise).
-    pub train_loss: f64,
-    /// Standardized MSE on the shared validation windows (clean actions).
-    pub val_loss: f64,
-    /// Wall seconds of the epoch.
-    pub seconds: f64,
-}
-
-/// Windows as (x_t, u_t, x_{t+1}).
-pub type Windows = [(State, Action, State)];
 
 /// Why a network could not be trained, saved or loaded.
 #[derive(Debug, thiserror::Error)]
@@ -71,6 +50,9 @@ pub enum NetError {
         /// Why.
         message: String,
     },
+    #[error("training on the GPU failed: {0}")]
+    /// A GPU call failed.
+    Device(#[from] super::lockstep::BackendError),
     #[error("training needs at least one fit and one validation window")]
     /// No fit or no validation windows.
     NoData,
@@ -82,58 +64,6 @@ pub enum NetError {
         /// Action dimensions.
         action: usize,
     },
-}
-
-/// Learning rate at `epoch` (0-based) of `epochs`: cosine from lr to 0, or
-/// constant.
-pub fn learning_rate(t: &Training, epoch: usize) -> f64 {
-    match t.schedule {
-        Schedule::Constant => t.lr,
-        Schedule::Cosine => t.lr * 0.5 * (1.0 + (std::f64::consts::PI * epoch as f64 / t.epochs as f64).cos()),
-    }
-}
-
-/// Writes the standardized inputs of windows `idx` into `out` (one row of
-/// 18 per window), adding clipped Gaussian action noise when asked.
-fn fill_inputs(
-    features: &FeatureMap,
-    windows: &Windows,
-    idx: &[usize],
-    noise: Option<(f64, &mut ChaCha8Rng)>,
-    out: &mut [f32],
-) {
-    let mut noise = noise;
-    let mut u = vec![0.0; features.slots.action];
-    for (row, &k) in out.chunks_exact_mut(features.slots.input()).zip(idx) {
-        let (s, action, _) = &windows[k];
-        u.copy_from_slice(action);
-        if let Some((sd, rng)) = noise.as_mut() {
-            for a in u.iter_mut() {
-                *a = (*a + *sd * standard_normal(rng)).clamp(0.0, 1.0);
-            }
-        }
-        features.input(s, &u, row);
-    }
-}
-
-/// Writes the standardized targets of windows `idx` into `out`.
-fn fill_targets(features: &FeatureMap, windows: &Windows, idx: &[usize], out: &mut [f32]) {
-    for (row, &k) in out.chunks_exact_mut(features.slots.state).zip(idx) {
-        let (s, _, n) = &windows[k];
-        features.target(s, n, row);
-    }
-}
-
-fn inputs(features: &FeatureMap, windows: &Windows, idx: &[usize], noise: Option<(f64, &mut ChaCha8Rng)>) -> Vec<f32> {
-    let mut x = vec![0f32; idx.len() * features.slots.input()];
-    fill_inputs(features, windows, idx, noise, &mut x);
-    x
-}
-
-fn targets(features: &FeatureMap, windows: &Windows, idx: &[usize]) -> Vec<f32> {
-    let mut y = vec![0f32; idx.len() * features.slots.state];
-    fill_targets(features, windows, idx, &mut y);
-    y
 }
 
 /// Which trainer runs: both give bit-identical weights and curves.
@@ -180,87 +110,63 @@ pub fn train_with(
     if let Some(why) = mlp_unsupported(widths) {
         return Err(NetError::Unsupported(widths.to_vec(), why));
     }
+    let job = BatchJob { widths, features, fit, validation, training: t, seed };
     if engine == Engine::Fused {
         let mut run = FusedRun::new(Net::init(&features.slots, widths, seed).mlp, t.batch, validation.len());
-        let logs = early_stopped(&mut run, features, fit, validation, t, seed, on_epoch);
+        let logs = alone(&mut run, &job, on_epoch)?;
         return Ok((Net { mlp: run.best }, logs));
     }
     let slots = features.slots;
     if !slots.is_nanobench() {
         return Err(NetError::ReferenceLayout { state: slots.state, action: slots.action });
     }
-    let mut logs = Vec::new();
+    let mut logs = Ok(Vec::new());
     let best = reference::train(widths, t.lr, seed, &mut |run| {
-        logs = early_stopped(run, features, fit, validation, t, seed, on_epoch);
+        logs = alone(run, &job, on_epoch);
     })
     .ok_or_else(|| NetError::NoReference(widths.to_vec()))?;
-    Ok((Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, widths, &best) }, logs))
+    Ok((Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, widths, &best) }, logs?))
 }
 
-/// The training loop shared by both trainers: per-epoch learning rate,
-/// ChaCha8 shuffling (stream 1) and action noise (stream 2) from `seed`,
-/// early stopping with patience, the best parameters kept by the trainer.
-fn early_stopped(
-    trainer: &mut dyn Minibatches,
-    features: &FeatureMap,
-    fit: &Windows,
-    validation: &Windows,
-    t: &Training,
-    seed: u64,
-    on_epoch: &mut dyn FnMut(&EpochLog),
-) -> Vec<EpochLog> {
-    let mut shuffle = ChaCha8Rng::seed_from_u64(seed);
-    shuffle.set_stream(1);
-    let mut noise = ChaCha8Rng::seed_from_u64(seed);
-    noise.set_stream(2);
-    let all_val: Vec<usize> = (0..validation.len()).collect();
-    let val_x = inputs(features, validation, &all_val, None);
-    let val_y = targets(features, validation, &all_val);
-    let (inputs_dim, state_dim) = (features.slots.input(), features.slots.state);
-    let mut x = vec![0f32; t.batch * inputs_dim];
-    let mut y = vec![0f32; t.batch * state_dim];
-    let mut best_val = f64::INFINITY;
-    let mut since_best = 0;
-    let mut logs = Vec::new();
-    let mut order: Vec<usize> = (0..fit.len()).collect();
-    for epoch in 0..t.epochs {
-        let started = Instant::now();
-        let lr = learning_rate(t, epoch);
-        order.shuffle(&mut shuffle);
-        let mut loss_sum = 0.0;
-        for batch in order.chunks(t.batch) {
-            let n = batch.len();
-            fill_inputs(features, fit, batch, Some((t.action_noise, &mut noise)), &mut x[..n * inputs_dim]);
-            fill_targets(features, fit, batch, &mut y[..n * state_dim]);
-            loss_sum += f64::from(trainer.step(&x[..n * inputs_dim], &y[..n * state_dim], n, lr)) * n as f64;
+/// Trains `jobs` in lockstep on the CPU, each with its own fused trainer,
+/// through the loop the GPU backend runs (minibatch by minibatch, a job
+/// leaving when it stops): each job's network and epoch logs are
+/// bit-identical to [`train`]'s. The reference the batched trainer is
+/// tested against; `on_epoch` sees (job index, log).
+pub fn train_lockstep(
+    jobs: &[BatchJob],
+    on_epoch: &mut dyn FnMut(usize, &EpochLog),
+) -> Result<Vec<(Net, Vec<EpochLog>)>, NetError> {
+    for j in jobs {
+        if j.fit.is_empty() || j.validation.is_empty() {
+            return Err(NetError::NoData);
         }
-        let val_loss = trainer.val_loss(&val_x, &val_y);
-        let log = EpochLog {
-            epoch: epoch + 1,
-            lr,
-            train_loss: loss_sum / fit.len() as f64,
-            val_loss,
-            seconds: started.elapsed().as_secs_f64(),
-        };
-        on_epoch(&log);
-        logs.push(log);
-        if t.restore_final {
-            // The full budget: no early stopping, the last epoch kept.
-            if epoch + 1 == t.epochs {
-                trainer.keep_best();
-            }
-        } else if val_loss < best_val {
-            best_val = val_loss;
-            trainer.keep_best();
-            since_best = 0;
-        } else {
-            since_best += 1;
-            if since_best >= t.patience {
-                break;
-            }
+        if let Some(why) = mlp_unsupported(j.widths) {
+            return Err(NetError::Unsupported(j.widths.to_vec(), why));
         }
     }
-    logs
+    let mut runs: Vec<FusedRun> = jobs
+        .iter()
+        .map(|j| {
+            FusedRun::new(Net::init(&j.features.slots, j.widths, j.seed).mlp, j.training.batch, j.validation.len())
+        })
+        .collect();
+    let logs = {
+        let trainers: Vec<&mut dyn Minibatches> = runs.iter_mut().map(|r| r as &mut dyn Minibatches).collect();
+        lockstep(&mut PerJob::new(trainers, jobs), jobs, on_epoch)?
+    };
+    Ok(runs.into_iter().map(|r| Net { mlp: r.best }).zip(logs).collect())
+}
+
+/// One job through the protocol's loop on its own CPU trainer.
+fn alone(
+    trainer: &mut dyn Minibatches,
+    job: &BatchJob,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> Result<Vec<EpochLog>, NetError> {
+    let mut backend = PerJob::new(vec![trainer], std::slice::from_ref(job));
+    let logs = lockstep(&mut backend, std::slice::from_ref(job), &mut |_, log| on_epoch(log))?;
+    Ok(logs.into_iter().next().unwrap_or_default())
 }
 
 /// The fused trainer with its validation buffers and best parameters.
@@ -329,6 +235,11 @@ impl Net {
     pub fn init_dfdx(widths: &[usize], seed: u64) -> Option<Net> {
         let parts = reference::init(widths, seed)?;
         Some(Net { mlp: FusedMlp::from_parts(&Slots::NANOBENCH, widths, &parts) })
+    }
+
+    /// The network of these parameters.
+    pub(super) fn from_mlp(mlp: FusedMlp) -> Net {
+        Net { mlp }
     }
 
     /// The parameters for the fused forward pass and trainer.

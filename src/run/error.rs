@@ -302,6 +302,9 @@ pub enum RunError {
     /// Training or saving a network failed.
     #[error(transparent)]
     Net(#[from] crate::model::NetError),
+    /// The device asked for cannot be used (`run --device`).
+    #[error("{0}")]
+    Device(String),
     /// A linear model could not be fitted.
     #[error("model `{model}`: {source}")]
     Linear {

@@ -7,9 +7,9 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::Instant;
 
-use super::job::{run_job, JobOutcome};
+use super::job::{run_job_given, JobOutcome};
 use super::RunError;
-use crate::model::EpochLog;
+use crate::model::{Device, Engine, EpochLog};
 use crate::plan::{Plan, TrainingJob};
 use crate::split::Prepared;
 
@@ -32,14 +32,15 @@ pub trait RunObserver: Sync {
 pub struct Quiet;
 impl RunObserver for Quiet {}
 
-/// Runs every job of `todo` on `workers` workers.
+/// Runs every job of `todo` on `workers` workers, its networks trained on
+/// `device`.
 pub(crate) fn run_grid(
     design_sha256: &str,
     plan: &Plan,
     prepared: &Prepared,
     out: &Path,
     todo: VecDeque<TrainingJob>,
-    workers: usize,
+    workers: (usize, &Device),
     observer: &dyn RunObserver,
 ) -> Result<(), RunError> {
     let todo = todo.into_iter().map(|j| (0, j)).collect();
@@ -52,14 +53,17 @@ pub(crate) type LevelContext<'a> = (&'a Plan, &'a Prepared, &'a Path);
 /// Runs every job of `todo`, each of level `todo[i].0` of `levels`, on
 /// `workers` workers pulling from one queue: a study with several levels
 /// keeps every worker busy until the last job of the last level, not of
-/// each. An error comes with the level of the job that failed.
+/// each. An error comes with the level of the job that failed. On a GPU
+/// every network is trained first, all at once ([`super::gpu`]); the
+/// workers then save and score them.
 pub(crate) fn run_queue(
     design_sha256: &str,
     levels: &[LevelContext],
     todo: VecDeque<(usize, TrainingJob)>,
-    workers: usize,
+    (workers, device): (usize, &Device),
     observer: &dyn RunObserver,
 ) -> Result<(), (usize, RunError)> {
+    let trained = Mutex::new(super::gpu::pretrain(levels, &todo, device, observer)?);
     // No idle threads: never more workers than jobs.
     let workers = workers.min(todo.len()).max(1);
     let queue = Mutex::new(todo);
@@ -71,7 +75,7 @@ pub(crate) fn run_queue(
     };
     std::thread::scope(|scope| {
         for worker in 0..workers {
-            let (queue, first_error, fail) = (&queue, &first_error, &fail);
+            let (queue, first_error, fail, trained) = (&queue, &first_error, &fail, &trained);
             scope.spawn(move || {
                 // One thread per worker: dfdx's matmuls run on the current
                 // rayon pool.
@@ -90,8 +94,10 @@ pub(crate) fn run_queue(
                     };
                     observer.job_started(worker, &job);
                     let t0 = Instant::now();
+                    let given = trained.lock().ok().and_then(|mut t| t.remove(&(level, job.stem())));
                     let result = pool.install(|| {
-                        run_job(design_sha256, plan, &job, prepared, out, &mut |log| observer.epoch(worker, &job, log))
+                        let on_epoch = &mut |log: &EpochLog| observer.epoch(worker, &job, log);
+                        run_job_given(Engine::Fused, design_sha256, plan, &job, prepared, out, given, on_epoch)
                     });
                     match result {
                         Ok(o) => observer.job_finished(worker, &job, &o, t0.elapsed().as_secs_f64()),

@@ -10,10 +10,11 @@ use super::record::JobRecord;
 use super::RunError;
 use crate::cells::{write_cells_atomic, Cell};
 use crate::data::Recording;
+use crate::design::Training;
 use crate::design::{ActionScaling, InputMap, ModelKind, TargetKind};
 use crate::io::{create_dir_all, f64_text, write_atomic};
 use crate::model::baseline::{ConstantVelocity, Persistence};
-use crate::model::{linear, net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, State};
+use crate::model::{linear, net, Action, Dynamics, Engine, EpochLog, FeatureMap, Learned, Net, State};
 use crate::plan::{Plan, TrainingJob};
 use crate::rollout;
 use crate::split::{JobManifests, Prepared, Window};
@@ -136,6 +137,54 @@ pub fn run_job(
     run_job_with(Engine::Fused, design_sha256, plan, job, prepared, out, on_epoch)
 }
 
+/// A job's network trained before the job ran, by the batched trainer on
+/// a GPU ([`crate::model::train_batch`]).
+pub(crate) struct Trained {
+    /// The best (restored) network.
+    pub net: Net,
+    /// Its epochs.
+    pub epochs: Vec<EpochLog>,
+    /// Its share of the batch's wall seconds.
+    pub seconds: f64,
+    /// The device it trained on, as the job record gives it.
+    pub device: String,
+}
+
+/// What an MLP job trains on: its hidden widths, standardizers, fit and
+/// validation windows and protocol; `None` for any other model.
+pub(crate) struct MlpSetup {
+    pub widths: Vec<usize>,
+    pub features: FeatureMap,
+    pub fit: Vec<(State, Action, State)>,
+    pub validation: Vec<(State, Action, State)>,
+    pub training: Training,
+}
+
+/// The [`MlpSetup`] of `job`, exactly as its run trains it.
+pub(crate) fn mlp_setup(plan: &Plan, job: &TrainingJob, prepared: &Prepared) -> Result<Option<MlpSetup>, RunError> {
+    let ModelKind::Mlp { widths, inputs, actions, restore_final } = &job.kind else { return Ok(None) };
+    let bench = bench(plan, job, prepared)?;
+    let (training, features) = mlp_protocol(&bench, *inputs, *actions, *restore_final)?;
+    let Bench { fit, validation, .. } = bench;
+    Ok(Some(MlpSetup { widths: widths.clone(), features, fit, validation, training }))
+}
+
+/// The protocol and standardizers of an MLP job: the design's training with
+/// the model's `restore final`, standardizers fitted on its fit windows.
+fn mlp_protocol(
+    bench: &Bench,
+    inputs: InputMap,
+    actions: ActionScaling,
+    restore_final: bool,
+) -> Result<(Training, FeatureMap), RunError> {
+    // Invariant 6 is checked after training on what the job record
+    // says these were fitted on (run/trained_invariants.rs).
+    let mut training = bench.plan.training.clone().ok_or(RunError::NoTraining)?;
+    training.restore_final = restore_final;
+    let features = FeatureMap::fit(bench.plan.slots, inputs, actions, training.target, &bench.fit, &bench.fit_sha);
+    Ok((training, features))
+}
+
 /// As [`run_job`], training and rolling out with `engine` (the dfdx
 /// reference gives bit-identical files, about twice as slowly).
 pub fn run_job_with(
@@ -147,12 +196,30 @@ pub fn run_job_with(
     out: &Path,
     on_epoch: &mut dyn FnMut(&EpochLog),
 ) -> Result<JobOutcome, RunError> {
+    run_job_given(engine, design_sha256, plan, job, prepared, out, None, on_epoch)
+}
+
+/// As [`run_job_with`], with the job's network already trained when
+/// `given` holds it (the batched trainer's), which is saved and scored as
+/// a network trained here would be.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run_job_given(
+    engine: Engine,
+    design_sha256: &str,
+    plan: &Plan,
+    job: &TrainingJob,
+    prepared: &Prepared,
+    out: &Path,
+    given: Option<Trained>,
+    on_epoch: &mut dyn FnMut(&EpochLog),
+) -> Result<JobOutcome, RunError> {
     let bench = bench(plan, job, prepared)?;
     let stem = job.stem();
+    let device = given.as_ref().map(|t| t.device.clone());
     let fitted = match &job.kind {
         ModelKind::Mlp { widths, inputs, actions, restore_final } => {
             let mlp = (widths.as_slice(), *inputs, *actions, *restore_final);
-            train_mlp(&bench, engine, design_sha256, out, on_epoch, mlp)?
+            train_mlp(&bench, (engine, given), design_sha256, out, on_epoch, mlp)?
         }
         ModelKind::Linear { inputs, actions, ridge } => {
             fit_linear(&bench, design_sha256, out, (*inputs, *actions, *ridge))?
@@ -191,6 +258,7 @@ pub fn run_job_with(
         non_finite_starts: None,
         key: None,
         reused_from: None,
+        device,
     };
     record.write(out, job)?;
     Ok(JobOutcome {
@@ -242,32 +310,33 @@ impl Fitted {
 }
 
 /// An MLP (`widths`, input map, action scaling, `restore final`) trained
-/// with `engine` on the bench's fit windows, saved under `models/`, and
-/// scored.
+/// with `engine` on the bench's fit windows (or given, trained already),
+/// saved under `models/`, and scored.
 fn train_mlp(
     bench: &Bench,
-    engine: Engine,
+    (engine, given): (Engine, Option<Trained>),
     design_sha256: &str,
     out: &Path,
     on_epoch: &mut dyn FnMut(&EpochLog),
     (widths, inputs, actions, restore_final): (&[usize], InputMap, ActionScaling, bool),
 ) -> Result<Fitted, RunError> {
     let job = bench.job;
-    // Invariant 6 is checked after training on what the job record
-    // says these were fitted on (run/trained_invariants.rs).
-    let mut training = bench.plan.training.clone().ok_or(RunError::NoTraining)?;
-    training.restore_final = restore_final;
-    let training = &training;
-    let features = FeatureMap::fit(bench.plan.slots, inputs, actions, training.target, &bench.fit, &bench.fit_sha);
+    let (training, features) = mlp_protocol(bench, inputs, actions, restore_final)?;
     let t0 = std::time::Instant::now();
-    let (net, epochs) =
-        net::train_with(engine, widths, &features, &bench.fit, &bench.validation, training, job.seed.0, on_epoch)?;
+    let (net, epochs, before) = match given {
+        Some(t) => (t.net, t.epochs, t.seconds),
+        None => {
+            let (v, f) = (&bench.validation, &bench.fit);
+            let (net, epochs) = net::train_with(engine, widths, &features, f, v, &training, job.seed.0, on_epoch)?;
+            (net, epochs, 0.0)
+        }
+    };
     let meta = serde_json::json!({
         "model": job.model, "arm": job.arm, "seed": job.seed.0, "widths": widths,
         "design_sha256": design_sha256, "fit_manifest_sha256": bench.fit_sha, "features": features,
     });
     let files = save_model(out, &job.stem(), &net, &meta)?.to_vec();
-    let train_seconds = t0.elapsed().as_secs_f64();
+    let train_seconds = before + t0.elapsed().as_secs_f64();
     let best = epochs.iter().map(|e| e.val_loss).fold(f64::INFINITY, f64::min);
     let (e, cells, secs) = bench.score(&job.model, &mut Learned::with(engine, &net, &features));
     Ok(Fitted {

@@ -17,6 +17,7 @@ mod error;
 pub mod external;
 mod finish;
 mod folder;
+mod gpu;
 mod grid;
 mod guard;
 pub mod job;
@@ -86,6 +87,7 @@ pub fn run(
     }
     let index = options.reuse.as_deref().map(reuse::ReuseIndex::read).transpose()?;
     let mut opened = open(file, plan, data, out, options.exploratory, None)?;
+    opened.record_device(&options.device, out)?;
     let (mut todo, builds) = pending(plan, out, &file.sha256)?;
     let keys = reuse::keys(&file.design, plan, &opened.prepared.manifests, &opened.record);
     if let Some(index) = &index {
@@ -103,7 +105,8 @@ pub fn run(
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);
     let trained = todo.len();
-    grid::run_grid(&file.sha256, plan, &opened.prepared, out, todo, options.workers, observer)?;
+    let workers = (options.workers, &options.device);
+    grid::run_grid(&file.sha256, plan, &opened.prepared, out, todo, workers, observer)?;
     reuse::stamp(out, &keys)?;
     let mut outcome =
         finish(crate::analysis::record::DesignLabel::new(file, opened.status.clone()), plan, &opened, out, builds)?;

@@ -25,6 +25,8 @@ pub struct RunOptions {
     /// An earlier run folder whose finished jobs with identical inputs are
     /// copied instead of trained (`run --reuse DIR`, `reuse`).
     pub reuse: Option<PathBuf>,
+    /// Where the networks train (`run --device`): the CPU by default.
+    pub device: crate::model::Device,
 }
 
 /// What a finished run produced.
@@ -65,6 +67,17 @@ pub(crate) struct Opened {
     /// The run's notes, which run.json records and the report gives (jobs
     /// reused, external models' predictions).
     pub(crate) notes: Vec<String>,
+}
+
+impl Opened {
+    /// Records in run.json the device the run trains on (nothing for the CPU).
+    pub(crate) fn record_device(&mut self, device: &crate::model::Device, out: &Path) -> Result<(), RunError> {
+        self.record.device = device.record();
+        if self.record.device.is_some() {
+            self.record.write(out)?;
+        }
+        Ok(())
+    }
 }
 
 /// Checks the lock, refuses a directory that holds another design or other

@@ -54,6 +54,11 @@ pub struct RunRecord {
     /// gathered, for the report and any reanalysis of the folder.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,
+    /// The device the run last trained on, where not the CPU
+    /// ([`crate::model::Device::record`]): an execution choice, not part of
+    /// the design's lock, and not compared on resume. Absent for the CPU.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
 }
 
 /// Output entries that only a run writes: their presence without a
@@ -81,6 +86,7 @@ impl RunRecord {
             cells_sha256: None,
             resumed_from: Default::default(),
             notes: Vec::new(),
+            device: None,
         }
     }
 
@@ -225,6 +231,11 @@ pub struct JobRecord {
     /// `run --reuse`; absent for a job trained in this folder.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reused_from: Option<String>,
+    /// The device its network trained on, where not the CPU
+    /// ([`crate::model::Device::record`]): an execution choice, not part
+    /// of the design's lock. Absent for the CPU.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
 }
 
 /// `out/jobs/STEM.json`.

@@ -112,6 +112,13 @@ pub(crate) enum Command {
         /// Parallel training workers, one thread each [default: one per core].
         #[arg(long)]
         workers: Option<usize>,
+        /// Where the networks train: `cpu` (the reference, bit-identical to
+        /// every committed run), `cuda` (every network of the study batched
+        /// on the first NVIDIA GPU; refused where none is found) or `auto`
+        /// (the GPU where one is found, else the CPU). Recorded in run.json
+        /// and each job's record; not part of the lock.
+        #[arg(long, default_value = "cpu", value_parser = ["cpu", "cuda", "auto"], conflicts_with = "slurm")]
+        device: String,
         /// Allow a design changed after locking; every output is labelled EXPLORATORY.
         #[arg(long)]
         exploratory: bool,

@@ -62,8 +62,8 @@ fn main() -> ExitCode {
         Command::Run { design, data, out, exploratory, slurm, .. } if slurm.slurm => {
             slurm_prepare(&design, data, &out, exploratory, slurm)
         }
-        Command::Run { design, data, out, workers, exploratory, reuse, .. } => {
-            run(&design, data, &out, workers, (exploratory, reuse))
+        Command::Run { design, data, out, workers, device, exploratory, reuse, .. } => {
+            run(&design, data, &out, (workers, &device), (exploratory, reuse))
         }
         Command::Export { design, data, out, exploratory } => external::export(&design, data, &out, exploratory),
         Command::Score { dir, workers } => external::score(&dir, workers),
@@ -329,7 +329,7 @@ fn run(
     design: &Path,
     data: Option<PathBuf>,
     out: &Path,
-    workers: Option<usize>,
+    (workers, device): (Option<usize>, &str),
     (exploratory, reuse): (bool, Option<PathBuf>),
 ) -> Result<(), Error> {
     let file = design::load(design)?;
@@ -338,9 +338,15 @@ fn run(
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     // Before the progress display, which has a line per worker.
     crossaudit::run::check_workers(workers)?;
+    let choice: crossaudit::model::DeviceChoice = device.parse().map_err(crossaudit::run::RunError::Device)?;
+    let (device, said) =
+        crossaudit::model::device::resolve(choice).map_err(|e| crossaudit::run::RunError::Device(e.to_string()))?;
+    if let Some(said) = said {
+        note!("{said}");
+    }
     let epochs = plan.training.as_ref().map(|t| t.epochs).unwrap_or(0);
     let progress = progress::RunProgress::new(workers, epochs);
-    let options = crossaudit::run::RunOptions { workers, exploratory, reuse };
+    let options = crossaudit::run::RunOptions { workers, exploratory, reuse, device };
     let result = crossaudit::run::run_into(&file, &study, data, out, options, &progress);
     progress.finish();
     let o = result?;

@@ -148,7 +148,7 @@ pub(super) fn score_levels(
     let outer = study.outer.as_ref().ok_or_else(|| bad("the exported design has no outer levels".into()))?;
     let data = Data { dir: source.data_dir.clone(), origin: source.data.clone() };
     let exploratory = run.exploratory || status.is_some_and(|s| s.changed());
-    let options = RunOptions { workers, exploratory, reuse: None };
+    let options = RunOptions { workers, exploratory, reuse: None, device: Default::default() };
     let external = crate::run::outer::ExternalNotes(warnings);
     let mut outcome = crate::run::outer::run_levels_with(
         &file,

@@ -142,6 +142,7 @@ pub(super) fn score_run(
     let todo: std::collections::VecDeque<TrainingJob> = todo.into_iter().filter(|j| !j.kind.is_external()).collect();
     observer.start(r.plan.jobs.len(), r.plan.jobs.len() - todo.len());
     let trained = todo.len();
+    let workers = (workers, &crate::model::Device::Cpu);
     crate::run::grid::run_grid(&r.file.sha256, &r.plan, &r.prepared, dir, todo, workers, observer)?;
 
     let mut warnings = vec![external_warning(&r.plan, &export_sha)];
@@ -428,6 +429,7 @@ fn score_job(dir: &Path, r: &Reopened, job: &TrainingJob, ej: &ExportJob, export
         non_finite_starts: Some(non_finite),
         key: None,
         reused_from: None,
+        device: None,
     };
     // The predictions were hashed after they were read and checked: a file
     // replaced in between would be recorded with a hash it was not scored

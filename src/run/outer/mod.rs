@@ -78,7 +78,7 @@ pub(crate) fn run_levels_with(
     let contexts: Vec<grid::LevelContext> =
         queued.levels.iter().map(|(_, o)| (&o.plan, &o.opened.prepared, o.dir.as_path())).collect();
     let (levels, role) = (&outer.levels, outer.role);
-    grid::run_queue(&file.sha256, &contexts, queued.queue, options.workers, observer)
+    grid::run_queue(&file.sha256, &contexts, queued.queue, (options.workers, &options.device), observer)
         .map_err(|(at, e)| RunError::InLevel { level: queued.levels[at].1.label.clone(), source: Box::new(e) })?;
     let per_seed = role == LevelRole::PerSeed || file.design.per_seed_draws;
     let finished = queue::finish_opened(file, &queued.levels, levels.len(), per_seed)?;

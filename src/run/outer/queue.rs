@@ -80,6 +80,7 @@ pub(super) fn open_levels(
         let dir = out.join(&level.id);
         let mut opened =
             open(&level_file, &level.plan, data, &dir, options.exploratory, Some(&level.id)).map_err(in_level)?;
+        opened.record_device(&options.device, &dir).map_err(in_level)?;
         if let Some((_, notes)) = external.0.iter().find(|(id, _)| *id == level.id) {
             opened.notes.extend(notes.iter().cloned());
         }

@@ -1,0 +1,35 @@
+//! Every network of a study trained at once: the batched trainer. On the
+//! CPU each job trains with today's fused trainer, in parallel, and its
+//! weights and curves are bit-identical to [`super::train`]'s; on a GPU
+//! (`super::cuda`, feature `cuda`) the jobs that share a shape step
+//! together as batched matrix products, within a stated floating-point
+//! tolerance of the CPU's.
+
+use rayon::prelude::*;
+
+use super::device::Device;
+use super::lockstep::BatchJob;
+use super::net::{train, EpochLog, Net, NetError};
+
+/// Trains every job of `jobs` on `device`; `on_epoch` sees each job's every
+/// epoch (the job's index in `jobs`, its log), from any thread. Each job's
+/// network and epoch logs, in the order of `jobs`.
+pub fn train_batch(
+    device: &Device,
+    jobs: &[BatchJob],
+    on_epoch: &(dyn Fn(usize, &EpochLog) + Sync),
+) -> Result<Vec<(Net, Vec<EpochLog>)>, NetError> {
+    match device {
+        Device::Cpu => jobs
+            .par_iter()
+            .enumerate()
+            .map(|(k, j)| train(j.widths, j.features, j.fit, j.validation, j.training, j.seed, &mut |l| on_epoch(k, l)))
+            .collect(),
+        #[cfg(feature = "cuda")]
+        Device::Cuda(gpu) => super::cuda::train_batch(gpu, jobs, on_epoch),
+        #[cfg(not(feature = "cuda"))]
+        Device::Cuda(_) => {
+            Err(NetError::Device(super::lockstep::BackendError(super::device::DeviceError::NotBuilt.to_string())))
+        }
+    }
+}

@@ -1,0 +1,63 @@
+//! A run's networks trained on a GPU before its workers start: every MLP
+//! job of the queue, of every level, goes to the batched trainer at once
+//! ([`crate::model::train_batch`]), which steps the jobs of one shape
+//! together. The workers then save, roll out and score each network as if
+//! they had trained it; each job's record names the device.
+
+use std::collections::{HashMap, VecDeque};
+use std::time::Instant;
+
+use super::grid::{LevelContext, RunObserver};
+use super::job::{mlp_setup, MlpSetup, Trained};
+use super::RunError;
+use crate::model::{train_batch, BatchJob, Device};
+use crate::plan::TrainingJob;
+
+/// Each MLP job's trained network by (level, job stem); nothing on the CPU,
+/// where each worker trains its own jobs.
+pub(crate) fn pretrain(
+    levels: &[LevelContext],
+    todo: &VecDeque<(usize, TrainingJob)>,
+    device: &Device,
+    observer: &dyn RunObserver,
+) -> Result<HashMap<(usize, String), Trained>, (usize, RunError)> {
+    if *device == Device::Cpu {
+        return Ok(HashMap::new());
+    }
+    let mut setups: Vec<(usize, &TrainingJob, MlpSetup)> = Vec::new();
+    for (level, job) in todo {
+        let Some(&(plan, prepared, _)) = levels.get(*level) else { continue };
+        if let Some(setup) = mlp_setup(plan, job, prepared).map_err(|e| (*level, e))? {
+            setups.push((*level, job, setup));
+        }
+    }
+    if setups.is_empty() {
+        return Ok(HashMap::new());
+    }
+    let jobs: Vec<BatchJob> = setups
+        .iter()
+        .map(|(_, job, s)| BatchJob {
+            widths: &s.widths,
+            features: &s.features,
+            fit: &s.fit,
+            validation: &s.validation,
+            training: &s.training,
+            seed: job.seed.0,
+        })
+        .collect();
+    for (_, job, _) in &setups {
+        observer.job_started(0, job);
+    }
+    let t0 = Instant::now();
+    let on_epoch = |k: usize, log: &crate::model::EpochLog| observer.epoch(0, setups[k].1, log);
+    let nets = train_batch(device, &jobs, &on_epoch).map_err(|e| (setups[0].0, RunError::from(e)))?;
+    let share = t0.elapsed().as_secs_f64() / jobs.len() as f64;
+    let name = device.record().unwrap_or_else(|| device.to_string());
+    Ok(setups
+        .iter()
+        .zip(nets)
+        .map(|((level, job, _), (net, epochs))| {
+            ((*level, job.stem()), Trained { net, epochs, seconds: share, device: name.clone() })
+        })
+        .collect())
+}
