@@ -3,8 +3,8 @@
 //! same within a stated tolerance, bit-identical run to run.
 
 use crate::common::{crossaudit, root, said, skip};
-use crate::model::{tiny_training, windows};
-use crossaudit::design::{ActionScaling, InputMap, TargetKind, Training};
+use crate::model::windows;
+use crossaudit::design::{ActionScaling, InputMap, Optimizer, Schedule, TargetKind, Training};
 use crossaudit::model::{
     device, train, train_batch, train_lockstep, BatchJob, Device, EpochLog, FeatureMap, Net, Slots, State,
 };
@@ -23,9 +23,19 @@ fn three() -> (Vec<Vec<Triple>>, Vec<Triple>, Vec<FeatureMap>, Vec<Training>) {
             FeatureMap::fit(map.0, map.1, map.2, map.3, w, "manifest")
         })
         .collect();
-    let mut t = tiny_training();
-    t.epochs = 6;
-    t.patience = 6;
+    // tests/designs/tiny_train.design's protocol, written out so that the
+    // test binary runs from any folder (scripts/gpu-check.sh).
+    let t = Training {
+        optimizer: Optimizer::Adam,
+        lr: 1e-3,
+        batch: 256,
+        epochs: 6,
+        schedule: Schedule::Cosine,
+        patience: 6,
+        action_noise: 0.02,
+        target: TargetKind::StateScaled,
+        restore_final: false,
+    };
     let mut short = t.clone();
     short.epochs = 2;
     let mut impatient = t.clone();
@@ -147,4 +157,22 @@ fn without_a_gpu_cuda_is_refused_and_auto_trains_on_the_cpu_as_before() {
     let o = crossaudit(&["run", "designs/quickstart.design", "--out", &dir("gpu"), "--device", "gpu"]);
     assert_eq!(o.status.code(), Some(2), "{}", said(&o));
     assert!(said(&o).contains("[possible values: cpu, cuda, auto]"), "{}", said(&o));
+}
+
+#[test]
+fn the_gpu_kernels_compile_with_nvrtc() {
+    match crossaudit::model::batch::compile_gpu_kernels() {
+        Ok(ptx) => {
+            for kernel in ["bias_act", "mse_grad", "relu_back", "bias_grad", "sq_err", "adam"] {
+                assert!(ptx.contains(&format!(".entry {kernel}(")), "{kernel} is not in the PTX");
+            }
+            // fmad=false: no fused multiply-add in the elementwise arithmetic.
+            assert!(!ptx.contains("fma.rn.f32"), "a multiply-add was contracted");
+        }
+        // CI installs NVRTC (scripts/nvrtc.sh) and sets CROSSAUDIT_REQUIRE_NVRTC.
+        Err(e) if e.0.contains("not installed") && std::env::var_os("CROSSAUDIT_REQUIRE_NVRTC").is_none() => {
+            skip("nvrtc", &format!("the CUDA kernels' compile (bash scripts/nvrtc.sh installs NVRTC): {e}"))
+        }
+        Err(e) => panic!("{e}"),
+    }
 }

@@ -33,7 +33,7 @@ pub(crate) fn windows(offset: f64, n: usize) -> Vec<(State, Action, State)> {
         .collect()
 }
 
-pub(crate) fn tiny_training() -> crossaudit::design::Training {
+fn tiny_training() -> crossaudit::design::Training {
     crossaudit::design::load(&root().join("tests/designs/tiny_train.design")).unwrap().design.training.unwrap()
 }
 

@@ -33,3 +33,10 @@ pub fn train_batch(
         }
     }
 }
+
+/// The CUDA trainer's kernels compiled by NVRTC, as PTX text: a check that
+/// needs the NVRTC library but no GPU. An error where NVRTC is absent.
+#[cfg(feature = "cuda")]
+pub fn compile_gpu_kernels() -> Result<String, super::lockstep::BackendError> {
+    super::cuda::compile().map(|p| p.to_src())
+}

@@ -23,7 +23,7 @@ use std::sync::Arc;
 use cudarc::cublas::sys::cublasOperation_t::{CUBLAS_OP_N, CUBLAS_OP_T};
 use cudarc::cublas::{CudaBlas, Gemm, GemmConfig, StridedBatchedConfig};
 use cudarc::driver::{CudaContext, CudaFunction, CudaSlice, CudaStream, LaunchConfig, PushKernelArg};
-use cudarc::nvrtc::{compile_ptx_with_opts, CompileOptions};
+use cudarc::nvrtc::{compile_ptx_with_opts, CompileOptions, Ptx};
 
 use super::device::Gpu;
 use super::fused::FusedMlp;
@@ -32,6 +32,24 @@ use super::net::{EpochLog, Net, NetError};
 
 /// The elementwise kernels, compiled at run time.
 const KERNELS: &str = include_str!("cuda_kernels.cu");
+
+/// The kernels compiled by NVRTC: IEEE division and square root, no
+/// flush to zero, and no contraction of `a * b + c` into a fused
+/// multiply-add, as on the CPU. Needs the NVRTC library, not a GPU.
+pub(super) fn compile() -> Result<Ptx, BackendError> {
+    // SAFETY: the check only tries to open the library by its names.
+    if !unsafe { cudarc::nvrtc::sys::is_culib_present() } {
+        return Err(BackendError("the NVRTC library (libnvrtc.so) is not installed".into()));
+    }
+    let opts = CompileOptions {
+        fmad: Some(false),
+        prec_div: Some(true),
+        prec_sqrt: Some(true),
+        ftz: Some(false),
+        ..Default::default()
+    };
+    compile_ptx_with_opts(KERNELS, opts).map_err(|e| fail("compiling the kernels with NVRTC")(&e))
+}
 
 /// Threads per block of the elementwise kernels.
 const THREADS: u32 = 256;
@@ -59,15 +77,7 @@ impl Session {
         let ctx = CudaContext::new(gpu.ordinal).map_err(|e| fail("opening the CUDA device")(&e))?;
         let stream = ctx.default_stream();
         let blas = CudaBlas::new(stream.clone()).map_err(|e| fail("starting cuBLAS")(&e))?;
-        let opts = CompileOptions {
-            fmad: Some(false),
-            prec_div: Some(true),
-            prec_sqrt: Some(true),
-            ftz: Some(false),
-            ..Default::default()
-        };
-        let ptx = compile_ptx_with_opts(KERNELS, opts).map_err(|e| fail("compiling the kernels with NVRTC")(&e))?;
-        let module = ctx.load_module(ptx).map_err(|e| fail("loading the kernels")(&e))?;
+        let module = ctx.load_module(compile()?).map_err(|e| fail("loading the kernels")(&e))?;
         let f = |name: &str| module.load_function(name).map_err(|e| fail(name)(&e));
         Ok(Session {
             bias_act: f("bias_act")?,
