@@ -176,3 +176,61 @@ fn the_gpu_kernels_compile_with_nvrtc() {
         Err(e) => panic!("{e}"),
     }
 }
+
+#[test]
+#[ignore = "needs ../shared/nanobench"]
+fn a_network_trained_by_the_batch_is_saved_and_scored_as_one_trained_by_its_job() {
+    use crossaudit::run::job::{mlp_setup, run_job, run_job_given, Trained};
+    let _ = crate::needs_shared_logs!();
+    let (alone_dir, given_dir) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (file, plan, split) = crate::common::tiny_split(alone_dir.path());
+    let (_, _, split_b) = crate::common::tiny_split(given_dir.path());
+    let jobs: Vec<_> = plan.jobs.iter().filter(|j| j.seed.0 == 1 && j.model == "world").collect();
+    assert_eq!(jobs.len(), 2, "both arms");
+    let setups: Vec<_> = jobs.iter().map(|j| mlp_setup(&plan, j, &split_b).unwrap().unwrap()).collect();
+    let batch: Vec<BatchJob> = setups
+        .iter()
+        .zip(&jobs)
+        .map(|(s, j)| BatchJob {
+            widths: &s.widths,
+            features: &s.features,
+            fit: &s.fit,
+            validation: &s.validation,
+            training: &s.training,
+            seed: j.seed.0,
+        })
+        .collect();
+    let trained = train_lockstep(&batch, &mut |_, _| {}).unwrap();
+    for (job, (net, epochs)) in jobs.iter().zip(trained) {
+        let a = run_job(&file.sha256, &plan, job, &split, alone_dir.path(), &mut |_| {}).unwrap();
+        let given = Trained { net, epochs, seconds: 0.0, device: "cuda: a test's stand-in".into() };
+        let b = run_job_given(
+            crossaudit::model::Engine::Fused,
+            &file.sha256,
+            &plan,
+            job,
+            &split_b,
+            given_dir.path(),
+            Some(given),
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!(a.files, b.files);
+        // Every file byte for byte, but the curves' wall seconds.
+        let text = |d: &tempfile::TempDir, f: &str| {
+            let t = std::fs::read(d.path().join(f)).unwrap();
+            if !f.starts_with("curves/") {
+                return t;
+            }
+            let drop_seconds = |l: &str| l.rsplit_once(',').map_or(l.to_string(), |(a, _)| a.to_string());
+            String::from_utf8(t).unwrap().lines().map(drop_seconds).collect::<Vec<_>>().join("\n").into_bytes()
+        };
+        for f in &a.files {
+            assert!(text(&alone_dir, f) == text(&given_dir, f), "{f} differs");
+        }
+        let stem = format!("jobs/{}.json", job.stem());
+        let record = std::fs::read_to_string(given_dir.path().join(&stem)).unwrap();
+        assert!(record.contains("\"device\": \"cuda: a test's stand-in\""), "{record}");
+        assert!(!std::fs::read_to_string(alone_dir.path().join(&stem)).unwrap().contains("\"device\""));
+    }
+}

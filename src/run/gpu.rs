@@ -7,6 +7,8 @@
 use std::collections::{HashMap, VecDeque};
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use super::grid::{LevelContext, RunObserver};
 use super::job::{mlp_setup, MlpSetup, Trained};
 use super::RunError;
@@ -24,13 +26,16 @@ pub(crate) fn pretrain(
     if *device == Device::Cpu {
         return Ok(HashMap::new());
     }
-    let mut setups: Vec<(usize, &TrainingJob, MlpSetup)> = Vec::new();
-    for (level, job) in todo {
-        let Some(&(plan, prepared, _)) = levels.get(*level) else { continue };
-        if let Some(setup) = mlp_setup(plan, job, prepared).map_err(|e| (*level, e))? {
-            setups.push((*level, job, setup));
-        }
-    }
+    // Each job's windows and standardizers, in parallel.
+    let setups: Vec<Option<(usize, &TrainingJob, MlpSetup)>> = todo
+        .par_iter()
+        .map(|(level, job)| {
+            let Some(&(plan, prepared, _)) = levels.get(*level) else { return Ok(None) };
+            let setup = mlp_setup(plan, job, prepared).map_err(|e| (*level, e))?;
+            Ok(setup.map(|s| (*level, job, s)))
+        })
+        .collect::<Result<_, (usize, RunError)>>()?;
+    let setups: Vec<(usize, &TrainingJob, MlpSetup)> = setups.into_iter().flatten().collect();
     if setups.is_empty() {
         return Ok(HashMap::new());
     }

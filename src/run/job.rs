@@ -138,8 +138,8 @@ pub fn run_job(
 }
 
 /// A job's network trained before the job ran, by the batched trainer on
-/// a GPU ([`crate::model::train_batch`]).
-pub(crate) struct Trained {
+/// a GPU ([`crate::model::train_batch`]), for [`run_job_given`].
+pub struct Trained {
     /// The best (restored) network.
     pub net: Net,
     /// Its epochs.
@@ -150,18 +150,22 @@ pub(crate) struct Trained {
     pub device: String,
 }
 
-/// What an MLP job trains on: its hidden widths, standardizers, fit and
-/// validation windows and protocol; `None` for any other model.
-pub(crate) struct MlpSetup {
+/// What an MLP job trains on, exactly as [`run_job`] trains it.
+pub struct MlpSetup {
+    /// Hidden widths.
     pub widths: Vec<usize>,
+    /// The standardizers, fitted on the fit windows.
     pub features: FeatureMap,
+    /// The arm's fit windows.
     pub fit: Vec<(State, Action, State)>,
+    /// The shared validation windows.
     pub validation: Vec<(State, Action, State)>,
+    /// The protocol, with the model's `restore final`.
     pub training: Training,
 }
 
-/// The [`MlpSetup`] of `job`, exactly as its run trains it.
-pub(crate) fn mlp_setup(plan: &Plan, job: &TrainingJob, prepared: &Prepared) -> Result<Option<MlpSetup>, RunError> {
+/// The [`MlpSetup`] of `job`; `None` for a model that is not an MLP.
+pub fn mlp_setup(plan: &Plan, job: &TrainingJob, prepared: &Prepared) -> Result<Option<MlpSetup>, RunError> {
     let ModelKind::Mlp { widths, inputs, actions, restore_final } = &job.kind else { return Ok(None) };
     let bench = bench(plan, job, prepared)?;
     let (training, features) = mlp_protocol(&bench, *inputs, *actions, *restore_final)?;
@@ -203,7 +207,7 @@ pub fn run_job_with(
 /// `given` holds it (the batched trainer's), which is saved and scored as
 /// a network trained here would be.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn run_job_given(
+pub fn run_job_given(
     engine: Engine,
     design_sha256: &str,
     plan: &Plan,
