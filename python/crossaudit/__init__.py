@@ -296,9 +296,15 @@ def run(
     data: Optional[PathLike] = None,
     workers: Optional[int] = None,
     exploratory: bool = False,
+    device: str = "cpu",
 ) -> Result:
-    """``crossaudit run``: the whole study with the built-in models."""
-    d = _native.run(os.fspath(design), os.fspath(out), None if data is None else os.fspath(data), workers, exploratory)
+    """``crossaudit run``: the whole study with the built-in models.
+    ``device`` is ``run --device``'s: ``"cpu"`` (the default), ``"cuda"``
+    (refused where no usable NVIDIA GPU is found) or ``"auto"`` (the GPU
+    where one is found, else the CPU, said in a warning)."""
+    d = _native.run(
+        os.fspath(design), os.fspath(out), None if data is None else os.fspath(data), workers, exploratory, device
+    )
     return _finished(json.loads(d))
 
 

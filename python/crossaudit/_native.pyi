@@ -20,6 +20,7 @@ def run(
     data: Optional[_Path] = None,
     workers: Optional[int] = None,
     exploratory: bool = False,
+    device: str = "cpu",
 ) -> str: ...
 def analyze(
     design: _Path, cells: _Path, out: Optional[_Path] = None, compare_intervals: bool = False

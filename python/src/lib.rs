@@ -88,7 +88,7 @@ fn score(py: Python<'_>, dir: PathBuf, workers: Option<usize>) -> PyResult<Strin
 /// `crossaudit run DESIGN --out OUT` (the built-in models); returns JSON as
 /// [`score`] does.
 #[pyfunction]
-#[pyo3(signature = (design, out, data=None, workers=None, exploratory=false))]
+#[pyo3(signature = (design, out, data=None, workers=None, exploratory=false, device="cpu"))]
 fn run(
     py: Python<'_>,
     design: PathBuf,
@@ -96,12 +96,21 @@ fn run(
     data: Option<PathBuf>,
     workers: Option<usize>,
     exploratory: bool,
+    device: &str,
 ) -> PyResult<String> {
     let workers = workers.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let device_error = |e: String| fail(crossaudit::run::RunError::Device(e));
+    let choice: crossaudit::model::DeviceChoice = device.parse().map_err(device_error)?;
+    // `auto` says where it trains through a Python warning.
+    let (device, said) = crossaudit::model::device::resolve(choice).map_err(|e| device_error(e.to_string()))?;
+    if let Some(said) = said {
+        let warn = py.import("warnings")?.getattr("warn")?;
+        warn.call1((said,))?;
+    }
     let o = py.detach(|| {
         let file = crossaudit::design::load(&design).map_err(fail)?;
         let study = crossaudit::compile_study(&file.design);
-        let options = crossaudit::run::RunOptions { workers, exploratory, reuse: None, device: Default::default() };
+        let options = crossaudit::run::RunOptions { workers, exploratory, reuse: None, device };
         crossaudit::run::run_into(&file, &study, data, &out, options, &crossaudit::run::Quiet).map_err(fail)
     })?;
     json(&serde_json::json!({

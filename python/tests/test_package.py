@@ -126,6 +126,21 @@ def test_predictions_are_checked_before_they_are_written(tmp_path):
         crossaudit.score(tmp_path / "study")
 
 
+def test_run_device_is_checked_before_anything_is_written(root, tmp_path):
+    with pytest.raises(crossaudit.CrossauditError, match="unknown device `gpu`"):
+        crossaudit.run(root / "designs/quickstart.design", tmp_path / "x", device="gpu")
+    try:
+        import ctypes
+
+        ctypes.CDLL("libcuda.so.1")
+        return  # a GPU machine: scripts/gpu-check.sh checks the GPU side
+    except OSError:
+        pass
+    with pytest.raises(crossaudit.CrossauditError, match="no usable NVIDIA GPU"):
+        crossaudit.run(root / "designs/quickstart.design", tmp_path / "x", device="cuda")
+    assert not (tmp_path / "x").exists()
+
+
 def test_run_refuses_external_and_analyze_reads_example_cells(root, tmp_path):
     with pytest.raises(crossaudit.CrossauditError, match="crossaudit export"):
         crossaudit.run(EXTERNAL, tmp_path / "x")

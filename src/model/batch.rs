@@ -38,5 +38,5 @@ pub fn train_batch(
 /// needs the NVRTC library but no GPU. An error where NVRTC is absent.
 #[cfg(feature = "cuda")]
 pub fn compile_gpu_kernels() -> Result<String, super::lockstep::BackendError> {
-    super::cuda::compile().map(|p| p.to_src())
+    super::cuda::compile_kernels().map(|p| p.to_src())
 }

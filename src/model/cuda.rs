@@ -36,7 +36,7 @@ const KERNELS: &str = include_str!("cuda_kernels.cu");
 /// The kernels compiled by NVRTC: IEEE division and square root, no
 /// flush to zero, and no contraction of `a * b + c` into a fused
 /// multiply-add, as on the CPU. Needs the NVRTC library, not a GPU.
-pub(super) fn compile() -> Result<Ptx, BackendError> {
+pub(super) fn compile_kernels() -> Result<Ptx, BackendError> {
     // SAFETY: the check only tries to open the library by its names.
     if !unsafe { cudarc::nvrtc::sys::is_culib_present() } {
         return Err(BackendError("the NVRTC library (libnvrtc.so) is not installed".into()));
@@ -77,7 +77,7 @@ impl Session {
         let ctx = CudaContext::new(gpu.ordinal).map_err(|e| fail("opening the CUDA device")(&e))?;
         let stream = ctx.default_stream();
         let blas = CudaBlas::new(stream.clone()).map_err(|e| fail("starting cuBLAS")(&e))?;
-        let module = ctx.load_module(compile()?).map_err(|e| fail("loading the kernels")(&e))?;
+        let module = ctx.load_module(compile_kernels()?).map_err(|e| fail("loading the kernels")(&e))?;
         let f = |name: &str| module.load_function(name).map_err(|e| fail(name)(&e));
         Ok(Session {
             bias_act: f("bias_act")?,
@@ -221,8 +221,7 @@ impl<'s> Batch<'s> {
                 (_, true) => &below[l - 1].val_h,
             };
             let z = if validation { &mut layer.val_h } else { &mut layer.h };
-            // Z^T (out x rows) = W (out x inp, stored as its transpose) * A^T.
-            let cfg = batched(k, (out, rows, inp), (CUBLAS_OP_T, inp, out * inp), (CUBLAS_OP_N, inp, rows * inp), out);
+            let cfg = forward_product(k, rows, inp, out);
             // SAFETY: every buffer holds K matrices of the shapes and strides
             // given (allocated for at least `rows` rows each).
             unsafe { s.blas.gemm_strided_batched(cfg, &layer.w, input, z) }.map_err(|e| fail("cuBLAS forward")(&e))?;
@@ -263,8 +262,7 @@ impl<'s> Batch<'s> {
             let (inp, out) = (layer.inp, layer.out);
             bias_grad(s, k, rows, out, &layer.gz, &mut layer.gb)?;
             let input = if l == 0 { &self.x } else { &below[l - 1].h };
-            // gW^T (inp x out) = A^T (inp x rows) * G (rows x out).
-            let cfg = batched(k, (inp, out, rows), (CUBLAS_OP_N, inp, rows * inp), (CUBLAS_OP_T, out, rows * out), inp);
+            let cfg = weight_gradient_product(k, rows, inp, out);
             // SAFETY: shapes and strides as allocated.
             unsafe { s.blas.gemm_strided_batched(cfg, input, &layer.gz, &mut layer.gw) }
                 .map_err(|e| fail("cuBLAS weight gradient")(&e))?;
@@ -272,8 +270,7 @@ impl<'s> Batch<'s> {
                 break;
             }
             let prev = &mut below[l - 1];
-            // gZ_below^T (inp x rows) = W^T (inp x out) * G^T (out x rows).
-            let cfg = batched(k, (inp, rows, out), (CUBLAS_OP_N, inp, out * inp), (CUBLAS_OP_N, out, rows * out), inp);
+            let cfg = input_gradient_product(k, rows, inp, out);
             // SAFETY: shapes and strides as allocated.
             unsafe { s.blas.gemm_strided_batched(cfg, &layer.w, &layer.gz, &mut prev.gz) }
                 .map_err(|e| fail("cuBLAS input gradient")(&e))?;
@@ -351,6 +348,29 @@ fn bias_grad(
     // SAFETY: the kernel's arguments match its signature; it bounds its index.
     unsafe { launch.launch(cfg) }.map_err(|e| fail("bias_grad")(&e))?;
     Ok(())
+}
+
+// The three products of a layer of `inp` inputs and `out` outputs over
+// `rows` rows, for K jobs. The host's matrices are row-major, so cuBLAS
+// (column-major) sees each as its transpose: a row-major n x w buffer is a
+// column-major w x n matrix with leading dimension w.
+
+/// Z = A W^T (rows x out), from A (rows x inp) and W (out x inp): as
+/// cuBLAS sees it, Z^T = op_T(W^T) A^T. Operands (W, A).
+fn forward_product(k: usize, rows: usize, inp: usize, out: usize) -> StridedBatchedConfig<f32> {
+    batched(k, (out, rows, inp), (CUBLAS_OP_T, inp, out * inp), (CUBLAS_OP_N, inp, rows * inp), out)
+}
+
+/// gW = G^T A (out x inp), from A (rows x inp) and G (rows x out): as
+/// cuBLAS sees it, gW^T = A^T op_T(G^T). Operands (A, G).
+fn weight_gradient_product(k: usize, rows: usize, inp: usize, out: usize) -> StridedBatchedConfig<f32> {
+    batched(k, (inp, out, rows), (CUBLAS_OP_N, inp, rows * inp), (CUBLAS_OP_T, out, rows * out), inp)
+}
+
+/// gA = G W (rows x inp), from G (rows x out) and W (out x inp): as cuBLAS
+/// sees it, gA^T = W^T G^T. Operands (W, G).
+fn input_gradient_product(k: usize, rows: usize, inp: usize, out: usize) -> StridedBatchedConfig<f32> {
+    batched(k, (inp, rows, out), (CUBLAS_OP_N, inp, out * inp), (CUBLAS_OP_N, out, rows * out), inp)
 }
 
 /// A strided-batched product C = op(A) op(B) of `k` pairs, column-major:
@@ -478,4 +498,87 @@ pub(super) fn train_batch(
         }
     }
     out.into_iter().map(|r| r.ok_or_else(|| NetError::Device(BackendError("a job was not trained".into())))).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// cuBLAS's strided-batched SGEMM as its documentation defines it
+    /// (column-major; element (r, c) of a matrix at r + c * ld; op T reads
+    /// the transpose), with alpha = 1 and beta = 0.
+    fn cublas(cfg: &StridedBatchedConfig<f32>, a: &[f32], b: &[f32], c: &mut [f32]) {
+        let g = &cfg.gemm;
+        let (m, n, kk) = (g.m as usize, g.n as usize, g.k as usize);
+        let at = |x: &[f32], op, ld: usize, r: usize, col: usize| {
+            if op == CUBLAS_OP_N {
+                x[r + col * ld]
+            } else {
+                x[col + r * ld]
+            }
+        };
+        for p in 0..cfg.batch_size as usize {
+            let (a, b) = (&a[p * cfg.stride_a as usize..], &b[p * cfg.stride_b as usize..]);
+            let c = &mut c[p * cfg.stride_c as usize..];
+            for i in 0..m {
+                for j in 0..n {
+                    let s: f64 = (0..kk)
+                        .map(|l| {
+                            f64::from(at(a, g.transa, g.lda as usize, i, l))
+                                * f64::from(at(b, g.transb, g.ldb as usize, l, j))
+                        })
+                        .sum();
+                    c[i + j * g.ldc as usize] = s as f32;
+                }
+            }
+        }
+    }
+
+    fn fill(n: usize, seed: u32) -> Vec<f32> {
+        (0..n).map(|i| ((i as u32 * 2_654_435_761 ^ seed) % 1000) as f32 / 500.0 - 1.0).collect()
+    }
+
+    #[test]
+    fn the_three_products_compute_the_row_major_layer_algebra() {
+        let (k, rows, inp, out) = (3, 5, 4, 6);
+        let (a, w, g) = (fill(k * rows * inp, 1), fill(k * out * inp, 2), fill(k * rows * out, 3));
+        let close = |x: f32, y: f64| (f64::from(x) - y).abs() < 1e-5;
+        // Forward: Z[k][i][o] = sum_j A[k][i][j] W[k][o][j].
+        let mut z = vec![0f32; k * rows * out];
+        cublas(&forward_product(k, rows, inp, out), &w, &a, &mut z);
+        for (p, i, o) in (0..k).flat_map(|p| (0..rows).flat_map(move |i| (0..out).map(move |o| (p, i, o)))) {
+            let want: f64 =
+                (0..inp).map(|j| f64::from(a[(p * rows + i) * inp + j]) * f64::from(w[(p * out + o) * inp + j])).sum();
+            assert!(close(z[(p * rows + i) * out + o], want), "forward ({p}, {i}, {o})");
+        }
+        // Weight gradient: gW[k][o][j] = sum_i G[k][i][o] A[k][i][j].
+        let mut gw = vec![0f32; k * out * inp];
+        cublas(&weight_gradient_product(k, rows, inp, out), &a, &g, &mut gw);
+        for (p, o, j) in (0..k).flat_map(|p| (0..out).flat_map(move |o| (0..inp).map(move |j| (p, o, j)))) {
+            let want: f64 = (0..rows)
+                .map(|i| f64::from(g[(p * rows + i) * out + o]) * f64::from(a[(p * rows + i) * inp + j]))
+                .sum();
+            assert!(close(gw[(p * out + o) * inp + j], want), "weight gradient ({p}, {o}, {j})");
+        }
+        // Input gradient: gA[k][i][j] = sum_o G[k][i][o] W[k][o][j].
+        let mut ga = vec![0f32; k * rows * inp];
+        cublas(&input_gradient_product(k, rows, inp, out), &w, &g, &mut ga);
+        for (p, i, j) in (0..k).flat_map(|p| (0..rows).flat_map(move |i| (0..inp).map(move |j| (p, i, j)))) {
+            let want: f64 =
+                (0..out).map(|o| f64::from(g[(p * rows + i) * out + o]) * f64::from(w[(p * out + o) * inp + j])).sum();
+            assert!(close(ga[(p * rows + i) * inp + j], want), "input gradient ({p}, {i}, {j})");
+        }
+    }
+
+    #[test]
+    fn a_job_takes_the_memory_of_its_buffers() {
+        // The paper's network: 18 -> 256 -> 256 -> 256 -> 14.
+        let dims = [(18, 256), (256, 256), (256, 256), (256, 14)];
+        let params = 18 * 256 + 256 + 2 * (256 * 256 + 256) + 256 * 14 + 14;
+        let bytes = bytes_per_job(&dims, 1024, 2000);
+        // At least the parameters and their six companions (gradients, two
+        // moments, best), the minibatch's and validation's activations.
+        assert!(bytes >= 4 * (7 * params + 2 * 1024 * 782 + 2000 * 782), "{bytes}");
+        assert!(bytes < 32 << 20, "{bytes} bytes: 320 jobs fit in 10 GB");
+    }
 }

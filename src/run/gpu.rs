@@ -9,19 +9,25 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::grid::{LevelContext, RunObserver};
 use super::job::{mlp_setup, MlpSetup, Trained};
 use super::RunError;
-use crate::model::{train_batch, BatchJob, Device};
-use crate::plan::TrainingJob;
+use crate::model::{train_batch, BatchJob, Device, EpochLog};
+use crate::plan::{Plan, TrainingJob};
+use crate::split::Prepared;
+
+/// What a run reports while the GPU trains: a job's start, and each epoch.
+pub(crate) struct Progress<'a> {
+    pub(crate) started: &'a dyn Fn(&TrainingJob),
+    pub(crate) epoch: &'a (dyn Fn(&TrainingJob, &EpochLog) + Sync),
+}
 
 /// Each MLP job's trained network by (level, job stem); nothing on the CPU,
 /// where each worker trains its own jobs.
 pub(crate) fn pretrain(
-    levels: &[LevelContext],
+    levels: &[(&Plan, &Prepared)],
     todo: &VecDeque<(usize, TrainingJob)>,
     device: &Device,
-    observer: &dyn RunObserver,
+    progress: Progress,
 ) -> Result<HashMap<(usize, String), Trained>, (usize, RunError)> {
     if *device == Device::Cpu {
         return Ok(HashMap::new());
@@ -30,7 +36,7 @@ pub(crate) fn pretrain(
     let setups: Vec<Option<(usize, &TrainingJob, MlpSetup)>> = todo
         .par_iter()
         .map(|(level, job)| {
-            let Some(&(plan, prepared, _)) = levels.get(*level) else { return Ok(None) };
+            let Some(&(plan, prepared)) = levels.get(*level) else { return Ok(None) };
             let setup = mlp_setup(plan, job, prepared).map_err(|e| (*level, e))?;
             Ok(setup.map(|s| (*level, job, s)))
         })
@@ -51,10 +57,10 @@ pub(crate) fn pretrain(
         })
         .collect();
     for (_, job, _) in &setups {
-        observer.job_started(0, job);
+        (progress.started)(job);
     }
     let t0 = Instant::now();
-    let on_epoch = |k: usize, log: &crate::model::EpochLog| observer.epoch(0, setups[k].1, log);
+    let on_epoch = |k: usize, log: &EpochLog| (progress.epoch)(setups[k].1, log);
     let nets = train_batch(device, &jobs, &on_epoch).map_err(|e| (setups[0].0, RunError::from(e)))?;
     let share = t0.elapsed().as_secs_f64() / jobs.len() as f64;
     let name = device.record().unwrap_or_else(|| device.to_string());

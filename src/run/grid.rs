@@ -63,7 +63,12 @@ pub(crate) fn run_queue(
     (workers, device): (usize, &Device),
     observer: &dyn RunObserver,
 ) -> Result<(), (usize, RunError)> {
-    let trained = Mutex::new(super::gpu::pretrain(levels, &todo, device, observer)?);
+    let progress = super::gpu::Progress {
+        started: &|job| observer.job_started(0, job),
+        epoch: &|job, log| observer.epoch(0, job, log),
+    };
+    let plans: Vec<(&Plan, &Prepared)> = levels.iter().map(|&(plan, prepared, _)| (plan, prepared)).collect();
+    let trained = Mutex::new(super::gpu::pretrain(&plans, &todo, device, progress)?);
     // No idle threads: never more workers than jobs.
     let workers = workers.min(todo.len()).max(1);
     let queue = Mutex::new(todo);
