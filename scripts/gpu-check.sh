@@ -14,6 +14,14 @@
 # benchmark has run, so that its times are still measured).
 #
 #   bash scripts/gpu-check.sh BIN TEST_BIN
+#
+# From a machine without a GPU, for a lent one (its `run` tool copies the
+# working tree and the ignored paths named in `carry`; both binaries come
+# to about 50 MB):
+#   cargo build --release && cargo test --release --no-run --test main
+#   mkdir -p gpu-bin && cp target/release/crossaudit gpu-bin/ &&
+#     cp "$(ls -t target/release/deps/main-* | grep -v '\.d$' | head -1)" gpu-bin/main
+#   then, there: bash scripts/gpu-check.sh gpu-bin/crossaudit gpu-bin/main
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:?usage: bash scripts/gpu-check.sh BIN TEST_BIN}")

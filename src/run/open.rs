@@ -70,10 +70,14 @@ pub(crate) struct Opened {
 }
 
 impl Opened {
-    /// Records in run.json the device the run trains on (nothing for the CPU).
+    /// Records in run.json the device the run trains on (nothing for the
+    /// CPU), and for a GPU a note the report gives beside its findings.
     pub(crate) fn record_device(&mut self, device: &crate::model::Device, out: &Path) -> Result<(), RunError> {
         self.record.device = device.record();
-        if self.record.device.is_some() {
+        if let Some(name) = &self.record.device {
+            self.notes.push(format!(
+                "the networks trained now were trained on {name} (`run --device`): a CPU run of this design gives cells within the GPU trainer's floating-point tolerance of these, not the same bytes (docs/usage.md, \"Training on a GPU\")"
+            ));
             self.record.write(out)?;
         }
         Ok(())
