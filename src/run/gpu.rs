@@ -15,9 +15,11 @@ use crate::model::{train_batch, BatchJob, Device, EpochLog};
 use crate::plan::{Plan, TrainingJob};
 use crate::split::Prepared;
 
-/// What a run reports while the GPU trains: a job's start, and each epoch.
+/// What a run reports while the GPU trains: the batch's start (how many
+/// networks, on what), each job's every epoch, and the batch's end.
 pub(crate) struct Progress<'a> {
-    pub(crate) started: &'a dyn Fn(&TrainingJob),
+    pub(crate) batch: &'a dyn Fn(usize, &str),
+    pub(crate) done: &'a dyn Fn(usize, f64),
     pub(crate) epoch: &'a (dyn Fn(&TrainingJob, &EpochLog) + Sync),
 }
 
@@ -56,13 +58,13 @@ pub(crate) fn pretrain(
             seed: job.seed.0,
         })
         .collect();
-    for (_, job, _) in &setups {
-        (progress.started)(job);
-    }
+    (progress.batch)(jobs.len(), &device.to_string());
     let t0 = Instant::now();
     let on_epoch = |k: usize, log: &EpochLog| (progress.epoch)(setups[k].1, log);
     let nets = train_batch(device, &jobs, &on_epoch).map_err(|e| (setups[0].0, RunError::from(e)))?;
-    let share = t0.elapsed().as_secs_f64() / jobs.len() as f64;
+    let seconds = t0.elapsed().as_secs_f64();
+    (progress.done)(jobs.len(), seconds);
+    let share = seconds / jobs.len() as f64;
     let name = device.record().unwrap_or_else(|| device.to_string());
     Ok(setups
         .iter()

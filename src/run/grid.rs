@@ -20,6 +20,12 @@ pub trait RunObserver: Sync {
     /// A study with outer levels (specifications, draws) starts level
     /// `index` of `count`, described by `label`.
     fn level(&self, _index: usize, _count: usize, _label: &str) {}
+    /// `jobs` networks start training at once on `device` (a GPU), before
+    /// the workers roll out and score them.
+    fn batch_started(&self, _jobs: usize, _device: &str) {}
+    /// The networks of [`RunObserver::batch_started`] are trained, after
+    /// `seconds`.
+    fn batch_finished(&self, _jobs: usize, _seconds: f64) {}
     /// `worker` took `job`.
     fn job_started(&self, _worker: usize, _job: &TrainingJob) {}
     /// An epoch of `job` finished.
@@ -64,7 +70,8 @@ pub(crate) fn run_queue(
     observer: &dyn RunObserver,
 ) -> Result<(), (usize, RunError)> {
     let progress = super::gpu::Progress {
-        started: &|job| observer.job_started(0, job),
+        batch: &|jobs, device| observer.batch_started(jobs, device),
+        done: &|jobs, seconds| observer.batch_finished(jobs, seconds),
         epoch: &|job, log| observer.epoch(0, job, log),
     };
     let plans: Vec<(&Plan, &Prepared)> = levels.iter().map(|&(plan, prepared, _)| (plan, prepared)).collect();

@@ -106,6 +106,14 @@ impl RunObserver for RunProgress {
         self.say(format!("level {index} of {count}: {label}"));
     }
 
+    fn batch_started(&self, jobs: usize, device: &str) {
+        self.say(format!("training {jobs} networks at once on {device}; the workers roll them out after"));
+    }
+
+    fn batch_finished(&self, jobs: usize, seconds: f64) {
+        self.say(format!("trained {jobs} networks on the GPU in {seconds:.1} s"));
+    }
+
     fn start(&self, total: usize, done: usize) {
         self.overall.set_length(total as u64);
         self.overall.set_position(done as u64);
