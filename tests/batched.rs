@@ -234,3 +234,148 @@ fn a_network_trained_by_the_batch_is_saved_and_scored_as_one_trained_by_its_job(
         assert!(!std::fs::read_to_string(alone_dir.path().join(&stem)).unwrap().contains("\"device\""));
     }
 }
+
+/// The CUDA kernels' source compiled for the CPU by gcc (one thread per
+/// launch, `__syncthreads` a no-op, no contraction of multiply-adds) and
+/// run on small inputs: each element must be what the fused CPU trainer
+/// computes for it (src/model/fused.rs), bit for bit. This checks the
+/// kernels' indexing and arithmetic where no GPU is at hand; it cannot
+/// check the launches, which scripts/gpu-check.sh does on a GPU.
+#[test]
+fn the_gpu_kernels_compute_on_a_cpu_what_the_cpu_trainer_computes() {
+    let gcc = std::process::Command::new("gcc").arg("--version").output();
+    if !gcc.is_ok_and(|o| o.status.success()) {
+        return skip("gcc", "the CUDA kernels on the CPU: gcc is not installed");
+    }
+    let kernels = std::fs::read_to_string(root().join("src/model/cuda_kernels.cu")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let source =
+        format!("{KERNEL_SHIM}\n{}\n{KERNEL_HARNESS}", kernels.replace("extern \"C\" __global__ void", "void"));
+    std::fs::write(dir.path().join("k.c"), source).unwrap();
+    let exe = dir.path().join("k");
+    let cc = std::process::Command::new("gcc")
+        .args(["-O2", "-ffp-contract=off", "-fno-fast-math", "-o"])
+        .arg(&exe)
+        .arg(dir.path().join("k.c"))
+        .arg("-lm")
+        .output()
+        .unwrap();
+    assert!(cc.status.success(), "gcc: {}", String::from_utf8_lossy(&cc.stderr));
+    let run = std::process::Command::new(&exe).output().unwrap();
+    assert!(run.status.success());
+    // name: hex bit patterns, one line per array.
+    let text = String::from_utf8(run.stdout).unwrap();
+    let arrays: std::collections::HashMap<&str, Vec<u64>> = text
+        .lines()
+        .map(|l| {
+            let (name, v) = l.split_once(':').unwrap();
+            (name, v.split_whitespace().map(|h| u64::from_str_radix(h, 16).unwrap()).collect())
+        })
+        .collect();
+    let f = |name: &str| arrays[name].iter().map(|&b| f32::from_bits(b as u32)).collect::<Vec<f32>>();
+    let (k, n, w) = (3usize, 5usize, 4usize);
+    let (z0, bias, z) = (f("z0"), f("bias"), f("z"));
+    for e in 0..k * n * w {
+        // fused.rs, forward: zb = v + b; max(zb, 0) on hidden layers.
+        let want = (z0[e] + bias[(e / (n * w)) * w + e % w]).max(0.0);
+        assert_eq!(z[e].to_bits(), want.to_bits(), "bias_act at {e}");
+    }
+    let (y, g) = (f("y"), f("g"));
+    let inv_n = (1.0 / (n * w) as f64) as f32;
+    for e in 0..k * n * w {
+        // fused.rs, loss_and_gradient: 0 + (d + d) * inv_n.
+        let d = z[e] - y[e];
+        assert_eq!(g[e].to_bits(), (0.0 + (d + d) * inv_n).to_bits(), "mse_grad at {e}");
+    }
+    let (gr, h) = (f("grelu"), f("h"));
+    for e in 0..k * n * w {
+        let df = if h[e] > 0.0 { 1.0f32 } else { 0.0 };
+        assert_eq!(gr[e].to_bits(), (0.0 + df * g[e]).to_bits(), "relu_back at {e}");
+    }
+    let gb = f("gb");
+    for (job, j) in (0..k).flat_map(|p| (0..w).map(move |j| (p, j))) {
+        // Rows summed in order into a zeroed sum, as fused.rs does.
+        let want = (0..n).fold(0f32, |s, i| s + g[(job * n + i) * w + j]);
+        assert_eq!(gb[job * w + j].to_bits(), want.to_bits(), "bias_grad at ({job}, {j})");
+    }
+    let sq = arrays["sq64"].iter().map(|&b| f64::from_bits(b)).collect::<Vec<f64>>();
+    for job in 0..k {
+        let want: f64 = (0..n * w).map(|e| f64::from(z[job * n * w + e] - y[job * n * w + e]).powi(2)).sum();
+        assert_eq!(sq[job].to_bits(), want.to_bits(), "sq_err of job {job}");
+    }
+    // Adam at step 3, job 1 masked out (fused.rs, adam).
+    let (p0, m0, v0, p, m, v) = (f("p0"), f("m0"), f("v0"), f("p"), f("m"), f("v"));
+    let (b1, b2, eps, lr) = (0.9f64 as f32, 0.999f64 as f32, 1e-8f64 as f32, 1e-3f32);
+    // The bias corrections are the host's (the backend computes them as
+    // fused.rs does); the harness's are read back.
+    let (c1, c2) = (f("c")[0], f("c")[1]);
+    for e in 0..k * n * w {
+        if e / (n * w) == 1 {
+            assert_eq!((p[e], m[e], v[e]), (p0[e], m0[e], v0[e]), "a masked job is left as it was");
+            continue;
+        }
+        let gv = g[e];
+        let mm = m0[e] * b1 + gv * (1.0 - b1);
+        let vv = v0[e] * b2 + gv.powi(2) * (1.0 - b2);
+        let want = p0[e] - lr * (mm * c1) / ((vv * c2).sqrt() + eps);
+        assert_eq!(
+            (p[e].to_bits(), m[e].to_bits(), v[e].to_bits()),
+            (want.to_bits(), mm.to_bits(), vv.to_bits()),
+            "adam at {e}"
+        );
+    }
+}
+
+/// What CUDA gives a kernel, for one thread on the CPU.
+const KERNEL_SHIM: &str = r#"
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+typedef struct { unsigned x; } dim3_;
+static dim3_ blockIdx, threadIdx, blockDim = {1}, gridDim = {1};
+#define __shared__ static
+#define __syncthreads()
+"#;
+
+/// Runs each kernel on the same small inputs and prints every array's bit
+/// patterns (K = 3 jobs, n = 5 rows, w = 4 columns).
+const KERNEL_HARNESS: &str = r#"
+#define K 3
+#define N 5
+#define W 4
+#define E (K * N * W)
+static unsigned seed = 12345;
+static float next(void) { seed = seed * 1103515245u + 12345u; return (float)((seed >> 9) & 0xFFFF) / 16384.0f - 2.0f; }
+static void put32(const char* name, const float* a, int n) {
+    printf("%s:", name);
+    for (int i = 0; i < n; i++) { unsigned b; memcpy(&b, &a[i], 4); printf(" %08x", b); }
+    printf("\n");
+}
+int main(void) {
+    float z0[E], z[E], bias[K * W], y[E], g[E], grelu[E], h[E], gb[K * W], s32[K];
+    double s64[K];
+    float p0[E], m0[E], v0[E], p[E], m[E], v[E], mask[K] = {1.0f, 0.0f, 1.0f};
+    for (int i = 0; i < E; i++) { z0[i] = next(); y[i] = next(); h[i] = next(); p0[i] = next(); m0[i] = next() / 10; v0[i] = fabsf(next()) / 10; }
+    for (int i = 0; i < K * W; i++) bias[i] = next();
+    memcpy(z, z0, sizeof z);
+    bias_act(z, bias, K, N, W, 1);
+    mse_grad(z, y, g, E, (float)(1.0 / (N * W)));
+    memcpy(grelu, g, sizeof g);
+    relu_back(grelu, h, E);
+    for (unsigned t = 0; t < K * W; t++) { blockIdx.x = t; bias_grad(g, gb, K, N, W); }
+    for (unsigned j = 0; j < K; j++) { blockIdx.x = j; sq_err(z, y, N * W, s32, s64); }
+    blockIdx.x = 0;
+    memcpy(p, p0, sizeof p); memcpy(m, m0, sizeof m); memcpy(v, v0, sizeof v);
+    float b1 = 0.9f, b2 = 0.999f, c1 = 1.0f / (1.0f - b1 * b1 * b1), c2 = 1.0f / (1.0f - b2 * b2 * b2);
+    adam(p, g, m, v, mask, N * W, E, 1e-3f, b1, b2, 1e-8f, c1, c2);
+    float c[2] = {c1, c2};
+    put32("c", c, 2);
+    put32("z0", z0, E); put32("bias", bias, K * W); put32("z", z, E); put32("y", y, E); put32("g", g, E);
+    put32("grelu", grelu, E); put32("h", h, E); put32("gb", gb, K * W);
+    put32("p0", p0, E); put32("m0", m0, E); put32("v0", v0, E); put32("p", p, E); put32("m", m, E); put32("v", v, E);
+    printf("sq64:");
+    for (int j = 0; j < K; j++) { unsigned long long b; memcpy(&b, &s64[j], 8); printf(" %016llx", b); }
+    printf("\n");
+    return 0;
+}
+"#;
