@@ -11,8 +11,10 @@ use crossaudit::model::{
 
 type Triple = (State, Vec<f64>, State);
 
-/// Three jobs of one shape that differ in seed, data, epochs and patience:
-/// the second leaves the batch after 2 epochs, the third may stop early.
+/// Three jobs that differ in seed, data, epochs and patience: the second
+/// trains 2 epochs of its budget, the third stops early (patience 1, at a
+/// learning rate high enough to make its validation loss rise), the first
+/// trains all 8.
 fn three() -> (Vec<Vec<Triple>>, Vec<Triple>, Vec<FeatureMap>, Vec<Training>) {
     let fits: Vec<Vec<Triple>> = [0.0, 0.7, 1.9].iter().map(|&o| windows(o, 600)).collect();
     let val = windows(3.1, 120);
@@ -27,9 +29,9 @@ fn three() -> (Vec<Vec<Triple>>, Vec<Triple>, Vec<FeatureMap>, Vec<Training>) {
     // test binary runs from any folder (scripts/gpu-check.sh).
     let t = Training {
         optimizer: Optimizer::Adam,
-        lr: 1e-3,
+        lr: 1e-1,
         batch: 256,
-        epochs: 6,
+        epochs: 8,
         schedule: Schedule::Cosine,
         patience: 6,
         action_noise: 0.02,
@@ -88,6 +90,40 @@ fn jobs_in_lockstep_train_bit_for_bit_as_each_alone() {
     // The batched trainer's CPU backend: the same again.
     let batched = train_batch(&Device::Cpu, &jobs, &|_, _| {}).unwrap();
     same(&batched, &alone);
+}
+
+/// The GPU backend's own code, run by plain loops on the CPU
+/// (`train_emulated`: cuBLAS's products as documented, the kernels element
+/// by element), trains each job as the CPU trainer does, within the
+/// rounding of products summed in another order. The first and third jobs
+/// share a shape and a batch, and the third leaves it after 2 epochs; with
+/// memory for one job at a time each trains alone, to the same bits.
+#[test]
+fn the_gpu_backend_emulated_on_the_cpu_trains_as_the_cpu_does() {
+    let (fits, val, features, ts) = three();
+    let jobs = jobs(&fits, &val, &features, &ts);
+    let cpu = train_lockstep(&jobs, &mut |_, _| {}).unwrap();
+    let epochs: Vec<usize> = cpu.iter().map(|(_, l)| l.len()).collect();
+    assert_eq!(epochs, [8, 2, 2], "the third job stops early (patience 1), the first goes on");
+    let seen = std::sync::Mutex::new(vec![0usize; 3]);
+    let emulated =
+        crossaudit::model::batch::train_emulated(&jobs, 1 << 40, &|k, _| seen.lock().unwrap()[k] += 1).unwrap();
+    assert_eq!(*seen.lock().unwrap(), epochs, "every epoch of every job is reported");
+    for (k, ((ne, le), (nc, lc))) in emulated.iter().zip(&cpu).enumerate() {
+        assert_eq!(le.len(), lc.len(), "job {k}: epochs");
+        for (e, c) in le.iter().zip(lc) {
+            for (what, a, b) in [("validation", e.val_loss, c.val_loss), ("training", e.train_loss, c.train_loss)] {
+                let rel = (a - b).abs() / b;
+                assert!(rel < 1e-4, "job {k} epoch {}: {what} loss {a} emulated, {b} on the CPU ({rel:e})", c.epoch);
+            }
+        }
+        let worst = ne.flat_weights().iter().zip(nc.flat_weights()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+        assert!(worst < 1e-4, "job {k}: a weight differs by {worst:e}");
+        assert_ne!(ne.flat_weights(), nc.flat_weights(), "job {k}: the products are summed in another order");
+    }
+    // Memory for one job: every batch holds one, and nothing changes.
+    let alone = crossaudit::model::batch::train_emulated(&jobs, 1, &|_, _| {}).unwrap();
+    same(&alone, &emulated);
 }
 
 /// GPU against CPU: the products are summed in another order, so each

@@ -40,3 +40,17 @@ pub fn train_batch(
 pub fn compile_gpu_kernels() -> Result<String, super::lockstep::BackendError> {
     super::cuda::compile_kernels().map(|p| p.to_src())
 }
+
+/// The GPU backend's own code (`super::batched`: buffers, products and
+/// kernels, batches sized from free memory, jobs stepped in lockstep) run
+/// by plain loops on the CPU, as if on a GPU with `free_bytes` of memory:
+/// cuBLAS's products as its documentation defines them and each kernel of
+/// `cuda_kernels.cu` element by element. A reference for the CUDA backend
+/// where no GPU is (tests), far slower than [`train_batch`] on the CPU.
+pub fn train_emulated(
+    jobs: &[BatchJob],
+    free_bytes: usize,
+    on_epoch: &(dyn Fn(usize, &EpochLog) + Sync),
+) -> Result<Vec<(Net, Vec<EpochLog>)>, NetError> {
+    Ok(super::batched::train_on(&super::emulated::Emulated { free: free_bytes }, jobs, on_epoch)?)
+}

@@ -8,9 +8,11 @@
 
 pub mod baseline;
 pub mod batch;
+mod batched;
 #[cfg(feature = "cuda")]
 mod cuda;
 pub mod device;
+mod emulated;
 pub mod features;
 pub mod fused;
 mod kernel;
