@@ -811,7 +811,17 @@ fn function_lengths() -> BTreeMap<String, usize> {
                 // A body on the signature's line (`fn start(&self) {}`) is
                 // one line: its closing brace is not a later line's.
                 let one_line = l.trim_end().ends_with('}') && l.contains('{');
-                if one_line {
+                // A declaration without a body (a trait's method), whose
+                // signature may run over several lines: it ends with `;`
+                // before any line opens a body.
+                let declared = lines[i..]
+                    .iter()
+                    .map(|s| s.trim_end())
+                    .find(|s| s.ends_with(';') || s.ends_with('{'))
+                    .is_some_and(|s| s.ends_with(';'));
+                if declared {
+                    // Nothing to measure.
+                } else if one_line {
                     out.entry(format!("{rel}::{name}")).or_insert(1);
                 } else if let Some(end) = (i + 1..lines.len()).find(|&j| lines[j] == close) {
                     if !l.trim_end().ends_with(';') {
