@@ -12,9 +12,11 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::io::{f64_text, opt_f64_text};
-use crate::label::{Interner, Label};
+use crate::label::Label;
+use row::{cell_of, Names, Row};
 
 mod hashed;
+mod row;
 #[cfg(test)]
 mod tests;
 mod write;
@@ -278,33 +280,6 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     Ok(cells)
 }
 
-/// The cell of the record on line `line` whose fields are `fields`, those
-/// of `header_for(has_split, has_dose)`.
-fn cell_of(
-    name: &str,
-    line: u64,
-    fields: &[&str],
-    has_split: bool,
-    has_dose: bool,
-    names: &mut Names,
-) -> Result<Cell, CellsError> {
-    let raw = RawRow::of(fields, has_split, has_dose);
-    let mut cell = parse_row(name, line, &raw, names)?;
-    let r = Row { name, line };
-    if has_split {
-        cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
-    }
-    if has_dose {
-        let v = raw.dose.unwrap_or("");
-        let dose = r.float("dose", v)?;
-        if dose > 100.0 {
-            return Err(r.fail("dose", v, "exceeds 100 (a percentage)"));
-        }
-        cell.dose = Some(dose);
-    }
-    Ok(cell)
-}
-
 /// Where the velocity and attitude RMSE are empty though not every start
 /// diverged, and where they have a value. A layout without a velocity (or
 /// attitude) leaves its column empty in every row; a file with values in
@@ -355,14 +330,6 @@ impl Emptiness {
     }
 }
 
-/// A value as an error quotes it: at most 64 characters, then how long it is.
-fn shortened(value: &str) -> String {
-    match value.char_indices().nth(64) {
-        None => value.to_string(),
-        Some((at, _)) => format!("{}... ({} characters)", &value[..at], value.chars().count()),
-    }
-}
-
 fn csv_message(e: &csv::Error) -> String {
     match e.kind() {
         csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
@@ -384,225 +351,4 @@ fn header_for(split: bool, dose: bool) -> Vec<&'static str> {
     }
     h.extend(&HEADER[2..]);
     h
-}
-
-/// A row as text, by column name, borrowed from its record.
-struct RawRow<'a> {
-    split: Option<&'a str>,
-    dose: Option<&'a str>,
-    model: &'a str,
-    arm: &'a str,
-    seed: &'a str,
-    recording: &'a str,
-    trajectory: &'a str,
-    speed: &'a str,
-    horizon_s: &'a str,
-    n_starts: &'a str,
-    n_divergent: &'a str,
-    fa_position_rmse_m: &'a str,
-    conditional_position_rmse_m: &'a str,
-    divergence_rate: &'a str,
-    velocity_rmse_mps: &'a str,
-    attitude_rmse_deg: &'a str,
-}
-
-impl<'a> RawRow<'a> {
-    /// The fields of a record whose header was checked to be
-    /// `header_for(has_split, has_dose)` (and whose length the reader
-    /// checked against it).
-    fn of(fields: &[&'a str], has_split: bool, has_dose: bool) -> RawRow<'a> {
-        let mut f = fields.iter();
-        let mut next = || f.next().copied().unwrap_or("");
-        let split = has_split.then(&mut next);
-        let (model, arm) = (next(), next());
-        let dose = has_dose.then(&mut next);
-        RawRow {
-            split,
-            dose,
-            model,
-            arm,
-            seed: next(),
-            recording: next(),
-            trajectory: next(),
-            speed: next(),
-            horizon_s: next(),
-            n_starts: next(),
-            n_divergent: next(),
-            fa_position_rmse_m: next(),
-            conditional_position_rmse_m: next(),
-            divergence_rate: next(),
-            velocity_rmse_mps: next(),
-            attitude_rmse_deg: next(),
-        }
-    }
-}
-
-/// One interner per label column: each distinct name is stored once.
-#[derive(Default)]
-struct Names {
-    model: Interner,
-    arm: Interner,
-    recording: Interner,
-    trajectory: Interner,
-    speed: Interner,
-}
-
-/// Checks fields of one row, naming the file, line and field on error.
-struct Row<'a> {
-    name: &'a str,
-    line: u64,
-}
-
-impl Row<'_> {
-    fn fail(&self, field: &'static str, value: &str, problem: impl Into<String>) -> CellsError {
-        CellsError::Field {
-            path: self.name.to_string(),
-            line: self.line,
-            field,
-            value: shortened(value),
-            problem: problem.into(),
-        }
-    }
-
-    fn label(&self, field: &'static str, v: &str, names: &mut Interner) -> Result<Label, CellsError> {
-        let t = trim(v);
-        if t.is_empty() {
-            return Err(self.fail(field, v, "is empty"));
-        }
-        // A line break or a terminal escape in a name would be written
-        // into every report table and console line that names it. (Text of
-        // printable ASCII holds none.)
-        let printable = t.bytes().all(|b| (0x20..0x7f).contains(&b));
-        if !printable && t.chars().any(char::is_control) {
-            return Err(self.fail(field, v, "holds a control character, which no name may"));
-        }
-        Ok(names.get(t))
-    }
-
-    fn uint(&self, field: &'static str, v: &str) -> Result<u64, CellsError> {
-        let t = trim(v);
-        t.parse::<u64>().map_err(|_| {
-            let digits = !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
-            self.fail(
-                field,
-                v,
-                if digits {
-                    "is larger than 18446744073709551615, the largest integer a cell holds"
-                } else {
-                    "is not a non-negative integer"
-                },
-            )
-        })
-    }
-
-    fn float(&self, field: &'static str, v: &str) -> Result<f64, CellsError> {
-        let t = trim(v);
-        if t.is_empty() {
-            return Err(self.fail(field, v, "is empty"));
-        }
-        let x = number(t).ok_or_else(|| self.fail(field, v, "is not a number"))?;
-        if !x.is_finite() {
-            return Err(self.fail(field, v, "is not finite"));
-        }
-        if x < 0.0 {
-            return Err(self.fail(field, v, "is negative"));
-        }
-        if x != 0.0 && x < crate::io::MIN_MAGNITUDE {
-            return Err(self.fail(
-                field,
-                v,
-                "is below 1e-60 but not 0: the variances of values this small underflow double precision and the interval would collapse to a point; write the metric in a smaller unit",
-            ));
-        }
-        Ok(x)
-    }
-
-    /// A metric that may be empty (the velocity and attitude RMSE: empty
-    /// when every start diverged, and in every row of a layout without a
-    /// velocity or attitude; [`Emptiness`] checks which).
-    fn optional(&self, field: &'static str, v: &str) -> Result<Option<f64>, CellsError> {
-        if trim(v).is_empty() {
-            Ok(None)
-        } else {
-            self.float(field, v).map(Some)
-        }
-    }
-
-    /// A metric that is empty exactly when every start diverged.
-    fn finite_only(&self, field: &'static str, v: &str, all_diverged: bool) -> Result<Option<f64>, CellsError> {
-        if trim(v).is_empty() {
-            if all_diverged {
-                Ok(None)
-            } else {
-                Err(self.fail(field, v, "is empty, but not every start diverged"))
-            }
-        } else {
-            self.float(field, v).map(Some)
-        }
-    }
-}
-
-/// `v.trim()`, at once where `v` begins and ends with a printable ASCII
-/// character (as nearly every field does).
-fn trim(v: &str) -> &str {
-    let solid = |b: Option<&u8>| b.is_some_and(|&b| (0x21..0x7f).contains(&b));
-    if solid(v.as_bytes().first()) && solid(v.as_bytes().last()) {
-        v
-    } else {
-        v.trim()
-    }
-}
-
-/// The number `t` writes, as Rust's `str::parse::<f64>` reads it (the
-/// reference): fast-float2 first, which reads every decimal number to the
-/// same correctly rounded value, then the reference for anything it
-/// refuses (a test checks the two agree on every string they accept).
-fn number(t: &str) -> Option<f64> {
-    fast_float2::parse::<f64, _>(t).ok().or_else(|| t.parse().ok())
-}
-
-fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<Cell, CellsError> {
-    let r = Row { name, line };
-    let n_starts = r.uint("n_starts", raw.n_starts)?;
-    if n_starts == 0 {
-        return Err(r.fail("n_starts", raw.n_starts, "must be at least 1"));
-    }
-    let n_divergent = r.uint("n_divergent", raw.n_divergent)?;
-    if n_divergent > n_starts {
-        return Err(r.fail("n_divergent", raw.n_divergent, format!("exceeds n_starts ({n_starts})")));
-    }
-    let all_diverged = n_divergent == n_starts;
-    let horizon_s = r.float("horizon_s", raw.horizon_s)?;
-    if horizon_s <= 0.0 {
-        return Err(r.fail("horizon_s", raw.horizon_s, "must be > 0"));
-    }
-    let divergence_rate = r.float("divergence_rate", raw.divergence_rate)?;
-    let expected = n_divergent as f64 / n_starts as f64;
-    if (divergence_rate - expected).abs() > 1e-6 {
-        let problem = format!("disagrees with n_divergent / n_starts = {expected}");
-        return Err(r.fail("divergence_rate", raw.divergence_rate, problem));
-    }
-    Ok(Cell {
-        split: None,
-        dose: None,
-        model: r.label("model", raw.model, &mut names.model)?,
-        arm: r.label("arm", raw.arm, &mut names.arm)?,
-        seed: r.uint("seed", raw.seed)?,
-        recording: r.label("recording", raw.recording, &mut names.recording)?,
-        trajectory: r.label("trajectory", raw.trajectory, &mut names.trajectory)?,
-        speed: r.label("speed", raw.speed, &mut names.speed)?,
-        horizon_s,
-        n_starts,
-        n_divergent,
-        fa_position_rmse_m: r.float("fa_position_rmse_m", raw.fa_position_rmse_m)?,
-        conditional_position_rmse_m: r.finite_only(
-            "conditional_position_rmse_m",
-            raw.conditional_position_rmse_m,
-            all_diverged,
-        )?,
-        divergence_rate,
-        velocity_rmse_mps: r.optional("velocity_rmse_mps", raw.velocity_rmse_mps)?,
-        attitude_rmse_deg: r.optional("attitude_rmse_deg", raw.attitude_rmse_deg)?,
-        line,
-    })
 }

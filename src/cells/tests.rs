@@ -1,6 +1,8 @@
 //! The per-cell readers against each other: the chunked reader against
 //! the streaming reference, and fast-float2 against `str::parse`.
+#![cfg(test)]
 
+use super::row::{number, trim};
 use super::*;
 
 /// The committed per-cell files of every layout: plain, with `split`,
