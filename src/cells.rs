@@ -13,13 +13,15 @@ use serde::Serialize;
 
 use crate::io::{f64_text, opt_f64_text};
 use crate::label::Label;
-use row::{cell_of, Names, Row};
 
 mod hashed;
 mod row;
 #[cfg(test)]
 mod tests;
 mod write;
+
+// The row reader, for the two file readers here.
+pub(crate) use row::{cell_of, Names, Row};
 
 pub use hashed::{file_sha256, read_cells_hashed};
 pub use write::{cells_bytes, write_cells, write_cells_and_parquet, write_cells_atomic};

@@ -8,7 +8,7 @@ use crate::label::{Interner, Label};
 
 /// The cell of the record on line `line` whose fields are `fields`, those
 /// of `header_for(has_split, has_dose)`.
-pub(super) fn cell_of(
+pub(crate) fn cell_of(
     name: &str,
     line: u64,
     fields: &[&str],
@@ -94,7 +94,7 @@ impl<'a> RawRow<'a> {
 
 /// One interner per label column: each distinct name is stored once.
 #[derive(Default)]
-pub(super) struct Names {
+pub(crate) struct Names {
     model: Interner,
     arm: Interner,
     recording: Interner,
@@ -103,13 +103,13 @@ pub(super) struct Names {
 }
 
 /// Checks fields of one row, naming the file, line and field on error.
-pub(super) struct Row<'a> {
-    pub(super) name: &'a str,
-    pub(super) line: u64,
+pub(crate) struct Row<'a> {
+    pub(crate) name: &'a str,
+    pub(crate) line: u64,
 }
 
 impl Row<'_> {
-    pub(super) fn fail(&self, field: &'static str, value: &str, problem: impl Into<String>) -> CellsError {
+    pub(crate) fn fail(&self, field: &'static str, value: &str, problem: impl Into<String>) -> CellsError {
         CellsError::Field {
             path: self.name.to_string(),
             line: self.line,
