@@ -9,6 +9,8 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use serde::Serialize;
 
 use crate::io::{f64_text, opt_f64_text};
@@ -208,15 +210,43 @@ fn read_chunked(
         let has_dose = found.get(usize::from(has_split) + 2) == Some(&"dose");
         (found == header_for(has_split, has_dose)).then_some((has_split, has_dose))
     };
-    let row = |&(split, dose): &(bool, bool), line, fields: &[&str], (names, seen): &mut (Names, Emptiness)| {
-        let cell = cell_of(name, line, fields, split, dose, names).ok()?;
-        seen.see(&cell);
-        Some(cell)
+    let row = |&(split, dose): &(bool, bool), line, fields: &[&str], names: &mut Names| {
+        cell_of(name, line, fields, split, dose, names).ok()
     };
-    let (cells, states) =
-        crate::io::chunked::read(reader, (crate::io::MAX_CELLS_FILE, size, chunk), header, row, seen)?;
-    let mut emptiness = Emptiness::default();
-    states.iter().for_each(|(_, seen)| emptiness.merge(seen));
+    // What stands in for a refused row, which gives the read up.
+    let fill = Cell {
+        split: None,
+        dose: None,
+        model: Label::default(),
+        arm: Label::default(),
+        seed: 0,
+        recording: Label::default(),
+        trajectory: Label::default(),
+        speed: Label::default(),
+        horizon_s: 0.0,
+        n_starts: 0,
+        n_divergent: 0,
+        fa_position_rmse_m: 0.0,
+        conditional_position_rmse_m: None,
+        divergence_rate: 0.0,
+        velocity_rmse_mps: None,
+        attitude_rmse_deg: None,
+        line: 0,
+    };
+    let limits = (crate::io::MAX_CELLS_FILE, size, chunk);
+    let cells = crate::io::chunked::read(reader, limits, header, (row, &fill), seen)?;
+    // Each line noted is the first of its kind: the same, whichever rows
+    // each core saw.
+    let emptiness = cells
+        .par_iter()
+        .fold(Emptiness::default, |mut e, c| {
+            e.see(c);
+            e
+        })
+        .reduce(Emptiness::default, |mut a, b| {
+            a.merge(&b);
+            a
+        });
     (!cells.is_empty() && emptiness.check(name).is_ok()).then_some(cells)
 }
 
@@ -308,11 +338,15 @@ impl Emptiness {
         }
     }
 
-    /// Adds what `later`, the rows after these, saw.
-    fn merge(&mut self, later: &Emptiness) {
-        for (mine, theirs) in self.seen.iter_mut().zip(&later.seen) {
-            mine.0 = mine.0.or(theirs.0);
-            mine.1 = mine.1.or(theirs.1);
+    /// Adds what other rows saw: the first line of each kind, of either.
+    fn merge(&mut self, other: &Emptiness) {
+        let first = |a: Option<u64>, b: Option<u64>| match (a, b) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            _ => a.or(b),
+        };
+        for (mine, theirs) in self.seen.iter_mut().zip(&other.seen) {
+            mine.0 = first(mine.0, theirs.0);
+            mine.1 = first(mine.1, theirs.1);
         }
     }
 

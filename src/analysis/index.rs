@@ -107,12 +107,19 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
         labels: BTreeMap::new(),
     };
     let block = out.models.len() * out.arms.len() * out.horizons.len() * out.seeds.len();
-    // Per recording: its labels and the line that first gave them.
-    let mut labels: Vec<(Label, Label, u64)> = Vec::new();
+    // Per recording: its name, its labels and the line that first gave
+    // them; found by the label's id (the same name is the same label), so
+    // a row's lookup reads no name.
+    let mut labels: Vec<(Label, Label, Label, u64)> = Vec::new();
+    let mut ids: HashMap<usize, usize, NameHash> = HashMap::default();
+    // Room for the recordings a complete file of these rows holds, taken
+    // once (grown a block at a time, the table was copied as it doubled).
+    let expected = cells.len().div_ceil(block.max(1)).min(plan.recordings);
+    out.table.reserve_exact(expected.saturating_mul(block));
     for (row, c) in cells.iter().enumerate() {
         let (m, a, s, h) = out.positions(plan, c)?;
-        let next = out.recordings.len();
-        let r = *out.recordings.entry(c.recording.as_str()).or_insert(next);
+        let next = ids.len();
+        let r = *ids.entry(c.recording.id()).or_insert(next);
         if r == next {
             // A recording beyond the declared number is an error whatever
             // else the file holds: counted over the whole file, and no
@@ -122,13 +129,13 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
                     + 1
                     + cells[row..]
                         .iter()
-                        .filter(|x| !out.recordings.contains_key(x.recording.as_str()))
+                        .filter(|x| !ids.contains_key(&x.recording.id()))
                         .map(|x| x.recording.as_str())
                         .collect::<std::collections::HashSet<_>>()
                         .len();
                 return Err(AnalysisError::RecordingCount { found, declared: plan.recordings });
             }
-            labels.push((c.trajectory, c.speed, c.line));
+            labels.push((c.recording, c.trajectory, c.speed, c.line));
             out.table.resize(out.table.len() + block, None);
         }
         let k = out.slot(r, m, a, h, s);
@@ -145,17 +152,13 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
         }
         out.table[k] = Some(c);
         if r != next {
-            check_labels(labels[r], c)?;
+            let (_, t, s, line) = labels[r];
+            check_labels((t, s, line), c)?;
         }
     }
-    out.labels = out
-        .recordings
-        .iter()
-        .map(|(name, &r)| {
-            let (t, s, line) = labels[r];
-            (name.to_string(), (t.to_string(), s.to_string(), line))
-        })
-        .collect();
+    out.recordings = labels.iter().enumerate().map(|(r, (name, ..))| (name.as_str(), r)).collect();
+    out.labels =
+        labels.iter().map(|&(name, t, s, line)| (name.to_string(), (t.to_string(), s.to_string(), line))).collect();
     Ok(out)
 }
 

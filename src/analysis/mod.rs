@@ -158,9 +158,15 @@ fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
 /// assert_eq!(a.decision.rule.to_string(), "confirmed when optimism >= 10% and upper < 0");
 /// ```
 pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<Analysis, AnalysisError> {
-    check_single_run(plan, cells)?;
-    // Checked on every core; the first refused row in file order is named.
-    if let Some(k) = cells.par_iter().position_first(|c| check_values(plan, c).is_err()) {
+    // Checked on every core, in one pass over the cells: the first row a
+    // single run refuses (a `split` or `dose` column the design lacks, or a
+    // value it refuses). Where there is one, the checks in their order
+    // name the first refused row in file order.
+    let family_column =
+        |c: &Cell| (c.split.is_some() && plan.splits.is_empty()) || (c.dose.is_some() && plan.doses.is_empty());
+    let first_refused = cells.par_iter().position_first(|c| family_column(c) || check_values(plan, c).is_err());
+    check_single_run(plan, if first_refused.is_some() { cells } else { &[] })?;
+    if let Some(k) = first_refused {
         check_values(plan, &cells[k])?;
     }
     let data = index::index(plan, cells)?;

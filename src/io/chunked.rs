@@ -10,6 +10,7 @@
 //! reference reader to read the file and say what and where.
 
 use std::io::Read;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
@@ -21,29 +22,31 @@ const WAVE: usize = 16;
 
 /// The rows of the CSV `reader` (at most `limit` bytes; about `size`
 /// bytes expected, 0 where unknown: room for its rows is taken once, from
-/// the rows of its first block), parsed in chunks of about `chunk` bytes,
-/// with what each chunk's rows left in their state (in file order);
+/// the rows of its first block), parsed in chunks of about `chunk` bytes;
 /// `None` where a reference reader must read it.
 /// `header` reads the header record (`None`: a header this file's reader
 /// refuses); `row` reads the fields of the record on 1-based line `line`,
-/// with its chunk's state (`None`: a row it refuses). Every row has the
-/// header's number of fields. `seen` is given every byte read, in file
-/// order, while the text before it is parsed (to hash the file as it is
-/// read); where the reader gives up, it has seen only part of the file.
-pub fn read<H, S, T>(
+/// with a scratch state of its own (`None`: a row it refuses). Rows are
+/// parsed on every core straight into their place in the result, so no
+/// row is copied after it is made; `fill` stands in, unseen, for a row
+/// refused (the whole read is then given up). Every row has the header's
+/// number of fields. `seen` is given every byte read, in file order,
+/// while the text before it is parsed (to hash the file as it is read);
+/// where the reader gives up, it has seen only part of the file.
+pub fn read<H, N, T>(
     reader: impl Read,
     (limit, size, chunk): (u64, u64, usize),
     header: impl FnOnce(&csv::StringRecord) -> Option<H>,
-    row: impl Fn(&H, u64, &[&str], &mut S) -> Option<T> + Sync,
+    (row, fill): (impl Fn(&H, u64, &[&str], &mut N) -> Option<T> + Sync, &T),
     mut seen: impl FnMut(&[u8]) + Send,
-) -> Option<(Vec<T>, Vec<S>)>
+) -> Option<Vec<T>>
 where
     H: Sync,
-    S: Default + Send,
-    T: Send,
+    N: Default + Send,
+    T: Send + Sync + Clone,
 {
     let mut input = reader.take(limit.saturating_add(1));
-    let (mut text, mut rows, mut states) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut text, mut rows, mut lines) = (Vec::new(), Vec::new(), Vec::new());
     let (mut head, mut header) = (None, Some(header));
     // Line breaks before the text held.
     let (mut lines_before, mut total) = (0u64, 0u64);
@@ -73,64 +76,121 @@ where
             (from, lines_before) = (end, 1);
         }
         let (h, fields) = head.as_ref()?;
-        let ranges = split(&text[..cut], from, chunk);
-        let first = first_lines(&text, &ranges, &mut lines_before)?;
-        // The new bytes are seen on one core while the others parse.
-        let ((), parsed) = rayon::join(
-            || seen(&text[old..]),
-            || -> Vec<Option<(Vec<T>, S)>> {
-                ranges
-                    .par_iter()
-                    .zip(first)
-                    .map(|(&(a, b), (before, breaks))| {
-                        parse(&text[a..b], (before, breaks), *fields, |line, rec, s| row(h, line, rec, s))
-                    })
-                    .collect()
-            },
-        );
-        let parsed: Vec<(Vec<T>, S)> = parsed.into_iter().collect::<Option<_>>()?;
-        let n: usize = parsed.iter().map(|p| p.0.len()).sum();
+        lines_of(&text[..cut], split(&text[..cut], from, chunk), &mut lines_before, &mut lines)?;
         if rows.is_empty() && !at_end {
             // The rest at this block's rows per byte, and 1/16 more: one
             // allocation, not a doubling and a copy (at 10M rows, 1 GB
             // and seconds).
-            let rest = size.min(limit).saturating_sub(total) as f64 * n as f64 / cut as f64 * 1.0625;
-            rows.reserve_exact(n.saturating_add(rest as usize));
+            let rest = size.min(limit).saturating_sub(total) as f64 * lines.len() as f64 / cut as f64 * 1.0625;
+            rows.reserve_exact(lines.len().saturating_add(rest as usize));
         }
-        rows.reserve(n);
-        for (r, s) in parsed {
-            rows.extend(r);
-            states.push(s);
-        }
+        // The new bytes are seen on one core while the others parse.
+        let (held, lines) = (&text[..cut], &lines);
+        let ((), parsed) =
+            rayon::join(|| seen(&text[old..]), || parse(held, lines, (h, *fields), (&row, fill), &mut rows));
+        parsed?;
         text.drain(..cut);
         if at_end {
-            return Some((rows, states));
+            return Some(rows);
         }
     }
 }
 
-/// For each range of `text`, the line breaks before it (from
-/// `lines_before`, which it advances) and in it, counted at once; `None`
-/// where a range's records are not one line each.
-fn first_lines(text: &[u8], ranges: &[(usize, usize)], lines_before: &mut u64) -> Option<Vec<(u64, u64)>> {
-    let breaks: Vec<Option<u64>> = ranges.par_iter().map(|&(a, b)| line_breaks(&text[a..b])).collect();
-    let mut first = Vec::with_capacity(ranges.len());
-    for b in breaks {
-        let b = b?;
-        first.push((*lines_before, b));
-        *lines_before += b;
-    }
-    Some(first)
+/// A record's line in the text held: its bytes (without the line
+/// break) and its 1-based line in the file.
+struct Line {
+    start: usize,
+    end: usize,
+    line: u64,
 }
 
-/// The line breaks of `text`; `None` where its records are not one line
-/// each: it holds a quote, or a `\r` that does not begin a `\r\n`.
-fn line_breaks(text: &[u8]) -> Option<u64> {
-    let lone_cr = memchr::memchr_iter(b'\r', text).any(|k| text.get(k + 1) != Some(&b'\n'));
-    if lone_cr || memchr::memchr(b'"', text).is_some() {
-        return None;
+/// Every record of `text`'s `ranges` into `lines` (cleared first), each
+/// range read on its own core, and `lines_before` advanced past `text`'s
+/// line breaks; `None` where its records are not one line each: it holds
+/// a quote, or a `\r` that does not begin a `\r\n`. A blank line is no
+/// record, as the csv crate reads it.
+fn lines_of(text: &[u8], ranges: Vec<(usize, usize)>, lines_before: &mut u64, lines: &mut Vec<Line>) -> Option<()> {
+    let per_range: Vec<Option<(Vec<Line>, u64)>> = ranges
+        .into_par_iter()
+        .map(|(a, b)| {
+            let range = &text[a..b];
+            let lone_cr = memchr::memchr_iter(b'\r', range).any(|k| range.get(k + 1) != Some(&b'\n'));
+            if lone_cr || memchr::memchr(b'"', range).is_some() {
+                return None;
+            }
+            // Line numbers from the range's start, made the file's below.
+            let (mut out, mut start, mut breaks) = (Vec::new(), a, 0u64);
+            let ends = memchr::memchr_iter(b'\n', range).map(|k| a + k).chain((!range.ends_with(b"\n")).then_some(b));
+            for end in ends {
+                let line = &text[start..end];
+                let stripped = line.strip_suffix(b"\r").map_or(end, |l| start + l.len());
+                if stripped > start {
+                    out.push(Line { start, end: stripped, line: breaks + 1 });
+                }
+                start = end + 1;
+                breaks += 1;
+            }
+            // The last line of a text without a final line break ends at
+            // no line break.
+            Some((out, breaks - u64::from(!range.ends_with(b"\n"))))
+        })
+        .collect();
+    lines.clear();
+    for r in per_range {
+        let (mut found, breaks) = r?;
+        found.iter_mut().for_each(|l| l.line += *lines_before);
+        lines.append(&mut found);
+        *lines_before += breaks;
     }
-    Some(memchr::memchr_iter(b'\n', text).count() as u64)
+    Some(())
+}
+
+/// The records `lines` of `text`, each of `fields` fields, read by `row`
+/// (with `header`'s reading `h`) on every core and appended to `rows` in
+/// their order, each made in its place; `None` where one is refused (and
+/// `fill` stands in for it).
+fn parse<H, N, T>(
+    text: &[u8],
+    lines: &[Line],
+    (h, fields): (&H, usize),
+    (row, fill): (&(impl Fn(&H, u64, &[&str], &mut N) -> Option<T> + Sync), &T),
+    rows: &mut Vec<T>,
+) -> Option<()>
+where
+    H: Sync,
+    N: Default + Send,
+    T: Send + Sync + Clone,
+{
+    let refused = AtomicBool::new(false);
+    let one = |(state, record): &mut (N, Vec<_>), l: &Line| {
+        let parsed = (!refused.load(Ordering::Relaxed)).then(|| fields_of(text, l, record)).flatten();
+        match parsed.filter(|record| record.len() == fields) {
+            Some(record) => row(h, l.line, record, state),
+            None => None,
+        }
+        .unwrap_or_else(|| {
+            refused.store(true, Ordering::Relaxed);
+            fill.clone()
+        })
+    };
+    rows.par_extend(lines.par_iter().map_init(|| (N::default(), Vec::with_capacity(fields)), one));
+    (!refused.into_inner()).then_some(())
+}
+
+/// The fields of line `l` of `text` (split at commas, as the csv crate
+/// splits a line without quotes) into `record`; `None` where it is not
+/// UTF-8.
+fn fields_of<'t, 'r>(text: &'t [u8], l: &Line, record: &'r mut Vec<&'t str>) -> Option<&'r [&'t str]> {
+    let line = std::str::from_utf8(&text[l.start..l.end]).ok()?;
+    record.clear();
+    // Commas are ASCII: every cut is a char boundary.
+    let mut from = 0;
+    for comma in memchr::memchr_iter(b',', line.as_bytes()) {
+        record.push(&line[from..comma]);
+        from = comma + 1;
+    }
+    record.push(&line[from..]);
+    Some(record)
 }
 
 /// `text[from..]` cut into ranges of about `chunk` bytes, each ending
@@ -147,45 +207,4 @@ fn split(text: &[u8], mut from: usize, chunk: usize) -> Vec<(usize, usize)> {
         from = end;
     }
     ranges
-}
-
-/// The rows of one chunk of whole lines, `before` lines into the file and
-/// holding `breaks` line breaks, each of `fields` fields, and the state
-/// they left; `None` at the first row refused. A chunk holds no quote and
-/// no lone `\r`, so its records are its lines split at commas, as the csv
-/// crate splits them: a blank line is no record, text that is not UTF-8
-/// is refused.
-fn parse<S: Default, T>(
-    text: &[u8],
-    (before, breaks): (u64, u64),
-    fields: usize,
-    row: impl Fn(u64, &[&str], &mut S) -> Option<T>,
-) -> Option<(Vec<T>, S)> {
-    let text = std::str::from_utf8(text).ok()?;
-    // At most one row per line (one more without a final line break).
-    let (mut rows, mut state) = (Vec::with_capacity(breaks as usize + 1), S::default());
-    let mut record: Vec<&str> = Vec::with_capacity(fields);
-    let mut start = 0;
-    let ends = memchr::memchr_iter(b'\n', text.as_bytes()).chain((!text.ends_with('\n')).then_some(text.len()));
-    for (k, end) in ends.enumerate() {
-        let line = &text[start..end];
-        start = end + 1;
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        if line.is_empty() {
-            continue;
-        }
-        record.clear();
-        let mut from = 0;
-        // Commas and line breaks are ASCII: every cut is a char boundary.
-        for comma in memchr::memchr_iter(b',', line.as_bytes()) {
-            record.push(&line[from..comma]);
-            from = comma + 1;
-        }
-        record.push(&line[from..]);
-        if record.len() != fields {
-            return None;
-        }
-        rows.push(row(before + 1 + k as u64, &record, &mut state)?);
-    }
-    Some((rows, state))
 }

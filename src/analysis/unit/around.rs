@@ -22,16 +22,26 @@ impl Ctx<'_> {
         let (rows, cols) = (a.treated.rows, a.treated.cols);
         let interval = self.estimate(&a.reference).and_then(|reference| {
             let point = optimism_pct / 100.0;
-            match (a.treated.values(), a.reference.values()) {
-                // Every cell present: each L(rho) built as plain values.
-                (Some(t), Some(r)) => ratio_interval(point, &reference, |rho: f64| {
-                    let v = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
-                    estimate_complete(&self.plan.estimator, rows, cols, v)
-                }),
-                _ => ratio_interval(point, &reference, |rho: f64| {
+            if let (Some(t), Some(r)) = (a.treated.values(), a.reference.values()) {
+                // Every cell present: each L(rho) built as plain values, in
+                // a buffer of an earlier L (at 10M cells, 40 MB each, that
+                // the system would otherwise hand over and clear anew).
+                let buffers = std::sync::Mutex::new(Vec::new());
+                ratio_interval(point, &reference, |rho: f64| {
+                    let mut v: Vec<f64> = buffers.lock().ok().and_then(|mut b| b.pop()).unwrap_or_default();
+                    v.clear();
+                    v.extend(t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r));
+                    let (estimate, v) = estimate_complete(&self.plan.estimator, rows, cols, v);
+                    if let (Some(v), Ok(mut b)) = (v, buffers.lock()) {
+                        b.push(v);
+                    }
+                    estimate
+                })
+            } else {
+                ratio_interval(point, &reference, |rho: f64| {
                     let v = a.treated.v.iter().zip(&a.reference.v);
                     self.estimate(&Grid { rows, cols, v: v.map(|(t, r)| Some((*t)? - (1.0 - rho) * (*r)?)).collect() })
-                }),
+                })
             }
         });
         match interval {

@@ -169,11 +169,19 @@ pub(crate) fn estimate_grid(
     cols: usize,
     v: Vec<Option<f64>>,
 ) -> Result<CrossedEstimate, StatsError> {
-    let g = Grid { rows, cols, v };
-    if let Some(m) = g.complete().filter(|_| g.seed_invariant()) {
-        // Every recording's value is the same for every seed: the seeds add
-        // no variation, and the interval's df come from the recordings.
-        return crossed_mom(&m?, est.level, DfRule::RecordingsMinusOne);
+    estimate_of(est, &Grid { rows, cols, v })
+}
+
+/// [`estimate_grid`] of a grid held elsewhere: it is read, not copied (at
+/// 10M cells a grid is 80 MB), and its values are taken once.
+fn estimate_of(est: &Estimator, g: &Grid) -> Result<CrossedEstimate, StatsError> {
+    if g.seed_invariant() {
+        if let Some(m) = g.complete() {
+            // Every recording's value is the same for every seed: the
+            // seeds add no variation, and the interval's df come from the
+            // recordings.
+            return crossed_mom(&m?, est.level, DfRule::RecordingsMinusOne);
+        }
     }
     match est.kind {
         EstimatorKind::Reml => crossed_reml(&g.cells(), g.rows, g.cols, est.level, est.df),
@@ -190,13 +198,24 @@ pub(crate) fn estimate_grid(
 
 /// [`estimate_grid`] of a grid with every cell present, given as its
 /// values: bit for bit the same estimate, without the grid of options (the
-/// optimism's interval estimates a million-cell array a hundred times).
-fn estimate_complete(est: &Estimator, rows: usize, cols: usize, v: Vec<f64>) -> Result<CrossedEstimate, StatsError> {
+/// optimism's interval estimates a million-cell array a hundred times),
+/// and the values given back where the estimator left them whole, for
+/// the next array to be built in.
+fn estimate_complete(
+    est: &Estimator,
+    rows: usize,
+    cols: usize,
+    v: Vec<f64>,
+) -> (Result<CrossedEstimate, StatsError>, Option<Vec<f64>>) {
     let invariant = cols >= 2 && v.chunks(cols).all(|row| row.iter().all(|x| x.to_bits() == row[0].to_bits()));
-    match est.kind {
-        _ if invariant => crossed_mom(&CrossedMatrix::new(rows, cols, v)?, est.level, DfRule::RecordingsMinusOne),
-        EstimatorKind::CrossedMom => crossed_mom(&CrossedMatrix::new(rows, cols, v)?, est.level, est.df),
-        EstimatorKind::Reml => estimate_grid(est, rows, cols, v.into_iter().map(Some).collect()),
+    let rule = match est.kind {
+        _ if invariant => DfRule::RecordingsMinusOne,
+        EstimatorKind::CrossedMom => est.df,
+        EstimatorKind::Reml => return (estimate_grid(est, rows, cols, v.into_iter().map(Some).collect()), None),
+    };
+    match CrossedMatrix::new(rows, cols, v) {
+        Ok(m) => (crossed_mom(&m, est.level, rule), Some(m.into_values())),
+        Err(e) => (Err(e), None),
     }
 }
 
@@ -221,7 +240,7 @@ impl Ctx<'_> {
     /// The crossed estimate of a grid's mean under the plan's estimator. The
     /// MoM needs every cell; REML takes whatever cells are present.
     fn estimate(&self, g: &Grid) -> Result<CrossedEstimate, StatsError> {
-        estimate_grid(&self.plan.estimator, g.rows, g.cols, g.v.clone())
+        estimate_of(&self.plan.estimator, g)
     }
 
     /// One arm's grid of `metric`. A cell is missing where the per-cell
@@ -230,18 +249,27 @@ impl Ctx<'_> {
     /// and attitude errors are over finite rollouts, so a cell whose every
     /// start diverged has none (the cells reader checks exactly that).
     fn grid(&self, model: &str, arm: &str, metric: Metric, h: f64) -> Grid {
+        use rayon::prelude::*;
         let (rows, cols) = (self.recordings.len(), self.plan.seeds.len());
-        let mut v = Vec::with_capacity(rows * cols);
-        for r in self.recordings {
+        // A row of the grid per task: its cells lie apart in memory (the
+        // file's order is rarely the grid's), and their reads wait on every
+        // core at once. Each value lands in its place: the same grid at any
+        // thread count.
+        let mut v = vec![None; rows * cols];
+        v.par_chunks_mut(cols.max(1)).zip(self.recordings).for_each(|(out, r)| {
             let row = self.data.row(model, arm, &r.recording, h);
-            v.extend((0..cols).map(|j| row.and_then(|row| row[j]).and_then(|c| metric_value(c, metric))));
-        }
+            for (j, x) in out.iter_mut().enumerate() {
+                *x = row.and_then(|row| row[j]).and_then(|c| metric_value(c, metric));
+            }
+        });
         Grid { rows, cols, v }
     }
 
     fn arrays(&self, model: &str, metric: Metric, h: f64) -> ArmArrays {
-        let treated = self.grid(model, &self.plan.contrast.treated, metric, h);
-        let reference = self.grid(model, &self.plan.contrast.reference, metric, h);
+        let (treated, reference) = rayon::join(
+            || self.grid(model, &self.plan.contrast.treated, metric, h),
+            || self.grid(model, &self.plan.contrast.reference, metric, h),
+        );
         let diff = treated.minus(&reference);
         ArmArrays { treated: treated.masked(&diff), reference: reference.masked(&diff), diff }
     }
@@ -563,7 +591,7 @@ impl Ctx<'_> {
         // Pairs without a finite-rollout error: paired, as each model's unit.
         let paired = paired_estimator(&self.plan.estimator, &delta);
         let est = paired.as_ref().unwrap_or(&self.plan.estimator);
-        let estimate = estimate_grid(est, delta.rows, delta.cols, delta.v.clone()).map_err(stats)?;
+        let estimate = estimate_of(est, &delta).map_err(stats)?;
         let bootstrap = match (self.plan.sensitivity.bootstrap, delta.complete()) {
             (Some(b), Some(m)) => {
                 Some(pigeonhole_bootstrap(&m.map_err(stats)?, b.replicates, est.level, b.seed, stream).map_err(stats)?)
