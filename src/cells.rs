@@ -200,7 +200,7 @@ fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>
 /// where).
 fn read_chunked(
     name: &str,
-    (reader, size): (impl std::io::Read, u64),
+    (reader, size): (impl std::io::Read + Send, u64),
     chunk: usize,
     seen: impl FnMut(&[u8]) + Send,
 ) -> Option<Vec<Cell>> {

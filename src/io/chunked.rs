@@ -34,7 +34,7 @@ const WAVE: usize = 16;
 /// while the text before it is parsed (to hash the file as it is read);
 /// where the reader gives up, it has seen only part of the file.
 pub fn read<H, N, T>(
-    reader: impl Read,
+    reader: impl Read + Send,
     (limit, size, chunk): (u64, u64, usize),
     header: impl FnOnce(&csv::StringRecord) -> Option<H>,
     (row, fill): (impl Fn(&H, u64, &[&str], &mut N) -> Option<T> + Sync, &T),
@@ -46,14 +46,17 @@ where
     T: Send + Sync + Clone,
 {
     let mut input = reader.take(limit.saturating_add(1));
-    let (mut text, mut rows, mut lines) = (Vec::new(), Vec::new(), Vec::new());
+    let want = chunk.max(1) * WAVE;
+    let mut block = |buf: &mut Vec<u8>| (&mut input).take(want as u64).read_to_end(buf).ok();
+    // The text held, from `old` on not yet seen; the next block is read
+    // into `spare` while this one is parsed.
+    let (mut text, mut spare, mut old) = (Vec::new(), Vec::new(), 0);
+    let (mut rows, mut lines) = (Vec::new(), Vec::new());
     let (mut head, mut header) = (None, Some(header));
     // Line breaks before the text held.
     let (mut lines_before, mut total) = (0u64, 0u64);
+    let mut got = block(&mut text)?;
     loop {
-        let want = chunk.max(1) * WAVE;
-        let old = text.len();
-        let got = (&mut input).take(want as u64).read_to_end(&mut text).ok()?;
         total += got as u64;
         if total > limit {
             return None;
@@ -65,6 +68,8 @@ where
         if cut == 0 && !at_end {
             // Not one whole line yet.
             seen(&text[old..]);
+            old = text.len();
+            got = block(&mut text)?;
             continue;
         }
         let mut from = 0;
@@ -84,15 +89,31 @@ where
             let rest = size.min(limit).saturating_sub(total) as f64 * lines.len() as f64 / cut as f64 * 1.0625;
             rows.reserve_exact(lines.len().saturating_add(rest as usize));
         }
-        // The new bytes are seen on one core while the others parse.
+        // The unparsed end of this block begins the next.
+        spare.clear();
+        spare.extend_from_slice(&text[cut..]);
+        let next_old = spare.len();
+        // The new bytes are seen, and the next block read, on one core
+        // while the others parse.
         let (held, lines) = (&text[..cut], &lines);
-        let ((), parsed) =
-            rayon::join(|| seen(&text[old..]), || parse(held, lines, (h, *fields), (&row, fill), &mut rows));
+        let (next, parsed) = rayon::join(
+            || {
+                seen(&text[old..]);
+                if at_end {
+                    Some(0)
+                } else {
+                    block(&mut spare)
+                }
+            },
+            || parse(held, lines, (h, *fields), (&row, fill), &mut rows),
+        );
         parsed?;
-        text.drain(..cut);
         if at_end {
             return Some(rows);
         }
+        got = next?;
+        std::mem::swap(&mut text, &mut spare);
+        old = next_old;
     }
 }
 
