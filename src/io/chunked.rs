@@ -74,11 +74,8 @@ where
         }
         let mut from = 0;
         if let Some(read_header) = header.take() {
-            let end = memchr::memchr(b'\n', &text[..cut]).map_or(cut, |k| k + 1);
-            let mut rdr = csv::ReaderBuilder::new().has_headers(true).from_reader(&text[..end]);
-            let record = rdr.headers().ok()?;
-            head = Some((read_header(record)?, record.len()));
-            (from, lines_before) = (end, 1);
+            let (read, end) = header_of(&text[..cut], read_header)?;
+            (head, from, lines_before) = (Some(read), end, 1);
         }
         let (h, fields) = head.as_ref()?;
         lines_of(&text[..cut], split(&text[..cut], from, chunk), &mut lines_before, &mut lines)?;
@@ -115,6 +112,15 @@ where
         std::mem::swap(&mut text, &mut spare);
         old = next_old;
     }
+}
+
+/// The header record at the start of `text`, as `read` reads it, with
+/// its number of fields, and where the rows begin.
+fn header_of<H>(text: &[u8], read: impl FnOnce(&csv::StringRecord) -> Option<H>) -> Option<((H, usize), usize)> {
+    let end = memchr::memchr(b'\n', text).map_or(text.len(), |k| k + 1);
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).from_reader(&text[..end]);
+    let record = rdr.headers().ok()?;
+    Some(((read(record)?, record.len()), end))
 }
 
 /// A record's line in the text held: its bytes (without the line
