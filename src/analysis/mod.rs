@@ -97,6 +97,20 @@ fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
 fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     let cap = plan.cap.0;
     let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line, field, value, problem };
+    // A file's values are finite (its reader refuses any other); cells
+    // built in memory are checked here, since the analysis's grids mark a
+    // missing cell with NaN.
+    for (field, value) in [
+        ("fa_position_rmse_m", Some(c.fa_position_rmse_m)),
+        ("conditional_position_rmse_m", c.conditional_position_rmse_m),
+        ("divergence_rate", Some(c.divergence_rate)),
+        ("velocity_rmse_mps", c.velocity_rmse_mps),
+        ("attitude_rmse_deg", c.attitude_rmse_deg),
+    ] {
+        if let Some(v) = value.filter(|v| !v.is_finite()) {
+            return Err(impossible(field, v, "a metric is a finite number".to_string()));
+        }
+    }
     if c.fa_position_rmse_m > cap {
         return Err(impossible(
             "fa_position_rmse_m",

@@ -30,7 +30,7 @@ impl Ctx<'_> {
                 ratio_interval(point, &reference, |rho: f64| {
                     let mut v: Vec<f64> = buffers.lock().ok().and_then(|mut b| b.pop()).unwrap_or_default();
                     v.clear();
-                    v.extend(t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r));
+                    v.extend(t.iter().zip(r).map(|(t, r)| t - (1.0 - rho) * r));
                     let (estimate, v) = estimate_complete(&self.plan.estimator, rows, cols, v);
                     if let (Some(v), Ok(mut b)) = (v, buffers.lock()) {
                         b.push(v);
@@ -40,7 +40,7 @@ impl Ctx<'_> {
             } else {
                 ratio_interval(point, &reference, |rho: f64| {
                     let v = a.treated.v.iter().zip(&a.reference.v);
-                    self.estimate(&Grid { rows, cols, v: v.map(|(t, r)| Some((*t)? - (1.0 - rho) * (*r)?)).collect() })
+                    self.estimate(&Grid { rows, cols, v: v.map(|(t, r)| t - (1.0 - rho) * r).collect() })
                 })
             }
         });
@@ -61,9 +61,9 @@ impl Ctx<'_> {
     /// When every start diverged in both arms (every cell at the cap), the
     /// message says so: the endpoint cannot tell the arms apart.
     pub(super) fn degenerate(&self, u: &AnalysisUnit, a: &ArmArrays, label: &str) -> Result<(), AnalysisError> {
-        let d: Vec<f64> = a.diff.v.iter().flatten().copied().collect();
+        let d: Vec<f64> = a.diff.present().collect();
         let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(*x), h.max(*x)));
-        let scale = a.treated.v.iter().chain(&a.reference.v).flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+        let scale = a.treated.present().chain(a.reference.present()).fold(0.0f64, |m, x| m.max(x.abs()));
         if d.len() < 2 || hi - lo > 1e-9 * scale {
             return Ok(());
         }

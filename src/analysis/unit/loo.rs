@@ -21,7 +21,7 @@ impl LeftOut {
     fn new(g: &Grid, factor: Factor) -> LeftOut {
         let by_seed = factor == Factor::Seed;
         let mut part = vec![(0.0, 0usize); if by_seed { g.cols } else { g.rows }];
-        for (k, x) in g.v.iter().enumerate().filter_map(|(k, x)| x.map(|x| (k, x))) {
+        for (k, x) in g.v.iter().enumerate().filter(|(_, x)| !x.is_nan()) {
             let p = &mut part[if by_seed { k % g.cols } else { k / g.cols }];
             (p.0, p.1) = (p.0 + x, p.1 + 1);
         }
