@@ -251,6 +251,45 @@ fn models_arms_seeds_and_horizons_outside_the_design_are_rejected() {
     }
 }
 
+/// Cells built in memory skip the reader's checks: a metric that is NaN
+/// or infinite is refused by line and field, never read as a missing cell
+/// (the analysis's grids mark a missing cell with NaN).
+#[test]
+fn a_non_finite_metric_built_in_memory_is_refused_by_line_and_field() {
+    let d = minimal_design();
+    for (field, edit) in [
+        ("fa_position_rmse_m", Box::new(|c: &mut Cell| c.fa_position_rmse_m = f64::NAN) as Box<dyn Fn(&mut Cell)>),
+        ("conditional_position_rmse_m", Box::new(|c: &mut Cell| c.conditional_position_rmse_m = Some(f64::NAN))),
+        ("divergence_rate", Box::new(|c: &mut Cell| c.divergence_rate = f64::INFINITY)),
+        ("velocity_rmse_mps", Box::new(|c: &mut Cell| c.velocity_rmse_mps = Some(f64::NEG_INFINITY))),
+    ] {
+        let mut cells = lined(minimal_cells(&d));
+        edit(&mut cells[4]);
+        let e = err_of(&cells);
+        assert!(
+            e.starts_with(&format!("line 6, field `{field}`")) && e.contains("a metric is a finite number"),
+            "{field}: {e}"
+        );
+    }
+}
+
+/// The analysis checks every row in one parallel pass, and its errors keep
+/// their order: a `split` column the design lacks is named even where an
+/// earlier row has a refused value, and of two refused values the first.
+#[test]
+fn the_rows_checks_name_what_the_checks_in_order_name() {
+    let d = minimal_design();
+    let mut cells = lined(minimal_cells(&d));
+    cells[2].fa_position_rmse_m = 99.0;
+    cells[6].split = Some(42);
+    let e = err_of(&cells);
+    assert!(e.contains("line 8: the file has a `split` column, but the design has no split factor"), "{e}");
+    cells[6].split = None;
+    cells[9].fa_position_rmse_m = 99.0;
+    let e = err_of(&cells);
+    assert!(e.starts_with("line 4, field `fa_position_rmse_m`") && e.contains("divergence cap"), "{e}");
+}
+
 #[test]
 fn a_zero_reference_mean_is_an_error_not_an_infinite_optimism() {
     let d = minimal_design();
