@@ -44,6 +44,29 @@ fn chunks_read_what_the_reference_reader_reads() {
     }
 }
 
+/// A column with values in some rows and empty in others where not every
+/// start diverged is refused, whichever rows each core read and at any
+/// chunk size: the parallel reader gives the file up, and the reference
+/// reader names the first such row and the first row with a value.
+#[test]
+fn a_column_empty_in_some_rows_only_is_refused_at_any_chunk_size() {
+    let name = "examples/cells/nanobench_synthetic.csv";
+    let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name)).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    // One gap, on file line 3001 (lines[3000]), in the velocity (field
+    // 12): a core that reads the rows around it must not lose it.
+    let mut f: Vec<&str> = lines[3000].split(',').collect();
+    assert_ne!(f[7], f[8], "line 3001: not every start diverged");
+    f[12] = "";
+    lines[3000] = f.join(",");
+    let bytes = (lines.join("\n") + "\n").into_bytes();
+    for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
+        assert!(read_chunked(name, (bytes.as_slice(), 0), chunk, |_| {}).is_none(), "chunks of {chunk}");
+    }
+    let e = read_cells_from(name, bytes.as_slice()).unwrap_err().to_string();
+    assert!(e.contains("line 3001, field `velocity_rmse_mps`") && e.contains("line 2 has a value"), "{e}");
+}
+
 /// fast-float2 and Rust's own parser read the same numbers to the same
 /// values: random strings over the characters of numbers, infinities
 /// and NaN, and the shortest round-trip text of random doubles.
