@@ -1,7 +1,8 @@
-//! A CSV file read on every core. The file is read in blocks; each block
-//! is cut at line breaks into chunks, and the chunks are parsed at once,
-//! their rows kept in file order, so the rows are the same whatever the
-//! thread count.
+//! A CSV file read on every core. The file is read in blocks, the next
+//! while one is parsed. Each block's records are found in chunks cut at
+//! line breaks, all at once; then every record is parsed on any core
+//! straight into its place in the rows, in file order, so the rows are the
+//! same whatever the thread count and none is copied after it is made.
 //!
 //! This reader only accelerates: it takes files whose records are one line
 //! each (no quote, no line break but `\n` or `\r\n`), and whenever anything
