@@ -15,7 +15,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-/// Bytes of text parsed as one task: about 12,000 per-cell rows.
+/// Bytes of text whose records are found as one task: about 12,000
+/// per-cell rows.
 pub const CHUNK: usize = 1 << 20;
 
 /// Chunks read before they are parsed together: a bound on the text held.
