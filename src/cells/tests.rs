@@ -26,15 +26,15 @@ fn committed() -> Vec<(String, Vec<u8>)> {
 /// included, at any chunk size, with `\n` or `\r\n` line breaks,
 /// blank lines, and no line break at the end.
 #[test]
-fn chunks_read_what_the_reference_reader_reads() {
+fn chunks_read_what_the_reference_reader_reads() -> Result<(), Box<dyn std::error::Error>> {
     let files = committed();
     assert_eq!(files.len(), 6, "the committed per-cell files are read");
     for (name, bytes) in files {
-        let crlf: Vec<u8> = String::from_utf8(bytes.clone()).unwrap().replace('\n', "\r\n").into_bytes();
-        let blank: Vec<u8> = String::from_utf8(bytes.clone()).unwrap().replacen("\n", "\n\n", 7).into_bytes();
+        let crlf: Vec<u8> = String::from_utf8(bytes.clone())?.replace('\n', "\r\n").into_bytes();
+        let blank: Vec<u8> = String::from_utf8(bytes.clone())?.replacen("\n", "\n\n", 7).into_bytes();
         let bare = bytes.strip_suffix(b"\n").unwrap_or(&bytes).to_vec();
         for text in [&bytes, &crlf, &blank, &bare] {
-            let reference = read_cells_from(&name, text.as_slice()).unwrap();
+            let reference = read_cells_from(&name, text.as_slice())?;
             for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
                 let cells = read_chunked(&name, (text.as_slice(), text.len() as u64), chunk, |_| {})
                     .unwrap_or_else(|| panic!("{name} at {chunk}"));
@@ -42,6 +42,7 @@ fn chunks_read_what_the_reference_reader_reads() {
             }
         }
     }
+    Ok(())
 }
 
 /// A column with values in some rows and empty in others where not every
@@ -49,9 +50,9 @@ fn chunks_read_what_the_reference_reader_reads() {
 /// chunk size: the parallel reader gives the file up, and the reference
 /// reader names the first such row and the first row with a value.
 #[test]
-fn a_column_empty_in_some_rows_only_is_refused_at_any_chunk_size() {
+fn a_column_empty_in_some_rows_only_is_refused_at_any_chunk_size() -> Result<(), Box<dyn std::error::Error>> {
     let name = "examples/cells/nanobench_synthetic.csv";
-    let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name)).unwrap();
+    let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name))?;
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     // One gap, on file line 3001 (lines[3000]), in the velocity (field
     // 12): a core that reads the rows around it must not lose it.
@@ -63,8 +64,9 @@ fn a_column_empty_in_some_rows_only_is_refused_at_any_chunk_size() {
     for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
         assert!(read_chunked(name, (bytes.as_slice(), 0), chunk, |_| {}).is_none(), "chunks of {chunk}");
     }
-    let e = read_cells_from(name, bytes.as_slice()).unwrap_err().to_string();
+    let e = read_cells_from(name, bytes.as_slice()).err().ok_or("a gap was accepted")?.to_string();
     assert!(e.contains("line 3001, field `velocity_rmse_mps`") && e.contains("line 2 has a value"), "{e}");
+    Ok(())
 }
 
 /// fast-float2 and Rust's own parser read the same numbers to the same
@@ -99,7 +101,7 @@ fn numbers_are_read_as_rusts_parser_reads_them() {
 /// On damaged files the chunked reader gives up or agrees: it never
 /// returns cells the reference reader refuses, or other cells.
 #[test]
-fn chunks_never_accept_what_the_reference_reader_refuses() {
+fn chunks_never_accept_what_the_reference_reader_refuses() -> Result<(), Box<dyn std::error::Error>> {
     let (name, bytes) = committed().swap_remove(0);
     let bytes = bytes[..bytes.len().min(20_000)].to_vec();
     // A 64-bit LCG (Knuth's MMIX constants): positions and bytes.
@@ -119,11 +121,12 @@ fn chunks_never_accept_what_the_reference_reader_refuses() {
         let reference = read_cells_from(&name, text.as_slice());
         refused += usize::from(reference.is_err());
         match read_chunked(&name, (text.as_slice(), text.len() as u64), 1 + next() % 3000, |_| {}) {
-            Some(cells) => assert_eq!(cells, reference.unwrap(), "accepted: {:?}", String::from_utf8_lossy(&text)),
+            Some(cells) => assert_eq!(cells, reference?, "accepted: {:?}", String::from_utf8_lossy(&text)),
             None => gave_up += 1,
         }
     }
     assert!(refused > 100 && gave_up >= refused, "{refused} refused, {gave_up} given up");
+    Ok(())
 }
 
 /// The chunked reader shows its observer every byte of the file once, in
@@ -131,7 +134,7 @@ fn chunks_never_accept_what_the_reference_reader_refuses() {
 /// has the hash of its bytes, on the parallel path, on the reference
 /// reader's (a quoted field) and as Parquet.
 #[test]
-fn a_file_is_hashed_as_it_is_read() {
+fn a_file_is_hashed_as_it_is_read() -> Result<(), Box<dyn std::error::Error>> {
     let (name, bytes) = committed().swap_remove(0);
     for chunk in [1, 100, 4096, crate::io::chunked::CHUNK] {
         let mut seen = Vec::new();
@@ -139,23 +142,24 @@ fn a_file_is_hashed_as_it_is_read() {
         assert!(cells.is_some(), "{name} at {chunk}");
         assert!(seen == bytes, "{name} at {chunk}: {} bytes seen of {}", seen.len(), bytes.len());
     }
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir()?;
     // The first row's model name in quotes: the same cells, read by the
     // reference reader.
-    let text = String::from_utf8(bytes.clone()).unwrap();
-    let (head, rest) = text.split_once('\n').unwrap();
-    let (model, rest) = rest.split_once(',').unwrap();
+    let text = String::from_utf8(bytes.clone())?;
+    let (head, rest) = text.split_once('\n').ok_or("no header line")?;
+    let (model, rest) = rest.split_once(',').ok_or("no first field")?;
     let quoted = format!("{head}\n\"{model}\",{rest}");
     assert!(read_chunked(&name, (quoted.as_bytes(), 0), 4096, |_| {}).is_none());
-    let parquet = crate::io::parquet::csv_to_parquet(&bytes).unwrap();
+    let parquet = crate::io::parquet::csv_to_parquet(&bytes)?;
     for (file, text) in [("plain.csv", bytes.clone()), ("quoted.csv", quoted.into_bytes()), ("cells.parquet", parquet)]
     {
         let path = dir.path().join(file);
-        std::fs::write(&path, &text).unwrap();
-        let (cells, sha) = read_cells_hashed(&path).unwrap();
+        std::fs::write(&path, &text)?;
+        let (cells, sha) = read_cells_hashed(&path)?;
         assert_eq!(sha, crate::io::sha256_hex(&text), "{file}");
-        assert_eq!(cells, read_cells(&path).unwrap(), "{file}");
+        assert_eq!(cells, read_cells(&path)?, "{file}");
     }
+    Ok(())
 }
 
 /// The fast trim is `str::trim`: on random strings of ASCII, Unicode
