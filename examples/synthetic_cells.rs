@@ -76,7 +76,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // recording and seed components of its own.
     let rec_gain: Vec<f64> = (0..n_rec).map(|_| 1.0 + normal(&mut rng, 0.6)).collect();
     let seed_gain: Vec<f64> = d.seeds.iter().map(|_| 1.0 + normal(&mut rng, 0.3)).collect();
-    let starts = d.recording.starts as u64;
+    let starts = d.recording.starts as u32;
     let cap = d.endpoints[0].cap.0;
     let mut keys: Vec<(String, f64)> = plan.units().map(|u| (u.model.clone(), u.horizon_s)).collect();
     keys.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
@@ -94,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     let c = if treated { (1.0 - gain).ln() } else { 0.0 };
                     let e = (base.ln() + rec_effect[i] + seed_effect[j] + c + normal(&mut rng, 0.05)).exp();
                     let p_div = (0.02 * h * (rec_effect[i] * 4.0).exp()).min(0.9);
-                    let n_div = (0..starts).filter(|_| rng.gen::<f64>() < p_div).count() as u64;
+                    let n_div = (0..starts).filter(|_| rng.gen::<f64>() < p_div).count() as u32;
                     let finite = starts - n_div;
                     let cond = e.min(cap * 0.9);
                     let fa = ((finite as f64 * cond * cond + n_div as f64 * cap * cap) / starts as f64).sqrt();

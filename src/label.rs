@@ -1,12 +1,12 @@
 //! [`Label`]: an interned, immutable name (a model, arm, recording,
 //! trajectory or speed in a per-cell row). A million rows name a few
-//! thousand distinct things; each row holds a pointer to the one copy of
+//! thousand distinct things; each row holds the number of the one copy of
 //! its name instead of five heap strings of its own.
 //!
 //! Every name is interned once per process, in a table every thread
 //! shares (and each thread caches), and kept for the life of the
-//! process: a label is a plain pointer, copied without a reference count
-//! and dropped without work, and two labels are equal when they point to
+//! process: a label is a 4-byte number, copied without a reference count
+//! and dropped without work, and two labels are equal when they number
 //! the same name. The table holds each distinct name once, so what it
 //! keeps is bounded by the distinct names read, not by the rows.
 
@@ -17,29 +17,50 @@ use std::collections::HashSet;
 use std::fmt;
 use std::hash::{BuildHasher, BuildHasherDefault, Hash, Hasher};
 use std::ops::Deref;
+use std::sync::atomic::{AtomicU32, Ordering as Atomic};
 use std::sync::{Mutex, OnceLock};
 
 /// A name shared between every row that carries it. It reads as a `str`:
 /// it derefs to one, compares equal to one, and prints and serializes as
 /// one.
 #[derive(Clone, Copy)]
-pub struct Label(&'static &'static str);
+pub struct Label(u32);
 
-// One pointer: a row holds five.
-const _: () = assert!(std::mem::size_of::<Label>() == std::mem::size_of::<usize>());
+// Four bytes: a row holds five (20 bytes, where five pointers took 40).
+const _: () = assert!(std::mem::size_of::<Label>() == 4);
 
 impl Label {
     /// The name as a `str`.
     pub fn as_str(&self) -> &'static str {
-        self.0
+        let (segment, at) = place(self.0);
+        // Set before the label was handed out (see `intern`): a label is
+        // only made from a name already in its place.
+        NAMES[segment].get().and_then(|s| s[at].get()).copied().unwrap_or_default()
     }
 
-    /// A number that is this name's alone while the process lives (the
-    /// address of its one copy): a key that hashes without reading the
-    /// name.
+    /// A number that is this name's alone while the process lives (its
+    /// place in the table of names): a key that hashes without reading
+    /// the name.
     pub fn id(&self) -> usize {
-        std::ptr::from_ref(self.0) as usize
+        self.0 as usize
     }
+}
+
+/// The names by number, in segments that double: segment k holds
+/// `FIRST << k` names, made when the first of them is, so a label's name
+/// is found without a lock and no name ever moves. 23 segments number
+/// every u32.
+const FIRST: usize = 1024;
+type Segment = Box<[OnceLock<&'static str>]>;
+static NAMES: [OnceLock<Segment>; 23] = [const { OnceLock::new() }; 23];
+/// The next name's number.
+static NEXT: AtomicU32 = AtomicU32::new(0);
+
+/// Label `n`'s segment and place in it.
+fn place(n: u32) -> (usize, usize) {
+    let m = n as usize + FIRST;
+    let segment = (usize::BITS - 1 - m.leading_zeros()) as usize - FIRST.trailing_zeros() as usize;
+    (segment, m - (FIRST << segment))
 }
 
 /// The labels of every thread, in shards chosen by the name's hash.
@@ -64,8 +85,14 @@ fn intern(name: &str) -> Label {
     let l = match shard.get(name) {
         Some(l) => *l,
         None => {
+            // Four billion names would take more memory than any machine
+            // has before the count ran out.
+            let n = NEXT.fetch_update(Atomic::Relaxed, Atomic::Relaxed, |n| n.checked_add(1)).expect("fewer than 2^32 names");
+            let (segment, at) = place(n);
+            let names = NAMES[segment].get_or_init(|| (0..FIRST << segment).map(|_| OnceLock::new()).collect());
             // Kept for the life of the process: see the module's notes.
-            let l = Label(Box::leak(Box::new(&*Box::leak(Box::from(name)))));
+            let _ = names[at].set(Box::leak(Box::from(name)));
+            let l = Label(n);
             shard.insert(l);
             l
         }
@@ -77,8 +104,8 @@ fn intern(name: &str) -> Label {
 
 impl PartialEq for Label {
     fn eq(&self, other: &Label) -> bool {
-        // One label per name: the same name is the same pointer.
-        std::ptr::eq(self.0, other.0)
+        // One label per name: the same name is the same number.
+        self.0 == other.0
     }
 }
 
@@ -115,19 +142,19 @@ impl Default for Label {
 impl Deref for Label {
     type Target = str;
     fn deref(&self) -> &str {
-        self.0
+        self.as_str()
     }
 }
 
 impl AsRef<str> for Label {
     fn as_ref(&self) -> &str {
-        self.0
+        self.as_str()
     }
 }
 
 impl Borrow<str> for Label {
     fn borrow(&self) -> &str {
-        self.0
+        self.as_str()
     }
 }
 
@@ -151,7 +178,7 @@ impl From<&String> for Label {
 
 impl From<Label> for String {
     fn from(l: Label) -> String {
-        l.0.to_string()
+        l.as_str().to_string()
     }
 }
 
@@ -273,8 +300,8 @@ mod tests {
     fn labels_read_as_strings_and_intern_to_one_copy() {
         let mut names = Interner::default();
         let (a, b, c) = (names.get("r01"), names.get("r02"), names.get("r01"));
-        assert!(std::ptr::eq(a.0, c.0) && std::ptr::eq(a.0, Label::from("r01").0));
-        assert!(!std::ptr::eq(a.0, b.0) && a != b);
+        assert!(a.0 == c.0 && a.0 == Label::from("r01").0);
+        assert!(a.0 != b.0 && a != b);
         assert_eq!(a, "r01");
         assert_eq!("r02", b);
         assert_eq!(a, "r01".to_string());
@@ -283,6 +310,25 @@ mod tests {
         assert_eq!(serde_json::to_string(&b).unwrap(), "\"r02\"");
         let m: std::collections::BTreeMap<Label, u8> = [(a, 1)].into();
         assert_eq!(m.get("r01"), Some(&1));
+    }
+
+    /// Every number has one place: the segments follow each other with
+    /// no gap or overlap, up to the last u32.
+    #[test]
+    fn the_segments_number_every_u32_once() {
+        assert_eq!(place(0), (0, 0));
+        assert_eq!(place(1023), (0, 1023));
+        assert_eq!(place(1024), (1, 0));
+        assert_eq!(place(3071), (1, 2047));
+        assert_eq!(place(3072), (2, 0));
+        for k in 1..NAMES.len() {
+            // The first of segment k follows the last of segment k - 1.
+            let first = (FIRST << k) - FIRST;
+            assert_eq!(place(first as u32), (k, 0));
+            assert_eq!(place(first as u32 - 1), (k - 1, (FIRST << (k - 1)) - 1));
+        }
+        let (segment, at) = place(u32::MAX);
+        assert!(segment < NAMES.len() && at < FIRST << segment);
     }
 
     /// Threads interning the same names at once get the same labels: one
@@ -308,7 +354,7 @@ mod tests {
             for (k, l) in labels.iter().enumerate() {
                 let name = &names[(k * 7 + t * 13) % names.len()];
                 assert_eq!(l.as_str(), name);
-                assert!(std::ptr::eq(l.0, Label::from(name.as_str()).0), "{name} in thread {t}");
+                assert_eq!(l.0, Label::from(name.as_str()).0, "{name} in thread {t}");
             }
         }
     }

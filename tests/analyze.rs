@@ -200,7 +200,7 @@ fn err_of(cells: &[Cell]) -> String {
 
 fn lined(mut cells: Vec<Cell>) -> Vec<Cell> {
     for (k, c) in cells.iter_mut().enumerate() {
-        c.line = k as u64 + 2;
+        c.line = k as u32 + 2;
     }
     cells
 }

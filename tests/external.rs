@@ -277,8 +277,8 @@ fn persistences_rollouts_score_as_persistence_and_non_finite_states_diverge() {
     let nan_row = rows("ext", "contaminated", 1).into_iter().find(|c| c.recording == recording).unwrap().clone();
     let still_row = rows("still", "contaminated", 1).into_iter().find(|c| c.recording == recording).unwrap().clone();
     assert_eq!(nan_row.n_divergent, still_row.n_divergent + 1, "the NaN start is divergent at 0.5 s");
-    let total: u64 = rows("ext", "contaminated", 1).iter().map(|c| c.n_divergent).sum();
-    let twin: u64 = rows("still", "contaminated", 1).iter().map(|c| c.n_divergent).sum();
+    let total: u32 = rows("ext", "contaminated", 1).iter().map(|c| c.n_divergent).sum();
+    let twin: u32 = rows("still", "contaminated", 1).iter().map(|c| c.n_divergent).sum();
     assert_eq!(total, twin + 1, "exactly one start more");
 }
 

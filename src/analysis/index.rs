@@ -20,11 +20,13 @@ fn same_horizon(a: f64, b: f64) -> bool {
 /// The cells sit in one dense table, a block per recording (in order of
 /// first appearance), each block models x arms x horizons x seeds of the
 /// plan's, so that indexing a million rows copies and compares no string
-/// beyond one hash of each row's recording name (names are interned
-/// labels: the same name is the same pointer), and one arm's recordings
-/// x seeds grid is read from consecutive slots.
+/// (names are interned labels: the same name is the same number), and one
+/// arm's recordings x seeds grid is read from consecutive slots. A slot
+/// holds its row's place in `cells` plus one, 0 where no row is: 4 bytes,
+/// where a reference took 8 (40 MB of 80 at 10 million rows).
 pub(crate) struct Indexed<'a> {
-    table: Vec<Option<&'a Cell>>,
+    cells: &'a [Cell],
+    table: Vec<u32>,
     /// The plan's models and arms, matched to a row's by pointer.
     models: Vec<Label>,
     arms: Vec<Label>,
@@ -54,7 +56,7 @@ impl<'a> Indexed<'a> {
     /// lists; a name the plan does not declare is refused.
     fn positions(&self, plan: &Plan, c: &Cell) -> Result<(usize, usize, usize, usize), AnalysisError> {
         let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign {
-            line: c.line,
+            line: c.line.into(),
             field,
             value,
             known,
@@ -79,14 +81,34 @@ impl<'a> Indexed<'a> {
     /// The cell at these names, if the data has it.
     pub(crate) fn find(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> Option<&'a Cell> {
         let first = self.seeds_of(model, arm, recording, h)?;
-        self.table[first + *self.seeds.get(&seed)?]
+        SeedRow { cells: self.cells, slots: &self.table[first..first + self.seeds.len()] }.get(*self.seeds.get(&seed)?)
     }
 
-    /// The cells of every plan seed, in the plan's order, at a recording:
-    /// `None` where the data lacks one.
-    pub(crate) fn row(&self, model: &str, arm: &str, recording: &str, h: f64) -> Option<&[Option<&'a Cell>]> {
+    /// The cells of every plan seed, in the plan's order, at a recording.
+    pub(crate) fn row(&self, model: &str, arm: &str, recording: &str, h: f64) -> Option<SeedRow<'a, '_>> {
         let first = self.seeds_of(model, arm, recording, h)?;
-        Some(&self.table[first..first + self.seeds.len()])
+        Some(SeedRow { cells: self.cells, slots: &self.table[first..first + self.seeds.len()] })
+    }
+}
+
+/// The cells of one (model, arm, recording, horizon), a slot per plan seed
+/// in the plan's order.
+#[derive(Clone, Copy)]
+pub(crate) struct SeedRow<'a, 't> {
+    cells: &'a [Cell],
+    slots: &'t [u32],
+}
+
+impl<'a> SeedRow<'a, '_> {
+    /// The cell of the plan's `j`-th seed: `None` where the data lacks one.
+    pub(crate) fn get(&self, j: usize) -> Option<&'a Cell> {
+        let slot = *self.slots.get(j)?;
+        slot.checked_sub(1).and_then(|k| self.cells.get(k as usize))
+    }
+
+    /// The cells of every seed, in the plan's order.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = Option<&'a Cell>> + '_ {
+        (0..self.slots.len()).map(|j| self.get(j))
     }
 }
 
@@ -97,7 +119,15 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     let mut horizons: Vec<f64> = plan.units().map(|u| u.horizon_s).collect();
     horizons.sort_by(f64::total_cmp);
     horizons.dedup();
+    // A slot numbers its row in 4 bytes: more rows than that are refused
+    // (they would take some 600 GB as cells).
+    if cells.len() >= u32::MAX as usize {
+        return Err(AnalysisError::Family {
+            message: format!("{} rows: one analysis indexes at most {} rows", cells.len(), u32::MAX - 1),
+        });
+    }
     let mut out = Indexed {
+        cells,
         table: Vec::new(),
         models: plan.models.iter().map(|m| Label::from(&m.name)).collect(),
         arms: plan.arms.iter().map(|a| Label::from(&a.name)).collect(),
@@ -135,14 +165,14 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
                         .len();
                 return Err(AnalysisError::RecordingCount { found, declared: plan.recordings });
             }
-            labels.push((c.recording, c.trajectory, c.speed, c.line));
-            out.table.resize(out.table.len() + block, None);
+            labels.push((c.recording, c.trajectory, c.speed, c.line.into()));
+            out.table.resize(out.table.len() + block, 0);
         }
         let k = out.slot(r, m, a, h, s);
-        if let Some(first) = out.table[k] {
+        if let Some(first) = out.table[k].checked_sub(1).map(|f| &cells[f as usize]) {
             return Err(AnalysisError::Duplicate {
-                line: c.line,
-                first_line: first.line,
+                line: c.line.into(),
+                first_line: first.line.into(),
                 model: c.model.to_string(),
                 arm: c.arm.to_string(),
                 seed: c.seed,
@@ -150,7 +180,8 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
                 horizon: out.horizons[h],
             });
         }
-        out.table[k] = Some(c);
+        // Fits: fewer rows than u32::MAX, as checked above.
+        out.table[k] = row as u32 + 1;
         if r != next {
             let (_, t, s, line) = labels[r];
             check_labels((t, s, line), c)?;
@@ -173,7 +204,7 @@ fn check_labels((t, s, first_line): (Label, Label, u64), c: &Cell) -> Result<(),
     for (field, value, first) in [("trajectory", c.trajectory, t), ("speed", c.speed, s)] {
         if value != first {
             return Err(AnalysisError::InconsistentLabel {
-                line: c.line,
+                line: c.line.into(),
                 field,
                 recording: c.recording.to_string(),
                 value: value.to_string(),
@@ -193,10 +224,10 @@ pub(crate) fn check_complete(plan: &Plan, data: &Indexed, recordings: &[String])
     let mut missing = Vec::new();
     for (model, h) in plan.row_keys() {
         for arm in [&plan.contrast.treated, &plan.contrast.reference] {
-            let rows: Vec<Option<&[Option<&Cell>]>> = recordings.iter().map(|r| data.row(model, arm, r, h)).collect();
+            let rows: Vec<Option<SeedRow>> = recordings.iter().map(|r| data.row(model, arm, r, h)).collect();
             for (j, s) in plan.seeds.iter().enumerate() {
                 for (r, row) in recordings.iter().zip(&rows) {
-                    if row.and_then(|row| row[j]).is_none() {
+                    if row.and_then(|row| row.get(j)).is_none() {
                         missing.push(format!("model={model} arm={arm} seed={} recording={r} horizon={h} s", s.0));
                     }
                 }

@@ -60,9 +60,9 @@ fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
 fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     // Every evaluation recording gets exactly `starts` rollout starts
     // (split/mod.rs, draw_starts), in every arm.
-    if c.n_starts != plan.starts as u64 {
+    if u64::from(c.n_starts) != plan.starts as u64 {
         return Err(AnalysisError::NotInDesign {
-            line: c.line,
+            line: c.line.into(),
             field: "n_starts",
             value: c.n_starts.to_string(),
             known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
@@ -70,7 +70,7 @@ fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     }
     if !plan.speed_labels.iter().any(|s| *s == c.speed) {
         return Err(AnalysisError::NotInDesign {
-            line: c.line,
+            line: c.line.into(),
             field: "speed",
             value: c.speed.to_string(),
             known: format!("the design's data block labels speeds {}", plan.speed_labels.join(", ")),
@@ -81,7 +81,7 @@ fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
         let shown: Vec<&str> = plan.pinned_recordings.iter().take(5).map(|r| r.as_str()).collect();
         let more = if n > 5 { format!(", ... ({n} in all)") } else { String::new() };
         return Err(AnalysisError::NotInDesign {
-            line: c.line,
+            line: c.line.into(),
             field: "recording",
             value: c.recording.to_string(),
             known: format!("the design pins its evaluation recordings: {}{more}", shown.join(", ")),
@@ -96,7 +96,7 @@ fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
 /// conditional one and the divergent starts.
 fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     let cap = plan.cap.0;
-    let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line, field, value, problem };
+    let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line.into(), field, value, problem };
     // A file's values are finite (its reader refuses any other); cells
     // built in memory are checked here, since the analysis's grids mark a
     // missing cell with NaN.
@@ -139,7 +139,7 @@ fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             }
             _ => continue,
         };
-        return Err(AnalysisError::Layout { line: c.line, field, problem });
+        return Err(AnalysisError::Layout { line: c.line.into(), field, problem });
     }
     if let Some(v) = c.attitude_rmse_deg.filter(|v| *v > 180.0) {
         return Err(impossible("attitude_rmse_deg", v, "an attitude error is at most 180 degrees".to_string()));

@@ -150,6 +150,13 @@ impl Row<'_> {
         })
     }
 
+    /// A count of rollout starts: at most 4294967295, which a cell holds
+    /// in 4 bytes (a design allows 100,000 starts per recording).
+    fn count(&self, field: &'static str, v: &str) -> Result<u32, CellsError> {
+        let n = self.uint(field, v)?;
+        u32::try_from(n).map_err(|_| self.fail(field, v, "is larger than 4294967295, the largest count a cell holds"))
+    }
+
     fn float(&self, field: &'static str, v: &str) -> Result<f64, CellsError> {
         let t = trim(v);
         if t.is_empty() {
@@ -218,11 +225,16 @@ pub(super) fn number(t: &str) -> Option<f64> {
 
 fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<Cell, CellsError> {
     let r = Row { name, line };
-    let n_starts = r.uint("n_starts", raw.n_starts)?;
+    // A cell records its line in 4 bytes (see `Cell`'s size).
+    let Ok(line_u32) = u32::try_from(line) else {
+        let message = format!("more than {} lines: the most a per-cell file may hold", u32::MAX);
+        return Err(CellsError::Csv { path: name.to_string(), line, message });
+    };
+    let n_starts = r.count("n_starts", raw.n_starts)?;
     if n_starts == 0 {
         return Err(r.fail("n_starts", raw.n_starts, "must be at least 1"));
     }
-    let n_divergent = r.uint("n_divergent", raw.n_divergent)?;
+    let n_divergent = r.count("n_divergent", raw.n_divergent)?;
     if n_divergent > n_starts {
         return Err(r.fail("n_divergent", raw.n_divergent, format!("exceeds n_starts ({n_starts})")));
     }
@@ -232,7 +244,7 @@ fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<C
         return Err(r.fail("horizon_s", raw.horizon_s, "must be > 0"));
     }
     let divergence_rate = r.float("divergence_rate", raw.divergence_rate)?;
-    let expected = n_divergent as f64 / n_starts as f64;
+    let expected = f64::from(n_divergent) / f64::from(n_starts);
     if (divergence_rate - expected).abs() > 1e-6 {
         let problem = format!("disagrees with n_divergent / n_starts = {expected}");
         return Err(r.fail("divergence_rate", raw.divergence_rate, problem));
@@ -258,6 +270,6 @@ fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<C
         divergence_rate,
         velocity_rmse_mps: r.optional("velocity_rmse_mps", raw.velocity_rmse_mps)?,
         attitude_rmse_deg: r.optional("attitude_rmse_deg", raw.attitude_rmse_deg)?,
-        line,
+        line: line_u32,
     })
 }

@@ -178,3 +178,22 @@ fn fields_are_trimmed_as_str_trim_trims() {
         assert_eq!(trim(&s), s.trim(), "{s:?}");
     }
 }
+
+/// A cell holds its counts in 4 bytes: the largest count is read, one more
+/// is refused by line and field, by both readers, not wrapped around.
+#[test]
+fn counts_above_four_bytes_are_refused_by_line_and_field() -> Result<(), Box<dyn std::error::Error>> {
+    let header = HEADER.join(",");
+    let row = |starts: &str| format!("world,disjoint,1,r01,lemniscate,fast,1,{starts},0,0.2,0.2,0,0.1,1.5");
+    let largest = format!("{header}\n{}\n", row("4294967295"));
+    let cells = read_cells_from("largest.csv", largest.as_bytes())?;
+    assert_eq!(cells[0].n_starts, u32::MAX);
+    let chunked = read_chunked("largest.csv", (largest.as_bytes(), largest.len() as u64), 64, |_| {});
+    assert_eq!(chunked.as_deref(), Some(&cells[..]));
+    let over = format!("{header}\n{}\n", row("4294967296"));
+    let e = read_cells_from("over.csv", over.as_bytes()).err().ok_or("4294967296 starts were read")?.to_string();
+    assert!(e.contains("over.csv: line 2, field `n_starts`: is larger than 4294967295"), "{e}");
+    // The parallel reader gives such a file up to the reference reader.
+    assert!(read_chunked("over.csv", (over.as_bytes(), over.len() as u64), 64, |_| {}).is_none());
+    Ok(())
+}

@@ -174,8 +174,9 @@ pub fn cells(
                 trajectory: info.trajectory.as_str().into(),
                 speed: info.speed.as_str().into(),
                 horizon_s: *h,
-                n_starts: outcomes.len() as u64,
-                n_divergent: m.n_divergent as u64,
+                // At most `limits::STARTS` (100,000) starts: a u32 holds them.
+                n_starts: outcomes.len() as u32,
+                n_divergent: m.n_divergent as u32,
                 fa_position_rmse_m: m.fa_position_rmse,
                 conditional_position_rmse_m: m.conditional_position_rmse,
                 divergence_rate: m.n_divergent as f64 / outcomes.len().max(1) as f64,

@@ -48,9 +48,9 @@ impl Ctx<'_> {
                 let Some(row) = self.data.row(&u.model, name, &r.recording, u.horizon_s) else { continue };
                 for (j, c) in row.iter().enumerate() {
                     let Some(c) = c else { continue };
-                    by_recording[i] += c.n_divergent;
-                    totals[a].0 += c.n_divergent;
-                    totals[a].1 += c.n_starts;
+                    by_recording[i] += u64::from(c.n_divergent);
+                    totals[a].0 += u64::from(c.n_divergent);
+                    totals[a].1 += u64::from(c.n_starts);
                     k.push(c.n_divergent as f64);
                     m.push(c.n_starts as f64);
                     arm.push(if a == 0 { 1.0 } else { 0.0 });

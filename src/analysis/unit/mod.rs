@@ -161,7 +161,7 @@ impl Ctx<'_> {
         v.par_chunks_mut(cols.max(1)).zip(self.recordings).for_each(|(out, r)| {
             let row = self.data.row(model, arm, &r.recording, h);
             for (j, x) in out.iter_mut().enumerate() {
-                *x = row.and_then(|row| row[j]).and_then(|c| metric_value(c, metric)).unwrap_or(f64::NAN);
+                *x = row.and_then(|row| row.get(j)).and_then(|c| metric_value(c, metric)).unwrap_or(f64::NAN);
             }
         });
         Grid { rows, cols, v }
@@ -428,10 +428,10 @@ impl Ctx<'_> {
             for r in self.recordings {
                 let row = self.data.row(&u.model, arm, &r.recording, u.horizon_s);
                 for j in 0..cols {
-                    let c = row.and_then(|row| row[j]);
+                    let c = row.and_then(|row| row.get(j));
                     if let Some(c) = c {
-                        counts[k].0 += c.n_divergent;
-                        counts[k].1 += c.n_starts;
+                        counts[k].0 += u64::from(c.n_divergent);
+                        counts[k].1 += u64::from(c.n_starts);
                         if c.conditional_position_rmse_m.is_none() {
                             without += 1;
                         }
