@@ -25,7 +25,7 @@ mod write;
 // The row reader, for the two file readers here.
 pub(crate) use row::{cell_of, Names, Row};
 
-pub use hashed::{file_sha256, read_cells_hashed};
+pub use hashed::{file_sha256, last_line_open, read_cells_hashed};
 pub use write::{cells_bytes, write_cells, write_cells_and_parquet, write_cells_atomic};
 
 /// The exact header, in order.

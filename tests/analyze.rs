@@ -866,3 +866,42 @@ fn the_parquet_tables_hold_the_csv_tables_values_typed() {
     }
     assert!(nulls > 0, "the estimates have empty fields, read back as nulls");
 }
+
+/// A per-cell file read alone whose last line ends without a line break
+/// (as a file cut short while it was written does) is analysed with a
+/// warning that names its last line and the value it read there, in the
+/// console, results.json and the report; the same file with its line
+/// break gets none.
+#[test]
+fn a_per_cell_file_without_a_final_line_break_is_analysed_with_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(crate::common::example_cells()).unwrap();
+    assert!(text.ends_with('\n'));
+    let lines = text.lines().count();
+    let last_value = text.trim_end().rsplit(',').next().unwrap().to_string();
+    for (name, body, warned) in [("whole.csv", text.clone(), false), ("open.csv", text.trim_end().to_string(), true)] {
+        let cells = tmp.path().join(name);
+        std::fs::write(&cells, &body).unwrap();
+        let out = tmp.path().join(format!("out-{name}"));
+        let o = crate::common::crossaudit(&[
+            "analyze",
+            "designs/nanobench_confirmatory.design",
+            "--cells",
+            cells.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", crate::common::said(&o));
+        let said = crate::common::said(&o);
+        let json = std::fs::read_to_string(out.join("results.json")).unwrap();
+        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        let needle = format!("its last line ({lines}) ends without a line break");
+        for (view, text) in [("console", &said), ("results.json", &json), ("report.md", &report)] {
+            assert_eq!(text.contains(&needle), warned, "{name}, {view}: {text}");
+        }
+        if warned {
+            let value: f64 = last_value.parse().unwrap();
+            assert!(said.contains(&format!("`attitude_rmse_deg`, read as {value})")), "{said}");
+        }
+    }
+}

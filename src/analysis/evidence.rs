@@ -170,6 +170,19 @@ fn absent(sections: &str) -> String {
     )
 }
 
+/// The warning for a per-cell file alone whose last line ends without a
+/// line break: a file cut short while it was written ends so, and its last
+/// value may be cut with it (`0.123` read as `0.1`), which no check of the
+/// values can see; a run's recorded hash would, a file alone has none.
+fn open_end(record: &Record) -> Option<String> {
+    let last = record.cells.last().filter(|_| record.last_line_open)?;
+    let value = last.attitude_rmse_deg.map_or_else(|| "empty".to_string(), |v| v.to_string());
+    Some(format!(
+        "{}: its last line ({}) ends without a line break, as a file cut short while it was written does; if it was cut, its last value (`attitude_rmse_deg`, read as {value}) may be cut too (every per-cell file crossaudit writes ends with a line break)",
+        record.cells_file.0, last.line
+    ))
+}
+
 /// A single study's statements from the run folder (or, under per-seed
 /// draws, its level folders), in the order its report gives them.
 fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
@@ -177,6 +190,7 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
         a.warnings.push(absent(
             "the data's provenance, treatment strength, condition coverage, the split's invariants and the training curves",
         ));
+        a.warnings.extend(open_end(record));
         return;
     };
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
@@ -195,6 +209,7 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
 fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
     let Some(run) = &record.run else {
         a.warnings.push(absent("the data's provenance, treatment strength and condition coverage"));
+        a.warnings.extend(open_end(record));
         return;
     };
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);

@@ -50,6 +50,10 @@ pub struct Record {
     /// What the run folder holds beyond the cells; `None` for a per-cell
     /// file read alone.
     pub run: Option<RunEvidence>,
+    /// Whether the per-cell file's last line ends without a line break, as
+    /// a file cut short while it was written does (`cells::last_line_open`;
+    /// never for a run's own file, whose recorded hash vouches for it).
+    pub last_line_open: bool,
 }
 
 /// The run folder of a multiverse or draw-replicated study, read: each

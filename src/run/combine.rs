@@ -235,7 +235,8 @@ fn folder_record(
     let cells = crate::cells::read_cells(&cells_path)?;
     let run = evidence(combined, read.iter().map(|(s, r)| (s, &r.record)).collect());
     let sha = combined.cells_sha256.clone();
-    Ok(Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(run) })
+    let cells_file = ("cells.csv".to_string(), sha);
+    Ok(Record { design, cells, cells_path, cells_file, run: Some(run), last_line_open: false })
 }
 
 impl CombinedRecord {

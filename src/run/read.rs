@@ -87,7 +87,14 @@ fn with_evidence(
         missing,
     };
     let cells_path = dir.join("cells.csv");
-    Record { design, cells, cells_path, cells_file: ("cells.csv".to_string(), sha), run: Some(evidence) }
+    Record {
+        design,
+        cells,
+        cells_path,
+        cells_file: ("cells.csv".to_string(), sha),
+        run: Some(evidence),
+        last_line_open: false,
+    }
 }
 
 /// One level folder of a study of several: its name, draw and seed (under
@@ -198,6 +205,7 @@ pub(crate) fn levels_record(
         cells_path: dir.join("cells.csv"),
         cells_file: ("cells.csv".to_string(), sha),
         run: Some(evidence),
+        last_line_open: false,
     })
 }
 

@@ -9,7 +9,7 @@ use super::combine::{read_combined, CombinedRecord};
 use super::read::{folder_record, levels_record, read_folder, read_levels, LevelFolder};
 use super::{RunError, RunRecord, StudyRecord};
 use crate::analysis::record::{DesignLabel, Record};
-use crate::cells::read_cells_hashed;
+use crate::cells::{last_line_open, read_cells_hashed};
 use crate::design::{lock, DesignFile};
 use crate::plan::study::LevelRole;
 use crate::plan::StudyPlan;
@@ -57,6 +57,7 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
             cells_path: cells.to_path_buf(),
             cells_file: (shown, sha),
             run: None,
+            last_line_open: last_line_open(cells)?,
         });
     }
     let own = cells.file_name().is_some_and(|n| n == "cells.csv")
@@ -66,5 +67,6 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
         (record.cells_file.0, record.cells_path) = (shown, cells.to_path_buf());
         return Ok(record);
     }
-    Ok(Record { design, cells: rows, cells_path: cells.to_path_buf(), cells_file: (shown, sha), run: None })
+    let last_line_open = last_line_open(cells)?;
+    Ok(Record { design, cells: rows, cells_path: cells.to_path_buf(), cells_file: (shown, sha), run: None, last_line_open })
 }
