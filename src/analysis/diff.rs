@@ -2,8 +2,10 @@
 //! a dense recordings x seeds table: what the multiverse, the training
 //! notes and the condition coverage all read from a level's cells.
 
+use std::collections::HashMap;
+
 use crate::cells::Cell;
-use crate::label::Label;
+use crate::label::{Label, NameHash};
 use crate::plan::Plan;
 
 /// The primary difference d = treated - reference of one level, per
@@ -21,18 +23,32 @@ pub(crate) struct Diff {
 impl Diff {
     pub(crate) fn of(plan: &Plan, cells: &[Cell]) -> Diff {
         let u = &plan.primary;
-        let (treated, reference) = (&plan.contrast.treated, &plan.contrast.reference);
+        // Names compared as labels, by number: a level's cells are read
+        // once each, and no name is compared as text per cell.
+        let model = Label::from(&u.model);
+        let (treated, reference) = (Label::from(&plan.contrast.treated), Label::from(&plan.contrast.reference));
         let ours: Vec<(&Cell, bool)> = cells
             .iter()
-            .filter(|c| c.model == u.model && (c.horizon_s - u.horizon_s).abs() < 1e-9)
+            .filter(|c| c.model == model && (c.horizon_s - u.horizon_s).abs() < 1e-9)
             .filter_map(|c| {
-                let is_treated = c.arm == *treated;
-                (is_treated || c.arm == *reference).then_some((c, is_treated))
+                let is_treated = c.arm == treated;
+                (is_treated || c.arm == reference).then_some((c, is_treated))
             })
             .collect();
-        let mut recs: Vec<Label> = ours.iter().map(|(c, _)| c.recording).collect();
+        // The distinct recordings (found by label number), then sorted by
+        // name.
+        let mut row: HashMap<usize, usize, NameHash> = HashMap::default();
+        let mut recs: Vec<Label> = Vec::new();
+        for (c, _) in &ours {
+            row.entry(c.recording.id()).or_insert_with(|| {
+                recs.push(c.recording);
+                0
+            });
+        }
         recs.sort_unstable();
-        recs.dedup();
+        for (i, r) in recs.iter().enumerate() {
+            row.insert(r.id(), i);
+        }
         let mut seeds: Vec<u64> = ours.iter().map(|(c, _)| c.seed).collect();
         seeds.sort_unstable();
         seeds.dedup();
@@ -40,7 +56,7 @@ impl Diff {
         let (mut t, mut r) = (vec![None; n], vec![None; n]);
         for (c, is_treated) in ours {
             let Some(v) = super::unit::value_of(c, u.metric) else { continue };
-            let (Ok(i), Ok(j)) = (recs.binary_search(&c.recording), seeds.binary_search(&c.seed)) else { continue };
+            let (Some(&i), Ok(j)) = (row.get(&c.recording.id()), seeds.binary_search(&c.seed)) else { continue };
             // A later row for the same cell replaces an earlier one.
             if is_treated {
                 t[i * seeds.len() + j] = Some(v);

@@ -256,8 +256,9 @@ fn analyze_split(
 fn split_values_of(plan: &Plan, cells: &[Cell], doses: &[DoseArm], a: &Analysis) -> Result<Values, AnalysisError> {
     let u = &plan.primary;
     let mut by: BTreeMap<(&str, &str, u64), f64> = BTreeMap::new();
+    let model = crate::label::Label::from(&u.model);
     for c in cells {
-        if c.model == u.model && (c.horizon_s - u.horizon_s).abs() <= 1e-9 * u.horizon_s.max(1.0) {
+        if c.model == model && (c.horizon_s - u.horizon_s).abs() <= 1e-9 * u.horizon_s.max(1.0) {
             if let Some(x) = value_of(c, u.metric) {
                 by.insert((c.arm.as_str(), c.recording.as_str(), c.seed), x);
             }

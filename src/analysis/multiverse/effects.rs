@@ -1,10 +1,10 @@
 //! A choice effect's paired cells: per recording and seed, the mean d of
 //! the specifications taking an alternative minus the primary's.
 
-use std::collections::BTreeSet;
+use std::collections::HashSet;
 
 use crate::analysis::diff::{common, Diff};
-use crate::label::Label;
+use crate::label::NameHash;
 
 /// One choice effect's paired cells: per recording and seed (over the
 /// recordings and seeds every specification has), mean d over the
@@ -29,7 +29,8 @@ pub(super) fn effect_cells(
 ) -> Vec<EffectCells> {
     let all: Vec<&Diff> = diffs.iter().collect();
     let (recs, seeds, mats) = common(&all);
-    let total: BTreeSet<&Label> = diffs.iter().flat_map(|d| d.iter().map(|(r, _, _)| r)).collect();
+    // Counted by label number: no name compared per cell.
+    let total: HashSet<usize, NameHash> = diffs.iter().flat_map(|d| d.iter().map(|(r, _, _)| r.id())).collect();
     if recs.len() < total.len() {
         warnings.push(format!(
             "{} of {} evaluation recordings are in every specification; the paired choice effects and the joint bootstrap use those",
