@@ -87,7 +87,9 @@ fn intern(name: &str) -> Label {
         None => {
             // Four billion names would take more memory than any machine
             // has before the count ran out.
-            let n = NEXT.fetch_update(Atomic::Relaxed, Atomic::Relaxed, |n| n.checked_add(1)).expect("fewer than 2^32 names");
+            let n = NEXT
+                .fetch_update(Atomic::Relaxed, Atomic::Relaxed, |n| n.checked_add(1))
+                .expect("fewer than 2^32 names");
             let (segment, at) = place(n);
             let names = NAMES[segment].get_or_init(|| (0..FIRST << segment).map(|_| OnceLock::new()).collect());
             // Kept for the life of the process: see the module's notes.

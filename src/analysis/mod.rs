@@ -96,7 +96,8 @@ fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
 /// conditional one and the divergent starts.
 fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     let cap = plan.cap.0;
-    let impossible = |field, value, problem: String| AnalysisError::Impossible { line: c.line.into(), field, value, problem };
+    let impossible =
+        |field, value, problem: String| AnalysisError::Impossible { line: c.line.into(), field, value, problem };
     // A file's values are finite (its reader refuses any other); cells
     // built in memory are checked here, since the analysis's grids mark a
     // missing cell with NaN.

@@ -68,5 +68,12 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
         return Ok(record);
     }
     let last_line_open = last_line_open(cells)?;
-    Ok(Record { design, cells: rows, cells_path: cells.to_path_buf(), cells_file: (shown, sha), run: None, last_line_open })
+    Ok(Record {
+        design,
+        cells: rows,
+        cells_path: cells.to_path_buf(),
+        cells_file: (shown, sha),
+        run: None,
+        last_line_open,
+    })
 }
