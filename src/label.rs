@@ -13,7 +13,7 @@
 use std::borrow::Borrow;
 use std::cell::RefCell;
 use std::cmp::Ordering;
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::fmt;
 use std::hash::{BuildHasher, BuildHasherDefault, Hash, Hasher};
 use std::ops::Deref;
@@ -63,14 +63,18 @@ fn place(n: u32) -> (usize, usize) {
     (segment, m - (FIRST << segment))
 }
 
+/// Names and their labels, keyed by the name's one copy: a lookup
+/// compares names without going through the table of names.
+type Names = HashMap<&'static str, Label, BuildHasherDefault<NameHasher>>;
+
 /// The labels of every thread, in shards chosen by the name's hash.
-type Shard = Mutex<HashSet<Label, BuildHasherDefault<NameHasher>>>;
+type Shard = Mutex<Names>;
 const SHARDS: usize = 64;
 static TABLE: OnceLock<Vec<Shard>> = OnceLock::new();
 
 thread_local! {
     /// The labels this thread has used: most lookups take no lock.
-    static CACHE: RefCell<HashSet<Label, BuildHasherDefault<NameHasher>>> = RefCell::default();
+    static CACHE: RefCell<Names> = RefCell::default();
 }
 
 /// The one label of `name`.
@@ -93,14 +97,15 @@ fn intern(name: &str) -> Label {
             let (segment, at) = place(n);
             let names = NAMES[segment].get_or_init(|| (0..FIRST << segment).map(|_| OnceLock::new()).collect());
             // Kept for the life of the process: see the module's notes.
-            let _ = names[at].set(Box::leak(Box::from(name)));
+            let copy: &'static str = Box::leak(Box::from(name));
+            let _ = names[at].set(copy);
             let l = Label(n);
-            shard.insert(l);
+            shard.insert(copy, l);
             l
         }
     };
     drop(shard);
-    let _ = CACHE.try_with(|c| c.borrow_mut().insert(l));
+    let _ = CACHE.try_with(|c| c.borrow_mut().insert(l.as_str(), l));
     l
 }
 
