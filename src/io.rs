@@ -531,7 +531,7 @@ mod tests {
             let whole = LineIndex::new(&text);
             let mut counted = LineCounting::new(Trickle { text: &text, step }, 1000);
             let mut sink = Vec::new();
-            counted.read_to_end(&mut sink).unwrap();
+            proptest::prop_assert!(counted.read_to_end(&mut sink).is_ok());
             proptest::prop_assert_eq!(&sink, &text);
             for k in 0..=text.len() {
                 proptest::prop_assert_eq!(counted.line_of(k), whole.line_of(k), "offset {}", k);
@@ -543,24 +543,26 @@ mod tests {
     /// only (it held 8 bytes per line of the whole file), and stays exact
     /// within it, against the whole-text index.
     #[test]
-    fn line_counting_holds_a_window_not_the_file() {
+    fn line_counting_holds_a_window_not_the_file() -> Result<(), Box<dyn std::error::Error>> {
         let mut text = b"\r\n".repeat(LINE_WINDOW);
         text.extend(b"a\rb\n".repeat(LINE_WINDOW / 2));
         let whole = LineIndex::new(&text);
         let mut counted = LineCounting::new(Trickle { text: &text, step: 8191 }, u64::MAX);
-        std::io::copy(&mut counted, &mut std::io::sink()).unwrap();
+        std::io::copy(&mut counted, &mut std::io::sink())?;
         assert!(counted.starts.len() <= LINE_WINDOW / 2 + 2, "{} line starts kept", counted.starts.len());
         for k in (text.len() - LINE_WINDOW..=text.len()).step_by(997).chain([text.len()]) {
             assert_eq!(counted.line_of(k), whole.line_of(k), "offset {k}");
         }
+        Ok(())
     }
 
     #[test]
-    fn line_counting_refuses_to_read_past_its_limit() {
+    fn line_counting_refuses_to_read_past_its_limit() -> Result<(), Box<dyn std::error::Error>> {
         let mut counted = LineCounting::new(&b"0123456789"[..], 9);
         let e = counted.read_to_end(&mut Vec::new()).unwrap_err();
         assert!(e.to_string().contains("larger than the 9 bytes"), "{e}");
         let mut exact = LineCounting::new(&b"012345678"[..], 9);
-        assert_eq!(exact.read_to_end(&mut Vec::new()).unwrap(), 9);
+        assert_eq!(exact.read_to_end(&mut Vec::new())?, 9);
+        Ok(())
     }
 }

@@ -304,7 +304,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn labels_read_as_strings_and_intern_to_one_copy() {
+    fn labels_read_as_strings_and_intern_to_one_copy() -> Result<(), Box<dyn std::error::Error>> {
         let mut names = Interner::default();
         let (a, b, c) = (names.get("r01"), names.get("r02"), names.get("r01"));
         assert!(a.0 == c.0 && a.0 == Label::from("r01").0);
@@ -314,9 +314,10 @@ mod tests {
         assert_eq!(a, "r01".to_string());
         assert!(a < b);
         assert_eq!(format!("{a} {a:?}"), "r01 \"r01\"");
-        assert_eq!(serde_json::to_string(&b).unwrap(), "\"r02\"");
+        assert_eq!(serde_json::to_string(&b)?, "\"r02\"");
         let m: std::collections::BTreeMap<Label, u8> = [(a, 1)].into();
         assert_eq!(m.get("r01"), Some(&1));
+        Ok(())
     }
 
     /// Every number has one place: the segments follow each other with
@@ -355,7 +356,8 @@ mod tests {
                     })
                 })
                 .collect();
-            handles.into_iter().map(|h| h.join().unwrap()).collect()
+            // A thread that panicked fails the test with its message.
+            handles.into_iter().map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
         });
         for (t, labels) in per_thread.iter().enumerate() {
             for (k, l) in labels.iter().enumerate() {

@@ -117,6 +117,16 @@ pub enum AnalysisError {
         /// Why.
         source: StatsError,
     },
+    /// More rows than the index numbers in 4 bytes (some 600 GB of cells:
+    /// only cells built in memory could come near; a file's lines are
+    /// limited to the same count).
+    #[error("{rows} rows: one analysis indexes at most {most} rows")]
+    TooManyRows {
+        /// Rows given.
+        rows: usize,
+        /// The most it indexes.
+        most: u32,
+    },
     /// A dose-response or multi-split study's cells do not fit its design.
     #[error("{message}")]
     Family {

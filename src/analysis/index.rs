@@ -122,9 +122,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     // A slot numbers its row in 4 bytes: more rows than that are refused
     // (they would take some 600 GB as cells).
     if cells.len() >= u32::MAX as usize {
-        return Err(AnalysisError::Family {
-            message: format!("{} rows: one analysis indexes at most {} rows", cells.len(), u32::MAX - 1),
-        });
+        return Err(AnalysisError::TooManyRows { rows: cells.len(), most: u32::MAX - 1 });
     }
     let mut out = Indexed {
         cells,

@@ -190,12 +190,13 @@ mod tests {
     }
 
     #[test]
-    fn results_json_keeps_its_two_flags() {
-        let json = serde_json::to_value(Standing::of(&LockStatus::Unlocked, false)).unwrap();
+    fn results_json_keeps_its_two_flags() -> Result<(), Box<dyn std::error::Error>> {
+        let json = serde_json::to_value(Standing::of(&LockStatus::Unlocked, false))?;
         assert_eq!(json["exploratory"], false);
         assert_eq!(json["preregistered"], false);
-        assert!(json["standing"].as_str().unwrap().starts_with("NOT PREREGISTERED"));
-        assert!(serde_json::to_value(Standing::Unrecorded).unwrap().get("preregistered").is_none());
+        assert!(json["standing"].as_str().is_some_and(|s| s.starts_with("NOT PREREGISTERED")), "{json}");
+        assert!(serde_json::to_value(Standing::Unrecorded)?.get("preregistered").is_none());
+        Ok(())
     }
 }
 

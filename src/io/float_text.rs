@@ -185,13 +185,13 @@ mod tests {
     fn ours64(x: f64) -> String {
         let mut out = Vec::new();
         debug_f64(x, &mut out);
-        String::from_utf8(out).unwrap()
+        String::from_utf8_lossy(&out).into_owned()
     }
 
     fn ours32(x: f32) -> String {
         let mut out = Vec::new();
         debug_f32(x, &mut out);
-        String::from_utf8(out).unwrap()
+        String::from_utf8_lossy(&out).into_owned()
     }
 
     /// Equal to Rust's `{:?}` (the reference) on random bit patterns of

@@ -71,15 +71,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_bad_byte_is_placed_and_a_bom_removed() {
-        let tmp = tempfile::tempdir().unwrap();
+    fn a_bad_byte_is_placed_and_a_bom_removed() -> Result<(), Box<dyn std::error::Error>> {
+        let tmp = tempfile::tempdir()?;
         let bad = tmp.path().join("bad.csv");
-        std::fs::write(&bad, b"a,b\n1,2\n3,\xff4\n").unwrap();
+        std::fs::write(&bad, b"a,b\n1,2\n3,\xff4\n")?;
         assert_eq!(read_text(&bad, 1 << 20, "a file").unwrap_err(), TextError::NotUtf8 { line: 3, column: 3 });
         let bom = tmp.path().join("bom.csv");
-        std::fs::write(&bom, "\u{feff}a,b\n").unwrap();
-        let t = read_text(&bom, 1 << 20, "a file").unwrap();
+        std::fs::write(&bom, "\u{feff}a,b\n")?;
+        let t = read_text(&bom, 1 << 20, "a file").map_err(|e| format!("{e:?}"))?;
         assert_eq!((t.text.as_str(), t.parquet), ("a,b\n", false));
         assert_eq!(t.sha256, crate::io::sha256_hex("\u{feff}a,b\n".as_bytes()));
+        Ok(())
     }
 }

@@ -447,7 +447,7 @@ mod tests {
     /// The three products, run by the emulated cuBLAS (column-major, as its
     /// documentation defines SGEMM), compute the row-major layer algebra.
     #[test]
-    fn the_three_products_compute_the_row_major_layer_algebra() {
+    fn the_three_products_compute_the_row_major_layer_algebra() -> Result<(), Box<dyn std::error::Error>> {
         let (k, rows, inp, out) = (3, 5, 4, 6);
         let (a, w, g) = (fill(k * rows * inp, 1), fill(k * out * inp, 2), fill(k * rows * out, 3));
         let o = Emulated { free: 0 };
@@ -456,7 +456,7 @@ mod tests {
             |n1: usize, n2: usize| (0..k).flat_map(move |p| (0..n1).flat_map(move |i| (0..n2).map(move |j| (p, i, j))));
         // Forward: Z[k][i][o] = sum_j A[k][i][j] W[k][o][j].
         let mut z = vec![0f32; k * rows * out];
-        o.product(&forward_product(k, rows, inp, out), &w, &a, &mut z).unwrap();
+        o.product(&forward_product(k, rows, inp, out), &w, &a, &mut z)?;
         for (p, i, c) in cells(rows, out) {
             let want: f64 =
                 (0..inp).map(|j| f64::from(a[(p * rows + i) * inp + j]) * f64::from(w[(p * out + c) * inp + j])).sum();
@@ -464,7 +464,7 @@ mod tests {
         }
         // Weight gradient: gW[k][o][j] = sum_i G[k][i][o] A[k][i][j].
         let mut gw = vec![0f32; k * out * inp];
-        o.product(&weight_gradient_product(k, rows, inp, out), &a, &g, &mut gw).unwrap();
+        o.product(&weight_gradient_product(k, rows, inp, out), &a, &g, &mut gw)?;
         for (p, c, j) in cells(out, inp) {
             let want: f64 = (0..rows)
                 .map(|i| f64::from(g[(p * rows + i) * out + c]) * f64::from(a[(p * rows + i) * inp + j]))
@@ -473,12 +473,13 @@ mod tests {
         }
         // Input gradient: gA[k][i][j] = sum_o G[k][i][o] W[k][o][j].
         let mut ga = vec![0f32; k * rows * inp];
-        o.product(&input_gradient_product(k, rows, inp, out), &w, &g, &mut ga).unwrap();
+        o.product(&input_gradient_product(k, rows, inp, out), &w, &g, &mut ga)?;
         for (p, i, j) in cells(rows, inp) {
             let want: f64 =
                 (0..out).map(|c| f64::from(g[(p * rows + i) * out + c]) * f64::from(w[(p * out + c) * inp + j])).sum();
             assert!(close(ga[(p * rows + i) * inp + j], want), "input gradient ({p}, {i}, {j})");
         }
+        Ok(())
     }
 
     #[test]
