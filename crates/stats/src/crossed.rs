@@ -193,14 +193,22 @@ pub fn mean_squares(m: &CrossedMatrix) -> MeanSquares {
     }
     cm.iter_mut().for_each(|c| *c /= i_n);
     let mu = total / m.values().len() as f64;
-    let ss_rows = j_n * rm.iter().map(|r| (r - mu).powi(2)).sum::<f64>();
-    let ss_cols = i_n * cm.iter().map(|c| (c - mu).powi(2)).sum::<f64>();
     let mut ss_error = 0.0;
     for (i, r) in rm.iter().enumerate() {
         for (x, c) in m.row(i).iter().zip(&cm) {
             ss_error += (x - r - c + mu).powi(2);
         }
     }
+    anova_table(mu, &rm, &cm, ss_error)
+}
+
+/// The ANOVA table of an array from its grand mean, row means, column
+/// means and residual sum of squares (the end of [`mean_squares`], shared
+/// with `along::mean_squares_along`, so both finish bit for bit alike).
+pub(crate) fn anova_table(mu: f64, rm: &[f64], cm: &[f64], ss_error: f64) -> MeanSquares {
+    let (i_n, j_n) = (rm.len() as f64, cm.len() as f64);
+    let ss_rows = j_n * rm.iter().map(|r| (r - mu).powi(2)).sum::<f64>();
+    let ss_cols = i_n * cm.iter().map(|c| (c - mu).powi(2)).sum::<f64>();
     let df_rows = i_n - 1.0;
     let df_cols = j_n - 1.0;
     let df_error = df_rows * df_cols;
@@ -225,8 +233,10 @@ pub fn crossed_mom(m: &CrossedMatrix, level: f64, df_rule: DfRule) -> Result<Cro
 }
 
 /// The crossed MoM estimate from the ANOVA table of a `rows` x `cols`
-/// array (what [`crossed_mom`] computes after [`mean_squares`]).
-pub(crate) fn mom_from_squares(
+/// array: what [`crossed_mom`] computes after [`mean_squares`], bit for
+/// bit (with [`crate::mean_squares_along`], many arrays' tables from one
+/// pass over the data).
+pub fn mom_from_squares(
     ms: MeanSquares,
     rows: usize,
     cols: usize,

@@ -8,6 +8,7 @@
 //! plotting or parsing crate, reads no file, and `crossaudit` re-exports
 //! it as `crossaudit::stats`. `docs/library.md` walks through it.
 
+mod along;
 mod bootstrap;
 pub mod coverage;
 mod crossed;
@@ -45,10 +46,11 @@ pub mod prelude {
     };
 }
 
+pub use along::mean_squares_along;
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
 pub use crossed::{
-    crossed_mom, crossed_mom_draws, crossed_reml, mean_squares, CrossedEstimate, DfRule, MeanSquares, RemlSummary,
-    VarianceComponents,
+    crossed_mom, crossed_mom_draws, crossed_reml, mean_squares, mom_from_squares, CrossedEstimate, DfRule, MeanSquares,
+    RemlSummary, VarianceComponents,
 };
 pub use intervals::{
     compare_intervals, further_intervals, incomplete_intervals, one_sample_interval, reml_intervals, IntervalEstimate,
@@ -57,7 +59,7 @@ pub use intervals::{
 pub use loo::{leave_one_out_mom, Axis};
 pub use matrix::CrossedMatrix;
 pub use mean_profile::profile_interval;
-pub use ratio::{ratio_interval, FiellerSet, RatioInterval};
+pub use ratio::{ratio_interval, ratio_interval_batched, FiellerSet, RatioInterval};
 pub use rng::standard_normal;
 
 /// The median (the mean of the middle two for an even count); NaN when

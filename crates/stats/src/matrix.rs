@@ -12,15 +12,7 @@ pub struct CrossedMatrix {
 impl CrossedMatrix {
     /// Validates shape (at least 2 x 2) and finiteness.
     pub fn new(rows: usize, cols: usize, data: Vec<f64>) -> Result<Self, StatsError> {
-        if rows < 2 {
-            return Err(StatsError::TooFew { what: "rows (recordings)", found: rows });
-        }
-        if cols < 2 {
-            return Err(StatsError::TooFew { what: "columns (seeds)", found: cols });
-        }
-        if data.len() != rows * cols {
-            return Err(StatsError::Shape { rows, cols, expected: rows * cols, found: data.len() });
-        }
+        check_shape(rows, cols, data.len())?;
         if let Some(k) = data.iter().position(|v| !v.is_finite()) {
             return Err(StatsError::NonFinite { row: k / cols, col: k % cols, value: data[k] });
         }
@@ -161,4 +153,19 @@ impl CrossedMatrix {
             row_perm.iter().flat_map(|&r| col_perm.iter().map(move |&c| (r, c))).map(|(r, c)| self.get(r, c)).collect();
         CrossedMatrix::new(row_perm.len(), col_perm.len(), data)
     }
+}
+
+/// What [`CrossedMatrix::new`] refuses about an array's shape: fewer than
+/// two rows or columns, or `len` values that do not fill `rows` x `cols`.
+pub(crate) fn check_shape(rows: usize, cols: usize, len: usize) -> Result<(), StatsError> {
+    if rows < 2 {
+        return Err(StatsError::TooFew { what: "rows (recordings)", found: rows });
+    }
+    if cols < 2 {
+        return Err(StatsError::TooFew { what: "columns (seeds)", found: cols });
+    }
+    if len != rows * cols {
+        return Err(StatsError::Shape { rows, cols, expected: rows * cols, found: len });
+    }
+    Ok(())
 }

@@ -131,21 +131,63 @@ pub fn ratio_interval(
     reference: &CrossedEstimate,
     estimate: impl Fn(f64) -> Result<CrossedEstimate, StatsError> + Sync,
 ) -> Result<RatioInterval, StatsError> {
+    // The two edges' evaluations of a round run at once, each its own
+    // sequence: the same numbers at any thread count.
+    ratio_interval_batched(point, reference, |rhos: &[f64]| match *rhos {
+        [a, b] => {
+            let (a, b) = rayon::join(|| estimate(a), || estimate(b));
+            vec![a, b]
+        }
+        _ => rhos.iter().map(|&x| estimate(x)).collect(),
+    })
+}
+
+/// [`ratio_interval`] with its evaluations asked for together: `estimates`
+/// is given the rho of every edge of Fieller's set still being searched
+/// (one or two; the point estimate alone first) and returns their
+/// estimates in that order. Each edge follows the same sequence of rho as
+/// in [`ratio_interval`], so the intervals are the same, bit for bit; an
+/// estimator that computes several arrays in one pass over the data
+/// ([`crate::mean_squares_along`]) then searches both edges for about the
+/// cost of one.
+///
+/// ```
+/// use crossaudit_stats::{crossed_mom, mean_squares_along, mom_from_squares, ratio_interval};
+/// use crossaudit_stats::{ratio_interval_batched, CrossedMatrix, DfRule};
+/// let r = [3.0, 3.2, 2.9, 3.4, 3.1, 2.8];
+/// let t = [2.1, 2.0, 2.0, 2.3, 2.1, 1.9];
+/// let rule = DfRule::SeedsMinusOne;
+/// let reference = crossed_mom(&CrossedMatrix::new(3, 2, r.to_vec()).unwrap(), 0.95, rule).unwrap();
+/// let rho = (r.iter().sum::<f64>() - t.iter().sum::<f64>()) / r.iter().sum::<f64>();
+/// let alone = ratio_interval(rho, &reference, |rho: f64| {
+///     let l = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
+///     crossed_mom(&CrossedMatrix::new(3, 2, l)?, 0.95, rule)
+/// });
+/// let together = ratio_interval_batched(rho, &reference, |rhos: &[f64]| {
+///     let tables = mean_squares_along(&t, &r, 3, 2, rhos);
+///     tables.into_iter().map(|m| mom_from_squares(m?.0, 3, 2, 0.95, rule)).collect()
+/// });
+/// assert_eq!(alone, together);
+/// ```
+pub fn ratio_interval_batched(
+    point: f64,
+    reference: &CrossedEstimate,
+    estimates: impl Fn(&[f64]) -> Vec<Result<CrossedEstimate, StatsError>>,
+) -> Result<RatioInterval, StatsError> {
     if !point.is_finite() || !reference.mean.is_finite() || reference.mean == 0.0 {
         return Err(StatsError::Invalid(format!(
             "the ratio needs a finite estimate and a finite, non-zero reference mean (estimate {point}, reference mean {})",
             reference.mean
         )));
     }
-    let at = estimate(point)?;
+    let one = |x: f64| estimates(&[x]).into_iter().next().unwrap_or_else(|| Err(unanswered(1, 0)));
+    let at = one(point)?;
     let delta_se = at.se / reference.mean.abs();
     let fieller = if reference.lower <= 0.0 && 0.0 <= reference.upper {
         FiellerSet::Unbounded
     } else {
         let step = if delta_se > 0.0 { delta_se } else { 1e-6 * point.abs().max(1e-6) };
-        // The two edges are searched at once, each its own sequence of
-        // evaluations: the same numbers at any thread count.
-        let (lower, upper) = rayon::join(|| root(point, -step, &estimate), || root(point, step, &estimate));
+        let [lower, upper] = roots(point, step, &estimates);
         match (lower?, upper?) {
             (Some(lower), Some(upper)) => FiellerSet::Bounded { lower, upper },
             _ => FiellerSet::Unbounded,
@@ -162,41 +204,94 @@ pub fn ratio_interval(
     })
 }
 
-/// The first rho from `from` in the direction of `step` where the excess
-/// turns positive (the edge of Fieller's set), to the last representable
-/// digits; `None` when none is found within 2^60 steps.
-fn root(
+/// An estimator that answered `got` estimates where `asked` were asked for.
+fn unanswered(asked: usize, got: usize) -> StatsError {
+    StatsError::Invalid(format!("the estimator gave {got} estimates for {asked} values of rho"))
+}
+
+/// The search for one edge of Fieller's set: from the point estimate
+/// outwards, doubling the step until the excess turns positive (at most 60
+/// times), then bisecting until the two ends are adjacent doubles (at most
+/// 200 halvings).
+enum Edge {
+    Grow { inside: f64, width: f64, tries: u32 },
+    Bisect { inside: f64, out: f64, halvings: u32 },
+    Done(Result<Option<f64>, StatsError>),
+}
+
+impl Edge {
+    /// The next rho to evaluate, or `None` once the edge is found (or
+    /// known not to be within reach).
+    fn next(&mut self) -> Option<f64> {
+        match *self {
+            Edge::Grow { tries: 60, .. } => *self = Edge::Done(Ok(None)),
+            Edge::Grow { inside, width, .. } => return Some(inside + width),
+            Edge::Bisect { inside, out, halvings } => {
+                let mid = inside + (out - inside) / 2.0;
+                if halvings < 200 && mid != inside && mid != out {
+                    return Some(mid);
+                }
+                *self = Edge::Done(Ok(Some(inside)));
+            }
+            Edge::Done(_) => {}
+        }
+        None
+    }
+
+    /// The edge after the estimate `e` at `x`, the rho `next` gave.
+    fn step(&mut self, x: f64, e: Result<CrossedEstimate, StatsError>) {
+        let outside = match e {
+            Ok(e) => excess(&e) > 0.0,
+            Err(e) => {
+                *self = Edge::Done(Err(e));
+                return;
+            }
+        };
+        *self = match *self {
+            Edge::Grow { inside, .. } if outside => Edge::Bisect { inside, out: x, halvings: 0 },
+            Edge::Grow { width, tries, .. } => Edge::Grow { inside: x, width: width * 2.0, tries: tries + 1 },
+            Edge::Bisect { inside, halvings, .. } if outside => Edge::Bisect { inside, out: x, halvings: halvings + 1 },
+            Edge::Bisect { out, halvings, .. } => Edge::Bisect { inside: x, out, halvings: halvings + 1 },
+            Edge::Done(_) => return,
+        };
+    }
+}
+
+/// Both edges of Fieller's set from `from`, searched side by side: the
+/// lower (steps of -`step`) and the upper; `None` for an edge not found
+/// within 2^60 steps. An error in the lower edge ends the search (it is
+/// the one reported); one in the upper lets the lower finish, whose own
+/// error would come first.
+fn roots(
     from: f64,
     step: f64,
-    estimate: &impl Fn(f64) -> Result<CrossedEstimate, StatsError>,
-) -> Result<Option<f64>, StatsError> {
-    // Inside: the excess at the point estimate is -t SE (or 0 when SE = 0,
-    // where the set is the point itself).
-    let (mut inside, mut width) = (from, step);
-    let mut outside = None;
-    for _ in 0..60 {
-        let x = inside + width;
-        if excess(&estimate(x)?) > 0.0 {
-            outside = Some(x);
+    estimates: &impl Fn(&[f64]) -> Vec<Result<CrossedEstimate, StatsError>>,
+) -> [Result<Option<f64>, StatsError>; 2] {
+    let mut edges =
+        [Edge::Grow { inside: from, width: -step, tries: 0 }, Edge::Grow { inside: from, width: step, tries: 0 }];
+    loop {
+        if matches!(edges[0], Edge::Done(Err(_))) {
             break;
         }
-        inside = x;
-        width *= 2.0;
-    }
-    let Some(mut out) = outside else { return Ok(None) };
-    // Bisection until the two ends are adjacent doubles (or 200 halvings).
-    for _ in 0..200 {
-        let mid = inside + (out - inside) / 2.0;
-        if mid == inside || mid == out {
+        let asked: Vec<(usize, f64)> = (0..2).filter_map(|k| edges[k].next().map(|x| (k, x))).collect();
+        if asked.is_empty() {
             break;
         }
-        if excess(&estimate(mid)?) > 0.0 {
-            out = mid;
-        } else {
-            inside = mid;
+        let rhos: Vec<f64> = asked.iter().map(|&(_, x)| x).collect();
+        let got = estimates(&rhos);
+        if got.len() != rhos.len() {
+            let e = unanswered(rhos.len(), got.len());
+            return [Err(e.clone()), Err(e)];
+        }
+        for ((k, x), e) in asked.into_iter().zip(got) {
+            edges[k].step(x, e);
         }
     }
-    Ok(Some(inside))
+    edges.map(|e| match e {
+        Edge::Done(found) => found,
+        // Only after the lower edge's error, which is reported first.
+        _ => Ok(None),
+    })
 }
 
 #[cfg(test)]
@@ -270,6 +365,71 @@ mod tests {
         // known denominator, close to Fieller.
         assert!((iv.delta_upper - rho - (rho - iv.delta_lower)).abs() < 1e-12);
         assert!((iv.delta_lower - lo).abs() < 0.2 * (hi - lo));
+    }
+
+    /// The search with both edges' arrays summed side by side
+    /// (`ratio_interval_batched` over `mean_squares_along`) gives the very
+    /// intervals of the search one array at a time, under each df rule,
+    /// and the same error where an array overflows.
+    #[test]
+    fn both_edges_side_by_side_give_the_same_bits() -> Result<(), StatsError> {
+        use crate::{mean_squares_along, mom_from_squares};
+        let (rows, cols) = (41usize, 9usize);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut u = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let r: Vec<f64> = (0..rows * cols).map(|k| 2.0 + 0.3 * u() + 0.01 * (k % cols) as f64).collect();
+        let t: Vec<f64> = r.iter().map(|x| 0.8 * x + 0.2 * u()).collect();
+        for level in [0.95, 0.999_999] {
+            let r = &r;
+            for rule in [DfRule::SeedsMinusOne, DfRule::Satterthwaite, DfRule::Normal] {
+                let reference = crossed_mom(&CrossedMatrix::new(rows, cols, r.clone())?, level, rule)?;
+                let (st, sr): (f64, f64) = (t.iter().sum(), r.iter().sum());
+                let point = (sr - st) / sr;
+                let alone = ratio_interval(point, &reference, |rho: f64| {
+                    let l = t.iter().zip(r).map(|(t, r)| t - (1.0 - rho) * r).collect();
+                    crossed_mom(&CrossedMatrix::new(rows, cols, l)?, level, rule)
+                });
+                let together = ratio_interval_batched(point, &reference, |rhos: &[f64]| {
+                    let tables = mean_squares_along(&t, r, rows, cols, rhos);
+                    tables.into_iter().map(|m| mom_from_squares(m?.0, rows, cols, level, rule)).collect()
+                });
+                assert_eq!(format!("{alone:?}"), format!("{together:?}"), "{rule:?} at {level}");
+                assert!(matches!(alone, Ok(RatioInterval { fieller: FiellerSet::Bounded { .. }, .. })));
+            }
+        }
+        Ok(())
+    }
+
+    /// An estimator's error ends the search: the lower edge's error is the
+    /// one reported when both edges meet one, as when each edge was its own
+    /// search.
+    #[test]
+    fn the_lower_edges_error_comes_first() -> Result<(), StatsError> {
+        let r = [3.0, 3.2, 2.9, 3.4, 3.1, 2.8];
+        let t = [2.1, 2.0, 2.0, 2.3, 2.1, 1.9];
+        let rule = DfRule::Normal;
+        let reference = crossed_mom(&CrossedMatrix::new(3, 2, r.to_vec())?, 0.95, rule)?;
+        let rho = (r.iter().sum::<f64>() - t.iter().sum::<f64>()) / r.iter().sum::<f64>();
+        let refusing = |below: f64, above: f64| {
+            move |x: f64| {
+                if x < below || x > above {
+                    return Err(StatsError::Invalid((if x < below { "below" } else { "above" }).to_string()));
+                }
+                let l = t.iter().zip(&r).map(|(t, r)| t - (1.0 - x) * r).collect();
+                crossed_mom(&CrossedMatrix::new(3, 2, l)?, 0.95, rule)
+            }
+        };
+        let at = |below, above| ratio_interval(rho, &reference, refusing(below, above)).map_err(|e| e.to_string());
+        let found = ratio_interval(rho, &reference, refusing(f64::MIN, f64::MAX))?;
+        let Some((lower, upper)) = found.fieller.bounds() else { panic!("bounded expected") };
+        assert!(at(rho - 1e-3, rho + 1e-3).is_err_and(|e| e.contains("below")));
+        assert!(at(lower - 1.0, rho + 1e-3).is_err_and(|e| e.contains("above")));
+        assert!(at(rho - 1e-3, upper + 1.0).is_err_and(|e| e.contains("below")));
+        assert_eq!(at(lower - 1.0, upper + 1.0), Ok(found));
+        Ok(())
     }
 
     #[test]

@@ -1,11 +1,12 @@
 //! The checks and intervals of one unit around its estimate: a unit
 //! whose differences do not vary is refused, and the optimism's interval.
 
-use super::{estimate_complete, ArmArrays, Ctx, Grid};
+use super::{ArmArrays, Ctx, Grid};
 use crate::analysis::AnalysisError;
-use crate::design::Metric;
+use crate::design::{EstimatorKind, Metric};
 use crate::plan::AnalysisUnit;
-use crossaudit_stats::{ratio_interval, RatioInterval};
+use crossaudit_stats::{mean_squares_along, mom_from_squares, ratio_interval, ratio_interval_batched};
+use crossaudit_stats::{DfRule, RatioInterval};
 
 impl Ctx<'_> {
     /// The optimism's Fieller and delta-method intervals (in %) from the
@@ -22,20 +23,24 @@ impl Ctx<'_> {
         let (rows, cols) = (a.treated.rows, a.treated.cols);
         let interval = self.estimate(&a.reference).and_then(|reference| {
             let point = optimism_pct / 100.0;
-            if let (Some(t), Some(r)) = (a.treated.values(), a.reference.values()) {
-                // Every cell present: each L(rho) built as plain values, in
-                // a buffer of an earlier L (at 10M cells, 40 MB each, that
-                // the system would otherwise hand over and clear anew).
-                let buffers = std::sync::Mutex::new(Vec::new());
-                ratio_interval(point, &reference, |rho: f64| {
-                    let mut v: Vec<f64> = buffers.lock().ok().and_then(|mut b| b.pop()).unwrap_or_default();
-                    v.clear();
-                    v.extend(t.iter().zip(r).map(|(t, r)| t - (1.0 - rho) * r));
-                    let (estimate, v) = estimate_complete(&self.plan.estimator, rows, cols, v);
-                    if let (Some(v), Ok(mut b)) = (v, buffers.lock()) {
-                        b.push(v);
-                    }
-                    estimate
+            let est = &self.plan.estimator;
+            if let (Some(t), Some(r), true) =
+                (a.treated.values(), a.reference.values(), est.kind == EstimatorKind::CrossedMom)
+            {
+                // Every cell present, under the method of moments: the
+                // arrays L(rho) of both edges summed side by side in one
+                // pass over the arms, never built (`stats::mean_squares_along`),
+                // each estimated as `estimate_complete` estimates it.
+                ratio_interval_batched(point, &reference, |rhos: &[f64]| {
+                    let tables = mean_squares_along(t, r, rows, cols, rhos);
+                    tables
+                        .into_iter()
+                        .map(|table| {
+                            let (table, invariant) = table?;
+                            let rule = if invariant { DfRule::RecordingsMinusOne } else { est.df };
+                            mom_from_squares(table, rows, cols, est.level, rule)
+                        })
+                        .collect()
                 })
             } else {
                 ratio_interval(point, &reference, |rho: f64| {

@@ -98,29 +98,6 @@ fn estimate_of(est: &Estimator, g: &Grid) -> Result<CrossedEstimate, StatsError>
     }
 }
 
-/// [`estimate_grid`] of a grid with every cell present, given as its
-/// values: bit for bit the same estimate, without the grid of options (the
-/// optimism's interval estimates a million-cell array a hundred times),
-/// and the values given back where the estimator left them whole, for
-/// the next array to be built in.
-fn estimate_complete(
-    est: &Estimator,
-    rows: usize,
-    cols: usize,
-    v: Vec<f64>,
-) -> (Result<CrossedEstimate, StatsError>, Option<Vec<f64>>) {
-    let invariant = cols >= 2 && v.chunks(cols).all(|row| row.iter().all(|x| x.to_bits() == row[0].to_bits()));
-    let rule = match est.kind {
-        _ if invariant => DfRule::RecordingsMinusOne,
-        EstimatorKind::CrossedMom => est.df,
-        EstimatorKind::Reml => return (estimate_of(est, &Grid { rows, cols, v }), None),
-    };
-    match CrossedMatrix::new(rows, cols, v) {
-        Ok(m) => (crossed_mom(&m, est.level, rule), Some(m.into_values())),
-        Err(e) => (Err(e), None),
-    }
-}
-
 /// The estimator of a contrast whose array `diff` lacks pairs, where the
 /// plan's cannot take it: REML with Kenward-Roger df in place of the
 /// crossed MoM, which needs every cell ([`Ctx::unit`]'s warning says so).
