@@ -2,28 +2,30 @@
 //! in one pass over T and R, each bit for bit the table
 //! [`crate::mean_squares`] gives the array built alone.
 //!
-//! Fieller's search ([`crate::ratio_interval_batched`]) evaluates L at one
-//! rho per edge of its set, about fifty times per edge, and each table is
-//! two sums over every cell that must be added in one fixed order. One such
-//! sum waits on the latency of each addition, so one core has room for
-//! several of them at once: here the arrays of both edges are summed side
-//! by side, each in its own order, for about the time of one.
+//! Fieller's search ([`crate::ratio_interval_batched`]) evaluates L about
+//! fifty times per edge of its set, and each table is two sums over every
+//! cell that must be added in one fixed order. Such a sum waits on the
+//! latency of each addition, and the other work per cell is small, so one
+//! core has room for more: here [`ALONG_LANES`] arrays are summed side by side,
+//! the values of one cell of all of them in one vector register, each
+//! lane its own array's sums in its own order. Eight arrays then cost
+//! about what one did, and the search spends them on both edges and on the
+//! steps after the next (`ratio::roots`).
 
 use super::crossed::anova_table;
 use super::matrix::check_shape;
 use super::{MeanSquares, StatsError};
 
-/// The most arrays summed side by side in one pass: two sums of each
-/// array wait on additions per cell in the first pass, so two arrays fill
-/// four chains of additions, enough to keep a core's adders busy.
-const GROUP: usize = 2;
+/// The arrays summed side by side in one pass: the values of one cell of
+/// all of them fill one 512-bit vector register.
+pub const ALONG_LANES: usize = 8;
 
 /// The ANOVA table of L(rho) = T - (1 - rho) R at each of `rhos`, for
 /// complete `rows` x `cols` arrays `t` and `r` (row-major), each
 /// bit for bit `mean_squares(&CrossedMatrix::new(rows, cols, L(rho))?)`,
 /// and the same error where that would fail. With each table, whether every
 /// row of L(rho) is one value repeated (bit for bit), as an array invariant
-/// to the seed is.
+/// to the seed is. Up to [`ALONG_LANES`] rho cost about one pass over the data.
 ///
 /// ```
 /// use crossaudit_stats::{mean_squares, mean_squares_along, CrossedMatrix};
@@ -49,67 +51,58 @@ pub fn mean_squares_along(
     if let Err(e) = shape {
         return rhos.iter().map(|_| Err(e.clone())).collect();
     }
-    let mut out = Vec::with_capacity(rhos.len());
-    for group in rhos.chunks(GROUP) {
-        match *group {
-            [a] => out.extend(tables::<1>(t, r, rows, cols, [a])),
-            [a, b] => out.extend(tables::<2>(t, r, rows, cols, [a, b])),
-            _ => {}
+    // Compiled for the widest vector instructions the processor has
+    // (pulp's dispatch): every lane is plain IEEE arithmetic, never fused,
+    // the same bits at every width.
+    struct Along<'a>(&'a [f64], &'a [f64], usize, &'a [f64]);
+    impl pulp::WithSimd for Along<'_> {
+        type Output = Vec<Result<(MeanSquares, bool), StatsError>>;
+        #[inline(always)]
+        fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
+            let Along(t, r, cols, rhos) = self;
+            let mut out = Vec::with_capacity(rhos.len());
+            for group in rhos.chunks(ALONG_LANES) {
+                // A short group fills its spare lanes with its last rho.
+                let lanes: [f64; ALONG_LANES] = std::array::from_fn(|k| group[k.min(group.len() - 1)]);
+                out.extend(tables(t, r, cols, lanes).into_iter().take(group.len()));
+            }
+            out
         }
     }
-    out
+    pulp::Arch::new().dispatch(Along(t, r, cols, rhos))
 }
 
-/// The tables of `P` arrays side by side. Each array's sums are added in
-/// the order of [`crate::mean_squares`]: the grand total in row-major
+/// The tables of [`ALONG_LANES`] arrays side by side. Each array's sums are added
+/// in the order of [`crate::mean_squares`]: the grand total in row-major
 /// order from -0.0, each row's total in column order from -0.0, each
 /// column's in row order from 0.0, then the residual squares in row-major
-/// order from 0.0. Only the order in which the processor meets the `P`
-/// arrays' additions differs, and no sum crosses another.
-fn tables<const P: usize>(
+/// order from 0.0. The lanes only let the processor make the same
+/// additions of all the arrays at once; no sum crosses another.
+#[inline(always)]
+fn tables(
     t: &[f64],
     r: &[f64],
-    rows: usize,
     cols: usize,
-    rhos: [f64; P],
-) -> [Result<(MeanSquares, bool), StatsError>; P] {
+    rhos: [f64; ALONG_LANES],
+) -> [Result<(MeanSquares, bool), StatsError>; ALONG_LANES] {
+    let rows = t.len() / cols;
     let (i_n, j_n) = (rows as f64, cols as f64);
     let shrink = rhos.map(|rho| 1.0 - rho);
-    // Each array's values of the current row, then its squared residuals.
-    let mut x = [(); P].map(|_| vec![0.0f64; cols]);
-    let mut cm = [(); P].map(|_| vec![0.0f64; cols]);
-    let mut rm = [(); P].map(|_| Vec::with_capacity(rows));
-    let mut total = [-0.0f64; P];
-    let mut constant = [true; P];
+    let mut cm = vec![[0.0f64; ALONG_LANES]; cols];
+    let mut rm = Vec::with_capacity(rows);
+    // Each lane's bits that differ from its row's first value, or'ed over
+    // every cell: zero where every row is one value repeated.
+    let (mut total, mut differ) = ([-0.0f64; ALONG_LANES], [0u64; ALONG_LANES]);
     for (tr, rr) in t.chunks_exact(cols).zip(r.chunks_exact(cols)) {
-        for k in 0..P {
-            for ((v, &a), &b) in x[k].iter_mut().zip(tr).zip(rr) {
-                *v = a - shrink[k] * b;
-            }
-            for (c, &v) in cm[k].iter_mut().zip(&x[k]) {
-                *c += v;
-            }
-            constant[k] = constant[k] && x[k].iter().all(|v| v.to_bits() == x[k][0].to_bits());
-        }
-        let row = add_row(&x, &mut total);
-        for k in 0..P {
-            rm[k].push(row[k] / j_n);
-        }
+        let row;
+        (total, row, differ) = row_sums(tr, rr, shrink, &mut cm, total, differ);
+        rm.push(row.map(|x| x / j_n));
     }
-    let mut mu = [0.0f64; P];
-    for k in 0..P {
-        cm[k].iter_mut().for_each(|c| *c /= i_n);
-        mu[k] = total[k] / (rows * cols) as f64;
-    }
-    let mut ss_error = [0.0f64; P];
-    for (i, (tr, rr)) in t.chunks_exact(cols).zip(r.chunks_exact(cols)).enumerate() {
-        for k in 0..P {
-            let (ri, m) = (rm[k][i], mu[k]);
-            for (((v, &a), &b), &c) in x[k].iter_mut().zip(tr).zip(rr).zip(&cm[k]) {
-                *v = (a - shrink[k] * b - ri - c + m).powi(2);
-            }
-        }
-        add_squares(&x, &mut ss_error);
+    cm.iter_mut().for_each(|c| *c = c.map(|x| x / i_n));
+    let mu = total.map(|x| x / (rows * cols) as f64);
+    let mut ss_error = [0.0f64; ALONG_LANES];
+    for ((tr, rr), ri) in t.chunks_exact(cols).zip(r.chunks_exact(cols)).zip(&rm) {
+        ss_error = row_squares(tr, rr, shrink, (ri, &cm, mu), ss_error);
     }
     std::array::from_fn(|k| {
         if !total[k].is_finite() {
@@ -121,53 +114,64 @@ fn tables<const P: usize>(
                 return Err(StatsError::NonFinite { row: p / cols, col: p % cols, value });
             }
         }
-        Ok((anova_table(mu[k], &rm[k], &cm[k], ss_error[k]), constant[k]))
+        let (rm_k, cm_k): (Vec<f64>, Vec<f64>) = (rm.iter().map(|x| x[k]).collect(), cm.iter().map(|x| x[k]).collect());
+        Ok((anova_table(mu[k], &rm_k, &cm_k, ss_error[k]), differ[k] == 0))
     })
 }
 
-/// Adds each array's row `x[k]` to its running total, in column order, and
-/// gives the row's own sums (from -0.0). Two arrays' four sums are added
-/// in one loop, their accumulators in registers, so that the processor
-/// works on the four chains at once.
-fn add_row<const P: usize>(x: &[Vec<f64>; P], total: &mut [f64; P]) -> [f64; P] {
-    let mut row = [-0.0f64; P];
-    if let ([a, b], [ta, tb], [ra, rb]) = (x.as_slice(), total.as_mut_slice(), row.as_mut_slice()) {
-        let (mut t0, mut t1, mut r0, mut r1) = (*ta, *tb, *ra, *rb);
-        for (&u, &v) in a.iter().zip(b) {
-            t0 += u;
-            r0 += u;
-            t1 += v;
-            r1 += v;
+// The two passes over a row, the lanes' running sums passed and returned
+// by value, so that the compiler keeps them in registers; each loop over
+// the lanes is one operation, which it turns into one vector instruction.
+
+/// A row's first pass: each lane's values added to its grand total, its
+/// row's sum (returned, from -0.0) and each column's sum (`cm`), and the
+/// bits that differ from the row's first value or'ed into `differ`.
+#[inline(always)]
+fn row_sums(
+    tr: &[f64],
+    rr: &[f64],
+    shrink: [f64; ALONG_LANES],
+    cm: &mut [[f64; ALONG_LANES]],
+    mut total: [f64; ALONG_LANES],
+    mut differ: [u64; ALONG_LANES],
+) -> ([f64; ALONG_LANES], [f64; ALONG_LANES], [u64; ALONG_LANES]) {
+    let first = shrink.map(|s| (tr[0] - s * rr[0]).to_bits());
+    let mut row = [-0.0f64; ALONG_LANES];
+    for (c, (&a, &b)) in cm.iter_mut().zip(tr.iter().zip(rr)) {
+        let v: [f64; ALONG_LANES] = std::array::from_fn(|k| a - shrink[k] * b);
+        for k in 0..ALONG_LANES {
+            total[k] += v[k];
         }
-        (*ta, *tb, *ra, *rb) = (t0, t1, r0, r1);
-    } else {
-        for k in 0..P {
-            let (mut t, mut r) = (total[k], row[k]);
-            for &u in &x[k] {
-                t += u;
-                r += u;
-            }
-            (total[k], row[k]) = (t, r);
+        for k in 0..ALONG_LANES {
+            row[k] += v[k];
+        }
+        for k in 0..ALONG_LANES {
+            c[k] += v[k];
+        }
+        for k in 0..ALONG_LANES {
+            differ[k] |= v[k].to_bits() ^ first[k];
         }
     }
-    row
+    (total, row, differ)
 }
 
-/// Adds each array's squared residuals `x[k]` to its sum, in column order;
-/// two arrays' sums in one loop, as in [`add_row`].
-fn add_squares<const P: usize>(x: &[Vec<f64>; P], ss: &mut [f64; P]) {
-    if let ([a, b], [sa, sb]) = (x.as_slice(), ss.as_mut_slice()) {
-        let (mut s0, mut s1) = (*sa, *sb);
-        for (&u, &v) in a.iter().zip(b) {
-            s0 += u;
-            s1 += v;
-        }
-        (*sa, *sb) = (s0, s1);
-    } else {
-        for k in 0..P {
-            ss[k] = x[k].iter().fold(ss[k], |s, &u| s + u);
+/// A row's second pass: each lane's squared residuals x - row mean - column
+/// mean + grand mean added to its running sum `ss`.
+#[inline(always)]
+fn row_squares(
+    tr: &[f64],
+    rr: &[f64],
+    shrink: [f64; ALONG_LANES],
+    (ri, cm, mu): (&[f64; ALONG_LANES], &[[f64; ALONG_LANES]], [f64; ALONG_LANES]),
+    mut ss: [f64; ALONG_LANES],
+) -> [f64; ALONG_LANES] {
+    for (c, (&a, &b)) in cm.iter().zip(tr.iter().zip(rr)) {
+        let e: [f64; ALONG_LANES] = std::array::from_fn(|k| a - shrink[k] * b - ri[k] - c[k] + mu[k]);
+        for k in 0..ALONG_LANES {
+            ss[k] += e[k] * e[k];
         }
     }
+    ss
 }
 
 #[cfg(test)]

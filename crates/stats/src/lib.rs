@@ -46,7 +46,7 @@ pub mod prelude {
     };
 }
 
-pub use along::mean_squares_along;
+pub use along::{mean_squares_along, ALONG_LANES};
 pub use bootstrap::{pigeonhole_bootstrap, pigeonhole_variance, BootstrapInterval};
 pub use crossed::{
     crossed_mom, crossed_mom_draws, crossed_reml, mean_squares, mom_from_squares, CrossedEstimate, DfRule, MeanSquares,

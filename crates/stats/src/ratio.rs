@@ -133,7 +133,7 @@ pub fn ratio_interval(
 ) -> Result<RatioInterval, StatsError> {
     // The two edges' evaluations of a round run at once, each its own
     // sequence: the same numbers at any thread count.
-    ratio_interval_batched(point, reference, |rhos: &[f64]| match *rhos {
+    ratio_interval_batched(point, reference, 1, |rhos: &[f64]| match *rhos {
         [a, b] => {
             let (a, b) = rayon::join(|| estimate(a), || estimate(b));
             vec![a, b]
@@ -142,14 +142,19 @@ pub fn ratio_interval(
     })
 }
 
-/// [`ratio_interval`] with its evaluations asked for together: `estimates`
-/// is given the rho of every edge of Fieller's set still being searched
-/// (one or two; the point estimate alone first) and returns their
-/// estimates in that order. Each edge follows the same sequence of rho as
-/// in [`ratio_interval`], so the intervals are the same, bit for bit; an
-/// estimator that computes several arrays in one pass over the data
-/// ([`crate::mean_squares_along`]) then searches both edges for about the
-/// cost of one.
+/// [`ratio_interval`] with its evaluations asked for together, `lanes` at a
+/// time (shared by the edges of Fieller's set still being searched, at
+/// least one each): `estimates` is given the rho of a round (the point
+/// estimate alone first) and returns their estimates in that order. With
+/// more lanes than edges a round also holds the steps after an edge's
+/// next one, for either answer the next one may get (the search's tree of
+/// outcomes, level by level), and the edge then takes as many steps as the
+/// round answered. Each edge follows the very sequence of rho of
+/// [`ratio_interval`] whatever `lanes` is, so the intervals are the same,
+/// bit for bit. It pays where several estimates cost about what one does
+/// ([`crate::mean_squares_along`] sums [`crate::ALONG_LANES`] arrays in one
+/// pass): four lanes per edge take two steps per round, eight take three;
+/// [`ratio_interval`] is this with one lane, each edge one step a round.
 ///
 /// ```
 /// use crossaudit_stats::{crossed_mom, mean_squares_along, mom_from_squares, ratio_interval};
@@ -163,7 +168,7 @@ pub fn ratio_interval(
 ///     let l = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
 ///     crossed_mom(&CrossedMatrix::new(3, 2, l)?, 0.95, rule)
 /// });
-/// let together = ratio_interval_batched(rho, &reference, |rhos: &[f64]| {
+/// let together = ratio_interval_batched(rho, &reference, 8, |rhos: &[f64]| {
 ///     let tables = mean_squares_along(&t, &r, 3, 2, rhos);
 ///     tables.into_iter().map(|m| mom_from_squares(m?.0, 3, 2, 0.95, rule)).collect()
 /// });
@@ -172,6 +177,7 @@ pub fn ratio_interval(
 pub fn ratio_interval_batched(
     point: f64,
     reference: &CrossedEstimate,
+    lanes: usize,
     estimates: impl Fn(&[f64]) -> Vec<Result<CrossedEstimate, StatsError>>,
 ) -> Result<RatioInterval, StatsError> {
     if !point.is_finite() || !reference.mean.is_finite() || reference.mean == 0.0 {
@@ -187,7 +193,7 @@ pub fn ratio_interval_batched(
         FiellerSet::Unbounded
     } else {
         let step = if delta_se > 0.0 { delta_se } else { 1e-6 * point.abs().max(1e-6) };
-        let [lower, upper] = roots(point, step, &estimates);
+        let [lower, upper] = roots(point, step, lanes.max(1), &estimates);
         match (lower?, upper?) {
             (Some(lower), Some(upper)) => FiellerSet::Bounded { lower, upper },
             _ => FiellerSet::Unbounded,
@@ -213,6 +219,7 @@ fn unanswered(asked: usize, got: usize) -> StatsError {
 /// outwards, doubling the step until the excess turns positive (at most 60
 /// times), then bisecting until the two ends are adjacent doubles (at most
 /// 200 halvings).
+#[derive(Clone)]
 enum Edge {
     Grow { inside: f64, width: f64, tries: u32 },
     Bisect { inside: f64, out: f64, halvings: u32 },
@@ -240,13 +247,35 @@ impl Edge {
 
     /// The edge after the estimate `e` at `x`, the rho `next` gave.
     fn step(&mut self, x: f64, e: Result<CrossedEstimate, StatsError>) {
-        let outside = match e {
-            Ok(e) => excess(&e) > 0.0,
-            Err(e) => {
-                *self = Edge::Done(Err(e));
-                return;
+        match e {
+            Ok(e) => self.answer(x, excess(&e)),
+            Err(e) => *self = Edge::Done(Err(e)),
+        }
+    }
+}
+
+impl Edge {
+    /// Up to `lanes` rho this edge may ask for next: its next one, then
+    /// the next one after each answer it may get, level by level.
+    fn ahead(&self, lanes: usize) -> Vec<f64> {
+        let mut out = Vec::with_capacity(lanes);
+        let mut level = std::collections::VecDeque::from([self.clone()]);
+        while out.len() < lanes {
+            let Some(mut edge) = level.pop_front() else { break };
+            let Some(x) = edge.next() else { continue };
+            out.push(x);
+            for excess in [1.0, -1.0] {
+                let mut after = edge.clone();
+                after.answer(x, excess);
+                level.push_back(after);
             }
-        };
+        }
+        out
+    }
+
+    /// [`Edge::step`] on an excess alone (the sign is all a step reads).
+    fn answer(&mut self, x: f64, excess: f64) {
+        let outside = excess > 0.0;
         *self = match *self {
             Edge::Grow { inside, .. } if outside => Edge::Bisect { inside, out: x, halvings: 0 },
             Edge::Grow { width, tries, .. } => Edge::Grow { inside: x, width: width * 2.0, tries: tries + 1 },
@@ -255,16 +284,28 @@ impl Edge {
             Edge::Done(_) => return,
         };
     }
+
+    /// Takes the steps a round answered: while the next rho is among the
+    /// round's (`answered`, by its bits), its estimate is the step's.
+    fn take(&mut self, answered: &mut Vec<(f64, Result<CrossedEstimate, StatsError>)>) {
+        while let Some(x) = self.next() {
+            let Some(k) = answered.iter().position(|(y, _)| y.to_bits() == x.to_bits()) else { break };
+            let (_, e) = answered.swap_remove(k);
+            self.step(x, e);
+        }
+    }
 }
 
 /// Both edges of Fieller's set from `from`, searched side by side: the
 /// lower (steps of -`step`) and the upper; `None` for an edge not found
-/// within 2^60 steps. An error in the lower edge ends the search (it is
-/// the one reported); one in the upper lets the lower finish, whose own
-/// error would come first.
+/// within 2^60 steps. Each round asks for `lanes` rho, shared by the
+/// edges still searching (at least one each). An error in the lower
+/// edge ends the search (it is the one reported); one in the upper lets the
+/// lower finish, whose own error would come first.
 fn roots(
     from: f64,
     step: f64,
+    lanes: usize,
     estimates: &impl Fn(&[f64]) -> Vec<Result<CrossedEstimate, StatsError>>,
 ) -> [Result<Option<f64>, StatsError>; 2] {
     let mut edges =
@@ -273,18 +314,23 @@ fn roots(
         if matches!(edges[0], Edge::Done(Err(_))) {
             break;
         }
-        let asked: Vec<(usize, f64)> = (0..2).filter_map(|k| edges[k].next().map(|x| (k, x))).collect();
-        if asked.is_empty() {
+        let searching = edges.iter().filter(|e| !matches!(e, Edge::Done(_))).count();
+        let share = (lanes / searching.max(1)).max(1);
+        let asked: Vec<Vec<f64>> = edges.iter().map(|e| e.ahead(share)).collect();
+        let rhos: Vec<f64> = asked.concat();
+        if rhos.is_empty() {
+            // `ahead` is empty only where `next` found the edge done.
+            edges.iter_mut().for_each(|e| _ = e.next());
             break;
         }
-        let rhos: Vec<f64> = asked.iter().map(|&(_, x)| x).collect();
-        let got = estimates(&rhos);
+        let mut got = estimates(&rhos);
         if got.len() != rhos.len() {
             let e = unanswered(rhos.len(), got.len());
             return [Err(e.clone()), Err(e)];
         }
-        for ((k, x), e) in asked.into_iter().zip(got) {
-            edges[k].step(x, e);
+        for (edge, xs) in edges.iter_mut().zip(&asked) {
+            let mut answered: Vec<_> = xs.iter().copied().zip(got.drain(..xs.len())).collect();
+            edge.take(&mut answered);
         }
     }
     edges.map(|e| match e {
@@ -392,11 +438,13 @@ mod tests {
                     let l = t.iter().zip(r).map(|(t, r)| t - (1.0 - rho) * r).collect();
                     crossed_mom(&CrossedMatrix::new(rows, cols, l)?, level, rule)
                 });
-                let together = ratio_interval_batched(point, &reference, |rhos: &[f64]| {
-                    let tables = mean_squares_along(&t, r, rows, cols, rhos);
-                    tables.into_iter().map(|m| mom_from_squares(m?.0, rows, cols, level, rule)).collect()
-                });
-                assert_eq!(format!("{alone:?}"), format!("{together:?}"), "{rule:?} at {level}");
+                for lanes in [1, 2, 3, 8, 16] {
+                    let together = ratio_interval_batched(point, &reference, lanes, |rhos: &[f64]| {
+                        let tables = mean_squares_along(&t, r, rows, cols, rhos);
+                        tables.into_iter().map(|m| mom_from_squares(m?.0, rows, cols, level, rule)).collect()
+                    });
+                    assert_eq!(format!("{alone:?}"), format!("{together:?}"), "{rule:?} at {level}, {lanes} lanes");
+                }
                 assert!(matches!(alone, Ok(RatioInterval { fieller: FiellerSet::Bounded { .. }, .. })));
             }
         }

@@ -6,7 +6,7 @@ use crate::analysis::AnalysisError;
 use crate::design::{EstimatorKind, Metric};
 use crate::plan::AnalysisUnit;
 use crossaudit_stats::{mean_squares_along, mom_from_squares, ratio_interval, ratio_interval_batched};
-use crossaudit_stats::{DfRule, RatioInterval};
+use crossaudit_stats::{DfRule, RatioInterval, ALONG_LANES};
 
 impl Ctx<'_> {
     /// The optimism's Fieller and delta-method intervals (in %) from the
@@ -28,10 +28,12 @@ impl Ctx<'_> {
                 (a.treated.values(), a.reference.values(), est.kind == EstimatorKind::CrossedMom)
             {
                 // Every cell present, under the method of moments: the
-                // arrays L(rho) of both edges summed side by side in one
-                // pass over the arms, never built (`stats::mean_squares_along`),
-                // each estimated as `estimate_complete` estimates it.
-                ratio_interval_batched(point, &reference, |rhos: &[f64]| {
+                // arrays L(rho) of a round of both edges' steps summed side
+                // by side in one pass over the arms, never built
+                // (`stats::mean_squares_along`), each estimated as one
+                // array alone is (`estimate_of`: a seed-invariant array's
+                // df from the recordings).
+                ratio_interval_batched(point, &reference, ALONG_LANES, |rhos: &[f64]| {
                     let tables = mean_squares_along(t, r, rows, cols, rhos);
                     tables
                         .into_iter()
