@@ -140,28 +140,49 @@ fn batch_means(m: &CrossedMatrix, d: &Draws) -> Vec<f64> {
     pulp::Arch::new().dispatch(Means(m, d))
 }
 
-/// [`batch_means`]'s arithmetic, inlined into each dispatched width.
+/// [`batch_means`]'s arithmetic, inlined into each dispatched width. The
+/// rows some replicate drew are summed two at a time: each row's sums in
+/// j order, as alone, the two rows' side by side only so that the
+/// processor adds both at once (one row's sums wait on each addition);
+/// the totals then take each row's sums in row order.
 #[inline(always)]
 fn batch_means_in(m: &CrossedMatrix, d: &Draws) -> Vec<f64> {
     let norm = (m.rows() * m.cols()) as f64;
     let mut total = [0.0f64; BATCH];
-    for (i, n) in d.rows.iter().enumerate() {
-        if n.iter().all(|&x| x == 0) {
-            continue;
-        }
-        let mut acc = [-0.0f64; BATCH];
-        for (v, c) in m.row(i).iter().zip(&d.cols) {
-            for k in 0..BATCH {
-                acc[k] += v * c[k];
-            }
-        }
-        for k in 0..d.lanes {
-            if n[k] != 0 {
-                total[k] += f64::from(n[k]) * acc[k];
+    let drawn: Vec<usize> = (0..m.rows()).filter(|&i| d.rows[i].iter().any(|&x| x != 0)).collect();
+    for pair in drawn.chunks(2) {
+        let sums = match *pair {
+            [a, b] => row_sums(m.row(a), m.row(b), &d.cols),
+            [a] => row_sums(m.row(a), m.row(a), &d.cols),
+            _ => continue,
+        };
+        for (&i, acc) in pair.iter().zip(&sums) {
+            let n = &d.rows[i];
+            for k in 0..d.lanes {
+                if n[k] != 0 {
+                    total[k] += f64::from(n[k]) * acc[k];
+                }
             }
         }
     }
     total[..d.lanes].iter().map(|t| t / norm).collect()
+}
+
+/// Two rows' sums over j of d_ij m_j for every replicate (lane), each from
+/// -0.0 in j order; the sums are returned by value, so that they stay in
+/// registers.
+#[inline(always)]
+fn row_sums(a: &[f64], b: &[f64], cols: &[[f64; BATCH]]) -> [[f64; BATCH]; 2] {
+    let (mut sa, mut sb) = ([-0.0f64; BATCH], [-0.0f64; BATCH]);
+    for ((&u, &v), c) in a.iter().zip(b).zip(cols) {
+        for k in 0..BATCH {
+            sa[k] += u * c[k];
+        }
+        for k in 0..BATCH {
+            sb[k] += v * c[k];
+        }
+    }
+    [sa, sb]
 }
 
 /// The exact variance of one pigeonhole replicate mean given the data.
