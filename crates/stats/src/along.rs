@@ -34,10 +34,11 @@ pub const ALONG_LANES: usize = 8;
 /// let tables = mean_squares_along(&t, &r, 3, 2, &[0.25, -0.5]);
 /// for (rho, got) in [0.25, -0.5].into_iter().zip(tables) {
 ///     let l = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
-///     let (table, constant) = got.unwrap();
-///     assert_eq!(table, mean_squares(&CrossedMatrix::new(3, 2, l).unwrap()));
+///     let (table, constant) = got?;
+///     assert_eq!(table, mean_squares(&CrossedMatrix::new(3, 2, l)?));
 ///     assert!(!constant);
 /// }
+/// # Ok::<(), crossaudit_stats::StatsError>(())
 /// ```
 pub fn mean_squares_along(
     t: &[f64],

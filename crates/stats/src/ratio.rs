@@ -162,7 +162,7 @@ pub fn ratio_interval(
 /// let r = [3.0, 3.2, 2.9, 3.4, 3.1, 2.8];
 /// let t = [2.1, 2.0, 2.0, 2.3, 2.1, 1.9];
 /// let rule = DfRule::SeedsMinusOne;
-/// let reference = crossed_mom(&CrossedMatrix::new(3, 2, r.to_vec()).unwrap(), 0.95, rule).unwrap();
+/// let reference = crossed_mom(&CrossedMatrix::new(3, 2, r.to_vec())?, 0.95, rule)?;
 /// let rho = (r.iter().sum::<f64>() - t.iter().sum::<f64>()) / r.iter().sum::<f64>();
 /// let alone = ratio_interval(rho, &reference, |rho: f64| {
 ///     let l = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();
@@ -173,6 +173,7 @@ pub fn ratio_interval(
 ///     tables.into_iter().map(|m| mom_from_squares(m?.0, 3, 2, 0.95, rule)).collect()
 /// });
 /// assert_eq!(alone, together);
+/// # Ok::<(), crossaudit_stats::StatsError>(())
 /// ```
 pub fn ratio_interval_batched(
     point: f64,
