@@ -181,19 +181,16 @@ mod tests {
     use crate::{mean_squares, CrossedMatrix};
 
     /// Each array's table equals the one `mean_squares` gives it alone, bit
-    /// for bit, whether it is summed alone or beside up to six others, on
-    /// data whose sums round at every step (values of mixed magnitude).
+    /// for bit, whether it is summed alone or beside up to nine others
+    /// (past eight, in two passes), on data whose sums round at every step
+    /// (values of mixed magnitude).
     #[test]
     fn side_by_side_tables_are_the_tables_alone() -> Result<(), StatsError> {
         let (rows, cols) = (37usize, 23usize);
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut u = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut u = crate::lcg_uniform(0x9e37_79b9_7f4a_7c15u64);
         let r: Vec<f64> = (0..rows * cols).map(|k| 1e3 * u() + (k % 7) as f64 * 1e-3).collect();
         let t: Vec<f64> = r.iter().map(|x| 0.9 * x + u() * 1e-2).collect();
-        let rhos = [0.1, -0.37, 1e-9, 0.1 + 1e-16, 2.5, -7.0, 0.333];
+        let rhos = [0.1, -0.37, 1e-9, 0.1 + 1e-16, 2.5, -7.0, 0.333, 1.0, -1e-12, 0.75];
         for n in 1..=rhos.len() {
             for (rho, got) in rhos[..n].iter().zip(mean_squares_along(&t, &r, rows, cols, &rhos[..n])) {
                 let l = t.iter().zip(&r).map(|(t, r)| t - (1.0 - rho) * r).collect();

@@ -271,6 +271,18 @@ pub fn quantile_type7(sorted: &[f64], p: f64) -> f64 {
     sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
 }
 
+/// Uniform draws on [-0.5, 0.5) from a 64-bit LCG (Knuth's MMIX
+/// constants): the unit tests' pseudo-random data, the same on every
+/// machine.
+#[cfg(test)]
+pub(crate) fn lcg_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::critical_value;

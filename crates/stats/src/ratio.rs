@@ -355,11 +355,7 @@ mod tests {
         let (rows, cols) = (6usize, 5usize);
         // Pseudo-random effects (a 64-bit LCG, uniform on [-0.5, 0.5)):
         // recording and seed effects in both arms, and noise.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut u = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut u = crate::lcg_uniform(0x2545_f491_4f6c_dd1du64);
         let (ra, rb): (Vec<f64>, Vec<f64>) = ((0..rows).map(|_| u()).collect(), (0..cols).map(|_| u()).collect());
         let (ta, tb): (Vec<f64>, Vec<f64>) = ((0..rows).map(|_| u()).collect(), (0..cols).map(|_| u()).collect());
         let mut t = Vec::new();
@@ -414,19 +410,15 @@ mod tests {
         assert!((iv.delta_lower - lo).abs() < 0.2 * (hi - lo));
     }
 
-    /// The search with both edges' arrays summed side by side
-    /// (`ratio_interval_batched` over `mean_squares_along`) gives the very
-    /// intervals of the search one array at a time, under each df rule,
-    /// and the same error where an array overflows.
+    /// The search with both edges' arrays summed side by side and the
+    /// steps ahead asked for (`ratio_interval_batched` over
+    /// `mean_squares_along`, 1 to 16 lanes) gives the very intervals of the
+    /// search one array at a time, under each df rule and at two levels.
     #[test]
     fn both_edges_side_by_side_give_the_same_bits() -> Result<(), StatsError> {
         use crate::{mean_squares_along, mom_from_squares};
         let (rows, cols) = (41usize, 9usize);
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut u = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut u = crate::lcg_uniform(0x2545_f491_4f6c_dd1du64);
         let r: Vec<f64> = (0..rows * cols).map(|k| 2.0 + 0.3 * u() + 0.01 * (k % cols) as f64).collect();
         let t: Vec<f64> = r.iter().map(|x| 0.8 * x + 0.2 * u()).collect();
         for level in [0.95, 0.999_999] {
