@@ -194,7 +194,7 @@ pub fn ratio_interval_batched(
         FiellerSet::Unbounded
     } else {
         let step = if delta_se > 0.0 { delta_se } else { 1e-6 * point.abs().max(1e-6) };
-        let [lower, upper] = roots(point, step, lanes.max(1), &estimates);
+        let [lower, upper] = roots(point, step, lanes, &estimates);
         match (lower?, upper?) {
             (Some(lower), Some(upper)) => FiellerSet::Bounded { lower, upper },
             _ => FiellerSet::Unbounded,
@@ -253,9 +253,7 @@ impl Edge {
             Err(e) => *self = Edge::Done(Err(e)),
         }
     }
-}
 
-impl Edge {
     /// Up to `lanes` rho this edge may ask for next: its next one, then
     /// the next one after each answer it may get, level by level.
     fn ahead(&self, lanes: usize) -> Vec<f64> {
@@ -311,19 +309,14 @@ fn roots(
 ) -> [Result<Option<f64>, StatsError>; 2] {
     let mut edges =
         [Edge::Grow { inside: from, width: -step, tries: 0 }, Edge::Grow { inside: from, width: step, tries: 0 }];
-    loop {
-        if matches!(edges[0], Edge::Done(Err(_))) {
-            break;
-        }
-        let searching = edges.iter().filter(|e| !matches!(e, Edge::Done(_))).count();
-        let share = (lanes / searching.max(1)).max(1);
+    let done = |e: &Edge| matches!(e, Edge::Done(_));
+    while !matches!(edges[0], Edge::Done(Err(_))) && !edges.iter().all(done) {
+        let searching = edges.iter().filter(|e| !done(e)).count();
+        let share = (lanes / searching).max(1);
+        // An edge not done has a next rho (`take` leaves it waiting on
+        // one, or done), so a round is never empty.
         let asked: Vec<Vec<f64>> = edges.iter().map(|e| e.ahead(share)).collect();
         let rhos: Vec<f64> = asked.concat();
-        if rhos.is_empty() {
-            // `ahead` is empty only where `next` found the edge done.
-            edges.iter_mut().for_each(|e| _ = e.next());
-            break;
-        }
         let mut got = estimates(&rhos);
         if got.len() != rhos.len() {
             let e = unanswered(rhos.len(), got.len());
