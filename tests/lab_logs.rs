@@ -826,3 +826,99 @@ fn parquet_read_by_column_gives_the_record_apis_text() {
     let e = to_csv_text(raw, 8, "a log").unwrap_err();
     assert!(e.contains("exceed the 8 bytes read from a log"), "{e}");
 }
+
+/// A Parquet log read from its decoded columns (`data::log::read_log`) is
+/// the log its CSV text gives (`parse_with`, the reference): the same
+/// columns bit for bit, content hash and row hashes, or the same error,
+/// under every combination of row hashes and missing values read as NaN.
+/// The simulated lab's 21 logs and a clean file of every type the columns
+/// read are taken from the columns; nulls, NaN and infinity, time going
+/// back, a value too large, a declared text column (numbers or not) and a
+/// one-column file (whose empty rows are blank lines) are each either
+/// taken from the columns equal to the text's log or left to the text.
+#[test]
+fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(), Box<dyn std::error::Error>> {
+    use crossaudit::data::log::{from_columns, parse_with, read_log, Log, ParseOptions, Schema};
+    let tmp = tempfile::tempdir()?;
+    crossaudit::sim::lab::simulate_lab(tmp.path(), 7)?;
+    let lab: Vec<std::path::PathBuf> = ["train", "test"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(tmp.path().join(d)).into_iter().flatten().flatten().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "parquet"))
+        .collect();
+    assert_eq!(lab.len(), 21, "{lab:?}");
+    let named = |columns: &[&str], time: Option<&str>| Schema::Named {
+        columns: columns.iter().map(|c| c.to_string()).collect(),
+        time: time.map(str::to_string),
+    };
+    let lab_schema = named(&["timestamp", "pos_x", "vel_z", "quat_w", "cmd_m1", "cmd_m4", "pos_x"], Some("timestamp"));
+    let t =
+        |n: usize| Column::TimestampNanos((0..n as i64).map(|k| 1_700_000_000_000_000_000 + k * 10_000_000).collect());
+    let file = |name: &str, columns: &[(&str, Column)]| {
+        let path = tmp.path().join(format!("{name}.parquet"));
+        write_parquet(&path, columns);
+        path
+    };
+    let xs = |v: &[f64]| Column::Double(v.iter().map(|x| Some(*x)).collect());
+    let clean = file(
+        "clean",
+        &[
+            ("t", t(4)),
+            ("x", xs(&[0.1, -1e-7, 3.0, 1e15])),
+            ("y", Column::Float(vec![1.5, 0.1, -3.25e-5, 7.0])),
+            ("note", Column::Text(vec!["a,b".into(), "say \"hi\"".into(), "two\nlines".into(), "".into()])),
+        ],
+    );
+    let with_x =
+        |name: &str, x: Column| file(name, &[("t", t(3)), ("x", x), ("y", Column::Float(vec![1.0, 2.0, 3.0]))]);
+    let nulls = with_x("nulls", Column::Double(vec![Some(1.0), None, Some(3.0)]));
+    let nan = with_x("nan", xs(&[f64::NAN, 2.0, f64::INFINITY]));
+    let large = with_x("large", xs(&[1.0, 2e15, 3.0]));
+    let back = file("back", &[("t", Column::TimestampNanos(vec![3, 2, 1])), ("x", xs(&[1.0, 2.0, 3.0]))]);
+    let numbers_as_text = file("text", &[("t", t(2)), ("x", Column::Text(vec!["1.5".into(), "2".into()]))]);
+    let words = file("words", &[("t", t(2)), ("x", Column::Text(vec!["calm".into(), "2".into()]))]);
+    let single = file("single", &[("x", Column::Double(vec![Some(1.0), None, Some(2.0)]))]);
+    let xy = named(&["x", "y"], Some("t"));
+    let mut cases: Vec<(&std::path::Path, &Schema, bool)> =
+        lab.iter().map(|p| (p.as_path(), &lab_schema, true)).collect();
+    cases.push((&clean, &xy, true));
+    let (x_only, no_time) = (named(&["x"], Some("t")), named(&["x"], None));
+    for p in [&nulls, &nan, &large, &back, &numbers_as_text, &words] {
+        cases.push((p, &x_only, false));
+    }
+    cases.push((&back, &no_time, true));
+    cases.push((&single, &no_time, false));
+    let bits = |log: &Log| {
+        let columns: Vec<Vec<u64>> = log.columns.iter().map(|c| c.iter().map(|v| v.to_bits()).collect()).collect();
+        (log.rows, columns, log.content_hash.clone(), log.row_hashes.clone(), log.blank_before.clone())
+    };
+    let mut taken = 0;
+    for (path, schema, from_the_columns) in cases {
+        let decoded = crossaudit::io::parquet::decode(std::fs::read(path)?, u64::MAX, "a flight log")?;
+        for (hash_rows, missing_as_nan) in [(false, false), (true, false), (false, true), (true, true)] {
+            let options = ParseOptions { hash_rows, missing_as_nan };
+            let name = path.display().to_string();
+            let reference = parse_with(&name, &decoded.text, schema, options);
+            let read = read_log(path, &name, schema, options);
+            let fast = from_columns(&name, &decoded, schema, options);
+            let what = format!("{name}, {options:?}");
+            match (&reference, &read) {
+                (Ok(a), Ok(b)) => assert!(bits(a) == bits(b), "{what}: {a:?} against {b:?}"),
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{what}"),
+                _ => panic!("{what}: {reference:?} against {read:?}"),
+            }
+            if let Some(fast) = &fast {
+                let reference = reference.as_ref().map_err(|e| format!("{what}: the text is refused: {e}"))?;
+                assert!(bits(fast) == bits(reference), "{what}");
+                taken += 1;
+            }
+            if from_the_columns {
+                assert!(fast.is_some(), "{what} is taken from its columns");
+            }
+        }
+    }
+    // The nulls and NaN read as missing (and the time going back where no
+    // time is declared) are taken from the columns too.
+    assert!(taken >= 22 * 4 + 3, "{taken} reads from the columns");
+    Ok(())
+}

@@ -69,12 +69,11 @@ pub fn load_recording(path: &Path, layout: &Layout) -> Result<Recording, LogErro
 /// values` policy cuts (their values filled in); only a parse that reads
 /// missing values as NaN can have any.
 fn parse_log(path: &Path, file: &str, layout: &Layout) -> Result<(log::Log, Vec<cuts::Cut>), LogError> {
-    let bytes = log::read_bytes(path)?;
     let options = log::ParseOptions {
         hash_rows: layout.row_hashes,
         missing_as_nan: layout.missing.is_some_and(|p| p != CutPolicy::Refuse),
     };
-    let mut parsed = log::parse_with(file, &bytes, &layout.schema, options)?;
+    let mut parsed = log::read_log(path, file, &layout.schema, options)?;
     let mut cut = Vec::new();
     if options.missing_as_nan {
         cut = cuts::missing_rows(&parsed.columns, &layout.names, |k| parsed.line_of(k));

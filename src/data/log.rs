@@ -12,6 +12,9 @@ use std::path::Path;
 
 pub use super::log_error::LogError;
 
+mod columns;
+pub use columns::{from_columns, read_log};
+
 /// The NanoBench CSV schema, in file order (shared/nanobench/README.md).
 pub const NANOBENCH_COLUMNS: [&str; 52] = [
     "t",
@@ -104,8 +107,7 @@ impl Log {
 /// a gzip member are an error, not ignored).
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
     let file = path.display().to_string();
-    let raw = crate::io::read_input(path, crate::io::MAX_LOG_FILE, "a flight log")
-        .map_err(|e| LogError::Io { file: file.clone(), message: e.reason() })?;
+    let raw = read_raw(path)?;
     if crate::io::parquet::is_parquet(path) {
         return crate::io::parquet::to_csv_text(raw, crate::io::MAX_LOG_DECOMPRESSED, "a flight log")
             .map_err(|message| LogError::Parquet { file, message });
@@ -130,6 +132,12 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>, LogError> {
         return Err(LogError::Gzip { file, bytes: 0, line: 1, message: "no data in the gzip stream".into() });
     }
     Ok(out)
+}
+
+/// The file's bytes as stored, at most [`crate::io::MAX_LOG_FILE`].
+fn read_raw(path: &Path) -> Result<Vec<u8>, LogError> {
+    crate::io::read_input(path, crate::io::MAX_LOG_FILE, "a flight log")
+        .map_err(|e| LogError::Io { file: path.display().to_string(), message: e.reason() })
 }
 
 /// Index of each requested column in the NanoBench schema.

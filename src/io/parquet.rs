@@ -41,11 +41,75 @@ pub fn is_parquet(path: &std::path::Path) -> bool {
 /// ([`rows_to_csv_text`], the reference the columns are tested against,
 /// byte for byte), which also words every error.
 pub fn to_csv_text(raw: Vec<u8>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
+    decode(raw, limit, what).map(|d| d.text)
+}
+
+/// A Parquet file's CSV text ([`to_csv_text`]) and, where it was decoded
+/// column by column, its columns as decoded.
+pub struct Decoded {
+    /// The CSV text, header first.
+    pub text: Vec<u8>,
+    /// The columns and where each row's line ends; `None` where the
+    /// record API read the file.
+    pub columns: Option<Columns>,
+}
+
+/// A file's columns as decoded, row group by row group, and where each
+/// row's line ends in its text.
+pub struct Columns {
+    /// Each row group's columns, in file order.
+    groups: Vec<Vec<Column>>,
+    /// For each row, the offset of its line's `\n` in the text.
+    pub row_ends: Vec<usize>,
+}
+
+/// [`to_csv_text`], keeping the columns where they were decoded.
+pub fn decode(raw: Vec<u8>, limit: u64, what: &str) -> Result<Decoded, String> {
     let bytes = Bytes::from(raw);
-    if let Some(text) = columns_to_csv_text(bytes.clone(), limit) {
-        return Ok(text);
+    if let Some(decoded) = decode_columns(bytes.clone(), limit) {
+        return Ok(decoded);
     }
-    rows_to_csv_text(bytes, limit, what)
+    Ok(Decoded { text: rows_to_csv_text(bytes, limit, what)?, columns: None })
+}
+
+impl Columns {
+    /// Column `c`'s values as a reader of the text reads them: a double
+    /// as it is, a float and a timestamp as the number its text writes,
+    /// an integer as the nearest double, a null as NaN; `None` for a
+    /// column of another type (text, booleans), whose text alone says
+    /// what it holds.
+    pub fn numbers(&self, c: usize) -> Option<Vec<f64>> {
+        use crate::io::float_text::debug_f32;
+        let rows = self.row_ends.len();
+        let mut out = Vec::with_capacity(rows);
+        let mut text = Vec::with_capacity(48);
+        for group in &self.groups {
+            let column = group.get(c)?;
+            let mut next = 0;
+            let n = column.levels.as_ref().map_or(column.values.len(), Vec::len);
+            for row in 0..n {
+                if column.levels.as_ref().is_some_and(|l| l[row] != 1) {
+                    out.push(f64::NAN);
+                    continue;
+                }
+                let k = next;
+                next += 1;
+                out.push(match &column.values {
+                    Values::Double(v) => *v.get(k)?,
+                    Values::Int32(v) => f64::from(*v.get(k)?),
+                    Values::Int64(v, None) => *v.get(k)? as f64,
+                    Values::Int64(v, Some(s)) => *v.get(k)? as f64 / s,
+                    Values::Float(v) => {
+                        text.clear();
+                        debug_f32(*v.get(k)?, &mut text);
+                        fast_float2::parse(&text).ok()?
+                    }
+                    Values::Bool(_) | Values::Text(_) => return None,
+                });
+            }
+        }
+        (out.len() == rows).then_some(out)
+    }
 }
 
 /// [`to_csv_text`] through parquet's record API, a row at a time.
@@ -115,6 +179,11 @@ struct Column {
 /// text that is not UTF-8 or text past `limit`, which the record API reads
 /// (and words).
 pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
+    decode_columns(raw, limit).map(|d| d.text)
+}
+
+/// [`columns_to_csv_text`], keeping the columns.
+fn decode_columns(raw: Bytes, limit: u64) -> Option<Decoded> {
     let reader = SerializedFileReader::new(raw).ok()?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let fields = schema.root_schema().get_fields();
@@ -125,12 +194,14 @@ pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
     let names: Vec<String> = fields.iter().map(|f| quoted(f.name())).collect();
     out.extend_from_slice(names.join(",").as_bytes());
     out.push(b'\n');
+    let mut groups = Vec::with_capacity(reader.num_row_groups());
+    let mut row_ends = Vec::new();
     for g in 0..reader.num_row_groups() {
         let group = reader.get_row_group(g).ok()?;
         let rows = usize::try_from(group.metadata().num_rows()).ok()?;
         let mut columns = Vec::with_capacity(fields.len());
         for c in 0..fields.len() {
-            columns.push(decode(group.get_column_reader(c).ok()?, &schema.column(c), rows)?);
+            columns.push(decode_column(group.get_column_reader(c).ok()?, &schema.column(c), rows)?);
         }
         for _ in 0..rows {
             for (c, column) in columns.iter_mut().enumerate() {
@@ -139,18 +210,20 @@ pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
                 }
                 column.write_next(&mut out)?;
             }
+            row_ends.push(out.len());
             out.push(b'\n');
             if out.len() as u64 > limit {
                 return None;
             }
         }
+        groups.push(columns);
     }
-    Some(out)
+    Some(Decoded { text: out, columns: Some(Columns { groups, row_ends }) })
 }
 
 /// Every value of one column chunk of `rows` rows, where its type is one
 /// [`columns_to_csv_text`] writes.
-fn decode(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> Option<Column> {
+fn decode_column(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> Option<Column> {
     use parquet::basic::ConvertedType as C;
     if desc.max_rep_level() != 0 || desc.max_def_level() > 1 {
         return None;
@@ -201,6 +274,20 @@ fn read_all<T: DataType>(
     }
     let levels_read = levels.as_ref().map_or(rows, |l| l.len());
     (levels_read == rows).then_some(values)
+}
+
+impl Values {
+    /// How many values it holds.
+    fn len(&self) -> usize {
+        match self {
+            Values::Bool(v) => v.len(),
+            Values::Int32(v) => v.len(),
+            Values::Int64(v, _) => v.len(),
+            Values::Float(v) => v.len(),
+            Values::Double(v) => v.len(),
+            Values::Text(v) => v.len(),
+        }
+    }
 }
 
 impl Column {
