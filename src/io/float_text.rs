@@ -21,7 +21,9 @@ pub fn debug_f64(x: f64, out: &mut Vec<u8>) {
     let exponential = x != 0.0 && !(1e-4..1e16).contains(&a);
     let spacing = f64::from_bits(a.to_bits().wrapping_add(1)) - a;
     let layout = Layout { relayout, exponential, spacing };
-    if !x.is_finite() || write(zmij::Buffer::new().format_finite(x), binary, layout, out).is_none() {
+    if !x.is_finite() {
+        out.extend_from_slice(not_finite(x.is_nan(), x < 0.0));
+    } else if write(zmij::Buffer::new().format_finite(x), binary, layout, out).is_none() {
         out.extend_from_slice(format!("{x:?}").as_bytes());
     }
 }
@@ -36,8 +38,20 @@ pub fn debug_f32(x: f32, out: &mut Vec<u8>) {
     let exponential = x != 0.0 && !(1e-4..1e16).contains(&a);
     let spacing = f64::from(f32::from_bits(a.to_bits().wrapping_add(1)) - a);
     let layout = Layout { relayout, exponential, spacing };
-    if !x.is_finite() || write(zmij::Buffer::new().format_finite(x), binary, layout, out).is_none() {
+    if !x.is_finite() {
+        out.extend_from_slice(not_finite(x.is_nan(), x < 0.0));
+    } else if write(zmij::Buffer::new().format_finite(x), binary, layout, out).is_none() {
         out.extend_from_slice(format!("{x:?}").as_bytes());
+    }
+}
+
+/// What Rust's `{:?}` writes for a number that is not finite: `NaN`
+/// (whatever its sign), `inf`, `-inf`.
+fn not_finite(nan: bool, negative: bool) -> &'static [u8] {
+    match (nan, negative) {
+        (true, _) => b"NaN",
+        (false, false) => b"inf",
+        (false, true) => b"-inf",
     }
 }
 
@@ -94,8 +108,9 @@ fn tie_possible(m: u64, e: i32, exact: bool) -> bool {
     if e >= 0 {
         return !exact;
     }
-    // One less than floor(top log10 2), for rounding in the product.
-    let digits = (f64::from(top) * std::f64::consts::LOG10_2).floor() as i32 - e;
+    // floor(top log10 2), one less than the digits of 2^top, in integers
+    // (exact for |top| <= 2620; here -1074 <= top < 1024).
+    let digits = ((top * 315_653) >> 20) - e;
     digits <= 18
 }
 
@@ -196,6 +211,15 @@ mod tests {
         String::from_utf8_lossy(&out).into_owned()
     }
 
+    /// The integer floor(top log10 2) is the floating-point one over
+    /// every binary exponent of an f64.
+    #[test]
+    fn the_integer_log10_of_a_power_of_two_is_the_floating_points() {
+        for top in -1074..1024 {
+            assert_eq!((top * 315_653) >> 20, (f64::from(top) * std::f64::consts::LOG10_2).floor() as i32, "{top}");
+        }
+    }
+
     /// Equal to Rust's `{:?}` (the reference) on random bit patterns of
     /// every exponent, on values with few digits (as logs hold), and at
     /// every boundary of the layout.
@@ -209,6 +233,7 @@ mod tests {
         };
         let mut edges = vec![0.0, -0.0, 1.0, -1.0, 0.1, 1e-4, -1e-4, 1e16, -1e16, 1e15, 1e21, 1e-7, 5e-324];
         edges.extend([f64::MAX, f64::MIN, f64::MIN_POSITIVE, f64::EPSILON, f64::NAN, f64::INFINITY, f64::NEG_INFINITY]);
+        edges.extend([-f64::NAN, f64::from_bits(0x7ff0_0000_0000_0001), f64::from_bits(0xfff8_0000_0000_0001)]);
         for e in [1e-4f64, 1e16] {
             edges.extend([e, f64::from_bits(e.to_bits() - 1), f64::from_bits(e.to_bits() + 1)]);
         }
