@@ -120,7 +120,7 @@ fn main() {
         }
     });
     println!("  Parquet, read by column (this build):          {:7.1} ms, {:7.1} ms", by_column.0, by_column.1);
-    println!("  Parquet, by column, its text parsed (earlier): {:7.1} ms, {:7.1} ms", reparsed.0, reparsed.1);
+    println!("  Parquet, by column, text parsed back (before): {:7.1} ms, {:7.1} ms", reparsed.0, reparsed.1);
     println!("  Parquet, through the record API (earlier):     {:7.1} ms, {:7.1} ms", by_record.0, by_record.1);
     println!("  CSV twin:                                      {:7.1} ms, {:7.1} ms", twin.0, twin.1);
     println!(
