@@ -922,3 +922,85 @@ fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(),
     assert!(taken >= 22 * 4 + 3, "{taken} reads from the columns");
     Ok(())
 }
+
+/// The same, on 300 small random files: each column a double (with nulls,
+/// NaN, infinities and values too large), a float, a timestamp (rising or
+/// not) or text (numbers or words), under a random declaration of some of
+/// them, with and without a time column, under every parse option.
+#[test]
+fn random_parquet_logs_read_from_their_columns_are_the_logs_their_text_gives() -> Result<(), Box<dyn std::error::Error>>
+{
+    use crossaudit::data::log::{from_columns, parse_with, read_log, Log, ParseOptions, Schema};
+    let tmp = tempfile::tempdir()?;
+    // A 64-bit LCG (Knuth's MMIX constants).
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move |n: u64| {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 33) % n
+    };
+    let bits = |log: &Log| {
+        let columns: Vec<Vec<u64>> = log.columns.iter().map(|c| c.iter().map(|v| v.to_bits()).collect()).collect();
+        (log.rows, columns, log.content_hash.clone(), log.row_hashes.clone())
+    };
+    let (mut taken, mut refused) = (0, 0);
+    for f in 0..300 {
+        let rows = 1 + next(6) as usize;
+        let names = ["t", "a", "b", "c"];
+        let mut columns = Vec::new();
+        for name in names {
+            let column = match next(5) {
+                0 => Column::Double(
+                    (0..rows)
+                        .map(|_| match next(12) {
+                            0 => None,
+                            1 => Some(f64::NAN),
+                            2 => Some(f64::NEG_INFINITY),
+                            3 => Some(3e15),
+                            _ => Some((next(2_000_001) as f64 - 1e6) / 10f64.powi(next(9) as i32)),
+                        })
+                        .collect(),
+                ),
+                1 => Column::Float((0..rows).map(|_| (next(20_001) as f32 - 1e4) / 64.0).collect()),
+                2 => {
+                    let rising = next(4) > 0;
+                    Column::TimestampNanos(
+                        (0..rows as i64).map(|k| if rising { k * 5_000_000 } else { (k % 2) * 7_000_000 }).collect(),
+                    )
+                }
+                3 => Column::Text((0..rows).map(|k| format!("{}.5", k as u64 + next(9))).collect()),
+                _ => Column::Text(
+                    (0..rows).map(|_| ["calm", "a,b", "", "say \"hi\""][next(4) as usize].into()).collect(),
+                ),
+            };
+            columns.push((name, column));
+        }
+        let path = tmp.path().join(format!("r{f}.parquet"));
+        write_parquet(&path, &columns);
+        let declared: Vec<String> = names[1..].iter().filter(|_| next(2) == 0).map(|s| s.to_string()).collect();
+        let declared = if declared.is_empty() { vec!["a".to_string()] } else { declared };
+        let time = (next(2) == 0).then(|| "t".to_string());
+        let schema = Schema::Named { columns: declared, time };
+        let decoded = crossaudit::io::parquet::decode(std::fs::read(&path)?, u64::MAX, "a flight log")?;
+        for (hash_rows, missing_as_nan) in [(false, false), (true, false), (false, true), (true, true)] {
+            let options = ParseOptions { hash_rows, missing_as_nan };
+            let name = path.display().to_string();
+            let what = format!("{name}, {schema:?}, {options:?}");
+            let reference = parse_with(&name, &decoded.text, &schema, options);
+            let read = read_log(&path, &name, &schema, options);
+            match (&reference, &read) {
+                (Ok(a), Ok(b)) => assert!(bits(a) == bits(b), "{what}"),
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{what}"),
+                _ => panic!("{what}: {reference:?} against {read:?}"),
+            }
+            refused += usize::from(reference.is_err());
+            if let Some(fast) = from_columns(&name, &decoded, &schema, options) {
+                let reference = reference.as_ref().map_err(|e| format!("{what}: the text is refused: {e}"))?;
+                assert!(bits(&fast) == bits(reference), "{what}");
+                taken += 1;
+            }
+        }
+    }
+    // Both paths are exercised, and some files are refused.
+    assert!(taken > 200 && refused > 100, "{taken} read from the columns, {refused} refused");
+    Ok(())
+}
