@@ -51,12 +51,12 @@ pub struct Decoded {
     pub text: Vec<u8>,
     /// The columns and where each row's line ends; `None` where the
     /// record API read the file.
-    pub columns: Option<Columns>,
+    pub columns: Option<DecodedColumns>,
 }
 
 /// A file's columns as decoded, row group by row group, and where each
 /// row's line ends in its text.
-pub struct Columns {
+pub struct DecodedColumns {
     /// Each row group's columns, in file order.
     groups: Vec<Vec<Column>>,
     /// For each row, the offset of its line's `\n` in the text.
@@ -72,7 +72,12 @@ pub fn decode(raw: Vec<u8>, limit: u64, what: &str) -> Result<Decoded, String> {
     Ok(Decoded { text: rows_to_csv_text(bytes, limit, what)?, columns: None })
 }
 
-impl Columns {
+impl DecodedColumns {
+    /// How many columns the file has.
+    pub fn width(&self) -> usize {
+        self.groups.first().map_or(0, Vec::len)
+    }
+
     /// Column `c`'s values as a reader of the text reads them: a double
     /// as it is, a float and a timestamp as the number its text writes,
     /// an integer as the nearest double, a null as NaN; `None` for a
@@ -218,7 +223,7 @@ fn decode_columns(raw: Bytes, limit: u64) -> Option<Decoded> {
         }
         groups.push(columns);
     }
-    Some(Decoded { text: out, columns: Some(Columns { groups, row_ends }) })
+    Some(Decoded { text: out, columns: Some(DecodedColumns { groups, row_ends }) })
 }
 
 /// Every value of one column chunk of `rows` rows, where its type is one

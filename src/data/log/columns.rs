@@ -41,7 +41,7 @@ pub fn from_columns(file: &str, decoded: &Decoded, schema: &Schema, options: Par
     }
     let Header { end, names, keep, time, check_all } = header(file, text, schema).ok()?;
     let rows = columns.row_ends.len();
-    if check_all || names.len() < 2 || rows == 0 {
+    if check_all || names.len() < 2 || names.len() != columns.width() || rows == 0 {
         return None;
     }
     let body = text.get(end + 1..)?;
