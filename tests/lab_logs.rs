@@ -925,7 +925,8 @@ fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(),
 
 /// The same, on 300 small random files: each column a double (with nulls,
 /// NaN, infinities and values too large), a float, a timestamp (rising or
-/// not) or text (numbers or words), under a random declaration of some of
+/// not) or text (numbers or words, with commas, quotes and line breaks),
+/// under a random declaration of some of
 /// them, with and without a time column, under every parse option.
 #[test]
 fn random_parquet_logs_read_from_their_columns_are_the_logs_their_text_gives() -> Result<(), Box<dyn std::error::Error>>
@@ -942,6 +943,8 @@ fn random_parquet_logs_read_from_their_columns_are_the_logs_their_text_gives() -
         let columns: Vec<Vec<u64>> = log.columns.iter().map(|c| c.iter().map(|v| v.to_bits()).collect()).collect();
         (log.rows, columns, log.content_hash.clone(), log.row_hashes.clone())
     };
+    // Text with commas, quotes and line breaks, a lone `\r` among them.
+    const WORDS: [&str; 6] = ["calm", "a,b", "", "say \"hi\"", "cr\ralone", "two\r\nlines"];
     let (mut taken, mut refused) = (0, 0);
     for f in 0..300 {
         let rows = 1 + next(6) as usize;
@@ -968,9 +971,7 @@ fn random_parquet_logs_read_from_their_columns_are_the_logs_their_text_gives() -
                     )
                 }
                 3 => Column::Text((0..rows).map(|k| format!("{}.5", k as u64 + next(9))).collect()),
-                _ => Column::Text(
-                    (0..rows).map(|_| ["calm", "a,b", "", "say \"hi\""][next(4) as usize].into()).collect(),
-                ),
+                _ => Column::Text((0..rows).map(|_| WORDS[next(WORDS.len() as u64) as usize].into()).collect()),
             };
             columns.push((name, column));
         }

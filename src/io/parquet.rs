@@ -41,7 +41,7 @@ pub fn is_parquet(path: &std::path::Path) -> bool {
 /// ([`rows_to_csv_text`], the reference the columns are tested against,
 /// byte for byte), which also words every error.
 pub fn to_csv_text(raw: Vec<u8>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
-    decode(raw, limit, what).map(|d| d.text)
+    decode_with(raw, limit, what, false).map(|d| d.text)
 }
 
 /// A Parquet file's CSV text ([`to_csv_text`]) and, where it was decoded
@@ -50,7 +50,8 @@ pub struct Decoded {
     /// The CSV text, header first.
     pub text: Vec<u8>,
     /// The columns and where each row's line ends; `None` where the
-    /// record API read the file.
+    /// record API read the file (or [`to_csv_text`] asked for the text
+    /// alone, which drops each row group's columns once written).
     pub columns: Option<DecodedColumns>,
 }
 
@@ -65,8 +66,13 @@ pub struct DecodedColumns {
 
 /// [`to_csv_text`], keeping the columns where they were decoded.
 pub fn decode(raw: Vec<u8>, limit: u64, what: &str) -> Result<Decoded, String> {
+    decode_with(raw, limit, what, true)
+}
+
+/// [`decode`], keeping the columns only where `keep` says so.
+fn decode_with(raw: Vec<u8>, limit: u64, what: &str, keep: bool) -> Result<Decoded, String> {
     let bytes = Bytes::from(raw);
-    if let Some(decoded) = decode_columns(bytes.clone(), limit) {
+    if let Some(decoded) = decode_columns(bytes.clone(), limit, keep) {
         return Ok(decoded);
     }
     Ok(Decoded { text: rows_to_csv_text(bytes, limit, what)?, columns: None })
@@ -184,11 +190,11 @@ struct Column {
 /// text that is not UTF-8 or text past `limit`, which the record API reads
 /// (and words).
 pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
-    decode_columns(raw, limit).map(|d| d.text)
+    decode_columns(raw, limit, false).map(|d| d.text)
 }
 
-/// [`columns_to_csv_text`], keeping the columns.
-fn decode_columns(raw: Bytes, limit: u64) -> Option<Decoded> {
+/// [`columns_to_csv_text`], and with `keep`, the columns as decoded.
+fn decode_columns(raw: Bytes, limit: u64, keep: bool) -> Option<Decoded> {
     let reader = SerializedFileReader::new(raw).ok()?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let fields = schema.root_schema().get_fields();
@@ -215,15 +221,19 @@ fn decode_columns(raw: Bytes, limit: u64) -> Option<Decoded> {
                 }
                 column.write_next(&mut out)?;
             }
-            row_ends.push(out.len());
+            if keep {
+                row_ends.push(out.len());
+            }
             out.push(b'\n');
             if out.len() as u64 > limit {
                 return None;
             }
         }
-        groups.push(columns);
+        if keep {
+            groups.push(columns);
+        }
     }
-    Some(Decoded { text: out, columns: Some(DecodedColumns { groups, row_ends }) })
+    Some(Decoded { text: out, columns: keep.then_some(DecodedColumns { groups, row_ends }) })
 }
 
 /// Every value of one column chunk of `rows` rows, where its type is one

@@ -34,9 +34,11 @@ pub fn read_log(path: &Path, file: &str, schema: &Schema, options: ParseOptions)
 /// specially).
 pub fn from_columns(file: &str, decoded: &Decoded, schema: &Schema, options: ParseOptions) -> Option<Log> {
     let (text, columns) = (&decoded.text, decoded.columns.as_ref()?);
-    // What the CSV reader changes before reading (a byte-order mark, lone
-    // `\r`), none of which the text of a Parquet file holds.
-    if text.starts_with(b"\xef\xbb\xbf") || text.contains(&b'\r') {
+    // What the CSV reader changes before reading: a byte-order mark (a
+    // first column's name may begin with one) and lone `\r` (the text
+    // holds none: `io::parquet` writes every line break in a name or a
+    // value as a space).
+    if text.starts_with(b"\xef\xbb\xbf") {
         return None;
     }
     let Header { end, names, keep, time, check_all } = header(file, text, schema).ok()?;
