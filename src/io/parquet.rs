@@ -40,48 +40,68 @@ pub fn is_parquet(path: &std::path::Path) -> bool {
 /// file, or any problem, goes through parquet's record API
 /// ([`rows_to_csv_text`], the reference the columns are tested against,
 /// byte for byte), which also words every error.
-pub fn to_csv_text(raw: Vec<u8>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
-    decode_with(raw, limit, what, false).map(|d| d.text)
-}
-
-/// A Parquet file's CSV text ([`to_csv_text`]) and, where it was decoded
-/// column by column, its columns as decoded.
-pub struct Decoded {
-    /// The CSV text, header first.
-    pub text: Vec<u8>,
-    /// The columns and where each row's line ends; `None` where the
-    /// record API read the file (or [`to_csv_text`] asked for the text
-    /// alone, which drops each row group's columns once written).
-    pub columns: Option<DecodedColumns>,
-}
-
-/// A file's columns as decoded, row group by row group, and where each
-/// row's line ends in its text.
-pub struct DecodedColumns {
-    /// Each row group's columns, in file order.
-    groups: Vec<Vec<Column>>,
-    /// For each row, the offset of its line's `\n` in the text.
-    pub row_ends: Vec<usize>,
-}
-
-/// [`to_csv_text`], keeping the columns where they were decoded.
-pub fn decode(raw: Vec<u8>, limit: u64, what: &str) -> Result<Decoded, String> {
-    decode_with(raw, limit, what, true)
-}
-
-/// [`decode`], keeping the columns only where `keep` says so.
-fn decode_with(raw: Vec<u8>, limit: u64, what: &str, keep: bool) -> Result<Decoded, String> {
-    let bytes = Bytes::from(raw);
-    if let Some(decoded) = decode_columns(bytes.clone(), limit, keep) {
-        return Ok(decoded);
+pub fn to_csv_text(raw: impl Into<Bytes>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
+    let bytes = raw.into();
+    match columns_to_csv_text(bytes.clone(), limit) {
+        Some(text) => Ok(text),
+        None => rows_to_csv_text(bytes, limit, what),
     }
-    Ok(Decoded { text: rows_to_csv_text(bytes, limit, what)?, columns: None })
+}
+
+/// A Parquet file's columns as decoded, row group by row group, and the
+/// header line of its CSV text ([`to_csv_text`]). The text's rows are
+/// written a line at a time ([`DecodedColumns::lines`]), never whole.
+pub struct DecodedColumns {
+    /// The text's first line, without its `\n`.
+    header: Vec<u8>,
+    groups: Vec<DecodedGroup>,
+    rows: usize,
+    /// The most bytes the text may hold.
+    limit: u64,
+}
+
+/// The columns of the Parquet file `raw`, where [`columns_to_csv_text`]
+/// decodes it column by column (`None` where it does not); its text is
+/// held to `limit` bytes as it is written ([`DecodedColumns::lines`]).
+pub fn decode_columns(raw: Bytes, limit: u64) -> Option<DecodedColumns> {
+    let file = FlatFile::open(raw)?;
+    let groups = (0..file.groups()).map(|g| file.group(g)).collect::<Option<Vec<_>>>()?;
+    let rows = groups.iter().map(|g| g.rows).sum();
+    Some(DecodedColumns { header: file.header, groups, rows, limit })
 }
 
 impl DecodedColumns {
+    /// The first line of the file's text (its columns' names), without
+    /// its `\n`.
+    pub fn header(&self) -> &[u8] {
+        &self.header
+    }
+
+    /// How many rows the file has.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
     /// How many columns the file has.
     pub fn width(&self) -> usize {
-        self.groups.first().map_or(0, Vec::len)
+        self.groups.first().map_or(0, |g| g.columns.len())
+    }
+
+    /// Calls `each` with every row's line of the text, its `\n` included,
+    /// in order, each written into one reused buffer; `None` where the
+    /// text would pass its limit (or a value could not be written), which
+    /// [`columns_to_csv_text`] refuses too.
+    pub fn lines(&self, mut each: impl FnMut(&[u8])) -> Option<()> {
+        let mut written = self.header.len() as u64 + 1;
+        let mut line = Vec::with_capacity(256);
+        for group in &self.groups {
+            group.lines(&mut line, |l| {
+                written += l.len() as u64;
+                each(l);
+                (written <= self.limit).then_some(())
+            })?;
+        }
+        Some(())
     }
 
     /// Column `c`'s values as a reader of the text reads them: a double
@@ -91,15 +111,13 @@ impl DecodedColumns {
     /// what it holds.
     pub fn numbers(&self, c: usize) -> Option<Vec<f64>> {
         use crate::io::float_text::debug_f32;
-        let rows = self.row_ends.len();
-        let mut out = Vec::with_capacity(rows);
+        let mut out = Vec::with_capacity(self.rows);
         let mut text = Vec::with_capacity(48);
         for group in &self.groups {
-            let column = group.get(c)?;
+            let column = group.columns.get(c)?;
             let mut next = 0;
-            let n = column.levels.as_ref().map_or(column.values.len(), Vec::len);
-            for row in 0..n {
-                if column.levels.as_ref().is_some_and(|l| l[row] != 1) {
+            for row in 0..group.rows {
+                if column.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
                     out.push(f64::NAN);
                     continue;
                 }
@@ -119,10 +137,9 @@ impl DecodedColumns {
                 });
             }
         }
-        (out.len() == rows).then_some(out)
+        Some(out)
     }
 }
-
 /// [`to_csv_text`] through parquet's record API, a row at a time.
 pub fn rows_to_csv_text(raw: Bytes, limit: u64, what: &str) -> Result<Vec<u8>, String> {
     let reader = SerializedFileReader::new(raw).map_err(|e| e.to_string())?;
@@ -180,60 +197,88 @@ enum Values {
 struct Column {
     values: Values,
     levels: Option<Vec<i16>>,
-    /// The next row and the next value to write.
-    row: usize,
-    next: usize,
+}
+
+/// One row group's columns, decoded.
+struct DecodedGroup {
+    columns: Vec<Column>,
+    rows: usize,
+}
+
+/// A Parquet file of flat columns, opened: its reader and its text's
+/// header line (without its `\n`).
+struct FlatFile {
+    reader: SerializedFileReader<Bytes>,
+    schema: parquet::schema::types::SchemaDescPtr,
+    header: Vec<u8>,
 }
 
 /// The text [`rows_to_csv_text`] gives, decoded column by column; `None`
 /// for a file with another type, nesting or repetition, a decoding error,
 /// text that is not UTF-8 or text past `limit`, which the record API reads
-/// (and words).
+/// (and words). Each row group is decoded, written and dropped in turn.
 pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
-    decode_columns(raw, limit, false).map(|d| d.text)
+    let file = FlatFile::open(raw)?;
+    let mut out = file.header.clone();
+    out.push(b'\n');
+    let mut line = Vec::with_capacity(256);
+    for g in 0..file.groups() {
+        file.group(g)?.lines(&mut line, |l| {
+            out.extend_from_slice(l);
+            (out.len() as u64 <= limit).then_some(())
+        })?;
+    }
+    Some(out)
 }
 
-/// [`columns_to_csv_text`], and with `keep`, the columns as decoded.
-fn decode_columns(raw: Bytes, limit: u64, keep: bool) -> Option<Decoded> {
-    let reader = SerializedFileReader::new(raw).ok()?;
-    let schema = reader.metadata().file_metadata().schema_descr_ptr();
-    let fields = schema.root_schema().get_fields();
-    if fields.is_empty() || fields.len() != schema.num_columns() || fields.iter().any(|f| !f.is_primitive()) {
-        return None;
+impl FlatFile {
+    /// `raw` opened, where every top-level column is a primitive one.
+    fn open(raw: Bytes) -> Option<FlatFile> {
+        let reader = SerializedFileReader::new(raw).ok()?;
+        let schema = reader.metadata().file_metadata().schema_descr_ptr();
+        let fields = schema.root_schema().get_fields();
+        if fields.is_empty() || fields.len() != schema.num_columns() || fields.iter().any(|f| !f.is_primitive()) {
+            return None;
+        }
+        let header = fields.iter().map(|f| quoted(f.name())).collect::<Vec<_>>().join(",").into_bytes();
+        Some(FlatFile { reader, schema, header })
     }
-    let mut out = Vec::new();
-    let names: Vec<String> = fields.iter().map(|f| quoted(f.name())).collect();
-    out.extend_from_slice(names.join(",").as_bytes());
-    out.push(b'\n');
-    let mut groups = Vec::with_capacity(reader.num_row_groups());
-    let mut row_ends = Vec::new();
-    for g in 0..reader.num_row_groups() {
-        let group = reader.get_row_group(g).ok()?;
+
+    /// How many row groups it has.
+    fn groups(&self) -> usize {
+        self.reader.num_row_groups()
+    }
+
+    /// Row group `g`, every column decoded.
+    fn group(&self, g: usize) -> Option<DecodedGroup> {
+        let group = self.reader.get_row_group(g).ok()?;
         let rows = usize::try_from(group.metadata().num_rows()).ok()?;
-        let mut columns = Vec::with_capacity(fields.len());
-        for c in 0..fields.len() {
-            columns.push(decode_column(group.get_column_reader(c).ok()?, &schema.column(c), rows)?);
-        }
-        for _ in 0..rows {
-            for (c, column) in columns.iter_mut().enumerate() {
-                if c > 0 {
-                    out.push(b',');
-                }
-                column.write_next(&mut out)?;
-            }
-            if keep {
-                row_ends.push(out.len());
-            }
-            out.push(b'\n');
-            if out.len() as u64 > limit {
-                return None;
-            }
-        }
-        if keep {
-            groups.push(columns);
-        }
+        let columns = (0..self.schema.num_columns())
+            .map(|c| decode_column(group.get_column_reader(c).ok()?, &self.schema.column(c), rows))
+            .collect::<Option<Vec<_>>>()?;
+        Some(DecodedGroup { columns, rows })
     }
-    Some(Decoded { text: out, columns: keep.then_some(DecodedColumns { groups, row_ends }) })
+}
+
+impl DecodedGroup {
+    /// Writes each row's line (its `\n` included) into `line` and hands it
+    /// to `each`, stopping at the first `None`.
+    fn lines(&self, line: &mut Vec<u8>, mut each: impl FnMut(&[u8]) -> Option<()>) -> Option<()> {
+        // Each column's next value (a null has none).
+        let mut next = vec![0usize; self.columns.len()];
+        for row in 0..self.rows {
+            line.clear();
+            for (c, (column, next)) in self.columns.iter().zip(&mut next).enumerate() {
+                if c > 0 {
+                    line.push(b',');
+                }
+                column.write(row, next, line)?;
+            }
+            line.push(b'\n');
+            each(line)?;
+        }
+        Some(())
+    }
 }
 
 /// Every value of one column chunk of `rows` rows, where its type is one
@@ -269,7 +314,7 @@ fn decode_column(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> 
         ColumnReader::ByteArrayColumnReader(r) if text => Values::Text(read_all(r, rows, lv)?),
         _ => return None,
     };
-    Some(Column { values, levels: nullable.then_some(levels), row: 0, next: 0 })
+    Some(Column { values, levels: nullable.then_some(levels) })
 }
 
 /// Every value (and, for a column with nulls, every level) of `rows` rows.
@@ -291,30 +336,15 @@ fn read_all<T: DataType>(
     (levels_read == rows).then_some(values)
 }
 
-impl Values {
-    /// How many values it holds.
-    fn len(&self) -> usize {
-        match self {
-            Values::Bool(v) => v.len(),
-            Values::Int32(v) => v.len(),
-            Values::Int64(v, _) => v.len(),
-            Values::Float(v) => v.len(),
-            Values::Double(v) => v.len(),
-            Values::Text(v) => v.len(),
-        }
-    }
-}
-
 impl Column {
-    /// Writes the next row's value (nothing for a null) as [`text`] does.
-    fn write_next(&mut self, out: &mut Vec<u8>) -> Option<()> {
-        let row = self.row;
-        self.row += 1;
+    /// Writes row `row`'s value (nothing for a null) as [`text`] does;
+    /// `next` is the column's next value, counted on past it.
+    fn write(&self, row: usize, next: &mut usize, out: &mut Vec<u8>) -> Option<()> {
         if self.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
             return Some(());
         }
-        let k = self.next;
-        self.next += 1;
+        let k = *next;
+        *next += 1;
         use crate::io::float_text::{debug_f32, debug_f64};
         match &self.values {
             Values::Bool(v) => out.extend_from_slice(if *v.get(k)? { b"true" } else { b"false" }),
@@ -323,7 +353,16 @@ impl Column {
             Values::Int64(v, Some(s)) => debug_f64(*v.get(k)? as f64 / s, out),
             Values::Float(v) => debug_f32(*v.get(k)?, out),
             Values::Double(v) => debug_f64(*v.get(k)?, out),
-            Values::Text(v) => out.extend_from_slice(quoted(std::str::from_utf8(v.get(k)?.data()).ok()?).as_bytes()),
+            Values::Text(v) => {
+                let s = std::str::from_utf8(v.get(k)?.data()).ok()?;
+                // Most text needs no quotes: written as it is, with no
+                // copy made on the way.
+                if s.bytes().any(|b| matches!(b, b'\n' | b'\r' | b',' | b'"')) {
+                    out.extend_from_slice(quoted(s).as_bytes());
+                } else {
+                    out.extend_from_slice(s.as_bytes());
+                }
+            }
         }
         Some(())
     }
