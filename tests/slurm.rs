@@ -698,6 +698,75 @@ fn a_per_seed_draw_study_runs_as_one_array_and_matches_a_local_run() {
     assert_same_run(&local, &dir);
 }
 
+/// Five jobs per array task (`--jobs-per-task 5`): the per-seed study's 12
+/// jobs in 3 tasks, a task running jobs of two levels; a second
+/// preparation after task 0 leaves tasks 1 and 2 in the array; the tasks'
+/// jobs write what a local run writes. A task past the last is refused,
+/// and so is `--jobs-per-task 0`; `--device cuda` asks Slurm for a GPU per
+/// task, and a task that finds none says so and exits non-zero.
+#[test]
+fn tasks_of_several_jobs_run_them_all_and_match_a_local_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cwd = tmp.path().join("cwd");
+    std::fs::create_dir_all(&cwd).unwrap();
+    let design = per_seed_design(tmp.path());
+    let dir = tmp.path().join("cluster");
+    let (ds, d) = (design.to_str().unwrap(), dir.to_str().unwrap());
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm", "--jobs-per-task", "0"], &[]);
+    assert_refused(&o, "--jobs-per-task");
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm", "--jobs-per-task", "5"], &[]);
+    assert_ok(&o);
+    let said = text(&o);
+    assert!(said.contains("--array='0-2'") && said.contains("3 task(s) of up to 5 training jobs each"), "{said}");
+    assert!(!said.contains("--gres"), "{said}");
+    let array = std::fs::read_to_string(dir.join("slurm/array.json")).unwrap();
+    assert!(array.contains("\"per_task\": 5") && array.contains("\"device\": \"cpu\""), "{array}");
+    let o = sh_task(&cwd, &dir, 3);
+    assert_refused(&o, "array index 3 is out of range: the study has 12 jobs in 3 tasks of up to 5, indices 0 to 2");
+    // Task 0: draw-1's four jobs and draw-2's first.
+    let o = sh_task(&cwd, &dir, 0);
+    assert_ok(&o);
+    let said = text(&o);
+    assert_eq!(said.matches("finished: wrote draw-1/").count(), 4, "{said}");
+    assert_eq!(said.matches("finished: wrote draw-2/").count(), 1, "{said}");
+    assert!(said.contains("task 0: 5 of its 5 job(s) ran, finished in"), "{said}");
+    // Prepared again, the array holds the two tasks with pending jobs.
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm", "--jobs-per-task", "5"], &[]);
+    assert_ok(&o);
+    assert!(text(&o).contains("--array='1-2'") && text(&o).contains("7 of 12 jobs pending"), "{}", text(&o));
+    for i in [2, 1] {
+        let o = sh_task(&cwd, &dir, i);
+        assert_ok(&o);
+        let ran = if i == 1 { 5 } else { 2 };
+        assert!(text(&o).contains(&format!("task {i}: {ran} of its {ran} job(s) ran")), "{}", text(&o));
+    }
+    // Run again, task 0 verifies its five jobs and runs none.
+    let o = sh_task(&cwd, &dir, 0);
+    assert_ok(&o);
+    assert_eq!(text(&o).matches("had finished: files verified, nothing run").count(), 5, "{}", text(&o));
+    let o = Command::new("sh").current_dir(&cwd).arg(dir.join("slurm/gather.sbatch")).output().unwrap();
+    assert_ok(&o);
+    let local = tmp.path().join("local");
+    local_run(&cwd, &design, &local);
+    assert_same_run(&local, &dir);
+
+    // A GPU per task where the networks are to train on one.
+    let gpu = tmp.path().join("gpu");
+    let g = gpu.to_str().unwrap();
+    let o = crossaudit_in(&cwd, &["run", ds, "--out", g, "--slurm", "--jobs-per-task", "4", "--device", "cuda"], &[]);
+    assert_ok(&o);
+    assert!(text(&o).contains("--gres=gpu:1 --output=") && text(&o).contains("--array='0-2'"), "{}", text(&o));
+    let submit = std::fs::read_to_string(gpu.join("slurm/submit.sh")).unwrap();
+    assert_eq!(submit.matches("--gres=gpu:1").count(), 1, "the gather step asks for no GPU: {submit}");
+    if crossaudit::model::device::resolve(crossaudit::model::DeviceChoice::Cuda).is_err() {
+        let o = sh_task(&cwd, &gpu, 0);
+        assert_refused(&o, "--device cuda");
+        assert!(!text(&o).contains("panicked"), "{}", text(&o));
+    }
+}
+
+/// The per-seed study through a real Slurm with four jobs per array task
+/// (a level each): three tasks, and the same bytes as a local run.
 #[test]
 fn a_per_seed_draw_study_through_real_slurm_matches_a_local_run() {
     let Some((_guard, cluster)) = cluster("a_per_seed_draw_study_through_real_slurm_matches_a_local_run") else {
@@ -708,7 +777,16 @@ fn a_per_seed_draw_study_through_real_slurm_matches_a_local_run() {
     let dir = tmp.path().join("cluster");
     let o = crossaudit_in(
         tmp.path(),
-        &["run", design.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--slurm", "--submit"],
+        &[
+            "run",
+            design.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+            "--slurm",
+            "--submit",
+            "--jobs-per-task",
+            "4",
+        ],
         &cluster.env(),
     );
     let ids = submitted(&o);
@@ -717,9 +795,12 @@ fn a_per_seed_draw_study_through_real_slurm_matches_a_local_run() {
     cluster.wait(&ids, Duration::from_secs(600), &dir);
     let gather_log = std::fs::read_to_string(dir.join("slurm/logs/gather.out")).unwrap_or_default();
     assert!(gather_log.contains("gathered 12 jobs"), "the gather job did not finish: {}", logs(&dir));
-    for i in 0..12 {
+    // Four jobs per task: task i runs level draw-(i + 1)'s four jobs.
+    for i in 0..3 {
         let log = std::fs::read_to_string(dir.join(format!("slurm/logs/task-{i}.out"))).unwrap();
-        assert!(log.contains("job draw-") && log.contains("finished in"), "task {i}: {log}");
+        let level = format!("finished: wrote draw-{}/", i + 1);
+        assert_eq!(log.matches(&level).count(), 4, "task {i}: {log}");
+        assert!(log.contains(&format!("task {i}: 4 of its 4 job(s) ran, finished in")), "task {i}: {log}");
         assert!(log.contains(&format!("array job {}", ids[0])), "task {i} ran outside the array: {log}");
     }
     let local = tmp.path().join("local");

@@ -14,8 +14,10 @@ use std::ffi::{c_char, c_int, c_uint};
 use std::fmt;
 use std::str::FromStr;
 
-/// The device a user asks for (`--device`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// The device a user asks for (`--device`); a Slurm array records it in
+/// `array.json` (`cpu`, `cuda`, `auto`), and each task resolves it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum DeviceChoice {
     /// The CPU trainer (the default; bit-identical to every committed run).
     #[default]

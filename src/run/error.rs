@@ -362,12 +362,16 @@ pub enum RunError {
         reason: String,
     },
     /// An array index beyond the job list.
-    #[error("array index {index} is out of range: the study has {jobs} jobs, indices 0 to {}", jobs.saturating_sub(1))]
+    #[error("array index {index} is out of range: the study has {}", task_range(*jobs, *tasks, *per_task))]
     NoSuchTask {
         /// The index asked for.
         index: usize,
         /// Jobs in the study.
         jobs: usize,
+        /// Array tasks in the study.
+        tasks: usize,
+        /// Jobs per task.
+        per_task: usize,
     },
     /// Another process holds the job's lock.
     #[error("job {job} is being run by another process (it holds {lock}); wait for it, or cancel it first")]
@@ -419,4 +423,13 @@ pub enum RunError {
         /// Why (sbatch's message).
         reason: String,
     },
+}
+
+/// A prepared array's tasks as [`RunError::NoSuchTask`] names them.
+fn task_range(jobs: usize, tasks: usize, per_task: usize) -> String {
+    let last = tasks.saturating_sub(1);
+    match per_task {
+        1 => format!("{jobs} jobs, indices 0 to {last}"),
+        _ => format!("{jobs} jobs in {tasks} tasks of up to {per_task}, indices 0 to {last}"),
+    }
 }

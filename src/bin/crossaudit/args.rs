@@ -116,8 +116,10 @@ pub(crate) enum Command {
         /// every committed run), `cuda` (every network of the study batched
         /// on the first NVIDIA GPU; refused where none is found) or `auto`
         /// (the GPU where one is found, else the CPU). Recorded in run.json
-        /// and each job's record; not part of the lock.
-        #[arg(long, default_value = "cpu", value_parser = ["cpu", "cuda", "auto"], conflicts_with = "slurm")]
+        /// and each job's record; not part of the lock. With --slurm, each
+        /// array task looks on its own node (`cuda` asks Slurm for a GPU
+        /// per task).
+        #[arg(long, default_value = "cpu", value_parser = ["cpu", "cuda", "auto"])]
         device: String,
         /// Allow a design changed after locking; every output is labelled EXPLORATORY.
         #[arg(long)]
@@ -310,8 +312,9 @@ pub(crate) enum Command {
 #[derive(clap::Args)]
 pub(crate) struct SlurmArgs {
     /// Prepare DIR (audit, manifests, invariants, job list) and write
-    /// DIR/slurm/submit.sh: a job array with one task per training job and a
-    /// dependent gather job. Nothing trains here.
+    /// DIR/slurm/submit.sh: a job array with one task per training job (or
+    /// per --jobs-per-task jobs) and a dependent gather job. Nothing trains
+    /// here.
     #[arg(long, conflicts_with = "workers")]
     pub(crate) slurm: bool,
     /// Submit with sbatch after writing the scripts.
@@ -320,6 +323,11 @@ pub(crate) struct SlurmArgs {
     /// CPUs per array task.
     #[arg(long, default_value_t = 1, requires = "slurm")]
     pub(crate) cpus: usize,
+    /// Training jobs per array task: task t runs jobs t x N to t x N + N - 1
+    /// of the array, their networks trained together on a GPU
+    /// (--device cuda or auto), one after another on the CPU.
+    #[arg(long, default_value_t = 1, requires = "slurm")]
+    pub(crate) jobs_per_task: usize,
     /// Memory per array task (sbatch --mem); a job of the paper's protocol
     /// peaks at 110 MB.
     #[arg(long, default_value = "1G", requires = "slurm")]

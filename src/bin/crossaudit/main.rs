@@ -59,8 +59,8 @@ fn main() -> ExitCode {
             let engine = if engine == "reference" { Engine::Reference } else { Engine::Fused };
             train(&design, (&model, &arm, seed), data, &out, (engine, exploratory))
         }
-        Command::Run { design, data, out, exploratory, slurm, .. } if slurm.slurm => {
-            slurm_prepare(&design, data, &out, exploratory, slurm)
+        Command::Run { design, data, out, exploratory, slurm, device, .. } if slurm.slurm => {
+            slurm_prepare(&design, data, &out, (exploratory, &device), slurm)
         }
         Command::Run { design, data, out, workers, device, exploratory, reuse, .. } => {
             run(&design, data, &out, (workers, &device), (exploratory, reuse))
@@ -366,10 +366,12 @@ fn slurm_prepare(
     design: &Path,
     data: Option<PathBuf>,
     out: &Path,
-    exploratory: bool,
+    (exploratory, device): (bool, &str),
     a: SlurmArgs,
 ) -> Result<(), Error> {
     use crossaudit::run::slurm;
+    // Recorded for the tasks, which look for a GPU on their own nodes.
+    let device: crossaudit::model::DeviceChoice = device.parse().map_err(crossaudit::run::RunError::Device)?;
     let file = design::load(design)?;
     let study = crossaudit::compile_study(&file.design);
     let plan = &study.plan;
@@ -389,6 +391,8 @@ fn slurm_prepare(
         time: a.time,
         partition: a.partition,
         account: a.account,
+        per_task: a.jobs_per_task,
+        device,
         ..slurm::SlurmOptions::new(binary)
     };
     // Before anything (simulated data included) is written into `out`.
@@ -451,12 +455,23 @@ fn slurm_job(dir: &Path, index: usize) -> Result<(), Error> {
             last = std::time::Instant::now();
         }
     })?;
-    match outcome {
-        TaskOutcome::AlreadyFinished { job } => note!("job {job} had finished: files verified, nothing run"),
-        TaskOutcome::Ran { job, outcome } => {
-            note!("job {job} finished in {:.1} s: wrote {}", started.elapsed().as_secs_f64(), outcome.files.join(", "));
+    if let Some(n) = &outcome.device_note {
+        note!("{n}");
+    }
+    if let Some((networks, device, seconds)) = &outcome.batched {
+        note!("trained {networks} networks at once on {device} in {seconds:.1} s");
+    }
+    let (mut ran, jobs) = (0, outcome.jobs.len());
+    for job in outcome.jobs {
+        match job {
+            TaskOutcome::AlreadyFinished { job } => note!("job {job} had finished: files verified, nothing run"),
+            TaskOutcome::Ran { job, outcome } => {
+                ran += 1;
+                note!("job {job} finished: wrote {}", outcome.files.join(", "));
+            }
         }
     }
+    note!("task {index}: {ran} of its {jobs} job(s) ran, finished in {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
 }
 

@@ -7,8 +7,9 @@
 //! - `design.design`: a verbatim copy of the design, which every task runs;
 //! - `array.json`: the [`ArrayRecord`], with the job list (array index ->
 //!   job), the absolute data directory and the lock state;
-//! - `array.sbatch` (one array task per job: `crossaudit job DIR --index
-//!   $SLURM_ARRAY_TASK_ID`), `gather.sbatch` (`crossaudit gather DIR`) and
+//! - `array.sbatch` (one array task per job, or per `--jobs-per-task`
+//!   jobs: `crossaudit job DIR --index $SLURM_ARRAY_TASK_ID`),
+//!   `gather.sbatch` (`crossaudit gather DIR`) and
 //!   `submit.sh`, which submits the array, then the gather job with
 //!   `--dependency=afterok:ARRAY`.
 //!
@@ -17,8 +18,9 @@
 //! (paths), so no name can run a command; paths with a newline or with `%`
 //! (Slurm's file-name patterns) are refused.
 //!
-//! [`run_task`] runs one job exactly as a local run does (same function,
-//! one thread), after verifying that the design copy, the data and the
+//! [`run_task`] runs its task's jobs exactly as a local run does (same
+//! functions, one thread; on a GPU their networks trained together first,
+//! `task`), after verifying that the design copy, the data and the
 //! rebuilt manifests are those the run was prepared with; a finished job is
 //! skipped. [`gather`] refuses while any job has no record, naming each
 //! with its Slurm log, then writes `cells.csv` and the report with the same
@@ -43,13 +45,15 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 mod scripts;
+mod task;
 
 use super::outer;
-use super::{finish, open, pending, Data, DataOrigin, JobRecord, Opened, RunError, RunOutcome, RunRecord};
+use super::{finish, open, pending, Data, DataOrigin, Opened, RunError, RunOutcome, RunRecord};
 use crate::design::{self, DesignFile, LockStatus};
 use crate::io::{create_dir_all, pretty_json, sha256_hex, write_atomic};
 use crate::plan::{Plan, StudyPlan, TrainingJob};
 pub use scripts::*;
+pub use task::{run_task, TaskOutcome, TaskRun};
 
 /// `DIR/slurm`: everything the scheduler reads.
 pub const SLURM_DIR: &str = "slurm";
@@ -75,6 +79,18 @@ pub struct ArrayRecord {
     pub jobs: Vec<String>,
     /// The build that prepared the run.
     pub crossaudit: String,
+    /// Training jobs per array task: task t runs jobs t x N to
+    /// t x N + N - 1 (1 in an array prepared before tasks held several).
+    #[serde(default = "one_job")]
+    pub per_task: usize,
+    /// Where each task trains, resolved on its node.
+    #[serde(default)]
+    pub device: crate::model::DeviceChoice,
+}
+
+/// An array record's jobs per task when it names none.
+fn one_job() -> usize {
+    1
 }
 
 impl ArrayRecord {
@@ -83,7 +99,17 @@ impl ArrayRecord {
         let path = dir.join(SLURM_DIR).join("array.json");
         let bad = |reason: String| RunError::NotPrepared { dir: dir.display().to_string(), reason };
         let bytes = crate::io::read_own(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
-        serde_json::from_slice(&bytes).map_err(|e| bad(format!("{}: {e}", path.display())))
+        let record: ArrayRecord =
+            serde_json::from_slice(&bytes).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        if record.per_task == 0 {
+            return Err(bad(format!("{}: per_task is 0; a task runs at least one job", path.display())));
+        }
+        Ok(record)
+    }
+
+    /// The array's tasks: each a run of at most `per_task` jobs.
+    pub fn tasks(&self) -> usize {
+        self.jobs.len().div_ceil(self.per_task)
     }
 }
 
@@ -239,30 +265,18 @@ pub fn prepare(
         data: data.origin.clone(),
         jobs: keys.clone(),
         crossaudit: crate::io::BUILD.to_string(),
+        per_task: options.per_task,
+        device: options.device,
     };
     write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
 
-    let submit = write_scripts(&slurm, &dir, &binary, &plan.study, &indices, options)?;
+    // The tasks that hold a pending job.
+    let mut tasks: Vec<usize> = indices.iter().map(|i| i / options.per_task).collect();
+    tasks.dedup();
+    let submit = write_scripts(&slurm, &dir, &binary, &plan.study, &tasks, options)?;
     let submit_path = slurm.join("submit.sh");
     write_atomic(&submit_path, submit.as_bytes())?;
     Ok(PreparedArray { dir, submit: submit_path, submit_text: submit, jobs: keys.len(), pending: indices.len() })
-}
-
-/// What one array task did.
-#[derive(Debug)]
-pub enum TaskOutcome {
-    /// The job had finished before: its files were verified and nothing ran.
-    AlreadyFinished {
-        /// `model/arm/seed`.
-        job: String,
-    },
-    /// The job ran now.
-    Ran {
-        /// `model/arm/seed` (`split-s model/arm/seed` in a multi-split study).
-        job: String,
-        /// What it wrote.
-        outcome: Box<super::JobOutcome>,
-    },
 }
 
 /// The run directory of a prepared array, opened for a task or the gather
@@ -293,6 +307,8 @@ impl OpenedArray {
         let mut list = String::new();
         for &index in todo {
             let (k, job) = jobs[index];
+            // The job's array task, whose log it is in.
+            let index = index / self.array.per_task;
             let log = logs.join(format!("task-{index}.out"));
             let last = std::fs::read_to_string(&log).ok().and_then(|t| {
                 t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())
@@ -369,53 +385,6 @@ fn reopen(dir: &Path) -> Result<OpenedArray, RunError> {
 /// run.json.
 fn rebuild(array: &ArrayRecord, part: &Part, run: &RunRecord) -> Result<crate::split::Prepared, RunError> {
     super::rebuild::rebuild_from(&array.data_dir, &array.data, &part.file, &part.plan, &part.dir, run)
-}
-
-/// Runs the job at array `index` of the run prepared in `dir`, on one
-/// thread, exactly as a local run would; skips (after verifying its files)
-/// a job that finished. A lock on `DIR/slurm/locks/INDEX.lock`, released by
-/// the operating system however the task ends, keeps two tasks off one job;
-/// a shared lock on `DIR` itself keeps a `run` or `gather` off the folder.
-pub fn run_task(
-    dir: &Path,
-    index: usize,
-    on_epoch: &mut (dyn FnMut(&crate::model::EpochLog) + Send),
-) -> Result<TaskOutcome, RunError> {
-    let p = reopen(dir)?;
-    // Shared: the jobs of one run train side by side, while a `run`,
-    // `train` or `gather` on the folder (exclusive) is refused meanwhile.
-    let _folder = super::lock_folder(dir, true)?;
-    let jobs = p.jobs();
-    let &(k, local) = jobs.get(index).ok_or(RunError::NoSuchTask { index, jobs: jobs.len() })?;
-    let (part, run) = &p.parts[k];
-    let label = part.label(local);
-    let locks = dir.join(SLURM_DIR).join("locks");
-    create_dir_all(&locks)?;
-    let lock_path = locks.join(format!("{index}.lock"));
-    let lock =
-        std::fs::File::create(&lock_path).map_err(|e| RunError::Write(crate::io::WriteError::new(&lock_path, e)))?;
-    match lock.try_lock() {
-        Ok(()) => {}
-        Err(std::fs::TryLockError::WouldBlock) => {
-            return Err(RunError::JobBusy { job: label, lock: lock_path.display().to_string() })
-        }
-        Err(std::fs::TryLockError::Error(e)) => return Err(RunError::Write(crate::io::WriteError::new(&lock_path, e))),
-    }
-    if let Some(r) = JobRecord::read(&part.dir, local)? {
-        r.verify(&part.dir, local, &p.array.design_sha256)?;
-        return Ok(TaskOutcome::AlreadyFinished { job: label });
-    }
-    let prepared = rebuild(&p.array, part, run)?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let outcome =
-        pool.install(|| super::run_job(&p.array.design_sha256, &part.plan, local, &prepared, &part.dir, on_epoch))?;
-    drop(lock);
-    let mut outcome = Box::new(outcome);
-    if let Some(level) = &part.level {
-        // Paths relative to the study's directory, as the logs quote them.
-        outcome.files = outcome.files.iter().map(|f| format!("{level}/{f}")).collect();
-    }
-    Ok(TaskOutcome::Ran { job: label, outcome })
 }
 
 /// The design as the array names it, in lock state `lock`.

@@ -28,14 +28,33 @@ pub struct SlurmOptions {
     pub account: Option<String>,
     /// The crossaudit binary every task runs (absolute path).
     pub binary: PathBuf,
+    /// Training jobs per array task (`--jobs-per-task`): task t runs jobs
+    /// t x N to t x N + N - 1 of the array's job list, their networks
+    /// trained together by the batched trainer on a GPU, one after another
+    /// on the CPU.
+    pub per_task: usize,
+    /// Where each task trains (`--device`), resolved on the node that runs
+    /// it; `cuda` asks Slurm for a GPU per task (`--gres=gpu:1`).
+    pub device: crate::model::DeviceChoice,
 }
 
 impl SlurmOptions {
     /// One CPU and 1 GiB per task (a job of the paper's protocol on the
     /// NanoBench logs peaks at 110 MB resident), no throttle, time limit,
-    /// partition or account; `binary` as given.
+    /// partition or account, one job per task on the CPU; `binary` as
+    /// given.
     pub fn new(binary: PathBuf) -> SlurmOptions {
-        SlurmOptions { cpus: 1, mem: "1G".into(), throttle: None, time: None, partition: None, account: None, binary }
+        SlurmOptions {
+            cpus: 1,
+            mem: "1G".into(),
+            throttle: None,
+            time: None,
+            partition: None,
+            account: None,
+            binary,
+            per_task: 1,
+            device: crate::model::DeviceChoice::Cpu,
+        }
     }
 
     /// Refuses values that sbatch would misread.
@@ -51,6 +70,12 @@ impl SlurmOptions {
         // sbatch reads both as 32-bit numbers; a job trains on one thread.
         if self.cpus > crate::run::MAX_WORKERS {
             return Err(bad("--cpus", &self.cpus.to_string(), &format!("at most {}", crate::run::MAX_WORKERS)));
+        }
+        if self.per_task == 0 {
+            return Err(bad("--jobs-per-task", "0", "at least 1"));
+        }
+        if self.per_task > MAX_PER_TASK {
+            return Err(bad("--jobs-per-task", &self.per_task.to_string(), &format!("at most {MAX_PER_TASK}")));
         }
         if self.throttle == Some(0) {
             return Err(bad("--throttle", "0", "at least 1"));
@@ -85,6 +110,10 @@ impl SlurmOptions {
 /// The largest `--throttle` (the array's `%N`, a 32-bit number to sbatch;
 /// no study has this many jobs).
 pub(super) const MAX_THROTTLE: usize = 1_000_000;
+
+/// The most training jobs one array task runs: a study's every job, at
+/// the largest size a plan allows, fits in far fewer.
+pub(super) const MAX_PER_TASK: usize = 1_000_000;
 
 /// One of Slurm's time forms: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`.
 pub(super) fn slurm_time(t: &str) -> bool {
@@ -178,6 +207,9 @@ pub(super) fn write_scripts(
 
     let name = job_name(study);
     let mut common = format!("--cpus-per-task={} --mem={} --chdir={dir_q}", options.cpus, options.mem);
+    // A task's GPU, where its networks are to train on one; the gather
+    // step trains nothing.
+    let gres = if options.device == crate::model::DeviceChoice::Cuda { " --gres=gpu:1" } else { "" };
     for (flag, value) in [("time", &options.time), ("partition", &options.partition), ("account", &options.account)] {
         if let Some(v) = value {
             write!(common, " --{flag}={}", shell_quote(v)).ok();
@@ -186,19 +218,7 @@ pub(super) fn write_scripts(
     let logs = slurm.join("logs");
     path_word(&logs)?;
     let log_word = |file: &str| shell_quote(&format!("{}/{file}", logs.display()));
-    let mut submit = format!(
-        "#!/bin/sh\n\
-         # Submits the study in {dir} to Slurm (written by `crossaudit run --slurm`, crossaudit {build}):\n\
-         # an array of {n} training job(s), one per task, then a gather job that\n\
-         # writes cells.csv and the report once every task has succeeded.\n\
-         # Resubmitting is safe: a task whose job finished verifies it and exits.\n\
-         # Logs: {logs}/task-INDEX.out (appended to by every attempt) and gather.out.\n\
-         set -eu\n",
-        dir = dir.display(),
-        build = crate::io::BUILD,
-        n = indices.len(),
-        logs = logs.display(),
-    );
+    let mut submit = submit_header(dir, indices.len(), options.per_task, &logs);
     let dependency = if indices.is_empty() {
         submit.push_str("echo 'no training job is pending: submitting the gather step alone' >&2\n");
         String::new()
@@ -209,7 +229,7 @@ pub(super) fn write_scripts(
         };
         write!(
             submit,
-            "array=$(sbatch --parsable --job-name={} --array={} {common} --output={} --open-mode=append {})\n\
+            "array=$(sbatch --parsable --job-name={} --array={} {common}{gres} --output={} --open-mode=append {})\n\
              array=${{array%%;*}}\n\
              echo \"submitted array job $array ({} task(s))\" >&2\n",
             shell_quote(&name),
@@ -233,6 +253,28 @@ pub(super) fn write_scripts(
     )
     .ok();
     Ok(submit)
+}
+
+/// The head of `submit.sh`: what it submits (an array of `tasks` tasks
+/// of `per_task` jobs each) and where the logs go.
+fn submit_header(dir: &Path, tasks: usize, per_task: usize, logs: &Path) -> String {
+    format!(
+        "#!/bin/sh\n\
+         # Submits the study in {dir} to Slurm (written by `crossaudit run --slurm`, crossaudit {build}):\n\
+         # an array of {n} {per} then a gather job that\n\
+         # writes cells.csv and the report once every task has succeeded.\n\
+         # Resubmitting is safe: a task verifies each of its jobs that finished and runs the rest.\n\
+         # Logs: {logs}/task-INDEX.out (appended to by every attempt) and gather.out.\n\
+         set -eu\n",
+        dir = dir.display(),
+        build = crate::io::BUILD,
+        n = tasks,
+        per = match per_task {
+            1 => "training job(s), one per task,".to_string(),
+            k => format!("task(s) of up to {k} training jobs each,"),
+        },
+        logs = logs.display(),
+    )
 }
 
 /// The Slurm job IDs [`submit`] got back.
