@@ -8,7 +8,9 @@
 #      lockstep trainer within tests/batched.rs's stated tolerance;
 #   2. the quickstart run on the CPU and twice on the GPU: the two GPU runs'
 #      cells byte-identical, the GPU's verdict the CPU's, its estimates
-#      within 2% of the CPU's (benches/gpu/compare.py);
+#      within 2% of the CPU's (benches/gpu/compare.py); and as one Slurm
+#      array task of every job (`--jobs-per-task`, run by sh, no Slurm
+#      needed), its cells the GPU run's byte for byte;
 #   3. the benchmark (benches/gpu.sh), unless SKIP_BENCH=1.
 # Fails at the first check that fails (the comparison of step 2 after the
 # benchmark has run, so that its times are still measured).
@@ -41,6 +43,11 @@ for r in 1 2; do
 done
 cmp "$work/cuda1/cells.csv" "$work/cuda2/cells.csv" && echo "GPU reruns: cells.csv byte-identical"
 grep -q '"device": "cuda' "$work/cuda1/run.json" && echo "run.json records the device"
+echo "== 2b. the quickstart as one Slurm array task of every job on the GPU (run by sh, as Slurm would)"
+"$bin" run designs/quickstart.design --out "$work/task" --slurm --jobs-per-task 1000000 --device cuda > /dev/null 2>&1
+SLURM_ARRAY_TASK_ID=0 sh "$work/task/slurm/array.sbatch" 2>&1 | grep -E "at once|task 0:"
+"$bin" gather "$work/task" > /dev/null 2>&1
+cmp "$work/cuda1/cells.csv" "$work/task/cells.csv" && echo "the task's cells.csv is the GPU run's, byte for byte"
 failed=0
 python3 benches/gpu/compare.py "$work/cpu" "$work/cuda1" 0.02 || failed=1
 if [ "${SKIP_BENCH:-0}" != 1 ]; then
