@@ -668,16 +668,21 @@ fn per_seed_design(dir: &Path) -> PathBuf {
     path
 }
 
+/// A working folder, the per-seed design and the run folder to prepare,
+/// under `tmp`.
+fn per_seed_folders(tmp: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let cwd = tmp.join("cwd");
+    std::fs::create_dir_all(&cwd).unwrap();
+    (cwd, per_seed_design(tmp), tmp.join("cluster"))
+}
+
 /// Per-seed draws (the design every report recommends) run as one array
 /// over every level's jobs; the gather step analyses the seeds together,
 /// as a local run does, and both write the same bytes.
 #[test]
 fn a_per_seed_draw_study_runs_as_one_array_and_matches_a_local_run() {
     let tmp = tempfile::tempdir().unwrap();
-    let cwd = tmp.path().join("cwd");
-    std::fs::create_dir_all(&cwd).unwrap();
-    let design = per_seed_design(tmp.path());
-    let dir = tmp.path().join("cluster");
+    let (cwd, design, dir) = per_seed_folders(tmp.path());
     let (ds, d) = (design.to_str().unwrap(), dir.to_str().unwrap());
     let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm"], &[]);
     assert_ok(&o);
@@ -707,10 +712,7 @@ fn a_per_seed_draw_study_runs_as_one_array_and_matches_a_local_run() {
 #[test]
 fn tasks_of_several_jobs_run_them_all_and_match_a_local_run() {
     let tmp = tempfile::tempdir().unwrap();
-    let cwd = tmp.path().join("cwd");
-    std::fs::create_dir_all(&cwd).unwrap();
-    let design = per_seed_design(tmp.path());
-    let dir = tmp.path().join("cluster");
+    let (cwd, design, dir) = per_seed_folders(tmp.path());
     let (ds, d) = (design.to_str().unwrap(), dir.to_str().unwrap());
     let o = crossaudit_in(&cwd, &["run", ds, "--out", d, "--slurm", "--jobs-per-task", "0"], &[]);
     assert_refused(&o, "--jobs-per-task");
