@@ -161,7 +161,7 @@ pub fn rows_to_csv_text(raw: Bytes, limit: u64, what: &str) -> Result<Vec<u8>, S
         })
         .collect();
     let mut out = Vec::new();
-    let names: Vec<String> = fields.iter().map(|f| quoted(f.name())).collect();
+    let names: Vec<_> = fields.iter().map(|f| quoted(f.name())).collect();
     out.extend_from_slice(names.join(",").as_bytes());
     out.push(b'\n');
     let rows = reader.get_row_iter(None).map_err(|e| e.to_string())?;
@@ -353,16 +353,7 @@ impl Column {
             Values::Int64(v, Some(s)) => debug_f64(*v.get(k)? as f64 / s, out),
             Values::Float(v) => debug_f32(*v.get(k)?, out),
             Values::Double(v) => debug_f64(*v.get(k)?, out),
-            Values::Text(v) => {
-                let s = std::str::from_utf8(v.get(k)?.data()).ok()?;
-                // Most text needs no quotes: written as it is, with no
-                // copy made on the way.
-                if s.bytes().any(|b| matches!(b, b'\n' | b'\r' | b',' | b'"')) {
-                    out.extend_from_slice(quoted(s).as_bytes());
-                } else {
-                    out.extend_from_slice(s.as_bytes());
-                }
-            }
+            Values::Text(v) => out.extend_from_slice(quoted(std::str::from_utf8(v.get(k)?.data()).ok()?).as_bytes()),
         }
         Some(())
     }
@@ -519,11 +510,11 @@ fn text(field: &Field, per_second: Option<f64>, out: &mut Vec<u8>) {
 /// row is one line, and a text column is never read as a number, so an
 /// undeclared note with a line break excludes nothing), and the field is
 /// quoted, with its quotes doubled, where it holds a comma or a quote.
-fn quoted(s: &str) -> String {
-    let s = s.replace(['\n', '\r'], " ");
-    if s.contains([',', '"']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s
+/// Most fields need neither, and are borrowed as they are.
+fn quoted(s: &str) -> std::borrow::Cow<'_, str> {
+    if !s.contains(['\n', '\r', ',', '"']) {
+        return std::borrow::Cow::Borrowed(s);
     }
+    let s = s.replace(['\n', '\r'], " ");
+    std::borrow::Cow::Owned(if s.contains([',', '"']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s })
 }

@@ -111,6 +111,17 @@ impl ArrayRecord {
     pub fn tasks(&self) -> usize {
         self.jobs.len().div_ceil(self.per_task)
     }
+
+    /// The array task that runs job `job` (an index into `jobs`).
+    pub fn task_of(&self, job: usize) -> usize {
+        job / self.per_task
+    }
+
+    /// The jobs (indices into `jobs`) that array task `task` runs.
+    pub fn jobs_of(&self, task: usize) -> std::ops::Range<usize> {
+        let start = task.saturating_mul(self.per_task).min(self.jobs.len());
+        start..start.saturating_add(self.per_task).min(self.jobs.len())
+    }
 }
 
 /// What [`prepare`] wrote.
@@ -271,7 +282,7 @@ pub fn prepare(
     write_atomic(&slurm.join("array.json"), pretty_json(&record).as_bytes())?;
 
     // The tasks that hold a pending job.
-    let mut tasks: Vec<usize> = indices.iter().map(|i| i / options.per_task).collect();
+    let mut tasks: Vec<usize> = indices.iter().map(|&i| record.task_of(i)).collect();
     tasks.dedup();
     let submit = write_scripts(&slurm, &dir, &binary, &plan.study, &tasks, options)?;
     let submit_path = slurm.join("submit.sh");
@@ -308,7 +319,7 @@ impl OpenedArray {
         for &index in todo {
             let (k, job) = jobs[index];
             // The job's array task, whose log it is in.
-            let index = index / self.array.per_task;
+            let index = self.array.task_of(index);
             let log = logs.join(format!("task-{index}.out"));
             let last = std::fs::read_to_string(&log).ok().and_then(|t| {
                 t.lines().rev().find(|l| !l.trim().is_empty()).map(|l| l.chars().take(300).collect::<String>())

@@ -72,13 +72,14 @@ pub fn run_task(dir: &Path, index: usize, on_epoch: &mut (dyn FnMut(&EpochLog) +
     let mut held = Vec::new();
     let mut outcomes = Vec::new();
     let mut todo = Vec::new();
-    for (j, &(k, local)) in jobs.iter().enumerate().skip(index * per_task).take(per_task) {
-        let part = &p.parts[k].0;
-        held.push(lock_job(&locks, j, &part.label(local))?);
+    for j in p.array.jobs_of(index) {
+        let (k, local) = jobs[j];
+        let (part, label) = (&p.parts[k].0, p.parts[k].0.label(local));
+        held.push(lock_job(&locks, j, &label)?);
         match JobRecord::read(&part.dir, local)? {
             Some(r) => {
                 r.verify(&part.dir, local, &p.array.design_sha256)?;
-                outcomes.push((j, TaskOutcome::AlreadyFinished { job: part.label(local) }));
+                outcomes.push((j, TaskOutcome::AlreadyFinished { job: label }));
             }
             None => todo.push(j),
         }
