@@ -216,11 +216,44 @@ pub(super) fn trim(v: &str) -> &str {
 }
 
 /// The number `t` writes, as Rust's `str::parse::<f64>` reads it (the
-/// reference): fast-float2 first, which reads every decimal number to the
-/// same correctly rounded value, then the reference for anything it
-/// refuses (a test checks the two agree on every string they accept).
+/// reference): a plain decimal of at most 15 digits at once
+/// ([`plain_decimal`]), then fast-float2, which reads every decimal number
+/// to the same correctly rounded value, then the reference for anything
+/// it refuses (a test checks all three agree on every string they accept).
 pub(super) fn number(t: &str) -> Option<f64> {
-    fast_float2::parse::<f64, _>(t).ok().or_else(|| t.parse().ok())
+    plain_decimal(t).or_else(|| fast_float2::parse::<f64, _>(t).ok()).or_else(|| t.parse().ok())
+}
+
+/// Powers of ten that a double holds exactly.
+const TENS: [f64; 16] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15];
+
+/// Digits with at most one decimal point and at most 15 digits in all
+/// ("0.980943", "250", "1."), as the correctly rounded double; `None` for
+/// anything else. Its digits make an integer m below 10^15, exact in a
+/// double, and its k decimals a power 10^k, exact too, so m / 10^k, one
+/// correctly rounded division, is the correctly rounded value of the
+/// decimal: what `str::parse` reads (Clinger's fast path).
+fn plain_decimal(t: &str) -> Option<f64> {
+    let b = t.as_bytes();
+    if b.len() > 16 {
+        return None;
+    }
+    let (mut m, mut digits, mut point) = (0u64, 0usize, None);
+    for (i, &c) in b.iter().enumerate() {
+        if c.is_ascii_digit() {
+            m = m * 10 + u64::from(c - b'0');
+            digits += 1;
+        } else if c == b'.' && point.is_none() {
+            point = Some(i);
+        } else {
+            return None;
+        }
+    }
+    if digits == 0 || digits > 15 {
+        return None;
+    }
+    let decimals = point.map_or(0, |p| b.len() - p - 1);
+    Some(m as f64 / TENS[decimals])
 }
 
 fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<Cell, CellsError> {

@@ -69,9 +69,10 @@ fn a_column_empty_in_some_rows_only_is_refused_at_any_chunk_size() -> Result<(),
     Ok(())
 }
 
-/// fast-float2 and Rust's own parser read the same numbers to the same
-/// values: random strings over the characters of numbers, infinities
-/// and NaN, and the shortest round-trip text of random doubles.
+/// The plain-decimal reader, fast-float2 and Rust's own parser read the
+/// same numbers to the same values: random strings over the characters of
+/// numbers, infinities and NaN, the shortest round-trip text of random
+/// doubles, and plain decimals of 1 to 20 digits.
 #[test]
 fn numbers_are_read_as_rusts_parser_reads_them() {
     let mut state = 0x2545_f491_4f6c_dd1du64;
@@ -94,6 +95,16 @@ fn numbers_are_read_as_rusts_parser_reads_them() {
         for s in [format!("{x:?}"), format!("{x}"), format!("{x:e}"), format!("{:.6}", x)] {
             assert_eq!(number(&s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{s:?}");
         }
+    }
+    // Plain decimals around the 15 digits read at once: 1 to 20 digits,
+    // with and without a point.
+    for _ in 0..200_000 {
+        let len = 1 + next() as usize % 20;
+        let mut s: String = (0..len).map(|_| char::from(b'0' + (next() % 10) as u8)).collect();
+        if next() % 4 != 0 {
+            s.insert(next() as usize % (len + 1), '.');
+        }
+        assert_eq!(number(&s).map(f64::to_bits), s.parse::<f64>().ok().map(f64::to_bits), "{s:?}");
     }
     assert!(read > 30_000 && checked == 300_000, "{read} of {checked} random strings were numbers");
 }
