@@ -159,6 +159,11 @@ impl Row<'_> {
 
     fn float(&self, field: &'static str, v: &str) -> Result<f64, CellsError> {
         let t = trim(v);
+        if let Some(x) = plain_decimal(t) {
+            // Finite, not negative, and 0 or at least 1e-15: every check
+            // below passes (so none waits on the division).
+            return Ok(x);
+        }
         if t.is_empty() {
             return Err(self.fail(field, v, "is empty"));
         }
@@ -253,7 +258,8 @@ fn plain_decimal(t: &str) -> Option<f64> {
         return None;
     }
     let decimals = point.map_or(0, |p| b.len() - p - 1);
-    Some(m as f64 / TENS[decimals])
+    // m < 10^15 < 2^63: converted as a signed integer, one instruction.
+    Some(m as i64 as f64 / TENS[decimals])
 }
 
 fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<Cell, CellsError> {
