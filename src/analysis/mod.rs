@@ -27,6 +27,7 @@ pub(crate) mod words;
 use rayon::prelude::*;
 
 use crate::cells::Cell;
+use crate::label::Label;
 use crate::plan::Plan;
 
 pub use error::{AnalysisError, FileAnalysisError};
@@ -50,14 +51,15 @@ const FA_TOLERANCE: (f64, f64) = (1e-3, 1e-3);
 /// is at most the cap, so with n starts, d of them divergent,
 /// FA^2 n = COND^2 (n - d) + CAP^2 d exactly (rollout/metrics.rs); a file
 /// with one arm in millimetres, or from another cap, breaks it.
-fn check_values(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
-    check_labels(plan, c)?;
+fn check_values(plan: &Plan, speeds: &[Label], c: &Cell) -> Result<(), AnalysisError> {
+    check_labels(plan, speeds, c)?;
     check_errors(plan, c)
 }
 
 /// A cell's labels against the design: its starts, its speed label and,
-/// where the design pins them, its recording.
-fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
+/// where the design pins them, its recording. `speeds` are the plan's
+/// speed labels, as labels (compared by number, not by name).
+fn check_labels(plan: &Plan, speeds: &[Label], c: &Cell) -> Result<(), AnalysisError> {
     // Every evaluation recording gets exactly `starts` rollout starts
     // (split/mod.rs, draw_starts), in every arm.
     if u64::from(c.n_starts) != plan.starts as u64 {
@@ -68,7 +70,7 @@ fn check_labels(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
         });
     }
-    if !plan.speed_labels.iter().any(|s| *s == c.speed) {
+    if !speeds.contains(&c.speed) {
         return Err(AnalysisError::NotInDesign {
             line: c.line.into(),
             field: "speed",
@@ -179,10 +181,12 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
     // name the first refused row in file order.
     let family_column =
         |c: &Cell| (c.split.is_some() && plan.splits.is_empty()) || (c.dose.is_some() && plan.doses.is_empty());
-    let first_refused = cells.par_iter().position_first(|c| family_column(c) || check_values(plan, c).is_err());
+    let speeds: Vec<Label> = plan.speed_labels.iter().map(Label::from).collect();
+    let first_refused =
+        cells.par_iter().position_first(|c| family_column(c) || check_values(plan, &speeds, c).is_err());
     check_single_run(plan, if first_refused.is_some() { cells } else { &[] })?;
     if let Some(k) = first_refused {
-        check_values(plan, &cells[k])?;
+        check_values(plan, &speeds, &cells[k])?;
     }
     let data = index::index(plan, cells)?;
     let recordings: Vec<RecordingLabels> = data

@@ -136,6 +136,10 @@ impl Row<'_> {
 
     fn uint(&self, field: &'static str, v: &str) -> Result<u64, CellsError> {
         let t = trim(v);
+        // At most 19 digits: below 10^19 < 2^64, read at once.
+        if (1..=19).contains(&t.len()) && t.bytes().all(|b| b.is_ascii_digit()) {
+            return Ok(t.bytes().fold(0u64, |n, b| n * 10 + u64::from(b - b'0')));
+        }
         t.parse::<u64>().map_err(|_| {
             let digits = !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
             self.fail(
