@@ -8,8 +8,7 @@
 //! dose-response study. A file without them is read as before.
 
 use std::path::Path;
-
-use rayon::prelude::*;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use serde::Serialize;
 
@@ -215,8 +214,17 @@ fn read_chunked(
         let has_dose = found.get(usize::from(has_split) + 2) == Some(&"dose");
         (found == header_for(has_split, has_dose)).then_some((has_split, has_dose))
     };
+    // The kinds of emptiness any row has shown (`Emptiness::kinds`), noted
+    // as the rows are parsed: each core's state notes a kind once.
+    let kinds = AtomicU8::new(0);
     let row = |&(split, dose): &(bool, bool), line, fields: &[&str], names: &mut Names| {
-        cell_of(name, line, fields, split, dose, names).ok()
+        let cell = cell_of(name, line, fields, split, dose, names).ok()?;
+        let new = Emptiness::kinds(&cell) & !names.kinds;
+        if new != 0 {
+            names.kinds |= new;
+            kinds.fetch_or(new, Ordering::Relaxed);
+        }
+        Some(cell)
     };
     // What stands in for a refused row, which gives the read up.
     let fill = Cell {
@@ -240,19 +248,9 @@ fn read_chunked(
     };
     let limits = (crate::io::MAX_CELLS_FILE, size, chunk);
     let cells = crate::io::chunked::read(reader, limits, header, (row, &fill), seen)?;
-    // Each line noted is the first of its kind: the same, whichever rows
-    // each core saw.
-    let emptiness = cells
-        .par_iter()
-        .fold(Emptiness::default, |mut e, c| {
-            e.see(c);
-            e
-        })
-        .reduce(Emptiness::default, |mut a, b| {
-            a.merge(&b);
-            a
-        });
-    (!cells.is_empty() && emptiness.check(name).is_ok()).then_some(cells)
+    // A column with a value in one row and a gap in another is damaged:
+    // the reference reader finds the lines to name.
+    (!cells.is_empty() && !Emptiness::damaged(kinds.into_inner())).then_some(cells)
 }
 
 /// As [`read_cells`], from any reader; `name` is used in messages. The
@@ -331,27 +329,33 @@ struct Emptiness {
 impl Emptiness {
     const FIELDS: [&'static str; 2] = ["velocity_rmse_mps", "attitude_rmse_deg"];
 
-    fn see(&mut self, c: &Cell) {
+    /// What row `c` shows, as bits: for column k (velocity, attitude), bit
+    /// 2k where it has a value, bit 2k + 1 where it is empty though not
+    /// every start diverged.
+    fn kinds(c: &Cell) -> u8 {
         let all_diverged = c.n_divergent == c.n_starts;
-        for (k, v) in [c.velocity_rmse_mps, c.attitude_rmse_deg].into_iter().enumerate() {
-            let (value, gap) = &mut self.seen[k];
-            match v {
-                Some(_) => *value = value.or(Some(c.line.into())),
-                None if !all_diverged => *gap = gap.or(Some(c.line.into())),
-                None => {}
-            }
-        }
+        let of = |v: Option<f64>| match v {
+            Some(_) => 0b01,
+            None if !all_diverged => 0b10,
+            None => 0,
+        };
+        of(c.velocity_rmse_mps) | of(c.attitude_rmse_deg) << 2
     }
 
-    /// Adds what other rows saw: the first line of each kind, of either.
-    fn merge(&mut self, other: &Emptiness) {
-        let first = |a: Option<u64>, b: Option<u64>| match (a, b) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            _ => a.or(b),
-        };
-        for (mine, theirs) in self.seen.iter_mut().zip(&other.seen) {
-            mine.0 = first(mine.0, theirs.0);
-            mine.1 = first(mine.1, theirs.1);
+    /// Whether rows that showed `kinds` between them damage a column.
+    fn damaged(kinds: u8) -> bool {
+        (0..Self::FIELDS.len()).any(|k| kinds >> (2 * k) & 0b11 == 0b11)
+    }
+
+    fn see(&mut self, c: &Cell) {
+        let kinds = Self::kinds(c);
+        for (k, (value, gap)) in self.seen.iter_mut().enumerate() {
+            if kinds >> (2 * k) & 0b01 != 0 {
+                *value = value.or(Some(c.line.into()));
+            }
+            if kinds >> (2 * k) & 0b10 != 0 {
+                *gap = gap.or(Some(c.line.into()));
+            }
         }
     }
 

@@ -31,6 +31,9 @@ pub(crate) struct Indexed<'a> {
     models: Vec<Label>,
     arms: Vec<Label>,
     seeds: HashMap<u64, usize, NameHash>,
+    /// The first seed, where the plan's seeds are consecutive numbers in
+    /// order (a seed's place is then found without the map).
+    first_seed: Option<u64>,
     horizons: Vec<f64>,
     recordings: HashMap<&'a str, usize, NameHash>,
     /// recording -> (trajectory, speed, first line)
@@ -52,6 +55,14 @@ impl<'a> Indexed<'a> {
         Some(self.slot(*self.recordings.get(recording)?, m, a, h, 0))
     }
 
+    /// A seed's place in the plan's list.
+    fn seed_place(&self, seed: u64) -> Option<usize> {
+        match self.first_seed {
+            Some(first) => seed.checked_sub(first).map(|k| k as usize).filter(|&k| k < self.seeds.len()),
+            None => self.seeds.get(&seed).copied(),
+        }
+    }
+
     /// A row's model, arm, seed and horizon as positions in the plan's
     /// lists; a name the plan does not declare is refused.
     fn positions(&self, plan: &Plan, c: &Cell) -> Result<(usize, usize, usize, usize), AnalysisError> {
@@ -67,7 +78,7 @@ impl<'a> Indexed<'a> {
         let Some(a) = self.arms.iter().position(|x| *x == c.arm) else {
             return Err(not_in("arm", c.arm.to_string(), format!("arms: {}", joined(&self.arms))));
         };
-        let Some(&s) = self.seeds.get(&c.seed) else {
+        let Some(s) = self.seed_place(c.seed) else {
             let (a, b) = (plan.seeds[0].0, plan.seeds[plan.seeds.len() - 1].0);
             return Err(not_in("seed", c.seed.to_string(), format!("{} seeds, {a}..{b}", plan.seeds.len())));
         };
@@ -81,7 +92,7 @@ impl<'a> Indexed<'a> {
     /// The cell at these names, if the data has it.
     pub(crate) fn find(&self, model: &str, arm: &str, seed: u64, recording: &str, h: f64) -> Option<&'a Cell> {
         let first = self.seeds_of(model, arm, recording, h)?;
-        SeedRow { cells: self.cells, slots: &self.table[first..first + self.seeds.len()] }.get(*self.seeds.get(&seed)?)
+        SeedRow { cells: self.cells, slots: &self.table[first..first + self.seeds.len()] }.get(self.seed_place(seed)?)
     }
 
     /// The cells of every plan seed, in the plan's order, at a recording.
@@ -130,6 +141,11 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
         models: plan.models.iter().map(|m| Label::from(&m.name)).collect(),
         arms: plan.arms.iter().map(|a| Label::from(&a.name)).collect(),
         seeds: plan.seeds.iter().enumerate().map(|(k, s)| (s.0, k)).collect(),
+        first_seed: plan
+            .seeds
+            .first()
+            .map(|s| s.0)
+            .filter(|&first| plan.seeds.iter().enumerate().all(|(k, s)| first.checked_add(k as u64) == Some(s.0))),
         horizons,
         recordings: HashMap::default(),
         labels: BTreeMap::new(),
@@ -139,7 +155,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     // them; found by the label's id (the same name is the same label), so
     // a row's lookup reads no name.
     let mut labels: Vec<(Label, Label, Label, u64)> = Vec::new();
-    let mut ids: HashMap<usize, usize, NameHash> = HashMap::default();
+    let mut ids = RecordingIds::default();
     // Room for the recordings a complete file of these rows holds, taken
     // once (grown a block at a time, the table was copied as it doubled).
     let expected = cells.len().div_ceil(block.max(1)).min(plan.recordings);
@@ -147,7 +163,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     for (row, c) in cells.iter().enumerate() {
         let (m, a, s, h) = out.positions(plan, c)?;
         let next = ids.len();
-        let r = *ids.entry(c.recording.id()).or_insert(next);
+        let r = ids.number(c.recording.id());
         if r == next {
             // A recording beyond the declared number is an error whatever
             // else the file holds: counted over the whole file, and no
@@ -157,7 +173,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
                     + 1
                     + cells[row..]
                         .iter()
-                        .filter(|x| !ids.contains_key(&x.recording.id()))
+                        .filter(|x| !ids.contains(x.recording.id()))
                         .map(|x| x.recording.as_str())
                         .collect::<std::collections::HashSet<_>>()
                         .len();
@@ -189,6 +205,52 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     out.labels =
         labels.iter().map(|&(name, t, s, line)| (name.to_string(), (t.to_string(), s.to_string(), line))).collect();
     Ok(out)
+}
+
+/// Recordings numbered in order of first appearance, found by their
+/// label's number: in a vector for the first [`DENSE_LABELS`] label
+/// numbers (one read, no hash), in a map beyond.
+#[derive(Default)]
+struct RecordingIds {
+    /// By label number: the recording's number plus one, 0 for none.
+    dense: Vec<u32>,
+    sparse: HashMap<usize, usize, NameHash>,
+    count: usize,
+}
+
+/// Label numbers a [`RecordingIds`] holds in its vector: 4 MB at most.
+const DENSE_LABELS: usize = 1 << 20;
+
+impl RecordingIds {
+    /// The number of the recording labelled `id`, the next one if it is new.
+    fn number(&mut self, id: usize) -> usize {
+        if id >= DENSE_LABELS {
+            let next = self.count;
+            let r = *self.sparse.entry(id).or_insert(next);
+            self.count += usize::from(r == next);
+            return r;
+        }
+        if self.dense.len() <= id {
+            self.dense.resize((id + 1).next_power_of_two().min(DENSE_LABELS), 0);
+        }
+        match self.dense[id].checked_sub(1) {
+            Some(r) => r as usize,
+            None => {
+                // Fewer recordings than rows, which fit in a u32 (see `index`).
+                self.dense[id] = self.count as u32 + 1;
+                self.count += 1;
+                self.count - 1
+            }
+        }
+    }
+
+    fn contains(&self, id: usize) -> bool {
+        self.dense.get(id).is_some_and(|&r| r != 0) || self.sparse.contains_key(&id)
+    }
+
+    fn len(&self) -> usize {
+        self.count
+    }
 }
 
 /// Names as a message lists them.

@@ -92,7 +92,9 @@ impl<'a> RawRow<'a> {
     }
 }
 
-/// One interner per label column: each distinct name is stored once.
+/// One interner per label column: each distinct name is stored once. And
+/// the kinds of emptiness the rows read with these names have shown
+/// (`Emptiness::kinds`).
 #[derive(Default)]
 pub(crate) struct Names {
     model: Interner,
@@ -100,6 +102,7 @@ pub(crate) struct Names {
     recording: Interner,
     trajectory: Interner,
     speed: Interner,
+    pub(crate) kinds: u8,
 }
 
 /// Checks fields of one row, naming the file, line and field on error.
