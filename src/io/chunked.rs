@@ -232,9 +232,8 @@ fn fields_of<'t, 'r>(text: &'t [u8], l: &Line, record: &'r mut Vec<&'t str>) -> 
         at += 8;
     }
     // The last bytes, and zeros (no comma) after them.
-    let mut tail = [0u8; 8];
-    tail[..words.remainder().len()].copy_from_slice(words.remainder());
-    cut(at, commas(u64::from_le_bytes(tail)));
+    let tail = words.remainder().iter().rev().fold(0u64, |w, &b| w << 8 | u64::from(b));
+    cut(at, commas(tail));
     record.push(&line[from..]);
     Some(record)
 }
