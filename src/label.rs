@@ -56,6 +56,20 @@ static NAMES: [OnceLock<Segment>; 23] = [const { OnceLock::new() }; 23];
 /// The next name's number.
 static NEXT: AtomicU32 = AtomicU32::new(0);
 
+/// By label number, in the same segments as the names: 1 + the number of
+/// the label an [`Interner`] was asked for after it last time (0: none
+/// yet). Shared by every interner and thread, so a guess one learns serves
+/// all, at 4 bytes a name; a guess is compared with the name before it is
+/// used, so interners that disagree (a name in two columns) only cost each
+/// other a lookup in the table of names.
+static AFTER: [OnceLock<Box<[AtomicU32]>>; 23] = [const { OnceLock::new() }; 23];
+
+/// Label `l`'s place in [`AFTER`] (made with its name's segment).
+fn after(l: Label) -> Option<&'static AtomicU32> {
+    let (segment, at) = place(l.0);
+    AFTER[segment].get().and_then(|s| s.get(at))
+}
+
 /// Label `n`'s segment and place in it.
 fn place(n: u32) -> (usize, usize) {
     let m = n as usize + FIRST;
@@ -96,6 +110,7 @@ fn intern(name: &str) -> Label {
                 .expect("fewer than 2^32 names");
             let (segment, at) = place(n);
             let names = NAMES[segment].get_or_init(|| (0..FIRST << segment).map(|_| OnceLock::new()).collect());
+            AFTER[segment].get_or_init(|| (0..FIRST << segment).map(|_| AtomicU32::new(0)).collect());
             // Kept for the life of the process: see the module's notes.
             let copy: &'static str = Box::leak(Box::from(name));
             let _ = names[at].set(copy);
@@ -246,21 +261,14 @@ impl serde::Serialize for Label {
 /// Hands out the [`Label`] of each name. Rows of a per-cell file come
 /// grouped and in repeating orders, so two guesses are tried before the
 /// table of names: the name asked for last, then the name that followed
-/// it the last time it was asked for (a recording's successor in a seed's
-/// list of recordings). A guess costs one comparison of names.
+/// it the last time any interner was asked for it ([`AFTER`]: a
+/// recording's successor in a seed's list of recordings). A guess costs
+/// one comparison of names.
 #[derive(Debug, Default)]
 pub struct Interner {
     /// The label asked for last, and its name.
     last: Option<(Label, &'static str)>,
-    /// By label number: the label asked for after it last time, and its
-    /// name (no lookup in the table of names to compare it). Kept for the
-    /// first [`GUESSED`] labels.
-    next: Vec<Option<(Label, &'static str)>>,
 }
-
-/// Labels whose successor an [`Interner`] remembers: 6 MB of guesses at
-/// most, for a process that names 262,144 things.
-const GUESSED: usize = 1 << 18;
 
 /// A multiply-rotate hash of a name's bytes, 8 at a time (the Fx hash of
 /// rustc): names come from the file being read and are looked up once per
@@ -309,19 +317,17 @@ impl Interner {
         if same(last_name.as_bytes(), name.as_bytes()) {
             return last;
         }
-        if let Some(&Some((g, g_name))) = self.next.get(last.id()) {
+        let after = after(last);
+        if let Some(g) = after.and_then(|a| a.load(Atomic::Relaxed).checked_sub(1)).map(Label) {
+            let g_name = g.as_str();
             if same(g_name.as_bytes(), name.as_bytes()) {
                 self.last = Some((g, g_name));
                 return g;
             }
         }
         let l = intern(name);
-        if last.id() < GUESSED {
-            if self.next.len() <= last.id() {
-                self.next.resize(last.id() + 1, None);
-            }
-            self.next[last.id()] = Some((l, l.as_str()));
-        }
+        // Fits: a label number is below u32::MAX (see `intern`).
+        after.inspect(|a| a.store(l.0 + 1, Atomic::Relaxed));
         self.remember(l)
     }
 
@@ -412,13 +418,15 @@ mod tests {
         }
     }
 
-    /// The interner's guesses never hand out a wrong label: names in
-    /// repeating orders, broken orders and runs.
+    /// The interners' guesses never hand out a wrong label: names in
+    /// repeating orders, broken orders and runs, asked of two interners
+    /// that teach the shared guesses different successors.
     #[test]
     fn an_interner_gives_each_name_its_label_whatever_the_order() {
         let names: Vec<String> = (0..50).map(|k| format!("guess-test-{}", k % 17)).collect();
-        let mut interner = Interner::default();
-        for round in 0..6usize {
+        let mut interners = [Interner::default(), Interner::default()];
+        for round in 0..12usize {
+            let interner = &mut interners[round % 2];
             for k in 0..names.len() {
                 // In order, reversed, strided and repeated.
                 let at = match round % 3 {
@@ -444,10 +452,20 @@ mod tests {
             let handles: Vec<_> = (0..8)
                 .map(|t| {
                     let names = &names;
-                    // Each thread in its own order.
+                    // Each thread in its own order, half through an
+                    // interner (whose guesses the threads share).
                     s.spawn(move || {
-                        (0..names.len())
-                            .map(|k| Label::from(names[(k * 7 + t * 13) % names.len()].as_str()))
+                        let mut interner = Interner::default();
+                        // Twice: the second time, with guesses learnt.
+                        (0..2 * names.len())
+                            .map(|k| {
+                                let name = names[(k * 7 + t * 13) % names.len()].as_str();
+                                if t % 2 == 0 {
+                                    Label::from(name)
+                                } else {
+                                    interner.get(name)
+                                }
+                            })
                             .collect::<Vec<_>>()
                     })
                 })
