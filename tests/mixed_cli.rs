@@ -117,6 +117,29 @@ fn mixed_summary_reads_like_lme4s_and_flags_a_singular_fit() {
     assert!(stdout.contains("optimum certified"), "{stdout}");
 }
 
+/// A random term written twice is fitted once, and the user is told: two
+/// copies of `(1|plate)` give Z D Z' with D the sum of their variances,
+/// so lme4 fits the same likelihood with that sum split between the
+/// copies. The fit is the single term's (itself checked against lme4 on
+/// Penicillin above), and the note says why it differs from lme4's table.
+#[test]
+fn a_random_term_written_twice_is_fitted_once_and_said_so() -> Result<(), Box<dyn std::error::Error>> {
+    let file = "tests/fixtures/mixed_published/penicillin.csv";
+    let once = "diameter ~ 1 + (1|plate) + (1|sample)";
+    let twice = "diameter ~ 1 + (1|plate) + (1|sample) + (1 | plate)";
+    let (code, single, stderr) = run(&["mixed", file, "--formula", once, "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(!stderr.contains("more than once"), "{stderr}");
+    let (code, double, stderr) = run(&["mixed", file, "--formula", twice, "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("writes a random term more than once; it is fitted once (lme4 fits each copy"), "{stderr}");
+    let (single, double): (serde_json::Value, serde_json::Value) =
+        (serde_json::from_str(&single)?, serde_json::from_str(&double)?);
+    assert!(single["fit"].is_object(), "{single}");
+    assert_eq!(single["fit"], double["fit"]);
+    Ok(())
+}
+
 /// A random-slope fit through the real binary: lme4's summary of
 /// `lmer(Reaction ~ Days + (Days | Subject), sleepstudy)` prints "REML
 /// criterion at convergence: 1743.6", Subject's variances 612.09 and

@@ -73,6 +73,10 @@ pub struct Formula {
     pub fixed: Vec<Vec<Variable>>,
     /// Random-intercept grouping factors.
     pub random: Vec<RandomTerm>,
+    /// Random terms written more than once and fitted once (lme4 fits
+    /// each copy, with variances only their sum of which the data can
+    /// tell: the same fit, its variance split between the copies).
+    pub merged: usize,
 }
 
 /// A random-effect term: the grouping factor and what varies over its
@@ -661,6 +665,7 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
     // The same term twice is one term (lme4 would fit it twice, with
     // variances it cannot tell apart).
     let mut groups: Vec<RandomTerm> = Vec::new();
+    let written = random.len();
     for term in random {
         if !groups.iter().any(|g| g.same(&term)) {
             groups.push(term);
@@ -681,7 +686,8 @@ pub fn parse(text: &str) -> Result<Formula, FormulaError> {
             ),
         });
     }
-    Ok(Formula { response, failures, trials, offset, divisor, fixed: unique, random: groups })
+    let merged = written - groups.len();
+    Ok(Formula { response, failures, trials, offset, divisor, fixed: unique, random: groups, merged })
 }
 
 /// Why a response `a / b` is refused where it is not a binomial
