@@ -261,7 +261,7 @@ impl serde::Serialize for Label {
 /// Hands out the [`Label`] of each name. Rows of a per-cell file come
 /// grouped and in repeating orders, so two guesses are tried before the
 /// table of names: the name asked for last, then the name that followed
-/// it the last time any interner was asked for it ([`AFTER`]: a
+/// it the last time any interner was asked for it (`AFTER`: a
 /// recording's successor in a seed's list of recordings). A guess costs
 /// one comparison of names.
 #[derive(Debug, Default)]
