@@ -300,13 +300,6 @@ pub(crate) fn mixed_command(a: crate::args::MixedArgs) -> Result<(), Error> {
     };
     let formula = with_offset(&a.formula)?;
     let compare = a.compare.as_deref().map(with_offset).transpose()?;
-    for f in std::iter::once(&formula).chain(&compare) {
-        if parse(f).is_ok_and(|p| p.merged > 0) {
-            note!(
-                "note: `{f}` writes a random term more than once; it is fitted once (lme4 fits each copy, with variances the data cannot tell apart: the same fit, its variance split between the copies)"
-            );
-        }
-    }
     let formula = formula.as_str();
     if a.nagq != 1 && a.family == "gaussian" {
         return Err(refuse(format!(

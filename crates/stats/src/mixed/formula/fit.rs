@@ -58,6 +58,15 @@ impl Fitted {
         }
     }
 
+    /// What the reader must know about the fit (printed under its
+    /// fixed effects).
+    pub fn notes(&self) -> &[String] {
+        match self {
+            Fitted::Intercepts(f) => &f.notes,
+            Fitted::Slopes(f) => &f.notes,
+        }
+    }
+
     /// The random-intercept fit, if it is one.
     pub fn intercepts(&self) -> Option<&mixed::MixedFit> {
         match self {
@@ -160,6 +169,8 @@ pub struct ComparedModel {
     pub p: Option<f64>,
     /// Whether the optimizer certified the ML fit.
     pub certified: bool,
+    /// The ML fit's notes.
+    pub notes: Vec<String>,
 }
 
 /// Fits `formula` and `other` to `table` by ML and tests one against the
@@ -189,6 +200,7 @@ pub fn compare_table(formula: &str, other: &str, table: &Table) -> Result<Compar
             df: None,
             p: None,
             certified: fit.fit.certified(),
+            notes: fit.fit.notes().to_vec(),
         });
     }
     rows.sort_by_key(|r| r.npar);
@@ -234,6 +246,9 @@ impl Comparison {
             );
         }
         for (i, m) in self.models.iter().enumerate() {
+            for note in &m.notes {
+                let _ = writeln!(s, "note (m{}): {note}", i + 1);
+            }
             if !m.certified {
                 let _ = writeln!(
                     s,
@@ -291,8 +306,20 @@ pub fn fit_table_weighted(
     weights: Option<&str>,
 ) -> Result<FormulaFit, FormulaError> {
     let formula = parse(formula_text)?;
+    let note = formula.merged_note();
+    fit_parsed(formula_text, &formula, table, (criterion, df, profile), weights).map(|f| f.noted(note))
+}
+
+/// [`fit_table_weighted`] of the formula `formula_text` parsed.
+fn fit_parsed(
+    formula_text: &str,
+    formula: &super::Formula,
+    table: &Table,
+    (criterion, df, profile): (mixed::Criterion, DfMethod, Option<f64>),
+    weights: Option<&str>,
+) -> Result<FormulaFit, FormulaError> {
     if let Some(w) = weights {
-        return weighted_table(formula_text, &formula, table, (criterion, df, profile), w);
+        return weighted_table(formula_text, formula, table, (criterion, df, profile), w);
     }
     if formula.failures.is_some() || formula.trials.is_some() {
         return Err(FormulaError::Unsupported(
@@ -300,7 +327,7 @@ pub fn fit_table_weighted(
         ));
     }
     if formula.divisor.is_some() {
-        return Err(super::divided_response(&formula));
+        return Err(super::divided_response(formula));
     }
     if let Some(level) = profile {
         if level.is_nan() || level <= 0.0 || level >= 1.0 {
@@ -314,7 +341,7 @@ pub fn fit_table_weighted(
         (mixed::Criterion::Reml, DfMethod::Satterthwaite) => mixed::Inference::Satterthwaite,
         (mixed::Criterion::Ml, _) => mixed::Inference::Estimates,
     };
-    let data = match build_model(&formula, table)? {
+    let data = match build_model(formula, table)? {
         // Crossed factors too many for the dense reduced system (every
         // factor's levels but the largest's): the same model by the sparse
         // factor of the slope engine, as lme4 fits every model. Its
@@ -323,7 +350,7 @@ pub fn fit_table_weighted(
         FormulaModel::Intercepts(data)
             if !data.dense_fits() && profile.is_none() && inference != mixed::Inference::Full =>
         {
-            return sparse_intercepts(formula_text, &formula, table, criterion, df);
+            return sparse_intercepts(formula_text, formula, table, criterion, df);
         }
         FormulaModel::Intercepts(data) => data,
         FormulaModel::Slopes(data) => return slopes_table(formula_text, &data, criterion, df, profile),
@@ -464,6 +491,15 @@ impl FixedRow {
 }
 
 impl FormulaFit {
+    /// The fit with `note` added to its notes.
+    fn noted(mut self, note: Option<String>) -> FormulaFit {
+        match &mut self.fit {
+            Fitted::Intercepts(f) => f.notes.extend(note),
+            Fitted::Slopes(f) => f.notes.extend(note),
+        }
+        self
+    }
+
     /// The summary's first lines: the method, the formula and the
     /// likelihood table.
     fn header(&self, criterion: mixed::Criterion, deviance: f64) -> String {

@@ -58,13 +58,22 @@ pub fn build_glmm_with(
     family: Family,
     options: &GlmmOptions,
 ) -> Result<GlmmData, FormulaError> {
-    let formula = parse(formula_text)?;
+    build_glmm_parsed(&parse(formula_text)?, table, family, options)
+}
+
+/// [`build_glmm_with`] of a parsed formula.
+fn build_glmm_parsed(
+    formula: &super::Formula,
+    table: &Table,
+    family: Family,
+    options: &GlmmOptions,
+) -> Result<GlmmData, FormulaError> {
     let (k, trials) = match options.weights.as_deref() {
-        Some(w) => weighted(family, &formula, table, w)?,
-        None if formula.divisor.is_some() => return Err(super::divided_response(&formula)),
+        Some(w) => weighted(family, formula, table, w)?,
+        None if formula.divisor.is_some() => return Err(super::divided_response(formula)),
         None => {
             let k = whole_counts(table, &formula.response)?;
-            let trials = trials(family, &formula, table, &k)?;
+            let trials = trials(family, formula, table, &k)?;
             (k, trials)
         }
     };
@@ -76,8 +85,8 @@ pub fn build_glmm_with(
         }
     }
     let columns = term_columns(&formula.fixed, true, table, n)?;
-    let terms = random_terms(&formula, table, &factors, n)?;
-    let offset = super::table::offset_values(&formula, table)?;
+    let terms = random_terms(formula, table, &factors, n)?;
+    let offset = super::table::offset_values(formula, table)?;
     let data = match family {
         Family::Binomial => GlmmData::binomial(k, trials, columns, terms)?,
         Family::Poisson => GlmmData::poisson(k, columns, terms)?,
@@ -116,8 +125,10 @@ pub fn fit_glmm_with(
             return Err(crate::mixed::MixedError::Level(level).into());
         }
     }
-    let data = build_glmm_with(formula, table, family, options)?;
-    let fit = fit_glmm(&data)?;
+    let parsed = parse(formula)?;
+    let data = build_glmm_parsed(&parsed, table, family, options)?;
+    let mut fit = fit_glmm(&data)?;
+    fit.notes.extend(parsed.merged_note());
     let profile = match profile {
         Some(level) => Some((level, profile_fixed(&data, &fit, level)?)),
         None => None,

@@ -79,6 +79,16 @@ pub struct Formula {
     pub merged: usize,
 }
 
+impl Formula {
+    /// What a fit of this formula tells its reader where a random term is
+    /// written more than once ([`Formula::merged`]).
+    pub fn merged_note(&self) -> Option<String> {
+        (self.merged > 0).then(|| {
+            "a random term written more than once is fitted once (lme4 fits each copy, with variances the data cannot tell apart: the same fit, its variance split between the copies)".to_string()
+        })
+    }
+}
+
 /// A random-effect term: the grouping factor and what varies over its
 /// levels (an intercept, and slopes).
 #[derive(Debug, Clone, PartialEq, Eq)]
