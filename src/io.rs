@@ -490,6 +490,7 @@ pub fn read_own(path: &Path) -> std::io::Result<Vec<u8>> {
     read_input(path, MAX_OWN_FILE, "a file crossaudit wrote").map_err(ReadError::into_io)
 }
 
+mod caught;
 pub mod chunked;
 pub mod float_text;
 mod input;

@@ -10,6 +10,7 @@ mod batched;
 mod browser;
 mod combine;
 mod condition_coverage;
+mod corrupt_parquet;
 mod coverage;
 mod coverage_measures;
 mod data;

@@ -40,12 +40,21 @@ pub fn is_parquet(path: &std::path::Path) -> bool {
 /// file, or any problem, goes through parquet's record API
 /// ([`rows_to_csv_text`], the reference the columns are tested against,
 /// byte for byte), which also words every error.
+///
+/// A file the parquet crate panics on (some corrupt ones) is refused
+/// with its words, as every reader here refuses it.
 pub fn to_csv_text(raw: impl Into<Bytes>, limit: u64, what: &str) -> Result<Vec<u8>, String> {
     let bytes = raw.into();
-    match columns_to_csv_text(bytes.clone(), limit) {
+    undecodable(|| match columns_text(bytes.clone(), limit) {
         Some(text) => Ok(text),
-        None => rows_to_csv_text(bytes, limit, what),
-    }
+        None => rows_text(bytes, limit, what),
+    })
+}
+
+/// `read`'s result, or, where the parquet crate panics inside it, why.
+fn undecodable<T>(read: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+    super::caught::caught(read)
+        .unwrap_or_else(|why| Err(format!("it cannot be decoded (a corrupt or truncated file?): {why}")))
 }
 
 /// A Parquet file's columns as decoded, row group by row group, and the
@@ -64,7 +73,12 @@ pub struct DecodedColumns {
 /// decodes it column by column (`None` where it does not); its text is
 /// held to `limit` bytes as it is written ([`DecodedColumns::lines`]).
 pub fn decode_columns(raw: Bytes, limit: u64) -> Option<DecodedColumns> {
-    let file = FlatFile::open(raw)?;
+    super::caught::caught(|| decoded(raw, limit)).ok().flatten()
+}
+
+/// [`decode_columns`], where the parquet crate may panic.
+fn decoded(raw: Bytes, limit: u64) -> Option<DecodedColumns> {
+    let file = FlatFile::open(raw, limit)?;
     let groups = (0..file.groups()).map(|g| file.group(g)).collect::<Option<Vec<_>>>()?;
     let rows = groups.iter().map(|g| g.rows).sum();
     Some(DecodedColumns { header: file.header, groups, rows, limit })
@@ -142,6 +156,11 @@ impl DecodedColumns {
 }
 /// [`to_csv_text`] through parquet's record API, a row at a time.
 pub fn rows_to_csv_text(raw: Bytes, limit: u64, what: &str) -> Result<Vec<u8>, String> {
+    undecodable(|| rows_text(raw, limit, what))
+}
+
+/// [`rows_to_csv_text`], where the parquet crate may panic.
+fn rows_text(raw: Bytes, limit: u64, what: &str) -> Result<Vec<u8>, String> {
     let reader = SerializedFileReader::new(raw).map_err(|e| e.to_string())?;
     let schema = reader.metadata().file_metadata().schema_descr_ptr();
     let fields = schema.root_schema().get_fields();
@@ -218,7 +237,12 @@ struct FlatFile {
 /// text that is not UTF-8 or text past `limit`, which the record API reads
 /// (and words). Each row group is decoded, written and dropped in turn.
 pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
-    let file = FlatFile::open(raw)?;
+    super::caught::caught(|| columns_text(raw, limit)).ok().flatten()
+}
+
+/// [`columns_to_csv_text`], where the parquet crate may panic.
+fn columns_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
+    let file = FlatFile::open(raw, limit)?;
     let mut out = file.header.clone();
     out.push(b'\n');
     let mut line = Vec::with_capacity(256);
@@ -232,12 +256,25 @@ pub fn columns_to_csv_text(raw: Bytes, limit: u64) -> Option<Vec<u8>> {
 }
 
 impl FlatFile {
-    /// `raw` opened, where every top-level column is a primitive one.
-    fn open(raw: Bytes) -> Option<FlatFile> {
+    /// `raw` opened, where every top-level column is a primitive one and
+    /// its row groups' rows could be written in `limit` bytes of text (a
+    /// row's line holds a comma between columns and a `\n`): the decoder
+    /// is asked for no more values than that, whatever a corrupt footer
+    /// says (the record API, a row at a time, reads such a file, up to
+    /// the limit).
+    fn open(raw: Bytes, limit: u64) -> Option<FlatFile> {
         let reader = SerializedFileReader::new(raw).ok()?;
         let schema = reader.metadata().file_metadata().schema_descr_ptr();
         let fields = schema.root_schema().get_fields();
         if fields.is_empty() || fields.len() != schema.num_columns() || fields.iter().any(|f| !f.is_primitive()) {
+            return None;
+        }
+        let rows = reader
+            .metadata()
+            .row_groups()
+            .iter()
+            .try_fold(0u64, |n, g| n.checked_add(u64::try_from(g.num_rows()).ok()?))?;
+        if rows.checked_mul(fields.len() as u64)? > limit {
             return None;
         }
         let header = fields.iter().map(|f| quoted(f.name())).collect::<Vec<_>>().join(",").into_bytes();
