@@ -30,6 +30,10 @@ pub fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
     if !lo.is_finite() {
         return (-1.0, 1.0);
     }
+    // Beyond 1e300 either way a chart shows nothing more, and the padding
+    // of a wider span overflows to an infinite axis, whose ticks the
+    // plotting library counts out forever.
+    let (lo, hi) = (lo.max(-1e300), hi.min(1e300));
     let pad = ((hi - lo) * 0.1).max(1e-6);
     (lo - pad, hi + pad)
 }
@@ -294,5 +298,19 @@ mod tests {
         let points = plotters::coord::types::RangedCoordf64::from(-0.034..0.021).key_points(super::LABELS);
         assert!(points.windows(2).any(|w| (w[1] - w[0] - 0.005).abs() < 1e-12), "{points:?}");
         assert_eq!(ticks(-0.034, 0.021)(&-0.025), "-0.025");
+    }
+
+    /// Values near the double's limit: the span and its padding stay
+    /// finite, and plotters counts out the axis's ticks (an infinite end
+    /// hung it: a training curve's edited loss of 1.7e308 did).
+    #[test]
+    fn a_span_of_the_largest_doubles_is_a_finite_axis_with_ticks() {
+        use plotters::coord::ranged1d::Ranged;
+        for values in [[-1.7e308, 1.7e308], [0.01, 1.79e308], [-f64::MAX, 0.0]] {
+            let (lo, hi) = super::span(values.into_iter());
+            assert!(lo.is_finite() && hi.is_finite() && lo < hi, "{values:?}: {lo}..{hi}");
+            let points = plotters::coord::types::RangedCoordf64::from(lo..hi).key_points(super::LABELS);
+            assert!(!points.is_empty(), "{values:?}");
+        }
     }
 }

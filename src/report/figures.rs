@@ -123,7 +123,8 @@ fn capitalize(s: &str) -> String {
 fn draw_curves(path: &Path, a: &Analysis, curves: &[Curve]) -> Result<String, DrawError> {
     let err = draw_err(path);
     super::charts::svg_figure(path, (900, 480), |root| {
-        let max_epoch = curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)).fold(1.0, f64::max);
+        let epochs = curves.iter().flat_map(|c| c.points.iter().map(|p| p.0));
+        let max_epoch = epochs.filter(|e| e.is_finite()).fold(1.0, f64::max);
         let (lo, hi) = span(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
         let title =
             format!("Validation loss per epoch, every training cell (blue: {}, orange: {})", a.treated, a.reference);

@@ -365,7 +365,8 @@ struct CurvePoint {
 }
 
 /// The validation-loss curve of every fitted job, in file-name order; one
-/// sentence in `missing` for those absent or unreadable.
+/// sentence in `missing` for those absent, unreadable, or not as the run
+/// wrote them ([`curve`]).
 fn curves(plan: &Plan, dir: &Path, missing: &mut Vec<String>) -> Vec<Curve> {
     // External models' training happened elsewhere: no curve.
     let mut jobs: Vec<_> = plan.jobs.iter().filter(|j| j.kind.has_curve()).collect();
@@ -374,10 +375,7 @@ fn curves(plan: &Plan, dir: &Path, missing: &mut Vec<String>) -> Vec<Curve> {
     let mut lost = Vec::new();
     for j in jobs {
         let path = dir.join("curves").join(format!("{}.csv", j.stem()));
-        let points = csv::Reader::from_path(&path).and_then(|mut r| {
-            r.deserialize::<CurvePoint>().map(|p| p.map(|p| (p.epoch, p.val_loss))).collect::<Result<Vec<_>, _>>()
-        });
-        match points {
+        match curve(dir, j, &path) {
             Ok(points) => out.push(Curve { model: j.model.clone(), arm: j.arm.clone(), seed: j.seed.0, points }),
             Err(e) => lost.push(format!("{} ({e})", path.display())),
         }
@@ -391,6 +389,36 @@ fn curves(plan: &Plan, dir: &Path, missing: &mut Vec<String>) -> Vec<Curve> {
         ));
     }
     out
+}
+
+/// The (epoch, validation loss) points of `job`'s curve at `path`, or
+/// why it is left out: unreadable; not the bytes its job record (where
+/// the folder keeps one) says the job wrote, so edited after the run; or
+/// not a curve as a run writes one, its epochs 1, 2, 3, ... in order (an
+/// edited epoch would move the early-stopping check's best epochs and
+/// the figure's axis).
+fn curve(dir: &Path, job: &crate::plan::TrainingJob, path: &Path) -> Result<Vec<(f64, f64)>, String> {
+    let bytes = crate::io::read_own(path).map_err(|e| e.to_string())?;
+    let name = format!("curves/{}.csv", job.stem());
+    if let Some(record) = super::record::JobRecord::read(dir, job).map_err(|e| e.to_string())? {
+        let now = crate::io::sha256_hex(&bytes);
+        match record.files.get(&name) {
+            Some(sha) if *sha == now => {}
+            Some(sha) => {
+                return Err(format!("sha256 {now}, but jobs/{}.json recorded {sha}: edited after the run", job.stem()))
+            }
+            None => return Err(format!("jobs/{}.json does not list it", job.stem())),
+        }
+    }
+    let mut points = Vec::new();
+    for (k, p) in csv::Reader::from_reader(bytes.as_slice()).deserialize::<CurvePoint>().enumerate() {
+        let p = p.map_err(|e| e.to_string())?;
+        if p.epoch != (k + 1) as f64 {
+            return Err(format!("line {}: epoch {} where a run writes epoch {}", k + 2, p.epoch, k + 1));
+        }
+        points.push((p.epoch, p.val_loss));
+    }
+    Ok(points)
 }
 
 /// Per arm of a distance-dose family: the distinct evaluation recordings

@@ -338,7 +338,8 @@ impl JobRecord {
     }
 
     /// As [`JobRecord::verify`] for a reanalysis: the design, and the
-    /// job's per-cell file unchanged (weights and curves are not read).
+    /// job's per-cell file unchanged (weights are not read; a training
+    /// curve is checked against the record where the report reads it).
     pub fn verify_cells(&self, out: &Path, job: &TrainingJob, design_sha256: &str) -> Result<(), RunError> {
         let path = job_record_path(out, job);
         let bad = |reason: String| RunError::BadJobRecord { path: path.display().to_string(), reason };
