@@ -430,3 +430,43 @@ fn a_training_curve_edited_after_the_run_is_left_out_and_named() -> Result<(), B
     assert!(said.contains("relative__contaminated__1.csv (line 2: epoch inf where a run writes epoch 1)"), "{said}");
     Ok(())
 }
+
+#[test]
+fn evidence_edited_after_the_run_is_left_out_and_named() -> Result<(), Box<dyn std::error::Error>> {
+    // Before: one count in audit/treatment.json (the reference arm's fit
+    // recordings of one evaluation condition, 1 edited to 0) made a
+    // reanalysis print "The contrast mixes condition novelty with recording
+    // leakage" beside the verdict, with nothing said about the edit. The
+    // run records the SHA-256 of its evidence files in run.json
+    // (`evidence_sha256`; audit/recordings.csv's in `audit_sha256`).
+    let tmp = tempfile::tempdir()?;
+    let run = tmp.path().join("run");
+    let run_s = run.to_str().ok_or("path")?;
+    let o = crossaudit(&["run", "designs/quickstart.design", "--out", run_s]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let record: serde_json::Value = serde_json::from_slice(&std::fs::read(run.join("run.json"))?)?;
+    for name in ["audit/treatment.json", "audit/invariants.json"] {
+        let sha = crossaudit::io::sha256_hex(&std::fs::read(run.join(name))?);
+        assert_eq!(record["evidence_sha256"][name], sha.as_str(), "{record}");
+    }
+    let path = run.join("audit/treatment.json");
+    let mut treatment: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+    treatment["coverage"]["recordings"][0]["fit_recordings"]["disjoint"] = 0.into();
+    std::fs::write(&path, serde_json::to_string_pretty(&treatment)?)?;
+    let recordings = run.join("audit/recordings.csv");
+    let text = std::fs::read_to_string(&recordings)?;
+    std::fs::write(&recordings, text.replacen(",included,", ",included ,", 1))?;
+    let out = tmp.path().join("re");
+    let o =
+        crossaudit(&["analyze", "designs/quickstart.design", "--cells", run_s, "--out", out.to_str().ok_or("path")?]);
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{said}");
+    for name in ["audit/treatment.json", "audit/recordings.csv"] {
+        let line = said.lines().find(|l| l.contains(name)).unwrap_or("");
+        assert!(line.contains("was edited after the run (sha256") && line.contains("but run.json recorded"), "{said}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md"))?;
+    assert!(!md.contains("mixes condition novelty"), "{md}");
+    assert!(md.contains("treatment strength and condition coverage not reported"), "{md}");
+    Ok(())
+}

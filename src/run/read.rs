@@ -281,8 +281,16 @@ fn said_once(each: &[(&LevelFolder, Vec<String>)]) -> Vec<String> {
 pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEvidence {
     let (plan, dir) = (level.plan, level.dir.as_path());
     let audit = dir.join("audit");
-    let treatment: Option<Treatment> =
-        evidence(&audit.join("treatment.json"), "treatment strength and condition coverage", missing);
+    // What the run recorded of its evidence as it wrote it (an unreadable
+    // run.json is the caller's to refuse; here it verifies nothing).
+    let run = RunRecord::read(dir).ok().flatten();
+    let recorded = |name: &str| run.as_ref().and_then(|r| r.evidence_sha256.get(name).cloned());
+    let treatment: Option<Treatment> = evidence(
+        &audit.join("treatment.json"),
+        recorded("audit/treatment.json"),
+        "treatment strength and condition coverage",
+        missing,
+    );
     // What an older build's treatment audit lacks (every build since
     // writes both).
     let lacks = |t: &Treatment| {
@@ -298,8 +306,12 @@ pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEviden
         missing
             .push(format!("{} was written by an older build, without {what}", audit.join("treatment.json").display()));
     }
-    let invariants: Option<InvariantsFile> =
-        evidence(&audit.join("invariants.json"), "the split's invariants that hold with a warning", missing);
+    let invariants: Option<InvariantsFile> = evidence(
+        &audit.join("invariants.json"),
+        recorded("audit/invariants.json"),
+        "the split's invariants that hold with a warning",
+        missing,
+    );
     let warned = invariants.map(|f| f.invariants.into_iter().filter(|i| i.status == "warn").collect());
     LevelEvidence {
         id: level.id.clone(),
@@ -307,7 +319,7 @@ pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEviden
         seed: level.seed,
         treatment,
         warned: warned.unwrap_or_default(),
-        unread: unread(&audit.join("recordings.csv"), missing),
+        unread: unread(&audit.join("recordings.csv"), run.as_ref().map(|r| r.audit_sha256.clone()), missing),
         // A family's report draws no training curves.
         curves: if level.curves { curves(plan, dir, missing) } else { Vec::new() },
         sources: sources(plan, dir, missing),
@@ -315,10 +327,19 @@ pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEviden
 }
 
 /// A JSON file of evidence through its serde type, or a sentence in
-/// `missing` saying what the report cannot give without it.
-fn evidence<T: DeserializeOwned>(path: &Path, gives: &str, missing: &mut Vec<String>) -> Option<T> {
+/// `missing` saying what the report cannot give without it: absent,
+/// unreadable, or not the bytes the run `recorded` ([`edited`]).
+fn evidence<T: DeserializeOwned>(
+    path: &Path,
+    recorded: Option<String>,
+    gives: &str,
+    missing: &mut Vec<String>,
+) -> Option<T> {
     let parsed = match crate::io::read_own(path) {
-        Ok(bytes) => serde_json::from_slice(&bytes).map_err(|e| format!("is unreadable ({e})")),
+        Ok(bytes) => match edited(&bytes, recorded) {
+            Some(why) => Err(why),
+            None => serde_json::from_slice(&bytes).map_err(|e| format!("is unreadable ({e})")),
+        },
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err("is absent".to_string()),
         Err(e) => Err(format!("is unreadable ({e})")),
     };
@@ -336,16 +357,31 @@ struct AuditRow {
     reason: String,
 }
 
+/// Why a file of evidence is not the one the run wrote: its SHA-256 is
+/// not the one the run `recorded` when it wrote it (`None` where it is,
+/// or where the run recorded none).
+fn edited(bytes: &[u8], recorded: Option<String>) -> Option<String> {
+    let now = crate::io::sha256_hex(bytes);
+    recorded
+        .filter(|want| *want != now)
+        .map(|want| format!("was edited after the run (sha256 {now}, but run.json recorded {want})"))
+}
+
 /// The sentence naming the logs the audit could not read (`None` when it
 /// read every one, or, with a sentence in `missing`, when the audit is
-/// absent or unreadable).
-fn unread(path: &Path, missing: &mut Vec<String>) -> Option<String> {
-    let read =
-        csv::Reader::from_path(path).and_then(|mut r| r.deserialize::<AuditRow>().collect::<Result<Vec<_>, _>>());
+/// absent, unreadable or not the one the run `recorded`).
+fn unread(path: &Path, recorded: Option<String>, missing: &mut Vec<String>) -> Option<String> {
+    let read = crate::io::read_own(path).map_err(|e| format!("is unreadable ({e})")).and_then(|bytes| {
+        if let Some(why) = edited(&bytes, recorded) {
+            return Err(why);
+        }
+        let mut r = csv::Reader::from_reader(bytes.as_slice());
+        r.deserialize::<AuditRow>().collect::<Result<Vec<_>, _>>().map_err(|e| format!("is unreadable ({e})"))
+    });
     let rows = match read {
         Ok(rows) => rows,
-        Err(e) => {
-            missing.push(format!("{} is unreadable ({e}): logs it could not read not reported", path.display()));
+        Err(why) => {
+            missing.push(format!("{} {why}: logs it could not read not reported", path.display()));
             return None;
         }
     };

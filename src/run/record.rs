@@ -28,6 +28,14 @@ pub struct RunRecord {
     pub audit_sha256: String,
     /// SHA-256 of manifests.json.
     pub manifests_sha256: String,
+    /// SHA-256 of each file of evidence the split wrote beside the
+    /// inclusion audit (`audit/invariants.json`, `audit/treatment.json`,
+    /// by path in the folder): a reanalysis leaves out, and names, one
+    /// edited since (its numbers feed the report, the condition coverage
+    /// beside the verdict among them). Absent in runs written before it
+    /// was recorded.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub evidence_sha256: BTreeMap<String, String>,
     /// Whether the run's outputs are labelled EXPLORATORY.
     pub exploratory: bool,
     /// The crossaudit build that last wrote the directory ([`crate::io::BUILD`]).
@@ -80,6 +88,10 @@ impl RunRecord {
             data: data.origin.clone(),
             audit_sha256: crate::io::sha256_hex(prepared.audit.to_csv().as_bytes()),
             manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
+            evidence_sha256: BTreeMap::from([
+                ("audit/invariants.json".to_string(), crate::io::sha256_hex(prepared.invariants.to_json().as_bytes())),
+                ("audit/treatment.json".to_string(), crate::io::sha256_hex(prepared.treatment.to_json().as_bytes())),
+            ]),
             exploratory,
             crossaudit: crate::io::BUILD.to_string(),
             level: None,
