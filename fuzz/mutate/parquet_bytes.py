@@ -1,0 +1,56 @@
+#!/usr/bin/env python3
+"""Mutates a Parquet file and runs a crossaudit command on each mutant.
+
+    python3 fuzz/mutate/parquet_bytes.py SOURCE CASE N SEED [--footer] -- COMMAND...
+
+Each of N mutants of SOURCE (random bytes changed, flipped, zeroed, set to
+0xff, or the file cut short; with --footer, 1 to 4 bytes of the Thrift
+footer only) is written to CASE, which COMMAND reads (COMMAND names CASE
+itself). A panic, an abort, a signal or a run past 30 s is printed (the
+first of each kind, its mutant kept as CASE.bad-I); SOURCE is written back
+to CASE at the end. Exit codes 0, 1 and 2 are answers; anything else is
+not."""
+import random, re, subprocess, sys
+
+args = sys.argv[1:]
+sep = args.index("--")
+(src, case, n, seed), flags, cmd = args[:4], args[4:sep], args[sep + 1:]
+data = open(src, "rb").read()
+footer = len(data) - 8 - int.from_bytes(data[-8:-4], "little")
+rng = random.Random(int(seed))
+seen = {}
+for i in range(int(n)):
+    b = bytearray(data)
+    if "--footer" in flags:
+        for _ in range(rng.randint(1, 4)):
+            k = rng.randrange(footer, len(b) - 8)
+            b[k] = rng.choice([b[k] ^ (1 << rng.randrange(8)), rng.randrange(256), 0x00, 0x7F, 0x80, 0xFF])
+    else:
+        kind = rng.choice(["cut", "flip", "flip", "bytes", "zero", "ff"])
+        k = rng.randrange(len(b))
+        if kind == "cut":
+            b = b[:k]
+        elif kind == "flip":
+            for _ in range(rng.randint(1, 8)):
+                j = rng.randrange(len(b)); b[j] ^= 1 << rng.randrange(8)
+        elif kind == "bytes":
+            for _ in range(rng.randint(1, 4)):
+                b[rng.randrange(len(b))] = rng.randrange(256)
+        else:
+            span = rng.randint(1, 64 if kind == "zero" else 8)
+            b[k:k + span] = (b"\x00" if kind == "zero" else b"\xff") * len(b[k:k + span])
+    open(case, "wb").write(b)
+    try:
+        r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=30)
+        rc, err = r.returncode, r.stderr.decode(errors="replace")
+    except subprocess.TimeoutExpired:
+        rc, err = "timeout", ""
+    if rc not in (0, 1, 2) or "panicked" in err:
+        said = [l for l in err.splitlines() if "panicked" in l]
+        key = (rc, re.sub(r"\(\d+\)", "", said[0]) if said else "")
+        if key not in seen:
+            seen[key] = i
+            open(f"{case}.bad-{i}", "wb").write(b)
+            print(i, rc, err[:400].replace("\n", " | "), flush=True)
+open(case, "wb").write(data)
+print(f"{n} mutants, {len(seen)} kinds of failure")
