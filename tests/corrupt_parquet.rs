@@ -13,9 +13,10 @@ use std::path::Path;
 use crate::common::{assert_ok, crossaudit, root, said};
 use crossaudit::io::parquet::{decode_columns, to_csv_text};
 
-/// One byte of the committed simulated lab's circle flight
-/// (designs/logs/lab_logs/test/lab-circle-take2.parquet, written by
-/// `simulate-lab`) set to a value, and the panic message it gave: in a
+/// One byte of the simulated lab's circle flight
+/// (`test/lab-circle-take2.parquet` of the folder `simulate-lab` writes,
+/// designs/logs/lab.design's fixture; the same bytes on every run) set to
+/// a value, and the panic message it gave: in a
 /// data page (an RLE run's length), and in the footer (a column chunk's
 /// offset, a dictionary page's place).
 const LOG_CORRUPTIONS: [(usize, u8, &str); 3] = [
@@ -24,27 +25,33 @@ const LOG_CORRUPTIONS: [(usize, u8, &str); 3] = [
     (385_350, 165, "Decoder for dict should have been set"),
 ];
 
-const CIRCLE: &str = "designs/logs/lab_logs/test/lab-circle-take2.parquet";
+const CIRCLE: &str = "lab_logs/test/lab-circle-take2.parquet";
+
+/// The simulated lab's folder written into `dir/lab_logs` (git keeps no
+/// copy) and designs/logs/lab.design copied beside it; the design's path.
+fn lab(dir: &Path) -> Result<String, Box<dyn Error>> {
+    assert_ok(&crossaudit(&["simulate-lab", "--out", path(&dir.join("lab_logs"))?]));
+    let design = dir.join("lab.design");
+    std::fs::copy(root().join("designs/logs/lab.design"), &design)?;
+    Ok(path(&design)?.to_string())
+}
 
 #[test]
 fn a_corrupt_parquet_log_is_excluded_with_the_decoders_words_and_the_audit_goes_on() -> Result<(), Box<dyn Error>> {
-    let raw = std::fs::read(root().join(CIRCLE))?;
     let dir = tempfile::tempdir()?;
-    copy_dir(&root().join("designs/logs/lab_logs"), &dir.path().join("lab_logs"))?;
-    let design = dir.path().join("lab.design");
-    std::fs::copy(root().join("designs/logs/lab.design"), &design)?;
-    let design = design.to_str().ok_or("path")?;
+    let design = lab(dir.path())?;
+    let raw = std::fs::read(dir.path().join(CIRCLE))?;
     for (at, byte, words) in LOG_CORRUPTIONS {
         let mut bad = raw.clone();
         bad[at] = byte;
-        std::fs::write(dir.path().join("lab_logs/test/lab-circle-take2.parquet"), &bad)?;
+        std::fs::write(dir.path().join(CIRCLE), &bad)?;
         // The library: an error with the decoder's words, not a panic.
         let why = to_csv_text(bad.clone(), u64::MAX, "a flight log").err().ok_or("read")?;
         assert!(why.contains("cannot be decoded") && why.contains(words), "{why}");
         assert!(decode_columns(bytes::Bytes::from(bad), u64::MAX).is_none());
         // The binary: the flight excluded, named, with why; the other 20
         // logs audited.
-        let out = crossaudit(&["data", "audit", design]);
+        let out = crossaudit(&["data", "audit", &design]);
         assert_ok(&out);
         let text = said(&out);
         assert!(!text.contains("panicked"), "{text}");
@@ -68,7 +75,9 @@ fn no_byte_of_a_parquet_footer_set_to_any_of_three_values_panics_a_reader() -> R
     // decoder's own panics, caught: counted, so the test shows it met them.
     let csv = std::fs::read(root().join("results/quickstart/cells.csv"))?;
     let cells = crossaudit::io::parquet::csv_to_parquet(&csv)?;
-    let log = std::fs::read(root().join(CIRCLE))?;
+    let dir = tempfile::tempdir()?;
+    lab(dir.path())?;
+    let log = std::fs::read(dir.path().join(CIRCLE))?;
     let mut caught = 0;
     for raw in [cells, log] {
         for at in footer(&raw)? {
@@ -124,17 +133,4 @@ fn footer(raw: &[u8]) -> Result<std::ops::Range<usize>, Box<dyn Error>> {
 
 fn path(p: &Path) -> Result<&str, Box<dyn Error>> {
     Ok(p.to_str().ok_or("a path that is not UTF-8")?)
-}
-
-fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(to)?;
-    for e in std::fs::read_dir(from)? {
-        let e = e?;
-        if e.file_type()?.is_dir() {
-            copy_dir(&e.path(), &to.join(e.file_name()))?;
-        } else {
-            std::fs::copy(e.path(), to.join(e.file_name()))?;
-        }
-    }
-    Ok(())
 }

@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
 """Mutates a Parquet file and runs a crossaudit command on each mutant.
 
-    python3 fuzz/mutate/parquet_bytes.py SOURCE CASE N SEED [--footer] -- COMMAND...
+    python3 fuzz/mutate/parquet_bytes.py SOURCE CASE N SEED [--footer | --head=B] -- COMMAND...
 
 Each of N mutants of SOURCE (random bytes changed, flipped, zeroed, set to
-0xff, or the file cut short; with --footer, 1 to 4 bytes of the Thrift
-footer only) is written to CASE, which COMMAND reads (COMMAND names CASE
+0xff, or the file cut short; with --footer, 1 to 4 bytes of a Parquet
+file's Thrift footer only; with --head=B, 1 to 4 of its first B bytes, as
+a .npy file's header) is written to CASE, which COMMAND reads (COMMAND names CASE
 itself). A panic, an abort, a signal or a run past 30 s is printed (the
 first of each kind, its mutant kept as CASE.bad-I); SOURCE is written back
 to CASE at the end. Exit codes 0, 1 and 2 are answers; anything else is
@@ -21,9 +22,11 @@ rng = random.Random(int(seed))
 seen = {}
 for i in range(int(n)):
     b = bytearray(data)
-    if "--footer" in flags:
+    head = next((int(f.split("=")[1]) for f in flags if f.startswith("--head=")), None)
+    if "--footer" in flags or head:
+        lo, hi = (0, min(head, len(b))) if head else (footer, len(b) - 8)
         for _ in range(rng.randint(1, 4)):
-            k = rng.randrange(footer, len(b) - 8)
+            k = rng.randrange(lo, hi)
             b[k] = rng.choice([b[k] ^ (1 << rng.randrange(8)), rng.randrange(256), 0x00, 0x7F, 0x80, 0xFF])
     else:
         kind = rng.choice(["cut", "flip", "flip", "bytes", "zero", "ff"])
