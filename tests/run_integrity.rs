@@ -147,6 +147,24 @@ fn a_missing_or_unreadable_run_record_is_refused() {
 }
 
 #[test]
+fn a_folder_whose_report_is_no_runs_is_refused_not_written_over() -> Result<(), Box<dyn std::error::Error>> {
+    // Before: a run into a folder holding someone's own report/report.md
+    // wrote its report over it (only a run's own outputs beside no
+    // run.json were refused). A run writes run.json before its report.
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("mine");
+    std::fs::create_dir_all(out.join("report"))?;
+    std::fs::write(out.join("report/report.md"), "my own notes\n")?;
+    assert_refused(&run(&out, &[]), "holds files, which a run would write its report over");
+    assert_eq!(std::fs::read_to_string(out.join("report/report.md"))?, "my own notes\n");
+    assert!(!out.join("run.json").exists());
+    // An empty report/ is no one's: the run goes ahead.
+    std::fs::remove_file(out.join("report/report.md"))?;
+    assert_ok(&run(&out, &[]));
+    Ok(())
+}
+
+#[test]
 fn a_changed_finished_cell_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = copy_of_reference(dir.path());
