@@ -6,7 +6,6 @@
 
 use std::path::Path;
 use std::process::Command;
-use std::time::{Duration, Instant};
 
 use crate::common::root;
 
@@ -27,7 +26,7 @@ fn run_case(dir: &Path, out: &Path) -> (Option<i32>, String) {
     } else {
         crate::common::bin()
     };
-    let mut child = command
+    let child = command
         .current_dir(root())
         .args(&args)
         .env("NO_COLOR", "1")
@@ -35,18 +34,9 @@ fn run_case(dir: &Path, out: &Path) -> (Option<i32>, String) {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let started = Instant::now();
     // A case that runs for a minute is a hang.
-    while child.try_wait().unwrap().is_none() {
-        if started.elapsed() > Duration::from_secs(60) {
-            child.kill().unwrap();
-            panic!("{}: still running after 60 s", dir.display());
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let output = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr).replace(&d, "{dir}").replace(&o, "{out}");
-    (output.status.code(), stderr)
+    let (code, stderr) = crate::common::finish_within(child, 60, &dir.display().to_string());
+    (code, stderr.replace(&d, "{dir}").replace(&o, "{out}"))
 }
 
 #[test]

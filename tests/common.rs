@@ -256,6 +256,37 @@ pub fn bin() -> std::process::Command {
     c
 }
 
+/// Waits for `child` (spawned with its standard error piped), killing it
+/// and failing the test once it runs past `seconds`: a hang; its exit code
+/// and standard error. The one wait with a deadline of the CLI tests.
+pub fn finish_within(mut child: std::process::Child, seconds: u64, what: &str) -> (Option<i32>, String) {
+    use std::io::Read;
+    let started = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > std::time::Duration::from_secs(seconds) {
+            child.kill().unwrap();
+            panic!("{what}: still running after {seconds} s (a hang)");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (child.wait().unwrap().code(), err)
+}
+
+/// The real binary with `args` (standard output discarded), failed as a
+/// hang past `seconds` ([`finish_within`]): its exit code and standard error.
+pub fn crossaudit_within(seconds: u64, args: &[&str]) -> (Option<i32>, String) {
+    let child = bin()
+        .env("NO_COLOR", "1")
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    finish_within(child, seconds, &args.join(" "))
+}
+
 /// Everything a command printed: standard output, then standard error.
 pub fn said(o: &std::process::Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))

@@ -51,7 +51,10 @@ fn a_corrupt_parquet_log_is_excluded_with_the_decoders_words_and_the_audit_goes_
         assert!(decode_columns(bytes::Bytes::from(bad), u64::MAX).is_none());
         // The binary: the flight excluded, named, with why; the other 20
         // logs audited.
-        let out = crossaudit(&["data", "audit", &design]);
+        // Its recordings.csv into the temporary folder (by default
+        // `audit/` of the working directory: the repository's root).
+        let audit = path(&dir.path().join("audit"))?.to_string();
+        let out = crossaudit(&["data", "audit", &design, "--out", &audit]);
         assert_ok(&out);
         let text = said(&out);
         assert!(!text.contains("panicked"), "{text}");

@@ -5,7 +5,6 @@
 //! and ends in seconds; a child still running after 30 s is a hang.
 
 use std::fs::File;
-use std::io::Read;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -29,18 +28,8 @@ fn spawn(args: &[&str], stdout: Stdio) -> Child {
 }
 
 /// Waits for `child` (killing it after 30 s: a hang); its exit code and stderr.
-fn finish(mut child: Child, what: &str) -> (Option<i32>, String) {
-    let started = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if started.elapsed() > Duration::from_secs(30) {
-            child.kill().unwrap();
-            panic!("{what}: still running after 30 s (a hang)");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    let mut err = String::new();
-    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
-    (child.wait().unwrap().code(), err)
+fn finish(child: Child, what: &str) -> (Option<i32>, String) {
+    crate::common::finish_within(child, 30, what)
 }
 
 /// Runs `args` to the end with stdout discarded.
@@ -96,16 +85,9 @@ fn a_run_into_a_closed_pipe_finishes_its_files_and_does_not_panic() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let args = ["run", "tests/designs/sim_small.design", "--out", out.to_str().unwrap(), "--workers", "2"];
-    let mut child = spawn(&args, closed_pipe());
-    let started = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(started.elapsed() < Duration::from_secs(300), "run still running after 300 s");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let mut err = String::new();
-    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let (code, err) = crate::common::finish_within(spawn(&args, closed_pipe()), 300, "run");
     assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(child.wait().unwrap().code(), Some(141), "{err}");
+    assert_eq!(code, Some(141), "{err}");
     assert!(out.join("report/report.md").exists() && out.join("cells.csv").exists(), "{err}");
 }
 

@@ -361,32 +361,6 @@ fn validation_copies_of_evaluation_flights_are_a_guard_counted_per_draw() {
     assert!(head.contains("**Validation holds copies of evaluation flights**"), "{head}");
 }
 
-/// `crossaudit ARGS` (the real binary), killed and failed if it runs past
-/// `seconds`: a hang is a failure, not a stuck test run.
-fn within(seconds: u64, args: &[&str]) -> Result<std::process::Output, Box<dyn std::error::Error>> {
-    use std::io::Read;
-    let mut child = crate::common::bin()
-        .args(args)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()?;
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(seconds);
-    let status = loop {
-        if let Some(status) = child.try_wait()? {
-            break status;
-        }
-        if std::time::Instant::now() > deadline {
-            child.kill()?;
-            return Err(format!("crossaudit {} ran past {seconds} s", args.join(" ")).into());
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    };
-    let (mut stdout, mut stderr) = (Vec::new(), Vec::new());
-    child.stdout.take().ok_or("stdout")?.read_to_end(&mut stdout)?;
-    child.stderr.take().ok_or("stderr")?.read_to_end(&mut stderr)?;
-    Ok(std::process::Output { status, stdout, stderr })
-}
-
 #[test]
 fn a_training_curve_edited_after_the_run_is_left_out_and_named() -> Result<(), Box<dyn std::error::Error>> {
     // Before: a curve's epoch edited to `inf` hung the report (the
@@ -404,15 +378,19 @@ fn a_training_curve_edited_after_the_run_is_left_out_and_named() -> Result<(), B
     let curve = run.join("curves/relative__contaminated__1.csv");
     let text = std::fs::read_to_string(&curve)?;
     assert!(text.lines().nth(1).is_some_and(|l| l.starts_with("1,")), "{text}");
+    // The run folder analysed into `out`, a hang failing the test.
+    let analyze = |out: &Path| -> Result<(Option<i32>, String), Box<dyn std::error::Error>> {
+        let out = out.to_str().ok_or("path")?;
+        Ok(crate::common::crossaudit_within(
+            60,
+            &["analyze", "designs/quickstart.design", "--cells", run_s, "--out", out],
+        ))
+    };
     for (edit, why) in [("inf", "edited after the run"), ("-1", "edited after the run")] {
         std::fs::write(&curve, text.replacen("\n1,", &format!("\n{edit},"), 1))?;
         let out = tmp.path().join(format!("re{edit}"));
-        let o = within(
-            60,
-            &["analyze", "designs/quickstart.design", "--cells", run_s, "--out", out.to_str().ok_or("path")?],
-        )?;
-        let said = String::from_utf8_lossy(&o.stderr);
-        assert!(o.status.success(), "{said}");
+        let (code, said) = analyze(&out)?;
+        assert_eq!(code, Some(0), "{said}");
         let line = said.lines().find(|l| l.contains("training curve(s)")).unwrap_or("");
         assert!(line.contains("relative__contaminated__1.csv") && line.contains(why), "{said}");
         assert!(line.contains("but jobs/relative__contaminated__1.json recorded"), "{said}");
@@ -422,11 +400,8 @@ fn a_training_curve_edited_after_the_run_is_left_out_and_named() -> Result<(), B
     // Without the job record, the curve's own epochs say it was edited.
     std::fs::remove_file(run.join("jobs/relative__contaminated__1.json"))?;
     std::fs::write(&curve, text.replacen("\n1,", "\ninf,", 1))?;
-    let out = tmp.path().join("bare");
-    let o =
-        within(60, &["analyze", "designs/quickstart.design", "--cells", run_s, "--out", out.to_str().ok_or("path")?])?;
-    let said = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{said}");
+    let (code, said) = analyze(&tmp.path().join("bare"))?;
+    assert_eq!(code, Some(0), "{said}");
     assert!(said.contains("relative__contaminated__1.csv (line 2: epoch inf where a run writes epoch 1)"), "{said}");
     Ok(())
 }

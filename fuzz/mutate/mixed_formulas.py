@@ -7,7 +7,9 @@ with --family, --ml, --df, --profile, --compare, --weights, --offset,
 120 s; then the count of each exit code.
 
     CA=target/release/crossaudit python3 fuzz/mutate/mixed_formulas.py N SEED"""
-import os, random, subprocess, sys, re
+import os, random, re, sys
+
+from answered import answered, failed
 n, seed = int(sys.argv[1]), int(sys.argv[2])
 rng = random.Random(seed)
 F = "tests/fixtures/"
@@ -42,13 +44,9 @@ for i in range(n):
     if rng.random() < 0.1: args += ["--offset", rng.choice(s[5])]
     if rng.random() < 0.15: args += ["--nagq", str(rng.choice([1, 2, 5, 25, 0, 26]))]
     if rng.random() < 0.3: args += ["--json"]
-    try:
-        r = subprocess.run(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=120)
-        rc, err = r.returncode, r.stderr.decode(errors="replace")
-    except subprocess.TimeoutExpired:
-        rc, err = "timeout", ""
+    rc, err = answered(args, 120)
     RC[rc] = RC.get(rc, 0) + 1
-    if rc not in (0, 1, 2) or "panicked" in err:
+    if failed(rc, err):
         lines = [l for l in err.splitlines() if "panicked" in l]
         key = (rc, re.sub(r"\(\d+\)", "", lines[0]) if lines else err[-120:])
         if key not in bad:

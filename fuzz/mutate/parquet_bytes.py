@@ -11,7 +11,9 @@ itself). A panic, an abort, a signal or a run past 30 s is printed (the
 first of each kind, its mutant kept as CASE.bad-I); SOURCE is written back
 to CASE at the end. Exit codes 0, 1 and 2 are answers; anything else is
 not."""
-import random, re, subprocess, sys
+import random, re, sys
+
+from answered import answered, failed
 
 args = sys.argv[1:]
 sep = args.index("--")
@@ -43,12 +45,8 @@ for i in range(int(n)):
             span = rng.randint(1, 64 if kind == "zero" else 8)
             b[k:k + span] = (b"\x00" if kind == "zero" else b"\xff") * len(b[k:k + span])
     open(case, "wb").write(b)
-    try:
-        r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=30)
-        rc, err = r.returncode, r.stderr.decode(errors="replace")
-    except subprocess.TimeoutExpired:
-        rc, err = "timeout", ""
-    if rc not in (0, 1, 2) or "panicked" in err:
+    rc, err = answered(cmd, 30)
+    if failed(rc, err):
         said = [l for l in err.splitlines() if "panicked" in l]
         key = (rc, re.sub(r"\(\d+\)", "", said[0]) if said else "")
         if key not in seen:

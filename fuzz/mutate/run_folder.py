@@ -14,12 +14,14 @@ a run that answered 0 while a file in WATCH (comma-separated, relative to
 WORK; build lines aside) came out different and its standard error did
 not name the edited file: a changed answer nobody was told about. Ends
 with the counts of (folder entry, exit code, output changed)."""
-import collections, glob, os, re, shutil, subprocess, sys
+import collections, glob, os, random, re, shutil, subprocess, sys
+
+from answered import answered, failed
 
 args = sys.argv[1:]
 sep = args.index("--")
 (src, work, n, seed, watch), cmd = args[:5], args[sep + 1:]
-import random
+
 rng = random.Random(int(seed))
 shutil.rmtree(work, ignore_errors=True)
 shutil.copytree(src, work)
@@ -48,18 +50,14 @@ for i in range(int(n)):
     if edited == orig:
         continue
     open(f, "wb").write(edited)
-    try:
-        r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=60)
-        rc, err = r.returncode, r.stderr.decode(errors="replace")
-    except subprocess.TimeoutExpired:
-        rc, err = "timeout", ""
+    rc, err = answered(cmd, 60)
     now = outputs()
     open(f, "wb").write(orig)
     changed = [w for w in now if now[w] != base[w]]
     counts[(rel.split("/")[0], rc, bool(changed))] += 1
     if rc == 0 and changed and os.path.basename(f) not in err:
         print("SILENT", i, rel, "at", m.start(), m.group(0), "->", edited[m.start():m.start() + 24], changed, flush=True)
-    if rc not in (0, 1, 2) or "panicked" in err:
+    if failed(rc, err):
         print("FAILED", i, rel, "at", m.start(), rc, err[:300].replace("\n", " | "), flush=True)
     if changed:
         subprocess.run(cmd, capture_output=True)
