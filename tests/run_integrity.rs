@@ -158,6 +158,16 @@ fn a_folder_whose_report_is_no_runs_is_refused_not_written_over() -> Result<(), 
     assert_refused(&run(&out, &[]), "holds files, which a run would write its report over");
     assert_eq!(std::fs::read_to_string(out.join("report/report.md"))?, "my own notes\n");
     assert!(!out.join("run.json").exists());
+    // Nothing else is written there either: the simulated design's data
+    // was generated into the folder before the refusal.
+    let left: Vec<_> = std::fs::read_dir(&out)?.map(|e| e.map(|e| e.file_name())).collect::<Result<_, _>>()?;
+    assert_eq!(left, ["report"], "{left:?}");
+    // Nor by `split`, which prepares a run folder as `run` does.
+    assert_refused(
+        &crossaudit(&["split", DESIGN, "--out", out.to_str().ok_or("path")?]),
+        "would write its report over",
+    );
+    assert_eq!(std::fs::read_dir(&out)?.count(), 1);
     // An empty report/ is no one's: the run goes ahead.
     std::fs::remove_file(out.join("report/report.md"))?;
     assert_ok(&run(&out, &[]));

@@ -26,15 +26,40 @@ pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, R
 /// folder is checked instead, and a single-split run at the top is
 /// refused as another run.
 pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<(), RunError> {
+    // A folder with no run yet is checked for someone's report too,
+    // before anything (simulated data included) is written into it.
+    let level = |dir: &Path| match check_out(dir, design_sha256)? {
+        Some(_) => Ok(()),
+        None => refuse_others_report(dir),
+    };
     if plan.splits.is_empty() && plan.seed_draws.is_empty() {
-        return check_out(out, design_sha256).map(|_| ());
+        return level(out);
     }
     refuse_single_run(out)?;
     for &s in &plan.splits {
-        check_out(&out.join(crate::plan::split_dir(s)), design_sha256)?;
+        level(&out.join(crate::plan::split_dir(s)))?;
     }
     for &(_, draw) in &plan.seed_draws {
-        check_out(&out.join(format!("draw-{draw}")), design_sha256)?;
+        level(&out.join(format!("draw-{draw}")))?;
+    }
+    Ok(())
+}
+
+/// Refuses a folder with no run in it whose `report/` holds files: a run
+/// would write its report over them (someone's own report, or another
+/// tool's), and a run writes `run.json` before its report, so they are no
+/// run's.
+pub(crate) fn refuse_others_report(out: &Path) -> Result<(), RunError> {
+    let report = out.join("report");
+    if std::fs::read_dir(&report).is_ok_and(|mut files| files.next().is_some()) {
+        return Err(RunError::BadRunRecord {
+            path: out.join("run.json").display().to_string(),
+            dir: out.display().to_string(),
+            reason: format!(
+                "it is missing, but {} holds files, which a run would write its report over",
+                report.display()
+            ),
+        });
     }
     Ok(())
 }

@@ -101,7 +101,7 @@ pub(crate) fn open(
     let exploratory = exploratory || status.changed();
     let previous = check_out(out, &file.sha256)?;
     if previous.is_none() {
-        refuse_others_report(out)?;
+        super::guard::refuse_others_report(out)?;
     }
     create_dir_all(out)?;
     let prepared = match &previous {
@@ -128,25 +128,6 @@ pub(crate) fn open(
     };
     record.write(out)?;
     Ok(Opened { status, prepared, record, notes: Vec::new() })
-}
-
-/// Refuses a folder with no run in it whose `report/` holds files: a run
-/// would write its report over them (someone's own report, or another
-/// tool's), and a run writes `run.json` before its report, so they are no
-/// run's.
-fn refuse_others_report(out: &Path) -> Result<(), RunError> {
-    let report = out.join("report");
-    if std::fs::read_dir(&report).is_ok_and(|mut files| files.next().is_some()) {
-        return Err(RunError::BadRunRecord {
-            path: out.join("run.json").display().to_string(),
-            dir: out.display().to_string(),
-            reason: format!(
-                "it is missing, but {} holds files, which a run would write its report over",
-                report.display()
-            ),
-        });
-    }
-    Ok(())
 }
 
 /// The design's lock state, refusing a design that changed after it was
