@@ -52,5 +52,5 @@ pub fn train_emulated(
     free_bytes: usize,
     on_epoch: &(dyn Fn(usize, &EpochLog) + Sync),
 ) -> Result<Vec<(Net, Vec<EpochLog>)>, NetError> {
-    Ok(super::batched::train_on(&super::emulated::Emulated { free: free_bytes }, jobs, on_epoch)?)
+    Ok(super::batched::train_on(&super::emulated::Emulated::new(free_bytes), jobs, on_epoch)?)
 }

@@ -9,6 +9,9 @@
 //! runs this same code where no GPU is, so that it is tested everywhere.
 //! The host keeps each job's shuffle, action noise and early stopping
 //! ([`super::lockstep`]), so a job sees the same minibatches as on the CPU.
+//! A job that stops while others go on leaves the batch (its best
+//! parameters to the host, the jobs after it moved down), so the work of
+//! each step is that of the jobs still training.
 
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -63,8 +66,8 @@ pub(super) trait Ops {
     fn write(&self, host: &[f32], dst: &mut Self::Buf) -> Result<(), BackendError>;
     fn read(&self, src: &Self::Buf) -> Result<Vec<f32>, BackendError>;
     fn read64(&self, src: &Self::Buf64) -> Result<Vec<f64>, BackendError>;
-    /// `src[range]` into `dst[range]`.
-    fn copy(&self, src: &Self::Buf, dst: &mut Self::Buf, range: Range<usize>) -> Result<(), BackendError>;
+    /// `range.len()` values of `src` from `from` on into `dst[range]`.
+    fn copy(&self, src: &Self::Buf, from: usize, dst: &mut Self::Buf, range: Range<usize>) -> Result<(), BackendError>;
     fn product(&self, p: &Product, a: &Self::Buf, b: &Self::Buf, c: &mut Self::Buf) -> Result<(), BackendError>;
     #[allow(clippy::too_many_arguments)]
     fn bias_act(
@@ -168,10 +171,23 @@ struct Layer<B> {
     val_h: B,
 }
 
-/// K jobs of one shape on a device.
+/// Parameters on the host: each layer's weights and biases (of one job,
+/// or of every job of a batch side by side).
+type Parts = Vec<(Vec<f32>, Vec<f32>)>;
+
+/// K jobs of one shape on a device. A job that stops while others go on
+/// leaves it: its best parameters are copied to the host, and the jobs
+/// after it move down, so that every product and kernel runs over the
+/// jobs still training only.
 struct Batch<'s, O: Ops> {
     o: &'s O,
+    /// The jobs in the batch now.
     k: usize,
+    /// Each job's place in the batch (`None` once it has left).
+    slot_of: Vec<Option<usize>>,
+    /// The best parameters (weights, biases of each layer) of each job
+    /// that has left.
+    left: Vec<Option<Parts>>,
     n_val: usize,
     layers: Vec<Layer<O::Buf>>,
     x: O::Buf,
@@ -229,6 +245,8 @@ impl<'s, O: Ops> Batch<'s, O> {
         Ok(Batch {
             o,
             k,
+            slot_of: (0..k).map(Some).collect(),
+            left: vec![None; k],
             n_val,
             x: o.zeros(k * batch * inputs)?,
             y: o.zeros(k * batch * outputs)?,
@@ -315,30 +333,57 @@ impl<'s, O: Ops> Batch<'s, O> {
         Ok(())
     }
 
+    /// Job `job`'s place in the batch.
+    fn slot(&self, job: usize) -> Result<usize, BackendError> {
+        self.slot_of.get(job).copied().flatten().ok_or_else(|| BackendError(format!("job {job} is not in the batch")))
+    }
+
+    /// Every layer's best weights and biases of every job in the batch.
+    fn read_best(&self) -> Result<Parts, BackendError> {
+        self.layers.iter().map(|l| Ok((self.o.read(&l.best_w)?, self.o.read(&l.best_b)?))).collect()
+    }
+
+    /// The part of `best` ([`Batch::read_best`]) of the job in slot `s`.
+    fn parts_of(&self, best: &[(Vec<f32>, Vec<f32>)], s: usize) -> Parts {
+        self.layers
+            .iter()
+            .zip(best)
+            .map(|(l, (w, b))| {
+                let (nw, nb) = (l.inp * l.out, l.out);
+                (w[s * nw..(s + 1) * nw].to_vec(), b[s * nb..(s + 1) * nb].to_vec())
+            })
+            .collect()
+    }
+
     /// Each job's best parameters, as networks of `jobs`' shape.
     fn best(&self, jobs: &[BatchJob]) -> Result<Vec<Net>, BackendError> {
-        let layers: Vec<(Vec<f32>, Vec<f32>)> = self
-            .layers
-            .iter()
-            .map(|l| Ok((self.o.read(&l.best_w)?, self.o.read(&l.best_b)?)))
-            .collect::<Result<_, _>>()?;
-        Ok(jobs
-            .iter()
+        let best = self.read_best()?;
+        jobs.iter()
             .enumerate()
             .map(|(j, job)| {
-                let parts: Vec<(Vec<f32>, Vec<f32>)> = self
-                    .layers
-                    .iter()
-                    .zip(&layers)
-                    .map(|(l, (w, b))| {
-                        let (nw, nb) = (l.inp * l.out, l.out);
-                        (w[j * nw..(j + 1) * nw].to_vec(), b[j * nb..(j + 1) * nb].to_vec())
-                    })
-                    .collect();
-                Net::from_mlp(FusedMlp::from_parts(&job.features.slots, job.widths, &parts))
+                let parts = match &self.left[j] {
+                    Some(parts) => parts.clone(),
+                    None => self.parts_of(&best, self.slot(j)?),
+                };
+                Ok(Net::from_mlp(FusedMlp::from_parts(&job.features.slots, job.widths, &parts)))
             })
-            .collect())
+            .collect()
     }
+}
+
+/// `buf`, which holds `per` values of each job, holding only those of the
+/// jobs in slots `from` (in order), moved down to slots 0, 1, ...: one
+/// copy for each run of consecutive slots.
+fn compact<O: Ops>(o: &O, buf: &mut O::Buf, per: usize, from: &[usize]) -> Result<(), BackendError> {
+    let mut moved = o.zeros(from.len() * per)?;
+    let mut i = 0;
+    while i < from.len() {
+        let run = (i + 1..from.len()).find(|&e| from[e] != from[i] + (e - i)).unwrap_or(from.len()) - i;
+        o.copy(buf, from[i] * per, &mut moved, i * per..(i + run) * per)?;
+        i += run;
+    }
+    *buf = moved;
+    Ok(())
 }
 
 impl<O: Ops> Backend for Batch<'_, O> {
@@ -349,10 +394,12 @@ impl<O: Ops> Backend for Batch<'_, O> {
         }
         let (inputs, outputs) = (self.layers[0].inp, self.layers[self.layers.len() - 1].out);
         // Each job's minibatch into its place, in parallel (tens of MB a
-        // step for hundreds of jobs); a job without a step is masked out.
+        // step for hundreds of jobs); a job without a step is masked out
+        // (every job in the batch steps: one that stopped has left it).
+        let slots: Vec<usize> = steps.iter().map(|st| self.slot(st.job)).collect::<Result<_, _>>()?;
         let mut of_job: Vec<Option<&Step>> = vec![None; self.k];
-        for st in steps {
-            of_job[st.job] = Some(st);
+        for (st, &s) in steps.iter().zip(&slots) {
+            of_job[s] = Some(st);
         }
         let mask: Vec<f32> = of_job.iter().map(|st| if st.is_some() { 1.0 } else { 0.0 }).collect();
         let (xs, ys) = (&mut self.host_x[..self.k * rows * inputs], &mut self.host_y[..self.k * rows * outputs]);
@@ -376,22 +423,57 @@ impl<O: Ops> Backend for Batch<'_, O> {
         o.mse_grad(&layer.h, &self.y, &mut layer.gz, self.k * rows * outputs, inv_n)?;
         self.backward(rows)?;
         self.adam(steps[0].lr)?;
-        Ok(steps.iter().map(|st| (sums[st.job] * 1.0) * inv_n).collect())
+        Ok(slots.iter().map(|&s| (sums[s] * 1.0) * inv_n).collect())
     }
 
     fn val_losses(&mut self, jobs: &[usize]) -> Result<Vec<f64>, BackendError> {
         self.forward(self.n_val, true)?;
         let len = self.n_val * self.layers[self.layers.len() - 1].out;
         let (_, sums) = self.sq_err(true, len)?;
-        Ok(jobs.iter().map(|&j| sums[j] / len as f64).collect())
+        jobs.iter().map(|&j| Ok(sums[self.slot(j)?] / len as f64)).collect()
     }
 
     fn keep_best(&mut self, job: usize) -> Result<(), BackendError> {
+        let s = self.slot(job)?;
         for l in &mut self.layers {
             let (nw, nb) = (l.inp * l.out, l.out);
-            self.o.copy(&l.w, &mut l.best_w, job * nw..(job + 1) * nw)?;
-            self.o.copy(&l.b, &mut l.best_b, job * nb..(job + 1) * nb)?;
+            self.o.copy(&l.w, s * nw, &mut l.best_w, s * nw..(s + 1) * nw)?;
+            self.o.copy(&l.b, s * nb, &mut l.best_b, s * nb..(s + 1) * nb)?;
         }
+        Ok(())
+    }
+
+    fn leave(&mut self, jobs: &[usize]) -> Result<(), BackendError> {
+        let best = self.read_best()?;
+        for &j in jobs {
+            self.left[j] = Some(self.parts_of(&best, self.slot(j)?));
+            self.slot_of[j] = None;
+        }
+        // The jobs that go on, in the order of their slots, moved down.
+        let mut kept: Vec<(usize, usize)> =
+            self.slot_of.iter().enumerate().filter_map(|(j, s)| s.map(|s| (s, j))).collect();
+        kept.sort_unstable();
+        let from: Vec<usize> = kept.iter().map(|&(s, _)| s).collect();
+        for (now, &(_, j)) in kept.iter().enumerate() {
+            self.slot_of[j] = Some(now);
+        }
+        // What a job carries from step to step: its parameters, Adam's
+        // moments, its best parameters and its validation set (the rest is
+        // written afresh by each step, over the first jobs of each buffer).
+        let o = self.o;
+        for l in &mut self.layers {
+            let (nw, nb) = (l.inp * l.out, l.out);
+            for buf in [&mut l.w, &mut l.mw, &mut l.vw, &mut l.best_w] {
+                compact(o, buf, nw, &from)?;
+            }
+            for buf in [&mut l.b, &mut l.mb, &mut l.vb, &mut l.best_b] {
+                compact(o, buf, nb, &from)?;
+            }
+        }
+        let (inputs, outputs) = (self.layers[0].inp, self.layers[self.layers.len() - 1].out);
+        compact(o, &mut self.val_x, self.n_val * inputs, &from)?;
+        compact(o, &mut self.val_y, self.n_val * outputs, &from)?;
+        self.k = from.len();
         Ok(())
     }
 }
@@ -436,61 +518,4 @@ pub(super) fn train_on<O: Ops>(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::super::emulated::Emulated;
-    use super::*;
-
-    fn fill(n: usize, seed: u32) -> Vec<f32> {
-        (0..n).map(|i| (((i as u32).wrapping_mul(2_654_435_761) ^ seed) % 1000) as f32 / 500.0 - 1.0).collect()
-    }
-
-    /// The three products, run by the emulated cuBLAS (column-major, as its
-    /// documentation defines SGEMM), compute the row-major layer algebra.
-    #[test]
-    fn the_three_products_compute_the_row_major_layer_algebra() -> Result<(), Box<dyn std::error::Error>> {
-        let (k, rows, inp, out) = (3, 5, 4, 6);
-        let (a, w, g) = (fill(k * rows * inp, 1), fill(k * out * inp, 2), fill(k * rows * out, 3));
-        let o = Emulated { free: 0 };
-        let close = |x: f32, y: f64| (f64::from(x) - y).abs() < 1e-5;
-        let cells =
-            |n1: usize, n2: usize| (0..k).flat_map(move |p| (0..n1).flat_map(move |i| (0..n2).map(move |j| (p, i, j))));
-        // Forward: Z[k][i][o] = sum_j A[k][i][j] W[k][o][j].
-        let mut z = vec![0f32; k * rows * out];
-        o.product(&forward_product(k, rows, inp, out), &w, &a, &mut z)?;
-        for (p, i, c) in cells(rows, out) {
-            let want: f64 =
-                (0..inp).map(|j| f64::from(a[(p * rows + i) * inp + j]) * f64::from(w[(p * out + c) * inp + j])).sum();
-            assert!(close(z[(p * rows + i) * out + c], want), "forward ({p}, {i}, {c})");
-        }
-        // Weight gradient: gW[k][o][j] = sum_i G[k][i][o] A[k][i][j].
-        let mut gw = vec![0f32; k * out * inp];
-        o.product(&weight_gradient_product(k, rows, inp, out), &a, &g, &mut gw)?;
-        for (p, c, j) in cells(out, inp) {
-            let want: f64 = (0..rows)
-                .map(|i| f64::from(g[(p * rows + i) * out + c]) * f64::from(a[(p * rows + i) * inp + j]))
-                .sum();
-            assert!(close(gw[(p * out + c) * inp + j], want), "weight gradient ({p}, {c}, {j})");
-        }
-        // Input gradient: gA[k][i][j] = sum_o G[k][i][o] W[k][o][j].
-        let mut ga = vec![0f32; k * rows * inp];
-        o.product(&input_gradient_product(k, rows, inp, out), &w, &g, &mut ga)?;
-        for (p, i, j) in cells(rows, inp) {
-            let want: f64 =
-                (0..out).map(|c| f64::from(g[(p * rows + i) * out + c]) * f64::from(w[(p * out + c) * inp + j])).sum();
-            assert!(close(ga[(p * rows + i) * inp + j], want), "input gradient ({p}, {i}, {j})");
-        }
-        Ok(())
-    }
-
-    #[test]
-    fn a_job_takes_at_least_the_memory_of_its_buffers() {
-        // The paper's network: 18 -> 256 -> 256 -> 256 -> 14.
-        let dims = [(18, 256), (256, 256), (256, 256), (256, 14)];
-        let params = 18 * 256 + 256 + 2 * (256 * 256 + 256) + 256 * 14 + 14;
-        let bytes = bytes_per_job(&dims, 1024, 2000);
-        // The parameters and their six companions (gradients, two moments,
-        // best), the minibatch's and the validation's activations.
-        assert!(bytes >= 4 * (7 * params + 2 * 1024 * 782 + 2000 * 782), "{bytes}");
-        assert!(bytes < 32 << 20, "{bytes} bytes: 320 jobs fit in 10 GB");
-    }
-}
+mod tests;

@@ -139,8 +139,14 @@ impl Ops for Session {
     fn read64(&self, src: &CudaSlice<f64>) -> Result<Vec<f64>, BackendError> {
         self.stream.clone_dtoh(src).map_err(|e| fail("copying from the GPU")(&e))
     }
-    fn copy(&self, src: &CudaSlice<f32>, dst: &mut CudaSlice<f32>, range: Range<usize>) -> Result<(), BackendError> {
-        let from = src.slice(range.clone());
+    fn copy(
+        &self,
+        src: &CudaSlice<f32>,
+        from: usize,
+        dst: &mut CudaSlice<f32>,
+        range: Range<usize>,
+    ) -> Result<(), BackendError> {
+        let from = src.slice(from..from + range.len());
         self.stream.memcpy_dtod(&from, &mut dst.slice_mut(range)).map_err(|e| fail("copying on the GPU")(&e))
     }
 

@@ -17,6 +17,16 @@ use super::lockstep::BackendError;
 /// The CPU standing in for a GPU with `free` bytes of memory.
 pub(super) struct Emulated {
     pub free: usize,
+    /// The number of jobs of every product run, in order (what a test
+    /// reads to see the batch shrink as jobs leave it).
+    pub batches: std::sync::Mutex<Vec<usize>>,
+}
+
+impl Emulated {
+    /// A GPU with `free` bytes of memory, stood in for.
+    pub(super) fn new(free: usize) -> Emulated {
+        Emulated { free, batches: std::sync::Mutex::default() }
+    }
 }
 
 impl Ops for Emulated {
@@ -42,8 +52,8 @@ impl Ops for Emulated {
     fn read64(&self, src: &Vec<f64>) -> Result<Vec<f64>, BackendError> {
         Ok(src.clone())
     }
-    fn copy(&self, src: &Vec<f32>, dst: &mut Vec<f32>, range: Range<usize>) -> Result<(), BackendError> {
-        dst[range.clone()].copy_from_slice(&src[range]);
+    fn copy(&self, src: &Vec<f32>, from: usize, dst: &mut Vec<f32>, range: Range<usize>) -> Result<(), BackendError> {
+        dst[range.clone()].copy_from_slice(&src[from..from + range.len()]);
         Ok(())
     }
 
@@ -51,6 +61,7 @@ impl Ops for Emulated {
         // Element (r, col) of a column-major operand, or of its transpose.
         let at =
             |x: &[f32], t: bool, ld: usize, r: usize, col: usize| if t { x[col + r * ld] } else { x[r + col * ld] };
+        self.batches.lock().map_err(|_| BackendError("a test's record was poisoned".into()))?.push(p.batch);
         for q in 0..p.batch {
             let (a, b) = (&a[q * p.stride_a..], &b[q * p.stride_b..]);
             let c = &mut c[q * p.stride_c..];

@@ -96,6 +96,13 @@ pub(super) trait Backend {
     fn val_losses(&mut self, jobs: &[usize]) -> Result<Vec<f64>, BackendError>;
     /// Keeps job `job`'s current parameters as its best.
     fn keep_best(&mut self, job: usize) -> Result<(), BackendError>;
+    /// Jobs `jobs` have stopped (early, or at their last epoch) while
+    /// others go on: none of them steps again, and each one's best
+    /// parameters are kept wherever the backend keeps them.
+    fn leave(&mut self, jobs: &[usize]) -> Result<(), BackendError> {
+        let _ = jobs;
+        Ok(())
+    }
 }
 
 /// Writes the standardized inputs of windows `idx` into `out` (one row of
@@ -284,6 +291,10 @@ pub(super) fn lockstep(
             if keep {
                 backend.keep_best(k)?;
             }
+        }
+        let stopped: Vec<usize> = active.iter().copied().filter(|&k| courses[k].done).collect();
+        if !stopped.is_empty() && stopped.len() < active.len() {
+            backend.leave(&stopped)?;
         }
     }
     Ok(courses.into_iter().map(|c| c.logs).collect())
