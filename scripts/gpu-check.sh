@@ -5,7 +5,8 @@
 # of `cargo test --release --no-run --test main`), run here.
 #   1. the kernels compile with NVRTC and the trainer's parity test: a
 #      batch of jobs on the GPU, twice (bit-identical), against the CPU's
-#      lockstep trainer within tests/batched.rs's stated tolerance;
+#      lockstep trainer within tests/batched.rs's stated tolerance, and a
+#      batch that a job leaves when it stops early, twice (bit-identical);
 #   2. the quickstart run on the CPU and twice on the GPU: the two GPU runs'
 #      cells byte-identical, the GPU's verdict the CPU's, its estimates
 #      within 2% of the CPU's (benches/gpu/compare.py); and as one Slurm

@@ -159,6 +159,15 @@ fn on_a_gpu_the_batch_is_reproducible_and_within_tolerance_of_the_cpu() {
         let worst = ng.flat_weights().iter().zip(nc.flat_weights()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(worst < GPU_WEIGHT_ATOL, "job {k}: a weight differs by {worst:e}");
     }
+    // With early stopping the third job leaves its batch after 2 epochs
+    // (its best weights copied to the host, the first job stepping on
+    // alone): the same epochs as on the CPU, and the same bits on a rerun.
+    let (fits, val, features, ts) = three();
+    let jobs = self::jobs(&fits, &val, &features, &ts);
+    let first = train_batch(&device, &jobs, &|_, _| {}).unwrap();
+    let epochs: Vec<usize> = first.iter().map(|(_, l)| l.len()).collect();
+    assert_eq!(epochs, [8, 2, 2], "the third job stops early on the GPU too");
+    same(&first, &train_batch(&device, &jobs, &|_, _| {}).unwrap());
 }
 
 #[test]
