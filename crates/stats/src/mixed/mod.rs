@@ -47,6 +47,7 @@
 //! ```
 
 mod data;
+mod exact;
 pub mod formula;
 pub mod glmm;
 mod inference;
@@ -78,6 +79,7 @@ pub fn fit_with(data: &MixedData, criterion: Criterion, inference: Inference) ->
     if data.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", data.len())));
     }
+    exact::refuse_exact_fit(data)?;
     let mut fit = fit_system(&system::System::new(data), data, criterion, inference)?;
     if !dropped.is_empty() {
         fit.notes.insert(0, rank_message(&dropped));
