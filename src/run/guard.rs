@@ -27,9 +27,12 @@ pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, R
 /// refused as another run.
 pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<(), RunError> {
     // A folder with no run yet is checked for someone's report too,
-    // before anything (simulated data included) is written into it.
+    // before anything (simulated data included) is written into it: but
+    // not the top of a study of levels (a multiverse's), whose report is
+    // its levels' pooled one.
     let level = |dir: &Path| match check_out(dir, design_sha256)? {
         Some(_) => Ok(()),
+        None if !level_runs(dir).is_empty() => Ok(()),
         None => refuse_others_report(dir),
     };
     if plan.splits.is_empty() && plan.seed_draws.is_empty() {
