@@ -71,6 +71,7 @@ pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -
     if base.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", base.len())));
     }
+    super::exact::refuse_exact_slopes(base, &data.terms)?;
     let s = system::System::new(base, &data.terms, data.weights.as_deref())?;
     let (theta, evaluations, certificate) = optimize::optimum(&s, criterion)?;
     let e = s.evaluate(&theta, criterion)?;
