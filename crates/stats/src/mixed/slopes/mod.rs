@@ -71,7 +71,7 @@ pub fn fit_slopes(data: &SlopeData, criterion: Criterion, satterthwaite: bool) -
     if base.len() <= p {
         return Err(MixedError::FixedEffects(format!("{} observations for {p} fixed-effect columns", base.len())));
     }
-    super::exact::refuse_exact_slopes(base, &data.terms)?;
+    refuse_exact(base, &data.terms)?;
     let s = system::System::new(base, &data.terms, data.weights.as_deref())?;
     let (theta, evaluations, certificate) = optimize::optimum(&s, criterion)?;
     let e = s.evaluate(&theta, criterion)?;
@@ -192,3 +192,20 @@ pub(crate) fn term_fits(terms: &[Term], theta: &[f64], sigma2: f64) -> Vec<TermF
         })
         .collect()
 }
+
+/// [`super::exact`]'s refusal of a response the model reproduces exactly,
+/// each term's columns fitted within each of its levels.
+fn refuse_exact(base: &MixedData, terms: &[Term]) -> Result<(), MixedError> {
+    let blocks: Vec<super::exact::Block> = terms
+        .iter()
+        .map(|t| super::exact::Block {
+            codes: &t.codes,
+            levels: t.levels,
+            columns: t.columns.iter().map(Vec::as_slice).collect(),
+        })
+        .collect();
+    super::exact::refuse_exact(base, &blocks)
+}
+
+#[cfg(test)]
+mod tests;

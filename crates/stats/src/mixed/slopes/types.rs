@@ -34,8 +34,8 @@ pub struct Term {
 /// [`MixedData`] holds them) and the random-effect terms.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlopeData {
-    pub(in crate::mixed) base: MixedData,
-    pub(in crate::mixed) terms: Vec<Term>,
+    pub(super) base: MixedData,
+    pub(super) terms: Vec<Term>,
     /// Prior weights (lmer's `weights`: observation i's residual variance
     /// is sigma^2 / w_i); `None`: all 1.
     pub(super) weights: Option<Vec<f64>>,
