@@ -14,7 +14,7 @@
 //! 6 s, then said its system was not positive definite at theta = 1e7).
 //! Any other response goes on to the fit.
 
-use faer::linalg::solvers::Solve;
+use faer::linalg::solvers::{Llt, Solve};
 use faer::{Mat, Side};
 
 use super::{MixedData, MixedError};
@@ -58,14 +58,20 @@ pub(super) fn refuse_exact(data: &MixedData, blocks: &[Block]) -> Result<(), Mix
     let bound = 1e-20 * total;
     let x = transpose(&data.design(), n, p);
     let fixed: Vec<&[f64]> = x.chunks_exact(n).collect();
+    // Each fit's normal equations factored once: they do not change
+    // from sweep to sweep, only the residual does.
+    let fixed = Fit::new(&fixed, None);
+    let slopes: Vec<Option<Fit>> = blocks
+        .iter()
+        .map(|b| (!b.columns.is_empty()).then(|| Fit::new(&b.columns, Some((b.codes, b.levels)))))
+        .collect();
     let mut last = total;
     for _ in 0..SWEEPS {
-        fit_out(&mut r, &fixed, None);
-        for b in blocks {
-            if b.columns.is_empty() {
-                level_means_out(&mut r, b);
-            } else {
-                fit_out(&mut r, &b.columns, Some((b.codes, b.levels)));
+        fixed.take_out(&mut r);
+        for (b, slope) in blocks.iter().zip(&slopes) {
+            match slope {
+                Some(fit) => fit.take_out(&mut r),
+                None => level_means_out(&mut r, b),
             }
         }
         let now = ss(&r);
@@ -99,34 +105,60 @@ fn level_means_out(r: &mut [f64], b: &Block) {
     }
 }
 
-/// The least-squares fit of `r` on `columns` taken out of it: over all
-/// observations, or within each level of `by` (a level whose normal
-/// equations are singular is left as it is, so the check only misses).
-fn fit_out(r: &mut [f64], columns: &[&[f64]], by: Option<(&[usize], usize)>) {
-    let d = columns.len();
-    let (codes, levels) = by.unwrap_or((&[], 1));
-    let level = |i: usize| if codes.is_empty() { 0 } else { codes[i] };
-    let mut zz = vec![0.0; levels * d * d];
-    let mut zr = vec![0.0; levels * d];
-    for (i, v) in r.iter().enumerate() {
-        let l = level(i);
-        for a in 0..d {
-            zr[l * d + a] += columns[a][i] * v;
-            for c in 0..d {
-                zz[(l * d + a) * d + c] += columns[a][i] * columns[c][i];
+/// A least-squares fit on `columns`, over all observations or within
+/// each level of a factor, with each level's normal equations factored
+/// (`None` for a level whose equations are singular: it is left as it is,
+/// so the check only misses).
+struct Fit<'a> {
+    columns: &'a [&'a [f64]],
+    codes: &'a [usize],
+    factors: Vec<Option<Llt<f64>>>,
+}
+
+impl<'a> Fit<'a> {
+    fn new(columns: &'a [&'a [f64]], by: Option<(&'a [usize], usize)>) -> Fit<'a> {
+        let d = columns.len();
+        let (codes, levels) = by.unwrap_or((&[], 1));
+        let mut zz = vec![0.0; levels * d * d];
+        for i in 0..columns.first().map_or(0, |c| c.len()) {
+            let l = if codes.is_empty() { 0 } else { codes[i] };
+            for a in 0..d {
+                for c in 0..d {
+                    zz[(l * d + a) * d + c] += columns[a][i] * columns[c][i];
+                }
             }
         }
+        let factors = (0..levels)
+            .map(|l| Mat::<f64>::from_fn(d, d, |a, c| zz[(l * d + a) * d + c]).llt(Side::Lower).ok())
+            .collect();
+        Fit { columns, codes, factors }
     }
-    let coefficients: Vec<Option<Mat<f64>>> = (0..levels)
-        .map(|l| {
-            let m = Mat::<f64>::from_fn(d, d, |a, c| zz[(l * d + a) * d + c]);
-            let rhs = Mat::<f64>::from_fn(d, 1, |a, _| zr[l * d + a]);
-            m.llt(Side::Lower).ok().map(|llt| llt.solve(&rhs))
-        })
-        .collect();
-    for (i, v) in r.iter_mut().enumerate() {
-        if let Some(beta) = &coefficients[level(i)] {
-            *v -= (0..d).map(|a| columns[a][i] * beta[(a, 0)]).sum::<f64>();
+
+    fn level(&self, i: usize) -> usize {
+        if self.codes.is_empty() {
+            0
+        } else {
+            self.codes[i]
+        }
+    }
+
+    /// The fit of `r` taken out of it.
+    fn take_out(&self, r: &mut [f64]) {
+        let d = self.columns.len();
+        let mut zr = vec![0.0; self.factors.len() * d];
+        for (i, v) in r.iter().enumerate() {
+            let l = self.level(i);
+            for a in 0..d {
+                zr[l * d + a] += self.columns[a][i] * v;
+            }
+        }
+        let coefficients: Vec<Option<Mat<f64>>> = (self.factors.iter().enumerate())
+            .map(|(l, f)| f.as_ref().map(|llt| llt.solve(&Mat::<f64>::from_fn(d, 1, |a, _| zr[l * d + a]))))
+            .collect();
+        for (i, v) in r.iter_mut().enumerate() {
+            if let Some(beta) = &coefficients[self.level(i)] {
+                *v -= (0..d).map(|a| self.columns[a][i] * beta[(a, 0)]).sum::<f64>();
+            }
         }
     }
 }
