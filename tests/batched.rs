@@ -25,8 +25,9 @@ fn three() -> (Vec<Vec<Triple>>, Vec<Triple>, Vec<FeatureMap>, Vec<Training>) {
             FeatureMap::fit(map.0, map.1, map.2, map.3, w, "manifest")
         })
         .collect();
-    // tests/designs/tiny_train.design's protocol, written out so that the
-    // test binary runs from any folder (scripts/gpu-check.sh).
+    // A protocol written out (not read from a design file) so that the
+    // test binary runs from any folder (scripts/gpu-check.sh); a learning
+    // rate of 0.1 makes the validation loss rise, so patience 1 stops early.
     let t = Training {
         optimizer: Optimizer::Adam,
         lr: 1e-1,

@@ -8,16 +8,21 @@ use super::{RunError, RunRecord};
 use crate::plan::Plan;
 
 /// The record of the run in `out`, if any, refusing a run of a design other
-/// than the one hashing to `design_sha256`: what every command that writes
-/// into a run directory calls first.
+/// than the one hashing to `design_sha256`, and a folder with no run yet
+/// whose `report/` holds someone's files (`refuse_others_report`; not
+/// the top of a study of levels, a multiverse's, whose report is its
+/// levels' pooled one): what every command that writes into a run
+/// directory calls first, before anything (simulated data included) is
+/// written there.
 pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, RunError> {
     let previous = RunRecord::read(out)?;
-    if let Some(p) = &previous {
-        if p.design_sha256 != design_sha256 {
-            return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: p.design_sha256.clone() });
+    match &previous {
+        Some(p) if p.design_sha256 != design_sha256 => {
+            Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: p.design_sha256.clone() })
         }
+        None if level_runs(out).is_empty() => refuse_others_report(out).map(|()| None),
+        _ => Ok(previous),
     }
-    Ok(previous)
 }
 
 /// [`check_out`] for a plan: a multi-split study's folder, or a per-seed
@@ -26,15 +31,7 @@ pub fn check_out(out: &Path, design_sha256: &str) -> Result<Option<RunRecord>, R
 /// folder is checked instead, and a single-split run at the top is
 /// refused as another run.
 pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<(), RunError> {
-    // A folder with no run yet is checked for someone's report too,
-    // before anything (simulated data included) is written into it: but
-    // not the top of a study of levels (a multiverse's), whose report is
-    // its levels' pooled one.
-    let level = |dir: &Path| match check_out(dir, design_sha256)? {
-        Some(_) => Ok(()),
-        None if !level_runs(dir).is_empty() => Ok(()),
-        None => refuse_others_report(dir),
-    };
+    let level = |dir: &Path| check_out(dir, design_sha256).map(|_| ());
     if plan.splits.is_empty() && plan.seed_draws.is_empty() {
         return level(out);
     }
@@ -52,7 +49,7 @@ pub fn check_out_plan(out: &Path, plan: &Plan, design_sha256: &str) -> Result<()
 /// would write its report over them (someone's own report, or another
 /// tool's), and a run writes `run.json` before its report, so they are no
 /// run's.
-pub(crate) fn refuse_others_report(out: &Path) -> Result<(), RunError> {
+fn refuse_others_report(out: &Path) -> Result<(), RunError> {
     let report = out.join("report");
     if std::fs::read_dir(&report).is_ok_and(|mut files| files.next().is_some()) {
         return Err(RunError::BadRunRecord {

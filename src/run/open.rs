@@ -100,9 +100,6 @@ pub(crate) fn open(
     let status = check_lock(file, exploratory)?;
     let exploratory = exploratory || status.changed();
     let previous = check_out(out, &file.sha256)?;
-    if previous.is_none() {
-        super::guard::refuse_others_report(out)?;
-    }
     create_dir_all(out)?;
     let prepared = match &previous {
         None => crate::split::prepare(file, plan, &data.dir, out)?,
