@@ -939,6 +939,90 @@ fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(),
     Ok(())
 }
 
+/// Under NanoBench's header, where every field must be a finite number,
+/// read or not: the committed NanoBench fixtures as Parquet are taken from
+/// their columns, to the log their text gives (its content and row hashes
+/// included); a column not read that holds a null, a NaN or a word sends
+/// the file to the text's reader, which refuses it as it refuses that
+/// text.
+#[test]
+fn nanobench_parquet_logs_are_read_from_their_columns_unless_a_field_is_no_number(
+) -> Result<(), Box<dyn std::error::Error>> {
+    use crossaudit::data::log::{
+        column_indices, from_columns, parse_with, read_bytes, read_log, Log, ParseOptions, Schema,
+    };
+    use crossaudit::io::parquet::{csv_to_parquet, decode_columns, to_csv_text};
+    let tmp = tempfile::tempdir()?;
+    let fixtures = crate::common::root().join("tests/fixtures/nanobench");
+    let mut logs = Vec::new();
+    for e in std::fs::read_dir(&fixtures)? {
+        let p = e?.path();
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
+        if name.ends_with(".csv") || name.ends_with(".csv.gz") {
+            logs.push((name.split('.').next().unwrap_or("").to_string(), read_bytes(&p)?));
+        }
+    }
+    logs.sort();
+    assert_eq!(logs.len(), 5, "the committed NanoBench fixtures");
+    // `roll` (column 8) is not read: a field there that is no finite number.
+    let edited = |field: &str| -> String {
+        let text = String::from_utf8_lossy(&logs[0].1).into_owned();
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut f: Vec<String> = lines[3].split(',').map(String::from).collect();
+        f[8] = field.to_string();
+        lines[3] = f.join(",");
+        lines.join("\n") + "\n"
+    };
+    let mut cases = Vec::new();
+    for (stem, text) in logs.iter().map(|(s, t)| (s.clone(), t.clone())).chain([
+        ("null_roll".to_string(), edited("").into_bytes()),
+        ("nan_roll".to_string(), edited("nan").into_bytes()),
+        ("word_roll".to_string(), edited("calm").into_bytes()),
+    ]) {
+        let path = tmp.path().join(format!("{stem}.parquet"));
+        std::fs::write(&path, csv_to_parquet(&text)?)?;
+        cases.push((path, !stem.ends_with("_roll")));
+    }
+    let read: Vec<String> =
+        ["t", "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "motor_motor_m1", "motor_motor_m4", "px"]
+            .iter()
+            .map(|c| c.to_string())
+            .collect();
+    let schema = Schema::Nanobench(column_indices(&read)?);
+    let bits = |log: &Log| {
+        let columns: Vec<Vec<u64>> = log.columns.iter().map(|c| c.iter().map(|v| v.to_bits()).collect()).collect();
+        (log.rows, columns, log.content_hash.clone(), log.row_hashes.clone(), log.blank_before.clone())
+    };
+    for (path, clean) in &cases {
+        let raw = std::fs::read(path)?;
+        let text = to_csv_text(raw.clone(), u64::MAX, "a flight log")?;
+        let decoded = decode_columns(bytes::Bytes::from(raw), u64::MAX).ok_or("decoded by column")?;
+        for (hash_rows, missing_as_nan) in [(false, false), (true, false), (false, true), (true, true)] {
+            let options = ParseOptions { hash_rows, missing_as_nan };
+            let name = path.display().to_string();
+            let what = format!("{name}, {options:?}");
+            let reference = parse_with(&name, &text, &schema, options);
+            let got = read_log(path, &name, &schema, options);
+            let fast = from_columns(&name, &decoded, &schema, options);
+            if *clean {
+                let (reference, got) = (reference?, got?);
+                assert!(bits(&got) == bits(&reference), "{what}");
+                assert!(reference.rows > 100, "{what}: {} rows", reference.rows);
+                let fast = fast.ok_or_else(|| format!("{what} is not taken from its columns"))?;
+                assert!(bits(&fast) == bits(&reference), "{what}");
+            } else {
+                assert!(fast.is_none(), "{what} is taken from its columns");
+                let (Err(want), Err(e)) = (&reference, &got) else {
+                    panic!("{what}: {reference:?} against {got:?}, where the text's reader refuses the roll");
+                };
+                assert_eq!(e.to_string(), want.to_string(), "{what}");
+                assert!(want.to_string().contains("roll"), "{what}: {want}");
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The same, on 300 small random files: each column a double (with nulls,
 /// NaN, infinities and values too large), a float, a timestamp (rising or
 /// not) or text (numbers or words, with commas, quotes and line breaks),

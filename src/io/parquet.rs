@@ -118,6 +118,24 @@ impl DecodedColumns {
         Some(())
     }
 
+    /// Whether every row of column `c` holds a finite number: no null, no
+    /// NaN or infinity, no text or booleans (text that holds numbers too
+    /// is `false`: only its text says what it holds). What NanoBench's
+    /// header asks of every field, read or not.
+    pub fn finite(&self, c: usize) -> bool {
+        self.groups.iter().all(|g| {
+            g.columns.get(c).is_some_and(|column| {
+                column.levels.as_ref().is_none_or(|l| l.iter().all(|&d| d == 1))
+                    && match &column.values {
+                        Values::Int32(_) | Values::Int64(..) => true,
+                        Values::Float(v) => v.iter().all(|x| x.is_finite()),
+                        Values::Double(v) => v.iter().all(|x| x.is_finite()),
+                        Values::Bool(_) | Values::Text(_) => false,
+                    }
+            })
+        })
+    }
+
     /// Column `c`'s values as a reader of the text reads them: a double
     /// as it is, a float and a timestamp as the number its text writes,
     /// an integer as the nearest double, a null as NaN; `None` for a

@@ -7,8 +7,10 @@
 //! column of text or booleans declared, a missing or non-finite value it
 //! does not read as missing, time going back, a value too large, a line
 //! too long, text past the size limit, a one-column file, whose empty
-//! rows read as blank lines) sends the file's whole text to the CSV
-//! reader, which gives the same log, or says where and why it refuses.
+//! rows read as blank lines; under NanoBench's header, a column not read
+//! that holds anything but finite numbers) sends the file's whole text to
+//! the CSV reader, which gives the same log, or says where and why it
+//! refuses.
 
 use std::path::Path;
 
@@ -48,7 +50,12 @@ pub fn from_columns(file: &str, columns: &DecodedColumns, schema: &Schema, optio
     }
     let Header { names, keep, time, check_all, .. } = header(file, &head, schema).ok()?;
     let rows = columns.rows();
-    if check_all || names.len() < 2 || names.len() != columns.width() || rows == 0 {
+    if names.len() < 2 || names.len() != columns.width() || rows == 0 {
+        return None;
+    }
+    // NanoBench's header: every field a finite number, read or not (the
+    // columns read are checked below, as any schema's are).
+    if check_all && !(0..names.len()).all(|c| keep.contains(&c) || columns.finite(c)) {
         return None;
     }
     let mut values = Vec::with_capacity(keep.len());
