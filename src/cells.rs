@@ -15,6 +15,7 @@ use serde::Serialize;
 use crate::io::{f64_text, opt_f64_text};
 use crate::label::Label;
 
+mod columns;
 mod hashed;
 mod row;
 #[cfg(test)]
@@ -166,14 +167,22 @@ fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>
     use sha2::Digest;
     let p = path.display().to_string();
     let limit = crate::io::MAX_CELLS_FILE;
-    // A Parquet file (`.parquet`) with the same columns: its rows as the
-    // CSV text crossaudit would write for them, read by the same reader,
-    // so its errors name the same rows and fields (row L of the file is
-    // line L + 1).
+    // A Parquet file (`.parquet`) with the same columns: its cells taken
+    // from its decoded columns where they are the ones its CSV text gives;
+    // anywhere else, its rows as the CSV text crossaudit would write for
+    // them, read by the same reader, so its errors name the same rows and
+    // fields (row L of the file is line L + 1).
     if crate::io::parquet::is_parquet(path) {
-        let raw = crate::io::read_input(path, limit, "a per-cell Parquet file")
-            .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?;
+        let raw = bytes::Bytes::from(
+            crate::io::read_input(path, limit, "a per-cell Parquet file")
+                .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?,
+        );
         let sha = hash.then(|| crate::io::sha256_hex(&raw));
+        if let Some(cells) =
+            crate::io::parquet::open_columns(raw.clone(), limit).and_then(|f| columns::from_columns(&f))
+        {
+            return Ok((cells, sha));
+        }
         let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {
             CellsError::Csv { path: p.clone(), line: 1, message: format!("not a readable Parquet file: {message}") }
         })?;
@@ -227,7 +236,17 @@ fn read_chunked(
         Some(cell)
     };
     // What stands in for a refused row, which gives the read up.
-    let fill = Cell {
+    let fill = blank();
+    let limits = (crate::io::MAX_CELLS_FILE, size, chunk);
+    let cells = crate::io::chunked::read(reader, limits, header, (row, &fill), seen)?;
+    // A column with a value in one row and a gap in another is damaged:
+    // the reference reader finds the lines to name.
+    (!cells.is_empty() && !Emptiness::damaged(kinds.into_inner())).then_some(cells)
+}
+
+/// A cell of no row: what stands in for a row not read yet (or refused).
+fn blank() -> Cell {
+    Cell {
         split: None,
         dose: None,
         model: Label::default(),
@@ -245,12 +264,7 @@ fn read_chunked(
         velocity_rmse_mps: None,
         attitude_rmse_deg: None,
         line: 0,
-    };
-    let limits = (crate::io::MAX_CELLS_FILE, size, chunk);
-    let cells = crate::io::chunked::read(reader, limits, header, (row, &fill), seen)?;
-    // A column with a value in one row and a gap in another is damaged:
-    // the reference reader finds the lines to name.
-    (!cells.is_empty() && !Emptiness::damaged(kinds.into_inner())).then_some(cells)
+    }
 }
 
 /// As [`read_cells`], from any reader; `name` is used in messages. The

@@ -208,3 +208,112 @@ fn counts_above_four_bytes_are_refused_by_line_and_field() -> Result<(), Box<dyn
     assert!(read_chunked("over.csv", (over.as_bytes(), over.len() as u64), 64, |_| {}).is_none());
     Ok(())
 }
+
+/// A per-cell Parquet file read from its columns gives the cells its CSV
+/// text gives (`io::parquet::to_csv_text`, then the reference reader):
+/// every committed layout (plain, `split`, `dose`, empty optional
+/// columns), names with spaces around them, commas and quotes, in one row
+/// group or in groups of 1,000 rows, read 1, 7, 4,096 or 65,536 rows at a
+/// time, and taken from the columns (not from the text) every time.
+#[test]
+fn parquet_cells_read_from_their_columns_are_the_cells_their_text_gives() -> Result<(), Box<dyn std::error::Error>> {
+    let mut files = committed();
+    assert_eq!(files.len(), 6, "the committed per-cell files are read");
+    let (name, bytes) = files[0].clone();
+    let text = String::from_utf8(bytes)?;
+    let names = text.replacen("\nworld,", "\n  world ,", 40).replacen("\nworld,", "\n\"wo,rld\",", 40);
+    let names = names.replacen("\nworld,", "\n\"say \"\"hi\"\"\",", 40);
+    assert!(names.contains("\"wo,rld\"") && names.contains("say \"\"hi"), "{name}: names edited");
+    files.push((format!("{name}, names edited"), names.into_bytes()));
+    let dir = tempfile::tempdir()?;
+    let mut taken = 0;
+    for (name, bytes) in &files {
+        for group in [usize::MAX, 1000] {
+            let parquet = crate::io::parquet::csv_to_parquet_in(bytes, group)?;
+            let text = crate::io::parquet::to_csv_text(parquet.clone(), u64::MAX, "a per-cell file")?;
+            let reference = read_cells_from(name, text.as_slice())?;
+            let file = crate::io::parquet::open_columns(parquet.clone().into(), u64::MAX).ok_or("opened by column")?;
+            for batch in [1, 7, 4096, 65_536] {
+                let cells =
+                    columns::from_columns_in(&file, batch).ok_or_else(|| format!("{name}: not read by column"))?;
+                // Debug, so that -0.0 and 0.0 differ.
+                assert_eq!(format!("{cells:?}"), format!("{reference:?}"), "{name}, groups of {group}, batch {batch}");
+                taken += 1;
+            }
+            let path = dir.path().join("cells.parquet");
+            std::fs::write(&path, &parquet)?;
+            assert_eq!(read_cells(&path)?, reference, "{name}");
+        }
+    }
+    assert_eq!(taken, 7 * 2 * 4);
+    Ok(())
+}
+
+/// What the columns cannot give as the text's reader reads it goes to
+/// that reader: a row it refuses (refused with the same words, line and
+/// field), a name with a line break (read with a space) or a control
+/// character, names that are numbers, a seed that is no integer.
+#[test]
+fn parquet_cells_the_columns_cannot_give_are_read_from_their_text() -> Result<(), Box<dyn std::error::Error>> {
+    let (_, bytes) = committed().swap_remove(0);
+    let text = String::from_utf8(bytes)?;
+    let header: Vec<&str> = text.lines().next().ok_or("no header")?.split(',').collect();
+    let at = |field: &str| header.iter().position(|h| *h == field).unwrap_or(usize::MAX);
+    // Row 40 (line 41) with `field` set to `value`.
+    let edit = |field: &str, value: &str| -> String {
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut f: Vec<String> = lines[40].split(',').map(String::from).collect();
+        f[at(field)] = value.to_string();
+        lines[40] = f.join(",");
+        lines.join("\n") + "\n"
+    };
+    let every = |field: &str, value: &dyn Fn(&str) -> String| -> String {
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        for line in lines.iter_mut().skip(1) {
+            let mut f: Vec<String> = line.split(',').map(String::from).collect();
+            f[at(field)] = value(&f[at(field)]);
+            *line = f.join(",");
+        }
+        lines.join("\n") + "\n"
+    };
+    let cases = [
+        (edit("fa_position_rmse_m", "-0.5"), false),
+        (edit("fa_position_rmse_m", "1e-70"), false),
+        (edit("fa_position_rmse_m", ""), false),
+        (edit("n_divergent", "9"), false),
+        (edit("n_starts", "0"), false),
+        (edit("divergence_rate", "0.5"), false),
+        (edit("horizon_s", "0"), false),
+        (edit("conditional_position_rmse_m", ""), false),
+        (edit("velocity_rmse_mps", ""), false),
+        (edit("model", ""), false),
+        (edit("model", "\"a\tb\""), false),
+        (edit("seed", "1.5"), false),
+        (edit("seed", "-1"), false),
+        (edit("model", "\"two\nlines\""), true),
+        (every("recording", &|r| r.bytes().map(|b| char::from(b'1' + b % 9)).collect()), true),
+    ];
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("cells.parquet");
+    let name = path.display().to_string();
+    for (k, (edited, reads)) in cases.iter().enumerate() {
+        let parquet = crate::io::parquet::csv_to_parquet(edited.as_bytes())?;
+        let file = crate::io::parquet::open_columns(parquet.clone().into(), u64::MAX).ok_or("opened by column")?;
+        assert!(columns::from_columns(&file).is_none(), "case {k} is taken from the columns");
+        let text = crate::io::parquet::to_csv_text(parquet.clone(), u64::MAX, "a per-cell file")?;
+        let reference = read_cells_from(&name, text.as_slice());
+        std::fs::write(&path, &parquet)?;
+        match (read_cells(&path), reference) {
+            (Ok(cells), Ok(want)) if *reads => assert_eq!(cells, want, "case {k}"),
+            (Err(e), Err(want)) if !*reads => {
+                assert_eq!(e.to_string(), want.to_string(), "case {k}");
+                // A seed of 1.5 makes the column one of doubles, which
+                // its first row's text ("100.0") already fails.
+                let line = if k == 11 { "line 2," } else { "line 41," };
+                assert!(e.to_string().contains(line), "case {k}: {e}");
+            }
+            (got, want) => panic!("case {k}: {got:?} against {want:?}"),
+        }
+    }
+    Ok(())
+}

@@ -18,12 +18,15 @@
 //! exclude a file, whatever their names and values.
 
 use bytes::Bytes;
-use parquet::basic::{IntType, LogicalType, TimeUnit, TimestampType};
-use parquet::column::reader::{ColumnReader, ColumnReaderImpl};
-use parquet::data_type::{ByteArray, DataType};
+use parquet::basic::{LogicalType, TimeUnit, TimestampType};
+use parquet::data_type::ByteArray;
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::record::Field;
-use parquet::schema::types::ColumnDescriptor;
+
+mod columns;
+mod decode;
+pub use columns::{open_columns, ColumnFile, DecodedColumn, GroupColumns};
+use decode::{decode_column, Column, Values};
 
 /// Whether `path` names a Parquet file (`.parquet`).
 pub fn is_parquet(path: &std::path::Path) -> bool {
@@ -142,9 +145,7 @@ impl DecodedColumns {
     /// column of another type (text, booleans), whose text alone says
     /// what it holds.
     pub fn numbers(&self, c: usize) -> Option<Vec<f64>> {
-        use crate::io::float_text::debug_f32;
         let mut out = Vec::with_capacity(self.rows);
-        let mut text = Vec::with_capacity(48);
         for group in &self.groups {
             let column = group.columns.get(c)?;
             let mut next = 0;
@@ -153,20 +154,8 @@ impl DecodedColumns {
                     out.push(f64::NAN);
                     continue;
                 }
-                let k = next;
+                out.push(column.values.number(next)?);
                 next += 1;
-                out.push(match &column.values {
-                    Values::Double(v) => *v.get(k)?,
-                    Values::Int32(v) => f64::from(*v.get(k)?),
-                    Values::Int64(v, None) => *v.get(k)? as f64,
-                    Values::Int64(v, Some(s)) => *v.get(k)? as f64 / s,
-                    Values::Float(v) => {
-                        text.clear();
-                        debug_f32(*v.get(k)?, &mut text);
-                        fast_float2::parse(&text).ok()?
-                    }
-                    Values::Bool(_) | Values::Text(_) => return None,
-                });
             }
         }
         Some(out)
@@ -216,24 +205,6 @@ fn rows_text(raw: Bytes, limit: u64, what: &str) -> Result<Vec<u8>, String> {
         }
     }
     Ok(out)
-}
-
-/// One column's values, decoded, and how [`text`] writes each.
-enum Values {
-    Bool(Vec<bool>),
-    Int32(Vec<i32>),
-    /// With the seconds per unit of a timestamp.
-    Int64(Vec<i64>, Option<f64>),
-    Float(Vec<f32>),
-    Double(Vec<f64>),
-    Text(Vec<ByteArray>),
-}
-
-/// A column decoded: its values and, for a column that may hold nulls,
-/// each row's definition level (0: null, 1: a value).
-struct Column {
-    values: Values,
-    levels: Option<Vec<i16>>,
 }
 
 /// One row group's columns, decoded.
@@ -336,61 +307,6 @@ impl DecodedGroup {
     }
 }
 
-/// Every value of one column chunk of `rows` rows, where its type is one
-/// [`columns_to_csv_text`] writes.
-fn decode_column(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> Option<Column> {
-    use parquet::basic::ConvertedType as C;
-    if desc.max_rep_level() != 0 || desc.max_def_level() > 1 {
-        return None;
-    }
-    let (logical, converted) = (desc.logical_type_ref(), desc.converted_type());
-    let plain = logical.is_none() && converted == C::NONE;
-    let signed = plain || matches!(logical, Some(LogicalType::Integer(IntType { is_signed: true, .. })));
-    let per_second = match logical {
-        Some(LogicalType::Timestamp(TimestampType { unit, .. })) => Some(match unit {
-            TimeUnit::MILLIS => 1e3,
-            TimeUnit::MICROS => 1e6,
-            TimeUnit::NANOS => 1e9,
-        }),
-        _ => None,
-    };
-    let text = matches!(logical, Some(LogicalType::String)) || (logical.is_none() && converted == C::UTF8);
-    let mut levels = Vec::with_capacity(rows);
-    let nullable = desc.max_def_level() == 1;
-    let lv = nullable.then_some(&mut levels);
-    let values = match reader {
-        ColumnReader::BoolColumnReader(r) if plain => Values::Bool(read_all(r, rows, lv)?),
-        ColumnReader::Int32ColumnReader(r) if signed => Values::Int32(read_all(r, rows, lv)?),
-        ColumnReader::Int64ColumnReader(r) if signed || per_second.is_some() => {
-            Values::Int64(read_all(r, rows, lv)?, per_second)
-        }
-        ColumnReader::FloatColumnReader(r) if plain => Values::Float(read_all(r, rows, lv)?),
-        ColumnReader::DoubleColumnReader(r) if plain => Values::Double(read_all(r, rows, lv)?),
-        ColumnReader::ByteArrayColumnReader(r) if text => Values::Text(read_all(r, rows, lv)?),
-        _ => return None,
-    };
-    Some(Column { values, levels: nullable.then_some(levels) })
-}
-
-/// Every value (and, for a column with nulls, every level) of `rows` rows.
-fn read_all<T: DataType>(
-    mut reader: ColumnReaderImpl<T>,
-    rows: usize,
-    mut levels: Option<&mut Vec<i16>>,
-) -> Option<Vec<T::T>> {
-    let mut values = Vec::with_capacity(rows);
-    let mut read = 0;
-    while read < rows {
-        let (records, _, _) = reader.read_records(rows - read, levels.as_deref_mut(), None, &mut values).ok()?;
-        if records == 0 {
-            return None;
-        }
-        read += records;
-    }
-    let levels_read = levels.as_ref().map_or(rows, |l| l.len());
-    (levels_read == rows).then_some(values)
-}
-
 impl Column {
     /// Writes row `row`'s value (nothing for a null) as [`text`] does;
     /// `next` is the column's next value, counted on past it.
@@ -422,6 +338,12 @@ impl Column {
 /// group; the same table gives the same bytes. What a run writes as
 /// `cells.parquet` and a report as `estimates.parquet`.
 pub fn csv_to_parquet(text: &[u8]) -> Result<Vec<u8>, String> {
+    csv_to_parquet_in(text, usize::MAX)
+}
+
+/// [`csv_to_parquet`], with at most `rows` rows in a row group (more than
+/// one group: what readers of large files meet).
+pub(crate) fn csv_to_parquet_in(text: &[u8], rows: usize) -> Result<Vec<u8>, String> {
     use parquet::basic::{Compression, Repetition, Type as Physical};
     use parquet::file::properties::WriterProperties;
     use parquet::file::writer::SerializedFileWriter;
@@ -459,13 +381,19 @@ pub fn csv_to_parquet(text: &[u8]) -> Result<Vec<u8>, String> {
     let props = Arc::new(WriterProperties::builder().set_compression(Compression::SNAPPY).build());
     let mut out = Vec::new();
     let mut writer = SerializedFileWriter::new(&mut out, schema, props).map_err(|e| e.to_string())?;
-    let mut group = writer.next_row_group().map_err(|e| e.to_string())?;
-    for t in &typed {
-        let mut column = group.next_column().map_err(|e| e.to_string())?.ok_or("a column too few")?;
-        t.write(column.untyped()).map_err(|e| e.to_string())?;
-        column.close().map_err(|e| e.to_string())?;
+    let total = columns.first().map_or(0, Vec::len);
+    let mut start = 0;
+    while start < total || start == 0 {
+        let end = total.min(start.saturating_add(rows.max(1)));
+        let mut group = writer.next_row_group().map_err(|e| e.to_string())?;
+        for t in &typed {
+            let mut column = group.next_column().map_err(|e| e.to_string())?.ok_or("a column too few")?;
+            t.write(start..end, column.untyped()).map_err(|e| e.to_string())?;
+            column.close().map_err(|e| e.to_string())?;
+        }
+        group.close().map_err(|e| e.to_string())?;
+        start = end.max(1);
     }
-    group.close().map_err(|e| e.to_string())?;
     writer.close().map_err(|e| e.to_string())?;
     Ok(out)
 }
@@ -495,26 +423,31 @@ impl Typed {
     }
 
     /// Writes the values with their definition levels (1: a value, 0: null).
-    fn write(&self, writer: &mut parquet::column::writer::ColumnWriter) -> parquet::errors::Result<usize> {
+    fn write(
+        &self,
+        rows: std::ops::Range<usize>,
+        writer: &mut parquet::column::writer::ColumnWriter,
+    ) -> parquet::errors::Result<usize> {
         use parquet::column::writer::ColumnWriter as W;
-        fn split<T: Clone>(v: &[Option<T>]) -> (Vec<T>, Vec<i16>) {
+        fn split<T: Clone>(v: &[Option<T>], rows: std::ops::Range<usize>) -> (Vec<T>, Vec<i16>) {
+            let v = v.get(rows).unwrap_or(&[]);
             (v.iter().flatten().cloned().collect(), v.iter().map(|x| i16::from(x.is_some())).collect())
         }
         match (self, writer) {
             (Typed::Bool(v), W::BoolColumnWriter(w)) => {
-                let (values, levels) = split(v);
+                let (values, levels) = split(v, rows.clone());
                 w.write_batch(&values, Some(&levels), None)
             }
             (Typed::Int(v), W::Int64ColumnWriter(w)) => {
-                let (values, levels) = split(v);
+                let (values, levels) = split(v, rows.clone());
                 w.write_batch(&values, Some(&levels), None)
             }
             (Typed::Double(v), W::DoubleColumnWriter(w)) => {
-                let (values, levels) = split(v);
+                let (values, levels) = split(v, rows.clone());
                 w.write_batch(&values, Some(&levels), None)
             }
             (Typed::Text(v), W::ByteArrayColumnWriter(w)) => {
-                let (values, levels) = split(v);
+                let (values, levels) = split(v, rows.clone());
                 let values: Vec<ByteArray> = values.iter().map(|s| ByteArray::from(s.as_str())).collect();
                 w.write_batch(&values, Some(&levels), None)
             }
