@@ -177,10 +177,12 @@ fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>
             crate::io::read_input(path, limit, "a per-cell Parquet file")
                 .map_err(|e| CellsError::Io { path: p.clone(), source: e.into_io() })?,
         );
-        let sha = hash.then(|| crate::io::sha256_hex(&raw));
-        if let Some(cells) =
-            crate::io::parquet::open_columns(raw.clone(), limit).and_then(|f| columns::from_columns(&f))
-        {
+        // The file hashed on one core while the others read its columns.
+        let (sha, cells) = rayon::join(
+            || hash.then(|| crate::io::sha256_hex(&raw)),
+            || crate::io::parquet::open_columns(raw.clone(), limit).and_then(|f| columns::from_columns(&f)),
+        );
+        if let Some(cells) = cells {
             return Ok((cells, sha));
         }
         let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {

@@ -36,13 +36,19 @@ fn reports(design: &str, cells: &str) -> Vec<Vec<(String, Vec<u8>)>> {
 }
 
 /// The confirmatory analysis (B = 9,999 pigeonhole replicates, grouped,
-/// leave-one-out both ways, the optimism's Fieller interval) and the
+/// leave-one-out both ways, the optimism's Fieller interval), the same of
+/// its cells as Parquet (read a batch of columns on every core), and the
 /// 32-specification multiverse (each specification analysed in parallel)
 /// give the same report files, byte for byte, at 1, 2 and 8 threads.
 #[test]
 fn the_reports_are_the_same_at_1_2_and_8_threads() {
+    let tmp = tempfile::tempdir().unwrap();
+    let parquet = tmp.path().join("nanobench_synthetic.parquet");
+    let csv = std::fs::read("examples/cells/nanobench_synthetic.csv").unwrap();
+    std::fs::write(&parquet, crossaudit::io::parquet::csv_to_parquet(&csv).unwrap()).unwrap();
     for (design, cells) in [
         ("designs/nanobench_confirmatory.design", "examples/cells/nanobench_synthetic.csv"),
+        ("designs/nanobench_confirmatory.design", parquet.to_str().unwrap()),
         ("designs/multiverse/paper_multiverse.design", "results/multiverse/paper"),
     ] {
         let r = reports(design, cells);

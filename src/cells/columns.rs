@@ -8,10 +8,12 @@
 //! reader then reads the file and says where and why it refuses, so a
 //! file gives the same cells, or the same error, either way.
 
-use super::row::{trim, Names};
-use super::{header_for, Cell, Emptiness};
+use super::row::trim;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use super::{blank, header_for, Cell, Emptiness};
 use crate::io::parquet::{ColumnFile, DecodedColumn};
-use crate::label::Label;
+use crate::label::{Interner, Label};
 
 /// Rows decoded at a time: every column's values for them are held, then
 /// their cells made.
@@ -23,8 +25,10 @@ pub(super) fn from_columns(file: &ColumnFile) -> Option<Vec<Cell>> {
     from_columns_in(file, BATCH)
 }
 
-/// [`from_columns`], `batch` rows at a time.
+/// [`from_columns`], `batch` rows at a time: each batch's columns decoded
+/// and read on every core, then its cells made in order.
 pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cell>> {
+    use rayon::prelude::*;
     let names = file.names();
     let has_split = names.first().is_some_and(|n| n == "split");
     let has_dose = names.get(usize::from(has_split) + 2).is_some_and(|n| n == "dose");
@@ -37,44 +41,113 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cel
         return None;
     }
     let mut cells = Vec::with_capacity(rows);
-    let (mut labels, mut rows_of, mut kinds) = (Names::default(), Batch::default(), 0);
+    // Each column's values for a batch, and the interner of each column
+    // of names, kept from batch to batch.
+    let mut parts: Vec<Part> = names.iter().map(|n| Part::for_column(n)).collect();
+    let mut interners: Vec<Interner> = names.iter().map(|_| Interner::default()).collect();
+    let mut kinds = 0;
     for (g, &n) in file.groups().iter().enumerate() {
         let mut group = file.group(g)?;
         let mut done = 0;
         while done < n {
             let take = (n - done).min(batch.max(1));
-            for (c, name) in names.iter().enumerate() {
-                rows_of.take(name, &group.next(c, take)?, &mut labels)?;
+            // One column a task: the columns of names take longest.
+            let read = (parts.par_iter_mut().zip(group.next(take)).zip(interners.par_iter_mut()))
+                .with_max_len(1)
+                .map(|((part, column), interner)| part.fill(&column?, interner))
+                .collect::<Option<Vec<()>>>();
+            read?;
+            // The batch's cells made on every core, each in its place; a
+            // row that fails a check stands as a blank one and gives the
+            // read up.
+            let view = View::of(&names, &parts)?;
+            let (first, refused) = (cells.len(), AtomicBool::new(false));
+            u32::try_from(first + take + 1).ok()?;
+            cells.par_extend((0..take).into_par_iter().map(|i| {
+                view.cell(i, (first + i + 2) as u32).unwrap_or_else(|| {
+                    refused.store(true, Ordering::Relaxed);
+                    blank()
+                })
+            }));
+            if refused.into_inner() {
+                return None;
             }
-            for i in 0..take {
-                let cell = rows_of.cell(i, u32::try_from(cells.len() + 2).ok()?)?;
-                kinds |= Emptiness::kinds(&cell);
-                cells.push(cell);
-            }
+            kinds |= cells[first..].par_iter().map(Emptiness::kinds).reduce(|| 0, |a, b| a | b);
             done += take;
         }
     }
     (!Emptiness::damaged(kinds)).then_some(cells)
 }
 
-/// One batch of rows, column by column, as their cells take them.
-#[derive(Default)]
-struct Batch {
-    split: Vec<u64>,
-    dose: Vec<f64>,
-    labels: [Vec<Label>; 5],
-    seed: Vec<u64>,
-    n_starts: Vec<u32>,
-    n_divergent: Vec<u32>,
-    horizon_s: Vec<f64>,
-    fa_position_rmse_m: Vec<f64>,
-    divergence_rate: Vec<f64>,
-    conditional_position_rmse_m: Vec<Option<f64>>,
-    velocity_rmse_mps: Vec<Option<f64>>,
-    attitude_rmse_deg: Vec<Option<f64>>,
+/// One column of a batch of rows, as its cells take it.
+enum Part {
+    Labels(Vec<Label>),
+    Integers(Vec<u64>),
+    Counts(Vec<u32>),
+    Numbers(Vec<f64>),
+    Optional(Vec<Option<f64>>),
 }
 
-/// The label columns, in the order of [`Batch::labels`].
+impl Part {
+    /// The empty part of column `name`.
+    fn for_column(name: &str) -> Part {
+        match name {
+            "split" | "seed" => Part::Integers(Vec::new()),
+            "n_starts" | "n_divergent" => Part::Counts(Vec::new()),
+            "dose" | "horizon_s" | "fa_position_rmse_m" | "divergence_rate" => Part::Numbers(Vec::new()),
+            "conditional_position_rmse_m" | "velocity_rmse_mps" | "attitude_rmse_deg" => Part::Optional(Vec::new()),
+            _ => Part::Labels(Vec::new()),
+        }
+    }
+
+    /// The values of `column` in place of the part's (a column of names
+    /// interned by `interner`); `None` where one is a value the text's
+    /// reader would refuse or read otherwise.
+    fn fill(&mut self, column: &DecodedColumn, interner: &mut Interner) -> Option<()> {
+        match self {
+            Part::Labels(v) => labels(column, interner, v),
+            Part::Integers(v) => integers(column, v),
+            Part::Counts(v) => integers(column, v),
+            Part::Numbers(v) => {
+                v.clear();
+                column.numbers(|x| {
+                    v.push(x.filter(|&x| plausible(x))?);
+                    Some(())
+                })
+            }
+            Part::Optional(v) => {
+                v.clear();
+                column.numbers(|x| {
+                    if x.is_some_and(|x| !plausible(x)) {
+                        return None;
+                    }
+                    v.push(x);
+                    Some(())
+                })
+            }
+        }
+    }
+}
+
+/// A batch's columns as a cell's fields take them (a column the file has
+/// not, `split` or `dose`, empty).
+#[derive(Default)]
+struct View<'a> {
+    split: &'a [u64],
+    dose: &'a [f64],
+    labels: [&'a [Label]; 5],
+    seed: &'a [u64],
+    n_starts: &'a [u32],
+    n_divergent: &'a [u32],
+    horizon_s: &'a [f64],
+    fa_position_rmse_m: &'a [f64],
+    divergence_rate: &'a [f64],
+    conditional_position_rmse_m: &'a [Option<f64>],
+    velocity_rmse_mps: &'a [Option<f64>],
+    attitude_rmse_deg: &'a [Option<f64>],
+}
+
+/// The label columns, in the order of [`View::labels`].
 const LABELS: [&str; 5] = ["model", "arm", "recording", "trajectory", "speed"];
 
 /// Whether a number passes the checks of a metric, a horizon or a dose:
@@ -83,57 +156,39 @@ fn plausible(x: f64) -> bool {
     x.is_finite() && x >= 0.0 && (x == 0.0 || x >= crate::io::MIN_MAGNITUDE)
 }
 
-/// `column`'s numbers, each plausible or (with `optional`) empty.
-fn numbers(column: &DecodedColumn, optional: bool, out: &mut Vec<Option<f64>>) -> Option<()> {
-    out.clear();
-    for v in column.numbers()? {
-        match v {
-            Some(x) if plausible(x) => out.push(Some(x)),
-            None if optional => out.push(None),
-            _ => return None,
-        }
-    }
-    Some(())
-}
-
-/// `column`'s integers, each one a `T` holds (none negative; a count at
-/// most `u32::MAX`); no null.
+/// `column`'s integers into `out`, each one a `T` holds (none negative; a
+/// count at most `u32::MAX`); no null.
 fn integers<T: TryFrom<i64>>(column: &DecodedColumn, out: &mut Vec<T>) -> Option<()> {
     out.clear();
-    for v in column.integers()? {
+    column.integers(|v| {
         out.push(T::try_from(v?).ok()?);
-    }
-    Some(())
+        Some(())
+    })
 }
 
-impl Batch {
-    /// Takes column `name`'s values from `column`; `None` where one is a
-    /// value the text's reader would refuse or read otherwise.
-    fn take(&mut self, name: &str, column: &DecodedColumn, names: &mut Names) -> Option<()> {
-        let mut optional = Vec::new();
-        let required = |out: &mut Vec<f64>, scratch: &mut Vec<Option<f64>>| {
-            numbers(column, false, scratch)?;
-            out.clear();
-            out.extend(scratch.iter().flatten());
-            Some(())
-        };
-        match name {
-            "split" => integers(column, &mut self.split),
-            "seed" => integers(column, &mut self.seed),
-            "n_starts" => integers(column, &mut self.n_starts),
-            "n_divergent" => integers(column, &mut self.n_divergent),
-            "dose" => required(&mut self.dose, &mut optional),
-            "horizon_s" => required(&mut self.horizon_s, &mut optional),
-            "fa_position_rmse_m" => required(&mut self.fa_position_rmse_m, &mut optional),
-            "divergence_rate" => required(&mut self.divergence_rate, &mut optional),
-            "conditional_position_rmse_m" => numbers(column, true, &mut self.conditional_position_rmse_m),
-            "velocity_rmse_mps" => numbers(column, true, &mut self.velocity_rmse_mps),
-            "attitude_rmse_deg" => numbers(column, true, &mut self.attitude_rmse_deg),
-            _ => {
-                let k = LABELS.iter().position(|l| *l == name)?;
-                labels(column, names.interner(name)?, &mut self.labels[k])
+impl<'a> View<'a> {
+    /// The columns `parts`, named `names`; `None` where a part is not its
+    /// column's.
+    fn of(names: &[String], parts: &'a [Part]) -> Option<View<'a>> {
+        let mut v = View::default();
+        for (name, part) in names.iter().zip(parts) {
+            match (name.as_str(), part) {
+                ("split", Part::Integers(x)) => v.split = x,
+                ("seed", Part::Integers(x)) => v.seed = x,
+                ("n_starts", Part::Counts(x)) => v.n_starts = x,
+                ("n_divergent", Part::Counts(x)) => v.n_divergent = x,
+                ("dose", Part::Numbers(x)) => v.dose = x,
+                ("horizon_s", Part::Numbers(x)) => v.horizon_s = x,
+                ("fa_position_rmse_m", Part::Numbers(x)) => v.fa_position_rmse_m = x,
+                ("divergence_rate", Part::Numbers(x)) => v.divergence_rate = x,
+                ("conditional_position_rmse_m", Part::Optional(x)) => v.conditional_position_rmse_m = x,
+                ("velocity_rmse_mps", Part::Optional(x)) => v.velocity_rmse_mps = x,
+                ("attitude_rmse_deg", Part::Optional(x)) => v.attitude_rmse_deg = x,
+                (name, Part::Labels(x)) => v.labels[LABELS.iter().position(|l| *l == name)?] = x,
+                _ => return None,
             }
         }
+        Some(v)
     }
 
     /// Row `i`'s cell, on line `line`, where it passes the checks a row
@@ -177,24 +232,24 @@ impl Batch {
 /// printable ASCII only (the text carries a line break as a space, and
 /// the reader refuses other control characters), trimmed, not empty. A
 /// name equal to the row's before takes its label at once.
-fn labels(column: &DecodedColumn, interner: &mut crate::label::Interner, out: &mut Vec<Label>) -> Option<()> {
+fn labels(column: &DecodedColumn, interner: &mut Interner, out: &mut Vec<Label>) -> Option<()> {
     out.clear();
     let mut last: Option<(&[u8], Label)> = None;
-    for v in column.texts()? {
+    column.texts(|v| {
         let v = v?;
-        if let Some((bytes, label)) = last.filter(|(bytes, _)| *bytes == v) {
-            out.push(label);
-            last = Some((bytes, label));
-            continue;
-        }
-        let text = std::str::from_utf8(v).ok().filter(|t| t.bytes().all(|b| (0x20..0x7f).contains(&b)))?;
-        let t = trim(text);
-        if t.is_empty() {
-            return None;
-        }
-        let label = interner.get(t);
+        let label = match last {
+            Some((bytes, label)) if bytes == v => label,
+            _ => {
+                let text = std::str::from_utf8(v).ok().filter(|t| t.bytes().all(|b| (0x20..0x7f).contains(&b)))?;
+                let t = trim(text);
+                if t.is_empty() {
+                    return None;
+                }
+                interner.get(t)
+            }
+        };
         out.push(label);
         last = Some((v, label));
-    }
-    Some(())
+        Some(())
+    })
 }

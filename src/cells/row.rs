@@ -105,20 +105,6 @@ pub(crate) struct Names {
     pub(crate) kinds: u8,
 }
 
-impl Names {
-    /// The interner of the label column `name`; `None` for any other column.
-    pub(crate) fn interner(&mut self, name: &str) -> Option<&mut Interner> {
-        Some(match name {
-            "model" => &mut self.model,
-            "arm" => &mut self.arm,
-            "recording" => &mut self.recording,
-            "trajectory" => &mut self.trajectory,
-            "speed" => &mut self.speed,
-            _ => return None,
-        })
-    }
-}
-
 /// Checks fields of one row, naming the file, line and field on error.
 pub(crate) struct Row<'a> {
     pub(crate) name: &'a str,

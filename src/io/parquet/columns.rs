@@ -59,69 +59,83 @@ impl ColumnFile {
     }
 }
 
-/// Every column of one row group, each read some rows at a time.
+/// Every column of one row group, read some rows at a time.
 pub struct GroupColumns {
     streams: Vec<ColumnStream>,
 }
 
 impl GroupColumns {
-    /// The next `rows` rows of column `c`; `None` where fewer are left, or
-    /// on a decoding error (or panic).
-    pub fn next(&mut self, c: usize, rows: usize) -> Option<DecodedColumn> {
-        let stream = self.streams.get_mut(c)?;
-        crate::io::caught::caught(|| stream.read(rows)).ok().flatten().map(|column| DecodedColumn { column, rows })
+    /// The next `rows` rows of every column, the columns decoded on every
+    /// core; a column's `None` where fewer rows are left, or on a decoding
+    /// error (or panic).
+    pub fn next(&mut self, rows: usize) -> Vec<Option<DecodedColumn<'_>>> {
+        use rayon::prelude::*;
+        // One column a task: the columns of text take longest.
+        self.streams
+            .par_iter_mut()
+            .with_max_len(1)
+            .map(|stream| {
+                let column = crate::io::caught::caught(move || stream.read(rows)).ok().flatten();
+                column.map(|column| DecodedColumn { column, rows })
+            })
+            .collect()
     }
 }
 
 /// Some rows of one column, decoded.
-pub struct DecodedColumn {
-    column: Column,
+pub struct DecodedColumn<'a> {
+    column: &'a Column,
     rows: usize,
 }
 
-impl DecodedColumn {
-    /// Each row's value by `value` (given the index of the row's value
-    /// among the non-null ones), `None` for a null; `None` where `value`
-    /// is for some value.
-    fn each<T>(&self, value: impl Fn(usize) -> Option<T>) -> Option<Vec<Option<T>>> {
-        let mut out = Vec::with_capacity(self.rows);
+impl<'a> DecodedColumn<'a> {
+    /// Gives `f` each row's value by `value` (given the index of the
+    /// row's value among the non-null ones), `None` for a null, in order;
+    /// `None` where `value` is for some value, or `f` stops.
+    fn each<T>(&self, value: impl Fn(usize) -> Option<T>, mut f: impl FnMut(Option<T>) -> Option<()>) -> Option<()> {
         let mut next = 0;
         for row in 0..self.rows {
             if self.column.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
-                out.push(None);
+                f(None)?;
             } else {
-                out.push(Some(value(next)?));
+                f(Some(value(next)?))?;
                 next += 1;
             }
         }
-        Some(out)
+        Some(())
     }
 
-    /// Each row's integer (`None` for a null), for a column of signed
-    /// integers that is no timestamp; `None` for any other column.
-    pub fn integers(&self) -> Option<Vec<Option<i64>>> {
+    /// How many rows it holds.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Gives `f` each row's integer (`None` for a null), for a column of
+    /// signed integers that is no timestamp; `None` for any other column,
+    /// or where `f` stops.
+    pub fn integers(&self, f: impl FnMut(Option<i64>) -> Option<()>) -> Option<()> {
         match &self.column.values {
-            Values::Int32(v) => self.each(|k| v.get(k).map(|&x| i64::from(x))),
-            Values::Int64(v, None) => self.each(|k| v.get(k).copied()),
+            Values::Int32(v) => self.each(|k| v.get(k).map(|&x| i64::from(x)), f),
+            Values::Int64(v, None) => self.each(|k| v.get(k).copied(), f),
             _ => None,
         }
     }
 
-    /// Each row's number as the text's reader reads it
+    /// Gives `f` each row's number as the text's reader reads it
     /// ([`Values::number`]), `None` for a null; `None` for a column of
-    /// text or booleans.
-    pub fn numbers(&self) -> Option<Vec<Option<f64>>> {
+    /// text or booleans, or where `f` stops.
+    pub fn numbers(&self, f: impl FnMut(Option<f64>) -> Option<()>) -> Option<()> {
         if matches!(self.column.values, Values::Bool(_) | Values::Text(_)) {
             return None;
         }
-        self.each(|k| self.column.values.number(k))
+        self.each(|k| self.column.values.number(k), f)
     }
 
-    /// Each row's text as its bytes (`None` for a null), for a column of
-    /// text; `None` for any other column.
-    pub fn texts(&self) -> Option<Vec<Option<&[u8]>>> {
+    /// Gives `f` each row's text as its bytes (`None` for a null), for a
+    /// column of text; `None` for any other column, or where `f` stops.
+    pub fn texts(&self, f: impl FnMut(Option<&'a [u8]>) -> Option<()>) -> Option<()> {
         match &self.column.values {
-            Values::Text(v) => self.each(|k| v.get(k).map(|b| b.data())),
+            Values::Text(v) => self.each(|k| v.get(k).map(|b| b.data()), f),
             _ => None,
         }
     }

@@ -29,7 +29,9 @@ pub(super) struct Column {
 /// Every value of one column chunk of `rows` rows, where its type is one
 /// [`super::columns_to_csv_text`] writes.
 pub(super) fn decode_column(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> Option<Column> {
-    ColumnStream::new(reader, desc)?.read(rows)
+    let mut stream = ColumnStream::new(reader, desc)?;
+    stream.read(rows)?;
+    Some(stream.into_column())
 }
 
 impl Values {
@@ -53,14 +55,13 @@ impl Values {
     }
 }
 
-/// A column chunk's reader, where its type is one [`super::columns_to_csv_text`]
-/// writes: its values read some rows at a time.
+/// A column chunk's reader, where its type is one
+/// [`super::columns_to_csv_text`] writes: its values read some rows at a
+/// time into buffers kept from one read to the next.
 pub(super) struct ColumnStream {
     reader: ColumnReader,
-    /// The seconds per unit of a timestamp.
-    per_second: Option<f64>,
-    /// Whether the column may hold nulls.
-    nullable: bool,
+    /// The rows last read.
+    column: Column,
 }
 
 impl ColumnStream {
@@ -82,50 +83,63 @@ impl ColumnStream {
             _ => None,
         };
         let text = matches!(logical, Some(LogicalType::String)) || (logical.is_none() && converted == C::UTF8);
-        let decoded = match &reader {
-            ColumnReader::BoolColumnReader(_) | ColumnReader::FloatColumnReader(_) => plain,
-            ColumnReader::DoubleColumnReader(_) => plain,
-            ColumnReader::Int32ColumnReader(_) => signed,
-            ColumnReader::Int64ColumnReader(_) => signed || per_second.is_some(),
-            ColumnReader::ByteArrayColumnReader(_) => text,
-            _ => false,
+        let values = match &reader {
+            ColumnReader::BoolColumnReader(_) if plain => Values::Bool(Vec::new()),
+            ColumnReader::FloatColumnReader(_) if plain => Values::Float(Vec::new()),
+            ColumnReader::DoubleColumnReader(_) if plain => Values::Double(Vec::new()),
+            ColumnReader::Int32ColumnReader(_) if signed => Values::Int32(Vec::new()),
+            ColumnReader::Int64ColumnReader(_) if signed || per_second.is_some() => {
+                Values::Int64(Vec::new(), per_second)
+            }
+            ColumnReader::ByteArrayColumnReader(_) if text => Values::Text(Vec::new()),
+            _ => return None,
         };
-        decoded.then_some(ColumnStream { reader, per_second, nullable: desc.max_def_level() == 1 })
+        let levels = (desc.max_def_level() == 1).then(Vec::new);
+        Some(ColumnStream { reader, column: Column { values, levels } })
     }
 
     /// The next `rows` rows' values (and, for a column that may hold
     /// nulls, their levels); `None` where fewer are left, or on an error.
-    pub(super) fn read(&mut self, rows: usize) -> Option<Column> {
-        let mut levels = Vec::with_capacity(rows);
-        let lv = self.nullable.then_some(&mut levels);
-        let values = match &mut self.reader {
-            ColumnReader::BoolColumnReader(r) => Values::Bool(read_all(r, rows, lv)?),
-            ColumnReader::Int32ColumnReader(r) => Values::Int32(read_all(r, rows, lv)?),
-            ColumnReader::Int64ColumnReader(r) => Values::Int64(read_all(r, rows, lv)?, self.per_second),
-            ColumnReader::FloatColumnReader(r) => Values::Float(read_all(r, rows, lv)?),
-            ColumnReader::DoubleColumnReader(r) => Values::Double(read_all(r, rows, lv)?),
-            ColumnReader::ByteArrayColumnReader(r) => Values::Text(read_all(r, rows, lv)?),
-            _ => return None,
+    pub(super) fn read(&mut self, rows: usize) -> Option<&Column> {
+        let Column { values, levels } = &mut self.column;
+        let read = match (&mut self.reader, values) {
+            (ColumnReader::BoolColumnReader(r), Values::Bool(v)) => read_all(r, rows, levels, v),
+            (ColumnReader::Int32ColumnReader(r), Values::Int32(v)) => read_all(r, rows, levels, v),
+            (ColumnReader::Int64ColumnReader(r), Values::Int64(v, _)) => read_all(r, rows, levels, v),
+            (ColumnReader::FloatColumnReader(r), Values::Float(v)) => read_all(r, rows, levels, v),
+            (ColumnReader::DoubleColumnReader(r), Values::Double(v)) => read_all(r, rows, levels, v),
+            (ColumnReader::ByteArrayColumnReader(r), Values::Text(v)) => read_all(r, rows, levels, v),
+            _ => None,
         };
-        Some(Column { values, levels: self.nullable.then_some(levels) })
+        read.map(|()| &self.column)
+    }
+
+    /// The column as last read.
+    pub(super) fn into_column(self) -> Column {
+        self.column
     }
 }
 
-/// Every value (and, for a column with nulls, every level) of `rows` rows.
+/// Every value (and, for a column with nulls, every level) of the next
+/// `rows` rows, into `values` and `levels` (cleared first).
 fn read_all<T: DataType>(
     reader: &mut ColumnReaderImpl<T>,
     rows: usize,
-    mut levels: Option<&mut Vec<i16>>,
-) -> Option<Vec<T::T>> {
-    let mut values = Vec::with_capacity(rows);
+    levels: &mut Option<Vec<i16>>,
+    values: &mut Vec<T::T>,
+) -> Option<()> {
+    values.clear();
+    if let Some(l) = levels.as_mut() {
+        l.clear();
+    }
     let mut read = 0;
     while read < rows {
-        let (records, _, _) = reader.read_records(rows - read, levels.as_deref_mut(), None, &mut values).ok()?;
+        let (records, _, _) = reader.read_records(rows - read, levels.as_mut(), None, values).ok()?;
         if records == 0 {
             return None;
         }
         read += records;
     }
-    let levels_read = levels.as_ref().map_or(rows, |l| l.len());
-    (levels_read == rows).then_some(values)
+    let levels_read = levels.as_ref().map_or(rows, Vec::len);
+    (levels_read == rows).then_some(())
 }
