@@ -9,7 +9,9 @@
 #   - pandas reading the file and grouping it by recording x seed x arm,
 #     with its C engine (one thread) and with engine="pyarrow"
 #     (pyarrow.set_cpu_count and set_io_thread_count to the thread count);
-#   - polars read_csv + group_by (POLARS_MAX_THREADS, in its own process).
+#   - polars read_csv + group_by (POLARS_MAX_THREADS, in its own process);
+# and the same cells written as Parquet by pyarrow: crossaudit analyze of
+# that file beside pandas read_parquet + groupby.
 # Median and min of RUNS each. Also checks that every thread count wrote
 # the same report bytes.
 #
@@ -50,10 +52,10 @@ import pandas as pd, pyarrow, polars
 runs, ca, design, work = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4]
 threads = [int(t) for t in sys.argv[5:]]
 cells = f"{work}/cells.csv"
-def crossaudit(n):
+def crossaudit(n, cells=cells, out="report"):
     def run():
         r = subprocess.run(["/usr/bin/time", "-f", "%M %P", ca, "--threads", str(n), "analyze", design, "--cells", cells,
-                            "--out", f"{work}/report-{n}"], check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            "--out", f"{work}/{out}-{n}"], check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         kb, cpu = r.stderr.strip().splitlines()[-1].split()
         return int(kb), cpu, r.stdout.strip().splitlines()[-1]
     return run
@@ -100,5 +102,30 @@ for n in threads:
     print(f"  polars {polars.__version__} read_csv + group_by mean (own process):            {med(pl_runs):.2f} s, {min(pl_runs):.2f} s")
     print(f"  ratio crossaudit / pandas-pyarrow: {med(ca_t) / med(pa_runs):.2f}; crossaudit / polars: {med(ca_t) / med(pl_runs):.2f}")
 print(f"  {ca_runs[0][1][2]}")
+# The same cells as Parquet, written by pyarrow (as a user's own per-cell
+# table would be): crossaudit reads its columns; pandas reads it with
+# pyarrow.
+import pyarrow.csv, pyarrow.parquet
+parquet = f"{work}/cells.parquet"
+pyarrow.parquet.write_table(pyarrow.csv.read_csv(cells), parquet)
+def pandas_parquet(n):
+    def run():
+        pyarrow.set_cpu_count(n); pyarrow.set_io_thread_count(n)
+        df = pd.read_parquet(parquet)
+        return df.groupby(["recording", "seed", "arm"])["fa_position_rmse_m"].mean().unstack("arm")
+    return run
+print(f"the same cells as Parquet (pyarrow {pyarrow.__version__}, {os.path.getsize(parquet) // 2**20} MB):")
+for n in threads:
+    crossaudit(n, parquet, "parquet")()
+    cq = [timed(crossaudit(n, parquet, "parquet")) for _ in range(runs)]
+    pq = [timed(pandas_parquet(n))[0] for _ in range(runs)]
+    cq_t = [t for t, _ in cq]
+    mem = max(m for _, (m, _, _) in cq)
+    cpu = statistics.median(int(c.rstrip("%")) for _, (_, c, _) in cq)
+    print(f"{n} thread(s):")
+    print(f"  crossaudit analyze --threads {n} --cells cells.parquet: {med(cq_t):.2f} s, {min(cq_t):.2f} s; CPU {cpu}%; peak RSS {mem / 1024:.0f} MB")
+    print(f"  pandas {pd.__version__} read_parquet + groupby mean:              {med(pq):.2f} s, {min(pq):.2f} s")
+    same = open(f"{work}/parquet-{n}/estimates.csv", "rb").read() == open(f"{work}/report-{n}/estimates.csv", "rb").read()
+    print(f"  estimates.csv the same as the CSV file's: {'yes' if same else 'NO'}")
 PY
 python3 benches/scale/same_reports.py "$work" "${threads[@]}"

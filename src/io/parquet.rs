@@ -16,6 +16,11 @@
 //! as a space, since a row is one line. Undeclared columns of any type are
 //! carried as text and never read as numbers, so they never refuse or
 //! exclude a file, whatever their names and values.
+//!
+//! A reader may take a table's values without its text, where they are
+//! the ones the text gives (a flight log's declared columns,
+//! [`DecodedColumns`]; a per-cell file's rows, a batch of every column at
+//! a time, [`open_columns`]), and read the text wherever they might not.
 
 use bytes::Bytes;
 use parquet::basic::{LogicalType, TimeUnit, TimestampType};
