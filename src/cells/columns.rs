@@ -8,9 +8,9 @@
 //! reader then reads the file and says where and why it refuses, so a
 //! file gives the same cells, or the same error, either way.
 
-use super::row::trim;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use super::row::trim;
 use super::{blank, header_for, Cell, Emptiness};
 use crate::io::parquet::{ColumnFile, DecodedColumn};
 use crate::label::{Interner, Label};
@@ -26,7 +26,8 @@ pub(super) fn from_columns(file: &ColumnFile) -> Option<Vec<Cell>> {
 }
 
 /// [`from_columns`], `batch` rows at a time: each batch's columns decoded
-/// and read on every core, then its cells made in order.
+/// and read on every core, then its cells made on every core, each in its
+/// place.
 pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cell>> {
     use rayon::prelude::*;
     let names = file.names();
@@ -40,7 +41,9 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cel
     if rows == 0 || u32::try_from(rows + 1).is_err() {
         return None;
     }
-    let mut cells = Vec::with_capacity(rows);
+    // Room is made a batch at a time: the footer's count of rows is not
+    // trusted with an allocation.
+    let mut cells = Vec::new();
     // Each column's values for a batch, and the interner of each column
     // of names, kept from batch to batch.
     let mut parts: Vec<Part> = names.iter().map(|n| Part::for_column(n)).collect();

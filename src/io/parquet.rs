@@ -151,6 +151,7 @@ impl DecodedColumns {
     /// what it holds.
     pub fn numbers(&self, c: usize) -> Option<Vec<f64>> {
         let mut out = Vec::with_capacity(self.rows);
+        let mut text = Vec::with_capacity(48);
         for group in &self.groups {
             let column = group.columns.get(c)?;
             let mut next = 0;
@@ -159,7 +160,7 @@ impl DecodedColumns {
                     out.push(f64::NAN);
                     continue;
                 }
-                out.push(column.values.number(next)?);
+                out.push(column.values.number(next, &mut text)?);
                 next += 1;
             }
         }

@@ -92,7 +92,11 @@ impl<'a> DecodedColumn<'a> {
     /// Gives `f` each row's value by `value` (given the index of the
     /// row's value among the non-null ones), `None` for a null, in order;
     /// `None` where `value` is for some value, or `f` stops.
-    fn each<T>(&self, value: impl Fn(usize) -> Option<T>, mut f: impl FnMut(Option<T>) -> Option<()>) -> Option<()> {
+    fn each<T>(
+        &self,
+        mut value: impl FnMut(usize) -> Option<T>,
+        mut f: impl FnMut(Option<T>) -> Option<()>,
+    ) -> Option<()> {
         let mut next = 0;
         for row in 0..self.rows {
             if self.column.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
@@ -128,7 +132,8 @@ impl<'a> DecodedColumn<'a> {
         if matches!(self.column.values, Values::Bool(_) | Values::Text(_)) {
             return None;
         }
-        self.each(|k| self.column.values.number(k), f)
+        let mut text = Vec::with_capacity(48);
+        self.each(|k| self.column.values.number(k, &mut text), f)
     }
 
     /// Gives `f` each row's text as its bytes (`None` for a null), for a

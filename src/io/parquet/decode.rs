@@ -39,16 +39,18 @@ impl Values {
     /// float and a timestamp as the number its text writes, an integer as
     /// the nearest double; `None` for text and booleans (whose text alone
     /// says what they hold) or past the end.
-    pub(super) fn number(&self, k: usize) -> Option<f64> {
+    /// `text` is scratch room for a float's text, reused from value to
+    /// value.
+    pub(super) fn number(&self, k: usize, text: &mut Vec<u8>) -> Option<f64> {
         Some(match self {
             Values::Double(v) => *v.get(k)?,
             Values::Int32(v) => f64::from(*v.get(k)?),
             Values::Int64(v, None) => *v.get(k)? as f64,
             Values::Int64(v, Some(s)) => *v.get(k)? as f64 / s,
             Values::Float(v) => {
-                let mut text = Vec::with_capacity(48);
-                crate::io::float_text::debug_f32(*v.get(k)?, &mut text);
-                fast_float2::parse(&text).ok()?
+                text.clear();
+                crate::io::float_text::debug_f32(*v.get(k)?, text);
+                fast_float2::parse(&*text).ok()?
             }
             Values::Bool(_) | Values::Text(_) => return None,
         })
@@ -129,8 +131,10 @@ fn read_all<T: DataType>(
     values: &mut Vec<T::T>,
 ) -> Option<()> {
     values.clear();
+    values.reserve(rows);
     if let Some(l) = levels.as_mut() {
         l.clear();
+        l.reserve(rows);
     }
     let mut read = 0;
     while read < rows {
