@@ -41,6 +41,7 @@ impl Values {
     /// says what they hold) or past the end.
     /// `text` is scratch room for a float's text, reused from value to
     /// value.
+    #[inline]
     pub(super) fn number(&self, k: usize, text: &mut Vec<u8>) -> Option<f64> {
         Some(match self {
             Values::Double(v) => *v.get(k)?,
