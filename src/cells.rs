@@ -180,7 +180,7 @@ fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>
         // The file hashed on one core while the others read its columns.
         let (sha, cells) = rayon::join(
             || hash.then(|| crate::io::sha256_hex(&raw)),
-            || crate::io::parquet::open_columns(raw.clone(), limit).and_then(|f| columns::from_columns(&f)),
+            || crate::io::parquet::open_columns(raw.clone(), limit).and_then(|f| columns::from_columns(&f, limit)),
         );
         if let Some(cells) = cells {
             return Ok((cells, sha));

@@ -20,15 +20,21 @@ use crate::label::{Interner, Label};
 const BATCH: usize = 65_536;
 
 /// The cells of `file`, a per-cell Parquet file, from its columns; `None`
-/// where its text must be read.
-pub(super) fn from_columns(file: &ColumnFile) -> Option<Vec<Cell>> {
-    from_columns_in(file, BATCH)
+/// where its text must be read (among others, where that text might pass
+/// `limit` bytes, which its reader refuses).
+pub(super) fn from_columns(file: &ColumnFile, limit: u64) -> Option<Vec<Cell>> {
+    from_columns_in(file, BATCH, limit)
 }
+
+/// The most bytes the CSV text of a number takes (`io::parquet` writes a
+/// double as Rust's `{:?}` does: at most 24, "-2.2250738585072014e-308";
+/// an integer at most 20), with room to spare.
+const NUMBER_TEXT: u64 = 32;
 
 /// [`from_columns`], `batch` rows at a time: each batch's columns decoded
 /// and read on every core, then its cells made on every core, each in its
 /// place.
-pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cell>> {
+pub(super) fn from_columns_in(file: &ColumnFile, batch: usize, limit: u64) -> Option<Vec<Cell>> {
     use rayon::prelude::*;
     let names = file.names();
     let has_split = names.first().is_some_and(|n| n == "split");
@@ -49,6 +55,9 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cel
     let mut parts: Vec<Part> = names.iter().map(|n| Part::for_column(n)).collect();
     let mut interners: Vec<Interner> = names.iter().map(|_| Interner::default()).collect();
     let mut kinds = 0;
+    // At least as many bytes as the text would hold: its header line, then
+    // each row's separators and each value's text at its longest.
+    let mut text = names.iter().map(|n| n.len() as u64 + 1).sum::<u64>();
     for (g, &n) in file.groups().iter().enumerate() {
         let mut group = file.group(g)?;
         let mut done = 0;
@@ -58,8 +67,11 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize) -> Option<Vec<Cel
             let read = (parts.par_iter_mut().zip(group.next(take)).zip(interners.par_iter_mut()))
                 .with_max_len(1)
                 .map(|((part, column), interner)| part.fill(&column?, interner))
-                .collect::<Option<Vec<()>>>();
-            read?;
+                .collect::<Option<Vec<u64>>>();
+            text = read?.into_iter().fold(text + (take * names.len()) as u64, u64::saturating_add);
+            if text > limit {
+                return None;
+            }
             // The batch's cells made on every core, each in its place; a
             // row that fails a check stands as a blank one and gives the
             // read up.
@@ -104,19 +116,22 @@ impl Part {
     }
 
     /// The values of `column` in place of the part's (a column of names
-    /// interned by `interner`); `None` where one is a value the text's
-    /// reader would refuse or read otherwise.
-    fn fill(&mut self, column: &DecodedColumn, interner: &mut Interner) -> Option<()> {
+    /// interned by `interner`), and at least as many bytes as their text
+    /// holds; `None` where one is a value the text's reader would refuse or
+    /// read otherwise.
+    fn fill(&mut self, column: &DecodedColumn, interner: &mut Interner) -> Option<u64> {
+        let numbers = column.rows() as u64 * NUMBER_TEXT;
         match self {
             Part::Labels(v) => labels(column, interner, v),
-            Part::Integers(v) => integers(column, v),
-            Part::Counts(v) => integers(column, v),
+            Part::Integers(v) => integers(column, v).map(|()| numbers),
+            Part::Counts(v) => integers(column, v).map(|()| numbers),
             Part::Numbers(v) => {
                 v.clear();
                 column.numbers(|x| {
                     v.push(x.filter(|&x| plausible(x))?);
                     Some(())
-                })
+                })?;
+                Some(numbers)
             }
             Part::Optional(v) => {
                 v.clear();
@@ -126,7 +141,8 @@ impl Part {
                     }
                     v.push(x);
                     Some(())
-                })
+                })?;
+                Some(numbers)
             }
         }
     }
@@ -231,15 +247,19 @@ impl<'a> View<'a> {
     }
 }
 
-/// `column`'s names, each interned as the text's reader interns it:
-/// printable ASCII only (the text carries a line break as a space, and
-/// the reader refuses other control characters), trimmed, not empty. A
-/// name equal to the row's before takes its label at once.
-fn labels(column: &DecodedColumn, interner: &mut Interner, out: &mut Vec<Label>) -> Option<()> {
+/// `column`'s names into `out`, each interned as the text's reader
+/// interns it: printable ASCII only (the text carries a line break as a
+/// space, and the reader refuses other control characters), trimmed, not
+/// empty; a name equal to the row's before takes its label at once. With
+/// at least as many bytes as their text holds (each quoted, every quote
+/// doubled, at worst).
+fn labels(column: &DecodedColumn, interner: &mut Interner, out: &mut Vec<Label>) -> Option<u64> {
     out.clear();
     let mut last: Option<(&[u8], Label)> = None;
+    let mut text = 0u64;
     column.texts(|v| {
         let v = v?;
+        text += 2 * v.len() as u64 + 2;
         let label = match last {
             Some((bytes, label)) if bytes == v => label,
             _ => {
@@ -254,5 +274,6 @@ fn labels(column: &DecodedColumn, interner: &mut Interner, out: &mut Vec<Label>)
         out.push(label);
         last = Some((v, label));
         Some(())
-    })
+    })?;
+    Some(text)
 }

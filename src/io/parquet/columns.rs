@@ -20,8 +20,10 @@ pub struct ColumnFile {
 }
 
 /// `raw` opened to be read by column, where [`super::columns_to_csv_text`]
-/// would decode it by column (every top-level column a primitive one, its
-/// rows' text within `limit` bytes); `None` where it would not.
+/// would decode it by column (every top-level column a primitive one, and
+/// at least a byte for each value and its separator within `limit`: the
+/// text itself is not measured, which a reader that must keep to the
+/// limit does); `None` where it would not.
 pub fn open_columns(raw: Bytes, limit: u64) -> Option<ColumnFile> {
     crate::io::caught::caught(|| {
         let file = FlatFile::open(raw, limit)?;
@@ -91,7 +93,7 @@ pub struct DecodedColumn<'a> {
 impl<'a> DecodedColumn<'a> {
     /// Gives `f` each row's value by `value` (given the index of the
     /// row's value among the non-null ones), `None` for a null, in order;
-    /// `None` where `value` is for some value, or `f` stops.
+    /// `None` where `value` is `None` for some value, or `f` stops.
     fn each<T>(
         &self,
         mut value: impl FnMut(usize) -> Option<T>,
