@@ -128,7 +128,8 @@ impl<'a> DecodedColumn<'a> {
     }
 
     /// Gives `f` each row's number as the text's reader reads it
-    /// ([`Values::number`]), `None` for a null; `None` for a column of
+    /// (a double itself, a float or a timestamp the number its text writes,
+    /// an integer the nearest double), `None` for a null; `None` for a column of
     /// text or booleans, or where `f` stops.
     pub fn numbers(&self, f: impl FnMut(Option<f64>) -> Option<()>) -> Option<()> {
         if matches!(self.column.values, Values::Bool(_) | Values::Text(_)) {
