@@ -77,7 +77,7 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize, limit: u64) -> Op
             // read up.
             let view = View::of(&names, &parts)?;
             let (first, refused) = (cells.len(), AtomicBool::new(false));
-            u32::try_from(first + take + 1).ok()?;
+            // first + take <= rows, and rows + 1 fits 4 bytes (above).
             cells.par_extend((0..take).into_par_iter().map(|i| {
                 view.cell(i, (first + i + 2) as u32).unwrap_or_else(|| {
                     refused.store(true, Ordering::Relaxed);

@@ -154,15 +154,14 @@ impl DecodedColumns {
         let mut text = Vec::with_capacity(48);
         for group in &self.groups {
             let column = group.columns.get(c)?;
-            let mut next = 0;
-            for row in 0..group.rows {
-                if column.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
-                    out.push(f64::NAN);
-                    continue;
-                }
-                out.push(column.values.number(next, &mut text)?);
-                next += 1;
-            }
+            column.each(
+                group.rows,
+                |k| column.values.number(k, &mut text),
+                |x| {
+                    out.push(x.unwrap_or(f64::NAN));
+                    Some(())
+                },
+            )?;
         }
         Some(out)
     }
@@ -387,10 +386,10 @@ pub(crate) fn csv_to_parquet_in(text: &[u8], rows: usize) -> Result<Vec<u8>, Str
     let props = Arc::new(WriterProperties::builder().set_compression(Compression::SNAPPY).build());
     let mut out = Vec::new();
     let mut writer = SerializedFileWriter::new(&mut out, schema, props).map_err(|e| e.to_string())?;
+    // Row groups of `rows` rows; a table of no rows has one, empty.
     let total = columns.first().map_or(0, Vec::len);
-    let mut start = 0;
-    while start < total || start == 0 {
-        let end = total.min(start.saturating_add(rows.max(1)));
+    for start in (0..total.max(1)).step_by(rows.max(1)) {
+        let end = total.min(start.saturating_add(rows));
         let mut group = writer.next_row_group().map_err(|e| e.to_string())?;
         for t in &typed {
             let mut column = group.next_column().map_err(|e| e.to_string())?.ok_or("a column too few")?;
@@ -398,7 +397,6 @@ pub(crate) fn csv_to_parquet_in(text: &[u8], rows: usize) -> Result<Vec<u8>, Str
             column.close().map_err(|e| e.to_string())?;
         }
         group.close().map_err(|e| e.to_string())?;
-        start = end.max(1);
     }
     writer.close().map_err(|e| e.to_string())?;
     Ok(out)

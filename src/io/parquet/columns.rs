@@ -91,24 +91,9 @@ pub struct DecodedColumn<'a> {
 }
 
 impl<'a> DecodedColumn<'a> {
-    /// Gives `f` each row's value by `value` (given the index of the
-    /// row's value among the non-null ones), `None` for a null, in order;
-    /// `None` where `value` is `None` for some value, or `f` stops.
-    fn each<T>(
-        &self,
-        mut value: impl FnMut(usize) -> Option<T>,
-        mut f: impl FnMut(Option<T>) -> Option<()>,
-    ) -> Option<()> {
-        let mut next = 0;
-        for row in 0..self.rows {
-            if self.column.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
-                f(None)?;
-            } else {
-                f(Some(value(next)?))?;
-                next += 1;
-            }
-        }
-        Some(())
+    /// [`Column::each`] over its rows.
+    fn each<T>(&self, value: impl FnMut(usize) -> Option<T>, f: impl FnMut(Option<T>) -> Option<()>) -> Option<()> {
+        self.column.each(self.rows, value, f)
     }
 
     /// How many rows it holds.

@@ -26,6 +26,30 @@ pub(super) struct Column {
     pub(super) levels: Option<Vec<i16>>,
 }
 
+impl Column {
+    /// Gives `f` each of the first `rows` rows' value by `value` (given the
+    /// index of the row's value among the non-null ones), `None` for a
+    /// null, in order; `None` where `value` is `None` for some value, or
+    /// `f` stops.
+    pub(super) fn each<T>(
+        &self,
+        rows: usize,
+        mut value: impl FnMut(usize) -> Option<T>,
+        mut f: impl FnMut(Option<T>) -> Option<()>,
+    ) -> Option<()> {
+        let mut next = 0;
+        for row in 0..rows {
+            if self.levels.as_ref().is_some_and(|l| l.get(row) != Some(&1)) {
+                f(None)?;
+            } else {
+                f(Some(value(next)?))?;
+                next += 1;
+            }
+        }
+        Some(())
+    }
+}
+
 /// Every value of one column chunk of `rows` rows, where its type is one
 /// [`super::columns_to_csv_text`] writes.
 pub(super) fn decode_column(reader: ColumnReader, desc: &ColumnDescriptor, rows: usize) -> Option<Column> {
