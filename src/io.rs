@@ -494,7 +494,7 @@ mod caught;
 pub mod chunked;
 pub mod float_text;
 mod input;
-pub use input::{read_text, Text, TextError};
+pub use input::{read_text, text_of, Text, TextError};
 pub mod parquet;
 mod text;
 pub use text::{escape_controls, formula_like, md_code, md_line, md_text, one_line, spreadsheet_text};

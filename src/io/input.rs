@@ -49,8 +49,13 @@ impl TextError {
 /// its CSV text, held to the same limit.
 pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<Text, TextError> {
     let raw = super::read_input(path, limit, what).map_err(|e| TextError::Read(e.reason()))?;
+    text_of(raw, super::parquet::is_parquet(path), limit, what)
+}
+
+/// [`read_text`] of a file's bytes `raw`, already read (`parquet`: the
+/// file is Parquet).
+pub fn text_of(raw: Vec<u8>, parquet: bool, limit: u64, what: &'static str) -> Result<Text, TextError> {
     let sha256 = super::sha256_hex(&raw);
-    let parquet = super::parquet::is_parquet(path);
     let bytes = if parquet { super::parquet::to_csv_text(raw, limit, what).map_err(TextError::Parquet)? } else { raw };
     let text = String::from_utf8(bytes).map_err(|e| {
         let bad = e.utf8_error().valid_up_to();

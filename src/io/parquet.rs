@@ -19,8 +19,9 @@
 //!
 //! A reader may take a table's values without its text, where they are
 //! the ones the text gives (a flight log's declared columns,
-//! [`DecodedColumns`]; a per-cell file's rows, a batch of every column at
-//! a time, [`open_columns`]), and read the text wherever they might not.
+//! [`DecodedColumns`]; a per-cell or a replications file's rows, a batch
+//! of every column at a time, [`open_columns`]), and read the text
+//! wherever they might not.
 
 use bytes::Bytes;
 use parquet::basic::{LogicalType, TimeUnit, TimestampType};
@@ -507,6 +508,16 @@ fn quoted(s: &str) -> std::borrow::Cow<'_, str> {
     if !s.contains(['\n', '\r', ',', '"']) {
         return std::borrow::Cow::Borrowed(s);
     }
-    let s = s.replace(['\n', '\r'], " ");
+    let s = one_line(s).into_owned();
     std::borrow::Cow::Owned(if s.contains([',', '"']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s })
+}
+
+/// `s` as the reader of the CSV text reads its field back (or a column's
+/// name): its line breaks as spaces, since a row is one line.
+pub fn one_line(s: &str) -> std::borrow::Cow<'_, str> {
+    if s.contains(['\n', '\r']) {
+        std::borrow::Cow::Owned(s.replace(['\n', '\r'], " "))
+    } else {
+        std::borrow::Cow::Borrowed(s)
+    }
 }

@@ -415,8 +415,8 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
 /// `crossaudit simsum`'s arguments.
 #[derive(clap::Args)]
 pub(crate) struct SimsumArgs {
-    /// The replications file: CSV, or Parquet (`.parquet`, read as its
-    /// CSV twin: a null is a missing value).
+    /// The replications file: CSV, or Parquet (`.parquet`, read by column
+    /// as its CSV twin reads: a null is a missing value).
     pub(crate) file: PathBuf,
     /// The estimate column.
     #[arg(long, default_value = "estimate")]

@@ -124,6 +124,27 @@ impl<'a> DecodedColumn<'a> {
         self.each(|k| self.column.values.number(k, &mut text), f)
     }
 
+    /// Gives `f` each row's field as the reader of the text reads it back,
+    /// unquoted (empty for a null): a number, timestamp or boolean as the
+    /// text writes it, a text with its line breaks as spaces
+    /// ([`super::one_line`]); `None` where a text is not UTF-8, or where
+    /// `f` stops.
+    pub fn fields(&self, mut f: impl FnMut(&str) -> Option<()>) -> Option<()> {
+        if let Values::Text(v) = &self.column.values {
+            return self.each(
+                |k| v.get(k).map(|b| b.data()),
+                |t| f(&super::one_line(std::str::from_utf8(t.unwrap_or_default()).ok()?)),
+            );
+        }
+        let (mut text, mut next) = (Vec::with_capacity(48), 0);
+        for row in 0..self.rows {
+            text.clear();
+            self.column.write(row, &mut next, &mut text)?;
+            f(std::str::from_utf8(&text).ok()?)?;
+        }
+        Some(())
+    }
+
     /// Gives `f` each row's text as its bytes (`None` for a null), for a
     /// column of text; `None` for any other column, or where `f` stops.
     pub fn texts(&self, f: impl FnMut(Option<&'a [u8]>) -> Option<()>) -> Option<()> {
