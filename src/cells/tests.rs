@@ -361,3 +361,71 @@ fn parquet_cells_the_columns_cannot_give_are_read_from_their_text() -> Result<()
     }
     Ok(())
 }
+
+/// A per-cell Parquet file of the types a CSV export never gives (32-bit
+/// integers for the seed and the counts, floats for the errors, a
+/// timestamp in milliseconds for the attitude error, nulls for empty
+/// fields, as a file written with Arrow's types could hold them) is read
+/// from its columns, and gives the cells its text gives.
+#[test]
+fn parquet_cells_of_32_bit_columns_floats_and_timestamps_are_their_texts_cells(
+) -> Result<(), Box<dyn std::error::Error>> {
+    use crate::io::parquet::typed::{typed, Typed};
+    let (name, bytes) = committed().swap_remove(1);
+    let mut reader = csv::Reader::from_reader(bytes.as_slice());
+    let header: Vec<String> = reader.headers()?.iter().map(String::from).collect();
+    let mut rows: Vec<csv::StringRecord> = reader.records().collect::<Result<_, _>>()?;
+    // Nulls: a row where every start diverged (its conditional RMSE
+    // empty), and no velocity in any row.
+    let at = |field: &str| header.iter().position(|h| h == field).ok_or(format!("no {field}"));
+    let (starts, divergent, rate) = (at("n_starts")?, at("n_divergent")?, at("divergence_rate")?);
+    let (conditional, velocity) = (at("conditional_position_rmse_m")?, at("velocity_rmse_mps")?);
+    for (k, row) in rows.iter_mut().enumerate() {
+        let mut f: Vec<String> = row.iter().map(String::from).collect();
+        if k == 40 {
+            (f[divergent], f[rate], f[conditional]) = (f[starts].clone(), "1".into(), String::new());
+        }
+        f[velocity] = String::new();
+        *row = csv::StringRecord::from(f);
+    }
+    let column = |c: usize| -> Result<Typed, Box<dyn std::error::Error>> {
+        let fields = rows.iter().map(|r| Some(&r[c]).filter(|f| !f.is_empty()));
+        Ok(match header[c].as_str() {
+            "seed" | "n_starts" | "n_divergent" => {
+                Typed::Int32(fields.map(|f| f.map(str::parse).transpose()).collect::<Result<_, _>>()?)
+            }
+            "attitude_rmse_deg" => Typed::Millis(
+                fields
+                    .map(|f| f.map(|f| f.parse::<f64>().map(|x| (x * 1e3).round() as i64)).transpose())
+                    .collect::<Result<_, _>>()?,
+            ),
+            "horizon_s" | "divergence_rate" => {
+                Typed::Double(fields.map(|f| f.map(str::parse).transpose()).collect::<Result<_, _>>()?)
+            }
+            h if h.ends_with("_m") || h.ends_with("_mps") => {
+                Typed::Float(fields.map(|f| f.map(str::parse).transpose()).collect::<Result<_, _>>()?)
+            }
+            _ => Typed::Text(fields.map(|f| f.map(|f| f.as_bytes().to_vec())).collect()),
+        })
+    };
+    let columns = (0..header.len())
+        .map(|c| Ok((header[c].as_str(), column(c)?)))
+        .collect::<Result<Vec<_>, Box<dyn std::error::Error>>>()?;
+    let kinds = |k: fn(&Typed) -> bool| columns.iter().filter(|(_, c)| k(c)).count();
+    assert_eq!(kinds(|c| matches!(c, Typed::Int32(_))), 3, "{name}");
+    assert_eq!(kinds(|c| matches!(c, Typed::Float(_))), 3, "{name}");
+    assert_eq!(kinds(|c| matches!(c, Typed::Millis(_))), 1, "{name}");
+    let nulls = |c: usize| rows.iter().filter(|r| r[c].is_empty()).count();
+    assert_eq!((nulls(conditional), nulls(velocity)), (1, rows.len()), "{name}");
+    let parquet = typed(&columns);
+    let text = crate::io::parquet::to_csv_text(parquet.clone(), u64::MAX, "a per-cell file")?;
+    let reference = read_cells_from(&name, text.as_slice())?;
+    assert_eq!(reference.len(), rows.len());
+    let file = crate::io::parquet::open_columns(parquet.into(), u64::MAX).ok_or("opened by column")?;
+    for batch in [1, 7, 65_536] {
+        let cells =
+            columns::from_columns_in(&file, batch, u64::MAX).ok_or_else(|| format!("{name}: not read by column"))?;
+        assert_eq!(format!("{cells:?}"), format!("{reference:?}"), "{name}, batch {batch}");
+    }
+    Ok(())
+}

@@ -31,6 +31,8 @@ use parquet::record::Field;
 
 mod columns;
 mod decode;
+#[cfg(test)]
+pub(crate) mod typed;
 pub use columns::{open_columns, ColumnFile, DecodedColumn, GroupColumns};
 use decode::{decode_column, Column, Values};
 

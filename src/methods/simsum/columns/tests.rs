@@ -3,18 +3,11 @@
 //! same replications, bit for bit, wherever it reads the file, and the
 //! text read (with its error) wherever it does not.
 
-use std::sync::Arc;
-
 use bytes::Bytes;
-use parquet::basic::{LogicalType, Repetition, TimeUnit, Type as Physical};
-use parquet::column::writer::ColumnWriter;
-use parquet::data_type::ByteArray;
-use parquet::file::properties::WriterProperties;
-use parquet::file::writer::SerializedFileWriter;
-use parquet::schema::types::Type;
 
 use super::super::rows::from_text;
 use super::*;
+use crate::io::parquet::typed::{typed, Typed};
 
 const LIMIT: u64 = 1 << 30;
 
@@ -135,67 +128,6 @@ fn fields_written_specially_are_read_as_their_text_reads_them() {
     same(&raw, &cols, "replication ids as text");
 }
 
-/// One column of a file written by [`typed`], nulls as `None`.
-enum Typed {
-    Int32(Vec<Option<i32>>),
-    Float(Vec<Option<f32>>),
-    Millis(Vec<Option<i64>>),
-    Bool(Vec<Option<bool>>),
-    Text(Vec<Option<&'static [u8]>>),
-}
-
-/// `columns` as a Parquet file of one row group, every column optional.
-fn typed(columns: &[(&str, Typed)]) -> Vec<u8> {
-    let fields = columns
-        .iter()
-        .map(|(name, c)| {
-            let (physical, logical) = match c {
-                Typed::Int32(_) => (Physical::INT32, None),
-                Typed::Float(_) => (Physical::FLOAT, None),
-                Typed::Millis(_) => (Physical::INT64, Some(LogicalType::timestamp(false, TimeUnit::MILLIS))),
-                Typed::Bool(_) => (Physical::BOOLEAN, None),
-                Typed::Text(_) => (Physical::BYTE_ARRAY, Some(LogicalType::String)),
-            };
-            let field = Type::primitive_type_builder(name, physical).with_logical_type(logical);
-            Arc::new(field.with_repetition(Repetition::OPTIONAL).build().expect("field"))
-        })
-        .collect();
-    let schema = Arc::new(Type::group_type_builder("reps").with_fields(fields).build().expect("schema"));
-    let mut out = Vec::new();
-    let mut writer =
-        SerializedFileWriter::new(&mut out, schema, Arc::new(WriterProperties::builder().build())).expect("writer");
-    let mut group = writer.next_row_group().expect("group");
-    for (_, column) in columns {
-        let mut col = group.next_column().expect("column").expect("a column");
-        fn split<T: Clone>(v: &[Option<T>]) -> (Vec<T>, Vec<i16>) {
-            (v.iter().flatten().cloned().collect(), v.iter().map(|x| i16::from(x.is_some())).collect())
-        }
-        match (col.untyped(), column) {
-            (ColumnWriter::Int32ColumnWriter(w), Typed::Int32(v)) => {
-                w.write_batch(&split(v).0, Some(&split(v).1), None)
-            }
-            (ColumnWriter::FloatColumnWriter(w), Typed::Float(v)) => {
-                w.write_batch(&split(v).0, Some(&split(v).1), None)
-            }
-            (ColumnWriter::Int64ColumnWriter(w), Typed::Millis(v)) => {
-                w.write_batch(&split(v).0, Some(&split(v).1), None)
-            }
-            (ColumnWriter::BoolColumnWriter(w), Typed::Bool(v)) => w.write_batch(&split(v).0, Some(&split(v).1), None),
-            (ColumnWriter::ByteArrayColumnWriter(w), Typed::Text(v)) => {
-                let (values, levels) = split(v);
-                let values: Vec<ByteArray> = values.into_iter().map(ByteArray::from).collect();
-                w.write_batch(&values, Some(&levels), None)
-            }
-            _ => panic!("type and writer disagree"),
-        }
-        .expect("written");
-        col.close().expect("closed");
-    }
-    group.close().expect("group closed");
-    writer.close().expect("file closed");
-    out
-}
-
 /// Columns of the types a CSV export never gives (32-bit integers and
 /// floats, timestamps, booleans), with nulls, read as their text reads
 /// them: a float as the number its shortest text writes, a timestamp in
@@ -207,7 +139,10 @@ fn typed_columns_with_nulls_read_as_their_text_reads_them() {
         c.truth = "truth".into();
     });
     let raw = typed(&[
-        ("method", Typed::Text(vec![Some(b"a"), Some(b"b"), Some(b"a"), Some(b"b")])),
+        (
+            "method",
+            Typed::Text(vec![Some(b"a".to_vec()), Some(b"b".to_vec()), Some(b"a".to_vec()), Some(b"b".to_vec())]),
+        ),
         ("rep", Typed::Int32(vec![Some(1), Some(1), Some(-2_147_483_648), Some(-2_147_483_648)])),
         ("when", Typed::Millis(vec![Some(1_700_000_000_123), None, Some(-1), Some(1_700_000_000_123)])),
         ("flag", Typed::Bool(vec![Some(true), Some(false), None, Some(true)])),
@@ -250,7 +185,8 @@ fn what_the_columns_cannot_give_goes_to_the_text() {
     // Read otherwise by the text: a first name beginning with a
     // byte-order mark (removed from the text), a single column (whose
     // empty fields are blank lines), text that is not UTF-8.
-    let bom = typed(&[("\u{feff}method", Typed::Text(vec![Some(b"a")])), ("est", Typed::Int32(vec![Some(1)]))]);
+    let bom =
+        typed(&[("\u{feff}method", Typed::Text(vec![Some(b"a".to_vec())])), ("est", Typed::Int32(vec![Some(1)]))]);
     assert_eq!(by_columns(&bom, &flags(|c| c.se = "est".into()), LIMIT, BATCH), None, "a byte-order mark");
     let one = crate::io::parquet::csv_to_parquet(b"est\n1\n2\n").expect("written");
     let one_flags = flags(|c| (c.method, c.se) = ("est".into(), "est".into()));
@@ -258,9 +194,9 @@ fn what_the_columns_cannot_give_goes_to_the_text() {
     assert!(by_text(&one, &one_flags).is_ok(), "one column: read by its text");
     for unread in [false, true] {
         let bad = typed(&[
-            ("method", Typed::Text(vec![Some(b"a")])),
+            ("method", Typed::Text(vec![Some(b"a".to_vec())])),
             ("est", Typed::Int32(vec![Some(1)])),
-            (if unread { "note" } else { "se" }, Typed::Text(vec![Some(b"0.5\xff")])),
+            (if unread { "note" } else { "se" }, Typed::Text(vec![Some(b"0.5\xff".to_vec())])),
         ]);
         let cols = flags(|c| c.se = if unread { "est".into() } else { "se".into() });
         assert_eq!(by_columns(&bad, &cols, LIMIT, BATCH), None, "not UTF-8, unread: {unread}");
