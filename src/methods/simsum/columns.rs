@@ -37,7 +37,8 @@ fn from_columns_in(raw: Bytes, cols: &Columns, limit: u64, batch: usize) -> Opti
     // Any error here sends the file to the text's reader, which words it.
     let at = |_: usize, _: usize, _: String| SimsumFileError::Flag(String::new());
     let loc = locate(&header, cols, &at).ok()?;
-    let mut parts: Vec<Part> = names.iter().map(|_| Part::default()).collect();
+    let (texts, numbers) = loc.reads(names.len());
+    let mut parts: Vec<Part> = texts.into_iter().zip(numbers).map(|(t, n)| Part::new(t, n)).collect();
     // At least as many bytes as the text holds: every field quoted with
     // its quotes doubled, and a separator after each.
     let mut text = names.iter().map(|n| 2 * n.len() as u64 + 3).sum::<u64>();
@@ -62,37 +63,67 @@ fn from_columns_in(raw: Bytes, cols: &Columns, limit: u64, batch: usize) -> Opti
     (!out.is_empty()).then(|| (out, unused_columns(&header, cols)))
 }
 
-/// One column of a batch of rows: each row's field (trimmed) and number.
-#[derive(Default)]
+/// The most bytes the CSV text of a number takes (`io::parquet` writes a
+/// double as Rust's `{:?}` does: at most 24, "-2.2250738585072014e-308";
+/// an integer at most 20; a boolean 5), with its separator and room to
+/// spare.
+const NUMBER_TEXT: u64 = 32;
+
+/// One column of a batch of rows: each row's field (trimmed) where the
+/// replications read it as text, its number where they read it as one.
 struct Part {
+    /// Whether the fields are kept as text, as numbers.
+    keep: (bool, bool),
     texts: Vec<String>,
     numbers: Vec<Option<f64>>,
 }
 
 impl Part {
+    /// The empty part of a column read as text (`texts`), as numbers, or
+    /// neither.
+    fn new(texts: bool, numbers: bool) -> Part {
+        Part { keep: (texts, numbers), texts: Vec::new(), numbers: Vec::new() }
+    }
+
     /// The fields and numbers of `column` in place of the part's, and at
     /// least as many bytes as their text holds; `None` where a field is no
-    /// UTF-8 text.
+    /// UTF-8 text (read or not, the text's reader refuses it).
     fn fill(&mut self, column: &DecodedColumn) -> Option<u64> {
-        let (texts, numbers) = (&mut self.texts, &mut self.numbers);
+        let ((texts, numbers), keep) = ((&mut self.texts, &mut self.numbers), self.keep);
         texts.clear();
+        numbers.clear();
+        if column.texts(|_| Some(())).is_none() {
+            // A column of numbers (or booleans): each number as decoded
+            // (a missing value NaN, as the text's empty field or `NaN`
+            // reads), each name as the text writes it.
+            if keep.1 {
+                column.numbers(|x| {
+                    numbers.push(Some(x.unwrap_or(f64::NAN)));
+                    Some(())
+                })?;
+            }
+            if keep.0 {
+                column.fields(|t| {
+                    texts.push(t.trim().to_string());
+                    Some(())
+                })?;
+            }
+            return Some(column.rows() as u64 * NUMBER_TEXT);
+        }
+        // A column of text: each field as the text's reader reads it, and
+        // parsed as that reader parses it.
         let mut bytes = 0u64;
         column.fields(|t| {
             bytes += 2 * t.len() as u64 + 3;
-            texts.push(t.trim().to_string());
+            let t = t.trim();
+            if keep.1 {
+                numbers.push(number(t));
+            }
+            if keep.0 {
+                texts.push(t.to_string());
+            }
             Some(())
         })?;
-        numbers.clear();
-        // A missing value is NaN, as the text's empty field or `NaN` reads.
-        let decoded = column.numbers(|x| {
-            numbers.push(Some(x.unwrap_or(f64::NAN)));
-            Some(())
-        });
-        if decoded.is_none() {
-            // A column of text (or booleans), parsed as its fields are.
-            numbers.clear();
-            numbers.extend(texts.iter().map(|t| number(t)));
-        }
         Some(bytes)
     }
 }

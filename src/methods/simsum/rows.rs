@@ -126,6 +126,21 @@ pub(super) struct Located {
     level_column: usize,
 }
 
+impl Located {
+    /// Which of a row's `width` fields [`replication`] reads as text (the
+    /// method, the replication id, the by-factors) and which as numbers.
+    pub(super) fn reads(&self, width: usize) -> (Vec<bool>, Vec<bool>) {
+        let (mut texts, mut numbers) = (vec![false; width], vec![false; width]);
+        let named = [self.method].into_iter().chain(self.rep).chain(self.by.iter().copied());
+        named.for_each(|k| texts[k] = true);
+        let limits = self.ci.into_iter().flat_map(|(l, u)| [l, u]);
+        let given = [self.truth, self.level].into_iter().filter_map(Result::err);
+        let read = [self.estimate, self.se].into_iter().chain(limits).chain(self.df).chain(given);
+        read.for_each(|k| numbers[k] = true);
+        (texts, numbers)
+    }
+}
+
 pub(super) type At<'a> = &'a dyn Fn(usize, usize, String) -> SimsumFileError;
 
 pub(super) fn locate(header: &[String], cols: &Columns, at: At) -> Result<Located, SimsumFileError> {
