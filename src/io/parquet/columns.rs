@@ -101,6 +101,17 @@ impl<'a> DecodedColumn<'a> {
         self.rows
     }
 
+    /// Whether it holds one value for each of its rows that is not null,
+    /// as every column its text can be written from does (a damaged one
+    /// may hold fewer).
+    pub fn whole(&self) -> bool {
+        let present = match &self.column.levels {
+            Some(levels) => levels.iter().take(self.rows).filter(|&&d| d == 1).count(),
+            None => self.rows,
+        };
+        self.column.values.len() == present
+    }
+
     /// Gives `f` each row's integer (`None` for a null), for a column of
     /// signed integers that is no timestamp; `None` for any other column,
     /// or where `f` stops.

@@ -59,6 +59,18 @@ pub(super) fn decode_column(reader: ColumnReader, desc: &ColumnDescriptor, rows:
 }
 
 impl Values {
+    /// How many values it holds.
+    pub(super) fn len(&self) -> usize {
+        match self {
+            Values::Bool(v) => v.len(),
+            Values::Int32(v) => v.len(),
+            Values::Int64(v, _) => v.len(),
+            Values::Float(v) => v.len(),
+            Values::Double(v) => v.len(),
+            Values::Text(v) => v.len(),
+        }
+    }
+
     /// Value `k` as a reader of the text reads it: a double as it is, a
     /// float and a timestamp as the number its text writes, an integer as
     /// the nearest double; `None` for text and booleans (whose text alone

@@ -87,18 +87,22 @@ impl Part {
 
     /// The fields and numbers of `column` in place of the part's, and at
     /// least as many bytes as their text holds; `None` where a field is no
-    /// UTF-8 text (read or not, the text's reader refuses it).
+    /// UTF-8 text (read or not, the text's reader refuses it), or where the
+    /// column is damaged.
     fn fill(&mut self, column: &DecodedColumn) -> Option<u64> {
         let ((texts, numbers), keep) = ((&mut self.texts, &mut self.numbers), self.keep);
         texts.clear();
         numbers.clear();
+        if !column.whole() {
+            return None;
+        }
         if column.texts(|_| Some(())).is_none() {
             // A column of numbers (or booleans): each number as decoded
-            // (a missing value NaN, as the text's empty field or `NaN`
-            // reads), each name as the text writes it.
+            // (a missing value or any NaN the NaN its text's `NaN` or
+            // empty field reads as), each name as the text writes it.
             if keep.1 {
                 column.numbers(|x| {
-                    numbers.push(Some(x.unwrap_or(f64::NAN)));
+                    numbers.push(Some(x.filter(|x| !x.is_nan()).unwrap_or(f64::NAN)));
                     Some(())
                 })?;
             }

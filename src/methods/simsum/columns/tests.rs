@@ -77,7 +77,8 @@ fn same(raw: &[u8], cols: &Columns, what: &str) {
 
 /// The committed replications (rsimsum's reference study, 17,600 rows:
 /// names with spaces and dots, `NA`s, limits and df) as Parquet in one row
-/// group and in several, under the flags its tests use and others.
+/// group and in several (read 7 rows or 65,536 at a time), under the
+/// flags its tests use and others.
 #[test]
 fn the_committed_replications_read_by_column_as_by_their_text() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -94,18 +95,22 @@ fn the_committed_replications_read_by_column_as_by_their_text() {
         for (cols, what) in [(&own, "every column read"), (&plain, "estimate and SE only")] {
             let (reps, notes) = by_text(&raw, cols).expect("read");
             assert_eq!(reps.len(), 17_600);
-            assert_eq!(by_columns(&raw, cols, LIMIT, BATCH), Some((reps, notes.clone())), "{what}, {rows}");
-            read += 1;
+            for batch in [7, BATCH] {
+                let columns = by_columns(&raw, cols, LIMIT, batch);
+                assert_eq!(columns, Some((reps.clone(), notes.clone())), "{what}, groups of {rows}, batch {batch}");
+                read += 1;
+            }
             // The notes name the columns the plain flags leave unread.
             assert_eq!(notes.is_empty(), cols.rep.is_some(), "{what}");
         }
     }
-    assert_eq!(read, 6);
+    assert_eq!(read, 12);
 }
 
-/// Fields the text writes specially: missing values of every spelling, a
-/// name with a comma, quotes, spaces around it or a line break, numbers as
-/// text, infinite df, an integer replication id, a negative zero.
+/// Fields the text writes specially: missing values of every spelling,
+/// values with a comma, quotes, spaces around them or a line break,
+/// numbers in a column of text, infinite df, an integer replication id, a
+/// negative zero, a column read both as a by-factor and as the true value.
 #[test]
 fn fields_written_specially_are_read_as_their_text_reads_them() {
     let csv = "method,rep,by,est,se,df,lo,hi,truth,level\n\
@@ -114,18 +119,50 @@ fn fields_written_specially_are_read_as_their_text_reads_them() {
         c,2, y ,-0.0,1e-7,3,-1,1,-0.0,0.95\n\
         \"a, b\",2,x,nan,0.2,12,0.1,0.2,0.4,0.8\n";
     let cols = flags(|c| {
-        (c.rep, c.by, c.df) = (Some("rep".into()), vec!["by".into()], Some("df".into()));
+        (c.rep, c.by, c.df) = (Some("rep".into()), vec!["by".into(), "truth".into()], Some("df".into()));
         (c.ci, c.truth, c.level) = (Some(("lo".into(), "hi".into())), "truth".into(), "level".into());
     });
     let raw = crate::io::parquet::csv_to_parquet(csv.as_bytes()).expect("written");
     same(&raw, &cols, "special fields");
     let (reps, _) = by_columns(&raw, &cols, LIMIT, BATCH).expect("read");
-    assert!(reps[1].contains("[\"two lines\"]"), "a line break read as a space: {}", reps[1]);
-    // Every column as text (no column of numbers): each parsed as its field.
+    assert!(reps[1].contains("[\"two lines\", \"0.4\"]"), "a line break read as a space: {}", reps[1]);
+    // The replication ids as text too (`est` is already a column of
+    // text, for its `NA`).
     let texts = csv.replace("\",1,", "\",r1,").replace("\",2,", "\",r2,").replace("c,2,", "c,r2,");
     assert_eq!(texts.matches(",r1,").count() + texts.matches(",r2,").count(), 4);
     let raw = crate::io::parquet::csv_to_parquet(texts.as_bytes()).expect("written");
     same(&raw, &cols, "replication ids as text");
+}
+
+/// Column names the text writes specially, as its reader reads them
+/// back: with a comma or a quote (quoted), spaces around them (trimmed),
+/// a line break (a space), and a name given twice (the first read).
+#[test]
+fn names_written_specially_are_read_as_their_text_reads_them() {
+    let csv = "\"me\"\"thod\",\"e,st\", se ,\"by\nx\",se\na,0.5,0.1,p,9\nb,0.4,0.2,q,9\n";
+    let cols = flags(|c| {
+        (c.method, c.estimate, c.by) = ("me\"thod".into(), "e,st".into(), vec!["by x".into()]);
+    });
+    let raw = crate::io::parquet::csv_to_parquet(csv.as_bytes()).expect("written");
+    same(&raw, &cols, "special names");
+    let (reps, _) = by_columns(&raw, &cols, LIMIT, BATCH).expect("read");
+    // The first `se` (0.1), trimmed, not the second (9).
+    assert!(reps[0].contains(&format!(" {} ", 0.1f64.to_bits())), "{}", reps[0]);
+}
+
+/// A NaN of any sign or payload in a column of doubles is the NaN its
+/// text `NaN` reads as, bit for bit (numpy's 0/0 has its sign bit set).
+#[test]
+fn every_nan_is_the_nan_its_text_reads_as() {
+    let nans = [f64::from_bits(0xfff8_0000_0000_0000), f64::from_bits(0x7ff8_0000_0000_0001), f64::NAN];
+    let raw = typed(&[
+        ("method", Typed::Text(vec![Some(b"a".to_vec()); 3])),
+        ("est", Typed::Double(nans.iter().copied().map(Some).collect())),
+        ("se", Typed::Double(vec![Some(0.1); 3])),
+    ]);
+    same(&raw, &flags(|_| {}), "NaNs");
+    let (reps, _) = by_columns(&raw, &flags(|_| {}), LIMIT, BATCH).expect("read");
+    assert!(reps.iter().all(|r| r.contains(&format!(" {} ", f64::NAN.to_bits()))), "{reps:?}");
 }
 
 /// Columns of the types a CSV export never gives (32-bit integers and
@@ -160,8 +197,8 @@ fn typed_columns_with_nulls_read_as_their_text_reads_them() {
 }
 
 /// Rows and files the column reader gives to the text (which refuses
-/// each, or reads it otherwise), and the text's reader's word on each is
-/// what the file gives.
+/// each, or reads it otherwise); a refused file gives, from its Parquet,
+/// the error its CSV gives, line and column included.
 #[test]
 fn what_the_columns_cannot_give_goes_to_the_text() {
     let good = "method,est,se\na,0.5,0.1\nb,0.4,0.2\n";
@@ -181,13 +218,22 @@ fn what_the_columns_cannot_give_goes_to_the_text() {
         let raw = crate::io::parquet::csv_to_parquet(csv.as_bytes()).expect("written");
         assert_eq!(by_columns(&raw, &cols, LIMIT, BATCH), None, "{what}");
         assert!(by_text(&raw, &cols).is_err(), "{what}: the text refuses it too");
+        let dir = tempfile::tempdir().expect("scratch folder");
+        let (parquet, twin) = (dir.path().join("f.parquet"), dir.path().join("f.csv"));
+        std::fs::write(&parquet, &raw).expect("written");
+        std::fs::write(&twin, csv).expect("written");
+        let error = |p: &std::path::Path| super::super::read(p, &cols).err().map(|e| e.to_string());
+        let (a, b) = (error(&parquet).expect("refused"), error(&twin).expect("refused"));
+        assert_eq!(a.replace("f.parquet", "f.csv"), b, "{what}");
     }
     // Read otherwise by the text: a first name beginning with a
     // byte-order mark (removed from the text), a single column (whose
     // empty fields are blank lines), text that is not UTF-8.
     let bom =
         typed(&[("\u{feff}method", Typed::Text(vec![Some(b"a".to_vec())])), ("est", Typed::Int32(vec![Some(1)]))]);
-    assert_eq!(by_columns(&bom, &flags(|c| c.se = "est".into()), LIMIT, BATCH), None, "a byte-order mark");
+    let bom_flags = flags(|c| (c.method, c.se) = ("\u{feff}method".into(), "est".into()));
+    assert_eq!(by_columns(&bom, &bom_flags, LIMIT, BATCH), None, "a byte-order mark");
+    assert!(by_text(&bom, &bom_flags).is_err(), "the text has no name with a byte-order mark");
     let one = crate::io::parquet::csv_to_parquet(b"est\n1\n2\n").expect("written");
     let one_flags = flags(|c| (c.method, c.se) = ("est".into(), "est".into()));
     assert_eq!(by_columns(&one, &one_flags, LIMIT, BATCH), None, "one column");
