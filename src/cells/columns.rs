@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::row::trim;
 use super::{blank, header_for, Cell, Emptiness};
-use crate::io::parquet::{ColumnFile, DecodedColumn};
+use crate::io::parquet::{ColumnFile, DecodedColumn, NUMBER_TEXT};
 use crate::label::{Interner, Label};
 
 /// Rows decoded at a time: every column's values for them are held, then
@@ -25,11 +25,6 @@ const BATCH: usize = 65_536;
 pub(super) fn from_columns(file: &ColumnFile, limit: u64) -> Option<Vec<Cell>> {
     from_columns_in(file, BATCH, limit)
 }
-
-/// The most bytes the CSV text of a number takes (`io::parquet` writes a
-/// double as Rust's `{:?}` does: at most 24, "-2.2250738585072014e-308";
-/// an integer at most 20), with room to spare.
-const NUMBER_TEXT: u64 = 32;
 
 /// [`from_columns`], `batch` rows at a time: each batch's columns decoded
 /// and read on every core, then its cells made on every core, each in its

@@ -436,7 +436,8 @@ fn parquet_cells_of_32_bit_columns_floats_and_timestamps_are_their_texts_cells(
 /// cells, the text gives the same ones; no copy makes either reader panic.
 #[test]
 fn damaged_parquet_cells_give_from_their_columns_what_their_text_gives() -> Result<(), Box<dyn std::error::Error>> {
-    use rand::{Rng, SeedableRng};
+    use crate::io::parquet::typed::damaged;
+    use rand::SeedableRng;
     let (name, bytes) = committed().swap_remove(1);
     let text: String = String::from_utf8(bytes)?.lines().take(121).map(|l| format!("{l}\n")).collect();
     let raw = crate::io::parquet::csv_to_parquet_in(text.as_bytes(), 50)?;
@@ -448,16 +449,7 @@ fn damaged_parquet_cells_give_from_their_columns_what_their_text_gives() -> Resu
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(76);
     let (mut by_column, mut changed) = (0, 0);
     for _ in 0..2_000 {
-        let mut bad = raw.clone();
-        let footer = rng.gen_bool(0.3);
-        for _ in 0..rng.gen_range(1..=4) {
-            let at = if footer {
-                rng.gen_range(raw.len().saturating_sub(400)..raw.len())
-            } else {
-                rng.gen_range(0..raw.len())
-            };
-            bad[at] = rng.gen();
-        }
+        let bad = damaged(&raw, &mut rng);
         let text = crate::io::parquet::to_csv_text(bad.clone(), u64::MAX, "a per-cell file")
             .map_err(|e| e.to_string())
             .and_then(|t| read_cells_from(&name, t.as_slice()).map_err(|e| e.to_string()));

@@ -34,6 +34,13 @@ mod decode;
 #[cfg(test)]
 pub(crate) mod typed;
 pub use columns::{open_columns, ColumnFile, DecodedColumn, GroupColumns};
+
+/// The most bytes the CSV text of a number takes with its separator, with
+/// room to spare: a double as Rust's `{:?}` writes it at most 24
+/// ("-2.2250738585072014e-308"), an integer at most 20, a boolean 5. A
+/// reader that takes a table's values without writing its text bounds
+/// that text's size with it, to keep to the text reader's limit.
+pub const NUMBER_TEXT: u64 = 32;
 use decode::{decode_column, Column, Values};
 
 /// Whether `path` names a Parquet file (`.parquet`).
@@ -510,13 +517,14 @@ fn quoted(s: &str) -> std::borrow::Cow<'_, str> {
     if !s.contains(['\n', '\r', ',', '"']) {
         return std::borrow::Cow::Borrowed(s);
     }
-    let s = one_line(s).into_owned();
+    let s = breaks_as_spaces(s).into_owned();
     std::borrow::Cow::Owned(if s.contains([',', '"']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s })
 }
 
 /// `s` as the reader of the CSV text reads its field back (or a column's
-/// name): its line breaks as spaces, since a row is one line.
-pub fn one_line(s: &str) -> std::borrow::Cow<'_, str> {
+/// name): its line breaks as spaces, since a row is one line (unlike
+/// `io::one_line`, which escapes them for a message).
+pub fn breaks_as_spaces(s: &str) -> std::borrow::Cow<'_, str> {
     if s.contains(['\n', '\r']) {
         std::borrow::Cow::Owned(s.replace(['\n', '\r'], " "))
     } else {

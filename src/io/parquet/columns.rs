@@ -112,6 +112,11 @@ impl<'a> DecodedColumn<'a> {
         self.column.values.len() == present
     }
 
+    /// Whether it is a column of text.
+    pub fn is_text(&self) -> bool {
+        matches!(self.column.values, Values::Text(_))
+    }
+
     /// Gives `f` each row's integer (`None` for a null), for a column of
     /// signed integers that is no timestamp; `None` for any other column,
     /// or where `f` stops.
@@ -138,13 +143,13 @@ impl<'a> DecodedColumn<'a> {
     /// Gives `f` each row's field as the reader of the text reads it back,
     /// unquoted (empty for a null): a number, timestamp or boolean as the
     /// text writes it, a text with its line breaks as spaces
-    /// ([`super::one_line`]); `None` where a text is not UTF-8, or where
+    /// ([`super::breaks_as_spaces`]); `None` where a text is not UTF-8, or where
     /// `f` stops.
     pub fn fields(&self, mut f: impl FnMut(&str) -> Option<()>) -> Option<()> {
         if let Values::Text(v) = &self.column.values {
             return self.each(
                 |k| v.get(k).map(|b| b.data()),
-                |t| f(&super::one_line(std::str::from_utf8(t.unwrap_or_default()).ok()?)),
+                |t| f(&super::breaks_as_spaces(std::str::from_utf8(t.unwrap_or_default()).ok()?)),
             );
         }
         let (mut text, mut next) = (Vec::with_capacity(48), 0);

@@ -1,6 +1,6 @@
-//! Parquet files of typed columns, with nulls, for tests: the types a
-//! CSV export never gives (32-bit integers and floats, timestamps,
-//! booleans), written by the parquet crate's own writer.
+//! Parquet files for tests: of typed columns, with nulls (the types a CSV
+//! export never gives: 32-bit integers and floats, timestamps, booleans),
+//! written by the parquet crate's own writer; and damaged copies of a file.
 
 use std::sync::Arc;
 
@@ -75,4 +75,18 @@ pub(crate) fn typed(columns: &[(&str, Typed)]) -> Vec<u8> {
     group.close().expect("group closed");
     writer.close().expect("file closed");
     out
+}
+
+/// A copy of the Parquet file `raw` with one to four bytes set at random
+/// by `rng`: anywhere in the file, or (three times in ten) in its last 400
+/// bytes, where its footer is.
+pub(crate) fn damaged(raw: &[u8], rng: &mut impl rand::Rng) -> Vec<u8> {
+    let mut bad = raw.to_vec();
+    let footer = rng.gen_bool(0.3);
+    for _ in 0..rng.gen_range(1..=4) {
+        let at =
+            if footer { rng.gen_range(raw.len().saturating_sub(400)..raw.len()) } else { rng.gen_range(0..raw.len()) };
+        bad[at] = rng.gen();
+    }
+    bad
 }

@@ -14,7 +14,7 @@ use bytes::Bytes;
 use crossaudit_stats::simsum::Replication;
 
 use super::rows::{locate, number, replication, unused_columns, Columns, Fields, SimsumFileError};
-use crate::io::parquet::{one_line, open_columns, DecodedColumn};
+use crate::io::parquet::{breaks_as_spaces, open_columns, DecodedColumn, NUMBER_TEXT};
 
 /// Rows decoded at a time: every column's values for them are held, then
 /// their replications made.
@@ -33,7 +33,7 @@ fn from_columns_in(raw: Bytes, cols: &Columns, limit: u64, batch: usize) -> Opti
     if names.len() < 2 || names[0].starts_with('\u{feff}') {
         return None;
     }
-    let header: Vec<String> = names.iter().map(|n| one_line(n).trim().to_string()).collect();
+    let header: Vec<String> = names.iter().map(|n| breaks_as_spaces(n).trim().to_string()).collect();
     // Any error here sends the file to the text's reader, which words it.
     let at = |_: usize, _: usize, _: String| SimsumFileError::Flag(String::new());
     let loc = locate(&header, cols, &at).ok()?;
@@ -63,12 +63,6 @@ fn from_columns_in(raw: Bytes, cols: &Columns, limit: u64, batch: usize) -> Opti
     (!out.is_empty()).then(|| (out, unused_columns(&header, cols)))
 }
 
-/// The most bytes the CSV text of a number takes (`io::parquet` writes a
-/// double as Rust's `{:?}` does: at most 24, "-2.2250738585072014e-308";
-/// an integer at most 20; a boolean 5), with its separator and room to
-/// spare.
-const NUMBER_TEXT: u64 = 32;
-
 /// One column of a batch of rows: each row's field (trimmed) where the
 /// replications read it as text, its number where they read it as one.
 struct Part {
@@ -96,7 +90,7 @@ impl Part {
         if !column.whole() {
             return None;
         }
-        if column.texts(|_| Some(())).is_none() {
+        if !column.is_text() {
             // A column of numbers (or booleans): each number as decoded
             // (a missing value or any NaN the NaN its text's `NaN` or
             // empty field reads as), each name as the text writes it.

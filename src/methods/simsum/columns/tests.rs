@@ -261,7 +261,8 @@ fn what_the_columns_cannot_give_goes_to_the_text() {
 /// refuses it. No copy makes either reader panic.
 #[test]
 fn damaged_files_give_from_their_columns_what_their_text_gives() {
-    use rand::{Rng, SeedableRng};
+    use crate::io::parquet::typed::damaged;
+    use rand::SeedableRng;
     let mut csv = String::from("method,rep,by,est,se\n");
     for k in 0..60u32 {
         let est = if k % 7 == 3 { "NA".to_string() } else { format!("{}", 0.01 * f64::from(k) - 0.2) };
@@ -274,16 +275,7 @@ fn damaged_files_give_from_their_columns_what_their_text_gives() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(76);
     let (mut by_column, mut changed) = (0, 0);
     for _ in 0..3_000 {
-        let mut bad = raw.clone();
-        let footer = rng.gen_bool(0.3);
-        for _ in 0..rng.gen_range(1..=4) {
-            let at = if footer {
-                rng.gen_range(raw.len().saturating_sub(400)..raw.len())
-            } else {
-                rng.gen_range(0..raw.len())
-            };
-            bad[at] = rng.gen();
-        }
+        let bad = damaged(&raw, &mut rng);
         let text = by_text(&bad, &cols);
         if let Some(columns) = by_columns(&bad, &cols, LIMIT, 7) {
             by_column += 1;
