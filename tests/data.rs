@@ -102,6 +102,58 @@ fn duplicates_first_keeps_only_the_first_of_a_group() {
     assert_eq!(rep2.reason, "duplicates first: identical content to F1_circle_slow_rep1");
 }
 
+/// DESIGN.md: byte- or value-identical recordings are one deployment
+/// unit. A log, the same log as Parquet (each number decoded, its text the
+/// shortest: `0.015879`, not `0.015879000`) and the same log written again
+/// with three more zeros after every number (`40100.000`) hold the same
+/// values: one content hash, one duplicate group. While the content hash
+/// was of the text, only the byte-identical copy was found.
+#[test]
+fn value_identical_logs_in_other_formats_are_one_duplicate_group() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(fixtures().join("F1_circle_slow_rep1.csv")).unwrap();
+    let (header, body) = text.split_once('\n').unwrap();
+    let zeros: Vec<String> = body
+        .lines()
+        .map(|l| {
+            let fields = l.split(',').map(|f| if f.contains('.') { format!("{f}000") } else { format!("{f}.000") });
+            fields.collect::<Vec<_>>().join(",")
+        })
+        .collect();
+    let padded = format!("{header}\n{}\n", zeros.join("\n"));
+    assert_ne!(padded, text);
+    let parquet = crossaudit::io::parquet::csv_to_parquet(text.as_bytes()).unwrap();
+    for (name, bytes) in [
+        ("F1_circle_slow_rep1.csv", text.as_bytes()),
+        ("F6_circle_slow_rep1.parquet", &parquet[..]),
+        ("F7_circle_slow_rep1.csv", padded.as_bytes()),
+    ] {
+        std::fs::write(tmp.path().join(name), bytes).unwrap();
+        let stem = name.split('.').next().unwrap();
+        std::fs::copy(
+            fixtures().join("F1_circle_slow_rep1_metadata.yaml"),
+            tmp.path().join(format!("{stem}_metadata.yaml")),
+        )
+        .unwrap();
+    }
+    let a = audit(&fixture_spec(), tmp.path()).unwrap();
+    let hashes: Vec<&str> = a.files.iter().map(|f| f.content_hash.as_str()).collect();
+    assert_eq!(hashes.len(), 3);
+    assert!(!hashes[0].is_empty() && hashes.iter().all(|h| *h == hashes[0]), "{hashes:?}");
+    let groups: Vec<&Vec<String>> = a.duplicate_groups.values().collect();
+    assert_eq!(groups.len(), 1, "{:?}", a.duplicate_groups);
+    assert_eq!(groups[0], &["F1_circle_slow_rep1", "F6_circle_slow_rep1", "F7_circle_slow_rep1"]);
+    // One position changed in the padded copy: another log.
+    let mut rows: Vec<Vec<String>> = zeros.iter().map(|l| l.split(',').map(String::from).collect()).collect();
+    rows[3][1] = "0.5".into();
+    let rows: Vec<String> = rows.iter().map(|r| r.join(",")).collect();
+    let changed = format!("{header}\n{}\n", rows.join("\n"));
+    std::fs::write(tmp.path().join("F7_circle_slow_rep1.csv"), &changed).unwrap();
+    let a = audit(&fixture_spec(), tmp.path()).unwrap();
+    let groups: Vec<&Vec<String>> = a.duplicate_groups.values().collect();
+    assert_eq!(groups, [&["F1_circle_slow_rep1", "F6_circle_slow_rep1"]]);
+}
+
 fn error_of(name: &str) -> LogError {
     let layout = Layout::new(&fixture_spec()).unwrap();
     load_recording(&corrupt().join(name), &layout).expect_err("corrupt fixture must fail")

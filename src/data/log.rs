@@ -13,6 +13,7 @@ use std::path::Path;
 pub use super::log_error::LogError;
 
 mod columns;
+mod hashes;
 pub use columns::{from_columns, read_log};
 
 /// The NanoBench CSV schema, in file order (shared/nanobench/README.md).
@@ -78,15 +79,18 @@ pub struct Log {
     pub rows: usize,
     /// Requested columns, in the order requested.
     pub columns: Vec<Vec<f64>>,
-    /// XXH3-128 of the data rows as written (everything after the header):
-    /// the numeric content, independent of file name and compression. A
-    /// non-cryptographic hash is enough to find identical logs, and it is
-    /// ten times faster than SHA-256 on the ~200 MB of shared logs.
+    /// XXH3-128 of the values read (the declared columns, in the
+    /// schema's order, row by row, each value's 8 bytes; every NaN the
+    /// standard one): equal for logs the design reads the same numbers
+    /// from, whatever wrote their text (CSV or Parquet, `0.10` or `0.1`)
+    /// and whatever their other columns hold. A non-cryptographic hash is
+    /// enough to find identical logs, and it is ten times faster than
+    /// SHA-256.
     pub content_hash: String,
-    /// XXH3-64 of each data row as written (without its line ending): equal
-    /// rows in two logs are the same bytes. The split audit finds shared
-    /// runs of rows with them. Empty unless asked for
-    /// ([`parse_with_row_hashes`]).
+    /// XXH3-64 of each row's values as read (its declared columns' 8
+    /// bytes each): equal rows in two logs hold the same numbers. The
+    /// split audit finds shared runs of rows with them. Empty unless asked
+    /// for ([`parse_with_row_hashes`]).
     pub row_hashes: Vec<u64>,
     /// For each blank line skipped, the data row it came before: a row's
     /// line is its index + 2 + the blank lines before it ([`Log::line_of`]).
@@ -225,7 +229,6 @@ pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: ParseOptio
         i: 0,
     };
     let mut rows = 0;
-    let mut row_hashes = Vec::with_capacity(if hash_rows { estimate } else { 0 });
     let mut blank_before = Vec::new();
     while t.i < body.len() {
         t.line += 1;
@@ -245,19 +248,12 @@ pub fn parse_with(file: &str, bytes: &[u8], schema: &Schema, options: ParseOptio
         if fields != n {
             return Err(LogError::Ragged { file: file.to_string(), line: t.line, found: fields, expected: n });
         }
-        if hash_rows {
-            let mut end = t.i;
-            while end > start && matches!(body[end - 1], b'\n' | b'\r') {
-                end -= 1;
-            }
-            row_hashes.push(xxhash_rust::xxh3::xxh3_64(&body[start..end]));
-        }
         rows += 1;
     }
     if rows == 0 {
         return Err(LogError::NoRows { file: file.to_string() });
     }
-    let content_hash = format!("{:032x}", xxhash_rust::xxh3::xxh3_128(body));
+    let (content_hash, row_hashes) = hashes::hashes(&t.columns, rows, hash_rows);
     Ok(Log { rows, columns: t.columns, content_hash, row_hashes, blank_before })
 }
 

@@ -76,8 +76,8 @@ fn undecodable<T>(read: impl FnOnce() -> Result<T, String>) -> Result<T, String>
 }
 
 /// A Parquet file's columns as decoded, row group by row group, and the
-/// header line of its CSV text ([`to_csv_text`]). The text's rows are
-/// written a line at a time ([`DecodedColumns::lines`]), never whole.
+/// header line of its CSV text ([`to_csv_text`]), for a reader that takes
+/// its values without writing that text.
 pub struct DecodedColumns {
     /// The text's first line, without its `\n`.
     header: Vec<u8>,
@@ -88,8 +88,8 @@ pub struct DecodedColumns {
 }
 
 /// The columns of the Parquet file `raw`, where [`columns_to_csv_text`]
-/// decodes it column by column (`None` where it does not); its text is
-/// held to `limit` bytes as it is written ([`DecodedColumns::lines`]).
+/// decodes it column by column (`None` where it does not); `limit`: the
+/// most bytes its text may hold ([`DecodedColumns::fits`]).
 pub fn decode_columns(raw: Bytes, limit: u64) -> Option<DecodedColumns> {
     super::caught::caught(|| decoded(raw, limit)).ok().flatten()
 }
@@ -119,21 +119,42 @@ impl DecodedColumns {
         self.groups.first().map_or(0, |g| g.columns.len())
     }
 
-    /// Calls `each` with every row's line of the text, its `\n` included,
-    /// in order, each written into one reused buffer; `None` where the
-    /// text would pass its limit (or a value could not be written), which
-    /// [`columns_to_csv_text`] refuses too.
-    pub fn lines(&self, mut each: impl FnMut(&[u8])) -> Option<()> {
-        let mut written = self.header.len() as u64 + 1;
-        let mut line = Vec::with_capacity(256);
+    /// Whether the file's text ([`to_csv_text`]) certainly keeps to its
+    /// limit and each of its lines to `line` bytes, every column whole (a
+    /// value for each row that is not null: a damaged one may hold fewer)
+    /// and every text UTF-8, as the text's writer needs them: what a
+    /// reader that takes the columns without writing the text checks
+    /// instead. Bounded, not measured: a number's text at most
+    /// [`NUMBER_TEXT`] bytes, a text's twice its bytes and its quotes; a
+    /// file whose bound passes is read through its text, which decides.
+    pub fn fits(&self, line: usize) -> bool {
+        let mut total = self.header.len() as u64 + 1;
         for group in &self.groups {
-            group.lines(&mut line, |l| {
-                written += l.len() as u64;
-                each(l);
-                (written <= self.limit).then_some(())
-            })?;
+            // Each row's commas and `\n`, then each value's bound.
+            let mut bounds = vec![group.columns.len() as u64; group.rows];
+            for column in &group.columns {
+                let present = |row: usize| column.levels.as_ref().is_none_or(|l| l.get(row) == Some(&1));
+                if column.values.len() != (0..group.rows).filter(|&r| present(r)).count() {
+                    return false;
+                }
+                let mut next = 0;
+                for (_, bound) in bounds.iter_mut().enumerate().filter(|&(r, _)| present(r)) {
+                    *bound += match &column.values {
+                        Values::Text(v) => match std::str::from_utf8(v[next].data()) {
+                            Ok(t) => 2 * t.len() as u64 + 2,
+                            Err(_) => return false,
+                        },
+                        _ => NUMBER_TEXT,
+                    };
+                    next += 1;
+                }
+            }
+            if bounds.iter().any(|&b| b > line as u64) {
+                return false;
+            }
+            total = total.saturating_add(bounds.iter().sum());
         }
-        Some(())
+        total <= self.limit
     }
 
     /// Whether every row of column `c` holds a finite number: no null, no

@@ -172,6 +172,18 @@ pub enum RunError {
         /// The failures, one per line.
         list: String,
     },
+    /// A run whose audit and manifests hash the logs' text, written before
+    /// the content hashes were defined on the values read: this build
+    /// cannot check them against the data.
+    #[error(
+        "{dir} was written by crossaudit {build}, whose content hashes of the logs (in its audit and manifests) are of their text; this build hashes the values read, so it cannot check that run against the data: finish it with the build that started it, or run into a new output directory (its cells.csv and report still read with `crossaudit analyze`)"
+    )]
+    OtherContentHashes {
+        /// The output directory.
+        dir: String,
+        /// The build that wrote it.
+        build: String,
+    },
     /// The manifests differ from those of the run being resumed.
     #[error("the manifests differ from those of the run in {dir} (the data changed?); use a new output directory")]
     ManifestsChanged {

@@ -51,7 +51,7 @@ pub use open::{check_lock, check_workers, RunOptions, RunOutcome, MAX_WORKERS};
 pub(crate) use open::{open, pending, Opened};
 pub use read::{read_folder, read_levels, LevelFolder};
 pub use reader::read_record;
-pub use record::{job_record_path, JobRecord, RunRecord, StudyRecord};
+pub use record::{job_record_path, ContentHashes, JobRecord, RunRecord, StudyRecord};
 pub use source::{data_dir, design_data_path, Data, DataOrigin};
 pub use trained_invariants::check as check_trained_invariants;
 

@@ -28,6 +28,13 @@ pub struct RunRecord {
     pub audit_sha256: String,
     /// SHA-256 of manifests.json.
     pub manifests_sha256: String,
+    /// How the logs' content hashes in the audit and the manifests are
+    /// defined: on the values read ([`ContentHashes::Values`], every run
+    /// this build writes); absent in runs written before, whose hashes are
+    /// of the logs' text ([`ContentHashes::Text`]), which a resume refuses
+    /// by name rather than as other data.
+    #[serde(default)]
+    pub content_hashes: ContentHashes,
     /// SHA-256 of each file of evidence the split wrote beside the
     /// inclusion audit (`audit/invariants.json`, `audit/treatment.json`,
     /// by path in the folder): a reanalysis leaves out, and names, one
@@ -69,6 +76,19 @@ pub struct RunRecord {
     pub device: Option<String>,
 }
 
+/// How a run's recorded content hashes of its logs are defined
+/// ([`crate::data::log::Log::content_hash`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContentHashes {
+    /// Of each log's text as written (runs written before the definition
+    /// was recorded): `0.10` and `0.1` hashed apart.
+    #[default]
+    Text,
+    /// Of the values read: what this build computes.
+    Values,
+}
+
 /// Output entries that only a run writes: their presence without a
 /// readable run.json means the record was lost or the folder is not a run.
 const RUN_OUTPUTS: [&str; 5] = ["jobs", "cells", "models", "curves", "cells.csv"];
@@ -88,6 +108,7 @@ impl RunRecord {
             data: data.origin.clone(),
             audit_sha256: crate::io::sha256_hex(prepared.audit.to_csv().as_bytes()),
             manifests_sha256: crate::io::sha256_hex(prepared.manifests.to_json().as_bytes()),
+            content_hashes: ContentHashes::Values,
             evidence_sha256: BTreeMap::from([
                 ("audit/invariants.json".to_string(), crate::io::sha256_hex(prepared.invariants.to_json().as_bytes())),
                 ("audit/treatment.json".to_string(), crate::io::sha256_hex(prepared.treatment.to_json().as_bytes())),
@@ -130,6 +151,9 @@ impl RunRecord {
         let dir = out.display().to_string();
         if self.design_sha256 != now.design_sha256 {
             return Err(RunError::OtherDesign { dir, sha256: self.design_sha256.clone() });
+        }
+        if self.content_hashes != now.content_hashes {
+            return Err(RunError::OtherContentHashes { dir, build: self.crossaudit.clone() });
         }
         let differs =
             |what: &str, was: String, is: String| RunError::OtherData { dir: dir.clone(), what: what.into(), was, is };

@@ -1,16 +1,15 @@
-//! A Parquet log parsed from its decoded columns. The content hash and
-//! the row hashes are defined on its CSV text (so a Parquet log and its
-//! CSV twin hash the same), so that text is still written, a line at a
-//! time as it is hashed, never whole; the declared columns are taken from
-//! the values as decoded instead of being parsed back from it. Anything
-//! the CSV reader would refuse or treat specially (a header it refuses, a
-//! column of text or booleans declared, a missing or non-finite value it
-//! does not read as missing, time going back, a value too large, a line
-//! too long, text past the size limit, a one-column file, whose empty
-//! rows read as blank lines; under NanoBench's header, a column not read
-//! that holds anything but finite numbers) sends the file's whole text to
-//! the CSV reader, which gives the same log, or says where and why it
-//! refuses.
+//! A Parquet log parsed from its decoded columns, never through its CSV
+//! text: the declared columns are taken from the values as decoded, and
+//! the content hash and row hashes are those of the values read
+//! ([`super::hashes`]), so a Parquet log and its CSV twin hash the same.
+//! Anything the CSV reader would refuse or treat specially (a header it
+//! refuses, a column of text or booleans declared, a missing or
+//! non-finite value it does not read as missing, time going back, a
+//! value too large, a text that might hold a line too long or pass the
+//! size limit, a damaged column, a one-column file, whose empty rows read
+//! as blank lines; under NanoBench's header, a column not read that holds
+//! anything but finite numbers) sends the file's whole text to the CSV
+//! reader, which gives the same log, or says where and why it refuses.
 
 use std::path::Path;
 
@@ -82,22 +81,11 @@ pub fn from_columns(file: &str, columns: &DecodedColumns, schema: &Schema, optio
         }
         values.push(column);
     }
-    // The text's body, hashed a line at a time: its content hash (every
-    // line with its `\n`) and each row's hash (the line without it).
-    let mut row_hashes = Vec::with_capacity(if options.hash_rows { rows } else { 0 });
-    let mut content = xxhash_rust::xxh3::Xxh3::new();
-    let mut long = false;
-    columns.lines(|line| {
-        let row = &line[..line.len() - 1];
-        long |= row.len() > crate::io::MAX_LOG_LINE;
-        if options.hash_rows {
-            row_hashes.push(xxhash_rust::xxh3::xxh3_64(row));
-        }
-        content.update(line);
-    })?;
-    if long {
+    // What the text's reader would refuse for its size alone: the text
+    // is not written, so its lines are bounded instead.
+    if !columns.fits(crate::io::MAX_LOG_LINE) {
         return None;
     }
-    let content_hash = format!("{:032x}", content.digest128());
+    let (content_hash, row_hashes) = super::hashes::hashes(&values, rows, options.hash_rows);
     Some(Log { rows, columns: values, content_hash, row_hashes, blank_before: Vec::new() })
 }
