@@ -49,9 +49,10 @@ pub struct Recording {
     pub slots: Slots,
     /// Rows meeting the active rule (default: motor_motor_m1 > 1000).
     pub active: Vec<bool>,
-    /// XXH3-128 of the data rows (see [`log::Log::content_hash`]): equal for identical recordings.
+    /// XXH3-128 of the values read (see [`log::Log::content_hash`]): equal
+    /// for value-identical recordings, whatever format or digits wrote them.
     pub content_hash: String,
-    /// XXH3-64 of each data row as written (see [`log::Log::row_hashes`]);
+    /// XXH3-64 of each row's values read (see [`log::Log::row_hashes`]);
     /// empty unless the layout asks for them.
     pub row_hashes: Vec<u64>,
     /// The extrapolated onboard tail found in the file, if any (see [`onboard_tail`]).
