@@ -113,3 +113,38 @@ fn a_folder_that_cannot_be_reused_is_refused_before_anything_runs() {
     assert!(said(&o).contains("it holds no finished job"), "{}", said(&o));
     assert!(!out.join("draw-1/cells.csv").exists());
 }
+
+/// A run folder written before the content hashes were of the values read
+/// (no `content_hashes` in its run.json: its hashes are of the logs'
+/// text) is refused by name when resumed and when reused: not taken for
+/// other data, and not silently trained again for want of a matching key.
+#[test]
+fn a_run_that_hashed_the_logs_text_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.design");
+    let p = path.to_str().unwrap();
+    std::fs::write(&path, design("1..2")).unwrap();
+    let first = dir.path().join("first");
+    let o = crossaudit(&["run", p, "--out", first.to_str().unwrap(), "--workers", "2"]);
+    assert!(o.status.success(), "{}", said(&o));
+    // As an earlier build wrote it: each level's run.json without the field.
+    for level in ["draw-1", "draw-2"] {
+        let record = first.join(level).join("run.json");
+        let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&record).unwrap()).unwrap();
+        assert_eq!(json["content_hashes"], "values", "{json}");
+        json.as_object_mut().unwrap().remove("content_hashes");
+        std::fs::write(&record, serde_json::to_string_pretty(&json).unwrap()).unwrap();
+    }
+    let o = crossaudit(&["run", p, "--out", first.to_str().unwrap(), "--workers", "2"]);
+    assert!(!o.status.success(), "{}", said(&o));
+    assert!(
+        said(&o).contains("whose content hashes of the logs (in its audit and manifests) are of their text"),
+        "{}",
+        said(&o)
+    );
+    let second = dir.path().join("second");
+    let o = crossaudit(&["run", p, "--out", second.to_str().unwrap(), "--reuse", first.to_str().unwrap()]);
+    assert!(!o.status.success(), "{}", said(&o));
+    assert!(said(&o).contains("whose content hashes of the logs are of their text"), "{}", said(&o));
+    assert!(!second.join("draw-1/cells.csv").exists());
+}

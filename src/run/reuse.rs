@@ -103,7 +103,9 @@ impl ReuseIndex {
             entries.sort();
             for path in entries {
                 let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-                if name == "jobs" && path.is_dir() {
+                if name == "run.json" {
+                    refuse_text_hashes(from, &dir)?;
+                } else if name == "jobs" && path.is_dir() {
                     for rec in std::fs::read_dir(&path).map_err(|e| reuse_error(&path, e.to_string()))? {
                         let rec = rec.map_err(|e| reuse_error(&path, e.to_string()))?.path();
                         if rec.extension().is_none_or(|x| x != "json") {
@@ -183,6 +185,24 @@ pub(crate) fn reused_note(taken: usize, of: usize, from: &Path) -> String {
         "{taken} of {of} jobs were copied from the earlier run {} instead of trained (`--reuse`): their inputs (manifests, data, model, training, seed, horizons) are identical by content key, every file was checked against its recorded SHA-256, and each job record names the run it came from",
         from.display()
     )
+}
+
+/// Refuses to reuse `from` where the run folder `dir` (it or one of its
+/// levels) hashed its logs' text: every job key holds the audit's and the
+/// manifests' hashes, so none could match this build's, and the run would
+/// silently train everything again.
+fn refuse_text_hashes(from: &Path, dir: &Path) -> Result<(), RunError> {
+    match RunRecord::read(dir) {
+        Ok(Some(r)) if r.content_hashes == super::ContentHashes::Text => Err(reuse_error(
+            from,
+            format!(
+                "{} was written by crossaudit {}, whose content hashes of the logs are of their text; this build hashes the values read, so none of its jobs' content keys (which hold the audit's and the manifests' hashes) can match: run it again with this build, then reuse that run",
+                dir.display(),
+                r.crossaudit
+            ),
+        )),
+        _ => Ok(()),
+    }
 }
 
 fn reuse_error(path: &Path, reason: String) -> RunError {
