@@ -850,9 +850,10 @@ fn parquet_read_by_column_gives_the_record_apis_text() {
 /// under every combination of row hashes and missing values read as NaN.
 /// The simulated lab's 21 logs and a clean file of every type the columns
 /// read are taken from the columns; nulls, NaN and infinity, time going
-/// back, a value too large, a declared text column (numbers or not) and a
-/// one-column file (whose empty rows are blank lines) are each either
-/// taken from the columns equal to the text's log or left to the text.
+/// back, a value too large, a declared text column (numbers or not), a
+/// line too long or bounded past the limit, and a one-column file (whose
+/// empty rows are blank lines) are each either taken from the columns
+/// equal to the text's log or left to the text.
 #[test]
 fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(), Box<dyn std::error::Error>> {
     use crossaudit::data::log::{from_columns, parse_with, read_log, Log, ParseOptions, Schema};
@@ -895,12 +896,19 @@ fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(),
     let numbers_as_text = file("text", &[("t", t(2)), ("x", Column::Text(vec!["1.5".into(), "2".into()]))]);
     let words = file("words", &[("t", t(2)), ("x", Column::Text(vec!["calm".into(), "2".into()]))]);
     let single = file("single", &[("x", Column::Double(vec![Some(1.0), None, Some(2.0)]))]);
+    // A note not read whose line passes the reader's 64 KiB (refused), and
+    // one whose line keeps to it but whose bound does not (read): both
+    // left to the text, which decides.
+    let noted = |name: &str, n: usize| {
+        file(name, &[("t", t(2)), ("x", xs(&[1.0, 2.0])), ("note", Column::Text(vec!["a".repeat(n), "b".into()]))])
+    };
+    let (long, near) = (noted("long", 70_000), noted("near", 40_000));
     let xy = named(&["x", "y"], Some("t"));
     let mut cases: Vec<(&std::path::Path, &Schema, bool)> =
         lab.iter().map(|p| (p.as_path(), &lab_schema, true)).collect();
     cases.push((&clean, &xy, true));
     let (x_only, no_time) = (named(&["x"], Some("t")), named(&["x"], None));
-    for p in [&nulls, &nan, &large, &back, &numbers_as_text, &words] {
+    for p in [&nulls, &nan, &large, &back, &numbers_as_text, &words, &long, &near] {
         cases.push((p, &x_only, false));
     }
     cases.push((&back, &no_time, true));
@@ -933,6 +941,11 @@ fn a_parquet_log_read_from_its_columns_is_the_log_its_text_gives() -> Result<(),
             }
             if from_the_columns {
                 assert!(fast.is_some(), "{what} is taken from its columns");
+            }
+            if path == long.as_path() || path == near.as_path() {
+                assert!(fast.is_none(), "{what}: its line is bounded past the limit");
+                let long_refused = reference.as_ref().is_err_and(|e| e.to_string().contains("65536"));
+                assert_eq!(long_refused, path == long.as_path(), "{what}: {reference:?}");
             }
         }
     }

@@ -127,32 +127,41 @@ impl DecodedColumns {
     /// instead. Bounded, not measured: a number's text at most
     /// [`NUMBER_TEXT`] bytes, a text's twice its bytes and its quotes; a
     /// file whose bound passes is read through its text, which decides.
+    /// `line`: the most bytes a line may hold, its `\n` included.
     pub fn fits(&self, line: usize) -> bool {
         let mut total = self.header.len() as u64 + 1;
         for group in &self.groups {
-            // Each row's commas and `\n`, then each value's bound.
-            let mut bounds = vec![group.columns.len() as u64; group.rows];
+            // Each row's commas and `\n` and its numbers' bound (a null's
+            // text is empty: the bound holds); each text's bound by row.
+            let mut fixed = group.columns.len() as u64;
+            let mut texts: Vec<u64> = Vec::new();
             for column in &group.columns {
                 let present = |row: usize| column.levels.as_ref().is_none_or(|l| l.get(row) == Some(&1));
-                if column.values.len() != (0..group.rows).filter(|&r| present(r)).count() {
+                let values = match &column.levels {
+                    Some(l) => l.iter().take(group.rows).filter(|&&d| d == 1).count(),
+                    None => group.rows,
+                };
+                if column.values.len() != values {
                     return false;
                 }
-                let mut next = 0;
-                for (_, bound) in bounds.iter_mut().enumerate().filter(|&(r, _)| present(r)) {
-                    *bound += match &column.values {
-                        Values::Text(v) => match std::str::from_utf8(v[next].data()) {
-                            Ok(t) => 2 * t.len() as u64 + 2,
-                            Err(_) => return false,
-                        },
-                        _ => NUMBER_TEXT,
-                    };
-                    next += 1;
+                let Values::Text(v) = &column.values else {
+                    fixed += NUMBER_TEXT;
+                    continue;
+                };
+                texts.resize(group.rows, 0);
+                let mut next = v.iter();
+                for (_, bound) in texts.iter_mut().enumerate().filter(|&(r, _)| present(r)) {
+                    match next.next().map(|t| std::str::from_utf8(t.data())) {
+                        Some(Ok(t)) => *bound += 2 * t.len() as u64 + 2,
+                        _ => return false,
+                    }
                 }
             }
-            if bounds.iter().any(|&b| b > line as u64) {
+            if fixed + texts.iter().copied().max().unwrap_or(0) > line as u64 {
                 return false;
             }
-            total = total.saturating_add(bounds.iter().sum());
+            let rows = fixed.saturating_mul(group.rows as u64);
+            total = total.saturating_add(rows).saturating_add(texts.iter().sum());
         }
         total <= self.limit
     }
