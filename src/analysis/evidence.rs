@@ -299,7 +299,7 @@ fn invariants_over_levels(levels: &[LevelEvidence]) -> Vec<String> {
             let (first_level, first) = found[0];
             let per = kind(first_level).trim_end_matches('s');
             format!(
-                "invariant {id} ({}) holds with a warning in {} of {} {}: {lo} to {hi} windows per {per} from evaluation recordings or byte-identical copies of them; {}: {}",
+                "invariant {id} ({}) holds with a warning in {} of {} {}: {lo} to {hi} windows per {per} from evaluation recordings or identical copies of them; {}: {}",
                 first.name,
                 found.len(),
                 levels.len(),

@@ -29,7 +29,7 @@ pub struct DataSpec {
     pub rate_hz: f64,
     /// Inclusion rules in the order declared; applied in that order.
     pub rules: Vec<InclusionRule>,
-    /// How byte-identical recordings are treated.
+    /// How identical recordings (the same values read) are treated.
     pub duplicates: DuplicatePolicy,
     /// Whether unreadable files are excluded or an error.
     pub strictness: Strictness,
@@ -403,7 +403,7 @@ pub enum DataSource {
     Csv,
 }
 
-/// How byte-identical recordings (one identity group) are treated.
+/// How identical recordings (the same values read: one identity group) are treated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum DuplicatePolicy {

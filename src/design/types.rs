@@ -236,7 +236,7 @@ impl DoseAxis {
 }
 
 /// What a pinned published split does with a fit recording that is
-/// byte-identical to an evaluation or validation recording.
+/// identical (the same values read) to an evaluation or validation recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LeakPolicy {

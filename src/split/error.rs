@@ -132,7 +132,7 @@ pub enum SplitError {
     },
     /// A published split's fit roles hold copies of evaluation or
     /// validation recordings, and the design says `leaked refuse`.
-    #[error("the published split {file} puts {count} byte-identical cop(ies) of evaluation or validation recordings in its fit roles:\n{list}\n(`crossaudit audit split` reports every such copy; declare `leaked drop` in the `split published` statement to fit without them)")]
+    #[error("the published split {file} puts {count} identical cop(ies) of evaluation or validation recordings in its fit roles:\n{list}\n(`crossaudit audit split` reports every such copy; declare `leaked drop` in the `split published` statement to fit without them)")]
     PublishedLeak {
         /// The split file as written in the design.
         file: String,

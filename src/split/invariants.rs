@@ -107,7 +107,7 @@ fn distinct<'a>(v: impl Iterator<Item = &'a String>) -> usize {
 }
 
 /// Leakage of evaluation content: from the evaluation recordings
-/// themselves always fails; from byte-identical duplicates it fails unless
+/// themselves always fails; from identical duplicates it fails unless
 /// the design declared `duplicates keep`, where it is a warning.
 fn leak_status(own: usize, dup: usize, policy: DuplicatePolicy) -> InvariantStatus {
     if own > 0 || (dup > 0 && policy != DuplicatePolicy::Keep) {
@@ -173,7 +173,7 @@ impl<'a> Context<'a> {
         Context { design, split, cells, e, e_hashes }
     }
 
-    /// Whether recording `r` is a byte-identical copy of an evaluation
+    /// Whether recording `r` is an identical copy (the same values read) of an evaluation
     /// recording without being one.
     fn is_duplicate(&self, r: usize) -> bool {
         !self.e.contains(&r) && self.e_hashes.contains(self.split.recordings[r].content_hash.as_str())
@@ -193,7 +193,7 @@ impl<'a> Context<'a> {
         )
     }
 
-    /// 2. No duplicate registered start. Two byte-identical copies of one
+    /// 2. No duplicate registered start. Two identical copies of one
     ///    flight among the evaluation recordings (possible under
     ///    `duplicates keep`) count that flight's starts twice: a warning
     ///    naming them.
@@ -218,7 +218,7 @@ impl<'a> Context<'a> {
         let mut detail = format!("{} starts, {dups} duplicated", starts.len());
         if !copies.is_empty() {
             detail.push_str(&format!(
-                "; byte-identical copies among the evaluation recordings ({}): their starts are the same flight counted twice",
+                "; identical copies among the evaluation recordings ({}): their starts are the same flight counted twice",
                 copies.join("; ")
             ));
         }

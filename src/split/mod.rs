@@ -126,7 +126,7 @@ pub struct RecordingInfo {
     pub trajectory: String,
     /// Speed token.
     pub speed: String,
-    /// Identity group, if it has byte-identical copies.
+    /// Identity group, if it has identical copies (the same values read).
     pub duplicate_group: Option<String>,
     /// XXH3-128 of its data rows, hex.
     pub content_hash: String,

@@ -1,5 +1,5 @@
 //! Distance in time between roles: for each window of a role, the nearest
-//! window of another role in the same recording or a byte-identical copy
+//! window of another role in the same recording or an identical copy
 //! of it (same content hash), and what share of a role's windows lies
 //! within a declared gap of the other's. A whole-recording entry is the
 //! window from its first to its last timestamp, so in a split of whole
@@ -29,7 +29,7 @@ pub struct PairDistance {
     pub other: String,
     /// Windows of `role` in kept recordings.
     pub windows: usize,
-    /// ...whose recording (or a byte-identical copy) holds a window of `other`.
+    /// ...whose recording (or an identical copy) holds a window of `other`.
     pub in_shared_recording: usize,
     /// ...that overlap a window of `other`: rows in both roles.
     pub overlapping: usize,
@@ -56,7 +56,7 @@ pub struct RoleWindowDistance {
     /// The other role.
     pub other: String,
     /// The nearest window of `other`: its recording (itself, or a
-    /// byte-identical copy), the window, and its line.
+    /// identical copy), the window, and its line.
     pub nearest: (String, DeclaredWindow, usize),
     /// Seconds between them (0 where they touch or overlap).
     pub distance_s: f64,

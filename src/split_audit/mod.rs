@@ -6,7 +6,7 @@
 //! - declared against effective membership: entries with no CSV (a
 //!   metadata file only, or nothing at all), files the rules drop (a loader
 //!   that skips them silently changes the split), and the counts left;
-//! - exact leakage: recordings whose data rows are byte-identical (one
+//! - exact leakage: recordings that hold the same values read (one
 //!   content-identity group) on two sides;
 //! - near-leakage worth a look: two recordings on different sides sharing a
 //!   run of at least `min_run_rows` identical rows (a partial copy), and
@@ -16,7 +16,7 @@
 //!   distance from the others.
 //!
 //! - distance in time: for each window of a role, the nearest window of
-//!   another role in the same recording (or a byte-identical copy), and
+//!   another role in the same recording (or an identical copy), and
 //!   the share within a declared gap (see [`distance`]). A per-window split
 //!   lists one recording in several roles; comparisons of copies and
 //!   conditions above are between different recordings.
@@ -106,9 +106,9 @@ pub struct RoleSummary {
     pub effective: usize,
     /// Distinct contents among the kept ones.
     pub effective_distinct: usize,
-    /// Entries with a CSV that have a byte-identical copy in another role.
+    /// Entries with a CSV that have an identical copy in another role.
     pub with_identical_elsewhere: usize,
-    /// Kept entries with a kept byte-identical copy in another role.
+    /// Kept entries with a kept identical copy in another role.
     pub effective_with_identical_elsewhere: usize,
 }
 
@@ -119,7 +119,7 @@ pub struct PairCounts {
     pub role: String,
     /// The other role.
     pub other: String,
-    /// ...have a byte-identical copy in `other` (CSV present).
+    /// ...have an identical copy in `other` (CSV present).
     pub identical: usize,
     /// ...have one with both copies kept.
     pub identical_effective: usize,
@@ -183,7 +183,7 @@ pub enum SplitAuditError {
 }
 
 impl SplitAudit {
-    /// Whether two roles hold byte-identical recordings (CSV present on
+    /// Whether two roles hold identical recordings (CSV present on
     /// both sides), or, in a per-window split, windows that share rows.
     pub fn has_exact_leak(&self) -> bool {
         !self.exact.is_empty() || self.distances.iter().any(|d| d.overlapping > 0)

@@ -60,7 +60,7 @@ impl SplitAudit {
         let _ = writeln!(s, "- rules ({}): {}", t(&self.rules_from), self.rules.join("; "));
         let _ = writeln!(
             s,
-            "- identical: byte-identical data rows (XXH3-128 of everything after the header); shared runs: at least {} consecutive identical rows (XXH3-64 per row) between recordings that are not identical copies",
+            "- identical: the same values in the columns read, whatever format or digits wrote them (XXH3-128 of those values, row by row); shared runs: at least {} consecutive identical rows (XXH3-64 of each row's values) between recordings that are not identical copies",
             self.options.min_run_rows
         );
         let _ = writeln!(s, "\n## Findings\n");
@@ -93,7 +93,7 @@ impl SplitAudit {
             let total = self.roles.iter().find(|r| r.role == p.role).map(|r| r.with_csv).unwrap_or(0);
             let _ = writeln!(
                 s,
-                "  - {} of {} {} recordings with a CSV have a byte-identical copy in {} ({} with both copies kept).",
+                "  - {} of {} {} recordings with a CSV have an identical copy in {} ({} with both copies kept).",
                 p.identical,
                 total,
                 c(&p.role),
@@ -182,7 +182,7 @@ impl SplitAudit {
 
     fn leak_tables(&self, s: &mut String) {
         let _ = writeln!(s, "\n## Across roles\n");
-        let _ = writeln!(s, "Of the recordings of `role`, how many have, in `other`: a byte-identical copy (CSV present; both kept), a shared run of identical rows, and (kept ones) the same trajectory and speed among its kept recordings.\n");
+        let _ = writeln!(s, "Of the recordings of `role`, how many have, in `other`: an identical copy (CSV present; both kept), a shared run of identical rows, and (kept ones) the same trajectory and speed among its kept recordings.\n");
         let _ = writeln!(s, "| role | other | identical copy | both kept | shared run | same trajectory x speed |");
         let _ = writeln!(s, "|---|---|---:|---:|---:|---:|");
         for p in &self.pairs {
@@ -238,7 +238,7 @@ impl SplitAudit {
                 self.windows.iter().map(|w| (w.role.as_str(), w.recording.as_str())).collect();
             let _ = writeln!(
                 s,
-                "- distance in time: the split assigns whole recordings, so roles meet only through byte-identical copies, which overlap entirely: {} kept recording(s) have a kept copy in another role. A per-window split (`start_s`, `end_s`) is measured window by window.",
+                "- distance in time: the split assigns whole recordings, so roles meet only through identical copies, which overlap entirely: {} kept recording(s) have a kept copy in another role. A per-window split (`start_s`, `end_s`) is measured window by window.",
                 shared.len()
             );
             return;
@@ -272,7 +272,7 @@ impl SplitAudit {
         let _ = writeln!(s, "\n## Distance in time between roles\n");
         let _ = writeln!(
             s,
-            "For each window of `role`, the nearest window of `other` in the same recording or a byte-identical copy of it: `max(0, b0 - a1, a0 - b1)` seconds between `[a0, a1)` and `[b0, b1)`, 0 where they touch; they overlap where they share time. A whole-recording entry is the window from its first to its last timestamp. The gap is {} s (`--gap`): a window closer than that to one of `other` is within it. Quantiles are R's `quantile` type 7, over the windows in a shared recording; each window's nearest is in split_windows.csv.\n",
+            "For each window of `role`, the nearest window of `other` in the same recording or an identical copy of it: `max(0, b0 - a1, a0 - b1)` seconds between `[a0, a1)` and `[b0, b1)`, 0 where they touch; they overlap where they share time. A whole-recording entry is the window from its first to its last timestamp. The gap is {} s (`--gap`): a window closer than that to one of `other` is within it. Quantiles are R's `quantile` type 7, over the windows in a shared recording; each window's nearest is in split_windows.csv.\n",
             seconds(self.options.gap_s)
         );
         let _ = writeln!(

@@ -52,5 +52,5 @@ pub fn guards(a: &MultiverseAnalysis) -> Vec<Guard> {
 fn copies_text(c: &ReferenceCopies) -> String {
     let n = if c.fewest == c.most { c.most.to_string() } else { format!("{} to {}", c.fewest, c.most) };
     let draws = if c.levels > 1 { format!(" (in {} of its {} draws)", c.levels_with, c.levels) } else { String::new() };
-    format!("{n} of its fit windows come from byte-identical copies of evaluation recordings{draws}")
+    format!("{n} of its fit windows come from identical copies of evaluation recordings{draws}")
 }

@@ -62,7 +62,7 @@ pub struct FileRow {
     pub battery_start_v: Option<f64>,
     /// Battery voltage at the end, from the metadata.
     pub battery_end_v: Option<f64>,
-    /// Identity group shared with byte-identical recordings, if any.
+    /// Identity group shared with identical recordings (the same values read), if any.
     pub duplicate_group: Option<String>,
     /// The extrapolated onboard tail, if the file has one.
     pub tail: Option<Tail>,

@@ -292,7 +292,7 @@ fn notes_section(a: &MultiverseAnalysis) -> String {
     let _ = writeln!(s, "\n## The reference arm and the training\n");
     let _ = writeln!(
         s,
-        "Reference arm: windows of its fit set from evaluation recordings or their byte-identical copies (invariant 5; 0: disjoint). Early: fitted models whose best validation epoch (the weights the rollouts use) lies in the first tenth of training, per arm. Mean d: the primary d averaged over the seeds with such a model of the primary endpoint, and over the others.\n"
+        "Reference arm: windows of its fit set from evaluation recordings or their identical copies (invariant 5; 0: disjoint). Early: fitted models whose best validation epoch (the weights the rollouts use) lies in the first tenth of training, per arm. Mean d: the primary d averaged over the seeds with such a model of the primary endpoint, and over the others.\n"
     );
     let u = label(a);
     let _ = writeln!(s, "| unit | rule | reference-arm windows from evaluation copies | early best epochs | mean d, seeds with ({u}) | mean d, seeds without ({u}) |");
