@@ -6,7 +6,7 @@
 # curves/, manifests/manifests.json, stdout.txt and time.txt into RESULTS_DIR
 # (model weights, job records and manifest CSVs are not committed); a
 # multi-split study's split-S/ directories likewise, with its pooled
-# cells.csv and report/.
+# cells.csv, report/ and study.json.
 # BINARY defaults to target/release/crossaudit; pass a copy when the tree is
 # rebuilt while a long run goes on.
 set -euo pipefail
@@ -35,7 +35,8 @@ else
     [ -d "$split" ] || continue
     mkdir -p "$dest/$(basename "$split")"; copy_run "$split" "$dest/$(basename "$split")"
   done
-  for part in cells.csv report; do
+  for part in cells.csv report study.json; do
+    [ -e "$tmp/$part" ] || continue   # study.json: runs since it was recorded
     rm -rf "${dest:?}/$part"; cp -r "$tmp/$part" "$dest/$part"
   done
 fi
