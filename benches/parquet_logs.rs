@@ -108,8 +108,8 @@ fn main() {
         // same hashes.
         let options = ParseOptions { hash_rows: true, missing_as_nan: true };
         for (log, p) in logs.iter().zip(&parquet) {
-            let read = |f: &Path| crossaudit::data::log::read_log(f, "log", &schema, options).expect("log");
-            let (own, ours) = (read(log), read(p));
+            let log_of = |f: &Path| crossaudit::data::log::read_log(f, "log", &schema, options).expect("log");
+            let (own, ours) = (log_of(log), log_of(p));
             assert!((own.content_hash, own.row_hashes) == (ours.content_hash, ours.row_hashes), "{}", log.display());
         }
         compare("NanoBench logs as Parquet (NanoBench's header, 52 columns)", &parquet, &twins, &schema, runs, false);

@@ -136,12 +136,7 @@ impl DecodedColumns {
             let mut fixed = group.columns.len() as u64;
             let mut texts: Vec<u64> = Vec::new();
             for column in &group.columns {
-                let present = |row: usize| column.levels.as_ref().is_none_or(|l| l.get(row) == Some(&1));
-                let values = match &column.levels {
-                    Some(l) => l.iter().take(group.rows).filter(|&&d| d == 1).count(),
-                    None => group.rows,
-                };
-                if column.values.len() != values {
+                if !column.whole(group.rows) {
                     return false;
                 }
                 let Values::Text(v) = &column.values else {
@@ -149,12 +144,17 @@ impl DecodedColumns {
                     continue;
                 };
                 texts.resize(group.rows, 0);
-                let mut next = v.iter();
-                for (_, bound) in texts.iter_mut().enumerate().filter(|&(r, _)| present(r)) {
-                    match next.next().map(|t| std::str::from_utf8(t.data())) {
-                        Some(Ok(t)) => *bound += 2 * t.len() as u64 + 2,
-                        _ => return false,
-                    }
+                let mut bounds = texts.iter_mut();
+                let bounded = column.each(
+                    group.rows,
+                    |k| std::str::from_utf8(v.get(k)?.data()).ok().map(str::len),
+                    |len| {
+                        *bounds.next()? += len.map_or(0, |n| 2 * n as u64 + 2);
+                        Some(())
+                    },
+                );
+                if bounded.is_none() {
+                    return false;
                 }
             }
             if fixed + texts.iter().copied().max().unwrap_or(0) > line as u64 {

@@ -105,11 +105,7 @@ impl<'a> DecodedColumn<'a> {
     /// as every column its text can be written from does (a damaged one
     /// may hold fewer).
     pub fn whole(&self) -> bool {
-        let present = match &self.column.levels {
-            Some(levels) => levels.iter().take(self.rows).filter(|&&d| d == 1).count(),
-            None => self.rows,
-        };
-        self.column.values.len() == present
+        self.column.whole(self.rows)
     }
 
     /// Whether it is a column of text.

@@ -27,6 +27,17 @@ pub(super) struct Column {
 }
 
 impl Column {
+    /// Whether it holds one value for each of its first `rows` rows that
+    /// is not null, as every column its text can be written from does (a
+    /// damaged one may hold fewer).
+    pub(super) fn whole(&self, rows: usize) -> bool {
+        let present = match &self.levels {
+            Some(levels) => levels.iter().take(rows).filter(|&&d| d == 1).count(),
+            None => rows,
+        };
+        self.values.len() == present
+    }
+
     /// Gives `f` each of the first `rows` rows' value by `value` (given the
     /// index of the row's value among the non-null ones), `None` for a
     /// null, in order; `None` where `value` is `None` for some value, or
