@@ -61,6 +61,26 @@ pub fn protect_input(path: &Path) {
     }
 }
 
+/// Refuses, before anything is written, an output folder `dir` that holds
+/// an input of this command under a name `writes` says the command may
+/// write there: checked per file at the write alone, the outputs written
+/// before the refused one would be left looking like a whole report.
+pub fn refuse_protected_in(dir: &Path, writes: impl Fn(&str) -> bool) -> Result<(), WriteError> {
+    let Ok(d) = dir.canonicalize() else { return Ok(()) };
+    let inputs = PROTECTED_INPUTS.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    for p in inputs.iter().filter(|p| p.parent() == Some(d.as_path())) {
+        if p.file_name().and_then(|n| n.to_str()).is_some_and(&writes) {
+            return Err(WriteError::new(
+                &dir.join(p.file_name().unwrap_or_default()),
+                std::io::Error::other(
+                    "it is an input of this command, which writing here would replace: give another --out (nothing was written)",
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn is_protected_input(path: &Path) -> bool {
     let Ok(c) = path.canonicalize() else { return false };
     PROTECTED_INPUTS.lock().unwrap_or_else(|e| e.into_inner()).contains(&c)

@@ -249,7 +249,7 @@ fn run_warnings(plan: &Plan, run: &RunEvidence) -> Vec<String> {
         out.extend(invariants_over_levels(&run.levels));
     } else {
         for i in run.levels.iter().flat_map(|l| &l.warned) {
-            out.push(format!("invariant {} ({}) holds with a warning: {}", i.id, i.name, i.detail));
+            out.push(warned_invariant(i.id, &i.name, &i.detail));
         }
     }
     out.extend(resumed(run));
@@ -259,14 +259,34 @@ fn run_warnings(plan: &Plan, run: &RunEvidence) -> Vec<String> {
     out
 }
 
+/// An invariant the split met only with a warning (a duplicate the
+/// design's `duplicates keep` allows, identical evaluation recordings), as
+/// a run's warnings and `check` say it.
+pub fn warned_invariant(id: impl std::fmt::Display, name: &str, detail: &str) -> String {
+    format!("invariant {id} ({name}) is not met in full, which the design allows (a warning): {detail}")
+}
+
 /// What the level folders of a study of several are.
 fn levels_note(plan: &Plan, levels: &[LevelEvidence]) -> String {
     if !plan.splits.is_empty() {
         return "each split's audit, manifests, invariants, treatment audit and full report are in the run directory's split-S/"
             .to_string();
     }
-    let seeds: Vec<String> =
-        levels.iter().map(|l| format!("seed {} draw {}", l.seed.unwrap_or(0), l.draw.unwrap_or(1))).collect();
+    if levels.iter().all(|l| l.seed.is_none()) {
+        // Whole runs, combined: no level is a seed's draw.
+        let runs: Vec<&str> = levels.iter().map(|l| l.id.as_str()).collect();
+        return format!(
+            "each combined run's audit, manifests, invariants, treatment audit and training curves are in its own folder: {}",
+            runs.join(", ")
+        );
+    }
+    let seeds: Vec<String> = levels
+        .iter()
+        .map(|l| match l.seed {
+            Some(seed) => format!("seed {seed} draw {}", l.draw.unwrap_or(1)),
+            None => format!("the whole run {}", l.id),
+        })
+        .collect();
     format!(
         "draws per seed: each seed trained and was evaluated on its own draw of the validation, fit and contamination windows (the evaluation recordings fixed), so the seed component carries the draw variance; {} (each in its folder draw-K)",
         seeds.join(", ")
@@ -281,7 +301,7 @@ fn level_name(l: &LevelEvidence) -> String {
     }
 }
 
-/// One warning per invariant that holds with a warning in any level, with
+/// One warning per invariant met only with a warning in any level, with
 /// the range of its counts over the levels and the first level's detail.
 fn invariants_over_levels(levels: &[LevelEvidence]) -> Vec<String> {
     let mut by_id: BTreeMap<u64, Vec<(&LevelEvidence, &InvariantEntry)>> = BTreeMap::new();
@@ -299,7 +319,7 @@ fn invariants_over_levels(levels: &[LevelEvidence]) -> Vec<String> {
             let (first_level, first) = found[0];
             let per = kind(first_level).trim_end_matches('s');
             format!(
-                "invariant {id} ({}) holds with a warning in {} of {} {}: {lo} to {hi} windows per {per} from evaluation recordings or identical copies of them; {}: {}",
+                "invariant {id} ({}) is not met in full, which the design allows (a warning), in {} of {} {}: {lo} to {hi} windows per {per} from evaluation recordings or identical copies of them; {}: {}",
                 first.name,
                 found.len(),
                 levels.len(),

@@ -101,6 +101,18 @@ impl Standing {
         self.tag().map(|t| format!("{t}: {why}"))
     }
 
+    /// The standing as report.md's provenance line gives it, in every
+    /// state but unrecorded: [`Standing::short`] where the analysis is not
+    /// the preregistered one, the sentence where it is (which no tag
+    /// says).
+    pub fn line(&self) -> Option<String> {
+        match self {
+            Standing::Unrecorded => None,
+            Standing::Preregistered { .. } => Some(self.sentence()),
+            _ => self.short(),
+        }
+    }
+
     /// The status as one sentence (no final stop), for the banner, the
     /// report's status line and results.json.
     pub fn sentence(&self) -> String {
@@ -177,6 +189,16 @@ mod tests {
         assert_eq!((s.tag(), s.preregistered()), (Some("POST HOC"), Some(false)));
         assert!(s.sentence().contains("written after the results"));
         assert_eq!(Standing::of(&unchanged(None), false).preregistered(), Some(true));
+        // The preregistered analysis has no tag, but report.md's provenance
+        // line still says where it stands.
+        let s = Standing::of(&unchanged(None), false);
+        assert_eq!(s.tag(), None);
+        assert!(s.line().is_some_and(|l| l.starts_with("Preregistered: the design was locked before this run")));
+        assert_eq!(
+            Standing::of(&LockStatus::Unlocked, false).line(),
+            Standing::of(&LockStatus::Unlocked, false).short()
+        );
+        assert_eq!(Standing::Unrecorded.line(), None);
         assert_eq!(
             Standing::of(&unchanged(None), true).short().as_deref(),
             Some("EXPLORATORY: the run was labelled exploratory")

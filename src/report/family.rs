@@ -87,7 +87,12 @@ fn header(a: &FamilyAnalysis) -> String {
     if let Some(d) = &a.provenance.data {
         let _ = writeln!(s, "Data: {}.", crate::io::md_line(d));
     }
-    let _ = writeln!(s, "crossaudit {}.\n", a.provenance.crossaudit);
+    let _ = writeln!(
+        s,
+        "crossaudit {}{}.\n",
+        a.provenance.crossaudit,
+        a.header.standing.line().map(|l| format!("; {l}")).unwrap_or_default()
+    );
     s
 }
 

@@ -131,7 +131,7 @@ fn provenance_and_figures(s: &mut String, a: &Analysis) {
         s,
         "Analysed by crossaudit {}{}.",
         p.crossaudit,
-        a.header.standing.short().map(|s| format!("; {s}")).unwrap_or_default()
+        a.header.standing.line().map(|s| format!("; {s}")).unwrap_or_default()
     );
     let _ = writeln!(s);
     if !a.figures.is_empty() {

@@ -38,12 +38,26 @@ pub fn study_table(a: &StudyAnalysis) -> String {
     }
 }
 
+/// The files other than figures (`*.svg`) a report of any kind may write.
+const REPORT_FILES: [&str; 9] = [
+    "report.md",
+    "report.html",
+    "results.json",
+    "results.tex",
+    "estimates.csv",
+    "estimates.parquet",
+    "multiverse.json",
+    "specs.csv",
+    "choice_effects.csv",
+];
+
 /// Writes the report of any study into `dir` and returns the files
 /// written: with its figures (and, for a single study read from a run
 /// folder, the training curves its analysis carries; a family or
 /// multiverse has none, nor has a per-cell file alone), the figure names
 /// recorded in the analysis.
 pub fn write_study(a: &StudyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    crate::io::refuse_protected_in(dir, |name| REPORT_FILES.contains(&name) || name.ends_with(".svg"))?;
     match a {
         StudyAnalysis::Single(a) => super::write_with_figures(a, &a.curves, dir),
         StudyAnalysis::Family(a) => super::family::write_family(a, dir),

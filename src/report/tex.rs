@@ -79,7 +79,7 @@ fn with<'a>(prefix: &[&'a str], q: &'a str) -> Vec<&'a str> {
 pub fn render_tex(a: &Analysis) -> String {
     let mut m = Macros { text: String::new(), names: Vec::new() };
     let _ = writeln!(m.text, "% crossaudit results for study \"{}\"; \\input this file.", a.study);
-    if let Some(s) = a.header.standing.short() {
+    if let Some(s) = a.header.standing.line() {
         let _ = writeln!(m.text, "% {s}.");
     }
     if let Some(h) = &a.header.design_sha256 {

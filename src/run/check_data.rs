@@ -21,6 +21,9 @@ pub enum DataChecked {
         built: usize,
         /// Levels of the study (1 for a study of one run).
         levels: usize,
+        /// The invariants a built split met only with a warning, as a
+        /// run's warnings give them.
+        warned: Vec<String>,
     },
     /// The data folder is not there (the design's `path`, from here).
     Absent {
@@ -39,6 +42,9 @@ pub enum DataChecked {
         levels: usize,
         /// Files named like logs that the audit does not read, in words.
         not_read: Vec<String>,
+        /// The invariants a built split met only with a warning, as a
+        /// run's warnings give them.
+        warned: Vec<String>,
     },
 }
 
@@ -62,8 +68,13 @@ pub fn check_data(file: &DesignFile, study: &StudyPlan, data: Option<PathBuf>) -
         (None, _, Some(sim)) => {
             let scratch = Scratch::new()?;
             crate::sim::simulate(sim, &scratch.0)?;
-            let (included, built, levels, _) = build(file, study, &scratch.0, "its simulated data")?;
-            return Ok(DataChecked::Simulated { included, built, levels });
+            let b = build(file, study, &scratch.0, "its simulated data")?;
+            return Ok(DataChecked::Simulated {
+                included: b.included,
+                built: b.built,
+                levels: b.levels,
+                warned: b.warned,
+            });
         }
         (Some(d), _, None) if !d.is_dir() => return Err(RunError::NoDataDir { dir: d.display().to_string() }),
         (Some(d), _, None) => d,
@@ -77,8 +88,15 @@ pub fn check_data(file: &DesignFile, study: &StudyPlan, data: Option<PathBuf>) -
     if !dir.is_dir() {
         return Ok(DataChecked::Absent { dir: dir.display().to_string() });
     }
-    let (included, built, levels, not_read) = build(file, study, &dir, &format!("the data in {}", dir.display()))?;
-    Ok(DataChecked::Built { dir, included, built, levels, not_read })
+    let b = build(file, study, &dir, &format!("the data in {}", dir.display()))?;
+    Ok(DataChecked::Built {
+        dir,
+        included: b.included,
+        built: b.built,
+        levels: b.levels,
+        not_read: b.not_read,
+        warned: b.warned,
+    })
 }
 
 /// A folder of its own under the system's temporary folder, removed when
@@ -111,33 +129,67 @@ fn build(file: &DesignFile, study: &StudyPlan, dir: &Path, data: &str) -> Result
     let levels: Vec<&crate::plan::study::Level> = study.levels().iter().filter(|l| l.shares.is_none()).collect();
     if levels.is_empty() {
         let prepared = crate::split::rebuild(file, &study.plan, dir, out).map_err(|e| refused(data, None, e.into()))?;
-        return Ok((prepared.recordings.len(), 1, 1, prepared.audit.not_read));
+        let warned = warned(&prepared.invariants, None);
+        return Ok(Built {
+            included: prepared.recordings.len(),
+            built: 1,
+            levels: 1,
+            not_read: prepared.audit.not_read,
+            warned,
+        });
     }
     // The first level of each specification: the others differ only in
     // their draws or split seeds, and each costs a split.
     let mut seen_specs = std::collections::BTreeSet::new();
     let chosen: Vec<_> = levels.iter().copied().filter(|l| seen_specs.insert(l.spec)).collect();
-    let (mut included, mut not_read) = (0, Vec::new());
+    let (mut included, mut not_read, mut warned_all) = (0, Vec::new(), Vec::new());
     for (k, l) in chosen.iter().enumerate() {
         let level_file = DesignFile { design: l.design.clone(), ..file.clone() };
         let prepared = crate::split::rebuild(&level_file, &l.plan, dir, &out.join(&l.id))
             .map_err(|e| refused(data, Some(&l.id), e.into()))?;
+        warned_all.extend(warned(&prepared.invariants, Some(&l.id)));
         if k == 0 {
             included = prepared.recordings.len();
             not_read = prepared.audit.not_read;
         }
     }
-    Ok((included, chosen.len(), study.levels().len(), not_read))
+    Ok(Built { included, built: chosen.len(), levels: study.levels().len(), not_read, warned: warned_all })
 }
 
-/// What [`build`] found: the recordings the first level's audit included,
-/// the levels built, the study's levels, and the files named like logs
-/// that the audit does not read, in words.
-type Built = (usize, usize, usize, Vec<String>);
+/// The invariants of a split met only with a warning, worded as a run's
+/// warnings word them (in `level`, where the study has several).
+fn warned(report: &crate::split::InvariantReport, level: Option<&str>) -> Vec<String> {
+    report
+        .invariants
+        .iter()
+        .filter(|i| i.status == crate::split::InvariantStatus::Warn)
+        .map(|i| {
+            let line = crate::analysis::evidence::warned_invariant(i.id, i.name, &i.detail);
+            level.map_or(line.clone(), |l| format!("{l}: {line}"))
+        })
+        .collect()
+}
+
+/// What [`build`] found.
+struct Built {
+    /// The recordings the first level's audit included.
+    included: usize,
+    /// The levels built.
+    built: usize,
+    /// The study's levels.
+    levels: usize,
+    /// The files named like logs that the audit does not read, in words.
+    not_read: Vec<String>,
+    /// The invariants met only with a warning.
+    warned: Vec<String>,
+}
 
 impl DataChecked {
     /// The line `check` prints.
     pub fn line(&self) -> String {
+        // What every run of the design will warn beside its verdict: said
+        // now, while the design can still change before its lock.
+        let warnings = |w: &[String]| w.iter().map(|w| format!("\nwarning: {w}")).collect::<String>();
         let splits = |built: usize, levels: usize| {
             match (built, levels) {
             (_, 1) => "its split built as run builds it".to_string(),
@@ -151,18 +203,20 @@ impl DataChecked {
         }
         };
         match self {
-            DataChecked::Simulated { included, built, levels } => format!(
-                "data: simulated, generated in a scratch folder (removed): {included} recordings included; {} (nothing written)",
-                splits(*built, *levels)
+            DataChecked::Simulated { included, built, levels, warned } => format!(
+                "data: simulated, generated in a scratch folder (removed): {included} recordings included; {} (nothing written){}",
+                splits(*built, *levels),
+                warnings(warned)
             ),
             DataChecked::Absent { dir } => format!(
                 "data: not read: no folder at {dir}; run refuses until it is there (check --data DIR reads another)"
             ),
-            DataChecked::Built { dir, included, built, levels, not_read } => format!(
-                "data: {}: {included} recordings included; {} (nothing written){}",
+            DataChecked::Built { dir, included, built, levels, not_read, warned } => format!(
+                "data: {}: {included} recordings included; {} (nothing written){}{}",
                 dir.display(),
                 splits(*built, *levels),
-                not_read.iter().map(|n| format!("\nnot read: {n}")).collect::<String>()
+                not_read.iter().map(|n| format!("\nnot read: {n}")).collect::<String>(),
+                warnings(warned)
             ),
         }
     }

@@ -164,6 +164,7 @@ fn combined_cells(study: &StudyPlan, sources: &[(Source, ReadSource)]) -> Result
             ),
         });
     }
+    same_models(sources)?;
     let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
     let err = |e: csv::Error| RunError::Combine { path: "cells.csv".to_string(), reason: e.to_string() };
     w.write_record(&sources[0].1.header).map_err(err)?;
@@ -173,6 +174,49 @@ fn combined_cells(study: &StudyPlan, sources: &[(Source, ReadSource)]) -> Result
         }
     }
     w.into_inner().map_err(|e| RunError::Combine { path: "cells.csv".to_string(), reason: e.to_string() })
+}
+
+/// Refuses sources that hold the same trained models: a seed of one run
+/// whose cells (every field but the seed) are a seed's cells in another
+/// run, as the same run given twice, a copy of its folder, or two runs of
+/// one design with overlapping seeds give. Counted twice, one model would
+/// pass for two independent seeds and narrow the interval.
+fn same_models(sources: &[(Source, ReadSource)]) -> Result<(), RunError> {
+    let mut seen: std::collections::BTreeMap<String, (&Path, u64)> = std::collections::BTreeMap::new();
+    for (s, r) in sources {
+        let col = |name: &str| r.header.iter().position(|h| h == name).unwrap_or(usize::MAX);
+        let (k, starts, diverged) = (col("seed"), col("n_starts"), col("n_divergent"));
+        // A seed whose every start diverged everywhere has cells that two
+        // models can share (every value the cap): not evidence of one model.
+        let mut finite: BTreeSet<u64> = BTreeSet::new();
+        let mut by_seed: std::collections::BTreeMap<u64, String> = std::collections::BTreeMap::new();
+        for row in &r.rows {
+            let seed = row.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0).saturating_sub(s.seed_shift);
+            if row.get(starts) != row.get(diverged) {
+                finite.insert(seed);
+            }
+            let text = by_seed.entry(seed).or_default();
+            for (j, f) in row.iter().enumerate().filter(|&(j, _)| j != k) {
+                text.push_str(if j == 0 { "" } else { "," });
+                text.push_str(f);
+            }
+            text.push('\n');
+        }
+        for (seed, text) in by_seed.into_iter().filter(|(seed, _)| finite.contains(seed)) {
+            let key = crate::io::sha256_hex(text.as_bytes());
+            if let Some((run, other)) = seen.get(&key) {
+                return Err(fail(
+                    &s.run,
+                    format!(
+                        "its seed {seed} has the same cells, value for value, as seed {other} of {}: the same trained models (one run given twice, a copy of its folder, or runs whose seeds overlap); counted twice they would pass for independent seeds",
+                        run.display()
+                    ),
+                ));
+            }
+            seen.insert(key, (&s.run, seed));
+        }
+    }
+    Ok(())
 }
 
 /// Combines the finished runs `sources` into the folder `out` for the
@@ -189,9 +233,21 @@ pub fn combine(file: &DesignFile, study: &StudyPlan, sources: &[Source], out: &P
     if out.join("run.json").exists() || out.join("study.json").exists() {
         return Err(fail(out, "holds a run of its own; combine into a new folder"));
     }
-    if let Some(old) = CombinedRecord::read(out)? {
-        if old.design_sha256 != file.sha256 {
+    match CombinedRecord::read(out)? {
+        Some(old) if old.design_sha256 != file.sha256 => {
             return Err(RunError::OtherDesign { dir: out.display().to_string(), sha256: old.design_sha256 });
+        }
+        Some(_) => {}
+        // No combination here yet: a cells.csv or a report/ with files in
+        // it is someone's own, which combining would replace.
+        None => {
+            let report = std::fs::read_dir(out.join("report")).map(|mut d| d.next().is_some()).unwrap_or(false);
+            if out.join("cells.csv").exists() || report {
+                return Err(fail(
+                    out,
+                    "holds a cells.csv or a report/ that no `combine` wrote (no combined.json): combine into a new folder",
+                ));
+            }
         }
     }
     let read: Vec<(Source, ReadSource)> =
@@ -264,7 +320,7 @@ pub fn read_combined(design: DesignLabel, study: &StudyPlan, dir: &Path) -> Resu
         fail(&dir.join("combined.json"), "is absent: the folder is not one `crossaudit combine` wrote")
     })?;
     if combined.design_sha256 != design.sha256 {
-        return Err(RunError::OtherDesign { dir: shown, sha256: combined.design_sha256 });
+        return Err(RunError::ran_other(shown, combined.design_sha256, &design));
     }
     let mut read = Vec::new();
     for c in &combined.runs {

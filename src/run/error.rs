@@ -85,10 +85,23 @@ pub enum RunError {
         /// The other design's hash.
         sha256: String,
     },
+    /// A run folder read back (to analyse, score or combine it) is the run
+    /// of another design than the one given.
+    #[error("{dir} is a run of another design (sha256 {sha256}), not of {design} (sha256 {given}): analyse it with the design it ran (a design amended since is another design: rerun it, or `run --reuse` this folder into a new one)")]
+    RanOtherDesign {
+        /// The run folder.
+        dir: String,
+        /// The design it ran, by hash.
+        sha256: String,
+        /// The design given.
+        design: String,
+        /// The given design's hash.
+        given: String,
+    },
     /// An analysis or plan would write into a folder a run wrote (the
     /// run's own report, its cells, a level folder): replacing it would
     /// lose what only the run knows (its warnings, its treatment audit).
-    #[error("{dir} is {what} of the run in {run}, which only the run itself writes (its report carries the run's warnings and audits, which a reanalysis of per-cell data does not have); write the reanalysis into a new folder, for example --out {suggest}")]
+    #[error("{dir} is {what} of the run in {run}, which only the run itself writes (a resume reads its data and audits back, and its report carries the run's warnings and audits, which a reanalysis of per-cell data does not have); write into a new folder, for example --out {suggest}")]
     RunsOwnFolder {
         /// The output directory, as given.
         dir: String,
@@ -443,5 +456,13 @@ fn task_range(jobs: usize, tasks: usize, per_task: usize) -> String {
     match per_task {
         1 => format!("{jobs} jobs, indices 0 to {last}"),
         _ => format!("{jobs} jobs in {tasks} tasks of up to {per_task}, indices 0 to {last}"),
+    }
+}
+
+impl RunError {
+    /// The refusal of run folder `dir`, a run of the design with hash
+    /// `sha256`, read back under the other design `design`.
+    pub(crate) fn ran_other(dir: String, sha256: String, design: &crate::analysis::record::DesignLabel) -> RunError {
+        RunError::RanOtherDesign { dir, sha256, design: design.path.clone(), given: design.sha256.clone() }
     }
 }

@@ -32,7 +32,7 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
         });
     };
     if run.design_sha256 != design.sha256 {
-        return Err(RunError::OtherDesign { dir: shown, sha256: run.design_sha256 });
+        return Err(RunError::ran_other(shown, run.design_sha256, &design));
     }
     let cells_path = dir.join("cells.csv");
     let (cells, sha) = read_cells_hashed(&cells_path)?;
@@ -167,7 +167,7 @@ pub(crate) fn levels_record(
     let study = StudyRecord::read(dir)?;
     match &study {
         Some(s) if s.design_sha256 != design.sha256 => {
-            return Err(RunError::OtherDesign { dir: shown, sha256: s.design_sha256.clone() })
+            return Err(RunError::ran_other(shown, s.design_sha256.clone(), &design))
         }
         Some(s) if s.cells_sha256 != sha => {
             return Err(RunError::LevelChanged {
@@ -188,7 +188,7 @@ pub(crate) fn levels_record(
     for l in levels {
         match RunRecord::read(&l.dir)? {
             Some(r) if r.design_sha256 != design.sha256 => {
-                return Err(RunError::OtherDesign { dir: l.dir.display().to_string(), sha256: r.design_sha256 })
+                return Err(RunError::ran_other(l.dir.display().to_string(), r.design_sha256, &design))
             }
             Some(r) => runs.push(r),
             None => missing.push(format!(

@@ -121,7 +121,7 @@ fn leak_status(own: usize, dup: usize, policy: DuplicatePolicy) -> InvariantStat
 
 fn keep_note(names: &BTreeSet<String>) -> String {
     format!(
-        " ({}); allowed only because duplicates are kept (`duplicates keep`, declared or the default)",
+        " ({}); allowed only because duplicates are kept (`duplicates keep`, declared or the default): declare `duplicates group` to make identical copies one recording, on one side of the split",
         names.iter().cloned().collect::<Vec<_>>().join(", ")
     )
 }

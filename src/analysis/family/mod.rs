@@ -99,7 +99,19 @@ fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
                     c.line
                 )))
             }
+            (Some(_), true) => {
+                return Err(fail(format!(
+                    "line {}: the file has a `split` column, but the design has no split factor",
+                    c.line
+                )))
+            }
             _ => {}
+        }
+        if c.dose.is_some() && plan.doses.is_empty() {
+            return Err(fail(format!(
+                "line {}: the file has a `dose` column, but the design has no dose-response contrast",
+                c.line
+            )));
         }
         if let Some(dose) = c.dose {
             let expected = if c.arm == plan.contrast.reference {

@@ -35,6 +35,10 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     }
+    if let Err(e) = refuse_runs_own(&cli.command) {
+        output::note_raw(&render(&e, color));
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Audit { command: AuditCommand::Split { split, data, design, out, min_run, gap, fail_on } } => {
             let options = crossaudit::split_audit::AuditOptions { min_run_rows: min_run, gap_s: gap };
@@ -100,6 +104,26 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Refuses, before anything is written, an `--out` inside a folder a run
+/// wrote (its `simulated_data/`, `audit/`, `report/`, ...), for the
+/// commands whose outputs are no run's: written there they would change
+/// what the run's resume reads (its data, its audit) or replace its own
+/// files. `analyze`, `plan` and `power` check their folders themselves;
+/// `run`, `split`, `train` and `export` write runs.
+fn refuse_runs_own(command: &Command) -> Result<(), Error> {
+    let out = match command {
+        Command::Audit { command: AuditCommand::Split { out, .. } }
+        | Command::Data { command: DataCommand::Audit { out, .. } }
+        | Command::Coverage { out, .. }
+        | Command::Simulate { out, .. }
+        | Command::SimulateLab { out, .. }
+        | Command::Combine { out, .. } => out,
+        Command::Simsum(args) => &args.out,
+        _ => return Ok(()),
+    };
+    Ok(crossaudit::run::check_not_runs_own(out, None)?)
 }
 
 /// The files a command reads that its outputs must never replace (an
@@ -507,14 +531,14 @@ fn combine(design: &Path, from: &[String], out: &Path) -> Result<(), Error> {
         })?;
         sources.push(crossaudit::run::combine::Source { design: d.into(), run: run.into(), seed_shift });
     }
+    // Checked before the combined cells are written.
+    crossaudit::run::check_output_dir(&out.join("report"), &file.sha256)?;
     let _lock = lock_folder(out, false)?;
     let record = crossaudit::run::combine::combine(&file, &study, &sources, out)?;
     note!("combined {} runs into {} ({} cells)", sources.len(), out.join("cells.csv").display(), record.cells.len());
     let analysis = crossaudit::analysis::analyze_study(&study.plan, &record, AnalyzeOptions::default())
         .map_err(crossaudit::run::RunError::from)?;
-    let dir = out.join("report");
-    crossaudit::run::check_output_dir(&dir, &file.sha256)?;
-    let written = crossaudit::report::write_study(&analysis, &dir)?;
+    let written = crossaudit::report::write_study(&analysis, &out.join("report"))?;
     for w in analysis.warnings() {
         note!("warning: {}", crossaudit::io::one_line(w));
     }

@@ -57,7 +57,7 @@ pub(crate) fn read_multiverse(
     let study = StudyRecord::read(dir)?;
     match &study {
         Some(s) if s.design_sha256 != design.sha256 => {
-            return Err(RunError::OtherDesign { dir: dir.display().to_string(), sha256: s.design_sha256.clone() })
+            return Err(RunError::ran_other(dir.display().to_string(), s.design_sha256.clone(), &design))
         }
         Some(_) => {}
         None => missing.push(format!(
