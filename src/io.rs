@@ -517,7 +517,7 @@ mod input;
 pub use input::{read_text, text_of, Text, TextError};
 pub mod parquet;
 mod text;
-pub use text::{escape_controls, formula_like, md_code, md_line, md_text, one_line, spreadsheet_text};
+pub use text::{escape_controls, formula_like, md_code, md_line, md_plain, md_text, one_line, spreadsheet_text};
 pub mod walk;
 
 #[cfg(test)]

@@ -173,6 +173,28 @@ fn split_and_dose_columns_are_written_only_when_present_and_read_back() {
     assert!(e.contains("`split` column, but the design has no split factor"), "{e}");
 }
 
+#[test]
+fn a_family_refuses_a_split_or_dose_column_its_design_lacks() {
+    // A trust review (round 6): a multi-split design analysed cells with a
+    // `dose` column (50% where its arm replaces 25%) and ignored it; a dose
+    // design given a `split` column said "needs at least 2 rows". Both are
+    // refused at the first row, naming the column.
+    let cells = |run: &str| read_cells(&root().join("results").join(run).join("cells.csv")).unwrap();
+    let dosed: Vec<_> = cells("multi_split")
+        .into_iter()
+        .map(|c| crossaudit::cells::Cell { dose: Some(if c.arm == "disjoint" { 0.0 } else { 50.0 }), ..c })
+        .collect();
+    let plan = crossaudit::compile(&design::load(&root().join("designs/nanobench_multi_split.design")).unwrap().design);
+    let e = analyze_family(&plan, &dosed, Default::default()).unwrap_err().to_string();
+    assert!(e.contains("line 2: the file has a `dose` column, but the design has no dose-response contrast"), "{e}");
+    let split: Vec<_> =
+        cells("dose_response").into_iter().map(|c| crossaudit::cells::Cell { split: Some(42), ..c }).collect();
+    let plan =
+        crossaudit::compile(&design::load(&root().join("designs/nanobench_dose_response.design")).unwrap().design);
+    let e = analyze_family(&plan, &split, Default::default()).unwrap_err().to_string();
+    assert!(e.contains("line 2: the file has a `split` column, but the design has no split factor"), "{e}");
+}
+
 /// The committed run's family analysis, from its design and cells.csv.
 fn committed(design: &str, run: &str) -> FamilyAnalysis {
     crossaudit::analyze_family_files(

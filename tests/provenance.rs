@@ -501,3 +501,45 @@ fn a_design_changed_after_its_lock_is_refused_before_anything_is_written() {
     assert_refused(&crossaudit(&["export", s(&ext), "--out", s(&out)]), "changed after it was locked");
     assert!(!out.exists(), "export wrote into {} before refusing", out.display());
 }
+
+#[test]
+fn commands_that_write_no_run_leave_a_runs_own_folders_alone() {
+    // A trust review (round 6): `data audit`, `simsum`, `coverage`, `audit
+    // split` and `combine` wrote into a run's simulated_data/ (or audit/,
+    // report/), and the run could no longer resume ("holds a run on other
+    // data"). Each is refused before it writes, and the run resumes.
+    let (_, design, first) = reference();
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let before = tree(&out);
+    let data = out.join("simulated_data");
+    assert_refused(&crossaudit(&["data", "audit", s(design), "--out", s(&data)]), "only the run itself writes");
+    let truth = "tests/fixtures/simsum_truth_column.csv";
+    let audit = out.join("audit");
+    assert_refused(
+        &crossaudit(&["simsum", truth, "--true", "true_value", "--out", s(&audit)]),
+        "only the run itself writes",
+    );
+    assert_eq!(tree(&out), before, "a refused command wrote into the run");
+    let again = crossaudit(&["run", s(design), "--out", s(&out), "--workers", "2"]);
+    assert_ok(&again);
+    assert!(stderr(&again).contains("0 cells trained, 4 resumed"), "{}", stderr(&again));
+    assert_eq!(stdout(&again), *first);
+}
+
+#[test]
+fn an_analysis_whose_outputs_hold_an_input_writes_nothing() {
+    // A trust review (round 6): the per-cell file given as DIR/estimates.csv
+    // was protected, but report.md, results.json and the figures were
+    // written before the refusal, a folder that looked like a whole report.
+    let (out, design, _) = reference();
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("self");
+    std::fs::create_dir_all(&folder).unwrap();
+    let cells = folder.join("estimates.csv");
+    std::fs::copy(out.join("cells.csv"), &cells).unwrap();
+    let o = crossaudit(&["analyze", s(design), "--cells", s(&cells), "--out", s(&folder)]);
+    assert_refused(&o, "it is an input of this command");
+    let left: Vec<String> = tree(&folder).into_iter().map(|(n, _)| n).collect();
+    assert_eq!(left, ["estimates.csv"], "nothing but the input is there");
+}

@@ -27,6 +27,33 @@ pub fn md_text(s: &str) -> String {
     escape_markup(s, false)
 }
 
+/// Markdown text written by [`md_text`] as the terminal shows it: each
+/// backslash escape of a punctuation character undone outside code spans
+/// (which hold no escapes), so a console line reads `a > b`, not `a \> b`.
+///
+/// ```
+/// use crossaudit::io::{md_plain, md_text};
+/// assert_eq!(md_plain(&md_text("active(m1 > 1000) >= 1 [0.5, 9]")), "active(m1 > 1000) >= 1 [0.5, 9]");
+/// assert_eq!(md_plain(&md_text("C:\\logs\\_x_")), "C:\\logs\\_x_");
+/// assert_eq!(md_plain("`a\\_b` \\_c"), "`a\\_b` _c");
+/// ```
+pub fn md_plain(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    let (mut chars, mut in_code) = (s.chars().peekable(), false);
+    while let Some(c) = chars.next() {
+        match c {
+            '`' => in_code = !in_code,
+            '\\' if !in_code && chars.peek().is_some_and(|n| n.is_ascii_punctuation()) => {
+                out.extend(chars.next());
+                continue;
+            }
+            _ => {}
+        }
+        out.push(c);
+    }
+    out
+}
+
 /// [`md_text`]'s escapes; with `code_spans`, a backtick run that a later
 /// run of the same length closes is kept with everything between them (a
 /// code span: nothing in it is markup), and any other backtick escaped.

@@ -101,6 +101,7 @@ fn report(
         analysis,
         trained: 0,
         skipped: plan.jobs.len(),
+        copied: 0,
         seconds: started.elapsed().as_secs_f64(),
     })
 }

@@ -17,6 +17,10 @@ use crate::split::Prepared;
 pub trait RunObserver: Sync {
     /// The grid starts: `total` jobs, `already_done` of them finished before.
     fn start(&self, _total: usize, _already_done: usize) {}
+    /// Before [`RunObserver::start`]: `copied` of the `total` jobs were
+    /// copied from the earlier run `from` (`run --reuse`), not trained; they
+    /// are among the start's `already_done`.
+    fn reused(&self, _copied: usize, _total: usize, _from: &Path) {}
     /// A study with outer levels (specifications, draws) starts level
     /// `index` of `count`, described by `label`.
     fn level(&self, _index: usize, _count: usize, _label: &str) {}

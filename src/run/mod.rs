@@ -90,6 +90,7 @@ pub fn run(
     opened.record_device(&options.device, out)?;
     let (mut todo, builds) = pending(plan, out, &file.sha256)?;
     let keys = reuse::keys(&file.design, plan, &opened.prepared.manifests, &opened.record);
+    let mut copied = 0;
     if let Some(index) = &index {
         let mut taken = 0;
         for (j, key) in &keys {
@@ -100,7 +101,9 @@ pub fn run(
         }
         if taken > 0 {
             opened.notes.push(reuse::reused_note(taken, plan.jobs.len(), index.from()));
+            observer.reused(taken, plan.jobs.len(), index.from());
         }
+        copied = taken;
     }
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);
@@ -110,7 +113,8 @@ pub fn run(
     reuse::stamp(out, &keys)?;
     let mut outcome =
         finish(crate::analysis::record::DesignLabel::new(file, opened.status.clone()), plan, &opened, out, builds)?;
-    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped, started.elapsed().as_secs_f64());
+    (outcome.trained, outcome.skipped, outcome.seconds) = (trained, skipped - copied, started.elapsed().as_secs_f64());
+    outcome.copied = copied;
     Ok(outcome)
 }
 

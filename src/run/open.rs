@@ -40,8 +40,10 @@ pub struct RunOutcome {
     pub analysis: StudyAnalysis,
     /// Jobs run now.
     pub trained: usize,
-    /// Jobs finished by an earlier run.
+    /// Jobs finished by an earlier run in this folder (resumed).
     pub skipped: usize,
+    /// Jobs copied from another run's folder (`run --reuse`), not trained.
+    pub copied: usize,
     /// Wall seconds.
     pub seconds: f64,
 }

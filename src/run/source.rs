@@ -112,8 +112,23 @@ pub fn design_data_path(design_file: &Path, path: &str) -> Result<PathBuf, RunEr
         }
         (true, false) => Ok(beside),
         (false, true) => Ok(p.to_path_buf()),
-        (false, false) => Err(RunError::NoDataDir {
-            dir: format!("{} (from the design's directory) or {path} (from the current directory)", beside.display()),
-        }),
+        (false, false) => {
+            // Named in full: the two relative spellings can read the same.
+            let full = |q: &Path| std::path::absolute(q).unwrap_or_else(|_| q.to_path_buf());
+            let (from_design, from_here) = (full(&beside), full(p));
+            let dir = if from_design == from_here {
+                format!(
+                    "{} (the design's path {path}, from the design's directory, which is the current one)",
+                    from_here.display()
+                )
+            } else {
+                format!(
+                    "{} (the design's path {path}, from the design's directory) or {} (from the current directory)",
+                    from_design.display(),
+                    from_here.display()
+                )
+            };
+            Err(RunError::NoDataDir { dir })
+        }
     }
 }

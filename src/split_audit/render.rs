@@ -72,11 +72,12 @@ impl SplitAudit {
         s
     }
 
-    /// The findings, as printed by `crossaudit audit split`.
+    /// The findings, as printed by `crossaudit audit split`: the Markdown's
+    /// escapes undone for the terminal.
     pub fn summary(&self) -> String {
-        let mut s = format!("{} against {}:\n", self.split_file, self.data_dir);
+        let mut s = String::new();
         self.findings(&mut s);
-        s
+        format!("{} against {}:\n{}", self.split_file, self.data_dir, crate::io::md_plain(&s))
     }
 
     fn findings(&self, s: &mut String) {

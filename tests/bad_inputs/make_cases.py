@@ -47,6 +47,10 @@ design("design_sim_negative_strength", SMALL.replace("strength 1.0", "strength -
 design("design_sim_incomplete", SMALL.replace("strength 1.0 ", ""))
 design("design_missing_decision", MINIMAL.replace("decide confirmed when optimism >= 10% and upper < 0\n", ""))
 design("design_conflicting_caps", MINIMAL.replace("at 0.5 s models", "at 0.5 s cap 3 m models"))
+# Mistakes a first design makes, each with the hint the words before it give.
+design("design_cap_without_unit", MINIMAL.replace("cap 2 m model world", "cap 2 model world"))
+design("design_horizon_in_seconds", MINIMAL.replace("horizon 100", "horizon 1 s"))
+design("design_seed_range_hyphen", MINIMAL.replace("factor seed = 1..3", "factor seed = 1-3"))
 case("design_file_missing", "check {dir}/nothing_here.design")
 
 # ---- per-cell CSVs (analyze under the minimal design) -----------------------

@@ -282,7 +282,9 @@ pub(crate) enum Command {
         #[arg(long)]
         cells: PathBuf,
         /// Output directory for report.md, results.json and results.tex
-        /// [default: report/ next to the cells file].
+        /// [default: report/ next to the cells file; for a run folder, or a
+        /// cells file in one, reanalysis/ in the run folder, beside the
+        /// run's own report/].
         #[arg(long)]
         out: Option<PathBuf>,
         /// Add every interval estimator side by side for each contrast.

@@ -69,6 +69,7 @@ pub(crate) fn score(dir: &Path, workers: Option<usize>) -> Result<(), Error> {
             "warning: {job}: {n} of {of} predicted trajectories have a non-finite state (divergent from that step on)"
         );
     }
+    crate::output::warnings(&o.run.analysis);
     crate::output::verdict(&o.run.analysis)?;
     Ok(())
 }

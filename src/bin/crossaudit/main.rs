@@ -16,6 +16,7 @@ mod output;
 mod args;
 mod design_file;
 mod external;
+mod folders;
 mod methods;
 mod progress;
 
@@ -27,7 +28,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return clap_exit(&e, color),
     };
-    protect_inputs(&cli.command);
+    folders::protect_inputs(&cli.command);
     if let Some(n) = cli.threads {
         // The first use of the global pool: it cannot have been built yet.
         if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global() {
@@ -35,7 +36,7 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     }
-    if let Err(e) = refuse_runs_own(&cli.command) {
+    if let Err(e) = folders::refuse_runs_own(&cli.command) {
         output::note_raw(&render(&e, color));
         return ExitCode::FAILURE;
     }
@@ -103,50 +104,6 @@ fn main() -> ExitCode {
             output::note_raw(&render(&e, color));
             ExitCode::FAILURE
         }
-    }
-}
-
-/// Refuses, before anything is written, an `--out` inside a folder a run
-/// wrote (its `simulated_data/`, `audit/`, `report/`, ...), for the
-/// commands whose outputs are no run's: written there they would change
-/// what the run's resume reads (its data, its audit) or replace its own
-/// files. `analyze`, `plan` and `power` check their folders themselves;
-/// `run`, `split`, `train` and `export` write runs.
-fn refuse_runs_own(command: &Command) -> Result<(), Error> {
-    let out = match command {
-        Command::Audit { command: AuditCommand::Split { out, .. } }
-        | Command::Data { command: DataCommand::Audit { out, .. } }
-        | Command::Coverage { out, .. }
-        | Command::Simulate { out, .. }
-        | Command::SimulateLab { out, .. }
-        | Command::Combine { out, .. } => out,
-        Command::Simsum(args) => &args.out,
-        _ => return Ok(()),
-    };
-    Ok(crossaudit::run::check_not_runs_own(out, None)?)
-}
-
-/// The files a command reads that its outputs must never replace (an
-/// `--out` folder holding one under an output's name).
-fn protect_inputs(command: &Command) {
-    let files: Vec<&std::path::Path> = match command {
-        Command::Audit { command: AuditCommand::Split { split, design, .. } } => {
-            std::iter::once(split.as_path()).chain(design.as_deref()).collect()
-        }
-        Command::Analyze { design, cells, .. } => vec![design, cells],
-        Command::Plan { design, cells, .. } => std::iter::once(design.as_path()).chain(cells.as_deref()).collect(),
-        Command::Simsum(args) => vec![&args.file],
-        Command::Mixed(args) => vec![&args.data],
-        Command::Coverage { spec, .. } => vec![spec],
-        Command::Data { command: DataCommand::Audit { design, .. } }
-        | Command::Split { design, .. }
-        | Command::Run { design, .. }
-        | Command::Export { design, .. }
-        | Command::Combine { design, .. } => vec![design],
-        _ => Vec::new(),
-    };
-    for f in files {
-        crossaudit::io::protect_input(f);
     }
 }
 
@@ -374,14 +331,16 @@ fn run(
     let result = crossaudit::run::run_into(&file, &study, data, out, options, &progress);
     progress.finish();
     let o = result?;
+    let copied = if o.copied > 0 { format!(", {} copied (--reuse)", o.copied) } else { String::new() };
     note!(
-        "{} cells trained, {} resumed, {:.1} s; wrote {} and {}",
+        "{} cells trained, {} resumed{copied}, {:.1} s; wrote {} and {}",
         o.trained,
         o.skipped,
         o.seconds,
         o.cells_csv.display(),
         o.report_dir.display()
     );
+    output::warnings(&o.analysis);
     output::verdict(&o.analysis)?;
     Ok(())
 }
@@ -510,6 +469,7 @@ fn slurm_gather(dir: &Path) -> Result<(), Error> {
         o.cells_csv.display(),
         o.report_dir.display()
     );
+    output::warnings(&o.analysis);
     output::verdict(&o.analysis)?;
     Ok(())
 }
@@ -539,9 +499,7 @@ fn combine(design: &Path, from: &[String], out: &Path) -> Result<(), Error> {
     let analysis = crossaudit::analysis::analyze_study(&study.plan, &record, AnalyzeOptions::default())
         .map_err(crossaudit::run::RunError::from)?;
     let written = crossaudit::report::write_study(&analysis, &out.join("report"))?;
-    for w in analysis.warnings() {
-        note!("warning: {}", crossaudit::io::one_line(w));
-    }
+    output::warnings(&analysis);
     for p in written {
         note!("wrote {}", p.display());
     }
@@ -586,9 +544,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     let analysis = crossaudit::analyze_study(&file, &study, cells, options)?;
     let _lock = lock_folder(&dir, false)?;
     let written = crossaudit::report::write_study(&analysis, &dir)?;
-    for w in analysis.warnings() {
-        note!("warning: {}", crossaudit::io::one_line(w));
-    }
+    output::warnings(&analysis);
     for p in written {
         note!("wrote {}", p.display());
     }

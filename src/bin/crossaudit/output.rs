@@ -77,6 +77,14 @@ pub fn note_raw(text: &str) {
     let _ = std::io::stderr().lock().write_all(text.as_bytes());
 }
 
+/// The report's warnings, one line each on standard error: what `run`,
+/// `score`, `combine` and `analyze` all print, as report.md lists them.
+pub fn warnings(a: &crossaudit::analysis::StudyAnalysis) {
+    for w in a.warnings() {
+        note!("warning: {}", crossaudit::io::one_line(w));
+    }
+}
+
 /// The study's decision line, then each guard the report gives beside the
 /// verdict (condition coverage, early stopping, a reference arm that is
 /// not disjoint, a fragile decision), one indented line each: the console

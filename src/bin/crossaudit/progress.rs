@@ -57,6 +57,8 @@ pub struct RunProgress {
     workers: Vec<ProgressBar>,
     epochs: usize,
     terminal: bool,
+    /// Jobs copied by `--reuse`, among those done at the start.
+    copied: std::sync::atomic::AtomicUsize,
 }
 
 impl RunProgress {
@@ -80,7 +82,7 @@ impl RunProgress {
                 b
             })
             .collect();
-        RunProgress { bars, overall, workers, epochs, terminal }
+        RunProgress { bars, overall, workers, epochs, terminal, copied: Default::default() }
     }
 
     /// A line above the bars, or on standard error when they are hidden.
@@ -117,9 +119,15 @@ impl RunObserver for RunProgress {
     fn start(&self, total: usize, done: usize) {
         self.overall.set_length(total as u64);
         self.overall.set_position(done as u64);
-        if done > 0 {
-            self.say(format!("resuming: {done} of {total} cells already finished"));
+        let resumed = done.saturating_sub(self.copied.load(std::sync::atomic::Ordering::Relaxed));
+        if resumed > 0 {
+            self.say(format!("resuming: {resumed} of {total} cells already finished in this folder"));
         }
+    }
+
+    fn reused(&self, copied: usize, total: usize, from: &std::path::Path) {
+        self.copied.store(copied, std::sync::atomic::Ordering::Relaxed);
+        self.say(format!("reusing: {copied} of {total} cells copied from {} (--reuse), not trained", from.display()));
     }
 
     fn job_started(&self, w: usize, j: &TrainingJob) {

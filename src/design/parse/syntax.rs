@@ -247,6 +247,36 @@ fn cap_unit_hint(line: &str, at: pest::error::LineColLocation) -> String {
     format!("; a cap is written in metres: `cap {metres} m` for {value} {unit}")
 }
 
+const CAP_UNIT: &str = "; a cap needs its unit, metres: `cap 2 m`";
+
+/// What the words just before the error say the writer meant, where a
+/// mistake is common and the grammar's expectation alone misleads: a cap
+/// without its unit, a horizon in seconds in the recording factor, a
+/// range written with a hyphen.
+fn context_hint(line: &str, at: pest::error::LineColLocation) -> Option<&'static str> {
+    let col = match at {
+        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
+    };
+    let before: String = line.chars().take(col.saturating_sub(1)).collect();
+    let rest: String = line.chars().skip(col.saturating_sub(1)).collect();
+    let words: Vec<&str> = before.split_whitespace().collect();
+    let number = |w: &str| w.parse::<f64>().is_ok();
+    match words.as_slice() {
+        [.., "cap", v] if number(v) && !before.ends_with(v) => Some(CAP_UNIT),
+        // `cap 2 model`: the unit `m` read as the start of `model`.
+        [.., "cap", v, "m"] if number(v) && before.ends_with('m') && rest.starts_with(char::is_alphanumeric) => {
+            Some(CAP_UNIT)
+        }
+        [.., "horizon", v] if number(v) && rest.starts_with(['s', 'S']) => Some(
+            "; the recording factor's `horizon` counts samples (rows of the log), as `horizon 100`; an endpoint's time in seconds is its `at 1.0 s`",
+        ),
+        [.., "=", v] if v.chars().all(|c| c.is_ascii_digit()) && rest.starts_with('-') => {
+            Some("; a range of values is written with two dots, as `1..5`")
+        }
+        _ => None,
+    }
+}
+
 /// A pest error as a located diagnostic in the reader's words.
 pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
     let span = match e.location {
@@ -272,8 +302,13 @@ pub(super) fn syntax(e: pest::error::Error<Rule>) -> Diagnostic {
                 let unexpected: Vec<String> = negatives.iter().map(rule_name).collect();
                 text.push_str(&format!("; unexpected {}", unexpected.join(", ")));
             }
-            if let Some(word) = did_you_mean(&names, found_word(e.line(), e.line_col.clone())) {
-                text.push_str(&format!("; did you mean `{word}`?"));
+            match context_hint(e.line(), e.line_col.clone()) {
+                Some(hint) => text.push_str(hint),
+                None => {
+                    if let Some(word) = did_you_mean(&names, found_word(e.line(), e.line_col.clone())) {
+                        text.push_str(&format!("; did you mean `{word}`?"));
+                    }
+                }
             }
             if names.iter().any(|n| n == &rule_name(&Rule::cap)) {
                 text.push_str(&cap_unit_hint(e.line(), e.line_col.clone()));

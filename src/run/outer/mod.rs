@@ -169,7 +169,15 @@ pub(crate) fn finish_levels(
     let report_dir = out.join("report");
     let analysis = StudyAnalysis::Multiverse(Box::new(a));
     crate::report::write_study(&analysis, &report_dir)?;
-    Ok(RunOutcome { cells_csv, report_dir, analysis, trained: 0, skipped: 0, seconds: started.elapsed().as_secs_f64() })
+    Ok(RunOutcome {
+        cells_csv,
+        report_dir,
+        analysis,
+        trained: 0,
+        skipped: 0,
+        copied: 0,
+        seconds: started.elapsed().as_secs_f64(),
+    })
 }
 
 /// For each pair of levels with a split of their own (at the first draw):

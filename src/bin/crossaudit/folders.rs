@@ -1,0 +1,59 @@
+//! The folders a command may write into and the files it must not
+//! replace, checked before anything is written.
+
+use std::path::Path;
+
+use crate::args::{AuditCommand, Command, DataCommand};
+use crossaudit::Error;
+
+/// Refuses, before anything is written, an `--out` inside a folder a run
+/// wrote (its `simulated_data/`, `audit/`, `report/`, ...), for the
+/// commands whose outputs are no run's: written there they would change
+/// what the run's resume reads (its data, its audit) or replace its own
+/// files. `analyze`, `plan` and `power` check their folders themselves;
+/// `run`, `split`, `train` and `export` write runs.
+pub(crate) fn refuse_runs_own(command: &Command) -> Result<(), Error> {
+    let (out, what) = match command {
+        Command::Audit { command: AuditCommand::Split { out, .. } } => (out, "split-audit"),
+        Command::Data { command: DataCommand::Audit { out, .. } } => (out, "data-audit"),
+        Command::Coverage { out, .. } => (out, "coverage"),
+        Command::Simulate { out, .. } | Command::SimulateLab { out, .. } => (out, "simulated"),
+        Command::Combine { out, .. } => (out, "combined"),
+        Command::Simsum(args) => (&args.out, "simsum"),
+        _ => return Ok(()),
+    };
+    match crossaudit::run::check_not_runs_own(out, None) {
+        // Suggested: a folder beside the run, not one in it.
+        Err(crossaudit::run::RunError::RunsOwnFolder { dir, what: folder, run, .. }) => {
+            let p = Path::new(&run);
+            let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let suggest = p.with_file_name(format!("{name}-{what}")).display().to_string();
+            Err(crossaudit::run::RunError::RunsOwnFolder { dir, what: folder, run, suggest }.into())
+        }
+        other => Ok(other?),
+    }
+}
+
+/// The files a command reads that its outputs must never replace (an
+/// `--out` folder holding one under an output's name).
+pub(crate) fn protect_inputs(command: &Command) {
+    let files: Vec<&std::path::Path> = match command {
+        Command::Audit { command: AuditCommand::Split { split, design, .. } } => {
+            std::iter::once(split.as_path()).chain(design.as_deref()).collect()
+        }
+        Command::Analyze { design, cells, .. } => vec![design, cells],
+        Command::Plan { design, cells, .. } => std::iter::once(design.as_path()).chain(cells.as_deref()).collect(),
+        Command::Simsum(args) => vec![&args.file],
+        Command::Mixed(args) => vec![&args.data],
+        Command::Coverage { spec, .. } => vec![spec],
+        Command::Data { command: DataCommand::Audit { design, .. } }
+        | Command::Split { design, .. }
+        | Command::Run { design, .. }
+        | Command::Export { design, .. }
+        | Command::Combine { design, .. } => vec![design],
+        _ => Vec::new(),
+    };
+    for f in files {
+        crossaudit::io::protect_input(f);
+    }
+}
