@@ -601,6 +601,16 @@ fn actions_beyond_the_declared_scale_are_noted_in_the_audit_and_rows_default_to_
         "{}",
         f1.reason
     );
+    // Where to look: the value farthest outside, its data row and time (a
+    // trust review found "largest 65535" said of a command of -1e9).
+    let layout = Layout::new(&spec(&design)).unwrap();
+    let pwm = &load_recording(&tmp.path().join("F1_circle_slow_rep1.csv"), &layout).unwrap().pwm;
+    let (row, far) = pwm
+        .iter()
+        .enumerate()
+        .flat_map(|(k, r)| r.iter().map(move |v| (k, *v)))
+        .fold((0, f64::NEG_INFINITY), |(k0, m), (k, v)| if v > m { (k, v) } else { (k0, m) });
+    assert!(f1.reason.contains(&format!("(the farthest {far}, at data row {}, t = ", row + 1)), "{}", f1.reason);
     // At the right scale, nothing is noted.
     let audit =
         data::audit(&spec(&reordered_design(tmp.path(), "quaternion xyzw qx, qy, qz, qw")), tmp.path()).unwrap();

@@ -229,6 +229,8 @@ fn provenance_and_warnings(
 ) -> Vec<TreatmentStrength> {
     provenance.data = Some(run.data.clone());
     provenance.audit_sha256 = Some(run.audit_sha256.clone());
+    // Every level reads the same logs under the same rules: the first's.
+    provenance.inclusion = run.levels.first().and_then(|l| l.inclusion);
     let mut said = run_warnings(plan, run);
     let strengths = treatment(plan, &run.levels, &mut said);
     warnings.extend(said);

@@ -115,6 +115,9 @@ pub struct LevelEvidence {
     /// The sentence naming the logs the audit could not read and excluded
     /// (`audit/recordings.csv`, worded by `data::unread_sentence`).
     pub unread: Option<String>,
+    /// The inclusion audit's rows counted by status (`audit/recordings.csv`;
+    /// `None` where it is absent or unreadable).
+    pub inclusion: Option<Inclusion>,
     /// The validation-loss curve of every fitted job (`curves/STEM.csv`),
     /// in file-name order.
     pub curves: Vec<Curve>,
@@ -268,4 +271,35 @@ pub struct SharedDraws {
     pub starts: (usize, usize),
     /// Shared fit windows of the reference arm / of the left's.
     pub fit_windows: (usize, usize),
+}
+
+/// The inclusion audit's rows by status (`audit/recordings.csv`): every
+/// file it listed, the recordings it included, those its rules excluded
+/// (each with its rule), and recordings with metadata but no log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct Inclusion {
+    /// Rows of the audit.
+    pub listed: usize,
+    /// Status `included`.
+    pub included: usize,
+    /// Status `excluded`.
+    pub excluded: usize,
+    /// Status `missing`: metadata without a log.
+    pub missing: usize,
+}
+
+impl Inclusion {
+    /// The counts as report.md gives them beside the audit's hash, with
+    /// where each file's rule is: `audit/recordings.csv: 107 files listed,
+    /// 99 included, 1 excluded by the rules, 7 with metadata but no log`.
+    pub fn sentence(&self) -> String {
+        let mut s = format!(
+            "`audit/recordings.csv`, each file with the rule that kept or dropped it: {} listed, {} included, {} excluded",
+            self.listed, self.included, self.excluded
+        );
+        if self.missing > 0 {
+            s.push_str(&format!(", {} with metadata but no log", self.missing));
+        }
+        s
+    }
 }

@@ -103,6 +103,10 @@ pub struct Provenance {
     pub data: Option<String>,
     /// SHA-256 of the run's inclusion audit (`audit/recordings.csv`).
     pub audit_sha256: Option<String>,
+    /// What that audit decided, counted (absent for a per-cell file alone,
+    /// or an audit the report could not read).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inclusion: Option<super::record::Inclusion>,
     /// The per-cell CSV analysed and its SHA-256.
     pub cells: Option<(String, String)>,
     /// The crossaudit build that wrote the analysis ([`crate::io::BUILD`]).
@@ -111,7 +115,13 @@ pub struct Provenance {
 
 impl Default for Provenance {
     fn default() -> Self {
-        Provenance { data: None, audit_sha256: None, cells: None, crossaudit: crate::io::BUILD.to_string() }
+        Provenance {
+            data: None,
+            audit_sha256: None,
+            inclusion: None,
+            cells: None,
+            crossaudit: crate::io::BUILD.to_string(),
+        }
     }
 }
 

@@ -269,11 +269,25 @@ impl Layout {
 /// A note when actions were clipped to [0, 1]: a declared scale below the
 /// logs' largest command saturates the model's inputs without a word.
 pub fn clipped_actions(rec: &Recording, scale: f64) -> Option<String> {
+    let beyond = |v: f64| if v < 0.0 { -v } else { v - scale };
     let outside = rec.pwm.iter().flatten().filter(|v| **v < 0.0 || **v > scale).count();
-    let largest = rec.pwm.iter().flatten().fold(f64::NEG_INFINITY, |m, v| m.max(*v));
-    (outside > 0).then(|| {
-        format!("{outside} action value(s) outside [0, {scale}] clipped to [0, 1] (largest {largest}); is the action `scale` right?")
-    })
+    // The value farthest outside, with the data row (1-based, after the
+    // header) and time it was read at: where to look in the log.
+    let (row, value) = rec
+        .pwm
+        .iter()
+        .enumerate()
+        .flat_map(|(k, r)| r.iter().map(move |v| (k, *v)))
+        .filter(|(_, v)| *v < 0.0 || *v > scale)
+        .fold(None, |far: Option<(usize, f64)>, (k, v)| match far {
+            Some((_, w)) if beyond(w) >= beyond(v) => far,
+            _ => Some((k, v)),
+        })?;
+    let at = rec.t.get(row).map(|t| format!(", t = {t} s")).unwrap_or_default();
+    Some(format!(
+        "{outside} action value(s) outside [0, {scale}] clipped to [0, 1] (the farthest {value}, at data row {}{at}); is the action `scale` right?",
+        row + 1
+    ))
 }
 
 /// The Euclidean length of a quaternion (or any vector).

@@ -119,9 +119,10 @@ fn provenance_and_figures(s: &mut String, a: &Analysis) {
     if let Some(d) = &p.data {
         let _ = writeln!(
             s,
-            "Data: {}; inclusion audit SHA-256 `{}`.",
+            "Data: {}; inclusion audit SHA-256 `{}`{}.",
             crate::io::md_line(d),
-            p.audit_sha256.as_deref().unwrap_or("unknown")
+            p.audit_sha256.as_deref().unwrap_or("unknown"),
+            p.inclusion.map(|i| format!(" ({})", i.sentence())).unwrap_or_default()
         );
     }
     if let Some((path, sha)) = &p.cells {

@@ -313,13 +313,16 @@ pub fn read_level(level: &LevelFolder, missing: &mut Vec<String>) -> LevelEviden
         missing,
     );
     let warned = invariants.map(|f| f.invariants.into_iter().filter(|i| i.status == "warn").collect());
+    let (unread, inclusion) =
+        unread(&audit.join("recordings.csv"), run.as_ref().map(|r| r.audit_sha256.clone()), missing);
     LevelEvidence {
         id: level.id.clone(),
         draw: level.draw,
         seed: level.seed,
         treatment,
         warned: warned.unwrap_or_default(),
-        unread: unread(&audit.join("recordings.csv"), run.as_ref().map(|r| r.audit_sha256.clone()), missing),
+        unread,
+        inclusion,
         // A family's report draws no training curves.
         curves: if level.curves { curves(plan, dir, missing) } else { Vec::new() },
         sources: sources(plan, dir, missing),
@@ -368,9 +371,14 @@ fn edited(bytes: &[u8], recorded: Option<String>) -> Option<String> {
 }
 
 /// The sentence naming the logs the audit could not read (`None` when it
-/// read every one, or, with a sentence in `missing`, when the audit is
-/// absent, unreadable or not the one the run `recorded`).
-fn unread(path: &Path, recorded: Option<String>, missing: &mut Vec<String>) -> Option<String> {
+/// read every one), and its rows counted by status; both `None`, with a
+/// sentence in `missing`, when the audit is absent, unreadable or not the
+/// one the run `recorded`.
+fn unread(
+    path: &Path,
+    recorded: Option<String>,
+    missing: &mut Vec<String>,
+) -> (Option<String>, Option<crate::analysis::record::Inclusion>) {
     let read = crate::io::read_own(path).map_err(|e| format!("is unreadable ({e})")).and_then(|bytes| {
         if let Some(why) = edited(&bytes, recorded) {
             return Err(why);
@@ -382,15 +390,22 @@ fn unread(path: &Path, recorded: Option<String>, missing: &mut Vec<String>) -> O
         Ok(rows) => rows,
         Err(why) => {
             missing.push(format!("{} {why}: logs it could not read not reported", path.display()));
-            return None;
+            return (None, None);
         }
+    };
+    let count = |status: &str| rows.iter().filter(|r| r.status == status).count();
+    let inclusion = crate::analysis::record::Inclusion {
+        listed: rows.len(),
+        included: count("included"),
+        excluded: count("excluded"),
+        missing: count("missing"),
     };
     let files: Vec<(String, String)> = rows
         .into_iter()
         .filter(|r| r.status == "excluded" && r.content_hash.is_empty())
         .map(|r| (if r.file.is_empty() { r.name } else { r.file }, r.reason))
         .collect();
-    crate::data::unread_sentence(&files)
+    (crate::data::unread_sentence(&files), Some(inclusion))
 }
 
 /// The columns of a training curve the analysis reads.

@@ -51,6 +51,8 @@ design("design_conflicting_caps", MINIMAL.replace("at 0.5 s models", "at 0.5 s c
 design("design_cap_without_unit", MINIMAL.replace("cap 2 m model world", "cap 2 model world"))
 design("design_horizon_in_seconds", MINIMAL.replace("horizon 100", "horizon 1 s"))
 design("design_seed_range_hyphen", MINIMAL.replace("factor seed = 1..3", "factor seed = 1-3"))
+# One replicate passed, and its "interval" was one point (trust round 6).
+design("design_bootstrap_one_replicate", MINIMAL.replace("pigeonhole 99", "pigeonhole 1"))
 case("design_file_missing", "check {dir}/nothing_here.design")
 
 # ---- per-cell CSVs (analyze under the minimal design) -----------------------

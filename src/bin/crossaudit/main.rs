@@ -28,16 +28,8 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return clap_exit(&e, color),
     };
-    folders::protect_inputs(&cli.command);
-    if let Some(n) = cli.threads {
-        // The first use of the global pool: it cannot have been built yet.
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global() {
-            output::note_raw(&output::visible(format!("error: --threads {n}: {e}\n")));
-            return ExitCode::FAILURE;
-        }
-    }
-    if let Err(e) = folders::refuse_runs_own(&cli.command) {
-        output::note_raw(&render(&e, color));
+    if let Err(said) = prepare(&cli, color) {
+        output::note_raw(&said);
         return ExitCode::FAILURE;
     }
     let result = match cli.command {
@@ -505,6 +497,20 @@ fn combine(design: &Path, from: &[String], out: &Path) -> Result<(), Error> {
     }
     output::verdict(&analysis)?;
     Ok(())
+}
+
+/// Before any subcommand: its inputs protected from its outputs, the
+/// thread pool of `--threads`, and an `--out` in a run's own folders
+/// refused ([`folders`]); the error as it is printed.
+fn prepare(cli: &Cli, color: bool) -> Result<(), String> {
+    folders::protect_inputs(&cli.command);
+    if let Some(n) = cli.threads {
+        // The first use of the global pool: it cannot have been built yet.
+        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global() {
+            return Err(output::visible(format!("error: --threads {n}: {e}\n")));
+        }
+    }
+    folders::refuse_runs_own(&cli.command).map_err(|e| render(&e, color))
 }
 
 fn render(e: &Error, color: bool) -> String {

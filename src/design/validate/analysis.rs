@@ -121,7 +121,7 @@ impl Validator {
         &mut self,
         items: &[Spanned<SensitivityItem>],
         conditions: &[Condition],
-        n_seeds: Option<usize>,
+        (n_seeds, level): (Option<usize>, f64),
         recording: Option<&RecordingFactor>,
     ) -> Option<Sensitivity> {
         let mut seen = BTreeMap::new();
@@ -130,7 +130,7 @@ impl Validator {
             match &item.node {
                 SensitivityItem::Bootstrap { kind, replicates, seed } => {
                     self.once(&mut seen, "bootstrap", item.span);
-                    out.bootstrap = Some(self.bootstrap(kind, replicates, seed, n_seeds, recording));
+                    out.bootstrap = Some(self.bootstrap(kind, (replicates, level), seed, n_seeds, recording));
                 }
                 SensitivityItem::Grouped => {
                     self.once(&mut seen, "grouped", item.span);
@@ -155,11 +155,13 @@ impl Validator {
     }
 
     /// `bootstrap pigeonhole R seed S`, its work (replicates x recordings
-    /// x seeds) within [`limits::BOOTSTRAP_WORK`].
+    /// x seeds) within [`limits::BOOTSTRAP_WORK`], and at least the
+    /// replicates whose percentile interval at the design's `level` has a
+    /// replicate beyond each bound ([`min_replicates`]).
     fn bootstrap(
         &mut self,
         kind: &Ident,
-        replicates: &Int,
+        (replicates, level): (&Int, f64),
         seed: &Int,
         n_seeds: Option<usize>,
         recording: Option<&RecordingFactor>,
@@ -173,6 +175,20 @@ impl Validator {
             );
         }
         let reps = self.count(replicates, "bootstrap replicates", 1, limits::BOOTSTRAP);
+        let least = min_replicates(level);
+        // A level outside (0, 1 - 1e-9) has its own error.
+        if reps < least && level > 0.0 && 1.0 - level >= 1e-9 {
+            self.err_help(
+                "too few bootstrap replicates",
+                replicates.span,
+                format!(
+                    "{reps} replicates leave each {:.1}% tail of a {}% percentile interval without a replicate beyond its bound: the interval would be the extreme replicates, or one point",
+                    (1.0 - level) * 50.0,
+                    level * 100.0
+                ),
+                format!("at least {least} replicates for a {}% interval (999 or more are usual)", level * 100.0),
+            );
+        }
         if let (Some(s), Some(r)) = (n_seeds, recording) {
             let work = (reps as u64).saturating_mul(s as u64).saturating_mul(r.evaluation as u64);
             if work > limits::BOOTSTRAP_WORK {
@@ -312,5 +328,17 @@ impl Validator {
             out.push(DecisionCondition { quantity, cmp: c.cmp.node, value: v });
         }
         Some(DecisionRule { name: name.node.clone(), on: DecisionTarget::Primary, conditions: out })
+    }
+}
+
+/// The fewest bootstrap replicates whose percentile interval at `level`
+/// has at least one replicate in each tail, `ceil(2 / (1 - level))`: 40
+/// at 95%, 200 at 99%.
+fn min_replicates(level: f64) -> usize {
+    let tails = 1.0 - level;
+    if tails > 0.0 && tails < 1.0 {
+        (2.0 / tails - 1e-9).ceil() as usize
+    } else {
+        1
     }
 }

@@ -239,7 +239,7 @@ impl Validator {
                 Statement::Sensitivity(items) => self.sensitivity(
                     items,
                     &conditions,
-                    n_seeds,
+                    (n_seeds, estimator.as_ref().map_or(0.95, |e| e.level)),
                     recording.filter(|_| !sampling.pinned_by_split || sampling.published.is_some()),
                 ),
                 _ => None,

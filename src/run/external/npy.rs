@@ -48,9 +48,39 @@ pub fn read(bytes: &[u8], shape: &[usize]) -> Result<Array, String> {
     if found != shape {
         return Err(format!("shape {found:?}, expected {shape:?} (starts x steps x state columns)"));
     }
+    // The header's length field: 2 bytes in format 1.0, 4 in 2.0 and 3.0.
+    let start = match bytes.get(6) {
+        Some(1) => bytes.get(8..10).map(|b| 10 + usize::from(u16::from_le_bytes([b[0], b[1]]))),
+        _ => bytes.get(8..12).map(|b| 12 + u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize),
+    };
+    let values = shape.iter().product::<usize>();
+    if let Some(extra) = start.and_then(|h| bytes.len().checked_sub(h + values * 8)).filter(|&n| n > 0) {
+        return Err(format!(
+            "{extra} bytes after its {values} values: a file written over another, or two arrays in one; save one array with np.save"
+        ));
+    }
     let data: Vec<f64> = file.into_vec().map_err(|e| format!("cannot read its values ({e})"))?;
     if data.len() != shape.iter().product::<usize>() {
         return Err(format!("{} values, expected {}", data.len(), shape.iter().product::<usize>()));
     }
     Ok(Array { shape: found, data })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bytes_after_the_declared_values_are_refused() {
+        let bytes = write(&[2, 3], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
+        assert_eq!(read(&bytes, &[2, 3]).unwrap().data, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        // A trust review (round 6): a file with bytes past its shape's
+        // values was scored as if they were not there.
+        let mut longer = bytes.clone();
+        longer.extend_from_slice(&7.0f64.to_le_bytes());
+        let Err(e) = read(&longer, &[2, 3]) else { panic!("read with 8 bytes more") };
+        assert!(e.starts_with("8 bytes after its 6 values"), "{e}");
+        // Cut short, its values are too few, as before.
+        assert!(read(&bytes[..bytes.len() - 8], &[2, 3]).is_err());
+    }
 }
