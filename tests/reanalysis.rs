@@ -355,7 +355,7 @@ fn validation_copies_of_evaluation_flights_are_a_guard_counted_per_draw() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("report/results.json")).unwrap()).unwrap();
     let guard = results["guards"].as_array().unwrap().iter().find(|g| g["kind"] == "validation_copies").unwrap();
     let text = guard["text"].as_str().unwrap();
-    assert!(text.contains(&format!("holds with a warning in {warned} of {draws} draws")), "{text}");
+    assert!(text.contains(&format!("which the design allows (a warning), in {warned} of {draws} draws")), "{text}");
     let md = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
     let head = md.split("\n## ").next().unwrap();
     assert!(head.contains("**Validation holds copies of evaluation flights**"), "{head}");

@@ -176,8 +176,8 @@ impl Validator {
         }
         let reps = self.count(replicates, "bootstrap replicates", 1, limits::BOOTSTRAP);
         let least = min_replicates(level);
-        // A level outside (0, 1 - 1e-9) has its own error.
-        if reps < least && level > 0.0 && 1.0 - level >= 1e-9 {
+        // A level outside (0, 1 - 1e-9), or no replicates, has its own error.
+        if replicates.node >= 1 && reps < least && level > 0.0 && 1.0 - level >= 1e-9 {
             self.err_help(
                 "too few bootstrap replicates",
                 replicates.span,
