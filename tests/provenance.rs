@@ -543,3 +543,26 @@ fn an_analysis_whose_outputs_hold_an_input_writes_nothing() {
     let left: Vec<String> = tree(&folder).into_iter().map(|(n, _)| n).collect();
     assert_eq!(left, ["estimates.csv"], "nothing but the input is there");
 }
+
+#[test]
+fn an_analysis_does_not_replace_someones_own_report() {
+    // A trust review (round 7): `analyze --out DIR` replaced a user's own
+    // DIR/report.md and results.json. A folder whose report.md has no
+    // results.json naming a study beside it is refused before writing; a
+    // crossaudit report's folder is rewritten as before.
+    let (out, design, _) = reference();
+    let dir = tempfile::tempdir().unwrap();
+    let mine = dir.path().join("mine");
+    std::fs::create_dir_all(&mine).unwrap();
+    std::fs::write(mine.join("report.md"), "my notes\n").unwrap();
+    let cells = out.join("cells.csv");
+    let o = crossaudit(&["analyze", s(design), "--cells", s(&cells), "--out", s(&mine)]);
+    assert_refused(&o, "it is no crossaudit report's");
+    let left: Vec<String> = tree(&mine).into_iter().map(|(n, _)| n).collect();
+    assert_eq!(left, ["report.md"]);
+    assert_eq!(std::fs::read_to_string(mine.join("report.md")).unwrap(), "my notes\n");
+    // A report's own folder is written again.
+    let again = dir.path().join("again");
+    assert_ok(&crossaudit(&["analyze", s(design), "--cells", s(&cells), "--out", s(&again)]));
+    assert_ok(&crossaudit(&["analyze", s(design), "--cells", s(&cells), "--out", s(&again)]));
+}
