@@ -439,8 +439,10 @@ pub fn write_family(a: &FamilyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, Repo
     let estimates = super::estimates::render_family_estimates(a);
     out.push(super::write_parquet_twin(dir, &estimates)?);
     let files = [
-        ("report.md", markdown),
+        // results.json first: a folder holding a report.md without it is
+        // someone's own to the next `analyze`.
         ("results.json", pretty_json(a)),
+        ("report.md", markdown),
         ("estimates.csv", estimates),
         ("report.html", html),
     ];

@@ -103,8 +103,10 @@ pub fn write_all_with(a: &Analysis, dir: &Path, figures: &[(String, String)]) ->
     let estimates = render_estimates(a);
     out.push(write_parquet_twin(dir, &estimates)?);
     for (name, text) in [
-        ("report.md", markdown),
+        // results.json first: a folder holding a report.md without it is
+        // someone's own to the next `analyze`.
         ("results.json", render_json(a)),
+        ("report.md", markdown),
         ("results.tex", render_tex(a)),
         ("estimates.csv", estimates),
         ("report.html", html),

@@ -51,36 +51,6 @@ const REPORT_FILES: [&str; 9] = [
     "choice_effects.csv",
 ];
 
-/// Refuses, before anything is written, a folder whose `report.md` or
-/// `results.json` no crossaudit report wrote: a report's folder holds a
-/// `results.json` (or a multiverse's `multiverse.json`) naming its study,
-/// written with it; without one, those files are someone's own, which the
-/// report would replace.
-fn refuse_others_report(dir: &Path) -> Result<(), ReportError> {
-    let names_a_study = |name: &str| {
-        std::fs::read(dir.join(name))
-            .ok()
-            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            .is_some_and(|v| v.get("study").is_some_and(serde_json::Value::is_string))
-    };
-    if names_a_study("results.json") || names_a_study("multiverse.json") {
-        return Ok(());
-    }
-    for name in ["report.md", "results.json"] {
-        let path = dir.join(name);
-        if path.exists() {
-            return Err(crate::io::WriteError::new(
-                &path,
-                std::io::Error::other(
-                    "it is no crossaudit report's (no results.json naming a study beside it), and the report would replace it: give another --out (nothing was written)",
-                ),
-            )
-            .into());
-        }
-    }
-    Ok(())
-}
-
 /// Writes the report of any study into `dir` and returns the files
 /// written: with its figures (and, for a single study read from a run
 /// folder, the training curves its analysis carries; a family or
@@ -88,7 +58,6 @@ fn refuse_others_report(dir: &Path) -> Result<(), ReportError> {
 /// recorded in the analysis.
 pub fn write_study(a: &StudyAnalysis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     crate::io::refuse_protected_in(dir, |name| REPORT_FILES.contains(&name) || name.ends_with(".svg"))?;
-    refuse_others_report(dir)?;
     match a {
         StudyAnalysis::Single(a) => super::write_with_figures(a, &a.curves, dir),
         StudyAnalysis::Family(a) => super::family::write_family(a, dir),

@@ -57,3 +57,34 @@ pub(crate) fn protect_inputs(command: &Command) {
         crossaudit::io::protect_input(f);
     }
 }
+
+/// Refuses, before anything is written, a folder whose `report.md` or
+/// `results.json` no crossaudit report wrote: a report's folder holds a
+/// `results.json` (or a multiverse's `multiverse.json`) naming its study,
+/// written with it; without one, those files are someone's own, which the
+/// report would replace. Not for a run's own `report/`, which a run
+/// refuses by its `run.json` (`run::check_out`).
+pub(crate) fn refuse_others_report(dir: &Path) -> Result<(), Error> {
+    let names_a_study = |name: &str| {
+        std::fs::read(dir.join(name))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .is_some_and(|v| v.get("study").is_some_and(serde_json::Value::is_string))
+    };
+    if names_a_study("results.json") || names_a_study("multiverse.json") {
+        return Ok(());
+    }
+    for name in ["report.md", "results.json"] {
+        let path = dir.join(name);
+        if path.exists() {
+            return Err(crossaudit::io::WriteError::new(
+                &path,
+                std::io::Error::other(
+                    "it is no crossaudit report's (no results.json naming a study beside it), and the report would replace it: give another --out (nothing was written)",
+                ),
+            )
+            .into());
+        }
+    }
+    Ok(())
+}

@@ -545,6 +545,7 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     // by a reanalysis of its per-cell data.
     crossaudit::run::check_output_dir(&dir, &file.sha256)?;
     crossaudit::run::check_not_runs_own(&dir, outer.then_some(cells))?;
+    folders::refuse_others_report(&dir)?;
     // Any study: a single one, a dose or split family, or (for a
     // multiverse or draw-replicated design) the run directory `cells`.
     let analysis = crossaudit::analyze_study(&file, &study, cells, options)?;

@@ -26,8 +26,10 @@ pub fn write_multiverse(a: &MultiverseAnalysis, dir: &Path) -> Result<Vec<PathBu
     let html =
         super::html::render_page(&a.study, &banner(a), &markdown, &[("spec_curve.svg".to_string(), curve.clone())]);
     let files = [
-        ("report.md", markdown),
+        // multiverse.json first: a folder holding a report.md without it
+        // is someone's own to the next `analyze`.
         ("multiverse.json", pretty_json(a)),
+        ("report.md", markdown),
         ("specs.csv", specs_csv(a)),
         ("choice_effects.csv", effects_csv(a)),
         ("spec_curve.svg", curve),
