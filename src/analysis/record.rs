@@ -290,8 +290,9 @@ pub struct Inclusion {
 
 impl Inclusion {
     /// The counts as report.md gives them beside the audit's hash, with
-    /// where each file's rule is: `audit/recordings.csv: 107 files listed,
-    /// 99 included, 1 excluded by the rules, 7 with metadata but no log`.
+    /// where each file's rule is: "`audit/recordings.csv`, each file with
+    /// the rule that kept or dropped it: 107 listed, 99 included, 1
+    /// excluded, 7 with metadata but no log".
     pub fn sentence(&self) -> String {
         let mut s = format!(
             "`audit/recordings.csv`, each file with the rule that kept or dropped it: {} listed, {} included, {} excluded",

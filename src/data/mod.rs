@@ -270,19 +270,19 @@ impl Layout {
 /// logs' largest command saturates the model's inputs without a word.
 pub fn clipped_actions(rec: &Recording, scale: f64) -> Option<String> {
     let beyond = |v: f64| if v < 0.0 { -v } else { v - scale };
-    let outside = rec.pwm.iter().flatten().filter(|v| **v < 0.0 || **v > scale).count();
-    // The value farthest outside, with the data row (1-based, after the
-    // header) and time it was read at: where to look in the log.
-    let (row, value) = rec
+    // How many lie outside, and the farthest, with the data row (1-based,
+    // after the header) and time it was read at: where to look in the log.
+    let (outside, far) = rec
         .pwm
         .iter()
         .enumerate()
         .flat_map(|(k, r)| r.iter().map(move |v| (k, *v)))
         .filter(|(_, v)| *v < 0.0 || *v > scale)
-        .fold(None, |far: Option<(usize, f64)>, (k, v)| match far {
-            Some((_, w)) if beyond(w) >= beyond(v) => far,
-            _ => Some((k, v)),
-        })?;
+        .fold((0usize, None), |(n, far): (usize, Option<(usize, f64)>), (k, v)| match far {
+            Some((_, w)) if beyond(w) >= beyond(v) => (n + 1, far),
+            _ => (n + 1, Some((k, v))),
+        });
+    let (row, value) = far?;
     let at = rec.t.get(row).map(|t| format!(", t = {t} s")).unwrap_or_default();
     Some(format!(
         "{outside} action value(s) outside [0, {scale}] clipped to [0, 1] (the farthest {value}, at data row {}{at}); is the action `scale` right?",

@@ -165,7 +165,10 @@ fn warned(report: &crate::split::InvariantReport, level: Option<&str>) -> Vec<St
         .filter(|i| i.status == crate::split::InvariantStatus::Warn)
         .map(|i| {
             let line = crate::analysis::evidence::warned_invariant(i.id, i.name, &i.detail);
-            level.map_or(line.clone(), |l| format!("{l}: {line}"))
+            match level {
+                Some(l) => format!("{l}: {line}"),
+                None => line,
+            }
         })
         .collect()
 }

@@ -157,6 +157,24 @@ pub fn check_not_runs_own(dir: &Path, analyzing_run: Option<&Path>) -> Result<()
     if analyzing_run.is_some_and(|run| resolved(run).join("report") == d) {
         return Ok(());
     }
+    // Suggested: beside the outermost run's own folders.
+    runs_own(dir, &d, |outermost| outermost.join("reanalysis"))
+}
+
+/// [`check_not_runs_own`] for a command whose output is no run's nor an
+/// analysis of one (`data audit`, `simsum`, `combine`, ...): the folder
+/// suggested lies beside the outermost run, named after it and `what`
+/// (`RUN-simsum`).
+pub fn check_not_in_run(dir: &Path, what: &str) -> Result<(), RunError> {
+    runs_own(dir, &resolved(dir), |outermost| {
+        let name = outermost.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        outermost.with_file_name(format!("{name}-{what}"))
+    })
+}
+
+/// Refuses `dir` (resolved: `d`) where it lies in a folder a run wrote,
+/// suggesting `suggest` of the outermost run's folder instead.
+fn runs_own(dir: &Path, d: &Path, suggest: impl Fn(&Path) -> PathBuf) -> Result<(), RunError> {
     let runs: Vec<&Path> = d.ancestors().filter(|a| a.join("run.json").is_file() || is_outer_top(a)).collect();
     for a in &runs {
         let first = d.strip_prefix(a).ok().and_then(|r| r.components().next());
@@ -171,13 +189,12 @@ pub fn check_not_runs_own(dir: &Path, analyzing_run: Option<&Path>) -> Result<()
                 }
             }
         };
-        // Suggested: beside the outermost run's own folders.
         let outermost = runs.last().unwrap_or(a);
         return Err(RunError::RunsOwnFolder {
             dir: dir.display().to_string(),
             what,
             run: a.display().to_string(),
-            suggest: outermost.join("reanalysis").display().to_string(),
+            suggest: suggest(outermost).display().to_string(),
         });
     }
     Ok(())

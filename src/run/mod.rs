@@ -45,7 +45,7 @@ pub(crate) use finish::{finish, finish_combined, finish_splits, gather_recorded,
 pub use folder::{check_out_dir, lock_folder, FolderLock};
 pub use grid::{Quiet, RunObserver};
 use guard::refuse_single_run;
-pub use guard::{check_not_runs_own, check_out, check_out_plan, check_output_dir};
+pub use guard::{check_not_in_run, check_not_runs_own, check_out, check_out_plan, check_output_dir};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use open::{check_lock, check_workers, RunOptions, RunOutcome, MAX_WORKERS};
 pub(crate) use open::{open, pending, Opened};
@@ -92,18 +92,16 @@ pub fn run(
     let keys = reuse::keys(&file.design, plan, &opened.prepared.manifests, &opened.record);
     let mut copied = 0;
     if let Some(index) = &index {
-        let mut taken = 0;
         for (j, key) in &keys {
             if todo.contains(j) && index.take(key, out, j, &file.sha256)? {
                 todo.retain(|t| t != j);
-                taken += 1;
+                copied += 1;
             }
         }
-        if taken > 0 {
-            opened.notes.push(reuse::reused_note(taken, plan.jobs.len(), index.from()));
-            observer.reused(taken, plan.jobs.len(), index.from());
+        if copied > 0 {
+            opened.notes.push(reuse::reused_note(copied, plan.jobs.len(), index.from()));
+            observer.reused(copied, plan.jobs.len(), index.from());
         }
-        copied = taken;
     }
     let skipped = plan.jobs.len() - todo.len();
     observer.start(plan.jobs.len(), skipped);

@@ -22,16 +22,7 @@ pub(crate) fn refuse_runs_own(command: &Command) -> Result<(), Error> {
         Command::Simsum(args) => (&args.out, "simsum"),
         _ => return Ok(()),
     };
-    match crossaudit::run::check_not_runs_own(out, None) {
-        // Suggested: a folder beside the run, not one in it.
-        Err(crossaudit::run::RunError::RunsOwnFolder { dir, what: folder, run, .. }) => {
-            let p = Path::new(&run);
-            let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            let suggest = p.with_file_name(format!("{name}-{what}")).display().to_string();
-            Err(crossaudit::run::RunError::RunsOwnFolder { dir, what: folder, run, suggest }.into())
-        }
-        other => Ok(other?),
-    }
+    Ok(crossaudit::run::check_not_in_run(out, what)?)
 }
 
 /// The files a command reads that its outputs must never replace (an

@@ -183,9 +183,7 @@ fn value_name(rule: &Rule) -> Option<&'static str> {
 /// The word the parser stopped at: letters, digits and `_` from the error's
 /// column of its line.
 fn found_word(line: &str, at: pest::error::LineColLocation) -> String {
-    let col = match at {
-        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
-    };
+    let col = column(at);
     line.chars().skip(col.saturating_sub(1)).take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect()
 }
 
@@ -211,6 +209,13 @@ fn did_you_mean(names: &[String], found: String) -> Option<String> {
         .map(|(_, w)| w)
 }
 
+/// The 1-based column where an error starts.
+fn column(at: pest::error::LineColLocation) -> usize {
+    match at {
+        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
+    }
+}
+
 /// Levenshtein distance between two short words.
 fn edits(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
@@ -230,9 +235,7 @@ fn edits(a: &str, b: &str) -> usize {
 /// Where `cap` is written with another unit than metres (`cap 50 cm`),
 /// the cap in metres to write instead; empty otherwise.
 fn cap_unit_hint(line: &str, at: pest::error::LineColLocation) -> String {
-    let col = match at {
-        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
-    };
+    let col = column(at);
     let rest: String = line.chars().skip(col.saturating_sub(1)).collect();
     let words: Vec<&str> = rest.split_whitespace().collect();
     let ["cap", value, unit, ..] = words.as_slice() else { return String::new() };
@@ -254,9 +257,7 @@ const CAP_UNIT: &str = "; a cap needs its unit, metres: `cap 2 m`";
 /// without its unit, a horizon in seconds in the recording factor, a
 /// range written with a hyphen.
 fn context_hint(line: &str, at: pest::error::LineColLocation) -> Option<&'static str> {
-    let col = match at {
-        pest::error::LineColLocation::Pos((_, c)) | pest::error::LineColLocation::Span((_, c), _) => c,
-    };
+    let col = column(at);
     let before: String = line.chars().take(col.saturating_sub(1)).collect();
     let rest: String = line.chars().skip(col.saturating_sub(1)).collect();
     let words: Vec<&str> = before.split_whitespace().collect();

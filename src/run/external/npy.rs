@@ -60,8 +60,8 @@ pub fn read(bytes: &[u8], shape: &[usize]) -> Result<Array, String> {
         ));
     }
     let data: Vec<f64> = file.into_vec().map_err(|e| format!("cannot read its values ({e})"))?;
-    if data.len() != shape.iter().product::<usize>() {
-        return Err(format!("{} values, expected {}", data.len(), shape.iter().product::<usize>()));
+    if data.len() != values {
+        return Err(format!("{} values, expected {values}", data.len()));
     }
     Ok(Array { shape: found, data })
 }
