@@ -311,6 +311,19 @@ fn too_few_recordings_for_the_design_is_an_error() {
     assert!(e.contains("1 recording(s); the design declares `evaluation 4`"), "{e}");
 }
 
+/// A recording beyond the declared number (a name misspelt in one row,
+/// here 5,000 characters long) is named, cut short, with its first line.
+#[test]
+fn too_many_recordings_names_the_one_in_the_fewest_rows() {
+    let d = minimal_design();
+    let mut cells = lined(minimal_cells(&d));
+    let long = "y".repeat(5000);
+    cells[10].recording = long.as_str().into();
+    let e = err_of(&cells);
+    let want = format!("5 recording(s); the design declares `evaluation 4`; the one in the fewest rows is `{}`... (5000 characters): 1 row(s), first at line 12", &long[..60]);
+    assert!(e.contains(&want), "{e}");
+}
+
 #[test]
 fn inconsistent_condition_labels_are_an_error() {
     let d = minimal_design();

@@ -113,7 +113,9 @@ impl Lcg {
 
 /// The sorted-index search against every pair of windows: 20 random
 /// splits of three roles over the fixture recordings (two of them copies),
-/// windows on a 0.05 s grid so touching and nested windows are common.
+/// windows on a 0.05 s grid so touching and nested windows are common, and
+/// starting up to 3.0 s, past the recordings' last timestamp (2.59 s: 260
+/// rows at 100 Hz), where two windows that meet share no row.
 #[test]
 fn nearest_windows_match_a_brute_force_search() {
     let names = ["S1_circle_slow_rep1", "S1_circle_slow_rep2", "S2_star_fast_rep1", "S3_oval_medium_rep1"];
@@ -133,7 +135,7 @@ fn nearest_windows_match_a_brute_force_search() {
         for _ in 0..(5 + study * 3) {
             let n = names[(rng.next() * 4.0) as usize];
             let role = ["a", "b", "c"][(rng.next() * 3.0) as usize];
-            let start = (rng.next() * 50.0).floor() * 0.05;
+            let start = (rng.next() * 61.0).floor() * 0.05;
             let end = start + (1.0 + (rng.next() * 12.0).floor()) * 0.05;
             let (start, end) = ((start * 100.0).round() / 100.0, (end * 100.0).round() / 100.0);
             if windows.iter().any(|w| w.0 == n && w.1 == role && w.2 == start && w.3 == end) {
@@ -154,7 +156,9 @@ fn nearest_windows_match_a_brute_force_search() {
                         continue;
                     }
                     let d = (os - e).max(s - oe).max(0.0);
-                    let overlap = os < e && oe > s;
+                    // Shared time that begins before the last row (2.59 s)
+                    // plus half a sample interval.
+                    let overlap = os < e && oe > s && s.max(*os) < 2.595;
                     best = Some(match best {
                         Some((bd, bo)) if bd < d => (bd, bo),
                         Some((bd, bo)) if bd == d => (bd, bo || overlap),
@@ -184,6 +188,24 @@ fn nearest_windows_match_a_brute_force_search() {
             assert_eq!(d.within_gap, mine.iter().filter(|v| v.0 < 0.3).count());
         }
     }
+}
+
+/// Two windows that meet only past the end of their recording (S3 is
+/// 2.59 s long) share no row: not an overlap, but both ends past the log
+/// are counted; where they meet at the last row (2.59 s) they share it.
+#[test]
+fn windows_that_meet_past_the_end_share_no_row() {
+    let tmp = tempfile::tempdir().unwrap();
+    let split = tmp.path().join("past.csv");
+    let write = |text: &str| std::fs::write(&split, text).unwrap();
+    write("recording,role,start_s,end_s\nS3_oval_medium_rep1,train,0,3.5\nS3_oval_medium_rep1,test,3,4\n");
+    let a = audit_file(&split, 1.0);
+    let test = a.distances.iter().find(|d| d.role == "test").unwrap();
+    assert_eq!((test.in_shared_recording, test.overlapping, test.quantiles_s.map(|q| q[2])), (1, 0, Some(0.0)));
+    assert_eq!(a.roles.iter().map(|r| r.windows_past_end).collect::<Vec<_>>(), [1, 1]);
+    write("recording,role,start_s,end_s\nS3_oval_medium_rep1,train,0,3.5\nS3_oval_medium_rep1,test,2.59,4\n");
+    let a = audit_file(&split, 1.0);
+    assert!(a.distances.iter().all(|d| d.overlapping == 1), "the last row, at 2.59 s, is in both");
 }
 
 #[test]

@@ -74,12 +74,15 @@ pub enum AnalysisError {
         list: String,
     },
     /// The data has a different number of evaluation recordings than declared.
-    #[error("the per-cell data has {found} recording(s); the design declares `evaluation {declared}`")]
+    #[error("the per-cell data has {found} recording(s); the design declares `evaluation {declared}`{fewest}")]
     RecordingCount {
         /// Recordings in the data.
         found: usize,
         /// Recordings the design declares.
         declared: usize,
+        /// Where the data has more: the recording in the fewest rows and
+        /// its first line (empty where it has fewer).
+        fewest: String,
     },
     /// A value the metric cannot take under the design.
     #[error("line {line}, field `{field}`: {} is impossible: {problem}", show(*.value))]

@@ -169,15 +169,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
             // else the file holds: counted over the whole file, and no
             // table is grown for it.
             if next >= plan.recordings {
-                let found = next
-                    + 1
-                    + cells[row..]
-                        .iter()
-                        .filter(|x| !ids.contains(x.recording.id()))
-                        .map(|x| x.recording.as_str())
-                        .collect::<std::collections::HashSet<_>>()
-                        .len();
-                return Err(AnalysisError::RecordingCount { found, declared: plan.recordings });
+                return Err(too_many(plan, cells));
             }
             labels.push((c.recording, c.trajectory, c.speed, c.line.into()));
             out.table.resize(out.table.len() + block, 0);
@@ -244,13 +236,30 @@ impl RecordingIds {
         }
     }
 
-    fn contains(&self, id: usize) -> bool {
-        self.dense.get(id).is_some_and(|&r| r != 0) || self.sparse.contains_key(&id)
-    }
-
     fn len(&self) -> usize {
         self.count
     }
+}
+
+/// The error of a file with more recordings than the design declares,
+/// counted over the whole file, naming the one in the fewest rows (a
+/// misspelt name is in few rows), where it first appears.
+fn too_many(plan: &Plan, cells: &[Cell]) -> AnalysisError {
+    let mut rows: HashMap<usize, (usize, usize), NameHash> = HashMap::default();
+    for (k, c) in cells.iter().enumerate() {
+        rows.entry(c.recording.id()).or_insert((0, k)).0 += 1;
+    }
+    // Fewest rows; of those, the one first seen latest.
+    let (count, k) = rows.values().copied().min_by_key(|&(n, k)| (n, std::cmp::Reverse(k))).unwrap_or((0, 0));
+    let fewest = cells.get(k).map(|c| {
+        let name = c.recording.as_str();
+        let shown = match name.char_indices().nth(60) {
+            Some((cut, _)) => format!("`{}`... ({} characters)", &name[..cut], name.chars().count()),
+            None => format!("`{name}`"),
+        };
+        format!("; the one in the fewest rows is {shown}: {count} row(s), first at line {}", c.line)
+    });
+    AnalysisError::RecordingCount { found: rows.len(), declared: plan.recordings, fewest: fewest.unwrap_or_default() }
 }
 
 /// Names as a message lists them.

@@ -196,7 +196,8 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
         .collect();
     let fewer_allowed = plan.recordings_may_be_absent && recordings.len() < plan.recordings;
     if recordings.len() != plan.recordings && !fewer_allowed {
-        return Err(AnalysisError::RecordingCount { found: recordings.len(), declared: plan.recordings });
+        let (found, declared) = (recordings.len(), plan.recordings);
+        return Err(AnalysisError::RecordingCount { found, declared, fewest: String::new() });
     }
     let names: Vec<String> = recordings.iter().map(|r| r.recording.clone()).collect();
     let missing_cells = index::check_complete(plan, &data, &names)?;

@@ -22,7 +22,8 @@ impl Plan {
     /// models, target, arms and a published split.
     fn training_text(&self, s: &mut String) {
         let trains = self.jobs.iter().filter(|c| c.trains()).count();
-        let splits = if self.splits.is_empty() { String::new() } else { format!(" x {} splits", self.splits.len()) };
+        let splits =
+            if self.splits.is_empty() { String::new() } else { format!(" x {}", counted(self.splits.len(), "split")) };
         let outside = self.jobs.iter().filter(|c| c.kind.is_external()).count();
         let external = if outside == 0 {
             String::new()
@@ -31,11 +32,11 @@ impl Plan {
         };
         let _ = writeln!(
             s,
-            "training cells: {} = {} models x {} arms x {} seeds{splits} ({} fitted{external}, {} parameter-free)",
+            "training cells: {} = {} x {} x {}{splits} ({} fitted{external}, {} parameter-free)",
             self.jobs.len(),
-            self.models.len(),
-            self.arms.len(),
-            self.seeds.len(),
+            counted(self.models.len(), "model"),
+            counted(self.arms.len(), "arm"),
+            counted(self.seeds.len(), "seed"),
             trains,
             self.jobs.len() - trains
         );
@@ -205,4 +206,9 @@ fn arm_text(kind: &ArmKind) -> String {
             distance.map(|d| format!(", {}", d.describe())).unwrap_or_default()
         ),
     }
+}
+
+/// `n` and the noun, plural but for one: "1 model", "2 models".
+fn counted(n: usize, noun: &str) -> String {
+    format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
 }

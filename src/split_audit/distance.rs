@@ -8,7 +8,12 @@
 //!
 //! The distance between `[a0, a1)` and `[b0, b1)` is `max(0, b0 - a1,
 //! a0 - b1)`: 0 where they touch or overlap; they overlap (share rows)
-//! where `b0 < a1` and `b1 > a0`. Only kept recordings take part.
+//! where `b0 < a1` and `b1 > a0` and the time they share begins within
+//! the log, before its last timestamp `D` plus half a sample interval `h`:
+//! `max(a0, b0) < D + h/2` (two windows that meet only past the end of the
+//! log share no row; half an interval absorbs the rounding of timestamps
+//! taken from the epoch).
+//! Only kept recordings take part.
 
 use std::collections::BTreeMap;
 
@@ -75,6 +80,9 @@ struct Placed<'a> {
     window: DeclaredWindow,
     line: usize,
     past_end: bool,
+    /// The end of the time its log holds, seconds from its first
+    /// timestamp: the last one plus half a sample interval.
+    held_s: f64,
 }
 
 /// What [`distances`] finds.
@@ -107,6 +115,7 @@ pub(super) fn distances(split: &PublishedSplit, rows: &[RecordingRow], gap_s: f6
                 window,
                 line: e.at.line,
                 past_end,
+                held_s: r.duration_s + step / 2.0,
             })
         })
         .collect();
@@ -122,7 +131,9 @@ pub(super) fn distances(split: &PublishedSplit, rows: &[RecordingRow], gap_s: f6
             let mine: Vec<&Placed> = placed.iter().filter(|p| p.role == role.name).collect();
             let (mut found, mut overlapping) = (Vec::new(), 0);
             for p in &mine {
-                let Some((b, distance_s, overlaps)) = index.nearest(p.content, p.window) else { continue };
+                let Some((b, distance_s, overlaps)) = index.nearest(p.content, p.window, p.held_s) else {
+                    continue;
+                };
                 found.push(distance_s);
                 overlapping += usize::from(overlaps);
                 each.push(RoleWindowDistance {
@@ -197,14 +208,22 @@ impl<'a> Index<'a> {
     }
 
     /// The nearest window of the same content to `w`, its distance, and
-    /// whether they overlap; `None` where no window shares the content.
-    fn nearest(&self, content: &str, w: DeclaredWindow) -> Option<(&'a Placed<'a>, f64, bool)> {
+    /// whether `w` overlaps any window of them in time before `held_s`,
+    /// the end of what the log holds (not only the nearest: at distance 0
+    /// the nearest may touch where another overlaps); `None` where no
+    /// window shares the content.
+    fn nearest(&self, content: &str, w: DeclaredWindow, held_s: f64) -> Option<(&'a Placed<'a>, f64, bool)> {
         let s = self.by_content.get(content)?;
-        // Windows before `j` start before `w` ends.
+        // Windows before `j` start before `w` ends; those before `held`
+        // also start within the recording.
         let j = s.windows.partition_point(|b| b.window.start_s < w.end_s);
+        let within = |t: f64| t < held_s;
+        let held = s.windows.partition_point(|b| b.window.start_s < w.end_s && within(b.window.start_s));
+        let overlaps = within(w.start_s)
+            && held.checked_sub(1).is_some_and(|k| s.windows[s.latest_end[k]].window.end_s > w.start_s);
         let before = j.checked_sub(1).map(|k| {
             let b = s.windows[s.latest_end[k]];
-            (b, (w.start_s - b.window.end_s).max(0.0), b.window.end_s > w.start_s)
+            (b, (w.start_s - b.window.end_s).max(0.0), overlaps)
         });
         let after = s.windows.get(j).map(|b| (*b, b.window.start_s - w.end_s, false));
         match (before, after) {

@@ -273,7 +273,7 @@ impl SplitAudit {
         let _ = writeln!(s, "\n## Distance in time between roles\n");
         let _ = writeln!(
             s,
-            "For each window of `role`, the nearest window of `other` in the same recording or an identical copy of it: `max(0, b0 - a1, a0 - b1)` seconds between `[a0, a1)` and `[b0, b1)`, 0 where they touch; they overlap where they share time. A whole-recording entry is the window from its first to its last timestamp. The gap is {} s (`--gap`): a window closer than that to one of `other` is within it. Quantiles are R's `quantile` type 7, over the windows in a shared recording; each window's nearest is in split_windows.csv.\n",
+            "For each window of `role`, the nearest window of `other` in the same recording or an identical copy of it: `max(0, b0 - a1, a0 - b1)` seconds between `[a0, a1)` and `[b0, b1)`, 0 where they touch; they overlap where they share time the log holds (before its last timestamp and half a sample interval). A whole-recording entry is the window from its first to its last timestamp. The gap is {} s (`--gap`): a window closer than that to one of `other` is within it. Quantiles are R's `quantile` type 7, over the windows in a shared recording; each window's nearest is in split_windows.csv.\n",
             seconds(self.options.gap_s)
         );
         let _ = writeln!(
