@@ -18,7 +18,7 @@ pub enum SplitError {
         splits: usize,
     },
     /// Not enough deployment units for evaluation, validation and fitting.
-    #[error("the design needs {needed} recordings ({evaluation} evaluation + {validation} validation + at least 1 for fitting), but only {available} usable deployment units remain")]
+    #[error("the design needs {needed} recordings ({evaluation} evaluation + {validation} validation + at least 1 for fitting), but only {available} usable deployment units remain (a deployment unit is one included recording, or one set of identical recordings under `duplicates group`; `crossaudit data audit DESIGN` lists which were included and why the others were not)")]
     TooFewRecordings {
         /// How many the design needs.
         needed: usize,
