@@ -41,9 +41,25 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
             "it is an input of this command, which writing here would replace: give another --out",
         )));
     }
-    let tmp = tmp_path(path);
-    std::fs::write(&tmp, bytes).map_err(err)?;
+    let tmp = staged(path).map_err(err)?;
+    // A new file: a link planted at the temporary name after it was
+    // cleared is not followed.
+    let mut file = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp).map_err(err)?;
+    std::io::Write::write_all(&mut file, bytes).map_err(err)?;
+    drop(file);
     std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// The temporary name a staged write of `path` uses ([`tmp_path`]), with
+/// whatever was left there removed first: a file of an interrupted write,
+/// or a link, which writing through would follow to another file (a run's
+/// cells.csv). A folder there is an error.
+pub fn staged(path: &Path) -> std::io::Result<PathBuf> {
+    let tmp = tmp_path(path);
+    match std::fs::remove_file(&tmp) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(tmp),
+    }
 }
 
 /// The files a command was given to read (`simsum FILE`, `analyze

@@ -369,6 +369,139 @@ fn an_unlocked_design_says_not_preregistered_wherever_a_locked_one_is() {
     assert!(first.starts_with("NOT PREREGISTERED decision:"), "{first}");
 }
 
+/// A run records in run.json the lock state it began under (`lock`), kept
+/// over resumes, and its analyses stand under the lower of that and the
+/// state now: a design locked after its run began is not preregistered
+/// for it, a post hoc mark taken off the lock since or a lock rewritten
+/// does not raise the label, and a resume keeps an EXPLORATORY label.
+#[test]
+fn a_run_stands_under_the_lock_state_it_began_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let design = dir.path().join("a.design");
+    std::fs::copy(&reference().1, &design).unwrap();
+    let run_json = out.join("run.json");
+    // The console's decision line.
+    let decision = |o: &Output| stdout(o).lines().find(|l| l.contains("decision:")).unwrap_or_default().to_string();
+    let began = |out: &Path| -> serde_json::Value {
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(out.join("run.json")).unwrap()).unwrap()["lock"]
+            .clone()
+    };
+    assert_eq!(began(&out), serde_json::json!({"status": "unlocked"}), "the reference ran unlocked");
+
+    // Locked after the run, then resumed (nothing to train): not preregistered.
+    assert_ok(&crossaudit(&["lock", s(&design)]));
+    let o = crossaudit(&["run", s(&design), "--out", s(&out)]);
+    assert_ok(&o);
+    assert!(decision(&o).starts_with("NOT PREREGISTERED decision:"), "{}", stdout(&o));
+    let md = std::fs::read_to_string(out.join("report/report.md")).unwrap();
+    assert!(
+        md.lines().next().unwrap().ends_with("(NOT PREREGISTERED: the design was not locked when this run began)"),
+        "{md}"
+    );
+    assert_eq!(began(&out), serde_json::json!({"status": "unlocked"}), "a resume keeps the state the run began in");
+    let analyze = |name: &str| {
+        let report = dir.path().join(name);
+        let o = crossaudit(&["analyze", s(&design), "--cells", s(&out), "--out", s(&report)]);
+        assert_ok(&o);
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(report.join("results.json")).unwrap()).unwrap();
+        (decision(&o), json)
+    };
+    let (line, json) = analyze("later");
+    assert!(line.starts_with("NOT PREREGISTERED decision:"), "{line}");
+    assert_eq!(json["preregistered"], false);
+
+    // Begun under this very lock (as run.json records it): preregistered;
+    // the lock rewritten since (another time of locking): EXPLORATORY.
+    let lock: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("a.design.lock")).unwrap()).unwrap();
+    let at = lock["locked_at_utc"].clone();
+    edit_json(&run_json, |v| v["lock"] = serde_json::json!({"status": "locked_unchanged", "locked_at_utc": at}));
+    let (line, json) = analyze("locked");
+    assert!(line.starts_with("decision:"), "{line}");
+    assert_eq!(json["preregistered"], true);
+    edit_json(&dir.path().join("a.design.lock"), |v| v["locked_at_utc"] = "2020-01-01T00:00:00Z".into());
+    let (line, json) = analyze("relocked");
+    assert!(line.starts_with("EXPLORATORY decision:"), "{line}");
+    assert!(json["standing"].as_str().unwrap().contains("the design's lock changed after this run began"), "{json}");
+
+    // Begun under a post hoc lock whose mark was taken off since: POST HOC.
+    edit_json(&dir.path().join("a.design.lock"), |v| v["locked_at_utc"] = at.clone());
+    let why = "written after the pilot";
+    edit_json(&run_json, |v| v["lock"]["posthoc"] = why.into());
+    let (line, json) = analyze("posthoc");
+    assert!(line.starts_with("POST HOC decision:"), "{line}");
+    assert!(json["standing"].as_str().unwrap().contains(why), "{json}");
+
+    // Labelled EXPLORATORY, resumed without the flag: still EXPLORATORY.
+    edit_json(&run_json, |v| v["exploratory"] = true.into());
+    let o = crossaudit(&["run", s(&design), "--out", s(&out)]);
+    assert_ok(&o);
+    assert!(decision(&o).starts_with("EXPLORATORY decision:"), "{}", stdout(&o));
+    assert_eq!(
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(&run_json).unwrap()).unwrap()["exploratory"],
+        true
+    );
+}
+
+/// A run's own cells.csv edited after the run is refused whether it is
+/// named as the folder or as the file (given as the file, it was analysed
+/// as a per-cell file of its own, with the run's standing, into the run's
+/// folder); with run.json's hash taken out, the job records say what it
+/// must be.
+#[test]
+fn a_runs_cells_edited_after_the_run_are_refused_however_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let design = &reference().1;
+    let cells = out.join("cells.csv");
+    let text = std::fs::read_to_string(&cells).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    // A value of the second row's failure-aware RMSE (field 10) scaled.
+    let mut f: Vec<String> = lines[1].split(',').map(String::from).collect();
+    f[9] = format!("{}", f[9].parse::<f64>().unwrap() * 0.8);
+    lines[1] = f.join(",");
+    std::fs::write(&cells, lines.join("\n") + "\n").unwrap();
+    let o = crossaudit(&["analyze", s(design), "--cells", s(&cells)]);
+    assert_refused(&o, "it was edited after the run (to analyse the edited file as a per-cell file of its own, copy it out of the run's folder)");
+    assert!(!out.join("reanalysis").exists(), "nothing written into the run's folder");
+    edit_json(&out.join("run.json"), |v| {
+        v.as_object_mut().unwrap().remove("cells_sha256");
+    });
+    let o = crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&dir.path().join("r"))]);
+    assert_refused(&o, "cells.csv is not the per-cell files its jobs wrote");
+    // Restored, the folder without its hash is read through its job records.
+    std::fs::write(&cells, text).unwrap();
+    assert_ok(&crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&dir.path().join("r"))]));
+}
+
+/// A link planted at an output's temporary name (`OUT/results.json.tmp`
+/// pointing at a run's cells.csv) is replaced, not written through; and a
+/// thread count that would take minutes to start is refused at once.
+#[test]
+fn staged_writes_follow_no_planted_link_and_threads_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let before = std::fs::read(out.join("cells.csv")).unwrap();
+    let report = dir.path().join("report");
+    std::fs::create_dir_all(&report).unwrap();
+    std::os::unix::fs::symlink(out.join("cells.csv"), report.join("results.json.tmp")).unwrap();
+    let design = &reference().1;
+    assert_ok(&crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&report)]));
+    assert_eq!(std::fs::read(out.join("cells.csv")).unwrap(), before, "the run's cells.csv is untouched");
+    assert!(!std::fs::symlink_metadata(report.join("results.json")).unwrap().file_type().is_symlink());
+    let o = crossaudit(&["--threads", "2000", "check", s(design)]);
+    assert!(!o.status.success() && stderr(&o).contains("2000"), "{}", stderr(&o));
+    let o = crate::common::bin()
+        .current_dir(root())
+        .env("RAYON_NUM_THREADS", "100000")
+        .args(["check", s(design)])
+        .output()
+        .unwrap();
+    assert_refused(&o, "RAYON_NUM_THREADS=100000: at most 1024 threads");
+}
+
 #[test]
 fn every_view_gives_the_one_true_label_of_each_state() {
     // Issue 72: a never-locked design run with --exploratory said "the

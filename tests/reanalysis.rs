@@ -361,6 +361,30 @@ fn validation_copies_of_evaluation_flights_are_a_guard_counted_per_draw() {
     assert!(head.contains("**Validation holds copies of evaluation flights**"), "{head}");
 }
 
+/// Two draw folders swapped: each run.json still names its own level, so
+/// the reanalysis is refused (it credited one draw's evidence to another).
+#[test]
+fn swapped_draw_folders_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    copy_dir(&root().join("results/multiverse/per_seed_budget"), &run);
+    std::fs::rename(run.join("draw-1"), run.join("swap")).unwrap();
+    std::fs::rename(run.join("draw-2"), run.join("draw-1")).unwrap();
+    std::fs::rename(run.join("swap"), run.join("draw-2")).unwrap();
+    let out = tmp.path().join("out");
+    let o = crossaudit(&[
+        "analyze",
+        "designs/multiverse/paper_per_seed_budget.design",
+        "--cells",
+        run.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("draw-1") && e.contains("draw-2"), "{e}");
+    assert!(!out.join("report.md").exists(), "nothing reported");
+}
+
 #[test]
 fn a_training_curve_edited_after_the_run_is_left_out_and_named() -> Result<(), Box<dyn std::error::Error>> {
     // Before: a curve's epoch edited to `inf` hung the report (the

@@ -79,19 +79,25 @@ impl Labelled for FamilyAnalysis {
 /// labelled EXPLORATORY), and the lock's warning; then the per-cell file.
 pub fn label(a: &mut impl Labelled, record: &Record) {
     let run_exploratory = record.run.as_ref().is_some_and(|r| r.exploratory);
-    label_design(a, &record.design, run_exploratory);
+    let began = record.run.as_ref().and_then(|r| r.lock.as_ref());
+    label_design(a, &record.design, (run_exploratory, began));
     a.cells(&record.cells_file.0.clone(), &record.cells_file.1.clone());
 }
 
-/// Labels `a` with `design`: its hash, its standing ([`super::Standing::of`]
-/// its lock state, post hoc mark and the run's label) and the
-/// warnings they give (a standing that is not the preregistered one, the
-/// lock's amendments).
-fn label_design(a: &mut impl Labelled, design: &DesignLabel, run_exploratory: bool) {
+/// Labels `a` with `design`: its hash, its standing
+/// ([`super::Standing::of_run`] its lock state, post hoc mark, the run's
+/// label and the lock state the run `began` under) and the warnings they
+/// give (a standing that is not the preregistered one, the lock's
+/// amendments).
+fn label_design(
+    a: &mut impl Labelled,
+    design: &DesignLabel,
+    (run_exploratory, began): (bool, Option<&crate::design::LockStatus>),
+) {
     {
         let (header, warnings) = a.header();
         header.design_sha256 = Some(design.sha256.clone());
-        header.standing = super::Standing::of(&design.status, run_exploratory);
+        header.standing = super::Standing::of_run(&design.status, began, run_exploratory);
         warnings.extend(header.standing.warning(&design.path));
         warnings.extend(design.status.amendment_warnings());
     }
@@ -121,7 +127,7 @@ pub fn analyze_multiverse_record(
     record: &MultiverseRecord,
 ) -> Result<MultiverseAnalysis, FileAnalysisError> {
     let mut a = analyze_multiverse(design, inputs).map_err(|e| FileAnalysisError::new(&record.dir, e))?;
-    label_design(&mut a, &record.design, record.run.exploratory);
+    label_design(&mut a, &record.design, (record.run.exploratory, record.run.lock.as_ref()));
     for (k, u) in inputs.iter().enumerate() {
         if let (Some(s), Some((_, level))) = (&u.shares, a.levels.get_mut(k)) {
             level.warnings.push(format!("trained nothing: its cells are those of {s} (only the analysis differs)"));

@@ -84,6 +84,11 @@ pub struct RunEvidence {
     pub audit_sha256: String,
     /// Whether the run was labelled EXPLORATORY.
     pub exploratory: bool,
+    /// The design's lock state when the run began (run.json's `lock`; of
+    /// several level folders or combined runs, the least preregistered):
+    /// the analysis stands under the lower of it and the state now.
+    /// `None` where no run recorded one.
+    pub lock: Option<crate::design::LockStatus>,
     /// The build that wrote the folder (run.json's `crossaudit`).
     pub build: String,
     /// Builds other than [`RunEvidence::build`] that trained some of the

@@ -32,8 +32,18 @@ pub enum Standing {
         /// The lock records amendments.
         amended: bool,
     },
+    /// The design is locked now, but its run recorded it unlocked when it
+    /// began (run.json's `lock`; of combined runs, one whose design was
+    /// not locked then, or is not now).
+    LockedLater,
     /// The design's lock holds but the run was labelled exploratory.
     Labelled,
+    /// The design's lock holds, but it is not the lock its run recorded
+    /// when it began (rewritten since: amendments or when it was made).
+    Relocked {
+        /// How the two differ.
+        reason: String,
+    },
     /// The design, or a file it names, changed after it was locked.
     Changed {
         /// What changed, as the lock check says it.
@@ -61,10 +71,27 @@ impl Standing {
         }
     }
 
+    /// The standing of a run's analysis: [`Standing::of`] the lock state
+    /// now, unless the state the run recorded when it began (`began`) was
+    /// less preregistered. A design locked only after its run began is not
+    /// preregistered for it; a post hoc mark or amendments dropped from the
+    /// lock since, or a lock rewritten, cannot raise the label. `began` is
+    /// `None` where the run recorded none (runs written before it was).
+    pub fn of_run(now: &LockStatus, began: Option<&LockStatus>, labelled: bool) -> Standing {
+        let current = Standing::of(now, labelled);
+        let Some(began) = began.filter(|_| current.preregistered() == Some(true)) else { return current };
+        match began {
+            LockStatus::Unlocked => Standing::LockedLater,
+            b if b.rank() < now.rank() => Standing::of(b, labelled),
+            b if b != now => Standing::Relocked { reason: rewritten(b, now) },
+            _ => current,
+        }
+    }
+
     /// True when the analysis is exploratory: the design changed after its
     /// lock, or the run of a locked design was labelled so.
     pub fn exploratory(&self) -> bool {
-        matches!(self, Standing::Changed { .. } | Standing::Labelled)
+        matches!(self, Standing::Changed { .. } | Standing::Relocked { .. } | Standing::Labelled)
     }
 
     /// Whether the analysis is the preregistered one; `None` when no lock
@@ -82,9 +109,9 @@ impl Standing {
     pub fn tag(&self) -> Option<&'static str> {
         match self {
             Standing::Unrecorded | Standing::Preregistered { .. } => None,
-            Standing::NotLocked { .. } => Some("NOT PREREGISTERED"),
+            Standing::NotLocked { .. } | Standing::LockedLater => Some("NOT PREREGISTERED"),
             Standing::PostHoc { .. } => Some("POST HOC"),
-            Standing::Labelled | Standing::Changed { .. } => Some("EXPLORATORY"),
+            Standing::Labelled | Standing::Changed { .. } | Standing::Relocked { .. } => Some("EXPLORATORY"),
         }
     }
 
@@ -94,9 +121,11 @@ impl Standing {
         let why = match self {
             Standing::Unrecorded | Standing::Preregistered { .. } => return None,
             Standing::NotLocked { .. } => "the design was never locked",
+            Standing::LockedLater => "the design was not locked when this run began",
             Standing::PostHoc { .. } => "the design was written after results were known",
             Standing::Labelled => "the run was labelled exploratory",
             Standing::Changed { .. } => "the design changed after it was locked",
+            Standing::Relocked { .. } => "the design's lock changed after this run began",
         };
         self.tag().map(|t| format!("{t}: {why}"))
     }
@@ -130,6 +159,9 @@ impl Standing {
             Standing::NotLocked { labelled: true } => {
                 "NOT PREREGISTERED: the design was never locked, and the run was labelled exploratory".into()
             }
+            Standing::LockedLater => {
+                "NOT PREREGISTERED: the design was not locked when this run (or a run combined in it) began, as its run.json records; it is locked now, but not preregistered for this run".into()
+            }
             Standing::PostHoc { why } => format!(
                 "POST HOC: the design was written after results were known ({why}); not preregistered evidence"
             ),
@@ -137,6 +169,7 @@ impl Standing {
                 "EXPLORATORY: the run was labelled exploratory (`--exploratory`); the design's lock holds".into()
             }
             Standing::Changed { reason } => format!("EXPLORATORY: the design changed after it was locked ({reason})"),
+            Standing::Relocked { reason } => format!("EXPLORATORY: the design's lock changed after this run began ({reason})"),
         }
     }
 
@@ -148,6 +181,18 @@ impl Standing {
             _ => Some(format!("{path}: {}", self.sentence())),
         }
     }
+}
+
+/// The reason a lock that holds now is not the one a run recorded when it
+/// began: when each was made and how many amendments each lists.
+fn rewritten(began: &LockStatus, now: &LockStatus) -> String {
+    let made = |s: &LockStatus| match s {
+        LockStatus::LockedUnchanged { locked_at_utc, amendments, .. } => {
+            format!("locked at {locked_at_utc} with {} amendment(s)", amendments.len())
+        }
+        other => other.label().to_string(),
+    };
+    format!("run.json recorded it {} when the run began; it is {} now", made(began), made(now))
 }
 
 /// Serialized flat into its analysis: `exploratory`, `preregistered`

@@ -9,7 +9,7 @@ use super::{header_for, Cell, CellsError, HEADER};
 /// [`write_cells`] to a temporary file, then renamed over `path`: a reader
 /// (or a resumed run) never sees half a file.
 pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
-    let tmp = crate::io::tmp_path(path);
+    let tmp = crate::io::staged(path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })?;
     write_cells(&tmp, cells)?;
     std::fs::rename(&tmp, path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
 }

@@ -138,6 +138,19 @@ impl LockStatus {
         matches!(self, LockStatus::LockedChanged { .. } | LockStatus::LockedStale { .. })
     }
 
+    /// How near the state stands to a preregistration: 0 unlocked, 1
+    /// changed since it was locked, 2 locked and unchanged but marked post
+    /// hoc, 3 locked and unchanged. Of two states recorded for one run
+    /// (when it began, now), the lower is the one it stands under.
+    pub fn rank(&self) -> u8 {
+        match self {
+            LockStatus::Unlocked => 0,
+            LockStatus::LockedChanged { .. } | LockStatus::LockedStale { .. } => 1,
+            LockStatus::LockedUnchanged { posthoc: Some(_), .. } => 2,
+            LockStatus::LockedUnchanged { .. } => 3,
+        }
+    }
+
     /// What changed after the lock, in words (empty unless [`Self::changed`]).
     pub fn reason(&self) -> String {
         match self {

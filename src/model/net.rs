@@ -287,7 +287,7 @@ impl Net {
             })
             .collect::<Result<Vec<_>, _>>()?;
         // Staged and renamed, so that an interrupted save never leaves half a file.
-        let tmp = crate::io::tmp_path(path);
+        let tmp = crate::io::staged(path).map_err(|e| err(e.to_string()))?;
         ::safetensors::tensor::serialize_to_file(views, &None, &tmp).map_err(|e| err(format!("{e:?}")))?;
         std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))
     }

@@ -103,7 +103,14 @@ fn read_source(s: &Source) -> Result<ReadSource, RunError> {
         None => read_folder(design, &study.plan, &s.run)?,
     };
     let cells_path = s.run.join("cells.csv");
-    let mut reader = csv::Reader::from_path(&cells_path).map_err(|e| fail(&cells_path, e.to_string()))?;
+    // The rows as text from the bytes the record was verified on: a file
+    // changed since it was read and checked is refused, not combined.
+    let text = crate::io::read_input(&cells_path, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
+        .map_err(|e| fail(&cells_path, e.reason()))?;
+    if crate::io::sha256_hex(&text) != record.cells_file.1 {
+        return Err(fail(&cells_path, "changed while it was being read: combine again"));
+    }
+    let mut reader = csv::Reader::from_reader(text.as_slice());
     let header = reader.headers().map_err(|e| fail(&cells_path, e.to_string()))?.clone();
     let k = header.iter().position(|h| h == "seed").ok_or_else(|| fail(&cells_path, "no `seed` column"))?;
     let mut rows = Vec::new();
@@ -285,8 +292,10 @@ pub fn combine(file: &DesignFile, study: &StudyPlan, sources: &[Source], out: &P
             .collect(),
     };
     crate::io::create_dir_all(out)?;
-    crate::io::write_atomic(&out.join("cells.csv"), &bytes)?;
+    // The record first: a combine killed between the two leaves a folder
+    // this command recognises as its own and finishes on a rerun.
     crate::io::write_atomic(&out.join("combined.json"), crate::io::pretty_json(&record).as_bytes())?;
+    crate::io::write_atomic(&out.join("cells.csv"), &bytes)?;
     // The runs were read and verified above: the folder's record from them.
     let design = DesignLabel::new(file, crate::design::lock::status(file)?);
     folder_record(design, out, &record, &read)
@@ -374,6 +383,11 @@ fn evidence(combined: &CombinedRecord, sources: Vec<(&Source, &Record)>) -> RunE
     let mut said = Vec::new();
     for (s, r) in sources {
         let name = s.run.display().to_string();
+        // A run whose design is not locked now, or was not when the run
+        // began, leaves the combination no more preregistered than it.
+        let began = r.run.as_ref().and_then(|run| run.lock.as_ref());
+        let part = std::iter::once(&r.design.status).chain(began).min_by_key(|l| l.rank());
+        out.lock = [out.lock.take().as_ref(), part].into_iter().flatten().min_by_key(|l| l.rank()).cloned();
         let Some(run) = &r.run else { continue };
         if out.levels.is_empty() {
             (out.data, out.audit_sha256) = (run.data.clone(), run.audit_sha256.clone());
@@ -399,6 +413,9 @@ fn evidence(combined: &CombinedRecord, sources: Vec<(&Source, &Record)>) -> RunE
             out.levels.len()
         ));
     }
+    // Parts all preregistered under their own locks leave the combined
+    // design's lock to say where the combination stands.
+    out.lock = out.lock.filter(|l| l.rank() < 3);
     out.notes.insert(
         0,
         format!(

@@ -119,11 +119,14 @@ pub(crate) fn open(
         }
     };
     // The hash of a cells.csv gathered earlier stays until a gather
-    // rewrites both (a `train` of one job gathers nothing).
+    // rewrites both (a `train` of one job gathers nothing); the lock state
+    // and label the run began under stay for good (a resume of a run
+    // labelled EXPLORATORY is too).
     let record = RunRecord {
         level: level.map(str::to_string),
         cells_sha256: previous.as_ref().and_then(|p| p.cells_sha256.clone()),
-        ..RunRecord::new(plan, file, data, &prepared, exploratory)
+        lock: previous.as_ref().map_or_else(|| Some(status.clone()), |p| p.lock.clone()),
+        ..RunRecord::new(plan, file, data, &prepared, exploratory || previous.as_ref().is_some_and(|p| p.exploratory))
     };
     record.write(out)?;
     Ok(Opened { status, prepared, record, notes: Vec::new() })

@@ -44,7 +44,35 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
             ),
         });
     }
+    // No recorded hash (taken out of run.json, or a run written before
+    // it was recorded): its job records say what cells.csv must be.
+    if run.cells_sha256.is_none() && dir.join("jobs").is_dir() {
+        check_gathered(plan, dir, &design.sha256)?;
+    }
     Ok(with_evidence(design, plan, dir, run, (cells, sha)))
+}
+
+/// That `dir/cells.csv` is exactly the per-cell files of `plan`'s jobs
+/// gathered, each checked against its job record (of design
+/// `design_sha256`): refused where a job has no record, a per-cell file
+/// changed since its job wrote it, or cells.csv was edited after the run.
+pub(crate) fn check_gathered(plan: &Plan, dir: &Path, design_sha256: &str) -> Result<(), RunError> {
+    let changed = |reason: String| RunError::LevelChanged { dir: dir.display().to_string(), reason };
+    for job in &plan.jobs {
+        let Some(r) = super::JobRecord::read(dir, job)? else {
+            return Err(changed(format!("job {} has no record in jobs/: the run did not finish", job.label())));
+        };
+        r.verify_cells(dir, job, design_sha256)?;
+    }
+    let gathered = crate::cells::cells_bytes(&super::gathered(plan, dir)?);
+    let on_disk = crate::io::read_input(&dir.join("cells.csv"), crate::io::MAX_CELLS_FILE, "a per-cell CSV")
+        .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
+    if gathered != on_disk {
+        return Err(changed(
+            "cells.csv is not the per-cell files its jobs wrote (cells/*.csv, each checked against its job record): it was edited after the run".to_string(),
+        ));
+    }
+    Ok(())
 }
 
 /// As [`read_folder`], for the folder's `cells.csv` already read and hashed.
@@ -80,6 +108,7 @@ fn with_evidence(
         data: run.data.describe(),
         audit_sha256: run.audit_sha256.clone(),
         exploratory: run.exploratory,
+        lock: run.lock.clone(),
         build: run.crossaudit.clone(),
         resumed_from: run.resumed_from.clone(),
         notes: run.notes.clone(),
@@ -190,6 +219,21 @@ pub(crate) fn levels_record(
             Some(r) if r.design_sha256 != design.sha256 => {
                 return Err(RunError::ran_other(l.dir.display().to_string(), r.design_sha256, &design))
             }
+            // A folder holding another level's run (folders swapped or
+            // renamed) would credit its evidence to the wrong level.
+            // (A level nested in a specification records `spec-s1/draw-1`.)
+            Some(r)
+                if r.level
+                    .as_deref()
+                    .is_some_and(|was| was.rsplit('/').next() != l.dir.file_name().and_then(|n| n.to_str())) =>
+            {
+                let is = l.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                return Err(RunError::WrongLevel {
+                    dir: l.dir.display().to_string(),
+                    was: r.level.unwrap_or_default(),
+                    is,
+                });
+            }
             Some(r) => runs.push(r),
             None => missing.push(format!(
                 "{} is absent: the level's data provenance, exploratory label and resumed builds not reported",
@@ -220,6 +264,7 @@ pub(crate) fn levels_evidence(runs: &[RunRecord], study: Option<&StudyRecord>, m
         data: first.map(|r| r.data.describe()).unwrap_or_default(),
         audit_sha256: first.map(|r| r.audit_sha256.clone()).unwrap_or_default(),
         exploratory: runs.iter().any(|r| r.exploratory),
+        lock: runs.iter().filter_map(|r| r.lock.clone()).min_by_key(|l| l.rank()),
         build: study.map(|s| s.crossaudit.clone()).or_else(|| first.map(|r| r.crossaudit.clone())).unwrap_or_default(),
         resumed_from: runs.iter().flat_map(|r| r.resumed_from.iter().cloned()).collect(),
         notes: study.map(|s| s.notes.clone()).unwrap_or_default(),

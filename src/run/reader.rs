@@ -35,6 +35,7 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
     let (rows, sha) = read_cells_hashed(cells)?;
     let shown = cells.display().to_string();
     let beside = cells.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    refuse_edited(cells, beside, &file.sha256, &sha)?;
     let combined = cells.file_name().is_some_and(|n| n == "cells.csv")
         && matches!(CombinedRecord::read(beside), Ok(Some(r)) if r.design_sha256 == file.sha256 && r.cells_sha256 == sha);
     if combined {
@@ -76,4 +77,33 @@ pub fn read_record(file: &DesignFile, study: &StudyPlan, cells: &Path) -> Result
         run: None,
         last_line_open,
     })
+}
+
+/// A run's own `cells.csv` (so named, beside the run.json, study.json or
+/// combined.json of a run of this design, whose sha256 it records) that
+/// is not the file the run recorded: refused, as its folder is, not read
+/// as a per-cell file of its own and labelled with the run's standing.
+fn refuse_edited(cells: &Path, beside: &Path, design_sha256: &str, sha: &str) -> Result<(), RunError> {
+    if cells.file_name().is_none_or(|n| n != "cells.csv") {
+        return Ok(());
+    }
+    let recorded = if let Ok(Some(r)) = CombinedRecord::read(beside) {
+        (r.design_sha256 == design_sha256).then_some((r.cells_sha256, "combined.json"))
+    } else if let Ok(Some(r)) = StudyRecord::read(beside) {
+        (r.design_sha256 == design_sha256).then_some((r.cells_sha256, "study.json"))
+    } else if let Ok(Some(r)) = RunRecord::read(beside) {
+        r.cells_sha256.filter(|_| r.design_sha256 == design_sha256).map(|c| (c, "run.json"))
+    } else {
+        None
+    };
+    match recorded {
+        Some((want, record)) if want != sha => Err(RunError::LevelChanged {
+            dir: beside.display().to_string(),
+            reason: format!(
+                "{} has sha256 {sha}, but the run recorded {want} in {record}: it was edited after the run (to analyse the edited file as a per-cell file of its own, copy it out of the run's folder)",
+                cells.display()
+            ),
+        }),
+        _ => Ok(()),
+    }
 }

@@ -43,8 +43,16 @@ pub struct RunRecord {
     /// was recorded.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub evidence_sha256: BTreeMap<String, String>,
-    /// Whether the run's outputs are labelled EXPLORATORY.
+    /// Whether the run's outputs are labelled EXPLORATORY (kept on a
+    /// resume: a label is never taken off).
     pub exploratory: bool,
+    /// The design's lock state when the run began, kept over resumes: an
+    /// analysis of the folder stands under the lower of it and the state
+    /// now ([`crate::analysis::Standing::of_run`]), so a design locked
+    /// after its run began is not preregistered for it. Absent in runs
+    /// written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lock: Option<crate::design::LockStatus>,
     /// The crossaudit build that last wrote the directory ([`crate::io::BUILD`]).
     pub crossaudit: String,
     /// The outer level this directory holds (`spec-s1`, `draw-2`,
@@ -114,6 +122,7 @@ impl RunRecord {
                 ("audit/treatment.json".to_string(), crate::io::sha256_hex(prepared.treatment.to_json().as_bytes())),
             ]),
             exploratory,
+            lock: None,
             crossaudit: crate::io::BUILD.to_string(),
             level: None,
             cells_sha256: None,

@@ -70,7 +70,7 @@ pub fn simulate_lab(dir: &Path, seed: u64) -> Result<Vec<String>, SimulateError>
             let columns = lab_columns(&text, &name, &mut rng);
             let rel = format!("{folder}/{name}.parquet");
             let path = dir.join(&rel);
-            let tmp = crate::io::tmp_path(&path);
+            let tmp = crate::io::staged(&path).map_err(err)?;
             write_parquet(&tmp, &columns).map_err(|e| err(std::io::Error::other(e)))?;
             std::fs::rename(&tmp, &path).map_err(err)?;
             Ok(rel)

@@ -10,8 +10,8 @@ use clap::{Parser, Subcommand};
 pub(crate) struct Cli {
     /// Threads for everything but the training workers: reading per-cell
     /// files and logs, the analysis, the audits [default: one per core].
-    /// Results are the same, bit for bit, at any number.
-    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    /// Results are the same, bit for bit, at any number (at most 1024).
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
     pub(crate) threads: Option<u16>,
     #[command(subcommand)]
     pub(crate) command: Command,

@@ -504,6 +504,14 @@ fn combine(design: &Path, from: &[String], out: &Path) -> Result<(), Error> {
 /// refused ([`folders`]); the error as it is printed.
 fn prepare(cli: &Cli, color: bool) -> Result<(), String> {
     folders::protect_inputs(&cli.command);
+    // Rayon reads RAYON_NUM_THREADS where --threads is not given: a number
+    // past --threads' own bound starts threads for minutes before any work.
+    let env = std::env::var("RAYON_NUM_THREADS").ok().and_then(|v| v.trim().parse::<u64>().ok());
+    if let Some(n) = env.filter(|&n| cli.threads.is_none() && n > 1024) {
+        return Err(output::visible(format!(
+            "error: RAYON_NUM_THREADS={n}: at most 1024 threads (`--threads N` sets them for one command)\n"
+        )));
+    }
     if let Some(n) = cli.threads {
         // The first use of the global pool: it cannot have been built yet.
         if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(usize::from(n)).build_global() {

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use super::{run_dir, Level};
 use crate::design::DesignFile;
-use crate::run::{JobRecord, RunError, RunRecord};
+use crate::run::{RunError, RunRecord};
 
 /// Before a reanalysis reads a run directory: every level folder it reads
 /// must hold the run of this design (its run.json's design hash), of that
@@ -70,20 +70,7 @@ fn check_level(file: &DesignFile, levels: &[Level], k: usize, dir: &Path) -> Res
     let cells_csv = d.join("cells.csv");
     let plan = &level.plan;
     if d.join("jobs").is_dir() {
-        for job in &plan.jobs {
-            let Some(r) = JobRecord::read(&d, job)? else {
-                return Err(changed(format!("job {} has no record in jobs/: the run did not finish", job.label())));
-            };
-            r.verify_cells(&d, job, &file.sha256)?;
-        }
-        let gathered = crate::cells::cells_bytes(&crate::run::gathered(plan, &d)?);
-        let on_disk = crate::io::read_input(&cells_csv, crate::io::MAX_CELLS_FILE, "a per-cell CSV")
-            .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
-        if gathered != on_disk {
-            return Err(changed(
-                "cells.csv is not the per-cell files its jobs wrote (cells/*.csv, each checked against its job record): it was edited after the run".to_string(),
-            ));
-        }
+        crate::run::read::check_gathered(plan, &d, &file.sha256)?;
     } else if let Some(sha) = &record.cells_sha256 {
         let now = crate::cells::file_sha256(&cells_csv)?;
         if now != *sha {

@@ -345,13 +345,8 @@ impl OpenedArray {
     /// locked after its run was prepared is not preregistered for that run;
     /// an edit of array.json can only lower the label, never raise it).
     fn lock_for_gather(&self) -> Result<LockStatus, RunError> {
-        let rank = |s: &LockStatus| match s {
-            LockStatus::Unlocked => 0,
-            LockStatus::LockedUnchanged { .. } => 2,
-            _ => 1,
-        };
         let now = self.lock_now()?;
-        Ok(if rank(&self.array.lock) < rank(&now) { self.array.lock.clone() } else { now })
+        Ok(if self.array.lock.rank() < now.rank() { self.array.lock.clone() } else { now })
     }
 }
 
