@@ -6,12 +6,13 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::gathered::gathered;
 use super::open::{Opened, RunOutcome};
 use super::{read, trained_invariants, LevelFolder, RunError, RunRecord, StudyRecord};
 use crate::analysis;
 use crate::cells::{read_cells, write_cells_and_parquet, Cell};
 use crate::plan::study::Outer;
-use crate::plan::{Plan, TrainingJob};
+use crate::plan::Plan;
 
 /// After every split finished: `out/cells.csv` with a `split` column, then
 /// the folder finished as [`finish_combined`] finishes it (the family
@@ -106,11 +107,6 @@ fn report(
     })
 }
 
-/// `out/cells/STEM.csv`: the per-cell rows of one job, present once it finished.
-pub fn job_cells(out: &Path, job: &TrainingJob) -> PathBuf {
-    out.join("cells").join(format!("{}.csv", job.stem()))
-}
-
 /// cells.csv: every job's rows in plan order, written atomically.
 fn gather(plan: &Plan, out: &Path) -> Result<PathBuf, RunError> {
     let all = gathered(plan, out)?;
@@ -135,56 +131,4 @@ pub(crate) fn gather_recorded(
     let notes = opened.notes.clone();
     RunRecord { cells_sha256: Some(sha), resumed_from, notes, ..opened.record.clone() }.write(out)?;
     Ok(cells_csv)
-}
-
-/// Every job's per-cell rows, in plan order, as `cells.csv` holds them.
-pub(crate) fn gathered(plan: &Plan, out: &Path) -> Result<Vec<Cell>, RunError> {
-    let mut all: Vec<Cell> = Vec::new();
-    for j in &plan.jobs {
-        all.extend(read_cells(&job_cells(out, j))?);
-    }
-    check_baselines(plan, &all)?;
-    if !plan.doses.is_empty() && crate::plan::dose_axis(&plan.doses) == crate::design::DoseAxis::Percent {
-        // A dose-response study's cells carry their dose: 0 for the
-        // reference. A distance-dose study's arms name their distances.
-        for c in &mut all {
-            c.dose = if c.arm == plan.contrast.reference {
-                Some(0.0)
-            } else {
-                plan.doses.iter().find(|d| d.arm == c.arm).map(|d| d.percent)
-            };
-        }
-    }
-    Ok(all)
-}
-
-/// Parameter-free models fit nothing split-dependent: their rows must be
-/// identical across arms.
-fn check_baselines(plan: &Plan, cells: &[Cell]) -> Result<(), RunError> {
-    for m in plan.models.iter().filter(|m| !m.kind.trains()) {
-        let rows = |arm: &str| -> Vec<(u64, String, u64, String)> {
-            cells
-                .iter()
-                .filter(|c| c.model == m.name && c.arm == arm)
-                .map(|c| {
-                    (
-                        c.seed,
-                        c.recording.to_string(),
-                        c.horizon_s.to_bits(),
-                        format!("{:?}", (c.fa_position_rmse_m, c.conditional_position_rmse_m, c.n_divergent)),
-                    )
-                })
-                .collect()
-        };
-        for w in plan.arms.windows(2) {
-            if rows(&w[0].name) != rows(&w[1].name) {
-                return Err(RunError::BaselineDependsOnArm {
-                    model: m.name.clone(),
-                    left: w[0].name.clone(),
-                    right: w[1].name.clone(),
-                });
-            }
-        }
-    }
-    Ok(())
 }

@@ -47,32 +47,9 @@ pub fn read_folder(design: DesignLabel, plan: &Plan, dir: &Path) -> Result<Recor
     // No recorded hash (taken out of run.json, or a run written before
     // it was recorded): its job records say what cells.csv must be.
     if run.cells_sha256.is_none() && dir.join("jobs").is_dir() {
-        check_gathered(plan, dir, &design.sha256)?;
+        super::gathered::check_gathered(plan, dir, &design.sha256)?;
     }
     Ok(with_evidence(design, plan, dir, run, (cells, sha)))
-}
-
-/// That `dir/cells.csv` is exactly the per-cell files of `plan`'s jobs
-/// gathered, each checked against its job record (of design
-/// `design_sha256`): refused where a job has no record, a per-cell file
-/// changed since its job wrote it, or cells.csv was edited after the run.
-pub(crate) fn check_gathered(plan: &Plan, dir: &Path, design_sha256: &str) -> Result<(), RunError> {
-    let changed = |reason: String| RunError::LevelChanged { dir: dir.display().to_string(), reason };
-    for job in &plan.jobs {
-        let Some(r) = super::JobRecord::read(dir, job)? else {
-            return Err(changed(format!("job {} has no record in jobs/: the run did not finish", job.label())));
-        };
-        r.verify_cells(dir, job, design_sha256)?;
-    }
-    let gathered = crate::cells::cells_bytes(&super::gathered(plan, dir)?);
-    let on_disk = crate::io::read_input(&dir.join("cells.csv"), crate::io::MAX_CELLS_FILE, "a per-cell CSV")
-        .map_err(|e| changed(format!("cells.csv: {}", e.reason())))?;
-    if gathered != on_disk {
-        return Err(changed(
-            "cells.csv is not the per-cell files its jobs wrote (cells/*.csv, each checked against its job record): it was edited after the run".to_string(),
-        ));
-    }
-    Ok(())
 }
 
 /// As [`read_folder`], for the folder's `cells.csv` already read and hashed.

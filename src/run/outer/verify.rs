@@ -70,7 +70,7 @@ fn check_level(file: &DesignFile, levels: &[Level], k: usize, dir: &Path) -> Res
     let cells_csv = d.join("cells.csv");
     let plan = &level.plan;
     if d.join("jobs").is_dir() {
-        crate::run::read::check_gathered(plan, &d, &file.sha256)?;
+        crate::run::gathered::check_gathered(plan, &d, &file.sha256)?;
     } else if let Some(sha) = &record.cells_sha256 {
         let now = crate::cells::file_sha256(&cells_csv)?;
         if now != *sha {
