@@ -5,13 +5,17 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
+/// The most threads `--threads` (or `RAYON_NUM_THREADS`) may ask for:
+/// more start for minutes before any work.
+pub(crate) const MAX_THREADS: u16 = 1024;
+
 #[derive(Parser)]
 #[command(name = "crossaudit", version = crossaudit::BUILD, about = "Preregistered, leakage-aware evaluation of learned dynamics models")]
 pub(crate) struct Cli {
     /// Threads for everything but the training workers: reading per-cell
     /// files and logs, the analysis, the audits [default: one per core].
     /// Results are the same, bit for bit, at any number (at most 1024).
-    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64))]
     pub(crate) threads: Option<u16>,
     #[command(subcommand)]
     pub(crate) command: Command,

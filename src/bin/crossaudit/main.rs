@@ -507,9 +507,10 @@ fn prepare(cli: &Cli, color: bool) -> Result<(), String> {
     // Rayon reads RAYON_NUM_THREADS where --threads is not given: a number
     // past --threads' own bound starts threads for minutes before any work.
     let env = std::env::var("RAYON_NUM_THREADS").ok().and_then(|v| v.trim().parse::<u64>().ok());
-    if let Some(n) = env.filter(|&n| cli.threads.is_none() && n > 1024) {
+    if let Some(n) = env.filter(|&n| cli.threads.is_none() && n > u64::from(args::MAX_THREADS)) {
         return Err(output::visible(format!(
-            "error: RAYON_NUM_THREADS={n}: at most 1024 threads (`--threads N` sets them for one command)\n"
+            "error: RAYON_NUM_THREADS={n}: at most {} threads (`--threads N` sets them for one command)\n",
+            args::MAX_THREADS
         )));
     }
     if let Some(n) = cli.threads {
