@@ -39,10 +39,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     std::fs::rename(&tmp, path).map_err(err)
 }
 
-/// The temporary name a staged write of `path` uses ([`tmp_path`]), with
-/// whatever was left there removed first: a file of an interrupted write,
-/// or a link, which writing through would follow to another file (a run's
-/// cells.csv). A folder there is an error.
+/// The temporary name a staged write of `path` uses (`path` with `.tmp`
+/// added to its name), with whatever was left there removed first: a file
+/// of an interrupted write, or a link, which writing through would follow
+/// to another file (a run's cells.csv). A folder there is an error.
 pub fn staged(path: &Path) -> std::io::Result<PathBuf> {
     let tmp = tmp_path(path);
     match std::fs::remove_file(&tmp) {
