@@ -59,7 +59,7 @@ fn every_bad_input_is_refused_with_a_located_message() {
     for case in &cases {
         let name = case.file_name().unwrap().to_string_lossy().into_owned();
         let copy = elsewhere.join(&name);
-        copy_tree(case, &copy);
+        crate::common::copy_dir(case, &copy);
         let (code, stderr) = run_case(case, &tmp.path().join(&name));
         let moved = run_case(&copy, &tmp.path().join(format!("{name}-moved")));
         assert_eq!((code, &stderr), (moved.0, &moved.1), "{name}: the message depends on where the case lies");
@@ -69,20 +69,6 @@ fn every_bad_input_is_refused_with_a_located_message() {
         crate::snapshots!({
             insta::assert_snapshot!(format!("bad_input_{name}"), format!("exit {}\n{stderr}", code.unwrap_or(-1)));
         });
-    }
-}
-
-/// Copies a case's folder (files and folders only) to `to`.
-fn copy_tree(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_tree(&entry.path(), &target);
-        } else {
-            std::fs::copy(entry.path(), &target).unwrap();
-        }
     }
 }
 

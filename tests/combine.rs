@@ -94,7 +94,7 @@ fn combine_refuses_one_run_counted_twice_before_writing() {
     assert!(!out.join("cells.csv").exists() && !out.join("combined.json").exists(), "nothing written");
     // A copy of the run's folder is the same run.
     let copy = tmp.path().join("copy");
-    copy_dir(&root().join(COUPLED.1), &copy);
+    crate::common::copy_dir(&root().join(COUPLED.1), &copy);
     let o = combine(&out, &[(COUPLED.0, COUPLED.1, "0"), (COUPLED.0, copy.to_str().unwrap(), "20")]);
     assert!(said(&o).contains("the same trained models"), "{}", said(&o));
     // A folder holding someone's own cells.csv is not combined into.
@@ -128,25 +128,11 @@ fn combine_refuses_runs_whose_seeds_collide_or_are_not_the_designs() {
     assert!(said(&o).contains("is a run of another design"), "{}", said(&o));
 }
 
-/// Copies the files of `from` (and its folders) into `to`.
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let p = e.unwrap().path();
-        let target = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &target);
-        } else {
-            std::fs::copy(&p, &target).unwrap();
-        }
-    }
-}
-
 #[test]
 fn a_combined_folder_whose_cells_or_runs_changed_is_not_reanalysed() {
     let tmp = tempfile::tempdir().unwrap();
     let source = tmp.path().join("uncoupled");
-    copy_dir(&root().join(UNCOUPLED.1), &source);
+    crate::common::copy_dir(&root().join(UNCOUPLED.1), &source);
     let out = tmp.path().join("combined");
     let o = combine(&out, &[(COUPLED.0, COUPLED.1, "0"), (UNCOUPLED.0, source.to_str().unwrap(), "20")]);
     assert!(o.status.success(), "{}", said(&o));

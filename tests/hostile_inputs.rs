@@ -426,18 +426,6 @@ fn multiverse_run(tmp: &Path) -> std::path::PathBuf {
     path
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &to.join(e.file_name()));
-        } else {
-            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-        }
-    }
-}
-
 #[test]
 fn a_multiverse_reanalysis_checks_every_level_and_writes_into_no_run() {
     let tmp = tempfile::tempdir().unwrap();
@@ -480,7 +468,7 @@ fn a_multiverse_reanalysis_checks_every_level_and_writes_into_no_run() {
 
     // A level's cells.csv edited after the run: refused, with and without its job records.
     let edits = tmp.path().join("edits");
-    copy_dir(&run, &edits);
+    crate::common::copy_dir(&run, &edits);
     let cells = edits.join("spec-s2/cells.csv");
     let text = std::fs::read_to_string(&cells).unwrap();
     let line = text.lines().nth(1).unwrap().to_string();
@@ -497,7 +485,7 @@ fn a_multiverse_reanalysis_checks_every_level_and_writes_into_no_run() {
 
     // Two level folders swapped.
     let swapped = tmp.path().join("swapped");
-    copy_dir(&run, &swapped);
+    crate::common::copy_dir(&run, &swapped);
     std::fs::rename(swapped.join("spec-s1"), swapped.join("tmp")).unwrap();
     std::fs::rename(swapped.join("spec-s2"), swapped.join("spec-s1")).unwrap();
     std::fs::rename(swapped.join("tmp"), swapped.join("spec-s2")).unwrap();

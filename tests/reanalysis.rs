@@ -92,20 +92,6 @@ fn committed_run_folders() -> Vec<PathBuf> {
     out
 }
 
-/// Copies the files of `from` (and its folders) into `to`.
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let p = e.unwrap().path();
-        let target = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &target);
-        } else {
-            std::fs::copy(&p, &target).unwrap();
-        }
-    }
-}
-
 /// A file's text with the lines naming the build (`... (commit abc)`) blanked.
 fn without_build(text: &str) -> String {
     text.lines().map(|l| if l.contains("(commit ") { "<build>" } else { l }).collect::<Vec<_>>().join("\n")
@@ -177,7 +163,7 @@ fn every_committed_run_folder_is_reproduced_by_its_reanalysis() {
             // what a rerun of the same cells and evidence would write).
             let report = root().join(folder).join("report");
             std::fs::remove_dir_all(&report).unwrap();
-            copy_dir(&out, &report);
+            crate::common::copy_dir(&out, &report);
         }
         let differ = differing(&root().join(folder).join("report"), &out);
         if !differ.is_empty() {
@@ -367,7 +353,7 @@ fn validation_copies_of_evaluation_flights_are_a_guard_counted_per_draw() {
 fn swapped_draw_folders_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let run = tmp.path().join("run");
-    copy_dir(&root().join("results/multiverse/per_seed_budget"), &run);
+    crate::common::copy_dir(&root().join("results/multiverse/per_seed_budget"), &run);
     std::fs::rename(run.join("draw-1"), run.join("swap")).unwrap();
     std::fs::rename(run.join("draw-2"), run.join("draw-1")).unwrap();
     std::fs::rename(run.join("swap"), run.join("draw-2")).unwrap();

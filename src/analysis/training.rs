@@ -8,6 +8,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use serde::Serialize;
 
 use crate::cells::Cell;
+use crate::design::ModelKind;
 use crate::plan::Plan;
 
 /// One fitted model's best validation epoch.
@@ -45,8 +46,14 @@ pub struct EarlyTraining {
     pub mean_d_with: Option<f64>,
     /// Mean primary d over the seeds without an early model.
     pub mean_d_without: Option<f64>,
-    /// Seeds without such a model.
+    /// Seeds without such a model: both arms' curves of the primary
+    /// endpoint's model recorded, neither early.
     pub seeds_without: usize,
+    /// Seeds in neither group: no early curve, and a curve of the primary
+    /// endpoint's early-stopped model missing in an arm of the contrast
+    /// (its best epoch unknown).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seeds_unknown: Vec<u64>,
     /// The share of the summed primary d that the seeds with such a model
     /// carry (None when the summed d is 0).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -66,8 +73,10 @@ impl EarlyTraining {
         let arms: Vec<String> = self.per_arm.iter().map(|(a, e, n)| format!("{a} {e} of {n}")).collect();
         let d = |x: Option<f64>| x.map(|v| format!("{v:.4}")).unwrap_or_else(|| "-".to_string());
         let seeds = match (self.seeds_with.len(), self.seeds_without) {
+            (0, 0) if !self.seeds_unknown.is_empty() => String::new(),
             (0, _) => "no model of the primary endpoint is among them".to_string(),
-            (n, 0) => format!("every one of the {n} seeds has such a model of the primary endpoint (mean primary d {})", d(self.mean_d_with)),
+            (n, 0) if self.seeds_unknown.is_empty() => format!("every one of the {n} seeds has such a model of the primary endpoint (mean primary d {})", d(self.mean_d_with)),
+            (n, 0) => format!("mean primary d {} over the {n} seed(s) with such a model of the primary endpoint", d(self.mean_d_with)),
             (n, m) => format!(
                 "mean primary d {} over the {n} seed(s) with such a model of the primary endpoint, {} over the {m} without{}",
                 d(self.mean_d_with),
@@ -77,8 +86,17 @@ impl EarlyTraining {
                     .unwrap_or_default()
             ),
         };
+        let unknown = match self.seeds_unknown.as_slice() {
+            [] => String::new(),
+            u => format!(
+                "{}the training curves of the primary endpoint's model are missing for {} seed(s) ({}), counted in neither group: their best epochs are unknown",
+                if seeds.is_empty() { "" } else { "; " },
+                u.len(),
+                u.iter().map(u64::to_string).collect::<Vec<_>>().join(", ")
+            ),
+        };
         Some(format!(
-            "early best epochs: {} of {fitted} fitted models reach their best validation loss within the first {} of {} epochs (epochs {lo} to {hi}; {}); their restored weights are barely trained (training curves figure); {seeds}",
+            "early best epochs: {} of {fitted} fitted models reach their best validation loss within the first {} of {} epochs (epochs {lo} to {hi}; {}); their restored weights are barely trained (training curves figure); {seeds}{unknown}",
             self.early(),
             self.first_epochs,
             self.planned,
@@ -115,6 +133,18 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         .filter(|b| is_early(b) && b.model == plan.primary.model && contrast.contains(&&b.arm))
         .map(|b| b.seed)
         .collect();
+    // Seeds whose primary-endpoint curves are recorded in both arms of the
+    // contrast: only they can be known to have no early model (a model
+    // not early-stopped has no best epoch to know).
+    let stopped = plan
+        .models
+        .iter()
+        .any(|m| m.name == plan.primary.model && matches!(m.kind, ModelKind::Mlp { restore_final: false, .. }));
+    let recorded = |seed: u64| {
+        contrast
+            .iter()
+            .all(|arm| best.iter().any(|b| b.seed == seed && b.model == plan.primary.model && &&b.arm == arm))
+    };
     // Mean primary d per seed.
     let d = crate::analysis::diff::Diff::of(plan, cells);
     let mut per_seed: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
@@ -123,15 +153,21 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         e.0 += v;
         e.1 += 1;
     }
+    let seeds_unknown: Vec<u64> =
+        per_seed.keys().copied().filter(|s| stopped && !seeds_with.contains(s) && !recorded(*s)).collect();
+    let group = |s: &u64, with: bool| {
+        if with {
+            seeds_with.contains(s)
+        } else {
+            !seeds_with.contains(s) && !seeds_unknown.contains(s)
+        }
+    };
     let mean = |with: bool| -> Option<f64> {
-        let ds: Vec<f64> = per_seed
-            .iter()
-            .filter(|(s, _)| seeds_with.contains(s) == with)
-            .map(|(_, (sum, n))| sum / *n as f64)
-            .collect();
+        let ds: Vec<f64> =
+            per_seed.iter().filter(|(s, _)| group(s, with)).map(|(_, (sum, n))| sum / *n as f64).collect();
         (!ds.is_empty()).then(|| ds.iter().sum::<f64>() / ds.len() as f64)
     };
-    let seeds_without = per_seed.keys().filter(|s| !seeds_with.contains(s)).count();
+    let seeds_without = per_seed.keys().filter(|s| group(s, false)).count();
     let total: f64 = per_seed.values().map(|(s, _)| s).sum();
     let with: f64 = per_seed.iter().filter(|(s, _)| seeds_with.contains(s)).map(|(_, (sum, _))| sum).sum();
     let share_of_d_with = (total != 0.0 && !seeds_with.is_empty()).then(|| with / total);
@@ -144,6 +180,7 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
         mean_d_without: mean(false),
         seeds_with: seeds_with.into_iter().collect(),
         seeds_without,
+        seeds_unknown,
         share_of_d_with,
     })
 }

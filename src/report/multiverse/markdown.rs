@@ -315,7 +315,11 @@ fn notes_section(a: &MultiverseAnalysis) -> String {
                 let d = |x: Option<f64>, seeds: usize| {
                     x.map(|v| format!("{} ({seeds})", f(v, 4))).unwrap_or_else(|| "-".into())
                 };
-                (arms.join(", "), d(e.mean_d_with, e.seeds_with.len()), d(e.mean_d_without, e.seeds_without))
+                let unknown = match e.seeds_unknown.len() {
+                    0 => String::new(),
+                    n => format!("; {n} seed(s) with curves missing, in neither"),
+                };
+                (arms.join(", ") + &unknown, d(e.mean_d_with, e.seeds_with.len()), d(e.mean_d_without, e.seeds_without))
             }
             None => ("-".to_string(), "-".to_string(), "-".to_string()),
         };
