@@ -595,6 +595,9 @@ fn every_dose_report_of_a_family_carries_its_preregistration_labels() {
         assert_eq!(v["preregistered"], true, "{}", path.display());
         assert_eq!(v["exploratory"], false, "{}", path.display());
         assert!(v["design_sha256"].is_string(), "{}", path.display());
+        // The family decides on the slope; a dose's own report is descriptive.
+        let decides = v["decision"]["member_of"]["decides_on"].as_str().unwrap_or("");
+        assert!(decides.starts_with("slope over doses"), "{}: {decides}", path.display());
     }
 }
 
@@ -634,4 +637,65 @@ fn a_family_reports_its_declared_secondary_endpoints() {
     assert_eq!(secondary.len(), 2 * a.secondary.len(), "an endpoint and an optimism row each");
     let md = crossaudit::report::family::render_family_markdown(&a);
     assert!(md.contains("## Secondary endpoints"), "{md}");
+}
+
+/// Before: each split's report of a multi-split family opened with its
+/// own verdict and "Preregistered" while the family decides on the pooled
+/// estimate, and carried no condition-coverage guard though its split left
+/// evaluation conditions unseen by the reference arm. Each member report
+/// is now descriptive in every view (title, banner, results.json,
+/// results.tex, estimates.csv) and names the family's verdict; its
+/// coverage guard names the recordings its own split's audit
+/// (`split-S/audit/treatment.json`, read here) gives no disjoint fit
+/// recording of their condition.
+#[test]
+fn a_familys_member_reports_are_descriptive_with_their_own_coverage_guard() {
+    let out = tempfile::tempdir().unwrap();
+    let o = bin()
+        .args(["analyze", "designs/nanobench_multi_split.design", "--cells", "results/multi_split", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json =
+        |p: std::path::PathBuf| -> serde_json::Value { serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap() };
+    let family = json(out.path().join("results.json"));
+    let name = family["decision"]["name"].as_str().unwrap().to_uppercase();
+    let verdict = if family["decision"]["holds"] == true { name } else { format!("NOT {name}") };
+    for s in [42, 43, 44, 45, 46] {
+        let dir = out.path().join(format!("split-{s}"));
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        let title = md.lines().next().unwrap();
+        let want = format!("# nanobench-multi-split: DESCRIPTIVE (split {s} of a family; the family's verdict: {verdict}, on pooled over 5 splits");
+        assert!(title.starts_with(&want), "{title}\nwanted {want}");
+        assert!(!md.contains("\ndecision: "), "{md}");
+        let r = json(dir.join("results.json"));
+        assert_eq!(r["decision"]["member_of"]["verdict"].as_str(), Some(verdict.as_str()));
+        assert_eq!(r["decision"]["member_of"]["report"].as_str(), Some("../report.md"));
+        let tex = std::fs::read_to_string(dir.join("results.tex")).unwrap();
+        assert!(tex.contains("\\newcommand{\\caDecision}{descriptive}"), "{tex}");
+        let csv = std::fs::read_to_string(dir.join("estimates.csv")).unwrap();
+        assert!(csv.lines().skip(1).all(|l| l.ends_with(',')), "no row decides: {csv}");
+        let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+        assert!(html.contains("<div class=\"banner descriptive\""), "split {s}");
+        // The split's own audit: evaluation recordings whose condition the
+        // reference arm fits on no other recording of.
+        let audit = json(root().join(format!("results/multi_split/split-{s}/audit/treatment.json")));
+        let rows = audit["coverage"]["recordings"].as_array().unwrap();
+        let uncovered: Vec<&str> = rows
+            .iter()
+            .filter(|r| r["fit_recordings"]["disjoint"] == 0)
+            .map(|r| r["recording"].as_str().unwrap())
+            .collect();
+        assert!(!uncovered.is_empty(), "every split of the committed study leaves some uncovered");
+        let head = md.split("\n## ").next().unwrap();
+        let guard = head
+            .lines()
+            .find(|l| l.starts_with("**The contrast mixes condition novelty with recording leakage**"))
+            .unwrap_or_else(|| panic!("split {s}: no coverage guard beside the line:\n{head}"));
+        assert!(guard.contains(&format!("of {} of {} evaluation recordings", uncovered.len(), rows.len())), "{guard}");
+        for u in uncovered {
+            assert!(guard.contains(u), "split {s}: {u} not in {guard}");
+        }
+    }
 }

@@ -63,6 +63,7 @@ pub(crate) fn decide(rule: &DecisionRule, primary: &UnitResult) -> Decision {
         conditions,
         margins: margins(rule, optimism, (e.lower, e.upper)),
         unguarded: unguarded(rule, holds, (e.lower, e.upper)),
+        member_of: None,
     }
 }
 
@@ -114,6 +115,7 @@ pub(crate) fn decide_divergence(
         conditions,
         margins: margins(rule, None, (g.lower, g.upper)),
         unguarded: unguarded(rule, holds, (g.lower, g.upper)),
+        member_of: None,
     })
 }
 

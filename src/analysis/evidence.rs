@@ -137,6 +137,7 @@ pub fn analyze_multiverse_record(
         inputs.iter().zip(&record.units).map(|(u, (cells, levels))| unit_notes(&u.id, u.plan, levels, cells)).collect();
     a.shared = record.shared.clone();
     a.guards = super::multiverse::guards(&a);
+    super::multiverse::attach_unit_guards(&mut a);
     let run = &record.run;
     let mut warnings: Vec<String> = resumed(run).into_iter().chain(run.notes.iter().cloned()).collect();
     warnings.extend(run.missing.iter().cloned());
@@ -222,6 +223,25 @@ fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
     a.coverage = note(plan, &run.levels);
     a.sources = sources(plan, &run.levels);
     a.warnings.extend(run.missing.iter().cloned());
+    member_coverage(a, plan, record, &run.levels);
+}
+
+/// Each contrast of a family (a split's, a dose's) with its own condition
+/// coverage statement, over its split's level folder (or every level),
+/// and the guards its report gives beside its descriptive line.
+fn member_coverage(a: &mut FamilyAnalysis, plan: &Plan, record: &Record, levels: &[LevelEvidence]) {
+    let doses = a.doses.clone();
+    for sp in a.splits.iter_mut() {
+        let own: Vec<LevelEvidence> = match sp.split {
+            Some(s) => levels.iter().filter(|l| l.id == crate::plan::split_dir(s)).cloned().collect(),
+            None => levels.to_vec(),
+        };
+        for (dose, detail) in doses.iter().zip(sp.detail.iter_mut()) {
+            let (p, cells) = super::family::member(plan, sp.split, dose, &record.cells);
+            detail.coverage = statement(&p, &cells, &own);
+            detail.guards = super::guards::guards(detail);
+        }
+    }
 }
 
 /// What every study of a run folder states first: the data's provenance,

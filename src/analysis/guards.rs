@@ -25,7 +25,8 @@ pub fn guards(a: &Analysis) -> Vec<Guard> {
             Guard::new(kind, n)
         })
         .collect();
-    for w in a.warnings.iter().filter(|w| w.starts_with("fragile decision")) {
+    let decides = a.decision.member_of.is_none();
+    for w in a.warnings.iter().filter(|w| decides && w.starts_with("fragile decision")) {
         out.push(Guard::new(GuardKind::Fragile, format!("**Warning**: {}.", md_line(w))));
     }
     // Models restored early, and the contrast with early stopping held fixed.

@@ -473,6 +473,24 @@ pub struct Decision {
     /// `upper`) while the interval of d contains 0: that interval.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unguarded: Option<[f64; 2]>,
+    /// Where this is one contrast of a family (a dose, a split): what the
+    /// family's rule decides on, and its verdict. The rule applied to this
+    /// contrast alone is then descriptive: no verdict is this contrast's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub member_of: Option<MemberOf>,
+}
+
+/// The family a descriptive contrast belongs to ([`Decision::member_of`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct MemberOf {
+    /// This contrast in the family: `dose contaminated_5pct`, `split 42`.
+    pub contrast: String,
+    /// What the family's rule reads (`slope over doses: world ...`).
+    pub decides_on: String,
+    /// The family's verdict (`NOT GROWS`).
+    pub verdict: String,
+    /// The family's report.md, relative to this contrast's report folder.
+    pub report: String,
 }
 
 /// A condition whose threshold the data do not place on one side.

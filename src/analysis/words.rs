@@ -70,10 +70,14 @@ fn condition_value_against(d: &Decision, q: crate::design::Quantity, v: f64, thr
 /// margin: each condition whose threshold lies inside the interval of the
 /// quantity it reads, and a rule that holds without reading any interval
 /// while the interval of d contains 0. `level` is the intervals' level
-/// (`95%`). Markdown, one paragraph each.
+/// (`95%`). Markdown, one paragraph each. None for one contrast of a
+/// family, on which the rule decides nothing.
 pub fn decision_notes(d: &Decision, level: &str) -> Vec<String> {
     use crate::design::Quantity;
     let mut notes = Vec::new();
+    if d.member_of.is_some() {
+        return notes;
+    }
     for m in &d.margins {
         let q = m.condition.quantity;
         let bound = |v: Option<f64>| v.map(|v| condition_value(d, q, v));
@@ -140,6 +144,17 @@ pub fn decision_summary(d: &Decision) -> String {
             )
         })
         .collect();
+    if let Some(m) = &d.member_of {
+        return format!(
+            "descriptive: {} is one contrast of a family; the family's rule `{}` decides on {} ({}; `{}`); read on this contrast alone, its conditions give {}",
+            m.contrast,
+            d.name,
+            m.decides_on,
+            m.verdict,
+            m.report,
+            parts.join("; ")
+        );
+    }
     let verdict = if d.holds { d.name.to_uppercase() } else { format!("NOT {}", d.name.to_uppercase()) };
     format!("decision: {verdict} on {}: {}", d.unit, parts.join("; "))
 }
@@ -167,10 +182,17 @@ pub fn unit_label(unit: &str) -> &str {
 }
 
 /// A report's title after the study's name, its first line: the verdict
-/// (`CONFIRMED`, `NOT CONFIRMED`) and, when the analysis is not the
+/// (`CONFIRMED`, `NOT CONFIRMED`; `DESCRIPTIVE` and the family's verdict
+/// for one contrast of a family) and, when the analysis is not the
 /// preregistered one, its standing ([`Standing::short`]).
 pub(crate) fn verdict(d: &Decision, standing: &Standing) -> String {
-    let verdict = verdict_word(&d.name, d.holds);
+    let verdict = match &d.member_of {
+        Some(m) => format!(
+            "DESCRIPTIVE ({} of a family; the family's verdict: {}, on {})",
+            m.contrast, m.verdict, m.decides_on
+        ),
+        None => verdict_word(&d.name, d.holds),
+    };
     match standing.short() {
         Some(why) => format!("{verdict} ({why})"),
         None => verdict,
@@ -246,6 +268,7 @@ mod tests {
             conditions: outcomes,
             margins: Vec::new(),
             unguarded: None,
+            member_of: None,
         }
     }
 

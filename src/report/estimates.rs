@@ -139,7 +139,8 @@ pub fn render_estimates(a: &Analysis) -> String {
                 optimism: Some(u.optimism_pct),
                 // The rule decides on the primary endpoint alone (or on the
                 // divergence GLMM's row below).
-                holds: (u.role == crate::design::Role::Primary && !on_divergence).then_some(u.rule_holds),
+                holds: (u.role == crate::design::Role::Primary && !on_divergence && a.decision.member_of.is_none())
+                    .then_some(u.rule_holds),
                 ..crossed(preregistered, &u.estimate)
             },
         );
@@ -163,7 +164,9 @@ pub fn render_estimates(a: &Analysis) -> String {
                 serde_json::to_value(iv.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
             put(&key, interval(&name, iv.estimate, Some(iv.se), Some(iv.df), (iv.lower, iv.upper)));
         }
-        if let Some((key, row)) = glmm_row(u, &role, &contrast, on_divergence.then_some(a.decision.holds)) {
+        if let Some((key, row)) =
+            glmm_row(u, &role, &contrast, (on_divergence && a.decision.member_of.is_none()).then_some(a.decision.holds))
+        {
             put(&key, row);
         }
     }

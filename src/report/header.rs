@@ -31,14 +31,21 @@ fn beside_verdict(s: &mut String, a: &Analysis) {
 
 /// The rule, what it reads, the optimism's interval and the contrast.
 fn rule_and_contrast(s: &mut String, a: &Analysis) {
-    let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
     let level = level_pct(a.level);
-    if super::format::reads_interval(&a.decision) {
+    if let Some(m) = &a.decision.member_of {
+        let _ = writeln!(
+            s,
+            "Rule: `{}`, the family's, evaluated on {} (`{}`). No rule decides on this contrast: its estimates and intervals are descriptive, and its conditions above are the rule's thresholds read on it alone.",
+            a.decision.rule, m.decides_on, m.report
+        );
+    } else if super::format::reads_interval(&a.decision) {
+        let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
         let _ = writeln!(
             s,
             "The decision uses the {level} crossed-estimator interval (the `{level} CI` column); bootstrap intervals are shown for comparison and decide nothing. Secondary endpoints are descriptive: no rule applies to them."
         );
     } else {
+        let _ = writeln!(s, "Rule: `{}`, evaluated on {}.", a.decision.rule, a.decision.unit);
         let _ = writeln!(
             s,
             "The rule reads no interval bound: it compares point estimates with its thresholds. The {level} crossed-estimator interval (the `{level} CI` column) and the bootstrap intervals are shown beside it and decide nothing. Secondary endpoints are descriptive: no rule applies to them."

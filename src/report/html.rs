@@ -17,7 +17,7 @@ use crate::analysis::Analysis;
 
 const STYLE: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:78rem;margin:0 auto;padding:0 1rem 3rem;color:#1b1f23;line-height:1.45}\
 .banner{margin:1rem 0;padding:.9rem 1.1rem;border-radius:6px;border-left:8px solid}\
-.banner.holds{background:#e6f4ea;border-color:#1e7e34}.banner.fails{background:#fdecea;border-color:#b3261e}\
+.banner.holds{background:#e6f4ea;border-color:#1e7e34}.banner.fails{background:#fdecea;border-color:#b3261e}.banner.descriptive{background:#f6f8fa;border-color:#6e7781}\
 .banner .verdict{font-size:1.4rem;font-weight:700;display:block}.banner .status{display:block;margin-top:.3rem;font-weight:600}\
 table{border-collapse:collapse;margin:.6rem 0 1.2rem;font-size:.88rem}th,td{border:1px solid #d0d7de;padding:.25rem .5rem}\
 th{background:#f6f8fa}td.num{text-align:right;font-variant-numeric:tabular-nums}\
@@ -265,6 +265,8 @@ pub struct Banner {
     /// The verdict's guards, each a Markdown paragraph: the banner gives
     /// them in full, and the page's body no longer repeats them.
     pub guards: Vec<String>,
+    /// One contrast of a family, on which no rule decides: a grey banner.
+    pub descriptive: bool,
 }
 
 impl Banner {
@@ -277,6 +279,7 @@ impl Banner {
             line,
             status: standing.sentence(),
             guards: Vec::new(),
+            descriptive: false,
         }
     }
 
@@ -300,11 +303,18 @@ fn without_banner_lines(markdown: &str, guards: &[String]) -> String {
         let first = lines.get(k).copied().unwrap_or("");
         let end = lines[k..].iter().position(|l| l.trim().is_empty()).map_or(lines.len(), |n| k + n);
         let paragraph = lines[k..end].join("\n");
-        let says_banner =
-            ["decision:", "NOT PREREGISTERED", "EXPLORATORY", "POST HOC", "Preregistered:", "Preregistration status"]
-                .iter()
-                .any(|p| first.starts_with(p))
-                || guards.iter().any(|g| g.trim() == paragraph.trim());
+        let says_banner = [
+            "decision:",
+            "descriptive:",
+            "NOT PREREGISTERED",
+            "EXPLORATORY",
+            "POST HOC",
+            "Preregistered:",
+            "Preregistration status",
+        ]
+        .iter()
+        .any(|p| first.starts_with(p))
+            || guards.iter().any(|g| g.trim() == paragraph.trim());
         if !says_banner {
             break;
         }
@@ -379,7 +389,11 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
     let _ = write!(
         s,
         "<div class=\"banner {}\" role=\"status\"><h1 class=\"verdict\">{}: {}</h1><span>{}</span><span class=\"status\">{}</span>",
-        if banner.holds { "holds" } else { "fails" },
+        match (banner.descriptive, banner.holds) {
+            (true, _) => "descriptive",
+            (false, true) => "holds",
+            (false, false) => "fails",
+        },
         esc(study),
         esc(&banner.verdict),
         esc(&banner.line),
@@ -426,8 +440,12 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
 /// text; `figures` are (file name, SVG text) of the figures its images name.
 pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
     let d = &a.decision;
-    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.header.standing)
+    let mut banner = Banner::new(&d.name, d.holds, decision_line(a), &a.header.standing)
         .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
+    if d.member_of.is_some() {
+        banner.verdict = super::format::verdict(d, &crate::analysis::Standing::Unrecorded);
+        banner.descriptive = true;
+    }
     render_page(&a.study, &banner, markdown, figures)
 }
 

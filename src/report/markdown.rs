@@ -152,6 +152,7 @@ fn endpoints(a: &Analysis, level: &str) -> MdTable {
             ci(e),
             boot(&u.bootstrap),
             match (u.role, u.rule_holds) {
+                _ if a.decision.member_of.is_some() => "descriptive",
                 (Role::Primary, true) => "holds",
                 (Role::Primary, false) => "fails",
                 _ => "descriptive",

@@ -98,7 +98,19 @@ pub fn render_tex(a: &Analysis) -> String {
     if let Some(p) = a.header.standing.preregistered() {
         m.add(&["preregistered"], if p { "yes".to_string() } else { "no".to_string() });
     }
-    m.add(&["decision"], if a.decision.holds { a.decision.name.clone() } else { format!("not {}", a.decision.name) });
+    // The standing's tag (`post hoc`, `exploratory`, `not preregistered`),
+    // or `preregistered`: the two flags above cannot say post hoc.
+    match (a.header.standing.tag(), a.header.standing.preregistered()) {
+        (Some(tag), _) => m.add(&["standing"], tag.to_lowercase()),
+        (None, Some(true)) => m.add(&["standing"], "preregistered".to_string()),
+        _ => {}
+    }
+    let decision = match (&a.decision.member_of, a.decision.holds) {
+        (Some(_), _) => "descriptive".to_string(),
+        (None, true) => a.decision.name.clone(),
+        (None, false) => format!("not {}", a.decision.name),
+    };
+    m.add(&["decision"], decision);
     m.add(&["recordings"], a.recordings.len().to_string());
     m.add(&["seeds"], a.seeds.len().to_string());
     for u in &a.units {

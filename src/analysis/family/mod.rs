@@ -144,7 +144,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let doses = contrast_doses(plan);
     let split_values: Vec<Option<u64>> =
         if plan.splits.is_empty() { vec![None] } else { plan.splits.iter().copied().map(Some).collect() };
-    let mut splits = Vec::new();
+    let mut splits: Vec<SplitResult> = Vec::new();
     let mut values = Vec::new();
     let mut warnings = Vec::new();
     for &split in &split_values {
@@ -157,6 +157,7 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
     let unit = plan.primary.label();
     let (axis, metric_unit) = (dose_axis(&doses), plan.primary.metric.unit());
     let decision = decide(&plan.decision, (&unit, metric_unit, axis), &splits, pooled.as_ref());
+    mark_members(&mut splits, &doses, &decision);
     let secondary = secondary(&splits, &doses);
     Ok(FamilyAnalysis {
         study: plan.study.clone(),
@@ -180,6 +181,30 @@ pub fn analyze_family(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> R
         guards: Vec::new(),
         secondary,
     })
+}
+
+/// Marks each split's and dose's analysis as one contrast of the family:
+/// descriptive, the family's rule deciding on `decision`'s target (its
+/// report in `split-S/` and/or the dose arm's folder below the family's).
+fn mark_members(splits: &mut [SplitResult], doses: &[DoseArm], decision: &Decision) {
+    let by_dose = doses.len() >= 2;
+    for sp in splits.iter_mut() {
+        for (dose, a) in doses.iter().zip(sp.detail.iter_mut()) {
+            let contrast = match (sp.split, by_dose) {
+                (Some(s), true) => format!("split {s}, dose `{}`", dose.arm),
+                (Some(s), false) => format!("split {s}"),
+                (None, _) => format!("dose `{}`", dose.arm),
+            };
+            let depth = usize::from(sp.split.is_some()) + usize::from(by_dose);
+            a.decision.member_of = Some(super::MemberOf {
+                contrast,
+                decides_on: decision.unit.clone(),
+                verdict: super::words::verdict_word(&decision.name, decision.holds),
+                report: format!("{}report.md", "../".repeat(depth)),
+            });
+            a.guards = super::guards::guards(a);
+        }
+    }
 }
 
 /// Each declared secondary endpoint's contrast, per split and dose, from
@@ -219,21 +244,11 @@ fn analyze_split(
     options: AnalyzeOptions,
     warnings: &mut Vec<String>,
 ) -> Result<(SplitResult, Values), AnalysisError> {
-    let sub_plan = match split {
-        Some(s) => plan.for_split(s),
-        None => plan.clone(),
-    };
     let mine: Vec<Cell> = cells.iter().filter(|c| c.split == split).cloned().collect();
     let mut detail = Vec::new();
     let mut results = Vec::new();
     for dose in doses {
-        let dose_plan = if plan.doses.is_empty() { sub_plan.clone() } else { sub_plan.for_dose(dose) };
-        let arms = [dose.arm.as_str(), plan.contrast.reference.as_str()];
-        let subset: Vec<Cell> = mine
-            .iter()
-            .filter(|c| arms.contains(&c.arm.as_str()))
-            .map(|c| Cell { split: None, dose: None, ..c.clone() })
-            .collect();
+        let (dose_plan, subset) = member(plan, split, dose, &mine);
         let a = analyze(&dose_plan, &subset, options).map_err(|e| match split {
             Some(s) => fail(format!("split {s}, arm {}: {e}", dose.arm)),
             None if !plan.doses.is_empty() => fail(format!("arm {}: {e}", dose.arm)),
@@ -261,6 +276,25 @@ fn analyze_split(
     let v = split_values_of(plan, &mine, doses, &detail[0])?;
     let trend = if doses.len() >= 2 { Some(trend(plan, &v, doses, &results)?) } else { None };
     Ok((SplitResult { split, doses: results, trend, detail }, v))
+}
+
+/// One contrast of the family: the plan of `split` (None: the only one)
+/// and `dose` as a single-contrast study, and its cells among `cells`
+/// (those of the dose's arm and the reference arm, of that split), their
+/// split and dose columns cleared.
+pub(crate) fn member(plan: &Plan, split: Option<u64>, dose: &DoseArm, cells: &[Cell]) -> (Plan, Vec<Cell>) {
+    let sub_plan = match split {
+        Some(s) => plan.for_split(s),
+        None => plan.clone(),
+    };
+    let dose_plan = if plan.doses.is_empty() { sub_plan } else { sub_plan.for_dose(dose) };
+    let arms = [dose.arm.as_str(), plan.contrast.reference.as_str()];
+    let subset = cells
+        .iter()
+        .filter(|c| c.split == split && arms.contains(&c.arm.as_str()))
+        .map(|c| Cell { split: None, dose: None, ..c.clone() })
+        .collect();
+    (dose_plan, subset)
 }
 
 /// The primary metric's differences of one split, per dose, in the row and
@@ -380,6 +414,7 @@ fn decide(
         // margins are read on the interval of the mean (or slope) only.
         margins: super::decision::margins(rule, None, (observed.3, observed.4)),
         unguarded: super::decision::unguarded(rule, holds, (observed.3, observed.4)),
+        member_of: None,
     }
 }
 

@@ -3,11 +3,13 @@
 //! over the draws). Computed with the combined analysis and worded once;
 //! its report, banner, console line, multiverse.json and Python read them
 //! from [`MultiverseAnalysis::guards`]. Each specification's own guards
-//! (its margin, a fragile decision, early stopping) are its own
-//! [`super::SpecResult::guards`].
+//! (its margin, a fragile decision; from its level folders, early
+//! stopping, a reference arm that is not disjoint and its coverage) are
+//! its own [`super::SpecResult::guards`] ([`attach_unit_guards`]).
 
 use super::{MultiverseAnalysis, ReferenceCopies};
 use crate::analysis::{Guard, GuardKind};
+use crate::io::md_line;
 
 /// The guards beside a multiverse's verdict: a reference arm that is not
 /// disjoint, then its condition coverage (the primary specification's, or
@@ -45,6 +47,34 @@ pub fn guards(a: &MultiverseAnalysis) -> Vec<Guard> {
         }
     }
     out
+}
+
+/// Adds to each specification's own guards what its level folders say
+/// of it (its unit's notes): early stopping, a reference arm that is not
+/// disjoint, and its condition coverage. Only where specifications are
+/// declared: without choices the one row's guards are the verdict's.
+pub fn attach_unit_guards(a: &mut MultiverseAnalysis) {
+    if a.choices.is_empty() {
+        return;
+    }
+    for r in a.specs.iter_mut() {
+        let Some(n) = a.notes.iter().find(|n| n.id == format!("spec-{}", r.id)) else { continue };
+        if let Some(w) = n.early.as_ref().and_then(|e| e.warning()) {
+            r.guards.push(Guard::new(GuardKind::EarlyStopping, format!("**Early stopping**: {}.", md_line(&w))));
+        }
+        if let Some(c) = &n.reference_copies {
+            r.guards.push(Guard::new(
+                GuardKind::NotDisjoint,
+                format!(
+                    "**The reference arm is not disjoint**: {}; allowed only because duplicates are kept (`duplicates keep`).",
+                    copies_text(c)
+                ),
+            ));
+        }
+        if let Some(c) = &n.coverage {
+            r.guards.push(Guard::new(GuardKind::Coverage, c.sentence()));
+        }
+    }
 }
 
 /// How many reference-arm fit windows come from evaluation recordings or

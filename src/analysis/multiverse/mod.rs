@@ -26,7 +26,7 @@ mod types;
 
 use draws::{draw_replication, pooled_choice_effects};
 use effects::effect_cells;
-pub use guards::guards;
+pub use guards::{attach_unit_guards, guards};
 use joint::joint_bootstrap;
 pub use joint::{JointBootstrap, NullTest};
 pub use types::*;

@@ -108,7 +108,9 @@ pub struct SpecResult {
     /// Evaluation recordings analysed.
     pub recordings: usize,
     /// The guards of the specification's own verdict (its rule's margin, a
-    /// fragile decision, early stopping held fixed).
+    /// fragile decision, early stopping held fixed; from its level folders,
+    /// early stopping, a reference arm that is not disjoint, its condition
+    /// coverage).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub guards: Vec<crate::analysis::Guard>,
 }
