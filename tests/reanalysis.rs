@@ -455,3 +455,64 @@ fn evidence_edited_after_the_run_is_left_out_and_named() -> Result<(), Box<dyn s
     assert!(md.contains("treatment strength and condition coverage not reported"), "{md}");
     Ok(())
 }
+
+/// Before: a run folder whose audit/treatment.json was gone got no
+/// coverage guard at all beside its verdict (the contrast's coverage of
+/// the evaluated conditions unknown, said only in a warning far down), and
+/// a per-cell file analysed into a folder that held the run's analysis
+/// left its training_curves.svg there, beside a report that names none.
+#[test]
+fn unknown_coverage_is_a_guard_and_no_stale_figure_is_left() -> Result<(), Box<dyn std::error::Error>> {
+    let tmp = tempfile::tempdir()?;
+    let run = tmp.path().join("run");
+    let run_s = run.to_str().ok_or("path")?;
+    let o = crossaudit(&["run", "designs/quickstart.design", "--out", run_s]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = tmp.path().join("re");
+    let out_s = out.to_str().ok_or("path")?;
+    let o = crossaudit(&["analyze", "designs/quickstart.design", "--cells", run_s, "--out", out_s]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("training_curves.svg").is_file());
+    // The run's cells alone, into the same folder.
+    let cells = tmp.path().join("cells.csv");
+    std::fs::copy(run.join("cells.csv"), &cells)?;
+    let o =
+        crossaudit(&["analyze", "designs/quickstart.design", "--cells", cells.to_str().ok_or("path")?, "--out", out_s]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.join("training_curves.svg").exists(), "a figure the report no longer names was left");
+    assert!(out.join("optimism.svg").is_file());
+    // The run folder without its treatment audit.
+    std::fs::remove_file(run.join("audit/treatment.json"))?;
+    let bare = tmp.path().join("bare");
+    let o =
+        crossaudit(&["analyze", "designs/quickstart.design", "--cells", run_s, "--out", bare.to_str().ok_or("path")?]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("  Condition coverage unknown: the run folder records no condition coverage"), "{said}");
+    let md = std::fs::read_to_string(bare.join("report.md"))?;
+    let head = md.split("\n## ").next().unwrap_or("");
+    assert!(head.contains("**Condition coverage unknown**: the run folder records no condition coverage"), "{head}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(bare.join("results.json"))?)?;
+    let kinds: Vec<&str> =
+        json["guards"].as_array().ok_or("guards")?.iter().filter_map(|g| g["kind"].as_str()).collect();
+    assert!(kinds.contains(&"coverage"), "{kinds:?}");
+    Ok(())
+}
+
+/// Before: `analyze --cells /dev/stdin` wrote its report into /dev/report
+/// (beside the path given). Per-cell data that is no file in a folder
+/// needs --out.
+#[test]
+fn per_cell_data_that_is_no_file_in_a_folder_needs_an_output_folder() {
+    let o = crate::common::bin()
+        .args(["analyze", "designs/quickstart.design", "--cells", "/dev/stdin"])
+        .stdin(std::fs::File::open(root().join("results/quickstart/cells.csv")).unwrap())
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("/dev/stdin is not a file in a folder") && e.contains("give --out DIR"),
+        "{e}"
+    );
+    assert!(!Path::new("/dev/report").exists());
+}

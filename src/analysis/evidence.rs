@@ -170,6 +170,28 @@ fn unit_notes(id: &str, plan: &Plan, levels: &[LevelEvidence], cells: &[crate::c
     }
 }
 
+/// The warning (and, worded by the guards, the guard) where the run's
+/// folders record no condition coverage: which folders lack it. Every
+/// run writes it (`audit/treatment.json`); a folder without it lost the
+/// file, or an edit made it unreadable, or an older build wrote it.
+pub(crate) fn coverage_unknown(levels: &[LevelEvidence]) -> String {
+    let lacking: Vec<&str> = levels
+        .iter()
+        .filter(|l| l.treatment.as_ref().and_then(|t| t.coverage.as_ref()).is_none())
+        .map(|l| l.id.as_str())
+        .collect();
+    let which = match (levels.len(), lacking.as_slice()) {
+        (1, _) | (_, []) => "the run folder records".to_string(),
+        (n, ids) => format!("{} of the {n} level folders ({}) record", ids.len(), ids.join(", ")),
+    };
+    format!(
+        "{COVERAGE_UNKNOWN}{which} no condition coverage (audit/treatment.json absent, unreadable, or written by an older build: the warning naming it says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast mixes condition novelty with recording leakage, is not known"
+    )
+}
+
+/// How [`coverage_unknown`]'s warning begins (the guards find it by it).
+pub(crate) const COVERAGE_UNKNOWN: &str = "condition coverage unknown: ";
+
 /// The sentence a per-cell file alone gets in place of the run's evidence.
 fn absent(sections: &str) -> String {
     format!(
@@ -202,6 +224,9 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
     };
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = statement(plan, &record.cells, &run.levels);
+    if a.coverage.is_none() {
+        a.warnings.push(coverage_unknown(&run.levels));
+    }
     a.curves = run.curves();
     let best = best_epochs(plan, &a.curves);
     if let Some(w) = early_training(plan, &best, &record.cells).and_then(|e| e.warning()) {
@@ -221,6 +246,9 @@ fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
     };
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = note(plan, &run.levels);
+    if a.coverage.is_none() {
+        a.warnings.push(coverage_unknown(&run.levels));
+    }
     a.sources = sources(plan, &run.levels);
     a.warnings.extend(run.missing.iter().cloned());
     member_coverage(a, plan, record, &run.levels);
@@ -239,6 +267,9 @@ fn member_coverage(a: &mut FamilyAnalysis, plan: &Plan, record: &Record, levels:
         for (dose, detail) in doses.iter().zip(sp.detail.iter_mut()) {
             let (p, cells) = super::family::member(plan, sp.split, dose, &record.cells);
             detail.coverage = statement(&p, &cells, &own);
+            if detail.coverage.is_none() && !own.is_empty() {
+                detail.warnings.push(coverage_unknown(&own));
+            }
             detail.guards = super::guards::guards(detail);
         }
     }

@@ -60,8 +60,16 @@ pub fn guards(a: &Analysis) -> Vec<Guard> {
         ));
     }
     out.extend(coverage(a).map(|t| Guard::new(GuardKind::Coverage, t)));
+    out.extend(coverage_unknown(&a.warnings));
     out.extend(concentrated(a).map(|t| Guard::new(GuardKind::Concentrated, t)));
     out
+}
+
+/// The coverage guard where the run's folders record no coverage: the
+/// warning [`super::evidence::coverage_unknown`] gave, beside the verdict.
+pub(crate) fn coverage_unknown(warnings: &[String]) -> Option<Guard> {
+    let w = warnings.iter().find_map(|w| w.strip_prefix(super::evidence::COVERAGE_UNKNOWN))?;
+    Some(Guard::new(GuardKind::Coverage, format!("**Condition coverage unknown**: {}.", md_line(w))))
 }
 
 /// A rule decided on the divergence GLMM whose diverged starts few

@@ -104,6 +104,10 @@ pub fn write_figures(a: &Analysis, curves: &[Curve], report_dir: &Path) -> Resul
     Ok(written)
 }
 
+/// The figures of a single study drawn only where its analysis has what
+/// they show (an interaction, training curves).
+pub(super) const OPTIONAL: [&str; 2] = ["interaction.svg", "training_curves.svg"];
+
 /// A figure title, prefixed `EXPLORATORY:` when the analysis is not the
 /// preregistered one.
 fn label(a: &Analysis, title: &str) -> String {

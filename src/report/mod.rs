@@ -86,6 +86,15 @@ pub fn write_with_figures(a: &Analysis, curves: &[figures::Curve], dir: &Path) -
     create_dir_all(dir)?;
     let drawn = figures::write_figures(a, curves, dir)?;
     let paths: Vec<PathBuf> = drawn.iter().map(|(p, _)| p.clone()).collect();
+    // A figure an earlier analysis into this folder drew and this one does
+    // not (training curves from a run folder, then a per-cell file alone)
+    // would stand beside a report that no longer names it.
+    for name in figures::OPTIONAL {
+        let stale = dir.join(name);
+        if !paths.contains(&stale) && stale.symlink_metadata().is_ok() {
+            std::fs::remove_file(&stale).map_err(|e| crate::io::WriteError::new(&stale, e))?;
+        }
+    }
     let svgs = figures::by_name(drawn);
     let a = a.with_figures(svgs.iter().map(|(name, _)| name.clone()).collect());
     let mut written = write_all_with(&a, dir, &svgs)?;

@@ -20,6 +20,7 @@ pub fn guards(a: &FamilyAnalysis) -> Vec<Guard> {
         Guard::new(kind, n)
     }));
     out.extend(a.coverage.iter().map(|c| Guard::new(GuardKind::Coverage, c.sentence())));
+    out.extend(crate::analysis::guards::coverage_unknown(&a.warnings));
     out
 }
 

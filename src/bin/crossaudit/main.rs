@@ -548,6 +548,20 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
             );
             dir
         }
+        None if !cells.is_dir()
+            && (!std::fs::metadata(cells).is_ok_and(|m| m.is_file())
+                || cells.starts_with("/dev")
+                || cells.starts_with("/proc")) =>
+        {
+            return Err(crossaudit::io::WriteError::new(
+                &beside.join("report"),
+                std::io::Error::other(format!(
+                    "{} is not a file in a folder (a pipe, a device, standard input), so there is no folder beside it for the report: give --out DIR (nothing was written)",
+                    cells.display()
+                )),
+            )
+            .into())
+        }
         None => beside.join("report"),
     };
     // A run's report is never replaced by another design's analysis, nor
