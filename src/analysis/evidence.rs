@@ -185,7 +185,7 @@ pub(crate) fn coverage_unknown(levels: &[LevelEvidence]) -> String {
         (n, ids) => format!("{} of the {n} level folders ({}) record", ids.len(), ids.join(", ")),
     };
     format!(
-        "{COVERAGE_UNKNOWN}{which} no condition coverage (audit/treatment.json absent, unreadable, or written by an older build: the warning naming it says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast mixes condition novelty with recording leakage, is not known"
+        "{COVERAGE_UNKNOWN}{which} no condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast mixes condition novelty with recording leakage, is not known"
     )
 }
 
@@ -224,9 +224,6 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
     };
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = statement(plan, &record.cells, &run.levels);
-    if a.coverage.is_none() {
-        a.warnings.push(coverage_unknown(&run.levels));
-    }
     a.curves = run.curves();
     let best = best_epochs(plan, &a.curves);
     if let Some(w) = early_training(plan, &best, &record.cells).and_then(|e| e.warning()) {
@@ -234,6 +231,9 @@ fn single_evidence(a: &mut Analysis, plan: &Plan, record: &Record) {
     }
     a.warnings.extend(budget_training(plan, &best));
     a.warnings.extend(run.missing.iter().cloned());
+    if a.coverage.is_none() {
+        a.warnings.push(coverage_unknown(&run.levels));
+    }
 }
 
 /// A dose-response family's statements from the run folder (or its
@@ -246,11 +246,11 @@ fn family_evidence(a: &mut FamilyAnalysis, plan: &Plan, record: &Record) {
     };
     a.treatment = provenance_and_warnings(&mut a.provenance, &mut a.warnings, plan, run);
     a.coverage = note(plan, &run.levels);
+    a.sources = sources(plan, &run.levels);
+    a.warnings.extend(run.missing.iter().cloned());
     if a.coverage.is_none() {
         a.warnings.push(coverage_unknown(&run.levels));
     }
-    a.sources = sources(plan, &run.levels);
-    a.warnings.extend(run.missing.iter().cloned());
     member_coverage(a, plan, record, &run.levels);
 }
 
