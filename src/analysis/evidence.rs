@@ -185,7 +185,7 @@ pub(crate) fn coverage_unknown(levels: &[LevelEvidence]) -> String {
         (n, ids) => format!("{} of the {n} level folders ({}) record", ids.len(), ids.join(", ")),
     };
     format!(
-        "{COVERAGE_UNKNOWN}{which} no condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast mixes condition novelty with recording leakage, is not known"
+        "{COVERAGE_UNKNOWN}{which} no condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast also measured unseen conditions, is not known"
     )
 }
 
