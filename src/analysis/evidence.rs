@@ -181,11 +181,12 @@ pub(crate) fn coverage_unknown(levels: &[LevelEvidence]) -> String {
         .map(|l| l.id.as_str())
         .collect();
     let which = match (levels.len(), lacking.as_slice()) {
-        (1, _) | (_, []) => "the run folder records".to_string(),
-        (n, ids) => format!("{} of the {n} level folders ({}) record", ids.len(), ids.join(", ")),
+        (1, _) | (_, []) => "the run folder records no".to_string(),
+        (n, ids) if ids.len() == n => format!("none of the {n} level folders records"),
+        (n, ids) => format!("{} of the {n} level folders ({}) record no", ids.len(), ids.join(", ")),
     };
     format!(
-        "{COVERAGE_UNKNOWN}{which} no condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast also measured unseen conditions, is not known"
+        "{COVERAGE_UNKNOWN}{which} condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast also measured unseen conditions, is not known"
     )
 }
 
