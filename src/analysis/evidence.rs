@@ -186,12 +186,10 @@ pub(crate) fn coverage_unknown(levels: &[LevelEvidence]) -> String {
         (n, ids) => format!("{} of the {n} level folders ({}) record no", ids.len(), ids.join(", ")),
     };
     format!(
-        "{COVERAGE_UNKNOWN}{which} condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast also measured unseen conditions, is not known"
+        "{}{which} condition coverage (its treatment audit absent, unreadable, edited, or written by an older build: the warning above naming the file says which), so whether the reference arm fits on other recordings of every evaluated condition, and so whether the contrast also measured unseen conditions, is not known",
+        super::guards::COVERAGE_UNKNOWN
     )
 }
-
-/// How [`coverage_unknown`]'s warning begins (the guards find it by it).
-pub(crate) const COVERAGE_UNKNOWN: &str = "condition coverage unknown: ";
 
 /// The sentence a per-cell file alone gets in place of the run's evidence.
 fn absent(sections: &str) -> String {

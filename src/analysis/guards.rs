@@ -65,10 +65,14 @@ pub fn guards(a: &Analysis) -> Vec<Guard> {
     out
 }
 
-/// The coverage guard where the run's folders record no coverage: the
-/// warning [`super::evidence::coverage_unknown`] gave, beside the verdict.
+/// How the warning begins that the evidence gives where the run's folders
+/// record no condition coverage (the guard below finds it by it).
+pub(crate) const COVERAGE_UNKNOWN: &str = "condition coverage unknown: ";
+
+/// The coverage guard where the run's folders record no coverage: that
+/// warning, beside the verdict.
 pub(crate) fn coverage_unknown(warnings: &[String]) -> Option<Guard> {
-    let w = warnings.iter().find_map(|w| w.strip_prefix(super::evidence::COVERAGE_UNKNOWN))?;
+    let w = warnings.iter().find_map(|w| w.strip_prefix(COVERAGE_UNKNOWN))?;
     Some(Guard::new(GuardKind::Coverage, format!("**Condition coverage unknown**: {}.", md_line(w))))
 }
 
