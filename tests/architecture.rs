@@ -909,7 +909,13 @@ fn analysis_fields() -> BTreeSet<String> {
     };
     let src = root().join("src");
     let mut ours = BTreeSet::new();
-    for f in ["analysis/types.rs", "analysis/family/types.rs", "analysis/multiverse/types.rs", "analysis/standing.rs"] {
+    for f in [
+        "analysis/types/mod.rs",
+        "analysis/types/decision.rs",
+        "analysis/family/types.rs",
+        "analysis/multiverse/types.rs",
+        "analysis/standing.rs",
+    ] {
         ours.extend(fields_of(&src.join(f)));
     }
     for path in all_sources().into_iter().filter(|p| !p.starts_with(src.join("analysis"))) {
