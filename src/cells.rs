@@ -102,9 +102,17 @@ const _: () = assert!(std::mem::size_of::<Cell>() == 144);
 /// A problem in a per-cell file, located by file, line and field.
 #[derive(Debug, thiserror::Error)]
 pub enum CellsError {
-    /// The file could not be read or written.
+    /// The file could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("cannot write {path}: {source}")]
+    Write {
         /// The file.
         path: String,
         /// Why.

@@ -433,6 +433,7 @@ pub mod float_text;
 mod input;
 pub use input::{read_text, text_of, Text, TextError};
 pub mod parquet;
+pub mod seal;
 mod text;
 pub use text::{escape_controls, formula_like, md_code, md_line, md_plain, md_text, one_line, spreadsheet_text};
 pub mod walk;

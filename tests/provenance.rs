@@ -108,6 +108,16 @@ fn edit_json(path: &Path, edit: impl Fn(&mut serde_json::Value)) {
     std::fs::write(path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
 }
 
+/// As [`edit_json`], the record's seal taken off first: the record as a
+/// build before seals would have written it, so what is tested is how its
+/// fields are read, not that an edit is found.
+fn edit_as_older(path: &Path, edit: impl Fn(&mut serde_json::Value)) {
+    edit_json(path, |v| {
+        v.as_object_mut().unwrap().remove("seal").expect("the record was sealed");
+        edit(v)
+    });
+}
+
 #[test]
 fn train_with_another_design_cannot_overwrite_a_finished_run() {
     // Issue 30, class 1: `train b.design` (b differs only in its epochs)
@@ -301,7 +311,15 @@ fn gather_recomputes_the_lock_state_instead_of_trusting_array_json() {
     edit_json(&out.join("slurm/array.json"), |v| {
         v["lock"] = serde_json::json!({"status": "locked_unchanged", "locked_at_utc": "2026-01-01T00:00:00Z"})
     });
-    edit_json(&out.join("run.json"), |v| v["exploratory"] = false.into());
+    // run.json's label taken off: its seal no longer holds, and the gather
+    // refuses the folder; taken off a record without a seal, the array's
+    // own record keeps the label.
+    let run_json = out.join("run.json");
+    let sealed = std::fs::read(&run_json).unwrap();
+    edit_json(&run_json, |v| v["exploratory"] = false.into());
+    assert_refused(&crossaudit(&["gather", s(&out)]), "run.json was edited after crossaudit wrote it");
+    std::fs::write(&run_json, sealed).unwrap();
+    edit_as_older(&run_json, |v| v["exploratory"] = false.into());
     let o = crossaudit(&["gather", s(&out)]);
     assert_ok(&o);
     assert!(stdout(&o).starts_with("EXPLORATORY decision:"), "{}", stdout(&o));
@@ -417,7 +435,7 @@ fn a_run_stands_under_the_lock_state_it_began_in() {
     let lock: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("a.design.lock")).unwrap()).unwrap();
     let at = lock["locked_at_utc"].clone();
-    edit_json(&run_json, |v| v["lock"] = serde_json::json!({"status": "locked_unchanged", "locked_at_utc": at}));
+    edit_as_older(&run_json, |v| v["lock"] = serde_json::json!({"status": "locked_unchanged", "locked_at_utc": at}));
     let (line, json) = analyze("locked");
     assert!(line.starts_with("decision:"), "{line}");
     assert_eq!(json["preregistered"], true);
@@ -466,7 +484,7 @@ fn a_runs_cells_edited_after_the_run_are_refused_however_named() {
     let o = crossaudit(&["analyze", s(design), "--cells", s(&cells)]);
     assert_refused(&o, "it was edited after the run (to analyse the edited file as a per-cell file of its own, copy it out of the run's folder)");
     assert!(!out.join("reanalysis").exists(), "nothing written into the run's folder");
-    edit_json(&out.join("run.json"), |v| {
+    edit_as_older(&out.join("run.json"), |v| {
         v.as_object_mut().unwrap().remove("cells_sha256");
     });
     let o = crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&dir.path().join("r"))]);
@@ -474,6 +492,56 @@ fn a_runs_cells_edited_after_the_run_are_refused_however_named() {
     // Restored, the folder without its hash is read through its job records.
     std::fs::write(&cells, text).unwrap();
     assert_ok(&crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&dir.path().join("r"))]));
+}
+
+/// run.json records what every report of the run quotes beside its
+/// verdict (the data it trained on, its label, the lock it began under,
+/// its notes). Edited after the run (here: simulated recordings relabelled
+/// as the real lab's logs), it was reported as the run's; now its seal
+/// (the SHA-256 of its content, recomputed here through serde_json's
+/// sorted-key writing, not the crate's) no longer holds, and a reanalysis
+/// (of the folder or of its cells.csv) and a resume refuse it, naming it,
+/// and change nothing. The same content reformatted is no edit.
+#[test]
+fn a_runs_record_edited_after_the_run_is_refused_by_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let design = &reference().1;
+    let run_json = out.join("run.json");
+    let text = std::fs::read_to_string(&run_json).unwrap();
+    let mut content: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let seal = content.as_object_mut().unwrap().remove("seal").expect("run.json is sealed");
+    let canonical = serde_json::to_string(&content).unwrap();
+    assert!(canonical.starts_with(r#"{"audit_sha256":"#), "keys sorted: {canonical}");
+    assert_eq!(seal.as_str().unwrap(), crossaudit::io::sha256_hex(canonical.as_bytes()));
+    assert_eq!(content["data"]["kind"], "simulated", "{text}");
+
+    edit_json(&run_json, |v| {
+        v["data"] = serde_json::json!({"kind": "directory", "path": "../shared/nanobench/recordings"})
+    });
+    let before = tree(&out);
+    let report = dir.path().join("r");
+    for o in [
+        crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&report)]),
+        crossaudit(&["analyze", s(design), "--cells", s(&out.join("cells.csv")), "--out", s(&report)]),
+        crossaudit(&["run", s(design), "--out", s(&out)]),
+    ] {
+        assert_refused(&o, &format!("{} was edited after crossaudit wrote it", run_json.display()));
+        assert!(stderr(&o).contains("restore it"), "{}", stderr(&o));
+    }
+    assert_eq!(tree(&out), before, "nothing in the run's folder changed");
+    assert!(!report.exists(), "no report written");
+
+    // The same content, compact: read as the run's.
+    std::fs::write(
+        &run_json,
+        serde_json::to_string(&serde_json::from_str::<serde_json::Value>(&text).unwrap()).unwrap(),
+    )
+    .unwrap();
+    let o = crossaudit(&["analyze", s(design), "--cells", s(&out), "--out", s(&report)]);
+    assert_ok(&o);
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(md.contains("simulated recordings") && !md.contains("nanobench/recordings"), "{md}");
 }
 
 /// A link planted at an output's temporary name (`OUT/results.json.tmp`

@@ -9,9 +9,10 @@ use super::{header_for, Cell, CellsError, HEADER};
 /// [`write_cells`] to a temporary file, then renamed over `path`: a reader
 /// (or a resumed run) never sees half a file.
 pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
-    let tmp = crate::io::staged(path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })?;
+    let tmp =
+        crate::io::staged(path).map_err(|source| CellsError::Write { path: path.display().to_string(), source })?;
     write_cells(&tmp, cells)?;
-    std::fs::rename(&tmp, path).map_err(|source| CellsError::Io { path: path.display().to_string(), source })
+    std::fs::rename(&tmp, path).map_err(|source| CellsError::Write { path: path.display().to_string(), source })
 }
 
 /// [`write_cells_atomic`], and the same table as `cells.parquet` beside
@@ -22,7 +23,7 @@ pub fn write_cells_atomic(path: &Path, cells: &[Cell]) -> Result<(), CellsError>
 /// the Parquet file is made from them.
 pub fn write_cells_and_parquet(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
     let csv = cells_bytes(cells);
-    let io = |p: &Path, source| CellsError::Io { path: p.display().to_string(), source };
+    let io = |p: &Path, source| CellsError::Write { path: p.display().to_string(), source };
     crate::io::write_atomic(path, &csv).map_err(|e| io(path, e.source))?;
     let twin = path.with_extension("parquet");
     let bytes = crate::io::parquet::csv_to_parquet(&csv).map_err(|e| io(&twin, std::io::Error::other(e)))?;
@@ -34,7 +35,7 @@ pub fn write_cells_and_parquet(path: &Path, cells: &[Cell]) -> Result<(), CellsE
 /// so the same values give the same bytes.
 pub fn write_cells(path: &Path, cells: &[Cell]) -> Result<(), CellsError> {
     let p = path.display().to_string();
-    let file = std::fs::File::create(path).map_err(|source| CellsError::Io { path: p.clone(), source })?;
+    let file = std::fs::File::create(path).map_err(|source| CellsError::Write { path: p.clone(), source })?;
     write_cells_to(&p, file, cells)
 }
 
@@ -47,7 +48,7 @@ pub fn cells_bytes(cells: &[Cell]) -> Vec<u8> {
 }
 
 fn write_cells_to(p: &str, sink: impl std::io::Write, cells: &[Cell]) -> Result<(), CellsError> {
-    let io = |source: std::io::Error| CellsError::Io { path: p.to_string(), source };
+    let io = |source: std::io::Error| CellsError::Write { path: p.to_string(), source };
     let (has_split, has_dose) = (cells.iter().any(|c| c.split.is_some()), cells.iter().any(|c| c.dose.is_some()));
     let mut w = csv::Writer::from_writer(sink);
     if !has_split && !has_dose {

@@ -294,7 +294,7 @@ pub fn combine(file: &DesignFile, study: &StudyPlan, sources: &[Source], out: &P
     crate::io::create_dir_all(out)?;
     // The record first: a combine killed between the two leaves a folder
     // this command recognises as its own and finishes on a rerun.
-    crate::io::write_atomic(&out.join("combined.json"), crate::io::pretty_json(&record).as_bytes())?;
+    crate::io::write_atomic(&out.join("combined.json"), crate::io::seal::sealed_json(&record).as_bytes())?;
     crate::io::write_atomic(&out.join("cells.csv"), &bytes)?;
     // The runs were read and verified above: the folder's record from them.
     let design = DesignLabel::new(file, crate::design::lock::status(file)?);
@@ -324,9 +324,12 @@ impl CombinedRecord {
     pub fn read(dir: &Path) -> Result<Option<CombinedRecord>, RunError> {
         let path = dir.join("combined.json");
         match crate::io::read_own(&path) {
-            Ok(bytes) => serde_json::from_slice(&bytes)
-                .map(Some)
-                .map_err(|e| fail(&path, format!("cannot be read as the record of combined runs ({e})"))),
+            Ok(bytes) => crate::io::seal::open(&bytes).map(Some).map_err(|e| match e {
+                crate::io::seal::SealError::Json(e) => {
+                    fail(&path, format!("cannot be read as the record of combined runs ({e})"))
+                }
+                edited => super::record::opened(edited, &path, dir),
+            }),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
             Err(e) => Err(fail(&path, format!("cannot be read ({e})"))),
         }

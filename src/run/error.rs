@@ -112,6 +112,19 @@ pub enum RunError {
         /// A folder that may be used instead.
         suggest: String,
     },
+    /// A run's record (run.json, study.json, combined.json) edited after
+    /// crossaudit wrote it: its seal ([`crate::io::seal`]) no longer holds.
+    #[error("{path} was edited after crossaudit wrote it (its content hashes to {now}, but its seal records {recorded}): a report quotes what it records (the data, the lock the run began under, its label, its notes), so nothing in {dir} is analysed or reused under it; restore it, or run again into a new output directory")]
+    RecordEdited {
+        /// The record.
+        path: String,
+        /// The run folder.
+        dir: String,
+        /// Its content's SHA-256 now.
+        now: String,
+        /// Its seal.
+        recorded: String,
+    },
     /// run.json cannot be read, or is missing beside a run's outputs.
     #[error("{path} cannot be read as the record of a run ({reason}), so nothing in {dir} can be verified for reuse; use a new output directory")]
     BadRunRecord {

@@ -87,11 +87,17 @@ fn refuse_edited(cells: &Path, beside: &Path, design_sha256: &str, sha: &str) ->
     if cells.file_name().is_none_or(|n| n != "cells.csv") {
         return Ok(());
     }
-    let recorded = if let Ok(Some(r)) = CombinedRecord::read(beside) {
+    // A record beside it edited since the run wrote it vouches for nothing.
+    let (combined, study, run) = (
+        vouching(CombinedRecord::read(beside))?,
+        vouching(StudyRecord::read(beside))?,
+        vouching(RunRecord::read(beside))?,
+    );
+    let recorded = if let Some(r) = combined {
         (r.design_sha256 == design_sha256).then_some((r.cells_sha256, "combined.json"))
-    } else if let Ok(Some(r)) = StudyRecord::read(beside) {
+    } else if let Some(r) = study {
         (r.design_sha256 == design_sha256).then_some((r.cells_sha256, "study.json"))
-    } else if let Ok(Some(r)) = RunRecord::read(beside) {
+    } else if let Some(r) = run {
         r.cells_sha256.filter(|_| r.design_sha256 == design_sha256).map(|c| (c, "run.json"))
     } else {
         None
@@ -105,5 +111,14 @@ fn refuse_edited(cells: &Path, beside: &Path, design_sha256: &str, sha: &str) ->
             ),
         }),
         _ => Ok(()),
+    }
+}
+
+/// A record beside a per-cell file, where readable: one edited since its
+/// run wrote it is refused; one unreadable otherwise vouches for nothing.
+fn vouching<T>(read: Result<Option<T>, RunError>) -> Result<Option<T>, RunError> {
+    match read {
+        Err(e @ RunError::RecordEdited { .. }) => Err(e),
+        read => Ok(read.ok().flatten()),
     }
 }

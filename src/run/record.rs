@@ -97,6 +97,15 @@ pub enum ContentHashes {
     Values,
 }
 
+/// A record's seal broken, or the record unreadable, as the run's error.
+pub(crate) fn opened(e: crate::io::seal::SealError, path: &Path, dir: &Path) -> RunError {
+    let (path, dir) = (path.display().to_string(), dir.display().to_string());
+    match e {
+        crate::io::seal::SealError::Edited { now, recorded } => RunError::RecordEdited { path, dir, now, recorded },
+        crate::io::seal::SealError::Json(reason) => RunError::BadRunRecord { path, dir, reason },
+    }
+}
+
 /// Output entries that only a run writes: their presence without a
 /// readable run.json means the record was lost or the folder is not a run.
 const RUN_OUTPUTS: [&str; 5] = ["jobs", "cells", "models", "curves", "cells.csv"];
@@ -143,7 +152,7 @@ impl RunRecord {
             reason,
         };
         match crate::io::read_own(&path) {
-            Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| unreadable(e.to_string())),
+            Ok(bytes) => crate::io::seal::open(&bytes).map(Some).map_err(|e| opened(e, &path, out)),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 match RUN_OUTPUTS.iter().find(|name| out.join(name).exists()) {
                     Some(name) => Err(unreadable(format!("it is missing, but {name} is there"))),
@@ -187,11 +196,10 @@ impl RunRecord {
         Ok(())
     }
 
-    /// Writes `out/run.json` atomically.
+    /// Writes `out/run.json` atomically, sealed ([`crate::io::seal`]): a
+    /// reanalysis or resume refuses it edited since.
     pub fn write(&self, out: &Path) -> Result<(), RunError> {
-        // No final newline: the form run.json has always had.
-        let text = serde_json::to_string_pretty(self).unwrap_or_default();
-        Ok(write_atomic(&out.join("run.json"), text.as_bytes())?)
+        Ok(write_atomic(&out.join("run.json"), crate::io::seal::sealed_json(self).as_bytes())?)
     }
 }
 
@@ -233,15 +241,15 @@ impl StudyRecord {
             reason,
         };
         match crate::io::read_own(&path) {
-            Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| unreadable(e.to_string())),
+            Ok(bytes) => crate::io::seal::open(&bytes).map(Some).map_err(|e| opened(e, &path, dir)),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
             Err(e) => Err(unreadable(e.to_string())),
         }
     }
 
-    /// Writes `dir/study.json` atomically.
+    /// Writes `dir/study.json` atomically, sealed ([`crate::io::seal`]).
     pub fn write(&self, dir: &Path) -> Result<(), RunError> {
-        Ok(write_atomic(&dir.join("study.json"), pretty_json(self).as_bytes())?)
+        Ok(write_atomic(&dir.join("study.json"), crate::io::seal::sealed_json(self).as_bytes())?)
     }
 }
 
