@@ -313,6 +313,15 @@ fn a_study_of_several_level_folders_is_reproduced_by_its_reanalysis() {
             let o = crossaudit(&["analyze", d, "--cells", run.to_str().unwrap(), "--out", again.to_str().unwrap()]);
             let err = String::from_utf8_lossy(&o.stderr);
             assert!(!o.status.success() && err.contains("study.json") && err.contains("edited"), "{err}");
+            // study.json itself edited (a note added): its seal no longer holds.
+            std::fs::write(&cells, &text).unwrap();
+            let study = run.join("study.json");
+            let mut record: serde_json::Value = serde_json::from_slice(&std::fs::read(&study).unwrap()).unwrap();
+            record["notes"] = serde_json::json!(["retrained on real logs"]);
+            std::fs::write(&study, serde_json::to_string_pretty(&record).unwrap()).unwrap();
+            let o = crossaudit(&["analyze", d, "--cells", run.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!o.status.success() && err.contains("study.json was edited after crossaudit wrote it"), "{err}");
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
