@@ -138,6 +138,14 @@ pub enum CellsError {
         /// What is wrong.
         message: String,
     },
+    /// A `.parquet` per-cell file that is no readable Parquet file.
+    #[error("{path}: not a readable Parquet file: {message}")]
+    NotParquet {
+        /// The file.
+        path: String,
+        /// The decoder's words.
+        message: String,
+    },
     /// A field's value is impossible.
     #[error("{path}: line {line}, field `{field}`: {problem} (value: {value:?})")]
     Field {
@@ -193,9 +201,8 @@ fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>
         if let Some(cells) = cells {
             return Ok((cells, sha));
         }
-        let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file").map_err(|message| {
-            CellsError::Csv { path: p.clone(), line: 1, message: format!("not a readable Parquet file: {message}") }
-        })?;
+        let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file")
+            .map_err(|message| CellsError::NotParquet { path: p.clone(), message })?;
         let cells = match read_chunked(&p, (text.as_slice(), text.len() as u64), crate::io::chunked::CHUNK, |_| {}) {
             Some(cells) => cells,
             None => read_cells_from(&p, text.as_slice())?,

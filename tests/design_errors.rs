@@ -129,3 +129,31 @@ fn a_misspelt_keyword_is_told_the_one_meant() {
         .render(false);
     assert!(!e.contains("did you mean"), "{e}");
 }
+
+/// A character that is not ASCII where the language reads only ASCII (a
+/// zero-width space inside a model's name, a no-break space after
+/// `factor`, a Cyrillic `о` in an arm's name) was reported at column 1
+/// under a valid keyword; now at the character itself, by code point. A
+/// non-ASCII character in a comment or a quoted string is no error, and a
+/// syntax error elsewhere on a line holding one keeps its own message.
+#[test]
+fn a_character_that_is_not_ascii_is_named_where_it_stands() {
+    let src = std::fs::read_to_string(root().join("designs/quickstart.design")).unwrap();
+    let line_of = |needle: &str| src.lines().position(|l| l.contains(needle)).unwrap() + 1;
+    for (from, to, col, shown) in [
+        ("model world    =", "model wo\u{200B}rld    =", 9, "U+200B ZERO WIDTH SPACE"),
+        ("factor seed", "factor\u{00A0}seed", 7, "U+00A0 NO-BREAK SPACE"),
+        ("arm disjoint", "arm disj\u{043E}int", 9, "`\u{043E}` (U+043E)"),
+    ] {
+        assert!(src.contains(from), "{from}");
+        let text = src.replacen(from, to, 1);
+        let e = crossaudit::design::from_str("q.design", &text).unwrap_err().render(false);
+        let at = format!("--> q.design:{}:{col}", line_of(from));
+        assert!(e.contains(&at) && e.contains(shown) && e.contains("only ASCII"), "{to}: wanted {at}, {shown}:\n{e}");
+    }
+    let fine = format!("# r\u{00E9}sum\u{00E9}: no-break\u{00A0}space\n{src}");
+    assert!(crossaudit::design::from_str("q.design", &fine).is_ok());
+    let other = format!("# caf\u{00E9}\n{}", src.replacen("epochs 30 cosine", "epochs 30 cosin", 1));
+    let e = crossaudit::design::from_str("q.design", &other).unwrap_err().render(false);
+    assert!(e.contains("did you mean `cosine`?") && !e.contains("only ASCII"), "{e}");
+}

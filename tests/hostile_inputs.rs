@@ -438,6 +438,15 @@ fn a_multiverse_reanalysis_checks_every_level_and_writes_into_no_run() {
     let fresh = tmp.path().join("fresh");
     ok(&crossaudit(&["analyze", d, "--cells", run.to_str().unwrap(), "--out", fresh.to_str().unwrap()]));
     let report = std::fs::read(run.join("report/report.md")).unwrap();
+    // Without --out: into the run's `reanalysis/`, never into the folder
+    // above the run (where a second study's reanalysis replaced the first's).
+    ok(&crossaudit(&["analyze", d, "--cells", run.to_str().unwrap()]));
+    assert!(run.join("reanalysis/multiverse.json").is_file());
+    assert!(!tmp.path().join("report").exists(), "nothing written beside the run");
+    assert_eq!(
+        std::fs::read(fresh.join("multiverse.json")).unwrap(),
+        std::fs::read(run.join("reanalysis/multiverse.json")).unwrap()
+    );
 
     // An edited design (alternatives reordered): refused, and the run's
     // own combined report is not replaced.

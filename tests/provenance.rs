@@ -544,6 +544,40 @@ fn a_runs_record_edited_after_the_run_is_refused_by_every_reader() {
     assert!(md.contains("simulated recordings") && !md.contains("nanobench/recordings"), "{md}");
 }
 
+/// A run is never written into another run's folder (`run`, `split`
+/// wrote their audit, manifests and run.json into a finished run's
+/// `jobs/` or `report/`, and a later `--reuse` of the outer run failed on
+/// the planted run.json), nor into a file; per-cell data is never read
+/// from standard input (the report quotes the file's path and SHA-256).
+#[test]
+fn a_run_is_never_written_inside_another_run_and_cells_come_from_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = copy_of_reference(dir.path());
+    let other = tiny(dir.path(), "other.design", 2);
+    let before = tree(&out);
+    for (command, inside) in [("run", "jobs"), ("split", "report"), ("run", "cells/sub"), ("train", "curves")] {
+        let target = out.join(inside);
+        let mut args = vec![command, s(&other), "--out", s(&target)];
+        if command == "train" {
+            args.extend(["--model", "world", "--arm", "disjoint", "--seed", "1"]);
+        }
+        let o = crossaudit(&args);
+        assert_refused(&o, &format!("{} lies inside the run in {}", target.display(), out.display()));
+    }
+    assert_eq!(tree(&out), before, "nothing written into the run");
+    let o = crossaudit(&["run", s(&other), "--out", s(&other)]);
+    assert_refused(&o, "it is a file, not a folder");
+    let cells = std::fs::File::open(out.join("cells.csv")).unwrap();
+    let o = crate::common::bin()
+        .current_dir(root())
+        .args(["analyze", s(&reference().1), "--cells", "-", "--out", s(&dir.path().join("r"))])
+        .stdin(cells)
+        .output()
+        .unwrap();
+    assert_refused(&o, "standard input, a pipe or a device is not read");
+    assert!(!dir.path().join("r").exists());
+}
+
 /// A link planted at an output's temporary name (`OUT/results.json.tmp`
 /// pointing at a run's cells.csv) is replaced, not written through; and a
 /// thread count that would take minutes to start is refused at once.

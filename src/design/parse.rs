@@ -9,6 +9,7 @@ use super::diagnostic::Diagnostic;
 
 mod data;
 mod pairs;
+mod stray;
 mod syntax;
 use data::data_item;
 use pairs::{cmp, ident, idents, int, kids, number, span_of, string, strings, DesignParser, Kids, Rule};
@@ -41,7 +42,8 @@ pub fn parse(source: &str) -> Result<Ast, Vec<Diagnostic>> {
     if let Some(d) = control_character(source) {
         return Err(vec![d]);
     }
-    let mut pairs = DesignParser::parse(Rule::design, source).map_err(|e| vec![syntax(e)])?;
+    let mut pairs = DesignParser::parse(Rule::design, source)
+        .map_err(|e| vec![stray::stray_character(source, stray::offset(&e)).unwrap_or_else(|| syntax(e))])?;
     let design = pairs.next().expect("the design rule always yields one pair");
     let mut statements = Vec::new();
     let mut errors = Vec::new();

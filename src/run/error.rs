@@ -112,6 +112,16 @@ pub enum RunError {
         /// A folder that may be used instead.
         suggest: String,
     },
+    /// A run's output folder inside another run's folder.
+    #[error("{dir} lies inside the run in {run}: a run is never written into another run's folder (its files would mix with that run's, and a resume, `--reuse` or reanalysis of {run} would read them); write into a new folder outside it, for example --out {suggest}")]
+    RunInsideRun {
+        /// The output directory, as given.
+        dir: String,
+        /// The run it lies in.
+        run: String,
+        /// A folder that may be used instead.
+        suggest: String,
+    },
     /// A run's record (run.json, study.json, combined.json) edited after
     /// crossaudit wrote it: its seal ([`crate::io::seal`]) no longer holds.
     #[error("{path} was edited after crossaudit wrote it (its content hashes to {now}, but its seal records {recorded}): a report quotes what it records (the data, the lock the run began under, its label, its notes), so nothing in {dir} is analysed or reused under it; restore it, or run again into a new output directory")]
@@ -314,8 +324,8 @@ pub enum RunError {
         /// The folder.
         dir: String,
     },
-    /// The data directory does not exist.
-    #[error("data directory {dir} does not exist")]
+    /// The data directory does not exist, or is not a directory.
+    #[error("data directory {dir} {}", if std::path::Path::new(dir).exists() { "is not a directory (give the folder that holds the logs)" } else { "does not exist" })]
     NoDataDir {
         /// The directory.
         dir: String,

@@ -172,6 +172,26 @@ pub fn check_not_in_run(dir: &Path, what: &str) -> Result<(), RunError> {
     })
 }
 
+/// Refuses a run's output folder `out` (`run`, `split`, `train`,
+/// `export`) that lies below another run's folder (one with a run.json, or
+/// the top of a study of level folders), however spelled; `out` itself may
+/// be a run (a resume checks it is of this design, [`check_out`]).
+pub fn check_not_inside_run(out: &Path) -> Result<(), RunError> {
+    if std::fs::metadata(out).is_ok_and(|m| !m.is_dir()) {
+        let why = std::io::Error::other("it is a file, not a folder (--out names the run's folder)");
+        return Err(RunError::Write(crate::io::WriteError::new(out, why)));
+    }
+    let d = resolved(out);
+    let runs: Vec<&Path> = d.ancestors().skip(1).filter(|a| a.join("run.json").is_file() || is_outer_top(a)).collect();
+    let (Some(run), Some(outermost)) = (runs.first(), runs.last()) else { return Ok(()) };
+    let name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    Err(RunError::RunInsideRun {
+        dir: out.display().to_string(),
+        run: run.display().to_string(),
+        suggest: outermost.with_file_name(format!("{}-{}", name(outermost), name(&d))).display().to_string(),
+    })
+}
+
 /// Refuses `dir` (resolved: `d`) where it lies in a folder a run wrote,
 /// suggesting `suggest` of the outermost run's folder instead.
 fn runs_own(dir: &Path, d: &Path, suggest: impl Fn(&Path) -> PathBuf) -> Result<(), RunError> {

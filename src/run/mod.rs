@@ -46,7 +46,9 @@ pub use folder::{check_out_dir, lock_folder, FolderLock};
 pub use gathered::job_cells;
 pub use grid::{Quiet, RunObserver};
 use guard::refuse_single_run;
-pub use guard::{check_not_in_run, check_not_runs_own, check_out, check_out_plan, check_output_dir};
+pub use guard::{
+    check_not_in_run, check_not_inside_run, check_not_runs_own, check_out, check_out_plan, check_output_dir,
+};
 pub use job::{run_job, run_job_with, JobOutcome};
 pub use open::{check_lock, check_workers, RunOptions, RunOutcome, MAX_WORKERS};
 pub(crate) use open::{open, pending, Opened};

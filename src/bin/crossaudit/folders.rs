@@ -10,10 +10,15 @@ use crossaudit::Error;
 /// wrote (its `simulated_data/`, `audit/`, `report/`, ...), for the
 /// commands whose outputs are no run's: written there they would change
 /// what the run's resume reads (its data, its audit) or replace its own
-/// files. `analyze`, `plan` and `power` check their folders themselves;
-/// `run`, `split`, `train` and `export` write runs.
+/// files; and the commands that write a run (`run`, `split`, `train`,
+/// `export`) into a folder below another run's. `analyze`, `plan` and
+/// `power` check their folders themselves.
 pub(crate) fn refuse_runs_own(command: &Command) -> Result<(), Error> {
     let (out, what) = match command {
+        Command::Run { out, .. }
+        | Command::Split { out, .. }
+        | Command::Train { out, .. }
+        | Command::Export { out, .. } => return Ok(crossaudit::run::check_not_inside_run(out)?),
         Command::Audit { command: AuditCommand::Split { out, .. } } => (out, "split-audit"),
         Command::Data { command: DataCommand::Audit { out, .. } } => (out, "data-audit"),
         Command::Coverage { out, .. } => (out, "coverage"),

@@ -533,13 +533,23 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     let file = crossaudit::design::load(design)?;
     let study = crossaudit::compile_study(&file.design);
     let outer = study.combines_levels();
-    // A run folder given whole: its reanalysis goes into it, beside its report.
-    let beside = if !outer && cells.is_dir() { cells } else { cells.parent().unwrap_or(Path::new(".")) };
+    // Per-cell data is read from a file, never a stream: the report quotes
+    // its path and SHA-256.
+    if cells == Path::new("-") || std::fs::metadata(cells).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        let why = "standard input, a pipe or a device is not read: per-cell data is read from a file, whose path and SHA-256 the report quotes; save it to a file first (`... > cells.csv`) and give that file";
+        let source = std::io::Error::other(why);
+        return Err(crossaudit::cells::CellsError::Io { path: cells.display().to_string(), source }.into());
+    }
+    // A run folder given whole (of any study): its reanalysis goes into
+    // it, beside its report; never into the folder above it.
+    let beside = if cells.is_dir() { cells } else { cells.parent().unwrap_or(Path::new(".")) };
     let dir = match out {
         Some(dir) => dir,
         // A per-cell file in a run's folder: its `report/` is the run's
         // own, so the reanalysis goes beside it, into `reanalysis/`.
-        None if !outer && crossaudit::run::check_not_runs_own(&beside.join("report"), None).is_err() => {
+        None if (outer && cells.is_dir())
+            || (!outer && crossaudit::run::check_not_runs_own(&beside.join("report"), None).is_err()) =>
+        {
             let dir = beside.join("reanalysis");
             note!(
                 "{} is the run's own report; writing the reanalysis to {}",
