@@ -535,8 +535,9 @@ fn analyze(design: &Path, cells: &Path, out: Option<PathBuf>, options: AnalyzeOp
     let outer = study.combines_levels();
     // Per-cell data is read from a file, never a stream: the report quotes
     // its path and SHA-256.
-    if cells == Path::new("-") || std::fs::metadata(cells).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        let why = "standard input, a pipe or a device is not read: per-cell data is read from a file, whose path and SHA-256 the report quotes; save it to a file first (`... > cells.csv`) and give that file";
+    // (A pipe or a device by name is refused by the reader, which names it.)
+    if cells == Path::new("-") {
+        let why = "standard input is not read: per-cell data is read from a file, whose path and SHA-256 the report quotes; save it to a file first (`... > cells.csv`) and give that file";
         let source = std::io::Error::other(why);
         return Err(crossaudit::cells::CellsError::Io { path: cells.display().to_string(), source }.into());
     }
