@@ -15,7 +15,7 @@ use super::multiverse::{analyze_multiverse, LevelInput, MultiverseAnalysis, Refe
 use super::record::{Curve, DesignLabel, InvariantEntry, LevelEvidence, MultiverseRecord, Record, RunEvidence};
 use super::training::{budget_training, early_training, BestEpoch};
 use super::{analyze, Analysis, AnalyzeOptions, FileAnalysisError, StudyAnalysis, TreatmentStrength};
-use crate::design::{DoseAxis, ModelKind};
+use crate::design::DoseAxis;
 use crate::plan::Plan;
 
 /// The preregistered analysis of a study of one run (a single study or a
@@ -510,12 +510,9 @@ pub fn sources(plan: &Plan, levels: &[LevelEvidence]) -> Vec<DoseSource> {
 /// Each early-stopped curve's restored epoch: its best validation epoch. A
 /// `restore final` model keeps its last epoch by design and is left out.
 pub fn best_epochs(plan: &Plan, curves: &[Curve]) -> Vec<BestEpoch> {
-    let last = |model: &str| {
-        plan.models.iter().any(|m| m.name == model && matches!(m.kind, ModelKind::Mlp { restore_final: true, .. }))
-    };
     curves
         .iter()
-        .filter(|c| !last(&c.model))
+        .filter(|c| plan.restores_best_epoch(&c.model))
         .filter_map(|c| {
             let best = c.points.iter().copied().reduce(|a, b| if b.1 < a.1 { b } else { a })?;
             let last = c.points.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);

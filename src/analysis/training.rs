@@ -8,7 +8,6 @@ use std::collections::{BTreeMap, BTreeSet};
 use serde::Serialize;
 
 use crate::cells::Cell;
-use crate::design::ModelKind;
 use crate::plan::Plan;
 
 /// One fitted model's best validation epoch.
@@ -136,10 +135,7 @@ pub fn early_training(plan: &Plan, best: &[BestEpoch], cells: &[Cell]) -> Option
     // Seeds whose primary-endpoint curves are recorded in both arms of the
     // contrast: only they can be known to have no early model (a model
     // not early-stopped has no best epoch to know).
-    let stopped = plan
-        .models
-        .iter()
-        .any(|m| m.name == plan.primary.model && matches!(m.kind, ModelKind::Mlp { restore_final: false, .. }));
+    let stopped = plan.restores_best_epoch(&plan.primary.model);
     let recorded = |seed: u64| {
         contrast
             .iter()

@@ -373,6 +373,13 @@ impl Plan {
         self.decision.on == crate::design::DecisionTarget::Slope
     }
 
+    /// Whether the network `model` keeps its weights of its best
+    /// validation epoch (a network without `restore final`): its best
+    /// epoch is where early stopping left it.
+    pub fn restores_best_epoch(&self, model: &str) -> bool {
+        self.models.iter().any(|m| m.name == model && matches!(m.kind, ModelKind::Mlp { restore_final: false, .. }))
+    }
+
     /// Whether the study is analysed as a family (several splits or
     /// doses) rather than as one crossed contrast.
     pub fn is_family(&self) -> bool {

@@ -287,6 +287,12 @@ impl Banner {
     pub fn with_guards(self, guards: Vec<String>) -> Banner {
         Banner { guards, ..self }
     }
+
+    /// The banner of one contrast of a family, on which no rule decides:
+    /// grey, headed by `verdict` (its descriptive title).
+    pub fn descriptive(self, verdict: String) -> Banner {
+        Banner { verdict, descriptive: true, ..self }
+    }
 }
 
 /// report.md less what the banner says: the first level-1 heading (the
@@ -440,12 +446,12 @@ pub fn render_page(study: &str, banner: &Banner, markdown: &str, figures: &[(Str
 /// text; `figures` are (file name, SVG text) of the figures its images name.
 pub fn render_html(a: &Analysis, markdown: &str, figures: &[(String, String)]) -> String {
     let d = &a.decision;
-    let mut banner = Banner::new(&d.name, d.holds, decision_line(a), &a.header.standing)
+    let banner = Banner::new(&d.name, d.holds, decision_line(a), &a.header.standing)
         .with_guards(a.guards.iter().map(|g| g.text.clone()).collect());
-    if d.member_of.is_some() {
-        banner.verdict = super::format::verdict(d, &crate::analysis::Standing::Unrecorded);
-        banner.descriptive = true;
-    }
+    let banner = match d.member_of {
+        Some(_) => banner.descriptive(super::format::verdict(d, &crate::analysis::Standing::Unrecorded)),
+        None => banner,
+    };
     render_page(&a.study, &banner, markdown, figures)
 }
 
