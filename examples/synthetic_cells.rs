@@ -116,7 +116,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         divergence_rate: n_div as f64 / starts as f64,
                         velocity_rmse_mps: some(round6(cond * 1.7 / h.max(0.5))),
                         attitude_rmse_deg: some(round6(3.0 + 2.0 * cond)),
-                        line: 0,
+                        origin: Default::default(),
                     });
                 }
             }

@@ -17,15 +17,17 @@ use crate::label::Label;
 
 mod columns;
 mod hashed;
+mod origin;
 mod row;
 #[cfg(test)]
 mod tests;
 mod write;
 
 // The row reader, for the two file readers here.
-pub(crate) use row::{cell_of, Names, Row};
+pub(crate) use row::{cell_of, Names};
 
 pub use hashed::{file_sha256, last_line_open, read_cells_hashed};
+pub use origin::Origin;
 pub use write::{cells_bytes, write_cells, write_cells_and_parquet, write_cells_atomic};
 
 /// The exact header, in order.
@@ -89,17 +91,19 @@ pub struct Cell {
     /// Over finite rollouts; empty when every start diverged.
     #[serde(serialize_with = "opt_f64_text")]
     pub attitude_rmse_deg: Option<f64>,
-    /// 1-based line in the file it was read from (0 when built in memory).
+    /// Where it was read: a line of a CSV, a row of a Parquet file (line
+    /// 0 when built in memory).
     #[serde(skip)]
-    pub line: u32,
+    pub origin: Origin,
 }
 
 // 144 bytes a row (10 million rows: 1.44 GB): names are 4-byte labels,
-// the counts and the line 4-byte integers, packed together.
+// the counts and the origin 4-byte integers, packed together.
 #[cfg(target_pointer_width = "64")]
 const _: () = assert!(std::mem::size_of::<Cell>() == 144);
 
-/// A problem in a per-cell file, located by file, line and field.
+/// A problem in a per-cell file, located by file, line (a Parquet file's
+/// row) and field.
 #[derive(Debug, thiserror::Error)]
 pub enum CellsError {
     /// The file could not be read.
@@ -119,22 +123,24 @@ pub enum CellsError {
         source: std::io::Error,
     },
     /// The header is not the per-cell header.
-    #[error("{path}: line 1: wrong header\n  expected: {expected}\n  found:    {found}")]
+    #[error("{path}: {}\n  expected: {expected}\n  found:    {found}{}", wrong_header(*at), header_hint(found))]
     Header {
         /// The file.
         path: String,
+        /// Line 1 of a CSV; a Parquet file's column names.
+        at: Origin,
         /// The header required.
         expected: String,
         /// The header found.
         found: String,
     },
     /// A row is not valid CSV or has the wrong number of fields.
-    #[error("{path}: line {line}: {message}")]
+    #[error("{path}: {at}: {message}")]
     Csv {
         /// The file.
         path: String,
-        /// 1-based line.
-        line: u64,
+        /// The line (a Parquet file's row).
+        at: Origin,
         /// What is wrong.
         message: String,
     },
@@ -147,12 +153,12 @@ pub enum CellsError {
         message: String,
     },
     /// A field's value is impossible.
-    #[error("{path}: line {line}, field `{field}`: {problem} (value: {value:?})")]
+    #[error("{path}: {at}, field `{field}`: {problem} (value: {value:?})")]
     Field {
         /// The file.
         path: String,
-        /// 1-based line.
-        line: u64,
+        /// The line (a Parquet file's row).
+        at: Origin,
         /// The column.
         field: &'static str,
         /// The value found.
@@ -160,12 +166,68 @@ pub enum CellsError {
         /// Why it is refused.
         problem: String,
     },
+    /// A column empty in a row though not every start diverged, and with
+    /// a value in another: a damaged file.
+    #[error("{path}: {at}, field `{field}`: is empty, but not every start diverged and {valued} has a value (only a layout without this state leaves the column empty, in every row) (value: \"\")")]
+    Gap {
+        /// The file.
+        path: String,
+        /// The first row where it is empty.
+        at: Origin,
+        /// The column.
+        field: &'static str,
+        /// The first row where it has a value.
+        valued: Origin,
+    },
     /// The file has a header and no rows.
     #[error("{path}: no data rows")]
     Empty {
         /// The file.
         path: String,
     },
+}
+
+impl CellsError {
+    /// The same error in the Parquet file whose CSV text was read: its
+    /// lines named as the file's rows ([`Origin::in_parquet`]).
+    fn in_parquet(self) -> CellsError {
+        match self {
+            CellsError::Header { path, at, expected, found } => {
+                CellsError::Header { path, at: at.in_parquet(), expected, found }
+            }
+            CellsError::Csv { path, at, message } => CellsError::Csv { path, at: at.in_parquet(), message },
+            CellsError::Field { path, at, field, value, problem } => {
+                CellsError::Field { path, at: at.in_parquet(), field, value, problem }
+            }
+            CellsError::Gap { path, at, field, valued } => {
+                CellsError::Gap { path, at: at.in_parquet(), field, valued: valued.in_parquet() }
+            }
+            other => other,
+        }
+    }
+}
+
+/// A wrong header, where it is: a CSV's line 1, a Parquet file's column
+/// names.
+fn wrong_header(at: Origin) -> String {
+    match at.is_row() {
+        true => "wrong column names".to_string(),
+        false => format!("{at}: wrong header"),
+    }
+}
+
+/// What a wrong header's columns suggest: pandas wrote its index (a first
+/// column without a name in a CSV, which pandas reads back as
+/// `Unnamed: 0`; `__index_level_0__` in a Parquet file).
+fn header_hint(found: &str) -> &'static str {
+    let fields = || found.split(',');
+    if fields().any(|f| f.starts_with("__index_level_")) {
+        "\n  (`__index_level_0__` is the index pandas wrote as a column: write the file with `to_parquet(path, index=False)`)"
+    } else if found.starts_with(',') || found.starts_with("Unnamed: 0,") {
+        "\n  (the first column is the index pandas wrote: write the file with `to_csv(path, index=False)`)"
+    } else {
+        ""
+    }
 }
 
 /// Reads and checks every row of a per-cell CSV (or its Parquet twin, a
@@ -203,10 +265,12 @@ fn read_cells_with(path: &Path, hash: bool) -> Result<(Vec<Cell>, Option<String>
         }
         let text = crate::io::parquet::to_csv_text(raw, limit, "a per-cell file")
             .map_err(|message| CellsError::NotParquet { path: p.clone(), message })?;
-        let cells = match read_chunked(&p, (text.as_slice(), text.len() as u64), crate::io::chunked::CHUNK, |_| {}) {
+        let chunked = read_chunked(&p, (text.as_slice(), text.len() as u64), crate::io::chunked::CHUNK, |_| {});
+        let mut cells = match chunked {
             Some(cells) => cells,
-            None => read_cells_from(&p, text.as_slice())?,
+            None => read_cells_from(&p, text.as_slice()).map_err(CellsError::in_parquet)?,
         };
+        cells.iter_mut().for_each(|c| c.origin = c.origin.in_parquet());
         return Ok((cells, sha));
     }
     crate::io::check_regular(path, limit, "a per-cell CSV")
@@ -280,7 +344,7 @@ fn blank() -> Cell {
         divergence_rate: 0.0,
         velocity_rmse_mps: None,
         attitude_rmse_deg: None,
-        line: 0,
+        origin: Origin::default(),
     }
 }
 
@@ -300,7 +364,11 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     let header = rdr
         .headers()
         .map_err(|e| {
-            io_error(&e).unwrap_or(CellsError::Csv { path: name.to_string(), line: 1, message: e.to_string() })
+            io_error(&e).unwrap_or(CellsError::Csv {
+                path: name.to_string(),
+                at: Origin::line(1),
+                message: e.to_string(),
+            })
         })?
         .clone();
     let found: Vec<&str> = header.iter().collect();
@@ -309,6 +377,7 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
     if found != header_for(has_split, has_dose) {
         return Err(CellsError::Header {
             path: name.to_string(),
+            at: Origin::line(1),
             expected: format!("{} (optionally `split` first and `dose` after `arm`)", HEADER.join(",")),
             found: found.join(","),
         });
@@ -330,7 +399,11 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
                     return Err(io);
                 }
                 let line = line_of(&rdr, e.position());
-                return Err(CellsError::Csv { path: name.to_string(), line, message: csv_message(&e) });
+                return Err(CellsError::Csv {
+                    path: name.to_string(),
+                    at: Origin::line(line),
+                    message: csv_message(&e),
+                });
             }
         }
         let line = line_of(&rdr, rec.position());
@@ -354,7 +427,7 @@ pub fn read_cells_from(name: &str, reader: impl std::io::Read) -> Result<Vec<Cel
 struct Emptiness {
     /// Per column: the first line with a value, and the first line empty
     /// though not every start diverged.
-    seen: [(Option<u64>, Option<u64>); 2],
+    seen: [(Option<Origin>, Option<Origin>); 2],
 }
 
 impl Emptiness {
@@ -382,10 +455,10 @@ impl Emptiness {
         let kinds = Self::kinds(c);
         for (k, (value, gap)) in self.seen.iter_mut().enumerate() {
             if kinds >> (2 * k) & 0b01 != 0 {
-                *value = value.or(Some(c.line.into()));
+                *value = value.or(Some(c.origin));
             }
             if kinds >> (2 * k) & 0b10 != 0 {
-                *gap = gap.or(Some(c.line.into()));
+                *gap = gap.or(Some(c.origin));
             }
         }
     }
@@ -393,13 +466,8 @@ impl Emptiness {
     fn check(&self, name: &str) -> Result<(), CellsError> {
         for (k, (value, gap)) in self.seen.iter().enumerate() {
             if let (Some(value), Some(gap)) = (value, gap) {
-                return Err(Row { name, line: *gap }.fail(
-                    Self::FIELDS[k],
-                    "",
-                    format!(
-                        "is empty, but not every start diverged and line {value} has a value (only a layout without this state leaves the column empty, in every row)"
-                    ),
-                ));
+                let (at, field, valued) = (*gap, Self::FIELDS[k], *value);
+                return Err(CellsError::Gap { path: name.to_string(), at, field, valued });
             }
         }
         Ok(())

@@ -8,7 +8,7 @@ use crate::common::{
 };
 use crate::snapshots;
 use crossaudit::analysis::{analyze, Analysis, AnalysisError};
-use crossaudit::cells::{read_cells, read_cells_from, Cell, CellsError};
+use crossaudit::cells::{read_cells, read_cells_from, Cell, CellsError, Origin};
 use crossaudit::stats::CrossedEstimate;
 
 fn est(e: &CrossedEstimate) -> String {
@@ -200,7 +200,7 @@ fn err_of(cells: &[Cell]) -> String {
 
 fn lined(mut cells: Vec<Cell>) -> Vec<Cell> {
     for (k, c) in cells.iter_mut().enumerate() {
-        c.line = k as u32 + 2;
+        c.origin = Origin::line(k as u64 + 2);
     }
     cells
 }
@@ -226,7 +226,7 @@ fn a_duplicate_cell_names_both_lines() {
     let d = minimal_design();
     let mut cells = lined(minimal_cells(&d));
     let mut dup = cells[3].clone();
-    dup.line = 999;
+    dup.origin = Origin::line(999);
     cells.push(dup);
     let e = err_of(&cells);
     assert!(e.contains("line 999: duplicate cell") && e.contains("first seen on line 5"), "{e}");

@@ -202,7 +202,7 @@ pub fn minimal_cells(design: &Design) -> Vec<Cell> {
                             divergence_rate: 0.0,
                             velocity_rmse_mps: Some(0.1),
                             attitude_rmse_deg: Some(2.0),
-                            line: 0,
+                            origin: Default::default(),
                         });
                     }
                 }

@@ -37,6 +37,7 @@ mod mixed_cli;
 mod model;
 mod multiverse;
 mod optimism_interval;
+mod parquet_rows;
 mod plan_declared;
 mod position_only;
 mod provenance;

@@ -259,7 +259,7 @@ fn planted_cells(d: &design::Design, values: &[String], spec: usize) -> Vec<Cell
                             divergence_rate: 0.0,
                             velocity_rmse_mps: Some(0.1),
                             attitude_rmse_deg: Some(1.0),
-                            line: 0,
+                            origin: Default::default(),
                         });
                     }
                 }

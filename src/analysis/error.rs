@@ -3,14 +3,16 @@
 
 use crossaudit_stats::StatsError;
 
+use crate::cells::Origin;
+
 /// Why per-cell data cannot be analysed under a plan.
 #[derive(Debug, thiserror::Error)]
 pub enum AnalysisError {
     /// A row names a model, arm, seed or horizon the design does not declare.
-    #[error("line {line}, field `{field}`: {value:?} is not in the design ({known})")]
+    #[error("{at}, field `{field}`: {value:?} is not in the design ({known})")]
     NotInDesign {
-        /// 1-based line of the row.
-        line: u64,
+        /// The row's line (a Parquet file's row).
+        at: Origin,
         /// The column.
         field: &'static str,
         /// The value found.
@@ -20,22 +22,22 @@ pub enum AnalysisError {
     },
     /// A velocity or attitude value where the design's data declare none,
     /// or an empty one where they declare it and not every start diverged.
-    #[error("line {line}, field `{field}`: {problem}")]
+    #[error("{at}, field `{field}`: {problem}")]
     Layout {
-        /// 1-based line of the row.
-        line: u64,
+        /// The row's line (a Parquet file's row).
+        at: Origin,
         /// The column.
         field: &'static str,
         /// What is wrong.
         problem: String,
     },
     /// Two rows for the same cell.
-    #[error("line {line}: duplicate cell (model={model} arm={arm} seed={seed} recording={recording} horizon={horizon} s), first seen on line {first_line}")]
+    #[error("{at}: duplicate cell (model={model} arm={arm} seed={seed} recording={recording} horizon={horizon} s), first seen on {first_at}")]
     Duplicate {
-        /// 1-based line of the second row.
-        line: u64,
-        /// 1-based line of the first row.
-        first_line: u64,
+        /// The second row's line (a Parquet file's row).
+        at: Origin,
+        /// The first row's.
+        first_at: Origin,
         /// The cell's model.
         model: String,
         /// The cell's arm.
@@ -48,10 +50,10 @@ pub enum AnalysisError {
         horizon: f64,
     },
     /// A recording labelled with two trajectories or speeds.
-    #[error("line {line}, field `{field}`: recording {recording} is labelled {value:?} here but {first:?} on line {first_line}")]
+    #[error("{at}, field `{field}`: recording {recording} is labelled {value:?} here but {first:?} on {first_at}")]
     InconsistentLabel {
-        /// 1-based line of the disagreeing row.
-        line: u64,
+        /// The disagreeing row's line (a Parquet file's row).
+        at: Origin,
         /// `trajectory` or `speed`.
         field: &'static str,
         /// The recording.
@@ -61,7 +63,7 @@ pub enum AnalysisError {
         /// The label first seen.
         first: String,
         /// Where it was first seen.
-        first_line: u64,
+        first_at: Origin,
     },
     /// Cells of the crossed matrix are missing.
     #[error(
@@ -81,14 +83,14 @@ pub enum AnalysisError {
         /// Recordings the design declares.
         declared: usize,
         /// Where the data has more: the recording in the fewest rows and
-        /// its first line (empty where it has fewer).
+        /// where it first is (empty where it has fewer).
         fewest: String,
     },
     /// A value the metric cannot take under the design.
-    #[error("line {line}, field `{field}`: {} is impossible: {problem}", show(*.value))]
+    #[error("{at}, field `{field}`: {} is impossible: {problem}", show(*.value))]
     Impossible {
-        /// 1-based line of the row.
-        line: u64,
+        /// The row's line (a Parquet file's row).
+        at: Origin,
         /// The metric column.
         field: &'static str,
         /// The value found.

@@ -207,7 +207,8 @@ fn open_end(record: &Record) -> Option<String> {
     let value = last.attitude_rmse_deg.map_or_else(|| "empty".to_string(), |v| v.to_string());
     Some(format!(
         "{}: its last line ({}) ends without a line break, as a file cut short while it was written does; if it was cut, its last value (`attitude_rmse_deg`, read as {value}) may be cut too (every per-cell file crossaudit writes ends with a line break)",
-        record.cells_file.0, last.line
+        record.cells_file.0,
+        last.origin.number()
     ))
 }
 

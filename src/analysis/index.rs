@@ -5,7 +5,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use super::AnalysisError;
-use crate::cells::Cell;
+use crate::cells::{Cell, Origin};
 use crate::label::{Label, NameHash};
 use crate::plan::Plan;
 
@@ -37,7 +37,7 @@ pub(crate) struct Indexed<'a> {
     horizons: Vec<f64>,
     recordings: HashMap<&'a str, usize, NameHash>,
     /// recording -> (trajectory, speed, first line)
-    pub(crate) labels: BTreeMap<String, (String, String, u64)>,
+    pub(crate) labels: BTreeMap<String, (String, String, Origin)>,
 }
 
 impl<'a> Indexed<'a> {
@@ -67,7 +67,7 @@ impl<'a> Indexed<'a> {
     /// lists; a name the plan does not declare is refused.
     fn positions(&self, plan: &Plan, c: &Cell) -> Result<(usize, usize, usize, usize), AnalysisError> {
         let not_in = |field: &'static str, value: String, known: String| AnalysisError::NotInDesign {
-            line: c.line.into(),
+            at: c.origin,
             field,
             value,
             known,
@@ -154,7 +154,7 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
     // Per recording: its name, its labels and the line that first gave
     // them; found by the label's id (the same name is the same label), so
     // a row's lookup reads no name.
-    let mut labels: Vec<(Label, Label, Label, u64)> = Vec::new();
+    let mut labels: Vec<(Label, Label, Label, Origin)> = Vec::new();
     let mut ids = RecordingIds::default();
     // Room for the recordings a complete file of these rows holds, taken
     // once (grown a block at a time, the table was copied as it doubled).
@@ -171,14 +171,14 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
             if next >= plan.recordings {
                 return Err(too_many(plan, cells));
             }
-            labels.push((c.recording, c.trajectory, c.speed, c.line.into()));
+            labels.push((c.recording, c.trajectory, c.speed, c.origin));
             out.table.resize(out.table.len() + block, 0);
         }
         let k = out.slot(r, m, a, h, s);
         if let Some(first) = out.table[k].checked_sub(1).map(|f| &cells[f as usize]) {
             return Err(AnalysisError::Duplicate {
-                line: c.line.into(),
-                first_line: first.line.into(),
+                at: c.origin,
+                first_at: first.origin,
                 model: c.model.to_string(),
                 arm: c.arm.to_string(),
                 seed: c.seed,
@@ -189,13 +189,13 @@ pub(crate) fn index<'a>(plan: &Plan, cells: &'a [Cell]) -> Result<Indexed<'a>, A
         // Fits: fewer rows than u32::MAX, as checked above.
         out.table[k] = row as u32 + 1;
         if r != next {
-            let (_, t, s, line) = labels[r];
-            check_labels((t, s, line), c)?;
+            let (_, t, s, at) = labels[r];
+            check_labels((t, s, at), c)?;
         }
     }
     out.recordings = labels.iter().enumerate().map(|(r, (name, ..))| (name.as_str(), r)).collect();
     out.labels =
-        labels.iter().map(|&(name, t, s, line)| (name.to_string(), (t.to_string(), s.to_string(), line))).collect();
+        labels.iter().map(|&(name, t, s, at)| (name.to_string(), (t.to_string(), s.to_string(), at))).collect();
     Ok(out)
 }
 
@@ -257,7 +257,7 @@ fn too_many(plan: &Plan, cells: &[Cell]) -> AnalysisError {
             Some((cut, _)) => format!("`{}`... ({} characters)", &name[..cut], name.chars().count()),
             None => format!("`{name}`"),
         };
-        format!("; the one in the fewest rows is {shown}: {count} row(s), first at line {}", c.line)
+        format!("; the one in the fewest rows is {shown}: {count} row(s), first at {}", c.origin)
     });
     AnalysisError::RecordingCount { found: rows.len(), declared: plan.recordings, fewest: fewest.unwrap_or_default() }
 }
@@ -267,18 +267,18 @@ fn joined(names: &[Label]) -> String {
     names.iter().map(Label::as_str).collect::<Vec<_>>().join(", ")
 }
 
-/// Refuses a row that labels its recording otherwise than the line that
+/// Refuses a row that labels its recording otherwise than the row that
 /// first named it.
-fn check_labels((t, s, first_line): (Label, Label, u64), c: &Cell) -> Result<(), AnalysisError> {
+fn check_labels((t, s, first_at): (Label, Label, Origin), c: &Cell) -> Result<(), AnalysisError> {
     for (field, value, first) in [("trajectory", c.trajectory, t), ("speed", c.speed, s)] {
         if value != first {
             return Err(AnalysisError::InconsistentLabel {
-                line: c.line.into(),
+                at: c.origin,
                 field,
                 recording: c.recording.to_string(),
                 value: value.to_string(),
                 first: first.to_string(),
-                first_line,
+                first_at,
             });
         }
     }

@@ -64,7 +64,7 @@ fn check_labels(plan: &Plan, speeds: &[Label], c: &Cell) -> Result<(), AnalysisE
     // (split/mod.rs, draw_starts), in every arm.
     if u64::from(c.n_starts) != plan.starts as u64 {
         return Err(AnalysisError::NotInDesign {
-            line: c.line.into(),
+            at: c.origin,
             field: "n_starts",
             value: c.n_starts.to_string(),
             known: format!("every evaluation recording has `starts {}` in every arm", plan.starts),
@@ -72,7 +72,7 @@ fn check_labels(plan: &Plan, speeds: &[Label], c: &Cell) -> Result<(), AnalysisE
     }
     if !speeds.contains(&c.speed) {
         return Err(AnalysisError::NotInDesign {
-            line: c.line.into(),
+            at: c.origin,
             field: "speed",
             value: c.speed.to_string(),
             known: format!("the design's data block labels speeds {}", plan.speed_labels.join(", ")),
@@ -83,7 +83,7 @@ fn check_labels(plan: &Plan, speeds: &[Label], c: &Cell) -> Result<(), AnalysisE
         let shown: Vec<&str> = plan.pinned_recordings.iter().take(5).map(|r| r.as_str()).collect();
         let more = if n > 5 { format!(", ... ({n} in all)") } else { String::new() };
         return Err(AnalysisError::NotInDesign {
-            line: c.line.into(),
+            at: c.origin,
             field: "recording",
             value: c.recording.to_string(),
             known: format!("the design pins its evaluation recordings: {}{more}", shown.join(", ")),
@@ -98,8 +98,7 @@ fn check_labels(plan: &Plan, speeds: &[Label], c: &Cell) -> Result<(), AnalysisE
 /// conditional one and the divergent starts.
 fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
     let cap = plan.cap.0;
-    let impossible =
-        |field, value, problem: String| AnalysisError::Impossible { line: c.line.into(), field, value, problem };
+    let impossible = |field, value, problem: String| AnalysisError::Impossible { at: c.origin, field, value, problem };
     // A file's values are finite (its reader refuses any other); cells
     // built in memory are checked here, since the analysis's grids mark a
     // missing cell with NaN.
@@ -142,7 +141,7 @@ fn check_errors(plan: &Plan, c: &Cell) -> Result<(), AnalysisError> {
             }
             _ => continue,
         };
-        return Err(AnalysisError::Layout { line: c.line.into(), field, problem });
+        return Err(AnalysisError::Layout { at: c.origin, field, problem });
     }
     if let Some(v) = c.attitude_rmse_deg.filter(|v| *v > 180.0) {
         return Err(impossible("attitude_rmse_deg", v, "an attitude error is at most 180 degrees".to_string()));
@@ -260,14 +259,14 @@ pub fn analyze(plan: &Plan, cells: &[Cell], options: AnalyzeOptions) -> Result<A
 fn check_single_run(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
     if let Some(c) = cells.iter().find(|c| c.split.is_some() && plan.splits.is_empty()) {
         return Err(AnalysisError::Family {
-            message: format!("line {}: the file has a `split` column, but the design has no split factor", c.line),
+            message: format!("{}: the file has a `split` column, but the design has no split factor", c.origin),
         });
     }
     if let Some(c) = cells.iter().find(|c| c.dose.is_some() && plan.doses.is_empty()) {
         return Err(AnalysisError::Family {
             message: format!(
-                "line {}: the file has a `dose` column, but the design has no dose-response contrast",
-                c.line
+                "{}: the file has a `dose` column, but the design has no dose-response contrast",
+                c.origin
             ),
         });
     }

@@ -11,7 +11,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::row::trim;
-use super::{blank, header_for, Cell, Emptiness};
+use super::{blank, header_for, Cell, Emptiness, Origin};
 use crate::io::parquet::{ColumnFile, DecodedColumn, NUMBER_TEXT};
 use crate::label::{Interner, Label};
 
@@ -38,8 +38,8 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize, limit: u64) -> Op
         return None;
     }
     let rows: usize = file.groups().iter().sum();
-    // A cell records its line (its row + 1) in 4 bytes.
-    if rows == 0 || u32::try_from(rows + 1).is_err() {
+    // A cell records its row in 4 bytes.
+    if rows == 0 || rows as u64 > Origin::MAX {
         return None;
     }
     // Room is made a batch at a time: the footer's count of rows is not
@@ -72,9 +72,9 @@ pub(super) fn from_columns_in(file: &ColumnFile, batch: usize, limit: u64) -> Op
             // read up.
             let view = View::of(&names, &parts)?;
             let (first, refused) = (cells.len(), AtomicBool::new(false));
-            // first + take <= rows, and rows + 1 fits 4 bytes (above).
+            // first + take <= rows, which fits 4 bytes (above).
             cells.par_extend((0..take).into_par_iter().map(|i| {
-                view.cell(i, (first + i + 2) as u32).unwrap_or_else(|| {
+                view.cell(i, Origin::row((first + i + 1) as u64)).unwrap_or_else(|| {
                     refused.store(true, Ordering::Relaxed);
                     blank()
                 })
@@ -205,12 +205,12 @@ impl<'a> View<'a> {
         Some(v)
     }
 
-    /// Row `i`'s cell, on line `line`, where it passes the checks a row
+    /// Row `i`'s cell, read at `origin`, where it passes the checks a row
     /// must pass beyond its fields' own (`row::parse_row`'s): at least one
     /// start, no more divergent starts than starts, a horizon above 0, a
     /// divergence rate that is their ratio, a dose of at most 100, and a
     /// conditional RMSE empty only where every start diverged.
-    fn cell(&self, i: usize, line: u32) -> Option<Cell> {
+    fn cell(&self, i: usize, origin: Origin) -> Option<Cell> {
         let label = |k: usize| self.labels[k].get(i).copied();
         let c = Cell {
             split: self.split.get(i).copied(),
@@ -229,7 +229,7 @@ impl<'a> View<'a> {
             divergence_rate: *self.divergence_rate.get(i)?,
             velocity_rmse_mps: *self.velocity_rmse_mps.get(i)?,
             attitude_rmse_deg: *self.attitude_rmse_deg.get(i)?,
-            line,
+            origin,
         };
         let expected = f64::from(c.n_divergent) / f64::from(c.n_starts);
         let consistent = c.n_starts >= 1

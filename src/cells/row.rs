@@ -3,7 +3,7 @@
 //! the row's own consistency (n_divergent within n_starts, the divergence
 //! rate their ratio), each error naming the file, line and field.
 
-use super::{Cell, CellsError};
+use super::{Cell, CellsError, Origin};
 use crate::label::{Interner, Label};
 
 /// The cell of the record on line `line` whose fields are `fields`, those
@@ -18,7 +18,7 @@ pub(crate) fn cell_of(
 ) -> Result<Cell, CellsError> {
     let raw = RawRow::of(fields, has_split, has_dose);
     let mut cell = parse_row(name, line, &raw, names)?;
-    let r = Row { name, line };
+    let r = Row { name, at: cell.origin };
     if has_split {
         cell.split = Some(r.uint("split", raw.split.unwrap_or(""))?);
     }
@@ -108,14 +108,14 @@ pub(crate) struct Names {
 /// Checks fields of one row, naming the file, line and field on error.
 pub(crate) struct Row<'a> {
     pub(crate) name: &'a str,
-    pub(crate) line: u64,
+    pub(crate) at: Origin,
 }
 
 impl Row<'_> {
     pub(crate) fn fail(&self, field: &'static str, value: &str, problem: impl Into<String>) -> CellsError {
         CellsError::Field {
             path: self.name.to_string(),
-            line: self.line,
+            at: self.at,
             field,
             value: shortened(value),
             problem: problem.into(),
@@ -270,12 +270,12 @@ fn plain_decimal(t: &str) -> Option<f64> {
 }
 
 fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<Cell, CellsError> {
-    let r = Row { name, line };
     // A cell records its line in 4 bytes (see `Cell`'s size).
-    let Ok(line_u32) = u32::try_from(line) else {
-        let message = format!("more than {} lines: the most a per-cell file may hold", u32::MAX);
-        return Err(CellsError::Csv { path: name.to_string(), line, message });
-    };
+    if line > Origin::MAX {
+        let message = format!("more than {} lines: the most a per-cell file may hold", Origin::MAX);
+        return Err(CellsError::Csv { path: name.to_string(), at: Origin::line(line), message });
+    }
+    let r = Row { name, at: Origin::line(line) };
     let n_starts = r.count("n_starts", raw.n_starts)?;
     if n_starts == 0 {
         return Err(r.fail("n_starts", raw.n_starts, "must be at least 1"));
@@ -316,6 +316,6 @@ fn parse_row(name: &str, line: u64, raw: &RawRow, names: &mut Names) -> Result<C
         divergence_rate,
         velocity_rmse_mps: r.optional("velocity_rmse_mps", raw.velocity_rmse_mps)?,
         attitude_rmse_deg: r.optional("attitude_rmse_deg", raw.attitude_rmse_deg)?,
-        line: line_u32,
+        origin: r.at,
     })
 }

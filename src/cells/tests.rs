@@ -258,7 +258,7 @@ fn parquet_cells_read_from_their_columns_are_the_cells_their_text_gives() -> Res
         for group in [usize::MAX, 1000] {
             let parquet = crate::io::parquet::csv_to_parquet_in(bytes, group)?;
             let text = crate::io::parquet::to_csv_text(parquet.clone(), u64::MAX, "a per-cell file")?;
-            let reference = read_cells_from(name, text.as_slice())?;
+            let reference = rows_of(read_cells_from(name, text.as_slice())?);
             let file = crate::io::parquet::open_columns(parquet.clone().into(), u64::MAX).ok_or("opened by column")?;
             for batch in [1, 7, 4096, 65_536] {
                 let cells = columns::from_columns_in(&file, batch, u64::MAX)
@@ -347,14 +347,20 @@ fn parquet_cells_the_columns_cannot_give_are_read_from_their_text() -> Result<()
         let text = crate::io::parquet::to_csv_text(parquet.clone(), u64::MAX, "a per-cell file")?;
         let reference = read_cells_from(&name, text.as_slice());
         std::fs::write(&path, &parquet)?;
+        // The same cells and errors, each line of the text named as the
+        // file's row (line L is row L - 1).
         match (read_cells(&path), reference) {
-            (Ok(cells), Ok(want)) if *reads => assert_eq!(cells, want, "case {k}"),
+            (Ok(cells), Ok(mut want)) if *reads => {
+                want.iter_mut().for_each(|c| c.origin = c.origin.in_parquet());
+                assert_eq!(cells, want, "case {k}");
+                assert_eq!(cells[40].origin.to_string(), "row 41", "case {k}");
+            }
             (Err(e), Err(want)) if !*reads => {
-                assert_eq!(e.to_string(), want.to_string(), "case {k}");
+                assert_eq!(e.to_string(), want.in_parquet().to_string(), "case {k}");
                 // A seed of 1.5 makes the column one of doubles, which
                 // its first row's text ("100.0") already fails.
-                let line = if k == 11 { "line 2," } else { "line 41," };
-                assert!(e.to_string().contains(line), "case {k}: {e}");
+                let row = if k == 11 { "row 1," } else { "row 40," };
+                assert!(e.to_string().contains(row) && !e.to_string().contains("line"), "case {k}: {e}");
             }
             (got, want) => panic!("case {k}: {got:?} against {want:?}"),
         }
@@ -419,7 +425,7 @@ fn parquet_cells_of_32_bit_columns_floats_and_timestamps_are_their_texts_cells(
     assert_eq!((nulls(conditional), nulls(velocity)), (1, rows.len()), "{name}");
     let parquet = typed(&columns);
     let text = crate::io::parquet::to_csv_text(parquet.clone(), u64::MAX, "a per-cell file")?;
-    let reference = read_cells_from(&name, text.as_slice())?;
+    let reference = rows_of(read_cells_from(&name, text.as_slice())?);
     assert_eq!(reference.len(), rows.len());
     let file = crate::io::parquet::open_columns(parquet.into(), u64::MAX).ok_or("opened by column")?;
     for batch in [1, 7, 65_536] {
@@ -452,7 +458,7 @@ fn damaged_parquet_cells_give_from_their_columns_what_their_text_gives() -> Resu
         let bad = damaged(&raw, &mut rng);
         let text = crate::io::parquet::to_csv_text(bad.clone(), u64::MAX, "a per-cell file")
             .map_err(|e| e.to_string())
-            .and_then(|t| read_cells_from(&name, t.as_slice()).map_err(|e| e.to_string()));
+            .and_then(|t| read_cells_from(&name, t.as_slice()).map(rows_of).map_err(|e| e.to_string()));
         if let Some(cells) = read(&bad) {
             by_column += 1;
             // Debug, so that -0.0 and 0.0 differ.
@@ -462,4 +468,11 @@ fn damaged_parquet_cells_give_from_their_columns_what_their_text_gives() -> Resu
     }
     assert!(by_column > 200 && changed > 20, "{by_column} read by column, {changed} of them changed");
     Ok(())
+}
+
+/// Cells read from a Parquet file's CSV text, placed as the file's rows
+/// (line L of the text is row L - 1), as a reader of the file places them.
+fn rows_of(mut cells: Vec<Cell>) -> Vec<Cell> {
+    cells.iter_mut().for_each(|c| c.origin = c.origin.in_parquet());
+    cells
 }

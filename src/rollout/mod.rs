@@ -182,7 +182,7 @@ pub fn cells(
                 divergence_rate: m.n_divergent as f64 / outcomes.len().max(1) as f64,
                 velocity_rmse_mps: m.velocity_rmse,
                 attitude_rmse_deg: m.attitude_rmse_deg,
-                line: 0,
+                origin: crate::cells::Origin::default(),
             });
         }
     }

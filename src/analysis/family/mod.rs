@@ -79,8 +79,8 @@ fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
         if !plan.arms.iter().any(|a| a.name == c.arm) {
             let known: Vec<&str> = plan.arms.iter().map(|a| a.name.as_str()).collect();
             return Err(fail(format!(
-                "line {}, field `arm`: {:?} is not in the design ({})",
-                c.line,
+                "{}, field `arm`: {:?} is not in the design ({})",
+                c.origin,
                 c.arm,
                 known.join(", ")
             )));
@@ -88,29 +88,29 @@ fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
         match (c.split, plan.splits.is_empty()) {
             (Some(s), false) if !splits.contains(&s) => {
                 return Err(fail(format!(
-                    "line {}, field `split`: {s} is not a split of the design ({})",
-                    c.line,
+                    "{}, field `split`: {s} is not a split of the design ({})",
+                    c.origin,
                     plan.splits.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(", ")
                 )))
             }
             (None, false) => {
                 return Err(fail(format!(
-                    "line {}: the design has a split factor, so every row needs a `split` value; this file has no `split` column",
-                    c.line
+                    "{}: the design has a split factor, so every row needs a `split` value; this file has no `split` column",
+                    c.origin
                 )))
             }
             (Some(_), true) => {
                 return Err(fail(format!(
-                    "line {}: the file has a `split` column, but the design has no split factor",
-                    c.line
+                    "{}: the file has a `split` column, but the design has no split factor",
+                    c.origin
                 )))
             }
             _ => {}
         }
         if c.dose.is_some() && plan.doses.is_empty() {
             return Err(fail(format!(
-                "line {}: the file has a `dose` column, but the design has no dose-response contrast",
-                c.line
+                "{}: the file has a `dose` column, but the design has no dose-response contrast",
+                c.origin
             )));
         }
         if let Some(dose) = c.dose {
@@ -121,15 +121,15 @@ fn check_columns(plan: &Plan, cells: &[Cell]) -> Result<(), AnalysisError> {
             };
             if dose_axis(&plan.doses) == DoseAxis::Distance {
                 return Err(fail(format!(
-                    "line {}, field `dose`: a distance-dose study's cells carry no `dose` column (each arm names its distance)",
-                    c.line
+                    "{}, field `dose`: a distance-dose study's cells carry no `dose` column (each arm names its distance)",
+                    c.origin
                 )));
             }
             if let Some(e) = expected {
                 if e != dose {
                     return Err(fail(format!(
-                        "line {}, field `dose`: {dose} disagrees with arm `{}`, which the design gives dose {e}",
-                        c.line, c.arm
+                        "{}, field `dose`: {dose} disagrees with arm `{}`, which the design gives dose {e}",
+                        c.origin, c.arm
                     )));
                 }
             }
