@@ -157,3 +157,23 @@ fn a_character_that_is_not_ascii_is_named_where_it_stands() {
     let e = crossaudit::design::from_str("q.design", &other).unwrap_err().render(false);
     assert!(e.contains("did you mean `cosine`?") && !e.contains("only ASCII"), "{e}");
 }
+
+/// A decision's threshold is shown as a design writes it, however large
+/// (it was printed as 301 digits); optimism, at most 100% of errors that
+/// are never negative, may be asked to reach 100% (every treated error 0)
+/// but no more (tests/designs/errors/optimism_above_100_percent.design).
+#[test]
+fn decision_thresholds_are_shown_as_written_and_optimism_stops_at_100_percent() {
+    let src = std::fs::read_to_string(crate::common::minimal_design_path()).unwrap();
+    let rule = "decide confirmed when optimism >= 10% and upper < 0";
+    assert!(src.contains(rule));
+    let with = |r: &str| crossaudit::design::from_str("t", &src.replace(rule, r));
+    let d = with("decide confirmed when optimism >= 1e-9% and upper < -1e300").unwrap();
+    assert_eq!(d.decision.to_string(), "confirmed when optimism >= 1e-9% and upper < -1e300");
+    let d = with("decide confirmed when optimism >= 100% and upper < -0.025").unwrap();
+    assert_eq!(d.decision.to_string(), "confirmed when optimism >= 100% and upper < -0.025");
+    for never in ["optimism > 100%", "optimism >= 100.5%", "optimism >= 1e300%"] {
+        let e = with(&format!("decide confirmed when {never} and upper < 0")).expect_err(never);
+        assert_eq!(e.diagnostics[0].title, "a condition that can never hold", "{never}");
+    }
+}

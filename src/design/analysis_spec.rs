@@ -219,7 +219,19 @@ impl DecisionCondition {
 impl std::fmt::Display for DecisionCondition {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let pct = if self.quantity == Quantity::Optimism { "%" } else { "" };
-        write!(f, "{} {} {}{}", self.quantity.name(), self.cmp.symbol(), self.value, pct)
+        write!(f, "{} {} {}{}", self.quantity.name(), self.cmp.symbol(), threshold_text(self.value), pct)
+    }
+}
+
+/// A threshold as a design would write it: `10`, `0.05`, `-0.02`; in
+/// scientific notation where plain digits would run long (`1e300`, not
+/// 301 digits; `1e-9`).
+fn threshold_text(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-6..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
     }
 }
 

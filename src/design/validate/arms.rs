@@ -210,6 +210,27 @@ impl Validator {
         x.node
     }
 
+    /// A learning rate above 0 that training, in 32-bit floats, holds as
+    /// a normal number: below about 1.2e-38 it becomes 0 or loses its
+    /// digits there (no step would move a weight), above about 3.4e38 it
+    /// becomes infinite.
+    fn learning_rate(&mut self, rate: &Number) -> f64 {
+        let lr = self.positive(rate, "the learning rate");
+        if lr > 0.0 && !(lr as f32).is_normal() {
+            let there = match lr < 1.0 {
+                true => "0 or a number with its digits lost: no step would move a weight",
+                false => "infinite",
+            };
+            self.err_help(
+                "learning rate out of range",
+                rate.span,
+                format!("training computes in 32-bit floats, where a learning rate of {lr:e} is {there}"),
+                "a learning rate between 1.2e-38 and 3.4e38 (Adam's usual range is 1e-4 to 1e-2)",
+            );
+        }
+        lr
+    }
+
     pub(super) fn training(&mut self, items: &[Spanned<TrainItem>], span: Span) -> Option<Training> {
         let mut seen = BTreeMap::new();
         let (mut lr, mut batch, mut epochs, mut schedule, mut patience, mut noise) =
@@ -219,7 +240,7 @@ impl Validator {
             match &item.node {
                 TrainItem::Optimizer { lr: rate, .. } => {
                     self.once(&mut seen, "optimizer", item.span);
-                    lr = Some(self.positive(rate, "the learning rate"));
+                    lr = Some(self.learning_rate(rate));
                 }
                 TrainItem::Batch(n) => {
                     self.once(&mut seen, "batch", item.span);

@@ -82,7 +82,7 @@ impl Validator {
                     (outer.multi_split, outer.dosed),
                     outer::glmm_units(&treatments.endpoints),
                 );
-                self.decision(name, conditions).map(|d| self.divergence_rule(DecisionRule { on, ..d }, conditions))
+                self.decision(name, conditions).map(|d| self.target_rule(DecisionRule { on, ..d }, conditions))
             }
             _ => None,
         });

@@ -211,9 +211,29 @@ impl Validator {
         }
     }
 
-    /// A rule on the divergence GLMM reads its log odds ratio: `optimism`
-    /// has no meaning there.
-    pub(super) fn divergence_rule(&mut self, rule: DecisionRule, conditions: &[Spanned<ConditionAst>]) -> DecisionRule {
+    /// A rule's conditions against what its target can be: on the
+    /// divergence GLMM, which reads a log odds ratio, `optimism` has no
+    /// meaning; on the primary estimate, optimism is at most 100% (it is
+    /// 100 x (reference - treated) / reference, of errors that are never
+    /// negative), so a condition asking for more can never hold.
+    pub(super) fn target_rule(&mut self, rule: DecisionRule, conditions: &[Spanned<ConditionAst>]) -> DecisionRule {
+        if rule.on == DecisionTarget::Primary {
+            for (c, ast) in rule.conditions.iter().zip(conditions) {
+                let beyond = match c.cmp {
+                    Cmp::Gt => c.value >= 100.0,
+                    Cmp::Ge => c.value > 100.0,
+                    Cmp::Lt | Cmp::Le => false,
+                };
+                if c.quantity == Quantity::Optimism && beyond {
+                    self.err_help(
+                        "a condition that can never hold",
+                        ast.span,
+                        format!("`{c}` asks for more than 100%: optimism is 100 x (reference - treated) / reference, and the treated arm's errors are never negative, so it is at most 100% (100% only where they are all 0)"),
+                        "a threshold below 100%: `optimism >= 10%` confirms where the treated arm's error is at least 10% below the reference arm's",
+                    );
+                }
+            }
+        }
         if rule.on == DecisionTarget::Divergence {
             for (c, ast) in rule.conditions.iter().zip(conditions) {
                 if c.quantity == Quantity::Optimism {
