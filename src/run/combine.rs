@@ -298,20 +298,22 @@ pub fn combine(file: &DesignFile, study: &StudyPlan, sources: &[Source], out: &P
     crate::io::write_atomic(&out.join("cells.csv"), &bytes)?;
     // The runs were read and verified above: the folder's record from them.
     let design = DesignLabel::new(file, crate::design::lock::status(file)?);
-    folder_record(design, out, &record, &read)
+    folder_record(design, out, &record, &read, &bytes)
 }
 
 /// The record of the combined folder `dir` whose `combined.json` is
-/// `combined` and whose runs `read` were verified against it: its
-/// `cells.csv` and the runs' evidence.
+/// `combined` and whose runs `read` were verified against it: the cells
+/// of `bytes`, its `cells.csv` as written or as verified, and the runs'
+/// evidence.
 fn folder_record(
     design: DesignLabel,
     dir: &Path,
     combined: &CombinedRecord,
     read: &[(Source, ReadSource)],
+    bytes: &[u8],
 ) -> Result<Record, RunError> {
     let cells_path = dir.join("cells.csv");
-    let cells = crate::cells::read_cells(&cells_path)?;
+    let cells = crate::cells::read_cells_from(&cells_path.display().to_string(), bytes)?;
     let run = evidence(combined, read.iter().map(|(s, r)| (s, &r.record)).collect());
     let sha = combined.cells_sha256.clone();
     let cells_file = ("cells.csv".to_string(), sha);
@@ -367,14 +369,18 @@ pub fn read_combined(design: DesignLabel, study: &StudyPlan, dir: &Path) -> Resu
         read.push((s, r));
     }
     let bytes = combined_cells(study, &read)?;
-    let sha = crate::cells::file_sha256(&dir.join("cells.csv"))?;
-    if sha != combined.cells_sha256 || crate::io::sha256_hex(&bytes) != sha {
+    // Read once, compared, and its cells taken from the bytes compared: a
+    // file replaced after its check is never the one analysed.
+    let path = dir.join("cells.csv");
+    let on_disk = crate::io::read_own(&path)
+        .map_err(|source| crate::cells::CellsError::Io { path: path.display().to_string(), source })?;
+    if on_disk != bytes || crate::io::sha256_hex(&on_disk) != combined.cells_sha256 {
         return Err(RunError::LevelChanged {
             dir: shown,
             reason: "cells.csv is not the combined runs' cells with their seeds shifted, as combined.json records them: it was edited after combining; combine again".to_string(),
         });
     }
-    folder_record(design, dir, &combined, &read)
+    folder_record(design, dir, &combined, &read, &on_disk)
 }
 
 /// The combined evidence of the source records: every run's levels in
