@@ -18,6 +18,16 @@ fn cells() -> Result<Vec<String>, Box<dyn Error>> {
     Ok(text.lines().map(String::from).collect())
 }
 
+/// [`cells`] with `field` of line `k + 1` (the `k`-th cell) set to `value`.
+fn edited(k: usize, field: &str, value: &str) -> Result<Vec<String>, Box<dyn Error>> {
+    let mut lines = cells()?;
+    let at = lines[0].split(',').position(|h| h == field).ok_or("no such column")?;
+    let mut f: Vec<&str> = lines[k].split(',').collect();
+    f[at] = value;
+    lines[k] = f.join(",");
+    Ok(lines)
+}
+
 /// `lines` as a CSV and as its Parquet twin (the same columns, written by
 /// the crate's writer) in `dir`, each analysed under the quickstart's
 /// design: what each says, CSV first.
@@ -42,7 +52,6 @@ fn refused(file: &Path, bytes: &[u8]) -> Result<String, Box<dyn Error>> {
 #[test]
 fn a_parquet_files_errors_name_its_rows_where_its_csv_twins_name_lines() -> Result<(), Box<dyn Error>> {
     let dir = tempfile::tempdir()?;
-    let at = |field: &str, lines: &[String]| lines[0].split(',').position(|h| h == field).ok_or("no such column");
     // A duplicate of the sixth cell (line 7) as the last row (line 642):
     // found by the analysis, which names both rows.
     let mut lines = cells()?;
@@ -52,29 +61,17 @@ fn a_parquet_files_errors_name_its_rows_where_its_csv_twins_name_lines() -> Resu
     assert!(parquet.contains("cells.parquet: row 641: duplicate cell"), "{parquet}");
     assert!(parquet.contains("first seen on row 6") && !parquet.contains("line"), "{parquet}");
     // A speed the design does not label, in the eighth cell: the analysis.
-    let mut lines = cells()?;
-    let mut f: Vec<&str> = lines[8].split(',').collect();
-    f[at("speed", &lines)?] = "warp";
-    lines[8] = f.join(",");
-    let (csv, parquet) = both(dir.path(), &lines)?;
+    let (csv, parquet) = both(dir.path(), &edited(8, "speed", "warp")?)?;
     assert!(csv.contains("cells.csv: line 9, field `speed`: \"warp\" is not in the design"), "{csv}");
     assert!(parquet.contains("cells.parquet: row 8, field `speed`: \"warp\" is not in the design"), "{parquet}");
     // No starts in the fortieth cell: the reader, through the file's text
     // (the columns' reader gives such a file up to it).
-    let mut lines = cells()?;
-    let mut f: Vec<&str> = lines[40].split(',').collect();
-    f[at("n_starts", &lines)?] = "0";
-    lines[40] = f.join(",");
-    let (csv, parquet) = both(dir.path(), &lines)?;
+    let (csv, parquet) = both(dir.path(), &edited(40, "n_starts", "0")?)?;
     assert!(csv.contains("cells.csv: line 41, field `n_starts`: must be at least 1"), "{csv}");
     assert!(parquet.contains("cells.parquet: row 40, field `n_starts`: must be at least 1"), "{parquet}");
     // A velocity left empty in the tenth cell though others have one: the
     // reader names both places.
-    let mut lines = cells()?;
-    let mut f: Vec<&str> = lines[10].split(',').collect();
-    f[at("velocity_rmse_mps", &lines)?] = "";
-    lines[10] = f.join(",");
-    let (csv, parquet) = both(dir.path(), &lines)?;
+    let (csv, parquet) = both(dir.path(), &edited(10, "velocity_rmse_mps", "")?)?;
     assert!(
         csv.contains("line 11, field `velocity_rmse_mps`: is empty") && csv.contains("line 2 has a value"),
         "{csv}"
