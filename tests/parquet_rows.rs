@@ -69,6 +69,16 @@ fn a_parquet_files_errors_name_its_rows_where_its_csv_twins_name_lines() -> Resu
     let (csv, parquet) = both(dir.path(), &edited(40, "n_starts", "0")?)?;
     assert!(csv.contains("cells.csv: line 41, field `n_starts`: must be at least 1"), "{csv}");
     assert!(parquet.contains("cells.parquet: row 40, field `n_starts`: must be at least 1"), "{parquet}");
+    // A count written as a float (pandas writes an integer column so once
+    // it held a missing value): refused, with how to write it. In Parquet
+    // the whole column is then one of doubles, refused at its first row.
+    let (csv, parquet) = both(dir.path(), &edited(40, "n_starts", "25.0")?)?;
+    assert!(
+        csv.contains("cells.csv: line 41, field `n_starts`: is not a non-negative integer: a whole number"),
+        "{csv}"
+    );
+    assert!(csv.contains("`df[column].astype(int)`"), "{csv}");
+    assert!(parquet.contains("cells.parquet: row 1, field `n_starts`") && parquet.contains("astype(int)"), "{parquet}");
     // A velocity left empty in the tenth cell though others have one: the
     // reader names both places.
     let (csv, parquet) = both(dir.path(), &edited(10, "velocity_rmse_mps", "")?)?;

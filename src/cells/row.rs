@@ -145,13 +145,18 @@ impl Row<'_> {
         }
         t.parse::<u64>().map_err(|_| {
             let digits = !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+            // `25.0`: a whole number written as a float, as pandas writes
+            // an integer column once it held a missing value.
+            let whole = t.split_once('.').is_some_and(|(n, z)| {
+                !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) && z.bytes().all(|b| b == b'0')
+            });
             self.fail(
                 field,
                 v,
-                if digits {
-                    "is larger than 18446744073709551615, the largest integer a cell holds"
-                } else {
-                    "is not a non-negative integer"
+                match (digits, whole) {
+                    (true, _) => "is larger than 18446744073709551615, the largest integer a cell holds",
+                    (false, true) => "is not a non-negative integer: a whole number written as a float, as pandas writes an integer column that held a missing value (write the column as integers: `df[column].astype(int)`)",
+                    (false, false) => "is not a non-negative integer",
                 },
             )
         })
